@@ -1,0 +1,43 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file AttributeDb.h
+/// @brief The SQLite attribute database beside a relabelled `.csgv` (CSGV-FORMAT.md section 8):
+/// dense ids to original labels, and the other columns as per-label attributes.
+
+#include "csgv/Status.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace csgv {
+
+/// @brief One attribute column, indexed by dense id. Text columns keep their strings; numeric
+/// columns hold doubles (NULL is NaN).
+struct AttributeColumn {
+    std::string name;
+    bool numeric = true;
+    std::vector<double> values;
+    std::vector<std::string> text;
+};
+
+/// @brief Contents of a `<name>_csgv.db3` file.
+struct AttributeDatabase {
+    std::string path;
+    std::string labelColumn;                 ///< csgv_info.label_column
+    std::array<uint32_t, 3> volumeDim{};     ///< csgv_info volume_width/height/depth
+    std::vector<int64_t> labels;             ///< id -> original label
+    std::vector<AttributeColumn> columns;    ///< all columns but csgv_id and the label column
+
+    /// id -> label as uint32, or an error naming the first label that does not fit.
+    Result<std::vector<uint32_t>> labelsAsUint32() const;
+    const AttributeColumn* column(const std::string& name) const;
+};
+
+/// `a/vol.csgv` -> `a/vol_csgv.db3`.
+std::string attributeDbPathFor(const std::string& csgvPath);
+/// Reads the database (read-only). Ids must be exactly 0..n-1.
+Result<AttributeDatabase> readAttributeDb(const std::string& path);
+
+} // namespace csgv

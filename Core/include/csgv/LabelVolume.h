@@ -1,0 +1,44 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file LabelVolume.h
+/// @brief Uncompressed label volumes: Volcanite's `.vraw`, NRRD output, and the coarse-label rule.
+
+#include "csgv/Status.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace csgv {
+
+/// @brief W x H x D uint32 labels, x fastest.
+struct LabelVolume {
+    std::array<uint32_t, 3> dim{{0, 0, 0}};
+    std::vector<uint32_t> labels;
+
+    uint64_t voxelCount() const { return uint64_t(dim[0]) * dim[1] * dim[2]; }
+    uint64_t index(uint32_t x, uint32_t y, uint32_t z) const {
+        return x + uint64_t(dim[0]) * (y + uint64_t(dim[1]) * z);
+    }
+    uint32_t at(uint32_t x, uint32_t y, uint32_t z) const { return labels[size_t(index(x, y, z))]; }
+};
+
+/// Reads Volcanite's `.vraw` ("W H D\n", "uint8|uint16|uint32\n", little-endian labels), also
+/// gzip-compressed (`.vraw.gz`). Refuses volumes whose labels need more than maxBytes.
+Result<LabelVolume> readVraw(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
+/// Parses `.vraw` content from memory.
+Result<LabelVolume> parseVraw(const std::vector<uint8_t>& bytes);
+/// Serialises as `.vraw` with uint32 labels.
+std::vector<uint8_t> serializeVraw(const LabelVolume& vol);
+/// Writes `.vraw` (uint32) through a temporary file renamed into place.
+Status writeVraw(const std::string& path, const LabelVolume& vol);
+/// Writes a NRRD (uint32, raw, little-endian); spacing written when given (all > 0).
+Status writeNrrd(const std::string& path, const LabelVolume& vol, const std::array<double, 3>& spacing = {{0, 0, 0}});
+
+/// One step of the coarse-label rule (CSGV-FORMAT.md section 1): each node of the next level
+/// takes the label carried by most of its in-volume children, ties going to the lowest child
+/// index (x parity bit 0, y bit 1, z bit 2).
+LabelVolume coarsenLabels(const LabelVolume& fine);
+
+} // namespace csgv

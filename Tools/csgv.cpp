@@ -1,0 +1,229 @@
+// SPDX-License-Identifier: MIT
+/// @file csgv.cpp
+/// @brief The `csgv` command-line tool: info, decompress, verify. Exit 0 on success, 1 with one
+/// message on stderr for any user or data error; no input may end it with a signal.
+
+#include "csgv/CsgvFile.h"
+#include "csgv/Decoder.h"
+#include "csgv/LabelVolume.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+using namespace csgv;
+
+namespace {
+
+const char* kUsage =
+    "usage: csgv <command> [options]\n"
+    "  info IN.csgv [--stats] [--check] [--threads N]\n"
+    "      key: value lines describing the file; --stats decodes it and prints label statistics,\n"
+    "      --check decodes every brick and reports the first stream error\n"
+    "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
+    "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
+    "  verify IN.csgv SOURCE.vraw[.gz] [--threads N]\n"
+    "      exit 0 only if every voxel and every coarse level matches SOURCE\n";
+
+struct Args {
+    std::vector<std::string> positional;
+    bool stats = false;
+    bool check = false;
+    uint32_t level = 0;
+    int threads = 0;
+};
+
+int fail(const std::string& message) {
+    std::fprintf(stderr, "csgv: error: %s\n", message.c_str());
+    return 1;
+}
+
+bool parseUnsigned(const std::string& s, uint64_t max, uint64_t& out) {
+    if (s.empty() || s.size() > 19 || s.find_first_not_of("0123456789") != std::string::npos) return false;
+    out = std::stoull(s);
+    return out <= max;
+}
+
+Status parseArgs(int argc, char** argv, Args& a) {
+    for (int i = 2; i < argc; ++i) {
+        const std::string arg = argv[i];
+        auto value = [&](const char* name) -> Result<std::string> {
+            if (i + 1 >= argc) return Status::error(std::string("option ") + name + " needs a value");
+            return std::string(argv[++i]);
+        };
+        if (arg == "--stats") a.stats = true;
+        else if (arg == "--check") a.check = true;
+        else if (arg == "--level" || arg == "--threads") {
+            Result<std::string> v = value(arg.c_str());
+            if (!v) return v.status();
+            uint64_t n = 0;
+            if (!parseUnsigned(*v, arg == "--level" ? 31 : 1024, n))
+                return Status::error("option " + arg + " expects a small non-negative integer, not '" + *v + "'");
+            if (arg == "--level") a.level = uint32_t(n);
+            else a.threads = int(n);
+        } else if (arg.size() > 1 && arg[0] == '-')
+            return Status::error("unknown option '" + arg + "'");
+        else
+            a.positional.push_back(arg);
+    }
+    return Status::ok();
+}
+
+bool endsWith(const std::string& s, const char* suffix) {
+    const size_t n = std::strlen(suffix);
+    return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
+}
+
+double seconds(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int cmdInfo(const Args& a) {
+    if (a.positional.size() != 1) return fail("info expects one file: csgv info IN.csgv");
+    Result<CsgvFile> f = openCsgv(a.positional[0]);
+    if (!f) return fail(f.message());
+    const CompressedVolume& v = f->volume;
+    const uint64_t bytes = v.serializedSize();
+    const auto g = v.brickGrid();
+    uint64_t words = 0;
+    for (const auto& arr : v.arrays) words += arr.size();
+    std::printf("file: %s\n", a.positional[0].c_str());
+    std::printf("version: %04u\n", v.version);
+    std::printf("dimensions: %u %u %u\n", v.dim[0], v.dim[1], v.dim[2]);
+    std::printf("voxels: %llu\n", (unsigned long long)v.voxelCount());
+    std::printf("brick_size: %u\n", v.brickSize);
+    std::printf("levels: %u\n", v.levels());
+    std::printf("bricks: %llu\n", (unsigned long long)v.brickCount());
+    std::printf("brick_grid: %u %u %u\n", g[0], g[1], g[2]);
+    std::printf("encoding: %s\n", encodingName(v.encoding));
+    std::printf("encoding_mode: %d\n", v.encoding);
+    std::printf("operation_mask: 0x%x\n", v.opMask);
+    std::printf("operations: %s\n", operationLetters(v.opMask).c_str());
+    std::printf("max_palette: %u\n", v.maxPalette);
+    std::printf("random_access: %d\n", v.randomAccess ? 1 : 0);
+    std::printf("encoding_arrays: %zu\n", v.arrays.size());
+    std::printf("encoding_words: %llu\n", (unsigned long long)words);
+    std::printf("bytes: %llu\n", (unsigned long long)bytes);
+    std::printf("bits_per_voxel: %.4f\n", double(bytes) * 8.0 / double(v.voxelCount()));
+    if (f->hasAttributes) {
+        std::string cols;
+        for (const auto& c : f->attributes.columns) cols += (cols.empty() ? "" : ", ") + c.name;
+        std::printf("attribute_database: %s\n", f->attributes.path.c_str());
+        std::printf("attribute_labels: %zu\n", f->attributes.labels.size());
+        std::printf("attribute_columns: %s\n", cols.c_str());
+    }
+    if (a.check) {
+        const auto t0 = std::chrono::steady_clock::now();
+        Status s = validateStreams(v, a.threads);
+        if (!s) return fail(a.positional[0] + ": " + s.message());
+        std::printf("check: ok (%llu bricks, %.3f s)\n", (unsigned long long)v.brickCount(), seconds(t0));
+    }
+    if (a.stats) {
+        const auto t0 = std::chrono::steady_clock::now();
+        Result<LabelVolume> vol = decodeVolume(v, 0, f->decodeOptions(a.threads));
+        const double t = seconds(t0);
+        if (!vol) return fail(a.positional[0] + ": " + vol.message());
+        std::unordered_map<uint32_t, uint64_t> counts;
+        for (uint32_t l : vol->labels) ++counts[l];
+        std::vector<std::pair<uint64_t, uint32_t>> bySize;
+        bySize.reserve(counts.size());
+        for (const auto& kv : counts) bySize.emplace_back(kv.second, kv.first);
+        std::sort(bySize.begin(), bySize.end(), [](const auto& x, const auto& y) {
+            return x.first != y.first ? x.first > y.first : x.second < y.second;
+        });
+        uint32_t lo = ~0u, hi = 0;
+        for (const auto& kv : counts) {
+            lo = std::min(lo, kv.first);
+            hi = std::max(hi, kv.first);
+        }
+        std::printf("decode_seconds: %.4f\n", t);
+        std::printf("decode_mvoxels_per_second: %.1f\n", double(v.voxelCount()) / t / 1e6);
+        std::printf("distinct_labels: %zu\n", counts.size());
+        std::printf("label_range: %u %u\n", lo, hi);
+        std::printf("background_fraction: %.4f\n", counts.count(0) ? double(counts[0]) / double(v.voxelCount()) : 0.0);
+        std::printf("largest_labels:");
+        for (size_t i = 0; i < bySize.size() && i < 5; ++i)
+            std::printf(" %u(%llu)", bySize[i].second, (unsigned long long)bySize[i].first);
+        std::printf("\n");
+    }
+    return 0;
+}
+
+int cmdDecompress(const Args& a) {
+    if (a.positional.size() != 2) return fail("decompress expects: csgv decompress IN.csgv OUT.vraw|OUT.nrrd [--level L]");
+    const std::string& out = a.positional[1];
+    const bool nrrd = endsWith(out, ".nrrd");
+    if (!nrrd && !endsWith(out, ".vraw")) return fail("output '" + out + "' must end in .vraw or .nrrd");
+    Result<CsgvFile> f = openCsgv(a.positional[0]);
+    if (!f) return fail(f.message());
+    Result<LabelVolume> vol = decodeVolume(f->volume, a.level, f->decodeOptions(a.threads));
+    if (!vol) return fail(a.positional[0] + ": " + vol.message());
+    const double s = double(1u << a.level);
+    Status w = nrrd ? writeNrrd(out, *vol, {{s, s, s}}) : writeVraw(out, *vol);
+    if (!w) return fail(w.message());
+    return 0;
+}
+
+int cmdVerify(const Args& a) {
+    if (a.positional.size() != 2) return fail("verify expects: csgv verify IN.csgv SOURCE.vraw");
+    Result<CsgvFile> f = openCsgv(a.positional[0]);
+    if (!f) return fail(f.message());
+    Result<LabelVolume> src = readVraw(a.positional[1]);
+    if (!src) return fail(src.message());
+    const CompressedVolume& v = f->volume;
+    if (src->dim != v.dim)
+        return fail("dimensions differ: " + a.positional[0] + " is " + std::to_string(v.dim[0]) + " " +
+                    std::to_string(v.dim[1]) + " " + std::to_string(v.dim[2]) + ", " + a.positional[1] + " is " +
+                    std::to_string(src->dim[0]) + " " + std::to_string(src->dim[1]) + " " + std::to_string(src->dim[2]));
+    LabelVolume expected = std::move(*src);
+    for (uint32_t lod = 0; lod < v.levels(); ++lod) {
+        if (lod > 0) expected = coarsenLabels(expected);
+        Result<LabelVolume> got = decodeVolume(v, lod, f->decodeOptions(a.threads));
+        if (!got) return fail(a.positional[0] + ": " + got.message());
+        for (size_t i = 0; i < expected.labels.size(); ++i) {
+            if (got->labels[i] != expected.labels[i]) {
+                const uint64_t x = i % expected.dim[0], y = (i / expected.dim[0]) % expected.dim[1],
+                               z = i / (uint64_t(expected.dim[0]) * expected.dim[1]);
+                return fail("level " + std::to_string(lod) + ", voxel (" + std::to_string(x) + ", " +
+                            std::to_string(y) + ", " + std::to_string(z) + ") decodes to " +
+                            std::to_string(got->labels[i]) + ", expected " + std::to_string(expected.labels[i]));
+            }
+        }
+        std::printf("level %u: %u x %u x %u match\n", lod, expected.dim[0], expected.dim[1], expected.dim[2]);
+    }
+    std::printf("verified: %u levels\n", v.levels());
+    return 0;
+}
+
+int run(int argc, char** argv) {
+    if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+        std::fputs(kUsage, argc < 2 ? stderr : stdout);
+        return argc < 2 ? 1 : 0;
+    }
+    Args a;
+    Status s = parseArgs(argc, argv, a);
+    if (!s) return fail(s.message());
+    const std::string cmd = argv[1];
+    if (cmd == "info") return cmdInfo(a);
+    if (cmd == "decompress") return cmdDecompress(a);
+    if (cmd == "verify") return cmdVerify(a);
+    return fail("unknown command '" + cmd + "' (try csgv --help)");
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const std::bad_alloc&) {
+        return fail("out of memory");
+    } catch (const std::exception& e) {
+        return fail(e.what());
+    }
+}
