@@ -202,9 +202,14 @@ int cmdVerify(const Args& a) {
 }
 
 int run(int argc, char** argv) {
-    if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
-        std::fputs(kUsage, argc < 2 ? stderr : stdout);
-        return argc < 2 ? 1 : 0;
+    if (argc < 2) {
+        fail("no command given");
+        std::fputs(kUsage, stderr);
+        return 1;
+    }
+    if (!std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+        std::fputs(kUsage, stdout);
+        return 0;
     }
     Args a;
     Status s = parseArgs(argc, argv, a);

@@ -108,6 +108,9 @@ Status checkHeaderFields(const CompressedVolume& v) {
                              ", expected a power of two from 8 to 128");
     for (int a = 0; a < 3; ++a)
         if (v.dim[a] == 0) return Status::error("field 'volume dimensions': dimension " + std::to_string(a) + " is 0");
+    if (v.brickCount() > kMaxBricks)
+        return Status::error("field 'volume dimensions': " + std::to_string(v.dim[0]) + " x " + std::to_string(v.dim[1]) +
+                             " x " + std::to_string(v.dim[2]) + " needs more than 2^40 bricks");
     if (v.encoding == kEncodingWaveletMatrix || v.encoding == kEncodingHuffmanWaveletMatrix)
         return Status::error("encoding mode " + std::to_string(v.encoding) + " (" + encodingName(v.encoding) +
                              ", random access CSGV-R) is not supported");
@@ -229,7 +232,7 @@ std::array<uint32_t, 3> CompressedVolume::brickGrid() const {
 
 uint64_t CompressedVolume::brickCount() const {
     const auto g = brickGrid();
-    return uint64_t(g[0]) * g[1] * g[2];
+    return product3(g[0], g[1], g[2]);
 }
 
 BrickWords CompressedVolume::brick(uint64_t i) const {

@@ -319,9 +319,9 @@ Result<LabelVolume> decodeRegion(const CompressedVolume& vol, uint32_t lod, cons
     LabelVolume out;
     for (int a = 0; a < 3; ++a) out.dim[a] = box.max[a] - box.min[a];
     if (out.voxelCount() > options.maxOutputBytes / 4)
-        return Status::error("decoding " + std::to_string(out.voxelCount()) + " voxels needs " +
-                             std::to_string(out.voxelCount() * 4) + " bytes, more than the limit of " +
-                             std::to_string(options.maxOutputBytes));
+        return Status::error("decoding " + std::to_string(out.dim[0]) + " x " + std::to_string(out.dim[1]) + " x " +
+                             std::to_string(out.dim[2]) + " voxels needs more than the output limit of " +
+                             std::to_string(options.maxOutputBytes) + " bytes");
     out.labels.resize(size_t(out.voxelCount()));
 
     const uint32_t edge = vol.brickSize >> lod; // brick edge in level-image voxels

@@ -49,10 +49,11 @@ Result<LabelVolume> parseVraw(const std::vector<uint8_t>& bytes) {
     LabelVolume v;
     v.dim = {uint32_t(d[0]), uint32_t(d[1]), uint32_t(d[2])};
     const uint64_t n = v.voxelCount();
-    if (n > (bytes.size() - pos) / bytesPerLabel || (bytes.size() - pos) != n * bytesPerLabel)
+    const uint64_t want = mulSaturate(n, bytesPerLabel);
+    if (want != bytes.size() - pos)
         return Status::error(".vraw holds " + std::to_string(bytes.size() - pos) + " bytes of labels, expected " +
-                             std::to_string(uint64_t(d[0]) * uint64_t(d[1]) * uint64_t(d[2]) * bytesPerLabel) +
-                             " for " + dims + " " + type);
+                             (want == kSaturated ? std::string("more than 2^64") : std::to_string(want)) + " for " +
+                             dims + " " + type);
     v.labels.resize(size_t(n));
     const uint8_t* p = bytes.data() + pos;
     if (bytesPerLabel == 4)

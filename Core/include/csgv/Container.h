@@ -38,6 +38,7 @@
 /// - Writers produce version 0016 with one array per 2^29 words, through a temporary file renamed
 ///   into place, and never set the legacy-delta bit.
 
+#include "csgv/Checked.h"
 #include "csgv/Status.h"
 
 #include <array>
@@ -89,6 +90,7 @@ constexpr uint32_t kRansTotal = 1u << kRansProbBits; ///< frequencies sum to thi
 constexpr uint32_t kRansLowerBound = 1u << 23;
 constexpr uint32_t kMaxWordsPerArray = 1u << 29;     ///< 2 GiB per encoding array
 constexpr uint32_t kSingleArray = 0xFFFFFFFFu;
+constexpr uint64_t kMaxBricks = uint64_t(1) << 40; ///< far beyond any real volume; keeps counts exact
 
 /// Limits set by the caller on anything allocated or written on behalf of untrusted input.
 struct Limits {
@@ -120,8 +122,8 @@ struct CompressedVolume {
     uint32_t levels() const;
     /// Bricks along each axis.
     std::array<uint32_t, 3> brickGrid() const;
-    uint64_t brickCount() const;
-    uint64_t voxelCount() const { return uint64_t(dim[0]) * dim[1] * dim[2]; }
+    uint64_t brickCount() const; ///< saturating
+    uint64_t voxelCount() const { return product3(dim[0], dim[1], dim[2]); } ///< saturating
     /// True when PALETTE_D is followed by one 4-bit distance symbol (version 0015, mask bit 64).
     bool legacyDelta() const { return version == 15 || (opMask & kMaskLegacyDelta) != 0; }
     /// The words of brick i (checked structure assumed: see checkContainer()).

@@ -3,6 +3,7 @@
 /// @file LabelVolume.h
 /// @brief Uncompressed label volumes: Volcanite's `.vraw`, NRRD output, and the coarse-label rule.
 
+#include "csgv/Checked.h"
 #include "csgv/Status.h"
 
 #include <array>
@@ -17,7 +18,7 @@ struct LabelVolume {
     std::array<uint32_t, 3> dim{{0, 0, 0}};
     std::vector<uint32_t> labels;
 
-    uint64_t voxelCount() const { return uint64_t(dim[0]) * dim[1] * dim[2]; }
+    uint64_t voxelCount() const { return product3(dim[0], dim[1], dim[2]); } ///< saturating
     uint64_t index(uint32_t x, uint32_t y, uint32_t z) const {
         return x + uint64_t(dim[0]) * (y + uint64_t(dim[1]) * z);
     }

@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: MIT
+#include "TestData.h"
+
+#include "csgv/FileUtil.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <dirent.h>
+#include <filesystem>
+#include <gtest/gtest.h>
+#include <map>
+#include <mutex>
+#include <unistd.h>
+
+namespace csgvtest {
+
+std::string fixture(const std::string& name) { return std::string(CSGV_FIXTURE_DIR) + "/" + name; }
+
+std::vector<std::string> allFixtureNames() {
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(CSGV_FIXTURE_DIR)) {
+        const std::string n = e.path().filename().string();
+        if (n.size() > 5 && n.compare(n.size() - 5, 5, ".csgv") == 0) names.push_back(n);
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+const csgv::LabelVolume& sourceVolume(const std::string& fixtureName) {
+    static std::mutex mutex;
+    static std::map<std::string, csgv::LabelVolume> cache;
+    const std::string stem = fixtureName.substr(0, fixtureName.find('_'));
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(stem);
+    if (it == cache.end()) {
+        csgv::Result<csgv::LabelVolume> v = csgv::readVraw(fixture(stem + ".vraw.gz"));
+        EXPECT_TRUE(v.isOk()) << v.message();
+        it = cache.emplace(stem, std::move(*v)).first;
+    }
+    return it->second;
+}
+
+std::vector<uint8_t> fixtureBytes(const std::string& name) {
+    csgv::Result<std::vector<uint8_t>> b = csgv::readFile(fixture(name), uint64_t(1) << 30);
+    EXPECT_TRUE(b.isOk()) << b.message();
+    return b.isOk() ? *b : std::vector<uint8_t>{};
+}
+
+csgv::CompressedVolume loadFixture(const std::string& name) {
+    csgv::Result<csgv::CompressedVolume> v = csgv::readCsgv(fixture(name));
+    EXPECT_TRUE(v.isOk()) << v.message();
+    return v.isOk() ? *v : csgv::CompressedVolume{};
+}
+
+std::string tempDir() {
+    static std::string dir = [] {
+        std::string d = (std::filesystem::temp_directory_path() / ("csgv-test-" + std::to_string(::getpid()))).string();
+        std::filesystem::create_directories(d);
+        static struct Cleanup {
+            std::string path;
+            ~Cleanup() {
+                std::error_code ec;
+                std::filesystem::remove_all(path, ec);
+            }
+        } cleanup{d};
+        return d;
+    }();
+    return dir;
+}
+
+csgv::LabelVolume referenceCoarsen(const csgv::LabelVolume& fine) {
+    csgv::LabelVolume out;
+    for (int a = 0; a < 3; ++a) out.dim[a] = fine.dim[a] / 2 + fine.dim[a] % 2;
+    out.labels.assign(size_t(out.voxelCount()), 0);
+    for (uint32_t z = 0; z < out.dim[2]; ++z)
+        for (uint32_t y = 0; y < out.dim[1]; ++y)
+            for (uint32_t x = 0; x < out.dim[0]; ++x) {
+                // Children in child-index order; count each label, first seen wins ties.
+                std::vector<std::pair<uint32_t, int>> tally; // label, count, in first-seen order
+                for (int child = 0; child < 8; ++child) {
+                    const uint32_t fx = x * 2 + (child & 1), fy = y * 2 + (child >> 1 & 1), fz = z * 2 + (child >> 2);
+                    if (fx >= fine.dim[0] || fy >= fine.dim[1] || fz >= fine.dim[2]) continue;
+                    const uint32_t l = fine.at(fx, fy, fz);
+                    auto it = std::find_if(tally.begin(), tally.end(), [&](const auto& p) { return p.first == l; });
+                    if (it == tally.end()) tally.emplace_back(l, 1);
+                    else ++it->second;
+                }
+                auto best = tally.begin();
+                for (auto it = tally.begin(); it != tally.end(); ++it)
+                    if (it->second > best->second) best = it;
+                out.labels[size_t(out.index(x, y, z))] = best->first;
+            }
+    return out;
+}
+
+} // namespace csgvtest

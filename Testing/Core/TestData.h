@@ -1,0 +1,34 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file TestData.h
+/// @brief Access to the Volcanite fixtures and their source volumes for the core tests.
+
+#include "csgv/Container.h"
+#include "csgv/LabelVolume.h"
+
+#include <string>
+#include <vector>
+
+namespace csgvtest {
+
+/// Absolute path of a file in shared/data/volcanite-0.6.
+std::string fixture(const std::string& name);
+/// Every `.csgv` fixture file name (sorted).
+std::vector<std::string> allFixtureNames();
+/// The source volume a fixture was written from ("synthA" or "denseB"), cached.
+const csgv::LabelVolume& sourceVolume(const std::string& fixtureName);
+/// Raw bytes of a fixture file.
+std::vector<uint8_t> fixtureBytes(const std::string& name);
+/// Parsed fixture (asserts success through gtest).
+csgv::CompressedVolume loadFixture(const std::string& name);
+/// A temporary directory unique to this test process, removed at exit.
+std::string tempDir();
+
+/// Independent, simple coarse-label reference: each level computed from the previous one by
+/// brute force over the 2x2x2 children, written without sharing code with Core.
+csgv::LabelVolume referenceCoarsen(const csgv::LabelVolume& fine);
+
+/// Lowercase hex SHA-256.
+std::string sha256Hex(const uint8_t* data, size_t size);
+
+} // namespace csgvtest

@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# The `csgv` tool's fixed interface: info keys, decompress/verify results, exit codes, and that
+# no bad input ends it with a signal (exit status > 128).
+set -u
+CSGV=$1
+FIX=$2
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+fails=0
+passes=0
+pass() { echo "ok: $1"; passes=$((passes + 1)); }
+bad() { echo "FAIL: $1"; fails=$((fails + 1)); }
+
+# expect CODE DESCRIPTION COMMAND...: exit code and, for errors, exactly one "csgv: error:" line.
+expect() {
+  local want=$1 what=$2; shift 2
+  "$@" >"$TMP/out" 2>"$TMP/err"; local got=$?
+  if [ "$got" -ne "$want" ]; then bad "$what: exit $got, expected $want ($(head -c 300 "$TMP/err"))"; return; fi
+  if [ "$want" -ne 0 ] && [ "$(grep -c '^csgv: error: ' "$TMP/err")" -ne 1 ]; then
+    bad "$what: stderr is not one clear error line: $(cat "$TMP/err")"; return
+  fi
+  pass "$what"
+}
+
+DEF=$FIX/synthA_b32_rans2.csgv
+expect 0 "info" "$CSGV" info "$DEF"
+for key in dimensions brick_size encoding operation_mask bricks max_palette bytes bits_per_voxel; do
+  grep -q "^$key: " "$TMP/out" || bad "info lacks key $key"
+done
+grep -qx "dimensions: 133 70 194" "$TMP/out" || bad "info dimensions: $(grep dimensions "$TMP/out")"
+grep -qx "bytes: 101514" "$TMP/out" || bad "info bytes: $(grep '^bytes' "$TMP/out")"
+grep -qx "bricks: 105" "$TMP/out" || bad "info bricks"
+grep -qx "encoding: rans2" "$TMP/out" || bad "info encoding"
+grep -qx "operation_mask: 0x12f" "$TMP/out" || bad "info operation_mask"
+grep -qx "bits_per_voxel: 0.4496" "$TMP/out" || bad "info bits_per_voxel: $(grep bits_per "$TMP/out")"
+expect 0 "info --stats --check" "$CSGV" info --stats --check "$FIX/synthA_b32_rans2_attr.csgv"
+grep -qx "distinct_labels: 222" "$TMP/out" || bad "stats distinct labels: $(grep distinct "$TMP/out")"
+grep -qx "attribute_labels: 222" "$TMP/out" || bad "attribute labels"
+
+# decompress reproduces the published hash; verify accepts every fixture against its source.
+expect 0 "decompress vraw" "$CSGV" decompress "$DEF" "$TMP/a.vraw"
+[ "$(sha256sum < "$TMP/a.vraw" | cut -d' ' -f1)" = 9c00e33edcd55ae78519ddbd02e71a65e84f531f26f81fef4f9ae3d587c08617 ] \
+  || bad "decompressed synthA hash"
+expect 0 "decompress attr vraw" "$CSGV" decompress "$FIX/synthA_b32_rans2_attr.csgv" "$TMP/attr.vraw" --threads 1
+cmp -s "$TMP/a.vraw" "$TMP/attr.vraw" || bad "_attr file does not decode to original labels"
+expect 0 "decompress nrrd level 2" "$CSGV" decompress "$DEF" "$TMP/a.nrrd" --level 2
+head -c 200 "$TMP/a.nrrd" | grep -q "sizes: 34 18 49" || bad "nrrd level 2 sizes"
+for f in "$FIX"/*.csgv; do
+  b=$(basename "$f"); src=$FIX/${b%%_*}.vraw.gz
+  expect 0 "verify $b" "$CSGV" verify "$f" "$src"
+done
+expect 1 "verify against the wrong source" "$CSGV" verify "$DEF" "$FIX/denseB.vraw.gz"
+"$CSGV" decompress "$DEF" "$TMP/b.vraw" >/dev/null
+printf '\x07' | dd of="$TMP/b.vraw" bs=1 seek=5000 conv=notrunc status=none
+expect 1 "verify against a changed voxel" "$CSGV" verify "$DEF" "$TMP/b.vraw"
+grep -q "level 0, voxel" "$TMP/err" || bad "verify mismatch message: $(cat "$TMP/err")"
+
+# User errors.
+expect 1 "no arguments" "$CSGV"
+expect 0 "help" "$CSGV" --help
+expect 1 "unknown command" "$CSGV" frobnicate
+expect 1 "unknown option" "$CSGV" info "$DEF" --bogus
+expect 1 "missing file" "$CSGV" info "$TMP/nope.csgv"
+expect 1 "level out of range" "$CSGV" decompress "$DEF" "$TMP/c.vraw" --level 6
+expect 1 "bad level value" "$CSGV" decompress "$DEF" "$TMP/c.vraw" --level -1
+expect 1 "bad output extension" "$CSGV" decompress "$DEF" "$TMP/c.raw"
+expect 1 "output folder missing" "$CSGV" decompress "$DEF" "$TMP/no/dir/c.vraw"
+[ -e "$TMP/c.vraw" ] && bad "a failed decompress left a file"
+ls "$TMP" | grep -q tmp- && bad "a temporary file was left behind"
+
+# Malformed files: never a signal, always one clear message.
+head -c 5000 "$DEF" > "$TMP/trunc.csgv"
+expect 1 "truncated file" "$CSGV" info "$TMP/trunc.csgv"
+grep -q truncated "$TMP/err" || bad "truncation message: $(cat "$TMP/err")"
+head -c 20000 /dev/urandom > "$TMP/noise.csgv"
+expect 1 "random bytes" "$CSGV" info "$TMP/noise.csgv"
+(head -c 12 "$DEF"; head -c 20000 /dev/urandom) > "$TMP/noise2.csgv"
+expect 1 "random bytes after the magic" "$CSGV" decompress "$TMP/noise2.csgv" "$TMP/n.vraw"
+# Corrupt the encoding arrays (past the header) at many places: the tool must exit 0 or 1.
+size=$(stat -c %s "$DEF")
+for i in $(seq 1 40); do
+  cp "$DEF" "$TMP/m.csgv"
+  off=$(( (i * 2477) % (size - 600) + 560 ))
+  printf "\\x$(printf %02x $(( (i * 37) % 256 )))" | dd of="$TMP/m.csgv" bs=1 seek=$off conv=notrunc status=none
+  "$CSGV" verify "$TMP/m.csgv" "$FIX/synthA.vraw.gz" >/dev/null 2>&1; rc=$?
+  [ $rc -le 1 ] || bad "corruption at $off: exit $rc"
+done
+pass "40 corruptions without a signal"
+
+echo "tool contract: $passes passed, $fails failed"
+[ "$fails" -eq 0 ]

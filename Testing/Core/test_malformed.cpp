@@ -1,0 +1,2 @@
+// SPDX-License-Identifier: MIT
+// Malformed-file tests: being written.
