@@ -393,7 +393,7 @@ Result<uint32_t> decodeVoxel(const CompressedVolume& vol, std::array<uint32_t, 3
 }
 
 Status validateStreams(const CompressedVolume& vol, int threads) {
-    std::vector<uint64_t> bricks(size_t(vol.brickCount()));
+    std::vector<uint64_t> bricks(static_cast<size_t>(vol.brickCount()));
     for (size_t i = 0; i < bricks.size(); ++i) bricks[i] = i;
     return forEachBrick(vol, bricks, threads, [](BrickDecoder& dec, uint64_t b) { return dec.decode(b, 0); });
 }
