@@ -472,14 +472,16 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
     if (total * 4 > maxOutputBytes)
         return Status::error("the compressed volume needs " + std::to_string(total * 4) +
                              " bytes, more than the output limit of " + std::to_string(maxOutputBytes));
-    if (largestBrick > kMaxWordsPerArray) return Status::error("a brick needs more than 2^29 words");
+    const uint64_t arrayLimit = std::min<uint64_t>(std::max<uint32_t>(options.maxArrayWords, 1), kMaxWordsPerArray);
+    if (largestBrick > arrayLimit)
+        return Status::error("a brick needs " + std::to_string(largestBrick) + " words, more than an encoding array holds");
     uint64_t perArray = bricks;
-    if (total > kMaxWordsPerArray) {
+    if (total > arrayLimit) {
         auto fits = [&](uint64_t n) {
             for (uint64_t first = 0; first < bricks; first += n) {
                 uint64_t sum = 0;
                 for (uint64_t i = first; i < std::min(bricks, first + n); ++i) sum += words[size_t(i)].size();
-                if (sum > kMaxWordsPerArray) return false;
+                if (sum > arrayLimit) return false;
             }
             return true;
         };

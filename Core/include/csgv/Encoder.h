@@ -32,6 +32,8 @@ struct EncodeOptions {
     /// Use these frequency tables instead of counting (for example another file's, to reproduce
     /// it byte for byte); every emitted symbol must have a nonzero frequency or encoding fails.
     bool fixedTables = false;
+    /// Largest encoding array in words (the format's limit is 2^29; smaller values test splitting).
+    uint32_t maxArrayWords = kMaxWordsPerArray;
     std::array<uint32_t, 16> tableA{}, tableB{};
 };
 
