@@ -3,9 +3,11 @@
 /// @brief The `csgv` command-line tool: info, decompress, verify. Exit 0 on success, 1 with one
 /// message on stderr for any user or data error; no input may end it with a signal.
 
+#include "csgv/Compress.h"
 #include "csgv/CsgvFile.h"
 #include "csgv/Decoder.h"
 #include "csgv/LabelVolume.h"
+#include "csgv/Procedural.h"
 
 #include <algorithm>
 #include <chrono>
@@ -13,9 +15,13 @@
 #include <cstring>
 #include <exception>
 #include <new>
+#include <omp.h>
 #include <string>
 #include <unordered_map>
+#include <sys/resource.h>
 #include <vector>
+#include <zlib.h>
+#include <zstd.h>
 
 using namespace csgv;
 
@@ -29,14 +35,22 @@ const char* kUsage =
     "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
     "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
     "  verify IN.csgv SOURCE.vraw[.gz] [--threads N]\n"
-    "      exit 0 only if every voxel and every coarse level matches SOURCE\n";
+    "      exit 0 only if every voxel and every coarse level matches SOURCE\n"
+    "  compress IN OUT.csgv [--brick-size N] [--encoding nibble|rans1|rans2] [--ops default|all|LETTERS]\n"
+    "           [--threads N] [--relabel]\n"
+    "      IN: synth:WxHxD[:seed], .vraw[.gz], .nrrd, .nhdr, .nii[.gz]; letters p x y z n l d s;\n"
+    "      writes OUT.json (geometry) and OUT's _csgv.db3 when labels are relabelled\n"
+    "  bench IN [--threads N] [--brick-size N] [--encoding E] [--ops O]\n"
+    "      bits/voxel, encode and decode Mvoxel/s, and zstd -19 / gzip -9 of the raw uint32 labels\n";
 
 struct Args {
     std::vector<std::string> positional;
     bool stats = false;
     bool check = false;
+    bool relabel = false;
     uint32_t level = 0;
     int threads = 0;
+    EncodeOptions encode;
 };
 
 int fail(const std::string& message) {
@@ -53,20 +67,36 @@ bool parseUnsigned(const std::string& s, uint64_t max, uint64_t& out) {
 Status parseArgs(int argc, char** argv, Args& a) {
     for (int i = 2; i < argc; ++i) {
         const std::string arg = argv[i];
+        if (arg.empty()) return Status::error("empty argument");
         auto value = [&](const char* name) -> Result<std::string> {
             if (i + 1 >= argc) return Status::error(std::string("option ") + name + " needs a value");
             return std::string(argv[++i]);
         };
         if (arg == "--stats") a.stats = true;
         else if (arg == "--check") a.check = true;
-        else if (arg == "--level" || arg == "--threads") {
+        else if (arg == "--relabel") a.relabel = true;
+        else if (arg == "--level" || arg == "--threads" || arg == "--brick-size") {
             Result<std::string> v = value(arg.c_str());
             if (!v) return v.status();
             uint64_t n = 0;
             if (!parseUnsigned(*v, arg == "--level" ? 31 : 1024, n))
                 return Status::error("option " + arg + " expects a small non-negative integer, not '" + *v + "'");
             if (arg == "--level") a.level = uint32_t(n);
-            else a.threads = int(n);
+            else if (arg == "--threads") a.threads = int(n);
+            else a.encode.brickSize = uint32_t(n);
+        } else if (arg == "--encoding") {
+            Result<std::string> v = value(arg.c_str());
+            if (!v) return v.status();
+            if (*v == "nibble" || *v == "0") a.encode.encoding = kEncodingNibble;
+            else if (*v == "rans1" || *v == "1") a.encode.encoding = kEncodingRans1;
+            else if (*v == "rans2" || *v == "2") a.encode.encoding = kEncodingRans2;
+            else return Status::error("--encoding expects nibble, rans1 or rans2, not '" + *v + "'");
+        } else if (arg == "--ops") {
+            Result<std::string> v = value(arg.c_str());
+            if (!v) return v.status();
+            Result<uint32_t> m = parseOperationMask(*v);
+            if (!m) return Status::error("--ops: " + m.message());
+            a.encode.opMask = *m;
         } else if (arg.size() > 1 && arg[0] == '-')
             return Status::error("unknown option '" + arg + "'");
         else
@@ -162,12 +192,30 @@ int cmdDecompress(const Args& a) {
     if (!nrrd && !endsWith(out, ".vraw")) return fail("output '" + out + "' must end in .vraw or .nrrd");
     Result<CsgvFile> f = openCsgv(a.positional[0]);
     if (!f) return fail(f.message());
+    if (f->wideLabels && !nrrd)
+        return fail(a.positional[0] + ": the original labels do not fit uint32 (" + f->metadata.originalType +
+                    "); decompress to .nrrd instead");
     Result<LabelVolume> vol = decodeVolume(f->volume, a.level, f->decodeOptions(a.threads));
     if (!vol) return fail(a.positional[0] + ": " + vol.message());
-    const double s = double(1u << a.level);
-    Status w = nrrd ? writeNrrd(out, *vol, {{s, s, s}}) : writeVraw(out, *vol);
-    if (!w) return fail(w.message());
-    return 0;
+    if (!nrrd) {
+        Status w = writeVraw(out, *vol);
+        return w ? 0 : fail(w.message());
+    }
+    // Coarse nodes cover 2^level voxels: scale the spacing, and centre the origin on node 0.
+    Geometry g = f->metadata.geometry;
+    const double scale = double(1u << a.level);
+    for (double& sp : g.spacing) sp *= scale;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) g.origin[r] += 0.5 * g.direction[3 * r + c] * g.spacing[c];
+    Status w;
+    if (f->wideLabels) {
+        std::vector<int64_t> wide(vol->labels.size());
+        for (size_t i = 0; i < wide.size(); ++i) wide[i] = f->originalLabel(vol->labels[i]);
+        w = writeNrrd(out, vol->dim, f->attributes.labelsUnsigned64 ? "uint64" : "int64", wide.data(), 8, g);
+    } else {
+        w = writeNrrd(out, *vol, g);
+    }
+    return w ? 0 : fail(w.message());
 }
 
 int cmdVerify(const Args& a) {
@@ -201,6 +249,132 @@ int cmdVerify(const Args& a) {
     return 0;
 }
 
+double peakRssMiB() {
+    struct rusage ru {};
+    getrusage(RUSAGE_SELF, &ru);
+    return double(ru.ru_maxrss) / 1024.0;
+}
+
+int cmdCompress(const Args& a) {
+    if (a.positional.size() != 2) return fail("compress expects: csgv compress IN OUT.csgv [options]");
+    CompressOptions o;
+    o.encode = a.encode;
+    o.encode.threads = a.threads;
+    o.relabel = a.relabel;
+    CompressReport r;
+    const auto t0 = std::chrono::steady_clock::now();
+    Status s = compressToFile(a.positional[0], a.positional[1], o, &r);
+    if (!s) return fail(s.message());
+    const double t = seconds(t0);
+    const double voxels = double(r.dim[0]) * r.dim[1] * r.dim[2];
+    std::printf("output: %s\n", a.positional[1].c_str());
+    std::printf("dimensions: %u %u %u\n", r.dim[0], r.dim[1], r.dim[2]);
+    std::printf("bytes: %llu\n", (unsigned long long)r.outputBytes);
+    std::printf("bits_per_voxel: %.4f\n", double(r.outputBytes) * 8 / voxels);
+    std::printf("original_type: %s\n", r.originalType.c_str());
+    std::printf("relabelled: %s\n", r.relabelled ? "yes" : "no");
+    if (r.relabelled) std::printf("labels: %llu\n", (unsigned long long)r.labelCount);
+    std::printf("streamed: %s\n", r.streamed ? "yes" : "no");
+    std::printf("seconds: %.3f (read %.3f, encode %.3f, write %.3f)\n", t, r.readSeconds, r.encodeSeconds, r.writeSeconds);
+    std::printf("encode_mvoxels_per_second: %.1f\n", voxels / r.encodeSeconds / 1e6);
+    std::printf("peak_memory_mib: %.1f\n", peakRssMiB());
+    return 0;
+}
+
+/// Repeats fn until at least minSeconds have passed; returns seconds per run.
+template <typename Fn>
+double timeIt(Fn fn, double minSeconds = 1.0) {
+    const auto t0 = std::chrono::steady_clock::now();
+    int reps = 0;
+    double t = 0;
+    do {
+        if (!fn()) return -1;
+        ++reps;
+        t = seconds(t0);
+    } while (t < minSeconds);
+    return t / reps;
+}
+
+int cmdBench(const Args& a) {
+    if (a.positional.size() != 1) return fail("bench expects: csgv bench IN [options]");
+    const std::string& in = a.positional[0];
+    // The labels in memory, as the encoder sees them (relabelled when they must be).
+    LabelVolume labels;
+    if (isSynthName(in)) {
+        Result<SynthSpec> spec = parseSynthSpec(in);
+        if (!spec) return fail(spec.message());
+        Result<LabelVolume> v = generateVolume(*spec);
+        if (!v) return fail(v.message());
+        labels = std::move(*v);
+    } else {
+        Result<InputVolume> v = readInput(in);
+        if (!v) return fail(v.message());
+        LabelMapping m;
+        Result<LabelVolume> l = prepareLabels(*v, a.encode.brickSize, a.relabel, m);
+        if (!l) return fail(l.message());
+        labels = std::move(*l);
+    }
+    EncodeOptions o = a.encode;
+    o.threads = a.threads;
+    const int threads = a.threads > 0 ? a.threads : omp_get_max_threads();
+    const double voxels = double(labels.voxelCount());
+    const double rawBytes = voxels * 4;
+    Result<CompressedVolume> enc = Status::error("not run");
+    const double tEnc = timeIt([&] { enc = encodeVolume(labels, o); return enc.isOk(); });
+    if (!enc) return fail(enc.message());
+    Status dst;
+    const double tDec = timeIt([&] {
+        Result<LabelVolume> d = decodeVolume(*enc, 0, DecodeOptions{threads, uint64_t(64) << 30, nullptr});
+        if (!d) dst = d.status();
+        else if (d->labels != labels.labels) dst = Status::error("decoded volume differs from the input");
+        return d.isOk() && dst.isOk();
+    });
+    if (!dst) return fail(dst.message());
+    std::printf("input: %s\n", in.c_str());
+    std::printf("dimensions: %u %u %u\n", labels.dim[0], labels.dim[1], labels.dim[2]);
+    std::printf("threads: %d\n", threads);
+    std::printf("settings: brick %u, %s, ops %s\n", o.brickSize, encodingName(o.encoding), operationLetters(o.opMask).c_str());
+    std::printf("csgv_bytes: %llu\n", (unsigned long long)enc->serializedSize());
+    std::printf("csgv_bits_per_voxel: %.4f\n", double(enc->serializedSize()) * 8 / voxels);
+    std::printf("csgv_encode_mvoxels_per_second: %.1f\n", voxels / tEnc / 1e6);
+    std::printf("csgv_decode_mvoxels_per_second: %.1f\n", voxels / tDec / 1e6);
+    std::fflush(stdout);
+
+    // zstd -19 (multi-threaded where libzstd allows) and gzip -9 of the raw little-endian labels.
+    std::vector<uint8_t> z(ZSTD_compressBound(size_t(rawBytes)));
+    size_t zsize = 0;
+    const double tZ = timeIt([&] {
+        ZSTD_CCtx* c = ZSTD_createCCtx();
+        ZSTD_CCtx_setParameter(c, ZSTD_c_compressionLevel, 19);
+        ZSTD_CCtx_setParameter(c, ZSTD_c_nbWorkers, threads);
+        zsize = ZSTD_compress2(c, z.data(), z.size(), labels.labels.data(), size_t(rawBytes));
+        ZSTD_freeCCtx(c);
+        return !ZSTD_isError(zsize);
+    }, 0.0);
+    if (tZ < 0) return fail("zstd failed");
+    std::vector<uint32_t> back(labels.labels.size());
+    const double tZd = timeIt([&] { return ZSTD_decompress(back.data(), size_t(rawBytes), z.data(), zsize) == size_t(rawBytes); });
+    std::printf("zstd19_bits_per_voxel: %.4f\n", double(zsize) * 8 / voxels);
+    std::printf("zstd19_compress_mvoxels_per_second: %.1f\n", voxels / tZ / 1e6);
+    std::printf("zstd19_decompress_mvoxels_per_second: %.1f\n", voxels / tZd / 1e6);
+    std::fflush(stdout);
+    uLongf gsize = compressBound(uLong(rawBytes));
+    std::vector<uint8_t> g(gsize);
+    const double tG = timeIt([&] {
+        gsize = compressBound(uLong(rawBytes));
+        return compress2(g.data(), &gsize, reinterpret_cast<const Bytef*>(labels.labels.data()), uLong(rawBytes), 9) == Z_OK;
+    }, 0.0);
+    const double tGd = timeIt([&] {
+        uLongf n = uLongf(rawBytes);
+        return uncompress(reinterpret_cast<Bytef*>(back.data()), &n, g.data(), gsize) == Z_OK;
+    });
+    std::printf("gzip9_bits_per_voxel: %.4f\n", double(gsize) * 8 / voxels);
+    std::printf("gzip9_compress_mvoxels_per_second: %.1f\n", voxels / tG / 1e6);
+    std::printf("gzip9_decompress_mvoxels_per_second: %.1f\n", voxels / tGd / 1e6);
+    std::printf("peak_memory_mib: %.1f\n", peakRssMiB());
+    return 0;
+}
+
 int run(int argc, char** argv) {
     if (argc < 2) {
         fail("no command given");
@@ -218,6 +392,8 @@ int run(int argc, char** argv) {
     if (cmd == "info") return cmdInfo(a);
     if (cmd == "decompress") return cmdDecompress(a);
     if (cmd == "verify") return cmdVerify(a);
+    if (cmd == "compress") return cmdCompress(a);
+    if (cmd == "bench") return cmdBench(a);
     return fail("unknown command '" + cmd + "' (try csgv --help)");
 }
 

@@ -1,7 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/AttributeDb.h"
 
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <memory>
 #include <sqlite3.h>
@@ -52,8 +56,9 @@ const AttributeColumn* AttributeDatabase::column(const std::string& name) const 
 Result<std::vector<uint32_t>> AttributeDatabase::labelsAsUint32() const {
     std::vector<uint32_t> out(labels.size());
     for (size_t i = 0; i < labels.size(); ++i) {
-        if (labels[i] < 0 || labels[i] >= int64_t(0xFFFFFFFFll))
-            return Status::error(path + ": id " + std::to_string(i) + " maps to label " + std::to_string(labels[i]) +
+        if (labelsUnsigned64 ? uint64_t(labels[i]) >= 0xFFFFFFFFull : (labels[i] < 0 || labels[i] >= int64_t(0xFFFFFFFFll)))
+            return Status::error(path + ": id " + std::to_string(i) + " maps to label " +
+                                 (labelsUnsigned64 ? std::to_string(uint64_t(labels[i])) : std::to_string(labels[i])) +
                                  ", which does not fit an unsigned 32-bit label");
         out[i] = uint32_t(labels[i]);
     }
@@ -103,9 +108,22 @@ Result<AttributeDatabase> readAttributeDb(const std::string& path) {
         if (sqlite3_column_type(st, idCol) != SQLITE_INTEGER || id != int64_t(out.labels.size()))
             return fail("csgv_id values are not exactly 0.." + std::to_string(out.labels.size()) + "...: found " +
                         std::to_string(id));
-        if (sqlite3_column_type(st, labelCol) != SQLITE_INTEGER)
-            return fail("label of id " + std::to_string(id) + " is not an integer");
-        out.labels.push_back(sqlite3_column_int64(st, labelCol));
+        const int labelType = sqlite3_column_type(st, labelCol);
+        if (labelType == SQLITE_INTEGER) {
+            out.labels.push_back(sqlite3_column_int64(st, labelCol));
+        } else {
+            // Unsigned 64-bit labels beyond int64 are stored as decimal text.
+            const char* t = reinterpret_cast<const char*>(sqlite3_column_text(st, labelCol));
+            const std::string text = t ? t : "";
+            if (labelType != SQLITE_TEXT || text.empty() || text.size() > 20 ||
+                text.find_first_not_of("0123456789") != std::string::npos)
+                return fail("label of id " + std::to_string(id) + " is not an integer");
+            errno = 0;
+            const unsigned long long v = std::strtoull(text.c_str(), nullptr, 10);
+            if (errno == ERANGE) return fail("label of id " + std::to_string(id) + " exceeds 64 bits");
+            out.labels.push_back(int64_t(uint64_t(v)));
+            out.labelsUnsigned64 = true;
+        }
         for (size_t k = 0; k < attrCols.size(); ++k) {
             const int c = attrCols[k];
             AttributeColumn& col = out.columns[k];
@@ -125,6 +143,90 @@ Result<AttributeDatabase> readAttributeDb(const std::string& path) {
         }
     }
     return out;
+}
+
+Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& dim,
+                        const std::vector<uint64_t>& labelBits, bool signedLabels,
+                        const std::vector<AttributeColumn>& columns, const std::string& labelColumn) {
+    for (const auto& c : columns)
+        if ((c.numeric ? c.values.size() : c.text.size()) != labelBits.size())
+            return Status::error("attribute column '" + c.name + "' has " +
+                                 std::to_string(c.numeric ? c.values.size() : c.text.size()) + " values for " +
+                                 std::to_string(labelBits.size()) + " labels");
+    // SQLite writes its own file: build it under a temporary name and rename, like AtomicFile.
+    const std::string tmp = path + ".tmp-db";
+    std::remove(tmp.c_str());
+    sqlite3* raw = nullptr;
+    const int rc = sqlite3_open_v2(tmp.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+    DbPtr db(raw);
+    auto fail = [&](const std::string& what) {
+        db.reset();
+        std::remove(tmp.c_str());
+        return Status::error("cannot write attribute database '" + path + "': " + what);
+    };
+    if (rc != SQLITE_OK) return fail(raw ? sqlite3_errmsg(raw) : "out of memory");
+    auto exec = [&](const std::string& sql) -> Status {
+        char* err = nullptr;
+        if (sqlite3_exec(db.get(), sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+            Status s = Status::error(err ? err : "unknown error");
+            sqlite3_free(err);
+            return s;
+        }
+        return Status::ok();
+    };
+    std::string create = "CREATE TABLE csgv_attribute (csgv_id UNSIGNED INT PRIMARY KEY, " +
+                         quoteIdentifier(labelColumn) + " UNSIGNED INT UNIQUE";
+    for (const auto& c : columns) create += ", " + quoteIdentifier(c.name) + (c.numeric ? " REAL" : " TEXT");
+    create += ")";
+    const std::string info = "INSERT INTO csgv_info VALUES (" + std::to_string(dim[0]) + ", " + std::to_string(dim[1]) +
+                             ", " + std::to_string(dim[2]) + ", " + std::to_string(dim[0]) + ", " +
+                             std::to_string(dim[1]) + ", " + std::to_string(dim[2]) + ", ?)";
+    for (const std::string& sql :
+         {std::string("PRAGMA journal_mode=OFF"), std::string("PRAGMA synchronous=OFF"), std::string("BEGIN"),
+          std::string("CREATE TABLE csgv_info (volume_width INTEGER, volume_height INTEGER, volume_depth INTEGER, "
+                      "chunk_width INTEGER, chunk_height INTEGER, chunk_depth INTEGER, label_column TEXT)"),
+          create}) {
+        Status s = exec(sql);
+        if (!s) return fail(s.message());
+    }
+    {
+        Result<StmtPtr> st = prepare(db.get(), info);
+        if (!st) return fail(st.message());
+        sqlite3_bind_text(st->get(), 1, labelColumn.c_str(), -1, SQLITE_TRANSIENT);
+        if (sqlite3_step(st->get()) != SQLITE_DONE) return fail(sqlite3_errmsg(db.get()));
+    }
+    std::string insert = "INSERT INTO csgv_attribute VALUES (?, ?";
+    for (size_t k = 0; k < columns.size(); ++k) insert += ", ?";
+    insert += ")";
+    Result<StmtPtr> st = prepare(db.get(), insert);
+    if (!st) return fail(st.message());
+    for (size_t id = 0; id < labelBits.size(); ++id) {
+        sqlite3_stmt* s = st->get();
+        sqlite3_reset(s);
+        sqlite3_bind_int64(s, 1, int64_t(id));
+        const uint64_t v = labelBits[id];
+        if (signedLabels || v <= uint64_t(INT64_MAX)) sqlite3_bind_int64(s, 2, int64_t(v));
+        else sqlite3_bind_text(s, 2, std::to_string(v).c_str(), -1, SQLITE_TRANSIENT);
+        for (size_t k = 0; k < columns.size(); ++k) {
+            const AttributeColumn& c = columns[k];
+            if (c.numeric) {
+                if (std::isnan(c.values[id])) sqlite3_bind_null(s, int(k) + 3);
+                else sqlite3_bind_double(s, int(k) + 3, c.values[id]);
+            } else {
+                sqlite3_bind_text(s, int(k) + 3, c.text[id].c_str(), -1, SQLITE_TRANSIENT);
+            }
+        }
+        if (sqlite3_step(s) != SQLITE_DONE) return fail(sqlite3_errmsg(db.get()));
+    }
+    Status s = exec("COMMIT");
+    if (!s) return fail(s.message());
+    st = StmtPtr();
+    if (sqlite3_close(db.release()) != SQLITE_OK) return fail("close failed");
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        return Status::error("cannot rename '" + tmp + "' to '" + path + "'");
+    }
+    return Status::ok();
 }
 
 } // namespace csgv

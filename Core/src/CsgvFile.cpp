@@ -10,6 +10,17 @@ Result<CsgvFile> openCsgv(const std::string& path) {
     Result<CompressedVolume> vol = readCsgv(path);
     if (!vol) return vol.status();
     f.volume = std::move(*vol);
+    f.metadata.dim = f.volume.dim;
+    const std::string mdPath = metadataPathFor(path);
+    if (fileExists(mdPath)) {
+        Result<VolumeMetadata> md = readMetadata(mdPath);
+        if (!md) return md.status();
+        if (md->dim != f.volume.dim && md->dim != std::array<uint32_t, 3>{0, 0, 0})
+            return Status::error("metadata '" + mdPath + "' describes another volume size than '" + path + "'");
+        f.metadata = std::move(*md);
+        f.metadata.dim = f.volume.dim;
+        f.hasMetadata = true;
+    }
     const std::string dbPath = attributeDbPathFor(path);
     if (!fileExists(dbPath)) return f;
     Result<AttributeDatabase> db = readAttributeDb(dbPath);
@@ -20,8 +31,8 @@ Result<CsgvFile> openCsgv(const std::string& path) {
                              " volume, but '" + path + "' is " + std::to_string(f.volume.dim[0]) + "x" +
                              std::to_string(f.volume.dim[1]) + "x" + std::to_string(f.volume.dim[2]));
     Result<std::vector<uint32_t>> map = db->labelsAsUint32();
-    if (!map) return map.status();
-    f.idToLabel = std::move(*map);
+    if (map) f.idToLabel = std::move(*map);
+    else f.wideLabels = true;
     f.attributes = std::move(*db);
     f.hasAttributes = true;
     return f;

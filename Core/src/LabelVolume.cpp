@@ -90,20 +90,28 @@ Status writeVraw(const std::string& path, const LabelVolume& vol) {
     return s;
 }
 
-Status writeNrrd(const std::string& path, const LabelVolume& vol, const std::array<double, 3>& spacing) {
+Status writeNrrd(const std::string& path, const std::array<uint32_t, 3>& dim, const char* nrrdType,
+                 const void* data, size_t bytesPerVoxel, const Geometry& g) {
     std::ostringstream h;
-    h << "NRRD0004\n# written by csgv\ntype: uint32\ndimension: 3\nsizes: " << vol.dim[0] << ' ' << vol.dim[1] << ' '
-      << vol.dim[2] << "\nencoding: raw\nendian: little\n";
-    if (spacing[0] > 0 && spacing[1] > 0 && spacing[2] > 0)
-        h << "spacings: " << spacing[0] << ' ' << spacing[1] << ' ' << spacing[2] << '\n';
-    h << '\n';
+    h.precision(17);
+    h << "NRRD0004\n# written by csgv\ntype: " << nrrdType << "\ndimension: 3\nsizes: " << dim[0] << ' ' << dim[1]
+      << ' ' << dim[2] << "\nencoding: raw\nendian: little\nspace dimension: 3\nspace directions:";
+    for (int c = 0; c < 3; ++c)
+        h << " (" << g.direction[c] * g.spacing[c] << ',' << g.direction[3 + c] * g.spacing[c] << ','
+          << g.direction[6 + c] * g.spacing[c] << ')';
+    h << "\nspace origin: (" << g.origin[0] << ',' << g.origin[1] << ',' << g.origin[2] << ")\n\n";
     const std::string header = h.str();
+    const uint64_t bytes = uint64_t(dim[0]) * dim[1] * dim[2] * bytesPerVoxel;
     AtomicFile f;
     Status s = f.open(path);
     if (s) s = f.write(header.data(), header.size());
-    if (s) s = f.write(vol.labels.data(), vol.labels.size() * 4);
+    if (s) s = f.write(data, size_t(bytes));
     if (s) s = f.commit();
     return s;
+}
+
+Status writeNrrd(const std::string& path, const LabelVolume& vol, const Geometry& centred) {
+    return writeNrrd(path, vol.dim, "uint32", vol.labels.data(), 4, centred);
 }
 
 LabelVolume coarsenLabels(const LabelVolume& fine) {

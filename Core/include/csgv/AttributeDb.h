@@ -28,6 +28,8 @@ struct AttributeDatabase {
     std::string labelColumn;                 ///< csgv_info.label_column
     std::array<uint32_t, 3> volumeDim{};     ///< csgv_info volume_width/height/depth
     std::vector<int64_t> labels;             ///< id -> original label
+    /// Labels above 2^63 - 1 are stored as decimal text; when any is, `labels` holds uint64 bits.
+    bool labelsUnsigned64 = false;
     std::vector<AttributeColumn> columns;    ///< all columns but csgv_id and the label column
 
     /// id -> label as uint32, or an error naming the first label that does not fit.
@@ -39,5 +41,11 @@ struct AttributeDatabase {
 std::string attributeDbPathFor(const std::string& csgvPath);
 /// Reads the database (read-only). Ids must be exactly 0..n-1.
 Result<AttributeDatabase> readAttributeDb(const std::string& path);
+/// Writes a database in Volcanite's schema (csgv_info, csgv_attribute with csgv_id, the label
+/// column, then `columns`), through a temporary file renamed into place. `labelBits` maps ids to
+/// labels: int64 bits when `signedLabels`, else uint64 (values above 2^63 - 1 are stored as text).
+Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& dim,
+                        const std::vector<uint64_t>& labelBits, bool signedLabels,
+                        const std::vector<AttributeColumn>& columns = {}, const std::string& labelColumn = "label");
 
 } // namespace csgv

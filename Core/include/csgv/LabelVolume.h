@@ -4,6 +4,7 @@
 /// @brief Uncompressed label volumes: Volcanite's `.vraw`, NRRD output, and the coarse-label rule.
 
 #include "csgv/Checked.h"
+#include "csgv/Geometry.h"
 #include "csgv/Status.h"
 
 #include <array>
@@ -34,8 +35,12 @@ Result<LabelVolume> parseVraw(const std::vector<uint8_t>& bytes);
 std::vector<uint8_t> serializeVraw(const LabelVolume& vol);
 /// Writes `.vraw` (uint32) through a temporary file renamed into place.
 Status writeVraw(const std::string& path, const LabelVolume& vol);
-/// Writes a NRRD (uint32, raw, little-endian); spacing written when given (all > 0).
-Status writeNrrd(const std::string& path, const LabelVolume& vol, const std::array<double, 3>& spacing = {{0, 0, 0}});
+/// Writes a raw little-endian NRRD of any voxel type ("uint32", "int64", ...) with its geometry
+/// (`origin` the centre of voxel 0), through a temporary file renamed into place.
+Status writeNrrd(const std::string& path, const std::array<uint32_t, 3>& dim, const char* nrrdType,
+                 const void* data, size_t bytesPerVoxel, const Geometry& centred);
+/// Writes uint32 labels as NRRD.
+Status writeNrrd(const std::string& path, const LabelVolume& vol, const Geometry& centred = {});
 
 /// One step of the coarse-label rule (CSGV-FORMAT.md section 1): each node of the next level
 /// takes the label carried by most of its in-volume children, ties going to the lowest child
