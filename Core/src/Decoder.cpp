@@ -281,8 +281,9 @@ Status forEachBrick(const CompressedVolume& vol, const std::vector<uint64_t>& br
     std::mutex mutex;
     uint64_t errorBrick = ~uint64_t(0);
     Status error;
-    const int nThreads = threads > 0 ? threads : omp_get_max_threads();
     const int64_t n = int64_t(bricks.size());
+    // Never more threads than bricks: idle OpenMP workers spin and steal time from busy ones.
+    const int nThreads = int(std::max<int64_t>(1, std::min<int64_t>(threads > 0 ? threads : omp_get_max_threads(), n)));
 #pragma omp parallel num_threads(nThreads)
     {
         BrickDecoder decoder(vol);

@@ -392,7 +392,7 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
         std::mutex mutex;
         Status error;
         uint64_t errorBrick = ~uint64_t(0);
-#pragma omp parallel num_threads(nThreads)
+#pragma omp parallel num_threads(int(std::min<uint64_t>(uint64_t(nThreads), perSlab)))
         {
             BrickEncoder enc(B, options.opMask);
 #pragma omp for schedule(dynamic, 1)
@@ -450,7 +450,7 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
 
     // Pass 2: entropy coding per brick.
     std::vector<std::vector<uint32_t>> words(static_cast<size_t>(bricks));
-#pragma omp parallel num_threads(nThreads)
+#pragma omp parallel num_threads(int(std::min<uint64_t>(uint64_t(nThreads), bricks)))
     {
         std::vector<uint8_t> scratch;
 #pragma omp for schedule(dynamic, 4)

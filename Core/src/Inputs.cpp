@@ -768,6 +768,13 @@ Result<InputVolume> readNrrd(const std::string& path, uint64_t maxBytes) {
     const uint64_t dataBytes = n * bytesPerVoxel; // within maxBytes by checkBudget
     std::vector<uint8_t> data;
     if (gzip) {
+        // Deflate cannot expand more than 1032:1, so a small file claiming a large volume is refused
+        // before its buffer is allocated.
+        const uint64_t compressed = *fileBytes - std::min(start, *fileBytes);
+        if (mulSaturate(compressed, 1032) + 1024 < dataBytes + uint64_t(byteSkip))
+            return fail(dataName, "truncated: " + std::to_string(compressed) +
+                                      " bytes of gzip data cannot hold the " + std::to_string(dataBytes) +
+                                      " bytes the header's sizes and type need");
         data.resize(size_t(dataBytes));
         if (Status s = inflateInto(file.get(), dataPath, uint64_t(byteSkip), data.data(), dataBytes); !s)
             return s.prefix(path);

@@ -176,7 +176,7 @@ Status ProceduralSlabSource::readSlab(uint32_t z0, uint32_t depth, uint32_t* out
     const uint32_t rows = 32;
     const int64_t chunksPerSlice = (H + rows - 1) / rows;
     const int64_t chunks = chunksPerSlice * depth;
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(int(std::min<int64_t>(omp_get_max_threads(), chunks)))
     for (int64_t c = 0; c < chunks; ++c) {
         const uint32_t z = uint32_t(c / chunksPerSlice), y0 = uint32_t(c % chunksPerSlice) * rows;
         const uint32_t h = std::min(rows, H - y0);
