@@ -125,9 +125,9 @@ Status BrickDecoder::decodeLevels(uint64_t index, const BrickWords& bw, Reader& 
         uint32_t lim[3], plim[3];
         bool inside = true;
         for (int a = 0; a < 3; ++a) {
-            const uint32_t rest = dim[a] - m_origin[a];
-            lim[a] = std::min<uint32_t>(1u << l, (rest + width - 1) / width);
-            plim[a] = std::min<uint32_t>(parentGrid, (rest + 2 * width - 1) / (2 * width));
+            const uint64_t rest = dim[a] - m_origin[a]; // 64-bit: dimensions may approach 2^32
+            lim[a] = uint32_t(std::min<uint64_t>(1u << l, (rest + width - 1) / width));
+            plim[a] = uint32_t(std::min<uint64_t>(parentGrid, (rest + 2 * width - 1) / (2 * width)));
             inside = inside && lim[a] == (1u << l);
         }
         const uint32_t parents = 1u << (3 * (l - 1));
@@ -345,7 +345,7 @@ Result<LabelVolume> decodeRegion(const CompressedVolume& vol, uint32_t lod, cons
         uint32_t lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
             lo[a] = std::max(o[a], box.min[a]);
-            hi[a] = std::min(o[a] + edge, box.max[a]);
+            hi[a] = uint32_t(std::min<uint64_t>(uint64_t(o[a]) + edge, box.max[a]));
         }
         const uint32_t* labels = dec.labels();
         for (uint32_t z = lo[2]; z < hi[2]; ++z)
