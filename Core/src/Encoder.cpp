@@ -63,31 +63,53 @@ public:
         uint32_t* fin = m_label.data() + m_off[finest];
         uint8_t* finIn = m_inVolume.data() + m_off[finest];
         const uint32_t n = m_B * m_B * m_B;
-        std::memset(finIn, 0, n);
+        // Bricks inside the volume (most of them) need no in-volume flags at all.
+        m_inside = extent[0] == m_B && extent[1] == m_B && extent[2] == m_B;
+        if (!m_inside) std::memset(finIn, 0, n);
         for (uint32_t z = 0; z < extent[2]; ++z)
             for (uint32_t y = 0; y < extent[1]; ++y) {
                 const uint32_t* row = slab + (uint64_t(z) * H + oy + y) * W + ox;
                 const uint32_t myz = (m_spread[y] << 1) | (m_spread[z] << 2);
-                for (uint32_t x = 0; x < extent[0]; ++x) {
-                    if (row[x] == kInvalidLabel)
-                        return Status::error("label 0xFFFFFFFF at voxel (" + std::to_string(ox + x) + ", " +
-                                             std::to_string(oy + y) + ", " + std::to_string(z0 + z) +
-                                             ") is reserved; relabel the volume");
-                    fin[myz | m_spread[x]] = row[x];
-                    finIn[myz | m_spread[x]] = 1;
+                bool reserved = false;
+                for (uint32_t x = 0; x < extent[0]; ++x) reserved |= row[x] == kInvalidLabel;
+                if (reserved) {
+                    const uint32_t x = uint32_t(std::find(row, row + extent[0], kInvalidLabel) - row);
+                    return Status::error("label 0xFFFFFFFF at voxel (" + std::to_string(ox + x) + ", " +
+                                         std::to_string(oy + y) + ", " + std::to_string(z0 + z) +
+                                         ") is reserved; relabel the volume");
                 }
+                for (uint32_t x = 0; x < extent[0]; ++x) fin[myz | m_spread[x]] = row[x];
+                if (!m_inside)
+                    for (uint32_t x = 0; x < extent[0]; ++x) finIn[myz | m_spread[x]] = 1;
             }
-        std::memset(m_constant.data() + m_off[finest], 1, n);
         // Coarse labels bottom-up: mode of the in-volume children, ties to the lowest child index.
+        // Finest-level nodes are constant by definition, so level L-2 needs no child flags.
         for (uint32_t l = finest; l-- > 0;) {
             const uint32_t* cl = m_label.data() + m_off[l + 1];
             const uint8_t* ci = m_inVolume.data() + m_off[l + 1];
             const uint8_t* cc = m_constant.data() + m_off[l + 1];
+            const bool childrenConstant = l + 1 == finest;
             uint32_t* pl = m_label.data() + m_off[l];
             uint8_t* pi = m_inVolume.data() + m_off[l];
             uint8_t* pc = m_constant.data() + m_off[l];
             for (uint32_t m = 0, count = 1u << (3 * l); m < count; ++m) {
                 const uint32_t b = m << 3;
+                const uint32_t* c8 = cl + b;
+                if (m_inside) {
+                    const uint32_t v = c8[0];
+                    const bool same = (c8[1] == v) & (c8[2] == v) & (c8[3] == v) & (c8[4] == v) & (c8[5] == v) &
+                                      (c8[6] == v) & (c8[7] == v);
+                    if (same) {
+                        pl[m] = v;
+                        uint64_t flags;
+                        std::memcpy(&flags, cc + b, 8);
+                        pc[m] = childrenConstant || flags == 0x0101010101010101ull;
+                        continue;
+                    }
+                    pc[m] = 0;
+                    pl[m] = modeOf(c8, 8);
+                    continue;
+                }
                 pi[m] = ci[b];
                 if (!ci[b]) {
                     pl[m] = kInvalidLabel;
@@ -101,25 +123,11 @@ public:
                     if (ci[b + c]) {
                         lab[k] = cl[b + c];
                         same = same && lab[k] == lab[0];
-                        allConstant = allConstant && cc[b + c];
+                        allConstant = allConstant && (childrenConstant || cc[b + c]);
                         ++k;
                     }
                 pc[m] = same && allConstant;
-                if (same) {
-                    pl[m] = lab[0];
-                    continue;
-                }
-                uint32_t best = lab[0];
-                int bestCount = 0;
-                for (int i = 0; i < k; ++i) {
-                    int c = 0;
-                    for (int j = 0; j < k; ++j) c += lab[j] == lab[i];
-                    if (c > bestCount) {
-                        bestCount = c;
-                        best = lab[i];
-                    }
-                }
-                pl[m] = best;
+                pl[m] = same ? lab[0] : modeOf(lab, k);
             }
         }
         chooseOperations(out);
@@ -127,6 +135,23 @@ public:
     }
 
 private:
+    /// The most frequent of n labels, ties to the first (lowest child index).
+    static uint32_t modeOf(const uint32_t* lab, int n) {
+        uint32_t best = lab[0];
+        int bestCount = 0;
+        for (int i = 0; i < n; ++i) {
+            int c = 0;
+            for (int j = 0; j < n; ++j) c += lab[j] == lab[i];
+            if (c > bestCount) {
+                bestCount = c;
+                best = lab[i];
+            }
+        }
+        return best;
+    }
+
+    bool inVolume(uint32_t l, uint32_t m) const { return m_inside || m_inVolume[m_off[l] + m]; }
+
     void chooseOperations(BrickSymbols& out) {
         const uint32_t L = m_L;
         const bool useD = (m_mask & kMaskPaletteD) != 0;
@@ -140,7 +165,6 @@ private:
         for (uint32_t l = 0; l < L; ++l) {
             out.levelStart[l] = out.count;
             const uint32_t* cur = m_label.data() + m_off[l];
-            const uint8_t* in = m_inVolume.data() + m_off[l];
             const uint8_t* cst = m_constant.data() + m_off[l];
             uint8_t* open = m_open.data() + m_off[l];
             const bool finest = l + 1 == L;
@@ -154,11 +178,15 @@ private:
             }
             const uint32_t* par = m_label.data() + m_off[l - 1];
             const uint8_t* parOpen = m_open.data() + m_off[l - 1];
-            const uint8_t* parIn = m_inVolume.data() + m_off[l - 1];
             const uint32_t parentGrid = 1u << (l - 1);
             for (uint32_t m = 0, count = 1u << (3 * l); m < count; ++m) {
                 const uint32_t pm = m >> 3;
-                if (!parOpen[pm] || !in[m]) {
+                if (!parOpen[pm]) { // a closed parent: none of its 8 children is visited
+                    std::memset(open + m, 0, 8);
+                    m += 7;
+                    continue;
+                }
+                if (!inVolume(l, m)) {
                     open[m] = 0;
                     continue;
                 }
@@ -173,7 +201,7 @@ private:
                             op = kOpNeighborX + axis;
                     } else if (mortonCompact(pm >> axis) + 1 < parentGrid) {
                         const uint32_t q = mortonIncrement(pm, axis);
-                        if (parIn[q] && par[q] == label) op = kOpNeighborX + axis;
+                        if (inVolume(l - 1, q) && par[q] == label) op = kOpNeighborX + axis;
                     }
                 }
                 if (op == kOpPaletteAdv && (m_mask & kMaskPaletteLast) && out.palette.back() == label)
@@ -188,7 +216,7 @@ private:
                         distance = last - 1 - it->second;
                     }
                 }
-                const bool stop = stops && !finest && cst[m];
+                const bool stop = stops && !finest && cst[m]; // cst of the finest level is never read
                 emit(op | (stop ? kStopBit : 0u), l);
                 if (op == kOpPaletteD) {
                     int groups = 1;
@@ -210,6 +238,7 @@ private:
     std::vector<uint32_t> m_label;
     std::vector<uint8_t> m_inVolume, m_constant, m_open;
     std::array<uint32_t, 128> m_spread{};
+    bool m_inside = false; ///< the brick lies wholly inside the volume
     std::unordered_map<uint32_t, uint32_t> m_index; ///< label -> palette index (PALETTE_D)
 };
 
