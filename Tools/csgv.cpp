@@ -34,8 +34,9 @@ const char* kUsage =
     "      --check decodes every brick and reports the first stream error\n"
     "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
     "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
-    "  verify IN.csgv SOURCE.vraw[.gz] [--threads N]\n"
-    "      exit 0 only if every voxel and every coarse level matches SOURCE\n"
+    "  verify IN.csgv SOURCE [--threads N]\n"
+    "      SOURCE: .vraw[.gz], .nrrd, .nhdr, .nii[.gz]; exit 0 only if every voxel and every\n"
+    "      coarse level matches SOURCE (through the attribute database when there is one)\n"
     "  compress IN OUT.csgv [--brick-size N] [--encoding nibble|rans1|rans2] [--ops default|all|LETTERS]\n"
     "           [--threads N] [--relabel]\n"
     "      IN: synth:WxHxD[:seed], .vraw[.gz], .nrrd, .nhdr, .nii[.gz]; letters p x y z n l d s;\n"
@@ -219,28 +220,57 @@ int cmdDecompress(const Args& a) {
 }
 
 int cmdVerify(const Args& a) {
-    if (a.positional.size() != 2) return fail("verify expects: csgv verify IN.csgv SOURCE.vraw");
+    if (a.positional.size() != 2) return fail("verify expects: csgv verify IN.csgv SOURCE");
     Result<CsgvFile> f = openCsgv(a.positional[0]);
     if (!f) return fail(f.message());
-    Result<LabelVolume> src = readVraw(a.positional[1]);
+    Result<InputVolume> src = readInput(a.positional[1]);
     if (!src) return fail(src.message());
     const CompressedVolume& v = f->volume;
     if (src->dim != v.dim)
         return fail("dimensions differ: " + a.positional[0] + " is " + std::to_string(v.dim[0]) + " " +
                     std::to_string(v.dim[1]) + " " + std::to_string(v.dim[2]) + ", " + a.positional[1] + " is " +
                     std::to_string(src->dim[0]) + " " + std::to_string(src->dim[1]) + " " + std::to_string(src->dim[2]));
-    LabelVolume expected = std::move(*src);
+    // Compare in the file's own label space: ids when a database maps them (the coarse-label rule
+    // does not depend on label values, only on equality and child order), labels otherwise.
+    LabelVolume expected;
+    expected.dim = src->dim;
+    expected.labels.resize(src->values.size());
+    DecodeOptions plain;
+    plain.threads = a.threads;
+    if (f->hasAttributes) {
+        std::unordered_map<int64_t, uint32_t> idOf;
+        for (size_t id = 0; id < f->attributes.labels.size(); ++id) idOf.emplace(f->attributes.labels[id], uint32_t(id));
+        for (size_t i = 0; i < src->values.size(); ++i) {
+            auto it = idOf.find(int64_t(src->values[i]));
+            if (it == idOf.end())
+                return fail("voxel " + std::to_string(i) + " of " + a.positional[1] + " holds label " +
+                            std::to_string(int64_t(src->values[i])) + ", which the attribute database lacks");
+            expected.labels[i] = it->second;
+        }
+    } else {
+        for (size_t i = 0; i < src->values.size(); ++i) {
+            if (src->isNegative(i) || src->values[i] >= kInvalidLabel)
+                return fail("voxel " + std::to_string(i) + " of " + a.positional[1] +
+                            " holds a label that does not fit the format, and " + a.positional[0] +
+                            " has no attribute database mapping it");
+            expected.labels[i] = uint32_t(src->values[i]);
+        }
+    }
+    src = InputVolume{};
     for (uint32_t lod = 0; lod < v.levels(); ++lod) {
         if (lod > 0) expected = coarsenLabels(expected);
-        Result<LabelVolume> got = decodeVolume(v, lod, f->decodeOptions(a.threads));
+        Result<LabelVolume> got = decodeVolume(v, lod, plain);
         if (!got) return fail(a.positional[0] + ": " + got.message());
         for (size_t i = 0; i < expected.labels.size(); ++i) {
             if (got->labels[i] != expected.labels[i]) {
                 const uint64_t x = i % expected.dim[0], y = (i / expected.dim[0]) % expected.dim[1],
                                z = i / (uint64_t(expected.dim[0]) * expected.dim[1]);
+                auto show = [&](uint32_t l) {
+                    return f->hasAttributes ? std::to_string(f->originalLabel(l)) : std::to_string(l);
+                };
                 return fail("level " + std::to_string(lod) + ", voxel (" + std::to_string(x) + ", " +
-                            std::to_string(y) + ", " + std::to_string(z) + ") decodes to " +
-                            std::to_string(got->labels[i]) + ", expected " + std::to_string(expected.labels[i]));
+                            std::to_string(y) + ", " + std::to_string(z) + ") decodes to " + show(got->labels[i]) +
+                            ", expected " + show(expected.labels[i]));
             }
         }
         std::printf("level %u: %u x %u x %u match\n", lod, expected.dim[0], expected.dim[1], expected.dim[2]);

@@ -84,6 +84,14 @@ Result<AttributeDatabase> readAttributeDb(const std::string& path) {
     if (!lc || !*lc) return fail("csgv_info.label_column is empty");
     out.labelColumn = reinterpret_cast<const char*>(lc);
 
+    // Our own extra table (Volcanite ignores it): unsigned 64-bit labels are stored as their
+    // int64 bit pattern, which is exactly what an unsigned reader gets back.
+    Result<StmtPtr> type = prepare(db.get(), "SELECT original_type FROM csgv_label_type");
+    if (type && sqlite3_step(type->get()) == SQLITE_ROW) {
+        const unsigned char* t = sqlite3_column_text(type->get(), 0);
+        out.labelsUnsigned64 = t && std::string(reinterpret_cast<const char*>(t)) == "uint64";
+    }
+
     Result<StmtPtr> rows = prepare(db.get(), "SELECT * FROM csgv_attribute ORDER BY csgv_id");
     if (!rows) return fail(rows.message());
     sqlite3_stmt* st = rows->get();
@@ -108,22 +116,9 @@ Result<AttributeDatabase> readAttributeDb(const std::string& path) {
         if (sqlite3_column_type(st, idCol) != SQLITE_INTEGER || id != int64_t(out.labels.size()))
             return fail("csgv_id values are not exactly 0.." + std::to_string(out.labels.size()) + "...: found " +
                         std::to_string(id));
-        const int labelType = sqlite3_column_type(st, labelCol);
-        if (labelType == SQLITE_INTEGER) {
-            out.labels.push_back(sqlite3_column_int64(st, labelCol));
-        } else {
-            // Unsigned 64-bit labels beyond int64 are stored as decimal text.
-            const char* t = reinterpret_cast<const char*>(sqlite3_column_text(st, labelCol));
-            const std::string text = t ? t : "";
-            if (labelType != SQLITE_TEXT || text.empty() || text.size() > 20 ||
-                text.find_first_not_of("0123456789") != std::string::npos)
-                return fail("label of id " + std::to_string(id) + " is not an integer");
-            errno = 0;
-            const unsigned long long v = std::strtoull(text.c_str(), nullptr, 10);
-            if (errno == ERANGE) return fail("label of id " + std::to_string(id) + " exceeds 64 bits");
-            out.labels.push_back(int64_t(uint64_t(v)));
-            out.labelsUnsigned64 = true;
-        }
+        if (sqlite3_column_type(st, labelCol) != SQLITE_INTEGER)
+            return fail("label of id " + std::to_string(id) + " is not an integer");
+        out.labels.push_back(sqlite3_column_int64(st, labelCol));
         for (size_t k = 0; k < attrCols.size(); ++k) {
             const int c = attrCols[k];
             AttributeColumn& col = out.columns[k];
@@ -185,7 +180,8 @@ Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& 
          {std::string("PRAGMA journal_mode=OFF"), std::string("PRAGMA synchronous=OFF"), std::string("BEGIN"),
           std::string("CREATE TABLE csgv_info (volume_width INTEGER, volume_height INTEGER, volume_depth INTEGER, "
                       "chunk_width INTEGER, chunk_height INTEGER, chunk_depth INTEGER, label_column TEXT)"),
-          create}) {
+          create, std::string("CREATE TABLE csgv_label_type (original_type TEXT)"),
+          std::string("INSERT INTO csgv_label_type VALUES ('") + (signedLabels ? "int64" : "uint64") + "')"}) {
         Status s = exec(sql);
         if (!s) return fail(s.message());
     }
@@ -204,9 +200,7 @@ Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& 
         sqlite3_stmt* s = st->get();
         sqlite3_reset(s);
         sqlite3_bind_int64(s, 1, int64_t(id));
-        const uint64_t v = labelBits[id];
-        if (signedLabels || v <= uint64_t(INT64_MAX)) sqlite3_bind_int64(s, 2, int64_t(v));
-        else sqlite3_bind_text(s, 2, std::to_string(v).c_str(), -1, SQLITE_TRANSIENT);
+        sqlite3_bind_int64(s, 2, int64_t(labelBits[id]));
         for (size_t k = 0; k < columns.size(); ++k) {
             const AttributeColumn& c = columns[k];
             if (c.numeric) {

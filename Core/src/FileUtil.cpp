@@ -97,7 +97,8 @@ Result<std::vector<uint8_t>> readFile(const std::string& path, uint64_t maxBytes
 }
 
 Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes) {
-    const bool gz = path.size() > 3 && path.compare(path.size() - 3, 3, ".gz") == 0;
+    const bool gz = path.size() > 3 && path[path.size() - 3] == '.' && (path[path.size() - 2] | 0x20) == 'g' &&
+                    (path[path.size() - 1] | 0x20) == 'z';
     if (!gz) return readFile(path, maxBytes);
     if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
     gzFile f = gzopen(path.c_str(), "rb");

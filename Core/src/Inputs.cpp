@@ -278,26 +278,38 @@ Status checkBudget(const std::string& path, const std::array<uint64_t, 3>& d, ui
 // Whole and partial file reads
 // ------------------------------------------------------------------------------------------------
 
-/// Reads at most `limit` bytes from the start of a file, inflating gzip content (zlib passes
-/// other content through). Grows its buffer as bytes arrive, so a header that claims more than
-/// the file holds costs no allocation of the claimed size.
-Result<std::vector<uint8_t>> readPrefixMaybeGz(const std::string& path, uint64_t limit) {
+/// Reads up to `length` bytes starting at `offset` of a file, inflating gzip content (zlib passes
+/// other content through); fewer when the file ends first. Bytes before `offset` are discarded
+/// and the buffer grows as bytes arrive, so a header that claims more than the file holds costs
+/// no allocation of the claimed size.
+Result<std::vector<uint8_t>> readRangeMaybeGz(const std::string& path, uint64_t offset, uint64_t length) {
     if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
     gzFile f = gzopen(path.c_str(), "rb");
     if (!f) return Status::error("cannot open '" + path + "': " + errnoText());
     gzbuffer(f, 1 << 18);
+    const auto failed = [&]() {
+        int code = 0;
+        const std::string why = gzerror(f, &code);
+        gzclose(f);
+        return Status::error("cannot inflate '" + path + "': " + why);
+    };
     std::vector<uint8_t> data;
-    while (data.size() < limit) {
-        const uint64_t want = std::min<uint64_t>(limit - data.size(), uint64_t(1) << 24);
+    std::vector<uint8_t> scratch(size_t(std::min<uint64_t>(offset, 1 << 16)));
+    for (uint64_t skipped = 0; skipped < offset;) {
+        const int n = gzread(f, scratch.data(), unsigned(std::min<uint64_t>(scratch.size(), offset - skipped)));
+        if (n < 0) return failed();
+        if (n == 0) {
+            gzclose(f);
+            return data;
+        }
+        skipped += uint64_t(n);
+    }
+    while (data.size() < length) {
+        const uint64_t want = std::min<uint64_t>(length - data.size(), uint64_t(1) << 24);
         const size_t old = data.size();
         data.resize(old + size_t(want));
         const int n = gzread(f, data.data() + old, unsigned(want));
-        if (n < 0) {
-            int code = 0;
-            const std::string why = gzerror(f, &code);
-            gzclose(f);
-            return Status::error("cannot inflate '" + path + "': " + why);
-        }
+        if (n < 0) return failed();
         data.resize(old + size_t(n));
         if (n == 0) break;
     }
@@ -442,6 +454,8 @@ Result<NrrdHeader> readNrrdHeader(const std::string& path) {
         else if (name == "byteskip") name = "byte skip";
         else if (name == "lineskip") name = "line skip";
         h.fields[name] = trim(line.substr(colon + 1));
+        // "data file: LIST" is the last field: the lines after it name data files.
+        if (name == "data file" && h.fields[name].compare(0, 4, "LIST") == 0) break;
     }
     return h;
 }
@@ -539,7 +553,8 @@ bool parseNrrdVectors(const std::string& text, std::vector<NrrdVector>& out, std
             size_t start = 0;
             for (;;) {
                 const size_t comma = inner.find(',', start);
-                const std::string part = inner.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+                const std::string part =
+                    inner.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
                 double d;
                 if (!parseDouble(part, d)) {
                     why = "component " + quoted(trim(part)) + " is not a number";
@@ -665,7 +680,8 @@ Result<InputVolume> readNrrd(const std::string& path, uint64_t maxBytes) {
     }
     if (const std::string* sdim = field("space dimension")) {
         int64_t v = 0;
-        if (!parseInt64(*sdim, v) || v < 1) return fail(path, "space dimension " + quoted(*sdim) + " is not a positive integer");
+        if (!parseInt64(*sdim, v) || v < 1)
+            return fail(path, "space dimension " + quoted(*sdim) + " is not a positive integer");
         if (spaceDim != 0 && v != spaceDim)
             return fail(path, "space dimension " + std::to_string(v) + " contradicts space " + quoted(*field("space")));
         spaceDim = int(v);
@@ -699,7 +715,8 @@ Result<InputVolume> readNrrd(const std::string& path, uint64_t maxBytes) {
                                   std::to_string(dimension));
         for (size_t k = 0; k < 3; ++k) {
             double v = 0;
-            if (!parseDouble(words[kept[k]], v)) return fail(path, "spacings value " + quoted(words[kept[k]]) + " is not a number");
+            if (!parseDouble(words[kept[k]], v))
+                return fail(path, "spacings value " + quoted(words[kept[k]]) + " is not a number");
             if (std::isnan(v)) continue; // "nan": no spacing known along this axis
             if (!std::isfinite(v) || v == 0)
                 return fail(path, "spacings value " + quoted(words[kept[k]]) + " is not a usable spacing");
@@ -868,7 +885,7 @@ double niftiSpacing(double v) { return std::isfinite(v) && v > 0 ? v : 1.0; }
 } // namespace
 
 Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
-    Result<std::vector<uint8_t>> head = readPrefixMaybeGz(path, kNiftiHeader + 4);
+    Result<std::vector<uint8_t>> head = readRangeMaybeGz(path, 0, kNiftiHeader + 4);
     if (!head) return head.status();
     if (head->size() < kNiftiHeader)
         return fail(path, "only " + std::to_string(head->size()) + " bytes, too short for a NIfTI-1 header (348)");
@@ -892,7 +909,8 @@ Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
     int dim[8];
     for (int i = 0; i < 8; ++i) dim[i] = hf.i16(40 + 2 * size_t(i));
     if (dim[0] < 2 || dim[0] > 7)
-        return fail(path, "dim[0] is " + std::to_string(dim[0]) + "; a label volume needs 3 (or 2, or 4 with dim[4] = 1)");
+        return fail(path,
+                    "dim[0] is " + std::to_string(dim[0]) + "; a label volume needs 3 (or 2, or 4 with dim[4] = 1)");
     std::array<uint64_t, 3> d3 = {{1, 1, 1}};
     for (int i = 1; i <= dim[0]; ++i) {
         if (dim[i] < 1)
@@ -980,15 +998,15 @@ Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
     // ---- voxels
     const uint64_t offset = uint64_t(voxOffset);
     const uint64_t dataBytes = vol.voxelCount() * typeBytes(vol.type);
-    Result<std::vector<uint8_t>> bytes = readPrefixMaybeGz(path, offset + dataBytes);
+    Result<std::vector<uint8_t>> bytes = readRangeMaybeGz(path, offset, dataBytes);
     if (!bytes) return bytes.status();
-    if (bytes->size() < offset + dataBytes)
-        return fail(path, "truncated: " + std::to_string(bytes->size() > offset ? bytes->size() - offset : 0) +
+    if (bytes->size() < dataBytes)
+        return fail(path, "truncated: " + std::to_string(bytes->size()) +
                               " bytes of voxel data after vox_offset " + std::to_string(offset) + ", " +
                               dimText(d3) + " " + labelTypeName(vol.type) + " voxels need " +
                               std::to_string(dataBytes));
     vol.values.resize(size_t(vol.voxelCount()));
-    if (Status s = decodeVoxels(bytes->data() + offset, vol.type, hf.big, vol.dim, path, vol.values); !s) return s;
+    if (Status s = decodeVoxels(bytes->data(), vol.type, hf.big, vol.dim, path, vol.values); !s) return s;
     return vol;
 }
 

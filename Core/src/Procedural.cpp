@@ -53,11 +53,6 @@ struct Field {
     }
 };
 
-struct CellInfo {
-    double p[3];
-    uint32_t label;
-};
-
 } // namespace
 
 bool isSynthName(const std::string& text) { return text.rfind("synth:", 0) == 0; }
@@ -102,7 +97,8 @@ void generateBox(const SynthSpec& spec, const std::array<uint32_t, 3>& origin, c
             table[a][b].resize(size[b]);
             for (uint32_t t = 0; t < size[b]; ++t) table[a][b][t] = field.wave[a][b](double(origin[b]) + t + 0.5);
         }
-    // Feature points and labels of every cell a displaced voxel of this box can reach.
+    // Feature points and labels of every cell a displaced voxel of this box can reach, as
+    // structure-of-arrays so the 8-candidate search below runs without branches.
     const double maxDisp = 2 * (0.12 + 0.05) * S;
     int64_t lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
@@ -110,46 +106,52 @@ void generateBox(const SynthSpec& spec, const std::array<uint32_t, 3>& origin, c
         hi[a] = int64_t(std::floor((double(origin[a]) + size[a] + maxDisp) / S)) + 1;
     }
     const int64_t nx = hi[0] - lo[0] + 1, ny = hi[1] - lo[1] + 1, nz = hi[2] - lo[2] + 1;
-    std::vector<CellInfo> cells(size_t(nx * ny * nz));
+    const size_t nCells = size_t(nx * ny * nz);
+    std::vector<double> px(nCells), py(nCells), pz(nCells);
+    std::vector<uint32_t> cellLabel(nCells);
     for (int64_t cz = lo[2]; cz <= hi[2]; ++cz)
         for (int64_t cy = lo[1]; cy <= hi[1]; ++cy)
             for (int64_t cx = lo[0]; cx <= hi[0]; ++cx) {
-                CellInfo& c = cells[size_t((cx - lo[0]) + nx * ((cy - lo[1]) + ny * (cz - lo[2])))];
-                const int64_t cc[3] = {cx, cy, cz};
-                for (int a = 0; a < 3; ++a)
-                    c.p[a] = (double(cc[a]) + 0.25 + 0.5 * unit(cellHash(cx, cy, cz, spec.seed, 1 + a))) * S;
+                const size_t i = size_t((cx - lo[0]) + nx * ((cy - lo[1]) + ny * (cz - lo[2])));
+                px[i] = (double(cx) + 0.25 + 0.5 * unit(cellHash(cx, cy, cz, spec.seed, 1))) * S;
+                py[i] = (double(cy) + 0.25 + 0.5 * unit(cellHash(cx, cy, cz, spec.seed, 2))) * S;
+                pz[i] = (double(cz) + 0.25 + 0.5 * unit(cellHash(cx, cy, cz, spec.seed, 3))) * S;
                 const uint64_t h = cellHash(cx, cy, cz, spec.seed, 7);
                 uint32_t label = uint32_t(h);
                 if ((h >> 40) % 5 == 0) label = 0;
                 else if (label == 0) label = 1;
                 else if (label == 0xFFFFFFFFu) label = 0xFFFFFFFEu;
-                c.label = label;
+                cellLabel[i] = label;
             }
+    int64_t offset[8];
+    for (int k = 0; k < 8; ++k) offset[k] = (k & 1) + nx * ((k >> 1 & 1) + ny * (k >> 2));
+    const double invS = 1.0 / S;
+    // Shift cell coordinates positive so truncation equals floor (displacements are bounded).
+    const int64_t shift[3] = {1 - lo[0], 1 - lo[1], 1 - lo[2]};
     for (uint32_t z = 0; z < size[2]; ++z)
         for (uint32_t y = 0; y < size[1]; ++y) {
             uint32_t* row = out + (uint64_t(z) * size[1] + y) * size[0];
-            const double dxyz = table[0][1][y] + table[0][2][z];
-            const double dy = table[1][2][z], dz = table[2][1][y];
+            const double qx0 = double(origin[0]) + 0.5 + table[0][1][y] + table[0][2][z];
+            const double qy0 = double(origin[1]) + y + 0.5 + table[1][2][z];
+            const double qz0 = double(origin[2]) + z + 0.5 + table[2][1][y];
             for (uint32_t x = 0; x < size[0]; ++x) {
-                const double q[3] = {double(origin[0]) + x + 0.5 + dxyz, double(origin[1]) + y + 0.5 + dy + table[1][0][x],
-                                     double(origin[2]) + z + 0.5 + dz + table[2][0][x]};
+                const double q[3] = {qx0 + x, qy0 + table[1][0][x], qz0 + table[2][0][x]};
                 int64_t c0[3];
                 for (int a = 0; a < 3; ++a) {
-                    const double f = q[a] / S;
-                    const int64_t c = int64_t(std::floor(f));
-                    c0[a] = (f - double(c) < 0.5 ? c - 1 : c) - lo[a];
+                    const double f = q[a] * invS + double(shift[a]);
+                    const int64_t c = int64_t(f);
+                    c0[a] = (f - double(c) < 0.5 ? c - 1 : c) - 1; // lower of the two nearest cells
                 }
+                const int64_t base = c0[0] + nx * (c0[1] + ny * c0[2]);
                 double best = 1e300;
                 uint32_t label = 0;
                 for (int k = 0; k < 8; ++k) {
-                    const CellInfo& c =
-                        cells[size_t((c0[0] + (k & 1)) + nx * ((c0[1] + (k >> 1 & 1)) + ny * (c0[2] + (k >> 2))))];
-                    const double d0 = q[0] - c.p[0], d1 = q[1] - c.p[1], d2 = q[2] - c.p[2];
+                    const size_t i = size_t(base + offset[k]);
+                    const double d0 = q[0] - px[i], d1 = q[1] - py[i], d2 = q[2] - pz[i];
                     const double d = d0 * d0 + d1 * d1 + d2 * d2;
-                    if (d < best) {
-                        best = d;
-                        label = c.label;
-                    }
+                    const bool closer = d < best;
+                    best = closer ? d : best;
+                    label = closer ? cellLabel[i] : label;
                 }
                 row[x] = label;
             }

@@ -56,6 +56,37 @@ printf '\x07' | dd of="$TMP/b.vraw" bs=1 seek=5000 conv=notrunc status=none
 expect 1 "verify against a changed voxel" "$CSGV" verify "$DEF" "$TMP/b.vraw"
 grep -q "level 0, voxel" "$TMP/err" || bad "verify mismatch message: $(cat "$TMP/err")"
 
+# compress: Volcanite's default settings on its own source give a file no larger than its own,
+# that verify accepts; every option reaches the file header.
+expect 0 "compress synthA" "$CSGV" compress "$FIX/synthA.vraw.gz" "$TMP/s.csgv"
+grep -qx "relabelled: no" "$TMP/out" || bad "compress relabelled line"
+ours=$(stat -c %s "$TMP/s.csgv")
+[ "$ours" -le 101514 ] || bad "our synthA file is $ours bytes, Volcanite's is 101514"
+expect 0 "verify our synthA" "$CSGV" verify "$TMP/s.csgv" "$FIX/synthA.vraw.gz"
+[ -f "$TMP/s.csgv.json" ] || bad "compress wrote no metadata"
+expect 0 "compress with options" "$CSGV" compress "$FIX/denseB.vraw.gz" "$TMP/d.csgv" --brick-size 16 --encoding nibble --ops pnlds --threads 1
+expect 0 "info of options" "$CSGV" info "$TMP/d.csgv"
+grep -qx "brick_size: 16" "$TMP/out" && grep -qx "encoding: nibble" "$TMP/out" && grep -qx "operations: pnlds" "$TMP/out" \
+  || bad "compress options not in the header: $(cat "$TMP/out")"
+expect 0 "verify options" "$CSGV" verify "$TMP/d.csgv" "$FIX/denseB.vraw.gz"
+expect 0 "compress relabel" "$CSGV" compress "$FIX/synthA.vraw.gz" "$TMP/r.csgv" --relabel
+[ -f "$TMP/r_csgv.db3" ] || bad "relabelled compress wrote no database"
+expect 0 "verify relabelled" "$CSGV" verify "$TMP/r.csgv" "$FIX/synthA.vraw.gz"
+expect 0 "compress synth" "$CSGV" compress synth:40x30x20:3 "$TMP/p.csgv" --encoding rans1
+grep -qx "streamed: yes" "$TMP/out" || bad "synth compress not streamed"
+expect 0 "bench" "$CSGV" bench synth:48x40x32 --threads 2
+for key in csgv_bits_per_voxel csgv_encode_mvoxels_per_second csgv_decode_mvoxels_per_second zstd19_bits_per_voxel gzip9_bits_per_voxel; do
+  grep -q "^$key: " "$TMP/out" || bad "bench lacks $key"
+done
+expect 1 "compress bad brick size" "$CSGV" compress synth:8x8x8 "$TMP/x.csgv" --brick-size 12
+expect 1 "compress bad encoding" "$CSGV" compress synth:8x8x8 "$TMP/x.csgv" --encoding zip
+expect 1 "compress bad ops" "$CSGV" compress synth:8x8x8 "$TMP/x.csgv" --ops pq
+expect 1 "compress bad synth" "$CSGV" compress synth:8x8 "$TMP/x.csgv"
+expect 1 "compress missing input" "$CSGV" compress "$TMP/none.nii.gz" "$TMP/x.csgv"
+expect 1 "compress unknown input" "$CSGV" compress "$TMP/s.csgv.json" "$TMP/x.csgv"
+expect 1 "compress to non-csgv" "$CSGV" compress synth:8x8x8 "$TMP/x.vraw"
+[ -e "$TMP/x.csgv" ] && bad "a failed compress left a file"
+
 # User errors.
 expect 1 "no arguments" "$CSGV"
 expect 0 "help" "$CSGV" --help

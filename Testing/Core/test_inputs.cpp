@@ -11,6 +11,8 @@
 /// - InputsAtlas: aal, jhu189, inia19-NeuroMaps and HarvardOxford (skipped when not installed);
 ///   the expected figures were computed once from the files with an independent Python script.
 /// - InputsDispatch: readInput by suffix.
+/// - InputsRobustness: seeded random mutations of small NRRD and NIfTI files; every result is a
+///   clean error naming the file or a consistent volume (run under the sanitizers to catch more).
 
 #include "TestData.h"
 
@@ -27,6 +29,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -48,7 +51,9 @@ std::string tmp(const std::string& name) { return csgvtest::tempDir() + "/inputs
 void writeBytes(const std::string& path, const Bytes& bytes) {
     std::FILE* f = std::fopen(path.c_str(), "wb");
     ASSERT_NE(f, nullptr) << path;
-    if (!bytes.empty()) ASSERT_EQ(std::fwrite(bytes.data(), 1, bytes.size(), f), bytes.size());
+    if (!bytes.empty()) {
+        ASSERT_EQ(std::fwrite(bytes.data(), 1, bytes.size(), f), bytes.size());
+    }
     std::fclose(f);
 }
 
@@ -306,7 +311,8 @@ TEST(InputsNrrd, FloatsHoldingIntegers) {
                 d = gzipBytes(d);
             }
             const std::string suffix = std::string(big ? "-be" : "-le") + (gz ? "-gz" : "") + ".nrrd";
-            auto rf = nrrdRoundTrip("float" + suffix, nrrdHeader("float", "3 3 1", "", gz ? "gzip" : "raw", big ? "big" : "little"), f);
+            auto rf = nrrdRoundTrip("float" + suffix,
+                                    nrrdHeader("float", "3 3 1", "", gz ? "gzip" : "raw", big ? "big" : "little"), f);
             ASSERT_TRUE(rf.isOk()) << rf.message();
             EXPECT_EQ(rf->type, LabelType::F32);
             std::vector<uint64_t> wf;
@@ -314,7 +320,8 @@ TEST(InputsNrrd, FloatsHoldingIntegers) {
             EXPECT_EQ(rf->values, wf);
             EXPECT_TRUE(rf->isNegative(2));
 
-            auto rd = nrrdRoundTrip("double" + suffix, nrrdHeader("double", "1 3 3", "", gz ? "gzip" : "raw", big ? "big" : "little"), d);
+            auto rd = nrrdRoundTrip("double" + suffix,
+                                    nrrdHeader("double", "1 3 3", "", gz ? "gzip" : "raw", big ? "big" : "little"), d);
             ASSERT_TRUE(rd.isOk()) << rd.message();
             EXPECT_EQ(rd->type, LabelType::F64);
             std::vector<uint64_t> wd;
@@ -511,11 +518,12 @@ TEST(InputsNrrdErrors, MissingAndMalformedFields) {
     EXPECT_TRUE(failsWith(r.status(), {"sizes-big.nrrd", "'4294967296'"}));
     r = nrrdRoundTrip("no-colon.nrrd", nrrdHeader("uint8", "1 1 1", "this line has no colon\n"), Bytes(1, 0));
     EXPECT_TRUE(failsWith(r.status(), {"no-colon.nrrd", "this line has no colon"}));
-    r = nrrdRoundTrip("dirs-count.nrrd", nrrdHeader("uint8", "1 1 1", "space: RAS\nspace directions: (1,0,0) (0,1,0)\n"),
-                      Bytes(1, 0));
+    r = nrrdRoundTrip("dirs-count.nrrd",
+                      nrrdHeader("uint8", "1 1 1", "space: RAS\nspace directions: (1,0,0) (0,1,0)\n"), Bytes(1, 0));
     EXPECT_TRUE(failsWith(r.status(), {"dirs-count.nrrd", "space directions", "2 entries"}));
     r = nrrdRoundTrip("dirs-none.nrrd",
-                      nrrdHeader("uint8", "1 1 1", "space: RAS\nspace directions: (1,0,0) none (0,0,1)\n"), Bytes(1, 0));
+                      nrrdHeader("uint8", "1 1 1", "space: RAS\nspace directions: (1,0,0) none (0,0,1)\n"),
+                      Bytes(1, 0));
     EXPECT_TRUE(failsWith(r.status(), {"dirs-none.nrrd", "axis 1", "'none'"}));
     r = nrrdRoundTrip("dirs-zero.nrrd",
                       nrrdHeader("uint8", "1 1 1", "space: RAS\nspace directions: (1,0,0) (0,0,0) (0,0,1)\n"),
@@ -526,7 +534,8 @@ TEST(InputsNrrdErrors, MissingAndMalformedFields) {
                       Bytes(1, 0));
     EXPECT_TRUE(failsWith(r.status(), {"dirs-2d.nrrd", "only 3D"}));
     r = nrrdRoundTrip("dirs-text.nrrd",
-                      nrrdHeader("uint8", "1 1 1", "space: RAS\nspace directions: (1,0,0) (0,x,0) (0,0,1)\n"), Bytes(1, 0));
+                      nrrdHeader("uint8", "1 1 1", "space: RAS\nspace directions: (1,0,0) (0,x,0) (0,0,1)\n"),
+                      Bytes(1, 0));
     EXPECT_TRUE(failsWith(r.status(), {"dirs-text.nrrd", "'x'"}));
     r = nrrdRoundTrip("space.nrrd", nrrdHeader("uint8", "1 1 1", "space: sideways\n"), Bytes(1, 0));
     EXPECT_TRUE(failsWith(r.status(), {"space.nrrd", "'sideways'"}));
@@ -614,7 +623,8 @@ TEST(InputsNrrdErrors, DataFileProblems) {
     writeBytes(dir + "/list.nhdr", textBytes(body + "data file: LIST\nslice0.raw\nslice1.raw\n"));
     EXPECT_TRUE(failsWith(csgv::readNrrd(dir + "/list.nhdr").status(), {"list.nhdr", "LIST", "not supported"}));
     writeBytes(dir + "/format.nhdr", textBytes(body + "data file: slice%03d.raw 0 1 1\n"));
-    EXPECT_TRUE(failsWith(csgv::readNrrd(dir + "/format.nhdr").status(), {"format.nhdr", "slice%03d.raw", "not supported"}));
+    EXPECT_TRUE(
+        failsWith(csgv::readNrrd(dir + "/format.nhdr").status(), {"format.nhdr", "slice%03d.raw", "not supported"}));
     writeBytes(dir + "/short.raw", Bytes(7, 0));
     writeBytes(dir + "/short.nhdr", textBytes(body + "data file: short.raw\n"));
     EXPECT_TRUE(failsWith(csgv::readNrrd(dir + "/short.nhdr").status(), {"short.raw", "short.nhdr", "truncated"}));
@@ -866,7 +876,8 @@ TEST(InputsNiftiErrors, HeaderProblems) {
 
     s = niftiSpec(2, 8, 2, 2, 2);
     s.sclSlope = 2;
-    EXPECT_TRUE(failsWith(niftiRoundTrip("scaled.nii", s, Bytes(8, 0)).status(), {"scaled.nii", "scaled", "scl_slope 2"}));
+    EXPECT_TRUE(
+        failsWith(niftiRoundTrip("scaled.nii", s, Bytes(8, 0)).status(), {"scaled.nii", "scaled", "scl_slope 2"}));
     s.sclSlope = 1;
     s.sclInter = -1024;
     EXPECT_TRUE(failsWith(niftiRoundTrip("inter.nii", s, Bytes(8, 0)).status(), {"inter.nii", "scl_inter -1024"}));
@@ -886,7 +897,8 @@ TEST(InputsNiftiErrors, HeaderProblems) {
 
     s = niftiSpec(2, 8, 2, 2, 2);
     s.voxOffset = 100;
-    EXPECT_TRUE(failsWith(niftiRoundTrip("voxoffset.nii", s, Bytes(8, 0)).status(), {"voxoffset.nii", "vox_offset 100"}));
+    EXPECT_TRUE(
+        failsWith(niftiRoundTrip("voxoffset.nii", s, Bytes(8, 0)).status(), {"voxoffset.nii", "vox_offset 100"}));
 
     s = niftiSpec(2, 8, 2, 2, 2);
     s.sformCode = 1;
@@ -917,7 +929,8 @@ TEST(InputsNiftiErrors, TruncatedAndHuge) {
     const std::string limited = tmp("limit.nii");
     writeBytes(limited, niftiHeader(niftiSpec(2, 8, 64, 64, 64)) + Bytes(64 * 64 * 64, 1));
     EXPECT_TRUE(csgv::readNifti(limited, 8 * 64 * 64 * 64).isOk());
-    EXPECT_TRUE(failsWith(csgv::readNifti(limited, 8 * 64 * 64 * 64 - 1).status(), {"limit.nii", "more than the limit"}));
+    EXPECT_TRUE(
+        failsWith(csgv::readNifti(limited, 8 * 64 * 64 * 64 - 1).status(), {"limit.nii", "more than the limit"}));
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -995,7 +1008,9 @@ TEST(InputsAtlas, MricronTemplates) {
         EXPECT_EQ(nonzero, a.nonzero);
         EXPECT_EQ(sum, a.sum);
         EXPECT_EQ(first, a.firstNonzero);
-        if (first < v.values.size()) EXPECT_EQ(v.values[first], a.firstLabel);
+        if (first < v.values.size()) {
+            EXPECT_EQ(v.values[first], a.firstLabel);
+        }
     }
 }
 
@@ -1042,4 +1057,90 @@ TEST(InputsDispatch, BySuffix) {
     // Content that is not what the name says is an error, not a guess.
     writeBytes(tmp("wrong.nii"), nrrd);
     EXPECT_TRUE(failsWith(csgv::readInput(tmp("wrong.nii")).status(), {"wrong.nii"}));
+}
+
+// ------------------------------------------------------------------------------------------------
+// InputsRobustness
+// ------------------------------------------------------------------------------------------------
+
+TEST(InputsRobustness, SeededMutations) {
+    struct Base {
+        std::string suffix;
+        Bytes bytes;
+        size_t headerEnd; // text header bytes (NRRD) or binary header (NIfTI) that mutations favour
+        bool gzipAfterMutation;
+    };
+    std::vector<Base> bases;
+    {
+        std::vector<uint64_t> v(64);
+        for (size_t i = 0; i < v.size(); ++i) v[i] = (i * 37) % 300;
+        const std::string h1 = nrrdHeader("uint16", "4 4 4",
+                                          "space: RAS\nspace directions: (1,0,0) (0,2,0) (0,0,3)\n"
+                                          "space origin: (1,2,3)\nbyte skip: 0\nline skip: 0\n") + "\n";
+        bases.push_back({".nrrd", textBytes(h1) + packBits(v, 2, false), h1.size(), false});
+        const std::string h2 = nrrdHeader("int32", "4 4 4", "spacings: 1 2 3\n", "gzip", "big") + "\n";
+        bases.push_back({".nrrd", textBytes(h2) + gzipBytes(packBits(v, 4, true)), h2.size(), false});
+        const std::string h3 = "NRRD0005\ntype: double\ndimension: 4\nsizes: 1 4 4 4\nencoding: raw\n"
+                               "endian: little\nspace dimension: 3\n"
+                               "space directions: none (1,0,0) (0,1,0) (0,0,1)\n\n";
+        std::vector<uint64_t> d;
+        for (uint64_t x : v) d.push_back(doubleBits(double(x)));
+        bases.push_back({".nrrd", textBytes(h3) + packBits(d, 8, false), h3.size(), false});
+
+        NiftiSpec le = niftiSpec(4, 16, 4, 4, 4);
+        le.sformCode = 1;
+        le.srow = {{2, 0, 0, -1, 0, 2, 0, -2, 0, 0, 2, -3}};
+        bases.push_back({".nii", niftiHeader(le) + packBits(v, 2, false), 352, false});
+        NiftiSpec be = niftiSpec(16, 32, 4, 4, 4, true);
+        be.qformCode = 1;
+        be.quatern = {{0, 1, 0}};
+        be.pixdim = {{-1, 1, 1, 1, 0, 0, 0, 0}};
+        std::vector<uint64_t> f;
+        for (uint64_t x : v) f.push_back(floatBits(float(x)));
+        bases.push_back({".nii", niftiHeader(be) + packBits(f, 4, true), 352, false});
+        bases.push_back({".nii.gz", niftiHeader(le) + packBits(v, 2, false), 352, true});
+    }
+    for (const Base& b : bases) {
+        const std::string path = tmp("mut-base" + b.suffix);
+        writeBytes(path, b.gzipAfterMutation ? gzipBytes(b.bytes) : b.bytes);
+        auto r = csgv::readInput(path);
+        ASSERT_TRUE(r.isOk()) << r.message();
+    }
+
+    std::mt19937 rng(20240607);
+    const uint64_t maxBytes = uint64_t(1) << 20;
+    int ok = 0, failed = 0;
+    for (int iter = 0; iter < 1500; ++iter) {
+        const Base& b = bases[rng() % bases.size()];
+        Bytes m = b.bytes;
+        const int edits = 1 + int(rng() % 3);
+        for (int e = 0; e < edits && !m.empty(); ++e) {
+            const unsigned kind = rng() % 4;
+            const size_t inHeader = rng() % b.headerEnd;
+            if (kind == 0) {
+                m[inHeader] = uint8_t(rng()); // any byte of the header
+            } else if (kind == 1) {
+                m[inHeader] = uint8_t('0' + rng() % 10); // digits make sizes, skips and offsets large
+            } else if (kind == 2) {
+                m[rng() % m.size()] ^= uint8_t(1u << (rng() % 8)); // anywhere
+            } else {
+                m.resize(rng() % m.size()); // truncation
+            }
+        }
+        const std::string path = tmp("mut-" + std::to_string(iter % 8) + b.suffix);
+        writeBytes(path, b.gzipAfterMutation ? gzipBytes(m) : m);
+        auto r = csgv::readInput(path, maxBytes);
+        if (r.isOk()) {
+            ++ok;
+            ASSERT_EQ(r->values.size(), r->voxelCount()) << iter;
+            ASSERT_LE(r->voxelCount() * 8, maxBytes) << iter;
+            for (int a = 0; a < 3; ++a) ASSERT_GT(r->geometry.spacing[a], 0) << iter;
+        } else {
+            ++failed;
+            ASSERT_TRUE(contains(r.message(), path)) << iter << ": " << r.message();
+        }
+    }
+    // Both outcomes occur: mutations that hit voxel data are still valid volumes.
+    EXPECT_GT(ok, 100);
+    EXPECT_GT(failed, 100);
 }

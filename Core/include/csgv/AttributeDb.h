@@ -28,7 +28,8 @@ struct AttributeDatabase {
     std::string labelColumn;                 ///< csgv_info.label_column
     std::array<uint32_t, 3> volumeDim{};     ///< csgv_info volume_width/height/depth
     std::vector<int64_t> labels;             ///< id -> original label
-    /// Labels above 2^63 - 1 are stored as decimal text; when any is, `labels` holds uint64 bits.
+    /// The labels are unsigned 64-bit values stored as int64 bits (our table csgv_label_type says
+    /// "uint64"); otherwise they are signed.
     bool labelsUnsigned64 = false;
     std::vector<AttributeColumn> columns;    ///< all columns but csgv_id and the label column
 
@@ -43,7 +44,8 @@ std::string attributeDbPathFor(const std::string& csgvPath);
 Result<AttributeDatabase> readAttributeDb(const std::string& path);
 /// Writes a database in Volcanite's schema (csgv_info, csgv_attribute with csgv_id, the label
 /// column, then `columns`), through a temporary file renamed into place. `labelBits` maps ids to
-/// labels: int64 bits when `signedLabels`, else uint64 (values above 2^63 - 1 are stored as text).
+/// labels, stored as int64 bits; `signedLabels` records how to read them back (table
+/// csgv_label_type, which Volcanite ignores).
 Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& dim,
                         const std::vector<uint64_t>& labelBits, bool signedLabels,
                         const std::vector<AttributeColumn>& columns = {}, const std::string& labelColumn = "label");

@@ -38,6 +38,7 @@ struct InputVolume {
     bool isNegative(size_t i) const { return isSignedType(type) && int64_t(values[i]) < 0; }
 };
 
+/// `maxBytes` bounds the values in memory (8 bytes a voxel) and is checked before allocating.
 /// NRRD (`.nrrd` attached, `.nhdr` detached; encodings raw and gzip; endian little or big).
 Result<InputVolume> readNrrd(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
 /// NIfTI-1 single file (`.nii`, `.nii.gz`), 3D (or 4D with one volume); scl_slope/inter must be

@@ -1,0 +1,283 @@
+// SPDX-License-Identifier: MIT
+// Relabelling, the attribute database we write, the metadata sidecar, and the compress pipeline
+// end to end: labels that do not fit the format come back as the original values.
+#include "TestData.h"
+
+#include "csgv/AttributeDb.h"
+#include "csgv/Compress.h"
+#include "csgv/CsgvFile.h"
+#include "csgv/Decoder.h"
+#include "csgv/Encoder.h"
+#include "csgv/FileUtil.h"
+#include "csgv/Metadata.h"
+#include "csgv/Relabel.h"
+
+#include <cmath>
+#include <filesystem>
+#include <gtest/gtest.h>
+
+using namespace csgv;
+using namespace csgvtest;
+
+namespace {
+
+InputVolume inputOf(const LabelVolume& v) {
+    InputVolume in;
+    in.dim = v.dim;
+    in.values.assign(v.labels.begin(), v.labels.end());
+    return in;
+}
+
+std::string freshDir(const std::string& name) {
+    const std::string d = tempDir() + "/" + name;
+    std::filesystem::remove_all(d);
+    std::filesystem::create_directories(d);
+    return d;
+}
+
+} // namespace
+
+TEST(Relabel, ReproducesVolcanitesRelabelledFileAndDatabase) {
+    // Volcanite's _attr file holds dense ids in first-appearance order (bricks and voxels in
+    // Morton order); with its tables our relabelling and encoder give its exact bytes.
+    const CompressedVolume theirs = loadFixture("synthA_b32_rans2_attr.csgv");
+    LabelMapping mapping;
+    Result<LabelVolume> ids = prepareLabels(inputOf(sourceVolume("synthA")), 32, true, mapping);
+    ASSERT_TRUE(ids.isOk()) << ids.message();
+    EncodeOptions o;
+    o.fixedTables = true;
+    o.tableA = theirs.freqA;
+    o.tableB = theirs.freqB;
+    Result<CompressedVolume> ours = encodeVolume(*ids, o);
+    ASSERT_TRUE(ours.isOk()) << ours.message();
+    EXPECT_TRUE(serializeCsgv(*ours) == fixtureBytes("synthA_b32_rans2_attr.csgv"));
+    Result<AttributeDatabase> db = readAttributeDb(fixture("synthA_b32_rans2_attr_csgv.db3"));
+    ASSERT_TRUE(db.isOk()) << db.message();
+    ASSERT_EQ(mapping.originalBits.size(), db->labels.size());
+    for (size_t i = 0; i < db->labels.size(); ++i) EXPECT_EQ(int64_t(mapping.originalBits[i]), db->labels[i]) << i;
+}
+
+TEST(Relabel, ZeroStaysZeroAndOrderIsFirstAppearance) {
+    LabelVolume v;
+    v.dim = {3, 1, 1};
+    v.labels = {9, 0, 9};
+    const std::vector<uint64_t> map = relabelDense(v, 8);
+    EXPECT_EQ(map, (std::vector<uint64_t>{0, 9}));
+    EXPECT_EQ(v.labels, (std::vector<uint32_t>{1, 0, 1}));
+    // Bricks in Morton order of their coordinates: brick (1,0,0) comes before brick (0,1,0).
+    LabelVolume w;
+    w.dim = {16, 16, 1};
+    for (uint32_t y = 0; y < 16; ++y)
+        for (uint32_t x = 0; x < 16; ++x) w.labels.push_back(100 + (x / 8) + 2 * (y / 8));
+    EXPECT_EQ(relabelDense(w, 8), (std::vector<uint64_t>{0, 100, 101, 102, 103}));
+    EXPECT_EQ(morton3x21(1, 0, 0), 1u);
+    EXPECT_EQ(morton3x21(0, 1, 0), 2u);
+    EXPECT_EQ(morton3x21(0, 0, 1), 4u);
+    EXPECT_EQ(morton3x21(0x1FFFFF, 0, 0), 0x1249249249249249ull);
+}
+
+TEST(Relabel, WideAndNegativeLabelsRoundTripThroughTheDatabase) {
+    const std::string dir = freshDir("wide");
+    for (LabelType type : {LabelType::I64, LabelType::U64, LabelType::I16}) {
+        InputVolume in;
+        in.dim = {21, 13, 9};
+        in.type = type;
+        const uint64_t big[] = {0, uint64_t(-5), 0xFFFFFFFFull, 0x123456789ABCDEFull, uint64_t(INT64_MIN),
+                                0xFFFFFFFFFFFFFFFEull, 7};
+        for (uint64_t i = 0; i < in.voxelCount(); ++i) {
+            uint64_t v = big[(i / 17 + i % 5) % 7];
+            if (type == LabelType::I16) v = uint64_t(int64_t(int16_t(v & 0xFFFF))); // negative int16 values
+            in.values.push_back(v);
+        }
+        LabelMapping mapping;
+        Result<LabelVolume> ids = prepareLabels(in, 8, false, mapping);
+        ASSERT_TRUE(ids.isOk()) << ids.message();
+        ASSERT_TRUE(mapping.relabelled); // these labels never fit the format as they are
+        const std::string path = dir + "/wide_" + labelTypeName(type) + ".csgv";
+        Result<CompressedVolume> vol = encodeVolume(*ids, EncodeOptions{});
+        ASSERT_TRUE(vol.isOk());
+        ASSERT_TRUE(writeCsgv(path, *vol).isOk());
+        const Status ws = writeAttributeDb(attributeDbPathFor(path), in.dim, mapping.originalBits, isSignedType(type));
+        ASSERT_TRUE(ws.isOk()) << ws.message();
+        Result<CsgvFile> f = openCsgv(path);
+        ASSERT_TRUE(f.isOk()) << f.message();
+        ASSERT_TRUE(f->hasAttributes);
+        EXPECT_TRUE(f->wideLabels);
+        EXPECT_EQ(f->attributes.labelsUnsigned64, type == LabelType::U64);
+        Result<LabelVolume> d = decodeVolume(f->volume, 0, f->decodeOptions());
+        ASSERT_TRUE(d.isOk()) << d.message();
+        for (size_t i = 0; i < in.values.size(); ++i)
+            ASSERT_EQ(uint64_t(f->originalLabel(d->labels[i])), in.values[i]) << labelTypeName(type) << " voxel " << i;
+    }
+}
+
+TEST(Relabel, LabelsThatFitAreKeptUnlessRelabellingIsAsked) {
+    InputVolume in;
+    in.dim = {4, 1, 1};
+    in.type = LabelType::I32;
+    in.values = {5, 0, 5, 0xFFFFFFFEull};
+    LabelMapping m;
+    Result<LabelVolume> kept = prepareLabels(in, 8, false, m);
+    ASSERT_TRUE(kept.isOk());
+    EXPECT_FALSE(m.relabelled);
+    EXPECT_EQ(kept->labels, (std::vector<uint32_t>{5, 0, 5, 0xFFFFFFFEu}));
+    in.values[1] = 0xFFFFFFFFull; // the reserved value forces relabelling
+    Result<LabelVolume> re = prepareLabels(in, 8, false, m);
+    ASSERT_TRUE(re.isOk());
+    EXPECT_TRUE(m.relabelled);
+    EXPECT_EQ(re->labels, (std::vector<uint32_t>{1, 2, 1, 3}));
+    EXPECT_FALSE(prepareLabels(in, 12, false, m).isOk());
+}
+
+TEST(AttributeDbWriter, TextNumericAndNullColumnsRoundTrip) {
+    const std::string path = freshDir("db") + "/x_csgv.db3";
+    AttributeColumn name{"region name", false, {}, {"background", "Precentral_L", "O'Brien \"quoted\""}};
+    AttributeColumn volume{"volume", true, {0.0, 12.5, std::nan("")}, {}};
+    ASSERT_TRUE(writeAttributeDb(path, {3, 4, 5}, {0, 2001, 2002}, false, {name, volume}).isOk());
+    Result<AttributeDatabase> db = readAttributeDb(path);
+    ASSERT_TRUE(db.isOk()) << db.message();
+    EXPECT_EQ(db->volumeDim, (std::array<uint32_t, 3>{3, 4, 5}));
+    EXPECT_EQ(db->labels, (std::vector<int64_t>{0, 2001, 2002}));
+    ASSERT_EQ(db->columns.size(), 2u);
+    EXPECT_FALSE(db->columns[0].numeric);
+    EXPECT_EQ(db->columns[0].text, name.text);
+    EXPECT_TRUE(db->columns[1].numeric);
+    EXPECT_EQ(db->columns[1].values[1], 12.5);
+    EXPECT_TRUE(std::isnan(db->columns[1].values[2]));
+    // A column of the wrong length is refused and nothing is written.
+    const std::string bad = tempDir() + "/db/bad_csgv.db3";
+    AttributeColumn shortColumn{"short", true, {1.0}, {}};
+    EXPECT_FALSE(writeAttributeDb(bad, {1, 1, 1}, {0, 1}, false, {shortColumn}).isOk());
+    EXPECT_FALSE(fileExists(bad));
+    EXPECT_FALSE(fileExists(bad + ".tmp-db"));
+}
+
+TEST(AttributeDbReader, BrokenDatabasesAreClearErrors) {
+    const std::string dir = freshDir("dbbad");
+    const std::string notDb = dir + "/not_csgv.db3";
+    {
+        AtomicFile f;
+        ASSERT_TRUE(f.open(notDb).isOk());
+        ASSERT_TRUE(f.write("this is not sqlite", 18).isOk());
+        ASSERT_TRUE(f.commit().isOk());
+    }
+    Result<AttributeDatabase> r = readAttributeDb(notDb);
+    ASSERT_FALSE(r.isOk());
+    EXPECT_NE(r.message().find(notDb), std::string::npos) << r.message();
+    EXPECT_FALSE(readAttributeDb(dir + "/missing_csgv.db3").isOk());
+    // A database for another volume size is refused when opening the .csgv beside it.
+    const std::string csgv = dir + "/vol.csgv";
+    ASSERT_TRUE(writeCsgv(csgv, loadFixture("synthA_b32_rans2.csgv")).isOk());
+    ASSERT_TRUE(writeAttributeDb(attributeDbPathFor(csgv), {1, 2, 3}, {0, 1}, false).isOk());
+    Result<CsgvFile> f = openCsgv(csgv);
+    ASSERT_FALSE(f.isOk());
+    EXPECT_NE(f.message().find("describes a 1x2x3 volume"), std::string::npos) << f.message();
+}
+
+TEST(Metadata, RoundTripAndStrictTypes) {
+    const std::string dir = freshDir("md");
+    VolumeMetadata md;
+    md.dim = {3, 4, 5};
+    md.geometry.spacing = {0.5, 1.25, 2};
+    md.geometry.origin = {-90.5, -126, 3.25};
+    md.geometry.direction = {-1, 0, 0, 0, -1, 0, 0, 0, 1};
+    md.originalType = "int16";
+    md.relabelled = true;
+    md.source = "aal.nii.gz";
+    const std::string path = dir + "/a.csgv.json";
+    ASSERT_TRUE(writeMetadata(path, md).isOk());
+    Result<VolumeMetadata> back = readMetadata(path);
+    ASSERT_TRUE(back.isOk()) << back.message();
+    EXPECT_EQ(back->dim, md.dim);
+    EXPECT_EQ(back->geometry.spacing, md.geometry.spacing);
+    EXPECT_EQ(back->geometry.origin, md.geometry.origin);
+    EXPECT_EQ(back->geometry.direction, md.geometry.direction);
+    EXPECT_EQ(back->originalType, "int16");
+    EXPECT_TRUE(back->relabelled);
+    auto bad = [&](const std::string& text) {
+        AtomicFile f;
+        EXPECT_TRUE(f.open(path).isOk());
+        EXPECT_TRUE(f.write(text.data(), text.size()).isOk());
+        EXPECT_TRUE(f.commit().isOk());
+        Result<VolumeMetadata> r = readMetadata(path);
+        EXPECT_FALSE(r.isOk()) << text;
+        return r.message();
+    };
+    EXPECT_NE(bad("{\"spacing\": [1, 0, 1]}").find("positive"), std::string::npos);
+    EXPECT_NE(bad("{\"spacing\": [1, 1]}").find("3 numbers"), std::string::npos);
+    EXPECT_NE(bad("{\"origin\": \"here\"}").find("origin"), std::string::npos);
+    EXPECT_NE(bad("{\"version\": 2}").find("version"), std::string::npos);
+    EXPECT_NE(bad("[1, 2]").find("object"), std::string::npos);
+    EXPECT_NE(bad("{\"relabelled\": 1}").find("relabelled"), std::string::npos);
+    EXPECT_NE(bad("{not json").find("object"), std::string::npos);
+    // Voxel centres at integer points become corners half a voxel back along each direction.
+    Geometry centred = md.geometry;
+    const Geometry corner = cellGeometryFromPointGeometry(centred);
+    EXPECT_DOUBLE_EQ(corner.origin[0], -90.5 + 0.25);
+    EXPECT_DOUBLE_EQ(corner.origin[1], -126 + 0.625);
+    EXPECT_DOUBLE_EQ(corner.origin[2], 3.25 - 1);
+}
+
+TEST(Compress, StreamedAndInMemoryPathsGiveTheSameFile) {
+    const std::string dir = freshDir("compress");
+    // synth: streamed slab by slab; the same labels via a .vraw.gz read whole; and via .vraw streamed.
+    CompressOptions o;
+    CompressReport r;
+    ASSERT_TRUE(compressToFile("synth:70x45x33:4", dir + "/a.csgv", o, &r).isOk());
+    EXPECT_TRUE(r.streamed);
+    Result<CsgvFile> a = openCsgv(dir + "/a.csgv");
+    ASSERT_TRUE(a.isOk()) << a.message();
+    Result<LabelVolume> labels = decodeVolume(a->volume, 0);
+    ASSERT_TRUE(labels.isOk());
+    ASSERT_TRUE(writeVraw(dir + "/a.vraw", *labels).isOk());
+    ASSERT_TRUE(compressToFile(dir + "/a.vraw", dir + "/b.csgv", o, &r).isOk());
+    EXPECT_TRUE(r.streamed);
+    EXPECT_TRUE(*readFile(dir + "/a.csgv", 1 << 30) == *readFile(dir + "/b.csgv", 1 << 30));
+    // Forced relabelling writes the database; compressing again without it removes the stale one.
+    o.relabel = true;
+    ASSERT_TRUE(compressToFile(dir + "/a.vraw", dir + "/c.csgv", o, &r).isOk());
+    EXPECT_TRUE(r.relabelled);
+    EXPECT_TRUE(fileExists(dir + "/c_csgv.db3"));
+    Result<CsgvFile> c = openCsgv(dir + "/c.csgv");
+    ASSERT_TRUE(c.isOk()) << c.message();
+    EXPECT_TRUE(c->hasAttributes && c->hasMetadata && c->metadata.relabelled);
+    Result<LabelVolume> cl = decodeVolume(c->volume, 0, c->decodeOptions());
+    ASSERT_TRUE(cl.isOk());
+    EXPECT_TRUE(cl->labels == labels->labels);
+    o.relabel = false;
+    ASSERT_TRUE(compressToFile(dir + "/a.vraw", dir + "/c.csgv", o, &r).isOk());
+    EXPECT_FALSE(fileExists(dir + "/c_csgv.db3"));
+    // Errors leave nothing behind.
+    EXPECT_FALSE(compressToFile(dir + "/missing.vraw", dir + "/d.csgv", o).isOk());
+    EXPECT_FALSE(compressToFile("synth:10x10x10", dir + "/d.vraw", o).isOk());
+    EXPECT_FALSE(compressToFile("synth:10x10x10", dir + "/no/such/dir/d.csgv", o).isOk());
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+    EXPECT_FALSE(fileExists(dir + "/d.csgv"));
+}
+
+TEST(Compress, NrrdWithNegativeAndWideLabelsComesBackExactly) {
+    const std::string dir = freshDir("nrrd");
+    const std::array<uint32_t, 3> dim = {17, 11, 6};
+    std::vector<int64_t> values;
+    for (uint32_t i = 0; i < dim[0] * dim[1] * dim[2]; ++i)
+        values.push_back(i % 3 == 0 ? 0 : (i % 3 == 1 ? -int64_t(i / 40) - 1 : int64_t(1) << (33 + i / 300)));
+    Geometry g;
+    g.spacing = {0.5, 0.5, 2};
+    g.origin = {10, 20, 30};
+    ASSERT_TRUE(writeNrrd(dir + "/in.nrrd", dim, "int64", values.data(), 8, g).isOk());
+    CompressReport r;
+    Status s = compressToFile(dir + "/in.nrrd", dir + "/out.csgv", CompressOptions{}, &r);
+    ASSERT_TRUE(s.isOk()) << s.message();
+    EXPECT_TRUE(r.relabelled);
+    EXPECT_EQ(r.originalType, "int64");
+    Result<CsgvFile> f = openCsgv(dir + "/out.csgv");
+    ASSERT_TRUE(f.isOk()) << f.message();
+    EXPECT_TRUE(f->wideLabels);
+    EXPECT_EQ(f->metadata.geometry.spacing, g.spacing);
+    EXPECT_DOUBLE_EQ(f->metadata.geometry.origin[0], 10 - 0.25); // centre -> corner
+    EXPECT_DOUBLE_EQ(f->metadata.geometry.origin[2], 30 - 1);
+    Result<LabelVolume> d = decodeVolume(f->volume, 0, f->decodeOptions());
+    ASSERT_TRUE(d.isOk());
+    for (size_t i = 0; i < values.size(); ++i) ASSERT_EQ(f->originalLabel(d->labels[i]), values[i]) << i;
+}
