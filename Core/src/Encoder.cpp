@@ -283,23 +283,50 @@ std::array<uint32_t, 16> normalizeFrequencies(const std::array<uint64_t, 16>& co
     return f;
 }
 
+/// Per-symbol constants that turn rANS's division by the frequency into a multiply and shift:
+/// q = floor(x / f) = (x * rcp) >> (32 + shift) for x < 2^31, exact for every f in 1..16384.
+struct RansSymbol {
+    uint32_t xMax = 0, rcp = 0, shift = 0, bias = 0, complement = 0;
+};
+
+std::array<RansSymbol, 16> ransSymbols(const std::array<uint32_t, 16>& freq) {
+    std::array<RansSymbol, 16> out{};
+    uint32_t cum = 0;
+    for (int s = 0; s < 16; ++s) {
+        const uint32_t f = freq[s];
+        RansSymbol& r = out[s];
+        r.xMax = ((kRansLowerBound >> kRansProbBits) << 8) * f;
+        r.complement = kRansTotal - f;
+        if (f < 2) { // f == 1: q = x, so x' = x * 2^14 + cum, written as x + bias + q * complement
+            r.rcp = ~0u;
+            r.shift = 0;
+            r.bias = cum + kRansTotal - 1;
+        } else {
+            uint32_t sh = 0;
+            while (f > (1u << sh)) ++sh;
+            r.rcp = uint32_t(((uint64_t(1) << (sh + 31)) + f - 1) / f);
+            r.shift = sh - 1;
+            r.bias = cum;
+        }
+        cum += f;
+    }
+    return out;
+}
+
 /// rANS-codes symbols [begin, end) of a brick (section 4.1): the final state word, then the bytes
 /// the encoder wrote backwards, read forward, zero padded to a word.
-void ransEncode(const BrickSymbols& sym, uint32_t begin, uint32_t end, const std::array<uint32_t, 16>& freq,
+void ransEncode(const BrickSymbols& sym, uint32_t begin, uint32_t end, const std::array<RansSymbol, 16>& table,
                 std::vector<uint8_t>& scratch, std::vector<uint32_t>& out) {
-    std::array<uint32_t, 16> cum{};
-    for (int s = 1; s < 16; ++s) cum[s] = cum[s - 1] + freq[s - 1];
     uint32_t x = kRansLowerBound;
     scratch.clear();
     for (uint32_t i = end; i-- > begin;) {
-        const uint32_t s = sym.at(i);
-        const uint32_t f = freq[s];
-        const uint32_t xMax = ((kRansLowerBound >> kRansProbBits) << 8) * f;
-        while (x >= xMax) {
+        const RansSymbol& r = table[sym.at(i)];
+        while (x >= r.xMax) {
             scratch.push_back(uint8_t(x & 0xFF));
             x >>= 8;
         }
-        x = ((x / f) << kRansProbBits) + (x % f) + cum[s];
+        const uint32_t q = uint32_t((uint64_t(x) * r.rcp) >> 32) >> r.shift;
+        x = x + r.bias + q * r.complement;
     }
     out.push_back(x);
     const size_t bytes = scratch.size();
@@ -309,8 +336,8 @@ void ransEncode(const BrickSymbols& sym, uint32_t begin, uint32_t end, const std
 }
 
 /// Final words of one brick.
-void assembleBrick(const BrickSymbols& sym, uint32_t L, int32_t encoding, const std::array<uint32_t, 16>& tableA,
-                   const std::array<uint32_t, 16>& tableB, std::vector<uint8_t>& scratch, std::vector<uint32_t>& w) {
+void assembleBrick(const BrickSymbols& sym, uint32_t L, int32_t encoding, const std::array<RansSymbol, 16>& tableA,
+                   const std::array<RansSymbol, 16>& tableB, std::vector<uint8_t>& scratch, std::vector<uint32_t>& w) {
     w.assign(L + 1, 0);
     for (uint32_t l = 0; l < L; ++l) w[l] = (L + 1) * 8 + sym.levelStart[l];
     w[L] = uint32_t(sym.palette.size());
@@ -479,12 +506,13 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
 
     // Pass 2: entropy coding per brick.
     std::vector<std::vector<uint32_t>> words(static_cast<size_t>(bricks));
+    const std::array<RansSymbol, 16> symA = ransSymbols(vol.freqA), symB = ransSymbols(vol.freqB);
 #pragma omp parallel num_threads(int(std::min<uint64_t>(uint64_t(nThreads), bricks)))
     {
         std::vector<uint8_t> scratch;
 #pragma omp for schedule(dynamic, 4)
         for (int64_t i = 0; i < int64_t(bricks); ++i) {
-            assembleBrick(symbols[size_t(i)], L, vol.encoding, vol.freqA, vol.freqB, scratch, words[size_t(i)]);
+            assembleBrick(symbols[size_t(i)], L, vol.encoding, symA, symB, scratch, words[size_t(i)]);
             symbols[size_t(i)] = BrickSymbols{};
         }
     }
