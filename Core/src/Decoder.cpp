@@ -248,6 +248,7 @@ Status BrickDecoder::decode(uint64_t index, uint32_t lod) {
         return s;
     case kEncodingRans1: {
         RansReader r(w, L + 1, paletteStart, m_tableA);
+        if (r.x < kRansLowerBound) return Status::error(place(index, 0, L, -1) + ": rANS state below 2^23");
         s = decodeLevels(index, bw, r, 0, target);
         if (s && target == L - 1 && !r.finished())
             return Status::error(place(index, target, L, -1) + ": the rANS stream fails its end-of-stream check");
@@ -256,12 +257,14 @@ Status BrickDecoder::decode(uint64_t index, uint32_t lod) {
     case kEncodingRans2: {
         const uint32_t bStart = w[L - 1] / 8;
         RansReader a(w, L + 1, bStart, m_tableA);
+        if (a.x < kRansLowerBound) return Status::error(place(index, 0, L, -1) + ": rANS stream A state below 2^23");
         s = decodeLevels(index, bw, a, 0, std::min(target, L - 2));
         if (!s) return s;
         if (target >= L - 2 && !a.finished())
             return Status::error(place(index, L - 2, L, -1) + ": rANS stream A fails its end-of-stream check");
         if (target == L - 1) {
             RansReader b(w, bStart, paletteStart, m_tableB);
+            if (b.x < kRansLowerBound) return Status::error(place(index, L - 1, L, -1) + ": rANS stream B state below 2^23");
             s = decodeLevels(index, bw, b, L - 1, L - 1);
             if (s && !b.finished())
                 return Status::error(place(index, L - 1, L, -1) + ": rANS stream B fails its end-of-stream check");

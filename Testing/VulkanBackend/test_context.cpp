@@ -1,0 +1,74 @@
+// SPDX-License-Identifier: MIT
+// The headless context and the run-time shader compiler.
+#include "GpuTestSupport.h"
+
+#include "csgv/gpu/ShaderCompiler.h"
+
+#include <cstdlib>
+
+using namespace csgv;
+using namespace csgv::gpu;
+
+TEST(GpuContext, ListsDevicesAndOpensOne) {
+    CSGV_REQUIRE_GPU(ctx);
+    Result<std::vector<DeviceInfo>> devices = Context::listDevices();
+    ASSERT_TRUE(devices.isOk()) << devices.message();
+    ASSERT_FALSE(devices->empty());
+    EXPECT_FALSE(ctx->device().name.empty());
+    EXPECT_TRUE(ctx->device().missing.empty());
+    EXPECT_GT(ctx->device().maxAllocation, 0u);
+    std::printf("device: %s (%s), subgroup %u\n", ctx->device().name.c_str(), ctx->device().type.c_str(),
+                ctx->device().subgroupSize);
+}
+
+TEST(GpuContext, DeviceOverrideThatMatchesNothingIsAClearError) {
+    CSGV_REQUIRE_GPU(ctx);
+    setenv("CSGV_VULKAN_DEVICE", "no-such-device-xyz", 1);
+    Result<std::unique_ptr<Context>> r = Context::create();
+    unsetenv("CSGV_VULKAN_DEVICE");
+    ASSERT_FALSE(r.isOk());
+    EXPECT_NE(r.message().find("no-such-device-xyz"), std::string::npos) << r.message();
+    EXPECT_NE(r.message().find(ctx->device().name), std::string::npos) << r.message(); // lists what exists
+    setenv("CSGV_VULKAN_DEVICE", std::to_string(ctx->device().index).c_str(), 1);
+    Result<std::unique_ptr<Context>> byIndex = Context::create();
+    unsetenv("CSGV_VULKAN_DEVICE");
+    ASSERT_TRUE(byIndex.isOk()) << byIndex.message();
+    EXPECT_EQ((*byIndex)->device().name, ctx->device().name);
+}
+
+TEST(GpuContext, BuffersRoundTripThroughBothMemoryKinds) {
+    CSGV_REQUIRE_GPU(ctx);
+    std::vector<uint32_t> data(100000);
+    for (size_t i = 0; i < data.size(); ++i) data[i] = uint32_t(i * 2654435761u);
+    for (MemoryKind kind : {MemoryKind::DeviceLocal, MemoryKind::HostVisible}) {
+        Result<Buffer> b = ctx->createBuffer(data.size() * 4, kind);
+        ASSERT_TRUE(b.isOk()) << b.message();
+        EXPECT_NE(b->address(), 0u);
+        ASSERT_TRUE(ctx->upload(*b, 0, data.data(), data.size() * 4).isOk());
+        std::vector<uint32_t> back(data.size() - 10);
+        ASSERT_TRUE(ctx->download(*b, 40, back.data(), back.size() * 4).isOk());
+        EXPECT_TRUE(std::equal(back.begin(), back.end(), data.begin() + 10));
+        EXPECT_FALSE(ctx->upload(*b, 8, data.data(), data.size() * 4).isOk()); // past the end
+    }
+    EXPECT_FALSE(ctx->createBuffer(uint64_t(1) << 50, MemoryKind::DeviceLocal).isOk());
+}
+
+TEST(ShaderCompiler, EmbeddedSourcesIncludesAndErrorsWithLines) {
+    const auto names = embeddedShaderNames();
+    EXPECT_NE(std::find(names.begin(), names.end(), "csgv_decode.glsl"), names.end());
+    EXPECT_NE(embeddedShader("decode_bricks.comp"), nullptr);
+    EXPECT_EQ(embeddedShader("nope.glsl"), nullptr);
+    const std::string ok = "#version 460\nlayout(local_size_x = 1) in;\nvoid main() { uint x = VALUE; }\n";
+    Result<std::vector<uint32_t>> spirv = compileComputeSource("ok.comp", ok, {{"VALUE", "3u"}});
+    ASSERT_TRUE(spirv.isOk()) << spirv.message();
+    EXPECT_EQ((*spirv)[0], 0x07230203u); // SPIR-V magic
+    const std::string bad = "#version 460\nlayout(local_size_x = 1) in;\n\nvoid main() { undefined_thing(); }\n";
+    Result<std::vector<uint32_t>> err = compileComputeSource("bad.comp", bad, {});
+    ASSERT_FALSE(err.isOk());
+    EXPECT_NE(err.message().find("bad.comp:4"), std::string::npos) << err.message();
+    Result<std::vector<uint32_t>> inc =
+        compileComputeSource("inc.comp", "#version 460\n#extension GL_GOOGLE_include_directive : require\n#include \"missing.glsl\"\nvoid main(){}\n", {});
+    ASSERT_FALSE(inc.isOk());
+    EXPECT_NE(inc.message().find("missing.glsl"), std::string::npos) << inc.message();
+    EXPECT_FALSE(compileComputeShader("nope.comp", {}).isOk());
+}

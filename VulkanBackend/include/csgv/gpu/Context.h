@@ -1,0 +1,108 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file Context.h
+/// @brief Headless Vulkan: device choice, buffers addressed by device address, one-shot command
+/// submission. No window, no surface; no Vulkan type appears in this header, so the layers above
+/// include it without Vulkan headers.
+///
+/// Device choice: a discrete GPU, else an integrated or virtual GPU, else any other device, else
+/// a CPU device (Mesa's lavapipe, "llvmpipe"). The environment variable `CSGV_VULKAN_DEVICE`
+/// overrides by index (as listed by listDevices()) or by a case-insensitive part of the name.
+/// Required: Vulkan 1.2, bufferDeviceAddress, shaderInt64, a compute queue; each missing one is
+/// reported by name.
+
+#include "csgv/Status.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace csgv::gpu {
+
+struct DeviceInfo {
+    uint32_t index = 0;
+    std::string name;
+    std::string type;            ///< "discrete", "integrated", "virtual", "cpu", "other"
+    uint32_t apiVersion = 0;
+    uint64_t maxAllocation = 0;  ///< largest single allocation in bytes
+    uint64_t deviceLocalBytes = 0;
+    uint32_t subgroupSize = 0;
+    std::string missing;         ///< required features it lacks ("" when usable)
+};
+
+class Context;
+
+/// @brief A buffer in device memory, addressed in shaders through its device address.
+class Buffer {
+public:
+    Buffer() = default;
+    ~Buffer();
+    Buffer(Buffer&& other) noexcept;
+    Buffer& operator=(Buffer&& other) noexcept;
+    Buffer(const Buffer&) = delete;
+    Buffer& operator=(const Buffer&) = delete;
+
+    uint64_t size() const { return m_size; }
+    uint64_t address() const { return m_address; }
+    /// Host pointer for host-visible buffers (nullptr otherwise).
+    void* mapped() const { return m_mapped; }
+    bool valid() const { return m_buffer != 0; }
+
+private:
+    friend class Context;
+    void release();
+    Context* m_context = nullptr;
+    uint64_t m_buffer = 0; ///< VkBuffer
+    uint64_t m_memory = 0; ///< VkDeviceMemory
+    uint64_t m_size = 0;
+    uint64_t m_address = 0;
+    void* m_mapped = nullptr;
+};
+
+enum class MemoryKind {
+    DeviceLocal, ///< fastest for the GPU; filled through upload()
+    HostVisible, ///< mapped, coherent; for readback and small per-frame data
+};
+
+/// @brief One Vulkan instance and device with a compute queue.
+class Context {
+public:
+    ~Context();
+    Context(const Context&) = delete;
+    Context& operator=(const Context&) = delete;
+
+    /// Every device the loader reports, with what each lacks; an error when there is no loader.
+    static Result<std::vector<DeviceInfo>> listDevices();
+    /// Opens the preferred (or `CSGV_VULKAN_DEVICE`-selected) device.
+    static Result<std::unique_ptr<Context>> create();
+
+    const DeviceInfo& device() const { return m_info; }
+
+    Result<Buffer> createBuffer(uint64_t bytes, MemoryKind kind);
+    /// Copies host data into a buffer at an offset (through a staging buffer when not mapped).
+    Status upload(Buffer& dst, uint64_t offset, const void* data, uint64_t bytes);
+    /// Copies a buffer range back to the host.
+    Status download(const Buffer& src, uint64_t offset, void* data, uint64_t bytes);
+
+    /// A compute pipeline from SPIR-V whose only interface is `pushConstantBytes` of push constants.
+    Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes);
+    /// Records dispatches of one pipeline with push constants, submits, and waits.
+    struct Dispatch {
+        uint64_t pipeline = 0;
+        const void* pushConstants = nullptr;
+        uint32_t pushConstantBytes = 0;
+        uint32_t groups[3] = {1, 1, 1};
+    };
+    Status run(const std::vector<Dispatch>& dispatches);
+
+    struct Impl;
+
+private:
+    Context();
+    friend class Buffer;
+    std::unique_ptr<Impl> m_impl;
+    DeviceInfo m_info;
+};
+
+} // namespace csgv::gpu

@@ -1,0 +1,55 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file GpuVolume.h
+/// @brief A compressed volume in GPU memory (it stays compressed there) and GPU brick decoding
+/// into cache regions. Each encoding array is its own buffer, reached through a table of device
+/// addresses, so volumes of any size work within per-allocation limits.
+
+#include "csgv/Container.h"
+#include "csgv/gpu/Context.h"
+#include "csgv/gpu/ShaderCompiler.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace csgv::gpu {
+
+/// One brick to decode: `lod` 0 is full resolution; `cacheOffset` is the first word of its region
+/// ((B >> lod)^3 words), where the labels land in Morton order.
+struct BrickRequest {
+    uint32_t brick = 0;
+    uint32_t lod = 0;
+    uint32_t cacheOffset = 0;
+};
+
+/// Text for a decode result code of the shader ("ok", "stream runs past its end", ...).
+const char* decodeResultText(uint32_t code);
+
+class GpuVolume {
+public:
+    /// Uploads the encoding; the volume must have passed checkContainer().
+    static Result<std::unique_ptr<GpuVolume>> create(Context& context, const CompressedVolume& volume);
+
+    /// Shader defines that specialise decoding to this volume.
+    const Defines& defines() const { return m_defines; }
+    uint64_t deviceBytes() const;
+    const CompressedVolume& volume() const { return m_volume; }
+
+    /// Decodes requests into `cache`; result codes (0 = ok) per request into `codes` when given.
+    Status decode(const std::vector<BrickRequest>& requests, Buffer& cache, std::vector<uint32_t>* codes = nullptr);
+    /// Decodes into a temporary cache and returns each request's region, concatenated in order;
+    /// an error names the first brick whose stream is invalid.
+    Result<std::vector<uint32_t>> decodeToHost(const std::vector<BrickRequest>& requests);
+
+private:
+    GpuVolume(Context& c, const CompressedVolume& v) : m_context(c), m_volume(v) {}
+    Context& m_context;
+    const CompressedVolume& m_volume;
+    std::vector<Buffer> m_arrays;
+    Buffer m_addresses, m_starts;
+    Defines m_defines;
+    uint64_t m_decodePipeline = 0;
+};
+
+} // namespace csgv::gpu

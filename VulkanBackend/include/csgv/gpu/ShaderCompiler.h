@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file ShaderCompiler.h
+/// @brief GLSL to SPIR-V at run time with glslang. Sources come from `shaders/`, embedded into
+/// the binary at build time; `#include "x.glsl"` resolves within that set. Each volume gets its
+/// own specialisation through defines. Results are cached in memory by source name and defines.
+
+#include "csgv/Status.h"
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace csgv::gpu {
+
+using Defines = std::vector<std::pair<std::string, std::string>>;
+
+/// The embedded source of a shader file, or nullptr.
+const char* embeddedShader(const std::string& name);
+/// Names of all embedded shader files.
+std::vector<std::string> embeddedShaderNames();
+
+/// Compiles an embedded compute shader. Errors name the file and line of every problem.
+Result<std::vector<uint32_t>> compileComputeShader(const std::string& name, const Defines& defines);
+/// Compiles compute shader source given directly (tests), with includes from the embedded set.
+Result<std::vector<uint32_t>> compileComputeSource(const std::string& displayName, const std::string& source,
+                                                   const Defines& defines);
+
+} // namespace csgv::gpu

@@ -1,0 +1,479 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/gpu/Context.h"
+#include "VulkanFunctions.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+
+namespace csgv::gpu {
+
+namespace {
+
+std::string vkError(const char* what, VkResult r) { return std::string(what) + " failed: " + vkResultName(r); }
+
+std::string lower(std::string s) {
+    for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+const char* typeName(VkPhysicalDeviceType t) {
+    switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
+    default: return "other";
+    }
+}
+
+/// Lower is better: discrete GPUs, then other GPUs, then anything, then CPU devices.
+int preference(const std::string& type) {
+    if (type == "discrete") return 0;
+    if (type == "integrated" || type == "virtual") return 1;
+    if (type == "cpu") return 3;
+    return 2;
+}
+
+int computeQueueFamily(const VulkanFunctions& vk, VkPhysicalDevice pd) {
+    uint32_t n = 0;
+    vk.vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, nullptr);
+    std::vector<VkQueueFamilyProperties> props(n);
+    vk.vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, props.data());
+    for (uint32_t i = 0; i < n; ++i)
+        if (props[i].queueFlags & VK_QUEUE_COMPUTE_BIT) return int(i);
+    return -1;
+}
+
+DeviceInfo describe(const VulkanFunctions& vk, VkPhysicalDevice pd, uint32_t index) {
+    DeviceInfo info;
+    info.index = index;
+    VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+    VkPhysicalDeviceMaintenance3Properties m3{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
+    subgroup.pNext = &m3;
+    VkPhysicalDeviceProperties2 props{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+    props.pNext = &subgroup;
+    vk.vkGetPhysicalDeviceProperties2(pd, &props);
+    info.name = props.properties.deviceName;
+    info.type = typeName(props.properties.deviceType);
+    info.apiVersion = props.properties.apiVersion;
+    info.maxAllocation = m3.maxMemoryAllocationSize;
+    info.subgroupSize = subgroup.subgroupSize;
+    VkPhysicalDeviceMemoryProperties mem{};
+    vk.vkGetPhysicalDeviceMemoryProperties(pd, &mem);
+    for (uint32_t h = 0; h < mem.memoryHeapCount; ++h)
+        if (mem.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
+            info.deviceLocalBytes = std::max<uint64_t>(info.deviceLocalBytes, mem.memoryHeaps[h].size);
+
+    std::vector<std::string> missing;
+    if (VK_API_VERSION_MAJOR(info.apiVersion) == 1 && VK_API_VERSION_MINOR(info.apiVersion) < 2)
+        missing.push_back("Vulkan 1.2");
+    else {
+        VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+        VkPhysicalDeviceFeatures2 f{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+        f.pNext = &f12;
+        vk.vkGetPhysicalDeviceFeatures2(pd, &f);
+        if (!f12.bufferDeviceAddress) missing.push_back("bufferDeviceAddress");
+        if (!f.features.shaderInt64) missing.push_back("shaderInt64");
+    }
+    if (computeQueueFamily(vk, pd) < 0) missing.push_back("a compute queue");
+    for (size_t i = 0; i < missing.size(); ++i) info.missing += (i ? ", " : "") + missing[i];
+    return info;
+}
+
+} // namespace
+
+struct Context::Impl {
+    VulkanFunctions vk;
+    VkInstance instance = VK_NULL_HANDLE;
+    VkPhysicalDevice physical = VK_NULL_HANDLE;
+    VkDevice device = VK_NULL_HANDLE;
+    VkQueue queue = VK_NULL_HANDLE;
+    uint32_t queueFamily = 0;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkCommandBuffer cmd = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    VkPhysicalDeviceMemoryProperties memory{};
+    struct Pipeline {
+        VkPipeline pipeline;
+        VkPipelineLayout layout;
+    };
+    std::map<uint64_t, Pipeline> pipelines;
+
+    Status createInstance() {
+        Status s = vk.loadGlobal();
+        if (!s) return s;
+        VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+        app.pApplicationName = "csgv";
+        app.apiVersion = VK_API_VERSION_1_2;
+        VkInstanceCreateInfo ci{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+        ci.pApplicationInfo = &app;
+        // Validation on request only (tests set it); never required.
+        const char* validation = "VK_LAYER_KHRONOS_validation";
+        const char* want = std::getenv("CSGV_VULKAN_VALIDATION");
+        if (want && *want && std::strcmp(want, "0") != 0) {
+            uint32_t n = 0;
+            vk.vkEnumerateInstanceLayerProperties(&n, nullptr);
+            std::vector<VkLayerProperties> layers(n);
+            vk.vkEnumerateInstanceLayerProperties(&n, layers.data());
+            for (const auto& l : layers)
+                if (std::strcmp(l.layerName, validation) == 0) {
+                    ci.enabledLayerCount = 1;
+                    ci.ppEnabledLayerNames = &validation;
+                }
+        }
+        const VkResult r = vk.vkCreateInstance(&ci, nullptr, &instance);
+        if (r != VK_SUCCESS) return Status::error(vkError("vkCreateInstance", r));
+        return vk.loadInstance(instance);
+    }
+
+    std::vector<VkPhysicalDevice> physicalDevices() {
+        uint32_t n = 0;
+        vk.vkEnumeratePhysicalDevices(instance, &n, nullptr);
+        std::vector<VkPhysicalDevice> devices(n);
+        vk.vkEnumeratePhysicalDevices(instance, &n, devices.data());
+        devices.resize(n);
+        return devices;
+    }
+
+    int memoryType(uint32_t bits, VkMemoryPropertyFlags want, VkMemoryPropertyFlags avoid = 0) const {
+        for (uint32_t i = 0; i < memory.memoryTypeCount; ++i)
+            if ((bits & (1u << i)) && (memory.memoryTypes[i].propertyFlags & want) == want &&
+                !(memory.memoryTypes[i].propertyFlags & avoid))
+                return int(i);
+        return -1;
+    }
+
+    ~Impl() {
+        if (device) {
+            vk.vkDeviceWaitIdle(device);
+            for (auto& p : pipelines) {
+                vk.vkDestroyPipeline(device, p.second.pipeline, nullptr);
+                vk.vkDestroyPipelineLayout(device, p.second.layout, nullptr);
+            }
+            if (fence) vk.vkDestroyFence(device, fence, nullptr);
+            if (pool) vk.vkDestroyCommandPool(device, pool, nullptr);
+            vk.vkDestroyDevice(device, nullptr);
+        }
+        if (instance) vk.vkDestroyInstance(instance, nullptr);
+    }
+};
+
+Context::Context() : m_impl(std::make_unique<Impl>()) {}
+Context::~Context() = default;
+
+Result<std::vector<DeviceInfo>> Context::listDevices() {
+    Impl impl;
+    Status s = impl.createInstance();
+    if (!s) return s;
+    std::vector<DeviceInfo> out;
+    const auto devices = impl.physicalDevices();
+    for (uint32_t i = 0; i < devices.size(); ++i) out.push_back(describe(impl.vk, devices[i], i));
+    return out;
+}
+
+Result<std::unique_ptr<Context>> Context::create() {
+    std::unique_ptr<Context> ctx(new Context());
+    Impl& im = *ctx->m_impl;
+    Status s = im.createInstance();
+    if (!s) return s;
+    const auto devices = im.physicalDevices();
+    if (devices.empty())
+        return Status::error("no Vulkan device found (for a CPU device: apt-get install mesa-vulkan-drivers)");
+    std::vector<DeviceInfo> infos;
+    for (uint32_t i = 0; i < devices.size(); ++i) infos.push_back(describe(im.vk, devices[i], i));
+
+    int chosen = -1;
+    const char* env = std::getenv("CSGV_VULKAN_DEVICE");
+    if (env && *env) {
+        const std::string want = env;
+        const bool numeric = want.find_first_not_of("0123456789") == std::string::npos;
+        for (const DeviceInfo& d : infos)
+            if ((numeric && std::to_string(d.index) == want) ||
+                (!numeric && lower(d.name).find(lower(want)) != std::string::npos)) {
+                chosen = int(d.index);
+                break;
+            }
+        std::string names;
+        for (const DeviceInfo& d : infos) names += (names.empty() ? "" : ", ") + std::to_string(d.index) + ": " + d.name;
+        if (chosen < 0) return Status::error("CSGV_VULKAN_DEVICE='" + want + "' matches no device (" + names + ")");
+        if (!infos[size_t(chosen)].missing.empty())
+            return Status::error("Vulkan device '" + infos[size_t(chosen)].name + "' lacks " + infos[size_t(chosen)].missing);
+    } else {
+        for (const DeviceInfo& d : infos)
+            if (d.missing.empty() &&
+                (chosen < 0 || preference(d.type) < preference(infos[size_t(chosen)].type)))
+                chosen = int(d.index);
+        if (chosen < 0) {
+            std::string why;
+            for (const DeviceInfo& d : infos) why += (why.empty() ? "" : "; ") + d.name + " lacks " + d.missing;
+            return Status::error("no usable Vulkan device: " + why);
+        }
+    }
+    ctx->m_info = infos[size_t(chosen)];
+    im.physical = devices[size_t(chosen)];
+    im.queueFamily = uint32_t(computeQueueFamily(im.vk, im.physical));
+    im.vk.vkGetPhysicalDeviceMemoryProperties(im.physical, &im.memory);
+
+    const float priority = 1.0f;
+    VkDeviceQueueCreateInfo q{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+    q.queueFamilyIndex = im.queueFamily;
+    q.queueCount = 1;
+    q.pQueuePriorities = &priority;
+    VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+    f12.bufferDeviceAddress = VK_TRUE;
+    VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+    features.pNext = &f12;
+    features.features.shaderInt64 = VK_TRUE;
+    VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+    dci.pNext = &features;
+    dci.queueCreateInfoCount = 1;
+    dci.pQueueCreateInfos = &q;
+    VkResult r = im.vk.vkCreateDevice(im.physical, &dci, nullptr, &im.device);
+    if (r != VK_SUCCESS) return Status::error(vkError("vkCreateDevice", r) + " on " + ctx->m_info.name);
+    s = im.vk.loadDevice(im.device);
+    if (!s) return s;
+    im.vk.vkGetDeviceQueue(im.device, im.queueFamily, 0, &im.queue);
+    VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pci.queueFamilyIndex = im.queueFamily;
+    if ((r = im.vk.vkCreateCommandPool(im.device, &pci, nullptr, &im.pool)) != VK_SUCCESS)
+        return Status::error(vkError("vkCreateCommandPool", r));
+    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    cai.commandPool = im.pool;
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    if ((r = im.vk.vkAllocateCommandBuffers(im.device, &cai, &im.cmd)) != VK_SUCCESS)
+        return Status::error(vkError("vkAllocateCommandBuffers", r));
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    if ((r = im.vk.vkCreateFence(im.device, &fci, nullptr, &im.fence)) != VK_SUCCESS)
+        return Status::error(vkError("vkCreateFence", r));
+    return ctx;
+}
+
+// ---- Buffers ----
+
+Buffer::~Buffer() { release(); }
+
+Buffer::Buffer(Buffer&& o) noexcept { *this = std::move(o); }
+
+Buffer& Buffer::operator=(Buffer&& o) noexcept {
+    if (this != &o) {
+        release();
+        m_context = o.m_context;
+        m_buffer = o.m_buffer;
+        m_memory = o.m_memory;
+        m_size = o.m_size;
+        m_address = o.m_address;
+        m_mapped = o.m_mapped;
+        o.m_context = nullptr;
+        o.m_buffer = o.m_memory = 0;
+        o.m_mapped = nullptr;
+    }
+    return *this;
+}
+
+void Buffer::release() {
+    if (!m_context) return;
+    Context::Impl& im = *m_context->m_impl;
+    if (m_mapped) im.vk.vkUnmapMemory(im.device, reinterpret_cast<VkDeviceMemory>(m_memory));
+    if (m_buffer) im.vk.vkDestroyBuffer(im.device, reinterpret_cast<VkBuffer>(m_buffer), nullptr);
+    if (m_memory) im.vk.vkFreeMemory(im.device, reinterpret_cast<VkDeviceMemory>(m_memory), nullptr);
+    m_context = nullptr;
+    m_buffer = m_memory = 0;
+    m_mapped = nullptr;
+}
+
+Result<Buffer> Context::createBuffer(uint64_t bytes, MemoryKind kind) {
+    Impl& im = *m_impl;
+    bytes = std::max<uint64_t>(bytes, 4);
+    if (m_info.maxAllocation && bytes > m_info.maxAllocation)
+        return Status::error("a GPU buffer of " + std::to_string(bytes) + " bytes exceeds the device's allocation limit of " +
+                             std::to_string(m_info.maxAllocation) + " bytes");
+    VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    bci.size = bytes;
+    bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
+                VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
+    bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkResult r = im.vk.vkCreateBuffer(im.device, &bci, nullptr, &buffer);
+    if (r != VK_SUCCESS) return Status::error(vkError("vkCreateBuffer", r));
+    Buffer out;
+    out.m_context = this;
+    out.m_buffer = reinterpret_cast<uint64_t>(buffer);
+    out.m_size = bytes;
+    VkMemoryRequirements req{};
+    im.vk.vkGetBufferMemoryRequirements(im.device, buffer, &req);
+    int type = -1;
+    if (kind == MemoryKind::DeviceLocal) {
+        type = im.memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    } else {
+        type = im.memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT |
+                                                     VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+        if (type < 0)
+            type = im.memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    }
+    if (type < 0) type = im.memoryType(req.memoryTypeBits, 0);
+    if (type < 0) return Status::error("no Vulkan memory type fits a buffer");
+    VkMemoryAllocateFlagsInfo flags{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO};
+    flags.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
+    VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    mai.pNext = &flags;
+    mai.allocationSize = req.size;
+    mai.memoryTypeIndex = uint32_t(type);
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    r = im.vk.vkAllocateMemory(im.device, &mai, nullptr, &memory);
+    if (r != VK_SUCCESS)
+        return Status::error(vkError("vkAllocateMemory", r) + " (" + std::to_string(bytes) + " bytes)");
+    out.m_memory = reinterpret_cast<uint64_t>(memory);
+    if ((r = im.vk.vkBindBufferMemory(im.device, buffer, memory, 0)) != VK_SUCCESS)
+        return Status::error(vkError("vkBindBufferMemory", r));
+    if (im.memory.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) {
+        if ((r = im.vk.vkMapMemory(im.device, memory, 0, VK_WHOLE_SIZE, 0, &out.m_mapped)) != VK_SUCCESS)
+            return Status::error(vkError("vkMapMemory", r));
+    }
+    VkBufferDeviceAddressInfo bai{VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO};
+    bai.buffer = buffer;
+    out.m_address = im.vk.vkGetBufferDeviceAddress(im.device, &bai);
+    return out;
+}
+
+namespace {
+/// Records, submits and waits for one command buffer.
+template <typename Record>
+Status submitAndWait(Context::Impl& im, Record record) {
+    im.vk.vkResetCommandBuffer(im.cmd, 0);
+    VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VkResult r = im.vk.vkBeginCommandBuffer(im.cmd, &begin);
+    if (r != VK_SUCCESS) return Status::error(vkError("vkBeginCommandBuffer", r));
+    record(im.cmd);
+    if ((r = im.vk.vkEndCommandBuffer(im.cmd)) != VK_SUCCESS) return Status::error(vkError("vkEndCommandBuffer", r));
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &im.cmd;
+    im.vk.vkResetFences(im.device, 1, &im.fence);
+    // Submission: the recorded work; the fence tells the host when all of it has finished.
+    if ((r = im.vk.vkQueueSubmit(im.queue, 1, &si, im.fence)) != VK_SUCCESS)
+        return Status::error(vkError("vkQueueSubmit", r));
+    r = im.vk.vkWaitForFences(im.device, 1, &im.fence, VK_TRUE, uint64_t(120) * 1000000000ull);
+    if (r == VK_TIMEOUT) return Status::error("the GPU did not finish within 120 s");
+    if (r != VK_SUCCESS) return Status::error(vkError("vkWaitForFences", r));
+    return Status::ok();
+}
+
+void transferBarrier(VulkanFunctions& vk, VkCommandBuffer cmd) {
+    // Barrier: transfers before it complete before shaders or host reads after it.
+    VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT;
+    vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0,
+                            nullptr);
+}
+} // namespace
+
+Status Context::upload(Buffer& dst, uint64_t offset, const void* data, uint64_t bytes) {
+    if (offset + bytes > dst.size()) return Status::error("upload past the end of a GPU buffer");
+    if (bytes == 0) return Status::ok();
+    if (dst.mapped()) {
+        std::memcpy(static_cast<uint8_t*>(dst.mapped()) + offset, data, size_t(bytes));
+        return Status::ok();
+    }
+    Result<Buffer> staging = createBuffer(bytes, MemoryKind::HostVisible);
+    if (!staging) return staging.status();
+    std::memcpy(staging->mapped(), data, size_t(bytes));
+    Impl& im = *m_impl;
+    return submitAndWait(im, [&](VkCommandBuffer cmd) {
+        VkBufferCopy region{0, offset, bytes};
+        im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(staging->m_buffer), reinterpret_cast<VkBuffer>(dst.m_buffer),
+                              1, &region);
+        transferBarrier(im.vk, cmd);
+    });
+}
+
+Status Context::download(const Buffer& src, uint64_t offset, void* data, uint64_t bytes) {
+    if (offset + bytes > src.size()) return Status::error("download past the end of a GPU buffer");
+    if (bytes == 0) return Status::ok();
+    if (src.mapped()) {
+        std::memcpy(data, static_cast<const uint8_t*>(src.mapped()) + offset, size_t(bytes));
+        return Status::ok();
+    }
+    Result<Buffer> staging = createBuffer(bytes, MemoryKind::HostVisible);
+    if (!staging) return staging.status();
+    Impl& im = *m_impl;
+    Status s = submitAndWait(im, [&](VkCommandBuffer cmd) {
+        VkBufferCopy region{offset, 0, bytes};
+        im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(src.m_buffer), reinterpret_cast<VkBuffer>(staging->m_buffer),
+                              1, &region);
+        transferBarrier(im.vk, cmd);
+    });
+    if (!s) return s;
+    std::memcpy(data, staging->mapped(), size_t(bytes));
+    return Status::ok();
+}
+
+Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes) {
+    Impl& im = *m_impl;
+    VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    smci.codeSize = spirv.size() * 4;
+    smci.pCode = spirv.data();
+    VkShaderModule module = VK_NULL_HANDLE;
+    VkResult r = im.vk.vkCreateShaderModule(im.device, &smci, nullptr, &module);
+    if (r != VK_SUCCESS) return Status::error(vkError("vkCreateShaderModule", r));
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushConstantBytes};
+    VkPipelineLayoutCreateInfo lci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    lci.pushConstantRangeCount = pushConstantBytes ? 1 : 0;
+    lci.pPushConstantRanges = &range;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    r = im.vk.vkCreatePipelineLayout(im.device, &lci, nullptr, &layout);
+    if (r != VK_SUCCESS) {
+        im.vk.vkDestroyShaderModule(im.device, module, nullptr);
+        return Status::error(vkError("vkCreatePipelineLayout", r));
+    }
+    VkComputePipelineCreateInfo cci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    cci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    cci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    cci.stage.module = module;
+    cci.stage.pName = "main";
+    cci.layout = layout;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    r = im.vk.vkCreateComputePipelines(im.device, VK_NULL_HANDLE, 1, &cci, nullptr, &pipeline);
+    im.vk.vkDestroyShaderModule(im.device, module, nullptr);
+    if (r != VK_SUCCESS) {
+        im.vk.vkDestroyPipelineLayout(im.device, layout, nullptr);
+        return Status::error(vkError("vkCreateComputePipelines", r));
+    }
+    const uint64_t handle = reinterpret_cast<uint64_t>(pipeline);
+    im.pipelines[handle] = Impl::Pipeline{pipeline, layout};
+    return handle;
+}
+
+Status Context::run(const std::vector<Dispatch>& dispatches) {
+    Impl& im = *m_impl;
+    for (const Dispatch& d : dispatches)
+        if (!im.pipelines.count(d.pipeline)) return Status::error("dispatch of an unknown pipeline");
+    return submitAndWait(im, [&](VkCommandBuffer cmd) {
+        for (const Dispatch& d : dispatches) {
+            const Impl::Pipeline& p = im.pipelines[d.pipeline];
+            im.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.pipeline);
+            if (d.pushConstantBytes)
+                im.vk.vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, d.pushConstantBytes,
+                                         d.pushConstants);
+            im.vk.vkCmdDispatch(cmd, d.groups[0], d.groups[1], d.groups[2]);
+            // Barrier: each dispatch's writes are visible to the next dispatch and to the host.
+            VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+            b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+            b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT |
+                              VK_ACCESS_TRANSFER_READ_BIT;
+            im.vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
+                                           VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                       0, 1, &b, 0, nullptr, 0, nullptr);
+        }
+    });
+}
+
+} // namespace csgv::gpu

@@ -1,0 +1,189 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/gpu/GpuVolume.h"
+
+#include <algorithm>
+
+namespace csgv::gpu {
+
+namespace {
+
+/// Steps per dispatch on CPU devices: llvmpipe ends an invocation's loops after 65535 iterations
+/// in total, and a step takes at most 97 (csgv_decode.glsl).
+constexpr uint64_t kCpuDeviceSteps = 512;
+
+std::string uintArray(const std::array<uint32_t, 17>& v) {
+    std::string s = "uint[17](";
+    for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + std::to_string(v[i]) + "u";
+    return s + ")";
+}
+
+std::string uvec3Of(uint32_t x, uint32_t y, uint32_t z) {
+    return "uvec3(" + std::to_string(x) + "u," + std::to_string(y) + "u," + std::to_string(z) + "u)";
+}
+
+void tableDefines(const std::array<uint32_t, 16>& f, const char* cumName, Defines& d) {
+    std::array<uint32_t, 17> cum{};
+    for (int s = 0; s < 16; ++s) cum[s + 1] = cum[s] + f[s];
+    d.emplace_back(cumName, uintArray(cum));
+}
+
+struct DecodePush {
+    uint64_t arrays, starts, requests, cache, states, params;
+};
+
+/// Steps the shader needs for a brick decoded to inverse level `target` (csgv_decode.glsl): the
+/// root, then each level's parents and one step to close the level.
+uint64_t decodeSteps(uint32_t target) {
+    uint64_t n = 1;
+    for (uint32_t l = 1; l <= target; ++l) n += (uint64_t(1) << (3 * (l - 1))) + 1;
+    return n;
+}
+
+} // namespace
+
+const char* decodeResultText(uint32_t code) {
+    switch (code) {
+    case 0: return "ok";
+    case 1: return "the stream runs past its end";
+    case 2: return "root operation is not PALETTE_ADV";
+    case 3: return "operation symbol 7";
+    case 4: return "stop bit at the finest level";
+    case 5: return "neighbour outside the brick or not in the volume";
+    case 6: return "more PALETTE_ADV than the palette size (or a reserved label)";
+    case 7: return "PALETTE_D points past the palette or has more than 11 groups";
+    case 8: return "the rANS stream fails its end-of-stream check";
+    case 0xFFFFFFFFu: return "decoding did not finish";
+    default: return "unknown decode result";
+    }
+}
+
+Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const CompressedVolume& volume) {
+    Status s = checkContainer(volume);
+    if (!s) return s;
+    if (volume.brickCount() >= (uint64_t(1) << 32)) return Status::error("more than 2^32 bricks are not supported on the GPU");
+    std::unique_ptr<GpuVolume> g(new GpuVolume(context, volume));
+    std::vector<uint64_t> addresses;
+    for (const auto& a : volume.arrays) {
+        Result<Buffer> b = context.createBuffer(a.size() * 4, MemoryKind::DeviceLocal);
+        if (!b) return Status(b.status()).prefix("uploading the encoding");
+        s = context.upload(*b, 0, a.data(), a.size() * 4);
+        if (!s) return s;
+        addresses.push_back(b->address());
+        g->m_arrays.push_back(std::move(*b));
+    }
+    Result<Buffer> addr = context.createBuffer(addresses.size() * 8, MemoryKind::DeviceLocal);
+    if (!addr) return addr.status();
+    if (!(s = context.upload(*addr, 0, addresses.data(), addresses.size() * 8))) return s;
+    g->m_addresses = std::move(*addr);
+    Result<Buffer> starts = context.createBuffer(volume.brickStarts.size() * 4, MemoryKind::DeviceLocal);
+    if (!starts) return starts.status();
+    if (!(s = context.upload(*starts, 0, volume.brickStarts.data(), volume.brickStarts.size() * 4))) return s;
+    g->m_starts = std::move(*starts);
+
+    Defines& d = g->m_defines;
+    const auto grid = volume.brickGrid();
+    d.emplace_back("BRICK_SIZE", std::to_string(volume.brickSize) + "u");
+    d.emplace_back("LEVELS", std::to_string(volume.levels()) + "u");
+    d.emplace_back("ENCODING", std::to_string(volume.encoding));
+    d.emplace_back("LEGACY_DELTA", volume.legacyDelta() ? "1" : "0");
+    d.emplace_back("VOLUME_DIM", uvec3Of(volume.dim[0], volume.dim[1], volume.dim[2]));
+    d.emplace_back("BRICK_GRID", uvec3Of(grid[0], grid[1], grid[2]));
+    d.emplace_back("BRICKS_PER_ARRAY", std::to_string(volume.bricksPerArray) + "u");
+    if (volume.encoding != kEncodingNibble) tableDefines(volume.freqA, "CUM_A", d);
+    if (volume.encoding == kEncodingRans2) tableDefines(volume.freqB, "CUM_B", d);
+    Result<std::vector<uint32_t>> spirv = compileComputeShader("decode_bricks.comp", d);
+    if (!spirv) return spirv.status();
+    Result<uint64_t> pipeline = context.createComputePipeline(*spirv, sizeof(DecodePush));
+    if (!pipeline) return pipeline.status();
+    g->m_decodePipeline = *pipeline;
+    return g;
+}
+
+uint64_t GpuVolume::deviceBytes() const {
+    uint64_t n = m_addresses.size() + m_starts.size();
+    for (const Buffer& b : m_arrays) n += b.size();
+    return n;
+}
+
+Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cache, std::vector<uint32_t>* codes) {
+    if (requests.empty()) return Status::ok();
+    const uint32_t L = m_volume.levels();
+    std::vector<uint32_t> words;
+    words.reserve(requests.size() * 3);
+    for (const BrickRequest& r : requests) {
+        if (r.brick >= m_volume.brickCount()) return Status::error("request for brick " + std::to_string(r.brick) + ", which does not exist");
+        if (r.lod >= L) return Status::error("request for level of detail " + std::to_string(r.lod));
+        const uint64_t edge = m_volume.brickSize >> r.lod;
+        if ((uint64_t(r.cacheOffset) + edge * edge * edge) * 4 > cache.size())
+            return Status::error("brick " + std::to_string(r.brick) + " does not fit the cache at word " +
+                                 std::to_string(r.cacheOffset));
+        words.push_back(r.brick);
+        words.push_back(L - 1 - r.lod);
+        words.push_back(r.cacheOffset);
+    }
+    Result<Buffer> req = m_context.createBuffer(words.size() * 4, MemoryKind::HostVisible);
+    if (!req) return req.status();
+    Status s = m_context.upload(*req, 0, words.data(), words.size() * 4);
+    if (!s) return s;
+    Result<Buffer> states = m_context.createBuffer(requests.size() * 48, MemoryKind::HostVisible);
+    if (!states) return states.status();
+    // Every brick needs the same fixed number of dispatches for its level: no host round trip.
+    uint64_t steps = 0;
+    for (const BrickRequest& r : requests) steps = std::max(steps, decodeSteps(L - 1 - r.lod));
+    const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;
+    std::vector<uint32_t> params;
+    for (uint64_t done = 0; done < steps; done += perDispatch) {
+        params.push_back(uint32_t(requests.size()));
+        params.push_back(uint32_t(std::min<uint64_t>(perDispatch, steps - done)));
+        params.push_back(done == 0 ? 1u : 0u);
+        params.push_back(0u);
+    }
+    Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
+    if (!paramBuffer) return paramBuffer.status();
+    if (!(s = m_context.upload(*paramBuffer, 0, params.data(), params.size() * 4))) return s;
+    std::vector<DecodePush> pushes;
+    for (size_t k = 0; k < params.size() / 4; ++k)
+        pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), req->address(), cache.address(),
+                                    states->address(), paramBuffer->address() + 16 * k});
+    std::vector<Context::Dispatch> dispatches;
+    for (const DecodePush& push : pushes) {
+        Context::Dispatch d;
+        d.pipeline = m_decodePipeline;
+        d.pushConstants = &push;
+        d.pushConstantBytes = sizeof(push);
+        d.groups[0] = uint32_t((requests.size() + 31) / 32);
+        dispatches.push_back(d);
+    }
+    if (!(s = m_context.run(dispatches))) return s;
+    if (codes) {
+        std::vector<uint32_t> words(requests.size() * 12);
+        if (!(s = m_context.download(*states, 0, words.data(), words.size() * 4))) return s;
+        codes->resize(requests.size());
+        for (size_t i = 0; i < requests.size(); ++i) (*codes)[i] = words[12 * i + 8];
+    }
+    return Status::ok();
+}
+
+Result<std::vector<uint32_t>> GpuVolume::decodeToHost(const std::vector<BrickRequest>& requests) {
+    std::vector<BrickRequest> placed = requests;
+    uint64_t words = 0;
+    for (BrickRequest& r : placed) {
+        const uint64_t edge = r.lod < 32 ? (m_volume.brickSize >> r.lod) : 0;
+        r.cacheOffset = uint32_t(words);
+        words += std::max<uint64_t>(edge * edge * edge, 1);
+        if (words >= (uint64_t(1) << 32)) return Status::error("too many bricks for one host decode");
+    }
+    Result<Buffer> cache = m_context.createBuffer(words * 4, MemoryKind::DeviceLocal);
+    if (!cache) return cache.status();
+    std::vector<uint32_t> codes;
+    Status s = decode(placed, *cache, &codes);
+    if (!s) return s;
+    for (size_t i = 0; i < codes.size(); ++i)
+        if (codes[i] != 0)
+            return Status::error("brick " + std::to_string(placed[i].brick) + ", GPU decode: " + decodeResultText(codes[i]));
+    std::vector<uint32_t> out(words);
+    if (!(s = m_context.download(*cache, 0, out.data(), words * 4))) return s;
+    return out;
+}
+
+} // namespace csgv::gpu

@@ -1,0 +1,342 @@
+// SPDX-License-Identifier: MIT
+// CSGV brick decoding on the GPU (CSGV-FORMAT.md sections 2 to 5), one invocation per brick,
+// straight into the brick's cache region at the requested level of detail.
+//
+// Specialised per volume through defines (VulkanBackend/src/GpuVolume.cpp):
+//   BRICK_SIZE, LEVELS, ENCODING (0 nibble, 1 rANS one table, 2 rANS two tables), LEGACY_DELTA,
+//   VOLUME_DIM (uvec3), BRICK_GRID (uvec3), BRICKS_PER_ARRAY, CUM_A/CUM_B (uint[17]).
+//
+// Cache region of a brick decoded to inverse level T (grid 2^T per axis, 8^T words): the label
+// of the level-l node with Morton index m lives in the last word of its Morton range,
+// (m + 1) * W^3 - 1 with W = 2^(T - l), and its "children are visited" flag in the first word,
+// m * W^3 (levels l < T). A child overwrites its parent's words only after their last read, so
+// when level T is done the region holds exactly that level's labels in Morton order.
+//
+// Resumable: Mesa's llvmpipe ends any shader invocation's loops after 65535 iterations in total
+// (its loop limiter), silently. Every loop here is therefore bounded by a per-dispatch step count:
+// a step visits the root or one parent's 8 children; it runs at most 1 + 8 + 8 * 11 loop
+// iterations (steps, children, PALETTE_D groups); symbol lookup and renormalisation are
+// loop-free; the decoder's state is saved between dispatches. Real GPUs take all steps in one
+// dispatch; CPU devices take 512 steps per dispatch (GpuVolume.cpp). The code stays small on
+// purpose: llvmpipe compiles at the first dispatch, and unrolled variants took over a minute.
+//
+// Every read is bounds-checked; a violation ends the brick with an error code, never a hang.
+
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer Words { uint w[]; };
+layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer Addresses { uint64_t a[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer CacheWords { uint w[]; };
+
+const uint INVALID_LABEL = 0xFFFFFFFFu;
+const uint RANS_LOWER = 0x00800000u;
+
+// Decode results (the host's decodeResultText() names them). DECODE_RUNNING: not finished yet.
+const uint DECODE_OK = 0u;
+const uint DECODE_STREAM_END = 1u;
+const uint DECODE_BAD_ROOT = 2u;
+const uint DECODE_BAD_OPERATION = 3u;
+const uint DECODE_STOP_AT_FINEST = 4u;
+const uint DECODE_BAD_NEIGHBOUR = 5u;
+const uint DECODE_PALETTE_OVERFLOW = 6u;
+const uint DECODE_BAD_DISTANCE = 7u;
+const uint DECODE_RANS_INTEGRITY = 8u;
+const uint DECODE_RUNNING = 0xFFFFFFFFu;
+
+uint mortonCompact(uint v) {
+    v &= 0x09249249u;
+    v = (v | (v >> 2)) & 0x030C30C3u;
+    v = (v | (v >> 4)) & 0x0300F00Fu;
+    v = (v | (v >> 8)) & 0x030000FFu;
+    v = (v | (v >> 16)) & 0x000003FFu;
+    return v;
+}
+uint axisMask(uint axis) { return 0x09249249u << axis; }
+uint mortonDecrement(uint m, uint axis) {
+    uint mask = axisMask(axis);
+    return (((m & mask) - 1u) & mask) | (m & ~mask);
+}
+uint mortonIncrement(uint m, uint axis) {
+    uint mask = axisMask(axis);
+    return (((m | ~mask) + 1u) & mask) | (m & ~mask);
+}
+
+/// Everything a brick's decoding needs between two steps (also saved between dispatches).
+struct DecodeState {
+    uint level;    // level being decoded
+    uint pm;       // next parent (level > 0) or 0 before the root
+    uint x;        // rANS state
+    uint pos;      // nibble: symbol position; rANS: byte index after the state word
+    uint end;      // nibble: symbol limit; rANS: byte limit
+    uint base;     // rANS: word of the current stream's state
+    uint cursor;   // next PALETTE_ADV word
+    uint appended; // palette entries appended so far
+    uint status;   // DECODE_RUNNING until done
+};
+
+struct Brick {
+    Words words;
+    uint start;        // first word of the brick in its array
+    uint size;         // words
+    uint paletteStart; // brick-relative word of the palette's first word
+    uvec3 origin;
+};
+
+// ---- symbol readers (loop-free) ----
+#if ENCODING == 0
+bool nextSymbol(Brick b, inout DecodeState st, bool tableB, out uint s) {
+    if (st.pos >= st.end) return false;
+    s = (b.words.w[b.start + (st.pos >> 3)] >> (28u - 4u * (st.pos & 7u))) & 15u;
+    st.pos++;
+    return true;
+}
+void beginLevelStream(Brick b, inout DecodeState st) {
+    st.pos = b.words.w[b.start + st.level];
+    st.end = st.level + 1u < LEVELS ? b.words.w[b.start + st.level + 1u] : b.paletteStart * 8u;
+}
+#else
+const uint CUM_A_TABLE[17] = CUM_A;
+#if ENCODING == 2
+const uint CUM_B_TABLE[17] = CUM_B;
+#endif
+// The symbol s with cum[s] <= c < cum[s + 1], counted without a loop (cum is non-decreasing).
+#define CSGV_LOOKUP(T, c)                                                                                              \
+    (uint(c >= T[1]) + uint(c >= T[2]) + uint(c >= T[3]) + uint(c >= T[4]) + uint(c >= T[5]) + uint(c >= T[6]) +        \
+     uint(c >= T[7]) + uint(c >= T[8]) + uint(c >= T[9]) + uint(c >= T[10]) + uint(c >= T[11]) + uint(c >= T[12]) +     \
+     uint(c >= T[13]) + uint(c >= T[14]) + uint(c >= T[15]))
+
+bool readByte(Brick b, inout DecodeState st) {
+    if (st.pos >= st.end) return false;
+    uint word = b.words.w[b.start + st.base + 1u + (st.pos >> 2u)];
+    st.x = (st.x << 8u) | ((word >> (8u * (st.pos & 3u))) & 0xFFu);
+    st.pos++;
+    return true;
+}
+
+bool nextSymbol(Brick b, inout DecodeState st, bool tableB, out uint s) {
+    const uint c = st.x & 0x3FFFu;
+    uint cum, next;
+#if ENCODING == 2
+    if (tableB) {
+        s = CSGV_LOOKUP(CUM_B_TABLE, c);
+        cum = CUM_B_TABLE[s];
+        next = CUM_B_TABLE[s + 1u];
+    } else
+#endif
+    {
+        s = CSGV_LOOKUP(CUM_A_TABLE, c);
+        cum = CUM_A_TABLE[s];
+        next = CUM_A_TABLE[s + 1u];
+    }
+    st.x = (next - cum) * (st.x >> 14u) + c - cum;
+    // From a state >= 2^23 the new state is >= 2^9: at most two bytes restore it.
+    if (st.x < RANS_LOWER && !readByte(b, st)) return false;
+    if (st.x < RANS_LOWER && !readByte(b, st)) return false;
+    return st.x >= RANS_LOWER;
+}
+bool ransFinished(Brick b, DecodeState st) {
+    if (st.x != RANS_LOWER || st.end - st.pos >= 4u) return false;
+    // At most 3 padding bytes, all zero.
+    bool zero = true;
+    if (st.pos < st.end) zero = zero && ((b.words.w[b.start + st.base + 1u + (st.pos >> 2u)] >> (8u * (st.pos & 3u))) & 0xFFu) == 0u;
+    if (st.pos + 1u < st.end) zero = zero && ((b.words.w[b.start + st.base + 1u + ((st.pos + 1u) >> 2u)] >> (8u * ((st.pos + 1u) & 3u))) & 0xFFu) == 0u;
+    if (st.pos + 2u < st.end) zero = zero && ((b.words.w[b.start + st.base + 1u + ((st.pos + 2u) >> 2u)] >> (8u * ((st.pos + 2u) & 3u))) & 0xFFu) == 0u;
+    return zero;
+}
+void beginRansStream(Brick b, inout DecodeState st, uint startWord, uint endWord) {
+    st.base = startWord;
+    st.x = b.words.w[b.start + startWord];
+    st.pos = 0u;
+    st.end = (endWord - startWord - 1u) * 4u;
+}
+#endif
+
+// ---- one node ----
+
+/// Visits child c of parent pm at level l; writes its label (and flag below the target level).
+uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, uint target, uint l, uint pm, uint c,
+                bool parentOpen, uint parentLabel, uvec3 lim, uvec3 plim) {
+    const uint shiftL = 3u * (target - l);
+    const uint shiftP = shiftL + 3u;
+    const bool finest = l == LEVELS - 1u;
+    const bool tableB = ENCODING == 2 && finest;
+    const uint m = (pm << 3u) | c;
+    const uint slot = region + ((m + 1u) << shiftL) - 1u;
+    const uint flagSlot = region + (m << shiftL);
+    if (!parentOpen) {
+        cache.w[slot] = parentLabel;
+        if (l < target) cache.w[flagSlot] = 0u;
+        return DECODE_OK;
+    }
+    const uvec3 p = uvec3(mortonCompact(m), mortonCompact(m >> 1u), mortonCompact(m >> 2u));
+    if (any(greaterThanEqual(p, lim))) {
+        cache.w[slot] = INVALID_LABEL;
+        if (l < target) cache.w[flagSlot] = 0u;
+        return DECODE_OK;
+    }
+    uint s;
+    if (!nextSymbol(b, st, tableB, s)) return DECODE_STREAM_END;
+    if ((s & 8u) != 0u && finest) return DECODE_STOP_AT_FINEST;
+    const uint op = s & 7u;
+    const uint paletteSize = b.words.w[b.start + LEVELS];
+    uint label;
+    if (op == 0u) {
+        label = parentLabel;
+    } else if (op <= 3u) {
+        const uint axis = op - 1u;
+        if (((c >> axis) & 1u) == 0u) {
+            if ((m & axisMask(axis)) == 0u) return DECODE_BAD_NEIGHBOUR;
+            label = cache.w[region + ((mortonDecrement(m, axis) + 1u) << shiftL) - 1u];
+        } else {
+            const uint coord = mortonCompact(pm >> axis) + 1u;
+            if (coord >= (1u << (l - 1u)) || coord >= plim[axis]) return DECODE_BAD_NEIGHBOUR;
+            label = cache.w[region + ((mortonIncrement(pm, axis) + 1u) << shiftP) - 1u];
+        }
+    } else if (op == 4u) {
+        if (st.appended >= paletteSize) return DECODE_PALETTE_OVERFLOW;
+        label = b.words.w[b.start + st.cursor];
+        if (label == INVALID_LABEL) return DECODE_PALETTE_OVERFLOW;
+        st.cursor--;
+        st.appended++;
+    } else if (op == 5u) {
+        label = b.words.w[b.start + st.cursor + 1u];
+    } else if (op == 6u) {
+        uint v = 0u;
+        uint g;
+#if LEGACY_DELTA
+        if (!nextSymbol(b, st, tableB, g)) return DECODE_STREAM_END;
+        v = g;
+#else
+        bool more = true;
+        for (uint groups = 0u; groups < 11u && more; ++groups) {
+            if (!nextSymbol(b, st, tableB, g)) return DECODE_STREAM_END;
+            if (v > 0x1FFFFFFFu) return DECODE_BAD_DISTANCE; // would not fit 32 bits
+            v = (v << 3u) | (g & 7u);
+            more = (g & 8u) != 0u;
+        }
+        if (more) return DECODE_BAD_DISTANCE; // more than 11 groups
+#endif
+        if (v + 2u > st.appended || v + 2u < v) return DECODE_BAD_DISTANCE;
+        label = b.words.w[b.start + st.cursor + 2u + v];
+    } else {
+        return DECODE_BAD_OPERATION;
+    }
+    cache.w[slot] = label;
+    if (l < target) cache.w[flagSlot] = (s & 8u) != 0u ? 0u : 1u;
+    return DECODE_OK;
+}
+
+Brick openBrick(Addresses arrays, Words starts, uint brick) {
+    Brick b;
+    b.words = Words(arrays.a[brick / BRICKS_PER_ARRAY]);
+    b.start = (brick > 0u && brick % BRICKS_PER_ARRAY == 0u) ? 0u : starts.w[brick];
+    b.size = starts.w[brick + 1u] - b.start;
+    b.paletteStart = b.size - b.words.w[b.start + LEVELS];
+    const uvec3 bc = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y));
+    b.origin = bc * BRICK_SIZE;
+    return b;
+}
+
+DecodeState initialState(Brick b) {
+    DecodeState st;
+    st.level = 0u;
+    st.pm = 0u;
+    st.x = 0u;
+    st.pos = 0u;
+    st.end = 0u;
+    st.base = 0u;
+    st.cursor = b.size - 1u;
+    st.appended = 0u;
+    st.status = DECODE_RUNNING;
+#if ENCODING == 0
+    beginLevelStream(b, st);
+#elif ENCODING == 1
+    beginRansStream(b, st, LEVELS + 1u, b.paletteStart);
+#else
+    beginRansStream(b, st, LEVELS + 1u, b.words.w[b.start + LEVELS - 1u] / 8u);
+#endif
+#if ENCODING != 0
+    if (st.x < RANS_LOWER) st.status = DECODE_RANS_INTEGRITY; // a valid stream never starts lower
+#endif
+    return st;
+}
+
+/// Finishes level st.level: integrity checks, then the next level's stream or the end.
+void endLevel(Brick b, inout DecodeState st, uint target) {
+#if ENCODING == 1
+    if (st.level == target) {
+        st.status = (target == LEVELS - 1u && !ransFinished(b, st)) ? DECODE_RANS_INTEGRITY : DECODE_OK;
+        return;
+    }
+#elif ENCODING == 2
+    if (st.level == LEVELS - 2u && !ransFinished(b, st)) {
+        st.status = DECODE_RANS_INTEGRITY;
+        return;
+    }
+    if (st.level == target) {
+        st.status = (target == LEVELS - 1u && !ransFinished(b, st)) ? DECODE_RANS_INTEGRITY : DECODE_OK;
+        return;
+    }
+    if (st.level + 1u == LEVELS - 1u) beginRansStream(b, st, b.words.w[b.start + LEVELS - 1u] / 8u, b.paletteStart);
+#else
+    if (st.level == target) {
+        st.status = DECODE_OK;
+        return;
+    }
+#endif
+    st.level++;
+    st.pm = 0u;
+#if ENCODING == 0
+    beginLevelStream(b, st);
+#endif
+}
+
+/// Runs at most `steps` steps of one brick's decoding.
+void decodeSteps(Brick b, inout DecodeState st, uint target, CacheWords cache, uint region, uint steps) {
+    for (uint step = 0u; step < steps && st.status == DECODE_RUNNING; ++step) {
+        const uint l = st.level;
+        if (l == 0u) { // the root
+            uint s;
+            if (!nextSymbol(b, st, false, s)) {
+                st.status = DECODE_STREAM_END;
+                break;
+            }
+            if ((s & 7u) != 4u) {
+                st.status = DECODE_BAD_ROOT;
+                break;
+            }
+            const uint label = b.words.w[b.start + st.cursor];
+            if (label == INVALID_LABEL) {
+                st.status = DECODE_PALETTE_OVERFLOW;
+                break;
+            }
+            st.cursor--;
+            st.appended = 1u;
+            cache.w[region + (1u << (3u * target)) - 1u] = label;
+            if (target > 0u) cache.w[region] = (s & 8u) != 0u ? 0u : 1u;
+            endLevel(b, st, target);
+            continue;
+        }
+        const uint parents = 1u << (3u * (l - 1u));
+        if (st.pm == parents) {
+            endLevel(b, st, target);
+            continue;
+        }
+        const uint shiftP = 3u * (target - l) + 3u;
+        const uint width = BRICK_SIZE >> l;
+        const uvec3 rest = VOLUME_DIM - b.origin;
+        const uvec3 lim = min(uvec3(1u << l), (rest + width - 1u) / width);
+        const uvec3 plim = min(uvec3(1u << (l - 1u)), (rest + 2u * width - 1u) / (2u * width));
+        const uint pm = st.pm;
+        // Read before child 0 and child 7 overwrite them.
+        const uint parentLabel = cache.w[region + ((pm + 1u) << shiftP) - 1u];
+        const bool parentOpen = cache.w[region + (pm << shiftP)] != 0u;
+        uint r = DECODE_OK;
+        for (uint c = 0u; c < 8u && r == DECODE_OK; ++c)
+            r = visitChild(b, st, cache, region, target, l, pm, c, parentOpen, parentLabel, lim, plim);
+        if (r != DECODE_OK) st.status = r;
+        st.pm = pm + 1u;
+    }
+}
+
