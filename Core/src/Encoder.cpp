@@ -157,6 +157,7 @@ private:
         const bool useD = (m_mask & kMaskPaletteD) != 0;
         const bool stops = (m_mask & kMaskStopBits) != 0;
         out = BrickSymbols{};
+        out.packed.reserve(m_lastPacked); // bricks of a volume are alike: skip regrowing
         m_index.clear();
         auto emit = [&](uint32_t s, uint32_t level) {
             out.push(s);
@@ -231,6 +232,7 @@ private:
             }
         }
         out.levelStart[L] = out.count;
+        m_lastPacked = out.packed.size();
     }
 
     uint32_t m_B, m_L, m_mask;
@@ -239,6 +241,7 @@ private:
     std::vector<uint8_t> m_inVolume, m_constant, m_open;
     std::array<uint32_t, 128> m_spread{};
     bool m_inside = false; ///< the brick lies wholly inside the volume
+    size_t m_lastPacked = 0;
     std::unordered_map<uint32_t, uint32_t> m_index; ///< label -> palette index (PALETTE_D)
 };
 
@@ -364,6 +367,9 @@ public:
         std::memcpy(out, m_v.labels.data() + slice * z0, slice * depth * 4);
         return Status::ok();
     }
+    const uint32_t* slabInMemory(uint32_t z0) const override {
+        return m_v.labels.data() + size_t(m_v.dim[0]) * m_v.dim[1] * z0;
+    }
 
 private:
     const LabelVolume& m_v;
@@ -435,16 +441,22 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
     // Pass 1, slab by slab: level hierarchy, operations, symbol counts.
     std::vector<BrickSymbols> symbols(static_cast<size_t>(bricks));
     std::vector<uint32_t> slab;
-    try {
-        slab.resize(size_t(slabVoxels));
-    } catch (const std::bad_alloc&) {
-        return Status::error("out of memory for a slab of " + std::to_string(slabVoxels) + " labels");
+    if (!source.slabInMemory(0)) {
+        try {
+            slab.resize(size_t(slabVoxels));
+        } catch (const std::bad_alloc&) {
+            return Status::error("out of memory for a slab of " + std::to_string(slabVoxels) + " labels");
+        }
     }
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
     for (uint32_t bz = 0; bz < grid[2]; ++bz) {
         const uint32_t z0 = bz * B, depth = std::min(B, vol.dim[2] - z0);
-        s = source.readSlab(z0, depth, slab.data());
-        if (!s) return s;
+        const uint32_t* slabData = source.slabInMemory(z0);
+        if (!slabData) {
+            s = source.readSlab(z0, depth, slab.data());
+            if (!s) return s;
+            slabData = slab.data();
+        }
         std::mutex mutex;
         Status error;
         uint64_t errorBrick = ~uint64_t(0);
@@ -457,7 +469,7 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
                 const std::array<uint32_t, 3> extent = {std::min(B, vol.dim[0] - bx * B),
                                                         std::min(B, vol.dim[1] - by * B), depth};
                 const uint64_t b = uint64_t(bz) * perSlab + uint64_t(i);
-                Status st = enc.encode(slab.data(), vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(b)]);
+                Status st = enc.encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(b)]);
                 if (!st) {
                     std::lock_guard<std::mutex> lock(mutex);
                     if (b < errorBrick) {

@@ -45,6 +45,8 @@ public:
     virtual std::array<uint32_t, 3> dimensions() const = 0;
     /// Fills out (W * H * depth labels) with slices [z0, z0 + depth).
     virtual Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) = 0;
+    /// Sources already in memory return slice z0's labels here, saving readSlab's copy.
+    virtual const uint32_t* slabInMemory(uint32_t /*z0*/) const { return nullptr; }
 };
 
 /// Parses "default" (pnls), "all" (pnlds) or letters p, x, y, z, n, l, d, s into an operation mask.
