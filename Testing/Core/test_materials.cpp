@@ -1,0 +1,199 @@
+// SPDX-License-Identifier: MIT
+// The material document (shared/MATERIALS.md): parsing, defaults, strict errors, and the CPU
+// reference of material selection and colouring that the GPU must match.
+#include "csgv/Materials.h"
+
+#include <cmath>
+#include <gtest/gtest.h>
+#include <map>
+#include <set>
+
+using namespace csgv;
+
+namespace {
+
+// The example of MATERIALS.md, verbatim.
+const char* kExample = R"j({
+  "version": 1,
+  "materials": [
+    {
+      "name": "tumour cells",
+      "filter": {"attribute": "kind", "min": 1, "max": 1},
+      "color": {
+        "mode": "colormap",
+        "attribute": "nutrient",
+        "min": 0.0, "max": 2.5,
+        "wrap": "clamp",
+        "colormap": "Viridis (matplotlib)"
+      },
+      "opacity": 1.0,
+      "emission": 0.0
+    },
+    {
+      "name": "vessels",
+      "filter": {"attribute": "kind", "min": 2, "max": 2},
+      "color": {"mode": "constant", "rgb": [0.8, 0.1, 0.1]},
+      "opacity": 0.35
+    },
+    {
+      "name": "everything else",
+      "filter": {"attribute": "label", "min": 1, "max": 4294967294},
+      "color": {"mode": "random", "colormap": [[0, 0.2, 0.3, 0.9], [1, 0.95, 0.85, 0.2]]}
+    }
+  ]
+})j";
+
+std::string errorOf(const std::string& json) {
+    Result<MaterialDocument> r = parseMaterials(json);
+    EXPECT_FALSE(r.isOk()) << json;
+    return r.message();
+}
+
+} // namespace
+
+TEST(Materials, TheDocumentedExampleParses) {
+    Result<MaterialDocument> doc = parseMaterials(kExample);
+    ASSERT_TRUE(doc.isOk()) << doc.message();
+    ASSERT_EQ(doc->materials.size(), 3u);
+    const Material& a = doc->materials[0];
+    EXPECT_EQ(a.name, "tumour cells");
+    EXPECT_EQ(a.filterAttribute, "kind");
+    EXPECT_EQ(a.colorMode, Material::ColorMode::Colormap);
+    EXPECT_EQ(a.colorAttribute, "nutrient");
+    EXPECT_EQ(a.colorMax, 2.5);
+    EXPECT_EQ(a.colormap.name, "Viridis (matplotlib)");
+    EXPECT_TRUE(a.colormap.points.empty());
+    const Material& b = doc->materials[1];
+    EXPECT_EQ(b.colorMode, Material::ColorMode::Constant);
+    EXPECT_FLOAT_EQ(b.opacity, 0.35f);
+    EXPECT_FLOAT_EQ(b.emission, 0.0f); // default
+    EXPECT_FLOAT_EQ(b.rgb[0], 0.8f);
+    const Material& c = doc->materials[2];
+    EXPECT_EQ(c.colorMode, Material::ColorMode::Random);
+    EXPECT_EQ(c.colormap.points.size(), 2u);
+    EXPECT_FLOAT_EQ(c.opacity, 1.0f);
+    EXPECT_EQ(attributesUsed(*doc), (std::vector<std::string>{"kind", "nutrient", "label"}));
+    // Serialising gives a document that parses to the same thing.
+    Result<MaterialDocument> again = parseMaterials(serializeMaterials(*doc));
+    ASSERT_TRUE(again.isOk()) << again.message();
+    EXPECT_EQ(serializeMaterials(*again), serializeMaterials(*doc));
+}
+
+TEST(Materials, DefaultsAndTheDefaultDocument) {
+    const MaterialDocument d = defaultMaterials();
+    ASSERT_EQ(d.materials.size(), 1u);
+    EXPECT_EQ(d.materials[0].filterAttribute, "label");
+    EXPECT_EQ(d.materials[0].filterMin, 1);
+    EXPECT_EQ(d.materials[0].filterMax, 4294967294.0);
+    EXPECT_EQ(d.materials[0].colorMode, Material::ColorMode::Random);
+    EXPECT_EQ(d.materials[0].opacity, 1.0f);
+    Result<MaterialDocument> empty = parseMaterials("{}");
+    ASSERT_TRUE(empty.isOk());
+    EXPECT_EQ(serializeMaterials(*empty), serializeMaterials(d));
+    Result<MaterialDocument> minimal = parseMaterials(R"j({"materials": [{}]})j");
+    ASSERT_TRUE(minimal.isOk()) << minimal.message();
+    EXPECT_EQ(minimal->materials[0].filterMin, 1);
+    MaterialEvaluator e(d, [](const std::string&, uint32_t) { return 0.0; });
+    EXPECT_EQ(e.materialOf(0), -1); // label 0 is empty space
+    EXPECT_EQ(e.materialOf(1), 0);
+    EXPECT_EQ(e.materialOf(4294967294u), 0);
+}
+
+TEST(Materials, StrictErrorsNameThePlace) {
+    EXPECT_NE(errorOf("not json").find("not valid JSON"), std::string::npos);
+    EXPECT_NE(errorOf("[1]").find("object"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"version": 2})j").find("version"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [], "colour": 1})j").find("unknown key 'colour'"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"name": "a", "opacty": 1}]})j").find("material 0 ('a'): unknown key 'opacty'"),
+              std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{}, {"opacity": 1.5}]})j").find("material 1"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"emission": -1}]})j").find("emission"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"filter": {"min": 5, "max": 2}}]})j").find("greater"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"filter": {"attribute": 3}}]})j").find("string"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "rainbow"}}]})j").find("'rainbow'"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "constant"}}]})j").find("needs 'rgb'"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "constant", "rgb": [1, 2, 0]}}]})j").find("rgb"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "random", "rgb": [1, 1, 0]}}]})j").find("unknown key 'rgb'"),
+              std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "colormap"}}]})j").find("needs 'colormap'"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "colormap", "colormap": "Turbo", "wrap": "mirror"}}]})j").find("mirror"),
+              std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "colormap", "colormap": [[0, 0, 0, 0], [0.5, 1, 1, 1]]}}]})j").find("0 to 1"),
+              std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "colormap", "colormap": [[0, 0, 0, 0], [0, 1, 1, 1], [1, 1, 1, 1]]}}]})j").find("increase"),
+              std::string::npos);
+    EXPECT_NE(errorOf(R"j({"materials": [{"color": {"mode": "colormap", "colormap": "Turbo", "min": 1, "max": 1}}]})j").find("equals"),
+              std::string::npos);
+    // Attributes the volume lacks are named.
+    Result<MaterialDocument> doc = parseMaterials(kExample);
+    Status s = checkAttributes(*doc, {"kind"});
+    ASSERT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("'nutrient'"), std::string::npos) << s.message();
+    EXPECT_TRUE(checkAttributes(*doc, {"kind", "nutrient"}).isOk());
+}
+
+TEST(Materials, FirstMatchWinsOnClosedIntervals) {
+    MaterialDocument doc = *parseMaterials(kExample);
+    ASSERT_TRUE(resolveColormapNames(doc).isOk());
+    std::map<uint32_t, double> kind = {{5, 1}, {6, 2}, {7, 0}, {8, 1.5}};
+    MaterialEvaluator e(doc, [&](const std::string& a, uint32_t l) {
+        if (a == "kind") return kind.count(l) ? kind[l] : 0.0;
+        if (a == "nutrient") return double(l) / 4.0;
+        return std::nan("");
+    });
+    EXPECT_EQ(e.materialOf(5), 0); // kind 1: first material, although the third also matches
+    EXPECT_EQ(e.materialOf(6), 1);
+    EXPECT_EQ(e.materialOf(7), 2);
+    EXPECT_EQ(e.materialOf(8), 2); // kind 1.5 is in no [1,1] or [2,2] interval
+    EXPECT_EQ(e.materialOf(0), -1);
+    // Interval edges are inclusive on both sides.
+    MaterialDocument edges = *parseMaterials(R"j({"materials": [{"filter": {"min": 10, "max": 20}}]})j");
+    MaterialEvaluator ee(edges, [](const std::string&, uint32_t) { return 0.0; });
+    EXPECT_EQ(ee.materialOf(9), -1);
+    EXPECT_EQ(ee.materialOf(10), 0);
+    EXPECT_EQ(ee.materialOf(20), 0);
+    EXPECT_EQ(ee.materialOf(21), -1);
+}
+
+TEST(Materials, ColourModesAndWrap) {
+    MaterialDocument doc = *parseMaterials(R"j({"materials": [
+        {"color": {"mode": "colormap", "attribute": "v", "min": 0, "max": 10, "wrap": "clamp", "colormap": "Grayscale"}},
+        {"color": {"mode": "colormap", "attribute": "v", "min": 0, "max": 10, "wrap": "repeat", "colormap": "Grayscale"}},
+        {"color": {"mode": "constant", "rgb": [0.25, 0.5, 0.75]}}]})j");
+    ASSERT_TRUE(resolveColormapNames(doc).isOk());
+    MaterialEvaluator e(doc, [](const std::string&, uint32_t l) { return double(l); });
+    EXPECT_FLOAT_EQ(e.colorOf(5, 0)[0], 0.5f);
+    EXPECT_FLOAT_EQ(e.colorOf(15, 0)[0], 1.0f);  // clamped
+    EXPECT_FLOAT_EQ(e.colorOf(15, 1)[0], 0.5f);  // repeated
+    EXPECT_FLOAT_EQ(e.colorOf(0, 0)[1], 0.0f);
+    EXPECT_FLOAT_EQ(e.colorOf(99, 2)[2], 0.75f);
+    // Random colours: stable, and neighbouring labels differ.
+    MaterialDocument rnd = defaultMaterials();
+    MaterialEvaluator r(rnd, [](const std::string&, uint32_t) { return 0.0; });
+    EXPECT_EQ(r.colorOf(1234, 0), r.colorOf(1234, 0));
+    int same = 0;
+    for (uint32_t l = 1; l < 1000; ++l) same += r.colorOf(l, 0) == r.colorOf(l + 1, 0);
+    EXPECT_LT(same, 1000 / 8);
+    std::set<uint32_t> hashes;
+    for (uint32_t l = 0; l < 100000; ++l) hashes.insert(labelHash(l));
+    EXPECT_EQ(hashes.size(), 100000u); // a bijection on 32 bits
+}
+
+TEST(Materials, BuiltinColormaps) {
+    for (const std::string& n : builtinColormapNames()) {
+        Result<Colormap> c = builtinColormap(n);
+        ASSERT_TRUE(c.isOk()) << n;
+        EXPECT_EQ(c->points.front()[0], 0.0f);
+        EXPECT_EQ(c->points.back()[0], 1.0f);
+        for (size_t i = 1; i < c->points.size(); ++i) EXPECT_LT(c->points[i - 1][0], c->points[i][0]) << n;
+    }
+    EXPECT_NEAR(builtinColormap("Viridis (matplotlib)")->at(0)[2], 0.329, 1e-3);
+    EXPECT_NEAR(builtinColormap("Turbo")->at(0.5)[1], 0.98, 0.05); // green in the middle
+    Result<Colormap> nope = builtinColormap("Jet-ish");
+    ASSERT_FALSE(nope.isOk());
+    EXPECT_NE(nope.message().find("Viridis"), std::string::npos);
+    MaterialDocument doc = *parseMaterials(R"j({"materials": [{"color": {"mode": "random", "colormap": "Nope"}}]})j");
+    Status s = resolveColormapNames(doc);
+    ASSERT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("material 0"), std::string::npos) << s.message();
+}
