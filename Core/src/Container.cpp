@@ -16,14 +16,6 @@ constexpr char kMagic[8] = {'C', 'M', 'P', 'S', 'G', 'V', 'O', 'L'};
 
 bool isPowerOfTwo(uint32_t v) { return v && !(v & (v - 1)); }
 
-uint32_t log2u(uint32_t v) {
-    uint32_t l = 0;
-    while (v > 1) {
-        v >>= 1;
-        ++l;
-    }
-    return l;
-}
 
 /// Sequential little-endian reader over a file or memory, always knowing how much is left, so
 /// that no length read from the input is trusted before it is compared with the bytes that remain.
@@ -222,7 +214,7 @@ Result<CompressedVolume> parse(ByteSource& src) {
 
 } // namespace
 
-uint32_t CompressedVolume::levels() const { return log2u(brickSize) + 1; }
+uint32_t CompressedVolume::levels() const { return floorLog2(brickSize) + 1; }
 
 std::array<uint32_t, 3> CompressedVolume::brickGrid() const {
     std::array<uint32_t, 3> g{};

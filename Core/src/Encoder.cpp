@@ -13,14 +13,6 @@ namespace csgv {
 
 namespace {
 
-uint32_t log2u(uint32_t v) {
-    uint32_t l = 0;
-    while (v > 1) {
-        v >>= 1;
-        ++l;
-    }
-    return l;
-}
 
 /// Operation symbols of one brick before entropy coding, two per byte (high nibble first).
 struct BrickSymbols {
@@ -42,7 +34,7 @@ struct BrickSymbols {
 /// @brief Builds the level hierarchy of one brick and chooses its operations (one per thread).
 class BrickEncoder {
 public:
-    BrickEncoder(uint32_t brickSize, uint32_t opMask) : m_B(brickSize), m_L(log2u(brickSize) + 1), m_mask(opMask) {
+    BrickEncoder(uint32_t brickSize, uint32_t opMask) : m_B(brickSize), m_L(floorLog2(brickSize) + 1), m_mask(opMask) {
         uint32_t total = 0;
         for (uint32_t l = 0; l < m_L; ++l) {
             m_off[l] = total;
@@ -107,7 +99,7 @@ public:
                         continue;
                     }
                     pc[m] = 0;
-                    pl[m] = modeOf(c8, 8);
+                    pl[m] = modeOfChildren(c8, 8);
                     continue;
                 }
                 pi[m] = ci[b];
@@ -127,7 +119,7 @@ public:
                         ++k;
                     }
                 pc[m] = same && allConstant;
-                pl[m] = same ? lab[0] : modeOf(lab, k);
+                pl[m] = same ? lab[0] : modeOfChildren(lab, k);
             }
         }
         chooseOperations(out);
@@ -135,21 +127,6 @@ public:
     }
 
 private:
-    /// The most frequent of n labels, ties to the first (lowest child index).
-    static uint32_t modeOf(const uint32_t* lab, int n) {
-        uint32_t best = lab[0];
-        int bestCount = 0;
-        for (int i = 0; i < n; ++i) {
-            int c = 0;
-            for (int j = 0; j < n; ++j) c += lab[j] == lab[i];
-            if (c > bestCount) {
-                bestCount = c;
-                best = lab[i];
-            }
-        }
-        return best;
-    }
-
     bool inVolume(uint32_t l, uint32_t m) const { return m_inside || m_inVolume[m_off[l] + m]; }
 
     void chooseOperations(BrickSymbols& out) {

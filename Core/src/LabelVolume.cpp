@@ -127,17 +127,7 @@ LabelVolume coarsenLabels(const LabelVolume& fine) {
                     const uint32_t fx = 2 * x + (i & 1), fy = 2 * y + ((i >> 1) & 1), fz = 2 * z + ((i >> 2) & 1);
                     if (fx < fine.dim[0] && fy < fine.dim[1] && fz < fine.dim[2]) child[n++] = fine.at(fx, fy, fz);
                 }
-                uint32_t best = child[0];
-                int bestCount = 0;
-                for (int i = 0; i < n; ++i) {
-                    int count = 0;
-                    for (int j = 0; j < n; ++j) count += child[j] == child[i];
-                    if (count > bestCount) {
-                        bestCount = count;
-                        best = child[i];
-                    }
-                }
-                c.labels[size_t(c.index(x, y, z))] = best;
+                c.labels[size_t(c.index(x, y, z))] = modeOfChildren(child, n);
             }
     return c;
 }

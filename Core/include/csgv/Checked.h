@@ -17,4 +17,14 @@ constexpr uint64_t mulSaturate(uint64_t a, uint64_t b) {
 
 constexpr uint64_t product3(uint64_t a, uint64_t b, uint64_t c) { return mulSaturate(mulSaturate(a, b), c); }
 
+/// floor(log2(v)) for v >= 1 (0 for v == 0).
+constexpr uint32_t floorLog2(uint32_t v) {
+    uint32_t l = 0;
+    while (v > 1) {
+        v >>= 1;
+        ++l;
+    }
+    return l;
+}
+
 } // namespace csgv

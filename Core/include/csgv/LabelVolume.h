@@ -42,6 +42,22 @@ Status writeNrrd(const std::string& path, const std::array<uint32_t, 3>& dim, co
 /// Writes uint32 labels as NRRD.
 Status writeNrrd(const std::string& path, const LabelVolume& vol, const Geometry& centred = {});
 
+/// The coarse-label rule for one node (CSGV-FORMAT.md section 1): the label carried by most of
+/// the `count` in-volume children given in child-index order, ties to the lowest child index.
+inline uint32_t modeOfChildren(const uint32_t* labels, int count) {
+    uint32_t best = labels[0];
+    int bestCount = 0;
+    for (int i = 0; i < count; ++i) {
+        int c = 0;
+        for (int j = 0; j < count; ++j) c += labels[j] == labels[i];
+        if (c > bestCount) {
+            bestCount = c;
+            best = labels[i];
+        }
+    }
+    return best;
+}
+
 /// One step of the coarse-label rule (CSGV-FORMAT.md section 1): each node of the next level
 /// takes the label carried by most of its in-volume children, ties going to the lowest child
 /// index (x parity bit 0, y bit 1, z bit 2).
