@@ -62,15 +62,18 @@ public:
             for (uint32_t y = 0; y < extent[1]; ++y) {
                 const uint32_t* row = slab + (uint64_t(z) * H + oy + y) * W + ox;
                 const uint32_t myz = (m_spread[y] << 1) | (m_spread[z] << 2);
-                bool reserved = false;
-                for (uint32_t x = 0; x < extent[0]; ++x) reserved |= row[x] == kInvalidLabel;
-                if (reserved) {
+                // label + 1 wraps to 0 only for the reserved 0xFFFFFFFF: one min finds it in passing.
+                uint32_t smallestPlusOne = ~0u;
+                for (uint32_t x = 0; x < extent[0]; ++x) {
+                    fin[myz | m_spread[x]] = row[x];
+                    smallestPlusOne = std::min(smallestPlusOne, row[x] + 1u);
+                }
+                if (smallestPlusOne == 0) {
                     const uint32_t x = uint32_t(std::find(row, row + extent[0], kInvalidLabel) - row);
                     return Status::error("label 0xFFFFFFFF at voxel (" + std::to_string(ox + x) + ", " +
                                          std::to_string(oy + y) + ", " + std::to_string(z0 + z) +
                                          ") is reserved; relabel the volume");
                 }
-                for (uint32_t x = 0; x < extent[0]; ++x) fin[myz | m_spread[x]] = row[x];
                 if (!m_inside)
                     for (uint32_t x = 0; x < extent[0]; ++x) finIn[myz | m_spread[x]] = 1;
             }
@@ -298,18 +301,20 @@ std::array<RansSymbol, 16> ransSymbols(const std::array<uint32_t, 16>& freq) {
 void ransEncode(const BrickSymbols& sym, uint32_t begin, uint32_t end, const std::array<RansSymbol, 16>& table,
                 std::vector<uint8_t>& scratch, std::vector<uint32_t>& out) {
     uint32_t x = kRansLowerBound;
-    scratch.clear();
+    // A state below 2^31 sheds at most two bytes per symbol (the lower bound is 2^23).
+    scratch.resize(size_t(end - begin) * 2 + 8);
+    uint8_t* put = scratch.data();
     for (uint32_t i = end; i-- > begin;) {
         const RansSymbol& r = table[sym.at(i)];
         while (x >= r.xMax) {
-            scratch.push_back(uint8_t(x & 0xFF));
+            *put++ = uint8_t(x & 0xFF);
             x >>= 8;
         }
         const uint32_t q = uint32_t((uint64_t(x) * r.rcp) >> 32) >> r.shift;
         x = x + r.bias + q * r.complement;
     }
     out.push_back(x);
-    const size_t bytes = scratch.size();
+    const size_t bytes = size_t(put - scratch.data());
     const size_t first = out.size();
     out.resize(first + (bytes + 3) / 4, 0u);
     for (size_t j = 0; j < bytes; ++j) out[first + j / 4] |= uint32_t(scratch[bytes - 1 - j]) << (8 * (j % 4));
