@@ -12,6 +12,8 @@
 #include "csgv/gpu/GpuVolume.h"
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 
 using namespace csgv;
 using namespace csgv::gpu;
@@ -109,4 +111,29 @@ TEST(GpuDecode, CorruptStreamsEndWithAnErrorCode) {
     // Requests outside the volume or the cache are refused on the host.
     EXPECT_FALSE((*gpu)->decodeToHost({{uint32_t(vol.brickCount()), 0, 0}}).isOk());
     EXPECT_FALSE((*gpu)->decodeToHost({{0, L, 0}}).isOk());
+}
+
+TEST(GpuDecode, ATimeoutLeavesAClearErrorAndNoCrash) {
+    CSGV_REQUIRE_GPU(shared);
+    Result<std::unique_ptr<Context>> ctx = Context::create();
+    ASSERT_TRUE(ctx.isOk()) << ctx.message();
+    const CompressedVolume vol = loadFixture("synthA_b32_rans2.csgv");
+    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(**ctx, vol);
+    ASSERT_TRUE(gpu.isOk()) << gpu.message();
+    std::vector<BrickRequest> all;
+    for (uint32_t b = 0; b < vol.brickCount(); ++b) all.push_back({b, 0, 0});
+    (*ctx)->setSubmitTimeout(1e-6); // far less than the decode takes
+    Result<std::vector<uint32_t>> r = (*gpu)->decodeToHost(all);
+    if (r.isOk()) GTEST_SKIP() << "the device finished within a microsecond";
+    EXPECT_NE(r.message().find("did not finish"), std::string::npos) << r.message();
+    EXPECT_TRUE((*ctx)->lost());
+    Result<Buffer> b = (*ctx)->createBuffer(64, MemoryKind::HostVisible);
+    ASSERT_FALSE(b.isOk());
+    EXPECT_NE(b.message().find("stopped responding"), std::string::npos) << b.message();
+    EXPECT_FALSE((*gpu)->decodeToHost({{0, 5, 0}}).isOk());
+    // Destroying everything now must not crash; give the device time to finish its queue first,
+    // as nothing it might use is freed.
+    gpu->reset();
+    ctx->reset();
+    std::this_thread::sleep_for(std::chrono::seconds(3));
 }

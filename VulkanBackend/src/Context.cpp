@@ -101,6 +101,13 @@ struct Context::Impl {
         VkPipelineLayout layout;
     };
     std::map<uint64_t, Pipeline> pipelines;
+    /// Set after a timeout or device loss: the GPU may still use every object, so nothing is
+    /// freed or waited on again (a leak, never a crash or a hang) and all work is refused.
+    bool lost = false;
+    uint64_t timeoutNs = uint64_t(120) * 1000000000ull;
+    Status lostError() const {
+        return Status::error("the Vulkan device stopped responding earlier; create a new context");
+    }
 
     Status createInstance() {
         Status s = vk.loadGlobal();
@@ -147,6 +154,7 @@ struct Context::Impl {
     }
 
     ~Impl() {
+        if (lost) return;
         if (device) {
             vk.vkDeviceWaitIdle(device);
             for (auto& p : pipelines) {
@@ -278,6 +286,12 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
 void Buffer::release() {
     if (!m_context) return;
     Context::Impl& im = *m_context->m_impl;
+    if (im.lost) { // the GPU may still be using it
+        m_context = nullptr;
+        m_buffer = m_memory = 0;
+        m_mapped = nullptr;
+        return;
+    }
     if (m_mapped) im.vk.vkUnmapMemory(im.device, reinterpret_cast<VkDeviceMemory>(m_memory));
     if (m_buffer) im.vk.vkDestroyBuffer(im.device, reinterpret_cast<VkBuffer>(m_buffer), nullptr);
     if (m_memory) im.vk.vkFreeMemory(im.device, reinterpret_cast<VkDeviceMemory>(m_memory), nullptr);
@@ -288,6 +302,7 @@ void Buffer::release() {
 
 Result<Buffer> Context::createBuffer(uint64_t bytes, MemoryKind kind) {
     Impl& im = *m_impl;
+    if (im.lost) return im.lostError();
     bytes = std::max<uint64_t>(bytes, 4);
     if (m_info.maxAllocation && bytes > m_info.maxAllocation)
         return Status::error("a GPU buffer of " + std::to_string(bytes) + " bytes exceeds the device's allocation limit of " +
@@ -344,6 +359,7 @@ namespace {
 /// Records, submits and waits for one command buffer.
 template <typename Record>
 Status submitAndWait(Context::Impl& im, Record record) {
+    if (im.lost) return im.lostError();
     im.vk.vkResetCommandBuffer(im.cmd, 0);
     VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
@@ -356,11 +372,17 @@ Status submitAndWait(Context::Impl& im, Record record) {
     si.pCommandBuffers = &im.cmd;
     im.vk.vkResetFences(im.device, 1, &im.fence);
     // Submission: the recorded work; the fence tells the host when all of it has finished.
-    if ((r = im.vk.vkQueueSubmit(im.queue, 1, &si, im.fence)) != VK_SUCCESS)
+    if ((r = im.vk.vkQueueSubmit(im.queue, 1, &si, im.fence)) != VK_SUCCESS) {
+        im.lost = r == VK_ERROR_DEVICE_LOST;
         return Status::error(vkError("vkQueueSubmit", r));
-    r = im.vk.vkWaitForFences(im.device, 1, &im.fence, VK_TRUE, uint64_t(120) * 1000000000ull);
-    if (r == VK_TIMEOUT) return Status::error("the GPU did not finish within 120 s");
-    if (r != VK_SUCCESS) return Status::error(vkError("vkWaitForFences", r));
+    }
+    r = im.vk.vkWaitForFences(im.device, 1, &im.fence, VK_TRUE, im.timeoutNs);
+    if (r != VK_SUCCESS) {
+        im.lost = true;
+        return Status::error(r == VK_TIMEOUT ? "the GPU did not finish within " +
+                                                   std::to_string(double(im.timeoutNs) / 1e9) + " s"
+                                             : vkError("vkWaitForFences", r));
+    }
     return Status::ok();
 }
 
@@ -450,6 +472,12 @@ Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spi
     im.pipelines[handle] = Impl::Pipeline{pipeline, layout};
     return handle;
 }
+
+void Context::setSubmitTimeout(double seconds) {
+    m_impl->timeoutNs = seconds <= 0 ? 1 : uint64_t(seconds * 1e9);
+}
+
+bool Context::lost() const { return m_impl->lost; }
 
 Status Context::run(const std::vector<Dispatch>& dispatches) {
     Impl& im = *m_impl;

@@ -96,6 +96,11 @@ public:
     };
     Status run(const std::vector<Dispatch>& dispatches);
 
+    /// How long a submission may take (default 120 s). Past it the context counts as lost: it
+    /// refuses all further work and frees nothing the GPU might still use (a leak, not a crash).
+    void setSubmitTimeout(double seconds);
+    bool lost() const;
+
     struct Impl;
 
 private:
