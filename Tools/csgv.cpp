@@ -7,6 +7,7 @@
 #include "csgv/CsgvFile.h"
 #include "csgv/Decoder.h"
 #include "csgv/LabelVolume.h"
+#include "csgv/Metadata.h"
 #include "csgv/Procedural.h"
 
 #include <algorithm>
@@ -202,12 +203,10 @@ int cmdDecompress(const Args& a) {
         Status w = writeVraw(out, *vol);
         return w ? 0 : fail(w.message());
     }
-    // Coarse nodes cover 2^level voxels: scale the spacing, and centre the origin on node 0.
+    // Coarse nodes cover 2^level voxels: scale the spacing, then centre the origin on node 0.
     Geometry g = f->metadata.geometry;
-    const double scale = double(1u << a.level);
-    for (double& sp : g.spacing) sp *= scale;
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) g.origin[r] += 0.5 * g.direction[3 * r + c] * g.spacing[c];
+    for (double& sp : g.spacing) sp *= double(1u << a.level);
+    g = pointGeometryFromCellGeometry(g);
     Status w;
     if (f->wideLabels) {
         std::vector<int64_t> wide(vol->labels.size());

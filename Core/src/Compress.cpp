@@ -39,53 +39,34 @@ public:
         if (!size) return size.status();
         m_file = std::fopen(path.c_str(), "rb");
         if (!m_file) return Status::error("cannot open '" + path + "'");
-        char line[2][80] = {};
-        for (auto& l : line)
-            if (!std::fgets(l, sizeof(l), m_file) || !std::strchr(l, '\n'))
-                return Status::error("'" + path + "' is not a .vraw volume: header lines missing");
-        const std::string header = std::string(line[0]) + line[1];
-        long long w = 0, h = 0, d = 0;
-        char type[16] = {};
-        if (std::sscanf(line[0], "%lld %lld %lld", &w, &h, &d) != 3 || std::sscanf(line[1], "%15s", type) != 1)
-            return Status::error("'" + path + "' is not a .vraw volume: bad header");
-        if (w < 1 || h < 1 || d < 1 || w > 0xFFFFFFFFll || h > 0xFFFFFFFFll || d > 0xFFFFFFFFll)
-            return Status::error("'" + path + "': dimensions out of range");
-        m_dim = {uint32_t(w), uint32_t(h), uint32_t(d)};
-        if (!std::strcmp(type, "uint8")) m_bytes = 1;
-        else if (!std::strcmp(type, "uint16")) m_bytes = 2;
-        else if (!std::strcmp(type, "uint32")) m_bytes = 4;
-        else return Status::error("'" + path + "': label type '" + type + "' is not supported (uint8, uint16 or uint32)");
-        m_offset = header.size();
-        const uint64_t want = mulSaturate(product3(m_dim[0], m_dim[1], m_dim[2]), m_bytes);
-        if (*size - m_offset != want)
-            return Status::error("'" + path + "' holds " + std::to_string(*size - m_offset) +
-                                 " bytes of labels, expected " + std::to_string(want));
+        uint8_t head[160];
+        const size_t got = std::fread(head, 1, sizeof(head), m_file);
+        Result<VrawHeader> h = parseVrawHeader(head, got);
+        if (!h) return Status(h.status()).prefix(path);
+        Status s = h->checkLabelBytes(*size - h->headerBytes);
+        if (!s) return s.prefix(path);
+        m_header = *h;
         return Status::ok();
     }
-    std::array<uint32_t, 3> dimensions() const override { return m_dim; }
+    std::array<uint32_t, 3> dimensions() const override { return m_header.dim; }
     Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override {
-        const uint64_t slice = uint64_t(m_dim[0]) * m_dim[1];
-        const uint64_t n = slice * depth;
-        if (fseeko(m_file, off_t(m_offset + slice * z0 * m_bytes), SEEK_SET) != 0)
+        const uint32_t bytes = m_header.bytesPerLabel;
+        const uint64_t slice = uint64_t(m_header.dim[0]) * m_header.dim[1];
+        const size_t n = size_t(slice * depth);
+        if (fseeko(m_file, off_t(m_header.headerBytes + slice * z0 * bytes), SEEK_SET) != 0)
             return Status::error("cannot seek in '" + m_path + "'");
-        if (m_bytes == 4) {
-            if (std::fread(out, 4, size_t(n), m_file) != n) return Status::error("cannot read '" + m_path + "'");
-            return Status::ok();
-        }
-        std::vector<uint8_t> buf(size_t(n * m_bytes));
-        if (std::fread(buf.data(), 1, buf.size(), m_file) != buf.size())
-            return Status::error("cannot read '" + m_path + "'");
-        for (size_t i = 0; i < n; ++i)
-            out[i] = m_bytes == 1 ? buf[i] : uint32_t(buf[2 * i] | (buf[2 * i + 1] << 8));
+        // 32-bit labels land in place; narrower ones are widened from the slab's raw bytes.
+        std::vector<uint8_t> narrow(bytes == 4 ? 0 : n * bytes);
+        void* dst = bytes == 4 ? static_cast<void*>(out) : narrow.data();
+        if (std::fread(dst, 1, n * bytes, m_file) != n * bytes) return Status::error("cannot read '" + m_path + "'");
+        if (bytes != 4) widenLabels(narrow.data(), bytes, n, out);
         return Status::ok();
     }
 
 private:
     std::string m_path;
     std::FILE* m_file = nullptr;
-    std::array<uint32_t, 3> m_dim{};
-    uint32_t m_bytes = 4;
-    uint64_t m_offset = 0;
+    VrawHeader m_header;
 };
 
 } // namespace

@@ -10,9 +10,9 @@ namespace csgv {
 namespace {
 
 /// Reads one '\n'-terminated text line of at most 64 characters starting at pos.
-bool textLine(const std::vector<uint8_t>& b, size_t& pos, std::string& line) {
+bool textLine(const uint8_t* b, size_t size, size_t& pos, std::string& line) {
     line.clear();
-    while (pos < b.size() && line.size() <= 64) {
+    while (pos < size && line.size() <= 64) {
         const char c = char(b[pos++]);
         if (c == '\n') return true;
         line += c;
@@ -27,40 +27,57 @@ std::string vrawHeader(const LabelVolume& vol) {
 
 } // namespace
 
-Result<LabelVolume> parseVraw(const std::vector<uint8_t>& bytes) {
+Result<VrawHeader> parseVrawHeader(const uint8_t* data, size_t size) {
     size_t pos = 0;
     std::string dims, type;
-    if (!textLine(bytes, pos, dims) || !textLine(bytes, pos, type))
+    if (!textLine(data, size, pos, dims) || !textLine(data, size, pos, type))
         return Status::error("not a .vraw volume: the header lines \"W H D\" and the label type are missing");
     std::istringstream in(dims);
     int64_t d[3] = {0, 0, 0};
     std::string rest;
     if (!(in >> d[0] >> d[1] >> d[2]) || (in >> rest))
         return Status::error("not a .vraw volume: first line '" + dims + "' is not \"W H D\"");
-    for (int a = 0; a < 3; ++a)
+    VrawHeader h;
+    for (int a = 0; a < 3; ++a) {
         if (d[a] < 1 || d[a] > 0xFFFFFFFFll)
             return Status::error(".vraw dimension " + std::to_string(d[a]) + " is out of range");
+        h.dim[a] = uint32_t(d[a]);
+    }
     if (!type.empty() && type.back() == '\r') type.pop_back();
-    size_t bytesPerLabel = 0;
-    if (type == "uint8") bytesPerLabel = 1;
-    else if (type == "uint16") bytesPerLabel = 2;
-    else if (type == "uint32") bytesPerLabel = 4;
+    if (type == "uint8") h.bytesPerLabel = 1;
+    else if (type == "uint16") h.bytesPerLabel = 2;
+    else if (type == "uint32") h.bytesPerLabel = 4;
     else return Status::error(".vraw label type '" + type + "' is not supported (uint8, uint16 or uint32)");
-    LabelVolume v;
-    v.dim = {uint32_t(d[0]), uint32_t(d[1]), uint32_t(d[2])};
-    const uint64_t n = v.voxelCount();
-    const uint64_t want = mulSaturate(n, bytesPerLabel);
-    if (want != bytes.size() - pos)
-        return Status::error(".vraw holds " + std::to_string(bytes.size() - pos) + " bytes of labels, expected " +
-                             (want == kSaturated ? std::string("more than 2^64") : std::to_string(want)) + " for " +
-                             dims + " " + type);
-    v.labels.resize(size_t(n));
-    const uint8_t* p = bytes.data() + pos;
-    if (bytesPerLabel == 4)
-        std::memcpy(v.labels.data(), p, size_t(n) * 4);
+    h.headerBytes = pos;
+    return h;
+}
+
+Status VrawHeader::checkLabelBytes(uint64_t available) const {
+    const uint64_t want = mulSaturate(product3(dim[0], dim[1], dim[2]), bytesPerLabel);
+    if (want == available) return Status::ok();
+    return Status::error(".vraw holds " + std::to_string(available) + " bytes of labels, expected " +
+                         (want == kSaturated ? std::string("more than 2^64") : std::to_string(want)) + " for " +
+                         std::to_string(dim[0]) + " " + std::to_string(dim[1]) + " " + std::to_string(dim[2]) +
+                         " labels of " + std::to_string(bytesPerLabel) + " bytes");
+}
+
+void widenLabels(const uint8_t* p, uint32_t bytesPerLabel, size_t n, uint32_t* out) {
+    if (bytesPerLabel == 4) std::memcpy(out, p, n * 4);
+    else if (bytesPerLabel == 2)
+        for (size_t i = 0; i < n; ++i) out[i] = uint32_t(p[2 * i] | (p[2 * i + 1] << 8));
     else
-        for (size_t i = 0; i < size_t(n); ++i)
-            v.labels[i] = bytesPerLabel == 1 ? p[i] : uint32_t(p[2 * i] | (p[2 * i + 1] << 8));
+        for (size_t i = 0; i < n; ++i) out[i] = p[i];
+}
+
+Result<LabelVolume> parseVraw(const std::vector<uint8_t>& bytes) {
+    Result<VrawHeader> h = parseVrawHeader(bytes.data(), bytes.size());
+    if (!h) return h.status();
+    Status s = h->checkLabelBytes(bytes.size() - h->headerBytes);
+    if (!s) return s;
+    LabelVolume v;
+    v.dim = h->dim;
+    v.labels.resize(size_t(v.voxelCount()));
+    widenLabels(bytes.data() + h->headerBytes, h->bytesPerLabel, v.labels.size(), v.labels.data());
     return v;
 }
 

@@ -11,12 +11,19 @@ using nlohmann::json;
 
 std::string metadataPathFor(const std::string& csgvPath) { return csgvPath + ".json"; }
 
-Geometry cellGeometryFromPointGeometry(const Geometry& g) {
+namespace {
+/// Moves the origin by `halves` half voxels along every index axis.
+Geometry shiftedOrigin(const Geometry& g, double halves) {
     Geometry out = g;
     for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) out.origin[r] -= 0.5 * g.direction[3 * r + c] * g.spacing[c];
+        for (int c = 0; c < 3; ++c) out.origin[r] += 0.5 * halves * g.direction[3 * r + c] * g.spacing[c];
     return out;
 }
+} // namespace
+
+Geometry cellGeometryFromPointGeometry(const Geometry& g) { return shiftedOrigin(g, -1); }
+
+Geometry pointGeometryFromCellGeometry(const Geometry& g) { return shiftedOrigin(g, +1); }
 
 Status writeMetadata(const std::string& path, const VolumeMetadata& md) {
     json j;

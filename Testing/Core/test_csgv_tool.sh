@@ -87,6 +87,15 @@ expect 1 "compress unknown input" "$CSGV" compress "$TMP/s.csgv.json" "$TMP/x.cs
 expect 1 "compress to non-csgv" "$CSGV" compress synth:8x8x8 "$TMP/x.vraw"
 [ -e "$TMP/x.csgv" ] && bad "a failed compress left a file"
 
+# Geometry survives compress and decompress: a NRRD's spacing and origin come back unchanged.
+printf 'NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 3 2\nencoding: raw\nspace dimension: 3\nspace directions: (0.5,0,0) (0,2,0) (0,0,1.5)\nspace origin: (-90,-125,-71)\n\n' > "$TMP/g.nrrd"
+head -c 24 /dev/zero | tr '\0' '\3' >> "$TMP/g.nrrd"
+expect 0 "compress nrrd with geometry" "$CSGV" compress "$TMP/g.nrrd" "$TMP/g.csgv"
+expect 0 "decompress nrrd with geometry" "$CSGV" decompress "$TMP/g.csgv" "$TMP/g2.nrrd"
+grep -aq "space origin: (-90,-125,-71)" "$TMP/g2.nrrd" || bad "origin lost: $(grep -a 'space origin' "$TMP/g2.nrrd")"
+grep -aq "space directions: (0.5,0,0) (0,2,0) (0,0,1.5)" "$TMP/g2.nrrd" || bad "spacing lost: $(grep -a 'space directions' "$TMP/g2.nrrd")"
+expect 0 "verify nrrd" "$CSGV" verify "$TMP/g.csgv" "$TMP/g.nrrd"
+
 # User errors.
 expect 1 "no arguments" "$CSGV"
 expect 0 "help" "$CSGV" --help

@@ -281,3 +281,58 @@ TEST(Compress, NrrdWithNegativeAndWideLabelsComesBackExactly) {
     ASSERT_TRUE(d.isOk());
     for (size_t i = 0; i < values.size(); ++i) ASSERT_EQ(f->originalLabel(d->labels[i]), values[i]) << i;
 }
+
+TEST(Metadata, CornerAndCentreGeometryAreInverses) {
+    Geometry g;
+    g.spacing = {0.5, 2, 1.5};
+    g.origin = {3, -4, 5};
+    g.direction = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+    const Geometry back = pointGeometryFromCellGeometry(cellGeometryFromPointGeometry(g));
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(back.origin[a], g.origin[a], 1e-12);
+    const Geometry corner = cellGeometryFromPointGeometry(g);
+    EXPECT_DOUBLE_EQ(corner.origin[0], 3 + 1);    // index y (spacing 2) runs along world -x
+    EXPECT_DOUBLE_EQ(corner.origin[1], -4 - 0.25); // index x (spacing 0.5) runs along world +y
+}
+
+TEST(Compress, StreamedVrawOfNarrowLabelsAndItsErrors) {
+    const std::string dir = freshDir("vraw16");
+    // uint16 .vraw streamed slab by slab equals the same labels read whole.
+    const std::string header = "9 7 40\nuint16\n";
+    std::vector<uint8_t> bytes(header.begin(), header.end());
+    LabelVolume expected;
+    expected.dim = {9, 7, 40};
+    for (uint32_t i = 0; i < 9 * 7 * 40; ++i) {
+        const uint16_t v = uint16_t((i / 13) * 977);
+        expected.labels.push_back(v);
+        bytes.push_back(uint8_t(v & 0xFF));
+        bytes.push_back(uint8_t(v >> 8));
+    }
+    auto write = [&](const std::string& path, const std::vector<uint8_t>& b) {
+        AtomicFile f;
+        ASSERT_TRUE(f.open(path).isOk());
+        ASSERT_TRUE(f.write(b.data(), b.size()).isOk());
+        ASSERT_TRUE(f.commit().isOk());
+    };
+    write(dir + "/a.vraw", bytes);
+    CompressOptions o;
+    o.encode.brickSize = 8;
+    CompressReport r;
+    ASSERT_TRUE(compressToFile(dir + "/a.vraw", dir + "/a.csgv", o, &r).isOk());
+    EXPECT_TRUE(r.streamed);
+    Result<CsgvFile> f = openCsgv(dir + "/a.csgv");
+    ASSERT_TRUE(f.isOk());
+    EXPECT_TRUE(decodeVolume(f->volume, 0)->labels == expected.labels);
+    // A truncated file gets the same clear message on the streamed path as when read whole.
+    bytes.resize(bytes.size() - 3);
+    write(dir + "/t.vraw", bytes);
+    Status s = compressToFile(dir + "/t.vraw", dir + "/t.csgv", o);
+    ASSERT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("t.vraw"), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("expected 5040"), std::string::npos) << s.message();
+    Result<LabelVolume> whole = parseVraw(bytes);
+    ASSERT_FALSE(whole.isOk());
+    EXPECT_NE(whole.message().find("expected 5040"), std::string::npos) << whole.message();
+    write(dir + "/h.vraw", std::vector<uint8_t>{'9', ' ', '7', '\n'});
+    EXPECT_NE(compressToFile(dir + "/h.vraw", dir + "/h.csgv", o).message().find("W H D"), std::string::npos);
+    EXPECT_FALSE(fileExists(dir + "/t.csgv"));
+}

@@ -26,6 +26,19 @@ struct LabelVolume {
     uint32_t at(uint32_t x, uint32_t y, uint32_t z) const { return labels[size_t(index(x, y, z))]; }
 };
 
+/// @brief The two text lines that open a `.vraw` ("W H D\n", "uint8|uint16|uint32\n").
+struct VrawHeader {
+    std::array<uint32_t, 3> dim{{0, 0, 0}};
+    uint32_t bytesPerLabel = 4;
+    uint64_t headerBytes = 0; ///< where the labels start
+    /// An error unless exactly `available` bytes of labels follow the header.
+    Status checkLabelBytes(uint64_t available) const;
+};
+/// Parses the header from the start of a `.vraw` (the first 160 bytes suffice).
+Result<VrawHeader> parseVrawHeader(const uint8_t* data, size_t size);
+/// Little-endian labels of 1, 2 or 4 bytes to uint32.
+void widenLabels(const uint8_t* src, uint32_t bytesPerLabel, size_t count, uint32_t* out);
+
 /// Reads Volcanite's `.vraw` ("W H D\n", "uint8|uint16|uint32\n", little-endian labels), also
 /// gzip-compressed (`.vraw.gz`). Refuses volumes whose labels need more than maxBytes.
 Result<LabelVolume> readVraw(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);

@@ -33,6 +33,8 @@ struct VolumeMetadata {
 std::string metadataPathFor(const std::string& csgvPath);
 /// Corner-origin geometry for a volume whose voxel centres sit at `centred` grid points.
 Geometry cellGeometryFromPointGeometry(const Geometry& centred);
+/// The inverse: centre-origin geometry (as NRRD and NIfTI store it) from corner-origin geometry.
+Geometry pointGeometryFromCellGeometry(const Geometry& corner);
 Status writeMetadata(const std::string& path, const VolumeMetadata& md);
 Result<VolumeMetadata> readMetadata(const std::string& path);
 

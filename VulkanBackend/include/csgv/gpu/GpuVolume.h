@@ -28,7 +28,8 @@ const char* decodeResultText(uint32_t code);
 
 class GpuVolume {
 public:
-    /// Uploads the encoding; the volume must have passed checkContainer().
+    /// Uploads the encoding; the volume must have passed checkContainer(). The GpuVolume keeps a
+    /// reference to `volume` (for its header fields): keep it alive as long as the GpuVolume.
     static Result<std::unique_ptr<GpuVolume>> create(Context& context, const CompressedVolume& volume);
 
     /// Shader defines that specialise decoding to this volume.
