@@ -1,0 +1,177 @@
+// SPDX-License-Identifier: MIT
+#include "vtkCSGVExtract.h"
+
+#include "vtkCSGVInternals.h"
+#include "vtkCSGVReader.h"
+
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationDoubleVectorKey.h>
+#include <vtkInformationIntegerKey.h>
+#include <vtkInformationIntegerVectorKey.h>
+#include <vtkInformationVector.h>
+#include <vtkObjectFactory.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <algorithm>
+
+vtkStandardNewMacro(vtkCSGVExtract);
+
+vtkCSGVExtract::vtkCSGVExtract() = default;
+vtkCSGVExtract::~vtkCSGVExtract() = default;
+
+int vtkCSGVExtract::FillInputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
+  return 1;
+}
+
+bool vtkCSGVExtract::InputVolumeInfo(vtkInformation* inInfo, int dims[3], int& levels, double geometry[15])
+{
+  if (inInfo->Has(vtkCSGVReader::CSGV_DIMENSIONS()) && inInfo->Has(vtkCSGVReader::CSGV_LEVELS()) &&
+    inInfo->Has(vtkCSGVReader::CSGV_GEOMETRY()))
+  {
+    inInfo->Get(vtkCSGVReader::CSGV_DIMENSIONS(), dims);
+    levels = inInfo->Get(vtkCSGVReader::CSGV_LEVELS());
+    inInfo->Get(vtkCSGVReader::CSGV_GEOMETRY(), geometry);
+    return true;
+  }
+  // Not straight from the reader: use the encoding of data that already exists upstream.
+  vtkImageData* input = vtkImageData::SafeDownCast(inInfo->Get(vtkDataObject::DATA_OBJECT()));
+  csgvvtk::EncodedInput enc;
+  if (!input || !csgvvtk::readEncodingArrays(input->GetFieldData(), enc).empty())
+  {
+    return false;
+  }
+  for (int a = 0; a < 3; ++a)
+  {
+    dims[a] = int(enc.volume.dim[a]);
+    geometry[a] = enc.geometry.spacing[a];
+    geometry[3 + a] = enc.geometry.origin[a];
+  }
+  std::copy(enc.geometry.direction.begin(), enc.geometry.direction.end(), geometry + 6);
+  levels = int(enc.volume.levels());
+  return true;
+}
+
+void vtkCSGVExtract::LevelBox(const int dims[3], int lod, int box[6]) const
+{
+  for (int a = 0; a < 3; ++a)
+  {
+    const int lo = std::min(std::max(this->VOI[2 * a], 0), dims[a] - 1);
+    const int hi = std::min(std::max(this->VOI[2 * a + 1], lo), dims[a] - 1);
+    box[2 * a] = lo >> lod;
+    box[2 * a + 1] = (hi >> lod) + 1;
+  }
+}
+
+int vtkCSGVExtract::RequestInformation(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  int dims[3], levels = 0;
+  double geometry[15];
+  if (!this->InputVolumeInfo(inInfo, dims, levels, geometry) || levels < 1)
+  {
+    vtkErrorMacro(<< "the input carries no CSGV volume (apply CSGV Extract to the CSGV reader's output)");
+    return 0;
+  }
+  const int lod = std::min(this->Level, levels - 1);
+  int box[6];
+  this->LevelBox(dims, lod, box);
+  const double scale = double(1 << lod);
+  const double spacing[3] = { geometry[0] * scale, geometry[1] * scale, geometry[2] * scale };
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), box, 6);
+  outInfo->Set(vtkDataObject::SPACING(), spacing, 3);
+  outInfo->Set(vtkDataObject::ORIGIN(), geometry + 3, 3);
+  outInfo->Set(vtkDataObject::DIRECTION(), geometry + 6, 9);
+  outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
+  return 1;
+}
+
+int vtkCSGVExtract::RequestUpdateExtent(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
+{
+  // The input's whole extent, as its representation asks for it, so the reader is not
+  // re-executed for another extent; it decodes nothing when its labels stay compressed.
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  int whole[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+  return 1;
+}
+
+int vtkCSGVExtract::RequestData(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkImageData* input = vtkImageData::GetData(inputVector[0], 0);
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkImageData* output = vtkImageData::GetData(outInfo);
+  if (!input || !output)
+  {
+    return 0;
+  }
+  output->Initialize();
+  csgvvtk::EncodedInput enc;
+  const std::string error = csgvvtk::readEncodingArrays(input->GetFieldData(), enc);
+  if (!error.empty())
+  {
+    vtkErrorMacro(<< error);
+    return 0;
+  }
+  const int dims[3] = { int(enc.volume.dim[0]), int(enc.volume.dim[1]), int(enc.volume.dim[2]) };
+  const int lod = std::min<int>(this->Level, int(enc.volume.levels()) - 1);
+  int box[6];
+  this->LevelBox(dims, lod, box);
+  int ext[6];
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  output->SetExtent(ext);
+  csgvvtk::applyGeometry(output, enc.geometry, uint32_t(lod));
+  output->GetFieldData()->ShallowCopy(input->GetFieldData());
+
+  // Cells [ext[2a], ext[2a+1]) of the level image, inside the VOI's box.
+  csgv::Box cells;
+  for (int a = 0; a < 3; ++a)
+  {
+    const int lo = std::max(ext[2 * a], box[2 * a]);
+    const int hi = std::min(ext[2 * a + 1], box[2 * a + 1]);
+    if (hi <= lo || lo != ext[2 * a] || hi != ext[2 * a + 1])
+    {
+      if (hi <= lo)
+      {
+        return 1; // a piece without cells
+      }
+      vtkErrorMacro(<< "the requested extent leaves the VOI");
+      return 0;
+    }
+    cells.min[a] = uint32_t(lo);
+    cells.max[a] = uint32_t(hi);
+  }
+  csgvvtk::DecodedLabels decoded;
+  const std::string decodeError = csgvvtk::decodeBox(
+    enc.volume, uint32_t(lod), cells, enc.info, [this](double f) { this->UpdateProgress(f); }, decoded);
+  if (!decodeError.empty())
+  {
+    vtkErrorMacro(<< decodeError);
+    output->Initialize();
+    return 0;
+  }
+  if (!decoded.warning.empty())
+  {
+    vtkWarningMacro(<< decoded.warning);
+  }
+  output->GetCellData()->SetScalars(decoded.array);
+  return 1;
+}
+
+void vtkCSGVExtract::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "VOI: " << this->VOI[0] << " " << this->VOI[1] << " " << this->VOI[2] << " "
+     << this->VOI[3] << " " << this->VOI[4] << " " << this->VOI[5] << "\n";
+  os << indent << "Level: " << this->Level << "\n";
+}

@@ -1,0 +1,174 @@
+// SPDX-License-Identifier: MIT
+#include "vtkCSGVNIfTIReader.h"
+
+#include "vtkCSGVInternals.h"
+
+#include "csgv/Inputs.h"
+
+#include <vtkAOSDataArrayTemplate.h>
+#include <vtkDataArray.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <cstring>
+#include <fstream>
+
+vtkStandardNewMacro(vtkCSGVNIfTIReader);
+
+/// @brief The last file's volume. Core reads header and voxels together, so the values read in
+/// RequestInformation are kept for the RequestData that follows, then released.
+class vtkCSGVNIfTIReader::vtkInternals
+{
+public:
+  std::string Path;
+  bool HasValues = false;
+  csgv::InputVolume Volume;
+};
+
+vtkCSGVNIfTIReader::vtkCSGVNIfTIReader()
+  : Internals(new vtkInternals)
+{
+  this->SetNumberOfInputPorts(0);
+}
+
+vtkCSGVNIfTIReader::~vtkCSGVNIfTIReader()
+{
+  this->SetFileName(nullptr);
+  delete this->Internals;
+}
+
+int vtkCSGVNIfTIReader::CanReadFile(const char* fileName)
+{
+  if (!fileName)
+  {
+    return 0;
+  }
+  const std::string path(fileName);
+  const size_t n = path.size();
+  if (n > 7 && path.compare(n - 7, 7, ".nii.gz") == 0)
+  {
+    return 1;
+  }
+  if (n < 4 || path.compare(n - 4, 4, ".nii") != 0)
+  {
+    return 0;
+  }
+  std::ifstream in(path, std::ios::binary);
+  char header[348];
+  if (!in.read(header, sizeof(header)))
+  {
+    return 0;
+  }
+  // sizeof_hdr 348 (either byte order) and the single-file magic "n+1".
+  int32_t size;
+  std::memcpy(&size, header, 4);
+  const bool sizeOk = size == 348 || size == 0x5C010000;
+  return sizeOk && std::memcmp(header + 344, "n+1", 4) == 0 ? 1 : 0;
+}
+
+int vtkCSGVNIfTIReader::RequestInformation(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkInternals& in = *this->Internals;
+  in.HasValues = false;
+  in.Volume = csgv::InputVolume{};
+  if (!this->FileName || !*this->FileName)
+  {
+    vtkErrorMacro(<< "no FileName set");
+    return 0;
+  }
+  csgv::Result<csgv::InputVolume> vol = csgv::readNifti(this->FileName);
+  if (!vol)
+  {
+    vtkErrorMacro(<< vol.message());
+    if (vtkDataObject* out = outInfo->Get(vtkDataObject::DATA_OBJECT()))
+    {
+      out->Initialize();
+    }
+    return 0;
+  }
+  in.Volume = std::move(*vol);
+  in.Path = this->FileName;
+  in.HasValues = true;
+  const csgv::InputVolume& v = in.Volume;
+  int extent[6] = { 0, int(v.dim[0]) - 1, 0, int(v.dim[1]) - 1, 0, int(v.dim[2]) - 1 };
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+  outInfo->Set(vtkDataObject::SPACING(), v.geometry.spacing.data(), 3);
+  outInfo->Set(vtkDataObject::ORIGIN(), v.geometry.origin.data(), 3);
+  outInfo->Set(vtkDataObject::DIRECTION(), v.geometry.direction.data(), 9);
+  const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
+  vtkDataObject::SetPointDataActiveScalarInfo(outInfo, type, 1);
+  return 1;
+}
+
+namespace
+{
+template <class T>
+void convertValues(const csgv::InputVolume& v, T* out)
+{
+  const size_t n = v.values.size();
+  const bool isFloat = v.type == csgv::LabelType::F32 || v.type == csgv::LabelType::F64;
+  for (size_t i = 0; i < n; ++i)
+  {
+    // Signed and float inputs hold int64 bits; unsigned ones their value.
+    out[i] = (isFloat || csgv::isSignedType(v.type)) ? static_cast<T>(static_cast<int64_t>(v.values[i]))
+                                                      : static_cast<T>(v.values[i]);
+  }
+}
+} // namespace
+
+int vtkCSGVNIfTIReader::RequestData(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkImageData* output = vtkImageData::GetData(outInfo);
+  vtkInternals& in = *this->Internals;
+  if (!output || !this->FileName)
+  {
+    return 0;
+  }
+  output->Initialize();
+  if (!in.HasValues || in.Path != this->FileName)
+  {
+    csgv::Result<csgv::InputVolume> vol = csgv::readNifti(this->FileName);
+    if (!vol)
+    {
+      vtkErrorMacro(<< vol.message());
+      return 0;
+    }
+    in.Volume = std::move(*vol);
+    in.Path = this->FileName;
+  }
+  this->UpdateProgress(0.5);
+  const csgv::InputVolume& v = in.Volume;
+  // The whole volume: the file is read whole anyway.
+  output->SetExtent(0, int(v.dim[0]) - 1, 0, int(v.dim[1]) - 1, 0, int(v.dim[2]) - 1);
+  output->SetSpacing(v.geometry.spacing.data());
+  output->SetOrigin(v.geometry.origin.data());
+  output->SetDirectionMatrix(v.geometry.direction.data());
+  const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
+  vtkSmartPointer<vtkDataArray> arr = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(type));
+  arr->SetName(csgvvtk::kLabelsName);
+  arr->SetNumberOfTuples(static_cast<vtkIdType>(v.values.size()));
+  switch (type)
+  {
+    vtkTemplateMacro(convertValues(v, static_cast<VTK_TT*>(arr->GetVoidPointer(0))));
+  }
+  output->GetPointData()->SetScalars(arr);
+  // Release the 8-byte-per-voxel copy: the output now holds the labels.
+  in.Volume = csgv::InputVolume{};
+  in.HasValues = false;
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+void vtkCSGVNIfTIReader::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
+}

@@ -1,0 +1,361 @@
+// SPDX-License-Identifier: MIT
+#include "vtkCSGVReader.h"
+
+#include "vtkCSGVInternals.h"
+
+#include "csgv/CsgvFile.h"
+#include "csgv/Encoder.h"
+#include "csgv/LabelVolume.h"
+#include "csgv/Relabel.h"
+
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationDoubleVectorKey.h>
+#include <vtkInformationIntegerKey.h>
+#include <vtkInformationIntegerVectorKey.h>
+#include <vtkInformationVector.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+#include <vtkUnsignedCharArray.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+#include <fstream>
+#include <sys/stat.h>
+
+vtkStandardNewMacro(vtkCSGVReader);
+vtkInformationKeyRestrictedMacro(vtkCSGVReader, CSGV_DIMENSIONS, IntegerVector, 3);
+vtkInformationKeyMacro(vtkCSGVReader, CSGV_LEVELS, Integer);
+vtkInformationKeyRestrictedMacro(vtkCSGVReader, CSGV_GEOMETRY, DoubleVector, 15);
+
+namespace
+{
+bool endsWithNoCase(const std::string& s, const char* suffix)
+{
+  const size_t n = std::strlen(suffix);
+  if (s.size() < n)
+  {
+    return false;
+  }
+  for (size_t i = 0; i < n; ++i)
+  {
+    if (std::tolower(static_cast<unsigned char>(s[s.size() - n + i])) != suffix[i])
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+bool isVrawName(const std::string& path)
+{
+  return endsWithNoCase(path, ".vraw") || endsWithNoCase(path, ".vraw.gz");
+}
+} // namespace
+
+/// @brief What a file yields before any decoding, cached while the file is unchanged so that
+/// changing Level or DecodeLabels never reads the file again.
+class vtkCSGVReader::vtkInternals
+{
+public:
+  std::string Path;
+  int64_t MTime = -1;
+  int64_t Size = -1;
+  bool Loaded = false;
+
+  vtkSmartPointer<vtkUnsignedCharArray> Encoding; ///< the container bytes (FieldData)
+  csgvvtk::LabelInfo Info;
+  csgv::Geometry Geometry; ///< corner origin, level 0
+  std::array<uint32_t, 3> Dim{ { 0, 0, 0 } };
+  uint32_t Levels = 0;
+  vtkSmartPointer<vtkDataArray> Range;
+
+  /// Reads the file (when it changed since the last call); returns an error message or "".
+  std::string Load(const std::string& path)
+  {
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0)
+    {
+      this->Loaded = false;
+      return "cannot open '" + path + "': " + std::strerror(errno);
+    }
+    if (this->Loaded && path == this->Path && int64_t(st.st_mtime) == this->MTime &&
+      int64_t(st.st_size) == this->Size)
+    {
+      return std::string();
+    }
+    this->Loaded = false;
+    this->Encoding = nullptr;
+    this->Range = nullptr;
+    this->Info = csgvvtk::LabelInfo{};
+    this->Geometry = csgv::Geometry{};
+    const std::string error =
+      isVrawName(path) ? this->LoadVraw(path) : this->LoadCsgv(path, uint64_t(st.st_size));
+    if (!error.empty())
+    {
+      this->Encoding = nullptr;
+      return error;
+    }
+    this->Path = path;
+    this->MTime = int64_t(st.st_mtime);
+    this->Size = int64_t(st.st_size);
+    this->Loaded = true;
+    return std::string();
+  }
+
+private:
+  std::string LoadCsgv(const std::string& path, uint64_t bytes)
+  {
+    // openCsgv gives every caller the same checks of the container and its sidecars.
+    csgv::Result<csgv::CsgvFile> file = csgv::openCsgv(path);
+    if (!file)
+    {
+      return file.message();
+    }
+    const csgv::CsgvFile& f = *file;
+    this->Info.relabelled = f.hasAttributes;
+    if (f.hasAttributes)
+    {
+      this->Info.map = f.attributes.labels;
+      this->Info.unsigned64 = f.attributes.labelsUnsigned64;
+    }
+    if (f.hasMetadata)
+    {
+      this->Info.originalType = f.metadata.originalType;
+    }
+    else if (f.wideLabels)
+    {
+      this->Info.originalType = f.attributes.labelsUnsigned64 ? "uint64" : "int64";
+    }
+    this->Geometry = f.metadata.geometry;
+    this->Dim = f.volume.dim;
+    this->Levels = f.volume.levels();
+    this->Range = csgvvtk::paletteRange(f.volume, this->Info);
+
+    // The file's bytes, unchanged, are the encoding handed downstream: no re-serialisation.
+    std::ifstream in(path, std::ios::binary);
+    vtkNew<vtkUnsignedCharArray> enc;
+    if (!in || !enc->Allocate(static_cast<vtkIdType>(bytes)))
+    {
+      return "cannot read '" + path + "'";
+    }
+    enc->SetNumberOfValues(static_cast<vtkIdType>(bytes));
+    in.read(reinterpret_cast<char*>(enc->GetPointer(0)), static_cast<std::streamsize>(bytes));
+    if (uint64_t(in.gcount()) != bytes || in.peek() != std::ifstream::traits_type::eof())
+    {
+      return "'" + path + "' changed while it was read";
+    }
+    this->Encoding = enc;
+    return std::string();
+  }
+
+  std::string LoadVraw(const std::string& path)
+  {
+    csgv::Result<csgv::LabelVolume> raw = csgv::readVraw(path);
+    if (!raw)
+    {
+      return raw.message();
+    }
+    csgv::LabelVolume& labels = *raw;
+    // 0xFFFFFFFF is reserved by the format: such volumes are relabelled as the codec does.
+    if (std::find(labels.labels.begin(), labels.labels.end(), csgv::kInvalidLabel) != labels.labels.end())
+    {
+      const std::vector<uint64_t> map = csgv::relabelDense(labels, csgv::EncodeOptions{}.brickSize);
+      this->Info.relabelled = true;
+      this->Info.map.assign(map.begin(), map.end());
+    }
+    csgv::Result<csgv::CompressedVolume> vol = csgv::encodeVolume(labels, csgv::EncodeOptions{});
+    if (!vol)
+    {
+      return path + ": " + vol.message();
+    }
+    labels = csgv::LabelVolume{};
+    this->Dim = vol->dim;
+    this->Levels = vol->levels();
+    this->Range = csgvvtk::paletteRange(*vol, this->Info);
+    const std::vector<uint8_t> bytes = csgv::serializeCsgv(*vol);
+    vtkNew<vtkUnsignedCharArray> enc;
+    enc->SetNumberOfValues(static_cast<vtkIdType>(bytes.size()));
+    std::copy(bytes.begin(), bytes.end(), enc->GetPointer(0));
+    this->Encoding = enc;
+    return std::string();
+  }
+};
+
+vtkCSGVReader::vtkCSGVReader()
+  : Internals(new vtkInternals)
+{
+  this->SetNumberOfInputPorts(0);
+}
+
+vtkCSGVReader::~vtkCSGVReader()
+{
+  this->SetFileName(nullptr);
+  delete this->Internals;
+}
+
+int vtkCSGVReader::GetNumberOfLevels()
+{
+  return this->Internals->Loaded ? static_cast<int>(this->Internals->Levels) : 0;
+}
+
+int vtkCSGVReader::CanReadFile(const char* fileName)
+{
+  if (!fileName)
+  {
+    return 0;
+  }
+  const std::string path(fileName);
+  if (endsWithNoCase(path, ".vraw.gz"))
+  {
+    return 1; // the header is compressed; RequestInformation reports a bad one
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+  {
+    return 0;
+  }
+  uint8_t head[160];
+  in.read(reinterpret_cast<char*>(head), sizeof(head));
+  const size_t n = static_cast<size_t>(in.gcount());
+  if (endsWithNoCase(path, ".vraw"))
+  {
+    return csgv::parseVrawHeader(head, n).isOk() ? 1 : 0;
+  }
+  return n >= 12 && std::memcmp(head, "CMPSGVOL", 8) == 0 &&
+      (std::memcmp(head + 8, "0016", 4) == 0 || std::memcmp(head + 8, "0015", 4) == 0)
+    ? 1
+    : 0;
+}
+
+int vtkCSGVReader::RequestInformation(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  if (!this->FileName || !*this->FileName)
+  {
+    vtkErrorMacro(<< "no FileName set");
+    return 0;
+  }
+  const std::string error = this->Internals->Load(this->FileName);
+  if (!error.empty())
+  {
+    vtkErrorMacro(<< error);
+    if (vtkDataObject* out = outInfo->Get(vtkDataObject::DATA_OBJECT()))
+    {
+      out->Initialize(); // an empty output, never the previous file's data
+    }
+    return 0;
+  }
+  const vtkInternals& in = *this->Internals;
+  const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
+  const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);
+  int extent[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
+  const double scale = double(uint64_t(1) << lod);
+  double spacing[3];
+  for (int a = 0; a < 3; ++a)
+  {
+    spacing[a] = in.Geometry.spacing[a] * scale;
+  }
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+  outInfo->Set(vtkDataObject::SPACING(), spacing, 3);
+  outInfo->Set(vtkDataObject::ORIGIN(), in.Geometry.origin.data(), 3);
+  outInfo->Set(vtkDataObject::DIRECTION(), in.Geometry.direction.data(), 9);
+  const int dims[3] = { int(in.Dim[0]), int(in.Dim[1]), int(in.Dim[2]) };
+  outInfo->Set(vtkCSGVReader::CSGV_DIMENSIONS(), dims, 3);
+  outInfo->Set(vtkCSGVReader::CSGV_LEVELS(), int(in.Levels));
+  double geometry[15];
+  for (int i = 0; i < 3; ++i)
+  {
+    geometry[i] = in.Geometry.spacing[i];
+    geometry[3 + i] = in.Geometry.origin[i];
+  }
+  std::copy(in.Geometry.direction.begin(), in.Geometry.direction.end(), geometry + 6);
+  outInfo->Set(vtkCSGVReader::CSGV_GEOMETRY(), geometry, 15);
+  // Each piece decodes only the bricks under its extent (MPI ranks).
+  outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
+  return 1;
+}
+
+int vtkCSGVReader::RequestData(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkImageData* output = vtkImageData::GetData(outInfo);
+  if (!output)
+  {
+    return 0;
+  }
+  output->Initialize();
+  const vtkInternals& in = *this->Internals;
+  if (!in.Loaded || !in.Encoding)
+  {
+    vtkErrorMacro(<< "no file loaded");
+    return 0;
+  }
+  const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
+  const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);
+
+  int ext[6];
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  output->SetExtent(ext);
+  csgvvtk::applyGeometry(output, in.Geometry, lod);
+  csgvvtk::addEncodingArrays(output->GetFieldData(), in.Encoding, in.Geometry, in.Info, in.Range);
+
+  const uint64_t levelVoxels = uint64_t(ld[0]) * ld[1] * ld[2];
+  if (!this->DecodeLabels || levelVoxels > static_cast<uint64_t>(this->DecodeThreshold))
+  {
+    return 1; // labels stay compressed: geometry, encoding and range only
+  }
+  // Update extents are in points; cells [ext[2a], ext[2a+1]) of the level image.
+  csgv::Box box;
+  for (int a = 0; a < 3; ++a)
+  {
+    const int lo = std::max(ext[2 * a], 0);
+    const int hi = std::min<int64_t>(ext[2 * a + 1], ld[a]);
+    if (hi <= lo)
+    {
+      return 1; // a piece without cells
+    }
+    box.min[a] = static_cast<uint32_t>(lo);
+    box.max[a] = static_cast<uint32_t>(hi);
+  }
+  csgv::Result<csgv::CompressedVolume> vol = csgv::parseCsgv(
+    in.Encoding->GetPointer(0), static_cast<size_t>(in.Encoding->GetNumberOfValues()));
+  if (!vol)
+  {
+    vtkErrorMacro(<< this->FileName << ": " << vol.message());
+    output->Initialize();
+    return 0;
+  }
+  this->UpdateProgress(0.05);
+  csgvvtk::DecodedLabels decoded;
+  const std::string error = csgvvtk::decodeBox(
+    *vol, lod, box, in.Info, [this](double f) { this->UpdateProgress(0.05 + 0.95 * f); }, decoded);
+  if (!error.empty())
+  {
+    vtkErrorMacro(<< this->FileName << ": " << error);
+    output->Initialize();
+    return 0;
+  }
+  if (!decoded.warning.empty())
+  {
+    vtkWarningMacro(<< this->FileName << ": " << decoded.warning);
+  }
+  output->GetCellData()->SetScalars(decoded.array);
+  return 1;
+}
+
+void vtkCSGVReader::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
+  os << indent << "DecodeLabels: " << this->DecodeLabels << "\n";
+  os << indent << "DecodeThreshold: " << this->DecodeThreshold << "\n";
+  os << indent << "Level: " << this->Level << "\n";
+}

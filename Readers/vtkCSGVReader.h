@@ -1,0 +1,105 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class vtkCSGVReader
+ * @brief Reads a CSGV segmentation volume (`.csgv`, Volcanite's `.vraw`, `.vraw.gz`) as image
+ * data whose labels are cell data and whose encoding travels along in the FieldData.
+ *
+ * Geometry (DESIGN.md "Where voxels are"): voxel (i,j,k) is cell (i,j,k) of an image with
+ * dims + 1 points, spanning origin + direction * ([i, i+1] * spacing). Spacing, origin (the
+ * corner of voxel 0) and direction come from `<file>.csgv.json` when present (spacing 1, origin 0
+ * otherwise). At Level k > 0 the image has the level's (dim - 1) / 2^k + 1 cells per axis with
+ * spacing * 2^k, so the last cell may reach past the full-resolution bounds by less than one
+ * coarse cell.
+ *
+ * Cell array "Labels" (only when decoded): the original labels (through `<file>_csgv.db3` when
+ * the file was relabelled) in the original type named by the metadata (uint8 ... int64, float32,
+ * float64), or uint32 without metadata (int64/uint64 for relabelled 64-bit labels). Labels are
+ * decoded when DecodeLabels is on and the level has at most DecodeThreshold voxels; otherwise the
+ * output carries only the geometry and the FieldData below, so a huge volume costs about its file
+ * size in memory ("Labels stay compressed"); vtkCSGVExtract decodes a sub-box or coarser level.
+ *
+ * FieldData layout (read by vtkCSGVExtract and the representation, which need no decoding):
+ * - `CSGVEncoding` (vtkUnsignedCharArray, 1 component): a complete CSGV container, byte for byte
+ *   the `.csgv` file (version 0015 or 0016; for `.vraw` input the container the reader encoded,
+ *   brick size 32, rANS with two tables). Parse it with csgv::parseCsgv.
+ * - `CSGVGeometry` (vtkDoubleArray, 15 values): spacing[3], origin[3] (corner of voxel (0,0,0)),
+ *   direction[9] row-major, all at full resolution (level 0) whatever Level is.
+ * - `CSGVLabelMap` (only for relabelled files): id -> original label, a 64-bit integer array,
+ *   unsigned (vtkTypeUInt64Array) for uint64 labels, signed (vtkTypeInt64Array) otherwise.
+ * - `CSGVOriginalType` (vtkStringArray, 1 value): "uint8" ... "float64", the label type to show.
+ * - `CSGVLabelRange` (2 values, the type of "Labels"): the smallest and largest original label
+ *   over all brick palettes, computed without decoding.
+ *
+ * Errors (missing, truncated or malformed files, bad sidecars) are reported with vtkErrorMacro
+ * carrying Core's message, and the output is empty.
+ */
+#ifndef vtkCSGVReader_h
+#define vtkCSGVReader_h
+
+#include "CSGVReadersModule.h"
+#include "vtkImageAlgorithm.h"
+
+class vtkInformationDoubleVectorKey;
+class vtkInformationIntegerKey;
+class vtkInformationIntegerVectorKey;
+
+class CSGVREADERS_EXPORT vtkCSGVReader : public vtkImageAlgorithm
+{
+public:
+  static vtkCSGVReader* New();
+  vtkTypeMacro(vtkCSGVReader, vtkImageAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  vtkSetStringMacro(FileName);
+  vtkGetStringMacro(FileName);
+
+  /// Decode labels into the "Labels" cell array when the level holds at most DecodeThreshold
+  /// voxels (default on).
+  vtkSetMacro(DecodeLabels, vtkTypeBool);
+  vtkGetMacro(DecodeLabels, vtkTypeBool);
+  vtkBooleanMacro(DecodeLabels, vtkTypeBool);
+
+  /// Largest voxel count decoded (default 512 Mi voxels, 2 GiB of uint32 labels).
+  vtkSetClampMacro(DecodeThreshold, vtkIdType, 0, VTK_ID_MAX);
+  vtkGetMacro(DecodeThreshold, vtkIdType);
+
+  /// Level of detail to decode: 0 full resolution, k: 2^k voxels per cell and axis; clamped to
+  /// the file's coarsest level.
+  vtkSetClampMacro(Level, int, 0, 7);
+  vtkGetMacro(Level, int);
+
+  /// 1 for a `.csgv` with the right magic and version, a `.vraw` with a valid header or a
+  /// `.vraw.gz`, else 0 (ParaView's reader factory asks this on the server).
+  virtual int CanReadFile(const char* fileName);
+
+  /// Levels of the last file read (0 before a successful RequestInformation).
+  int GetNumberOfLevels();
+
+  /// Output-information keys set in RequestInformation, so that vtkCSGVExtract (directly
+  /// downstream) knows the full-resolution volume before any data exists: voxel dimensions at
+  /// level 0, the number of levels, and the 15 values of `CSGVGeometry`.
+  static vtkInformationIntegerVectorKey* CSGV_DIMENSIONS();
+  static vtkInformationIntegerKey* CSGV_LEVELS();
+  static vtkInformationDoubleVectorKey* CSGV_GEOMETRY();
+
+protected:
+  vtkCSGVReader();
+  ~vtkCSGVReader() override;
+
+  int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+  char* FileName = nullptr;
+  vtkTypeBool DecodeLabels = 1;
+  vtkIdType DecodeThreshold = vtkIdType(512) * 1024 * 1024;
+  int Level = 0;
+
+private:
+  vtkCSGVReader(const vtkCSGVReader&) = delete;
+  void operator=(const vtkCSGVReader&) = delete;
+
+  class vtkInternals;
+  vtkInternals* Internals;
+};
+
+#endif

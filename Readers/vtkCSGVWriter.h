@@ -1,0 +1,89 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class vtkCSGVWriter
+ * @brief Writes one integer label array of image data as a CSGV volume: `<file>.csgv`, its
+ * `<file>.csgv.json` metadata and, when labels were relabelled, `<file>_csgv.db3`.
+ *
+ * The label array (LabelArrayName, or by default the first one-component integer array of the
+ * cell data, then of the point data, then the first float array) may be any integer type of 8 to
+ * 64 bits, signed or not, or a float array holding integers (the first non-integer value is
+ * named in the error). Labels that do not fit the format (negative, wider than 32 bits, the
+ * reserved 0xFFFFFFFF) or all labels when Relabel is on become dense ids as Core relabels them,
+ * with the mapping in the attribute database, so readers show the original labels.
+ *
+ * Geometry: cell data is written as it is (voxel = cell; origin = corner of the first cell);
+ * point data is taken as voxels centred on their points and converted with Core's
+ * cellGeometryFromPointGeometry. Direction is kept. Image extents need not start at 0.
+ *
+ * Every file is written under a temporary name and renamed (Core), sidecars first and the volume
+ * last, so a reader never pairs a new `.csgv` with an old database. Encoding runs in parallel
+ * (OpenMP) with progress per slab of bricks.
+ */
+#ifndef vtkCSGVWriter_h
+#define vtkCSGVWriter_h
+
+#include "CSGVReadersModule.h"
+#include "vtkWriter.h"
+
+class vtkImageData;
+
+class CSGVREADERS_EXPORT vtkCSGVWriter : public vtkWriter
+{
+public:
+  static vtkCSGVWriter* New();
+  vtkTypeMacro(vtkCSGVWriter, vtkWriter);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  /// Output path; must end in `.csgv`.
+  vtkSetStringMacro(FileName);
+  vtkGetStringMacro(FileName);
+
+  /// Name of the label array; empty (default) picks the first integer array.
+  vtkSetStringMacro(LabelArrayName);
+  vtkGetStringMacro(LabelArrayName);
+
+  /// Brick edge length: 8, 16, 32 (default), 64 or 128.
+  vtkSetMacro(BrickSize, int);
+  vtkGetMacro(BrickSize, int);
+
+  /// 0 nibble, 1 rANS with one table, 2 rANS with two tables (default).
+  vtkSetClampMacro(Encoding, int, 0, 2);
+  vtkGetMacro(Encoding, int);
+
+  /// Operation letters as `csgv compress --ops` takes them: "default" (pnls), "all" (pnlds) or
+  /// letters of pxyznlds.
+  vtkSetStringMacro(Operations);
+  vtkGetStringMacro(Operations);
+
+  /// Relabel to dense ids even when the labels fit the format (default off).
+  vtkSetMacro(Relabel, vtkTypeBool);
+  vtkGetMacro(Relabel, vtkTypeBool);
+  vtkBooleanMacro(Relabel, vtkTypeBool);
+
+  /// Encoder threads; 0 (default) lets OpenMP choose.
+  vtkSetClampMacro(NumberOfThreads, int, 0, 1024);
+  vtkGetMacro(NumberOfThreads, int);
+
+  vtkImageData* GetInput();
+
+protected:
+  vtkCSGVWriter();
+  ~vtkCSGVWriter() override;
+
+  void WriteData() override;
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+
+  char* FileName = nullptr;
+  char* LabelArrayName = nullptr;
+  int BrickSize = 32;
+  int Encoding = 2;
+  char* Operations = nullptr;
+  vtkTypeBool Relabel = 0;
+  int NumberOfThreads = 0;
+
+private:
+  vtkCSGVWriter(const vtkCSGVWriter&) = delete;
+  void operator=(const vtkCSGVWriter&) = delete;
+};
+
+#endif
