@@ -18,13 +18,14 @@ layout(push_constant) uniform Push {
     uint64_t requests; // Uints: 3 words per request
     uint64_t cache;    // CacheWords
     uint64_t states;   // Uints: 12 words per request
-    uint64_t params;   // Uints: request count, steps in this dispatch, 1 on the first dispatch
+    uint64_t params;   // Uints: unused, steps in this dispatch, 1 on the first dispatch
+    uint64_t count;    // Uints: the request count in its first word (written by the GPU in frames)
 } pc;
 
 void main() {
     const uint i = gl_GlobalInvocationID.x;
     Uints params = Uints(pc.params);
-    const uint count = params.w[0];
+    const uint count = Uints(pc.count).w[0];
     const uint steps = params.w[1];
     const uint first = params.w[2];
     if (i >= count) return;

@@ -207,3 +207,199 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& g, const RayCastView
 }
 
 } // namespace csgv
+
+namespace csgv {
+
+namespace {
+
+constexpr float kOneMinusEpsilon = 0.99999994f;
+
+/// The walker of render_common.glsl.
+struct Walker {
+    int voxel[3];
+    float vpos[3];
+    float t;
+    int face;
+    float d[3], invD[3];
+    float tEnd;
+};
+
+float clamp01(float v) { return std::min(std::max(v, 0.0f), kOneMinusEpsilon); }
+
+/// stableStep() of render_common.glsl.
+void stableStep(Walker& w, int k) {
+    const float s = float(1 << k);
+    const float invS = 1.0f / s;
+    int cv[3];
+    float cp[3], dist[3];
+    for (int i = 0; i < 3; ++i) {
+        cv[i] = w.voxel[i] >> k;
+        cp[i] = (float(w.voxel[i] - (cv[i] << k)) + w.vpos[i]) * invS;
+        cp[i] = std::min(cp[i], kOneMinusEpsilon);
+        const float target = w.d[i] > 0.0f ? 1.0f : 0.0f;
+        dist[i] = (target - cp[i]) * (w.invD[i] * s);
+    }
+    int axis = 0;
+    if (dist[1] < dist[axis]) axis = 1;
+    if (dist[2] < dist[axis]) axis = 2;
+    const float dt = dist[axis];
+    float np[3];
+    for (int i = 0; i < 3; ++i) np[i] = clamp01(cp[i] + (w.d[i] * invS) * dt);
+    if (w.d[axis] > 0.0f) {
+        cv[axis] += 1;
+        np[axis] = 0.0f;
+    } else {
+        cv[axis] -= 1;
+        np[axis] = kOneMinusEpsilon;
+    }
+    for (int i = 0; i < 3; ++i) {
+        const float fine = np[i] * s;
+        const float fl = std::floor(fine);
+        w.voxel[i] = (cv[i] << k) + int(fl);
+        w.vpos[i] = fine - fl;
+    }
+    w.t = w.t + dt;
+    w.face = 1 + 2 * axis + (w.d[axis] > 0.0f ? 0 : 1);
+}
+
+} // namespace
+
+GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCastView& view,
+                       const std::function<bool(uint32_t)>& visible, uint32_t brickSize) {
+    GBuffer out;
+    out.width = view.width;
+    out.height = view.height;
+    const size_t n = size_t(view.width) * view.height;
+    out.label.assign(n, kInvalidLabel);
+    out.depth.assign(n, 1.0f);
+    out.face.assign(n, Face::None);
+    out.distance.assign(n, 0.0f);
+    Mat4 clipToWorld{};
+    if (!invert(view.worldToClip, clipToWorld)) return out;
+    Mat4 indexToWorld{};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) indexToWorld[c * 4 + r] = g.direction[3 * r + c] * g.spacing[c];
+        indexToWorld[12 + r] = g.origin[r];
+    }
+    indexToWorld[15] = 1;
+    Mat4 worldToIndex{};
+    if (!invert(indexToWorld, worldToIndex)) return out;
+    // The same double products as Renderer.cpp, rounded to float as uploaded.
+    const Mat4 clipToIndexD = multiply(worldToIndex, clipToWorld);
+    const Mat4 indexToClipD = multiply(view.worldToClip, indexToWorld);
+    float M[16], toClip[16], toWorld[16];
+    for (int i = 0; i < 16; ++i) {
+        M[i] = float(clipToIndexD[i]);
+        toClip[i] = float(indexToClipD[i]);
+        toWorld[i] = float(indexToWorld[i]);
+    }
+    int shift = 0;
+    while ((1u << (shift + 1)) <= brickSize) ++shift;
+    const int lo[3] = {0, 0, 0};
+    const int hi[3] = {int(volume.dim[0]), int(volume.dim[1]), int(volume.dim[2])};
+    const uint32_t grid[3] = {(volume.dim[0] + brickSize - 1) / brickSize, (volume.dim[1] + brickSize - 1) / brickSize,
+                              (volume.dim[2] + brickSize - 1) / brickSize};
+    std::vector<uint8_t> brickVisible(size_t(grid[0]) * grid[1] * grid[2], 0);
+    for (uint32_t z = 0; z < volume.dim[2]; ++z)
+        for (uint32_t y = 0; y < volume.dim[1]; ++y)
+            for (uint32_t x = 0; x < volume.dim[0]; ++x) {
+                const size_t b = (x >> shift) + grid[0] * ((y >> shift) + size_t(grid[1]) * (z >> shift));
+                if (!brickVisible[b] && visible(volume.at(x, y, z))) brickVisible[b] = 1;
+            }
+    const float pixX = 2.0f / float(view.width), pixY = 2.0f / float(view.height);
+
+    for (uint32_t py = 0; py < view.height; ++py)
+        for (uint32_t px = 0; px < view.width; ++px) {
+            const float ndcX = ((float(px) + 0.5f) + 0.0f) * pixX - 1.0f;
+            const float ndcY = ((float(py) + 0.5f) + 0.0f) * pixY - 1.0f;
+            float a[4], b[4];
+            for (int r = 0; r < 4; ++r) {
+                a[r] = ((M[r] * ndcX + M[4 + r] * ndcY) - M[8 + r]) + M[12 + r];
+                b[r] = ((M[r] * ndcX + M[4 + r] * ndcY) + M[8 + r]) + M[12 + r];
+            }
+            const float ia = 1.0f / a[3], ib = 1.0f / b[3];
+            float o[3], d[3];
+            Walker w{};
+            for (int k = 0; k < 3; ++k) {
+                o[k] = a[k] * ia;
+                d[k] = b[k] * ib - o[k];
+                w.d[k] = d[k];
+                w.invD[k] = 1.0f / d[k];
+            }
+            // startRay()
+            float t0 = 0.0f, t1 = 1.0f;
+            int entryAxis = -1;
+            bool miss = false;
+            for (int k = 0; k < 3 && !miss; ++k) {
+                if (d[k] == 0.0f) {
+                    miss = o[k] < float(lo[k]) || o[k] > float(hi[k]);
+                    continue;
+                }
+                const float ta = (float(lo[k]) - o[k]) * w.invD[k];
+                const float tb = (float(hi[k]) - o[k]) * w.invD[k];
+                const float tlo = std::min(ta, tb), thi = std::max(ta, tb);
+                if (tlo > t0) {
+                    t0 = tlo;
+                    entryAxis = k;
+                }
+                t1 = std::min(t1, thi);
+            }
+            if (miss || t0 > t1) continue;
+            for (int k = 0; k < 3; ++k) {
+                const float p = o[k] + d[k] * t0;
+                w.voxel[k] = std::clamp(int(std::floor(p)), lo[k], hi[k] - 1);
+                w.vpos[k] = clamp01(p - float(w.voxel[k]));
+            }
+            w.face = 0;
+            if (entryAxis >= 0) {
+                const bool up = d[entryAxis] > 0.0f;
+                w.voxel[entryAxis] = up ? lo[entryAxis] : hi[entryAxis] - 1;
+                w.vpos[entryAxis] = up ? 0.0f : kOneMinusEpsilon;
+                w.face = 1 + 2 * entryAxis + (up ? 0 : 1);
+            }
+            w.t = t0;
+            w.tEnd = t1;
+            // march()
+            uint32_t prev = kInvalidLabel;
+            for (uint32_t it = 0; it < 60000u; ++it) {
+                if (w.t > w.tEnd) break;
+                const size_t bi = size_t(w.voxel[0] >> shift) +
+                                  grid[0] * (size_t(w.voxel[1] >> shift) + size_t(grid[1]) * size_t(w.voxel[2] >> shift));
+                if (!brickVisible[bi]) {
+                    prev = kInvalidLabel;
+                    stableStep(w, shift);
+                } else {
+                    const uint32_t label = volume.at(uint32_t(w.voxel[0]), uint32_t(w.voxel[1]), uint32_t(w.voxel[2]));
+                    if (label != prev) {
+                        prev = label;
+                        if (visible(label)) {
+                            const size_t i = size_t(py) * view.width + px;
+                            out.label[i] = label;
+                            out.face[i] = Face(w.face);
+                            const float q[3] = {float(w.voxel[0]) + w.vpos[0], float(w.voxel[1]) + w.vpos[1],
+                                                float(w.voxel[2]) + w.vpos[2]};
+                            float clip[4];
+                            for (int r = 0; r < 4; ++r)
+                                clip[r] = toClip[r] * q[0] + toClip[4 + r] * q[1] + toClip[8 + r] * q[2] + toClip[12 + r];
+                            out.depth[i] = std::clamp(clip[2] / clip[3] * 0.5f + 0.5f, 0.0f, 1.0f);
+                            float dist2 = 0;
+                            for (int r = 0; r < 3; ++r) {
+                                const float v = toWorld[r] * (q[0] - o[0]) + toWorld[4 + r] * (q[1] - o[1]) +
+                                                toWorld[8 + r] * (q[2] - o[2]);
+                                dist2 += v * v;
+                            }
+                            out.distance[i] = std::sqrt(dist2);
+                            break;
+                        }
+                    }
+                    stableStep(w, 0);
+                }
+                bool outside = false;
+                for (int k = 0; k < 3; ++k) outside = outside || w.voxel[k] < lo[k] || w.voxel[k] >= hi[k];
+                if (outside) break;
+            }
+        }
+    return out;
+}
+
+} // namespace csgv

@@ -28,7 +28,7 @@ void tableDefines(const std::array<uint32_t, 16>& f, const char* cumName, Define
 }
 
 struct DecodePush {
-    uint64_t arrays, starts, requests, cache, states, params;
+    uint64_t arrays, starts, requests, cache, states, params, count;
 };
 
 /// Steps the shader needs for a brick decoded to inverse level `target` (csgv_decode.glsl): the
@@ -144,7 +144,8 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     std::vector<DecodePush> pushes;
     for (size_t k = 0; k < params.size() / 4; ++k)
         pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), req->address(), cache.address(),
-                                    states->address(), paramBuffer->address() + 16 * k});
+                                    states->address(), paramBuffer->address() + 16 * k,
+                                    paramBuffer->address() + 16 * k});
     std::vector<Context::Dispatch> dispatches;
     for (const DecodePush& push : pushes) {
         Context::Dispatch d;
@@ -160,6 +161,39 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         if (!(s = m_context.download(*states, 0, words.data(), words.size() * 4))) return s;
         codes->resize(requests.size());
         for (size_t i = 0; i < requests.size(); ++i) (*codes)[i] = words[12 * i + 8];
+    }
+    return Status::ok();
+}
+
+Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress,
+                                    uint64_t statesAddress, uint32_t maxRequests, FrameDecode& storage,
+                                    std::vector<Context::Dispatch>& out) {
+    const uint64_t steps = decodeSteps(m_volume.levels() - 1);
+    const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;
+    std::vector<uint32_t> params;
+    for (uint64_t done = 0; done < steps; done += perDispatch) {
+        params.push_back(0u);
+        params.push_back(uint32_t(std::min<uint64_t>(perDispatch, steps - done)));
+        params.push_back(done == 0 ? 1u : 0u);
+        params.push_back(0u);
+    }
+    Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
+    if (!paramBuffer) return paramBuffer.status();
+    Status s = m_context.upload(*paramBuffer, 0, params.data(), params.size() * 4);
+    if (!s) return s;
+    storage.pushes.clear();
+    storage.pushes.reserve(params.size() / 4);
+    for (size_t k = 0; k < params.size() / 4; ++k)
+        storage.pushes.push_back({m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
+                                  paramBuffer->address() + 16 * k, countAddress});
+    storage.params = std::move(*paramBuffer);
+    for (const auto& push : storage.pushes) {
+        Context::Dispatch d;
+        d.pipeline = m_decodePipeline;
+        d.pushConstants = push.data();
+        d.pushConstantBytes = sizeof(DecodePush);
+        d.groups[0] = (maxRequests + 31) / 32;
+        out.push_back(d);
     }
     return Status::ok();
 }

@@ -33,6 +33,7 @@ struct GBuffer {
     std::vector<uint32_t> label; ///< kInvalidLabel where no visible voxel is hit
     std::vector<float> depth;    ///< window depth in [0, 1]
     std::vector<Face> face;      ///< None where nothing is hit or the camera starts inside the voxel
+    std::vector<float> distance; ///< world distance from the ray's near-plane point (castRaysStable only)
 };
 
 struct RayCastView {
@@ -43,6 +44,13 @@ struct RayCastView {
 /// Casts one ray per pixel and records the first voxel whose label is `visible`.
 GBuffer castRays(const LabelVolume& volume, const Geometry& cornerGeometry, const RayCastView& view,
                  const std::function<bool(uint32_t)>& visible);
+
+/// The float mirror of the GPU ray marcher (shaders/render_common.glsl and render.comp): the
+/// paper's stable DDA on an integer voxel plus a sub-voxel offset in [0, 1)^3, with bricks of
+/// `brickSize` that hold no visible voxel skipped whole, operation for operation in single
+/// precision, so the GPU's G-buffer at the finest level must equal it exactly (labels, faces).
+GBuffer castRaysStable(const LabelVolume& volume, const Geometry& cornerGeometry, const RayCastView& view,
+                       const std::function<bool(uint32_t)>& visible, uint32_t brickSize);
 
 /// Helpers to build OpenGL-style matrices (column-major) for tests and tools.
 std::array<double, 16> lookAtMatrix(const std::array<double, 3>& eye, const std::array<double, 3>& target,

@@ -9,6 +9,7 @@
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/ShaderCompiler.h"
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,6 +43,18 @@ public:
     /// Decodes into a temporary cache and returns each request's region, concatenated in order;
     /// an error names the first brick whose stream is invalid.
     Result<std::vector<uint32_t>> decodeToHost(const std::vector<BrickRequest>& requests);
+
+    /// @brief Push constants and parameters of a frame's decode dispatches (keep until they ran).
+    struct FrameDecode {
+        std::vector<std::array<uint64_t, 7>> pushes;
+        Buffer params;
+    };
+    /// For the frame pipeline: appends the dispatches that decode requests written by the GPU
+    /// (3 words each at address `requests`: brick, inverse level, cache word offset; their count in
+    /// the word at `countAddress`; at most `maxRequests`) into the cache at `cacheAddress`, with
+    /// 12 words of state per request at `statesAddress`. Enough steps for the finest level.
+    Status appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress, uint64_t statesAddress,
+                             uint32_t maxRequests, FrameDecode& storage, std::vector<Context::Dispatch>& out);
 
 private:
     GpuVolume(Context& c, const CompressedVolume& v) : m_context(c), m_volume(v) {}

@@ -1,0 +1,164 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file Renderer.h
+/// @brief The brick-cache ray marcher of the paper: the API that `csgv render` and the ParaView
+/// representation both drive. No Vulkan, VTK or Qt type appears here.
+///
+/// Per frame, in one submission without CPU-GPU synchronisation inside it:
+///   request (one thread per brick: free invisible bricks and bricks that need another level,
+///   request bricks the previous frame's rays needed, at the level their centre's distance asks
+///   for) -> provision (regions from the cache top when free stacks run short) -> assign
+///   (regions to requests, decode list) -> decode (GpuVolume's decoder into the cache) -> render
+///   (one view ray per pixel, stable multi-level DDA, shading, one sample accumulated; rays that
+///   meet a missing brick mark it and add nothing) -> resolve (average, upsampling, A-trous
+///   denoising, tone mapping).
+/// Between frames the host reads a few counters: a cache that ran full is reset once
+/// (defragmentation), then bricks no ray used are evicted (lazy eviction), and if it is still
+/// too small, only a band of image rows may request bricks (brick request limitation), moved to
+/// the rows with the fewest samples, so every pixel converges.
+///
+/// Conventions (those of Core/RayCast.h and of VTK):
+/// - `worldToClip` is column-major (OpenGL layout, VTK's `wcdc` from
+///   vtkOpenGLCamera::GetKeyMatrices as it comes); perspective and parallel both work.
+/// - Pixel (x, y), row 0 at the bottom, looks through NDC ((x + 0.5) / W * 2 - 1, ...); its ray
+///   runs from NDC z = -1 to z = +1.
+/// - Voxel (i, j, k) covers [i, i+1] x [j, j+1] x [k, k+1] in index space; world = origin +
+///   direction * (index * spacing) (a corner Geometry).
+/// - Output colour is premultiplied RGBA (transparent where nothing is hit), depth is window
+///   depth ndc_z * 0.5 + 0.5 (what gl_FragDepth expects), 1 where nothing is hit.
+
+#include "csgv/Container.h"
+#include "csgv/Geometry.h"
+#include "csgv/Materials.h"
+#include "csgv/RayCast.h"
+#include "csgv/gpu/Context.h"
+#include "csgv/gpu/GpuVolume.h"
+
+#include <array>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace csgv::gpu {
+
+enum class Shading { Local = 0, Shadow = 1, AmbientOcclusion = 2, PathTracing = 3 };
+
+/// Text name ("local", "shadow", "ao", "pt") and its inverse.
+const char* shadingName(Shading s);
+Result<Shading> parseShading(const std::string& name);
+
+/// @brief Everything that changes the image except camera and materials; a change resets the
+/// accumulation.
+struct RenderSettings {
+    Shading shading = Shading::Local;
+    float shadingBlend = 1.0f;        ///< 0: local shading only ... 1: the chosen mode only
+    uint32_t maxBounces = 32;         ///< path tracing (Russian roulette from the third bounce)
+    float aoRadius = 16.0f;           ///< ambient occlusion ray length in voxels
+    float lodBias = 0.0f;             ///< added to log2(pixel footprint / voxel); < 0 finer
+    bool finest = false;              ///< level 0 everywhere
+    uint32_t subsampling = 1;         ///< 1, 2, 4 or 8: render 1, 1/4, 1/16 or 1/64 of pixels a frame
+    bool denoise = true;
+    bool jitter = true;               ///< sub-pixel jitter after the first sample (anti-aliasing)
+    uint32_t sampleTarget = 0;        ///< stop accumulating at this many samples a pixel (0: never)
+    /// Direction towards the key light in view coordinates (x right, y up, z towards the viewer),
+    /// or in world coordinates when `lightInWorld`.
+    std::array<float, 3> lightDirection{{0.35f, 0.6f, 0.72f}};
+    bool lightInWorld = false;
+    float lightIntensity = 0.8f;
+    float ambient = 0.25f;
+    std::array<float, 3> environment{{0.9f, 0.9f, 0.95f}}; ///< sky radiance for path tracing
+    bool toneMapping = false;
+    float brightness = 1.0f, contrast = 1.0f, gamma = 1.0f;
+    /// Clip box in voxels [min, max) per axis; empty (min >= max on an axis) means the whole volume.
+    std::array<int64_t, 3> clipMin{{0, 0, 0}}, clipMax{{0, 0, 0}};
+    uint32_t maxRequestsPerFrame = 4096; ///< decode budget of one frame
+};
+
+struct RendererOptions {
+    uint64_t cacheBytes = 256ull << 20; ///< brick cache budget (clamped to the device's limits)
+};
+
+/// @brief One frame's inputs.
+struct FrameInput {
+    std::array<double, 16> worldToClip{}; ///< column-major
+    uint32_t width = 0, height = 0;
+    /// Optional window depth of opaque geometry per pixel (row 0 at the bottom): rays stop there.
+    const float* opaqueDepth = nullptr;
+};
+
+/// @brief Per-pixel results, row 0 at the bottom.
+struct FrameOutput {
+    uint32_t width = 0, height = 0;
+    std::vector<float> rgba;       ///< premultiplied, 4 floats a pixel
+    std::vector<float> depth;      ///< window depth of the first surface (1: none)
+    std::vector<uint32_t> label;   ///< first opaque label hit (original label), kInvalidLabel: none
+    std::vector<Face> face;        ///< its entry face
+    std::vector<float> hitDepth;   ///< window depth of the first opaque hit
+    std::vector<float> distance;   ///< world distance from the near plane to the first opaque hit
+    std::vector<uint32_t> samples; ///< valid samples per pixel
+};
+
+struct FrameStats {
+    double milliseconds = 0;      ///< wall time of the frame's submission
+    uint32_t frame = 0;           ///< frames since the last reset of the accumulation
+    uint32_t decodedBricks = 0;
+    uint32_t newSamples = 0;      ///< pixels that gained a sample
+    uint32_t missingPixels = 0;   ///< pixels whose ray met a brick not yet in the cache
+    uint32_t minSamples = 0;      ///< fewest samples of any pixel after the frame
+    uint64_t cacheUsedBytes = 0;
+    bool cacheFull = false;
+    bool cacheReset = false;      ///< the cache was reset before this frame
+    bool requestLimited = false;  ///< brick request limitation was on
+};
+
+/// Device memory by buffer, for reports.
+struct MemoryReport {
+    std::vector<std::pair<std::string, uint64_t>> buffers;
+    uint64_t total() const;
+};
+
+class Renderer {
+public:
+    ~Renderer();
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+
+    /// The volume stays shared: several renderers (views) may use one GpuVolume.
+    static Result<std::unique_ptr<Renderer>> create(Context& context, std::shared_ptr<GpuVolume> volume,
+                                                    const RendererOptions& options = {});
+
+    /// Corner geometry (Metadata.h): origin of voxel (0,0,0)'s corner, spacing, direction.
+    void setGeometry(const Geometry& cornerGeometry);
+    /// Materials with colormaps resolved to control points. `attributes` are per stored label
+    /// (index = the label value in the volume); `label` is built in. `storedToOriginal` maps
+    /// stored labels to original labels (relabelled files); empty when they are the same.
+    /// Recomputes which bricks are visible (their palettes against the materials).
+    Status setMaterials(const MaterialDocument& materials,
+                        const std::map<std::string, std::vector<float>>& attributes = {},
+                        const std::vector<uint32_t>& storedToOriginal = {});
+    void setSettings(const RenderSettings& settings);
+    const RenderSettings& settings() const { return m_settings; }
+
+    /// Renders one frame and accumulates it (a new camera or size resets the accumulation).
+    Result<FrameStats> renderFrame(const FrameInput& input);
+    /// Reads the current resolved image and G-buffer.
+    Status readOutput(FrameOutput& out) const;
+    /// Starts accumulating anew (the cache stays).
+    void resetAccumulation();
+    /// Empties the brick cache.
+    void resetCache();
+
+    MemoryReport memory() const;
+    const GpuVolume& volume() const { return *m_volume; }
+
+    struct Impl;
+
+private:
+    Renderer() = default;
+    std::unique_ptr<Impl> m_impl;
+    std::shared_ptr<GpuVolume> m_volume;
+    RenderSettings m_settings;
+};
+
+} // namespace csgv::gpu

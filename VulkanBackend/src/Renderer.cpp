@@ -1,0 +1,629 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/gpu/Renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+namespace csgv::gpu {
+
+namespace {
+
+constexpr uint32_t kNone = 0xFFFFFFFFu;
+constexpr uint32_t kColormapSamples = 1024;
+
+// Frame flags and address slots: render_common.glsl.
+enum Flags : uint32_t {
+    kJitter = 1, kFinest = 2, kDenoise = 4, kLimitRequests = 8, kDepthInput = 16, kEvictUnused = 32, kLabelMap = 64
+};
+enum Slot : uint32_t {
+    aBricks, aCache, aAlloc, aFree, aRequests, aDecodes, aAccum, aSamples, aGBuffer, aDepthIn, aMaterials, aColormaps,
+    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aCount
+};
+enum AllocWord : uint32_t {
+    alTop = 0, alCapacity = 1, alFull = 2, alDecodes = 3, alRequests = 4, alMinSamples = 5, alNewSamples = 6,
+    alMissing = 7, alMinRow = 8, alPrevMin = 9, alFreeCount = 16, alWords = 56
+};
+
+/// The Frame block of render_common.glsl (std430).
+struct FrameParams {
+    float clipToIndex[16], indexToClip[16], indexToWorld[16], worldToIndex[16];
+    float lightWorld[4], lightIndex[4], environment[4], clipMin[4], clipMax[4], pixel[4], tone[4];
+    float faceNormals[6][4];
+    uint32_t frame[4], image[4], limits[4], counts[4];
+    uint64_t addr[aCount];
+};
+static_assert(sizeof(FrameParams) == 528 + 8 * aCount, "FrameParams must match the GLSL Frame block");
+
+/// GpuMaterial of render_common.glsl.
+struct GpuMaterial {
+    uint32_t filter[4];
+    float range[4];
+    float rgba[4];
+    uint32_t colour[4];
+    float extra[4];
+};
+static_assert(sizeof(GpuMaterial) == 80, "GpuMaterial must match the GLSL struct");
+
+using Mat4 = std::array<double, 16>;
+using Vec3 = std::array<double, 3>;
+
+Vec3 transformPoint(const Mat4& m, const Vec3& p) {
+    double r[4];
+    for (int i = 0; i < 4; ++i) r[i] = m[i] * p[0] + m[4 + i] * p[1] + m[8 + i] * p[2] + m[12 + i];
+    return {r[0] / r[3], r[1] / r[3], r[2] / r[3]};
+}
+Vec3 transformDir(const Mat4& m, const Vec3& v) {
+    Vec3 r{};
+    for (int i = 0; i < 3; ++i) r[i] = m[i] * v[0] + m[4 + i] * v[1] + m[8 + i] * v[2];
+    return r;
+}
+Vec3 normalize3(const Vec3& v) {
+    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    return n > 0 ? Vec3{v[0] / n, v[1] / n, v[2] / n} : v;
+}
+Vec3 sub3(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+void toFloat(const Mat4& m, float* out) {
+    for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
+}
+
+uint32_t log2u(uint32_t v) {
+    uint32_t r = 0;
+    while ((1u << (r + 1)) <= v) ++r;
+    return r;
+}
+
+std::string uvec3Of(const std::array<uint32_t, 3>& v) {
+    return "uvec3(" + std::to_string(v[0]) + "u," + std::to_string(v[1]) + "u," + std::to_string(v[2]) + "u)";
+}
+
+} // namespace
+
+const char* shadingName(Shading s) {
+    switch (s) {
+    case Shading::Local: return "local";
+    case Shading::Shadow: return "shadow";
+    case Shading::AmbientOcclusion: return "ao";
+    case Shading::PathTracing: return "pt";
+    }
+    return "local";
+}
+
+Result<Shading> parseShading(const std::string& name) {
+    for (Shading s : {Shading::Local, Shading::Shadow, Shading::AmbientOcclusion, Shading::PathTracing})
+        if (name == shadingName(s)) return s;
+    return Status::error("unknown shading mode '" + name + "' (local, shadow, ao, pt)");
+}
+
+uint64_t MemoryReport::total() const {
+    uint64_t n = 0;
+    for (const auto& b : buffers) n += b.second;
+    return n;
+}
+
+struct Renderer::Impl {
+    Context& ctx;
+    std::shared_ptr<GpuVolume> volume;
+    uint32_t brickCount = 0, levels = 0, brickSize = 0;
+    uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pRender = 0, pResolve = 0;
+    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible;
+    Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
+    Buffer materials, colormaps, attributeTable, labelMap;
+    std::vector<Buffer> attributes;
+    uint32_t materialCount = 0, labelCount = 0;
+    bool hasLabelMap = false;
+    Geometry geometry;
+    uint32_t width = 0, height = 0;
+    uint32_t maxRequests = 0;
+    Mat4 lastWorldToClip{};
+    uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
+    uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
+    bool clearPending = true;
+    bool cacheResetPending = false;
+    // Cache pressure state since the last reset of the accumulation.
+    bool resetDone = false, evictUnused = false, limitRequests = false;
+    uint32_t bandRow = 0, bandHeight = 0, prevMinSamples = 0;
+    GpuVolume::FrameDecode frameDecode;
+
+    explicit Impl(Context& c) : ctx(c) {}
+
+    Status allocateImage(uint32_t w, uint32_t h) {
+        const uint64_t n = uint64_t(w) * h;
+        auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind) -> Status {
+            Result<Buffer> r = ctx.createBuffer(std::max<uint64_t>(bytes, 16), kind);
+            if (!r) return Status(r.status()).prefix("allocating a " + std::to_string(w) + "x" + std::to_string(h) + " image");
+            b = std::move(*r);
+            return Status::ok();
+        };
+        Status s;
+        if (!(s = make(accum, n * 16, MemoryKind::DeviceLocal))) return s;
+        if (!(s = make(samples, n * 4, MemoryKind::DeviceLocal))) return s;
+        if (!(s = make(gbuffer, n * 16, MemoryKind::HostVisible))) return s;
+        if (!(s = make(depthIn, n * 4, MemoryKind::HostVisible))) return s;
+        if (!(s = make(colorOut, n * 16, MemoryKind::HostVisible))) return s;
+        if (!(s = make(depthOut, n * 4, MemoryKind::HostVisible))) return s;
+        if (!(s = make(denoiseA, n * 16, MemoryKind::DeviceLocal))) return s;
+        if (!(s = make(denoiseB, n * 16, MemoryKind::DeviceLocal))) return s;
+        width = w;
+        height = h;
+        return Status::ok();
+    }
+
+    uint32_t* allocWords() { return static_cast<uint32_t*>(alloc.mapped()); }
+
+    /// Forgets every cached brick (defragmentation); bricks keep their marks of last use so they
+    /// are requested again by the next frame.
+    Status resetCacheNow() {
+        std::vector<uint32_t> words(size_t(brickCount) * 4);
+        Status s = ctx.download(bricks, 0, words.data(), words.size() * 4);
+        if (!s) return s;
+        for (size_t b = 0; b < brickCount; ++b) words[4 * b] = words[4 * b + 1] = kNone;
+        if (!(s = ctx.upload(bricks, 0, words.data(), words.size() * 4))) return s;
+        uint32_t* a = allocWords();
+        const uint32_t capacity = a[alCapacity];
+        std::fill(a, a + alWords, 0u);
+        a[alCapacity] = capacity;
+        return Status::ok();
+    }
+};
+
+Renderer::~Renderer() = default;
+
+Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared_ptr<GpuVolume> volume,
+                                                   const RendererOptions& options) {
+    if (!volume) return Status::error("no volume to render");
+    std::unique_ptr<Renderer> r(new Renderer());
+    r->m_volume = volume;
+    r->m_impl = std::make_unique<Impl>(context);
+    Impl& im = *r->m_impl;
+    im.volume = volume;
+    const CompressedVolume& v = volume->volume();
+    if (v.brickCount() > (uint64_t(1) << 28)) return Status::error("more than 2^28 bricks cannot be rendered");
+    im.brickCount = uint32_t(v.brickCount());
+    im.levels = v.levels();
+    im.brickSize = v.brickSize;
+
+    Defines d;
+    d.emplace_back("BRICK_SIZE", std::to_string(v.brickSize) + "u");
+    d.emplace_back("BRICK_SHIFT", std::to_string(log2u(v.brickSize)) + "u");
+    d.emplace_back("LEVELS", std::to_string(v.levels()) + "u");
+    d.emplace_back("VOLUME_DIM", uvec3Of(v.dim));
+    d.emplace_back("BRICK_GRID", uvec3Of(v.brickGrid()));
+    struct Shader {
+        const char* name;
+        uint64_t* pipeline;
+        uint32_t push;
+    };
+    for (const Shader& s : {Shader{"cache_request.comp", &im.pRequest, 8}, Shader{"cache_provision.comp", &im.pProvision, 8},
+                            Shader{"cache_assign.comp", &im.pAssign, 8}, Shader{"cache_commit.comp", &im.pCommit, 8},
+                            Shader{"render.comp", &im.pRender, 8}, Shader{"resolve.comp", &im.pResolve, 24}}) {
+        Result<std::vector<uint32_t>> spirv = compileComputeShader(s.name, d);
+        if (!spirv) return spirv.status();
+        Result<uint64_t> p = context.createComputePipeline(*spirv, s.push);
+        if (!p) return Status(p.status()).prefix(s.name);
+        *s.pipeline = *p;
+    }
+
+    auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind, const char* what) -> Status {
+        Result<Buffer> res = context.createBuffer(std::max<uint64_t>(bytes, 16), kind);
+        if (!res) return Status(res.status()).prefix(std::string("allocating the ") + what);
+        b = std::move(*res);
+        return Status::ok();
+    };
+    Status s;
+    // The cache: a budget, within one allocation and 32-bit word offsets.
+    const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation, (uint64_t(1) << 32) * 4 - 4);
+    const uint64_t cacheBytes = std::min<uint64_t>(std::max<uint64_t>(options.cacheBytes, 4096), maxBytes) & ~uint64_t(3);
+    if (!(s = make(im.cache, cacheBytes, MemoryKind::DeviceLocal, "brick cache"))) return s;
+    if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
+    if (!(s = make(im.bricks, uint64_t(im.brickCount) * 16, MemoryKind::DeviceLocal, "brick table"))) return s;
+    if (!(s = make(im.visible, uint64_t(im.brickCount) * 4, MemoryKind::DeviceLocal, "brick visibility"))) return s;
+    if (!(s = make(im.alloc, alWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
+    if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
+    im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(r->m_settings.maxRequestsPerFrame, im.brickCount));
+    if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
+    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * 12, MemoryKind::DeviceLocal, "decode list"))) return s;
+    if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * 48, MemoryKind::DeviceLocal, "decoder states"))) return s;
+    std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
+    for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
+    if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
+    uint32_t* a = im.allocWords();
+    std::fill(a, a + alWords, 0u);
+    a[alCapacity] = uint32_t(cacheBytes / 4);
+    if (!(s = r->setMaterials(defaultMaterials()))) return s;
+    return r;
+}
+
+void Renderer::setGeometry(const Geometry& g) {
+    m_impl->geometry = g;
+    resetAccumulation();
+}
+
+Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::string, std::vector<float>>& attributes,
+                              const std::vector<uint32_t>& storedToOriginal) {
+    Impl& im = *m_impl;
+    Context& ctx = im.ctx;
+    std::vector<std::string> names{"label"};
+    for (const auto& a : attributes) names.push_back(a.first);
+    Status s = checkAttributes(doc, names);
+    if (!s) return s;
+    uint64_t labelCount = storedToOriginal.size();
+    for (const auto& a : attributes) {
+        if (labelCount != 0 && a.second.size() != labelCount)
+            return Status::error("attribute '" + a.first + "' has " + std::to_string(a.second.size()) +
+                                 " values, other per-label arrays have " + std::to_string(labelCount));
+        labelCount = a.second.size();
+    }
+    if (labelCount >= kNone) return Status::error("too many labels with attributes");
+    std::vector<std::string> attributeNames;
+    std::vector<uint64_t> attributeAddresses;
+    std::vector<Buffer> attributeBuffers;
+    auto attributeIndex = [&](const std::string& name) -> uint32_t {
+        if (name == "label") return kNone;
+        for (size_t i = 0; i < attributeNames.size(); ++i)
+            if (attributeNames[i] == name) return uint32_t(i);
+        attributeNames.push_back(name);
+        return uint32_t(attributeNames.size() - 1);
+    };
+    std::vector<GpuMaterial> mats;
+    std::vector<std::array<float, 4>> samples;
+    for (size_t i = 0; i < doc.materials.size(); ++i) {
+        const Material& m = doc.materials[i];
+        GpuMaterial g{};
+        g.filter[0] = attributeIndex(m.filterAttribute);
+        // Label filters compare integers: [ceil(min), floor(max)] within 32 bits (empty: min > max).
+        const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
+        g.filter[1] = lo > 4294967295.0 ? kNone : uint32_t(lo);
+        g.filter[2] = hi < 0 ? 0u : uint32_t(hi);
+        if (lo > hi) g.filter[1] = 1, g.filter[2] = 0;
+        g.filter[3] = m.colorMode == Material::ColorMode::Constant ? 0u : m.colorMode == Material::ColorMode::Colormap ? 1u : 2u;
+        g.range[0] = float(m.filterMin);
+        g.range[1] = float(m.filterMax);
+        g.range[2] = float(m.colorMin);
+        g.range[3] = float(m.colorMax);
+        g.rgba[0] = m.rgb[0];
+        g.rgba[1] = m.rgb[1];
+        g.rgba[2] = m.rgb[2];
+        g.rgba[3] = std::clamp(m.opacity, 0.0f, 1.0f);
+        g.colour[0] = m.colorMode == Material::ColorMode::Colormap ? attributeIndex(m.colorAttribute) : kNone;
+        g.colour[1] = m.wrap == Material::Wrap::Repeat ? 1u : 0u;
+        if (!m.colormap.points.empty()) {
+            if (m.colormap.points.size() < 2) return Status::error("material " + std::to_string(i) + ": a colormap needs two points");
+            g.colour[2] = uint32_t(samples.size());
+            g.colour[3] = kColormapSamples;
+            for (uint32_t k = 0; k < kColormapSamples; ++k) {
+                const auto c = m.colormap.at(double(k) / (kColormapSamples - 1));
+                samples.push_back({c[0], c[1], c[2], 1.0f});
+            }
+        } else if (m.colorMode == Material::ColorMode::Colormap) {
+            if (!m.colormap.name.empty())
+                return Status::error("material " + std::to_string(i) + ": colormap '" + m.colormap.name + "' is not resolved to points");
+            return Status::error("material " + std::to_string(i) + ": colormap mode without a colormap");
+        }
+        g.extra[0] = std::max(m.emission, 0.0f);
+        mats.push_back(g);
+    }
+    for (const std::string& name : attributeNames) {
+        const std::vector<float>& values = attributes.at(name);
+        Result<Buffer> b = ctx.createBuffer(std::max<uint64_t>(values.size() * 4, 16), MemoryKind::DeviceLocal);
+        if (!b) return Status(b.status()).prefix("attribute '" + name + "'");
+        if (!(s = ctx.upload(*b, 0, values.data(), values.size() * 4))) return s;
+        attributeAddresses.push_back(b->address());
+        attributeBuffers.push_back(std::move(*b));
+    }
+    auto upload = [&](Buffer& dst, const void* data, uint64_t bytes) -> Status {
+        Result<Buffer> b = ctx.createBuffer(std::max<uint64_t>(bytes, 16), MemoryKind::DeviceLocal);
+        if (!b) return b.status();
+        Status st = ctx.upload(*b, 0, data, bytes);
+        if (!st) return st;
+        dst = std::move(*b);
+        return Status::ok();
+    };
+    if (!(s = upload(im.materials, mats.data(), mats.size() * sizeof(GpuMaterial)))) return s;
+    if (!(s = upload(im.colormaps, samples.data(), samples.size() * 16))) return s;
+    if (!(s = upload(im.attributeTable, attributeAddresses.data(), attributeAddresses.size() * 8))) return s;
+    if (!(s = upload(im.labelMap, storedToOriginal.data(), storedToOriginal.size() * 4))) return s;
+    im.attributes = std::move(attributeBuffers);
+    im.materialCount = uint32_t(mats.size());
+    im.labelCount = uint32_t(labelCount);
+    im.hasLabelMap = !storedToOriginal.empty();
+
+    // Which bricks can show anything: their palettes against the materials, with the GPU's own
+    // comparisons (integers for `label`, floats for attributes).
+    auto visibleLabel = [&](uint32_t stored) -> bool {
+        if (stored == kNone) return false;
+        for (const GpuMaterial& g : mats) {
+            if (g.filter[0] == kNone) {
+                const uint32_t l = im.hasLabelMap && stored < labelCount ? storedToOriginal[stored] : stored;
+                if (l >= g.filter[1] && l <= g.filter[2]) return true;
+            } else {
+                if (stored >= labelCount) continue;
+                const float v = attributes.at(attributeNames[g.filter[0]])[stored];
+                if (v >= g.range[0] && v <= g.range[1]) return true;
+            }
+        }
+        return false;
+    };
+    const CompressedVolume& vol = im.volume->volume();
+    const uint32_t L = vol.levels();
+    std::vector<uint32_t> vis(im.brickCount, 0u);
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t b = 0; b < int64_t(im.brickCount); ++b) {
+        const BrickWords bw = vol.brick(uint64_t(b));
+        const uint32_t n = bw.words[L];
+        for (uint32_t k = 0; k < n && !vis[size_t(b)]; ++k)
+            if (visibleLabel(bw.words[bw.size - 1 - k])) vis[size_t(b)] = 1;
+    }
+    if (!(s = ctx.upload(im.visible, 0, vis.data(), vis.size() * 4))) return s;
+    resetAccumulation();
+    return Status::ok();
+}
+
+void Renderer::setSettings(const RenderSettings& settings) {
+    m_settings = settings;
+    resetAccumulation();
+}
+
+void Renderer::resetAccumulation() {
+    Impl& im = *m_impl;
+    im.clearPending = true;
+    im.accumulatedFrames = 0;
+    im.resetDone = im.evictUnused = im.limitRequests = false;
+    im.prevMinSamples = 0;
+}
+
+void Renderer::resetCache() { m_impl->cacheResetPending = true; }
+
+Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
+    Impl& im = *m_impl;
+    Context& ctx = im.ctx;
+    const RenderSettings& st = m_settings;
+    if (in.width == 0 || in.height == 0 || in.width > 16384 || in.height > 16384)
+        return Status::error("image size " + std::to_string(in.width) + "x" + std::to_string(in.height) +
+                             " is not between 1x1 and 16384x16384");
+    Mat4 clipToWorld{};
+    if (!invert(in.worldToClip, clipToWorld)) return Status::error("the camera matrix is singular");
+    for (double x : in.worldToClip)
+        if (!std::isfinite(x)) return Status::error("the camera matrix holds a non-finite value");
+    const uint32_t stride = st.subsampling;
+    if (stride != 1 && stride != 2 && stride != 4 && stride != 8)
+        return Status::error("pixel subsampling must be 1, 2, 4 or 8, not " + std::to_string(stride));
+    Status s;
+    if (in.width != im.width || in.height != im.height) {
+        if (!(s = im.allocateImage(in.width, in.height))) return s;
+        resetAccumulation();
+    }
+    if (in.worldToClip != im.lastWorldToClip) {
+        im.lastWorldToClip = in.worldToClip;
+        resetAccumulation();
+    }
+    FrameStats stats;
+    if (im.cacheResetPending) {
+        if (!(s = im.resetCacheNow())) return s;
+        im.cacheResetPending = false;
+        stats.cacheReset = true;
+    }
+
+    // Index space <-> world <-> clip.
+    const Geometry& g = im.geometry;
+    Mat4 indexToWorld{};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) indexToWorld[c * 4 + r] = g.direction[3 * r + c] * g.spacing[c];
+        indexToWorld[12 + r] = g.origin[r];
+    }
+    indexToWorld[15] = 1;
+    Mat4 worldToIndex{};
+    if (!invert(indexToWorld, worldToIndex)) return Status::error("the volume's spacing or direction is singular");
+    const Mat4 indexToClip = multiply(in.worldToClip, indexToWorld);
+    const Mat4 clipToIndex = multiply(worldToIndex, clipToWorld);
+
+    FrameParams& p = *static_cast<FrameParams*>(im.params.mapped());
+    std::memset(&p, 0, sizeof(p));
+    toFloat(clipToIndex, p.clipToIndex);
+    toFloat(indexToClip, p.indexToClip);
+    toFloat(indexToWorld, p.indexToWorld);
+    toFloat(worldToIndex, p.worldToIndex);
+    // View axes from the inverse projection, for a light given in view coordinates.
+    const Vec3 c0 = transformPoint(clipToWorld, {0, 0, -1}), cx = transformPoint(clipToWorld, {1, 0, -1}),
+               cy = transformPoint(clipToWorld, {0, 1, -1}), cf = transformPoint(clipToWorld, {0, 0, 1});
+    const Vec3 right = normalize3(sub3(cx, c0)), up = normalize3(sub3(cy, c0)), forward = normalize3(sub3(cf, c0));
+    Vec3 light{st.lightDirection[0], st.lightDirection[1], st.lightDirection[2]};
+    if (!st.lightInWorld)
+        for (int k = 0; k < 3; ++k) light[k] = st.lightDirection[0] * right[k] + st.lightDirection[1] * up[k] - st.lightDirection[2] * forward[k];
+    light = normalize3(light);
+    const Vec3 lightIndex = transformDir(worldToIndex, light);
+    for (int k = 0; k < 3; ++k) {
+        p.lightWorld[k] = float(light[k]);
+        p.lightIndex[k] = float(lightIndex[k]);
+        p.environment[k] = st.environment[k];
+    }
+    p.lightWorld[3] = st.lightIntensity;
+    p.lightIndex[3] = st.ambient;
+    p.environment[3] = st.aoRadius;
+    const auto& dim = im.volume->volume().dim;
+    for (int k = 0; k < 3; ++k) {
+        const bool whole = st.clipMin[k] >= st.clipMax[k];
+        p.clipMin[k] = whole ? 0.0f : float(std::clamp<int64_t>(st.clipMin[k], 0, dim[k]));
+        p.clipMax[k] = whole ? float(dim[k]) : float(std::clamp<int64_t>(st.clipMax[k], 0, dim[k]));
+    }
+    p.clipMin[3] = st.lodBias;
+    p.clipMax[3] = float(std::sqrt(clipToIndex[4] * clipToIndex[4] + clipToIndex[5] * clipToIndex[5] +
+                                   clipToIndex[6] * clipToIndex[6]) * 2.0 / in.height);
+    p.pixel[0] = 2.0f / float(in.width);
+    p.pixel[1] = 2.0f / float(in.height);
+    p.pixel[3] = std::clamp(st.shadingBlend, 0.0f, 1.0f);
+    p.tone[0] = st.brightness;
+    p.tone[1] = st.contrast;
+    p.tone[2] = st.gamma > 0 ? st.gamma : 1.0f;
+    p.tone[3] = st.toneMapping ? 1.0f : 0.0f;
+    // World normals of the index-space faces: the inverse transpose of index-to-world.
+    for (int f = 0; f < 6; ++f) {
+        Vec3 n{0, 0, 0};
+        n[f / 2] = f % 2 == 0 ? -1.0 : 1.0;
+        Vec3 w{};
+        for (int r = 0; r < 3; ++r) w[r] = worldToIndex[r * 4 + 0] * n[0] + worldToIndex[r * 4 + 1] * n[1] + worldToIndex[r * 4 + 2] * n[2];
+        w = normalize3(w);
+        for (int k = 0; k < 3; ++k) p.faceNormals[f][k] = float(w[k]);
+    }
+    uint32_t flags = 0;
+    if (st.jitter) flags |= kJitter;
+    if (st.finest) flags |= kFinest;
+    if (st.denoise) flags |= kDenoise;
+    if (im.limitRequests) flags |= kLimitRequests;
+    if (in.opaqueDepth) flags |= kDepthInput;
+    if (im.evictUnused) flags |= kEvictUnused;
+    if (im.hasLabelMap) flags |= kLabelMap;
+    p.frame[0] = im.frameIndex;
+    p.frame[1] = flags;
+    p.frame[2] = uint32_t(st.shading);
+    p.frame[3] = st.sampleTarget;
+    p.image[0] = in.width;
+    p.image[1] = in.height;
+    p.image[2] = stride;
+    p.image[3] = im.accumulatedFrames % (stride * stride);
+    p.limits[0] = im.maxRequests;
+    p.limits[1] = im.bandRow;
+    p.limits[2] = im.bandRow + im.bandHeight;
+    p.limits[3] = std::min<uint32_t>(st.maxBounces, 32);
+    p.counts[0] = im.materialCount;
+    p.counts[1] = im.brickCount;
+    p.counts[2] = im.labelCount;
+    const std::pair<Slot, const Buffer*> slots[] = {
+        {aBricks, &im.bricks},       {aCache, &im.cache},         {aAlloc, &im.alloc},         {aFree, &im.freeStacks},
+        {aRequests, &im.requests},   {aDecodes, &im.decodes},     {aAccum, &im.accum},         {aSamples, &im.samples},
+        {aGBuffer, &im.gbuffer},     {aDepthIn, &im.depthIn},     {aMaterials, &im.materials}, {aColormaps, &im.colormaps},
+        {aAttributes, &im.attributeTable}, {aColorOut, &im.colorOut}, {aDepthOut, &im.depthOut}, {aLabelMap, &im.labelMap},
+        {aDenoiseA, &im.denoiseA},   {aDenoiseB, &im.denoiseB},   {aVisible, &im.visible}};
+    for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
+    if (in.opaqueDepth) std::memcpy(im.depthIn.mapped(), in.opaqueDepth, size_t(in.width) * in.height * 4);
+
+    uint32_t* a = im.allocWords();
+    a[alFull] = 0;
+    a[alMinSamples] = kNone;
+    a[alNewSamples] = 0;
+    a[alMissing] = 0;
+    a[alMinRow] = kNone;
+    a[alPrevMin] = im.prevMinSamples;
+
+    // One submission: cache stages, decoding, rendering, resolving.
+    const uint64_t frameAddress = im.params.address();
+    struct ResolvePush {
+        uint64_t frame;
+        uint32_t pass, src, dst, pad;
+    };
+    std::vector<ResolvePush> resolvePushes;
+    resolvePushes.reserve(8);
+    std::vector<Context::Dispatch> list;
+    auto add = [&](uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy) {
+        Context::Dispatch d;
+        d.pipeline = pipeline;
+        d.pushConstants = push;
+        d.pushConstantBytes = bytes;
+        d.groups[0] = std::max(gx, 1u);
+        d.groups[1] = std::max(gy, 1u);
+        list.push_back(d);
+    };
+    const uint32_t gx = (in.width + 7) / 8, gy = (in.height + 7) / 8;
+    auto resolve = [&](uint32_t pass, uint32_t src, uint32_t dst) {
+        resolvePushes.push_back({frameAddress, pass, src, dst, 0});
+        add(im.pResolve, &resolvePushes.back(), sizeof(ResolvePush), gx, gy);
+    };
+    if (im.clearPending) resolve(5, aDenoiseA, aDenoiseA);
+    add(im.pRequest, &frameAddress, 8, (im.brickCount + 63) / 64, 1);
+    add(im.pProvision, &frameAddress, 8, 1, 1);
+    add(im.pAssign, &frameAddress, 8, (im.maxRequests + 63) / 64, 1);
+    add(im.pCommit, &frameAddress, 8, 1, 1);
+    if (!(s = im.volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * alDecodes, im.cache.address(),
+                                           im.decodeStates.address(), im.maxRequests, im.frameDecode, list)))
+        return s;
+    const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
+    add(im.pRender, &frameAddress, 8, (rw + 7) / 8, (rh + 7) / 8);
+    resolve(0, aDenoiseA, aDenoiseA);
+    uint32_t last = aDenoiseA;
+    if (st.denoise) {
+        resolve(1, aDenoiseA, aDenoiseB);
+        resolve(2, aDenoiseB, aDenoiseA);
+        resolve(3, aDenoiseA, aDenoiseB);
+        last = aDenoiseB;
+    }
+    resolve(4, last, aColorOut);
+
+    const auto t0 = std::chrono::steady_clock::now();
+    if (!(s = ctx.run(list))) return s;
+    stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    im.clearPending = false;
+    ++im.frameIndex;
+    ++im.accumulatedFrames;
+
+    stats.frame = im.accumulatedFrames;
+    stats.decodedBricks = a[alDecodes];
+    stats.newSamples = a[alNewSamples];
+    stats.missingPixels = a[alMissing];
+    stats.minSamples = a[alMinSamples] == kNone ? 0 : a[alMinSamples];
+    stats.cacheUsedBytes = uint64_t(a[alTop]) * 4;
+    stats.cacheFull = a[alFull] != 0;
+    stats.requestLimited = im.limitRequests;
+
+    // Cache pressure, decided between frames: reset once, then evict unused bricks, then limit
+    // requests to a band of rows that starts at the lowest row with the fewest samples.
+    if (stats.cacheFull) {
+        if (!im.resetDone) {
+            im.resetDone = true;
+            im.cacheResetPending = true;
+        } else if (!im.evictUnused) {
+            im.evictUnused = true;
+        } else if (!im.limitRequests) {
+            im.limitRequests = true;
+            im.bandHeight = std::max<uint32_t>(1, in.height / 2);
+        } else {
+            im.bandHeight = std::max<uint32_t>(1, im.bandHeight / 2);
+        }
+    }
+    if (im.limitRequests) im.bandRow = a[alMinRow] == kNone ? 0 : a[alMinRow];
+    im.prevMinSamples = stats.minSamples;
+    return stats;
+}
+
+Status Renderer::readOutput(FrameOutput& out) const {
+    const Impl& im = *m_impl;
+    if (im.width == 0) return Status::error("nothing rendered yet");
+    const size_t n = size_t(im.width) * im.height;
+    out.width = im.width;
+    out.height = im.height;
+    out.rgba.assign(static_cast<const float*>(im.colorOut.mapped()), static_cast<const float*>(im.colorOut.mapped()) + 4 * n);
+    out.depth.assign(static_cast<const float*>(im.depthOut.mapped()), static_cast<const float*>(im.depthOut.mapped()) + n);
+    const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
+    out.label.resize(n);
+    out.face.resize(n);
+    out.hitDepth.resize(n);
+    out.distance.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+        out.label[i] = g[4 * i];
+        out.face[i] = Face(g[4 * i + 1] & 7u);
+        std::memcpy(&out.hitDepth[i], &g[4 * i + 2], 4);
+        std::memcpy(&out.distance[i], &g[4 * i + 3], 4);
+    }
+    out.samples.resize(n);
+    return im.ctx.download(im.samples, 0, out.samples.data(), n * 4);
+}
+
+MemoryReport Renderer::memory() const {
+    const Impl& im = *m_impl;
+    MemoryReport r;
+    r.buffers.push_back({"encoding", im.volume->deviceBytes()});
+    r.buffers.push_back({"brick cache", im.cache.size()});
+    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size()});
+    r.buffers.push_back({"free stacks", im.freeStacks.size()});
+    r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
+                                                          im.alloc.size() + im.params.size()});
+    r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size()});
+    r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorOut.size() + im.depthOut.size() + im.gbuffer.size() +
+                                                                   im.depthIn.size()});
+    uint64_t attr = im.materials.size() + im.colormaps.size() + im.attributeTable.size() + im.labelMap.size();
+    for (const Buffer& b : im.attributes) attr += b.size();
+    r.buffers.push_back({"materials and attributes", attr});
+    return r;
+}
+
+} // namespace csgv::gpu

@@ -1,0 +1,244 @@
+// SPDX-License-Identifier: MIT
+// Render stage, one invocation per rendered pixel (every pixel, or one of stride^2 with
+// subsampling): casts the view ray with the stable DDA through cached bricks, shades the first
+// opaque surface (local, shadow ray, ambient occlusion or path tracing) after compositing
+// semi-transparent ones front to back, and accumulates one sample. A ray that needs a brick not
+// in the cache marks it for the next frame and adds no sample, so accumulated images only ever
+// contain complete samples; the k-th sample of a pixel is the same whichever frame computes it.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "render_common.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(push_constant) uniform Push { uint64_t frame; } pc;
+
+Frame f;
+ivec3 boxLo, boxHi;
+
+vec3 transformPoint(mat4 m, vec3 p) { return (m * vec4(p, 1.0)).xyz; }
+
+/// Visibility along a secondary ray from the walker's voxel (start inside a free voxel): 1 clear,
+/// 0 blocked, attenuated by semi-transparent surfaces; -1 when a needed brick is missing.
+float visibility(inout Walker w, bool request) {
+    float transmittance = 1.0;
+    for (uint i = 0u; i < 64u; ++i) {
+        uint label, material;
+        const uint r = march(f, w, boxLo, boxHi, request, label, material);
+        if (r == MARCH_OUT) return transmittance;
+        if (r == MARCH_MISSING) {
+            if (request) return -1.0;
+            w.prevLabel = NONE;
+            stableStep(w, BRICK_SHIFT); // beyond the request depth: treat as empty (small bias)
+            if (any(lessThan(w.voxel, boxLo)) || any(greaterThanEqual(w.voxel, boxHi))) return transmittance;
+            continue;
+        }
+        float e;
+        transmittance *= 1.0 - materialColor(f, material, label, e).a;
+        if (transmittance < 0.01) return 0.0;
+    }
+    return transmittance;
+}
+
+/// A walker for a secondary ray leaving the surface the walker `w` just entered, in direction
+/// dIndex (index space), reaching at most tEnd.
+bool leaveSurface(Walker w, vec3 dIndex, float tEnd, out Walker s) {
+    s = w;
+    s.d = dIndex;
+    s.invD = vec3(1.0) / dIndex;
+    s.t = 0.0;
+    s.tEnd = tEnd;
+    s.prevLabel = NONE;
+    s.lastBrick = NONE;
+    if (w.face != 0u) { // start in the voxel in front of the face
+        const uint axis = (w.face - 1u) / 2u;
+        if ((w.face - 1u) % 2u == 0u) {
+            s.voxel[axis] -= 1;
+            s.vpos[axis] = ONE_MINUS_EPSILON;
+        } else {
+            s.voxel[axis] += 1;
+            s.vpos[axis] = 0.0;
+        }
+    }
+    return !(any(lessThan(s.voxel, boxLo)) || any(greaterThanEqual(s.voxel, boxHi)));
+}
+
+vec3 cosineSample(vec3 n, inout Rng rng) {
+    const float u = rngNext(rng), v = rngNext(rng);
+    const float r = sqrt(u), phi = 6.2831853 * v;
+    const vec3 t = normalize(abs(n.x) > 0.5 ? cross(n, vec3(0, 1, 0)) : cross(n, vec3(1, 0, 0)));
+    const vec3 b = cross(n, t);
+    return normalize(t * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(0.0, 1.0 - u)));
+}
+
+vec3 toIndexDir(vec3 worldDir) { return (f.worldToIndex * vec4(worldDir, 0.0)).xyz; }
+
+/// Direct light from the key light at a surface (with a shadow ray when `shadow`); -1 in x when a
+/// brick is missing.
+vec3 directLight(Walker w, vec3 n, bool shadow, bool request) {
+    const float cosL = dot(n, f.lightWorld.xyz);
+    if (cosL <= 0.0) return vec3(0.0);
+    float vis = 1.0;
+    if (shadow) {
+        Walker s;
+        if (leaveSurface(w, f.lightIndex.xyz, 1e30, s)) vis = visibility(s, request);
+        if (vis < 0.0) return vec3(-1.0);
+    }
+    return vec3(f.lightWorld.w * cosL * vis);
+}
+
+void main() {
+    f = Frame(pc.frame);
+    boxLo = ivec3(f.clipMin.xyz);
+    boxHi = ivec3(f.clipMax.xyz);
+    const uint W = f.image.x, H = f.image.y, stride = f.image.z, phase = f.image.w;
+    const uvec2 px = gl_GlobalInvocationID.xy * stride + uvec2(phase % stride, phase / stride);
+    if (px.x >= W || px.y >= H) return;
+    const uint pixel = px.y * W + px.x;
+    UintBuf samplesBuf = UintBuf(f.addr[A_SAMPLES]);
+    const uint samples = samplesBuf.w[pixel];
+    if (f.frame.w != 0u && samples >= f.frame.w) return; // reached the sample target
+    UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
+    if (samples == alloc.w[AL_PREV_MIN]) atomicMin(alloc.w[AL_MIN_ROW], px.y);
+    const bool request = (f.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (px.y >= f.limits.y && px.y < f.limits.z);
+    Rng rng = rngFor(pixel, samples);
+
+    // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4).
+    vec2 jitter = vec2(0.0);
+    if ((f.frame.y & FLAG_JITTER) != 0u && samples > 0u) {
+        const float u = max(rngNext(rng), 1e-7), v = rngNext(rng);
+        jitter = clamp(0.4 * sqrt(-2.0 * log(u)) * vec2(cos(6.2831853 * v), sin(6.2831853 * v)), -1.5, 1.5);
+    }
+    precise float ndcX = (float(px.x) + 0.5 + jitter.x) * f.pixel.x - 1.0;
+    precise float ndcY = (float(px.y) + 0.5 + jitter.y) * f.pixel.y - 1.0;
+    const mat4 M = f.clipToIndex;
+    precise vec4 a, b;
+    for (int r = 0; r < 4; ++r) {
+        a[r] = M[0][r] * ndcX + M[1][r] * ndcY - M[2][r] + M[3][r];
+        b[r] = M[0][r] * ndcX + M[1][r] * ndcY + M[2][r] + M[3][r];
+    }
+    precise vec3 o = a.xyz * (1.0 / a.w);
+    precise vec3 e = b.xyz * (1.0 / b.w);
+    precise vec3 d = e - o;
+    float tEnd = 1.0;
+    if ((f.frame.y & FLAG_DEPTH_INPUT) != 0u) {
+        const float z = FloatBuf(f.addr[A_DEPTH_IN]).f[pixel];
+        if (z < 1.0) {
+            const vec4 q = M * vec4(ndcX, ndcY, 2.0 * z - 1.0, 1.0);
+            tEnd = min(tEnd, dot(q.xyz / q.w - o, d) / dot(d, d));
+        }
+    }
+
+    vec3 radiance = vec3(0.0);
+    float transmittance = 1.0;
+    uint gLabel = NONE, gFace = 0u;
+    float gDepth = 1.0, gDistance = 0.0, firstDepth = 1.0;
+    bool valid = true;
+    Walker w;
+    if (startRay(o, d, tEnd, boxLo, boxHi, w)) {
+        for (uint layer = 0u; layer < 256u; ++layer) {
+            uint label, material;
+            const uint r = march(f, w, boxLo, boxHi, request, label, material);
+            if (r == MARCH_OUT) break;
+            if (r == MARCH_MISSING) {
+                valid = false;
+                break;
+            }
+            float emission;
+            const vec4 c = materialColor(f, material, label, emission);
+            const vec3 q = walkerPoint(w);
+            const vec4 clip = f.indexToClip * vec4(q, 1.0);
+            const float depth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
+            if (firstDepth == 1.0) firstDepth = depth;
+            vec3 n = w.face != 0u ? f.faceNormals[w.face - 1u].xyz : -normalize((f.indexToWorld * vec4(d, 0.0)).xyz);
+            const vec3 local = c.rgb * (f.lightIndex.w + directLight(w, n, false, false)) + emission * c.rgb;
+            if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
+                radiance += transmittance * c.a * local;
+                transmittance *= 1.0 - c.a;
+                if (transmittance < 0.01) break;
+                continue;
+            }
+            gLabel = originalLabel(f, label);
+            gFace = w.face;
+            gDepth = depth;
+            gDistance = length((f.indexToWorld * vec4(q - o, 0.0)).xyz);
+            vec3 shaded = local;
+            const uint mode = f.frame.z;
+            if (mode == SHADING_SHADOW) {
+                const vec3 direct = directLight(w, n, true, request);
+                if (direct.x < 0.0) { valid = false; break; }
+                shaded = c.rgb * (f.lightIndex.w + direct) + emission * c.rgb;
+            } else if (mode == SHADING_AO) {
+                Walker s;
+                float vis = 1.0;
+                const vec3 dir = toIndexDir(cosineSample(n, rng));
+                if (leaveSurface(w, dir / length(dir), f.environment.w, s)) vis = visibility(s, request);
+                if (vis < 0.0) { valid = false; break; }
+                const vec3 direct = directLight(w, n, false, false);
+                shaded = c.rgb * ((f.lightIndex.w + 0.5 * f.lightWorld.w) * vis + 0.5 * direct) + emission * c.rgb;
+            } else if (mode == SHADING_PT) {
+                vec3 direct = directLight(w, n, true, request);
+                if (direct.x < 0.0) { valid = false; break; }
+                vec3 pt = c.rgb * direct + emission * c.rgb;
+                vec3 throughput = c.rgb;
+                Walker at = w;
+                vec3 atN = n;
+                for (uint bounce = 1u; bounce <= f.limits.w; ++bounce) {
+                    const bool req = request && bounce == 1u; // only the first bounce requests bricks
+                    Walker s;
+                    const vec3 dirW = cosineSample(atN, rng);
+                    if (!leaveSurface(at, toIndexDir(dirW), 1e30, s)) {
+                        pt += throughput * f.environment.rgb;
+                        break;
+                    }
+                    uint l2 = NONE, m2 = NONE;
+                    uint r2 = MARCH_OUT;
+                    for (uint pass = 0u; pass < 64u; ++pass) {
+                        r2 = march(f, s, boxLo, boxHi, req, l2, m2);
+                        if (r2 == MARCH_MISSING && !req) {
+                            s.prevLabel = NONE;
+                            stableStep(s, BRICK_SHIFT);
+                            if (any(lessThan(s.voxel, boxLo)) || any(greaterThanEqual(s.voxel, boxHi))) { r2 = MARCH_OUT; break; }
+                            continue;
+                        }
+                        if (r2 != MARCH_SURFACE) break;
+                        float e2;
+                        if (rngNext(rng) < materialColor(f, m2, l2, e2).a) break; // interacts
+                    }
+                    if (r2 == MARCH_MISSING) { valid = false; break; }
+                    if (r2 == MARCH_OUT) {
+                        pt += throughput * f.environment.rgb;
+                        break;
+                    }
+                    float e2;
+                    const vec3 c2 = materialColor(f, m2, l2, e2).rgb;
+                    const vec3 n2 = s.face != 0u ? f.faceNormals[s.face - 1u].xyz : -dirW;
+                    const vec3 d2 = directLight(s, n2, true, false);
+                    pt += throughput * (c2 * max(d2, vec3(0.0)) + e2 * c2);
+                    throughput *= c2;
+                    if (bounce >= 3u) { // Russian roulette
+                        const float p = max(throughput.r, max(throughput.g, throughput.b));
+                        if (rngNext(rng) >= p) break;
+                        throughput /= p;
+                    }
+                    at = s;
+                    atN = n2;
+                }
+                if (!valid) break;
+                shaded = pt;
+            }
+            radiance += transmittance * mix(local, shaded, f.pixel.w);
+            transmittance = 0.0;
+            break;
+        }
+    }
+    if (!valid) {
+        atomicAdd(alloc.w[AL_MISSING], 1u);
+        return;
+    }
+    Vec4Buf accum = Vec4Buf(f.addr[A_ACCUM]);
+    accum.v[pixel] += vec4(radiance, 1.0 - transmittance);
+    samplesBuf.w[pixel] = samples + 1u;
+    atomicAdd(alloc.w[AL_NEW_SAMPLES], 1u);
+    Uvec4Buf(f.addr[A_GBUFFER]).v[pixel] = uvec4(gLabel, gFace | 0x100u, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
+    FloatBuf(f.addr[A_DEPTH_OUT]).f[pixel] = firstDepth;
+}

@@ -1,0 +1,379 @@
+// SPDX-License-Identifier: MIT
+// Shared by the frame pipeline's passes (cache_*.comp, render.comp, resolve.comp): the frame
+// parameter block, the brick cache bookkeeping, materials, random numbers and the numerically
+// stable multi-level DDA of the paper ("Ray marching").
+//
+// Specialised per volume through defines (Renderer.cpp): BRICK_SIZE, BRICK_SHIFT, LEVELS,
+// VOLUME_DIM (uvec3), BRICK_GRID (uvec3).
+//
+// Coordinates: rays are marched in index space, where voxel (i, j, k) covers [i, i+1] x [j, j+1]
+// x [k, k+1]. A walker's position is an integer voxel plus a sub-voxel offset `vpos` in
+// [0, 1)^3, so distances to the next boundary are computed in that stable interval for any
+// volume size. The float operations of stableStep() and startRay() are mirrored one for one by
+// castRaysStable() in Core/src/RayCast.cpp; `precise` keeps the compiler from fusing them.
+
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+
+const uint NONE = 0xFFFFFFFFu;
+const float ONE_MINUS_EPSILON = 0.99999994; // the largest float below 1
+
+// Frame flags (Frame.frame.y).
+const uint FLAG_JITTER = 1u;
+const uint FLAG_FINEST = 2u;
+const uint FLAG_DENOISE = 4u;
+const uint FLAG_LIMIT_REQUESTS = 8u;
+const uint FLAG_DEPTH_INPUT = 16u;
+const uint FLAG_EVICT_UNUSED = 32u;
+const uint FLAG_LABEL_MAP = 64u;
+
+// Shading modes (Frame.frame.z).
+const uint SHADING_LOCAL = 0u;
+const uint SHADING_SHADOW = 1u;
+const uint SHADING_AO = 2u;
+const uint SHADING_PT = 3u;
+
+// Addresses in Frame.addr.
+const uint A_BRICKS = 0u;      // uvec4 per brick: cache word offset, cached lod (NONE), frame+1 of last use, visible
+const uint A_CACHE = 1u;       // decoded labels
+const uint A_ALLOC = 2u;       // Alloc words below
+const uint A_FREE = 3u;        // LEVELS free stacks of brickCount words each
+const uint A_REQUESTS = 4u;    // 2 words per request: brick, lod
+const uint A_DECODES = 5u;     // 3 words per decode: brick, inverse level, cache offset
+const uint A_ACCUM = 6u;       // vec4 per pixel: sum of premultiplied samples
+const uint A_SAMPLES = 7u;     // uint per pixel: valid samples
+const uint A_GBUFFER = 8u;     // uvec4 per pixel: label, face | flags, window depth bits, distance bits
+const uint A_DEPTH_IN = 9u;    // float per pixel: window depth of opaque geometry
+const uint A_MATERIALS = 10u;  // GpuMaterial array
+const uint A_COLORMAPS = 11u;  // vec4 colour samples
+const uint A_ATTRIBUTES = 12u; // uint64 address per attribute: float per label
+const uint A_COLOR_OUT = 13u;  // vec4 per pixel: resolved premultiplied RGBA
+const uint A_DEPTH_OUT = 14u;  // float per pixel
+const uint A_LABEL_MAP = 15u;  // uint per stored label: the original label
+const uint A_DENOISE_A = 16u;  // vec4 per pixel: resolve ping-pong buffers
+const uint A_DENOISE_B = 17u;
+const uint A_VISIBLE = 18u;    // uint per brick: 1 when its palette holds a visible label (host, per materials)
+const uint A_COUNT = 19u;
+
+// Alloc words.
+const uint AL_TOP = 0u;          // cache words handed out from the top
+const uint AL_CAPACITY = 1u;     // cache words
+const uint AL_FULL = 2u;         // set when a request found no space
+const uint AL_DECODES = 3u;      // decode requests this frame (read by the decode passes)
+const uint AL_REQUESTS = 4u;     // requests this frame
+const uint AL_MIN_SAMPLES = 5u;  // smallest sample count of any pixel after this frame
+const uint AL_NEW_SAMPLES = 6u;  // pixels that gained a sample this frame
+const uint AL_MISSING = 7u;      // pixels whose ray met a brick not in the cache
+const uint AL_MIN_ROW = 8u;      // lowest row holding a pixel with the previous minimum sample count
+const uint AL_PREV_MIN = 9u;     // previous frame's minimum sample count (host-written)
+const uint AL_FREE_COUNT = 16u;  // + lod
+const uint AL_REQ_COUNT = 24u;   // + lod
+const uint AL_POPS = 32u;        // + lod
+const uint AL_PROV_BASE = 40u;   // + lod
+const uint AL_PROV_COUNT = 48u;  // + lod
+const uint AL_WORDS = 56u;
+
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Frame {
+    mat4 clipToIndex;   // NDC -> index space
+    mat4 indexToClip;
+    mat4 indexToWorld;
+    mat4 worldToIndex;
+    vec4 lightWorld;    // xyz: towards the light (world, unit); w: light intensity
+    vec4 lightIndex;    // xyz: towards the light (index space); w: ambient intensity
+    vec4 environment;   // rgb: sky colour for misses and ambient light; w: AO radius in voxels
+    vec4 clipMin;       // xyz: clip box minimum (voxels); w: level-of-detail bias
+    vec4 clipMax;       // xyz: clip box maximum (voxels); w: pixel footprint factor
+    vec4 pixel;         // x: 2/W, y: 2/H, z: unused, w: shading blend
+    vec4 tone;          // x: brightness, y: contrast, z: gamma, w: tone mapping (1) or not
+    vec4 faceNormals[6];// world normals of the faces -x, +x, -y, +y, -z, +z
+    uvec4 frame;        // x: frame index, y: flags, z: shading mode, w: sample target
+    uvec4 image;        // x: W, y: H, z: subsampling stride, w: subsampling phase
+    uvec4 limits;       // x: max requests per frame, y/z: request band rows [y, z), w: max bounces
+    uvec4 counts;       // x: materials, y: bricks, z: labels with attributes, w: denoise pass step
+    uint64_t addr[A_COUNT];
+};
+
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer UintBuf { uint w[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer FloatBuf { float f[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Buf { vec4 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer Uvec4Buf { uvec4 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer AddrBuf { uint64_t a[]; };
+
+struct GpuMaterial {
+    uvec4 select;   // x: attribute (NONE = label), y: label min, z: label max, w: colour mode
+    vec4 range;     // x/y: filter min/max (float attributes), z/w: colour min/max
+    vec4 rgba;      // constant colour, opacity
+    uvec4 colour;   // x: colour attribute (NONE = label), y: wrap (1 repeat), z: colormap offset, w: samples (0: palette)
+    vec4 extra;     // x: emission
+};
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer MaterialBuf { GpuMaterial m[]; };
+
+const uint COLOR_CONSTANT = 0u;
+const uint COLOR_COLORMAP = 1u;
+const uint COLOR_RANDOM = 2u;
+
+// ---------------------------------------------------------------------------------------------
+// Random numbers: PCG (a hash of pixel, sample and dimension), deterministic per pixel and
+// valid-sample count, so an image after N samples is reproducible.
+
+uint pcgHash(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+struct Rng { uint state; };
+Rng rngFor(uint pixel, uint sampleIndex) { return Rng(pcgHash(pixel * 9781u + pcgHash(sampleIndex + 0x9E3779B9u))); }
+float rngNext(inout Rng r) {
+    r.state = pcgHash(r.state);
+    return float(r.state >> 8u) * (1.0 / 16777216.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials
+
+uint labelHash(uint x) { // Wellons' lowbias32, as csgv::labelHash
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}
+
+uint originalLabel(Frame f, uint label) {
+    if ((f.frame.y & FLAG_LABEL_MAP) != 0u && label < f.counts.z) return UintBuf(f.addr[A_LABEL_MAP]).w[label];
+    return label;
+}
+
+float attributeValue(Frame f, uint attr, uint label) {
+    if (attr == NONE) return float(originalLabel(f, label));
+    if (label >= f.counts.z) return uintBitsToFloat(0x7FC00000u); // NaN: matches no interval
+    return FloatBuf(AddrBuf(f.addr[A_ATTRIBUTES]).a[attr]).f[label];
+}
+
+/// The first material whose filter holds the label, or NONE (invisible).
+uint materialOf(Frame f, uint label) {
+    if (label == NONE) return NONE;
+    MaterialBuf mats = MaterialBuf(f.addr[A_MATERIALS]);
+    const uint n = f.counts.x;
+    for (uint i = 0u; i < n; ++i) {
+        const uvec4 flt = mats.m[i].select;
+        if (flt.x == NONE) {
+            const uint l = originalLabel(f, label);
+            if (l >= flt.y && l <= flt.z) return i;
+        } else {
+            const float v = attributeValue(f, flt.x, label);
+            const vec2 r = mats.m[i].range.xy;
+            if (v >= r.x && v <= r.y) return i;
+        }
+    }
+    return NONE;
+}
+
+const vec3 PALETTE[16] = vec3[16](
+    vec3(0.902, 0.098, 0.294), vec3(0.235, 0.706, 0.294), vec3(1.000, 0.882, 0.098), vec3(0.263, 0.388, 0.847),
+    vec3(0.961, 0.510, 0.192), vec3(0.569, 0.118, 0.706), vec3(0.275, 0.941, 0.941), vec3(0.941, 0.196, 0.902),
+    vec3(0.737, 0.965, 0.047), vec3(0.980, 0.745, 0.745), vec3(0.000, 0.502, 0.502), vec3(0.902, 0.745, 1.000),
+    vec3(0.604, 0.388, 0.141), vec3(1.000, 0.980, 0.784), vec3(0.502, 0.000, 0.000), vec3(0.667, 1.000, 0.765));
+
+vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
+    Vec4Buf cm = Vec4Buf(f.addr[A_COLORMAPS]);
+    const float x = clamp(t, 0.0, 1.0) * float(samples - 1u);
+    const uint i = min(uint(x), samples - 2u);
+    return mix(cm.v[offset + i].rgb, cm.v[offset + i + 1u].rgb, x - float(i));
+}
+
+/// Colour (rgb), opacity (a) and emission of a label under material m.
+vec4 materialColor(Frame f, uint m, uint label, out float emission) {
+    const GpuMaterial mat = MaterialBuf(f.addr[A_MATERIALS]).m[m];
+    emission = mat.extra.x;
+    vec3 rgb = mat.rgba.rgb;
+    if (mat.select.w == COLOR_COLORMAP) {
+        float t = (attributeValue(f, mat.colour.x, label) - mat.range.z) / (mat.range.w - mat.range.z);
+        if (isnan(t)) t = 0.0;
+        if (mat.colour.y == 1u) t -= floor(t);
+        rgb = colormapAt(f, mat.colour.z, mat.colour.w, t);
+    } else if (mat.select.w == COLOR_RANDOM) {
+        const uint h = labelHash(originalLabel(f, label));
+        rgb = mat.colour.w == 0u ? PALETTE[h % 16u] : colormapAt(f, mat.colour.z, mat.colour.w, float(h) / 4294967295.0);
+    }
+    return vec4(rgb, mat.rgba.a);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bricks and the cache
+
+uint brickIndexOf(ivec3 voxel) {
+    const uvec3 b = uvec3(voxel) >> BRICK_SHIFT;
+    return b.x + BRICK_GRID.x * (b.y + BRICK_GRID.y * b.z);
+}
+
+uint mortonSpread(uint v) {
+    v &= 0x3FFu;
+    v = (v | (v << 16u)) & 0x030000FFu;
+    v = (v | (v << 8u)) & 0x0300F00Fu;
+    v = (v | (v << 4u)) & 0x030C30C3u;
+    v = (v | (v << 2u)) & 0x09249249u;
+    return v;
+}
+
+/// Label of a voxel in a cached brick decoded at `lod` starting at cache word `offset`.
+uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel) {
+    const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
+    return UintBuf(f.addr[A_CACHE]).w[offset + (mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u))];
+}
+
+/// Level of detail for a brick: one voxel of that level about one pixel (footprint at the brick's
+/// centre), shifted by the bias; 0 everywhere with FLAG_FINEST.
+uint lodForBrick(Frame f, uint brick) {
+    if ((f.frame.y & FLAG_FINEST) != 0u) return 0u;
+    const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y));
+    const vec3 centre = (vec3(b) + 0.5) * float(BRICK_SIZE);
+    const vec4 clip = f.indexToClip * vec4(centre, 1.0);
+    const vec4 back = f.clipToIndex * clip;
+    // One pixel in NDC is 2/H; at this point it spans footprintFactor * |w_clip / w_index| voxels.
+    const float footprint = f.clipMax.w * abs(clip.w / back.w);
+    const float l = floor(log2(max(footprint, 1e-30)) + f.clipMin.w);
+    return uint(clamp(l, 0.0, float(LEVELS - 1u)));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The stable multi-level DDA
+
+struct Walker {
+    ivec3 voxel;    // current voxel (finest level)
+    vec3 vpos;      // position inside it, [0, 1)^3
+    float t;        // ray parameter where the walker entered the voxel
+    uint face;      // face it entered through: 1 + 2 axis + (moving in -axis ? 1 : 0); 0 at the start
+    vec3 d;         // ray direction (index space, per unit of t)
+    vec3 invD;      // 1 / d (infinite for 0)
+    float tEnd;     // stop after this t
+    uint prevLabel; // label of the previous voxel (surface events happen when it changes)
+    uint lastBrick; // last brick marked as used
+};
+
+/// Leaves the current voxel of the level with 2^k voxels per edge (k = 0: finest; k = BRICK_SHIFT:
+/// the whole brick) through its nearest face.
+void stableStep(inout Walker w, uint k) {
+    const float s = float(1u << k);
+    const float invS = 1.0 / s;
+    const ivec3 cv = w.voxel >> k;
+    precise vec3 cp = (vec3(w.voxel - (cv << k)) + w.vpos) * invS;
+    cp = min(cp, vec3(ONE_MINUS_EPSILON));
+    const vec3 target = vec3(greaterThan(w.d, vec3(0.0)));
+    precise vec3 dist = (target - cp) * (w.invD * s);
+    uint axis = 0u;
+    if (dist.y < dist[axis]) axis = 1u;
+    if (dist.z < dist[axis]) axis = 2u;
+    const float dt = dist[axis];
+    precise vec3 np = cp + (w.d * invS) * dt;
+    np = clamp(np, vec3(0.0), vec3(ONE_MINUS_EPSILON));
+    ivec3 ncv = cv;
+    if (w.d[axis] > 0.0) {
+        ncv[axis] += 1;
+        np[axis] = 0.0;
+    } else {
+        ncv[axis] -= 1;
+        np[axis] = ONE_MINUS_EPSILON;
+    }
+    precise vec3 fine = np * s;
+    const vec3 fl = floor(fine);
+    w.voxel = (ncv << k) + ivec3(fl);
+    w.vpos = fine - fl;
+    w.t = w.t + dt;
+    w.face = 1u + 2u * axis + (w.d[axis] > 0.0 ? 0u : 1u);
+}
+
+/// Sets up a walker for the ray o + t d, t in [0, tEnd], clipped to the box [lo, hi) (voxels).
+/// False when the ray misses the box.
+bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
+    w.d = d;
+    w.invD = vec3(1.0) / d;
+    w.tEnd = tEnd;
+    w.prevLabel = NONE;
+    w.lastBrick = NONE;
+    w.face = 0u;
+    precise float t0 = 0.0;
+    precise float t1 = tEnd;
+    int entryAxis = -1;
+    for (int k = 0; k < 3; ++k) {
+        if (d[k] == 0.0) {
+            if (o[k] < float(lo[k]) || o[k] > float(hi[k])) return false;
+            continue;
+        }
+        precise float ta = (float(lo[k]) - o[k]) * w.invD[k];
+        precise float tb = (float(hi[k]) - o[k]) * w.invD[k];
+        const float tlo = min(ta, tb);
+        const float thi = max(ta, tb);
+        if (tlo > t0) {
+            t0 = tlo;
+            entryAxis = k;
+        }
+        t1 = min(t1, thi);
+    }
+    if (t0 > t1) return false;
+    precise vec3 p = o + d * t0;
+    w.voxel = clamp(ivec3(floor(p)), lo, hi - 1);
+    precise vec3 fr = p - vec3(w.voxel);
+    w.vpos = clamp(fr, vec3(0.0), vec3(ONE_MINUS_EPSILON));
+    if (entryAxis >= 0) {
+        const bool up = d[entryAxis] > 0.0;
+        w.voxel[entryAxis] = up ? lo[entryAxis] : hi[entryAxis] - 1;
+        w.vpos[entryAxis] = up ? 0.0 : ONE_MINUS_EPSILON;
+        w.face = 1u + 2u * uint(entryAxis) + (up ? 0u : 1u);
+    }
+    w.t = t0;
+    w.tEnd = t1;
+    return true;
+}
+
+// Results of march().
+const uint MARCH_OUT = 0u;     // left the box or passed tEnd
+const uint MARCH_SURFACE = 1u; // entered a voxel of a visible label different from the previous one
+const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cache
+
+/// Walks until a surface event, the end, or a missing brick. `request`: mark the bricks the ray
+/// needs as used (so the next frame's request pass keeps or decodes them). On MARCH_SURFACE,
+/// `label` and `material` describe the voxel entered.
+uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint label, out uint material) {
+    Uvec4Buf bricks = Uvec4Buf(f.addr[A_BRICKS]);
+    label = NONE;
+    material = NONE;
+    for (uint it = 0u; it < 60000u; ++it) {
+        if (w.t > w.tEnd) return MARCH_OUT;
+        const uint b = brickIndexOf(w.voxel);
+        const uvec4 s = bricks.v[b];
+        if (s.w == 0u) {
+            w.prevLabel = NONE;
+            stableStep(w, BRICK_SHIFT);
+        } else {
+            if (request && b != w.lastBrick) {
+                bricks.v[b].z = f.frame.x + 1u;
+                w.lastBrick = b;
+            }
+            if (s.y == NONE) return MARCH_MISSING;
+            const uint l = cachedLabel(f, s.x, s.y, w.voxel);
+            if (l != w.prevLabel) {
+                w.prevLabel = l;
+                const uint m = materialOf(f, l);
+                if (m != NONE) {
+                    label = l;
+                    material = m;
+                    return MARCH_SURFACE;
+                }
+            }
+            stableStep(w, s.y);
+        }
+        if (any(lessThan(w.voxel, lo)) || any(greaterThanEqual(w.voxel, hi))) return MARCH_OUT;
+    }
+    return MARCH_OUT;
+}
+
+/// The index-space point where the walker entered its voxel.
+vec3 walkerPoint(Walker w) { return vec3(w.voxel) + w.vpos; }
+
+vec3 faceNormalIndex(uint face) {
+    vec3 n = vec3(0.0);
+    if (face != 0u) n[(face - 1u) / 2u] = ((face - 1u) % 2u == 0u) ? -1.0 : 1.0;
+    return n;
+}

@@ -1,0 +1,91 @@
+// SPDX-License-Identifier: MIT
+// Resolve stage, one invocation per pixel, in passes (push constant `pass`):
+//   0 gather: average of the accumulated samples; pixels without samples yet (subsampling or a
+//     missing brick) copy the first-rendered pixel of their stride block (upsampling);
+//   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
+//     same face, similar depth), fading out as samples accumulate;
+//   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output;
+//   5 clear: starts the accumulation anew.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "render_common.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(push_constant) uniform Push {
+    uint64_t frame;
+    uint pass;
+    uint src; // address index of the input colour
+    uint dst; // address index of the output colour
+} pc;
+
+vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
+
+void main() {
+    Frame f = Frame(pc.frame);
+    const uint W = f.image.x, H = f.image.y;
+    const uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= W || px.y >= H) return;
+    const uint pixel = px.y * W + px.x;
+    UintBuf samples = UintBuf(f.addr[A_SAMPLES]);
+    Vec4Buf dst = Vec4Buf(f.addr[pc.dst]);
+    if (pc.pass == 5u) {
+        Vec4Buf(f.addr[A_ACCUM]).v[pixel] = vec4(0.0);
+        samples.w[pixel] = 0u;
+        Uvec4Buf(f.addr[A_GBUFFER]).v[pixel] = uvec4(NONE, 0u, floatBitsToUint(1.0), 0u);
+        FloatBuf(f.addr[A_DEPTH_OUT]).f[pixel] = 1.0;
+        return;
+    }
+    if (pc.pass == 0u) {
+        uint n = samples.w[pixel];
+        atomicMin(UintBuf(f.addr[A_ALLOC]).w[AL_MIN_SAMPLES], n);
+        uint from = pixel;
+        if (n == 0u && f.image.z > 1u) {
+            const uint s = f.image.z;
+            const uvec2 q = min((px / s) * s, uvec2(W - 1u, H - 1u));
+            from = q.y * W + q.x;
+            n = samples.w[from];
+            FloatBuf depth = FloatBuf(f.addr[A_DEPTH_OUT]);
+            if (n > 0u) depth.f[pixel] = depth.f[from];
+        }
+        dst.v[pixel] = n > 0u ? Vec4Buf(f.addr[A_ACCUM]).v[from] / float(n) : vec4(0.0);
+        return;
+    }
+    Vec4Buf src = Vec4Buf(f.addr[pc.src]);
+    const vec4 centre = src.v[pixel];
+    if (pc.pass <= 3u) {
+        const uint n = samples.w[pixel];
+        Uvec4Buf g = Uvec4Buf(f.addr[A_GBUFFER]);
+        const uvec4 gc = g.v[pixel];
+        const float dc = uintBitsToFloat(gc.z);
+        const int step = 1 << (pc.pass - 1u);
+        const float kernel[3] = float[3](0.25, 0.5, 0.25);
+        vec4 sum = vec4(0.0);
+        float weights = 0.0;
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+                const ivec2 q = ivec2(px) + ivec2(dx, dy) * step;
+                if (q.x < 0 || q.y < 0 || q.x >= int(W) || q.y >= int(H)) continue;
+                const uint qi = uint(q.y) * W + uint(q.x);
+                const uvec4 gq = g.v[qi];
+                float wgt = kernel[dx + 1] * kernel[dy + 1];
+                if (gq.x != gc.x || (gq.y & 7u) != (gc.y & 7u)) wgt = 0.0;
+                wgt *= exp(-abs(uintBitsToFloat(gq.z) - dc) * 2000.0);
+                sum += wgt * src.v[qi];
+                weights += wgt;
+            }
+        const vec4 filtered = weights > 0.0 ? sum / weights : centre;
+        const float keep = (f.frame.y & FLAG_DENOISE) != 0u ? float(n) / float(n + 4u) : 1.0;
+        dst.v[pixel] = mix(filtered, centre, keep);
+        return;
+    }
+    vec4 c = centre;
+    if (c.a > 0.0) {
+        vec3 rgb = c.rgb / c.a;
+        if (f.tone.w != 0.0) rgb = aces(rgb);
+        rgb *= f.tone.x;
+        rgb = (rgb - 0.5) * f.tone.y + 0.5;
+        rgb = pow(clamp(rgb, 0.0, 1.0), vec3(1.0 / f.tone.z));
+        c.rgb = rgb * c.a;
+    }
+    dst.v[pixel] = c;
+}
