@@ -77,6 +77,7 @@ int vtkCSGVNIfTIReader::RequestInformation(
   vtkInternals& in = *this->Internals;
   in.HasValues = false;
   in.Volume = csgv::InputVolume{};
+  in.Path.clear();
   if (!this->FileName || !*this->FileName)
   {
     vtkErrorMacro(<< "no FileName set");
@@ -86,11 +87,11 @@ int vtkCSGVNIfTIReader::RequestInformation(
   if (!vol)
   {
     vtkErrorMacro(<< vol.message());
-    if (vtkDataObject* out = outInfo->Get(vtkDataObject::DATA_OBJECT()))
-    {
-      out->Initialize();
-    }
-    return 0;
+    // Reported once; the pipeline goes on with an empty extent and RequestData leaves an empty
+    // output, never the previous file's data.
+    const int empty[6] = { 0, -1, 0, -1, 0, -1 };
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
+    return 1;
   }
   in.Volume = std::move(*vol);
   in.Path = this->FileName;
@@ -133,7 +134,11 @@ int vtkCSGVNIfTIReader::RequestData(
     return 0;
   }
   output->Initialize();
-  if (!in.HasValues || in.Path != this->FileName)
+  if (!in.HasValues && in.Path != this->FileName)
+  {
+    return 1; // RequestInformation reported why; the output stays empty
+  }
+  if (!in.HasValues)
   {
     csgv::Result<csgv::InputVolume> vol = csgv::readNifti(this->FileName);
     if (!vol)

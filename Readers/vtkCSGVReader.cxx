@@ -246,11 +246,11 @@ int vtkCSGVReader::RequestInformation(
   if (!error.empty())
   {
     vtkErrorMacro(<< error);
-    if (vtkDataObject* out = outInfo->Get(vtkDataObject::DATA_OBJECT()))
-    {
-      out->Initialize(); // an empty output, never the previous file's data
-    }
-    return 0;
+    // Reported once; the pipeline goes on with an empty extent and RequestData leaves an empty
+    // output, never the previous file's data.
+    const int empty[6] = { 0, -1, 0, -1, 0, -1 };
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
+    return 1;
   }
   const vtkInternals& in = *this->Internals;
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
@@ -295,8 +295,7 @@ int vtkCSGVReader::RequestData(
   const vtkInternals& in = *this->Internals;
   if (!in.Loaded || !in.Encoding)
   {
-    vtkErrorMacro(<< "no file loaded");
-    return 0;
+    return 1; // RequestInformation reported why; the output stays empty
   }
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
   const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);

@@ -1,0 +1,115 @@
+# SPDX-License-Identifier: MIT
+"""Shared helpers of the pvpython tests: plugin loading, fixtures and their source volumes,
+error capture through vtkLogger, fetching labels as numpy arrays."""
+import gzip
+import os
+import shutil
+import sys
+import tempfile
+
+import numpy as np
+from paraview import servermanager as sm
+from paraview import simple
+from vtkmodules.numpy_interface import dataset_adapter as dsa  # noqa: F401 (numpy support loaded)
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.vtkCommonCore import vtkLogger
+
+PLUGIN = os.environ.get("CSGV_PLUGIN", "")
+FIXTURES = os.environ.get("CSGV_FIXTURES", "")
+AAL = "/usr/share/mricron/templates/aal.nii.gz"
+
+_failures = []
+
+
+def log(*args):
+    # pvpython's stdout is not line buffered; ctest shows only what was flushed.
+    print(*args)
+    sys.stdout.flush()
+
+
+def check(cond, what):
+    if cond:
+        log("ok   " + what)
+    else:
+        log("FAIL " + what)
+        _failures.append(what)
+
+
+def finish():
+    if _failures:
+        log("%d check(s) failed:" % len(_failures))
+        for f in _failures:
+            log("  " + f)
+        sys.exit(1)
+    log("all checks passed")
+    sys.exit(0)
+
+
+def load_plugin(ns):
+    if not PLUGIN or not os.path.isfile(PLUGIN):
+        log("FAIL plugin file not found: %r" % PLUGIN)
+        sys.exit(1)
+    simple.LoadPlugin(PLUGIN, remote=False, ns=ns)
+
+
+def temp_dir():
+    d = tempfile.mkdtemp(prefix="csgv-pv-")
+    import atexit
+    atexit.register(shutil.rmtree, d, True)
+    return d
+
+
+def fixture_names():
+    return sorted(n for n in os.listdir(FIXTURES) if n.endswith(".csgv"))
+
+
+_sources = {}
+
+
+def source_volume(fixture_name):
+    """The uncompressed volume a fixture was written from, read with numpy (x fastest), shaped
+    (D, H, W) so that it ravels in VTK's order."""
+    stem = fixture_name.split("_")[0]
+    if stem not in _sources:
+        with gzip.open(os.path.join(FIXTURES, stem + ".vraw.gz"), "rb") as f:
+            data = f.read()
+        first = data.index(b"\n")
+        second = data.index(b"\n", first + 1)
+        w, h, d = (int(v) for v in data[:first].split())
+        kind = data[first + 1:second].decode()
+        dtype = {"uint8": "<u1", "uint16": "<u2", "uint32": "<u4"}[kind]
+        vol = np.frombuffer(data, dtype=dtype, offset=second + 1).reshape(d, h, w)
+        _sources[stem] = vol
+    return _sources[stem]
+
+
+def fetch(proxy):
+    proxy.UpdatePipeline()
+    return sm.Fetch(proxy)
+
+
+def cell_labels(image, name="Labels"):
+    arr = image.GetCellData().GetArray(name)
+    return None if arr is None else vtk_to_numpy(arr)
+
+
+def point_labels(image, name="Labels"):
+    arr = image.GetPointData().GetArray(name)
+    return None if arr is None else vtk_to_numpy(arr)
+
+
+class ErrorLog:
+    """Collects vtkErrorMacro output (ParaView routes it through vtkLogger) while active."""
+
+    def __init__(self):
+        self.path = os.path.join(temp_dir(), "errors.log")
+
+    def __enter__(self):
+        vtkLogger.LogToFile(self.path, vtkLogger.TRUNCATE, vtkLogger.VERBOSITY_WARNING)
+        return self
+
+    def __exit__(self, *exc):
+        vtkLogger.EndLogToFile(self.path)
+        with open(self.path) as f:
+            self.text = "".join(l for l in f if "ERR|" in l or "WARN|" in l)
+        return False

@@ -1,0 +1,1 @@
+import csgv_pvtest as t; t.finish()
