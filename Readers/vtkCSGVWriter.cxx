@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <type_traits>
 
@@ -42,6 +43,7 @@ const char* labelTypeNameOf(int vtkType, csgv::LabelType& type)
     case VTK_UNSIGNED_INT:
     case VTK_UNSIGNED_LONG:
     case VTK_UNSIGNED_LONG_LONG: isSigned = false; break;
+    case VTK_CHAR: isSigned = std::numeric_limits<char>::is_signed; break; // numpy's int8
     case VTK_SIGNED_CHAR:
     case VTK_SHORT:
     case VTK_INT:
