@@ -9,6 +9,9 @@
 #include "csgv/LabelVolume.h"
 #include "csgv/Metadata.h"
 #include "csgv/Procedural.h"
+#ifdef CSGV_HAVE_RENDER
+#include "RenderCommand.h"
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -43,7 +46,14 @@ const char* kUsage =
     "      IN: synth:WxHxD[:seed], .vraw[.gz], .nrrd, .nhdr, .nii[.gz]; letters p x y z n l d s;\n"
     "      writes OUT.json (geometry) and OUT's _csgv.db3 when labels are relabelled\n"
     "  bench IN [--threads N] [--brick-size N] [--encoding E] [--ops O]\n"
-    "      bits/voxel, encode and decode Mvoxel/s, and zstd -19 / gzip -9 of the raw uint32 labels\n";
+    "      bits/voxel, encode and decode Mvoxel/s, and zstd -19 / gzip -9 of the raw uint32 labels\n"
+    "  render IN.csgv OUT.png [--size WxH] [--eye x,y,z] [--center x,y,z] [--up x,y,z]\n"
+    "         [--fov-y DEG | --parallel-scale S] [--shading local|shadow|ao|pt] [--frames N]\n"
+    "         [--no-jitter] [--finest] [--labels-out FILE] [--materials FILE.json]\n"
+    "         [--video PATTERN --orbit N] [--cache-mib M] [--subsampling 1|2|4|8] [--lod-bias B]\n"
+    "         [--blend B] [--no-denoise] [--tone-mapping] [--background r,g,b]\n"
+    "      renders on the GPU (CSGV_VULKAN_DEVICE picks the device); --frames N: samples per pixel;\n"
+    "      prints each frame's time, the median, the time to the first full frame, device memory\n";
 
 struct Args {
     std::vector<std::string> positional;
@@ -413,6 +423,13 @@ int run(int argc, char** argv) {
     if (!std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
         std::fputs(kUsage, stdout);
         return 0;
+    }
+    if (!std::strcmp(argv[1], "render")) {
+#ifdef CSGV_HAVE_RENDER
+        return cmdRender(argc, argv);
+#else
+        return fail("this csgv was built without VulkanBackend (CSGV_BUILD_VULKAN=OFF): render is not available");
+#endif
     }
     Args a;
     Status s = parseArgs(argc, argv, a);

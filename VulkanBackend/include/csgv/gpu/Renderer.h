@@ -67,7 +67,7 @@ struct RenderSettings {
     bool lightInWorld = false;
     float lightIntensity = 0.8f;
     float ambient = 0.25f;
-    std::array<float, 3> environment{{0.9f, 0.9f, 0.95f}}; ///< sky radiance for path tracing
+    std::array<float, 3> environment{{0.55f, 0.55f, 0.6f}}; ///< sky radiance for path tracing
     bool toneMapping = false;
     float brightness = 1.0f, contrast = 1.0f, gamma = 1.0f;
     /// Clip box in voxels [min, max) per axis; empty (min >= max on an axis) means the whole volume.

@@ -1,0 +1,18 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file Png.h
+/// @brief Minimal PNG writer (8-bit RGB or RGBA, zlib from the system), written atomically.
+
+#include "csgv/Status.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace csgv {
+
+/// `pixels` holds `channels` (3 or 4) bytes per pixel, top row first.
+Status writePng(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
+                const std::vector<uint8_t>& pixels);
+
+} // namespace csgv

@@ -1,0 +1,330 @@
+// SPDX-License-Identifier: MIT
+/// @file RenderCommand.cpp
+/// @brief `csgv render`: the batch front end of VulkanBackend's renderer.
+
+#include "RenderCommand.h"
+#include "Png.h"
+
+#include "csgv/CsgvFile.h"
+#include "csgv/FileUtil.h"
+#include "csgv/gpu/Renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+namespace csgv {
+
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+struct RenderArgs {
+    std::string input, output;
+    uint32_t width = 640, height = 360;
+    bool haveEye = false, haveCenter = false;
+    Vec3 eye{}, center{}, up{0, 0, 1};
+    double fovY = 30;
+    double parallelScale = 0; ///< > 0: parallel projection
+    uint32_t frames = 1;
+    std::string labelsOut, materials, video;
+    uint32_t orbit = 0;
+    uint64_t cacheMiB = 256;
+    Vec3 background{1, 1, 1};
+    gpu::RenderSettings settings;
+};
+
+Status parseVec3(const std::string& s, Vec3& out) {
+    double v[3];
+    char extra = 0;
+    if (std::sscanf(s.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &extra) != 3 || !std::isfinite(v[0]) ||
+        !std::isfinite(v[1]) || !std::isfinite(v[2]))
+        return Status::error("expected three numbers x,y,z, not '" + s + "'");
+    out = {v[0], v[1], v[2]};
+    return Status::ok();
+}
+
+Status parseNumber(const std::string& s, double lo, double hi, double& out) {
+    char* end = nullptr;
+    out = std::strtod(s.c_str(), &end);
+    if (s.empty() || *end != 0 || !std::isfinite(out) || out < lo || out > hi)
+        return Status::error("expected a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], not '" + s + "'");
+    return Status::ok();
+}
+
+Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
+    std::vector<std::string> positional;
+    for (int i = 2; i < argc; ++i) {
+        const std::string arg = argv[i];
+        auto value = [&]() -> Result<std::string> {
+            if (i + 1 >= argc) return Status::error("option " + arg + " needs a value");
+            return std::string(argv[++i]);
+        };
+        auto number = [&](double lo, double hi, double& out) -> Status {
+            Result<std::string> v = value();
+            if (!v) return v.status();
+            Status s = parseNumber(*v, lo, hi, out);
+            return s ? s : Status(s).prefix("option " + arg);
+        };
+        auto vec = [&](Vec3& out) -> Status {
+            Result<std::string> v = value();
+            if (!v) return v.status();
+            Status s = parseVec3(*v, out);
+            return s ? s : Status(s).prefix("option " + arg);
+        };
+        Status s;
+        double n = 0;
+        if (arg == "--size") {
+            Result<std::string> v = value();
+            if (!v) return v.status();
+            unsigned w = 0, h = 0;
+            char extra = 0;
+            if (std::sscanf(v->c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384)
+                return Status::error("--size expects WxH between 1x1 and 16384x16384, not '" + *v + "'");
+            a.width = w;
+            a.height = h;
+        } else if (arg == "--eye") {
+            s = vec(a.eye);
+            a.haveEye = true;
+        } else if (arg == "--center") {
+            s = vec(a.center);
+            a.haveCenter = true;
+        } else if (arg == "--up") s = vec(a.up);
+        else if (arg == "--fov-y") s = number(0.01, 179, a.fovY);
+        else if (arg == "--parallel-scale") s = number(1e-9, 1e12, a.parallelScale);
+        else if (arg == "--shading") {
+            Result<std::string> v = value();
+            if (!v) return v.status();
+            Result<gpu::Shading> m = gpu::parseShading(*v);
+            if (!m) return Status(m.status()).prefix("--shading");
+            a.settings.shading = *m;
+        } else if (arg == "--frames") {
+            if ((s = number(1, 1e6, n))) a.frames = uint32_t(n);
+        } else if (arg == "--orbit") {
+            if ((s = number(1, 1e5, n))) a.orbit = uint32_t(n);
+        } else if (arg == "--cache-mib") {
+            if ((s = number(1, 1 << 20, n))) a.cacheMiB = uint64_t(n);
+        } else if (arg == "--subsampling") {
+            if ((s = number(1, 8, n))) a.settings.subsampling = uint32_t(n);
+        } else if (arg == "--lod-bias") {
+            double b = 0;
+            if ((s = number(-16, 16, b))) a.settings.lodBias = float(b);
+        } else if (arg == "--blend") {
+            double b = 0;
+            if ((s = number(0, 1, b))) a.settings.shadingBlend = float(b);
+        } else if (arg == "--background") s = vec(a.background);
+        else if (arg == "--no-jitter") a.settings.jitter = false;
+        else if (arg == "--no-denoise") a.settings.denoise = false;
+        else if (arg == "--tone-mapping") a.settings.toneMapping = true;
+        else if (arg == "--finest") a.settings.finest = true;
+        else if (arg == "--labels-out" || arg == "--materials" || arg == "--video") {
+            Result<std::string> v = value();
+            if (!v) return v.status();
+            (arg == "--labels-out" ? a.labelsOut : arg == "--materials" ? a.materials : a.video) = *v;
+        } else if (arg.size() > 1 && arg[0] == '-')
+            return Status::error("unknown option '" + arg + "' for render");
+        else
+            positional.push_back(arg);
+        if (!s) return s;
+    }
+    if (positional.size() != 2) return Status::error("render needs IN.csgv and OUT.png");
+    a.input = positional[0];
+    a.output = positional[1];
+    if (!a.video.empty() && a.orbit == 0) return Status::error("--video needs --orbit N");
+    if (a.orbit && a.video.empty()) return Status::error("--orbit needs --video PATTERN");
+    if (!a.video.empty() && a.video.find('%') == std::string::npos)
+        return Status::error("--video expects a printf pattern such as frame_%04d.png");
+    return Status::ok();
+}
+
+double length3(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+/// The world box of the volume (corner geometry) as centre and radius.
+void worldBounds(const CsgvFile& file, Vec3& centre, double& radius) {
+    const Geometry& g = file.metadata.geometry;
+    Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+    for (int c = 0; c < 8; ++c) {
+        const double idx[3] = {double((c & 1) ? file.volume.dim[0] : 0), double((c & 2) ? file.volume.dim[1] : 0),
+                               double((c & 4) ? file.volume.dim[2] : 0)};
+        for (int r = 0; r < 3; ++r) {
+            double w = g.origin[r];
+            for (int k = 0; k < 3; ++k) w += g.direction[3 * r + k] * idx[k] * g.spacing[k];
+            lo[r] = std::min(lo[r], w);
+            hi[r] = std::max(hi[r], w);
+        }
+    }
+    for (int r = 0; r < 3; ++r) centre[r] = 0.5 * (lo[r] + hi[r]);
+    radius = 0.5 * length3({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+}
+
+std::array<double, 16> cameraMatrix(const RenderArgs& a, const Vec3& eye, const Vec3& centre, double radius,
+                                    const Vec3& boxCentre) {
+    const double dist = length3({eye[0] - boxCentre[0], eye[1] - boxCentre[1], eye[2] - boxCentre[2]});
+    const double zNear = std::max(dist - radius, std::max(radius, 1e-6) * 1e-3);
+    const double zFar = dist + radius + 1e-6;
+    const double aspect = double(a.width) / a.height;
+    const std::array<double, 16> view = lookAtMatrix(eye, centre, a.up);
+    const std::array<double, 16> proj =
+        a.parallelScale > 0 ? orthographicMatrix(-a.parallelScale * aspect, a.parallelScale * aspect, -a.parallelScale,
+                                                 a.parallelScale, zNear, zFar)
+                            : perspectiveMatrix(a.fovY, aspect, zNear, zFar);
+    return multiply(proj, view);
+}
+
+uint8_t toByte(float v) { return uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
+
+Status writeImage(const std::string& path, const gpu::FrameOutput& out, const Vec3& bg) {
+    std::vector<uint8_t> px(size_t(out.width) * out.height * 3);
+    for (uint32_t y = 0; y < out.height; ++y)
+        for (uint32_t x = 0; x < out.width; ++x) {
+            const size_t src = size_t(out.height - 1 - y) * out.width + x, dst = (size_t(y) * out.width + x) * 3;
+            const float* c = &out.rgba[4 * src];
+            for (int k = 0; k < 3; ++k) px[dst + k] = toByte(c[k] + (1.0f - c[3]) * float(bg[k]));
+        }
+    return writePng(path, out.width, out.height, 3, px);
+}
+
+Status writeLabels(const std::string& path, const gpu::FrameOutput& out) {
+    std::vector<uint8_t> bytes(size_t(out.width) * out.height * 4);
+    for (uint32_t y = 0; y < out.height; ++y)
+        for (uint32_t x = 0; x < out.width; ++x) {
+            const uint32_t l = out.label[size_t(out.height - 1 - y) * out.width + x];
+            uint8_t* p = &bytes[(size_t(y) * out.width + x) * 4];
+            p[0] = uint8_t(l);
+            p[1] = uint8_t(l >> 8);
+            p[2] = uint8_t(l >> 16);
+            p[3] = uint8_t(l >> 24);
+        }
+    AtomicFile f;
+    Status s = f.open(path);
+    if (s) s = f.write(bytes.data(), bytes.size());
+    if (s) s = f.commit();
+    return s;
+}
+
+double since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+} // namespace
+
+int cmdRender(int argc, char** argv) {
+    auto fail = [](const std::string& m) {
+        std::fprintf(stderr, "csgv: error: %s\n", m.c_str());
+        return 1;
+    };
+    RenderArgs a;
+    Status s = parseRenderArgs(argc, argv, a);
+    if (!s) return fail(s.message());
+    const auto tStart = std::chrono::steady_clock::now();
+    Result<CsgvFile> file = openCsgv(a.input);
+    if (!file) return fail(file.message());
+    MaterialDocument doc = defaultMaterials();
+    if (!a.materials.empty()) {
+        Result<std::vector<uint8_t>> text = readFile(a.materials, 64ull << 20);
+        if (!text) return fail(text.message());
+        Result<MaterialDocument> parsed = parseMaterials(std::string(text->begin(), text->end()));
+        if (!parsed) return fail(a.materials + ": " + parsed.message());
+        doc = std::move(*parsed);
+        if (!(s = resolveColormapNames(doc))) return fail(a.materials + ": " + s.message());
+    }
+    // Attributes: the columns of the attribute database (indexed by stored id), as floats.
+    std::map<std::string, std::vector<float>> attributes;
+    if (file->hasAttributes)
+        for (const AttributeColumn& c : file->attributes.columns) {
+            if (!c.numeric) continue;
+            std::vector<float>& v = attributes[c.name];
+            v.reserve(c.values.size());
+            for (double x : c.values) v.push_back(float(x));
+        }
+    Result<std::unique_ptr<gpu::Context>> ctx = gpu::Context::create();
+    if (!ctx) return fail(ctx.message());
+    Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume);
+    if (!volume) return fail(volume.message());
+    std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));
+    gpu::RendererOptions options;
+    options.cacheBytes = a.cacheMiB << 20;
+    Result<std::unique_ptr<gpu::Renderer>> renderer = gpu::Renderer::create(**ctx, shared, options);
+    if (!renderer) return fail(renderer.message());
+    gpu::Renderer& r = **renderer;
+    r.setGeometry(file->metadata.geometry);
+    if (!(s = r.setMaterials(doc, attributes, file->hasAttributes && !file->wideLabels ? file->idToLabel : std::vector<uint32_t>{})))
+        return fail(s.message());
+    gpu::RenderSettings settings = a.settings;
+    settings.sampleTarget = a.frames;
+    r.setSettings(settings);
+    std::printf("device: %s (%s)\n", (*ctx)->device().name.c_str(), (*ctx)->device().type.c_str());
+    std::printf("setup_ms: %.1f\n", since(tStart));
+
+    Vec3 boxCentre{};
+    double radius = 1;
+    worldBounds(*file, boxCentre, radius);
+    const Vec3 centre = a.haveCenter ? a.center : boxCentre;
+    Vec3 eye = a.eye;
+    if (!a.haveEye) { // a default view from the front, above and to the right
+        const double dist = radius / std::sin(a.fovY * 3.14159265358979 / 360.0) * 1.05;
+        eye = {centre[0] + 0.55 * dist, centre[1] - 0.7 * dist, centre[2] + 0.45 * dist};
+    }
+    const uint32_t views = a.orbit ? a.orbit : 1;
+    std::vector<double> frameTimes;
+    double firstFrameMs = -1;
+    gpu::FrameOutput out;
+    for (uint32_t v = 0; v < views; ++v) {
+        Vec3 e = eye;
+        if (a.orbit) { // rotate the eye about the up axis through the centre
+            const double ang = 2 * 3.14159265358979 * v / a.orbit;
+            Vec3 u = a.up;
+            const double ul = length3(u);
+            for (double& x : u) x /= ul;
+            const Vec3 p{eye[0] - centre[0], eye[1] - centre[1], eye[2] - centre[2]};
+            const double dot = p[0] * u[0] + p[1] * u[1] + p[2] * u[2];
+            const Vec3 cr{u[1] * p[2] - u[2] * p[1], u[2] * p[0] - u[0] * p[2], u[0] * p[1] - u[1] * p[0]};
+            for (int k = 0; k < 3; ++k)
+                e[k] = centre[k] + p[k] * std::cos(ang) + cr[k] * std::sin(ang) + u[k] * dot * (1 - std::cos(ang));
+        }
+        gpu::FrameInput in;
+        in.width = a.width;
+        in.height = a.height;
+        in.worldToClip = cameraMatrix(a, e, centre, radius, boxCentre);
+        double viewMs = 0;
+        // Frames until every pixel holds the requested samples (bounded: a frame that adds no
+        // sample and decodes nothing twice in a row ends it).
+        const uint32_t maxFrames = a.frames * settings.subsampling * settings.subsampling + 256;
+        uint32_t idle = 0;
+        for (uint32_t f = 0; f < maxFrames; ++f) {
+            Result<gpu::FrameStats> st = r.renderFrame(in);
+            if (!st) return fail(st.message());
+            viewMs += st->milliseconds;
+            frameTimes.push_back(st->milliseconds);
+            std::printf("frame %u: %.1f ms, decoded %u bricks, new samples %u, missing %u, min samples %u%s%s\n",
+                        unsigned(frameTimes.size()), st->milliseconds, st->decodedBricks, st->newSamples,
+                        st->missingPixels, st->minSamples, st->cacheFull ? ", cache full" : "",
+                        st->requestLimited ? ", requests limited" : "");
+            if (firstFrameMs < 0 && st->minSamples >= 1) firstFrameMs = since(tStart);
+            if (st->minSamples >= a.frames) break;
+            idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
+            if (idle >= 3) break;
+        }
+        if (!(s = r.readOutput(out))) return fail(s.message());
+        if (a.orbit) {
+            char name[4096];
+            std::snprintf(name, sizeof(name), a.video.c_str(), int(v));
+            if (!(s = writeImage(name, out, a.background))) return fail(s.message());
+            std::printf("view %u: %.1f ms -> %s\n", v, viewMs, name);
+        }
+    }
+    if (!(s = writeImage(a.output, out, a.background))) return fail(s.message());
+    if (!a.labelsOut.empty() && !(s = writeLabels(a.labelsOut, out))) return fail(s.message());
+    std::vector<double> sorted = frameTimes;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("frames: %zu\n", frameTimes.size());
+    std::printf("median_frame_ms: %.1f\n", sorted.empty() ? 0.0 : sorted[sorted.size() / 2]);
+    std::printf("time_to_first_frame_ms: %.1f\n", firstFrameMs);
+    for (const auto& b : r.memory().buffers) std::printf("device_memory %s: %.2f MiB\n", b.first.c_str(), b.second / 1048576.0);
+    std::printf("device_memory_total_mib: %.2f\n", r.memory().total() / 1048576.0);
+    return 0;
+}
+
+} // namespace csgv
