@@ -78,7 +78,9 @@ int vtkCSGVExtract::RequestInformation(
   if (!this->InputVolumeInfo(inInfo, dims, levels, geometry) || levels < 1)
   {
     vtkErrorMacro(<< "the input carries no CSGV volume (apply CSGV Extract to the CSGV reader's output)");
-    return 0;
+    const int empty[6] = { 0, -1, 0, -1, 0, -1 };
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
+    return 1; // reported once; RequestData leaves an empty output
   }
   const int lod = std::min(this->Level, levels - 1);
   int box[6];
@@ -116,19 +118,23 @@ int vtkCSGVExtract::RequestData(
     return 0;
   }
   output->Initialize();
+  int ext[6];
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  if (ext[1] < ext[0] || ext[3] < ext[2] || ext[5] < ext[4])
+  {
+    return 1; // RequestInformation reported why there is nothing to extract
+  }
   csgvvtk::EncodedInput enc;
   const std::string error = csgvvtk::readEncodingArrays(input->GetFieldData(), enc);
   if (!error.empty())
   {
     vtkErrorMacro(<< error);
-    return 0;
+    return 1; // reported once; the output stays empty
   }
   const int dims[3] = { int(enc.volume.dim[0]), int(enc.volume.dim[1]), int(enc.volume.dim[2]) };
   const int lod = std::min<int>(this->Level, int(enc.volume.levels()) - 1);
   int box[6];
   this->LevelBox(dims, lod, box);
-  int ext[6];
-  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
   output->SetExtent(ext);
   csgvvtk::applyGeometry(output, enc.geometry, uint32_t(lod));
   output->GetFieldData()->ShallowCopy(input->GetFieldData());
@@ -158,7 +164,7 @@ int vtkCSGVExtract::RequestData(
   {
     vtkErrorMacro(<< decodeError);
     output->Initialize();
-    return 0;
+    return 1; // reported once; the output stays empty
   }
   if (!decoded.warning.empty())
   {

@@ -330,7 +330,8 @@ int vtkCSGVReader::RequestData(
   {
     vtkErrorMacro(<< this->FileName << ": " << vol.message());
     output->Initialize();
-    return 0;
+    return 1; // reported once: a failed request would be re-executed and reported again
+
   }
   this->UpdateProgress(0.05);
   csgvvtk::DecodedLabels decoded;
@@ -340,7 +341,8 @@ int vtkCSGVReader::RequestData(
   {
     vtkErrorMacro(<< this->FileName << ": " << error);
     output->Initialize();
-    return 0;
+    return 1; // reported once: a failed request would be re-executed and reported again
+
   }
   if (!decoded.warning.empty())
   {

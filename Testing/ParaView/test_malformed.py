@@ -1,1 +1,91 @@
-import csgv_pvtest as t; t.finish()
+# SPDX-License-Identifier: MIT
+"""Malformed inputs give an error in ParaView's output (Core's message) and an empty output, and
+the session goes on: a valid file opened afterwards reads correctly."""
+import gzip
+import os
+import shutil
+
+import numpy as np
+
+import csgv_pvtest as t
+from paraview.simple import *
+
+t.load_plugin(globals())
+tmp = t.temp_dir()
+good = os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv")
+data = open(good, "rb").read()
+
+
+def write(name, payload):
+    path = os.path.join(tmp, name)
+    with open(path, "wb") as f:
+        f.write(payload)
+    return path
+
+
+def expect_error(tag, proxy_factory, needle):
+    with t.ErrorLog() as errors:
+        r = proxy_factory()
+        img = t.fetch(r)
+    t.check(img.GetNumberOfCells() == 0 and img.GetNumberOfPoints() == 0, tag + ": empty output")
+    t.check(needle in errors.text, tag + ": error says %r" % needle)
+    if needle not in errors.text:
+        t.log("   got: " + errors.text.strip()[:400])
+    Delete(r)
+
+
+for cut in (10, 40, 41 + 64, len(data) // 2, len(data) - 1):
+    path = write("trunc_%d.csgv" % cut, data[:cut])
+    expect_error("truncated at %d bytes" % cut, lambda: CSGVReader(FileName=path), "trunc_%d.csgv" % cut)
+
+# OpenDataFile on a truncated file: the factory still picks the reader (the magic is intact).
+path = write("trunc_open.csgv", data[: len(data) // 3])
+with t.ErrorLog() as errors:
+    r = OpenDataFile(path)
+    img = t.fetch(r) if r is not None else None
+t.check(r is not None and img.GetNumberOfCells() == 0 and "trunc_open.csgv" in errors.text,
+        "OpenDataFile of a truncated file: error and empty output")
+
+expect_error("not a csgv", lambda: CSGVReader(FileName=write("garbage.csgv", b"hello world" * 100)), "garbage.csgv")
+expect_error("missing file", lambda: CSGVReader(FileName=os.path.join(tmp, "none.csgv")), "none.csgv")
+
+# Bit flips inside the encoding arrays: decoding must either fail cleanly or give a full image.
+for k, offset in enumerate((2000, 30000, 60000, 90000)):
+    mutated = bytearray(data)
+    for i in range(offset, offset + 16):
+        mutated[i] ^= 0x5A
+    path = write("flip_%d.csgv" % k, bytes(mutated))
+    with t.ErrorLog() as errors:
+        r = CSGVReader(FileName=path)
+        img = t.fetch(r)
+    ok = (img.GetNumberOfCells() == 0 and "flip_%d.csgv" % k in errors.text) or img.GetNumberOfCells() == 133 * 70 * 194
+    t.check(ok, "flipped bytes at %d: clean error or complete image" % offset)
+    Delete(r)
+
+# Sidecars: broken metadata, a database for another volume.
+path = write("badjson.csgv", data)
+write("badjson.csgv.json", b"{ not json")
+expect_error("broken .csgv.json", lambda: CSGVReader(FileName=path), "badjson.csgv.json")
+dense = open(os.path.join(t.FIXTURES, "denseB_b32_rans1.csgv"), "rb").read()
+path = write("wrongdb.csgv", dense)
+shutil.copy(os.path.join(t.FIXTURES, "synthA_b32_rans2_attr_csgv.db3"), os.path.join(tmp, "wrongdb_csgv.db3"))
+expect_error("database of another volume", lambda: CSGVReader(FileName=path), "wrongdb_csgv.db3")
+
+# Other formats.
+raw = gzip.open(os.path.join(t.FIXTURES, "synthA.vraw.gz")).read()
+path = write("short.vraw", raw[:100000])
+expect_error("truncated .vraw", lambda: VolcaniteRawReader(FileName=path), "short.vraw")
+path = write("short.nii.gz", open(t.AAL, "rb").read()[:50000])
+expect_error("truncated .nii.gz", lambda: NIfTILabelReader(FileName=path), "short.nii.gz")
+
+# Extract on something without an encoding.
+with t.ErrorLog() as errors:
+    x = CSGVExtract(Input=Wavelet())
+    x.UpdatePipeline()
+t.check("carries no CSGV volume" in errors.text, "Extract on a Wavelet: clear error")
+
+# The session goes on: a valid file reads correctly afterwards.
+r = OpenDataFile(good)
+img = t.fetch(r)
+t.check(np.array_equal(t.cell_labels(img), t.source_volume("synthA_").ravel()), "a valid file still opens afterwards")
+t.finish()
