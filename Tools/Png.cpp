@@ -3,6 +3,8 @@
 
 #include "csgv/FileUtil.h"
 
+#include <cstring>
+
 #include <zlib.h>
 
 namespace csgv {
@@ -56,6 +58,49 @@ Status writePng(const std::string& path, uint32_t width, uint32_t height, uint32
     if (s) s = f.write(file.data(), file.size());
     if (s) s = f.commit();
     return s;
+}
+
+namespace {
+uint32_t get32(const uint8_t* p) { return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3]; }
+} // namespace
+
+Status readPng(const std::string& path, uint32_t& width, uint32_t& height, uint32_t& channels,
+               std::vector<uint8_t>& pixels) {
+    Result<std::vector<uint8_t>> file = readFile(path, 1ull << 30);
+    if (!file) return file.status();
+    const std::vector<uint8_t>& f = *file;
+    if (f.size() < 8 + 25 || std::memcmp(f.data(), "\x89PNG\r\n\x1a\n", 8) != 0) return Status::error(path + ": not a PNG");
+    std::vector<uint8_t> packed;
+    size_t at = 8;
+    width = height = channels = 0;
+    while (at + 12 <= f.size()) {
+        const uint32_t n = get32(&f[at]);
+        if (n > f.size() - at - 12) return Status::error(path + ": truncated chunk");
+        const uint8_t* type = &f[at + 4];
+        const uint8_t* data = &f[at + 8];
+        if (!std::memcmp(type, "IHDR", 4)) {
+            if (n != 13 || data[8] != 8 || (data[9] != 2 && data[9] != 6) || data[12] != 0)
+                return Status::error(path + ": only 8-bit RGB/RGBA PNGs without interlacing are read");
+            width = get32(data);
+            height = get32(data + 4);
+            channels = data[9] == 6 ? 4 : 3;
+        } else if (!std::memcmp(type, "IDAT", 4)) {
+            packed.insert(packed.end(), data, data + n);
+        }
+        at += 12 + n;
+    }
+    if (!width || !height || width > 65536 || height > 65536) return Status::error(path + ": bad PNG header");
+    const size_t rowBytes = size_t(width) * channels + 1;
+    std::vector<uint8_t> raw(rowBytes * height);
+    uLongf rawSize = uLongf(raw.size());
+    if (uncompress(raw.data(), &rawSize, packed.data(), uLong(packed.size())) != Z_OK || rawSize != raw.size())
+        return Status::error(path + ": corrupt image data");
+    pixels.resize(size_t(width) * height * channels);
+    for (uint32_t y = 0; y < height; ++y) {
+        if (raw[y * rowBytes] != 0) return Status::error(path + ": only PNG filter type 0 is read");
+        std::memcpy(&pixels[y * (rowBytes - 1)], &raw[y * rowBytes + 1], rowBytes - 1);
+    }
+    return Status::ok();
 }
 
 } // namespace csgv

@@ -15,4 +15,9 @@ namespace csgv {
 Status writePng(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                 const std::vector<uint8_t>& pixels);
 
+/// Reads what writePng() writes (8-bit RGB or RGBA, filter type 0 on every row); `channels`
+/// is set to 3 or 4. Other PNGs are refused with a message.
+Status readPng(const std::string& path, uint32_t& width, uint32_t& height, uint32_t& channels,
+               std::vector<uint8_t>& pixels);
+
 } // namespace csgv

@@ -18,15 +18,17 @@ ivec3 boxLo, boxHi;
 vec3 transformPoint(mat4 m, vec3 p) { return (m * vec4(p, 1.0)).xyz; }
 
 /// Visibility along a secondary ray from the walker's voxel (start inside a free voxel): 1 clear,
-/// 0 blocked, attenuated by semi-transparent surfaces; -1 when a needed brick is missing.
-float visibility(inout Walker w, bool request) {
+/// 0 blocked, attenuated by semi-transparent surfaces. A brick not in the cache makes it -1 when
+/// `complete` (the sample must not be counted), else it counts as empty (deep path-tracing
+/// bounces: a small bias, as in the paper). `mark`: mark the bricks as used.
+float visibility(inout Walker w, bool mark, bool complete) {
     float transmittance = 1.0;
     for (uint i = 0u; i < 64u; ++i) {
         uint label, material;
-        const uint r = march(f, w, boxLo, boxHi, request, label, material);
+        const uint r = march(f, w, boxLo, boxHi, mark, label, material);
         if (r == MARCH_OUT) return transmittance;
         if (r == MARCH_MISSING) {
-            if (request) return -1.0;
+            if (complete) return -1.0;
             w.prevLabel = NONE;
             stableStep(w, BRICK_SHIFT); // beyond the request depth: treat as empty (small bias)
             if (any(lessThan(w.voxel, boxLo)) || any(greaterThanEqual(w.voxel, boxHi))) return transmittance;
@@ -73,14 +75,14 @@ vec3 cosineSample(vec3 n, inout Rng rng) {
 vec3 toIndexDir(vec3 worldDir) { return (f.worldToIndex * vec4(worldDir, 0.0)).xyz; }
 
 /// Direct light from the key light at a surface (with a shadow ray when `shadow`); -1 in x when a
-/// brick is missing.
-vec3 directLight(Walker w, vec3 n, bool shadow, bool request) {
+/// brick is missing and `complete`.
+vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
     const float cosL = dot(n, f.lightWorld.xyz);
     if (cosL <= 0.0) return vec3(0.0);
     float vis = 1.0;
     if (shadow) {
         Walker s;
-        if (leaveSurface(w, f.lightIndex.xyz, 1e30, s)) vis = visibility(s, request);
+        if (leaveSurface(w, f.lightIndex.xyz, 1e30, s)) vis = visibility(s, mark, complete);
         if (vis < 0.0) return vec3(-1.0);
     }
     return vec3(f.lightWorld.w * cosL * vis);
@@ -98,8 +100,8 @@ void main() {
     const uint samples = samplesBuf.w[pixel];
     if (f.frame.w != 0u && samples >= f.frame.w) return; // reached the sample target
     UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
-    if (samples == alloc.w[AL_PREV_MIN]) atomicMin(alloc.w[AL_MIN_ROW], px.y);
-    const bool request = (f.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (px.y >= f.limits.y && px.y < f.limits.z);
+    if (samples == alloc.w[AL_PREV_MIN]) atomicMin(alloc.w[AL_MIN_ROW], pixel);
+    const bool request = (f.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (pixel >= f.limits.y && pixel < f.limits.z);
     Rng rng = rngFor(pixel, samples);
 
     // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4).
@@ -150,7 +152,7 @@ void main() {
             const float depth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
             if (firstDepth == 1.0) firstDepth = depth;
             vec3 n = w.face != 0u ? f.faceNormals[w.face - 1u].xyz : -normalize((f.indexToWorld * vec4(d, 0.0)).xyz);
-            const vec3 local = c.rgb * (f.lightIndex.w + directLight(w, n, false, false)) + emission * c.rgb;
+            const vec3 local = c.rgb * (f.lightIndex.w + directLight(w, n, false, false, false)) + emission * c.rgb;
             if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
                 radiance += transmittance * c.a * local;
                 transmittance *= 1.0 - c.a;
@@ -164,19 +166,19 @@ void main() {
             vec3 shaded = local;
             const uint mode = f.frame.z;
             if (mode == SHADING_SHADOW) {
-                const vec3 direct = directLight(w, n, true, request);
+                const vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }
                 shaded = c.rgb * (f.lightIndex.w + direct) + emission * c.rgb;
             } else if (mode == SHADING_AO) {
                 Walker s;
                 float vis = 1.0;
                 const vec3 dir = toIndexDir(cosineSample(n, rng));
-                if (leaveSurface(w, dir / length(dir), f.environment.w, s)) vis = visibility(s, request);
+                if (leaveSurface(w, dir / length(dir), f.environment.w, s)) vis = visibility(s, request, true);
                 if (vis < 0.0) { valid = false; break; }
-                const vec3 direct = directLight(w, n, false, false);
+                const vec3 direct = directLight(w, n, false, false, false);
                 shaded = c.rgb * ((f.lightIndex.w + 0.5 * f.lightWorld.w) * vis + 0.5 * direct) + emission * c.rgb;
             } else if (mode == SHADING_PT) {
-                vec3 direct = directLight(w, n, true, request);
+                vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }
                 vec3 pt = c.rgb * direct + emission * c.rgb;
                 vec3 throughput = c.rgb;
@@ -184,6 +186,7 @@ void main() {
                 vec3 atN = n;
                 for (uint bounce = 1u; bounce <= f.limits.w; ++bounce) {
                     const bool req = request && bounce == 1u; // only the first bounce requests bricks
+                    const bool complete = bounce == 1u;        // ... and must find them all
                     Walker s;
                     const vec3 dirW = cosineSample(atN, rng);
                     if (!leaveSurface(at, toIndexDir(dirW), 1e30, s)) {
@@ -194,7 +197,7 @@ void main() {
                     uint r2 = MARCH_OUT;
                     for (uint pass = 0u; pass < 64u; ++pass) {
                         r2 = march(f, s, boxLo, boxHi, req, l2, m2);
-                        if (r2 == MARCH_MISSING && !req) {
+                        if (r2 == MARCH_MISSING && !complete) {
                             s.prevLabel = NONE;
                             stableStep(s, BRICK_SHIFT);
                             if (any(lessThan(s.voxel, boxLo)) || any(greaterThanEqual(s.voxel, boxHi))) { r2 = MARCH_OUT; break; }
@@ -212,7 +215,7 @@ void main() {
                     float e2;
                     const vec3 c2 = materialColor(f, m2, l2, e2).rgb;
                     const vec3 n2 = s.face != 0u ? f.faceNormals[s.face - 1u].xyz : -dirW;
-                    const vec3 d2 = directLight(s, n2, true, false);
+                    const vec3 d2 = directLight(s, n2, true, false, false);
                     pt += throughput * (c2 * max(d2, vec3(0.0)) + e2 * c2);
                     throughput *= c2;
                     if (bounce >= 3u) { // Russian roulette

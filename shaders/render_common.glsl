@@ -64,7 +64,7 @@ const uint AL_REQUESTS = 4u;     // requests this frame
 const uint AL_MIN_SAMPLES = 5u;  // smallest sample count of any pixel after this frame
 const uint AL_NEW_SAMPLES = 6u;  // pixels that gained a sample this frame
 const uint AL_MISSING = 7u;      // pixels whose ray met a brick not in the cache
-const uint AL_MIN_ROW = 8u;      // lowest row holding a pixel with the previous minimum sample count
+const uint AL_MIN_ROW = 8u;      // first pixel (row-major) with the previous minimum sample count
 const uint AL_PREV_MIN = 9u;     // previous frame's minimum sample count (host-written)
 const uint AL_FREE_COUNT = 16u;  // + lod
 const uint AL_REQ_COUNT = 24u;   // + lod
@@ -88,7 +88,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Fr
     vec4 faceNormals[6];// world normals of the faces -x, +x, -y, +y, -z, +z
     uvec4 frame;        // x: frame index, y: flags, z: shading mode, w: sample target
     uvec4 image;        // x: W, y: H, z: subsampling stride, w: subsampling phase
-    uvec4 limits;       // x: max requests per frame, y/z: request band rows [y, z), w: max bounces
+    uvec4 limits;       // x: max requests per frame, y/z: pixels [y, z) that may request, w: max bounces
     uvec4 counts;       // x: materials, y: bricks, z: labels with attributes, w: denoise pass step
     uint64_t addr[A_COUNT];
 };

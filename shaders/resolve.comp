@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Resolve stage, one invocation per pixel, in passes (push constant `pass`):
 //   0 gather: average of the accumulated samples; pixels without samples yet (subsampling or a
-//     missing brick) copy the first-rendered pixel of their stride block (upsampling);
+//     missing brick) copy the nearest pixel of their stride block that has samples (upsampling);
 //   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
 //     same face, similar depth), fading out as samples accumulate;
 //   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output;
@@ -39,10 +39,21 @@ void main() {
         uint n = samples.w[pixel];
         atomicMin(UintBuf(f.addr[A_ALLOC]).w[AL_MIN_SAMPLES], n);
         uint from = pixel;
-        if (n == 0u && f.image.z > 1u) {
+        if (n == 0u && f.image.z > 1u) { // upsampling: the nearest pixel of the block with samples
             const uint s = f.image.z;
-            const uvec2 q = min((px / s) * s, uvec2(W - 1u, H - 1u));
-            from = q.y * W + q.x;
+            const uvec2 b0 = (px / s) * s;
+            uint best = 0xFFFFFFFFu;
+            for (uint k = 0u; k < s * s; ++k) {
+                const uvec2 q = b0 + uvec2(k % s, k / s);
+                if (q.x >= W || q.y >= H) continue;
+                const uint qi = q.y * W + q.x;
+                const ivec2 dq = ivec2(q) - ivec2(px);
+                const uint dist = uint(dq.x * dq.x + dq.y * dq.y);
+                if (samples.w[qi] > 0u && dist < best) {
+                    best = dist;
+                    from = qi;
+                }
+            }
             n = samples.w[from];
             FloatBuf depth = FloatBuf(f.addr[A_DEPTH_OUT]);
             if (n > 0u) depth.f[pixel] = depth.f[from];

@@ -5,12 +5,16 @@
 #include "GpuTestSupport.h"
 #include "RenderTestSupport.h"
 #include "TestData.h"
+#include "Png.h"
 
 #include "csgv/Decoder.h"
 #include "csgv/RayCast.h"
 #include "csgv/gpu/Renderer.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <map>
 
 using namespace csgv;
 using namespace csgv::gpu;
@@ -110,4 +114,142 @@ TEST(Renderer, GBufferEqualsStableReferenceCameraInside) {
     CSGV_REQUIRE_GPU(ctx);
     const FrameInput in = perspectiveView({30.3, 35.7, 20.2}, {80, 70, 60}, {0, 0, 1}, 70, 64, 64);
     expectGBufferEqualsReference(*ctx, "synthA_b8_nibble_delta.csgv", in, Geometry{}, "inside");
+}
+
+namespace {
+
+std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cacheBytes, const RenderSettings& st) {
+    RendererOptions o;
+    o.cacheBytes = cacheBytes;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, scene.gpu, o);
+    EXPECT_TRUE(r.isOk()) << r.message();
+    if (!r) return nullptr;
+    (*r)->setSettings(st);
+    return std::move(*r);
+}
+
+size_t differingValues(const std::vector<float>& a, const std::vector<float>& b) {
+    size_t n = 0;
+    for (size_t i = 0; i < a.size(); ++i) n += std::fabs(a[i] - b[i]) > 1e-6f;
+    return n;
+}
+
+void expectSmallCacheConverges(Context& ctx, Shading shading) {
+    Scene& scene = fixtureScene(ctx, "synthA_b32_rans2.csgv");
+    const FrameInput in = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 64, 48);
+    RenderSettings st;
+    st.shading = shading;
+    st.finest = true;
+    st.denoise = false;
+    std::unique_ptr<Renderer> big = makeRenderer(ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(big);
+    uint32_t bigFrames = 0, smallFrames = 0;
+    const FrameOutput ref = renderConverged(*big, in, 2, 100, &bigFrames);
+    // Twelve finest bricks (32^3 words each): far fewer than the view needs.
+    std::unique_ptr<Renderer> small = makeRenderer(ctx, scene, 12ull * 32 * 32 * 32 * 4, st);
+    ASSERT_TRUE(small);
+    const FrameOutput got = renderConverged(*small, in, 2, 1500, &smallFrames);
+    uint32_t minSamples = ~0u;
+    for (uint32_t s : got.samples) minSamples = std::min(minSamples, s);
+    EXPECT_EQ(minSamples, 2u) << "the small cache did not converge in " << smallFrames << " frames";
+    EXPECT_EQ(differingValues(got.rgba, ref.rgba), 0u) << shadingName(shading);
+    EXPECT_EQ(got.label, ref.label);
+    EXPECT_GT(smallFrames, bigFrames) << "the small cache should have needed more frames";
+}
+
+} // namespace
+
+TEST(Renderer, SmallCacheConvergesLikeLargeCacheLocal) {
+    CSGV_REQUIRE_GPU(ctx);
+    expectSmallCacheConverges(*ctx, Shading::Local);
+}
+
+TEST(Renderer, SmallCacheConvergesLikeLargeCacheShadow) {
+    CSGV_REQUIRE_GPU(ctx);
+    expectSmallCacheConverges(*ctx, Shading::Shadow);
+}
+
+TEST(Renderer, SubsamplingConvergesToFullResolution) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    const FrameInput in = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 72, 56);
+    RenderSettings st;
+    st.denoise = false;
+    std::unique_ptr<Renderer> full = makeRenderer(*ctx, scene, 64ull << 20, st);
+    const FrameOutput ref = renderConverged(*full, in, 3, 100);
+    st.subsampling = 4;
+    std::unique_ptr<Renderer> sub = makeRenderer(*ctx, scene, 64ull << 20, st);
+    uint32_t frames = 0;
+    const FrameOutput got = renderConverged(*sub, in, 3, 400, &frames);
+    EXPECT_GE(frames, 3u * 16u) << "each pixel is rendered every 16th frame";
+    EXPECT_EQ(differingValues(got.rgba, ref.rgba), 0u);
+    // Early frames are upsampled: after one frame of 1/16 of the pixels, no hit pixel is empty.
+    std::unique_ptr<Renderer> early = makeRenderer(*ctx, scene, 64ull << 20, st);
+    for (int f = 0; f < 4; ++f) ASSERT_TRUE(early->renderFrame(in).isOk());
+    FrameOutput e;
+    ASSERT_TRUE(early->readOutput(e).isOk());
+    size_t covered = 0, hit = 0;
+    for (size_t i = 0; i < ref.label.size(); ++i)
+        if (ref.rgba[4 * i + 3] > 0.99f) {
+            ++hit;
+            covered += e.rgba[4 * i + 3] > 0.5f;
+        }
+    EXPECT_GT(covered, hit * 9 / 10) << "upsampling should fill the pixels not rendered yet";
+}
+
+namespace {
+
+/// Compares with (or, with CSGV_UPDATE_BASELINES=1, writes) a baseline PNG. Tolerance: mean
+/// absolute difference <= 2/255 per channel, and at most 2% of pixels off by more than 24/255
+/// (lavapipe and real GPUs round transcendental functions differently).
+void expectMatchesBaseline(const FrameOutput& out, const std::string& name) {
+    std::vector<uint8_t> px(size_t(out.width) * out.height * 3);
+    for (uint32_t y = 0; y < out.height; ++y)
+        for (uint32_t x = 0; x < out.width; ++x)
+            for (int k = 0; k < 3; ++k) {
+                const float* c = &out.rgba[4 * (size_t(out.height - 1 - y) * out.width + x)];
+                px[(size_t(y) * out.width + x) * 3 + k] = uint8_t(std::lround(std::clamp(c[k] + (1 - c[3]), 0.0f, 1.0f) * 255));
+            }
+    const std::string path = std::string(CSGV_BASELINE_DIR) + "/" + name + ".png";
+    const char* update = std::getenv("CSGV_UPDATE_BASELINES");
+    if (update && std::string(update) == "1") {
+        ASSERT_TRUE(writePng(path, out.width, out.height, 3, px).isOk());
+        return;
+    }
+    uint32_t w = 0, h = 0, c = 0;
+    std::vector<uint8_t> base;
+    const Status s = readPng(path, w, h, c, base);
+    ASSERT_TRUE(s.isOk()) << s.message();
+    ASSERT_EQ(w, out.width);
+    ASSERT_EQ(h, out.height);
+    ASSERT_EQ(c, 3u);
+    double sum = 0;
+    size_t bad = 0;
+    for (size_t i = 0; i < px.size(); i += 3) {
+        int worst = 0;
+        for (int k = 0; k < 3; ++k) {
+            const int d = std::abs(int(px[i + k]) - int(base[i + k]));
+            sum += d;
+            worst = std::max(worst, d);
+        }
+        bad += worst > 24;
+    }
+    EXPECT_LE(sum / px.size(), 2.0) << name << ": mean difference";
+    EXPECT_LE(bad, px.size() / 3 / 50) << name << ": pixels off by more than 24/255";
+}
+
+} // namespace
+
+TEST(Renderer, ShadingModesMatchBaselines) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    const FrameInput in = perspectiveView({260, -120, 240}, {66, 35, 97}, {0, 0, 1}, 30, 96, 96);
+    for (Shading mode : {Shading::Local, Shading::Shadow, Shading::AmbientOcclusion, Shading::PathTracing}) {
+        RenderSettings st;
+        st.shading = mode;
+        std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+        ASSERT_TRUE(r);
+        const FrameOutput out = renderConverged(*r, in, mode == Shading::Local || mode == Shading::Shadow ? 2 : 8, 100);
+        expectMatchesBaseline(out, std::string("synthA_") + shadingName(mode));
+    }
 }

@@ -566,7 +566,8 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     stats.requestLimited = im.limitRequests;
 
     // Cache pressure, decided between frames: reset once, then evict unused bricks, then limit
-    // requests to a band of rows that starts at the lowest row with the fewest samples.
+    // requests to a band of pixels (row-major) that starts at the first pixel with the fewest
+    // samples, halved while the cache still runs full.
     if (stats.cacheFull) {
         if (!im.resetDone) {
             im.resetDone = true;
@@ -575,7 +576,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
             im.evictUnused = true;
         } else if (!im.limitRequests) {
             im.limitRequests = true;
-            im.bandHeight = std::max<uint32_t>(1, in.height / 2);
+            im.bandHeight = std::max<uint32_t>(1, in.width * in.height / 2);
         } else {
             im.bandHeight = std::max<uint32_t>(1, im.bandHeight / 2);
         }

@@ -14,8 +14,9 @@
 ///   denoising, tone mapping).
 /// Between frames the host reads a few counters: a cache that ran full is reset once
 /// (defragmentation), then bricks no ray used are evicted (lazy eviction), and if it is still
-/// too small, only a band of image rows may request bricks (brick request limitation), moved to
-/// the rows with the fewest samples, so every pixel converges.
+/// too small, only a band of pixels may request bricks (brick request limitation), starting at
+/// the first pixel with the fewest samples, so every pixel converges (as long as the cache holds
+/// the bricks one pixel's rays need).
 ///
 /// Conventions (those of Core/RayCast.h and of VTK):
 /// - `worldToClip` is column-major (OpenGL layout, VTK's `wcdc` from
