@@ -47,8 +47,13 @@ name = "synthA_b32_rans2.csgv"
 src = t.source_volume(name)
 d, h, w = src.shape
 r = CSGVReader(FileName=os.path.join(t.FIXTURES, name))
+progress = []
+r.GetClientSideObject().AddObserver("ProgressEvent", lambda o, e: progress.append(o.GetProgress()))
 r.Level = 1
 img1 = t.fetch(r)
+# One report per slab of bricks (194 / 2 / 16 -> 7 slabs at level 1), ending at 1.
+t.check(len(progress) >= 7 and progress[-1] == 1.0 and progress == sorted(progress),
+        "progress reported per brick slab (%d events)" % len(progress))
 lw, lh, ld = (w - 1) // 2 + 1, (h - 1) // 2 + 1, (d - 1) // 2 + 1
 t.check(img1.GetDimensions() == (lw + 1, lh + 1, ld + 1) and img1.GetSpacing() == (2.0, 2.0, 2.0),
         "Level 1: level image with spacing 2")
