@@ -118,6 +118,34 @@ struct CachedLookup {
     void reset() { lastKey = kInvalidLabel; }
 };
 
+/// Faces between two rows of n voxels (a[i] faces b[i]), counted a run of equal pairs at a time;
+/// one lookup cache per side, as each side's labels change rarely along a row.
+inline void facesBetween(const uint32_t* a, const uint32_t* b, uint32_t n, CachedLookup& atA, CachedLookup& atB) {
+    for (uint32_t x = 0; x < n;) {
+        const uint32_t va = a[x], vb = b[x];
+        if (va == vb) {
+            ++x;
+            continue;
+        }
+        uint32_t x1 = x + 1;
+        while (x1 < n && a[x1] == va && b[x1] == vb) ++x1;
+        atA(va).faces += x1 - x;
+        atB(vb).faces += x1 - x;
+        x = x1;
+    }
+}
+
+/// Faces of a row of n voxels on the volume's boundary.
+inline void boundaryFaces(const uint32_t* a, uint32_t n, CachedLookup& at) {
+    for (uint32_t x = 0; x < n;) {
+        const uint32_t v = a[x];
+        uint32_t x1 = x + 1;
+        while (x1 < n && a[x1] == v) ++x1;
+        at(v).faces += x1 - x;
+        x = x1;
+    }
+}
+
 enum Side { kMinusX, kPlusX, kMinusY, kPlusY, kMinusZ, kPlusZ };
 
 } // namespace
@@ -137,7 +165,7 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
     const auto grid = vol.brickGrid();
     const uint64_t layerBricks = uint64_t(grid[0]) * grid[1];
     const size_t faceSize = size_t(B) * B;
-    const bool boundaryFaces = options.countBoundaryFaces;
+    const bool countBoundary = options.countBoundaryFaces;
 
     // Faces left behind by the bricks of the current layer (6 per brick), and the +z faces of the
     // previous layer. Faces are B x B, indexed (u + v * B) with (u, v) = (y, z), (x, z), (x, y).
@@ -174,7 +202,7 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
     {
         StatsMap& total = perThread[size_t(omp_get_thread_num())];
         StatsMap local;
-        CachedLookup at{local};
+        CachedLookup at{local}, other{local};
         BrickDecoder decoder(vol);
         std::vector<uint32_t> lin(size_t(B) * B * B);
 
@@ -214,6 +242,7 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
                     }
                     local.clear();
                     at.reset();
+                    other.reset();
                     const size_t slice = size_t(ex) * ey;
                     for (uint32_t z = 0; z < ez; ++z)
                         for (uint32_t y = 0; y < ey; ++y) {
@@ -245,12 +274,7 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
                             for (int axis = 1; axis < 3; ++axis) {
                                 if (axis == 1 ? y + 1 >= ey : z + 1 >= ez) continue;
                                 const uint32_t* next = row + (axis == 1 ? size_t(ex) : slice);
-                                if (std::memcmp(row, next, size_t(ex) * 4) == 0) continue;
-                                for (uint32_t x = 0; x < ex; ++x)
-                                    if (row[x] != next[x]) {
-                                        ++at(row[x]).faces;
-                                        ++at(next[x]).faces;
-                                    }
+                                if (std::memcmp(row, next, size_t(ex) * 4) != 0) facesBetween(row, next, ex, at, other);
                             }
                         }
                     total.addAll(local);
@@ -291,20 +315,13 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
                     uint32_t* pz = prevZ.data() + size_t(i) * faceSize;
                     local.clear();
                     at.reset();
+                    other.reset();
                     auto boundary = [&](const uint32_t* face, uint32_t nu, uint32_t nv) {
-                        if (!boundaryFaces) return;
-                        for (uint32_t v = 0; v < nv; ++v)
-                            for (uint32_t u = 0; u < nu; ++u) ++at(face[u + v * B]).faces;
+                        if (!countBoundary) return;
+                        for (uint32_t v = 0; v < nv; ++v) boundaryFaces(face + v * B, nu, at);
                     };
                     auto across = [&](const uint32_t* mine, const uint32_t* theirs, uint32_t nu, uint32_t nv) {
-                        for (uint32_t v = 0; v < nv; ++v)
-                            for (uint32_t u = 0; u < nu; ++u) {
-                                const uint32_t a = mine[u + v * B], c = theirs[u + v * B];
-                                if (a != c) {
-                                    ++at(a).faces;
-                                    ++at(c).faces;
-                                }
-                            }
+                        for (uint32_t v = 0; v < nv; ++v) facesBetween(mine + v * B, theirs + v * B, nu, at, other);
                     };
                     if (bx == 0) boundary(f + kMinusX * faceSize, ey, ez);
                     if (bx + 1 == grid[0]) boundary(f + kPlusX * faceSize, ey, ez);

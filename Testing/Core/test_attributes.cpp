@@ -438,7 +438,7 @@ TEST(AttributesComputed, EqualBruteForceOnSyntheticVolumes) {
         uint32_t w, h, d, cell, brick;
     };
     for (const Case& c : {Case{37, 29, 23, 5, 8}, Case{37, 29, 23, 5, 16}, Case{70, 45, 33, 9, 32},
-                          Case{64, 64, 32, 7, 16}, Case{5, 3, 130, 4, 64}}) {
+                          Case{64, 64, 32, 7, 16}, Case{5, 3, 130, 4, 64}, Case{48, 40, 36, 2, 16}}) {
         SCOPED_TRACE(std::to_string(c.w) + "x" + std::to_string(c.h) + "x" + std::to_string(c.d) + " brick " +
                      std::to_string(c.brick));
         const LabelVolume src = synthVolume(c.w, c.h, c.d, 7, c.cell);
@@ -512,4 +512,33 @@ TEST(AttributesComputed, AalAtlasEqualsBruteForceAndJoinsItsTable) {
     EXPECT_EQ(joined.text("name", 0), "");
     EXPECT_EQ(joined.text("name", 1), "Precentral_L");
     EXPECT_GT(joined.value("voxel_count", 1), 1000.0);
+}
+
+TEST(AttributesComputed, CorruptStreamsAreErrorsNeverCrashes) {
+    // Seeded mutations of the words of a small volume: the attributes succeed exactly when every
+    // brick decodes, and then still equal the brute-force count over the decoded volume.
+    const CompressedVolume clean = compress(synthVolume(40, 33, 20, 5, 6), 16);
+    uint64_t state = 12345;
+    auto next = [&] {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return uint32_t(state >> 33);
+    };
+    int failures = 0;
+    for (int i = 0; i < 60; ++i) {
+        CompressedVolume vol = clean;
+        std::vector<uint32_t>& words = vol.arrays[0];
+        for (int k = 0; k < 3; ++k) words[next() % words.size()] ^= 1u << (next() % 32);
+        SCOPED_TRACE("mutation " + std::to_string(i));
+        const bool valid = checkContainer(vol).isOk() && validateStreams(vol, 1).isOk();
+        Result<AttributeTable> t = computeWith(vol, 2);
+        ASSERT_EQ(t.isOk(), valid) << t.message();
+        if (!valid) {
+            ++failures;
+            continue;
+        }
+        Result<LabelVolume> decoded = decodeVolume(vol, 0);
+        ASSERT_TRUE(decoded.isOk());
+        expectMatchesReference(*t, bruteForce(*decoded, true));
+    }
+    EXPECT_GT(failures, 10);
 }
