@@ -10,6 +10,9 @@
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
+#include <vtkMatrix4x4.h>
+#include <vtkNIFTIImageHeader.h>
+#include <vtkNIFTIImageReader.h>
 #include <vtkObjectFactory.h>
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
@@ -27,6 +30,51 @@ public:
   std::string Path;
   bool HasValues = false;
   csgv::InputVolume Volume;
+
+  /// Set when the file is not a label volume and VTK's reader reads it instead.
+  vtkSmartPointer<vtkNIFTIImageReader> Intensity;
+  double IntensityOrigin[3] = { 0, 0, 0 };
+  double IntensityDirection[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+
+  /// True for Core's refusals that mean "a valid NIfTI, but not labels".
+  static bool NotALabelVolume(const std::string& message)
+  {
+    return message.find("which is not an integer label") != std::string::npos ||
+      message.find("scaled data") != std::string::npos;
+  }
+
+  /// Opens the file with VTK's reader; geometry from the sform (code > 0), else the qform, as
+  /// Core's reader chooses. VTK's matrices already map its (possibly slice-flipped) data.
+  bool OpenIntensity(const char* path)
+  {
+    this->Intensity = vtkSmartPointer<vtkNIFTIImageReader>::New();
+    this->Intensity->SetFileName(path);
+    this->Intensity->UpdateInformation();
+    vtkNIFTIImageHeader* header = this->Intensity->GetNIFTIHeader();
+    if (!header)
+    {
+      this->Intensity = nullptr;
+      return false;
+    }
+    vtkMatrix4x4* m = nullptr;
+    if (header->GetSFormCode() > 0)
+    {
+      m = this->Intensity->GetSFormMatrix();
+    }
+    if (!m && header->GetQFormCode() > 0)
+    {
+      m = this->Intensity->GetQFormMatrix();
+    }
+    for (int r = 0; r < 3; ++r)
+    {
+      this->IntensityOrigin[r] = m ? m->GetElement(r, 3) : 0.0;
+      for (int c = 0; c < 3; ++c)
+      {
+        this->IntensityDirection[3 * r + c] = m ? m->GetElement(r, c) : (r == c ? 1.0 : 0.0);
+      }
+    }
+    return true;
+  }
 };
 
 vtkCSGVNIfTIReader::vtkCSGVNIfTIReader()
@@ -83,7 +131,20 @@ int vtkCSGVNIfTIReader::RequestInformation(
     vtkErrorMacro(<< "no FileName set");
     return 0;
   }
+  in.Intensity = nullptr;
   csgv::Result<csgv::InputVolume> vol = csgv::readNifti(this->FileName);
+  if (!vol && vtkInternals::NotALabelVolume(vol.message()) && in.OpenIntensity(this->FileName))
+  {
+    vtkWarningMacro(<< vol.message() << "; not a label volume, so it is read as an intensity image "
+                    << "(point array 'Scalars', stored values) with VTK's NIfTI reader");
+    vtkInformation* vtkInfo = in.Intensity->GetOutputInformation(0);
+    outInfo->CopyEntry(vtkInfo, vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+    outInfo->CopyEntry(vtkInfo, vtkDataObject::SPACING());
+    outInfo->Set(vtkDataObject::ORIGIN(), in.IntensityOrigin, 3);
+    outInfo->Set(vtkDataObject::DIRECTION(), in.IntensityDirection, 9);
+    in.Path = this->FileName;
+    return 1;
+  }
   if (!vol)
   {
     vtkErrorMacro(<< vol.message());
@@ -134,6 +195,18 @@ int vtkCSGVNIfTIReader::RequestData(
     return 0;
   }
   output->Initialize();
+  if (in.Intensity && in.Path == this->FileName)
+  {
+    in.Intensity->Update();
+    output->ShallowCopy(in.Intensity->GetOutput());
+    output->SetOrigin(in.IntensityOrigin);
+    output->SetDirectionMatrix(in.IntensityDirection);
+    if (vtkDataArray* scalars = output->GetPointData()->GetScalars())
+    {
+      scalars->SetName("Scalars");
+    }
+    return 1;
+  }
   if (!in.HasValues && in.Path != this->FileName)
   {
     return 1; // RequestInformation reported why; the output stays empty

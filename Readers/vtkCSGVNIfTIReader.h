@@ -15,9 +15,11 @@
  * such voxels centred on their points; vtkCSGVWriter turns point geometry into cell (corner)
  * geometry with Core's helper, so a written `.csgv` covers the same space.
  *
- * Label volumes only: scaled data (scl_slope/scl_inter) and floats that are not integers are
- * refused with Core's message (an intensity image is not a segmentation); the output is then
- * empty.
+ * Intensity images: since this is ParaView's only NIfTI reader here, files that Core refuses as
+ * label volumes (floats that are not integers, scaled data) are read with VTK's
+ * vtkNIFTIImageReader instead, with a warning: point array "Scalars" holding the stored values
+ * (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Other errors
+ * (missing, truncated, unsupported files) give Core's message and an empty output.
  */
 #ifndef vtkCSGVNIfTIReader_h
 #define vtkCSGVNIfTIReader_h

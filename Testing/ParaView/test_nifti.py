@@ -50,4 +50,20 @@ got = t.cell_labels(cimg)
 t.check(got is not None and got.dtype == labels.dtype and np.array_equal(got, labels), "csgv: AAL labels equal")
 t.log("AAL: %d bytes as .csgv, %d voxels, %.3f bits per voxel" % (
     os.path.getsize(out), labels.size, 8.0 * os.path.getsize(out) / labels.size))
+# An intensity image (float T1) is not a label volume: VTK's reader takes over, with a warning,
+# and it lands on the grid of the atlas drawn in the same space (read through Core).
+T1 = "/usr/share/mricron/templates/inia19-t1-brain.nii.gz"
+ATLAS = "/usr/share/mricron/templates/inia19-NeuroMaps.nii.gz"
+if os.path.exists(T1) and os.path.exists(ATLAS):
+    with t.ErrorLog() as log:
+        ti = t.fetch(OpenDataFile(T1))
+    atlas = t.fetch(OpenDataFile(ATLAS))
+    sc = ti.GetPointData().GetArray("Scalars")
+    t.check(sc is not None and sc.GetDataType() == 10 and "not a label volume" in log.text and "ERR|" not in log.text,
+            "float T1: read as intensity 'Scalars' with a warning")
+    same = ti.GetDimensions() == atlas.GetDimensions() and np.allclose(ti.GetOrigin(), atlas.GetOrigin()) and \
+        np.allclose(ti.GetSpacing(), atlas.GetSpacing())
+    md, ma = ti.GetDirectionMatrix(), atlas.GetDirectionMatrix()
+    same = same and all(abs(md.GetElement(i, j) - ma.GetElement(i, j)) < 1e-6 for i in range(3) for j in range(3))
+    t.check(same, "float T1: same grid as its atlas (origin %s vs %s)" % (ti.GetOrigin(), atlas.GetOrigin()))
 t.finish()
