@@ -5,6 +5,7 @@
 // semi-transparent ones front to back, and accumulates one sample. A ray that needs a brick not
 // in the cache marks it for the next frame and adds no sample, so accumulated images only ever
 // contain complete samples; the k-th sample of a pixel is the same whichever frame computes it.
+// SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
@@ -164,7 +165,7 @@ void main() {
             gDepth = depth;
             gDistance = length((f.indexToWorld * vec4(q - o, 0.0)).xyz);
             vec3 shaded = local;
-            const uint mode = f.frame.z;
+            const uint mode = SHADING; // one pipeline per mode: the others' code is dropped at compile time
             if (mode == SHADING_SHADOW) {
                 const vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }

@@ -284,6 +284,28 @@ void stableStep(inout Walker w, uint k) {
     w.face = 1u + 2u * axis + (w.d[axis] > 0.0 ? 0u : 1u);
 }
 
+/// stableStep(w, 0) without its scalings by 1 (bit-identical: x * 1.0 == x, floor of [0, 1) is 0).
+void stableStepFinest(inout Walker w) {
+    const vec3 target = vec3(greaterThan(w.d, vec3(0.0)));
+    precise vec3 dist = (target - w.vpos) * w.invD;
+    uint axis = 0u;
+    if (dist.y < dist[axis]) axis = 1u;
+    if (dist.z < dist[axis]) axis = 2u;
+    const float dt = dist[axis];
+    precise vec3 np = w.vpos + w.d * dt;
+    np = clamp(np, vec3(0.0), vec3(ONE_MINUS_EPSILON));
+    if (w.d[axis] > 0.0) {
+        w.voxel[axis] += 1;
+        np[axis] = 0.0;
+    } else {
+        w.voxel[axis] -= 1;
+        np[axis] = ONE_MINUS_EPSILON;
+    }
+    w.vpos = np;
+    w.t = w.t + dt;
+    w.face = 1u + 2u * axis + (w.d[axis] > 0.0 ? 0u : 1u);
+}
+
 /// Sets up a walker for the ray o + t d, t in [0, tEnd], clipped to the box [lo, hi) (voxels).
 /// False when the ray misses the box.
 bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
@@ -339,18 +361,23 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
     Uvec4Buf bricks = Uvec4Buf(f.addr[A_BRICKS]);
     label = NONE;
     material = NONE;
+    uint current = NONE;
+    uvec4 s = uvec4(0u);
     for (uint it = 0u; it < 60000u; ++it) {
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
-        const uvec4 s = bricks.v[b];
+        if (b != current) { // brick state read once per brick, not per voxel
+            current = b;
+            s = bricks.v[b];
+            if (request && s.w != 0u && b != w.lastBrick) {
+                bricks.v[b].z = f.frame.x + 1u;
+                w.lastBrick = b;
+            }
+        }
         if (s.w == 0u) {
             w.prevLabel = NONE;
             stableStep(w, BRICK_SHIFT);
         } else {
-            if (request && b != w.lastBrick) {
-                bricks.v[b].z = f.frame.x + 1u;
-                w.lastBrick = b;
-            }
             if (s.y == NONE) return MARCH_MISSING;
             const uint l = cachedLabel(f, s.x, s.y, w.voxel);
             if (l != w.prevLabel) {
@@ -362,7 +389,8 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
                     return MARCH_SURFACE;
                 }
             }
-            stableStep(w, s.y);
+            if (s.y == 0u) stableStepFinest(w);
+            else stableStep(w, s.y);
         }
         if (any(lessThan(w.voxel, lo)) || any(greaterThanEqual(w.voxel, hi))) return MARCH_OUT;
     }

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Resolve stage, one invocation per pixel, in passes (push constant `pass`):
-//   0 gather: average of the accumulated samples; pixels without samples yet (subsampling or a
+//   0 gather (with tone mapping straight into the output when not denoising): average of the accumulated samples; pixels without samples yet (subsampling or a
 //     missing brick) copy the nearest pixel of their stride block that has samples (upsampling);
 //   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
 //     same face, similar depth), fading out as samples accumulate;
@@ -19,6 +19,18 @@ layout(push_constant) uniform Push {
 } pc;
 
 vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
+
+/// Tone mapping, brightness, contrast and gamma of a premultiplied colour.
+vec4 toneMapped(Frame f, vec4 c) {
+    if (c.a <= 0.0) return c;
+    vec3 rgb = c.rgb / c.a;
+    if (f.tone.w != 0.0) rgb = aces(rgb);
+    rgb *= f.tone.x;
+    rgb = (rgb - 0.5) * f.tone.y + 0.5;
+    rgb = clamp(rgb, 0.0, 1.0);
+    if (f.tone.z != 1.0) rgb = pow(rgb, vec3(1.0 / f.tone.z));
+    return vec4(rgb * c.a, c.a);
+}
 
 void main() {
     Frame f = Frame(pc.frame);
@@ -58,7 +70,8 @@ void main() {
             FloatBuf depth = FloatBuf(f.addr[A_DEPTH_OUT]);
             if (n > 0u) depth.f[pixel] = depth.f[from];
         }
-        dst.v[pixel] = n > 0u ? Vec4Buf(f.addr[A_ACCUM]).v[from] / float(n) : vec4(0.0);
+        const vec4 c = n > 0u ? Vec4Buf(f.addr[A_ACCUM]).v[from] / float(n) : vec4(0.0);
+        dst.v[pixel] = pc.dst == A_COLOR_OUT ? toneMapped(f, c) : c; // without denoising: one pass
         return;
     }
     Vec4Buf src = Vec4Buf(f.addr[pc.src]);
@@ -89,14 +102,5 @@ void main() {
         dst.v[pixel] = mix(filtered, centre, keep);
         return;
     }
-    vec4 c = centre;
-    if (c.a > 0.0) {
-        vec3 rgb = c.rgb / c.a;
-        if (f.tone.w != 0.0) rgb = aces(rgb);
-        rgb *= f.tone.x;
-        rgb = (rgb - 0.5) * f.tone.y + 0.5;
-        rgb = pow(clamp(rgb, 0.0, 1.0), vec3(1.0 / f.tone.z));
-        c.rgb = rgb * c.a;
-    }
-    dst.v[pixel] = c;
+    dst.v[pixel] = toneMapped(f, centre);
 }

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 namespace csgv::gpu {
@@ -106,7 +108,9 @@ struct Renderer::Impl {
     Context& ctx;
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0, brickSize = 0;
-    uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pRender = 0, pResolve = 0;
+    uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pResolve = 0;
+    uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
+    Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap;
@@ -197,7 +201,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     };
     for (const Shader& s : {Shader{"cache_request.comp", &im.pRequest, 8}, Shader{"cache_provision.comp", &im.pProvision, 8},
                             Shader{"cache_assign.comp", &im.pAssign, 8}, Shader{"cache_commit.comp", &im.pCommit, 8},
-                            Shader{"render.comp", &im.pRender, 8}, Shader{"resolve.comp", &im.pResolve, 24}}) {
+                            Shader{"resolve.comp", &im.pResolve, 24}}) {
         Result<std::vector<uint32_t>> spirv = compileComputeShader(s.name, d);
         if (!spirv) return spirv.status();
         Result<uint64_t> p = context.createComputePipeline(*spirv, s.push);
@@ -205,6 +209,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         *s.pipeline = *p;
     }
 
+    im.defines = d;
     auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind, const char* what) -> Status {
         Result<Buffer> res = context.createBuffer(std::max<uint64_t>(bytes, 16), kind);
         if (!res) return Status(res.status()).prefix(std::string("allocating the ") + what);
@@ -398,6 +403,16 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         im.lastWorldToClip = in.worldToClip;
         resetAccumulation();
     }
+    uint64_t& renderPipeline = im.pRender[uint32_t(st.shading) & 3];
+    if (!renderPipeline) {
+        Defines d = im.defines;
+        d.emplace_back("SHADING", std::to_string(uint32_t(st.shading) & 3) + "u");
+        Result<std::vector<uint32_t>> spirv = compileComputeShader("render.comp", d);
+        if (!spirv) return spirv.status();
+        Result<uint64_t> p = ctx.createComputePipeline(*spirv, 8);
+        if (!p) return Status(p.status()).prefix("render.comp");
+        renderPipeline = *p;
+    }
     FrameStats stats;
     if (im.cacheResetPending) {
         if (!(s = im.resetCacheNow())) return s;
@@ -538,19 +553,32 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
                                            im.decodeStates.address(), im.maxRequests, im.frameDecode, list)))
         return s;
     const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
-    add(im.pRender, &frameAddress, 8, (rw + 7) / 8, (rh + 7) / 8);
-    resolve(0, aDenoiseA, aDenoiseA);
-    uint32_t last = aDenoiseA;
-    if (st.denoise) {
+    add(renderPipeline, &frameAddress, 8, (rw + 7) / 8, (rh + 7) / 8);
+    // Denoising is for the noise of the stochastic modes; it fades out as samples accumulate and
+    // is skipped once every pixel has 64.
+    const bool denoise = st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing) &&
+                         im.prevMinSamples < 64;
+    if (denoise) {
+        resolve(0, aDenoiseA, aDenoiseA);
         resolve(1, aDenoiseA, aDenoiseB);
         resolve(2, aDenoiseB, aDenoiseA);
         resolve(3, aDenoiseA, aDenoiseB);
-        last = aDenoiseB;
+        resolve(4, aDenoiseB, aColorOut);
+    } else {
+        resolve(0, aDenoiseA, aColorOut);
     }
-    resolve(4, last, aColorOut);
 
     const auto t0 = std::chrono::steady_clock::now();
-    if (!(s = ctx.run(list))) return s;
+    if (std::getenv("CSGV_PROFILE_DISPATCHES")) { // one submission per dispatch, timed (diagnostics)
+        for (size_t i = 0; i < list.size(); ++i) {
+            const auto t1 = std::chrono::steady_clock::now();
+            if (!(s = ctx.run({list[i]}))) return s;
+            std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, list[i].groups[0], list[i].groups[1],
+                         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
+        }
+    } else if (!(s = ctx.run(list))) {
+        return s;
+    }
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     im.clearPending = false;
     ++im.frameIndex;

@@ -59,7 +59,7 @@ struct RenderSettings {
     float lodBias = 0.0f;             ///< added to log2(pixel footprint / voxel); < 0 finer
     bool finest = false;              ///< level 0 everywhere
     uint32_t subsampling = 1;         ///< 1, 2, 4 or 8: render 1, 1/4, 1/16 or 1/64 of pixels a frame
-    bool denoise = true;
+    bool denoise = true;              ///< A-trous denoising of ao and pt, fading out, off from 64 samples
     bool jitter = true;               ///< sub-pixel jitter after the first sample (anti-aliasing)
     uint32_t sampleTarget = 0;        ///< stop accumulating at this many samples a pixel (0: never)
     /// Direction towards the key light in view coordinates (x right, y up, z towards the viewer),
