@@ -200,7 +200,9 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
 
 #pragma omp parallel num_threads(nThreads)
     {
-        StatsMap& total = perThread[size_t(omp_get_thread_num())];
+        // Each thread's maps live on its own stack: map headers side by side in one vector would
+        // share cache lines between threads that insert.
+        StatsMap total;
         StatsMap local;
         CachedLookup at{local}, other{local};
         BrickDecoder decoder(vol);
@@ -339,6 +341,7 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
                 }
             }
         }
+        perThread[size_t(omp_get_thread_num())] = std::move(total);
     }
     if (failed) return error;
 

@@ -5,6 +5,8 @@
 #include "TestData.h"
 
 #include "csgv/Attributes.h"
+#include "csgv/Compress.h"
+#include "csgv/CsgvFile.h"
 #include "csgv/Decoder.h"
 #include "csgv/Encoder.h"
 #include "csgv/Inputs.h"
@@ -478,6 +480,21 @@ TEST(AttributesComputed, RelabelledVolumesReportOriginalLabels) {
     ASSERT_TRUE(counts.isOk());
     for (size_t id = 0; id < idToLabel.size(); ++id)
         EXPECT_EQ((*counts)[id], float(a->value("voxel_count", idToLabel[id])));
+
+    // A relabelled file opened with its database reports original labels by itself.
+    const std::string dir = freshDir("attr-relabelled");
+    CompressOptions co;
+    co.relabel = true;
+    co.encode.brickSize = 16;
+    ASSERT_TRUE(compressToFile("synth:50x40x30:3", dir + "/v.csgv", co).isOk());
+    Result<CsgvFile> file = openCsgv(dir + "/v.csgv");
+    ASSERT_TRUE(file.isOk()) << file.message();
+    ASSERT_TRUE(file->hasAttributes);
+    Result<AttributeTable> fromFile = computeAttributes(*file, 2);
+    ASSERT_TRUE(fromFile.isOk()) << fromFile.message();
+    Result<AttributeTable> synthPlain = computeWith(compress(*generateVolume(*parseSynthSpec("synth:50x40x30:3")), 16), 1);
+    ASSERT_TRUE(synthPlain.isOk());
+    expectSameTable(*fromFile, *synthPlain);
 
     std::vector<int64_t> shortMap(idToLabel.begin(), idToLabel.begin() + 3);
     EXPECT_ERROR(computeWith(relabelled, 1, true, &shortMap), "past the end of the id -> label table");
