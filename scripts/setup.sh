@@ -19,7 +19,7 @@ PKGS_VULKAN=(
 # ParaView 5.11 plugin: paraview-dev alone does not satisfy find_package(ParaView)
 # (see shared/PARAVIEW-NOTES.md); never libvtk9-dev, it conflicts with python3-paraview.
 PKGS_PARAVIEW=(
-  paraview paraview-dev python3-paraview python3-dev
+  paraview paraview-dev python3-paraview python3-dev python3-numpy
   qtbase5-dev libqt5opengl5-dev libqt5svg5-dev qttools5-dev
   libopenmpi-dev libglew-dev liblz4-dev libtiff-dev libdouble-conversion-dev libutfcpp-dev
   libnetcdf-dev libtheora-dev libgl2ps-dev libgdal-dev libavformat-dev libavcodec-dev
