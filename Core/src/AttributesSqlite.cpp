@@ -219,7 +219,8 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     for (char& ch : lowerExpr)
         if (ch >= 'A' && ch <= 'Z') ch = char(ch - 'A' + 'a');
     std::vector<const AttributeColumn*> used;
-    std::string create = "CREATE TABLE t (label INTEGER";
+    // The label is the key: rows come back in the table's order by it, whatever else is named rowid.
+    std::string create = "CREATE TABLE t (label INTEGER PRIMARY KEY";
     for (size_t c = 1; c < table.columns().size(); ++c) {
         const AttributeColumn& col = table.columns()[c];
         std::string lower = col.name;
@@ -260,7 +261,7 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     if (!s) return fail(s.message());
 
     sqlite3_set_authorizer(db.get(), readOnlyAuthorizer, nullptr);
-    const std::string sql = "SELECT (" + expression + "\n) FROM t ORDER BY rowid";
+    const std::string sql = "SELECT (" + expression + "\n) FROM t ORDER BY label";
     sqlite3_stmt* rawSt = nullptr;
     const char* tail = nullptr;
     if (sqlite3_prepare_v2(db.get(), sql.c_str(), int(sql.size()), &rawSt, &tail) != SQLITE_OK) {

@@ -411,6 +411,12 @@ TEST(AttributesDerived, HemisphereFromRegionNames) {
     ASSERT_TRUE(addDerivedAttribute(*t, "relative", "code / (SELECT max(code) FROM t)").isOk());
     EXPECT_EQ(t->value("relative", 95), 1.0);
 
+    // A column named rowid does not reorder the results.
+    Result<AttributeTable> r = parseCsv("label,rowid\n1,30\n2,20\n3,10\n");
+    ASSERT_TRUE(r.isOk()) << r.message();
+    ASSERT_TRUE(addDerivedAttribute(*r, "twice", "label * 2 + 0 * rowid").isOk());
+    EXPECT_EQ(r->column("twice")->values, (std::vector<double>{2, 4, 6}));
+
     EXPECT_ERROR(addDerivedAttribute(*t, "h", "CASE WHEN nme LIKE 'x' THEN 1 END"), "derived attribute 'h'",
                  "no such column: nme", "(expression: CASE WHEN nme LIKE 'x' THEN 1 END)");
     EXPECT_ERROR(addDerivedAttribute(*t, "h", "1 +"), "syntax error", "(expression: 1 +)");
