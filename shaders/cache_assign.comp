@@ -11,6 +11,7 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
     Frame f = Frame(pc.frame);
+    loadFrameValues(f);
     UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
     const uint i = gl_GlobalInvocationID.x;
     if (i >= alloc.w[AL_REQUESTS]) return;
@@ -21,7 +22,7 @@ void main() {
     const uint freeCount = alloc.w[AL_FREE_COUNT + l];
     uint offset;
     if (k < freeCount) {
-        offset = UintBuf(f.addr[A_FREE]).w[l * f.counts.y + freeCount - 1u - k];
+        offset = UintBuf(f.addr[A_FREE]).w[l * fv.counts.y + freeCount - 1u - k];
     } else {
         const uint j = k - freeCount;
         if (j >= alloc.w[AL_PROV_COUNT + l]) return;

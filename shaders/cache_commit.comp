@@ -10,6 +10,7 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
     Frame f = Frame(pc.frame);
+    loadFrameValues(f);
     UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
     for (uint l = 0u; l < LEVELS; ++l) {
         const uint freeCount = alloc.w[AL_FREE_COUNT + l];

@@ -11,11 +11,12 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
     Frame f = Frame(pc.frame);
+    loadFrameValues(f);
     UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
     alloc.w[AL_DECODES] = 0u;
-    alloc.w[AL_REQUESTS] = min(alloc.w[AL_REQUESTS], f.limits.x);
+    alloc.w[AL_REQUESTS] = min(alloc.w[AL_REQUESTS], fv.limits.x);
     for (uint l = 0u; l < LEVELS; ++l) {
-        const uint freeCount = min(alloc.w[AL_FREE_COUNT + l], f.counts.y);
+        const uint freeCount = min(alloc.w[AL_FREE_COUNT + l], fv.counts.y);
         alloc.w[AL_FREE_COUNT + l] = freeCount;
         const uint need = alloc.w[AL_REQ_COUNT + l] > freeCount ? alloc.w[AL_REQ_COUNT + l] - freeCount : 0u;
         const uint edge = BRICK_SIZE >> l;

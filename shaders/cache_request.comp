@@ -12,28 +12,29 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
     Frame f = Frame(pc.frame);
+    loadFrameValues(f);
     const uint b = gl_GlobalInvocationID.x;
-    if (b >= f.counts.y) return;
+    if (b >= fv.counts.y) return;
     Uvec4Buf bricks = Uvec4Buf(f.addr[A_BRICKS]);
     UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
     uvec4 s = bricks.v[b];
-    const bool used = s.z == f.frame.x; // marked by the previous frame's rays (frame index + 1)
+    const bool used = s.z == fv.frame.x; // marked by the previous frame's rays (frame index + 1)
     const bool visible = UintBuf(f.addr[A_VISIBLE]).w[b] != 0u;
     if ((s.w != 0u) != visible) bricks.v[b].w = visible ? 1u : 0u; // materials changed
     const uint wanted = lodForBrick(f, b);
     if (s.y != NONE) {
-        const bool evict = !visible || (used && s.y != wanted) || (!used && (f.frame.y & FLAG_EVICT_UNUSED) != 0u);
+        const bool evict = !visible || (used && s.y != wanted) || (!used && (fv.frame.y & FLAG_EVICT_UNUSED) != 0u);
         if (!evict) return;
         const uint k = atomicAdd(alloc.w[AL_FREE_COUNT + s.y], 1u);
         // A full stack cannot happen (a level never has more regions than bricks); if it did, the
         // region would only be dead space until the next cache reset.
-        if (k < f.counts.y) UintBuf(f.addr[A_FREE]).w[s.y * f.counts.y + k] = s.x;
+        if (k < fv.counts.y) UintBuf(f.addr[A_FREE]).w[s.y * fv.counts.y + k] = s.x;
         bricks.v[b].y = NONE;
         s.y = NONE;
     }
     if (!used || !visible) return;
     const uint r = atomicAdd(alloc.w[AL_REQUESTS], 1u);
-    if (r >= f.limits.x) return; // over this frame's decode budget: asked again next frame
+    if (r >= fv.limits.x) return; // over this frame's decode budget: asked again next frame
     atomicAdd(alloc.w[AL_REQ_COUNT + wanted], 1u);
     UintBuf req = UintBuf(f.addr[A_REQUESTS]);
     req.w[2u * r] = b;

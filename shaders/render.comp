@@ -78,41 +78,42 @@ vec3 toIndexDir(vec3 worldDir) { return (f.worldToIndex * vec4(worldDir, 0.0)).x
 /// Direct light from the key light at a surface (with a shadow ray when `shadow`); -1 in x when a
 /// brick is missing and `complete`.
 vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
-    const float cosL = dot(n, f.lightWorld.xyz);
+    const float cosL = dot(n, fv.lightWorld.xyz);
     if (cosL <= 0.0) return vec3(0.0);
     float vis = 1.0;
     if (shadow) {
         Walker s;
-        if (leaveSurface(w, f.lightIndex.xyz, 1e30, s)) vis = visibility(s, mark, complete);
+        if (leaveSurface(w, fv.lightIndex.xyz, 1e30, s)) vis = visibility(s, mark, complete);
         if (vis < 0.0) return vec3(-1.0);
     }
-    return vec3(f.lightWorld.w * cosL * vis);
+    return vec3(fv.lightWorld.w * cosL * vis);
 }
 
 void main() {
     f = Frame(pc.frame);
-    boxLo = ivec3(f.clipMin.xyz);
-    boxHi = ivec3(f.clipMax.xyz);
-    const uint W = f.image.x, H = f.image.y, stride = f.image.z, phase = f.image.w;
+    loadFrameValues(f);
+    boxLo = ivec3(fv.clipMin.xyz);
+    boxHi = ivec3(fv.clipMax.xyz);
+    const uint W = fv.image.x, H = fv.image.y, stride = fv.image.z, phase = fv.image.w;
     const uvec2 px = gl_GlobalInvocationID.xy * stride + uvec2(phase % stride, phase / stride);
     if (px.x >= W || px.y >= H) return;
     const uint pixel = px.y * W + px.x;
     UintBuf samplesBuf = UintBuf(f.addr[A_SAMPLES]);
     const uint samples = samplesBuf.w[pixel];
-    if (f.frame.w != 0u && samples >= f.frame.w) return; // reached the sample target
+    if (fv.frame.w != 0u && samples >= fv.frame.w) return; // reached the sample target
     UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
     if (samples == alloc.w[AL_PREV_MIN]) atomicMin(alloc.w[AL_MIN_ROW], pixel);
-    const bool request = (f.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (pixel >= f.limits.y && pixel < f.limits.z);
+    const bool request = (fv.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
     Rng rng = rngFor(pixel, samples);
 
     // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4).
     vec2 jitter = vec2(0.0);
-    if ((f.frame.y & FLAG_JITTER) != 0u && samples > 0u) {
+    if ((fv.frame.y & FLAG_JITTER) != 0u && samples > 0u) {
         const float u = max(rngNext(rng), 1e-7), v = rngNext(rng);
         jitter = clamp(0.4 * sqrt(-2.0 * log(u)) * vec2(cos(6.2831853 * v), sin(6.2831853 * v)), -1.5, 1.5);
     }
-    precise float ndcX = (float(px.x) + 0.5 + jitter.x) * f.pixel.x - 1.0;
-    precise float ndcY = (float(px.y) + 0.5 + jitter.y) * f.pixel.y - 1.0;
+    precise float ndcX = (float(px.x) + 0.5 + jitter.x) * fv.pixel.x - 1.0;
+    precise float ndcY = (float(px.y) + 0.5 + jitter.y) * fv.pixel.y - 1.0;
     const mat4 M = f.clipToIndex;
     precise vec4 a, b;
     for (int r = 0; r < 4; ++r) {
@@ -123,7 +124,7 @@ void main() {
     precise vec3 e = b.xyz * (1.0 / b.w);
     precise vec3 d = e - o;
     float tEnd = 1.0;
-    if ((f.frame.y & FLAG_DEPTH_INPUT) != 0u) {
+    if ((fv.frame.y & FLAG_DEPTH_INPUT) != 0u) {
         const float z = FloatBuf(f.addr[A_DEPTH_IN]).f[pixel];
         if (z < 1.0) {
             const vec4 q = M * vec4(ndcX, ndcY, 2.0 * z - 1.0, 1.0);
@@ -153,7 +154,7 @@ void main() {
             const float depth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
             if (firstDepth == 1.0) firstDepth = depth;
             vec3 n = w.face != 0u ? f.faceNormals[w.face - 1u].xyz : -normalize((f.indexToWorld * vec4(d, 0.0)).xyz);
-            const vec3 local = c.rgb * (f.lightIndex.w + directLight(w, n, false, false, false)) + emission * c.rgb;
+            const vec3 local = c.rgb * (fv.lightIndex.w + directLight(w, n, false, false, false)) + emission * c.rgb;
             if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
                 radiance += transmittance * c.a * local;
                 transmittance *= 1.0 - c.a;
@@ -169,15 +170,15 @@ void main() {
             if (mode == SHADING_SHADOW) {
                 const vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }
-                shaded = c.rgb * (f.lightIndex.w + direct) + emission * c.rgb;
+                shaded = c.rgb * (fv.lightIndex.w + direct) + emission * c.rgb;
             } else if (mode == SHADING_AO) {
                 Walker s;
                 float vis = 1.0;
                 const vec3 dir = toIndexDir(cosineSample(n, rng));
-                if (leaveSurface(w, dir / length(dir), f.environment.w, s)) vis = visibility(s, request, true);
+                if (leaveSurface(w, dir / length(dir), fv.environment.w, s)) vis = visibility(s, request, true);
                 if (vis < 0.0) { valid = false; break; }
                 const vec3 direct = directLight(w, n, false, false, false);
-                shaded = c.rgb * ((f.lightIndex.w + 0.5 * f.lightWorld.w) * vis + 0.5 * direct) + emission * c.rgb;
+                shaded = c.rgb * ((fv.lightIndex.w + 0.5 * fv.lightWorld.w) * vis + 0.5 * direct) + emission * c.rgb;
             } else if (mode == SHADING_PT) {
                 vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }
@@ -185,13 +186,13 @@ void main() {
                 vec3 throughput = c.rgb;
                 Walker at = w;
                 vec3 atN = n;
-                for (uint bounce = 1u; bounce <= f.limits.w; ++bounce) {
+                for (uint bounce = 1u; bounce <= fv.limits.w; ++bounce) {
                     const bool req = request && bounce == 1u; // only the first bounce requests bricks
                     const bool complete = bounce == 1u;        // ... and must find them all
                     Walker s;
                     const vec3 dirW = cosineSample(atN, rng);
                     if (!leaveSurface(at, toIndexDir(dirW), 1e30, s)) {
-                        pt += throughput * f.environment.rgb;
+                        pt += throughput * fv.environment.rgb;
                         break;
                     }
                     uint l2 = NONE, m2 = NONE;
@@ -210,7 +211,7 @@ void main() {
                     }
                     if (r2 == MARCH_MISSING) { valid = false; break; }
                     if (r2 == MARCH_OUT) {
-                        pt += throughput * f.environment.rgb;
+                        pt += throughput * fv.environment.rgb;
                         break;
                     }
                     float e2;
@@ -230,7 +231,7 @@ void main() {
                 if (!valid) break;
                 shaded = pt;
             }
-            radiance += transmittance * mix(local, shaded, f.pixel.w);
+            radiance += transmittance * mix(local, shaded, fv.pixel.w);
             transmittance = 0.0;
             break;
         }

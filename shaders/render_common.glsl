@@ -93,6 +93,29 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Fr
     uint64_t addr[A_COUNT];
 };
 
+/// The Frame's vector members, loaded whole at the start of every pass. Mesa 22.3's lavapipe
+/// miscompiles a component read of a buffer-reference struct member next to a read of its other
+/// components (`f.v.xyz` and `f.v.w` merged into one load, `.w` then reads 0), so the shaders read
+/// whole members once and take components from these copies.
+struct FrameValues {
+    vec4 lightWorld, lightIndex, environment, clipMin, clipMax, pixel, tone;
+    uvec4 frame, image, limits, counts;
+};
+FrameValues fv;
+void loadFrameValues(Frame f) {
+    fv.lightWorld = f.lightWorld;
+    fv.lightIndex = f.lightIndex;
+    fv.environment = f.environment;
+    fv.clipMin = f.clipMin;
+    fv.clipMax = f.clipMax;
+    fv.pixel = f.pixel;
+    fv.tone = f.tone;
+    fv.frame = f.frame;
+    fv.image = f.image;
+    fv.limits = f.limits;
+    fv.counts = f.counts;
+}
+
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer UintBuf { uint w[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer FloatBuf { float f[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Buf { vec4 v[]; };
@@ -141,13 +164,13 @@ uint labelHash(uint x) { // Wellons' lowbias32, as csgv::labelHash
 }
 
 uint originalLabel(Frame f, uint label) {
-    if ((f.frame.y & FLAG_LABEL_MAP) != 0u && label < f.counts.z) return UintBuf(f.addr[A_LABEL_MAP]).w[label];
+    if ((fv.frame.y & FLAG_LABEL_MAP) != 0u && label < fv.counts.z) return UintBuf(f.addr[A_LABEL_MAP]).w[label];
     return label;
 }
 
 float attributeValue(Frame f, uint attr, uint label) {
     if (attr == NONE) return float(originalLabel(f, label));
-    if (label >= f.counts.z) return uintBitsToFloat(0x7FC00000u); // NaN: matches no interval
+    if (label >= fv.counts.z) return uintBitsToFloat(0x7FC00000u); // NaN: matches no interval
     return FloatBuf(AddrBuf(f.addr[A_ATTRIBUTES]).a[attr]).f[label];
 }
 
@@ -155,7 +178,7 @@ float attributeValue(Frame f, uint attr, uint label) {
 uint materialOf(Frame f, uint label) {
     if (label == NONE) return NONE;
     MaterialBuf mats = MaterialBuf(f.addr[A_MATERIALS]);
-    const uint n = f.counts.x;
+    const uint n = fv.counts.x;
     for (uint i = 0u; i < n; ++i) {
         const uvec4 flt = mats.m[i].select;
         if (flt.x == NONE) {
@@ -226,14 +249,14 @@ uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel) {
 /// Level of detail for a brick: one voxel of that level about one pixel (footprint at the brick's
 /// centre), shifted by the bias; 0 everywhere with FLAG_FINEST.
 uint lodForBrick(Frame f, uint brick) {
-    if ((f.frame.y & FLAG_FINEST) != 0u) return 0u;
+    if ((fv.frame.y & FLAG_FINEST) != 0u) return 0u;
     const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y));
     const vec3 centre = (vec3(b) + 0.5) * float(BRICK_SIZE);
     const vec4 clip = f.indexToClip * vec4(centre, 1.0);
     const vec4 back = f.clipToIndex * clip;
     // One pixel in NDC is 2/H; at this point it spans footprintFactor * |w_clip / w_index| voxels.
-    const float footprint = f.clipMax.w * abs(clip.w / back.w);
-    const float l = floor(log2(max(footprint, 1e-30)) + f.clipMin.w);
+    const float footprint = fv.clipMax.w * abs(clip.w / back.w);
+    const float l = floor(log2(max(footprint, 1e-30)) + fv.clipMin.w);
     return uint(clamp(l, 0.0, float(LEVELS - 1u)));
 }
 
@@ -370,7 +393,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
             current = b;
             s = bricks.v[b];
             if (request && s.w != 0u && b != w.lastBrick) {
-                bricks.v[b].z = f.frame.x + 1u;
+                bricks.v[b].z = fv.frame.x + 1u;
                 w.lastBrick = b;
             }
         }

@@ -24,17 +24,18 @@ vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59
 vec4 toneMapped(Frame f, vec4 c) {
     if (c.a <= 0.0) return c;
     vec3 rgb = c.rgb / c.a;
-    if (f.tone.w != 0.0) rgb = aces(rgb);
-    rgb *= f.tone.x;
-    rgb = (rgb - 0.5) * f.tone.y + 0.5;
+    if (fv.tone.w != 0.0) rgb = aces(rgb);
+    rgb *= fv.tone.x;
+    rgb = (rgb - 0.5) * fv.tone.y + 0.5;
     rgb = clamp(rgb, 0.0, 1.0);
-    if (f.tone.z != 1.0) rgb = pow(rgb, vec3(1.0 / f.tone.z));
+    if (fv.tone.z != 1.0) rgb = pow(rgb, vec3(1.0 / fv.tone.z));
     return vec4(rgb * c.a, c.a);
 }
 
 void main() {
     Frame f = Frame(pc.frame);
-    const uint W = f.image.x, H = f.image.y;
+    loadFrameValues(f);
+    const uint W = fv.image.x, H = fv.image.y;
     const uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= W || px.y >= H) return;
     const uint pixel = px.y * W + px.x;
@@ -51,8 +52,8 @@ void main() {
         uint n = samples.w[pixel];
         atomicMin(UintBuf(f.addr[A_ALLOC]).w[AL_MIN_SAMPLES], n);
         uint from = pixel;
-        if (n == 0u && f.image.z > 1u) { // upsampling: the nearest pixel of the block with samples
-            const uint s = f.image.z;
+        if (n == 0u && fv.image.z > 1u) { // upsampling: the nearest pixel of the block with samples
+            const uint s = fv.image.z;
             const uvec2 b0 = (px / s) * s;
             uint best = 0xFFFFFFFFu;
             for (uint k = 0u; k < s * s; ++k) {
@@ -98,7 +99,7 @@ void main() {
                 weights += wgt;
             }
         const vec4 filtered = weights > 0.0 ? sum / weights : centre;
-        const float keep = (f.frame.y & FLAG_DENOISE) != 0u ? float(n) / float(n + 4u) : 1.0;
+        const float keep = (fv.frame.y & FLAG_DENOISE) != 0u ? float(n) / float(n + 4u) : 1.0;
         dst.v[pixel] = mix(filtered, centre, keep);
         return;
     }

@@ -7,6 +7,7 @@
 #include "TestData.h"
 #include "Png.h"
 
+#include "csgv/CsgvFile.h"
 #include "csgv/Decoder.h"
 #include "csgv/RayCast.h"
 #include "csgv/gpu/Renderer.h"
@@ -252,4 +253,57 @@ TEST(Renderer, ShadingModesMatchBaselines) {
         const FrameOutput out = renderConverged(*r, in, mode == Shading::Local || mode == Shading::Shadow ? 2 : 8, 100);
         expectMatchesBaseline(out, std::string("synthA_") + shadingName(mode));
     }
+}
+
+TEST(Renderer, MaterialsWithAttributesSelectTheSameLabelsAsTheReference) {
+    CSGV_REQUIRE_GPU(ctx);
+    // The relabelled fixture: stored labels are dense ids, its database maps them to originals.
+    Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2_attr.csgv"));
+    ASSERT_TRUE(file.isOk()) << file.message();
+    ASSERT_TRUE(file->hasAttributes && !file->wideLabels);
+    Result<LabelVolume> ids = decodeVolume(file->volume, 0);
+    ASSERT_TRUE(ids.isOk()) << ids.message();
+    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, file->volume);
+    ASSERT_TRUE(gpu.isOk()) << gpu.message();
+    const std::vector<uint32_t>& idToLabel = file->idToLabel;
+    // An attribute per id: the parity of its original label. Odd labels are opaque red; the
+    // second material would take every label but is never reached for odd ones (first match
+    // wins) and is fully transparent, so even labels stay invisible.
+    std::vector<float> parity(idToLabel.size());
+    for (size_t i = 0; i < idToLabel.size(); ++i) parity[i] = float(idToLabel[i] % 2);
+    Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
+        {"name": "odd", "filter": {"attribute": "parity", "min": 1, "max": 1},
+         "color": {"mode": "constant", "rgb": [1, 0, 0]}},
+        {"name": "the rest", "filter": {"attribute": "label", "min": 1, "max": 4294967294},
+         "color": {"mode": "constant", "rgb": [0, 1, 0]}, "opacity": 0}]})");
+    ASSERT_TRUE(doc.isOk()) << doc.message();
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)));
+    ASSERT_TRUE(r.isOk()) << r.message();
+    // A document naming a missing attribute is refused with its name.
+    const Status missing = (*r)->setMaterials(*doc);
+    EXPECT_FALSE(missing.isOk());
+    EXPECT_NE(missing.message().find("parity"), std::string::npos) << missing.message();
+    ASSERT_TRUE((*r)->setMaterials(*doc, {{"parity", parity}}, idToLabel).isOk());
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    (*r)->setSettings(st);
+    const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
+    const FrameOutput out = renderConverged(**r, in, 1, 64);
+    RayCastView view{in.worldToClip, in.width, in.height};
+    const GBuffer ref = castRaysStable(
+        *ids, Geometry{}, view, [&](uint32_t id) { return id < idToLabel.size() && idToLabel[id] % 2 == 1; },
+        file->volume.brickSize);
+    size_t diff = 0, hits = 0, colour = 0;
+    for (size_t i = 0; i < ref.label.size(); ++i) {
+        const uint32_t expected = ref.label[i] == kInvalidLabel ? kInvalidLabel : idToLabel[ref.label[i]];
+        diff += out.label[i] != expected;
+        if (expected == kInvalidLabel) continue;
+        ++hits;
+        const bool red = out.rgba[4 * i] > 0.0f && out.rgba[4 * i + 1] == 0.0f && out.rgba[4 * i + 3] == 1.0f;
+        if (!red && colour++ < 3) ADD_FAILURE() << "pixel " << i << ": " << out.rgba[4 * i] << " " << out.rgba[4 * i + 1] << " " << out.rgba[4 * i + 2] << " " << out.rgba[4 * i + 3] << " label " << out.label[i] << " samples " << out.samples[i] << " depth " << out.hitDepth[i] << " face " << int(out.face[i]);
+    }
+    EXPECT_EQ(diff, 0u) << "G-buffer labels are the original labels of the odd-labelled voxels hit first";
+    EXPECT_EQ(colour, 0u) << "hit pixels are opaque red";
+    EXPECT_GT(hits, ref.label.size() / 10);
 }
