@@ -9,6 +9,7 @@
 
 #include "csgv/CsgvFile.h"
 #include "csgv/Decoder.h"
+#include "csgv/Encoder.h"
 #include "csgv/RayCast.h"
 #include "csgv/gpu/Renderer.h"
 
@@ -306,4 +307,54 @@ TEST(Renderer, MaterialsWithAttributesSelectTheSameLabelsAsTheReference) {
     EXPECT_EQ(diff, 0u) << "G-buffer labels are the original labels of the odd-labelled voxels hit first";
     EXPECT_EQ(colour, 0u) << "hit pixels are opaque red";
     EXPECT_GT(hits, ref.label.size() / 10);
+}
+
+TEST(Renderer, LocalShadingFollowsTheLightAnalytically) {
+    CSGV_REQUIRE_GPU(ctx);
+    // A solid 24^3 block of label 7 in a 32^3 volume, white, lit from +z in world space.
+    LabelVolume v;
+    v.dim = {32, 32, 32};
+    v.labels.assign(32 * 32 * 32, 0);
+    for (uint32_t z = 4; z < 28; ++z)
+        for (uint32_t y = 4; y < 28; ++y)
+            for (uint32_t x = 4; x < 28; ++x) v.labels[v.index(x, y, z)] = 7;
+    EncodeOptions eo;
+    eo.brickSize = 16;
+    Result<CompressedVolume> vol = encodeVolume(v, eo);
+    ASSERT_TRUE(vol.isOk()) << vol.message();
+    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, *vol);
+    ASSERT_TRUE(gpu.isOk()) << gpu.message();
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)));
+    ASSERT_TRUE(r.isOk()) << r.message();
+    Result<MaterialDocument> doc = parseMaterials(
+        R"({"version": 1, "materials": [{"filter": {"attribute": "label", "min": 7, "max": 7},
+            "color": {"mode": "constant", "rgb": [0.5, 0.5, 0.5]}}]})");
+    ASSERT_TRUE(doc.isOk());
+    ASSERT_TRUE((*r)->setMaterials(*doc).isOk());
+    RenderSettings st;
+    st.lightInWorld = true;
+    st.lightDirection = {0, 0, 1};
+    st.lightIntensity = 0.6f;
+    st.ambient = 0.2f;
+    st.jitter = false;
+    (*r)->setSettings(st);
+    // Seen from above and from -x, -y: the top face (+z) and the -x, -y faces are visible.
+    for (const auto& eye : {std::array<double, 3>{-40, -50, 70}, std::array<double, 3>{-60, 20, 50}}) {
+        const FrameInput in = perspectiveView(eye, {16, 16, 16}, {0, 0, 1}, 40, 64, 64);
+        const FrameOutput out = renderConverged(**r, in, 1, 32);
+        size_t top = 0, side = 0;
+        for (size_t i = 0; i < out.face.size(); ++i) {
+            if (out.label[i] != 7) continue;
+            const float red = out.rgba[4 * i];
+            if (out.face[i] == Face::PlusZ) { // cos = 1: 0.5 * (0.2 + 0.6)
+                EXPECT_NEAR(red, 0.4f, 1e-5f) << "top face, pixel " << i;
+                ++top;
+            } else { // the side faces are perpendicular to the light: ambient only
+                EXPECT_NEAR(red, 0.1f, 1e-5f) << "side face " << int(out.face[i]) << ", pixel " << i;
+                ++side;
+            }
+        }
+        EXPECT_GT(top, 100u);
+        EXPECT_GT(side, 100u);
+    }
 }
