@@ -1,0 +1,102 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class vtkCSGVRepresentation
+ * @brief The "Segmentation Volume" representation: image data whose labels are drawn voxel by
+ * voxel by VulkanBackend (local shading, shadows, ambient occlusion or path tracing) and
+ * composited with depth into ParaView's render view.
+ *
+ * Input: image data carrying the CSGV reader's encoding in its FieldData (used without
+ * decoding), or any one-component integer (or integer-valued float) cell or point array, which
+ * is compressed once with Core's encoder and cached until it changes (process-wide: several
+ * views of one source share one compression and one upload). Point data is drawn with voxel
+ * (i,j,k) centred on point (i,j,k), cell data with voxel (i,j,k) filling cell (i,j,k).
+ *
+ * Data stays on the rendering processes (client/server: the server renders and the client
+ * receives images). Every property below resets the accumulation when it changes.
+ * The drawing itself, including which render pass is used, is described in vtkCSGVVolumeProp.h.
+ */
+#ifndef vtkCSGVRepresentation_h
+#define vtkCSGVRepresentation_h
+
+#include "CSGVRepresentationModule.h"
+#include "vtkPVDataRepresentation.h"
+#include "vtkSmartPointer.h" // for Cache
+
+#include <string> // for ivars
+
+class vtkCSGVVolumeProp;
+class vtkImageData;
+
+class CSGVREPRESENTATION_EXPORT vtkCSGVRepresentation : public vtkPVDataRepresentation
+{
+public:
+  static vtkCSGVRepresentation* New();
+  vtkTypeMacro(vtkCSGVRepresentation, vtkPVDataRepresentation);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  int ProcessViewRequest(vtkInformationRequestKey* request, vtkInformation* inInfo,
+    vtkInformation* outInfo) override;
+  void SetVisibility(bool visible) override;
+
+  /// Label array by name ("": the CSGV encoding if present, else the first integer array).
+  void SetLabelArray(const char* name);
+  /// 0 local, 1 shadow, 2 ambient occlusion, 3 path tracing.
+  void SetShading(int mode);
+  /// 0: local shading only ... 1: the chosen shading mode only.
+  void SetShadingBlend(double blend);
+  /// Samples per pixel a still render accumulates (within StillRenderTimeBudget).
+  void SetFramesPerStillRender(int frames);
+  /// Seconds a still render may spend accumulating (past the first complete sample).
+  void SetStillRenderTimeBudget(double seconds);
+  /// Added to log2(pixel footprint / voxel) when choosing levels of detail (< 0: finer).
+  void SetLODBias(double bias);
+  /// 1, 2, 4 or 8: a frame renders 1/s^2 of the pixels.
+  void SetSubsampling(int s);
+  /// A-trous denoising of ambient occlusion and path tracing.
+  void SetDenoise(int on);
+  /// Direction towards the key light in view coordinates (x right, y up, z to the viewer).
+  void SetLightDirection(double x, double y, double z);
+  /// Brick cache budget in MiB, shared by the views of one volume.
+  void SetCacheSizeMiB(int mib);
+  /// Voxel box drawn, inclusive: xmin xmax ymin ymax zmin zmax (clamped to the volume).
+  void SetClipBox(int x0, int x1, int y0, int y1, int z0, int z1);
+  /// The material document of MATERIALS.md ("": the default document); ParaView preset names
+  /// are resolved here. A malformed document is reported and nothing is drawn.
+  void SetMaterials(const char* json);
+
+  /// Frames the last render accumulated and the fewest samples of any pixel after it (valid on
+  /// the rendering process).
+  int GetFramesLastRender();
+  int GetMinSamples();
+
+protected:
+  vtkCSGVRepresentation();
+  ~vtkCSGVRepresentation() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  bool AddToView(vtkView* view) override;
+  bool RemoveFromView(vtkView* view) override;
+
+private:
+  vtkCSGVRepresentation(const vtkCSGVRepresentation&) = delete;
+  void operator=(const vtkCSGVRepresentation&) = delete;
+
+  void PushSettings();
+
+  vtkSmartPointer<vtkImageData> Cache;
+  vtkCSGVVolumeProp* Prop;
+  std::string LabelArray;
+  int Shading = 0;
+  double ShadingBlend = 1.0;
+  int FramesPerStillRender = 16;
+  double StillRenderTimeBudget = 3.0;
+  double LODBias = 0.0;
+  int Subsampling = 1;
+  int Denoise = 1;
+  double LightDirection[3] = { 0.35, 0.6, 0.72 };
+  int CacheSizeMiB = 256;
+  int ClipBox[6] = { 0, 2147483647, 0, 2147483647, 0, 2147483647 };
+};
+
+#endif

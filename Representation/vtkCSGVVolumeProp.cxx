@@ -1,0 +1,417 @@
+// SPDX-License-Identifier: MIT
+#include "vtkCSGVVolumeProp.h"
+
+#include "vtkCSGVBackend.h"
+
+#include <vtkImageData.h>
+#include <vtkMatrix3x3.h>
+#include <vtkMatrix4x4.h>
+#include <vtkObjectFactory.h>
+#include <vtkOpenGLCamera.h>
+#include <vtkOpenGLQuadHelper.h>
+#include <vtkOpenGLRenderWindow.h>
+#include <vtkOpenGLRenderer.h>
+#include <vtkOpenGLShaderCache.h>
+#include <vtkOpenGLState.h>
+#include <vtkShaderProgram.h>
+#include <vtkSmartPointer.h>
+#include <vtkTextureObject.h>
+#include <vtkWeakPointer.h>
+#include <vtk_glew.h>
+
+#include <atomic>
+#include <vector>
+
+namespace
+{
+
+const char* const kFragmentShader = R"(//VTK::System::Dec
+in vec2 texCoord;
+uniform sampler2D csgvColor;
+uniform sampler2D csgvDepth;
+//VTK::Output::Dec
+void main()
+{
+  vec4 c = texture(csgvColor, texCoord);
+  if (c.a <= 0.0)
+  {
+    discard;
+  }
+  gl_FragData[0] = c;
+  gl_FragDepth = texture(csgvDepth, texCoord).r;
+}
+)";
+
+/// The no-device message is the same for every view: say it once per process.
+std::atomic<bool> deviceReported{ false };
+
+} // namespace
+
+struct vtkCSGVVolumeProp::Impl
+{
+  vtkSmartPointer<vtkImageData> Input;
+  vtkMTimeType InputTime = 0;
+  std::string LabelArray;
+  bool SourceDirty = true;
+  bool BoundsValid = false;
+  vtkMTimeType BoundsTime = 0;
+  double Bounds[6] = { 0, -1, 0, -1, 0, -1 };
+
+  std::string MaterialsText;
+  bool MaterialsParsed = false;
+  bool MaterialsValid = false;
+  bool MaterialsOpaque = true;
+
+  csgvrep::ViewRenderer View;
+  std::string LastError;
+  std::vector<float> Depth;
+
+  vtkWeakPointer<vtkOpenGLRenderWindow> Window;
+  vtkSmartPointer<vtkTextureObject> Color, DepthTexture;
+  std::unique_ptr<vtkOpenGLQuadHelper> Quad;
+  bool TexturesCurrent = false;
+
+  void ReleaseGL(vtkWindow* window)
+  {
+    if (this->Color)
+    {
+      this->Color->ReleaseGraphicsResources(window);
+    }
+    if (this->DepthTexture)
+    {
+      this->DepthTexture->ReleaseGraphicsResources(window);
+    }
+    this->Color = nullptr;
+    this->DepthTexture = nullptr;
+    this->Quad.reset();
+    this->Window = nullptr;
+    this->TexturesCurrent = false;
+  }
+
+  /// Parses the material text once per change; reports through `report`.
+  template <class Fn>
+  void ParseMaterials(Fn report)
+  {
+    if (this->MaterialsParsed)
+    {
+      return;
+    }
+    this->MaterialsParsed = true;
+    csgv::MaterialDocument doc;
+    const std::string error = csgvrep::resolveMaterials(this->MaterialsText, doc);
+    this->MaterialsValid = error.empty();
+    if (!this->MaterialsValid)
+    {
+      report("Materials: " + error + " (nothing is drawn until the document is valid)");
+      return;
+    }
+    this->MaterialsOpaque = true;
+    for (const csgv::Material& m : doc.materials)
+    {
+      this->MaterialsOpaque = this->MaterialsOpaque && m.opacity >= 1.0f;
+    }
+    this->View.setMaterials(doc);
+  }
+};
+
+vtkStandardNewMacro(vtkCSGVVolumeProp);
+
+vtkCSGVVolumeProp::vtkCSGVVolumeProp()
+  : P(new Impl)
+{
+}
+
+vtkCSGVVolumeProp::~vtkCSGVVolumeProp() = default;
+
+void vtkCSGVVolumeProp::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "LabelArray: " << this->P->LabelArray << "\n";
+}
+
+void vtkCSGVVolumeProp::SetInputImage(vtkImageData* image)
+{
+  const vtkMTimeType t = image ? image->GetMTime() : 0;
+  if (image != this->P->Input || t != this->P->InputTime)
+  {
+    this->P->Input = image;
+    this->P->InputTime = t;
+    this->P->SourceDirty = true;
+    this->P->BoundsValid = false;
+    this->Modified();
+  }
+}
+
+void vtkCSGVVolumeProp::SetLabelArrayName(const std::string& name)
+{
+  if (name != this->P->LabelArray)
+  {
+    this->P->LabelArray = name;
+    this->P->SourceDirty = true;
+    this->P->BoundsValid = false;
+    this->Modified();
+  }
+}
+
+void vtkCSGVVolumeProp::SetViewSettings(const csgvrep::ViewSettings& settings)
+{
+  this->P->View.setSettings(settings);
+  this->Modified();
+}
+
+void vtkCSGVVolumeProp::SetMaterials(const std::string& json)
+{
+  if (json != this->P->MaterialsText || !this->P->MaterialsParsed)
+  {
+    this->P->MaterialsText = json;
+    this->P->MaterialsParsed = false;
+    // Parse now so that errors appear when the property is set, not at the next render.
+    this->P->ParseMaterials([this](const std::string& m) { this->Report(m); });
+    this->Modified();
+  }
+}
+
+void vtkCSGVVolumeProp::Report(const std::string& message)
+{
+  if (message == this->P->LastError)
+  {
+    return;
+  }
+  this->P->LastError = message;
+  vtkErrorMacro(<< "Segmentation Volume: " << message);
+}
+
+double* vtkCSGVVolumeProp::GetBounds()
+{
+  Impl& p = *this->P;
+  if (!p.BoundsValid)
+  {
+    p.BoundsValid = true;
+    if (!p.Input || !csgvrep::inputBounds(p.Input, p.LabelArray, p.Bounds))
+    {
+      vtkMath::UninitializeBounds(p.Bounds);
+      return nullptr;
+    }
+  }
+  if (!vtkMath::AreBoundsInitialized(p.Bounds))
+  {
+    return nullptr;
+  }
+  std::copy(p.Bounds, p.Bounds + 6, this->Bounds);
+  return this->Bounds;
+}
+
+vtkTypeBool vtkCSGVVolumeProp::HasOpaqueGeometry()
+{
+  return this->P->MaterialsValid && this->P->MaterialsOpaque ? 1 : 0;
+}
+
+int vtkCSGVVolumeProp::RenderOpaqueGeometry(vtkViewport* viewport)
+{
+  this->P->ParseMaterials([this](const std::string& m) { this->Report(m); });
+  if (!this->P->MaterialsValid || !this->P->MaterialsOpaque)
+  {
+    return 0;
+  }
+  return this->Draw(viewport, true);
+}
+
+int vtkCSGVVolumeProp::RenderVolumetricGeometry(vtkViewport* viewport)
+{
+  this->P->ParseMaterials([this](const std::string& m) { this->Report(m); });
+  if (!this->P->MaterialsValid || this->P->MaterialsOpaque)
+  {
+    return 0;
+  }
+  return this->Draw(viewport, false);
+}
+
+int vtkCSGVVolumeProp::GetFramesLastRender()
+{
+  return int(this->P->View.framesLastRender());
+}
+
+int vtkCSGVVolumeProp::GetMinSamples()
+{
+  return int(this->P->View.lastStats().minSamples);
+}
+
+int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
+{
+  Impl& p = *this->P;
+  auto* ren = vtkOpenGLRenderer::SafeDownCast(viewport);
+  if (!ren || ren->GetSelector() || !p.Input)
+  {
+    return 0; // hardware selection (picking) has no use for our colours
+  }
+  auto* win = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
+  auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
+  if (!win || !camera)
+  {
+    return 0;
+  }
+  if (p.SourceDirty)
+  {
+    csgvrep::VolumeSource source;
+    const std::string error = csgvrep::resolveInput(p.Input, p.LabelArray, source);
+    if (!error.empty())
+    {
+      p.View.clear();
+      this->Report(error);
+      return 0;
+    }
+    p.View.setSource(source);
+    p.SourceDirty = false;
+  }
+
+  std::string contextError;
+  if (!csgvrep::sharedContext(contextError))
+  {
+    if (!deviceReported.exchange(true))
+    {
+      vtkErrorMacro(<< "Segmentation Volume: no usable Vulkan device, nothing is drawn ("
+                    << contextError << ")");
+    }
+    return 0;
+  }
+
+  int width = 0, height = 0, x0 = 0, y0 = 0;
+  ren->GetTiledSizeAndOrigin(&width, &height, &x0, &y0);
+  if (width <= 0 || height <= 0)
+  {
+    return 0;
+  }
+  vtkMatrix4x4* wcvc = nullptr;
+  vtkMatrix4x4* vcdc = nullptr;
+  vtkMatrix4x4* wcdc = nullptr;
+  vtkMatrix3x3* normals = nullptr;
+  camera->GetKeyMatrices(ren, wcvc, normals, vcdc, wcdc);
+
+  csgvrep::FrameRequest request;
+  // wcdc is stored transposed (ready for OpenGL): its row-major elements are the column-major
+  // world-to-clip matrix the backend takes.
+  const double* m = wcdc->GetData();
+  std::copy(m, m + 16, request.worldToClip.begin());
+  request.width = uint32_t(width);
+  request.height = uint32_t(height);
+  request.interactive = win->GetDesiredUpdateRate() > 1.0;
+
+  vtkOpenGLState* state = win->GetState();
+  if (!opaquePass)
+  {
+    // Opaque geometry's depth: rays stop there. Read from the framebuffer being drawn.
+    p.Depth.resize(size_t(width) * height);
+    GLint drawFbo = 0, readFbo = 0, sampleBuffers = 0;
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &drawFbo);
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &readFbo);
+    glGetIntegerv(GL_SAMPLE_BUFFERS, &sampleBuffers);
+    bool haveDepth = false;
+    if (sampleBuffers == 0)
+    {
+      while (glGetError() != GL_NO_ERROR)
+      {
+      }
+      if (readFbo != drawFbo)
+      {
+        glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(drawFbo));
+      }
+      state->vtkglPixelStorei(GL_PACK_ALIGNMENT, 4);
+      glReadPixels(x0, y0, width, height, GL_DEPTH_COMPONENT, GL_FLOAT, p.Depth.data());
+      haveDepth = glGetError() == GL_NO_ERROR;
+      if (readFbo != drawFbo)
+      {
+        glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(readFbo));
+      }
+    }
+    if (haveDepth)
+    {
+      request.opaqueDepth = p.Depth.data();
+    }
+  }
+
+  bool changed = false;
+  const std::string error = p.View.render(request, changed);
+  if (!error.empty())
+  {
+    this->Report(error);
+    return 0;
+  }
+  p.LastError.clear();
+
+  const csgv::gpu::FrameOutput& out = p.View.output();
+  if (out.width != uint32_t(width) || out.height != uint32_t(height) || out.rgba.empty())
+  {
+    return 0;
+  }
+  if (p.Window != win)
+  {
+    p.ReleaseGL(p.Window);
+    p.Window = win;
+  }
+  if (changed || !p.TexturesCurrent || !p.Color || p.Color->GetWidth() != out.width ||
+    p.Color->GetHeight() != out.height)
+  {
+    if (!p.Color)
+    {
+      p.Color = vtkSmartPointer<vtkTextureObject>::New();
+      p.DepthTexture = vtkSmartPointer<vtkTextureObject>::New();
+    }
+    for (vtkTextureObject* t : { p.Color.GetPointer(), p.DepthTexture.GetPointer() })
+    {
+      t->SetContext(win);
+      t->SetMinificationFilter(vtkTextureObject::Nearest);
+      t->SetMagnificationFilter(vtkTextureObject::Nearest);
+      t->SetWrapS(vtkTextureObject::ClampToEdge);
+      t->SetWrapT(vtkTextureObject::ClampToEdge);
+    }
+    state->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    if (!p.Color->Create2DFromRaw(out.width, out.height, 4, VTK_FLOAT, const_cast<float*>(out.rgba.data())) ||
+      !p.DepthTexture->Create2DFromRaw(out.width, out.height, 1, VTK_FLOAT, const_cast<float*>(out.depth.data())))
+    {
+      this->Report("could not create the compositing textures");
+      return 0;
+    }
+    p.TexturesCurrent = true;
+  }
+
+  if (!p.Quad)
+  {
+    p.Quad.reset(new vtkOpenGLQuadHelper(win, nullptr, kFragmentShader, ""));
+  }
+  else
+  {
+    win->GetShaderCache()->ReadyShaderProgram(p.Quad->Program);
+  }
+  if (!p.Quad->Program || !p.Quad->Program->GetCompiled())
+  {
+    this->Report("the compositing shader did not compile");
+    return 0;
+  }
+
+  vtkOpenGLState::ScopedglEnableDisable depthTest(state, GL_DEPTH_TEST);
+  vtkOpenGLState::ScopedglEnableDisable blend(state, GL_BLEND);
+  vtkOpenGLState::ScopedglDepthFunc depthFunc(state);
+  vtkOpenGLState::ScopedglDepthMask depthMask(state);
+  vtkOpenGLState::ScopedglBlendFuncSeparate blendFunc(state);
+  state->vtkglEnable(GL_DEPTH_TEST);
+  state->vtkglDepthFunc(GL_LEQUAL);
+  state->vtkglDepthMask(GL_TRUE);
+  state->vtkglEnable(GL_BLEND);
+  // Premultiplied colour over what is there.
+  state->vtkglBlendFuncSeparate(GL_ONE, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+
+  p.Color->Activate();
+  p.DepthTexture->Activate();
+  p.Quad->Program->SetUniformi("csgvColor", p.Color->GetTextureUnit());
+  p.Quad->Program->SetUniformi("csgvDepth", p.DepthTexture->GetTextureUnit());
+  p.Quad->Render();
+  p.DepthTexture->Deactivate();
+  p.Color->Deactivate();
+  return 1;
+}
+
+void vtkCSGVVolumeProp::ReleaseGraphicsResources(vtkWindow* window)
+{
+  this->P->ReleaseGL(window);
+  this->Superclass::ReleaseGraphicsResources(window);
+}

@@ -1,0 +1,85 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class vtkCSGVVolumeProp
+ * @brief The prop of the "Segmentation Volume" representation: renders its image through
+ * VulkanBackend and composites premultiplied colour and window depth into the OpenGL frame.
+ *
+ * Which pass draws it:
+ * - Volumes whose materials are all opaque draw in the opaque pass. Depth testing then decides
+ *   per pixel between the volume's first hit and other opaque geometry (the result is the same as
+ *   stopping rays at that geometry), and translucent ParaView geometry, drawn later, blends over
+ *   the volume correctly.
+ * - Volumes with translucent materials draw in the volumetric pass (after opaque and translucent
+ *   geometry): the opaque depth buffer is read and rays stop there, so opaque geometry occludes
+ *   and is occluded correctly; translucent geometry in front of such a volume is overdrawn (the
+ *   same limitation as VTK's own volume mappers without depth peeling for volumes).
+ *
+ * The camera is VTK's own: vtkOpenGLCamera::GetKeyMatrices' world-to-clip matrix (column-major,
+ * as the backend takes it) and the renderer's tile, so perspective, parallel projection, tiles of
+ * large screenshots and several views all match VTK exactly. Still renders accumulate frames
+ * (FramesPerStillRender within StillRenderTimeBudget); interactive renders (the window's desired
+ * update rate above 1, as vtkPVRenderView::InteractiveRender sets it) render one frame.
+ *
+ * Private header of CSGV::Representation (not wrapped): Core and VulkanBackend types appear only
+ * behind the pimpl.
+ */
+#ifndef vtkCSGVVolumeProp_h
+#define vtkCSGVVolumeProp_h
+
+#include "vtkProp3D.h"
+
+#include <memory>
+#include <string>
+
+class vtkImageData;
+class vtkWindow;
+
+namespace csgvrep
+{
+struct ViewSettings;
+}
+
+class vtkCSGVVolumeProp : public vtkProp3D
+{
+public:
+  static vtkCSGVVolumeProp* New();
+  vtkTypeMacro(vtkCSGVVolumeProp, vtkProp3D);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  /// The image to draw (the delivered piece) and the label array ("": automatic).
+  void SetInputImage(vtkImageData* image);
+  void SetLabelArrayName(const std::string& name);
+  void SetViewSettings(const csgvrep::ViewSettings& settings);
+  /// The material document (MATERIALS.md); errors are reported and nothing is drawn.
+  void SetMaterials(const std::string& json);
+
+  double* GetBounds() override;
+  using vtkProp3D::GetBounds;
+
+  int RenderOpaqueGeometry(vtkViewport* viewport) override;
+  int RenderVolumetricGeometry(vtkViewport* viewport) override;
+  vtkTypeBool HasTranslucentPolygonalGeometry() override { return 0; }
+  vtkTypeBool HasOpaqueGeometry() override;
+  void ReleaseGraphicsResources(vtkWindow* window) override;
+
+  /// Frames rendered by the last render call and the fewest samples of any pixel after it
+  /// (for tests and benchmarks).
+  int GetFramesLastRender();
+  int GetMinSamples();
+
+protected:
+  vtkCSGVVolumeProp();
+  ~vtkCSGVVolumeProp() override;
+
+private:
+  vtkCSGVVolumeProp(const vtkCSGVVolumeProp&) = delete;
+  void operator=(const vtkCSGVVolumeProp&) = delete;
+
+  int Draw(vtkViewport* viewport, bool opaquePass);
+  void Report(const std::string& message);
+
+  struct Impl;
+  std::unique_ptr<Impl> P;
+};
+
+#endif
