@@ -32,6 +32,7 @@ struct RenderArgs {
     std::string labelsOut, materials, video;
     uint32_t orbit = 0;
     uint64_t cacheMiB = 256;
+    bool cachePaletting = false;
     Vec3 background{1, 1, 1};
     gpu::RenderSettings settings;
 };
@@ -119,6 +120,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
         else if (arg == "--no-denoise") a.settings.denoise = false;
         else if (arg == "--tone-mapping") a.settings.toneMapping = true;
         else if (arg == "--finest") a.settings.finest = true;
+        else if (arg == "--cache-paletting") a.cachePaletting = true;
         else if (arg == "--labels-out" || arg == "--materials" || arg == "--video") {
             Result<std::string> v = value();
             if (!v) return v.status();
@@ -241,7 +243,9 @@ int cmdRender(int argc, char** argv) {
         }
     Result<std::unique_ptr<gpu::Context>> ctx = gpu::Context::create();
     if (!ctx) return fail(ctx.message());
-    Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume);
+    gpu::GpuVolumeOptions volumeOptions;
+    volumeOptions.cachePaletting = a.cachePaletting;
+    Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume, volumeOptions);
     if (!volume) return fail(volume.message());
     std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));
     gpu::RendererOptions options;
@@ -256,6 +260,7 @@ int cmdRender(int argc, char** argv) {
     settings.sampleTarget = a.frames;
     r.setSettings(settings);
     std::printf("device: %s (%s)\n", (*ctx)->device().name.c_str(), (*ctx)->device().type.c_str());
+    std::printf("cache_bits_per_voxel: %u\n", shared->cacheBits());
     std::printf("setup_ms: %.1f\n", since(tStart));
 
     Vec3 boxCentre{};

@@ -50,7 +50,8 @@ const char* kUsage =
     "  render IN.csgv OUT.png [--size WxH] [--eye x,y,z] [--center x,y,z] [--up x,y,z]\n"
     "         [--fov-y DEG | --parallel-scale S] [--shading local|shadow|ao|pt] [--frames N]\n"
     "         [--no-jitter] [--finest] [--labels-out FILE] [--materials FILE.json]\n"
-    "         [--video PATTERN --orbit N] [--cache-mib M] [--subsampling 1|2|4|8] [--lod-bias B]\n"
+    "         [--video PATTERN --orbit N] [--cache-mib M] [--cache-paletting]\n"
+    "         [--subsampling 1|2|4|8] [--lod-bias B]\n"
     "         [--blend B] [--no-denoise] [--tone-mapping] [--background r,g,b]\n"
     "      renders on the GPU (CSGV_VULKAN_DEVICE picks the device); --frames N: samples per pixel;\n"
     "      prints each frame's time, the median, the time to the first full frame, device memory\n";

@@ -26,8 +26,7 @@ void main() {
     } else {
         const uint j = k - freeCount;
         if (j >= alloc.w[AL_PROV_COUNT + l]) return;
-        const uint edge = BRICK_SIZE >> l;
-        offset = alloc.w[AL_PROV_BASE + l] + j * edge * edge * edge;
+        offset = alloc.w[AL_PROV_BASE + l] + j * regionWords(l);
     }
     Uvec4Buf bricks = Uvec4Buf(f.addr[A_BRICKS]);
     bricks.v[b].x = offset;

@@ -19,8 +19,7 @@ void main() {
         const uint freeCount = min(alloc.w[AL_FREE_COUNT + l], fv.counts.y);
         alloc.w[AL_FREE_COUNT + l] = freeCount;
         const uint need = alloc.w[AL_REQ_COUNT + l] > freeCount ? alloc.w[AL_REQ_COUNT + l] - freeCount : 0u;
-        const uint edge = BRICK_SIZE >> l;
-        const uint slot = edge * edge * edge;
+        const uint slot = regionWords(l);
         const uint top = alloc.w[AL_TOP];
         const uint room = (alloc.w[AL_CAPACITY] - top) / slot;
         const uint take = min(need, room);

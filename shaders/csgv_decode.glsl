@@ -30,6 +30,35 @@ layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer Add
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer CacheWords { uint w[]; };
 
 const uint INVALID_LABEL = 0xFFFFFFFFu;
+
+// Cache paletting (CACHE_BITS < 32): the cache holds palette indices of CACHE_BITS bits, packed
+// CACHE_PER_WORD to a word (never across words); all ones marks voxels outside the volume. Without
+// it (CACHE_BITS 32) the cache holds labels. `region` and entries below count in cache entries.
+#ifndef CACHE_BITS
+#define CACHE_BITS 32
+#endif
+#if CACHE_BITS == 32
+const uint CACHE_PER_WORD = 1u;
+const uint CACHE_INVALID = INVALID_LABEL;
+uint cacheGet(CacheWords c, uint region, uint e) { return c.w[region + e]; }
+void cacheSet(CacheWords c, uint region, uint e, uint v) { c.w[region + e] = v; }
+#define PALETTE_VALUE(index, label) (label)
+#else
+const uint CACHE_PER_WORD = 32u / uint(CACHE_BITS);
+const uint CACHE_MASK = (1u << uint(CACHE_BITS)) - 1u;
+const uint CACHE_INVALID = CACHE_MASK;
+uint cacheGet(CacheWords c, uint region, uint e) {
+    const uint i = region + e;
+    return (c.w[i / CACHE_PER_WORD] >> ((i % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
+}
+void cacheSet(CacheWords c, uint region, uint e, uint v) { // one invocation owns a region's words
+    const uint i = region + e;
+    const uint word = i / CACHE_PER_WORD;
+    const uint shift = (i % CACHE_PER_WORD) * uint(CACHE_BITS);
+    c.w[word] = (c.w[word] & ~(CACHE_MASK << shift)) | ((v & CACHE_MASK) << shift);
+}
+#define PALETTE_VALUE(index, label) (index)
+#endif
 const uint RANS_LOWER = 0x00800000u;
 
 // Decode results (the host's decodeResultText() names them). DECODE_RUNNING: not finished yet.
@@ -162,17 +191,17 @@ uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, ui
     const bool finest = l == LEVELS - 1u;
     const bool tableB = ENCODING == 2 && finest;
     const uint m = (pm << 3u) | c;
-    const uint slot = region + ((m + 1u) << shiftL) - 1u;
-    const uint flagSlot = region + (m << shiftL);
+    const uint slot = ((m + 1u) << shiftL) - 1u;
+    const uint flagSlot = m << shiftL;
     if (!parentOpen) {
-        cache.w[slot] = parentLabel;
-        if (l < target) cache.w[flagSlot] = 0u;
+        cacheSet(cache, region, slot, parentLabel);
+        if (l < target) cacheSet(cache, region, flagSlot, 0u);
         return DECODE_OK;
     }
     const uvec3 p = uvec3(mortonCompact(m), mortonCompact(m >> 1u), mortonCompact(m >> 2u));
     if (any(greaterThanEqual(p, lim))) {
-        cache.w[slot] = INVALID_LABEL;
-        if (l < target) cache.w[flagSlot] = 0u;
+        cacheSet(cache, region, slot, CACHE_INVALID);
+        if (l < target) cacheSet(cache, region, flagSlot, 0u);
         return DECODE_OK;
     }
     uint s;
@@ -187,20 +216,21 @@ uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, ui
         const uint axis = op - 1u;
         if (((c >> axis) & 1u) == 0u) {
             if ((m & axisMask(axis)) == 0u) return DECODE_BAD_NEIGHBOUR;
-            label = cache.w[region + ((mortonDecrement(m, axis) + 1u) << shiftL) - 1u];
+            label = cacheGet(cache, region, ((mortonDecrement(m, axis) + 1u) << shiftL) - 1u);
         } else {
             const uint coord = mortonCompact(pm >> axis) + 1u;
             if (coord >= (1u << (l - 1u)) || coord >= plim[axis]) return DECODE_BAD_NEIGHBOUR;
-            label = cache.w[region + ((mortonIncrement(pm, axis) + 1u) << shiftP) - 1u];
+            label = cacheGet(cache, region, ((mortonIncrement(pm, axis) + 1u) << shiftP) - 1u);
         }
     } else if (op == 4u) {
         if (st.appended >= paletteSize) return DECODE_PALETTE_OVERFLOW;
         label = b.words.w[b.start + st.cursor];
         if (label == INVALID_LABEL) return DECODE_PALETTE_OVERFLOW;
+        label = PALETTE_VALUE(st.appended, label);
         st.cursor--;
         st.appended++;
     } else if (op == 5u) {
-        label = b.words.w[b.start + st.cursor + 1u];
+        label = PALETTE_VALUE(st.appended - 1u, b.words.w[b.start + st.cursor + 1u]);
     } else if (op == 6u) {
         uint v = 0u;
         uint g;
@@ -218,12 +248,12 @@ uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, ui
         if (more) return DECODE_BAD_DISTANCE; // more than 11 groups
 #endif
         if (v + 2u > st.appended || v + 2u < v) return DECODE_BAD_DISTANCE;
-        label = b.words.w[b.start + st.cursor + 2u + v];
+        label = PALETTE_VALUE(st.appended - 2u - v, b.words.w[b.start + st.cursor + 2u + v]);
     } else {
         return DECODE_BAD_OPERATION;
     }
-    cache.w[slot] = label;
-    if (l < target) cache.w[flagSlot] = (s & 8u) != 0u ? 0u : 1u;
+    cacheSet(cache, region, slot, label);
+    if (l < target) cacheSet(cache, region, flagSlot, (s & 8u) != 0u ? 0u : 1u);
     return DECODE_OK;
 }
 
@@ -313,8 +343,8 @@ void decodeSteps(Brick b, inout DecodeState st, uint target, CacheWords cache, u
             }
             st.cursor--;
             st.appended = 1u;
-            cache.w[region + (1u << (3u * target)) - 1u] = label;
-            if (target > 0u) cache.w[region] = (s & 8u) != 0u ? 0u : 1u;
+            cacheSet(cache, region, (1u << (3u * target)) - 1u, PALETTE_VALUE(0u, label));
+            if (target > 0u) cacheSet(cache, region, 0u, (s & 8u) != 0u ? 0u : 1u);
             endLevel(b, st, target);
             continue;
         }
@@ -330,8 +360,8 @@ void decodeSteps(Brick b, inout DecodeState st, uint target, CacheWords cache, u
         const uvec3 plim = min(uvec3(1u << (l - 1u)), (rest + 2u * width - 1u) / (2u * width));
         const uint pm = st.pm;
         // Read before child 0 and child 7 overwrite them.
-        const uint parentLabel = cache.w[region + ((pm + 1u) << shiftP) - 1u];
-        const bool parentOpen = cache.w[region + (pm << shiftP)] != 0u;
+        const uint parentLabel = cacheGet(cache, region, ((pm + 1u) << shiftP) - 1u);
+        const bool parentOpen = cacheGet(cache, region, pm << shiftP) != 0u;
         uint r = DECODE_OK;
         for (uint c = 0u; c < 8u && r == DECODE_OK; ++c)
             r = visitChild(b, st, cache, region, target, l, pm, c, parentOpen, parentLabel, lim, plim);

@@ -32,7 +32,7 @@ void main() {
     Uints req = Uints(pc.requests);
     const uint brick = req.w[3u * i];
     const uint target = req.w[3u * i + 1u];
-    const uint region = req.w[3u * i + 2u];
+    const uint region = req.w[3u * i + 2u] * CACHE_PER_WORD; // words -> cache entries
     Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick);
     Uints saved = Uints(pc.states);
     const uint o = 12u * i;

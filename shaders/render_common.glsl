@@ -4,7 +4,7 @@
 // stable multi-level DDA of the paper ("Ray marching").
 //
 // Specialised per volume through defines (Renderer.cpp): BRICK_SIZE, BRICK_SHIFT, LEVELS,
-// VOLUME_DIM (uvec3), BRICK_GRID (uvec3).
+// VOLUME_DIM (uvec3), BRICK_GRID (uvec3), BRICKS_PER_ARRAY, CACHE_BITS.
 //
 // Coordinates: rays are marched in index space, where voxel (i, j, k) covers [i, i+1] x [j, j+1]
 // x [k, k+1]. A walker's position is an integer voxel plus a sub-voxel offset `vpos` in
@@ -53,7 +53,9 @@ const uint A_LABEL_MAP = 15u;  // uint per stored label: the original label
 const uint A_DENOISE_A = 16u;  // vec4 per pixel: resolve ping-pong buffers
 const uint A_DENOISE_B = 17u;
 const uint A_VISIBLE = 18u;    // uint per brick: 1 when its palette holds a visible label (host, per materials)
-const uint A_COUNT = 19u;
+const uint A_ARRAYS = 19u;     // the encoding: uint64 address per array (cache paletting reads palettes)
+const uint A_STARTS = 20u;     // the encoding: brick start words
+const uint A_COUNT = 21u;
 
 // Alloc words.
 const uint AL_TOP = 0u;          // cache words handed out from the top
@@ -240,10 +242,43 @@ uint mortonSpread(uint v) {
     return v;
 }
 
+// Cache paletting (CACHE_BITS < 32, see csgv_decode.glsl): entries are packed palette indices.
+#if CACHE_BITS == 32
+const uint CACHE_PER_WORD = 1u;
+#else
+const uint CACHE_PER_WORD = 32u / uint(CACHE_BITS);
+const uint CACHE_MASK = (1u << uint(CACHE_BITS)) - 1u;
+#endif
+
+/// Cache words of a brick decoded at `lod`.
+uint regionWords(uint lod) {
+    const uint edge = BRICK_SIZE >> lod;
+    return (edge * edge * edge + CACHE_PER_WORD - 1u) / CACHE_PER_WORD;
+}
+
+/// Where a brick's palette ends in its encoding array: entry i is at word end - 1 - i.
+struct PaletteRef {
+    uint64_t array;
+    uint end;
+};
+PaletteRef paletteOf(Frame f, uint brick) {
+    PaletteRef p;
+    p.array = AddrBuf(f.addr[A_ARRAYS]).a[brick / BRICKS_PER_ARRAY];
+    p.end = UintBuf(f.addr[A_STARTS]).w[brick + 1u];
+    return p;
+}
+
 /// Label of a voxel in a cached brick decoded at `lod` starting at cache word `offset`.
-uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel) {
+uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette) {
     const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
-    return UintBuf(f.addr[A_CACHE]).w[offset + (mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u))];
+    const uint e = mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u);
+#if CACHE_BITS == 32
+    return UintBuf(f.addr[A_CACHE]).w[offset + e];
+#else
+    const uint word = UintBuf(f.addr[A_CACHE]).w[offset + e / CACHE_PER_WORD];
+    const uint index = (word >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
+    return index == CACHE_MASK ? NONE : UintBuf(palette.array).w[palette.end - 1u - index];
+#endif
 }
 
 /// Level of detail for a brick: one voxel of that level about one pixel (footprint at the brick's
@@ -386,6 +421,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
     material = NONE;
     uint current = NONE;
     uvec4 s = uvec4(0u);
+    PaletteRef palette;
+    palette.array = 0ul;
+    palette.end = 0u;
     for (uint it = 0u; it < 60000u; ++it) {
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
@@ -396,13 +434,16 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
                 bricks.v[b].z = fv.frame.x + 1u;
                 w.lastBrick = b;
             }
+#if CACHE_BITS != 32
+            if (s.w != 0u && s.y != NONE) palette = paletteOf(f, b);
+#endif
         }
         if (s.w == 0u) {
             w.prevLabel = NONE;
             stableStep(w, BRICK_SHIFT);
         } else {
             if (s.y == NONE) return MARCH_MISSING;
-            const uint l = cachedLabel(f, s.x, s.y, w.voxel);
+            const uint l = cachedLabel(f, s.x, s.y, w.voxel, palette);
             if (l != w.prevLabel) {
                 w.prevLabel = l;
                 const uint m = materialOf(f, l);

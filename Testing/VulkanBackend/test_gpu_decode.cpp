@@ -22,9 +22,12 @@ using namespace csgvtest;
 namespace {
 
 /// Decodes every brick at every level on the GPU and compares in-volume nodes with the CPU.
-void expectGpuEqualsCpu(Context& ctx, const CompressedVolume& vol, const std::string& what) {
-    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(ctx, vol);
+void expectGpuEqualsCpu(Context& ctx, const CompressedVolume& vol, const std::string& what, bool paletting = false) {
+    GpuVolumeOptions options;
+    options.cachePaletting = paletting;
+    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(ctx, vol, options);
     ASSERT_TRUE(gpu.isOk()) << what << ": " << gpu.message();
+    if (paletting && vol.maxPalette < 1000) EXPECT_LT((*gpu)->cacheBits(), 32u) << what << ": paletting should pack";
     BrickDecoder cpu(vol);
     const auto grid = vol.brickGrid();
     for (uint32_t lod = 0; lod < vol.levels(); ++lod) {
@@ -55,6 +58,11 @@ TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevel) {
     for (const std::string& name : allFixtureNames()) expectGpuEqualsCpu(*ctx, loadFixture(name), name);
 }
 
+TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevelWithCachePaletting) {
+    CSGV_REQUIRE_GPU(ctx);
+    for (const std::string& name : allFixtureNames()) expectGpuEqualsCpu(*ctx, loadFixture(name), name + " (paletted)", true);
+}
+
 TEST(GpuDecode, OurFilesInEveryEncodingAndMask) {
     CSGV_REQUIRE_GPU(ctx);
     SynthSpec spec;
@@ -67,17 +75,20 @@ TEST(GpuDecode, OurFilesInEveryEncodingAndMask) {
         const char* ops;
     };
     // Every encoding, small and large bricks (B = 64 and 128 need many resumed dispatches on
-    // CPU devices), PALETTE_D, no stop bits, no neighbours.
+    // CPU devices), PALETTE_D, no stop bits, no neighbours; every other case with cache paletting.
     const Case cases[] = {{0, 8, "all"}, {0, 32, "pnl"}, {1, 16, "default"}, {1, 64, "s"},
                           {2, 8, "pnl"}, {2, 32, "all"}, {2, 64, "default"}, {2, 128, "all"}};
+    bool paletting = false;
     for (const Case& c : cases) {
+        paletting = !paletting;
         EncodeOptions o;
         o.encoding = c.encoding;
         o.brickSize = c.brick;
         o.opMask = *parseOperationMask(c.ops);
         Result<CompressedVolume> v = encodeVolume(src, o);
         ASSERT_TRUE(v.isOk());
-        expectGpuEqualsCpu(*ctx, *v, std::string(encodingName(c.encoding)) + " b" + std::to_string(c.brick) + " " + c.ops);
+        expectGpuEqualsCpu(*ctx, *v, std::string(encodingName(c.encoding)) + " b" + std::to_string(c.brick) + " " + c.ops +
+                                         (paletting ? " paletted" : ""), paletting);
     }
 }
 

@@ -65,9 +65,18 @@ FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples,
 }
 
 void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
-                                  const std::string& what) {
+                                  const std::string& what, bool paletting = false) {
     Scene& scene = fixtureScene(ctx, fixtureName);
-    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, scene.gpu);
+    std::shared_ptr<GpuVolume> gpu = scene.gpu;
+    if (paletting) {
+        GpuVolumeOptions o;
+        o.cachePaletting = true;
+        Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(ctx, scene.volume, o);
+        ASSERT_TRUE(pg.isOk()) << pg.message();
+        ASSERT_LT((*pg)->cacheBits(), 32u) << what;
+        gpu = std::move(*pg);
+    }
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu);
     ASSERT_TRUE(r.isOk()) << r.message();
     (*r)->setGeometry(g);
     RenderSettings st;
@@ -110,6 +119,12 @@ TEST(Renderer, GBufferEqualsStableReferenceParallelAnisotropic) {
     g.origin = {-10, 5, 2};
     const FrameInput in = parallelView({150, -60, 120}, {30, 40, 60}, {0, 0.3, 1}, 60, 80, 64);
     expectGBufferEqualsReference(*ctx, "synthA_b16_nibble.csgv", in, g, "parallel");
+}
+
+TEST(Renderer, GBufferEqualsStableReferenceWithCachePaletting) {
+    CSGV_REQUIRE_GPU(ctx);
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    expectGBufferEqualsReference(*ctx, "synthA_b32_rans2.csgv", in, Geometry{}, "paletted", true);
 }
 
 TEST(Renderer, GBufferEqualsStableReferenceCameraInside) {

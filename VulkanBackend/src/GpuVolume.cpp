@@ -57,7 +57,8 @@ const char* decodeResultText(uint32_t code) {
     }
 }
 
-Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const CompressedVolume& volume) {
+Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const CompressedVolume& volume,
+                                                     const GpuVolumeOptions& options) {
     Status s = checkContainer(volume);
     if (!s) return s;
     if (volume.brickCount() >= (uint64_t(1) << 32)) return Status::error("more than 2^32 bricks are not supported on the GPU");
@@ -89,6 +90,12 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     d.emplace_back("VOLUME_DIM", uvec3Of(volume.dim[0], volume.dim[1], volume.dim[2]));
     d.emplace_back("BRICK_GRID", uvec3Of(grid[0], grid[1], grid[2]));
     d.emplace_back("BRICKS_PER_ARRAY", std::to_string(volume.bricksPerArray) + "u");
+    if (options.cachePaletting) {
+        uint32_t bits = 1;
+        while (bits < 32 && ((uint64_t(1) << bits) - 1) < uint64_t(volume.maxPalette)) ++bits;
+        if (bits <= 16) g->m_cacheBits = bits;
+    }
+    d.emplace_back("CACHE_BITS", std::to_string(g->m_cacheBits));
     if (volume.encoding != kEncodingNibble) tableDefines(volume.freqA, "CUM_A", d);
     if (volume.encoding == kEncodingRans2) tableDefines(volume.freqB, "CUM_B", d);
     Result<std::vector<uint32_t>> spirv = compileComputeShader("decode_bricks.comp", d);
@@ -113,8 +120,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     for (const BrickRequest& r : requests) {
         if (r.brick >= m_volume.brickCount()) return Status::error("request for brick " + std::to_string(r.brick) + ", which does not exist");
         if (r.lod >= L) return Status::error("request for level of detail " + std::to_string(r.lod));
-        const uint64_t edge = m_volume.brickSize >> r.lod;
-        if ((uint64_t(r.cacheOffset) + edge * edge * edge) * 4 > cache.size())
+        if ((uint64_t(r.cacheOffset) + regionWords(r.lod)) * 4 > cache.size())
             return Status::error("brick " + std::to_string(r.brick) + " does not fit the cache at word " +
                                  std::to_string(r.cacheOffset));
         words.push_back(r.brick);
@@ -202,10 +208,10 @@ Result<std::vector<uint32_t>> GpuVolume::decodeToHost(const std::vector<BrickReq
     std::vector<BrickRequest> placed = requests;
     uint64_t words = 0;
     for (BrickRequest& r : placed) {
-        const uint64_t edge = r.lod < 32 ? (m_volume.brickSize >> r.lod) : 0;
+        if (r.lod >= m_volume.levels()) return Status::error("request for level of detail " + std::to_string(r.lod));
         r.cacheOffset = uint32_t(words);
-        words += std::max<uint64_t>(edge * edge * edge, 1);
-        if (words >= (uint64_t(1) << 32)) return Status::error("too many bricks for one host decode");
+        words += regionWords(r.lod);
+        if (words * cacheEntriesPerWord() >= (uint64_t(1) << 32)) return Status::error("too many bricks for one host decode");
     }
     Result<Buffer> cache = m_context.createBuffer(words * 4, MemoryKind::DeviceLocal);
     if (!cache) return cache.status();
@@ -215,9 +221,38 @@ Result<std::vector<uint32_t>> GpuVolume::decodeToHost(const std::vector<BrickReq
     for (size_t i = 0; i < codes.size(); ++i)
         if (codes[i] != 0)
             return Status::error("brick " + std::to_string(placed[i].brick) + ", GPU decode: " + decodeResultText(codes[i]));
-    std::vector<uint32_t> out(words);
-    if (!(s = m_context.download(*cache, 0, out.data(), words * 4))) return s;
+    std::vector<uint32_t> raw(words);
+    if (!(s = m_context.download(*cache, 0, raw.data(), words * 4))) return s;
+    std::vector<uint32_t> out;
+    for (const BrickRequest& r : placed) {
+        const std::vector<uint32_t> labels = labelsFromRegion(r.brick, r.lod, raw.data() + r.cacheOffset);
+        out.insert(out.end(), labels.begin(), labels.end());
+    }
     return out;
+}
+
+uint64_t GpuVolume::regionWords(uint32_t lod) const {
+    const uint64_t edge = lod < 32 ? (m_volume.brickSize >> lod) : 0;
+    const uint64_t entries = std::max<uint64_t>(edge * edge * edge, 1);
+    const uint64_t per = cacheEntriesPerWord();
+    return (entries + per - 1) / per;
+}
+
+std::vector<uint32_t> GpuVolume::labelsFromRegion(uint32_t brick, uint32_t lod, const uint32_t* words) const {
+    const uint64_t edge = m_volume.brickSize >> lod, n = edge * edge * edge;
+    std::vector<uint32_t> labels(n);
+    if (m_cacheBits == 32) {
+        std::copy(words, words + n, labels.begin());
+        return labels;
+    }
+    const uint32_t per = cacheEntriesPerWord(), mask = (1u << m_cacheBits) - 1u;
+    const BrickWords bw = m_volume.brick(brick);
+    const uint32_t paletteSize = bw.words[m_volume.levels()];
+    for (uint64_t e = 0; e < n; ++e) {
+        const uint32_t index = (words[e / per] >> ((e % per) * m_cacheBits)) & mask;
+        labels[e] = index == mask || index >= paletteSize ? kInvalidLabel : bw.words[bw.size - 1 - index];
+    }
+    return labels;
 }
 
 } // namespace csgv::gpu

@@ -21,7 +21,7 @@ enum Flags : uint32_t {
 };
 enum Slot : uint32_t {
     aBricks, aCache, aAlloc, aFree, aRequests, aDecodes, aAccum, aSamples, aGBuffer, aDepthIn, aMaterials, aColormaps,
-    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aCount
+    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aArrays, aStarts, aCount
 };
 enum AllocWord : uint32_t {
     alTop = 0, alCapacity = 1, alFull = 2, alDecodes = 3, alRequests = 4, alMinSamples = 5, alNewSamples = 6,
@@ -194,6 +194,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("LEVELS", std::to_string(v.levels()) + "u");
     d.emplace_back("VOLUME_DIM", uvec3Of(v.dim));
     d.emplace_back("BRICK_GRID", uvec3Of(v.brickGrid()));
+    d.emplace_back("BRICKS_PER_ARRAY", std::to_string(v.bricksPerArray) + "u");
+    d.emplace_back("CACHE_BITS", std::to_string(volume->cacheBits()));
     struct Shader {
         const char* name;
         uint64_t* pipeline;
@@ -218,7 +220,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     };
     Status s;
     // The cache: a budget, within one allocation and 32-bit word offsets.
-    const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation, (uint64_t(1) << 32) * 4 - 4);
+    // (Entries are counted in 32 bits: with cache paletting, fewer words.)
+    const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation,
+                                                 ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     const uint64_t cacheBytes = std::min<uint64_t>(std::max<uint64_t>(options.cacheBytes, 4096), maxBytes) & ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, MemoryKind::DeviceLocal, "brick cache"))) return s;
     if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
@@ -511,6 +515,8 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         {aAttributes, &im.attributeTable}, {aColorOut, &im.colorOut}, {aDepthOut, &im.depthOut}, {aLabelMap, &im.labelMap},
         {aDenoiseA, &im.denoiseA},   {aDenoiseB, &im.denoiseB},   {aVisible, &im.visible}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
+    p.addr[aArrays] = im.volume->arraysAddress();
+    p.addr[aStarts] = im.volume->startsAddress();
     if (in.opaqueDepth) std::memcpy(im.depthIn.mapped(), in.opaqueDepth, size_t(in.width) * in.height * 4);
 
     uint32_t* a = im.allocWords();

@@ -27,11 +27,32 @@ struct BrickRequest {
 /// Text for a decode result code of the shader ("ok", "stream runs past its end", ...).
 const char* decodeResultText(uint32_t code);
 
+/// @brief How decoded bricks are stored in a cache.
+struct GpuVolumeOptions {
+    /// Cache paletting (the paper's "Cache paletting"): store packed indices into each brick's
+    /// palette, ceil(log2(largest palette + 1)) bits, floor(32 / bits) to a word, instead of 32-bit
+    /// labels. Ignored when the palettes are so large that no two indices fit a word.
+    bool cachePaletting = false;
+};
+
 class GpuVolume {
 public:
     /// Uploads the encoding; the volume must have passed checkContainer(). The GpuVolume keeps a
     /// reference to `volume` (for its header fields): keep it alive as long as the GpuVolume.
-    static Result<std::unique_ptr<GpuVolume>> create(Context& context, const CompressedVolume& volume);
+    static Result<std::unique_ptr<GpuVolume>> create(Context& context, const CompressedVolume& volume,
+                                                     const GpuVolumeOptions& options = {});
+
+    /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
+    uint32_t cacheBits() const { return m_cacheBits; }
+    uint32_t cacheEntriesPerWord() const { return m_cacheBits == 32 ? 1 : 32 / m_cacheBits; }
+    /// Cache words of one brick decoded at `lod`.
+    uint64_t regionWords(uint32_t lod) const;
+    /// Labels (Morton order, kInvalidLabel outside the volume) of a brick's cache region as
+    /// decoded at `lod`, unpacked through the brick's palette when paletted.
+    std::vector<uint32_t> labelsFromRegion(uint32_t brick, uint32_t lod, const uint32_t* regionWords) const;
+    /// Device addresses of the encoding arrays' address table and of the brick starts.
+    uint64_t arraysAddress() const { return m_addresses.address(); }
+    uint64_t startsAddress() const { return m_starts.address(); }
 
     /// Shader defines that specialise decoding to this volume.
     const Defines& defines() const { return m_defines; }
@@ -40,8 +61,9 @@ public:
 
     /// Decodes requests into `cache`; result codes (0 = ok) per request into `codes` when given.
     Status decode(const std::vector<BrickRequest>& requests, Buffer& cache, std::vector<uint32_t>* codes = nullptr);
-    /// Decodes into a temporary cache and returns each request's region, concatenated in order;
-    /// an error names the first brick whose stream is invalid.
+    /// Decodes into a temporary cache and returns each request's labels ((B >> lod)^3 in Morton
+    /// order, unpacked when paletted), concatenated in order; an error names the first brick whose
+    /// stream is invalid.
     Result<std::vector<uint32_t>> decodeToHost(const std::vector<BrickRequest>& requests);
 
     /// @brief Push constants and parameters of a frame's decode dispatches (keep until they ran).
@@ -64,6 +86,7 @@ private:
     Buffer m_addresses, m_starts;
     Defines m_defines;
     uint64_t m_decodePipeline = 0;
+    uint32_t m_cacheBits = 32;
 };
 
 } // namespace csgv::gpu
