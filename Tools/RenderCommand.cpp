@@ -275,6 +275,7 @@ int cmdRender(int argc, char** argv) {
     const uint32_t views = a.orbit ? a.orbit : 1;
     std::vector<double> frameTimes;
     double firstFrameMs = -1;
+    uint64_t cacheUsed = 0;
     gpu::FrameOutput out;
     for (uint32_t v = 0; v < views; ++v) {
         Vec3 e = eye;
@@ -302,6 +303,7 @@ int cmdRender(int argc, char** argv) {
             Result<gpu::FrameStats> st = r.renderFrame(in);
             if (!st) return fail(st.message());
             viewMs += st->milliseconds;
+            cacheUsed = std::max(cacheUsed, st->cacheUsedBytes);
             frameTimes.push_back(st->milliseconds);
             std::printf("frame %u: %.1f ms, decoded %u bricks, new samples %u, missing %u, min samples %u%s%s\n",
                         unsigned(frameTimes.size()), st->milliseconds, st->decodedBricks, st->newSamples,
@@ -329,6 +331,7 @@ int cmdRender(int argc, char** argv) {
     std::printf("time_to_first_frame_ms: %.1f\n", firstFrameMs);
     for (const auto& b : r.memory().buffers) std::printf("device_memory %s: %.2f MiB\n", b.first.c_str(), b.second / 1048576.0);
     std::printf("device_memory_total_mib: %.2f\n", r.memory().total() / 1048576.0);
+    std::printf("cache_used_mib: %.2f\n", cacheUsed / 1048576.0);
     return 0;
 }
 

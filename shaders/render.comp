@@ -65,13 +65,28 @@ bool leaveSurface(Walker w, vec3 dIndex, float tEnd, out Walker s) {
     return !(any(lessThan(s.voxel, boxLo)) || any(greaterThanEqual(s.voxel, boxHi)));
 }
 
-vec3 cosineSample(vec3 n, inout Rng rng) {
-    const float u = rngNext(rng), v = rngNext(rng);
+/// The 64x64 blue-noise tile (VulkanBackend/src/BlueNoise.h), a byte per pixel.
+float blueNoise(uvec2 p) {
+    const uint i = (p.y & 63u) * 64u + (p.x & 63u);
+    return (float((UintBuf(f.addr[A_BLUE_NOISE]).w[i >> 2u] >> (8u * (i & 3u))) & 255u) + 0.5) * (1.0 / 256.0);
+}
+
+/// Two numbers in [0, 1) for a pixel's k-th sample: the blue-noise tile (per pair of dimensions
+/// a different offset) shifted by the R2 sequence over samples, so one frame's samples are
+/// spread as blue noise over the image and a pixel's samples as a low-discrepancy sequence.
+vec2 blueSample(uvec2 px, uint sampleIndex, uint pair) {
+    const uvec2 o = uvec2(pair * 17u, pair * 41u);
+    const vec2 b = vec2(blueNoise(px + o), blueNoise(px + o + uvec2(32u, 7u)));
+    return fract(b + float(sampleIndex) * vec2(0.7548776662, 0.5698402910));
+}
+
+vec3 cosineSampleUV(vec3 n, float u, float v) {
     const float r = sqrt(u), phi = 6.2831853 * v;
     const vec3 t = normalize(abs(n.x) > 0.5 ? cross(n, vec3(0, 1, 0)) : cross(n, vec3(1, 0, 0)));
     const vec3 b = cross(n, t);
     return normalize(t * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(0.0, 1.0 - u)));
 }
+
 
 vec3 toIndexDir(vec3 worldDir) { return (f.worldToIndex * vec4(worldDir, 0.0)).xyz; }
 
@@ -106,11 +121,13 @@ void main() {
     const bool request = (fv.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
     Rng rng = rngFor(pixel, samples);
 
-    // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4).
+    // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4,
+    // an approximation of the Blackman-Harris filter) by blue noise.
     vec2 jitter = vec2(0.0);
     if ((fv.frame.y & FLAG_JITTER) != 0u && samples > 0u) {
-        const float u = max(rngNext(rng), 1e-7), v = rngNext(rng);
-        jitter = clamp(0.4 * sqrt(-2.0 * log(u)) * vec2(cos(6.2831853 * v), sin(6.2831853 * v)), -1.5, 1.5);
+        const vec2 uv = blueSample(px, samples, 0u);
+        const float u = max(uv.x, 1e-7);
+        jitter = clamp(0.4 * sqrt(-2.0 * log(u)) * vec2(cos(6.2831853 * uv.y), sin(6.2831853 * uv.y)), -1.5, 1.5);
     }
     precise float ndcX = (float(px.x) + 0.5 + jitter.x) * fv.pixel.x - 1.0;
     precise float ndcY = (float(px.y) + 0.5 + jitter.y) * fv.pixel.y - 1.0;
@@ -174,7 +191,8 @@ void main() {
             } else if (mode == SHADING_AO) {
                 Walker s;
                 float vis = 1.0;
-                const vec3 dir = toIndexDir(cosineSample(n, rng));
+                const vec2 uv = blueSample(px, samples, 1u);
+                const vec3 dir = toIndexDir(cosineSampleUV(n, uv.x, uv.y));
                 if (leaveSurface(w, dir / length(dir), fv.environment.w, s)) vis = visibility(s, request, true);
                 if (vis < 0.0) { valid = false; break; }
                 const vec3 direct = directLight(w, n, false, false, false);
@@ -190,7 +208,8 @@ void main() {
                     const bool req = request && bounce == 1u; // only the first bounce requests bricks
                     const bool complete = bounce == 1u;        // ... and must find them all
                     Walker s;
-                    const vec3 dirW = cosineSample(atN, rng);
+                    const vec2 uv = bounce == 1u ? blueSample(px, samples, 1u) : vec2(rngNext(rng), rngNext(rng));
+                    const vec3 dirW = cosineSampleUV(atN, uv.x, uv.y);
                     if (!leaveSurface(at, toIndexDir(dirW), 1e30, s)) {
                         pt += throughput * fv.environment.rgb;
                         break;

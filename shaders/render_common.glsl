@@ -55,7 +55,8 @@ const uint A_DENOISE_B = 17u;
 const uint A_VISIBLE = 18u;    // uint per brick: 1 when its palette holds a visible label (host, per materials)
 const uint A_ARRAYS = 19u;     // the encoding: uint64 address per array (cache paletting reads palettes)
 const uint A_STARTS = 20u;     // the encoding: brick start words
-const uint A_COUNT = 21u;
+const uint A_BLUE_NOISE = 21u; // 64x64 bytes of blue noise, four to a uint
+const uint A_COUNT = 22u;
 
 // Alloc words.
 const uint AL_TOP = 0u;          // cache words handed out from the top
@@ -139,7 +140,8 @@ const uint COLOR_RANDOM = 2u;
 
 // ---------------------------------------------------------------------------------------------
 // Random numbers: PCG (a hash of pixel, sample and dimension), deterministic per pixel and
-// valid-sample count, so an image after N samples is reproducible.
+// valid-sample count, so an image after N samples is reproducible. The first dimensions (jitter,
+// the first bounce) come from a blue-noise tile instead (render.comp, blueSample()).
 
 uint pcgHash(uint v) {
     uint state = v * 747796405u + 2891336453u;

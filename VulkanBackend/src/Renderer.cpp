@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/Renderer.h"
+#include "BlueNoise.h"
 
 #include <algorithm>
 #include <chrono>
@@ -21,7 +22,7 @@ enum Flags : uint32_t {
 };
 enum Slot : uint32_t {
     aBricks, aCache, aAlloc, aFree, aRequests, aDecodes, aAccum, aSamples, aGBuffer, aDepthIn, aMaterials, aColormaps,
-    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aArrays, aStarts, aCount
+    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aArrays, aStarts, aBlueNoise, aCount
 };
 enum AllocWord : uint32_t {
     alTop = 0, alCapacity = 1, alFull = 2, alDecodes = 3, alRequests = 4, alMinSamples = 5, alNewSamples = 6,
@@ -113,7 +114,7 @@ struct Renderer::Impl {
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
-    Buffer materials, colormaps, attributeTable, labelMap;
+    Buffer materials, colormaps, attributeTable, labelMap, blueNoise;
     std::vector<Buffer> attributes;
     uint32_t materialCount = 0, labelCount = 0;
     bool hasLabelMap = false;
@@ -234,6 +235,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
     if (!(s = make(im.decodes, uint64_t(im.maxRequests) * 12, MemoryKind::DeviceLocal, "decode list"))) return s;
     if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * 48, MemoryKind::DeviceLocal, "decoder states"))) return s;
+    if (!(s = make(im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"))) return s;
+    if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
     std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
     for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
@@ -517,6 +520,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[aArrays] = im.volume->arraysAddress();
     p.addr[aStarts] = im.volume->startsAddress();
+    p.addr[aBlueNoise] = im.blueNoise.address();
     if (in.opaqueDepth) std::memcpy(im.depthIn.mapped(), in.opaqueDepth, size_t(in.width) * in.height * 4);
 
     uint32_t* a = im.allocWords();
