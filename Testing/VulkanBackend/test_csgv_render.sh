@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# `csgv render`'s interface: exit codes and one error line for bad input, the PNG and the
+# --labels-out file (size, top row first, only labels of the volume), materials hiding labels,
+# the printed summary, and the orbit video.
+set -u
+CSGV=$1
+FIX=$2
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+fails=0
+passes=0
+pass() { echo "ok: $1"; passes=$((passes + 1)); }
+bad() { echo "FAIL: $1"; fails=$((fails + 1)); }
+expect() {
+  local want=$1 what=$2; shift 2
+  "$@" >"$TMP/out" 2>"$TMP/err"; local got=$?
+  if [ "$got" -ne "$want" ]; then bad "$what: exit $got, expected $want ($(head -c 300 "$TMP/err"))"; return; fi
+  if [ "$want" -ne 0 ] && [ "$(grep -c '^csgv: error: ' "$TMP/err")" -ne 1 ]; then
+    bad "$what: stderr is not one clear error line: $(cat "$TMP/err")"; return
+  fi
+  pass "$what"
+}
+DEF=$FIX/synthA_b32_rans2.csgv
+PY=/usr/bin/python3
+
+expect 0 "render" "$CSGV" render "$DEF" "$TMP/a.png" --size 64x48 --labels-out "$TMP/a.labels" --finest --no-jitter
+for key in median_frame_ms time_to_first_frame_ms device_memory_total_mib cache_used_mib; do
+  grep -q "^$key: " "$TMP/out" || bad "render summary lacks $key"
+done
+grep -q "^frame 1: " "$TMP/out" || bad "render prints each frame"
+[ "$(head -c 8 "$TMP/a.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ] && pass "PNG signature" || bad "PNG signature"
+[ "$(stat -c %s "$TMP/a.labels")" -eq $((64 * 48 * 4)) ] && pass "labels-out size" || bad "labels-out size"
+# Every label hit is a label of the volume (decompressed here), and something is hit.
+"$CSGV" decompress "$DEF" "$TMP/v.vraw" >/dev/null 2>&1 || bad "decompress"
+$PY - "$TMP/a.labels" "$TMP/v.vraw" <<'PYEOF' && pass "labels-out holds the volume's labels" || bad "labels-out content"
+import struct, sys
+px = struct.unpack("<%dI" % (64 * 48), open(sys.argv[1], "rb").read())
+raw = open(sys.argv[2], "rb").read()
+head = raw.split(b"\n", 2)
+labels = set(struct.unpack("<%dI" % ((len(head[2])) // 4), head[2]))
+hit = [p for p in px if p != 0xFFFFFFFF]
+assert len(hit) > 64 * 48 // 10, "too few hits"
+assert len(hit) < 64 * 48, "no background"
+assert all(p in labels and p != 0 for p in hit), "a label not in the volume"
+PYEOF
+# Materials: hide the most frequent label in the image; it must vanish from the labels.
+TOP=$($PY -c "
+import struct,collections,sys
+px=struct.unpack('<%dI'%(64*48),open('$TMP/a.labels','rb').read())
+print(collections.Counter(p for p in px if p!=0xFFFFFFFF).most_common(1)[0][0])")
+cat > "$TMP/m.json" <<JSON
+{"version": 1, "materials": [
+  {"name": "hidden", "filter": {"attribute": "label", "min": $TOP, "max": $TOP}, "opacity": 0},
+  {"name": "rest", "filter": {"attribute": "label", "min": 1, "max": 4294967294},
+   "color": {"mode": "colormap", "attribute": "label", "min": 0, "max": 4294967295, "colormap": "Turbo"}}]}
+JSON
+expect 0 "render with materials" "$CSGV" render "$DEF" "$TMP/b.png" --size 64x48 --labels-out "$TMP/b.labels" --finest --no-jitter --materials "$TMP/m.json"
+$PY -c "
+import struct
+px=struct.unpack('<%dI'%(64*48),open('$TMP/b.labels','rb').read())
+assert $TOP not in px
+" && pass "a hidden label is gone" || bad "hidden label still visible"
+# Errors: one line, exit 1.
+expect 1 "missing input" "$CSGV" render "$TMP/nope.csgv" "$TMP/x.png"
+expect 1 "bad size" "$CSGV" render "$DEF" "$TMP/x.png" --size 0x10
+expect 1 "bad shading" "$CSGV" render "$DEF" "$TMP/x.png" --shading fancy
+expect 1 "bad eye" "$CSGV" render "$DEF" "$TMP/x.png" --eye 1,2
+expect 1 "unknown option" "$CSGV" render "$DEF" "$TMP/x.png" --frobnicate
+expect 1 "video without orbit" "$CSGV" render "$DEF" "$TMP/x.png" --video "$TMP/f%02d.png"
+echo '{"version": 1, "materials": [{"filter": {"attribute": "size", "min": 0, "max": 1}}]}' > "$TMP/bad.json"
+expect 1 "material attribute the file lacks" "$CSGV" render "$DEF" "$TMP/x.png" --materials "$TMP/bad.json"
+echo '{"version": 1, "materials": [{"colour": 1}]}' > "$TMP/bad2.json"
+expect 1 "unknown material key" "$CSGV" render "$DEF" "$TMP/x.png" --materials "$TMP/bad2.json"
+head -c 3000 "$DEF" > "$TMP/trunc.csgv"
+expect 1 "truncated file" "$CSGV" render "$TMP/trunc.csgv" "$TMP/x.png"
+[ ! -e "$TMP/x.png" ] && pass "no image after errors" || bad "an image was written after an error"
+# Orbit video: N frames, parallel projection, shading modes.
+expect 0 "orbit video" "$CSGV" render "$DEF" "$TMP/v.png" --size 32x24 --video "$TMP/f%02d.png" --orbit 3 --parallel-scale 80 --shading shadow
+[ -e "$TMP/f00.png" ] && [ -e "$TMP/f02.png" ] && [ ! -e "$TMP/f03.png" ] && pass "3 video frames" || bad "video frames"
+for m in ao pt; do
+  expect 0 "shading $m" "$CSGV" render "$DEF" "$TMP/$m.png" --size 32x24 --shading $m --frames 2 --subsampling 2
+done
+echo "$passes passed, $fails failed"
+[ "$fails" -eq 0 ]
