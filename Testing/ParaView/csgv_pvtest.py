@@ -36,6 +36,12 @@ def check(cond, what):
 
 
 def finish():
+    # ParaView 5.11 crashes in Python's teardown when render views are still alive (SIGSEGV after
+    # sys.exit); closing the session first ends cleanly.
+    try:
+        simple.Disconnect()
+    except Exception:
+        pass
     if _failures:
         log("%d check(s) failed:" % len(_failures))
         for f in _failures:
@@ -113,3 +119,53 @@ class ErrorLog:
         with open(self.path) as f:
             self.text = "".join(l for l in f if "ERR|" in l or "WARN|" in l)
         return False
+
+
+# --- Segmentation Volume representation helpers ------------------------------------------------
+
+def render_view(width, height, background=(0.0, 0.0, 0.0)):
+    """A render view of a fixed size without orientation axes, on a plain background."""
+    v = simple.CreateRenderView()
+    v.ViewSize = [width, height]
+    v.OrientationAxesVisibility = 0
+    if "UseColorPaletteForBackground" in v.ListProperties():
+        v.UseColorPaletteForBackground = 0
+    v.Background = list(background)
+    return v
+
+
+def read_png(path):
+    """An image file as a (rows, columns, 3) uint8 array, row 0 at the top."""
+    from vtkmodules.vtkIOImage import vtkPNGReader
+    r = vtkPNGReader()
+    r.SetFileName(path)
+    r.Update()
+    img = r.GetOutput()
+    w, h, _ = img.GetDimensions()
+    a = vtk_to_numpy(img.GetPointData().GetScalars()).reshape(h, w, -1)
+    return np.ascontiguousarray(a[::-1, :, :3])
+
+
+def screenshot(view, width, height, name="shot.png"):
+    path = os.path.join(temp_dir(), name)
+    simple.SaveScreenshot(path, view, ImageResolution=[width, height], TransparentBackground=0)
+    return read_png(path)
+
+
+def repr_info(display):
+    """(frames the last render accumulated, fewest samples of any pixel) of a Segmentation Volume
+    display, read from the rendering process."""
+    display.SMProxy.UpdatePropertyInformation()
+    return (display.SMProxy.GetProperty("CSGVFramesLastRender").GetElement(0),
+            display.SMProxy.GetProperty("CSGVMinSamples").GetElement(0))
+
+
+def content_mask(image, background=(0, 0, 0), tol=8):
+    return np.abs(image.astype(int) - np.array(background, int)).max(axis=2) > tol
+
+
+def constant_materials(rgb, opacity=1.0):
+    import json
+    return json.dumps({"version": 1, "materials": [
+        {"name": "all", "filter": {"attribute": "label", "min": 1, "max": 4294967294},
+         "color": {"mode": "constant", "rgb": list(rgb)}, "opacity": opacity}]})

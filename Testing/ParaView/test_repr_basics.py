@@ -1,0 +1,92 @@
+# SPDX-License-Identifier: MIT
+"""The Segmentation Volume representation: offered for image data, the default for .csgv and
+.vraw, draws the CSGV encoding and plain label arrays (compressed on the fly), in several views,
+in screenshots larger than the view, in parallel projection; still renders accumulate
+FramesPerStillRender samples, interactive renders one frame; a property change leaves no stale
+image; hiding it draws nothing."""
+import os
+
+import numpy as np
+
+import csgv_pvtest as t
+from paraview.simple import *
+
+t.load_plugin(globals())
+fixture = os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv")
+
+# Availability and defaults.
+csgv = OpenDataFile(fixture)
+v = t.render_view(160, 120)
+d = Show(csgv, v)
+t.check(d.Representation == "Segmentation Volume", "default representation of .csgv is Segmentation Volume (got %r)" % d.Representation)
+vraw = OpenDataFile(os.path.join(t.FIXTURES, "synthA.vraw.gz"))
+dv = Show(vraw, v)
+t.check(dv.Representation == "Segmentation Volume", "default representation of .vraw.gz is Segmentation Volume")
+Hide(vraw, v)
+nii = OpenDataFile(t.AAL)
+v2 = t.render_view(160, 120)
+dn = Show(nii, v2)
+t.check("Segmentation Volume" in dn.Representation.Available, "offered for NIfTI image data")
+wavelet = Wavelet()
+dw = Show(wavelet, v2)
+t.check("Segmentation Volume" in dw.Representation.Available, "offered for any image data (Wavelet)")
+Hide(wavelet, v2)
+
+# The encoding: still render, then an interactive render after a camera move.
+d.CSGVFramesPerStillRender = 3
+d.CSGVStillRenderTimeBudget = 60
+v.ResetCamera()
+img = t.screenshot(v, 160, 120)
+mask = t.content_mask(img)
+t.check(mask.mean() > 0.1, "the .csgv draws (%.1f%% of pixels)" % (100 * mask.mean()))
+frames, samples = t.repr_info(d)
+t.check(samples == 3, "a still render accumulates FramesPerStillRender samples (min samples %d)" % samples)
+v.CameraPosition = [p + 3 for p in v.CameraPosition]
+v.SMProxy.InteractiveRender()
+frames, samples = t.repr_info(d)
+t.check(frames == 1, "an interactive render renders one frame (%d)" % frames)
+
+# No stale image: a new material colours everything red at once.
+d.CSGVMaterials = t.constant_materials([1, 0, 0])
+red = t.screenshot(v, 160, 120)
+m = t.content_mask(red)
+t.check(m.mean() > 0.1 and (red[m][:, 0].astype(int) > red[m][:, 2].astype(int) + 40).mean() > 0.95,
+        "a material change shows at the next render (red)")
+d.CSGVMaterials = ""
+
+# Screenshot larger than the view: the same picture, four times the size.
+big = t.screenshot(v, 640, 480, "big.png")
+small = t.screenshot(v, 160, 120, "small.png")
+mb, ms = t.content_mask(big), t.content_mask(small)
+t.check(abs(mb.mean() - ms.mean()) < 0.02, "640x480 screenshot covers the same fraction (%.3f vs %.3f)" % (mb.mean(), ms.mean()))
+down = big.reshape(120, 4, 160, 4, 3).mean(axis=(1, 3))
+t.check(np.abs(down - small.astype(float)).mean() < 12, "640x480 screenshot downsampled matches 160x120 (mean diff %.1f)"
+        % np.abs(down - small.astype(float)).mean())
+
+# Parallel projection.
+v.CameraParallelProjection = 1
+v.ResetCamera()
+par = t.screenshot(v, 160, 120, "parallel.png")
+t.check(t.content_mask(par).mean() > 0.1, "parallel projection draws")
+v.CameraParallelProjection = 0
+before = t.screenshot(v, 160, 120, "before.png")
+
+# Point data from another reader, compressed on the fly, in a second view at the same time.
+dn.SetRepresentationType("Segmentation Volume")
+v2.ResetCamera()
+aal = t.screenshot(v2, 160, 120, "aal.png")
+t.check(t.content_mask(aal).mean() > 0.1, "NIfTI point labels draw (compressed on the fly)")
+again = t.screenshot(v, 160, 120, "again.png")
+t.check(np.abs(again.astype(int) - before.astype(int)).mean() < 1,
+        "the first view still draws its volume after the second view rendered")
+
+# The same source in a second view shares the upload and still draws.
+v3 = t.render_view(160, 120)
+d3 = Show(csgv, v3)
+v3.ResetCamera()
+t.check(t.content_mask(t.screenshot(v3, 160, 120, "v3.png")).mean() > 0.1, "a second view of the same .csgv draws")
+
+# Hidden: nothing drawn.
+Hide(csgv, v)
+t.check(t.content_mask(t.screenshot(v, 160, 120, "hidden.png")).mean() == 0, "hidden: nothing drawn")
+t.finish()

@@ -1,0 +1,96 @@
+# SPDX-License-Identifier: MIT
+"""Depth compositing: an opaque red sphere half inside a solid blue label block. Looking down -z
+with a parallel camera, the sphere (centre 5 below the block's front face, radius 8) pokes out
+of the face where its distance d from the axis is below sqrt(8^2 - 5^2) = 6.24: there the sphere
+is in front and pixels are red; for 6.24 < d < 8 the block's face is in front of the sphere, and
+outside the sphere the block shows: pixels are blue. Checked analytically per pixel, away from
+the edges (2 pixels), for opaque materials (drawn in the opaque pass) and for translucent ones
+(volumetric pass: rays stop at the sphere's depth read from the depth buffer, and the
+translucent block in front of the sphere's rim blends blue over red). The block is a plain
+.vti cell array, so it is compressed on the fly."""
+import os
+
+import numpy as np
+from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkCommonDataModel import vtkImageData
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+
+import csgv_pvtest as t
+from paraview.simple import *
+
+t.load_plugin(globals())
+N = 32
+img = vtkImageData()
+img.SetDimensions(N + 1, N + 1, N + 1)
+labels = numpy_to_vtk(np.ones(N * N * N, dtype=np.uint8), deep=1)
+labels.SetName("block")
+img.GetCellData().AddArray(labels)
+path = os.path.join(t.temp_dir(), "block.vti")
+w = vtkXMLImageDataWriter()
+w.SetFileName(path)
+w.SetInputData(img)
+w.Write()
+
+W = H = 200
+SCALE = 20.0                      # parallel scale: 10 pixels a world unit... 200 / 40 = 5
+CENTRE = np.array([16.0, 16.0, N - 5.0])
+R = 8.0
+v = t.render_view(W, H)
+block = OpenDataFile(path)
+d = Show(block, v)
+d.SetRepresentationType("Segmentation Volume")
+d.CSGVFramesPerStillRender = 2
+d.CSGVStillRenderTimeBudget = 60
+sphere = Sphere(Center=list(CENTRE), Radius=R, ThetaResolution=96, PhiResolution=96)
+ds = Show(sphere, v)
+ds.DiffuseColor = [1.0, 0.0, 0.0]
+ds.AmbientColor = [1.0, 0.0, 0.0]
+ds.Specular = 0.0
+v.CameraParallelProjection = 1
+v.CameraFocalPoint = [16, 16, 16]
+v.CameraPosition = [16, 16, 100]
+v.CameraViewUp = [0, 1, 0]
+v.CameraParallelScale = SCALE
+
+# World x, y of each pixel centre (row 0 at the top of the screenshot).
+px = (np.arange(W) + 0.5) / W * 2 - 1
+py = (np.arange(H) + 0.5) / H * 2 - 1
+x = 16 + px * SCALE
+y = 16 - py * SCALE
+X, Y = np.meshgrid(x, y)
+dist = np.hypot(X - CENTRE[0], Y - CENTRE[1])
+edge = 2 * (2 * SCALE / H)        # two pixels in world units
+inside_block = (X > edge) & (X < N - edge) & (Y > edge) & (Y < N - edge)
+poke = np.sqrt(R * R - 5.0 * 5.0)
+sphere_front = inside_block & (dist < poke - edge)
+block_front = inside_block & (((dist > poke + edge) & (dist < R - edge)) | (dist > R + edge))
+rim = inside_block & (dist > poke + edge) & (dist < R - edge)
+t.check(sphere_front.sum() > 500 and rim.sum() > 500, "test geometry has enough pixels (%d, %d)"
+        % (sphere_front.sum(), rim.sum()))
+
+
+def red(p):
+    return (p[..., 0].astype(int) > p[..., 2].astype(int) + 40) & (p[..., 1] < 80)
+
+
+def blue(p):
+    return (p[..., 2].astype(int) > p[..., 0].astype(int) + 40) & (p[..., 1] < 80)
+
+
+for label, opacity in (("opaque materials", 1.0), ("translucent materials", 0.6)):
+    d.CSGVMaterials = t.constant_materials([0.0, 0.0, 1.0], opacity)
+    shot = t.screenshot(v, W, H, "occlusion_%s.png" % opacity)
+    r = red(shot[sphere_front]).mean()
+    t.check(r > 0.99, "%s: sphere in front of the block is red (%.1f%%)" % (label, 100 * r))
+    if opacity == 1.0:
+        b = blue(shot[block_front]).mean()
+        t.check(b > 0.99, "%s: block in front of the sphere is blue (%.1f%%)" % (label, 100 * b))
+    else:
+        # The translucent face blends over the sphere's rim: both colours present.
+        p = shot[rim].astype(int)
+        mixed = ((p[:, 0] > 30) & (p[:, 2] > 30)).mean()
+        t.check(mixed > 0.95, "%s: block blended over the sphere's rim (%.1f%%)" % (label, 100 * mixed))
+        out = block_front & ~rim
+        b = blue(shot[out]).mean()
+        t.check(b > 0.99, "%s: block elsewhere is blue (%.1f%%)" % (label, 100 * b))
+t.finish()
