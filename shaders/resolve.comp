@@ -10,7 +10,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = 16, local_size_y = 16) in;
 layout(push_constant) uniform Push {
     uint64_t frame;
     uint pass;

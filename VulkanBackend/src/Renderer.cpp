@@ -125,6 +125,7 @@ struct Renderer::Impl {
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
     uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
     bool clearPending = true;
+    bool hadDepth = false;            // the last frame had an opaque depth input (now in depthIn)
     bool cacheResetPending = false;
     // Cache pressure state since the last reset of the accumulation.
     bool resetDone = false, evictUnused = false, limitRequests = false;
@@ -404,10 +405,19 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     Status s;
     if (in.width != im.width || in.height != im.height) {
         if (!(s = im.allocateImage(in.width, in.height))) return s;
+        im.hadDepth = false;
         resetAccumulation();
     }
     if (in.worldToClip != im.lastWorldToClip) {
         im.lastWorldToClip = in.worldToClip;
+        resetAccumulation();
+    }
+    // Opaque geometry that moved (or appeared) changes where rays stop: start anew.
+    const size_t depthBytes = size_t(in.width) * in.height * 4;
+    if (bool(in.opaqueDepth) != im.hadDepth ||
+        (in.opaqueDepth && std::memcmp(im.depthIn.mapped(), in.opaqueDepth, depthBytes) != 0)) {
+        if (in.opaqueDepth) std::memcpy(im.depthIn.mapped(), in.opaqueDepth, depthBytes);
+        im.hadDepth = in.opaqueDepth != nullptr;
         resetAccumulation();
     }
     uint64_t& renderPipeline = im.pRender[uint32_t(st.shading) & 3];
@@ -421,6 +431,13 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         renderPipeline = *p;
     }
     FrameStats stats;
+    if (st.sampleTarget > 0 && im.prevMinSamples >= st.sampleTarget && !im.clearPending && !im.cacheResetPending) {
+        // Every pixel holds its samples: the image is final, nothing to submit.
+        stats.frame = im.accumulatedFrames;
+        stats.minSamples = im.prevMinSamples;
+        stats.cacheUsedBytes = uint64_t(im.allocWords()[alTop]) * 4;
+        return stats;
+    }
     if (im.cacheResetPending) {
         if (!(s = im.resetCacheNow())) return s;
         im.cacheResetPending = false;
@@ -521,7 +538,6 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     p.addr[aArrays] = im.volume->arraysAddress();
     p.addr[aStarts] = im.volume->startsAddress();
     p.addr[aBlueNoise] = im.blueNoise.address();
-    if (in.opaqueDepth) std::memcpy(im.depthIn.mapped(), in.opaqueDepth, size_t(in.width) * in.height * 4);
 
     uint32_t* a = im.allocWords();
     a[alFull] = 0;
@@ -549,7 +565,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         d.groups[1] = std::max(gy, 1u);
         list.push_back(d);
     };
-    const uint32_t gx = (in.width + 7) / 8, gy = (in.height + 7) / 8;
+    const uint32_t gx = (in.width + 15) / 16, gy = (in.height + 15) / 16; // 16x16 groups (render.comp, resolve.comp)
     auto resolve = [&](uint32_t pass, uint32_t src, uint32_t dst) {
         resolvePushes.push_back({frameAddress, pass, src, dst, 0});
         add(im.pResolve, &resolvePushes.back(), sizeof(ResolvePush), gx, gy);
@@ -563,7 +579,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
                                            im.decodeStates.address(), im.maxRequests, im.frameDecode, list)))
         return s;
     const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
-    add(renderPipeline, &frameAddress, 8, (rw + 7) / 8, (rh + 7) / 8);
+    add(renderPipeline, &frameAddress, 8, (rw + 15) / 16, (rh + 15) / 16);
     // Denoising is for the noise of the stochastic modes; it fades out as samples accumulate and
     // is skipped once every pixel has 64.
     const bool denoise = st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing) &&

@@ -141,7 +141,8 @@ public:
     void setSettings(const RenderSettings& settings);
     const RenderSettings& settings() const { return m_settings; }
 
-    /// Renders one frame and accumulates it (a new camera or size resets the accumulation).
+    /// Renders one frame and accumulates it. A new camera, size or opaque depth resets the
+    /// accumulation; once every pixel holds `sampleTarget` samples nothing is submitted.
     Result<FrameStats> renderFrame(const FrameInput& input);
     /// Reads the current resolved image and G-buffer.
     Status readOutput(FrameOutput& out) const;
