@@ -5,6 +5,7 @@
 #include "RenderCommand.h"
 #include "Png.h"
 
+#include "csgv/Attributes.h"
 #include "csgv/CsgvFile.h"
 #include "csgv/FileUtil.h"
 #include "csgv/gpu/Renderer.h"
@@ -33,6 +34,9 @@ struct RenderArgs {
     uint32_t orbit = 0;
     uint64_t cacheMiB = 256;
     bool cachePaletting = false;
+    std::vector<std::string> attributeFiles;
+    std::vector<std::pair<std::string, std::string>> derived; ///< name, SQL expression
+    bool computedAttributes = false;
     Vec3 background{1, 1, 1};
     gpu::RenderSettings settings;
 };
@@ -121,6 +125,19 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
         else if (arg == "--tone-mapping") a.settings.toneMapping = true;
         else if (arg == "--finest") a.settings.finest = true;
         else if (arg == "--cache-paletting") a.cachePaletting = true;
+        else if (arg == "--computed-attributes") a.computedAttributes = true;
+        else if (arg == "--attributes") {
+            Result<std::string> v = value();
+            if (!v) return v.status();
+            a.attributeFiles.push_back(*v);
+        } else if (arg == "--derive") {
+            Result<std::string> v = value();
+            if (!v) return v.status();
+            const size_t eq = v->find('=');
+            if (eq == std::string::npos || eq == 0 || eq + 1 == v->size())
+                return Status::error("--derive expects NAME=SQL-EXPRESSION, not '" + *v + "'");
+            a.derived.emplace_back(v->substr(0, eq), v->substr(eq + 1));
+        }
         else if (arg == "--labels-out" || arg == "--materials" || arg == "--video") {
             Result<std::string> v = value();
             if (!v) return v.status();
@@ -206,6 +223,63 @@ Status writeLabels(const std::string& path, const gpu::FrameOutput& out) {
     return s;
 }
 
+bool endsWithText(const std::string& s, const char* suffix) {
+    const size_t n = std::strlen(suffix);
+    return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
+}
+
+/// The per-label attributes the materials use, as floats indexed by the stored label: from the
+/// file's database, --attributes tables (CSV/text or SQLite), --computed-attributes and --derive.
+Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const MaterialDocument& doc,
+                        std::map<std::string, std::vector<float>>& out) {
+    std::vector<std::string> used;
+    for (const std::string& n : attributesUsed(doc))
+        if (n != "label") used.push_back(n);
+    if (used.empty()) return Status::ok();
+    AttributeTable table;
+    Status s;
+    if (file.hasAttributes) {
+        Result<AttributeTable> t = attributesFromDatabase(file.attributes);
+        if (!t) return t.status();
+        table = std::move(*t);
+    }
+    for (const std::string& path : a.attributeFiles) {
+        const bool sqlite = endsWithText(path, ".db3") || endsWithText(path, ".sqlite") || endsWithText(path, ".db");
+        Result<AttributeTable> t = sqlite ? readSqliteTable(path) : readCsv(path);
+        if (!t) return Status(t.status()).prefix(path);
+        if (!(s = table.merge(*t, AttributeTable::OnConflict::Replace))) return Status(s).prefix(path);
+    }
+    if (a.computedAttributes) {
+        Result<AttributeTable> t = computeAttributes(file);
+        if (!t) return Status(t.status()).prefix("computing attributes");
+        if (!(s = table.merge(*t, AttributeTable::OnConflict::Replace))) return s;
+    }
+    for (const auto& d : a.derived)
+        if (!(s = addDerivedAttribute(table, d.first, d.second, true))) return s;
+    std::vector<std::string> names = table.columnNames();
+    names.push_back("label");
+    if (!(s = checkAttributes(doc, names))) return s;
+    // Stored labels index the arrays: ids of a relabelled file, else the labels themselves.
+    uint64_t labelCount = 0;
+    if (!file.hasAttributes) {
+        const uint32_t L = file.volume.levels();
+        for (uint64_t b = 0; b < file.volume.brickCount(); ++b) {
+            const BrickWords bw = file.volume.brick(b);
+            for (uint32_t k = 0; k < bw.words[L]; ++k) labelCount = std::max<uint64_t>(labelCount, uint64_t(bw.words[bw.size - 1 - k]) + 1);
+        }
+        if (labelCount > (uint64_t(1) << 26))
+            return Status::error("labels go up to " + std::to_string(labelCount - 1) +
+                                 ": too large to index attribute arrays; relabel the volume (csgv compress --relabel)");
+    }
+    for (const std::string& n : used) {
+        Result<std::vector<float>> v = file.hasAttributes ? table.denseFloatColumnForIds(n, file.attributes.labels)
+                                                          : table.denseFloatColumn(n, labelCount);
+        if (!v) return Status(v.status()).prefix("attribute '" + n + "'");
+        out[n] = std::move(*v);
+    }
+    return Status::ok();
+}
+
 double since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -232,15 +306,8 @@ int cmdRender(int argc, char** argv) {
         doc = std::move(*parsed);
         if (!(s = resolveColormapNames(doc))) return fail(a.materials + ": " + s.message());
     }
-    // Attributes: the columns of the attribute database (indexed by stored id), as floats.
     std::map<std::string, std::vector<float>> attributes;
-    if (file->hasAttributes)
-        for (const AttributeColumn& c : file->attributes.columns) {
-            if (!c.numeric) continue;
-            std::vector<float>& v = attributes[c.name];
-            v.reserve(c.values.size());
-            for (double x : c.values) v.push_back(float(x));
-        }
+    if (!(s = gatherAttributes(a, *file, doc, attributes))) return fail(s.message());
     Result<std::unique_ptr<gpu::Context>> ctx = gpu::Context::create();
     if (!ctx) return fail(ctx.message());
     gpu::GpuVolumeOptions volumeOptions;

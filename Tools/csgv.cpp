@@ -53,6 +53,7 @@ const char* kUsage =
     "         [--video PATTERN --orbit N] [--cache-mib M] [--cache-paletting]\n"
     "         [--subsampling 1|2|4|8] [--lod-bias B]\n"
     "         [--blend B] [--no-denoise] [--tone-mapping] [--background r,g,b]\n"
+    "         [--attributes FILE.csv|.txt|.db3]... [--computed-attributes] [--derive NAME=SQL]...\n"
     "      renders on the GPU (CSGV_VULKAN_DEVICE picks the device); --frames N: samples per pixel;\n"
     "      prints each frame's time, the median, the time to the first full frame, device memory\n";
 

@@ -81,5 +81,26 @@ expect 0 "orbit video" "$CSGV" render "$DEF" "$TMP/v.png" --size 32x24 --video "
 for m in ao pt; do
   expect 0 "shading $m" "$CSGV" render "$DEF" "$TMP/$m.png" --size 32x24 --shading $m --frames 2 --subsampling 2
 done
+# Attributes from a text table and a derived SQL attribute drive materials: the AAL atlas with
+# only the left hemisphere (region names ending in _L) visible.
+AAL=/usr/share/mricron/templates/aal.nii.gz
+if [ -e "$AAL" ]; then
+  expect 0 "compress AAL" "$CSGV" compress "$AAL" "$TMP/aal.csgv"
+  cat > "$TMP/hemi.json" <<'JSON'
+{"version": 1, "materials": [
+  {"name": "left", "filter": {"attribute": "hemisphere", "min": 0, "max": 0}, "color": {"mode": "random"}}]}
+JSON
+  expect 0 "render with --attributes and --derive" "$CSGV" render "$TMP/aal.csgv" "$TMP/aal.png" --size 48x40 \
+    --attributes "${AAL%.nii.gz}.nii.txt" --derive "hemisphere=CASE WHEN name LIKE '%\_L' ESCAPE '\\' THEN 0 WHEN name LIKE '%\_R' ESCAPE '\\' THEN 1 END" \
+    --materials "$TMP/hemi.json" --labels-out "$TMP/aal.labels" --eye 0,-400,150 --center 0,-18,18
+  $PY -c "
+import struct
+px=[p for p in struct.unpack('<%dI'%(48*40),open('$TMP/aal.labels','rb').read()) if p!=0xFFFFFFFF]
+assert len(px) > 100, len(px)
+assert all(p % 2 == 1 for p in px), 'a right-hemisphere (even) label is visible'
+" && pass "only left-hemisphere labels are hit" || bad "hemisphere materials"
+  expect 1 "derived attribute with bad SQL" "$CSGV" render "$TMP/aal.csgv" "$TMP/x.png" --size 8x8 \
+    --attributes "${AAL%.nii.gz}.nii.txt" --derive "hemisphere=CASE WHEN" --materials "$TMP/hemi.json"
+fi
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]
