@@ -3,6 +3,11 @@
 #include "GpuTestSupport.h"
 
 #include "csgv/gpu/ShaderCompiler.h"
+#include "TestData.h"
+
+#include <cstdio>
+#include <cstring>
+#include <vector>
 
 #include <cstdlib>
 
@@ -71,4 +76,43 @@ TEST(ShaderCompiler, EmbeddedSourcesIncludesAndErrorsWithLines) {
     ASSERT_FALSE(inc.isOk());
     EXPECT_NE(inc.message().find("missing.glsl"), std::string::npos) << inc.message();
     EXPECT_FALSE(compileComputeShader("nope.comp", {}).isOk());
+}
+
+TEST(ShaderCompiler, DiskCacheIsUsedAndSurvivesGarbage) {
+    const std::string dir = csgvtest::tempDir() + "/shader-cache";
+    ASSERT_EQ(::system(("mkdir -p '" + dir + "'").c_str()), 0);
+    ::setenv("CSGV_SHADER_CACHE_DIR", dir.c_str(), 1);
+    const csgv::gpu::Defines d = {{"CSGV_TEST_DISK_CACHE", "1"}};
+    const std::string src = "#version 460\nlayout(local_size_x = 1) in;\nvoid main() {}\n";
+    auto first = csgv::gpu::compileComputeSource("disk_cache_test.comp", src, d);
+    ::unsetenv("CSGV_SHADER_CACHE_DIR");
+    ASSERT_TRUE(first.isOk()) << first.message();
+    // One file, holding exactly the SPIR-V.
+    FILE* list = ::popen(("ls '" + dir + "'").c_str(), "r");
+    char name[256] = {0};
+    ASSERT_TRUE(list && std::fgets(name, sizeof(name), list));
+    ::pclose(list);
+    std::string path = dir + "/" + std::string(name).substr(0, std::strlen(name) - 1);
+    FILE* f = std::fopen(path.c_str(), "rb");
+    ASSERT_TRUE(f);
+    std::vector<uint32_t> disk(first->size());
+    EXPECT_EQ(std::fread(disk.data(), 4, disk.size(), f), disk.size());
+    std::fclose(f);
+    EXPECT_EQ(disk, *first);
+    // A garbage file in its place is ignored (compiled again), never loaded.
+    f = std::fopen(path.c_str(), "wb");
+    std::fputs("not SPIR-V at all, not at all", f);
+    std::fclose(f);
+    csgv::gpu::clearShaderMemoryCache();
+    ::setenv("CSGV_SHADER_CACHE_DIR", dir.c_str(), 1);
+    auto again = csgv::gpu::compileComputeSource("disk_cache_test.comp", src, d);
+    ::unsetenv("CSGV_SHADER_CACHE_DIR");
+    ASSERT_TRUE(again.isOk()) << again.message();
+    EXPECT_EQ(*again, *first) << "garbage in the cache file is compiled over, never loaded";
+    f = std::fopen(path.c_str(), "rb");
+    ASSERT_TRUE(f);
+    std::vector<uint32_t> rewritten(first->size());
+    EXPECT_EQ(std::fread(rewritten.data(), 4, rewritten.size(), f), rewritten.size());
+    std::fclose(f);
+    EXPECT_EQ(rewritten, *first) << "and the file is rewritten";
 }

@@ -1,10 +1,15 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/ShaderCompiler.h"
 
+#include "csgv/FileUtil.h"
+
 #include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>
 #include <glslang/SPIRV/GlslangToSpv.h>
 
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <map>
 #include <mutex>
 
@@ -50,6 +55,46 @@ private:
     }
 };
 
+/// FNV-1a, 64 bits: names cache files (not a security boundary: the files are our own).
+uint64_t fnv1a(const std::string& text, uint64_t h = 1469598103934665603ull) {
+    for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+    return h;
+}
+
+/// Every embedded source, so a cache file never outlives a change to an included file.
+uint64_t embeddedFingerprint() {
+    static const uint64_t value = [] {
+        uint64_t h = fnv1a("csgv shaders 1");
+        for (const std::string& n : embeddedShaderNames()) h = fnv1a(std::string(embeddedShader(n)), fnv1a(n, h));
+        return h;
+    }();
+    return value;
+}
+
+/// The on-disk cache file for a key, or "" without CSGV_SHADER_CACHE_DIR.
+std::string diskCachePath(const std::string& key) {
+    const char* dir = std::getenv("CSGV_SHADER_CACHE_DIR");
+    if (!dir || !*dir) return "";
+    char name[40];
+    std::snprintf(name, sizeof(name), "/%016llx.spv", static_cast<unsigned long long>(fnv1a(key, embeddedFingerprint())));
+    return std::string(dir) + name;
+}
+
+bool readDiskCache(const std::string& path, std::vector<uint32_t>& spirv) {
+    if (path.empty()) return false;
+    Result<std::vector<uint8_t>> bytes = readFile(path, 64ull << 20);
+    if (!bytes || bytes->size() < 20 || bytes->size() % 4 != 0) return false;
+    spirv.resize(bytes->size() / 4);
+    std::memcpy(spirv.data(), bytes->data(), bytes->size());
+    return spirv[0] == 0x07230203u; // SPIR-V magic
+}
+
+void writeDiskCache(const std::string& path, const std::vector<uint32_t>& spirv) {
+    if (path.empty()) return;
+    AtomicFile f; // a failure only means no cache entry
+    if (f.open(path) && f.write(spirv.data(), spirv.size() * 4)) (void)f.commit();
+}
+
 } // namespace
 
 Result<std::vector<uint32_t>> compileComputeSource(const std::string& displayName, const std::string& source,
@@ -60,6 +105,12 @@ Result<std::vector<uint32_t>> compileComputeSource(const std::string& displayNam
     std::lock_guard<std::mutex> lock(g_mutex);
     auto cached = g_cache.find(key);
     if (cached != g_cache.end()) return cached->second;
+    const std::string diskPath = diskCachePath(key);
+    std::vector<uint32_t> fromDisk;
+    if (readDiskCache(diskPath, fromDisk)) {
+        g_cache[key] = fromDisk;
+        return fromDisk;
+    }
     static bool initialised = glslang::InitializeProcess();
     if (!initialised) return Status::error("glslang failed to initialise");
 
@@ -85,7 +136,13 @@ Result<std::vector<uint32_t>> compileComputeSource(const std::string& displayNam
     glslang::GlslangToSpv(*program.getIntermediate(EShLangCompute), spirv, &logger, &options);
     if (spirv.empty()) return Status::error("shader " + displayName + ": no SPIR-V produced: " + logger.getAllMessages());
     g_cache[key] = spirv;
+    writeDiskCache(diskPath, spirv);
     return spirv;
+}
+
+void clearShaderMemoryCache() {
+    std::lock_guard<std::mutex> lock(g_mutex);
+    g_cache.clear();
 }
 
 Result<std::vector<uint32_t>> compileComputeShader(const std::string& name, const Defines& defines) {

@@ -3,7 +3,9 @@
 /// @file ShaderCompiler.h
 /// @brief GLSL to SPIR-V at run time with glslang. Sources come from `shaders/`, embedded into
 /// the binary at build time; `#include "x.glsl"` resolves within that set. Each volume gets its
-/// own specialisation through defines. Results are cached in memory by source name and defines.
+/// own specialisation through defines. Results are cached in memory by source name and defines,
+/// and on disk when `CSGV_SHADER_CACHE_DIR` names a folder (one SPIR-V file per source, defines
+/// and version of all embedded sources; unreadable or foreign files are ignored).
 
 #include "csgv/Status.h"
 
@@ -26,5 +28,8 @@ Result<std::vector<uint32_t>> compileComputeShader(const std::string& name, cons
 /// Compiles compute shader source given directly (tests), with includes from the embedded set.
 Result<std::vector<uint32_t>> compileComputeSource(const std::string& displayName, const std::string& source,
                                                    const Defines& defines);
+
+/// Forgets the in-memory cache (tests of the disk cache).
+void clearShaderMemoryCache();
 
 } // namespace csgv::gpu
