@@ -36,6 +36,16 @@ Face entryFace(int axis, double direction) {
 
 } // namespace
 
+Mat4 indexToWorldMatrix(const Geometry& g) {
+    Mat4 m{};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) m[c * 4 + r] = g.direction[3 * r + c] * g.spacing[c];
+        m[12 + r] = g.origin[r];
+    }
+    m[15] = 1;
+    return m;
+}
+
 Mat4 multiply(const Mat4& a, const Mat4& b) {
     Mat4 out{};
     for (int c = 0; c < 4; ++c)
@@ -123,13 +133,7 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& g, const RayCastView
     out.face.assign(n, Face::None);
     Mat4 clipToWorld{};
     if (!invert(view.worldToClip, clipToWorld)) return out;
-    // Index space from world space: the inverse of world = origin + direction * (index * spacing).
-    Mat4 indexToWorld{};
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) indexToWorld[c * 4 + r] = g.direction[3 * r + c] * g.spacing[c];
-        indexToWorld[12 + r] = g.origin[r];
-    }
-    indexToWorld[15] = 1;
+    const Mat4 indexToWorld = indexToWorldMatrix(g);
     Mat4 worldToIndex{};
     if (!invert(indexToWorld, worldToIndex)) return out;
     const double dim[3] = {double(volume.dim[0]), double(volume.dim[1]), double(volume.dim[2])};
@@ -276,12 +280,7 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
     out.distance.assign(n, 0.0f);
     Mat4 clipToWorld{};
     if (!invert(view.worldToClip, clipToWorld)) return out;
-    Mat4 indexToWorld{};
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) indexToWorld[c * 4 + r] = g.direction[3 * r + c] * g.spacing[c];
-        indexToWorld[12 + r] = g.origin[r];
-    }
-    indexToWorld[15] = 1;
+    const Mat4 indexToWorld = indexToWorldMatrix(g);
     Mat4 worldToIndex{};
     if (!invert(indexToWorld, worldToIndex)) return out;
     // The same double products as Renderer.cpp, rounded to float as uploaded.

@@ -5,23 +5,7 @@
 set -u
 CSGV=$1
 FIX=$2
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
-fails=0
-passes=0
-pass() { echo "ok: $1"; passes=$((passes + 1)); }
-bad() { echo "FAIL: $1"; fails=$((fails + 1)); }
-
-# expect CODE DESCRIPTION COMMAND...: exit code and, for errors, exactly one "csgv: error:" line.
-expect() {
-  local want=$1 what=$2; shift 2
-  "$@" >"$TMP/out" 2>"$TMP/err"; local got=$?
-  if [ "$got" -ne "$want" ]; then bad "$what: exit $got, expected $want ($(head -c 300 "$TMP/err"))"; return; fi
-  if [ "$want" -ne 0 ] && [ "$(grep -c '^csgv: error: ' "$TMP/err")" -ne 1 ]; then
-    bad "$what: stderr is not one clear error line: $(cat "$TMP/err")"; return
-  fi
-  pass "$what"
-}
+source "$(dirname "$0")/../tool_test_lib.sh"
 
 DEF=$FIX/synthA_b32_rans2.csgv
 expect 0 "info" "$CSGV" info "$DEF"
@@ -128,5 +112,4 @@ for i in $(seq 1 40); do
 done
 pass "40 corruptions without a signal"
 
-echo "tool contract: $passes passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

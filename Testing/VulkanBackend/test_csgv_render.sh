@@ -6,21 +6,7 @@
 set -u
 CSGV=$1
 FIX=$2
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
-fails=0
-passes=0
-pass() { echo "ok: $1"; passes=$((passes + 1)); }
-bad() { echo "FAIL: $1"; fails=$((fails + 1)); }
-expect() {
-  local want=$1 what=$2; shift 2
-  "$@" >"$TMP/out" 2>"$TMP/err"; local got=$?
-  if [ "$got" -ne "$want" ]; then bad "$what: exit $got, expected $want ($(head -c 300 "$TMP/err"))"; return; fi
-  if [ "$want" -ne 0 ] && [ "$(grep -c '^csgv: error: ' "$TMP/err")" -ne 1 ]; then
-    bad "$what: stderr is not one clear error line: $(cat "$TMP/err")"; return
-  fi
-  pass "$what"
-}
+source "$(dirname "$0")/../tool_test_lib.sh"
 DEF=$FIX/synthA_b32_rans2.csgv
 PY=/usr/bin/python3
 
@@ -102,5 +88,4 @@ assert all(p % 2 == 1 for p in px), 'a right-hemisphere (even) label is visible'
   expect 1 "derived attribute with bad SQL" "$CSGV" render "$TMP/aal.csgv" "$TMP/x.png" --size 8x8 \
     --attributes "${AAL%.nii.gz}.nii.txt" --derive "hemisphere=CASE WHEN" --materials "$TMP/hemi.json"
 fi
-echo "$passes passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

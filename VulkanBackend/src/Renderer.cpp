@@ -445,13 +445,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     }
 
     // Index space <-> world <-> clip.
-    const Geometry& g = im.geometry;
-    Mat4 indexToWorld{};
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) indexToWorld[c * 4 + r] = g.direction[3 * r + c] * g.spacing[c];
-        indexToWorld[12 + r] = g.origin[r];
-    }
-    indexToWorld[15] = 1;
+    const Mat4 indexToWorld = indexToWorldMatrix(im.geometry);
     Mat4 worldToIndex{};
     if (!invert(indexToWorld, worldToIndex)) return Status::error("the volume's spacing or direction is singular");
     const Mat4 indexToClip = multiply(in.worldToClip, indexToWorld);

@@ -52,6 +52,8 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& cornerGeometry, cons
 GBuffer castRaysStable(const LabelVolume& volume, const Geometry& cornerGeometry, const RayCastView& view,
                        const std::function<bool(uint32_t)>& visible, uint32_t brickSize);
 
+/// world = origin + direction * (index * spacing) as a column-major 4x4 matrix (corner geometry).
+std::array<double, 16> indexToWorldMatrix(const Geometry& cornerGeometry);
 /// Helpers to build OpenGL-style matrices (column-major) for tests and tools.
 std::array<double, 16> lookAtMatrix(const std::array<double, 3>& eye, const std::array<double, 3>& target,
                                     const std::array<double, 3>& up);
