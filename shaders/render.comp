@@ -8,6 +8,7 @@
 // SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline.
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #include "render_common.glsl"
 
 layout(local_size_x = 16, local_size_y = 16) in;
@@ -117,7 +118,10 @@ void main() {
     const uint samples = samplesBuf.w[pixel];
     if (fv.frame.w != 0u && samples >= fv.frame.w) return; // reached the sample target
     UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
-    if (samples == alloc.w[AL_PREV_MIN]) atomicMin(alloc.w[AL_MIN_ROW], pixel);
+    if (samples == alloc.w[AL_PREV_MIN]) { // one atomic per subgroup: they are costly on CPU devices
+        const uint first = subgroupMin(pixel);
+        if (subgroupElect()) atomicMin(alloc.w[AL_MIN_ROW], first);
+    }
     const bool request = (fv.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
     Rng rng = rngFor(pixel, samples);
 
@@ -256,13 +260,15 @@ void main() {
         }
     }
     if (!valid) {
-        atomicAdd(alloc.w[AL_MISSING], 1u);
+        const uint missing = subgroupAdd(1u);
+        if (subgroupElect()) atomicAdd(alloc.w[AL_MISSING], missing);
         return;
     }
     Vec4Buf accum = Vec4Buf(f.addr[A_ACCUM]);
     accum.v[pixel] += vec4(radiance, 1.0 - transmittance);
     samplesBuf.w[pixel] = samples + 1u;
-    atomicAdd(alloc.w[AL_NEW_SAMPLES], 1u);
+    const uint added = subgroupAdd(1u);
+    if (subgroupElect()) atomicAdd(alloc.w[AL_NEW_SAMPLES], added);
     Uvec4Buf(f.addr[A_GBUFFER]).v[pixel] = uvec4(gLabel, gFace | 0x100u, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
     FloatBuf(f.addr[A_DEPTH_OUT]).f[pixel] = firstDepth;
 }

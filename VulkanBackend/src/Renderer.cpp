@@ -121,6 +121,7 @@ struct Renderer::Impl {
     Geometry geometry;
     uint32_t width = 0, height = 0;
     uint32_t maxRequests = 0;
+    uint32_t pixelBlock = 1;          // resolve.comp's PIXEL_BLOCK
     Mat4 lastWorldToClip{};
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
     uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
@@ -198,6 +199,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("BRICK_GRID", uvec3Of(v.brickGrid()));
     d.emplace_back("BRICKS_PER_ARRAY", std::to_string(v.bricksPerArray) + "u");
     d.emplace_back("CACHE_BITS", std::to_string(volume->cacheBits()));
+    // Pixels per resolve invocation along each axis: CPU devices pay per invocation.
+    im.pixelBlock = context.device().type == "cpu" ? 2 : 1;
+    d.emplace_back("PIXEL_BLOCK", std::to_string(im.pixelBlock) + "u");
     struct Shader {
         const char* name;
         uint64_t* pipeline;
@@ -559,7 +563,8 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         d.groups[1] = std::max(gy, 1u);
         list.push_back(d);
     };
-    const uint32_t gx = (in.width + 15) / 16, gy = (in.height + 15) / 16; // 16x16 groups (render.comp, resolve.comp)
+    const uint32_t tile = 16 * im.pixelBlock; // resolve.comp: 16x16 invocations of PIXEL_BLOCK^2 pixels
+    const uint32_t gx = (in.width + tile - 1) / tile, gy = (in.height + tile - 1) / tile;
     auto resolve = [&](uint32_t pass, uint32_t src, uint32_t dst) {
         resolvePushes.push_back({frameAddress, pass, src, dst, 0});
         add(im.pResolve, &resolvePushes.back(), sizeof(ResolvePush), gx, gy);
