@@ -11,7 +11,6 @@
 #include <vtkObjectFactory.h>
 #include <vtkPVRenderView.h>
 #include <vtkPVView.h>
-#include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
 
 #include <algorithm>
@@ -101,8 +100,9 @@ bool vtkCSGVRepresentation::RemoveFromView(vtkView* view)
 {
   if (auto* rview = vtkPVRenderView::SafeDownCast(view))
   {
+    // GL resources go with the window (vtkTextureObject and the quad helper register their
+    // release with it); releasing here could touch a context already gone at exit.
     rview->GetRenderer()->RemoveActor(this->Prop);
-    this->Prop->ReleaseGraphicsResources(rview->GetRenderWindow());
     return this->Superclass::RemoveFromView(view);
   }
   return false;

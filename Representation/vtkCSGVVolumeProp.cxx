@@ -240,9 +240,11 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
 {
   Impl& p = *this->P;
   auto* ren = vtkOpenGLRenderer::SafeDownCast(viewport);
-  if (!ren || ren->GetSelector() || !p.Input)
+  if (!ren || ren->GetSelector() || !p.Input || p.Input->GetNumberOfPoints() == 0)
   {
-    return 0; // hardware selection (picking) has no use for our colours
+    // Hardware selection (picking) has no use for our colours; an empty input (a reader that
+    // failed and said so) draws nothing without a second message.
+    return 0;
   }
   auto* win = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
   auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
