@@ -1,11 +1,13 @@
 # SPDX-License-Identifier: MIT
-"""A Segmentation Volume screenshot (200x150, local shading, 4 samples a pixel, fixed camera)
+"""A Segmentation Volume screenshot (200x150, local shading, 1 sample a pixel, fixed camera)
 equals the committed baseline within a stated tolerance.
 
 Tolerance: per-channel absolute difference; the mean over all pixels must stay below 1.0 (of
-255) and at most 0.5% of pixels may differ by more than 32. Rendering is deterministic on one
-device (seeded sub-pixel jitter), so differences come from the GL rasteriser or another Vulkan
-device; the tolerance allows a few edge pixels, not a shifted or recoloured image.
+255) and at most 0.5% of pixels may differ by more than 32. One sample a pixel has no sub-pixel
+jitter, so the image is the renderer's exact G-buffer shaded (the backend's own tests compare it
+with a CPU reference): differences come from the GL rasteriser, another Vulkan device or a
+change of the local shading model; the tolerance allows a few edge pixels, not a shifted or
+recoloured image.
 Set CSGV_UPDATE_BASELINES=1 to rewrite the baseline (then look at it before committing)."""
 import os
 import shutil
@@ -24,7 +26,7 @@ r = OpenDataFile(os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv"))
 v = t.render_view(W, H, background=(1.0, 1.0, 1.0))
 d = Show(r, v)
 d.CSGVShading = "local"
-d.CSGVFramesPerStillRender = 4
+d.CSGVFramesPerStillRender = 1  # the first sample has no jitter: independent of the jitter sequence
 d.CSGVStillRenderTimeBudget = 120
 b = r.GetDataInformation().GetBounds()
 c = [(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2]
@@ -38,7 +40,7 @@ path = os.path.join(t.temp_dir(), "repr.png")
 SaveScreenshot(path, v, ImageResolution=[W, H], TransparentBackground=0)
 img = t.read_png(path)
 frames, samples = t.repr_info(d)
-t.check(samples == 4, "4 samples in every pixel (%d)" % samples)
+t.check(samples == 1, "1 sample in every pixel (%d)" % samples)
 
 if os.environ.get("CSGV_UPDATE_BASELINES"):
     os.makedirs(os.path.dirname(BASELINE), exist_ok=True)
