@@ -86,6 +86,40 @@ d3 = Show(csgv, v3)
 v3.ResetCamera()
 t.check(t.content_mask(t.screenshot(v3, 160, 120, "v3.png")).mean() > 0.1, "a second view of the same .csgv draws")
 
+# Which array: an image with a float intensity and integer labels (point data) picks the labels;
+# naming the intensity is an error naming it (it holds non-integers); naming the labels draws.
+from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkCommonDataModel import vtkImageData
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+n = 24
+img = vtkImageData()
+img.SetDimensions(n, n, n)
+k, j, i = np.meshgrid(np.arange(n), np.arange(n), np.arange(n), indexing="ij")
+intensity = numpy_to_vtk((np.sin(i * 0.3) * 100.5).ravel().astype(np.float32), deep=1)
+intensity.SetName("intensity")
+labels = numpy_to_vtk((1 + (i // 6) + 4 * (j // 6) + 16 * (k // 6)).ravel().astype(np.uint16), deep=1)
+labels.SetName("labels")
+img.GetPointData().AddArray(intensity)
+img.GetPointData().AddArray(labels)
+vti = os.path.join(t.temp_dir(), "two_arrays.vti")
+w = vtkXMLImageDataWriter()
+w.SetFileName(vti)
+w.SetInputData(img)
+w.Write()
+two = OpenDataFile(vti)
+v4 = t.render_view(120, 90)
+d4 = Show(two, v4)
+d4.SetRepresentationType("Segmentation Volume")
+v4.ResetCamera()
+t.check(t.content_mask(t.screenshot(v4, 120, 90, "auto.png")).mean() > 0.1, "automatic array choice: the integer labels")
+with t.ErrorLog() as errors:
+    d4.CSGVLabelArray = "intensity"
+    img4 = t.screenshot(v4, 120, 90, "intensity.png")
+t.check("intensity" in errors.text and t.content_mask(img4).mean() == 0,
+        "a non-integer array is refused with a message naming it")
+d4.CSGVLabelArray = "labels"
+t.check(t.content_mask(t.screenshot(v4, 120, 90, "named.png")).mean() > 0.1, "the array chosen by name draws")
+
 # Hidden: nothing drawn.
 Hide(csgv, v)
 t.check(t.content_mask(t.screenshot(v, 160, 120, "hidden.png")).mean() == 0, "hidden: nothing drawn")

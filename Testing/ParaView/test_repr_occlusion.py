@@ -93,4 +93,19 @@ for label, opacity in (("opaque materials", 1.0), ("translucent materials", 0.6)
         out = block_front & ~rim
         b = blue(shot[out]).mean()
         t.check(b > 0.99, "%s: block elsewhere is blue (%.1f%%)" % (label, 100 * b))
+# Translucent ParaView geometry in front of a volume with opaque materials: the volume is drawn
+# in the opaque pass, so the translucent plane blends over it (green over blue).
+d.CSGVMaterials = t.constant_materials([0.0, 0.0, 1.0], 1.0)
+ds.Visibility = 0
+plane = Plane(Origin=[4, 4, N + 10], Point1=[28, 4, N + 10], Point2=[4, 28, N + 10])
+dp = Show(plane, v)
+dp.DiffuseColor = [0.0, 1.0, 0.0]
+dp.AmbientColor = [0.0, 1.0, 0.0]
+dp.Specular = 0.0
+dp.Opacity = 0.5
+shot = t.screenshot(v, W, H, "translucent_plane.png")
+under = (X > 4 + edge) & (X < 28 - edge) & (Y > 4 + edge) & (Y < 28 - edge)
+p = shot[under].astype(int)
+blend = ((p[:, 1] > 60) & (p[:, 2] > 60)).mean()
+t.check(blend > 0.99, "translucent plane in front of an opaque-material volume blends over it (%.1f%%)" % (100 * blend))
 t.finish()
