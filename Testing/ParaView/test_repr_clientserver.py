@@ -25,4 +25,9 @@ red = t.screenshot(v, 160, 120, "red.png")
 m = t.content_mask(red)
 t.check(m.mean() > 0.05 and (red[m][:, 0].astype(int) > red[m][:, 2].astype(int) + 40).mean() > 0.95,
         "a property change reaches the server")
+# ParaView preset names resolve on the server too.
+import json
+d.CSGVMaterials = json.dumps({"version": 1, "materials": [
+    {"color": {"mode": "colormap", "attribute": "label", "min": 0, "max": 200, "colormap": "Jet"}}]})
+t.check(t.content_mask(t.screenshot(v, 160, 120, "jet.png")).mean() > 0.05, "a ParaView preset resolves on the server")
 t.finish()
