@@ -1,0 +1,95 @@
+// SPDX-License-Identifier: MIT
+#include "pqCSGVProgressiveRendering.h"
+
+#include <pqApplicationCore.h>
+#include <pqRepresentation.h>
+#include <pqServer.h>
+#include <pqServerManagerModel.h>
+#include <pqView.h>
+#include <vtkSMPropertyHelper.h>
+#include <vtkSMProxy.h>
+
+#include <QTimer>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+
+pqCSGVProgressiveRendering::pqCSGVProgressiveRendering(QObject* parent)
+  : QObject(parent)
+{
+}
+
+pqCSGVProgressiveRendering::~pqCSGVProgressiveRendering() = default;
+
+void pqCSGVProgressiveRendering::startup()
+{
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  QObject::connect(model, &pqServerManagerModel::viewAdded, this, &pqCSGVProgressiveRendering::watch);
+  QObject::connect(model, &pqServerManagerModel::viewRemoved, this,
+    [this](pqView* view) {
+      this->LastSamples.remove(view);
+      this->Stalls.remove(view);
+    });
+  for (pqView* view : model->findItems<pqView*>())
+  {
+    this->watch(view);
+  }
+}
+
+void pqCSGVProgressiveRendering::shutdown() {}
+
+void pqCSGVProgressiveRendering::watch(pqView* view)
+{
+  QObject::connect(view, &pqView::endRender, this, &pqCSGVProgressiveRendering::renderEnded,
+    Qt::UniqueConnection);
+}
+
+void pqCSGVProgressiveRendering::renderEnded()
+{
+  pqView* view = qobject_cast<pqView*>(this->sender());
+  if (!view || !view->getServer() || view->getServer()->isRemote())
+  {
+    return;
+  }
+  int fewest = -1;
+  bool refine = false;
+  for (pqRepresentation* repr : view->getRepresentations())
+  {
+    vtkSMProxy* proxy = repr ? repr->getProxy() : nullptr;
+    if (!proxy || !repr->isVisible() || !proxy->GetProperty("CSGVMinSamples") ||
+      !proxy->GetProperty("Representation") ||
+      QString(vtkSMPropertyHelper(proxy, "Representation").GetAsString()) != "Segmentation Volume")
+    {
+      continue;
+    }
+    proxy->UpdatePropertyInformation();
+    const int samples = vtkSMPropertyHelper(proxy, "CSGVMinSamples").GetAsInt();
+    const int target = vtkSMPropertyHelper(proxy, "CSGVFramesPerStillRender").GetAsInt();
+    if (samples < target)
+    {
+      refine = true;
+      fewest = fewest < 0 ? samples : std::min(fewest, samples);
+    }
+  }
+  // Only while renders make progress: a few renders in a row that add no sample (an error, or
+  // renders that did not draw the volume) end the refinement until something changes.
+  const int last = this->LastSamples.value(view, -1);
+  this->LastSamples[view] = fewest;
+  int& stalls = this->Stalls[view];
+  stalls = (!refine || fewest > last || fewest < last) ? 0 : stalls + 1;
+  if (std::getenv("CSGV_TRACE_REFINEMENT"))
+  {
+    std::fprintf(stderr, "csgv refinement: fewest samples %d (last %d), stalls %d\n", fewest, last, stalls);
+  }
+  if (refine && stalls < 3)
+  {
+    QPointer<pqView> guard(view);
+    QTimer::singleShot(0, this, [guard]() {
+      if (guard)
+      {
+        guard->render();
+      }
+    });
+  }
+}

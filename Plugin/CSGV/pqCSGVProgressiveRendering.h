@@ -1,0 +1,44 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class pqCSGVProgressiveRendering
+ * @brief GUI auto-start: keeps refining Segmentation Volumes after a still render that its time
+ * budget cut short.
+ *
+ * A still render accumulates at most StillRenderTimeBudget seconds of frames, so path tracing on
+ * a CPU device never freezes the GUI; without more renders the image would stay at the samples
+ * that budget allowed. After each render of a view, this asks for another still render while a
+ * visible Segmentation Volume holds fewer samples per pixel than its FramesPerStillRender and
+ * renders keep adding samples (three renders in a row without progress stop it until something
+ * changes); the GUI stays responsive between renders, and any interaction simply takes over.
+ * CSGV_TRACE_REFINEMENT=1 prints each decision. Builtin sessions only: in client/server mode the sample count lives on the
+ * server, and the client-side value would not tell.
+ */
+#ifndef pqCSGVProgressiveRendering_h
+#define pqCSGVProgressiveRendering_h
+
+#include <QMap>
+#include <QObject>
+#include <QPointer>
+
+class pqView;
+
+class pqCSGVProgressiveRendering : public QObject
+{
+  Q_OBJECT
+public:
+  pqCSGVProgressiveRendering(QObject* parent = nullptr);
+  ~pqCSGVProgressiveRendering() override;
+
+  void startup();
+  void shutdown();
+
+private Q_SLOTS:
+  void watch(pqView* view);
+  void renderEnded();
+
+private:
+  QMap<pqView*, int> LastSamples;
+  QMap<pqView*, int> Stalls;
+};
+
+#endif

@@ -1,0 +1,16 @@
+# SPDX-License-Identifier: MIT
+"""GUI check of progressive refinement (run inside the ParaView client by
+gui_refinement_driver.py): path tracing with a tiny time budget per still render, so the first
+render ends far below FramesPerStillRender samples and the plugin's auto-start must keep
+rendering until every pixel has them."""
+import os
+
+from paraview.simple import *
+
+r = OpenDataFile(os.path.join(os.environ["CSGV_FIXTURES"], "synthA_b32_rans2.csgv"))
+d = Show(r)
+d.CSGVShading = "pt"
+d.CSGVFramesPerStillRender = 12
+d.CSGVStillRenderTimeBudget = 0.05
+ResetCamera()
+Render()
