@@ -176,6 +176,10 @@ def run_child(args):
         Render(view)
         times.append(time.time() - t)
     times.sort()
+    device_mib = None
+    if ours:
+        display.SMProxy.UpdatePropertyInformation()
+        device_mib = display.SMProxy.GetProperty("CSGVDeviceMiB").GetElement(0)
     mem = memory_kib()
     result = {
         "representation": "Segmentation Volume" if ours else "Volume (vtkSmartVolumeMapper)",
@@ -185,6 +189,7 @@ def run_child(args):
         "median_frame_ms": 1000 * times[len(times) // 2] if times else None,
         "frames": len(times),
         "peak_rss_mib": mem["VmHWM"] / 1024.0,
+        "device_mib": device_mib,
         "session_base_mib": base["VmRSS"] / 1024.0,
         "png": png,
     }
@@ -251,6 +256,8 @@ def report(tag, vtk, ours, args):
                                                       r["median_frame_ms"] or 0, r["peak_rss_mib"]))
     print("VTK transfer function set-up (one point a label, not in its first frame): %.2f s" % vtk["tf_setup_s"])
     print("session base (empty pvbatch with the plugin): %.1f MiB" % ours["session_base_mib"])
+    if ours.get("device_mib") is not None:
+        print("Segmentation Volume device memory (encoding, brick cache, buffers): %.1f MiB" % ours["device_mib"])
     if vtk["median_frame_ms"] and ours["median_frame_ms"]:
         print("frame time ratio VTK / Segmentation Volume: %.2f" % (vtk["median_frame_ms"] / ours["median_frame_ms"]))
     print("time to first frame ratio VTK / Segmentation Volume: %.2f" % (vtk["first_frame_s"] / ours["first_frame_s"]))

@@ -797,6 +797,27 @@ std::string ViewRenderer::ensureRenderer()
   return std::string();
 }
 
+uint64_t ViewRenderer::cacheBytes() const
+{
+  if (!this->Renderer)
+  {
+    return 0;
+  }
+  for (const auto& b : this->Renderer->memory().buffers)
+  {
+    if (b.first == "brick cache")
+    {
+      return b.second;
+    }
+  }
+  return 0;
+}
+
+uint64_t ViewRenderer::deviceBytes() const
+{
+  return this->Renderer ? this->Renderer->memory().total() : 0;
+}
+
 std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
 {
   changed = false;

@@ -108,6 +108,10 @@ public:
   /// Statistics of the last frame rendered.
   const csgv::gpu::FrameStats& lastStats() const { return this->Stats; }
   uint32_t framesLastRender() const { return this->FramesLastRender; }
+  /// Device memory of this view's renderer: its brick cache and everything (the shared encoding
+  /// upload included); 0 without a renderer.
+  uint64_t cacheBytes() const;
+  uint64_t deviceBytes() const;
 
 private:
   std::string ensureRenderer();

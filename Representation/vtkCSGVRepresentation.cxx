@@ -228,3 +228,13 @@ int vtkCSGVRepresentation::GetMinSamples()
 {
   return this->Prop->GetMinSamples();
 }
+
+double vtkCSGVRepresentation::GetCacheMiB()
+{
+  return this->Prop->GetCacheMiB();
+}
+
+double vtkCSGVRepresentation::GetDeviceMiB()
+{
+  return this->Prop->GetDeviceMiB();
+}

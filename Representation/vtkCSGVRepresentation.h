@@ -68,6 +68,10 @@ public:
   /// the rendering process).
   int GetFramesLastRender();
   int GetMinSamples();
+  /// This view's brick cache and its whole device memory in MiB (the views of one volume split
+  /// CacheSizeMiB and share one upload of the encoding).
+  double GetCacheMiB();
+  double GetDeviceMiB();
 
 protected:
   vtkCSGVRepresentation();

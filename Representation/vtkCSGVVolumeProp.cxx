@@ -236,6 +236,16 @@ int vtkCSGVVolumeProp::GetMinSamples()
   return int(this->P->View.lastStats().minSamples);
 }
 
+double vtkCSGVVolumeProp::GetCacheMiB()
+{
+  return double(this->P->View.cacheBytes()) / (1 << 20);
+}
+
+double vtkCSGVVolumeProp::GetDeviceMiB()
+{
+  return double(this->P->View.deviceBytes()) / (1 << 20);
+}
+
 int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
 {
   Impl& p = *this->P;

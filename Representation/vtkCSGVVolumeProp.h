@@ -66,6 +66,9 @@ public:
   /// (for tests and benchmarks).
   int GetFramesLastRender();
   int GetMinSamples();
+  /// This view's brick cache and its whole device memory (the shared encoding included), MiB.
+  double GetCacheMiB();
+  double GetDeviceMiB();
 
 protected:
   vtkCSGVVolumeProp();

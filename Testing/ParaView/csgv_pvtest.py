@@ -160,6 +160,13 @@ def repr_info(display):
             display.SMProxy.GetProperty("CSGVMinSamples").GetElement(0))
 
 
+def repr_memory(display):
+    """(brick cache MiB, device MiB) of a Segmentation Volume display's renderer."""
+    display.SMProxy.UpdatePropertyInformation()
+    return (display.SMProxy.GetProperty("CSGVCacheMiB").GetElement(0),
+            display.SMProxy.GetProperty("CSGVDeviceMiB").GetElement(0))
+
+
 def content_mask(image, background=(0, 0, 0), tol=8):
     return np.abs(image.astype(int) - np.array(background, int)).max(axis=2) > tol
 

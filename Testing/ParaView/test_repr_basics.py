@@ -80,11 +80,20 @@ again = t.screenshot(v, 160, 120, "again.png")
 t.check(np.abs(again.astype(int) - before.astype(int)).mean() < 1,
         "the first view still draws its volume after the second view rendered")
 
-# The same source in a second view shares the upload and still draws.
+# The same source in a second view shares the upload and the cache budget, and still draws.
+d.CSGVCacheSizeMiB = 64
+t.screenshot(v, 160, 120, "v_64.png")
+cache1, _ = t.repr_memory(d)
 v3 = t.render_view(160, 120)
 d3 = Show(csgv, v3)
+d3.CSGVCacheSizeMiB = 64
 v3.ResetCamera()
 t.check(t.content_mask(t.screenshot(v3, 160, 120, "v3.png")).mean() > 0.1, "a second view of the same .csgv draws")
+t.screenshot(v, 160, 120, "v_again.png")
+cache_a, _ = t.repr_memory(d)
+cache_b, _ = t.repr_memory(d3)
+t.check(abs(cache1 - 64) < 1 and abs(cache_a - 32) < 1 and abs(cache_b - 32) < 1,
+        "two views of one volume split its 64 MiB cache budget (%.0f -> %.0f + %.0f MiB)" % (cache1, cache_a, cache_b))
 
 # Which array: an image with a float intensity and integer labels (point data) picks the labels;
 # naming the intensity is an error naming it (it holds non-integers); naming the labels draws.
