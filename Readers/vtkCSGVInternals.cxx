@@ -316,6 +316,33 @@ vtkSmartPointer<vtkDataArray> paletteRange(const csgv::CompressedVolume& vol, co
   return result;
 }
 
+void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns)
+{
+  for (const csgv::AttributeColumn& c : columns)
+  {
+    const std::string name = std::string(kAttributePrefix) + c.name;
+    if (c.numeric)
+    {
+      vtkNew<vtkDoubleArray> a;
+      a->SetName(name.c_str());
+      a->SetNumberOfValues(static_cast<vtkIdType>(c.values.size()));
+      std::copy(c.values.begin(), c.values.end(), a->GetPointer(0));
+      fd->AddArray(a);
+    }
+    else
+    {
+      vtkNew<vtkStringArray> a;
+      a->SetName(name.c_str());
+      a->SetNumberOfValues(static_cast<vtkIdType>(c.text.size()));
+      for (size_t i = 0; i < c.text.size(); ++i)
+      {
+        a->SetValue(static_cast<vtkIdType>(i), c.text[i]);
+      }
+      fd->AddArray(a);
+    }
+  }
+}
+
 void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
   const csgv::Geometry& corner, const LabelInfo& info, vtkDataArray* range)
 {

@@ -10,6 +10,7 @@
 #ifndef vtkCSGVInternals_h
 #define vtkCSGVInternals_h
 
+#include "csgv/AttributeDb.h"
 #include "csgv/Container.h"
 #include "csgv/Decoder.h"
 #include "csgv/Geometry.h"
@@ -35,6 +36,9 @@ constexpr const char* kGeometryName = "CSGVGeometry";
 constexpr const char* kLabelMapName = "CSGVLabelMap";
 constexpr const char* kOriginalTypeName = "CSGVOriginalType";
 constexpr const char* kLabelRangeName = "CSGVLabelRange";
+/// Prefix of the per-id attribute arrays of a `_csgv.db3` (vtkDoubleArray for numeric columns,
+/// vtkStringArray for text columns), indexed by the id the volume stores.
+constexpr const char* kAttributePrefix = "CSGVAttribute:";
 /// Name of the decoded label array.
 constexpr const char* kLabelsName = "Labels";
 
@@ -72,6 +76,9 @@ vtkSmartPointer<vtkDataArray> paletteRange(const csgv::CompressedVolume& vol, co
 /// Fills `fd` with the arrays of vtkCSGVReader.h's layout.
 void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
   const csgv::Geometry& cornerGeometry, const LabelInfo& info, vtkDataArray* range);
+
+/// Adds one `CSGVAttribute:<name>` array per column (indexed by id).
+void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns);
 
 /// @brief What a consumer of the FieldData layout gets back.
 struct EncodedInput

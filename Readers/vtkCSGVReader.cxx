@@ -74,6 +74,7 @@ public:
   std::array<uint32_t, 3> Dim{ { 0, 0, 0 } };
   uint32_t Levels = 0;
   vtkSmartPointer<vtkDataArray> Range;
+  std::vector<csgv::AttributeColumn> Attributes; ///< columns of `_csgv.db3`, indexed by id
 
   /// Reads the file (when it changed since the last call); returns an error message or "".
   std::string Load(const std::string& path)
@@ -92,6 +93,7 @@ public:
     this->Loaded = false;
     this->Encoding = nullptr;
     this->Range = nullptr;
+    this->Attributes.clear();
     this->Info = csgvvtk::LabelInfo{};
     this->Geometry = csgv::Geometry{};
     const std::string error =
@@ -121,6 +123,7 @@ private:
     this->Info.relabelled = f.hasAttributes;
     if (f.hasAttributes)
     {
+      this->Attributes = f.attributes.columns;
       this->Info.map = f.attributes.labels;
       this->Info.unsigned64 = f.attributes.labelsUnsigned64;
     }
@@ -305,6 +308,7 @@ int vtkCSGVReader::RequestData(
   output->SetExtent(ext);
   csgvvtk::applyGeometry(output, in.Geometry, lod);
   csgvvtk::addEncodingArrays(output->GetFieldData(), in.Encoding, in.Geometry, in.Info, in.Range);
+  csgvvtk::addAttributeArrays(output->GetFieldData(), in.Attributes);
 
   const uint64_t levelVoxels = uint64_t(ld[0]) * ld[1] * ld[2];
   if (!this->DecodeLabels || levelVoxels > static_cast<uint64_t>(this->DecodeThreshold))

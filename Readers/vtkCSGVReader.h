@@ -29,6 +29,10 @@
  * - `CSGVOriginalType` (vtkStringArray, 1 value): "uint8" ... "float64", the label type to show.
  * - `CSGVLabelRange` (2 values, the type of "Labels"): the smallest and largest original label
  *   over all brick palettes, computed without decoding.
+ * - `CSGVAttribute:<column>` (only with a `_csgv.db3`): one array per attribute column of the
+ *   database, indexed by the id the volume stores (CSGVLabelMap gives its original label):
+ *   vtkDoubleArray for numeric columns (NaN where missing), vtkStringArray for text columns.
+ *   The Segmentation Volume representation offers them to materials and picking.
  *
  * Errors (missing, truncated or malformed files, bad sidecars) are reported with vtkErrorMacro
  * carrying Core's message, and the output is empty.

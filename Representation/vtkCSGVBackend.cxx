@@ -333,6 +333,7 @@ std::string encodeArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims
     // Originals that do not fit 32 bits (negative, wide) cannot be named in materials:
     // materials then filter on the dense ids.
     std::vector<int64_t> bits(mapping.originalBits.begin(), mapping.originalBits.end());
+    out.idToLabel = bits;
     out.storedToOriginal = narrowMap(bits, !csgv::isSignedType(mapping.type));
   }
   csgv::Result<csgv::CompressedVolume> encoded = csgv::encodeVolume(labels, csgv::EncodeOptions{});
@@ -507,8 +508,10 @@ std::string resolveInput(vtkImageData* image, const std::string& labelArray, Vol
   {
     shared->volume = std::move(enc.volume);
     shared->description = "CSGVEncoding";
+    shared->arrayName = csgvvtk::kLabelsName;
     if (enc.info.relabelled)
     {
+      shared->idToLabel = enc.info.map;
       shared->storedToOriginal = narrowMap(enc.info.map, enc.info.unsigned64);
     }
   }
@@ -519,6 +522,7 @@ std::string resolveInput(vtkImageData* image, const std::string& labelArray, Vol
     {
       return error;
     }
+    shared->arrayName = array->GetName() ? array->GetName() : "";
   }
   volumeCache()[key] = shared;
   out.shared = shared;
@@ -550,6 +554,11 @@ bool inputBounds(vtkImageData* image, const std::string& labelArray, double boun
     worldBox(g, dims, bounds);
   }
   return true;
+}
+
+std::mutex& volumeMutex()
+{
+  return cacheMutex();
 }
 
 csgv::gpu::Context* sharedContext(std::string& error)
@@ -692,9 +701,11 @@ void ViewRenderer::setSettings(const ViewSettings& s)
   }
 }
 
-void ViewRenderer::setMaterials(const csgv::MaterialDocument& doc)
+void ViewRenderer::setMaterials(
+  const csgv::MaterialDocument& doc, std::map<std::string, std::vector<float>> attributes)
 {
   this->Materials = doc;
+  this->Attributes = std::move(attributes);
   this->MaterialsDirty = true;
 }
 
@@ -756,7 +767,7 @@ std::string ViewRenderer::ensureRenderer()
   }
   if (this->MaterialsDirty)
   {
-    csgv::Status s = this->Renderer->setMaterials(this->Materials, {}, shared->storedToOriginal);
+    csgv::Status s = this->Renderer->setMaterials(this->Materials, this->Attributes, shared->storedToOriginal);
     if (!s)
     {
       return "materials: " + s.message();

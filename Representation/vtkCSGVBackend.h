@@ -11,6 +11,7 @@
 #ifndef vtkCSGVBackend_h
 #define vtkCSGVBackend_h
 
+#include "csgv/Attributes.h"
 #include "csgv/Container.h"
 #include "csgv/Geometry.h"
 #include "csgv/Materials.h"
@@ -18,7 +19,9 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -33,6 +36,13 @@ struct SharedVolume
   csgv::CompressedVolume volume;
   /// Stored label -> original label when the volume is relabelled and originals fit 32 bits.
   std::vector<uint32_t> storedToOriginal;
+  /// Stored id -> original label bits for any relabelled volume (empty: stored labels are the
+  /// originals); the key of attribute arrays.
+  std::vector<int64_t> idToLabel;
+  /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
+  /// (guarded by the volume cache's mutex while being set).
+  std::shared_ptr<const csgv::AttributeTable> computed;
+  std::string arrayName;   ///< the label array users see ("Labels" for the CSGV encoding)
   std::string description; ///< where it came from ("CSGVEncoding", "array 'Labels' encoded")
   /// Declared after `volume`: destroyed first (it keeps a reference to `volume`).
   std::shared_ptr<csgv::gpu::GpuVolume> gpu;
@@ -56,6 +66,9 @@ std::string resolveInput(vtkImageData* image, const std::string& labelArray, Vol
 /// World bounds of the voxels the representation draws (point data: voxels centred on points,
 /// so half a voxel beyond the image's bounds). False when there is nothing to draw.
 bool inputBounds(vtkImageData* image, const std::string& labelArray, double bounds[6]);
+
+/// The lock that guards the volume cache and SharedVolume's mutable members.
+std::mutex& volumeMutex();
 
 /// The process-wide Vulkan context, created on first use; null with the reason when there is
 /// no usable device (the reason is the same on every call).
@@ -95,7 +108,13 @@ public:
   /// A changed source recreates the renderer; a changed geometry only resets accumulation.
   void setSource(const VolumeSource& source);
   void setSettings(const ViewSettings& settings);
-  void setMaterials(const csgv::MaterialDocument& doc);
+  /// Materials and the per-stored-label arrays of the attributes they name.
+  void setMaterials(const csgv::MaterialDocument& doc,
+    std::map<std::string, std::vector<float>> attributes = {});
+  /// The source this renderer draws (its shared volume and corner geometry).
+  const VolumeSource& source() const { return this->Source; }
+  /// The camera of the last render (column-major world-to-clip).
+  const std::array<double, 16>& lastMatrix() const { return this->LastMatrix; }
   /// Forgets the source (and the renderer).
   void clear();
 
@@ -125,6 +144,7 @@ private:
   bool Counted = false;
   ViewSettings Settings;
   csgv::MaterialDocument Materials;
+  std::map<std::string, std::vector<float>> Attributes;
   bool MaterialsDirty = true, SettingsDirty = true, GeometryDirty = true;
   bool Dirty = true; ///< accumulation must restart
   bool Converged = false;

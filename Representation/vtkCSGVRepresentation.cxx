@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVRepresentation.h"
 
+#include "vtkCSGVAttributes.h"
 #include "vtkCSGVBackend.h"
 #include "vtkCSGVVolumeProp.h"
 
@@ -237,4 +238,54 @@ double vtkCSGVRepresentation::GetCacheMiB()
 double vtkCSGVRepresentation::GetDeviceMiB()
 {
   return this->Prop->GetDeviceMiB();
+}
+
+void vtkCSGVRepresentation::PushAttributes()
+{
+  csgvrep::AttributeConfig c;
+  c.files = this->AttributeFiles;
+  for (size_t i = 0; i + 1 < this->DerivedAttributes.size(); i += 2)
+  {
+    c.derived.emplace_back(this->DerivedAttributes[i], this->DerivedAttributes[i + 1]);
+  }
+  c.computed = this->ComputedAttributes != 0;
+  this->Prop->SetAttributeConfig(c);
+  this->Modified();
+}
+
+void vtkCSGVRepresentation::AddAttributeFile(const char* path)
+{
+  this->AttributeFiles.emplace_back(path ? path : "");
+  this->PushAttributes();
+}
+
+void vtkCSGVRepresentation::ClearAttributeFiles()
+{
+  this->AttributeFiles.clear();
+  this->PushAttributes();
+}
+
+void vtkCSGVRepresentation::AddDerivedAttribute(const char* name, const char* expression)
+{
+  this->DerivedAttributes.emplace_back(name ? name : "");
+  this->DerivedAttributes.emplace_back(expression ? expression : "");
+  this->PushAttributes();
+}
+
+void vtkCSGVRepresentation::ClearDerivedAttributes()
+{
+  this->DerivedAttributes.clear();
+  this->PushAttributes();
+}
+
+void vtkCSGVRepresentation::SetComputedAttributes(int on)
+{
+  this->ComputedAttributes = on;
+  this->PushAttributes();
+}
+
+const char* vtkCSGVRepresentation::Query(const char* request)
+{
+  this->QueryResult = this->Prop->Query(request ? request : "", this->Cache);
+  return this->QueryResult.c_str();
 }

@@ -23,6 +23,7 @@
 #include "vtkSmartPointer.h" // for Cache
 
 #include <string> // for ivars
+#include <vector> // for ivars
 
 class vtkCSGVVolumeProp;
 class vtkImageData;
@@ -64,6 +65,21 @@ public:
   /// are resolved here. A malformed document is reported and nothing is drawn.
   void SetMaterials(const char* json);
 
+  /// Per-label attributes besides the input's own (the `_csgv.db3` columns the reader puts in
+  /// the FieldData): tables read on the rendering process (CSV, whitespace tables such as
+  /// MRIcron's `aal.nii.txt`, SQLite), computed attributes (voxel_count, surface_area, bbox_*,
+  /// centroid_*; computed once per volume) and derived attributes (name = SQL expression over the
+  /// others). Materials may name any of them.
+  void AddAttributeFile(const char* path);
+  void ClearAttributeFiles();
+  void AddDerivedAttribute(const char* name, const char* expression);
+  void ClearDerivedAttributes();
+  void SetComputedAttributes(int on);
+
+  /// Answers vtkCSGVQuery's requests (see vtkCSGVQuery.h); the text stays valid until the next
+  /// call.
+  const char* Query(const char* request);
+
   /// Frames the last render accumulated and the fewest samples of any pixel after it (valid on
   /// the rendering process).
   int GetFramesLastRender();
@@ -87,6 +103,7 @@ private:
   void operator=(const vtkCSGVRepresentation&) = delete;
 
   void PushSettings();
+  void PushAttributes();
 
   vtkSmartPointer<vtkImageData> Cache;
   vtkCSGVVolumeProp* Prop;
@@ -101,6 +118,10 @@ private:
   double LightDirection[3] = { 0.35, 0.6, 0.72 };
   int CacheSizeMiB = 256;
   int ClipBox[6] = { 0, 2147483647, 0, 2147483647, 0, 2147483647 };
+  std::vector<std::string> AttributeFiles;
+  std::vector<std::string> DerivedAttributes; ///< name, expression, name, expression...
+  int ComputedAttributes = 0;
+  std::string QueryResult;
 };
 
 #endif

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVVolumeProp.h"
 
+#include "vtkCSGVAttributes.h"
 #include "vtkCSGVBackend.h"
 
 #include <vtkImageData.h>
 #include <vtkMatrix3x3.h>
 #include <vtkMatrix4x4.h>
+#include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkOpenGLCamera.h>
 #include <vtkOpenGLQuadHelper.h>
@@ -19,7 +21,11 @@
 #include <vtkWeakPointer.h>
 #include <vtk_glew.h>
 
+#include <nlohmann/json.hpp>
+
 #include <atomic>
+#include <cmath>
+#include <sstream>
 #include <vector>
 
 namespace
@@ -61,6 +67,11 @@ struct vtkCSGVVolumeProp::Impl
   bool MaterialsParsed = false;
   bool MaterialsValid = false;
   bool MaterialsOpaque = true;
+
+  csgv::MaterialDocument Doc; ///< the parsed document (colormaps resolved)
+  bool AttributesDirty = true;  ///< the renderer needs materials and attribute arrays again
+  csgvrep::AttributeConfig Config;
+  csgvrep::AttributeCache Attributes;
 
   csgvrep::ViewRenderer View;
   std::string LastError;
@@ -110,7 +121,8 @@ struct vtkCSGVVolumeProp::Impl
     {
       this->MaterialsOpaque = this->MaterialsOpaque && m.opacity >= 1.0f;
     }
-    this->View.setMaterials(doc);
+    this->Doc = std::move(doc);
+    this->AttributesDirty = true;
   }
 };
 
@@ -167,6 +179,16 @@ void vtkCSGVVolumeProp::SetMaterials(const std::string& json)
     this->P->MaterialsParsed = false;
     // Parse now so that errors appear when the property is set, not at the next render.
     this->P->ParseMaterials([this](const std::string& m) { this->Report(m); });
+    this->Modified();
+  }
+}
+
+void vtkCSGVVolumeProp::SetAttributeConfig(const csgvrep::AttributeConfig& config)
+{
+  if (config != this->P->Config)
+  {
+    this->P->Config = config;
+    this->P->AttributesDirty = true;
     this->Modified();
   }
 }
@@ -274,6 +296,36 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
     }
     p.View.setSource(source);
     p.SourceDirty = false;
+    p.AttributesDirty = true;
+  }
+  if (p.AttributesDirty)
+  {
+    // Attribute arrays for the attributes the materials name (only those are built and uploaded).
+    std::map<std::string, std::vector<float>> arrays;
+    bool needed = false;
+    for (const std::string& n : csgv::attributesUsed(p.Doc))
+    {
+      needed = needed || n != "label";
+    }
+    if (needed)
+    {
+      std::string error;
+      std::shared_ptr<const csgv::AttributeTable> table =
+        p.Attributes.get(p.Input, p.View.source(), p.Config, error);
+      if (!table)
+      {
+        this->Report("attributes: " + error);
+        return 0;
+      }
+      error = csgvrep::denseColumns(*table, *p.View.source().shared, csgv::attributesUsed(p.Doc), arrays);
+      if (!error.empty())
+      {
+        this->Report("Materials: " + error);
+        return 0;
+      }
+    }
+    p.View.setMaterials(p.Doc, std::move(arrays));
+    p.AttributesDirty = false;
   }
 
   std::string contextError;
@@ -426,4 +478,186 @@ void vtkCSGVVolumeProp::ReleaseGraphicsResources(vtkWindow* window)
 {
   this->P->ReleaseGL(window);
   this->Superclass::ReleaseGraphicsResources(window);
+}
+
+namespace
+{
+
+std::string base64(const uint8_t* data, size_t n)
+{
+  static const char* const digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((n + 2) / 3 * 4);
+  for (size_t i = 0; i < n; i += 3)
+  {
+    const uint32_t b0 = data[i], b1 = i + 1 < n ? data[i + 1] : 0, b2 = i + 2 < n ? data[i + 2] : 0;
+    const uint32_t v = (b0 << 16) | (b1 << 8) | b2;
+    out += digits[(v >> 18) & 63];
+    out += digits[(v >> 12) & 63];
+    out += i + 1 < n ? digits[(v >> 6) & 63] : '=';
+    out += i + 2 < n ? digits[v & 63] : '=';
+  }
+  return out;
+}
+
+/// World point of window coordinates (pixel centre x, y; window depth z) under a column-major
+/// world-to-clip matrix.
+bool unproject(const std::array<double, 16>& m, double ndcX, double ndcY, double ndcZ, double world[3])
+{
+  vtkNew<vtkMatrix4x4> a;
+  for (int r = 0; r < 4; ++r)
+  {
+    for (int c = 0; c < 4; ++c)
+    {
+      a->SetElement(r, c, m[size_t(4 * c + r)]);
+    }
+  }
+  if (a->Determinant() == 0.0)
+  {
+    return false;
+  }
+  a->Invert();
+  const double in[4] = { ndcX, ndcY, ndcZ, 1.0 };
+  double out[4];
+  a->MultiplyPoint(in, out);
+  if (out[3] == 0.0)
+  {
+    return false;
+  }
+  for (int i = 0; i < 3; ++i)
+  {
+    world[i] = out[i] / out[3];
+  }
+  return true;
+}
+
+} // namespace
+
+std::string vtkCSGVVolumeProp::Query(const std::string& request, vtkImageData* image)
+{
+  using nlohmann::json;
+  Impl& p = *this->P;
+  std::istringstream in(request);
+  std::string what;
+  in >> what;
+
+  // The source: the one this prop renders, else the image resolved now.
+  csgvrep::VolumeSource source = p.View.source();
+  vtkImageData* input = p.Input;
+  std::string sourceError;
+  if (!source.shared)
+  {
+    input = p.Input ? p.Input.GetPointer() : image;
+    sourceError = csgvrep::resolveInput(input, p.LabelArray, source);
+  }
+  std::shared_ptr<const csgv::AttributeTable> table;
+  std::string tableError = sourceError;
+  if (source.shared)
+  {
+    table = p.Attributes.get(input, source, p.Config, tableError);
+  }
+
+  if (what == "summary")
+  {
+    return csgvrep::attributeSummary(
+      table.get(), source.shared.get(), source.shared ? source.shared->arrayName : std::string(), tableError);
+  }
+  if (what == "colors")
+  {
+    size_t cap = 4096;
+    in >> cap;
+    if (!source.shared)
+    {
+      return json({ { "error", sourceError } }).dump();
+    }
+    if (!p.MaterialsValid)
+    {
+      return json({ { "error", "the materials are not valid" } }).dump();
+    }
+    return csgvrep::labelColorsJson(p.Doc, table.get(), *source.shared, cap);
+  }
+  const csgv::gpu::FrameOutput& out = p.View.output();
+  if (what == "labels")
+  {
+    // "W H base64(uint32 little-endian labels, row 0 at the bottom)" of the last render.
+    std::ostringstream o;
+    o << out.width << " " << out.height << " "
+      << base64(reinterpret_cast<const uint8_t*>(out.label.data()), out.label.size() * 4);
+    return o.str();
+  }
+  if (what == "pick")
+  {
+    long x = -1, y = -1;
+    in >> x >> y;
+    json r = { { "hit", false } };
+    if (x < 0 || y < 0 || size_t(x) >= out.width || size_t(y) >= out.height || out.label.empty())
+    {
+      r["error"] = "no rendered pixel there";
+      return r.dump();
+    }
+    const size_t i = size_t(y) * out.width + size_t(x);
+    const uint32_t label = out.label[i];
+    if (label == csgv::kInvalidLabel)
+    {
+      return r.dump();
+    }
+    r["hit"] = true;
+    r["label"] = label;
+    const csgv::Geometry& g = source.corner;
+    const double nx = (double(x) + 0.5) / out.width * 2.0 - 1.0;
+    const double ny = (double(y) + 0.5) / out.height * 2.0 - 1.0;
+    double nearP[3], hitP[3];
+    const std::array<double, 16>& m = p.View.lastMatrix();
+    if (source.shared && unproject(m, nx, ny, -1.0, nearP) &&
+      unproject(m, nx, ny, 2.0 * out.hitDepth[i] - 1.0, hitP))
+    {
+      double dir[3] = { hitP[0] - nearP[0], hitP[1] - nearP[1], hitP[2] - nearP[2] };
+      const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+      if (len > 0 && i < out.distance.size() && std::isfinite(out.distance[i]) && out.distance[i] > 0)
+      {
+        // The world distance is more precise than window depth far from the camera.
+        for (int k = 0; k < 3; ++k)
+        {
+          hitP[k] = nearP[k] + dir[k] / len * double(out.distance[i]);
+        }
+      }
+      // Index coordinates: world = origin + D (idx * spacing).
+      vtkNew<vtkMatrix3x3> d;
+      for (int k = 0; k < 9; ++k)
+      {
+        d->SetElement(k / 3, k % 3, g.direction[size_t(k)]);
+      }
+      d->Invert();
+      const double rel[3] = { hitP[0] - g.origin[0], hitP[1] - g.origin[1], hitP[2] - g.origin[2] };
+      double idx[3];
+      d->MultiplyPoint(rel, idx);
+      const csgv::Face face = i < out.face.size() ? out.face[i] : csgv::Face::None;
+      json voxel = json::array();
+      for (int k = 0; k < 3; ++k)
+      {
+        idx[k] /= g.spacing[size_t(k)];
+        long v = long(std::floor(idx[k]));
+        // On the entry face the coordinate is an integer: the face says which side is the voxel.
+        if (face == csgv::Face(1 + 2 * k))
+        {
+          v = long(std::lround(idx[k]));
+        }
+        else if (face == csgv::Face(2 + 2 * k))
+        {
+          v = long(std::lround(idx[k])) - 1;
+        }
+        const long dim = long(source.shared->volume.dim[size_t(k)]);
+        voxel.push_back(std::max(0L, std::min(dim - 1, v)));
+      }
+      r["voxel"] = voxel;
+      r["world"] = { hitP[0], hitP[1], hitP[2] };
+    }
+    r["attributes"] = json::parse(csgvrep::labelAttributesJson(table.get(), int64_t(label)));
+    if (!tableError.empty())
+    {
+      r["error"] = tableError;
+    }
+    return r.dump();
+  }
+  return json({ { "error", "unknown query '" + what + "'" } }).dump();
 }

@@ -36,6 +36,7 @@ class vtkWindow;
 
 namespace csgvrep
 {
+struct AttributeConfig;
 struct ViewSettings;
 }
 
@@ -52,6 +53,12 @@ public:
   void SetViewSettings(const csgvrep::ViewSettings& settings);
   /// The material document (MATERIALS.md); errors are reported and nothing is drawn.
   void SetMaterials(const std::string& json);
+  /// Where per-label attributes come from besides the input's FieldData (vtkCSGVAttributes.h).
+  void SetAttributeConfig(const csgvrep::AttributeConfig& config);
+
+  /// Answers a query of vtkCSGVQuery (JSON or text, see vtkCSGVQuery.h): "summary",
+  /// "pick X Y", "labels", "colors N". `image` is used when nothing was rendered yet.
+  std::string Query(const std::string& request, vtkImageData* image);
 
   double* GetBounds() override;
   using vtkProp3D::GetBounds;

@@ -1,0 +1,151 @@
+# SPDX-License-Identifier: MIT
+"""pvpython helpers for the Segmentation Volume representation of the CSGV plugin: questions
+answered where the volume renders (also on a pvserver), hiding and isolating labels in the
+material document, and the materials' colours as a categorical lookup table.
+
+    import sys; sys.path.append("<repository>/Examples")
+    import csgv_tools
+    d = Show(reader)                     # a Segmentation Volume display
+    csgv_tools.attribute_summary(d)      # attribute names and ranges
+    csgv_tools.pick(d, view, 100, 80)    # label, voxel, attributes under pixel (100, 80)
+    d.CSGVMaterials = csgv_tools.hide_label(d.CSGVMaterials, 42)
+    csgv_tools.apply_label_colors(d, slice_display)   # same colours and region names on a Slice
+
+The questions go through the server-manager proxy misc/CSGVQuery (Representation/vtkCSGVQuery.h).
+"""
+import base64
+import json
+
+from paraview import servermanager as sm
+
+DEFAULT_DOCUMENT = {"version": 1, "materials": [
+    {"name": "all", "filter": {"attribute": "label", "min": 1, "max": 4294967294},
+     "color": {"mode": "random"}}]}
+
+
+def _smproxy(display):
+    return display.SMProxy if hasattr(display, "SMProxy") else display
+
+
+def query(display, request):
+    """The text answer of a request ("summary", "pick X Y", "labels", "colors N")."""
+    # The composite representation exposes the subproxy's own property objects: their parent is
+    # the Segmentation Volume subproxy (GetSubProxy is not public).
+    sub = _smproxy(display).GetProperty("CSGVMaterials").GetParent()
+    pxm = sm.ProxyManager().SMProxyManager
+    q = pxm.NewProxy("misc", "CSGVQuery")
+    sm.vtkSMPropertyHelper(q, "Representation").Set(sub)
+    sm.vtkSMPropertyHelper(q, "Request").Set(request)
+    q.UpdateVTKObjects()
+    q.UpdatePropertyInformation()
+    return sm.vtkSMPropertyHelper(q, "Result").GetAsString()
+
+
+def attribute_summary(display):
+    """{"attributes": [{"name", "numeric", "min", "max"}...], "labels", "labelArray", "error"}."""
+    return json.loads(query(display, "summary"))
+
+
+def pick(display, x, y):
+    """What the last render shows at pixel (x, y) of the view (row 0 at the bottom):
+    {"hit", "label", "voxel", "world", "attributes"}."""
+    return json.loads(query(display, "pick %d %d" % (x, y)))
+
+
+def label_image(display):
+    """The last render's label image as a numpy uint32 array (rows, columns), row 0 at the
+    bottom; 0xFFFFFFFF where no opaque voxel was hit."""
+    import numpy as np
+    w, h, data = query(display, "labels").split(" ", 2)
+    w, h = int(w), int(h)
+    a = np.frombuffer(base64.b64decode(data), dtype="<u4") if w * h else np.zeros(0, "<u4")
+    return a.reshape(h, w)
+
+
+def label_colors(display, max_labels=4096):
+    """{"labels": [[label, r, g, b, name]...], "truncated", "text"}: each label's material colour."""
+    return json.loads(query(display, "colors %d" % max_labels))
+
+
+def _document(text):
+    text = (text or "").strip()
+    return json.loads(text) if text else json.loads(json.dumps(DEFAULT_DOCUMENT))
+
+
+def hide_label(materials_text, label):
+    """The material document with `label` hidden: materials filtering on `label` are split around
+    it (the volume keeps its opaque pass); for materials filtering on another attribute a first
+    material takes the label with opacity 0."""
+    doc = _document(materials_text)
+    out = []
+    needs_hidden = False
+    for m in doc.get("materials", []):
+        f = m.get("filter", {"attribute": "label", "min": 1, "max": 4294967294})
+        lo, hi = f.get("min", 1), f.get("max", 4294967294)
+        if f.get("attribute", "label") == "label":
+            if lo <= label <= hi:
+                for a, b, tag in ((lo, label - 1, " <"), (label + 1, hi, " >")):
+                    if a <= b:
+                        c = json.loads(json.dumps(m))
+                        c["filter"] = {"attribute": "label", "min": a, "max": b}
+                        c["name"] = m.get("name", "") + tag
+                        out.append(c)
+                continue
+        else:
+            needs_hidden = True
+        out.append(m)
+    if needs_hidden:
+        out.insert(0, {"name": "hidden %d" % label, "filter": {"attribute": "label", "min": label, "max": label},
+                       "color": {"mode": "constant", "rgb": [0, 0, 0]}, "opacity": 0})
+    doc["materials"] = out
+    return json.dumps(doc)
+
+
+def show_only_label(materials_text, label, attribute=lambda name: None):
+    """The material document with only `label` visible, in the colour mode of the material that
+    takes it now (the first whose filter holds it; `attribute(name)` gives the label's value of
+    an attribute for non-label filters)."""
+    doc = _document(materials_text)
+    for m in doc.get("materials", []):
+        f = m.get("filter", {"attribute": "label", "min": 1, "max": 4294967294})
+        name = f.get("attribute", "label")
+        v = label if name == "label" else attribute(name)
+        if v is not None and f.get("min", 1) <= v <= f.get("max", 4294967294):
+            c = json.loads(json.dumps(m))
+            c["filter"] = {"attribute": "label", "min": label, "max": label}
+            doc["materials"] = [c]
+            return json.dumps(doc)
+    doc["materials"] = [{"name": "label %d" % label, "filter": {"attribute": "label", "min": label, "max": label}}]
+    return json.dumps(doc)
+
+
+def apply_label_colors(display, target_display=None, array=None, max_labels=4096):
+    """Makes ParaView's lookup table of the label array categorical, with each label's material
+    colour and its name (a text attribute such as `name`) as annotation, so a Slice or Threshold
+    of the same data (target_display, coloured by the array) shows the volume's colours and its
+    legend lists region names. Returns the lookup-table proxy."""
+    from paraview import simple
+    colors = label_colors(display, max_labels)
+    if "error" in colors:
+        raise RuntimeError(colors["error"])
+    name = array or attribute_summary(display).get("labelArray") or "Labels"
+    lut = simple.GetColorTransferFunction(name)
+    lut.InterpretValuesAsCategories = 1
+    annotations, indexed = [], []
+    for label, r, g, b, text in colors["labels"]:
+        annotations += [str(label), text or str(label)]
+        indexed += [r, g, b]
+    lut.Annotations = annotations
+    lut.IndexedColors = indexed
+    if target_display is not None:
+        simple.ColorBy(target_display, ("CELLS" if _is_cell_array(target_display, name) else "POINTS", name))
+        target_display.LookupTable = lut
+    return lut
+
+
+def _is_cell_array(display, name):
+    try:
+        info = display.Input.GetDataInformation().DataInformation
+        return info.GetAttributeInformation(1).GetArrayInformation(name) is not None
+    except Exception:
+        return True

@@ -1,0 +1,433 @@
+// SPDX-License-Identifier: MIT
+#include "vtkCSGVAttributes.h"
+
+#include "vtkCSGVInternals.h" // the readers' FieldData layout (Readers/)
+
+#include <vtkDataArray.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkStringArray.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <set>
+
+namespace csgvrep
+{
+namespace
+{
+
+using nlohmann::json;
+
+bool endsWithNoCase(const std::string& s, const char* suffix)
+{
+  const size_t n = std::strlen(suffix);
+  if (s.size() < n)
+  {
+    return false;
+  }
+  for (size_t i = 0; i < n; ++i)
+  {
+    if (std::tolower(static_cast<unsigned char>(s[s.size() - n + i])) != suffix[i])
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+bool isSqlite(const std::string& path)
+{
+  return endsWithNoCase(path, ".db3") || endsWithNoCase(path, ".sqlite") ||
+    endsWithNoCase(path, ".sqlite3") || endsWithNoCase(path, ".db");
+}
+
+/// The table of the input's `CSGVAttribute:*` arrays (indexed by stored id), keyed by label.
+std::string fieldDataTable(vtkImageData* image, const SharedVolume& volume, csgv::AttributeTable& out)
+{
+  vtkFieldData* fd = image ? image->GetFieldData() : nullptr;
+  if (!fd)
+  {
+    return std::string();
+  }
+  const size_t prefix = std::strlen(csgvvtk::kAttributePrefix);
+  std::vector<vtkAbstractArray*> arrays;
+  for (int i = 0; i < fd->GetNumberOfArrays(); ++i)
+  {
+    vtkAbstractArray* a = fd->GetAbstractArray(i);
+    if (a && a->GetName() && std::strncmp(a->GetName(), csgvvtk::kAttributePrefix, prefix) == 0 &&
+      a->GetNumberOfComponents() == 1)
+    {
+      arrays.push_back(a);
+    }
+  }
+  if (arrays.empty())
+  {
+    return std::string();
+  }
+  // Ids of the stored volume: its label map, else the labels themselves.
+  size_t ids = size_t(arrays[0]->GetNumberOfTuples());
+  std::vector<int64_t> labels(ids);
+  for (size_t i = 0; i < ids; ++i)
+  {
+    labels[i] = i < volume.idToLabel.size() ? volume.idToLabel[i] : int64_t(i);
+  }
+  csgv::Result<csgv::AttributeTable> t = csgv::AttributeTable::fromLabels(labels);
+  if (!t)
+  {
+    return "attribute database: " + t.message();
+  }
+  csgv::AttributeTable table = std::move(*t);
+  for (vtkAbstractArray* a : arrays)
+  {
+    if (size_t(a->GetNumberOfTuples()) != ids)
+    {
+      continue; // not of this volume's ids
+    }
+    csgv::AttributeColumn c;
+    c.name = a->GetName() + prefix;
+    if (c.name == "label" || table.hasColumn(c.name))
+    {
+      continue;
+    }
+    const size_t rows = table.rowCount();
+    if (auto* s = vtkStringArray::SafeDownCast(a))
+    {
+      c.numeric = false;
+      c.text.assign(rows, std::string());
+      for (size_t i = 0; i < ids; ++i)
+      {
+        c.text[size_t(table.rowOf(labels[i]))] = s->GetValue(vtkIdType(i));
+      }
+    }
+    else if (auto* d = vtkDataArray::SafeDownCast(a))
+    {
+      c.values.assign(rows, std::numeric_limits<double>::quiet_NaN());
+      for (size_t i = 0; i < ids; ++i)
+      {
+        c.values[size_t(table.rowOf(labels[i]))] = d->GetComponent(vtkIdType(i), 0);
+      }
+    }
+    else
+    {
+      continue;
+    }
+    csgv::Status s = table.addColumn(std::move(c));
+    if (!s)
+    {
+      return "attribute database: " + s.message();
+    }
+  }
+  out = std::move(table);
+  return std::string();
+}
+
+std::string buildTable(vtkImageData* image, const VolumeSource& source, const AttributeConfig& config,
+  csgv::AttributeTable& table)
+{
+  SharedVolume& volume = *source.shared;
+  std::string error = fieldDataTable(image, volume, table);
+  if (!error.empty())
+  {
+    return error;
+  }
+  csgv::Status s;
+  for (const std::string& path : config.files)
+  {
+    if (path.empty())
+    {
+      continue;
+    }
+    csgv::Result<csgv::AttributeTable> t = isSqlite(path) ? csgv::readSqliteTable(path) : csgv::readCsv(path);
+    if (!t)
+    {
+      return t.message().find(path) == std::string::npos ? path + ": " + t.message() : t.message();
+    }
+    if (!(s = table.merge(*t, csgv::AttributeTable::OnConflict::Replace)))
+    {
+      return path + ": " + s.message();
+    }
+  }
+  if (config.computed)
+  {
+    std::shared_ptr<const csgv::AttributeTable> computed;
+    {
+      std::lock_guard<std::mutex> lock(volumeMutex());
+      computed = volume.computed;
+    }
+    if (!computed)
+    {
+      csgv::ComputeAttributesOptions options;
+      if (!volume.idToLabel.empty())
+      {
+        options.idToLabel = &volume.idToLabel;
+      }
+      csgv::Result<csgv::AttributeTable> t = csgv::computeAttributes(volume.volume, options);
+      if (!t)
+      {
+        return "computing attributes: " + t.message();
+      }
+      computed = std::make_shared<const csgv::AttributeTable>(std::move(*t));
+      std::lock_guard<std::mutex> lock(volumeMutex());
+      volume.computed = computed;
+    }
+    if (!(s = table.merge(*computed, csgv::AttributeTable::OnConflict::Replace)))
+    {
+      return "computed attributes: " + s.message();
+    }
+  }
+  for (const auto& d : config.derived)
+  {
+    if (d.first.empty())
+    {
+      continue;
+    }
+    if (!(s = csgv::addDerivedAttribute(table, d.first, d.second, true)))
+    {
+      return "derived attribute '" + d.first + "': " + s.message();
+    }
+  }
+  return std::string();
+}
+
+json numberOrNull(double v)
+{
+  return std::isfinite(v) ? json(v) : json(nullptr);
+}
+
+/// The text column shown as a label's name: `name` when it exists, else the first text column.
+const csgv::AttributeColumn* nameColumn(const csgv::AttributeTable* table)
+{
+  if (!table)
+  {
+    return nullptr;
+  }
+  if (const csgv::AttributeColumn* c = table->column("name"))
+  {
+    if (!c->numeric)
+    {
+      return c;
+    }
+  }
+  for (const csgv::AttributeColumn& c : table->columns())
+  {
+    if (!c.numeric)
+    {
+      return &c;
+    }
+  }
+  return nullptr;
+}
+
+} // namespace
+
+std::shared_ptr<const csgv::AttributeTable> AttributeCache::get(
+  vtkImageData* image, const VolumeSource& source, const AttributeConfig& config, std::string& error)
+{
+  error.clear();
+  if (!source.shared)
+  {
+    error = "no input";
+    return nullptr;
+  }
+  const vtkMTimeType fieldTime = image && image->GetFieldData() ? image->GetFieldData()->GetMTime() : 0;
+  if (this->Valid && this->Volume == source.shared.get() && this->FieldTime == fieldTime &&
+    this->Config == config)
+  {
+    error = this->Error;
+    return this->Table;
+  }
+  auto table = std::make_shared<csgv::AttributeTable>();
+  this->Error = buildTable(image, source, config, *table);
+  this->Table = this->Error.empty() ? std::shared_ptr<const csgv::AttributeTable>(table) : nullptr;
+  this->Volume = source.shared.get();
+  this->FieldTime = fieldTime;
+  this->Config = config;
+  this->Valid = true;
+  error = this->Error;
+  return this->Table;
+}
+
+std::vector<uint32_t> storedLabels(const csgv::CompressedVolume& volume, size_t cap, bool& truncated)
+{
+  std::set<uint32_t> seen;
+  truncated = false;
+  const uint32_t L = volume.levels();
+  for (uint64_t b = 0; b < volume.brickCount(); ++b)
+  {
+    const csgv::BrickWords bw = volume.brick(b);
+    for (uint32_t k = 0; k < bw.words[L]; ++k)
+    {
+      seen.insert(bw.words[bw.size - 1 - k]);
+      if (seen.size() > cap)
+      {
+        truncated = true;
+        seen.erase(std::prev(seen.end()));
+      }
+    }
+  }
+  return std::vector<uint32_t>(seen.begin(), seen.end());
+}
+
+int64_t originalLabel(const SharedVolume& volume, uint32_t stored)
+{
+  return stored < volume.idToLabel.size() ? volume.idToLabel[stored] : int64_t(stored);
+}
+
+std::string denseColumns(const csgv::AttributeTable& table, const SharedVolume& volume,
+  const std::vector<std::string>& names, std::map<std::string, std::vector<float>>& out)
+{
+  out.clear();
+  uint64_t labelCount = 0;
+  for (const std::string& n : names)
+  {
+    if (n == "label")
+    {
+      continue;
+    }
+    if (!table.hasColumn(n))
+    {
+      std::string available = "label";
+      for (const std::string& c : table.columnNames())
+      {
+        if (c != "label")
+        {
+          available += ", " + c;
+        }
+      }
+      return "the materials name attribute '" + n + "', which the volume does not have (attributes: " +
+        available + ")";
+    }
+    csgv::Result<std::vector<float>> v = std::vector<float>();
+    if (!volume.idToLabel.empty())
+    {
+      v = table.denseFloatColumnForIds(n, volume.idToLabel);
+    }
+    else
+    {
+      if (labelCount == 0)
+      {
+        bool truncated = false;
+        const std::vector<uint32_t> labels = storedLabels(volume.volume, size_t(1) << 26, truncated);
+        labelCount = labels.empty() ? 1 : uint64_t(labels.back()) + 1;
+        if (labelCount > (uint64_t(1) << 26))
+        {
+          return "labels go up to " + std::to_string(labelCount - 1) +
+            ": too large to index attribute arrays (relabel the volume)";
+        }
+      }
+      v = table.denseFloatColumn(n, labelCount);
+    }
+    if (!v)
+    {
+      return "attribute '" + n + "': " + v.message();
+    }
+    out[n] = std::move(*v);
+  }
+  return std::string();
+}
+
+std::string attributeSummary(const csgv::AttributeTable* table, const SharedVolume* volume,
+  const std::string& labelArray, const std::string& error)
+{
+  json doc;
+  json attrs = json::array();
+  double lo = std::numeric_limits<double>::quiet_NaN(), hi = lo;
+  size_t count = 0;
+  if (volume)
+  {
+    bool truncated = false;
+    for (uint32_t s : storedLabels(volume->volume, size_t(1) << 22, truncated))
+    {
+      const double l = double(originalLabel(*volume, s));
+      lo = std::isnan(lo) ? l : std::min(lo, l);
+      hi = std::isnan(hi) ? l : std::max(hi, l);
+      ++count;
+    }
+  }
+  attrs.push_back({ { "name", "label" }, { "numeric", true }, { "min", numberOrNull(lo) },
+    { "max", numberOrNull(hi) } });
+  if (table)
+  {
+    for (const csgv::AttributeColumn& c : table->columns())
+    {
+      if (c.name == "label")
+      {
+        continue;
+      }
+      json a = { { "name", c.name }, { "numeric", c.numeric } };
+      if (c.numeric)
+      {
+        csgv::Result<std::array<double, 2>> r = table->range(c.name);
+        a["min"] = r ? numberOrNull((*r)[0]) : json(nullptr);
+        a["max"] = r ? numberOrNull((*r)[1]) : json(nullptr);
+      }
+      attrs.push_back(a);
+    }
+  }
+  doc["attributes"] = attrs;
+  doc["labels"] = count;
+  doc["labelArray"] = labelArray;
+  doc["error"] = error;
+  return doc.dump();
+}
+
+std::string labelAttributesJson(const csgv::AttributeTable* table, int64_t label)
+{
+  json o = json::object();
+  if (table)
+  {
+    for (const csgv::AttributeColumn& c : table->columns())
+    {
+      if (c.name == "label")
+      {
+        continue;
+      }
+      if (c.numeric)
+      {
+        o[c.name] = numberOrNull(table->value(c.name, label));
+      }
+      else
+      {
+        o[c.name] = table->text(c.name, label);
+      }
+    }
+  }
+  return o.dump();
+}
+
+std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::AttributeTable* table,
+  const SharedVolume& volume, size_t cap)
+{
+  csgv::AttributeTable empty;
+  const csgv::AttributeTable& t = table ? *table : empty;
+  csgv::MaterialEvaluator evaluator(doc, t.attributeFunction());
+  const csgv::AttributeColumn* names = nameColumn(table);
+  bool truncated = false;
+  json labels = json::array();
+  for (uint32_t s : storedLabels(volume.volume, cap, truncated))
+  {
+    const int64_t label = originalLabel(volume, s);
+    if (label < 0 || label > int64_t(0xFFFFFFFEll))
+    {
+      continue;
+    }
+    const int m = evaluator.materialOf(uint32_t(label));
+    if (m < 0)
+    {
+      continue;
+    }
+    const std::array<float, 3> c = evaluator.colorOf(uint32_t(label), m);
+    labels.push_back({ label, c[0], c[1], c[2], names ? t.text(names->name, label) : std::string() });
+  }
+  json o = { { "labels", labels }, { "truncated", truncated },
+    { "text", names ? names->name : std::string() } };
+  return o.dump();
+}
+
+} // namespace csgvrep

@@ -1,0 +1,94 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @file vtkCSGVAttributes.h
+ * @brief Per-label attributes of the "Segmentation Volume" representation: the table behind
+ * materials, picking and the colour export, built from the input's `CSGVAttribute:*` FieldData
+ * arrays (the reader's `_csgv.db3` columns), attribute files the user loads (CSV, whitespace
+ * tables, SQLite), computed attributes (Core's computeAttributes, once per volume) and derived
+ * attributes (SQL expressions), in that order, later sources replacing columns of the same name.
+ *
+ * The table is keyed by original label (Core's AttributeTable); the renderer gets dense float
+ * arrays indexed by the value the volume stores (ids of relabelled volumes).
+ *
+ * Not a wrapped header: Core types appear here.
+ */
+#ifndef vtkCSGVAttributes_h
+#define vtkCSGVAttributes_h
+
+#include "vtkCSGVBackend.h"
+
+#include "csgv/Attributes.h"
+
+#include <vtkType.h>
+
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+class vtkImageData;
+
+namespace csgvrep
+{
+
+/// @brief What the representation's attribute properties say.
+struct AttributeConfig
+{
+  std::vector<std::string> files;                           ///< CSV/TXT/SQLite paths
+  std::vector<std::pair<std::string, std::string>> derived; ///< name, SQL expression
+  bool computed = false;
+  bool operator==(const AttributeConfig& o) const
+  {
+    return files == o.files && derived == o.derived && computed == o.computed;
+  }
+  bool operator!=(const AttributeConfig& o) const { return !(*this == o); }
+};
+
+/// @brief The attribute table of one input under one configuration, rebuilt only when the
+/// volume, its FieldData or the configuration change.
+class AttributeCache
+{
+public:
+  /// The table (nullptr with `error` set when a source failed).
+  std::shared_ptr<const csgv::AttributeTable> get(
+    vtkImageData* image, const VolumeSource& source, const AttributeConfig& config, std::string& error);
+
+private:
+  const SharedVolume* Volume = nullptr;
+  vtkMTimeType FieldTime = 0;
+  AttributeConfig Config;
+  std::shared_ptr<const csgv::AttributeTable> Table;
+  std::string Error;
+  bool Valid = false;
+};
+
+/// Dense float arrays, indexed by stored label, of the named attributes (`label` skipped).
+/// Returns an error message or "".
+std::string denseColumns(const csgv::AttributeTable& table, const SharedVolume& volume,
+  const std::vector<std::string>& names, std::map<std::string, std::vector<float>>& out);
+
+/// Distinct stored labels of the volume (from the finest brick palettes, no decoding),
+/// ascending, at most `cap` (truncated says whether there were more).
+std::vector<uint32_t> storedLabels(const csgv::CompressedVolume& volume, size_t cap, bool& truncated);
+
+/// The original label of a stored value.
+int64_t originalLabel(const SharedVolume& volume, uint32_t stored);
+
+/// JSON: {"attributes": [{"name", "numeric", "min", "max"}...], "error": "..."}; `label` first,
+/// its range from the volume's palettes.
+std::string attributeSummary(const csgv::AttributeTable* table, const SharedVolume* volume,
+  const std::string& labelArray, const std::string& error);
+
+/// JSON object {name: number|text|null} of one label's attributes.
+std::string labelAttributesJson(const csgv::AttributeTable* table, int64_t label);
+
+/// JSON: {"labels": [[label, r, g, b, "text"], ...], "truncated": bool, "text": "name"}: the
+/// colour each label present in the volume takes under the materials (labels no material takes
+/// are left out), with the first text attribute (`name` preferred) as annotation.
+std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::AttributeTable* table,
+  const SharedVolume& volume, size_t cap);
+
+} // namespace csgvrep
+
+#endif
