@@ -121,7 +121,7 @@ struct Renderer::Impl {
     Geometry geometry;
     uint32_t width = 0, height = 0;
     uint32_t maxRequests = 0;
-    uint32_t pixelBlock = 1;          // resolve.comp's PIXEL_BLOCK
+    uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     Mat4 lastWorldToClip{};
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
     uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
@@ -199,7 +199,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("BRICK_GRID", uvec3Of(v.brickGrid()));
     d.emplace_back("BRICKS_PER_ARRAY", std::to_string(v.bricksPerArray) + "u");
     d.emplace_back("CACHE_BITS", std::to_string(volume->cacheBits()));
-    // Pixels per resolve invocation along each axis: CPU devices pay per invocation.
+    // Pixels per render and resolve invocation along each axis: CPU devices pay per invocation.
     im.pixelBlock = context.device().type == "cpu" ? 2 : 1;
     d.emplace_back("PIXEL_BLOCK", std::to_string(im.pixelBlock) + "u");
     struct Shader {
@@ -563,7 +563,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         d.groups[1] = std::max(gy, 1u);
         list.push_back(d);
     };
-    const uint32_t tile = 16 * im.pixelBlock; // resolve.comp: 16x16 invocations of PIXEL_BLOCK^2 pixels
+    const uint32_t tile = 16 * im.pixelBlock; // 16x16 invocations of PIXEL_BLOCK^2 pixels
     const uint32_t gx = (in.width + tile - 1) / tile, gy = (in.height + tile - 1) / tile;
     auto resolve = [&](uint32_t pass, uint32_t src, uint32_t dst) {
         resolvePushes.push_back({frameAddress, pass, src, dst, 0});
@@ -578,7 +578,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
                                            im.decodeStates.address(), im.maxRequests, im.frameDecode, list)))
         return s;
     const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
-    add(renderPipeline, &frameAddress, 8, (rw + 15) / 16, (rh + 15) / 16);
+    add(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
     // Denoising is for the noise of the stochastic modes; it fades out as samples accumulate and
     // is skipped once every pixel has 64.
     const bool denoise = st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing) &&
