@@ -603,6 +603,7 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request, vtkImageData* i
     }
     r["hit"] = true;
     r["label"] = label;
+    r["depth"] = i < out.hitDepth.size() ? double(out.hitDepth[i]) : 1.0;
     const csgv::Geometry& g = source.corner;
     const double nx = (double(x) + 0.5) / out.width * 2.0 - 1.0;
     const double ny = (double(y) + 0.5) / out.height * 2.0 - 1.0;

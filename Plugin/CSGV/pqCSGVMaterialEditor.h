@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class pqCSGVMaterialEditor
+ * @brief The material editor of the Segmentation Volume representation: a property-group widget
+ * (panel_widget "csgv_material_editor") over CSGVMaterials, CSGVAttributeFiles,
+ * CSGVDerivedAttributes and CSGVComputedAttributes.
+ *
+ * It edits the same server-manager properties pvpython sets (through pqPropertyLinks), so undo
+ * and redo, state files and Python trace work and every edit shows at once (display properties
+ * apply immediately). Attribute names and data ranges come from the rendering process through
+ * misc/CSGVQuery, so the editor also works when the data lives on a pvserver.
+ *
+ * Every widget has a stable objectName (for tests and recorded event files): materialList,
+ * addMaterial, removeMaterial, duplicateMaterial, moveMaterialUp, moveMaterialDown,
+ * materialName, filterAttribute, filterMin, filterMax, filterRange, colorMode, colorButton,
+ * colorHex, colormapName, choosePreset, colorAttribute, colorMin, colorMax, colorRange,
+ * wrapMode, opacity, emission, loadAttributes, clearAttributes, attributeFiles,
+ * computedAttributes, derivedAttributes, applyDerived, refreshAttributes, exportColors, status.
+ */
+#ifndef pqCSGVMaterialEditor_h
+#define pqCSGVMaterialEditor_h
+
+#include "pqPropertyWidget.h"
+
+#include <QJsonObject>
+#include <QMap>
+#include <QPair>
+#include <QStringList>
+
+class QCheckBox;
+class QComboBox;
+class QDoubleSpinBox;
+class QGroupBox;
+class QLabel;
+class QLineEdit;
+class QListWidget;
+class QPlainTextEdit;
+class QPushButton;
+class pqColorChooserButton;
+class vtkSMPropertyGroup;
+
+class pqCSGVMaterialEditor : public pqPropertyWidget
+{
+  Q_OBJECT
+  Q_PROPERTY(QString materials READ materials WRITE setMaterials NOTIFY materialsChanged)
+  Q_PROPERTY(QStringList attributeFiles READ attributeFiles WRITE setAttributeFiles NOTIFY
+      attributeFilesChanged)
+  Q_PROPERTY(QStringList derivedAttributes READ derivedAttributes WRITE setDerivedAttributes
+      NOTIFY derivedAttributesChanged)
+  typedef pqPropertyWidget Superclass;
+
+public:
+  pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup* group, QWidget* parent = nullptr);
+  ~pqCSGVMaterialEditor() override;
+
+  QString materials() const;
+  QStringList attributeFiles() const { return this->Files; }
+  QStringList derivedAttributes() const { return this->Derived; }
+  /// Index of the material shown in the details (-1: none).
+  int currentMaterial() const;
+
+public Q_SLOTS:
+  void setMaterials(const QString& text);
+  void setAttributeFiles(const QStringList& files);
+  void setDerivedAttributes(const QStringList& pairs);
+  /// Asks the rendering process for attribute names and ranges again.
+  void refreshAttributes();
+
+  void addMaterial();
+  void removeMaterial();
+  void duplicateMaterial();
+  void moveMaterialUp();
+  void moveMaterialDown();
+  void loadAttributes();
+  void clearAttributes();
+  void choosePreset();
+  void exportColors();
+
+Q_SIGNALS:
+  void materialsChanged();
+  void attributeFilesChanged();
+  void derivedAttributesChanged();
+
+protected:
+  void showEvent(QShowEvent* e) override;
+
+private Q_SLOTS:
+  void selectionChanged();
+  void detailsEdited();
+  void colorChosen();
+  void hexEdited();
+  void applyDerived();
+
+private:
+  void commit(const QString& undoLabel);
+  void rebuildList(int select);
+  void showDetails();
+  void fillAttributeCombo(QComboBox* combo, const QString& current, bool numericOnly);
+  void updateRanges();
+
+  QJsonObject Doc;
+  bool DocValid = true;
+  QString Text; ///< the property's text as last set or committed
+  QStringList Files;
+  QStringList Derived;
+  /// name -> (numeric, [min, max]) from the rendering process
+  QMap<QString, QPair<bool, QPair<double, double>>> Attributes;
+  QStringList AttributeOrder;
+  bool Updating = false;
+
+  QListWidget* List;
+  QPushButton *Add, *Remove, *Duplicate, *Up, *Down;
+  QGroupBox* Details;
+  QLineEdit* Name;
+  QComboBox* FilterAttribute;
+  QLineEdit *FilterMin, *FilterMax;
+  QLabel* FilterRange;
+  QComboBox* ColorMode;
+  pqColorChooserButton* ColorButton;
+  QLineEdit* ColorHex;
+  QLineEdit* ColormapName;
+  QPushButton* PresetButton;
+  QComboBox* ColorAttribute;
+  QLineEdit *ColorMin, *ColorMax;
+  QLabel* ColorRange;
+  QComboBox* Wrap;
+  QDoubleSpinBox* Opacity;
+  QDoubleSpinBox* Emission;
+  QLabel* FilesLabel;
+  QCheckBox* Computed;
+  QPlainTextEdit* DerivedEdit;
+  QLabel* Status;
+};
+
+#endif

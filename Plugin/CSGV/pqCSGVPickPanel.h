@@ -1,0 +1,75 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class pqCSGVPickPanel
+ * @brief Dock panel "Segmentation Pick": clicking (or, with "Follow mouse", hovering) on a
+ * Segmentation Volume in the active render view reports the original label under the cursor,
+ * its attributes (names and text included) and the voxel position, with "Hide this label" and
+ * "Show only this label" (edits of the representation's CSGVMaterials, undoable).
+ *
+ * ParaView's hardware selector does not see the volume (its prop draws no selection pass), so
+ * the pick reads the G-buffer of the volume's last render on the rendering process through
+ * misc/CSGVQuery ("pick X Y"): the label of the first opaque voxel per pixel, its entry face and
+ * distance, turned into a voxel index with the camera and the volume's geometry. Translucent
+ * materials are not picked (their labels are not in the G-buffer). The panel follows the active
+ * view; a click is a press and release within a few pixels (drags still rotate the camera).
+ *
+ * objectNames: pickEnabled, followMouse, pickResult, hideLabel, showOnlyLabel, showAllLabels.
+ */
+#ifndef pqCSGVPickPanel_h
+#define pqCSGVPickPanel_h
+
+#include <QDockWidget>
+#include <QJsonObject>
+#include <QPoint>
+#include <QPointer>
+
+class QCheckBox;
+class QPushButton;
+class QTextBrowser;
+class pqView;
+class vtkSMProxy;
+
+class pqCSGVPickPanel : public QDockWidget
+{
+  Q_OBJECT
+  typedef QDockWidget Superclass;
+
+public:
+  pqCSGVPickPanel(const QString& title, QWidget* parent = nullptr,
+    Qt::WindowFlags flags = Qt::WindowFlags());
+  pqCSGVPickPanel(QWidget* parent = nullptr);
+  ~pqCSGVPickPanel() override;
+
+  /// Picks at a pixel of the view (Qt widget coordinates, origin top left); true on a hit.
+  bool pickAt(const QPoint& widgetPos);
+  /// The last pick's answer (hit, label, voxel, world, attributes).
+  QJsonObject lastPick() const { return this->Last; }
+
+public Q_SLOTS:
+  void hideLabel();
+  void showOnlyLabel();
+  void showAllLabels();
+
+protected:
+  bool eventFilter(QObject* watched, QEvent* event) override;
+
+private Q_SLOTS:
+  void setView(pqView* view);
+
+private:
+  void build();
+  void editMaterials(const QString& label, int action);
+
+  QPointer<pqView> View;
+  QPointer<QWidget> ViewWidget;
+  QPoint PressPos;
+  bool Pressed = false;
+  QJsonObject Last;
+  vtkSMProxy* LastDisplay = nullptr;
+  QCheckBox* Enabled;
+  QCheckBox* Follow;
+  QTextBrowser* Result;
+  QPushButton *Hide, *ShowOnly, *ShowAll;
+};
+
+#endif
