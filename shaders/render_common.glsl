@@ -56,7 +56,8 @@ const uint A_VISIBLE = 18u;    // uint per brick: 1 when its palette holds a vis
 const uint A_ARRAYS = 19u;     // the encoding: uint64 address per array (cache paletting reads palettes)
 const uint A_STARTS = 20u;     // the encoding: brick start words
 const uint A_BLUE_NOISE = 21u; // 64x64 bytes of blue noise, four to a uint
-const uint A_COUNT = 22u;
+const uint A_MATERIAL_TABLE = 22u; // uint per stored label: its material (NONE), when labels are few
+const uint A_COUNT = 23u;
 
 // Alloc words.
 const uint AL_TOP = 0u;          // cache words handed out from the top
@@ -92,7 +93,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Fr
     uvec4 frame;        // x: frame index, y: flags, z: shading mode, w: sample target
     uvec4 image;        // x: W, y: H, z: subsampling stride, w: subsampling phase
     uvec4 limits;       // x: max requests per frame, y/z: pixels [y, z) that may request, w: max bounces
-    uvec4 counts;       // x: materials, y: bricks, z: labels with attributes, w: denoise pass step
+    uvec4 counts;       // x: materials, y: bricks, z: labels with attributes, w: material table size (0: none)
     uint64_t addr[A_COUNT];
 };
 
@@ -181,6 +182,8 @@ float attributeValue(Frame f, uint attr, uint label) {
 /// The first material whose filter holds the label, or NONE (invisible).
 uint materialOf(Frame f, uint label) {
     if (label == NONE) return NONE;
+    // Precomputed by the host with the same comparisons when the stored labels are few.
+    if (fv.counts.w != 0u) return label < fv.counts.w ? UintBuf(f.addr[A_MATERIAL_TABLE]).w[label] : NONE;
     MaterialBuf mats = MaterialBuf(f.addr[A_MATERIALS]);
     const uint n = fv.counts.x;
     for (uint i = 0u; i < n; ++i) {

@@ -22,7 +22,7 @@ enum Flags : uint32_t {
 };
 enum Slot : uint32_t {
     aBricks, aCache, aAlloc, aFree, aRequests, aDecodes, aAccum, aSamples, aGBuffer, aDepthIn, aMaterials, aColormaps,
-    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aArrays, aStarts, aBlueNoise, aCount
+    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aArrays, aStarts, aBlueNoise, aMaterialTable, aCount
 };
 enum AllocWord : uint32_t {
     alTop = 0, alCapacity = 1, alFull = 2, alDecodes = 3, alRequests = 4, alMinSamples = 5, alNewSamples = 6,
@@ -114,7 +114,8 @@ struct Renderer::Impl {
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
-    Buffer materials, colormaps, attributeTable, labelMap, blueNoise;
+    Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
+    uint32_t materialTableSize = 0;   // entries of materialTable (0: the shader scans the list)
     std::vector<Buffer> attributes;
     uint32_t materialCount = 0, labelCount = 0;
     bool hasLabelMap = false;
@@ -348,22 +349,43 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
 
     // Which bricks can show anything: their palettes against the materials, with the GPU's own
     // comparisons (integers for `label`, floats for attributes).
-    auto visibleLabel = [&](uint32_t stored) -> bool {
-        if (stored == kNone) return false;
-        for (const GpuMaterial& g : mats) {
+    auto materialOfLabel = [&](uint32_t stored) -> uint32_t {
+        if (stored == kNone) return kNone;
+        for (size_t i = 0; i < mats.size(); ++i) {
+            const GpuMaterial& g = mats[i];
             if (g.filter[0] == kNone) {
                 const uint32_t l = im.hasLabelMap && stored < labelCount ? storedToOriginal[stored] : stored;
-                if (l >= g.filter[1] && l <= g.filter[2]) return true;
+                if (l >= g.filter[1] && l <= g.filter[2]) return uint32_t(i);
             } else {
                 if (stored >= labelCount) continue;
                 const float v = attributes.at(attributeNames[g.filter[0]])[stored];
-                if (v >= g.range[0] && v <= g.range[1]) return true;
+                if (v >= g.range[0] && v <= g.range[1]) return uint32_t(i);
             }
         }
-        return false;
+        return kNone;
     };
     const CompressedVolume& vol = im.volume->volume();
     const uint32_t L = vol.levels();
+    // With few stored labels (up to 2^22), a table label -> material replaces the shader's scan
+    // of the material list.
+    uint32_t largest = 0;
+#pragma omp parallel for reduction(max : largest) schedule(dynamic, 64)
+    for (int64_t b = 0; b < int64_t(im.brickCount); ++b) {
+        const BrickWords bw = vol.brick(uint64_t(b));
+        for (uint32_t k = 0; k < bw.words[L]; ++k) largest = std::max(largest, bw.words[bw.size - 1 - k]);
+    }
+    std::vector<uint32_t> table;
+    if (largest < (1u << 22)) {
+        table.resize(size_t(largest) + 1);
+#pragma omp parallel for schedule(static, 4096)
+        for (int64_t l = 0; l < int64_t(table.size()); ++l) table[size_t(l)] = materialOfLabel(uint32_t(l));
+    }
+    if (!(s = upload(im.materialTable, table.data(), table.size() * 4))) return s;
+    im.materialTableSize = uint32_t(table.size());
+    auto visibleLabel = [&](uint32_t stored) {
+        if (!table.empty()) return stored < table.size() && table[stored] != kNone;
+        return materialOfLabel(stored) != kNone;
+    };
     std::vector<uint32_t> vis(im.brickCount, 0u);
 #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t b = 0; b < int64_t(im.brickCount); ++b) {
@@ -526,6 +548,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     p.counts[0] = im.materialCount;
     p.counts[1] = im.brickCount;
     p.counts[2] = im.labelCount;
+    p.counts[3] = im.materialTableSize;
     const std::pair<Slot, const Buffer*> slots[] = {
         {aBricks, &im.bricks},       {aCache, &im.cache},         {aAlloc, &im.alloc},         {aFree, &im.freeStacks},
         {aRequests, &im.requests},   {aDecodes, &im.decodes},     {aAccum, &im.accum},         {aSamples, &im.samples},
@@ -536,6 +559,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     p.addr[aArrays] = im.volume->arraysAddress();
     p.addr[aStarts] = im.volume->startsAddress();
     p.addr[aBlueNoise] = im.blueNoise.address();
+    p.addr[aMaterialTable] = im.materialTable.address();
 
     uint32_t* a = im.allocWords();
     a[alFull] = 0;
@@ -674,7 +698,8 @@ MemoryReport Renderer::memory() const {
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size()});
     r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorOut.size() + im.depthOut.size() + im.gbuffer.size() +
                                                                    im.depthIn.size()});
-    uint64_t attr = im.materials.size() + im.colormaps.size() + im.attributeTable.size() + im.labelMap.size();
+    uint64_t attr = im.materials.size() + im.colormaps.size() + im.attributeTable.size() + im.labelMap.size() +
+                    im.materialTable.size();
     for (const Buffer& b : im.attributes) attr += b.size();
     r.buffers.push_back({"materials and attributes", attr});
     return r;
