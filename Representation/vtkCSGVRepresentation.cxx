@@ -286,6 +286,12 @@ void vtkCSGVRepresentation::SetComputedAttributes(int on)
 
 const char* vtkCSGVRepresentation::Query(const char* request)
 {
+  if (!this->Cache && this->GetNumberOfInputConnections(0) > 0)
+  {
+    // Asked before the view updated this representation (attributes right after Show): bring
+    // the input here first. Queries run on the rendering processes only (vtkCSGVQuery).
+    this->Update();
+  }
   this->QueryResult = this->Prop->Query(request ? request : "", this->Cache);
   return this->QueryResult.c_str();
 }

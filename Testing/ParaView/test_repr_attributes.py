@@ -1,0 +1,182 @@
+# SPDX-License-Identifier: MIT
+"""Per-label attributes through the Segmentation Volume representation (issue 6, ParaView side):
+
+- hiding one label in the material document removes exactly that label from the label image
+  (the last G-buffer, read through misc/CSGVQuery): every other pixel keeps its label;
+- "show only this label" leaves only that label;
+- the Volcanite `_csgv.db3` beside a `.csgv` reaches the representation (its columns, ranges and
+  a material filtering on one of them);
+- computed attributes (voxel_count) drive a material and equal a numpy count;
+- picking: the label under a pixel equals the label image there, and its voxel holds that label;
+- AAL atlas: `aal.nii.txt` (label name code) imported as CSV with a derived hemisphere attribute
+  drives two materials (left opaque, right translucent); the screenshot is saved
+  (CSGV_TEST_OUTPUT or a temporary folder); the opaque label image holds only left regions;
+- the material colours exported as a categorical lookup table with region names colour a Slice
+  with the volume's colours."""
+import json
+import os
+import sys
+
+import numpy as np
+
+import csgv_pvtest as t
+from paraview.simple import *
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "Examples"))
+import csgv_tools as ct  # noqa: E402
+
+INVALID = 0xFFFFFFFF
+W, H = 160, 120
+t.load_plugin(globals())
+out_dir = os.environ.get("CSGV_TEST_OUTPUT") or t.temp_dir()
+os.makedirs(out_dir, exist_ok=True)
+
+
+def labels_after_render(view, display, name="shot.png"):
+    t.screenshot(view, W, H, name)
+    return ct.label_image(display)
+
+
+# --- hide / show only ---------------------------------------------------------------------------
+r = OpenDataFile(os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv"))
+v = t.render_view(W, H)
+d = Show(r, v)
+d.CSGVFramesPerStillRender = 1
+v.ResetCamera()
+before = labels_after_render(v, d)
+t.check(before.shape == (H, W), "label image has the view's size %s" % (before.shape,))
+visible = before[before != INVALID]
+values, counts = np.unique(visible, return_counts=True)
+t.check(len(values) >= 3, "several labels visible (%d)" % len(values))
+hidden = int(values[np.argmax(counts)])
+d.CSGVMaterials = ct.hide_label("", hidden)
+after = labels_after_render(v, d, "hidden.png")
+t.check(not np.any(after == hidden), "hidden label %d is gone from the label image" % hidden)
+keep = before != hidden
+t.check(np.array_equal(after[keep], before[keep]), "every pixel that showed another label is unchanged")
+t.check(np.any(after[before == hidden] != hidden), "what was behind the hidden label shows through")
+# The split keeps the volume in the opaque pass: no opacity-0 material was needed.
+t.check(all(m.get("opacity", 1) == 1 for m in json.loads(d.CSGVMaterials)["materials"]),
+        "hiding splits the label interval (no translucent material)")
+
+d.CSGVMaterials = ct.show_only_label("", hidden)
+only = labels_after_render(v, d, "only.png")
+t.check(set(np.unique(only[only != INVALID]).tolist()) == {hidden}, "show only: just label %d" % hidden)
+
+# --- picking ------------------------------------------------------------------------------------
+d.CSGVMaterials = ""
+img = labels_after_render(v, d, "pick.png")
+labels_vol = t.cell_labels(t.fetch(r)).reshape(194, 70, 133)  # (z, y, x)
+ys, xs = np.nonzero(img != INVALID)
+good = 0
+for k in range(0, len(xs), max(1, len(xs) // 25)):
+    x, y = int(xs[k]), int(ys[k])
+    p = ct.pick(d, x, y)
+    i, j, kk = p["voxel"]
+    good += p["hit"] and p["label"] == int(img[y, x]) and int(labels_vol[kk, j, i]) == p["label"]
+n = len(range(0, len(xs), max(1, len(xs) // 25)))
+t.check(good == n, "pick: label matches the label image and its voxel holds it (%d of %d)" % (good, n))
+t.check(not ct.pick(d, 0, 0)["hit"], "pick on the background: no hit")
+
+Delete(d)
+
+# --- the _csgv.db3 beside a .csgv ----------------------------------------------------------------
+# (synthA's labels go up to 4.3e9: attribute arrays need the dense ids of the relabelled copy.)
+ra = OpenDataFile(os.path.join(t.FIXTURES, "synthA_b32_rans2_attr.csgv"))
+d = Show(ra, v)
+d.CSGVFramesPerStillRender = 1
+s = ct.attribute_summary(d)
+byname = {a["name"]: a for a in s["attributes"]}
+t.check(all(n in byname for n in ("voxels", "kind", "score")), "db3 columns reach the representation: %s" % list(byname))
+t.check(byname.get("kind", {}).get("min") == 0 and byname.get("kind", {}).get("max") == 3, "db3 column range (kind 0..3)")
+csv = np.genfromtxt(os.path.join(t.FIXTURES, "synthA_attributes.csv"), delimiter=",", names=True)
+kind = {int(l): int(k) for l, k in zip(csv["label"], csv["kind"])}
+d.CSGVMaterials = json.dumps({"version": 1, "materials": [
+    {"filter": {"attribute": "kind", "min": 2, "max": 2}, "color": {"mode": "colormap", "attribute": "score",
+                                                                     "min": 0, "max": 1, "colormap": "Turbo"}}]})
+k2 = labels_after_render(v, d, "kind.png")
+shown = set(int(x) for x in np.unique(k2[k2 != INVALID]))
+t.check(shown and all(kind.get(l) == 2 for l in shown), "material on the db3's 'kind': only kind-2 labels (%d)" % len(shown))
+
+# --- computed attributes --------------------------------------------------------------------------
+d.CSGVComputedAttributes = 1
+s = ct.attribute_summary(d)
+names = [a["name"] for a in s["attributes"]]
+t.check(all(n in names for n in ("voxel_count", "surface_area", "bbox_min_x", "centroid_z")),
+        "computed attributes listed: %s" % names)
+counts_all = dict(zip(*np.unique(labels_vol, return_counts=True)))
+threshold = float(np.median([c for l, c in counts_all.items() if l != 0]))
+d.CSGVMaterials = json.dumps({"version": 1, "materials": [
+    {"filter": {"attribute": "voxel_count", "min": threshold, "max": 1e12}}]})
+big = labels_after_render(v, d, "big.png")
+shown = set(int(x) for x in np.unique(big[big != INVALID]))
+# (label 0 is a region like any other here: a filter on an attribute takes it too)
+t.check(shown and all(counts_all[l] >= threshold for l in shown) and
+        shown == {l for l in np.unique(big[big != INVALID]).tolist()},
+        "a voxel_count filter shows only labels with at least %d voxels (%d labels)" % (threshold, len(shown)))
+yy, xx = np.argwhere(big != INVALID)[0]
+p = ct.pick(d, int(xx), int(yy))
+t.check(p["hit"] and p["attributes"].get("voxel_count") == counts_all.get(p["label"]) and "kind" in p["attributes"],
+        "picked voxel_count equals numpy's count, db3 columns too (%s)" % p.get("attributes", {}).get("voxel_count"))
+Delete(d)
+
+# --- AAL: CSV with names, derived hemisphere, two materials ---------------------------------------
+aal = OpenDataFile(t.AAL)
+v2 = t.render_view(320, 240, background=(1, 1, 1))
+dl = Show(aal, v2)
+dl.Representation = "Segmentation Volume"
+dl.CSGVFramesPerStillRender = 4
+dl.CSGVAttributeFiles = ["/usr/share/mricron/templates/aal.nii.txt"]
+dl.CSGVDerivedAttributes = ["hemisphere", r"CASE WHEN name LIKE '%\_L' ESCAPE '\' THEN 0 "
+                                          r"WHEN name LIKE '%\_R' ESCAPE '\' THEN 1 END"]
+dl.CSGVMaterials = json.dumps({"version": 1, "materials": [
+    {"name": "left", "filter": {"attribute": "hemisphere", "min": 0, "max": 0},
+     "color": {"mode": "colormap", "attribute": "code", "min": 2000, "max": 9200, "colormap": "Turbo"}},
+    {"name": "right", "filter": {"attribute": "hemisphere", "min": 1, "max": 1},
+     "color": {"mode": "random"}, "opacity": 0.25}]})
+v2.CameraPosition = [0, -420, 120]
+v2.CameraFocalPoint = [0, -18, 18]
+v2.CameraViewUp = [0, 0, 1]
+v2.ResetCamera()
+shot = os.path.join(out_dir, "aal_hemispheres.png")
+SaveScreenshot(shot, v2, ImageResolution=[320, 240], TransparentBackground=0)
+t.log("   screenshot: " + shot)
+s = ct.attribute_summary(dl)
+byname = {a["name"]: a for a in s["attributes"]}
+t.check(not byname.get("name", {"numeric": True})["numeric"], "aal.nii.txt: 'name' is a text column")
+t.check(byname.get("hemisphere", {}).get("min") == 0 and byname.get("hemisphere", {}).get("max") == 1,
+        "derived hemisphere ranges 0..1")
+aal_img = ct.label_image(dl)
+opaque = set(int(x) for x in np.unique(aal_img[aal_img != INVALID]))
+names = {}
+with open("/usr/share/mricron/templates/aal.nii.txt") as f:
+    for line in f:
+        p = line.split()
+        if len(p) >= 2:
+            names[int(p[0])] = p[1]
+t.check(len(opaque) > 10 and all(names.get(l, "").endswith("_L") for l in opaque),
+        "opaque labels are left regions only (%d regions)" % len(opaque))
+img = t.read_png(shot)
+t.check(t.content_mask(img, (255, 255, 255)).mean() > 0.1, "the atlas is drawn")
+p = ct.pick(dl, *[int(c) for c in np.argwhere(aal_img != INVALID)[len(opaque) // 2][::-1]])
+t.check(p["hit"] and p["attributes"].get("name", "").endswith("_L") and "code" in p["attributes"],
+        "pick reports the region name and code (%s)" % p.get("attributes", {}).get("name"))
+
+# --- colours as a categorical lookup table, shared with a Slice ---------------------------------
+colors = ct.label_colors(dl)
+# Regions without a hemisphere suffix (the vermis) take no material and get no colour.
+sided = sorted(l for l, n in names.items() if n.endswith("_L") or n.endswith("_R"))
+t.check(colors["text"] == "name" and [e[0] for e in colors["labels"]] == sided,
+        "colours of the %d regions the materials take, with names (%d)" % (len(sided), len(colors["labels"])))
+sl = Slice(Input=aal)
+sl.SliceType.Normal = [0, 0, 1]
+ds = Show(sl, v2)
+lut = ct.apply_label_colors(dl, ds)
+ann = list(lut.Annotations)
+t.check(lut.InterpretValuesAsCategories == 1 and "Precentral_L" in ann and len(ann) == 2 * len(sided),
+        "categorical LUT with region names as annotations")
+entry = next(e for e in colors["labels"] if e[0] == 1)
+idx = ann.index("1") // 2
+t.check(np.allclose(list(lut.IndexedColors)[3 * idx:3 * idx + 3], entry[1:4]), "label 1 has its material colour in the LUT")
+t.check(ds.ColorArrayName[1] == s["labelArray"], "the slice is coloured by %s" % s["labelArray"])
+t.finish()
