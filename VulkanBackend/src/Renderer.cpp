@@ -663,27 +663,38 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     return stats;
 }
 
-Status Renderer::readOutput(FrameOutput& out) const {
+Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     const Impl& im = *m_impl;
     if (im.width == 0) return Status::error("nothing rendered yet");
     const size_t n = size_t(im.width) * im.height;
     out.width = im.width;
     out.height = im.height;
-    out.rgba.assign(static_cast<const float*>(im.colorOut.mapped()), static_cast<const float*>(im.colorOut.mapped()) + 4 * n);
-    out.depth.assign(static_cast<const float*>(im.depthOut.mapped()), static_cast<const float*>(im.depthOut.mapped()) + n);
-    const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
-    out.label.resize(n);
-    out.face.resize(n);
-    out.hitDepth.resize(n);
-    out.distance.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-        out.label[i] = g[4 * i];
-        out.face[i] = Face(g[4 * i + 1] & 7u);
-        std::memcpy(&out.hitDepth[i], &g[4 * i + 2], 4);
-        std::memcpy(&out.distance[i], &g[4 * i + 3], 4);
+    if (parts & Color) {
+        const float* c = static_cast<const float*>(im.colorOut.mapped());
+        out.rgba.assign(c, c + 4 * n);
     }
-    out.samples.resize(n);
-    return im.ctx.download(im.samples, 0, out.samples.data(), n * 4);
+    if (parts & Depth) {
+        const float* d = static_cast<const float*>(im.depthOut.mapped());
+        out.depth.assign(d, d + n);
+    }
+    if (parts & GBuffer) {
+        const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
+        out.label.resize(n);
+        out.face.resize(n);
+        out.hitDepth.resize(n);
+        out.distance.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            out.label[i] = g[4 * i];
+            out.face[i] = Face(g[4 * i + 1] & 7u);
+            std::memcpy(&out.hitDepth[i], &g[4 * i + 2], 4);
+            std::memcpy(&out.distance[i], &g[4 * i + 3], 4);
+        }
+    }
+    if (parts & Samples) {
+        out.samples.resize(n);
+        return im.ctx.download(im.samples, 0, out.samples.data(), n * 4);
+    }
+    return Status::ok();
 }
 
 MemoryReport Renderer::memory() const {

@@ -144,8 +144,10 @@ public:
     /// Renders one frame and accumulates it. A new camera, size or opaque depth resets the
     /// accumulation; once every pixel holds `sampleTarget` samples nothing is submitted.
     Result<FrameStats> renderFrame(const FrameInput& input);
-    /// Reads the current resolved image and G-buffer.
-    Status readOutput(FrameOutput& out) const;
+    /// Parts of the output to read back (a compositor needs only colour and depth).
+    enum OutputParts : uint32_t { Color = 1, Depth = 2, GBuffer = 4, Samples = 8, All = 15 };
+    /// Reads the current resolved image and G-buffer (the parts asked for; others stay as they are).
+    Status readOutput(FrameOutput& out, uint32_t parts = All) const;
     /// Starts accumulating anew (the cache stays).
     void resetAccumulation();
     /// Empties the brick cache.
