@@ -237,7 +237,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.visible, uint64_t(im.brickCount) * 4, MemoryKind::DeviceLocal, "brick visibility"))) return s;
     if (!(s = make(im.alloc, alWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
     if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
-    im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(r->m_settings.maxRequestsPerFrame, im.brickCount));
+    im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
     if (!(s = make(im.decodes, uint64_t(im.maxRequests) * 12, MemoryKind::DeviceLocal, "decode list"))) return s;
     if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * 48, MemoryKind::DeviceLocal, "decoder states"))) return s;

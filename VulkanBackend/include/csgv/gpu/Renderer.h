@@ -73,11 +73,11 @@ struct RenderSettings {
     float brightness = 1.0f, contrast = 1.0f, gamma = 1.0f;
     /// Clip box in voxels [min, max) per axis; empty (min >= max on an axis) means the whole volume.
     std::array<int64_t, 3> clipMin{{0, 0, 0}}, clipMax{{0, 0, 0}};
-    uint32_t maxRequestsPerFrame = 4096; ///< decode budget of one frame
 };
 
 struct RendererOptions {
     uint64_t cacheBytes = 256ull << 20; ///< brick cache budget (clamped to the device's limits)
+    uint32_t maxRequestsPerFrame = 4096; ///< bricks decoded in one frame at most (more wait a frame)
 };
 
 /// @brief One frame's inputs.
