@@ -808,6 +808,18 @@ std::string ViewRenderer::ensureRenderer()
   return std::string();
 }
 
+const csgv::gpu::FrameOutput& ViewRenderer::outputWithGBuffer()
+{
+  if (!this->GBufferCurrent && this->Renderer && this->Output.width > 0)
+  {
+    if (this->Renderer->readOutput(this->Output, csgv::gpu::Renderer::GBuffer))
+    {
+      this->GBufferCurrent = true;
+    }
+  }
+  return this->Output;
+}
+
 uint64_t ViewRenderer::cacheBytes() const
 {
   if (!this->Renderer)
@@ -907,7 +919,9 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
     }
   }
   this->Converged = this->Stats.minSamples >= target;
-  csgv::Status s = this->Renderer->readOutput(this->Output);
+  csgv::Status s = this->Renderer->readOutput(
+    this->Output, csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth);
+  this->GBufferCurrent = false;
   if (!s)
   {
     return s.message();

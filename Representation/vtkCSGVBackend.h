@@ -124,6 +124,9 @@ public:
   std::string render(const FrameRequest& request, bool& changed);
   /// The last rendered image (premultiplied RGBA and window depth, rows bottom-up).
   const csgv::gpu::FrameOutput& output() const { return this->Output; }
+  /// The same with the G-buffer (label, face, hit depth, distance), read on demand: compositing
+  /// needs only colour and depth, picking and the label image need the rest.
+  const csgv::gpu::FrameOutput& outputWithGBuffer();
   /// Statistics of the last frame rendered.
   const csgv::gpu::FrameStats& lastStats() const { return this->Stats; }
   uint32_t framesLastRender() const { return this->FramesLastRender; }
@@ -152,6 +155,7 @@ private:
   uint32_t LastWidth = 0, LastHeight = 0;
   std::vector<float> LastDepth;
   csgv::gpu::FrameOutput Output;
+  bool GBufferCurrent = false;
   csgv::gpu::FrameStats Stats;
   uint32_t FramesLastRender = 0;
 };

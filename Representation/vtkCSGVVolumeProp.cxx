@@ -576,7 +576,7 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request, vtkImageData* i
     }
     return csgvrep::labelColorsJson(p.Doc, table.get(), *source.shared, cap);
   }
-  const csgv::gpu::FrameOutput& out = p.View.output();
+  const csgv::gpu::FrameOutput& out = p.View.outputWithGBuffer();
   if (what == "labels")
   {
     // "W H base64(uint32 little-endian labels, row 0 at the bottom)" of the last render.
