@@ -5,6 +5,7 @@
 
 #include "csgv/CsgvFile.h"
 #include "csgv/Encoder.h"
+#include "csgv/FileUtil.h"
 #include "csgv/LabelVolume.h"
 #include "csgv/Relabel.h"
 
@@ -35,26 +36,9 @@ vtkInformationKeyRestrictedMacro(vtkCSGVReader, CSGV_GEOMETRY, DoubleVector, 15)
 
 namespace
 {
-bool endsWithNoCase(const std::string& s, const char* suffix)
-{
-  const size_t n = std::strlen(suffix);
-  if (s.size() < n)
-  {
-    return false;
-  }
-  for (size_t i = 0; i < n; ++i)
-  {
-    if (std::tolower(static_cast<unsigned char>(s[s.size() - n + i])) != suffix[i])
-    {
-      return false;
-    }
-  }
-  return true;
-}
-
 bool isVrawName(const std::string& path)
 {
-  return endsWithNoCase(path, ".vraw") || endsWithNoCase(path, ".vraw.gz");
+  return csgv::endsWithNoCase(path, ".vraw") || csgv::endsWithNoCase(path, ".vraw.gz");
 }
 } // namespace
 
@@ -214,7 +198,7 @@ int vtkCSGVReader::CanReadFile(const char* fileName)
     return 0;
   }
   const std::string path(fileName);
-  if (endsWithNoCase(path, ".vraw.gz"))
+  if (csgv::endsWithNoCase(path, ".vraw.gz"))
   {
     return 1; // the header is compressed; RequestInformation reports a bad one
   }
@@ -226,7 +210,7 @@ int vtkCSGVReader::CanReadFile(const char* fileName)
   uint8_t head[160];
   in.read(reinterpret_cast<char*>(head), sizeof(head));
   const size_t n = static_cast<size_t>(in.gcount());
-  if (endsWithNoCase(path, ".vraw"))
+  if (csgv::endsWithNoCase(path, ".vraw"))
   {
     return csgv::parseVrawHeader(head, n).isOk() ? 1 : 0;
   }

@@ -24,29 +24,6 @@ namespace
 
 using nlohmann::json;
 
-bool endsWithNoCase(const std::string& s, const char* suffix)
-{
-  const size_t n = std::strlen(suffix);
-  if (s.size() < n)
-  {
-    return false;
-  }
-  for (size_t i = 0; i < n; ++i)
-  {
-    if (std::tolower(static_cast<unsigned char>(s[s.size() - n + i])) != suffix[i])
-    {
-      return false;
-    }
-  }
-  return true;
-}
-
-bool isSqlite(const std::string& path)
-{
-  return endsWithNoCase(path, ".db3") || endsWithNoCase(path, ".sqlite") ||
-    endsWithNoCase(path, ".sqlite3") || endsWithNoCase(path, ".db");
-}
-
 /// The table of the input's `CSGVAttribute:*` arrays (indexed by stored id), keyed by label.
 std::string fieldDataTable(vtkImageData* image, const SharedVolume& volume, csgv::AttributeTable& out)
 {
@@ -143,10 +120,10 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
     {
       continue;
     }
-    csgv::Result<csgv::AttributeTable> t = isSqlite(path) ? csgv::readSqliteTable(path) : csgv::readCsv(path);
+    csgv::Result<csgv::AttributeTable> t = csgv::readAttributeFile(path);
     if (!t)
     {
-      return t.message().find(path) == std::string::npos ? path + ": " + t.message() : t.message();
+      return t.message();
     }
     if (!(s = table.merge(*t, csgv::AttributeTable::OnConflict::Replace)))
     {

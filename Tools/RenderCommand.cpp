@@ -223,11 +223,6 @@ Status writeLabels(const std::string& path, const gpu::FrameOutput& out) {
     return s;
 }
 
-bool endsWithText(const std::string& s, const char* suffix) {
-    const size_t n = std::strlen(suffix);
-    return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
-}
-
 /// The per-label attributes the materials use, as floats indexed by the stored label: from the
 /// file's database, --attributes tables (CSV/text or SQLite), --computed-attributes and --derive.
 Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const MaterialDocument& doc,
@@ -244,9 +239,8 @@ Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const Materia
         table = std::move(*t);
     }
     for (const std::string& path : a.attributeFiles) {
-        const bool sqlite = endsWithText(path, ".db3") || endsWithText(path, ".sqlite") || endsWithText(path, ".db");
-        Result<AttributeTable> t = sqlite ? readSqliteTable(path) : readCsv(path);
-        if (!t) return Status(t.status()).prefix(path);
+        Result<AttributeTable> t = readAttributeFile(path);
+        if (!t) return t.status();
         if (!(s = table.merge(*t, AttributeTable::OnConflict::Replace))) return Status(s).prefix(path);
     }
     if (a.computedAttributes) {

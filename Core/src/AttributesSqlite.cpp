@@ -2,6 +2,7 @@
 // The attribute store's SQLite part: tables from databases (Volcanite's included) and derived
 // attributes evaluated by SQLite in memory.
 #include "csgv/Attributes.h"
+#include "csgv/FileUtil.h"
 #include "AttributesInternal.h"
 
 #include <algorithm>
@@ -293,6 +294,14 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     s = table.addColumn(std::move(col), replace);
     if (!s) return fail(s.message());
     return Status::ok();
+}
+
+Result<AttributeTable> readAttributeFile(const std::string& path) {
+    const bool sqlite = endsWithNoCase(path, ".db3") || endsWithNoCase(path, ".db") || endsWithNoCase(path, ".sqlite") ||
+                        endsWithNoCase(path, ".sqlite3");
+    Result<AttributeTable> t = sqlite ? readSqliteTable(path) : readCsv(path);
+    if (!t && t.message().find(path) == std::string::npos) return Status(t.status()).prefix(path);
+    return t;
 }
 
 } // namespace csgv

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/FileUtil.h"
 
+#include <cctype>
+#include <cstring>
+
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -123,6 +126,14 @@ Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t m
     }
     gzclose(f);
     return data;
+}
+
+bool endsWithNoCase(const std::string& s, const char* suffix) {
+    const size_t n = std::strlen(suffix);
+    if (s.size() < n) return false;
+    for (size_t i = 0; i < n; ++i)
+        if (std::tolower(static_cast<unsigned char>(s[s.size() - n + i])) != suffix[i]) return false;
+    return true;
 }
 
 } // namespace csgv

@@ -140,6 +140,9 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
 
 /// The attributes of a Volcanite database, keyed by original label, with `csgv_id` as a column.
 Result<AttributeTable> attributesFromDatabase(const AttributeDatabase& db);
+/// A table from a file chosen by its extension: SQLite (`.db3`, `.db`, `.sqlite`, `.sqlite3`:
+/// readSqliteTable) or text (anything else: readCsv). Errors name the file.
+Result<AttributeTable> readAttributeFile(const std::string& path);
 /// Columns indexed by id for writeAttributeDb(): row i of each column is the value of label
 /// idToLabel[i] (NaN/"" when the table lacks it); `label` and `csgv_id` are left out.
 std::vector<AttributeColumn> columnsForIds(const AttributeTable& table, const std::vector<int64_t>& idToLabel);

@@ -42,5 +42,7 @@ Result<std::vector<uint8_t>> readFile(const std::string& path, uint64_t maxBytes
 Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes);
 /// True when the path names an existing file.
 bool fileExists(const std::string& path);
+/// True when `s` ends with `suffix` (lowercase ASCII), ignoring case: file extensions.
+bool endsWithNoCase(const std::string& s, const char* suffix);
 
 } // namespace csgv
