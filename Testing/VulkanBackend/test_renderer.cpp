@@ -135,9 +135,11 @@ TEST(Renderer, GBufferEqualsStableReferenceCameraInside) {
 
 namespace {
 
-std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cacheBytes, const RenderSettings& st) {
+std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cacheBytes, const RenderSettings& st,
+                                       RendererOptions::Decode decode = RendererOptions::Decode::Auto) {
     RendererOptions o;
     o.cacheBytes = cacheBytes;
+    o.decode = decode;
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, scene.gpu, o);
     EXPECT_TRUE(r.isOk()) << r.message();
     if (!r) return nullptr;
@@ -151,7 +153,8 @@ size_t differingValues(const std::vector<float>& a, const std::vector<float>& b)
     return n;
 }
 
-void expectSmallCacheConverges(Context& ctx, Shading shading) {
+void expectSmallCacheConverges(Context& ctx, Shading shading,
+                               RendererOptions::Decode decode = RendererOptions::Decode::Auto) {
     Scene& scene = fixtureScene(ctx, "synthA_b32_rans2.csgv");
     const FrameInput in = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 64, 48);
     RenderSettings st;
@@ -163,7 +166,7 @@ void expectSmallCacheConverges(Context& ctx, Shading shading) {
     uint32_t bigFrames = 0, smallFrames = 0;
     const FrameOutput ref = renderConverged(*big, in, 2, 100, &bigFrames);
     // Twelve finest bricks (32^3 words each): far fewer than the view needs.
-    std::unique_ptr<Renderer> small = makeRenderer(ctx, scene, 12ull * 32 * 32 * 32 * 4, st);
+    std::unique_ptr<Renderer> small = makeRenderer(ctx, scene, 12ull * 32 * 32 * 32 * 4, st, decode);
     ASSERT_TRUE(small);
     const FrameOutput got = renderConverged(*small, in, 2, 1500, &smallFrames);
     uint32_t minSamples = ~0u;
@@ -179,6 +182,12 @@ void expectSmallCacheConverges(Context& ctx, Shading shading) {
 TEST(Renderer, SmallCacheConvergesLikeLargeCacheLocal) {
     CSGV_REQUIRE_GPU(ctx);
     expectSmallCacheConverges(*ctx, Shading::Local);
+}
+
+// The same through the GPU decoder in the frame pipeline (CPU devices decode on the host by default).
+TEST(Renderer, SmallCacheConvergesLikeLargeCacheLocalWithGpuDecoding) {
+    CSGV_REQUIRE_GPU(ctx);
+    expectSmallCacheConverges(*ctx, Shading::Local, RendererOptions::Decode::Gpu);
 }
 
 TEST(Renderer, SmallCacheConvergesLikeLargeCacheShadow) {

@@ -2,6 +2,10 @@
 #include "csgv/gpu/Renderer.h"
 #include "BlueNoise.h"
 
+#include "csgv/Decoder.h"
+
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -133,6 +137,29 @@ struct Renderer::Impl {
     bool resetDone = false, evictUnused = false, limitRequests = false;
     uint32_t bandRow = 0, bandHeight = 0, prevMinSamples = 0;
     GpuVolume::FrameDecode frameDecode;
+    bool hostDecode = false;          // RendererOptions::decode resolved
+    std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
+
+    /// Decodes the GPU's decode list (brick, inverse level, cache word offset) with Core's decoder
+    /// straight into the host-visible cache; a brick whose stream fails reads as outside.
+    void decodeOnHost() {
+        const uint32_t n = std::min(allocWords()[alDecodes], maxRequests);
+        const uint32_t* list = static_cast<const uint32_t*>(decodes.mapped());
+        uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
+        const CompressedVolume& vol = volume->volume();
+        const uint32_t L = vol.levels();
+        const int threads = std::max(1, omp_get_max_threads());
+        while (int(decoders.size()) < threads) decoders.push_back(std::make_unique<BrickDecoder>(vol));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+        for (int64_t i = 0; i < int64_t(n); ++i) {
+            BrickDecoder& d = *decoders[size_t(omp_get_thread_num())];
+            const uint32_t brick = list[3 * i], lod = L - 1 - std::min(list[3 * i + 1], L - 1), offset = list[3 * i + 2];
+            const uint64_t edge = vol.brickSize >> lod, words = edge * edge * edge;
+            if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) continue;
+            if (d.decode(brick, lod)) std::memcpy(cacheWords + offset, d.labels(), words * 4);
+            else std::fill(cacheWords + offset, cacheWords + offset + words, kNone);
+        }
+    }
 
     explicit Impl(Context& c) : ctx(c) {}
 
@@ -231,7 +258,11 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation,
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     const uint64_t cacheBytes = std::min<uint64_t>(std::max<uint64_t>(options.cacheBytes, 4096), maxBytes) & ~uint64_t(3);
-    if (!(s = make(im.cache, cacheBytes, MemoryKind::DeviceLocal, "brick cache"))) return s;
+    im.hostDecode = options.decode == RendererOptions::Decode::Host ||
+                    (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
+    if (im.hostDecode && volume->cacheBits() != 32) im.hostDecode = false; // paletted caches: GPU only
+    const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
+    if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
     if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
     if (!(s = make(im.bricks, uint64_t(im.brickCount) * 16, MemoryKind::DeviceLocal, "brick table"))) return s;
     if (!(s = make(im.visible, uint64_t(im.brickCount) * 4, MemoryKind::DeviceLocal, "brick visibility"))) return s;
@@ -239,7 +270,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
-    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * 12, MemoryKind::DeviceLocal, "decode list"))) return s;
+    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * 12, hostOrDevice, "decode list"))) return s;
     if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * 48, MemoryKind::DeviceLocal, "decoder states"))) return s;
     if (!(s = make(im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
@@ -598,7 +629,9 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     add(im.pProvision, &frameAddress, 8, 1, 1);
     add(im.pAssign, &frameAddress, 8, (im.maxRequests + 63) / 64, 1);
     add(im.pCommit, &frameAddress, 8, 1, 1);
-    if (!(s = im.volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * alDecodes, im.cache.address(),
+    const size_t cacheStages = list.size(); // with host decoding, the first submission ends here
+    if (!im.hostDecode &&
+        !(s = im.volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * alDecodes, im.cache.address(),
                                            im.decodeStates.address(), im.maxRequests, im.frameDecode, list)))
         return s;
     const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
@@ -621,10 +654,22 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     if (std::getenv("CSGV_PROFILE_DISPATCHES")) { // one submission per dispatch, timed (diagnostics)
         for (size_t i = 0; i < list.size(); ++i) {
             const auto t1 = std::chrono::steady_clock::now();
+            if (im.hostDecode && i == cacheStages) {
+                im.decodeOnHost();
+                std::fprintf(stderr, "host decode: %.2f ms\n",
+                             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
+            }
             if (!(s = ctx.run({list[i]}))) return s;
             std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, list[i].groups[0], list[i].groups[1],
                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
         }
+    } else if (im.hostDecode) {
+        // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
+        const std::vector<Context::Dispatch> first(list.begin(), list.begin() + cacheStages);
+        const std::vector<Context::Dispatch> second(list.begin() + cacheStages, list.end());
+        if (!(s = ctx.run(first))) return s;
+        im.decodeOnHost();
+        if (!(s = ctx.run(second))) return s;
     } else if (!(s = ctx.run(list))) {
         return s;
     }

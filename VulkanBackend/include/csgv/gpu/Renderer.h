@@ -78,6 +78,12 @@ struct RenderSettings {
 struct RendererOptions {
     uint64_t cacheBytes = 256ull << 20; ///< brick cache budget (clamped to the device's limits)
     uint32_t maxRequestsPerFrame = 4096; ///< bricks decoded in one frame at most (more wait a frame)
+    /// Where requested bricks are decoded. Auto: on the GPU, except on CPU devices (lavapipe)
+    /// without cache paletting, where Core's decoder fills the (host-visible) cache between the
+    /// frame's cache stages and its rendering, in two submissions: the "GPU" is the CPU there,
+    /// and Core decodes a brick about 80x faster than the GPU shader does on lavapipe.
+    enum class Decode { Auto, Gpu, Host };
+    Decode decode = Decode::Auto;
 };
 
 /// @brief One frame's inputs.
