@@ -11,33 +11,18 @@
 #include <memory>
 #include <sqlite3.h>
 
+#include "SqliteUtil.h"
+
 namespace csgv {
 
 using namespace detail;
 
 namespace {
 
-struct DbCloser {
-    void operator()(sqlite3* db) const { sqlite3_close(db); }
-};
-struct StmtCloser {
-    void operator()(sqlite3_stmt* s) const { sqlite3_finalize(s); }
-};
-using DbPtr = std::unique_ptr<sqlite3, DbCloser>;
-using StmtPtr = std::unique_ptr<sqlite3_stmt, StmtCloser>;
-
-std::string quoteIdentifier(const std::string& name) {
-    std::string q = "\"";
-    for (char c : name) q += (c == '"') ? std::string("\"\"") : std::string(1, c);
-    return q + "\"";
-}
-
-Result<StmtPtr> prepare(sqlite3* db, const std::string& sql) {
-    sqlite3_stmt* stmt = nullptr;
-    if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr) != SQLITE_OK)
-        return Status::error(std::string(sqlite3_errmsg(db)));
-    return StmtPtr(stmt);
-}
+using sqlite::DbPtr;
+using sqlite::prepare;
+using sqlite::quoteIdentifier;
+using sqlite::StmtPtr;
 
 Status exec(sqlite3* db, const std::string& sql) {
     char* err = nullptr;
