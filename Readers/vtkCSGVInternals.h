@@ -10,10 +10,10 @@
 #ifndef vtkCSGVInternals_h
 #define vtkCSGVInternals_h
 
-#include "csgv/AttributeDb.h"
-#include "csgv/Container.h"
-#include "csgv/Decoder.h"
-#include "csgv/Geometry.h"
+#include "csgv/attributes/AttributeDb.h"
+#include "csgv/codec/Container.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/base/Geometry.h"
 
 #include <vtkSmartPointer.h>
 

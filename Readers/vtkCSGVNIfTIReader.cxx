@@ -3,7 +3,7 @@
 
 #include "vtkCSGVInternals.h"
 
-#include "csgv/Inputs.h"
+#include "csgv/inputs/Inputs.h"
 
 #include <vtkAOSDataArrayTemplate.h>
 #include <vtkDataArray.h>

@@ -3,11 +3,11 @@
 
 #include "vtkCSGVInternals.h"
 
-#include "csgv/CsgvFile.h"
-#include "csgv/Encoder.h"
-#include "csgv/FileUtil.h"
-#include "csgv/LabelVolume.h"
-#include "csgv/Relabel.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/base/FileUtil.h"
+#include "csgv/codec/LabelVolume.h"
+#include "csgv/inputs/Relabel.h"
 
 #include <vtkCellData.h>
 #include <vtkDataArray.h>

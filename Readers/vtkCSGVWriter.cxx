@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVWriter.h"
 
-#include "csgv/AttributeDb.h"
-#include "csgv/Encoder.h"
-#include "csgv/FileUtil.h"
-#include "csgv/Metadata.h"
-#include "csgv/Relabel.h"
+#include "csgv/attributes/AttributeDb.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/base/FileUtil.h"
+#include "csgv/codec/Metadata.h"
+#include "csgv/inputs/Relabel.h"
 
 #include <vtkAOSDataArrayTemplate.h>
 #include <vtkCellData.h>

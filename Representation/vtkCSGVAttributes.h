@@ -17,7 +17,7 @@
 
 #include "vtkCSGVBackend.h"
 
-#include "csgv/Attributes.h"
+#include "csgv/attributes/Attributes.h"
 
 #include <vtkType.h>
 

@@ -3,9 +3,9 @@
 
 #include "vtkCSGVInternals.h" // the readers' FieldData layout (Readers/)
 
-#include "csgv/Encoder.h"
-#include "csgv/Metadata.h"
-#include "csgv/Relabel.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/codec/Metadata.h"
+#include "csgv/inputs/Relabel.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/GpuVolume.h"
 

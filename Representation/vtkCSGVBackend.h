@@ -11,10 +11,10 @@
 #ifndef vtkCSGVBackend_h
 #define vtkCSGVBackend_h
 
-#include "csgv/Attributes.h"
-#include "csgv/Container.h"
-#include "csgv/Geometry.h"
-#include "csgv/Materials.h"
+#include "csgv/attributes/Attributes.h"
+#include "csgv/codec/Container.h"
+#include "csgv/base/Geometry.h"
+#include "csgv/materials/Materials.h"
 #include "csgv/gpu/Renderer.h"
 
 #include <array>

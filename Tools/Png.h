@@ -3,7 +3,7 @@
 /// @file Png.h
 /// @brief Minimal PNG writer (8-bit RGB or RGBA, zlib from the system), written atomically.
 
-#include "csgv/Status.h"
+#include "csgv/base/Status.h"
 
 #include <cstdint>
 #include <string>

@@ -5,9 +5,9 @@
 #include "RenderCommand.h"
 #include "Png.h"
 
-#include "csgv/Attributes.h"
-#include "csgv/CsgvFile.h"
-#include "csgv/FileUtil.h"
+#include "csgv/attributes/Attributes.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/base/FileUtil.h"
 #include "csgv/gpu/Renderer.h"
 
 #include <algorithm>

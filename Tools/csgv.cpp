@@ -3,12 +3,12 @@
 /// @brief The `csgv` command-line tool: info, decompress, verify. Exit 0 on success, 1 with one
 /// message on stderr for any user or data error; no input may end it with a signal.
 
-#include "csgv/Compress.h"
-#include "csgv/CsgvFile.h"
-#include "csgv/Decoder.h"
-#include "csgv/LabelVolume.h"
-#include "csgv/Metadata.h"
-#include "csgv/Procedural.h"
+#include "csgv/inputs/Compress.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/LabelVolume.h"
+#include "csgv/codec/Metadata.h"
+#include "csgv/inputs/Procedural.h"
 #ifdef CSGV_HAVE_RENDER
 #include "RenderCommand.h"
 #endif

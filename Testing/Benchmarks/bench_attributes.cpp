@@ -7,13 +7,13 @@
 /// Usage: csgv_bench_attributes [--seconds S] [--aal PATH.nii.gz] [--synth WxHxD] [--many WxHxD]
 ///        [--brick B] [FILE.csgv...]
 
-#include "csgv/Attributes.h"
-#include "csgv/CsgvFile.h"
-#include "csgv/Decoder.h"
-#include "csgv/Encoder.h"
-#include "csgv/Inputs.h"
-#include "csgv/Procedural.h"
-#include "csgv/Relabel.h"
+#include "csgv/attributes/Attributes.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/inputs/Inputs.h"
+#include "csgv/inputs/Procedural.h"
+#include "csgv/inputs/Relabel.h"
 
 #include <algorithm>
 #include <chrono>

@@ -4,8 +4,8 @@
 /// every coarser level, with 1 thread and with all threads, measured in one run.
 /// Usage: csgv_bench_decode [--seconds S] FILE.csgv...
 
-#include "csgv/CsgvFile.h"
-#include "csgv/Decoder.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
 
 #include <chrono>
 #include <cstdio>

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "TestData.h"
 
-#include "csgv/FileUtil.h"
+#include "csgv/base/FileUtil.h"
 
 #include <algorithm>
 #include <cstdlib>

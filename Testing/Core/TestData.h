@@ -3,8 +3,8 @@
 /// @file TestData.h
 /// @brief Access to the Volcanite fixtures and their source volumes for the core tests.
 
-#include "csgv/Container.h"
-#include "csgv/LabelVolume.h"
+#include "csgv/codec/Container.h"
+#include "csgv/codec/LabelVolume.h"
 
 #include <string>
 #include <vector>

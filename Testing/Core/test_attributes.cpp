@@ -4,15 +4,15 @@
 // count over the decoded volume (synthetic volumes and the AAL atlas, 1 and 2 threads).
 #include "TestData.h"
 
-#include "csgv/Attributes.h"
-#include "csgv/Compress.h"
-#include "csgv/CsgvFile.h"
-#include "csgv/Decoder.h"
-#include "csgv/Encoder.h"
-#include "csgv/Inputs.h"
-#include "csgv/Materials.h"
-#include "csgv/Procedural.h"
-#include "csgv/Relabel.h"
+#include "csgv/attributes/Attributes.h"
+#include "csgv/inputs/Compress.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/inputs/Inputs.h"
+#include "csgv/materials/Materials.h"
+#include "csgv/inputs/Procedural.h"
+#include "csgv/inputs/Relabel.h"
 
 #include <cmath>
 #include <filesystem>

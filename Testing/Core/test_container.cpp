@@ -3,9 +3,9 @@
 // atomic writes and output limits.
 #include "TestData.h"
 
-#include "csgv/Container.h"
-#include "csgv/Decoder.h"
-#include "csgv/FileUtil.h"
+#include "csgv/codec/Container.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/base/FileUtil.h"
 
 #include <filesystem>
 #include <gtest/gtest.h>

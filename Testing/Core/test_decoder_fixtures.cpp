@@ -3,9 +3,9 @@
 // every entry point (whole volume, sub-box, voxel, single brick), with any thread count.
 #include "TestData.h"
 
-#include "csgv/CsgvFile.h"
-#include "csgv/Decoder.h"
-#include "csgv/Morton.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/base/Morton.h"
 
 #include <gtest/gtest.h>
 #include <map>

@@ -4,9 +4,9 @@
 // thread-count independence, worst-case bricks and split arrays.
 #include "TestData.h"
 
-#include "csgv/Decoder.h"
-#include "csgv/Encoder.h"
-#include "csgv/Procedural.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/inputs/Procedural.h"
 
 #include <gtest/gtest.h>
 #include <map>

@@ -16,8 +16,8 @@
 
 #include "TestData.h"
 
-#include "csgv/Inputs.h"
-#include "csgv/LabelVolume.h"
+#include "csgv/inputs/Inputs.h"
+#include "csgv/codec/LabelVolume.h"
 
 #include <gtest/gtest.h>
 #include <zlib.h>

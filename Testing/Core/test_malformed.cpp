@@ -16,9 +16,9 @@
 
 #include "TestData.h"
 
-#include "csgv/Container.h"
-#include "csgv/Decoder.h"
-#include "csgv/Morton.h"
+#include "csgv/codec/Container.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/base/Morton.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // The material document (shared/MATERIALS.md): parsing, defaults, strict errors, and the CPU
 // reference of material selection and colouring that the GPU must match.
-#include "csgv/Materials.h"
+#include "csgv/materials/Materials.h"
 
 #include <cmath>
 #include <gtest/gtest.h>

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 // The CPU reference ray caster: exact analytic cases, and agreement with brute-force sampling
 // along each ray for perspective and parallel views, anisotropic spacing and a rotated grid.
-#include "csgv/Container.h"
-#include "csgv/RayCast.h"
+#include "csgv/codec/Container.h"
+#include "csgv/reference/RayCast.h"
 
 #include <algorithm>
 #include <cmath>

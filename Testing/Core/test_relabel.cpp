@@ -3,14 +3,14 @@
 // end to end: labels that do not fit the format come back as the original values.
 #include "TestData.h"
 
-#include "csgv/AttributeDb.h"
-#include "csgv/Compress.h"
-#include "csgv/CsgvFile.h"
-#include "csgv/Decoder.h"
-#include "csgv/Encoder.h"
-#include "csgv/FileUtil.h"
-#include "csgv/Metadata.h"
-#include "csgv/Relabel.h"
+#include "csgv/attributes/AttributeDb.h"
+#include "csgv/inputs/Compress.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/base/FileUtil.h"
+#include "csgv/codec/Metadata.h"
+#include "csgv/inputs/Relabel.h"
 
 #include <cmath>
 #include <filesystem>

@@ -4,8 +4,8 @@
 /// with libFuzzer (clang, ASan, UBSan; Testing/Fuzz/README.md) and, in every ordinary build, as
 /// csgv_fuzz_replay, which runs the committed corpus and every crasher ever found.
 
-#include "csgv/Container.h"
-#include "csgv/Decoder.h"
+#include "csgv/codec/Container.h"
+#include "csgv/codec/Decoder.h"
 
 #include <cstddef>
 #include <cstdint>

@@ -3,8 +3,8 @@
 /// @brief Writes the fuzz seed corpus: tiny procedural volumes in every encoding, a few brick
 /// sizes and the interesting operation masks.
 
-#include "csgv/Encoder.h"
-#include "csgv/Procedural.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/inputs/Procedural.h"
 
 #include <cstdio>
 #include <string>

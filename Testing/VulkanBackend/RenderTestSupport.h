@@ -4,7 +4,7 @@
 /// @brief Cameras as VTK builds them (look-at, perspective with a vertical view angle, parallel
 /// with a half-height scale) for renderer tests.
 
-#include "csgv/RayCast.h"
+#include "csgv/reference/RayCast.h"
 #include "csgv/gpu/Renderer.h"
 
 #include <cmath>

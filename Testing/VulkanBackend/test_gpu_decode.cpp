@@ -5,10 +5,10 @@
 #include "GpuTestSupport.h"
 #include "TestData.h"
 
-#include "csgv/Decoder.h"
-#include "csgv/Encoder.h"
-#include "csgv/Morton.h"
-#include "csgv/Procedural.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/base/Morton.h"
+#include "csgv/inputs/Procedural.h"
 #include "csgv/gpu/GpuVolume.h"
 
 #include <algorithm>

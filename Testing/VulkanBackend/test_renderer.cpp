@@ -7,10 +7,10 @@
 #include "TestData.h"
 #include "Png.h"
 
-#include "csgv/CsgvFile.h"
-#include "csgv/Decoder.h"
-#include "csgv/Encoder.h"
-#include "csgv/RayCast.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/reference/RayCast.h"
 #include "csgv/gpu/Renderer.h"
 
 #include <algorithm>

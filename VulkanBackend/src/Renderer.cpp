@@ -2,7 +2,7 @@
 #include "csgv/gpu/Renderer.h"
 #include "BlueNoise.h"
 
-#include "csgv/Decoder.h"
+#include "csgv/codec/Decoder.h"
 
 #include <omp.h>
 

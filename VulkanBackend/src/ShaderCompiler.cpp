@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/ShaderCompiler.h"
 
-#include "csgv/FileUtil.h"
+#include "csgv/base/FileUtil.h"
 
 #include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>

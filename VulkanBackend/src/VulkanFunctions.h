@@ -8,7 +8,7 @@
 #define VK_NO_PROTOTYPES
 #include <vulkan/vulkan.h>
 
-#include "csgv/Status.h"
+#include "csgv/base/Status.h"
 
 namespace csgv::gpu {
 

@@ -11,7 +11,7 @@
 /// Required: Vulkan 1.2, bufferDeviceAddress, shaderInt64, a compute queue; each missing one is
 /// reported by name.
 
-#include "csgv/Status.h"
+#include "csgv/base/Status.h"
 
 #include <cstdint>
 #include <memory>

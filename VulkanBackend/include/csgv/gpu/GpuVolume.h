@@ -5,7 +5,7 @@
 /// into cache regions. Each encoding array is its own buffer, reached through a table of device
 /// addresses, so volumes of any size work within per-allocation limits.
 
-#include "csgv/Container.h"
+#include "csgv/codec/Container.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/ShaderCompiler.h"
 

@@ -28,10 +28,10 @@
 /// - Output colour is premultiplied RGBA (transparent where nothing is hit), depth is window
 ///   depth ndc_z * 0.5 + 0.5 (what gl_FragDepth expects), 1 where nothing is hit.
 
-#include "csgv/Container.h"
-#include "csgv/Geometry.h"
-#include "csgv/Materials.h"
-#include "csgv/RayCast.h"
+#include "csgv/codec/Container.h"
+#include "csgv/base/Geometry.h"
+#include "csgv/materials/Materials.h"
+#include "csgv/reference/RayCast.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/GpuVolume.h"
 

@@ -7,7 +7,7 @@
 /// and on disk when `CSGV_SHADER_CACHE_DIR` names a folder (one SPIR-V file per source, defines
 /// and version of all embedded sources; unreadable or foreign files are ignored).
 
-#include "csgv/Status.h"
+#include "csgv/base/Status.h"
 
 #include <cstdint>
 #include <string>

@@ -1,0 +1,159 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file Container.h
+/// @brief The `.csgv` container (Volcanite file versions 0015 and 0016): reading, checking, writing.
+///
+/// Format (little-endian, no padding; see shared/CSGV-FORMAT.md, sections 3, 4 and 7):
+/// ```
+///  offset  type          field
+///  0       char[8]       "CMPSGVOL"
+///  8       char[4]       "0016" (also read: "0015")
+///  12      u32           brick size B in {8, 16, 32, 64, 128}
+///  16      u32 x 3       volume W, H, D (x fastest)
+///  28      i32           encoding mode: 0 nibble | 1 rANS one table | 2 rANS two tables
+///  32      u8            random access (0/1)
+///  33      u32           largest palette of any brick
+///  37      u32           operation mask (PARENT 1, NX 2, NY 4, NZ 8, PALETTE_LAST 32,
+///                        legacy delta 64, PALETTE_D 128, stop bits 256)
+///  41      ...           mode 1: u32[16] frequencies; mode 2: u32[16] table A + u32[16] table B
+///          u32           bricks per encoding array (0xFFFFFFFF: a single array)
+///          u64 n, u32[n] brick starts (n = bricks + 1), word offsets inside their array
+///          u64 m, m x (u64 len, u32[len])   encoding arrays
+///          u8            detail separated (0 in files)
+///
+///  one brick, in 32-bit words, L = log2(B) + 1 levels:
+///  [ header[0..L-1]: level starts (in 4-bit symbols) | header[L]: palette size ]
+///  [ operation stream(s), symbol k of a word in bits 31-4k..28-4k, zero padded  ]
+///  [ palette reversed: entry n-1 ... entry 1, entry 0 (the root label)        ]
+///  mode 2: stream A (levels 0..L-2) from word L+1 up to word header[L-1]/8,
+///          stream B (finest level) from there up to the palette.
+/// ```
+///
+/// Decisions where the format description is silent (tested in Testing/Core):
+/// - Version 0015 has the same layout as 0016; it always uses the single-symbol PALETTE_D distance.
+/// - Encoding modes 4 and 8 (wavelet matrices) are recognised and refused with a clear message.
+/// - A file whose "detail separated" byte is not 0 is refused (separation is a load-time step).
+/// - The last brick of an encoding array may end before the array's end (slack is allowed and
+///   ignored); bricks may not overlap and must each hold at least the minimal brick.
+/// - Writers produce version 0016 with one array per 2^29 words, through a temporary file renamed
+///   into place, and never set the legacy-delta bit.
+
+#include "csgv/base/Checked.h"
+#include "csgv/base/Status.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace csgv {
+
+/// Encoding modes as stored in the file.
+enum EncodingMode : int32_t {
+    kEncodingNibble = 0,
+    kEncodingRans1 = 1,
+    kEncodingRans2 = 2,
+    kEncodingWaveletMatrix = 4,
+    kEncodingHuffmanWaveletMatrix = 8,
+};
+
+/// Operation codes (low 3 bits of an operation symbol) and the stop bit.
+enum Operation : uint32_t {
+    kOpParent = 0,
+    kOpNeighborX = 1,
+    kOpNeighborY = 2,
+    kOpNeighborZ = 3,
+    kOpPaletteAdv = 4,
+    kOpPaletteLast = 5,
+    kOpPaletteD = 6,
+    kOpInvalid = 7,
+    kStopBit = 8,
+};
+
+/// Bits of the operation mask in the file header.
+enum OperationMaskBits : uint32_t {
+    kMaskParent = 1,
+    kMaskNeighborX = 2,
+    kMaskNeighborY = 4,
+    kMaskNeighborZ = 8,
+    kMaskPaletteLast = 32,
+    kMaskLegacyDelta = 64,
+    kMaskPaletteD = 128,
+    kMaskStopBits = 256,
+    kMaskDefault = 0x12F, ///< Volcanite's default: everything but PALETTE_D ("pnls")
+    kMaskAll = 0x1AF,     ///< with unlimited PALETTE_D ("pnlds")
+};
+
+constexpr uint32_t kInvalidLabel = 0xFFFFFFFFu;  ///< reserved: "undefined" inside decoders
+constexpr uint32_t kRansProbBits = 14;
+constexpr uint32_t kRansTotal = 1u << kRansProbBits; ///< frequencies sum to this
+constexpr uint32_t kRansLowerBound = 1u << 23;
+constexpr uint32_t kMaxWordsPerArray = 1u << 29;     ///< 2 GiB per encoding array
+constexpr uint32_t kSingleArray = 0xFFFFFFFFu;
+constexpr uint64_t kMaxBricks = uint64_t(1) << 40; ///< far beyond any real volume; keeps counts exact
+
+/// Limits set by the caller on anything allocated or written on behalf of untrusted input.
+struct Limits {
+    uint64_t maxOutputBytes = uint64_t(16) << 30; ///< decoded images, written files
+};
+
+/// Words of one brick inside its encoding array.
+struct BrickWords {
+    const uint32_t* words = nullptr;
+    uint32_t size = 0;
+};
+
+/// @brief A compressed segmentation volume as stored in a `.csgv` file, fully in memory.
+struct CompressedVolume {
+    uint32_t version = 16;         ///< 15 or 16
+    uint32_t brickSize = 32;
+    std::array<uint32_t, 3> dim{{0, 0, 0}};
+    int32_t encoding = kEncodingRans2;
+    bool randomAccess = false;
+    uint32_t maxPalette = 0;
+    uint32_t opMask = kMaskDefault;
+    std::array<uint32_t, 16> freqA{}; ///< mode 1: the table; mode 2: levels 0..L-2
+    std::array<uint32_t, 16> freqB{}; ///< mode 2: the finest level
+    uint32_t bricksPerArray = kSingleArray;
+    std::vector<uint32_t> brickStarts; ///< bricks + 1 entries (see BrickWords brick())
+    std::vector<std::vector<uint32_t>> arrays;
+
+    /// Number of levels L = log2(B) + 1 (level 0 = one node per brick).
+    uint32_t levels() const;
+    /// Bricks along each axis.
+    std::array<uint32_t, 3> brickGrid() const;
+    uint64_t brickCount() const; ///< saturating
+    uint64_t voxelCount() const { return product3(dim[0], dim[1], dim[2]); } ///< saturating
+    /// True when PALETTE_D is followed by one 4-bit distance symbol (version 0015, mask bit 64).
+    bool legacyDelta() const { return version == 15 || (opMask & kMaskLegacyDelta) != 0; }
+    /// The words of brick i (checked structure assumed: see checkContainer()).
+    BrickWords brick(uint64_t i) const;
+    /// Bytes the container occupies when written.
+    uint64_t serializedSize() const;
+};
+
+/// Size of the smallest valid brick in words for a level count and encoding (section 3).
+uint32_t minimalBrickWords(uint32_t levels, int32_t encoding);
+
+/// Every container-level check of CSGV-FORMAT.md section 9 on a volume in memory (header fields,
+/// frequencies, array sizes, brick starts, per-brick header words). Stream contents are checked
+/// while decoding.
+Status checkContainer(const CompressedVolume& vol);
+
+/// Parses a container from memory; the result has passed checkContainer().
+Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size);
+/// Reads a `.csgv` file; never reads or allocates more than the file holds.
+Result<CompressedVolume> readCsgv(const std::string& path);
+
+/// Serialises as version 0016.
+std::vector<uint8_t> serializeCsgv(const CompressedVolume& vol);
+/// Writes version 0016 through a temporary file renamed into place; refuses volumes that fail
+/// checkContainer() or exceed limits.maxOutputBytes, and leaves no file behind on failure.
+Status writeCsgv(const std::string& path, const CompressedVolume& vol, const Limits& limits = {});
+
+/// "nibble", "rans1", "rans2", "wavelet-matrix", "huffman-wavelet-matrix" or "unknown".
+const char* encodingName(int32_t encoding);
+/// Operation letters of a mask ("pnls", "pnlds", ...), with "L" appended for legacy delta.
+std::string operationLetters(uint32_t opMask);
+
+} // namespace csgv

@@ -1,0 +1,63 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file Encoder.h
+/// @brief CSGV encoding (modes 0, 1, 2; every operation mask; bricks 8 to 128), in parallel over
+/// bricks with output that is byte-identical whatever the thread count, from a volume in memory
+/// or from any source that delivers z-slabs, so volumes larger than memory encode with memory
+/// bounded by the output plus a few slabs.
+///
+/// Choices where the format leaves the writer free (CSGV-FORMAT.md section 4.3):
+/// - Operation per node: the first of PARENT, NEIGHBOR_X/Y/Z, PALETTE_LAST, PALETTE_D,
+///   PALETTE_ADV that reproduces the label and that the mask enables (Volcanite's order).
+/// - Frequency tables are counted over every symbol of every brick (not a sample), then scaled to
+///   16384 with every emitted symbol at least 1, so no table ever lacks a symbol it must code.
+/// - header[1..L-1] of modes 1 and 2 hold the pre-entropy (nibble) level starts, as in mode 0.
+/// - Bricks go into one encoding array while they fit in 2^29 words; otherwise into the fewest
+///   arrays of a constant brick count that each fit.
+
+#include "csgv/codec/Container.h"
+#include "csgv/codec/LabelVolume.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+namespace csgv {
+
+struct EncodeOptions {
+    uint32_t brickSize = 32;
+    int32_t encoding = kEncodingRans2;
+    uint32_t opMask = kMaskDefault;
+    int threads = 0; ///< 0: OpenMP's default
+    /// Use these frequency tables instead of counting (for example another file's, to reproduce
+    /// it byte for byte); every emitted symbol must have a nonzero frequency or encoding fails.
+    bool fixedTables = false;
+    /// Largest encoding array in words (the format's limit is 2^29; smaller values test splitting).
+    uint32_t maxArrayWords = kMaxWordsPerArray;
+    std::array<uint32_t, 16> tableA{}, tableB{};
+};
+
+/// @brief Labels delivered slab by slab: z-slabs of brickSize slices (fewer at the end), x fastest.
+/// Labels must not be 0xFFFFFFFF (reserved).
+class SlabSource {
+public:
+    virtual ~SlabSource() = default;
+    virtual std::array<uint32_t, 3> dimensions() const = 0;
+    /// Fills out (W * H * depth labels) with slices [z0, z0 + depth).
+    virtual Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) = 0;
+    /// Sources already in memory return slice z0's labels here, saving readSlab's copy.
+    virtual const uint32_t* slabInMemory(uint32_t /*z0*/) const { return nullptr; }
+};
+
+/// Parses "default" (pnls), "all" (pnlds) or letters p, x, y, z, n, l, d, s into an operation mask.
+Result<uint32_t> parseOperationMask(const std::string& text);
+/// Checks options before any work: brick size, encoding, mask bits.
+Status checkEncodeOptions(const EncodeOptions& options);
+
+/// Encodes a volume in memory.
+Result<CompressedVolume> encodeVolume(const LabelVolume& volume, const EncodeOptions& options);
+/// Encodes from a slab source; `maxOutputBytes` bounds the compressed result.
+Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options,
+                                      uint64_t maxOutputBytes = uint64_t(64) << 30);
+
+} // namespace csgv

@@ -1,0 +1,45 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file Compress.h
+/// @brief From any supported input to `.csgv` + `.csgv.json` (+ `_csgv.db3` when relabelled):
+/// the one path that `csgv compress`, benchmarks and the ParaView writer share.
+///
+/// Inputs: `synth:WxHxD[:seed]` (generated slab by slab), `.vraw` (read from disk slab by slab,
+/// so memory stays at the output plus a few slabs), `.vraw.gz`, `.nrrd`, `.nhdr`, `.nii`,
+/// `.nii.gz` (read whole, then relabelled if their labels do not fit the format).
+
+#include "csgv/codec/Encoder.h"
+#include "csgv/inputs/Inputs.h"
+#include "csgv/inputs/Relabel.h"
+
+#include <memory>
+#include <string>
+
+namespace csgv {
+
+struct CompressOptions {
+    EncodeOptions encode;
+    bool relabel = false;                          ///< force dense relabelling
+    uint64_t maxInputBytes = uint64_t(16) << 30;   ///< inputs read whole
+    uint64_t maxOutputBytes = uint64_t(64) << 30;
+};
+
+struct CompressReport {
+    std::array<uint32_t, 3> dim{{0, 0, 0}};
+    uint64_t outputBytes = 0;
+    bool relabelled = false;
+    uint64_t labelCount = 0;   ///< ids in the database when relabelled
+    std::string originalType;
+    bool streamed = false;     ///< encoded slab by slab from the source
+    double readSeconds = 0, encodeSeconds = 0, writeSeconds = 0;
+};
+
+/// Slab source over a `.vraw` file on disk (uint8, uint16 or uint32 labels).
+Result<std::unique_ptr<SlabSource>> openVrawSlabs(const std::string& path);
+
+/// Compresses `input` to `output` (and its sidecars). Every file is written under a temporary
+/// name and renamed; a stale `_csgv.db3` beside the output is removed when no relabelling happened.
+Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
+                      CompressReport* report = nullptr);
+
+} // namespace csgv

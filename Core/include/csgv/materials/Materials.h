@@ -1,0 +1,94 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file Materials.h
+/// @brief The material document of shared/MATERIALS.md: one JSON schema for the backend,
+/// `csgv render`, pvpython and the Qt editor. Parsing is strict (unknown keys and wrong types are
+/// errors naming the place), missing keys take the documented defaults, and a CPU reference
+/// evaluates which material a label takes and its colour, so every layer agrees with the GPU.
+///
+/// Decisions where MATERIALS.md is silent:
+/// - `filter` may be omitted: then the filter is `label` in [1, 4294967294] (every non-zero label).
+/// - `color` may be omitted: then it is `{"mode": "random"}`.
+/// - Colormap control points need x strictly increasing from 0 to 1 (first 0, last 1); a name
+///   must be resolved to points before rendering (built-in names: builtinColormap()).
+/// - `random` places a label on the colormap at hash(label) / 2^32 (a fixed 32-bit mix), so a
+///   label has the same colour in every view and session; without a colormap it takes one of 16
+///   fixed high-contrast colours by the same hash.
+
+#include "csgv/base/Status.h"
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace csgv {
+
+/// @brief Control points [x, r, g, b], x strictly increasing over [0, 1].
+struct Colormap {
+    std::string name; ///< the preset name it came from ("" for explicit points)
+    std::vector<std::array<float, 4>> points;
+    bool empty() const { return points.empty(); }
+    /// Linear interpolation at t (clamped to [0, 1]).
+    std::array<float, 3> at(double t) const;
+};
+
+struct Material {
+    enum class ColorMode { Constant, Colormap, Random };
+    enum class Wrap { Clamp, Repeat };
+
+    std::string name;
+    std::string filterAttribute = "label";
+    double filterMin = 1, filterMax = 4294967294.0;
+    ColorMode colorMode = ColorMode::Random;
+    std::array<float, 3> rgb{{1, 1, 1}};    ///< constant
+    std::string colorAttribute = "label";  ///< colormap
+    double colorMin = 0, colorMax = 1;     ///< colormap
+    Wrap wrap = Wrap::Clamp;               ///< colormap
+    Colormap colormap;                     ///< colormap (required) and random (optional)
+    float opacity = 1;
+    float emission = 0;
+};
+
+struct MaterialDocument {
+    int version = 1;
+    std::vector<Material> materials;
+};
+
+/// Parses a document; errors name the material (index and name) and the key.
+Result<MaterialDocument> parseMaterials(const std::string& json);
+/// Writes a document that parseMaterials() reads back unchanged.
+std::string serializeMaterials(const MaterialDocument& doc);
+/// One material: every non-zero label, random colours, opaque.
+MaterialDocument defaultMaterials();
+/// Every attribute a document names, once each, in order of first use.
+std::vector<std::string> attributesUsed(const MaterialDocument& doc);
+/// An error naming the first attribute that `available` lacks.
+Status checkAttributes(const MaterialDocument& doc, const std::vector<std::string>& available);
+/// Replaces colormap names by control points (built-in names; others are an error naming them).
+Status resolveColormapNames(MaterialDocument& doc);
+/// "Viridis (matplotlib)", "Turbo", "Cool to Warm", "Grayscale".
+Result<Colormap> builtinColormap(const std::string& name);
+std::vector<std::string> builtinColormapNames();
+
+/// @brief CPU reference of material evaluation. `attribute(name, label)` gives a label's value of
+/// an attribute ("label" is the label itself).
+class MaterialEvaluator {
+public:
+    using AttributeFn = std::function<double(const std::string& attribute, uint32_t label)>;
+    MaterialEvaluator(const MaterialDocument& doc, AttributeFn attribute);
+    /// Index of the first material whose closed filter interval holds the label, or -1 (invisible).
+    int materialOf(uint32_t label) const;
+    /// Colour of a label under material m.
+    std::array<float, 3> colorOf(uint32_t label, int m) const;
+
+private:
+    const MaterialDocument& m_doc;
+    AttributeFn m_attribute;
+};
+
+/// The stable 32-bit hash that places labels for `random` colouring.
+uint32_t labelHash(uint32_t label);
+
+} // namespace csgv

@@ -1,0 +1,391 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/codec/Container.h"
+#include "csgv/base/FileUtil.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <memory>
+
+namespace csgv {
+
+namespace {
+
+constexpr char kMagic[8] = {'C', 'M', 'P', 'S', 'G', 'V', 'O', 'L'};
+
+bool isPowerOfTwo(uint32_t v) { return v && !(v & (v - 1)); }
+
+
+/// Sequential little-endian reader over a file or memory, always knowing how much is left, so
+/// that no length read from the input is trusted before it is compared with the bytes that remain.
+class ByteSource {
+public:
+    virtual ~ByteSource() = default;
+    virtual bool readRaw(void* dst, size_t n) = 0;
+    uint64_t offset() const { return m_offset; }
+    uint64_t remaining() const { return m_size - m_offset; }
+
+    Status read(void* dst, size_t n, const char* field) {
+        if (n > remaining())
+            return Status::error(std::string("file truncated: field '") + field + "' needs " + std::to_string(n) +
+                                 " bytes at offset " + std::to_string(m_offset) + ", only " +
+                                 std::to_string(remaining()) + " remain");
+        if (n && !readRaw(dst, n)) return Status::error(std::string("read error in field '") + field + "'");
+        m_offset += n;
+        return Status::ok();
+    }
+    template <typename T>
+    Status get(T& v, const char* field) {
+        return read(&v, sizeof(T), field); // hosts are little-endian (x86-64, aarch64)
+    }
+
+protected:
+    uint64_t m_size = 0;
+    uint64_t m_offset = 0;
+};
+
+class MemorySource : public ByteSource {
+public:
+    MemorySource(const uint8_t* data, size_t size) : m_data(data) { m_size = size; }
+    bool readRaw(void* dst, size_t n) override {
+        std::memcpy(dst, m_data + m_offset, n);
+        return true;
+    }
+
+private:
+    const uint8_t* m_data;
+};
+
+class FileSource : public ByteSource {
+public:
+    ~FileSource() override {
+        if (m_file) std::fclose(m_file);
+    }
+    Status open(const std::string& path) {
+        Result<uint64_t> size = fileSize(path);
+        if (!size) return size.status();
+        m_size = *size;
+        m_file = std::fopen(path.c_str(), "rb");
+        if (!m_file) return Status::error("cannot open '" + path + "': " + std::strerror(errno));
+        return Status::ok();
+    }
+    bool readRaw(void* dst, size_t n) override { return std::fread(dst, 1, n, m_file) == n; }
+
+private:
+    std::FILE* m_file = nullptr;
+};
+
+#define CSGV_TRY(expr)                                                                                                 \
+    do {                                                                                                               \
+        Status _s = (expr);                                                                                            \
+        if (!_s) return _s;                                                                                            \
+    } while (0)
+
+Status readWords(ByteSource& src, std::vector<uint32_t>& out, uint64_t count, const char* field) {
+    if (count > src.remaining() / 4)
+        return Status::error(std::string("file truncated: field '") + field + "' claims " + std::to_string(count) +
+                             " words at offset " + std::to_string(src.offset()) + ", only " +
+                             std::to_string(src.remaining()) + " bytes remain");
+    out.resize(size_t(count));
+    return src.read(out.data(), size_t(count) * 4, field);
+}
+
+/// Header fields that bound every later allocation, checked before arrays are read.
+Status checkHeaderFields(const CompressedVolume& v) {
+    if (v.version != 15 && v.version != 16)
+        return Status::error("unsupported file version " + std::to_string(v.version) + " (expected 0015 or 0016)");
+    if (!isPowerOfTwo(v.brickSize) || v.brickSize < 8 || v.brickSize > 128)
+        return Status::error("field 'brick size' is " + std::to_string(v.brickSize) +
+                             ", expected a power of two from 8 to 128");
+    for (int a = 0; a < 3; ++a)
+        if (v.dim[a] == 0) return Status::error("field 'volume dimensions': dimension " + std::to_string(a) + " is 0");
+    if (v.brickCount() > kMaxBricks)
+        return Status::error("field 'volume dimensions': " + std::to_string(v.dim[0]) + " x " + std::to_string(v.dim[1]) +
+                             " x " + std::to_string(v.dim[2]) + " needs more than 2^40 bricks");
+    if (v.encoding == kEncodingWaveletMatrix || v.encoding == kEncodingHuffmanWaveletMatrix)
+        return Status::error("encoding mode " + std::to_string(v.encoding) + " (" + encodingName(v.encoding) +
+                             ", random access CSGV-R) is not supported");
+    if (v.encoding != kEncodingNibble && v.encoding != kEncodingRans1 && v.encoding != kEncodingRans2)
+        return Status::error("field 'encoding mode' is " + std::to_string(v.encoding) + ", expected 0, 1 or 2");
+    auto checkTable = [](const std::array<uint32_t, 16>& f, const char* name) {
+        uint64_t sum = 0;
+        for (uint32_t x : f) sum += x;
+        if (sum != kRansTotal)
+            return Status::error(std::string("frequency table ") + name + " sums to " + std::to_string(sum) +
+                                 ", expected 16384");
+        return Status::ok();
+    };
+    if (v.encoding == kEncodingRans1) CSGV_TRY(checkTable(v.freqA, "of mode 1"));
+    if (v.encoding == kEncodingRans2) {
+        CSGV_TRY(checkTable(v.freqA, "A (levels above the finest)"));
+        CSGV_TRY(checkTable(v.freqB, "B (finest level)"));
+    }
+    return Status::ok();
+}
+
+/// Writes the container field by field to a sink, so that files are never assembled in memory.
+void emit(const CompressedVolume& v, const std::function<void(const void*, size_t)>& out) {
+    auto put = [&](const auto& x) { out(&x, sizeof(x)); };
+    out(kMagic, 8);
+    out("0016", 4);
+    put(v.brickSize);
+    put(v.dim[0]);
+    put(v.dim[1]);
+    put(v.dim[2]);
+    put(v.encoding);
+    const uint8_t ra = v.randomAccess ? 1 : 0;
+    put(ra);
+    put(v.maxPalette);
+    put(uint32_t(v.opMask & ~uint32_t(kMaskLegacyDelta)) | (v.legacyDelta() ? uint32_t(kMaskLegacyDelta) : 0u));
+    if (v.encoding == kEncodingRans1 || v.encoding == kEncodingRans2) out(v.freqA.data(), 64);
+    if (v.encoding == kEncodingRans2) out(v.freqB.data(), 64);
+    put(v.bricksPerArray);
+    put(uint64_t(v.brickStarts.size()));
+    out(v.brickStarts.data(), v.brickStarts.size() * 4);
+    put(uint64_t(v.arrays.size()));
+    for (const auto& a : v.arrays) {
+        put(uint64_t(a.size()));
+        out(a.data(), a.size() * 4);
+    }
+    put(uint8_t(0));
+}
+
+Result<CompressedVolume> parse(ByteSource& src) {
+    CompressedVolume v;
+    char magic[8];
+    CSGV_TRY(src.read(magic, 8, "magic"));
+    if (std::memcmp(magic, kMagic, 8) != 0) return Status::error("not a CSGV file: the magic 'CMPSGVOL' is missing");
+    char ver[4];
+    CSGV_TRY(src.read(ver, 4, "version"));
+    if (std::memcmp(ver, "0016", 4) == 0)
+        v.version = 16;
+    else if (std::memcmp(ver, "0015", 4) == 0)
+        v.version = 15;
+    else {
+        std::string shown;
+        for (char c : ver) shown += (c >= 32 && c < 127) ? c : '?';
+        return Status::error("unsupported file version '" + shown + "' (expected 0015 or 0016)");
+    }
+    CSGV_TRY(src.get(v.brickSize, "brick size"));
+    CSGV_TRY(src.read(v.dim.data(), 12, "volume dimensions"));
+    CSGV_TRY(src.get(v.encoding, "encoding mode"));
+    uint8_t ra = 0;
+    CSGV_TRY(src.get(ra, "random access"));
+    if (ra > 1) return Status::error("field 'random access' is " + std::to_string(ra) + ", expected 0 or 1");
+    v.randomAccess = ra != 0;
+    CSGV_TRY(src.get(v.maxPalette, "largest palette"));
+    CSGV_TRY(src.get(v.opMask, "operation mask"));
+    if (v.encoding == kEncodingRans1 || v.encoding == kEncodingRans2)
+        CSGV_TRY(src.read(v.freqA.data(), 64, "frequency table A"));
+    if (v.encoding == kEncodingRans2) CSGV_TRY(src.read(v.freqB.data(), 64, "frequency table B"));
+    CSGV_TRY(checkHeaderFields(v));
+    CSGV_TRY(src.get(v.bricksPerArray, "bricks per encoding array"));
+    uint64_t n = 0;
+    CSGV_TRY(src.get(n, "brick start count"));
+    if (n != v.brickCount() + 1)
+        return Status::error("field 'brick start count' is " + std::to_string(n) + ", expected " +
+                             std::to_string(v.brickCount() + 1) + " for " + std::to_string(v.brickCount()) + " bricks");
+    CSGV_TRY(readWords(src, v.brickStarts, n, "brick starts"));
+    uint64_t m = 0;
+    CSGV_TRY(src.get(m, "encoding array count"));
+    if (m == 0 || m > src.remaining() / 8)
+        return Status::error("field 'encoding array count' is " + std::to_string(m) + ", which the file cannot hold");
+    v.arrays.resize(size_t(m));
+    for (uint64_t i = 0; i < m; ++i) {
+        uint64_t len = 0;
+        CSGV_TRY(src.get(len, "encoding array length"));
+        if (len > kMaxWordsPerArray)
+            return Status::error("encoding array " + std::to_string(i) + " has " + std::to_string(len) +
+                                 " words, more than 2^29");
+        CSGV_TRY(readWords(src, v.arrays[size_t(i)], len, "encoding array"));
+    }
+    uint8_t detail = 0;
+    CSGV_TRY(src.get(detail, "detail separated"));
+    if (detail != 0)
+        return Status::error("field 'detail separated' is " + std::to_string(detail) +
+                             ": files on disk must not be detail separated");
+    if (src.remaining() != 0)
+        return Status::error(std::to_string(src.remaining()) + " unexpected bytes after the last field at offset " +
+                             std::to_string(src.offset()));
+    CSGV_TRY(checkContainer(v));
+    return v;
+}
+
+} // namespace
+
+uint32_t CompressedVolume::levels() const { return floorLog2(brickSize) + 1; }
+
+std::array<uint32_t, 3> CompressedVolume::brickGrid() const {
+    std::array<uint32_t, 3> g{};
+    for (int a = 0; a < 3; ++a) g[a] = brickSize ? (dim[a] ? (dim[a] - 1) / brickSize + 1 : 0) : 0;
+    return g;
+}
+
+uint64_t CompressedVolume::brickCount() const {
+    const auto g = brickGrid();
+    return product3(g[0], g[1], g[2]);
+}
+
+BrickWords CompressedVolume::brick(uint64_t i) const {
+    const uint64_t bpa = bricksPerArray == kSingleArray ? brickCount() + 1 : bricksPerArray;
+    const auto& arr = arrays[size_t(i / bpa)];
+    const uint32_t begin = (i > 0 && i % bpa == 0) ? 0 : brickStarts[size_t(i)];
+    const uint32_t end = brickStarts[size_t(i + 1)];
+    return BrickWords{arr.data() + begin, end - begin};
+}
+
+uint64_t CompressedVolume::serializedSize() const {
+    uint64_t size = 41;
+    if (encoding == kEncodingRans1) size += 64;
+    if (encoding == kEncodingRans2) size += 128;
+    size += 4 + 8 + 4 * uint64_t(brickStarts.size()) + 8;
+    for (const auto& a : arrays) size += 8 + 4 * uint64_t(a.size());
+    return size + 1;
+}
+
+uint32_t minimalBrickWords(uint32_t levels, int32_t encoding) {
+    return levels + (encoding == kEncodingRans2 ? 4 : 3);
+}
+
+Status checkContainer(const CompressedVolume& v) {
+    CSGV_TRY(checkHeaderFields(v));
+    const uint64_t bricks = v.brickCount();
+    if (v.brickStarts.size() != bricks + 1)
+        return Status::error("brick starts: " + std::to_string(v.brickStarts.size()) + " entries, expected " +
+                             std::to_string(bricks + 1));
+    uint64_t expectedArrays = 1;
+    if (v.bricksPerArray != kSingleArray) {
+        if (v.bricksPerArray == 0) return Status::error("field 'bricks per encoding array' is 0");
+        expectedArrays = (bricks + v.bricksPerArray - 1) / v.bricksPerArray;
+    }
+    if (v.arrays.size() != expectedArrays)
+        return Status::error("the file has " + std::to_string(v.arrays.size()) + " encoding arrays, expected " +
+                             std::to_string(expectedArrays));
+    for (size_t a = 0; a < v.arrays.size(); ++a)
+        if (v.arrays[a].size() > kMaxWordsPerArray)
+            return Status::error("encoding array " + std::to_string(a) + " exceeds 2^29 words");
+
+    const uint32_t L = v.levels();
+    const uint32_t minWords = minimalBrickWords(L, v.encoding);
+    const uint64_t bpa = v.bricksPerArray == kSingleArray ? bricks + 1 : v.bricksPerArray;
+    for (uint64_t i = 0; i < bricks; ++i) {
+        const std::string where = "brick " + std::to_string(i);
+        const size_t arrayIndex = size_t(i / bpa);
+        const uint64_t arrayLen = v.arrays[arrayIndex].size();
+        const uint64_t begin = (i > 0 && i % bpa == 0) ? 0 : v.brickStarts[size_t(i)];
+        const uint64_t end = v.brickStarts[size_t(i + 1)];
+        if (end < begin)
+            return Status::error(where + ": brick starts out of order (" + std::to_string(begin) + " then " +
+                                 std::to_string(end) + ")");
+        if (end > arrayLen)
+            return Status::error(where + ": ends at word " + std::to_string(end) + ", past the end of encoding array " +
+                                 std::to_string(arrayIndex) + " (" + std::to_string(arrayLen) + " words)");
+        const uint64_t size = end - begin;
+        if (size < minWords)
+            return Status::error(where + ": " + std::to_string(size) + " words, less than the minimal brick of " +
+                                 std::to_string(minWords));
+        const uint32_t* w = v.arrays[arrayIndex].data() + begin;
+        if (w[0] != (L + 1) * 8)
+            return Status::error(where + ": level 0 start is " + std::to_string(w[0]) + ", expected " +
+                                 std::to_string((L + 1) * 8));
+        const uint32_t palette = w[L];
+        if (palette == 0) return Status::error(where + ": palette size is 0");
+        if (palette > v.maxPalette)
+            return Status::error(where + ": palette size " + std::to_string(palette) +
+                                 " exceeds the file's largest palette " + std::to_string(v.maxPalette));
+        const uint64_t streamWords = (v.encoding == kEncodingRans2) ? 2 : 1;
+        if (uint64_t(palette) + L + 1 + streamWords > size)
+            return Status::error(where + ": palette size " + std::to_string(palette) + " does not fit in its " +
+                                 std::to_string(size) + " words");
+        const uint64_t paletteStart = size - palette; // first palette word
+        if (v.encoding == kEncodingNibble) {
+            for (uint32_t l = 1; l < L; ++l)
+                if (w[l] < w[l - 1])
+                    return Status::error(where + ", level " + std::to_string(l) + ": start " + std::to_string(w[l]) +
+                                         " is before level " + std::to_string(l - 1) + "'s start " +
+                                         std::to_string(w[l - 1]));
+            if (w[L - 1] > paletteStart * 8)
+                return Status::error(where + ", level " + std::to_string(L - 1) + ": start " +
+                                     std::to_string(w[L - 1]) + " lies in the palette");
+        } else if (v.encoding == kEncodingRans2) {
+            const uint32_t s = w[L - 1];
+            if (s % 8 != 0 || s < w[0] + 8 || s / 8 >= paletteStart)
+                return Status::error(where + ", level " + std::to_string(L - 1) + ": stream B start " +
+                                     std::to_string(s) + " is not a word boundary between " + std::to_string(w[0] + 8) +
+                                     " and the palette at symbol " + std::to_string(paletteStart * 8));
+        }
+    }
+    return Status::ok();
+}
+
+Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size) {
+    MemorySource src(data, size);
+    return parse(src);
+}
+
+Result<CompressedVolume> readCsgv(const std::string& path) {
+    FileSource src;
+    Status s = src.open(path);
+    if (!s) return s;
+    Result<CompressedVolume> r = parse(src);
+    if (!r) return Status(r.status()).prefix(path);
+    return r;
+}
+
+std::vector<uint8_t> serializeCsgv(const CompressedVolume& vol) {
+    std::vector<uint8_t> bytes;
+    bytes.reserve(size_t(vol.serializedSize()));
+    emit(vol, [&](const void* p, size_t n) {
+        const auto* b = static_cast<const uint8_t*>(p);
+        bytes.insert(bytes.end(), b, b + n);
+    });
+    return bytes;
+}
+
+Status writeCsgv(const std::string& path, const CompressedVolume& vol, const Limits& limits) {
+    Status s = checkContainer(vol);
+    if (!s) return s.prefix("refusing to write '" + path + "'");
+    if (vol.serializedSize() > limits.maxOutputBytes)
+        return Status::error("refusing to write '" + path + "': " + std::to_string(vol.serializedSize()) +
+                             " bytes exceed the output limit of " + std::to_string(limits.maxOutputBytes));
+    AtomicFile file;
+    CSGV_TRY(file.open(path));
+    Status ws;
+    emit(vol, [&](const void* p, size_t n) {
+        if (ws) ws = file.write(p, n);
+    });
+    if (!ws) return ws;
+    return file.commit();
+}
+
+const char* encodingName(int32_t encoding) {
+    switch (encoding) {
+    case kEncodingNibble: return "nibble";
+    case kEncodingRans1: return "rans1";
+    case kEncodingRans2: return "rans2";
+    case kEncodingWaveletMatrix: return "wavelet-matrix";
+    case kEncodingHuffmanWaveletMatrix: return "huffman-wavelet-matrix";
+    default: return "unknown";
+    }
+}
+
+std::string operationLetters(uint32_t m) {
+    std::string s;
+    if (m & kMaskParent) s += 'p';
+    const uint32_t n = kMaskNeighborX | kMaskNeighborY | kMaskNeighborZ;
+    if ((m & n) == n)
+        s += 'n';
+    else {
+        if (m & kMaskNeighborX) s += 'x';
+        if (m & kMaskNeighborY) s += 'y';
+        if (m & kMaskNeighborZ) s += 'z';
+    }
+    if (m & kMaskPaletteLast) s += 'l';
+    if (m & kMaskPaletteD) s += 'd';
+    if (m & kMaskStopBits) s += 's';
+    if (m & kMaskLegacyDelta) s += 'L';
+    return s;
+}
+
+} // namespace csgv

@@ -1,0 +1,563 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/codec/Encoder.h"
+#include "csgv/base/Morton.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <omp.h>
+#include <unordered_map>
+
+namespace csgv {
+
+namespace {
+
+
+/// Operation symbols of one brick before entropy coding, two per byte (high nibble first).
+struct BrickSymbols {
+    std::vector<uint8_t> packed;
+    uint32_t count = 0;
+    std::array<uint32_t, 9> levelStart{}; ///< symbol index where each level begins; [L] = count
+    std::vector<uint32_t> palette;        ///< in append order
+    std::array<uint32_t, 16> countsA{};   ///< symbols of levels 0..L-2
+    std::array<uint32_t, 16> countsB{};   ///< symbols of the finest level
+
+    void push(uint32_t s) {
+        if ((count & 1) == 0) packed.push_back(uint8_t(s << 4));
+        else packed.back() |= uint8_t(s);
+        ++count;
+    }
+    uint32_t at(uint32_t i) const { return (packed[i >> 1] >> ((i & 1) ? 0 : 4)) & 15u; }
+};
+
+/// @brief Builds the level hierarchy of one brick and chooses its operations (one per thread).
+class BrickEncoder {
+public:
+    BrickEncoder(uint32_t brickSize, uint32_t opMask) : m_B(brickSize), m_L(floorLog2(brickSize) + 1), m_mask(opMask) {
+        uint32_t total = 0;
+        for (uint32_t l = 0; l < m_L; ++l) {
+            m_off[l] = total;
+            total += 1u << (3 * l);
+        }
+        m_label.resize(total);
+        m_inVolume.resize(total);
+        m_constant.resize(total);
+        m_open.resize(total);
+        for (uint32_t i = 0; i < 128; ++i) m_spread[i] = mortonSpread(i);
+    }
+
+    /// Encodes the brick whose voxels are `extent` (<= B per axis) labels of `slab` starting at
+    /// (ox, oy, 0) of a slab W x H wide.
+    Status encode(const uint32_t* slab, uint32_t W, uint32_t H, uint32_t ox, uint32_t oy, uint32_t z0,
+                  const std::array<uint32_t, 3>& extent, BrickSymbols& out) {
+        const uint32_t L = m_L, finest = L - 1;
+        uint32_t* fin = m_label.data() + m_off[finest];
+        uint8_t* finIn = m_inVolume.data() + m_off[finest];
+        const uint32_t n = m_B * m_B * m_B;
+        // Bricks inside the volume (most of them) need no in-volume flags at all.
+        m_inside = extent[0] == m_B && extent[1] == m_B && extent[2] == m_B;
+        if (!m_inside) std::memset(finIn, 0, n);
+        for (uint32_t z = 0; z < extent[2]; ++z)
+            for (uint32_t y = 0; y < extent[1]; ++y) {
+                const uint32_t* row = slab + (uint64_t(z) * H + oy + y) * W + ox;
+                const uint32_t myz = (m_spread[y] << 1) | (m_spread[z] << 2);
+                // label + 1 wraps to 0 only for the reserved 0xFFFFFFFF: one min finds it in passing.
+                uint32_t smallestPlusOne = ~0u;
+                for (uint32_t x = 0; x < extent[0]; ++x) {
+                    fin[myz | m_spread[x]] = row[x];
+                    smallestPlusOne = std::min(smallestPlusOne, row[x] + 1u);
+                }
+                if (smallestPlusOne == 0) {
+                    const uint32_t x = uint32_t(std::find(row, row + extent[0], kInvalidLabel) - row);
+                    return Status::error("label 0xFFFFFFFF at voxel (" + std::to_string(ox + x) + ", " +
+                                         std::to_string(oy + y) + ", " + std::to_string(z0 + z) +
+                                         ") is reserved; relabel the volume");
+                }
+                if (!m_inside)
+                    for (uint32_t x = 0; x < extent[0]; ++x) finIn[myz | m_spread[x]] = 1;
+            }
+        // Coarse labels bottom-up: mode of the in-volume children, ties to the lowest child index.
+        // Finest-level nodes are constant by definition, so level L-2 needs no child flags.
+        for (uint32_t l = finest; l-- > 0;) {
+            const uint32_t* cl = m_label.data() + m_off[l + 1];
+            const uint8_t* ci = m_inVolume.data() + m_off[l + 1];
+            const uint8_t* cc = m_constant.data() + m_off[l + 1];
+            const bool childrenConstant = l + 1 == finest;
+            uint32_t* pl = m_label.data() + m_off[l];
+            uint8_t* pi = m_inVolume.data() + m_off[l];
+            uint8_t* pc = m_constant.data() + m_off[l];
+            for (uint32_t m = 0, count = 1u << (3 * l); m < count; ++m) {
+                const uint32_t b = m << 3;
+                const uint32_t* c8 = cl + b;
+                if (m_inside) {
+                    const uint32_t v = c8[0];
+                    const bool same = (c8[1] == v) & (c8[2] == v) & (c8[3] == v) & (c8[4] == v) & (c8[5] == v) &
+                                      (c8[6] == v) & (c8[7] == v);
+                    if (same) {
+                        pl[m] = v;
+                        uint64_t flags;
+                        std::memcpy(&flags, cc + b, 8);
+                        pc[m] = childrenConstant || flags == 0x0101010101010101ull;
+                        continue;
+                    }
+                    pc[m] = 0;
+                    pl[m] = modeOfChildren(c8, 8);
+                    continue;
+                }
+                pi[m] = ci[b];
+                if (!ci[b]) {
+                    pl[m] = kInvalidLabel;
+                    pc[m] = 0;
+                    continue;
+                }
+                uint32_t lab[8];
+                int k = 0;
+                bool same = true, allConstant = true;
+                for (uint32_t c = 0; c < 8; ++c)
+                    if (ci[b + c]) {
+                        lab[k] = cl[b + c];
+                        same = same && lab[k] == lab[0];
+                        allConstant = allConstant && (childrenConstant || cc[b + c]);
+                        ++k;
+                    }
+                pc[m] = same && allConstant;
+                pl[m] = same ? lab[0] : modeOfChildren(lab, k);
+            }
+        }
+        chooseOperations(out);
+        return Status::ok();
+    }
+
+private:
+    bool inVolume(uint32_t l, uint32_t m) const { return m_inside || m_inVolume[m_off[l] + m]; }
+
+    void chooseOperations(BrickSymbols& out) {
+        const uint32_t L = m_L;
+        const bool useD = (m_mask & kMaskPaletteD) != 0;
+        const bool stops = (m_mask & kMaskStopBits) != 0;
+        out = BrickSymbols{};
+        out.packed.reserve(m_lastPacked); // bricks of a volume are alike: skip regrowing
+        m_index.clear();
+        auto emit = [&](uint32_t s, uint32_t level) {
+            out.push(s);
+            (level + 1 == L ? out.countsB : out.countsA)[s]++;
+        };
+        for (uint32_t l = 0; l < L; ++l) {
+            out.levelStart[l] = out.count;
+            const uint32_t* cur = m_label.data() + m_off[l];
+            const uint8_t* cst = m_constant.data() + m_off[l];
+            uint8_t* open = m_open.data() + m_off[l];
+            const bool finest = l + 1 == L;
+            if (l == 0) {
+                const bool stop = stops && cst[0];
+                emit(kOpPaletteAdv | (stop ? kStopBit : 0u), 0);
+                out.palette.push_back(cur[0]);
+                if (useD) m_index[cur[0]] = 0;
+                open[0] = !stop;
+                continue;
+            }
+            const uint32_t* par = m_label.data() + m_off[l - 1];
+            const uint8_t* parOpen = m_open.data() + m_off[l - 1];
+            const uint32_t parentGrid = 1u << (l - 1);
+            for (uint32_t m = 0, count = 1u << (3 * l); m < count; ++m) {
+                const uint32_t pm = m >> 3;
+                if (!parOpen[pm]) { // a closed parent: none of its 8 children is visited
+                    std::memset(open + m, 0, 8);
+                    m += 7;
+                    continue;
+                }
+                if (!inVolume(l, m)) {
+                    open[m] = 0;
+                    continue;
+                }
+                const uint32_t label = cur[m];
+                uint32_t op = kOpPaletteAdv;
+                uint64_t distance = 0;
+                if ((m_mask & kMaskParent) && par[pm] == label) op = kOpParent;
+                for (int axis = 0; axis < 3 && op == kOpPaletteAdv; ++axis) {
+                    if (!(m_mask & (kMaskNeighborX << axis))) continue;
+                    if (((m >> axis) & 1u) == 0) {
+                        if ((m & mortonAxisMask(axis)) != 0 && cur[mortonDecrement(m, axis)] == label)
+                            op = kOpNeighborX + axis;
+                    } else if (mortonCompact(pm >> axis) + 1 < parentGrid) {
+                        const uint32_t q = mortonIncrement(pm, axis);
+                        if (inVolume(l - 1, q) && par[q] == label) op = kOpNeighborX + axis;
+                    }
+                }
+                if (op == kOpPaletteAdv && (m_mask & kMaskPaletteLast) && out.palette.back() == label)
+                    op = kOpPaletteLast;
+                if (op == kOpPaletteAdv && useD) {
+                    auto it = m_index.find(label);
+                    // Distances count from the entry before the last one; without PALETTE_LAST the
+                    // last entry is unreachable and gets appended again.
+                    const uint64_t last = out.palette.size() - 1;
+                    if (it != m_index.end() && it->second < last) {
+                        op = kOpPaletteD;
+                        distance = last - 1 - it->second;
+                    }
+                }
+                const bool stop = stops && !finest && cst[m]; // cst of the finest level is never read
+                emit(op | (stop ? kStopBit : 0u), l);
+                if (op == kOpPaletteD) {
+                    int groups = 1;
+                    while (groups < 11 && (distance >> (3 * groups)) != 0) ++groups;
+                    for (int g = groups - 1; g >= 0; --g)
+                        emit(uint32_t((distance >> (3 * g)) & 7u) | (g > 0 ? 8u : 0u), l);
+                } else if (op == kOpPaletteAdv) {
+                    if (useD) m_index[label] = uint32_t(out.palette.size());
+                    out.palette.push_back(label);
+                }
+                open[m] = !stop;
+            }
+        }
+        out.levelStart[L] = out.count;
+        m_lastPacked = out.packed.size();
+    }
+
+    uint32_t m_B, m_L, m_mask;
+    std::array<uint32_t, 8> m_off{};
+    std::vector<uint32_t> m_label;
+    std::vector<uint8_t> m_inVolume, m_constant, m_open;
+    std::array<uint32_t, 128> m_spread{};
+    bool m_inside = false; ///< the brick lies wholly inside the volume
+    size_t m_lastPacked = 0;
+    std::unordered_map<uint32_t, uint32_t> m_index; ///< label -> palette index (PALETTE_D)
+};
+
+/// Scales counts to a table summing to 16384 in which every counted symbol has frequency >= 1.
+std::array<uint32_t, 16> normalizeFrequencies(const std::array<uint64_t, 16>& counts) {
+    std::array<uint32_t, 16> f{};
+    uint64_t total = 0;
+    for (uint64_t c : counts) total += c;
+    if (total == 0) {
+        f[0] = kRansTotal; // nothing to code: any valid table
+        return f;
+    }
+    int64_t sum = 0;
+    for (int s = 0; s < 16; ++s) {
+        if (!counts[s]) continue;
+        f[s] = uint32_t(std::max<uint64_t>(1, (counts[s] * kRansTotal + total / 2) / total));
+        sum += f[s];
+    }
+    // Fix the sum where it costs least: take from or give to the symbols with the most room.
+    while (sum != int64_t(kRansTotal)) {
+        int pick = -1;
+        double bestCost = 1e300;
+        for (int s = 0; s < 16; ++s) {
+            if (!counts[s]) continue;
+            if (sum > int64_t(kRansTotal) && f[s] <= 1) continue;
+            // Change in coded bits of moving this symbol's frequency by one.
+            const double nf = double(f[s]) + (sum > int64_t(kRansTotal) ? -1.0 : 1.0);
+            const double cost = double(counts[s]) * (std::log2(double(f[s])) - std::log2(nf));
+            if (cost < bestCost) {
+                bestCost = cost;
+                pick = s;
+            }
+        }
+        if (sum > int64_t(kRansTotal)) {
+            --f[pick];
+            --sum;
+        } else {
+            ++f[pick];
+            ++sum;
+        }
+    }
+    return f;
+}
+
+/// Per-symbol constants that turn rANS's division by the frequency into a multiply and shift:
+/// q = floor(x / f) = (x * rcp) >> (32 + shift) for x < 2^31, exact for every f in 1..16384.
+struct RansSymbol {
+    uint32_t xMax = 0, rcp = 0, shift = 0, bias = 0, complement = 0;
+};
+
+std::array<RansSymbol, 16> ransSymbols(const std::array<uint32_t, 16>& freq) {
+    std::array<RansSymbol, 16> out{};
+    uint32_t cum = 0;
+    for (int s = 0; s < 16; ++s) {
+        const uint32_t f = freq[s];
+        RansSymbol& r = out[s];
+        r.xMax = ((kRansLowerBound >> kRansProbBits) << 8) * f;
+        r.complement = kRansTotal - f;
+        if (f < 2) { // f == 1: q = x, so x' = x * 2^14 + cum, written as x + bias + q * complement
+            r.rcp = ~0u;
+            r.shift = 0;
+            r.bias = cum + kRansTotal - 1;
+        } else {
+            uint32_t sh = 0;
+            while (f > (1u << sh)) ++sh;
+            r.rcp = uint32_t(((uint64_t(1) << (sh + 31)) + f - 1) / f);
+            r.shift = sh - 1;
+            r.bias = cum;
+        }
+        cum += f;
+    }
+    return out;
+}
+
+/// rANS-codes symbols [begin, end) of a brick (section 4.1): the final state word, then the bytes
+/// the encoder wrote backwards, read forward, zero padded to a word.
+void ransEncode(const BrickSymbols& sym, uint32_t begin, uint32_t end, const std::array<RansSymbol, 16>& table,
+                std::vector<uint8_t>& scratch, std::vector<uint32_t>& out) {
+    uint32_t x = kRansLowerBound;
+    // A state below 2^31 sheds at most two bytes per symbol (the lower bound is 2^23).
+    scratch.resize(size_t(end - begin) * 2 + 8);
+    uint8_t* put = scratch.data();
+    for (uint32_t i = end; i-- > begin;) {
+        const RansSymbol& r = table[sym.at(i)];
+        while (x >= r.xMax) {
+            *put++ = uint8_t(x & 0xFF);
+            x >>= 8;
+        }
+        const uint32_t q = uint32_t((uint64_t(x) * r.rcp) >> 32) >> r.shift;
+        x = x + r.bias + q * r.complement;
+    }
+    out.push_back(x);
+    const size_t bytes = size_t(put - scratch.data());
+    const size_t first = out.size();
+    out.resize(first + (bytes + 3) / 4, 0u);
+    for (size_t j = 0; j < bytes; ++j) out[first + j / 4] |= uint32_t(scratch[bytes - 1 - j]) << (8 * (j % 4));
+}
+
+/// Final words of one brick.
+void assembleBrick(const BrickSymbols& sym, uint32_t L, int32_t encoding, const std::array<RansSymbol, 16>& tableA,
+                   const std::array<RansSymbol, 16>& tableB, std::vector<uint8_t>& scratch, std::vector<uint32_t>& w) {
+    w.assign(L + 1, 0);
+    for (uint32_t l = 0; l < L; ++l) w[l] = (L + 1) * 8 + sym.levelStart[l];
+    w[L] = uint32_t(sym.palette.size());
+    if (encoding == kEncodingNibble) {
+        const size_t first = w.size();
+        w.resize(first + (sym.count + 7) / 8, 0u);
+        for (uint32_t i = 0; i < sym.count; ++i) w[first + i / 8] |= sym.at(i) << (28 - 4 * (i % 8));
+    } else if (encoding == kEncodingRans1) {
+        ransEncode(sym, 0, sym.count, tableA, scratch, w);
+    } else {
+        ransEncode(sym, 0, sym.levelStart[L - 1], tableA, scratch, w);
+        w[L - 1] = uint32_t(w.size()) * 8;
+        ransEncode(sym, sym.levelStart[L - 1], sym.count, tableB, scratch, w);
+    }
+    w.insert(w.end(), sym.palette.rbegin(), sym.palette.rend());
+}
+
+class MemorySlabSource : public SlabSource {
+public:
+    explicit MemorySlabSource(const LabelVolume& v) : m_v(v) {}
+    std::array<uint32_t, 3> dimensions() const override { return m_v.dim; }
+    Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override {
+        const size_t slice = size_t(m_v.dim[0]) * m_v.dim[1];
+        std::memcpy(out, m_v.labels.data() + slice * z0, slice * depth * 4);
+        return Status::ok();
+    }
+    const uint32_t* slabInMemory(uint32_t z0) const override {
+        return m_v.labels.data() + size_t(m_v.dim[0]) * m_v.dim[1] * z0;
+    }
+
+private:
+    const LabelVolume& m_v;
+};
+
+} // namespace
+
+Result<uint32_t> parseOperationMask(const std::string& text) {
+    if (text == "default") return uint32_t(kMaskDefault);
+    if (text == "all") return uint32_t(kMaskAll);
+    if (text.empty()) return Status::error("empty operation list (use default, all, or letters of pxyznlds)");
+    uint32_t m = 0;
+    for (char c : text) {
+        switch (c) {
+        case 'p': m |= kMaskParent; break;
+        case 'x': m |= kMaskNeighborX; break;
+        case 'y': m |= kMaskNeighborY; break;
+        case 'z': m |= kMaskNeighborZ; break;
+        case 'n': m |= kMaskNeighborX | kMaskNeighborY | kMaskNeighborZ; break;
+        case 'l': m |= kMaskPaletteLast; break;
+        case 'd': m |= kMaskPaletteD; break;
+        case 's': m |= kMaskStopBits; break;
+        default:
+            return Status::error(std::string("unknown operation letter '") + c +
+                                 "' (p parent, x y z or n neighbours, l palette last, d palette delta, s stop bits)");
+        }
+    }
+    return m;
+}
+
+Status checkEncodeOptions(const EncodeOptions& o) {
+    if (o.brickSize < 8 || o.brickSize > 128 || (o.brickSize & (o.brickSize - 1)))
+        return Status::error("brick size " + std::to_string(o.brickSize) + " is not a power of two from 8 to 128");
+    if (o.encoding != kEncodingNibble && o.encoding != kEncodingRans1 && o.encoding != kEncodingRans2)
+        return Status::error("encoding " + std::to_string(o.encoding) + " cannot be written (nibble, rans1 or rans2)");
+    const uint32_t known = kMaskParent | kMaskNeighborX | kMaskNeighborY | kMaskNeighborZ | kMaskPaletteLast |
+                           kMaskPaletteD | kMaskStopBits;
+    if (o.opMask & ~known)
+        return Status::error("operation mask 0x" + std::to_string(o.opMask) + " has bits this writer does not set");
+    return Status::ok();
+}
+
+Result<CompressedVolume> encodeVolume(const LabelVolume& volume, const EncodeOptions& options) {
+    if (volume.labels.size() != volume.voxelCount())
+        return Status::error("label volume holds " + std::to_string(volume.labels.size()) + " labels, expected " +
+                             std::to_string(volume.voxelCount()));
+    MemorySlabSource src(volume);
+    return encodeVolume(src, options);
+}
+
+Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
+    Status s = checkEncodeOptions(options);
+    if (!s) return s;
+    CompressedVolume vol;
+    vol.version = 16;
+    vol.brickSize = options.brickSize;
+    vol.dim = source.dimensions();
+    vol.encoding = options.encoding;
+    vol.opMask = options.opMask;
+    for (int a = 0; a < 3; ++a)
+        if (vol.dim[a] == 0) return Status::error("volume dimension " + std::to_string(a) + " is 0");
+    const uint32_t B = options.brickSize, L = vol.levels();
+    const auto grid = vol.brickGrid();
+    const uint64_t bricks = vol.brickCount();
+    if (bricks > kMaxBricks) return Status::error("volume needs more than 2^40 bricks");
+    const int nThreads = options.threads > 0 ? options.threads : omp_get_max_threads();
+    const uint64_t slabVoxels = uint64_t(vol.dim[0]) * vol.dim[1] * B;
+
+    // Pass 1, slab by slab: level hierarchy, operations, symbol counts.
+    std::vector<BrickSymbols> symbols(static_cast<size_t>(bricks));
+    std::vector<uint32_t> slab;
+    if (!source.slabInMemory(0)) {
+        try {
+            slab.resize(size_t(slabVoxels));
+        } catch (const std::bad_alloc&) {
+            return Status::error("out of memory for a slab of " + std::to_string(slabVoxels) + " labels");
+        }
+    }
+    const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
+    for (uint32_t bz = 0; bz < grid[2]; ++bz) {
+        const uint32_t z0 = bz * B, depth = std::min(B, vol.dim[2] - z0);
+        const uint32_t* slabData = source.slabInMemory(z0);
+        if (!slabData) {
+            s = source.readSlab(z0, depth, slab.data());
+            if (!s) return s;
+            slabData = slab.data();
+        }
+        std::mutex mutex;
+        Status error;
+        uint64_t errorBrick = ~uint64_t(0);
+#pragma omp parallel num_threads(int(std::min<uint64_t>(uint64_t(nThreads), perSlab)))
+        {
+            BrickEncoder enc(B, options.opMask);
+#pragma omp for schedule(dynamic, 1)
+            for (int64_t i = 0; i < int64_t(perSlab); ++i) {
+                const uint32_t bx = uint32_t(i % grid[0]), by = uint32_t(i / grid[0]);
+                const std::array<uint32_t, 3> extent = {std::min(B, vol.dim[0] - bx * B),
+                                                        std::min(B, vol.dim[1] - by * B), depth};
+                const uint64_t b = uint64_t(bz) * perSlab + uint64_t(i);
+                Status st = enc.encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(b)]);
+                if (!st) {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    if (b < errorBrick) {
+                        errorBrick = b;
+                        error = st;
+                    }
+                }
+            }
+        }
+        if (!error.isOk()) return error;
+    }
+    slab.clear();
+    slab.shrink_to_fit();
+
+    // Global tables (sums are order independent, so any thread count gives the same bytes).
+    std::array<uint64_t, 16> countA{}, countB{};
+    for (const BrickSymbols& b : symbols)
+        for (int k = 0; k < 16; ++k) {
+            if (vol.encoding == kEncodingRans1) countA[k] += uint64_t(b.countsA[k]) + b.countsB[k];
+            else {
+                countA[k] += b.countsA[k];
+                countB[k] += b.countsB[k];
+            }
+        }
+    if (options.fixedTables) {
+        vol.freqA = options.tableA;
+        vol.freqB = options.tableB;
+        for (int k = 0; k < 16; ++k)
+            if ((countA[k] && !vol.freqA[k] && vol.encoding != kEncodingNibble) ||
+                (countB[k] && !vol.freqB[k] && vol.encoding == kEncodingRans2))
+                return Status::error("the given frequency tables lack symbol " + std::to_string(k) +
+                                     ", which the volume needs");
+        if (vol.encoding == kEncodingNibble) vol.freqA = vol.freqB = {};
+        if (vol.encoding == kEncodingRans1) vol.freqB = {};
+        uint64_t sumA = 0, sumB = 0;
+        for (int k = 0; k < 16; ++k) {
+            sumA += vol.freqA[k];
+            sumB += vol.freqB[k];
+        }
+        if ((vol.encoding != kEncodingNibble && sumA != kRansTotal) || (vol.encoding == kEncodingRans2 && sumB != kRansTotal))
+            return Status::error("the given frequency tables do not sum to 16384");
+    } else {
+        if (vol.encoding != kEncodingNibble) vol.freqA = normalizeFrequencies(countA);
+        if (vol.encoding == kEncodingRans2) vol.freqB = normalizeFrequencies(countB);
+    }
+
+    // Pass 2: entropy coding per brick.
+    std::vector<std::vector<uint32_t>> words(static_cast<size_t>(bricks));
+    const std::array<RansSymbol, 16> symA = ransSymbols(vol.freqA), symB = ransSymbols(vol.freqB);
+#pragma omp parallel num_threads(int(std::min<uint64_t>(uint64_t(nThreads), bricks)))
+    {
+        std::vector<uint8_t> scratch;
+#pragma omp for schedule(dynamic, 4)
+        for (int64_t i = 0; i < int64_t(bricks); ++i) {
+            assembleBrick(symbols[size_t(i)], L, vol.encoding, symA, symB, scratch, words[size_t(i)]);
+            symbols[size_t(i)] = BrickSymbols{};
+        }
+    }
+    symbols.clear();
+    symbols.shrink_to_fit();
+
+    // Encoding arrays: one while everything fits 2^29 words, else the fewest equal brick counts.
+    uint64_t total = 0, largestBrick = 0;
+    for (const auto& w : words) {
+        total += w.size();
+        largestBrick = std::max<uint64_t>(largestBrick, w.size());
+        vol.maxPalette = std::max(vol.maxPalette, w[L]);
+    }
+    if (total * 4 > maxOutputBytes)
+        return Status::error("the compressed volume needs " + std::to_string(total * 4) +
+                             " bytes, more than the output limit of " + std::to_string(maxOutputBytes));
+    const uint64_t arrayLimit = std::min<uint64_t>(std::max<uint32_t>(options.maxArrayWords, 1), kMaxWordsPerArray);
+    if (largestBrick > arrayLimit)
+        return Status::error("a brick needs " + std::to_string(largestBrick) + " words, more than an encoding array holds");
+    uint64_t perArray = bricks;
+    if (total > arrayLimit) {
+        auto fits = [&](uint64_t n) {
+            for (uint64_t first = 0; first < bricks; first += n) {
+                uint64_t sum = 0;
+                for (uint64_t i = first; i < std::min(bricks, first + n); ++i) sum += words[size_t(i)].size();
+                if (sum > arrayLimit) return false;
+            }
+            return true;
+        };
+        uint64_t lo = 1, hi = bricks;
+        while (lo < hi) {
+            const uint64_t mid = (lo + hi + 1) / 2;
+            if (fits(mid)) lo = mid;
+            else hi = mid - 1;
+        }
+        perArray = lo;
+        vol.bricksPerArray = uint32_t(perArray);
+    }
+    vol.brickStarts.assign(size_t(bricks + 1), 0);
+    for (uint64_t i = 0; i < bricks; ++i) {
+        if (i % perArray == 0) {
+            if (i > 0) vol.brickStarts[size_t(i)] = uint32_t(vol.arrays.back().size());
+            vol.arrays.emplace_back();
+        }
+        auto& arr = vol.arrays.back();
+        if (i % perArray != 0 || i == 0) vol.brickStarts[size_t(i)] = uint32_t(arr.size());
+        arr.insert(arr.end(), words[size_t(i)].begin(), words[size_t(i)].end());
+        std::vector<uint32_t>().swap(words[size_t(i)]);
+    }
+    vol.brickStarts[size_t(bricks)] = uint32_t(vol.arrays.back().size());
+    return vol;
+}
+
+} // namespace csgv

@@ -1,0 +1,342 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/materials/Materials.h"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+namespace csgv {
+
+using nlohmann::json;
+
+namespace {
+
+/// 16 high-contrast colours for `random` without a colormap.
+constexpr std::array<std::array<float, 3>, 16> kPalette = {{
+    {0.902f, 0.098f, 0.294f}, {0.235f, 0.706f, 0.294f}, {1.000f, 0.882f, 0.098f}, {0.263f, 0.388f, 0.847f},
+    {0.961f, 0.510f, 0.192f}, {0.569f, 0.118f, 0.706f}, {0.275f, 0.941f, 0.941f}, {0.941f, 0.196f, 0.902f},
+    {0.737f, 0.965f, 0.047f}, {0.980f, 0.745f, 0.745f}, {0.000f, 0.502f, 0.502f}, {0.902f, 0.745f, 1.000f},
+    {0.604f, 0.388f, 0.141f}, {1.000f, 0.980f, 0.784f}, {0.502f, 0.000f, 0.000f}, {0.667f, 1.000f, 0.765f},
+}};
+
+std::string where(size_t i, const std::string& name) {
+    return "material " + std::to_string(i) + (name.empty() ? "" : " ('" + name + "')");
+}
+
+/// Refuses keys outside `allowed`, naming the first one.
+Status onlyKeys(const json& obj, std::initializer_list<const char*> allowed, const std::string& context) {
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+        bool ok = false;
+        for (const char* a : allowed) ok = ok || it.key() == a;
+        if (!ok) {
+            std::string list;
+            for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+            return Status::error(context + ": unknown key '" + it.key() + "' (allowed: " + list + ")");
+        }
+    }
+    return Status::ok();
+}
+
+Status number(const json& obj, const char* key, double& out, const std::string& context) {
+    if (!obj.contains(key)) return Status::ok();
+    if (!obj[key].is_number() || !std::isfinite(obj[key].get<double>()))
+        return Status::error(context + ": '" + key + "' must be a finite number, not " + obj[key].dump());
+    out = obj[key].get<double>();
+    return Status::ok();
+}
+
+Status text(const json& obj, const char* key, std::string& out, const std::string& context) {
+    if (!obj.contains(key)) return Status::ok();
+    if (!obj[key].is_string()) return Status::error(context + ": '" + key + "' must be a string, not " + obj[key].dump());
+    out = obj[key].get<std::string>();
+    return Status::ok();
+}
+
+Status parseColormap(const json& v, Colormap& out, const std::string& context) {
+    out = Colormap{};
+    if (v.is_string()) {
+        out.name = v.get<std::string>();
+        if (out.name.empty()) return Status::error(context + ": colormap name is empty");
+        return Status::ok();
+    }
+    if (!v.is_array() || v.size() < 2)
+        return Status::error(context + ": colormap must be a name or at least two points [x, r, g, b]");
+    for (size_t i = 0; i < v.size(); ++i) {
+        const json& p = v[i];
+        if (!p.is_array() || p.size() != 4)
+            return Status::error(context + ": colormap point " + std::to_string(i) + " must be [x, r, g, b]");
+        std::array<float, 4> q{};
+        for (size_t k = 0; k < 4; ++k) {
+            if (!p[k].is_number()) return Status::error(context + ": colormap point " + std::to_string(i) + " holds a non-number");
+            const double d = p[k].get<double>();
+            if (!(d >= 0 && d <= 1))
+                return Status::error(context + ": colormap point " + std::to_string(i) + " has " + p[k].dump() +
+                                     " outside [0, 1]");
+            q[k] = float(d);
+        }
+        if (!out.points.empty() && q[0] <= out.points.back()[0])
+            return Status::error(context + ": colormap x values must increase (point " + std::to_string(i) + ")");
+        out.points.push_back(q);
+    }
+    if (out.points.front()[0] != 0.0f || out.points.back()[0] != 1.0f)
+        return Status::error(context + ": colormap x values must run from 0 to 1");
+    return Status::ok();
+}
+
+Status parseMaterial(const json& m, size_t index, Material& out) {
+    if (!m.is_object()) return Status::error(where(index, "") + " must be an object");
+    std::string ctx = where(index, "");
+    Status s = text(m, "name", out.name, ctx);
+    if (!s) return s;
+    ctx = where(index, out.name);
+    if (!(s = onlyKeys(m, {"name", "filter", "color", "opacity", "emission"}, ctx))) return s;
+    if (m.contains("filter")) {
+        const json& f = m["filter"];
+        const std::string fc = ctx + ", filter";
+        if (!f.is_object()) return Status::error(fc + " must be an object");
+        if (!(s = onlyKeys(f, {"attribute", "min", "max"}, fc))) return s;
+        if (!(s = text(f, "attribute", out.filterAttribute, fc))) return s;
+        if (!(s = number(f, "min", out.filterMin, fc))) return s;
+        if (!(s = number(f, "max", out.filterMax, fc))) return s;
+        if (out.filterAttribute.empty()) return Status::error(fc + ": 'attribute' is empty");
+        if (out.filterMin > out.filterMax) return Status::error(fc + ": 'min' is greater than 'max'");
+    }
+    if (m.contains("color")) {
+        const json& c = m["color"];
+        const std::string cc = ctx + ", color";
+        if (!c.is_object()) return Status::error(cc + " must be an object");
+        std::string mode = "random";
+        if (!(s = text(c, "mode", mode, cc))) return s;
+        if (mode == "constant") {
+            out.colorMode = Material::ColorMode::Constant;
+            if (!(s = onlyKeys(c, {"mode", "rgb"}, cc + " (constant)"))) return s;
+            if (!c.contains("rgb")) return Status::error(cc + ": constant colour needs 'rgb'");
+            const json& rgb = c["rgb"];
+            if (!rgb.is_array() || rgb.size() != 3) return Status::error(cc + ": 'rgb' must be three numbers in [0, 1]");
+            for (size_t k = 0; k < 3; ++k) {
+                if (!rgb[k].is_number() || !(rgb[k].get<double>() >= 0 && rgb[k].get<double>() <= 1))
+                    return Status::error(cc + ": 'rgb' must be three numbers in [0, 1], not " + rgb.dump());
+                out.rgb[k] = rgb[k].get<float>();
+            }
+        } else if (mode == "colormap") {
+            out.colorMode = Material::ColorMode::Colormap;
+            if (!(s = onlyKeys(c, {"mode", "attribute", "min", "max", "wrap", "colormap"}, cc + " (colormap)"))) return s;
+            if (!(s = text(c, "attribute", out.colorAttribute, cc))) return s;
+            if (!(s = number(c, "min", out.colorMin, cc))) return s;
+            if (!(s = number(c, "max", out.colorMax, cc))) return s;
+            if (out.colorMin == out.colorMax) return Status::error(cc + ": 'min' equals 'max'");
+            std::string wrap = "clamp";
+            if (!(s = text(c, "wrap", wrap, cc))) return s;
+            if (wrap == "clamp") out.wrap = Material::Wrap::Clamp;
+            else if (wrap == "repeat") out.wrap = Material::Wrap::Repeat;
+            else return Status::error(cc + ": 'wrap' is '" + wrap + "', expected clamp or repeat");
+            if (!c.contains("colormap")) return Status::error(cc + ": colormap colour needs 'colormap'");
+            if (!(s = parseColormap(c["colormap"], out.colormap, cc))) return s;
+        } else if (mode == "random") {
+            out.colorMode = Material::ColorMode::Random;
+            if (!(s = onlyKeys(c, {"mode", "colormap"}, cc + " (random)"))) return s;
+            if (c.contains("colormap") && !(s = parseColormap(c["colormap"], out.colormap, cc))) return s;
+        } else {
+            return Status::error(cc + ": 'mode' is '" + mode + "', expected constant, colormap or random");
+        }
+    }
+    double opacity = 1, emission = 0;
+    if (!(s = number(m, "opacity", opacity, ctx))) return s;
+    if (!(s = number(m, "emission", emission, ctx))) return s;
+    if (opacity < 0 || opacity > 1) return Status::error(ctx + ": 'opacity' must lie in [0, 1]");
+    if (emission < 0) return Status::error(ctx + ": 'emission' must not be negative");
+    out.opacity = float(opacity);
+    out.emission = float(emission);
+    return Status::ok();
+}
+
+json colormapJson(const Colormap& c) {
+    if (c.points.empty()) return c.name;
+    json pts = json::array();
+    for (const auto& p : c.points) pts.push_back({p[0], p[1], p[2], p[3]});
+    return pts;
+}
+
+} // namespace
+
+std::array<float, 3> Colormap::at(double t) const {
+    if (points.empty()) return {{1, 1, 1}};
+    t = std::clamp(t, 0.0, 1.0);
+    size_t i = 1;
+    while (i + 1 < points.size() && points[i][0] < t) ++i;
+    const auto& a = points[i - 1];
+    const auto& b = points[i];
+    const double span = b[0] - a[0];
+    const double u = span > 0 ? std::clamp((t - a[0]) / span, 0.0, 1.0) : 0.0;
+    return {{float(a[1] + (b[1] - a[1]) * u), float(a[2] + (b[2] - a[2]) * u), float(a[3] + (b[3] - a[3]) * u)}};
+}
+
+uint32_t labelHash(uint32_t x) { // Wellons' lowbias32: labels next to each other land far apart
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+Result<MaterialDocument> parseMaterials(const std::string& text) {
+    json j = json::parse(text, nullptr, false);
+    if (j.is_discarded()) return Status::error("material document: not valid JSON");
+    if (!j.is_object()) return Status::error("material document: must be a JSON object");
+    Status s = onlyKeys(j, {"version", "materials"}, "material document");
+    if (!s) return s;
+    MaterialDocument doc;
+    if (j.contains("version")) {
+        if (!j["version"].is_number_integer() || j["version"].get<int64_t>() != 1)
+            return Status::error("material document: unsupported version " + j["version"].dump() + " (expected 1)");
+    }
+    if (!j.contains("materials")) return defaultMaterials();
+    if (!j["materials"].is_array()) return Status::error("material document: 'materials' must be a list");
+    for (size_t i = 0; i < j["materials"].size(); ++i) {
+        Material m;
+        if (!(s = parseMaterial(j["materials"][i], i, m))) return s;
+        doc.materials.push_back(std::move(m));
+    }
+    return doc;
+}
+
+std::string serializeMaterials(const MaterialDocument& doc) {
+    json out;
+    out["version"] = 1;
+    out["materials"] = json::array();
+    for (const Material& m : doc.materials) {
+        json jm;
+        jm["name"] = m.name;
+        jm["filter"] = {{"attribute", m.filterAttribute}, {"min", m.filterMin}, {"max", m.filterMax}};
+        json c;
+        switch (m.colorMode) {
+        case Material::ColorMode::Constant: c = {{"mode", "constant"}, {"rgb", {m.rgb[0], m.rgb[1], m.rgb[2]}}}; break;
+        case Material::ColorMode::Colormap:
+            c = {{"mode", "colormap"}, {"attribute", m.colorAttribute}, {"min", m.colorMin}, {"max", m.colorMax},
+                 {"wrap", m.wrap == Material::Wrap::Clamp ? "clamp" : "repeat"}, {"colormap", colormapJson(m.colormap)}};
+            break;
+        case Material::ColorMode::Random:
+            c = {{"mode", "random"}};
+            if (!m.colormap.points.empty() || !m.colormap.name.empty()) c["colormap"] = colormapJson(m.colormap);
+            break;
+        }
+        jm["color"] = c;
+        jm["opacity"] = m.opacity;
+        jm["emission"] = m.emission;
+        out["materials"].push_back(jm);
+    }
+    return out.dump(2);
+}
+
+MaterialDocument defaultMaterials() {
+    MaterialDocument doc;
+    Material m;
+    m.name = "labels";
+    doc.materials.push_back(m);
+    return doc;
+}
+
+std::vector<std::string> attributesUsed(const MaterialDocument& doc) {
+    std::vector<std::string> out;
+    auto add = [&](const std::string& a) {
+        if (std::find(out.begin(), out.end(), a) == out.end()) out.push_back(a);
+    };
+    for (const Material& m : doc.materials) {
+        add(m.filterAttribute);
+        if (m.colorMode == Material::ColorMode::Colormap) add(m.colorAttribute);
+    }
+    return out;
+}
+
+Status checkAttributes(const MaterialDocument& doc, const std::vector<std::string>& available) {
+    for (const std::string& a : attributesUsed(doc)) {
+        if (a == "label" || std::find(available.begin(), available.end(), a) != available.end()) continue;
+        std::string list = "label";
+        for (const std::string& b : available) list += ", " + b;
+        return Status::error("material document names attribute '" + a + "', which the volume lacks (it has: " + list + ")");
+    }
+    return Status::ok();
+}
+
+std::vector<std::string> builtinColormapNames() { return {"Viridis (matplotlib)", "Turbo", "Cool to Warm", "Grayscale"}; }
+
+Result<Colormap> builtinColormap(const std::string& name) {
+    Colormap c;
+    c.name = name;
+    if (name == "Viridis (matplotlib)") {
+        c.points = {{0.0f, 0.267004f, 0.004874f, 0.329415f},   {0.125f, 0.282623f, 0.140926f, 0.457517f},
+                    {0.25f, 0.229739f, 0.322361f, 0.545706f},  {0.375f, 0.172719f, 0.448791f, 0.557885f},
+                    {0.5f, 0.127568f, 0.566949f, 0.550556f},   {0.625f, 0.157851f, 0.683765f, 0.501686f},
+                    {0.75f, 0.369214f, 0.788888f, 0.382914f},  {0.875f, 0.678489f, 0.863742f, 0.189503f},
+                    {1.0f, 0.993248f, 0.906157f, 0.143936f}};
+    } else if (name == "Turbo") {
+        // Google's polynomial approximation of Turbo, sampled at 17 points.
+        for (int i = 0; i <= 16; ++i) {
+            const double x = i / 16.0;
+            auto poly = [x](double a, double b, double cc, double d, double e, double f) {
+                return std::clamp(a + x * (b + x * (cc + x * (d + x * (e + x * f)))), 0.0, 1.0);
+            };
+            c.points.push_back({float(x), float(poly(0.13572138, 4.61539260, -42.66032258, 132.13108234, -152.94239396, 59.28637943)),
+                                float(poly(0.09140261, 2.19418839, 4.84296658, -14.18503333, 4.27729857, 2.82956604)),
+                                float(poly(0.10667330, 12.64194608, -60.58204836, 110.36276771, -89.90310912, 27.34824973))});
+        }
+    } else if (name == "Cool to Warm") {
+        c.points = {{0.0f, 0.231373f, 0.298039f, 0.752941f}, {0.5f, 0.865003f, 0.865003f, 0.865003f},
+                    {1.0f, 0.705882f, 0.015686f, 0.149020f}};
+    } else if (name == "Grayscale") {
+        c.points = {{0.0f, 0.0f, 0.0f, 0.0f}, {1.0f, 1.0f, 1.0f, 1.0f}};
+    } else {
+        std::string list;
+        for (const std::string& n : builtinColormapNames()) list += (list.empty() ? "" : ", ") + n;
+        return Status::error("colormap '" + name + "' is not built in (built in: " + list +
+                             "; in ParaView every preset name works)");
+    }
+    return c;
+}
+
+Status resolveColormapNames(MaterialDocument& doc) {
+    for (size_t i = 0; i < doc.materials.size(); ++i) {
+        Colormap& c = doc.materials[i].colormap;
+        if (!c.points.empty() || c.name.empty()) continue;
+        Result<Colormap> r = builtinColormap(c.name);
+        if (!r) return Status(r.status()).prefix(where(i, doc.materials[i].name));
+        c = std::move(*r);
+    }
+    return Status::ok();
+}
+
+MaterialEvaluator::MaterialEvaluator(const MaterialDocument& doc, AttributeFn attribute)
+    : m_doc(doc), m_attribute(std::move(attribute)) {}
+
+int MaterialEvaluator::materialOf(uint32_t label) const {
+    for (size_t i = 0; i < m_doc.materials.size(); ++i) {
+        const Material& m = m_doc.materials[i];
+        const double v = m.filterAttribute == "label" ? double(label) : m_attribute(m.filterAttribute, label);
+        if (v >= m.filterMin && v <= m.filterMax) return int(i); // closed interval; NaN never matches
+    }
+    return -1;
+}
+
+std::array<float, 3> MaterialEvaluator::colorOf(uint32_t label, int index) const {
+    if (index < 0 || size_t(index) >= m_doc.materials.size()) return {{0, 0, 0}};
+    const Material& m = m_doc.materials[size_t(index)];
+    switch (m.colorMode) {
+    case Material::ColorMode::Constant: return m.rgb;
+    case Material::ColorMode::Colormap: {
+        const double v = m.colorAttribute == "label" ? double(label) : m_attribute(m.colorAttribute, label);
+        double t = (v - m.colorMin) / (m.colorMax - m.colorMin);
+        if (std::isnan(t)) t = 0;
+        if (m.wrap == Material::Wrap::Repeat) t -= std::floor(t);
+        return m.colormap.at(t);
+    }
+    case Material::ColorMode::Random:
+    default: {
+        const uint32_t h = labelHash(label);
+        if (m.colormap.points.empty()) return kPalette[h % kPalette.size()];
+        return m.colormap.at(double(h) / 4294967295.0);
+    }
+    }
+}
+
+} // namespace csgv

@@ -1,0 +1,404 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/reference/RayCast.h"
+#include "csgv/codec/Container.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace csgv {
+
+namespace {
+
+using Vec3 = std::array<double, 3>;
+using Mat4 = std::array<double, 16>;
+
+std::array<double, 4> transform4(const Mat4& m, const std::array<double, 4>& v) {
+    std::array<double, 4> out{};
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) out[r] += m[c * 4 + r] * v[c];
+    return out;
+}
+
+Vec3 cross(const Vec3& a, const Vec3& b) {
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+Vec3 normalized(const Vec3& v) {
+    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    return n > 0 ? Vec3{v[0] / n, v[1] / n, v[2] / n} : v;
+}
+
+Face entryFace(int axis, double direction) {
+    // Moving along +axis, a ray enters a voxel through its face with outward normal -axis.
+    return Face(1 + 2 * axis + (direction > 0 ? 0 : 1));
+}
+
+} // namespace
+
+Mat4 indexToWorldMatrix(const Geometry& g) {
+    Mat4 m{};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) m[c * 4 + r] = g.direction[3 * r + c] * g.spacing[c];
+        m[12 + r] = g.origin[r];
+    }
+    m[15] = 1;
+    return m;
+}
+
+Mat4 multiply(const Mat4& a, const Mat4& b) {
+    Mat4 out{};
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+            for (int k = 0; k < 4; ++k) out[c * 4 + r] += a[k * 4 + r] * b[c * 4 + k];
+    return out;
+}
+
+bool invert(const Mat4& m, Mat4& out) {
+    // Gauss-Jordan with partial pivoting on [M | I], rows of the mathematical matrix.
+    double a[4][8];
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) {
+            a[r][c] = m[c * 4 + r];
+            a[r][c + 4] = r == c ? 1.0 : 0.0;
+        }
+    for (int col = 0; col < 4; ++col) {
+        int pivot = col;
+        for (int r = col + 1; r < 4; ++r)
+            if (std::fabs(a[r][col]) > std::fabs(a[pivot][col])) pivot = r;
+        if (std::fabs(a[pivot][col]) < 1e-300) return false;
+        if (pivot != col)
+            for (int c = 0; c < 8; ++c) std::swap(a[col][c], a[pivot][c]);
+        const double d = a[col][col];
+        for (int c = 0; c < 8; ++c) a[col][c] /= d;
+        for (int r = 0; r < 4; ++r) {
+            if (r == col) continue;
+            const double f = a[r][col];
+            for (int c = 0; c < 8; ++c) a[r][c] -= f * a[col][c];
+        }
+    }
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) out[c * 4 + r] = a[r][c + 4];
+    return true;
+}
+
+Mat4 lookAtMatrix(const Vec3& eye, const Vec3& target, const Vec3& up) {
+    const Vec3 f = normalized({target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]});
+    const Vec3 s = normalized(cross(f, up));
+    const Vec3 u = cross(s, f);
+    Mat4 m{};
+    for (int c = 0; c < 3; ++c) {
+        m[c * 4 + 0] = s[c];
+        m[c * 4 + 1] = u[c];
+        m[c * 4 + 2] = -f[c];
+    }
+    m[12] = -(s[0] * eye[0] + s[1] * eye[1] + s[2] * eye[2]);
+    m[13] = -(u[0] * eye[0] + u[1] * eye[1] + u[2] * eye[2]);
+    m[14] = f[0] * eye[0] + f[1] * eye[1] + f[2] * eye[2];
+    m[15] = 1;
+    return m;
+}
+
+Mat4 perspectiveMatrix(double fovyDegrees, double aspect, double zNear, double zFar) {
+    const double f = 1.0 / std::tan(fovyDegrees * 3.14159265358979323846 / 360.0);
+    Mat4 m{};
+    m[0] = f / aspect;
+    m[5] = f;
+    m[10] = (zFar + zNear) / (zNear - zFar);
+    m[11] = -1;
+    m[14] = 2 * zFar * zNear / (zNear - zFar);
+    return m;
+}
+
+Mat4 orthographicMatrix(double l, double r, double b, double t, double n, double f) {
+    Mat4 m{};
+    m[0] = 2 / (r - l);
+    m[5] = 2 / (t - b);
+    m[10] = -2 / (f - n);
+    m[12] = -(r + l) / (r - l);
+    m[13] = -(t + b) / (t - b);
+    m[14] = -(f + n) / (f - n);
+    m[15] = 1;
+    return m;
+}
+
+GBuffer castRays(const LabelVolume& volume, const Geometry& g, const RayCastView& view,
+                 const std::function<bool(uint32_t)>& visible) {
+    GBuffer out;
+    out.width = view.width;
+    out.height = view.height;
+    const size_t n = size_t(view.width) * view.height;
+    out.label.assign(n, kInvalidLabel);
+    out.depth.assign(n, 1.0f);
+    out.face.assign(n, Face::None);
+    Mat4 clipToWorld{};
+    if (!invert(view.worldToClip, clipToWorld)) return out;
+    const Mat4 indexToWorld = indexToWorldMatrix(g);
+    Mat4 worldToIndex{};
+    if (!invert(indexToWorld, worldToIndex)) return out;
+    const double dim[3] = {double(volume.dim[0]), double(volume.dim[1]), double(volume.dim[2])};
+    const double inf = std::numeric_limits<double>::infinity();
+
+    for (uint32_t py = 0; py < view.height; ++py)
+        for (uint32_t px = 0; px < view.width; ++px) {
+            const double nx = (px + 0.5) / view.width * 2 - 1, ny = (py + 0.5) / view.height * 2 - 1;
+            std::array<double, 4> nearW = transform4(clipToWorld, {nx, ny, -1, 1});
+            std::array<double, 4> farW = transform4(clipToWorld, {nx, ny, 1, 1});
+            if (nearW[3] == 0 || farW[3] == 0) continue;
+            for (int k = 0; k < 3; ++k) {
+                nearW[k] /= nearW[3];
+                farW[k] /= farW[3];
+            }
+            nearW[3] = farW[3] = 1;
+            const std::array<double, 4> a4 = transform4(worldToIndex, nearW), b4 = transform4(worldToIndex, farW);
+            const double a[3] = {a4[0], a4[1], a4[2]};
+            const double d[3] = {b4[0] - a4[0], b4[1] - a4[1], b4[2] - a4[2]};
+            // Clip the segment t in [0, 1] to the volume's box [0, dim].
+            double t0 = 0, t1 = 1;
+            int entryAxis = -1;
+            bool miss = false;
+            for (int k = 0; k < 3 && !miss; ++k) {
+                if (d[k] == 0) {
+                    miss = a[k] < 0 || a[k] > dim[k];
+                    continue;
+                }
+                const double ta = (0 - a[k]) / d[k], tb = (dim[k] - a[k]) / d[k];
+                const double lo = std::min(ta, tb), hi = std::max(ta, tb);
+                if (lo > t0) {
+                    t0 = lo;
+                    entryAxis = k;
+                }
+                t1 = std::min(t1, hi);
+            }
+            if (miss || t0 > t1) continue;
+            int v[3], step[3];
+            double tMax[3], tDelta[3];
+            for (int k = 0; k < 3; ++k) {
+                const double p = a[k] + t0 * d[k];
+                v[k] = int(std::clamp(std::floor(p), 0.0, dim[k] - 1));
+                if (k == entryAxis) v[k] = d[k] > 0 ? 0 : int(dim[k]) - 1; // exact on the entry face
+                step[k] = d[k] > 0 ? 1 : (d[k] < 0 ? -1 : 0);
+                tDelta[k] = d[k] != 0 ? std::fabs(1.0 / d[k]) : inf;
+                tMax[k] = d[k] > 0 ? (v[k] + 1 - a[k]) / d[k] : (d[k] < 0 ? (v[k] - a[k]) / d[k] : inf);
+            }
+            double tEnter = t0;
+            Face face = entryAxis >= 0 ? entryFace(entryAxis, d[entryAxis]) : Face::None;
+            for (;;) {
+                const uint32_t label = volume.at(uint32_t(v[0]), uint32_t(v[1]), uint32_t(v[2]));
+                if (visible(label)) {
+                    const size_t i = size_t(py) * view.width + px;
+                    out.label[i] = label;
+                    out.face[i] = face;
+                    const std::array<double, 4> hit = {nearW[0] + tEnter * (farW[0] - nearW[0]),
+                                                       nearW[1] + tEnter * (farW[1] - nearW[1]),
+                                                       nearW[2] + tEnter * (farW[2] - nearW[2]), 1};
+                    const std::array<double, 4> clip = transform4(view.worldToClip, hit);
+                    out.depth[i] = float(std::clamp(clip[2] / clip[3] * 0.5 + 0.5, 0.0, 1.0));
+                    break;
+                }
+                int k = 0; // the axis whose boundary comes first (lowest axis on ties)
+                if (tMax[1] < tMax[k]) k = 1;
+                if (tMax[2] < tMax[k]) k = 2;
+                if (tMax[k] > t1) break;
+                tEnter = tMax[k];
+                v[k] += step[k];
+                if (v[k] < 0 || v[k] >= int(dim[k])) break;
+                face = entryFace(k, d[k]);
+                tMax[k] += tDelta[k];
+            }
+        }
+    return out;
+}
+
+} // namespace csgv
+
+namespace csgv {
+
+namespace {
+
+constexpr float kOneMinusEpsilon = 0.99999994f;
+
+/// The walker of render_common.glsl.
+struct Walker {
+    int voxel[3];
+    float vpos[3];
+    float t;
+    int face;
+    float d[3], invD[3];
+    float tEnd;
+};
+
+float clamp01(float v) { return std::min(std::max(v, 0.0f), kOneMinusEpsilon); }
+
+/// stableStep() of render_common.glsl.
+void stableStep(Walker& w, int k) {
+    const float s = float(1 << k);
+    const float invS = 1.0f / s;
+    int cv[3];
+    float cp[3], dist[3];
+    for (int i = 0; i < 3; ++i) {
+        cv[i] = w.voxel[i] >> k;
+        cp[i] = (float(w.voxel[i] - (cv[i] << k)) + w.vpos[i]) * invS;
+        cp[i] = std::min(cp[i], kOneMinusEpsilon);
+        const float target = w.d[i] > 0.0f ? 1.0f : 0.0f;
+        dist[i] = (target - cp[i]) * (w.invD[i] * s);
+    }
+    int axis = 0;
+    if (dist[1] < dist[axis]) axis = 1;
+    if (dist[2] < dist[axis]) axis = 2;
+    const float dt = dist[axis];
+    float np[3];
+    for (int i = 0; i < 3; ++i) np[i] = clamp01(cp[i] + (w.d[i] * invS) * dt);
+    if (w.d[axis] > 0.0f) {
+        cv[axis] += 1;
+        np[axis] = 0.0f;
+    } else {
+        cv[axis] -= 1;
+        np[axis] = kOneMinusEpsilon;
+    }
+    for (int i = 0; i < 3; ++i) {
+        const float fine = np[i] * s;
+        const float fl = std::floor(fine);
+        w.voxel[i] = (cv[i] << k) + int(fl);
+        w.vpos[i] = fine - fl;
+    }
+    w.t = w.t + dt;
+    w.face = 1 + 2 * axis + (w.d[axis] > 0.0f ? 0 : 1);
+}
+
+} // namespace
+
+GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCastView& view,
+                       const std::function<bool(uint32_t)>& visible, uint32_t brickSize) {
+    GBuffer out;
+    out.width = view.width;
+    out.height = view.height;
+    const size_t n = size_t(view.width) * view.height;
+    out.label.assign(n, kInvalidLabel);
+    out.depth.assign(n, 1.0f);
+    out.face.assign(n, Face::None);
+    out.distance.assign(n, 0.0f);
+    Mat4 clipToWorld{};
+    if (!invert(view.worldToClip, clipToWorld)) return out;
+    const Mat4 indexToWorld = indexToWorldMatrix(g);
+    Mat4 worldToIndex{};
+    if (!invert(indexToWorld, worldToIndex)) return out;
+    // The same double products as Renderer.cpp, rounded to float as uploaded.
+    const Mat4 clipToIndexD = multiply(worldToIndex, clipToWorld);
+    const Mat4 indexToClipD = multiply(view.worldToClip, indexToWorld);
+    float M[16], toClip[16], toWorld[16];
+    for (int i = 0; i < 16; ++i) {
+        M[i] = float(clipToIndexD[i]);
+        toClip[i] = float(indexToClipD[i]);
+        toWorld[i] = float(indexToWorld[i]);
+    }
+    int shift = 0;
+    while ((1u << (shift + 1)) <= brickSize) ++shift;
+    const int lo[3] = {0, 0, 0};
+    const int hi[3] = {int(volume.dim[0]), int(volume.dim[1]), int(volume.dim[2])};
+    const uint32_t grid[3] = {(volume.dim[0] + brickSize - 1) / brickSize, (volume.dim[1] + brickSize - 1) / brickSize,
+                              (volume.dim[2] + brickSize - 1) / brickSize};
+    std::vector<uint8_t> brickVisible(size_t(grid[0]) * grid[1] * grid[2], 0);
+    for (uint32_t z = 0; z < volume.dim[2]; ++z)
+        for (uint32_t y = 0; y < volume.dim[1]; ++y)
+            for (uint32_t x = 0; x < volume.dim[0]; ++x) {
+                const size_t b = (x >> shift) + grid[0] * ((y >> shift) + size_t(grid[1]) * (z >> shift));
+                if (!brickVisible[b] && visible(volume.at(x, y, z))) brickVisible[b] = 1;
+            }
+    const float pixX = 2.0f / float(view.width), pixY = 2.0f / float(view.height);
+
+    for (uint32_t py = 0; py < view.height; ++py)
+        for (uint32_t px = 0; px < view.width; ++px) {
+            const float ndcX = ((float(px) + 0.5f) + 0.0f) * pixX - 1.0f;
+            const float ndcY = ((float(py) + 0.5f) + 0.0f) * pixY - 1.0f;
+            float a[4], b[4];
+            for (int r = 0; r < 4; ++r) {
+                a[r] = ((M[r] * ndcX + M[4 + r] * ndcY) - M[8 + r]) + M[12 + r];
+                b[r] = ((M[r] * ndcX + M[4 + r] * ndcY) + M[8 + r]) + M[12 + r];
+            }
+            const float ia = 1.0f / a[3], ib = 1.0f / b[3];
+            float o[3], d[3];
+            Walker w{};
+            for (int k = 0; k < 3; ++k) {
+                o[k] = a[k] * ia;
+                d[k] = b[k] * ib - o[k];
+                w.d[k] = d[k];
+                w.invD[k] = 1.0f / d[k];
+            }
+            // startRay()
+            float t0 = 0.0f, t1 = 1.0f;
+            int entryAxis = -1;
+            bool miss = false;
+            for (int k = 0; k < 3 && !miss; ++k) {
+                if (d[k] == 0.0f) {
+                    miss = o[k] < float(lo[k]) || o[k] > float(hi[k]);
+                    continue;
+                }
+                const float ta = (float(lo[k]) - o[k]) * w.invD[k];
+                const float tb = (float(hi[k]) - o[k]) * w.invD[k];
+                const float tlo = std::min(ta, tb), thi = std::max(ta, tb);
+                if (tlo > t0) {
+                    t0 = tlo;
+                    entryAxis = k;
+                }
+                t1 = std::min(t1, thi);
+            }
+            if (miss || t0 > t1) continue;
+            for (int k = 0; k < 3; ++k) {
+                const float p = o[k] + d[k] * t0;
+                w.voxel[k] = std::clamp(int(std::floor(p)), lo[k], hi[k] - 1);
+                w.vpos[k] = clamp01(p - float(w.voxel[k]));
+            }
+            w.face = 0;
+            if (entryAxis >= 0) {
+                const bool up = d[entryAxis] > 0.0f;
+                w.voxel[entryAxis] = up ? lo[entryAxis] : hi[entryAxis] - 1;
+                w.vpos[entryAxis] = up ? 0.0f : kOneMinusEpsilon;
+                w.face = 1 + 2 * entryAxis + (up ? 0 : 1);
+            }
+            w.t = t0;
+            w.tEnd = t1;
+            // march()
+            uint32_t prev = kInvalidLabel;
+            for (uint32_t it = 0; it < 60000u; ++it) {
+                if (w.t > w.tEnd) break;
+                const size_t bi = size_t(w.voxel[0] >> shift) +
+                                  grid[0] * (size_t(w.voxel[1] >> shift) + size_t(grid[1]) * size_t(w.voxel[2] >> shift));
+                if (!brickVisible[bi]) {
+                    prev = kInvalidLabel;
+                    stableStep(w, shift);
+                } else {
+                    const uint32_t label = volume.at(uint32_t(w.voxel[0]), uint32_t(w.voxel[1]), uint32_t(w.voxel[2]));
+                    if (label != prev) {
+                        prev = label;
+                        if (visible(label)) {
+                            const size_t i = size_t(py) * view.width + px;
+                            out.label[i] = label;
+                            out.face[i] = Face(w.face);
+                            const float q[3] = {float(w.voxel[0]) + w.vpos[0], float(w.voxel[1]) + w.vpos[1],
+                                                float(w.voxel[2]) + w.vpos[2]};
+                            float clip[4];
+                            for (int r = 0; r < 4; ++r)
+                                clip[r] = toClip[r] * q[0] + toClip[4 + r] * q[1] + toClip[8 + r] * q[2] + toClip[12 + r];
+                            out.depth[i] = std::clamp(clip[2] / clip[3] * 0.5f + 0.5f, 0.0f, 1.0f);
+                            float dist2 = 0;
+                            for (int r = 0; r < 3; ++r) {
+                                const float v = toWorld[r] * (q[0] - o[0]) + toWorld[4 + r] * (q[1] - o[1]) +
+                                                toWorld[8 + r] * (q[2] - o[2]);
+                                dist2 += v * v;
+                            }
+                            out.distance[i] = std::sqrt(dist2);
+                            break;
+                        }
+                    }
+                    stableStep(w, 0);
+                }
+                bool outside = false;
+                for (int k = 0; k < 3; ++k) outside = outside || w.voxel[k] < lo[k] || w.voxel[k] >= hi[k];
+                if (outside) break;
+            }
+        }
+    return out;
+}
+
+} // namespace csgv
