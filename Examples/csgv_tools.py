@@ -18,8 +18,11 @@ import json
 
 from paraview import servermanager as sm
 
+# Core's kMaxMaterialLabel and defaultMaterials() (csgv/materials/Materials.h); pvpython cannot
+# call Core, so test_material_label_edits.py checks these copies against the shared cases.
+MAX_LABEL = 4294967294
 DEFAULT_DOCUMENT = {"version": 1, "materials": [
-    {"name": "all", "filter": {"attribute": "label", "min": 1, "max": 4294967294},
+    {"name": "all", "filter": {"attribute": "label", "min": 1, "max": MAX_LABEL},
      "color": {"mode": "random"}}]}
 
 
@@ -72,30 +75,40 @@ def _document(text):
     return json.loads(text) if text else json.loads(json.dumps(DEFAULT_DOCUMENT))
 
 
-def hide_label(materials_text, label):
-    """The material document with `label` hidden: materials filtering on `label` are split around
-    it (the volume keeps its opaque pass); for materials filtering on another attribute a first
-    material takes the label with opacity 0."""
+def _filter(m):
+    f = m.get("filter", {})
+    return f.get("attribute", "label"), f.get("min", 1), f.get("max", MAX_LABEL)
+
+
+def _label_filter(label):
+    return {"attribute": "label", "min": label, "max": label}
+
+
+def hide_label(materials_text, label, attribute=lambda name: None):
+    """The material document with `label` hidden. Mirrors Core's csgv::hideLabel
+    (Core/include/csgv/materials/Materials.h; the Qt pick panel calls that one): materials
+    filtering on `label` whose interval holds it are split around it (the volume keeps its opaque
+    pass); when a material filtering on another attribute holds it, or may (`attribute(name)`, the
+    label's value of that attribute, is None: unknown), a first material takes the label with
+    opacity 0. Testing/ParaView/material_label_edits.json holds both to the same cases."""
     doc = _document(materials_text)
     out = []
     needs_hidden = False
     for m in doc.get("materials", []):
-        f = m.get("filter", {"attribute": "label", "min": 1, "max": 4294967294})
-        lo, hi = f.get("min", 1), f.get("max", 4294967294)
-        if f.get("attribute", "label") == "label":
-            if lo <= label <= hi:
-                for a, b, tag in ((lo, label - 1, " <"), (label + 1, hi, " >")):
-                    if a <= b:
-                        c = json.loads(json.dumps(m))
-                        c["filter"] = {"attribute": "label", "min": a, "max": b}
-                        c["name"] = m.get("name", "") + tag
-                        out.append(c)
-                continue
-        else:
+        name, lo, hi = _filter(m)
+        v = label if name == "label" else attribute(name)
+        if name == "label" and lo <= label <= hi:
+            for a, b in ((lo, label - 1), (label + 1, hi)):
+                if a <= b:
+                    c = json.loads(json.dumps(m))
+                    c["filter"] = {"attribute": "label", "min": a, "max": b}
+                    out.append(c)
+            continue
+        if name != "label" and (v is None or lo <= v <= hi):
             needs_hidden = True
         out.append(m)
     if needs_hidden:
-        out.insert(0, {"name": "hidden %d" % label, "filter": {"attribute": "label", "min": label, "max": label},
+        out.insert(0, {"name": "hidden %d" % label, "filter": _label_filter(label),
                        "color": {"mode": "constant", "rgb": [0, 0, 0]}, "opacity": 0})
     doc["materials"] = out
     return json.dumps(doc)
@@ -104,18 +117,18 @@ def hide_label(materials_text, label):
 def show_only_label(materials_text, label, attribute=lambda name: None):
     """The material document with only `label` visible, in the colour mode of the material that
     takes it now (the first whose filter holds it; `attribute(name)` gives the label's value of
-    an attribute for non-label filters)."""
+    an attribute for non-label filters, None when unknown); a new material when none does.
+    Mirrors Core's csgv::showOnlyLabel; material_label_edits.json holds both to the same cases."""
     doc = _document(materials_text)
     for m in doc.get("materials", []):
-        f = m.get("filter", {"attribute": "label", "min": 1, "max": 4294967294})
-        name = f.get("attribute", "label")
+        name, lo, hi = _filter(m)
         v = label if name == "label" else attribute(name)
-        if v is not None and f.get("min", 1) <= v <= f.get("max", 4294967294):
+        if v is not None and lo <= v <= hi:
             c = json.loads(json.dumps(m))
-            c["filter"] = {"attribute": "label", "min": label, "max": label}
+            c["filter"] = _label_filter(label)
             doc["materials"] = [c]
             return json.dumps(doc)
-    doc["materials"] = [{"name": "label %d" % label, "filter": {"attribute": "label", "min": label, "max": label}}]
+    doc["materials"] = [{"name": "label %d" % label, "filter": _label_filter(label)}]
     return json.dumps(doc)
 
 

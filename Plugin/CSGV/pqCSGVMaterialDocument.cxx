@@ -21,140 +21,43 @@ namespace pqCSGV
 namespace
 {
 
-constexpr double kMaxLabel = 4294967294.0;
-
-QJsonObject filterOf(const QJsonObject& m)
+/// A label's attribute values from a pick answer; text values and absent ones are unknown.
+csgv::LabelAttributeFn attributeFn(const QJsonObject& attributes)
 {
-  QJsonObject f = m.value("filter").toObject();
-  if (!f.contains("attribute"))
-    f["attribute"] = "label";
-  if (!f.contains("min"))
-    f["min"] = 1;
-  if (!f.contains("max"))
-    f["max"] = kMaxLabel;
-  return f;
-}
-
-QJsonObject labelFilter(double lo, double hi)
-{
-  return QJsonObject{ { "attribute", "label" }, { "min", lo }, { "max", hi } };
-}
-
-/// The value of the filter attribute for a label (NaN when unknown).
-double valueOf(const QString& attribute, qint64 label, const QJsonObject& attributes)
-{
-  if (attribute == "label")
-    return double(label);
-  const QJsonValue v = attributes.value(attribute);
-  return v.isDouble() ? v.toDouble() : std::numeric_limits<double>::quiet_NaN();
+  return [attributes](const std::string& name) {
+    const QJsonValue v = attributes.value(QString::fromStdString(name));
+    return v.isDouble() ? v.toDouble() : std::numeric_limits<double>::quiet_NaN();
+  };
 }
 
 } // namespace
 
-QJsonObject defaultDocument()
+csgv::MaterialDocument parseDocument(const QString& text, QString* error)
 {
-  QJsonObject m{ { "name", "all" }, { "filter", labelFilter(1, kMaxLabel) },
-    { "color", QJsonObject{ { "mode", "random" } } } };
-  return QJsonObject{ { "version", 1 }, { "materials", QJsonArray{ m } } };
-}
-
-QJsonObject parseDocument(const QString& text, bool* ok)
-{
-  if (ok)
-    *ok = true;
-  if (text.trimmed().isEmpty())
-    return defaultDocument();
-  QJsonParseError error;
-  const QJsonDocument d = QJsonDocument::fromJson(text.toUtf8(), &error);
-  if (error.error != QJsonParseError::NoError || !d.isObject())
+  csgv::Result<csgv::MaterialDocument> doc = csgv::parseMaterialsOrDefault(text.toStdString());
+  if (error)
   {
-    if (ok)
-      *ok = false;
-    return defaultDocument();
+    *error = doc.isOk() ? QString() : QString::fromStdString(doc.message());
   }
-  QJsonObject o = d.object();
-  if (!o.contains("version"))
-    o["version"] = 1;
-  if (!o.value("materials").isArray())
-    o["materials"] = QJsonArray();
-  return o;
+  return doc.isOk() ? *doc : csgv::defaultMaterials();
 }
 
-QString serialize(const QJsonObject& doc)
+QString serialize(const csgv::MaterialDocument& doc)
 {
-  return QString::fromUtf8(QJsonDocument(doc).toJson(QJsonDocument::Compact));
-}
-
-QJsonObject newMaterial(const QString& name)
-{
-  return QJsonObject{ { "name", name }, { "filter", labelFilter(1, kMaxLabel) },
-    { "color", QJsonObject{ { "mode", "constant" }, { "rgb", QJsonArray{ 1.0, 1.0, 1.0 } } } },
-    { "opacity", 1.0 }, { "emission", 0.0 } };
+  return QString::fromStdString(csgv::serializeMaterials(doc, -1));
 }
 
 QString hideLabel(const QString& materials, qint64 label, const QJsonObject& attributes)
 {
-  QJsonObject doc = parseDocument(materials);
-  QJsonArray out;
-  bool hiddenFirst = false;
-  for (const QJsonValue& v : doc.value("materials").toArray())
-  {
-    const QJsonObject m = v.toObject();
-    const QJsonObject f = filterOf(m);
-    const double lo = f.value("min").toDouble(), hi = f.value("max").toDouble();
-    const QString attribute = f.value("attribute").toString();
-    const double x = valueOf(attribute, label, attributes);
-    if (attribute == "label" && x >= lo && x <= hi)
-    {
-      // Split the interval around the label; the rest keeps its place in the order.
-      const double parts[2][2] = { { lo, double(label) - 1 }, { double(label) + 1, hi } };
-      for (const auto& p : parts)
-      {
-        if (p[0] <= p[1])
-        {
-          QJsonObject c = m;
-          c["filter"] = labelFilter(p[0], p[1]);
-          out.append(c);
-        }
-      }
-      continue;
-    }
-    if (attribute != "label" && !(x < lo || x > hi))
-    {
-      hiddenFirst = true; // the label may be taken here (or its value is unknown)
-    }
-    out.append(m);
-  }
-  if (hiddenFirst)
-  {
-    out.prepend(QJsonObject{ { "name", QString("hidden %1").arg(label) },
-      { "filter", labelFilter(double(label), double(label)) },
-      { "color", QJsonObject{ { "mode", "constant" }, { "rgb", QJsonArray{ 0, 0, 0 } } } },
-      { "opacity", 0.0 } });
-  }
-  doc["materials"] = out;
+  csgv::MaterialDocument doc = parseDocument(materials);
+  csgv::hideLabel(doc, uint64_t(label), attributeFn(attributes));
   return serialize(doc);
 }
 
 QString showOnlyLabel(const QString& materials, qint64 label, const QJsonObject& attributes)
 {
-  QJsonObject doc = parseDocument(materials);
-  for (const QJsonValue& v : doc.value("materials").toArray())
-  {
-    QJsonObject m = v.toObject();
-    const QJsonObject f = filterOf(m);
-    const double x = valueOf(f.value("attribute").toString(), label, attributes);
-    if (x >= f.value("min").toDouble() && x <= f.value("max").toDouble())
-    {
-      m["filter"] = labelFilter(double(label), double(label));
-      doc["materials"] = QJsonArray{ m };
-      return serialize(doc);
-    }
-  }
-  QJsonObject m = newMaterial(QString("label %1").arg(label));
-  m["filter"] = labelFilter(double(label), double(label));
-  m["color"] = QJsonObject{ { "mode", "random" } };
-  doc["materials"] = QJsonArray{ m };
+  csgv::MaterialDocument doc = parseDocument(materials);
+  csgv::showOnlyLabel(doc, uint64_t(label), attributeFn(attributes));
   return serialize(doc);
 }
 

@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: MIT
 /**
  * @file pqCSGVMaterialDocument.h
- * @brief Qt-side helpers on the material document (MATERIALS.md) and on the server-side
- * questions of misc/CSGVQuery, shared by the material editor and the pick panel.
+ * @brief Qt adapters of Core's material document (csgv/materials/Materials.h: MATERIALS.md's
+ * schema, its defaults and the label edits live there once) and the server-side questions of
+ * misc/CSGVQuery, shared by the material editor and the pick panel.
  */
 #ifndef pqCSGVMaterialDocument_h
 #define pqCSGVMaterialDocument_h
+
+#include "csgv/materials/Materials.h"
 
 #include <QJsonObject>
 #include <QString>
@@ -15,20 +18,16 @@ class vtkSMProxy;
 namespace pqCSGV
 {
 
-/// The default document (one material: every non-zero label, random colours, opaque).
-QJsonObject defaultDocument();
-/// The document of the CSGVMaterials text ("" or unparsable: the default document).
-QJsonObject parseDocument(const QString& text, bool* ok = nullptr);
-/// Compact JSON text of a document.
-QString serialize(const QJsonObject& doc);
-/// A new material: `label` in [1, 4294967294], constant white, opaque.
-QJsonObject newMaterial(const QString& name);
+/// The document of a CSGVMaterials text through Core (blank: the default document). Text Core
+/// refuses gives the default document and, in `error`, Core's message.
+csgv::MaterialDocument parseDocument(const QString& text, QString* error = nullptr);
+/// The property text of a document: Core's serialisation on one line.
+QString serialize(const csgv::MaterialDocument& doc);
 
-/// `label` hidden: materials filtering on `label` are split around it (the volume keeps its
-/// opaque pass); when a material filtering on another attribute holds it, a first material takes
-/// it with opacity 0.
+/// Core's csgv::hideLabel on a CSGVMaterials text; `attributes` are the label's values as the
+/// pick query reports them (non-numbers count as unknown).
 QString hideLabel(const QString& materials, qint64 label, const QJsonObject& attributes);
-/// Only `label` visible, in the colour mode of the material that takes it now.
+/// Core's csgv::showOnlyLabel on a CSGVMaterials text.
 QString showOnlyLabel(const QString& materials, qint64 label, const QJsonObject& attributes);
 
 /// The Segmentation Volume representation proxy behind a display (the composite's subproxy, or

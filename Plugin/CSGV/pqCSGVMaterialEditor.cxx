@@ -24,7 +24,6 @@
 #include <QGroupBox>
 #include <QHBoxLayout>
 #include <QJsonArray>
-#include <QJsonDocument>
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
@@ -33,13 +32,27 @@
 #include <QTimer>
 #include <QVBoxLayout>
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace
 {
+using csgv::Material;
+// Combo-box entries in the order of Material::ColorMode and Material::Wrap.
 const char* const kModes[] = { "constant", "colormap", "random" };
 const char* const kWraps[] = { "clamp", "repeat" };
-constexpr double kMaxLabel = 4294967294.0;
+const char* const kDefaultColormap = "Viridis (matplotlib)";
+
+QString qstr(const std::string& s)
+{
+  return QString::fromStdString(s);
+}
+
+QColor qcolor(const std::array<float, 3>& rgb)
+{
+  return QColor::fromRgbF(rgb[0], rgb[1], rgb[2]);
+}
 
 QString number(double v)
 {
@@ -240,7 +253,7 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   connect(applyDerived, &QPushButton::clicked, this, &pqCSGVMaterialEditor::applyDerived);
   connect(exportColors, &QPushButton::clicked, this, &pqCSGVMaterialEditor::exportColors);
 
-  this->Doc = pqCSGV::defaultDocument();
+  this->Doc = csgv::defaultMaterials();
   this->rebuildList(0);
   if (vtkSMProperty* p = proxy->GetProperty("CSGVMaterials"))
   {
@@ -281,10 +294,11 @@ void pqCSGVMaterialEditor::setMaterials(const QString& text)
     return;
   }
   this->Text = text;
-  bool ok = true;
-  this->Doc = pqCSGV::parseDocument(text, &ok);
-  this->DocValid = ok;
-  this->Status->setText(ok ? QString() : "The material document is not valid JSON; editing starts from the default.");
+  QString error;
+  this->Doc = pqCSGV::parseDocument(text, &error);
+  this->DocValid = error.isEmpty();
+  this->Status->setText(
+    this->DocValid ? QString() : "The material document is not valid (" + error + "); editing starts from the default.");
   const int row = this->List->currentRow();
   this->rebuildList(row < 0 ? 0 : row);
 }
@@ -393,30 +407,27 @@ void pqCSGVMaterialEditor::rebuildList(int select)
   const bool was = this->Updating;
   this->Updating = true;
   this->List->clear();
-  const QJsonArray mats = this->Doc.value("materials").toArray();
-  for (int i = 0; i < mats.size(); ++i)
+  const int count = int(this->Doc.materials.size());
+  for (int i = 0; i < count; ++i)
   {
-    const QJsonObject m = mats[i].toObject();
-    const QJsonObject f = m.value("filter").toObject();
-    const QJsonObject c = m.value("color").toObject();
+    const Material& m = this->Doc.materials[i];
     QString text = QString("%1. %2  [%3 %4..%5]")
                      .arg(i + 1)
-                     .arg(m.value("name").toString())
-                     .arg(f.value("attribute").toString("label"))
-                     .arg(number(f.value("min").toDouble(1)))
-                     .arg(number(f.value("max").toDouble(kMaxLabel)));
+                     .arg(qstr(m.name))
+                     .arg(qstr(m.filterAttribute))
+                     .arg(number(m.filterMin))
+                     .arg(number(m.filterMax));
     auto* item = new QListWidgetItem(text, this->List);
-    if (c.value("mode").toString() == "constant")
+    if (m.colorMode == Material::ColorMode::Constant)
     {
-      const QJsonArray rgb = c.value("rgb").toArray();
       QPixmap px(12, 12);
-      px.fill(QColor::fromRgbF(rgb.at(0).toDouble(1), rgb.at(1).toDouble(1), rgb.at(2).toDouble(1)));
+      px.fill(qcolor(m.rgb));
       item->setIcon(QIcon(px));
     }
   }
-  if (!mats.isEmpty())
+  if (count > 0)
   {
-    this->List->setCurrentRow(std::max(0, std::min(select, int(mats.size()) - 1)));
+    this->List->setCurrentRow(std::max(0, std::min(select, count - 1)));
   }
   this->Updating = was;
   this->showDetails();
@@ -425,42 +436,38 @@ void pqCSGVMaterialEditor::rebuildList(int select)
 void pqCSGVMaterialEditor::showDetails()
 {
   const int i = this->List->currentRow();
-  const QJsonArray mats = this->Doc.value("materials").toArray();
-  const bool valid = i >= 0 && i < mats.size();
+  const int count = int(this->Doc.materials.size());
+  const bool valid = i >= 0 && i < count;
   this->Details->setEnabled(valid);
   this->Remove->setEnabled(valid);
   this->Duplicate->setEnabled(valid);
   this->Up->setEnabled(valid && i > 0);
-  this->Down->setEnabled(valid && i + 1 < mats.size());
+  this->Down->setEnabled(valid && i + 1 < count);
   if (!valid)
   {
     return;
   }
   const bool was = this->Updating;
   this->Updating = true;
-  const QJsonObject m = mats[i].toObject();
-  const QJsonObject f = m.value("filter").toObject();
-  const QJsonObject c = m.value("color").toObject();
+  const Material& m = this->Doc.materials[i];
   this->Details->setTitle(QString("Material %1").arg(i + 1));
-  this->Name->setText(m.value("name").toString());
-  this->fillAttributeCombo(this->FilterAttribute, f.value("attribute").toString("label"), true);
-  this->FilterMin->setText(number(f.value("min").toDouble(1)));
-  this->FilterMax->setText(number(f.value("max").toDouble(kMaxLabel)));
-  const QString mode = c.value("mode").toString("random");
-  this->ColorMode->setCurrentText(mode);
-  const QJsonArray rgb = c.value("rgb").toArray();
-  const QColor color = QColor::fromRgbF(rgb.at(0).toDouble(1), rgb.at(1).toDouble(1), rgb.at(2).toDouble(1));
+  this->Name->setText(qstr(m.name));
+  this->fillAttributeCombo(this->FilterAttribute, qstr(m.filterAttribute), true);
+  this->FilterMin->setText(number(m.filterMin));
+  this->FilterMax->setText(number(m.filterMax));
+  this->ColorMode->setCurrentIndex(int(m.colorMode));
+  const QColor color = qcolor(m.rgb);
   this->ColorButton->setChosenColor(color);
   this->ColorHex->setText(color.name());
-  const QJsonValue cm = c.value("colormap");
-  this->ColormapName->setText(cm.isString() ? cm.toString() : cm.isArray() ? "(control points)" : QString());
-  this->fillAttributeCombo(this->ColorAttribute, c.value("attribute").toString("label"), true);
-  this->ColorMin->setText(number(c.value("min").toDouble(0)));
-  this->ColorMax->setText(number(c.value("max").toDouble(1)));
-  this->Wrap->setCurrentText(c.value("wrap").toString("clamp"));
-  this->Opacity->setValue(m.value("opacity").toDouble(1));
-  this->Emission->setValue(m.value("emission").toDouble(0));
-  const bool constant = mode == "constant", colormap = mode == "colormap";
+  this->ColormapName->setText(m.colormap.points.empty() ? qstr(m.colormap.name) : "(control points)");
+  this->fillAttributeCombo(this->ColorAttribute, qstr(m.colorAttribute), true);
+  this->ColorMin->setText(number(m.colorMin));
+  this->ColorMax->setText(number(m.colorMax));
+  this->Wrap->setCurrentIndex(int(m.wrap));
+  this->Opacity->setValue(m.opacity);
+  this->Emission->setValue(m.emission);
+  const bool constant = m.colorMode == Material::ColorMode::Constant;
+  const bool colormap = m.colorMode == Material::ColorMode::Colormap;
   this->ColorButton->setEnabled(constant);
   this->ColorHex->setEnabled(constant);
   this->ColormapName->setEnabled(!constant);
@@ -524,60 +531,58 @@ void pqCSGVMaterialEditor::detailsEdited()
     return;
   }
   const int i = this->List->currentRow();
-  QJsonArray mats = this->Doc.value("materials").toArray();
-  if (i < 0 || i >= mats.size())
+  if (i < 0 || i >= int(this->Doc.materials.size()))
   {
     return;
   }
-  QJsonObject m = mats[i].toObject();
-  m["name"] = this->Name->text();
-  QJsonObject f;
-  f["attribute"] = this->FilterAttribute->currentText().isEmpty() ? "label" : this->FilterAttribute->currentText();
-  bool ok = false;
-  const double fmin = this->FilterMin->text().toDouble(&ok);
-  f["min"] = ok ? fmin : 1.0;
-  const double fmax = this->FilterMax->text().toDouble(&ok);
-  f["max"] = ok ? fmax : kMaxLabel;
-  m["filter"] = f;
-  const QJsonObject old = m.value("color").toObject();
-  QJsonObject c;
-  const QString mode = this->ColorMode->currentText();
-  c["mode"] = mode;
-  if (mode == "constant")
+  // A fresh material from the widgets: what the mode does not use takes Core's defaults, and a
+  // field that does not read as a number falls back to its default too.
+  const Material old = this->Doc.materials[i];
+  Material m;
+  auto numberOr = [](QLineEdit* e, double fallback) {
+    bool ok = false;
+    const double v = e->text().toDouble(&ok);
+    return ok ? v : fallback;
+  };
+  auto attributeOf = [](QComboBox* c) {
+    return c->currentText().isEmpty() ? std::string("label") : c->currentText().toStdString();
+  };
+  m.name = this->Name->text().toStdString();
+  m.filterAttribute = attributeOf(this->FilterAttribute);
+  m.filterMin = numberOr(this->FilterMin, m.filterMin);
+  m.filterMax = numberOr(this->FilterMax, m.filterMax);
+  m.colorMode = Material::ColorMode(std::max(0, this->ColorMode->currentIndex()));
+  if (m.colorMode == Material::ColorMode::Constant)
   {
     const QColor col = this->ColorButton->chosenColor();
-    c["rgb"] = QJsonArray{ col.redF(), col.greenF(), col.blueF() };
+    m.rgb = { float(col.redF()), float(col.greenF()), float(col.blueF()) };
   }
   else
   {
     const QString name = this->ColormapName->text().trimmed();
-    if (name == "(control points)" && old.contains("colormap"))
+    if (name == "(control points)" && !old.colormap.empty())
     {
-      c["colormap"] = old.value("colormap");
+      m.colormap = old.colormap;
     }
     else if (!name.isEmpty())
     {
-      c["colormap"] = name;
+      m.colormap.name = name.toStdString();
     }
-    else if (mode == "colormap")
+    else if (m.colorMode == Material::ColorMode::Colormap)
     {
-      c["colormap"] = "Viridis (matplotlib)";
+      m.colormap.name = kDefaultColormap; // a colormap colour needs one
     }
-    if (mode == "colormap")
+    if (m.colorMode == Material::ColorMode::Colormap)
     {
-      c["attribute"] = this->ColorAttribute->currentText().isEmpty() ? "label" : this->ColorAttribute->currentText();
-      const double cmin = this->ColorMin->text().toDouble(&ok);
-      c["min"] = ok ? cmin : 0.0;
-      const double cmax = this->ColorMax->text().toDouble(&ok);
-      c["max"] = ok ? cmax : 1.0;
-      c["wrap"] = this->Wrap->currentText();
+      m.colorAttribute = attributeOf(this->ColorAttribute);
+      m.colorMin = numberOr(this->ColorMin, m.colorMin);
+      m.colorMax = numberOr(this->ColorMax, m.colorMax);
+      m.wrap = Material::Wrap(std::max(0, this->Wrap->currentIndex()));
     }
   }
-  m["color"] = c;
-  m["opacity"] = this->Opacity->value();
-  m["emission"] = this->Emission->value();
-  mats[i] = m;
-  this->Doc["materials"] = mats;
+  m.opacity = float(this->Opacity->value());
+  m.emission = float(this->Emission->value());
+  this->Doc.materials[i] = std::move(m);
   this->commit("Edit material");
   this->rebuildList(i);
 }
@@ -613,72 +618,68 @@ void pqCSGVMaterialEditor::hexEdited()
 
 void pqCSGVMaterialEditor::addMaterial()
 {
-  QJsonArray mats = this->Doc.value("materials").toArray();
-  const int at = std::max(0, this->List->currentRow());
-  mats.insert(std::min(at, int(mats.size())), pqCSGV::newMaterial(QString("material %1").arg(mats.size() + 1)));
-  this->Doc["materials"] = mats;
+  std::vector<Material>& mats = this->Doc.materials;
+  const int at = std::min(std::max(0, this->List->currentRow()), int(mats.size()));
+  // Core's default material (every non-zero label, opaque), but constant white, so the new one
+  // is easy to tell apart from the random colours it overrides.
+  Material m;
+  m.name = QString("material %1").arg(mats.size() + 1).toStdString();
+  m.colorMode = Material::ColorMode::Constant;
+  mats.insert(mats.begin() + at, m);
   this->commit("Add material");
   this->rebuildList(at);
 }
 
 void pqCSGVMaterialEditor::removeMaterial()
 {
-  QJsonArray mats = this->Doc.value("materials").toArray();
+  std::vector<Material>& mats = this->Doc.materials;
   const int i = this->List->currentRow();
-  if (i < 0 || i >= mats.size())
+  if (i < 0 || i >= int(mats.size()))
   {
     return;
   }
-  mats.removeAt(i);
-  this->Doc["materials"] = mats;
+  mats.erase(mats.begin() + i);
   this->commit("Remove material");
   this->rebuildList(i);
 }
 
 void pqCSGVMaterialEditor::duplicateMaterial()
 {
-  QJsonArray mats = this->Doc.value("materials").toArray();
+  std::vector<Material>& mats = this->Doc.materials;
   const int i = this->List->currentRow();
-  if (i < 0 || i >= mats.size())
+  if (i < 0 || i >= int(mats.size()))
   {
     return;
   }
-  QJsonObject copy = mats[i].toObject();
-  copy["name"] = copy.value("name").toString() + " copy";
-  mats.insert(i + 1, copy);
-  this->Doc["materials"] = mats;
+  Material copy = mats[i];
+  copy.name += " copy";
+  mats.insert(mats.begin() + i + 1, copy);
   this->commit("Duplicate material");
   this->rebuildList(i + 1);
 }
 
 void pqCSGVMaterialEditor::moveMaterialUp()
 {
-  QJsonArray mats = this->Doc.value("materials").toArray();
+  std::vector<Material>& mats = this->Doc.materials;
   const int i = this->List->currentRow();
-  if (i <= 0 || i >= mats.size())
+  if (i <= 0 || i >= int(mats.size()))
   {
     return;
   }
-  const QJsonValue a = mats[i];
-  mats[i] = mats[i - 1];
-  mats[i - 1] = a;
-  this->Doc["materials"] = mats;
+  std::swap(mats[i], mats[i - 1]);
   this->commit("Move material");
   this->rebuildList(i - 1);
 }
 
 void pqCSGVMaterialEditor::moveMaterialDown()
 {
-  QJsonArray mats = this->Doc.value("materials").toArray();
+  std::vector<Material>& mats = this->Doc.materials;
   const int i = this->List->currentRow();
-  if (i < 0 || i + 1 >= mats.size())
+  if (i < 0 || i + 1 >= int(mats.size()))
   {
     return;
   }
-  const QJsonValue a = mats[i];
-  mats[i] = mats[i + 1];
-  mats[i + 1] = a;
-  this->Doc["materials"] = mats;
+  std::swap(mats[i], mats[i + 1]);
   this->commit("Move material");
   this->rebuildList(i + 1);
 }

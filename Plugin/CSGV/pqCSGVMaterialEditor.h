@@ -5,7 +5,8 @@
  * (panel_widget "csgv_material_editor") over CSGVMaterials, CSGVAttributeFiles,
  * CSGVDerivedAttributes and CSGVComputedAttributes.
  *
- * It edits the same server-manager properties pvpython sets (through pqPropertyLinks), so undo
+ * It edits Core's material document (csgv/materials/Materials.h) and writes it into the same
+ * server-manager properties pvpython sets (through pqPropertyLinks), so undo
  * and redo, state files and Python trace work and every edit shows at once (display properties
  * apply immediately). Attribute names and data ranges come from the rendering process through
  * misc/CSGVQuery, so the editor also works when the data lives on a pvserver.
@@ -22,7 +23,8 @@
 
 #include "pqPropertyWidget.h"
 
-#include <QJsonObject>
+#include "csgv/materials/Materials.h"
+
 #include <QMap>
 #include <QPair>
 #include <QStringList>
@@ -98,7 +100,8 @@ private:
   void fillAttributeCombo(QComboBox* combo, const QString& current, bool numericOnly);
   void updateRanges();
 
-  QJsonObject Doc;
+  /// Core's document (its defaults and checks live there); the widgets edit it, commit() writes it.
+  csgv::MaterialDocument Doc;
   bool DocValid = true;
   QString Text; ///< the property's text as last set or committed
   QStringList Files;

@@ -4,9 +4,12 @@
 #include "csgv/materials/Materials.h"
 
 #include <cmath>
+#include <fstream>
 #include <gtest/gtest.h>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 
 using namespace csgv;
 
@@ -196,4 +199,114 @@ TEST(Materials, BuiltinColormaps) {
     Status s = resolveColormapNames(doc);
     ASSERT_FALSE(s.isOk());
     EXPECT_NE(s.message().find("material 0"), std::string::npos) << s.message();
+}
+
+namespace {
+
+MaterialDocument docOf(const std::string& json) {
+    Result<MaterialDocument> r = parseMaterialsOrDefault(json);
+    EXPECT_TRUE(r.isOk()) << r.message() << "\n" << json;
+    return r.isOk() ? *r : MaterialDocument{};
+}
+
+std::string canonical(const std::string& json) { return serializeMaterials(docOf(json)); }
+
+} // namespace
+
+TEST(Materials, ParseOrDefaultAndCompactText) {
+    EXPECT_EQ(serializeMaterials(docOf("")), serializeMaterials(defaultMaterials()));
+    EXPECT_EQ(serializeMaterials(docOf(" \n\t")), serializeMaterials(defaultMaterials()));
+    EXPECT_EQ(defaultMaterials().materials[0].name, "all");
+    EXPECT_FALSE(parseMaterialsOrDefault("not json").isOk()); // blank is the default, garbage is not
+    // One compact line for property text, and floats in their shortest form.
+    MaterialDocument d = docOf(R"j({"materials": [{"opacity": 0.35, "color": {"mode": "constant", "rgb": [0.1, 0.2, 0.3]}}]})j");
+    const std::string compact = serializeMaterials(d, -1);
+    EXPECT_EQ(compact.find('\n'), std::string::npos);
+    EXPECT_NE(compact.find("\"opacity\":0.35"), std::string::npos) << compact;
+    EXPECT_NE(compact.find("[0.1,0.2,0.3]"), std::string::npos) << compact;
+    EXPECT_EQ(serializeMaterials(docOf(compact)), serializeMaterials(d));
+}
+
+TEST(Materials, HideLabelSplitsLabelIntervals) {
+    MaterialDocument d = defaultMaterials();
+    hideLabel(d, 7);
+    ASSERT_EQ(d.materials.size(), 2u);
+    EXPECT_EQ(d.materials[0].filterMin, 1);
+    EXPECT_EQ(d.materials[0].filterMax, 6);
+    EXPECT_EQ(d.materials[1].filterMin, 8);
+    EXPECT_EQ(d.materials[1].filterMax, kMaxMaterialLabel);
+    for (const Material& m : d.materials) EXPECT_EQ(m.opacity, 1.0f); // still opaque: no translucent pass
+    MaterialEvaluator e(d, [](const std::string&, uint32_t) { return 0.0; });
+    EXPECT_EQ(e.materialOf(7), -1);
+    EXPECT_EQ(e.materialOf(6), 0);
+    EXPECT_EQ(e.materialOf(8), 1);
+    // The last label: nothing above it.
+    MaterialDocument top = defaultMaterials();
+    hideLabel(top, uint64_t(kMaxMaterialLabel));
+    ASSERT_EQ(top.materials.size(), 1u);
+    EXPECT_EQ(top.materials[0].filterMax, kMaxMaterialLabel - 1);
+}
+
+TEST(Materials, HideLabelOnOtherAttributes) {
+    const std::string byKind = R"j({"materials": [{"name": "k", "filter": {"attribute": "kind", "min": 2, "max": 2}}]})j";
+    MaterialDocument d = docOf(byKind);
+    hideLabel(d, 7, [](const std::string& a) { return a == "kind" ? 2.0 : std::nan(""); });
+    ASSERT_EQ(d.materials.size(), 2u);
+    EXPECT_EQ(d.materials[0].name, "hidden 7");
+    EXPECT_EQ(d.materials[0].opacity, 0.0f);
+    EXPECT_EQ(d.materials[0].filterAttribute, "label");
+    EXPECT_EQ(d.materials[0].filterMin, 7);
+    EXPECT_EQ(d.materials[0].filterMax, 7);
+    EXPECT_EQ(d.materials[1].name, "k");
+    MaterialDocument outside = docOf(byKind);
+    hideLabel(outside, 7, [](const std::string&) { return 1.0; });
+    EXPECT_EQ(serializeMaterials(outside), canonical(byKind));
+    MaterialDocument unknown = docOf(byKind);
+    hideLabel(unknown, 7); // no values known: the material may take it
+    EXPECT_EQ(unknown.materials.size(), 2u);
+}
+
+TEST(Materials, ShowOnlyLabel) {
+    MaterialDocument d = docOf(R"j({"materials": [{"name": "a", "filter": {"min": 10, "max": 20}},
+        {"name": "b", "color": {"mode": "constant", "rgb": [1, 0, 0]}, "opacity": 0.5}]})j");
+    showOnlyLabel(d, 7);
+    ASSERT_EQ(d.materials.size(), 1u);
+    EXPECT_EQ(d.materials[0].name, "b");
+    EXPECT_EQ(d.materials[0].colorMode, Material::ColorMode::Constant);
+    EXPECT_EQ(d.materials[0].opacity, 0.5f);
+    EXPECT_EQ(d.materials[0].filterMin, 7);
+    EXPECT_EQ(d.materials[0].filterMax, 7);
+    MaterialDocument none = docOf(R"j({"materials": [{"filter": {"attribute": "kind", "min": 2, "max": 2}}]})j");
+    showOnlyLabel(none, 7, [](const std::string&) { return std::nan(""); });
+    ASSERT_EQ(none.materials.size(), 1u);
+    EXPECT_EQ(none.materials[0].name, "label 7");
+    EXPECT_EQ(none.materials[0].colorMode, Material::ColorMode::Random);
+    EXPECT_EQ(none.materials[0].filterAttribute, "label");
+}
+
+// The cases Examples/csgv_tools.py must also pass (Testing/ParaView/test_material_label_edits.py):
+// pvpython cannot call Core, so one file of cases holds both implementations to one behaviour.
+TEST(Materials, LabelEditsMatchTheSharedCases) {
+    std::string here = __FILE__;
+    const std::string path = here.substr(0, here.find_last_of('/')) + "/../ParaView/material_label_edits.json";
+    std::ifstream in(path);
+    ASSERT_TRUE(in.good()) << "cannot read " << path;
+    std::stringstream text;
+    text << in.rdbuf();
+    const nlohmann::json cases = nlohmann::json::parse(text.str())["cases"];
+    ASSERT_GE(cases.size(), 10u);
+    for (const nlohmann::json& c : cases) {
+        SCOPED_TRACE(c["what"].get<std::string>());
+        const std::string input = c["input"].is_string() ? c["input"].get<std::string>() : c["input"].dump();
+        const nlohmann::json attrs = c.value("attributes", nlohmann::json::object());
+        LabelAttributeFn attribute = [&attrs](const std::string& a) {
+            return attrs.contains(a) ? attrs[a].get<double>() : std::nan("");
+        };
+        MaterialDocument d = docOf(input);
+        const uint64_t label = c["label"].get<uint64_t>();
+        if (c["op"] == "hide") hideLabel(d, label, attribute);
+        else if (c["op"] == "showOnly") showOnlyLabel(d, label, attribute);
+        else FAIL() << "unknown op " << c["op"].dump();
+        EXPECT_EQ(serializeMaterials(d), canonical(c["expected"].dump()));
+    }
 }

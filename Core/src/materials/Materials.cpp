@@ -2,7 +2,9 @@
 #include "csgv/materials/Materials.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 namespace csgv {
@@ -150,11 +152,33 @@ Status parseMaterial(const json& m, size_t index, Material& out) {
     return Status::ok();
 }
 
+/// A float as the double of its shortest decimal form, so 0.35f is written "0.35", not
+/// "0.3499999940395355", and state files stay readable (the value reads back to the same float).
+double shortest(float f) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, f);
+    double d = f;
+    std::from_chars(buf, r.ptr, d);
+    return d;
+}
+
 json colormapJson(const Colormap& c) {
     if (c.points.empty()) return c.name;
     json pts = json::array();
-    for (const auto& p : c.points) pts.push_back({p[0], p[1], p[2], p[3]});
+    for (const auto& p : c.points) pts.push_back({shortest(p[0]), shortest(p[1]), shortest(p[2]), shortest(p[3])});
     return pts;
+}
+
+Material labelOnly(Material m, double label) {
+    m.filterAttribute = "label";
+    m.filterMin = m.filterMax = label;
+    return m;
+}
+
+/// The value a material filters on for a label: the label itself, the caller's value, or NaN.
+double filterValue(const Material& m, uint64_t label, const LabelAttributeFn& attribute) {
+    if (m.filterAttribute == "label") return double(label);
+    return attribute ? attribute(m.filterAttribute) : std::numeric_limits<double>::quiet_NaN();
 }
 
 } // namespace
@@ -201,7 +225,12 @@ Result<MaterialDocument> parseMaterials(const std::string& text) {
     return doc;
 }
 
-std::string serializeMaterials(const MaterialDocument& doc) {
+Result<MaterialDocument> parseMaterialsOrDefault(const std::string& text) {
+    if (text.find_first_not_of(" \t\r\n") == std::string::npos) return defaultMaterials();
+    return parseMaterials(text);
+}
+
+std::string serializeMaterials(const MaterialDocument& doc, int indent) {
     json out;
     out["version"] = 1;
     out["materials"] = json::array();
@@ -211,7 +240,9 @@ std::string serializeMaterials(const MaterialDocument& doc) {
         jm["filter"] = {{"attribute", m.filterAttribute}, {"min", m.filterMin}, {"max", m.filterMax}};
         json c;
         switch (m.colorMode) {
-        case Material::ColorMode::Constant: c = {{"mode", "constant"}, {"rgb", {m.rgb[0], m.rgb[1], m.rgb[2]}}}; break;
+        case Material::ColorMode::Constant:
+            c = {{"mode", "constant"}, {"rgb", {shortest(m.rgb[0]), shortest(m.rgb[1]), shortest(m.rgb[2])}}};
+            break;
         case Material::ColorMode::Colormap:
             c = {{"mode", "colormap"}, {"attribute", m.colorAttribute}, {"min", m.colorMin}, {"max", m.colorMax},
                  {"wrap", m.wrap == Material::Wrap::Clamp ? "clamp" : "repeat"}, {"colormap", colormapJson(m.colormap)}};
@@ -222,19 +253,68 @@ std::string serializeMaterials(const MaterialDocument& doc) {
             break;
         }
         jm["color"] = c;
-        jm["opacity"] = m.opacity;
-        jm["emission"] = m.emission;
+        jm["opacity"] = shortest(m.opacity);
+        jm["emission"] = shortest(m.emission);
         out["materials"].push_back(jm);
     }
-    return out.dump(2);
+    return out.dump(indent);
 }
 
 MaterialDocument defaultMaterials() {
     MaterialDocument doc;
     Material m;
-    m.name = "labels";
+    m.name = "all";
     doc.materials.push_back(m);
     return doc;
+}
+
+void hideLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn& attribute) {
+    const double x = double(label);
+    std::vector<Material> out;
+    bool hiddenFirst = false;
+    for (Material& m : doc.materials) {
+        const double v = filterValue(m, label, attribute);
+        if (m.filterAttribute == "label" && v >= m.filterMin && v <= m.filterMax) {
+            // Split the interval around the label; both parts keep the material's place in the order.
+            if (m.filterMin <= x - 1) {
+                Material below = m;
+                below.filterMax = x - 1;
+                out.push_back(std::move(below));
+            }
+            if (x + 1 <= m.filterMax) {
+                Material above = m;
+                above.filterMin = x + 1;
+                out.push_back(std::move(above));
+            }
+            continue;
+        }
+        // Another attribute: the label may be taken here (NaN, unknown, counts as "may").
+        if (m.filterAttribute != "label" && !(v < m.filterMin || v > m.filterMax)) hiddenFirst = true;
+        out.push_back(std::move(m));
+    }
+    if (hiddenFirst) {
+        Material hidden;
+        hidden.name = "hidden " + std::to_string(label);
+        hidden.colorMode = Material::ColorMode::Constant;
+        hidden.rgb = {{0, 0, 0}};
+        hidden.opacity = 0;
+        out.insert(out.begin(), labelOnly(hidden, x));
+    }
+    doc.materials = std::move(out);
+}
+
+void showOnlyLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn& attribute) {
+    const double x = double(label);
+    for (const Material& m : doc.materials) {
+        const double v = filterValue(m, label, attribute);
+        if (v >= m.filterMin && v <= m.filterMax) {
+            doc.materials = {labelOnly(m, x)};
+            return;
+        }
+    }
+    Material m;
+    m.name = "label " + std::to_string(label);
+    doc.materials = {labelOnly(m, x)};
 }
 
 std::vector<std::string> attributesUsed(const MaterialDocument& doc) {

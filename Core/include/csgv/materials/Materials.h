@@ -25,6 +25,9 @@
 
 namespace csgv {
 
+/// The largest label a document can name: 0xFFFFFFFF is the format's reserved "no label".
+constexpr double kMaxMaterialLabel = 4294967294.0;
+
 /// @brief Control points [x, r, g, b], x strictly increasing over [0, 1].
 struct Colormap {
     std::string name; ///< the preset name it came from ("" for explicit points)
@@ -40,7 +43,7 @@ struct Material {
 
     std::string name;
     std::string filterAttribute = "label";
-    double filterMin = 1, filterMax = 4294967294.0;
+    double filterMin = 1, filterMax = kMaxMaterialLabel;
     ColorMode colorMode = ColorMode::Random;
     std::array<float, 3> rgb{{1, 1, 1}};    ///< constant
     std::string colorAttribute = "label";  ///< colormap
@@ -58,10 +61,26 @@ struct MaterialDocument {
 
 /// Parses a document; errors name the material (index and name) and the key.
 Result<MaterialDocument> parseMaterials(const std::string& json);
-/// Writes a document that parseMaterials() reads back unchanged.
-std::string serializeMaterials(const MaterialDocument& doc);
-/// One material: every non-zero label, random colours, opaque.
+/// The text of a material property: blank text is the default document, anything else must parse.
+Result<MaterialDocument> parseMaterialsOrDefault(const std::string& json);
+/// Writes a document that parseMaterials() reads back unchanged: every key written, numbers in
+/// their shortest form; `indent` < 0 writes one compact line (the editor's property text).
+std::string serializeMaterials(const MaterialDocument& doc, int indent = 2);
+/// One material named "all": every non-zero label, random colours, opaque.
 MaterialDocument defaultMaterials();
+
+/// A label's value of a non-`label` attribute for hideLabel() and showOnlyLabel(); NaN (or no
+/// function at all) when unknown.
+using LabelAttributeFn = std::function<double(const std::string& attribute)>;
+/// Hides `label` (the pick panel's "Hide this label"). Materials filtering on `label` whose
+/// interval holds it are split around it in place, so the volume stays in the opaque pass; when a
+/// material filtering on another attribute holds it, or may (its value is unknown), a first
+/// material "hidden <label>" takes it with opacity 0. Other materials are kept as they are.
+void hideLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn& attribute = {});
+/// Leaves only `label` visible ("Show only this label"): the first material whose filter holds it
+/// now, its filter narrowed to `label` in [label, label], is the only material; when none holds it,
+/// one material "label <label>" with the default (random, opaque) look.
+void showOnlyLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn& attribute = {});
 /// Every attribute a document names, once each, in order of first use.
 std::vector<std::string> attributesUsed(const MaterialDocument& doc);
 /// An error naming the first attribute that `available` lacks.
