@@ -237,6 +237,31 @@ private Q_SLOTS:
     QCOMPARE(m[0].toObject()["filter"].toObject()["attribute"].toString(), QString("label"));
     QCOMPARE(m[0].toObject()["filter"].toObject()["min"].toDouble(), 7.0);
   }
+
+  void propertyIsCoresText()
+  {
+    // Edits write Core's serialisation (one compact line), so what the editor writes is what
+    // Core, csgv render and the backend read.
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    this->setLine("materialName", "written by Core");
+    const QString text = this->property();
+    QVERIFY(!text.contains('\n'));
+    QCOMPARE(text, pqCSGV::serialize(pqCSGV::parseDocument(text)));
+    QCOMPARE(this->materials()[0].toObject()["name"].toString(), QString("written by Core"));
+  }
+
+  void refusedDocumentShowsCoresMessage()
+  {
+    // A document Core refuses (here an unknown key) is named in the status line, and editing
+    // starts from Core's default document.
+    vtkSMPropertyHelper(this->Repr, "CSGVMaterials").Set(R"({"materials":[{"name":"x","opacty":1}]})");
+    this->Repr->UpdateVTKObjects();
+    QCoreApplication::processEvents();
+    QVERIFY2(this->child<QLabel>("status")->text().contains("unknown key 'opacty'"),
+      qPrintable(this->child<QLabel>("status")->text()));
+    QCOMPARE(this->child<QListWidget>("materialList")->count(), 1);
+    QCOMPARE(this->child<QLineEdit>("materialName")->text(), QString("all"));
+  }
 };
 
 int main(int argc, char** argv)
