@@ -43,7 +43,7 @@ void main() {
         st = DecodeState(saved.w[o], saved.w[o + 1u], saved.w[o + 2u], saved.w[o + 3u], saved.w[o + 4u],
                          saved.w[o + 5u], saved.w[o + 6u], saved.w[o + 7u], saved.w[o + 8u]);
     }
-    if (st.status == DECODE_RUNNING) decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
+    if (st.status == kDecodeRunning) decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
     saved.w[o] = st.level;
     saved.w[o + 1u] = st.pm;
     saved.w[o + 2u] = st.x;

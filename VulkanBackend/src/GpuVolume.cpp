@@ -43,16 +43,16 @@ uint64_t decodeSteps(uint32_t target) {
 
 const char* decodeResultText(uint32_t code) {
     switch (code) {
-    case 0: return "ok";
-    case 1: return "the stream runs past its end";
-    case 2: return "root operation is not PALETTE_ADV";
-    case 3: return "operation symbol 7";
-    case 4: return "stop bit at the finest level";
-    case 5: return "neighbour outside the brick or not in the volume";
-    case 6: return "more PALETTE_ADV than the palette size (or a reserved label)";
-    case 7: return "PALETTE_D points past the palette or has more than 11 groups";
-    case 8: return "the rANS stream fails its end-of-stream check";
-    case 0xFFFFFFFFu: return "decoding did not finish";
+    case kDecodeOk: return "ok";
+    case kDecodeStreamEnd: return "the stream runs past its end";
+    case kDecodeBadRoot: return "root operation is not PALETTE_ADV";
+    case kDecodeBadOperation: return "operation symbol 7";
+    case kDecodeStopAtFinest: return "stop bit at the finest level";
+    case kDecodeBadNeighbour: return "neighbour outside the brick or not in the volume";
+    case kDecodePaletteOverflow: return "more PALETTE_ADV than the palette size (or a reserved label)";
+    case kDecodeBadDistance: return "PALETTE_D points past the palette or has more than 11 groups";
+    case kDecodeRansIntegrity: return "the rANS stream fails its end-of-stream check";
+    case kDecodeRunning: return "decoding did not finish";
     default: return "unknown decode result";
     }
 }
