@@ -20,6 +20,7 @@
 #define CSGV_BASE_GLSL_SHIM_H
 
 #ifdef __cplusplus
+#include <cstddef> // offsetof, for the static_asserts on shared layouts
 #include <cstdint>
 #define CSGV_CONST(type, name, value) inline constexpr type name = value;
 #define CSGV_ARRAY(type, name, n) inline constexpr type name[n] = {

@@ -127,8 +127,12 @@ struct GpuMaterial {
 struct FrameParams {
     CSGV_FRAME_MEMBERS
 };
-static_assert(sizeof(FrameParams) == 528 + 8 * kSlotCount, "FrameParams must match std430's Frame block");
-static_assert(sizeof(GpuMaterial) == 80, "GpuMaterial must match std430");
+// std430 offsets: mat4 64 bytes, vec4/uvec4 16, uint64 8, no padding in this order.
+static_assert(offsetof(FrameParams, lightWorld) == 256 && offsetof(FrameParams, faceNormals) == 368 &&
+                  offsetof(FrameParams, frame) == 464 && offsetof(FrameParams, addr) == 528 &&
+                  sizeof(FrameParams) == 528 + 8 * kSlotCount,
+              "FrameParams must match std430's Frame block");
+static_assert(offsetof(GpuMaterial, colour) == 48 && sizeof(GpuMaterial) == 80, "GpuMaterial must match std430");
 struct ResolvePush {
     CSGV_RESOLVE_PUSH_MEMBERS
 };
