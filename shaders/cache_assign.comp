@@ -33,7 +33,7 @@ void main() {
     bricks.v[b].y = l;
     const uint d = atomicAdd(alloc.w[kAllocDecodes], 1u);
     UintBuf dec = UintBuf(f.addr[kSlotDecodes]);
-    dec.w[3u * d] = b;
-    dec.w[3u * d + 1u] = LEVELS - 1u - l;
-    dec.w[3u * d + 2u] = offset;
+    dec.w[kDecodeEntryWords * d] = b;
+    dec.w[kDecodeEntryWords * d + 1u] = LEVELS - 1u - l;
+    dec.w[kDecodeEntryWords * d + 2u] = offset;
 }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/GpuVolume.h"
+#include "csgv/gpu/FrameLayout.h"
 
 #include <algorithm>
 
@@ -26,10 +27,6 @@ void tableDefines(const std::array<uint32_t, 16>& f, const char* cumName, Define
     for (int s = 0; s < 16; ++s) cum[s + 1] = cum[s] + f[s];
     d.emplace_back(cumName, uintArray(cum));
 }
-
-struct DecodePush {
-    uint64_t arrays, starts, requests, cache, states, params, count;
-};
 
 /// Steps the shader needs for a brick decoded to inverse level `target` (csgv_decode.glsl): the
 /// root, then each level's parents and one step to close the level.
@@ -131,7 +128,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     if (!req) return req.status();
     Status s = m_context.upload(*req, 0, words.data(), words.size() * 4);
     if (!s) return s;
-    Result<Buffer> states = m_context.createBuffer(requests.size() * 48, MemoryKind::HostVisible);
+    Result<Buffer> states = m_context.createBuffer(requests.size() * kDecodeStateWords * 4, MemoryKind::HostVisible);
     if (!states) return states.status();
     // Every brick needs the same fixed number of dispatches for its level: no host round trip.
     uint64_t steps = 0;
@@ -148,10 +145,10 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     if (!paramBuffer) return paramBuffer.status();
     if (!(s = m_context.upload(*paramBuffer, 0, params.data(), params.size() * 4))) return s;
     std::vector<DecodePush> pushes;
-    for (size_t k = 0; k < params.size() / 4; ++k)
+    for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), req->address(), cache.address(),
-                                    states->address(), paramBuffer->address() + 16 * k,
-                                    paramBuffer->address() + 16 * k});
+                                    states->address(), paramBuffer->address() + 4 * kDecodeParamWords * k,
+                                    paramBuffer->address() + 4 * kDecodeParamWords * k});
     std::vector<Context::Dispatch> dispatches;
     for (const DecodePush& push : pushes) {
         Context::Dispatch d;
@@ -163,10 +160,10 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     }
     if (!(s = m_context.run(dispatches))) return s;
     if (codes) {
-        std::vector<uint32_t> words(requests.size() * 12);
+        std::vector<uint32_t> words(requests.size() * kDecodeStateWords);
         if (!(s = m_context.download(*states, 0, words.data(), words.size() * 4))) return s;
         codes->resize(requests.size());
-        for (size_t i = 0; i < requests.size(); ++i) (*codes)[i] = words[12 * i + 8];
+        for (size_t i = 0; i < requests.size(); ++i) (*codes)[i] = words[kDecodeStateWords * i + kDecodeStateStatus];
     }
     return Status::ok();
 }
@@ -188,10 +185,10 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     Status s = m_context.upload(*paramBuffer, 0, params.data(), params.size() * 4);
     if (!s) return s;
     storage.pushes.clear();
-    storage.pushes.reserve(params.size() / 4);
-    for (size_t k = 0; k < params.size() / 4; ++k)
+    storage.pushes.reserve(params.size() / kDecodeParamWords);
+    for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         storage.pushes.push_back({m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
-                                  paramBuffer->address() + 16 * k, countAddress});
+                                  paramBuffer->address() + 4 * kDecodeParamWords * k, countAddress});
     storage.params = std::move(*paramBuffer);
     for (const auto& push : storage.pushes) {
         Context::Dispatch d;
@@ -219,7 +216,7 @@ Result<std::vector<uint32_t>> GpuVolume::decodeToHost(const std::vector<BrickReq
     Status s = decode(placed, *cache, &codes);
     if (!s) return s;
     for (size_t i = 0; i < codes.size(); ++i)
-        if (codes[i] != 0)
+        if (codes[i] != kDecodeOk)
             return Status::error("brick " + std::to_string(placed[i].brick) + ", GPU decode: " + decodeResultText(codes[i]));
     std::vector<uint32_t> raw(words);
     if (!(s = m_context.download(*cache, 0, raw.data(), words * 4))) return s;

@@ -115,7 +115,8 @@ struct Renderer::Impl {
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
         for (int64_t i = 0; i < int64_t(n); ++i) {
             BrickDecoder& d = *decoders[size_t(omp_get_thread_num())];
-            const uint32_t brick = list[3 * i], lod = L - 1 - std::min(list[3 * i + 1], L - 1), offset = list[3 * i + 2];
+            const uint32_t* e = list + kDecodeEntryWords * i;
+            const uint32_t brick = e[0], lod = L - 1 - std::min(e[1], L - 1), offset = e[2];
             const uint64_t edge = vol.brickSize >> lod, words = edge * edge * edge;
             if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) continue;
             if (d.decode(brick, lod)) std::memcpy(cacheWords + offset, d.labels(), words * 4);
@@ -131,6 +132,7 @@ struct Renderer::Impl {
     Result<FrameStats> frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     Result<uint64_t> ensurePipeline(Shading shading);
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
+    void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
     Status buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
     Status submit();
     void applyCachePolicy(const FrameStats& stats, const FrameInput& in);
@@ -250,8 +252,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
-    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * 12, hostOrDevice, "decode list"))) return s;
-    if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * 48, MemoryKind::DeviceLocal, "decoder states"))) return s;
+    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * kDecodeEntryWords * 4, hostOrDevice, "decode list"))) return s;
+    if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"))) return s;
     if (!(s = make(im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
     std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
@@ -484,6 +486,7 @@ Result<uint64_t> Renderer::Impl::ensurePipeline(Shading shading) {
     return pipeline;
 }
 
+/// The view: matrices, light, clip box, tone mapping, face normals (then packState).
 Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
     // Index space <-> world <-> clip.
     const Mat4 indexToWorld = indexToWorldMatrix(geometry);
@@ -540,6 +543,13 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
         w = normalize(w);
         for (int k = 0; k < 3; ++k) p.faceNormals[f][k] = float(w[k]);
     }
+    packState(in, st, p);
+    return Status::ok();
+}
+
+/// The accumulation and cache state: flags, frame and image words, limits, counts, buffer
+/// addresses, and the counter words the GPU adds to this frame.
+void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, FrameParams& p) {
     uint32_t flags = 0;
     if (st.jitter) flags |= kFlagJitter;
     if (st.finest) flags |= kFlagFinest;
@@ -583,7 +593,6 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
     a[kAllocMissing] = 0;
     a[kAllocMinRow] = kNone;
     a[kAllocPrevMin] = prevMinSamples;
-    return Status::ok();
 }
 
 Status Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline) {

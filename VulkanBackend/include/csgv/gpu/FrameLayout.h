@@ -87,6 +87,23 @@ CSGV_CONST(uint32_t, kResolveAtrous4, 3u)
 CSGV_CONST(uint32_t, kResolveFinal, 4u)   ///< tone mapping, brightness, contrast, gamma
 CSGV_CONST(uint32_t, kResolveClear, 5u)   ///< starts the accumulation anew
 
+// The GPU decoder's lists (GpuVolume.cpp, cache_assign.comp, decode_bricks.comp, host decoding).
+CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse level, cache word offset
+CSGV_CONST(uint32_t, kDecodeStateWords, 12u) ///< per decode: the decoder state saved between dispatches
+CSGV_CONST(uint32_t, kDecodeStateStatus, 8u) ///< its word holding the result (kDecodeOk, ...)
+CSGV_CONST(uint32_t, kDecodeParamWords, 4u)  ///< per dispatch: count (unused in frames), steps, first, unused
+
+/// Push constants of decode_bricks.comp: only addresses (lavapipe specialises shaders on
+/// push-constant values used in loop conditions, recompiling for every new value).
+#define CSGV_DECODE_PUSH_MEMBERS                                                                    \
+    uint64_t arrays;   /* one device address per encoding array */                                  \
+    uint64_t starts;   /* brick start words */                                                      \
+    uint64_t requests; /* kDecodeEntryWords per decode */                                           \
+    uint64_t cache;    /* the brick cache */                                                        \
+    uint64_t states;   /* kDecodeStateWords per decode */                                           \
+    uint64_t params;   /* kDecodeParamWords of this dispatch */                                     \
+    uint64_t count;    /* the decode count in its first word (written by the GPU in frames) */
+
 /// The frame parameter block (std430), one per frame: GLSL `Frame`, C++ `FrameParams`.
 #define CSGV_FRAME_MEMBERS                                                                          \
     CSGV_MAT4(clipToIndex)     /* NDC -> index space */                                             \
@@ -137,6 +154,10 @@ struct ResolvePush {
     CSGV_RESOLVE_PUSH_MEMBERS
 };
 static_assert(sizeof(ResolvePush) == 24, "ResolvePush must match resolve.comp's push constants");
+struct DecodePush {
+    CSGV_DECODE_PUSH_MEMBERS
+};
+static_assert(sizeof(DecodePush) == 56, "DecodePush must match decode_bricks.comp's push constants");
 #endif
 
 CSGV_NAMESPACE_END
