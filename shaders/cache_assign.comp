@@ -6,7 +6,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = kGroupBricks) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {

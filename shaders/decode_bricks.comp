@@ -7,7 +7,7 @@
 #include "csgv_decode.glsl"
 #include "csgv/gpu/FrameLayout.h" // the decode lists and push constants
 
-layout(local_size_x = 32) in;
+layout(local_size_x = kGroupDecodes) in;
 
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer Uints { uint w[]; };
 

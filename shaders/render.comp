@@ -11,7 +11,7 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "render_common.glsl"
 
-layout(local_size_x = 16, local_size_y = 16) in;
+layout(local_size_x = kGroupTile, local_size_y = kGroupTile) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 Frame f;

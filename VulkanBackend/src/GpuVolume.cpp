@@ -155,7 +155,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         d.pipeline = m_decodePipeline;
         d.pushConstants = &push;
         d.pushConstantBytes = sizeof(push);
-        d.groups[0] = uint32_t((requests.size() + 31) / 32);
+        d.groups[0] = uint32_t((requests.size() + kGroupDecodes - 1) / kGroupDecodes);
         dispatches.push_back(d);
     }
     if (!(s = m_context.run(dispatches))) return s;
@@ -195,7 +195,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         d.pipeline = m_decodePipeline;
         d.pushConstants = push.data();
         d.pushConstantBytes = sizeof(DecodePush);
-        d.groups[0] = (maxRequests + 31) / 32;
+        d.groups[0] = (maxRequests + kGroupDecodes - 1) / kGroupDecodes;
         out.push_back(d);
     }
     return Status::ok();

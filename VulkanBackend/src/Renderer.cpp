@@ -609,16 +609,16 @@ Status Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSetting
         d.groups[1] = std::max(gy, 1u);
         dispatches.push_back(d);
     };
-    const uint32_t tile = 16 * pixelBlock; // 16x16 invocations of PIXEL_BLOCK^2 pixels
+    const uint32_t tile = kGroupTile * pixelBlock; // kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
     const uint32_t gx = (in.width + tile - 1) / tile, gy = (in.height + tile - 1) / tile;
     auto resolve = [&](uint32_t pass, uint32_t src, uint32_t dst) {
         resolvePushes.push_back({frameAddress, pass, src, dst});
         add(pResolve, &resolvePushes.back(), sizeof(ResolvePush), gx, gy);
     };
     if (clearPending) resolve(kResolveClear, kSlotDenoiseA, kSlotDenoiseA);
-    add(pRequest, &frameAddress, 8, (brickCount + 63) / 64, 1);
+    add(pRequest, &frameAddress, 8, (brickCount + kGroupBricks - 1) / kGroupBricks, 1);
     add(pProvision, &frameAddress, 8, 1, 1);
-    add(pAssign, &frameAddress, 8, (maxRequests + 63) / 64, 1);
+    add(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
     add(pCommit, &frameAddress, 8, 1, 1);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!hostDecode) {

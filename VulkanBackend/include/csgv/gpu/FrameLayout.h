@@ -79,6 +79,11 @@ CSGV_CONST(uint32_t, kAllocProvBase, 40u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocProvCount, 48u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocWords, 56u)
 
+// Workgroup sizes (the shaders' local_size, the host's group counts).
+CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), cache_assign.comp (per request)
+CSGV_CONST(uint32_t, kGroupDecodes, 32u) ///< decode_bricks.comp (per decode)
+CSGV_CONST(uint32_t, kGroupTile, 16u)    ///< render.comp and resolve.comp: kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
+
 // Passes of resolve.comp (push constant `pass`).
 CSGV_CONST(uint32_t, kResolveGather, 0u)  ///< average and upsampling (tone-mapped when not denoising)
 CSGV_CONST(uint32_t, kResolveAtrous1, 1u) ///< A-trous denoising, step 1 (then 2 and 4: passes 2 and 3)
