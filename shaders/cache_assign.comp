@@ -6,34 +6,34 @@
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = kGroupBricks) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
-    UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
+    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
     const uint i = gl_GlobalInvocationID.x;
-    if (i >= alloc.w[AL_REQUESTS]) return;
-    UintBuf req = UintBuf(f.addr[A_REQUESTS]);
+    if (i >= alloc.w[kAllocRequests]) return;
+    UintBuf req = UintBuf(f.addr[kSlotRequests]);
     const uint b = req.w[2u * i];
     const uint l = req.w[2u * i + 1u];
-    const uint k = atomicAdd(alloc.w[AL_POPS + l], 1u);
-    const uint freeCount = alloc.w[AL_FREE_COUNT + l];
+    const uint k = atomicAdd(alloc.w[kAllocPops + l], 1u);
+    const uint freeCount = alloc.w[kAllocFreeCount + l];
     uint offset;
     if (k < freeCount) {
-        offset = UintBuf(f.addr[A_FREE]).w[l * fv.counts.y + freeCount - 1u - k];
+        offset = UintBuf(f.addr[kSlotFree]).w[l * fv.counts.y + freeCount - 1u - k];
     } else {
         const uint j = k - freeCount;
-        if (j >= alloc.w[AL_PROV_COUNT + l]) return;
-        offset = alloc.w[AL_PROV_BASE + l] + j * regionWords(l);
+        if (j >= alloc.w[kAllocProvCount + l]) return;
+        offset = alloc.w[kAllocProvBase + l] + j * regionWords(l);
     }
-    Uvec4Buf bricks = Uvec4Buf(f.addr[A_BRICKS]);
+    Uvec4Buf bricks = Uvec4Buf(f.addr[kSlotBricks]);
     bricks.v[b].x = offset;
     bricks.v[b].y = l;
-    const uint d = atomicAdd(alloc.w[AL_DECODES], 1u);
-    UintBuf dec = UintBuf(f.addr[A_DECODES]);
-    dec.w[3u * d] = b;
-    dec.w[3u * d + 1u] = LEVELS - 1u - l;
-    dec.w[3u * d + 2u] = offset;
+    const uint d = atomicAdd(alloc.w[kAllocDecodes], 1u);
+    UintBuf dec = UintBuf(f.addr[kSlotDecodes]);
+    dec.w[kDecodeEntryWords * d] = b;
+    dec.w[kDecodeEntryWords * d + 1u] = LEVELS - 1u - l;
+    dec.w[kDecodeEntryWords * d + 2u] = offset;
 }

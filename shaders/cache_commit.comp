@@ -11,12 +11,12 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
-    UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
+    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
     for (uint l = 0u; l < LEVELS; ++l) {
-        const uint freeCount = alloc.w[AL_FREE_COUNT + l];
-        alloc.w[AL_FREE_COUNT + l] = freeCount - min(alloc.w[AL_POPS + l], freeCount);
-        alloc.w[AL_POPS + l] = 0u;
-        alloc.w[AL_REQ_COUNT + l] = 0u;
+        const uint freeCount = alloc.w[kAllocFreeCount + l];
+        alloc.w[kAllocFreeCount + l] = freeCount - min(alloc.w[kAllocPops + l], freeCount);
+        alloc.w[kAllocPops + l] = 0u;
+        alloc.w[kAllocReqCount + l] = 0u;
     }
-    alloc.w[AL_REQUESTS] = 0u;
+    alloc.w[kAllocRequests] = 0u;
 }

@@ -12,20 +12,20 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
-    UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
-    alloc.w[AL_DECODES] = 0u;
-    alloc.w[AL_REQUESTS] = min(alloc.w[AL_REQUESTS], fv.limits.x);
+    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    alloc.w[kAllocDecodes] = 0u;
+    alloc.w[kAllocRequests] = min(alloc.w[kAllocRequests], fv.limits.x);
     for (uint l = 0u; l < LEVELS; ++l) {
-        const uint freeCount = min(alloc.w[AL_FREE_COUNT + l], fv.counts.y);
-        alloc.w[AL_FREE_COUNT + l] = freeCount;
-        const uint need = alloc.w[AL_REQ_COUNT + l] > freeCount ? alloc.w[AL_REQ_COUNT + l] - freeCount : 0u;
+        const uint freeCount = min(alloc.w[kAllocFreeCount + l], fv.counts.y);
+        alloc.w[kAllocFreeCount + l] = freeCount;
+        const uint need = alloc.w[kAllocReqCount + l] > freeCount ? alloc.w[kAllocReqCount + l] - freeCount : 0u;
         const uint slot = regionWords(l);
-        const uint top = alloc.w[AL_TOP];
-        const uint room = (alloc.w[AL_CAPACITY] - top) / slot;
+        const uint top = alloc.w[kAllocTop];
+        const uint room = (alloc.w[kAllocCapacity] - top) / slot;
         const uint take = min(need, room);
-        alloc.w[AL_PROV_BASE + l] = top;
-        alloc.w[AL_PROV_COUNT + l] = take;
-        alloc.w[AL_TOP] = top + take * slot;
-        if (take < need) alloc.w[AL_FULL] = 1u;
+        alloc.w[kAllocProvBase + l] = top;
+        alloc.w[kAllocProvCount + l] = take;
+        alloc.w[kAllocTop] = top + take * slot;
+        if (take < need) alloc.w[kAllocFull] = 1u;
     }
 }

@@ -7,7 +7,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = kGroupBricks) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
@@ -15,28 +15,28 @@ void main() {
     loadFrameValues(f);
     const uint b = gl_GlobalInvocationID.x;
     if (b >= fv.counts.y) return;
-    Uvec4Buf bricks = Uvec4Buf(f.addr[A_BRICKS]);
-    UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
+    Uvec4Buf bricks = Uvec4Buf(f.addr[kSlotBricks]);
+    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
     uvec4 s = bricks.v[b];
     const bool used = s.z == fv.frame.x; // marked by the previous frame's rays (frame index + 1)
-    const bool visible = UintBuf(f.addr[A_VISIBLE]).w[b] != 0u;
+    const bool visible = UintBuf(f.addr[kSlotVisible]).w[b] != 0u;
     if ((s.w != 0u) != visible) bricks.v[b].w = visible ? 1u : 0u; // materials changed
     const uint wanted = lodForBrick(f, b);
-    if (s.y != NONE) {
-        const bool evict = !visible || (used && s.y != wanted) || (!used && (fv.frame.y & FLAG_EVICT_UNUSED) != 0u);
+    if (s.y != kNone) {
+        const bool evict = !visible || (used && s.y != wanted) || (!used && (fv.frame.y & kFlagEvictUnused) != 0u);
         if (!evict) return;
-        const uint k = atomicAdd(alloc.w[AL_FREE_COUNT + s.y], 1u);
+        const uint k = atomicAdd(alloc.w[kAllocFreeCount + s.y], 1u);
         // A full stack cannot happen (a level never has more regions than bricks); if it did, the
         // region would only be dead space until the next cache reset.
-        if (k < fv.counts.y) UintBuf(f.addr[A_FREE]).w[s.y * fv.counts.y + k] = s.x;
-        bricks.v[b].y = NONE;
-        s.y = NONE;
+        if (k < fv.counts.y) UintBuf(f.addr[kSlotFree]).w[s.y * fv.counts.y + k] = s.x;
+        bricks.v[b].y = kNone;
+        s.y = kNone;
     }
     if (!used || !visible) return;
-    const uint r = atomicAdd(alloc.w[AL_REQUESTS], 1u);
+    const uint r = atomicAdd(alloc.w[kAllocRequests], 1u);
     if (r >= fv.limits.x) return; // over this frame's decode budget: asked again next frame
-    atomicAdd(alloc.w[AL_REQ_COUNT + wanted], 1u);
-    UintBuf req = UintBuf(f.addr[A_REQUESTS]);
+    atomicAdd(alloc.w[kAllocReqCount + wanted], 1u);
+    UintBuf req = UintBuf(f.addr[kSlotRequests]);
     req.w[2u * r] = b;
     req.w[2u * r + 1u] = wanted;
 }

@@ -29,7 +29,8 @@ layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer Wor
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer Addresses { uint64_t a[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer CacheWords { uint w[]; };
 
-const uint INVALID_LABEL = 0xFFFFFFFFu;
+#include "csgv/codec/Layout.h" // kInvalidLabel, rANS constants, operation codes, decode results
+#include "csgv/base/Morton.h"
 
 // Cache paletting (CACHE_BITS < 32): the cache holds palette indices of CACHE_BITS bits, packed
 // CACHE_PER_WORD to a word (never across words); all ones marks voxels outside the volume. Without
@@ -39,7 +40,7 @@ const uint INVALID_LABEL = 0xFFFFFFFFu;
 #endif
 #if CACHE_BITS == 32
 const uint CACHE_PER_WORD = 1u;
-const uint CACHE_INVALID = INVALID_LABEL;
+const uint CACHE_INVALID = kInvalidLabel;
 uint cacheGet(CacheWords c, uint region, uint e) { return c.w[region + e]; }
 void cacheSet(CacheWords c, uint region, uint e, uint v) { c.w[region + e] = v; }
 #define PALETTE_VALUE(index, label) (label)
@@ -59,37 +60,6 @@ void cacheSet(CacheWords c, uint region, uint e, uint v) { // one invocation own
 }
 #define PALETTE_VALUE(index, label) (index)
 #endif
-const uint RANS_LOWER = 0x00800000u;
-
-// Decode results (the host's decodeResultText() names them). DECODE_RUNNING: not finished yet.
-const uint DECODE_OK = 0u;
-const uint DECODE_STREAM_END = 1u;
-const uint DECODE_BAD_ROOT = 2u;
-const uint DECODE_BAD_OPERATION = 3u;
-const uint DECODE_STOP_AT_FINEST = 4u;
-const uint DECODE_BAD_NEIGHBOUR = 5u;
-const uint DECODE_PALETTE_OVERFLOW = 6u;
-const uint DECODE_BAD_DISTANCE = 7u;
-const uint DECODE_RANS_INTEGRITY = 8u;
-const uint DECODE_RUNNING = 0xFFFFFFFFu;
-
-uint mortonCompact(uint v) {
-    v &= 0x09249249u;
-    v = (v | (v >> 2)) & 0x030C30C3u;
-    v = (v | (v >> 4)) & 0x0300F00Fu;
-    v = (v | (v >> 8)) & 0x030000FFu;
-    v = (v | (v >> 16)) & 0x000003FFu;
-    return v;
-}
-uint axisMask(uint axis) { return 0x09249249u << axis; }
-uint mortonDecrement(uint m, uint axis) {
-    uint mask = axisMask(axis);
-    return (((m & mask) - 1u) & mask) | (m & ~mask);
-}
-uint mortonIncrement(uint m, uint axis) {
-    uint mask = axisMask(axis);
-    return (((m | ~mask) + 1u) & mask) | (m & ~mask);
-}
 
 /// Everything a brick's decoding needs between two steps (also saved between dispatches).
 struct DecodeState {
@@ -101,7 +71,7 @@ struct DecodeState {
     uint base;     // rANS: word of the current stream's state
     uint cursor;   // next PALETTE_ADV word
     uint appended; // palette entries appended so far
-    uint status;   // DECODE_RUNNING until done
+    uint status;   // kDecodeRunning until done
 };
 
 struct Brick {
@@ -144,7 +114,7 @@ bool readByte(Brick b, inout DecodeState st) {
 }
 
 bool nextSymbol(Brick b, inout DecodeState st, bool tableB, out uint s) {
-    const uint c = st.x & 0x3FFFu;
+    const uint c = st.x & (kRansTotal - 1u);
     uint cum, next;
 #if ENCODING == 2
     if (tableB) {
@@ -158,14 +128,14 @@ bool nextSymbol(Brick b, inout DecodeState st, bool tableB, out uint s) {
         cum = CUM_A_TABLE[s];
         next = CUM_A_TABLE[s + 1u];
     }
-    st.x = (next - cum) * (st.x >> 14u) + c - cum;
+    st.x = (next - cum) * (st.x >> kRansProbBits) + c - cum;
     // From a state >= 2^23 the new state is >= 2^9: at most two bytes restore it.
-    if (st.x < RANS_LOWER && !readByte(b, st)) return false;
-    if (st.x < RANS_LOWER && !readByte(b, st)) return false;
-    return st.x >= RANS_LOWER;
+    if (st.x < kRansLowerBound && !readByte(b, st)) return false;
+    if (st.x < kRansLowerBound && !readByte(b, st)) return false;
+    return st.x >= kRansLowerBound;
 }
 bool ransFinished(Brick b, DecodeState st) {
-    if (st.x != RANS_LOWER || st.end - st.pos >= 4u) return false;
+    if (st.x != kRansLowerBound || st.end - st.pos >= 4u) return false;
     // At most 3 padding bytes, all zero.
     bool zero = true;
     if (st.pos < st.end) zero = zero && ((b.words.w[b.start + st.base + 1u + (st.pos >> 2u)] >> (8u * (st.pos & 3u))) & 0xFFu) == 0u;
@@ -196,65 +166,65 @@ uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, ui
     if (!parentOpen) {
         cacheSet(cache, region, slot, parentLabel);
         if (l < target) cacheSet(cache, region, flagSlot, 0u);
-        return DECODE_OK;
+        return kDecodeOk;
     }
     const uvec3 p = uvec3(mortonCompact(m), mortonCompact(m >> 1u), mortonCompact(m >> 2u));
     if (any(greaterThanEqual(p, lim))) {
         cacheSet(cache, region, slot, CACHE_INVALID);
         if (l < target) cacheSet(cache, region, flagSlot, 0u);
-        return DECODE_OK;
+        return kDecodeOk;
     }
     uint s;
-    if (!nextSymbol(b, st, tableB, s)) return DECODE_STREAM_END;
-    if ((s & 8u) != 0u && finest) return DECODE_STOP_AT_FINEST;
+    if (!nextSymbol(b, st, tableB, s)) return kDecodeStreamEnd;
+    if ((s & kStopBit) != 0u && finest) return kDecodeStopAtFinest;
     const uint op = s & 7u;
     const uint paletteSize = b.words.w[b.start + LEVELS];
     uint label;
-    if (op == 0u) {
+    if (op == kOpParent) {
         label = parentLabel;
-    } else if (op <= 3u) {
-        const uint axis = op - 1u;
+    } else if (op <= kOpNeighborZ) {
+        const uint axis = op - kOpNeighborX;
         if (((c >> axis) & 1u) == 0u) {
-            if ((m & axisMask(axis)) == 0u) return DECODE_BAD_NEIGHBOUR;
+            if ((m & mortonAxisMask(axis)) == 0u) return kDecodeBadNeighbour;
             label = cacheGet(cache, region, ((mortonDecrement(m, axis) + 1u) << shiftL) - 1u);
         } else {
             const uint coord = mortonCompact(pm >> axis) + 1u;
-            if (coord >= (1u << (l - 1u)) || coord >= plim[axis]) return DECODE_BAD_NEIGHBOUR;
+            if (coord >= (1u << (l - 1u)) || coord >= plim[axis]) return kDecodeBadNeighbour;
             label = cacheGet(cache, region, ((mortonIncrement(pm, axis) + 1u) << shiftP) - 1u);
         }
-    } else if (op == 4u) {
-        if (st.appended >= paletteSize) return DECODE_PALETTE_OVERFLOW;
+    } else if (op == kOpPaletteAdv) {
+        if (st.appended >= paletteSize) return kDecodePaletteOverflow;
         label = b.words.w[b.start + st.cursor];
-        if (label == INVALID_LABEL) return DECODE_PALETTE_OVERFLOW;
+        if (label == kInvalidLabel) return kDecodePaletteOverflow;
         label = PALETTE_VALUE(st.appended, label);
         st.cursor--;
         st.appended++;
-    } else if (op == 5u) {
+    } else if (op == kOpPaletteLast) {
         label = PALETTE_VALUE(st.appended - 1u, b.words.w[b.start + st.cursor + 1u]);
-    } else if (op == 6u) {
+    } else if (op == kOpPaletteD) {
         uint v = 0u;
         uint g;
 #if LEGACY_DELTA
-        if (!nextSymbol(b, st, tableB, g)) return DECODE_STREAM_END;
+        if (!nextSymbol(b, st, tableB, g)) return kDecodeStreamEnd;
         v = g;
 #else
         bool more = true;
         for (uint groups = 0u; groups < 11u && more; ++groups) {
-            if (!nextSymbol(b, st, tableB, g)) return DECODE_STREAM_END;
-            if (v > 0x1FFFFFFFu) return DECODE_BAD_DISTANCE; // would not fit 32 bits
+            if (!nextSymbol(b, st, tableB, g)) return kDecodeStreamEnd;
+            if (v > 0x1FFFFFFFu) return kDecodeBadDistance; // would not fit 32 bits
             v = (v << 3u) | (g & 7u);
             more = (g & 8u) != 0u;
         }
-        if (more) return DECODE_BAD_DISTANCE; // more than 11 groups
+        if (more) return kDecodeBadDistance; // more than 11 groups
 #endif
-        if (v + 2u > st.appended || v + 2u < v) return DECODE_BAD_DISTANCE;
+        if (v + 2u > st.appended || v + 2u < v) return kDecodeBadDistance;
         label = PALETTE_VALUE(st.appended - 2u - v, b.words.w[b.start + st.cursor + 2u + v]);
     } else {
-        return DECODE_BAD_OPERATION;
+        return kDecodeBadOperation;
     }
     cacheSet(cache, region, slot, label);
-    if (l < target) cacheSet(cache, region, flagSlot, (s & 8u) != 0u ? 0u : 1u);
-    return DECODE_OK;
+    if (l < target) cacheSet(cache, region, flagSlot, (s & kStopBit) != 0u ? 0u : 1u);
+    return kDecodeOk;
 }
 
 Brick openBrick(Addresses arrays, Words starts, uint brick) {
@@ -278,7 +248,7 @@ DecodeState initialState(Brick b) {
     st.base = 0u;
     st.cursor = b.size - 1u;
     st.appended = 0u;
-    st.status = DECODE_RUNNING;
+    st.status = kDecodeRunning;
 #if ENCODING == 0
     beginLevelStream(b, st);
 #elif ENCODING == 1
@@ -287,7 +257,7 @@ DecodeState initialState(Brick b) {
     beginRansStream(b, st, LEVELS + 1u, b.words.w[b.start + LEVELS - 1u] / 8u);
 #endif
 #if ENCODING != 0
-    if (st.x < RANS_LOWER) st.status = DECODE_RANS_INTEGRITY; // a valid stream never starts lower
+    if (st.x < kRansLowerBound) st.status = kDecodeRansIntegrity; // a valid stream never starts lower
 #endif
     return st;
 }
@@ -296,22 +266,22 @@ DecodeState initialState(Brick b) {
 void endLevel(Brick b, inout DecodeState st, uint target) {
 #if ENCODING == 1
     if (st.level == target) {
-        st.status = (target == LEVELS - 1u && !ransFinished(b, st)) ? DECODE_RANS_INTEGRITY : DECODE_OK;
+        st.status = (target == LEVELS - 1u && !ransFinished(b, st)) ? kDecodeRansIntegrity : kDecodeOk;
         return;
     }
 #elif ENCODING == 2
     if (st.level == LEVELS - 2u && !ransFinished(b, st)) {
-        st.status = DECODE_RANS_INTEGRITY;
+        st.status = kDecodeRansIntegrity;
         return;
     }
     if (st.level == target) {
-        st.status = (target == LEVELS - 1u && !ransFinished(b, st)) ? DECODE_RANS_INTEGRITY : DECODE_OK;
+        st.status = (target == LEVELS - 1u && !ransFinished(b, st)) ? kDecodeRansIntegrity : kDecodeOk;
         return;
     }
     if (st.level + 1u == LEVELS - 1u) beginRansStream(b, st, b.words.w[b.start + LEVELS - 1u] / 8u, b.paletteStart);
 #else
     if (st.level == target) {
-        st.status = DECODE_OK;
+        st.status = kDecodeOk;
         return;
     }
 #endif
@@ -324,27 +294,27 @@ void endLevel(Brick b, inout DecodeState st, uint target) {
 
 /// Runs at most `steps` steps of one brick's decoding.
 void decodeSteps(Brick b, inout DecodeState st, uint target, CacheWords cache, uint region, uint steps) {
-    for (uint step = 0u; step < steps && st.status == DECODE_RUNNING; ++step) {
+    for (uint step = 0u; step < steps && st.status == kDecodeRunning; ++step) {
         const uint l = st.level;
         if (l == 0u) { // the root
             uint s;
             if (!nextSymbol(b, st, false, s)) {
-                st.status = DECODE_STREAM_END;
+                st.status = kDecodeStreamEnd;
                 break;
             }
             if ((s & 7u) != 4u) {
-                st.status = DECODE_BAD_ROOT;
+                st.status = kDecodeBadRoot;
                 break;
             }
             const uint label = b.words.w[b.start + st.cursor];
-            if (label == INVALID_LABEL) {
-                st.status = DECODE_PALETTE_OVERFLOW;
+            if (label == kInvalidLabel) {
+                st.status = kDecodePaletteOverflow;
                 break;
             }
             st.cursor--;
             st.appended = 1u;
             cacheSet(cache, region, (1u << (3u * target)) - 1u, PALETTE_VALUE(0u, label));
-            if (target > 0u) cacheSet(cache, region, 0u, (s & 8u) != 0u ? 0u : 1u);
+            if (target > 0u) cacheSet(cache, region, 0u, (s & kStopBit) != 0u ? 0u : 1u);
             endLevel(b, st, target);
             continue;
         }
@@ -362,10 +332,10 @@ void decodeSteps(Brick b, inout DecodeState st, uint target, CacheWords cache, u
         // Read before child 0 and child 7 overwrite them.
         const uint parentLabel = cacheGet(cache, region, ((pm + 1u) << shiftP) - 1u);
         const bool parentOpen = cacheGet(cache, region, pm << shiftP) != 0u;
-        uint r = DECODE_OK;
-        for (uint c = 0u; c < 8u && r == DECODE_OK; ++c)
+        uint r = kDecodeOk;
+        for (uint c = 0u; c < 8u && r == kDecodeOk; ++c)
             r = visitChild(b, st, cache, region, target, l, pm, c, parentOpen, parentLabel, lim, plim);
-        if (r != DECODE_OK) st.status = r;
+        if (r != kDecodeOk) st.status = r;
         st.pm = pm + 1u;
     }
 }

@@ -5,21 +5,14 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "csgv_decode.glsl"
+#include "csgv/gpu/FrameLayout.h" // the decode lists and push constants
 
-layout(local_size_x = 32) in;
+layout(local_size_x = kGroupDecodes) in;
 
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer Uints { uint w[]; };
 
-// Only addresses are push constants. Counts live in memory: lavapipe specialises (and unrolls)
-// shaders on push-constant values used in loop conditions, recompiling for every new value.
 layout(push_constant) uniform Push {
-    uint64_t arrays;   // Addresses: one device address per encoding array
-    uint64_t starts;   // Words: brick starts
-    uint64_t requests; // Uints: 3 words per request
-    uint64_t cache;    // CacheWords
-    uint64_t states;   // Uints: 12 words per request
-    uint64_t params;   // Uints: unused, steps in this dispatch, 1 on the first dispatch
-    uint64_t count;    // Uints: the request count in its first word (written by the GPU in frames)
+    CSGV_DECODE_PUSH_MEMBERS
 } pc;
 
 void main() {
@@ -30,20 +23,20 @@ void main() {
     const uint first = params.w[2];
     if (i >= count) return;
     Uints req = Uints(pc.requests);
-    const uint brick = req.w[3u * i];
-    const uint target = req.w[3u * i + 1u];
-    const uint region = req.w[3u * i + 2u] * CACHE_PER_WORD; // words -> cache entries
+    const uint brick = req.w[kDecodeEntryWords * i];
+    const uint target = req.w[kDecodeEntryWords * i + 1u];
+    const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
     Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick);
     Uints saved = Uints(pc.states);
-    const uint o = 12u * i;
+    const uint o = kDecodeStateWords * i;
     DecodeState st;
     if (first != 0u) {
         st = initialState(b);
     } else {
         st = DecodeState(saved.w[o], saved.w[o + 1u], saved.w[o + 2u], saved.w[o + 3u], saved.w[o + 4u],
-                         saved.w[o + 5u], saved.w[o + 6u], saved.w[o + 7u], saved.w[o + 8u]);
+                         saved.w[o + 5u], saved.w[o + 6u], saved.w[o + 7u], saved.w[o + kDecodeStateStatus]);
     }
-    if (st.status == DECODE_RUNNING) decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
+    if (st.status == kDecodeRunning) decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
     saved.w[o] = st.level;
     saved.w[o + 1u] = st.pm;
     saved.w[o + 2u] = st.x;
@@ -52,5 +45,5 @@ void main() {
     saved.w[o + 5u] = st.base;
     saved.w[o + 6u] = st.cursor;
     saved.w[o + 7u] = st.appended;
-    saved.w[o + 8u] = st.status;
+    saved.w[o + kDecodeStateStatus] = st.status;
 }

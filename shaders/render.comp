@@ -11,7 +11,7 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "render_common.glsl"
 
-layout(local_size_x = 16, local_size_y = 16) in;
+layout(local_size_x = kGroupTile, local_size_y = kGroupTile) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 Frame f;
@@ -31,7 +31,7 @@ float visibility(inout Walker w, bool mark, bool complete) {
         if (r == MARCH_OUT) return transmittance;
         if (r == MARCH_MISSING) {
             if (complete) return -1.0;
-            w.prevLabel = NONE;
+            w.prevLabel = kNone;
             stableStep(w, BRICK_SHIFT); // beyond the request depth: treat as empty (small bias)
             if (any(lessThan(w.voxel, boxLo)) || any(greaterThanEqual(w.voxel, boxHi))) return transmittance;
             continue;
@@ -51,8 +51,8 @@ bool leaveSurface(Walker w, vec3 dIndex, float tEnd, out Walker s) {
     s.invD = vec3(1.0) / dIndex;
     s.t = 0.0;
     s.tEnd = tEnd;
-    s.prevLabel = NONE;
-    s.lastBrick = NONE;
+    s.prevLabel = kNone;
+    s.lastBrick = kNone;
     if (w.face != 0u) { // start in the voxel in front of the face
         const uint axis = (w.face - 1u) / 2u;
         if ((w.face - 1u) % 2u == 0u) {
@@ -69,7 +69,7 @@ bool leaveSurface(Walker w, vec3 dIndex, float tEnd, out Walker s) {
 /// The 64x64 blue-noise tile (VulkanBackend/src/BlueNoise.h), a byte per pixel.
 float blueNoise(uvec2 p) {
     const uint i = (p.y & 63u) * 64u + (p.x & 63u);
-    return (float((UintBuf(f.addr[A_BLUE_NOISE]).w[i >> 2u] >> (8u * (i & 3u))) & 255u) + 0.5) * (1.0 / 256.0);
+    return (float((UintBuf(f.addr[kSlotBlueNoise]).w[i >> 2u] >> (8u * (i & 3u))) & 255u) + 0.5) * (1.0 / 256.0);
 }
 
 /// Two numbers in [0, 1) for a pixel's k-th sample: the blue-noise tile (per pair of dimensions
@@ -111,21 +111,21 @@ void renderPixel(uvec2 cell) {
     const uvec2 px = cell * stride + uvec2(phase % stride, phase / stride);
     if (px.x >= W || px.y >= H) return;
     const uint pixel = px.y * W + px.x;
-    UintBuf samplesBuf = UintBuf(f.addr[A_SAMPLES]);
+    UintBuf samplesBuf = UintBuf(f.addr[kSlotSamples]);
     const uint samples = samplesBuf.w[pixel];
     if (fv.frame.w != 0u && samples >= fv.frame.w) return; // reached the sample target
-    UintBuf alloc = UintBuf(f.addr[A_ALLOC]);
-    if (samples == alloc.w[AL_PREV_MIN]) { // one atomic per subgroup: they are costly on CPU devices
+    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    if (samples == alloc.w[kAllocPrevMin]) { // one atomic per subgroup: they are costly on CPU devices
         const uint first = subgroupMin(pixel);
-        if (subgroupElect()) atomicMin(alloc.w[AL_MIN_ROW], first);
+        if (subgroupElect()) atomicMin(alloc.w[kAllocMinRow], first);
     }
-    const bool request = (fv.frame.y & FLAG_LIMIT_REQUESTS) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
+    const bool request = (fv.frame.y & kFlagLimitRequests) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
     Rng rng = rngFor(pixel, samples);
 
     // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4,
     // an approximation of the Blackman-Harris filter) by blue noise.
     vec2 jitter = vec2(0.0);
-    if ((fv.frame.y & FLAG_JITTER) != 0u && samples > 0u) {
+    if ((fv.frame.y & kFlagJitter) != 0u && samples > 0u) {
         const vec2 uv = blueSample(px, samples, 0u);
         const float u = max(uv.x, 1e-7);
         jitter = clamp(0.4 * sqrt(-2.0 * log(u)) * vec2(cos(6.2831853 * uv.y), sin(6.2831853 * uv.y)), -1.5, 1.5);
@@ -142,8 +142,8 @@ void renderPixel(uvec2 cell) {
     precise vec3 e = b.xyz * (1.0 / b.w);
     precise vec3 d = e - o;
     float tEnd = 1.0;
-    if ((fv.frame.y & FLAG_DEPTH_INPUT) != 0u) {
-        const float z = FloatBuf(f.addr[A_DEPTH_IN]).f[pixel];
+    if ((fv.frame.y & kFlagDepthInput) != 0u) {
+        const float z = FloatBuf(f.addr[kSlotDepthIn]).f[pixel];
         if (z < 1.0) {
             const vec4 q = M * vec4(ndcX, ndcY, 2.0 * z - 1.0, 1.0);
             tEnd = min(tEnd, dot(q.xyz / q.w - o, d) / dot(d, d));
@@ -152,7 +152,7 @@ void renderPixel(uvec2 cell) {
 
     vec3 radiance = vec3(0.0);
     float transmittance = 1.0;
-    uint gLabel = NONE, gFace = 0u;
+    uint gLabel = kNone, gFace = 0u;
     float gDepth = 1.0, gDistance = 0.0, firstDepth = 1.0;
     bool valid = true;
     Walker w;
@@ -185,11 +185,11 @@ void renderPixel(uvec2 cell) {
             gDistance = length((f.indexToWorld * vec4(q - o, 0.0)).xyz);
             vec3 shaded = local;
             const uint mode = SHADING; // one pipeline per mode: the others' code is dropped at compile time
-            if (mode == SHADING_SHADOW) {
+            if (mode == kShadingShadow) {
                 const vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }
                 shaded = c.rgb * (fv.lightIndex.w + direct) + emission * c.rgb;
-            } else if (mode == SHADING_AO) {
+            } else if (mode == kShadingAo) {
                 Walker s;
                 float vis = 1.0;
                 const vec2 uv = blueSample(px, samples, 1u);
@@ -198,7 +198,7 @@ void renderPixel(uvec2 cell) {
                 if (vis < 0.0) { valid = false; break; }
                 const vec3 direct = directLight(w, n, false, false, false);
                 shaded = c.rgb * ((fv.lightIndex.w + 0.5 * fv.lightWorld.w) * vis + 0.5 * direct) + emission * c.rgb;
-            } else if (mode == SHADING_PT) {
+            } else if (mode == kShadingPt) {
                 vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }
                 vec3 pt = c.rgb * direct + emission * c.rgb;
@@ -215,12 +215,12 @@ void renderPixel(uvec2 cell) {
                         pt += throughput * fv.environment.rgb;
                         break;
                     }
-                    uint l2 = NONE, m2 = NONE;
+                    uint l2 = kNone, m2 = kNone;
                     uint r2 = MARCH_OUT;
                     for (uint pass = 0u; pass < 64u; ++pass) {
                         r2 = march(f, s, boxLo, boxHi, req, l2, m2);
                         if (r2 == MARCH_MISSING && !complete) {
-                            s.prevLabel = NONE;
+                            s.prevLabel = kNone;
                             stableStep(s, BRICK_SHIFT);
                             if (any(lessThan(s.voxel, boxLo)) || any(greaterThanEqual(s.voxel, boxHi))) { r2 = MARCH_OUT; break; }
                             continue;
@@ -258,16 +258,16 @@ void renderPixel(uvec2 cell) {
     }
     if (!valid) {
         const uint missing = subgroupAdd(1u);
-        if (subgroupElect()) atomicAdd(alloc.w[AL_MISSING], missing);
+        if (subgroupElect()) atomicAdd(alloc.w[kAllocMissing], missing);
         return;
     }
-    Vec4Buf accum = Vec4Buf(f.addr[A_ACCUM]);
+    Vec4Buf accum = Vec4Buf(f.addr[kSlotAccum]);
     accum.v[pixel] += vec4(radiance, 1.0 - transmittance);
     samplesBuf.w[pixel] = samples + 1u;
     const uint added = subgroupAdd(1u);
-    if (subgroupElect()) atomicAdd(alloc.w[AL_NEW_SAMPLES], added);
-    Uvec4Buf(f.addr[A_GBUFFER]).v[pixel] = uvec4(gLabel, gFace | 0x100u, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
-    FloatBuf(f.addr[A_DEPTH_OUT]).f[pixel] = firstDepth;
+    if (subgroupElect()) atomicAdd(alloc.w[kAllocNewSamples], added);
+    Uvec4Buf(f.addr[kSlotGBuffer]).v[pixel] = uvec4(gLabel, gFace | 0x100u, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
+    FloatBuf(f.addr[kSlotDepthOut]).f[pixel] = firstDepth;
 }
 
 void main() {

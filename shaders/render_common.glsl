@@ -15,86 +15,13 @@
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
-const uint NONE = 0xFFFFFFFFu;
+#include "csgv/gpu/FrameLayout.h"      // kNone, flags, slots, alloc words, Frame and GpuMaterial layouts
+#include "csgv/materials/Palette.h"    // labelHash, kLabelPalette
+
 const float ONE_MINUS_EPSILON = 0.99999994; // the largest float below 1
 
-// Frame flags (Frame.frame.y).
-const uint FLAG_JITTER = 1u;
-const uint FLAG_FINEST = 2u;
-const uint FLAG_DENOISE = 4u;
-const uint FLAG_LIMIT_REQUESTS = 8u;
-const uint FLAG_DEPTH_INPUT = 16u;
-const uint FLAG_EVICT_UNUSED = 32u;
-const uint FLAG_LABEL_MAP = 64u;
-
-// Shading modes (Frame.frame.z).
-const uint SHADING_LOCAL = 0u;
-const uint SHADING_SHADOW = 1u;
-const uint SHADING_AO = 2u;
-const uint SHADING_PT = 3u;
-
-// Addresses in Frame.addr.
-const uint A_BRICKS = 0u;      // uvec4 per brick: cache word offset, cached lod (NONE), frame+1 of last use, visible
-const uint A_CACHE = 1u;       // decoded labels
-const uint A_ALLOC = 2u;       // Alloc words below
-const uint A_FREE = 3u;        // LEVELS free stacks of brickCount words each
-const uint A_REQUESTS = 4u;    // 2 words per request: brick, lod
-const uint A_DECODES = 5u;     // 3 words per decode: brick, inverse level, cache offset
-const uint A_ACCUM = 6u;       // vec4 per pixel: sum of premultiplied samples
-const uint A_SAMPLES = 7u;     // uint per pixel: valid samples
-const uint A_GBUFFER = 8u;     // uvec4 per pixel: label, face | flags, window depth bits, distance bits
-const uint A_DEPTH_IN = 9u;    // float per pixel: window depth of opaque geometry
-const uint A_MATERIALS = 10u;  // GpuMaterial array
-const uint A_COLORMAPS = 11u;  // vec4 colour samples
-const uint A_ATTRIBUTES = 12u; // uint64 address per attribute: float per label
-const uint A_COLOR_OUT = 13u;  // vec4 per pixel: resolved premultiplied RGBA
-const uint A_DEPTH_OUT = 14u;  // float per pixel
-const uint A_LABEL_MAP = 15u;  // uint per stored label: the original label
-const uint A_DENOISE_A = 16u;  // vec4 per pixel: resolve ping-pong buffers
-const uint A_DENOISE_B = 17u;
-const uint A_VISIBLE = 18u;    // uint per brick: 1 when its palette holds a visible label (host, per materials)
-const uint A_ARRAYS = 19u;     // the encoding: uint64 address per array (cache paletting reads palettes)
-const uint A_STARTS = 20u;     // the encoding: brick start words
-const uint A_BLUE_NOISE = 21u; // 64x64 bytes of blue noise, four to a uint
-const uint A_MATERIAL_TABLE = 22u; // uint per stored label: its material (NONE), when labels are few
-const uint A_COUNT = 23u;
-
-// Alloc words.
-const uint AL_TOP = 0u;          // cache words handed out from the top
-const uint AL_CAPACITY = 1u;     // cache words
-const uint AL_FULL = 2u;         // set when a request found no space
-const uint AL_DECODES = 3u;      // decode requests this frame (read by the decode passes)
-const uint AL_REQUESTS = 4u;     // requests this frame
-const uint AL_MIN_SAMPLES = 5u;  // smallest sample count of any pixel after this frame
-const uint AL_NEW_SAMPLES = 6u;  // pixels that gained a sample this frame
-const uint AL_MISSING = 7u;      // pixels whose ray met a brick not in the cache
-const uint AL_MIN_ROW = 8u;      // first pixel (row-major) with the previous minimum sample count
-const uint AL_PREV_MIN = 9u;     // previous frame's minimum sample count (host-written)
-const uint AL_FREE_COUNT = 16u;  // + lod
-const uint AL_REQ_COUNT = 24u;   // + lod
-const uint AL_POPS = 32u;        // + lod
-const uint AL_PROV_BASE = 40u;   // + lod
-const uint AL_PROV_COUNT = 48u;  // + lod
-const uint AL_WORDS = 56u;
-
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Frame {
-    mat4 clipToIndex;   // NDC -> index space
-    mat4 indexToClip;
-    mat4 indexToWorld;
-    mat4 worldToIndex;
-    vec4 lightWorld;    // xyz: towards the light (world, unit); w: light intensity
-    vec4 lightIndex;    // xyz: towards the light (index space); w: ambient intensity
-    vec4 environment;   // rgb: sky colour for misses and ambient light; w: AO radius in voxels
-    vec4 clipMin;       // xyz: clip box minimum (voxels); w: level-of-detail bias
-    vec4 clipMax;       // xyz: clip box maximum (voxels); w: pixel footprint factor
-    vec4 pixel;         // x: 2/W, y: 2/H, z: unused, w: shading blend
-    vec4 tone;          // x: brightness, y: contrast, z: gamma, w: tone mapping (1) or not
-    vec4 faceNormals[6];// world normals of the faces -x, +x, -y, +y, -z, +z
-    uvec4 frame;        // x: frame index, y: flags, z: shading mode, w: sample target
-    uvec4 image;        // x: W, y: H, z: subsampling stride, w: subsampling phase
-    uvec4 limits;       // x: max requests per frame, y/z: pixels [y, z) that may request, w: max bounces
-    uvec4 counts;       // x: materials, y: bricks, z: labels with attributes, w: material table size (0: none)
-    uint64_t addr[A_COUNT];
+    CSGV_FRAME_MEMBERS
 };
 
 /// The Frame's vector members, loaded whole at the start of every pass. Mesa 22.3's lavapipe
@@ -126,18 +53,8 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Buf { v
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer Uvec4Buf { uvec4 v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer AddrBuf { uint64_t a[]; };
 
-struct GpuMaterial {
-    uvec4 select;   // x: attribute (NONE = label), y: label min, z: label max, w: colour mode
-    vec4 range;     // x/y: filter min/max (float attributes), z/w: colour min/max
-    vec4 rgba;      // constant colour, opacity
-    uvec4 colour;   // x: colour attribute (NONE = label), y: wrap (1 repeat), z: colormap offset, w: samples (0: palette)
-    vec4 extra;     // x: emission
-};
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer MaterialBuf { GpuMaterial m[]; };
 
-const uint COLOR_CONSTANT = 0u;
-const uint COLOR_COLORMAP = 1u;
-const uint COLOR_RANDOM = 2u;
 
 // ---------------------------------------------------------------------------------------------
 // Random numbers: PCG (a hash of pixel, sample and dimension), deterministic per pixel and
@@ -159,36 +76,27 @@ float rngNext(inout Rng r) {
 // ---------------------------------------------------------------------------------------------
 // Materials
 
-uint labelHash(uint x) { // Wellons' lowbias32, as csgv::labelHash
-    x ^= x >> 16u;
-    x *= 0x7feb352du;
-    x ^= x >> 15u;
-    x *= 0x846ca68bu;
-    x ^= x >> 16u;
-    return x;
-}
-
 uint originalLabel(Frame f, uint label) {
-    if ((fv.frame.y & FLAG_LABEL_MAP) != 0u && label < fv.counts.z) return UintBuf(f.addr[A_LABEL_MAP]).w[label];
+    if ((fv.frame.y & kFlagLabelMap) != 0u && label < fv.counts.z) return UintBuf(f.addr[kSlotLabelMap]).w[label];
     return label;
 }
 
 float attributeValue(Frame f, uint attr, uint label) {
-    if (attr == NONE) return float(originalLabel(f, label));
+    if (attr == kNone) return float(originalLabel(f, label));
     if (label >= fv.counts.z) return uintBitsToFloat(0x7FC00000u); // NaN: matches no interval
-    return FloatBuf(AddrBuf(f.addr[A_ATTRIBUTES]).a[attr]).f[label];
+    return FloatBuf(AddrBuf(f.addr[kSlotAttributes]).a[attr]).f[label];
 }
 
-/// The first material whose filter holds the label, or NONE (invisible).
+/// The first material whose filter holds the label, or kNone (invisible).
 uint materialOf(Frame f, uint label) {
-    if (label == NONE) return NONE;
+    if (label == kNone) return kNone;
     // Precomputed by the host with the same comparisons when the stored labels are few.
-    if (fv.counts.w != 0u) return label < fv.counts.w ? UintBuf(f.addr[A_MATERIAL_TABLE]).w[label] : NONE;
-    MaterialBuf mats = MaterialBuf(f.addr[A_MATERIALS]);
+    if (fv.counts.w != 0u) return label < fv.counts.w ? UintBuf(f.addr[kSlotMaterialTable]).w[label] : kNone;
+    MaterialBuf mats = MaterialBuf(f.addr[kSlotMaterials]);
     const uint n = fv.counts.x;
     for (uint i = 0u; i < n; ++i) {
         const uvec4 flt = mats.m[i].select;
-        if (flt.x == NONE) {
+        if (flt.x == kNone) {
             const uint l = originalLabel(f, label);
             if (l >= flt.y && l <= flt.z) return i;
         } else {
@@ -197,17 +105,16 @@ uint materialOf(Frame f, uint label) {
             if (v >= r.x && v <= r.y) return i;
         }
     }
-    return NONE;
+    return kNone;
 }
 
-const vec3 PALETTE[16] = vec3[16](
-    vec3(0.902, 0.098, 0.294), vec3(0.235, 0.706, 0.294), vec3(1.000, 0.882, 0.098), vec3(0.263, 0.388, 0.847),
-    vec3(0.961, 0.510, 0.192), vec3(0.569, 0.118, 0.706), vec3(0.275, 0.941, 0.941), vec3(0.941, 0.196, 0.902),
-    vec3(0.737, 0.965, 0.047), vec3(0.980, 0.745, 0.745), vec3(0.000, 0.502, 0.502), vec3(0.902, 0.745, 1.000),
-    vec3(0.604, 0.388, 0.141), vec3(1.000, 0.980, 0.784), vec3(0.502, 0.000, 0.000), vec3(0.667, 1.000, 0.765));
+vec3 paletteColor(uint h) {
+    const uint i = 3u * (h % kLabelPaletteSize);
+    return vec3(kLabelPalette[i], kLabelPalette[i + 1u], kLabelPalette[i + 2u]);
+}
 
 vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
-    Vec4Buf cm = Vec4Buf(f.addr[A_COLORMAPS]);
+    Vec4Buf cm = Vec4Buf(f.addr[kSlotColormaps]);
     const float x = clamp(t, 0.0, 1.0) * float(samples - 1u);
     const uint i = min(uint(x), samples - 2u);
     return mix(cm.v[offset + i].rgb, cm.v[offset + i + 1u].rgb, x - float(i));
@@ -215,17 +122,17 @@ vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
 
 /// Colour (rgb), opacity (a) and emission of a label under material m.
 vec4 materialColor(Frame f, uint m, uint label, out float emission) {
-    const GpuMaterial mat = MaterialBuf(f.addr[A_MATERIALS]).m[m];
+    const GpuMaterial mat = MaterialBuf(f.addr[kSlotMaterials]).m[m];
     emission = mat.extra.x;
     vec3 rgb = mat.rgba.rgb;
-    if (mat.select.w == COLOR_COLORMAP) {
+    if (mat.select.w == kColorColormap) {
         float t = (attributeValue(f, mat.colour.x, label) - mat.range.z) / (mat.range.w - mat.range.z);
         if (isnan(t)) t = 0.0;
         if (mat.colour.y == 1u) t -= floor(t);
         rgb = colormapAt(f, mat.colour.z, mat.colour.w, t);
-    } else if (mat.select.w == COLOR_RANDOM) {
+    } else if (mat.select.w == kColorRandom) {
         const uint h = labelHash(originalLabel(f, label));
-        rgb = mat.colour.w == 0u ? PALETTE[h % 16u] : colormapAt(f, mat.colour.z, mat.colour.w, float(h) / 4294967295.0);
+        rgb = mat.colour.w == 0u ? paletteColor(h) : colormapAt(f, mat.colour.z, mat.colour.w, float(h) / 4294967295.0);
     }
     return vec4(rgb, mat.rgba.a);
 }
@@ -268,8 +175,8 @@ struct PaletteRef {
 };
 PaletteRef paletteOf(Frame f, uint brick) {
     PaletteRef p;
-    p.array = AddrBuf(f.addr[A_ARRAYS]).a[brick / BRICKS_PER_ARRAY];
-    p.end = UintBuf(f.addr[A_STARTS]).w[brick + 1u];
+    p.array = AddrBuf(f.addr[kSlotArrays]).a[brick / BRICKS_PER_ARRAY];
+    p.end = UintBuf(f.addr[kSlotStarts]).w[brick + 1u];
     return p;
 }
 
@@ -278,18 +185,18 @@ uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette
     const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
     const uint e = mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u);
 #if CACHE_BITS == 32
-    return UintBuf(f.addr[A_CACHE]).w[offset + e];
+    return UintBuf(f.addr[kSlotCache]).w[offset + e];
 #else
-    const uint word = UintBuf(f.addr[A_CACHE]).w[offset + e / CACHE_PER_WORD];
+    const uint word = UintBuf(f.addr[kSlotCache]).w[offset + e / CACHE_PER_WORD];
     const uint index = (word >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
-    return index == CACHE_MASK ? NONE : UintBuf(palette.array).w[palette.end - 1u - index];
+    return index == CACHE_MASK ? kNone : UintBuf(palette.array).w[palette.end - 1u - index];
 #endif
 }
 
 /// Level of detail for a brick: one voxel of that level about one pixel (footprint at the brick's
-/// centre), shifted by the bias; 0 everywhere with FLAG_FINEST.
+/// centre), shifted by the bias; 0 everywhere with kFlagFinest.
 uint lodForBrick(Frame f, uint brick) {
-    if ((fv.frame.y & FLAG_FINEST) != 0u) return 0u;
+    if ((fv.frame.y & kFlagFinest) != 0u) return 0u;
     const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y));
     const vec3 centre = (vec3(b) + 0.5) * float(BRICK_SIZE);
     const vec4 clip = f.indexToClip * vec4(centre, 1.0);
@@ -375,8 +282,8 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
     w.d = d;
     w.invD = vec3(1.0) / d;
     w.tEnd = tEnd;
-    w.prevLabel = NONE;
-    w.lastBrick = NONE;
+    w.prevLabel = kNone;
+    w.lastBrick = kNone;
     w.face = 0u;
     precise float t0 = 0.0;
     precise float t1 = tEnd;
@@ -421,10 +328,10 @@ const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cac
 /// needs as used (so the next frame's request pass keeps or decodes them). On MARCH_SURFACE,
 /// `label` and `material` describe the voxel entered.
 uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint label, out uint material) {
-    Uvec4Buf bricks = Uvec4Buf(f.addr[A_BRICKS]);
-    label = NONE;
-    material = NONE;
-    uint current = NONE;
+    Uvec4Buf bricks = Uvec4Buf(f.addr[kSlotBricks]);
+    label = kNone;
+    material = kNone;
+    uint current = kNone;
     uvec4 s = uvec4(0u);
     PaletteRef palette;
     palette.array = 0ul;
@@ -440,19 +347,19 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
                 w.lastBrick = b;
             }
 #if CACHE_BITS != 32
-            if (s.w != 0u && s.y != NONE) palette = paletteOf(f, b);
+            if (s.w != 0u && s.y != kNone) palette = paletteOf(f, b);
 #endif
         }
         if (s.w == 0u) {
-            w.prevLabel = NONE;
+            w.prevLabel = kNone;
             stableStep(w, BRICK_SHIFT);
         } else {
-            if (s.y == NONE) return MARCH_MISSING;
+            if (s.y == kNone) return MARCH_MISSING;
             const uint l = cachedLabel(f, s.x, s.y, w.voxel, palette);
             if (l != w.prevLabel) {
                 w.prevLabel = l;
                 const uint m = materialOf(f, l);
-                if (m != NONE) {
+                if (m != kNone) {
                     label = l;
                     material = m;
                     return MARCH_SURFACE;

@@ -11,12 +11,9 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "render_common.glsl"
 
-layout(local_size_x = 16, local_size_y = 16) in;
+layout(local_size_x = kGroupTile, local_size_y = kGroupTile) in;
 layout(push_constant) uniform Push {
-    uint64_t frame;
-    uint pass;
-    uint src; // address index of the input colour
-    uint dst; // address index of the output colour
+    CSGV_RESOLVE_PUSH_MEMBERS
 } pc;
 
 vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
@@ -37,19 +34,19 @@ void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
     if (px.x >= W || px.y >= H) return;
     const uint pixel = px.y * W + px.x;
-    UintBuf samples = UintBuf(f.addr[A_SAMPLES]);
+    UintBuf samples = UintBuf(f.addr[kSlotSamples]);
     Vec4Buf dst = Vec4Buf(f.addr[pc.dst]);
-    if (pc.pass == 5u) {
-        Vec4Buf(f.addr[A_ACCUM]).v[pixel] = vec4(0.0);
+    if (pc.pass == kResolveClear) {
+        Vec4Buf(f.addr[kSlotAccum]).v[pixel] = vec4(0.0);
         samples.w[pixel] = 0u;
-        Uvec4Buf(f.addr[A_GBUFFER]).v[pixel] = uvec4(NONE, 0u, floatBitsToUint(1.0), 0u);
-        FloatBuf(f.addr[A_DEPTH_OUT]).f[pixel] = 1.0;
+        Uvec4Buf(f.addr[kSlotGBuffer]).v[pixel] = uvec4(kNone, 0u, floatBitsToUint(1.0), 0u);
+        FloatBuf(f.addr[kSlotDepthOut]).f[pixel] = 1.0;
         return;
     }
-    if (pc.pass == 0u) {
+    if (pc.pass == kResolveGather) {
         uint n = samples.w[pixel];
         const uint fewest = subgroupMin(n); // one atomic per subgroup
-        if (subgroupElect()) atomicMin(UintBuf(f.addr[A_ALLOC]).w[AL_MIN_SAMPLES], fewest);
+        if (subgroupElect()) atomicMin(UintBuf(f.addr[kSlotAlloc]).w[kAllocMinSamples], fewest);
         uint from = pixel;
         if (n == 0u && fv.image.z > 1u) { // upsampling: the nearest pixel of the block with samples
             const uint s = fv.image.z;
@@ -67,21 +64,21 @@ void resolvePixel(Frame f, uvec2 px) {
                 }
             }
             n = samples.w[from];
-            FloatBuf depth = FloatBuf(f.addr[A_DEPTH_OUT]);
+            FloatBuf depth = FloatBuf(f.addr[kSlotDepthOut]);
             if (n > 0u) depth.f[pixel] = depth.f[from];
         }
-        const vec4 c = n > 0u ? Vec4Buf(f.addr[A_ACCUM]).v[from] / float(n) : vec4(0.0);
-        dst.v[pixel] = pc.dst == A_COLOR_OUT ? toneMapped(f, c) : c; // without denoising: one pass
+        const vec4 c = n > 0u ? Vec4Buf(f.addr[kSlotAccum]).v[from] / float(n) : vec4(0.0);
+        dst.v[pixel] = pc.dst == kSlotColorOut ? toneMapped(f, c) : c; // without denoising: one pass
         return;
     }
     Vec4Buf src = Vec4Buf(f.addr[pc.src]);
     const vec4 centre = src.v[pixel];
-    if (pc.pass <= 3u) {
+    if (pc.pass <= kResolveAtrous4) {
         const uint n = samples.w[pixel];
-        Uvec4Buf g = Uvec4Buf(f.addr[A_GBUFFER]);
+        Uvec4Buf g = Uvec4Buf(f.addr[kSlotGBuffer]);
         const uvec4 gc = g.v[pixel];
         const float dc = uintBitsToFloat(gc.z);
-        const int step = 1 << (pc.pass - 1u);
+        const int step = 1 << (pc.pass - kResolveAtrous1);
         const float kernel[3] = float[3](0.25, 0.5, 0.25);
         vec4 sum = vec4(0.0);
         float weights = 0.0;
@@ -98,7 +95,7 @@ void resolvePixel(Frame f, uvec2 px) {
                 weights += wgt;
             }
         const vec4 filtered = weights > 0.0 ? sum / weights : centre;
-        const float keep = (fv.frame.y & FLAG_DENOISE) != 0u ? float(n) / float(n + 4u) : 1.0;
+        const float keep = (fv.frame.y & kFlagDenoise) != 0u ? float(n) / float(n + 4u) : 1.0;
         dst.v[pixel] = mix(filtered, centre, keep);
         return;
     }

@@ -9,8 +9,7 @@
 #include <gtest/gtest.h>
 #include <random>
 
-using namespace csgv;
-using Mat4 = std::array<double, 16>;
+using namespace csgv; // Mat4, multiply, invert, ...: csgv/base/Math.h
 
 namespace {
 

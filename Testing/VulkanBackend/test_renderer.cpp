@@ -457,3 +457,57 @@ TEST(Renderer, ClipBoxShowsExactlyTheCroppedVolume) {
     EXPECT_LE(diff, ref.label.size() / 200) << "at most 0.5% of pixels on voxel edges may differ";
     std::printf("clip box: %zu of %zu pixels differ, %zu hits\n", diff, ref.label.size(), hits);
 }
+
+TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    RenderRequest req;
+    req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
+    req.timeBudgetSeconds = 1e9; // the sample target ends the loop, not the clock
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    st.denoise = false;
+    st.sampleTarget = 2;
+    std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+    Result<RenderResult> first = r->render(req);
+    ASSERT_TRUE(first.isOk()) << first.message();
+    EXPECT_TRUE(first->changed);
+    EXPECT_GE(first->frames, 2u);
+    EXPECT_GE(first->last.minSamples, 2u);
+    // The same view again: the image is exact, nothing is rendered.
+    Result<RenderResult> again = r->render(req);
+    ASSERT_TRUE(again.isOk());
+    EXPECT_FALSE(again->changed);
+    EXPECT_EQ(again->frames, 0u);
+    // Equal settings keep the image; different ones start anew.
+    r->setSettings(st);
+    EXPECT_FALSE(r->render(req)->changed);
+    st.ambient = 0.5f;
+    r->setSettings(st);
+    Result<RenderResult> relit = r->render(req);
+    ASSERT_TRUE(relit.isOk());
+    EXPECT_TRUE(relit->changed);
+    EXPECT_GE(relit->frames, 2u);
+    // The output: colour and depth as read back, the G-buffer on request, all equal to readOutput.
+    FrameOutput direct;
+    ASSERT_TRUE(r->readOutput(direct, Renderer::Color | Renderer::Depth | Renderer::GBuffer).isOk());
+    const FrameOutput& out = r->output(Renderer::GBuffer);
+    EXPECT_EQ(out.rgba, direct.rgba);
+    EXPECT_EQ(out.depth, direct.depth);
+    EXPECT_EQ(out.label, direct.label);
+    // An opaque depth that appears, then changes, restarts the accumulation; the same one does not.
+    std::vector<float> depth(size_t(req.frame.width) * req.frame.height, 0.5f);
+    req.frame.opaqueDepth = depth.data();
+    EXPECT_TRUE(r->render(req)->changed);
+    EXPECT_FALSE(r->render(req)->changed);
+    depth[7] = 0.25f;
+    EXPECT_TRUE(r->render(req)->changed);
+    // Interactive: one frame.
+    req.interactive = true;
+    req.frame.worldToClip[12] += 0.01;
+    Result<RenderResult> one = r->render(req);
+    ASSERT_TRUE(one.isOk());
+    EXPECT_TRUE(one->changed);
+    EXPECT_EQ(one->frames, 1u);
+}

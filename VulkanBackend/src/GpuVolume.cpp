@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/GpuVolume.h"
+#include "csgv/gpu/FrameLayout.h"
 
 #include <algorithm>
 
@@ -27,10 +28,6 @@ void tableDefines(const std::array<uint32_t, 16>& f, const char* cumName, Define
     d.emplace_back(cumName, uintArray(cum));
 }
 
-struct DecodePush {
-    uint64_t arrays, starts, requests, cache, states, params, count;
-};
-
 /// Steps the shader needs for a brick decoded to inverse level `target` (csgv_decode.glsl): the
 /// root, then each level's parents and one step to close the level.
 uint64_t decodeSteps(uint32_t target) {
@@ -43,16 +40,16 @@ uint64_t decodeSteps(uint32_t target) {
 
 const char* decodeResultText(uint32_t code) {
     switch (code) {
-    case 0: return "ok";
-    case 1: return "the stream runs past its end";
-    case 2: return "root operation is not PALETTE_ADV";
-    case 3: return "operation symbol 7";
-    case 4: return "stop bit at the finest level";
-    case 5: return "neighbour outside the brick or not in the volume";
-    case 6: return "more PALETTE_ADV than the palette size (or a reserved label)";
-    case 7: return "PALETTE_D points past the palette or has more than 11 groups";
-    case 8: return "the rANS stream fails its end-of-stream check";
-    case 0xFFFFFFFFu: return "decoding did not finish";
+    case kDecodeOk: return "ok";
+    case kDecodeStreamEnd: return "the stream runs past its end";
+    case kDecodeBadRoot: return "root operation is not PALETTE_ADV";
+    case kDecodeBadOperation: return "operation symbol 7";
+    case kDecodeStopAtFinest: return "stop bit at the finest level";
+    case kDecodeBadNeighbour: return "neighbour outside the brick or not in the volume";
+    case kDecodePaletteOverflow: return "more PALETTE_ADV than the palette size (or a reserved label)";
+    case kDecodeBadDistance: return "PALETTE_D points past the palette or has more than 11 groups";
+    case kDecodeRansIntegrity: return "the rANS stream fails its end-of-stream check";
+    case kDecodeRunning: return "decoding did not finish";
     default: return "unknown decode result";
     }
 }
@@ -131,7 +128,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     if (!req) return req.status();
     Status s = m_context.upload(*req, 0, words.data(), words.size() * 4);
     if (!s) return s;
-    Result<Buffer> states = m_context.createBuffer(requests.size() * 48, MemoryKind::HostVisible);
+    Result<Buffer> states = m_context.createBuffer(requests.size() * kDecodeStateWords * 4, MemoryKind::HostVisible);
     if (!states) return states.status();
     // Every brick needs the same fixed number of dispatches for its level: no host round trip.
     uint64_t steps = 0;
@@ -148,25 +145,25 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     if (!paramBuffer) return paramBuffer.status();
     if (!(s = m_context.upload(*paramBuffer, 0, params.data(), params.size() * 4))) return s;
     std::vector<DecodePush> pushes;
-    for (size_t k = 0; k < params.size() / 4; ++k)
+    for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), req->address(), cache.address(),
-                                    states->address(), paramBuffer->address() + 16 * k,
-                                    paramBuffer->address() + 16 * k});
+                                    states->address(), paramBuffer->address() + 4 * kDecodeParamWords * k,
+                                    paramBuffer->address() + 4 * kDecodeParamWords * k});
     std::vector<Context::Dispatch> dispatches;
     for (const DecodePush& push : pushes) {
         Context::Dispatch d;
         d.pipeline = m_decodePipeline;
         d.pushConstants = &push;
         d.pushConstantBytes = sizeof(push);
-        d.groups[0] = uint32_t((requests.size() + 31) / 32);
+        d.groups[0] = uint32_t((requests.size() + kGroupDecodes - 1) / kGroupDecodes);
         dispatches.push_back(d);
     }
     if (!(s = m_context.run(dispatches))) return s;
     if (codes) {
-        std::vector<uint32_t> words(requests.size() * 12);
+        std::vector<uint32_t> words(requests.size() * kDecodeStateWords);
         if (!(s = m_context.download(*states, 0, words.data(), words.size() * 4))) return s;
         codes->resize(requests.size());
-        for (size_t i = 0; i < requests.size(); ++i) (*codes)[i] = words[12 * i + 8];
+        for (size_t i = 0; i < requests.size(); ++i) (*codes)[i] = words[kDecodeStateWords * i + kDecodeStateStatus];
     }
     return Status::ok();
 }
@@ -188,17 +185,17 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     Status s = m_context.upload(*paramBuffer, 0, params.data(), params.size() * 4);
     if (!s) return s;
     storage.pushes.clear();
-    storage.pushes.reserve(params.size() / 4);
-    for (size_t k = 0; k < params.size() / 4; ++k)
+    storage.pushes.reserve(params.size() / kDecodeParamWords);
+    for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         storage.pushes.push_back({m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
-                                  paramBuffer->address() + 16 * k, countAddress});
+                                  paramBuffer->address() + 4 * kDecodeParamWords * k, countAddress});
     storage.params = std::move(*paramBuffer);
     for (const auto& push : storage.pushes) {
         Context::Dispatch d;
         d.pipeline = m_decodePipeline;
         d.pushConstants = push.data();
         d.pushConstantBytes = sizeof(DecodePush);
-        d.groups[0] = (maxRequests + 31) / 32;
+        d.groups[0] = (maxRequests + kGroupDecodes - 1) / kGroupDecodes;
         out.push_back(d);
     }
     return Status::ok();
@@ -219,7 +216,7 @@ Result<std::vector<uint32_t>> GpuVolume::decodeToHost(const std::vector<BrickReq
     Status s = decode(placed, *cache, &codes);
     if (!s) return s;
     for (size_t i = 0; i < codes.size(); ++i)
-        if (codes[i] != 0)
+        if (codes[i] != kDecodeOk)
             return Status::error("brick " + std::to_string(placed[i].brick) + ", GPU decode: " + decodeResultText(codes[i]));
     std::vector<uint32_t> raw(words);
     if (!(s = m_context.download(*cache, 0, raw.data(), words * 4))) return s;

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/Renderer.h"
 #include "BlueNoise.h"
+#include "csgv/gpu/FrameLayout.h"
 
+#include "csgv/base/Math.h"
 #include "csgv/codec/Decoder.h"
 
 #include <omp.h>
@@ -17,60 +19,12 @@ namespace csgv::gpu {
 
 namespace {
 
-constexpr uint32_t kNone = 0xFFFFFFFFu;
 constexpr uint32_t kColormapSamples = 1024;
 
-// Frame flags and address slots: render_common.glsl.
-enum Flags : uint32_t {
-    kJitter = 1, kFinest = 2, kDenoise = 4, kLimitRequests = 8, kDepthInput = 16, kEvictUnused = 32, kLabelMap = 64
-};
-enum Slot : uint32_t {
-    aBricks, aCache, aAlloc, aFree, aRequests, aDecodes, aAccum, aSamples, aGBuffer, aDepthIn, aMaterials, aColormaps,
-    aAttributes, aColorOut, aDepthOut, aLabelMap, aDenoiseA, aDenoiseB, aVisible, aArrays, aStarts, aBlueNoise, aMaterialTable, aCount
-};
-enum AllocWord : uint32_t {
-    alTop = 0, alCapacity = 1, alFull = 2, alDecodes = 3, alRequests = 4, alMinSamples = 5, alNewSamples = 6,
-    alMissing = 7, alMinRow = 8, alPrevMin = 9, alFreeCount = 16, alWords = 56
-};
+static_assert(uint32_t(Shading::Local) == kShadingLocal && uint32_t(Shading::Shadow) == kShadingShadow &&
+                  uint32_t(Shading::AmbientOcclusion) == kShadingAo && uint32_t(Shading::PathTracing) == kShadingPt,
+              "Shading must match FrameLayout.h");
 
-/// The Frame block of render_common.glsl (std430).
-struct FrameParams {
-    float clipToIndex[16], indexToClip[16], indexToWorld[16], worldToIndex[16];
-    float lightWorld[4], lightIndex[4], environment[4], clipMin[4], clipMax[4], pixel[4], tone[4];
-    float faceNormals[6][4];
-    uint32_t frame[4], image[4], limits[4], counts[4];
-    uint64_t addr[aCount];
-};
-static_assert(sizeof(FrameParams) == 528 + 8 * aCount, "FrameParams must match the GLSL Frame block");
-
-/// GpuMaterial of render_common.glsl.
-struct GpuMaterial {
-    uint32_t filter[4];
-    float range[4];
-    float rgba[4];
-    uint32_t colour[4];
-    float extra[4];
-};
-static_assert(sizeof(GpuMaterial) == 80, "GpuMaterial must match the GLSL struct");
-
-using Mat4 = std::array<double, 16>;
-using Vec3 = std::array<double, 3>;
-
-Vec3 transformPoint(const Mat4& m, const Vec3& p) {
-    double r[4];
-    for (int i = 0; i < 4; ++i) r[i] = m[i] * p[0] + m[4 + i] * p[1] + m[8 + i] * p[2] + m[12 + i];
-    return {r[0] / r[3], r[1] / r[3], r[2] / r[3]};
-}
-Vec3 transformDir(const Mat4& m, const Vec3& v) {
-    Vec3 r{};
-    for (int i = 0; i < 3; ++i) r[i] = m[i] * v[0] + m[4 + i] * v[1] + m[8 + i] * v[2];
-    return r;
-}
-Vec3 normalize3(const Vec3& v) {
-    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    return n > 0 ? Vec3{v[0] / n, v[1] / n, v[2] / n} : v;
-}
-Vec3 sub3(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 void toFloat(const Mat4& m, float* out) {
     for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
 }
@@ -139,11 +93,19 @@ struct Renderer::Impl {
     GpuVolume::FrameDecode frameDecode;
     bool hostDecode = false;          // RendererOptions::decode resolved
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
+    bool converged = false;           // the last render() reached the sample target; nothing changed since
+    FrameOutput output;               // what output() returns
+    uint32_t outputParts = 0;         // OutputParts of `output` read since the last frame
+    // The frame's dispatch list and the push constants it points to (rebuilt every frame).
+    std::vector<Context::Dispatch> dispatches;
+    std::vector<ResolvePush> resolvePushes;
+    size_t cacheStages = 0;           // dispatches before the decoding (host decoding submits them first)
+    uint64_t frameAddress = 0;        // push constant of the cache and render passes
 
     /// Decodes the GPU's decode list (brick, inverse level, cache word offset) with Core's decoder
     /// straight into the host-visible cache; a brick whose stream fails reads as outside.
     void decodeOnHost() {
-        const uint32_t n = std::min(allocWords()[alDecodes], maxRequests);
+        const uint32_t n = std::min(allocWords()[kAllocDecodes], maxRequests);
         const uint32_t* list = static_cast<const uint32_t*>(decodes.mapped());
         uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
         const CompressedVolume& vol = volume->volume();
@@ -153,7 +115,8 @@ struct Renderer::Impl {
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
         for (int64_t i = 0; i < int64_t(n); ++i) {
             BrickDecoder& d = *decoders[size_t(omp_get_thread_num())];
-            const uint32_t brick = list[3 * i], lod = L - 1 - std::min(list[3 * i + 1], L - 1), offset = list[3 * i + 2];
+            const uint32_t* e = list + kDecodeEntryWords * i;
+            const uint32_t brick = e[0], lod = L - 1 - std::min(e[1], L - 1), offset = e[2];
             const uint64_t edge = vol.brickSize >> lod, words = edge * edge * edge;
             if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) continue;
             if (d.decode(brick, lod)) std::memcpy(cacheWords + offset, d.labels(), words * 4);
@@ -162,6 +125,25 @@ struct Renderer::Impl {
     }
 
     explicit Impl(Context& c) : ctx(c) {}
+
+    // The steps of a frame, in order (renderFrame and render).
+    Status validate(const FrameInput& in, const RenderSettings& st, Mat4& clipToWorld) const;
+    Status detectChanges(const FrameInput& in);
+    Result<FrameStats> frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
+    Result<uint64_t> ensurePipeline(Shading shading);
+    Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
+    void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
+    Status buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
+    Status submit();
+    void applyCachePolicy(const FrameStats& stats, const FrameInput& in);
+
+    void resetAccumulation() {
+        clearPending = true;
+        accumulatedFrames = 0;
+        resetDone = evictUnused = limitRequests = false;
+        prevMinSamples = 0;
+        converged = false;
+    }
 
     Status allocateImage(uint32_t w, uint32_t h) {
         const uint64_t n = uint64_t(w) * h;
@@ -196,9 +178,9 @@ struct Renderer::Impl {
         for (size_t b = 0; b < brickCount; ++b) words[4 * b] = words[4 * b + 1] = kNone;
         if (!(s = ctx.upload(bricks, 0, words.data(), words.size() * 4))) return s;
         uint32_t* a = allocWords();
-        const uint32_t capacity = a[alCapacity];
-        std::fill(a, a + alWords, 0u);
-        a[alCapacity] = capacity;
+        const uint32_t capacity = a[kAllocCapacity];
+        std::fill(a, a + kAllocWords, 0u);
+        a[kAllocCapacity] = capacity;
         return Status::ok();
     }
 };
@@ -266,26 +248,28 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
     if (!(s = make(im.bricks, uint64_t(im.brickCount) * 16, MemoryKind::DeviceLocal, "brick table"))) return s;
     if (!(s = make(im.visible, uint64_t(im.brickCount) * 4, MemoryKind::DeviceLocal, "brick visibility"))) return s;
-    if (!(s = make(im.alloc, alWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
+    if (!(s = make(im.alloc, kAllocWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
     if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
-    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * 12, hostOrDevice, "decode list"))) return s;
-    if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * 48, MemoryKind::DeviceLocal, "decoder states"))) return s;
+    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * kDecodeEntryWords * 4, hostOrDevice, "decode list"))) return s;
+    if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"))) return s;
     if (!(s = make(im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
     std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
     for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
     uint32_t* a = im.allocWords();
-    std::fill(a, a + alWords, 0u);
-    a[alCapacity] = uint32_t(cacheBytes / 4);
+    std::fill(a, a + kAllocWords, 0u);
+    a[kAllocCapacity] = uint32_t(cacheBytes / 4);
     if (!(s = r->setMaterials(defaultMaterials()))) return s;
     return r;
 }
 
 void Renderer::setGeometry(const Geometry& g) {
-    m_impl->geometry = g;
+    Impl& im = *m_impl;
+    if (g.origin == im.geometry.origin && g.spacing == im.geometry.spacing && g.direction == im.geometry.direction) return;
+    im.geometry = g;
     resetAccumulation();
 }
 
@@ -320,13 +304,15 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     for (size_t i = 0; i < doc.materials.size(); ++i) {
         const Material& m = doc.materials[i];
         GpuMaterial g{};
-        g.filter[0] = attributeIndex(m.filterAttribute);
+        g.select[0] = attributeIndex(m.filterAttribute);
         // Label filters compare integers: [ceil(min), floor(max)] within 32 bits (empty: min > max).
         const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
-        g.filter[1] = lo > 4294967295.0 ? kNone : uint32_t(lo);
-        g.filter[2] = hi < 0 ? 0u : uint32_t(hi);
-        if (lo > hi) g.filter[1] = 1, g.filter[2] = 0;
-        g.filter[3] = m.colorMode == Material::ColorMode::Constant ? 0u : m.colorMode == Material::ColorMode::Colormap ? 1u : 2u;
+        g.select[1] = lo > 4294967295.0 ? kNone : uint32_t(lo);
+        g.select[2] = hi < 0 ? 0u : uint32_t(hi);
+        if (lo > hi) g.select[1] = 1, g.select[2] = 0;
+        g.select[3] = m.colorMode == Material::ColorMode::Constant   ? kColorConstant
+                      : m.colorMode == Material::ColorMode::Colormap ? kColorColormap
+                                                                     : kColorRandom;
         g.range[0] = float(m.filterMin);
         g.range[1] = float(m.filterMax);
         g.range[2] = float(m.colorMin);
@@ -384,12 +370,12 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
         if (stored == kNone) return kNone;
         for (size_t i = 0; i < mats.size(); ++i) {
             const GpuMaterial& g = mats[i];
-            if (g.filter[0] == kNone) {
+            if (g.select[0] == kNone) {
                 const uint32_t l = im.hasLabelMap && stored < labelCount ? storedToOriginal[stored] : stored;
-                if (l >= g.filter[1] && l <= g.filter[2]) return uint32_t(i);
+                if (l >= g.select[1] && l <= g.select[2]) return uint32_t(i);
             } else {
                 if (stored >= labelCount) continue;
-                const float v = attributes.at(attributeNames[g.filter[0]])[stored];
+                const float v = attributes.at(attributeNames[g.select[0]])[stored];
                 if (v >= g.range[0] && v <= g.range[1]) return uint32_t(i);
             }
         }
@@ -431,84 +417,85 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
 }
 
 void Renderer::setSettings(const RenderSettings& settings) {
+    if (settings == m_settings) return; // an unchanged value keeps the accumulated image
     m_settings = settings;
     resetAccumulation();
 }
 
-void Renderer::resetAccumulation() {
-    Impl& im = *m_impl;
-    im.clearPending = true;
-    im.accumulatedFrames = 0;
-    im.resetDone = im.evictUnused = im.limitRequests = false;
-    im.prevMinSamples = 0;
+bool RenderSettings::operator==(const RenderSettings& o) const {
+    return shading == o.shading && shadingBlend == o.shadingBlend && maxBounces == o.maxBounces && aoRadius == o.aoRadius &&
+           lodBias == o.lodBias && finest == o.finest && subsampling == o.subsampling && denoise == o.denoise &&
+           jitter == o.jitter && sampleTarget == o.sampleTarget && lightDirection == o.lightDirection &&
+           lightInWorld == o.lightInWorld && lightIntensity == o.lightIntensity && ambient == o.ambient &&
+           environment == o.environment && toneMapping == o.toneMapping && brightness == o.brightness &&
+           contrast == o.contrast && gamma == o.gamma && clipMin == o.clipMin && clipMax == o.clipMax;
 }
+
+void Renderer::resetAccumulation() { m_impl->resetAccumulation(); }
 
 void Renderer::resetCache() { m_impl->cacheResetPending = true; }
 
-Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
-    Impl& im = *m_impl;
-    Context& ctx = im.ctx;
-    const RenderSettings& st = m_settings;
+// ---- one frame, in named steps ----
+
+Status Renderer::Impl::validate(const FrameInput& in, const RenderSettings& st, Mat4& clipToWorld) const {
     if (in.width == 0 || in.height == 0 || in.width > 16384 || in.height > 16384)
         return Status::error("image size " + std::to_string(in.width) + "x" + std::to_string(in.height) +
                              " is not between 1x1 and 16384x16384");
-    Mat4 clipToWorld{};
     if (!invert(in.worldToClip, clipToWorld)) return Status::error("the camera matrix is singular");
     for (double x : in.worldToClip)
         if (!std::isfinite(x)) return Status::error("the camera matrix holds a non-finite value");
     const uint32_t stride = st.subsampling;
     if (stride != 1 && stride != 2 && stride != 4 && stride != 8)
         return Status::error("pixel subsampling must be 1, 2, 4 or 8, not " + std::to_string(stride));
-    Status s;
-    if (in.width != im.width || in.height != im.height) {
-        if (!(s = im.allocateImage(in.width, in.height))) return s;
-        im.hadDepth = false;
-        resetAccumulation();
-    }
-    if (in.worldToClip != im.lastWorldToClip) {
-        im.lastWorldToClip = in.worldToClip;
-        resetAccumulation();
-    }
-    // Opaque geometry that moved (or appeared) changes where rays stop: start anew.
-    const size_t depthBytes = size_t(in.width) * in.height * 4;
-    if (bool(in.opaqueDepth) != im.hadDepth ||
-        (in.opaqueDepth && std::memcmp(im.depthIn.mapped(), in.opaqueDepth, depthBytes) != 0)) {
-        if (in.opaqueDepth) std::memcpy(im.depthIn.mapped(), in.opaqueDepth, depthBytes);
-        im.hadDepth = in.opaqueDepth != nullptr;
-        resetAccumulation();
-    }
-    uint64_t& renderPipeline = im.pRender[uint32_t(st.shading) & 3];
-    if (!renderPipeline) {
-        Defines d = im.defines;
-        d.emplace_back("SHADING", std::to_string(uint32_t(st.shading) & 3) + "u");
-        Result<std::vector<uint32_t>> spirv = compileComputeShader("render.comp", d);
-        if (!spirv) return spirv.status();
-        Result<uint64_t> p = ctx.createComputePipeline(*spirv, 8);
-        if (!p) return Status(p.status()).prefix("render.comp");
-        renderPipeline = *p;
-    }
-    FrameStats stats;
-    if (st.sampleTarget > 0 && im.prevMinSamples >= st.sampleTarget && !im.clearPending && !im.cacheResetPending) {
-        // Every pixel holds its samples: the image is final, nothing to submit.
-        stats.frame = im.accumulatedFrames;
-        stats.minSamples = im.prevMinSamples;
-        stats.cacheUsedBytes = uint64_t(im.allocWords()[alTop]) * 4;
-        return stats;
-    }
-    if (im.cacheResetPending) {
-        if (!(s = im.resetCacheNow())) return s;
-        im.cacheResetPending = false;
-        stats.cacheReset = true;
-    }
+    return Status::ok();
+}
 
+Status Renderer::Impl::detectChanges(const FrameInput& in) {
+    if (in.width != width || in.height != height) {
+        Status s = allocateImage(in.width, in.height);
+        if (!s) return s;
+        hadDepth = false;
+        resetAccumulation();
+    }
+    if (in.worldToClip != lastWorldToClip) {
+        lastWorldToClip = in.worldToClip;
+        resetAccumulation();
+    }
+    // Opaque geometry that moved (or appeared) changes where rays stop: start anew. The renderer's
+    // own copy is the host-visible buffer the shaders read: one comparison, at most one copy.
+    const size_t depthBytes = size_t(in.width) * in.height * 4;
+    if (bool(in.opaqueDepth) != hadDepth ||
+        (in.opaqueDepth && std::memcmp(depthIn.mapped(), in.opaqueDepth, depthBytes) != 0)) {
+        if (in.opaqueDepth) std::memcpy(depthIn.mapped(), in.opaqueDepth, depthBytes);
+        hadDepth = in.opaqueDepth != nullptr;
+        resetAccumulation();
+    }
+    return Status::ok();
+}
+
+Result<uint64_t> Renderer::Impl::ensurePipeline(Shading shading) {
+    uint64_t& pipeline = pRender[uint32_t(shading) & 3];
+    if (pipeline) return pipeline;
+    Defines d = defines;
+    d.emplace_back("SHADING", std::to_string(uint32_t(shading) & 3) + "u");
+    Result<std::vector<uint32_t>> spirv = compileComputeShader("render.comp", d);
+    if (!spirv) return spirv.status();
+    Result<uint64_t> p = ctx.createComputePipeline(*spirv, 8);
+    if (!p) return Status(p.status()).prefix("render.comp");
+    pipeline = *p;
+    return pipeline;
+}
+
+/// The view: matrices, light, clip box, tone mapping, face normals (then packState).
+Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
     // Index space <-> world <-> clip.
-    const Mat4 indexToWorld = indexToWorldMatrix(im.geometry);
+    const Mat4 indexToWorld = indexToWorldMatrix(geometry);
     Mat4 worldToIndex{};
     if (!invert(indexToWorld, worldToIndex)) return Status::error("the volume's spacing or direction is singular");
     const Mat4 indexToClip = multiply(in.worldToClip, indexToWorld);
     const Mat4 clipToIndex = multiply(worldToIndex, clipToWorld);
 
-    FrameParams& p = *static_cast<FrameParams*>(im.params.mapped());
+    FrameParams& p = *static_cast<FrameParams*>(params.mapped());
     std::memset(&p, 0, sizeof(p));
     toFloat(clipToIndex, p.clipToIndex);
     toFloat(indexToClip, p.indexToClip);
@@ -517,11 +504,11 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     // View axes from the inverse projection, for a light given in view coordinates.
     const Vec3 c0 = transformPoint(clipToWorld, {0, 0, -1}), cx = transformPoint(clipToWorld, {1, 0, -1}),
                cy = transformPoint(clipToWorld, {0, 1, -1}), cf = transformPoint(clipToWorld, {0, 0, 1});
-    const Vec3 right = normalize3(sub3(cx, c0)), up = normalize3(sub3(cy, c0)), forward = normalize3(sub3(cf, c0));
+    const Vec3 right = normalize(sub(cx, c0)), up = normalize(sub(cy, c0)), forward = normalize(sub(cf, c0));
     Vec3 light{st.lightDirection[0], st.lightDirection[1], st.lightDirection[2]};
     if (!st.lightInWorld)
         for (int k = 0; k < 3; ++k) light[k] = st.lightDirection[0] * right[k] + st.lightDirection[1] * up[k] - st.lightDirection[2] * forward[k];
-    light = normalize3(light);
+    light = normalize(light);
     const Vec3 lightIndex = transformDir(worldToIndex, light);
     for (int k = 0; k < 3; ++k) {
         p.lightWorld[k] = float(light[k]);
@@ -531,7 +518,7 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     p.lightWorld[3] = st.lightIntensity;
     p.lightIndex[3] = st.ambient;
     p.environment[3] = st.aoRadius;
-    const auto& dim = im.volume->volume().dim;
+    const auto& dim = volume->volume().dim;
     for (int k = 0; k < 3; ++k) {
         const bool whole = st.clipMin[k] >= st.clipMax[k];
         p.clipMin[k] = whole ? 0.0f : float(std::clamp<int64_t>(st.clipMin[k], 0, dim[k]));
@@ -553,62 +540,66 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         n[f / 2] = f % 2 == 0 ? -1.0 : 1.0;
         Vec3 w{};
         for (int r = 0; r < 3; ++r) w[r] = worldToIndex[r * 4 + 0] * n[0] + worldToIndex[r * 4 + 1] * n[1] + worldToIndex[r * 4 + 2] * n[2];
-        w = normalize3(w);
+        w = normalize(w);
         for (int k = 0; k < 3; ++k) p.faceNormals[f][k] = float(w[k]);
     }
+    packState(in, st, p);
+    return Status::ok();
+}
+
+/// The accumulation and cache state: flags, frame and image words, limits, counts, buffer
+/// addresses, and the counter words the GPU adds to this frame.
+void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, FrameParams& p) {
     uint32_t flags = 0;
-    if (st.jitter) flags |= kJitter;
-    if (st.finest) flags |= kFinest;
-    if (st.denoise) flags |= kDenoise;
-    if (im.limitRequests) flags |= kLimitRequests;
-    if (in.opaqueDepth) flags |= kDepthInput;
-    if (im.evictUnused) flags |= kEvictUnused;
-    if (im.hasLabelMap) flags |= kLabelMap;
-    p.frame[0] = im.frameIndex;
+    if (st.jitter) flags |= kFlagJitter;
+    if (st.finest) flags |= kFlagFinest;
+    if (st.denoise) flags |= kFlagDenoise;
+    if (limitRequests) flags |= kFlagLimitRequests;
+    if (in.opaqueDepth) flags |= kFlagDepthInput;
+    if (evictUnused) flags |= kFlagEvictUnused;
+    if (hasLabelMap) flags |= kFlagLabelMap;
+    const uint32_t stride = st.subsampling;
+    p.frame[0] = frameIndex;
     p.frame[1] = flags;
     p.frame[2] = uint32_t(st.shading);
     p.frame[3] = st.sampleTarget;
     p.image[0] = in.width;
     p.image[1] = in.height;
     p.image[2] = stride;
-    p.image[3] = im.accumulatedFrames % (stride * stride);
-    p.limits[0] = im.maxRequests;
-    p.limits[1] = im.bandRow;
-    p.limits[2] = im.bandRow + im.bandHeight;
+    p.image[3] = accumulatedFrames % (stride * stride);
+    p.limits[0] = maxRequests;
+    p.limits[1] = bandRow;
+    p.limits[2] = bandRow + bandHeight;
     p.limits[3] = std::min<uint32_t>(st.maxBounces, 32);
-    p.counts[0] = im.materialCount;
-    p.counts[1] = im.brickCount;
-    p.counts[2] = im.labelCount;
-    p.counts[3] = im.materialTableSize;
-    const std::pair<Slot, const Buffer*> slots[] = {
-        {aBricks, &im.bricks},       {aCache, &im.cache},         {aAlloc, &im.alloc},         {aFree, &im.freeStacks},
-        {aRequests, &im.requests},   {aDecodes, &im.decodes},     {aAccum, &im.accum},         {aSamples, &im.samples},
-        {aGBuffer, &im.gbuffer},     {aDepthIn, &im.depthIn},     {aMaterials, &im.materials}, {aColormaps, &im.colormaps},
-        {aAttributes, &im.attributeTable}, {aColorOut, &im.colorOut}, {aDepthOut, &im.depthOut}, {aLabelMap, &im.labelMap},
-        {aDenoiseA, &im.denoiseA},   {aDenoiseB, &im.denoiseB},   {aVisible, &im.visible}};
+    p.counts[0] = materialCount;
+    p.counts[1] = brickCount;
+    p.counts[2] = labelCount;
+    p.counts[3] = materialTableSize;
+    const std::pair<uint32_t, const Buffer*> slots[] = {
+        {kSlotBricks, &bricks},       {kSlotCache, &cache},         {kSlotAlloc, &alloc},         {kSlotFree, &freeStacks},
+        {kSlotRequests, &requests},   {kSlotDecodes, &decodes},     {kSlotAccum, &accum},         {kSlotSamples, &samples},
+        {kSlotGBuffer, &gbuffer},     {kSlotDepthIn, &depthIn},     {kSlotMaterials, &materials}, {kSlotColormaps, &colormaps},
+        {kSlotAttributes, &attributeTable}, {kSlotColorOut, &colorOut}, {kSlotDepthOut, &depthOut}, {kSlotLabelMap, &labelMap},
+        {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
+        {kSlotMaterialTable, &materialTable}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
-    p.addr[aArrays] = im.volume->arraysAddress();
-    p.addr[aStarts] = im.volume->startsAddress();
-    p.addr[aBlueNoise] = im.blueNoise.address();
-    p.addr[aMaterialTable] = im.materialTable.address();
+    p.addr[kSlotArrays] = volume->arraysAddress();
+    p.addr[kSlotStarts] = volume->startsAddress();
 
-    uint32_t* a = im.allocWords();
-    a[alFull] = 0;
-    a[alMinSamples] = kNone;
-    a[alNewSamples] = 0;
-    a[alMissing] = 0;
-    a[alMinRow] = kNone;
-    a[alPrevMin] = im.prevMinSamples;
+    uint32_t* a = allocWords();
+    a[kAllocFull] = 0;
+    a[kAllocMinSamples] = kNone;
+    a[kAllocNewSamples] = 0;
+    a[kAllocMissing] = 0;
+    a[kAllocMinRow] = kNone;
+    a[kAllocPrevMin] = prevMinSamples;
+}
 
-    // One submission: cache stages, decoding, rendering, resolving.
-    const uint64_t frameAddress = im.params.address();
-    struct ResolvePush {
-        uint64_t frame;
-        uint32_t pass, src, dst, pad;
-    };
-    std::vector<ResolvePush> resolvePushes;
-    resolvePushes.reserve(8);
-    std::vector<Context::Dispatch> list;
+Status Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline) {
+    frameAddress = params.address();
+    resolvePushes.clear();
+    resolvePushes.reserve(8); // the list points into it: no reallocation while building
+    dispatches.clear();
     auto add = [&](uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy) {
         Context::Dispatch d;
         d.pipeline = pipeline;
@@ -616,96 +607,179 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
         d.pushConstantBytes = bytes;
         d.groups[0] = std::max(gx, 1u);
         d.groups[1] = std::max(gy, 1u);
-        list.push_back(d);
+        dispatches.push_back(d);
     };
-    const uint32_t tile = 16 * im.pixelBlock; // 16x16 invocations of PIXEL_BLOCK^2 pixels
+    const uint32_t tile = kGroupTile * pixelBlock; // kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
     const uint32_t gx = (in.width + tile - 1) / tile, gy = (in.height + tile - 1) / tile;
     auto resolve = [&](uint32_t pass, uint32_t src, uint32_t dst) {
-        resolvePushes.push_back({frameAddress, pass, src, dst, 0});
-        add(im.pResolve, &resolvePushes.back(), sizeof(ResolvePush), gx, gy);
+        resolvePushes.push_back({frameAddress, pass, src, dst});
+        add(pResolve, &resolvePushes.back(), sizeof(ResolvePush), gx, gy);
     };
-    if (im.clearPending) resolve(5, aDenoiseA, aDenoiseA);
-    add(im.pRequest, &frameAddress, 8, (im.brickCount + 63) / 64, 1);
-    add(im.pProvision, &frameAddress, 8, 1, 1);
-    add(im.pAssign, &frameAddress, 8, (im.maxRequests + 63) / 64, 1);
-    add(im.pCommit, &frameAddress, 8, 1, 1);
-    const size_t cacheStages = list.size(); // with host decoding, the first submission ends here
-    if (!im.hostDecode &&
-        !(s = im.volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * alDecodes, im.cache.address(),
-                                           im.decodeStates.address(), im.maxRequests, im.frameDecode, list)))
-        return s;
+    if (clearPending) resolve(kResolveClear, kSlotDenoiseA, kSlotDenoiseA);
+    add(pRequest, &frameAddress, 8, (brickCount + kGroupBricks - 1) / kGroupBricks, 1);
+    add(pProvision, &frameAddress, 8, 1, 1);
+    add(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
+    add(pCommit, &frameAddress, 8, 1, 1);
+    cacheStages = dispatches.size(); // with host decoding, the first submission ends here
+    if (!hostDecode) {
+        Status s = volume->appendFrameDecode(decodes.address(), alloc.address() + 4 * kAllocDecodes, cache.address(),
+                                             decodeStates.address(), maxRequests, frameDecode, dispatches);
+        if (!s) return s;
+    }
+    const uint32_t stride = st.subsampling;
     const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
     add(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
     // Denoising is for the noise of the stochastic modes; it fades out as samples accumulate and
     // is skipped once every pixel has 64.
     const bool denoise = st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing) &&
-                         im.prevMinSamples < 64;
+                         prevMinSamples < 64;
     if (denoise) {
-        resolve(0, aDenoiseA, aDenoiseA);
-        resolve(1, aDenoiseA, aDenoiseB);
-        resolve(2, aDenoiseB, aDenoiseA);
-        resolve(3, aDenoiseA, aDenoiseB);
-        resolve(4, aDenoiseB, aColorOut);
+        resolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
+        resolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
+        resolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
+        resolve(kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
+        resolve(kResolveFinal, kSlotDenoiseB, kSlotColorOut);
     } else {
-        resolve(0, aDenoiseA, aColorOut);
+        resolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
     }
+    return Status::ok();
+}
 
-    const auto t0 = std::chrono::steady_clock::now();
+Status Renderer::Impl::submit() {
+    Status s;
     if (std::getenv("CSGV_PROFILE_DISPATCHES")) { // one submission per dispatch, timed (diagnostics)
-        for (size_t i = 0; i < list.size(); ++i) {
+        for (size_t i = 0; i < dispatches.size(); ++i) {
             const auto t1 = std::chrono::steady_clock::now();
-            if (im.hostDecode && i == cacheStages) {
-                im.decodeOnHost();
+            if (hostDecode && i == cacheStages) {
+                decodeOnHost();
                 std::fprintf(stderr, "host decode: %.2f ms\n",
                              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
             }
-            if (!(s = ctx.run({list[i]}))) return s;
-            std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, list[i].groups[0], list[i].groups[1],
+            if (!(s = ctx.run({dispatches[i]}))) return s;
+            std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, dispatches[i].groups[0], dispatches[i].groups[1],
                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
         }
-    } else if (im.hostDecode) {
-        // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
-        const std::vector<Context::Dispatch> first(list.begin(), list.begin() + cacheStages);
-        const std::vector<Context::Dispatch> second(list.begin() + cacheStages, list.end());
-        if (!(s = ctx.run(first))) return s;
-        im.decodeOnHost();
-        if (!(s = ctx.run(second))) return s;
-    } else if (!(s = ctx.run(list))) {
-        return s;
+        return Status::ok();
     }
-    stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    im.clearPending = false;
-    ++im.frameIndex;
-    ++im.accumulatedFrames;
+    if (hostDecode) {
+        // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
+        const std::vector<Context::Dispatch> first(dispatches.begin(), dispatches.begin() + cacheStages);
+        const std::vector<Context::Dispatch> second(dispatches.begin() + cacheStages, dispatches.end());
+        if (!(s = ctx.run(first))) return s;
+        decodeOnHost();
+        return ctx.run(second);
+    }
+    return ctx.run(dispatches); // one submission: cache stages, decoding, rendering, resolving
+}
 
-    stats.frame = im.accumulatedFrames;
-    stats.decodedBricks = a[alDecodes];
-    stats.newSamples = a[alNewSamples];
-    stats.missingPixels = a[alMissing];
-    stats.minSamples = a[alMinSamples] == kNone ? 0 : a[alMinSamples];
-    stats.cacheUsedBytes = uint64_t(a[alTop]) * 4;
-    stats.cacheFull = a[alFull] != 0;
-    stats.requestLimited = im.limitRequests;
-
+void Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput& in) {
     // Cache pressure, decided between frames: reset once, then evict unused bricks, then limit
     // requests to a band of pixels (row-major) that starts at the first pixel with the fewest
     // samples, halved while the cache still runs full.
     if (stats.cacheFull) {
-        if (!im.resetDone) {
-            im.resetDone = true;
-            im.cacheResetPending = true;
-        } else if (!im.evictUnused) {
-            im.evictUnused = true;
-        } else if (!im.limitRequests) {
-            im.limitRequests = true;
-            im.bandHeight = std::max<uint32_t>(1, in.width * in.height / 2);
+        if (!resetDone) {
+            resetDone = true;
+            cacheResetPending = true;
+        } else if (!evictUnused) {
+            evictUnused = true;
+        } else if (!limitRequests) {
+            limitRequests = true;
+            bandHeight = std::max<uint32_t>(1, in.width * in.height / 2);
         } else {
-            im.bandHeight = std::max<uint32_t>(1, im.bandHeight / 2);
+            bandHeight = std::max<uint32_t>(1, bandHeight / 2);
         }
     }
-    if (im.limitRequests) im.bandRow = a[alMinRow] == kNone ? 0 : a[alMinRow];
-    im.prevMinSamples = stats.minSamples;
+    const uint32_t minRow = allocWords()[kAllocMinRow];
+    if (limitRequests) bandRow = minRow == kNone ? 0 : minRow;
+    prevMinSamples = stats.minSamples;
+}
+
+Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
+    Result<uint64_t> renderPipeline = ensurePipeline(st.shading);
+    if (!renderPipeline) return renderPipeline.status();
+    FrameStats stats;
+    if (st.sampleTarget > 0 && prevMinSamples >= st.sampleTarget && !clearPending && !cacheResetPending) {
+        // Every pixel holds its samples: the image is final, nothing to submit.
+        stats.frame = accumulatedFrames;
+        stats.minSamples = prevMinSamples;
+        stats.cacheUsedBytes = uint64_t(allocWords()[kAllocTop]) * 4;
+        return stats;
+    }
+    Status s;
+    if (cacheResetPending) {
+        if (!(s = resetCacheNow())) return s;
+        cacheResetPending = false;
+        stats.cacheReset = true;
+    }
+    if (!(s = packParams(in, st, clipToWorld))) return s;
+    if (!(s = buildDispatches(in, st, *renderPipeline))) return s;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (!(s = submit())) return s;
+    stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    clearPending = false;
+    outputParts = 0; // the read-back output is stale now
+    ++frameIndex;
+    ++accumulatedFrames;
+
+    const uint32_t* a = allocWords();
+    stats.frame = accumulatedFrames;
+    stats.decodedBricks = a[kAllocDecodes];
+    stats.newSamples = a[kAllocNewSamples];
+    stats.missingPixels = a[kAllocMissing];
+    stats.minSamples = a[kAllocMinSamples] == kNone ? 0 : a[kAllocMinSamples];
+    stats.cacheUsedBytes = uint64_t(a[kAllocTop]) * 4;
+    stats.cacheFull = a[kAllocFull] != 0;
+    stats.requestLimited = limitRequests;
+    applyCachePolicy(stats, in);
     return stats;
+}
+
+Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
+    Impl& im = *m_impl;
+    Mat4 clipToWorld{};
+    Status s = im.validate(in, m_settings, clipToWorld);
+    if (!s) return s;
+    if (!(s = im.detectChanges(in))) return s;
+    return im.frame(in, m_settings, clipToWorld);
+}
+
+Result<RenderResult> Renderer::render(const RenderRequest& request) {
+    Impl& im = *m_impl;
+    const FrameInput& in = request.frame;
+    Mat4 clipToWorld{};
+    Status s = im.validate(in, m_settings, clipToWorld);
+    if (!s) return s;
+    if (!(s = im.detectChanges(in))) return s; // once per call: the frames below see the same input
+    RenderResult result;
+    if (im.converged) return result; // nothing changed since an exact image: it stays
+    const uint32_t target = std::max<uint32_t>(1, m_settings.sampleTarget);
+    const uint32_t sub = std::max<uint32_t>(1, m_settings.subsampling);
+    const uint32_t maxFrames = target * sub * sub + 256;
+    const auto t0 = std::chrono::steady_clock::now();
+    uint32_t idle = 0;
+    for (uint32_t f = 0; f < maxFrames; ++f) {
+        Result<FrameStats> st = im.frame(in, m_settings, clipToWorld);
+        if (!st) return st.status();
+        result.last = *st;
+        ++result.frames;
+        if (request.interactive || st->minSamples >= target) break;
+        const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        // The budget never cuts a frame short of one sample in every pixel (no holes).
+        if (st->minSamples >= 1 && elapsed > request.timeBudgetSeconds) break;
+        idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
+        if (idle >= 3) break;
+    }
+    im.converged = result.last.minSamples >= target;
+    (void)output(Color | Depth); // what a compositor needs, read while the frame is fresh
+    result.changed = true;
+    return result;
+}
+
+const FrameOutput& Renderer::output(uint32_t parts) {
+    Impl& im = *m_impl;
+    const uint32_t missing = (parts | Color | Depth) & ~im.outputParts;
+    if (missing && im.width > 0 && readOutput(im.output, missing)) im.outputParts |= missing;
+    return im.output;
 }
 
 Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/materials/Materials.h"
+#include "csgv/materials/Palette.h"
 
 #include <algorithm>
 #include <charconv>
@@ -12,14 +13,6 @@ namespace csgv {
 using nlohmann::json;
 
 namespace {
-
-/// 16 high-contrast colours for `random` without a colormap.
-constexpr std::array<std::array<float, 3>, 16> kPalette = {{
-    {0.902f, 0.098f, 0.294f}, {0.235f, 0.706f, 0.294f}, {1.000f, 0.882f, 0.098f}, {0.263f, 0.388f, 0.847f},
-    {0.961f, 0.510f, 0.192f}, {0.569f, 0.118f, 0.706f}, {0.275f, 0.941f, 0.941f}, {0.941f, 0.196f, 0.902f},
-    {0.737f, 0.965f, 0.047f}, {0.980f, 0.745f, 0.745f}, {0.000f, 0.502f, 0.502f}, {0.902f, 0.745f, 1.000f},
-    {0.604f, 0.388f, 0.141f}, {1.000f, 0.980f, 0.784f}, {0.502f, 0.000f, 0.000f}, {0.667f, 1.000f, 0.765f},
-}};
 
 std::string where(size_t i, const std::string& name) {
     return "material " + std::to_string(i) + (name.empty() ? "" : " ('" + name + "')");
@@ -195,14 +188,7 @@ std::array<float, 3> Colormap::at(double t) const {
     return {{float(a[1] + (b[1] - a[1]) * u), float(a[2] + (b[2] - a[2]) * u), float(a[3] + (b[3] - a[3]) * u)}};
 }
 
-uint32_t labelHash(uint32_t x) { // Wellons' lowbias32: labels next to each other land far apart
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
+uint32_t labelHash(uint32_t x) { return layout::labelHash(x); } // Palette.h, shared with the GPU
 
 Result<MaterialDocument> parseMaterials(const std::string& text) {
     json j = json::parse(text, nullptr, false);
@@ -413,7 +399,10 @@ std::array<float, 3> MaterialEvaluator::colorOf(uint32_t label, int index) const
     case Material::ColorMode::Random:
     default: {
         const uint32_t h = labelHash(label);
-        if (m.colormap.points.empty()) return kPalette[h % kPalette.size()];
+        if (m.colormap.points.empty()) {
+            const float* c = &layout::kLabelPalette[3 * (h % layout::kLabelPaletteSize)];
+            return {{c[0], c[1], c[2]}};
+        }
         return m.colormap.at(double(h) / 4294967295.0);
     }
     }

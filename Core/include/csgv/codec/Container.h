@@ -38,6 +38,7 @@
 /// - Writers produce version 0016 with one array per 2^29 words, through a temporary file renamed
 ///   into place, and never set the legacy-delta bit.
 
+#include "csgv/codec/Layout.h"
 #include "csgv/base/Checked.h"
 #include "csgv/base/Status.h"
 
@@ -57,18 +58,7 @@ enum EncodingMode : int32_t {
     kEncodingHuffmanWaveletMatrix = 8,
 };
 
-/// Operation codes (low 3 bits of an operation symbol) and the stop bit.
-enum Operation : uint32_t {
-    kOpParent = 0,
-    kOpNeighborX = 1,
-    kOpNeighborY = 2,
-    kOpNeighborZ = 3,
-    kOpPaletteAdv = 4,
-    kOpPaletteLast = 5,
-    kOpPaletteD = 6,
-    kOpInvalid = 7,
-    kStopBit = 8,
-};
+// Operation codes, the rANS constants and kInvalidLabel: Layout.h (shared with the shaders).
 
 /// Bits of the operation mask in the file header.
 enum OperationMaskBits : uint32_t {
@@ -84,10 +74,6 @@ enum OperationMaskBits : uint32_t {
     kMaskAll = 0x1AF,     ///< with unlimited PALETTE_D ("pnlds")
 };
 
-constexpr uint32_t kInvalidLabel = 0xFFFFFFFFu;  ///< reserved: "undefined" inside decoders
-constexpr uint32_t kRansProbBits = 14;
-constexpr uint32_t kRansTotal = 1u << kRansProbBits; ///< frequencies sum to this
-constexpr uint32_t kRansLowerBound = 1u << 23;
 constexpr uint32_t kMaxWordsPerArray = 1u << 29;     ///< 2 GiB per encoding array
 constexpr uint32_t kSingleArray = 0xFFFFFFFFu;
 constexpr uint64_t kMaxBricks = uint64_t(1) << 40; ///< far beyond any real volume; keeps counts exact

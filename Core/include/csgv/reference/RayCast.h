@@ -16,6 +16,7 @@
 ///   (1 where nothing is hit, the near plane when the camera is inside the hit voxel).
 
 #include "csgv/base/Geometry.h"
+#include "csgv/base/Math.h"
 #include "csgv/codec/LabelVolume.h"
 
 #include <array>
@@ -52,15 +53,6 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& cornerGeometry, cons
 GBuffer castRaysStable(const LabelVolume& volume, const Geometry& cornerGeometry, const RayCastView& view,
                        const std::function<bool(uint32_t)>& visible, uint32_t brickSize);
 
-/// world = origin + direction * (index * spacing) as a column-major 4x4 matrix (corner geometry).
-std::array<double, 16> indexToWorldMatrix(const Geometry& cornerGeometry);
-/// Helpers to build OpenGL-style matrices (column-major) for tests and tools.
-std::array<double, 16> lookAtMatrix(const std::array<double, 3>& eye, const std::array<double, 3>& target,
-                                    const std::array<double, 3>& up);
-std::array<double, 16> perspectiveMatrix(double fovyDegrees, double aspect, double zNear, double zFar);
-std::array<double, 16> orthographicMatrix(double left, double right, double bottom, double top, double zNear, double zFar);
-std::array<double, 16> multiply(const std::array<double, 16>& a, const std::array<double, 16>& b);
-/// Inverse of a 4x4 matrix; false when singular.
-bool invert(const std::array<double, 16>& m, std::array<double, 16>& out);
+// Matrix helpers (indexToWorldMatrix, lookAtMatrix, multiply, invert, ...): csgv/base/Math.h.
 
 } // namespace csgv

@@ -73,6 +73,9 @@ struct RenderSettings {
     float brightness = 1.0f, contrast = 1.0f, gamma = 1.0f;
     /// Clip box in voxels [min, max) per axis; empty (min >= max on an axis) means the whole volume.
     std::array<int64_t, 3> clipMin{{0, 0, 0}}, clipMax{{0, 0, 0}};
+
+    bool operator==(const RenderSettings& other) const; ///< every field equal
+    bool operator!=(const RenderSettings& other) const { return !(*this == other); }
 };
 
 struct RendererOptions {
@@ -119,6 +122,20 @@ struct FrameStats {
     bool requestLimited = false;  ///< brick request limitation was on
 };
 
+/// @brief One render call of a view: camera, size, opaque depth, and how much to render.
+struct RenderRequest {
+    FrameInput frame;                ///< the opaque depth is compared with the renderer's copy and copied once, here
+    bool interactive = false;        ///< one frame
+    double timeBudgetSeconds = 3.0;  ///< still renders: stop after this, never before every pixel holds a sample
+};
+
+/// @brief What a render call did.
+struct RenderResult {
+    bool changed = false;   ///< false: the previous output is still exact, nothing rendered
+    uint32_t frames = 0;    ///< frames rendered by this call
+    FrameStats last;        ///< statistics of the last frame rendered
+};
+
 /// Device memory by buffer, for reports.
 struct MemoryReport {
     std::vector<std::pair<std::string, uint64_t>> buffers;
@@ -135,7 +152,8 @@ public:
     static Result<std::unique_ptr<Renderer>> create(Context& context, std::shared_ptr<GpuVolume> volume,
                                                     const RendererOptions& options = {});
 
-    /// Corner geometry (Metadata.h): origin of voxel (0,0,0)'s corner, spacing, direction.
+    /// Corner geometry (Metadata.h): origin of voxel (0,0,0)'s corner, spacing, direction. A
+    /// different geometry resets the accumulation; the same one keeps it.
     void setGeometry(const Geometry& cornerGeometry);
     /// Materials with colormaps resolved to control points. `attributes` are per stored label
     /// (index = the label value in the volume); `label` is built in. `storedToOriginal` maps
@@ -144,15 +162,30 @@ public:
     Status setMaterials(const MaterialDocument& materials,
                         const std::map<std::string, std::vector<float>>& attributes = {},
                         const std::vector<uint32_t>& storedToOriginal = {});
+    /// Different settings reset the accumulation; the same ones keep it.
     void setSettings(const RenderSettings& settings);
     const RenderSettings& settings() const { return m_settings; }
 
-    /// Renders one frame and accumulates it. A new camera, size or opaque depth resets the
-    /// accumulation; once every pixel holds `sampleTarget` samples nothing is submitted.
+    /// Renders what the request calls for: one frame when interactive, else frames until every
+    /// pixel holds max(1, settings().sampleTarget) samples, the time budget runs out (never before
+    /// every pixel holds one sample), nothing changes (three frames without new samples or decoded
+    /// bricks), or target * subsampling^2 + 256 frames. A new camera, size or opaque depth (or
+    /// settings, geometry, materials since the last call) resets the accumulation; when nothing
+    /// changed since a call that reached the target, nothing is rendered (`changed` false). Reads
+    /// colour and depth back (output()). This is a view's render call (the ParaView representation).
+    Result<RenderResult> render(const RenderRequest& request);
+    /// Renders one frame and accumulates it (`csgv render`'s per-frame loop and the tests). A new
+    /// camera, size or opaque depth resets the accumulation; once every pixel holds `sampleTarget`
+    /// samples nothing is submitted. Reads nothing back.
     Result<FrameStats> renderFrame(const FrameInput& input);
     /// Parts of the output to read back (a compositor needs only colour and depth).
     enum OutputParts : uint32_t { Color = 1, Depth = 2, GBuffer = 4, Samples = 8, All = 15 };
-    /// Reads the current resolved image and G-buffer (the parts asked for; others stay as they are).
+    /// The output of the last render/renderFrame: colour and depth always, plus `parts`; each part
+    /// is read from the device once per frame, on first use (picking and the label image need the
+    /// G-buffer, compositing does not). Empty before the first frame.
+    const FrameOutput& output(uint32_t parts = Color | Depth);
+    /// Reads the current resolved image and G-buffer into `out` (the parts asked for; others stay
+    /// as they are).
     Status readOutput(FrameOutput& out, uint32_t parts = All) const;
     /// Starts accumulating anew (the cache stays).
     void resetAccumulation();

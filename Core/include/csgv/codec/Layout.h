@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: MIT
+/// @file Layout.h
+/// @brief The codec facts that Core's decoder and the GPU decoder (shaders/csgv_decode.glsl)
+/// both need, written once: valid C++ and GLSL (csgv/base/GlslShim.h). The shader compiler
+/// embeds this file; changing a value here changes both sides.
+#ifndef CSGV_CODEC_LAYOUT_H
+#define CSGV_CODEC_LAYOUT_H
+
+#include "csgv/base/GlslShim.h"
+
+CSGV_NAMESPACE_BEGIN(csgv)
+
+/// Reserved label: "undefined" inside decoders, "outside the volume" in the GPU cache.
+CSGV_CONST(uint32_t, kInvalidLabel, 0xFFFFFFFFu)
+
+// rANS (CSGV-FORMAT.md section 5): 32-bit state, byte-wise renormalisation.
+CSGV_CONST(uint32_t, kRansProbBits, 14u)
+CSGV_CONST(uint32_t, kRansTotal, 1u << kRansProbBits) ///< frequencies sum to this
+CSGV_CONST(uint32_t, kRansLowerBound, 1u << 23u)      ///< the state stays at or above this
+
+// Operation codes (low 3 bits of an operation symbol) and the stop bit.
+CSGV_CONST(uint32_t, kOpParent, 0u)
+CSGV_CONST(uint32_t, kOpNeighborX, 1u)
+CSGV_CONST(uint32_t, kOpNeighborY, 2u)
+CSGV_CONST(uint32_t, kOpNeighborZ, 3u)
+CSGV_CONST(uint32_t, kOpPaletteAdv, 4u)
+CSGV_CONST(uint32_t, kOpPaletteLast, 5u)
+CSGV_CONST(uint32_t, kOpPaletteD, 6u)
+CSGV_CONST(uint32_t, kOpInvalid, 7u)
+CSGV_CONST(uint32_t, kStopBit, 8u)
+
+// Results of the GPU decoder per brick (GpuVolume.cpp's decodeResultText() names them).
+CSGV_CONST(uint32_t, kDecodeOk, 0u)
+CSGV_CONST(uint32_t, kDecodeStreamEnd, 1u)        ///< the stream runs past its end
+CSGV_CONST(uint32_t, kDecodeBadRoot, 2u)          ///< root operation is not PALETTE_ADV
+CSGV_CONST(uint32_t, kDecodeBadOperation, 3u)     ///< operation symbol 7
+CSGV_CONST(uint32_t, kDecodeStopAtFinest, 4u)     ///< stop bit at the finest level
+CSGV_CONST(uint32_t, kDecodeBadNeighbour, 5u)     ///< neighbour outside the brick or the volume
+CSGV_CONST(uint32_t, kDecodePaletteOverflow, 6u)  ///< more PALETTE_ADV than the palette holds
+CSGV_CONST(uint32_t, kDecodeBadDistance, 7u)      ///< PALETTE_D past the palette or too long
+CSGV_CONST(uint32_t, kDecodeRansIntegrity, 8u)    ///< the rANS end-of-stream check fails
+CSGV_CONST(uint32_t, kDecodeRunning, 0xFFFFFFFFu) ///< not finished yet (resumable decoding)
+
+CSGV_NAMESPACE_END
+
+#endif // CSGV_CODEC_LAYOUT_H

@@ -1,0 +1,170 @@
+// SPDX-License-Identifier: MIT
+/// @file FrameLayout.h
+/// @brief The frame pipeline's contract between Renderer.cpp and the shaders (render_common.glsl
+/// and the passes that include it), written once: valid C++ and GLSL (csgv/base/GlslShim.h).
+/// The frame parameter block, the material records, the address slots, the flags, the cache
+/// counter words and the resolve passes. The shader compiler embeds this file, so changing a
+/// value here changes both sides; Renderer.cpp's static_asserts hold the struct sizes to std430.
+#ifndef CSGV_GPU_FRAME_LAYOUT_H
+#define CSGV_GPU_FRAME_LAYOUT_H
+
+#include "csgv/base/GlslShim.h"
+
+CSGV_NAMESPACE_BEGIN(csgv::gpu)
+
+/// "Nothing": no cache region, no material, no pixel, no label.
+CSGV_CONST(uint32_t, kNone, 0xFFFFFFFFu)
+
+// Frame flags (Frame.frame.y).
+CSGV_CONST(uint32_t, kFlagJitter, 1u)
+CSGV_CONST(uint32_t, kFlagFinest, 2u)
+CSGV_CONST(uint32_t, kFlagDenoise, 4u)
+CSGV_CONST(uint32_t, kFlagLimitRequests, 8u)
+CSGV_CONST(uint32_t, kFlagDepthInput, 16u)
+CSGV_CONST(uint32_t, kFlagEvictUnused, 32u)
+CSGV_CONST(uint32_t, kFlagLabelMap, 64u)
+
+// Shading modes (Frame.frame.z): the values of csgv::gpu::Shading.
+CSGV_CONST(uint32_t, kShadingLocal, 0u)
+CSGV_CONST(uint32_t, kShadingShadow, 1u)
+CSGV_CONST(uint32_t, kShadingAo, 2u)
+CSGV_CONST(uint32_t, kShadingPt, 3u)
+
+// Colour modes (GpuMaterial.select.w).
+CSGV_CONST(uint32_t, kColorConstant, 0u)
+CSGV_CONST(uint32_t, kColorColormap, 1u)
+CSGV_CONST(uint32_t, kColorRandom, 2u)
+
+// Buffer addresses in Frame.addr.
+CSGV_CONST(uint32_t, kSlotBricks, 0u)         ///< uvec4 per brick: cache word offset, cached lod (kNone), frame+1 of last use, visible
+CSGV_CONST(uint32_t, kSlotCache, 1u)          ///< decoded labels
+CSGV_CONST(uint32_t, kSlotAlloc, 2u)          ///< the kAlloc* words below
+CSGV_CONST(uint32_t, kSlotFree, 3u)           ///< LEVELS free stacks of brickCount words each
+CSGV_CONST(uint32_t, kSlotRequests, 4u)       ///< 2 words per request: brick, lod
+CSGV_CONST(uint32_t, kSlotDecodes, 5u)        ///< 3 words per decode: brick, inverse level, cache offset
+CSGV_CONST(uint32_t, kSlotAccum, 6u)          ///< vec4 per pixel: sum of premultiplied samples
+CSGV_CONST(uint32_t, kSlotSamples, 7u)        ///< uint per pixel: valid samples
+CSGV_CONST(uint32_t, kSlotGBuffer, 8u)        ///< uvec4 per pixel: label, face | flags, window depth bits, distance bits
+CSGV_CONST(uint32_t, kSlotDepthIn, 9u)        ///< float per pixel: window depth of opaque geometry
+CSGV_CONST(uint32_t, kSlotMaterials, 10u)     ///< GpuMaterial array
+CSGV_CONST(uint32_t, kSlotColormaps, 11u)     ///< vec4 colour samples
+CSGV_CONST(uint32_t, kSlotAttributes, 12u)    ///< uint64 address per attribute: float per label
+CSGV_CONST(uint32_t, kSlotColorOut, 13u)      ///< vec4 per pixel: resolved premultiplied RGBA
+CSGV_CONST(uint32_t, kSlotDepthOut, 14u)      ///< float per pixel
+CSGV_CONST(uint32_t, kSlotLabelMap, 15u)      ///< uint per stored label: the original label
+CSGV_CONST(uint32_t, kSlotDenoiseA, 16u)      ///< vec4 per pixel: resolve ping-pong buffers
+CSGV_CONST(uint32_t, kSlotDenoiseB, 17u)
+CSGV_CONST(uint32_t, kSlotVisible, 18u)       ///< uint per brick: 1 when its palette holds a visible label (host, per materials)
+CSGV_CONST(uint32_t, kSlotArrays, 19u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
+CSGV_CONST(uint32_t, kSlotStarts, 20u)        ///< the encoding: brick start words
+CSGV_CONST(uint32_t, kSlotBlueNoise, 21u)     ///< 64x64 bytes of blue noise, four to a uint
+CSGV_CONST(uint32_t, kSlotMaterialTable, 22u) ///< uint per stored label: its material (kNone), when labels are few
+CSGV_CONST(uint32_t, kSlotCount, 23u)
+
+// Words of the cache counter buffer (kSlotAlloc), read by the host between frames.
+CSGV_CONST(uint32_t, kAllocTop, 0u)          ///< cache words handed out from the top
+CSGV_CONST(uint32_t, kAllocCapacity, 1u)     ///< cache words
+CSGV_CONST(uint32_t, kAllocFull, 2u)         ///< set when a request found no space
+CSGV_CONST(uint32_t, kAllocDecodes, 3u)      ///< decode requests this frame (read by the decode passes)
+CSGV_CONST(uint32_t, kAllocRequests, 4u)     ///< requests this frame
+CSGV_CONST(uint32_t, kAllocMinSamples, 5u)   ///< smallest sample count of any pixel after this frame
+CSGV_CONST(uint32_t, kAllocNewSamples, 6u)   ///< pixels that gained a sample this frame
+CSGV_CONST(uint32_t, kAllocMissing, 7u)      ///< pixels whose ray met a brick not in the cache
+CSGV_CONST(uint32_t, kAllocMinRow, 8u)       ///< first pixel (row-major) with the previous minimum sample count
+CSGV_CONST(uint32_t, kAllocPrevMin, 9u)      ///< previous frame's minimum sample count (host-written)
+CSGV_CONST(uint32_t, kAllocFreeCount, 16u)   ///< + lod
+CSGV_CONST(uint32_t, kAllocReqCount, 24u)    ///< + lod
+CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod
+CSGV_CONST(uint32_t, kAllocProvBase, 40u)    ///< + lod
+CSGV_CONST(uint32_t, kAllocProvCount, 48u)   ///< + lod
+CSGV_CONST(uint32_t, kAllocWords, 56u)
+
+// Workgroup sizes (the shaders' local_size, the host's group counts).
+CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), cache_assign.comp (per request)
+CSGV_CONST(uint32_t, kGroupDecodes, 32u) ///< decode_bricks.comp (per decode)
+CSGV_CONST(uint32_t, kGroupTile, 16u)    ///< render.comp and resolve.comp: kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
+
+// Passes of resolve.comp (push constant `pass`).
+CSGV_CONST(uint32_t, kResolveGather, 0u)  ///< average and upsampling (tone-mapped when not denoising)
+CSGV_CONST(uint32_t, kResolveAtrous1, 1u) ///< A-trous denoising, step 1 (then 2 and 4: passes 2 and 3)
+CSGV_CONST(uint32_t, kResolveAtrous2, 2u)
+CSGV_CONST(uint32_t, kResolveAtrous4, 3u)
+CSGV_CONST(uint32_t, kResolveFinal, 4u)   ///< tone mapping, brightness, contrast, gamma
+CSGV_CONST(uint32_t, kResolveClear, 5u)   ///< starts the accumulation anew
+
+// The GPU decoder's lists (GpuVolume.cpp, cache_assign.comp, decode_bricks.comp, host decoding).
+CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse level, cache word offset
+CSGV_CONST(uint32_t, kDecodeStateWords, 12u) ///< per decode: the decoder state saved between dispatches
+CSGV_CONST(uint32_t, kDecodeStateStatus, 8u) ///< its word holding the result (kDecodeOk, ...)
+CSGV_CONST(uint32_t, kDecodeParamWords, 4u)  ///< per dispatch: count (unused in frames), steps, first, unused
+
+/// Push constants of decode_bricks.comp: only addresses (lavapipe specialises shaders on
+/// push-constant values used in loop conditions, recompiling for every new value).
+#define CSGV_DECODE_PUSH_MEMBERS                                                                    \
+    uint64_t arrays;   /* one device address per encoding array */                                  \
+    uint64_t starts;   /* brick start words */                                                      \
+    uint64_t requests; /* kDecodeEntryWords per decode */                                           \
+    uint64_t cache;    /* the brick cache */                                                        \
+    uint64_t states;   /* kDecodeStateWords per decode */                                           \
+    uint64_t params;   /* kDecodeParamWords of this dispatch */                                     \
+    uint64_t count;    /* the decode count in its first word (written by the GPU in frames) */
+
+/// The frame parameter block (std430), one per frame: GLSL `Frame`, C++ `FrameParams`.
+#define CSGV_FRAME_MEMBERS                                                                          \
+    CSGV_MAT4(clipToIndex)     /* NDC -> index space */                                             \
+    CSGV_MAT4(indexToClip)                                                                          \
+    CSGV_MAT4(indexToWorld)                                                                         \
+    CSGV_MAT4(worldToIndex)                                                                         \
+    CSGV_VEC4(lightWorld)      /* xyz: towards the light (world, unit); w: light intensity */       \
+    CSGV_VEC4(lightIndex)      /* xyz: towards the light (index space); w: ambient intensity */     \
+    CSGV_VEC4(environment)     /* rgb: sky colour for misses and ambient light; w: AO radius */     \
+    CSGV_VEC4(clipMin)         /* xyz: clip box minimum (voxels); w: level-of-detail bias */        \
+    CSGV_VEC4(clipMax)         /* xyz: clip box maximum (voxels); w: pixel footprint factor */      \
+    CSGV_VEC4(pixel)           /* x: 2/W, y: 2/H, z: unused, w: shading blend */                    \
+    CSGV_VEC4(tone)            /* x: brightness, y: contrast, z: gamma, w: tone mapping (1) */      \
+    CSGV_VEC4_ARRAY(faceNormals, 6) /* world normals of the faces -x, +x, -y, +y, -z, +z */         \
+    CSGV_UVEC4(frame)          /* x: frame index, y: flags, z: shading mode, w: sample target */    \
+    CSGV_UVEC4(image)          /* x: W, y: H, z: subsampling stride, w: subsampling phase */        \
+    CSGV_UVEC4(limits)         /* x: max requests, y/z: pixels [y, z) that may request, w: bounces */ \
+    CSGV_UVEC4(counts)         /* x: materials, y: bricks, z: labels with attributes, w: table size */ \
+    uint64_t addr[kSlotCount];
+
+/// One material as the shaders read it (std430, 80 bytes).
+struct GpuMaterial {
+    CSGV_UVEC4(select) // x: attribute (kNone = label), y: label min, z: label max, w: colour mode
+    CSGV_VEC4(range)   // x/y: filter min/max (float attributes), z/w: colour min/max
+    CSGV_VEC4(rgba)    // constant colour, opacity
+    CSGV_UVEC4(colour) // x: colour attribute (kNone = label), y: wrap (1 repeat), z: colormap offset, w: samples (0: palette)
+    CSGV_VEC4(extra)   // x: emission
+};
+
+/// Push constants of resolve.comp.
+#define CSGV_RESOLVE_PUSH_MEMBERS                                                                   \
+    uint64_t frame;                                                                                 \
+    uint32_t pass;                                                                                  \
+    uint32_t src; /* address slot of the input colour */                                            \
+    uint32_t dst; /* address slot of the output colour */
+
+#ifdef __cplusplus
+struct FrameParams {
+    CSGV_FRAME_MEMBERS
+};
+// std430 offsets: mat4 64 bytes, vec4/uvec4 16, uint64 8, no padding in this order.
+static_assert(offsetof(FrameParams, lightWorld) == 256 && offsetof(FrameParams, faceNormals) == 368 &&
+                  offsetof(FrameParams, frame) == 464 && offsetof(FrameParams, addr) == 528 &&
+                  sizeof(FrameParams) == 528 + 8 * kSlotCount,
+              "FrameParams must match std430's Frame block");
+static_assert(offsetof(GpuMaterial, colour) == 48 && sizeof(GpuMaterial) == 80, "GpuMaterial must match std430");
+struct ResolvePush {
+    CSGV_RESOLVE_PUSH_MEMBERS
+};
+static_assert(sizeof(ResolvePush) == 24, "ResolvePush must match resolve.comp's push constants");
+struct DecodePush {
+    CSGV_DECODE_PUSH_MEMBERS
+};
+static_assert(sizeof(DecodePush) == 56, "DecodePush must match decode_bricks.comp's push constants");
+#endif
+
+CSGV_NAMESPACE_END
+
+#endif // CSGV_GPU_FRAME_LAYOUT_H
