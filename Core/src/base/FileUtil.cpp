@@ -183,7 +183,7 @@ Result<bool> InputStream::fill() {
 Result<size_t> InputStream::inflateSome(uint8_t* out, size_t bytes) {
     z_stream& z = m_zlib->stream;
     size_t got = 0;
-    while (got < bytes && !m_finished) {
+    while (got < bytes && !m_finished && !(m_stopAtMemberEnd && m_memberEnded)) {
         if (m_memberEnded) {
             // A further gzip member may follow; in Auto mode, as gzread, anything else after a
             // member is trailing garbage and ends the content.
@@ -203,10 +203,7 @@ Result<size_t> InputStream::inflateSome(uint8_t* out, size_t bytes) {
         if (m_inAt == m_inEnd) {
             Result<bool> more = fill();
             if (!more) return more.status();
-            if (!*more) {
-                m_finished = true; // cut inside a member: the caller sees a short read
-                break;
-            }
+            // At the end of the file inflate still runs: its bit buffer may hold more output.
         }
         z.next_in = m_in.data() + m_inAt;
         z.avail_in = uInt(m_inEnd - m_inAt);
@@ -220,7 +217,12 @@ Result<size_t> InputStream::inflateSome(uint8_t* out, size_t bytes) {
             m_memberEnded = true;
             continue;
         }
-        if (ret == Z_BUF_ERROR) continue; // needs more input; the next round reads or ends
+        if (ret == Z_BUF_ERROR) {
+            // No progress without more input: at the end of the file the stream was cut inside a
+            // member, and the caller sees a short read (as gzread reports it).
+            if (m_inAt == m_inEnd && m_inputEnded) m_finished = true;
+            continue;
+        }
         if (ret != Z_OK)
             return fail(Failure::Corrupt, z.msg ? std::string(z.msg) : "zlib error " + std::to_string(ret));
     }
@@ -251,6 +253,22 @@ Result<size_t> InputStream::read(void* out, size_t bytes) {
     }
     m_position += got;
     return got;
+}
+
+Status InputStream::checkMemberEnd() {
+    if (!m_inflating) return Status::ok();
+    std::vector<uint8_t> scratch(size_t(1) << 16);
+    m_stopAtMemberEnd = true;
+    Status status;
+    while (!m_memberEnded && !m_finished) {
+        Result<size_t> n = inflateSome(scratch.data(), scratch.size());
+        if (!n) {
+            status = n.status();
+            break;
+        }
+    }
+    m_stopAtMemberEnd = false;
+    return status; // a member cut before its checksum is not an error, as for gzread
 }
 
 Result<uint64_t> InputStream::skip(uint64_t bytes) {

@@ -200,6 +200,10 @@ Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
     if (!skipped) return streamError(path, stream, skipped.status());
     Result<VoxelRead> got = readVoxels(stream, vol, hf.big, path);
     if (!got) return streamError(path, stream, got.status());
+    // A short read is reported as truncation below; a full one must also end its gzip member
+    // intact (the checksum), as gzread's read-ahead has always checked on small files.
+    if (got->bytes == dataBytes)
+        if (Status s = stream.checkMemberEnd(); !s) return streamError(path, stream, s);
     if (got->bytes < dataBytes)
         return fail(path, "truncated: " + std::to_string(got->bytes) +
                               " bytes of voxel data after vox_offset " + std::to_string(offset) + ", " +

@@ -65,6 +65,11 @@ public:
     Result<size_t> read(void* out, size_t bytes);
     /// Discards up to `bytes` of content; returns how many were discarded.
     Result<uint64_t> skip(uint64_t bytes);
+    /// Inflates on to the end of the current gzip member, so that its checksum is verified even
+    /// when the caller needed fewer bytes than it holds; a checksum that does not match is an
+    /// error (Failure::Corrupt), a member cut before its checksum is not (gzread's rule).
+    /// Plain content: nothing to check.
+    Status checkMemberEnd();
     /// Bytes of content delivered or skipped so far.
     uint64_t position() const { return m_position; }
     bool compressed() const { return m_inflating; }
@@ -85,6 +90,7 @@ private:
     bool m_memberEnded = false;
     bool m_inputEnded = false;
     bool m_finished = false;
+    bool m_stopAtMemberEnd = false;
     Failure m_failure = Failure::None;
     uint64_t m_position = 0;
     std::vector<uint8_t> m_in;
