@@ -3,6 +3,7 @@
 /// @brief `csgv render`: the batch front end of VulkanBackend's renderer.
 
 #include "RenderCommand.h"
+#include "CommandLine.h"
 #include "Png.h"
 
 #include "csgv/attributes/Attributes.h"
@@ -60,93 +61,110 @@ Status parseNumber(const std::string& s, double lo, double hi, double& out) {
 }
 
 Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
+    CLI::App app;
+    configureCommand(app);
     std::vector<std::string> positional;
-    for (int i = 2; i < argc; ++i) {
-        const std::string arg = argv[i];
-        auto value = [&]() -> Result<std::string> {
-            if (i + 1 >= argc) return Status::error("option " + arg + " needs a value");
-            return std::string(argv[++i]);
-        };
-        auto number = [&](double lo, double hi, double& out) -> Status {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            Status s = parseNumber(*v, lo, hi, out);
-            return s ? s : Status(s).prefix("option " + arg);
-        };
-        auto vec = [&](Vec3& out) -> Status {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            Status s = parseVec3(*v, out);
-            return s ? s : Status(s).prefix("option " + arg);
-        };
-        Status s;
-        double n = 0;
-        if (arg == "--size") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            unsigned w = 0, h = 0;
-            char extra = 0;
-            if (std::sscanf(v->c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384)
-                return Status::error("--size expects WxH between 1x1 and 16384x16384, not '" + *v + "'");
-            a.width = w;
-            a.height = h;
-        } else if (arg == "--eye") {
-            s = vec(a.eye);
-            a.haveEye = true;
-        } else if (arg == "--center") {
-            s = vec(a.center);
-            a.haveCenter = true;
-        } else if (arg == "--up") s = vec(a.up);
-        else if (arg == "--fov-y") s = number(0.01, 179, a.fovY);
-        else if (arg == "--parallel-scale") s = number(1e-9, 1e12, a.parallelScale);
-        else if (arg == "--shading") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            Result<gpu::Shading> m = gpu::parseShading(*v);
-            if (!m) return Status(m.status()).prefix("--shading");
-            a.settings.shading = *m;
-        } else if (arg == "--frames") {
-            if ((s = number(1, 1e6, n))) a.frames = uint32_t(n);
-        } else if (arg == "--orbit") {
-            if ((s = number(1, 1e5, n))) a.orbit = uint32_t(n);
-        } else if (arg == "--cache-mib") {
-            if ((s = number(1, 1 << 20, n))) a.cacheMiB = uint64_t(n);
-        } else if (arg == "--subsampling") {
-            if ((s = number(1, 8, n))) a.settings.subsampling = uint32_t(n);
-        } else if (arg == "--lod-bias") {
-            double b = 0;
-            if ((s = number(-16, 16, b))) a.settings.lodBias = float(b);
-        } else if (arg == "--blend") {
-            double b = 0;
-            if ((s = number(0, 1, b))) a.settings.shadingBlend = float(b);
-        } else if (arg == "--background") s = vec(a.background);
-        else if (arg == "--no-jitter") a.settings.jitter = false;
-        else if (arg == "--no-denoise") a.settings.denoise = false;
-        else if (arg == "--tone-mapping") a.settings.toneMapping = true;
-        else if (arg == "--finest") a.settings.finest = true;
-        else if (arg == "--cache-paletting") a.cachePaletting = true;
-        else if (arg == "--computed-attributes") a.computedAttributes = true;
-        else if (arg == "--attributes") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            a.attributeFiles.push_back(*v);
-        } else if (arg == "--derive") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            const size_t eq = v->find('=');
-            if (eq == std::string::npos || eq == 0 || eq + 1 == v->size())
-                return Status::error("--derive expects NAME=SQL-EXPRESSION, not '" + *v + "'");
-            a.derived.emplace_back(v->substr(0, eq), v->substr(eq + 1));
-        }
-        else if (arg == "--labels-out" || arg == "--materials" || arg == "--video") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            (arg == "--labels-out" ? a.labelsOut : arg == "--materials" ? a.materials : a.video) = *v;
-        } else if (arg.size() > 1 && arg[0] == '-')
-            return Status::error("unknown option '" + arg + "' for render");
-        else
-            positional.push_back(arg);
-        if (!s) return s;
+    std::string size, eye, center, up, fovY, parallelScale, shading, frames, orbit, cacheMiB, subsampling, lodBias,
+        blend, background;
+    std::vector<std::string> derive;
+    bool noJitter = false, noDenoise = false;
+    CLI::Option* sizeOpt = app.add_option("--size", size);
+    CLI::Option* eyeOpt = app.add_option("--eye", eye);
+    CLI::Option* centerOpt = app.add_option("--center", center);
+    CLI::Option* upOpt = app.add_option("--up", up);
+    CLI::Option* fovOpt = app.add_option("--fov-y", fovY);
+    CLI::Option* parallelOpt = app.add_option("--parallel-scale", parallelScale);
+    CLI::Option* shadingOpt = app.add_option("--shading", shading);
+    CLI::Option* framesOpt = app.add_option("--frames", frames);
+    CLI::Option* orbitOpt = app.add_option("--orbit", orbit);
+    CLI::Option* cacheOpt = app.add_option("--cache-mib", cacheMiB);
+    CLI::Option* subsamplingOpt = app.add_option("--subsampling", subsampling);
+    CLI::Option* lodOpt = app.add_option("--lod-bias", lodBias);
+    CLI::Option* blendOpt = app.add_option("--blend", blend);
+    CLI::Option* backgroundOpt = app.add_option("--background", background);
+    app.add_flag("--no-jitter", noJitter);
+    app.add_flag("--no-denoise", noDenoise);
+    app.add_flag("--tone-mapping", a.settings.toneMapping);
+    app.add_flag("--finest", a.settings.finest);
+    app.add_flag("--cache-paletting", a.cachePaletting);
+    app.add_flag("--computed-attributes", a.computedAttributes);
+    repeatedOption(app, "--attributes", a.attributeFiles);
+    repeatedOption(app, "--derive", derive);
+    app.add_option("--labels-out", a.labelsOut);
+    app.add_option("--materials", a.materials);
+    app.add_option("--video", a.video);
+    app.add_option("files", positional);
+    if (Status s = parseCommand(app, argc, argv, " for render"); !s) return s;
+    if (noJitter) a.settings.jitter = false;
+    if (noDenoise) a.settings.denoise = false;
+
+    const auto number = [](CLI::Option* opt, const std::string& v, double lo, double hi, double& out) {
+        Status s = parseNumber(v, lo, hi, out);
+        return s ? s : Status(s).prefix("option " + opt->get_name());
+    };
+    const auto vec = [](CLI::Option* opt, const std::string& v, Vec3& out) {
+        Status s = parseVec3(v, out);
+        return s ? s : Status(s).prefix("option " + opt->get_name());
+    };
+    double n = 0;
+    if (sizeOpt->count()) {
+        unsigned w = 0, h = 0;
+        char extra = 0;
+        if (std::sscanf(size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384)
+            return Status::error("--size expects WxH between 1x1 and 16384x16384, not '" + size + "'");
+        a.width = w;
+        a.height = h;
+    }
+    if (eyeOpt->count()) {
+        if (Status s = vec(eyeOpt, eye, a.eye); !s) return s;
+        a.haveEye = true;
+    }
+    if (centerOpt->count()) {
+        if (Status s = vec(centerOpt, center, a.center); !s) return s;
+        a.haveCenter = true;
+    }
+    if (upOpt->count())
+        if (Status s = vec(upOpt, up, a.up); !s) return s;
+    if (fovOpt->count())
+        if (Status s = number(fovOpt, fovY, 0.01, 179, a.fovY); !s) return s;
+    if (parallelOpt->count())
+        if (Status s = number(parallelOpt, parallelScale, 1e-9, 1e12, a.parallelScale); !s) return s;
+    if (shadingOpt->count()) {
+        Result<gpu::Shading> m = gpu::parseShading(shading);
+        if (!m) return Status(m.status()).prefix("--shading");
+        a.settings.shading = *m;
+    }
+    if (framesOpt->count()) {
+        if (Status s = number(framesOpt, frames, 1, 1e6, n); !s) return s;
+        a.frames = uint32_t(n);
+    }
+    if (orbitOpt->count()) {
+        if (Status s = number(orbitOpt, orbit, 1, 1e5, n); !s) return s;
+        a.orbit = uint32_t(n);
+    }
+    if (cacheOpt->count()) {
+        if (Status s = number(cacheOpt, cacheMiB, 1, 1 << 20, n); !s) return s;
+        a.cacheMiB = uint64_t(n);
+    }
+    if (subsamplingOpt->count()) {
+        if (Status s = number(subsamplingOpt, subsampling, 1, 8, n); !s) return s;
+        a.settings.subsampling = uint32_t(n);
+    }
+    if (lodOpt->count()) {
+        if (Status s = number(lodOpt, lodBias, -16, 16, n); !s) return s;
+        a.settings.lodBias = float(n);
+    }
+    if (blendOpt->count()) {
+        if (Status s = number(blendOpt, blend, 0, 1, n); !s) return s;
+        a.settings.shadingBlend = float(n);
+    }
+    if (backgroundOpt->count())
+        if (Status s = vec(backgroundOpt, background, a.background); !s) return s;
+    for (const std::string& d : derive) {
+        const size_t eq = d.find('=');
+        if (eq == std::string::npos || eq == 0 || eq + 1 == d.size())
+            return Status::error("--derive expects NAME=SQL-EXPRESSION, not '" + d + "'");
+        a.derived.emplace_back(d.substr(0, eq), d.substr(eq + 1));
     }
     if (positional.size() != 2) return Status::error("render needs IN.csgv and OUT.png");
     a.input = positional[0];
