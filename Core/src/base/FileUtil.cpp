@@ -139,6 +139,8 @@ Status InputStream::attach(std::FILE* file, const std::string& path, Mode mode) 
 }
 
 Status InputStream::start(Mode mode) {
+    struct stat st {};
+    if (::fstat(fileno(m_file), &st) == 0 && S_ISREG(st.st_mode)) m_fileBytes = uint64_t(st.st_size);
     m_in.resize(size_t(1) << 18);
     m_autoMode = mode == Mode::Auto;
     if (mode == Mode::Auto) {
@@ -253,6 +255,19 @@ Result<size_t> InputStream::read(void* out, size_t bytes) {
     }
     m_position += got;
     return got;
+}
+
+uint64_t InputStream::remainingBound() const {
+    if (!m_file) return 0;
+#if defined(_WIN32)
+    const int64_t at = _ftelli64(m_file);
+#else
+    const int64_t at = int64_t(ftello(m_file));
+#endif
+    const uint64_t consumed = at < 0 ? 0 : uint64_t(at) - (m_inEnd - m_inAt);
+    const uint64_t left = m_fileBytes > consumed ? m_fileBytes - consumed : 0;
+    if (!m_inflating) return left;
+    return left > (UINT64_MAX - 1024) / 1032 ? UINT64_MAX : left * 1032 + 1024;
 }
 
 Status InputStream::checkMemberEnd() {

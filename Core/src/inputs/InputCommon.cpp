@@ -226,6 +226,8 @@ Result<VoxelRead> readVoxels(InputStream& in, InputVolume& vol, bool bigEndian, 
     std::vector<uint8_t> bytes(size_t(std::min(count, chunkVoxels) * width));
     VoxelRead got;
     vol.values.clear();
+    // As much as the file can hold (all of it for any honest file): one allocation, no regrowth.
+    vol.values.reserve(size_t(std::min(count, in.remainingBound() / width)));
     for (uint64_t first = 0; first < count;) {
         const uint64_t want = std::min(chunkVoxels, count - first);
         Result<size_t> n = in.read(bytes.data(), size_t(want * width));

@@ -70,6 +70,10 @@ public:
     /// error (Failure::Corrupt), a member cut before its checksum is not (gzread's rule).
     /// Plain content: nothing to check.
     Status checkMemberEnd();
+    /// An upper bound of the content still to come, from the file's size (deflate expands at most
+    /// 1032:1), so that readers can reserve memory for what a file can hold, not for what its
+    /// header claims.
+    uint64_t remainingBound() const;
     /// Bytes of content delivered or skipped so far.
     uint64_t position() const { return m_position; }
     bool compressed() const { return m_inflating; }
@@ -93,6 +97,7 @@ private:
     bool m_stopAtMemberEnd = false;
     Failure m_failure = Failure::None;
     uint64_t m_position = 0;
+    uint64_t m_fileBytes = 0;
     std::vector<uint8_t> m_in;
     size_t m_inAt = 0;
     size_t m_inEnd = 0;
