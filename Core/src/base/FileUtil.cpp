@@ -105,10 +105,7 @@ struct InputStream::Zlib {
 InputStream::InputStream() = default;
 
 InputStream::~InputStream() {
-    if (m_zlib) {
-        inflateEnd(&m_zlib->stream);
-        delete m_zlib;
-    }
+    if (m_zlib) inflateEnd(&m_zlib->stream);
     if (m_file && m_ownsFile) std::fclose(m_file);
 }
 
@@ -155,11 +152,10 @@ Status InputStream::start(Mode mode) {
         m_inflating = mode == Mode::Inflate;
     }
     if (!m_inflating) return Status::ok();
-    m_zlib = new Zlib;
+    m_zlib = std::make_unique<Zlib>();
     // 15 + 32: a 32 KiB window, gzip or zlib header detected.
     if (inflateInit2(&m_zlib->stream, 15 + 32) != Z_OK) {
-        delete m_zlib;
-        m_zlib = nullptr;
+        m_zlib.reset();
         return fail(Failure::Open, "cannot start zlib for '" + m_path + "'");
     }
     return Status::ok();

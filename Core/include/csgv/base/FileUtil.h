@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -101,8 +102,8 @@ private:
     std::vector<uint8_t> m_in;
     size_t m_inAt = 0;
     size_t m_inEnd = 0;
-    struct Zlib;
-    Zlib* m_zlib = nullptr;
+    struct Zlib; // zlib's state, kept out of this header
+    std::unique_ptr<Zlib> m_zlib;
 };
 
 /// Size of a regular file, or an error naming the path.
