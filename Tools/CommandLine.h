@@ -3,14 +3,17 @@
 /// @file CommandLine.h
 /// @brief The one command-line parser of `csgv` (CLI11) as every subcommand uses it: CLI11
 /// splits the words (flags, options with values, `--name=value`, positionals), the commands
-/// convert the values with their own messages, and every parse error is one line for
-/// "csgv: error: ...".
+/// convert the values with their own messages (ValueOptions), and every parse error is one
+/// line for "csgv: error: ...".
 
 #include "csgv/base/Status.h"
 
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <functional>
+#include <map>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -25,12 +28,35 @@ inline void configureCommand(CLI::App& app) {
     app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
 }
 
-/// An option that may be repeated, one value per occurrence (`--attributes A --attributes B`).
-inline CLI::Option* repeatedOption(CLI::App& app, const std::string& name, std::vector<std::string>& values) {
-    return app.add_option(name, values)
-        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-        ->allow_extra_args(false);
-}
+/// @brief Options whose values each command converts with its own code and messages, after
+/// CLI11 has split the words: in command-line order, every occurrence (so a repeated option's
+/// last value wins, and the first bad value on the line is the one reported).
+class ValueOptions {
+public:
+    explicit ValueOptions(CLI::App& app) : m_app(app) {}
+
+    /// An option that takes one value per occurrence.
+    void add(const std::string& name, std::function<Status(const std::string&)> convert) {
+        m_converters.emplace_back(m_app.add_option(name), std::move(convert));
+    }
+
+    Status convert() const {
+        std::map<const CLI::Option*, size_t> seen;
+        for (const CLI::Option* option : m_app.parse_order()) {
+            for (const auto& [o, convert] : m_converters) {
+                if (o != option) continue;
+                const size_t k = seen[o]++;
+                if (k < o->results().size())
+                    if (Status s = convert(o->results()[k]); !s) return s;
+            }
+        }
+        return Status::ok();
+    }
+
+private:
+    CLI::App& m_app;
+    std::vector<std::pair<const CLI::Option*, std::function<Status(const std::string&)>>> m_converters;
+};
 
 /// Parses the words after the command name (`argv[2..]`). `unknownSuffix` ends the message for
 /// an unknown option (" for render").

@@ -64,108 +64,79 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     CLI::App app;
     configureCommand(app);
     std::vector<std::string> positional;
-    std::string size, eye, center, up, fovY, parallelScale, shading, frames, orbit, cacheMiB, subsampling, lodBias,
-        blend, background;
-    std::vector<std::string> derive;
+    app.add_option("files", positional);
     bool noJitter = false, noDenoise = false;
-    CLI::Option* sizeOpt = app.add_option("--size", size);
-    CLI::Option* eyeOpt = app.add_option("--eye", eye);
-    CLI::Option* centerOpt = app.add_option("--center", center);
-    CLI::Option* upOpt = app.add_option("--up", up);
-    CLI::Option* fovOpt = app.add_option("--fov-y", fovY);
-    CLI::Option* parallelOpt = app.add_option("--parallel-scale", parallelScale);
-    CLI::Option* shadingOpt = app.add_option("--shading", shading);
-    CLI::Option* framesOpt = app.add_option("--frames", frames);
-    CLI::Option* orbitOpt = app.add_option("--orbit", orbit);
-    CLI::Option* cacheOpt = app.add_option("--cache-mib", cacheMiB);
-    CLI::Option* subsamplingOpt = app.add_option("--subsampling", subsampling);
-    CLI::Option* lodOpt = app.add_option("--lod-bias", lodBias);
-    CLI::Option* blendOpt = app.add_option("--blend", blend);
-    CLI::Option* backgroundOpt = app.add_option("--background", background);
     app.add_flag("--no-jitter", noJitter);
     app.add_flag("--no-denoise", noDenoise);
     app.add_flag("--tone-mapping", a.settings.toneMapping);
     app.add_flag("--finest", a.settings.finest);
     app.add_flag("--cache-paletting", a.cachePaletting);
     app.add_flag("--computed-attributes", a.computedAttributes);
-    repeatedOption(app, "--attributes", a.attributeFiles);
-    repeatedOption(app, "--derive", derive);
-    app.add_option("--labels-out", a.labelsOut);
-    app.add_option("--materials", a.materials);
-    app.add_option("--video", a.video);
-    app.add_option("files", positional);
-    if (Status s = parseCommand(app, argc, argv, " for render"); !s) return s;
-    if (noJitter) a.settings.jitter = false;
-    if (noDenoise) a.settings.denoise = false;
-
-    const auto number = [](CLI::Option* opt, const std::string& v, double lo, double hi, double& out) {
-        Status s = parseNumber(v, lo, hi, out);
-        return s ? s : Status(s).prefix("option " + opt->get_name());
+    ValueOptions values(app);
+    const auto number = [&values](const std::string& name, double lo, double hi, auto set) {
+        values.add(name, [name, lo, hi, set](const std::string& v) {
+            double n = 0;
+            Status s = parseNumber(v, lo, hi, n);
+            if (s) set(n);
+            return s ? s : Status(s).prefix("option " + name);
+        });
     };
-    const auto vec = [](CLI::Option* opt, const std::string& v, Vec3& out) {
-        Status s = parseVec3(v, out);
-        return s ? s : Status(s).prefix("option " + opt->get_name());
+    const auto vec = [&values](const std::string& name, Vec3& out, bool* given) {
+        values.add(name, [name, &out, given](const std::string& v) {
+            Status s = parseVec3(v, out);
+            if (s && given) *given = true;
+            return s ? s : Status(s).prefix("option " + name);
+        });
     };
-    double n = 0;
-    if (sizeOpt->count()) {
+    values.add("--size", [&a](const std::string& v) {
         unsigned w = 0, h = 0;
         char extra = 0;
-        if (std::sscanf(size.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384)
-            return Status::error("--size expects WxH between 1x1 and 16384x16384, not '" + size + "'");
+        if (std::sscanf(v.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384)
+            return Status::error("--size expects WxH between 1x1 and 16384x16384, not '" + v + "'");
         a.width = w;
         a.height = h;
-    }
-    if (eyeOpt->count()) {
-        if (Status s = vec(eyeOpt, eye, a.eye); !s) return s;
-        a.haveEye = true;
-    }
-    if (centerOpt->count()) {
-        if (Status s = vec(centerOpt, center, a.center); !s) return s;
-        a.haveCenter = true;
-    }
-    if (upOpt->count())
-        if (Status s = vec(upOpt, up, a.up); !s) return s;
-    if (fovOpt->count())
-        if (Status s = number(fovOpt, fovY, 0.01, 179, a.fovY); !s) return s;
-    if (parallelOpt->count())
-        if (Status s = number(parallelOpt, parallelScale, 1e-9, 1e12, a.parallelScale); !s) return s;
-    if (shadingOpt->count()) {
-        Result<gpu::Shading> m = gpu::parseShading(shading);
+        return Status::ok();
+    });
+    vec("--eye", a.eye, &a.haveEye);
+    vec("--center", a.center, &a.haveCenter);
+    vec("--up", a.up, nullptr);
+    vec("--background", a.background, nullptr);
+    number("--fov-y", 0.01, 179, [&a](double n) { a.fovY = n; });
+    number("--parallel-scale", 1e-9, 1e12, [&a](double n) { a.parallelScale = n; });
+    values.add("--shading", [&a](const std::string& v) {
+        Result<gpu::Shading> m = gpu::parseShading(v);
         if (!m) return Status(m.status()).prefix("--shading");
         a.settings.shading = *m;
-    }
-    if (framesOpt->count()) {
-        if (Status s = number(framesOpt, frames, 1, 1e6, n); !s) return s;
-        a.frames = uint32_t(n);
-    }
-    if (orbitOpt->count()) {
-        if (Status s = number(orbitOpt, orbit, 1, 1e5, n); !s) return s;
-        a.orbit = uint32_t(n);
-    }
-    if (cacheOpt->count()) {
-        if (Status s = number(cacheOpt, cacheMiB, 1, 1 << 20, n); !s) return s;
-        a.cacheMiB = uint64_t(n);
-    }
-    if (subsamplingOpt->count()) {
-        if (Status s = number(subsamplingOpt, subsampling, 1, 8, n); !s) return s;
-        a.settings.subsampling = uint32_t(n);
-    }
-    if (lodOpt->count()) {
-        if (Status s = number(lodOpt, lodBias, -16, 16, n); !s) return s;
-        a.settings.lodBias = float(n);
-    }
-    if (blendOpt->count()) {
-        if (Status s = number(blendOpt, blend, 0, 1, n); !s) return s;
-        a.settings.shadingBlend = float(n);
-    }
-    if (backgroundOpt->count())
-        if (Status s = vec(backgroundOpt, background, a.background); !s) return s;
-    for (const std::string& d : derive) {
-        const size_t eq = d.find('=');
-        if (eq == std::string::npos || eq == 0 || eq + 1 == d.size())
-            return Status::error("--derive expects NAME=SQL-EXPRESSION, not '" + d + "'");
-        a.derived.emplace_back(d.substr(0, eq), d.substr(eq + 1));
-    }
+        return Status::ok();
+    });
+    number("--frames", 1, 1e6, [&a](double n) { a.frames = uint32_t(n); });
+    number("--orbit", 1, 1e5, [&a](double n) { a.orbit = uint32_t(n); });
+    number("--cache-mib", 1, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
+    number("--subsampling", 1, 8, [&a](double n) { a.settings.subsampling = uint32_t(n); });
+    number("--lod-bias", -16, 16, [&a](double n) { a.settings.lodBias = float(n); });
+    number("--blend", 0, 1, [&a](double n) { a.settings.shadingBlend = float(n); });
+    values.add("--attributes", [&a](const std::string& v) {
+        a.attributeFiles.push_back(v);
+        return Status::ok();
+    });
+    values.add("--derive", [&a](const std::string& v) {
+        const size_t eq = v.find('=');
+        if (eq == std::string::npos || eq == 0 || eq + 1 == v.size())
+            return Status::error("--derive expects NAME=SQL-EXPRESSION, not '" + v + "'");
+        a.derived.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+        return Status::ok();
+    });
+    for (auto [name, target] : {std::pair<const char*, std::string*>{"--labels-out", &a.labelsOut},
+                                {"--materials", &a.materials},
+                                {"--video", &a.video}})
+        values.add(name, [target](const std::string& v) {
+            *target = v;
+            return Status::ok();
+        });
+    if (Status s = parseCommand(app, argc, argv, " for render"); !s) return s;
+    if (Status s = values.convert(); !s) return s;
+    if (noJitter) a.settings.jitter = false;
+    if (noDenoise) a.settings.denoise = false;
     if (positional.size() != 2) return Status::error("render needs IN.csgv and OUT.png");
     a.input = positional[0];
     a.output = positional[1];

@@ -85,47 +85,39 @@ Status parseArgs(int argc, char** argv, Args& a) {
     // Every command accepts the same options (those it does not use are ignored), as always.
     CLI::App app;
     configureCommand(app);
-    std::string level, threads, brickSize, encoding, ops;
     app.add_flag("--stats", a.stats);
     app.add_flag("--check", a.check);
     app.add_flag("--relabel", a.relabel);
-    CLI::Option* levelOpt = app.add_option("--level", level);
-    CLI::Option* threadsOpt = app.add_option("--threads", threads);
-    CLI::Option* brickOpt = app.add_option("--brick-size", brickSize);
-    CLI::Option* encodingOpt = app.add_option("--encoding", encoding);
-    CLI::Option* opsOpt = app.add_option("--ops", ops);
     app.add_option("files", a.positional);
-    if (Status s = parseCommand(app, argc, argv); !s) return s;
-
-    const auto small = [](const char* name, const std::string& v, uint64_t max, uint64_t& n) {
-        if (parseUnsigned(v, max, n)) return Status::ok();
-        return Status::error(std::string("option ") + name + " expects a small non-negative integer, not '" + v + "'");
+    ValueOptions values(app);
+    const auto small = [&values](const char* name, uint64_t max, auto set) {
+        values.add(name, [name, max, set](const std::string& v) {
+            uint64_t n = 0;
+            if (!parseUnsigned(v, max, n))
+                return Status::error(std::string("option ") + name + " expects a small non-negative integer, not '" +
+                                     v + "'");
+            set(n);
+            return Status::ok();
+        });
     };
-    uint64_t n = 0;
-    if (levelOpt->count()) {
-        if (Status s = small("--level", level, 31, n); !s) return s;
-        a.level = uint32_t(n);
-    }
-    if (threadsOpt->count()) {
-        if (Status s = small("--threads", threads, 1024, n); !s) return s;
-        a.threads = int(n);
-    }
-    if (brickOpt->count()) {
-        if (Status s = small("--brick-size", brickSize, 1024, n); !s) return s;
-        a.encode.brickSize = uint32_t(n);
-    }
-    if (encodingOpt->count()) {
-        if (encoding == "nibble" || encoding == "0") a.encode.encoding = kEncodingNibble;
-        else if (encoding == "rans1" || encoding == "1") a.encode.encoding = kEncodingRans1;
-        else if (encoding == "rans2" || encoding == "2") a.encode.encoding = kEncodingRans2;
-        else return Status::error("--encoding expects nibble, rans1 or rans2, not '" + encoding + "'");
-    }
-    if (opsOpt->count()) {
-        Result<uint32_t> m = parseOperationMask(ops);
+    small("--level", 31, [&a](uint64_t n) { a.level = uint32_t(n); });
+    small("--threads", 1024, [&a](uint64_t n) { a.threads = int(n); });
+    small("--brick-size", 1024, [&a](uint64_t n) { a.encode.brickSize = uint32_t(n); });
+    values.add("--encoding", [&a](const std::string& v) {
+        if (v == "nibble" || v == "0") a.encode.encoding = kEncodingNibble;
+        else if (v == "rans1" || v == "1") a.encode.encoding = kEncodingRans1;
+        else if (v == "rans2" || v == "2") a.encode.encoding = kEncodingRans2;
+        else return Status::error("--encoding expects nibble, rans1 or rans2, not '" + v + "'");
+        return Status::ok();
+    });
+    values.add("--ops", [&a](const std::string& v) {
+        Result<uint32_t> m = parseOperationMask(v);
         if (!m) return Status::error("--ops: " + m.message());
         a.encode.opMask = *m;
-    }
-    return Status::ok();
+        return Status::ok();
+    });
+    if (Status s = parseCommand(app, argc, argv); !s) return s;
+    return values.convert();
 }
 
 bool endsWith(const std::string& s, const char* suffix) {
