@@ -75,6 +75,60 @@ Status streamError(const std::string& path, const InputStream& stream, const Sta
 
 double niftiSpacing(double v) { return std::isfinite(v) && v > 0 ? v : 1.0; }
 
+/// Spacing, direction and origin: the sform when its code is set, else the qform, else pixdim.
+Status niftiGeometry(const NiftiFields& hf, const std::string& path, Geometry& g) {
+    const int qformCode = hf.i16(252), sformCode = hf.i16(254);
+    double pixdim[8];
+    for (int i = 0; i < 8; ++i) pixdim[i] = hf.f32(76 + 4 * size_t(i));
+    if (sformCode > 0) {
+        double m[3][4];
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c) m[r][c] = hf.f32(280 + 16 * size_t(r) + 4 * size_t(c));
+        for (int c = 0; c < 3; ++c) {
+            const double norm = std::sqrt(m[0][c] * m[0][c] + m[1][c] * m[1][c] + m[2][c] * m[2][c]);
+            if (!std::isfinite(norm) || norm == 0)
+                return fail(path, "sform (sform_code " + std::to_string(sformCode) + ") column " + std::to_string(c) +
+                                      " has no usable length");
+            g.spacing[size_t(c)] = norm;
+            for (int r = 0; r < 3; ++r) g.direction[size_t(3 * r + c)] = m[r][c] / norm;
+        }
+        for (int r = 0; r < 3; ++r) {
+            if (!std::isfinite(m[r][3])) return fail(path, "sform offset is not finite");
+            g.origin[size_t(r)] = m[r][3];
+        }
+    } else if (qformCode > 0) {
+        // The quaternion rule of the NIfTI-1 standard (nifti1.h, method 2), as nifti1_io applies it.
+        double b = hf.f32(256), c = hf.f32(260), d = hf.f32(264);
+        double a = 1.0 - (b * b + c * c + d * d);
+        if (a < 1e-7) {
+            const double len = std::sqrt(b * b + c * c + d * d);
+            if (!std::isfinite(len) || len == 0) return fail(path, "qform quaternion is not usable");
+            b /= len;
+            c /= len;
+            d /= len;
+            a = 0;
+        } else {
+            a = std::sqrt(a);
+        }
+        const double qfac = pixdim[0] < 0 ? -1.0 : 1.0;
+        const double rot[9] = {a * a + b * b - c * c - d * d, 2 * (b * c - a * d),         2 * (b * d + a * c),
+                               2 * (b * c + a * d),         a * a + c * c - b * b - d * d, 2 * (c * d - a * b),
+                               2 * (b * d - a * c),         2 * (c * d + a * b),         a * a + d * d - c * c - b * b};
+        for (int i = 0; i < 9; ++i) g.direction[size_t(i)] = rot[i] * ((i % 3 == 2) ? qfac : 1.0);
+        for (int k = 0; k < 3; ++k) g.spacing[size_t(k)] = niftiSpacing(pixdim[k + 1]);
+        for (int r = 0; r < 3; ++r) {
+            const double o = hf.f32(268 + 4 * size_t(r));
+            if (!std::isfinite(o)) return fail(path, "qform offset is not finite");
+            g.origin[size_t(r)] = o;
+        }
+        for (double v : g.direction)
+            if (!std::isfinite(v)) return fail(path, "qform quaternion is not finite");
+    } else {
+        for (int k = 0; k < 3; ++k) g.spacing[size_t(k)] = niftiSpacing(pixdim[k + 1]);
+    }
+    return Status::ok();
+}
+
 } // namespace
 
 Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
@@ -141,57 +195,7 @@ Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
     if (Status s = checkBudget(path, d3, maxBytes); !s) return s;
     vol.dim = {{uint32_t(d3[0]), uint32_t(d3[1]), uint32_t(d3[2])}};
 
-    // ---- geometry
-    Geometry& g = vol.geometry;
-    const int qformCode = hf.i16(252), sformCode = hf.i16(254);
-    double pixdim[8];
-    for (int i = 0; i < 8; ++i) pixdim[i] = hf.f32(76 + 4 * size_t(i));
-    if (sformCode > 0) {
-        double m[3][4];
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 4; ++c) m[r][c] = hf.f32(280 + 16 * size_t(r) + 4 * size_t(c));
-        for (int c = 0; c < 3; ++c) {
-            const double norm = std::sqrt(m[0][c] * m[0][c] + m[1][c] * m[1][c] + m[2][c] * m[2][c]);
-            if (!std::isfinite(norm) || norm == 0)
-                return fail(path, "sform (sform_code " + std::to_string(sformCode) + ") column " + std::to_string(c) +
-                                      " has no usable length");
-            g.spacing[size_t(c)] = norm;
-            for (int r = 0; r < 3; ++r) g.direction[size_t(3 * r + c)] = m[r][c] / norm;
-        }
-        for (int r = 0; r < 3; ++r) {
-            if (!std::isfinite(m[r][3])) return fail(path, "sform offset is not finite");
-            g.origin[size_t(r)] = m[r][3];
-        }
-    } else if (qformCode > 0) {
-        // The quaternion rule of the NIfTI-1 standard (nifti1.h, method 2), as nifti1_io applies it.
-        double b = hf.f32(256), c = hf.f32(260), d = hf.f32(264);
-        double a = 1.0 - (b * b + c * c + d * d);
-        if (a < 1e-7) {
-            const double len = std::sqrt(b * b + c * c + d * d);
-            if (!std::isfinite(len) || len == 0) return fail(path, "qform quaternion is not usable");
-            b /= len;
-            c /= len;
-            d /= len;
-            a = 0;
-        } else {
-            a = std::sqrt(a);
-        }
-        const double qfac = pixdim[0] < 0 ? -1.0 : 1.0;
-        const double rot[9] = {a * a + b * b - c * c - d * d, 2 * (b * c - a * d),         2 * (b * d + a * c),
-                               2 * (b * c + a * d),         a * a + c * c - b * b - d * d, 2 * (c * d - a * b),
-                               2 * (b * d - a * c),         2 * (c * d + a * b),         a * a + d * d - c * c - b * b};
-        for (int i = 0; i < 9; ++i) g.direction[size_t(i)] = rot[i] * ((i % 3 == 2) ? qfac : 1.0);
-        for (int k = 0; k < 3; ++k) g.spacing[size_t(k)] = niftiSpacing(pixdim[k + 1]);
-        for (int r = 0; r < 3; ++r) {
-            const double o = hf.f32(268 + 4 * size_t(r));
-            if (!std::isfinite(o)) return fail(path, "qform offset is not finite");
-            g.origin[size_t(r)] = o;
-        }
-        for (double v : g.direction)
-            if (!std::isfinite(v)) return fail(path, "qform quaternion is not finite");
-    } else {
-        for (int k = 0; k < 3; ++k) g.spacing[size_t(k)] = niftiSpacing(pixdim[k + 1]);
-    }
+    if (Status s = niftiGeometry(hf, path, vol.geometry); !s) return s;
 
     // ---- voxels
     const uint64_t offset = uint64_t(voxOffset);
