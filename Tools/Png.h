@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 /// @file Png.h
-/// @brief Minimal PNG writer (8-bit RGB or RGBA, zlib from the system), written atomically.
+/// @brief PNG output and input through libpng (8-bit RGB or RGBA), written atomically.
 
 #include "csgv/base/Status.h"
 
@@ -15,7 +15,7 @@ namespace csgv {
 Status writePng(const std::string& path, uint32_t width, uint32_t height, uint32_t channels,
                 const std::vector<uint8_t>& pixels);
 
-/// Reads what writePng() writes (8-bit RGB or RGBA, filter type 0 on every row); `channels`
+/// Reads 8-bit RGB or RGBA PNGs (what writePng() writes, any filters); `channels`
 /// is set to 3 or 4. Other PNGs are refused with a message.
 Status readPng(const std::string& path, uint32_t& width, uint32_t& height, uint32_t& channels,
                std::vector<uint8_t>& pixels);

@@ -3,6 +3,7 @@
 /// @brief `csgv render`: the batch front end of VulkanBackend's renderer.
 
 #include "RenderCommand.h"
+#include "CommandLine.h"
 #include "Png.h"
 
 #include "csgv/attributes/Attributes.h"
@@ -60,94 +61,82 @@ Status parseNumber(const std::string& s, double lo, double hi, double& out) {
 }
 
 Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
+    CLI::App app;
+    configureCommand(app);
     std::vector<std::string> positional;
-    for (int i = 2; i < argc; ++i) {
-        const std::string arg = argv[i];
-        auto value = [&]() -> Result<std::string> {
-            if (i + 1 >= argc) return Status::error("option " + arg + " needs a value");
-            return std::string(argv[++i]);
-        };
-        auto number = [&](double lo, double hi, double& out) -> Status {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            Status s = parseNumber(*v, lo, hi, out);
-            return s ? s : Status(s).prefix("option " + arg);
-        };
-        auto vec = [&](Vec3& out) -> Status {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            Status s = parseVec3(*v, out);
-            return s ? s : Status(s).prefix("option " + arg);
-        };
-        Status s;
-        double n = 0;
-        if (arg == "--size") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            unsigned w = 0, h = 0;
-            char extra = 0;
-            if (std::sscanf(v->c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384)
-                return Status::error("--size expects WxH between 1x1 and 16384x16384, not '" + *v + "'");
-            a.width = w;
-            a.height = h;
-        } else if (arg == "--eye") {
-            s = vec(a.eye);
-            a.haveEye = true;
-        } else if (arg == "--center") {
-            s = vec(a.center);
-            a.haveCenter = true;
-        } else if (arg == "--up") s = vec(a.up);
-        else if (arg == "--fov-y") s = number(0.01, 179, a.fovY);
-        else if (arg == "--parallel-scale") s = number(1e-9, 1e12, a.parallelScale);
-        else if (arg == "--shading") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            Result<gpu::Shading> m = gpu::parseShading(*v);
-            if (!m) return Status(m.status()).prefix("--shading");
-            a.settings.shading = *m;
-        } else if (arg == "--frames") {
-            if ((s = number(1, 1e6, n))) a.frames = uint32_t(n);
-        } else if (arg == "--orbit") {
-            if ((s = number(1, 1e5, n))) a.orbit = uint32_t(n);
-        } else if (arg == "--cache-mib") {
-            if ((s = number(1, 1 << 20, n))) a.cacheMiB = uint64_t(n);
-        } else if (arg == "--subsampling") {
-            if ((s = number(1, 8, n))) a.settings.subsampling = uint32_t(n);
-        } else if (arg == "--lod-bias") {
-            double b = 0;
-            if ((s = number(-16, 16, b))) a.settings.lodBias = float(b);
-        } else if (arg == "--blend") {
-            double b = 0;
-            if ((s = number(0, 1, b))) a.settings.shadingBlend = float(b);
-        } else if (arg == "--background") s = vec(a.background);
-        else if (arg == "--no-jitter") a.settings.jitter = false;
-        else if (arg == "--no-denoise") a.settings.denoise = false;
-        else if (arg == "--tone-mapping") a.settings.toneMapping = true;
-        else if (arg == "--finest") a.settings.finest = true;
-        else if (arg == "--cache-paletting") a.cachePaletting = true;
-        else if (arg == "--computed-attributes") a.computedAttributes = true;
-        else if (arg == "--attributes") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            a.attributeFiles.push_back(*v);
-        } else if (arg == "--derive") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            const size_t eq = v->find('=');
-            if (eq == std::string::npos || eq == 0 || eq + 1 == v->size())
-                return Status::error("--derive expects NAME=SQL-EXPRESSION, not '" + *v + "'");
-            a.derived.emplace_back(v->substr(0, eq), v->substr(eq + 1));
-        }
-        else if (arg == "--labels-out" || arg == "--materials" || arg == "--video") {
-            Result<std::string> v = value();
-            if (!v) return v.status();
-            (arg == "--labels-out" ? a.labelsOut : arg == "--materials" ? a.materials : a.video) = *v;
-        } else if (arg.size() > 1 && arg[0] == '-')
-            return Status::error("unknown option '" + arg + "' for render");
-        else
-            positional.push_back(arg);
-        if (!s) return s;
-    }
+    app.add_option("files", positional);
+    bool noJitter = false, noDenoise = false;
+    app.add_flag("--no-jitter", noJitter);
+    app.add_flag("--no-denoise", noDenoise);
+    app.add_flag("--tone-mapping", a.settings.toneMapping);
+    app.add_flag("--finest", a.settings.finest);
+    app.add_flag("--cache-paletting", a.cachePaletting);
+    app.add_flag("--computed-attributes", a.computedAttributes);
+    ValueOptions values(app);
+    const auto number = [&values](const std::string& name, double lo, double hi, auto set) {
+        values.add(name, [name, lo, hi, set](const std::string& v) {
+            double n = 0;
+            Status s = parseNumber(v, lo, hi, n);
+            if (s) set(n);
+            return s ? s : Status(s).prefix("option " + name);
+        });
+    };
+    const auto vec = [&values](const std::string& name, Vec3& out, bool* given) {
+        values.add(name, [name, &out, given](const std::string& v) {
+            Status s = parseVec3(v, out);
+            if (s && given) *given = true;
+            return s ? s : Status(s).prefix("option " + name);
+        });
+    };
+    values.add("--size", [&a](const std::string& v) {
+        unsigned w = 0, h = 0;
+        char extra = 0;
+        if (std::sscanf(v.c_str(), "%ux%u%c", &w, &h, &extra) != 2 || w == 0 || h == 0 || w > 16384 || h > 16384)
+            return Status::error("--size expects WxH between 1x1 and 16384x16384, not '" + v + "'");
+        a.width = w;
+        a.height = h;
+        return Status::ok();
+    });
+    vec("--eye", a.eye, &a.haveEye);
+    vec("--center", a.center, &a.haveCenter);
+    vec("--up", a.up, nullptr);
+    vec("--background", a.background, nullptr);
+    number("--fov-y", 0.01, 179, [&a](double n) { a.fovY = n; });
+    number("--parallel-scale", 1e-9, 1e12, [&a](double n) { a.parallelScale = n; });
+    values.add("--shading", [&a](const std::string& v) {
+        Result<gpu::Shading> m = gpu::parseShading(v);
+        if (!m) return Status(m.status()).prefix("--shading");
+        a.settings.shading = *m;
+        return Status::ok();
+    });
+    number("--frames", 1, 1e6, [&a](double n) { a.frames = uint32_t(n); });
+    number("--orbit", 1, 1e5, [&a](double n) { a.orbit = uint32_t(n); });
+    number("--cache-mib", 1, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
+    number("--subsampling", 1, 8, [&a](double n) { a.settings.subsampling = uint32_t(n); });
+    number("--lod-bias", -16, 16, [&a](double n) { a.settings.lodBias = float(n); });
+    number("--blend", 0, 1, [&a](double n) { a.settings.shadingBlend = float(n); });
+    values.add("--attributes", [&a](const std::string& v) {
+        a.attributeFiles.push_back(v);
+        return Status::ok();
+    });
+    values.add("--derive", [&a](const std::string& v) {
+        const size_t eq = v.find('=');
+        if (eq == std::string::npos || eq == 0 || eq + 1 == v.size())
+            return Status::error("--derive expects NAME=SQL-EXPRESSION, not '" + v + "'");
+        a.derived.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+        return Status::ok();
+    });
+    for (auto [name, target] : {std::pair<const char*, std::string*>{"--labels-out", &a.labelsOut},
+                                {"--materials", &a.materials},
+                                {"--video", &a.video}})
+        values.add(name, [target](const std::string& v) {
+            *target = v;
+            return Status::ok();
+        });
+    if (Status s = parseCommand(app, argc, argv, " for render"); !s) return s;
+    if (Status s = values.convert(); !s) return s;
+    if (noJitter) a.settings.jitter = false;
+    if (noDenoise) a.settings.denoise = false;
     if (positional.size() != 2) return Status::error("render needs IN.csgv and OUT.png");
     a.input = positional[0];
     a.output = positional[1];

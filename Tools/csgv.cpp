@@ -9,6 +9,7 @@
 #include "csgv/codec/LabelVolume.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Procedural.h"
+#include "CommandLine.h"
 #ifdef CSGV_HAVE_RENDER
 #include "RenderCommand.h"
 #endif
@@ -79,44 +80,44 @@ bool parseUnsigned(const std::string& s, uint64_t max, uint64_t& out) {
 }
 
 Status parseArgs(int argc, char** argv, Args& a) {
-    for (int i = 2; i < argc; ++i) {
-        const std::string arg = argv[i];
-        if (arg.empty()) return Status::error("empty argument");
-        auto value = [&](const char* name) -> Result<std::string> {
-            if (i + 1 >= argc) return Status::error(std::string("option ") + name + " needs a value");
-            return std::string(argv[++i]);
-        };
-        if (arg == "--stats") a.stats = true;
-        else if (arg == "--check") a.check = true;
-        else if (arg == "--relabel") a.relabel = true;
-        else if (arg == "--level" || arg == "--threads" || arg == "--brick-size") {
-            Result<std::string> v = value(arg.c_str());
-            if (!v) return v.status();
+    for (int i = 2; i < argc; ++i)
+        if (!*argv[i]) return Status::error("empty argument");
+    // Every command accepts the same options (those it does not use are ignored), as always.
+    CLI::App app;
+    configureCommand(app);
+    app.add_flag("--stats", a.stats);
+    app.add_flag("--check", a.check);
+    app.add_flag("--relabel", a.relabel);
+    app.add_option("files", a.positional);
+    ValueOptions values(app);
+    const auto small = [&values](const char* name, uint64_t max, auto set) {
+        values.add(name, [name, max, set](const std::string& v) {
             uint64_t n = 0;
-            if (!parseUnsigned(*v, arg == "--level" ? 31 : 1024, n))
-                return Status::error("option " + arg + " expects a small non-negative integer, not '" + *v + "'");
-            if (arg == "--level") a.level = uint32_t(n);
-            else if (arg == "--threads") a.threads = int(n);
-            else a.encode.brickSize = uint32_t(n);
-        } else if (arg == "--encoding") {
-            Result<std::string> v = value(arg.c_str());
-            if (!v) return v.status();
-            if (*v == "nibble" || *v == "0") a.encode.encoding = kEncodingNibble;
-            else if (*v == "rans1" || *v == "1") a.encode.encoding = kEncodingRans1;
-            else if (*v == "rans2" || *v == "2") a.encode.encoding = kEncodingRans2;
-            else return Status::error("--encoding expects nibble, rans1 or rans2, not '" + *v + "'");
-        } else if (arg == "--ops") {
-            Result<std::string> v = value(arg.c_str());
-            if (!v) return v.status();
-            Result<uint32_t> m = parseOperationMask(*v);
-            if (!m) return Status::error("--ops: " + m.message());
-            a.encode.opMask = *m;
-        } else if (arg.size() > 1 && arg[0] == '-')
-            return Status::error("unknown option '" + arg + "'");
-        else
-            a.positional.push_back(arg);
-    }
-    return Status::ok();
+            if (!parseUnsigned(v, max, n))
+                return Status::error(std::string("option ") + name + " expects a small non-negative integer, not '" +
+                                     v + "'");
+            set(n);
+            return Status::ok();
+        });
+    };
+    small("--level", 31, [&a](uint64_t n) { a.level = uint32_t(n); });
+    small("--threads", 1024, [&a](uint64_t n) { a.threads = int(n); });
+    small("--brick-size", 1024, [&a](uint64_t n) { a.encode.brickSize = uint32_t(n); });
+    values.add("--encoding", [&a](const std::string& v) {
+        if (v == "nibble" || v == "0") a.encode.encoding = kEncodingNibble;
+        else if (v == "rans1" || v == "1") a.encode.encoding = kEncodingRans1;
+        else if (v == "rans2" || v == "2") a.encode.encoding = kEncodingRans2;
+        else return Status::error("--encoding expects nibble, rans1 or rans2, not '" + v + "'");
+        return Status::ok();
+    });
+    values.add("--ops", [&a](const std::string& v) {
+        Result<uint32_t> m = parseOperationMask(v);
+        if (!m) return Status::error("--ops: " + m.message());
+        a.encode.opMask = *m;
+        return Status::ok();
+    });
+    if (Status s = parseCommand(app, argc, argv); !s) return s;
+    return values.convert();
 }
 
 bool endsWith(const std::string& s, const char* suffix) {

@@ -9,6 +9,7 @@ PKGS_CORE=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   zlib1g-dev libzstd-dev zstd gzip libsqlite3-dev sqlite3 libpng-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev clang libclang-rt-14-dev libomp-dev
+  libcli11-dev libssl-dev
   mricron-data
 )
 # Vulkan backend (lavapipe is the CPU device every GPU test runs on).

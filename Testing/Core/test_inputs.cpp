@@ -17,6 +17,7 @@
 #include "TestData.h"
 
 #include "csgv/inputs/Inputs.h"
+#include "csgv/base/FileUtil.h"
 #include "csgv/codec/LabelVolume.h"
 
 #include <gtest/gtest.h>
@@ -1143,4 +1144,139 @@ TEST(InputsRobustness, SeededMutations) {
     // Both outcomes occur: mutations that hit voxel data are still valid volumes.
     EXPECT_GT(ok, 100);
     EXPECT_GT(failed, 100);
+}
+
+// ------------------------------------------------------------------------------------------------
+// InputStream: the one reader of plain and gzip content under every format
+// ------------------------------------------------------------------------------------------------
+
+namespace {
+
+/// Everything a stream delivers, read in small pieces so that chunk edges are crossed.
+Bytes drain(csgv::InputStream& in, Status& status) {
+    Bytes all, piece(1000);
+    for (;;) {
+        csgv::Result<size_t> n = in.read(piece.data(), piece.size());
+        if (!n) {
+            status = n.status();
+            return all;
+        }
+        all.insert(all.end(), piece.begin(), piece.begin() + long(*n));
+        if (*n < piece.size()) return all;
+    }
+}
+
+Bytes pattern(size_t n) {
+    Bytes b(n);
+    for (size_t i = 0; i < n; ++i) b[i] = uint8_t((i * 131) >> 3);
+    return b;
+}
+
+} // namespace
+
+TEST(InputStream, AutoPassesPlainContentAndInflatesGzip) {
+    const Bytes raw = pattern(700000);
+    for (bool gz : {false, true}) {
+        const std::string path = tmp(gz ? "stream.gz" : "stream.raw");
+        writeBytes(path, gz ? gzipBytes(raw) : raw);
+        csgv::InputStream in;
+        ASSERT_TRUE(in.open(path).isOk());
+        EXPECT_EQ(in.compressed(), gz);
+        Status s;
+        EXPECT_EQ(drain(in, s), raw);
+        EXPECT_TRUE(s.isOk()) << s.message();
+        EXPECT_EQ(in.position(), raw.size());
+    }
+}
+
+TEST(InputStream, FollowsGzipMembersAndIgnoresTrailingBytesInAutoMode) {
+    const Bytes a = pattern(5000), b = textBytes("second member");
+    const std::string path = tmp("members.gz");
+    writeBytes(path, gzipBytes(a) + gzipBytes(b) + textBytes("trailing garbage"));
+    csgv::InputStream in;
+    ASSERT_TRUE(in.open(path).isOk());
+    Status s;
+    EXPECT_EQ(drain(in, s), a + b);
+    EXPECT_TRUE(s.isOk()) << s.message();
+    // Inflate mode (NRRD's gzip encoding) calls the same trailing bytes corrupt.
+    csgv::InputStream strict;
+    ASSERT_TRUE(strict.open(path, csgv::InputStream::Mode::Inflate).isOk());
+    drain(strict, s);
+    EXPECT_FALSE(s.isOk());
+    EXPECT_EQ(strict.failure(), csgv::InputStream::Failure::Corrupt);
+}
+
+TEST(InputStream, InflateModeReadsZlibFromAnOffsetAndSkips) {
+    const Bytes raw = pattern(3000);
+    uLongf packedSize = compressBound(uLong(raw.size()));
+    Bytes packed(packedSize);
+    ASSERT_EQ(compress2(packed.data(), &packedSize, raw.data(), uLong(raw.size()), 6), Z_OK);
+    packed.resize(packedSize);
+    const std::string path = tmp("zlib.bin");
+    writeBytes(path, textBytes("HEADER") + packed);
+    csgv::InputStream in;
+    ASSERT_TRUE(in.open(path, csgv::InputStream::Mode::Inflate, 6).isOk());
+    csgv::Result<uint64_t> skipped = in.skip(1000);
+    ASSERT_TRUE(skipped.isOk());
+    EXPECT_EQ(*skipped, 1000u);
+    Status s;
+    EXPECT_EQ(drain(in, s), Bytes(raw.begin() + 1000, raw.end()));
+    EXPECT_TRUE(s.isOk()) << s.message();
+}
+
+TEST(InputStream, CutStreamsEndShortAndChecksumsAreVerified) {
+    const Bytes raw = pattern(100000);
+    const Bytes gz = gzipBytes(raw);
+    const std::string cut = tmp("cut.gz");
+    writeBytes(cut, Bytes(gz.begin(), gz.begin() + long(gz.size() / 2)));
+    csgv::InputStream in;
+    ASSERT_TRUE(in.open(cut).isOk());
+    Status s;
+    const Bytes got = drain(in, s);
+    EXPECT_TRUE(s.isOk()) << s.message(); // a cut stream just ends, as gzread reports it
+    EXPECT_GT(got.size(), 0u);
+    EXPECT_LT(got.size(), raw.size());
+    EXPECT_TRUE(std::equal(got.begin(), got.end(), raw.begin()));
+
+    // A wrong CRC-32 in the trailer: the bytes read fine, the member's end does not.
+    Bytes bad = gz;
+    bad[bad.size() - 8] ^= 0xFF;
+    const std::string crc = tmp("crc.gz");
+    writeBytes(crc, bad);
+    csgv::InputStream c;
+    ASSERT_TRUE(c.open(crc).isOk());
+    Bytes first(1000);
+    ASSERT_TRUE(c.read(first.data(), first.size()).isOk());
+    EXPECT_FALSE(c.checkMemberEnd().isOk());
+    EXPECT_EQ(c.failure(), csgv::InputStream::Failure::Corrupt);
+}
+
+TEST(InputStream, RemainingBoundCoversWhatTheFileCanHold) {
+    const Bytes raw = pattern(10000);
+    const std::string plain = tmp("bound.raw");
+    writeBytes(plain, raw);
+    csgv::InputStream in;
+    ASSERT_TRUE(in.open(plain, csgv::InputStream::Mode::Plain, 100).isOk());
+    EXPECT_EQ(in.remainingBound(), raw.size() - 100);
+    const std::string gz = tmp("bound.gz");
+    writeBytes(gz, gzipBytes(raw));
+    csgv::InputStream z;
+    ASSERT_TRUE(z.open(gz).isOk());
+    EXPECT_GE(z.remainingBound(), raw.size());
+}
+
+TEST(InputStream, OpenFailureSaysSo) {
+    csgv::InputStream in;
+    EXPECT_FALSE(in.open(tmp("absent.gz")).isOk());
+    EXPECT_EQ(in.failure(), csgv::InputStream::Failure::Open);
+}
+
+TEST(InputsNiftiErrors, GzipChecksumIsVerifiedAfterTheVoxels) {
+    // The voxels inflate fine; only the member's CRC-32 is wrong.
+    const NiftiSpec s = niftiSpec(2, 8, 4, 4, 4);
+    Bytes gz = gzipBytes(niftiHeader(s) + pattern(64));
+    gz[gz.size() - 8] ^= 0xFF;
+    const std::string path = tmp("badcrc.nii.gz");
+    writeBytes(path, gz);
+    EXPECT_TRUE(failsWith(csgv::readNifti(path).status(), {"cannot inflate", "badcrc.nii.gz", "incorrect data check"}));
 }

@@ -1,10 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/base/FileUtil.h"
 
-#include <cctype>
-#include <cstring>
-
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <sys/stat.h>
@@ -99,32 +98,222 @@ Result<std::vector<uint8_t>> readFile(const std::string& path, uint64_t maxBytes
     return data;
 }
 
-Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes) {
-    const bool gz = path.size() > 3 && path[path.size() - 3] == '.' && (path[path.size() - 2] | 0x20) == 'g' &&
-                    (path[path.size() - 1] | 0x20) == 'z';
-    if (!gz) return readFile(path, maxBytes);
-    if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
-    gzFile f = gzopen(path.c_str(), "rb");
-    if (!f) return Status::error("cannot open '" + path + "'");
-    std::vector<uint8_t> data;
-    std::vector<uint8_t> chunk(1 << 20);
-    for (;;) {
-        const int n = gzread(f, chunk.data(), unsigned(chunk.size()));
-        if (n < 0) {
-            int code = 0;
-            std::string why = gzerror(f, &code);
-            gzclose(f);
-            return Status::error("cannot inflate '" + path + "': " + why);
+struct InputStream::Zlib {
+    z_stream stream{};
+};
+
+InputStream::InputStream() = default;
+
+InputStream::~InputStream() {
+    if (m_zlib) inflateEnd(&m_zlib->stream);
+    if (m_file && m_ownsFile) std::fclose(m_file);
+}
+
+Status InputStream::fail(Failure f, const std::string& why) {
+    m_failure = f;
+    return Status::error(why);
+}
+
+Status InputStream::open(const std::string& path, Mode mode, uint64_t offset) {
+    m_path = path;
+    m_file = std::fopen(path.c_str(), "rb");
+    if (!m_file) return fail(Failure::Open, errnoText());
+    m_ownsFile = true;
+#if defined(_WIN32)
+    const bool seeked = _fseeki64(m_file, int64_t(offset), SEEK_SET) == 0;
+#else
+    const bool seeked = fseeko(m_file, off_t(offset), SEEK_SET) == 0;
+#endif
+    if (!seeked) return fail(Failure::Open, errnoText());
+    return start(mode);
+}
+
+Status InputStream::attach(std::FILE* file, const std::string& path, Mode mode) {
+    m_path = path;
+    m_file = file;
+    m_ownsFile = false;
+    return start(mode);
+}
+
+Status InputStream::start(Mode mode) {
+    struct stat st {};
+    if (::fstat(fileno(m_file), &st) == 0 && S_ISREG(st.st_mode)) m_fileBytes = uint64_t(st.st_size);
+    m_in.resize(size_t(1) << 18);
+    m_autoMode = mode == Mode::Auto;
+    if (mode == Mode::Auto) {
+        // Like gzopen: the gzip magic decides, anything else is passed through.
+        while (m_inEnd - m_inAt < 2) {
+            Result<bool> more = fill();
+            if (!more) return more.status();
+            if (!*more) break;
         }
-        if (n == 0) break;
-        if (data.size() + size_t(n) > maxBytes) {
-            gzclose(f);
+        m_inflating = m_inEnd - m_inAt >= 2 && m_in[m_inAt] == 0x1f && m_in[m_inAt + 1] == 0x8b;
+    } else {
+        m_inflating = mode == Mode::Inflate;
+    }
+    if (!m_inflating) return Status::ok();
+    m_zlib = std::make_unique<Zlib>();
+    // 15 + 32: a 32 KiB window, gzip or zlib header detected.
+    if (inflateInit2(&m_zlib->stream, 15 + 32) != Z_OK) {
+        m_zlib.reset();
+        return fail(Failure::Open, "cannot start zlib for '" + m_path + "'");
+    }
+    return Status::ok();
+}
+
+Result<bool> InputStream::fill() {
+    if (m_inputEnded) return false;
+    if (m_inAt > 0) {
+        std::memmove(m_in.data(), m_in.data() + m_inAt, m_inEnd - m_inAt);
+        m_inEnd -= m_inAt;
+        m_inAt = 0;
+    }
+    const size_t got = std::fread(m_in.data() + m_inEnd, 1, m_in.size() - m_inEnd, m_file);
+    if (got == 0) {
+        if (std::ferror(m_file)) return fail(Failure::Read, errnoText());
+        m_inputEnded = true;
+        return false;
+    }
+    m_inEnd += got;
+    return true;
+}
+
+Result<size_t> InputStream::inflateSome(uint8_t* out, size_t bytes) {
+    z_stream& z = m_zlib->stream;
+    size_t got = 0;
+    while (got < bytes && !m_finished && !(m_stopAtMemberEnd && m_memberEnded)) {
+        if (m_memberEnded) {
+            // A further gzip member may follow; in Auto mode, as gzread, anything else after a
+            // member is trailing garbage and ends the content.
+            while (m_inEnd - m_inAt < 2) {
+                Result<bool> more = fill();
+                if (!more) return more.status();
+                if (!*more) break;
+            }
+            if (m_inEnd == m_inAt ||
+                (m_autoMode && !(m_inEnd - m_inAt >= 2 && m_in[m_inAt] == 0x1f && m_in[m_inAt + 1] == 0x8b))) {
+                m_finished = true;
+                break;
+            }
+            inflateReset(&z);
+            m_memberEnded = false;
+        }
+        if (m_inAt == m_inEnd) {
+            Result<bool> more = fill();
+            if (!more) return more.status();
+            // At the end of the file inflate still runs: its bit buffer may hold more output.
+        }
+        z.next_in = m_in.data() + m_inAt;
+        z.avail_in = uInt(m_inEnd - m_inAt);
+        const size_t room = std::min<size_t>(bytes - got, size_t(1) << 30);
+        z.next_out = out + got;
+        z.avail_out = uInt(room);
+        const int ret = inflate(&z, Z_NO_FLUSH);
+        got += room - z.avail_out;
+        m_inAt = m_inEnd - z.avail_in;
+        if (ret == Z_STREAM_END) {
+            m_memberEnded = true;
+            continue;
+        }
+        if (ret == Z_BUF_ERROR) {
+            // No progress without more input: at the end of the file the stream was cut inside a
+            // member, and the caller sees a short read (as gzread reports it).
+            if (m_inAt == m_inEnd && m_inputEnded) m_finished = true;
+            continue;
+        }
+        if (ret != Z_OK)
+            return fail(Failure::Corrupt, z.msg ? std::string(z.msg) : "zlib error " + std::to_string(ret));
+    }
+    return got;
+}
+
+Result<size_t> InputStream::read(void* out, size_t bytes) {
+    if (!m_file) return fail(Failure::Read, "stream not open");
+    auto* dst = static_cast<uint8_t*>(out);
+    size_t got = 0;
+    if (m_inflating) {
+        Result<size_t> n = inflateSome(dst, bytes);
+        if (!n) return n.status();
+        got = *n;
+    } else {
+        const size_t buffered = std::min(bytes, m_inEnd - m_inAt);
+        if (buffered) std::memcpy(dst, m_in.data() + m_inAt, buffered);
+        m_inAt += buffered;
+        got = buffered;
+        if (got < bytes && !m_inputEnded) {
+            // Large plain reads go straight into the caller's memory.
+            got += std::fread(dst + got, 1, bytes - got, m_file);
+            if (got < bytes) {
+                if (std::ferror(m_file)) return fail(Failure::Read, errnoText());
+                m_inputEnded = true;
+            }
+        }
+    }
+    m_position += got;
+    return got;
+}
+
+uint64_t InputStream::remainingBound() const {
+    if (!m_file) return 0;
+#if defined(_WIN32)
+    const int64_t at = _ftelli64(m_file);
+#else
+    const int64_t at = int64_t(ftello(m_file));
+#endif
+    const uint64_t consumed = at < 0 ? 0 : uint64_t(at) - (m_inEnd - m_inAt);
+    const uint64_t left = m_fileBytes > consumed ? m_fileBytes - consumed : 0;
+    if (!m_inflating) return left;
+    return left > (UINT64_MAX - 1024) / 1032 ? UINT64_MAX : left * 1032 + 1024;
+}
+
+Status InputStream::checkMemberEnd() {
+    if (!m_inflating) return Status::ok();
+    std::vector<uint8_t> scratch(size_t(1) << 16);
+    m_stopAtMemberEnd = true;
+    Status status;
+    while (!m_memberEnded && !m_finished) {
+        Result<size_t> n = inflateSome(scratch.data(), scratch.size());
+        if (!n) {
+            status = n.status();
+            break;
+        }
+    }
+    m_stopAtMemberEnd = false;
+    return status; // a member cut before its checksum is not an error, as for gzread
+}
+
+Result<uint64_t> InputStream::skip(uint64_t bytes) {
+    std::vector<uint8_t> scratch(size_t(std::min<uint64_t>(bytes, 1 << 16)));
+    uint64_t skipped = 0;
+    while (skipped < bytes) {
+        Result<size_t> n = read(scratch.data(), size_t(std::min<uint64_t>(scratch.size(), bytes - skipped)));
+        if (!n) return n.status();
+        if (*n == 0) break;
+        skipped += *n;
+    }
+    return skipped;
+}
+
+Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes) {
+    if (!endsWithNoCase(path, ".gz")) return readFile(path, maxBytes);
+    if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
+    InputStream in;
+    if (Status s = in.open(path); !s) {
+        if (in.failure() == InputStream::Failure::Open) return Status::error("cannot open '" + path + "'");
+        return Status::error("cannot inflate '" + path + "': " + path + ": " + s.message());
+    }
+    std::vector<uint8_t> data;
+    for (;;) {
+        const size_t old = data.size();
+        data.resize(old + (size_t(1) << 20));
+        Result<size_t> n = in.read(data.data() + old, size_t(1) << 20);
+        if (!n) return Status::error("cannot inflate '" + path + "': " + path + ": " + n.status().message());
+        data.resize(old + *n);
+        if (*n == 0) break;
+        if (data.size() > maxBytes)
             return Status::error("'" + path + "' inflates to more than the limit of " + std::to_string(maxBytes) +
                                  " bytes");
-        }
-        data.insert(data.end(), chunk.begin(), chunk.begin() + n);
     }
-    gzclose(f);
     return data;
 }
 

@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 /// @file FileUtil.h
-/// @brief Atomic file output (temporary name, then rename) and whole-file input.
+/// @brief Atomic file output (temporary name, then rename), whole-file input, and the one stream
+/// reader of plain and gzip files that every input format reads through.
 
 #include "csgv/base/Status.h"
 
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -34,11 +36,82 @@ private:
     std::FILE* m_file = nullptr;
 };
 
+/// @brief Reads a file front to back in bounded chunks, inflating gzip on the fly, so that no input
+/// format holds a whole compressed file or writes its own zlib loop.
+///
+/// `Auto` inflates when the content (from `offset`) starts with the gzip magic and passes other
+/// content through (what zlib's gzopen does: `.nii.gz`, `.vraw.gz`); bytes after the last gzip
+/// member are ignored, as gzread does. `Plain` never inflates (NRRD raw data may start with any
+/// bytes). `Inflate` always inflates, gzip or zlib (NRRD's gzip encoding). Concatenated gzip
+/// members are followed. A stream cut short just ends: callers see fewer bytes than they asked
+/// for and word the truncation themselves.
+class InputStream {
+public:
+    enum class Mode { Auto, Plain, Inflate };
+    /// Which step failed, so that each format keeps its own wording.
+    enum class Failure { None, Open, Read, Corrupt };
+
+    InputStream();
+    ~InputStream();
+    InputStream(const InputStream&) = delete;
+    InputStream& operator=(const InputStream&) = delete;
+
+    /// Opens `path` and positions it at byte `offset` of the file (before any inflating).
+    Status open(const std::string& path, Mode mode = Mode::Auto, uint64_t offset = 0);
+    /// Continues on an already opened C file from its current position; the caller keeps
+    /// ownership of `file` (NRRD reads its header and skips lines first).
+    Status attach(std::FILE* file, const std::string& path, Mode mode);
+    /// Reads up to `bytes`; fewer only at the end of the content. On an error, failure() says
+    /// which step failed and the Status carries zlib's or the system's reason only.
+    Result<size_t> read(void* out, size_t bytes);
+    /// Discards up to `bytes` of content; returns how many were discarded.
+    Result<uint64_t> skip(uint64_t bytes);
+    /// Inflates on to the end of the current gzip member, so that its checksum is verified even
+    /// when the caller needed fewer bytes than it holds; a checksum that does not match is an
+    /// error (Failure::Corrupt), a member cut before its checksum is not (gzread's rule).
+    /// Plain content: nothing to check.
+    Status checkMemberEnd();
+    /// An upper bound of the content still to come, from the file's size (deflate expands at most
+    /// 1032:1), so that readers can reserve memory for what a file can hold, not for what its
+    /// header claims.
+    uint64_t remainingBound() const;
+    /// Bytes of content delivered or skipped so far.
+    uint64_t position() const { return m_position; }
+    bool compressed() const { return m_inflating; }
+    Failure failure() const { return m_failure; }
+
+private:
+    Status start(Mode mode);
+    /// Moves unread input to the front and reads more; false at the end of the file.
+    Result<bool> fill();
+    Status fail(Failure f, const std::string& why);
+    Result<size_t> inflateSome(uint8_t* out, size_t bytes);
+
+    std::string m_path;
+    std::FILE* m_file = nullptr;
+    bool m_ownsFile = false;
+    bool m_inflating = false;
+    bool m_autoMode = true;
+    bool m_memberEnded = false;
+    bool m_inputEnded = false;
+    bool m_finished = false;
+    bool m_stopAtMemberEnd = false;
+    Failure m_failure = Failure::None;
+    uint64_t m_position = 0;
+    uint64_t m_fileBytes = 0;
+    std::vector<uint8_t> m_in;
+    size_t m_inAt = 0;
+    size_t m_inEnd = 0;
+    struct Zlib; // zlib's state, kept out of this header
+    std::unique_ptr<Zlib> m_zlib;
+};
+
 /// Size of a regular file, or an error naming the path.
 Result<uint64_t> fileSize(const std::string& path);
 /// Reads a whole file, refusing files larger than maxBytes.
 Result<std::vector<uint8_t>> readFile(const std::string& path, uint64_t maxBytes);
-/// Reads a whole file, transparently inflating gzip (`.gz`) content; refuses more than maxBytes.
+/// Reads a whole file, transparently inflating gzip (`.gz`) content (through InputStream);
+/// refuses more than maxBytes.
 Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes);
 /// True when the path names an existing file.
 bool fileExists(const std::string& path);

@@ -45,7 +45,8 @@ Result<InputVolume> readNrrd(const std::string& path, uint64_t maxBytes = uint64
 /// identity (a scaled label volume is an error).
 Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
 /// Dispatches on the name: `.vraw[.gz]`, `.nrrd`, `.nhdr`, `.nii`, `.nii.gz`. (`synth:` names
-/// and `.csgv` are handled by callers.)
+/// and `.csgv` are handled by callers.) Each format is one file in Core/src/inputs/ reading
+/// through InputStream (FileUtil.h); the suffix table is in Inputs.cpp.
 Result<InputVolume> readInput(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
 
 } // namespace csgv
