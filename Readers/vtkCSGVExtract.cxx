@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVExtract.h"
 
-#include "vtkCSGVInternals.h"
+#include "CSGVAdapter.h"
 #include "vtkCSGVReader.h"
 
 #include <vtkCellData.h>

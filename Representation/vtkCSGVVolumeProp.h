@@ -38,6 +38,7 @@ namespace csgvrep
 {
 struct AttributeConfig;
 struct ViewSettings;
+struct VolumeSource;
 }
 
 class vtkCSGVVolumeProp : public vtkProp3D
@@ -47,18 +48,19 @@ public:
   vtkTypeMacro(vtkCSGVVolumeProp, vtkProp3D);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
-  /// The image to draw (the delivered piece) and the label array ("": automatic).
-  void SetInputImage(vtkImageData* image);
-  void SetLabelArrayName(const std::string& name);
+  /// The image to draw (the delivered piece) and what it resolved to in the representation's
+  /// data phase (the error when it did not): Draw only renders and composites.
+  void SetInput(vtkImageData* image, const csgvrep::VolumeSource& source, const std::string& error);
+  /// True when the input resolved to a volume.
+  bool HasInput();
   void SetViewSettings(const csgvrep::ViewSettings& settings);
   /// The material document (MATERIALS.md); errors are reported and nothing is drawn.
   void SetMaterials(const std::string& json);
-  /// Where per-label attributes come from besides the input's FieldData (vtkCSGVAttributes.h).
+  /// Where per-label attributes come from besides the input's FieldData (CSGVAttributes.h).
   void SetAttributeConfig(const csgvrep::AttributeConfig& config);
 
-  /// Answers a query of vtkCSGVQuery (JSON or text, see vtkCSGVQuery.h): "summary",
-  /// "pick X Y", "labels", "colors N". `image` is used when nothing was rendered yet.
-  std::string Query(const std::string& request, vtkImageData* image);
+  /// Answers a query of vtkCSGVQuery (the commands: CSGVQueryProtocol.h).
+  std::string Query(const std::string& request);
 
   double* GetBounds() override;
   using vtkProp3D::GetBounds;
