@@ -99,8 +99,22 @@ public:
 private:
   std::string LoadCsgv(const std::string& path, uint64_t bytes)
   {
-    // openCsgv gives every caller the same checks of the container and its sidecars.
-    csgv::Result<csgv::CsgvFile> file = csgv::openCsgv(path);
+    // The file's bytes, read once and unchanged, are the encoding handed downstream (no
+    // re-serialisation); openCsgv parses those same bytes and gives every caller the same checks
+    // of the container and its sidecars.
+    std::ifstream in(path, std::ios::binary);
+    vtkNew<vtkUnsignedCharArray> enc;
+    if (!in || !enc->Allocate(static_cast<vtkIdType>(bytes)))
+    {
+      return "cannot read '" + path + "'";
+    }
+    enc->SetNumberOfValues(static_cast<vtkIdType>(bytes));
+    in.read(reinterpret_cast<char*>(enc->GetPointer(0)), static_cast<std::streamsize>(bytes));
+    if (uint64_t(in.gcount()) != bytes || in.peek() != std::ifstream::traits_type::eof())
+    {
+      return "'" + path + "' changed while it was read";
+    }
+    csgv::Result<csgv::CsgvFile> file = csgv::openCsgv(path, enc->GetPointer(0), size_t(bytes));
     if (!file)
     {
       return file.message();
@@ -127,19 +141,6 @@ private:
     this->Range = csgvvtk::paletteRange(f.volume, this->Info);
     this->Volume = std::move(file->volume);
 
-    // The file's bytes, unchanged, are the encoding handed downstream: no re-serialisation.
-    std::ifstream in(path, std::ios::binary);
-    vtkNew<vtkUnsignedCharArray> enc;
-    if (!in || !enc->Allocate(static_cast<vtkIdType>(bytes)))
-    {
-      return "cannot read '" + path + "'";
-    }
-    enc->SetNumberOfValues(static_cast<vtkIdType>(bytes));
-    in.read(reinterpret_cast<char*>(enc->GetPointer(0)), static_cast<std::streamsize>(bytes));
-    if (uint64_t(in.gcount()) != bytes || in.peek() != std::ifstream::traits_type::eof())
-    {
-      return "'" + path + "' changed while it was read";
-    }
     this->Encoding = enc;
     return std::string();
   }
