@@ -456,6 +456,22 @@ std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out)
   return std::string();
 }
 
+std::shared_ptr<const EncodedInput> EncodingMemo::get(vtkFieldData* fd, std::string& error)
+{
+  vtkUnsignedCharArray* enc = encodingArray(fd);
+  const vtkMTimeType mtime = enc ? enc->GetMTime() : 0;
+  if (!enc || enc != this->Array || mtime != this->MTime)
+  {
+    auto parsed = std::make_shared<EncodedInput>();
+    this->Error = readEncodingArrays(fd, *parsed);
+    this->Parsed = this->Error.empty() ? parsed : nullptr;
+    this->Array = enc;
+    this->MTime = mtime;
+  }
+  error = this->Error;
+  return this->Parsed;
+}
+
 void applyGeometry(vtkImageData* image, const csgv::Geometry& corner, uint32_t lod)
 {
   const double scale = double(uint64_t(1) << lod);

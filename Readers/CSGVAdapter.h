@@ -33,6 +33,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -157,6 +158,22 @@ struct EncodedInput
 /// Parses the arrays of vtkCSGVReader.h's layout (the whole container: callers parse once per
 /// encoding array and modification time); returns an error message or "".
 std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out);
+
+/// @brief The parsed encoding of a FieldData, parsed again only when the encoding array or its
+/// modification time changes (one per consumer: a filter's RequestInformation and RequestData
+/// then share one parse).
+class EncodingMemo
+{
+public:
+  /// The parsed arrays of `fd`, or null with the error message.
+  std::shared_ptr<const EncodedInput> get(vtkFieldData* fd, std::string& error);
+
+private:
+  const void* Array = nullptr;
+  vtkMTimeType MTime = 0;
+  std::shared_ptr<const EncodedInput> Parsed;
+  std::string Error;
+};
 
 /// True when an encoding of level-0 corner geometry `g` and dimensions `dims` describes `image`
 /// at some level (the reader's output); false for images derived from it (Extract's sub-boxes,
