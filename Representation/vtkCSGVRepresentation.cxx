@@ -130,6 +130,9 @@ bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image)
     in.ImageTime = t;
     in.Array = this->LabelArray;
     in.Resolved = true;
+    // Held until the new input resolved: a new image sharing the old one's arrays (the pipeline
+    // re-executed, the label array named again) finds the volume still in the cache.
+    const csgvrep::VolumeSource previous = std::move(in.Source);
     in.Source = csgvrep::VolumeSource{};
     in.Error.clear();
     if (image && image->GetNumberOfPoints() > 0)
