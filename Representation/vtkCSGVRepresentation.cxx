@@ -192,6 +192,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
     p.computedAttributes = this->ComputedAttributes;
     this->Prop->SetViewSettings(csgvrep::toViewSettings(p));
+    this->Prop->PrepareRender();
   }
   return 1;
 }

@@ -64,6 +64,7 @@ struct vtkCSGVVolumeProp::Impl
 
   csgv::MaterialDocument Doc; ///< the parsed document (colormaps resolved)
   bool AttributesDirty = true;  ///< the renderer needs materials and attribute arrays again
+  bool Prepared = false;        ///< PrepareRender handed the renderer all it needs
   csgvrep::AttributeConfig Config;
   csgvrep::AttributeCache Attributes;
 
@@ -266,21 +267,14 @@ double vtkCSGVVolumeProp::GetDeviceMiB()
   return double(this->P->View.deviceBytes()) / (1 << 20);
 }
 
-int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
+bool vtkCSGVVolumeProp::PrepareRender()
 {
   Impl& p = *this->P;
-  auto* ren = vtkOpenGLRenderer::SafeDownCast(viewport);
-  if (!ren || ren->GetSelector() || !p.Source.shared)
+  p.Prepared = false;
+  p.ParseMaterials([this](const std::string& m) { this->Report(m); });
+  if (!p.Source.shared || !p.MaterialsValid)
   {
-    // Hardware selection (picking) has no use for our colours; an input that did not resolve
-    // (reported by the representation in its data phase) draws nothing.
-    return 0;
-  }
-  auto* win = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
-  auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
-  if (!win || !camera)
-  {
-    return 0;
+    return false;
   }
   if (p.AttributesDirty)
   {
@@ -299,47 +293,41 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
       if (!table)
       {
         this->Report("attributes: " + error);
-        return 0;
+        return false;
       }
       error = csgvrep::denseColumns(*table, *p.View.source().shared, csgv::attributesUsed(p.Doc), arrays);
       if (!error.empty())
       {
         this->Report("Materials: " + error);
-        return 0;
+        return false;
       }
     }
     p.View.setMaterials(p.Doc, std::move(arrays));
     p.AttributesDirty = false;
   }
 
-  std::string contextError;
-  if (!p.Gpu)
-  {
-    p.Gpu = csgvrep::sharedContext(contextError);
-  }
-  if (!p.Gpu)
-  {
-    if (!deviceReported.exchange(true))
-    {
-      vtkErrorMacro(<< "Segmentation Volume: no usable Vulkan device, nothing is drawn ("
-                    << contextError << ")");
-    }
-    return 0;
-  }
+  p.Prepared = true;
+  return true;
+}
 
-  int width = 0, height = 0, x0 = 0, y0 = 0;
+namespace
+{
+
+/// The camera and tile of a frame: VTK's world-to-clip matrix and the renderer's tile.
+bool frameRequest(vtkOpenGLRenderer* ren, vtkOpenGLCamera* camera, vtkOpenGLRenderWindow* win,
+  csgvrep::FrameRequest& request, int& x0, int& y0)
+{
+  int width = 0, height = 0;
   ren->GetTiledSizeAndOrigin(&width, &height, &x0, &y0);
   if (width <= 0 || height <= 0)
   {
-    return 0;
+    return false;
   }
   vtkMatrix4x4* wcvc = nullptr;
   vtkMatrix4x4* vcdc = nullptr;
   vtkMatrix4x4* wcdc = nullptr;
   vtkMatrix3x3* normals = nullptr;
   camera->GetKeyMatrices(ren, wcvc, normals, vcdc, wcdc);
-
-  csgvrep::FrameRequest request;
   // wcdc is stored transposed (ready for OpenGL): its row-major elements are the column-major
   // world-to-clip matrix the backend takes.
   const double* m = wcdc->GetData();
@@ -347,85 +335,82 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   request.width = uint32_t(width);
   request.height = uint32_t(height);
   request.interactive = win->GetDesiredUpdateRate() > 1.0;
+  return true;
+}
 
-  vtkOpenGLState* state = win->GetState();
-  if (!opaquePass)
+/// Reads the opaque geometry's window depth of the tile from the framebuffer being drawn (rays
+/// stop there); false when it cannot be read (multisampled framebuffers).
+bool readOpaqueDepth(vtkOpenGLState* state, int x0, int y0, int width, int height, std::vector<float>& depth)
+{
+  depth.resize(size_t(width) * height);
+  GLint drawFbo = 0, readFbo = 0, sampleBuffers = 0;
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &drawFbo);
+  glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &readFbo);
+  glGetIntegerv(GL_SAMPLE_BUFFERS, &sampleBuffers);
+  if (sampleBuffers != 0)
   {
-    // Opaque geometry's depth: rays stop there. Read from the framebuffer being drawn.
-    p.Depth.resize(size_t(width) * height);
-    GLint drawFbo = 0, readFbo = 0, sampleBuffers = 0;
-    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &drawFbo);
-    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &readFbo);
-    glGetIntegerv(GL_SAMPLE_BUFFERS, &sampleBuffers);
-    bool haveDepth = false;
-    if (sampleBuffers == 0)
-    {
-      while (glGetError() != GL_NO_ERROR)
-      {
-      }
-      if (readFbo != drawFbo)
-      {
-        glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(drawFbo));
-      }
-      state->vtkglPixelStorei(GL_PACK_ALIGNMENT, 4);
-      glReadPixels(x0, y0, width, height, GL_DEPTH_COMPONENT, GL_FLOAT, p.Depth.data());
-      haveDepth = glGetError() == GL_NO_ERROR;
-      if (readFbo != drawFbo)
-      {
-        glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(readFbo));
-      }
-    }
-    if (haveDepth)
-    {
-      request.opaqueDepth = p.Depth.data();
-    }
+    return false;
   }
-
-  bool changed = false;
-  const std::string error = p.View.render(request, changed);
-  if (!error.empty())
+  while (glGetError() != GL_NO_ERROR)
   {
-    this->Report(error);
-    return 0;
   }
-  p.LastError.clear();
+  if (readFbo != drawFbo)
+  {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(drawFbo));
+  }
+  state->vtkglPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(x0, y0, width, height, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+  const bool ok = glGetError() == GL_NO_ERROR;
+  if (readFbo != drawFbo)
+  {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(readFbo));
+  }
+  return ok;
+}
 
+} // namespace
+
+bool vtkCSGVVolumeProp::UploadTextures(vtkOpenGLRenderWindow* win, bool changed)
+{
+  Impl& p = *this->P;
   const csgv::gpu::FrameOutput& out = p.View.output();
-  if (out.width != uint32_t(width) || out.height != uint32_t(height) || out.rgba.empty())
-  {
-    return 0;
-  }
   if (p.Window != win)
   {
     p.ReleaseGL(p.Window);
     p.Window = win;
   }
-  if (changed || !p.TexturesCurrent || !p.Color || p.Color->GetWidth() != out.width ||
-    p.Color->GetHeight() != out.height)
+  if (!changed && p.TexturesCurrent && p.Color && p.Color->GetWidth() == out.width &&
+    p.Color->GetHeight() == out.height)
   {
-    if (!p.Color)
-    {
-      p.Color = vtkSmartPointer<vtkTextureObject>::New();
-      p.DepthTexture = vtkSmartPointer<vtkTextureObject>::New();
-    }
-    for (vtkTextureObject* t : { p.Color.GetPointer(), p.DepthTexture.GetPointer() })
-    {
-      t->SetContext(win);
-      t->SetMinificationFilter(vtkTextureObject::Nearest);
-      t->SetMagnificationFilter(vtkTextureObject::Nearest);
-      t->SetWrapS(vtkTextureObject::ClampToEdge);
-      t->SetWrapT(vtkTextureObject::ClampToEdge);
-    }
-    state->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    if (!p.Color->Create2DFromRaw(out.width, out.height, 4, VTK_FLOAT, const_cast<float*>(out.rgba.data())) ||
-      !p.DepthTexture->Create2DFromRaw(out.width, out.height, 1, VTK_FLOAT, const_cast<float*>(out.depth.data())))
-    {
-      this->Report("could not create the compositing textures");
-      return 0;
-    }
-    p.TexturesCurrent = true;
+    return true; // the textures hold this output already
   }
+  if (!p.Color)
+  {
+    p.Color = vtkSmartPointer<vtkTextureObject>::New();
+    p.DepthTexture = vtkSmartPointer<vtkTextureObject>::New();
+  }
+  for (vtkTextureObject* t : { p.Color.GetPointer(), p.DepthTexture.GetPointer() })
+  {
+    t->SetContext(win);
+    t->SetMinificationFilter(vtkTextureObject::Nearest);
+    t->SetMagnificationFilter(vtkTextureObject::Nearest);
+    t->SetWrapS(vtkTextureObject::ClampToEdge);
+    t->SetWrapT(vtkTextureObject::ClampToEdge);
+  }
+  win->GetState()->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  if (!p.Color->Create2DFromRaw(out.width, out.height, 4, VTK_FLOAT, const_cast<float*>(out.rgba.data())) ||
+    !p.DepthTexture->Create2DFromRaw(out.width, out.height, 1, VTK_FLOAT, const_cast<float*>(out.depth.data())))
+  {
+    this->Report("could not create the compositing textures");
+    return false;
+  }
+  p.TexturesCurrent = true;
+  return true;
+}
 
+bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win)
+{
+  Impl& p = *this->P;
   if (!p.Quad)
   {
     p.Quad.reset(new vtkOpenGLQuadHelper(win, nullptr, kFragmentShader, ""));
@@ -437,9 +422,9 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   if (!p.Quad->Program || !p.Quad->Program->GetCompiled())
   {
     this->Report("the compositing shader did not compile");
-    return 0;
+    return false;
   }
-
+  vtkOpenGLState* state = win->GetState();
   vtkOpenGLState::ScopedglEnableDisable depthTest(state, GL_DEPTH_TEST);
   vtkOpenGLState::ScopedglEnableDisable blend(state, GL_BLEND);
   vtkOpenGLState::ScopedglDepthFunc depthFunc(state);
@@ -459,7 +444,64 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   p.Quad->Render();
   p.DepthTexture->Deactivate();
   p.Color->Deactivate();
-  return 1;
+  return true;
+}
+
+bool vtkCSGVVolumeProp::HaveDevice()
+{
+  Impl& p = *this->P;
+  std::string contextError;
+  if (!p.Gpu)
+  {
+    p.Gpu = csgvrep::sharedContext(contextError);
+  }
+  if (!p.Gpu && !deviceReported.exchange(true))
+  {
+    vtkErrorMacro(<< "Segmentation Volume: no usable Vulkan device, nothing is drawn ("
+                  << contextError << ")");
+  }
+  return p.Gpu != nullptr;
+}
+
+int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
+{
+  Impl& p = *this->P;
+  auto* ren = vtkOpenGLRenderer::SafeDownCast(viewport);
+  // Hardware selection (picking) has no use for our colours; an input that did not resolve or
+  // materials that did not apply (PrepareRender reported why) draw nothing.
+  if (!ren || ren->GetSelector() || !p.Source.shared || !p.Prepared)
+  {
+    return 0;
+  }
+  auto* win = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
+  auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
+  csgvrep::FrameRequest request;
+  int x0 = 0, y0 = 0;
+  if (!win || !camera || !this->HaveDevice() || !frameRequest(ren, camera, win, request, x0, y0))
+  {
+    return 0;
+  }
+  // In the volumetric pass (translucent materials) rays stop at the opaque geometry's depth.
+  if (!opaquePass &&
+    readOpaqueDepth(win->GetState(), x0, y0, int(request.width), int(request.height), p.Depth))
+  {
+    request.opaqueDepth = p.Depth.data();
+  }
+
+  bool changed = false;
+  const std::string error = p.View.render(request, changed);
+  if (!error.empty())
+  {
+    this->Report(error);
+    return 0;
+  }
+  p.LastError.clear();
+  const csgv::gpu::FrameOutput& out = p.View.output();
+  if (out.width != request.width || out.height != request.height || out.rgba.empty())
+  {
+    return 0;
+  }
+  return this->UploadTextures(win, changed) && this->Composite(win) ? 1 : 0;
 }
 
 void vtkCSGVVolumeProp::ReleaseGraphicsResources(vtkWindow* window)

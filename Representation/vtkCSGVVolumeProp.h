@@ -32,6 +32,7 @@
 #include <string>
 
 class vtkImageData;
+class vtkOpenGLRenderWindow;
 class vtkWindow;
 
 namespace csgvrep
@@ -53,6 +54,11 @@ public:
   void SetInput(vtkImageData* image, const csgvrep::VolumeSource& source, const std::string& error);
   /// True when the input resolved to a volume.
   bool HasInput();
+  /// Hands the view renderer the materials and the attribute arrays they name (building the
+  /// attribute table, computed attributes included, when they changed): called by the
+  /// representation before each render (REQUEST_RENDER), so that Draw only renders and
+  /// composites. False (reported once) when there is nothing to draw.
+  bool PrepareRender();
   void SetViewSettings(const csgvrep::ViewSettings& settings);
   /// The material document (MATERIALS.md); errors are reported and nothing is drawn.
   void SetMaterials(const std::string& json);
@@ -87,7 +93,15 @@ private:
   vtkCSGVVolumeProp(const vtkCSGVVolumeProp&) = delete;
   void operator=(const vtkCSGVVolumeProp&) = delete;
 
+  /// One pass: render through the view renderer (nothing when its output is still exact), then
+  /// upload the output and composite it with depth.
   int Draw(vtkViewport* viewport, bool opaquePass);
+  /// The shared Vulkan context is there (reported once per process when not).
+  bool HaveDevice();
+  /// The last output as colour and depth textures (uploaded again only when it changed).
+  bool UploadTextures(vtkOpenGLRenderWindow* window, bool changed);
+  /// Draws the textures over the framebuffer with depth test and premultiplied blending.
+  bool Composite(vtkOpenGLRenderWindow* window);
   void Report(const std::string& message);
 
   struct Impl;
