@@ -93,6 +93,11 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   {
     return defaultsJson();
   }
+  if (what == "stats")
+  {
+    const std::shared_ptr<VolumeCache> cache = VolumeCache::instance();
+    return json({ { "parses", cache->parses() }, { "compressions", cache->compressions() } }).dump();
+  }
 
   const VolumeSource& source = c.source;
   std::shared_ptr<const csgv::AttributeTable> table;

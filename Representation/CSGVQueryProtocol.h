@@ -21,6 +21,7 @@
  * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, 0xFFFFFFFF where no opaque voxel was hit (base64 by vtkBase64Utilities) |
  * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...], "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that a material takes |
  * | `defaults`   | JSON of the representation's property defaults (csgvrep::RepresentationProperties): `{"CSGVShading": 0, ...}` keyed like the server-manager XML, for the test that keeps both equal |
+ * | `stats`      | JSON `{"parses": n, "compressions": n}`: how often this process parsed a CSGV encoding and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
  * | other        | JSON `{"error": "unknown query '<word>'"}` |
  *
  * Not a wrapped header: Core and VulkanBackend types may appear here.

@@ -10,7 +10,7 @@
  * (the representation's own information properties would read the client's empty copy). Set
  * `Representation` to the composite representation's subproxy "CSGVSegmentationVolume", set
  * `Request`, push, then UpdatePropertyInformation and read `Result`. The commands (summary,
- * pick X Y, labels, colors N, defaults), their arguments and replies are listed in one place:
+ * pick X Y, labels, colors N, defaults, stats), their arguments and replies are listed in one place:
  * Representation/CSGVQueryProtocol.h.
  */
 #ifndef vtkCSGVQuery_h

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 """The query protocol of the Segmentation Volume (Representation/CSGVQueryProtocol.h), one check
-per command: summary, pick X Y, labels, colors N, defaults, and an unknown command. The
+per command: summary, pick X Y, labels, colors N, defaults, stats, and an unknown command. The
 `defaults` reply is compared with the server-manager XML's defaults: each default lives in the
 XML and is mirrored once in C++ (csgvrep::RepresentationProperties); this keeps them equal."""
 import base64
@@ -33,6 +33,7 @@ for name, value in sorted(defaults.items()):
     same = np.allclose(np.array(xml, dtype=float), np.array(value, dtype=float).ravel())
     t.check(same, "default of %s: XML %r, C++ %r" % (name, xml, value))
 t.check(len(defaults) >= 11, "defaults lists every property (%d)" % len(defaults))
+t.check(json.loads(ct.query(d, "stats")).get("compressions") == 0, "stats: a .csgv is never compressed again")
 
 d.CSGVFramesPerStillRender = 1
 v.ResetCamera()
@@ -63,6 +64,18 @@ t.check(p.get("hit") is False and "error" in p, "pick outside the image: no hit,
 c = json.loads(ct.query(d, "colors 5"))
 t.check(len(c.get("labels", [])) <= 5 and c.get("truncated") is True and
         all(len(e) == 5 for e in c["labels"]), "colors 5: at most 5 entries [label, r, g, b, name], truncated")
+
+# stats: the encoding was parsed once; renders, camera moves and pipeline updates that keep the
+# same encoding array parse nothing more, and nothing was compressed (the encoding is used as is).
+before = json.loads(ct.query(d, "stats"))
+cam = v.GetActiveCamera()
+for i in range(4):
+    d.CSGVLabelArray = "Labels" if i % 2 == 0 else ""
+    cam.Azimuth(3.0)
+    t.screenshot(v, W, H, "stats%d.png" % i)
+after = json.loads(ct.query(d, "stats"))
+t.check(after["parses"] == before["parses"] >= 1 and after["compressions"] == before["compressions"],
+        "stats: no parse or compression on renders and updates of the same data (%r -> %r)" % (before, after))
 
 # unknown
 u = json.loads(ct.query(d, "frobnicate"))
