@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVExtract.h"
 
-#include "vtkCSGVInternals.h"
+#include "CSGVAdapter.h"
 #include "vtkCSGVReader.h"
 
 #include <vtkCellData.h>
@@ -20,8 +20,21 @@
 
 vtkStandardNewMacro(vtkCSGVExtract);
 
-vtkCSGVExtract::vtkCSGVExtract() = default;
-vtkCSGVExtract::~vtkCSGVExtract() = default;
+class vtkCSGVExtract::vtkInternals
+{
+public:
+  csgvvtk::EncodingMemo Encoding;
+};
+
+vtkCSGVExtract::vtkCSGVExtract()
+  : Internals(new vtkInternals)
+{
+}
+
+vtkCSGVExtract::~vtkCSGVExtract()
+{
+  delete this->Internals;
+}
 
 int vtkCSGVExtract::FillInputPortInformation(int, vtkInformation* info)
 {
@@ -41,11 +54,14 @@ bool vtkCSGVExtract::InputVolumeInfo(vtkInformation* inInfo, int dims[3], int& l
   }
   // Not straight from the reader: use the encoding of data that already exists upstream.
   vtkImageData* input = vtkImageData::SafeDownCast(inInfo->Get(vtkDataObject::DATA_OBJECT()));
-  csgvvtk::EncodedInput enc;
-  if (!input || !csgvvtk::readEncodingArrays(input->GetFieldData(), enc).empty())
+  std::string error;
+  std::shared_ptr<const csgvvtk::EncodedInput> parsed =
+    input ? this->Internals->Encoding.get(input->GetFieldData(), error) : nullptr;
+  if (!parsed)
   {
     return false;
   }
+  const csgvvtk::EncodedInput& enc = *parsed;
   for (int a = 0; a < 3; ++a)
   {
     dims[a] = int(enc.volume.dim[a]);
@@ -124,13 +140,15 @@ int vtkCSGVExtract::RequestData(
   {
     return 1; // RequestInformation reported why there is nothing to extract
   }
-  csgvvtk::EncodedInput enc;
-  const std::string error = csgvvtk::readEncodingArrays(input->GetFieldData(), enc);
-  if (!error.empty())
+  std::string error;
+  std::shared_ptr<const csgvvtk::EncodedInput> parsed =
+    this->Internals->Encoding.get(input->GetFieldData(), error);
+  if (!parsed)
   {
     vtkErrorMacro(<< error);
     return 1; // reported once; the output stays empty
   }
+  const csgvvtk::EncodedInput& enc = *parsed;
   const int dims[3] = { int(enc.volume.dim[0]), int(enc.volume.dim[1]), int(enc.volume.dim[2]) };
   const int lod = std::min<int>(this->Level, int(enc.volume.levels()) - 1);
   int box[6];

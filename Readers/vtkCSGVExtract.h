@@ -59,6 +59,9 @@ private:
   bool InputVolumeInfo(vtkInformation* inInfo, int dims[3], int& levels, double geometry[15]);
   /// The level image's cell box covering the VOI (half-open), for the given input info.
   void LevelBox(const int dims[3], int lod, int box[6]) const;
+
+  class vtkInternals; ///< the input's encoding, parsed once per encoding array and time
+  vtkInternals* Internals;
 };
 
 #endif

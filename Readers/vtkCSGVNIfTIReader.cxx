@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVNIfTIReader.h"
 
-#include "vtkCSGVInternals.h"
+#include "CSGVAdapter.h"
 
 #include "csgv/inputs/Inputs.h"
 

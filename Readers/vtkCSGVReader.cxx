@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVReader.h"
 
-#include "vtkCSGVInternals.h"
+#include "CSGVAdapter.h"
 
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Encoder.h"
@@ -53,6 +53,7 @@ public:
   bool Loaded = false;
 
   vtkSmartPointer<vtkUnsignedCharArray> Encoding; ///< the container bytes (FieldData)
+  csgv::CompressedVolume Volume; ///< the same, parsed once when loaded (RequestData decodes it)
   csgvvtk::LabelInfo Info;
   csgv::Geometry Geometry; ///< corner origin, level 0
   std::array<uint32_t, 3> Dim{ { 0, 0, 0 } };
@@ -76,6 +77,7 @@ public:
     }
     this->Loaded = false;
     this->Encoding = nullptr;
+    this->Volume = csgv::CompressedVolume{};
     this->Range = nullptr;
     this->Attributes.clear();
     this->Info = csgvvtk::LabelInfo{};
@@ -97,8 +99,22 @@ public:
 private:
   std::string LoadCsgv(const std::string& path, uint64_t bytes)
   {
-    // openCsgv gives every caller the same checks of the container and its sidecars.
-    csgv::Result<csgv::CsgvFile> file = csgv::openCsgv(path);
+    // The file's bytes, read once and unchanged, are the encoding handed downstream (no
+    // re-serialisation); openCsgv parses those same bytes and gives every caller the same checks
+    // of the container and its sidecars.
+    std::ifstream in(path, std::ios::binary);
+    vtkNew<vtkUnsignedCharArray> enc;
+    if (!in || !enc->Allocate(static_cast<vtkIdType>(bytes)))
+    {
+      return "cannot read '" + path + "'";
+    }
+    enc->SetNumberOfValues(static_cast<vtkIdType>(bytes));
+    in.read(reinterpret_cast<char*>(enc->GetPointer(0)), static_cast<std::streamsize>(bytes));
+    if (uint64_t(in.gcount()) != bytes || in.peek() != std::ifstream::traits_type::eof())
+    {
+      return "'" + path + "' changed while it was read";
+    }
+    csgv::Result<csgv::CsgvFile> file = csgv::openCsgv(path, enc->GetPointer(0), size_t(bytes));
     if (!file)
     {
       return file.message();
@@ -123,20 +139,8 @@ private:
     this->Dim = f.volume.dim;
     this->Levels = f.volume.levels();
     this->Range = csgvvtk::paletteRange(f.volume, this->Info);
+    this->Volume = std::move(file->volume);
 
-    // The file's bytes, unchanged, are the encoding handed downstream: no re-serialisation.
-    std::ifstream in(path, std::ios::binary);
-    vtkNew<vtkUnsignedCharArray> enc;
-    if (!in || !enc->Allocate(static_cast<vtkIdType>(bytes)))
-    {
-      return "cannot read '" + path + "'";
-    }
-    enc->SetNumberOfValues(static_cast<vtkIdType>(bytes));
-    in.read(reinterpret_cast<char*>(enc->GetPointer(0)), static_cast<std::streamsize>(bytes));
-    if (uint64_t(in.gcount()) != bytes || in.peek() != std::ifstream::traits_type::eof())
-    {
-      return "'" + path + "' changed while it was read";
-    }
     this->Encoding = enc;
     return std::string();
   }
@@ -166,6 +170,7 @@ private:
     this->Levels = vol->levels();
     this->Range = csgvvtk::paletteRange(*vol, this->Info);
     const std::vector<uint8_t> bytes = csgv::serializeCsgv(*vol);
+    this->Volume = std::move(*vol);
     vtkNew<vtkUnsignedCharArray> enc;
     enc->SetNumberOfValues(static_cast<vtkIdType>(bytes.size()));
     std::copy(bytes.begin(), bytes.end(), enc->GetPointer(0));
@@ -312,19 +317,10 @@ int vtkCSGVReader::RequestData(
     box.min[a] = static_cast<uint32_t>(lo);
     box.max[a] = static_cast<uint32_t>(hi);
   }
-  csgv::Result<csgv::CompressedVolume> vol = csgv::parseCsgv(
-    in.Encoding->GetPointer(0), static_cast<size_t>(in.Encoding->GetNumberOfValues()));
-  if (!vol)
-  {
-    vtkErrorMacro(<< this->FileName << ": " << vol.message());
-    output->Initialize();
-    return 1; // reported once: a failed request would be re-executed and reported again
-
-  }
   this->UpdateProgress(0.05);
   csgvvtk::DecodedLabels decoded;
   const std::string error = csgvvtk::decodeBox(
-    *vol, lod, box, in.Info, [this](double f) { this->UpdateProgress(0.05 + 0.95 * f); }, decoded);
+    in.Volume, lod, box, in.Info, [this](double f) { this->UpdateProgress(0.05 + 0.95 * f); }, decoded);
   if (!error.empty())
   {
     vtkErrorMacro(<< this->FileName << ": " << error);

@@ -9,15 +9,9 @@
  * its information property `Result` is read where the data lives, also in client/server mode
  * (the representation's own information properties would read the client's empty copy). Set
  * `Representation` to the composite representation's subproxy "CSGVSegmentationVolume", set
- * `Request`, push, then UpdatePropertyInformation and read `Result`:
- * - `summary`: JSON {"attributes": [{"name", "numeric", "min", "max"}], "labels": count of
- *   labels present, "labelArray": the label array's name, "error": why attributes failed};
- * - `pick X Y` (pixel of the last render, row 0 at the bottom): JSON {"hit", "label" (original),
- *   "voxel": [i, j, k], "world": [x, y, z], "attributes": {name: value or text}};
- * - `labels`: "W H BASE64" of the last render's label image (uint32 little-endian, row 0 at the
- *   bottom, 0xFFFFFFFF where no opaque voxel was hit);
- * - `colors N`: JSON {"labels": [[label, r, g, b, "name"]...], "truncated", "text"} for at most
- *   N labels present in the volume (labels no material takes are left out).
+ * `Request`, push, then UpdatePropertyInformation and read `Result`. The commands (summary,
+ * pick X Y, labels, colors N, defaults, stats), their arguments and replies are listed in one place:
+ * Representation/CSGVQueryProtocol.h.
  */
 #ifndef vtkCSGVQuery_h
 #define vtkCSGVQuery_h

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVRepresentation.h"
 
-#include "vtkCSGVAttributes.h"
-#include "vtkCSGVBackend.h"
+#include "CSGVAttributes.h"
+#include "CSGVViewRenderer.h"
+#include "CSGVVolumeCache.h"
 #include "vtkCSGVVolumeProp.h"
 
 #include <vtkAlgorithm.h>
@@ -18,16 +19,44 @@
 
 vtkStandardNewMacro(vtkCSGVRepresentation);
 
+/// @brief What the input resolved to, remembered per (image, modification time, label array),
+/// so that REQUEST_UPDATE and REQUEST_RENDER of an unchanged input do no work at all.
+struct vtkCSGVRepresentation::vtkInternals
+{
+  std::shared_ptr<csgvrep::VolumeCache> Volumes = csgvrep::VolumeCache::instance();
+  vtkImageData* Image = nullptr; ///< identity only (Cache or the delivered piece keeps it alive)
+  vtkMTimeType ImageTime = 0;
+  std::string Array;
+  bool Resolved = false;
+  csgvrep::VolumeSource Source;
+  std::string Error;
+  std::string Reported; ///< the last error reported (each is said once)
+};
+
 vtkCSGVRepresentation::vtkCSGVRepresentation()
   : Prop(vtkCSGVVolumeProp::New())
+  , Internals(new vtkInternals)
 {
-  this->PushSettings();
+  // One set of defaults: csgvrep::RepresentationProperties mirrors the XML.
+  const csgvrep::RepresentationProperties d;
+  this->Shading = d.shading;
+  this->ShadingBlend = d.shadingBlend;
+  this->FramesPerStillRender = d.framesPerStillRender;
+  this->StillRenderTimeBudget = d.stillRenderTimeBudget;
+  this->LODBias = d.lodBias;
+  this->Subsampling = d.subsampling;
+  this->Denoise = d.denoise;
+  std::copy(d.lightDirection.begin(), d.lightDirection.end(), this->LightDirection);
+  this->CacheSizeMiB = d.cacheSizeMiB;
+  std::copy(d.clipBox.begin(), d.clipBox.end(), this->ClipBox);
+  this->ComputedAttributes = d.computedAttributes;
   this->Prop->SetMaterials("");
 }
 
 vtkCSGVRepresentation::~vtkCSGVRepresentation()
 {
   this->Prop->Delete();
+  delete this->Internals;
 }
 
 void vtkCSGVRepresentation::PrintSelf(ostream& os, vtkIndent indent)
@@ -35,6 +64,36 @@ void vtkCSGVRepresentation::PrintSelf(ostream& os, vtkIndent indent)
   this->Superclass::PrintSelf(os, indent);
   os << indent << "LabelArray: " << this->LabelArray << "\n";
   os << indent << "Shading: " << this->Shading << "\n";
+  os << indent << "ShadingBlend: " << this->ShadingBlend << "\n";
+  os << indent << "FramesPerStillRender: " << this->FramesPerStillRender << "\n";
+  os << indent << "StillRenderTimeBudget: " << this->StillRenderTimeBudget << "\n";
+  os << indent << "LODBias: " << this->LODBias << "\n";
+  os << indent << "Subsampling: " << this->Subsampling << "\n";
+  os << indent << "Denoise: " << this->Denoise << "\n";
+  os << indent << "LightDirection: " << this->LightDirection[0] << " " << this->LightDirection[1]
+     << " " << this->LightDirection[2] << "\n";
+  os << indent << "CacheSizeMiB: " << this->CacheSizeMiB << "\n";
+  os << indent << "ClipBox:";
+  for (int v : this->ClipBox)
+  {
+    os << " " << v;
+  }
+  os << "\n";
+  os << indent << "AttributeFiles:";
+  for (const std::string& f : this->AttributeFiles)
+  {
+    os << " '" << f << "'";
+  }
+  os << "\n";
+  os << indent << "DerivedAttributes:";
+  for (size_t i = 0; i + 1 < this->DerivedAttributes.size(); i += 2)
+  {
+    os << " " << this->DerivedAttributes[i] << " = '" << this->DerivedAttributes[i + 1] << "'";
+  }
+  os << "\n";
+  os << indent << "ComputedAttributes: " << this->ComputedAttributes << "\n";
+  os << indent << "Prop:\n";
+  this->Prop->PrintSelf(os, indent.GetNextIndent());
 }
 
 int vtkCSGVRepresentation::FillInputPortInformation(int, vtkInformation* info)
@@ -61,6 +120,40 @@ int vtkCSGVRepresentation::RequestData(
   return this->Superclass::RequestData(request, inputVector, outputVector);
 }
 
+bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image)
+{
+  vtkInternals& in = *this->Internals;
+  const vtkMTimeType t = image ? image->GetMTime() : 0;
+  if (!in.Resolved || image != in.Image || t != in.ImageTime || this->LabelArray != in.Array)
+  {
+    in.Image = image;
+    in.ImageTime = t;
+    in.Array = this->LabelArray;
+    in.Resolved = true;
+    // Held until the new input resolved: a new image sharing the old one's arrays (the pipeline
+    // re-executed, the label array named again) finds the volume still in the cache.
+    const csgvrep::VolumeSource previous = std::move(in.Source);
+    in.Source = csgvrep::VolumeSource{};
+    in.Error.clear();
+    if (image && image->GetNumberOfPoints() > 0)
+    {
+      // Parsing an encoding or compressing a plain array happens here, in the data phase, and
+      // once per (array, modification time) in the process (the volume cache).
+      in.Error = in.Volumes->resolve(image, this->LabelArray, in.Source);
+    }
+  }
+  if (!in.Error.empty() && in.Error != in.Reported)
+  {
+    in.Reported = in.Error;
+    vtkErrorMacro(<< "Segmentation Volume: " << in.Error);
+  }
+  else if (in.Error.empty())
+  {
+    in.Reported.clear();
+  }
+  return in.Source.shared != nullptr;
+}
+
 int vtkCSGVRepresentation::ProcessViewRequest(
   vtkInformationRequestKey* request, vtkInformation* inInfo, vtkInformation* outInfo)
 {
@@ -74,7 +167,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     // The data stays where it is (the server in client/server mode): images travel, not labels.
     vtkPVRenderView::SetDeliverToClientAndRenderingProcesses(inInfo, this, false, false);
     double bounds[6];
-    if (this->Cache && csgvrep::inputBounds(this->Cache, this->LabelArray, bounds))
+    if (this->Cache && this->ResolveInput(this->Cache) && this->Internals->Source.bounds(bounds))
     {
       vtkPVRenderView::SetGeometryBounds(inInfo, this, bounds);
     }
@@ -82,7 +175,24 @@ int vtkCSGVRepresentation::ProcessViewRequest(
   }
   else if (request == vtkPVView::REQUEST_RENDER())
   {
-    this->Prop->SetInputImage(vtkImageData::SafeDownCast(vtkPVView::GetDeliveredPiece(inInfo, this)));
+    auto* image = vtkImageData::SafeDownCast(vtkPVView::GetDeliveredPiece(inInfo, this));
+    this->ResolveInput(image);
+    this->Prop->SetInput(image, this->Internals->Source, this->Internals->Error);
+    // Every property, gathered once per render (the view renderer detects what changed).
+    csgvrep::RepresentationProperties p;
+    p.shading = this->Shading;
+    p.shadingBlend = this->ShadingBlend;
+    p.framesPerStillRender = this->FramesPerStillRender;
+    p.stillRenderTimeBudget = this->StillRenderTimeBudget;
+    p.lodBias = this->LODBias;
+    p.subsampling = this->Subsampling;
+    p.denoise = this->Denoise;
+    std::copy(this->LightDirection, this->LightDirection + 3, p.lightDirection.begin());
+    p.cacheSizeMiB = this->CacheSizeMiB;
+    std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
+    p.computedAttributes = this->ComputedAttributes;
+    this->Prop->SetViewSettings(csgvrep::toViewSettings(p));
+    this->Prop->PrepareRender();
   }
   return 1;
 }
@@ -115,103 +225,14 @@ void vtkCSGVRepresentation::SetVisibility(bool visible)
   this->Prop->SetVisibility(visible);
 }
 
-void vtkCSGVRepresentation::PushSettings()
-{
-  csgvrep::ViewSettings s;
-  s.render.shading = csgv::gpu::Shading(std::clamp(this->Shading, 0, 3));
-  s.render.shadingBlend = float(std::clamp(this->ShadingBlend, 0.0, 1.0));
-  s.render.lodBias = float(this->LODBias);
-  int sub = 1;
-  while (sub < 8 && sub < this->Subsampling)
-  {
-    sub *= 2;
-  }
-  s.render.subsampling = uint32_t(sub);
-  s.render.denoise = this->Denoise != 0;
-  for (int i = 0; i < 3; ++i)
-  {
-    s.render.lightDirection[i] = float(this->LightDirection[i]);
-  }
-  s.cacheBytes = uint64_t(std::max(16, this->CacheSizeMiB)) << 20;
-  s.framesPerStillRender = uint32_t(std::max(1, this->FramesPerStillRender));
-  s.stillRenderTimeBudget = std::max(0.0, this->StillRenderTimeBudget);
-  std::copy(this->ClipBox, this->ClipBox + 6, s.clipBox.begin());
-  this->Prop->SetViewSettings(s);
-  this->Modified();
-}
-
 void vtkCSGVRepresentation::SetLabelArray(const char* name)
 {
   const std::string n = name ? name : "";
   if (n != this->LabelArray)
   {
     this->LabelArray = n;
-    this->Prop->SetLabelArrayName(n);
     this->MarkModified(); // bounds may change (cell vs point data)
   }
-}
-
-void vtkCSGVRepresentation::SetShading(int mode)
-{
-  this->Shading = mode;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetShadingBlend(double blend)
-{
-  this->ShadingBlend = blend;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetFramesPerStillRender(int frames)
-{
-  this->FramesPerStillRender = frames;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetStillRenderTimeBudget(double seconds)
-{
-  this->StillRenderTimeBudget = seconds;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetLODBias(double bias)
-{
-  this->LODBias = bias;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetSubsampling(int s)
-{
-  this->Subsampling = s;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetDenoise(int on)
-{
-  this->Denoise = on;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetLightDirection(double x, double y, double z)
-{
-  this->LightDirection[0] = x;
-  this->LightDirection[1] = y;
-  this->LightDirection[2] = z;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetCacheSizeMiB(int mib)
-{
-  this->CacheSizeMiB = mib;
-  this->PushSettings();
-}
-
-void vtkCSGVRepresentation::SetClipBox(int x0, int x1, int y0, int y1, int z0, int z1)
-{
-  const int box[6] = { x0, x1, y0, y1, z0, z1 };
-  std::copy(box, box + 6, this->ClipBox);
-  this->PushSettings();
 }
 
 void vtkCSGVRepresentation::SetMaterials(const char* json)
@@ -292,6 +313,12 @@ const char* vtkCSGVRepresentation::Query(const char* request)
     // the input here first. Queries run on the rendering processes only (vtkCSGVQuery).
     this->Update();
   }
-  this->QueryResult = this->Prop->Query(request ? request : "", this->Cache);
+  if (!this->Prop->HasInput() && this->Cache)
+  {
+    // Nothing rendered yet: the query answers from the input resolved now.
+    this->ResolveInput(this->Cache);
+    this->Prop->SetInput(this->Cache, this->Internals->Source, this->Internals->Error);
+  }
+  this->QueryResult = this->Prop->Query(request ? request : "");
   return this->QueryResult.c_str();
 }

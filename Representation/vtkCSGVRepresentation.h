@@ -41,26 +41,43 @@ public:
 
   /// Label array by name ("": the CSGV encoding if present, else the first integer array).
   void SetLabelArray(const char* name);
-  /// 0 local, 1 shadow, 2 ambient occlusion, 3 path tracing.
-  void SetShading(int mode);
-  /// 0: local shading only ... 1: the chosen shading mode only.
-  void SetShadingBlend(double blend);
-  /// Samples per pixel a still render accumulates (within StillRenderTimeBudget).
-  void SetFramesPerStillRender(int frames);
-  /// Seconds a still render may spend accumulating (past the first complete sample).
-  void SetStillRenderTimeBudget(double seconds);
-  /// Added to log2(pixel footprint / voxel) when choosing levels of detail (< 0: finer).
-  void SetLODBias(double bias);
-  /// 1, 2, 4 or 8: a frame renders 1/s^2 of the pixels.
-  void SetSubsampling(int s);
-  /// A-trous denoising of ambient occlusion and path tracing.
-  void SetDenoise(int on);
-  /// Direction towards the key light in view coordinates (x right, y up, z to the viewer).
-  void SetLightDirection(double x, double y, double z);
-  /// Brick cache budget in MiB, shared by the views of one volume.
-  void SetCacheSizeMiB(int mib);
-  /// Voxel box drawn, inclusive: xmin xmax ymin ymax zmin zmax (clamped to the volume).
-  void SetClipBox(int x0, int x1, int y0, int y1, int z0, int z1);
+  const char* GetLabelArray() { return this->LabelArray.c_str(); }
+
+  // The properties below are gathered into the backend's settings once per render. Defaults:
+  // the server-manager XML, mirrored by csgvrep::RepresentationProperties (CSGVViewRenderer.h).
+
+  /// 0 local, 1 shadow, 2 ambient occlusion, 3 path tracing (default 0).
+  vtkSetMacro(Shading, int);
+  vtkGetMacro(Shading, int);
+  /// 0: local shading only ... 1: the chosen shading mode only (default 1).
+  vtkSetMacro(ShadingBlend, double);
+  vtkGetMacro(ShadingBlend, double);
+  /// Samples per pixel a still render accumulates within StillRenderTimeBudget (default 16).
+  vtkSetMacro(FramesPerStillRender, int);
+  vtkGetMacro(FramesPerStillRender, int);
+  /// Seconds a still render may spend accumulating past the first complete sample (default 3).
+  vtkSetMacro(StillRenderTimeBudget, double);
+  vtkGetMacro(StillRenderTimeBudget, double);
+  /// Added to log2(pixel footprint / voxel) when choosing levels of detail (< 0: finer; default 0).
+  vtkSetMacro(LODBias, double);
+  vtkGetMacro(LODBias, double);
+  /// 1, 2, 4 or 8: a frame renders 1/s^2 of the pixels (default 1).
+  vtkSetMacro(Subsampling, int);
+  vtkGetMacro(Subsampling, int);
+  /// A-trous denoising of ambient occlusion and path tracing (default on).
+  vtkSetMacro(Denoise, int);
+  vtkGetMacro(Denoise, int);
+  /// Direction towards the key light in view coordinates (x right, y up, z to the viewer;
+  /// default 0.35 0.6 0.72).
+  vtkSetVector3Macro(LightDirection, double);
+  vtkGetVector3Macro(LightDirection, double);
+  /// Brick cache budget in MiB, shared by the views of one volume (default 256).
+  vtkSetMacro(CacheSizeMiB, int);
+  vtkGetMacro(CacheSizeMiB, int);
+  /// Voxel box drawn, inclusive: xmin xmax ymin ymax zmin zmax (clamped to the volume; default
+  /// the whole volume).
+  vtkSetVector6Macro(ClipBox, int);
+  vtkGetVector6Macro(ClipBox, int);
   /// The material document of MATERIALS.md ("": the default document); ParaView preset names
   /// are resolved here. A malformed document is reported and nothing is drawn.
   void SetMaterials(const char* json);
@@ -75,9 +92,10 @@ public:
   void AddDerivedAttribute(const char* name, const char* expression);
   void ClearDerivedAttributes();
   void SetComputedAttributes(int on);
+  vtkGetMacro(ComputedAttributes, int);
 
-  /// Answers vtkCSGVQuery's requests (see vtkCSGVQuery.h); the text stays valid until the next
-  /// call.
+  /// Answers vtkCSGVQuery's requests (the commands: CSGVQueryProtocol.h); the text stays valid
+  /// until the next call.
   const char* Query(const char* request);
 
   /// Frames the last render accumulated and the fewest samples of any pixel after it (valid on
@@ -102,26 +120,32 @@ private:
   vtkCSGVRepresentation(const vtkCSGVRepresentation&) = delete;
   void operator=(const vtkCSGVRepresentation&) = delete;
 
-  void PushSettings();
   void PushAttributes();
+  /// Resolves the input once per (image, modification time, label array) and reports a failure
+  /// once; returns true when there is something to draw.
+  bool ResolveInput(vtkImageData* image);
 
   vtkSmartPointer<vtkImageData> Cache;
   vtkCSGVVolumeProp* Prop;
   std::string LabelArray;
-  int Shading = 0;
-  double ShadingBlend = 1.0;
-  int FramesPerStillRender = 16;
-  double StillRenderTimeBudget = 3.0;
-  double LODBias = 0.0;
-  int Subsampling = 1;
-  int Denoise = 1;
-  double LightDirection[3] = { 0.35, 0.6, 0.72 };
-  int CacheSizeMiB = 256;
-  int ClipBox[6] = { 0, 2147483647, 0, 2147483647, 0, 2147483647 };
+  // Initialised from csgvrep::RepresentationProperties in the constructor (one set of defaults).
+  int Shading;
+  double ShadingBlend;
+  int FramesPerStillRender;
+  double StillRenderTimeBudget;
+  double LODBias;
+  int Subsampling;
+  int Denoise;
+  double LightDirection[3];
+  int CacheSizeMiB;
+  int ClipBox[6];
   std::vector<std::string> AttributeFiles;
   std::vector<std::string> DerivedAttributes; ///< name, expression, name, expression...
-  int ComputedAttributes = 0;
+  int ComputedAttributes;
   std::string QueryResult;
+
+  struct vtkInternals;
+  vtkInternals* Internals;
 };
 
 #endif

@@ -32,12 +32,14 @@
 #include <string>
 
 class vtkImageData;
+class vtkOpenGLRenderWindow;
 class vtkWindow;
 
 namespace csgvrep
 {
 struct AttributeConfig;
 struct ViewSettings;
+struct VolumeSource;
 }
 
 class vtkCSGVVolumeProp : public vtkProp3D
@@ -47,18 +49,24 @@ public:
   vtkTypeMacro(vtkCSGVVolumeProp, vtkProp3D);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
-  /// The image to draw (the delivered piece) and the label array ("": automatic).
-  void SetInputImage(vtkImageData* image);
-  void SetLabelArrayName(const std::string& name);
+  /// The image to draw (the delivered piece) and what it resolved to in the representation's
+  /// data phase (the error when it did not): Draw only renders and composites.
+  void SetInput(vtkImageData* image, const csgvrep::VolumeSource& source, const std::string& error);
+  /// True when the input resolved to a volume.
+  bool HasInput();
+  /// Hands the view renderer the materials and the attribute arrays they name (building the
+  /// attribute table, computed attributes included, when they changed): called by the
+  /// representation before each render (REQUEST_RENDER), so that Draw only renders and
+  /// composites. False (reported once) when there is nothing to draw.
+  bool PrepareRender();
   void SetViewSettings(const csgvrep::ViewSettings& settings);
   /// The material document (MATERIALS.md); errors are reported and nothing is drawn.
   void SetMaterials(const std::string& json);
-  /// Where per-label attributes come from besides the input's FieldData (vtkCSGVAttributes.h).
+  /// Where per-label attributes come from besides the input's FieldData (CSGVAttributes.h).
   void SetAttributeConfig(const csgvrep::AttributeConfig& config);
 
-  /// Answers a query of vtkCSGVQuery (JSON or text, see vtkCSGVQuery.h): "summary",
-  /// "pick X Y", "labels", "colors N". `image` is used when nothing was rendered yet.
-  std::string Query(const std::string& request, vtkImageData* image);
+  /// Answers a query of vtkCSGVQuery (the commands: CSGVQueryProtocol.h).
+  std::string Query(const std::string& request);
 
   double* GetBounds() override;
   using vtkProp3D::GetBounds;
@@ -85,7 +93,15 @@ private:
   vtkCSGVVolumeProp(const vtkCSGVVolumeProp&) = delete;
   void operator=(const vtkCSGVVolumeProp&) = delete;
 
+  /// One pass: render through the view renderer (nothing when its output is still exact), then
+  /// upload the output and composite it with depth.
   int Draw(vtkViewport* viewport, bool opaquePass);
+  /// The shared Vulkan context is there (reported once per process when not).
+  bool HaveDevice();
+  /// The last output as colour and depth textures (uploaded again only when it changed).
+  bool UploadTextures(vtkOpenGLRenderWindow* window, bool changed);
+  /// Draws the textures over the framebuffer with depth test and premultiplied blending.
+  bool Composite(vtkOpenGLRenderWindow* window);
   void Report(const std::string& message);
 
   struct Impl;

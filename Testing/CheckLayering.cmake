@@ -21,3 +21,13 @@ check_layer(VulkanBackend "vtk|Q[A-Z]|qt|pq|paraview" "VTK, ParaView or Qt heade
 check_layer(shaders "vtk|Q[A-Z]|pq" "VTK or Qt headers")
 check_layer(Readers "Q[A-Z]|qt|pq|vulkan/" "Qt or Vulkan headers")
 check_layer(Representation "Q[A-Z]|qt|pq" "Qt headers")
+
+# The representation uses the readers' public adapter (CSGVAdapter.h) through its module
+# dependency: no private header of Readers/ (the former vtkCSGVInternals.h) and no path into it.
+check_layer(Representation "vtkCSGVInternals|[^\">]*Readers/" "private headers of Readers/")
+if(EXISTS "${SOURCE_DIR}/Representation/CMakeLists.txt")
+  file(READ "${SOURCE_DIR}/Representation/CMakeLists.txt" rep_cmake_text)
+  if(rep_cmake_text MATCHES "vtk_module_include[^)]*Readers")
+    message(SEND_ERROR "Representation/ must use CSGV::Readers through its module dependency, not an include path into Readers/")
+  endif()
+endif()

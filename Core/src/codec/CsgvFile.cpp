@@ -4,12 +4,11 @@
 
 namespace csgv {
 
-Result<CsgvFile> openCsgv(const std::string& path) {
-    CsgvFile f;
-    f.path = path;
-    Result<CompressedVolume> vol = readCsgv(path);
-    if (!vol) return vol.status();
-    f.volume = std::move(*vol);
+namespace {
+
+/// The sidecars of `f.path` (metadata, attribute database) for the volume already in `f`.
+Result<CsgvFile> openSidecars(CsgvFile f) {
+    const std::string& path = f.path;
     f.metadata.dim = f.volume.dim;
     const std::string mdPath = metadataPathFor(path);
     if (fileExists(mdPath)) {
@@ -36,6 +35,26 @@ Result<CsgvFile> openCsgv(const std::string& path) {
     f.attributes = std::move(*db);
     f.hasAttributes = true;
     return f;
+}
+
+} // namespace
+
+Result<CsgvFile> openCsgv(const std::string& path) {
+    CsgvFile f;
+    f.path = path;
+    Result<CompressedVolume> vol = readCsgv(path);
+    if (!vol) return vol.status();
+    f.volume = std::move(*vol);
+    return openSidecars(std::move(f));
+}
+
+Result<CsgvFile> openCsgv(const std::string& path, const uint8_t* bytes, size_t size) {
+    CsgvFile f;
+    f.path = path;
+    Result<CompressedVolume> vol = parseCsgv(bytes, size);
+    if (!vol) return Status(vol.status()).prefix(path);
+    f.volume = std::move(*vol);
+    return openSidecars(std::move(f));
 }
 
 } // namespace csgv

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 /**
- * @file vtkCSGVAttributes.h
+ * @file CSGVAttributes.h
  * @brief Per-label attributes of the "Segmentation Volume" representation: the table behind
  * materials, picking and the colour export, built from the input's `CSGVAttribute:*` FieldData
  * arrays (the reader's `_csgv.db3` columns), attribute files the user loads (CSV, whitespace
@@ -12,12 +12,13 @@
  *
  * Not a wrapped header: Core types appear here.
  */
-#ifndef vtkCSGVAttributes_h
-#define vtkCSGVAttributes_h
+#ifndef CSGVAttributes_h
+#define CSGVAttributes_h
 
-#include "vtkCSGVBackend.h"
+#include "CSGVVolumeCache.h"
 
 #include "csgv/attributes/Attributes.h"
+#include "csgv/materials/Materials.h"
 
 #include <vtkType.h>
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
-#include "vtkCSGVAttributes.h"
+#include "CSGVAttributes.h"
 
-#include "vtkCSGVInternals.h" // the readers' FieldData layout (Readers/)
+#include "CSGVAdapter.h" // the readers' FieldData contract (CSGV::Readers)
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>

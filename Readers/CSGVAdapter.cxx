@@ -1,19 +1,24 @@
 // SPDX-License-Identifier: MIT
-#include "vtkCSGVInternals.h"
+#include "CSGVAdapter.h"
 
 #include <vtkAOSDataArrayTemplate.h>
+#include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
 #include <vtkImageData.h>
+#include <vtkMatrix3x3.h>
 #include <vtkNew.h>
+#include <vtkPointData.h>
 #include <vtkStringArray.h>
 #include <vtkType.h>
 #include <vtkUnsignedCharArray.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <limits>
+#include <sstream>
 #include <type_traits>
 
 namespace csgvvtk
@@ -388,10 +393,14 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
   }
 }
 
+vtkUnsignedCharArray* encodingArray(vtkFieldData* fd)
+{
+  return fd ? vtkUnsignedCharArray::SafeDownCast(fd->GetAbstractArray(kEncodingName)) : nullptr;
+}
+
 std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out)
 {
-  vtkUnsignedCharArray* enc =
-    fd ? vtkUnsignedCharArray::SafeDownCast(fd->GetAbstractArray(kEncodingName)) : nullptr;
+  vtkUnsignedCharArray* enc = encodingArray(fd);
   if (!enc || enc->GetNumberOfComponents() != 1)
   {
     return "the input carries no CSGV encoding (FieldData array 'CSGVEncoding', as the CSGV reader "
@@ -447,12 +456,380 @@ std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out)
   return std::string();
 }
 
+std::shared_ptr<const EncodedInput> EncodingMemo::get(vtkFieldData* fd, std::string& error)
+{
+  vtkUnsignedCharArray* enc = encodingArray(fd);
+  const vtkMTimeType mtime = enc ? enc->GetMTime() : 0;
+  if (!enc || enc != this->Array || mtime != this->MTime)
+  {
+    auto parsed = std::make_shared<EncodedInput>();
+    this->Error = readEncodingArrays(fd, *parsed);
+    this->Parsed = this->Error.empty() ? parsed : nullptr;
+    this->Array = enc;
+    this->MTime = mtime;
+  }
+  error = this->Error;
+  return this->Parsed;
+}
+
 void applyGeometry(vtkImageData* image, const csgv::Geometry& corner, uint32_t lod)
 {
   const double scale = double(uint64_t(1) << lod);
   image->SetSpacing(corner.spacing[0] * scale, corner.spacing[1] * scale, corner.spacing[2] * scale);
   image->SetOrigin(corner.origin.data());
   image->SetDirectionMatrix(corner.direction.data());
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Which array, and where its voxels lie
+
+const char* labelTypeNameOf(int vtkType, csgv::LabelType& type)
+{
+  bool isSigned = true;
+  switch (vtkType)
+  {
+    case VTK_FLOAT: type = csgv::LabelType::F32; return csgv::labelTypeName(type);
+    case VTK_DOUBLE: type = csgv::LabelType::F64; return csgv::labelTypeName(type);
+    case VTK_UNSIGNED_CHAR:
+    case VTK_UNSIGNED_SHORT:
+    case VTK_UNSIGNED_INT:
+    case VTK_UNSIGNED_LONG:
+    case VTK_UNSIGNED_LONG_LONG: isSigned = false; break;
+    case VTK_CHAR: isSigned = std::numeric_limits<char>::is_signed; break; // numpy's int8
+    case VTK_SIGNED_CHAR:
+    case VTK_SHORT:
+    case VTK_INT:
+    case VTK_LONG:
+    case VTK_LONG_LONG:
+    case VTK_ID_TYPE: break;
+    default: return nullptr;
+  }
+  switch (vtkDataArray::GetDataTypeSize(vtkType))
+  {
+    case 1: type = isSigned ? csgv::LabelType::I8 : csgv::LabelType::U8; break;
+    case 2: type = isSigned ? csgv::LabelType::I16 : csgv::LabelType::U16; break;
+    case 4: type = isSigned ? csgv::LabelType::I32 : csgv::LabelType::U32; break;
+    case 8: type = isSigned ? csgv::LabelType::I64 : csgv::LabelType::U64; break;
+    default: return nullptr;
+  }
+  return csgv::labelTypeName(type);
+}
+
+vtkDataArray* findLabelArray(vtkImageData* image, const std::string& name, bool& isCell)
+{
+  vtkDataSetAttributes* attrs[2] = { image->GetCellData(), image->GetPointData() };
+  if (!name.empty())
+  {
+    for (int k = 0; k < 2; ++k)
+    {
+      if (vtkDataArray* a = attrs[k]->GetArray(name.c_str()))
+      {
+        isCell = k == 0;
+        return a;
+      }
+    }
+    return nullptr;
+  }
+  for (int wantInteger = 1; wantInteger >= 0; --wantInteger)
+  {
+    for (int k = 0; k < 2; ++k)
+    {
+      for (int i = 0; i < attrs[k]->GetNumberOfArrays(); ++i)
+      {
+        vtkDataArray* a = attrs[k]->GetArray(i);
+        csgv::LabelType t;
+        if (!a || a->GetNumberOfComponents() != 1 || !labelTypeNameOf(a->GetDataType(), t) ||
+          (a->GetName() && std::strncmp(a->GetName(), "vtk", 3) == 0))
+        {
+          continue;
+        }
+        const bool integer = t != csgv::LabelType::F32 && t != csgv::LabelType::F64;
+        if (integer == bool(wantInteger))
+        {
+          isCell = k == 0;
+          return a;
+        }
+      }
+    }
+  }
+  return nullptr;
+}
+
+csgv::Geometry imageGeometry(vtkImageData* image, bool isCell, std::array<uint32_t, 3>& dims)
+{
+  int ext[6];
+  image->GetExtent(ext);
+  csgv::Geometry g;
+  const double* spacing = image->GetSpacing();
+  const double* origin = image->GetOrigin();
+  const double* dir = image->GetDirectionMatrix()->GetData();
+  for (int i = 0; i < 9; ++i)
+  {
+    g.direction[i] = dir[i];
+  }
+  for (int r = 0; r < 3; ++r)
+  {
+    g.spacing[r] = spacing[r];
+    double w = origin[r];
+    for (int c = 0; c < 3; ++c)
+    {
+      w += dir[3 * r + c] * ext[2 * c] * spacing[c];
+    }
+    g.origin[r] = w; // world position of the extent's first point
+  }
+  for (int i = 0; i < 3; ++i)
+  {
+    const int points = ext[2 * i + 1] - ext[2 * i] + 1;
+    dims[i] = uint32_t(std::max(isCell ? points - 1 : points, 1));
+  }
+  return isCell ? g : csgv::cellGeometryFromPointGeometry(g);
+}
+
+void worldBounds(const csgv::Geometry& g, const std::array<uint32_t, 3>& dims, double b[6])
+{
+  for (int r = 0; r < 3; ++r)
+  {
+    b[2 * r] = std::numeric_limits<double>::max();
+    b[2 * r + 1] = -std::numeric_limits<double>::max();
+  }
+  for (int c = 0; c < 8; ++c)
+  {
+    const double idx[3] = { (c & 1) ? double(dims[0]) : 0.0, (c & 2) ? double(dims[1]) : 0.0,
+      (c & 4) ? double(dims[2]) : 0.0 };
+    for (int r = 0; r < 3; ++r)
+    {
+      double w = g.origin[r];
+      for (int k = 0; k < 3; ++k)
+      {
+        w += g.direction[3 * r + k] * idx[k] * g.spacing[k];
+      }
+      b[2 * r] = std::min(b[2 * r], w);
+      b[2 * r + 1] = std::max(b[2 * r + 1], w);
+    }
+  }
+}
+
+bool encodingDescribes(vtkImageData* image, const csgv::Geometry& g, const std::array<uint32_t, 3>& dim)
+{
+  const double* spacing = image->GetSpacing();
+  if (!(g.spacing[0] > 0) || !(spacing[0] > 0))
+  {
+    return false;
+  }
+  const double ratio = spacing[0] / g.spacing[0];
+  const int level = int(std::lround(std::log2(ratio)));
+  if (level < 0 || level > 7 || std::abs(ratio - double(1 << level)) > 1e-6 * ratio)
+  {
+    return false;
+  }
+  std::array<uint32_t, 3> dims;
+  const csgv::Geometry ig = imageGeometry(image, true, dims);
+  for (int i = 0; i < 3; ++i)
+  {
+    const uint32_t expected = ((dim[i] - 1) >> level) + 1;
+    const double tol = 1e-6 * std::max(1.0, std::abs(g.spacing[i]) * dim[i]);
+    if (dims[i] != expected || std::abs(ig.origin[i] - g.origin[i]) > tol)
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// VTK array -> compressed volume
+
+namespace
+{
+
+/// @brief Labels of a VTK array handed to the encoder z-slab by z-slab, converted to uint32 on
+/// the way (values are checked to fit before), reporting progress per slab.
+template <class T>
+class ArraySlabSource : public csgv::SlabSource
+{
+public:
+  ArraySlabSource(const T* data, const std::array<uint32_t, 3>& dim, const std::function<void(double)>& progress)
+    : Data(data)
+    , Dim(dim)
+    , Progress(progress)
+  {
+  }
+  std::array<uint32_t, 3> dimensions() const override { return this->Dim; }
+  csgv::Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override
+  {
+    const size_t slice = size_t(this->Dim[0]) * this->Dim[1];
+    const T* src = this->Data + slice * z0;
+    for (size_t i = 0, n = slice * depth; i < n; ++i)
+    {
+      out[i] = static_cast<uint32_t>(src[i]);
+    }
+    this->Report(double(z0 + depth) / this->Dim[2]);
+    return csgv::Status::ok();
+  }
+  const uint32_t* slabInMemory(uint32_t z0) const override
+  {
+    if constexpr (std::is_same<T, uint32_t>::value)
+    {
+      // uint32 labels are encoded in place, without a copy.
+      this->Report(double(z0) / this->Dim[2]);
+      return this->Data + size_t(this->Dim[0]) * this->Dim[1] * z0;
+    }
+    else
+    {
+      (void)z0;
+      return nullptr;
+    }
+  }
+
+private:
+  void Report(double f) const
+  {
+    if (this->Progress)
+    {
+      this->Progress(f);
+    }
+  }
+  const T* Data;
+  std::array<uint32_t, 3> Dim;
+  const std::function<void(double)>& Progress;
+};
+
+/// @brief Result of one pass over the labels.
+struct Scan
+{
+  bool fits = true;  ///< all values are format labels (0 .. 0xFFFFFFFE)
+  std::string error; ///< a float that is not an integer
+};
+
+template <class T>
+Scan scanValues(const T* v, size_t n, const std::array<uint32_t, 3>& dim, const std::string& name)
+{
+  Scan s;
+  for (size_t i = 0; i < n; ++i)
+  {
+    const T x = v[i];
+    if constexpr (std::is_floating_point<T>::value)
+    {
+      if (!(std::isfinite(x) && x == std::trunc(x) && x >= T(-9.2233720368547758e18) &&
+            x < T(9.2233720368547758e18)))
+      {
+        const size_t sx = i % dim[0], sy = (i / dim[0]) % dim[1], sz = i / (size_t(dim[0]) * dim[1]);
+        std::ostringstream os;
+        os.precision(17);
+        os << "voxel (" << sx << ", " << sy << ", " << sz << ") of array '" << name << "' holds " << x
+           << ", which is not an integer label";
+        s.error = os.str();
+        return s;
+      }
+    }
+    if (!(x >= T(0) && x < T(4294967295.0)))
+    {
+      s.fits = false;
+    }
+  }
+  return s;
+}
+
+template <class T>
+void toInputValues(const T* v, size_t n, std::vector<uint64_t>& out)
+{
+  out.resize(n);
+  for (size_t i = 0; i < n; ++i)
+  {
+    if constexpr (std::is_floating_point<T>::value || std::is_signed<T>::value)
+    {
+      out[i] = static_cast<uint64_t>(static_cast<int64_t>(v[i])); // int64 bits, as Core stores them
+    }
+    else
+    {
+      out[i] = static_cast<uint64_t>(v[i]);
+    }
+  }
+}
+
+} // namespace
+
+std::string encodeLabelArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims,
+  const csgv::EncodeOptions& options, bool relabel, const std::function<void(double)>& progress,
+  EncodedArray& out)
+{
+  const std::string name = array->GetName() ? array->GetName() : "(unnamed)";
+  csgv::LabelType labelType;
+  const char* typeName = labelTypeNameOf(array->GetDataType(), labelType);
+  if (!typeName || array->GetNumberOfComponents() != 1)
+  {
+    return "array '" + name + "' is " + array->GetDataTypeAsString() + " with " +
+      std::to_string(array->GetNumberOfComponents()) +
+      " components; labels need one component of an integer type of 8 to 64 bits or a float type "
+      "holding integers";
+  }
+  const uint64_t voxels = uint64_t(dims[0]) * dims[1] * dims[2];
+  if (voxels == 0 || uint64_t(array->GetNumberOfTuples()) != voxels)
+  {
+    return "array '" + name + "' has " + std::to_string(array->GetNumberOfTuples()) +
+      " values for " + std::to_string(voxels) + " voxels";
+  }
+  out = EncodedArray{};
+  out.originalType = typeName;
+
+  // Plain contiguous storage for the scan and the encoder (deep copy only for exotic layouts).
+  vtkSmartPointer<vtkDataArray> aos = array;
+  if (!array->HasStandardMemoryLayout())
+  {
+    aos = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(array->GetDataType()));
+    aos->DeepCopy(array);
+  }
+  const void* raw = aos->GetVoidPointer(0);
+  csgv::Result<csgv::CompressedVolume> vol = csgv::Status::error("no labels");
+  std::string error;
+  switch (aos->GetDataType())
+  {
+    vtkTemplateMacro({
+      const VTK_TT* values = static_cast<const VTK_TT*>(raw);
+      const Scan scan = scanValues(values, size_t(voxels), dims, name);
+      if (!scan.error.empty())
+      {
+        error = scan.error;
+        break;
+      }
+      if (scan.fits && !relabel)
+      {
+        // Streamed from the array: no full-size copy.
+        ArraySlabSource<VTK_TT> source(values, dims, progress);
+        vol = csgv::encodeVolume(source, options);
+      }
+      else
+      {
+        csgv::InputVolume in;
+        in.dim = dims;
+        in.type = labelType;
+        toInputValues(values, size_t(voxels), in.values);
+        csgv::Result<csgv::LabelVolume> labels =
+          csgv::prepareLabels(in, options.brickSize, relabel, out.mapping);
+        if (!labels)
+        {
+          error = labels.message();
+          break;
+        }
+        in = csgv::InputVolume{};
+        ArraySlabSource<uint32_t> source(labels->labels.data(), dims, progress);
+        vol = csgv::encodeVolume(source, options);
+      }
+    });
+    default:
+      error = "array '" + name + "' is not a label array (type " + array->GetDataTypeAsString() + ")";
+  }
+  if (error.empty() && !vol)
+  {
+    error = vol.message();
+  }
+  if (!error.empty())
+  {
+    return error;
+  }
+  out.volume = std::move(*vol);
+  return std::string();
 }
 
 } // namespace csgvvtk

@@ -1,0 +1,188 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @file CSGVAdapter.h
+ * @brief The one adapter between VTK image data and Core's compressed volumes, public to the
+ * modules that depend on CSGV::Readers (the representation uses it as the reader and the writer
+ * do):
+ * - the FieldData contract (names and layout of the encoding, geometry, label map, original type
+ *   and label range arrays; documented in vtkCSGVReader.h), written by addEncodingArrays and read
+ *   by readEncodingArrays;
+ * - which array of an image holds labels (findLabelArray) and where its voxels lie
+ *   (imageGeometry);
+ * - one streaming "VTK array to compressed volume" encoder (encodeLabelArray): z-slab by z-slab
+ *   with progress, without a full-size copy when the labels fit the format;
+ * - decoding a box of a level back into a VTK array (decodeBox) and the palette label range.
+ *
+ * Not a wrapped header (NOWRAP_HEADERS): Core types appear here and nowhere in the CLASSES
+ * headers, which ParaView's client-server wrapper parses.
+ */
+#ifndef CSGVAdapter_h
+#define CSGVAdapter_h
+
+#include "csgv/attributes/AttributeDb.h"
+#include "csgv/base/Geometry.h"
+#include "csgv/codec/Container.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
+#include "csgv/codec/Metadata.h"
+#include "csgv/inputs/Relabel.h"
+
+#include <vtkSmartPointer.h>
+#include <vtkType.h>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+class vtkDataArray;
+class vtkFieldData;
+class vtkImageData;
+class vtkUnsignedCharArray;
+
+namespace csgvvtk
+{
+
+/// Names of the FieldData arrays (see vtkCSGVReader.h for their meaning).
+constexpr const char* kEncodingName = "CSGVEncoding";
+constexpr const char* kGeometryName = "CSGVGeometry";
+constexpr const char* kLabelMapName = "CSGVLabelMap";
+constexpr const char* kOriginalTypeName = "CSGVOriginalType";
+constexpr const char* kLabelRangeName = "CSGVLabelRange";
+/// Prefix of the per-id attribute arrays of a `_csgv.db3` (vtkDoubleArray for numeric columns,
+/// vtkStringArray for text columns), indexed by the id the volume stores.
+constexpr const char* kAttributePrefix = "CSGVAttribute:";
+/// Name of the decoded label array.
+constexpr const char* kLabelsName = "Labels";
+
+/// @brief How decoded palette values become the labels users see.
+struct LabelInfo
+{
+  /// The file's original label type ("uint8" ... "float64"), from the metadata.
+  std::string originalType = "uint32";
+  /// Palette values are dense ids into `map` (a relabelled file with its attribute database).
+  bool relabelled = false;
+  std::vector<int64_t> map;  ///< id -> original label bits
+  bool unsigned64 = false;   ///< map holds uint64 bits; otherwise int64
+};
+
+/// VTK type (VTK_TYPE_UINT8 ...) of a type name, or -1.
+int vtkTypeOfName(const std::string& name);
+
+/// Core's label type name of a VTK array type ("uint8" ... "float64"); nullptr when the type
+/// cannot hold labels. By size and signedness, because 64-bit integers come as long, long long
+/// or vtkIdType arrays.
+const char* labelTypeNameOf(int vtkType, csgv::LabelType& type);
+
+// ---------------------------------------------------------------------------------------------
+// Which array, and where its voxels lie
+
+/// The label array of an image: by name (cell data first), or the first one-component integer
+/// array (cell data first; VTK's own arrays such as vtkGhostType skipped), else the first such
+/// float array. `isCell` says which attributes it came from; null when there is none.
+vtkDataArray* findLabelArray(vtkImageData* image, const std::string& name, bool& isCell);
+
+/// Corner geometry (origin at the corner of voxel (0,0,0), DESIGN.md "Where voxels are") of the
+/// voxel grid an image's cell (`isCell`) or point array describes, and the grid's dimensions.
+/// Extents need not start at 0; the direction matrix is honoured.
+csgv::Geometry imageGeometry(vtkImageData* image, bool isCell, std::array<uint32_t, 3>& dims);
+
+/// World-space axis-aligned bounds of a voxel grid of corner geometry `g`.
+void worldBounds(const csgv::Geometry& g, const std::array<uint32_t, 3>& dims, double bounds[6]);
+
+// ---------------------------------------------------------------------------------------------
+// VTK array -> compressed volume
+
+/// @brief A label array compressed, with what is needed to show its original labels.
+struct EncodedArray
+{
+  csgv::CompressedVolume volume;
+  /// Filled when labels were relabelled (they did not fit the format, or relabelling was asked
+  /// for): `mapping.originalBits[id]` is the original label of stored id `id`.
+  csgv::LabelMapping mapping;
+  std::string originalType; ///< Core's name of the array's type ("uint16", "float32", ...)
+};
+
+/// Compresses a one-component label array of `dims` voxels (x fastest). Labels that fit the
+/// format (0 .. 0xFFFFFFFE) stream to the encoder z-slab by z-slab straight from the array (no
+/// full-size copy; none at all for uint32); others (negative, wide) or `relabel` go through
+/// Core's relabelling to dense ids first. Float arrays must hold integers. `progress` gets the
+/// fraction encoded after each slab. Returns an error message or "".
+std::string encodeLabelArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims,
+  const csgv::EncodeOptions& options, bool relabel, const std::function<void(double)>& progress,
+  EncodedArray& out);
+
+// ---------------------------------------------------------------------------------------------
+// Compressed volume -> VTK
+
+/// Decoded labels of one box of a level, as a VTK array of the original type when every label
+/// fits it (otherwise uint32, or int64/uint64 for wide relabelled labels).
+struct DecodedLabels
+{
+  vtkSmartPointer<vtkDataArray> array;
+  std::string warning; ///< non-empty when the original type could not be used
+};
+
+/// Decodes `box` (half-open, in the level image of `lod`) z-slab by z-slab of bricks, calling
+/// `progress` with the fraction done after each slab. Returns Core's message on failure.
+std::string decodeBox(const csgv::CompressedVolume& vol, uint32_t lod, const csgv::Box& box,
+  const LabelInfo& info, const std::function<void(double)>& progress, DecodedLabels& out);
+
+/// The range of original labels over every brick palette, without decoding; written as a
+/// 2-value array of the type decodeBox would produce.
+vtkSmartPointer<vtkDataArray> paletteRange(const csgv::CompressedVolume& vol, const LabelInfo& info);
+
+// ---------------------------------------------------------------------------------------------
+// The FieldData contract
+
+/// Fills `fd` with the arrays of vtkCSGVReader.h's layout.
+void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
+  const csgv::Geometry& cornerGeometry, const LabelInfo& info, vtkDataArray* range);
+
+/// Adds one `CSGVAttribute:<name>` array per column (indexed by id).
+void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns);
+
+/// The encoding array of a FieldData (null when there is none): its pointer and modification
+/// time identify the encoding, so consumers look up what they parsed before without parsing.
+vtkUnsignedCharArray* encodingArray(vtkFieldData* fd);
+
+/// @brief What a consumer of the FieldData layout gets back.
+struct EncodedInput
+{
+  csgv::CompressedVolume volume;
+  csgv::Geometry geometry; ///< level 0, origin at the corner of voxel (0,0,0)
+  LabelInfo info;
+};
+/// Parses the arrays of vtkCSGVReader.h's layout (the whole container: callers parse once per
+/// encoding array and modification time); returns an error message or "".
+std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out);
+
+/// @brief The parsed encoding of a FieldData, parsed again only when the encoding array or its
+/// modification time changes (one per consumer: a filter's RequestInformation and RequestData
+/// then share one parse).
+class EncodingMemo
+{
+public:
+  /// The parsed arrays of `fd`, or null with the error message.
+  std::shared_ptr<const EncodedInput> get(vtkFieldData* fd, std::string& error);
+
+private:
+  const void* Array = nullptr;
+  vtkMTimeType MTime = 0;
+  std::shared_ptr<const EncodedInput> Parsed;
+  std::string Error;
+};
+
+/// True when an encoding of level-0 corner geometry `g` and dimensions `dims` describes `image`
+/// at some level (the reader's output); false for images derived from it (Extract's sub-boxes,
+/// resampled data) that still carry the FieldData.
+bool encodingDescribes(vtkImageData* image, const csgv::Geometry& g, const std::array<uint32_t, 3>& dims);
+
+/// Sets spacing, origin and direction of `image` for level `lod` of a corner-origin geometry.
+void applyGeometry(vtkImageData* image, const csgv::Geometry& corner, uint32_t lod);
+
+} // namespace csgvvtk
+
+#endif

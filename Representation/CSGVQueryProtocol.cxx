@@ -1,0 +1,217 @@
+// SPDX-License-Identifier: MIT
+#include "CSGVQueryProtocol.h"
+
+#include <vtkBase64Utilities.h>
+#include <vtkMatrix3x3.h>
+#include <vtkMatrix4x4.h>
+#include <vtkNew.h>
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+namespace csgvrep
+{
+namespace
+{
+
+using nlohmann::json;
+
+/// World point of window coordinates (pixel centre x, y; window depth z) under a column-major
+/// world-to-clip matrix.
+bool unproject(const std::array<double, 16>& m, double ndcX, double ndcY, double ndcZ, double world[3])
+{
+  vtkNew<vtkMatrix4x4> a;
+  for (int r = 0; r < 4; ++r)
+  {
+    for (int c = 0; c < 4; ++c)
+    {
+      a->SetElement(r, c, m[size_t(4 * c + r)]);
+    }
+  }
+  if (a->Determinant() == 0.0)
+  {
+    return false;
+  }
+  a->Invert();
+  const double in[4] = { ndcX, ndcY, ndcZ, 1.0 };
+  double out[4];
+  a->MultiplyPoint(in, out);
+  if (out[3] == 0.0)
+  {
+    return false;
+  }
+  for (int i = 0; i < 3; ++i)
+  {
+    world[i] = out[i] / out[3];
+  }
+  return true;
+}
+
+/// The property defaults, keyed by their server-manager names.
+std::string defaultsJson()
+{
+  const RepresentationProperties d;
+  json j;
+  j["CSGVShading"] = d.shading;
+  j["CSGVShadingBlend"] = d.shadingBlend;
+  j["CSGVFramesPerStillRender"] = d.framesPerStillRender;
+  j["CSGVStillRenderTimeBudget"] = d.stillRenderTimeBudget;
+  j["CSGVLODBias"] = d.lodBias;
+  j["CSGVSubsampling"] = d.subsampling;
+  j["CSGVDenoise"] = d.denoise;
+  j["CSGVLightDirection"] = d.lightDirection;
+  j["CSGVCacheSizeMiB"] = d.cacheSizeMiB;
+  j["CSGVClipBox"] = d.clipBox;
+  j["CSGVComputedAttributes"] = d.computedAttributes;
+  return j.dump();
+}
+
+} // namespace
+
+std::string base64(const void* data, size_t bytes)
+{
+  std::string out((bytes + 2) / 3 * 4, '\0');
+  if (bytes > 0)
+  {
+    const unsigned long n = vtkBase64Utilities::Encode(static_cast<const unsigned char*>(data),
+      static_cast<unsigned long>(bytes), reinterpret_cast<unsigned char*>(&out[0]));
+    out.resize(n);
+  }
+  return out;
+}
+
+std::string answerQuery(const std::string& request, QueryContext& c)
+{
+  std::istringstream in(request);
+  std::string what;
+  in >> what;
+  if (what == "defaults")
+  {
+    return defaultsJson();
+  }
+  if (what == "stats")
+  {
+    const std::shared_ptr<VolumeCache> cache = VolumeCache::instance();
+    return json({ { "parses", cache->parses() }, { "compressions", cache->compressions() } }).dump();
+  }
+
+  const VolumeSource& source = c.source;
+  std::shared_ptr<const csgv::AttributeTable> table;
+  std::string tableError = c.sourceError;
+  if (source.shared && c.attributes && c.config)
+  {
+    table = c.attributes->get(c.input, source, *c.config, tableError);
+  }
+
+  if (what == "summary")
+  {
+    return attributeSummary(
+      table.get(), source.shared.get(), source.shared ? source.shared->arrayName : std::string(), tableError);
+  }
+  if (what == "colors")
+  {
+    size_t cap = 4096;
+    in >> cap;
+    if (!source.shared)
+    {
+      return json({ { "error", c.sourceError } }).dump();
+    }
+    if (!c.materials)
+    {
+      return json({ { "error", "the materials are not valid" } }).dump();
+    }
+    return labelColorsJson(*c.materials, table.get(), *source.shared, cap);
+  }
+  static const csgv::gpu::FrameOutput nothing;
+  const csgv::gpu::FrameOutput& out = c.view ? c.view->outputWithGBuffer() : nothing;
+  if (what == "labels")
+  {
+    // "W H base64(uint32 little-endian labels, row 0 at the bottom)" of the last render.
+    std::ostringstream o;
+    o << out.width << " " << out.height << " "
+      << base64(out.label.data(), out.label.size() * sizeof(uint32_t));
+    return o.str();
+  }
+  if (what == "pick")
+  {
+    long x = -1, y = -1;
+    in >> x >> y;
+    json r = { { "hit", false } };
+    if (x < 0 || y < 0 || size_t(x) >= out.width || size_t(y) >= out.height || out.label.empty())
+    {
+      r["error"] = "no rendered pixel there";
+      return r.dump();
+    }
+    const size_t i = size_t(y) * out.width + size_t(x);
+    const uint32_t label = out.label[i];
+    if (label == csgv::kInvalidLabel)
+    {
+      return r.dump();
+    }
+    r["hit"] = true;
+    r["label"] = label;
+    r["depth"] = i < out.hitDepth.size() ? double(out.hitDepth[i]) : 1.0;
+    const csgv::Geometry& g = source.corner;
+    const double nx = (double(x) + 0.5) / out.width * 2.0 - 1.0;
+    const double ny = (double(y) + 0.5) / out.height * 2.0 - 1.0;
+    double nearP[3], hitP[3];
+    const std::array<double, 16>& m = c.view->lastMatrix();
+    if (source.shared && unproject(m, nx, ny, -1.0, nearP) &&
+      unproject(m, nx, ny, 2.0 * out.hitDepth[i] - 1.0, hitP))
+    {
+      double dir[3] = { hitP[0] - nearP[0], hitP[1] - nearP[1], hitP[2] - nearP[2] };
+      const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+      if (len > 0 && i < out.distance.size() && std::isfinite(out.distance[i]) && out.distance[i] > 0)
+      {
+        // The world distance is more precise than window depth far from the camera.
+        for (int k = 0; k < 3; ++k)
+        {
+          hitP[k] = nearP[k] + dir[k] / len * double(out.distance[i]);
+        }
+      }
+      // Index coordinates: world = origin + D (idx * spacing).
+      vtkNew<vtkMatrix3x3> d;
+      for (int k = 0; k < 9; ++k)
+      {
+        d->SetElement(k / 3, k % 3, g.direction[size_t(k)]);
+      }
+      d->Invert();
+      const double rel[3] = { hitP[0] - g.origin[0], hitP[1] - g.origin[1], hitP[2] - g.origin[2] };
+      double idx[3];
+      d->MultiplyPoint(rel, idx);
+      const csgv::Face face = i < out.face.size() ? out.face[i] : csgv::Face::None;
+      json voxel = json::array();
+      for (int k = 0; k < 3; ++k)
+      {
+        idx[k] /= g.spacing[size_t(k)];
+        long v = long(std::floor(idx[k]));
+        // On the entry face the coordinate is an integer: the face says which side is the voxel.
+        if (face == csgv::Face(1 + 2 * k))
+        {
+          v = long(std::lround(idx[k]));
+        }
+        else if (face == csgv::Face(2 + 2 * k))
+        {
+          v = long(std::lround(idx[k])) - 1;
+        }
+        const long dim = long(source.shared->volume.dim[size_t(k)]);
+        voxel.push_back(std::max(0L, std::min(dim - 1, v)));
+      }
+      r["voxel"] = voxel;
+      r["world"] = { hitP[0], hitP[1], hitP[2] };
+    }
+    r["attributes"] = json::parse(labelAttributesJson(table.get(), int64_t(label)));
+    if (!tableError.empty())
+    {
+      r["error"] = tableError;
+    }
+    return r.dump();
+  }
+  return json({ { "error", "unknown query '" + what + "'" } }).dump();
+}
+
+} // namespace csgvrep

@@ -1,0 +1,65 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @file CSGVQueryProtocol.h
+ * @brief The query protocol of the Segmentation Volume, in one place: every command vtkCSGVQuery
+ * carries from the client to the rendering process, its arguments and its reply.
+ *
+ * Why a text protocol and not typed calls: ParaView 5.11's client/server wrapping moves
+ * arguments to the server, but results come back to the client only through information
+ * properties read from the rendering process (vtkCSGVQuery's `Result`), and a pick's reply is a
+ * structured record (label, voxel, world point, attributes) that the wrapper cannot type. So the
+ * request is one string and every reply is one string: JSON, except `labels`.
+ * Users: Examples/csgv_tools.py and Plugin/CSGV/pqCSGVPickPanel.cxx. Keep replies compatible
+ * (add keys, never rename). Each command has a test in Testing/ParaView/test_repr_query.py.
+ *
+ * Commands (words separated by blanks; pixels count from the bottom-left of the last render):
+ *
+ * | request      | reply |
+ * |--------------|-------|
+ * | `summary`    | JSON `{"attributes": [{"name", "numeric", "min", "max"}...], "labels": count of labels present, "labelArray": the label array's name, "error": why attributes failed (only then)}` |
+ * | `pick X Y`   | JSON `{"hit": bool, "label": original label, "depth": window depth, "voxel": [i, j, k], "world": [x, y, z], "attributes": {name: value or text}, "error": (only then)}`; `{"hit": false, "error": "no rendered pixel there"}` outside the last render |
+ * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, 0xFFFFFFFF where no opaque voxel was hit (base64 by vtkBase64Utilities) |
+ * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...], "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that a material takes |
+ * | `defaults`   | JSON of the representation's property defaults (csgvrep::RepresentationProperties): `{"CSGVShading": 0, ...}` keyed like the server-manager XML, for the test that keeps both equal |
+ * | `stats`      | JSON `{"parses": n, "compressions": n}`: how often this process parsed a CSGV encoding and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
+ * | other        | JSON `{"error": "unknown query '<word>'"}` |
+ *
+ * Not a wrapped header: Core and VulkanBackend types may appear here.
+ */
+#ifndef CSGVQueryProtocol_h
+#define CSGVQueryProtocol_h
+
+#include "CSGVAttributes.h"
+#include "CSGVViewRenderer.h"
+#include "CSGVVolumeCache.h"
+
+#include "csgv/materials/Materials.h"
+
+#include <string>
+
+class vtkImageData;
+
+namespace csgvrep
+{
+
+/// @brief What a query reads: the prop's state on the rendering process.
+struct QueryContext
+{
+  vtkImageData* input = nullptr; ///< the image shown (its FieldData attributes)
+  VolumeSource source;           ///< empty when the input did not resolve
+  std::string sourceError;       ///< why it did not
+  const csgv::MaterialDocument* materials = nullptr; ///< null when the document is invalid
+  AttributeCache* attributes = nullptr;
+  const AttributeConfig* config = nullptr;
+  ViewRenderer* view = nullptr; ///< the last render (label image, G-buffer, camera)
+};
+
+/// Answers one request of the table above.
+std::string answerQuery(const std::string& request, QueryContext& context);
+
+/// The base64 text of bytes (vtkBase64Utilities, padded with '=').
+std::string base64(const void* data, size_t bytes);
+
+} // namespace csgvrep
+
+#endif

@@ -1,0 +1,339 @@
+// SPDX-License-Identifier: MIT
+#include "CSGVViewRenderer.h"
+
+#include "CSGVGpuContext.h"
+
+#include "csgv/gpu/Context.h"
+#include "csgv/gpu/GpuVolume.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+
+namespace csgvrep
+{
+
+ViewSettings toViewSettings(const RepresentationProperties& p)
+{
+  ViewSettings s;
+  s.render.shading = csgv::gpu::Shading(std::clamp(p.shading, 0, 3));
+  s.render.shadingBlend = float(std::clamp(p.shadingBlend, 0.0, 1.0));
+  s.render.lodBias = float(p.lodBias);
+  int sub = 1;
+  while (sub < 8 && sub < p.subsampling)
+  {
+    sub *= 2;
+  }
+  s.render.subsampling = uint32_t(sub);
+  s.render.denoise = p.denoise != 0;
+  for (int i = 0; i < 3; ++i)
+  {
+    s.render.lightDirection[i] = float(p.lightDirection[size_t(i)]);
+  }
+  s.cacheBytes = uint64_t(std::max(16, p.cacheSizeMiB)) << 20;
+  s.framesPerStillRender = uint32_t(std::max(1, p.framesPerStillRender));
+  s.stillRenderTimeBudget = std::max(0.0, p.stillRenderTimeBudget);
+  s.clipBox = p.clipBox;
+  return s;
+}
+
+ViewRenderer::ViewRenderer()
+  : Cache(VolumeCache::instance())
+{
+}
+
+ViewRenderer::~ViewRenderer()
+{
+  this->clear();
+}
+
+void ViewRenderer::releaseShare()
+{
+  if (this->Counted && this->Source.shared)
+  {
+    std::lock_guard<std::mutex> lock(this->Cache->mutex());
+    this->Source.shared->renderers--;
+    this->Source.shared->sharesGeneration++;
+  }
+  this->Counted = false;
+}
+
+void ViewRenderer::clear()
+{
+  this->Renderer.reset();
+  this->releaseShare();
+  this->Source = VolumeSource{};
+  this->Dirty = true;
+  this->Converged = false;
+}
+
+void ViewRenderer::setSource(const VolumeSource& source)
+{
+  if (source.shared != this->Source.shared)
+  {
+    this->clear();
+    this->Source = source;
+    this->GeometryDirty = true;
+    return;
+  }
+  const csgv::Geometry& a = source.corner;
+  const csgv::Geometry& b = this->Source.corner;
+  if (a.origin != b.origin || a.spacing != b.spacing || a.direction != b.direction)
+  {
+    this->Source.corner = source.corner;
+    this->GeometryDirty = true;
+  }
+}
+
+void ViewRenderer::setSettings(const ViewSettings& s)
+{
+  const ViewSettings& o = this->Settings;
+  const csgv::gpu::RenderSettings& a = s.render;
+  const csgv::gpu::RenderSettings& b = o.render;
+  const bool same = a.shading == b.shading && a.shadingBlend == b.shadingBlend &&
+    a.lodBias == b.lodBias && a.subsampling == b.subsampling && a.denoise == b.denoise &&
+    a.lightDirection == b.lightDirection && s.cacheBytes == o.cacheBytes &&
+    s.framesPerStillRender == o.framesPerStillRender &&
+    s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.clipBox == o.clipBox;
+  if (!same)
+  {
+    this->Settings = s;
+    this->SettingsDirty = true;
+  }
+}
+
+void ViewRenderer::setMaterials(
+  const csgv::MaterialDocument& doc, std::map<std::string, std::vector<float>> attributes)
+{
+  this->Materials = doc;
+  this->Attributes = std::move(attributes);
+  this->MaterialsDirty = true;
+}
+
+std::string ViewRenderer::ensureRenderer()
+{
+  std::string error;
+  if (!this->Context)
+  {
+    this->Context = sharedContext(error);
+    if (!this->Context)
+    {
+      return error;
+    }
+  }
+  SharedVolume* shared = this->Source.shared.get();
+  if (!shared)
+  {
+    return "no input";
+  }
+  {
+    std::lock_guard<std::mutex> lock(this->Cache->mutex());
+    if (!shared->gpu)
+    {
+      csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> gpu =
+        csgv::gpu::GpuVolume::create(*this->Context, shared->volume);
+      if (!gpu)
+      {
+        return "uploading the volume: " + gpu.message();
+      }
+      shared->context = this->Context;
+      shared->gpu = std::shared_ptr<csgv::gpu::GpuVolume>(std::move(*gpu));
+    }
+    if (!this->Counted)
+    {
+      shared->renderers++;
+      shared->sharesGeneration++;
+      this->Counted = true;
+    }
+  }
+  // Views of one volume split one cache budget.
+  const uint64_t share = std::max<uint64_t>(
+    this->Settings.cacheBytes / uint64_t(std::max(1, shared->renderers)), 16ull << 20);
+  if (!this->Renderer || share != this->RendererCacheBytes)
+  {
+    this->Renderer.reset();
+    csgv::gpu::RendererOptions options;
+    options.cacheBytes = share;
+    csgv::Result<std::unique_ptr<csgv::gpu::Renderer>> r =
+      csgv::gpu::Renderer::create(*this->Context, shared->gpu, options);
+    if (!r)
+    {
+      return "creating the renderer: " + r.message();
+    }
+    this->Renderer = std::move(*r);
+    this->RendererCacheBytes = share;
+    this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
+  }
+  if (this->GeometryDirty)
+  {
+    this->Renderer->setGeometry(this->Source.corner);
+    this->GeometryDirty = false;
+    this->Dirty = true;
+  }
+  if (this->MaterialsDirty)
+  {
+    csgv::Status s = this->Renderer->setMaterials(this->Materials, this->Attributes, shared->storedToOriginal);
+    if (!s)
+    {
+      return "materials: " + s.message();
+    }
+    this->MaterialsDirty = false;
+    this->Dirty = true;
+  }
+  if (this->SettingsDirty)
+  {
+    csgv::gpu::RenderSettings rs = this->Settings.render;
+    rs.sampleTarget = std::max<uint32_t>(1, this->Settings.framesPerStillRender);
+    const std::array<int, 6>& c = this->Settings.clipBox;
+    const bool whole = c[0] <= 0 && c[2] <= 0 && c[4] <= 0 && int64_t(c[1]) >= int64_t(shared->volume.dim[0]) - 1 &&
+      int64_t(c[3]) >= int64_t(shared->volume.dim[1]) - 1 && int64_t(c[5]) >= int64_t(shared->volume.dim[2]) - 1;
+    for (int a = 0; a < 3; ++a)
+    {
+      if (whole)
+      {
+        rs.clipMin[a] = rs.clipMax[a] = 0;
+      }
+      else
+      {
+        rs.clipMin[a] = std::max<int64_t>(0, c[2 * a]);
+        rs.clipMax[a] = std::min<int64_t>(int64_t(shared->volume.dim[a]), int64_t(c[2 * a + 1]) + 1);
+        if (rs.clipMax[a] <= rs.clipMin[a])
+        {
+          // An empty box on an axis would mean "whole volume" to the backend: keep it empty.
+          rs.clipMin[a] = 0;
+          rs.clipMax[a] = 0;
+          return "the clip box is empty";
+        }
+      }
+    }
+    this->Renderer->setSettings(rs);
+    this->SettingsDirty = false;
+    this->Dirty = true;
+  }
+  return std::string();
+}
+
+const csgv::gpu::FrameOutput& ViewRenderer::outputWithGBuffer()
+{
+  if (!this->GBufferCurrent && this->Renderer && this->Output.width > 0)
+  {
+    if (this->Renderer->readOutput(this->Output, csgv::gpu::Renderer::GBuffer))
+    {
+      this->GBufferCurrent = true;
+    }
+  }
+  return this->Output;
+}
+
+uint64_t ViewRenderer::cacheBytes() const
+{
+  if (!this->Renderer)
+  {
+    return 0;
+  }
+  for (const auto& b : this->Renderer->memory().buffers)
+  {
+    if (b.first == "brick cache")
+    {
+      return b.second;
+    }
+  }
+  return 0;
+}
+
+uint64_t ViewRenderer::deviceBytes() const
+{
+  return this->Renderer ? this->Renderer->memory().total() : 0;
+}
+
+std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
+{
+  changed = false;
+  this->FramesLastRender = 0;
+  std::string error = this->ensureRenderer();
+  if (!error.empty())
+  {
+    return error;
+  }
+  if (req.worldToClip != this->LastMatrix || req.width != this->LastWidth || req.height != this->LastHeight)
+  {
+    this->LastMatrix = req.worldToClip;
+    this->LastWidth = req.width;
+    this->LastHeight = req.height;
+    this->Dirty = true;
+  }
+  const size_t pixels = size_t(req.width) * req.height;
+  if (req.opaqueDepth)
+  {
+    if (this->LastDepth.size() != pixels ||
+      std::memcmp(this->LastDepth.data(), req.opaqueDepth, pixels * sizeof(float)) != 0)
+    {
+      this->LastDepth.assign(req.opaqueDepth, req.opaqueDepth + pixels);
+      this->Dirty = true;
+    }
+  }
+  else if (!this->LastDepth.empty())
+  {
+    this->LastDepth.clear();
+    this->Dirty = true;
+  }
+  if (this->Dirty)
+  {
+    this->Renderer->resetAccumulation();
+    this->Dirty = false;
+    this->Converged = false;
+  }
+  else if (this->Converged)
+  {
+    return std::string(); // the last output is exact: nothing to render
+  }
+
+  csgv::gpu::FrameInput in;
+  in.worldToClip = req.worldToClip;
+  in.width = req.width;
+  in.height = req.height;
+  in.opaqueDepth = req.opaqueDepth;
+  const uint32_t target = std::max<uint32_t>(1, this->Settings.framesPerStillRender);
+  const uint32_t sub = std::max<uint32_t>(1, this->Settings.render.subsampling);
+  const uint32_t maxFrames = target * sub * sub + 256;
+  const auto t0 = std::chrono::steady_clock::now();
+  uint32_t idle = 0;
+  for (uint32_t f = 0; f < maxFrames; ++f)
+  {
+    csgv::Result<csgv::gpu::FrameStats> st = this->Renderer->renderFrame(in);
+    if (!st)
+    {
+      return st.message();
+    }
+    this->Stats = *st;
+    this->FramesLastRender++;
+    if (req.interactive || st->minSamples >= target)
+    {
+      break;
+    }
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // The budget never cuts a frame short of one sample in every pixel (no holes).
+    if (st->minSamples >= 1 && elapsed > this->Settings.stillRenderTimeBudget)
+    {
+      break;
+    }
+    idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
+    if (idle >= 3)
+    {
+      break;
+    }
+  }
+  this->Converged = this->Stats.minSamples >= target;
+  csgv::Status s = this->Renderer->readOutput(
+    this->Output, csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth);
+  this->GBufferCurrent = false;
+  if (!s)
+  {
+    return s.message();
+  }
+  changed = true;
+  return std::string();
+}
+
+} // namespace csgvrep
+

@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @file CSGVViewRenderer.h
+ * @brief The renderer of one view: the view's share of the volume's cache budget, the backend
+ * renderer created on demand, and the per-view frame loop (change detection, the copy and
+ * comparison of the opaque depth, the still-render loop with its time budget).
+ *
+ * The frame loop is the part that moves into csgv::gpu::Renderer (issue 10, point 2: a
+ * Renderer::render(RenderRequest) with change-detecting setSettings/setGeometry and a lazily read
+ * output); render() below is then one call. Settings, materials and geometry already arrive here
+ * once per render.
+ *
+ * Not a wrapped header: Core and VulkanBackend types may appear here.
+ */
+#ifndef CSGVViewRenderer_h
+#define CSGVViewRenderer_h
+
+#include "CSGVVolumeCache.h"
+
+#include "csgv/gpu/Renderer.h"
+#include "csgv/materials/Materials.h"
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace csgvrep
+{
+
+/// @brief The representation's property values. Each default here mirrors the server-manager
+/// XML (Plugin/CSGV/CSGVRepresentation.xml), vtkCSGVRepresentation starts from these, and
+/// Testing/ParaView/test_repr_defaults.py checks that they agree.
+struct RepresentationProperties
+{
+  int shading = 0;               ///< 0 local, 1 shadow, 2 ambient occlusion, 3 path tracing
+  double shadingBlend = 1.0;     ///< 0: local shading only ... 1: the chosen mode only
+  int framesPerStillRender = 16; ///< samples per pixel a still render accumulates
+  double stillRenderTimeBudget = 3.0; ///< seconds
+  double lodBias = 0.0;
+  int subsampling = 1; ///< 1, 2, 4 or 8
+  int denoise = 1;
+  std::array<double, 3> lightDirection{ { 0.35, 0.6, 0.72 } }; ///< view coordinates
+  int cacheSizeMiB = 256;
+  std::array<int, 6> clipBox{ { 0, 2147483647, 0, 2147483647, 0, 2147483647 } }; ///< inclusive voxels
+  int computedAttributes = 0;
+};
+
+/// @brief Everything the representation's properties set, besides materials and the array, in
+/// the backend's units. Made by toViewSettings (its defaults are RepresentationProperties').
+struct ViewSettings
+{
+  csgv::gpu::RenderSettings render;
+  uint64_t cacheBytes = 0;
+  uint32_t framesPerStillRender = 0;
+  double stillRenderTimeBudget = 0; ///< seconds
+  std::array<int, 6> clipBox{};     ///< inclusive voxels
+};
+
+/// The backend's settings of a set of property values (clamped to what the backend takes).
+ViewSettings toViewSettings(const RepresentationProperties& p);
+
+/// @brief One frame request from the compositing prop.
+struct FrameRequest
+{
+  std::array<double, 16> worldToClip{}; ///< column-major (VTK's wcdc as it comes)
+  uint32_t width = 0, height = 0;
+  const float* opaqueDepth = nullptr; ///< window depth of the tile, row 0 at the bottom
+  bool interactive = false;
+};
+
+/// @brief The renderer of one view (one representation instance) and its accumulation state.
+class ViewRenderer
+{
+public:
+  ViewRenderer();
+  ~ViewRenderer();
+
+  /// A changed source recreates the renderer; a changed geometry only resets accumulation.
+  void setSource(const VolumeSource& source);
+  void setSettings(const ViewSettings& settings);
+  /// Materials and the per-stored-label arrays of the attributes they name.
+  void setMaterials(const csgv::MaterialDocument& doc,
+    std::map<std::string, std::vector<float>> attributes = {});
+  /// The source this renderer draws (its shared volume and corner geometry).
+  const VolumeSource& source() const { return this->Source; }
+  /// The camera of the last render (column-major world-to-clip).
+  const std::array<double, 16>& lastMatrix() const { return this->LastMatrix; }
+  /// Forgets the source (and the renderer).
+  void clear();
+
+  /// Renders the frames this request calls for. `changed` is false when the previous output is
+  /// still exact (same camera, size, depth and settings, accumulation complete): nothing was
+  /// rendered and the caller may keep what it drew last time. Returns an error message or "".
+  std::string render(const FrameRequest& request, bool& changed);
+  /// The last rendered image (premultiplied RGBA and window depth, rows bottom-up).
+  const csgv::gpu::FrameOutput& output() const { return this->Output; }
+  /// The same with the G-buffer (label, face, hit depth, distance), read on demand: compositing
+  /// needs only colour and depth, picking and the label image need the rest.
+  const csgv::gpu::FrameOutput& outputWithGBuffer();
+  /// Statistics of the last frame rendered.
+  const csgv::gpu::FrameStats& lastStats() const { return this->Stats; }
+  uint32_t framesLastRender() const { return this->FramesLastRender; }
+  /// Device memory of this view's renderer: its brick cache and everything (the shared encoding
+  /// upload included); 0 without a renderer.
+  uint64_t cacheBytes() const;
+  uint64_t deviceBytes() const;
+
+private:
+  std::string ensureRenderer();
+  void releaseShare();
+
+  VolumeSource Source;
+  std::shared_ptr<VolumeCache> Cache; ///< the cache whose mutex guards Source.shared
+  std::shared_ptr<csgv::gpu::Context> Context; ///< outlives Renderer
+  std::unique_ptr<csgv::gpu::Renderer> Renderer; ///< destroyed before Source's volume
+  uint64_t RendererCacheBytes = 0;
+  uint64_t RendererGeneration = 0;
+  bool Counted = false;
+  ViewSettings Settings;
+  csgv::MaterialDocument Materials;
+  std::map<std::string, std::vector<float>> Attributes;
+  bool MaterialsDirty = true, SettingsDirty = true, GeometryDirty = true;
+  bool Dirty = true; ///< accumulation must restart
+  bool Converged = false;
+  std::array<double, 16> LastMatrix{};
+  uint32_t LastWidth = 0, LastHeight = 0;
+  std::vector<float> LastDepth;
+  csgv::gpu::FrameOutput Output;
+  bool GBufferCurrent = false;
+  csgv::gpu::FrameStats Stats;
+  uint32_t FramesLastRender = 0;
+};
+
+} // namespace csgvrep
+
+#endif

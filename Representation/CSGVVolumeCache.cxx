@@ -1,0 +1,186 @@
+// SPDX-License-Identifier: MIT
+#include "CSGVVolumeCache.h"
+
+#include "CSGVAdapter.h" // the readers' FieldData contract and array encoder (CSGV::Readers)
+
+#include <vtkDataArray.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkUnsignedCharArray.h>
+
+#include <tuple>
+
+namespace csgvrep
+{
+namespace
+{
+
+/// Original labels of a relabelled volume as 32-bit labels, when every one fits.
+std::vector<uint32_t> narrowMap(const std::vector<int64_t>& map, bool unsigned64)
+{
+  std::vector<uint32_t> out;
+  out.reserve(map.size());
+  for (int64_t v : map)
+  {
+    const bool fits = unsigned64 ? uint64_t(v) < 0xFFFFFFFFull : (v >= 0 && v < int64_t(0xFFFFFFFFll));
+    if (!fits)
+    {
+      return {};
+    }
+    out.push_back(uint32_t(v));
+  }
+  return out;
+}
+
+/// A SharedVolume of the reader's encoding (parsed here, once per array and modification time).
+std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
+{
+  csgvvtk::EncodedInput enc;
+  const std::string error = csgvvtk::readEncodingArrays(fd, enc);
+  if (!error.empty())
+  {
+    return error;
+  }
+  out.volume = std::move(enc.volume);
+  out.encodedGeometry = enc.geometry;
+  out.description = "CSGVEncoding";
+  out.arrayName = csgvvtk::kLabelsName;
+  if (enc.info.relabelled)
+  {
+    out.idToLabel = enc.info.map;
+    out.storedToOriginal = narrowMap(enc.info.map, enc.info.unsigned64);
+  }
+  return std::string();
+}
+
+/// A SharedVolume of a plain label array, compressed by the readers' streaming encoder
+/// (relabelling labels the format cannot hold).
+std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims, SharedVolume& out)
+{
+  csgvvtk::EncodedArray encoded;
+  const std::string error =
+    csgvvtk::encodeLabelArray(array, dims, csgv::EncodeOptions{}, false, nullptr, encoded);
+  if (!error.empty())
+  {
+    return error;
+  }
+  const std::string name = array->GetName() ? array->GetName() : "";
+  out.volume = std::move(encoded.volume);
+  out.arrayName = name;
+  out.description = "array '" + name + "' compressed" + (encoded.mapping.relabelled ? " (relabelled)" : "");
+  if (encoded.mapping.relabelled)
+  {
+    // Originals that do not fit 32 bits (negative, wide) cannot be named in materials:
+    // materials then filter on the dense ids.
+    out.idToLabel.assign(encoded.mapping.originalBits.begin(), encoded.mapping.originalBits.end());
+    out.storedToOriginal = narrowMap(out.idToLabel, !csgv::isSignedType(encoded.mapping.type));
+  }
+  return std::string();
+}
+
+} // namespace
+
+bool VolumeSource::bounds(double out[6]) const
+{
+  if (!this->shared)
+  {
+    return false;
+  }
+  csgvvtk::worldBounds(this->corner, this->shared->volume.dim, out);
+  return true;
+}
+
+bool VolumeCache::Key::operator<(const Key& o) const
+{
+  return std::tie(array, mtime, kind, dims) < std::tie(o.array, o.mtime, o.kind, o.dims);
+}
+
+std::shared_ptr<VolumeCache> VolumeCache::instance()
+{
+  // Function-local: created on first use, and every user holds a copy, so the last holder (not
+  // static destruction order) ends it.
+  static const std::shared_ptr<VolumeCache> cache = std::make_shared<VolumeCache>();
+  return cache;
+}
+
+std::mutex& volumeMutex()
+{
+  return VolumeCache::instance()->mutex();
+}
+
+std::shared_ptr<SharedVolume> VolumeCache::lookup(const Key& key)
+{
+  for (auto it = this->Entries.begin(); it != this->Entries.end();)
+  {
+    it = it->second.expired() ? this->Entries.erase(it) : std::next(it);
+  }
+  auto it = this->Entries.find(key);
+  return it == this->Entries.end() ? nullptr : it->second.lock();
+}
+
+std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelArray, VolumeSource& out)
+{
+  out = VolumeSource{};
+  if (!image || image->GetNumberOfPoints() == 0)
+  {
+    return "the input is empty";
+  }
+  std::lock_guard<std::mutex> lock(this->Mutex);
+
+  // The reader's encoding: the key is the array and its modification time, so a hit parses
+  // nothing; only a new or modified encoding is parsed.
+  vtkFieldData* fd = image->GetFieldData();
+  vtkUnsignedCharArray* encoding = csgvvtk::encodingArray(fd);
+  if (encoding && (labelArray.empty() || labelArray == csgvvtk::kLabelsName))
+  {
+    const Key key{ encoding, encoding->GetMTime(), 0, { { 0, 0, 0 } } };
+    std::shared_ptr<SharedVolume> shared = this->lookup(key);
+    if (!shared)
+    {
+      auto parsed = std::make_shared<SharedVolume>();
+      this->Parses++;
+      if (parseEncoding(fd, *parsed).empty())
+      {
+        shared = parsed;
+        this->Entries[key] = shared;
+      }
+    }
+    if (shared &&
+      csgvvtk::encodingDescribes(image, shared->encodedGeometry, shared->volume.dim))
+    {
+      out.shared = shared;
+      out.corner = shared->encodedGeometry;
+      return std::string();
+    }
+    // Derived images (Extract's sub-boxes) carry the FieldData too: they show their array.
+  }
+
+  bool isCell = true;
+  vtkDataArray* array = csgvvtk::findLabelArray(image, labelArray, isCell);
+  if (!array)
+  {
+    return labelArray.empty() ? std::string("the input has no label array (one-component integer "
+                                            "cell or point data) and no CSGV encoding")
+                              : "the input has no array named '" + labelArray + "'";
+  }
+  std::array<uint32_t, 3> dims;
+  out.corner = csgvvtk::imageGeometry(image, isCell, dims);
+  const Key key{ array, array->GetMTime(), isCell ? 1 : 2, dims };
+  out.shared = this->lookup(key);
+  if (out.shared)
+  {
+    return std::string();
+  }
+  auto shared = std::make_shared<SharedVolume>();
+  this->Compressions++;
+  const std::string error = compressArray(array, dims, *shared);
+  if (!error.empty())
+  {
+    return error;
+  }
+  this->Entries[key] = shared;
+  out.shared = shared;
+  return std::string();
+}
+
+} // namespace csgvrep

@@ -1,0 +1,125 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @file CSGVVolumeCache.h
+ * @brief What an input image resolves to (the CSGV reader's encoding, or a label array
+ * compressed on the fly through the readers' adapter), cached process-wide per (array,
+ * modification time) so that every view of one volume shares one compressed volume and one
+ * upload.
+ *
+ * The cache is an owned singleton: VolumeCache::instance() hands out a shared_ptr that every
+ * user keeps, so the cache (and the mutex that guards SharedVolume's mutable members) lives until
+ * its last user goes, also when representations outlive static destruction at exit.
+ *
+ * Not a wrapped header: Core and VulkanBackend types may appear here.
+ */
+#ifndef CSGVVolumeCache_h
+#define CSGVVolumeCache_h
+
+#include "csgv/attributes/Attributes.h"
+#include "csgv/base/Geometry.h"
+#include "csgv/codec/Container.h"
+#include "csgv/gpu/GpuVolume.h"
+
+#include <vtkType.h>
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+class vtkImageData;
+
+namespace csgv
+{
+namespace gpu
+{
+class Context;
+}
+}
+
+namespace csgvrep
+{
+
+/// @brief One compressed volume and its upload, shared by every view showing the same data.
+struct SharedVolume
+{
+  csgv::CompressedVolume volume;
+  /// The encoding's own level-0 corner geometry (CSGVEncoding inputs; parsed with it).
+  csgv::Geometry encodedGeometry;
+  /// Stored label -> original label when the volume is relabelled and originals fit 32 bits.
+  std::vector<uint32_t> storedToOriginal;
+  /// Stored id -> original label bits for any relabelled volume (empty: stored labels are the
+  /// originals); the key of attribute arrays.
+  std::vector<int64_t> idToLabel;
+  /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
+  /// (guarded by the volume cache's mutex while being set).
+  std::shared_ptr<const csgv::AttributeTable> computed;
+  std::string arrayName;   ///< the label array users see ("Labels" for the CSGV encoding)
+  std::string description; ///< where it came from ("CSGVEncoding", "array 'Labels' compressed")
+  /// The context `gpu` was created on; declared before `gpu` so that it outlives it.
+  std::shared_ptr<csgv::gpu::Context> context;
+  /// Declared after `volume`: destroyed first (it keeps a reference to `volume`).
+  std::shared_ptr<csgv::gpu::GpuVolume> gpu;
+  /// Renderers using this volume; each one's cache gets an equal share of the cache budget.
+  int renderers = 0;
+  uint64_t sharesGeneration = 0; ///< bumped when `renderers` changes
+};
+
+/// @brief What an input image resolves to.
+struct VolumeSource
+{
+  std::shared_ptr<SharedVolume> shared;
+  csgv::Geometry corner; ///< corner geometry of voxel (0,0,0) (Metadata.h)
+
+  /// World bounds of the voxels drawn (point data: voxels centred on points, half a voxel
+  /// beyond the image's bounds). False when there is nothing to draw.
+  bool bounds(double out[6]) const;
+};
+
+/// @brief The process-wide cache of compressed volumes, keyed by (array, modification time).
+class VolumeCache
+{
+public:
+  /// The cache; keep the pointer for as long as you use the cache or its mutex.
+  static std::shared_ptr<VolumeCache> instance();
+
+  /// Resolves the input: the FieldData encoding of the CSGV reader when it describes this image
+  /// (parsed once per encoding array and modification time: a cache hit parses nothing), else
+  /// the label array (by name, or the first integer array, cell data first), compressed once
+  /// per array and modification time. Returns an error message, or "" on success.
+  std::string resolve(vtkImageData* image, const std::string& labelArray, VolumeSource& out);
+
+  /// Guards the cache and SharedVolume's mutable members (gpu, renderers, computed).
+  std::mutex& mutex() { return this->Mutex; }
+
+  /// How many times an encoding was parsed and an array compressed in this process (for
+  /// benchmarks and tests: both happen once per array and modification time).
+  uint64_t parses() const { return this->Parses; }
+  uint64_t compressions() const { return this->Compressions; }
+
+private:
+  struct Key
+  {
+    const void* array;
+    vtkMTimeType mtime;
+    int kind; ///< 0: encoding, 1: cell array, 2: point array
+    std::array<uint32_t, 3> dims;
+    bool operator<(const Key& o) const;
+  };
+  std::shared_ptr<SharedVolume> lookup(const Key& key);
+
+  std::mutex Mutex;
+  std::map<Key, std::weak_ptr<SharedVolume>> Entries;
+  uint64_t Parses = 0;
+  uint64_t Compressions = 0;
+};
+
+/// The lock that guards the volume cache and SharedVolume's mutable members (the instance's).
+std::mutex& volumeMutex();
+
+} // namespace csgvrep
+
+#endif

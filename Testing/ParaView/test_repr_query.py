@@ -1,0 +1,83 @@
+# SPDX-License-Identifier: MIT
+"""The query protocol of the Segmentation Volume (Representation/CSGVQueryProtocol.h), one check
+per command: summary, pick X Y, labels, colors N, defaults, stats, and an unknown command. The
+`defaults` reply is compared with the server-manager XML's defaults: each default lives in the
+XML and is mirrored once in C++ (csgvrep::RepresentationProperties); this keeps them equal."""
+import base64
+import json
+import os
+import sys
+
+import numpy as np
+
+import csgv_pvtest as t
+from paraview.simple import *
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "Examples"))
+import csgv_tools as ct  # noqa: E402
+
+W, H = 96, 72
+INVALID = 0xFFFFFFFF
+t.load_plugin(globals())
+r = OpenDataFile(os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv"))
+v = t.render_view(W, H)
+d = Show(r, v)
+d.SetRepresentationType("Segmentation Volume")
+
+# defaults: before any property is changed, the proxy holds the XML defaults.
+defaults = json.loads(ct.query(d, "defaults"))
+from paraview import servermanager as sm
+for name, value in sorted(defaults.items()):
+    helper = sm.vtkSMPropertyHelper(d.SMProxy, name)
+    xml = [helper.GetAsDouble(i) for i in range(helper.GetNumberOfElements())]
+    same = np.allclose(np.array(xml, dtype=float), np.array(value, dtype=float).ravel())
+    t.check(same, "default of %s: XML %r, C++ %r" % (name, xml, value))
+t.check(len(defaults) >= 11, "defaults lists every property (%d)" % len(defaults))
+t.check(json.loads(ct.query(d, "stats")).get("compressions") == 0, "stats: a .csgv is never compressed again")
+
+d.CSGVFramesPerStillRender = 1
+v.ResetCamera()
+t.screenshot(v, W, H)
+
+# summary
+s = json.loads(ct.query(d, "summary"))
+t.check(s.get("labelArray") == "Labels" and s.get("labels", 0) > 0 and "attributes" in s,
+        "summary: label array, label count and attributes (%r)" % {k: s.get(k) for k in ("labelArray", "labels")})
+
+# labels: "W H BASE64", decodable with Python's base64 into W*H uint32 values
+w, h, data = ct.query(d, "labels").split(" ", 2)
+raw = base64.b64decode(data, validate=True)
+t.check((int(w), int(h)) == (W, H) and len(raw) == 4 * W * H, "labels: W H and W*H*4 bytes of base64")
+img = np.frombuffer(raw, dtype="<u4").reshape(H, W)
+t.check(np.any(img != INVALID) and np.any(img == INVALID), "labels: hits and misses")
+
+# pick X Y: agrees with the label image
+ys, xs = np.nonzero(img != INVALID)
+x, y = int(xs[len(xs) // 2]), int(ys[len(ys) // 2])
+p = json.loads(ct.query(d, "pick %d %d" % (x, y)))
+t.check(p.get("hit") and p.get("label") == int(img[y, x]) and len(p.get("voxel", [])) == 3 and
+        len(p.get("world", [])) == 3 and "attributes" in p, "pick: hit, label of the image, voxel, world")
+p = json.loads(ct.query(d, "pick %d %d" % (W + 5, 0)))
+t.check(p.get("hit") is False and "error" in p, "pick outside the image: no hit, an error")
+
+# colors N
+c = json.loads(ct.query(d, "colors 5"))
+t.check(len(c.get("labels", [])) <= 5 and c.get("truncated") is True and
+        all(len(e) == 5 for e in c["labels"]), "colors 5: at most 5 entries [label, r, g, b, name], truncated")
+
+# stats: the encoding was parsed once; renders, camera moves and pipeline updates that keep the
+# same encoding array parse nothing more, and nothing was compressed (the encoding is used as is).
+before = json.loads(ct.query(d, "stats"))
+cam = v.GetActiveCamera()
+for i in range(4):
+    d.CSGVLabelArray = "Labels" if i % 2 == 0 else ""
+    cam.Azimuth(3.0)
+    t.screenshot(v, W, H, "stats%d.png" % i)
+after = json.loads(ct.query(d, "stats"))
+t.check(after["parses"] == before["parses"] >= 1 and after["compressions"] == before["compressions"],
+        "stats: no parse or compression on renders and updates of the same data (%r -> %r)" % (before, after))
+
+# unknown
+u = json.loads(ct.query(d, "frobnicate"))
+t.check("unknown query" in u.get("error", ""), "unknown command: an error naming it")
+t.finish()
