@@ -99,18 +99,10 @@ bool presetPoints(const std::string& name, json& points)
   return true;
 }
 
-
 } // namespace
 
 std::string resolveMaterials(const std::string& text, csgv::MaterialDocument& out)
 {
-  std::string trimmed = text;
-  trimmed.erase(0, trimmed.find_first_not_of(" \t\r\n"));
-  if (trimmed.empty())
-  {
-    out = csgv::defaultMaterials();
-    return std::string();
-  }
   std::string toParse = text;
   json doc = json::parse(text, nullptr, false);
   if (!doc.is_discarded() && doc.is_object() && doc.contains("materials") && doc["materials"].is_array())
@@ -138,7 +130,7 @@ std::string resolveMaterials(const std::string& text, csgv::MaterialDocument& ou
       toParse = doc.dump();
     }
   }
-  csgv::Result<csgv::MaterialDocument> parsed = csgv::parseMaterials(toParse);
+  csgv::Result<csgv::MaterialDocument> parsed = csgv::parseMaterialsOrDefault(toParse);
   if (!parsed)
   {
     return parsed.message();

@@ -1,10 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "CSGVQueryProtocol.h"
 
+#include "csgv/base/Math.h"
+
 #include <vtkBase64Utilities.h>
-#include <vtkMatrix3x3.h>
-#include <vtkMatrix4x4.h>
-#include <vtkNew.h>
 
 #include <nlohmann/json.hpp>
 
@@ -22,31 +21,22 @@ using nlohmann::json;
 
 /// World point of window coordinates (pixel centre x, y; window depth z) under a column-major
 /// world-to-clip matrix.
-bool unproject(const std::array<double, 16>& m, double ndcX, double ndcY, double ndcZ, double world[3])
+/// World position of an NDC point under the inverse of a column-major world-to-clip matrix.
+bool unproject(const csgv::Mat4& worldToClip, double ndcX, double ndcY, double ndcZ, double world[3])
 {
-  vtkNew<vtkMatrix4x4> a;
-  for (int r = 0; r < 4; ++r)
-  {
-    for (int c = 0; c < 4; ++c)
-    {
-      a->SetElement(r, c, m[size_t(4 * c + r)]);
-    }
-  }
-  if (a->Determinant() == 0.0)
+  csgv::Mat4 clipToWorld{};
+  if (!csgv::invert(worldToClip, clipToWorld))
   {
     return false;
   }
-  a->Invert();
-  const double in[4] = { ndcX, ndcY, ndcZ, 1.0 };
-  double out[4];
-  a->MultiplyPoint(in, out);
-  if (out[3] == 0.0)
+  const csgv::Vec4 p = csgv::transform(clipToWorld, { ndcX, ndcY, ndcZ, 1.0 });
+  if (p[3] == 0.0)
   {
     return false;
   }
   for (int i = 0; i < 3; ++i)
   {
-    world[i] = out[i] / out[3];
+    world[i] = p[size_t(i)] / p[3];
   }
   return true;
 }
@@ -127,7 +117,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     return labelColorsJson(*c.materials, table.get(), *source.shared, cap);
   }
   static const csgv::gpu::FrameOutput nothing;
-  const csgv::gpu::FrameOutput& out = c.view ? c.view->outputWithGBuffer() : nothing;
+  const csgv::gpu::FrameOutput& out = c.view ? c.view->output(csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth | csgv::gpu::Renderer::GBuffer) : nothing;
   if (what == "labels")
   {
     // "W H base64(uint32 little-endian labels, row 0 at the bottom)" of the last render.
@@ -174,20 +164,14 @@ std::string answerQuery(const std::string& request, QueryContext& c)
         }
       }
       // Index coordinates: world = origin + D (idx * spacing).
-      vtkNew<vtkMatrix3x3> d;
-      for (int k = 0; k < 9; ++k)
-      {
-        d->SetElement(k / 3, k % 3, g.direction[size_t(k)]);
-      }
-      d->Invert();
-      const double rel[3] = { hitP[0] - g.origin[0], hitP[1] - g.origin[1], hitP[2] - g.origin[2] };
-      double idx[3];
-      d->MultiplyPoint(rel, idx);
+      csgv::Mat4 worldToIndex{};
+      const bool invertible = csgv::invert(csgv::indexToWorldMatrix(g), worldToIndex);
+      const csgv::Vec3 index = csgv::transformPoint(worldToIndex, { hitP[0], hitP[1], hitP[2] });
+      const double idx[3] = { index[0], index[1], index[2] };
       const csgv::Face face = i < out.face.size() ? out.face[i] : csgv::Face::None;
       json voxel = json::array();
-      for (int k = 0; k < 3; ++k)
+      for (int k = 0; invertible && k < 3; ++k)
       {
-        idx[k] /= g.spacing[size_t(k)];
         long v = long(std::floor(idx[k]));
         // On the entry face the coordinate is an integer: the face says which side is the voxel.
         if (face == csgv::Face(1 + 2 * k))

@@ -7,8 +7,6 @@
 #include "csgv/gpu/GpuVolume.h"
 
 #include <algorithm>
-#include <chrono>
-#include <cstring>
 
 namespace csgvrep
 {
@@ -63,8 +61,6 @@ void ViewRenderer::clear()
   this->Renderer.reset();
   this->releaseShare();
   this->Source = VolumeSource{};
-  this->Dirty = true;
-  this->Converged = false;
 }
 
 void ViewRenderer::setSource(const VolumeSource& source)
@@ -168,7 +164,6 @@ std::string ViewRenderer::ensureRenderer()
   {
     this->Renderer->setGeometry(this->Source.corner);
     this->GeometryDirty = false;
-    this->Dirty = true;
   }
   if (this->MaterialsDirty)
   {
@@ -178,7 +173,6 @@ std::string ViewRenderer::ensureRenderer()
       return "materials: " + s.message();
     }
     this->MaterialsDirty = false;
-    this->Dirty = true;
   }
   if (this->SettingsDirty)
   {
@@ -208,21 +202,14 @@ std::string ViewRenderer::ensureRenderer()
     }
     this->Renderer->setSettings(rs);
     this->SettingsDirty = false;
-    this->Dirty = true;
   }
   return std::string();
 }
 
-const csgv::gpu::FrameOutput& ViewRenderer::outputWithGBuffer()
+const csgv::gpu::FrameOutput& ViewRenderer::output(uint32_t parts)
 {
-  if (!this->GBufferCurrent && this->Renderer && this->Output.width > 0)
-  {
-    if (this->Renderer->readOutput(this->Output, csgv::gpu::Renderer::GBuffer))
-    {
-      this->GBufferCurrent = true;
-    }
-  }
-  return this->Output;
+  static const csgv::gpu::FrameOutput none;
+  return this->Renderer ? this->Renderer->output(parts) : none;
 }
 
 uint64_t ViewRenderer::cacheBytes() const
@@ -255,83 +242,27 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
   {
     return error;
   }
-  if (req.worldToClip != this->LastMatrix || req.width != this->LastWidth || req.height != this->LastHeight)
+  this->LastMatrix = req.worldToClip;
+  // The backend detects what changed (camera, size, opaque depth, settings) and runs the
+  // still-render loop within the time budget.
+  csgv::gpu::RenderRequest request;
+  request.frame.worldToClip = req.worldToClip;
+  request.frame.width = req.width;
+  request.frame.height = req.height;
+  request.frame.opaqueDepth = req.opaqueDepth;
+  request.interactive = req.interactive;
+  request.timeBudgetSeconds = this->Settings.stillRenderTimeBudget;
+  csgv::Result<csgv::gpu::RenderResult> r = this->Renderer->render(request);
+  if (!r)
   {
-    this->LastMatrix = req.worldToClip;
-    this->LastWidth = req.width;
-    this->LastHeight = req.height;
-    this->Dirty = true;
+    return r.message();
   }
-  const size_t pixels = size_t(req.width) * req.height;
-  if (req.opaqueDepth)
+  changed = r->changed;
+  if (r->frames > 0)
   {
-    if (this->LastDepth.size() != pixels ||
-      std::memcmp(this->LastDepth.data(), req.opaqueDepth, pixels * sizeof(float)) != 0)
-    {
-      this->LastDepth.assign(req.opaqueDepth, req.opaqueDepth + pixels);
-      this->Dirty = true;
-    }
+    this->Stats = r->last;
+    this->FramesLastRender = r->frames;
   }
-  else if (!this->LastDepth.empty())
-  {
-    this->LastDepth.clear();
-    this->Dirty = true;
-  }
-  if (this->Dirty)
-  {
-    this->Renderer->resetAccumulation();
-    this->Dirty = false;
-    this->Converged = false;
-  }
-  else if (this->Converged)
-  {
-    return std::string(); // the last output is exact: nothing to render
-  }
-
-  csgv::gpu::FrameInput in;
-  in.worldToClip = req.worldToClip;
-  in.width = req.width;
-  in.height = req.height;
-  in.opaqueDepth = req.opaqueDepth;
-  const uint32_t target = std::max<uint32_t>(1, this->Settings.framesPerStillRender);
-  const uint32_t sub = std::max<uint32_t>(1, this->Settings.render.subsampling);
-  const uint32_t maxFrames = target * sub * sub + 256;
-  const auto t0 = std::chrono::steady_clock::now();
-  uint32_t idle = 0;
-  for (uint32_t f = 0; f < maxFrames; ++f)
-  {
-    csgv::Result<csgv::gpu::FrameStats> st = this->Renderer->renderFrame(in);
-    if (!st)
-    {
-      return st.message();
-    }
-    this->Stats = *st;
-    this->FramesLastRender++;
-    if (req.interactive || st->minSamples >= target)
-    {
-      break;
-    }
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    // The budget never cuts a frame short of one sample in every pixel (no holes).
-    if (st->minSamples >= 1 && elapsed > this->Settings.stillRenderTimeBudget)
-    {
-      break;
-    }
-    idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
-    if (idle >= 3)
-    {
-      break;
-    }
-  }
-  this->Converged = this->Stats.minSamples >= target;
-  csgv::Status s = this->Renderer->readOutput(
-    this->Output, csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth);
-  this->GBufferCurrent = false;
-  if (!s)
-  {
-    return s.message();
-  }
-  changed = true;
   return std::string();
 }
 

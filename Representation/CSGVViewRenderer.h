@@ -1,13 +1,10 @@
 // SPDX-License-Identifier: MIT
 /**
  * @file CSGVViewRenderer.h
- * @brief The renderer of one view: the view's share of the volume's cache budget, the backend
- * renderer created on demand, and the per-view frame loop (change detection, the copy and
- * comparison of the opaque depth, the still-render loop with its time budget).
- *
- * The frame loop is the part that moves into csgv::gpu::Renderer (issue 10, point 2: a
- * Renderer::render(RenderRequest) with change-detecting setSettings/setGeometry and a lazily read
- * output); render() below is then one call. Settings, materials and geometry already arrive here
+ * @brief The renderer of one view: the view's share of the volume's cache budget and the
+ * backend renderer created on demand. Frame state (change detection, the opaque depth,
+ * accumulation, the still-render loop with its time budget) belongs to csgv::gpu::Renderer;
+ * render() below is one call of Renderer::render. Settings, materials and geometry arrive here
  * once per render.
  *
  * Not a wrapped header: Core and VulkanBackend types may appear here.
@@ -95,11 +92,10 @@ public:
   /// still exact (same camera, size, depth and settings, accumulation complete): nothing was
   /// rendered and the caller may keep what it drew last time. Returns an error message or "".
   std::string render(const FrameRequest& request, bool& changed);
-  /// The last rendered image (premultiplied RGBA and window depth, rows bottom-up).
-  const csgv::gpu::FrameOutput& output() const { return this->Output; }
-  /// The same with the G-buffer (label, face, hit depth, distance), read on demand: compositing
-  /// needs only colour and depth, picking and the label image need the rest.
-  const csgv::gpu::FrameOutput& outputWithGBuffer();
+  /// The last rendered image (premultiplied RGBA and window depth, rows bottom-up), plus the
+  /// `parts` asked for (csgv::gpu::Renderer::GBuffer: label, face, hit depth, distance), read on
+  /// demand by the backend: compositing needs only colour and depth, picking the rest.
+  const csgv::gpu::FrameOutput& output(uint32_t parts = csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth);
   /// Statistics of the last frame rendered.
   const csgv::gpu::FrameStats& lastStats() const { return this->Stats; }
   uint32_t framesLastRender() const { return this->FramesLastRender; }
@@ -123,13 +119,7 @@ private:
   csgv::MaterialDocument Materials;
   std::map<std::string, std::vector<float>> Attributes;
   bool MaterialsDirty = true, SettingsDirty = true, GeometryDirty = true;
-  bool Dirty = true; ///< accumulation must restart
-  bool Converged = false;
   std::array<double, 16> LastMatrix{};
-  uint32_t LastWidth = 0, LastHeight = 0;
-  std::vector<float> LastDepth;
-  csgv::gpu::FrameOutput Output;
-  bool GBufferCurrent = false;
   csgv::gpu::FrameStats Stats;
   uint32_t FramesLastRender = 0;
 };
