@@ -37,7 +37,8 @@ struct GpuVolumeOptions {
 
 class GpuVolume {
 public:
-    /// Uploads the encoding; the volume must have passed checkContainer(). The GpuVolume keeps a
+    /// Uploads the encoding. Precondition, not checked again here: the volume passed
+    /// checkContainer() (parseCsgv's result and the encoder's output do). The GpuVolume keeps a
     /// reference to `volume` (for its header fields): keep it alive as long as the GpuVolume.
     static Result<std::unique_ptr<GpuVolume>> create(Context& context, const CompressedVolume& volume,
                                                      const GpuVolumeOptions& options = {});
