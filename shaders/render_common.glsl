@@ -108,10 +108,7 @@ uint materialOf(Frame f, uint label) {
     return kNone;
 }
 
-vec3 paletteColor(uint h) {
-    const uint i = 3u * (h % kLabelPaletteSize);
-    return vec3(kLabelPalette[i], kLabelPalette[i + 1u], kLabelPalette[i + 2u]);
-}
+vec3 paletteColor(uint h) { return kLabelPalette[h % kLabelPaletteSize]; }
 
 vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
     Vec4Buf cm = Vec4Buf(f.addr[kSlotColormaps]);

@@ -79,7 +79,7 @@ TEST(SharedLayout, GlslSeesTheSameConstantsFunctionsAndStructLayoutsAsCpp) {
     }
     std::vector<uint32_t> expect;
     for (const Probe& p : kProbes) expect.push_back(p.host);
-    for (uint32_t i = 0; i < 48; ++i) expect.push_back(bitsOf(kLabelPalette[i]));
+    for (uint32_t i = 0; i < 48; ++i) expect.push_back(bitsOf(kLabelPalette[i / 3][i % 3]));
     expect.push_back(bitsOf(frame.worldToIndex[13])); // column 3, row 1
     expect.push_back(bitsOf(frame.tone[3]));
     expect.push_back(bitsOf(frame.faceNormals[5][2]));
@@ -103,7 +103,7 @@ TEST(SharedLayout, GlslSeesTheSameConstantsFunctionsAndStructLayoutsAsCpp) {
                       "void main() {\n  Out o = Out(pc.out_);\n";
     uint32_t n = 0;
     for (const Probe& p : kProbes) src += "  o.w[" + std::to_string(n++) + "] = " + p.expression + ";\n";
-    src += "  for (uint i = 0u; i < 48u; ++i) o.w[" + std::to_string(n) + "u + i] = floatBitsToUint(kLabelPalette[i]);\n";
+    src += "  for (uint i = 0u; i < 48u; ++i) o.w[" + std::to_string(n) + "u + i] = floatBitsToUint(kLabelPalette[i / 3u][i % 3u]);\n";
     n += 48;
     // Whole members first, components after (lavapipe's buffer-reference quirk, render_common.glsl).
     src += "  Frame f = Frame(pc.frame);\n  const mat4 m = f.worldToIndex;\n  const vec4 t = f.tone;\n"

@@ -400,7 +400,7 @@ std::array<float, 3> MaterialEvaluator::colorOf(uint32_t label, int index) const
     default: {
         const uint32_t h = labelHash(label);
         if (m.colormap.points.empty()) {
-            const float* c = &layout::kLabelPalette[3 * (h % layout::kLabelPaletteSize)];
+            const float* c = layout::kLabelPalette[h % layout::kLabelPaletteSize];
             return {{c[0], c[1], c[2]}};
         }
         return m.colormap.at(double(h) / 4294967295.0);

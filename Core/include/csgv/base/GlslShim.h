@@ -6,6 +6,9 @@
 /// A shared header includes this one and then uses only:
 /// - `CSGV_CONST(type, name, value)`: a constant (`constexpr` in C++, `const` in GLSL);
 /// - `CSGV_ARRAY(type, name, n) v0, v1, ... CSGV_ARRAY_END`: a constant array;
+/// - `CSGV_VEC3_ARRAY(name, n) CSGV_VEC3(x, y, z), ... CSGV_ARRAY_END`: a constant array of
+///   3-vectors (`float name[n][3]` in C++, `vec3 name[n]` in GLSL: one dynamic index a lookup,
+///   which lavapipe compiles far better than three into a float array);
 /// - `CSGV_FN`: in front of a function (`constexpr inline` in C++, nothing in GLSL); the body
 ///   must be the common subset of both languages (no `const` locals, no casts, unsigned literals);
 /// - `uint32_t` (GLSL `uint`), `float`, `uint64_t` (GLSL with GL_EXT_shader_explicit_arithmetic_types_int64);
@@ -25,6 +28,8 @@
 #define CSGV_CONST(type, name, value) inline constexpr type name = value;
 #define CSGV_ARRAY(type, name, n) inline constexpr type name[n] = {
 #define CSGV_ARRAY_END };
+#define CSGV_VEC3_ARRAY(name, n) inline constexpr float name[n][3] = {
+#define CSGV_VEC3(x, y, z) {x, y, z}
 #define CSGV_FN constexpr inline
 #define CSGV_VEC4(name) float name[4];
 #define CSGV_UVEC4(name) uint32_t name[4];
@@ -37,6 +42,8 @@
 #define CSGV_CONST(type, name, value) const type name = value;
 #define CSGV_ARRAY(type, name, n) const type name[n] = type[n](
 #define CSGV_ARRAY_END );
+#define CSGV_VEC3_ARRAY(name, n) const vec3 name[n] = vec3[n](
+#define CSGV_VEC3(x, y, z) vec3(x, y, z)
 #define CSGV_FN
 #define CSGV_VEC4(name) vec4 name;
 #define CSGV_UVEC4(name) uvec4 name;

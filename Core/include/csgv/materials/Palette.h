@@ -21,14 +21,14 @@ CSGV_FN uint32_t labelHash(uint32_t x) {
     return x;
 }
 
-/// 16 high-contrast colours (rgb, 3 floats each) for `random` without a colormap:
-/// colour of label l = kLabelPalette[3 * (labelHash(l) % 16) + c].
+/// 16 high-contrast colours (rgb) for `random` without a colormap:
+/// colour of label l = kLabelPalette[labelHash(l) % kLabelPaletteSize].
 CSGV_CONST(uint32_t, kLabelPaletteSize, 16u)
-CSGV_ARRAY(float, kLabelPalette, 48)
-    0.902f, 0.098f, 0.294f, 0.235f, 0.706f, 0.294f, 1.000f, 0.882f, 0.098f, 0.263f, 0.388f, 0.847f,
-    0.961f, 0.510f, 0.192f, 0.569f, 0.118f, 0.706f, 0.275f, 0.941f, 0.941f, 0.941f, 0.196f, 0.902f,
-    0.737f, 0.965f, 0.047f, 0.980f, 0.745f, 0.745f, 0.000f, 0.502f, 0.502f, 0.902f, 0.745f, 1.000f,
-    0.604f, 0.388f, 0.141f, 1.000f, 0.980f, 0.784f, 0.502f, 0.000f, 0.000f, 0.667f, 1.000f, 0.765f
+CSGV_VEC3_ARRAY(kLabelPalette, 16)
+    CSGV_VEC3(0.902f, 0.098f, 0.294f), CSGV_VEC3(0.235f, 0.706f, 0.294f), CSGV_VEC3(1.000f, 0.882f, 0.098f), CSGV_VEC3(0.263f, 0.388f, 0.847f),
+    CSGV_VEC3(0.961f, 0.510f, 0.192f), CSGV_VEC3(0.569f, 0.118f, 0.706f), CSGV_VEC3(0.275f, 0.941f, 0.941f), CSGV_VEC3(0.941f, 0.196f, 0.902f),
+    CSGV_VEC3(0.737f, 0.965f, 0.047f), CSGV_VEC3(0.980f, 0.745f, 0.745f), CSGV_VEC3(0.000f, 0.502f, 0.502f), CSGV_VEC3(0.902f, 0.745f, 1.000f),
+    CSGV_VEC3(0.604f, 0.388f, 0.141f), CSGV_VEC3(1.000f, 0.980f, 0.784f), CSGV_VEC3(0.502f, 0.000f, 0.000f), CSGV_VEC3(0.667f, 1.000f, 0.765f)
 CSGV_ARRAY_END
 
 CSGV_NAMESPACE_END
