@@ -39,6 +39,9 @@ std::string uvec3Of(const std::array<uint32_t, 3>& v) {
     return "uvec3(" + std::to_string(v[0]) + "u," + std::to_string(v[1]) + "u," + std::to_string(v[2]) + "u)";
 }
 
+struct PackedMaterials;
+struct MaterialMatcher;
+
 } // namespace
 
 const char* shadingName(Shading s) {
@@ -77,6 +80,7 @@ struct Renderer::Impl {
     std::vector<Buffer> attributes;
     uint32_t materialCount = 0, labelCount = 0;
     bool hasLabelMap = false;
+    uint32_t largestLabel = kNone;    // the largest label of any brick palette (computed once)
     Geometry geometry;
     uint32_t width = 0, height = 0;
     uint32_t maxRequests = 0;
@@ -136,6 +140,11 @@ struct Renderer::Impl {
     Status buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
     Status submit();
     void applyCachePolicy(const FrameStats& stats, const FrameInput& in);
+    // setMaterials' steps.
+    Status uploadDeviceLocal(Buffer& dst, const void* data, uint64_t bytes);
+    Status uploadMaterials(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
+                           const std::vector<uint32_t>& storedToOriginal, uint64_t labels);
+    Status uploadVisibility(const MaterialMatcher& materialOf);
 
     void resetAccumulation() {
         clearPending = true;
@@ -273,14 +282,26 @@ void Renderer::setGeometry(const Geometry& g) {
     resetAccumulation();
 }
 
-Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::string, std::vector<float>>& attributes,
-                              const std::vector<uint32_t>& storedToOriginal) {
-    Impl& im = *m_impl;
-    Context& ctx = im.ctx;
-    std::vector<std::string> names{"label"};
-    for (const auto& a : attributes) names.push_back(a.first);
-    Status s = checkAttributes(doc, names);
-    if (!s) return s;
+namespace {
+
+/// Materials as the shaders read them, with the colormap samples and the attributes they name.
+struct PackedMaterials {
+    std::vector<GpuMaterial> materials;
+    std::vector<std::array<float, 4>> colormapSamples;
+    std::vector<std::string> attributeNames; ///< index = GpuMaterial's attribute number
+
+    uint32_t attributeIndex(const std::string& name) {
+        if (name == "label") return kNone;
+        for (size_t i = 0; i < attributeNames.size(); ++i)
+            if (attributeNames[i] == name) return uint32_t(i);
+        attributeNames.push_back(name);
+        return uint32_t(attributeNames.size() - 1);
+    }
+};
+
+/// The number of labels that per-label arrays cover (they must agree), or an error.
+Result<uint64_t> perLabelCount(const std::map<std::string, std::vector<float>>& attributes,
+                               const std::vector<uint32_t>& storedToOriginal) {
     uint64_t labelCount = storedToOriginal.size();
     for (const auto& a : attributes) {
         if (labelCount != 0 && a.second.size() != labelCount)
@@ -289,129 +310,176 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
         labelCount = a.second.size();
     }
     if (labelCount >= kNone) return Status::error("too many labels with attributes");
-    std::vector<std::string> attributeNames;
-    std::vector<uint64_t> attributeAddresses;
-    std::vector<Buffer> attributeBuffers;
-    auto attributeIndex = [&](const std::string& name) -> uint32_t {
-        if (name == "label") return kNone;
-        for (size_t i = 0; i < attributeNames.size(); ++i)
-            if (attributeNames[i] == name) return uint32_t(i);
-        attributeNames.push_back(name);
-        return uint32_t(attributeNames.size() - 1);
-    };
-    std::vector<GpuMaterial> mats;
-    std::vector<std::array<float, 4>> samples;
-    for (size_t i = 0; i < doc.materials.size(); ++i) {
-        const Material& m = doc.materials[i];
-        GpuMaterial g{};
-        g.select[0] = attributeIndex(m.filterAttribute);
-        // Label filters compare integers: [ceil(min), floor(max)] within 32 bits (empty: min > max).
-        const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
-        g.select[1] = lo > 4294967295.0 ? kNone : uint32_t(lo);
-        g.select[2] = hi < 0 ? 0u : uint32_t(hi);
-        if (lo > hi) g.select[1] = 1, g.select[2] = 0;
-        g.select[3] = m.colorMode == Material::ColorMode::Constant   ? kColorConstant
-                      : m.colorMode == Material::ColorMode::Colormap ? kColorColormap
-                                                                     : kColorRandom;
-        g.range[0] = float(m.filterMin);
-        g.range[1] = float(m.filterMax);
-        g.range[2] = float(m.colorMin);
-        g.range[3] = float(m.colorMax);
-        g.rgba[0] = m.rgb[0];
-        g.rgba[1] = m.rgb[1];
-        g.rgba[2] = m.rgb[2];
-        g.rgba[3] = std::clamp(m.opacity, 0.0f, 1.0f);
-        g.colour[0] = m.colorMode == Material::ColorMode::Colormap ? attributeIndex(m.colorAttribute) : kNone;
-        g.colour[1] = m.wrap == Material::Wrap::Repeat ? 1u : 0u;
-        if (!m.colormap.points.empty()) {
-            if (m.colormap.points.size() < 2) return Status::error("material " + std::to_string(i) + ": a colormap needs two points");
-            g.colour[2] = uint32_t(samples.size());
-            g.colour[3] = kColormapSamples;
-            for (uint32_t k = 0; k < kColormapSamples; ++k) {
-                const auto c = m.colormap.at(double(k) / (kColormapSamples - 1));
-                samples.push_back({c[0], c[1], c[2], 1.0f});
-            }
-        } else if (m.colorMode == Material::ColorMode::Colormap) {
-            if (!m.colormap.name.empty())
-                return Status::error("material " + std::to_string(i) + ": colormap '" + m.colormap.name + "' is not resolved to points");
-            return Status::error("material " + std::to_string(i) + ": colormap mode without a colormap");
-        }
-        g.extra[0] = std::max(m.emission, 0.0f);
-        mats.push_back(g);
-    }
-    for (const std::string& name : attributeNames) {
-        const std::vector<float>& values = attributes.at(name);
-        Result<Buffer> b = ctx.createBuffer(std::max<uint64_t>(values.size() * 4, 16), MemoryKind::DeviceLocal);
-        if (!b) return Status(b.status()).prefix("attribute '" + name + "'");
-        if (!(s = ctx.upload(*b, 0, values.data(), values.size() * 4))) return s;
-        attributeAddresses.push_back(b->address());
-        attributeBuffers.push_back(std::move(*b));
-    }
-    auto upload = [&](Buffer& dst, const void* data, uint64_t bytes) -> Status {
-        Result<Buffer> b = ctx.createBuffer(std::max<uint64_t>(bytes, 16), MemoryKind::DeviceLocal);
-        if (!b) return b.status();
-        Status st = ctx.upload(*b, 0, data, bytes);
-        if (!st) return st;
-        dst = std::move(*b);
-        return Status::ok();
-    };
-    if (!(s = upload(im.materials, mats.data(), mats.size() * sizeof(GpuMaterial)))) return s;
-    if (!(s = upload(im.colormaps, samples.data(), samples.size() * 16))) return s;
-    if (!(s = upload(im.attributeTable, attributeAddresses.data(), attributeAddresses.size() * 8))) return s;
-    if (!(s = upload(im.labelMap, storedToOriginal.data(), storedToOriginal.size() * 4))) return s;
-    im.attributes = std::move(attributeBuffers);
-    im.materialCount = uint32_t(mats.size());
-    im.labelCount = uint32_t(labelCount);
-    im.hasLabelMap = !storedToOriginal.empty();
+    return labelCount;
+}
 
-    // Which bricks can show anything: their palettes against the materials, with the GPU's own
-    // comparisons (integers for `label`, floats for attributes).
-    auto materialOfLabel = [&](uint32_t stored) -> uint32_t {
+/// One material in the GPU's layout; colormaps are sampled into `out.colormapSamples`.
+Result<GpuMaterial> packMaterial(const Material& m, size_t index, PackedMaterials& out) {
+    GpuMaterial g{};
+    g.select[0] = out.attributeIndex(m.filterAttribute);
+    // Label filters compare integers: [ceil(min), floor(max)] within 32 bits (empty: min > max).
+    const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
+    g.select[1] = lo > 4294967295.0 ? kNone : uint32_t(lo);
+    g.select[2] = hi < 0 ? 0u : uint32_t(hi);
+    if (lo > hi) g.select[1] = 1, g.select[2] = 0;
+    g.select[3] = m.colorMode == Material::ColorMode::Constant   ? kColorConstant
+                  : m.colorMode == Material::ColorMode::Colormap ? kColorColormap
+                                                                 : kColorRandom;
+    g.range[0] = float(m.filterMin);
+    g.range[1] = float(m.filterMax);
+    g.range[2] = float(m.colorMin);
+    g.range[3] = float(m.colorMax);
+    g.rgba[0] = m.rgb[0];
+    g.rgba[1] = m.rgb[1];
+    g.rgba[2] = m.rgb[2];
+    g.rgba[3] = std::clamp(m.opacity, 0.0f, 1.0f);
+    g.colour[0] = m.colorMode == Material::ColorMode::Colormap ? out.attributeIndex(m.colorAttribute) : kNone;
+    g.colour[1] = m.wrap == Material::Wrap::Repeat ? 1u : 0u;
+    const std::string which = "material " + std::to_string(index);
+    if (!m.colormap.points.empty()) {
+        if (m.colormap.points.size() < 2) return Status::error(which + ": a colormap needs two points");
+        g.colour[2] = uint32_t(out.colormapSamples.size());
+        g.colour[3] = kColormapSamples;
+        for (uint32_t k = 0; k < kColormapSamples; ++k) {
+            const auto c = m.colormap.at(double(k) / (kColormapSamples - 1));
+            out.colormapSamples.push_back({c[0], c[1], c[2], 1.0f});
+        }
+    } else if (m.colorMode == Material::ColorMode::Colormap) {
+        if (!m.colormap.name.empty())
+            return Status::error(which + ": colormap '" + m.colormap.name + "' is not resolved to points");
+        return Status::error(which + ": colormap mode without a colormap");
+    }
+    g.extra[0] = std::max(m.emission, 0.0f);
+    return g;
+}
+
+Result<PackedMaterials> packMaterials(const MaterialDocument& doc) {
+    PackedMaterials out;
+    for (size_t i = 0; i < doc.materials.size(); ++i) {
+        Result<GpuMaterial> g = packMaterial(doc.materials[i], i, out);
+        if (!g) return g.status();
+        out.materials.push_back(*g);
+    }
+    return out;
+}
+
+/// The first material whose filter holds a stored label, with the GPU's own comparisons
+/// (integers for `label`, floats for attributes): what render_common.glsl's materialOf does.
+struct MaterialMatcher {
+    const PackedMaterials& packed;
+    const std::map<std::string, std::vector<float>>& attributes;
+    const std::vector<uint32_t>& storedToOriginal;
+    uint64_t labelCount;
+
+    uint32_t operator()(uint32_t stored) const {
         if (stored == kNone) return kNone;
-        for (size_t i = 0; i < mats.size(); ++i) {
-            const GpuMaterial& g = mats[i];
+        for (size_t i = 0; i < packed.materials.size(); ++i) {
+            const GpuMaterial& g = packed.materials[i];
             if (g.select[0] == kNone) {
-                const uint32_t l = im.hasLabelMap && stored < labelCount ? storedToOriginal[stored] : stored;
+                const uint32_t l = !storedToOriginal.empty() && stored < labelCount ? storedToOriginal[stored] : stored;
                 if (l >= g.select[1] && l <= g.select[2]) return uint32_t(i);
             } else {
                 if (stored >= labelCount) continue;
-                const float v = attributes.at(attributeNames[g.select[0]])[stored];
+                const float v = attributes.at(packed.attributeNames[g.select[0]])[stored];
                 if (v >= g.range[0] && v <= g.range[1]) return uint32_t(i);
             }
         }
         return kNone;
-    };
-    const CompressedVolume& vol = im.volume->volume();
+    }
+};
+
+/// The largest label any brick palette holds.
+uint32_t largestStoredLabel(const CompressedVolume& vol) {
     const uint32_t L = vol.levels();
-    // With few stored labels (up to 2^22), a table label -> material replaces the shader's scan
-    // of the material list.
     uint32_t largest = 0;
 #pragma omp parallel for reduction(max : largest) schedule(dynamic, 64)
-    for (int64_t b = 0; b < int64_t(im.brickCount); ++b) {
+    for (int64_t b = 0; b < int64_t(vol.brickCount()); ++b) {
         const BrickWords bw = vol.brick(uint64_t(b));
         for (uint32_t k = 0; k < bw.words[L]; ++k) largest = std::max(largest, bw.words[bw.size - 1 - k]);
     }
-    std::vector<uint32_t> table;
-    if (largest < (1u << 22)) {
-        table.resize(size_t(largest) + 1);
-#pragma omp parallel for schedule(static, 4096)
-        for (int64_t l = 0; l < int64_t(table.size()); ++l) table[size_t(l)] = materialOfLabel(uint32_t(l));
+    return largest;
+}
+
+} // namespace
+
+Status Renderer::Impl::uploadDeviceLocal(Buffer& dst, const void* data, uint64_t bytes) {
+    Result<Buffer> b = ctx.createBuffer(std::max<uint64_t>(bytes, 16), MemoryKind::DeviceLocal);
+    if (!b) return b.status();
+    Status s = ctx.upload(*b, 0, data, bytes);
+    if (!s) return s;
+    dst = std::move(*b);
+    return Status::ok();
+}
+
+Status Renderer::Impl::uploadMaterials(const PackedMaterials& packed,
+                                       const std::map<std::string, std::vector<float>>& attributeArrays,
+                                       const std::vector<uint32_t>& storedToOriginal, uint64_t labels) {
+    std::vector<uint64_t> addresses;
+    std::vector<Buffer> buffers;
+    Status s;
+    for (const std::string& name : packed.attributeNames) {
+        const std::vector<float>& values = attributeArrays.at(name);
+        Buffer b;
+        if (!(s = uploadDeviceLocal(b, values.data(), values.size() * 4))) return s.prefix("attribute '" + name + "'");
+        addresses.push_back(b.address());
+        buffers.push_back(std::move(b));
     }
-    if (!(s = upload(im.materialTable, table.data(), table.size() * 4))) return s;
-    im.materialTableSize = uint32_t(table.size());
+    const std::vector<GpuMaterial>& mats = packed.materials;
+    if (!(s = uploadDeviceLocal(materials, mats.data(), mats.size() * sizeof(GpuMaterial)))) return s;
+    if (!(s = uploadDeviceLocal(colormaps, packed.colormapSamples.data(), packed.colormapSamples.size() * 16))) return s;
+    if (!(s = uploadDeviceLocal(attributeTable, addresses.data(), addresses.size() * 8))) return s;
+    if (!(s = uploadDeviceLocal(labelMap, storedToOriginal.data(), storedToOriginal.size() * 4))) return s;
+    attributes = std::move(buffers);
+    materialCount = uint32_t(mats.size());
+    labelCount = uint32_t(labels);
+    hasLabelMap = !storedToOriginal.empty();
+    return Status::ok();
+}
+
+Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
+    // With few stored labels (up to 2^22), a table label -> material replaces the shader's scan
+    // of the material list.
+    if (largestLabel == kNone) largestLabel = largestStoredLabel(volume->volume()); // once per renderer
+    std::vector<uint32_t> table;
+    if (largestLabel < (1u << 22)) {
+        table.resize(size_t(largestLabel) + 1);
+#pragma omp parallel for schedule(static, 4096)
+        for (int64_t l = 0; l < int64_t(table.size()); ++l) table[size_t(l)] = materialOf(uint32_t(l));
+    }
+    Status s = uploadDeviceLocal(materialTable, table.data(), table.size() * 4);
+    if (!s) return s;
+    materialTableSize = uint32_t(table.size());
+    // Which bricks can show anything: their palettes against the materials.
     auto visibleLabel = [&](uint32_t stored) {
         if (!table.empty()) return stored < table.size() && table[stored] != kNone;
-        return materialOfLabel(stored) != kNone;
+        return materialOf(stored) != kNone;
     };
-    std::vector<uint32_t> vis(im.brickCount, 0u);
+    const CompressedVolume& vol = volume->volume();
+    const uint32_t L = vol.levels();
+    std::vector<uint32_t> vis(brickCount, 0u);
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t b = 0; b < int64_t(im.brickCount); ++b) {
+    for (int64_t b = 0; b < int64_t(brickCount); ++b) {
         const BrickWords bw = vol.brick(uint64_t(b));
         const uint32_t n = bw.words[L];
         for (uint32_t k = 0; k < n && !vis[size_t(b)]; ++k)
             if (visibleLabel(bw.words[bw.size - 1 - k])) vis[size_t(b)] = 1;
     }
-    if (!(s = ctx.upload(im.visible, 0, vis.data(), vis.size() * 4))) return s;
+    return ctx.upload(visible, 0, vis.data(), vis.size() * 4);
+}
+
+Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::string, std::vector<float>>& attributes,
+                              const std::vector<uint32_t>& storedToOriginal) {
+    Impl& im = *m_impl;
+    std::vector<std::string> names{"label"};
+    for (const auto& a : attributes) names.push_back(a.first);
+    Status s = checkAttributes(doc, names);
+    if (!s) return s;
+    Result<uint64_t> labels = perLabelCount(attributes, storedToOriginal);
+    if (!labels) return labels.status();
+    Result<PackedMaterials> packed = packMaterials(doc);
+    if (!packed) return packed.status();
+    if (!(s = im.uploadMaterials(*packed, attributes, storedToOriginal, *labels))) return s;
+    if (!(s = im.uploadVisibility(MaterialMatcher{*packed, attributes, storedToOriginal, *labels}))) return s;
     resetAccumulation();
     return Status::ok();
 }
