@@ -17,6 +17,7 @@
 
 #include "csgv/gpu/FrameLayout.h"      // kNone, flags, slots, alloc words, Frame and GpuMaterial layouts
 #include "csgv/materials/Palette.h"    // labelHash, kLabelPalette
+#include "csgv/base/Morton.h"          // mortonSpread (cache entries in Morton order)
 
 const float ONE_MINUS_EPSILON = 0.99999994; // the largest float below 1
 
@@ -140,15 +141,6 @@ vec4 materialColor(Frame f, uint m, uint label, out float emission) {
 uint brickIndexOf(ivec3 voxel) {
     const uvec3 b = uvec3(voxel) >> BRICK_SHIFT;
     return b.x + BRICK_GRID.x * (b.y + BRICK_GRID.y * b.z);
-}
-
-uint mortonSpread(uint v) {
-    v &= 0x3FFu;
-    v = (v | (v << 16u)) & 0x030000FFu;
-    v = (v | (v << 8u)) & 0x0300F00Fu;
-    v = (v | (v << 4u)) & 0x030C30C3u;
-    v = (v | (v << 2u)) & 0x09249249u;
-    return v;
 }
 
 // Cache paletting (CACHE_BITS < 32, see csgv_decode.glsl): entries are packed palette indices.
