@@ -5,7 +5,6 @@
 
 #include <png.h>
 
-#include <cstdlib>
 
 namespace csgv {
 
@@ -22,9 +21,8 @@ Status writePng(const std::string& path, uint32_t width, uint32_t height, uint32
     image.height = height;
     image.format = channels == 4 ? PNG_FORMAT_RGBA : PNG_FORMAT_RGB;
     // Encoded to memory first, then written through AtomicFile: never a half file under the name.
-    png_alloc_size_t bytes = 0;
-    if (!png_image_write_to_memory(&image, nullptr, &bytes, 0, pixels.data(), 0, nullptr))
-        return Status::error("PNG: " + std::string(image.message));
+    // One compression pass into a buffer of the largest size libpng can produce.
+    png_alloc_size_t bytes = PNG_IMAGE_PNG_SIZE_MAX(image);
     std::vector<uint8_t> file(bytes);
     if (!png_image_write_to_memory(&image, file.data(), &bytes, 0, pixels.data(), 0, nullptr))
         return Status::error("PNG: " + std::string(image.message));

@@ -177,7 +177,7 @@ uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, ui
     uint s;
     if (!nextSymbol(b, st, tableB, s)) return kDecodeStreamEnd;
     if ((s & kStopBit) != 0u && finest) return kDecodeStopAtFinest;
-    const uint op = s & 7u;
+    const uint op = s & kOpMask;
     const uint paletteSize = b.words.w[b.start + LEVELS];
     uint label;
     if (op == kOpParent) {
@@ -209,7 +209,7 @@ uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, ui
         v = g;
 #else
         bool more = true;
-        for (uint groups = 0u; groups < 11u && more; ++groups) {
+        for (uint groups = 0u; groups < kMaxDistanceGroups && more; ++groups) {
             if (!nextSymbol(b, st, tableB, g)) return kDecodeStreamEnd;
             if (v > 0x1FFFFFFFu) return kDecodeBadDistance; // would not fit 32 bits
             v = (v << 3u) | (g & 7u);
@@ -302,7 +302,7 @@ void decodeSteps(Brick b, inout DecodeState st, uint target, CacheWords cache, u
                 st.status = kDecodeStreamEnd;
                 break;
             }
-            if ((s & 7u) != 4u) {
+            if ((s & kOpMask) != kOpPaletteAdv) {
                 st.status = kDecodeBadRoot;
                 break;
             }

@@ -51,7 +51,7 @@ void resolvePixel(Frame f, uvec2 px) {
         if (n == 0u && fv.image.z > 1u) { // upsampling: the nearest pixel of the block with samples
             const uint s = fv.image.z;
             const uvec2 b0 = (px / s) * s;
-            uint best = 0xFFFFFFFFu;
+            uint best = kNone;
             for (uint k = 0u; k < s * s; ++k) {
                 const uvec2 q = b0 + uvec2(k % s, k / s);
                 if (q.x >= W || q.y >= H) continue;

@@ -479,12 +479,14 @@ void Context::setSubmitTimeout(double seconds) {
 
 bool Context::lost() const { return m_impl->lost; }
 
-Status Context::run(const std::vector<Dispatch>& dispatches) {
+Status Context::run(const Dispatch* first, size_t count) {
     Impl& im = *m_impl;
-    for (const Dispatch& d : dispatches)
-        if (!im.pipelines.count(d.pipeline)) return Status::error("dispatch of an unknown pipeline");
+    const Dispatch* const last = first + count;
+    for (const Dispatch* d = first; d != last; ++d)
+        if (!im.pipelines.count(d->pipeline)) return Status::error("dispatch of an unknown pipeline");
     return submitAndWait(im, [&](VkCommandBuffer cmd) {
-        for (const Dispatch& d : dispatches) {
+        for (const Dispatch* it = first; it != last; ++it) {
+            const Dispatch& d = *it;
             const Impl::Pipeline& p = im.pipelines[d.pipeline];
             im.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.pipeline);
             if (d.pushConstantBytes)

@@ -188,13 +188,13 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     storage.pushes.clear();
     storage.pushes.reserve(params.size() / kDecodeParamWords);
     for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
-        storage.pushes.push_back({m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
+        storage.pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
                                   paramBuffer->address() + 4 * kDecodeParamWords * k, countAddress});
     storage.params = std::move(*paramBuffer);
     for (const auto& push : storage.pushes) {
         Context::Dispatch d;
         d.pipeline = m_decodePipeline;
-        d.pushConstants = push.data();
+        d.pushConstants = &push;
         d.pushConstantBytes = sizeof(DecodePush);
         d.groups[0] = (maxRequests + kGroupDecodes - 1) / kGroupDecodes;
         out.push_back(d);

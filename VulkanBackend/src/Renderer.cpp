@@ -69,7 +69,7 @@ uint64_t MemoryReport::total() const {
 struct Renderer::Impl {
     Context& ctx;
     std::shared_ptr<GpuVolume> volume;
-    uint32_t brickCount = 0, levels = 0, brickSize = 0;
+    uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pResolve = 0;
     uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
     Defines defines;
@@ -94,7 +94,9 @@ struct Renderer::Impl {
     // Cache pressure state since the last reset of the accumulation.
     bool resetDone = false, evictUnused = false, limitRequests = false;
     uint32_t bandRow = 0, bandHeight = 0, prevMinSamples = 0;
-    GpuVolume::FrameDecode frameDecode;
+    GpuVolume::FrameDecode frameDecode; // the decode passes' parameters, made once
+    std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
+    bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
     bool hostDecode = false;          // RendererOptions::decode resolved
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
     bool converged = false;           // the last render() reached the sample target; nothing changed since
@@ -104,7 +106,7 @@ struct Renderer::Impl {
     std::vector<Context::Dispatch> dispatches;
     std::vector<ResolvePush> resolvePushes;
     size_t cacheStages = 0;           // dispatches before the decoding (host decoding submits them first)
-    uint64_t frameAddress = 0;        // push constant of the cache and render passes
+    uint64_t frameAddress = 0;        // push constant of the cache and render passes (params.address())
 
     /// Decodes the GPU's decode list (brick, inverse level, cache word offset) with Core's decoder
     /// straight into the host-visible cache; a brick whose stream fails reads as outside.
@@ -121,7 +123,7 @@ struct Renderer::Impl {
             BrickDecoder& d = *decoders[size_t(omp_get_thread_num())];
             const uint32_t* e = list + kDecodeEntryWords * i;
             const uint32_t brick = e[0], lod = L - 1 - std::min(e[1], L - 1), offset = e[2];
-            const uint64_t edge = vol.brickSize >> lod, words = edge * edge * edge;
+            const uint64_t words = volume->regionWords(lod);
             if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) continue;
             if (d.decode(brick, lod)) std::memcpy(cacheWords + offset, d.labels(), words * 4);
             else std::fill(cacheWords + offset, cacheWords + offset + words, kNone);
@@ -137,7 +139,7 @@ struct Renderer::Impl {
     Result<uint64_t> ensurePipeline(Shading shading);
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
-    Status buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
+    void buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
     Status submit();
     void applyCachePolicy(const FrameStats& stats, const FrameInput& in);
     // setMaterials' steps.
@@ -154,25 +156,29 @@ struct Renderer::Impl {
         converged = false;
     }
 
+    /// The per-pixel buffers for a new size, all or nothing: a failure keeps the old size whole.
     Status allocateImage(uint32_t w, uint32_t h) {
         const uint64_t n = uint64_t(w) * h;
-        auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind) -> Status {
-            Result<Buffer> r = ctx.createBuffer(std::max<uint64_t>(bytes, 16), kind);
-            if (!r) return Status(r.status()).prefix("allocating a " + std::to_string(w) + "x" + std::to_string(h) + " image");
-            b = std::move(*r);
-            return Status::ok();
+        struct Part {
+            Buffer* target;
+            uint64_t bytes;
+            MemoryKind kind;
         };
-        Status s;
-        if (!(s = make(accum, n * 16, MemoryKind::DeviceLocal))) return s;
-        if (!(s = make(samples, n * 4, MemoryKind::DeviceLocal))) return s;
-        if (!(s = make(gbuffer, n * 16, MemoryKind::HostVisible))) return s;
-        if (!(s = make(depthIn, n * 4, MemoryKind::HostVisible))) return s;
-        if (!(s = make(colorOut, n * 16, MemoryKind::HostVisible))) return s;
-        if (!(s = make(depthOut, n * 4, MemoryKind::HostVisible))) return s;
-        if (!(s = make(denoiseA, n * 16, MemoryKind::DeviceLocal))) return s;
-        if (!(s = make(denoiseB, n * 16, MemoryKind::DeviceLocal))) return s;
+        const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},    {&samples, n * 4, MemoryKind::DeviceLocal},
+                              {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
+                              {&colorOut, n * 16, MemoryKind::HostVisible}, {&depthOut, n * 4, MemoryKind::HostVisible},
+                              {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal}};
+        std::vector<Buffer> made;
+        for (const Part& part : parts) {
+            Result<Buffer> r = ctx.createBuffer(std::max<uint64_t>(part.bytes, 16), part.kind);
+            if (!r) return Status(r.status()).prefix("allocating a " + std::to_string(w) + "x" + std::to_string(h) + " image");
+            made.push_back(std::move(*r));
+        }
+        for (size_t i = 0; i < made.size(); ++i) *parts[i].target = std::move(made[i]);
         width = w;
         height = h;
+        output = FrameOutput{};
+        outputParts = 0;
         return Status::ok();
     }
 
@@ -208,7 +214,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (v.brickCount() > (uint64_t(1) << 28)) return Status::error("more than 2^28 bricks cannot be rendered");
     im.brickCount = uint32_t(v.brickCount());
     im.levels = v.levels();
-    im.brickSize = v.brickSize;
 
     Defines d;
     d.emplace_back("BRICK_SIZE", std::to_string(v.brickSize) + "u");
@@ -265,6 +270,13 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"))) return s;
     if (!(s = make(im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
+    im.frameAddress = im.params.address();
+    im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
+    // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
+    if (!im.hostDecode &&
+        !(s = volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * kAllocDecodes, im.cache.address(),
+                                        im.decodeStates.address(), im.maxRequests, im.frameDecode, im.decodeDispatches)))
+        return s;
     std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
     for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
@@ -478,10 +490,9 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     if (!labels) return labels.status();
     Result<PackedMaterials> packed = packMaterials(doc);
     if (!packed) return packed.status();
+    resetAccumulation(); // before the uploads: a failure among them must not leave an image called exact
     if (!(s = im.uploadMaterials(*packed, attributes, storedToOriginal, *labels))) return s;
-    if (!(s = im.uploadVisibility(MaterialMatcher{*packed, attributes, storedToOriginal, *labels}))) return s;
-    resetAccumulation();
-    return Status::ok();
+    return im.uploadVisibility(MaterialMatcher{*packed, attributes, storedToOriginal, *labels});
 }
 
 void Renderer::setSettings(const RenderSettings& settings) {
@@ -501,7 +512,10 @@ bool RenderSettings::operator==(const RenderSettings& o) const {
 
 void Renderer::resetAccumulation() { m_impl->resetAccumulation(); }
 
-void Renderer::resetCache() { m_impl->cacheResetPending = true; }
+void Renderer::resetCache() {
+    m_impl->cacheResetPending = true;
+    m_impl->converged = false; // the next render() submits (and refills the cache)
+}
 
 // ---- one frame, in named steps ----
 
@@ -663,8 +677,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     a[kAllocPrevMin] = prevMinSamples;
 }
 
-Status Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline) {
-    frameAddress = params.address();
+void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline) {
     resolvePushes.clear();
     resolvePushes.reserve(8); // the list points into it: no reallocation while building
     dispatches.clear();
@@ -689,11 +702,7 @@ Status Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSetting
     add(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
     add(pCommit, &frameAddress, 8, 1, 1);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
-    if (!hostDecode) {
-        Status s = volume->appendFrameDecode(decodes.address(), alloc.address() + 4 * kAllocDecodes, cache.address(),
-                                             decodeStates.address(), maxRequests, frameDecode, dispatches);
-        if (!s) return s;
-    }
+    if (!hostDecode) dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
     const uint32_t stride = st.subsampling;
     const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
     add(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
@@ -710,12 +719,11 @@ Status Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSetting
     } else {
         resolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
     }
-    return Status::ok();
 }
 
 Status Renderer::Impl::submit() {
     Status s;
-    if (std::getenv("CSGV_PROFILE_DISPATCHES")) { // one submission per dispatch, timed (diagnostics)
+    if (profileDispatches) { // one submission per dispatch, timed (diagnostics)
         for (size_t i = 0; i < dispatches.size(); ++i) {
             const auto t1 = std::chrono::steady_clock::now();
             if (hostDecode && i == cacheStages) {
@@ -723,7 +731,7 @@ Status Renderer::Impl::submit() {
                 std::fprintf(stderr, "host decode: %.2f ms\n",
                              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
             }
-            if (!(s = ctx.run({dispatches[i]}))) return s;
+            if (!(s = ctx.run(&dispatches[i], 1))) return s;
             std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, dispatches[i].groups[0], dispatches[i].groups[1],
                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
         }
@@ -731,11 +739,9 @@ Status Renderer::Impl::submit() {
     }
     if (hostDecode) {
         // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
-        const std::vector<Context::Dispatch> first(dispatches.begin(), dispatches.begin() + cacheStages);
-        const std::vector<Context::Dispatch> second(dispatches.begin() + cacheStages, dispatches.end());
-        if (!(s = ctx.run(first))) return s;
+        if (!(s = ctx.run(dispatches.data(), cacheStages))) return s;
         decodeOnHost();
-        return ctx.run(second);
+        return ctx.run(dispatches.data() + cacheStages, dispatches.size() - cacheStages);
     }
     return ctx.run(dispatches); // one submission: cache stages, decoding, rendering, resolving
 }
@@ -780,7 +786,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         stats.cacheReset = true;
     }
     if (!(s = packParams(in, st, clipToWorld))) return s;
-    if (!(s = buildDispatches(in, st, *renderPipeline))) return s;
+    buildDispatches(in, st, *renderPipeline);
     const auto t0 = std::chrono::steady_clock::now();
     if (!(s = submit())) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -12,8 +12,11 @@
 
 namespace csgv {
 
-namespace {
 std::string errnoText() { return std::strerror(errno); }
+
+bool seekTo(std::FILE* f, uint64_t offset) { return fseeko(f, off_t(offset), SEEK_SET) == 0; }
+
+namespace {
 std::atomic<unsigned> g_tmpCounter{0};
 } // namespace
 
@@ -119,12 +122,7 @@ Status InputStream::open(const std::string& path, Mode mode, uint64_t offset) {
     m_file = std::fopen(path.c_str(), "rb");
     if (!m_file) return fail(Failure::Open, errnoText());
     m_ownsFile = true;
-#if defined(_WIN32)
-    const bool seeked = _fseeki64(m_file, int64_t(offset), SEEK_SET) == 0;
-#else
-    const bool seeked = fseeko(m_file, off_t(offset), SEEK_SET) == 0;
-#endif
-    if (!seeked) return fail(Failure::Open, errnoText());
+    if (!seekTo(m_file, offset)) return fail(Failure::Open, errnoText());
     return start(mode);
 }
 
@@ -255,11 +253,7 @@ Result<size_t> InputStream::read(void* out, size_t bytes) {
 
 uint64_t InputStream::remainingBound() const {
     if (!m_file) return 0;
-#if defined(_WIN32)
-    const int64_t at = _ftelli64(m_file);
-#else
     const int64_t at = int64_t(ftello(m_file));
-#endif
     const uint64_t consumed = at < 0 ? 0 : uint64_t(at) - (m_inEnd - m_inAt);
     const uint64_t left = m_fileBytes > consumed ? m_fileBytes - consumed : 0;
     if (!m_inflating) return left;

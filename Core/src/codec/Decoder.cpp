@@ -195,8 +195,8 @@ Status BrickDecoder::decodeLevels(uint64_t index, const BrickWords& bw, Reader& 
                         v = g;
                     } else {
                         for (int groups = 0;; ++groups) {
-                            if (groups == 11)
-                                return Status::error(place(index, l, L, m) + ": PALETTE_D distance has more than 11 groups");
+                            if (groups == kMaxDistanceGroups)
+                                return Status::error(place(index, l, L, m) + ": PALETTE_D distance has more than " + std::to_string(kMaxDistanceGroups) + " groups");
                             if (!reader.next(g))
                                 return Status::error(place(index, l, L, m) + ": the stream runs past its end");
                             v = (v << 3) | (g & 7);

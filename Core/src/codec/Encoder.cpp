@@ -201,7 +201,7 @@ private:
                 emit(op | (stop ? kStopBit : 0u), l);
                 if (op == kOpPaletteD) {
                     int groups = 1;
-                    while (groups < 11 && (distance >> (3 * groups)) != 0) ++groups;
+                    while (groups < int(kMaxDistanceGroups) && (distance >> (3 * groups)) != 0) ++groups;
                     for (int g = groups - 1; g >= 0; --g)
                         emit(uint32_t((distance >> (3 * g)) & 7u) | (g > 0 ? 8u : 0u), l);
                 } else if (op == kOpPaletteAdv) {

@@ -103,16 +103,6 @@ std::vector<std::string> splitWords(const std::string& s) {
     return words;
 }
 
-std::string errnoText() { return std::strerror(errno); }
-
-bool seekTo(std::FILE* f, uint64_t offset) {
-#if defined(_WIN32)
-    return _fseeki64(f, int64_t(offset), SEEK_SET) == 0;
-#else
-    return fseeko(f, off_t(offset), SEEK_SET) == 0;
-#endif
-}
-
 unsigned typeBytes(LabelType type) {
     switch (type) {
     case LabelType::U8:

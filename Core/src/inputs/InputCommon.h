@@ -36,7 +36,6 @@ std::string formatDouble(double v);
 bool parseDouble(const std::string& text, double& out);
 bool parseInt64(const std::string& text, int64_t& out);
 std::vector<std::string> splitWords(const std::string& s);
-std::string errnoText();
 
 /// @brief Closes a C file on every return path.
 class CFile {
@@ -52,8 +51,6 @@ public:
 private:
     std::FILE* m_file;
 };
-
-bool seekTo(std::FILE* f, uint64_t offset);
 
 // ---- voxels
 unsigned typeBytes(LabelType type);

@@ -65,7 +65,6 @@ const char* niftiTypeName(int code) {
     }
 }
 
-/// nifti1_io's rule: a pixdim that is not positive counts as 1.
 /// Words a stream failure as gzread's users always have ("cannot inflate" also for plain files,
 /// whose reads go through the same stream).
 Status streamError(const std::string& path, const InputStream& stream, const Status& s) {
@@ -73,6 +72,7 @@ Status streamError(const std::string& path, const InputStream& stream, const Sta
     return Status::error("cannot inflate '" + path + "': " + path + ": " + s.message());
 }
 
+/// nifti1_io's rule: a pixdim that is not positive counts as 1.
 double niftiSpacing(double v) { return std::isfinite(v) && v > 0 ? v : 1.0; }
 
 /// Spacing, direction and origin: the sform when its code is set, else the qform, else pixdim.

@@ -509,7 +509,8 @@ struct NrrdVolumeReader {
             return fail(dataName, cannotRead + s.message());
         Result<VoxelRead> got = readVoxels(stream, vol, bigEndian, path);
         if (!got) return fail(dataName, cannotRead + got.status().message());
-        if (got->bytes != dataBytes) return fail(dataName, cannotRead + errnoText());
+        if (got->bytes != dataBytes) // the file shrank since its size was taken: errno says nothing
+            return fail(dataName, cannotRead + "the file ends after " + std::to_string(got->bytes));
         if (!got->decode) return got->decode;
         return vol;
     }

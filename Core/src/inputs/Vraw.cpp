@@ -81,10 +81,11 @@ Result<InputVolume> readVrawInput(const std::string& path, uint64_t maxBytes) {
     }
     const std::array<uint64_t, 3> d3 = {{h->dim[0], h->dim[1], h->dim[2]}};
     const uint64_t count = product3(d3[0], d3[1], d3[2]);
-    const bool withinBudget = checkBudget(path, d3, maxBytes).isOk();
+    const Status budget = checkBudget(path, d3, maxBytes);
+    const bool withinBudget = budget.isOk();
     if (!gz) {
         if (Status s = h->checkLabelBytes(plainBytes - h->headerBytes); !s) return s.prefix(path);
-        if (Status s = checkBudget(path, d3, maxBytes); !s) return s;
+        if (!withinBudget) return budget;
     }
 
     InputVolume vol;
@@ -119,7 +120,7 @@ Result<InputVolume> readVrawInput(const std::string& path, uint64_t maxBytes) {
     }
     if (gz) {
         if (Status s = h->checkLabelBytes(labelBytes); !s) return s.prefix(path);
-        if (Status s = checkBudget(path, d3, maxBytes); !s) return s;
+        if (!withinBudget) return budget;
     }
     return vol;
 }

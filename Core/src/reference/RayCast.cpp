@@ -105,10 +105,6 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& g, const RayCastView
     return out;
 }
 
-} // namespace csgv
-
-namespace csgv {
-
 namespace {
 
 constexpr float kOneMinusEpsilon = 0.99999994f;

@@ -14,6 +14,11 @@
 
 namespace csgv {
 
+/// The text of the last system error (errno), for messages that name a file.
+std::string errnoText();
+/// Seeks a C file to a 64-bit offset; false on failure (errno says why).
+bool seekTo(std::FILE* f, uint64_t offset);
+
 /// @brief Writes to `<path>.tmp-<pid>-<n>` beside the target and renames it into place on
 /// commit(); destroying it uncommitted removes the temporary, so a failure never leaves a half
 /// file under the target name.

@@ -5,7 +5,6 @@
 ///
 /// A shared header includes this one and then uses only:
 /// - `CSGV_CONST(type, name, value)`: a constant (`constexpr` in C++, `const` in GLSL);
-/// - `CSGV_ARRAY(type, name, n) v0, v1, ... CSGV_ARRAY_END`: a constant array;
 /// - `CSGV_VEC3_ARRAY(name, n) CSGV_VEC3(x, y, z), ... CSGV_ARRAY_END`: a constant array of
 ///   3-vectors (`float name[n][3]` in C++, `vec3 name[n]` in GLSL: one dynamic index a lookup,
 ///   which lavapipe compiles far better than three into a float array);
@@ -26,7 +25,6 @@
 #include <cstddef> // offsetof, for the static_asserts on shared layouts
 #include <cstdint>
 #define CSGV_CONST(type, name, value) inline constexpr type name = value;
-#define CSGV_ARRAY(type, name, n) inline constexpr type name[n] = {
 #define CSGV_ARRAY_END };
 #define CSGV_VEC3_ARRAY(name, n) inline constexpr float name[n][3] = {
 #define CSGV_VEC3(x, y, z) {x, y, z}
@@ -40,7 +38,6 @@
 #else
 #define uint32_t uint
 #define CSGV_CONST(type, name, value) const type name = value;
-#define CSGV_ARRAY(type, name, n) const type name[n] = type[n](
 #define CSGV_ARRAY_END );
 #define CSGV_VEC3_ARRAY(name, n) const vec3 name[n] = vec3[n](
 #define CSGV_VEC3(x, y, z) vec3(x, y, z)

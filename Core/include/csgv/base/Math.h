@@ -18,7 +18,6 @@ using Mat4 = std::array<double, 16>; ///< column-major: element (row r, column c
 using Vec3 = std::array<double, 3>;
 using Vec4 = std::array<double, 4>;
 
-inline Mat4 identityMatrix() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
 
 /// a * b.
 inline Mat4 multiply(const Mat4& a, const Mat4& b) {

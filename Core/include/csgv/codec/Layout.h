@@ -28,6 +28,9 @@ CSGV_CONST(uint32_t, kOpPaletteLast, 5u)
 CSGV_CONST(uint32_t, kOpPaletteD, 6u)
 CSGV_CONST(uint32_t, kOpInvalid, 7u)
 CSGV_CONST(uint32_t, kStopBit, 8u)
+CSGV_CONST(uint32_t, kOpMask, kStopBit - 1u)       ///< the operation bits of a symbol
+/// A PALETTE_D distance: groups of 3 bits, most significant first, bit 3 set on all but the last.
+CSGV_CONST(uint32_t, kMaxDistanceGroups, 11u)
 
 // Results of the GPU decoder per brick (GpuVolume.cpp's decodeResultText() names them).
 CSGV_CONST(uint32_t, kDecodeOk, 0u)

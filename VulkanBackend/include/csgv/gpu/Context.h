@@ -94,7 +94,9 @@ public:
         uint32_t pushConstantBytes = 0;
         uint32_t groups[3] = {1, 1, 1};
     };
-    Status run(const std::vector<Dispatch>& dispatches);
+    Status run(const std::vector<Dispatch>& dispatches) { return run(dispatches.data(), dispatches.size()); }
+    /// The same for `count` dispatches starting at `first` (a part of a frame's list, no copy).
+    Status run(const Dispatch* first, size_t count);
 
     /// How long a submission may take (default 120 s). Past it the context counts as lost: it
     /// refuses all further work and frees nothing the GPU might still use (a leak, not a crash).

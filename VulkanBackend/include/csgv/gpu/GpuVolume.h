@@ -7,6 +7,7 @@
 
 #include "csgv/codec/Container.h"
 #include "csgv/gpu/Context.h"
+#include "csgv/gpu/FrameLayout.h"
 #include "csgv/gpu/ShaderCompiler.h"
 
 #include <array>
@@ -67,15 +68,16 @@ public:
     /// stream is invalid.
     Result<std::vector<uint32_t>> decodeToHost(const std::vector<BrickRequest>& requests);
 
-    /// @brief Push constants and parameters of a frame's decode dispatches (keep until they ran).
+    /// @brief Push constants and parameters of a frame's decode dispatches (keep while they are used).
     struct FrameDecode {
-        std::vector<std::array<uint64_t, 7>> pushes;
+        std::vector<DecodePush> pushes;
         Buffer params;
     };
     /// For the frame pipeline: appends the dispatches that decode requests written by the GPU
-    /// (3 words each at address `requests`: brick, inverse level, cache word offset; their count in
-    /// the word at `countAddress`; at most `maxRequests`) into the cache at `cacheAddress`, with
-    /// 12 words of state per request at `statesAddress`. Enough steps for the finest level.
+    /// (kDecodeEntryWords each at address `requests`: brick, inverse level, cache word offset; their
+    /// count in the word at `countAddress`; at most `maxRequests`) into the cache at `cacheAddress`,
+    /// with kDecodeStateWords of state per request at `statesAddress`. Enough steps for the finest
+    /// level. The dispatches depend on nothing but these arguments: build them once.
     Status appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress, uint64_t statesAddress,
                              uint32_t maxRequests, FrameDecode& storage, std::vector<Context::Dispatch>& out);
 
