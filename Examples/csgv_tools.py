@@ -7,7 +7,7 @@ material document, and the materials' colours as a categorical lookup table.
     import csgv_tools
     d = Show(reader)                     # a Segmentation Volume display
     csgv_tools.attribute_summary(d)      # attribute names and ranges
-    csgv_tools.pick(d, view, 100, 80)    # label, voxel, attributes under pixel (100, 80)
+    csgv_tools.pick(d, 100, 80)          # label, voxel, attributes under pixel (100, 80)
     d.CSGVMaterials = csgv_tools.hide_label(d.CSGVMaterials, 42)
     csgv_tools.apply_label_colors(d, slice_display)   # same colours and region names on a Slice
 

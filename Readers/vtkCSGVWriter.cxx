@@ -9,22 +9,12 @@
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Relabel.h"
 
-#include <vtkAOSDataArrayTemplate.h>
-#include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
-#include <vtkMatrix3x3.h>
 #include <vtkObjectFactory.h>
-#include <vtkPointData.h>
-#include <vtkSmartPointer.h>
 
-#include <cmath>
 #include <cstdio>
-#include <functional>
-#include <limits>
-#include <sstream>
-#include <type_traits>
 
 vtkStandardNewMacro(vtkCSGVWriter);
 
@@ -122,7 +112,6 @@ void vtkCSGVWriter::WriteData()
     return;
   }
   const csgv::LabelMapping& mapping = encoded.mapping;
-  const csgv::CompressedVolume* vol = &encoded.volume;
   this->UpdateProgress(0.9);
 
   csgv::VolumeMetadata md;
@@ -147,7 +136,7 @@ void vtkCSGVWriter::WriteData()
   }
   if (status)
   {
-    status = csgv::writeCsgv(path, *vol);
+    status = csgv::writeCsgv(path, encoded.volume);
   }
   if (!status)
   {

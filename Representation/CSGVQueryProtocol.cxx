@@ -19,25 +19,16 @@ namespace
 
 using nlohmann::json;
 
-/// World point of window coordinates (pixel centre x, y; window depth z) under a column-major
-/// world-to-clip matrix.
-/// World position of an NDC point under the inverse of a column-major world-to-clip matrix.
-bool unproject(const csgv::Mat4& worldToClip, double ndcX, double ndcY, double ndcZ, double world[3])
+/// World position of an NDC point under a column-major clip-to-world matrix (the inverse of the
+/// view's world-to-clip); false at infinity (w = 0).
+bool unproject(const csgv::Mat4& clipToWorld, double ndcX, double ndcY, double ndcZ, csgv::Vec3& world)
 {
-  csgv::Mat4 clipToWorld{};
-  if (!csgv::invert(worldToClip, clipToWorld))
-  {
-    return false;
-  }
   const csgv::Vec4 p = csgv::transform(clipToWorld, { ndcX, ndcY, ndcZ, 1.0 });
   if (p[3] == 0.0)
   {
     return false;
   }
-  for (int i = 0; i < 3; ++i)
-  {
-    world[i] = p[size_t(i)] / p[3];
-  }
+  world = { p[0] / p[3], p[1] / p[3], p[2] / p[3] };
   return true;
 }
 
@@ -144,43 +135,44 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     }
     r["hit"] = true;
     r["label"] = label;
-    r["depth"] = i < out.hitDepth.size() ? double(out.hitDepth[i]) : 1.0;
+    const double depth = i < out.hitDepth.size() ? double(out.hitDepth[i]) : 1.0;
+    r["depth"] = depth;
     const csgv::Geometry& g = source.corner;
     const double nx = (double(x) + 0.5) / out.width * 2.0 - 1.0;
     const double ny = (double(y) + 0.5) / out.height * 2.0 - 1.0;
-    double nearP[3], hitP[3];
-    const std::array<double, 16>& m = c.view->lastMatrix();
-    if (source.shared && unproject(m, nx, ny, -1.0, nearP) &&
-      unproject(m, nx, ny, 2.0 * out.hitDepth[i] - 1.0, hitP))
+    csgv::Mat4 clipToWorld{};
+    csgv::Vec3 nearP{}, hitP{};
+    if (source.shared && csgv::invert(c.view->lastMatrix(), clipToWorld) &&
+      unproject(clipToWorld, nx, ny, -1.0, nearP) &&
+      unproject(clipToWorld, nx, ny, 2.0 * depth - 1.0, hitP))
     {
-      double dir[3] = { hitP[0] - nearP[0], hitP[1] - nearP[1], hitP[2] - nearP[2] };
-      const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-      if (len > 0 && i < out.distance.size() && std::isfinite(out.distance[i]) && out.distance[i] > 0)
+      const csgv::Vec3 dir = csgv::normalize(csgv::sub(hitP, nearP));
+      if (csgv::dot(dir, dir) > 0 && i < out.distance.size() && std::isfinite(out.distance[i]) &&
+        out.distance[i] > 0)
       {
         // The world distance is more precise than window depth far from the camera.
         for (int k = 0; k < 3; ++k)
         {
-          hitP[k] = nearP[k] + dir[k] / len * double(out.distance[i]);
+          hitP[size_t(k)] = nearP[size_t(k)] + dir[size_t(k)] * double(out.distance[i]);
         }
       }
       // Index coordinates: world = origin + D (idx * spacing).
       csgv::Mat4 worldToIndex{};
       const bool invertible = csgv::invert(csgv::indexToWorldMatrix(g), worldToIndex);
-      const csgv::Vec3 index = csgv::transformPoint(worldToIndex, { hitP[0], hitP[1], hitP[2] });
-      const double idx[3] = { index[0], index[1], index[2] };
+      const csgv::Vec3 idx = csgv::transformPoint(worldToIndex, hitP);
       const csgv::Face face = i < out.face.size() ? out.face[i] : csgv::Face::None;
       json voxel = json::array();
       for (int k = 0; invertible && k < 3; ++k)
       {
-        long v = long(std::floor(idx[k]));
+        long v = long(std::floor(idx[size_t(k)]));
         // On the entry face the coordinate is an integer: the face says which side is the voxel.
         if (face == csgv::Face(1 + 2 * k))
         {
-          v = long(std::lround(idx[k]));
+          v = long(std::lround(idx[size_t(k)]));
         }
         else if (face == csgv::Face(2 + 2 * k))
         {
-          v = long(std::lround(idx[k])) - 1;
+          v = long(std::lround(idx[size_t(k)])) - 1;
         }
         const long dim = long(source.shared->volume.dim[size_t(k)]);
         voxel.push_back(std::max(0L, std::min(dim - 1, v)));

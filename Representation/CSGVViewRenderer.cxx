@@ -51,7 +51,6 @@ void ViewRenderer::releaseShare()
   {
     std::lock_guard<std::mutex> lock(this->Cache->mutex());
     this->Source.shared->renderers--;
-    this->Source.shared->sharesGeneration++;
   }
   this->Counted = false;
 }
@@ -84,11 +83,7 @@ void ViewRenderer::setSource(const VolumeSource& source)
 void ViewRenderer::setSettings(const ViewSettings& s)
 {
   const ViewSettings& o = this->Settings;
-  const csgv::gpu::RenderSettings& a = s.render;
-  const csgv::gpu::RenderSettings& b = o.render;
-  const bool same = a.shading == b.shading && a.shadingBlend == b.shadingBlend &&
-    a.lodBias == b.lodBias && a.subsampling == b.subsampling && a.denoise == b.denoise &&
-    a.lightDirection == b.lightDirection && s.cacheBytes == o.cacheBytes &&
+  const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes &&
     s.framesPerStillRender == o.framesPerStillRender &&
     s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.clipBox == o.clipBox;
   if (!same)
@@ -122,6 +117,7 @@ std::string ViewRenderer::ensureRenderer()
   {
     return "no input";
   }
+  int renderers = 1;
   {
     std::lock_guard<std::mutex> lock(this->Cache->mutex());
     if (!shared->gpu)
@@ -138,13 +134,14 @@ std::string ViewRenderer::ensureRenderer()
     if (!this->Counted)
     {
       shared->renderers++;
-      shared->sharesGeneration++;
       this->Counted = true;
     }
+    // Other views of this volume change the count under the mutex.
+    renderers = std::max(1, shared->renderers);
   }
   // Views of one volume split one cache budget.
-  const uint64_t share = std::max<uint64_t>(
-    this->Settings.cacheBytes / uint64_t(std::max(1, shared->renderers)), 16ull << 20);
+  const uint64_t share =
+    std::max<uint64_t>(this->Settings.cacheBytes / uint64_t(renderers), 16ull << 20);
   if (!this->Renderer || share != this->RendererCacheBytes)
   {
     this->Renderer.reset();
@@ -193,9 +190,8 @@ std::string ViewRenderer::ensureRenderer()
         rs.clipMax[a] = std::min<int64_t>(int64_t(shared->volume.dim[a]), int64_t(c[2 * a + 1]) + 1);
         if (rs.clipMax[a] <= rs.clipMin[a])
         {
-          // An empty box on an axis would mean "whole volume" to the backend: keep it empty.
-          rs.clipMin[a] = 0;
-          rs.clipMax[a] = 0;
+          // Refused: the backend reads an empty range on an axis as "whole volume", so passing
+          // it on would draw everything instead of nothing.
           return "the clip box is empty";
         }
       }

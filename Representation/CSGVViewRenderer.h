@@ -113,7 +113,6 @@ private:
   std::shared_ptr<csgv::gpu::Context> Context; ///< outlives Renderer
   std::unique_ptr<csgv::gpu::Renderer> Renderer; ///< destroyed before Source's volume
   uint64_t RendererCacheBytes = 0;
-  uint64_t RendererGeneration = 0;
   bool Counted = false;
   ViewSettings Settings;
   csgv::MaterialDocument Materials;

@@ -131,6 +131,9 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
   // nothing; only a new or modified encoding is parsed.
   vtkFieldData* fd = image->GetFieldData();
   vtkUnsignedCharArray* encoding = csgvvtk::encodingArray(fd);
+  // Kept for the case where no label array stands in for a corrupt encoding: the user then needs
+  // the parse error, not "no CSGV encoding".
+  std::string encodingError;
   if (encoding && (labelArray.empty() || labelArray == csgvvtk::kLabelsName))
   {
     const Key key{ encoding, encoding->GetMTime(), 0, { { 0, 0, 0 } } };
@@ -138,11 +141,16 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
     if (!shared)
     {
       auto parsed = std::make_shared<SharedVolume>();
-      this->Parses++;
-      if (parseEncoding(fd, *parsed).empty())
+      encodingError = parseEncoding(fd, *parsed);
+      if (encodingError.empty())
       {
+        this->Parses++;
         shared = parsed;
         this->Entries[key] = shared;
+      }
+      else
+      {
+        encodingError = "the input's CSGVEncoding FieldData array is unusable: " + encodingError;
       }
     }
     if (shared &&
@@ -159,6 +167,10 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
   vtkDataArray* array = csgvvtk::findLabelArray(image, labelArray, isCell);
   if (!array)
   {
+    if (!encodingError.empty())
+    {
+      return encodingError;
+    }
     return labelArray.empty() ? std::string("the input has no label array (one-component integer "
                                             "cell or point data) and no CSGV encoding")
                               : "the input has no array named '" + labelArray + "'";

@@ -65,7 +65,6 @@ struct SharedVolume
   std::shared_ptr<csgv::gpu::GpuVolume> gpu;
   /// Renderers using this volume; each one's cache gets an equal share of the cache budget.
   int renderers = 0;
-  uint64_t sharesGeneration = 0; ///< bumped when `renderers` changes
 };
 
 /// @brief What an input image resolves to.
@@ -89,14 +88,15 @@ public:
   /// Resolves the input: the FieldData encoding of the CSGV reader when it describes this image
   /// (parsed once per encoding array and modification time: a cache hit parses nothing), else
   /// the label array (by name, or the first integer array, cell data first), compressed once
-  /// per array and modification time. Returns an error message, or "" on success.
+  /// per array and modification time. Returns an error message, or "" on success (an encoding
+  /// that does not parse, with no label array to fall back on, reports its parse error).
   std::string resolve(vtkImageData* image, const std::string& labelArray, VolumeSource& out);
 
   /// Guards the cache and SharedVolume's mutable members (gpu, renderers, computed).
   std::mutex& mutex() { return this->Mutex; }
 
-  /// How many times an encoding was parsed and an array compressed in this process (for
-  /// benchmarks and tests: both happen once per array and modification time).
+  /// How many times an encoding was parsed (successfully) and an array compressed in this
+  /// process (for benchmarks and tests: both happen once per array and modification time).
   uint64_t parses() const { return this->Parses; }
   uint64_t compressions() const { return this->Compressions; }
 

@@ -190,7 +190,6 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     std::copy(this->LightDirection, this->LightDirection + 3, p.lightDirection.begin());
     p.cacheSizeMiB = this->CacheSizeMiB;
     std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
-    p.computedAttributes = this->ComputedAttributes;
     this->Prop->SetViewSettings(csgvrep::toViewSettings(p));
     this->Prop->PrepareRender();
   }

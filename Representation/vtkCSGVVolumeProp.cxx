@@ -58,7 +58,7 @@ struct vtkCSGVVolumeProp::Impl
   std::string SourceError;      ///< why it did not (reported there)
 
   std::string MaterialsText;
-  bool MaterialsParsed = false;
+  bool MaterialsParsed = false; ///< MaterialsText was parsed (the first SetMaterials may pass "")
   bool MaterialsValid = false;
   bool MaterialsOpaque = true;
 
@@ -93,32 +93,6 @@ struct vtkCSGVVolumeProp::Impl
     this->Quad.reset();
     this->Window = nullptr;
     this->TexturesCurrent = false;
-  }
-
-  /// Parses the material text once per change; reports through `report`.
-  template <class Fn>
-  void ParseMaterials(Fn report)
-  {
-    if (this->MaterialsParsed)
-    {
-      return;
-    }
-    this->MaterialsParsed = true;
-    csgv::MaterialDocument doc;
-    const std::string error = csgvrep::resolveMaterials(this->MaterialsText, doc);
-    this->MaterialsValid = error.empty();
-    if (!this->MaterialsValid)
-    {
-      report("Materials: " + error + " (nothing is drawn until the document is valid)");
-      return;
-    }
-    this->MaterialsOpaque = true;
-    for (const csgv::Material& m : doc.materials)
-    {
-      this->MaterialsOpaque = this->MaterialsOpaque && m.opacity >= 1.0f;
-    }
-    this->Doc = std::move(doc);
-    this->AttributesDirty = true;
   }
 };
 
@@ -183,14 +157,33 @@ void vtkCSGVVolumeProp::SetViewSettings(const csgvrep::ViewSettings& settings)
 
 void vtkCSGVVolumeProp::SetMaterials(const std::string& json)
 {
-  if (json != this->P->MaterialsText || !this->P->MaterialsParsed)
+  Impl& p = *this->P;
+  if (p.MaterialsParsed && json == p.MaterialsText)
   {
-    this->P->MaterialsText = json;
-    this->P->MaterialsParsed = false;
-    // Parse now so that errors appear when the property is set, not at the next render.
-    this->P->ParseMaterials([this](const std::string& m) { this->Report(m); });
-    this->Modified();
+    return;
   }
+  // Parsed here, not at render, so that errors appear when the property is set; the
+  // representation sets the (default) document on construction, so rendering always has one.
+  p.MaterialsText = json;
+  p.MaterialsParsed = true;
+  csgv::MaterialDocument doc;
+  const std::string error = csgvrep::resolveMaterials(json, doc);
+  p.MaterialsValid = error.empty();
+  if (!p.MaterialsValid)
+  {
+    this->Report("Materials: " + error + " (nothing is drawn until the document is valid)");
+  }
+  else
+  {
+    p.MaterialsOpaque = true;
+    for (const csgv::Material& m : doc.materials)
+    {
+      p.MaterialsOpaque = p.MaterialsOpaque && m.opacity >= 1.0f;
+    }
+    p.Doc = std::move(doc);
+    p.AttributesDirty = true;
+  }
+  this->Modified();
 }
 
 void vtkCSGVVolumeProp::SetAttributeConfig(const csgvrep::AttributeConfig& config)
@@ -229,7 +222,6 @@ vtkTypeBool vtkCSGVVolumeProp::HasOpaqueGeometry()
 
 int vtkCSGVVolumeProp::RenderOpaqueGeometry(vtkViewport* viewport)
 {
-  this->P->ParseMaterials([this](const std::string& m) { this->Report(m); });
   if (!this->P->MaterialsValid || !this->P->MaterialsOpaque)
   {
     return 0;
@@ -239,7 +231,6 @@ int vtkCSGVVolumeProp::RenderOpaqueGeometry(vtkViewport* viewport)
 
 int vtkCSGVVolumeProp::RenderVolumetricGeometry(vtkViewport* viewport)
 {
-  this->P->ParseMaterials([this](const std::string& m) { this->Report(m); });
   if (!this->P->MaterialsValid || this->P->MaterialsOpaque)
   {
     return 0;
@@ -271,7 +262,6 @@ bool vtkCSGVVolumeProp::PrepareRender()
 {
   Impl& p = *this->P;
   p.Prepared = false;
-  p.ParseMaterials([this](const std::string& m) { this->Report(m); });
   if (!p.Source.shared || !p.MaterialsValid)
   {
     return false;
@@ -280,8 +270,9 @@ bool vtkCSGVVolumeProp::PrepareRender()
   {
     // Attribute arrays for the attributes the materials name (only those are built and uploaded).
     std::map<std::string, std::vector<float>> arrays;
+    const std::vector<std::string> used = csgv::attributesUsed(p.Doc);
     bool needed = false;
-    for (const std::string& n : csgv::attributesUsed(p.Doc))
+    for (const std::string& n : used)
     {
       needed = needed || n != "label";
     }
@@ -295,7 +286,7 @@ bool vtkCSGVVolumeProp::PrepareRender()
         this->Report("attributes: " + error);
         return false;
       }
-      error = csgvrep::denseColumns(*table, *p.View.source().shared, csgv::attributesUsed(p.Doc), arrays);
+      error = csgvrep::denseColumns(*table, *p.View.source().shared, used, arrays);
       if (!error.empty())
       {
         this->Report("Materials: " + error);

@@ -74,6 +74,19 @@ QLineEdit* numberEdit(const char* name, QWidget* parent)
   e->setValidator(new QDoubleValidator(e));
   return e;
 }
+/// The attribute files by file name (the full paths in the tooltip): wherever the list changes,
+/// the label reads the same.
+void showAttributeFiles(QLabel* label, const QStringList& files)
+{
+  QStringList names;
+  for (const QString& f : files)
+  {
+    names << QFileInfo(f).fileName();
+  }
+  label->setText(files.isEmpty() ? "No attribute files" : "Files: " + names.join(", "));
+  label->setToolTip(files.join("\n"));
+}
+
 } // namespace
 
 pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup*, QWidget* parent)
@@ -310,13 +323,7 @@ void pqCSGVMaterialEditor::setAttributeFiles(const QStringList& files)
     return;
   }
   this->Files = files;
-  QStringList names;
-  for (const QString& f : files)
-  {
-    names << QFileInfo(f).fileName();
-  }
-  this->FilesLabel->setText(files.isEmpty() ? "No attribute files" : "Files: " + names.join(", "));
-  this->FilesLabel->setToolTip(files.join("\n"));
+  showAttributeFiles(this->FilesLabel, files);
   QTimer::singleShot(0, this, &pqCSGVMaterialEditor::refreshAttributes);
 }
 
@@ -704,7 +711,7 @@ void pqCSGVMaterialEditor::loadAttributes()
     }
   }
   this->Files = files;
-  this->FilesLabel->setText("Files: " + files.join(", "));
+  showAttributeFiles(this->FilesLabel, files);
   BEGIN_UNDO_SET("Load attributes");
   Q_EMIT this->attributeFilesChanged();
   END_UNDO_SET();
@@ -722,7 +729,7 @@ void pqCSGVMaterialEditor::clearAttributes()
     return;
   }
   this->Files.clear();
-  this->FilesLabel->setText("No attribute files");
+  showAttributeFiles(this->FilesLabel, this->Files);
   BEGIN_UNDO_SET("Clear attributes");
   Q_EMIT this->attributeFilesChanged();
   END_UNDO_SET();

@@ -190,11 +190,11 @@ bool pqCSGVPickPanel::pickAt(const QPoint& pos)
 
 void pqCSGVPickPanel::editMaterials(const QString& undoLabel, int action)
 {
-  if (!this->LastDisplay || !this->Last.value("hit").toBool())
+  vtkSMProxy* display = this->LastDisplay;
+  if (!display || !this->Last.value("hit").toBool())
   {
     return;
   }
-  vtkSMProxy* display = this->LastDisplay;
   const char* current = vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString();
   const qint64 label = qint64(this->Last.value("label").toDouble());
   const QJsonObject attrs = this->Last.value("attributes").toObject();

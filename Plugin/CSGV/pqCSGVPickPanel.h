@@ -23,6 +23,8 @@
 #include <QPoint>
 #include <QPointer>
 
+#include <vtkWeakPointer.h>
+
 class QCheckBox;
 class QPushButton;
 class QTextBrowser;
@@ -65,7 +67,8 @@ private:
   QPoint PressPos;
   bool Pressed = false;
   QJsonObject Last;
-  vtkSMProxy* LastDisplay = nullptr;
+  /// Weak: the display may be deleted after the pick (Hide then finds it gone, not dangling).
+  vtkWeakPointer<vtkSMProxy> LastDisplay;
   QCheckBox* Enabled;
   QCheckBox* Follow;
   QTextBrowser* Result;
