@@ -11,6 +11,8 @@ PKGS_CORE=(
   libgtest-dev libgmock-dev clang libclang-rt-14-dev libomp-dev
   libcli11-dev libssl-dev
   mricron-data
+  libhdf5-dev libtiff-dev libblosc-dev
+  python3-numpy python3-h5py python3-tifffile python3-zarr
 )
 # Vulkan backend (lavapipe is the CPU device every GPU test runs on).
 PKGS_VULKAN=(
@@ -20,11 +22,11 @@ PKGS_VULKAN=(
 # ParaView 5.11 plugin: paraview-dev alone does not satisfy find_package(ParaView)
 # (see shared/PARAVIEW-NOTES.md); never libvtk9-dev, it conflicts with python3-paraview.
 PKGS_PARAVIEW=(
-  paraview paraview-dev python3-paraview python3-dev python3-numpy
+  paraview paraview-dev python3-paraview python3-dev
   qtbase5-dev libqt5opengl5-dev libqt5svg5-dev qttools5-dev
-  libopenmpi-dev libglew-dev liblz4-dev libtiff-dev libdouble-conversion-dev libutfcpp-dev
+  libopenmpi-dev libglew-dev liblz4-dev libdouble-conversion-dev libutfcpp-dev
   libnetcdf-dev libtheora-dev libgl2ps-dev libgdal-dev libavformat-dev libavcodec-dev
-  libavutil-dev libswscale-dev libswresample-dev libhdf5-dev libeigen3-dev libboost-dev
+  libavutil-dev libswscale-dev libswresample-dev libeigen3-dev libboost-dev
   xvfb xauth
 )
 

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "TestData.h"
 
+#include <cstdlib>
+#include <sys/wait.h>
+
 #include "csgv/base/FileUtil.h"
 
 #include <algorithm>
@@ -91,6 +94,21 @@ csgv::LabelVolume referenceCoarsen(const csgv::LabelVolume& fine) {
                 out.labels[size_t(out.index(x, y, z))] = best->first;
             }
     return out;
+}
+
+} // namespace csgvtest
+
+namespace csgvtest {
+
+int runFixtureScript(const std::string& script, const std::vector<std::string>& args) {
+    std::string cmd = std::string("'") + CSGV_PYTHON3 + "' '" + CSGV_INPUT_SCRIPTS + "/" + script + "'";
+    for (const std::string& a : args) {
+        std::string q;
+        for (char c : a) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+        cmd += " '" + q + "'";
+    }
+    const int rc = std::system(cmd.c_str());
+    return rc == -1 ? -1 : WEXITSTATUS(rc);
 }
 
 } // namespace csgvtest

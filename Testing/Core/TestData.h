@@ -28,6 +28,11 @@ std::string tempDir();
 /// brute force over the 2x2x2 children, written without sharing code with Core.
 csgv::LabelVolume referenceCoarsen(const csgv::LabelVolume& fine);
 
+/// Runs `Testing/Core/inputs/<script>` with Debian's python3 (numpy, h5py, tifffile, zarr) and
+/// the given arguments; returns its exit status (0 = fixture written). Input-format tests write
+/// their fixtures this way at test time; nothing large is committed.
+int runFixtureScript(const std::string& script, const std::vector<std::string>& args);
+
 /// Lowercase hex SHA-256.
 std::string sha256Hex(const uint8_t* data, size_t size);
 

@@ -18,9 +18,28 @@
 namespace csgv {
 namespace inputs {
 
-// ---- the formats (one file each); Inputs.cpp dispatches on the name's suffix
+// ---- the formats (one file each); Inputs.cpp's table dispatches on claimsX, in its order.
+// claimsX: does the path have this format's form (suffix, `:/dataset`, folder layout)?
+// openX: reads the header/metadata and returns a source (Inputs.h states the contract).
+bool claimsVraw(const std::string& path);
+Result<std::unique_ptr<InputSource>> openVraw(const std::string& path, const InputOptions& options);
+bool claimsNrrd(const std::string& path);
+Result<std::unique_ptr<InputSource>> openNrrd(const std::string& path, const InputOptions& options);
+bool claimsNifti(const std::string& path);
+Result<std::unique_ptr<InputSource>> openNifti(const std::string& path, const InputOptions& options);
+bool claimsHdf5(const std::string& path);
+Result<std::unique_ptr<InputSource>> openHdf5(const std::string& path, const InputOptions& options);
+bool claimsZarr(const std::string& path);
+Result<std::unique_ptr<InputSource>> openZarr(const std::string& path, const InputOptions& options);
+bool claimsPrecomputed(const std::string& path);
+Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, const InputOptions& options);
+bool claimsTiff(const std::string& path);
+Result<std::unique_ptr<InputSource>> openTiff(const std::string& path, const InputOptions& options);
+
 // readNrrd and readNifti are public (Inputs.h).
 Result<InputVolume> readVrawInput(const std::string& path, uint64_t maxBytes);
+/// A whole volume already read, as a source (for formats not yet streamed).
+Result<std::unique_ptr<InputSource>> sourceOf(Result<InputVolume> volume, const std::string& format);
 
 // ---- messages and header text
 Status fail(const std::string& path, const std::string& what);

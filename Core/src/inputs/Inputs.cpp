@@ -1,9 +1,14 @@
 // SPDX-License-Identifier: MIT
 /// @file Inputs.cpp
-/// @brief The label types, and the dispatcher that picks a format reader by the file name's
-/// suffix. Each format lives in its own file (Nrrd.cpp, Nifti.cpp, Vraw.cpp); a new format is
-/// one new file and one row in kFormats.
+/// @brief The label types, the format table that recognises an input by its form and opens it,
+/// and whole-volume reading on top of any source. Each format lives in its own file (Vraw.cpp,
+/// Nrrd.cpp, Nifti.cpp, Hdf5.cpp, Tiff.cpp, Zarr.cpp, Precomputed.cpp); a new format is one new
+/// file and one row in kFormats.
 #include "InputCommon.h"
+
+#include "csgv/base/Checked.h"
+
+#include <algorithm>
 
 namespace csgv {
 
@@ -38,33 +43,105 @@ bool isSignedType(LabelType type) {
 
 namespace {
 
-/// @brief A file name suffix (lower case) and the reader of files that end with it.
+/// @brief One input format: how a path is recognised and how it is opened.
 struct Format {
-    const char* suffix;
-    Result<InputVolume> (*read)(const std::string& path, uint64_t maxBytes);
+    const char* forms; ///< for messages, in the order they are listed
+    bool (*claims)(const std::string& path);
+    Result<std::unique_ptr<InputSource>> (*open)(const std::string& path, const InputOptions& options);
 };
 
-// In the order the unsupported-format message lists them.
+// First match wins: folders that are Zarr or precomputed are claimed before a TIFF folder.
 const Format kFormats[] = {
-    {".vraw", inputs::readVrawInput}, {".vraw.gz", inputs::readVrawInput},
-    {".nrrd", readNrrd},              {".nhdr", readNrrd},
-    {".nii", readNifti},              {".nii.gz", readNifti},
+    {"`.vraw`, `.vraw.gz`", inputs::claimsVraw, inputs::openVraw},
+    {"`.nrrd`, `.nhdr`", inputs::claimsNrrd, inputs::openNrrd},
+    {"`.nii`, `.nii.gz`", inputs::claimsNifti, inputs::openNifti},
+    {"`FILE.h5[:/dataset]`, `FILE.hdf5[:/dataset]`", inputs::claimsHdf5, inputs::openHdf5},
+    {"`DIR.zarr[/path]`", inputs::claimsZarr, inputs::openZarr},
+    {"a Neuroglancer precomputed folder (with an `info` file)", inputs::claimsPrecomputed, inputs::openPrecomputed},
+    {"`.tif`, `.tiff`, a folder or a glob of TIFF slices", inputs::claimsTiff, inputs::openTiff},
 };
 
-std::string supportedSuffixes() {
-    std::string list;
-    const size_t n = sizeof kFormats / sizeof kFormats[0];
-    for (size_t i = 0; i < n; ++i) list += std::string(i == 0 ? "" : i + 1 == n ? " and " : ", ") + kFormats[i].suffix;
-    return list;
+const Format* formatOf(const std::string& path) {
+    for (const Format& f : kFormats)
+        if (f.claims(path)) return &f;
+    return nullptr;
 }
+
+/// @brief A volume already in memory as a source (formats that are read whole).
+class MemorySource : public InputSource {
+public:
+    explicit MemorySource(InputVolume volume) : m_volume(std::move(volume)) {
+        m_info.dim = m_volume.dim;
+        m_info.type = m_volume.type;
+        m_info.geometry = m_volume.geometry;
+    }
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
+        const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
+        if (uint64_t(z0) + depth > m_info.dim[2]) return Status::error("slab beyond the volume");
+        std::copy_n(m_volume.values.data() + slice * z0, size_t(slice * depth), out);
+        return Status::ok();
+    }
+    uint64_t workingBytes() const override { return m_volume.values.size() * 8; }
+    void setFormat(const std::string& format) { m_info.format = format; }
+
+private:
+    InputVolume m_volume;
+};
 
 } // namespace
 
+namespace inputs {
+
+Result<std::unique_ptr<InputSource>> sourceOf(Result<InputVolume> volume, const std::string& format) {
+    if (!volume) return volume.status();
+    auto src = std::make_unique<MemorySource>(std::move(*volume));
+    src->setFormat(format);
+    return std::unique_ptr<InputSource>(std::move(src));
+}
+
+} // namespace inputs
+
+bool isInputPath(const std::string& path) { return formatOf(path) != nullptr; }
+
+std::string supportedInputForms() {
+    std::string list;
+    const size_t n = sizeof kFormats / sizeof kFormats[0];
+    for (size_t i = 0; i < n; ++i) list += std::string(i == 0 ? "" : i + 1 == n ? " and " : ", ") + kFormats[i].forms;
+    return list;
+}
+
+Result<std::unique_ptr<InputSource>> openInput(const std::string& path, const InputOptions& options) {
+    const Format* f = formatOf(path);
+    if (!f) return inputs::fail(path, "unsupported input format; supported are " + supportedInputForms());
+    return f->open(path, options);
+}
+
+Result<InputVolume> readAll(InputSource& source, const std::string& path, uint64_t maxBytes) {
+    const InputInfo& info = source.info();
+    const std::array<uint64_t, 3> d = {info.dim[0], info.dim[1], info.dim[2]};
+    if (Status s = inputs::checkBudget(path, d, maxBytes); !s) return s;
+    InputVolume vol;
+    vol.dim = info.dim;
+    vol.type = info.type;
+    vol.geometry = info.geometry;
+    try {
+        vol.values.resize(size_t(info.voxelCount()));
+    } catch (const std::bad_alloc&) {
+        return inputs::fail(path, "out of memory for " + std::to_string(info.voxelCount()) + " voxels");
+    }
+    const uint64_t slice = uint64_t(info.dim[0]) * info.dim[1];
+    const uint32_t step = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(info.dim[2], (uint64_t(64) << 20) / std::max<uint64_t>(slice, 1))));
+    for (uint32_t z = 0; z < info.dim[2]; z += step) {
+        const uint32_t depth = std::min(step, info.dim[2] - z);
+        if (Status s = source.readSlab(z, depth, vol.values.data() + slice * z); !s) return s;
+    }
+    return vol;
+}
+
 Result<InputVolume> readInput(const std::string& path, uint64_t maxBytes) {
-    const std::string name = inputs::lower(path);
-    for (const Format& f : kFormats)
-        if (inputs::endsWith(name, f.suffix)) return f.read(path, maxBytes);
-    return inputs::fail(path, "unsupported input format; supported suffixes are " + supportedSuffixes());
+    Result<std::unique_ptr<InputSource>> src = openInput(path);
+    if (!src) return src.status();
+    return readAll(**src, path, maxBytes);
 }
 
 } // namespace csgv

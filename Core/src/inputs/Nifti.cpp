@@ -218,3 +218,15 @@ Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
 }
 
 } // namespace csgv
+
+namespace csgv {
+namespace inputs {
+
+bool claimsNifti(const std::string& path) { return endsWithNoCase(path, ".nii") || endsWithNoCase(path, ".nii.gz"); }
+
+Result<std::unique_ptr<InputSource>> openNifti(const std::string& path, const InputOptions&) {
+    return sourceOf(readNifti(path), "NIfTI");
+}
+
+} // namespace inputs
+} // namespace csgv

@@ -532,3 +532,15 @@ Result<InputVolume> readNrrd(const std::string& path, uint64_t maxBytes) {
 }
 
 } // namespace csgv
+
+namespace csgv {
+namespace inputs {
+
+bool claimsNrrd(const std::string& path) { return endsWithNoCase(path, ".nrrd") || endsWithNoCase(path, ".nhdr"); }
+
+Result<std::unique_ptr<InputSource>> openNrrd(const std::string& path, const InputOptions&) {
+    return sourceOf(readNrrd(path), "NRRD");
+}
+
+} // namespace inputs
+} // namespace csgv

@@ -127,3 +127,15 @@ Result<InputVolume> readVrawInput(const std::string& path, uint64_t maxBytes) {
 
 } // namespace inputs
 } // namespace csgv
+
+namespace csgv {
+namespace inputs {
+
+bool claimsVraw(const std::string& path) { return endsWithNoCase(path, ".vraw") || endsWithNoCase(path, ".vraw.gz"); }
+
+Result<std::unique_ptr<InputSource>> openVraw(const std::string& path, const InputOptions&) {
+    return sourceOf(readVrawInput(path, uint64_t(16) << 30), "vraw");
+}
+
+} // namespace inputs
+} // namespace csgv

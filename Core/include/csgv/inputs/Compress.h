@@ -4,21 +4,28 @@
 /// @brief From any supported input to `.csgv` + `.csgv.json` (+ `_csgv.db3` when relabelled):
 /// the one path that `csgv compress`, benchmarks and the ParaView writer share.
 ///
-/// Inputs: `synth:WxHxD[:seed]` (generated slab by slab), `.vraw` (read from disk slab by slab,
-/// so memory stays at the output plus a few slabs), `.vraw.gz`, `.nrrd`, `.nhdr`, `.nii`,
-/// `.nii.gz` (read whole, then relabelled if their labels do not fit the format).
+/// Inputs: `synth:WxHxD[:seed]` (generated slab by slab) and every form openInput() recognises
+/// (Inputs.h), read slab by slab.
 
 #include "csgv/codec/Encoder.h"
 #include "csgv/inputs/Inputs.h"
 #include "csgv/inputs/Relabel.h"
 
+#include <functional>
 #include <memory>
 #include <string>
 
 namespace csgv {
 
+/// Called now and then during compression with the fraction done (0..1) and the stage ("reading",
+/// "relabelling", "encoding", "writing"). Returning false cancels: nothing is written (or what was
+/// written under temporary names is removed) and compressToFile returns an error saying so.
+using CompressProgress = std::function<bool(double fraction, const char* stage)>;
+
 struct CompressOptions {
     EncodeOptions encode;
+    InputOptions input;
+    CompressProgress progress;
     bool relabel = false;                          ///< force dense relabelling
     uint64_t maxInputBytes = uint64_t(16) << 30;   ///< inputs read whole
     uint64_t maxOutputBytes = uint64_t(64) << 30;

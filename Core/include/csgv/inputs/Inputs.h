@@ -1,17 +1,20 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 /// @file Inputs.h
-/// @brief Label volumes from files other than `.csgv`: Volcanite's `.vraw`, NRRD (`.nrrd`,
-/// `.nhdr` with a detached data file; raw or gzip; 8 to 64-bit integers, signed or not, and floats
-/// holding integers; spacing, space origin and directions) and NIfTI-1 (`.nii`, `.nii.gz`;
-/// integer types and float types holding integers; spacing and the sform/qform origin and
-/// direction). Values are kept at full width so that nothing is truncated before relabelling.
+/// @brief Label volumes from files other than `.csgv`, read slab by slab (InputSource) so that no
+/// step holds the whole decoded volume: Volcanite's `.vraw`, NRRD, NIfTI-1, HDF5, TIFF (one
+/// multi-page file, a folder or a glob of slices), Zarr v2 / OME-Zarr and Neuroglancer
+/// precomputed. Values are kept at full width (uint64, signed ones sign-extended) so that nothing
+/// is truncated before relabelling. The format table (name, how a path is recognised, the
+/// opener) is in Core/src/inputs/Inputs.cpp; each format is one file beside it.
 
 #include "csgv/base/Geometry.h"
 #include "csgv/base/Status.h"
 
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,15 +41,68 @@ struct InputVolume {
     bool isNegative(size_t i) const { return isSignedType(type) && int64_t(values[i]) < 0; }
 };
 
-/// `maxBytes` bounds the values in memory (8 bytes a voxel) and is checked before allocating.
+/// @brief What an input is, known after opening it and before reading any voxel.
+struct InputInfo {
+    std::array<uint32_t, 3> dim{{0, 0, 0}};
+    LabelType type = LabelType::U32;
+    Geometry geometry;  ///< origin: centre of voxel (0,0,0)
+    std::string format; ///< "vraw", "NRRD", "NIfTI", "HDF5", "TIFF", "Zarr", "precomputed"
+    std::string detail; ///< one line for `csgv info`: dataset path, chunk shape, compressor...
+
+    uint64_t voxelCount() const { return uint64_t(dim[0]) * dim[1] * dim[2]; }
+};
+
+/// @brief Options every input format takes.
+struct InputOptions {
+    /// Bound on the buffers a source keeps between readSlab calls (chunk or page caches), not
+    /// counting the caller's slab. A source that cannot work within it says so when opened.
+    uint64_t maxWorkingBytes = uint64_t(1) << 30;
+};
+
+/// @brief A label volume read z-slab by z-slab at full width. Opened by openInput().
+///
+/// Contract (every format keeps it; the tests check it on each):
+/// - readSlab(z0, depth, out) fills out[x + W * (y + H * (z - z0))] for z in [z0, z0 + depth)
+///   with full-width values: unsigned types as they are, signed types sign-extended (int64 bits),
+///   float types holding integers as those integers (int64 bits; a fraction, NaN or infinity is
+///   an error naming the voxel).
+/// - Slabs are usually requested in increasing z; any order must work (a request before the last
+///   one may restart a sequential stream such as gzip). Reading the volume twice gives the same
+///   values (relabelling reads it twice).
+/// - Memory: the source holds at most InputOptions::maxWorkingBytes between calls; workingBytes()
+///   reports what it holds.
+/// - Errors name the file and what is wrong (truncated chunk, unsupported dtype...). A source
+///   never crashes, never hangs and never allocates what a header merely claims.
+class InputSource {
+public:
+    virtual ~InputSource() = default;
+    const InputInfo& info() const { return m_info; }
+    virtual Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) = 0;
+    /// Bytes of caches held between calls (for reports and the memory tests).
+    virtual uint64_t workingBytes() const { return 0; }
+
+protected:
+    InputInfo m_info;
+};
+
+/// True when `path` names an input that openInput() recognises by its form (suffix, `FILE.h5:/dataset`,
+/// a `.zarr` folder, a precomputed folder with an `info` file, a TIFF folder or glob); says
+/// nothing about whether the file is valid. `.csgv` and `synth:` are not inputs here.
+bool isInputPath(const std::string& path);
+/// Opens an input by its form (see isInputPath); reads its header/metadata only.
+Result<std::unique_ptr<InputSource>> openInput(const std::string& path, const InputOptions& options = {});
+/// The recognised forms, for messages and `--help`: "`.vraw`, ..., `DIR.zarr[/path]`, ...".
+std::string supportedInputForms();
+
+/// Reads a whole input into memory (small volumes, tests, the ParaView NIfTI reader). `maxBytes`
+/// bounds the values in memory (8 bytes a voxel) and is checked before allocating.
+Result<InputVolume> readInput(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
+/// Reads all of an opened source into memory (same budget rule).
+Result<InputVolume> readAll(InputSource& source, const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
 /// NRRD (`.nrrd` attached, `.nhdr` detached; encodings raw and gzip; endian little or big).
 Result<InputVolume> readNrrd(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
 /// NIfTI-1 single file (`.nii`, `.nii.gz`), 3D (or 4D with one volume); scl_slope/inter must be
 /// identity (a scaled label volume is an error).
 Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
-/// Dispatches on the name: `.vraw[.gz]`, `.nrrd`, `.nhdr`, `.nii`, `.nii.gz`. (`synth:` names
-/// and `.csgv` are handled by callers.) Each format is one file in Core/src/inputs/ reading
-/// through InputStream (FileUtil.h); the suffix table is in Inputs.cpp.
-Result<InputVolume> readInput(const std::string& path, uint64_t maxBytes = uint64_t(16) << 30);
 
 } // namespace csgv
