@@ -112,3 +112,42 @@ int runFixtureScript(const std::string& script, const std::vector<std::string>& 
 }
 
 } // namespace csgvtest
+
+namespace csgvtest {
+
+void expectSourceContract(csgv::InputSource& source, const std::vector<uint64_t>& expected) {
+    const csgv::InputInfo& info = source.info();
+    ASSERT_EQ(info.voxelCount(), expected.size()) << "source dimensions disagree with the expected volume";
+    const uint64_t slice = uint64_t(info.dim[0]) * info.dim[1];
+    const uint32_t D = info.dim[2];
+    std::vector<uint64_t> got;
+    for (uint32_t depth : {1u, 2u, 5u, D}) {
+        if (depth == 0 || depth > D) continue;
+        std::vector<uint32_t> starts;
+        for (uint32_t z = 0; z < D; z += depth) starts.push_back(z);
+        std::vector<std::vector<uint32_t>> orders = {starts, std::vector<uint32_t>(starts.rbegin(), starts.rend()), starts};
+        // A fixed shuffle (reproducible): swap by a linear congruential sequence.
+        uint64_t r = 12345;
+        for (size_t i = orders[2].size(); i > 1; --i) {
+            r = r * 6364136223846793005ull + 1442695040888963407ull;
+            std::swap(orders[2][i - 1], orders[2][size_t((r >> 33) % i)]);
+        }
+        for (int pass = 0; pass < 2; ++pass)
+            for (const auto& order : orders)
+                for (uint32_t z0 : order) {
+                    const uint32_t d = std::min(depth, D - z0);
+                    got.assign(size_t(slice * d), 0xDEADBEEFull);
+                    const csgv::Status s = source.readSlab(z0, d, got.data());
+                    ASSERT_TRUE(s.isOk()) << "readSlab(" << z0 << ", " << d << "): " << s.message();
+                    for (size_t i = 0; i < got.size(); ++i)
+                        if (got[i] != expected[size_t(slice * z0) + i]) {
+                            const uint64_t v = slice * z0 + i;
+                            FAIL() << "readSlab(" << z0 << ", " << d << ") voxel (" << v % info.dim[0] << ", "
+                                   << (v / info.dim[0]) % info.dim[1] << ", " << v / slice << ") is " << got[i]
+                                   << ", expected " << expected[size_t(v)];
+                        }
+                }
+    }
+}
+
+} // namespace csgvtest

@@ -5,6 +5,7 @@
 
 #include "csgv/codec/Container.h"
 #include "csgv/codec/LabelVolume.h"
+#include "csgv/inputs/Inputs.h"
 
 #include <string>
 #include <vector>
@@ -32,6 +33,12 @@ csgv::LabelVolume referenceCoarsen(const csgv::LabelVolume& fine);
 /// the given arguments; returns its exit status (0 = fixture written). Input-format tests write
 /// their fixtures this way at test time; nothing large is committed.
 int runFixtureScript(const std::string& script, const std::vector<std::string>& args);
+
+/// Checks the InputSource contract (Inputs.h) on a source whose whole content is `expected`
+/// (x fastest, full width): slabs of depth 1, 2, 5 and the whole depth, in increasing,
+/// decreasing and shuffled order, each twice, all give the expected values (gtest failures name
+/// the first differing voxel). Every input format's tests call it on their fixtures.
+void expectSourceContract(csgv::InputSource& source, const std::vector<uint64_t>& expected);
 
 /// Lowercase hex SHA-256.
 std::string sha256Hex(const uint8_t* data, size_t size);

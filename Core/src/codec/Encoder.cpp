@@ -560,4 +560,19 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
     return vol;
 }
 
+Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
+                    const EncodeToFileOptions& fileOptions, uint64_t* outputBytes) {
+    // First version: the whole compressed volume in memory, then one write.
+    Result<CompressedVolume> vol = encodeVolume(source, options, fileOptions.maxOutputBytes);
+    if (!vol) return vol.status();
+    if (fileOptions.progress && !fileOptions.progress(0.9)) return Status::error("cancelled");
+    Limits limits;
+    limits.maxOutputBytes = fileOptions.maxOutputBytes;
+    Status s = writeCsgv(path, *vol, limits);
+    if (!s) return s;
+    if (outputBytes) *outputBytes = vol->serializedSize();
+    if (fileOptions.progress) fileOptions.progress(1.0);
+    return Status::ok();
+}
+
 } // namespace csgv

@@ -20,6 +20,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 
 namespace csgv {
@@ -56,6 +57,19 @@ Status checkEncodeOptions(const EncodeOptions& options);
 
 /// Encodes a volume in memory.
 Result<CompressedVolume> encodeVolume(const LabelVolume& volume, const EncodeOptions& options);
+/// @brief How encodeToFile works and reports.
+struct EncodeToFileOptions {
+    uint64_t maxOutputBytes = uint64_t(64) << 30;
+    /// Called after each slab of bricks and while writing, with the fraction done (0..1);
+    /// returning false cancels (nothing is left at `path`).
+    std::function<bool(double fraction)> progress;
+};
+
+/// Encodes from a slab source straight into a `.csgv` file at `path` (written under a temporary
+/// name and renamed). Unlike encodeVolume, the compressed volume need not fit in memory at once.
+Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
+                    const EncodeToFileOptions& fileOptions = {}, uint64_t* outputBytes = nullptr);
+
 /// Encodes from a slab source; `maxOutputBytes` bounds the compressed result.
 Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options,
                                       uint64_t maxOutputBytes = uint64_t(64) << 30);
