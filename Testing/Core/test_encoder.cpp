@@ -8,6 +8,10 @@
 #include "csgv/codec/Encoder.h"
 #include "csgv/inputs/Procedural.h"
 
+#include "csgv/base/FileUtil.h"
+
+#include <algorithm>
+#include <filesystem>
 #include <gtest/gtest.h>
 #include <map>
 
@@ -192,6 +196,100 @@ TEST(Encoder, SplitsIntoEqualBrickCountArraysWhenTooLarge) {
     Result<LabelVolume> d = decodeVolume(*back, 0);
     ASSERT_TRUE(d.isOk()) << d.message();
     EXPECT_TRUE(d->labels == src.labels);
+}
+
+namespace {
+
+std::vector<uint8_t> readBytes(const std::string& path) {
+    Result<std::vector<uint8_t>> b = readFile(path, uint64_t(1) << 30);
+    EXPECT_TRUE(b.isOk()) << b.message();
+    return b ? *b : std::vector<uint8_t>{};
+}
+
+/// @brief Serves a LabelVolume through readSlab only (as a file source would).
+class CopySlabSource : public SlabSource {
+public:
+    explicit CopySlabSource(const LabelVolume& v) : m_v(v) {}
+    std::array<uint32_t, 3> dimensions() const override { return m_v.dim; }
+    Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override {
+        const size_t slice = size_t(m_v.dim[0]) * m_v.dim[1];
+        std::copy_n(m_v.labels.data() + slice * z0, slice * depth, out);
+        return Status::ok();
+    }
+
+private:
+    const LabelVolume& m_v;
+};
+
+} // namespace
+
+TEST(Encoder, ToFileGivesTheBytesOfTheInMemoryEncoderHeldSpilledAndSplit) {
+    const LabelVolume src = synth(70, 60, 50, 9, 7);
+    for (int32_t encoding : {kEncodingNibble, kEncodingRans1, kEncodingRans2})
+        for (uint64_t held : {uint64_t(256) << 20, uint64_t(0), uint64_t(20000)})
+            for (bool split : {false, true}) {
+                EncodeOptions o;
+                o.brickSize = 16;
+                o.encoding = encoding;
+                Result<CompressedVolume> mem = encodeVolume(src, o);
+                ASSERT_TRUE(mem.isOk()) << mem.message();
+                if (split) {
+                    o.maxArrayWords = uint32_t(mem->arrays[0].size() / 5);
+                    mem = encodeVolume(src, o);
+                    ASSERT_TRUE(mem.isOk()) << mem.message();
+                    ASSERT_GE(mem->arrays.size(), 5u);
+                }
+                const std::string path = tempDir() + "/tofile.csgv";
+                EncodeToFileOptions fo;
+                fo.heldSymbolBytes = held;
+                std::vector<double> seen;
+                fo.progress = [&](double f) {
+                    seen.push_back(f);
+                    return true;
+                };
+                uint64_t size = 0;
+                CopySlabSource slabs(src);
+                const Status s = encodeToFile(slabs, o, path, fo, &size);
+                const std::string what = std::string(encodingName(encoding)) + " held " + std::to_string(held) +
+                                         (split ? " split" : "");
+                ASSERT_TRUE(s.isOk()) << what << ": " << s.message();
+                const std::vector<uint8_t> bytes = readBytes(path);
+                EXPECT_EQ(size, bytes.size()) << what;
+                EXPECT_TRUE(bytes == serializeCsgv(*mem)) << what;
+                ASSERT_FALSE(seen.empty());
+                EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end())) << what;
+                EXPECT_DOUBLE_EQ(seen.back(), 1.0) << what;
+            }
+}
+
+TEST(Encoder, ToFileCancelledOrFailingLeavesNothingBehind) {
+    const LabelVolume src = synth(64, 64, 64, 3, 5);
+    const std::string dir = tempDir() + "/cancel";
+    std::filesystem::create_directories(dir);
+    const auto listDirectory = [](const std::string& d) {
+        std::vector<std::string> names;
+        for (const auto& e : std::filesystem::directory_iterator(d)) names.push_back(e.path().filename().string());
+        return names;
+    };
+    for (double stopAt : {0.1, 0.85, 0.95}) {
+        EncodeToFileOptions fo;
+        fo.heldSymbolBytes = 0;
+        fo.progress = [&](double f) { return f < stopAt; };
+        CopySlabSource slabs(src);
+        EncodeOptions o;
+        o.brickSize = 16;
+        const Status s = encodeToFile(slabs, o, dir + "/x.csgv", fo);
+        ASSERT_FALSE(s.isOk());
+        EXPECT_EQ(s.message(), "cancelled");
+        EXPECT_TRUE(listDirectory(dir).empty()) << "after cancelling at " << stopAt;
+    }
+    EncodeToFileOptions small;
+    small.maxOutputBytes = 100;
+    CopySlabSource slabs(src);
+    const Status s = encodeToFile(slabs, EncodeOptions{}, dir + "/x.csgv", small);
+    EXPECT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("output limit"), std::string::npos) << s.message();
+    EXPECT_TRUE(listDirectory(dir).empty());
 }
 
 TEST(Encoder, RejectsBadOptionsAndReservedLabels) {

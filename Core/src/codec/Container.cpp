@@ -125,7 +125,8 @@ Status checkHeaderFields(const CompressedVolume& v) {
 }
 
 /// Writes the container field by field to a sink, so that files are never assembled in memory.
-void emit(const CompressedVolume& v, const std::function<void(const void*, size_t)>& out) {
+/// Everything before the encoding arrays' contents, ending with their count.
+void emitHead(const CompressedVolume& v, uint64_t arrayCount, const std::function<void(const void*, size_t)>& out) {
     auto put = [&](const auto& x) { out(&x, sizeof(x)); };
     out(kMagic, 8);
     out("0016", 4);
@@ -143,12 +144,19 @@ void emit(const CompressedVolume& v, const std::function<void(const void*, size_
     put(v.bricksPerArray);
     put(uint64_t(v.brickStarts.size()));
     out(v.brickStarts.data(), v.brickStarts.size() * 4);
-    put(uint64_t(v.arrays.size()));
+    put(arrayCount);
+}
+
+constexpr uint8_t kNotDetailSeparated = 0;
+
+void emit(const CompressedVolume& v, const std::function<void(const void*, size_t)>& out) {
+    emitHead(v, v.arrays.size(), out);
     for (const auto& a : v.arrays) {
-        put(uint64_t(a.size()));
+        const uint64_t len = a.size();
+        out(&len, 8);
         out(a.data(), a.size() * 4);
     }
-    put(uint8_t(0));
+    out(&kNotDetailSeparated, 1);
 }
 
 Result<CompressedVolume> parse(ByteSource& src) {
@@ -355,6 +363,39 @@ Status writeCsgv(const std::string& path, const CompressedVolume& vol, const Lim
     emit(vol, [&](const void* p, size_t n) {
         if (ws) ws = file.write(p, n);
     });
+    if (!ws) return ws;
+    return file.commit();
+}
+
+Status writeCsgvStreamed(const std::string& path, const CompressedVolume& vol, const std::vector<uint64_t>& arrayWords,
+                         const Limits& limits, const std::function<Status(size_t array, const ByteSink& out)>& words) {
+    const std::string refusing = "refusing to write '" + path + "'";
+    CSGV_TRY(checkHeaderFields(vol).prefix(refusing));
+    const uint64_t bricks = vol.brickCount();
+    const uint64_t expectedArrays =
+        vol.bricksPerArray == kSingleArray ? 1 : (bricks + std::max<uint32_t>(vol.bricksPerArray, 1) - 1) / std::max<uint32_t>(vol.bricksPerArray, 1);
+    if (vol.brickStarts.size() != bricks + 1 || arrayWords.size() != expectedArrays || !vol.arrays.empty())
+        return Status::error(refusing + ": brick starts or array count do not match the volume");
+    uint64_t size = vol.serializedSize();
+    for (uint64_t w : arrayWords) {
+        if (w > kMaxWordsPerArray) return Status::error(refusing + ": an encoding array exceeds 2^29 words");
+        size += 8 + 4 * w;
+    }
+    if (size > limits.maxOutputBytes)
+        return Status::error(refusing + ": " + std::to_string(size) + " bytes exceed the output limit of " +
+                             std::to_string(limits.maxOutputBytes));
+    AtomicFile file;
+    CSGV_TRY(file.open(path));
+    Status ws;
+    const ByteSink sink = [&](const void* p, size_t n) { return file.write(p, n); };
+    emitHead(vol, arrayWords.size(), [&](const void* p, size_t n) {
+        if (ws) ws = file.write(p, n);
+    });
+    for (size_t a = 0; ws && a < arrayWords.size(); ++a) {
+        ws = sink(&arrayWords[a], 8);
+        if (ws) ws = words(a, sink);
+    }
+    if (ws) ws = sink(&kNotDetailSeparated, 1);
     if (!ws) return ws;
     return file.commit();
 }

@@ -1,12 +1,16 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/codec/Encoder.h"
+#include "csgv/base/FileUtil.h"
 #include "csgv/base/Morton.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <functional>
 #include <cmath>
 #include <cstring>
 #include <mutex>
 #include <omp.h>
+#include <unistd.h>
 #include <unordered_map>
 
 namespace csgv {
@@ -340,6 +344,274 @@ void assembleBrick(const BrickSymbols& sym, uint32_t L, int32_t encoding, const 
     w.insert(w.end(), sym.palette.rbegin(), sym.palette.rend());
 }
 
+/// The container fields an encoding decides before any brick is seen.
+Result<CompressedVolume> newVolume(SlabSource& source, const EncodeOptions& options) {
+    Status s = checkEncodeOptions(options);
+    if (!s) return s;
+    CompressedVolume vol;
+    vol.version = 16;
+    vol.brickSize = options.brickSize;
+    vol.dim = source.dimensions();
+    vol.encoding = options.encoding;
+    vol.opMask = options.opMask;
+    for (int a = 0; a < 3; ++a)
+        if (vol.dim[a] == 0) return Status::error("volume dimension " + std::to_string(a) + " is 0");
+    if (vol.brickCount() > kMaxBricks) return Status::error("volume needs more than 2^40 bricks");
+    return vol;
+}
+
+int threadsFor(const EncodeOptions& options) { return options.threads > 0 ? options.threads : omp_get_max_threads(); }
+
+/// Pass 1, slab by slab (one brick deep): level hierarchy, operations and symbols of every brick
+/// of the slab, handed to `take(bz, slabSymbols)` in slab order (bricks x fastest, then y).
+Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const EncodeOptions& options,
+                     const std::function<Status(uint32_t, std::vector<BrickSymbols>&)>& take) {
+    const uint32_t B = vol.brickSize;
+    const auto grid = vol.brickGrid();
+    const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
+    const uint64_t slabVoxels = uint64_t(vol.dim[0]) * vol.dim[1] * B;
+    std::vector<uint32_t> slab;
+    if (!source.slabInMemory(0)) {
+        try {
+            slab.resize(size_t(slabVoxels));
+        } catch (const std::bad_alloc&) {
+            return Status::error("out of memory for a slab of " + std::to_string(slabVoxels) + " labels");
+        }
+    }
+    const int nThreads = int(std::min<uint64_t>(uint64_t(threadsFor(options)), perSlab));
+    std::vector<BrickSymbols> symbols;
+    for (uint32_t bz = 0; bz < grid[2]; ++bz) {
+        const uint32_t z0 = bz * B, depth = std::min(B, vol.dim[2] - z0);
+        const uint32_t* slabData = source.slabInMemory(z0);
+        if (!slabData) {
+            Status s = source.readSlab(z0, depth, slab.data());
+            if (!s) return s;
+            slabData = slab.data();
+        }
+        symbols.assign(size_t(perSlab), BrickSymbols{});
+        std::mutex mutex;
+        Status error;
+        uint64_t errorBrick = ~uint64_t(0);
+#pragma omp parallel num_threads(nThreads)
+        {
+            BrickEncoder enc(B, options.opMask);
+#pragma omp for schedule(dynamic, 1)
+            for (int64_t i = 0; i < int64_t(perSlab); ++i) {
+                const uint32_t bx = uint32_t(i % grid[0]), by = uint32_t(i / grid[0]);
+                const std::array<uint32_t, 3> extent = {std::min(B, vol.dim[0] - bx * B),
+                                                        std::min(B, vol.dim[1] - by * B), depth};
+                Status st = enc.encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(i)]);
+                if (!st) {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    if (uint64_t(i) < errorBrick) {
+                        errorBrick = uint64_t(i);
+                        error = st;
+                    }
+                }
+            }
+        }
+        if (!error.isOk()) return error;
+        Status s = take(bz, symbols);
+        if (!s) return s;
+    }
+    return Status::ok();
+}
+
+/// @brief Symbol counts summed over bricks (order independent, so any thread count gives the
+/// same tables).
+struct SymbolCounts {
+    std::array<uint64_t, 16> a{}, b{};
+    void add(const BrickSymbols& sym, int32_t encoding) {
+        for (int k = 0; k < 16; ++k) {
+            if (encoding == kEncodingRans1) a[k] += uint64_t(sym.countsA[k]) + sym.countsB[k];
+            else {
+                a[k] += sym.countsA[k];
+                b[k] += sym.countsB[k];
+            }
+        }
+    }
+};
+
+/// The frequency tables: the caller's fixed ones (checked against what the volume needs) or
+/// normalised counts.
+Status chooseTables(const EncodeOptions& options, const SymbolCounts& counts, CompressedVolume& vol) {
+    if (!options.fixedTables) {
+        if (vol.encoding != kEncodingNibble) vol.freqA = normalizeFrequencies(counts.a);
+        if (vol.encoding == kEncodingRans2) vol.freqB = normalizeFrequencies(counts.b);
+        return Status::ok();
+    }
+    vol.freqA = options.tableA;
+    vol.freqB = options.tableB;
+    for (int k = 0; k < 16; ++k)
+        if ((counts.a[k] && !vol.freqA[k] && vol.encoding != kEncodingNibble) ||
+            (counts.b[k] && !vol.freqB[k] && vol.encoding == kEncodingRans2))
+            return Status::error("the given frequency tables lack symbol " + std::to_string(k) +
+                                 ", which the volume needs");
+    if (vol.encoding == kEncodingNibble) vol.freqA = vol.freqB = {};
+    if (vol.encoding == kEncodingRans1) vol.freqB = {};
+    uint64_t sumA = 0, sumB = 0;
+    for (int k = 0; k < 16; ++k) {
+        sumA += vol.freqA[k];
+        sumB += vol.freqB[k];
+    }
+    if ((vol.encoding != kEncodingNibble && sumA != kRansTotal) || (vol.encoding == kEncodingRans2 && sumB != kRansTotal))
+        return Status::error("the given frequency tables do not sum to 16384");
+    return Status::ok();
+}
+
+/// @brief Pass 2's entropy coder: the final words of bricks, with the volume's tables.
+class BrickAssembler {
+public:
+    explicit BrickAssembler(const CompressedVolume& vol)
+        : m_L(vol.levels()), m_encoding(vol.encoding), m_symA(ransSymbols(vol.freqA)), m_symB(ransSymbols(vol.freqB)) {}
+    /// words[i] = the encoding of symbols[i] (the symbols are released), in parallel.
+    void assemble(std::vector<BrickSymbols>& symbols, std::vector<std::vector<uint32_t>>& words, int threads) const {
+        words.resize(symbols.size());
+#pragma omp parallel num_threads(int(std::max<size_t>(1, std::min<size_t>(size_t(threads), symbols.size()))))
+        {
+            std::vector<uint8_t> scratch;
+#pragma omp for schedule(dynamic, 4)
+            for (int64_t i = 0; i < int64_t(symbols.size()); ++i) {
+                assembleBrick(symbols[size_t(i)], m_L, m_encoding, m_symA, m_symB, scratch, words[size_t(i)]);
+                symbols[size_t(i)] = BrickSymbols{};
+            }
+        }
+    }
+
+private:
+    uint32_t m_L;
+    int32_t m_encoding;
+    std::array<RansSymbol, 16> m_symA, m_symB;
+};
+
+/// @brief Where the encoding arrays split: bricks per array (all of them when one array holds
+/// everything, else the largest equal count whose arrays stay within the limit), the stored
+/// brick starts and each array's length.
+struct ArrayLayout {
+    uint64_t perArray = 0;
+    std::vector<uint32_t> brickStarts;
+    std::vector<uint64_t> arrayWords;
+};
+
+Result<ArrayLayout> layoutArrays(const std::vector<uint32_t>& brickWords, const EncodeOptions& options,
+                                 uint64_t maxOutputBytes) {
+    const uint64_t bricks = brickWords.size();
+    uint64_t total = 0, largestBrick = 0;
+    for (uint32_t w : brickWords) {
+        total += w;
+        largestBrick = std::max<uint64_t>(largestBrick, w);
+    }
+    if (total * 4 > maxOutputBytes)
+        return Status::error("the compressed volume needs " + std::to_string(total * 4) +
+                             " bytes, more than the output limit of " + std::to_string(maxOutputBytes));
+    const uint64_t arrayLimit = std::min<uint64_t>(std::max<uint32_t>(options.maxArrayWords, 1), kMaxWordsPerArray);
+    if (largestBrick > arrayLimit)
+        return Status::error("a brick needs " + std::to_string(largestBrick) + " words, more than an encoding array holds");
+    ArrayLayout out;
+    out.perArray = bricks;
+    if (total > arrayLimit) {
+        auto fits = [&](uint64_t n) {
+            for (uint64_t first = 0; first < bricks; first += n) {
+                uint64_t sum = 0;
+                for (uint64_t i = first; i < std::min(bricks, first + n); ++i) sum += brickWords[size_t(i)];
+                if (sum > arrayLimit) return false;
+            }
+            return true;
+        };
+        uint64_t lo = 1, hi = bricks;
+        while (lo < hi) {
+            const uint64_t mid = (lo + hi + 1) / 2;
+            if (fits(mid)) lo = mid;
+            else hi = mid - 1;
+        }
+        out.perArray = lo;
+    }
+    // A brick that opens an array starts at word 0; its stored start is the previous array's length.
+    out.brickStarts.assign(size_t(bricks + 1), 0);
+    uint64_t len = 0;
+    for (uint64_t i = 0; i < bricks; ++i) {
+        if (i % out.perArray == 0 && i > 0) {
+            out.arrayWords.push_back(len);
+            out.brickStarts[size_t(i)] = uint32_t(len);
+            len = 0;
+        } else {
+            out.brickStarts[size_t(i)] = uint32_t(len);
+        }
+        len += brickWords[size_t(i)];
+    }
+    out.arrayWords.push_back(len);
+    out.brickStarts[size_t(bricks)] = uint32_t(len);
+    return out;
+}
+
+void applyLayout(const ArrayLayout& layout, uint64_t bricks, CompressedVolume& vol) {
+    vol.bricksPerArray = layout.perArray == bricks ? kSingleArray : uint32_t(layout.perArray);
+    vol.brickStarts = layout.brickStarts;
+}
+
+/// @brief A temporary file beside the output, unlinked as soon as it is open (nothing is left
+/// behind, whatever happens), written front to back and then read back front to back.
+class ScratchFile {
+public:
+    ~ScratchFile() {
+        if (m_file) std::fclose(m_file);
+    }
+    Status open(const std::string& near, const char* what) {
+        m_name = near + ".tmp-" + std::to_string(::getpid()) + "-" + what;
+        m_file = std::fopen(m_name.c_str(), "w+b");
+        if (!m_file) return Status::error("cannot create the scratch file '" + m_name + "': " + errnoText());
+        std::remove(m_name.c_str());
+        return Status::ok();
+    }
+    Status write(const void* data, size_t bytes) {
+        if (bytes && std::fwrite(data, 1, bytes, m_file) != bytes)
+            return Status::error("cannot write the scratch file '" + m_name + "': " + errnoText());
+        m_bytes += bytes;
+        return Status::ok();
+    }
+    Status rewind() {
+        if (std::fflush(m_file) != 0 || std::fseek(m_file, 0, SEEK_SET) != 0)
+            return Status::error("cannot rewind the scratch file '" + m_name + "': " + errnoText());
+        return Status::ok();
+    }
+    Status read(void* data, size_t bytes) {
+        if (bytes && std::fread(data, 1, bytes, m_file) != bytes)
+            return Status::error("cannot read back the scratch file '" + m_name + "'");
+        return Status::ok();
+    }
+    uint64_t bytes() const { return m_bytes; }
+
+private:
+    std::string m_name;
+    std::FILE* m_file = nullptr;
+    uint64_t m_bytes = 0;
+};
+
+/// Bytes a brick's symbols occupy in memory (and, give or take the header, when spilled).
+uint64_t symbolBytes(const BrickSymbols& s) { return s.packed.size() + 4 * uint64_t(s.palette.size()) + 48; }
+
+Status spill(ScratchFile& file, const BrickSymbols& s) {
+    const uint32_t head[2] = {s.count, uint32_t(s.palette.size())};
+    Status st = file.write(head, sizeof head);
+    if (st) st = file.write(s.levelStart.data(), sizeof s.levelStart);
+    if (st) st = file.write(s.packed.data(), s.packed.size());
+    if (st) st = file.write(s.palette.data(), 4 * s.palette.size());
+    return st;
+}
+
+Status unspill(ScratchFile& file, BrickSymbols& s) {
+    uint32_t head[2];
+    Status st = file.read(head, sizeof head);
+    if (!st) return st;
+    s.count = head[0];
+    s.packed.resize((size_t(head[0]) + 1) / 2);
+    s.palette.resize(head[1]);
+    st = file.read(s.levelStart.data(), sizeof s.levelStart);
+    if (st) st = file.read(s.packed.data(), s.packed.size());
+    if (st) st = file.read(s.palette.data(), 4 * s.palette.size());
+    return st;
+}
+
 class MemorySlabSource : public SlabSource {
 public:
     explicit MemorySlabSource(const LabelVolume& v) : m_v(v) {}
@@ -403,175 +675,150 @@ Result<CompressedVolume> encodeVolume(const LabelVolume& volume, const EncodeOpt
 }
 
 Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
-    Status s = checkEncodeOptions(options);
-    if (!s) return s;
-    CompressedVolume vol;
-    vol.version = 16;
-    vol.brickSize = options.brickSize;
-    vol.dim = source.dimensions();
-    vol.encoding = options.encoding;
-    vol.opMask = options.opMask;
-    for (int a = 0; a < 3; ++a)
-        if (vol.dim[a] == 0) return Status::error("volume dimension " + std::to_string(a) + " is 0");
-    const uint32_t B = options.brickSize, L = vol.levels();
-    const auto grid = vol.brickGrid();
+    Result<CompressedVolume> made = newVolume(source, options);
+    if (!made) return made.status();
+    CompressedVolume& vol = *made;
     const uint64_t bricks = vol.brickCount();
-    if (bricks > kMaxBricks) return Status::error("volume needs more than 2^40 bricks");
-    const int nThreads = options.threads > 0 ? options.threads : omp_get_max_threads();
-    const uint64_t slabVoxels = uint64_t(vol.dim[0]) * vol.dim[1] * B;
-
-    // Pass 1, slab by slab: level hierarchy, operations, symbol counts.
-    std::vector<BrickSymbols> symbols(static_cast<size_t>(bricks));
-    std::vector<uint32_t> slab;
-    if (!source.slabInMemory(0)) {
-        try {
-            slab.resize(size_t(slabVoxels));
-        } catch (const std::bad_alloc&) {
-            return Status::error("out of memory for a slab of " + std::to_string(slabVoxels) + " labels");
-        }
-    }
+    const auto grid = vol.brickGrid();
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
-    for (uint32_t bz = 0; bz < grid[2]; ++bz) {
-        const uint32_t z0 = bz * B, depth = std::min(B, vol.dim[2] - z0);
-        const uint32_t* slabData = source.slabInMemory(z0);
-        if (!slabData) {
-            s = source.readSlab(z0, depth, slab.data());
-            if (!s) return s;
-            slabData = slab.data();
-        }
-        std::mutex mutex;
-        Status error;
-        uint64_t errorBrick = ~uint64_t(0);
-#pragma omp parallel num_threads(int(std::min<uint64_t>(uint64_t(nThreads), perSlab)))
-        {
-            BrickEncoder enc(B, options.opMask);
-#pragma omp for schedule(dynamic, 1)
-            for (int64_t i = 0; i < int64_t(perSlab); ++i) {
-                const uint32_t bx = uint32_t(i % grid[0]), by = uint32_t(i / grid[0]);
-                const std::array<uint32_t, 3> extent = {std::min(B, vol.dim[0] - bx * B),
-                                                        std::min(B, vol.dim[1] - by * B), depth};
-                const uint64_t b = uint64_t(bz) * perSlab + uint64_t(i);
-                Status st = enc.encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(b)]);
-                if (!st) {
-                    std::lock_guard<std::mutex> lock(mutex);
-                    if (b < errorBrick) {
-                        errorBrick = b;
-                        error = st;
-                    }
-                }
-            }
-        }
-        if (!error.isOk()) return error;
-    }
-    slab.clear();
-    slab.shrink_to_fit();
 
-    // Global tables (sums are order independent, so any thread count gives the same bytes).
-    std::array<uint64_t, 16> countA{}, countB{};
-    for (const BrickSymbols& b : symbols)
-        for (int k = 0; k < 16; ++k) {
-            if (vol.encoding == kEncodingRans1) countA[k] += uint64_t(b.countsA[k]) + b.countsB[k];
-            else {
-                countA[k] += b.countsA[k];
-                countB[k] += b.countsB[k];
-            }
+    std::vector<BrickSymbols> symbols(static_cast<size_t>(bricks));
+    SymbolCounts counts;
+    Status s = symbolsBySlab(source, vol, options, [&](uint32_t bz, std::vector<BrickSymbols>& slab) {
+        for (size_t i = 0; i < slab.size(); ++i) {
+            counts.add(slab[i], vol.encoding);
+            symbols[size_t(bz * perSlab + i)] = std::move(slab[i]);
         }
-    if (options.fixedTables) {
-        vol.freqA = options.tableA;
-        vol.freqB = options.tableB;
-        for (int k = 0; k < 16; ++k)
-            if ((countA[k] && !vol.freqA[k] && vol.encoding != kEncodingNibble) ||
-                (countB[k] && !vol.freqB[k] && vol.encoding == kEncodingRans2))
-                return Status::error("the given frequency tables lack symbol " + std::to_string(k) +
-                                     ", which the volume needs");
-        if (vol.encoding == kEncodingNibble) vol.freqA = vol.freqB = {};
-        if (vol.encoding == kEncodingRans1) vol.freqB = {};
-        uint64_t sumA = 0, sumB = 0;
-        for (int k = 0; k < 16; ++k) {
-            sumA += vol.freqA[k];
-            sumB += vol.freqB[k];
-        }
-        if ((vol.encoding != kEncodingNibble && sumA != kRansTotal) || (vol.encoding == kEncodingRans2 && sumB != kRansTotal))
-            return Status::error("the given frequency tables do not sum to 16384");
-    } else {
-        if (vol.encoding != kEncodingNibble) vol.freqA = normalizeFrequencies(countA);
-        if (vol.encoding == kEncodingRans2) vol.freqB = normalizeFrequencies(countB);
-    }
+        return Status::ok();
+    });
+    if (!s) return s;
+    s = chooseTables(options, counts, vol);
+    if (!s) return s;
 
-    // Pass 2: entropy coding per brick.
-    std::vector<std::vector<uint32_t>> words(static_cast<size_t>(bricks));
-    const std::array<RansSymbol, 16> symA = ransSymbols(vol.freqA), symB = ransSymbols(vol.freqB);
-#pragma omp parallel num_threads(int(std::min<uint64_t>(uint64_t(nThreads), bricks)))
-    {
-        std::vector<uint8_t> scratch;
-#pragma omp for schedule(dynamic, 4)
-        for (int64_t i = 0; i < int64_t(bricks); ++i) {
-            assembleBrick(symbols[size_t(i)], L, vol.encoding, symA, symB, scratch, words[size_t(i)]);
-            symbols[size_t(i)] = BrickSymbols{};
-        }
+    std::vector<std::vector<uint32_t>> words;
+    BrickAssembler(vol).assemble(symbols, words, threadsFor(options));
+    std::vector<BrickSymbols>().swap(symbols);
+    std::vector<uint32_t> sizes(words.size());
+    for (size_t i = 0; i < words.size(); ++i) {
+        sizes[i] = uint32_t(words[i].size());
+        vol.maxPalette = std::max(vol.maxPalette, words[i][vol.levels()]);
     }
-    symbols.clear();
-    symbols.shrink_to_fit();
-
-    // Encoding arrays: one while everything fits 2^29 words, else the fewest equal brick counts.
-    uint64_t total = 0, largestBrick = 0;
-    for (const auto& w : words) {
-        total += w.size();
-        largestBrick = std::max<uint64_t>(largestBrick, w.size());
-        vol.maxPalette = std::max(vol.maxPalette, w[L]);
-    }
-    if (total * 4 > maxOutputBytes)
-        return Status::error("the compressed volume needs " + std::to_string(total * 4) +
-                             " bytes, more than the output limit of " + std::to_string(maxOutputBytes));
-    const uint64_t arrayLimit = std::min<uint64_t>(std::max<uint32_t>(options.maxArrayWords, 1), kMaxWordsPerArray);
-    if (largestBrick > arrayLimit)
-        return Status::error("a brick needs " + std::to_string(largestBrick) + " words, more than an encoding array holds");
-    uint64_t perArray = bricks;
-    if (total > arrayLimit) {
-        auto fits = [&](uint64_t n) {
-            for (uint64_t first = 0; first < bricks; first += n) {
-                uint64_t sum = 0;
-                for (uint64_t i = first; i < std::min(bricks, first + n); ++i) sum += words[size_t(i)].size();
-                if (sum > arrayLimit) return false;
-            }
-            return true;
-        };
-        uint64_t lo = 1, hi = bricks;
-        while (lo < hi) {
-            const uint64_t mid = (lo + hi + 1) / 2;
-            if (fits(mid)) lo = mid;
-            else hi = mid - 1;
-        }
-        perArray = lo;
-        vol.bricksPerArray = uint32_t(perArray);
-    }
-    vol.brickStarts.assign(size_t(bricks + 1), 0);
+    Result<ArrayLayout> layout = layoutArrays(sizes, options, maxOutputBytes);
+    if (!layout) return layout.status();
+    applyLayout(*layout, bricks, vol);
+    vol.arrays.resize(layout->arrayWords.size());
+    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
     for (uint64_t i = 0; i < bricks; ++i) {
-        if (i % perArray == 0) {
-            if (i > 0) vol.brickStarts[size_t(i)] = uint32_t(vol.arrays.back().size());
-            vol.arrays.emplace_back();
-        }
-        auto& arr = vol.arrays.back();
-        if (i % perArray != 0 || i == 0) vol.brickStarts[size_t(i)] = uint32_t(arr.size());
+        auto& arr = vol.arrays[size_t(i / layout->perArray)];
         arr.insert(arr.end(), words[size_t(i)].begin(), words[size_t(i)].end());
         std::vector<uint32_t>().swap(words[size_t(i)]);
     }
-    vol.brickStarts[size_t(bricks)] = uint32_t(vol.arrays.back().size());
     return vol;
 }
 
 Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
                     const EncodeToFileOptions& fileOptions, uint64_t* outputBytes) {
-    // First version: the whole compressed volume in memory, then one write.
-    Result<CompressedVolume> vol = encodeVolume(source, options, fileOptions.maxOutputBytes);
-    if (!vol) return vol.status();
-    if (fileOptions.progress && !fileOptions.progress(0.9)) return Status::error("cancelled");
+    // Memory (Encoder.h): symbols held up to heldSymbolBytes, then spilled; words go to a second
+    // scratch file, then into the container.
+    Result<CompressedVolume> made = newVolume(source, options);
+    if (!made) return made.status();
+    CompressedVolume& vol = *made;
+    const uint64_t bricks = vol.brickCount();
+    const auto grid = vol.brickGrid();
+    const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
+    const auto progress = [&](double f) { return !fileOptions.progress || fileOptions.progress(f); };
+    const Status cancelled = Status::error("cancelled");
+
+    // Pass 1: symbols, held or spilled, and their counts.
+    std::vector<BrickSymbols> held;
+    uint64_t heldBytes = 0;
+    ScratchFile symbolFile;
+    bool spilling = false;
+    SymbolCounts counts;
+    Status s = symbolsBySlab(source, vol, options, [&](uint32_t bz, std::vector<BrickSymbols>& slab) -> Status {
+        for (BrickSymbols& b : slab) {
+            counts.add(b, vol.encoding);
+            heldBytes += symbolBytes(b);
+            held.push_back(std::move(b));
+        }
+        if (!spilling && heldBytes > fileOptions.heldSymbolBytes) {
+            Status st = symbolFile.open(path, "symbols");
+            if (!st) return st;
+            spilling = true;
+        }
+        if (spilling) {
+            for (const BrickSymbols& b : held) {
+                Status st = spill(symbolFile, b);
+                if (!st) return st;
+            }
+            std::vector<BrickSymbols>().swap(held);
+        }
+        return progress(0.8 * (bz + 1) / grid[2]) ? Status::ok() : cancelled;
+    });
+    if (!s) return s;
+    s = chooseTables(options, counts, vol);
+    if (!s) return s;
+    if (spilling && !(s = symbolFile.rewind())) return s;
+
+    // Pass 2: words, slab by slab of bricks, into the words scratch file.
+    const BrickAssembler assembler(vol);
+    ScratchFile wordFile;
+    if (!(s = wordFile.open(path, "words"))) return s;
+    std::vector<uint32_t> sizes(static_cast<size_t>(bricks));
+    std::vector<BrickSymbols> batch;
+    std::vector<std::vector<uint32_t>> words;
+    for (uint64_t first = 0; first < bricks; first += perSlab) {
+        const uint64_t n = std::min(perSlab, bricks - first);
+        if (spilling) {
+            batch.resize(size_t(n));
+            for (BrickSymbols& b : batch)
+                if (!(s = unspill(symbolFile, b))) return s;
+        } else {
+            batch.clear();
+            for (uint64_t i = 0; i < n; ++i) batch.push_back(std::move(held[size_t(first + i)]));
+        }
+        assembler.assemble(batch, words, threadsFor(options));
+        for (uint64_t i = 0; i < n; ++i) {
+            const std::vector<uint32_t>& w = words[size_t(i)];
+            sizes[size_t(first + i)] = uint32_t(w.size());
+            vol.maxPalette = std::max(vol.maxPalette, w[vol.levels()]);
+            if (!(s = wordFile.write(w.data(), 4 * w.size()))) return s;
+        }
+        if (!progress(0.8 + 0.1 * double(first + n) / double(bricks))) return cancelled;
+    }
+    std::vector<BrickSymbols>().swap(held);
+    std::vector<BrickSymbols>().swap(batch);
+    words.clear();
+    Result<ArrayLayout> layout = layoutArrays(sizes, options, fileOptions.maxOutputBytes);
+    if (!layout) return layout.status();
+    std::vector<uint32_t>().swap(sizes);
+    applyLayout(*layout, bricks, vol);
+
+    // The container: header and brick starts, then each array's words copied from the scratch file.
+    if (!(s = wordFile.rewind())) return s;
+    std::vector<uint32_t> buffer(size_t(1) << 20);
+    uint64_t written = 0, total = 0;
+    for (uint64_t w : layout->arrayWords) total += w;
     Limits limits;
     limits.maxOutputBytes = fileOptions.maxOutputBytes;
-    Status s = writeCsgv(path, *vol, limits);
-    if (!s) return s;
-    if (outputBytes) *outputBytes = vol->serializedSize();
-    if (fileOptions.progress) fileOptions.progress(1.0);
+    bool stopped = false;
+    s = writeCsgvStreamed(path, vol, layout->arrayWords, limits, [&](size_t a, const ByteSink& out) -> Status {
+        for (uint64_t left = layout->arrayWords[a]; left > 0;) {
+            const size_t n = size_t(std::min<uint64_t>(left, buffer.size()));
+            Status st = wordFile.read(buffer.data(), 4 * n);
+            if (st) st = out(buffer.data(), 4 * n);
+            if (!st) return st;
+            left -= n;
+            written += n;
+            if (!progress(0.9 + 0.1 * double(written) / double(std::max<uint64_t>(total, 1)))) {
+                stopped = true;
+                return cancelled;
+            }
+        }
+        return Status::ok();
+    });
+    if (!s) return stopped ? cancelled : s;
+    if (outputBytes) *outputBytes = vol.serializedSize() + 8 * layout->arrayWords.size() + 4 * total;
     return Status::ok();
 }
 

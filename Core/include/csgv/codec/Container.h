@@ -44,6 +44,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -136,6 +137,15 @@ std::vector<uint8_t> serializeCsgv(const CompressedVolume& vol);
 /// Writes version 0016 through a temporary file renamed into place; refuses volumes that fail
 /// checkContainer() or exceed limits.maxOutputBytes, and leaves no file behind on failure.
 Status writeCsgv(const std::string& path, const CompressedVolume& vol, const Limits& limits = {});
+
+/// Takes bytes; an error stops whoever writes through it.
+using ByteSink = std::function<Status(const void* data, size_t bytes)>;
+/// Writes version 0016 when the encoding arrays are too large to hold (encodeToFile): `vol` has
+/// every field but its arrays (left empty), `arrayWords[a]` is array a's length in words, and
+/// `words(a, out)` writes exactly that many words of array a through `out`. Same temporary name
+/// and rename as writeCsgv; the header fields and brick starts are checked, the words are not.
+Status writeCsgvStreamed(const std::string& path, const CompressedVolume& vol, const std::vector<uint64_t>& arrayWords,
+                         const Limits& limits, const std::function<Status(size_t array, const ByteSink& out)>& words);
 
 /// "nibble", "rans1", "rans2", "wavelet-matrix", "huffman-wavelet-matrix" or "unknown".
 const char* encodingName(int32_t encoding);

@@ -60,13 +60,19 @@ Result<CompressedVolume> encodeVolume(const LabelVolume& volume, const EncodeOpt
 /// @brief How encodeToFile works and reports.
 struct EncodeToFileOptions {
     uint64_t maxOutputBytes = uint64_t(64) << 30;
+    /// Brick symbols (pass 1's result, a few times the output) are held in memory up to this
+    /// many bytes; beyond it, all of them go to a scratch file beside the output.
+    uint64_t heldSymbolBytes = uint64_t(256) << 20;
     /// Called after each slab of bricks and while writing, with the fraction done (0..1);
     /// returning false cancels (nothing is left at `path`).
     std::function<bool(double fraction)> progress;
 };
 
 /// Encodes from a slab source straight into a `.csgv` file at `path` (written under a temporary
-/// name and renamed). Unlike encodeVolume, the compressed volume need not fit in memory at once.
+/// name and renamed), giving the bytes writeCsgv(encodeVolume(...)) gives. Unlike encodeVolume,
+/// the compressed volume is never in memory at once: memory is one slab of labels, the held
+/// symbols (bounded, see heldSymbolBytes), one slab of bricks' words and 4 bytes a brick; the
+/// rest passes through two scratch files beside the output, unlinked while open.
 Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
                     const EncodeToFileOptions& fileOptions = {}, uint64_t* outputBytes = nullptr);
 
