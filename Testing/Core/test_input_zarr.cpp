@@ -90,6 +90,7 @@ TEST(ZarrInput, CompressorsAndTypes) {
     expectFixture("u64_blosc_zstd.zarr", LabelType::U64, {{10, 6, 8}}, "blosc(zstd, bitshuffle)");
     expectFixture("i32_bigendian.zarr", LabelType::I32, {{6, 7, 5}}, "array i32_bigendian.zarr");
     expectFixture("f32_integers.zarr", LabelType::F32, {{4, 5, 6}}, "none");
+    expectFixture("f64_nanfill.zarr", LabelType::F64, {{8, 4, 4}}, "zstd"); // NaN fill, no chunk missing
 }
 
 TEST(ZarrInput, NegativeAndLargeValuesAtFullWidth) {
@@ -209,12 +210,15 @@ TEST(ZarrInput, ErrorsNameTheFileAndTheProblem) {
 
 TEST(ZarrInput, BadChunksNameTheChunkFile) {
     std::string m = failure("bad_truncated.zarr");
-    EXPECT_HAS(m, "bad_truncated.zarr/1.0.1: chunk zlib stream is truncated");
+    EXPECT_HAS(m, "bad_truncated.zarr/1.0.1: zlib stream is truncated: it ends after 128 of 256 bytes");
     m = failure("bad_raw_short.zarr");
     EXPECT_HAS(m, "bad_raw_short.zarr/0.0.0: chunk holds 253 bytes, expected 256");
     m = failure("bad_blosc.zarr");
     EXPECT_HAS(m, "bad_blosc.zarr/0.1.0: chunk decodes to 12345 bytes, expected 256");
     m = failure("bad_blosc_data.zarr");
-    EXPECT_HAS(m, "bad_blosc_data.zarr/0.0.0: chunk");
-    EXPECT_HAS(m, "corrupt blosc chunk");
+    EXPECT_HAS(m, "bad_blosc_data.zarr/0.0.0: corrupt blosc chunk");
+    m = failure("bad_nanfill_missing.zarr");
+    EXPECT_HAS(m, "bad_nanfill_missing.zarr/0.0.1: chunk file is missing and the array's fill_value is not an integer label");
+    m = failure("bad_fraction.zarr");
+    EXPECT_HAS(m, "bad_fraction.zarr/0.0.0: voxel (1, 2, 3) holds a value that is not an integer label");
 }

@@ -333,7 +333,7 @@ Status ZarrSource::load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk) {
     Status s = decodeZarrChunk(m_array, m_file.data(), m_file.size(), chunk.bytes);
     if (!s) {
         chunk.loaded = false;
-        return fail(p, "chunk " + s.message());
+        return fail(p, s.message());
     }
     return Status::ok();
 }
@@ -363,6 +363,8 @@ Status ZarrSource::copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint6
         for (uint64_t y = y0; y < y1; ++y) {
             uint64_t* row = out + W * (y + H * (z - z0));
             if (chunk.missing) {
+                if (!m_array.fillIsLabel)
+                    return fail(chunkPath(iz, iy, ix), "chunk file is missing and the array's fill_value is not an integer label");
                 std::fill(row + x0, row + x1, m_array.fill);
                 continue;
             }

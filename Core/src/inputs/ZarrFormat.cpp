@@ -117,6 +117,11 @@ Status readFill(const json& j, ZarrArray& a) {
         a.fill = uint64_t(v);
         return Status::ok();
     }
+    // Float arrays often say NaN ("NaN" in the JSON); that matters only where a chunk is missing.
+    if (isFloat(a.type) && (it->is_number_float() || it->is_string())) {
+        a.fillIsLabel = false;
+        return Status::ok();
+    }
     return bad(text + " is not an integer label");
 }
 
@@ -210,11 +215,11 @@ Result<ZarrArray> parseZarrayJson(const json& j) {
 // ---- chunk decoders: each fills `out` (capacity chunkBytes + 1) and reports what it produced.
 
 std::string sizeText(uint64_t got, uint64_t want) {
-    return "decodes to " + std::to_string(got) + " bytes, expected " + std::to_string(want);
+    return "chunk decodes to " + std::to_string(got) + " bytes, expected " + std::to_string(want);
 }
 
 Status decodeRaw(const uint8_t* data, size_t size, uint64_t want, std::vector<uint8_t>& out) {
-    if (size != want) return bad("holds " + std::to_string(size) + " bytes, expected " + std::to_string(want) + " (uncompressed)");
+    if (size != want) return bad("chunk holds " + std::to_string(size) + " bytes, expected " + std::to_string(want) + " (uncompressed)");
     std::memcpy(out.data(), data, size);
     return Status::ok();
 }
@@ -248,7 +253,7 @@ Status decodeZlib(const uint8_t* data, size_t size, uint64_t want, std::vector<u
     const std::string msg = zs.msg ? zs.msg : "";
     inflateEnd(&zs);
     const char* name = gzip ? "gzip" : "zlib";
-    if (produced > want) return bad("decodes to more than " + std::to_string(want) + " bytes");
+    if (produced > want) return bad("chunk decodes to more than " + std::to_string(want) + " bytes");
     if (rc == Z_STREAM_END) return produced == want ? Status::ok() : bad(sizeText(produced, want));
     if (rc == Z_BUF_ERROR)
         return bad(std::string(name) + " stream is truncated: it ends after " + std::to_string(produced) + " of " + std::to_string(want) + " bytes");
@@ -268,7 +273,7 @@ Status decodeZstd(const uint8_t* data, size_t size, uint64_t want, std::vector<u
             break;
         }
         if (o.pos > want) {
-            status = bad("decodes to more than " + std::to_string(want) + " bytes");
+            status = bad("chunk decodes to more than " + std::to_string(want) + " bytes");
             break;
         }
         if (r == 0) { // frame complete

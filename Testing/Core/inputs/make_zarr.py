@@ -90,6 +90,10 @@ def good_arrays():
     array('f32_integers.zarr', d, (3, 5, 4), compressor=None)
     expect('f32_integers.zarr', d.astype(np.int64))
 
+    d = labels((4, 4, 8), np.float64, -(1 << 50), 1 << 50)
+    array('f64_nanfill.zarr', d, (4, 4, 4), fill_value=float('nan'), compressor=Zstd())
+    expect('f64_nanfill.zarr', d.astype(np.int64))
+
 
 def missing_chunks():
     for fill in (0, 7):
@@ -172,6 +176,13 @@ def bad_arrays():
         b = f.read()
     with open(chunk, 'wb') as f:
         f.write(b[: len(b) // 2])
+
+    array('bad_nanfill_missing.zarr', labels((4, 4, 8), np.float64, 0, 9), (4, 4, 4), fill_value=float('nan'), compressor=None)
+    os.remove(os.path.join(OUT, 'bad_nanfill_missing.zarr', '0.0.1'))
+
+    f = labels((4, 4, 4), np.float32, 0, 9)
+    f[3, 2, 1] = 2.5
+    array('bad_fraction.zarr', f, (4, 4, 4), compressor=None)
 
     array('bad_raw_short.zarr', d, (4, 4, 4), compressor=None)
     chunk = os.path.join(OUT, 'bad_raw_short.zarr', '0.0.0')

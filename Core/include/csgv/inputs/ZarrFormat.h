@@ -29,6 +29,8 @@ struct ZarrArray {
     bool bigEndian = false;
     bool fortranOrder = false;    ///< order "F": the first axis varies fastest inside a chunk
     uint64_t fill = 0;            ///< fill_value at full width (null = 0)
+    bool fillIsLabel = true;      ///< false for a float array's NaN (or fractional) fill_value:
+                                  ///< only a missing chunk, which would need it, is then an error
     ZarrCompressor compressor = ZarrCompressor::None;
     std::string compressorText;   ///< for details: "none", "blosc(lz4)", "zlib", "gzip", "zstd"
     char separator = '.';         ///< dimension_separator
