@@ -217,6 +217,12 @@ TEST(ZarrInput, BadChunksNameTheChunkFile) {
     EXPECT_HAS(m, "bad_blosc.zarr/0.1.0: chunk decodes to 12345 bytes, expected 256");
     m = failure("bad_blosc_data.zarr");
     EXPECT_HAS(m, "bad_blosc_data.zarr/0.0.0: corrupt blosc chunk");
+    m = failure("bad_zlib_long.zarr");
+    EXPECT_HAS(m, "bad_zlib_long.zarr/0.0.0: chunk decodes to more than 256 bytes");
+    m = failure("bad_zlib_short.zarr");
+    EXPECT_HAS(m, "bad_zlib_short.zarr/0.0.0: chunk decodes to 200 bytes, expected 256");
+    m = failure("bad_zstd_long.zarr");
+    EXPECT_HAS(m, "bad_zstd_long.zarr/0.0.0: chunk decodes to more than 256 bytes");
     m = failure("bad_nanfill_missing.zarr");
     EXPECT_HAS(m, "bad_nanfill_missing.zarr/0.0.1: chunk file is missing and the array's fill_value is not an integer label");
     m = failure("bad_fraction.zarr");

@@ -184,6 +184,15 @@ def bad_arrays():
     f[3, 2, 1] = 2.5
     array('bad_fraction.zarr', f, (4, 4, 4), compressor=None)
 
+    # Whole, valid streams of the wrong length (256 bytes expected).
+    import zlib as pyzlib
+    for name, comp, payload in (('bad_zlib_long.zarr', Zlib(), pyzlib.compress(bytes(300))),
+                                ('bad_zlib_short.zarr', Zlib(), pyzlib.compress(bytes(200))),
+                                ('bad_zstd_long.zarr', Zstd(), Zstd().encode(bytes(1000)))):
+        array(name, d, (4, 4, 4), compressor=comp)
+        with open(os.path.join(OUT, name, '0.0.0'), 'wb') as f:
+            f.write(payload)
+
     array('bad_raw_short.zarr', d, (4, 4, 4), compressor=None)
     chunk = os.path.join(OUT, 'bad_raw_short.zarr', '0.0.0')
     with open(chunk, 'rb') as f:
