@@ -1,8 +1,230 @@
 // SPDX-License-Identifier: MIT
 /// @file test_input_zarr.cpp
-/// @brief Tests of Zarr and OME-Zarr input (fixtures written at test time by Testing/Core/inputs/ scripts).
+/// @brief Tests of Zarr v2 and OME-Zarr input. Fixtures are written at test time by
+/// Testing/Core/inputs/make_zarr.py (python3-zarr, numcodecs), each good one with the values the
+/// reader must return (NAME.expected), so every voxel is compared exactly.
 #include "TestData.h"
 
+#include "csgv/codec/Container.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/inputs/Compress.h"
 #include "csgv/inputs/Inputs.h"
 
 #include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+
+using namespace csgv;
+using csgvtest::expectSourceContract;
+using csgvtest::tempDir;
+
+namespace {
+
+/// The fixture folder, written once per test process.
+const std::string& fixtures() {
+    static const std::string dir = [] {
+        const std::string d = tempDir() + "/zarr";
+        EXPECT_EQ(csgvtest::runFixtureScript("make_zarr.py", {d}), 0) << "make_zarr.py failed";
+        return d;
+    }();
+    return dir;
+}
+
+std::string at(const std::string& name) { return fixtures() + "/" + name; }
+
+/// What make_zarr.py says the reader must return for `name`.
+std::vector<uint64_t> expectedValues(const std::string& name) {
+    std::ifstream f(at(name) + ".expected", std::ios::binary);
+    std::vector<char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    std::vector<uint64_t> v(bytes.size() / 8);
+    for (size_t i = 0; i < v.size(); ++i)
+        for (int b = 0; b < 8; ++b) v[i] |= uint64_t(uint8_t(bytes[i * 8 + size_t(b)])) << (8 * b);
+    return v;
+}
+
+std::unique_ptr<InputSource> openOk(const std::string& name, const InputOptions& options = {}) {
+    Result<std::unique_ptr<InputSource>> src = openInput(at(name), options);
+    EXPECT_TRUE(src.isOk()) << src.message();
+    return src ? std::move(*src) : nullptr;
+}
+
+/// Opens a good fixture, checks its type, dimensions and detail, and every voxel through the
+/// source contract.
+void expectFixture(const std::string& name, LabelType type, std::array<uint32_t, 3> dim, const std::string& detailPart) {
+    SCOPED_TRACE(name);
+    std::unique_ptr<InputSource> src = openOk(name);
+    ASSERT_TRUE(src);
+    EXPECT_EQ(src->info().format, "Zarr");
+    EXPECT_EQ(src->info().type, type);
+    EXPECT_EQ(src->info().dim, dim);
+    EXPECT_NE(src->info().detail.find(detailPart), std::string::npos) << src->info().detail;
+    expectSourceContract(*src, expectedValues(name));
+}
+
+/// The message of reading `name` whole (opening or reading fails).
+std::string failure(const std::string& name) {
+    Result<InputVolume> v = readInput(at(name));
+    EXPECT_FALSE(v.isOk()) << name << " was read";
+    return v.message();
+}
+
+#define EXPECT_HAS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << (text)
+
+} // namespace
+
+TEST(ZarrInput, ClaimsZarrPaths) {
+    EXPECT_TRUE(isInputPath("/data/seg.zarr"));
+    EXPECT_TRUE(isInputPath("/data/SEG.ZARR/"));
+    EXPECT_TRUE(isInputPath("/data/seg.zarr/labels/cells/0"));
+    EXPECT_TRUE(isInputPath(at("u8_zlib.zarr"))); // a folder holding .zarray
+    EXPECT_FALSE(isInputPath("/data/seg.zarray.txt"));
+}
+
+TEST(ZarrInput, CompressorsAndTypes) {
+    expectFixture("u32_blosc_lz4.zarr", LabelType::U32, {{13, 17, 20}}, "chunks 8x8x5, blosc(lz4, shuffle), C order");
+    expectFixture("u8_zlib.zarr", LabelType::U8, {{11, 10, 9}}, "zlib");
+    expectFixture("u16_gzip.zarr", LabelType::U16, {{7, 12, 10}}, "gzip");
+    expectFixture("i64_zstd.zarr", LabelType::I64, {{11, 9, 7}}, "zstd");
+    expectFixture("u64_blosc_zstd.zarr", LabelType::U64, {{10, 6, 8}}, "blosc(zstd, bitshuffle)");
+    expectFixture("i32_bigendian.zarr", LabelType::I32, {{6, 7, 5}}, "array i32_bigendian.zarr");
+    expectFixture("f32_integers.zarr", LabelType::F32, {{4, 5, 6}}, "none");
+    expectFixture("f64_nanfill.zarr", LabelType::F64, {{8, 4, 4}}, "zstd"); // NaN fill, no chunk missing
+}
+
+TEST(ZarrInput, NegativeAndLargeValuesAtFullWidth) {
+    std::unique_ptr<InputSource> src = openOk("i64_zstd.zarr");
+    ASSERT_TRUE(src);
+    Result<InputVolume> v = readAll(*src, "i64");
+    ASSERT_TRUE(v.isOk()) << v.message();
+    EXPECT_EQ(int64_t(v->values[0]), -1);
+    EXPECT_EQ(int64_t(v->values[3 + 11 * (2 + 9 * 1)]), INT64_MIN);
+    src = openOk("u64_blosc_zstd.zarr");
+    ASSERT_TRUE(src);
+    v = readAll(*src, "u64");
+    ASSERT_TRUE(v.isOk()) << v.message();
+    EXPECT_EQ(v->values[0], ~uint64_t(0));
+    EXPECT_GT(v->values[1], uint64_t(1) << 32);
+}
+
+TEST(ZarrInput, LayoutsFortranOrderAndSlashSeparator) {
+    expectFixture("u32_forder.zarr", LabelType::U32, {{9, 11, 6}}, "F order");
+    expectFixture("u16_slash.zarr", LabelType::U16, {{7, 8, 9}}, "blosc(lz4, noshuffle)");
+}
+
+TEST(ZarrInput, MissingChunksAreFillValue) {
+    expectFixture("missing_fill0.zarr", LabelType::U32, {{8, 8, 8}}, "zlib");
+    expectFixture("missing_fill7.zarr", LabelType::U32, {{8, 8, 8}}, "zlib");
+    EXPECT_EQ(expectedValues("missing_fill7.zarr")[0], 7u);
+}
+
+TEST(ZarrInput, OmeMultiscaleLevelsAndGeometry) {
+    expectFixture("ome.zarr", LabelType::U16, {{12, 10, 16}}, "array 0, chunks 8x5x6");
+    std::unique_ptr<InputSource> src = openOk("ome.zarr");
+    ASSERT_TRUE(src);
+    // Dataset scale (z, y, x) = (2, 0.5, 0.25) times the global (1, 1, 2); translation (1, 2, 3)
+    // times the global scale. Geometry is (x, y, z).
+    const Geometry& g0 = src->info().geometry;
+    EXPECT_EQ(g0.spacing, (std::array<double, 3>{{0.5, 0.5, 2.0}}));
+    EXPECT_EQ(g0.origin, (std::array<double, 3>{{6.0, 2.0, 1.0}}));
+
+    expectFixture("ome.zarr/1", LabelType::U16, {{6, 5, 8}}, "array 1, chunks 4x5x6, zstd");
+    src = openOk("ome.zarr/1");
+    ASSERT_TRUE(src);
+    const Geometry& g1 = src->info().geometry;
+    EXPECT_EQ(g1.spacing, (std::array<double, 3>{{1.0, 1.0, 4.0}}));
+    EXPECT_EQ(g1.origin, (std::array<double, 3>{{6.25, 2.25, 2.0}}));
+}
+
+TEST(ZarrInput, OmeLabelGroups) {
+    std::unique_ptr<InputSource> src = openOk("ome.zarr/labels");
+    ASSERT_TRUE(src);
+    EXPECT_HAS(src->info().detail, "label image 'cells' (first of 2): array labels/cells/0");
+    expectSourceContract(*src, expectedValues("ome.zarr/labels/cells"));
+    EXPECT_EQ(src->info().geometry.spacing, (std::array<double, 3>{{0.25, 0.5, 2.0}}));
+    expectFixture("ome.zarr/labels/nuclei", LabelType::U32, {{12, 10, 16}}, "array labels/nuclei/0");
+}
+
+TEST(ZarrInput, OmeFiveDimensionalSingletonAxes) {
+    expectFixture("tczyx.zarr", LabelType::U32, {{8, 7, 6}}, "chunks 1x1x4x4x4");
+    std::unique_ptr<InputSource> src = openOk("tczyx.zarr");
+    ASSERT_TRUE(src);
+    EXPECT_EQ(src->info().geometry.spacing, (std::array<double, 3>{{1.5, 2.0, 3.0}}));
+}
+
+TEST(ZarrInput, WorkingMemoryBounded) {
+    const std::vector<uint64_t> expected = expectedValues("u32_blosc_lz4.zarr");
+    // A layer is 3 x 3 chunks of 8x8x5 uint32 (1280 bytes): cached with the default budget.
+    std::unique_ptr<InputSource> src = openOk("u32_blosc_lz4.zarr");
+    ASSERT_TRUE(src);
+    std::vector<uint64_t> slab(13 * 17);
+    ASSERT_TRUE(src->readSlab(0, 1, slab.data()).isOk());
+    EXPECT_GE(src->workingBytes(), 9u * 1280);
+    EXPECT_LT(src->workingBytes(), 9u * 1280 + 16384);
+    // A budget of one chunk (plus its compressed file): chunks are decoded per request.
+    InputOptions small;
+    small.maxWorkingBytes = 8000;
+    src = openOk("u32_blosc_lz4.zarr", small);
+    ASSERT_TRUE(src);
+    expectSourceContract(*src, expected);
+    EXPECT_LE(src->workingBytes(), small.maxWorkingBytes);
+    // Less than one chunk: refused when opened.
+    small.maxWorkingBytes = 2000;
+    Result<std::unique_ptr<InputSource>> refused = openInput(at("u32_blosc_lz4.zarr"), small);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_HAS(refused.message(), "does not fit the working memory bound");
+}
+
+TEST(ZarrInput, CompressRoundTripExact) {
+    for (const char* name : {"u32_blosc_lz4.zarr", "ome.zarr/labels/nuclei", "u16_slash.zarr"}) {
+        SCOPED_TRACE(name);
+        const std::string out = tempDir() + "/zarr_roundtrip.csgv";
+        CompressOptions options;
+        ASSERT_TRUE(compressToFile(at(name), out, options).isOk());
+        Result<CompressedVolume> vol = readCsgv(out);
+        ASSERT_TRUE(vol.isOk()) << vol.message();
+        Result<LabelVolume> decoded = decodeVolume(*vol, 0);
+        ASSERT_TRUE(decoded.isOk()) << decoded.message();
+        const std::vector<uint64_t> expected = expectedValues(name);
+        ASSERT_EQ(decoded->labels.size(), expected.size());
+        for (size_t i = 0; i < expected.size(); ++i)
+            ASSERT_EQ(decoded->labels[i], expected[i]) << "voxel " << i;
+    }
+}
+
+TEST(ZarrInput, ErrorsNameTheFileAndTheProblem) {
+    std::string m = failure("bad_group.zarr");
+    EXPECT_HAS(m, "bad_group.zarr");
+    EXPECT_HAS(m, "not a Zarr array or OME-Zarr image: found a group (.zgroup)");
+    m = failure("nothing_here.zarr");
+    EXPECT_HAS(m, "no such Zarr folder");
+    m = failure("bad_filter.zarr");
+    EXPECT_HAS(m, "bad_filter.zarr/.zarray");
+    EXPECT_HAS(m, "unsupported filter \"delta\"");
+    m = failure("bad_dtype.zarr");
+    EXPECT_HAS(m, "bad_dtype.zarr/.zarray: unsupported dtype \"<c8\"");
+    m = failure("bad_channels.zarr");
+    EXPECT_HAS(m, "axis 'c' has size 2");
+}
+
+TEST(ZarrInput, BadChunksNameTheChunkFile) {
+    std::string m = failure("bad_truncated.zarr");
+    EXPECT_HAS(m, "bad_truncated.zarr/1.0.1: zlib stream is truncated: it ends after 128 of 256 bytes");
+    m = failure("bad_raw_short.zarr");
+    EXPECT_HAS(m, "bad_raw_short.zarr/0.0.0: chunk holds 253 bytes, expected 256");
+    m = failure("bad_blosc.zarr");
+    EXPECT_HAS(m, "bad_blosc.zarr/0.1.0: chunk decodes to 12345 bytes, expected 256");
+    m = failure("bad_blosc_data.zarr");
+    EXPECT_HAS(m, "bad_blosc_data.zarr/0.0.0: corrupt blosc chunk");
+    m = failure("bad_zlib_long.zarr");
+    EXPECT_HAS(m, "bad_zlib_long.zarr/0.0.0: chunk decodes to more than 256 bytes");
+    m = failure("bad_zlib_short.zarr");
+    EXPECT_HAS(m, "bad_zlib_short.zarr/0.0.0: chunk decodes to 200 bytes, expected 256");
+    m = failure("bad_zstd_long.zarr");
+    EXPECT_HAS(m, "bad_zstd_long.zarr/0.0.0: chunk decodes to more than 256 bytes");
+    m = failure("bad_nanfill_missing.zarr");
+    EXPECT_HAS(m, "bad_nanfill_missing.zarr/0.0.1: chunk file is missing and the array's fill_value is not an integer label");
+    m = failure("bad_fraction.zarr");
+    EXPECT_HAS(m, "bad_fraction.zarr/0.0.0: voxel (1, 2, 3) holds a value that is not an integer label");
+}

@@ -1,15 +1,418 @@
 // SPDX-License-Identifier: MIT
 /// @file Zarr.cpp
-/// @brief Zarr v2 arrays and OME-Zarr label groups (DIR.zarr[/path]). Not yet implemented.
+/// @brief Zarr v2 arrays and OME-Zarr multiscale images and label groups (`DIR.zarr[/path]`),
+/// read chunk by chunk. The path names an array (a folder with `.zarray`), an OME multiscale
+/// group (its first, full-resolution dataset is read) or an OME `labels` group (its first label
+/// image). Metadata parsing and chunk decoding are in ZarrFormat.cpp.
+///
+/// Working memory: when one layer of chunks (every chunk sharing a z chunk index) fits
+/// InputOptions::maxWorkingBytes, the decoded chunks of the current layer are kept, so a chunk
+/// deeper than the caller's slab is decoded once; otherwise each request decodes the chunks it
+/// touches one at a time (one decoded chunk). Either way, plus one compressed chunk file (at most
+/// the decoded chunk size + 1/16 + 4 KiB: a larger file is refused, not read).
 #include "InputCommon.h"
+
+#include "csgv/inputs/ZarrFormat.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 
 namespace csgv {
 namespace inputs {
 
-bool claimsZarr(const std::string&) { return false; }
+namespace fs = std::filesystem;
 
-Result<std::unique_ptr<InputSource>> openZarr(const std::string& path, const InputOptions&) {
-    return fail(path, "Zarr input is not implemented yet");
+namespace {
+
+constexpr uint64_t kMaxMetadataBytes = uint64_t(16) << 20;
+
+bool isFile(const std::string& p) {
+    std::error_code ec;
+    return fs::is_regular_file(p, ec);
+}
+
+bool isDir(const std::string& p) {
+    std::error_code ec;
+    return fs::is_directory(p, ec);
+}
+
+std::string stripSlashes(std::string p) {
+    while (p.size() > 1 && p.back() == '/') p.pop_back();
+    return p;
+}
+
+/// Reads a whole small file (metadata), refusing large ones.
+Result<std::string> readText(const std::string& path) {
+    CFile f(std::fopen(path.c_str(), "rb"));
+    if (!f.get()) return fail(path, std::string("cannot open: ") + std::strerror(errno));
+    std::string text;
+    char buf[65536];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, f.get())) > 0) {
+        text.append(buf, n);
+        if (text.size() > kMaxMetadataBytes) return fail(path, "metadata file larger than 16 MiB");
+    }
+    if (std::ferror(f.get())) return fail(path, "read error");
+    return text;
+}
+
+Result<ZarrAttrs> readAttrs(const std::string& dir) {
+    const std::string p = dir + "/.zattrs";
+    if (!isFile(p)) return ZarrAttrs();
+    Result<std::string> text = readText(p);
+    if (!text) return text.status();
+    Result<ZarrAttrs> a = parseZattrs(*text);
+    if (!a) return fail(p, a.message());
+    return a;
+}
+
+/// The path of `dir` inside its `.zarr` root, for details ("labels/cells/0").
+std::string relativeName(const std::string& dir) {
+    const std::string l = lower(dir);
+    const size_t at = l.rfind(".zarr/");
+    if (at != std::string::npos) return dir.substr(at + 6);
+    return fs::path(dir).filename().string();
+}
+
+/// @brief What a path resolved to: the array folder, and the OME multiscale metadata that
+/// places it (none for a bare array).
+struct Resolved {
+    std::string arrayDir;
+    ZarrAttrs multiscale;     ///< of the group holding the array; hasMultiscales false when none
+    int level = -1;           ///< index of the array in multiscale.datasets; -1 when none
+    std::string what;         ///< detail prefix ("label image cells (first of 2): ")
+};
+
+/// The array a multiscale group's `level` names.
+Result<Resolved> levelOf(const std::string& group, ZarrAttrs attrs, size_t level, const std::string& what) {
+    Resolved r;
+    r.arrayDir = group + "/" + attrs.datasets[level].path;
+    if (!isFile(r.arrayDir + "/.zarray"))
+        return fail(group, "multiscale dataset " + inputs::quoted(attrs.datasets[level].path) + " has no .zarray");
+    r.multiscale = std::move(attrs);
+    r.level = int(level);
+    r.what = what;
+    return r;
+}
+
+/// Names the Zarr things inside a folder that is neither an array nor an OME group.
+std::string describeFolder(const std::string& dir, const ZarrAttrs& attrs) {
+    std::string found = isFile(dir + "/.zgroup") ? "a group (.zgroup)" : "no .zarray or .zgroup";
+    if (isFile(dir + "/.zattrs")) found += attrs.hasLabels ? ", .zattrs with an empty labels list" : ", .zattrs without multiscales or labels";
+    std::vector<std::string> children;
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end && children.size() < 8; it.increment(ec))
+        if (isFile(it->path().string() + "/.zarray") || isFile(it->path().string() + "/.zgroup"))
+            children.push_back(it->path().filename().string());
+    std::sort(children.begin(), children.end());
+    if (!children.empty()) {
+        found += "; it holds";
+        for (const std::string& c : children) found += " " + inputs::quoted(c);
+        found += " (name one in the path)";
+    }
+    return found;
+}
+
+Result<Resolved> resolve(const std::string& path) {
+    const std::string dir = stripSlashes(path);
+    if (isFile(dir + "/.zarray")) {
+        // An array: a level of an OME multiscale group when its parent says so.
+        Resolved r;
+        r.arrayDir = dir;
+        const fs::path p(dir);
+        Result<ZarrAttrs> parent = readAttrs(p.parent_path().string());
+        if (parent && parent->hasMultiscales)
+            for (size_t i = 0; i < parent->datasets.size(); ++i)
+                if (parent->datasets[i].path == p.filename().string()) {
+                    r.multiscale = std::move(*parent);
+                    r.level = int(i);
+                    break;
+                }
+        return r;
+    }
+    if (!isDir(dir)) return fail(dir, "no such Zarr folder");
+    Result<ZarrAttrs> attrs = readAttrs(dir);
+    if (!attrs) return attrs.status();
+    if (attrs->hasMultiscales) return levelOf(dir, std::move(*attrs), 0, "");
+    if (attrs->hasLabels && !attrs->labels.empty()) {
+        const std::string name = attrs->labels[0];
+        const std::string image = dir + "/" + name;
+        Result<ZarrAttrs> imageAttrs = readAttrs(image);
+        if (!imageAttrs) return imageAttrs.status();
+        if (!imageAttrs->hasMultiscales) return fail(image, "label image has no multiscales in its .zattrs");
+        const std::string what = "label image " + inputs::quoted(name) + " (first of " + std::to_string(attrs->labels.size()) + "): ";
+        return levelOf(image, std::move(*imageAttrs), 0, what);
+    }
+    return fail(dir, "not a Zarr array or OME-Zarr image: found " + describeFolder(dir, *attrs));
+}
+
+uint64_t mulSat(uint64_t a, uint64_t b) { return b != 0 && a > ~uint64_t(0) / b ? ~uint64_t(0) : a * b; }
+
+/// @brief Reads a Zarr v2 array's z slabs chunk by chunk (see the file's @brief for memory).
+class ZarrSource : public InputSource {
+public:
+    Status open(const std::string& path, const InputOptions& options);
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override;
+    uint64_t workingBytes() const override;
+
+private:
+    /// One decoded chunk of the cached layer (or the scratch chunk).
+    struct Chunk {
+        bool loaded = false;
+        bool missing = false; ///< no file: fill_value everywhere
+        std::vector<uint8_t> bytes;
+    };
+
+    Status readArray(const Resolved& r);
+    Status findAxes(const Resolved& r);
+    void placeInSpace(const Resolved& r);
+    Status planMemory(const InputOptions& options);
+    std::string chunkPath(uint64_t iz, uint64_t iy, uint64_t ix) const;
+    Status load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk);
+    Result<Chunk*> chunkAt(uint64_t iz, uint64_t iy, uint64_t ix);
+    Status copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, uint32_t z0, uint32_t zs, uint32_t ze, uint64_t* out) const;
+
+    std::string m_dir;
+    ZarrArray m_array;
+    int m_axis[3] = {-1, -1, -1};     ///< array axis of x, y, z (-1: z absent, a 2D image)
+    uint64_t m_chunk[3] = {1, 1, 1};  ///< chunk extent along x, y, z
+    uint64_t m_stride[3] = {0, 0, 0}; ///< element stride inside a chunk along x, y, z
+    uint64_t m_grid[3] = {1, 1, 1};   ///< chunks along x, y, z
+    uint64_t m_maxFileBytes = 0;
+    bool m_cacheLayer = false;
+    uint64_t m_layerZ = ~uint64_t(0);
+    std::vector<Chunk> m_layer;       ///< m_grid[0] * m_grid[1] chunks of layer m_layerZ
+    Chunk m_scratch;
+    std::vector<uint8_t> m_file;      ///< compressed bytes of the chunk being decoded
+};
+
+Status ZarrSource::readArray(const Resolved& r) {
+    m_dir = r.arrayDir;
+    const std::string meta = m_dir + "/.zarray";
+    Result<std::string> text = readText(meta);
+    if (!text) return text.status();
+    Result<ZarrArray> a = parseZarray(*text);
+    if (!a) return fail(meta, a.message());
+    m_array = std::move(*a);
+    return Status::ok();
+}
+
+Status ZarrSource::findAxes(const Resolved& r) {
+    const size_t n = m_array.shape.size();
+    const std::vector<std::string>& names = r.multiscale.axes;
+    if (!names.empty() && names.size() != n)
+        return fail(m_dir, "the OME axes list " + std::to_string(names.size()) + " axes but the array has " + std::to_string(n));
+    if (names.empty()) {
+        m_axis[0] = int(n) - 1;
+        m_axis[1] = int(n) - 2;
+        m_axis[2] = n >= 3 ? int(n) - 3 : -1;
+    } else {
+        for (size_t i = 0; i < n; ++i) {
+            const std::string a = lower(names[i]);
+            if (a == "x") m_axis[0] = int(i);
+            else if (a == "y") m_axis[1] = int(i);
+            else if (a == "z") m_axis[2] = int(i);
+        }
+        if (m_axis[0] < 0 || m_axis[1] < 0) return fail(m_dir, "the OME axes have no x and y");
+    }
+    for (size_t i = 0; i < n; ++i) {
+        if (int(i) == m_axis[0] || int(i) == m_axis[1] || int(i) == m_axis[2]) continue;
+        if (m_array.shape[i] != 1) {
+            const std::string name = names.empty() ? "axis " + std::to_string(i) : "axis " + inputs::quoted(names[i]);
+            return fail(m_dir, name + " has size " + std::to_string(m_array.shape[i]) +
+                                   "; only single-channel, single-timepoint images are label volumes");
+        }
+    }
+    // Strides of each array axis inside a (full-size) chunk, C or F order.
+    std::vector<uint64_t> stride(n, 1);
+    if (m_array.fortranOrder)
+        for (size_t i = 1; i < n; ++i) stride[i] = stride[i - 1] * m_array.chunks[i - 1];
+    else
+        for (size_t i = n - 1; i-- > 0;) stride[i] = stride[i + 1] * m_array.chunks[i + 1];
+    for (int k = 0; k < 3; ++k) {
+        const uint64_t extent = m_axis[k] < 0 ? 1 : m_array.shape[size_t(m_axis[k])];
+        if (extent == 0 || extent > UINT32_MAX)
+            return fail(m_dir, "array extent " + std::to_string(extent) + " along " + "xyz"[k] + " is not a volume extent (1 to 2^32-1)");
+        m_info.dim[size_t(k)] = uint32_t(extent);
+        m_chunk[k] = m_axis[k] < 0 ? 1 : m_array.chunks[size_t(m_axis[k])];
+        m_stride[k] = m_axis[k] < 0 ? 0 : stride[size_t(m_axis[k])];
+        m_grid[k] = (extent + m_chunk[k] - 1) / m_chunk[k];
+    }
+    return Status::ok();
+}
+
+void ZarrSource::placeInSpace(const Resolved& r) {
+    if (r.level < 0) return;
+    const OmeDataset& level = r.multiscale.datasets[size_t(r.level)];
+    const size_t n = m_array.shape.size();
+    auto pick = [n](const std::vector<double>& v, int axis, double otherwise) {
+        return axis >= 0 && v.size() == n ? v[size_t(axis)] : otherwise;
+    };
+    for (int k = 0; k < 3; ++k) {
+        const double gs = pick(r.multiscale.globalScale, m_axis[k], 1.0);
+        const double gt = pick(r.multiscale.globalTranslation, m_axis[k], 0.0);
+        m_info.geometry.spacing[size_t(k)] = gs * pick(level.scale, m_axis[k], 1.0);
+        m_info.geometry.origin[size_t(k)] = gs * pick(level.translation, m_axis[k], 0.0) + gt;
+    }
+}
+
+Status ZarrSource::planMemory(const InputOptions& options) {
+    const uint64_t chunkBytes = m_array.chunkBytes();
+    m_maxFileBytes = chunkBytes + chunkBytes / 16 + 4096;
+    const uint64_t slots = mulSat(m_grid[0], m_grid[1]);
+    const uint64_t layerBytes = mulSat(slots, chunkBytes + sizeof(Chunk));
+    m_cacheLayer = layerBytes <= options.maxWorkingBytes && layerBytes + m_maxFileBytes <= options.maxWorkingBytes;
+    if (m_cacheLayer) {
+        m_layer.resize(size_t(slots));
+        return Status::ok();
+    }
+    if (chunkBytes + m_maxFileBytes > options.maxWorkingBytes)
+        return fail(m_dir, "a chunk of " + std::to_string(chunkBytes) + " bytes does not fit the working memory bound of " +
+                               std::to_string(options.maxWorkingBytes) + " bytes");
+    return Status::ok();
+}
+
+Status ZarrSource::open(const std::string& path, const InputOptions& options) {
+    Result<Resolved> r = resolve(path);
+    if (!r) return r.status();
+    for (auto step : {&ZarrSource::readArray, &ZarrSource::findAxes})
+        if (Status s = (this->*step)(*r); !s) return s;
+    placeInSpace(*r);
+    if (Status s = planMemory(options); !s) return s;
+    m_info.type = m_array.type;
+    m_info.format = "Zarr";
+    std::string chunks;
+    for (uint64_t c : m_array.chunks) chunks += (chunks.empty() ? "" : "x") + std::to_string(c);
+    const std::string name = relativeName(m_dir);
+    m_info.detail = r->what + "array " + (name.empty() ? std::string(".") : name) + ", chunks " + chunks + ", " +
+                    m_array.compressorText + ", " + (m_array.fortranOrder ? "F" : "C") + " order";
+    return Status::ok();
+}
+
+std::string ZarrSource::chunkPath(uint64_t iz, uint64_t iy, uint64_t ix) const {
+    std::string key;
+    const uint64_t index[3] = {ix, iy, iz};
+    for (size_t i = 0; i < m_array.shape.size(); ++i) {
+        uint64_t v = 0;
+        for (int k = 0; k < 3; ++k)
+            if (m_axis[k] == int(i)) v = index[k];
+        key += (i == 0 ? "" : std::string(1, m_array.separator)) + std::to_string(v);
+    }
+    return m_dir + "/" + key;
+}
+
+Status ZarrSource::load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk) {
+    const std::string p = chunkPath(iz, iy, ix);
+    chunk.loaded = true;
+    chunk.missing = false;
+    CFile f(std::fopen(p.c_str(), "rb"));
+    if (!f.get()) {
+        if (errno == ENOENT) { // never written: fill_value everywhere
+            chunk.missing = true;
+            chunk.bytes.clear();
+            chunk.bytes.shrink_to_fit();
+            return Status::ok();
+        }
+        chunk.loaded = false;
+        return fail(p, std::string("cannot open chunk: ") + std::strerror(errno));
+    }
+    std::error_code ec;
+    const uint64_t size = fs::file_size(p, ec);
+    if (ec || size > m_maxFileBytes) {
+        chunk.loaded = false;
+        return fail(p, ec ? "cannot size chunk file" : "chunk file of " + std::to_string(size) + " bytes is larger than any encoding of its " +
+                                                            std::to_string(m_array.chunkBytes()) + " decoded bytes");
+    }
+    m_file.resize(size_t(size));
+    if (size && std::fread(m_file.data(), 1, size_t(size), f.get()) != size) {
+        chunk.loaded = false;
+        return fail(p, "read error or file shrank while reading the chunk");
+    }
+    Status s = decodeZarrChunk(m_array, m_file.data(), m_file.size(), chunk.bytes);
+    if (!s) {
+        chunk.loaded = false;
+        return fail(p, s.message());
+    }
+    return Status::ok();
+}
+
+Result<ZarrSource::Chunk*> ZarrSource::chunkAt(uint64_t iz, uint64_t iy, uint64_t ix) {
+    if (!m_cacheLayer) {
+        if (Status s = load(iz, iy, ix, m_scratch); !s) return s;
+        return &m_scratch;
+    }
+    if (m_layerZ != iz) { // a new layer: the previous one is not needed again in increasing z
+        for (Chunk& c : m_layer) c = Chunk();
+        m_layerZ = iz;
+    }
+    Chunk& c = m_layer[size_t(iy * m_grid[0] + ix)];
+    if (!c.loaded)
+        if (Status s = load(iz, iy, ix, c); !s) return s;
+    return &c;
+}
+
+Status ZarrSource::copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, uint32_t z0, uint32_t zs, uint32_t ze,
+                             uint64_t* out) const {
+    const uint64_t W = m_info.dim[0], H = m_info.dim[1];
+    const uint64_t x0 = ix * m_chunk[0], x1 = std::min<uint64_t>(W, x0 + m_chunk[0]);
+    const uint64_t y0 = iy * m_chunk[1], y1 = std::min<uint64_t>(H, y0 + m_chunk[1]);
+    const uint64_t cz0 = iz * m_chunk[2];
+    for (uint64_t z = zs; z < ze; ++z)
+        for (uint64_t y = y0; y < y1; ++y) {
+            uint64_t* row = out + W * (y + H * (z - z0));
+            if (chunk.missing) {
+                if (!m_array.fillIsLabel)
+                    return fail(chunkPath(iz, iy, ix), "chunk file is missing and the array's fill_value is not an integer label");
+                std::fill(row + x0, row + x1, m_array.fill);
+                continue;
+            }
+            const uint64_t base = (z - cz0) * m_stride[2] + (y - y0) * m_stride[1];
+            for (uint64_t x = x0; x < x1; ++x)
+                if (!zarrElement(m_array, chunk.bytes.data(), base + (x - x0) * m_stride[0], row[x]))
+                    return fail(chunkPath(iz, iy, ix), "voxel (" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) +
+                                                           ") holds a value that is not an integer label");
+        }
+    return Status::ok();
+}
+
+Status ZarrSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
+    if (uint64_t(z0) + depth > m_info.dim[2]) return fail(m_dir, "slab beyond the volume");
+    if (depth == 0) return Status::ok();
+    const uint64_t zEnd = uint64_t(z0) + depth;
+    for (uint64_t iz = z0 / m_chunk[2]; iz * m_chunk[2] < zEnd; ++iz) {
+        const uint32_t zs = uint32_t(std::max<uint64_t>(z0, iz * m_chunk[2]));
+        const uint32_t ze = uint32_t(std::min<uint64_t>(zEnd, (iz + 1) * m_chunk[2]));
+        for (uint64_t iy = 0; iy < m_grid[1]; ++iy)
+            for (uint64_t ix = 0; ix < m_grid[0]; ++ix) {
+                Result<Chunk*> c = chunkAt(iz, iy, ix);
+                if (!c) return c.status();
+                if (Status s = copyChunk(**c, iz, iy, ix, z0, zs, ze, out); !s) return s;
+            }
+    }
+    return Status::ok();
+}
+
+uint64_t ZarrSource::workingBytes() const {
+    uint64_t bytes = m_scratch.bytes.capacity() + m_file.capacity() + m_layer.capacity() * sizeof(Chunk);
+    for (const Chunk& c : m_layer) bytes += c.bytes.capacity();
+    return bytes;
+}
+
+} // namespace
+
+bool claimsZarr(const std::string& path) {
+    const std::string l = lower(stripSlashes(path));
+    if (endsWith(l, ".zarr") || l.find(".zarr/") != std::string::npos) return true;
+    const std::string dir = stripSlashes(path);
+    return isFile(dir + "/.zarray") || (isFile(dir + "/.zgroup") && isFile(dir + "/.zattrs"));
+}
+
+Result<std::unique_ptr<InputSource>> openZarr(const std::string& path, const InputOptions& options) {
+    auto source = std::make_unique<ZarrSource>();
+    if (Status s = source->open(path, options); !s) return s;
+    return std::unique_ptr<InputSource>(std::move(source));
 }
 
 } // namespace inputs
