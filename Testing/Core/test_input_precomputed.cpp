@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <map>
 
 using namespace csgv;
@@ -236,6 +237,12 @@ TEST(Precomputed, BadInputsAreClearErrors) {
                           "2147483647 (4 words) run past the "},
         {"bad_cs_channel", "/s/0-8_0-8_0-8: compressed_segmentation channel offset "},
     };
+    // A scale whose chunk folder is missing (a wrong key, or an incomplete copy).
+    const std::string noChunks = tempDir() + "/precomputed_no_chunks";
+    std::filesystem::create_directories(noChunks);
+    std::filesystem::copy_file(volumeDir("raw_u32") + "/info", noChunks + "/info");
+    EXPECT_EQ(errorOf(noChunks), noChunks + "/info: the chunk folder of scale '4_6_40' (" + noChunks +
+                                     "/4_6_40) does not exist");
     for (const Case& c : cases) {
         const std::string dir = volumeDir(c.folder);
         const std::string e = errorOf(dir);
@@ -266,6 +273,35 @@ TEST(Precomputed, FormatFunctionsRejectBadBytes) {
                   "lookup table offset 2 is outside the 3 words of data"),
               std::string::npos);
     EXPECT_EQ(parsePrecomputedInfo(nullptr, 0).message(), "is not valid JSON");
+    const auto parse = [](const std::string& text) {
+        return parsePrecomputedInfo(reinterpret_cast<const uint8_t*>(text.data()), text.size());
+    };
+    const std::string scale = R"({"key": "k", "size": [4, 5.0, 6], "resolution": [1, 2.5, 3], "chunk_sizes": [[4, 4, 4]], )";
+    // An integer image is read as labels; sizes written as 5.0 are integers.
+    Result<PrecomputedInfo> image =
+        parse(R"({"type": "image", "data_type": "UINT16", "num_channels": 1, "scales": [)" + scale + R"("encoding": "raw"}]})");
+    ASSERT_TRUE(image.isOk()) << image.message();
+    EXPECT_EQ(image->type, LabelType::U16);
+    EXPECT_EQ(image->scales[0].size, (std::array<uint32_t, 3>{{4, 5, 6}}));
+    EXPECT_EQ(image->scales[0].resolution, (std::array<double, 3>{{1, 2.5, 3}}));
+    EXPECT_EQ(image->scales[0].voxelOffset, (std::array<int64_t, 3>{{0, 0, 0}}));
+    // compressed_segmentation of uint16 is refused when the scale is used, not when parsed.
+    Result<PrecomputedInfo> cs16 = parse(R"({"type": "segmentation", "data_type": "uint16", "num_channels": 1, "scales": [)" +
+                                         scale + R"("encoding": "compressed_segmentation",
+                                                    "compressed_segmentation_block_size": [8, 8, 8]}]})");
+    ASSERT_TRUE(cs16.isOk()) << cs16.message();
+    EXPECT_EQ(checkPrecomputedScale(*cs16, cs16->scales[0]).message(),
+              "scale \"k\": compressed_segmentation needs uint32 or uint64 labels, not uint16");
+    EXPECT_EQ(parse(R"({"type": "segmentation", "data_type": "uint32", "num_channels": 1, "scales": [)" + scale +
+                    R"("encoding": "compressed_segmentation"}]})")
+                  .message(),
+              "scale 0: missing \"compressed_segmentation_block_size\"");
+    EXPECT_EQ(parse(R"({"type": "segmentation", "data_type": "uint32", "num_channels": 1, "scales": [)"
+                    R"({"key": "k", "size": [4, 0, 6], "resolution": [1, 1, 1], "chunk_sizes": [[4, 4, 4]], "encoding": "raw"}]})")
+                  .message(),
+              "scale 0: \"size\" element 1 is 0, not an integer in 1..2147483647");
+    EXPECT_EQ(parse(R"({"type": "mesh", "data_type": "uint32"})").message(),
+              "\"type\" is \"mesh\" (must be \"segmentation\" or \"image\")");
     const std::string notObject = "[1, 2]";
     EXPECT_EQ(parsePrecomputedInfo(reinterpret_cast<const uint8_t*>(notObject.data()), notObject.size()).message(),
               "is [1,2], not a JSON object");

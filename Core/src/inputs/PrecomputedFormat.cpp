@@ -34,40 +34,47 @@ std::string shown(const Json& v) {
     return s;
 }
 
-/// Reads a member that must be an integer in [lo, hi].
+/// The value as an integer in [lo, hi]: a JSON integer, or a number with no fraction (some
+/// writers emit 64.0).
+bool intIn(const Json& v, int64_t lo, int64_t hi, int64_t& out) {
+    int64_t x = 0;
+    if (v.is_number_unsigned()) {
+        if (v.get<uint64_t>() > uint64_t(hi)) return false;
+        x = int64_t(v.get<uint64_t>());
+    } else if (v.is_number_integer()) {
+        x = v.get<int64_t>();
+    } else if (v.is_number_float()) {
+        const double d = v.get<double>();
+        if (!std::isfinite(d) || std::floor(d) != d || std::fabs(d) > 9e18) return false;
+        x = int64_t(d);
+    } else {
+        return false;
+    }
+    if (x < lo || x > hi) return false;
+    out = x;
+    return true;
+}
+
+std::string rangeText(int64_t lo, int64_t hi) { return "an integer in " + std::to_string(lo) + ".." + std::to_string(hi); }
+
+/// Reads member `name` of `obj`, an integer in [lo, hi].
 Status readInt(const Json& obj, const char* name, int64_t lo, int64_t hi, const std::string& where, int64_t& out) {
     const auto it = obj.find(name);
     if (it == obj.end()) return Status::error(where + "missing \"" + name + "\"");
-    const Json& v = *it;
-    const bool isInt = v.is_number_integer() || (v.is_number_float() && std::isfinite(v.get<double>()) &&
-                                                 std::floor(v.get<double>()) == v.get<double>() &&
-                                                 std::fabs(v.get<double>()) < 9e18);
-    if (!isInt) return Status::error(where + "\"" + name + "\" is " + shown(v) + ", not an integer");
-    const int64_t x = v.is_number_unsigned()
-                          ? (v.get<uint64_t>() > uint64_t(hi) ? hi + 1 : int64_t(v.get<uint64_t>()))
-                          : (v.is_number_integer() ? v.get<int64_t>() : int64_t(v.get<double>()));
-    if (x < lo || x > hi)
-        return Status::error(where + "\"" + name + "\" is " + shown(v) + ", outside " + std::to_string(lo) + ".." +
-                             std::to_string(hi));
-    out = x;
+    if (!intIn(*it, lo, hi, out))
+        return Status::error(where + "\"" + name + "\" is " + shown(*it) + ", not " + rangeText(lo, hi));
     return Status::ok();
 }
 
-/// Reads a 3-element array of integers in [lo, hi] (member `name` of `obj`, or `obj` itself
-/// when name is null, for chunk_sizes' first element).
+/// Reads `v`, a 3-element array [x, y, z] of integers in [lo, hi] (`name` is for messages).
 Status readInt3(const Json& v, const std::string& name, int64_t lo, int64_t hi, const std::string& where,
                 std::array<int64_t, 3>& out) {
     if (!v.is_array() || v.size() != 3)
         return Status::error(where + "\"" + name + "\" is " + shown(v) + ", not an [x, y, z] array");
-    for (size_t i = 0; i < 3; ++i) {
-        Json holder = Json::object();
-        holder["v"] = v[i];
-        int64_t x = 0;
-        if (Status s = readInt(holder, "v", lo, hi, "", x); !s)
-            return Status::error(where + "\"" + name + "\" element " + num(i) + " is " + shown(v[i]) +
-                                 ", not an integer in " + std::to_string(lo) + ".." + std::to_string(hi));
-        out[i] = x;
-    }
+    for (size_t i = 0; i < 3; ++i)
+        if (!intIn(v[i], lo, hi, out[i]))
+            return Status::error(where + "\"" + name + "\" element " + num(i) + " is " + shown(v[i]) + ", not " +
+                                 rangeText(lo, hi));
     return Status::ok();
 }
 
