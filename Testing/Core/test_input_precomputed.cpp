@@ -1,8 +1,308 @@
 // SPDX-License-Identifier: MIT
 /// @file test_input_precomputed.cpp
-/// @brief Tests of Neuroglancer precomputed input (fixtures written at test time by Testing/Core/inputs/ scripts).
+/// @brief Tests of Neuroglancer precomputed input. Fixtures are written at test time by
+/// Testing/Core/inputs/make_precomputed.py (numpy, with its own compressed_segmentation encoder
+/// written from the specification), together with the exact volume each should read as.
 #include "TestData.h"
 
+#include "csgv/base/FileUtil.h"
+#include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Decoder.h"
+#include "csgv/inputs/Compress.h"
 #include "csgv/inputs/Inputs.h"
+#include "csgv/inputs/PrecomputedFormat.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+
+using namespace csgv;
+using namespace csgvtest;
+
+namespace {
+
+/// The fixture folder (written once per test process).
+const std::string& fixtures() {
+    static const std::string dir = [] {
+        const std::string d = tempDir() + "/precomputed";
+        EXPECT_EQ(runFixtureScript("make_precomputed.py", {d}), 0);
+        return d;
+    }();
+    return dir;
+}
+
+std::string volumeDir(const std::string& name) { return fixtures() + "/" + name; }
+
+/// A volume the script wrote as little-endian uint64, x fastest.
+std::vector<uint64_t> expectedValues(const std::string& file) {
+    Result<std::vector<uint8_t>> bytes = readFile(file, 64 << 20);
+    EXPECT_TRUE(bytes.isOk()) << bytes.message();
+    std::vector<uint64_t> v(bytes->size() / 8);
+    for (size_t i = 0; i < v.size(); ++i)
+        for (int k = 0; k < 8; ++k) v[i] |= uint64_t((*bytes)[8 * i + k]) << (8 * k);
+    return v;
+}
+
+std::unique_ptr<InputSource> openOk(const std::string& path, const InputOptions& options = {}) {
+    Result<std::unique_ptr<InputSource>> s = openInput(path, options);
+    EXPECT_TRUE(s.isOk()) << path << ": " << s.message();
+    return s.isOk() ? std::move(*s) : nullptr;
+}
+
+std::vector<uint64_t> readWhole(InputSource& s) {
+    Result<InputVolume> v = readAll(s, "precomputed");
+    EXPECT_TRUE(v.isOk()) << v.message();
+    return v.isOk() ? v->values : std::vector<uint64_t>();
+}
+
+/// The message of opening `path` and reading it whole (the first step that fails).
+std::string errorOf(const std::string& path) {
+    Result<std::unique_ptr<InputSource>> s = openInput(path);
+    if (!s) return s.message();
+    Result<InputVolume> v = readAll(**s, path);
+    EXPECT_FALSE(v.isOk()) << path << " was read without an error";
+    return v.message();
+}
+
+/// Compresses to `.csgv` and decodes level 0 (original labels, or dense ids when relabelled).
+std::vector<uint32_t> roundTrip(const std::string& input, const std::string& name, CompressReport& report) {
+    const std::string out = tempDir() + "/" + name + ".csgv";
+    Status s = compressToFile(input, out, CompressOptions(), &report);
+    EXPECT_TRUE(s.isOk()) << s.message();
+    Result<CsgvFile> file = openCsgv(out);
+    EXPECT_TRUE(file.isOk()) << file.message();
+    if (!file) return {};
+    Result<LabelVolume> labels = decodeVolume(file->volume, 0, file->decodeOptions());
+    EXPECT_TRUE(labels.isOk()) << labels.message();
+    return labels.isOk() ? labels->labels : std::vector<uint32_t>();
+}
+
+} // namespace
+
+TEST(Precomputed, RawUint32WithOffsetAndPartialChunks) {
+    const std::string dir = volumeDir("raw_u32");
+    auto s = openOk(dir);
+    ASSERT_TRUE(s);
+    const InputInfo& info = s->info();
+    EXPECT_EQ(info.format, "precomputed");
+    EXPECT_EQ(info.detail, "scale 4_6_40, chunks 16x16x8, raw, uint32");
+    EXPECT_EQ(info.type, LabelType::U32);
+    EXPECT_EQ(info.dim, (std::array<uint32_t, 3>{{37, 29, 21}}));
+    EXPECT_EQ(info.geometry.spacing, (std::array<double, 3>{{4, 6, 40}}));
+    // origin = voxel_offset * resolution: the centre of voxel (0, 0, 0).
+    EXPECT_EQ(info.geometry.origin, (std::array<double, 3>{{20, -18, 400}}));
+    const std::vector<uint64_t> expected = expectedValues(dir + "/expected.u64");
+    ASSERT_EQ(expected.size(), info.voxelCount());
+    EXPECT_TRUE(readWhole(*s) == expected);
+    expectSourceContract(*s, expected);
+    CompressReport report;
+    const std::vector<uint32_t> labels = roundTrip(dir, "raw_u32", report);
+    EXPECT_FALSE(report.relabelled);
+    ASSERT_EQ(labels.size(), expected.size());
+    for (size_t i = 0; i < labels.size(); ++i) ASSERT_EQ(labels[i], expected[i]) << "voxel " << i;
+}
+
+TEST(Precomputed, PathForms) {
+    const std::string dir = volumeDir("raw_u32");
+    for (const std::string& p : {dir, dir + "/", dir + "/info", dir + "#0", dir + "/#4_6_40", dir + "/info#0"}) {
+        EXPECT_TRUE(isInputPath(p)) << p;
+        auto s = openOk(p);
+        ASSERT_TRUE(s) << p;
+        EXPECT_EQ(s->info().detail, "scale 4_6_40, chunks 16x16x8, raw, uint32") << p;
+    }
+    EXPECT_FALSE(isInputPath(dir + "/4_6_40"));
+    EXPECT_FALSE(isInputPath(fixtures() + "/no_such_volume"));
+    const std::string e = errorOf(dir + "#7");
+    EXPECT_NE(e.find(dir + "/info: no scale '7' (scales 0..0: '4_6_40')"), std::string::npos) << e;
+}
+
+TEST(Precomputed, CompressedSegmentationUint32) {
+    const std::string dir = volumeDir("cs_u32");
+    auto s = openOk(dir);
+    ASSERT_TRUE(s);
+    EXPECT_EQ(s->info().detail, "scale 8_8_8, chunks 20x20x12, compressed_segmentation 8x6x6, uint32");
+    EXPECT_EQ(s->info().dim, (std::array<uint32_t, 3>{{45, 38, 27}}));
+    EXPECT_EQ(s->info().geometry.origin, (std::array<double, 3>{{512, 0, 1024}}));
+    const std::vector<uint64_t> expected = expectedValues(dir + "/expected.u64");
+    ASSERT_EQ(expected.size(), s->info().voxelCount());
+    // The missing chunk (x 20..39, y 0..19, z 0..11) reads as background.
+    EXPECT_EQ(expected[20 + 45 * (5 + 38 * 3)], 0u);
+    EXPECT_TRUE(readWhole(*s) == expected);
+    expectSourceContract(*s, expected);
+    CompressReport report;
+    const std::vector<uint32_t> labels = roundTrip(dir, "cs_u32", report);
+    EXPECT_FALSE(report.relabelled);
+    ASSERT_EQ(labels.size(), expected.size());
+    for (size_t i = 0; i < labels.size(); ++i) ASSERT_EQ(labels[i], expected[i]) << "voxel " << i;
+}
+
+TEST(Precomputed, CompressedSegmentationUint64AboveTwoTo32IsRelabelled) {
+    const std::string dir = volumeDir("cs_u64");
+    auto s = openOk(dir);
+    ASSERT_TRUE(s);
+    EXPECT_EQ(s->info().type, LabelType::U64);
+    EXPECT_EQ(s->info().detail, "scale 8_8_8, chunks 20x20x12, compressed_segmentation 8x6x6, uint64");
+    const std::vector<uint64_t> expected = expectedValues(dir + "/expected.u64");
+    ASSERT_EQ(expected.size(), s->info().voxelCount());
+    EXPECT_GT(*std::max_element(expected.begin(), expected.end()), uint64_t(1) << 40);
+    EXPECT_TRUE(readWhole(*s) == expected);
+    expectSourceContract(*s, expected);
+    // Labels above 2^32 become dense ids: the same partition of the voxels, 0 staying 0.
+    CompressReport report;
+    const std::vector<uint32_t> labels = roundTrip(dir, "cs_u64", report);
+    EXPECT_TRUE(report.relabelled);
+    ASSERT_EQ(labels.size(), expected.size());
+    std::map<uint64_t, uint32_t> forward;
+    std::map<uint32_t, uint64_t> backward;
+    for (size_t i = 0; i < labels.size(); ++i) {
+        EXPECT_EQ(expected[i] == 0, labels[i] == 0) << "voxel " << i;
+        const auto f = forward.emplace(expected[i], labels[i]).first;
+        const auto b = backward.emplace(labels[i], expected[i]).first;
+        ASSERT_EQ(f->second, labels[i]) << "voxel " << i;
+        ASSERT_EQ(b->second, expected[i]) << "voxel " << i;
+    }
+    // Dense ids: 0 and 1..n for the n labels other than 0.
+    EXPECT_EQ(*std::max_element(labels.begin(), labels.end()) + size_t(1), forward.size());
+}
+
+TEST(Precomputed, ScaleSelectorAndNestedLayout) {
+    const std::string dir = volumeDir("two_scales");
+    auto full = openOk(dir);
+    ASSERT_TRUE(full);
+    EXPECT_EQ(full->info().dim, (std::array<uint32_t, 3>{{24, 20, 16}}));
+    EXPECT_TRUE(readWhole(*full) == expectedValues(dir + "/expected.u64"));
+    const std::vector<uint64_t> expected1 = expectedValues(dir + "/expected1.u64");
+    for (const std::string& p : {dir + "#1", dir + "#half", dir + "/info#1"}) {
+        auto half = openOk(p);
+        ASSERT_TRUE(half) << p;
+        EXPECT_EQ(half->info().dim, (std::array<uint32_t, 3>{{12, 10, 8}})) << p;
+        EXPECT_EQ(half->info().geometry.spacing, (std::array<double, 3>{{4, 4, 6}})) << p;
+        EXPECT_EQ(half->info().geometry.origin, (std::array<double, 3>{{4, 8, 18}})) << p;
+        EXPECT_EQ(half->info().detail, "scale half, chunks 8x8x8, compressed_segmentation 4x4x4, uint32") << p;
+        EXPECT_TRUE(readWhole(*half) == expected1) << p;
+        expectSourceContract(*half, expected1);
+    }
+}
+
+TEST(Precomputed, WorkingMemoryStaysWithinTheLimit) {
+    const std::string dir = volumeDir("cs_u32");
+    const std::vector<uint64_t> expected = expectedValues(dir + "/expected.u64");
+    // A layer is 45 * 38 * 12 voxels (164 KB); one chunk 20 * 20 * 12 (38 KB).
+    InputOptions cached;
+    cached.maxWorkingBytes = 45 * 38 * 12 * 8 + 20 * 20 * 12 * 8;
+    InputOptions perRequest;
+    perRequest.maxWorkingBytes = 45 * 38 * 12 * 8; // no room for the layer beside a chunk
+    for (const InputOptions& o : {cached, perRequest}) {
+        auto s = openOk(dir, o);
+        ASSERT_TRUE(s);
+        expectSourceContract(*s, expected);
+        EXPECT_LE(s->workingBytes(), o.maxWorkingBytes);
+        EXPECT_GT(s->workingBytes(), 0u);
+    }
+    auto s = openOk(dir, perRequest);
+    ASSERT_TRUE(s);
+    std::vector<uint64_t> slab(45 * 38);
+    ASSERT_TRUE(s->readSlab(26, 1, slab.data()).isOk());
+    EXPECT_EQ(s->workingBytes(), 20u * 20 * 3 * 8); // one (clipped) chunk, no layer
+    InputOptions tiny;
+    tiny.maxWorkingBytes = 1000;
+    const Result<std::unique_ptr<InputSource>> r = openInput(dir, tiny);
+    ASSERT_FALSE(r.isOk());
+    EXPECT_NE(r.message().find("/info: a decoded 20 x 20 x 12 chunk needs 38400 bytes, more than the working memory "
+                               "limit of 1000"),
+              std::string::npos)
+        << r.message();
+}
+
+TEST(Precomputed, BadInputsAreClearErrors) {
+    struct Case {
+        const char* folder;
+        std::string expected; ///< after the folder's path
+    };
+    const std::vector<Case> cases = {
+        {"bad_sharded", "/info: scale \"s\": sharded precomputed volumes are not supported"},
+        {"bad_jpeg", "/info: scale \"s\": encoding \"jpeg\" is not supported (labels need \"raw\" or "
+                     "\"compressed_segmentation\")"},
+        {"bad_channels", "/info: \"num_channels\" is 2 (a label volume has 1 channel)"},
+        {"bad_no_scales", "/info: missing \"scales\""},
+        {"bad_no_size", "/info: scale 0: missing \"size\""},
+        {"bad_not_json", "/info: is not valid JSON"},
+        {"bad_dtype", "/info: unsupported \"data_type\" \"float32\" (labels must be uint8, uint16, uint32 or uint64)"},
+        {"bad_truncated", "/s/0-8_0-8_0-8: raw chunk has 2045 bytes, expected 2048 (8x8x8 voxels of uint32)"},
+        {"bad_cs_table", "/s/0-8_0-8_0-8: compressed_segmentation block (1, 1, 0): lookup table offset 16777215 is "
+                         "outside the "},
+        {"bad_cs_values", "/s/0-8_0-8_0-8: compressed_segmentation block (1, 0, 1): encoded values at word "
+                          "2147483647 (4 words) run past the "},
+        {"bad_cs_channel", "/s/0-8_0-8_0-8: compressed_segmentation channel offset "},
+    };
+    // A scale whose chunk folder is missing (a wrong key, or an incomplete copy).
+    const std::string noChunks = tempDir() + "/precomputed_no_chunks";
+    std::filesystem::create_directories(noChunks);
+    std::filesystem::copy_file(volumeDir("raw_u32") + "/info", noChunks + "/info");
+    EXPECT_EQ(errorOf(noChunks), noChunks + "/info: the chunk folder of scale '4_6_40' (" + noChunks +
+                                     "/4_6_40) does not exist");
+    for (const Case& c : cases) {
+        const std::string dir = volumeDir(c.folder);
+        const std::string e = errorOf(dir);
+        EXPECT_EQ(e.find(dir + c.expected), 0u) << c.folder << ": " << e;
+    }
+}
+
+TEST(Precomputed, FormatFunctionsRejectBadBytes) {
+    using namespace csgv::inputs;
+    std::vector<uint64_t> out(8);
+    const std::array<uint32_t, 3> e{{2, 2, 2}}, b{{2, 2, 2}};
+    // Too short for the one block header; not whole words; a bit width the format does not have.
+    const uint8_t headerOnly[] = {1, 0, 0, 0};
+    EXPECT_EQ(decodeCompressedSegmentation(headerOnly, 4, LabelType::U32, e, b, out.data()).message(),
+              "compressed_segmentation channel offset 1 is outside the 1 words of data");
+    const uint8_t odd[] = {1, 0, 0};
+    EXPECT_EQ(decodeCompressedSegmentation(odd, 3, LabelType::U32, e, b, out.data()).message(),
+              "compressed_segmentation data of 3 bytes is not a whole number of 32-bit words");
+    const uint8_t bits3[] = {1, 0, 0, 0, 2, 0, 0, 3, 3, 0, 0, 0, 7, 0, 0, 0};
+    EXPECT_EQ(decodeCompressedSegmentation(bits3, sizeof bits3, LabelType::U32, e, b, out.data()).message(),
+              "compressed_segmentation block (0, 0, 0) has 3 encoded bits (must be 0, 1, 2, 4, 8, 16 or 32)");
+    // A block of one value (0 bits): table at word 2 of the channel.
+    const uint8_t one[] = {1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0, 7, 0, 0, 0};
+    ASSERT_TRUE(decodeCompressedSegmentation(one, sizeof one, LabelType::U32, e, b, out.data()).isOk());
+    EXPECT_EQ(out, std::vector<uint64_t>(8, 7));
+    // The same table read as uint64 needs two words: only one is there.
+    EXPECT_NE(decodeCompressedSegmentation(one, sizeof one, LabelType::U64, e, b, out.data()).message().find(
+                  "lookup table offset 2 is outside the 3 words of data"),
+              std::string::npos);
+    EXPECT_EQ(parsePrecomputedInfo(nullptr, 0).message(), "is not valid JSON");
+    const auto parse = [](const std::string& text) {
+        return parsePrecomputedInfo(reinterpret_cast<const uint8_t*>(text.data()), text.size());
+    };
+    const std::string scale = R"({"key": "k", "size": [4, 5.0, 6], "resolution": [1, 2.5, 3], "chunk_sizes": [[4, 4, 4]], )";
+    // An integer image is read as labels; sizes written as 5.0 are integers.
+    Result<PrecomputedInfo> image =
+        parse(R"({"type": "image", "data_type": "UINT16", "num_channels": 1, "scales": [)" + scale + R"("encoding": "raw"}]})");
+    ASSERT_TRUE(image.isOk()) << image.message();
+    EXPECT_EQ(image->type, LabelType::U16);
+    EXPECT_EQ(image->scales[0].size, (std::array<uint32_t, 3>{{4, 5, 6}}));
+    EXPECT_EQ(image->scales[0].resolution, (std::array<double, 3>{{1, 2.5, 3}}));
+    EXPECT_EQ(image->scales[0].voxelOffset, (std::array<int64_t, 3>{{0, 0, 0}}));
+    // compressed_segmentation of uint16 is refused when the scale is used, not when parsed.
+    Result<PrecomputedInfo> cs16 = parse(R"({"type": "segmentation", "data_type": "uint16", "num_channels": 1, "scales": [)" +
+                                         scale + R"("encoding": "compressed_segmentation",
+                                                    "compressed_segmentation_block_size": [8, 8, 8]}]})");
+    ASSERT_TRUE(cs16.isOk()) << cs16.message();
+    EXPECT_EQ(checkPrecomputedScale(*cs16, cs16->scales[0]).message(),
+              "scale \"k\": compressed_segmentation needs uint32 or uint64 labels, not uint16");
+    EXPECT_EQ(parse(R"({"type": "segmentation", "data_type": "uint32", "num_channels": 1, "scales": [)" + scale +
+                    R"("encoding": "compressed_segmentation"}]})")
+                  .message(),
+              "scale 0: missing \"compressed_segmentation_block_size\"");
+    EXPECT_EQ(parse(R"({"type": "segmentation", "data_type": "uint32", "num_channels": 1, "scales": [)"
+                    R"({"key": "k", "size": [4, 0, 6], "resolution": [1, 1, 1], "chunk_sizes": [[4, 4, 4]], "encoding": "raw"}]})")
+                  .message(),
+              "scale 0: \"size\" element 1 is 0, not an integer in 1..2147483647");
+    EXPECT_EQ(parse(R"({"type": "mesh", "data_type": "uint32"})").message(),
+              "\"type\" is \"mesh\" (must be \"segmentation\" or \"image\")");
+    const std::string notObject = "[1, 2]";
+    EXPECT_EQ(parsePrecomputedInfo(reinterpret_cast<const uint8_t*>(notObject.data()), notObject.size()).message(),
+              "is [1,2], not a JSON object");
+}

@@ -1,15 +1,273 @@
 // SPDX-License-Identifier: MIT
 /// @file Precomputed.cpp
-/// @brief Neuroglancer precomputed segmentation (a local folder with an info file). Not yet implemented.
+/// @brief Neuroglancer precomputed segmentation from a local folder (unsharded), streamed chunk
+/// layer by chunk layer.
+///
+/// Forms: `DIR`, `DIR/` or `DIR/info`, each optionally followed by a scale selector `#N` (index
+/// into the info's `scales`, 0 = full resolution, the default) or `#KEY` (a scale's `key`, e.g.
+/// `DIR#16_16_16`). Chunks are `<key>/<x0>-<x1>_<y0>-<y1>_<z0>-<z1>` (voxel coordinates including
+/// voxel_offset, clipped at the volume's end), or that name plus `.gz` (gzip-compressed), or the
+/// nested `<key>/<x0>-<x1>/<y0>-<y1>/<z0>-<z1>`; a chunk with no file is background (zeros).
+/// Encodings `raw` and `compressed_segmentation` (PrecomputedFormat.h); `type` "segmentation",
+/// or "image" with an unsigned integer data_type (an integer image is read as labels).
+///
+/// Geometry: spacing = resolution (nm), origin = voxel_offset * resolution, taking integer voxel
+/// coordinates as voxel centres (Inputs.h's convention, and CloudVolume's). Neuroglancer itself
+/// draws voxel v over [v, v + 1) * resolution, i.e. half a voxel further along each axis.
+///
+/// Working memory: the decoded chunk layer that the last slab touched (W * H * chunk depth * 8
+/// bytes) when it fits InputOptions::maxWorkingBytes together with one decoded chunk; otherwise
+/// chunks are decoded again for each request and only one decoded chunk is held. Either way one
+/// chunk file's bytes are held while it is decoded.
 #include "InputCommon.h"
+
+#include "csgv/inputs/PrecomputedFormat.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
 
 namespace csgv {
 namespace inputs {
 
-bool claimsPrecomputed(const std::string&) { return false; }
+namespace {
 
-Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, const InputOptions&) {
-    return fail(path, "precomputed input is not implemented yet");
+/// @brief A precomputed path split into the folder and the scale selector.
+struct PrecomputedPath {
+    std::string dir;      ///< the folder holding `info`, without a trailing '/'
+    std::string selector; ///< after '#', empty for the default scale
+};
+
+PrecomputedPath splitPath(const std::string& path) {
+    PrecomputedPath p;
+    std::string rest = path;
+    const size_t hash = rest.rfind('#');
+    if (hash != std::string::npos && rest.find('/', hash) == std::string::npos) {
+        p.selector = rest.substr(hash + 1);
+        rest.resize(hash);
+    }
+    if (rest == "info" || endsWith(rest, "/info")) rest.resize(rest.size() - 4);
+    while (rest.size() > 1 && rest.back() == '/') rest.pop_back();
+    p.dir = rest.empty() ? "." : rest;
+    return p;
+}
+
+bool isDirectory(const std::string& path) {
+    std::error_code ec;
+    return std::filesystem::is_directory(path, ec);
+}
+
+bool isRegularFile(const std::string& path) {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+}
+
+Result<size_t> selectScale(const std::string& infoPath, const PrecomputedInfo& info, const std::string& selector) {
+    if (selector.empty()) return size_t(0);
+    for (size_t i = 0; i < info.scales.size(); ++i)
+        if (info.scales[i].key == selector) return i;
+    int64_t index = -1;
+    const bool digits = std::all_of(selector.begin(), selector.end(), [](char c) { return std::isdigit((unsigned char)c); });
+    if (digits && parseInt64(selector, index) && index >= 0 && uint64_t(index) < info.scales.size())
+        return size_t(index);
+    std::string keys;
+    for (size_t i = 0; i < info.scales.size(); ++i) keys += (i ? ", " : "") + quoted(info.scales[i].key);
+    return fail(infoPath, "no scale " + quoted(selector) + " (scales 0.." + std::to_string(info.scales.size() - 1) +
+                              ": " + keys + ")");
+}
+
+std::string encodingText(const PrecomputedScale& s) {
+    if (s.encoding == PrecomputedScale::Encoding::Raw) return "raw";
+    return "compressed_segmentation " + std::to_string(s.blockSize[0]) + "x" + std::to_string(s.blockSize[1]) + "x" +
+           std::to_string(s.blockSize[2]);
+}
+
+/// @brief The chunks of one scale, read and decoded one at a time.
+class PrecomputedSource final : public InputSource {
+public:
+    PrecomputedSource(std::string chunkDir, PrecomputedInfo info, size_t scale, bool cacheLayers)
+        : m_chunkDir(std::move(chunkDir)), m_meta(std::move(info)), m_scale(m_meta.scales[scale]),
+          m_cacheLayers(cacheLayers) {
+        describe();
+    }
+
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
+        const auto& d = m_info.dim;
+        if (depth == 0) return Status::ok();
+        if (uint64_t(z0) + depth > d[2])
+            return fail(m_chunkDir, "slab z " + std::to_string(z0) + "+" + std::to_string(depth) +
+                                        " is outside the volume's depth " + std::to_string(d[2]));
+        const uint32_t cz = m_scale.chunkSize[2];
+        for (uint32_t layer = z0 / cz; layer <= (z0 + depth - 1) / cz; ++layer) {
+            const uint32_t lz0 = std::max(z0, layer * cz);
+            const uint32_t lz1 = std::min<uint64_t>(uint64_t(z0) + depth, uint64_t(layer + 1) * cz);
+            uint64_t* slabPart = out + uint64_t(d[0]) * d[1] * (lz0 - z0);
+            Status s = m_cacheLayers ? copyFromLayer(layer, lz0, lz1, slabPart) : decodeInto(layer, lz0, lz1, slabPart);
+            if (!s) return s;
+        }
+        return Status::ok();
+    }
+
+    uint64_t workingBytes() const override {
+        return (m_layer.capacity() + m_chunk.capacity()) * sizeof(uint64_t);
+    }
+
+private:
+    /// Chunk (x, y) of `layer`: its voxel box relative to the volume, and its extent.
+    struct Box {
+        std::array<uint32_t, 3> lo{}, extent{};
+    };
+    Box chunkBox(uint32_t gx, uint32_t gy, uint32_t layer) const {
+        const std::array<uint32_t, 3> g{{gx, gy, layer}};
+        Box b;
+        for (size_t i = 0; i < 3; ++i) {
+            b.lo[i] = g[i] * m_scale.chunkSize[i];
+            b.extent[i] = std::min(m_scale.chunkSize[i], m_info.dim[i] - b.lo[i]);
+        }
+        return b;
+    }
+
+    uint32_t chunksAlong(size_t axis) const {
+        return uint32_t((uint64_t(m_info.dim[axis]) + m_scale.chunkSize[axis] - 1) / m_scale.chunkSize[axis]);
+    }
+
+    /// Voxels [lz0, lz1) of every chunk of `layer` into out (a slab starting at z = lz0).
+    Status decodeInto(uint32_t layer, uint32_t lz0, uint32_t lz1, uint64_t* out) {
+        const uint64_t W = m_info.dim[0], H = m_info.dim[1];
+        for (uint32_t gy = 0; gy < chunksAlong(1); ++gy)
+            for (uint32_t gx = 0; gx < chunksAlong(0); ++gx) {
+                const Box b = chunkBox(gx, gy, layer);
+                if (Status s = decodeChunk(b); !s) return s;
+                for (uint32_t z = lz0; z < lz1; ++z)
+                    for (uint32_t y = 0; y < b.extent[1]; ++y) {
+                        const uint64_t* from = m_chunk.data() + uint64_t(b.extent[0]) * (y + uint64_t(b.extent[1]) * (z - b.lo[2]));
+                        std::copy(from, from + b.extent[0], out + b.lo[0] + W * ((b.lo[1] + y) + H * (z - lz0)));
+                    }
+            }
+        return Status::ok();
+    }
+
+    /// The layer from the cache (decoding it first when another one is cached).
+    Status copyFromLayer(uint32_t layer, uint32_t lz0, uint32_t lz1, uint64_t* out) {
+        const uint64_t plane = uint64_t(m_info.dim[0]) * m_info.dim[1];
+        const uint32_t top = layer * m_scale.chunkSize[2];
+        if (m_layerIndex != int64_t(layer)) {
+            m_layerIndex = -1;
+            const uint32_t depth = std::min(m_scale.chunkSize[2], m_info.dim[2] - top);
+            m_layer.resize(plane * depth);
+            if (Status s = decodeInto(layer, top, top + depth, m_layer.data()); !s) return s;
+            m_layerIndex = layer;
+        }
+        std::copy(m_layer.begin() + plane * (lz0 - top), m_layer.begin() + plane * (lz1 - top), out);
+        return Status::ok();
+    }
+
+    /// The chunk's file name(s): flat, gzip, nested. Empty when none exists (background).
+    std::string chunkFile(const Box& b) const {
+        std::array<std::string, 3> range;
+        for (size_t i = 0; i < 3; ++i) {
+            const int64_t begin = m_scale.voxelOffset[i] + b.lo[i];
+            range[i] = std::to_string(begin) + "-" + std::to_string(begin + b.extent[i]);
+        }
+        const std::string flat = m_chunkDir + "/" + range[0] + "_" + range[1] + "_" + range[2];
+        for (const std::string& candidate :
+             {flat, flat + ".gz", m_chunkDir + "/" + range[0] + "/" + range[1] + "/" + range[2]})
+            if (isRegularFile(candidate)) return candidate;
+        return std::string();
+    }
+
+    /// Reads and decodes one chunk into m_chunk (extent voxels, x fastest).
+    Status decodeChunk(const Box& b) {
+        const uint64_t voxels = uint64_t(b.extent[0]) * b.extent[1] * b.extent[2];
+        m_chunk.resize(voxels);
+        const std::string file = chunkFile(b);
+        if (file.empty()) {
+            std::fill(m_chunk.begin(), m_chunk.end(), 0);
+            return Status::ok();
+        }
+        const bool raw = m_scale.encoding == PrecomputedScale::Encoding::Raw;
+        const uint64_t rawBytes = voxels * typeBytes(m_info.type);
+        // A raw chunk's size is known; a plain file of another size is reported without reading it.
+        if (raw && !endsWithNoCase(file, ".gz")) {
+            Result<uint64_t> size = fileSize(file);
+            if (!size) return size.status();
+            if (*size != rawBytes)
+                return fail(file, "raw chunk has " + std::to_string(*size) + " bytes, expected " +
+                                      std::to_string(rawBytes) + " (" + chunkText(b.extent) + " voxels of " +
+                                      labelTypeName(m_info.type) + ")");
+        }
+        const uint64_t limit = raw ? rawBytes + 1 : compressedSegmentationBound(m_info.type, b.extent, m_scale.blockSize);
+        Result<std::vector<uint8_t>> bytes = readFileMaybeGz(file, limit);
+        if (!bytes) return bytes.status();
+        const Status s = raw ? decodeRawChunk(bytes->data(), bytes->size(), m_info.type, b.extent, m_chunk.data())
+                             : decodeCompressedSegmentation(bytes->data(), bytes->size(), m_info.type, b.extent,
+                                                            m_scale.blockSize, m_chunk.data());
+        if (!s) return fail(file, s.message());
+        return Status::ok();
+    }
+
+    void describe() {
+        const PrecomputedScale& s = m_scale;
+        m_info.dim = s.size;
+        m_info.type = m_meta.type;
+        for (size_t i = 0; i < 3; ++i) {
+            m_info.geometry.spacing[i] = s.resolution[i];
+            m_info.geometry.origin[i] = double(s.voxelOffset[i]) * s.resolution[i];
+        }
+        m_info.format = "precomputed";
+        m_info.detail = "scale " + s.key + ", chunks " + chunkText(s.chunkSize) + ", " + encodingText(s) + ", " +
+                        labelTypeName(m_info.type);
+    }
+
+    static std::string chunkText(const std::array<uint32_t, 3>& e) {
+        return std::to_string(e[0]) + "x" + std::to_string(e[1]) + "x" + std::to_string(e[2]);
+    }
+
+    std::string m_chunkDir;
+    PrecomputedInfo m_meta;
+    PrecomputedScale m_scale;
+    bool m_cacheLayers;
+    std::vector<uint64_t> m_chunk; ///< one decoded chunk
+    std::vector<uint64_t> m_layer; ///< the decoded chunk layer m_layerIndex (when caching)
+    int64_t m_layerIndex = -1;
+};
+
+} // namespace
+
+bool claimsPrecomputed(const std::string& path) {
+    const PrecomputedPath p = splitPath(path);
+    return isDirectory(p.dir) && isRegularFile(p.dir + "/info");
+}
+
+Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, const InputOptions& options) {
+    const PrecomputedPath p = splitPath(path);
+    const std::string infoPath = p.dir + "/info";
+    // Real info files are a few KiB; 16 MiB leaves room for any list of scales.
+    Result<std::vector<uint8_t>> text = readFile(infoPath, uint64_t(16) << 20);
+    if (!text) return text.status();
+    Result<PrecomputedInfo> info = parsePrecomputedInfo(text->data(), text->size());
+    if (!info) return fail(infoPath, info.message());
+    Result<size_t> index = selectScale(infoPath, *info, p.selector);
+    if (!index) return index.status();
+    const PrecomputedScale& scale = info->scales[*index];
+    if (Status s = checkPrecomputedScale(*info, scale); !s) return fail(infoPath, s.message());
+    const std::string chunkDir = p.dir + "/" + scale.key;
+    if (!isDirectory(chunkDir))
+        return fail(infoPath, "the chunk folder of scale " + quoted(scale.key) + " (" + chunkDir + ") does not exist");
+
+    // Working memory: one decoded chunk always; the chunk layer too when it fits beside it.
+    std::array<uint64_t, 3> chunk{};
+    for (size_t i = 0; i < 3; ++i) chunk[i] = std::min(scale.chunkSize[i], scale.size[i]);
+    const uint64_t chunkBytes = chunk[0] * chunk[1] * chunk[2] * 8;
+    const uint64_t layerBytes = uint64_t(scale.size[0]) * scale.size[1] * chunk[2] * 8;
+    if (chunkBytes > options.maxWorkingBytes)
+        return fail(infoPath, "a decoded " + dimText(chunk) + " chunk needs " + std::to_string(chunkBytes) +
+                                  " bytes, more than the working memory limit of " +
+                                  std::to_string(options.maxWorkingBytes));
+    const bool cacheLayers = layerBytes <= options.maxWorkingBytes - chunkBytes;
+
+    return std::unique_ptr<InputSource>(
+        std::make_unique<PrecomputedSource>(chunkDir, std::move(*info), *index, cacheLayers));
 }
 
 } // namespace inputs
