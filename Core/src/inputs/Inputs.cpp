@@ -57,7 +57,7 @@ const Format kFormats[] = {
     {"`.nii`, `.nii.gz`", inputs::claimsNifti, inputs::openNifti},
     {"`FILE.h5[:/dataset]`, `FILE.hdf5[:/dataset]`", inputs::claimsHdf5, inputs::openHdf5},
     {"`DIR.zarr[/path]`", inputs::claimsZarr, inputs::openZarr},
-    {"a Neuroglancer precomputed folder (with an `info` file)", inputs::claimsPrecomputed, inputs::openPrecomputed},
+    {"a Neuroglancer precomputed folder `DIR[/info][#scale]`", inputs::claimsPrecomputed, inputs::openPrecomputed},
     {"`.tif`, `.tiff`, a folder or a glob of TIFF slices", inputs::claimsTiff, inputs::openTiff},
 };
 
