@@ -1,10 +1,14 @@
 // SPDX-License-Identifier: MIT
+/// @file Compress.cpp
+/// @brief compressToFile: input -> LabelSlabAdapter (optionally relabelled in two passes) ->
+/// encodeToFile, then the sidecars and the final rename (memory: see Compress.h).
 #include "csgv/inputs/Compress.h"
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Procedural.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -69,6 +73,84 @@ private:
     VrawHeader m_header;
 };
 
+/// @brief The procedural volume as an InputSource (uint32 values widened), so that `--relabel`
+/// and verify treat `synth:` like any input. Memory: one uint32 copy of the last slab read.
+class SynthInput : public InputSource {
+public:
+    explicit SynthInput(const SynthSpec& spec) : m_generator(spec) {
+        m_info.dim = spec.dim;
+        m_info.type = LabelType::U32;
+        m_info.format = "synth";
+        m_info.detail = "procedural Voronoi cells, cell size " + std::to_string(spec.cellSize) + ", seed " +
+                        std::to_string(spec.seed);
+    }
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
+        const size_t n = size_t(uint64_t(m_info.dim[0]) * m_info.dim[1] * depth);
+        m_labels.resize(n);
+        if (Status s = m_generator.readSlab(z0, depth, m_labels.data()); !s) return s;
+        std::copy(m_labels.begin(), m_labels.end(), out);
+        return Status::ok();
+    }
+    uint64_t workingBytes() const override { return m_labels.capacity() * sizeof(uint32_t); }
+
+private:
+    ProceduralSlabSource m_generator;
+    std::vector<uint32_t> m_labels;
+};
+
+/// @brief Stage bookkeeping between encodeToFile's fractions and CompressOptions::progress:
+/// maps a stage's own fraction into its share of the whole and remembers a cancel.
+class Progress {
+public:
+    explicit Progress(const CompressProgress& callback) : m_callback(callback) {}
+    /// Starts a stage (reported at its start, so rates can be measured from there); false once
+    /// cancelled.
+    bool stage(const char* name, double from, double to) {
+        m_name = name;
+        m_from = from;
+        m_to = to;
+        return report(0);
+    }
+    /// Reports the stage's own fraction; false once the callback asked to cancel.
+    bool report(double stageFraction) {
+        if (m_cancelled) return false;
+        if (m_callback && !m_callback(m_from + (m_to - m_from) * std::clamp(stageFraction, 0.0, 1.0), m_name))
+            m_cancelled = true;
+        return !m_cancelled;
+    }
+    bool cancelled() const { return m_cancelled; }
+
+private:
+    const CompressProgress& m_callback;
+    const char* m_name = "";
+    double m_from = 0, m_to = 1;
+    bool m_cancelled = false;
+};
+
+/// Pass 1: every slab of the source through the relabeller, in sub-slabs of bounded size.
+Status observeAll(InputSource& source, StreamingRelabeller& relabeller, Progress& progress,
+                  uint64_t& maxSourceWorking) {
+    const auto& dim = source.info().dim;
+    const uint64_t slice = uint64_t(dim[0]) * dim[1];
+    // Bounded scratch, and at least 16 reads so progress moves.
+    const uint32_t step = std::min(subSlabDepth(slice, dim[2]), std::max(1u, (dim[2] + 15) / 16));
+    std::vector<uint64_t> scratch(size_t(slice * step));
+    for (uint32_t z = 0; z < dim[2]; z += step) {
+        const uint32_t depth = std::min(step, dim[2] - z);
+        if (Status s = source.readSlab(z, depth, scratch.data()); !s) return s;
+        maxSourceWorking = std::max(maxSourceWorking, source.workingBytes());
+        relabeller.observe(z, depth, scratch.data());
+        if (!progress.report(double(z + depth) / dim[2])) return Status::error("cancelled");
+    }
+    return relabeller.finish();
+}
+
+/// Names the input in a message unless it already does.
+Status named(Status s, const std::string& input) {
+    if (!s && s.message().find(input) == std::string::npos) s.prefix(input);
+    return s;
+}
+
 } // namespace
 
 Result<std::unique_ptr<SlabSource>> openVrawSlabs(const std::string& path) {
@@ -78,6 +160,68 @@ Result<std::unique_ptr<SlabSource>> openVrawSlabs(const std::string& path) {
     return std::unique_ptr<SlabSource>(std::move(src));
 }
 
+uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes) {
+    const uint64_t slices = maxBytes / std::max<uint64_t>(1, sliceVoxels * sizeof(uint64_t));
+    return uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(slices, std::max<uint32_t>(depth, 1))));
+}
+
+LabelSlabAdapter::LabelSlabAdapter(InputSource& source, const StreamingRelabeller* relabeller, uint64_t maxScratchBytes)
+    : m_source(source), m_relabeller(relabeller), m_maxScratchBytes(maxScratchBytes) {}
+
+Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
+    const auto& dim = m_source.info().dim;
+    const uint64_t slice = uint64_t(dim[0]) * dim[1];
+    const uint32_t step = subSlabDepth(slice, depth, m_maxScratchBytes);
+    m_scratch.resize(size_t(slice * step));
+    for (uint32_t z = z0; z < z0 + depth; z += step) {
+        const uint32_t d = std::min(step, z0 + depth - z);
+        const size_t n = size_t(slice * d);
+        if (Status s = m_source.readSlab(z, d, m_scratch.data()); !s) return s;
+        m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
+        uint32_t* dst = out + slice * (z - z0);
+        if (m_relabeller) {
+            m_relabeller->toIds(m_scratch.data(), n, dst);
+            continue;
+        }
+        for (size_t i = 0; i < n; ++i) {
+            const uint64_t v = m_scratch[i];
+            if (!labelFitsFormat(v)) {
+                m_misfit = true;
+                const uint64_t x = i % dim[0], y = (i / dim[0]) % dim[1], zz = z + i / slice;
+                return Status::error("voxel (" + std::to_string(x) + ", " + std::to_string(y) + ", " +
+                                     std::to_string(zz) + ") holds a label that does not fit the format");
+            }
+            dst[i] = uint32_t(v);
+        }
+    }
+    return Status::ok();
+}
+
+Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options) {
+    if (!isSynthName(input)) return openInput(input, options);
+    Result<SynthSpec> spec = parseSynthSpec(input);
+    if (!spec) return spec.status();
+    return std::unique_ptr<InputSource>(std::make_unique<SynthInput>(*spec));
+}
+
+namespace {
+
+/// One encoding pass of `slabs` into `path`, its fractions reported through `progress`.
+Status encodePass(SlabSource& slabs, const CompressOptions& options, const std::string& path, Progress& progress,
+                  uint64_t& outputBytes) {
+    EncodeToFileOptions fo;
+    fo.maxOutputBytes = options.maxOutputBytes;
+    fo.progress = [&progress](double f) { return progress.report(f); };
+    return encodeToFile(slabs, options.encode, path, fo, &outputBytes);
+}
+
+/// Removes the file at `path` if there is one (cleanup after errors; failures are harmless).
+void removeIfThere(const std::string& path) {
+    if (fileExists(path)) std::remove(path.c_str());
+}
+
+} // namespace
+
 Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
                       CompressReport* report) {
     CompressReport local;
@@ -86,81 +230,108 @@ Status compressToFile(const std::string& input, const std::string& output, const
     Status s = checkEncodeOptions(options.encode);
     if (!s) return s;
     if (!endsWith(output, ".csgv")) return Status::error("output '" + output + "' must end in .csgv");
+    const auto tStart = std::chrono::steady_clock::now();
+    auto t0 = tStart;
 
+    // Open the input and say what it is before any voxel is read.
+    const bool synth = isSynthName(input);
+    Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
+    if (!opened) return opened.status();
+    InputSource& source = **opened;
+    const InputInfo& info = source.info();
     VolumeMetadata md;
-    md.source = isSynthName(input) ? input : baseName(input);
-    LabelMapping mapping;
-    Result<CompressedVolume> vol = Status::error("no input");
-    auto t0 = std::chrono::steady_clock::now();
-    const bool plainVraw = endsWith(input, ".vraw");
-    if ((isSynthName(input) || plainVraw) && !options.relabel) {
-        // Streamed: memory is the output plus a few slabs.
-        std::unique_ptr<SlabSource> src;
-        if (isSynthName(input)) {
-            Result<SynthSpec> spec = parseSynthSpec(input);
-            if (!spec) return spec.status();
-            src = std::make_unique<ProceduralSlabSource>(*spec);
-        } else {
-            Result<std::unique_ptr<SlabSource>> r = openVrawSlabs(input);
-            if (!r) return r.status();
-            src = std::move(*r);
-        }
-        rep.streamed = true;
-        md.dim = src->dimensions();
-        vol = encodeVolume(*src, options.encode, options.maxOutputBytes);
-        if (!vol) return Status(vol.status()).prefix(input);
-        rep.encodeSeconds = since(t0);
-    } else {
-        InputVolume in;
-        if (isSynthName(input)) {
-            Result<SynthSpec> spec = parseSynthSpec(input);
-            if (!spec) return spec.status();
-            Result<LabelVolume> v = generateVolume(*spec, options.maxInputBytes / 2);
-            if (!v) return v.status();
-            in.dim = v->dim;
-            in.values.assign(v->labels.begin(), v->labels.end());
-        } else {
-            Result<InputVolume> r = readInput(input, options.maxInputBytes);
-            if (!r) return r.status();
-            in = std::move(*r);
-            md.geometry = cellGeometryFromPointGeometry(in.geometry);
-        }
-        md.dim = in.dim;
-        md.originalType = labelTypeName(in.type);
-        rep.readSeconds = since(t0);
-        t0 = std::chrono::steady_clock::now();
-        Result<LabelVolume> labels = prepareLabels(in, options.encode.brickSize, options.relabel, mapping);
-        if (!labels) return Status(labels.status()).prefix(input);
-        in = InputVolume{};
-        vol = encodeVolume(*labels, options.encode);
-        if (!vol) return Status(vol.status()).prefix(input);
-        rep.encodeSeconds = since(t0);
+    md.source = synth ? input : baseName(input);
+    md.dim = info.dim;
+    if (!synth) {
+        md.geometry = cellGeometryFromPointGeometry(info.geometry);
+        md.originalType = labelTypeName(info.type);
     }
-    if (vol->serializedSize() > options.maxOutputBytes)
-        return Status::error("the compressed volume needs " + std::to_string(vol->serializedSize()) +
-                             " bytes, more than the output limit");
+    rep.dim = info.dim;
+    rep.voxels = info.voxelCount();
+    rep.inputFormat = info.format;
+    rep.readSeconds = since(t0);
+
+    const std::string tmp = output + ".tmp-encoding.csgv";
+    Progress progress(options.progress);
+    auto failed = [&](Status st) {
+        removeIfThere(tmp);
+        if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
+        return named(st, input);
+    };
+    const uint64_t encoderSlab = uint64_t(info.dim[0]) * info.dim[1] * options.encode.brickSize * 4;
+    uint64_t outputBytes = 0;
+    bool relabel = options.relabel;
+
+    // One optimistic pass: labels kept as they are while they fit.
+    t0 = std::chrono::steady_clock::now();
+    if (!relabel) {
+        if (!progress.stage("encoding", 0, 1)) return failed(Status::error("cancelled"));
+        rep.passes = 1;
+        if (synth) {
+            // The generator's labels always fit: no adapter, no scratch.
+            ProceduralSlabSource generator(*parseSynthSpec(input));
+            s = encodePass(generator, options, tmp, progress, outputBytes);
+            rep.workingBytes = encoderSlab;
+        } else {
+            LabelSlabAdapter adapter(source, nullptr);
+            s = encodePass(adapter, options, tmp, progress, outputBytes);
+            rep.workingBytes = encoderSlab + adapter.scratchBytes() + adapter.maxSourceWorkingBytes();
+            if (!s && adapter.misfit() && !progress.cancelled()) {
+                relabel = true;
+                rep.restarted = true;
+            }
+        }
+        if (!s && !relabel) return failed(s);
+    }
+
+    // Two passes: first visiting positions, then ids.
+    LabelMapping mapping;
+    mapping.type = info.type;
+    if (relabel) {
+        removeIfThere(tmp);
+        StreamingRelabeller relabeller(info.dim, options.encode.brickSize);
+        uint64_t sourceWorking = 0;
+        if (!progress.stage("relabelling", 0, 0.5)) return failed(Status::error("cancelled"));
+        t0 = std::chrono::steady_clock::now();
+        s = observeAll(source, relabeller, progress, sourceWorking);
+        if (!s) return failed(s);
+        rep.relabelSeconds = since(t0);
+        rep.passes += 2;
+        if (!progress.stage("encoding", 0.5, 1)) return failed(Status::error("cancelled"));
+        t0 = std::chrono::steady_clock::now();
+        LabelSlabAdapter adapter(source, &relabeller);
+        s = encodePass(adapter, options, tmp, progress, outputBytes);
+        if (!s) return failed(s);
+        mapping.relabelled = true;
+        mapping.originalBits = relabeller.originalBits();
+        if (synth) md.originalType = labelTypeName(LabelType::U32);
+        rep.workingBytes = std::max(rep.workingBytes, encoderSlab + adapter.scratchBytes() + relabeller.memoryBytes() +
+                                                          std::max(sourceWorking, adapter.maxSourceWorkingBytes()));
+    }
+    rep.encodeSeconds = since(t0);
+
+    // Sidecars first, the volume last: a reader never sees a new .csgv with an old database.
     t0 = std::chrono::steady_clock::now();
     md.relabelled = mapping.relabelled;
-    // Sidecars first, the volume last: a reader never sees a new .csgv with an old database.
     const std::string db = attributeDbPathFor(output);
     if (mapping.relabelled) {
         s = writeAttributeDb(db, md.dim, mapping.originalBits, isSignedType(mapping.type));
-        if (!s) return s;
+        if (!s) return failed(s);
     } else if (fileExists(db)) {
-        if (std::remove(db.c_str()) != 0) return Status::error("cannot remove the stale attribute database '" + db + "'");
+        if (std::remove(db.c_str()) != 0)
+            return failed(Status::error("cannot remove the stale attribute database '" + db + "'"));
     }
     s = writeMetadata(metadataPathFor(output), md);
-    if (!s) return s;
-    Limits limits;
-    limits.maxOutputBytes = options.maxOutputBytes;
-    s = writeCsgv(output, *vol, limits);
-    if (!s) return s;
+    if (!s) return failed(s);
+    if (std::rename(tmp.c_str(), output.c_str()) != 0)
+        return failed(Status::error("cannot rename '" + tmp + "' to '" + output + "': " + errnoText()));
     rep.writeSeconds = since(t0);
-    rep.dim = md.dim;
-    rep.outputBytes = vol->serializedSize();
+    rep.outputBytes = outputBytes;
     rep.relabelled = mapping.relabelled;
     rep.labelCount = mapping.originalBits.size();
     rep.originalType = md.originalType;
+    const double total = since(tStart);
+    rep.mvoxelsPerSecond = total > 0 ? double(rep.voxels) / total / 1e6 : 0;
     return Status::ok();
 }
 
