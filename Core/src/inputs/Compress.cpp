@@ -31,48 +31,6 @@ double since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// `.vraw` on disk, read slab by slab with positioned reads.
-class VrawSlabSource : public SlabSource {
-public:
-    ~VrawSlabSource() override {
-        if (m_file) std::fclose(m_file);
-    }
-    Status open(const std::string& path) {
-        m_path = path;
-        Result<uint64_t> size = fileSize(path);
-        if (!size) return size.status();
-        m_file = std::fopen(path.c_str(), "rb");
-        if (!m_file) return Status::error("cannot open '" + path + "'");
-        uint8_t head[160];
-        const size_t got = std::fread(head, 1, sizeof(head), m_file);
-        Result<VrawHeader> h = parseVrawHeader(head, got);
-        if (!h) return Status(h.status()).prefix(path);
-        Status s = h->checkLabelBytes(*size - h->headerBytes);
-        if (!s) return s.prefix(path);
-        m_header = *h;
-        return Status::ok();
-    }
-    std::array<uint32_t, 3> dimensions() const override { return m_header.dim; }
-    Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override {
-        const uint32_t bytes = m_header.bytesPerLabel;
-        const uint64_t slice = uint64_t(m_header.dim[0]) * m_header.dim[1];
-        const size_t n = size_t(slice * depth);
-        if (fseeko(m_file, off_t(m_header.headerBytes + slice * z0 * bytes), SEEK_SET) != 0)
-            return Status::error("cannot seek in '" + m_path + "'");
-        // 32-bit labels land in place; narrower ones are widened from the slab's raw bytes.
-        std::vector<uint8_t> narrow(bytes == 4 ? 0 : n * bytes);
-        void* dst = bytes == 4 ? static_cast<void*>(out) : narrow.data();
-        if (std::fread(dst, 1, n * bytes, m_file) != n * bytes) return Status::error("cannot read '" + m_path + "'");
-        if (bytes != 4) widenLabels(narrow.data(), bytes, n, out);
-        return Status::ok();
-    }
-
-private:
-    std::string m_path;
-    std::FILE* m_file = nullptr;
-    VrawHeader m_header;
-};
-
 /// @brief The procedural volume as an InputSource (uint32 values widened), so that `--relabel`
 /// and verify treat `synth:` like any input. Memory: one uint32 copy of the last slab read.
 class SynthInput : public InputSource {
@@ -153,12 +111,6 @@ Status named(Status s, const std::string& input) {
 
 } // namespace
 
-Result<std::unique_ptr<SlabSource>> openVrawSlabs(const std::string& path) {
-    auto src = std::make_unique<VrawSlabSource>();
-    Status s = src->open(path);
-    if (!s) return s;
-    return std::unique_ptr<SlabSource>(std::move(src));
-}
 
 uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes) {
     const uint64_t slices = maxBytes / std::max<uint64_t>(1, sliceVoxels * sizeof(uint64_t));
@@ -220,6 +172,108 @@ void removeIfThere(const std::string& path) {
     if (fileExists(path)) std::remove(path.c_str());
 }
 
+/// @brief One compression's state between its steps (open, encode, publish).
+struct Job {
+    const std::string& input;
+    const CompressOptions& options;
+    CompressReport& rep;
+    std::string tmp;           ///< the encoded volume before its final rename
+    Progress progress;
+    bool synth = false;
+    std::unique_ptr<InputSource> source;
+    VolumeMetadata md;
+    LabelMapping mapping;
+    uint64_t outputBytes = 0;
+
+    Job(const std::string& in, const std::string& output, const CompressOptions& o, CompressReport& r)
+        : input(in), options(o), rep(r), tmp(output + ".tmp-encoding.csgv"), progress(o.progress) {}
+
+    /// Cleans up after an error and says what happened (a cancel says so).
+    Status failed(Status s) {
+        removeIfThere(tmp);
+        if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
+        return named(s, input);
+    }
+    uint64_t encoderSlabBytes() const {
+        const auto& d = source->info().dim;
+        return uint64_t(d[0]) * d[1] * options.encode.brickSize * 4;
+    }
+
+    /// Opens the input and fills what is known before any voxel is read.
+    Status open() {
+        synth = isSynthName(input);
+        Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
+        if (!opened) return opened.status();
+        source = std::move(*opened);
+        const InputInfo& info = source->info();
+        md.source = synth ? input : baseName(input);
+        md.dim = info.dim;
+        if (!synth) {
+            md.geometry = cellGeometryFromPointGeometry(info.geometry);
+            md.originalType = labelTypeName(info.type);
+        }
+        mapping.type = info.type;
+        rep.dim = info.dim;
+        rep.voxels = info.voxelCount();
+        rep.inputFormat = info.format;
+        return Status::ok();
+    }
+
+    /// One pass keeping the labels; sets `misfit` (and fails) at the first label that does not fit.
+    Status encodeKeepingLabels(bool& misfit) {
+        if (!progress.stage("encoding", 0, 1)) return Status::error("cancelled");
+        rep.passes = 1;
+        if (synth) {
+            // The generator's labels always fit: no adapter, no scratch.
+            ProceduralSlabSource generator(*parseSynthSpec(input));
+            rep.workingBytes = encoderSlabBytes();
+            return encodePass(generator, options, tmp, progress, outputBytes);
+        }
+        LabelSlabAdapter adapter(*source, nullptr);
+        Status s = encodePass(adapter, options, tmp, progress, outputBytes);
+        rep.workingBytes = encoderSlabBytes() + adapter.scratchBytes() + adapter.maxSourceWorkingBytes();
+        misfit = !s && adapter.misfit() && !progress.cancelled();
+        return s;
+    }
+
+    /// Two passes: first visiting positions, then the ids encoded.
+    Status encodeRelabelled() {
+        removeIfThere(tmp);
+        StreamingRelabeller relabeller(source->info().dim, options.encode.brickSize);
+        uint64_t sourceWorking = 0;
+        if (!progress.stage("relabelling", 0, 0.5)) return Status::error("cancelled");
+        const auto t0 = std::chrono::steady_clock::now();
+        if (Status s = observeAll(*source, relabeller, progress, sourceWorking); !s) return s;
+        rep.relabelSeconds = since(t0);
+        rep.passes += 2;
+        if (!progress.stage("encoding", 0.5, 1)) return Status::error("cancelled");
+        LabelSlabAdapter adapter(*source, &relabeller);
+        if (Status s = encodePass(adapter, options, tmp, progress, outputBytes); !s) return s;
+        mapping.relabelled = true;
+        mapping.originalBits = relabeller.originalBits();
+        if (synth) md.originalType = labelTypeName(LabelType::U32);
+        rep.workingBytes = std::max(rep.workingBytes, encoderSlabBytes() + adapter.scratchBytes() +
+                                                          relabeller.memoryBytes() +
+                                                          std::max(sourceWorking, adapter.maxSourceWorkingBytes()));
+        return Status::ok();
+    }
+
+    /// Sidecars first, the volume last: a reader never sees a new .csgv with an old database.
+    Status publish(const std::string& output) {
+        md.relabelled = mapping.relabelled;
+        const std::string db = attributeDbPathFor(output);
+        if (mapping.relabelled) {
+            if (Status s = writeAttributeDb(db, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) return s;
+        } else if (fileExists(db) && std::remove(db.c_str()) != 0) {
+            return Status::error("cannot remove the stale attribute database '" + db + "'");
+        }
+        if (Status s = writeMetadata(metadataPathFor(output), md); !s) return s;
+        if (std::rename(tmp.c_str(), output.c_str()) != 0)
+            return Status::error("cannot rename '" + tmp + "' to '" + output + "': " + errnoText());
+        return Status::ok();
+    }
+};
+
 } // namespace
 
 Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
@@ -227,109 +281,34 @@ Status compressToFile(const std::string& input, const std::string& output, const
     CompressReport local;
     CompressReport& rep = report ? *report : local;
     rep = CompressReport{};
-    Status s = checkEncodeOptions(options.encode);
-    if (!s) return s;
+    if (Status s = checkEncodeOptions(options.encode); !s) return s;
     if (!endsWith(output, ".csgv")) return Status::error("output '" + output + "' must end in .csgv");
     const auto tStart = std::chrono::steady_clock::now();
-    auto t0 = tStart;
+    Job job(input, output, options, rep);
+    if (Status s = job.open(); !s) return s;
+    rep.readSeconds = since(tStart);
 
-    // Open the input and say what it is before any voxel is read.
-    const bool synth = isSynthName(input);
-    Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
-    if (!opened) return opened.status();
-    InputSource& source = **opened;
-    const InputInfo& info = source.info();
-    VolumeMetadata md;
-    md.source = synth ? input : baseName(input);
-    md.dim = info.dim;
-    if (!synth) {
-        md.geometry = cellGeometryFromPointGeometry(info.geometry);
-        md.originalType = labelTypeName(info.type);
-    }
-    rep.dim = info.dim;
-    rep.voxels = info.voxelCount();
-    rep.inputFormat = info.format;
-    rep.readSeconds = since(t0);
-
-    const std::string tmp = output + ".tmp-encoding.csgv";
-    Progress progress(options.progress);
-    auto failed = [&](Status st) {
-        removeIfThere(tmp);
-        if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
-        return named(st, input);
-    };
-    const uint64_t encoderSlab = uint64_t(info.dim[0]) * info.dim[1] * options.encode.brickSize * 4;
-    uint64_t outputBytes = 0;
+    // Labels kept in one optimistic pass unless relabelling is asked for or a label does not fit.
+    auto t0 = std::chrono::steady_clock::now();
     bool relabel = options.relabel;
-
-    // One optimistic pass: labels kept as they are while they fit.
-    t0 = std::chrono::steady_clock::now();
     if (!relabel) {
-        if (!progress.stage("encoding", 0, 1)) return failed(Status::error("cancelled"));
-        rep.passes = 1;
-        if (synth) {
-            // The generator's labels always fit: no adapter, no scratch.
-            ProceduralSlabSource generator(*parseSynthSpec(input));
-            s = encodePass(generator, options, tmp, progress, outputBytes);
-            rep.workingBytes = encoderSlab;
-        } else {
-            LabelSlabAdapter adapter(source, nullptr);
-            s = encodePass(adapter, options, tmp, progress, outputBytes);
-            rep.workingBytes = encoderSlab + adapter.scratchBytes() + adapter.maxSourceWorkingBytes();
-            if (!s && adapter.misfit() && !progress.cancelled()) {
-                relabel = true;
-                rep.restarted = true;
-            }
-        }
-        if (!s && !relabel) return failed(s);
+        Status s = job.encodeKeepingLabels(rep.restarted);
+        if (!s && !rep.restarted) return job.failed(s);
+        relabel = rep.restarted;
     }
-
-    // Two passes: first visiting positions, then ids.
-    LabelMapping mapping;
-    mapping.type = info.type;
     if (relabel) {
-        removeIfThere(tmp);
-        StreamingRelabeller relabeller(info.dim, options.encode.brickSize);
-        uint64_t sourceWorking = 0;
-        if (!progress.stage("relabelling", 0, 0.5)) return failed(Status::error("cancelled"));
         t0 = std::chrono::steady_clock::now();
-        s = observeAll(source, relabeller, progress, sourceWorking);
-        if (!s) return failed(s);
-        rep.relabelSeconds = since(t0);
-        rep.passes += 2;
-        if (!progress.stage("encoding", 0.5, 1)) return failed(Status::error("cancelled"));
-        t0 = std::chrono::steady_clock::now();
-        LabelSlabAdapter adapter(source, &relabeller);
-        s = encodePass(adapter, options, tmp, progress, outputBytes);
-        if (!s) return failed(s);
-        mapping.relabelled = true;
-        mapping.originalBits = relabeller.originalBits();
-        if (synth) md.originalType = labelTypeName(LabelType::U32);
-        rep.workingBytes = std::max(rep.workingBytes, encoderSlab + adapter.scratchBytes() + relabeller.memoryBytes() +
-                                                          std::max(sourceWorking, adapter.maxSourceWorkingBytes()));
+        if (Status s = job.encodeRelabelled(); !s) return job.failed(s);
     }
-    rep.encodeSeconds = since(t0);
+    rep.encodeSeconds = since(t0) - rep.relabelSeconds;
 
-    // Sidecars first, the volume last: a reader never sees a new .csgv with an old database.
     t0 = std::chrono::steady_clock::now();
-    md.relabelled = mapping.relabelled;
-    const std::string db = attributeDbPathFor(output);
-    if (mapping.relabelled) {
-        s = writeAttributeDb(db, md.dim, mapping.originalBits, isSignedType(mapping.type));
-        if (!s) return failed(s);
-    } else if (fileExists(db)) {
-        if (std::remove(db.c_str()) != 0)
-            return failed(Status::error("cannot remove the stale attribute database '" + db + "'"));
-    }
-    s = writeMetadata(metadataPathFor(output), md);
-    if (!s) return failed(s);
-    if (std::rename(tmp.c_str(), output.c_str()) != 0)
-        return failed(Status::error("cannot rename '" + tmp + "' to '" + output + "': " + errnoText()));
+    if (Status s = job.publish(output); !s) return job.failed(s);
     rep.writeSeconds = since(t0);
-    rep.outputBytes = outputBytes;
-    rep.relabelled = mapping.relabelled;
-    rep.labelCount = mapping.originalBits.size();
-    rep.originalType = md.originalType;
+    rep.outputBytes = job.outputBytes;
+    rep.relabelled = job.mapping.relabelled;
+    rep.labelCount = job.mapping.originalBits.size();
+    rep.originalType = job.md.originalType;
     const double total = since(tStart);
     rep.mvoxelsPerSecond = total > 0 ? double(rep.voxels) / total / 1e6 : 0;
     return Status::ok();

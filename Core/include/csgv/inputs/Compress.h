@@ -102,9 +102,6 @@ uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes = 
 /// input openInput() opens: what compress, verify and info accept as an input.
 Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options = {});
 
-/// Slab source over a `.vraw` file on disk (uint8, uint16 or uint32 labels).
-Result<std::unique_ptr<SlabSource>> openVrawSlabs(const std::string& path);
-
 /// Compresses `input` to `output` (and its sidecars). The volume is encoded under a temporary
 /// name, the sidecars are written, and the `.csgv` is renamed last, so a reader never sees a new
 /// `.csgv` with an old database; a stale `_csgv.db3` beside the output is removed when no
