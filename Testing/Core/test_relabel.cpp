@@ -631,7 +631,9 @@ TEST(StreamingRelabel, CancellingLeavesNoFiles) {
         CompressOptions o;
         o.encode.brickSize = 8;
         o.relabel = true;
-        o.progress = [when](double, const char* stage) { return std::string(stage) != when; };
+        // Cancel at the stage's second report: inside pass 1, or inside encodeToFile.
+        int calls = 0;
+        o.progress = [when, &calls](double, const char* stage) { return std::string(stage) != when || ++calls < 2; };
         Status s = compressToFile(dir + "/in.nrrd", dir + "/out.csgv", o);
         ASSERT_FALSE(s.isOk()) << when;
         EXPECT_NE(s.message().find("cancelled"), std::string::npos) << s.message();
@@ -641,8 +643,65 @@ TEST(StreamingRelabel, CancellingLeavesNoFiles) {
     }
     // A synth: volume cancelled while encoding leaves nothing either.
     CompressOptions o;
-    o.progress = [](double, const char*) { return false; };
+    int calls = 0;
+    o.progress = [&calls](double, const char*) { return ++calls < 2; };
     EXPECT_NE(compressToFile("synth:40x40x40", dir + "/s.csgv", o).message().find("cancelled"), std::string::npos);
     EXPECT_FALSE(fileExists(dir + "/s.csgv"));
     EXPECT_FALSE(fileExists(dir + "/s.csgv.json"));
+}
+
+TEST(StreamingRelabel, CompressReadsTheSourceInSlabsOncePerPass) {
+    const std::string dir = freshDir("passes");
+    TestVolume t = wideVolumes()[1]; // int32 with negatives
+    const uint32_t D = t.dim[2];
+    std::vector<uint32_t> refIds;
+    const std::vector<uint64_t> ref = referenceRelabel(t.dim, t.values, 8, refIds);
+    CompressOptions o;
+    o.encode.brickSize = 8;
+    auto decoded = [&](const std::string& path) {
+        Result<CsgvFile> f = openCsgv(path);
+        EXPECT_TRUE(f.isOk()) << f.message();
+        return f.isOk() ? decodeVolume(f->volume, 0)->labels : std::vector<uint32_t>{};
+    };
+    // Forced: two passes, each reading every slice once, never more than a brick of slices at a time.
+    {
+        VectorSource src(t.dim, t.type, t.values);
+        o.relabel = true;
+        CompressReport r;
+        ASSERT_TRUE(compressSourceToFile(src, "memory", dir + "/a.csgv", o, &r).isOk());
+        EXPECT_EQ(src.slicesRead, 2u * D);
+        EXPECT_LE(src.maxDepth, 8u);
+        EXPECT_EQ(r.passes, 2);
+        EXPECT_EQ(decoded(dir + "/a.csgv"), refIds);
+        EXPECT_EQ(*readAttributeDb(dir + "/a_csgv.db3")->labels.rbegin(), int64_t(ref.back()));
+    }
+    // Only the last slice does not fit: one whole optimistic pass, then two more.
+    {
+        std::vector<uint64_t> v(t.values.size());
+        for (size_t i = 0; i < v.size(); ++i) v[i] = t.values[i] & 0xFFFF;
+        v.back() = uint64_t(-1);
+        VectorSource src(t.dim, t.type, v);
+        o.relabel = false;
+        CompressReport r;
+        ASSERT_TRUE(compressSourceToFile(src, "memory", dir + "/b.csgv", o, &r).isOk());
+        EXPECT_TRUE(r.restarted);
+        EXPECT_EQ(r.passes, 3);
+        EXPECT_EQ(src.slicesRead, 3u * D);
+        std::vector<uint32_t> ids;
+        referenceRelabel(t.dim, v, 8, ids);
+        EXPECT_EQ(decoded(dir + "/b.csgv"), ids);
+    }
+    // Labels that fit: one pass, the labels as they are, no database.
+    {
+        std::vector<uint64_t> v(t.values.size());
+        for (size_t i = 0; i < v.size(); ++i) v[i] = t.values[i] & 0xFFFF;
+        VectorSource src(t.dim, t.type, v);
+        CompressReport r;
+        ASSERT_TRUE(compressSourceToFile(src, "memory", dir + "/c.csgv", o, &r).isOk());
+        EXPECT_EQ(src.slicesRead, uint64_t(D));
+        EXPECT_FALSE(fileExists(dir + "/c_csgv.db3"));
+        const std::vector<uint32_t> got = decoded(dir + "/c.csgv");
+        ASSERT_EQ(got.size(), v.size());
+        for (size_t i = 0; i < v.size(); ++i) ASSERT_EQ(got[i], uint32_t(v[i])) << i;
+    }
 }

@@ -180,7 +180,8 @@ struct Job {
     std::string tmp;           ///< the encoded volume before its final rename
     Progress progress;
     bool synth = false;
-    std::unique_ptr<InputSource> source;
+    std::unique_ptr<InputSource> owned;
+    InputSource* source = nullptr;
     VolumeMetadata md;
     LabelMapping mapping;
     uint64_t outputBytes = 0;
@@ -199,12 +200,17 @@ struct Job {
         return uint64_t(d[0]) * d[1] * options.encode.brickSize * 4;
     }
 
-    /// Opens the input and fills what is known before any voxel is read.
-    Status open() {
-        synth = isSynthName(input);
-        Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
-        if (!opened) return opened.status();
-        source = std::move(*opened);
+    /// Opens the input (unless a source is given) and fills what is known before any voxel is read.
+    Status open(InputSource* given) {
+        synth = !given && isSynthName(input);
+        if (given) {
+            source = given;
+        } else {
+            Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
+            if (!opened) return opened.status();
+            owned = std::move(*opened);
+            source = owned.get();
+        }
         const InputInfo& info = source->info();
         md.source = synth ? input : baseName(input);
         md.dim = info.dim;
@@ -274,10 +280,9 @@ struct Job {
     }
 };
 
-} // namespace
-
-Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
-                      CompressReport* report) {
+/// compressToFile from a given source or the input's name.
+Status compress(InputSource* given, const std::string& input, const std::string& output,
+                const CompressOptions& options, CompressReport* report) {
     CompressReport local;
     CompressReport& rep = report ? *report : local;
     rep = CompressReport{};
@@ -285,7 +290,7 @@ Status compressToFile(const std::string& input, const std::string& output, const
     if (!endsWith(output, ".csgv")) return Status::error("output '" + output + "' must end in .csgv");
     const auto tStart = std::chrono::steady_clock::now();
     Job job(input, output, options, rep);
-    if (Status s = job.open(); !s) return s;
+    if (Status s = job.open(given); !s) return s;
     rep.readSeconds = since(tStart);
 
     // Labels kept in one optimistic pass unless relabelling is asked for or a label does not fit.
@@ -312,6 +317,18 @@ Status compressToFile(const std::string& input, const std::string& output, const
     const double total = since(tStart);
     rep.mvoxelsPerSecond = total > 0 ? double(rep.voxels) / total / 1e6 : 0;
     return Status::ok();
+}
+
+} // namespace
+
+Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
+                      CompressReport* report) {
+    return compress(nullptr, input, output, options, report);
+}
+
+Status compressSourceToFile(InputSource& source, const std::string& name, const std::string& output,
+                            const CompressOptions& options, CompressReport* report) {
+    return compress(&source, name, output, options, report);
 }
 
 } // namespace csgv

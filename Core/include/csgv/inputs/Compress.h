@@ -108,5 +108,8 @@ Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input,
 /// relabelling happened. On any error or cancel no output file is left.
 Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
                       CompressReport* report = nullptr);
+/// The same from a source already open (`name` for messages and the metadata's source field).
+Status compressSourceToFile(InputSource& source, const std::string& name, const std::string& output,
+                            const CompressOptions& options, CompressReport* report = nullptr);
 
 } // namespace csgv
