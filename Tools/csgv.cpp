@@ -23,6 +23,8 @@
 #include <omp.h>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
+#include <unistd.h>
 #include <sys/resource.h>
 #include <vector>
 #include <zlib.h>
@@ -32,37 +34,45 @@ using namespace csgv;
 
 namespace {
 
-const char* kUsage =
-    "usage: csgv <command> [options]\n"
-    "  info IN.csgv [--stats] [--check] [--threads N]\n"
-    "      key: value lines describing the file; --stats decodes it and prints label statistics,\n"
-    "      --check decodes every brick and reports the first stream error\n"
-    "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
-    "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
-    "  verify IN.csgv SOURCE [--threads N]\n"
-    "      SOURCE: .vraw[.gz], .nrrd, .nhdr, .nii[.gz]; exit 0 only if every voxel and every\n"
-    "      coarse level matches SOURCE (through the attribute database when there is one)\n"
-    "  compress IN OUT.csgv [--brick-size N] [--encoding nibble|rans1|rans2] [--ops default|all|LETTERS]\n"
-    "           [--threads N] [--relabel]\n"
-    "      IN: synth:WxHxD[:seed], .vraw[.gz], .nrrd, .nhdr, .nii[.gz]; letters p x y z n l d s;\n"
-    "      writes OUT.json (geometry) and OUT's _csgv.db3 when labels are relabelled\n"
-    "  bench IN [--threads N] [--brick-size N] [--encoding E] [--ops O]\n"
-    "      bits/voxel, encode and decode Mvoxel/s, and zstd -19 / gzip -9 of the raw uint32 labels\n"
-    "  render IN.csgv OUT.png [--size WxH] [--eye x,y,z] [--center x,y,z] [--up x,y,z]\n"
-    "         [--fov-y DEG | --parallel-scale S] [--shading local|shadow|ao|pt] [--frames N]\n"
-    "         [--no-jitter] [--finest] [--labels-out FILE] [--materials FILE.json]\n"
-    "         [--video PATTERN --orbit N] [--cache-mib M] [--cache-paletting]\n"
-    "         [--subsampling 1|2|4|8] [--lod-bias B]\n"
-    "         [--blend B] [--no-denoise] [--tone-mapping] [--background r,g,b]\n"
-    "         [--attributes FILE.csv|.txt|.db3]... [--computed-attributes] [--derive NAME=SQL]...\n"
-    "      renders on the GPU (CSGV_VULKAN_DEVICE picks the device); --frames N: samples per pixel;\n"
-    "      prints each frame's time, the median, the time to the first full frame, device memory\n";
+/// The usage text; the input forms come from the format table, so a new reader shows up here.
+std::string usage() {
+    const std::string inputs = "synth:WxHxD[:seed], " + supportedInputForms();
+    return "usage: csgv <command> [options]\n"
+           "  info IN.csgv [--stats] [--check] [--threads N]\n"
+           "      key: value lines describing the file; --stats decodes it and prints label statistics,\n"
+           "      --check decodes every brick and reports the first stream error\n"
+           "  info INPUT\n"
+           "      an input's format, dimensions, type, spacing, origin and label count (exact for small\n"
+           "      volumes, otherwise estimated from evenly spaced slices)\n"
+           "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
+           "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
+           "  verify IN.csgv SOURCE [--threads N]\n"
+           "      SOURCE: any input below; compared slab by slab; exit 0 only if every voxel and every\n"
+           "      coarse level matches SOURCE (through the attribute database when there is one)\n"
+           "  compress IN OUT.csgv [--brick-size N] [--encoding nibble|rans1|rans2] [--ops default|all|LETTERS]\n"
+           "           [--threads N] [--relabel] [--quiet]\n"
+           "      writes OUT.json (geometry) and OUT's _csgv.db3 when labels are relabelled; progress on\n"
+           "      stderr unless --quiet; letters p x y z n l d s\n"
+           "  bench IN [--threads N] [--brick-size N] [--encoding E] [--ops O]\n"
+           "      bits/voxel, encode and decode Mvoxel/s, and zstd -19 / gzip -9 of the raw uint32 labels\n"
+           "  render IN.csgv OUT.png [--size WxH] [--eye x,y,z] [--center x,y,z] [--up x,y,z]\n"
+           "         [--fov-y DEG | --parallel-scale S] [--shading local|shadow|ao|pt] [--frames N]\n"
+           "         [--no-jitter] [--finest] [--labels-out FILE] [--materials FILE.json]\n"
+           "         [--video PATTERN --orbit N] [--cache-mib M] [--cache-paletting]\n"
+           "         [--subsampling 1|2|4|8] [--lod-bias B]\n"
+           "         [--blend B] [--no-denoise] [--tone-mapping] [--background r,g,b]\n"
+           "         [--attributes FILE.csv|.txt|.db3]... [--computed-attributes] [--derive NAME=SQL]...\n"
+           "      renders on the GPU (CSGV_VULKAN_DEVICE picks the device); --frames N: samples per pixel;\n"
+           "      prints each frame's time, the median, the time to the first full frame, device memory\n"
+           "  inputs (IN, SOURCE, INPUT): " + inputs + "\n";
+}
 
 struct Args {
     std::vector<std::string> positional;
     bool stats = false;
     bool check = false;
     bool relabel = false;
+    bool quiet = false;
     uint32_t level = 0;
     int threads = 0;
     EncodeOptions encode;
@@ -88,6 +98,7 @@ Status parseArgs(int argc, char** argv, Args& a) {
     app.add_flag("--stats", a.stats);
     app.add_flag("--check", a.check);
     app.add_flag("--relabel", a.relabel);
+    app.add_flag("--quiet", a.quiet);
     app.add_option("files", a.positional);
     ValueOptions values(app);
     const auto small = [&values](const char* name, uint64_t max, auto set) {
@@ -129,8 +140,75 @@ double seconds(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// Distinct values of an input: every voxel when the volume is small (exact), otherwise those of
+/// kLabelSampleSlices evenly spaced slices (a lower bound). Memory: one sub-slab and the set.
+struct LabelCount {
+    uint64_t count = 0;
+    bool exact = false;
+    uint32_t slicesRead = 0;
+};
+constexpr uint64_t kExactLabelVoxels = uint64_t(1) << 24;
+constexpr uint32_t kLabelSampleSlices = 16;
+
+Result<LabelCount> countLabels(InputSource& src) {
+    const auto& dim = src.info().dim;
+    const uint64_t slice = uint64_t(dim[0]) * dim[1];
+    LabelCount c;
+    c.exact = src.info().voxelCount() <= kExactLabelVoxels || dim[2] <= kLabelSampleSlices;
+    std::unordered_set<uint64_t> seen;
+    auto add = [&](uint32_t z, uint32_t depth, std::vector<uint64_t>& buf) -> Status {
+        buf.resize(size_t(slice * depth));
+        if (Status s = src.readSlab(z, depth, buf.data()); !s) return s;
+        uint64_t last = buf.empty() ? 0 : ~buf[0];
+        for (uint64_t v : buf)
+            if (v != last) seen.insert(last = v);
+        c.slicesRead += depth;
+        return Status::ok();
+    };
+    std::vector<uint64_t> buf;
+    if (c.exact) {
+        const uint32_t step = subSlabDepth(slice, dim[2]);
+        for (uint32_t z = 0; z < dim[2]; z += step)
+            if (Status s = add(z, std::min(step, dim[2] - z), buf); !s) return s;
+    } else {
+        for (uint32_t i = 0; i < kLabelSampleSlices; ++i)
+            if (Status s = add(uint32_t((2 * uint64_t(i) + 1) * dim[2] / (2 * kLabelSampleSlices)), 1, buf); !s) return s;
+    }
+    c.count = seen.size();
+    return c;
+}
+
+int cmdInfoInput(const Args& a) {
+    const std::string& path = a.positional[0];
+    Result<std::unique_ptr<InputSource>> src = openCompressInput(path);
+    if (!src) return fail(src.message());
+    const InputInfo& info = (*src)->info();
+    const Geometry& g = info.geometry;
+    Result<LabelCount> labels = countLabels(**src);
+    if (!labels) return fail(labels.message());
+    std::printf("file: %s\n", path.c_str());
+    std::printf("format: %s\n", info.format.c_str());
+    if (!info.detail.empty()) std::printf("detail: %s\n", info.detail.c_str());
+    std::printf("dimensions: %u %u %u\n", info.dim[0], info.dim[1], info.dim[2]);
+    std::printf("voxels: %llu\n", (unsigned long long)info.voxelCount());
+    std::printf("type: %s\n", labelTypeName(info.type));
+    std::printf("spacing: %g %g %g\n", g.spacing[0], g.spacing[1], g.spacing[2]);
+    std::printf("origin: %g %g %g\n", g.origin[0], g.origin[1], g.origin[2]);
+    if (labels->exact) {
+        std::printf("labels: %llu\n", (unsigned long long)labels->count);
+        std::printf("labels_counted: exact (every voxel read)\n");
+    } else {
+        std::printf("labels: >= %llu\n", (unsigned long long)labels->count);
+        std::printf("labels_counted: estimate (distinct values in %u of %u evenly spaced slices)\n", labels->slicesRead,
+                    info.dim[2]);
+    }
+    return 0;
+}
+
 int cmdInfo(const Args& a) {
-    if (a.positional.size() != 1) return fail("info expects one file: csgv info IN.csgv");
+    if (a.positional.size() != 1) return fail("info expects one file: csgv info IN.csgv|INPUT");
+    if (!endsWith(a.positional[0], ".csgv") && (isSynthName(a.positional[0]) || isInputPath(a.positional[0])))
+        return cmdInfoInput(a);
     Result<CsgvFile> f = openCsgv(a.positional[0]);
     if (!f) return fail(f.message());
     const CompressedVolume& v = f->volume;
@@ -231,62 +309,106 @@ int cmdDecompress(const Args& a) {
     return w ? 0 : fail(w.message());
 }
 
+/// Voxel (x, y, z) of linear index i in a volume of `dim`, as text.
+std::string voxelText(uint64_t i, const std::array<uint32_t, 3>& dim, uint32_t z0 = 0) {
+    const uint64_t x = i % dim[0], y = (i / dim[0]) % dim[1], z = z0 + i / (uint64_t(dim[0]) * dim[1]);
+    return "(" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) + ")";
+}
+
+/// @brief Level 0 of a .csgv against any input, slab by slab: the source's values become the
+/// file's ids (through its attribute database when it has one) and are compared with the decoded
+/// brick-deep slab. Memory: one decoded slab (W * H * brickSize * 4) + one source sub-slab.
+int verifyLevel0(const CsgvFile& f, InputSource& src, const std::string& csgvPath, const std::string& srcPath, int threads) {
+    const CompressedVolume& v = f.volume;
+    std::unordered_map<int64_t, uint32_t> idOf;
+    if (f.hasAttributes)
+        for (size_t id = 0; id < f.attributes.labels.size(); ++id) idOf.emplace(f.attributes.labels[id], uint32_t(id));
+    auto show = [&](uint32_t l) { return f.hasAttributes ? std::to_string(f.originalLabel(l)) : std::to_string(l); };
+    DecodeOptions plain;
+    plain.threads = threads;
+    const uint64_t slice = uint64_t(v.dim[0]) * v.dim[1];
+    std::vector<uint64_t> values;
+    for (uint32_t z0 = 0; z0 < v.dim[2]; z0 += v.brickSize) {
+        const uint32_t depth = std::min(v.brickSize, v.dim[2] - z0);
+        Result<LabelVolume> got = decodeRegion(v, 0, Box{{0, 0, z0}, {v.dim[0], v.dim[1], z0 + depth}}, plain);
+        if (!got) return fail(csgvPath + ": " + got.message());
+        const uint32_t step = subSlabDepth(slice, depth);
+        for (uint32_t z = z0; z < z0 + depth; z += step) {
+            const uint32_t d = std::min(step, z0 + depth - z);
+            values.resize(size_t(slice * d));
+            if (Status s = src.readSlab(z, d, values.data()); !s) return fail(s.message());
+            const uint32_t* ids = got->labels.data() + slice * (z - z0);
+            for (size_t i = 0; i < values.size(); ++i) {
+                uint32_t expected = 0;
+                if (f.hasAttributes) {
+                    auto it = idOf.find(int64_t(values[i]));
+                    if (it == idOf.end())
+                        return fail("voxel " + voxelText(i, v.dim, z) + " of " + srcPath + " holds label " +
+                                    std::to_string(int64_t(values[i])) + ", which the attribute database lacks");
+                    expected = it->second;
+                } else if (!labelFitsFormat(values[i])) {
+                    return fail("voxel " + voxelText(i, v.dim, z) + " of " + srcPath +
+                                " holds a label that does not fit the format, and " + csgvPath +
+                                " has no attribute database mapping it");
+                } else {
+                    expected = uint32_t(values[i]);
+                }
+                if (ids[i] != expected)
+                    return fail("level 0, voxel " + voxelText(i, v.dim, z) + " decodes to " + show(ids[i]) +
+                                ", expected " + show(expected));
+            }
+        }
+    }
+    std::printf("level 0: %u x %u x %u match\n", v.dim[0], v.dim[1], v.dim[2]);
+    return 0;
+}
+
+/// @brief Each coarse level against the coarsening of the level above it, slab by slab (the
+/// coarse-label rule only looks at the 2x2x2 children, so even-aligned slabs coarsen alone). With
+/// level 0 equal to the source this is the same as coarsening the source level by level.
+int verifyCoarseLevels(const CsgvFile& f, const std::string& csgvPath, int threads) {
+    const CompressedVolume& v = f.volume;
+    auto show = [&](uint32_t l) { return f.hasAttributes ? std::to_string(f.originalLabel(l)) : std::to_string(l); };
+    DecodeOptions plain;
+    plain.threads = threads;
+    for (uint32_t lod = 1; lod < v.levels(); ++lod) {
+        const auto fine = lodDimensions(v.dim, lod - 1), coarse = lodDimensions(v.dim, lod);
+        const uint32_t step = std::max(1u, v.brickSize >> lod);
+        for (uint32_t cz = 0; cz < coarse[2]; cz += step) {
+            const uint32_t cd = std::min(step, coarse[2] - cz);
+            Result<LabelVolume> above = decodeRegion(
+                v, lod - 1, Box{{0, 0, 2 * cz}, {fine[0], fine[1], std::min(fine[2], 2 * (cz + cd))}}, plain);
+            if (!above) return fail(csgvPath + ": " + above.message());
+            Result<LabelVolume> got = decodeRegion(v, lod, Box{{0, 0, cz}, {coarse[0], coarse[1], cz + cd}}, plain);
+            if (!got) return fail(csgvPath + ": " + got.message());
+            const LabelVolume expected = coarsenLabels(*above);
+            for (size_t i = 0; i < expected.labels.size(); ++i)
+                if (got->labels[i] != expected.labels[i])
+                    return fail("level " + std::to_string(lod) + ", voxel " + voxelText(i, coarse, cz) + " decodes to " +
+                                show(got->labels[i]) + ", expected " + show(expected.labels[i]));
+        }
+        std::printf("level %u: %u x %u x %u match\n", lod, coarse[0], coarse[1], coarse[2]);
+    }
+    return 0;
+}
+
 int cmdVerify(const Args& a) {
     if (a.positional.size() != 2) return fail("verify expects: csgv verify IN.csgv SOURCE");
     Result<CsgvFile> f = openCsgv(a.positional[0]);
     if (!f) return fail(f.message());
-    Result<InputVolume> src = readInput(a.positional[1]);
+    Result<std::unique_ptr<InputSource>> src = openCompressInput(a.positional[1]);
     if (!src) return fail(src.message());
     const CompressedVolume& v = f->volume;
-    if (src->dim != v.dim)
+    const auto& sd = (*src)->info().dim;
+    if (sd != v.dim)
         return fail("dimensions differ: " + a.positional[0] + " is " + std::to_string(v.dim[0]) + " " +
                     std::to_string(v.dim[1]) + " " + std::to_string(v.dim[2]) + ", " + a.positional[1] + " is " +
-                    std::to_string(src->dim[0]) + " " + std::to_string(src->dim[1]) + " " + std::to_string(src->dim[2]));
-    // Compare in the file's own label space: ids when a database maps them (the coarse-label rule
+                    std::to_string(sd[0]) + " " + std::to_string(sd[1]) + " " + std::to_string(sd[2]));
+    // Compared in the file's own label space: ids when a database maps them (the coarse-label rule
     // does not depend on label values, only on equality and child order), labels otherwise.
-    LabelVolume expected;
-    expected.dim = src->dim;
-    expected.labels.resize(src->values.size());
-    DecodeOptions plain;
-    plain.threads = a.threads;
-    if (f->hasAttributes) {
-        std::unordered_map<int64_t, uint32_t> idOf;
-        for (size_t id = 0; id < f->attributes.labels.size(); ++id) idOf.emplace(f->attributes.labels[id], uint32_t(id));
-        for (size_t i = 0; i < src->values.size(); ++i) {
-            auto it = idOf.find(int64_t(src->values[i]));
-            if (it == idOf.end())
-                return fail("voxel " + std::to_string(i) + " of " + a.positional[1] + " holds label " +
-                            std::to_string(int64_t(src->values[i])) + ", which the attribute database lacks");
-            expected.labels[i] = it->second;
-        }
-    } else {
-        for (size_t i = 0; i < src->values.size(); ++i) {
-            if (src->isNegative(i) || src->values[i] >= kInvalidLabel)
-                return fail("voxel " + std::to_string(i) + " of " + a.positional[1] +
-                            " holds a label that does not fit the format, and " + a.positional[0] +
-                            " has no attribute database mapping it");
-            expected.labels[i] = uint32_t(src->values[i]);
-        }
-    }
-    src = InputVolume{};
-    for (uint32_t lod = 0; lod < v.levels(); ++lod) {
-        if (lod > 0) expected = coarsenLabels(expected);
-        Result<LabelVolume> got = decodeVolume(v, lod, plain);
-        if (!got) return fail(a.positional[0] + ": " + got.message());
-        for (size_t i = 0; i < expected.labels.size(); ++i) {
-            if (got->labels[i] != expected.labels[i]) {
-                const uint64_t x = i % expected.dim[0], y = (i / expected.dim[0]) % expected.dim[1],
-                               z = i / (uint64_t(expected.dim[0]) * expected.dim[1]);
-                auto show = [&](uint32_t l) {
-                    return f->hasAttributes ? std::to_string(f->originalLabel(l)) : std::to_string(l);
-                };
-                return fail("level " + std::to_string(lod) + ", voxel (" + std::to_string(x) + ", " +
-                            std::to_string(y) + ", " + std::to_string(z) + ") decodes to " + show(got->labels[i]) +
-                            ", expected " + show(expected.labels[i]));
-            }
-        }
-        std::printf("level %u: %u x %u x %u match\n", lod, expected.dim[0], expected.dim[1], expected.dim[2]);
-    }
+    if (int rc = verifyLevel0(*f, **src, a.positional[0], a.positional[1], a.threads); rc != 0) return rc;
+    src->reset(); // the source is not needed for the coarse levels
+    if (int rc = verifyCoarseLevels(*f, a.positional[0], a.threads); rc != 0) return rc;
     std::printf("verified: %u levels\n", v.levels());
     return 0;
 }
@@ -297,6 +419,60 @@ double peakRssMiB() {
     return double(ru.ru_maxrss) / 1024.0;
 }
 
+/// @brief Compression progress on stderr: percentage, stage and rate. On a terminal one line
+/// rewritten with \r at most 4 times a second; otherwise one line per 10% (and per stage change),
+/// so logs stay short.
+class ProgressPrinter {
+public:
+    explicit ProgressPrinter(const CompressReport& report) : m_report(report), m_tty(isatty(2) != 0) {}
+    bool operator()(double fraction, const char* stage) {
+        const auto now = std::chrono::steady_clock::now();
+        if (m_stage != stage) {
+            // The stage's own share of the whole, for its rate (Compress.h: relabelling [0, 0.5)).
+            m_stage = stage;
+            m_stageStart = now;
+            m_stageFrom = fraction;
+            m_stageTo = m_stage == "relabelling" ? 0.5 : 1.0;
+            m_nextDecile = int(fraction * 10) + 1;
+            print(fraction, now);
+            return true;
+        }
+        const bool due = m_tty ? std::chrono::duration<double>(now - m_lastPrint).count() >= 0.25
+                               : fraction * 10 >= m_nextDecile;
+        if (due || (fraction >= 1.0 && !m_printedEnd)) print(fraction, now);
+        return true;
+    }
+    /// Ends the rewritten terminal line.
+    void finish() {
+        if (m_tty && m_printed) std::fputc('\n', stderr);
+    }
+
+private:
+    void print(double fraction, std::chrono::steady_clock::time_point now) {
+        const double dt = std::chrono::duration<double>(now - m_stageStart).count();
+        const double stageDone = (fraction - m_stageFrom) / std::max(1e-9, m_stageTo - m_stageFrom);
+        // A stage's first report comes as it starts: no rate yet.
+        char rate[48] = "";
+        if (dt > 1e-3 && stageDone > 0)
+            std::snprintf(rate, sizeof rate, " %.1f Mvoxels/s", stageDone * double(m_report.voxels) / dt / 1e6);
+        std::fprintf(stderr, m_tty ? "\rprogress: %5.1f%% %s%s        " : "progress: %.1f%% %s%s\n", fraction * 100,
+                     m_stage.c_str(), rate);
+        std::fflush(stderr);
+        m_lastPrint = now;
+        m_printed = true;
+        m_printedEnd = fraction >= 1.0;
+        while (m_nextDecile <= int(fraction * 10)) ++m_nextDecile;
+    }
+
+    const CompressReport& m_report;
+    bool m_tty;
+    std::string m_stage;
+    std::chrono::steady_clock::time_point m_stageStart, m_lastPrint;
+    double m_stageFrom = 0, m_stageTo = 1;
+    int m_nextDecile = 1;
+    bool m_printed = false, m_printedEnd = false;
+};
+
 int cmdCompress(const Args& a) {
     if (a.positional.size() != 2) return fail("compress expects: csgv compress IN OUT.csgv [options]");
     CompressOptions o;
@@ -304,12 +480,16 @@ int cmdCompress(const Args& a) {
     o.encode.threads = a.threads;
     o.relabel = a.relabel;
     CompressReport r;
+    ProgressPrinter printer(r);
+    if (!a.quiet) o.progress = [&printer](double f, const char* stage) { return printer(f, stage); };
     const auto t0 = std::chrono::steady_clock::now();
     Status s = compressToFile(a.positional[0], a.positional[1], o, &r);
+    printer.finish();
     if (!s) return fail(s.message());
     const double t = seconds(t0);
-    const double voxels = double(r.dim[0]) * r.dim[1] * r.dim[2];
+    const double voxels = double(r.voxels);
     std::printf("output: %s\n", a.positional[1].c_str());
+    std::printf("input_format: %s\n", r.inputFormat.c_str());
     std::printf("dimensions: %u %u %u\n", r.dim[0], r.dim[1], r.dim[2]);
     std::printf("bytes: %llu\n", (unsigned long long)r.outputBytes);
     std::printf("bits_per_voxel: %.4f\n", double(r.outputBytes) * 8 / voxels);
@@ -317,8 +497,13 @@ int cmdCompress(const Args& a) {
     std::printf("relabelled: %s\n", r.relabelled ? "yes" : "no");
     if (r.relabelled) std::printf("labels: %llu\n", (unsigned long long)r.labelCount);
     std::printf("streamed: %s\n", r.streamed ? "yes" : "no");
-    std::printf("seconds: %.3f (read %.3f, encode %.3f, write %.3f)\n", t, r.readSeconds, r.encodeSeconds, r.writeSeconds);
+    std::printf("passes: %d%s\n", r.passes, r.restarted ? " (a label did not fit: restarted with relabelling)" : "");
+    std::printf("seconds: %.3f (open %.3f, relabel %.3f, encode %.3f, write %.3f)\n", t, r.readSeconds,
+                r.relabelSeconds, r.encodeSeconds, r.writeSeconds);
     std::printf("encode_mvoxels_per_second: %.1f\n", voxels / r.encodeSeconds / 1e6);
+    std::printf("mvoxels_per_second: %.1f\n", r.mvoxelsPerSecond);
+    std::printf("working_memory_mib: %.1f (estimate: encoder slab, scratch, source, label map)\n",
+                double(r.workingBytes) / double(1 << 20));
     std::printf("peak_memory_mib: %.1f\n", peakRssMiB());
     return 0;
 }
@@ -420,11 +605,11 @@ int cmdBench(const Args& a) {
 int run(int argc, char** argv) {
     if (argc < 2) {
         fail("no command given");
-        std::fputs(kUsage, stderr);
+        std::fputs(usage().c_str(), stderr);
         return 1;
     }
     if (!std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
-        std::fputs(kUsage, stdout);
+        std::fputs(usage().c_str(), stdout);
         return 0;
     }
     if (!std::strcmp(argv[1], "render")) {

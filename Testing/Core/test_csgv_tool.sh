@@ -80,6 +80,68 @@ grep -aq "space origin: (-90,-125,-71)" "$TMP/g2.nrrd" || bad "origin lost: $(gr
 grep -aq "space directions: (0.5,0,0) (0,2,0) (0,0,1.5)" "$TMP/g2.nrrd" || bad "spacing lost: $(grep -a 'space directions' "$TMP/g2.nrrd")"
 expect 0 "verify nrrd" "$CSGV" verify "$TMP/g.csgv" "$TMP/g.nrrd"
 
+
+# Every input form: NRRD and NIfTI with labels that do not fit (negative int16, int32 with
+# 0xFFFFFFFF-like wide values) are relabelled in two streamed passes and verify slab by slab.
+/usr/bin/python3 - "$TMP" <<'PY'
+import struct, sys
+import numpy as np
+d = sys.argv[1]
+z, y, x = np.mgrid[0:9, 0:10, 0:12]
+a16 = ((x // 3 + 4 * (y // 4) + 12 * (z // 3)) % 23 - 11).astype('<i2')
+with open(d + '/n16.nrrd', 'wb') as f:
+    f.write(b'NRRD0004\ntype: int16\ndimension: 3\nsizes: 12 10 9\nencoding: raw\nendian: little\n'
+            b'space dimension: 3\nspace directions: (0.5,0,0) (0,2,0) (0,0,1.5)\nspace origin: (1,2,3)\n\n')
+    f.write(a16.tobytes())
+a32 = np.where((x + y + z) % 5 == 0, 0, (x // 4 + 3 * (y // 5)) * 100000 - 7).astype('<i4')
+def nifti(path, arr, code, bits):
+    h = bytearray(352)
+    struct.pack_into('<i', h, 0, 348)
+    struct.pack_into('<8h', h, 40, 3, 12, 10, 9, 1, 1, 1, 1)
+    struct.pack_into('<hh', h, 70, code, bits)
+    struct.pack_into('<8f', h, 76, 1, 0.5, 0.5, 2, 1, 1, 1, 1)
+    struct.pack_into('<f', h, 108, 352)
+    struct.pack_into('<f', h, 112, 1)
+    h[344:348] = b'n+1\0'
+    with open(path, 'wb') as f:
+        f.write(bytes(h) + arr.tobytes())
+nifti(d + '/n32.nii', a32, 8, 32)
+b32 = a32.copy(); b32[4, 5, 6] += 1
+nifti(d + '/n32b.nii', b32, 8, 32)
+PY
+expect 0 "info nrrd input" "$CSGV" info "$TMP/n16.nrrd"
+grep -qx "format: NRRD" "$TMP/out" && grep -qx "dimensions: 12 10 9" "$TMP/out" && grep -qx "type: int16" "$TMP/out" \
+  && grep -qx "spacing: 0.5 2 1.5" "$TMP/out" && grep -qx "origin: 1 2 3" "$TMP/out" \
+  && grep -qx "labels: 23" "$TMP/out" && grep -q "^labels_counted: exact" "$TMP/out" \
+  || bad "info of a NRRD input: $(cat "$TMP/out")"
+expect 0 "compress nrrd int16" "$CSGV" compress "$TMP/n16.nrrd" "$TMP/n16.csgv" --brick-size 8
+grep -qx "relabelled: yes" "$TMP/out" && grep -qx "labels: 23" "$TMP/out" && grep -qx "input_format: NRRD" "$TMP/out" \
+  || bad "compress of int16 NRRD: $(cat "$TMP/out")"
+grep -q "^progress: .*% encoding .* Mvoxels/s" "$TMP/err" || bad "no encoding progress lines: $(cat "$TMP/err")"
+[ -f "$TMP/n16_csgv.db3" ] || bad "relabelled NRRD compress wrote no database"
+expect 0 "verify nrrd int16" "$CSGV" verify "$TMP/n16.csgv" "$TMP/n16.nrrd"
+expect 0 "compress nrrd --quiet" "$CSGV" compress "$TMP/n16.nrrd" "$TMP/q.csgv" --quiet
+[ -s "$TMP/err" ] && bad "--quiet still wrote to stderr: $(cat "$TMP/err")"
+expect 0 "compress nrrd --relabel" "$CSGV" compress "$TMP/n16.nrrd" "$TMP/q.csgv" --relabel
+grep -q "^progress: .*% relabelling" "$TMP/err" || bad "no relabelling progress: $(cat "$TMP/err")"
+grep -qx "passes: 2" "$TMP/out" || bad "forced relabelling passes: $(grep passes "$TMP/out")"
+expect 0 "info nifti input" "$CSGV" info "$TMP/n32.nii"
+grep -qx "format: NIfTI" "$TMP/out" && grep -qx "type: int32" "$TMP/out" && grep -qx "dimensions: 12 10 9" "$TMP/out" \
+  || bad "info of a NIfTI input: $(cat "$TMP/out")"
+expect 0 "compress nifti int32" "$CSGV" compress "$TMP/n32.nii" "$TMP/n32.csgv"
+grep -qx "relabelled: yes" "$TMP/out" || bad "negative int32 NIfTI not relabelled"
+expect 0 "verify nifti int32" "$CSGV" verify "$TMP/n32.csgv" "$TMP/n32.nii"
+expect 1 "verify nifti with a changed voxel" "$CSGV" verify "$TMP/n32.csgv" "$TMP/n32b.nii"
+grep -q "voxel (6, 5, 4)" "$TMP/err" || bad "verify of changed NIfTI voxel: $(cat "$TMP/err")"
+expect 1 "verify against a source of other dimensions" "$CSGV" verify "$TMP/n32.csgv" "$TMP/g.nrrd"
+grep -q "dimensions differ" "$TMP/err" || bad "dimension mismatch message: $(cat "$TMP/err")"
+expect 0 "verify against synth" "$CSGV" verify "$TMP/p.csgv" synth:40x30x20:3
+expect 0 "info synth estimate" "$CSGV" info synth:256x256x300:2
+grep -q "^labels: >= [0-9]" "$TMP/out" && grep -q "^labels_counted: estimate (distinct values in 16 of 300" "$TMP/out" \
+  || bad "label estimate of a large input: $(cat "$TMP/out")"
+expect 1 "info of a missing input" "$CSGV" info "$TMP/none.nrrd"
+"$CSGV" --help | grep -q "DIR.zarr" || bad "usage lacks the input forms"
+
 # User errors.
 expect 1 "no arguments" "$CSGV"
 expect 0 "help" "$CSGV" --help

@@ -11,8 +11,12 @@
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Relabel.h"
+#include "csgv/base/Morton.h"
 
+#include <algorithm>
 #include <cmath>
+#include <unordered_map>
+#include <unordered_set>
 #include <filesystem>
 #include <gtest/gtest.h>
 
@@ -335,4 +339,369 @@ TEST(Compress, StreamedVrawOfNarrowLabelsAndItsErrors) {
     write(dir + "/h.vraw", std::vector<uint8_t>{'9', ' ', '7', '\n'});
     EXPECT_NE(compressToFile(dir + "/h.vraw", dir + "/h.csgv", o).message().find("W H D"), std::string::npos);
     EXPECT_FALSE(fileExists(dir + "/t.csgv"));
+}
+
+// ---- Out-of-core relabelling and the streaming compress pipeline -------------------------------
+
+namespace {
+
+/// @brief A volume in memory as an InputSource; counts the reads so tests can see the passes.
+class VectorSource : public InputSource {
+public:
+    VectorSource(const std::array<uint32_t, 3>& dim, LabelType type, std::vector<uint64_t> values)
+        : m_values(std::move(values)) {
+        m_info.dim = dim;
+        m_info.type = type;
+        m_info.format = "memory";
+    }
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
+        const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
+        if (uint64_t(z0) + depth > m_info.dim[2]) return Status::error("slab beyond the volume");
+        std::copy_n(m_values.data() + slice * z0, size_t(slice * depth), out);
+        slicesRead += depth;
+        maxDepth = std::max(maxDepth, depth);
+        return Status::ok();
+    }
+    uint64_t slicesRead = 0;
+    uint32_t maxDepth = 0;
+
+private:
+    std::vector<uint64_t> m_values;
+};
+
+/// The relabelling order as it was first defined (before streaming): every brick in Morton order
+/// of its coordinates, every voxel of it in Morton order, ids by first appearance. Kept here as
+/// the independent reference the streaming relabeller must reproduce exactly.
+std::vector<uint64_t> referenceRelabel(const std::array<uint32_t, 3>& dim, const std::vector<uint64_t>& values,
+                                       uint32_t B, std::vector<uint32_t>& ids) {
+    std::array<uint32_t, 3> grid{};
+    for (int a = 0; a < 3; ++a) grid[a] = (dim[a] - 1) / B + 1;
+    std::vector<std::pair<uint64_t, std::array<uint32_t, 3>>> bricks;
+    for (uint32_t z = 0; z < grid[2]; ++z)
+        for (uint32_t y = 0; y < grid[1]; ++y)
+            for (uint32_t x = 0; x < grid[0]; ++x) bricks.push_back({morton3x21(x, y, z), {x, y, z}});
+    std::sort(bricks.begin(), bricks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<uint64_t> original{0};
+    std::unordered_map<uint64_t, uint32_t> idOf{{0, 0}};
+    ids.assign(values.size(), 0);
+    for (const auto& br : bricks)
+        for (uint32_t m = 0; m < B * B * B; ++m) {
+            const uint32_t x = br.second[0] * B + mortonX(m), y = br.second[1] * B + mortonY(m),
+                           z = br.second[2] * B + mortonZ(m);
+            if (x >= dim[0] || y >= dim[1] || z >= dim[2]) continue;
+            const size_t i = size_t(x + uint64_t(dim[0]) * (y + uint64_t(dim[1]) * z));
+            auto it = idOf.find(values[i]);
+            if (it == idOf.end()) {
+                it = idOf.emplace(values[i], uint32_t(original.size())).first;
+                original.push_back(values[i]);
+            }
+            ids[i] = it->second;
+        }
+    return original;
+}
+
+struct TestVolume {
+    std::string name;
+    std::array<uint32_t, 3> dim;
+    LabelType type;
+    std::vector<uint64_t> values;
+};
+
+/// Volumes whose labels do not fit the format, with bricks partly outside (no dimension is a
+/// multiple of 8), runs, repeats far apart and a nonzero label at voxel (0, 0, 0).
+std::vector<TestVolume> wideVolumes() {
+    std::vector<TestVolume> out;
+    const std::array<uint32_t, 3> dim = {21, 13, 19};
+    const uint64_t n = uint64_t(dim[0]) * dim[1] * dim[2];
+    auto make = [&](const char* name, LabelType type, auto valueOf) {
+        TestVolume t{name, dim, type, {}};
+        for (uint64_t i = 0; i < n; ++i) t.values.push_back(valueOf(i));
+        out.push_back(std::move(t));
+    };
+    make("int16", LabelType::I16, [](uint64_t i) { return uint64_t(int64_t(int16_t((i / 7) % 23) - 11)); });
+    make("int32", LabelType::I32, [](uint64_t i) {
+        return i % 11 == 0 ? 0 : uint64_t(int64_t((i * 2654435761u) % 97) - 40) * 100000;
+    });
+    make("uint64", LabelType::U64, [](uint64_t i) { return ((i / 5) % 31 + 1) << 40 | (i % 3); });
+    make("uint32", LabelType::U32, [](uint64_t i) { return (i / 9) % 5 == 0 ? 0xFFFFFFFFull : (i / 13) % 40; });
+    return out;
+}
+
+/// The volume written as NRRD of its type (the compress pipeline's input).
+void writeTypedNrrd(const std::string& path, const TestVolume& t) {
+    Status s;
+    auto write = [&](auto sample, const char* name) {
+        using T = decltype(sample);
+        std::vector<T> v(t.values.size());
+        for (size_t i = 0; i < v.size(); ++i) v[i] = T(t.values[i]);
+        s = writeNrrd(path, t.dim, name, v.data(), sizeof(T), Geometry{});
+    };
+    switch (t.type) {
+    case LabelType::I16: write(int16_t(0), "int16"); break;
+    case LabelType::I32: write(int32_t(0), "int32"); break;
+    case LabelType::U32: write(uint32_t(0), "uint32"); break;
+    case LabelType::U64: write(uint64_t(0), "uint64"); break;
+    default: write(int64_t(0), "int64"); break;
+    }
+    ASSERT_TRUE(s.isOk()) << s.message();
+}
+
+/// Pass 1 over slabs of `depth` slices in the order given by `reverse`.
+StreamingRelabeller streamRelabel(VectorSource& src, uint32_t brick, uint32_t depth, bool reverse) {
+    const auto& dim = src.info().dim;
+    StreamingRelabeller r(dim, brick);
+    std::vector<uint32_t> starts;
+    for (uint32_t z = 0; z < dim[2]; z += depth) starts.push_back(z);
+    if (reverse) std::reverse(starts.begin(), starts.end());
+    std::vector<uint64_t> buf;
+    for (uint32_t z : starts) {
+        const uint32_t d = std::min(depth, dim[2] - z);
+        buf.resize(size_t(uint64_t(dim[0]) * dim[1] * d));
+        EXPECT_TRUE(src.readSlab(z, d, buf.data()).isOk());
+        r.observe(z, d, buf.data());
+    }
+    EXPECT_TRUE(r.finish().isOk());
+    return r;
+}
+
+} // namespace
+
+TEST(StreamingRelabel, IdsEqualTheReferenceOrderForAnySlabOrder) {
+    std::vector<TestVolume> volumes = wideVolumes();
+    // synthA with forced relabelling (fits, 133 x 70 x 194: bricks partly outside on every axis).
+    const LabelVolume& a = sourceVolume("synthA");
+    volumes.push_back({"synthA", a.dim, LabelType::U32, std::vector<uint64_t>(a.labels.begin(), a.labels.end())});
+    for (const TestVolume& t : volumes)
+        for (uint32_t brick : {8u, 16u, 32u}) {
+            std::vector<uint32_t> refIds;
+            const std::vector<uint64_t> ref = referenceRelabel(t.dim, t.values, brick, refIds);
+            for (uint32_t depth : {1u, 3u, brick}) {
+                VectorSource src(t.dim, t.type, t.values);
+                StreamingRelabeller r = streamRelabel(src, brick, depth, depth == 3);
+                ASSERT_EQ(r.originalBits(), ref) << t.name << " brick " << brick << " depth " << depth;
+                // Memory: one map entry per distinct non-zero label, nothing per voxel.
+                std::unordered_set<uint64_t> distinct(t.values.begin(), t.values.end());
+                distinct.erase(0);
+                EXPECT_EQ(r.mapSize(), distinct.size());
+                EXPECT_EQ(r.originalBits().size(), distinct.size() + 1);
+                std::vector<uint32_t> ids(t.values.size());
+                r.toIds(t.values.data(), t.values.size(), ids.data());
+                ASSERT_EQ(ids, refIds) << t.name << " brick " << brick;
+            }
+            // prepareLabels (the in-memory API) gives the same ids and mapping.
+            InputVolume in;
+            in.dim = t.dim;
+            in.type = t.type;
+            in.values = t.values;
+            LabelMapping m;
+            Result<LabelVolume> p = prepareLabels(in, brick, true, m);
+            ASSERT_TRUE(p.isOk()) << p.message();
+            EXPECT_EQ(p->labels, refIds);
+            EXPECT_EQ(m.originalBits, ref);
+        }
+}
+
+TEST(StreamingRelabel, AdapterChecksFitMapsIdsAndReadsInBoundedSubSlabs) {
+    const TestVolume t = wideVolumes()[3]; // uint32 holding 0xFFFFFFFF
+    const uint64_t slice = uint64_t(t.dim[0]) * t.dim[1];
+    VectorSource src(t.dim, t.type, t.values);
+    // Values that do not fit fail the read with the voxel named and misfit() set.
+    LabelSlabAdapter check(src, nullptr);
+    std::vector<uint32_t> slab(size_t(slice * 8));
+    Status s = check.readSlab(0, 8, slab.data());
+    ASSERT_FALSE(s.isOk());
+    EXPECT_TRUE(check.misfit());
+    EXPECT_NE(s.message().find("voxel (0, 0, 0)"), std::string::npos) << s.message();
+    // Relabelled slabs equal the reference ids; a scratch of 2 slices reads 2 slices at a time.
+    std::vector<uint32_t> refIds;
+    referenceRelabel(t.dim, t.values, 8, refIds);
+    StreamingRelabeller r = streamRelabel(src, 8, 8, false);
+    src.maxDepth = 0;
+    LabelSlabAdapter mapped(src, &r, 2 * slice * 8);
+    for (uint32_t z = 0; z < t.dim[2]; z += 8) {
+        const uint32_t d = std::min(8u, t.dim[2] - z);
+        ASSERT_TRUE(mapped.readSlab(z, d, slab.data()).isOk());
+        for (size_t i = 0; i < slice * d; ++i) ASSERT_EQ(slab[i], refIds[size_t(slice * z + i)]) << z << " " << i;
+    }
+    EXPECT_EQ(src.maxDepth, 2u);
+    EXPECT_EQ(mapped.scratchBytes(), 2 * slice * 8);
+    EXPECT_EQ(subSlabDepth(slice, 8, 1), 1u);       // at least one slice
+    EXPECT_EQ(subSlabDepth(slice, 3, 1u << 30), 3u); // never more than asked
+}
+
+TEST(StreamingRelabel, CompressWritesTheReferenceIdsAndDatabase) {
+    const std::string dir = freshDir("streamrelabel");
+    for (const TestVolume& t : wideVolumes()) {
+        const std::string in = dir + "/" + t.name + ".nrrd", out = dir + "/" + t.name + ".csgv";
+        writeTypedNrrd(in, t);
+        CompressOptions o;
+        o.encode.brickSize = 16;
+        CompressReport r;
+        Status s = compressToFile(in, out, o, &r);
+        ASSERT_TRUE(s.isOk()) << s.message();
+        EXPECT_TRUE(r.relabelled);
+        EXPECT_EQ(r.inputFormat, "NRRD");
+        EXPECT_EQ(r.originalType, labelTypeName(t.type));
+        // Optimistic one pass met a misfit and restarted with two: three reads in all.
+        EXPECT_TRUE(r.restarted);
+        EXPECT_EQ(r.passes, 3);
+        std::vector<uint32_t> refIds;
+        const std::vector<uint64_t> ref = referenceRelabel(t.dim, t.values, 16, refIds);
+        EXPECT_EQ(r.labelCount, ref.size());
+        // The database maps exactly the reference originalBits, as the in-memory path wrote it.
+        Result<AttributeDatabase> db = readAttributeDb(attributeDbPathFor(out));
+        ASSERT_TRUE(db.isOk()) << db.message();
+        ASSERT_EQ(db->labels.size(), ref.size());
+        for (size_t i = 0; i < ref.size(); ++i) EXPECT_EQ(uint64_t(db->labels[i]), ref[i]) << t.name << " id " << i;
+        const std::string inMemoryDb = dir + "/" + t.name + "_mem.db3";
+        LabelMapping m;
+        InputVolume iv;
+        iv.dim = t.dim;
+        iv.type = t.type;
+        iv.values = t.values;
+        ASSERT_TRUE(prepareLabels(iv, 16, false, m).isOk());
+        ASSERT_TRUE(writeAttributeDb(inMemoryDb, t.dim, m.originalBits, isSignedType(t.type)).isOk());
+        Result<AttributeDatabase> memDb = readAttributeDb(inMemoryDb);
+        ASSERT_TRUE(memDb.isOk());
+        EXPECT_EQ(memDb->labels, db->labels);
+        EXPECT_EQ(memDb->labelsUnsigned64, db->labelsUnsigned64);
+        // The file decodes to the reference ids.
+        Result<CsgvFile> f = openCsgv(out);
+        ASSERT_TRUE(f.isOk()) << f.message();
+        EXPECT_TRUE(f->metadata.relabelled);
+        Result<LabelVolume> d = decodeVolume(f->volume, 0);
+        ASSERT_TRUE(d.isOk());
+        EXPECT_EQ(d->labels, refIds) << t.name;
+        // Forced relabelling goes straight to two passes.
+        o.relabel = true;
+        ASSERT_TRUE(compressToFile(in, out, o, &r).isOk());
+        EXPECT_EQ(r.passes, 2);
+        EXPECT_FALSE(r.restarted);
+    }
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+TEST(StreamingRelabel, LabelsThatFitTakeOnePassAndProgressHasStages) {
+    const std::string dir = freshDir("onepass");
+    TestVolume t{"fit", {19, 17, 23}, LabelType::I32, {}};
+    for (uint64_t i = 0; i < 19 * 17 * 23; ++i) t.values.push_back((i / 6) % 50);
+    writeTypedNrrd(dir + "/fit.nrrd", t);
+    CompressOptions o;
+    o.encode.brickSize = 8;
+    std::vector<std::pair<double, std::string>> seen;
+    o.progress = [&seen](double f, const char* stage) {
+        seen.push_back({f, stage});
+        return true;
+    };
+    CompressReport r;
+    ASSERT_TRUE(compressToFile(dir + "/fit.nrrd", dir + "/fit.csgv", o, &r).isOk());
+    EXPECT_FALSE(r.relabelled);
+    EXPECT_EQ(r.passes, 1);
+    EXPECT_GT(r.workingBytes, uint64_t(19 * 17 * 8 * 4));
+    ASSERT_FALSE(seen.empty());
+    EXPECT_EQ(seen.back().first, 1.0);
+    for (const auto& p : seen) EXPECT_EQ(p.second, "encoding");
+    Result<CsgvFile> f = openCsgv(dir + "/fit.csgv");
+    ASSERT_TRUE(f.isOk());
+    Result<LabelVolume> d = decodeVolume(f->volume, 0);
+    ASSERT_TRUE(d.isOk());
+    for (size_t i = 0; i < t.values.size(); ++i) ASSERT_EQ(d->labels[i], uint32_t(t.values[i])) << i;
+    // With relabelling: "relabelling" up to 0.5, then "encoding" to 1, never going back.
+    seen.clear();
+    o.relabel = true;
+    ASSERT_TRUE(compressToFile(dir + "/fit.nrrd", dir + "/fit.csgv", o, &r).isOk());
+    ASSERT_FALSE(seen.empty());
+    EXPECT_EQ(seen.front().second, "relabelling");
+    EXPECT_EQ(seen.back().second, "encoding");
+    EXPECT_EQ(seen.back().first, 1.0);
+    for (size_t i = 1; i < seen.size(); ++i) {
+        EXPECT_GE(seen[i].first, seen[i - 1].first);
+        if (seen[i].second == "relabelling") {
+            EXPECT_LE(seen[i].first, 0.5);
+        }
+    }
+}
+
+TEST(StreamingRelabel, CancellingLeavesNoFiles) {
+    const std::string dir = freshDir("cancel");
+    TestVolume t = wideVolumes()[0];
+    writeTypedNrrd(dir + "/in.nrrd", t);
+    for (const char* when : {"relabelling", "encoding"}) {
+        CompressOptions o;
+        o.encode.brickSize = 8;
+        o.relabel = true;
+        // Cancel at the stage's second report: inside pass 1, or inside encodeToFile.
+        int calls = 0;
+        o.progress = [when, &calls](double, const char* stage) { return std::string(stage) != when || ++calls < 2; };
+        Status s = compressToFile(dir + "/in.nrrd", dir + "/out.csgv", o);
+        ASSERT_FALSE(s.isOk()) << when;
+        EXPECT_NE(s.message().find("cancelled"), std::string::npos) << s.message();
+        size_t files = 0;
+        for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.path().filename() != "in.nrrd";
+        EXPECT_EQ(files, 0u) << when;
+    }
+    // A synth: volume cancelled while encoding leaves nothing either.
+    CompressOptions o;
+    int calls = 0;
+    o.progress = [&calls](double, const char*) { return ++calls < 2; };
+    EXPECT_NE(compressToFile("synth:40x40x40", dir + "/s.csgv", o).message().find("cancelled"), std::string::npos);
+    EXPECT_FALSE(fileExists(dir + "/s.csgv"));
+    EXPECT_FALSE(fileExists(dir + "/s.csgv.json"));
+}
+
+TEST(StreamingRelabel, CompressReadsTheSourceInSlabsOncePerPass) {
+    const std::string dir = freshDir("passes");
+    TestVolume t = wideVolumes()[1]; // int32 with negatives
+    const uint32_t D = t.dim[2];
+    std::vector<uint32_t> refIds;
+    const std::vector<uint64_t> ref = referenceRelabel(t.dim, t.values, 8, refIds);
+    CompressOptions o;
+    o.encode.brickSize = 8;
+    auto decoded = [&](const std::string& path) {
+        Result<CsgvFile> f = openCsgv(path);
+        EXPECT_TRUE(f.isOk()) << f.message();
+        return f.isOk() ? decodeVolume(f->volume, 0)->labels : std::vector<uint32_t>{};
+    };
+    // Forced: two passes, each reading every slice once, never more than a brick of slices at a time.
+    {
+        VectorSource src(t.dim, t.type, t.values);
+        o.relabel = true;
+        CompressReport r;
+        ASSERT_TRUE(compressSourceToFile(src, "memory", dir + "/a.csgv", o, &r).isOk());
+        EXPECT_EQ(src.slicesRead, 2u * D);
+        EXPECT_LE(src.maxDepth, 8u);
+        EXPECT_EQ(r.passes, 2);
+        EXPECT_EQ(decoded(dir + "/a.csgv"), refIds);
+        EXPECT_EQ(*readAttributeDb(dir + "/a_csgv.db3")->labels.rbegin(), int64_t(ref.back()));
+    }
+    // Only the last slice does not fit: one whole optimistic pass, then two more.
+    {
+        std::vector<uint64_t> v(t.values.size());
+        for (size_t i = 0; i < v.size(); ++i) v[i] = t.values[i] & 0xFFFF;
+        v.back() = uint64_t(-1);
+        VectorSource src(t.dim, t.type, v);
+        o.relabel = false;
+        CompressReport r;
+        ASSERT_TRUE(compressSourceToFile(src, "memory", dir + "/b.csgv", o, &r).isOk());
+        EXPECT_TRUE(r.restarted);
+        EXPECT_EQ(r.passes, 3);
+        EXPECT_EQ(src.slicesRead, 3u * D);
+        std::vector<uint32_t> ids;
+        referenceRelabel(t.dim, v, 8, ids);
+        EXPECT_EQ(decoded(dir + "/b.csgv"), ids);
+    }
+    // Labels that fit: one pass, the labels as they are, no database.
+    {
+        std::vector<uint64_t> v(t.values.size());
+        for (size_t i = 0; i < v.size(); ++i) v[i] = t.values[i] & 0xFFFF;
+        VectorSource src(t.dim, t.type, v);
+        CompressReport r;
+        ASSERT_TRUE(compressSourceToFile(src, "memory", dir + "/c.csgv", o, &r).isOk());
+        EXPECT_EQ(src.slicesRead, uint64_t(D));
+        EXPECT_FALSE(fileExists(dir + "/c_csgv.db3"));
+        const std::vector<uint32_t> got = decoded(dir + "/c.csgv");
+        ASSERT_EQ(got.size(), v.size());
+        for (size_t i = 0; i < v.size(); ++i) ASSERT_EQ(got[i], uint32_t(v[i])) << i;
+    }
 }

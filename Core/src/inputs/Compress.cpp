@@ -1,10 +1,14 @@
 // SPDX-License-Identifier: MIT
+/// @file Compress.cpp
+/// @brief compressToFile: input -> LabelSlabAdapter (optionally relabelled in two passes) ->
+/// encodeToFile, then the sidecars and the final rename (memory: see Compress.h).
 #include "csgv/inputs/Compress.h"
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Procedural.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -27,141 +31,304 @@ double since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// `.vraw` on disk, read slab by slab with positioned reads.
-class VrawSlabSource : public SlabSource {
+/// @brief The procedural volume as an InputSource (uint32 values widened), so that `--relabel`
+/// and verify treat `synth:` like any input. Memory: one uint32 copy of the last slab read.
+class SynthInput : public InputSource {
 public:
-    ~VrawSlabSource() override {
-        if (m_file) std::fclose(m_file);
+    explicit SynthInput(const SynthSpec& spec) : m_generator(spec) {
+        m_info.dim = spec.dim;
+        m_info.type = LabelType::U32;
+        m_info.format = "synth";
+        m_info.detail = "procedural Voronoi cells, cell size " + std::to_string(spec.cellSize) + ", seed " +
+                        std::to_string(spec.seed);
     }
-    Status open(const std::string& path) {
-        m_path = path;
-        Result<uint64_t> size = fileSize(path);
-        if (!size) return size.status();
-        m_file = std::fopen(path.c_str(), "rb");
-        if (!m_file) return Status::error("cannot open '" + path + "'");
-        uint8_t head[160];
-        const size_t got = std::fread(head, 1, sizeof(head), m_file);
-        Result<VrawHeader> h = parseVrawHeader(head, got);
-        if (!h) return Status(h.status()).prefix(path);
-        Status s = h->checkLabelBytes(*size - h->headerBytes);
-        if (!s) return s.prefix(path);
-        m_header = *h;
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
+        const size_t n = size_t(uint64_t(m_info.dim[0]) * m_info.dim[1] * depth);
+        m_labels.resize(n);
+        if (Status s = m_generator.readSlab(z0, depth, m_labels.data()); !s) return s;
+        std::copy(m_labels.begin(), m_labels.end(), out);
         return Status::ok();
     }
-    std::array<uint32_t, 3> dimensions() const override { return m_header.dim; }
-    Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override {
-        const uint32_t bytes = m_header.bytesPerLabel;
-        const uint64_t slice = uint64_t(m_header.dim[0]) * m_header.dim[1];
-        const size_t n = size_t(slice * depth);
-        if (fseeko(m_file, off_t(m_header.headerBytes + slice * z0 * bytes), SEEK_SET) != 0)
-            return Status::error("cannot seek in '" + m_path + "'");
-        // 32-bit labels land in place; narrower ones are widened from the slab's raw bytes.
-        std::vector<uint8_t> narrow(bytes == 4 ? 0 : n * bytes);
-        void* dst = bytes == 4 ? static_cast<void*>(out) : narrow.data();
-        if (std::fread(dst, 1, n * bytes, m_file) != n * bytes) return Status::error("cannot read '" + m_path + "'");
-        if (bytes != 4) widenLabels(narrow.data(), bytes, n, out);
-        return Status::ok();
-    }
+    uint64_t workingBytes() const override { return m_labels.capacity() * sizeof(uint32_t); }
 
 private:
-    std::string m_path;
-    std::FILE* m_file = nullptr;
-    VrawHeader m_header;
+    ProceduralSlabSource m_generator;
+    std::vector<uint32_t> m_labels;
 };
+
+/// @brief Stage bookkeeping between encodeToFile's fractions and CompressOptions::progress:
+/// maps a stage's own fraction into its share of the whole and remembers a cancel.
+class Progress {
+public:
+    explicit Progress(const CompressProgress& callback) : m_callback(callback) {}
+    /// Starts a stage (reported at its start, so rates can be measured from there); false once
+    /// cancelled.
+    bool stage(const char* name, double from, double to) {
+        m_name = name;
+        m_from = from;
+        m_to = to;
+        return report(0);
+    }
+    /// Reports the stage's own fraction; false once the callback asked to cancel.
+    bool report(double stageFraction) {
+        if (m_cancelled) return false;
+        if (m_callback && !m_callback(m_from + (m_to - m_from) * std::clamp(stageFraction, 0.0, 1.0), m_name))
+            m_cancelled = true;
+        return !m_cancelled;
+    }
+    bool cancelled() const { return m_cancelled; }
+
+private:
+    const CompressProgress& m_callback;
+    const char* m_name = "";
+    double m_from = 0, m_to = 1;
+    bool m_cancelled = false;
+};
+
+/// Pass 1: every slab of the source through the relabeller, in sub-slabs of bounded size.
+Status observeAll(InputSource& source, StreamingRelabeller& relabeller, Progress& progress,
+                  uint64_t& maxSourceWorking) {
+    const auto& dim = source.info().dim;
+    const uint64_t slice = uint64_t(dim[0]) * dim[1];
+    // Bounded scratch, and at least 16 reads so progress moves.
+    const uint32_t step = std::min(subSlabDepth(slice, dim[2]), std::max(1u, (dim[2] + 15) / 16));
+    std::vector<uint64_t> scratch(size_t(slice * step));
+    for (uint32_t z = 0; z < dim[2]; z += step) {
+        const uint32_t depth = std::min(step, dim[2] - z);
+        if (Status s = source.readSlab(z, depth, scratch.data()); !s) return s;
+        maxSourceWorking = std::max(maxSourceWorking, source.workingBytes());
+        relabeller.observe(z, depth, scratch.data());
+        if (!progress.report(double(z + depth) / dim[2])) return Status::error("cancelled");
+    }
+    return relabeller.finish();
+}
+
+/// Names the input in a message unless it already does.
+Status named(Status s, const std::string& input) {
+    if (!s && s.message().find(input) == std::string::npos) s.prefix(input);
+    return s;
+}
 
 } // namespace
 
-Result<std::unique_ptr<SlabSource>> openVrawSlabs(const std::string& path) {
-    auto src = std::make_unique<VrawSlabSource>();
-    Status s = src->open(path);
-    if (!s) return s;
-    return std::unique_ptr<SlabSource>(std::move(src));
+
+uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes) {
+    const uint64_t slices = maxBytes / std::max<uint64_t>(1, sliceVoxels * sizeof(uint64_t));
+    return uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(slices, std::max<uint32_t>(depth, 1))));
 }
 
-Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
-                      CompressReport* report) {
+LabelSlabAdapter::LabelSlabAdapter(InputSource& source, const StreamingRelabeller* relabeller, uint64_t maxScratchBytes)
+    : m_source(source), m_relabeller(relabeller), m_maxScratchBytes(maxScratchBytes) {}
+
+Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
+    const auto& dim = m_source.info().dim;
+    const uint64_t slice = uint64_t(dim[0]) * dim[1];
+    const uint32_t step = subSlabDepth(slice, depth, m_maxScratchBytes);
+    m_scratch.resize(size_t(slice * step));
+    for (uint32_t z = z0; z < z0 + depth; z += step) {
+        const uint32_t d = std::min(step, z0 + depth - z);
+        const size_t n = size_t(slice * d);
+        if (Status s = m_source.readSlab(z, d, m_scratch.data()); !s) return s;
+        m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
+        uint32_t* dst = out + slice * (z - z0);
+        if (m_relabeller) {
+            m_relabeller->toIds(m_scratch.data(), n, dst);
+            continue;
+        }
+        for (size_t i = 0; i < n; ++i) {
+            const uint64_t v = m_scratch[i];
+            if (!labelFitsFormat(v)) {
+                m_misfit = true;
+                const uint64_t x = i % dim[0], y = (i / dim[0]) % dim[1], zz = z + i / slice;
+                return Status::error("voxel (" + std::to_string(x) + ", " + std::to_string(y) + ", " +
+                                     std::to_string(zz) + ") holds a label that does not fit the format");
+            }
+            dst[i] = uint32_t(v);
+        }
+    }
+    return Status::ok();
+}
+
+Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options) {
+    if (!isSynthName(input)) return openInput(input, options);
+    Result<SynthSpec> spec = parseSynthSpec(input);
+    if (!spec) return spec.status();
+    return std::unique_ptr<InputSource>(std::make_unique<SynthInput>(*spec));
+}
+
+namespace {
+
+/// One encoding pass of `slabs` into `path`, its fractions reported through `progress`.
+Status encodePass(SlabSource& slabs, const CompressOptions& options, const std::string& path, Progress& progress,
+                  uint64_t& outputBytes) {
+    EncodeToFileOptions fo;
+    fo.maxOutputBytes = options.maxOutputBytes;
+    fo.progress = [&progress](double f) { return progress.report(f); };
+    return encodeToFile(slabs, options.encode, path, fo, &outputBytes);
+}
+
+/// Removes the file at `path` if there is one (cleanup after errors; failures are harmless).
+void removeIfThere(const std::string& path) {
+    if (fileExists(path)) std::remove(path.c_str());
+}
+
+/// @brief One compression's state between its steps (open, encode, publish).
+struct Job {
+    const std::string& input;
+    const CompressOptions& options;
+    CompressReport& rep;
+    std::string tmp;           ///< the encoded volume before its final rename
+    Progress progress;
+    bool synth = false;
+    std::unique_ptr<InputSource> owned;
+    InputSource* source = nullptr;
+    VolumeMetadata md;
+    LabelMapping mapping;
+    uint64_t outputBytes = 0;
+
+    Job(const std::string& in, const std::string& output, const CompressOptions& o, CompressReport& r)
+        : input(in), options(o), rep(r), tmp(output + ".tmp-encoding.csgv"), progress(o.progress) {}
+
+    /// Cleans up after an error and says what happened (a cancel says so).
+    Status failed(Status s) {
+        removeIfThere(tmp);
+        if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
+        return named(s, input);
+    }
+    uint64_t encoderSlabBytes() const {
+        const auto& d = source->info().dim;
+        return uint64_t(d[0]) * d[1] * options.encode.brickSize * 4;
+    }
+
+    /// Opens the input (unless a source is given) and fills what is known before any voxel is read.
+    Status open(InputSource* given) {
+        synth = !given && isSynthName(input);
+        if (given) {
+            source = given;
+        } else {
+            Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
+            if (!opened) return opened.status();
+            owned = std::move(*opened);
+            source = owned.get();
+        }
+        const InputInfo& info = source->info();
+        md.source = synth ? input : baseName(input);
+        md.dim = info.dim;
+        if (!synth) {
+            md.geometry = cellGeometryFromPointGeometry(info.geometry);
+            md.originalType = labelTypeName(info.type);
+        }
+        mapping.type = info.type;
+        rep.dim = info.dim;
+        rep.voxels = info.voxelCount();
+        rep.inputFormat = info.format;
+        return Status::ok();
+    }
+
+    /// One pass keeping the labels; sets `misfit` (and fails) at the first label that does not fit.
+    Status encodeKeepingLabels(bool& misfit) {
+        if (!progress.stage("encoding", 0, 1)) return Status::error("cancelled");
+        rep.passes = 1;
+        if (synth) {
+            // The generator's labels always fit: no adapter, no scratch.
+            ProceduralSlabSource generator(*parseSynthSpec(input));
+            rep.workingBytes = encoderSlabBytes();
+            return encodePass(generator, options, tmp, progress, outputBytes);
+        }
+        LabelSlabAdapter adapter(*source, nullptr);
+        Status s = encodePass(adapter, options, tmp, progress, outputBytes);
+        rep.workingBytes = encoderSlabBytes() + adapter.scratchBytes() + adapter.maxSourceWorkingBytes();
+        misfit = !s && adapter.misfit() && !progress.cancelled();
+        return s;
+    }
+
+    /// Two passes: first visiting positions, then the ids encoded.
+    Status encodeRelabelled() {
+        removeIfThere(tmp);
+        StreamingRelabeller relabeller(source->info().dim, options.encode.brickSize);
+        uint64_t sourceWorking = 0;
+        if (!progress.stage("relabelling", 0, 0.5)) return Status::error("cancelled");
+        const auto t0 = std::chrono::steady_clock::now();
+        if (Status s = observeAll(*source, relabeller, progress, sourceWorking); !s) return s;
+        rep.relabelSeconds = since(t0);
+        rep.passes += 2;
+        if (!progress.stage("encoding", 0.5, 1)) return Status::error("cancelled");
+        LabelSlabAdapter adapter(*source, &relabeller);
+        if (Status s = encodePass(adapter, options, tmp, progress, outputBytes); !s) return s;
+        mapping.relabelled = true;
+        mapping.originalBits = relabeller.originalBits();
+        if (synth) md.originalType = labelTypeName(LabelType::U32);
+        rep.workingBytes = std::max(rep.workingBytes, encoderSlabBytes() + adapter.scratchBytes() +
+                                                          relabeller.memoryBytes() +
+                                                          std::max(sourceWorking, adapter.maxSourceWorkingBytes()));
+        return Status::ok();
+    }
+
+    /// Sidecars first, the volume last: a reader never sees a new .csgv with an old database.
+    Status publish(const std::string& output) {
+        md.relabelled = mapping.relabelled;
+        const std::string db = attributeDbPathFor(output);
+        if (mapping.relabelled) {
+            if (Status s = writeAttributeDb(db, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) return s;
+        } else if (fileExists(db) && std::remove(db.c_str()) != 0) {
+            return Status::error("cannot remove the stale attribute database '" + db + "'");
+        }
+        if (Status s = writeMetadata(metadataPathFor(output), md); !s) return s;
+        if (std::rename(tmp.c_str(), output.c_str()) != 0)
+            return Status::error("cannot rename '" + tmp + "' to '" + output + "': " + errnoText());
+        return Status::ok();
+    }
+};
+
+/// compressToFile from a given source or the input's name.
+Status compress(InputSource* given, const std::string& input, const std::string& output,
+                const CompressOptions& options, CompressReport* report) {
     CompressReport local;
     CompressReport& rep = report ? *report : local;
     rep = CompressReport{};
-    Status s = checkEncodeOptions(options.encode);
-    if (!s) return s;
+    if (Status s = checkEncodeOptions(options.encode); !s) return s;
     if (!endsWith(output, ".csgv")) return Status::error("output '" + output + "' must end in .csgv");
+    const auto tStart = std::chrono::steady_clock::now();
+    Job job(input, output, options, rep);
+    if (Status s = job.open(given); !s) return s;
+    rep.readSeconds = since(tStart);
 
-    VolumeMetadata md;
-    md.source = isSynthName(input) ? input : baseName(input);
-    LabelMapping mapping;
-    Result<CompressedVolume> vol = Status::error("no input");
+    // Labels kept in one optimistic pass unless relabelling is asked for or a label does not fit.
     auto t0 = std::chrono::steady_clock::now();
-    const bool plainVraw = endsWith(input, ".vraw");
-    if ((isSynthName(input) || plainVraw) && !options.relabel) {
-        // Streamed: memory is the output plus a few slabs.
-        std::unique_ptr<SlabSource> src;
-        if (isSynthName(input)) {
-            Result<SynthSpec> spec = parseSynthSpec(input);
-            if (!spec) return spec.status();
-            src = std::make_unique<ProceduralSlabSource>(*spec);
-        } else {
-            Result<std::unique_ptr<SlabSource>> r = openVrawSlabs(input);
-            if (!r) return r.status();
-            src = std::move(*r);
-        }
-        rep.streamed = true;
-        md.dim = src->dimensions();
-        vol = encodeVolume(*src, options.encode, options.maxOutputBytes);
-        if (!vol) return Status(vol.status()).prefix(input);
-        rep.encodeSeconds = since(t0);
-    } else {
-        InputVolume in;
-        if (isSynthName(input)) {
-            Result<SynthSpec> spec = parseSynthSpec(input);
-            if (!spec) return spec.status();
-            Result<LabelVolume> v = generateVolume(*spec, options.maxInputBytes / 2);
-            if (!v) return v.status();
-            in.dim = v->dim;
-            in.values.assign(v->labels.begin(), v->labels.end());
-        } else {
-            Result<InputVolume> r = readInput(input, options.maxInputBytes);
-            if (!r) return r.status();
-            in = std::move(*r);
-            md.geometry = cellGeometryFromPointGeometry(in.geometry);
-        }
-        md.dim = in.dim;
-        md.originalType = labelTypeName(in.type);
-        rep.readSeconds = since(t0);
+    bool relabel = options.relabel;
+    if (!relabel) {
+        Status s = job.encodeKeepingLabels(rep.restarted);
+        if (!s && !rep.restarted) return job.failed(s);
+        relabel = rep.restarted;
+    }
+    if (relabel) {
         t0 = std::chrono::steady_clock::now();
-        Result<LabelVolume> labels = prepareLabels(in, options.encode.brickSize, options.relabel, mapping);
-        if (!labels) return Status(labels.status()).prefix(input);
-        in = InputVolume{};
-        vol = encodeVolume(*labels, options.encode);
-        if (!vol) return Status(vol.status()).prefix(input);
-        rep.encodeSeconds = since(t0);
+        if (Status s = job.encodeRelabelled(); !s) return job.failed(s);
     }
-    if (vol->serializedSize() > options.maxOutputBytes)
-        return Status::error("the compressed volume needs " + std::to_string(vol->serializedSize()) +
-                             " bytes, more than the output limit");
+    rep.encodeSeconds = since(t0) - rep.relabelSeconds;
+
     t0 = std::chrono::steady_clock::now();
-    md.relabelled = mapping.relabelled;
-    // Sidecars first, the volume last: a reader never sees a new .csgv with an old database.
-    const std::string db = attributeDbPathFor(output);
-    if (mapping.relabelled) {
-        s = writeAttributeDb(db, md.dim, mapping.originalBits, isSignedType(mapping.type));
-        if (!s) return s;
-    } else if (fileExists(db)) {
-        if (std::remove(db.c_str()) != 0) return Status::error("cannot remove the stale attribute database '" + db + "'");
-    }
-    s = writeMetadata(metadataPathFor(output), md);
-    if (!s) return s;
-    Limits limits;
-    limits.maxOutputBytes = options.maxOutputBytes;
-    s = writeCsgv(output, *vol, limits);
-    if (!s) return s;
+    if (Status s = job.publish(output); !s) return job.failed(s);
     rep.writeSeconds = since(t0);
-    rep.dim = md.dim;
-    rep.outputBytes = vol->serializedSize();
-    rep.relabelled = mapping.relabelled;
-    rep.labelCount = mapping.originalBits.size();
-    rep.originalType = md.originalType;
+    rep.outputBytes = job.outputBytes;
+    rep.relabelled = job.mapping.relabelled;
+    rep.labelCount = job.mapping.originalBits.size();
+    rep.originalType = job.md.originalType;
+    const double total = since(tStart);
+    rep.mvoxelsPerSecond = total > 0 ? double(rep.voxels) / total / 1e6 : 0;
     return Status::ok();
+}
+
+} // namespace
+
+Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
+                      CompressReport* report) {
+    return compress(nullptr, input, output, options, report);
+}
+
+Status compressSourceToFile(InputSource& source, const std::string& name, const std::string& output,
+                            const CompressOptions& options, CompressReport* report) {
+    return compress(&source, name, output, options, report);
 }
 
 } // namespace csgv

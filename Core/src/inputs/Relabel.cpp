@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: MIT
+/// @file Relabel.cpp
+/// @brief Dense relabelling by first visiting position (Relabel.h), streamed or in memory.
 #include "csgv/inputs/Relabel.h"
 #include "csgv/base/Morton.h"
 
 #include <algorithm>
-#include <unordered_map>
 
 namespace csgv {
 
@@ -19,46 +20,100 @@ uint64_t spread21(uint64_t v) {
     return v;
 }
 
-/// Visits every voxel in relabelling order: bricks in Morton order of (bx, by, bz), voxels in
-/// Morton order inside a brick; fn(linearIndex).
-template <typename Fn>
-void forEachInMortonBrickOrder(const std::array<uint32_t, 3>& dim, uint32_t B, Fn fn) {
-    std::array<uint32_t, 3> grid{};
-    for (int a = 0; a < 3; ++a) grid[a] = (dim[a] - 1) / B + 1;
-    std::vector<std::pair<uint64_t, std::array<uint32_t, 3>>> bricks;
-    bricks.reserve(size_t(uint64_t(grid[0]) * grid[1] * grid[2]));
-    for (uint32_t z = 0; z < grid[2]; ++z)
-        for (uint32_t y = 0; y < grid[1]; ++y)
-            for (uint32_t x = 0; x < grid[0]; ++x) bricks.push_back({morton3x21(x, y, z), {x, y, z}});
-    std::sort(bricks.begin(), bricks.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    const uint32_t n = B * B * B;
-    for (const auto& br : bricks) {
-        const uint32_t ox = br.second[0] * B, oy = br.second[1] * B, oz = br.second[2] * B;
-        const bool inside = ox + B <= dim[0] && oy + B <= dim[1] && oz + B <= dim[2];
-        for (uint32_t m = 0; m < n; ++m) {
-            const uint32_t x = ox + mortonX(m), y = oy + mortonY(m), z = oz + mortonZ(m);
-            if (!inside && (x >= dim[0] || y >= dim[1] || z >= dim[2])) continue;
-            fn(x + uint64_t(dim[0]) * (y + uint64_t(dim[1]) * z));
-        }
-    }
-}
+bool validBrickSize(uint32_t b) { return b >= 8 && b <= 128 && (b & (b - 1)) == 0; }
 
 } // namespace
 
 uint64_t morton3x21(uint32_t x, uint32_t y, uint32_t z) { return spread21(x) | spread21(y) << 1 | spread21(z) << 2; }
 
+VisitPosition visitPosition(uint32_t x, uint32_t y, uint32_t z, uint32_t brickShift) {
+    const uint32_t mask = (1u << brickShift) - 1;
+    return {morton3x21(x >> brickShift, y >> brickShift, z >> brickShift), morton3(x & mask, y & mask, z & mask)};
+}
+
+bool typeAlwaysFitsFormat(LabelType type) { return type == LabelType::U8 || type == LabelType::U16; }
+
 bool labelsFitFormat(const InputVolume& in) {
-    const bool isSigned = isSignedType(in.type);
-    for (uint64_t v : in.values)
-        if ((isSigned && int64_t(v) < 0) || v >= 0xFFFFFFFFull) return false;
-    return true;
+    return std::all_of(in.values.begin(), in.values.end(), labelFitsFormat);
+}
+
+StreamingRelabeller::StreamingRelabeller(const std::array<uint32_t, 3>& dim, uint32_t brickSize) : m_dim(dim) {
+    while ((1u << m_shift) < brickSize) ++m_shift;
+}
+
+void StreamingRelabeller::observe(uint32_t z0, uint32_t depth, const uint64_t* values) {
+    // Along a row (fixed y, z) positions grow with x: inside a brick the Morton index grows with
+    // x, and the next brick along x has a larger brick code. So a run of equal values is first
+    // visited at its first voxel, and one lookup per run suffices.
+    const uint32_t W = m_dim[0], H = m_dim[1];
+    uint64_t lastValue = 0;
+    Entry* last = nullptr;
+    for (uint32_t z = z0; z < z0 + depth; ++z)
+        for (uint32_t y = 0; y < H; ++y) {
+            const uint64_t* row = values + (uint64_t(z - z0) * H + y) * W;
+            for (uint32_t x = 0; x < W;) {
+                const uint64_t v = row[x];
+                const uint32_t start = x;
+                while (x < W && row[x] == v) ++x;
+                if (v == 0) continue;
+                const VisitPosition p = visitPosition(start, y, z, m_shift);
+                if (!last || v != lastValue) {
+                    auto ins = m_entries.try_emplace(v, Entry{p, 0});
+                    last = &ins.first->second; // node addresses survive rehashing
+                    lastValue = v;
+                    if (ins.second) continue;
+                }
+                if (p < last->first) last->first = p;
+            }
+        }
+}
+
+Status StreamingRelabeller::finish() {
+    if (m_entries.size() >= 0xFFFFFFFFull)
+        return Status::error("the volume has more than 2^32 - 1 distinct labels");
+    std::vector<std::pair<VisitPosition, uint64_t>> order;
+    order.reserve(m_entries.size());
+    for (const auto& kv : m_entries) order.push_back({kv.second.first, kv.first});
+    // Two labels share a position only when brick codes alias (more than 2^21 bricks on an
+    // axis); the label then breaks the tie so the ids never depend on hashing.
+    std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {
+        return a.first < b.first || (!(b.first < a.first) && a.second < b.second);
+    });
+    m_originalBits.assign(1, 0);
+    m_originalBits.reserve(order.size() + 1);
+    for (const auto& o : order) {
+        m_entries[o.second].id = uint32_t(m_originalBits.size());
+        m_originalBits.push_back(o.second);
+    }
+    m_finished = true;
+    return Status::ok();
+}
+
+void StreamingRelabeller::toIds(const uint64_t* values, size_t count, uint32_t* ids) const {
+    uint64_t lastValue = 0;
+    uint32_t lastId = 0;
+    for (size_t i = 0; i < count; ++i) {
+        const uint64_t v = values[i];
+        if (v != lastValue) {
+            auto it = m_entries.find(v);
+            lastId = it == m_entries.end() ? 0 : it->second.id;
+            lastValue = v;
+        }
+        ids[i] = lastId;
+    }
+}
+
+uint64_t StreamingRelabeller::memoryBytes() const {
+    // A node holds the key, the entry, the next pointer and the cached hash; plus a bucket pointer.
+    const uint64_t node = sizeof(uint64_t) + sizeof(Entry) + 2 * sizeof(void*);
+    return m_entries.size() * node + m_entries.bucket_count() * sizeof(void*) + m_originalBits.capacity() * 8;
 }
 
 Result<LabelVolume> prepareLabels(const InputVolume& in, uint32_t brickSize, bool forceRelabel, LabelMapping& mapping) {
     if (in.values.size() != in.voxelCount())
         return Status::error("input volume holds " + std::to_string(in.values.size()) + " values, expected " +
                              std::to_string(in.voxelCount()));
-    if (brickSize < 8 || brickSize > 128 || (brickSize & (brickSize - 1)))
+    if (!validBrickSize(brickSize))
         return Status::error("brick size " + std::to_string(brickSize) + " is not a power of two from 8 to 128");
     mapping = LabelMapping{};
     mapping.type = in.type;
@@ -69,28 +124,13 @@ Result<LabelVolume> prepareLabels(const InputVolume& in, uint32_t brickSize, boo
         for (size_t i = 0; i < in.values.size(); ++i) out.labels[i] = uint32_t(in.values[i]);
         return out;
     }
+    // The streaming relabeller over the whole volume as one slab: the same order as any stream.
+    StreamingRelabeller relabeller(in.dim, brickSize);
+    relabeller.observe(0, in.dim[2], in.values.data());
+    if (Status s = relabeller.finish(); !s) return s;
+    relabeller.toIds(in.values.data(), in.values.size(), out.labels.data());
     mapping.relabelled = true;
-    mapping.originalBits.push_back(0); // 0 stays 0
-    std::unordered_map<uint64_t, uint32_t> ids;
-    ids.emplace(0, 0);
-    uint64_t lastValue = 0;
-    uint32_t lastId = 0;
-    bool overflow = false;
-    forEachInMortonBrickOrder(in.dim, brickSize, [&](uint64_t i) {
-        const uint64_t v = in.values[size_t(i)];
-        if (v != lastValue) {
-            auto it = ids.find(v);
-            if (it == ids.end()) {
-                if (mapping.originalBits.size() >= 0xFFFFFFFFull) overflow = true;
-                it = ids.emplace(v, uint32_t(mapping.originalBits.size())).first;
-                mapping.originalBits.push_back(v);
-            }
-            lastValue = v;
-            lastId = it->second;
-        }
-        out.labels[size_t(i)] = lastId;
-    });
-    if (overflow) return Status::error("the volume has more than 2^32 - 1 distinct labels");
+    mapping.originalBits = relabeller.originalBits();
     return out;
 }
 

@@ -5,7 +5,19 @@
 /// the one path that `csgv compress`, benchmarks and the ParaView writer share.
 ///
 /// Inputs: `synth:WxHxD[:seed]` (generated slab by slab) and every form openInput() recognises
-/// (Inputs.h), read slab by slab.
+/// (Inputs.h), read slab by slab and handed to encodeToFile through LabelSlabAdapter, so no step
+/// holds the decoded volume. Labels that fit the format are encoded in one pass. Labels that do
+/// not (negative, 0xFFFFFFFF, wider than 32 bits), or `relabel`, take two passes: pass 1 finds
+/// each label's first visiting position (StreamingRelabeller), pass 2 encodes the ids. Types that
+/// may hold such values (uint32, signed, 64-bit, float) are encoded optimistically and restarted
+/// with two passes at the first value that does not fit: files whose labels fit (the common
+/// uint32/uint64 case) are read once, and a restart wastes at most one partial encode, where a
+/// pre-scan would cost every such file a full extra read.
+///
+/// Working memory: the encoder's slab (W * H * brickSize * 4 bytes) + the adapter's scratch
+/// (kScratchBytes, at least one slice at 8 bytes a voxel) + the source's working set
+/// (InputSource::workingBytes) + the label map when relabelling (about 50 bytes a label) + what
+/// encodeToFile holds for the output.
 
 #include "csgv/codec/Encoder.h"
 #include "csgv/inputs/Inputs.h"
@@ -17,9 +29,11 @@
 
 namespace csgv {
 
-/// Called now and then during compression with the fraction done (0..1) and the stage ("reading",
-/// "relabelling", "encoding", "writing"). Returning false cancels: nothing is written (or what was
-/// written under temporary names is removed) and compressToFile returns an error saying so.
+/// Called now and then during compression with the fraction of the whole compression done
+/// (0..1) and the stage. With two passes "relabelling" covers [0, 0.5) and "encoding" [0.5, 1];
+/// with one pass "encoding" covers [0, 1] (after an optimistic pass restarts, the fraction starts
+/// again from 0). Returning false cancels: nothing is written (what was written under temporary
+/// names is removed) and compressToFile returns an error saying the compression was cancelled.
 using CompressProgress = std::function<bool(double fraction, const char* stage)>;
 
 struct CompressOptions {
@@ -27,26 +41,75 @@ struct CompressOptions {
     InputOptions input;
     CompressProgress progress;
     bool relabel = false;                          ///< force dense relabelling
-    uint64_t maxInputBytes = uint64_t(16) << 30;   ///< inputs read whole
+    uint64_t maxInputBytes = uint64_t(16) << 30;   ///< unused since every input streams (kept for callers)
     uint64_t maxOutputBytes = uint64_t(64) << 30;
 };
 
+/// @brief What a compression did. dim, inputFormat, originalType and voxels are filled as soon as
+/// the input is open, so a progress callback holding the report may read them.
 struct CompressReport {
     std::array<uint32_t, 3> dim{{0, 0, 0}};
+    uint64_t voxels = 0;
+    std::string inputFormat;   ///< "synth", "vraw", "NRRD", "NIfTI", "HDF5", ...
     uint64_t outputBytes = 0;
     bool relabelled = false;
-    uint64_t labelCount = 0;   ///< ids in the database when relabelled
+    uint64_t labelCount = 0;   ///< ids in the database when relabelled (0 included)
     std::string originalType;
-    bool streamed = false;     ///< encoded slab by slab from the source
-    double readSeconds = 0, encodeSeconds = 0, writeSeconds = 0;
+    bool streamed = true;      ///< encoded slab by slab from the source (always, kept for callers)
+    int passes = 0;            ///< reads of the input: 1, 2 (relabelled), 3 (optimistic pass restarted)
+    bool restarted = false;    ///< an optimistic single pass met a label that does not fit
+    /// Estimated peak working memory: encoder slab + adapter scratch + the source's largest working
+    /// set + the label map (not the encoder's output buffers).
+    uint64_t workingBytes = 0;
+    double readSeconds = 0;    ///< opening the input
+    double relabelSeconds = 0; ///< pass 1
+    double encodeSeconds = 0;  ///< the encoding pass (reading, mapping, encoding, writing the .csgv)
+    double writeSeconds = 0;   ///< sidecars and the final rename
+    double mvoxelsPerSecond = 0; ///< voxels over the whole compression's seconds, in millions
 };
 
-/// Slab source over a `.vraw` file on disk (uint8, uint16 or uint32 labels).
-Result<std::unique_ptr<SlabSource>> openVrawSlabs(const std::string& path);
+/// @brief The encoder's uint32 slabs from an InputSource: reads each slab in sub-slabs of a few
+/// slices into a bounded uint64 scratch (never a whole brick-deep slab at 8 bytes a voxel) and
+/// writes format labels: ids through a relabeller, or the values themselves after checking they
+/// fit. A value that does not fit fails the read and sets misfit(), so the caller can restart
+/// with relabelling. Memory: the scratch, max(one slice, kScratchBytes) at 8 bytes a voxel.
+class LabelSlabAdapter : public SlabSource {
+public:
+    static constexpr uint64_t kScratchBytes = uint64_t(32) << 20;
+    /// `relabeller` (finished) maps values to ids; null: values must fit the format.
+    /// `maxScratchBytes` bounds the scratch (one slice at least).
+    LabelSlabAdapter(InputSource& source, const StreamingRelabeller* relabeller, uint64_t maxScratchBytes = kScratchBytes);
+    std::array<uint32_t, 3> dimensions() const override { return m_source.info().dim; }
+    Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override;
+    bool misfit() const { return m_misfit; }
+    uint64_t scratchBytes() const { return m_scratch.capacity() * sizeof(uint64_t); }
+    uint64_t maxSourceWorkingBytes() const { return m_maxSourceWorking; }
 
-/// Compresses `input` to `output` (and its sidecars). Every file is written under a temporary
-/// name and renamed; a stale `_csgv.db3` beside the output is removed when no relabelling happened.
+private:
+    InputSource& m_source;
+    const StreamingRelabeller* m_relabeller;
+    uint64_t m_maxScratchBytes;
+    std::vector<uint64_t> m_scratch;
+    bool m_misfit = false;
+    uint64_t m_maxSourceWorking = 0;
+};
+
+/// Slices per sub-slab of at most `depth` slices of `sliceVoxels` uint64 values within
+/// `maxBytes` (at least 1).
+uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes = LabelSlabAdapter::kScratchBytes);
+
+/// Opens `synth:WxHxD[:seed]` (a uint32 source generated slab by slab, format "synth") or any
+/// input openInput() opens: what compress, verify and info accept as an input.
+Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options = {});
+
+/// Compresses `input` to `output` (and its sidecars). The volume is encoded under a temporary
+/// name, the sidecars are written, and the `.csgv` is renamed last, so a reader never sees a new
+/// `.csgv` with an old database; a stale `_csgv.db3` beside the output is removed when no
+/// relabelling happened. On any error or cancel no output file is left.
 Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
                       CompressReport* report = nullptr);
+/// The same from a source already open (`name` for messages and the metadata's source field).
+Status compressSourceToFile(InputSource& source, const std::string& name, const std::string& output,
+                            const CompressOptions& options, CompressReport* report = nullptr);
 
 } // namespace csgv
