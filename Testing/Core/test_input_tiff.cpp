@@ -40,7 +40,8 @@ std::vector<uint64_t> expectedValues(const std::string& name) {
     std::vector<uint64_t> v(bytes.size() / 8);
     for (size_t i = 0; i < v.size(); ++i) {
         uint64_t x = 0;
-        for (int b = 7; b >= 0; --b) x = (x << 8) | uint8_t(bytes[i * 8 + size_t(b)]);
+        for (int b = 7; b >= 0; --b)
+            x = (x << 8) | uint8_t(bytes[i * 8 + size_t(b)]);
         v[i] = x;
     }
     return v;
@@ -53,7 +54,8 @@ std::unique_ptr<InputSource> openOk(const std::string& path) {
 }
 
 /// Opens `path`, checks its size, type and format, every voxel, and the source contract.
-void expectVolume(const std::string& path, const std::string& expectedName, std::array<uint32_t, 3> dim, LabelType type) {
+void expectVolume(const std::string& path, const std::string& expectedName, std::array<uint32_t, 3> dim,
+                  LabelType type) {
     SCOPED_TRACE(path);
     std::unique_ptr<InputSource> src = openOk(path);
     ASSERT_TRUE(src);
@@ -69,6 +71,11 @@ void expectVolume(const std::string& path, const std::string& expectedName, std:
         ASSERT_EQ(all->values[i], expected[i]) << "voxel " << i;
     csgvtest::expectSourceContract(*src, expected);
     EXPECT_LE(src->workingBytes(), uint64_t(1) << 20);
+}
+
+std::string detailOf(const std::string& name) {
+    std::unique_ptr<InputSource> src = openOk(at(name));
+    return src ? src->info().detail : std::string();
 }
 
 /// The message of opening and reading `path` whole, which must fail; stderr must stay quiet.
@@ -108,76 +115,54 @@ TEST(InputTiff, ClaimsFilesFoldersAndGlobs) {
 }
 
 // ---- good files -------------------------------------------------------------------------------
+// (Few TEST()s on purpose: ctest runs each in its own process, which writes the fixtures anew.)
 
-TEST(InputTiff, MultiPageUint16) {
+TEST(InputTiff, SampleTypes) {
     expectVolume(at("u16_pages.tif"), "u16_pages.tif", {11, 13, 7}, LabelType::U16);
-    std::unique_ptr<InputSource> src = openOk(at("u16_pages.tif"));
-    ASSERT_TRUE(src);
-    EXPECT_CONTAINS(src->info().detail, "multi-page, 7 pages");
-    EXPECT_CONTAINS(src->info().detail, "uncompressed");
+    expectVolume(at("u8.tif"), "u8.tif", {10, 9, 5}, LabelType::U8);
+    expectVolume(at("i8.tif"), "i8.tif", {5, 4, 3}, LabelType::I8);
+    expectVolume(at("i32_neg.tif"), "i32_neg.tif", {12, 10, 4}, LabelType::I32);
+    expectVolume(at("u32_large.tif"), "u32_large.tif", {9, 8, 3}, LabelType::U32);
+    expectVolume(at("u64.tif"), "u64.tif", {6, 5, 2}, LabelType::U64);
+    expectVolume(at("i64.tif"), "i64.tif", {6, 5, 2}, LabelType::I64);
+    expectVolume(at("f32_int.tif"), "f32_int.tif", {7, 6, 3}, LabelType::F32);
+    expectVolume(at("big_endian.tif"), "big_endian.tif", {11, 13, 3}, LabelType::U16);
+    expectVolume(at("single.tif"), "single.tif", {8, 9, 1}, LabelType::U16); // one page: depth 1
+    EXPECT_EQ(detailOf("u16_pages.tif"), "multi-page, 7 pages, strips of 13 rows, uncompressed");
+    EXPECT_EQ(detailOf("single.tif"), "single page, strips of 9 rows, uncompressed");
 }
 
-TEST(InputTiff, Uint8) { expectVolume(at("u8.tif"), "u8.tif", {10, 9, 5}, LabelType::U8); }
-TEST(InputTiff, Int8) { expectVolume(at("i8.tif"), "i8.tif", {5, 4, 3}, LabelType::I8); }
-TEST(InputTiff, Int32WithNegatives) { expectVolume(at("i32_neg.tif"), "i32_neg.tif", {12, 10, 4}, LabelType::I32); }
-TEST(InputTiff, Uint32LargeValues) { expectVolume(at("u32_large.tif"), "u32_large.tif", {9, 8, 3}, LabelType::U32); }
-TEST(InputTiff, Uint64) { expectVolume(at("u64.tif"), "u64.tif", {6, 5, 2}, LabelType::U64); }
-TEST(InputTiff, Int64) { expectVolume(at("i64.tif"), "i64.tif", {6, 5, 2}, LabelType::I64); }
-TEST(InputTiff, Float32HoldingIntegers) { expectVolume(at("f32_int.tif"), "f32_int.tif", {7, 6, 3}, LabelType::F32); }
-TEST(InputTiff, BigEndian) { expectVolume(at("big_endian.tif"), "big_endian.tif", {11, 13, 3}, LabelType::U16); }
-
-TEST(InputTiff, SinglePageIsDepthOne) {
-    expectVolume(at("single.tif"), "single.tif", {8, 9, 1}, LabelType::U16);
-    std::unique_ptr<InputSource> src = openOk(at("single.tif"));
-    ASSERT_TRUE(src);
-    EXPECT_CONTAINS(src->info().detail, "single page");
-}
-
-TEST(InputTiff, TiledDeflate) {
+TEST(InputTiff, StripsTilesAndCodecs) {
+    // Tiles of 16x16 over 37x40 pages (partial tiles at the right and bottom), deflate.
     expectVolume(at("tiled_deflate.tif"), "tiled_deflate.tif", {37, 40, 6}, LabelType::U16);
+    EXPECT_EQ(detailOf("tiled_deflate.tif"), "multi-page, 6 pages, tiles 16x16, deflate");
+    // LZW strips of 5 rows over 23 rows: the last strip has 3.
+    expectVolume(at("lzw_strips.tif"), "lzw_strips.tif", {19, 23, 5}, LabelType::U32);
+    EXPECT_EQ(detailOf("lzw_strips.tif"), "multi-page, 5 pages, strips of 5 rows, LZW");
+    // 64x64 bytes of few symbols in one strip: LZW codes of every width, the table cleared.
+    expectVolume(at("lzw_long.tif"), "lzw_long.tif", {64, 64, 3}, LabelType::U8);
+    expectVolume(at("i16_packbits.tif"), "i16_packbits.tif", {21, 9, 4}, LabelType::I16);
+    EXPECT_EQ(detailOf("i16_packbits.tif"), "multi-page, 4 pages, strips of 3 rows, PackBits");
+
+    // Working memory: one tile (16 x 16 x 2 bytes) and its compressed bytes, not a page.
     std::unique_ptr<InputSource> src = openOk(at("tiled_deflate.tif"));
     ASSERT_TRUE(src);
-    EXPECT_EQ(src->info().detail, "multi-page, 6 pages, tiles 16x16, deflate");
-    // One tile buffer (16 x 16 x 2 bytes) and its compressed bytes, nothing of the volume's size.
     std::vector<uint64_t> page(37 * 40);
     ASSERT_TRUE(src->readSlab(3, 1, page.data()).isOk());
     EXPECT_GE(src->workingBytes(), 16u * 16 * 2);
     EXPECT_LE(src->workingBytes(), 3u * 16 * 16 * 2);
 }
 
-TEST(InputTiff, LzwStripsNotDividingTheHeight) {
-    expectVolume(at("lzw_strips.tif"), "lzw_strips.tif", {19, 23, 5}, LabelType::U32);
-    std::unique_ptr<InputSource> src = openOk(at("lzw_strips.tif"));
-    ASSERT_TRUE(src);
-    EXPECT_EQ(src->info().detail, "multi-page, 5 pages, strips of 5 rows, LZW");
-}
-
-TEST(InputTiff, LzwCodesOfAllWidths) {
-    // 64x64 bytes of few symbols per strip: the LZW table fills and is cleared.
-    expectVolume(at("lzw_long.tif"), "lzw_long.tif", {64, 64, 3}, LabelType::U8);
-}
-
-TEST(InputTiff, PackBitsInt16) {
-    expectVolume(at("i16_packbits.tif"), "i16_packbits.tif", {21, 9, 4}, LabelType::I16);
-}
-
-TEST(InputTiff, FolderOfSlicesInNaturalOrder) {
+TEST(InputTiff, FolderAndGlobOfSlicesInNaturalOrder) {
     // slice_1 ... slice_12: slice_10 must not come before slice_2; notes.txt is not a slice.
     expectVolume(at("slices"), "slices", {14, 10, 12}, LabelType::U16);
     expectVolume(at("slices/"), "slices", {14, 10, 12}, LabelType::U16);
-    std::unique_ptr<InputSource> src = openOk(at("slices/"));
-    ASSERT_TRUE(src);
-    EXPECT_EQ(src->info().detail.rfind("folder of 12 slices, ", 0), 0u) << src->info().detail;
-}
-
-TEST(InputTiff, GlobOfSlices) {
+    EXPECT_EQ(detailOf("slices/"), "folder of 12 slices, strips of 10 rows, uncompressed");
     expectVolume(at("slices/*.tif"), "slices", {14, 10, 12}, LabelType::U16);
     // The glob leaves out other.tif, whose size differs; these slices are deflate strips.
     expectVolume(at("mixed/slice_*.tif"), "slices", {14, 10, 12}, LabelType::U16);
     expectVolume(at("mixed/slice_[0-9]*.ti?"), "slices", {14, 10, 12}, LabelType::U16);
-    std::unique_ptr<InputSource> src = openOk(at("mixed/slice_*.tif"));
-    ASSERT_TRUE(src);
-    EXPECT_EQ(src->info().detail, "glob of 12 slices, strips of 3 rows, deflate");
+    EXPECT_EQ(detailOf("mixed/slice_*.tif"), "glob of 12 slices, strips of 3 rows, deflate");
 }
 
 TEST(InputTiff, CompressRoundTripIsExact) {
@@ -213,79 +198,54 @@ TEST(InputTiff, CompressRoundTripIsExact) {
 
 // ---- bad input --------------------------------------------------------------------------------
 
-TEST(InputTiff, PageOfAnotherSizeIsNamed) {
-    const std::string m = failure(at("bad_page_size.tif"));
-    EXPECT_CONTAINS(m, "page 2 is 11 x 12 uint16 but the first page is 11 x 13 uint16");
-}
-
-TEST(InputTiff, PageOfAnotherTypeIsNamed) {
-    const std::string m = failure(at("bad_page_type.tif"));
-    EXPECT_CONTAINS(m, "page 1 is 4 x 4 int16 but the first page is 4 x 4 uint16");
-}
-
-TEST(InputTiff, SliceOfAnotherSizeOrTypeIsNamed) {
-    EXPECT_CONTAINS(failure(at("bad_slice_size")), "slice s2.tif (z 1) is 7 x 5 uint16 but the first page is 6 x 5 uint16");
-    EXPECT_CONTAINS(failure(at("bad_slice_type/")), "slice s2.tif (z 1) is 6 x 5 uint8 but the first page is 6 x 5 uint16");
-}
-
-TEST(InputTiff, FolderOfMultiPageFilesIsRefused) {
+TEST(InputTiff, MismatchedPagesAndSlicesAreNamed) {
+    EXPECT_CONTAINS(failure(at("bad_page_size.tif")), "page 2 is 11 x 12 uint16 but the first page is 11 x 13 uint16");
+    EXPECT_CONTAINS(failure(at("bad_page_type.tif")), "page 1 is 4 x 4 int16 but the first page is 4 x 4 uint16");
+    EXPECT_CONTAINS(failure(at("bad_slice_size")),
+                    "slice s2.tif (z 1) is 7 x 5 uint16 but the first page is 6 x 5 uint16");
+    EXPECT_CONTAINS(failure(at("bad_slice_type/")),
+                    "slice s2.tif (z 1) is 6 x 5 uint8 but the first page is 6 x 5 uint16");
     EXPECT_CONTAINS(failure(at("multipage_slices")), "slice a.tif (z 0) has more than one page");
 }
 
-TEST(InputTiff, RgbIsRefused) {
+TEST(InputTiff, UnsupportedSamplesAreRefused) {
     EXPECT_CONTAINS(failure(at("rgb.tif")), "page 0 has 3 samples per pixel (RGB)");
-}
-
-TEST(InputTiff, BilevelIsRefused) {
     EXPECT_CONTAINS(failure(at("bilevel.tif")), "page 0 is a bilevel (1 bit per pixel) image");
+    EXPECT_CONTAINS(failure(at("f32_fraction.tif")),
+                    "page 1: voxel (x 3, y 2) holds 2.5, which is not an integer label");
 }
 
-TEST(InputTiff, FloatWithFractionNamesTheVoxel) {
-    EXPECT_CONTAINS(failure(at("f32_fraction.tif")), "page 1: voxel (x 3, y 2) holds 2.5, which is not an integer label");
-}
-
-TEST(InputTiff, TruncatedFile) {
+TEST(InputTiff, TruncatedFiles) {
     // The next page's directory is cut off: found while opening.
     EXPECT_CONTAINS(failure(at("truncated.tif")), "page 1 cannot be read (truncated or corrupt file?): libtiff: ");
+    // Directories whole, pixel data cut short: found before libtiff is asked to decode.
+    const std::string strips = failure(at("truncated_strips.tif"));
+    EXPECT_CONTAINS(strips, "page 0: strip 0 (bytes ");
+    EXPECT_CONTAINS(strips, "lies beyond the end of the file");
+    const std::string tiles = failure(at("truncated_tiles.tif"));
+    EXPECT_CONTAINS(tiles, "page 0: tile ");
+    EXPECT_CONTAINS(tiles, "the file is truncated");
 }
 
-TEST(InputTiff, TruncatedPixelData) {
-    EXPECT_CONTAINS(failure(at("truncated_strips.tif")), "page 0: strip 0 (bytes ");
-    EXPECT_CONTAINS(failure(at("truncated_strips.tif")), "lies beyond the end of the file");
-    EXPECT_CONTAINS(failure(at("truncated_tiles.tif")), "page 0: tile ");
-    EXPECT_CONTAINS(failure(at("truncated_tiles.tif")), "the file is truncated");
-}
-
-TEST(InputTiff, EmptyFolder) {
+TEST(InputTiff, NotTiffOrNothingToRead) {
     EXPECT_CONTAINS(failure(at("empty")), "the folder holds no .tif or .tiff slice files");
-}
-
-TEST(InputTiff, GlobMatchingNothing) {
     EXPECT_CONTAINS(failure(at("slices/*.tiff")), "no file matches the pattern '*.tiff'");
-}
-
-TEST(InputTiff, TextFileNamedTif) {
-    const std::string m = failure(at("text.tif"));
-    EXPECT_CONTAINS(m, "cannot be opened as TIFF: libtiff: ");
-    EXPECT_CONTAINS(m, "Not a TIFF");
-}
-
-TEST(InputTiff, EmptyFileAndMissingFile) {
-    EXPECT_CONTAINS(failure(at("zero.tif")), "cannot be opened as TIFF");
+    const std::string text = failure(at("text.tif"));
+    EXPECT_CONTAINS(text, "cannot be opened as TIFF: libtiff: ");
+    EXPECT_CONTAINS(text, "Not a TIFF");
+    EXPECT_CONTAINS(failure(at("zero.tif")), "cannot be opened as TIFF: libtiff: ");
     EXPECT_CONTAINS(failure(at("missing.tif")), "cannot be opened as TIFF");
 }
 
-TEST(InputTiff, WorkingMemoryLimitIsChecked) {
+TEST(InputTiff, LimitsAreChecked) {
     InputOptions small;
     small.maxWorkingBytes = 100; // one 16x16 uint16 tile needs 512 bytes
     Result<std::unique_ptr<InputSource>> src = openInput(at("tiled_deflate.tif"), small);
     ASSERT_FALSE(src.isOk());
     EXPECT_CONTAINS(src.message(), "page 0: one decoded tile takes 512 bytes, more than half the working-memory limit");
-}
 
-TEST(InputTiff, SlabBeyondTheVolumeIsAnError) {
-    std::unique_ptr<InputSource> src = openOk(at("u8.tif"));
-    ASSERT_TRUE(src);
+    std::unique_ptr<InputSource> u8 = openOk(at("u8.tif"));
+    ASSERT_TRUE(u8);
     std::vector<uint64_t> out(10 * 9 * 2);
-    EXPECT_FALSE(src->readSlab(4, 2, out.data()).isOk());
+    EXPECT_FALSE(u8->readSlab(4, 2, out.data()).isOk());
 }

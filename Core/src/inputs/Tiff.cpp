@@ -9,14 +9,16 @@
 /// - `DIR/` or an existing directory: its `*.tif` / `*.tiff` files (case-insensitive, hidden
 ///   files skipped), one slice each.
 /// - a glob (`*`, `?` or `[` in the last path component, matched with fnmatch(3) over that
-///   folder's listing, hidden files only by an explicit leading dot): one slice per file.
+///   folder's listing, hidden files only by an explicit leading dot; wildcards in the folder
+///   part are taken literally): one slice per file.
 /// Slices are sorted by name in natural order: runs of digits compare by value, so `slice_2`
 /// comes before `slice_10` (names equal by value, such as `s01` and `s1`, fall back to byte
 /// order). Each slice file must have one page: a folder of multi-page files is refused rather
 /// than concatenated, because such folders usually hold separate volumes (channels, time points).
 ///
 /// Samples: one per pixel, 8/16/32/64-bit unsigned or signed integers, or 32/64-bit floats that
-/// hold integers; any strip or tile layout and any compression this libtiff decodes. Every page
+/// hold integers; any strip or tile layout and any compression this libtiff decodes. A palette
+/// page with one sample is read as its colour indices. Every page
 /// must have the same width, height and type (checked when opened, and again when read, since
 /// the buffers are sized from the page's own tags). Geometry: spacing 1, origin 0: TIFF has no
 /// z spacing tag, and its X/YResolution are mostly a meaningless 72 dpi default.
@@ -24,7 +26,8 @@
 /// Working memory: one decoded strip or tile (reused; pixels are widened from it straight into
 /// the caller's slab) plus libtiff's buffer of that strip's compressed bytes; both are checked
 /// against InputOptions::maxWorkingBytes. One file is open at a time: the multi-page file, or the
-/// slice being read. IFD offsets are cached per page so a page is reached in one seek.
+/// slice being read. Each page's IFD offset is cached when opened, so a page is reached with
+/// one TIFFSetSubDirectory, not by walking the chain.
 ///
 /// libtiff's messages: each handle is opened with TIFFOpenExt and its own error and warning
 /// handlers (libtiff >= 4.5), which take precedence over the process-wide ones, so nothing is
@@ -174,57 +177,68 @@ LabelType sampleType(uint16_t bits, uint16_t format, std::string& why) {
         return bits == 8 ? LabelType::U8 : bits == 16 ? LabelType::U16 : bits == 32 ? LabelType::U32 : LabelType::U64;
     if (format == SAMPLEFORMAT_INT)
         return bits == 8 ? LabelType::I8 : bits == 16 ? LabelType::I16 : bits == 32 ? LabelType::I32 : LabelType::I64;
-    if (format == SAMPLEFORMAT_IEEEFP && (bits == 32 || bits == 64)) return bits == 32 ? LabelType::F32 : LabelType::F64;
+    if (format == SAMPLEFORMAT_IEEEFP && (bits == 32 || bits == 64))
+        return bits == 32 ? LabelType::F32 : LabelType::F64;
     why = "has sample format " + std::to_string(format) + " with " + std::to_string(bits) +
           " bits (supported: unsigned and signed integers, 32/64-bit floats holding integers)";
     return LabelType::U8;
+}
+
+/// The page's samples as a label type; an empty string when supported, else what is wrong.
+std::string readSamples(TIFF* tif, PageLayout& p) {
+    uint16_t spp = 1, bits = 1, format = SAMPLEFORMAT_UINT, photometric = PHOTOMETRIC_MINISBLACK;
+    TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLESPERPIXEL, &spp);
+    TIFFGetFieldDefaulted(tif, TIFFTAG_BITSPERSAMPLE, &bits);
+    TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLEFORMAT, &format);
+    TIFFGetField(tif, TIFFTAG_PHOTOMETRIC, &photometric);
+    if (spp != 1) {
+        const char* kind = photometric == PHOTOMETRIC_RGB       ? " (RGB)"
+                           : photometric == PHOTOMETRIC_PALETTE ? " (palette)"
+                           : photometric == PHOTOMETRIC_YCBCR   ? " (YCbCr)"
+                                                                : "";
+        return "has " + std::to_string(spp) + " samples per pixel" + kind + "; a label image has 1 (a grey-scale page)";
+    }
+    std::string why;
+    p.type = sampleType(bits, format, why);
+    return why;
+}
+
+/// How the page's pixels are stored: strips or tiles, and the codec; empty when readable.
+std::string readBlocks(TIFF* tif, PageLayout& p) {
+    uint32_t imageDepth = 1;
+    TIFFGetFieldDefaulted(tif, TIFFTAG_IMAGEDEPTH, &imageDepth);
+    if (imageDepth != 1)
+        return "is a 3D tile stack (ImageDepth " + std::to_string(imageDepth) + "), which is not supported";
+    TIFFGetFieldDefaulted(tif, TIFFTAG_COMPRESSION, &p.compression);
+    if (!TIFFIsCODECConfigured(p.compression))
+        return "uses " + compressionName(p.compression) + ", which this libtiff cannot decode";
+    p.tiled = TIFFIsTiled(tif) != 0;
+    uint64_t blocks = 0;
+    if (p.tiled) {
+        TIFFGetField(tif, TIFFTAG_TILEWIDTH, &p.tileWidth);
+        TIFFGetField(tif, TIFFTAG_TILELENGTH, &p.tileHeight);
+        if (p.tileWidth == 0 || p.tileHeight == 0) return "is tiled but has no tile size";
+        blocks = TIFFNumberOfTiles(tif);
+    } else {
+        uint32_t rps = p.height;
+        TIFFGetFieldDefaulted(tif, TIFFTAG_ROWSPERSTRIP, &rps);
+        p.rowsPerStrip = std::min(std::max(rps, 1u), p.height);
+        blocks = TIFFNumberOfStrips(tif);
+    }
+    if (blocks == p.blockCount()) return {};
+    return "has " + std::to_string(blocks) + (p.tiled ? " tiles" : " strips") + " where its size needs " +
+           std::to_string(p.blockCount());
 }
 
 /// Reads the current directory's layout; `where` names the page in messages ("page 3", a file).
 Result<PageLayout> readLayout(TiffHandle& h, const std::string& path, const std::string& where) {
     TIFF* tif = h.get();
     PageLayout p;
-    uint16_t spp = 1, bits = 1, format = SAMPLEFORMAT_UINT, photometric = PHOTOMETRIC_MINISBLACK;
-    uint32_t imageDepth = 1;
     if (!TIFFGetField(tif, TIFFTAG_IMAGEWIDTH, &p.width) || !TIFFGetField(tif, TIFFTAG_IMAGELENGTH, &p.height) ||
         p.width == 0 || p.height == 0)
         return fail(path, where + " has no image size (ImageWidth/ImageLength missing or 0)");
-    TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLESPERPIXEL, &spp);
-    TIFFGetFieldDefaulted(tif, TIFFTAG_BITSPERSAMPLE, &bits);
-    TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLEFORMAT, &format);
-    TIFFGetFieldDefaulted(tif, TIFFTAG_IMAGEDEPTH, &imageDepth);
-    TIFFGetField(tif, TIFFTAG_PHOTOMETRIC, &photometric);
-    TIFFGetFieldDefaulted(tif, TIFFTAG_COMPRESSION, &p.compression);
-    if (spp != 1) {
-        const char* kind = photometric == PHOTOMETRIC_RGB ? " (RGB)" : photometric == PHOTOMETRIC_PALETTE ? " (palette)"
-                           : photometric == PHOTOMETRIC_YCBCR                                        ? " (YCbCr)"
-                                                                                                     : "";
-        return fail(path, where + " has " + std::to_string(spp) + " samples per pixel" + kind +
-                              "; a label image has 1 (a grey-scale page)");
-    }
-    std::string why;
-    p.type = sampleType(bits, format, why);
-    if (!why.empty()) return fail(path, where + " " + why);
-    if (imageDepth != 1)
-        return fail(path, where + " is a 3D tile stack (ImageDepth " + std::to_string(imageDepth) + "), which is not supported");
-    if (!TIFFIsCODECConfigured(p.compression))
-        return fail(path, where + " uses " + compressionName(p.compression) + ", which this libtiff cannot decode");
-    p.tiled = TIFFIsTiled(tif) != 0;
-    if (p.tiled) {
-        if (!TIFFGetField(tif, TIFFTAG_TILEWIDTH, &p.tileWidth) || !TIFFGetField(tif, TIFFTAG_TILELENGTH, &p.tileHeight) ||
-            p.tileWidth == 0 || p.tileHeight == 0)
-            return fail(path, where + " is tiled but has no tile size");
-        if (uint64_t(TIFFNumberOfTiles(tif)) != p.blockCount())
-            return fail(path, where + " has " + std::to_string(TIFFNumberOfTiles(tif)) + " tiles where its size needs " +
-                                  std::to_string(p.blockCount()));
-    } else {
-        uint32_t rps = p.height;
-        TIFFGetFieldDefaulted(tif, TIFFTAG_ROWSPERSTRIP, &rps);
-        p.rowsPerStrip = std::min(std::max(rps, 1u), p.height);
-        if (uint64_t(TIFFNumberOfStrips(tif)) != p.blockCount())
-            return fail(path, where + " has " + std::to_string(TIFFNumberOfStrips(tif)) + " strips where its size needs " +
-                                  std::to_string(p.blockCount()));
-    }
+    if (std::string why = readSamples(tif, p); !why.empty()) return fail(path, where + " " + why);
+    if (std::string why = readBlocks(tif, p); !why.empty()) return fail(path, where + " " + why);
     return p;
 }
 
@@ -237,8 +251,9 @@ std::string differenceFrom(const PageLayout& p, const PageLayout& ref) {
 /// Checks the working memory a page needs (one decoded block and its compressed bytes).
 Status checkBlockBudget(const PageLayout& p, const std::string& path, const std::string& where, uint64_t maxBytes) {
     if (p.blockBytes() <= maxBytes / 2) return Status::ok();
-    return fail(path, where + ": one decoded " + (p.tiled ? "tile" : "strip") + " takes " + std::to_string(p.blockBytes()) +
-                          " bytes, more than half the working-memory limit of " + std::to_string(maxBytes) + " bytes");
+    return fail(path, where + ": one decoded " + (p.tiled ? "tile" : "strip") + " takes " +
+                          std::to_string(p.blockBytes()) + " bytes, more than half the working-memory limit of " +
+                          std::to_string(maxBytes) + " bytes");
 }
 
 // ---- finding the slice files ----------------------------------------------------------------
@@ -250,10 +265,14 @@ bool naturalLess(const std::string& a, const std::string& b) {
     while (i < a.size() && j < b.size()) {
         if (digit(a[i]) && digit(b[j])) {
             size_t ie = i, je = j;
-            while (ie < a.size() && digit(a[ie])) ++ie;
-            while (je < b.size() && digit(b[je])) ++je;
-            while (i + 1 < ie && a[i] == '0') ++i; // leading zeros do not change the value
-            while (j + 1 < je && b[j] == '0') ++j;
+            while (ie < a.size() && digit(a[ie]))
+                ++ie;
+            while (je < b.size() && digit(b[je]))
+                ++je;
+            while (i + 1 < ie && a[i] == '0')
+                ++i; // leading zeros do not change the value
+            while (j + 1 < je && b[j] == '0')
+                ++j;
             if (ie - i != je - j) return ie - i < je - j;
             if (int c = a.compare(i, ie - i, b, j, je - j)) return c < 0;
             i = ie;
@@ -283,18 +302,20 @@ std::string lastComponent(const std::string& path) {
 /// Regular files of `dir` (symbolic links followed) whose name `keep` accepts, in natural order.
 template <typename Keep>
 Result<std::vector<std::string>> listFolder(const std::string& dir, const std::string& path, Keep keep) {
+    const std::string folder = dir.empty() ? "." : dir;
     std::error_code ec;
-    fs::directory_iterator it(dir.empty() ? "." : dir, ec), end;
-    if (ec) return fail(path, "cannot list folder " + (dir.empty() ? std::string(".") : dir) + ": " + ec.message());
+    fs::directory_iterator it(folder, ec), end;
     std::vector<std::string> names;
-    for (; it != end; it.increment(ec)) {
+    for (; !ec && it != end; it.increment(ec)) {
         const std::string name = it->path().filename().string();
-        if (keep(name) && it->is_regular_file(ec)) names.push_back(name);
+        std::error_code statError; // a dangling link is skipped, not an error
+        if (keep(name) && it->is_regular_file(statError)) names.push_back(name);
     }
-    if (ec) return fail(path, "cannot list folder " + dir + ": " + ec.message());
+    if (ec) return fail(path, "cannot list folder " + folder + ": " + ec.message());
     std::sort(names.begin(), names.end(), naturalLess);
     const std::string prefix = dir.empty() ? "" : dir.back() == '/' ? dir : dir + "/";
-    for (std::string& n : names) n = prefix + n;
+    for (std::string& n : names)
+        n = prefix + n;
     return names;
 }
 
@@ -332,8 +353,7 @@ Result<Listing> listFiles(const std::string& path) {
 
 // ---- pixels -------------------------------------------------------------------------------------
 
-template <typename T>
-void widenIntegers(const uint8_t* src, uint64_t* dst, size_t n) {
+template <typename T> void widenIntegers(const uint8_t* src, uint64_t* dst, size_t n) {
     for (size_t i = 0; i < n; ++i) {
         T v;
         std::memcpy(&v, src + i * sizeof(T), sizeof(T));
@@ -342,8 +362,7 @@ void widenIntegers(const uint8_t* src, uint64_t* dst, size_t n) {
 }
 
 /// Floats must hold integers within int64; returns the index of the first that does not, or n.
-template <typename F>
-size_t widenFloats(const uint8_t* src, uint64_t* dst, size_t n, double& bad) {
+template <typename F> size_t widenFloats(const uint8_t* src, uint64_t* dst, size_t n, double& bad) {
     for (size_t i = 0; i < n; ++i) {
         F f;
         std::memcpy(&f, src + i * sizeof(F), sizeof(F));
@@ -403,8 +422,8 @@ public:
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
         if (uint64_t(z0) + depth > m_info.dim[2])
-            return fail(m_path, "slab z " + std::to_string(z0) + " + " + std::to_string(depth) + " is beyond the depth " +
-                                    std::to_string(m_info.dim[2]));
+            return fail(m_path, "slab z " + std::to_string(z0) + " + " + std::to_string(depth) +
+                                    " is beyond the depth " + std::to_string(m_info.dim[2]));
         const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
         for (uint32_t z = z0; z < z0 + depth; ++z)
             if (Status s = readPage(z, out + slice * (z - z0)); !s) return s;
@@ -425,8 +444,10 @@ private:
         m_handle = TiffHandle();
         Result<TiffHandle> h = TiffHandle::open(m_files[file], m_maxWorkingBytes);
         if (!h) {
-            const std::string what = m_form == Listing::Form::MultiPage ? std::string("cannot be opened as TIFF")
-                                     : "slice " + quoted(fs::path(m_files[file]).filename().string(), 200) + " cannot be opened as TIFF";
+            const std::string what =
+                m_form == Listing::Form::MultiPage
+                    ? std::string("cannot be opened as TIFF")
+                    : "slice " + quoted(fs::path(m_files[file]).filename().string(), 200) + " cannot be opened as TIFF";
             return fail(m_path, what + ": " + h.message());
         }
         m_handle = std::move(*h);
@@ -455,8 +476,8 @@ private:
             if (Result<PageLayout> p = checkedLayout(z); !p) return p.status();
             if (TIFFLastDirectory(tif)) return Status::ok();
             if (!TIFFReadDirectory(tif))
-                return fail(m_path, "page " + std::to_string(z + 1) + " cannot be read (truncated or corrupt file?): " +
-                                        m_handle.libtiffSays());
+                return fail(m_path, "page " + std::to_string(z + 1) +
+                                        " cannot be read (truncated or corrupt file?): " + m_handle.libtiffSays());
         }
     }
 
@@ -466,8 +487,9 @@ private:
             m_pages.push_back({f, uint64_t(TIFFCurrentDirOffset(m_handle.get()))});
             if (Result<PageLayout> p = checkedLayout(f); !p) return p.status();
             if (!TIFFLastDirectory(m_handle.get()))
-                return fail(m_path, pageName(f) + " has more than one page; slices of a folder or glob must be single-page "
-                                                  "TIFF files (a multi-page file is opened by its own name)");
+                return fail(m_path, pageName(f) +
+                                        " has more than one page; slices of a folder or glob must be single-page "
+                                        "TIFF files (a multi-page file is opened by its own name)");
         }
         return Status::ok();
     }
@@ -511,12 +533,13 @@ private:
                 return fail(m_path, pageName(z) + ": the position of " + kind + " " + std::to_string(b) +
                                         " cannot be read: " + m_handle.libtiffSays());
             if (offset > fileBytes || bytes > fileBytes - offset)
-                return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(b) + " (bytes " + std::to_string(offset) +
-                                        " to " + std::to_string(offset + bytes) + ") lies beyond the end of the file (" +
-                                        std::to_string(fileBytes) + " bytes): the file is truncated");
+                return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(b) + " (bytes " +
+                                        std::to_string(offset) + " to " + std::to_string(offset + bytes) +
+                                        ") lies beyond the end of the file (" + std::to_string(fileBytes) +
+                                        " bytes): the file is truncated");
             if (bytes > m_maxWorkingBytes - p.blockBytes())
-                return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(b) + " claims " + std::to_string(bytes) +
-                                        " compressed bytes, beyond the working-memory limit");
+                return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(b) + " claims " +
+                                        std::to_string(bytes) + " compressed bytes, beyond the working-memory limit");
             m_largestCompressedBlock = std::max(m_largestCompressedBlock, bytes);
         }
         return Status::ok();
@@ -524,18 +547,20 @@ private:
 
     Status decodeFailed(uint32_t z, const char* kind, uint32_t block, tmsize_t got, uint64_t want) {
         return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(block) + " cannot be decoded (" +
-                                (got < 0 ? std::string("error") : std::to_string(got) + " of " + std::to_string(want) + " bytes") +
+                                (got < 0 ? std::string("error")
+                                         : std::to_string(got) + " of " + std::to_string(want) + " bytes") +
                                 "): " + m_handle.libtiffSays());
     }
 
     /// Widens one row of `n` samples starting at (x, y) of page z.
-    Status widenRow(const PageLayout& p, const uint8_t* src, uint64_t* page, uint32_t x, uint32_t y, uint32_t z, size_t n) {
+    Status widenRow(const PageLayout& p, const uint8_t* src, uint64_t* page, uint32_t x, uint32_t y, uint32_t z,
+                    size_t n) {
         double bad = 0;
         const size_t at = widen(p.type, src, page + uint64_t(y) * p.width + x, n, bad);
         if (at == n) return Status::ok();
-        return fail(m_path, pageName(z) + ": voxel (x " + std::to_string(x + at) + ", y " + std::to_string(y) + ") holds " +
-                                formatDouble(bad) + ", which is not an integer label (" + labelTypeName(p.type) +
-                                " voxels must hold integers within int64)");
+        return fail(m_path, pageName(z) + ": voxel (x " + std::to_string(x + at) + ", y " + std::to_string(y) +
+                                ") holds " + formatDouble(bad) + ", which is not an integer label (" +
+                                labelTypeName(p.type) + " voxels must hold integers within int64)");
     }
 
     Status readStrips(const PageLayout& p, uint32_t z, uint64_t* page) {
@@ -579,8 +604,8 @@ private:
     uint64_t m_maxWorkingBytes;
     TiffHandle m_handle;
     uint32_t m_openFile = 0;
-    std::vector<uint8_t> m_block;           ///< one decoded strip or tile
-    uint64_t m_largestCompressedBlock = 0;  ///< libtiff's raw buffer holds at most this
+    std::vector<uint8_t> m_block;          ///< one decoded strip or tile
+    uint64_t m_largestCompressedBlock = 0; ///< libtiff's raw buffer holds at most this
 };
 
 } // namespace
