@@ -536,7 +536,7 @@ private:
                 return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(b) + " (bytes " +
                                         std::to_string(offset) + " to " + std::to_string(offset + bytes) +
                                         ") lies beyond the end of the file (" + std::to_string(fileBytes) +
-                                        " bytes): the file is truncated");
+                                        " bytes): the file is truncated (or its offsets are corrupt)");
             if (bytes > m_maxWorkingBytes - p.blockBytes())
                 return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(b) + " claims " +
                                         std::to_string(bytes) + " compressed bytes, beyond the working-memory limit");
