@@ -118,6 +118,11 @@ unsigned typeBytes(LabelType type) {
     }
 }
 
+std::string voxelDetail(LabelType type, bool bigEndian, bool compressed) {
+    const char* order = typeBytes(type) == 1 ? "" : bigEndian ? " big-endian" : " little-endian";
+    return std::string(labelTypeName(type)) + order + (compressed ? ", gzip" : ", raw");
+}
+
 std::string dimText(const std::array<uint64_t, 3>& d) {
     return std::to_string(d[0]) + " x " + std::to_string(d[1]) + " x " + std::to_string(d[2]);
 }
@@ -144,15 +149,28 @@ inline uint64_t loadBits(const uint8_t* p, bool bigEndian) {
     return v;
 }
 
-template <unsigned W>
-void loadIntegers(const uint8_t* p, bool bigEndian, bool isSigned, uint64_t* out, size_t n) {
+template <unsigned W, bool Big, bool Signed>
+void loadRun(const uint8_t* p, uint64_t* out, size_t n) {
     for (size_t i = 0; i < n; ++i) {
-        uint64_t v = loadBits<W>(p + i * W, bigEndian);
-        if (isSigned && W < 8) {
+        uint64_t v = loadBits<W>(p + i * W, Big);
+        if (Signed && W < 8) {
             const unsigned shift = 64 - 8 * W;
             v = uint64_t(int64_t(v << shift) >> shift);
         }
         out[i] = v;
+    }
+}
+
+/// Byte order and signedness as template arguments: each loop's byte loads then compile to one
+/// load (and a byte swap), which keeps decoding at memory speed.
+template <unsigned W>
+void loadIntegers(const uint8_t* p, bool bigEndian, bool isSigned, uint64_t* out, size_t n) {
+    if (bigEndian) {
+        if (isSigned) loadRun<W, true, true>(p, out, n);
+        else loadRun<W, true, false>(p, out, n);
+    } else {
+        if (isSigned) loadRun<W, false, true>(p, out, n);
+        else loadRun<W, false, false>(p, out, n);
     }
 }
 

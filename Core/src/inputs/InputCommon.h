@@ -78,6 +78,8 @@ private:
 // ---- voxels
 unsigned typeBytes(LabelType type);
 std::string dimText(const std::array<uint64_t, 3>& d);
+/// "int16 big-endian, gzip": how voxels are stored, for InputInfo::detail.
+std::string voxelDetail(LabelType type, bool bigEndian, bool compressed);
 /// Refuses volumes whose full-width values (8 bytes a voxel) exceed maxBytes, before anything
 /// of that size is allocated.
 Status checkBudget(const std::string& path, const std::array<uint64_t, 3>& d, uint64_t maxBytes);

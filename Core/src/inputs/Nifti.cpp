@@ -244,8 +244,7 @@ Result<std::unique_ptr<InputSource>> openNiftiSource(const std::string& path, co
     info.type = h->type;
     info.geometry = h->geometry;
     info.format = "NIfTI";
-    info.detail = std::string(labelTypeName(h->type)) + (typeBytes(h->type) > 1 ? (h->bigEndian ? " big-endian" : " little-endian") : "") +
-                  (stream.compressed() ? ", gzip" : ", raw");
+    info.detail = voxelDetail(h->type, h->bigEndian, stream.compressed());
     VoxelData data;
     data.file = path;
     data.compressed = stream.compressed();

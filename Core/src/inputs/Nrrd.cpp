@@ -530,13 +530,6 @@ Result<VoxelData> locateNrrdData(const std::string& path, const NrrdHeader& h, c
     return d;
 }
 
-std::string nrrdDetail(const NrrdHeader& h, const std::string& path, const std::string& dataPath) {
-    std::string detail = std::string(labelTypeName(h.type)) + (typeBytes(h.type) > 1 ? (h.bigEndian ? " big-endian" : " little-endian") : "") +
-                         (h.gzip ? ", gzip" : ", raw");
-    if (dataPath != path) detail += ", data in '" + dataPath + "'";
-    return detail;
-}
-
 } // namespace
 
 namespace inputs {
@@ -577,7 +570,8 @@ Result<std::unique_ptr<InputSource>> openNrrdSource(const std::string& path, con
     info.type = h->type;
     info.geometry = h->geometry;
     info.format = "NRRD";
-    info.detail = nrrdDetail(*h, path, dataPath);
+    info.detail = voxelDetail(h->type, h->bigEndian, h->gzip);
+    if (dataPath != path) info.detail += ", data in '" + dataPath + "'";
     auto src = std::make_unique<NrrdSource>(dataName, h->byteSkip);
     if (Status s = src->init(path, info, *data, options); !s) return s;
     return std::unique_ptr<InputSource>(std::move(src));
