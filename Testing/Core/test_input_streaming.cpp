@@ -240,8 +240,8 @@ TEST(StreamingSources, NrrdRawAttachedDetachedGzipAndBigEndian) {
 
     // Detached raw data after a line skip and a byte skip.
     writeBytes(tmp("detached.raw"), textBytes("a text line\nxyz") + be);
-    writeBytes(tmp("detached.nhdr"), textBytes(nrrdHeader("uint32", kDim, "raw", true,
-                                                          "data file: streaming-detached.raw\nline skip: 1\nbyte skip: 3\n")));
+    const std::string skips = "data file: streaming-detached.raw\nline skip: 1\nbyte skip: 3\n";
+    writeBytes(tmp("detached.nhdr"), textBytes(nrrdHeader("uint32", kDim, "raw", true, skips)));
     expectStreams(tmp("detached.nhdr"), kDim, LabelType::U32, "NRRD", want);
 
     writeBytes(tmp("gzip.nrrd"), textBytes(nrrdHeader("uint32", kDim, "gzip", false) + "\n") + gzipBytes(le));
@@ -278,7 +278,8 @@ TEST(StreamingSources, NrrdSignedAndFloatVoxels) {
                     << "negatives are really there";
             }
             const Bytes data = storeAs(want, c.type, c.big);
-            const std::string path = tmp(std::string("typed-") + c.nrrdType + (c.big ? "-be" : "-le") + (gz ? "-gz" : "") + ".nrrd");
+            const std::string path =
+                tmp(std::string("typed-") + c.nrrdType + (c.big ? "-be" : "-le") + (gz ? "-gz" : "") + ".nrrd");
             writeBytes(path, textBytes(nrrdHeader(c.nrrdType, kDim, gz ? "gzip" : "raw", c.big) + "\n") +
                                  (gz ? gzipBytes(data) : data));
             expectStreams(path, kDim, c.type, "NRRD", want);
@@ -315,7 +316,8 @@ TEST(StreamingSources, AalAtlasAgainstZlib) {
     ASSERT_NE(gz, nullptr);
     Bytes all;
     Bytes piece(1 << 20);
-    for (int n; (n = gzread(gz, piece.data(), unsigned(piece.size()))) > 0;) all.insert(all.end(), piece.begin(), piece.begin() + n);
+    for (int n; (n = gzread(gz, piece.data(), unsigned(piece.size()))) > 0;)
+        all.insert(all.end(), piece.begin(), piece.begin() + n);
     gzclose(gz);
     const Dim dim = {{181, 217, 181}};
     ASSERT_EQ(all.size(), 352 + size_t(dim[0]) * dim[1] * dim[2]);
@@ -455,13 +457,15 @@ TEST(StreamingErrors, TruncatedRawDataIsRefusedAtOpen) {
     const Bytes le = storeAs(makeLabels(d, LabelType::U16), LabelType::U16, false);
     const Bytes cut(le.begin(), le.end() - 1);
     writeBytes(tmp("short.vraw"), textBytes("8 8 8\nuint16\n") + cut);
-    EXPECT_TRUE(failsWith(csgv::openInput(tmp("short.vraw")).status(), {"short.vraw", "1023 bytes of labels, expected 1024"}));
+    EXPECT_TRUE(
+        failsWith(csgv::openInput(tmp("short.vraw")).status(), {"short.vraw", "1023 bytes of labels, expected 1024"}));
     writeBytes(tmp("short.nrrd"), textBytes(nrrdHeader("uint16", d, "raw", false) + "\n") + cut);
     EXPECT_TRUE(failsWith(csgv::openInput(tmp("short.nrrd")).status(), {"short.nrrd", "truncated", "1023", "1024"}));
     writeBytes(tmp("short.nii"), niftiHeader(512, 16, d, false) + cut);
     EXPECT_TRUE(failsWith(csgv::openInput(tmp("short.nii")).status(), {"short.nii", "truncated", "1023", "1024"}));
     // A gzip NRRD whose compressed bytes cannot hold the sizes at deflate's best ratio.
-    writeBytes(tmp("tiny-gz.nrrd"), textBytes(nrrdHeader("uint32", {{1000, 1000, 1000}}, "gzip", false) + "\n") + gzipBytes(cut));
+    writeBytes(tmp("tiny-gz.nrrd"),
+               textBytes(nrrdHeader("uint32", {{1000, 1000, 1000}}, "gzip", false) + "\n") + gzipBytes(cut));
     EXPECT_TRUE(failsWith(csgv::openInput(tmp("tiny-gz.nrrd")).status(), {"tiny-gz.nrrd", "truncated", "cannot hold"}));
 }
 
@@ -474,7 +478,8 @@ TEST(StreamingErrors, FloatWithAFractionNamesTheVoxel) {
     std::memcpy(data.data() + 4 * bad, &frac, 4);
     for (bool gz : {false, true}) {
         const std::string name = gz ? "frac-gz.nrrd" : "frac.nrrd";
-        writeBytes(tmp(name), textBytes(nrrdHeader("float", d, gz ? "gzip" : "raw", false) + "\n") + (gz ? gzipBytes(data) : data));
+        const Bytes nrrdData = gz ? gzipBytes(data) : data;
+        writeBytes(tmp(name), textBytes(nrrdHeader("float", d, gz ? "gzip" : "raw", false) + "\n") + nrrdData);
         const std::string nii = gz ? "frac.nii.gz" : "frac.nii";
         const Bytes niiBytes = niftiHeader(16, 32, d, false) + data;
         writeBytes(tmp(nii), gz ? gzipBytes(niiBytes) : niiBytes);
@@ -504,7 +509,8 @@ TEST(StreamingErrors, SlabsBeyondTheVolumeAndTooLittleWorkingMemory) {
 
     csgv::InputOptions tight;
     tight.maxWorkingBytes = 100000; // less than a gzip stream's input buffer
-    EXPECT_TRUE(failsWith(csgv::openInput(tmp("small.nrrd"), tight).status(), {"small.nrrd", "working memory", "100000"}));
+    EXPECT_TRUE(
+        failsWith(csgv::openInput(tmp("small.nrrd"), tight).status(), {"small.nrrd", "working memory", "100000"}));
     // Raw data need only a voxel's bytes; the buffer shrinks to the limit.
     writeBytes(tmp("small-raw.nrrd"), textBytes(nrrdHeader("uint8", d, "raw", false) + "\n") + Bytes(64, 2));
     tight.maxWorkingBytes = 10;

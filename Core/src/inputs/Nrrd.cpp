@@ -451,10 +451,10 @@ protected:
             return fail(m_dataName, "truncated: " + std::to_string(available) + " bytes of data from offset " +
                                         std::to_string(data().fileOffset) + ", the header's sizes and type need " +
                                         std::to_string(dataBytes()));
+        const uint64_t skip = uint64_t(m_byteSkip);
         return fail(path(), "truncated gzip data in '" + data().file + "': it inflates to " +
-                                std::to_string(available + uint64_t(m_byteSkip)) +
-                                " bytes, the header's sizes and type need " +
-                                std::to_string(dataBytes() + uint64_t(m_byteSkip)) + (m_byteSkip ? " (with byte skip)" : ""));
+                                std::to_string(available + skip) + " bytes, the header's sizes and type need " +
+                                std::to_string(dataBytes() + skip) + (skip ? " (with byte skip)" : ""));
     }
 
     Status streamFailure(const InputStream& in, const Status& s) const override {
