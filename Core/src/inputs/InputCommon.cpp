@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <fcntl.h>
+#include <unistd.h>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -116,6 +118,11 @@ unsigned typeBytes(LabelType type) {
     }
 }
 
+std::string voxelDetail(LabelType type, bool bigEndian, bool compressed) {
+    const char* order = typeBytes(type) == 1 ? "" : bigEndian ? " big-endian" : " little-endian";
+    return std::string(labelTypeName(type)) + order + (compressed ? ", gzip" : ", raw");
+}
+
 std::string dimText(const std::array<uint64_t, 3>& d) {
     return std::to_string(d[0]) + " x " + std::to_string(d[1]) + " x " + std::to_string(d[2]);
 }
@@ -142,15 +149,28 @@ inline uint64_t loadBits(const uint8_t* p, bool bigEndian) {
     return v;
 }
 
-template <unsigned W>
-void loadIntegers(const uint8_t* p, bool bigEndian, bool isSigned, uint64_t* out, size_t n) {
+template <unsigned W, bool Big, bool Signed>
+void loadRun(const uint8_t* p, uint64_t* out, size_t n) {
     for (size_t i = 0; i < n; ++i) {
-        uint64_t v = loadBits<W>(p + i * W, bigEndian);
-        if (isSigned && W < 8) {
+        uint64_t v = loadBits<W>(p + i * W, Big);
+        if (Signed && W < 8) {
             const unsigned shift = 64 - 8 * W;
             v = uint64_t(int64_t(v << shift) >> shift);
         }
         out[i] = v;
+    }
+}
+
+/// Byte order and signedness as template arguments: each loop's byte loads then compile to one
+/// load (and a byte swap), which keeps decoding at memory speed.
+template <unsigned W>
+void loadIntegers(const uint8_t* p, bool bigEndian, bool isSigned, uint64_t* out, size_t n) {
+    if (bigEndian) {
+        if (isSigned) loadRun<W, true, true>(p, out, n);
+        else loadRun<W, true, false>(p, out, n);
+    } else {
+        if (isSigned) loadRun<W, false, true>(p, out, n);
+        else loadRun<W, false, false>(p, out, n);
     }
 }
 
@@ -169,8 +189,8 @@ bool floatToInt64(double v, int64_t& out) {
     return true;
 }
 
-/// Decodes `n` voxels of `type` from `p` into full-width values; `first` is the index of the
-/// first of them in the volume (for messages).
+} // namespace
+
 Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std::array<uint32_t, 3>& dim,
                     const std::string& path, uint64_t first, uint64_t* out, size_t n) {
     const bool sgn = isSignedType(type);
@@ -207,32 +227,131 @@ Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std:
     return Status::ok();
 }
 
-} // namespace
+// ---- VoxelFileSource
 
-Result<VoxelRead> readVoxels(InputStream& in, InputVolume& vol, bool bigEndian, const std::string& path) {
-    const unsigned width = typeBytes(vol.type);
-    const uint64_t count = vol.voxelCount();
-    const uint64_t chunkVoxels = (uint64_t(4) << 20) / width;
-    std::vector<uint8_t> bytes(size_t(std::min(count, chunkVoxels) * width));
-    VoxelRead got;
-    vol.values.clear();
-    // As much as the file can hold (all of it for any honest file): one allocation, no regrowth.
-    vol.values.reserve(size_t(std::min(count, in.remainingBound() / width)));
-    for (uint64_t first = 0; first < count;) {
-        const uint64_t want = std::min(chunkVoxels, count - first);
-        Result<size_t> n = in.read(bytes.data(), size_t(want * width));
-        if (!n) return n.status();
-        got.bytes += *n;
-        const uint64_t whole = *n / width;
-        if (got.decode) {
-            vol.values.resize(size_t(first + whole));
-            got.decode = decodeVoxels(bytes.data(), vol.type, bigEndian, vol.dim, path, first, vol.values.data() + first,
-                                      size_t(whole));
-        }
-        first += whole;
-        if (*n < want * width) break;
+Status VoxelFileSource::init(const std::string& path, const InputInfo& info, const VoxelData& data,
+                             const InputOptions& options) {
+    m_path = path;
+    m_info = info;
+    m_data = data;
+    m_width = typeBytes(data.stored);
+    m_dataBytes = mulSaturate(info.voxelCount(), m_width); // the header parsers refuse sizes beyond 2^64 bytes
+    // The decode buffer holds whole voxels, no more than the data, within the budget.
+    const uint64_t fixed = data.compressed ? kStreamBytes : 0;
+    if (options.maxWorkingBytes < fixed + m_width)
+        return fail(path, "reading needs at least " + std::to_string(fixed + m_width) +
+                              " bytes of working memory, more than the limit of " +
+                              std::to_string(options.maxWorkingBytes));
+    const uint64_t chunk = std::min({uint64_t(kChunkBytes), std::max<uint64_t>(m_dataBytes, m_width),
+                                     options.maxWorkingBytes - fixed});
+    m_chunkBytes = size_t(chunk / m_width * m_width);
+    if (!data.compressed) {
+        m_fd = ::open(data.file.c_str(), O_RDONLY | O_CLOEXEC);
+        if (m_fd < 0) return fail(path, "cannot open '" + data.file + "': " + errnoText());
     }
-    return got;
+    return Status::ok();
+}
+
+VoxelFileSource::~VoxelFileSource() {
+    if (m_fd >= 0) ::close(m_fd);
+}
+
+uint64_t VoxelFileSource::workingBytes() const { return m_buffer.capacity() + (m_stream ? kStreamBytes : 0); }
+
+Status VoxelFileSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
+    if (uint64_t(z0) + depth > m_info.dim[2])
+        return fail(m_path, "slab z " + std::to_string(z0) + " to " + std::to_string(uint64_t(z0) + depth) +
+                                " is beyond the volume's depth " + std::to_string(m_info.dim[2]));
+    if (depth == 0) return Status::ok();
+    if (m_buffer.empty()) m_buffer.resize(m_chunkBytes);
+    const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
+    return m_data.compressed ? readCompressed(slice * z0, slice * depth, out) : readRaw(slice * z0, slice * depth, out);
+}
+
+Status VoxelFileSource::readRaw(uint64_t first, uint64_t count, uint64_t* out) {
+    const uint64_t perChunk = m_chunkBytes / m_width;
+    for (uint64_t done = 0; done < count;) {
+        const size_t n = size_t(std::min(perChunk, count - done));
+        const size_t bytes = n * m_width;
+        const uint64_t at = m_data.fileOffset + (first + done) * m_width;
+        for (size_t got = 0; got < bytes;) {
+            const ssize_t r = ::pread(m_fd, m_buffer.data() + got, bytes - got, off_t(at + got));
+            if (r < 0 && errno == EINTR) continue;
+            if (r < 0)
+                return fail(m_data.file, "cannot read " + std::to_string(bytes) + " bytes at offset " +
+                                             std::to_string(at + got) + ": " + errnoText());
+            // The size was checked when the file was opened: it has shrunk since.
+            if (r == 0) return truncatedInSlice((first + done) * m_width + got);
+            got += size_t(r);
+        }
+        if (Status s = decodeVoxels(m_buffer.data(), m_data.stored, m_data.bigEndian, m_info.dim, m_path, first + done,
+                                    out + done, n);
+            !s)
+            return s;
+        done += n;
+    }
+    return Status::ok();
+}
+
+Status VoxelFileSource::readCompressed(uint64_t first, uint64_t count, uint64_t* out) {
+    const uint64_t perChunk = m_chunkBytes / m_width;
+    Status s = [&]() -> Status {
+        if (!m_stream || first < m_next)
+            if (Status r = restart(); !r) return r;
+        while (m_next < first) { // skipping forward: inflate and discard
+            const size_t n = size_t(std::min(perChunk, first - m_next));
+            if (Status r = readStream(n * m_width); !r) return r;
+            m_next += n;
+        }
+        for (uint64_t done = 0; done < count;) {
+            const size_t n = size_t(std::min(perChunk, count - done));
+            if (Status r = readStream(n * m_width); !r) return r;
+            if (Status r = decodeVoxels(m_buffer.data(), m_data.stored, m_data.bigEndian, m_info.dim, m_path,
+                                        first + done, out + done, n);
+                !r)
+                return r;
+            m_next += n;
+            done += n;
+        }
+        if (m_next == m_info.voxelCount()) return atDataEnd(*m_stream);
+        return Status::ok();
+    }();
+    if (!s) m_stream.reset(); // the next call starts afresh
+    return s;
+}
+
+Status VoxelFileSource::restart() {
+    m_stream = std::make_unique<InputStream>();
+    m_next = 0;
+    if (Status s = m_stream->open(m_data.file, m_data.mode, m_data.fileOffset); !s)
+        return streamFailure(*m_stream, s);
+    for (uint64_t left = m_data.skip; left > 0;) {
+        const size_t n = size_t(std::min<uint64_t>(left, m_chunkBytes));
+        Result<size_t> got = m_stream->read(m_buffer.data(), n);
+        if (!got) return streamFailure(*m_stream, got.status());
+        if (*got < n) return truncatedInSlice(0);
+        left -= n;
+    }
+    return Status::ok();
+}
+
+Status VoxelFileSource::readStream(size_t bytes) {
+    Result<size_t> got = m_stream->read(m_buffer.data(), bytes);
+    if (!got) return streamFailure(*m_stream, got.status());
+    if (*got < bytes) return truncatedInSlice(m_stream->position() - std::min(m_stream->position(), m_data.skip));
+    return Status::ok();
+}
+
+Status VoxelFileSource::truncatedInSlice(uint64_t available) const {
+    const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
+    return Status::error(truncated(available).message() + " (the data run out in slice z " +
+                         std::to_string(available / m_width / slice) + ")");
+}
+
+Status VoxelFileSource::atDataEnd(InputStream& in) {
+    // A member's checksum follows its last byte: verify it, as a reader of the whole file would.
+    if (Status s = in.checkMemberEnd(); !s) return streamFailure(in, s);
+    return Status::ok();
 }
 
 } // namespace inputs

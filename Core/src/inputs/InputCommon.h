@@ -2,8 +2,9 @@
 #pragma once
 /// @file InputCommon.h
 /// @brief What the input formats share (private to Core/src/inputs): header text parsing in the
-/// classic locale, bounded quoting of file text in messages, the memory budget, and the one
-/// chunked voxel reader on InputStream that turns file bytes into full-width labels.
+/// classic locale, bounded quoting of file text in messages, the memory budget, the decoding of
+/// stored voxels to full-width labels, and VoxelFileSource, the one streaming source of voxels
+/// that lie in a file raw or gzip-compressed (vraw, NRRD and NIfTI build on it).
 
 #include "csgv/base/FileUtil.h"
 #include "csgv/base/Status.h"
@@ -12,6 +13,7 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -36,10 +38,12 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
 bool claimsTiff(const std::string& path);
 Result<std::unique_ptr<InputSource>> openTiff(const std::string& path, const InputOptions& options);
 
-// readNrrd and readNifti are public (Inputs.h).
-Result<InputVolume> readVrawInput(const std::string& path, uint64_t maxBytes);
-/// A whole volume already read, as a source (for formats not yet streamed).
-Result<std::unique_ptr<InputSource>> sourceOf(Result<InputVolume> volume, const std::string& format);
+// readNrrd and readNifti (Inputs.h) are openNrrdSource/openNiftiSource with the whole-volume
+// budget checked among the header checks (where it always was), then readAll.
+Result<std::unique_ptr<InputSource>> openNrrdSource(const std::string& path, const InputOptions& options,
+                                                    const uint64_t* wholeVolumeBudget);
+Result<std::unique_ptr<InputSource>> openNiftiSource(const std::string& path, const InputOptions& options,
+                                                     const uint64_t* wholeVolumeBudget);
 
 // ---- messages and header text
 Status fail(const std::string& path, const std::string& what);
@@ -74,23 +78,88 @@ private:
 // ---- voxels
 unsigned typeBytes(LabelType type);
 std::string dimText(const std::array<uint64_t, 3>& d);
+/// "int16 big-endian, gzip": how voxels are stored, for InputInfo::detail.
+std::string voxelDetail(LabelType type, bool bigEndian, bool compressed);
 /// Refuses volumes whose full-width values (8 bytes a voxel) exceed maxBytes, before anything
 /// of that size is allocated.
 Status checkBudget(const std::string& path, const std::array<uint64_t, 3>& d, uint64_t maxBytes);
 
-/// @brief What readVoxels() got: the bytes the stream delivered, and the first voxel that is not
-/// an integer label (reported by callers only when no byte was missing, so that a truncated
-/// file is called truncated, as it always was).
-struct VoxelRead {
-    uint64_t bytes = 0;
-    Status decode;
+/// Decodes `n` voxels of `type` stored at `p` (the given byte order) into full-width values:
+/// unsigned as they are, signed sign-extended, floats holding integers as those integers. A float
+/// that is not an integer within int64 is an error naming the voxel: `first` is the index of the
+/// first of the `n` in the volume of dimensions `dim` stored in `path`.
+Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std::array<uint32_t, 3>& dim,
+                    const std::string& path, uint64_t first, uint64_t* out, size_t n);
+
+/// @brief Where a volume's voxels lie in a file and how they are stored.
+struct VoxelData {
+    std::string file;        ///< the file that holds them
+    bool compressed = false; ///< a gzip/zlib stream (read sequentially), else raw bytes
+    InputStream::Mode mode = InputStream::Mode::Inflate; ///< how a compressed stream is opened
+    /// Raw: the byte of voxel 0 in the file. Compressed: the first byte of the stream.
+    uint64_t fileOffset = 0;
+    uint64_t skip = 0; ///< compressed: inflated bytes before voxel 0 (NRRD byte skip, NIfTI vox_offset)
+    LabelType stored = LabelType::U8; ///< the type as stored (what is decoded)
+    bool bigEndian = false;
 };
 
-/// Reads `vol.voxelCount()` voxels of `vol.type` from `in` in chunks into `vol.values` (which
-/// grows as bytes arrive, so a header that claims more than the file holds costs no allocation
-/// of the claimed size). Fewer bytes than needed is not an error here: callers word it. An error
-/// is the stream's (in.failure() says which step).
-Result<VoxelRead> readVoxels(InputStream& in, InputVolume& vol, bool bigEndian, const std::string& path);
+/// @brief A source of voxels stored in one file, raw or compressed, read slab by slab.
+///
+/// Raw data: each slab is read with positioned reads (pread) of just its bytes, in pieces of at
+/// most kChunkBytes, each decoded into the caller's buffer. Compressed data: one InputStream is
+/// kept open between calls; a slab after the last one continues it (skipping forward inflates
+/// and discards), a slab before it restarts the stream from the data's start (the InputSource
+/// contract allows this; reading in increasing z never restarts). Working memory: the decode
+/// buffer (at most kChunkBytes) plus, for compressed data, the stream (kStreamBytes: its 256 KiB
+/// input buffer, zlib's inflate state and 32 KiB window); never anything the size of the volume.
+///
+/// The formats word their own errors (their tests pin the messages): truncated() when the data
+/// end early, streamFailure() when the stream cannot be opened, read or inflated, atDataEnd()
+/// for what they check once the last voxel has been delivered.
+class VoxelFileSource : public InputSource {
+public:
+    static constexpr size_t kChunkBytes = size_t(128) << 10;
+    static constexpr uint64_t kStreamBytes = (uint64_t(256) + 48) << 10;
+
+    /// `info` is what the header said; `data` where the voxels are. Fails (naming `path`) when
+    /// the working memory would exceed options.maxWorkingBytes.
+    Status init(const std::string& path, const InputInfo& info, const VoxelData& data, const InputOptions& options);
+    ~VoxelFileSource() override;
+
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override;
+    uint64_t workingBytes() const override;
+
+protected:
+    /// The data end after `available` bytes (of the voxels, counted from voxel 0).
+    virtual Status truncated(uint64_t available) const = 0;
+    /// The compressed stream failed (in.failure() says at which step; `s` carries the reason).
+    virtual Status streamFailure(const InputStream& in, const Status& s) const = 0;
+    /// Compressed data: called once the last voxel has been read, with the stream right after it.
+    virtual Status atDataEnd(InputStream& in);
+
+    const std::string& path() const { return m_path; }
+    const VoxelData& data() const { return m_data; }
+    uint64_t dataBytes() const { return m_dataBytes; }
+
+private:
+    Status readRaw(uint64_t first, uint64_t count, uint64_t* out);
+    Status readCompressed(uint64_t first, uint64_t count, uint64_t* out);
+    /// Opens the stream at the data's start and skips to voxel 0.
+    Status restart();
+    /// Reads exactly `bytes` of the stream into the decode buffer's start; fewer is truncation.
+    Status readStream(size_t bytes);
+    Status truncatedInSlice(uint64_t available) const;
+
+    std::string m_path;
+    VoxelData m_data;
+    unsigned m_width = 1;
+    uint64_t m_dataBytes = 0;
+    size_t m_chunkBytes = kChunkBytes;
+    std::vector<uint8_t> m_buffer;
+    int m_fd = -1;                           ///< raw data
+    std::unique_ptr<InputStream> m_stream;   ///< compressed data, between calls
+    uint64_t m_next = 0;                     ///< the voxel the stream delivers next
+};
 
 } // namespace inputs
 } // namespace csgv

@@ -67,39 +67,7 @@ const Format* formatOf(const std::string& path) {
     return nullptr;
 }
 
-/// @brief A volume already in memory as a source (formats that are read whole).
-class MemorySource : public InputSource {
-public:
-    explicit MemorySource(InputVolume volume) : m_volume(std::move(volume)) {
-        m_info.dim = m_volume.dim;
-        m_info.type = m_volume.type;
-        m_info.geometry = m_volume.geometry;
-    }
-    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
-        const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
-        if (uint64_t(z0) + depth > m_info.dim[2]) return Status::error("slab beyond the volume");
-        std::copy_n(m_volume.values.data() + slice * z0, size_t(slice * depth), out);
-        return Status::ok();
-    }
-    uint64_t workingBytes() const override { return m_volume.values.size() * 8; }
-    void setFormat(const std::string& format) { m_info.format = format; }
-
-private:
-    InputVolume m_volume;
-};
-
 } // namespace
-
-namespace inputs {
-
-Result<std::unique_ptr<InputSource>> sourceOf(Result<InputVolume> volume, const std::string& format) {
-    if (!volume) return volume.status();
-    auto src = std::make_unique<MemorySource>(std::move(*volume));
-    src->setFormat(format);
-    return std::unique_ptr<InputSource>(std::move(src));
-}
-
-} // namespace inputs
 
 bool isInputPath(const std::string& path) { return formatOf(path) != nullptr; }
 

@@ -1,7 +1,14 @@
 // SPDX-License-Identifier: MIT
 /// @file Nifti.cpp
-/// @brief NIfTI-1 single files (`.nii`, `.nii.gz`): header and voxels through one InputStream.
+/// @brief NIfTI-1 single files (`.nii`, `.nii.gz`) as a streaming source: the header is checked
+/// whole at open (parseNiftiHeader, also the fuzz target's entry), then the voxels are read slab
+/// by slab by VoxelFileSource: positioned reads of each slab's bytes in a plain file (one too
+/// short for its voxels is refused at open), one gzip stream kept open between slabs otherwise.
+/// Working memory: a 128 KiB decode buffer, plus 304 KiB for a gzip stream (its input buffer,
+/// zlib's state and 32 KiB window), whatever the volume's size.
 #include "InputCommon.h"
+
+#include "csgv/inputs/HeaderFormats.h"
 
 #include <cmath>
 #include <cstring>
@@ -11,8 +18,6 @@ namespace csgv {
 using namespace inputs;
 
 namespace {
-
-constexpr size_t kNiftiHeader = 348;
 
 /// @brief Reads fields of a NIfTI-1 header in the file's byte order.
 struct NiftiFields {
@@ -129,54 +134,45 @@ Status niftiGeometry(const NiftiFields& hf, const std::string& path, Geometry& g
     return Status::ok();
 }
 
-} // namespace
-
-Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
-    if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
-    InputStream stream;
-    // One stream, header then voxels: a `.nii.gz` is inflated once.
-    if (Status s = stream.open(path); !s) return streamError(path, stream, s);
-    std::vector<uint8_t> head(kNiftiHeader);
-    Result<size_t> headBytes = stream.read(head.data(), head.size());
-    if (!headBytes) return streamError(path, stream, headBytes.status());
-    if (*headBytes < kNiftiHeader)
-        return fail(path, "only " + std::to_string(*headBytes) + " bytes, too short for a NIfTI-1 header (348)");
-    NiftiFields hf{head.data(), false};
+/// The header's checks in order, on its first 348 bytes.
+Result<NiftiHeader> parseFields(const uint8_t* head, const std::string& name) {
+    NiftiHeader out;
+    NiftiFields hf{head, false};
     const int32_t sizeofHdr = hf.i32(0);
     if (sizeofHdr != 348) {
         hf.big = true;
         if (hf.i32(0) != 348) {
             hf.big = false;
-            if (sizeofHdr == 540 || NiftiFields{head.data(), true}.i32(0) == 540)
-                return fail(path, "NIfTI-2 (sizeof_hdr 540) is not supported, only NIfTI-1");
-            return fail(path, "not a NIfTI-1 file: sizeof_hdr is " + std::to_string(sizeofHdr) + ", expected 348");
+            if (sizeofHdr == 540 || NiftiFields{head, true}.i32(0) == 540)
+                return fail(name, "NIfTI-2 (sizeof_hdr 540) is not supported, only NIfTI-1");
+            return fail(name, "not a NIfTI-1 file: sizeof_hdr is " + std::to_string(sizeofHdr) + ", expected 348");
         }
     }
-    const std::string magic(reinterpret_cast<const char*>(head.data()) + 344, 4);
+    out.bigEndian = hf.big;
+    const std::string magic(reinterpret_cast<const char*>(head) + 344, 4);
     if (magic == std::string("ni1\0", 4))
-        return fail(path, "a NIfTI-1 .hdr/.img pair (magic 'ni1') is not supported; use a single .nii file");
-    if (magic != std::string("n+1\0", 4))
-        return fail(path, "NIfTI-1 magic " + quoted(magic) + " is not 'n+1'");
+        return fail(name, "a NIfTI-1 .hdr/.img pair (magic 'ni1') is not supported; use a single .nii file");
+    if (magic != std::string("n+1\0", 4)) return fail(name, "NIfTI-1 magic " + quoted(magic) + " is not 'n+1'");
 
     int dim[8];
     for (int i = 0; i < 8; ++i) dim[i] = hf.i16(40 + 2 * size_t(i));
     if (dim[0] < 2 || dim[0] > 7)
-        return fail(path,
+        return fail(name,
                     "dim[0] is " + std::to_string(dim[0]) + "; a label volume needs 3 (or 2, or 4 with dim[4] = 1)");
-    std::array<uint64_t, 3> d3 = {{1, 1, 1}};
+    std::array<uint32_t, 3> d3 = {{1, 1, 1}};
     for (int i = 1; i <= dim[0]; ++i) {
         if (dim[i] < 1)
-            return fail(path, "dim[" + std::to_string(i) + "] is " + std::to_string(dim[i]) + ", not a positive size");
-        if (i <= 3) d3[size_t(i - 1)] = uint64_t(dim[i]);
+            return fail(name, "dim[" + std::to_string(i) + "] is " + std::to_string(dim[i]) + ", not a positive size");
+        if (i <= 3) d3[size_t(i - 1)] = uint32_t(dim[i]);
         else if (dim[i] != 1)
-            return fail(path, "dim[" + std::to_string(i) + "] is " + std::to_string(dim[i]) +
+            return fail(name, "dim[" + std::to_string(i) + "] is " + std::to_string(dim[i]) +
                                   ": only one 3D volume is supported (dim[4..7] must be 1)");
     }
+    out.dim = d3;
 
-    InputVolume vol;
     const int datatype = hf.i16(70);
-    if (!niftiType(datatype, vol.type))
-        return fail(path, "datatype " + std::to_string(datatype) + " (" + niftiTypeName(datatype) +
+    if (!niftiType(datatype, out.type))
+        return fail(name, "datatype " + std::to_string(datatype) + " (" + niftiTypeName(datatype) +
                               ") is not supported; a label volume needs an integer or float type");
 
     double slope = hf.f32(112), inter = hf.f32(116);
@@ -184,49 +180,108 @@ Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
     if (!std::isfinite(slope)) slope = 0;
     if (!std::isfinite(inter)) inter = 0;
     if (!(slope == 0 || (slope == 1 && inter == 0)))
-        return fail(path, "scaled data (scl_slope " + formatDouble(slope) + ", scl_inter " + formatDouble(inter) +
+        return fail(name, "scaled data (scl_slope " + formatDouble(slope) + ", scl_inter " + formatDouble(inter) +
                               "): labels must be stored unscaled");
 
     const double voxOffset = hf.f32(108);
-    if (!std::isfinite(voxOffset) || voxOffset < double(kNiftiHeader) || voxOffset != std::floor(voxOffset) ||
+    if (!std::isfinite(voxOffset) || voxOffset < double(kNiftiHeaderBytes) || voxOffset != std::floor(voxOffset) ||
         voxOffset > 1e12)
-        return fail(path, "vox_offset " + formatDouble(voxOffset) + " is not a whole byte offset of at least 348");
+        return fail(name, "vox_offset " + formatDouble(voxOffset) + " is not a whole byte offset of at least 348");
+    out.voxOffset = uint64_t(voxOffset);
 
-    if (Status s = checkBudget(path, d3, maxBytes); !s) return s;
-    vol.dim = {{uint32_t(d3[0]), uint32_t(d3[1]), uint32_t(d3[2])}};
-
-    if (Status s = niftiGeometry(hf, path, vol.geometry); !s) return s;
-
-    // ---- voxels
-    const uint64_t offset = uint64_t(voxOffset);
-    const uint64_t dataBytes = vol.voxelCount() * typeBytes(vol.type);
-    Result<uint64_t> skipped = stream.skip(offset - stream.position());
-    if (!skipped) return streamError(path, stream, skipped.status());
-    Result<VoxelRead> got = readVoxels(stream, vol, hf.big, path);
-    if (!got) return streamError(path, stream, got.status());
-    // A short read is reported as truncation below; a full one must also end its gzip member
-    // intact (the checksum), as gzread's read-ahead has always checked on small files.
-    if (got->bytes == dataBytes)
-        if (Status s = stream.checkMemberEnd(); !s) return streamError(path, stream, s);
-    if (got->bytes < dataBytes)
-        return fail(path, "truncated: " + std::to_string(got->bytes) +
-                              " bytes of voxel data after vox_offset " + std::to_string(offset) + ", " +
-                              dimText(d3) + " " + labelTypeName(vol.type) + " voxels need " +
-                              std::to_string(dataBytes));
-    if (!got->decode) return got->decode;
-    return vol;
+    if (Status s = niftiGeometry(hf, name, out.geometry); !s) return s;
+    return out;
 }
 
-} // namespace csgv
+/// @brief A NIfTI-1 file's voxels, read slab by slab (VoxelFileSource): positioned reads when the
+/// file is not compressed, one gzip stream kept open between slabs otherwise (an earlier slab
+/// restarts it; the member's checksum is verified after the last voxel).
+class NiftiSource : public VoxelFileSource {
+protected:
+    Status truncated(uint64_t available) const override {
+        return fail(path(), "truncated: " + std::to_string(available) + " bytes of voxel data after vox_offset " +
+                                std::to_string(m_voxOffset) + ", " + dimText(dims()) + " " +
+                                labelTypeName(info().type) + " voxels need " + std::to_string(dataBytes()));
+    }
+    Status streamFailure(const InputStream& in, const Status& s) const override { return streamError(path(), in, s); }
 
-namespace csgv {
+public:
+    explicit NiftiSource(uint64_t voxOffset) : m_voxOffset(voxOffset) {}
+
+private:
+    std::array<uint64_t, 3> dims() const { return {{info().dim[0], info().dim[1], info().dim[2]}}; }
+    uint64_t m_voxOffset;
+};
+
+} // namespace
+
 namespace inputs {
+
+Result<NiftiHeader> parseNiftiHeader(const uint8_t* bytes, size_t size, const std::string& name) {
+    if (size < kNiftiHeaderBytes)
+        return fail(name, "only " + std::to_string(size) + " bytes, too short for a NIfTI-1 header (348)");
+    return parseFields(bytes, name);
+}
+
+Result<std::unique_ptr<InputSource>> openNiftiSource(const std::string& path, const InputOptions& options,
+                                                     const uint64_t* wholeVolumeBudget) {
+    if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
+    // The header through the stream that also tells whether the file is gzip (whatever its name,
+    // as gzopen decides).
+    InputStream stream;
+    if (Status s = stream.open(path); !s) return streamError(path, stream, s);
+    uint8_t head[kNiftiHeaderBytes];
+    Result<size_t> headBytes = stream.read(head, sizeof head);
+    if (!headBytes) return streamError(path, stream, headBytes.status());
+    Result<NiftiHeader> h = parseNiftiHeader(head, *headBytes, path);
+    if (!h) return h.status();
+    const std::array<uint64_t, 3> d3 = {{h->dim[0], h->dim[1], h->dim[2]}};
+    if (wholeVolumeBudget)
+        if (Status s = checkBudget(path, d3, *wholeVolumeBudget); !s) return s;
+
+    InputInfo info;
+    info.dim = h->dim;
+    info.type = h->type;
+    info.geometry = h->geometry;
+    info.format = "NIfTI";
+    info.detail = voxelDetail(h->type, h->bigEndian, stream.compressed());
+    VoxelData data;
+    data.file = path;
+    data.compressed = stream.compressed();
+    data.mode = InputStream::Mode::Auto;
+    data.stored = h->type;
+    data.bigEndian = h->bigEndian;
+    auto src = std::make_unique<NiftiSource>(h->voxOffset);
+    if (data.compressed) {
+        data.skip = h->voxOffset;
+    } else {
+        // Raw voxels: a file too short for them is refused now, before any is read.
+        data.fileOffset = h->voxOffset;
+        const uint64_t need = h->voxelCount() * typeBytes(h->type); // dims are at most 32767: no overflow
+        Result<uint64_t> size = fileSize(path);
+        if (!size) return size.status();
+        const uint64_t available = *size > h->voxOffset ? *size - h->voxOffset : 0;
+        if (available < need)
+            return fail(path, "truncated: " + std::to_string(available) + " bytes of voxel data after vox_offset " +
+                                  std::to_string(h->voxOffset) + ", " + dimText(d3) + " " + labelTypeName(h->type) +
+                                  " voxels need " + std::to_string(need));
+    }
+    if (Status s = src->init(path, info, data, options); !s) return s;
+    return std::unique_ptr<InputSource>(std::move(src));
+}
 
 bool claimsNifti(const std::string& path) { return endsWithNoCase(path, ".nii") || endsWithNoCase(path, ".nii.gz"); }
 
-Result<std::unique_ptr<InputSource>> openNifti(const std::string& path, const InputOptions&) {
-    return sourceOf(readNifti(path), "NIfTI");
+Result<std::unique_ptr<InputSource>> openNifti(const std::string& path, const InputOptions& options) {
+    return openNiftiSource(path, options, nullptr);
 }
 
 } // namespace inputs
+
+Result<InputVolume> readNifti(const std::string& path, uint64_t maxBytes) {
+    Result<std::unique_ptr<InputSource>> src = inputs::openNiftiSource(path, InputOptions{}, &maxBytes);
+    if (!src) return src.status();
+    return readAll(**src, path, maxBytes);
+}
+
 } // namespace csgv
