@@ -612,9 +612,19 @@ private:
 
 bool claimsTiff(const std::string& path) {
     if (path.empty()) return false;
-    if (isTiffName(path) || hasWildcard(lastComponent(path)) || path.back() == '/') return true;
+    if (isTiffName(path) || hasWildcard(lastComponent(path))) return true;
     std::error_code ec;
-    return fs::is_directory(path, ec);
+    if (!fs::is_directory(path, ec)) return path.back() == '/';
+    // A folder is a TIFF stack when it holds a TIFF file, or nothing at all (then the opener says
+    // it is empty); a folder of other files (a precomputed scale, say) is not claimed.
+    bool otherFiles = false;
+    for (fs::directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        if (name.empty() || name[0] == '.' || !it->is_regular_file(ec)) continue;
+        if (isTiffName(name)) return true;
+        otherFiles = true;
+    }
+    return !otherFiles;
 }
 
 Result<std::unique_ptr<InputSource>> openTiff(const std::string& path, const InputOptions& options) {
