@@ -39,6 +39,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
@@ -60,13 +61,24 @@ std::mutex& hdf5Mutex() {
     return m;
 }
 
+/// libhdf5 1.10 keeps some state behind after failing on certain damaged files (an object header
+/// it cannot open, a bad end-of-file address) and, when its error printer is on as the process
+/// exits, complains "infinite loop closing library" from its own exit handler, outside any call
+/// we wrap. Ours, registered after libhdf5 has registered its own (so run before it), turns the
+/// printer off for that moment only.
+void silenceShutdownOnce() {
+    static std::once_flag once;
+    std::call_once(once, [] { std::atexit([] { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }); });
+}
+
 /// @brief Holds the library lock and keeps HDF5 from printing its error stack to stderr for as
 /// long as it lives (the printer is restored afterwards, for host applications that want it).
 class Hdf5Scope {
 public:
     Hdf5Scope() : m_lock(hdf5Mutex()) {
-        H5Eget_auto2(H5E_DEFAULT, &m_func, &m_data);
+        H5Eget_auto2(H5E_DEFAULT, &m_func, &m_data); // initialises libhdf5 (and its exit handler) first
         H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+        silenceShutdownOnce();
     }
     ~Hdf5Scope() { H5Eset_auto2(H5E_DEFAULT, m_func, m_data); }
     Hdf5Scope(const Hdf5Scope&) = delete;
@@ -266,36 +278,45 @@ bool isIntegerVolume(hid_t dataset) {
 // Finding the dataset
 // ------------------------------------------------------------------------------------------------
 
+/// @brief What a walk over a group found.
 struct WalkState {
-    std::string prefix; ///< path of the group walked, ending in '/'
-    std::vector<std::string> volumes;
+    std::string prefix;               ///< path of the group walked, ending in '/'
+    std::vector<std::string> volumes; ///< 3D integer datasets
+    std::vector<std::string> broken;  ///< objects HDF5 could not open (damaged headers)
 };
 
 herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* data) {
     if (info->type != H5L_TYPE_HARD) return 0; // soft and external links may dangle or leave the file
+    auto* state = static_cast<WalkState*>(data);
     Handle object(H5Oopen(group, name, H5P_DEFAULT), H5Oclose);
-    if (object.valid() && H5Iget_type(object.get()) == H5I_DATASET && isIntegerVolume(object.get())) {
-        auto* state = static_cast<WalkState*>(data);
+    if (!object.valid())
+        state->broken.push_back(state->prefix + name);
+    else if (H5Iget_type(object.get()) == H5I_DATASET && isIntegerVolume(object.get()))
         state->volumes.push_back(state->prefix + name);
-    }
     return 0;
 }
 
-/// Paths of the 3D integer datasets under a group (every depth).
-std::vector<std::string> integerVolumesUnder(hid_t group, const std::string& groupPath) {
+/// The 3D integer datasets under a group (every depth).
+WalkState walkGroup(hid_t group, const std::string& groupPath) {
     WalkState state;
     state.prefix = groupPath.empty() || groupPath.back() != '/' ? groupPath + "/" : groupPath;
     H5Lvisit(group, H5_INDEX_NAME, H5_ITER_INC, visitLink, &state);
     H5Eclear2(H5E_DEFAULT);
-    return state.volumes;
+    return state;
+}
+
+std::string brokenText(const WalkState& walk) {
+    return walk.broken.empty() ? "" : " (HDF5 could not open " + listText(walk.broken) + ")";
 }
 
 /// The dataset to read: the one named, or the file's only 3D integer dataset.
 Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string& named) {
     if (named.empty()) {
-        const std::vector<std::string> volumes = integerVolumesUnder(file, "/");
+        const WalkState walk = walkGroup(file, "/");
+        const std::vector<std::string>& volumes = walk.volumes;
         if (volumes.empty())
-            return Status::error("holds no 3D integer dataset; name one as FILE.h5:/group/dataset");
+            return Status::error("holds no 3D integer dataset" + brokenText(walk) +
+                                 "; name one as FILE.h5:/group/dataset");
         if (volumes.size() > 1)
             return Status::error("holds several 3D integer datasets (" + listText(volumes) +
                                  "); name one as FILE.h5:/group/dataset");
@@ -304,13 +325,20 @@ Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string
         return std::make_pair(std::move(d), volumes[0]);
     }
     Handle object(H5Oopen(file, named.c_str(), H5P_DEFAULT), H5Oclose);
-    if (!object.valid()) return Status::error("no dataset " + named + " in the file (" + hdf5Message() + ")");
+    if (!object.valid()) {
+        const std::string why = hdf5Message();
+        // A link that exists but whose object does not open is a damaged file, not a wrong name.
+        if (H5Lexists(file, named.c_str(), H5P_DEFAULT) > 0) return Status::error("cannot open " + named + ": " + why);
+        H5Eclear2(H5E_DEFAULT);
+        return Status::error("no dataset " + named + " in the file (" + why + ")");
+    }
     const H5I_type_t kind = H5Iget_type(object.get());
     if (kind == H5I_GROUP) {
-        const std::vector<std::string> inside = integerVolumesUnder(object.get(), named);
+        const WalkState inside = walkGroup(object.get(), named);
         return Status::error(named + " is a group, not a dataset" +
-                             (inside.empty() ? std::string("; it holds no 3D integer dataset")
-                                             : "; its 3D integer datasets: " + listText(inside)));
+                             (inside.volumes.empty() ? std::string("; it holds no 3D integer dataset")
+                                                     : "; its 3D integer datasets: " + listText(inside.volumes)) +
+                             brokenText(inside));
     }
     if (kind != H5I_DATASET) return Status::error(named + " is a named datatype, not a dataset");
     Handle d(H5Dopen2(file, named.c_str(), H5P_DEFAULT), H5Dclose);

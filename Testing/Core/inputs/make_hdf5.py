@@ -10,6 +10,7 @@ name with the dataset path's slashes turned into underscores, e.g. `nested.h5:/a
 -> `nested_a_b_labels.expected`. Values are deterministic (fixed seeds).
 """
 import os
+import shutil
 import sys
 
 import h5py
@@ -69,6 +70,16 @@ def main():
     with h5py.File(p("i64.h5"), "w") as f:
         f.create_dataset("labels", data=a, chunks=(4, 8, 8), compression="gzip")
     expect(outdir, "i64_labels", a)
+
+    # int8 with fletcher32 checksums; the same under szip when this HDF5 can write it (the test
+    # skips that part when the file is absent).
+    a = blocky((6, 7, 9), 2, 13, -128, 128, np.int8)
+    with h5py.File(p("i8.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(4, 4, 4), fletcher32=True)
+    expect(outdir, "i8_labels", a)
+    if h5py.h5z.filter_avail(h5py.h5z.FILTER_SZIP):
+        with h5py.File(p("i8_szip.h5"), "w") as f:
+            f.create_dataset("labels", data=a, chunks=(4, 4, 4), compression="szip")
 
     # uint64 above 2^32 (and above 2^63).
     a = blocky((8, 9, 10), 3, 7, 0, 1 << 63, np.uint64)
@@ -145,6 +156,14 @@ def main():
         fh.seek(info.byte_offset + 2)
         fh.write(bytes(range(0xF0, 0x100)) * 2)
     expect(outdir, "corrupt_labels", a)
+
+    # The dataset's object header overwritten (its messages): the link exists, the object does not open.
+    shutil.copy(p("chunked_gzip.h5"), p("damaged_header.h5"))
+    with h5py.File(p("damaged_header.h5"), "r") as f:
+        header = h5py.h5o.get_info(f["labels"].id).addr
+    with open(p("damaged_header.h5"), "r+b") as fh:
+        fh.seek(header + 16)
+        fh.write(b"\xff" * 32)
 
     with open(p("text.h5"), "w") as fh:
         fh.write("labels,1,2,3\nthis is not an HDF5 file\n")
