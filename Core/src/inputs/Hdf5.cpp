@@ -26,9 +26,11 @@
 ///   otherwise one chunk, and each chunk is then decompressed once per slab that touches it.
 ///   Chunks larger than the limit are refused. Besides that, libhdf5 keeps its own bounded
 ///   buffers: a type-conversion buffer (1 MiB), one chunk while decompressing, and its metadata
-///   cache (a few MiB).
+///   cache (a few MiB). (Two sources open on the same dataset at once share the first one's
+///   cache: libhdf5 fixes it when a dataset is first opened.)
 /// - Errors: HDF5's error printer is silenced around every call and its own message (the error
-///   stack, walked) goes into the Status text. Every handle is closed on every path.
+///   stack, walked) goes into the Status text; also at exit (see silenceShutdownOnce). Every
+///   handle is closed on every path.
 /// - Threads: Debian's libhdf5 is built without thread safety, so every call into it here holds
 ///   one process-wide mutex (sources may be used from different threads).
 #include "InputCommon.h"
@@ -561,20 +563,28 @@ void floatsToIntegersInPlace(uint64_t* out, size_t n) {
 // The source
 // ------------------------------------------------------------------------------------------------
 
+/// @brief What openHdf5 learns about a dataset before reading it.
+struct Description {
+    InputInfo info;
+    VoxelType voxel;
+    Axes axes;
+    Storage storage;
+};
+
 /// @brief One HDF5 dataset read slab by slab (see the file's @brief for the memory bound).
 class Hdf5Source : public InputSource {
 public:
-    Hdf5Source(std::string path, Handle file, Handle dataset, VoxelType type, Axes axes, uint64_t cacheBytes)
-        : m_path(std::move(path)), m_file(std::move(file)), m_dataset(std::move(dataset)), m_type(type),
-          m_axes(std::move(axes)), m_cacheBytes(cacheBytes) {}
+    Hdf5Source(std::string path, Handle file, Handle dataset, Description what, uint64_t cacheBytes)
+        : m_path(std::move(path)), m_file(std::move(file)), m_dataset(std::move(dataset)), m_type(what.voxel),
+          m_axes(std::move(what.axes)), m_cacheBytes(cacheBytes) {
+        m_info = std::move(what.info);
+    }
 
     ~Hdf5Source() override {
         Hdf5Scope scope;
         m_dataset.reset();
         m_file.reset();
     }
-
-    void setInfo(InputInfo info) { m_info = std::move(info); }
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
         if (uint64_t(z0) + depth > m_info.dim[2]) return fail(m_path, "slab beyond the volume");
@@ -673,6 +683,36 @@ Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkC
     return Result<Handle>(std::move(d));
 }
 
+/// Everything about the dataset but its cache: type, axes, storage, geometry.
+Result<Description> describe(hid_t dataset, const std::string& name, const InputOptions& options) {
+    Handle type(H5Dget_type(dataset), H5Tclose);
+    Handle space(H5Dget_space(dataset), H5Sclose);
+    if (!type.valid() || !space.valid()) return Status::error("cannot read dataset " + name + ": " + hdf5Message());
+    Description d;
+    Result<VoxelType> voxel = voxelTypeOf(type.get());
+    if (!voxel) return Status::error("dataset " + name + " " + voxel.message());
+    Result<Axes> axes = axesOf(space.get());
+    if (!axes) return Status::error("dataset " + name + " " + axes.message());
+    Result<Storage> storage = storageOf(dataset, *axes, H5Tget_size(type.get()), name);
+    if (!storage) return storage.status();
+    if (storage->chunked && storage->chunkBytes > options.maxWorkingBytes)
+        return Status::error("dataset " + name + " has chunks of " + std::to_string(storage->chunkBytes) +
+                             " bytes, more than the working-memory limit of " + std::to_string(options.maxWorkingBytes));
+    d.voxel = *voxel;
+    d.axes = std::move(*axes);
+    d.storage = std::move(*storage);
+
+    const std::vector<hsize_t>& dims = d.axes.dims;
+    const size_t z = size_t(d.axes.zAxis);
+    d.info.dim = {uint32_t(dims[z + 2]), uint32_t(dims[z + 1]), uint32_t(dims[z])};
+    d.info.type = d.voxel.type;
+    d.info.format = "HDF5";
+    std::string notes;
+    d.info.geometry = geometryOf(dataset, d.axes, notes);
+    d.info.detail = "dataset " + name + ", " + d.storage.detail + notes;
+    return d;
+}
+
 } // namespace
 
 bool claimsHdf5(const std::string& path) {
@@ -690,43 +730,15 @@ Result<std::unique_ptr<InputSource>> openHdf5(const std::string& path, const Inp
         if (!file) return fail(path, file.message());
         Result<std::pair<Handle, std::string>> found = findDataset(file->get(), where.dataset);
         if (!found) return fail(path, found.message());
-        const std::string& name = found->second;
-        const hid_t dataset = found->first.get();
-
-        Handle type(H5Dget_type(dataset), H5Tclose);
-        Handle space(H5Dget_space(dataset), H5Sclose);
-        if (!type.valid() || !space.valid()) return fail(path, "cannot read dataset " + name + ": " + hdf5Message());
-        Result<VoxelType> voxel = voxelTypeOf(type.get());
-        if (!voxel) return fail(path, "dataset " + name + " " + voxel.message());
-        Result<Axes> axes = axesOf(space.get());
-        if (!axes) return fail(path, "dataset " + name + " " + axes.message());
-        Result<Storage> storage = storageOf(dataset, *axes, H5Tget_size(type.get()), name);
-        if (!storage) return fail(path, storage.message());
-        if (storage->chunked && storage->chunkBytes > options.maxWorkingBytes)
-            return fail(path, "dataset " + name + " has chunks of " + std::to_string(storage->chunkBytes) +
-                                  " bytes, more than the working-memory limit of " +
-                                  std::to_string(options.maxWorkingBytes));
-
-        InputInfo info;
-        const std::vector<hsize_t>& d = axes->dims;
-        const size_t z = size_t(axes->zAxis);
-        info.dim = {uint32_t(d[z + 2]), uint32_t(d[z + 1]), uint32_t(d[z])};
-        info.type = voxel->type;
-        info.format = "HDF5";
-        std::string notes;
-        info.geometry = geometryOf(dataset, *axes, notes);
-        info.detail = "dataset " + name + ", " + storage->detail + notes;
-
-        // The cache is set when a dataset is first opened (later opens share it): close it first.
-        type.reset();
-        space.reset();
+        const std::string name = found->second;
+        Result<Description> what = describe(found->first.get(), name, options);
+        if (!what) return fail(path, what.message());
+        // The chunk cache is fixed when a dataset is first opened (later opens share it).
         found->first.reset();
-        const ChunkCache cache = chooseCache(*storage, options.maxWorkingBytes);
-        Result<Handle> reopened = reopenWithCache(file->get(), name, cache);
-        if (!reopened) return fail(path, reopened.message());
-        source = std::make_unique<Hdf5Source>(path, std::move(*file), std::move(*reopened), *voxel, std::move(*axes),
-                                              cache.bytes);
-        source->setInfo(std::move(info));
+        const ChunkCache cache = chooseCache(what->storage, options.maxWorkingBytes);
+        Result<Handle> dataset = reopenWithCache(file->get(), name, cache);
+        if (!dataset) return fail(path, dataset.message());
+        source = std::make_unique<Hdf5Source>(path, std::move(*file), std::move(*dataset), std::move(*what), cache.bytes);
     }
     return std::unique_ptr<InputSource>(std::move(source));
 }
