@@ -606,9 +606,10 @@ private:
         count[z] = depth;
         count[z + 1] = m_info.dim[1];
         count[z + 2] = m_info.dim[0];
-        const hsize_t n = hsize_t(m_info.dim[0]) * m_info.dim[1] * depth;
+        // The memory space has the selection's shape: HDF5 then maps chunks to memory by blocks
+        // (a 1D memory space made it map element by element, at a fifth of the speed).
         Handle fileSpace(H5Dget_space(m_dataset.get()), H5Sclose);
-        Handle memSpace(H5Screate_simple(1, &n, nullptr), H5Sclose);
+        Handle memSpace(H5Screate_simple(int(rank), count.data(), nullptr), H5Sclose);
         if (!fileSpace.valid() || !memSpace.valid() ||
             H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0 ||
             H5Dread(m_dataset.get(), m_type.memType, memSpace.get(), fileSpace.get(), H5P_DEFAULT, out) < 0)
