@@ -1,15 +1,747 @@
 // SPDX-License-Identifier: MIT
 /// @file Hdf5.cpp
-/// @brief FILE.h5[:/group/dataset] (also .hdf5), through libhdf5. Not yet implemented.
+/// @brief `FILE.h5[:/group/dataset]` (also `.hdf5`) through libhdf5's C API, streamed slab by
+/// slab with hyperslab selections.
+///
+/// - Dataset: the one named after `:`, or else the file's only 3D integer dataset (every group
+///   is walked; none or several is an error, several listing their paths).
+/// - Axes (z, y, x), x last. Extra axes of size 1 are allowed (4D/5D): leading ones are dropped
+///   first (`(1, z, y, x)`), then trailing ones (ilastik's channel, `(z, y, x, 1)`).
+/// - Types: u8..u64 and i8..i64 (read as the matching native type, HDF5 converting the byte
+///   order, then widened; signed sign-extended); float32/float64 when every voxel read holds an
+///   integer (else an error naming the voxel). Other classes (string, compound, enum, half
+///   floats...) are rejected. Any filter the linked libhdf5 can decode (gzip, shuffle,
+///   fletcher32, szip when built in, plugins on HDF5_PLUGIN_PATH); a missing one is named when
+///   the file is opened.
+/// - Geometry, from the dataset's attributes, each 3 numbers in (z, y, x) order (or one per file
+///   axis): spacing from `element_size_um` (Fiji, ilastik), `resolution` (CREMI) or `spacing`;
+///   origin (centre of voxel 0) from `offset` (CREMI) or `origin`. Spacing 1 and origin 0 when
+///   absent; an attribute of another shape or with a non-positive spacing is ignored and the
+///   detail line says so.
+/// - Working memory: HDF5 reads each slab's values straight into the caller's buffer at their
+///   native width and they are widened there in place (back to front), so no slab-sized
+///   temporary exists. Between calls the source holds the dataset's chunk cache: one layer of
+///   chunks along z (every chunk a z range touches) when that fits InputOptions::maxWorkingBytes,
+///   so that chunks deeper than the caller's slab are not decompressed again for the next slab;
+///   otherwise one chunk, and each chunk is then decompressed once per slab that touches it.
+///   Chunks larger than the limit are refused. Besides that, libhdf5 keeps its own bounded
+///   buffers: a type-conversion buffer (1 MiB), one chunk while decompressing, and its metadata
+///   cache (a few MiB). (Two sources open on the same dataset at once share the first one's
+///   cache: libhdf5 fixes it when a dataset is first opened.)
+/// - Errors: HDF5's error printer is silenced around every call and its own message (the error
+///   stack, walked) goes into the Status text; also at exit (see silenceShutdownOnce). Every
+///   handle is closed on every path.
+/// - Threads: Debian's libhdf5 is built without thread safety, so every call into it here holds
+///   one process-wide mutex (sources may be used from different threads).
 #include "InputCommon.h"
+
+#include "csgv/base/Checked.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <type_traits>
+#include <utility>
+#include <vector>
 
 namespace csgv {
 namespace inputs {
 
-bool claimsHdf5(const std::string&) { return false; }
+namespace {
 
-Result<std::unique_ptr<InputSource>> openHdf5(const std::string& path, const InputOptions&) {
-    return fail(path, "HDF5 input is not implemented yet");
+// ------------------------------------------------------------------------------------------------
+// libhdf5 plumbing: the lock, the silenced error printer, its messages, handles that close.
+// ------------------------------------------------------------------------------------------------
+
+std::mutex& hdf5Mutex() {
+    static std::mutex m;
+    return m;
+}
+
+/// libhdf5 1.10 keeps some state behind after failing on certain damaged files (an object header
+/// it cannot open, a bad end-of-file address) and, when its error printer is on as the process
+/// exits, complains "infinite loop closing library" from its own exit handler, outside any call
+/// we wrap. Ours, registered after libhdf5 has registered its own (so run before it), turns the
+/// printer off for that moment only.
+void silenceShutdownOnce() {
+    static std::once_flag once;
+    std::call_once(once, [] { std::atexit([] { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }); });
+}
+
+/// @brief Holds the library lock and keeps HDF5 from printing its error stack to stderr for as
+/// long as it lives (the printer is restored afterwards, for host applications that want it).
+class Hdf5Scope {
+public:
+    Hdf5Scope() : m_lock(hdf5Mutex()) {
+        H5Eget_auto2(H5E_DEFAULT, &m_func, &m_data); // initialises libhdf5 (and its exit handler) first
+        H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+        silenceShutdownOnce();
+    }
+    ~Hdf5Scope() { H5Eset_auto2(H5E_DEFAULT, m_func, m_data); }
+    Hdf5Scope(const Hdf5Scope&) = delete;
+    Hdf5Scope& operator=(const Hdf5Scope&) = delete;
+
+private:
+    std::lock_guard<std::mutex> m_lock;
+    H5E_auto2_t m_func = nullptr;
+    void* m_data = nullptr;
+};
+
+herr_t collectError(unsigned, const H5E_error2_t* err, void* data) {
+    auto* lines = static_cast<std::vector<std::string>*>(data);
+    // The plugin search that follows a missing filter only says that the search failed.
+    if (err->desc && *err->desc && err->maj_num != H5E_PLUGIN) lines->push_back(err->desc);
+    return 0;
+}
+
+/// HDF5's words for the call that just failed: the outermost description and the innermost
+/// one (the cause), e.g. "unable to open file: file signature not found".
+std::string hdf5Message() {
+    std::vector<std::string> lines;
+    H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collectError, &lines);
+    H5Eclear2(H5E_DEFAULT);
+    if (lines.empty()) return "HDF5 gave no reason";
+    if (lines.size() == 1 || lines.front() == lines.back()) return lines.front();
+    return lines.front() + ": " + lines.back();
+}
+
+/// @brief One HDF5 identifier, closed with its own close function on every path.
+class Handle {
+public:
+    Handle() = default;
+    Handle(hid_t id, herr_t (*close)(hid_t)) : m_id(id), m_close(close) {}
+    ~Handle() { reset(); }
+    Handle(Handle&& o) noexcept : m_id(std::exchange(o.m_id, H5I_INVALID_HID)), m_close(o.m_close) {}
+    Handle& operator=(Handle&& o) noexcept {
+        if (this != &o) {
+            reset();
+            m_id = std::exchange(o.m_id, H5I_INVALID_HID);
+            m_close = o.m_close;
+        }
+        return *this;
+    }
+    Handle(const Handle&) = delete;
+    Handle& operator=(const Handle&) = delete;
+
+    hid_t get() const { return m_id; }
+    bool valid() const { return m_id >= 0; }
+    void reset() {
+        if (m_id >= 0 && m_close) m_close(m_id);
+        m_id = H5I_INVALID_HID;
+    }
+
+private:
+    hid_t m_id = H5I_INVALID_HID;
+    herr_t (*m_close)(hid_t) = nullptr;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Names, paths and messages
+// ------------------------------------------------------------------------------------------------
+
+/// `FILE.h5` or `FILE.h5:/dataset` split into the file and the dataset path ("" when none).
+struct Hdf5Path {
+    std::string file;
+    std::string dataset;
+};
+
+Hdf5Path splitPath(const std::string& path) {
+    const std::string low = lower(path);
+    for (const char* suffix : {".h5:/", ".hdf5:/"}) {
+        const size_t at = low.find(suffix);
+        if (at != std::string::npos) {
+            const size_t colon = at + std::strlen(suffix) - 2;
+            return {path.substr(0, colon), path.substr(colon + 1)};
+        }
+    }
+    return {path, ""};
+}
+
+std::string shapeText(const std::vector<hsize_t>& dims) {
+    std::string s;
+    for (size_t i = 0; i < dims.size(); ++i) s += (i ? "x" : "") + std::to_string(dims[i]);
+    return s.empty() ? "scalar" : s;
+}
+
+std::string listText(const std::vector<std::string>& names, size_t most = 10) {
+    std::string s;
+    for (size_t i = 0; i < names.size() && i < most; ++i) s += (i ? ", " : "") + names[i];
+    if (names.size() > most) s += " and " + std::to_string(names.size() - most) + " more";
+    return s;
+}
+
+const char* classText(H5T_class_t c) {
+    switch (c) {
+    case H5T_INTEGER: return "integer";
+    case H5T_FLOAT: return "float";
+    case H5T_TIME: return "time";
+    case H5T_STRING: return "string";
+    case H5T_BITFIELD: return "bitfield";
+    case H5T_OPAQUE: return "opaque";
+    case H5T_COMPOUND: return "compound";
+    case H5T_REFERENCE: return "reference";
+    case H5T_ENUM: return "enum";
+    case H5T_VLEN: return "variable-length";
+    case H5T_ARRAY: return "array";
+    default: return "unknown";
+    }
+}
+
+std::string filterName(H5Z_filter_t id, const char* stored) {
+    switch (id) {
+    case H5Z_FILTER_DEFLATE: return "gzip";
+    case H5Z_FILTER_SHUFFLE: return "shuffle";
+    case H5Z_FILTER_FLETCHER32: return "fletcher32";
+    case H5Z_FILTER_SZIP: return "szip";
+    case H5Z_FILTER_NBIT: return "nbit";
+    case H5Z_FILTER_SCALEOFFSET: return "scaleoffset";
+    default: break;
+    }
+    if (stored && *stored) return stored;
+    return "filter " + std::to_string(id);
+}
+
+// ------------------------------------------------------------------------------------------------
+// What a dataset holds: its label type and which file axes are z, y, x.
+// ------------------------------------------------------------------------------------------------
+
+/// @brief The voxel type of a dataset and the native type HDF5 converts it to for us.
+struct VoxelType {
+    LabelType type = LabelType::U32;
+    hid_t memType = H5I_INVALID_HID; ///< a predefined native type (never closed)
+};
+
+/// The label type of an HDF5 datatype, or why it cannot hold labels.
+Result<VoxelType> voxelTypeOf(hid_t fileType) {
+    const H5T_class_t cls = H5Tget_class(fileType);
+    const size_t size = H5Tget_size(fileType);
+    if (cls == H5T_INTEGER) {
+        const bool sgn = H5Tget_sign(fileType) == H5T_SGN_2;
+        switch (size) {
+        case 1: return sgn ? VoxelType{LabelType::I8, H5T_NATIVE_INT8} : VoxelType{LabelType::U8, H5T_NATIVE_UINT8};
+        case 2: return sgn ? VoxelType{LabelType::I16, H5T_NATIVE_INT16} : VoxelType{LabelType::U16, H5T_NATIVE_UINT16};
+        case 4: return sgn ? VoxelType{LabelType::I32, H5T_NATIVE_INT32} : VoxelType{LabelType::U32, H5T_NATIVE_UINT32};
+        case 8: return sgn ? VoxelType{LabelType::I64, H5T_NATIVE_INT64} : VoxelType{LabelType::U64, H5T_NATIVE_UINT64};
+        default: break;
+        }
+    } else if (cls == H5T_FLOAT) {
+        if (size == 4) return VoxelType{LabelType::F32, H5T_NATIVE_FLOAT};
+        if (size == 8) return VoxelType{LabelType::F64, H5T_NATIVE_DOUBLE};
+    }
+    return Status::error("has datatype " + std::string(classText(cls)) + " of " + std::to_string(size) +
+                         " bytes; labels must be integers of 1, 2, 4 or 8 bytes (or float32/float64 holding integers)");
+}
+
+/// @brief Where the spatial axes are in the file's axes.
+struct Axes {
+    std::vector<hsize_t> dims; ///< the file's shape
+    int zAxis = 0;             ///< file axis of z; y and x follow it
+};
+
+/// The dataset's shape as (z, y, x) axes, or why it is not a 3D volume.
+Result<Axes> axesOf(hid_t space) {
+    if (H5Sget_simple_extent_type(space) != H5S_SIMPLE) return Status::error("is a scalar or has no data space");
+    const int rank = H5Sget_simple_extent_ndims(space);
+    if (rank < 0) return Status::error("has an unreadable shape");
+    Axes a;
+    a.dims.resize(size_t(rank));
+    if (rank > 0) H5Sget_simple_extent_dims(space, a.dims.data(), nullptr);
+    if (rank < 3 || rank > 5)
+        return Status::error("is " + std::to_string(rank) + "D (shape " + shapeText(a.dims) +
+                             "); labels need 3 axes (z, y, x), or 4 or 5 with the extra ones of size 1");
+    int extra = rank - 3;
+    while (extra > 0 && a.dims[size_t(a.zAxis)] == 1) ++a.zAxis, --extra;
+    for (int i = 0; i < extra; ++i)
+        if (a.dims[size_t(rank - 1 - i)] != 1)
+            return Status::error("is " + std::to_string(rank) + "D (shape " + shapeText(a.dims) +
+                                 "); the axes beyond (z, y, x) must have size 1");
+    for (int i = 0; i < 3; ++i) {
+        const hsize_t n = a.dims[size_t(a.zAxis + i)];
+        if (n == 0) return Status::error("is empty (shape " + shapeText(a.dims) + ")");
+        if (n > 0xFFFFFFFFu) return Status::error("has an axis longer than 2^32 - 1 (shape " + shapeText(a.dims) + ")");
+    }
+    return a;
+}
+
+/// True for a dataset that auto-picking takes: integer voxels on (z, y, x) axes.
+bool isIntegerVolume(hid_t dataset) {
+    Handle type(H5Dget_type(dataset), H5Tclose);
+    Handle space(H5Dget_space(dataset), H5Sclose);
+    if (!type.valid() || !space.valid() || H5Tget_class(type.get()) != H5T_INTEGER) return false;
+    return voxelTypeOf(type.get()).isOk() && axesOf(space.get()).isOk();
+}
+
+// ------------------------------------------------------------------------------------------------
+// Finding the dataset
+// ------------------------------------------------------------------------------------------------
+
+/// @brief What a walk over a group found.
+struct WalkState {
+    std::string prefix;               ///< path of the group walked, ending in '/'
+    std::vector<std::string> volumes; ///< 3D integer datasets
+    std::vector<std::string> broken;  ///< objects HDF5 could not open (damaged headers)
+};
+
+herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* data) {
+    if (info->type != H5L_TYPE_HARD) return 0; // soft and external links may dangle or leave the file
+    auto* state = static_cast<WalkState*>(data);
+    Handle object(H5Oopen(group, name, H5P_DEFAULT), H5Oclose);
+    if (!object.valid())
+        state->broken.push_back(state->prefix + name);
+    else if (H5Iget_type(object.get()) == H5I_DATASET && isIntegerVolume(object.get()))
+        state->volumes.push_back(state->prefix + name);
+    return 0;
+}
+
+/// The 3D integer datasets under a group (every depth).
+WalkState walkGroup(hid_t group, const std::string& groupPath) {
+    WalkState state;
+    state.prefix = groupPath.empty() || groupPath.back() != '/' ? groupPath + "/" : groupPath;
+    H5Lvisit(group, H5_INDEX_NAME, H5_ITER_INC, visitLink, &state);
+    H5Eclear2(H5E_DEFAULT);
+    return state;
+}
+
+std::string brokenText(const WalkState& walk) {
+    return walk.broken.empty() ? "" : " (HDF5 could not open " + listText(walk.broken) + ")";
+}
+
+/// The dataset to read: the one named, or the file's only 3D integer dataset.
+Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string& named) {
+    if (named.empty()) {
+        const WalkState walk = walkGroup(file, "/");
+        const std::vector<std::string>& volumes = walk.volumes;
+        if (volumes.empty())
+            return Status::error("holds no 3D integer dataset" + brokenText(walk) +
+                                 "; name one as FILE.h5:/group/dataset");
+        if (volumes.size() > 1)
+            return Status::error("holds several 3D integer datasets (" + listText(volumes) +
+                                 "); name one as FILE.h5:/group/dataset");
+        Handle d(H5Dopen2(file, volumes[0].c_str(), H5P_DEFAULT), H5Dclose);
+        if (!d.valid()) return Status::error("cannot open dataset " + volumes[0] + ": " + hdf5Message());
+        return std::make_pair(std::move(d), volumes[0]);
+    }
+    Handle object(H5Oopen(file, named.c_str(), H5P_DEFAULT), H5Oclose);
+    if (!object.valid()) {
+        const std::string why = hdf5Message();
+        // A link that exists but whose object does not open is a damaged file, not a wrong name.
+        if (H5Lexists(file, named.c_str(), H5P_DEFAULT) > 0) return Status::error("cannot open " + named + ": " + why);
+        H5Eclear2(H5E_DEFAULT);
+        return Status::error("no dataset " + named + " in the file (" + why + ")");
+    }
+    const H5I_type_t kind = H5Iget_type(object.get());
+    if (kind == H5I_GROUP) {
+        const WalkState inside = walkGroup(object.get(), named);
+        return Status::error(named + " is a group, not a dataset" +
+                             (inside.volumes.empty() ? std::string("; it holds no 3D integer dataset")
+                                                     : "; its 3D integer datasets: " + listText(inside.volumes)) +
+                             brokenText(inside));
+    }
+    if (kind != H5I_DATASET) return Status::error(named + " is a named datatype, not a dataset");
+    Handle d(H5Dopen2(file, named.c_str(), H5P_DEFAULT), H5Dclose);
+    if (!d.valid()) return Status::error("cannot open dataset " + named + ": " + hdf5Message());
+    return std::make_pair(std::move(d), named);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Layout, filters and the chunk cache
+// ------------------------------------------------------------------------------------------------
+
+/// @brief How a dataset is stored and the chunk cache chosen for it.
+struct Storage {
+    std::string detail;       ///< "chunks 8x10x7, filters shuffle+gzip" or "contiguous"
+    bool chunked = false;
+    uint64_t chunkBytes = 0;
+    uint64_t layerChunks = 0; ///< chunks one z range touches
+    uint64_t hashSpan = 1;    ///< chunk-cache hash values one z layer spans (HDF5 packs chunk coordinates in bits)
+};
+
+uint64_t bitsFor(uint64_t n) {
+    uint64_t bits = 0;
+    while ((uint64_t(1) << bits) < n) ++bits;
+    return bits;
+}
+
+/// The layout and filters, checking that every filter can be decoded here.
+Result<Storage> storageOf(hid_t dataset, const Axes& axes, size_t typeSize, const std::string& name) {
+    Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+    if (!dcpl.valid()) return Status::error("cannot read the storage of " + name + ": " + hdf5Message());
+    Storage s;
+    const H5D_layout_t layout = H5Pget_layout(dcpl.get());
+    if (layout != H5D_CHUNKED) {
+        s.detail = layout == H5D_COMPACT ? "compact" : layout == H5D_VIRTUAL ? "virtual" : "contiguous";
+        return s;
+    }
+    std::vector<hsize_t> chunk(axes.dims.size());
+    if (H5Pget_chunk(dcpl.get(), int(chunk.size()), chunk.data()) != int(chunk.size()))
+        return Status::error("cannot read the chunk shape of " + name + ": " + hdf5Message());
+    s.chunked = true;
+    s.chunkBytes = typeSize;
+    s.layerChunks = 1;
+    uint64_t layerBits = 0;
+    for (size_t i = 0; i < chunk.size(); ++i) {
+        if (chunk[i] == 0) return Status::error(name + " has a chunk axis of size 0");
+        s.chunkBytes = mulSaturate(s.chunkBytes, chunk[i]);
+        if (int(i) > axes.zAxis) { // the axes after z: one layer spans all their chunks
+            const uint64_t n = (axes.dims[i] + chunk[i] - 1) / chunk[i];
+            s.layerChunks = mulSaturate(s.layerChunks, n);
+            layerBits += bitsFor(n + 1); // HDF5 rounds each axis's chunk count up to a power of two
+        }
+    }
+    s.hashSpan = layerBits >= 40 ? kSaturated : uint64_t(1) << layerBits;
+    const std::vector<hsize_t> spatial(chunk.begin() + axes.zAxis, chunk.begin() + axes.zAxis + 3);
+    s.detail = "chunks " + shapeText(spatial);
+
+    const int n = H5Pget_nfilters(dcpl.get());
+    std::string filters;
+    for (int i = 0; i < n; ++i) {
+        unsigned flags = 0, config = 0;
+        size_t values = 0;
+        char stored[64] = {0};
+        const H5Z_filter_t id = H5Pget_filter2(dcpl.get(), unsigned(i), &flags, &values, nullptr, sizeof stored, stored, &config);
+        if (id < 0) return Status::error("cannot read the filters of " + name + ": " + hdf5Message());
+        const std::string filter = filterName(id, stored);
+        filters += (filters.empty() ? "" : "+") + filter;
+        unsigned info = 0;
+        const bool decodes = H5Zfilter_avail(id) > 0 && H5Zget_filter_info(id, &info) >= 0 &&
+                             (info & H5Z_FILTER_CONFIG_DECODE_ENABLED);
+        H5Eclear2(H5E_DEFAULT);
+        // Optional filters too: "optional" only lets a writer skip a filter that fails on a
+        // chunk; chunks it did filter still need it to be read.
+        if (!decodes)
+            return Status::error("dataset " + name + " needs HDF5 filter '" + filter + "' (id " + std::to_string(id) +
+                                 "), which this libhdf5 cannot decode (not built in, and no plugin for it on "
+                                 "HDF5_PLUGIN_PATH)");
+    }
+    s.detail += filters.empty() ? ", no filters" : ", filters " + filters;
+    return s;
+}
+
+uint64_t nextPrime(uint64_t n) {
+    for (;; ++n) {
+        bool prime = n >= 2;
+        for (uint64_t d = 2; prime && d * d <= n; ++d) prime = n % d != 0;
+        if (prime) return n;
+    }
+}
+
+/// @brief The chunk cache of the dataset access property list.
+struct ChunkCache {
+    uint64_t bytes = 0;
+    uint64_t slots = 521; // HDF5's default
+    bool wholeLayer = false;
+};
+
+ChunkCache chooseCache(const Storage& s, uint64_t maxWorkingBytes) {
+    ChunkCache c;
+    if (!s.chunked) return c;
+    const uint64_t layer = mulSaturate(s.layerChunks, s.chunkBytes);
+    if (layer <= maxWorkingBytes) {
+        c.bytes = layer;
+        c.wholeLayer = true;
+        // A prime above the span of hash values of one layer: no two chunks of a layer share a slot,
+        // so none evicts another before the layer is done. Bounded: slots cost 8 bytes each.
+        c.slots = nextPrime(std::max<uint64_t>(521, std::min<uint64_t>(s.hashSpan, uint64_t(1) << 20) + 1));
+    } else {
+        c.bytes = s.chunkBytes;
+    }
+    return c;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Geometry from attributes
+// ------------------------------------------------------------------------------------------------
+
+/// Three numbers (z, y, x) from a numeric attribute of 3 values or of one per file axis;
+/// false when absent or of another shape.
+bool readTriple(hid_t dataset, const char* name, const Axes& axes, std::array<double, 3>& zyx) {
+    if (H5Aexists(dataset, name) <= 0) return false;
+    Handle attr(H5Aopen(dataset, name, H5P_DEFAULT), H5Aclose);
+    if (!attr.valid()) return false;
+    Handle type(H5Aget_type(attr.get()), H5Tclose);
+    Handle space(H5Aget_space(attr.get()), H5Sclose);
+    if (!type.valid() || !space.valid()) return false;
+    const H5T_class_t cls = H5Tget_class(type.get());
+    if (cls != H5T_INTEGER && cls != H5T_FLOAT) return false;
+    const hssize_t count = H5Sget_simple_extent_npoints(space.get());
+    if (count != 3 && count != hssize_t(axes.dims.size())) return false;
+    std::vector<double> values(static_cast<size_t>(count));
+    if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, values.data()) < 0) return false;
+    const size_t first = count == 3 ? 0 : size_t(axes.zAxis);
+    for (int i = 0; i < 3; ++i) zyx[size_t(i)] = values[first + size_t(i)];
+    return true;
+}
+
+/// Spacing and origin from the first attribute of each kind that is present; `notes` says which
+/// were used or ignored (for the detail line).
+Geometry geometryOf(hid_t dataset, const Axes& axes, std::string& notes) {
+    Geometry g;
+    const auto valid = [](const std::array<double, 3>& v, bool positive) {
+        for (double x : v)
+            if (!std::isfinite(x) || (positive && x <= 0)) return false;
+        return true;
+    };
+    for (bool spacing : {true, false}) {
+        const auto names = spacing ? std::vector<const char*>{"element_size_um", "resolution", "spacing"}
+                                   : std::vector<const char*>{"offset", "origin"};
+        for (const char* name : names) {
+            std::array<double, 3> zyx{};
+            const bool present = H5Aexists(dataset, name) > 0;
+            if (!present) continue;
+            if (!readTriple(dataset, name, axes, zyx) || !valid(zyx, spacing)) {
+                notes += std::string(", attribute ") + name + " ignored (not 3 " + (spacing ? "positive " : "") +
+                         "numbers)";
+                continue;
+            }
+            (spacing ? g.spacing : g.origin) = {zyx[2], zyx[1], zyx[0]};
+            notes += std::string(spacing ? ", spacing from " : ", origin from ") + name;
+            break;
+        }
+    }
+    H5Eclear2(H5E_DEFAULT);
+    return g;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Values: native width in the caller's buffer, widened in place
+// ------------------------------------------------------------------------------------------------
+
+/// Widens `n` values of T packed at the start of `out` to 64 bits, back to front: value i is read
+/// from bytes below 8 * i + 8 before out[i] overwrites them, and no value below i lies there.
+template <typename T>
+void widenInPlace(uint64_t* out, size_t n) {
+    static_assert(sizeof(T) < 8, "8-byte integers are already full width");
+    const unsigned char* bytes = reinterpret_cast<const unsigned char*>(out);
+    for (size_t i = n; i-- > 0;) {
+        T v;
+        std::memcpy(&v, bytes + i * sizeof(T), sizeof(T));
+        out[i] = std::is_signed<T>::value ? uint64_t(int64_t(v)) : uint64_t(v);
+    }
+}
+
+bool floatToInt64(double v, int64_t& out) {
+    if (!std::isfinite(v) || v != std::trunc(v)) return false;
+    if (v < -9223372036854775808.0 || v >= 9223372036854775808.0) return false;
+    out = int64_t(v);
+    return true;
+}
+
+/// The first of `n` floats of type F packed at the start of `out` that is not an integer label,
+/// or n when all are.
+template <typename F>
+size_t firstNonInteger(const uint64_t* out, size_t n, double& bad) {
+    const unsigned char* bytes = reinterpret_cast<const unsigned char*>(out);
+    for (size_t i = 0; i < n; ++i) {
+        F v;
+        std::memcpy(&v, bytes + i * sizeof(F), sizeof(F));
+        int64_t iv;
+        if (!floatToInt64(double(v), iv)) {
+            bad = double(v);
+            return i;
+        }
+    }
+    return n;
+}
+
+/// Floats already checked to hold integers, to int64 bits in place (back to front as above).
+template <typename F>
+void floatsToIntegersInPlace(uint64_t* out, size_t n) {
+    const unsigned char* bytes = reinterpret_cast<const unsigned char*>(out);
+    for (size_t i = n; i-- > 0;) {
+        F v;
+        std::memcpy(&v, bytes + i * sizeof(F), sizeof(F));
+        out[i] = uint64_t(int64_t(v));
+    }
+}
+
+// ------------------------------------------------------------------------------------------------
+// The source
+// ------------------------------------------------------------------------------------------------
+
+/// @brief What openHdf5 learns about a dataset before reading it.
+struct Description {
+    InputInfo info;
+    VoxelType voxel;
+    Axes axes;
+    Storage storage;
+};
+
+/// @brief One HDF5 dataset read slab by slab (see the file's @brief for the memory bound).
+class Hdf5Source : public InputSource {
+public:
+    Hdf5Source(std::string path, Handle file, Handle dataset, Description what, uint64_t cacheBytes)
+        : m_path(std::move(path)), m_file(std::move(file)), m_dataset(std::move(dataset)), m_type(what.voxel),
+          m_axes(std::move(what.axes)), m_cacheBytes(cacheBytes) {
+        m_info = std::move(what.info);
+    }
+
+    ~Hdf5Source() override {
+        Hdf5Scope scope;
+        m_dataset.reset();
+        m_file.reset();
+    }
+
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
+        if (uint64_t(z0) + depth > m_info.dim[2]) return fail(m_path, "slab beyond the volume");
+        if (depth == 0) return Status::ok();
+        Hdf5Scope scope;
+        if (Status s = readNative(z0, depth, out); !s) return s;
+        return widen(z0, size_t(uint64_t(m_info.dim[0]) * m_info.dim[1] * depth), out);
+    }
+
+    uint64_t workingBytes() const override { return m_cacheBytes; }
+
+private:
+    /// The slab's voxels at their native width, packed at the start of `out`.
+    Status readNative(uint32_t z0, uint32_t depth, uint64_t* out) {
+        const size_t rank = m_axes.dims.size();
+        std::vector<hsize_t> start(rank, 0), count(rank, 1);
+        const size_t z = size_t(m_axes.zAxis);
+        start[z] = z0;
+        count[z] = depth;
+        count[z + 1] = m_info.dim[1];
+        count[z + 2] = m_info.dim[0];
+        // The memory space has the selection's shape: HDF5 then maps chunks to memory by blocks
+        // (a 1D memory space made it map element by element, at a fifth of the speed).
+        Handle fileSpace(H5Dget_space(m_dataset.get()), H5Sclose);
+        Handle memSpace(H5Screate_simple(int(rank), count.data(), nullptr), H5Sclose);
+        if (!fileSpace.valid() || !memSpace.valid() ||
+            H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0 ||
+            H5Dread(m_dataset.get(), m_type.memType, memSpace.get(), fileSpace.get(), H5P_DEFAULT, out) < 0)
+            return fail(m_path, "cannot read z " + std::to_string(z0) + ".." + std::to_string(z0 + depth - 1) + ": " +
+                                    hdf5Message());
+        return Status::ok();
+    }
+
+    Status widen(uint32_t z0, size_t n, uint64_t* out) const {
+        switch (m_type.type) {
+        case LabelType::U8: widenInPlace<uint8_t>(out, n); break;
+        case LabelType::I8: widenInPlace<int8_t>(out, n); break;
+        case LabelType::U16: widenInPlace<uint16_t>(out, n); break;
+        case LabelType::I16: widenInPlace<int16_t>(out, n); break;
+        case LabelType::U32: widenInPlace<uint32_t>(out, n); break;
+        case LabelType::I32: widenInPlace<int32_t>(out, n); break;
+        case LabelType::U64:
+        case LabelType::I64: break;
+        case LabelType::F32: return floatsToIntegers<float>(z0, n, out);
+        case LabelType::F64: return floatsToIntegers<double>(z0, n, out);
+        }
+        return Status::ok();
+    }
+
+    template <typename F>
+    Status floatsToIntegers(uint32_t z0, size_t n, uint64_t* out) const {
+        double bad = 0;
+        const size_t i = firstNonInteger<F>(out, n, bad);
+        if (i < n) {
+            const uint64_t w = m_info.dim[0], h = m_info.dim[1];
+            return fail(m_path, "voxel (x " + std::to_string(i % w) + ", y " + std::to_string(i / w % h) + ", z " +
+                                    std::to_string(z0 + i / (w * h)) + ") holds " + formatDouble(bad) +
+                                    ", which is not an integer label (" + labelTypeName(m_type.type) +
+                                    " voxels must hold integers within int64)");
+        }
+        floatsToIntegersInPlace<F>(out, n);
+        return Status::ok();
+    }
+
+    std::string m_path;
+    Handle m_file;
+    Handle m_dataset;
+    VoxelType m_type;
+    Axes m_axes;
+    uint64_t m_cacheBytes = 0;
+};
+
+/// The file opened read-only, after checking that it is an HDF5 file at all.
+Result<Handle> openFile(const std::string& file) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(file, ec);
+    if (!std::filesystem::exists(status)) return Status::error("no such file");
+    if (std::filesystem::is_directory(status)) return Status::error("is a directory, not an HDF5 file");
+    const htri_t isHdf5 = H5Fis_hdf5(file.c_str());
+    if (isHdf5 == 0) return Status::error("not an HDF5 file (no HDF5 signature)");
+    if (isHdf5 < 0) return Status::error("cannot open: " + hdf5Message());
+    Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!f.valid()) return Status::error("cannot open: " + hdf5Message());
+    return Result<Handle>(std::move(f));
+}
+
+/// Reopens the dataset with the chunk cache chosen for it.
+Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache) {
+    Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
+    // w0 below 1: HDF5 evicts chunks read completely first and, when those do not free enough,
+    // partly read ones; at w0 = 1 it never evicts a partly read chunk and the cache outgrows
+    // its size (it did, by a whole layer, in our measurements).
+    if (!dapl.valid() || H5Pset_chunk_cache(dapl.get(), size_t(cache.slots), size_t(cache.bytes), 0.75) < 0)
+        return Status::error("cannot set the chunk cache: " + hdf5Message());
+    Handle d(H5Dopen2(file, name.c_str(), dapl.get()), H5Dclose);
+    if (!d.valid()) return Status::error("cannot open dataset " + name + ": " + hdf5Message());
+    return Result<Handle>(std::move(d));
+}
+
+/// Everything about the dataset but its cache: type, axes, storage, geometry.
+Result<Description> describe(hid_t dataset, const std::string& name, const InputOptions& options) {
+    Handle type(H5Dget_type(dataset), H5Tclose);
+    Handle space(H5Dget_space(dataset), H5Sclose);
+    if (!type.valid() || !space.valid()) return Status::error("cannot read dataset " + name + ": " + hdf5Message());
+    Description d;
+    Result<VoxelType> voxel = voxelTypeOf(type.get());
+    if (!voxel) return Status::error("dataset " + name + " " + voxel.message());
+    Result<Axes> axes = axesOf(space.get());
+    if (!axes) return Status::error("dataset " + name + " " + axes.message());
+    Result<Storage> storage = storageOf(dataset, *axes, H5Tget_size(type.get()), name);
+    if (!storage) return storage.status();
+    if (storage->chunked && storage->chunkBytes > options.maxWorkingBytes)
+        return Status::error("dataset " + name + " has chunks of " + std::to_string(storage->chunkBytes) +
+                             " bytes, more than the working-memory limit of " + std::to_string(options.maxWorkingBytes));
+    d.voxel = *voxel;
+    d.axes = std::move(*axes);
+    d.storage = std::move(*storage);
+
+    const std::vector<hsize_t>& dims = d.axes.dims;
+    const size_t z = size_t(d.axes.zAxis);
+    d.info.dim = {uint32_t(dims[z + 2]), uint32_t(dims[z + 1]), uint32_t(dims[z])};
+    d.info.type = d.voxel.type;
+    d.info.format = "HDF5";
+    std::string notes;
+    d.info.geometry = geometryOf(dataset, d.axes, notes);
+    d.info.detail = "dataset " + name + ", " + d.storage.detail + notes;
+    return d;
+}
+
+} // namespace
+
+bool claimsHdf5(const std::string& path) {
+    const std::string low = lower(path);
+    return endsWith(low, ".h5") || endsWith(low, ".hdf5") || low.find(".h5:/") != std::string::npos ||
+           low.find(".hdf5:/") != std::string::npos;
+}
+
+Result<std::unique_ptr<InputSource>> openHdf5(const std::string& path, const InputOptions& options) {
+    const Hdf5Path where = splitPath(path);
+    std::unique_ptr<Hdf5Source> source;
+    {
+        Hdf5Scope scope;
+        Result<Handle> file = openFile(where.file);
+        if (!file) return fail(path, file.message());
+        Result<std::pair<Handle, std::string>> found = findDataset(file->get(), where.dataset);
+        if (!found) return fail(path, found.message());
+        const std::string name = found->second;
+        Result<Description> what = describe(found->first.get(), name, options);
+        if (!what) return fail(path, what.message());
+        // The chunk cache is fixed when a dataset is first opened (later opens share it).
+        found->first.reset();
+        const ChunkCache cache = chooseCache(what->storage, options.maxWorkingBytes);
+        Result<Handle> dataset = reopenWithCache(file->get(), name, cache);
+        if (!dataset) return fail(path, dataset.message());
+        source = std::make_unique<Hdf5Source>(path, std::move(*file), std::move(*dataset), std::move(*what), cache.bytes);
+    }
+    return std::unique_ptr<InputSource>(std::move(source));
 }
 
 } // namespace inputs

@@ -1,0 +1,173 @@
+# SPDX-License-Identifier: MIT
+"""Writes the small HDF5 fixtures of test_input_hdf5.cpp (h5py, Debian's python3).
+
+Usage: make_hdf5.py OUTDIR
+
+Every dataset the tests read has its expected values beside it in OUTDIR/NAME.expected: the
+voxels in C order of the (z, y, x) array (x fastest), as little-endian 64-bit words at full
+width (signed types sign-extended, as the InputSource contract gives them). NAME is the file
+name with the dataset path's slashes turned into underscores, e.g. `nested.h5:/a/b/labels`
+-> `nested_a_b_labels.expected`. Values are deterministic (fixed seeds).
+"""
+import os
+import shutil
+import sys
+
+import h5py
+import numpy as np
+
+
+def blocky(shape, block, seed, lo, hi, dtype):
+    """Labels constant over blocks of `block` voxels, drawn from [lo, hi) by a fixed seed."""
+    rng = np.random.default_rng(seed)
+    grid = [(n + block - 1) // block for n in shape]
+    cells = rng.integers(lo, hi, size=grid, dtype=np.int64 if lo < 0 else np.uint64, endpoint=False)
+    z, y, x = np.indices(shape)
+    out = cells[z // block, y // block, x // block].astype(dtype)
+    out[rng.random(shape) < 0.05] = 0  # some background
+    return out
+
+
+def expect(outdir, name, array):
+    wide = array.astype(np.int64) if array.dtype.kind == "i" else array.astype(np.uint64)
+    wide.astype("<u8" if wide.dtype.kind == "u" else "<i8").tofile(os.path.join(outdir, name + ".expected"))
+
+
+def main():
+    outdir = sys.argv[1]
+    os.makedirs(outdir, exist_ok=True)
+    p = lambda name: os.path.join(outdir, name)
+
+    # Chunked + shuffle + gzip, chunks that do not divide the shape, Fiji's spacing attribute.
+    a = blocky((19, 23, 29), 4, 1, 1, 4_000_000_000, np.uint32)
+    with h5py.File(p("chunked_gzip.h5"), "w") as f:
+        d = f.create_dataset("labels", data=a, chunks=(8, 10, 7), compression="gzip", compression_opts=4, shuffle=True)
+        d.attrs["element_size_um"] = np.array([2.5, 0.5, 0.25])  # z, y, x
+    expect(outdir, "chunked_gzip_labels", a)
+
+    # Contiguous uint16, no attributes.
+    a = blocky((12, 17, 9), 3, 2, 0, 65535, np.uint16)
+    with h5py.File(p("contiguous_u16.h5"), "w") as f:
+        f.create_dataset("data", data=a)
+    expect(outdir, "contiguous_u16_data", a)
+
+    # uint8 chunked without filters, file extension .hdf5.
+    a = blocky((7, 6, 5), 2, 3, 0, 256, np.uint8)
+    with h5py.File(p("small_u8.hdf5"), "w") as f:
+        f.create_dataset("seg", data=a, chunks=(3, 3, 3))
+    expect(outdir, "small_u8_seg", a)
+
+    # Signed types with negatives: int32 native, int16 big-endian (HDF5 converts), int64 beyond 2^40.
+    a = blocky((10, 11, 12), 3, 4, -50_000, 50_000, np.int32)
+    with h5py.File(p("i32.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(4, 4, 4), compression="gzip")
+    expect(outdir, "i32_labels", a)
+    a = blocky((5, 6, 7), 2, 5, -30_000, 30_000, np.int16)
+    with h5py.File(p("i16be.h5"), "w") as f:
+        f.create_dataset("labels", data=a.astype(">i2"))
+    expect(outdir, "i16be_labels", a)
+    a = blocky((9, 8, 13), 3, 6, -(1 << 45), 1 << 45, np.int64)
+    with h5py.File(p("i64.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(4, 8, 8), compression="gzip")
+    expect(outdir, "i64_labels", a)
+
+    # int8 with fletcher32 checksums; the same under szip when this HDF5 can write it (the test
+    # skips that part when the file is absent).
+    a = blocky((6, 7, 9), 2, 13, -128, 128, np.int8)
+    with h5py.File(p("i8.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(4, 4, 4), fletcher32=True)
+    expect(outdir, "i8_labels", a)
+    if h5py.h5z.filter_avail(h5py.h5z.FILTER_SZIP):
+        with h5py.File(p("i8_szip.h5"), "w") as f:
+            f.create_dataset("labels", data=a, chunks=(4, 4, 4), compression="szip")
+
+    # uint64 above 2^32 (and above 2^63).
+    a = blocky((8, 9, 10), 3, 7, 0, 1 << 63, np.uint64)
+    a[a % 3 == 1] += np.uint64(1 << 63)
+    with h5py.File(p("u64.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(8, 9, 10), compression="gzip")
+    expect(outdir, "u64_labels", a)
+
+    # Nested groups, named explicitly; floats holding integers and floats that do not.
+    a = blocky((6, 7, 8), 2, 8, 0, 1000, np.uint32)
+    with h5py.File(p("nested.h5"), "w") as f:
+        f.create_dataset("a/b/labels", data=a)
+        f.create_dataset("a/b/other", data=a + 1)
+        f.create_dataset("a/flat", data=a[0])
+        f.create_dataset("a/b/float_ints", data=(a.astype(np.float32) - 500))
+        frac = a.astype(np.float64)
+        frac[3, 4, 5] = 2.5
+        f.create_dataset("a/b/float_frac", data=frac)
+        f.create_dataset("a/b/vol4d", data=a[np.newaxis])
+        f.create_dataset("a/b/vol4d_bad", data=np.stack([a, a]))
+        f.create_dataset("a/b/vol5d_channel", data=a[np.newaxis, :, :, :, np.newaxis])
+        f.create_dataset("a/b/empty", shape=(0, 4, 4), dtype=np.uint8)
+        f.create_dataset("a/b/names", data=np.array([[[b"x"]]], dtype="S4"))
+        f.create_dataset("a/b/pairs", data=np.zeros((2, 2, 2), dtype=[("id", "<u4"), ("w", "<f4")]))
+        f.create_dataset("a/b/half", data=np.zeros((2, 2, 2), dtype=np.float16))
+        f.create_dataset("a/b/lzf", data=a, chunks=(3, 7, 8), compression="lzf")
+    expect(outdir, "nested_a_b_labels", a)
+    expect(outdir, "nested_a_b_float_ints", a.astype(np.int64) - 500)
+
+    # The only 3D integer dataset among 2D, 1D and float ones, found without a path.
+    a = blocky((9, 10, 11), 3, 9, 1, 100_000, np.uint32)
+    with h5py.File(p("autopick.h5"), "w") as f:
+        f.create_dataset("raw", data=np.zeros((9, 10, 11), dtype=np.float32))
+        f.create_dataset("mask", data=np.ones((10, 11), dtype=np.uint8))
+        f.create_dataset("meta/ids", data=np.arange(5, dtype=np.int64))
+        f.create_dataset("volume/seg", data=a, chunks=(5, 5, 5), compression="gzip")
+        f.create_dataset("volume/prob", data=np.zeros((9, 10, 11), dtype=np.float64))
+    expect(outdir, "autopick", a)
+
+    # Two 3D integer datasets: ambiguous. Only floats and 2D: none.
+    with h5py.File(p("ambiguous.h5"), "w") as f:
+        f.create_dataset("seg1", data=np.zeros((2, 3, 4), dtype=np.uint16))
+        f.create_dataset("group/seg2", data=np.zeros((2, 3, 4), dtype=np.int64))
+    with h5py.File(p("none.h5"), "w") as f:
+        f.create_dataset("raw", data=np.zeros((2, 3, 4), dtype=np.float32))
+        f.create_dataset("flat", data=np.zeros((3, 4), dtype=np.uint32))
+        f.create_group("empty_group")
+
+    # CREMI-style attributes: resolution and offset (z, y, x); and an unusable spacing attribute.
+    a = blocky((4, 5, 6), 2, 10, 0, 50, np.uint8)
+    with h5py.File(p("cremi.h5"), "w") as f:
+        d = f.create_dataset("volumes/labels/neuron_ids", data=a.astype(np.uint64))
+        d.attrs["resolution"] = np.array([40.0, 4.0, 4.0])
+        d.attrs["offset"] = np.array([80, 12, 8], dtype=np.int32)
+        d = f.create_dataset("volumes/bad_spacing", data=a)
+        d.attrs["resolution"] = np.array([4.0, -1.0, 4.0])
+    expect(outdir, "cremi_volumes_labels_neuron_ids", a)
+
+    # Truncated: a valid file cut in half. Text named .h5.
+    with h5py.File(p("truncated.h5"), "w") as f:
+        f.create_dataset("labels", data=blocky((16, 16, 16), 4, 11, 0, 1 << 30, np.uint32), chunks=(8, 8, 8),
+                         compression="gzip")
+    size = os.path.getsize(p("truncated.h5"))
+    with open(p("truncated.h5"), "r+b") as fh:
+        fh.truncate(size // 2)
+    # A chunk whose deflate stream is damaged (found through HDF5's chunk index); the file's
+    # structure is intact, so only reading that chunk fails.
+    a = blocky((16, 16, 16), 4, 12, 0, 1 << 30, np.uint32)
+    with h5py.File(p("corrupt.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(8, 16, 16), compression="gzip")
+    with h5py.File(p("corrupt.h5"), "r") as f:
+        info = f["labels"].id.get_chunk_info_by_coord((8, 0, 0))
+    with open(p("corrupt.h5"), "r+b") as fh:
+        fh.seek(info.byte_offset + 2)
+        fh.write(bytes(range(0xF0, 0x100)) * 2)
+    expect(outdir, "corrupt_labels", a)
+
+    # The dataset's object header overwritten (its messages): the link exists, the object does not open.
+    shutil.copy(p("chunked_gzip.h5"), p("damaged_header.h5"))
+    with h5py.File(p("damaged_header.h5"), "r") as f:
+        header = h5py.h5o.get_info(f["labels"].id).addr
+    with open(p("damaged_header.h5"), "r+b") as fh:
+        fh.seek(header + 16)
+        fh.write(b"\xff" * 32)
+
+    with open(p("text.h5"), "w") as fh:
+        fh.write("labels,1,2,3\nthis is not an HDF5 file\n")
+
+
+if __name__ == "__main__":
+    main()
