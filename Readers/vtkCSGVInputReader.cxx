@@ -377,9 +377,12 @@ public:
     this->Reader->AddObserver(vtkCommand::ProgressEvent, this->ProgressForwarder);
   }
 
+  /// The stamp matches the input and the cache starts like a .csgv (a cache overwritten or
+  /// emptied by someone else is compressed again; deeper damage is reported when it is read).
   bool CacheIsValid() const
   {
-    return !this->Stamp.empty() && exists(this->Cache) && readText(this->Cache + ".stamp") == this->Stamp;
+    return !this->Stamp.empty() && readText(this->Cache + ".stamp") == this->Stamp &&
+      this->Reader->CanReadFile(this->Cache.c_str());
   }
 };
 

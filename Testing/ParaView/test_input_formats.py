@@ -79,6 +79,7 @@ else:
     sys.exit(1)
 
 factory = sm.vtkSMProxyManager.GetProxyManager().GetReaderFactory()
+seen = set()
 for path, dialog_path, expected_cache in cases:
     with t.ErrorLog() as errors:
         r = SegmentationCSGV(FileName=path)
@@ -101,7 +102,11 @@ for path, dialog_path, expected_cache in cases:
     t.check(r.GetPropertyValue("CachedFileName") == expected_cache and os.path.isfile(expected_cache),
             tag + ": cache %s" % r.GetPropertyValue("CachedFileName"))
     r.UpdatePropertyInformation()
-    t.check(r.GetPropertyValue("Compressed") == 1, tag + ": compressed")
+    # Two forms of one input (a Zarr folder and its .zarray) share one cache.
+    first = expected_cache not in seen
+    seen.add(expected_cache)
+    t.check(r.GetPropertyValue("Compressed") == (1 if first else 0),
+            tag + (": compressed" if first else ": the cache of the same input is reused"))
     Delete(r)
     r = SegmentationCSGV(FileName=path)
     img = t.fetch(r)

@@ -185,6 +185,29 @@ t.check(compressed == 1, "Relabel compresses again")
 check_labels(img, vol2, "relabelled")
 Delete(r)
 
+# --- A damaged cache: overwritten, it is compressed again at once; truncated, it is reported once
+# and compressed again at the next open -----------------------------------------------------------
+with open(beside, "wb") as f:
+    f.write(b"not a csgv file")
+with t.ErrorLog() as errors:
+    r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
+t.check(compressed == 1 and "ERR|" not in errors.text, "an overwritten cache is compressed again silently")
+check_labels(img, vol2, "after an overwritten cache")
+Delete(r)
+with open(beside, "rb") as f:
+    whole = f.read()
+with open(beside, "wb") as f:
+    f.write(whole[: len(whole) // 2])
+with t.ErrorLog() as errors:
+    r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
+t.check(img.GetNumberOfCells() == 0 and "ERR|" in errors.text and not os.path.exists(beside + ".stamp"),
+        "a truncated cache: error, empty output, stamp dropped")
+Delete(r)
+r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
+t.check(compressed == 1, "a truncated cache is compressed again at the next open")
+check_labels(img, vol2, "after a truncated cache")
+Delete(r)
+
 # --- An explicit CacheDirectory -----------------------------------------------------------------
 explicit = os.path.join(tmp, "explicit")
 r, img, _, compressed = open_input(nrrd, CacheDirectory=explicit)
@@ -237,6 +260,7 @@ with open(bad, "wb") as f:
 with t.ErrorLog() as errors:
     r, img, _, _ = open_input(bad)
 t.check(img.GetNumberOfCells() == 0 and "bad.nrrd" in errors.text, "malformed NRRD: error naming it, empty output")
+t.check(errors.text.count("ERR|") == 1, "malformed NRRD: reported once (%d)" % errors.text.count("ERR|"))
 t.log("   error: " + errors.text.strip()[:300])
 t.check(not os.path.exists(bad + ".csgv") and not os.path.exists(bad + ".csgv.stamp"), "no cache for a bad input")
 Delete(r)
@@ -249,6 +273,7 @@ with open(short, "wb") as f:
 with t.ErrorLog() as errors:
     r, img, _, _ = open_input(short)
 t.check(img.GetNumberOfCells() == 0 and "short.nrrd" in errors.text, "truncated NRRD: error naming it, empty output")
+t.check(errors.text.count("ERR|") == 1, "truncated NRRD: reported once (%d)" % errors.text.count("ERR|"))
 t.check(not os.path.exists(short + ".csgv") and not os.path.exists(short + ".csgv.stamp"), "no cache for a truncated input")
 Delete(r)
 
