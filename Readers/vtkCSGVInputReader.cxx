@@ -368,6 +368,11 @@ public:
   std::string Cache;
   std::string Stamp; ///< the input's state when RequestInformation looked
   bool Failed = true;
+  /// The reader's MTime and the input's stamp when RequestData last failed: the pipeline asks
+  /// again for the extent it announced (an empty output does not cover it), and the same
+  /// request must neither compress again nor report again.
+  vtkMTimeType FailedMTime = 0;
+  std::string FailedStamp;
 
   /// A fresh .csgv reader: the old one keys what it loaded by file time and size at one-second
   /// resolution, which a recompression within the same second could fool.
@@ -536,13 +541,15 @@ int vtkCSGVInputReader::RequestData(
     vtkErrorMacro(<< "cannot examine '" << in.Location.Stamped << "'");
     return 1;
   }
-  this->UpdateProgress(0.0);
-  if (!in.CacheIsValid())
+  if (this->GetMTime() == in.FailedMTime && in.Stamp == in.FailedStamp)
   {
-    if (!this->Compress())
-    {
-      return 1;
-    }
+    return 1; // this very request failed and was reported; it is retried once something changes
+  }
+  this->UpdateProgress(0.0);
+  if (!in.CacheIsValid() && !this->Compress())
+  {
+    this->RememberFailure();
+    return 1;
   }
   in.Reader->SetFileName(in.Cache.c_str());
   in.Reader->SetLevel(this->Level);
@@ -569,11 +576,21 @@ int vtkCSGVInputReader::RequestData(
     // vtkCSGVReader said why; a broken cache must not be trusted next time.
     vtkErrorMacro(<< "cannot read the cached '" << in.Cache << "'; it will be compressed again");
     std::remove((in.Cache + ".stamp").c_str());
+    this->RememberFailure();
     return 1;
   }
   output->ShallowCopy(in.Reader->GetOutput());
   this->UpdateProgress(1.0);
   return 1;
+}
+
+void vtkCSGVInputReader::RememberFailure()
+{
+  // A cancellation leaves AbortExecute set; clearing it (which bumps the MTime) comes first so
+  // that the remembered MTime is the one the repeated request will carry.
+  this->SetAbortExecute(0);
+  this->Internals->FailedMTime = this->GetMTime();
+  this->Internals->FailedStamp = this->Internals->Stamp;
 }
 
 bool vtkCSGVInputReader::Compress()

@@ -112,6 +112,8 @@ private:
 
   /// Compresses the input to the cache and stamps it; false (reported) on error or cancellation.
   bool Compress();
+  /// Remembers that the current request failed (see vtkInternals::FailedMTime).
+  void RememberFailure();
 
   class vtkInternals;
   vtkInternals* Internals;

@@ -51,13 +51,15 @@ class Progress:
     def __init__(self, proxy, abort=False):
         self.values = []
         self.algo = proxy.GetClientSideObject()
-        self.abort = abort
+        self.abort = abort  # False, True (at once) or "during" (once Core reports progress)
         self.tag = self.algo.AddObserver("ProgressEvent", self.on_progress)
 
     def on_progress(self, obj, event):
-        self.values.append(obj.GetProgress())
-        if self.abort:
+        p = obj.GetProgress()
+        self.values.append(p)
+        if self.abort is True or (self.abort == "during" and 0.0 < p < 0.9):
             obj.SetAbortExecute(1)
+            self.abort = False  # a user cancels once
 
     def close(self):
         self.algo.RemoveObserver(self.tag)
@@ -295,8 +297,25 @@ write_nrrd(cancel, vol)
 with t.ErrorLog() as errors:
     r, img, _, compressed = open_input(cancel, abort=True)
 t.check(img.GetNumberOfCells() == 0 and "cancelled" in errors.text, "cancelled: error and empty output")
+t.check(errors.text.count("ERR|") == 1, "cancelled: reported once, not run again (%d)" % errors.text.count("ERR|"))
 t.check(not os.path.exists(cancel + ".csgv.stamp") and not os.path.exists(cancel + ".csgv"),
         "cancelled: no .csgv and no stamp")
+Delete(r)
+
+# Cancelling while Core compresses (its progress callback returns false): the same outcome.
+during = os.path.join(src, "during.nrrd")
+write_nrrd(during, make_volume(4, shape=(40, 48, 56)))
+with t.ErrorLog() as errors:
+    r, img, progress, compressed = open_input(during, abort="during")
+if any(0.0 < p < 0.9 for p in progress):
+    t.check(img.GetNumberOfCells() == 0 and "cancel" in errors.text.replace(during, ""),
+            "cancelled during compression: error and empty output")
+    t.check(errors.text.count("ERR|") == 1, "cancelled during compression: reported once (%d)" % errors.text.count("ERR|"))
+    t.check(not os.path.exists(during + ".csgv.stamp") and not os.path.exists(during + ".csgv")
+            and not [n for n in os.listdir(src) if n.startswith("during.nrrd.csgv")],
+            "cancelled during compression: no .csgv, no stamp, no temporary file")
+else:
+    t.log("skip cancelling during compression: Core reports no progress while compressing yet")
 Delete(r)
 
 # --- The session goes on -------------------------------------------------------------------------
