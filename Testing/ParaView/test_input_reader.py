@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 import csgv_pvtest as t
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as SDDP
 from paraview import servermanager as sm
 from paraview.simple import *
 
@@ -208,6 +209,26 @@ Delete(r)
 r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
 t.check(compressed == 1, "a truncated cache is compressed again at the next open")
 check_labels(img, vol2, "after a truncated cache")
+Delete(r)
+
+# --- Level of detail: what RequestInformation announces before compressing (from the input's
+# header) is what the .csgv gives --------------------------------------------------------------
+lod = os.path.join(src, "lod.nrrd")
+write_nrrd(lod, make_volume(5))
+r = SegmentationCSGV(FileName=lod, Level=1, BrickSize=8)
+r.UpdatePipelineInformation()
+img = t.fetch(r)
+ref = CSGVReader(FileName=lod + ".csgv", Level=1)
+ref.UpdatePipelineInformation()
+ref_img = t.fetch(ref)
+t.check(compressed_flag(r) == 1 and img.GetExtent() == ref_img.GetExtent() and
+        np.allclose(img.GetSpacing(), ref_img.GetSpacing()) and np.allclose(img.GetOrigin(), ref_img.GetOrigin()),
+        "Level 1 before compressing: extent %s spacing %s as the .csgv reader's" % (img.GetExtent(), img.GetSpacing()))
+t.check(np.array_equal(t.cell_labels(img), t.cell_labels(ref_img)), "Level 1: the same labels")
+wi_new = r.GetClientSideObject().GetOutputInformation(0).Get(SDDP.WHOLE_EXTENT())
+wi_ref = ref.GetClientSideObject().GetOutputInformation(0).Get(SDDP.WHOLE_EXTENT())
+t.check(tuple(wi_new) == tuple(wi_ref), "Level 1: the same whole extent (%s, %s)" % (wi_new, wi_ref))
+Delete(ref)
 Delete(r)
 
 # --- An explicit CacheDirectory -----------------------------------------------------------------
