@@ -1,0 +1,652 @@
+// SPDX-License-Identifier: MIT
+#include "vtkCSGVInputReader.h"
+
+#include "vtkCSGVReader.h"
+
+#include "csgv/codec/Decoder.h"
+#include "csgv/codec/Metadata.h"
+#include "csgv/inputs/Compress.h"
+#include "csgv/inputs/Inputs.h"
+
+#include <vtkCallbackCommand.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationDoubleVectorKey.h>
+#include <vtkInformationIntegerKey.h>
+#include <vtkInformationIntegerVectorKey.h>
+#include <vtkInformationKey.h>
+#include <vtkInformationVector.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkSmartPointer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <cstdlib>
+#include <fcntl.h>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/stat.h>
+#include <thread>
+#include <unistd.h>
+
+vtkStandardNewMacro(vtkCSGVInputReader);
+
+namespace
+{
+namespace fs = std::filesystem;
+
+/// @brief Where an input lives on disk and where its cache goes.
+struct InputLocation
+{
+  std::string Input;      ///< what csgv::openInput gets (absolute)
+  std::string Stamped;    ///< the file or folder whose state the stamp records
+  std::string BesidePath; ///< the cache beside the input (`.csgv` included)
+  std::string Error;      ///< why the input cannot be located ("" when it can)
+};
+
+bool isDirectory(const std::string& path)
+{
+  struct stat st;
+  return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+bool exists(const std::string& path)
+{
+  struct stat st;
+  return ::stat(path.c_str(), &st) == 0;
+}
+
+std::string absolutePath(const std::string& path)
+{
+  std::error_code ec;
+  fs::path p = fs::absolute(fs::path(path), ec);
+  if (ec)
+  {
+    p = fs::path(path);
+  }
+  std::string s = p.lexically_normal().string();
+  while (s.size() > 1 && s.back() == '/')
+  {
+    s.pop_back(); // "DIR/" and "DIR" are the same input and must share one cache
+  }
+  return s;
+}
+
+std::string lowered(std::string s)
+{
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+/// A path inside a container as part of a file name: "/labels/0" -> "labels_0".
+std::string flattened(const std::string& inner)
+{
+  std::string out;
+  for (char c : inner)
+  {
+    const bool keep = std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_';
+    if (!keep && (out.empty() || out.back() == '_'))
+    {
+      continue;
+    }
+    out += keep ? c : '_';
+  }
+  while (!out.empty() && out.back() == '_')
+  {
+    out.pop_back();
+  }
+  return out;
+}
+
+/// ParaView's file dialog opens files: a Zarr metadata file stands for its folder, a precomputed
+/// `info` file for its folder.
+std::string folderForDialogFile(const std::string& path)
+{
+  const fs::path p(path);
+  const std::string name = p.filename().string();
+  if ((name == ".zarray" || name == ".zgroup" || name == ".zattrs" || name == "info") &&
+    !isDirectory(path))
+  {
+    const std::string parent = p.parent_path().string();
+    return parent.empty() ? std::string(".") : parent;
+  }
+  return path;
+}
+
+InputLocation locate(const std::string& fileName)
+{
+  InputLocation loc;
+  const std::string path = absolutePath(folderForDialogFile(fileName));
+  loc.Input = path;
+  std::string inner; // the part of the input inside Stamped (an HDF5 dataset, a glob)
+  if (exists(path))
+  {
+    loc.Stamped = path;
+  }
+  else if (path.find_first_of("*?[") != std::string::npos)
+  {
+    const fs::path p(path);
+    loc.Stamped = p.parent_path().string();
+    inner = p.filename().string();
+  }
+  else
+  {
+    const size_t colon = path.rfind(':');
+    if (colon != std::string::npos && colon > 0 && exists(path.substr(0, colon)))
+    {
+      loc.Stamped = path.substr(0, colon);
+      inner = path.substr(colon + 1);
+    }
+  }
+  if (loc.Stamped.empty() || !exists(loc.Stamped))
+  {
+    loc.Error = "cannot open '" + fileName + "': no such file or folder";
+    return loc;
+  }
+  // Beside a Zarr store rather than inside it (a store is one dataset to its users).
+  std::string container = loc.Stamped;
+  fs::path walked;
+  for (const fs::path& part : fs::path(loc.Stamped))
+  {
+    walked /= part;
+    const std::string s = lowered(part.string());
+    if (s.size() > 5 && s.compare(s.size() - 5, 5, ".zarr") == 0)
+    {
+      container = walked.string();
+      const std::string rel = fs::path(loc.Stamped).lexically_relative(walked).string();
+      if (rel != "." && !rel.empty())
+      {
+        inner = inner.empty() ? rel : rel + "/" + inner;
+      }
+      break;
+    }
+  }
+  const std::string suffix = flattened(inner);
+  loc.BesidePath = container + (suffix.empty() ? std::string() : "_" + suffix) + ".csgv";
+  return loc;
+}
+
+/// 64-bit FNV-1a: a stable name for an input's cache in the shared cache folder.
+std::string hashName(const std::string& s)
+{
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s)
+  {
+    h = (h ^ c) * 1099511628211ull;
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
+/// True when a file can be created in `dir` by this process (as its effective user; a mode
+/// check would be wrong for root and for ACLs).
+bool canCreateIn(const std::string& dir)
+{
+  const std::string probe = dir + "/.csgv-probe-" + std::to_string(::getpid());
+  const int fd = ::open(probe.c_str(), O_CREAT | O_EXCL | O_WRONLY, 0600);
+  if (fd < 0)
+  {
+    return false;
+  }
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return true;
+}
+
+std::string defaultCacheRoot()
+{
+  const char* xdg = std::getenv("XDG_CACHE_HOME");
+  if (xdg && xdg[0] == '/')
+  {
+    return std::string(xdg) + "/csgv-paraview";
+  }
+  const char* home = std::getenv("HOME");
+  if (home && *home)
+  {
+    return std::string(home) + "/.cache/csgv-paraview";
+  }
+  return std::string();
+}
+
+/// The cache path for `loc`, creating the cache folder when needed; "" with `error` set when no
+/// place can be written.
+std::string chooseCache(const InputLocation& loc, const std::string& cacheDirectory, std::string& error)
+{
+  std::string dir = cacheDirectory;
+  if (dir.empty())
+  {
+    const std::string besideDir = fs::path(loc.BesidePath).parent_path().string();
+    if (canCreateIn(besideDir))
+    {
+      return loc.BesidePath;
+    }
+    dir = defaultCacheRoot();
+    if (dir.empty())
+    {
+      error = "'" + besideDir + "' is not writable and neither XDG_CACHE_HOME nor HOME is set";
+      return std::string();
+    }
+  }
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!canCreateIn(dir))
+  {
+    error = "cannot write the cache folder '" + dir + "'";
+    return std::string();
+  }
+  const std::string stem = flattened(fs::path(loc.Input).filename().string());
+  return absolutePath(dir) + "/" + (stem.empty() ? std::string() : stem + "-") + hashName(loc.Input) + ".csgv";
+}
+
+std::string jsonString(const std::string& s)
+{
+  std::string out = "\"";
+  for (unsigned char c : s)
+  {
+    if (c == '"' || c == '\\')
+    {
+      out += '\\';
+      out += char(c);
+    }
+    else if (c < 0x20)
+    {
+      char esc[8];
+      std::snprintf(esc, sizeof(esc), "\\u%04x", c);
+      out += esc;
+    }
+    else
+    {
+      out += char(c);
+    }
+  }
+  return out + "\"";
+}
+
+int64_t mtimeNs(const struct stat& st)
+{
+  return int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
+}
+
+/// The stamp text that describes the input's current state and the encoding options; "" when the
+/// input cannot be examined.
+std::string currentStamp(const InputLocation& loc, int relabel, int brickSize)
+{
+  struct stat st;
+  if (::stat(loc.Stamped.c_str(), &st) != 0)
+  {
+    return std::string();
+  }
+  uint64_t files = 0, bytes = 0;
+  int64_t newest = 0;
+  if (S_ISDIR(st.st_mode))
+  {
+    // Folders (Zarr, precomputed, TIFF slices): any chunk added, removed or rewritten changes the
+    // count, the total size or the newest modification time.
+    std::error_code ec;
+    for (fs::recursive_directory_iterator it(loc.Stamped, fs::directory_options::skip_permission_denied, ec), end;
+         !ec && it != end; it.increment(ec))
+    {
+      struct stat fst;
+      if (::stat(it->path().c_str(), &fst) == 0 && S_ISREG(fst.st_mode))
+      {
+        ++files;
+        bytes += uint64_t(fst.st_size);
+        newest = std::max(newest, mtimeNs(fst));
+      }
+    }
+    if (ec)
+    {
+      return std::string();
+    }
+  }
+  else
+  {
+    files = 1;
+    bytes = uint64_t(st.st_size);
+    newest = mtimeNs(st);
+  }
+  std::ostringstream s;
+  s << "{\n  \"input\": " << jsonString(loc.Input) << ",\n  \"relabel\": " << (relabel ? 1 : 0)
+    << ",\n  \"brickSize\": " << brickSize << ",\n  \"files\": " << files << ",\n  \"bytes\": " << bytes
+    << ",\n  \"newestMtimeNs\": " << newest << "\n}\n";
+  return s.str();
+}
+
+std::string readText(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return in ? s.str() : std::string();
+}
+
+/// Writes the stamp under a temporary name and renames it, so a reader never sees half a stamp.
+bool writeStamp(const std::string& path, const std::string& text)
+{
+  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out.flush())
+    {
+      std::remove(tmp.c_str());
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+  {
+    std::remove(tmp.c_str());
+    return false;
+  }
+  return true;
+}
+
+uint32_t floorLog2(uint32_t v)
+{
+  uint32_t r = 0;
+  while (v > 1)
+  {
+    v >>= 1;
+    ++r;
+  }
+  return r;
+}
+} // namespace
+
+/// @brief The internal `.csgv` reader and what RequestInformation found for RequestData.
+class vtkCSGVInputReader::vtkInternals
+{
+public:
+  vtkSmartPointer<vtkCSGVReader> Reader;
+  vtkNew<vtkCallbackCommand> ProgressForwarder;
+  InputLocation Location;
+  std::string Cache;
+  std::string Stamp; ///< the input's state when RequestInformation looked
+  bool Failed = true;
+  /// The reader's MTime and the input's stamp when RequestData last failed: the pipeline asks
+  /// again for the extent it announced (an empty output does not cover it), and the same
+  /// request must neither compress again nor report again.
+  vtkMTimeType FailedMTime = 0;
+  std::string FailedStamp;
+
+  /// A fresh .csgv reader: the old one keys what it loaded by file time and size at one-second
+  /// resolution, which a recompression within the same second could fool.
+  void ResetReader()
+  {
+    this->Reader = vtkSmartPointer<vtkCSGVReader>::New();
+    this->Reader->AddObserver(vtkCommand::ProgressEvent, this->ProgressForwarder);
+  }
+
+  /// The stamp matches the input and the cache starts like a .csgv (a cache overwritten or
+  /// emptied by someone else is compressed again; deeper damage is reported when it is read).
+  bool CacheIsValid() const
+  {
+    return !this->Stamp.empty() && readText(this->Cache + ".stamp") == this->Stamp &&
+      this->Reader->CanReadFile(this->Cache.c_str());
+  }
+};
+
+vtkCSGVInputReader::vtkCSGVInputReader()
+  : Internals(new vtkInternals)
+{
+  this->SetNumberOfInputPorts(0);
+  // Reading the cached .csgv is the last tenth of the progress bar.
+  this->Internals->ProgressForwarder->SetClientData(this);
+  this->Internals->ProgressForwarder->SetCallback(
+    [](vtkObject* caller, unsigned long, void* clientData, void*) {
+      auto* self = static_cast<vtkCSGVInputReader*>(clientData);
+      self->UpdateProgress(0.9 + 0.1 * static_cast<vtkAlgorithm*>(caller)->GetProgress());
+    });
+  this->Internals->ResetReader();
+}
+
+vtkCSGVInputReader::~vtkCSGVInputReader()
+{
+  this->SetFileName(nullptr);
+  this->SetCacheDirectory(nullptr);
+  delete this->Internals;
+}
+
+const char* vtkCSGVInputReader::GetCachedFileName()
+{
+  return this->Internals->Cache.c_str();
+}
+
+int vtkCSGVInputReader::CanReadFile(const char* fileName)
+{
+  if (!fileName || !*fileName)
+  {
+    return 0;
+  }
+  const InputLocation loc = locate(fileName);
+  return loc.Error.empty() && csgv::isInputPath(loc.Input) ? 1 : 0;
+}
+
+int vtkCSGVInputReader::RequestInformation(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkInternals& in = *this->Internals;
+  in.Failed = true;
+  in.Cache.clear();
+  // Errors are reported once here; the pipeline goes on with an empty extent and RequestData
+  // leaves an empty output (as vtkCSGVReader does).
+  const int empty[6] = { 0, -1, 0, -1, 0, -1 };
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
+  if (!this->FileName || !*this->FileName)
+  {
+    vtkErrorMacro(<< "no FileName set");
+    return 1;
+  }
+  in.Location = locate(this->FileName);
+  if (!in.Location.Error.empty())
+  {
+    vtkErrorMacro(<< in.Location.Error);
+    return 1;
+  }
+  std::string error;
+  in.Cache = chooseCache(in.Location, this->CacheDirectory ? this->CacheDirectory : "", error);
+  if (in.Cache.empty())
+  {
+    vtkErrorMacro(<< this->FileName << ": " << error);
+    return 1;
+  }
+  in.Stamp = currentStamp(in.Location, this->Relabel, this->BrickSize);
+
+  if (in.CacheIsValid())
+  {
+    // The .csgv knows everything; report exactly what vtkCSGVReader reports.
+    in.Reader->SetFileName(in.Cache.c_str());
+    in.Reader->SetLevel(this->Level);
+    in.Reader->UpdateInformation();
+    vtkInformation* cached = in.Reader->GetOutputInformation(0);
+    for (vtkInformationKey* key :
+      { static_cast<vtkInformationKey*>(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()),
+        static_cast<vtkInformationKey*>(vtkDataObject::SPACING()),
+        static_cast<vtkInformationKey*>(vtkDataObject::ORIGIN()),
+        static_cast<vtkInformationKey*>(vtkDataObject::DIRECTION()),
+        static_cast<vtkInformationKey*>(vtkCSGVReader::CSGV_DIMENSIONS()),
+        static_cast<vtkInformationKey*>(vtkCSGVReader::CSGV_LEVELS()),
+        static_cast<vtkInformationKey*>(vtkCSGVReader::CSGV_GEOMETRY()),
+        static_cast<vtkInformationKey*>(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT()) })
+    {
+      outInfo->CopyEntry(cached, key);
+    }
+    in.Failed = false;
+    return 1;
+  }
+
+  // Not compressed yet: the input's header gives what the .csgv will say (Core writes the
+  // input's centre-origin geometry as corner-origin metadata, and a brick size of 2^n gives
+  // n + 1 levels).
+  csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgv::openInput(in.Location.Input);
+  if (!source)
+  {
+    vtkErrorMacro(<< source.message());
+    return 1;
+  }
+  const csgv::InputInfo& info = (*source)->info();
+  const csgv::Geometry geometry = csgv::cellGeometryFromPointGeometry(info.geometry);
+  const uint32_t levels = floorLog2(static_cast<uint32_t>(this->BrickSize)) + 1;
+  const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels - 1);
+  const std::array<uint32_t, 3> ld = csgv::lodDimensions(info.dim, lod);
+  const int extent[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
+  double spacing[3];
+  double geometry15[15];
+  for (int a = 0; a < 3; ++a)
+  {
+    spacing[a] = geometry.spacing[a] * double(uint64_t(1) << lod);
+    geometry15[a] = geometry.spacing[a];
+    geometry15[3 + a] = geometry.origin[a];
+  }
+  std::copy(geometry.direction.begin(), geometry.direction.end(), geometry15 + 6);
+  const int dims[3] = { int(info.dim[0]), int(info.dim[1]), int(info.dim[2]) };
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+  outInfo->Set(vtkDataObject::SPACING(), spacing, 3);
+  outInfo->Set(vtkDataObject::ORIGIN(), geometry.origin.data(), 3);
+  outInfo->Set(vtkDataObject::DIRECTION(), geometry.direction.data(), 9);
+  outInfo->Set(vtkCSGVReader::CSGV_DIMENSIONS(), dims, 3);
+  outInfo->Set(vtkCSGVReader::CSGV_LEVELS(), int(levels));
+  outInfo->Set(vtkCSGVReader::CSGV_GEOMETRY(), geometry15, 15);
+  outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
+  in.Failed = false;
+  return 1;
+}
+
+int vtkCSGVInputReader::RequestData(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkImageData* output = vtkImageData::GetData(outInfo);
+  if (!output)
+  {
+    return 0;
+  }
+  output->Initialize();
+  vtkInternals& in = *this->Internals;
+  this->Compressed = 0;
+  if (in.Failed)
+  {
+    return 1; // RequestInformation reported why
+  }
+  // The input may have changed since RequestInformation (ParaView's Reload re-runs both).
+  in.Stamp = currentStamp(in.Location, this->Relabel, this->BrickSize);
+  if (in.Stamp.empty())
+  {
+    vtkErrorMacro(<< "cannot examine '" << in.Location.Stamped << "'");
+    return 1;
+  }
+  if (this->GetMTime() == in.FailedMTime && in.Stamp == in.FailedStamp)
+  {
+    return 1; // this very request failed and was reported; it is retried once something changes
+  }
+  this->UpdateProgress(0.0);
+  if (!in.CacheIsValid() && !this->Compress())
+  {
+    this->RememberFailure();
+    return 1;
+  }
+  in.Reader->SetFileName(in.Cache.c_str());
+  in.Reader->SetLevel(this->Level);
+  in.Reader->SetDecodeLabels(this->DecodeLabels);
+  in.Reader->SetDecodeThreshold(this->DecodeThreshold);
+  in.Reader->UpdateInformation();
+  int whole[6], ext[6];
+  in.Reader->GetOutputInformation(0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  bool inside = whole[0] <= whole[1];
+  for (int a = 0; a < 3 && inside; ++a)
+  {
+    inside = ext[2 * a] >= whole[2 * a] && ext[2 * a + 1] <= whole[2 * a + 1];
+  }
+  if (!inside)
+  {
+    // The .csgv disagrees with what the header promised (it should not): give it whole.
+    vtkWarningMacro(<< "'" << in.Cache << "' has another extent than '" << this->FileName << "' announced");
+    std::copy(whole, whole + 6, ext);
+  }
+  if (whole[0] > whole[1] || !in.Reader->UpdateExtent(ext) ||
+    in.Reader->GetOutput()->GetNumberOfPoints() == 0)
+  {
+    // vtkCSGVReader said why; a broken cache must not be trusted next time.
+    vtkErrorMacro(<< "cannot read the cached '" << in.Cache << "'; it will be compressed again");
+    std::remove((in.Cache + ".stamp").c_str());
+    this->RememberFailure();
+    return 1;
+  }
+  output->ShallowCopy(in.Reader->GetOutput());
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+void vtkCSGVInputReader::RememberFailure()
+{
+  // A cancellation leaves AbortExecute set; clearing it (which bumps the MTime) comes first so
+  // that the remembered MTime is the one the repeated request will carry.
+  this->SetAbortExecute(0);
+  this->Internals->FailedMTime = this->GetMTime();
+  this->Internals->FailedStamp = this->Internals->Stamp;
+}
+
+bool vtkCSGVInputReader::Compress()
+{
+  vtkInternals& in = *this->Internals;
+  // A stamp that outlives a failed compression could vouch for sidecars of another input state.
+  std::remove((in.Cache + ".stamp").c_str());
+  const std::thread::id pipelineThread = std::this_thread::get_id();
+  csgv::CompressOptions options;
+  options.encode.brickSize = static_cast<uint32_t>(this->BrickSize);
+  options.relabel = this->Relabel != 0;
+  options.progress = [this, pipelineThread](double fraction, const char*) {
+    // VTK events belong to the pipeline's thread; workers only look at the abort flag.
+    if (std::this_thread::get_id() == pipelineThread)
+    {
+      this->UpdateProgress(0.9 * std::min(std::max(fraction, 0.0), 1.0));
+    }
+    return !this->GetAbortExecute();
+  };
+  // A progress observer may abort before Core reports any progress.
+  if (this->GetAbortExecute())
+  {
+    vtkErrorMacro(<< "compressing '" << this->FileName << "' was cancelled");
+    return false;
+  }
+  csgv::CompressReport report;
+  const csgv::Status status = csgv::compressToFile(in.Location.Input, in.Cache, options, &report);
+  if (!status)
+  {
+    vtkErrorMacro(<< status.message());
+    return false;
+  }
+  if (this->GetAbortExecute())
+  {
+    // Finished before Core looked at the flag: the files are whole, so keep them, but say so.
+    vtkWarningMacro(<< "compressing '" << this->FileName << "' finished before it could be cancelled");
+  }
+  if (!writeStamp(in.Cache + ".stamp", in.Stamp))
+  {
+    vtkWarningMacro(<< "cannot write '" << in.Cache << ".stamp'; the input will be compressed again next time");
+  }
+  this->Compressed = 1;
+  in.ResetReader();
+  this->UpdateProgress(0.9);
+  return true;
+}
+
+void vtkCSGVInputReader::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
+  os << indent << "Relabel: " << this->Relabel << "\n";
+  os << indent << "BrickSize: " << this->BrickSize << "\n";
+  os << indent << "CacheDirectory: " << (this->CacheDirectory ? this->CacheDirectory : "(default)") << "\n";
+  os << indent << "DecodeLabels: " << this->DecodeLabels << "\n";
+  os << indent << "DecodeThreshold: " << this->DecodeThreshold << "\n";
+  os << indent << "Level: " << this->Level << "\n";
+  os << indent << "CachedFileName: " << this->Internals->Cache << "\n";
+}

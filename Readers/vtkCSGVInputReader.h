@@ -1,0 +1,122 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class vtkCSGVInputReader
+ * @brief Opens any segmentation Core reads (HDF5, TIFF, Zarr, Neuroglancer precomputed, NRRD,
+ * NIfTI, `.vraw`) by compressing it once to a cached `.csgv` in bounded memory and reading that
+ * file with vtkCSGVReader, so the output is exactly a `.csgv` reader's (image data, labels as cell
+ * data, the encoding in FieldData; see vtkCSGVReader.h) and a volume larger than memory opens like
+ * a small one.
+ *
+ * FileName takes every form csgv::openInput() takes (`FILE.h5[:/dataset]`, `DIR.zarr[/path]`, a
+ * precomputed or TIFF folder, a slice glob...). ParaView's file dialog picks files, not folders, so
+ * a `.zarray`, `.zgroup` or `.zattrs` file stands for its Zarr folder and a precomputed `info` file
+ * for its folder.
+ *
+ * Cache (why: compressing a large volume takes minutes; opening the `.csgv` takes seconds):
+ * - Where: with CacheDirectory empty (default), beside the input as `<input>.csgv` when the input's
+ *   folder is writable (for a path inside a `.zarr` store, beside the store, `<store>_<path>.csgv`;
+ *   for `FILE.h5:/dataset`, `FILE.h5_dataset.csgv`), otherwise in `$XDG_CACHE_HOME` (or
+ *   `~/.cache`) `/csgv-paraview/<hash of the absolute input path>.csgv`. A non-empty
+ *   CacheDirectory always holds the hashed name. Sidecars `.csgv.json` and `_csgv.db3` go with it.
+ * - Reuse: `<cache>.stamp` records the input path, the options that shape the encoding (Relabel,
+ *   BrickSize) and the input's state: size and modification time of a file, or for a folder the
+ *   number of files under it, their total size and the newest modification time. The cache is
+ *   reused while the stamp matches the input and the `.csgv` exists; otherwise the input is
+ *   compressed again. The stamp is written only after a successful compression, and Core writes
+ *   every file under a temporary name first, so an interrupted or failed compression never leaves
+ *   a `.csgv` that looks valid.
+ *
+ * When things run: RequestInformation reads only the input's header (csgv::openInput) or, with a
+ * valid cache, the `.csgv`, so that ParaView knows extent and geometry before Apply;
+ * RequestData compresses when needed (this is what the progress bar shows: 0..0.9 compression,
+ * 0.9..1 reading the `.csgv`) and then reads the `.csgv`. Setting AbortExecute (a progress
+ * observer may) cancels the compression cleanly.
+ *
+ * Errors (unsupported or malformed input, unwritable cache, cancellation) are reported with
+ * vtkErrorMacro carrying Core's message, and the output is empty; the session goes on.
+ *
+ * Limitations: with several MPI ranks and no valid cache, every rank compresses (to the same
+ * names; Core's renames keep each file whole). Open the input once in a serial session first.
+ * The cache is never deleted by the reader.
+ */
+#ifndef vtkCSGVInputReader_h
+#define vtkCSGVInputReader_h
+
+#include "CSGVReadersModule.h"
+#include "vtkImageAlgorithm.h"
+
+class CSGVREADERS_EXPORT vtkCSGVInputReader : public vtkImageAlgorithm
+{
+public:
+  static vtkCSGVInputReader* New();
+  vtkTypeMacro(vtkCSGVInputReader, vtkImageAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  /// The input, in any form csgv::openInput() accepts (see the class comment).
+  vtkSetStringMacro(FileName);
+  vtkGetStringMacro(FileName);
+
+  /// Relabel to dense ids even when the labels fit the format (default off; labels that do not
+  /// fit, such as 64-bit or negative ones, are always relabelled).
+  vtkSetMacro(Relabel, vtkTypeBool);
+  vtkGetMacro(Relabel, vtkTypeBool);
+  vtkBooleanMacro(Relabel, vtkTypeBool);
+
+  /// Brick size of the encoding, a power of two in [8, 128] (default 32).
+  vtkSetClampMacro(BrickSize, int, 8, 128);
+  vtkGetMacro(BrickSize, int);
+
+  /// Folder for cached `.csgv` files; empty (default) means beside the input when writable,
+  /// otherwise `$XDG_CACHE_HOME/csgv-paraview` (or `~/.cache/csgv-paraview`).
+  vtkSetStringMacro(CacheDirectory);
+  vtkGetStringMacro(CacheDirectory);
+
+  /// Passed to the internal vtkCSGVReader (same meaning and defaults there).
+  vtkSetMacro(DecodeLabels, vtkTypeBool);
+  vtkGetMacro(DecodeLabels, vtkTypeBool);
+  vtkBooleanMacro(DecodeLabels, vtkTypeBool);
+  vtkSetClampMacro(DecodeThreshold, vtkIdType, 0, VTK_ID_MAX);
+  vtkGetMacro(DecodeThreshold, vtkIdType);
+  vtkSetClampMacro(Level, int, 0, 7);
+  vtkGetMacro(Level, int);
+
+  /// The `.csgv` the last request used or would use (empty before RequestInformation).
+  const char* GetCachedFileName();
+
+  /// 1 if the last RequestData compressed the input, 0 if it reused the cache.
+  vtkGetMacro(Compressed, int);
+
+  /// 1 when `fileName` is in a form Core opens (after mapping Zarr metadata and precomputed `info`
+  /// files to their folders) and exists; says nothing about whether its content is valid.
+  virtual int CanReadFile(const char* fileName);
+
+protected:
+  vtkCSGVInputReader();
+  ~vtkCSGVInputReader() override;
+
+  int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+  char* FileName = nullptr;
+  vtkTypeBool Relabel = 0;
+  int BrickSize = 32;
+  char* CacheDirectory = nullptr;
+  vtkTypeBool DecodeLabels = 1;
+  vtkIdType DecodeThreshold = vtkIdType(512) * 1024 * 1024;
+  int Level = 0;
+  int Compressed = 0;
+
+private:
+  vtkCSGVInputReader(const vtkCSGVInputReader&) = delete;
+  void operator=(const vtkCSGVInputReader&) = delete;
+
+  /// Compresses the input to the cache and stamps it; false (reported) on error or cancellation.
+  bool Compress();
+  /// Remembers that the current request failed (see vtkInternals::FailedMTime).
+  void RememberFailure();
+
+  class vtkInternals;
+  vtkInternals* Internals;
+};
+
+#endif
