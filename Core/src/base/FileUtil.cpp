@@ -20,12 +20,16 @@ namespace {
 std::atomic<unsigned> g_tmpCounter{0};
 } // namespace
 
+std::string temporaryNameFor(const std::string& path) {
+    return path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);
+}
+
 AtomicFile::~AtomicFile() { discard(); }
 
 Status AtomicFile::open(const std::string& path) {
     discard();
     m_path = path;
-    m_tmp = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);
+    m_tmp = temporaryNameFor(path);
     m_file = std::fopen(m_tmp.c_str(), "wb");
     if (!m_file) {
         Status s = Status::error("cannot create '" + m_tmp + "': " + errnoText());

@@ -10,7 +10,6 @@
 #include <cstring>
 #include <mutex>
 #include <omp.h>
-#include <unistd.h>
 #include <unordered_map>
 
 namespace csgv {
@@ -557,7 +556,7 @@ public:
         if (m_file) std::fclose(m_file);
     }
     Status open(const std::string& near, const char* what) {
-        m_name = near + ".tmp-" + std::to_string(::getpid()) + "-" + what;
+        m_name = temporaryNameFor(near) + "-" + what;
         m_file = std::fopen(m_name.c_str(), "w+b");
         if (!m_file) return Status::error("cannot create the scratch file '" + m_name + "': " + errnoText());
         std::remove(m_name.c_str());

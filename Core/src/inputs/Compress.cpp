@@ -187,7 +187,7 @@ struct Job {
     uint64_t outputBytes = 0;
 
     Job(const std::string& in, const std::string& output, const CompressOptions& o, CompressReport& r)
-        : input(in), options(o), rep(r), tmp(output + ".tmp-encoding.csgv"), progress(o.progress) {}
+        : input(in), options(o), rep(r), tmp(temporaryNameFor(output) + ".csgv"), progress(o.progress) {}
 
     /// Cleans up after an error and says what happened (a cancel says so).
     Status failed(Status s) {

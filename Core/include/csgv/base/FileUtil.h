@@ -16,6 +16,9 @@ namespace csgv {
 
 /// The text of the last system error (errno), for messages that name a file.
 std::string errnoText();
+/// A name beside `path` unique to this process and call (`path.tmp-PID-N`), for files written
+/// and then renamed or removed; `.tmp-` names are what .gitignore and cleanup tests know.
+std::string temporaryNameFor(const std::string& path);
 /// Seeks a C file to a 64-bit offset; false on failure (errno says why).
 bool seekTo(std::FILE* f, uint64_t offset);
 
