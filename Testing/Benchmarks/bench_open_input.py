@@ -24,7 +24,7 @@ def peak_rss_mib():
 
 
 def open_once(path, cache_dir):
-    r = simple.SegmentationCSGV(FileName=path, CacheDirectory=cache_dir)
+    r = globals()["SegmentationCSGV"](FileName=path, CacheDirectory=cache_dir)  # from LoadPlugin
     algo = r.GetClientSideObject()
     stamps = []
     tag = algo.AddObserver("ProgressEvent", lambda o, e: stamps.append((time.time(), o.GetProgress())))
@@ -62,7 +62,7 @@ def main():
     simple.ResetCamera(view)
     t0 = time.time()
     simple.Render(view)
-    print("first_render_seconds: %.1f" % (time.time() - t0))
+    print("first_render_seconds: %.2f" % (time.time() - t0))
     print("peak_rss_after_render_mib: %.0f" % peak_rss_mib())
     simple.Delete(r)
     _, secs2, _, _ = open_once(a.input, cache)
