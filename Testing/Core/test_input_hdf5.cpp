@@ -443,7 +443,7 @@ TEST(Hdf5Errors, SlabBeyondTheVolume) {
     std::unique_ptr<InputSource> s = open(fx("small_u8.hdf5"));
     ASSERT_NE(s, nullptr);
     std::vector<uint64_t> slab(5 * 6 * 8);
-    EXPECT_CONTAINS(s->readSlab(5, 3, slab.data()).message(), "slab beyond the volume");
+    EXPECT_CONTAINS(s->readSlab(5, 3, slab.data()).message(), "slab z 5 to 8 is beyond the volume's depth");
 }
 
 TEST(Hdf5Errors, HdfPrintsNothingToStderr) {

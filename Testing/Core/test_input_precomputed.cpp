@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 #include <map>
 
 using namespace csgv;
@@ -189,9 +190,12 @@ TEST(Precomputed, ScaleSelectorAndNestedLayout) {
 TEST(Precomputed, WorkingMemoryStaysWithinTheLimit) {
     const std::string dir = volumeDir("cs_u32");
     const std::vector<uint64_t> expected = expectedValues(dir + "/expected.u64");
-    // A layer is 45 * 38 * 12 voxels (164 KB); one chunk 20 * 20 * 12 (38 KB).
+    // A layer is 45 * 38 * 12 voxels (164 KB); one chunk 20 * 20 * 12 (38 KB); the layer is cached
+    // when it fits beside a chunk and the largest chunk file its encoding allows.
+    const uint64_t worstFile =
+        csgv::inputs::compressedSegmentationBound(LabelType::U32, {{20, 20, 12}}, {{8, 6, 6}});
     InputOptions cached;
-    cached.maxWorkingBytes = 45 * 38 * 12 * 8 + 20 * 20 * 12 * 8;
+    cached.maxWorkingBytes = 45 * 38 * 12 * 8 + 20 * 20 * 12 * 8 + worstFile;
     InputOptions perRequest;
     perRequest.maxWorkingBytes = 45 * 38 * 12 * 8; // no room for the layer beside a chunk
     for (const InputOptions& o : {cached, perRequest}) {
@@ -200,6 +204,9 @@ TEST(Precomputed, WorkingMemoryStaysWithinTheLimit) {
         expectSourceContract(*s, expected);
         EXPECT_LE(s->workingBytes(), o.maxWorkingBytes);
         EXPECT_GT(s->workingBytes(), 0u);
+        if (o.maxWorkingBytes == cached.maxWorkingBytes) {
+            EXPECT_GE(s->workingBytes(), 45u * 38 * 12 * 8); // a whole layer is kept
+        }
     }
     auto s = openOk(dir, perRequest);
     ASSERT_TRUE(s);
@@ -236,6 +243,12 @@ TEST(Precomputed, BadInputsAreClearErrors) {
         {"bad_cs_values", "/s/0-8_0-8_0-8: compressed_segmentation block (1, 0, 1): encoded values at word "
                           "2147483647 (4 words) run past the "},
         {"bad_cs_channel", "/s/0-8_0-8_0-8: compressed_segmentation channel offset "},
+        {"bad_gz_bomb", "/s/0-8_0-8_0-8.gz: inflates to more than the limit of 2049 bytes"},
+        {"bad_cs_block", "/info: scale 0: \"compressed_segmentation_block_size\" 16x8x8 is larger than the chunk "
+                         "size 8x8x8"},
+        {"bad_deep", "/info: nests arrays or objects more than 64 levels deep"},
+        {"bad_huge_chunk", "/info: a decoded 65536 x 32768 x 1073741824 chunk needs more than 2^64 bytes, more than "
+                           "the working memory limit of "},
     };
     // A scale whose chunk folder is missing (a wrong key, or an incomplete copy).
     const std::string noChunks = tempDir() + "/precomputed_no_chunks";
@@ -288,7 +301,7 @@ TEST(Precomputed, FormatFunctionsRejectBadBytes) {
     // compressed_segmentation of uint16 is refused when the scale is used, not when parsed.
     Result<PrecomputedInfo> cs16 = parse(R"({"type": "segmentation", "data_type": "uint16", "num_channels": 1, "scales": [)" +
                                          scale + R"("encoding": "compressed_segmentation",
-                                                    "compressed_segmentation_block_size": [8, 8, 8]}]})");
+                                                    "compressed_segmentation_block_size": [4, 4, 4]}]})");
     ASSERT_TRUE(cs16.isOk()) << cs16.message();
     EXPECT_EQ(checkPrecomputedScale(*cs16, cs16->scales[0]).message(),
               "scale \"k\": compressed_segmentation needs uint32 or uint64 labels, not uint16");
@@ -304,5 +317,23 @@ TEST(Precomputed, FormatFunctionsRejectBadBytes) {
               "\"type\" is \"mesh\" (must be \"segmentation\" or \"image\")");
     const std::string notObject = "[1, 2]";
     EXPECT_EQ(parsePrecomputedInfo(reinterpret_cast<const uint8_t*>(notObject.data()), notObject.size()).message(),
-              "is [1,2], not a JSON object");
+              "is an array of 2 elements, not a JSON object");
+}
+
+TEST(Precomputed, HugeGridsAndContainersInMessagesAreSafe) {
+    using namespace csgv::inputs;
+    // 2^22 * 2^21 * 2^21 blocks of one voxel: the product wraps to 0 in 64 bits, which once let
+    // the header check pass and the decoder read past the 4 words.
+    std::vector<uint64_t> out(8);
+    const uint8_t data[] = {1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0, 7, 0, 0, 0};
+    const std::array<uint32_t, 3> extent{{1u << 22, 1u << 21, 1u << 21}}, block{{1, 1, 1}};
+    EXPECT_EQ(decodeCompressedSegmentation(data, sizeof data, LabelType::U32, extent, block, out.data()).message(),
+              "compressed_segmentation data of 3 words is too short for the 18446744073709551615 block headers of a "
+              "4194304x2097152x2097152 chunk in blocks of 1x1x1");
+    EXPECT_EQ(compressedSegmentationBound(LabelType::U64, extent, block), std::numeric_limits<uint64_t>::max());
+    // A container where a scalar belongs is described, never dumped (dumping recurses).
+    const std::string text = R"({"type": "segmentation", "data_type": "uint32", "num_channels": [[1, 2], [3]],
+                                 "scales": []})";
+    EXPECT_EQ(parsePrecomputedInfo(reinterpret_cast<const uint8_t*>(text.data()), text.size()).message(),
+              "\"num_channels\" is an array of 2 elements, not an integer in 0..9223372036854775807");
 }

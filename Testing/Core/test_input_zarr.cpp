@@ -9,10 +9,12 @@
 #include "csgv/codec/Decoder.h"
 #include "csgv/inputs/Compress.h"
 #include "csgv/inputs/Inputs.h"
+#include "csgv/inputs/ZarrFormat.h"
 
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -226,5 +228,64 @@ TEST(ZarrInput, BadChunksNameTheChunkFile) {
     m = failure("bad_nanfill_missing.zarr");
     EXPECT_HAS(m, "bad_nanfill_missing.zarr/0.0.1: chunk file is missing and the array's fill_value is not an integer label");
     m = failure("bad_fraction.zarr");
-    EXPECT_HAS(m, "bad_fraction.zarr/0.0.0: voxel (1, 2, 3) holds a value that is not an integer label");
+    EXPECT_HAS(m, "bad_fraction.zarr/0.0.0: voxel (1, 2, 3) holds 2.5, which is not an integer label");
+}
+
+TEST(ZarrInput, DeeplyNestedJsonIsAnErrorNotACrash) {
+    // 100000 nested arrays in "shape": any recursive walk of the parsed value (dumping it for a
+    // message, copying it) would overflow the stack.
+    const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+    const std::string dir = tempDir() + "/deep.zarr";
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/.zarray") << R"({"zarr_format": 2, "shape": )" << deep
+                                    << R"(, "chunks": [4, 4, 4], "dtype": "<u4", "compressor": null})";
+    const Result<std::unique_ptr<InputSource>> r = openInput(dir);
+    ASSERT_FALSE(r.isOk());
+    EXPECT_EQ(r.message(), dir + "/.zarray: .zarray nests arrays or objects more than 64 levels deep");
+    EXPECT_EQ(inputs::parseZattrs(R"({"multiscales": )" + deep + "}").message(),
+              ".zattrs nests arrays or objects more than 64 levels deep");
+    // Brackets inside strings do not count; containers are described in messages, not dumped.
+    EXPECT_EQ(inputs::parseZarray(R"({"zarr_format": 2, "shape": [[4, 4], [4]], "chunks": [4, 4], "dtype": ")" +
+                                  std::string(100, '[') + R"("})")
+                  .message(),
+              "\"shape\" holds an array of 2 elements, not a size");
+}
+
+TEST(ZarrInput, ZstdFrameClaimingAHugeWindowDecodesWithinTheChunk) {
+    // A zstd frame whose header claims a 2 GiB window around 256 raw bytes: decoded into the
+    // chunk's own buffer, so the claim allocates nothing (a streaming decoder refused it, or
+    // would allocate the window).
+    inputs::ZarrArray a;
+    a.shape = {4, 4, 4};
+    a.chunks = {4, 4, 4};
+    a.type = LabelType::U32;
+    a.itemBytes = 4;
+    a.compressor = inputs::ZarrCompressor::Zstd;
+    std::vector<uint8_t> frame = {0x28, 0xB5, 0x2F, 0xFD, 0x00, 21 << 3, 0x01 | (256 << 3) & 0xFF, (256 << 3) >> 8, 0};
+    for (int i = 0; i < 256; ++i) frame.push_back(uint8_t(i));
+    std::vector<uint8_t> out;
+    const Status s = inputs::decodeZarrChunk(a, frame.data(), frame.size(), out);
+    ASSERT_TRUE(s.isOk()) << s.message();
+    ASSERT_EQ(out.size(), 256u);
+    for (int i = 0; i < 256; ++i) EXPECT_EQ(out[size_t(i)], uint8_t(i));
+    // The same frame cut short is a clear error.
+    frame.resize(100);
+    EXPECT_EQ(inputs::decodeZarrChunk(a, frame.data(), frame.size(), out).message(),
+              "zstd stream is truncated: it ends before its 256 bytes");
+}
+
+TEST(ZarrInput, VolumesOfTwoTo64BytesAreRefusedWhenOpened) {
+    // 2^22 x 2^21 x 2^21 voxels: 2^64 voxels at 8 bytes wrap voxelCount() * 8 to 0. Any format
+    // can claim this; openInput refuses it once the format has opened it.
+    const std::string dir = tempDir() + "/huge.zarr";
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/.zarray") << R"({"zarr_format": 2, "shape": [2097152, 2097152, 4194304],
+                                          "chunks": [1, 1, 1], "dtype": "|u1", "compressor": null})";
+    const Result<std::unique_ptr<InputSource>> r = openInput(dir);
+    ASSERT_FALSE(r.isOk());
+    EXPECT_EQ(r.message(), dir + ": 4194304 x 2097152 x 2097152 voxels need 2^64 bytes or more as 64-bit labels; "
+                                 "no input can be that large");
+    InputInfo info;
+    info.dim = {{1u << 22, 1u << 21, 1u << 21}};
+    EXPECT_EQ(info.voxelCount(), kSaturated);
 }

@@ -26,8 +26,12 @@
 ///   otherwise one chunk, and each chunk is then decompressed once per slab that touches it.
 ///   Chunks larger than the limit are refused. Besides that, libhdf5 keeps its own bounded
 ///   buffers: a type-conversion buffer (1 MiB), one chunk while decompressing, and its metadata
-///   cache (a few MiB). (Two sources open on the same dataset at once share the first one's
-///   cache: libhdf5 fixes it when a dataset is first opened.)
+///   cache (a few MiB). NOT bounded: libhdf5's own deflate filter grows its output buffer until
+///   the stream ends, so a crafted gzip chunk (a "zip bomb", deflate expands up to 1032:1) can
+///   make libhdf5 allocate far more than the chunk's size while decoding it (libhdf5 1.10 then
+///   uses the chunk's first bytes and reports no error). It cannot be replaced from here:
+///   H5Zregister refuses to modify predefined filters. HDF5 files from untrusted sources may
+///   therefore use that much memory.
 /// - Errors: HDF5's error printer is silenced around every call and its own message (the error
 ///   stack, walked) goes into the Status text; also at exit (see silenceShutdownOnce). Every
 ///   handle is closed on every path.
@@ -524,13 +528,6 @@ void widenInPlace(uint64_t* out, size_t n) {
     }
 }
 
-bool floatToInt64(double v, int64_t& out) {
-    if (!std::isfinite(v) || v != std::trunc(v)) return false;
-    if (v < -9223372036854775808.0 || v >= 9223372036854775808.0) return false;
-    out = int64_t(v);
-    return true;
-}
-
 /// The first of `n` floats of type F packed at the start of `out` that is not an integer label,
 /// or n when all are.
 template <typename F>
@@ -587,7 +584,7 @@ public:
     }
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
-        if (uint64_t(z0) + depth > m_info.dim[2]) return fail(m_path, "slab beyond the volume");
+        if (Status s = checkSlab(m_info, z0, depth, m_path); !s) return s;
         if (depth == 0) return Status::ok();
         Hdf5Scope scope;
         if (Status s = readNative(z0, depth, out); !s) return s;
@@ -641,8 +638,8 @@ private:
         if (i < n) {
             const uint64_t w = m_info.dim[0], h = m_info.dim[1];
             return fail(m_path, "voxel (x " + std::to_string(i % w) + ", y " + std::to_string(i / w % h) + ", z " +
-                                    std::to_string(z0 + i / (w * h)) + ") holds " + formatDouble(bad) +
-                                    ", which is not an integer label (" + labelTypeName(m_type.type) +
+                                    std::to_string(z0 + i / (w * h)) + ") " + notAnIntegerLabel(bad) + " (" +
+                                    labelTypeName(m_type.type) +
                                     " voxels must hold integers within int64)");
         }
         floatsToIntegersInPlace<F>(out, n);

@@ -10,9 +10,12 @@
 #include <unistd.h>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <locale>
 #include <sstream>
+
+#include <nlohmann/json.hpp>
 
 namespace csgv {
 namespace inputs {
@@ -105,6 +108,85 @@ std::vector<std::string> splitWords(const std::string& s) {
     return words;
 }
 
+std::string jsonTooDeep(const char* text, size_t size) {
+    unsigned depth = 0;
+    bool inString = false;
+    for (size_t i = 0; i < size; ++i) {
+        const char c = text[i];
+        if (inString) {
+            if (c == '\\') ++i; // the escaped character cannot end the string
+            else if (c == '"') inString = false;
+        } else if (c == '"') {
+            inString = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonDepth)
+                return "nests arrays or objects more than " + std::to_string(kMaxJsonDepth) + " levels deep";
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            --depth;
+        }
+    }
+    return std::string();
+}
+
+std::string jsonText(const nlohmann::json& v) {
+    if (v.is_array()) return "an array of " + std::to_string(v.size()) + (v.size() == 1 ? " element" : " elements");
+    if (v.is_object()) return "an object";
+    std::string s = v.dump(-1, ' ', true, nlohmann::json::error_handler_t::replace);
+    return s.size() > 60 ? s.substr(0, 57) + "..." : s;
+}
+
+bool isFile(const std::string& path) {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+}
+
+bool isDir(const std::string& path) {
+    std::error_code ec;
+    return std::filesystem::is_directory(path, ec);
+}
+
+Status readBoundedFile(const std::string& file, uint64_t limit, std::vector<uint8_t>& out) {
+    const bool gz = endsWithNoCase(file, ".gz");
+    if (!gz) {
+        Result<uint64_t> size = fileSize(file);
+        if (!size) return size.status();
+        if (*size > limit)
+            return fail(file, "file of " + std::to_string(*size) + " bytes is larger than the limit of " +
+                                  std::to_string(limit) + " bytes");
+    }
+    InputStream in;
+    if (Status s = in.open(file, gz ? InputStream::Mode::Inflate : InputStream::Mode::Plain); !s)
+        return fail(file, (in.failure() == InputStream::Failure::Open ? "cannot open: " : "cannot inflate: ") + s.message());
+    constexpr size_t kStep = size_t(1) << 20;
+    size_t have = 0;
+    for (;;) {
+        // One byte beyond the limit shows a file that holds more.
+        const size_t step = size_t(std::min<uint64_t>(kStep, limit + 1 - have));
+        if (Status s = resizeOrFail(out, have + step, file); !s) return s;
+        Result<size_t> got = in.read(out.data() + have, step);
+        if (!got) return fail(file, (gz ? "cannot inflate: " : "cannot read: ") + got.status().message());
+        have += *got;
+        if (have > limit)
+            return fail(file, (gz ? "inflates to more than the limit of " : "holds more than the limit of ") +
+                                  std::to_string(limit) + " bytes");
+        if (*got < step) break;
+    }
+    out.resize(have);
+    return Status::ok();
+}
+
+Status checkSlab(const InputInfo& info, uint32_t z0, uint32_t depth, const std::string& path) {
+    if (uint64_t(z0) + depth <= info.dim[2]) return Status::ok();
+    return fail(path, "slab z " + std::to_string(z0) + " to " + std::to_string(uint64_t(z0) + depth) +
+                          " is beyond the volume's depth " + std::to_string(info.dim[2]));
+}
+
+Status checkDimensions(const InputInfo& info, const std::string& path) {
+    if (mulSaturate(product3(info.dim[0], info.dim[1], info.dim[2]), 8) != kSaturated) return Status::ok();
+    return fail(path, dimText({{info.dim[0], info.dim[1], info.dim[2]}}) +
+                          " voxels need 2^64 bytes or more as 64-bit labels; no input can be that large");
+}
+
 unsigned typeBytes(LabelType type) {
     switch (type) {
     case LabelType::U8:
@@ -180,8 +262,8 @@ std::string voxelName(uint64_t i, const std::array<uint32_t, 3>& dim) {
            std::to_string(z) + ")";
 }
 
-/// Converts a float that must hold an integer; false for fractions, NaN, infinities and values
-/// outside int64.
+} // namespace
+
 bool floatToInt64(double v, int64_t& out) {
     if (!std::isfinite(v) || v != std::trunc(v)) return false;
     if (v < -9223372036854775808.0 || v >= 9223372036854775808.0) return false;
@@ -189,20 +271,19 @@ bool floatToInt64(double v, int64_t& out) {
     return true;
 }
 
-} // namespace
+std::string notAnIntegerLabel(double v) { return "holds " + formatDouble(v) + ", which is not an integer label"; }
 
-Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std::array<uint32_t, 3>& dim,
-                    const std::string& path, uint64_t first, uint64_t* out, size_t n) {
+size_t widenSamples(const uint8_t* p, LabelType type, bool bigEndian, uint64_t* out, size_t n, double& bad) {
     const bool sgn = isSignedType(type);
     switch (type) {
     case LabelType::U8:
-    case LabelType::I8: loadIntegers<1>(p, bigEndian, sgn, out, n); return Status::ok();
+    case LabelType::I8: loadIntegers<1>(p, bigEndian, sgn, out, n); return n;
     case LabelType::U16:
-    case LabelType::I16: loadIntegers<2>(p, bigEndian, sgn, out, n); return Status::ok();
+    case LabelType::I16: loadIntegers<2>(p, bigEndian, sgn, out, n); return n;
     case LabelType::U32:
-    case LabelType::I32: loadIntegers<4>(p, bigEndian, sgn, out, n); return Status::ok();
+    case LabelType::I32: loadIntegers<4>(p, bigEndian, sgn, out, n); return n;
     case LabelType::U64:
-    case LabelType::I64: loadIntegers<8>(p, bigEndian, false, out, n); return Status::ok();
+    case LabelType::I64: loadIntegers<8>(p, bigEndian, false, out, n); return n;
     case LabelType::F32:
     case LabelType::F64: break;
     }
@@ -219,12 +300,22 @@ Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std:
             std::memcpy(&v, &bits, 8);
         }
         int64_t iv;
-        if (!floatToInt64(v, iv))
-            return fail(path, voxelName(first + i, dim) + " holds " + formatDouble(v) + ", which is not an integer label (" +
-                                  labelTypeName(type) + " voxels must hold integers within int64)");
+        if (!floatToInt64(v, iv)) {
+            bad = v;
+            return i;
+        }
         out[i] = uint64_t(iv);
     }
-    return Status::ok();
+    return n;
+}
+
+Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std::array<uint32_t, 3>& dim,
+                    const std::string& path, uint64_t first, uint64_t* out, size_t n) {
+    double bad = 0;
+    const size_t i = widenSamples(p, type, bigEndian, out, n, bad);
+    if (i == n) return Status::ok();
+    return fail(path, voxelName(first + i, dim) + " " + notAnIntegerLabel(bad) + " (" + labelTypeName(type) +
+                          " voxels must hold integers within int64)");
 }
 
 // ---- VoxelFileSource
@@ -259,11 +350,10 @@ VoxelFileSource::~VoxelFileSource() {
 uint64_t VoxelFileSource::workingBytes() const { return m_buffer.capacity() + (m_stream ? kStreamBytes : 0); }
 
 Status VoxelFileSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
-    if (uint64_t(z0) + depth > m_info.dim[2])
-        return fail(m_path, "slab z " + std::to_string(z0) + " to " + std::to_string(uint64_t(z0) + depth) +
-                                " is beyond the volume's depth " + std::to_string(m_info.dim[2]));
+    if (Status s = checkSlab(m_info, z0, depth, m_path); !s) return s;
     if (depth == 0) return Status::ok();
-    if (m_buffer.empty()) m_buffer.resize(m_chunkBytes);
+    if (m_buffer.empty())
+        if (Status s = resizeOrFail(m_buffer, m_chunkBytes, m_path); !s) return s;
     const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
     return m_data.compressed ? readCompressed(slice * z0, slice * depth, out) : readRaw(slice * z0, slice * depth, out);
 }

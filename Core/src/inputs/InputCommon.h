@@ -10,10 +10,14 @@
 #include "csgv/base/Status.h"
 #include "csgv/inputs/Inputs.h"
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <array>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <new>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -60,6 +64,50 @@ bool parseDouble(const std::string& text, double& out);
 bool parseInt64(const std::string& text, int64_t& out);
 std::vector<std::string> splitWords(const std::string& s);
 
+// ---- metadata files and folders
+/// The largest metadata file (Zarr `.zarray`/`.zattrs`, precomputed `info`) read: real ones are a
+/// few KiB; this leaves room for any list of scales while bounding what a file can make us hold.
+constexpr uint64_t kMaxMetadataBytes = uint64_t(16) << 20;
+/// JSON nesting accepted in metadata: real files nest a handful of levels (OME transformations
+/// are the deepest, about 6). Anything deeper is refused before parsing, so that no recursive
+/// walk of a parsed value (nlohmann's copy, dump, comparison) can overflow the stack.
+constexpr unsigned kMaxJsonDepth = 64;
+/// Empty when the JSON text nests arrays/objects at most kMaxJsonDepth deep, else the reason
+/// (strings are skipped with their escapes; the text need not be valid JSON).
+std::string jsonTooDeep(const char* text, size_t size);
+/// A JSON value for a message, without ever dumping a container (which recurses): scalars as
+/// JSON text bounded by quoted()'s rule, "an array of N elements", "an object".
+std::string jsonText(const nlohmann::json& v);
+/// Regular file / directory tests that never throw (std::filesystem with an error_code).
+bool isFile(const std::string& path);
+bool isDir(const std::string& path);
+
+/// Resizes `v` to `n` elements, turning an allocation failure (bad_alloc, length_error) into an
+/// error naming `path`: nothing a file makes us allocate may throw out of Core.
+template <class T>
+Status resizeOrFail(std::vector<T>& v, size_t n, const std::string& path) {
+    try {
+        v.resize(n);
+        return Status::ok();
+    } catch (const std::bad_alloc&) {
+    } catch (const std::length_error&) {
+    }
+    return Status::error(path + ": out of memory for " + std::to_string(n) + " elements of " +
+                         std::to_string(sizeof(T)) + " bytes");
+}
+
+/// Reads a whole chunk file into `out`, inflating it when its name ends in `.gz`, and refuses
+/// (naming the file) one that holds or inflates to more than `limit` bytes: never more than
+/// limit + 1 bytes are held, whatever the file claims.
+Status readBoundedFile(const std::string& file, uint64_t limit, std::vector<uint8_t>& out);
+
+/// The one check at the top of every readSlab: [z0, z0 + depth) must lie inside the volume.
+Status checkSlab(const InputInfo& info, uint32_t z0, uint32_t depth, const std::string& path);
+/// Refuses (naming `path`) dimensions whose full-width values would need 2^64 bytes or more, so
+/// that InputInfo::voxelCount() and every product built on it are exact. openInput calls it on
+/// every opened source.
+Status checkDimensions(const InputInfo& info, const std::string& path);
+
 /// @brief Closes a C file on every return path.
 class CFile {
 public:
@@ -88,6 +136,16 @@ Status checkBudget(const std::string& path, const std::array<uint64_t, 3>& d, ui
 /// unsigned as they are, signed sign-extended, floats holding integers as those integers. A float
 /// that is not an integer within int64 is an error naming the voxel: `first` is the index of the
 /// first of the `n` in the volume of dimensions `dim` stored in `path`.
+/// Converts a float that must hold an integer label; false for fractions, NaN, infinities and
+/// values outside int64.
+bool floatToInt64(double v, int64_t& out);
+/// "holds V, which is not an integer label": the one wording for a float voxel that is no label.
+std::string notAnIntegerLabel(double v);
+
+/// Widens `n` samples of `type` stored at `p` into full-width values (decodeVoxels' rules);
+/// returns n, or the index of the first float that is not an integer label (its value in `bad`).
+size_t widenSamples(const uint8_t* p, LabelType type, bool bigEndian, uint64_t* out, size_t n, double& bad);
+
 Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std::array<uint32_t, 3>& dim,
                     const std::string& path, uint64_t first, uint64_t* out, size_t n);
 

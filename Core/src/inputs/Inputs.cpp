@@ -81,7 +81,10 @@ std::string supportedInputForms() {
 Result<std::unique_ptr<InputSource>> openInput(const std::string& path, const InputOptions& options) {
     const Format* f = formatOf(path);
     if (!f) return inputs::fail(path, "unsupported input format; supported are " + supportedInputForms());
-    return f->open(path, options);
+    Result<std::unique_ptr<InputSource>> source = f->open(path, options);
+    if (!source) return source;
+    if (Status s = inputs::checkDimensions((*source)->info(), path); !s) return s;
+    return source;
 }
 
 Result<InputVolume> readAll(InputSource& source, const std::string& path, uint64_t maxBytes) {

@@ -18,7 +18,10 @@
 /// Working memory: the decoded chunk layer that the last slab touched (W * H * chunk depth * 8
 /// bytes) when it fits InputOptions::maxWorkingBytes together with one decoded chunk; otherwise
 /// chunks are decoded again for each request and only one decoded chunk is held. Either way one
-/// chunk file's bytes are held while it is decoded.
+/// chunk file's bytes are held while it is decoded: at most its encoding's worst case (raw: its
+/// exact size; compressed_segmentation: compressedSegmentationBound), capped at what
+/// maxWorkingBytes leaves beside the decoded chunk; a larger file, or a `.gz` one inflating past
+/// that, is refused. The layer is cached only when it fits beside both.
 #include "InputCommon.h"
 
 #include "csgv/inputs/PrecomputedFormat.h"
@@ -52,16 +55,6 @@ PrecomputedPath splitPath(const std::string& path) {
     return p;
 }
 
-bool isDirectory(const std::string& path) {
-    std::error_code ec;
-    return std::filesystem::is_directory(path, ec);
-}
-
-bool isRegularFile(const std::string& path) {
-    std::error_code ec;
-    return std::filesystem::is_regular_file(path, ec);
-}
-
 Result<size_t> selectScale(const std::string& infoPath, const PrecomputedInfo& info, const std::string& selector) {
     if (selector.empty()) return size_t(0);
     for (size_t i = 0; i < info.scales.size(); ++i)
@@ -85,18 +78,16 @@ std::string encodingText(const PrecomputedScale& s) {
 /// @brief The chunks of one scale, read and decoded one at a time.
 class PrecomputedSource final : public InputSource {
 public:
-    PrecomputedSource(std::string chunkDir, PrecomputedInfo info, size_t scale, bool cacheLayers)
+    PrecomputedSource(std::string chunkDir, PrecomputedInfo info, size_t scale, bool cacheLayers, uint64_t maxFileBytes)
         : m_chunkDir(std::move(chunkDir)), m_meta(std::move(info)), m_scale(m_meta.scales[scale]),
-          m_cacheLayers(cacheLayers) {
+          m_cacheLayers(cacheLayers), m_maxFileBytes(maxFileBytes) {
         describe();
     }
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
         const auto& d = m_info.dim;
+        if (Status s = checkSlab(m_info, z0, depth, m_chunkDir); !s) return s;
         if (depth == 0) return Status::ok();
-        if (uint64_t(z0) + depth > d[2])
-            return fail(m_chunkDir, "slab z " + std::to_string(z0) + "+" + std::to_string(depth) +
-                                        " is outside the volume's depth " + std::to_string(d[2]));
         const uint32_t cz = m_scale.chunkSize[2];
         for (uint32_t layer = z0 / cz; layer <= (z0 + depth - 1) / cz; ++layer) {
             const uint32_t lz0 = std::max(z0, layer * cz);
@@ -154,7 +145,7 @@ private:
         if (m_layerIndex != int64_t(layer)) {
             m_layerIndex = -1;
             const uint32_t depth = std::min(m_scale.chunkSize[2], m_info.dim[2] - top);
-            m_layer.resize(plane * depth);
+            if (Status s = resizeOrFail(m_layer, size_t(plane * depth), m_chunkDir); !s) return s;
             if (Status s = decodeInto(layer, top, top + depth, m_layer.data()); !s) return s;
             m_layerIndex = layer;
         }
@@ -172,14 +163,14 @@ private:
         const std::string flat = m_chunkDir + "/" + range[0] + "_" + range[1] + "_" + range[2];
         for (const std::string& candidate :
              {flat, flat + ".gz", m_chunkDir + "/" + range[0] + "/" + range[1] + "/" + range[2]})
-            if (isRegularFile(candidate)) return candidate;
+            if (isFile(candidate)) return candidate;
         return std::string();
     }
 
     /// Reads and decodes one chunk into m_chunk (extent voxels, x fastest).
     Status decodeChunk(const Box& b) {
-        const uint64_t voxels = uint64_t(b.extent[0]) * b.extent[1] * b.extent[2];
-        m_chunk.resize(voxels);
+        const uint64_t voxels = uint64_t(b.extent[0]) * b.extent[1] * b.extent[2]; // <= the open-time chunk
+        if (Status s = resizeOrFail(m_chunk, size_t(voxels), m_chunkDir); !s) return s;
         const std::string file = chunkFile(b);
         if (file.empty()) {
             std::fill(m_chunk.begin(), m_chunk.end(), 0);
@@ -196,11 +187,11 @@ private:
                                       std::to_string(rawBytes) + " (" + chunkText(b.extent) + " voxels of " +
                                       labelTypeName(m_info.type) + ")");
         }
-        const uint64_t limit = raw ? rawBytes + 1 : compressedSegmentationBound(m_info.type, b.extent, m_scale.blockSize);
-        Result<std::vector<uint8_t>> bytes = readFileMaybeGz(file, limit);
-        if (!bytes) return bytes.status();
-        const Status s = raw ? decodeRawChunk(bytes->data(), bytes->size(), m_info.type, b.extent, m_chunk.data())
-                             : decodeCompressedSegmentation(bytes->data(), bytes->size(), m_info.type, b.extent,
+        const uint64_t bound = raw ? rawBytes + 1 : compressedSegmentationBound(m_info.type, b.extent, m_scale.blockSize);
+        std::vector<uint8_t> bytes; // freed once decoded: not held between calls
+        if (Status s = readBoundedFile(file, std::min(bound, m_maxFileBytes), bytes); !s) return s;
+        const Status s = raw ? decodeRawChunk(bytes.data(), bytes.size(), m_info.type, b.extent, m_chunk.data())
+                             : decodeCompressedSegmentation(bytes.data(), bytes.size(), m_info.type, b.extent,
                                                             m_scale.blockSize, m_chunk.data());
         if (!s) return fail(file, s.message());
         return Status::ok();
@@ -227,6 +218,7 @@ private:
     PrecomputedInfo m_meta;
     PrecomputedScale m_scale;
     bool m_cacheLayers;
+    uint64_t m_maxFileBytes; ///< the most bytes a chunk file may hold (inflated), from the working-memory bound
     std::vector<uint64_t> m_chunk; ///< one decoded chunk
     std::vector<uint64_t> m_layer; ///< the decoded chunk layer m_layerIndex (when caching)
     int64_t m_layerIndex = -1;
@@ -236,14 +228,13 @@ private:
 
 bool claimsPrecomputed(const std::string& path) {
     const PrecomputedPath p = splitPath(path);
-    return isDirectory(p.dir) && isRegularFile(p.dir + "/info");
+    return isDir(p.dir) && isFile(p.dir + "/info");
 }
 
 Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, const InputOptions& options) {
     const PrecomputedPath p = splitPath(path);
     const std::string infoPath = p.dir + "/info";
-    // Real info files are a few KiB; 16 MiB leaves room for any list of scales.
-    Result<std::vector<uint8_t>> text = readFile(infoPath, uint64_t(16) << 20);
+    Result<std::vector<uint8_t>> text = readFile(infoPath, kMaxMetadataBytes);
     if (!text) return text.status();
     Result<PrecomputedInfo> info = parsePrecomputedInfo(text->data(), text->size());
     if (!info) return fail(infoPath, info.message());
@@ -252,22 +243,29 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
     const PrecomputedScale& scale = info->scales[*index];
     if (Status s = checkPrecomputedScale(*info, scale); !s) return fail(infoPath, s.message());
     const std::string chunkDir = p.dir + "/" + scale.key;
-    if (!isDirectory(chunkDir))
+    if (!isDir(chunkDir))
         return fail(infoPath, "the chunk folder of scale " + quoted(scale.key) + " (" + chunkDir + ") does not exist");
 
-    // Working memory: one decoded chunk always; the chunk layer too when it fits beside it.
+    // Working memory: one decoded chunk and one chunk file always (the file at most its
+    // encoding's worst case, capped at what the bound leaves); the chunk layer too when it fits.
     std::array<uint64_t, 3> chunk{};
-    for (size_t i = 0; i < 3; ++i) chunk[i] = std::min(scale.chunkSize[i], scale.size[i]);
-    const uint64_t chunkBytes = chunk[0] * chunk[1] * chunk[2] * 8;
-    const uint64_t layerBytes = uint64_t(scale.size[0]) * scale.size[1] * chunk[2] * 8;
-    if (chunkBytes > options.maxWorkingBytes)
-        return fail(infoPath, "a decoded " + dimText(chunk) + " chunk needs " + std::to_string(chunkBytes) +
+    std::array<uint32_t, 3> chunk32{};
+    for (size_t i = 0; i < 3; ++i) chunk32[i] = uint32_t(chunk[i] = std::min(scale.chunkSize[i], scale.size[i]));
+    const uint64_t chunkBytes = mulSaturate(product3(chunk[0], chunk[1], chunk[2]), 8);
+    const uint64_t layerBytes = mulSaturate(product3(scale.size[0], scale.size[1], chunk[2]), 8);
+    if (chunkBytes >= options.maxWorkingBytes)
+        return fail(infoPath, "a decoded " + dimText(chunk) + " chunk needs " +
+                                  (chunkBytes == kSaturated ? std::string("more than 2^64") : std::to_string(chunkBytes)) +
                                   " bytes, more than the working memory limit of " +
                                   std::to_string(options.maxWorkingBytes));
-    const bool cacheLayers = layerBytes <= options.maxWorkingBytes - chunkBytes;
+    const uint64_t worstFile = scale.encoding == PrecomputedScale::Encoding::Raw
+                                   ? chunkBytes / 8 * typeBytes(info->type) + 1
+                                   : compressedSegmentationBound(info->type, chunk32, scale.blockSize);
+    const uint64_t maxFileBytes = std::min(worstFile, options.maxWorkingBytes - chunkBytes);
+    const bool cacheLayers = layerBytes <= options.maxWorkingBytes - chunkBytes - maxFileBytes;
 
     return std::unique_ptr<InputSource>(
-        std::make_unique<PrecomputedSource>(chunkDir, std::move(*info), *index, cacheLayers));
+        std::make_unique<PrecomputedSource>(chunkDir, std::move(*info), *index, cacheLayers, maxFileBytes));
 }
 
 } // namespace inputs

@@ -5,6 +5,9 @@
 /// README); JSON through nlohmann_json with exceptions off, so nothing throws out of here.
 #include "csgv/inputs/PrecomputedFormat.h"
 
+#include "InputCommon.h"
+#include "csgv/base/Checked.h"
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -27,12 +30,8 @@ std::string num(uint64_t v) { return std::to_string(v); }
 
 std::string triple(const std::array<uint32_t, 3>& v) { return num(v[0]) + "x" + num(v[1]) + "x" + num(v[2]); }
 
-/// The JSON value's short form for a message (bounded).
-std::string shown(const Json& v) {
-    std::string s = v.dump(-1, ' ', true, Json::error_handler_t::replace);
-    if (s.size() > 60) s = s.substr(0, 57) + "...";
-    return s;
-}
+/// The JSON value's short form for a message (bounded, never dumping a container).
+std::string shown(const Json& v) { return jsonText(v); }
 
 /// The value as an integer in [lo, hi]: a JSON integer, or a number with no fraction (some
 /// writers emit 64.0).
@@ -97,8 +96,7 @@ Status readString(const Json& obj, const char* name, const std::string& where, s
 }
 
 Status parseDataType(const std::string& name, LabelType& out) {
-    std::string l;
-    for (char c : name) l += char(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
+    const std::string l = lower(name);
     if (l == "uint8") out = LabelType::U8;
     else if (l == "uint16") out = LabelType::U16;
     else if (l == "uint32") out = LabelType::U32;
@@ -126,8 +124,7 @@ Status parseResolution(const Json& obj, const std::string& where, std::array<dou
 
 Status parseEncoding(const Json& obj, const std::string& where, PrecomputedScale& scale) {
     if (Status s = readString(obj, "encoding", where, scale.encodingName); !s) return s;
-    std::string l;
-    for (char c : scale.encodingName) l += char(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
+    const std::string l = lower(scale.encodingName);
     if (l == "raw") {
         scale.encoding = PrecomputedScale::Encoding::Raw;
     } else if (l == "compressed_segmentation") {
@@ -156,6 +153,13 @@ Status parseScale(const Json& obj, size_t index, PrecomputedScale& scale) {
     if (Status s = readInt3((*chunks)[0], "chunk_sizes[0]", 1, kMaxExtent - 1, where, c); !s) return s;
     for (size_t i = 0; i < 3; ++i) scale.chunkSize[i] = uint32_t(c[i]);
     if (Status s = parseEncoding(obj, where, scale); !s) return s;
+    // A block larger than the chunk would make the encoding's size bound (and its headers) grow
+    // with the block, not with the chunk's voxels; no writer produces one.
+    if (scale.encoding == PrecomputedScale::Encoding::CompressedSegmentation)
+        for (size_t i = 0; i < 3; ++i)
+            if (scale.blockSize[i] > scale.chunkSize[i])
+                return Status::error(where + "\"compressed_segmentation_block_size\" " + triple(scale.blockSize) +
+                                     " is larger than the chunk size " + triple(scale.chunkSize));
     const auto sharding = obj.find("sharding");
     scale.sharded = sharding != obj.end() && !sharding->is_null();
     return Status::ok();
@@ -231,6 +235,9 @@ Status decodeBlock(const SegmentationChannel& ch, const std::array<uint32_t, 3>&
 } // namespace
 
 Result<PrecomputedInfo> parsePrecomputedInfo(const uint8_t* data, size_t size) {
+    // Deep nesting is refused before parsing: nothing below then recurses more than that deep.
+    if (const std::string deep = jsonTooDeep(reinterpret_cast<const char*>(data), size); !deep.empty())
+        return Status::error(deep);
     const Json doc = Json::parse(data, data + size, nullptr, /*allow_exceptions=*/false);
     if (doc.is_discarded()) return Status::error("is not valid JSON");
     if (!doc.is_object()) return Status::error("is " + shown(doc) + ", not a JSON object");
@@ -249,9 +256,12 @@ Result<PrecomputedInfo> parsePrecomputedInfo(const uint8_t* data, size_t size) {
     if (scales == doc.end()) return Status::error("missing \"scales\"");
     if (!scales->is_array() || scales->empty())
         return Status::error("\"scales\" is " + shown(*scales) + ", not a non-empty array");
-    info.scales.resize(scales->size());
-    for (size_t i = 0; i < scales->size(); ++i)
-        if (Status s = parseScale((*scales)[i], i, info.scales[i]); !s) return s;
+    // One at a time: a list of many empty entries fails at its first, before anything is held.
+    for (size_t i = 0; i < scales->size(); ++i) {
+        PrecomputedScale scale;
+        if (Status s = parseScale((*scales)[i], i, scale); !s) return s;
+        info.scales.push_back(std::move(scale));
+    }
     return info;
 }
 
@@ -270,18 +280,14 @@ Status checkPrecomputedScale(const PrecomputedInfo& info, const PrecomputedScale
 
 Status decodeRawChunk(const uint8_t* data, size_t size, LabelType type, const std::array<uint32_t, 3>& extent,
                       uint64_t* out) {
-    const unsigned width = type == LabelType::U8 ? 1 : type == LabelType::U16 ? 2 : type == LabelType::U32 ? 4 : 8;
-    const uint64_t voxels = uint64_t(extent[0]) * extent[1] * extent[2];
-    if (voxels > std::numeric_limits<uint64_t>::max() / 8 || size != voxels * width)
-        return Status::error("raw chunk has " + num(size) + " bytes, expected " + num(voxels * width) + " (" +
+    const unsigned width = typeBytes(type);
+    const uint64_t voxels = product3(extent[0], extent[1], extent[2]);
+    const uint64_t bytes = mulSaturate(voxels, width);
+    if (bytes == kSaturated || size != bytes)
+        return Status::error("raw chunk has " + num(size) + " bytes, expected " + num(bytes) + " (" +
                              triple(extent) + " voxels of " + labelTypeName(type) + ")");
-    for (uint64_t i = 0; i < voxels; ++i) {
-        const uint8_t* p = data + i * width;
-        uint64_t v = 0;
-        for (unsigned k = 0; k < width; ++k) v |= uint64_t(p[k]) << (8 * k);
-        out[i] = v;
-    }
-    return Status::ok();
+    // Unsigned little-endian integers (checkPrecomputedScale's types): no value can fail.
+    return decodeVoxels(data, type, false, extent, std::string(), 0, out, size_t(voxels));
 }
 
 Status decodeCompressedSegmentation(const uint8_t* data, size_t size, LabelType type,
@@ -311,8 +317,8 @@ Status decodeCompressedSegmentation(const uint8_t* data, size_t size, LabelType 
     ch.extent = extent;
     ch.block = blockSize;
     for (size_t i = 0; i < 3; ++i) ch.grid[i] = (extent[i] + blockSize[i] - 1) / blockSize[i];
-    const uint64_t blocks = uint64_t(ch.grid[0]) * ch.grid[1] * ch.grid[2];
-    if (2 * blocks > ch.words)
+    const uint64_t blocks = product3(ch.grid[0], ch.grid[1], ch.grid[2]);
+    if (mulSaturate(2, blocks) > ch.words)
         return Status::error("compressed_segmentation data of " + num(ch.words) + " words is too short for the " +
                              num(blocks) + " block headers of a " + triple(extent) + " chunk in blocks of " +
                              triple(blockSize));
@@ -329,12 +335,15 @@ uint64_t compressedSegmentationBound(LabelType type, const std::array<uint32_t, 
     uint64_t blocks = 1, padded = 1;
     for (size_t i = 0; i < 3; ++i) {
         const uint64_t g = blockSize[i] == 0 ? extent[i] : (uint64_t(extent[i]) + blockSize[i] - 1) / blockSize[i];
-        blocks *= g;
-        padded *= g * std::max<uint32_t>(blockSize[i], 1);
+        blocks = mulSaturate(blocks, g);
+        padded = mulSaturate(padded, mulSaturate(g, std::max<uint32_t>(blockSize[i], 1)));
     }
     const uint64_t valueWords = type == LabelType::U64 ? 2 : 1;
     // Channel offset, headers, 32-bit values and a full table for every voxel of the padded grid.
-    return 4 * (1 + 2 * blocks + padded * (1 + valueWords)) + 4096;
+    const uint64_t words = mulSaturate(2, blocks);
+    const uint64_t table = mulSaturate(padded, 1 + valueWords);
+    if (words == kSaturated || table == kSaturated || words + table >= kSaturated / 8) return kSaturated;
+    return 4 * (1 + words + table) + 4096;
 }
 
 } // namespace inputs

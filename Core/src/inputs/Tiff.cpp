@@ -79,6 +79,19 @@ struct TiffCloser {
 /// @brief One open TIFF file and the errors libtiff reported on it.
 class TiffHandle {
 public:
+    TiffHandle() = default;
+    TiffHandle(TiffHandle&&) = default;
+    /// Closes the old file first, while the string its error handler writes to still exists
+    /// (the implicit one would free the string first: members are assigned in declaration order).
+    TiffHandle& operator=(TiffHandle&& other) noexcept {
+        if (this != &other) {
+            m_tif = std::move(other.m_tif);
+            m_errors = std::move(other.m_errors);
+            m_fileBytes = other.m_fileBytes;
+        }
+        return *this;
+    }
+
     /// Opens `file`; an error's message is only the reason (callers name the file).
     static Result<TiffHandle> open(const std::string& file, uint64_t maxAlloc) {
         TiffHandle h;
@@ -327,8 +340,7 @@ struct Listing {
 
 Result<Listing> listFiles(const std::string& path) {
     Listing l;
-    std::error_code ec;
-    if (fs::is_directory(path, ec) || (!path.empty() && path.back() == '/')) {
+    if (isDir(path) || (!path.empty() && path.back() == '/')) {
         l.form = Listing::Form::Folder;
         Result<std::vector<std::string>> files =
             listFolder(path, path, [](const std::string& n) { return n[0] != '.' && isTiffName(n); });
@@ -353,45 +365,12 @@ Result<Listing> listFiles(const std::string& path) {
 
 // ---- pixels -------------------------------------------------------------------------------------
 
-template <typename T> void widenIntegers(const uint8_t* src, uint64_t* dst, size_t n) {
-    for (size_t i = 0; i < n; ++i) {
-        T v;
-        std::memcpy(&v, src + i * sizeof(T), sizeof(T));
-        dst[i] = std::is_signed<T>::value ? uint64_t(int64_t(v)) : uint64_t(v);
-    }
-}
-
-/// Floats must hold integers within int64; returns the index of the first that does not, or n.
-template <typename F> size_t widenFloats(const uint8_t* src, uint64_t* dst, size_t n, double& bad) {
-    for (size_t i = 0; i < n; ++i) {
-        F f;
-        std::memcpy(&f, src + i * sizeof(F), sizeof(F));
-        const double v = double(f);
-        if (!(v == std::trunc(v)) || !(v >= -9223372036854775808.0 && v < 9223372036854775808.0)) {
-            bad = v;
-            return i;
-        }
-        dst[i] = uint64_t(int64_t(v));
-    }
-    return n;
-}
-
-/// Widens `n` native-order samples of `type`; for floats, the index of the first non-integer
-/// (else n) and its value.
-size_t widen(LabelType type, const uint8_t* src, uint64_t* dst, size_t n, double& bad) {
-    switch (type) {
-    case LabelType::U8: widenIntegers<uint8_t>(src, dst, n); break;
-    case LabelType::I8: widenIntegers<int8_t>(src, dst, n); break;
-    case LabelType::U16: widenIntegers<uint16_t>(src, dst, n); break;
-    case LabelType::I16: widenIntegers<int16_t>(src, dst, n); break;
-    case LabelType::U32: widenIntegers<uint32_t>(src, dst, n); break;
-    case LabelType::I32: widenIntegers<int32_t>(src, dst, n); break;
-    case LabelType::U64: widenIntegers<uint64_t>(src, dst, n); break;
-    case LabelType::I64: widenIntegers<int64_t>(src, dst, n); break;
-    case LabelType::F32: return widenFloats<float>(src, dst, n, bad);
-    case LabelType::F64: return widenFloats<double>(src, dst, n, bad);
-    }
-    return n;
+/// libtiff delivers decoded samples in the host's byte order (InputCommon's widenSamples widens them).
+bool hostIsLittleEndian() {
+    const uint16_t one = 1;
+    uint8_t first = 0;
+    std::memcpy(&first, &one, 1);
+    return first == 1;
 }
 
 // ---- the source -------------------------------------------------------------------------------
@@ -421,9 +400,7 @@ public:
     }
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
-        if (uint64_t(z0) + depth > m_info.dim[2])
-            return fail(m_path, "slab z " + std::to_string(z0) + " + " + std::to_string(depth) +
-                                    " is beyond the depth " + std::to_string(m_info.dim[2]));
+        if (Status s = checkSlab(m_info, z0, depth, m_path); !s) return s;
         const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
         for (uint32_t z = z0; z < z0 + depth; ++z)
             if (Status s = readPage(z, out + slice * (z - z0)); !s) return s;
@@ -515,7 +492,7 @@ private:
         Result<PageLayout> p = checkedLayout(z);
         if (!p) return p.status();
         if (Status s = checkBlocksInFile(*p, z); !s) return s;
-        m_block.resize(size_t(p->blockBytes()));
+        if (Status s = resizeOrFail(m_block, size_t(p->blockBytes()), m_path); !s) return s;
         return p->tiled ? readTiles(*p, z, out) : readStrips(*p, z, out);
     }
 
@@ -556,10 +533,11 @@ private:
     Status widenRow(const PageLayout& p, const uint8_t* src, uint64_t* page, uint32_t x, uint32_t y, uint32_t z,
                     size_t n) {
         double bad = 0;
-        const size_t at = widen(p.type, src, page + uint64_t(y) * p.width + x, n, bad);
+        // libtiff hands samples over in the host's byte order.
+        const size_t at = widenSamples(src, p.type, !hostIsLittleEndian(), page + uint64_t(y) * p.width + x, n, bad);
         if (at == n) return Status::ok();
-        return fail(m_path, pageName(z) + ": voxel (x " + std::to_string(x + at) + ", y " + std::to_string(y) +
-                                ") holds " + formatDouble(bad) + ", which is not an integer label (" +
+        return fail(m_path, pageName(z) + ": voxel (x " + std::to_string(x + at) + ", y " + std::to_string(y) + ") " +
+                                notAnIntegerLabel(bad) + " (" +
                                 labelTypeName(p.type) + " voxels must hold integers within int64)");
     }
 
@@ -613,14 +591,15 @@ private:
 bool claimsTiff(const std::string& path) {
     if (path.empty()) return false;
     if (isTiffName(path) || hasWildcard(lastComponent(path))) return true;
+    if (!isDir(path)) return path.back() == '/';
     std::error_code ec;
-    if (!fs::is_directory(path, ec)) return path.back() == '/';
     // A folder is a TIFF stack when it holds a TIFF file, or nothing at all (then the opener says
     // it is empty); a folder of other files (a precomputed scale, say) is not claimed.
     bool otherFiles = false;
     for (fs::directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec)) {
         const std::string name = it->path().filename().string();
-        if (name.empty() || name[0] == '.' || !it->is_regular_file(ec)) continue;
+        std::error_code statError; // a dangling link is skipped; `ec` keeps the iteration's state
+        if (name.empty() || name[0] == '.' || !it->is_regular_file(statError)) continue;
         if (isTiffName(name)) return true;
         otherFiles = true;
     }

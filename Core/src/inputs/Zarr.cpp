@@ -12,6 +12,7 @@
 /// the decoded chunk size + 1/16 + 4 KiB: a larger file is refused, not read).
 #include "InputCommon.h"
 
+#include "csgv/base/Checked.h"
 #include "csgv/inputs/ZarrFormat.h"
 
 #include <algorithm>
@@ -26,18 +27,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr uint64_t kMaxMetadataBytes = uint64_t(16) << 20;
-
-bool isFile(const std::string& p) {
-    std::error_code ec;
-    return fs::is_regular_file(p, ec);
-}
-
-bool isDir(const std::string& p) {
-    std::error_code ec;
-    return fs::is_directory(p, ec);
-}
-
 std::string stripSlashes(std::string p) {
     while (p.size() > 1 && p.back() == '/') p.pop_back();
     return p;
@@ -45,17 +34,9 @@ std::string stripSlashes(std::string p) {
 
 /// Reads a whole small file (metadata), refusing large ones.
 Result<std::string> readText(const std::string& path) {
-    CFile f(std::fopen(path.c_str(), "rb"));
-    if (!f.get()) return fail(path, std::string("cannot open: ") + std::strerror(errno));
-    std::string text;
-    char buf[65536];
-    size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, f.get())) > 0) {
-        text.append(buf, n);
-        if (text.size() > kMaxMetadataBytes) return fail(path, "metadata file larger than 16 MiB");
-    }
-    if (std::ferror(f.get())) return fail(path, "read error");
-    return text;
+    Result<std::vector<uint8_t>> bytes = readFile(path, kMaxMetadataBytes);
+    if (!bytes) return bytes.status();
+    return std::string(bytes->begin(), bytes->end());
 }
 
 Result<ZarrAttrs> readAttrs(const std::string& dir) {
@@ -147,8 +128,6 @@ Result<Resolved> resolve(const std::string& path) {
     }
     return fail(dir, "not a Zarr array or OME-Zarr image: found " + describeFolder(dir, *attrs));
 }
-
-uint64_t mulSat(uint64_t a, uint64_t b) { return b != 0 && a > ~uint64_t(0) / b ? ~uint64_t(0) : a * b; }
 
 /// @brief Reads a Zarr v2 array's z slabs chunk by chunk (see the file's @brief for memory).
 class ZarrSource : public InputSource {
@@ -261,13 +240,10 @@ void ZarrSource::placeInSpace(const Resolved& r) {
 Status ZarrSource::planMemory(const InputOptions& options) {
     const uint64_t chunkBytes = m_array.chunkBytes();
     m_maxFileBytes = chunkBytes + chunkBytes / 16 + 4096;
-    const uint64_t slots = mulSat(m_grid[0], m_grid[1]);
-    const uint64_t layerBytes = mulSat(slots, chunkBytes + sizeof(Chunk));
+    const uint64_t slots = mulSaturate(m_grid[0], m_grid[1]);
+    const uint64_t layerBytes = mulSaturate(slots, chunkBytes + sizeof(Chunk));
     m_cacheLayer = layerBytes <= options.maxWorkingBytes && layerBytes + m_maxFileBytes <= options.maxWorkingBytes;
-    if (m_cacheLayer) {
-        m_layer.resize(size_t(slots));
-        return Status::ok();
-    }
+    if (m_cacheLayer) return resizeOrFail(m_layer, size_t(slots), m_dir);
     if (chunkBytes + m_maxFileBytes > options.maxWorkingBytes)
         return fail(m_dir, "a chunk of " + std::to_string(chunkBytes) + " bytes does not fit the working memory bound of " +
                                std::to_string(options.maxWorkingBytes) + " bytes");
@@ -325,7 +301,10 @@ Status ZarrSource::load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk) {
         return fail(p, ec ? "cannot size chunk file" : "chunk file of " + std::to_string(size) + " bytes is larger than any encoding of its " +
                                                             std::to_string(m_array.chunkBytes()) + " decoded bytes");
     }
-    m_file.resize(size_t(size));
+    if (Status s = resizeOrFail(m_file, size_t(size), p); !s) {
+        chunk.loaded = false;
+        return s;
+    }
     if (size && std::fread(m_file.data(), 1, size_t(size), f.get()) != size) {
         chunk.loaded = false;
         return fail(p, "read error or file shrank while reading the chunk");
@@ -369,16 +348,17 @@ Status ZarrSource::copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint6
                 continue;
             }
             const uint64_t base = (z - cz0) * m_stride[2] + (y - y0) * m_stride[1];
+            double bad = 0;
             for (uint64_t x = x0; x < x1; ++x)
-                if (!zarrElement(m_array, chunk.bytes.data(), base + (x - x0) * m_stride[0], row[x]))
-                    return fail(chunkPath(iz, iy, ix), "voxel (" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) +
-                                                           ") holds a value that is not an integer label");
+                if (!zarrElement(m_array, chunk.bytes.data(), base + (x - x0) * m_stride[0], row[x], &bad))
+                    return fail(chunkPath(iz, iy, ix), "voxel (" + std::to_string(x) + ", " + std::to_string(y) + ", " +
+                                                           std::to_string(z) + ") " + notAnIntegerLabel(bad));
         }
     return Status::ok();
 }
 
 Status ZarrSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
-    if (uint64_t(z0) + depth > m_info.dim[2]) return fail(m_dir, "slab beyond the volume");
+    if (Status s = checkSlab(m_info, z0, depth, m_dir); !s) return s;
     if (depth == 0) return Status::ok();
     const uint64_t zEnd = uint64_t(z0) + depth;
     for (uint64_t iz = z0 / m_chunk[2]; iz * m_chunk[2] < zEnd; ++iz) {

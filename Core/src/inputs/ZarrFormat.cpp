@@ -7,10 +7,14 @@
 /// stream), so no stream can make us allocate or write more than that.
 #include "csgv/inputs/ZarrFormat.h"
 
+#include "InputCommon.h"
+#include "csgv/base/Checked.h"
+
 #include <blosc.h>
 #include <nlohmann/json.hpp>
 #include <zlib.h>
 #include <zstd.h>
+#include <zstd_errors.h>
 
 #include <climits>
 #include <cmath>
@@ -30,13 +34,11 @@ constexpr uint64_t kMaxChunkBytes = uint64_t(1) << 31;
 
 Status bad(const std::string& what) { return Status::error(what); }
 
-std::string jsonText(const json& j) {
-    std::string s = j.dump(-1, ' ', true, json::error_handler_t::replace);
-    return s.size() > 60 ? s.substr(0, 57) + "..." : s;
-}
-
-/// Parses text into a JSON object, or says why not.
+/// Parses text into a JSON object, or says why not. Deep nesting is refused first (InputCommon's
+/// kMaxJsonDepth): nothing below then recurses more than that deep.
 Result<json> parseObject(const std::string& text, const char* what) {
+    if (const std::string deep = jsonTooDeep(text.data(), text.size()); !deep.empty())
+        return bad(std::string(what) + " " + deep);
     json j = json::parse(text, nullptr, false);
     if (j.is_discarded()) return bad(std::string(what) + " is not valid JSON");
     if (!j.is_object()) return bad(std::string(what) + " is not a JSON object");
@@ -84,13 +86,6 @@ Status readDtype(const json& j, ZarrArray& a) {
 
 bool isFloat(LabelType t) { return t == LabelType::F32 || t == LabelType::F64; }
 
-/// A double that is an integer label: finite, whole, within int64.
-bool integralDouble(double v, int64_t& out) {
-    if (!std::isfinite(v) || v != std::floor(v) || v < -9.2233720368547758e18 || v >= 9.2233720368547758e18) return false;
-    out = int64_t(v);
-    return true;
-}
-
 Status readFill(const json& j, ZarrArray& a) {
     auto it = j.find("fill_value");
     if (it == j.end() || it->is_null()) return Status::ok(); // absent or null: 0
@@ -112,7 +107,7 @@ Status readFill(const json& j, ZarrArray& a) {
         return Status::ok();
     }
     int64_t v = 0;
-    if (it->is_number_float() && integralDouble(it->get<double>(), v)) {
+    if (it->is_number_float() && floatToInt64(it->get<double>(), v)) {
         if (!isSigned && v < 0) return bad(text + " does not fit dtype " + labelTypeName(a.type));
         a.fill = uint64_t(v);
         return Status::ok();
@@ -189,7 +184,7 @@ Status checkShape(ZarrArray& a) {
         return bad("\"shape\" has " + std::to_string(a.shape.size()) + " axes but \"chunks\" " + std::to_string(a.chunks.size()));
     if (a.shape.size() < 2 || a.shape.size() > 5)
         return bad("arrays of " + std::to_string(a.shape.size()) + " axes are not label volumes (2 to 5 axes: [t, c,] [z,] y, x)");
-    uint64_t bytes = a.itemBytes;
+    uint64_t bytes = a.itemBytes; // stays <= kMaxChunkBytes: checked before each product
     for (uint64_t c : a.chunks) {
         if (c == 0) return bad("a chunk size is 0");
         if (c > kMaxChunkBytes || bytes * c > kMaxChunkBytes)
@@ -260,33 +255,24 @@ Status decodeZlib(const uint8_t* data, size_t size, uint64_t want, std::vector<u
     return bad(std::string("corrupt ") + name + " stream" + (msg.empty() ? "" : " (" + msg + ")"));
 }
 
+/// One-shot decoding straight into `out` (want + 1 bytes): the output buffer is the window, so a
+/// frame header claiming a large window (up to 2^31 bytes) makes us allocate nothing (streaming
+/// decoding would allocate that window whatever the chunk's size).
 Status decodeZstd(const uint8_t* data, size_t size, uint64_t want, std::vector<uint8_t>& out) {
     ZSTD_DCtx* ctx = ZSTD_createDCtx();
     if (!ctx) return bad("zstd initialisation failed");
-    ZSTD_inBuffer in{data, size, 0};
-    ZSTD_outBuffer o{out.data(), size_t(want + 1), 0};
-    Status status;
-    for (;;) {
-        const size_t r = ZSTD_decompressStream(ctx, &o, &in);
-        if (ZSTD_isError(r)) {
-            status = bad(std::string("corrupt zstd stream (") + ZSTD_getErrorName(r) + ")");
-            break;
-        }
-        if (o.pos > want) {
-            status = bad("chunk decodes to more than " + std::to_string(want) + " bytes");
-            break;
-        }
-        if (r == 0) { // frame complete
-            if (o.pos != want) status = bad(sizeText(o.pos, want));
-            break;
-        }
-        if (in.pos == in.size) {
-            status = bad("zstd stream is truncated: it ends after " + std::to_string(o.pos) + " of " + std::to_string(want) + " bytes");
-            break;
-        }
-    }
+    const size_t r = ZSTD_decompressDCtx(ctx, out.data(), size_t(want + 1), data, size);
     ZSTD_freeDCtx(ctx);
-    return status;
+    if (ZSTD_isError(r)) {
+        if (ZSTD_getErrorCode(r) == ZSTD_error_dstSize_tooSmall)
+            return bad("chunk decodes to more than " + std::to_string(want) + " bytes");
+        if (ZSTD_getErrorCode(r) == ZSTD_error_srcSize_wrong)
+            return bad("zstd stream is truncated: it ends before its " + std::to_string(want) + " bytes");
+        return bad(std::string("corrupt zstd stream (") + ZSTD_getErrorName(r) + ")");
+    }
+    if (r > want) return bad("chunk decodes to more than " + std::to_string(want) + " bytes");
+    if (r != want) return bad(sizeText(r, want));
+    return Status::ok();
 }
 
 /// Reads one `.zattrs` transformation list ([{type: scale, scale: [...]}, {type: translation, ...}]).
@@ -360,7 +346,7 @@ Result<ZarrAttrs> parseZattrsJson(const json& j) {
 
 uint64_t ZarrArray::chunkElements() const {
     uint64_t n = 1;
-    for (uint64_t c : chunks) n *= c;
+    for (uint64_t c : chunks) n = mulSaturate(n, c); // parseZarray bounds it; a hand-made array saturates
     return n;
 }
 
@@ -389,11 +375,9 @@ Result<ZarrAttrs> parseZattrs(const std::string& text) {
 Status decodeZarrChunk(const ZarrArray& array, const uint8_t* data, size_t size, std::vector<uint8_t>& out) {
     const uint64_t want = array.chunkBytes();
     if (want == 0 || want > kMaxChunkBytes) return bad("chunk size out of range");
-    try {
-        out.resize(size_t(want + 1)); // one spare byte shows a stream that decodes too long
-    } catch (const std::bad_alloc&) {
+    // One spare byte shows a stream that decodes too long.
+    if (Status s = resizeOrFail(out, size_t(want + 1), "chunk"); !s)
         return bad("out of memory for a chunk of " + std::to_string(want) + " bytes");
-    }
     Status s;
     switch (array.compressor) {
     case ZarrCompressor::None: s = decodeRaw(data, size, want, out); break;
@@ -406,34 +390,11 @@ Status decodeZarrChunk(const ZarrArray& array, const uint8_t* data, size_t size,
     return s;
 }
 
-bool zarrElement(const ZarrArray& array, const uint8_t* chunk, uint64_t index, uint64_t& value) {
-    const unsigned n = array.itemBytes;
-    const uint8_t* p = chunk + index * n;
-    uint64_t bits = 0;
-    for (unsigned i = 0; i < n; ++i) bits |= uint64_t(p[array.bigEndian ? n - 1 - i : i]) << (8 * i);
-    switch (array.type) {
-    case LabelType::I8: value = uint64_t(int64_t(int8_t(bits))); return true;
-    case LabelType::I16: value = uint64_t(int64_t(int16_t(bits))); return true;
-    case LabelType::I32: value = uint64_t(int64_t(int32_t(bits))); return true;
-    case LabelType::F32: {
-        float f;
-        const uint32_t b32 = uint32_t(bits);
-        std::memcpy(&f, &b32, 4);
-        int64_t v;
-        if (!integralDouble(double(f), v)) return false;
-        value = uint64_t(v);
-        return true;
-    }
-    case LabelType::F64: {
-        double d;
-        std::memcpy(&d, &bits, 8);
-        int64_t v;
-        if (!integralDouble(d, v)) return false;
-        value = uint64_t(v);
-        return true;
-    }
-    default: value = bits; return true; // unsigned types and int64 are already full width
-    }
+bool zarrElement(const ZarrArray& array, const uint8_t* chunk, uint64_t index, uint64_t& value, double* notInteger) {
+    double bad = 0;
+    if (widenSamples(chunk + index * array.itemBytes, array.type, array.bigEndian, &value, 1, bad) == 1) return true;
+    if (notInteger) *notInteger = bad;
+    return false;
 }
 
 } // namespace inputs

@@ -258,6 +258,18 @@ def bad_cases(out):
     cs_bad("bad_cs_values", bad_values)
     cs_bad("bad_cs_channel", bad_channel)
 
+    # A gzipped raw chunk that inflates far beyond its 2048 bytes (a small "zip bomb").
+    root = case("bad_gz_bomb", info_of("uint32", [ok_scale]))
+    with gzip.open(os.path.join(root, "s", "0-8_0-8_0-8.gz"), "wb") as g:
+        g.write(bytes(4 << 20))
+    # A compressed_segmentation block larger than the chunk.
+    case("bad_cs_block", info_of("uint32", [dict(cs_scale, compressed_segmentation_block_size=[16, 8, 8])]))
+    # JSON nested 100000 deep (would overflow the stack of any recursive walk).
+    case("bad_deep", None, text='{"type": "segmentation", "scales": ' + "[" * 100000 + "]" * 100000 + "}")
+    # A chunk whose decoded size is 2^64 bytes (a product that would wrap to 0).
+    huge = [65536, 32768, 1 << 30]
+    case("bad_huge_chunk", info_of("uint64", [dict(ok_scale, size=huge, chunk_sizes=[huge])]))
+
 
 def main():
     out = sys.argv[1]

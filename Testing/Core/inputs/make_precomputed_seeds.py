@@ -60,6 +60,8 @@ def main():
         "cs_u64_16x4x2_b8x4x1_16bits": cs_seed(np.uint64, [16, 4, 2], [8, 4, 1], [20, 2], 5, force_bits={1: 16}),
         "raw_u16_8x8x4": raw_seed(1, np.uint16, [8, 8, 4], 6),
         "raw_u64_4x4x4": raw_seed(3, np.uint64, [4, 4, 4], 7),
+        # Nesting one level past the limit: refused before parsing.
+        "info_nested_65_deep": b'\x00{"type": "segmentation", "scales": ' + b"[" * 65 + b"]" * 65 + b"}",
     }
     for name, data in seeds.items():
         assert len(data) < 4096, (name, len(data))

@@ -61,6 +61,12 @@ def main():
     seed('zattrs_labels', bytes([1]) + json.dumps({'labels': ['cells', 'nuclei']}).encode())
     seed('zattrs_v03_axes', bytes([1]) + json.dumps({'multiscales': [{'version': '0.3', 'axes': ['t', 'c', 'z', 'y', 'x'],
                                                                       'datasets': [{'path': 's0'}]}]}).encode())
+    # Nesting one level past the limit (refused before parsing) and containers where scalars belong
+    # (described in messages, never dumped).
+    seed('zarray_nested_65_deep', b'\x00{"zarr_format": 2, "shape": ' + b'[' * 65 + b']' * 65 +
+         b', "chunks": [1, 1], "dtype": "|u1"}')
+    seed('zattrs_nested_container_in_axes',
+         b'\x01{"multiscales": [{"axes": [[["x"]], {"name": 1}], "datasets": [{"path": "0"}]}]}')
 
 
 if __name__ == '__main__':

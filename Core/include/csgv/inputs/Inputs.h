@@ -8,6 +8,7 @@
 /// is truncated before relabelling. The format table (name, how a path is recognised, the
 /// opener) is in Core/src/inputs/Inputs.cpp; each format is one file beside it.
 
+#include "csgv/base/Checked.h"
 #include "csgv/base/Geometry.h"
 #include "csgv/base/Status.h"
 
@@ -49,7 +50,9 @@ struct InputInfo {
     std::string format; ///< "vraw", "NRRD", "NIfTI", "HDF5", "TIFF", "Zarr", "precomputed"
     std::string detail; ///< one line for `csgv info`: dataset path, chunk shape, compressor...
 
-    uint64_t voxelCount() const { return uint64_t(dim[0]) * dim[1] * dim[2]; }
+    /// Saturates at kSaturated instead of wrapping; openInput refuses any input whose voxels
+    /// would need 2^64 bytes or more at full width, so for an opened source it is exact.
+    uint64_t voxelCount() const { return product3(dim[0], dim[1], dim[2]); }
 };
 
 /// @brief Options every input format takes.

@@ -8,6 +8,7 @@
 /// Memory: decodeZarrChunk never produces more than ZarrArray::chunkBytes() bytes, whatever the
 /// compressed stream claims.
 
+#include "csgv/base/Checked.h"
 #include "csgv/base/Status.h"
 #include "csgv/inputs/Inputs.h"
 
@@ -37,7 +38,7 @@ struct ZarrArray {
 
     /// Elements in one (full-size) chunk; edge chunks are stored full-size too.
     uint64_t chunkElements() const;
-    uint64_t chunkBytes() const { return chunkElements() * itemBytes; }
+    uint64_t chunkBytes() const { return mulSaturate(chunkElements(), itemBytes); }
 };
 
 /// Parses `.zarray` text. Refuses (with a message naming the key) what the reader cannot
@@ -53,8 +54,10 @@ Status decodeZarrChunk(const ZarrArray& array, const uint8_t* data, size_t size,
 
 /// Reads element `index` of a decoded chunk as a full-width label (Inputs.h: signed values
 /// sign-extended, floats holding integers as int64 bits). False when a float element is not an
-/// integer (fraction, NaN, infinity or out of int64 range).
-bool zarrElement(const ZarrArray& array, const uint8_t* chunk, uint64_t index, uint64_t& value);
+/// integer (fraction, NaN, infinity or out of int64 range); its value then goes to `notInteger`
+/// when given.
+bool zarrElement(const ZarrArray& array, const uint8_t* chunk, uint64_t index, uint64_t& value,
+                 double* notInteger = nullptr);
 
 /// @brief One OME-Zarr multiscale level: its path and its own scale/translation (array axes).
 struct OmeDataset {
