@@ -2,8 +2,10 @@
 #pragma once
 /// @file InputCommon.h
 /// @brief What the input formats share (private to Core/src/inputs): header text parsing in the
-/// classic locale, bounded quoting of file text in messages, the memory budget, the decoding of
-/// stored voxels to full-width labels, and VoxelFileSource, the one streaming source of voxels
+/// classic locale, bounded quoting of file text and JSON values in messages, the JSON nesting and
+/// metadata size limits, bounded whole-file reads, allocation without exceptions, the one slab
+/// bounds check, the memory budget, the decoding of stored voxels to full-width labels, and
+/// VoxelFileSource, the one streaming source of voxels
 /// that lie in a file raw or gzip-compressed (vraw, NRRD and NIfTI build on it).
 
 #include "csgv/base/FileUtil.h"
@@ -76,7 +78,7 @@ constexpr unsigned kMaxJsonDepth = 64;
 /// (strings are skipped with their escapes; the text need not be valid JSON).
 std::string jsonTooDeep(const char* text, size_t size);
 /// A JSON value for a message, without ever dumping a container (which recurses): scalars as
-/// JSON text bounded by quoted()'s rule, "an array of N elements", "an object".
+/// their JSON text (cut to 60 characters), containers as "an array of N elements", "an object".
 std::string jsonText(const nlohmann::json& v);
 /// Regular file / directory tests that never throw (std::filesystem with an error_code).
 bool isFile(const std::string& path);

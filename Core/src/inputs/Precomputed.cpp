@@ -28,7 +28,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <filesystem>
 
 namespace csgv {
 namespace inputs {

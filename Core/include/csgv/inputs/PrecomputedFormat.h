@@ -48,7 +48,9 @@ struct PrecomputedInfo {
 /// Parses an info document: `type` ("segmentation", or "image" with an unsigned integer
 /// data_type), `data_type` (uint8, uint16, uint32, uint64), `num_channels` (must be 1) and every
 /// scale's key, size, resolution, voxel_offset (optional), chunk_sizes, encoding and, for
-/// compressed_segmentation, its block size. Whether a scale's encoding and storage are supported
+/// compressed_segmentation, its block size (no larger than the chunk size along any axis). JSON
+/// nested more than 64 levels deep is refused before parsing. Whether a scale's encoding and
+/// storage are supported
 /// is checkPrecomputedScale's business, so that an unsupported scale that is not used is no error.
 Result<PrecomputedInfo> parsePrecomputedInfo(const uint8_t* data, size_t size);
 
@@ -70,7 +72,7 @@ Status decodeCompressedSegmentation(const uint8_t* data, size_t size, LabelType 
 
 /// The largest byte count a compressed_segmentation chunk of this extent and block size can
 /// need when laid out without gaps (block headers, 32-bit values, a full lookup table a block),
-/// so that a reader refuses a larger file before reading it whole.
+/// so that a reader refuses a larger file before reading it whole. Saturates at 2^64 - 1.
 uint64_t compressedSegmentationBound(LabelType type, const std::array<uint32_t, 3>& extent,
                                      const std::array<uint32_t, 3>& blockSize);
 

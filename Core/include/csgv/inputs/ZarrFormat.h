@@ -44,7 +44,7 @@ struct ZarrArray {
 /// Parses `.zarray` text. Refuses (with a message naming the key) what the reader cannot
 /// decode: other zarr_format, dtypes other than |u1 |i1 <u2..<i8 >u2..>i8 <f4 <f8 >f4 >f8,
 /// compressors other than blosc/zlib/gzip/zstd, any filter, more than 5 or fewer than 2 axes,
-/// zero or oversized chunks (a chunk larger than 2 GiB decoded).
+/// zero or oversized chunks (a chunk larger than 2 GiB decoded), JSON nested more than 64 levels.
 Result<ZarrArray> parseZarray(const std::string& text);
 
 /// Decodes one stored chunk into exactly `array.chunkBytes()` bytes (`out` is resized to that).
