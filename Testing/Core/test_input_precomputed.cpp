@@ -337,3 +337,14 @@ TEST(Precomputed, HugeGridsAndContainersInMessagesAreSafe) {
     EXPECT_EQ(parsePrecomputedInfo(reinterpret_cast<const uint8_t*>(text.data()), text.size()).message(),
               "\"num_channels\" is an array of 2 elements, not an integer in 0..9223372036854775807");
 }
+
+TEST(Precomputed, SlabsOutsideTheVolumeAreRefusedEvenEmpty) {
+    // InputCommon's checkSlab, as every format: an empty slab may start at the end, not beyond.
+    const std::string dir = volumeDir("raw_u32");
+    auto s = openOk(dir);
+    ASSERT_TRUE(s);
+    std::vector<uint64_t> slab(37 * 29 * 2);
+    EXPECT_TRUE(s->readSlab(21, 0, slab.data()).isOk());
+    EXPECT_EQ(s->readSlab(22, 0, slab.data()).message(), dir + "/4_6_40: slab z 22 to 22 is beyond the volume's depth 21");
+    EXPECT_EQ(s->readSlab(20, 2, slab.data()).message(), dir + "/4_6_40: slab z 20 to 22 is beyond the volume's depth 21");
+}
