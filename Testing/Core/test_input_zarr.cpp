@@ -261,7 +261,7 @@ TEST(ZarrInput, ZstdFrameClaimingAHugeWindowDecodesWithinTheChunk) {
     a.type = LabelType::U32;
     a.itemBytes = 4;
     a.compressor = inputs::ZarrCompressor::Zstd;
-    std::vector<uint8_t> frame = {0x28, 0xB5, 0x2F, 0xFD, 0x00, 21 << 3, 0x01 | (256 << 3) & 0xFF, (256 << 3) >> 8, 0};
+    std::vector<uint8_t> frame = {0x28, 0xB5, 0x2F, 0xFD, 0x00, 21 << 3, 0x01 | ((256 << 3) & 0xFF), (256 << 3) >> 8, 0};
     for (int i = 0; i < 256; ++i) frame.push_back(uint8_t(i));
     std::vector<uint8_t> out;
     const Status s = inputs::decodeZarrChunk(a, frame.data(), frame.size(), out);

@@ -102,6 +102,18 @@ TEST(Materials, DefaultsAndTheDefaultDocument) {
     EXPECT_EQ(e.materialOf(4294967294u), 0);
 }
 
+TEST(Materials, DeeplyNestedDocumentsAreRefusedNotAStackOverflow) {
+    const std::string deep = "{\"version\": 1, \"materials\": [{\"name\": " + std::string(200000, '[') +
+                             std::string(200000, ']') + "}]}";
+    Result<MaterialDocument> doc = parseMaterials(deep);
+    ASSERT_FALSE(doc.isOk());
+    EXPECT_EQ(doc.message(), "material document: nests arrays or objects more than 64 levels deep");
+    // A scalar of the wrong type is quoted; a container is described, never dumped.
+    doc = parseMaterials("{\"version\": [1, 2]}");
+    ASSERT_FALSE(doc.isOk());
+    EXPECT_NE(doc.message().find("an array of 2 elements"), std::string::npos) << doc.message();
+}
+
 TEST(Materials, StrictErrorsNameThePlace) {
     EXPECT_NE(errorOf("not json").find("not valid JSON"), std::string::npos);
     EXPECT_NE(errorOf("[1]").find("object"), std::string::npos);

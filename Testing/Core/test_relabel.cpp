@@ -18,6 +18,7 @@
 #include <unordered_map>
 #include <unordered_set>
 #include <filesystem>
+#include <fstream>
 #include <gtest/gtest.h>
 
 using namespace csgv;
@@ -284,6 +285,17 @@ TEST(Compress, NrrdWithNegativeAndWideLabelsComesBackExactly) {
     Result<LabelVolume> d = decodeVolume(f->volume, 0, f->decodeOptions());
     ASSERT_TRUE(d.isOk());
     for (size_t i = 0; i < values.size(); ++i) ASSERT_EQ(f->originalLabel(d->labels[i]), values[i]) << i;
+}
+
+TEST(Metadata, DeeplyNestedJsonIsRefusedNotAStackOverflow) {
+    const std::string path = freshDir("mddeep") + "/a.csgv.json";
+    {
+        std::ofstream f(path);
+        f << "{\"version\": 1, \"spacing\": " << std::string(200000, '[') << std::string(200000, ']') << "}";
+    }
+    Result<VolumeMetadata> back = readMetadata(path);
+    ASSERT_FALSE(back.isOk());
+    EXPECT_NE(back.message().find("nests arrays or objects more than 64 levels deep"), std::string::npos) << back.message();
 }
 
 TEST(Metadata, CornerAndCentreGeometryAreInverses) {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/codec/Metadata.h"
 #include "csgv/base/FileUtil.h"
+#include "../base/JsonText.h"
 
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -48,6 +49,8 @@ Result<VolumeMetadata> readMetadata(const std::string& path) {
     Result<std::vector<uint8_t>> bytes = readFile(path, 1 << 20);
     if (!bytes) return bytes.status();
     const std::string where = "metadata '" + path + "': ";
+    const std::string deep = jsonTooDeep(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+    if (!deep.empty()) return Status::error(where + deep);
     json j = json::parse(bytes->begin(), bytes->end(), nullptr, false);
     if (j.is_discarded() || !j.is_object()) return Status::error(where + "not a JSON object");
     VolumeMetadata md;
@@ -59,12 +62,12 @@ Result<VolumeMetadata> readMetadata(const std::string& path) {
             if (!a[i].is_number()) return Status::error(where + "'" + key + "' must be " + std::to_string(n) + " numbers");
             out[i] = a[i].get<double>();
             if (!std::isfinite(out[i]) || (positive && out[i] <= 0))
-                return Status::error(where + "'" + key + "' holds " + a[i].dump() + (positive ? ", not a positive number" : ", not a finite number"));
+                return Status::error(where + "'" + key + "' holds " + jsonText(a[i]) + (positive ? ", not a positive number" : ", not a finite number"));
         }
         return Status::ok();
     };
     if (j.contains("version") && (!j["version"].is_number_integer() || j["version"].get<int64_t>() != 1))
-        return Status::error(where + "unsupported version " + j["version"].dump());
+        return Status::error(where + "unsupported version " + jsonText(j["version"]));
     double dims[3] = {0, 0, 0};
     Status s = numbers("dimensions", dims, 3, true);
     if (s) s = numbers("spacing", md.geometry.spacing.data(), 3, true);

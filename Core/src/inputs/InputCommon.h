@@ -8,6 +8,7 @@
 /// VoxelFileSource, the one streaming source of voxels
 /// that lie in a file raw or gzip-compressed (vraw, NRRD and NIfTI build on it).
 
+#include "../base/JsonText.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/base/Status.h"
 #include "csgv/inputs/Inputs.h"
@@ -70,16 +71,6 @@ std::vector<std::string> splitWords(const std::string& s);
 /// The largest metadata file (Zarr `.zarray`/`.zattrs`, precomputed `info`) read: real ones are a
 /// few KiB; this leaves room for any list of scales while bounding what a file can make us hold.
 constexpr uint64_t kMaxMetadataBytes = uint64_t(16) << 20;
-/// JSON nesting accepted in metadata: real files nest a handful of levels (OME transformations
-/// are the deepest, about 6). Anything deeper is refused before parsing, so that no recursive
-/// walk of a parsed value (nlohmann's copy, dump, comparison) can overflow the stack.
-constexpr unsigned kMaxJsonDepth = 64;
-/// Empty when the JSON text nests arrays/objects at most kMaxJsonDepth deep, else the reason
-/// (strings are skipped with their escapes; the text need not be valid JSON).
-std::string jsonTooDeep(const char* text, size_t size);
-/// A JSON value for a message, without ever dumping a container (which recurses): scalars as
-/// their JSON text (cut to 60 characters), containers as "an array of N elements", "an object".
-std::string jsonText(const nlohmann::json& v);
 /// Regular file / directory tests that never throw (std::filesystem with an error_code).
 bool isFile(const std::string& path);
 bool isDir(const std::string& path);

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/materials/Materials.h"
 #include "csgv/materials/Palette.h"
+#include "../base/JsonText.h"
 
 #include <algorithm>
 #include <charconv>
@@ -35,14 +36,14 @@ Status onlyKeys(const json& obj, std::initializer_list<const char*> allowed, con
 Status number(const json& obj, const char* key, double& out, const std::string& context) {
     if (!obj.contains(key)) return Status::ok();
     if (!obj[key].is_number() || !std::isfinite(obj[key].get<double>()))
-        return Status::error(context + ": '" + key + "' must be a finite number, not " + obj[key].dump());
+        return Status::error(context + ": '" + key + "' must be a finite number, not " + jsonText(obj[key]));
     out = obj[key].get<double>();
     return Status::ok();
 }
 
 Status text(const json& obj, const char* key, std::string& out, const std::string& context) {
     if (!obj.contains(key)) return Status::ok();
-    if (!obj[key].is_string()) return Status::error(context + ": '" + key + "' must be a string, not " + obj[key].dump());
+    if (!obj[key].is_string()) return Status::error(context + ": '" + key + "' must be a string, not " + jsonText(obj[key]));
     out = obj[key].get<std::string>();
     return Status::ok();
 }
@@ -65,7 +66,7 @@ Status parseColormap(const json& v, Colormap& out, const std::string& context) {
             if (!p[k].is_number()) return Status::error(context + ": colormap point " + std::to_string(i) + " holds a non-number");
             const double d = p[k].get<double>();
             if (!(d >= 0 && d <= 1))
-                return Status::error(context + ": colormap point " + std::to_string(i) + " has " + p[k].dump() +
+                return Status::error(context + ": colormap point " + std::to_string(i) + " has " + jsonText(p[k]) +
                                      " outside [0, 1]");
             q[k] = float(d);
         }
@@ -110,7 +111,7 @@ Status parseMaterial(const json& m, size_t index, Material& out) {
             if (!rgb.is_array() || rgb.size() != 3) return Status::error(cc + ": 'rgb' must be three numbers in [0, 1]");
             for (size_t k = 0; k < 3; ++k) {
                 if (!rgb[k].is_number() || !(rgb[k].get<double>() >= 0 && rgb[k].get<double>() <= 1))
-                    return Status::error(cc + ": 'rgb' must be three numbers in [0, 1], not " + rgb.dump());
+                    return Status::error(cc + ": 'rgb' must be three numbers in [0, 1], not " + jsonText(rgb));
                 out.rgb[k] = rgb[k].get<float>();
             }
         } else if (mode == "colormap") {
@@ -191,6 +192,8 @@ std::array<float, 3> Colormap::at(double t) const {
 uint32_t labelHash(uint32_t x) { return layout::labelHash(x); } // Palette.h, shared with the GPU
 
 Result<MaterialDocument> parseMaterials(const std::string& text) {
+    const std::string deep = jsonTooDeep(text.data(), text.size());
+    if (!deep.empty()) return Status::error("material document: " + deep);
     json j = json::parse(text, nullptr, false);
     if (j.is_discarded()) return Status::error("material document: not valid JSON");
     if (!j.is_object()) return Status::error("material document: must be a JSON object");
@@ -199,7 +202,7 @@ Result<MaterialDocument> parseMaterials(const std::string& text) {
     MaterialDocument doc;
     if (j.contains("version")) {
         if (!j["version"].is_number_integer() || j["version"].get<int64_t>() != 1)
-            return Status::error("material document: unsupported version " + j["version"].dump() + " (expected 1)");
+            return Status::error("material document: unsupported version " + jsonText(j["version"]) + " (expected 1)");
     }
     if (!j.contains("materials")) return defaultMaterials();
     if (!j["materials"].is_array()) return Status::error("material document: 'materials' must be a list");
