@@ -484,7 +484,7 @@ TEST(StreamingRelabel, IdsEqualTheReferenceOrderForAnySlabOrder) {
                 EXPECT_EQ(r.mapSize(), distinct.size());
                 EXPECT_EQ(r.originalBits().size(), distinct.size() + 1);
                 std::vector<uint32_t> ids(t.values.size());
-                r.toIds(t.values.data(), t.values.size(), ids.data());
+                ASSERT_TRUE(r.toIds(t.values.data(), t.values.size(), ids.data()));
                 ASSERT_EQ(ids, refIds) << t.name << " brick " << brick;
             }
             // prepareLabels (the in-memory API) gives the same ids and mapping.

@@ -162,11 +162,11 @@ Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
         uint32_t* dst = out + slice * (z - z0);
         if (m_relabeller) {
             size_t miss = 0;
-            if (!m_relabeller->toIds(m_scratch.data(), n, dst, &miss))
-                return Status::error("the input changed during compression (label " +
-                                     std::to_string(int64_t(m_scratch[miss])) + " at voxel " + voxelText(miss, dim, z) +
-                                     " was not there in the first pass)");
-            return Status::ok();
+            if (m_relabeller->toIds(m_scratch.data(), n, dst, &miss)) return Status::ok();
+            const uint64_t v = m_scratch[miss];
+            const std::string label = isSignedType(m_source.info().type) ? std::to_string(int64_t(v)) : std::to_string(v);
+            return Status::error("the input changed during compression (label " + label + " at voxel " +
+                                 voxelText(miss, dim, z) + " was not there in the first pass)");
         }
         for (size_t i = 0; i < n; ++i) {
             const uint64_t v = m_scratch[i];
