@@ -727,6 +727,7 @@ TEST(Compress, ExceptionsBecomeErrorsAndLeaveNoFiles) {
             ASSERT_FALSE(s.isOk());
             // Thrown in pass 1 (compressToFile's guard) or inside encodeToFile (its own guard).
             EXPECT_NE(s.message().find("thrower"), std::string::npos) << s.message();
+            EXPECT_EQ(s.message().find(".tmp-"), std::string::npos) << "names a temporary: " << s.message();
             if (badAlloc) {
                 EXPECT_NE(s.message().find("out of memory while"), std::string::npos) << s.message();
             } else {

@@ -216,11 +216,11 @@ struct Job {
     VolumeMetadata md;
     LabelMapping mapping;
     uint64_t outputBytes = 0;
-
     bool published = false;    ///< the volume was renamed into place
+    const std::string& output;
 
-    Job(const std::string& in, const std::string& output, const CompressOptions& o, CompressReport& r)
-        : input(in), options(o), rep(r), tmp(temporaryNameFor(output) + ".csgv"), progress(o.progress) {}
+    Job(const std::string& in, const std::string& out, const CompressOptions& o, CompressReport& r)
+        : input(in), options(o), rep(r), tmp(temporaryNameFor(out) + ".csgv"), progress(o.progress), output(out) {}
     /// Whatever ends the job (an error, an exception unwinding), no temporary volume is left.
     ~Job() {
         if (!published) removeIfThere(tmp);
@@ -232,7 +232,11 @@ struct Job {
     Status failed(Status s) {
         removeIfThere(tmp);
         if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
-        return named(s, input);
+        // The user named the output, not its temporary (encodeToFile's messages name the latter).
+        std::string message = s.message();
+        for (size_t at = message.find(tmp); at != std::string::npos; at = message.find(tmp, at + output.size()))
+            message.replace(at, tmp.size(), output);
+        return named(Status::error(message), input);
     }
     uint64_t encoderSlabBytes() const {
         const auto& d = source->info().dim;
