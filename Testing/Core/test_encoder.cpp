@@ -322,6 +322,11 @@ TEST(Encoder, ToFileTurnsExceptionsIntoErrorsAndLeavesNothingBehind) {
     ASSERT_FALSE(s.isOk());
     EXPECT_EQ(s.message(), "out of memory while encoding '" + dir + "/x.csgv'");
     EXPECT_TRUE(std::filesystem::is_empty(dir));
+    // The in-memory encoder too.
+    ThrowingSlabs again(src);
+    Result<CompressedVolume> mem = encodeVolume(again, o);
+    ASSERT_FALSE(mem.isOk());
+    EXPECT_EQ(mem.message(), "out of memory while encoding a volume in memory");
 }
 
 TEST(Encoder, RejectsBadOptionsAndReservedLabels) {

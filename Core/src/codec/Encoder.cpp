@@ -9,7 +9,9 @@
 #include <cmath>
 #include <cstring>
 #include <mutex>
+#include <exception>
 #include <new>
+#include <optional>
 #include <omp.h>
 #include <unordered_map>
 
@@ -362,6 +364,29 @@ Result<CompressedVolume> newVolume(SlabSource& source, const EncodeOptions& opti
 
 int threadsFor(const EncodeOptions& options) { return options.threads > 0 ? options.threads : omp_get_max_threads(); }
 
+/// @brief Exceptions must not leave an OpenMP region (the process would end): the first one a
+/// worker throws is kept and rethrown on the calling thread after the region, where
+/// encodeToFile turns it into a Status.
+class RegionExceptions {
+public:
+    template <typename Fn>
+    void run(Fn&& fn) noexcept {
+        try {
+            fn();
+        } catch (...) {
+            std::lock_guard<std::mutex> lock(m_mutex);
+            if (!m_first) m_first = std::current_exception();
+        }
+    }
+    void rethrow() const {
+        if (m_first) std::rethrow_exception(m_first);
+    }
+
+private:
+    std::mutex m_mutex;
+    std::exception_ptr m_first;
+};
+
 /// Pass 1, slab by slab (one brick deep): level hierarchy, operations and symbols of every brick
 /// of the slab, handed to `take(bz, slabSymbols)` in slab order (bricks x fastest, then y).
 Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const EncodeOptions& options,
@@ -392,15 +417,21 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
         std::mutex mutex;
         Status error;
         uint64_t errorBrick = ~uint64_t(0);
+        RegionExceptions thrown;
 #pragma omp parallel num_threads(nThreads)
         {
-            BrickEncoder enc(B, options.opMask);
+            std::optional<BrickEncoder> enc;
+            thrown.run([&] { enc.emplace(B, options.opMask); });
 #pragma omp for schedule(dynamic, 1)
             for (int64_t i = 0; i < int64_t(perSlab); ++i) {
+                if (!enc) continue;
                 const uint32_t bx = uint32_t(i % grid[0]), by = uint32_t(i / grid[0]);
                 const std::array<uint32_t, 3> extent = {std::min(B, vol.dim[0] - bx * B),
                                                         std::min(B, vol.dim[1] - by * B), depth};
-                Status st = enc.encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(i)]);
+                Status st;
+                thrown.run([&] {
+                    st = enc->encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(i)]);
+                });
                 if (!st) {
                     std::lock_guard<std::mutex> lock(mutex);
                     if (uint64_t(i) < errorBrick) {
@@ -410,6 +441,7 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
                 }
             }
         }
+        thrown.rethrow();
         if (!error.isOk()) return error;
         Status s = take(bz, symbols);
         if (!s) return s;
@@ -464,18 +496,23 @@ class BrickAssembler {
 public:
     explicit BrickAssembler(const CompressedVolume& vol)
         : m_L(vol.levels()), m_encoding(vol.encoding), m_symA(ransSymbols(vol.freqA)), m_symB(ransSymbols(vol.freqB)) {}
-    /// words[i] = the encoding of symbols[i] (the symbols are released), in parallel.
+    /// words[i] = the encoding of symbols[i] (the symbols are released), in parallel; what a
+    /// worker throws is rethrown here.
     void assemble(std::vector<BrickSymbols>& symbols, std::vector<std::vector<uint32_t>>& words, int threads) const {
         words.resize(symbols.size());
+        RegionExceptions thrown;
 #pragma omp parallel num_threads(int(std::max<size_t>(1, std::min<size_t>(size_t(threads), symbols.size()))))
         {
             std::vector<uint8_t> scratch;
 #pragma omp for schedule(dynamic, 4)
             for (int64_t i = 0; i < int64_t(symbols.size()); ++i) {
-                assembleBrick(symbols[size_t(i)], m_L, m_encoding, m_symA, m_symB, scratch, words[size_t(i)]);
-                symbols[size_t(i)] = BrickSymbols{};
+                thrown.run([&] {
+                    assembleBrick(symbols[size_t(i)], m_L, m_encoding, m_symA, m_symB, scratch, words[size_t(i)]);
+                    symbols[size_t(i)] = BrickSymbols{};
+                });
             }
         }
+        thrown.rethrow();
     }
 
 private:
@@ -682,7 +719,11 @@ Result<CompressedVolume> encodeVolume(const LabelVolume& volume, const EncodeOpt
     return encodeVolume(src, options);
 }
 
-Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
+namespace {
+
+/// encodeVolume's steps; may throw std::bad_alloc (symbols, words), which encodeVolume turns
+/// into a Status.
+Result<CompressedVolume> encodeVolumeSteps(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
     Result<CompressedVolume> made = newVolume(source, options);
     if (!made) return made.status();
     CompressedVolume& vol = *made;
@@ -724,6 +765,19 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
         std::vector<uint32_t>().swap(words[size_t(i)]);
     }
     return vol;
+}
+
+} // namespace
+
+Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
+    // Errors are values across Core's boundary, an allocation failure included.
+    try {
+        return encodeVolumeSteps(source, options, maxOutputBytes);
+    } catch (const std::bad_alloc&) {
+        return Status::error("out of memory while encoding a volume in memory");
+    } catch (const std::exception& e) {
+        return Status::error(std::string("encoding failed: ") + e.what());
+    }
 }
 
 namespace {
