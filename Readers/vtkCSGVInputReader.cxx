@@ -3,6 +3,7 @@
 
 #include "vtkCSGVReader.h"
 
+#include "csgv/base/FileUtil.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Compress.h"
@@ -26,8 +27,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fcntl.h>
+#include <exception>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #include <sstream>
 #include <sys/stat.h>
 #include <thread>
@@ -317,6 +320,34 @@ std::string currentStamp(const InputLocation& loc, int relabel, int brickSize)
   return s.str();
 }
 
+/// The cache's own identity (inode, size, modification time) as the stamp's last line, after the
+/// input's JSON state: a stamp vouches only for the very .csgv it was written for, so when two
+/// writers race, a stamp never vouches for the other writer's file. "" when the cache is missing.
+std::string cacheIdentity(const std::string& cache)
+{
+  struct stat st;
+  if (::stat(cache.c_str(), &st) != 0)
+  {
+    return std::string();
+  }
+  std::ostringstream s;
+  s << "cache: " << uint64_t(st.st_ino) << " " << uint64_t(st.st_size) << " " << mtimeNs(st) << "\n";
+  return s.str();
+}
+
+/// What of the stamped file or folder a stat shows (no walk): enough to tell, between
+/// RequestInformation and RequestData of one update, whether the walk must be done again.
+std::string topLevelState(const std::string& path)
+{
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0)
+  {
+    return std::string();
+  }
+  return std::to_string(uint64_t(st.st_ino)) + " " + std::to_string(uint64_t(st.st_size)) + " " +
+    std::to_string(mtimeNs(st));
+}
+
 std::string readText(const std::string& path)
 {
   std::ifstream in(path, std::ios::binary);
@@ -325,10 +356,11 @@ std::string readText(const std::string& path)
   return in ? s.str() : std::string();
 }
 
-/// Writes the stamp under a temporary name and renames it, so a reader never sees half a stamp.
+/// Writes the stamp under a temporary name unique to this process and call (MPI ranks, two
+/// sessions) and renames it, so a reader never sees half a stamp.
 bool writeStamp(const std::string& path, const std::string& text)
 {
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  const std::string tmp = csgv::temporaryNameFor(path);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out << text;
@@ -367,6 +399,11 @@ public:
   InputLocation Location;
   std::string Cache;
   std::string Stamp; ///< the input's state when RequestInformation looked
+  /// For reusing RequestInformation's stamp in the RequestData of the same update (a folder's
+  /// stamp walks every file): the reader's MTime and the stamped path's own stat then.
+  bool StampFromInformation = false;
+  vtkMTimeType StampMTime = 0;
+  std::string StampTopLevel;
   bool Failed = true;
   /// The reader's MTime and the input's stamp when RequestData last failed: the pipeline asks
   /// again for the extent it announced (an empty output does not cover it), and the same
@@ -382,12 +419,35 @@ public:
     this->Reader->AddObserver(vtkCommand::ProgressEvent, this->ProgressForwarder);
   }
 
-  /// The stamp matches the input and the cache starts like a .csgv (a cache overwritten or
-  /// emptied by someone else is compressed again; deeper damage is reported when it is read).
+  /// The stamp matches the input and the cache it was written for (inode, size, mtime), and the
+  /// cache starts like a .csgv (a cache overwritten or emptied by someone else is compressed
+  /// again; deeper damage is reported when it is read).
   bool CacheIsValid() const
   {
-    return !this->Stamp.empty() && readText(this->Cache + ".stamp") == this->Stamp &&
+    if (this->Stamp.empty())
+    {
+      return false;
+    }
+    const std::string identity = cacheIdentity(this->Cache);
+    return !identity.empty() && readText(this->Cache + ".stamp") == this->Stamp + identity &&
       this->Reader->CanReadFile(this->Cache.c_str());
+  }
+
+  /// The input's stamp, computed at most once per update: RequestData reuses RequestInformation's
+  /// when the reader and the stamped path's own stat are unchanged since.
+  void UpdateStamp(vtkCSGVInputReader* self, bool forInformation)
+  {
+    const std::string top = topLevelState(this->Location.Stamped);
+    if (!forInformation && this->StampFromInformation && self->GetMTime() == this->StampMTime &&
+      top == this->StampTopLevel && !top.empty())
+    {
+      this->StampFromInformation = false; // the next update walks again
+      return;
+    }
+    this->Stamp = currentStamp(this->Location, self->GetRelabel(), self->GetBrickSize());
+    this->StampFromInformation = forInformation;
+    this->StampMTime = self->GetMTime();
+    this->StampTopLevel = top;
   }
 };
 
@@ -456,7 +516,7 @@ int vtkCSGVInputReader::RequestInformation(
     vtkErrorMacro(<< this->FileName << ": " << error);
     return 1;
   }
-  in.Stamp = currentStamp(in.Location, this->Relabel, this->BrickSize);
+  in.UpdateStamp(this, true);
 
   if (in.CacheIsValid())
   {
@@ -484,7 +544,20 @@ int vtkCSGVInputReader::RequestInformation(
   // Not compressed yet: the input's header gives what the .csgv will say (Core writes the
   // input's centre-origin geometry as corner-origin metadata, and a brick size of 2^n gives
   // n + 1 levels).
-  csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgv::openInput(in.Location.Input);
+  // Core returns errors as values; anything thrown still must not leave into ParaView.
+  csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgv::Status::error("not opened");
+  try
+  {
+    source = csgv::openInput(in.Location.Input);
+  }
+  catch (const std::bad_alloc&)
+  {
+    source = csgv::Status::error("out of memory while opening '" + in.Location.Input + "'");
+  }
+  catch (...)
+  {
+    source = csgv::Status::error("opening '" + in.Location.Input + "' failed unexpectedly");
+  }
   if (!source)
   {
     vtkErrorMacro(<< source.message());
@@ -535,7 +608,7 @@ int vtkCSGVInputReader::RequestData(
     return 1; // RequestInformation reported why
   }
   // The input may have changed since RequestInformation (ParaView's Reload re-runs both).
-  in.Stamp = currentStamp(in.Location, this->Relabel, this->BrickSize);
+  in.UpdateStamp(this, false);
   if (in.Stamp.empty())
   {
     vtkErrorMacro(<< "cannot examine '" << in.Location.Stamped << "'");
@@ -617,7 +690,16 @@ bool vtkCSGVInputReader::Compress()
     return false;
   }
   csgv::CompressReport report;
-  const csgv::Status status = csgv::compressToFile(in.Location.Input, in.Cache, options, &report);
+  csgv::Status status;
+  try
+  {
+    status = csgv::compressToFile(in.Location.Input, in.Cache, options, &report);
+  }
+  catch (...)
+  {
+    // compressToFile returns its errors; this is the last guard of the ParaView session.
+    status = csgv::Status::error("compressing '" + in.Location.Input + "' failed unexpectedly");
+  }
   if (!status)
   {
     vtkErrorMacro(<< status.message());
@@ -628,7 +710,10 @@ bool vtkCSGVInputReader::Compress()
     // Finished before Core looked at the flag: the files are whole, so keep them, but say so.
     vtkWarningMacro(<< "compressing '" << this->FileName << "' finished before it could be cancelled");
   }
-  if (!writeStamp(in.Cache + ".stamp", in.Stamp))
+  // The stamp names the cache just written (before the new reader looks at it, so a concurrent
+  // writer's later .csgv never matches it).
+  const std::string identity = cacheIdentity(in.Cache);
+  if (identity.empty() || !writeStamp(in.Cache + ".stamp", in.Stamp + identity))
   {
     vtkWarningMacro(<< "cannot write '" << in.Cache << ".stamp'; the input will be compressed again next time");
   }

@@ -20,9 +20,12 @@
  *   CacheDirectory always holds the hashed name. Sidecars `.csgv.json` and `_csgv.db3` go with it.
  * - Reuse: `<cache>.stamp` records the input path, the options that shape the encoding (Relabel,
  *   BrickSize) and the input's state: size and modification time of a file, or for a folder the
- *   number of files under it, their total size and the newest modification time. The cache is
- *   reused while the stamp matches the input and the `.csgv` exists; otherwise the input is
- *   compressed again. The stamp is written only after a successful compression, and Core writes
+ *   number of files under it, their total size and the newest modification time; and the
+ *   identity (inode, size, modification time) of the `.csgv` it was written for, so that with two
+ *   writers racing a stamp never vouches for the other writer's `.csgv`. The cache is reused while
+ *   the stamp matches the input and the `.csgv`; otherwise the input is compressed again. A
+ *   folder's state is gathered once per update (RequestData reuses RequestInformation's while the
+ *   reader and the folder's own stat are unchanged). The stamp is written only after a successful compression, and Core writes
  *   every file under a temporary name first, so an interrupted or failed compression never leaves
  *   a `.csgv` that looks valid.
  *

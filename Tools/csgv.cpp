@@ -9,6 +9,7 @@
 #include "csgv/codec/LabelVolume.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Procedural.h"
+#include "csgv/base/FileUtil.h"
 #include "CommandLine.h"
 #ifdef CSGV_HAVE_RENDER
 #include "RenderCommand.h"
@@ -16,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -42,8 +44,8 @@ std::string usage() {
            "      key: value lines describing the file; --stats decodes it and prints label statistics,\n"
            "      --check decodes every brick and reports the first stream error\n"
            "  info INPUT\n"
-           "      an input's format, dimensions, type, spacing, origin and label count (exact for small\n"
-           "      volumes, otherwise estimated from evenly spaced slices)\n"
+           "      an input's format, dimensions, type, spacing, origin and label count (labels_counted:\n"
+           "      exact up to 2^24 voxels, otherwise an estimate from 16 evenly spaced slices)\n"
            "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
            "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
            "  verify IN.csgv SOURCE [--threads N]\n"
@@ -131,11 +133,6 @@ Status parseArgs(int argc, char** argv, Args& a) {
     return values.convert();
 }
 
-bool endsWith(const std::string& s, const char* suffix) {
-    const size_t n = std::strlen(suffix);
-    return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
-}
-
 double seconds(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -154,7 +151,8 @@ Result<LabelCount> countLabels(InputSource& src) {
     const auto& dim = src.info().dim;
     const uint64_t slice = uint64_t(dim[0]) * dim[1];
     LabelCount c;
-    c.exact = src.info().voxelCount() <= kExactLabelVoxels || dim[2] <= kLabelSampleSlices;
+    // Exact only by voxel count: a few huge slices read whole would fill the set as surely.
+    c.exact = src.info().voxelCount() <= kExactLabelVoxels;
     std::unordered_set<uint64_t> seen;
     auto add = [&](uint32_t z, uint32_t depth, std::vector<uint64_t>& buf) -> Status {
         buf.resize(size_t(slice * depth));
@@ -167,12 +165,13 @@ Result<LabelCount> countLabels(InputSource& src) {
     };
     std::vector<uint64_t> buf;
     if (c.exact) {
-        const uint32_t step = subSlabDepth(slice, dim[2]);
-        for (uint32_t z = 0; z < dim[2]; z += step)
-            if (Status s = add(z, std::min(step, dim[2] - z), buf); !s) return s;
+        Status s = forEachSubSlab(0, dim[2], subSlabDepth(slice, dim[2]),
+                                  [&](uint32_t z, uint32_t depth) { return add(z, depth, buf); });
+        if (!s) return s;
     } else {
-        for (uint32_t i = 0; i < kLabelSampleSlices; ++i)
-            if (Status s = add(uint32_t((2 * uint64_t(i) + 1) * dim[2] / (2 * kLabelSampleSlices)), 1, buf); !s) return s;
+        const uint32_t n = std::min(kLabelSampleSlices, dim[2]);
+        for (uint32_t i = 0; i < n; ++i)
+            if (Status s = add(uint32_t((2 * uint64_t(i) + 1) * dim[2] / (2 * n)), 1, buf); !s) return s;
     }
     c.count = seen.size();
     return c;
@@ -180,6 +179,9 @@ Result<LabelCount> countLabels(InputSource& src) {
 
 int cmdInfoInput(const Args& a) {
     const std::string& path = a.positional[0];
+    if (a.stats || a.check)
+        return fail(std::string(a.stats ? "--stats" : "--check") + " applies to a .csgv file; " + path +
+                    " is an input (compress it first, or drop the option)");
     Result<std::unique_ptr<InputSource>> src = openCompressInput(path);
     if (!src) return fail(src.message());
     const InputInfo& info = (*src)->info();
@@ -194,20 +196,16 @@ int cmdInfoInput(const Args& a) {
     std::printf("type: %s\n", labelTypeName(info.type));
     std::printf("spacing: %g %g %g\n", g.spacing[0], g.spacing[1], g.spacing[2]);
     std::printf("origin: %g %g %g\n", g.origin[0], g.origin[1], g.origin[2]);
-    if (labels->exact) {
-        std::printf("labels: %llu\n", (unsigned long long)labels->count);
-        std::printf("labels_counted: exact (every voxel read)\n");
-    } else {
-        std::printf("labels: >= %llu\n", (unsigned long long)labels->count);
-        std::printf("labels_counted: estimate (distinct values in %u of %u evenly spaced slices)\n", labels->slicesRead,
-                    info.dim[2]);
-    }
+    // Every line is `key: value` with a value a script can read: the count, then how it was got.
+    std::printf("labels: %llu\n", (unsigned long long)labels->count);
+    if (labels->exact) std::printf("labels_counted: exact\n");
+    else std::printf("labels_counted: estimate (%u slices)\n", labels->slicesRead);
     return 0;
 }
 
 int cmdInfo(const Args& a) {
     if (a.positional.size() != 1) return fail("info expects one file: csgv info IN.csgv|INPUT");
-    if (!endsWith(a.positional[0], ".csgv") && (isSynthName(a.positional[0]) || isInputPath(a.positional[0])))
+    if (!endsWithNoCase(a.positional[0], ".csgv") && (isSynthName(a.positional[0]) || isInputPath(a.positional[0])))
         return cmdInfoInput(a);
     Result<CsgvFile> f = openCsgv(a.positional[0]);
     if (!f) return fail(f.message());
@@ -281,8 +279,8 @@ int cmdInfo(const Args& a) {
 int cmdDecompress(const Args& a) {
     if (a.positional.size() != 2) return fail("decompress expects: csgv decompress IN.csgv OUT.vraw|OUT.nrrd [--level L]");
     const std::string& out = a.positional[1];
-    const bool nrrd = endsWith(out, ".nrrd");
-    if (!nrrd && !endsWith(out, ".vraw")) return fail("output '" + out + "' must end in .vraw or .nrrd");
+    const bool nrrd = endsWithNoCase(out, ".nrrd");
+    if (!nrrd && !endsWithNoCase(out, ".vraw")) return fail("output '" + out + "' must end in .vraw or .nrrd");
     Result<CsgvFile> f = openCsgv(a.positional[0]);
     if (!f) return fail(f.message());
     if (f->wideLabels && !nrrd)
@@ -309,12 +307,6 @@ int cmdDecompress(const Args& a) {
     return w ? 0 : fail(w.message());
 }
 
-/// Voxel (x, y, z) of linear index i in a volume of `dim`, as text.
-std::string voxelText(uint64_t i, const std::array<uint32_t, 3>& dim, uint32_t z0 = 0) {
-    const uint64_t x = i % dim[0], y = (i / dim[0]) % dim[1], z = z0 + i / (uint64_t(dim[0]) * dim[1]);
-    return "(" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) + ")";
-}
-
 /// @brief Level 0 of a .csgv against any input, slab by slab: the source's values become the
 /// file's ids (through its attribute database when it has one) and are compared with the decoded
 /// brick-deep slab. Memory: one decoded slab (W * H * brickSize * 4) + one source sub-slab.
@@ -332,32 +324,33 @@ int verifyLevel0(const CsgvFile& f, InputSource& src, const std::string& csgvPat
         const uint32_t depth = std::min(v.brickSize, v.dim[2] - z0);
         Result<LabelVolume> got = decodeRegion(v, 0, Box{{0, 0, z0}, {v.dim[0], v.dim[1], z0 + depth}}, plain);
         if (!got) return fail(csgvPath + ": " + got.message());
-        const uint32_t step = subSlabDepth(slice, depth);
-        for (uint32_t z = z0; z < z0 + depth; z += step) {
-            const uint32_t d = std::min(step, z0 + depth - z);
+        Status s = forEachSubSlab(z0, depth, subSlabDepth(slice, depth), [&](uint32_t z, uint32_t d) -> Status {
             values.resize(size_t(slice * d));
-            if (Status s = src.readSlab(z, d, values.data()); !s) return fail(s.message());
+            if (Status r = src.readSlab(z, d, values.data()); !r) return r;
             const uint32_t* ids = got->labels.data() + slice * (z - z0);
             for (size_t i = 0; i < values.size(); ++i) {
                 uint32_t expected = 0;
                 if (f.hasAttributes) {
                     auto it = idOf.find(int64_t(values[i]));
                     if (it == idOf.end())
-                        return fail("voxel " + voxelText(i, v.dim, z) + " of " + srcPath + " holds label " +
-                                    std::to_string(int64_t(values[i])) + ", which the attribute database lacks");
+                        return Status::error("voxel " + voxelText(i, v.dim, z) + " of " + srcPath + " holds label " +
+                                             std::to_string(int64_t(values[i])) +
+                                             ", which the attribute database lacks");
                     expected = it->second;
                 } else if (!labelFitsFormat(values[i])) {
-                    return fail("voxel " + voxelText(i, v.dim, z) + " of " + srcPath +
-                                " holds a label that does not fit the format, and " + csgvPath +
-                                " has no attribute database mapping it");
+                    return Status::error("voxel " + voxelText(i, v.dim, z) + " of " + srcPath +
+                                         " holds a label that does not fit the format, and " + csgvPath +
+                                         " has no attribute database mapping it");
                 } else {
                     expected = uint32_t(values[i]);
                 }
                 if (ids[i] != expected)
-                    return fail("level 0, voxel " + voxelText(i, v.dim, z) + " decodes to " + show(ids[i]) +
-                                ", expected " + show(expected));
+                    return Status::error("level 0, voxel " + voxelText(i, v.dim, z) + " decodes to " + show(ids[i]) +
+                                         ", expected " + show(expected));
             }
-        }
+            return Status::ok();
+        });
+        if (!s) return fail(s.message());
     }
     std::printf("level 0: %u x %u x %u match\n", v.dim[0], v.dim[1], v.dim[2]);
     return 0;
@@ -428,11 +421,12 @@ public:
     bool operator()(double fraction, const char* stage) {
         const auto now = std::chrono::steady_clock::now();
         if (m_stage != stage) {
-            // The stage's own share of the whole, for its rate (Compress.h: relabelling [0, 0.5)).
+            // The stage's own share of the whole, for its rate: relabelling has kRelabellingShare of
+            // what is left when it starts, encoding the rest (Compress.h).
             m_stage = stage;
             m_stageStart = now;
             m_stageFrom = fraction;
-            m_stageTo = m_stage == "relabelling" ? 0.5 : 1.0;
+            m_stageTo = m_stage == "relabelling" ? fraction + (1 - fraction) * kRelabellingShare : 1.0;
             m_nextDecile = int(fraction * 10) + 1;
             print(fraction, now);
             return true;
@@ -473,6 +467,15 @@ private:
     bool m_printed = false, m_printedEnd = false;
 };
 
+/// Set by SIGINT/SIGTERM during `compress`: the progress callback then cancels, so compressToFile
+/// removes its temporary files before the tool exits.
+volatile std::sig_atomic_t g_interrupted = 0;
+
+extern "C" void onInterrupt(int sig) {
+    g_interrupted = 1;
+    std::signal(sig, SIG_DFL); // a second signal ends the tool at once
+}
+
 int cmdCompress(const Args& a) {
     if (a.positional.size() != 2) return fail("compress expects: csgv compress IN OUT.csgv [options]");
     CompressOptions o;
@@ -481,9 +484,16 @@ int cmdCompress(const Args& a) {
     o.relabel = a.relabel;
     CompressReport r;
     ProgressPrinter printer(r);
-    if (!a.quiet) o.progress = [&printer](double f, const char* stage) { return printer(f, stage); };
+    o.progress = [&printer, &a](double f, const char* stage) {
+        if (g_interrupted) return false;
+        return a.quiet || printer(f, stage);
+    };
+    auto oldInt = std::signal(SIGINT, onInterrupt);
+    auto oldTerm = std::signal(SIGTERM, onInterrupt);
     const auto t0 = std::chrono::steady_clock::now();
     Status s = compressToFile(a.positional[0], a.positional[1], o, &r);
+    std::signal(SIGINT, oldInt);
+    std::signal(SIGTERM, oldTerm);
     printer.finish();
     if (!s) return fail(s.message());
     const double t = seconds(t0);
@@ -496,7 +506,6 @@ int cmdCompress(const Args& a) {
     std::printf("original_type: %s\n", r.originalType.c_str());
     std::printf("relabelled: %s\n", r.relabelled ? "yes" : "no");
     if (r.relabelled) std::printf("labels: %llu\n", (unsigned long long)r.labelCount);
-    std::printf("streamed: %s\n", r.streamed ? "yes" : "no");
     std::printf("passes: %d%s\n", r.passes, r.restarted ? " (a label did not fit: restarted with relabelling)" : "");
     std::printf("seconds: %.3f (open %.3f, relabel %.3f, encode %.3f, write %.3f)\n", t, r.readSeconds,
                 r.relabelSeconds, r.encodeSeconds, r.writeSeconds);

@@ -387,6 +387,27 @@ TEST(AttributesSqlite, VolcaniteDatabaseRoundTrip) {
     expectSameTable(*back, expected);
 }
 
+TEST(AttributesSqlite, WriterNeverTouchesAnotherWritersTemporary) {
+    // Two compressions of one input (MPI ranks, two sessions) write the same database at once:
+    // each builds its own temporary, so one never removes or publishes the other's half file.
+    const std::string dir = freshDir("attr-db3-tmp");
+    const std::string path = dir + "/vol_csgv.db3";
+    const std::string others = path + ".tmp-db"; // the name every writer used to share
+    { std::ofstream(others) << "another writer's half database"; }
+    const std::vector<uint64_t> bits = {0, 7, 3};
+    ASSERT_TRUE(writeAttributeDb(path, {4, 4, 4}, bits, false).isOk());
+    EXPECT_TRUE(std::filesystem::exists(others));
+    Result<AttributeDatabase> db = readAttributeDb(path);
+    ASSERT_TRUE(db.isOk()) << db.message();
+    EXPECT_EQ(db->labels, (std::vector<int64_t>{0, 7, 3}));
+    size_t files = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) {
+        (void)e;
+        ++files;
+    }
+    EXPECT_EQ(files, 2u) << "a temporary was left beside the database";
+}
+
 // ---- derived attributes ---------------------------------------------------------------------
 
 TEST(AttributesDerived, HemisphereFromRegionNames) {

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <gtest/gtest.h>
 #include <map>
+#include <new>
 
 using namespace csgv;
 using namespace csgvtest;
@@ -290,6 +291,42 @@ TEST(Encoder, ToFileCancelledOrFailingLeavesNothingBehind) {
     EXPECT_FALSE(s.isOk());
     EXPECT_NE(s.message().find("output limit"), std::string::npos) << s.message();
     EXPECT_TRUE(listDirectory(dir).empty());
+}
+
+TEST(Encoder, ToFileTurnsExceptionsIntoErrorsAndLeavesNothingBehind) {
+    // Errors are values across Core's boundary: an allocation failure while encoding (here thrown
+    // by the source after the symbols began to spill) is a message, and no file is left.
+    class ThrowingSlabs : public SlabSource {
+    public:
+        explicit ThrowingSlabs(const LabelVolume& v) : m_copy(v), m_dim(v.dim) {}
+        std::array<uint32_t, 3> dimensions() const override { return m_dim; }
+        Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override {
+            if (z0 >= 32) throw std::bad_alloc();
+            return m_copy.readSlab(z0, depth, out);
+        }
+
+    private:
+        CopySlabSource m_copy;
+        std::array<uint32_t, 3> m_dim;
+    };
+    const LabelVolume src = synth(40, 40, 48, 3, 5);
+    const std::string dir = tempDir() + "/encode-throws";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    EncodeToFileOptions fo;
+    fo.heldSymbolBytes = 0;
+    ThrowingSlabs slabs(src);
+    EncodeOptions o;
+    o.brickSize = 16;
+    const Status s = encodeToFile(slabs, o, dir + "/x.csgv", fo);
+    ASSERT_FALSE(s.isOk());
+    EXPECT_EQ(s.message(), "out of memory while encoding '" + dir + "/x.csgv'");
+    EXPECT_TRUE(std::filesystem::is_empty(dir));
+    // The in-memory encoder too.
+    ThrowingSlabs again(src);
+    Result<CompressedVolume> mem = encodeVolume(again, o);
+    ASSERT_FALSE(mem.isOk());
+    EXPECT_EQ(mem.message(), "out of memory while encoding a volume in memory");
 }
 
 TEST(Encoder, RejectsBadOptionsAndReservedLabels) {

@@ -20,6 +20,8 @@
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <new>
+#include <stdexcept>
 
 using namespace csgv;
 using namespace csgvtest;
@@ -229,14 +231,12 @@ TEST(Compress, StreamedAndInMemoryPathsGiveTheSameFile) {
     CompressOptions o;
     CompressReport r;
     ASSERT_TRUE(compressToFile("synth:70x45x33:4", dir + "/a.csgv", o, &r).isOk());
-    EXPECT_TRUE(r.streamed);
     Result<CsgvFile> a = openCsgv(dir + "/a.csgv");
     ASSERT_TRUE(a.isOk()) << a.message();
     Result<LabelVolume> labels = decodeVolume(a->volume, 0);
     ASSERT_TRUE(labels.isOk());
     ASSERT_TRUE(writeVraw(dir + "/a.vraw", *labels).isOk());
     ASSERT_TRUE(compressToFile(dir + "/a.vraw", dir + "/b.csgv", o, &r).isOk());
-    EXPECT_TRUE(r.streamed);
     EXPECT_TRUE(*readFile(dir + "/a.csgv", 1 << 30) == *readFile(dir + "/b.csgv", 1 << 30));
     // Forced relabelling writes the database; compressing again without it removes the stale one.
     o.relabel = true;
@@ -334,7 +334,6 @@ TEST(Compress, StreamedVrawOfNarrowLabelsAndItsErrors) {
     o.encode.brickSize = 8;
     CompressReport r;
     ASSERT_TRUE(compressToFile(dir + "/a.vraw", dir + "/a.csgv", o, &r).isOk());
-    EXPECT_TRUE(r.streamed);
     Result<CsgvFile> f = openCsgv(dir + "/a.csgv");
     ASSERT_TRUE(f.isOk());
     EXPECT_TRUE(decodeVolume(f->volume, 0)->labels == expected.labels);
@@ -497,7 +496,7 @@ TEST(StreamingRelabel, IdsEqualTheReferenceOrderForAnySlabOrder) {
                 EXPECT_EQ(r.mapSize(), distinct.size());
                 EXPECT_EQ(r.originalBits().size(), distinct.size() + 1);
                 std::vector<uint32_t> ids(t.values.size());
-                r.toIds(t.values.data(), t.values.size(), ids.data());
+                ASSERT_TRUE(r.toIds(t.values.data(), t.values.size(), ids.data()));
                 ASSERT_EQ(ids, refIds) << t.name << " brick " << brick;
             }
             // prepareLabels (the in-memory API) gives the same ids and mapping.
@@ -630,9 +629,174 @@ TEST(StreamingRelabel, LabelsThatFitTakeOnePassAndProgressHasStages) {
     for (size_t i = 1; i < seen.size(); ++i) {
         EXPECT_GE(seen[i].first, seen[i - 1].first);
         if (seen[i].second == "relabelling") {
-            EXPECT_LE(seen[i].first, 0.5);
+            EXPECT_LE(seen[i].first, kRelabellingShare);
         }
     }
+}
+
+TEST(StreamingRelabel, ProgressAfterARestartNeverGoesBack) {
+    // Only the last slice does not fit: the optimistic pass gets far, then the two passes that
+    // follow share what is left, so the whole stays monotone and still reaches 1.
+    TestVolume t = wideVolumes()[1];
+    std::vector<uint64_t> v(t.values.size());
+    for (size_t i = 0; i < v.size(); ++i) v[i] = t.values[i] & 0xFFFF;
+    v.back() = uint64_t(-1);
+    VectorSource src(t.dim, t.type, v);
+    CompressOptions o;
+    o.encode.brickSize = 8;
+    std::vector<std::pair<double, std::string>> seen;
+    o.progress = [&seen](double f, const char* stage) {
+        seen.push_back({f, stage});
+        return true;
+    };
+    CompressReport r;
+    const std::string dir = freshDir("restart-progress");
+    ASSERT_TRUE(compressSourceToFile(src, "memory", dir + "/r.csgv", o, &r).isOk());
+    ASSERT_TRUE(r.restarted);
+    ASSERT_FALSE(seen.empty());
+    EXPECT_EQ(seen.back().first, 1.0);
+    EXPECT_EQ(seen.back().second, "encoding");
+    size_t firstRelabelling = seen.size();
+    for (size_t i = 0; i < seen.size(); ++i) {
+        if (i > 0) {
+            EXPECT_GE(seen[i].first, seen[i - 1].first) << i << " " << seen[i].second;
+        }
+        if (seen[i].second == "relabelling" && firstRelabelling == seen.size()) firstRelabelling = i;
+    }
+    ASSERT_LT(firstRelabelling, seen.size());
+    ASSERT_GT(firstRelabelling, 0u);
+    // The restart begins where the optimistic pass stopped, and relabelling takes its share of the rest.
+    const double restartAt = seen[firstRelabelling - 1].first;
+    EXPECT_GT(restartAt, 0.0);
+    EXPECT_EQ(seen[firstRelabelling].first, restartAt);
+    for (const auto& p : seen) {
+        if (p.second == "relabelling") {
+            EXPECT_LE(p.first, restartAt + (1 - restartAt) * kRelabellingShare + 1e-12);
+        }
+    }
+}
+
+TEST(StreamingRelabel, AValueNewInPassTwoIsAnError) {
+    // The input changed between the passes: a value pass 1 never saw is named with its voxel,
+    // never silently mapped to 0.
+    const TestVolume t = wideVolumes()[1];
+    VectorSource first(t.dim, t.type, t.values);
+    StreamingRelabeller r = streamRelabel(first, 8, 8, false);
+    std::vector<uint32_t> ids(t.values.size());
+    size_t miss = 99;
+    EXPECT_TRUE(r.toIds(t.values.data(), t.values.size(), ids.data(), &miss));
+    std::vector<uint64_t> changed = t.values;
+    const uint32_t x = 5, y = 7, z = 12;
+    const size_t at = size_t(x + uint64_t(t.dim[0]) * (y + uint64_t(t.dim[1]) * z));
+    changed[at] = 123456789;
+    EXPECT_FALSE(r.toIds(changed.data(), changed.size(), ids.data(), &miss));
+    EXPECT_EQ(miss, at);
+    VectorSource second(t.dim, t.type, changed);
+    LabelSlabAdapter adapter(second, &r);
+    const uint64_t slice = uint64_t(t.dim[0]) * t.dim[1];
+    std::vector<uint32_t> slab(size_t(slice * 8));
+    ASSERT_TRUE(adapter.readSlab(0, 8, slab.data()).isOk());
+    Status s = adapter.readSlab(8, 8, slab.data());
+    ASSERT_FALSE(s.isOk());
+    EXPECT_EQ(s.message(), "the input changed during compression (label 123456789 at voxel (5, 7, 12) was not there "
+                           "in the first pass)");
+}
+
+namespace {
+
+/// @brief A source that throws from readSlab (as an allocation inside a reader could).
+class ThrowingSource : public InputSource {
+public:
+    explicit ThrowingSource(bool badAlloc) : m_badAlloc(badAlloc) {
+        m_info.dim = {16, 16, 16};
+        m_info.type = LabelType::U32;
+        m_info.format = "memory";
+    }
+    Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
+        if (z0 >= 8) {
+            if (m_badAlloc) throw std::bad_alloc();
+            throw std::runtime_error("a reader's own exception");
+        }
+        std::fill_n(out, size_t(16 * 16 * depth), uint64_t(3));
+        return Status::ok();
+    }
+
+private:
+    bool m_badAlloc;
+};
+
+} // namespace
+
+TEST(Compress, ExceptionsBecomeErrorsAndLeaveNoFiles) {
+    const std::string dir = freshDir("throwing");
+    for (bool badAlloc : {true, false})
+        for (bool relabel : {false, true}) {
+            ThrowingSource src(badAlloc);
+            CompressOptions o;
+            o.encode.brickSize = 8;
+            o.relabel = relabel;
+            Status s = compressSourceToFile(src, "thrower", dir + "/t.csgv", o);
+            ASSERT_FALSE(s.isOk());
+            // Thrown in pass 1 (compressToFile's guard) or inside encodeToFile (its own guard).
+            EXPECT_NE(s.message().find("thrower"), std::string::npos) << s.message();
+            EXPECT_EQ(s.message().find(".tmp-"), std::string::npos) << "names a temporary: " << s.message();
+            if (badAlloc) {
+                EXPECT_NE(s.message().find("out of memory while"), std::string::npos) << s.message();
+            } else {
+                EXPECT_NE(s.message().find("a reader's own exception"), std::string::npos) << s.message();
+            }
+            EXPECT_TRUE(std::filesystem::is_empty(dir)) << "files left after an exception";
+        }
+}
+
+TEST(Compress, AFailedPublishLeavesNoMismatchedPair) {
+    // An old relabelled volume is replaced; the metadata cannot be written (its name is taken by
+    // a folder): neither the old .csgv nor the new database may be left paired with anything.
+    const std::string dir = freshDir("publish");
+    const std::string out = dir + "/v.csgv";
+    CompressOptions o;
+    o.encode.brickSize = 8;
+    o.relabel = true;
+    ASSERT_TRUE(compressToFile("synth:20x20x20:1", out, o).isOk());
+    ASSERT_TRUE(fileExists(attributeDbPathFor(out)));
+    std::filesystem::remove(metadataPathFor(out));
+    std::filesystem::create_directories(metadataPathFor(out) + "/blocker");
+    Status s = compressToFile("synth:20x20x20:2", out, o);
+    ASSERT_FALSE(s.isOk());
+    EXPECT_FALSE(std::filesystem::exists(out)) << "the old volume is left with new or no sidecars";
+    EXPECT_FALSE(std::filesystem::exists(attributeDbPathFor(out))) << "a database without its volume";
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+    // With the way clear, the next compression publishes a whole, matching set.
+    std::filesystem::remove_all(metadataPathFor(out));
+    ASSERT_TRUE(compressToFile("synth:20x20x20:2", out, o).isOk());
+    Result<CsgvFile> f = openCsgv(out);
+    ASSERT_TRUE(f.isOk()) << f.message();
+    EXPECT_TRUE(f->metadata.relabelled);
+    EXPECT_TRUE(f->hasAttributes);
+}
+
+TEST(Compress, MetadataNamesTheInputItself) {
+    EXPECT_EQ(inputSourceName("/data/a.h5:/labels/seg"), "a.h5:/labels/seg");
+    EXPECT_EQ(inputSourceName("/data/B.HDF5:/x"), "B.HDF5:/x");
+    EXPECT_EQ(inputSourceName("/data/slices/"), "slices");
+    EXPECT_EQ(inputSourceName("slices"), "slices");
+    EXPECT_EQ(inputSourceName("/data/vol.nrrd"), "vol.nrrd");
+    EXPECT_EQ(inputSourceName("/data/b.zarr/0"), "b.zarr/0");
+    EXPECT_EQ(inputSourceName("/data/b.zarr/"), "b.zarr");
+    EXPECT_EQ(inputSourceName("/data/cells/info#8_8_8"), "cells#8_8_8");
+    EXPECT_EQ(inputSourceName("/data/cells/info"), "cells");
+    EXPECT_EQ(inputSourceName("/data/stack/*.tif"), "stack/*.tif");
+    EXPECT_EQ(inputSourceName("synth:8x8x8:3"), "synth:8x8x8:3");
+    // Through compress: the metadata's source field.
+    const std::string dir = freshDir("source-name");
+    TestVolume t{"fit", {9, 8, 7}, LabelType::U16, {}};
+    for (uint64_t i = 0; i < 9 * 8 * 7; ++i) t.values.push_back(i % 5);
+    VectorSource src(t.dim, t.type, t.values);
+    ASSERT_TRUE(compressSourceToFile(src, "/somewhere/x.h5:/labels/seg", dir + "/s.csgv", CompressOptions{}).isOk());
+    Result<CsgvFile> f = openCsgv(dir + "/s.csgv");
+    ASSERT_TRUE(f.isOk()) << f.message();
+    EXPECT_EQ(f->metadata.source, "x.h5:/labels/seg");
 }
 
 TEST(StreamingRelabel, CancellingLeavesNoFiles) {

@@ -5,6 +5,7 @@ reuses the cache while the input is unchanged, compresses again when the input o
 options change, falls back to the cache folder beside a read-only input, reports bad inputs and
 cancellation cleanly, and the session goes on."""
 import os
+import shutil
 import time
 
 import numpy as np
@@ -120,6 +121,22 @@ t.check(len(progress) >= 2 and progress[-1] == 1.0 and all(b >= a for a, b in zi
         "progress events rise to 1 (%d events)" % len(progress))
 t.check(any(0.0 < p < 1.0 for p in progress), "progress between 0 and 1 reported")
 
+# A label that does not fit in the last slice restarts the optimistic pass with relabelling:
+# the progress bar still only rises (the restarted passes share what was left), up to 1.
+restart = os.path.join(src, "restart.nrrd")
+wide = vol.astype(np.int32)
+wide[-1, -1, -1] = -5
+with open(restart, "wb") as f:
+    d, h, w = wide.shape
+    f.write(("NRRD0004\ntype: int32\ndimension: 3\nsizes: %d %d %d\nendian: little\nencoding: raw\n\n"
+             % (w, h, d)).encode())
+    f.write(wide.astype("<i4").tobytes())
+rr, rimg, rprogress, rcompressed = open_input(restart)
+t.check(rcompressed == 1 and rimg.GetNumberOfCells() == wide.size, "a restarted compression gives the volume")
+t.check(len(rprogress) >= 2 and rprogress[-1] == 1.0 and all(b >= a for a, b in zip(rprogress, rprogress[1:])),
+        "progress rises to 1 across the restart (%d events)" % len(rprogress))
+Delete(rr)
+
 # Output identical to the .csgv reader on the cached file.
 ref = CSGVReader(FileName=beside)
 ref_img = t.fetch(ref)
@@ -197,14 +214,39 @@ with t.ErrorLog() as errors:
 t.check(compressed == 1 and "ERR|" not in errors.text, "an overwritten cache is compressed again silently")
 check_labels(img, vol2, "after an overwritten cache")
 Delete(r)
+# Another writer's .csgv (a whole, valid one) in place of ours: the stamp names the cache it was
+# written for (inode, size, mtime), so it no longer vouches and the input is compressed again.
+other = os.path.join(os.path.dirname(beside), "other-writer.csgv")
+shutil.copyfile(beside, other)
+os.replace(other, beside)
+r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
+t.check(compressed == 1, "another writer's .csgv under the cache's name is compressed again")
+check_labels(img, vol2, "after another writer's cache")
+Delete(r)
 with open(beside, "rb") as f:
     whole = f.read()
 with open(beside, "wb") as f:
     f.write(whole[: len(whole) // 2])
+r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
+t.check(compressed == 1, "a truncated cache (its size changed) is compressed again at once")
+check_labels(img, vol2, "after a truncated cache")
+Delete(r)
+# Damage the stamp cannot see (the stamp rewritten to vouch for a truncated cache): reported once,
+# the stamp dropped, compressed again at the next open.
+with open(beside, "rb") as f:
+    whole = f.read()
+with open(beside, "wb") as f:
+    f.write(whole[: len(whole) // 2])
+cst = os.stat(beside)
+stamp_lines = open(beside + ".stamp").read().splitlines(True)
+t.check(stamp_lines[-1].startswith("cache: "), "the stamp ends with the cache's identity")
+stamp_lines[-1] = "cache: %d %d %d\n" % (cst.st_ino, cst.st_size, cst.st_mtime_ns)
+with open(beside + ".stamp", "w") as f:
+    f.write("".join(stamp_lines))
 with t.ErrorLog() as errors:
     r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
 t.check(img.GetNumberOfCells() == 0 and "ERR|" in errors.text and not os.path.exists(beside + ".stamp"),
-        "a truncated cache: error, empty output, stamp dropped")
+        "a truncated cache the stamp vouches for: error, empty output, stamp dropped")
 Delete(r)
 r, img, _, compressed = open_input(nrrd, BrickSize=16, Relabel=1)
 t.check(compressed == 1, "a truncated cache is compressed again at the next open")

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/attributes/AttributeDb.h"
+#include "csgv/base/FileUtil.h"
 
 #include <cerrno>
 #include <cmath>
@@ -139,9 +140,9 @@ Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& 
             return Status::error("attribute column '" + c.name + "' has " +
                                  std::to_string(c.numeric ? c.values.size() : c.text.size()) + " values for " +
                                  std::to_string(labelBits.size()) + " labels");
-    // SQLite writes its own file: build it under a temporary name and rename, like AtomicFile.
-    const std::string tmp = path + ".tmp-db";
-    std::remove(tmp.c_str());
+    // SQLite writes its own file: build it under a name unique to this process and call (two
+    // compressions of one input, e.g. MPI ranks, never share it) and rename, like AtomicFile.
+    const std::string tmp = temporaryNameFor(path);
     sqlite3* raw = nullptr;
     const int rc = sqlite3_open_v2(tmp.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
     DbPtr db(raw);

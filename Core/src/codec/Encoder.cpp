@@ -9,6 +9,9 @@
 #include <cmath>
 #include <cstring>
 #include <mutex>
+#include <exception>
+#include <new>
+#include <optional>
 #include <omp.h>
 #include <unordered_map>
 
@@ -361,6 +364,29 @@ Result<CompressedVolume> newVolume(SlabSource& source, const EncodeOptions& opti
 
 int threadsFor(const EncodeOptions& options) { return options.threads > 0 ? options.threads : omp_get_max_threads(); }
 
+/// @brief Exceptions must not leave an OpenMP region (the process would end): the first one a
+/// worker throws is kept and rethrown on the calling thread after the region, where
+/// encodeToFile turns it into a Status.
+class RegionExceptions {
+public:
+    template <typename Fn>
+    void run(Fn&& fn) noexcept {
+        try {
+            fn();
+        } catch (...) {
+            std::lock_guard<std::mutex> lock(m_mutex);
+            if (!m_first) m_first = std::current_exception();
+        }
+    }
+    void rethrow() const {
+        if (m_first) std::rethrow_exception(m_first);
+    }
+
+private:
+    std::mutex m_mutex;
+    std::exception_ptr m_first;
+};
+
 /// Pass 1, slab by slab (one brick deep): level hierarchy, operations and symbols of every brick
 /// of the slab, handed to `take(bz, slabSymbols)` in slab order (bricks x fastest, then y).
 Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const EncodeOptions& options,
@@ -391,15 +417,21 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
         std::mutex mutex;
         Status error;
         uint64_t errorBrick = ~uint64_t(0);
+        RegionExceptions thrown;
 #pragma omp parallel num_threads(nThreads)
         {
-            BrickEncoder enc(B, options.opMask);
+            std::optional<BrickEncoder> enc;
+            thrown.run([&] { enc.emplace(B, options.opMask); });
 #pragma omp for schedule(dynamic, 1)
             for (int64_t i = 0; i < int64_t(perSlab); ++i) {
+                if (!enc) continue;
                 const uint32_t bx = uint32_t(i % grid[0]), by = uint32_t(i / grid[0]);
                 const std::array<uint32_t, 3> extent = {std::min(B, vol.dim[0] - bx * B),
                                                         std::min(B, vol.dim[1] - by * B), depth};
-                Status st = enc.encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(i)]);
+                Status st;
+                thrown.run([&] {
+                    st = enc->encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(i)]);
+                });
                 if (!st) {
                     std::lock_guard<std::mutex> lock(mutex);
                     if (uint64_t(i) < errorBrick) {
@@ -409,6 +441,7 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
                 }
             }
         }
+        thrown.rethrow();
         if (!error.isOk()) return error;
         Status s = take(bz, symbols);
         if (!s) return s;
@@ -463,18 +496,23 @@ class BrickAssembler {
 public:
     explicit BrickAssembler(const CompressedVolume& vol)
         : m_L(vol.levels()), m_encoding(vol.encoding), m_symA(ransSymbols(vol.freqA)), m_symB(ransSymbols(vol.freqB)) {}
-    /// words[i] = the encoding of symbols[i] (the symbols are released), in parallel.
+    /// words[i] = the encoding of symbols[i] (the symbols are released), in parallel; what a
+    /// worker throws is rethrown here.
     void assemble(std::vector<BrickSymbols>& symbols, std::vector<std::vector<uint32_t>>& words, int threads) const {
         words.resize(symbols.size());
+        RegionExceptions thrown;
 #pragma omp parallel num_threads(int(std::max<size_t>(1, std::min<size_t>(size_t(threads), symbols.size()))))
         {
             std::vector<uint8_t> scratch;
 #pragma omp for schedule(dynamic, 4)
             for (int64_t i = 0; i < int64_t(symbols.size()); ++i) {
-                assembleBrick(symbols[size_t(i)], m_L, m_encoding, m_symA, m_symB, scratch, words[size_t(i)]);
-                symbols[size_t(i)] = BrickSymbols{};
+                thrown.run([&] {
+                    assembleBrick(symbols[size_t(i)], m_L, m_encoding, m_symA, m_symB, scratch, words[size_t(i)]);
+                    symbols[size_t(i)] = BrickSymbols{};
+                });
             }
         }
+        thrown.rethrow();
     }
 
 private:
@@ -543,9 +581,10 @@ Result<ArrayLayout> layoutArrays(const std::vector<uint32_t>& brickWords, const 
     return out;
 }
 
-void applyLayout(const ArrayLayout& layout, uint64_t bricks, CompressedVolume& vol) {
+/// Moves the brick starts into `vol` (a copy would hold them twice: 8 bytes a brick, not 4).
+void applyLayout(ArrayLayout&& layout, uint64_t bricks, CompressedVolume& vol) {
     vol.bricksPerArray = layout.perArray == bricks ? kSingleArray : uint32_t(layout.perArray);
-    vol.brickStarts = layout.brickStarts;
+    vol.brickStarts = std::move(layout.brickStarts);
 }
 
 /// @brief A temporary file beside the output, unlinked as soon as it is open (nothing is left
@@ -586,8 +625,15 @@ private:
     uint64_t m_bytes = 0;
 };
 
-/// Bytes a brick's symbols occupy in memory (and, give or take the header, when spilled).
-uint64_t symbolBytes(const BrickSymbols& s) { return s.packed.size() + 4 * uint64_t(s.palette.size()) + 48; }
+/// What the allocator hands out per heap block beyond the bytes asked for (size word, rounding).
+constexpr uint64_t kHeapBlockOverhead = 16;
+
+/// Bytes a held brick's symbols occupy in memory: the struct itself, its vectors' capacities (not
+/// sizes: push_back grows them geometrically) and a heap block's overhead for each vector.
+uint64_t symbolBytes(const BrickSymbols& s) {
+    return sizeof(BrickSymbols) + s.packed.capacity() + sizeof(uint32_t) * uint64_t(s.palette.capacity()) +
+           2 * kHeapBlockOverhead;
+}
 
 Status spill(ScratchFile& file, const BrickSymbols& s) {
     const uint32_t head[2] = {s.count, uint32_t(s.palette.size())};
@@ -673,7 +719,11 @@ Result<CompressedVolume> encodeVolume(const LabelVolume& volume, const EncodeOpt
     return encodeVolume(src, options);
 }
 
-Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
+namespace {
+
+/// encodeVolume's steps; may throw std::bad_alloc (symbols, words), which encodeVolume turns
+/// into a Status.
+Result<CompressedVolume> encodeVolumeSteps(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
     Result<CompressedVolume> made = newVolume(source, options);
     if (!made) return made.status();
     CompressedVolume& vol = *made;
@@ -704,19 +754,38 @@ Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& o
     }
     Result<ArrayLayout> layout = layoutArrays(sizes, options, maxOutputBytes);
     if (!layout) return layout.status();
-    applyLayout(*layout, bricks, vol);
-    vol.arrays.resize(layout->arrayWords.size());
-    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
+    const uint64_t perArray = layout->perArray;
+    const std::vector<uint64_t> arrayWords = std::move(layout->arrayWords);
+    applyLayout(std::move(*layout), bricks, vol);
+    vol.arrays.resize(arrayWords.size());
+    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(arrayWords[a]));
     for (uint64_t i = 0; i < bricks; ++i) {
-        auto& arr = vol.arrays[size_t(i / layout->perArray)];
+        auto& arr = vol.arrays[size_t(i / perArray)];
         arr.insert(arr.end(), words[size_t(i)].begin(), words[size_t(i)].end());
         std::vector<uint32_t>().swap(words[size_t(i)]);
     }
     return vol;
 }
 
-Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
-                    const EncodeToFileOptions& fileOptions, uint64_t* outputBytes) {
+} // namespace
+
+Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options, uint64_t maxOutputBytes) {
+    // Errors are values across Core's boundary, an allocation failure included.
+    try {
+        return encodeVolumeSteps(source, options, maxOutputBytes);
+    } catch (const std::bad_alloc&) {
+        return Status::error("out of memory while encoding a volume in memory");
+    } catch (const std::exception& e) {
+        return Status::error(std::string("encoding failed: ") + e.what());
+    }
+}
+
+namespace {
+
+/// encodeToFile's steps; may throw std::bad_alloc (symbols, sizes, layout), which encodeToFile
+/// turns into a Status.
+Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const std::string& path,
+                         const EncodeToFileOptions& fileOptions, uint64_t* outputBytes) {
     // Memory (Encoder.h): symbols held up to heldSymbolBytes, then spilled; words go to a second
     // scratch file, then into the container.
     Result<CompressedVolume> made = newVolume(source, options);
@@ -791,18 +860,19 @@ Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std:
     Result<ArrayLayout> layout = layoutArrays(sizes, options, fileOptions.maxOutputBytes);
     if (!layout) return layout.status();
     std::vector<uint32_t>().swap(sizes);
-    applyLayout(*layout, bricks, vol);
+    const std::vector<uint64_t> arrayWords = std::move(layout->arrayWords);
+    applyLayout(std::move(*layout), bricks, vol);
 
     // The container: header and brick starts, then each array's words copied from the scratch file.
     if (!(s = wordFile.rewind())) return s;
     std::vector<uint32_t> buffer(size_t(1) << 20);
     uint64_t written = 0, total = 0;
-    for (uint64_t w : layout->arrayWords) total += w;
+    for (uint64_t w : arrayWords) total += w;
     Limits limits;
     limits.maxOutputBytes = fileOptions.maxOutputBytes;
     bool stopped = false;
-    s = writeCsgvStreamed(path, vol, layout->arrayWords, limits, [&](size_t a, const ByteSink& out) -> Status {
-        for (uint64_t left = layout->arrayWords[a]; left > 0;) {
+    s = writeCsgvStreamed(path, vol, arrayWords, limits, [&](size_t a, const ByteSink& out) -> Status {
+        for (uint64_t left = arrayWords[a]; left > 0;) {
             const size_t n = size_t(std::min<uint64_t>(left, buffer.size()));
             Status st = wordFile.read(buffer.data(), 4 * n);
             if (st) st = out(buffer.data(), 4 * n);
@@ -817,8 +887,24 @@ Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std:
         return Status::ok();
     });
     if (!s) return stopped ? cancelled : s;
-    if (outputBytes) *outputBytes = vol.serializedSize() + 8 * layout->arrayWords.size() + 4 * total;
+    if (outputBytes) *outputBytes = vol.serializedSize() + 8 * arrayWords.size() + 4 * total;
     return Status::ok();
+}
+
+} // namespace
+
+Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
+                    const EncodeToFileOptions& fileOptions, uint64_t* outputBytes) {
+    // Errors are values across Core's boundary: an allocation failure (a huge brick grid, the
+    // held symbols) becomes a message, and the scratch files and the temporary output are
+    // already gone when the stack unwinds (unlinked while open; AtomicFile).
+    try {
+        return encodeToFileSteps(source, options, path, fileOptions, outputBytes);
+    } catch (const std::bad_alloc&) {
+        return Status::error("out of memory while encoding '" + path + "'");
+    } catch (const std::exception& e) {
+        return Status::error("encoding '" + path + "' failed: " + e.what());
+    }
 }
 
 } // namespace csgv

@@ -7,20 +7,19 @@
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Procedural.h"
+#include "InputCommon.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <new>
 
 namespace csgv {
 
 namespace {
 
-bool endsWith(const std::string& s, const char* suffix) {
-    const size_t n = std::strlen(suffix);
-    return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
-}
+using inputs::endsWith;
 
 std::string baseName(const std::string& path) {
     const size_t slash = path.find_last_of('/');
@@ -57,23 +56,26 @@ private:
 };
 
 /// @brief Stage bookkeeping between encodeToFile's fractions and CompressOptions::progress:
-/// maps a stage's own fraction into its share of the whole and remembers a cancel.
+/// maps a stage's own fraction into its share of the whole (of what was left at a restart, so
+/// the whole never goes backwards) and remembers a cancel.
 class Progress {
 public:
     explicit Progress(const CompressProgress& callback) : m_callback(callback) {}
-    /// Starts a stage (reported at its start, so rates can be measured from there); false once
-    /// cancelled.
+    /// Starts a stage covering [from, to] of the passes since the last restart (reported at its
+    /// start, so rates can be measured from there); false once cancelled.
     bool stage(const char* name, double from, double to) {
         m_name = name;
-        m_from = from;
-        m_to = to;
+        m_from = m_base + (1 - m_base) * from;
+        m_to = m_base + (1 - m_base) * to;
         return report(0);
     }
+    /// The passes that follow share what is left of [0, 1] from the last fraction reported.
+    void restart() { m_base = m_last; }
     /// Reports the stage's own fraction; false once the callback asked to cancel.
     bool report(double stageFraction) {
         if (m_cancelled) return false;
-        if (m_callback && !m_callback(m_from + (m_to - m_from) * std::clamp(stageFraction, 0.0, 1.0), m_name))
-            m_cancelled = true;
+        m_last = std::max(m_last, m_from + (m_to - m_from) * std::clamp(stageFraction, 0.0, 1.0));
+        if (m_callback && !m_callback(m_last, m_name)) m_cancelled = true;
         return !m_cancelled;
     }
     bool cancelled() const { return m_cancelled; }
@@ -82,6 +84,8 @@ private:
     const CompressProgress& m_callback;
     const char* m_name = "";
     double m_from = 0, m_to = 1;
+    double m_base = 0;   ///< where the passes since the last restart begin
+    double m_last = 0;   ///< the last fraction reported
     bool m_cancelled = false;
 };
 
@@ -93,14 +97,13 @@ Status observeAll(InputSource& source, StreamingRelabeller& relabeller, Progress
     // Bounded scratch, and at least 16 reads so progress moves.
     const uint32_t step = std::min(subSlabDepth(slice, dim[2]), std::max(1u, (dim[2] + 15) / 16));
     std::vector<uint64_t> scratch(size_t(slice * step));
-    for (uint32_t z = 0; z < dim[2]; z += step) {
-        const uint32_t depth = std::min(step, dim[2] - z);
-        if (Status s = source.readSlab(z, depth, scratch.data()); !s) return s;
+    Status s = forEachSubSlab(0, dim[2], step, [&](uint32_t z, uint32_t depth) -> Status {
+        if (Status r = source.readSlab(z, depth, scratch.data()); !r) return r;
         maxSourceWorking = std::max(maxSourceWorking, source.workingBytes());
         relabeller.observe(z, depth, scratch.data());
-        if (!progress.report(double(z + depth) / dim[2])) return Status::error("cancelled");
-    }
-    return relabeller.finish();
+        return progress.report(double(z + depth) / dim[2]) ? Status::ok() : Status::error("cancelled");
+    });
+    return s ? relabeller.finish() : s;
 }
 
 /// Names the input in a message unless it already does.
@@ -111,6 +114,33 @@ Status named(Status s, const std::string& input) {
 
 } // namespace
 
+
+std::string voxelText(uint64_t index, const std::array<uint32_t, 3>& dim, uint32_t z0) {
+    const uint64_t x = index % dim[0], y = (index / dim[0]) % dim[1], z = z0 + index / (uint64_t(dim[0]) * dim[1]);
+    return "(" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) + ")";
+}
+
+std::string inputSourceName(const std::string& input) {
+    if (isSynthName(input)) return input;
+    std::string s = input;
+    while (s.size() > 1 && s.back() == '/') s.pop_back();
+    // Where the file or folder's own name ends and a selector inside it begins: an HDF5 dataset,
+    // a Zarr array path, a precomputed scale, or the pattern of a glob.
+    const std::string low = inputs::lower(s);
+    size_t cut = s.size();
+    for (const char* sel : {".h5:", ".hdf5:", ".zarr/"}) {
+        const size_t at = low.find(sel);
+        if (at != std::string::npos) cut = std::min(cut, at + std::strlen(sel) - 1);
+    }
+    cut = std::min(cut, s.find('#'));
+    const size_t lastSlash = s.find_last_of('/');
+    if (s.find_first_of("*?[", lastSlash == std::string::npos ? 0 : lastSlash) != std::string::npos &&
+        lastSlash != std::string::npos)
+        cut = std::min(cut, lastSlash);
+    std::string file = s.substr(0, cut);
+    if (endsWith(file, "/info") && file.size() > 5) file.resize(file.size() - 5); // a precomputed folder's info
+    return baseName(file) + s.substr(cut);
+}
 
 uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes) {
     const uint64_t slices = maxBytes / std::max<uint64_t>(1, sliceVoxels * sizeof(uint64_t));
@@ -125,28 +155,29 @@ Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
     const uint64_t slice = uint64_t(dim[0]) * dim[1];
     const uint32_t step = subSlabDepth(slice, depth, m_maxScratchBytes);
     m_scratch.resize(size_t(slice * step));
-    for (uint32_t z = z0; z < z0 + depth; z += step) {
-        const uint32_t d = std::min(step, z0 + depth - z);
+    return forEachSubSlab(z0, depth, step, [&](uint32_t z, uint32_t d) -> Status {
         const size_t n = size_t(slice * d);
         if (Status s = m_source.readSlab(z, d, m_scratch.data()); !s) return s;
         m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
         uint32_t* dst = out + slice * (z - z0);
         if (m_relabeller) {
-            m_relabeller->toIds(m_scratch.data(), n, dst);
-            continue;
+            size_t miss = 0;
+            if (m_relabeller->toIds(m_scratch.data(), n, dst, &miss)) return Status::ok();
+            const uint64_t v = m_scratch[miss];
+            const std::string label = isSignedType(m_source.info().type) ? std::to_string(int64_t(v)) : std::to_string(v);
+            return Status::error("the input changed during compression (label " + label + " at voxel " +
+                                 voxelText(miss, dim, z) + " was not there in the first pass)");
         }
         for (size_t i = 0; i < n; ++i) {
             const uint64_t v = m_scratch[i];
             if (!labelFitsFormat(v)) {
                 m_misfit = true;
-                const uint64_t x = i % dim[0], y = (i / dim[0]) % dim[1], zz = z + i / slice;
-                return Status::error("voxel (" + std::to_string(x) + ", " + std::to_string(y) + ", " +
-                                     std::to_string(zz) + ") holds a label that does not fit the format");
+                return Status::error("voxel " + voxelText(i, dim, z) + " holds a label that does not fit the format");
             }
             dst[i] = uint32_t(v);
         }
-    }
-    return Status::ok();
+        return Status::ok();
+    });
 }
 
 Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options) {
@@ -185,15 +216,27 @@ struct Job {
     VolumeMetadata md;
     LabelMapping mapping;
     uint64_t outputBytes = 0;
+    bool published = false;    ///< the volume was renamed into place
+    const std::string& output;
 
-    Job(const std::string& in, const std::string& output, const CompressOptions& o, CompressReport& r)
-        : input(in), options(o), rep(r), tmp(temporaryNameFor(output) + ".csgv"), progress(o.progress) {}
+    Job(const std::string& in, const std::string& out, const CompressOptions& o, CompressReport& r)
+        : input(in), options(o), rep(r), tmp(temporaryNameFor(out) + ".csgv"), progress(o.progress), output(out) {}
+    /// Whatever ends the job (an error, an exception unwinding), no temporary volume is left.
+    ~Job() {
+        if (!published) removeIfThere(tmp);
+    }
+    Job(const Job&) = delete;
+    Job& operator=(const Job&) = delete;
 
     /// Cleans up after an error and says what happened (a cancel says so).
     Status failed(Status s) {
         removeIfThere(tmp);
         if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
-        return named(s, input);
+        // The user named the output, not its temporary (encodeToFile's messages name the latter).
+        std::string message = s.message();
+        for (size_t at = message.find(tmp); at != std::string::npos; at = message.find(tmp, at + output.size()))
+            message.replace(at, tmp.size(), output);
+        return named(Status::error(message), input);
     }
     uint64_t encoderSlabBytes() const {
         const auto& d = source->info().dim;
@@ -212,7 +255,7 @@ struct Job {
             source = owned.get();
         }
         const InputInfo& info = source->info();
-        md.source = synth ? input : baseName(input);
+        md.source = inputSourceName(input);
         md.dim = info.dim;
         if (!synth) {
             md.geometry = cellGeometryFromPointGeometry(info.geometry);
@@ -245,14 +288,15 @@ struct Job {
     /// Two passes: first visiting positions, then the ids encoded.
     Status encodeRelabelled() {
         removeIfThere(tmp);
+        progress.restart();
         StreamingRelabeller relabeller(source->info().dim, options.encode.brickSize);
         uint64_t sourceWorking = 0;
-        if (!progress.stage("relabelling", 0, 0.5)) return Status::error("cancelled");
+        if (!progress.stage("relabelling", 0, kRelabellingShare)) return Status::error("cancelled");
         const auto t0 = std::chrono::steady_clock::now();
         if (Status s = observeAll(*source, relabeller, progress, sourceWorking); !s) return s;
         rep.relabelSeconds = since(t0);
         rep.passes += 2;
-        if (!progress.stage("encoding", 0.5, 1)) return Status::error("cancelled");
+        if (!progress.stage("encoding", kRelabellingShare, 1)) return Status::error("cancelled");
         LabelSlabAdapter adapter(*source, &relabeller);
         if (Status s = encodePass(adapter, options, tmp, progress, outputBytes); !s) return s;
         mapping.relabelled = true;
@@ -264,9 +308,21 @@ struct Job {
         return Status::ok();
     }
 
-    /// Sidecars first, the volume last: a reader never sees a new .csgv with an old database.
+    /// The old volume out first, then the sidecars, the new volume last: a .csgv is never paired
+    /// with another compression's sidecars (Compress.h). When a step fails, what it leaves is
+    /// removed: no volume, no sidecars.
     Status publish(const std::string& output) {
         md.relabelled = mapping.relabelled;
+        if (fileExists(output) && std::remove(output.c_str()) != 0)
+            return Status::error("cannot replace '" + output + "': " + errnoText());
+        Status s = publishSidecarsAndVolume(output);
+        if (!s) {
+            removeIfThere(metadataPathFor(output));
+            removeIfThere(attributeDbPathFor(output));
+        }
+        return s;
+    }
+    Status publishSidecarsAndVolume(const std::string& output) {
         const std::string db = attributeDbPathFor(output);
         if (mapping.relabelled) {
             if (Status s = writeAttributeDb(db, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) return s;
@@ -276,6 +332,7 @@ struct Job {
         if (Status s = writeMetadata(metadataPathFor(output), md); !s) return s;
         if (std::rename(tmp.c_str(), output.c_str()) != 0)
             return Status::error("cannot rename '" + tmp + "' to '" + output + "': " + errnoText());
+        published = true;
         return Status::ok();
     }
 };
@@ -321,14 +378,32 @@ Status compress(InputSource* given, const std::string& input, const std::string&
 
 } // namespace
 
+namespace {
+
+/// compress() with errors as values across Core's boundary: an allocation failure (the label map,
+/// the scratch, the encoder's tables) or any other exception becomes a message; the Job's
+/// destructor has removed the temporary volume by then.
+Status compressCatching(InputSource* given, const std::string& input, const std::string& output,
+                        const CompressOptions& options, CompressReport* report) {
+    try {
+        return compress(given, input, output, options, report);
+    } catch (const std::bad_alloc&) {
+        return Status::error("out of memory while compressing '" + input + "' to '" + output + "'");
+    } catch (const std::exception& e) {
+        return Status::error("compressing '" + input + "' to '" + output + "' failed: " + e.what());
+    }
+}
+
+} // namespace
+
 Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
                       CompressReport* report) {
-    return compress(nullptr, input, output, options, report);
+    return compressCatching(nullptr, input, output, options, report);
 }
 
 Status compressSourceToFile(InputSource& source, const std::string& name, const std::string& output,
                             const CompressOptions& options, CompressReport* report) {
-    return compress(&source, name, output, options, report);
+    return compressCatching(&source, name, output, options, report);
 }
 
 } // namespace csgv

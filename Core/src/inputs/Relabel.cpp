@@ -89,18 +89,26 @@ Status StreamingRelabeller::finish() {
     return Status::ok();
 }
 
-void StreamingRelabeller::toIds(const uint64_t* values, size_t count, uint32_t* ids) const {
+bool StreamingRelabeller::toIds(const uint64_t* values, size_t count, uint32_t* ids, size_t* missAt) const {
     uint64_t lastValue = 0;
     uint32_t lastId = 0;
     for (size_t i = 0; i < count; ++i) {
         const uint64_t v = values[i];
         if (v != lastValue) {
-            auto it = m_entries.find(v);
-            lastId = it == m_entries.end() ? 0 : it->second.id;
             lastValue = v;
+            lastId = 0; // 0 stays 0 and is not in the map
+            if (v != 0) {
+                auto it = m_entries.find(v);
+                if (it == m_entries.end()) {
+                    if (missAt) *missAt = i;
+                    return false;
+                }
+                lastId = it->second.id;
+            }
         }
         ids[i] = lastId;
     }
+    return true;
 }
 
 uint64_t StreamingRelabeller::memoryBytes() const {

@@ -29,11 +29,17 @@
 
 namespace csgv {
 
+/// The relabelling pass's share of the progress left when it starts (the encoding pass has the rest).
+constexpr double kRelabellingShare = 0.5;
+
 /// Called now and then during compression with the fraction of the whole compression done
-/// (0..1) and the stage. With two passes "relabelling" covers [0, 0.5) and "encoding" [0.5, 1];
-/// with one pass "encoding" covers [0, 1] (after an optimistic pass restarts, the fraction starts
-/// again from 0). Returning false cancels: nothing is written (what was written under temporary
-/// names is removed) and compressToFile returns an error saying the compression was cancelled.
+/// (0..1, never decreasing, reaching 1) and the stage. With two passes "relabelling" covers
+/// [0, kRelabellingShare) and "encoding" [kRelabellingShare, 1]; with one pass "encoding" covers
+/// [0, 1]. When an optimistic pass restarts at fraction r, the two passes that follow share
+/// [r, 1] the same way ("relabelling" [r, r + (1 - r) * kRelabellingShare), then "encoding"), so
+/// a progress bar never goes backwards. Returning false cancels: nothing is written (what was
+/// written under temporary names is removed) and compressToFile returns an error saying the
+/// compression was cancelled.
 using CompressProgress = std::function<bool(double fraction, const char* stage)>;
 
 struct CompressOptions {
@@ -41,7 +47,6 @@ struct CompressOptions {
     InputOptions input;
     CompressProgress progress;
     bool relabel = false;                          ///< force dense relabelling
-    uint64_t maxInputBytes = uint64_t(16) << 30;   ///< unused since every input streams (kept for callers)
     uint64_t maxOutputBytes = uint64_t(64) << 30;
 };
 
@@ -55,7 +60,6 @@ struct CompressReport {
     bool relabelled = false;
     uint64_t labelCount = 0;   ///< ids in the database when relabelled (0 included)
     std::string originalType;
-    bool streamed = true;      ///< encoded slab by slab from the source (always, kept for callers)
     int passes = 0;            ///< reads of the input: 1, 2 (relabelled), 3 (optimistic pass restarted)
     bool restarted = false;    ///< an optimistic single pass met a label that does not fit
     /// Estimated peak working memory: encoder slab + adapter scratch + the source's largest working
@@ -98,14 +102,37 @@ private:
 /// `maxBytes` (at least 1).
 uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes = LabelSlabAdapter::kScratchBytes);
 
+/// Calls `fn(z, d)` for slices [z0, z0 + depth) in consecutive sub-slabs of at most `step`
+/// slices (z the first slice, d the sub-slab's depth); returns fn's first failure.
+template <typename Fn>
+Status forEachSubSlab(uint32_t z0, uint32_t depth, uint32_t step, Fn&& fn) {
+    step = step ? step : 1;
+    for (uint32_t z = z0; z < z0 + depth; z += step)
+        if (Status s = fn(z, step < z0 + depth - z ? step : z0 + depth - z); !s) return s;
+    return Status::ok();
+}
+
+/// Voxel (x, y, z) of linear index `index` (x fastest) in a slab of slices of `dim`'s size
+/// starting at slice z0, as text for messages: "(x, y, z)".
+std::string voxelText(uint64_t index, const std::array<uint32_t, 3>& dim, uint32_t z0 = 0);
+
+/// The name an input goes by in a volume's metadata: the file or folder it names with what
+/// selects inside it (`a.h5:/labels/seg`, `b.zarr/0`, `cells#8_8_8`), without leading folders or
+/// a trailing slash; `synth:` names stay whole.
+std::string inputSourceName(const std::string& input);
+
 /// Opens `synth:WxHxD[:seed]` (a uint32 source generated slab by slab, format "synth") or any
 /// input openInput() opens: what compress, verify and info accept as an input.
 Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options = {});
 
 /// Compresses `input` to `output` (and its sidecars). The volume is encoded under a temporary
-/// name, the sidecars are written, and the `.csgv` is renamed last, so a reader never sees a new
-/// `.csgv` with an old database; a stale `_csgv.db3` beside the output is removed when no
-/// relabelling happened. On any error or cancel no output file is left.
+/// name; then it is published: an existing `output` is removed first, the sidecars are written
+/// (a stale `_csgv.db3` is removed when no relabelling happened), and the `.csgv` is renamed
+/// last. So a `.csgv` is never paired with another compression's sidecars: a reader sees the old
+/// volume with its old sidecars, no volume, or the new volume with its new sidecars. On any error
+/// or cancel no new file is left, and when publishing fails part way no volume is left at
+/// `output` and its sidecars are removed too. Errors (out of memory included) are returned,
+/// never thrown.
 Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
                       CompressReport* report = nullptr);
 /// The same from a source already open (`name` for messages and the metadata's source field).

@@ -60,8 +60,9 @@ public:
     void observe(uint32_t z0, uint32_t depth, const uint64_t* values);
     /// Ends pass 1; fails when there are more labels than ids (2^32 - 1 with 0).
     Status finish();
-    /// Pass 2: ids of `count` values (every value must have been observed; others give 0).
-    void toIds(const uint64_t* values, size_t count, uint32_t* ids) const;
+    /// Pass 2: ids of `count` values. Returns false at the first value pass 1 never saw (the
+    /// input changed between the passes), its index in `*missAt` when given; ids before it are set.
+    bool toIds(const uint64_t* values, size_t count, uint32_t* ids, size_t* missAt = nullptr) const;
     /// Distinct non-zero labels seen (the hash map's entries).
     size_t mapSize() const { return m_entries.size(); }
     /// id -> original value bits; [0] is 0. Valid after finish().
