@@ -27,7 +27,9 @@ void expectGpuEqualsCpu(Context& ctx, const CompressedVolume& vol, const std::st
     options.cachePaletting = paletting;
     Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(ctx, vol, options);
     ASSERT_TRUE(gpu.isOk()) << what << ": " << gpu.message();
-    if (paletting && vol.maxPalette < 1000) EXPECT_LT((*gpu)->cacheBits(), 32u) << what << ": paletting should pack";
+    if (paletting && vol.maxPalette < 1000) {
+        EXPECT_LT((*gpu)->cacheBits(), 32u) << what << ": paletting should pack";
+    }
     BrickDecoder cpu(vol);
     const auto grid = vol.brickGrid();
     for (uint32_t lod = 0; lod < vol.levels(); ++lod) {
