@@ -40,6 +40,14 @@ int runFixtureScript(const std::string& script, const std::vector<std::string>& 
 /// the first differing voxel). Every input format's tests call it on their fixtures.
 void expectSourceContract(csgv::InputSource& source, const std::vector<uint64_t>& expected);
 
+/// Bytes of test files, and the helpers the input tests write them with.
+using Bytes = std::vector<uint8_t>;
+void writeBytes(const std::string& path, const Bytes& bytes);
+Bytes textBytes(const std::string& s);
+Bytes operator+(Bytes a, const Bytes& b);
+/// A gzip stream (windowBits 31) of `raw`.
+Bytes gzipBytes(const Bytes& raw);
+
 /// Lowercase hex SHA-256.
 std::string sha256Hex(const uint8_t* data, size_t size);
 

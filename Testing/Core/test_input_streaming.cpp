@@ -41,36 +41,10 @@ using Dim = std::array<uint32_t, 3>;
 
 std::string tmp(const std::string& name) { return csgvtest::tempDir() + "/streaming-" + name; }
 
-void writeBytes(const std::string& path, const Bytes& bytes) {
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    ASSERT_NE(f, nullptr) << path;
-    if (!bytes.empty()) {
-        ASSERT_EQ(std::fwrite(bytes.data(), 1, bytes.size(), f), bytes.size());
-    }
-    std::fclose(f);
-}
-
-Bytes textBytes(const std::string& s) { return Bytes(s.begin(), s.end()); }
-
-Bytes operator+(Bytes a, const Bytes& b) {
-    a.insert(a.end(), b.begin(), b.end());
-    return a;
-}
-
-/// A gzip stream (windowBits 31) of `raw`.
-Bytes gzipBytes(const Bytes& raw) {
-    z_stream s{};
-    EXPECT_EQ(deflateInit2(&s, 6, Z_DEFLATED, 31, 8, Z_DEFAULT_STRATEGY), Z_OK);
-    Bytes out(deflateBound(&s, uLong(raw.size())) + 64);
-    s.next_in = const_cast<Bytes::value_type*>(raw.data());
-    s.avail_in = uInt(raw.size());
-    s.next_out = out.data();
-    s.avail_out = uInt(out.size());
-    EXPECT_EQ(deflate(&s, Z_FINISH), Z_STREAM_END);
-    out.resize(s.total_out);
-    deflateEnd(&s);
-    return out;
-}
+using csgvtest::gzipBytes;
+using csgvtest::textBytes;
+using csgvtest::writeBytes;
+using csgvtest::operator+;
 
 /// How many bytes zlib inflates from a (possibly cut) gzip stream: where the data run out.
 uint64_t inflatedSize(const Bytes& gz) {
