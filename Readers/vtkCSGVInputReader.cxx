@@ -356,38 +356,14 @@ std::string readText(const std::string& path)
   return in ? s.str() : std::string();
 }
 
-/// Writes the stamp under a temporary name unique to this process and call (MPI ranks, two
-/// sessions) and renames it, so a reader never sees half a stamp.
+/// Writes the stamp through Core's AtomicFile (a temporary name unique to this process and call,
+/// renamed into place), so a reader never sees half a stamp.
 bool writeStamp(const std::string& path, const std::string& text)
 {
-  const std::string tmp = csgv::temporaryNameFor(path);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out.flush())
-    {
-      std::remove(tmp.c_str());
-      return false;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-  {
-    std::remove(tmp.c_str());
-    return false;
-  }
-  return true;
+  csgv::AtomicFile file;
+  return file.open(path) && file.write(text.data(), text.size()) && file.commit();
 }
 
-uint32_t floorLog2(uint32_t v)
-{
-  uint32_t r = 0;
-  while (v > 1)
-  {
-    v >>= 1;
-    ++r;
-  }
-  return r;
-}
 } // namespace
 
 /// @brief The internal `.csgv` reader and what RequestInformation found for RequestData.
@@ -565,7 +541,7 @@ int vtkCSGVInputReader::RequestInformation(
   }
   const csgv::InputInfo& info = (*source)->info();
   const csgv::Geometry geometry = csgv::cellGeometryFromPointGeometry(info.geometry);
-  const uint32_t levels = floorLog2(static_cast<uint32_t>(this->BrickSize)) + 1;
+  const uint32_t levels = csgv::levelCount(static_cast<uint32_t>(this->BrickSize));
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels - 1);
   const std::array<uint32_t, 3> ld = csgv::lodDimensions(info.dim, lod);
   const int extent[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };

@@ -222,7 +222,9 @@ Result<CompressedVolume> parse(ByteSource& src) {
 
 } // namespace
 
-uint32_t CompressedVolume::levels() const { return floorLog2(brickSize) + 1; }
+uint32_t levelCount(uint32_t brickSize) { return floorLog2(brickSize) + 1; }
+
+uint32_t CompressedVolume::levels() const { return levelCount(brickSize); }
 
 std::array<uint32_t, 3> CompressedVolume::brickGrid() const {
     std::array<uint32_t, 3> g{};

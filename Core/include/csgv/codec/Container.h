@@ -80,6 +80,10 @@ constexpr uint32_t kSingleArray = 0xFFFFFFFFu;
 constexpr uint64_t kMaxBricks = uint64_t(1) << 40; ///< far beyond any real volume; keeps counts exact
 
 /// Limits set by the caller on anything allocated or written on behalf of untrusted input.
+/// Levels of detail of a volume with this brick size (2^n gives n + 1: full resolution down to
+/// one voxel per brick).
+uint32_t levelCount(uint32_t brickSize);
+
 struct Limits {
     uint64_t maxOutputBytes = uint64_t(16) << 30; ///< decoded images, written files
 };
