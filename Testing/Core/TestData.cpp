@@ -150,6 +150,34 @@ void expectSourceContract(csgv::InputSource& source, const std::vector<uint64_t>
                         }
                 }
     }
+    // Bands of rows, when the source reads them: every row band of a few heights at a few depths,
+    // bottom band first, the same values readSlab gives; rows past the volume are an error.
+    if (!source.readsRows()) return;
+    const uint32_t W = info.dim[0], H = info.dim[1];
+    for (uint32_t rows : {1u, 3u, H})
+        for (uint32_t depth : {1u, 4u, D}) {
+            if (rows == 0 || rows > H || depth == 0 || depth > D) continue;
+            for (uint32_t z0 = 0; z0 < D; z0 += depth)
+                for (uint32_t y0 = (H - 1) / rows * rows;; y0 -= rows) {
+                    const uint32_t h = std::min(rows, H - y0), d = std::min(depth, D - z0);
+                    got.assign(size_t(uint64_t(W) * h * d), 0xDEADBEEFull);
+                    const csgv::Status s = source.readRows(z0, d, y0, h, got.data());
+                    ASSERT_TRUE(s.isOk()) << "readRows(" << z0 << ", " << d << ", " << y0 << ", " << h
+                                          << "): " << s.message();
+                    for (size_t i = 0; i < got.size(); ++i) {
+                        const uint64_t x = i % W, y = y0 + (i / W) % h, z = z0 + i / (uint64_t(W) * h);
+                        if (got[i] != expected[size_t(x + W * (y + uint64_t(H) * z))])
+                            FAIL() << "readRows(" << z0 << ", " << d << ", " << y0 << ", " << h << ") voxel (" << x
+                                   << ", " << y << ", " << z << ") is " << got[i] << ", expected "
+                                   << expected[size_t(x + W * (y + uint64_t(H) * z))];
+                    }
+                    if (y0 == 0) break;
+                }
+        }
+    got.assign(size_t(W) * 2, 0);
+    const csgv::Status beyond = source.readRows(0, 1, H - 1, 2, got.data());
+    EXPECT_FALSE(beyond.isOk()) << "readRows past the last row must fail";
+    EXPECT_NE(beyond.message().find("beyond the volume's height"), std::string::npos) << beyond.message();
 }
 
 } // namespace csgvtest

@@ -222,7 +222,74 @@ private:
     const LabelVolume& m_v;
 };
 
+/// @brief The same, reading bands of rows too (as an HDF5 file or the generator does); records
+/// the bands asked for.
+class RowSlabSource : public CopySlabSource {
+public:
+    explicit RowSlabSource(const LabelVolume& v) : CopySlabSource(v), m_v(v) {}
+    bool readsRows() const override { return true; }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override {
+        bands.push_back({z0, depth, y0, rows});
+        const uint32_t W = m_v.dim[0], H = m_v.dim[1];
+        for (uint32_t z = 0; z < depth; ++z)
+            std::copy_n(m_v.labels.data() + (size_t(z0 + z) * H + y0) * W, size_t(W) * rows,
+                        out + size_t(z) * rows * W);
+        return Status::ok();
+    }
+    std::vector<std::array<uint32_t, 4>> bands;
+
+private:
+    const LabelVolume& m_v;
+};
+
 } // namespace
+
+TEST(Encoder, ToFileReadsBandsOfBrickRowsFromSourcesThatReadRows) {
+    // Bands of one, two and all brick rows (the last band partial: 60 = 3 * 16 + 12) give the bytes
+    // of the in-memory encoder, and the encoder holds only a band.
+    const LabelVolume src = synth(70, 60, 50, 9, 7);
+    EncodeOptions o;
+    o.brickSize = 16;
+    Result<CompressedVolume> mem = encodeVolume(src, o);
+    ASSERT_TRUE(mem.isOk()) << mem.message();
+    const uint64_t brickRow = 70 * 16 * 16 * 4;
+    for (uint64_t maxBand : {uint64_t(1), 2 * brickRow + 5, uint64_t(64) << 20}) {
+        const std::string path = tempDir() + "/bands.csgv";
+        EncodeToFileOptions fo;
+        fo.maxBandBytes = maxBand;
+        RowSlabSource slabs(src);
+        const uint32_t rows = maxBand == 1 ? 16 : maxBand < 60 * 70 * 16 * 4 ? 32 : 60;
+        EXPECT_EQ(encoderBandBytes(slabs, 16, maxBand), uint64_t(70) * rows * 16 * 4) << maxBand;
+        const Status s = encodeToFile(slabs, o, path, fo);
+        ASSERT_TRUE(s.isOk()) << s.message();
+        EXPECT_TRUE(readBytes(path) == serializeCsgv(*mem)) << "band budget " << maxBand;
+        if (rows == 60) {
+            EXPECT_TRUE(slabs.bands.empty()) << "a band of the whole slab is read with readSlab";
+            continue;
+        }
+        // Every slab in bands of `rows` rows, in order, depth 16 but the last (50 = 3 * 16 + 2).
+        std::vector<std::array<uint32_t, 4>> want;
+        for (uint32_t z0 = 0; z0 < 50; z0 += 16)
+            for (uint32_t y0 = 0; y0 < 60; y0 += rows) want.push_back({z0, std::min(16u, 50 - z0), y0, std::min(rows, 60 - y0)});
+        EXPECT_EQ(slabs.bands, want) << maxBand;
+    }
+    // A plain source is read in whole slabs whatever the budget.
+    CopySlabSource plain(src);
+    EXPECT_EQ(encoderBandBytes(plain, 16, 1), uint64_t(70) * 60 * 16 * 4);
+}
+
+TEST(Encoder, ReservedLabelInABandIsReportedAtItsVoxel) {
+    LabelVolume src = synth(40, 40, 20, 5, 3);
+    src.labels[size_t(7 + 40 * (33 + 40 * 18))] = kInvalidLabel;
+    EncodeToFileOptions fo;
+    fo.maxBandBytes = 1; // bands of one brick row
+    RowSlabSource slabs(src);
+    EncodeOptions o;
+    o.brickSize = 16;
+    const Status s = encodeToFile(slabs, o, tempDir() + "/reserved-band.csgv", fo);
+    ASSERT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("label 0xFFFFFFFF at voxel (7, 33, 18) is reserved"), std::string::npos) << s.message();
+}
 
 TEST(Encoder, ToFileGivesTheBytesOfTheInMemoryEncoderHeldSpilledAndSplit) {
     const LabelVolume src = synth(70, 60, 50, 9, 7);

@@ -704,6 +704,66 @@ TEST(StreamingRelabel, AValueNewInPassTwoIsAnError) {
 
 namespace {
 
+/// @brief VectorSource reading bands of rows too.
+class RowVectorSource : public VectorSource {
+public:
+    using VectorSource::VectorSource;
+    bool readsRows() const override { return true; }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) override {
+        const uint32_t W = info().dim[0], H = info().dim[1];
+        std::vector<uint64_t> slab(size_t(uint64_t(W) * H * depth));
+        if (Status s = readSlab(z0, depth, slab.data()); !s) return s;
+        for (uint32_t z = 0; z < depth; ++z)
+            std::copy_n(slab.data() + (size_t(z) * H + y0) * W, size_t(W) * rows, out + size_t(z) * rows * W);
+        return Status::ok();
+    }
+};
+
+} // namespace
+
+TEST(LabelSlabAdapter, BandsOfRowsAreTheRowsOfTheSlab) {
+    // Through a relabeller and without one, readRows gives exactly the rows readSlab gives, and a
+    // voxel it cannot map is named at its place in the volume.
+    const TestVolume t = wideVolumes()[1];
+    RowVectorSource first(t.dim, t.type, t.values);
+    StreamingRelabeller r = streamRelabel(first, 8, 8, false);
+    std::vector<uint64_t> small(t.values.size());
+    for (size_t i = 0; i < small.size(); ++i) small[i] = t.values[i] % 1000;
+    RowVectorSource plainSource(t.dim, LabelType::U32, small);
+    RowVectorSource mappedSource(t.dim, t.type, t.values);
+    LabelSlabAdapter plain(plainSource, nullptr), mapped(mappedSource, &r);
+    const uint32_t W = t.dim[0], H = t.dim[1], D = t.dim[2];
+    for (LabelSlabAdapter* a : {&plain, &mapped}) {
+        ASSERT_TRUE(a->readsRows());
+        std::vector<uint32_t> slab(size_t(uint64_t(W) * H * 8)), band;
+        for (uint32_t z0 = 0; z0 < D; z0 += 8) {
+            const uint32_t d = std::min(8u, D - z0);
+            ASSERT_TRUE(a->readSlab(z0, d, slab.data()).isOk());
+            for (uint32_t y0 = 0; y0 < H; y0 += 3) {
+                const uint32_t rows = std::min(3u, H - y0);
+                band.assign(size_t(uint64_t(W) * rows * d), 0);
+                ASSERT_TRUE(a->readRows(z0, d, y0, rows, band.data()).isOk());
+                for (uint32_t z = 0; z < d; ++z)
+                    for (uint32_t y = 0; y < rows; ++y)
+                        for (uint32_t x = 0; x < W; ++x)
+                            ASSERT_EQ(band[x + W * (y + size_t(rows) * z)], slab[x + W * (y0 + y + size_t(H) * z)])
+                                << "voxel (" << x << ", " << y0 + y << ", " << z0 + z << ")";
+            }
+        }
+    }
+    std::vector<uint64_t> changed = t.values;
+    changed[size_t(5 + uint64_t(W) * (7 + uint64_t(H) * 12))] = 123456789;
+    RowVectorSource second(t.dim, t.type, changed);
+    LabelSlabAdapter adapter(second, &r);
+    std::vector<uint32_t> band(size_t(uint64_t(W) * 6 * 8));
+    const Status s = adapter.readRows(8, 8, 4, 6, band.data());
+    ASSERT_FALSE(s.isOk());
+    EXPECT_EQ(s.message(), "the input changed during compression (label 123456789 at voxel (5, 7, 12) was not there "
+                           "in the first pass)");
+}
+
+namespace {
+
 /// @brief A source that throws from readSlab (as an allocation inside a reader could).
 class ThrowingSource : public InputSource {
 public:

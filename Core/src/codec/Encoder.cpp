@@ -55,7 +55,9 @@ public:
 
     /// Encodes the brick whose voxels are `extent` (<= B per axis) labels of `slab` starting at
     /// (ox, oy, 0) of a slab W x H wide.
-    Status encode(const uint32_t* slab, uint32_t W, uint32_t H, uint32_t ox, uint32_t oy, uint32_t z0,
+    /// Encodes the brick at (ox, oy, z0) of `extent` from `band`: rows [y0, y0 + H) of W labels
+    /// of slices z0.., x fastest.
+    Status encode(const uint32_t* band, uint32_t W, uint32_t H, uint32_t y0, uint32_t ox, uint32_t oy, uint32_t z0,
                   const std::array<uint32_t, 3>& extent, BrickSymbols& out) {
         const uint32_t L = m_L, finest = L - 1;
         uint32_t* fin = m_label.data() + m_off[finest];
@@ -66,7 +68,7 @@ public:
         if (!m_inside) std::memset(finIn, 0, n);
         for (uint32_t z = 0; z < extent[2]; ++z)
             for (uint32_t y = 0; y < extent[1]; ++y) {
-                const uint32_t* row = slab + (uint64_t(z) * H + oy + y) * W + ox;
+                const uint32_t* row = band + (uint64_t(z) * H + (oy - y0) + y) * W + ox;
                 const uint32_t myz = (m_spread[y] << 1) | (m_spread[z] << 2);
                 // label + 1 wraps to 0 only for the reserved 0xFFFFFFFF: one min finds it in passing.
                 uint32_t smallestPlusOne = ~0u;
@@ -387,62 +389,80 @@ private:
     std::exception_ptr m_first;
 };
 
-/// Pass 1, slab by slab (one brick deep): level hierarchy, operations and symbols of every brick
-/// of the slab, handed to `take(bz, slabSymbols)` in slab order (bricks x fastest, then y).
+/// Rows a band holds: whole brick rows of about maxBandBytes when the source reads rows (at least
+/// one brick row, at most the slab), otherwise the whole slab.
+uint32_t bandRows(const SlabSource& source, uint32_t B, uint64_t maxBandBytes) {
+    const auto dim = source.dimensions();
+    if (!source.readsRows() || source.slabInMemory(0)) return dim[1];
+    const uint64_t brickRowBytes = uint64_t(dim[0]) * B * B * sizeof(uint32_t);
+    const uint64_t brickRows = std::max<uint64_t>(1, maxBandBytes / std::max<uint64_t>(brickRowBytes, 1));
+    return uint32_t(std::min<uint64_t>(dim[1], brickRows * B));
+}
+
+/// Pass 1, slab by slab (one brick deep), each slab band by band (bandRows): level hierarchy,
+/// operations and symbols of every brick of the slab, handed to `take(bz, slabSymbols)` in slab
+/// order (bricks x fastest, then y).
 Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const EncodeOptions& options,
-                     const std::function<Status(uint32_t, std::vector<BrickSymbols>&)>& take) {
-    const uint32_t B = vol.brickSize;
+                     uint64_t maxBandBytes, const std::function<Status(uint32_t, std::vector<BrickSymbols>&)>& take) {
+    const uint32_t B = vol.brickSize, W = vol.dim[0], H = vol.dim[1];
     const auto grid = vol.brickGrid();
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
-    const uint64_t slabVoxels = uint64_t(vol.dim[0]) * vol.dim[1] * B;
-    std::vector<uint32_t> slab;
+    const uint32_t rowsPerBand = bandRows(source, B, maxBandBytes);
+    std::vector<uint32_t> band;
     if (!source.slabInMemory(0)) {
+        const uint64_t bandVoxels = uint64_t(W) * rowsPerBand * B;
         try {
-            slab.resize(size_t(slabVoxels));
+            band.resize(size_t(bandVoxels));
         } catch (const std::bad_alloc&) {
-            return Status::error("out of memory for a slab of " + std::to_string(slabVoxels) + " labels");
+            return Status::error("out of memory for a slab of " + std::to_string(bandVoxels) + " labels");
         }
     }
-    const int nThreads = int(std::min<uint64_t>(uint64_t(threadsFor(options)), perSlab));
+    const int nThreads = int(std::min<uint64_t>(uint64_t(threadsFor(options)), uint64_t(grid[0]) * ((rowsPerBand + B - 1) / B)));
     std::vector<BrickSymbols> symbols;
     for (uint32_t bz = 0; bz < grid[2]; ++bz) {
         const uint32_t z0 = bz * B, depth = std::min(B, vol.dim[2] - z0);
-        const uint32_t* slabData = source.slabInMemory(z0);
-        if (!slabData) {
-            Status s = source.readSlab(z0, depth, slab.data());
-            if (!s) return s;
-            slabData = slab.data();
-        }
         symbols.assign(size_t(perSlab), BrickSymbols{});
-        std::mutex mutex;
-        Status error;
-        uint64_t errorBrick = ~uint64_t(0);
-        RegionExceptions thrown;
+        for (uint32_t y0 = 0; y0 < H; y0 += rowsPerBand) {
+            const uint32_t rows = std::min(rowsPerBand, H - y0);
+            const uint32_t* bandData = source.slabInMemory(z0);
+            if (!bandData) {
+                Status s = rows == H ? source.readSlab(z0, depth, band.data())
+                                     : source.readRows(z0, depth, y0, rows, band.data());
+                if (!s) return s;
+                bandData = band.data();
+            }
+            const uint64_t firstBrick = uint64_t(y0 / B) * grid[0];
+            const uint64_t bandBricks = uint64_t((rows + B - 1) / B) * grid[0];
+            std::mutex mutex;
+            Status error;
+            uint64_t errorBrick = ~uint64_t(0);
+            RegionExceptions thrown;
 #pragma omp parallel num_threads(nThreads)
-        {
-            std::optional<BrickEncoder> enc;
-            thrown.run([&] { enc.emplace(B, options.opMask); });
+            {
+                std::optional<BrickEncoder> enc;
+                thrown.run([&] { enc.emplace(B, options.opMask); });
 #pragma omp for schedule(dynamic, 1)
-            for (int64_t i = 0; i < int64_t(perSlab); ++i) {
-                if (!enc) continue;
-                const uint32_t bx = uint32_t(i % grid[0]), by = uint32_t(i / grid[0]);
-                const std::array<uint32_t, 3> extent = {std::min(B, vol.dim[0] - bx * B),
-                                                        std::min(B, vol.dim[1] - by * B), depth};
-                Status st;
-                thrown.run([&] {
-                    st = enc->encode(slabData, vol.dim[0], vol.dim[1], bx * B, by * B, z0, extent, symbols[size_t(i)]);
-                });
-                if (!st) {
-                    std::lock_guard<std::mutex> lock(mutex);
-                    if (uint64_t(i) < errorBrick) {
-                        errorBrick = uint64_t(i);
-                        error = st;
+                for (int64_t i = 0; i < int64_t(bandBricks); ++i) {
+                    if (!enc) continue;
+                    const uint64_t brick = firstBrick + uint64_t(i);
+                    const uint32_t bx = uint32_t(brick % grid[0]), by = uint32_t(brick / grid[0]);
+                    const std::array<uint32_t, 3> extent = {std::min(B, W - bx * B), std::min(B, H - by * B), depth};
+                    Status st;
+                    thrown.run([&] {
+                        st = enc->encode(bandData, W, rows, y0, bx * B, by * B, z0, extent, symbols[size_t(brick)]);
+                    });
+                    if (!st) {
+                        std::lock_guard<std::mutex> lock(mutex);
+                        if (brick < errorBrick) {
+                            errorBrick = brick;
+                            error = st;
+                        }
                     }
                 }
             }
+            thrown.rethrow();
+            if (!error.isOk()) return error;
         }
-        thrown.rethrow();
-        if (!error.isOk()) return error;
         Status s = take(bz, symbols);
         if (!s) return s;
     }
@@ -625,35 +645,88 @@ private:
     uint64_t m_bytes = 0;
 };
 
-/// What the allocator hands out per heap block beyond the bytes asked for (size word, rounding).
-constexpr uint64_t kHeapBlockOverhead = 16;
+/// @brief Bytes written front to back, then read back front to back: in memory, in blocks
+/// allocated at their full size (no vector doubling, no copy, no heap fragments), up to a limit;
+/// past it, everything moves to a ScratchFile and the blocks are freed.
+class Spool {
+public:
+    static constexpr size_t kBlockBytes = size_t(16) << 20;
 
-/// Bytes a held brick's symbols occupy in memory: the struct itself, its vectors' capacities (not
-/// sizes: push_back grows them geometrically) and a heap block's overhead for each vector.
-uint64_t symbolBytes(const BrickSymbols& s) {
-    return sizeof(BrickSymbols) + s.packed.capacity() + sizeof(uint32_t) * uint64_t(s.palette.capacity()) +
-           2 * kHeapBlockOverhead;
-}
+    Spool(std::string near, const char* what, uint64_t maxHeldBytes)
+        : m_near(std::move(near)), m_what(what), m_maxHeld(maxHeldBytes) {}
 
-Status spill(ScratchFile& file, const BrickSymbols& s) {
+    Status write(const void* data, size_t bytes) {
+        if (m_inFile) return m_file.write(data, bytes);
+        if (m_bytes + bytes > m_maxHeld) {
+            Status s = m_file.open(m_near, m_what);
+            for (size_t i = 0; s && i < m_blocks.size(); ++i)
+                s = m_file.write(m_blocks[i].get(), size_t(std::min<uint64_t>(kBlockBytes, m_bytes - i * kBlockBytes)));
+            if (!s) return s;
+            m_blocks.clear();
+            m_inFile = true;
+            return m_file.write(data, bytes);
+        }
+        const auto* p = static_cast<const uint8_t*>(data);
+        while (bytes > 0) {
+            const size_t at = size_t(m_bytes % kBlockBytes);
+            if (at == 0) m_blocks.push_back(std::make_unique<uint8_t[]>(kBlockBytes));
+            const size_t n = std::min(bytes, kBlockBytes - at);
+            std::memcpy(m_blocks.back().get() + at, p, n);
+            p += n;
+            bytes -= n;
+            m_bytes += n;
+        }
+        return Status::ok();
+    }
+    Status rewind() {
+        m_read = 0;
+        return m_inFile ? m_file.rewind() : Status::ok();
+    }
+    Status read(void* data, size_t bytes) {
+        if (m_inFile) return m_file.read(data, bytes);
+        if (m_read + bytes > m_bytes) return Status::error("the held symbols ended early");
+        auto* p = static_cast<uint8_t*>(data);
+        while (bytes > 0) {
+            const size_t at = size_t(m_read % kBlockBytes);
+            const size_t n = std::min(bytes, kBlockBytes - at);
+            std::memcpy(p, m_blocks[size_t(m_read / kBlockBytes)].get() + at, n);
+            p += n;
+            bytes -= n;
+            m_read += n;
+        }
+        return Status::ok();
+    }
+    bool inFile() const { return m_inFile; }
+
+private:
+    std::string m_near;
+    const char* m_what;
+    uint64_t m_maxHeld;
+    std::vector<std::unique_ptr<uint8_t[]>> m_blocks;
+    uint64_t m_bytes = 0, m_read = 0;
+    bool m_inFile = false;
+    ScratchFile m_file;
+};
+
+Status spill(Spool& spool, const BrickSymbols& s) {
     const uint32_t head[2] = {s.count, uint32_t(s.palette.size())};
-    Status st = file.write(head, sizeof head);
-    if (st) st = file.write(s.levelStart.data(), sizeof s.levelStart);
-    if (st) st = file.write(s.packed.data(), s.packed.size());
-    if (st) st = file.write(s.palette.data(), 4 * s.palette.size());
+    Status st = spool.write(head, sizeof head);
+    if (st) st = spool.write(s.levelStart.data(), sizeof s.levelStart);
+    if (st) st = spool.write(s.packed.data(), s.packed.size());
+    if (st) st = spool.write(s.palette.data(), 4 * s.palette.size());
     return st;
 }
 
-Status unspill(ScratchFile& file, BrickSymbols& s) {
+Status unspill(Spool& spool, BrickSymbols& s) {
     uint32_t head[2];
-    Status st = file.read(head, sizeof head);
+    Status st = spool.read(head, sizeof head);
     if (!st) return st;
     s.count = head[0];
     s.packed.resize((size_t(head[0]) + 1) / 2);
     s.palette.resize(head[1]);
-    st = file.read(s.levelStart.data(), sizeof s.levelStart);
-    if (st) st = file.read(s.packed.data(), s.packed.size());
-    if (st) st = file.read(s.palette.data(), 4 * s.palette.size());
+    st = spool.read(s.levelStart.data(), sizeof s.levelStart);
+    if (st) st = spool.read(s.packed.data(), s.packed.size());
+    if (st) st = spool.read(s.palette.data(), 4 * s.palette.size());
     return st;
 }
 
@@ -675,6 +748,16 @@ private:
 };
 
 } // namespace
+
+uint64_t encoderBandBytes(const SlabSource& source, uint32_t brickSize, uint64_t maxBandBytes) {
+    if (source.slabInMemory(0)) return 0;
+    return uint64_t(source.dimensions()[0]) * bandRows(source, brickSize, maxBandBytes) * brickSize * sizeof(uint32_t);
+}
+
+Status SlabSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
+    if (y0 == 0 && rows == dimensions()[1]) return readSlab(z0, depth, out);
+    return Status::error("this label source reads whole slices only");
+}
 
 Result<uint32_t> parseOperationMask(const std::string& text) {
     if (text == "default") return uint32_t(kMaskDefault);
@@ -733,7 +816,8 @@ Result<CompressedVolume> encodeVolumeSteps(SlabSource& source, const EncodeOptio
 
     std::vector<BrickSymbols> symbols(static_cast<size_t>(bricks));
     SymbolCounts counts;
-    Status s = symbolsBySlab(source, vol, options, [&](uint32_t bz, std::vector<BrickSymbols>& slab) {
+    Status s = symbolsBySlab(source, vol, options, EncodeToFileOptions().maxBandBytes,
+                             [&](uint32_t bz, std::vector<BrickSymbols>& slab) {
         for (size_t i = 0; i < slab.size(); ++i) {
             counts.add(slab[i], vol.encoding);
             symbols[size_t(bz * perSlab + i)] = std::move(slab[i]);
@@ -797,36 +881,22 @@ Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const
     const auto progress = [&](double f) { return !fileOptions.progress || fileOptions.progress(f); };
     const Status cancelled = Status::error("cancelled");
 
-    // Pass 1: symbols, held or spilled, and their counts.
-    std::vector<BrickSymbols> held;
-    uint64_t heldBytes = 0;
-    ScratchFile symbolFile;
-    bool spilling = false;
+    // Pass 1: symbols, serialized into a spool (held up to heldSymbolBytes, then in a scratch
+    // file), and their counts.
+    Spool symbols(path, "symbols", fileOptions.heldSymbolBytes);
     SymbolCounts counts;
-    Status s = symbolsBySlab(source, vol, options, [&](uint32_t bz, std::vector<BrickSymbols>& slab) -> Status {
-        for (BrickSymbols& b : slab) {
-            counts.add(b, vol.encoding);
-            heldBytes += symbolBytes(b);
-            held.push_back(std::move(b));
-        }
-        if (!spilling && heldBytes > fileOptions.heldSymbolBytes) {
-            Status st = symbolFile.open(path, "symbols");
-            if (!st) return st;
-            spilling = true;
-        }
-        if (spilling) {
-            for (const BrickSymbols& b : held) {
-                Status st = spill(symbolFile, b);
-                if (!st) return st;
-            }
-            std::vector<BrickSymbols>().swap(held);
-        }
-        return progress(0.8 * (bz + 1) / grid[2]) ? Status::ok() : cancelled;
-    });
+    Status s = symbolsBySlab(source, vol, options, fileOptions.maxBandBytes,
+                             [&](uint32_t bz, std::vector<BrickSymbols>& slab) -> Status {
+                                 for (const BrickSymbols& b : slab) {
+                                     counts.add(b, vol.encoding);
+                                     if (Status st = spill(symbols, b); !st) return st;
+                                 }
+                                 return progress(0.8 * (bz + 1) / grid[2]) ? Status::ok() : cancelled;
+                             });
     if (!s) return s;
     s = chooseTables(options, counts, vol);
     if (!s) return s;
-    if (spilling && !(s = symbolFile.rewind())) return s;
+    if (!(s = symbols.rewind())) return s;
 
     // Pass 2: words, slab by slab of bricks, into the words scratch file.
     const BrickAssembler assembler(vol);
@@ -837,14 +907,9 @@ Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const
     std::vector<std::vector<uint32_t>> words;
     for (uint64_t first = 0; first < bricks; first += perSlab) {
         const uint64_t n = std::min(perSlab, bricks - first);
-        if (spilling) {
-            batch.resize(size_t(n));
-            for (BrickSymbols& b : batch)
-                if (!(s = unspill(symbolFile, b))) return s;
-        } else {
-            batch.clear();
-            for (uint64_t i = 0; i < n; ++i) batch.push_back(std::move(held[size_t(first + i)]));
-        }
+        batch.resize(size_t(n));
+        for (BrickSymbols& b : batch)
+            if (!(s = unspill(symbols, b))) return s;
         assembler.assemble(batch, words, threadsFor(options));
         for (uint64_t i = 0; i < n; ++i) {
             const std::vector<uint32_t>& w = words[size_t(i)];
@@ -854,7 +919,6 @@ Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const
         }
         if (!progress(0.8 + 0.1 * double(first + n) / double(bricks))) return cancelled;
     }
-    std::vector<BrickSymbols>().swap(held);
     std::vector<BrickSymbols>().swap(batch);
     words.clear();
     Result<ArrayLayout> layout = layoutArrays(sizes, options, fileOptions.maxOutputBytes);

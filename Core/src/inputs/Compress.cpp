@@ -42,9 +42,14 @@ public:
                         std::to_string(spec.seed);
     }
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
-        const size_t n = size_t(uint64_t(m_info.dim[0]) * m_info.dim[1] * depth);
+        return readRows(z0, depth, 0, m_info.dim[1], out);
+    }
+    bool readsRows() const override { return true; }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) override {
+        if (Status s = inputs::checkRows(m_info, z0, depth, y0, rows, "synth"); !s) return s;
+        const size_t n = size_t(uint64_t(m_info.dim[0]) * rows * depth);
         m_labels.resize(n);
-        if (Status s = m_generator.readSlab(z0, depth, m_labels.data()); !s) return s;
+        if (Status s = m_generator.readRows(z0, depth, y0, rows, m_labels.data()); !s) return s;
         std::copy(m_labels.begin(), m_labels.end(), out);
         return Status::ok();
     }
@@ -151,13 +156,27 @@ LabelSlabAdapter::LabelSlabAdapter(InputSource& source, const StreamingRelabelle
     : m_source(source), m_relabeller(relabeller), m_maxScratchBytes(maxScratchBytes) {}
 
 Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
+    return readRegion(z0, depth, 0, m_source.info().dim[1], out);
+}
+
+Status LabelSlabAdapter::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
+    return readRegion(z0, depth, y0, rows, out);
+}
+
+Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
     const auto& dim = m_source.info().dim;
-    const uint64_t slice = uint64_t(dim[0]) * dim[1];
+    const bool whole = y0 == 0 && rows == dim[1];
+    const uint64_t slice = uint64_t(dim[0]) * rows;
     const uint32_t step = subSlabDepth(slice, depth, m_maxScratchBytes);
     m_scratch.resize(size_t(slice * step));
+    const auto where = [&](size_t i, uint32_t z) {
+        return "(" + std::to_string(i % dim[0]) + ", " + std::to_string(y0 + (i / dim[0]) % rows) + ", " +
+               std::to_string(z + i / slice) + ")";
+    };
     return forEachSubSlab(z0, depth, step, [&](uint32_t z, uint32_t d) -> Status {
         const size_t n = size_t(slice * d);
-        if (Status s = m_source.readSlab(z, d, m_scratch.data()); !s) return s;
+        Status read = whole ? m_source.readSlab(z, d, m_scratch.data()) : m_source.readRows(z, d, y0, rows, m_scratch.data());
+        if (!read) return read;
         m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
         uint32_t* dst = out + slice * (z - z0);
         if (m_relabeller) {
@@ -166,13 +185,13 @@ Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
             const uint64_t v = m_scratch[miss];
             const std::string label = isSignedType(m_source.info().type) ? std::to_string(int64_t(v)) : std::to_string(v);
             return Status::error("the input changed during compression (label " + label + " at voxel " +
-                                 voxelText(miss, dim, z) + " was not there in the first pass)");
+                                 where(miss, z) + " was not there in the first pass)");
         }
         for (size_t i = 0; i < n; ++i) {
             const uint64_t v = m_scratch[i];
             if (!labelFitsFormat(v)) {
                 m_misfit = true;
-                return Status::error("voxel " + voxelText(i, dim, z) + " holds a label that does not fit the format");
+                return Status::error("voxel " + where(i, z) + " holds a label that does not fit the format");
             }
             dst[i] = uint32_t(v);
         }
@@ -238,10 +257,6 @@ struct Job {
             message.replace(at, tmp.size(), output);
         return named(Status::error(message), input);
     }
-    uint64_t encoderSlabBytes() const {
-        const auto& d = source->info().dim;
-        return uint64_t(d[0]) * d[1] * options.encode.brickSize * 4;
-    }
 
     /// Opens the input (unless a source is given) and fills what is known before any voxel is read.
     Status open(InputSource* given) {
@@ -275,12 +290,13 @@ struct Job {
         if (synth) {
             // The generator's labels always fit: no adapter, no scratch.
             ProceduralSlabSource generator(*parseSynthSpec(input));
-            rep.workingBytes = encoderSlabBytes();
+            rep.workingBytes = encoderBandBytes(generator, options.encode.brickSize);
             return encodePass(generator, options, tmp, progress, outputBytes);
         }
         LabelSlabAdapter adapter(*source, nullptr);
         Status s = encodePass(adapter, options, tmp, progress, outputBytes);
-        rep.workingBytes = encoderSlabBytes() + adapter.scratchBytes() + adapter.maxSourceWorkingBytes();
+        rep.workingBytes = encoderBandBytes(adapter, options.encode.brickSize) + adapter.scratchBytes() +
+                           adapter.maxSourceWorkingBytes();
         misfit = !s && adapter.misfit() && !progress.cancelled();
         return s;
     }
@@ -302,7 +318,8 @@ struct Job {
         mapping.relabelled = true;
         mapping.originalBits = relabeller.originalBits();
         if (synth) md.originalType = labelTypeName(LabelType::U32);
-        rep.workingBytes = std::max(rep.workingBytes, encoderSlabBytes() + adapter.scratchBytes() +
+        rep.workingBytes = std::max(rep.workingBytes, encoderBandBytes(adapter, options.encode.brickSize) +
+                                                          adapter.scratchBytes() +
                                                           relabeller.memoryBytes() +
                                                           std::max(sourceWorking, adapter.maxSourceWorkingBytes()));
         return Status::ok();

@@ -18,9 +18,9 @@
 ///   origin (centre of voxel 0) from `offset` (CREMI) or `origin`. Spacing 1 and origin 0 when
 ///   absent; an attribute of another shape or with a non-positive spacing is ignored and the
 ///   detail line says so.
-/// - Working memory: HDF5 reads each slab's values straight into the caller's buffer at their
-///   native width and they are widened there in place (back to front), so no slab-sized
-///   temporary exists. Between calls the source holds the dataset's chunk cache: one layer of
+/// - Working memory: HDF5 reads each slab's (or band of rows', readRows) values straight into the
+///   caller's buffer at their native width and they are widened there in place (back to front),
+///   so no slab-sized temporary exists. Between calls the source holds the dataset's chunk cache: one layer of
 ///   chunks along z (every chunk a z range touches) when that fits InputOptions::maxWorkingBytes,
 ///   so that chunks deeper than the caller's slab are not decompressed again for the next slab;
 ///   otherwise one chunk, and each chunk is then decompressed once per slab that touches it.
@@ -584,24 +584,31 @@ public:
     }
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override {
-        if (Status s = checkSlab(m_info, z0, depth, m_path); !s) return s;
-        if (depth == 0) return Status::ok();
+        return readRows(z0, depth, 0, m_info.dim[1], out);
+    }
+
+    /// A hyperslab of rows costs its chunks only: bands of rows are as cheap as slices.
+    bool readsRows() const override { return true; }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) override {
+        if (Status s = checkRows(m_info, z0, depth, y0, rows, m_path); !s) return s;
+        if (depth == 0 || rows == 0) return Status::ok();
         Hdf5Scope scope;
-        if (Status s = readNative(z0, depth, out); !s) return s;
-        return widen(z0, size_t(uint64_t(m_info.dim[0]) * m_info.dim[1] * depth), out);
+        if (Status s = readNative(z0, depth, y0, rows, out); !s) return s;
+        return widen(z0, y0, rows, size_t(uint64_t(m_info.dim[0]) * rows * depth), out);
     }
 
     uint64_t workingBytes() const override { return m_cacheBytes; }
 
 private:
-    /// The slab's voxels at their native width, packed at the start of `out`.
-    Status readNative(uint32_t z0, uint32_t depth, uint64_t* out) {
+    /// The region's voxels at their native width, packed at the start of `out`.
+    Status readNative(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) {
         const size_t rank = m_axes.dims.size();
         std::vector<hsize_t> start(rank, 0), count(rank, 1);
         const size_t z = size_t(m_axes.zAxis);
         start[z] = z0;
         count[z] = depth;
-        count[z + 1] = m_info.dim[1];
+        start[z + 1] = y0;
+        count[z + 1] = rows;
         count[z + 2] = m_info.dim[0];
         // The memory space has the selection's shape: HDF5 then maps chunks to memory by blocks
         // (a 1D memory space made it map element by element, at a fifth of the speed).
@@ -615,7 +622,7 @@ private:
         return Status::ok();
     }
 
-    Status widen(uint32_t z0, size_t n, uint64_t* out) const {
+    Status widen(uint32_t z0, uint32_t y0, uint32_t rows, size_t n, uint64_t* out) const {
         switch (m_type.type) {
         case LabelType::U8: widenInPlace<uint8_t>(out, n); break;
         case LabelType::I8: widenInPlace<int8_t>(out, n); break;
@@ -625,19 +632,19 @@ private:
         case LabelType::I32: widenInPlace<int32_t>(out, n); break;
         case LabelType::U64:
         case LabelType::I64: break;
-        case LabelType::F32: return floatsToIntegers<float>(z0, n, out);
-        case LabelType::F64: return floatsToIntegers<double>(z0, n, out);
+        case LabelType::F32: return floatsToIntegers<float>(z0, y0, rows, n, out);
+        case LabelType::F64: return floatsToIntegers<double>(z0, y0, rows, n, out);
         }
         return Status::ok();
     }
 
     template <typename F>
-    Status floatsToIntegers(uint32_t z0, size_t n, uint64_t* out) const {
+    Status floatsToIntegers(uint32_t z0, uint32_t y0, uint32_t rows, size_t n, uint64_t* out) const {
         double bad = 0;
         const size_t i = firstNonInteger<F>(out, n, bad);
         if (i < n) {
-            const uint64_t w = m_info.dim[0], h = m_info.dim[1];
-            return fail(m_path, "voxel (x " + std::to_string(i % w) + ", y " + std::to_string(i / w % h) + ", z " +
+            const uint64_t w = m_info.dim[0], h = rows;
+            return fail(m_path, "voxel (x " + std::to_string(i % w) + ", y " + std::to_string(y0 + i / w % h) + ", z " +
                                     std::to_string(z0 + i / (w * h)) + ") " + notAnIntegerLabel(bad) + " (" +
                                     labelTypeName(m_type.type) +
                                     " voxels must hold integers within int64)");

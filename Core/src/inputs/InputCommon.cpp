@@ -154,6 +154,13 @@ Status checkSlab(const InputInfo& info, uint32_t z0, uint32_t depth, const std::
                           " is beyond the volume's depth " + std::to_string(info.dim[2]));
 }
 
+Status checkRows(const InputInfo& info, uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, const std::string& path) {
+    if (Status s = checkSlab(info, z0, depth, path); !s) return s;
+    if (uint64_t(y0) + rows <= info.dim[1]) return Status::ok();
+    return fail(path, "rows y " + std::to_string(y0) + " to " + std::to_string(uint64_t(y0) + rows) +
+                          " are beyond the volume's height " + std::to_string(info.dim[1]));
+}
+
 Status checkDimensions(const InputInfo& info, const std::string& path) {
     if (mulSaturate(product3(info.dim[0], info.dim[1], info.dim[2]), 8) != kSaturated) return Status::ok();
     return fail(path, dimText({{info.dim[0], info.dim[1], info.dim[2]}}) +

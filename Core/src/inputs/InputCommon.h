@@ -96,6 +96,8 @@ Status readBoundedFile(const std::string& file, uint64_t limit, std::vector<uint
 
 /// The one check at the top of every readSlab: [z0, z0 + depth) must lie inside the volume.
 Status checkSlab(const InputInfo& info, uint32_t z0, uint32_t depth, const std::string& path);
+/// The same for readRows: the slab, and rows [y0, y0 + rows) inside the volume.
+Status checkRows(const InputInfo& info, uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, const std::string& path);
 /// Refuses (naming `path`) dimensions whose full-width values would need 2^64 bytes or more, so
 /// that InputInfo::voxelCount() and every product built on it are exact. openInput calls it on
 /// every opened source.

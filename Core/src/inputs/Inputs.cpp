@@ -78,6 +78,11 @@ std::string supportedInputForms() {
     return list;
 }
 
+Status InputSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) {
+    if (y0 == 0 && rows == m_info.dim[1]) return readSlab(z0, depth, out);
+    return Status::error(m_info.format + " input reads whole slices only");
+}
+
 Result<std::unique_ptr<InputSource>> openInput(const std::string& path, const InputOptions& options) {
     const Format* f = formatOf(path);
     if (!f) return inputs::fail(path, "unsupported input format; supported are " + supportedInputForms());

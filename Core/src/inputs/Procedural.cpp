@@ -173,16 +173,20 @@ Result<LabelVolume> generateVolume(const SynthSpec& spec, uint64_t maxBytes) {
 }
 
 Status ProceduralSlabSource::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
-    // Parallel over chunks of rows: each chunk is an independent box.
-    const uint32_t W = m_spec.dim[0], H = m_spec.dim[1];
-    const uint32_t rows = 32;
-    const int64_t chunksPerSlice = (H + rows - 1) / rows;
-    const int64_t chunks = chunksPerSlice * depth;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(int(std::min<int64_t>(omp_get_max_threads(), chunks)))
-    for (int64_t c = 0; c < chunks; ++c) {
-        const uint32_t z = uint32_t(c / chunksPerSlice), y0 = uint32_t(c % chunksPerSlice) * rows;
-        const uint32_t h = std::min(rows, H - y0);
-        generateBox(m_spec, {0, y0, z0 + z}, {W, h, 1}, out + (uint64_t(z) * H + y0) * W);
+    return readRows(z0, depth, 0, m_spec.dim[1], out);
+}
+
+Status ProceduralSlabSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
+    // Parallel over pieces of a few rows of one slice: each piece is an independent box.
+    const uint32_t W = m_spec.dim[0];
+    const uint32_t step = 32;
+    const int64_t piecesPerSlice = (rows + step - 1) / step;
+    const int64_t pieces = piecesPerSlice * depth;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(int(std::min<int64_t>(omp_get_max_threads(), pieces)))
+    for (int64_t c = 0; c < pieces; ++c) {
+        const uint32_t z = uint32_t(c / piecesPerSlice), y = uint32_t(c % piecesPerSlice) * step;
+        const uint32_t h = std::min(step, rows - y);
+        generateBox(m_spec, {0, y0 + y, z0 + z}, {W, h, 1}, out + (uint64_t(z) * rows + y) * W);
     }
     return Status::ok();
 }

@@ -40,12 +40,21 @@ struct EncodeOptions {
 
 /// @brief Labels delivered slab by slab: z-slabs of brickSize slices (fewer at the end), x fastest.
 /// Labels must not be 0xFFFFFFFF (reserved).
+///
+/// A source that can read part of a slab as cheaply as all of it (a chunked or uncompressed file,
+/// a generator) says so with readsRows(); the encoder then reads each slab in bands of brick
+/// rows (EncodeToFileOptions::maxBandBytes), so its memory no longer grows with W * H.
 class SlabSource {
 public:
     virtual ~SlabSource() = default;
     virtual std::array<uint32_t, 3> dimensions() const = 0;
     /// Fills out (W * H * depth labels) with slices [z0, z0 + depth).
     virtual Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) = 0;
+    /// True when readRows works (and is not much dearer per voxel than readSlab).
+    virtual bool readsRows() const { return false; }
+    /// Fills out (W * rows * depth labels, x fastest) with rows [y0, y0 + rows) of slices
+    /// [z0, z0 + depth). Called only when readsRows(); the default reads whole slices only.
+    virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out);
     /// Sources already in memory return slice z0's labels here, saving readSlab's copy.
     virtual const uint32_t* slabInMemory(uint32_t /*z0*/) const { return nullptr; }
 };
@@ -63,6 +72,9 @@ struct EncodeToFileOptions {
     /// Brick symbols (pass 1's result, a few times the output) are held in memory up to this
     /// many bytes; beyond it, all of them go to a scratch file beside the output.
     uint64_t heldSymbolBytes = uint64_t(256) << 20;
+    /// Labels read at once from a source that readsRows(): bands of whole brick rows of about this
+    /// many bytes (at least one brick row, at most the slab). Other sources give whole slabs.
+    uint64_t maxBandBytes = uint64_t(64) << 20;
     /// Called after each slab of bricks and while writing, with the fraction done (0..1);
     /// returning false cancels (nothing is left at `path`).
     std::function<bool(double fraction)> progress;
@@ -70,11 +82,16 @@ struct EncodeToFileOptions {
 
 /// Encodes from a slab source straight into a `.csgv` file at `path` (written under a temporary
 /// name and renamed), giving the bytes writeCsgv(encodeVolume(...)) gives. Unlike encodeVolume,
-/// the compressed volume is never in memory at once: memory is one slab of labels, the held
-/// symbols (bounded, see heldSymbolBytes), one slab of bricks' words and 4 bytes a brick; the
-/// rest passes through two scratch files beside the output, unlinked while open.
+/// the compressed volume is never in memory at once: memory is one band of labels (a slab unless
+/// the source readsRows), the held symbols (serialized, bounded by heldSymbolBytes), one slab of
+/// bricks' symbols and words and 4 bytes a brick; the rest passes through two scratch files
+/// beside the output, unlinked while open.
 Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
                     const EncodeToFileOptions& fileOptions = {}, uint64_t* outputBytes = nullptr);
+
+/// Bytes of labels encodeToFile holds for `source` at once (its band; 0 for a source in memory).
+uint64_t encoderBandBytes(const SlabSource& source, uint32_t brickSize,
+                          uint64_t maxBandBytes = EncodeToFileOptions().maxBandBytes);
 
 /// Encodes from a slab source; `maxOutputBytes` bounds the compressed result.
 Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options,

@@ -14,7 +14,8 @@
 /// uint32/uint64 case) are read once, and a restart wastes at most one partial encode, where a
 /// pre-scan would cost every such file a full extra read.
 ///
-/// Working memory: the encoder's slab (W * H * brickSize * 4 bytes) + the adapter's scratch
+/// Working memory: the encoder's band (a slab, W * H * brickSize * 4 bytes, unless the input
+/// reads rows: then about EncodeToFileOptions::maxBandBytes) + the adapter's scratch
 /// (kScratchBytes, at least one slice at 8 bytes a voxel) + the source's working set
 /// (InputSource::workingBytes) + the label map when relabelling (about 50 bytes a label) + what
 /// encodeToFile holds for the output.
@@ -85,11 +86,16 @@ public:
     LabelSlabAdapter(InputSource& source, const StreamingRelabeller* relabeller, uint64_t maxScratchBytes = kScratchBytes);
     std::array<uint32_t, 3> dimensions() const override { return m_source.info().dim; }
     Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override;
+    /// Bands of rows when the input reads rows (InputSource::readsRows), else whole slabs.
+    bool readsRows() const override { return m_source.readsRows(); }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override;
     bool misfit() const { return m_misfit; }
     uint64_t scratchBytes() const { return m_scratch.capacity() * sizeof(uint64_t); }
     uint64_t maxSourceWorkingBytes() const { return m_maxSourceWorking; }
 
 private:
+    Status readRegion(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out);
+
     InputSource& m_source;
     const StreamingRelabeller* m_relabeller;
     uint64_t m_maxScratchBytes;

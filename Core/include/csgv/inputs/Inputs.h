@@ -81,6 +81,12 @@ public:
     virtual ~InputSource() = default;
     const InputInfo& info() const { return m_info; }
     virtual Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) = 0;
+    /// True when readRows reads part of a slice for about its share of a whole slice's cost
+    /// (chunked and uncompressed files), so the encoder may read bands of rows and hold less.
+    virtual bool readsRows() const { return false; }
+    /// Rows [y0, y0 + rows) of slices [z0, z0 + depth): out[x + W * ((y - y0) + rows * (z - z0))],
+    /// the values readSlab gives there, under the same contract. The default reads whole slices only.
+    virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out);
     /// Bytes of caches held between calls (for reports and the memory tests).
     virtual uint64_t workingBytes() const { return 0; }
 

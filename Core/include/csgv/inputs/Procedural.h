@@ -41,6 +41,8 @@ public:
     explicit ProceduralSlabSource(const SynthSpec& spec) : m_spec(spec) {}
     std::array<uint32_t, 3> dimensions() const override { return m_spec.dim; }
     Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override;
+    bool readsRows() const override { return true; }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override;
 
 private:
     SynthSpec m_spec;
