@@ -338,6 +338,18 @@ Status VoxelFileSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
     return m_data.compressed ? readCompressed(slice * z0, slice * depth, out) : readRaw(slice * z0, slice * depth, out);
 }
 
+Status VoxelFileSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) {
+    if (m_data.compressed || (y0 == 0 && rows == m_info.dim[1])) return InputSource::readRows(z0, depth, y0, rows, out);
+    if (Status s = checkRows(m_info, z0, depth, y0, rows, m_path); !s) return s;
+    if (depth == 0 || rows == 0) return Status::ok();
+    if (m_buffer.empty())
+        if (Status s = resizeOrFail(m_buffer, m_chunkBytes, m_path); !s) return s;
+    const uint64_t W = m_info.dim[0], slice = W * m_info.dim[1], band = W * rows;
+    for (uint32_t z = 0; z < depth; ++z)
+        if (Status s = readRaw(slice * (z0 + z) + W * y0, band, out + band * z); !s) return s;
+    return Status::ok();
+}
+
 Status VoxelFileSource::readRaw(uint64_t first, uint64_t count, uint64_t* out) {
     const uint64_t perChunk = m_chunkBytes / m_width;
     for (uint64_t done = 0; done < count;) {

@@ -180,6 +180,9 @@ public:
     ~VoxelFileSource() override;
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override;
+    /// Uncompressed data reads rows (one pread per slice); a compressed stream reads whole slices.
+    bool readsRows() const override { return !m_data.compressed; }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) override;
     uint64_t workingBytes() const override;
 
 protected:
