@@ -228,6 +228,7 @@ class RowSlabSource : public CopySlabSource {
 public:
     explicit RowSlabSource(const LabelVolume& v) : CopySlabSource(v), m_v(v) {}
     bool readsRows() const override { return true; }
+    uint32_t chunkDepth() const override { return chunks; }
     Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override {
         bands.push_back({z0, depth, y0, rows});
         const uint32_t W = m_v.dim[0], H = m_v.dim[1];
@@ -237,6 +238,7 @@ public:
         return Status::ok();
     }
     std::vector<std::array<uint32_t, 4>> bands;
+    uint32_t chunks = 1;
 
 private:
     const LabelVolume& m_v;
@@ -273,6 +275,22 @@ TEST(Encoder, ToFileReadsBandsOfBrickRowsFromSourcesThatReadRows) {
             for (uint32_t y0 = 0; y0 < 60; y0 += rows) want.push_back({z0, std::min(16u, 50 - z0), y0, std::min(rows, 60 - y0)});
         EXPECT_EQ(slabs.bands, want) << maxBand;
     }
+    // A source stored in chunks 20 slices deep is read in bands two slabs (32 slices) deep, so that
+    // no chunk is read twice; same bytes. The budget counts the depth: one brick row here.
+    {
+        RowSlabSource slabs(src);
+        slabs.chunks = 20;
+        EncodeToFileOptions fo;
+        fo.maxBandBytes = 2 * brickRow + 5;
+        EXPECT_EQ(encoderBandBytes(slabs, 16, fo.maxBandBytes), uint64_t(70) * 16 * 32 * 4);
+        const std::string path = tempDir() + "/deep-bands.csgv";
+        ASSERT_TRUE(encodeToFile(slabs, o, path, fo).isOk());
+        EXPECT_TRUE(readBytes(path) == serializeCsgv(*mem));
+        std::vector<std::array<uint32_t, 4>> want;
+        for (uint32_t z0 : {0u, 32u})
+            for (uint32_t y0 = 0; y0 < 60; y0 += 16) want.push_back({z0, z0 ? 18u : 32u, y0, std::min(16u, 60 - y0)});
+        EXPECT_EQ(slabs.bands, want);
+    }
     // A plain source is read in whole slabs whatever the budget.
     CopySlabSource plain(src);
     EXPECT_EQ(encoderBandBytes(plain, 16, 1), uint64_t(70) * 60 * 16 * 4);
@@ -289,6 +307,13 @@ TEST(Encoder, ReservedLabelInABandIsReportedAtItsVoxel) {
     const Status s = encodeToFile(slabs, o, tempDir() + "/reserved-band.csgv", fo);
     ASSERT_FALSE(s.isOk());
     EXPECT_NE(s.message().find("label 0xFFFFFFFF at voxel (7, 33, 18) is reserved"), std::string::npos) << s.message();
+    // In a band two slabs deep, the first brick in file order is named, not the first one encoded.
+    src.labels[size_t(39 + 40 * (39 + 40 * 3))] = kInvalidLabel;
+    RowSlabSource deep(src);
+    deep.chunks = 32;
+    const Status d = encodeToFile(deep, o, tempDir() + "/reserved-band.csgv", fo);
+    ASSERT_FALSE(d.isOk());
+    EXPECT_NE(d.message().find("label 0xFFFFFFFF at voxel (39, 39, 3) is reserved"), std::string::npos) << d.message();
 }
 
 TEST(Encoder, ToFileGivesTheBytesOfTheInMemoryEncoderHeldSpilledAndSplit) {

@@ -140,6 +140,38 @@ TEST(Hdf5Input, ChunkCacheFollowsTheWorkingMemoryLimit) {
                     "dataset /labels has chunks of 2240 bytes, more than the working-memory limit of 2000");
 }
 
+TEST(Hdf5Input, BandsOfWholeChunkLayersKeepOnlyTheirChunks) {
+    // chunks 8 (z) x 10 (y) x 7 (x) over 19 x 23 x 29: 3 chunk rows of 5 chunks per layer.
+    std::unique_ptr<InputSource> s = open(fx("chunked_gzip.h5"));
+    ASSERT_NE(s, nullptr);
+    EXPECT_EQ(s->info().chunkDepth, 8u);
+    ASSERT_TRUE(s->readsRows());
+    const std::vector<uint64_t> want = expected("chunked_gzip_labels");
+    const auto read = [&](uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows) {
+        std::vector<uint64_t> band(size_t(29) * rows * depth);
+        const csgv::Status st = s->readRows(z0, depth, y0, rows, band.data());
+        EXPECT_TRUE(st.isOk()) << st.message();
+        for (size_t i = 0; i < band.size(); ++i) {
+            const size_t x = i % 29, y = y0 + i / 29 % rows, z = z0 + i / (29 * rows);
+            if (band[i] != want[x + 29 * (y + 23 * z)]) {
+                ADD_FAILURE() << "voxel (" << x << ", " << y << ", " << z << ")";
+                break;
+            }
+        }
+        return s->workingBytes();
+    };
+    // A band 5 rows tall touches at most 2 chunk rows: 2 * 5 chunks, not the layer's 15.
+    EXPECT_EQ(read(0, 8, 0, 5), 10u * 2240u);
+    EXPECT_EQ(read(0, 8, 5, 5), 10u * 2240u);
+    EXPECT_EQ(read(16, 3, 18, 5), 10u * 2240u); // the last layer is partial: still whole
+    EXPECT_EQ(read(0, 16, 0, 5), 20u * 2240u);  // two layers deep
+    // Anything else goes back to the layer cache: slabs, bands off the chunk grid, whole slices.
+    EXPECT_EQ(read(4, 8, 0, 5), 15u * 2240u);
+    EXPECT_EQ(read(8, 8, 0, 5), 10u * 2240u); // bands again
+    EXPECT_EQ(read(8, 8, 0, 23), 15u * 2240u);
+    csgvtest::expectSourceContract(*s, want);
+}
+
 TEST(Hdf5Input, ContiguousUint16) {
     std::unique_ptr<InputSource> s = open(fx("contiguous_u16.h5"));
     ASSERT_NE(s, nullptr);

@@ -389,41 +389,55 @@ private:
     std::exception_ptr m_first;
 };
 
-/// Rows a band holds: whole brick rows of about maxBandBytes when the source reads rows (at least
-/// one brick row, at most the slab), otherwise the whole slab.
-uint32_t bandRows(const SlabSource& source, uint32_t B, uint64_t maxBandBytes) {
+/// @brief How pass 1 reads the labels: bands of `rows` rows (whole brick rows) of `slabs`
+/// brick-deep slabs at once. A source that does not read rows gives whole slabs, one at a time;
+/// one that does is read in bands of about maxBandBytes, as deep as its chunks (chunkDepth()) so
+/// that no chunk is read twice.
+struct BandShape {
+    uint32_t rows = 0;
+    uint32_t slabs = 1;
+};
+
+BandShape bandShape(const SlabSource& source, uint32_t B, uint64_t maxBandBytes) {
     const auto dim = source.dimensions();
-    if (!source.readsRows() || source.slabInMemory(0)) return dim[1];
-    const uint64_t brickRowBytes = uint64_t(dim[0]) * B * B * sizeof(uint32_t);
+    BandShape shape;
+    shape.rows = dim[1];
+    if (!source.readsRows() || source.slabInMemory(0)) return shape;
+    const uint32_t slabsPerVolume = (dim[2] + B - 1) / B;
+    shape.slabs = std::clamp<uint32_t>((source.chunkDepth() + B - 1) / B, 1, std::max(slabsPerVolume, 1u));
+    const uint64_t brickRowBytes = uint64_t(dim[0]) * B * B * shape.slabs * sizeof(uint32_t);
     const uint64_t brickRows = std::max<uint64_t>(1, maxBandBytes / std::max<uint64_t>(brickRowBytes, 1));
-    return uint32_t(std::min<uint64_t>(dim[1], brickRows * B));
+    shape.rows = uint32_t(std::min<uint64_t>(dim[1], brickRows * B));
+    return shape;
 }
 
-/// Pass 1, slab by slab (one brick deep), each slab band by band (bandRows): level hierarchy,
-/// operations and symbols of every brick of the slab, handed to `take(bz, slabSymbols)` in slab
-/// order (bricks x fastest, then y).
+/// Pass 1, band by band (bandShape): level hierarchy, operations and symbols of every brick,
+/// handed to `take(bz, slabSymbols)` slab by slab in order (bricks x fastest, then y).
 Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const EncodeOptions& options,
                      uint64_t maxBandBytes, const std::function<Status(uint32_t, std::vector<BrickSymbols>&)>& take) {
-    const uint32_t B = vol.brickSize, W = vol.dim[0], H = vol.dim[1];
+    const uint32_t B = vol.brickSize, W = vol.dim[0], H = vol.dim[1], D = vol.dim[2];
     const auto grid = vol.brickGrid();
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
-    const uint32_t rowsPerBand = bandRows(source, B, maxBandBytes);
+    const BandShape shape = bandShape(source, B, maxBandBytes);
     std::vector<uint32_t> band;
     if (!source.slabInMemory(0)) {
-        const uint64_t bandVoxels = uint64_t(W) * rowsPerBand * B;
+        const uint64_t bandVoxels = uint64_t(W) * shape.rows * B * shape.slabs;
         try {
             band.resize(size_t(bandVoxels));
         } catch (const std::bad_alloc&) {
             return Status::error("out of memory for a slab of " + std::to_string(bandVoxels) + " labels");
         }
     }
-    const int nThreads = int(std::min<uint64_t>(uint64_t(threadsFor(options)), uint64_t(grid[0]) * ((rowsPerBand + B - 1) / B)));
-    std::vector<BrickSymbols> symbols;
-    for (uint32_t bz = 0; bz < grid[2]; ++bz) {
-        const uint32_t z0 = bz * B, depth = std::min(B, vol.dim[2] - z0);
-        symbols.assign(size_t(perSlab), BrickSymbols{});
-        for (uint32_t y0 = 0; y0 < H; y0 += rowsPerBand) {
-            const uint32_t rows = std::min(rowsPerBand, H - y0);
+    const uint64_t brickRowsPerBand = (shape.rows + B - 1) / B;
+    const int nThreads =
+        int(std::min<uint64_t>(uint64_t(threadsFor(options)), uint64_t(grid[0]) * brickRowsPerBand * shape.slabs));
+    std::vector<std::vector<BrickSymbols>> symbols(shape.slabs);
+    for (uint32_t bz0 = 0; bz0 < grid[2]; bz0 += shape.slabs) {
+        const uint32_t slabs = std::min(shape.slabs, grid[2] - bz0);
+        const uint32_t z0 = bz0 * B, depth = std::min(slabs * B, D - z0);
+        for (uint32_t k = 0; k < slabs; ++k) symbols[k].assign(size_t(perSlab), BrickSymbols{});
+        for (uint32_t y0 = 0; y0 < H; y0 += shape.rows) {
+            const uint32_t rows = std::min(shape.rows, H - y0);
             const uint32_t* bandData = source.slabInMemory(z0);
             if (!bandData) {
                 Status s = rows == H ? source.readSlab(z0, depth, band.data())
@@ -431,8 +445,10 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
                 if (!s) return s;
                 bandData = band.data();
             }
-            const uint64_t firstBrick = uint64_t(y0 / B) * grid[0];
-            const uint64_t bandBricks = uint64_t((rows + B - 1) / B) * grid[0];
+            // Bricks of the band: x fastest, then y, then the slab; errors reported for the first
+            // brick in file order (slab, then y, then x).
+            const uint64_t firstRow = y0 / B, bandRowsHere = (rows + B - 1) / B;
+            const uint64_t bandBricks = uint64_t(grid[0]) * bandRowsHere * slabs;
             std::mutex mutex;
             Status error;
             uint64_t errorBrick = ~uint64_t(0);
@@ -444,17 +460,22 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
 #pragma omp for schedule(dynamic, 1)
                 for (int64_t i = 0; i < int64_t(bandBricks); ++i) {
                     if (!enc) continue;
-                    const uint64_t brick = firstBrick + uint64_t(i);
-                    const uint32_t bx = uint32_t(brick % grid[0]), by = uint32_t(brick / grid[0]);
-                    const std::array<uint32_t, 3> extent = {std::min(B, W - bx * B), std::min(B, H - by * B), depth};
+                    const uint32_t k = uint32_t(uint64_t(i) / (grid[0] * bandRowsHere));
+                    const uint64_t inSlab = firstRow * grid[0] + uint64_t(i) % (grid[0] * bandRowsHere);
+                    const uint32_t bx = uint32_t(inSlab % grid[0]), by = uint32_t(inSlab / grid[0]);
+                    const uint32_t zk = z0 + k * B;
+                    const std::array<uint32_t, 3> extent = {std::min(B, W - bx * B), std::min(B, H - by * B),
+                                                            std::min(B, D - zk)};
+                    const uint32_t* slabData = bandData + uint64_t(k) * B * rows * W;
                     Status st;
                     thrown.run([&] {
-                        st = enc->encode(bandData, W, rows, y0, bx * B, by * B, z0, extent, symbols[size_t(brick)]);
+                        st = enc->encode(slabData, W, rows, y0, bx * B, by * B, zk, extent, symbols[k][size_t(inSlab)]);
                     });
                     if (!st) {
                         std::lock_guard<std::mutex> lock(mutex);
-                        if (brick < errorBrick) {
-                            errorBrick = brick;
+                        const uint64_t order = uint64_t(k) * perSlab + inSlab;
+                        if (order < errorBrick) {
+                            errorBrick = order;
                             error = st;
                         }
                     }
@@ -463,8 +484,8 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
             thrown.rethrow();
             if (!error.isOk()) return error;
         }
-        Status s = take(bz, symbols);
-        if (!s) return s;
+        for (uint32_t k = 0; k < slabs; ++k)
+            if (Status s = take(bz0 + k, symbols[k]); !s) return s;
     }
     return Status::ok();
 }
@@ -751,7 +772,8 @@ private:
 
 uint64_t encoderBandBytes(const SlabSource& source, uint32_t brickSize, uint64_t maxBandBytes) {
     if (source.slabInMemory(0)) return 0;
-    return uint64_t(source.dimensions()[0]) * bandRows(source, brickSize, maxBandBytes) * brickSize * sizeof(uint32_t);
+    const BandShape shape = bandShape(source, brickSize, maxBandBytes);
+    return uint64_t(source.dimensions()[0]) * shape.rows * brickSize * shape.slabs * sizeof(uint32_t);
 }
 
 Status SlabSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {

@@ -165,38 +165,54 @@ Status LabelSlabAdapter::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint
 
 Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
     const auto& dim = m_source.info().dim;
+    const uint64_t W = dim[0];
     const bool whole = y0 == 0 && rows == dim[1];
-    const uint64_t slice = uint64_t(dim[0]) * rows;
-    const uint32_t step = subSlabDepth(slice, depth, m_maxScratchBytes);
-    m_scratch.resize(size_t(slice * step));
-    const auto where = [&](size_t i, uint32_t z) {
-        return "(" + std::to_string(i % dim[0]) + ", " + std::to_string(y0 + (i / dim[0]) % rows) + ", " +
-               std::to_string(z + i / slice) + ")";
-    };
-    return forEachSubSlab(z0, depth, step, [&](uint32_t z, uint32_t d) -> Status {
-        const size_t n = size_t(slice * d);
-        Status read = whole ? m_source.readSlab(z, d, m_scratch.data()) : m_source.readRows(z, d, y0, rows, m_scratch.data());
-        if (!read) return read;
-        m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
-        uint32_t* dst = out + slice * (z - z0);
-        if (m_relabeller) {
-            size_t miss = 0;
-            if (m_relabeller->toIds(m_scratch.data(), n, dst, &miss)) return Status::ok();
-            const uint64_t v = m_scratch[miss];
-            const std::string label = isSignedType(m_source.info().type) ? std::to_string(int64_t(v)) : std::to_string(v);
-            return Status::error("the input changed during compression (label " + label + " at voxel " +
-                                 where(miss, z) + " was not there in the first pass)");
-        }
-        for (size_t i = 0; i < n; ++i) {
-            const uint64_t v = m_scratch[i];
-            if (!labelFitsFormat(v)) {
-                m_misfit = true;
-                return Status::error("voxel " + where(i, z) + " holds a label that does not fit the format");
+    // Sub-reads within the scratch: a slab by slices; a band by rows at its full depth (so that a
+    // chunked source still sees bands of whole chunk layers), by slices too when one row is too much.
+    uint32_t stepRows = rows, stepDepth = depth;
+    if (whole) {
+        stepDepth = subSlabDepth(W * rows, depth, m_maxScratchBytes);
+    } else {
+        const uint64_t rowBytes = W * std::max(depth, 1u) * sizeof(uint64_t);
+        stepRows = uint32_t(std::clamp<uint64_t>(m_maxScratchBytes / rowBytes, 1, std::max(rows, 1u)));
+        if (stepRows == 1 && rowBytes > m_maxScratchBytes) stepDepth = subSlabDepth(W, depth, m_maxScratchBytes);
+    }
+    m_scratch.resize(size_t(W * stepRows * stepDepth));
+    for (uint32_t z = z0; z < z0 + depth; z += stepDepth) {
+        const uint32_t d = std::min(stepDepth, z0 + depth - z);
+        for (uint32_t y = y0; y < y0 + rows; y += stepRows) {
+            const uint32_t r = std::min(stepRows, y0 + rows - y);
+            Status read = whole ? m_source.readSlab(z, d, m_scratch.data()) : m_source.readRows(z, d, y, r, m_scratch.data());
+            if (!read) return read;
+            m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
+            const uint64_t piece = W * r;
+            const auto where = [&](uint64_t i) {
+                return "(" + std::to_string(i % W) + ", " + std::to_string(y + (i / W) % r) + ", " +
+                       std::to_string(z + i / piece) + ")";
+            };
+            for (uint32_t k = 0; k < d; ++k) {
+                const uint64_t* src = m_scratch.data() + piece * k;
+                uint32_t* dst = out + W * ((uint64_t(z - z0 + k) * rows) + (y - y0));
+                if (m_relabeller) {
+                    size_t miss = 0;
+                    if (m_relabeller->toIds(src, size_t(piece), dst, &miss)) continue;
+                    const uint64_t v = src[miss];
+                    const std::string label =
+                        isSignedType(m_source.info().type) ? std::to_string(int64_t(v)) : std::to_string(v);
+                    return Status::error("the input changed during compression (label " + label + " at voxel " +
+                                         where(piece * k + miss) + " was not there in the first pass)");
+                }
+                for (uint64_t i = 0; i < piece; ++i) {
+                    if (!labelFitsFormat(src[i])) {
+                        m_misfit = true;
+                        return Status::error("voxel " + where(piece * k + i) + " holds a label that does not fit the format");
+                    }
+                    dst[i] = uint32_t(src[i]);
+                }
             }
-            dst[i] = uint32_t(v);
         }
-        return Status::ok();
-    });
+    }
+    return Status::ok();
 }
 
 Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options) {

@@ -20,10 +20,14 @@
 ///   detail line says so.
 /// - Working memory: HDF5 reads each slab's (or band of rows', readRows) values straight into the
 ///   caller's buffer at their native width and they are widened there in place (back to front),
-///   so no slab-sized temporary exists. Between calls the source holds the dataset's chunk cache: one layer of
-///   chunks along z (every chunk a z range touches) when that fits InputOptions::maxWorkingBytes,
-///   so that chunks deeper than the caller's slab are not decompressed again for the next slab;
-///   otherwise one chunk, and each chunk is then decompressed once per slab that touches it.
+///   so no slab-sized temporary exists. Between calls the source holds the dataset's chunk
+///   cache: one layer of chunks along z (every chunk a z range touches) when that fits
+///   InputOptions::maxWorkingBytes, so that chunks deeper than the caller's slab are not
+///   decompressed again for the next slab; otherwise one chunk, and each chunk is then
+///   decompressed once per slab that touches it. Bands of rows as deep as whole chunk layers
+///   (the encoder reads them so, InputInfo::chunkDepth) need only the chunks one band touches:
+///   the dataset is reopened with that smaller cache when such reads begin (and with the layer
+///   cache again when slabs are read).
 ///   Chunks larger than the limit are refused. Besides that, libhdf5 keeps its own bounded
 ///   buffers: a type-conversion buffer (1 MiB), one chunk while decompressing, and its metadata
 ///   cache (a few MiB). NOT bounded: libhdf5's own deflate filter grows its output buffer until
@@ -362,6 +366,9 @@ struct Storage {
     bool chunked = false;
     uint64_t chunkBytes = 0;
     uint64_t layerChunks = 0; ///< chunks one z range touches
+    uint64_t rowChunks = 0;   ///< chunks one z range of one y range of chunks touches
+    uint64_t yChunks = 0;     ///< chunks along y
+    uint32_t chunkY = 1, chunkZ = 1; ///< the chunk's extent along y and z
     uint64_t hashSpan = 1;    ///< chunk-cache hash values one z layer spans (HDF5 packs chunk coordinates in bits)
 };
 
@@ -395,8 +402,12 @@ Result<Storage> storageOf(hid_t dataset, const Axes& axes, size_t typeSize, cons
             const uint64_t n = (axes.dims[i] + chunk[i] - 1) / chunk[i];
             s.layerChunks = mulSaturate(s.layerChunks, n);
             layerBits += bitsFor(n + 1); // HDF5 rounds each axis's chunk count up to a power of two
+            if (int(i) == axes.zAxis + 1) s.yChunks = n;
+            else s.rowChunks = mulSaturate(std::max<uint64_t>(s.rowChunks, 1), n);
         }
     }
+    s.chunkZ = uint32_t(std::min<hsize_t>(chunk[size_t(axes.zAxis)], 0xFFFFFFFFu));
+    s.chunkY = uint32_t(std::min<hsize_t>(chunk[size_t(axes.zAxis) + 1], 0xFFFFFFFFu));
     s.hashSpan = layerBits >= 40 ? kSaturated : uint64_t(1) << layerBits;
     const std::vector<hsize_t> spatial(chunk.begin() + axes.zAxis, chunk.begin() + axes.zAxis + 3);
     s.detail = "chunks " + shapeText(spatial);
@@ -441,10 +452,19 @@ struct ChunkCache {
     bool wholeLayer = false;
 };
 
-ChunkCache chooseCache(const Storage& s, uint64_t maxWorkingBytes) {
+/// The cache for reads of slabs (bandDepth 0: every chunk of a z layer, when that fits), or for
+/// bands of whole chunk layers `bandDepth` deep and `bandRows` tall read in order (the chunks one
+/// band touches: no chunk is needed again once its band is done).
+ChunkCache chooseCache(const Storage& s, uint64_t maxWorkingBytes, uint32_t bandDepth = 0, uint32_t bandRows = 0) {
     ChunkCache c;
     if (!s.chunked) return c;
-    const uint64_t layer = mulSaturate(s.layerChunks, s.chunkBytes);
+    uint64_t layer = mulSaturate(s.layerChunks, s.chunkBytes);
+    if (bandDepth > 0) {
+        const uint64_t layers = (uint64_t(bandDepth) + s.chunkZ - 1) / s.chunkZ;
+        const uint64_t rows = std::min<uint64_t>(s.yChunks, (uint64_t(bandRows) + s.chunkY - 1) / s.chunkY + 1);
+        layer = std::min(mulSaturate(layers, layer),
+                         mulSaturate(mulSaturate(layers, rows), mulSaturate(s.rowChunks, s.chunkBytes)));
+    }
     if (layer <= maxWorkingBytes) {
         c.bytes = layer;
         c.wholeLayer = true;
@@ -568,12 +588,16 @@ struct Description {
     Storage storage;
 };
 
+Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache);
+
 /// @brief One HDF5 dataset read slab by slab (see the file's @brief for the memory bound).
 class Hdf5Source : public InputSource {
 public:
-    Hdf5Source(std::string path, Handle file, Handle dataset, Description what, uint64_t cacheBytes)
-        : m_path(std::move(path)), m_file(std::move(file)), m_dataset(std::move(dataset)), m_type(what.voxel),
-          m_axes(std::move(what.axes)), m_cacheBytes(cacheBytes) {
+    Hdf5Source(std::string path, std::string name, Handle file, Handle dataset, Description what,
+               uint64_t cacheBytes, uint64_t maxWorkingBytes)
+        : m_path(std::move(path)), m_name(std::move(name)), m_file(std::move(file)), m_dataset(std::move(dataset)),
+          m_type(what.voxel), m_axes(std::move(what.axes)), m_storage(std::move(what.storage)),
+          m_cacheBytes(cacheBytes), m_maxWorking(maxWorkingBytes) {
         m_info = std::move(what.info);
     }
 
@@ -593,6 +617,7 @@ public:
         if (Status s = checkRows(m_info, z0, depth, y0, rows, m_path); !s) return s;
         if (depth == 0 || rows == 0) return Status::ok();
         Hdf5Scope scope;
+        if (Status s = fitCache(z0, depth, rows); !s) return s;
         if (Status s = readNative(z0, depth, y0, rows, out); !s) return s;
         return widen(z0, y0, rows, size_t(uint64_t(m_info.dim[0]) * rows * depth), out);
     }
@@ -600,6 +625,25 @@ public:
     uint64_t workingBytes() const override { return m_cacheBytes; }
 
 private:
+    /// Bands of whole chunk layers, read in order, need only the chunks of one band; anything else
+    /// gets the layer cache. The cache is fixed when the dataset is opened, so a change of access
+    /// reopens it (rarely: the relabelling pass reads slabs, the encoder bands).
+    Status fitCache(uint32_t z0, uint32_t depth, uint32_t rows) {
+        const uint32_t cz = m_storage.chunkZ;
+        const bool bands = m_storage.chunked && rows < m_info.dim[1] && z0 % cz == 0 &&
+                           (depth % cz == 0 || uint64_t(z0) + depth == m_info.dim[2]);
+        const ChunkCache want = bands ? chooseCache(m_storage, m_maxWorking, depth, rows)
+                                      : chooseCache(m_storage, m_maxWorking);
+        if (bands == m_bandCache && (!bands || want.bytes <= m_cacheBytes)) return Status::ok();
+        m_dataset.reset();
+        Result<Handle> reopened = reopenWithCache(m_file.get(), m_name, want);
+        if (!reopened) return fail(m_path, reopened.message());
+        m_dataset = std::move(*reopened);
+        m_cacheBytes = want.bytes;
+        m_bandCache = bands;
+        return Status::ok();
+    }
+
     /// The region's voxels at their native width, packed at the start of `out`.
     Status readNative(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) {
         const size_t rank = m_axes.dims.size();
@@ -654,11 +698,15 @@ private:
     }
 
     std::string m_path;
+    std::string m_name; ///< the dataset's path in the file
     Handle m_file;
     Handle m_dataset;
     VoxelType m_type;
     Axes m_axes;
+    Storage m_storage;
     uint64_t m_cacheBytes = 0;
+    uint64_t m_maxWorking = 0;
+    bool m_bandCache = false; ///< the cache holds one band's chunks, not a layer's
 };
 
 /// The file opened read-only, after checking that it is an HDF5 file at all.
@@ -712,6 +760,7 @@ Result<Description> describe(hid_t dataset, const std::string& name, const Input
     d.info.dim = {uint32_t(dims[z + 2]), uint32_t(dims[z + 1]), uint32_t(dims[z])};
     d.info.type = d.voxel.type;
     d.info.format = "HDF5";
+    d.info.chunkDepth = d.storage.chunked ? d.storage.chunkZ : 1;
     std::string notes;
     d.info.geometry = geometryOf(dataset, d.axes, notes);
     d.info.detail = "dataset " + name + ", " + d.storage.detail + notes;
@@ -743,7 +792,8 @@ Result<std::unique_ptr<InputSource>> openHdf5(const std::string& path, const Inp
         const ChunkCache cache = chooseCache(what->storage, options.maxWorkingBytes);
         Result<Handle> dataset = reopenWithCache(file->get(), name, cache);
         if (!dataset) return fail(path, dataset.message());
-        source = std::make_unique<Hdf5Source>(path, std::move(*file), std::move(*dataset), std::move(*what), cache.bytes);
+        source = std::make_unique<Hdf5Source>(path, name, std::move(*file), std::move(*dataset), std::move(*what),
+                                              cache.bytes, options.maxWorkingBytes);
     }
     return std::unique_ptr<InputSource>(std::move(source));
 }

@@ -43,7 +43,8 @@ struct EncodeOptions {
 ///
 /// A source that can read part of a slab as cheaply as all of it (a chunked or uncompressed file,
 /// a generator) says so with readsRows(); the encoder then reads each slab in bands of brick
-/// rows (EncodeToFileOptions::maxBandBytes), so its memory no longer grows with W * H.
+/// rows (EncodeToFileOptions::maxBandBytes), as deep as chunkDepth(), so its memory no longer grows
+/// with W * H and a chunked source need not cache a whole layer of chunks.
 class SlabSource {
 public:
     virtual ~SlabSource() = default;
@@ -52,6 +53,9 @@ public:
     virtual Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) = 0;
     /// True when readRows works (and is not much dearer per voxel than readSlab).
     virtual bool readsRows() const { return false; }
+    /// Slices the source stores together (a chunked file's chunk depth; 1 for slices): bands of
+    /// rows are read this deep (rounded up to whole slabs), so that no chunk is read twice.
+    virtual uint32_t chunkDepth() const { return 1; }
     /// Fills out (W * rows * depth labels, x fastest) with rows [y0, y0 + rows) of slices
     /// [z0, z0 + depth). Called only when readsRows(); the default reads whole slices only.
     virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out);
@@ -73,7 +77,8 @@ struct EncodeToFileOptions {
     /// many bytes; beyond it, all of them go to a scratch file beside the output.
     uint64_t heldSymbolBytes = uint64_t(256) << 20;
     /// Labels read at once from a source that readsRows(): bands of whole brick rows of about this
-    /// many bytes (at least one brick row, at most the slab). Other sources give whole slabs.
+    /// many bytes (at least one brick row, at most the slab), SlabSource::chunkDepth() deep
+    /// rounded up to whole slabs. Other sources give whole slabs.
     uint64_t maxBandBytes = uint64_t(64) << 20;
     /// Called after each slab of bricks and while writing, with the fraction done (0..1);
     /// returning false cancels (nothing is left at `path`).

@@ -88,6 +88,7 @@ public:
     Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override;
     /// Bands of rows when the input reads rows (InputSource::readsRows), else whole slabs.
     bool readsRows() const override { return m_source.readsRows(); }
+    uint32_t chunkDepth() const override { return m_source.info().chunkDepth; }
     Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override;
     bool misfit() const { return m_misfit; }
     uint64_t scratchBytes() const { return m_scratch.capacity() * sizeof(uint64_t); }

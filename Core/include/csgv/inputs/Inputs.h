@@ -49,6 +49,9 @@ struct InputInfo {
     Geometry geometry;  ///< origin: centre of voxel (0,0,0)
     std::string format; ///< "vraw", "NRRD", "NIfTI", "HDF5", "TIFF", "Zarr", "precomputed"
     std::string detail; ///< one line for `csgv info`: dataset path, chunk shape, compressor...
+    /// Slices stored together (the z extent of a chunk; 1 for formats stored slice by slice):
+    /// readers that read rows serve bands this deep from a small cache (see readRows).
+    uint32_t chunkDepth = 1;
 
     /// Saturates at kSaturated instead of wrapping; openInput refuses any input whose voxels
     /// would need 2^64 bytes or more at full width, so for an opened source it is exact.
@@ -85,7 +88,9 @@ public:
     /// (chunked and uncompressed files), so the encoder may read bands of rows and hold less.
     virtual bool readsRows() const { return false; }
     /// Rows [y0, y0 + rows) of slices [z0, z0 + depth): out[x + W * ((y - y0) + rows * (z - z0))],
-    /// the values readSlab gives there, under the same contract. The default reads whole slices only.
+    /// the values readSlab gives there, under the same contract. The default reads whole slices
+    /// only. A chunked source read in bands of whole chunk layers (z0 and depth multiples of
+    /// info().chunkDepth, or reaching the last slice) may keep just the chunks of one band.
     virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out);
     /// Bytes of caches held between calls (for reports and the memory tests).
     virtual uint64_t workingBytes() const { return 0; }
