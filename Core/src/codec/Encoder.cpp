@@ -425,7 +425,7 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
         try {
             band.resize(size_t(bandVoxels));
         } catch (const std::bad_alloc&) {
-            return Status::error("out of memory for a slab of " + std::to_string(bandVoxels) + " labels");
+            return Status::error("out of memory for a band of " + std::to_string(bandVoxels) + " labels");
         }
     }
     const uint64_t brickRowsPerBand = (shape.rows + B - 1) / B;
@@ -717,7 +717,6 @@ public:
         }
         return Status::ok();
     }
-    bool inFile() const { return m_inFile; }
 
 private:
     std::string m_near;

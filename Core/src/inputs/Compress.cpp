@@ -121,7 +121,11 @@ Status named(Status s, const std::string& input) {
 
 
 std::string voxelText(uint64_t index, const std::array<uint32_t, 3>& dim, uint32_t z0) {
-    const uint64_t x = index % dim[0], y = (index / dim[0]) % dim[1], z = z0 + index / (uint64_t(dim[0]) * dim[1]);
+    return voxelText(index, dim[0], 0, dim[1], z0);
+}
+
+std::string voxelText(uint64_t index, uint32_t width, uint32_t y0, uint32_t rows, uint32_t z0) {
+    const uint64_t x = index % width, y = y0 + (index / width) % rows, z = z0 + index / (uint64_t(width) * rows);
     return "(" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) + ")";
 }
 
@@ -186,10 +190,7 @@ Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, ui
             if (!read) return read;
             m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
             const uint64_t piece = W * r;
-            const auto where = [&](uint64_t i) {
-                return "(" + std::to_string(i % W) + ", " + std::to_string(y + (i / W) % r) + ", " +
-                       std::to_string(z + i / piece) + ")";
-            };
+            const auto where = [&](uint64_t i) { return voxelText(i, dim[0], y, r, z); };
             for (uint32_t k = 0; k < d; ++k) {
                 const uint64_t* src = m_scratch.data() + piece * k;
                 uint32_t* dst = out + W * ((uint64_t(z - z0 + k) * rows) + (y - y0));

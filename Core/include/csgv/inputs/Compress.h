@@ -122,6 +122,8 @@ Status forEachSubSlab(uint32_t z0, uint32_t depth, uint32_t step, Fn&& fn) {
 /// Voxel (x, y, z) of linear index `index` (x fastest) in a slab of slices of `dim`'s size
 /// starting at slice z0, as text for messages: "(x, y, z)".
 std::string voxelText(uint64_t index, const std::array<uint32_t, 3>& dim, uint32_t z0 = 0);
+/// The same in a band: rows [y0, y0 + rows) of slices `width` wide, starting at slice z0.
+std::string voxelText(uint64_t index, uint32_t width, uint32_t y0, uint32_t rows, uint32_t z0);
 
 /// The name an input goes by in a volume's metadata: the file or folder it names with what
 /// selects inside it (`a.h5:/labels/seg`, `b.zarr/0`, `cells#8_8_8`), without leading folders or
