@@ -511,3 +511,64 @@ TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     EXPECT_TRUE(one->changed);
     EXPECT_EQ(one->frames, 1u);
 }
+
+TEST(Renderer, ChangesThatKeepTheImageKeepTheAccumulation) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    RenderRequest req;
+    req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
+    req.timeBudgetSeconds = 1e9;
+    RenderSettings st;
+    st.finest = true;
+    st.denoise = false;
+    st.sampleTarget = 2;
+    std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+    MaterialDocument doc = defaultMaterials();
+    const std::vector<float> unused(256, 1.0f);
+    ASSERT_TRUE(r->setMaterials(doc, {{"unused", unused}}).isOk());
+    ASSERT_TRUE(r->render(req).isOk());
+    // The same document again, with another attribute array no material names: nothing to render.
+    ASSERT_TRUE(r->setMaterials(doc, {{"unused", unused}}).isOk());
+    ASSERT_TRUE(r->setMaterials(doc, {{"unused", unused}, {"also unused", unused}}).isOk());
+    EXPECT_FALSE(r->render(req)->changed);
+    // A higher sample target goes on from the samples taken (fewer frames than the four a reset
+    // needs), and the image equals one rendered to four samples from the start.
+    st.sampleTarget = 4;
+    r->setSettings(st);
+    Result<RenderResult> more = r->render(req);
+    ASSERT_TRUE(more.isOk());
+    EXPECT_TRUE(more->changed);
+    EXPECT_LE(more->frames, 3u);
+    EXPECT_EQ(more->last.minSamples, 4u);
+    std::unique_ptr<Renderer> fresh = makeRenderer(*ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(fresh->render(req).isOk());
+    EXPECT_EQ(r->output().rgba, fresh->output().rgba);
+    // Another subsampling keeps the samples too: nothing is left to render.
+    st.subsampling = 2;
+    r->setSettings(st);
+    Result<RenderResult> strided = r->render(req);
+    ASSERT_TRUE(strided.isOk());
+    EXPECT_EQ(strided->last.minSamples, 4u);
+    EXPECT_LE(strided->frames, 1u);
+    // A document that draws differently starts anew.
+    st.subsampling = 1;
+    r->setSettings(st);
+    doc.materials[0].opacity = 0.5f;
+    ASSERT_TRUE(r->setMaterials(doc).isOk());
+    Result<RenderResult> changed = r->render(req);
+    ASSERT_TRUE(changed.isOk());
+    EXPECT_TRUE(changed->changed);
+    EXPECT_GE(changed->frames, 4u);
+    const std::vector<float> translucent = r->output().rgba;
+    // A smaller image and back: the buffers are reused, the image is rendered anew at each size.
+    RenderRequest small = req;
+    small.frame.width = 24;
+    small.frame.height = 20;
+    const uint64_t device = r->memory().total();
+    ASSERT_TRUE(r->render(small).isOk());
+    EXPECT_EQ(r->output().width, 24u);
+    EXPECT_EQ(r->memory().total(), device);
+    ASSERT_TRUE(r->render(req).isOk());
+    EXPECT_EQ(r->output().width, req.frame.width);
+    EXPECT_EQ(r->output().rgba, translucent);
+}

@@ -83,6 +83,7 @@ struct Renderer::Impl {
     uint32_t largestLabel = kNone;    // the largest label of any brick palette (computed once)
     Geometry geometry;
     uint32_t width = 0, height = 0;
+    uint64_t imageCapacity = 0;       // pixels the per-pixel buffers hold
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     Mat4 lastWorldToClip{};
@@ -100,6 +101,7 @@ struct Renderer::Impl {
     bool hostDecode = false;          // RendererOptions::decode resolved
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
     bool converged = false;           // the last render() reached the sample target; nothing changed since
+    uint64_t materialsFingerprint = 0; // of what setMaterials uploaded (0: nothing yet)
     FrameOutput output;               // what output() returns
     uint32_t outputParts = 0;         // OutputParts of `output` read since the last frame
     // The frame's dispatch list and the push constants it points to (rebuilt every frame).
@@ -157,8 +159,17 @@ struct Renderer::Impl {
     }
 
     /// The per-pixel buffers for a new size, all or nothing: a failure keeps the old size whole.
+    /// Buffers that hold the new size already are kept: a view switching between its reduced
+    /// interactive size and its full size allocates nothing.
     Status allocateImage(uint32_t w, uint32_t h) {
         const uint64_t n = uint64_t(w) * h;
+        if (n <= imageCapacity) {
+            width = w;
+            height = h;
+            output = FrameOutput{};
+            outputParts = 0;
+            return Status::ok();
+        }
         struct Part {
             Buffer* target;
             uint64_t bytes;
@@ -175,6 +186,7 @@ struct Renderer::Impl {
             made.push_back(std::move(*r));
         }
         for (size_t i = 0; i < made.size(); ++i) *parts[i].target = std::move(made[i]);
+        imageCapacity = n;
         width = w;
         height = h;
         output = FrameOutput{};
@@ -347,7 +359,7 @@ Result<GpuMaterial> packMaterial(const Material& m, size_t index, PackedMaterial
     g.rgba[3] = std::clamp(m.opacity, 0.0f, 1.0f);
     g.colour[0] = m.colorMode == Material::ColorMode::Colormap ? out.attributeIndex(m.colorAttribute) : kNone;
     g.colour[1] = m.wrap == Material::Wrap::Repeat ? 1u : 0u;
-    const std::string which = "material " + std::to_string(index);
+    const std::string which = "material " + std::to_string(index + 1) + (m.name.empty() ? "" : " ('" + m.name + "')");
     if (!m.colormap.points.empty()) {
         if (m.colormap.points.size() < 2) return Status::error(which + ": a colormap needs two points");
         g.colour[2] = uint32_t(out.colormapSamples.size());
@@ -399,6 +411,33 @@ struct MaterialMatcher {
         return kNone;
     }
 };
+
+/// A 64-bit digest of everything setMaterials uploads (the packed materials, their colormap
+/// samples, the attribute arrays they name, the label map and count): equal digests, equal images.
+uint64_t materialsFingerprint(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributes,
+                              const std::vector<uint32_t>& storedToOriginal, uint64_t labels) {
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    auto mix = [&h](const void* data, size_t bytes) {
+        const auto* p = static_cast<const unsigned char*>(data);
+        for (size_t i = 0; i < bytes; i += 8) {
+            uint64_t w = 0;
+            std::memcpy(&w, p + i, std::min<size_t>(8, bytes - i));
+            h = (h ^ w) * 0x100000001B3ull;
+            h ^= h >> 29;
+        }
+        h = (h ^ bytes) * 0xFF51AFD7ED558CCDull;
+    };
+    mix(packed.materials.data(), packed.materials.size() * sizeof(GpuMaterial));
+    mix(packed.colormapSamples.data(), packed.colormapSamples.size() * sizeof(packed.colormapSamples[0]));
+    for (const std::string& name : packed.attributeNames) {
+        const std::vector<float>& values = attributes.at(name);
+        mix(name.data(), name.size());
+        mix(values.data(), values.size() * 4);
+    }
+    mix(storedToOriginal.data(), storedToOriginal.size() * 4);
+    mix(&labels, sizeof labels);
+    return h == 0 ? 1 : h; // 0 means "nothing uploaded"
+}
 
 /// The largest label any brick palette holds.
 uint32_t largestStoredLabel(const CompressedVolume& vol) {
@@ -490,15 +529,29 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     if (!labels) return labels.status();
     Result<PackedMaterials> packed = packMaterials(doc);
     if (!packed) return packed.status();
+    // What the shaders would read is what they read already (attributes loaded that no material
+    // names, a document written anew with the same content): the accumulated image stays.
+    const uint64_t fingerprint = materialsFingerprint(*packed, attributes, storedToOriginal, *labels);
+    if (fingerprint == im.materialsFingerprint) return Status::ok();
+    im.materialsFingerprint = 0;
     resetAccumulation(); // before the uploads: a failure among them must not leave an image called exact
     if (!(s = im.uploadMaterials(*packed, attributes, storedToOriginal, *labels))) return s;
-    return im.uploadVisibility(MaterialMatcher{*packed, attributes, storedToOriginal, *labels});
+    if (!(s = im.uploadVisibility(MaterialMatcher{*packed, attributes, storedToOriginal, *labels}))) return s;
+    im.materialsFingerprint = fingerprint;
+    return Status::ok();
 }
 
 void Renderer::setSettings(const RenderSettings& settings) {
     if (settings == m_settings) return; // an unchanged value keeps the accumulated image
+    // A pixel's k-th sample is the same whichever frame takes it, so another sample target or
+    // pixel stride keeps every sample taken so far: the accumulation goes on from there.
+    RenderSettings others = settings;
+    others.sampleTarget = m_settings.sampleTarget;
+    others.subsampling = m_settings.subsampling;
+    const bool keep = others == m_settings;
     m_settings = settings;
-    resetAccumulation();
+    if (keep) m_impl->converged = false;
+    else resetAccumulation();
 }
 
 bool RenderSettings::operator==(const RenderSettings& o) const {
@@ -831,6 +884,7 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
     const uint32_t maxFrames = target * sub * sub + 256;
     const auto t0 = std::chrono::steady_clock::now();
     uint32_t idle = 0;
+    double before = 0; // seconds elapsed before this frame
     for (uint32_t f = 0; f < maxFrames; ++f) {
         Result<FrameStats> st = im.frame(in, m_settings, clipToWorld);
         if (!st) return st.status();
@@ -838,8 +892,11 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         ++result.frames;
         if (request.interactive || st->minSamples >= target) break;
         const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        // The budget never cuts a frame short of one sample in every pixel (no holes).
-        if (st->minSamples >= 1 && elapsed > request.timeBudgetSeconds) break;
+        // The next frame is about as long as this one: stop when it would end past the budget,
+        // so the budget holds; but never short of one sample in every pixel (no holes).
+        const double next = elapsed - before;
+        before = elapsed;
+        if (st->minSamples >= 1 && elapsed + next > request.timeBudgetSeconds) break;
         idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
         if (idle >= 3) break;
     }

@@ -158,17 +158,19 @@ public:
     /// Materials with colormaps resolved to control points. `attributes` are per stored label
     /// (index = the label value in the volume); `label` is built in. `storedToOriginal` maps
     /// stored labels to original labels (relabelled files); empty when they are the same.
-    /// Recomputes which bricks are visible (their palettes against the materials).
+    /// Recomputes which bricks are visible (their palettes against the materials). Materials and
+    /// arrays that pack to what the shaders read already keep the accumulated image.
     Status setMaterials(const MaterialDocument& materials,
                         const std::map<std::string, std::vector<float>>& attributes = {},
                         const std::vector<uint32_t>& storedToOriginal = {});
-    /// Different settings reset the accumulation; the same ones keep it.
+    /// Different settings reset the accumulation; the same ones keep it, and so does another
+    /// sample target or subsampling alone (the samples taken stay valid).
     void setSettings(const RenderSettings& settings);
     const RenderSettings& settings() const { return m_settings; }
 
     /// Renders what the request calls for: one frame when interactive, else frames until every
-    /// pixel holds max(1, settings().sampleTarget) samples, the time budget runs out (never before
-    /// every pixel holds one sample), nothing changes (three frames without new samples or decoded
+    /// pixel holds max(1, settings().sampleTarget) samples, the next frame (as long as the last)
+    /// would end past the time budget (never before every pixel holds one sample), nothing changes (three frames without new samples or decoded
     /// bricks), or target * subsampling^2 + 256 frames. A new camera, size or opaque depth (or
     /// settings, geometry, materials since the last call) resets the accumulation; when nothing
     /// changed since a call that reached the target, nothing is rendered (`changed` false). Reads
