@@ -23,7 +23,10 @@
 #include <vtkWeakPointer.h>
 #include <vtk_glew.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cmath>
 #include <vector>
 
 namespace
@@ -49,6 +52,52 @@ void main()
 /// The no-device message is the same for every view: say it once per process.
 std::atomic<bool> deviceReported{ false };
 
+/// @brief ParaView's level of detail for the Segmentation Volume: while the mouse moves
+/// (interactive renders), frames are rendered at 1/f of the view's resolution per axis and
+/// stretched over it, f chosen from the measured cost of a pixel so that a frame takes at most
+/// half the time the view's desired update rate allows (the other half is ParaView's own work).
+/// Still renders are always at full resolution.
+class InteractiveResolution
+{
+public:
+  /// The reduction factor (1..8) for a frame of `pixels` at `desiredRate` frames a second.
+  int factor(double pixels, double desiredRate) const
+  {
+    if (this->SecondsPerPixel <= 0 || desiredRate <= 0)
+    {
+      return 1;
+    }
+    const double frameSeconds = 0.5 / desiredRate;
+    const double f = std::ceil(std::sqrt(pixels * this->SecondsPerPixel / frameSeconds) - 0.05);
+    return int(std::min(8.0, std::max(1.0, f)));
+  }
+  /// A frame of `pixels` took `seconds` (render, read-back and compositing).
+  void record(double seconds, double pixels)
+  {
+    const double s = seconds / std::max(1.0, pixels);
+    this->SecondsPerPixel = this->SecondsPerPixel > 0 ? 0.5 * (this->SecondsPerPixel + s) : s;
+  }
+
+private:
+  double SecondsPerPixel = 0;
+};
+
+/// The opaque depth of a reduced frame: the full tile's depth at each reduced pixel's centre.
+void reduceDepth(const std::vector<float>& full, int width, int height, int factor, uint32_t w, uint32_t h,
+  std::vector<float>& out)
+{
+  out.resize(size_t(w) * h);
+  for (uint32_t y = 0; y < h; ++y)
+  {
+    const int fy = std::min(height - 1, int(y) * factor + factor / 2);
+    for (uint32_t x = 0; x < w; ++x)
+    {
+      const int fx = std::min(width - 1, int(x) * factor + factor / 2);
+      out[size_t(y) * w + x] = full[size_t(fy) * size_t(width) + size_t(fx)];
+    }
+  }
+}
+
 } // namespace
 
 struct vtkCSGVVolumeProp::Impl
@@ -71,7 +120,9 @@ struct vtkCSGVVolumeProp::Impl
   std::shared_ptr<csgv::gpu::Context> Gpu; ///< held while this prop draws
   csgvrep::ViewRenderer View;
   std::string LastError;
-  std::vector<float> Depth;
+  std::vector<float> Depth, ReducedDepth;
+  InteractiveResolution Lod;
+  int LodFactor = 1; ///< the reduction of the frame in the textures (1: full resolution)
 
   vtkWeakPointer<vtkOpenGLRenderWindow> Window;
   vtkSmartPointer<vtkTextureObject> Color, DepthTexture;
@@ -388,6 +439,8 @@ bool vtkCSGVVolumeProp::UploadTextures(vtkOpenGLRenderWindow* win, bool changed)
     t->SetWrapS(vtkTextureObject::ClampToEdge);
     t->SetWrapT(vtkTextureObject::ClampToEdge);
   }
+  // A reduced interactive frame is stretched over the view: smooth colours, its depth as it is.
+  p.Color->SetMagnificationFilter(p.LodFactor > 1 ? vtkTextureObject::Linear : vtkTextureObject::Nearest);
   win->GetState()->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   if (!p.Color->Create2DFromRaw(out.width, out.height, 4, VTK_FLOAT, const_cast<float*>(out.rgba.data())) ||
     !p.DepthTexture->Create2DFromRaw(out.width, out.height, 1, VTK_FLOAT, const_cast<float*>(out.depth.data())))
@@ -472,11 +525,21 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   {
     return 0;
   }
+  const auto t0 = std::chrono::steady_clock::now();
+  const int width = int(request.width), height = int(request.height);
+  const int factor = request.interactive
+    ? p.Lod.factor(double(width) * height, win->GetDesiredUpdateRate())
+    : 1;
+  request.width = uint32_t((width + factor - 1) / factor);
+  request.height = uint32_t((height + factor - 1) / factor);
   // In the volumetric pass (translucent materials) rays stop at the opaque geometry's depth.
-  if (!opaquePass &&
-    readOpaqueDepth(win->GetState(), x0, y0, int(request.width), int(request.height), p.Depth))
+  if (!opaquePass && readOpaqueDepth(win->GetState(), x0, y0, width, height, p.Depth))
   {
-    request.opaqueDepth = p.Depth.data();
+    if (factor > 1)
+    {
+      reduceDepth(p.Depth, width, height, factor, request.width, request.height, p.ReducedDepth);
+    }
+    request.opaqueDepth = factor > 1 ? p.ReducedDepth.data() : p.Depth.data();
   }
 
   bool changed = false;
@@ -492,7 +555,19 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   {
     return 0;
   }
-  return this->UploadTextures(win, changed) && this->Composite(win) ? 1 : 0;
+  changed = changed || factor != p.LodFactor;
+  p.LodFactor = factor;
+  if (!this->UploadTextures(win, changed) || !this->Composite(win))
+  {
+    return 0;
+  }
+  const uint32_t frames = p.View.framesLastRender();
+  if (frames > 0)
+  {
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    p.Lod.record(seconds / frames, double(request.width) * request.height);
+  }
+  return 1;
 }
 
 void vtkCSGVVolumeProp::ReleaseGraphicsResources(vtkWindow* window)

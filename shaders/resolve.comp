@@ -67,6 +67,8 @@ void resolvePixel(Frame f, uvec2 px) {
             FloatBuf depth = FloatBuf(f.addr[kSlotDepthOut]);
             if (n > 0u) depth.f[pixel] = depth.f[from];
         }
+        const uint holes = subgroupAdd(n == 0u ? 1u : 0u); // one atomic per subgroup
+        if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(f.addr[kSlotAlloc]).w[kAllocHoles], holes);
         const vec4 c = n > 0u ? Vec4Buf(f.addr[kSlotAccum]).v[from] / float(n) : vec4(0.0);
         dst.v[pixel] = pc.dst == kSlotColorOut ? toneMapped(f, c) : c; // without denoising: one pass
         return;

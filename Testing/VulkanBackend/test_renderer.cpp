@@ -572,3 +572,37 @@ TEST(Renderer, ChangesThatKeepTheImageKeepTheAccumulation) {
     EXPECT_EQ(r->output().width, req.frame.width);
     EXPECT_EQ(r->output().rgba, translucent);
 }
+
+TEST(Renderer, StillRenderUnderATinyBudgetEndsWithoutHoles) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    RenderSettings st;
+    st.sampleTarget = 64;
+    st.shading = Shading::PathTracing;
+    std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+    // The first frame of a cold cache leaves the pixels whose bricks are missing empty: holes.
+    FrameInput in = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 96, 80);
+    Result<FrameStats> first = r->renderFrame(in);
+    ASSERT_TRUE(first.isOk()) << first.message();
+    EXPECT_EQ(first->holes, first->missingPixels);
+    EXPECT_GT(first->holes, 0u);
+    // A still render with no time to spare stops as soon as every pixel shows a sample (its own
+    // or, at a coarser stride, its block's), far short of the target; later renders go on.
+    RenderRequest req;
+    req.frame = perspectiveView({210, -70, 150}, {66, 35, 97}, {0, 0, 1}, 30, 96, 80);
+    req.timeBudgetSeconds = 0;
+    Result<RenderResult> still = r->render(req);
+    ASSERT_TRUE(still.isOk()) << still.message();
+    EXPECT_EQ(still->last.holes, 0u);
+    EXPECT_LT(still->last.minSamples, 64u);
+    const uint32_t stride = still->last.stride;
+    EXPECT_TRUE(stride == 1 || stride == 2 || stride == 4 || stride == 8) << stride;
+    const FrameOutput& out = r->output();
+    size_t shown = 0;
+    for (size_t i = 0; i < out.depth.size(); ++i) shown += out.depth[i] < 1.0f;
+    EXPECT_GT(shown, out.depth.size() / 4); // the volume fills the view's middle
+    Result<RenderResult> more = r->render(req);
+    ASSERT_TRUE(more.isOk());
+    EXPECT_GE(more->last.minSamples, still->last.minSamples);
+    EXPECT_EQ(more->last.stride, stride); // one block size for the whole accumulation
+}

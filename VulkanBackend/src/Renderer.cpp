@@ -102,6 +102,8 @@ struct Renderer::Impl {
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
     bool converged = false;           // the last render() reached the sample target; nothing changed since
     uint64_t materialsFingerprint = 0; // of what setMaterials uploaded (0: nothing yet)
+    uint32_t accumulationStride = 0;  // render(): pixel stride of this accumulation (0: chosen at its first frame)
+    double secondsPerPixel[4] = {};   // render(): a frame's seconds per rendered pixel, per shading mode
     FrameOutput output;               // what output() returns
     uint32_t outputParts = 0;         // OutputParts of `output` read since the last frame
     // The frame's dispatch list and the push constants it points to (rebuilt every frame).
@@ -134,6 +136,31 @@ struct Renderer::Impl {
 
     explicit Impl(Context& c) : ctx(c) {}
 
+    /// The pixel stride of a still render's accumulation: the settings' one, or coarser when a
+    /// frame of `pixels` in this shading mode (as measured so far) would take more than a third of
+    /// the time budget, so that the first, upsampled image comes within the budget. The stride
+    /// stays until the accumulation starts anew (the upsampling needs one block size).
+    uint32_t stillStride(const RenderSettings& st, uint64_t pixels, double budgetSeconds) const {
+        const uint32_t mode = uint32_t(st.shading) & 3;
+        double seconds = secondsPerPixel[mode];
+        if (seconds <= 0) { // not measured in this mode: a measured one, scaled by the rays each casts
+            const double rays[4] = {1, 2, 2, 4};
+            for (uint32_t m = 0; m < 4; ++m)
+                if (secondsPerPixel[m] > 0) seconds = std::max(seconds, secondsPerPixel[m] / rays[m] * rays[mode]);
+        }
+        uint32_t stride = std::max<uint32_t>(1, st.subsampling);
+        const double frame = std::max(budgetSeconds, 0.1) / 3;
+        while (stride < 8 && double(pixels) * seconds / (stride * stride) > frame) stride *= 2;
+        return stride;
+    }
+    void measureFrame(const RenderSettings& st, const FrameInput& in, const FrameStats& stats) {
+        if (stats.milliseconds <= 0) return; // nothing was submitted
+        const uint64_t rw = (in.width + st.subsampling - 1) / st.subsampling, rh = (in.height + st.subsampling - 1) / st.subsampling;
+        const double s = stats.milliseconds / 1000 / double(std::max<uint64_t>(1, rw * rh));
+        double& avg = secondsPerPixel[uint32_t(st.shading) & 3];
+        avg = avg > 0 ? 0.5 * (avg + s) : s;
+    }
+
     // The steps of a frame, in order (renderFrame and render).
     Status validate(const FrameInput& in, const RenderSettings& st, Mat4& clipToWorld) const;
     Status detectChanges(const FrameInput& in);
@@ -152,6 +179,7 @@ struct Renderer::Impl {
 
     void resetAccumulation() {
         clearPending = true;
+        accumulationStride = 0;
         accumulatedFrames = 0;
         resetDone = evictUnused = limitRequests = false;
         prevMinSamples = 0;
@@ -724,6 +752,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     uint32_t* a = allocWords();
     a[kAllocFull] = 0;
     a[kAllocMinSamples] = kNone;
+    a[kAllocHoles] = 0;
     a[kAllocNewSamples] = 0;
     a[kAllocMissing] = 0;
     a[kAllocMinRow] = kNone;
@@ -829,6 +858,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         // Every pixel holds its samples: the image is final, nothing to submit.
         stats.frame = accumulatedFrames;
         stats.minSamples = prevMinSamples;
+        stats.stride = st.subsampling;
         stats.cacheUsedBytes = uint64_t(allocWords()[kAllocTop]) * 4;
         return stats;
     }
@@ -854,6 +884,8 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     stats.newSamples = a[kAllocNewSamples];
     stats.missingPixels = a[kAllocMissing];
     stats.minSamples = a[kAllocMinSamples] == kNone ? 0 : a[kAllocMinSamples];
+    stats.holes = a[kAllocHoles];
+    stats.stride = st.subsampling;
     stats.cacheUsedBytes = uint64_t(a[kAllocTop]) * 4;
     stats.cacheFull = a[kAllocFull] != 0;
     stats.requestLimited = limitRequests;
@@ -880,23 +912,30 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
     RenderResult result;
     if (im.converged) return result; // nothing changed since an exact image: it stays
     const uint32_t target = std::max<uint32_t>(1, m_settings.sampleTarget);
-    const uint32_t sub = std::max<uint32_t>(1, m_settings.subsampling);
+    RenderSettings settings = m_settings;
+    if (im.accumulationStride == 0)
+        im.accumulationStride = request.interactive ? std::max<uint32_t>(1, settings.subsampling)
+                                                    : im.stillStride(settings, uint64_t(in.width) * in.height,
+                                                                     request.timeBudgetSeconds);
+    settings.subsampling = std::max(settings.subsampling, im.accumulationStride);
+    const uint32_t sub = settings.subsampling;
     const uint32_t maxFrames = target * sub * sub + 256;
     const auto t0 = std::chrono::steady_clock::now();
     uint32_t idle = 0;
     double before = 0; // seconds elapsed before this frame
     for (uint32_t f = 0; f < maxFrames; ++f) {
-        Result<FrameStats> st = im.frame(in, m_settings, clipToWorld);
+        Result<FrameStats> st = im.frame(in, settings, clipToWorld);
         if (!st) return st.status();
+        im.measureFrame(settings, in, *st);
         result.last = *st;
         ++result.frames;
         if (request.interactive || st->minSamples >= target) break;
         const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         // The next frame is about as long as this one: stop when it would end past the budget,
-        // so the budget holds; but never short of one sample in every pixel (no holes).
+        // so the budget holds; but never while a pixel shows nothing (no holes).
         const double next = elapsed - before;
         before = elapsed;
-        if (st->minSamples >= 1 && elapsed + next > request.timeBudgetSeconds) break;
+        if (st->holes == 0 && elapsed + next > request.timeBudgetSeconds) break;
         idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
         if (idle >= 3) break;
     }

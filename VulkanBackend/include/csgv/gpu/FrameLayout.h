@@ -72,6 +72,7 @@ CSGV_CONST(uint32_t, kAllocNewSamples, 6u)   ///< pixels that gained a sample th
 CSGV_CONST(uint32_t, kAllocMissing, 7u)      ///< pixels whose ray met a brick not in the cache
 CSGV_CONST(uint32_t, kAllocMinRow, 8u)       ///< first pixel (row-major) with the previous minimum sample count
 CSGV_CONST(uint32_t, kAllocPrevMin, 9u)      ///< previous frame's minimum sample count (host-written)
+CSGV_CONST(uint32_t, kAllocHoles, 10u)       ///< pixels the resolve left empty (no sample of their own or of their stride block)
 CSGV_CONST(uint32_t, kAllocFreeCount, 16u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocReqCount, 24u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod

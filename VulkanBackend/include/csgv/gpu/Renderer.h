@@ -116,6 +116,8 @@ struct FrameStats {
     uint32_t newSamples = 0;      ///< pixels that gained a sample
     uint32_t missingPixels = 0;   ///< pixels whose ray met a brick not yet in the cache
     uint32_t minSamples = 0;      ///< fewest samples of any pixel after the frame
+    uint32_t holes = 0;           ///< pixels shown empty: no sample of their own or of their stride block
+    uint32_t stride = 1;          ///< pixel stride of the frame (the settings', or coarser for a slow still render)
     uint64_t cacheUsedBytes = 0;
     bool cacheFull = false;
     bool cacheReset = false;      ///< the cache was reset before this frame
