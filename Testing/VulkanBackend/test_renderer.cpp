@@ -606,3 +606,22 @@ TEST(Renderer, StillRenderUnderATinyBudgetEndsWithoutHoles) {
     EXPECT_GE(more->last.minSamples, still->last.minSamples);
     EXPECT_EQ(more->last.stride, stride); // one block size for the whole accumulation
 }
+
+TEST(Renderer, StillRenderDenoisesOnlyItsLastFrameAndGivesTheSameImage) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    RenderSettings st;
+    st.shading = Shading::AmbientOcclusion;
+    st.sampleTarget = 3;
+    RenderRequest req;
+    req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
+    req.timeBudgetSeconds = 1e9;
+    std::unique_ptr<Renderer> still = makeRenderer(*ctx, scene, 64ull << 20, st);
+    Result<RenderResult> r = still->render(req);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    ASSERT_EQ(r->last.stride, 1u);
+    // Frame by frame, every frame denoised: the same last image.
+    std::unique_ptr<Renderer> frames = makeRenderer(*ctx, scene, 64ull << 20, st);
+    const FrameOutput byFrame = renderConverged(*frames, req.frame, 3, 64);
+    EXPECT_EQ(still->output().rgba, byFrame.rgba);
+}

@@ -165,10 +165,16 @@ struct Renderer::Impl {
     Status validate(const FrameInput& in, const RenderSettings& st, Mat4& clipToWorld) const;
     Status detectChanges(const FrameInput& in);
     Result<FrameStats> frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
+    bool deferDenoise = false;        // frame(): gather only; render() denoises once after its frames
+    bool denoisePending = false;      // the last frame gathered without denoising
     Result<uint64_t> ensurePipeline(Shading shading);
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
     void buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
+    bool denoises(const RenderSettings& st) const;
+    /// The denoising passes over the last frame's gathered image into the output (a still render
+    /// defers them to its last frame: the frames before are never shown).
+    Status denoiseOutput(const FrameInput& in);
     Status submit();
     void applyCachePolicy(const FrameStats& stats, const FrameInput& in);
     // setMaterials' steps.
@@ -788,19 +794,48 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     const uint32_t stride = st.subsampling;
     const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
     add(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
+    if (!denoises(st)) {
+        resolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
+        return;
+    }
+    resolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
+    denoisePending = deferDenoise;
+    if (deferDenoise) return;
+    resolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
+    resolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
+    resolve(kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
+    resolve(kResolveFinal, kSlotDenoiseB, kSlotColorOut);
+}
+
+bool Renderer::Impl::denoises(const RenderSettings& st) const {
     // Denoising is for the noise of the stochastic modes; it fades out as samples accumulate and
     // is skipped once every pixel has 64.
-    const bool denoise = st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing) &&
-                         prevMinSamples < 64;
-    if (denoise) {
-        resolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
-        resolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
-        resolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
-        resolve(kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
-        resolve(kResolveFinal, kSlotDenoiseB, kSlotColorOut);
-    } else {
-        resolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
+    return st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing) &&
+           prevMinSamples < 64;
+}
+
+Status Renderer::Impl::denoiseOutput(const FrameInput& in) {
+    denoisePending = false;
+    dispatches.clear();
+    resolvePushes.clear();
+    resolvePushes.reserve(4);
+    const uint32_t tile = kGroupTile * pixelBlock;
+    const uint32_t passes[4][3] = {{kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB},
+                                   {kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA},
+                                   {kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB},
+                                   {kResolveFinal, kSlotDenoiseB, kSlotColorOut}};
+    for (const auto& p : passes) {
+        resolvePushes.push_back({frameAddress, p[0], p[1], p[2]});
+        Context::Dispatch d;
+        d.pipeline = pResolve;
+        d.pushConstants = &resolvePushes.back();
+        d.pushConstantBytes = sizeof(ResolvePush);
+        d.groups[0] = std::max((in.width + tile - 1) / tile, 1u);
+        d.groups[1] = std::max((in.height + tile - 1) / tile, 1u);
+        dispatches.push_back(d);
     }
+    outputParts = 0;
+    return ctx.run(dispatches);
 }
 
 Status Renderer::Impl::submit() {
@@ -923,9 +958,13 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
     const auto t0 = std::chrono::steady_clock::now();
     uint32_t idle = 0;
     double before = 0; // seconds elapsed before this frame
+    im.deferDenoise = !request.interactive; // the still loop's frames before its last are never shown
     for (uint32_t f = 0; f < maxFrames; ++f) {
         Result<FrameStats> st = im.frame(in, settings, clipToWorld);
-        if (!st) return st.status();
+        if (!st) {
+            im.deferDenoise = im.denoisePending = false;
+            return st.status();
+        }
         im.measureFrame(settings, in, *st);
         result.last = *st;
         ++result.frames;
@@ -939,6 +978,8 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
         if (idle >= 3) break;
     }
+    im.deferDenoise = false;
+    if (im.denoisePending && !(s = im.denoiseOutput(in))) return s;
     im.converged = result.last.minSamples >= target;
     (void)output(Color | Depth); // what a compositor needs, read while the frame is fresh
     result.changed = true;
