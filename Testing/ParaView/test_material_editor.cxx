@@ -465,8 +465,8 @@ private Q_SLOTS:
       this->child<QListWidget>("materialList")->setCurrentRow(row);
       this->child<QPushButton>("addMaterial")->click();
       QCOMPARE(this->materials().size(), 3);
-      QCOMPARE(this->material(row)["name"].toString(), QString("material %1").arg(row + 1));
       QCOMPARE(looks(this->property(), 16), before);
+      QCOMPARE(this->material(row)["name"].toString(), QString("material %1").arg(row + 1));
     }
     this->setDocument(R"({"materials":[]})");
     this->child<QPushButton>("addMaterial")->click();
