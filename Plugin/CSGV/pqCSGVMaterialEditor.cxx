@@ -10,8 +10,8 @@
 #include <pqServer.h>
 #include <pqUndoStack.h>
 #include <pqView.h>
-#include <vtkSMProperty.h>
 #include <vtkCommand.h>
+#include <vtkSMProperty.h>
 #include <vtkSMPropertyGroup.h>
 #include <vtkSMProxy.h>
 #include <vtk_jsoncpp.h>
@@ -110,6 +110,7 @@ void showValue(QDoubleSpinBox* b, double value)
     b->setValue(value);
   }
 }
+
 /// The attribute files by file name (the full paths in the tooltip): wherever the list changes,
 /// the label reads the same.
 void showAttributeFiles(QLabel* label, const QStringList& files)
@@ -759,8 +760,7 @@ void pqCSGVMaterialEditor::addMaterial()
   const int at = std::min(std::max(0, this->List->currentRow()), int(mats.size()));
   // Adding must not change the picture: the new material takes the filter and look of the one it
   // goes before, so it takes exactly the labels that one took, as they looked; editing it then
-  // changes those labels. Below every material (or in an empty list) it takes only labels no
-  // material took, so it starts transparent.
+  // changes those labels. In an empty list nothing was drawn, so it starts transparent.
   Material m;
   if (at < int(mats.size()))
   {
