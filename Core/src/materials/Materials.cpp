@@ -361,8 +361,8 @@ std::string materialProblem(const Material& m, const std::vector<std::string>* a
 
 MaterialDocument drawableMaterials(const MaterialDocument& doc, const std::vector<std::string>* availableAttributes,
                                    std::vector<std::string>* skippedReasons) {
-    MaterialDocument out;
-    out.version = doc.version;
+    MaterialDocument out = doc; // every other key of the document as it is
+    out.materials.clear();
     for (size_t i = 0; i < doc.materials.size(); ++i) {
         const Material& m = doc.materials[i];
         const std::string problem = materialProblem(m, availableAttributes);
