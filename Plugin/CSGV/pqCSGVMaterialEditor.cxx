@@ -10,6 +10,7 @@
 #include <pqServer.h>
 #include <pqUndoStack.h>
 #include <pqView.h>
+#include <vtkCommand.h>
 #include <vtkSMProperty.h>
 #include <vtkSMPropertyGroup.h>
 #include <vtkSMProxy.h>
@@ -29,11 +30,13 @@
 #include <QListWidget>
 #include <QPlainTextEdit>
 #include <QPushButton>
+#include <QStyle>
 #include <QTimer>
 #include <QVBoxLayout>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <utility>
 
 namespace
@@ -74,6 +77,40 @@ QLineEdit* numberEdit(const char* name, QWidget* parent)
   e->setValidator(new QDoubleValidator(e));
   return e;
 }
+
+/// A spin box that applies its value when the user finishes (Enter, focus out, the arrows), not
+/// at each keystroke: "0.5" typed passes through "0" and "0.", and each of those would otherwise
+/// be applied, rendered and reformatted under the cursor.
+QDoubleSpinBox* numberBox(const char* name, double lo, double hi, double step, QWidget* parent)
+{
+  auto* b = new QDoubleSpinBox(parent);
+  b->setObjectName(name);
+  b->setRange(lo, hi);
+  b->setSingleStep(step);
+  b->setDecimals(3);
+  b->setKeyboardTracking(false);
+  return b;
+}
+
+/// Shows a value in a line edit unless the user is typing in it (focused and changed since the
+/// last commit): a refresh must not rewrite a half-typed number.
+void showText(QLineEdit* e, const QString& text)
+{
+  if (!(e->hasFocus() && e->isModified()))
+  {
+    e->setText(text);
+  }
+}
+
+/// The same for a spin box: while its text differs from its value, the user is typing.
+void showValue(QDoubleSpinBox* b, double value)
+{
+  if (!(b->hasFocus() && b->text() != b->textFromValue(b->value())))
+  {
+    b->setValue(value);
+  }
+}
+
 /// The attribute files by file name (the full paths in the tooltip): wherever the list changes,
 /// the label reads the same.
 void showAttributeFiles(QLabel* label, const QStringList& files)
@@ -104,7 +141,9 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   top->addWidget(new QLabel("Materials (a label takes the first material whose filter holds it):", this));
   top->addWidget(this->List);
   auto* row = new QHBoxLayout();
-  this->Add = button("Add", "addMaterial", "Add a material before the selected one", this);
+  this->Add = button("Add", "addMaterial",
+    "Add a material before the selected one, with its filter and look, so nothing changes until you edit it",
+    this);
   this->Remove = button("Remove", "removeMaterial", "Remove the selected material", this);
   this->Duplicate = button("Duplicate", "duplicateMaterial", "Duplicate the selected material", this);
   this->Up = button("Up", "moveMaterialUp", "Move the selected material up (earlier wins)", this);
@@ -119,6 +158,12 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   this->Details = new QGroupBox("Material", this);
   this->Details->setObjectName("materialDetails");
   auto* form = new QFormLayout(this->Details);
+  this->Problem = new QLabel(this->Details);
+  this->Problem->setObjectName("materialProblem");
+  this->Problem->setWordWrap(true);
+  this->Problem->setStyleSheet("color: #c00000");
+  this->Problem->setVisible(false);
+  form->addRow(this->Problem);
   this->Name = new QLineEdit(this->Details);
   this->Name->setObjectName("materialName");
   form->addRow("Name", this->Name);
@@ -181,17 +226,9 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
     this->Wrap->addItem(w);
   }
   form->addRow("Wrap", this->Wrap);
-  this->Opacity = new QDoubleSpinBox(this->Details);
-  this->Opacity->setObjectName("opacity");
-  this->Opacity->setRange(0, 1);
-  this->Opacity->setSingleStep(0.05);
-  this->Opacity->setDecimals(3);
+  this->Opacity = numberBox("opacity", 0, 1, 0.05, this->Details);
   form->addRow("Opacity", this->Opacity);
-  this->Emission = new QDoubleSpinBox(this->Details);
-  this->Emission->setObjectName("emission");
-  this->Emission->setRange(0, 1000);
-  this->Emission->setSingleStep(0.1);
-  this->Emission->setDecimals(3);
+  this->Emission = numberBox("emission", 0, 1000, 0.1, this->Details);
   form->addRow("Emission", this->Emission);
   top->addWidget(this->Details);
 
@@ -253,6 +290,7 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   }
   for (QDoubleSpinBox* s : { this->Opacity, this->Emission })
   {
+    // Without keyboard tracking, valueChanged comes when the user finishes (numberBox()).
     connect(s, QOverload<double>::of(&QDoubleSpinBox::valueChanged), this,
       &pqCSGVMaterialEditor::detailsEdited);
   }
@@ -265,6 +303,21 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   connect(refresh, &QPushButton::clicked, this, &pqCSGVMaterialEditor::refreshAttributes);
   connect(applyDerived, &QPushButton::clicked, this, &pqCSGVMaterialEditor::applyDerived);
   connect(exportColors, &QPushButton::clicked, this, &pqCSGVMaterialEditor::exportColors);
+
+  this->RefreshTimer = new QTimer(this);
+  this->RefreshTimer->setSingleShot(true);
+  this->RefreshTimer->setInterval(0);
+  connect(this->RefreshTimer, &QTimer::timeout, this, &pqCSGVMaterialEditor::refreshAttributes);
+  // The property links push an edit only when the panel applies it (a queued changeFinished), so
+  // a refresh right after the edit would ask the rendering process before the files reached it.
+  // Refreshing when the representation's attribute properties are pushed sees them every time:
+  // edits here, pvpython, undo and state files alike.
+  if (vtkSMProxy* rep = pqCSGV::segmentationProxy(proxy))
+  {
+    this->Observed = rep;
+    this->ObserverTag =
+      rep->AddObserver(vtkCommand::UpdatePropertyEvent, this, &pqCSGVMaterialEditor::propertyPushed);
+  }
 
   this->Doc = csgv::defaultMaterials();
   this->rebuildList(0);
@@ -283,12 +336,29 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   if (vtkSMProperty* p = proxy->GetProperty("CSGVComputedAttributes"))
   {
     this->addPropertyLink(this->Computed, "checked", SIGNAL(toggled(bool)), p);
-    connect(this->Computed, &QCheckBox::toggled, this,
-      [this]() { QTimer::singleShot(0, this, &pqCSGVMaterialEditor::refreshAttributes); });
   }
 }
 
-pqCSGVMaterialEditor::~pqCSGVMaterialEditor() = default;
+pqCSGVMaterialEditor::~pqCSGVMaterialEditor()
+{
+  if (this->Observed)
+  {
+    this->Observed->RemoveObserver(this->ObserverTag);
+  }
+}
+
+void pqCSGVMaterialEditor::propertyPushed(vtkObject*, unsigned long, void* name)
+{
+  // UpdatePropertyEvent comes before the proxy sends the values: refresh from the event loop.
+  const char* property = static_cast<const char*>(name);
+  for (const char* attributes : { "CSGVAttributeFiles", "CSGVDerivedAttributes", "CSGVComputedAttributes" })
+  {
+    if (property && std::strcmp(property, attributes) == 0)
+    {
+      this->RefreshTimer->start();
+    }
+  }
+}
 
 QString pqCSGVMaterialEditor::materials() const
 {
@@ -324,7 +394,6 @@ void pqCSGVMaterialEditor::setAttributeFiles(const QStringList& files)
   }
   this->Files = files;
   showAttributeFiles(this->FilesLabel, files);
-  QTimer::singleShot(0, this, &pqCSGVMaterialEditor::refreshAttributes);
 }
 
 void pqCSGVMaterialEditor::setDerivedAttributes(const QStringList& pairs)
@@ -340,7 +409,6 @@ void pqCSGVMaterialEditor::setDerivedAttributes(const QStringList& pairs)
     lines << pairs[i] + " = " + pairs[i + 1];
   }
   this->DerivedEdit->setPlainText(lines.join("\n"));
-  QTimer::singleShot(0, this, &pqCSGVMaterialEditor::refreshAttributes);
 }
 
 void pqCSGVMaterialEditor::showEvent(QShowEvent* e)
@@ -357,7 +425,7 @@ void pqCSGVMaterialEditor::showEvent(QShowEvent* e)
     }
     qInfo("csgv widget path: %s", qPrintable(path.join('/')));
   }
-  QTimer::singleShot(0, this, &pqCSGVMaterialEditor::refreshAttributes);
+  this->RefreshTimer->start();
 }
 
 void pqCSGVMaterialEditor::refreshAttributes()
@@ -383,7 +451,7 @@ void pqCSGVMaterialEditor::refreshAttributes()
   {
     this->Status->setText(QString());
   }
-  this->showDetails();
+  this->rebuildList(this->List->currentRow()); // which materials can be drawn may have changed
 }
 
 void pqCSGVMaterialEditor::fillAttributeCombo(QComboBox* combo, const QString& current, bool numericOnly)
@@ -424,8 +492,19 @@ void pqCSGVMaterialEditor::rebuildList(int select)
                      .arg(qstr(m.filterAttribute))
                      .arg(number(m.filterMin))
                      .arg(number(m.filterMax));
+    const QString problem = this->problemOf(m);
+    if (!problem.isEmpty())
+    {
+      text += "  (not drawn: " + problem + ")";
+    }
     auto* item = new QListWidgetItem(text, this->List);
-    if (m.colorMode == Material::ColorMode::Constant)
+    if (!problem.isEmpty())
+    {
+      item->setIcon(this->style()->standardIcon(QStyle::SP_MessageBoxWarning));
+      item->setForeground(QColor(192, 0, 0));
+      item->setToolTip("Not drawn until fixed: " + problem);
+    }
+    else if (m.colorMode == Material::ColorMode::Constant)
     {
       QPixmap px(12, 12);
       px.fill(qcolor(m.rgb));
@@ -458,21 +537,24 @@ void pqCSGVMaterialEditor::showDetails()
   this->Updating = true;
   const Material& m = this->Doc.materials[i];
   this->Details->setTitle(QString("Material %1").arg(i + 1));
-  this->Name->setText(qstr(m.name));
+  const QString problem = this->problemOf(m);
+  this->Problem->setText("Not drawn until fixed: " + problem);
+  this->Problem->setVisible(!problem.isEmpty());
+  showText(this->Name, qstr(m.name));
   this->fillAttributeCombo(this->FilterAttribute, qstr(m.filterAttribute), true);
-  this->FilterMin->setText(number(m.filterMin));
-  this->FilterMax->setText(number(m.filterMax));
+  showText(this->FilterMin, number(m.filterMin));
+  showText(this->FilterMax, number(m.filterMax));
   this->ColorMode->setCurrentIndex(int(m.colorMode));
   const QColor color = qcolor(m.rgb);
   this->ColorButton->setChosenColor(color);
-  this->ColorHex->setText(color.name());
-  this->ColormapName->setText(m.colormap.points.empty() ? qstr(m.colormap.name) : "(control points)");
+  showText(this->ColorHex, color.name());
+  showText(this->ColormapName, m.colormap.points.empty() ? qstr(m.colormap.name) : "(control points)");
   this->fillAttributeCombo(this->ColorAttribute, qstr(m.colorAttribute), true);
-  this->ColorMin->setText(number(m.colorMin));
-  this->ColorMax->setText(number(m.colorMax));
+  showText(this->ColorMin, number(m.colorMin));
+  showText(this->ColorMax, number(m.colorMax));
   this->Wrap->setCurrentIndex(int(m.wrap));
-  this->Opacity->setValue(m.opacity);
-  this->Emission->setValue(m.emission);
+  showValue(this->Opacity, m.opacity);
+  showValue(this->Emission, m.emission);
   const bool constant = m.colorMode == Material::ColorMode::Constant;
   const bool colormap = m.colorMode == Material::ColorMode::Colormap;
   this->ColorButton->setEnabled(constant);
@@ -503,6 +585,48 @@ void pqCSGVMaterialEditor::updateRanges()
   };
   this->FilterRange->setText(rangeText(this->FilterAttribute->currentText()));
   this->ColorRange->setText(rangeText(this->ColorAttribute->currentText()));
+}
+
+bool pqCSGVMaterialEditor::dataRange(const std::string& attribute, double& lo, double& hi) const
+{
+  const QString name = qstr(attribute);
+  if (!this->Attributes.contains(name))
+  {
+    return false;
+  }
+  lo = this->Attributes[name].second.first;
+  hi = this->Attributes[name].second.second;
+  return std::isfinite(lo) && std::isfinite(hi);
+}
+
+void pqCSGVMaterialEditor::adoptDataRanges(const Material& old, Material& m) const
+{
+  double lo = 0, hi = 0;
+  if (m.filterAttribute != old.filterAttribute && this->dataRange(m.filterAttribute, lo, hi))
+  {
+    // The old interval meant nothing for the new attribute. On `label`, 0 stays empty space
+    // as in Core's default filter.
+    m.filterMin = m.filterAttribute == "label" ? std::max(lo, Material().filterMin) : lo;
+    m.filterMax = std::max(m.filterMin, hi);
+  }
+  const bool colormapNow = m.colorMode == Material::ColorMode::Colormap;
+  const bool newColorInput = old.colorMode != Material::ColorMode::Colormap || m.colorAttribute != old.colorAttribute;
+  if (colormapNow && newColorInput && this->dataRange(m.colorAttribute, lo, hi) && lo < hi)
+  {
+    m.colorMin = lo;
+    m.colorMax = hi;
+  }
+}
+
+QString pqCSGVMaterialEditor::problemOf(const Material& m) const
+{
+  // Until the rendering process has answered, attributes are not judged (nullptr).
+  std::vector<std::string> known;
+  for (const QString& n : this->AttributeOrder)
+  {
+    known.push_back(n.toStdString());
+  }
+  return qstr(csgv::materialProblem(m, known.empty() ? nullptr : &known));
 }
 
 void pqCSGVMaterialEditor::selectionChanged()
@@ -589,7 +713,14 @@ void pqCSGVMaterialEditor::detailsEdited()
   }
   m.opacity = float(this->Opacity->value());
   m.emission = float(this->Emission->value());
+  this->adoptDataRanges(old, m);
   this->Doc.materials[i] = std::move(m);
+  // What was typed is committed: showDetails() may now write the boxes in canonical form.
+  for (QLineEdit* e : { this->Name, this->FilterMin, this->FilterMax, this->ColorHex, this->ColormapName,
+         this->ColorMin, this->ColorMax })
+  {
+    e->setModified(false);
+  }
   this->commit("Edit material");
   this->rebuildList(i);
 }
@@ -627,11 +758,19 @@ void pqCSGVMaterialEditor::addMaterial()
 {
   std::vector<Material>& mats = this->Doc.materials;
   const int at = std::min(std::max(0, this->List->currentRow()), int(mats.size()));
-  // Core's default material (every non-zero label, opaque), but constant white, so the new one
-  // is easy to tell apart from the random colours it overrides.
+  // Adding must not change the picture: the new material takes the filter and look of the one it
+  // goes before, so it takes exactly the labels that one took, as they looked; editing it then
+  // changes those labels. In an empty list nothing was drawn, so it starts transparent.
   Material m;
-  m.name = QString("material %1").arg(mats.size() + 1).toStdString();
-  m.colorMode = Material::ColorMode::Constant;
+  if (at < int(mats.size()))
+  {
+    m = mats[at];
+  }
+  else
+  {
+    m.opacity = 0;
+  }
+  m.name = QString("material %1").arg(at + 1).toStdString();
   mats.insert(mats.begin() + at, m);
   this->commit("Add material");
   this->rebuildList(at);
@@ -715,7 +854,6 @@ void pqCSGVMaterialEditor::loadAttributes()
   BEGIN_UNDO_SET("Load attributes");
   Q_EMIT this->attributeFilesChanged();
   END_UNDO_SET();
-  this->refreshAttributes();
   if (pqView* v = this->view())
   {
     v->render();
@@ -733,7 +871,6 @@ void pqCSGVMaterialEditor::clearAttributes()
   BEGIN_UNDO_SET("Clear attributes");
   Q_EMIT this->attributeFilesChanged();
   END_UNDO_SET();
-  this->refreshAttributes();
 }
 
 void pqCSGVMaterialEditor::applyDerived()
@@ -756,7 +893,6 @@ void pqCSGVMaterialEditor::applyDerived()
   BEGIN_UNDO_SET("Derived attributes");
   Q_EMIT this->derivedAttributesChanged();
   END_UNDO_SET();
-  this->refreshAttributes();
   if (pqView* v = this->view())
   {
     v->render();

@@ -9,13 +9,20 @@
  * server-manager properties pvpython sets (through pqPropertyLinks), so undo
  * and redo, state files and Python trace work and every edit shows at once (display properties
  * apply immediately). Attribute names and data ranges come from the rendering process through
- * misc/CSGVQuery, so the editor also works when the data lives on a pvserver.
+ * misc/CSGVQuery, so the editor also works when the data lives on a pvserver; they are asked
+ * again whenever an attribute property reaches it.
+ *
+ * Text and number boxes take effect when the user finishes (Enter or focus out), never
+ * mid-word, and a box being typed in is not rewritten under the cursor. A material Core cannot
+ * draw as it stands (csgv::materialProblem: a half-finished interval, an attribute the volume
+ * lacks) stays in the document, is marked in the list and explained beside its details; the
+ * representation leaves it out and draws the rest.
  *
  * Every widget has a stable objectName (for tests and recorded event files): materialList,
  * addMaterial, removeMaterial, duplicateMaterial, moveMaterialUp, moveMaterialDown,
  * materialName, filterAttribute, filterMin, filterMax, filterRange, colorMode, colorButton,
  * colorHex, colormapName, choosePreset, colorAttribute, colorMin, colorMax, colorRange,
- * wrapMode, opacity, emission, loadAttributes, clearAttributes, attributeFiles,
+ * wrapMode, opacity, emission, materialProblem, loadAttributes, clearAttributes, attributeFiles,
  * computedAttributes, derivedAttributes, applyDerived, refreshAttributes, exportColors, status.
  */
 #ifndef pqCSGVMaterialEditor_h
@@ -24,6 +31,8 @@
 #include "pqPropertyWidget.h"
 
 #include "csgv/materials/Materials.h"
+
+#include <vtkWeakPointer.h>
 
 #include <QMap>
 #include <QPair>
@@ -38,7 +47,9 @@ class QLineEdit;
 class QListWidget;
 class QPlainTextEdit;
 class QPushButton;
+class QTimer;
 class pqColorChooserButton;
+class vtkObject;
 class vtkSMPropertyGroup;
 
 class pqCSGVMaterialEditor : public pqPropertyWidget
@@ -99,6 +110,16 @@ private:
   void showDetails();
   void fillAttributeCombo(QComboBox* combo, const QString& current, bool numericOnly);
   void updateRanges();
+  /// The data range of an attribute as the rendering process reported it; false when unknown.
+  bool dataRange(const std::string& attribute, double& lo, double& hi) const;
+  /// New intervals where the user switched attributes or colour mode: the data range of the
+  /// attribute now named, so the material keeps drawing something sensible.
+  void adoptDataRanges(const csgv::Material& old, csgv::Material& m) const;
+  /// csgv::materialProblem() with the attribute names the rendering process reported.
+  QString problemOf(const csgv::Material& m) const;
+  /// Observer of the representation: refreshes the attributes once an attribute property has
+  /// been pushed to the rendering process (not before, when the query would miss it).
+  void propertyPushed(vtkObject*, unsigned long, void* name);
 
   /// Core's document (its defaults and checks live there); the widgets edit it, commit() writes it.
   csgv::MaterialDocument Doc;
@@ -110,6 +131,9 @@ private:
   QMap<QString, QPair<bool, QPair<double, double>>> Attributes;
   QStringList AttributeOrder;
   bool Updating = false;
+  vtkWeakPointer<vtkSMProxy> Observed; ///< the proxy whose property pushes propertyPushed() sees
+  unsigned long ObserverTag = 0;
+  QTimer* RefreshTimer; ///< coalesces the refreshes several pushed properties ask for
 
   QListWidget* List;
   QPushButton *Add, *Remove, *Duplicate, *Up, *Down;
@@ -126,6 +150,7 @@ private:
   QComboBox* ColorAttribute;
   QLineEdit *ColorMin, *ColorMax;
   QLabel* ColorRange;
+  QLabel* Problem;
   QComboBox* Wrap;
   QDoubleSpinBox* Opacity;
   QDoubleSpinBox* Emission;

@@ -3,7 +3,9 @@
 // edits the representation's CSGVMaterials property (add / remove / duplicate / reorder, details,
 // colour), follows the property when pvpython-style code sets it, loads attribute names and
 // ranges from the representation (the db3 fixture), and the hide / show-only edits of the pick
-// panel. Usage: csgv_material_editor_test PLUGIN.so FIXTURES_DIR
+// panel. Typing tests send key events at a person's pace, with the editor applied the way the
+// Properties panel applies display properties (on its queued changeFinished). Usage:
+// csgv_material_editor_test PLUGIN.so FIXTURES_DIR
 #include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
 
@@ -27,8 +29,12 @@
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
+#include <QPlainTextEdit>
 #include <QPushButton>
 #include <QtTest>
+
+#include <array>
+#include <cmath>
 
 namespace
 {
@@ -47,6 +53,32 @@ QJsonObject documentOf(const QString& text)
   }
   return QJsonDocument::fromJson(pqCSGV::serialize(doc).toUtf8()).object();
 }
+
+/// What a label looks like under a document as the renderer draws it (drawableMaterials):
+/// invisible, or colour, opacity and emission. Labels only (the fixtures' documents filter on
+/// `label`).
+QList<QList<double>> looks(const QString& text, uint32_t labels)
+{
+  const csgv::MaterialDocument doc = csgv::drawableMaterials(pqCSGV::parseDocument(text), nullptr, nullptr);
+  const csgv::MaterialEvaluator e(doc, [](const std::string&, uint32_t) { return std::nan(""); });
+  QList<QList<double>> out;
+  for (uint32_t l = 0; l < labels; ++l)
+  {
+    const int m = e.materialOf(l);
+    if (m < 0 || doc.materials[m].opacity == 0)
+    {
+      out << QList<double>{};
+      continue;
+    }
+    const std::array<float, 3> c = e.colorOf(l, m);
+    out << QList<double>{ c[0], c[1], c[2], doc.materials[m].opacity, doc.materials[m].emission };
+  }
+  return out;
+}
+
+/// A person's pace between keystrokes (ms): the event loop runs, so anything an editor would do
+/// after a keystroke (queued applies, timers) happens before the next one.
+constexpr int kKeyDelay = 120;
 }
 
 class TestMaterialEditor : public QObject
@@ -83,6 +115,35 @@ class TestMaterialEditor : public QObject
     e->setText(text);
     Q_EMIT e->editingFinished();
   }
+  /// Sets the property as pvpython does and lets the editor follow it.
+  void setDocument(const QString& text)
+  {
+    vtkSMPropertyHelper(this->Repr, "CSGVMaterials").Set(text.toUtf8().constData());
+    this->Repr->UpdateVTKObjects();
+    QCoreApplication::processEvents();
+  }
+  QJsonObject material(int i) const { return this->materials()[i].toObject(); }
+  /// Clicks into a box, selects its text and types `text` one key at a time.
+  void typeInto(QWidget* box, const QString& text)
+  {
+    QTest::mouseClick(box, Qt::LeftButton);
+    box->setFocus(Qt::MouseFocusReason);
+    QTest::keyClick(box, Qt::Key_A, Qt::ControlModifier);
+    QTest::keyClicks(box, text, Qt::NoModifier, kKeyDelay);
+    QTest::qWait(kKeyDelay);
+  }
+  /// The data range the representation reports for an attribute.
+  QPair<double, double> range(const QString& attribute) const
+  {
+    for (const QJsonValue& v : pqCSGV::queryJson(this->Repr, "summary").value("attributes").toArray())
+    {
+      if (v.toObject().value("name").toString() == attribute)
+      {
+        return qMakePair(v.toObject().value("min").toDouble(), v.toObject().value("max").toDouble());
+      }
+    }
+    return qMakePair(std::nan(""), std::nan(""));
+  }
 
 private Q_SLOTS:
   void initTestCase()
@@ -100,7 +161,11 @@ private Q_SLOTS:
     vtkSMPropertyHelper(this->Repr, "Input").Set(this->Reader);
     this->Repr->UpdateVTKObjects();
     this->Editor = new pqCSGVMaterialEditor(this->Repr, nullptr);
+    // As the Properties panel does for display properties: apply each change it finishes.
+    connect(this->Editor, &pqPropertyWidget::changeFinished, this->Editor, &pqPropertyWidget::apply);
     this->Editor->show();
+    QVERIFY(QTest::qWaitForWindowExposed(this->Editor));
+    QApplication::setActiveWindow(this->Editor); // key focus without a window manager
   }
 
   void cleanupTestCase()
@@ -128,7 +193,7 @@ private Q_SLOTS:
     QCOMPARE(this->materials().size(), 2);
     QCOMPARE(list->count(), 2);
     QCOMPARE(list->currentRow(), 0); // inserted before the selection: it takes labels first
-    QCOMPARE(this->materials()[0].toObject()["color"].toObject()["mode"].toString(), QString("constant"));
+    QCOMPARE(this->materials()[0].toObject()["name"].toString(), QString("material 1"));
     this->child<QPushButton>("duplicateMaterial")->click();
     QCOMPARE(this->materials().size(), 3);
     QCOMPARE(this->materials()[1].toObject()["name"].toString(),
@@ -148,6 +213,7 @@ private Q_SLOTS:
   {
     this->child<QListWidget>("materialList")->setCurrentRow(0);
     this->setLine("materialName", "tumour");
+    this->child<QComboBox>("colorMode")->setCurrentText("constant");
     this->setLine("filterMin", "5");
     this->setLine("filterMax", "40");
     this->setLine("colorHex", "#ff0000");
@@ -261,6 +327,166 @@ private Q_SLOTS:
       qPrintable(this->child<QLabel>("status")->text()));
     QCOMPARE(this->child<QListWidget>("materialList")->count(), 1);
     QCOMPARE(this->child<QLineEdit>("materialName")->text(), QString("all"));
+  }
+
+  // Issue 15 (1): typing "0.5" at a person's pace sets 0.5 on Enter, not 0 at the first key.
+  void typedOpacityAppliesOnEnter()
+  {
+    this->setDocument(R"({"materials":[{"name":"a","filter":{"min":1,"max":2}},{"name":"b"}]})");
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    QDoubleSpinBox* opacity = this->child<QDoubleSpinBox>("opacity");
+    QTest::mouseClick(opacity, Qt::LeftButton);
+    opacity->setFocus(Qt::MouseFocusReason);
+    QTest::keyClick(opacity, Qt::Key_A, Qt::ControlModifier);
+    for (const QChar c : QString("0.5"))
+    {
+      QTest::keyClicks(opacity, QString(c), Qt::NoModifier, kKeyDelay);
+      QTest::qWait(kKeyDelay);
+      QCOMPARE(this->material(0)["opacity"].toDouble(), 1.0); // nothing applied mid-word
+    }
+    QCOMPARE(opacity->text(), QString("0.5")); // and the box not reformatted under the cursor
+    QTest::keyClick(opacity, Qt::Key_Return);
+    QTest::qWait(kKeyDelay);
+    QCOMPARE(this->material(0)["opacity"].toDouble(), 0.5);
+    QCOMPARE(this->material(1)["opacity"].toDouble(), 1.0);
+  }
+
+  // ... and the emission box on focus out.
+  void typedEmissionAppliesOnFocusOut()
+  {
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    QDoubleSpinBox* emission = this->child<QDoubleSpinBox>("emission");
+    this->typeInto(emission, "2.5");
+    QCOMPARE(this->material(0)["emission"].toDouble(), 0.0);
+    QTest::mouseClick(this->child<QLineEdit>("materialName"), Qt::LeftButton);
+    this->child<QLineEdit>("materialName")->setFocus(Qt::MouseFocusReason);
+    QTest::qWait(kKeyDelay);
+    QCOMPARE(this->material(0)["emission"].toDouble(), 2.5);
+  }
+
+  // A refresh (attributes pushed, a property set elsewhere) does not rewrite a box being typed in.
+  void typingSurvivesARefresh()
+  {
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    QLineEdit* max = this->child<QLineEdit>("filterMax");
+    this->typeInto(max, "12");
+    this->Editor->refreshAttributes();
+    QCOMPARE(max->text(), QString("12"));
+    QCOMPARE(this->material(0)["filter"].toObject()["max"].toDouble(), 2.0);
+    QTest::keyClick(max, Qt::Key_Return);
+    QTest::qWait(kKeyDelay);
+    QCOMPARE(this->material(0)["filter"].toObject()["max"].toDouble(), 12.0);
+  }
+
+  // Issue 15 (2): a half-finished interval keeps its material, marks its row with the reason and
+  // leaves the rest drawable.
+  void invalidMaterialIsMarkedAndKept()
+  {
+    this->setDocument(R"({"materials":[{"name":"a","filter":{"min":1,"max":2},"color":{"mode":"constant","rgb":[1,0,0]}},)"
+                      R"({"name":"b","filter":{"min":3,"max":10}},{"name":"rest"}]})");
+    const QJsonObject a = this->material(0), rest = this->material(2);
+    QListWidget* list = this->child<QListWidget>("materialList");
+    list->setCurrentRow(1);
+    QLineEdit* min = this->child<QLineEdit>("filterMin");
+    this->typeInto(min, "20");
+    QTest::keyClick(min, Qt::Key_Return);
+    QTest::qWait(kKeyDelay);
+    QCOMPARE(this->materials().size(), 3); // the document still holds it, as typed
+    QCOMPARE(this->material(1)["filter"].toObject()["min"].toDouble(), 20.0);
+    QCOMPARE(this->material(1)["filter"].toObject()["max"].toDouble(), 10.0);
+    QCOMPARE(this->material(0), a);
+    QCOMPARE(this->material(2), rest);
+    QVERIFY2(list->item(1)->text().contains("not drawn: filter min 20 is greater than max 10"),
+      qPrintable(list->item(1)->text()));
+    QVERIFY(!list->item(0)->text().contains("not drawn"));
+    QVERIFY(!list->item(2)->text().contains("not drawn"));
+    QLabel* problem = this->child<QLabel>("materialProblem");
+    QVERIFY(problem->isVisible());
+    QVERIFY2(problem->text().contains("filter min 20 is greater than max 10"), qPrintable(problem->text()));
+    // What the renderer is given: the other two materials.
+    std::vector<std::string> skipped;
+    const csgv::MaterialDocument drawn =
+      csgv::drawableMaterials(pqCSGV::parseDocument(this->property()), nullptr, &skipped);
+    QCOMPARE(int(drawn.materials.size()), 2);
+    QCOMPARE(QString::fromStdString(skipped.at(0)),
+      QString("material 2 ('b'): filter min 20 is greater than max 10; not drawn"));
+    // Finishing the edit clears the mark.
+    this->typeInto(min, "4");
+    QTest::keyClick(min, Qt::Key_Return);
+    QTest::qWait(kKeyDelay);
+    QVERIFY(!list->item(1)->text().contains("not drawn"));
+    QVERIFY(!problem->isVisible());
+  }
+
+  // Another filter attribute brings its own data range, not the old interval.
+  void filterAttributeTakesItsDataRange()
+  {
+    this->child<QListWidget>("materialList")->setCurrentRow(1);
+    this->child<QComboBox>("filterAttribute")->setCurrentText("kind");
+    QJsonObject f = this->material(1)["filter"].toObject();
+    QCOMPARE(f["attribute"].toString(), QString("kind"));
+    QCOMPARE(f["min"].toDouble(), 0.0); // kind's data range, shown as "data range: 0 .. 3"
+    QCOMPARE(f["max"].toDouble(), 3.0);
+    this->child<QComboBox>("filterAttribute")->setCurrentText("label");
+    f = this->material(1)["filter"].toObject();
+    QCOMPARE(f["min"].toDouble(), std::max(1.0, this->range("label").first)); // 0 stays empty space
+    QCOMPARE(f["max"].toDouble(), this->range("label").second);
+  }
+
+  // Issue 15 (4): colormap mode maps the colour attribute's data range, also after a change of
+  // attribute.
+  void colormapTakesTheDataRange()
+  {
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    this->child<QComboBox>("colorMode")->setCurrentText("colormap");
+    QJsonObject c = this->material(0)["color"].toObject();
+    QCOMPARE(c["attribute"].toString(), QString("label"));
+    QCOMPARE(c["min"].toDouble(), this->range("label").first);
+    QCOMPARE(c["max"].toDouble(), this->range("label").second);
+    const QPair<double, double> voxels = this->range("voxels");
+    QVERIFY(voxels.first < voxels.second);
+    this->child<QComboBox>("colorAttribute")->setCurrentText("voxels");
+    c = this->material(0)["color"].toObject();
+    QCOMPARE(c["min"].toDouble(), voxels.first);
+    QCOMPARE(c["max"].toDouble(), voxels.second);
+    QCOMPARE(this->child<QLabel>("colorRange")->text(),
+      QString("data range: %1 .. %2").arg(voxels.first, 0, 'g', 12).arg(voxels.second, 0, 'g', 12));
+  }
+
+  // "Add" changes nothing visible until the new material is edited, wherever it goes.
+  void addChangesNothingVisible()
+  {
+    const QString doc = R"({"materials":[{"name":"a","filter":{"min":1,"max":2},"color":{"mode":"constant","rgb":[1,0,0]}},)"
+                        R"({"name":"b","filter":{"min":3,"max":10},"opacity":0.5}]})";
+    for (int row : { 0, 1 })
+    {
+      this->setDocument(doc);
+      const auto before = looks(this->property(), 16);
+      this->child<QListWidget>("materialList")->setCurrentRow(row);
+      this->child<QPushButton>("addMaterial")->click();
+      QCOMPARE(this->materials().size(), 3);
+      QCOMPARE(looks(this->property(), 16), before);
+      QCOMPARE(this->material(row)["name"].toString(), QString("material %1").arg(row + 1));
+    }
+    this->setDocument(R"({"materials":[]})");
+    this->child<QPushButton>("addMaterial")->click();
+    QCOMPARE(this->materials().size(), 1);
+    QCOMPARE(looks(this->property(), 16), looks(R"({"materials":[]})", 16));
+  }
+
+  // A new attribute column is in the drop-downs as soon as the panel applied it (no Refresh).
+  void newAttributeAppearsAtOnce()
+  {
+    this->setDocument(R"({"materials":[{"name":"a"}]})");
+    QPlainTextEdit* derived = this->child<QPlainTextEdit>("derivedAttributes");
+    derived->setFocus(Qt::MouseFocusReason);
+    derived->selectAll();
+    QTest::keyClicks(derived, "double_kind = kind * 2", Qt::NoModifier, 10);
+    this->child<QPushButton>("applyDerived")->click();
+    QTest::qWait(4 * kKeyDelay);
+    QComboBox* attrs = this->child<QComboBox>("filterAttribute");
+    QVERIFY2(attrs->findText("double_kind") >= 0, qPrintable(this->child<QLabel>("status")->text()));
+    QVERIFY(this->child<QComboBox>("colorAttribute")->findText("double_kind") >= 0);
   }
 };
 

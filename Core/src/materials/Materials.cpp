@@ -15,8 +15,9 @@ using nlohmann::json;
 
 namespace {
 
+/// A material as the editor's list numbers it (from 1), with its name.
 std::string where(size_t i, const std::string& name) {
-    return "material " + std::to_string(i) + (name.empty() ? "" : " ('" + name + "')");
+    return "material " + std::to_string(i + 1) + (name.empty() ? "" : " ('" + name + "')");
 }
 
 /// Refuses keys outside `allowed`, naming the first one.
@@ -95,7 +96,7 @@ Status parseMaterial(const json& m, size_t index, Material& out) {
         if (!(s = number(f, "min", out.filterMin, fc))) return s;
         if (!(s = number(f, "max", out.filterMax, fc))) return s;
         if (out.filterAttribute.empty()) return Status::error(fc + ": 'attribute' is empty");
-        if (out.filterMin > out.filterMax) return Status::error(fc + ": 'min' is greater than 'max'");
+        // min > max is a value a half-finished edit produces: materialProblem() reports it.
     }
     if (m.contains("color")) {
         const json& c = m["color"];
@@ -120,7 +121,7 @@ Status parseMaterial(const json& m, size_t index, Material& out) {
             if (!(s = text(c, "attribute", out.colorAttribute, cc))) return s;
             if (!(s = number(c, "min", out.colorMin, cc))) return s;
             if (!(s = number(c, "max", out.colorMax, cc))) return s;
-            if (out.colorMin == out.colorMax) return Status::error(cc + ": 'min' equals 'max'");
+            // min == max: materialProblem() reports it (the material stays in the document).
             std::string wrap = "clamp";
             if (!(s = text(c, "wrap", wrap, cc))) return s;
             if (wrap == "clamp") out.wrap = Material::Wrap::Clamp;
@@ -326,6 +327,52 @@ Status checkAttributes(const MaterialDocument& doc, const std::vector<std::strin
         return Status::error("material document names attribute '" + a + "', which the volume lacks (it has: " + list + ")");
     }
     return Status::ok();
+}
+
+namespace {
+
+/// A double in its shortest decimal form, as the editor shows it.
+std::string numberText(double v) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, r.ptr);
+}
+
+/// Why an attribute a material names cannot be read: "" when it is `label` or available (or when
+/// the caller knows no list).
+std::string missingAttribute(const std::string& role, const std::string& attribute,
+                             const std::vector<std::string>* available) {
+    if (!available || attribute == "label") return {};
+    if (std::find(available->begin(), available->end(), attribute) != available->end()) return {};
+    return role + " attribute '" + attribute + "' is not available";
+}
+
+} // namespace
+
+std::string materialProblem(const Material& m, const std::vector<std::string>* availableAttributes) {
+    if (m.filterMin > m.filterMax)
+        return "filter min " + numberText(m.filterMin) + " is greater than max " + numberText(m.filterMax);
+    std::string missing = missingAttribute("filter", m.filterAttribute, availableAttributes);
+    if (!missing.empty()) return missing;
+    if (m.colorMode != Material::ColorMode::Colormap) return {};
+    if (m.colorMin == m.colorMax) return "colour min equals max (" + numberText(m.colorMin) + ")";
+    return missingAttribute("colour", m.colorAttribute, availableAttributes);
+}
+
+MaterialDocument drawableMaterials(const MaterialDocument& doc, const std::vector<std::string>* availableAttributes,
+                                   std::vector<std::string>* skippedReasons) {
+    MaterialDocument out = doc; // every other key of the document as it is
+    out.materials.clear();
+    for (size_t i = 0; i < doc.materials.size(); ++i) {
+        const Material& m = doc.materials[i];
+        const std::string problem = materialProblem(m, availableAttributes);
+        if (problem.empty()) {
+            out.materials.push_back(m);
+        } else if (skippedReasons) {
+            skippedReasons->push_back(where(i, m.name) + ": " + problem + "; not drawn");
+        }
+    }
+    return out;
 }
 
 std::vector<std::string> builtinColormapNames() { return {"Viridis (matplotlib)", "Turbo", "Cool to Warm", "Grayscale"}; }

@@ -14,6 +14,9 @@
 /// - `random` places a label on the colormap at hash(label) / 2^32 (a fixed 32-bit mix), so a
 ///   label has the same colour in every view and session; without a colormap it takes one of 16
 ///   fixed high-contrast colours by the same hash.
+/// - Values a half-finished edit leaves (filter min > max, a colour interval with min == max) are
+///   not parse errors: the material stays in the document, materialProblem() says why it cannot
+///   be drawn and drawableMaterials() leaves it out, so the rest of the volume keeps drawing.
 
 #include "csgv/base/Status.h"
 
@@ -59,7 +62,8 @@ struct MaterialDocument {
     std::vector<Material> materials;
 };
 
-/// Parses a document; errors name the material (index and name) and the key.
+/// Parses a document; errors name the material (its number in the list, from 1, and its name) and
+/// the key. Structure is checked here; drawability is materialProblem()'s.
 Result<MaterialDocument> parseMaterials(const std::string& json);
 /// The text of a material property: blank text is the default document, anything else must parse.
 Result<MaterialDocument> parseMaterialsOrDefault(const std::string& json);
@@ -85,6 +89,16 @@ void showOnlyLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn
 std::vector<std::string> attributesUsed(const MaterialDocument& doc);
 /// An error naming the first attribute that `available` lacks.
 Status checkAttributes(const MaterialDocument& doc, const std::vector<std::string>& available);
+/// Why a material cannot be drawn as it stands, "" when it can: values a half-finished edit leaves
+/// (filter min > max, a colormap's colour min == max), which parseMaterials() accepts so the
+/// material stays in the document, and, when `availableAttributes` is given, an attribute other
+/// than `label` that the list lacks.
+std::string materialProblem(const Material& m, const std::vector<std::string>* availableAttributes = nullptr);
+/// The document without the materials materialProblem() refuses, so the rest of the volume keeps
+/// drawing; each skipped one adds a reason to `skippedReasons` (when given), naming it as the
+/// editor's list does ("material 2 ('vessels'): filter min 5 is greater than max 3; not drawn").
+MaterialDocument drawableMaterials(const MaterialDocument& doc, const std::vector<std::string>* availableAttributes,
+                                   std::vector<std::string>* skippedReasons);
 /// Replaces colormap names by control points (built-in names; others are an error naming them).
 Status resolveColormapNames(MaterialDocument& doc);
 /// "Viridis (matplotlib)", "Turbo", "Cool to Warm", "Grayscale".
