@@ -90,8 +90,15 @@ std::string answerQuery(const std::string& request, QueryContext& c)
 
   if (what == "summary")
   {
-    return attributeSummary(
+    const std::string summary = attributeSummary(
       table.get(), source.shared.get(), source.shared ? source.shared->arrayName : std::string(), tableError);
+    if (!c.skipped || c.skipped->empty())
+    {
+      return summary;
+    }
+    json s = json::parse(summary);
+    s["skipped"] = *c.skipped;
+    return s.dump();
   }
   if (what == "colors")
   {

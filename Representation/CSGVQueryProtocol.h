@@ -16,7 +16,7 @@
  *
  * | request      | reply |
  * |--------------|-------|
- * | `summary`    | JSON `{"attributes": [{"name", "numeric", "min", "max"}...], "labels": count of labels present, "labelArray": the label array's name, "error": why attributes failed (only then)}` |
+ * | `summary`    | JSON `{"attributes": [{"name", "numeric", "min", "max"}...], "labels": count of labels present, "labelArray": the label array's name, "error": why attributes failed (only then), "skipped": why materials are not drawn (only then)}` |
  * | `pick X Y`   | JSON `{"hit": bool, "label": original label, "depth": window depth, "voxel": [i, j, k], "world": [x, y, z], "attributes": {name: value or text}, "error": (only then)}`; `{"hit": false, "error": "no rendered pixel there"}` outside the last render |
  * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, 0xFFFFFFFF where no opaque voxel was hit (base64 by vtkBase64Utilities) |
  * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...], "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that a material takes |
@@ -48,7 +48,8 @@ struct QueryContext
   vtkImageData* input = nullptr; ///< the image shown (its FieldData attributes)
   VolumeSource source;           ///< empty when the input did not resolve
   std::string sourceError;       ///< why it did not
-  const csgv::MaterialDocument* materials = nullptr; ///< null when the document is invalid
+  const csgv::MaterialDocument* materials = nullptr; ///< what is drawn; null when the document is invalid
+  const std::vector<std::string>* skipped = nullptr;  ///< why materials of the document are not drawn
   AttributeCache* attributes = nullptr;
   const AttributeConfig* config = nullptr;
   ViewRenderer* view = nullptr; ///< the last render (label image, G-buffer, camera)

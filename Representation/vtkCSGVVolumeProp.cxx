@@ -112,6 +112,10 @@ struct vtkCSGVVolumeProp::Impl
   bool MaterialsOpaque = true;
 
   csgv::MaterialDocument Doc; ///< the parsed document (colormaps resolved)
+  /// Doc without the materials that cannot be drawn as they stand (a half-finished edit, an
+  /// attribute the volume does not have): what the renderer draws; Skipped says why.
+  csgv::MaterialDocument Drawn;
+  std::vector<std::string> Skipped;
   bool AttributesDirty = true;  ///< the renderer needs materials and attribute arrays again
   bool Prepared = false;        ///< PrepareRender handed the renderer all it needs
   csgvrep::AttributeConfig Config;
@@ -309,6 +313,48 @@ double vtkCSGVVolumeProp::GetDeviceMiB()
   return double(this->P->View.deviceBytes()) / (1 << 20);
 }
 
+bool vtkCSGVVolumeProp::DrawnMaterials(std::map<std::string, std::vector<float>>* arrays)
+{
+  Impl& p = *this->P;
+  bool needed = false;
+  for (const std::string& n : csgv::attributesUsed(p.Doc))
+  {
+    needed = needed || n != "label";
+  }
+  // The attribute table only when the document names attributes besides the label; one that
+  // cannot be read is a real error, and the materials that need it are left out.
+  std::shared_ptr<const csgv::AttributeTable> table;
+  std::vector<std::string> available{ "label" };
+  if (needed)
+  {
+    std::string error;
+    table = p.Attributes.get(p.Input, p.View.source(), p.Config, error);
+    if (table)
+    {
+      available = table->columnNames();
+    }
+    else
+    {
+      this->Report("attributes: " + error);
+    }
+  }
+  p.Skipped.clear();
+  p.Drawn = csgv::drawableMaterials(p.Doc, &available, &p.Skipped);
+  if (!arrays || !table)
+  {
+    return true;
+  }
+  // Arrays for the attributes the drawn materials name (only those are built and uploaded).
+  const std::string error =
+    csgvrep::denseColumns(*table, *p.View.source().shared, csgv::attributesUsed(p.Drawn), *arrays);
+  if (!error.empty())
+  {
+    this->Report("Materials: " + error);
+    return false;
+  }
+  return true;
+}
+
 bool vtkCSGVVolumeProp::PrepareRender()
 {
   Impl& p = *this->P;
@@ -319,32 +365,12 @@ bool vtkCSGVVolumeProp::PrepareRender()
   }
   if (p.AttributesDirty)
   {
-    // Attribute arrays for the attributes the materials name (only those are built and uploaded).
     std::map<std::string, std::vector<float>> arrays;
-    const std::vector<std::string> used = csgv::attributesUsed(p.Doc);
-    bool needed = false;
-    for (const std::string& n : used)
+    if (!this->DrawnMaterials(&arrays))
     {
-      needed = needed || n != "label";
+      return false;
     }
-    if (needed)
-    {
-      std::string error;
-      std::shared_ptr<const csgv::AttributeTable> table =
-        p.Attributes.get(p.Input, p.View.source(), p.Config, error);
-      if (!table)
-      {
-        this->Report("attributes: " + error);
-        return false;
-      }
-      error = csgvrep::denseColumns(*table, *p.View.source().shared, used, arrays);
-      if (!error.empty())
-      {
-        this->Report("Materials: " + error);
-        return false;
-      }
-    }
-    p.View.setMaterials(p.Doc, std::move(arrays));
+    p.View.setMaterials(p.Drawn, std::move(arrays));
     p.AttributesDirty = false;
   }
 
@@ -583,7 +609,12 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   c.input = p.Input;
   c.source = p.Source;
   c.sourceError = p.Source.shared ? std::string() : (p.SourceError.empty() ? "no input" : p.SourceError);
-  c.materials = p.MaterialsValid ? &p.Doc : nullptr;
+  if (p.MaterialsValid && p.Source.shared && p.AttributesDirty)
+  {
+    this->DrawnMaterials(nullptr); // not rendered since the last change: what it will draw
+  }
+  c.materials = p.MaterialsValid ? &p.Drawn : nullptr;
+  c.skipped = &p.Skipped;
   c.attributes = &p.Attributes;
   c.config = &p.Config;
   c.view = &p.View;

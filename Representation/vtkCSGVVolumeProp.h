@@ -28,8 +28,10 @@
 
 #include "vtkProp3D.h"
 
+#include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 class vtkImageData;
 class vtkOpenGLRenderWindow;
@@ -98,6 +100,9 @@ private:
   int Draw(vtkViewport* viewport, bool opaquePass);
   /// The shared Vulkan context is there (reported once per process when not).
   bool HaveDevice();
+  /// The document the renderer draws (Impl::Drawn, Impl::Skipped) and, when `arrays` is given,
+  /// the per-label arrays of the attributes it names; false after reporting a real error.
+  bool DrawnMaterials(std::map<std::string, std::vector<float>>* arrays);
   /// The last output as colour and depth textures (uploaded again only when it changed).
   bool UploadTextures(vtkOpenGLRenderWindow* window, bool changed);
   /// Draws the textures over the framebuffer with depth test and premultiplied blending.

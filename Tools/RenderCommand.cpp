@@ -212,6 +212,16 @@ Status writeLabels(const std::string& path, const gpu::FrameOutput& out) {
     return s;
 }
 
+/// A batch render draws the whole document or refuses it: an error naming every material that
+/// cannot be drawn as it stands (Core's drawableMaterials, which the GUI uses to leave them out).
+Status drawable(const MaterialDocument& doc, const std::vector<std::string>& attributes) {
+    std::vector<std::string> skipped;
+    (void)drawableMaterials(doc, &attributes, &skipped);
+    std::string message;
+    for (const std::string& reason : skipped) message += (message.empty() ? "" : "; ") + reason;
+    return message.empty() ? Status::ok() : Status::error(message);
+}
+
 /// The per-label attributes the materials use, as floats indexed by the stored label: from the
 /// file's database, --attributes tables (CSV/text or SQLite), --computed-attributes and --derive.
 Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const MaterialDocument& doc,
@@ -219,7 +229,7 @@ Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const Materia
     std::vector<std::string> used;
     for (const std::string& n : attributesUsed(doc))
         if (n != "label") used.push_back(n);
-    if (used.empty()) return Status::ok();
+    if (used.empty()) return drawable(doc, {"label"});
     AttributeTable table;
     Status s;
     if (file.hasAttributes) {
@@ -241,7 +251,7 @@ Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const Materia
         if (!(s = addDerivedAttribute(table, d.first, d.second, true))) return s;
     std::vector<std::string> names = table.columnNames();
     names.push_back("label");
-    if (!(s = checkAttributes(doc, names))) return s;
+    if (!(s = drawable(doc, names))) return s;
     // Stored labels index the arrays: ids of a relabelled file, else the labels themselves.
     uint64_t labelCount = 0;
     if (!file.hasAttributes) {
