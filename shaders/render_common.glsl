@@ -20,6 +20,9 @@
 #include "csgv/base/Morton.h"          // mortonSpread (cache entries in Morton order)
 
 const float ONE_MINUS_EPSILON = 0.99999994; // the largest float below 1
+// The distance to the planes of an axis the ray runs parallel to (its direction's component is
+// 0, so (target - position) / 0 would be -inf or NaN, not +inf): larger than any real distance.
+const float NEVER = 3.0e38;
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Frame {
     CSGV_FRAME_MEMBERS
@@ -221,6 +224,7 @@ void stableStep(inout Walker w, uint k) {
     cp = min(cp, vec3(ONE_MINUS_EPSILON));
     const vec3 target = vec3(greaterThan(w.d, vec3(0.0)));
     precise vec3 dist = (target - cp) * (w.invD * s);
+    dist = mix(dist, vec3(NEVER), equal(w.d, vec3(0.0))); // a ray parallel to an axis never crosses its planes
     uint axis = 0u;
     if (dist.y < dist[axis]) axis = 1u;
     if (dist.z < dist[axis]) axis = 2u;
@@ -247,6 +251,7 @@ void stableStep(inout Walker w, uint k) {
 void stableStepFinest(inout Walker w) {
     const vec3 target = vec3(greaterThan(w.d, vec3(0.0)));
     precise vec3 dist = (target - w.vpos) * w.invD;
+    dist = mix(dist, vec3(NEVER), equal(w.d, vec3(0.0)));
     uint axis = 0u;
     if (dist.y < dist[axis]) axis = 1u;
     if (dist.z < dist[axis]) axis = 2u;

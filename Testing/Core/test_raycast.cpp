@@ -153,3 +153,33 @@ TEST(RayCast, MatrixHelpers) {
     Mat4 singular{};
     EXPECT_FALSE(invert(singular, inv));
 }
+
+TEST(RayCast, RaysInAPlaneOfTheGridHitLikeTheirNeighbours) {
+    // A solid block seen from the side with an odd number of rows: the middle row's rays lie
+    // in the plane z = 8.5 exactly (their direction's z is +0.0). Every row that crosses the block
+    // must hit it, that one too (it used to step along z by an infinite distance and hit nothing).
+    LabelVolume vol; // a solid 10^3 block in empty space: rays step through empty voxels and bricks first
+    vol.dim = {16, 16, 16};
+    vol.labels.assign(16 * 16 * 16, 0);
+    for (uint32_t z = 3; z < 13; ++z)
+        for (uint32_t y = 3; y < 13; ++y)
+            for (uint32_t x = 5; x < 13; ++x) vol.labels[size_t(vol.index(x, y, z))] = 3;
+    RayCastView view;
+    view.width = 31;
+    view.height = 31;
+    for (const double y : {8.5, 8.0}) { // eye in a voxel's middle and on a voxel boundary
+      for (const bool parallel : {false, true}) {
+        view.worldToClip = multiply(parallel ? orthographicMatrix(-12, 12, -12, 12, 1, 100) : perspectiveMatrix(30, 1.0, 1.0, 100.0),
+                                    lookAtMatrix({-40, y, 8.5}, {8, y, 8.5}, {0, 0, 1}));
+        const GBuffer g = castRaysStable(vol, Geometry{}, view, nonZero, 8);
+        auto hits = [&](uint32_t row) {
+            uint32_t n = 0;
+            for (uint32_t x = 0; x < view.width; ++x) n += g.label[size_t(row) * view.width + x] == 3u;
+            return n;
+        };
+        EXPECT_GT(hits(15), 0u) << y << " parallel " << parallel;
+        EXPECT_EQ(hits(15), hits(14)) << y << " parallel " << parallel;
+        EXPECT_EQ(hits(15), hits(16)) << y << " parallel " << parallel;
+      }
+    }
+}

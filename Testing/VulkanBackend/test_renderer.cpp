@@ -121,6 +121,14 @@ TEST(Renderer, GBufferEqualsStableReferenceParallelAnisotropic) {
     expectGBufferEqualsReference(*ctx, "synthA_b16_nibble.csgv", in, g, "parallel");
 }
 
+TEST(Renderer, GBufferEqualsStableReferenceParallelAlongAnAxis) {
+    CSGV_REQUIRE_GPU(ctx);
+    // Every ray runs parallel to two axes (their direction components are +0.0): they must step
+    // through empty space like any other ray (they used to hit nothing).
+    const FrameInput in = parallelView({30.5, 40.5, 300}, {30.5, 40.5, 0}, {0, 1, 0}, 60, 81, 63);
+    expectGBufferEqualsReference(*ctx, "synthA_b16_nibble.csgv", in, Geometry{}, "parallel along z");
+}
+
 TEST(Renderer, GBufferEqualsStableReferenceWithCachePaletting) {
     CSGV_REQUIRE_GPU(ctx);
     const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);

@@ -108,6 +108,7 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& g, const RayCastView
 namespace {
 
 constexpr float kOneMinusEpsilon = 0.99999994f;
+constexpr float kNever = 3.0e38f;
 
 /// The walker of render_common.glsl.
 struct Walker {
@@ -132,7 +133,8 @@ void stableStep(Walker& w, int k) {
         cp[i] = (float(w.voxel[i] - (cv[i] << k)) + w.vpos[i]) * invS;
         cp[i] = std::min(cp[i], kOneMinusEpsilon);
         const float target = w.d[i] > 0.0f ? 1.0f : 0.0f;
-        dist[i] = (target - cp[i]) * (w.invD[i] * s);
+        // Parallel to the axis: its planes are never crossed (render_common.glsl's NEVER).
+        dist[i] = w.d[i] == 0.0f ? kNever : (target - cp[i]) * (w.invD[i] * s);
     }
     int axis = 0;
     if (dist[1] < dist[axis]) axis = 1;
