@@ -48,8 +48,8 @@ void resolvePixel(Frame f, uvec2 px) {
         const uint fewest = subgroupMin(n); // one atomic per subgroup
         if (subgroupElect()) atomicMin(UintBuf(f.addr[kSlotAlloc]).w[kAllocMinSamples], fewest);
         uint from = pixel;
-        if (n == 0u && fv.image.z > 1u) { // upsampling: the nearest pixel of the block with samples
-            const uint s = fv.image.z;
+        const uint s = uint(fv.pixel.z); // the upsampling block: the coarsest stride of this accumulation
+        if (n == 0u && s > 1u) { // upsampling: the nearest pixel of the block with samples
             const uvec2 b0 = (px / s) * s;
             uint best = kNone;
             for (uint k = 0u; k < s * s; ++k) {

@@ -612,7 +612,7 @@ TEST(Renderer, StillRenderUnderATinyBudgetEndsWithoutHoles) {
     Result<RenderResult> more = r->render(req);
     ASSERT_TRUE(more.isOk());
     EXPECT_GE(more->last.minSamples, still->last.minSamples);
-    EXPECT_EQ(more->last.stride, stride); // one block size for the whole accumulation
+    EXPECT_LE(more->last.stride, stride); // once the image is whole, frames go on as fine or finer
 }
 
 TEST(Renderer, StillRenderDenoisesOnlyItsLastFrameAndGivesTheSameImage) {

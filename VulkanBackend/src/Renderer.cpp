@@ -84,6 +84,7 @@ struct Renderer::Impl {
     Geometry geometry;
     uint32_t width = 0, height = 0;
     uint64_t imageCapacity = 0;       // pixels the per-pixel buffers hold
+    uint32_t fillBlock = 0;           // upsampling block of the resolve (0: the frame's stride)
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     Mat4 lastWorldToClip{};
@@ -102,7 +103,12 @@ struct Renderer::Impl {
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
     bool converged = false;           // the last render() reached the sample target; nothing changed since
     uint64_t materialsFingerprint = 0; // of what setMaterials uploaded (0: nothing yet)
-    uint32_t accumulationStride = 0;  // render(): pixel stride of this accumulation (0: chosen at its first frame)
+    // render()'s pixel strides of this accumulation: frames start at the coarse one until every
+    // pixel shows a sample (its own or its coarse block's), then go on at the fine one; the coarse
+    // block stays the upsampling block (FrameParams pixel.z). 0: chosen at the first frame.
+    uint32_t coarseStride = 0, fineStride = 0;
+    bool shownWhole = false;
+    double finishSeconds = 0;         // render(): what follows the frames (denoising, read-back), measured
     double secondsPerPixel[4] = {};   // render(): a frame's seconds per rendered pixel, per shading mode
     FrameOutput output;               // what output() returns
     uint32_t outputParts = 0;         // OutputParts of `output` read since the last frame
@@ -136,11 +142,9 @@ struct Renderer::Impl {
 
     explicit Impl(Context& c) : ctx(c) {}
 
-    /// The pixel stride of a still render's accumulation: the settings' one, or coarser when a
-    /// frame of `pixels` in this shading mode (as measured so far) would take more than a third of
-    /// the time budget, so that the first, upsampled image comes within the budget. The stride
-    /// stays until the accumulation starts anew (the upsampling needs one block size).
-    uint32_t stillStride(const RenderSettings& st, uint64_t pixels, double budgetSeconds) const {
+    /// The finest pixel stride (the settings' one or coarser) at which a frame of `pixels` in this
+    /// shading mode, at the cost per pixel measured so far, takes at most `frameSeconds`.
+    uint32_t strideFor(const RenderSettings& st, uint64_t pixels, double frameSeconds) const {
         const uint32_t mode = uint32_t(st.shading) & 3;
         double seconds = secondsPerPixel[mode];
         if (seconds <= 0) { // not measured in this mode: a measured one, scaled by the rays each casts
@@ -149,9 +153,18 @@ struct Renderer::Impl {
                 if (secondsPerPixel[m] > 0) seconds = std::max(seconds, secondsPerPixel[m] / rays[m] * rays[mode]);
         }
         uint32_t stride = std::max<uint32_t>(1, st.subsampling);
-        const double frame = std::max(budgetSeconds, 0.1) / 3;
-        while (stride < 8 && double(pixels) * seconds / (stride * stride) > frame) stride *= 2;
+        while (stride < 8 && double(pixels) * seconds / (stride * stride) > frameSeconds) stride *= 2;
         return stride;
+    }
+    /// A still render's strides: coarse enough that the first image (every pixel showing a
+    /// sample, a few frames as bricks arrive) comes in a fraction of the budget (stride 4 before
+    /// any frame was measured), then the settings' own: every frame costs a full-resolution
+    /// gather besides its rays, so the finest stride converges fastest.
+    void chooseStillStrides(const RenderSettings& st, uint64_t pixels, double budgetSeconds) {
+        const bool measured = secondsPerPixel[0] > 0 || secondsPerPixel[1] > 0 || secondsPerPixel[2] > 0 ||
+                              secondsPerPixel[3] > 0;
+        fineStride = std::max<uint32_t>(1, st.subsampling);
+        coarseStride = std::max(fineStride, measured ? strideFor(st, pixels, std::max(budgetSeconds, 0.1) / 8) : 4u);
     }
     void measureFrame(const RenderSettings& st, const FrameInput& in, const FrameStats& stats) {
         if (stats.milliseconds <= 0) return; // nothing was submitted
@@ -185,7 +198,8 @@ struct Renderer::Impl {
 
     void resetAccumulation() {
         clearPending = true;
-        accumulationStride = 0;
+        coarseStride = fineStride = 0;
+        shownWhole = false;
         accumulatedFrames = 0;
         resetDone = evictUnused = limitRequests = false;
         prevMinSamples = 0;
@@ -698,6 +712,7 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
                                    clipToIndex[6] * clipToIndex[6]) * 2.0 / in.height);
     p.pixel[0] = 2.0f / float(in.width);
     p.pixel[1] = 2.0f / float(in.height);
+    p.pixel[2] = float(std::max(fillBlock, st.subsampling));
     p.pixel[3] = std::clamp(st.shadingBlend, 0.0f, 1.0f);
     p.tone[0] = st.brightness;
     p.tone[1] = st.contrast;
@@ -947,19 +962,23 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
     RenderResult result;
     if (im.converged) return result; // nothing changed since an exact image: it stays
     const uint32_t target = std::max<uint32_t>(1, m_settings.sampleTarget);
+    const uint64_t pixels = uint64_t(in.width) * in.height;
+    if (im.coarseStride == 0) {
+        if (request.interactive) im.coarseStride = im.fineStride = std::max<uint32_t>(1, m_settings.subsampling);
+        else im.chooseStillStrides(m_settings, pixels, request.timeBudgetSeconds);
+    }
+    im.fineStride = std::max(im.fineStride, m_settings.subsampling);
+    im.coarseStride = std::max(im.coarseStride, im.fineStride);
+    im.fillBlock = im.coarseStride;
     RenderSettings settings = m_settings;
-    if (im.accumulationStride == 0)
-        im.accumulationStride = request.interactive ? std::max<uint32_t>(1, settings.subsampling)
-                                                    : im.stillStride(settings, uint64_t(in.width) * in.height,
-                                                                     request.timeBudgetSeconds);
-    settings.subsampling = std::max(settings.subsampling, im.accumulationStride);
-    const uint32_t sub = settings.subsampling;
-    const uint32_t maxFrames = target * sub * sub + 256;
+    auto rendered = [&](uint32_t stride) { return double((in.width + stride - 1) / stride) * ((in.height + stride - 1) / stride); };
+    const uint32_t maxFrames = target * im.coarseStride * im.coarseStride + 256;
     const auto t0 = std::chrono::steady_clock::now();
     uint32_t idle = 0;
     double before = 0; // seconds elapsed before this frame
     im.deferDenoise = !request.interactive; // the still loop's frames before its last are never shown
     for (uint32_t f = 0; f < maxFrames; ++f) {
+        settings.subsampling = im.shownWhole ? im.fineStride : im.coarseStride;
         Result<FrameStats> st = im.frame(in, settings, clipToWorld);
         if (!st) {
             im.deferDenoise = im.denoisePending = false;
@@ -968,20 +987,26 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         im.measureFrame(settings, in, *st);
         result.last = *st;
         ++result.frames;
+        im.shownWhole = im.shownWhole || st->holes == 0;
         if (request.interactive || st->minSamples >= target) break;
         const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        // The next frame is about as long as this one: stop when it would end past the budget,
-        // so the budget holds; but never while a pixel shows nothing (no holes).
-        const double next = elapsed - before;
+        // The next frame costs this one's time per rendered pixel: stop when it would end past
+        // the budget, so the budget holds; but never while a pixel shows nothing (no holes).
+        const uint32_t nextStride = im.shownWhole ? im.fineStride : im.coarseStride;
+        const double next = (elapsed - before) * rendered(nextStride) / rendered(settings.subsampling);
         before = elapsed;
-        if (st->holes == 0 && elapsed + next > request.timeBudgetSeconds) break;
+        if (st->holes == 0 && elapsed + next + im.finishSeconds > request.timeBudgetSeconds) break;
         idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
         if (idle >= 3) break;
     }
     im.deferDenoise = false;
+    im.fillBlock = 0;
+    const auto t1 = std::chrono::steady_clock::now();
     if (im.denoisePending && !(s = im.denoiseOutput(in))) return s;
     im.converged = result.last.minSamples >= target;
     (void)output(Color | Depth); // what a compositor needs, read while the frame is fresh
+    const double finish = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    im.finishSeconds = im.finishSeconds > 0 ? 0.5 * (im.finishSeconds + finish) : finish;
     result.changed = true;
     return result;
 }

@@ -121,7 +121,7 @@ CSGV_CONST(uint32_t, kDecodeParamWords, 4u)  ///< per dispatch: count (unused in
     CSGV_VEC4(environment)     /* rgb: sky colour for misses and ambient light; w: AO radius */     \
     CSGV_VEC4(clipMin)         /* xyz: clip box minimum (voxels); w: level-of-detail bias */        \
     CSGV_VEC4(clipMax)         /* xyz: clip box maximum (voxels); w: pixel footprint factor */      \
-    CSGV_VEC4(pixel)           /* x: 2/W, y: 2/H, z: unused, w: shading blend */                    \
+    CSGV_VEC4(pixel)           /* x: 2/W, y: 2/H, z: upsampling block (pixels), w: shading blend */ \
     CSGV_VEC4(tone)            /* x: brightness, y: contrast, z: gamma, w: tone mapping (1) */      \
     CSGV_VEC4_ARRAY(faceNormals, 6) /* world normals of the faces -x, +x, -y, +y, -z, +z */         \
     CSGV_UVEC4(frame)          /* x: frame index, y: flags, z: shading mode, w: sample target */    \

@@ -117,7 +117,9 @@ struct FrameStats {
     uint32_t missingPixels = 0;   ///< pixels whose ray met a brick not yet in the cache
     uint32_t minSamples = 0;      ///< fewest samples of any pixel after the frame
     uint32_t holes = 0;           ///< pixels shown empty: no sample of their own or of their stride block
-    uint32_t stride = 1;          ///< pixel stride of the frame (the settings', or coarser for a slow still render)
+    /// Pixel stride of the frame: the settings', or in a still render coarser while its first image
+    /// is incomplete (a slow frame) and then as coarse as a frame within half the budget needs.
+    uint32_t stride = 1;
     uint64_t cacheUsedBytes = 0;
     bool cacheFull = false;
     bool cacheReset = false;      ///< the cache was reset before this frame
