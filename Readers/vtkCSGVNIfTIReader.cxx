@@ -3,6 +3,7 @@
 
 #include "CSGVAdapter.h"
 
+#include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Inputs.h"
 
 #include <vtkAOSDataArrayTemplate.h>
@@ -14,6 +15,7 @@
 #include <vtkNIFTIImageHeader.h>
 #include <vtkNIFTIImageReader.h>
 #include <vtkObjectFactory.h>
+#include <vtkCellData.h>
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
@@ -158,13 +160,13 @@ int vtkCSGVNIfTIReader::RequestInformation(
   in.Path = this->FileName;
   in.HasValues = true;
   const csgv::InputVolume& v = in.Volume;
-  int extent[6] = { 0, int(v.dim[0]) - 1, 0, int(v.dim[1]) - 1, 0, int(v.dim[2]) - 1 };
+  // One point more than voxels per axis: voxels are the cells between them.
+  int extent[6] = { 0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]) };
+  const csgv::Geometry corner = csgv::cellGeometryFromPointGeometry(v.geometry);
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
-  outInfo->Set(vtkDataObject::SPACING(), v.geometry.spacing.data(), 3);
-  outInfo->Set(vtkDataObject::ORIGIN(), v.geometry.origin.data(), 3);
-  outInfo->Set(vtkDataObject::DIRECTION(), v.geometry.direction.data(), 9);
-  const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
-  vtkDataObject::SetPointDataActiveScalarInfo(outInfo, type, 1);
+  outInfo->Set(vtkDataObject::SPACING(), corner.spacing.data(), 3);
+  outInfo->Set(vtkDataObject::ORIGIN(), corner.origin.data(), 3);
+  outInfo->Set(vtkDataObject::DIRECTION(), corner.direction.data(), 9);
   return 1;
 }
 
@@ -225,10 +227,8 @@ int vtkCSGVNIfTIReader::RequestData(
   this->UpdateProgress(0.5);
   const csgv::InputVolume& v = in.Volume;
   // The whole volume: the file is read whole anyway.
-  output->SetExtent(0, int(v.dim[0]) - 1, 0, int(v.dim[1]) - 1, 0, int(v.dim[2]) - 1);
-  output->SetSpacing(v.geometry.spacing.data());
-  output->SetOrigin(v.geometry.origin.data());
-  output->SetDirectionMatrix(v.geometry.direction.data());
+  output->SetExtent(0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]));
+  csgvvtk::applyGeometry(output, csgv::cellGeometryFromPointGeometry(v.geometry), 0);
   const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
   vtkSmartPointer<vtkDataArray> arr = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(type));
   arr->SetName(csgvvtk::kLabelsName);
@@ -237,7 +237,7 @@ int vtkCSGVNIfTIReader::RequestData(
   {
     vtkTemplateMacro(convertValues(v, static_cast<VTK_TT*>(arr->GetVoidPointer(0))));
   }
-  output->GetPointData()->SetScalars(arr);
+  output->GetCellData()->SetScalars(arr);
   // Release the 8-byte-per-voxel copy: the output now holds the labels.
   in.Volume = csgv::InputVolume{};
   in.HasValues = false;

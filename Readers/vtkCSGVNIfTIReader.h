@@ -5,21 +5,22 @@
  * land in their world space exactly as `csgv compress` places them.
  *
  * Debian's ParaView 5.11 registers no reader for NIfTI. Core's readNifti applies the sform (or
- * else the qform, else pixdim) to origin, spacing and direction; this reader hands those to the
- * image unchanged.
+ * else the qform, else pixdim) to origin, spacing and direction of the voxel centres.
  *
- * Output: image data with POINT data "Labels" in the file's voxel type (uint8 ... int64,
- * float32, float64), one point per voxel, voxel (i,j,k) centred on point (i,j,k). That is what
- * ParaView users know from VTK's NIfTI/NRRD/MetaImage readers, and Slice then cuts through voxel
- * centres; the AAL atlas's first point is (-90, -125, -71). DESIGN.md "Where voxels are" draws
- * such voxels centred on their points; vtkCSGVWriter turns point geometry into cell (corner)
- * geometry with Core's helper, so a written `.csgv` covers the same space.
+ * Output: image data with CELL data "Labels" in the file's voxel type (uint8 ... int64,
+ * float32, float64), one cell per voxel: the convention of every label volume of this plugin
+ * (DESIGN.md "Where voxels are"), so a NIfTI atlas and its `.csgv` have the same points, bounds
+ * and cells and overlay exactly. The file's voxel centres become cell centres (Core's
+ * cellGeometryFromPointGeometry, as `csgv compress` does): the AAL atlas's first cell spans
+ * (-90.5, -125.5, -71.5) .. (-89.5, -124.5, -70.5).
  *
  * Intensity images: since this is ParaView's only NIfTI reader here, files that Core refuses as
  * label volumes (floats that are not integers, scaled data) are read with VTK's
  * vtkNIFTIImageReader instead, with a warning: point array "Scalars" holding the stored values
- * (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Other errors
- * (missing, truncated, unsupported files) give Core's message and an empty output.
+ * (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Intensities stay
+ * point data, as ParaView's image readers give them (interpolated by Volume and Contour); their
+ * points are the voxel centres, so they sit on the cell centres of an atlas of the same grid.
+ * Other errors (missing, truncated, unsupported files) give Core's message and an empty output.
  */
 #ifndef vtkCSGVNIfTIReader_h
 #define vtkCSGVNIfTIReader_h

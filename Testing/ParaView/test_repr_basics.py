@@ -26,7 +26,8 @@ Hide(vraw, v)
 nii = OpenDataFile(t.AAL)
 v2 = t.render_view(160, 120)
 dn = Show(nii, v2)
-t.check("Segmentation Volume" in dn.Representation.Available, "offered for NIfTI image data")
+t.check(dn.Representation == "Segmentation Volume",
+        "default representation of a NIfTI label volume is Segmentation Volume (got %r)" % dn.Representation)
 wavelet = Wavelet()
 dw = Show(wavelet, v2)
 t.check("Segmentation Volume" in dw.Representation.Available, "offered for any image data (Wavelet)")
@@ -71,11 +72,10 @@ t.check(t.content_mask(par).mean() > 0.1, "parallel projection draws")
 v.CameraParallelProjection = 0
 before = t.screenshot(v, 160, 120, "before.png")
 
-# Point data from another reader, compressed on the fly, in a second view at the same time.
-dn.SetRepresentationType("Segmentation Volume")
+# Cell data from another reader, compressed on the fly, in a second view at the same time.
 v2.ResetCamera()
 aal = t.screenshot(v2, 160, 120, "aal.png")
-t.check(t.content_mask(aal).mean() > 0.1, "NIfTI point labels draw (compressed on the fly)")
+t.check(t.content_mask(aal).mean() > 0.1, "NIfTI labels draw (compressed on the fly)")
 again = t.screenshot(v, 160, 120, "again.png")
 t.check(np.abs(again.astype(int) - before.astype(int)).mean() < 1,
         "the first view still draws its volume after the second view rendered")
