@@ -125,8 +125,14 @@ void pqCSGVPropertyWidgetInterface::createDefaultWidgetDecorators(pqPropertyWidg
   {
     return;
   }
-  const QStringList labels =
-    QString(hint->GetAttributeOrEmpty("labels")).split(';', Qt::SkipEmptyParts);
+  QStringList labels;
+  for (const QString& label : QString(hint->GetAttributeOrEmpty("labels")).split(';'))
+  {
+    if (!label.trimmed().isEmpty())
+    {
+      labels << label.trimmed(); // the XML attribute may wrap
+    }
+  }
   decorateGroupWidgets(widget, display, labels, config);
   vtkSMProperty* property = widget->property();
   for (size_t g = 0; property && g < display->GetNumberOfPropertyGroups(); ++g)
