@@ -16,7 +16,8 @@
  *
  * Intensity images: since this is ParaView's only NIfTI reader here, files that Core refuses as
  * label volumes (floats that are not integers, scaled data) are read with VTK's
- * vtkNIFTIImageReader instead, with a warning: point array "Scalars" holding the stored values
+ * vtkNIFTIImageReader instead, with a warning (none from vtkCSGVNIfTIImageReader, the proxy the
+ * reader factory picks for files whose header says they are images): point array "Scalars" holding the stored values
  * (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Intensities stay
  * point data, as ParaView's image readers give them (interpolated by Volume and Contour); their
  * points are the voxel centres, so they sit on the cell centres of an atlas of the same grid.
@@ -38,10 +39,22 @@ public:
   vtkSetStringMacro(FileName);
   vtkGetStringMacro(FileName);
 
-  /// 1 for `.nii` with a NIfTI-1 header, or any `.nii.gz`; else 0.
+  /// 1 for a NIfTI-1 file (`.nii` with a NIfTI-1 header, or any `.nii.gz`) that IsImageHeader
+  /// does not call an image; else 0.
   virtual int CanReadFile(const char* fileName);
 
+  /// True when the header says the file holds an image rather than labels: floating-point or
+  /// scaled voxels (scl_slope not 0 or 1, or scl_inter not 0) without NIfTI's label intent
+  /// (intent_code 1002, NIFTI_INTENT_LABEL, which atlases carry). Integer voxels without that
+  /// intent (segmentations of many tools, but also 8-bit templates) count as labels. Decides
+  /// which of the two reader proxies the reader factory offers, and with it the default
+  /// representation (CSGVReaders.xml).
+  static bool IsImageHeader(const char* fileName);
+
 protected:
+  /// `.nii` with a NIfTI-1 header, or any `.nii.gz` (its header is compressed).
+  static bool IsNIfTIFile(const char* fileName);
+
   vtkCSGVNIfTIReader();
   ~vtkCSGVNIfTIReader() override;
 
@@ -49,6 +62,8 @@ protected:
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   char* FileName = nullptr;
+  /// Set by the image reader: an intensity image is what it was chosen for, not worth a warning.
+  bool ExpectsImages = false;
 
 private:
   vtkCSGVNIfTIReader(const vtkCSGVNIfTIReader&) = delete;

@@ -84,12 +84,24 @@ t.log("AAL: %d bytes as .csgv, %d voxels, %.3f bits per voxel" % (
 T1 = "/usr/share/mricron/templates/inia19-t1-brain.nii.gz"
 ATLAS = "/usr/share/mricron/templates/inia19-NeuroMaps.nii.gz"
 if os.path.exists(T1) and os.path.exists(ATLAS):
+    # The header decides which reader proxy opens a file (and so its default representation):
+    # a float image without the label intent gets the image reader, a float atlas with it the
+    # label reader.
     with t.ErrorLog() as log:
-        ti = t.fetch(OpenDataFile(T1))
-    atlas = t.fetch(OpenDataFile(ATLAS))
+        t1_reader = OpenDataFile(T1)
+        ti = t.fetch(t1_reader)
+    atlas_reader = OpenDataFile(ATLAS)
+    t.check(t1_reader.GetXMLName() == "CSGVNIfTIImageReader", "float T1: opened by the NIfTI Image Reader")
+    t.check(atlas_reader.GetXMLName() == "CSGVNIfTIReader", "atlas with the label intent: opened by the label reader")
+    atlas = t.fetch(atlas_reader)
     sc = ti.GetPointData().GetArray("Scalars")
-    t.check(sc is not None and sc.GetDataType() == 10 and "not a label volume" in log.text and "ERR|" not in log.text,
-            "float T1: read as intensity 'Scalars' with a warning")
+    t.check(sc is not None and sc.GetDataType() == 10 and not log.text,
+            "float T1: read as intensity 'Scalars', without warnings (%s)" % log.text)
+    # The label reader, asked for it explicitly, reads it the same way and says why.
+    with t.ErrorLog() as log:
+        tl = t.fetch(NIfTILabelReader(FileName=T1))
+    t.check(tl.GetPointData().GetArray("Scalars") is not None and "not a label volume" in log.text
+            and "ERR|" not in log.text, "float T1 through the label reader: intensity, with a warning")
     # Intensities stay point data (voxel centres): on the cell centres of the atlas.
     same = tuple(n + 1 for n in ti.GetDimensions()) == atlas.GetDimensions() and \
         np.allclose(ti.GetSpacing(), atlas.GetSpacing())
@@ -98,4 +110,9 @@ if os.path.exists(T1) and os.path.exists(ATLAS):
     centre = first_cell_centre(atlas)
     same = same and np.allclose(ti.GetPoint(0), centre)
     t.check(same, "float T1: its points on the cell centres of its atlas (%s vs %s)" % (ti.GetPoint(0), centre))
+# An 8-bit image without the label intent is not told apart from a segmentation by its header:
+# integer voxels count as labels.
+CH2 = "/usr/share/mricron/templates/ch2.nii.gz"
+if os.path.exists(CH2):
+    t.check(OpenDataFile(CH2).GetXMLName() == "CSGVNIfTIReader", "uint8 without intent: the label reader")
 t.finish()

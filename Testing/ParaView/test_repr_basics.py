@@ -28,6 +28,15 @@ v2 = t.render_view(160, 120)
 dn = Show(nii, v2)
 t.check(dn.Representation == "Segmentation Volume",
         "default representation of a NIfTI label volume is Segmentation Volume (got %r)" % dn.Representation)
+T1 = "/usr/share/mricron/templates/inia19-t1-brain.nii.gz"
+if os.path.exists(T1):
+    # A float intensity image is not drawn as labels by default.
+    t1 = OpenDataFile(T1)
+    dt1 = Show(t1, v2)
+    t.check(dt1.Representation != "Segmentation Volume",
+            "default representation of a NIfTI image is not Segmentation Volume (got %r)" % dt1.Representation)
+    Hide(t1, v2)
+    Delete(t1)
 wavelet = Wavelet()
 dw = Show(wavelet, v2)
 t.check("Segmentation Volume" in dw.Representation.Available, "offered for any image data (Wavelet)")
