@@ -18,6 +18,11 @@ pqCSGVClipBoxWidget::pqCSGVClipBoxWidget(vtkSMProxy* proxy, vtkSMProperty* prope
                                          QWidget* parent)
   : Superclass(proxy, parent)
 {
+  // The XML default maximum, "up to the last voxel".
+  if (auto* ivp = vtkSMIntVectorProperty::SafeDownCast(property))
+  {
+    this->WholeMaximum = ivp->GetDefaultValue(1);
+  }
   auto* layout = new QGridLayout(this);
   layout->setContentsMargins(0, 0, 0, 0);
   const char* axes[3] = { "X", "Y", "Z" };
@@ -57,16 +62,15 @@ pqCSGVClipBoxWidget::~pqCSGVClipBoxWidget() = default;
 
 QList<QVariant> pqCSGVClipBoxWidget::clipBox() const
 {
-  auto* property = vtkSMIntVectorProperty::SafeDownCast(this->property());
   QList<QVariant> values;
   for (int i = 0; i < 6; ++i)
   {
     int value = this->Boxes[i]->value();
     const int last = this->Dimensions[i / 2] - 1;
     // A maximum at the last voxel is stored as the default, "up to the last voxel".
-    if (i % 2 == 1 && last >= 0 && value >= last && property)
+    if (i % 2 == 1 && last >= 0 && value >= last)
     {
-      value = property->GetDefaultValue(i);
+      value = this->WholeMaximum;
     }
     values.push_back(value);
   }

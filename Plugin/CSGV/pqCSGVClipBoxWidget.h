@@ -11,6 +11,11 @@
  * whole volume when the input grows. The extent follows the input's data
  * (pqCSGVLabelArrayWidget::voxelDimensions) and the chosen label array. Spin boxes apply on
  * Enter, focus change or the arrows, not on every keystroke (each change re-renders).
+ *
+ * The extent is the delivered image's, read from the client's data information (so it also
+ * works with a pvserver): for a CSGV reader at Level k > 0 that is the coarse grid, smaller than
+ * the full-resolution voxels the property counts, so the boxes then stop short of the last
+ * full-resolution voxels (a maximum at the end still means the whole volume).
  */
 #ifndef pqCSGVClipBoxWidget_h
 #define pqCSGVClipBoxWidget_h
@@ -21,6 +26,7 @@
 #include <QVariant>
 
 #include <array>
+#include <climits>
 
 class QSpinBox;
 
@@ -48,6 +54,8 @@ private Q_SLOTS:
 private:
   std::array<QSpinBox*, 6> Boxes;
   std::array<int, 3> Dimensions{ { 0, 0, 0 } };
+  /// The property's default maximum, stored for a maximum at the last voxel.
+  int WholeMaximum = INT_MAX;
   /// The values last set from the property: shown clamped, kept for when the extent changes.
   QList<QVariant> Stored;
 };
