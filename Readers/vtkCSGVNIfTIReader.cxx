@@ -3,6 +3,7 @@
 
 #include "CSGVAdapter.h"
 
+#include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Inputs.h"
 
 #include <vtkAOSDataArrayTemplate.h>
@@ -11,9 +12,11 @@
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
 #include <vtkMatrix4x4.h>
+#include <vtkNew.h>
 #include <vtkNIFTIImageHeader.h>
 #include <vtkNIFTIImageReader.h>
 #include <vtkObjectFactory.h>
+#include <vtkCellData.h>
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
@@ -89,33 +92,61 @@ vtkCSGVNIfTIReader::~vtkCSGVNIfTIReader()
   delete this->Internals;
 }
 
-int vtkCSGVNIfTIReader::CanReadFile(const char* fileName)
+bool vtkCSGVNIfTIReader::IsNIfTIFile(const char* fileName)
 {
   if (!fileName)
   {
-    return 0;
+    return false;
   }
   const std::string path(fileName);
   const size_t n = path.size();
   if (n > 7 && path.compare(n - 7, 7, ".nii.gz") == 0)
   {
-    return 1;
+    return true;
   }
   if (n < 4 || path.compare(n - 4, 4, ".nii") != 0)
   {
-    return 0;
+    return false;
   }
   std::ifstream in(path, std::ios::binary);
   char header[348];
   if (!in.read(header, sizeof(header)))
   {
-    return 0;
+    return false;
   }
   // sizeof_hdr 348 (either byte order) and the single-file magic "n+1".
   int32_t size;
   std::memcpy(&size, header, 4);
   const bool sizeOk = size == 348 || size == 0x5C010000;
-  return sizeOk && std::memcmp(header + 344, "n+1", 4) == 0 ? 1 : 0;
+  return sizeOk && std::memcmp(header + 344, "n+1", 4) == 0;
+}
+
+bool vtkCSGVNIfTIReader::IsImageHeader(const char* fileName)
+{
+  // VTK's reader reads (and for .nii.gz decompresses) only the header here.
+  vtkNew<vtkNIFTIImageReader> reader;
+  if (!reader->CanReadFile(fileName))
+  {
+    return false; // the label reader reports what is wrong with it
+  }
+  reader->SetFileName(fileName);
+  reader->UpdateInformation();
+  vtkNIFTIImageHeader* header = reader->GetNIFTIHeader();
+  if (!header || header->GetIntentCode() == vtkNIFTIImageHeader::IntentLabel)
+  {
+    return false;
+  }
+  const int type = header->GetDataType();
+  const bool floats = type == vtkNIFTIImageHeader::TypeFloat32 ||
+    type == vtkNIFTIImageHeader::TypeFloat64 || type == vtkNIFTIImageHeader::TypeFloat128;
+  const double slope = header->GetSclSlope();
+  const bool scaled = (slope != 0.0 && slope != 1.0) || header->GetSclInter() != 0.0;
+  return floats || scaled;
+}
+
+int vtkCSGVNIfTIReader::CanReadFile(const char* fileName)
+{
+  return IsNIfTIFile(fileName) && !IsImageHeader(fileName) ? 1 : 0;
 }
 
 int vtkCSGVNIfTIReader::RequestInformation(
@@ -135,8 +166,11 @@ int vtkCSGVNIfTIReader::RequestInformation(
   csgv::Result<csgv::InputVolume> vol = csgv::readNifti(this->FileName);
   if (!vol && vtkInternals::NotALabelVolume(vol.message()) && in.OpenIntensity(this->FileName))
   {
-    vtkWarningMacro(<< vol.message() << "; not a label volume, so it is read as an intensity image "
-                    << "(point array 'Scalars', stored values) with VTK's NIfTI reader");
+    if (!this->ExpectsImages)
+    {
+      vtkWarningMacro(<< vol.message() << "; not a label volume, so it is read as an intensity "
+                      << "image (point array 'Scalars', stored values) with VTK's NIfTI reader");
+    }
     vtkInformation* vtkInfo = in.Intensity->GetOutputInformation(0);
     outInfo->CopyEntry(vtkInfo, vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
     outInfo->CopyEntry(vtkInfo, vtkDataObject::SPACING());
@@ -158,13 +192,13 @@ int vtkCSGVNIfTIReader::RequestInformation(
   in.Path = this->FileName;
   in.HasValues = true;
   const csgv::InputVolume& v = in.Volume;
-  int extent[6] = { 0, int(v.dim[0]) - 1, 0, int(v.dim[1]) - 1, 0, int(v.dim[2]) - 1 };
+  // One point more than voxels per axis: voxels are the cells between them.
+  int extent[6] = { 0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]) };
+  const csgv::Geometry corner = csgv::cellGeometryFromPointGeometry(v.geometry);
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
-  outInfo->Set(vtkDataObject::SPACING(), v.geometry.spacing.data(), 3);
-  outInfo->Set(vtkDataObject::ORIGIN(), v.geometry.origin.data(), 3);
-  outInfo->Set(vtkDataObject::DIRECTION(), v.geometry.direction.data(), 9);
-  const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
-  vtkDataObject::SetPointDataActiveScalarInfo(outInfo, type, 1);
+  outInfo->Set(vtkDataObject::SPACING(), corner.spacing.data(), 3);
+  outInfo->Set(vtkDataObject::ORIGIN(), corner.origin.data(), 3);
+  outInfo->Set(vtkDataObject::DIRECTION(), corner.direction.data(), 9);
   return 1;
 }
 
@@ -225,10 +259,8 @@ int vtkCSGVNIfTIReader::RequestData(
   this->UpdateProgress(0.5);
   const csgv::InputVolume& v = in.Volume;
   // The whole volume: the file is read whole anyway.
-  output->SetExtent(0, int(v.dim[0]) - 1, 0, int(v.dim[1]) - 1, 0, int(v.dim[2]) - 1);
-  output->SetSpacing(v.geometry.spacing.data());
-  output->SetOrigin(v.geometry.origin.data());
-  output->SetDirectionMatrix(v.geometry.direction.data());
+  output->SetExtent(0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]));
+  csgvvtk::applyGeometry(output, csgv::cellGeometryFromPointGeometry(v.geometry), 0);
   const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
   vtkSmartPointer<vtkDataArray> arr = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(type));
   arr->SetName(csgvvtk::kLabelsName);
@@ -237,7 +269,7 @@ int vtkCSGVNIfTIReader::RequestData(
   {
     vtkTemplateMacro(convertValues(v, static_cast<VTK_TT*>(arr->GetVoidPointer(0))));
   }
-  output->GetPointData()->SetScalars(arr);
+  output->GetCellData()->SetScalars(arr);
   // Release the 8-byte-per-voxel copy: the output now holds the labels.
   in.Volume = csgv::InputVolume{};
   in.HasValues = false;

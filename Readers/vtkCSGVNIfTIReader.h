@@ -5,21 +5,23 @@
  * land in their world space exactly as `csgv compress` places them.
  *
  * Debian's ParaView 5.11 registers no reader for NIfTI. Core's readNifti applies the sform (or
- * else the qform, else pixdim) to origin, spacing and direction; this reader hands those to the
- * image unchanged.
+ * else the qform, else pixdim) to origin, spacing and direction of the voxel centres.
  *
- * Output: image data with POINT data "Labels" in the file's voxel type (uint8 ... int64,
- * float32, float64), one point per voxel, voxel (i,j,k) centred on point (i,j,k). That is what
- * ParaView users know from VTK's NIfTI/NRRD/MetaImage readers, and Slice then cuts through voxel
- * centres; the AAL atlas's first point is (-90, -125, -71). DESIGN.md "Where voxels are" draws
- * such voxels centred on their points; vtkCSGVWriter turns point geometry into cell (corner)
- * geometry with Core's helper, so a written `.csgv` covers the same space.
+ * Output: image data with CELL data "Labels" in the file's voxel type (uint8 ... int64,
+ * float32, float64), one cell per voxel: the convention of every label volume of this plugin
+ * (DESIGN.md "Where voxels are"), so a NIfTI atlas and its `.csgv` have the same points, bounds
+ * and cells and overlay exactly. The file's voxel centres become cell centres (Core's
+ * cellGeometryFromPointGeometry, as `csgv compress` does): the AAL atlas's first cell spans
+ * (-90.5, -125.5, -71.5) .. (-89.5, -124.5, -70.5).
  *
  * Intensity images: since this is ParaView's only NIfTI reader here, files that Core refuses as
  * label volumes (floats that are not integers, scaled data) are read with VTK's
- * vtkNIFTIImageReader instead, with a warning: point array "Scalars" holding the stored values
- * (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Other errors
- * (missing, truncated, unsupported files) give Core's message and an empty output.
+ * vtkNIFTIImageReader instead, with a warning (none from vtkCSGVNIfTIImageReader, the proxy the
+ * reader factory picks for files whose header says they are images): point array "Scalars" holding the stored values
+ * (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Intensities stay
+ * point data, as ParaView's image readers give them (interpolated by Volume and Contour); their
+ * points are the voxel centres, so they sit on the cell centres of an atlas of the same grid.
+ * Other errors (missing, truncated, unsupported files) give Core's message and an empty output.
  */
 #ifndef vtkCSGVNIfTIReader_h
 #define vtkCSGVNIfTIReader_h
@@ -37,10 +39,22 @@ public:
   vtkSetStringMacro(FileName);
   vtkGetStringMacro(FileName);
 
-  /// 1 for `.nii` with a NIfTI-1 header, or any `.nii.gz`; else 0.
+  /// 1 for a NIfTI-1 file (`.nii` with a NIfTI-1 header, or any `.nii.gz`) that IsImageHeader
+  /// does not call an image; else 0.
   virtual int CanReadFile(const char* fileName);
 
+  /// True when the header says the file holds an image rather than labels: floating-point or
+  /// scaled voxels (scl_slope not 0 or 1, or scl_inter not 0) without NIfTI's label intent
+  /// (intent_code 1002, NIFTI_INTENT_LABEL, which atlases carry). Integer voxels without that
+  /// intent (segmentations of many tools, but also 8-bit templates) count as labels. Decides
+  /// which of the two reader proxies the reader factory offers, and with it the default
+  /// representation (CSGVReaders.xml).
+  static bool IsImageHeader(const char* fileName);
+
 protected:
+  /// `.nii` with a NIfTI-1 header, or any `.nii.gz` (its header is compressed).
+  static bool IsNIfTIFile(const char* fileName);
+
   vtkCSGVNIfTIReader();
   ~vtkCSGVNIfTIReader() override;
 
@@ -48,6 +62,8 @@ protected:
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   char* FileName = nullptr;
+  /// Set by the image reader: an intensity image is what it was chosen for, not worth a warning.
+  bool ExpectsImages = false;
 
 private:
   vtkCSGVNIfTIReader(const vtkCSGVNIfTIReader&) = delete;

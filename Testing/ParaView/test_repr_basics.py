@@ -26,7 +26,17 @@ Hide(vraw, v)
 nii = OpenDataFile(t.AAL)
 v2 = t.render_view(160, 120)
 dn = Show(nii, v2)
-t.check("Segmentation Volume" in dn.Representation.Available, "offered for NIfTI image data")
+t.check(dn.Representation == "Segmentation Volume",
+        "default representation of a NIfTI label volume is Segmentation Volume (got %r)" % dn.Representation)
+T1 = "/usr/share/mricron/templates/inia19-t1-brain.nii.gz"
+if os.path.exists(T1):
+    # A float intensity image is not drawn as labels by default.
+    t1 = OpenDataFile(T1)
+    dt1 = Show(t1, v2)
+    t.check(dt1.Representation != "Segmentation Volume",
+            "default representation of a NIfTI image is not Segmentation Volume (got %r)" % dt1.Representation)
+    Hide(t1, v2)
+    Delete(t1)
 wavelet = Wavelet()
 dw = Show(wavelet, v2)
 t.check("Segmentation Volume" in dw.Representation.Available, "offered for any image data (Wavelet)")
@@ -71,11 +81,10 @@ t.check(t.content_mask(par).mean() > 0.1, "parallel projection draws")
 v.CameraParallelProjection = 0
 before = t.screenshot(v, 160, 120, "before.png")
 
-# Point data from another reader, compressed on the fly, in a second view at the same time.
-dn.SetRepresentationType("Segmentation Volume")
+# Cell data from another reader, compressed on the fly, in a second view at the same time.
 v2.ResetCamera()
 aal = t.screenshot(v2, 160, 120, "aal.png")
-t.check(t.content_mask(aal).mean() > 0.1, "NIfTI point labels draw (compressed on the fly)")
+t.check(t.content_mask(aal).mean() > 0.1, "NIfTI labels draw (compressed on the fly)")
 again = t.screenshot(v, 160, 120, "again.png")
 t.check(np.abs(again.astype(int) - before.astype(int)).mean() < 1,
         "the first view still draws its volume after the second view rendered")

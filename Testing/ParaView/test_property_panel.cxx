@@ -1,0 +1,271 @@
+// SPDX-License-Identifier: MIT
+// QtTest of the Properties panel (pqProxyWidget) of image data shown as "Segmentation Volume",
+// in a builtin session with ParaView's standard property widgets and the plugin's interfaces
+// (loaded from CSGV.so as the GUI loads them): the composite representation's controls that do
+// nothing for it are hidden and come back for Surface, typing "opacity" in the search finds the
+// material editor, and Shading, Label Array and Clip Box show names and ranges a user reads while
+// writing what pvpython writes. Usage: csgv_property_panel_test PLUGIN.so FIXTURES_DIR
+#include <pqApplicationCore.h>
+#include <pqInterfaceTracker.h>
+#include <pqObjectBuilder.h>
+#include <pqPVApplicationCore.h>
+#include <pqPropertyWidget.h>
+#include <pqProxyWidget.h>
+#include <pqServer.h>
+#include <pqServerResource.h>
+#include <pqStandardPropertyWidgetInterface.h>
+#include <vtkSMPluginManager.h>
+#include <vtkSMPropertyHelper.h>
+#include <vtkSMProxyManager.h>
+#include <vtkSMSessionProxyManager.h>
+#include <vtkSMSourceProxy.h>
+#include <vtkSmartPointer.h>
+
+#include <QApplication>
+#include <QComboBox>
+#include <QSpinBox>
+#include <QtTest>
+
+#include <memory>
+
+namespace
+{
+QString gPlugin, gFixtures;
+}
+
+class TestPropertyPanel : public QObject
+{
+  Q_OBJECT
+
+  vtkSmartPointer<vtkSMSourceProxy> Reader;
+  vtkSmartPointer<vtkSMProxy> Display;
+  std::unique_ptr<pqProxyWidget> Panel;
+
+  pqPropertyWidget* widget(const char* name) const
+  {
+    auto* w = this->Panel->findChild<pqPropertyWidget*>(name);
+    if (!w)
+    {
+      qWarning("no property widget named %s", name);
+    }
+    return w;
+  }
+  bool shown(const char* name) const
+  {
+    pqPropertyWidget* w = this->widget(name);
+    return w && w->isVisibleTo(this->Panel.get());
+  }
+  /// What the panel shows with "Advanced" on, after the representation type is `type`.
+  void chooseRepresentation(const char* type)
+  {
+    vtkSMPropertyHelper(this->Display, "Representation").Set(type);
+    this->Display->UpdateVTKObjects();
+    this->Panel->filterWidgets(true);
+  }
+  const char* text(const char* property) const
+  {
+    return vtkSMPropertyHelper(this->Display, property).GetAsString();
+  }
+
+private Q_SLOTS:
+  void initTestCase()
+  {
+    QVERIFY(vtkSMProxyManager::GetProxyManager()->GetPluginManager()->LoadLocalPlugin(
+      gPlugin.toUtf8().constData()));
+    vtkSMSessionProxyManager* pxm =
+      vtkSMProxyManager::GetProxyManager()->GetActiveSessionProxyManager();
+    this->Reader.TakeReference(
+      vtkSMSourceProxy::SafeDownCast(pxm->NewProxy("sources", "CSGVReader")));
+    QVERIFY(this->Reader);
+    vtkSMPropertyHelper(this->Reader, "FileName")
+      .Set((gFixtures + "/synthA_b32_rans2.csgv").toUtf8().constData());
+    this->Reader->UpdateVTKObjects();
+    this->Reader->UpdatePipeline();
+    this->Display.TakeReference(pxm->NewProxy("representations", "UniformGridRepresentation"));
+    QVERIFY(this->Display);
+    vtkSMPropertyHelper(this->Display, "Input").Set(this->Reader);
+    vtkSMPropertyHelper(this->Display, "Representation").Set("Segmentation Volume");
+    this->Display->UpdateVTKObjects();
+    this->Panel.reset(new pqProxyWidget(this->Display));
+    // Display properties apply at once in the Properties panel.
+    this->Panel->setApplyChangesImmediately(true);
+    this->Panel->show();
+    this->Panel->filterWidgets(true);
+  }
+
+  void cleanupTestCase()
+  {
+    this->Panel.reset();
+    this->Display = nullptr;
+    this->Reader = nullptr;
+  }
+
+  void controlsThatDoNothingAreHidden()
+  {
+    const char* generic[] = {
+      "ColorEditor",           "Opacity", "Specular", "PointSize", "LineWidth", "Interpolation",
+      "BackfaceRepresentation"
+    };
+    this->chooseRepresentation("Surface");
+    for (const char* name : generic)
+    {
+      QVERIFY2(this->shown(name), name);
+    }
+    // ... and the Segmentation Volume's own controls only for it.
+    QVERIFY(!this->shown("CSGVShading"));
+    QVERIFY(!this->shown("csgv_material_editor"));
+    this->chooseRepresentation("Segmentation Volume");
+    for (const char* name : generic)
+    {
+      QVERIFY2(!this->shown(name), name);
+    }
+    QVERIFY(this->shown("CSGVShading"));
+    QVERIFY(this->shown("csgv_material_editor"));
+  }
+
+  void panelFollowsTheRepresentationType()
+  {
+    // Without an explicit filterWidgets(): the decorators ask the panel to update itself.
+    vtkSMPropertyHelper(this->Display, "Representation").Set("Surface");
+    this->Display->UpdateVTKObjects();
+    QTRY_VERIFY(this->shown("Opacity") && this->shown("ColorEditor"));
+    vtkSMPropertyHelper(this->Display, "Representation").Set("Segmentation Volume");
+    this->Display->UpdateVTKObjects();
+    QTRY_VERIFY(!this->shown("Opacity") && !this->shown("ColorEditor"));
+  }
+
+  void searchFindsMaterialOpacity()
+  {
+    this->chooseRepresentation("Segmentation Volume");
+    this->Panel->filterWidgets(false, "opacity");
+    QVERIFY(this->shown("csgv_material_editor"));
+    QVERIFY(!this->shown("Opacity"));
+    this->Panel->filterWidgets(false, "color");
+    QVERIFY(this->shown("csgv_material_editor"));
+    this->Panel->filterWidgets(true);
+  }
+
+  void shadingShowsFullNames()
+  {
+    this->chooseRepresentation("Segmentation Volume");
+    auto* combo = this->widget("CSGVShading")->findChild<QComboBox*>();
+    QVERIFY(combo);
+    QStringList names;
+    for (int i = 0; i < combo->count(); ++i)
+    {
+      names << combo->itemText(i);
+    }
+    QCOMPARE(names, QStringList({ "Local", "Shadow", "Ambient occlusion", "Path tracing" }));
+    QCOMPARE(combo->currentText(), QString("Local"));
+    // A person picks the last entry with the keyboard.
+    combo->setFocus();
+    QTest::keyClick(combo, Qt::Key_End);
+
+    QCOMPARE(combo->currentText(), QString("Path tracing"));
+    // The panel applies display properties once the widget reports a finished change (queued).
+    QTRY_COMPARE(vtkSMPropertyHelper(this->Display, "CSGVShading").GetAsInt(), 3);
+    // pvpython's short names set the same property, and the widget follows.
+    vtkSMPropertyHelper(this->Display, "CSGVShading").Set(2);
+    this->Display->UpdateVTKObjects();
+    QTRY_COMPARE(combo->currentText(), QString("Ambient occlusion"));
+    vtkSMPropertyHelper(this->Display, "CSGVShading").Set(0);
+    this->Display->UpdateVTKObjects();
+  }
+
+  void labelArrayIsADropDown()
+  {
+    auto* combo = this->widget("CSGVLabelArray")->findChild<QComboBox*>();
+    QVERIFY(combo);
+    QStringList names;
+    for (int i = 0; i < combo->count(); ++i)
+    {
+      names << combo->itemText(i);
+    }
+    QCOMPARE(names, QStringList({ "(automatic)", "Labels" }));
+    QCOMPARE(combo->currentIndex(), 0);
+    QCOMPARE(QString(this->text("CSGVLabelArray")), QString());
+    combo->setFocus();
+    QTest::keyClick(combo, Qt::Key_Down);
+    QTRY_COMPARE(QString(this->text("CSGVLabelArray")), QString("Labels"));
+    QTest::keyClick(combo, Qt::Key_Up);
+    QTRY_COMPARE(QString(this->text("CSGVLabelArray")), QString()); // automatic again
+    // A name set from pvpython that the input lacks stays shown, not silently replaced.
+    vtkSMPropertyHelper(this->Display, "CSGVLabelArray").Set("elsewhere");
+    this->Display->UpdateVTKObjects();
+    QTRY_VERIFY(combo->currentText().startsWith("elsewhere"));
+    QCOMPARE(QString(this->text("CSGVLabelArray")), QString("elsewhere"));
+    vtkSMPropertyHelper(this->Display, "CSGVLabelArray").Set("");
+    this->Display->UpdateVTKObjects();
+  }
+
+  void clipBoxShowsTheExtent()
+  {
+    pqPropertyWidget* clip = this->widget("CSGVClipBox");
+    QVERIFY(clip);
+    auto* maxX = clip->findChild<QSpinBox*>("maxX");
+    auto* maxZ = clip->findChild<QSpinBox*>("maxZ");
+    auto* minY = clip->findChild<QSpinBox*>("minY");
+    QVERIFY(maxX && maxZ && minY);
+    // synthA is 133 x 70 x 194 voxels.
+    QCOMPARE(maxX->text(), QString("132"));
+    QCOMPARE(maxZ->text(), QString("193"));
+    QCOMPARE(maxX->maximum(), 132);
+    QCOMPARE(minY->text(), QString("0"));
+    // Typing a value applies it when the user presses Enter, not on each keystroke.
+    maxX->setFocus();
+    maxX->selectAll();
+    QTest::keyClicks(maxX, "40");
+    QTest::qWait(100);
+    QCOMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(1), 2147483647);
+    QTest::keyClick(maxX, Qt::Key_Return);
+    QTRY_COMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(1), 40);
+    minY->setFocus();
+    minY->selectAll();
+    QTest::keyClicks(minY, "5");
+    QTest::keyClick(minY, Qt::Key_Return);
+    QTRY_COMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(2), 5);
+    // Back to the last voxel: stored as "the whole volume" again.
+    maxX->setFocus();
+    maxX->selectAll();
+    QTest::keyClicks(maxX, "132");
+    QTest::keyClick(maxX, Qt::Key_Return);
+    QTRY_COMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(1), 2147483647);
+  }
+};
+
+int main(int argc, char** argv)
+{
+  if (argc < 3)
+  {
+    fprintf(stderr, "usage: %s PLUGIN.so FIXTURES_DIR [QtTest options]\n", argv[0]);
+    return 2;
+  }
+  gPlugin = argv[1];
+  gFixtures = argv[2];
+  QApplication app(argc, argv);
+  int pvArgc = 1;
+  char* pvArgv[] = { argv[0], nullptr }; // ParaView's logger wants argv[argc] == nullptr
+  pqPVApplicationCore core(pvArgc, pvArgv);
+  // The GUI registers ParaView's own widgets (ColorEditor, decorators) before any plugin.
+  core.interfaceTracker()->addInterface(new pqStandardPropertyWidgetInterface(&core));
+  pqServer* server = core.getObjectBuilder()->createServer(pqServerResource("builtin:"));
+  if (!server)
+  {
+    fprintf(stderr, "no builtin session\n");
+    return 1;
+  }
+  int failed = 0;
+  {
+    TestPropertyPanel test;
+    std::vector<char*> rest{ argv[0] };
+    for (int i = 3; i < argc; ++i)
+    {
+      rest.push_back(argv[i]);
+    }
+    failed = QTest::qExec(&test, int(rest.size()), rest.data());
+  }
+  core.getObjectBuilder()->removeServer(server);
+  return failed;
+}
+
+#include "test_property_panel.moc"
