@@ -248,6 +248,10 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
   request.frame.opaqueDepth = req.opaqueDepth;
   request.interactive = req.interactive;
   request.timeBudgetSeconds = this->Settings.stillRenderTimeBudget;
+  if (req.maxStillSeconds > 0)
+  {
+    request.timeBudgetSeconds = std::min(request.timeBudgetSeconds, req.maxStillSeconds);
+  }
   csgv::Result<csgv::gpu::RenderResult> r = this->Renderer->render(request);
   if (!r)
   {

@@ -66,6 +66,7 @@ struct FrameRequest
   uint32_t width = 0, height = 0;
   const float* opaqueDepth = nullptr; ///< window depth of the tile, row 0 at the bottom
   bool interactive = false;
+  double maxStillSeconds = 0; ///< a still render's budget when shorter than the property's (0: none)
 };
 
 /// @brief The renderer of one view (one representation instance) and its accumulation state.

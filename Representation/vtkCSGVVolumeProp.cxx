@@ -52,6 +52,9 @@ void main()
 /// The no-device message is the same for every view: say it once per process.
 std::atomic<bool> deviceReported{ false };
 
+/// vtkCSGVVolumeProp::SetRefinementSlice (0: none).
+std::atomic<double> refinementSlice{ 0.0 };
+
 /// @brief ParaView's level of detail for the Segmentation Volume: while the mouse moves
 /// (interactive renders), frames are rendered at 1/f of the view's resolution per axis and
 /// stretched over it, f chosen from the measured cost of a pixel so that a frame takes at most
@@ -152,6 +155,16 @@ struct vtkCSGVVolumeProp::Impl
 };
 
 vtkStandardNewMacro(vtkCSGVVolumeProp);
+
+void vtkCSGVVolumeProp::SetRefinementSlice(double seconds)
+{
+  refinementSlice = seconds > 0 ? seconds : 0.0;
+}
+
+double vtkCSGVVolumeProp::GetRefinementSlice()
+{
+  return refinementSlice;
+}
 
 vtkCSGVVolumeProp::vtkCSGVVolumeProp()
   : P(new Impl)
@@ -556,6 +569,7 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   const int factor = request.interactive
     ? p.Lod.factor(double(width) * height, win->GetDesiredUpdateRate())
     : 1;
+  request.maxStillSeconds = refinementSlice;
   request.width = uint32_t((width + factor - 1) / factor);
   request.height = uint32_t((height + factor - 1) / factor);
   // In the volumetric pass (translucent materials) rays stop at the opaque geometry's depth.

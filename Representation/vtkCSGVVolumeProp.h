@@ -51,6 +51,13 @@ public:
   vtkTypeMacro(vtkCSGVVolumeProp, vtkProp3D);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
+  /// In a GUI session whose plugin renders again until every volume converges (the progressive
+  /// refinement auto-start), still renders end after this many seconds (never before the image
+  /// is whole), so the GUI answers the mouse between them; 0 (pvpython, pvbatch): each volume's
+  /// CSGVStillRenderTimeBudget alone. Process-wide.
+  static void SetRefinementSlice(double seconds);
+  static double GetRefinementSlice();
+
   /// The image to draw (the delivered piece) and what it resolved to in the representation's
   /// data phase (the error when it did not): Draw only renders and composites.
   void SetInput(vtkImageData* image, const csgvrep::VolumeSource& source, const std::string& error);

@@ -11,9 +11,18 @@
 
 #include <QTimer>
 
+#include "vtkCSGVVolumeProp.h"
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+
+namespace
+{
+/// A still render's length in the GUI (at least one frame, and the image whole): about what a
+/// user waits for the first interactive frame when grabbing a volume that is still refining.
+constexpr double kRefinementSliceSeconds = 0.5;
+}
 
 pqCSGVProgressiveRendering::pqCSGVProgressiveRendering(QObject* parent)
   : QObject(parent)
@@ -24,6 +33,9 @@ pqCSGVProgressiveRendering::~pqCSGVProgressiveRendering() = default;
 
 void pqCSGVProgressiveRendering::startup()
 {
+  // This GUI renders again until the volumes converge, so a still render need not hold the GUI
+  // for its whole budget: short ones keep it answering the mouse while the image refines.
+  vtkCSGVVolumeProp::SetRefinementSlice(kRefinementSliceSeconds);
   pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
   QObject::connect(model, &pqServerManagerModel::viewAdded, this, &pqCSGVProgressiveRendering::watch);
   QObject::connect(model, &pqServerManagerModel::viewRemoved, this,
@@ -37,7 +49,10 @@ void pqCSGVProgressiveRendering::startup()
   }
 }
 
-void pqCSGVProgressiveRendering::shutdown() {}
+void pqCSGVProgressiveRendering::shutdown()
+{
+  vtkCSGVVolumeProp::SetRefinementSlice(0);
+}
 
 void pqCSGVProgressiveRendering::watch(pqView* view)
 {
