@@ -3,13 +3,19 @@
 // clicked in the material editor makes the label array's lookup table categorical (the proxy
 // property IndexedLookup) with annotations for exactly the labels the volume shows and nothing
 // drawn for the others; the pick panel's visibility edits keep the user's materials; the pick
-// panel starts hidden when docked the way ParaView docks a plugin's panel.
+// panel starts hidden when docked the way ParaView docks a plugin's panel, and its pick (a click
+// in a render view) clears when another view becomes active or the picked data is deleted.
 // Usage: csgv_label_panel_test PLUGIN.so FIXTURES_DIR
 #include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
 #include "pqCSGVPickPanel.h"
 
+#include <pqActiveObjects.h>
+#include <pqDataRepresentation.h>
+#include <pqApplicationCore.h>
 #include <pqObjectBuilder.h>
+#include <pqPipelineSource.h>
+#include <pqView.h>
 #include <pqPVApplicationCore.h>
 #include <pqServer.h>
 #include <pqServerResource.h>
@@ -29,6 +35,7 @@
 #include <QMainWindow>
 #include <QPushButton>
 #include <QSet>
+#include <QTextBrowser>
 #include <QtTest>
 
 namespace
@@ -162,6 +169,64 @@ private Q_SLOTS:
     // Nothing picked: the edits that need a pick are off.
     QVERIFY(!panel->findChild<QPushButton*>("hideLabel")->isEnabled());
     QVERIFY(!panel->findChild<QPushButton*>("showOnlyLabel")->isEnabled());
+  }
+
+  /// A click in the view picks; Hide edits the overlay only; the pick clears when another view
+  /// becomes active and when its data is deleted.
+  void pickPanelFollowsItsViewAndData()
+  {
+    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqPipelineSource* source = builder->createReader(
+      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    QVERIFY(source);
+    pqView* view = builder->createView("RenderView", server);
+    QVERIFY(view);
+    view->widget()->resize(160, 160);
+    view->widget()->show();
+    pqActiveObjects::instance().setActiveView(view);
+    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
+    QVERIFY(display);
+    vtkSMProxy* proxy = display->getProxy();
+    // The GUI's Apply picks the reader's RepresentationType; a bare builder gives Outline.
+    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
+    const QString user = R"({"materials": [{"name": "mine", "color": {"mode": "constant", "rgb": [1, 0.5, 0]}}]})";
+    vtkSMPropertyHelper(proxy, "CSGVMaterials").Set(user.toUtf8().constData());
+    proxy->UpdateVTKObjects();
+    view->resetDisplay();
+    view->forceRender();
+
+    pqCSGVPickPanel panel;
+    panel.show(); // opened from the View menu
+    QPushButton* hide = panel.findChild<QPushButton*>("hideLabel");
+    auto* result = panel.findChild<QTextBrowser*>("pickResult");
+    const QPoint centre(80, 80);
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
+    QVERIFY2(panel.lastPick().value("hit").toBool(), "a click on the volume picks a label");
+    const qint64 label = qint64(panel.lastPick().value("label").toDouble());
+    QVERIFY(hide->isEnabled());
+    QTest::mouseClick(hide, Qt::LeftButton);
+    const QJsonObject edited =
+      QJsonDocument::fromJson(vtkSMPropertyHelper(proxy, "CSGVMaterials").GetAsString()).object();
+    QVERIFY2(edited.value("hidden").toArray() == QJsonArray({ double(label) }),
+      vtkSMPropertyHelper(proxy, "CSGVMaterials").GetAsString());
+    QCOMPARE(edited.value("materials").toArray().size(), 1);
+    QCOMPARE(edited.value("materials").toArray().at(0).toObject().value("name").toString(), QString("mine"));
+
+    pqView* other = builder->createView("RenderView", server);
+    pqActiveObjects::instance().setActiveView(other);
+    QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
+      "another active view clears the pick");
+
+    pqActiveObjects::instance().setActiveView(view);
+    view->forceRender();
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
+    QVERIFY(panel.lastPick().value("hit").toBool());
+    builder->destroy(source);
+    QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
+      "deleting the picked data clears the pick");
+    builder->destroy(other);
+    builder->destroy(view);
   }
 };
 
