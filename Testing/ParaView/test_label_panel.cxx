@@ -2,7 +2,8 @@
 // QtTest of the label tools in a builtin ParaView session: "Export colours to lookup table"
 // clicked in the material editor makes the label array's lookup table categorical (the proxy
 // property IndexedLookup) with annotations for exactly the labels the volume shows and nothing
-// drawn for the others; the pick panel's visibility edits keep the user's materials; the pick
+// drawn for the others; the pick panel's visibility edits keep the user's materials (and material
+// edits keep the visibility overlay); the pick
 // panel starts hidden when docked the way ParaView docks a plugin's panel, and its pick (a click
 // in a render view) clears when another view becomes active or the picked data is deleted.
 // Usage: csgv_label_panel_test PLUGIN.so FIXTURES_DIR
@@ -152,6 +153,14 @@ private Q_SLOTS:
     {
       QVERIFY(qAbs(rgb.GetAsDouble(unsigned(k)) - first.at(k + 1).toDouble()) < 1e-6);
     }
+    // Editing the materials keeps the overlay: the label stays hidden.
+    QPushButton* add = editor.findChild<QPushButton*>("addMaterial");
+    QVERIFY(add);
+    QTest::mouseClick(add, Qt::LeftButton);
+    editor.apply();
+    const QJsonObject edited = QJsonDocument::fromJson(this->materials().toUtf8()).object();
+    QCOMPARE(edited.value("materials").toArray().size(), 2);
+    QCOMPARE(edited.value("hidden").toArray(), QJsonArray({ double(hidden) }));
     this->setMaterials("");
   }
 
