@@ -395,7 +395,7 @@ std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::Attri
       continue;
     }
     const int m = evaluator.materialOf(uint32_t(label));
-    if (m < 0)
+    if (m < 0 || doc.materials[size_t(m)].opacity <= 0.0f) // not drawn
     {
       continue;
     }

@@ -85,8 +85,8 @@ std::string attributeSummary(const csgv::AttributeTable* table, const SharedVolu
 std::string labelAttributesJson(const csgv::AttributeTable* table, int64_t label);
 
 /// JSON: {"labels": [[label, r, g, b, "text"], ...], "truncated": bool, "text": "name"}: the
-/// colour each label present in the volume takes under the materials (labels no material takes
-/// are left out), with the first text attribute (`name` preferred) as annotation.
+/// colour each label present in the volume takes under the materials (labels no material takes,
+/// or a fully transparent one, are left out: they are not drawn), with the first text attribute (`name` preferred) as annotation.
 std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::AttributeTable* table,
   const SharedVolume& volume, size_t cap);
 

@@ -112,7 +112,10 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     {
       return json({ { "error", "the materials are not valid" } }).dump();
     }
-    return labelColorsJson(*c.materials, table.get(), *source.shared, cap);
+    // The labels as drawn: the visibility overlay applied, labels of transparent materials left out.
+    const csgv::MaterialDocument drawn = csgv::effectiveMaterials(
+      *c.materials, table ? table->attributeFunction() : csgv::MaterialEvaluator::AttributeFn());
+    return labelColorsJson(drawn, table.get(), *source.shared, cap);
   }
   static const csgv::gpu::FrameOutput nothing;
   const csgv::gpu::FrameOutput& out = c.view ? c.view->output(csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth | csgv::gpu::Renderer::GBuffer) : nothing;

@@ -19,7 +19,7 @@
  * | `summary`    | JSON `{"attributes": [{"name", "numeric", "min", "max"}...], "labels": count of labels present, "labelArray": the label array's name, "error": why attributes failed (only then), "skipped": why materials are not drawn (only then)}` |
  * | `pick X Y`   | JSON `{"hit": bool, "label": original label, "depth": window depth, "voxel": [i, j, k], "world": [x, y, z], "attributes": {name: value or text}, "error": (only then)}`; `{"hit": false, "error": "no rendered pixel there"}` outside the last render |
  * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, 0xFFFFFFFF where no opaque voxel was hit (base64 by vtkBase64Utilities) |
- * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...], "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that a material takes |
+ * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...], "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that the volume shows: a material of non-zero opacity takes them in the drawn document (csgv::effectiveMaterials: hidden labels and labels outside "only" are left out) |
  * | `defaults`   | JSON of the representation's property defaults (csgvrep::RepresentationProperties): `{"CSGVShading": 0, ...}` keyed like the server-manager XML, for the test that keeps both equal |
  * | `stats`      | JSON `{"parses": n, "compressions": n}`: how often this process parsed a CSGV encoding and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
  * | other        | JSON `{"error": "unknown query '<word>'"}` |

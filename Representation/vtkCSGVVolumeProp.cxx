@@ -116,7 +116,8 @@ struct vtkCSGVVolumeProp::Impl
 
   csgv::MaterialDocument Doc; ///< the parsed document (colormaps resolved)
   /// Doc without the materials that cannot be drawn as they stand (a half-finished edit, an
-  /// attribute the volume does not have): what the renderer draws; Skipped says why.
+  /// attribute the volume does not have), its label-visibility overlay still on (the renderer
+  /// gets it applied, csgv::effectiveMaterials); Skipped says why.
   csgv::MaterialDocument Drawn;
   std::vector<std::string> Skipped;
   bool AttributesDirty = true;  ///< the renderer needs materials and attribute arrays again
@@ -243,11 +244,13 @@ void vtkCSGVVolumeProp::SetMaterials(const std::string& json)
   }
   else
   {
-    p.MaterialsOpaque = true;
-    for (const csgv::Material& m : doc.materials)
-    {
-      p.MaterialsOpaque = p.MaterialsOpaque && m.opacity >= 1.0f;
-    }
+    // Opaque when every material is and hiding labels adds no transparent one (unknown attribute
+    // values make effectiveMaterials add one wherever the exact document might).
+    auto opaque = [](const csgv::MaterialDocument& d) {
+      return std::all_of(d.materials.begin(), d.materials.end(),
+        [](const csgv::Material& m) { return m.opacity >= 1.0f; });
+    };
+    p.MaterialsOpaque = opaque(doc) && opaque(csgv::effectiveMaterials(doc, {}));
     p.Doc = std::move(doc);
     p.AttributesDirty = true;
   }
@@ -326,7 +329,8 @@ double vtkCSGVVolumeProp::GetDeviceMiB()
   return double(this->P->View.deviceBytes()) / (1 << 20);
 }
 
-bool vtkCSGVVolumeProp::DrawnMaterials(std::map<std::string, std::vector<float>>* arrays)
+bool vtkCSGVVolumeProp::DrawnMaterials(
+  std::map<std::string, std::vector<float>>* arrays, csgv::MaterialEvaluator::AttributeFn* attribute)
 {
   Impl& p = *this->P;
   bool needed = false;
@@ -357,6 +361,10 @@ bool vtkCSGVVolumeProp::DrawnMaterials(std::map<std::string, std::vector<float>>
   {
     return true;
   }
+  if (attribute)
+  {
+    *attribute = table->attributeFunction();
+  }
   // Arrays for the attributes the drawn materials name (only those are built and uploaded).
   const std::string error =
     csgvrep::denseColumns(*table, *p.View.source().shared, csgv::attributesUsed(p.Drawn), *arrays);
@@ -379,11 +387,13 @@ bool vtkCSGVVolumeProp::PrepareRender()
   if (p.AttributesDirty)
   {
     std::map<std::string, std::vector<float>> arrays;
-    if (!this->DrawnMaterials(&arrays))
+    csgv::MaterialEvaluator::AttributeFn attribute;
+    if (!this->DrawnMaterials(&arrays, &attribute))
     {
       return false;
     }
-    p.View.setMaterials(p.Drawn, std::move(arrays));
+    // The label-visibility overlay applied: the plain document that draws what p.Drawn means.
+    p.View.setMaterials(csgv::effectiveMaterials(p.Drawn, attribute), std::move(arrays));
     p.AttributesDirty = false;
   }
 
@@ -625,7 +635,7 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   c.sourceError = p.Source.shared ? std::string() : (p.SourceError.empty() ? "no input" : p.SourceError);
   if (p.MaterialsValid && p.Source.shared && p.AttributesDirty)
   {
-    this->DrawnMaterials(nullptr); // not rendered since the last change: what it will draw
+    this->DrawnMaterials(nullptr, nullptr); // not rendered since the last change: what it will draw
   }
   c.materials = p.MaterialsValid ? &p.Drawn : nullptr;
   c.skipped = &p.Skipped;

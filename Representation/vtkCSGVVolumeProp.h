@@ -28,6 +28,7 @@
 
 #include "vtkProp3D.h"
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -108,8 +109,10 @@ private:
   /// The shared Vulkan context is there (reported once per process when not).
   bool HaveDevice();
   /// The document the renderer draws (Impl::Drawn, Impl::Skipped) and, when `arrays` is given,
-  /// the per-label arrays of the attributes it names; false after reporting a real error.
-  bool DrawnMaterials(std::map<std::string, std::vector<float>>* arrays);
+  /// the per-label arrays of the attributes it names and (`attribute`) its per-label lookup;
+  /// false after reporting a real error.
+  bool DrawnMaterials(std::map<std::string, std::vector<float>>* arrays,
+    std::function<double(const std::string&, uint32_t)>* attribute);
   /// The last output as colour and depth textures (uploaded again only when it changed).
   bool UploadTextures(vtkOpenGLRenderWindow* window, bool changed);
   /// Draws the textures over the framebuffer with depth test and premultiplied blending.

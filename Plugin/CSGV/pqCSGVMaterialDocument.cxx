@@ -61,6 +61,34 @@ QString showOnlyLabel(const QString& materials, qint64 label, const QJsonObject&
   return serialize(doc);
 }
 
+QString editLabelVisibility(
+  const QString& materials, LabelVisibility edit, qint64 label, QString* error)
+{
+  QString why;
+  csgv::MaterialDocument doc = parseDocument(materials, &why);
+  if (error)
+  {
+    *error = why;
+  }
+  if (!why.isEmpty())
+  {
+    return QString(); // never replace the user's text by the default document
+  }
+  switch (edit)
+  {
+    case LabelVisibility::Hide:
+      csgv::hideLabelOver(doc, uint32_t(label));
+      break;
+    case LabelVisibility::ShowOnly:
+      csgv::showOnlyLabelOver(doc, uint32_t(label));
+      break;
+    case LabelVisibility::ShowAll:
+      csgv::showAllLabels(doc);
+      break;
+  }
+  return serialize(doc);
+}
+
 vtkSMProxy* segmentationProxy(vtkSMProxy* display)
 {
   if (!display)
@@ -119,7 +147,10 @@ QString exportLabelColors(vtkSMProxy* display)
     for (int k = 1; k <= 3; ++k)
       rgb.push_back(e.at(k).toDouble());
   }
-  vtkSMPropertyHelper(lut, "InterpretValuesAsCategories").Set(1);
+  // IndexedLookup is the proxy property; InterpretValuesAsCategories is only its Python name.
+  vtkSMPropertyHelper(lut, "IndexedLookup").Set(1);
+  // Values without an annotation are what the volume leaves empty: keep them empty here too.
+  vtkSMPropertyHelper(lut, "NanOpacity").Set(0.0);
   vtkSMPropertyHelper ann(lut, "Annotations");
   ann.SetNumberOfElements(unsigned(annotations.size()));
   for (size_t i = 0; i < annotations.size(); ++i)

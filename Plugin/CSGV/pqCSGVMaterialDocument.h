@@ -30,6 +30,18 @@ QString hideLabel(const QString& materials, qint64 label, const QJsonObject& att
 /// Core's csgv::showOnlyLabel on a CSGVMaterials text.
 QString showOnlyLabel(const QString& materials, qint64 label, const QJsonObject& attributes);
 
+/// The pick panel's label visibility: Core's overlay edits (csgv::hideLabelOver,
+/// csgv::showOnlyLabelOver, csgv::showAllLabels) on a CSGVMaterials text, which keep the user's
+/// materials. Text Core refuses is not edited: the result is empty and `error` says why.
+enum class LabelVisibility
+{
+  Hide,
+  ShowOnly,
+  ShowAll
+};
+QString editLabelVisibility(
+  const QString& materials, LabelVisibility edit, qint64 label, QString* error = nullptr);
+
 /// The Segmentation Volume representation proxy behind a display (the composite's subproxy, or
 /// the proxy itself); nullptr when it has none.
 vtkSMProxy* segmentationProxy(vtkSMProxy* display);
@@ -38,8 +50,10 @@ QString query(vtkSMProxy* display, const QString& request);
 /// query() parsed as a JSON object.
 QJsonObject queryJson(vtkSMProxy* display, const QString& request);
 
-/// Makes the lookup table of the display's label array categorical with each label's material
-/// colour and name (a text attribute) as annotation; returns a message for the user.
+/// Makes the lookup table of the display's label array categorical (IndexedLookup) with one
+/// annotation per label the volume shows: its material colour and name (a text attribute).
+/// Other values (label 0, hidden labels, labels no material takes) are not drawn (NaN opacity 0),
+/// as in the volume, and the legend lists only the shown labels. Returns a message for the user.
 QString exportLabelColors(vtkSMProxy* display);
 
 } // namespace pqCSGV

@@ -4,7 +4,9 @@
 #include "pqCSGVMaterialDocument.h"
 
 #include <pqActiveObjects.h>
+#include <pqApplicationCore.h>
 #include <pqDataRepresentation.h>
+#include <pqServerManagerModel.h>
 #include <pqUndoStack.h>
 #include <pqView.h>
 #include <vtkSMPropertyHelper.h>
@@ -60,7 +62,9 @@ void pqCSGVPickPanel::build()
   this->ShowOnly->setObjectName("showOnlyLabel");
   this->ShowAll = new QPushButton("Show all", w);
   this->ShowAll->setObjectName("showAllLabels");
-  this->ShowAll->setToolTip("Reset the materials to the default document (undo restores them)");
+  this->Hide->setToolTip("Do not draw the picked label (the materials stay as they are)");
+  this->ShowOnly->setToolTip("Draw only the picked label, in its material (the materials stay)");
+  this->ShowAll->setToolTip("Draw every label the materials take again");
   buttons->addWidget(this->Hide);
   buttons->addWidget(this->ShowOnly);
   buttons->addWidget(this->ShowAll);
@@ -72,7 +76,28 @@ void pqCSGVPickPanel::build()
   connect(this->ShowOnly, &QPushButton::clicked, this, &pqCSGVPickPanel::showOnlyLabel);
   connect(this->ShowAll, &QPushButton::clicked, this, &pqCSGVPickPanel::showAllLabels);
   connect(&pqActiveObjects::instance(), &pqActiveObjects::viewChanged, this, &pqCSGVPickPanel::setView);
+  connect(pqApplicationCore::instance()->getServerManagerModel(),
+    &pqServerManagerModel::preRepresentationRemoved, this, &pqCSGVPickPanel::representationRemoved);
   this->setView(pqActiveObjects::instance().activeView());
+  // An optional dock, hidden until the user opens it from the View menu (see the class comment).
+  this->hide();
+}
+
+void pqCSGVPickPanel::clearPick()
+{
+  this->Last = QJsonObject();
+  this->LastDisplay = nullptr;
+  this->Result->clear();
+  this->Hide->setEnabled(false);
+  this->ShowOnly->setEnabled(false);
+}
+
+void pqCSGVPickPanel::representationRemoved(pqRepresentation* representation)
+{
+  if (representation && representation->getProxy() == this->LastDisplay)
+  {
+    this->clearPick();
+  }
 }
 
 void pqCSGVPickPanel::setView(pqView* view)
@@ -80,6 +105,10 @@ void pqCSGVPickPanel::setView(pqView* view)
   if (this->ViewWidget)
   {
     this->ViewWidget->removeEventFilter(this);
+  }
+  if (view != this->View)
+  {
+    this->clearPick(); // the pick belongs to the view it was made in
   }
   this->View = view;
   this->ViewWidget = view ? view->widget() : nullptr;
@@ -188,18 +217,25 @@ bool pqCSGVPickPanel::pickAt(const QPoint& pos)
   return true;
 }
 
-void pqCSGVPickPanel::editMaterials(const QString& undoLabel, int action)
+void pqCSGVPickPanel::editVisibility(
+  const QString& undoLabel, vtkSMProxy* display, pqCSGV::LabelVisibility edit)
 {
-  vtkSMProxy* display = this->LastDisplay;
-  if (!display || !this->Last.value("hit").toBool())
+  if (!display || !display->GetProperty("CSGVMaterials"))
   {
     return;
   }
   const char* current = vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString();
   const qint64 label = qint64(this->Last.value("label").toDouble());
-  const QJsonObject attrs = this->Last.value("attributes").toObject();
-  const QString text = action == 0 ? pqCSGV::hideLabel(current, label, attrs)
-                                   : pqCSGV::showOnlyLabel(current, label, attrs);
+  QString error;
+  const QString text = pqCSGV::editLabelVisibility(
+    current, edit, label, &error);
+  if (!error.isEmpty())
+  {
+    this->Result->setHtml(
+      QString("<i>The materials are not valid, so labels cannot be shown or hidden: %1</i>")
+        .arg(error.toHtmlEscaped()));
+    return;
+  }
   BEGIN_UNDO_SET(undoLabel);
   vtkSMPropertyHelper(display, "CSGVMaterials").Set(text.toUtf8().constData());
   display->UpdateVTKObjects();
@@ -212,12 +248,18 @@ void pqCSGVPickPanel::editMaterials(const QString& undoLabel, int action)
 
 void pqCSGVPickPanel::hideLabel()
 {
-  this->editMaterials("Hide label", 0);
+  if (this->Last.value("hit").toBool())
+  {
+    this->editVisibility("Hide label", this->LastDisplay, pqCSGV::LabelVisibility::Hide);
+  }
 }
 
 void pqCSGVPickPanel::showOnlyLabel()
 {
-  this->editMaterials("Show only label", 1);
+  if (this->Last.value("hit").toBool())
+  {
+    this->editVisibility("Show only label", this->LastDisplay, pqCSGV::LabelVisibility::ShowOnly);
+  }
 }
 
 void pqCSGVPickPanel::showAllLabels()
@@ -230,16 +272,5 @@ void pqCSGVPickPanel::showAllLabels()
       display = r->getProxy();
     }
   }
-  if (!display || !display->GetProperty("CSGVMaterials"))
-  {
-    return;
-  }
-  BEGIN_UNDO_SET("Show all labels");
-  vtkSMPropertyHelper(display, "CSGVMaterials").Set("");
-  display->UpdateVTKObjects();
-  END_UNDO_SET();
-  if (this->View)
-  {
-    this->View->render();
-  }
+  this->editVisibility("Show all labels", display, pqCSGV::LabelVisibility::ShowAll);
 }

@@ -4,7 +4,9 @@
  * @brief Dock panel "Segmentation Pick": clicking (or, with "Follow mouse", hovering) on a
  * Segmentation Volume in the active render view reports the original label under the cursor,
  * its attributes (names and text included) and the voxel position, with "Hide this label" and
- * "Show only this label" (edits of the representation's CSGVMaterials, undoable).
+ * "Show only this label" and "Show all": edits of the label-visibility overlay of the
+ * representation's CSGVMaterials ("hidden", "only"; csgv::effectiveMaterials), which keep the
+ * user's materials as they are (undoable, like every property edit).
  *
  * ParaView's hardware selector does not see the volume (its prop draws no selection pass), so
  * the pick reads the G-buffer of the volume's last render on the rendering process through
@@ -12,6 +14,11 @@
  * distance, turned into a voxel index with the camera and the volume's geometry. Translucent
  * materials are not picked (their labels are not in the G-buffer). The panel follows the active
  * view; a click is a press and release within a few pixels (drags still rotate the camera).
+ * The pick clears when the picked data goes away or another view becomes active.
+ *
+ * Like ParaView's own optional docks (Find Data, Memory Inspector, ...) the panel starts hidden;
+ * View > Segmentation Pick opens it (pqPluginDockWidgetsBehavior adds an explicitly hidden dock
+ * without showing it).
  *
  * objectNames: pickEnabled, followMouse, pickResult, hideLabel, showOnlyLabel, showAllLabels.
  */
@@ -28,8 +35,13 @@
 class QCheckBox;
 class QPushButton;
 class QTextBrowser;
+class pqRepresentation;
 class pqView;
 class vtkSMProxy;
+namespace pqCSGV
+{
+enum class LabelVisibility;
+}
 
 class pqCSGVPickPanel : public QDockWidget
 {
@@ -55,12 +67,16 @@ public Q_SLOTS:
 protected:
   bool eventFilter(QObject* watched, QEvent* event) override;
 
+  /// Forgets the last pick (text, buttons, display).
+  void clearPick();
+
 private Q_SLOTS:
   void setView(pqView* view);
+  void representationRemoved(pqRepresentation* representation);
 
 private:
   void build();
-  void editMaterials(const QString& label, int action);
+  void editVisibility(const QString& undoLabel, vtkSMProxy* display, pqCSGV::LabelVisibility edit);
 
   QPointer<pqView> View;
   QPointer<QWidget> ViewWidget;

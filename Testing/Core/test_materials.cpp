@@ -385,3 +385,116 @@ TEST(MaterialProblems, DrawableMaterialsSkipsOnlyTheProblemsAndNumbersFromOne) {
     EXPECT_EQ(e.materialOf(5), 0);
     EXPECT_EQ(e.materialOf(20), 1);
 }
+
+namespace {
+
+/// Which material each of labels 0..n-1 takes (-1: none) under the document the renderer draws.
+std::vector<int> takenBy(const MaterialDocument& drawn, uint32_t n, const MaterialEvaluator::AttributeFn& attribute) {
+    MaterialEvaluator e(drawn, attribute);
+    std::vector<int> out;
+    for (uint32_t l = 0; l < n; ++l) out.push_back(e.materialOf(l));
+    return out;
+}
+
+// Two materials: labels 1..4 red, the rest ("kind" 2 or label >= 5) random; "kind" is label % 3.
+const char* kTwoMaterials = R"j({"materials": [
+    {"name": "red", "filter": {"min": 1, "max": 4}, "color": {"mode": "constant", "rgb": [1, 0, 0]}},
+    {"name": "kind 2", "filter": {"attribute": "kind", "min": 2, "max": 2}},
+    {"name": "rest", "filter": {"min": 5, "max": 9}, "opacity": 0.5}]})j";
+
+double kindOf(const std::string& a, uint32_t l) { return a == "kind" ? double(l % 3) : double(l); }
+
+/// The name of the material a label takes in `drawn` ("" for none), so tests read as a table.
+std::vector<std::string> namesTaken(const MaterialDocument& drawn, uint32_t n) {
+    std::vector<std::string> out;
+    for (int m : takenBy(drawn, n, kindOf)) out.push_back(m < 0 ? "" : drawn.materials[size_t(m)].name);
+    return out;
+}
+
+} // namespace
+
+TEST(Materials, VisibilityOverlayParsesStrictlyAndRoundTrips) {
+    MaterialDocument d = docOf(R"j({"materials": [], "hidden": [9, 3, 3, 0], "only": [4294967294]})j");
+    EXPECT_EQ(d.hidden, (std::vector<uint32_t>{0, 3, 9})); // sorted, once each
+    EXPECT_EQ(d.only, (std::vector<uint32_t>{4294967294u}));
+    EXPECT_EQ(docOf(serializeMaterials(d)).hidden, d.hidden);
+    EXPECT_EQ(docOf(serializeMaterials(d, -1)).only, d.only);
+    // Without an overlay nothing is written: documents read as before.
+    EXPECT_EQ(serializeMaterials(defaultMaterials()).find("hidden"), std::string::npos);
+    EXPECT_EQ(docOf(R"j({"hidden": [5]})j").materials.size(), 1u); // default materials, overlay kept
+    for (const char* bad : {R"j({"hidden": 5})j", R"j({"hidden": [-1]})j", R"j({"only": [1.5]})j",
+                            R"j({"only": ["7"]})j", R"j({"hidden": [4294967295]})j"}) {
+        Result<MaterialDocument> r = parseMaterials(bad);
+        ASSERT_FALSE(r.isOk()) << bad;
+        EXPECT_NE(r.message().find("label"), std::string::npos) << r.message();
+    }
+}
+
+TEST(Materials, HideKeepsTheMaterialsAndShowAllRestoresThem) {
+    MaterialDocument d = docOf(kTwoMaterials);
+    const std::string original = serializeMaterials(d);
+    const std::vector<std::string> before = namesTaken(effectiveMaterials(d, kindOf), 12);
+    EXPECT_EQ(before, (std::vector<std::string>{"", "red", "red", "red", "red", "kind 2", "rest", "rest", "kind 2",
+                                                "rest", "", "kind 2"}));
+    hideLabelOver(d, 3); // a label interval holds it
+    hideLabelOver(d, 8); // "kind 2" (another attribute) holds it
+    hideLabelOver(d, 11);
+    EXPECT_EQ(d.materials.size(), 3u); // the user's materials are untouched
+    std::vector<std::string> hidden = before;
+    hidden[3] = hidden[8] = hidden[11] = "";
+    const MaterialDocument drawn = effectiveMaterials(d, kindOf);
+    std::vector<std::string> got = namesTaken(drawn, 12);
+    // A hidden label may be taken by a transparent "hidden" material: invisible either way.
+    MaterialEvaluator e(drawn, kindOf);
+    for (uint32_t l : {3u, 8u, 11u}) {
+        const int m = e.materialOf(l);
+        EXPECT_TRUE(m < 0 || drawn.materials[size_t(m)].opacity == 0.0f) << "label " << l;
+        got[l] = "";
+    }
+    EXPECT_EQ(got, hidden);
+    // The same colours for the labels still shown.
+    MaterialEvaluator was(d, kindOf);
+    for (uint32_t l : {1u, 2u, 4u, 5u, 6u, 9u})
+        EXPECT_EQ(e.colorOf(l, e.materialOf(l)), was.colorOf(l, was.materialOf(l))) << "label " << l;
+    showAllLabels(d);
+    EXPECT_EQ(serializeMaterials(d), original);
+    EXPECT_EQ(namesTaken(effectiveMaterials(d, kindOf), 12), before);
+}
+
+TEST(Materials, ShowOnlyKeepsTheMaterialsAndTheLabelsLook) {
+    MaterialDocument d = docOf(kTwoMaterials);
+    hideLabelOver(d, 6);
+    showOnlyLabelOver(d, 6); // shown again: it leaves "hidden"
+    EXPECT_TRUE(d.hidden.empty());
+    EXPECT_EQ(d.only, (std::vector<uint32_t>{6}));
+    EXPECT_EQ(d.materials.size(), 3u);
+    MaterialDocument drawn = effectiveMaterials(d, kindOf);
+    std::vector<std::string> want(12, "");
+    want[6] = "rest";
+    EXPECT_EQ(namesTaken(drawn, 12), want);
+    ASSERT_EQ(drawn.materials.size(), 1u);
+    EXPECT_EQ(drawn.materials[0].opacity, 0.5f); // its own material's look
+    EXPECT_TRUE(drawn.hidden.empty() && drawn.only.empty());
+    // Through another attribute, and several labels: runs in one material share an interval.
+    d.only = {1, 2, 3, 8, 10};
+    hideLabelOver(d, 2);
+    drawn = effectiveMaterials(d, kindOf);
+    want.assign(12, "");
+    want[1] = want[3] = "red";
+    want[8] = "kind 2";
+    EXPECT_EQ(namesTaken(drawn, 12), want); // 2 hidden, 10 taken by no material
+    showAllLabels(d);
+    EXPECT_EQ(serializeMaterials(d), serializeMaterials(docOf(kTwoMaterials)));
+}
+
+TEST(Materials, EffectiveMaterialsWithoutAnOverlayAreTheMaterials) {
+    const MaterialDocument d = docOf(kTwoMaterials);
+    EXPECT_EQ(serializeMaterials(effectiveMaterials(d, kindOf)), serializeMaterials(d));
+    // Attribute values unknown (no table): a hidden label is still never drawn.
+    MaterialDocument h = d;
+    hideLabelOver(h, 8);
+    const MaterialDocument drawn = effectiveMaterials(h, {});
+    MaterialEvaluator e(drawn, kindOf);
+    const int m = e.materialOf(8);
+    EXPECT_TRUE(m < 0 || drawn.materials[size_t(m)].opacity == 0.0f);
+}

@@ -64,6 +64,19 @@ t.check(p.get("hit") is False and "error" in p, "pick outside the image: no hit,
 c = json.loads(ct.query(d, "colors 5"))
 t.check(len(c.get("labels", [])) <= 5 and c.get("truncated") is True and
         all(len(e) == 5 for e in c["labels"]), "colors 5: at most 5 entries [label, r, g, b, name], truncated")
+# Only the labels the volume shows: not those the visibility overlay hides, nor those of a fully
+# transparent material, nor those outside "only".
+shown = [e[0] for e in json.loads(ct.query(d, "colors 4096"))["labels"]]
+a, b = shown[0], shown[1]
+d.CSGVMaterials = json.dumps({"hidden": [a]})
+t.check([e[0] for e in json.loads(ct.query(d, "colors 4096"))["labels"]] == shown[1:], "colors: hidden label %d left out" % a)
+d.CSGVMaterials = json.dumps({"only": [a, b]})
+t.check([e[0] for e in json.loads(ct.query(d, "colors 4096"))["labels"]] == [a, b], "colors: only %d and %d" % (a, b))
+d.CSGVMaterials = json.dumps({"materials": [
+    {"name": "clear", "filter": {"min": a, "max": a}, "opacity": 0}, {"name": "rest"}]})
+t.check([e[0] for e in json.loads(ct.query(d, "colors 4096"))["labels"]] == shown[1:],
+        "colors: a label of an opacity-0 material left out")
+d.CSGVMaterials = ""
 
 # stats: the encoding was parsed once; renders, camera moves and pipeline updates that keep the
 # same encoding array parse nothing more, and nothing was compressed (the encoding is used as is).

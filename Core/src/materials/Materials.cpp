@@ -176,6 +176,51 @@ double filterValue(const Material& m, uint64_t label, const LabelAttributeFn& at
     return attribute ? attribute(m.filterAttribute) : std::numeric_limits<double>::quiet_NaN();
 }
 
+/// A label list of the visibility overlay ("hidden", "only"): integers in [0, kMaxMaterialLabel],
+/// kept sorted and unique (order and repeats mean nothing).
+Status labelList(const json& j, const char* key, std::vector<uint32_t>& out) {
+    if (!j.contains(key)) return Status::ok();
+    const std::string ctx = std::string("material document: '") + key + "'";
+    if (!j[key].is_array()) return Status::error(ctx + " must be a list of labels, not " + jsonText(j[key]));
+    for (const json& v : j[key]) {
+        const bool integral = v.is_number_integer() || (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>());
+        if (!integral || !(v.get<double>() >= 0 && v.get<double>() <= kMaxMaterialLabel))
+            return Status::error(ctx + " holds " + jsonText(v) + ": labels are integers in [0, 4294967294]");
+        out.push_back(uint32_t(v.get<double>()));
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return Status::ok();
+}
+
+bool holds(const std::vector<uint32_t>& sorted, uint32_t label) {
+    return std::binary_search(sorted.begin(), sorted.end(), label);
+}
+
+void insertSorted(std::vector<uint32_t>& sorted, uint32_t label) {
+    const auto it = std::lower_bound(sorted.begin(), sorted.end(), label);
+    if (it == sorted.end() || *it != label) sorted.insert(it, label);
+}
+
+/// "only" applied: each shown label in the material that takes it, narrowed to it; consecutive
+/// labels taking the same material share one interval (colours are per label either way).
+std::vector<Material> onlyMaterials(const MaterialDocument& doc, const MaterialEvaluator& evaluator) {
+    std::vector<Material> out;
+    int last = -1;
+    for (uint32_t x : doc.only) {
+        if (holds(doc.hidden, x)) continue;
+        const int m = evaluator.materialOf(x);
+        if (m < 0) continue;
+        if (m == last && out.back().filterMax == double(x) - 1) {
+            out.back().filterMax = double(x);
+            continue;
+        }
+        out.push_back(labelOnly(doc.materials[size_t(m)], double(x)));
+        last = m;
+    }
+    return out;
+}
+
 } // namespace
 
 std::array<float, 3> Colormap::at(double t) const {
@@ -198,14 +243,19 @@ Result<MaterialDocument> parseMaterials(const std::string& text) {
     json j = json::parse(text, nullptr, false);
     if (j.is_discarded()) return Status::error("material document: not valid JSON");
     if (!j.is_object()) return Status::error("material document: must be a JSON object");
-    Status s = onlyKeys(j, {"version", "materials"}, "material document");
+    Status s = onlyKeys(j, {"version", "materials", "hidden", "only"}, "material document");
     if (!s) return s;
     MaterialDocument doc;
     if (j.contains("version")) {
         if (!j["version"].is_number_integer() || j["version"].get<int64_t>() != 1)
             return Status::error("material document: unsupported version " + jsonText(j["version"]) + " (expected 1)");
     }
-    if (!j.contains("materials")) return defaultMaterials();
+    if (!(s = labelList(j, "hidden", doc.hidden))) return s;
+    if (!(s = labelList(j, "only", doc.only))) return s;
+    if (!j.contains("materials")) {
+        doc.materials = defaultMaterials().materials;
+        return doc;
+    }
     if (!j["materials"].is_array()) return Status::error("material document: 'materials' must be a list");
     for (size_t i = 0; i < j["materials"].size(); ++i) {
         Material m;
@@ -247,6 +297,9 @@ std::string serializeMaterials(const MaterialDocument& doc, int indent) {
         jm["emission"] = shortest(m.emission);
         out["materials"].push_back(jm);
     }
+    // Written only when set, so documents without an overlay read as they always did.
+    if (!doc.hidden.empty()) out["hidden"] = doc.hidden;
+    if (!doc.only.empty()) out["only"] = doc.only;
     return out.dump(indent);
 }
 
@@ -305,6 +358,36 @@ void showOnlyLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn
     Material m;
     m.name = "label " + std::to_string(label);
     doc.materials = {labelOnly(m, x)};
+}
+
+void hideLabelOver(MaterialDocument& doc, uint32_t label) { insertSorted(doc.hidden, label); }
+
+void showOnlyLabelOver(MaterialDocument& doc, uint32_t label) {
+    doc.only = {label};
+    doc.hidden.erase(std::remove(doc.hidden.begin(), doc.hidden.end(), label), doc.hidden.end());
+}
+
+void showAllLabels(MaterialDocument& doc) {
+    doc.hidden.clear();
+    doc.only.clear();
+}
+
+MaterialDocument effectiveMaterials(const MaterialDocument& doc,
+                                    const std::function<double(const std::string&, uint32_t)>& attribute) {
+    const auto value = [&attribute](const std::string& name, uint32_t label) {
+        return attribute ? attribute(name, label) : std::numeric_limits<double>::quiet_NaN();
+    };
+    MaterialDocument out;
+    out.version = doc.version;
+    if (!doc.only.empty()) {
+        // Hidden labels are skipped here, so nothing is left to hide.
+        out.materials = onlyMaterials(doc, MaterialEvaluator(doc, value));
+        return out;
+    }
+    out.materials = doc.materials;
+    for (uint32_t x : doc.hidden)
+        hideLabel(out, x, [&value, x](const std::string& name) { return value(name, x); });
+    return out;
 }
 
 std::vector<std::string> attributesUsed(const MaterialDocument& doc) {

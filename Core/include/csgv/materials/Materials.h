@@ -17,6 +17,12 @@
 /// - Values a half-finished edit leaves (filter min > max, a colour interval with min == max) are
 ///   not parse errors: the material stays in the document, materialProblem() says why it cannot
 ///   be drawn and drawableMaterials() leaves it out, so the rest of the volume keeps drawing.
+/// - Two optional top-level keys overlay label visibility on the materials, so that hiding and
+///   isolating labels (the pick panel) never rewrites the user's materials: `"hidden": [labels]`
+///   (these labels are not drawn) and `"only": [labels]` (when not empty, no other label is
+///   drawn). Labels are integers in [0, 4294967294]; both default to empty and are written only
+///   when not empty. A label in both is hidden. effectiveMaterials() turns a document with an
+///   overlay into the plain one the renderer draws.
 
 #include "csgv/base/Status.h"
 
@@ -60,6 +66,8 @@ struct Material {
 struct MaterialDocument {
     int version = 1;
     std::vector<Material> materials;
+    std::vector<uint32_t> hidden; ///< labels not drawn whatever material takes them (sorted, unique)
+    std::vector<uint32_t> only;   ///< when not empty, the only labels drawn (sorted, unique)
 };
 
 /// Parses a document; errors name the material (its number in the list, from 1, and its name) and
@@ -85,6 +93,22 @@ void hideLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn& at
 /// now, its filter narrowed to `label` in [label, label], is the only material; when none holds it,
 /// one material "label <label>" with the default (random, opaque) look.
 void showOnlyLabel(MaterialDocument& doc, uint64_t label, const LabelAttributeFn& attribute = {});
+/// Label visibility over the materials (the keys "hidden" and "only"); the materials list is
+/// never touched, so "Show all" gives back exactly the user's materials.
+/// Hides `label`: adds it to "hidden".
+void hideLabelOver(MaterialDocument& doc, uint32_t label);
+/// Shows only `label`: "only" becomes [label] and the label leaves "hidden".
+void showOnlyLabelOver(MaterialDocument& doc, uint32_t label);
+/// Shows every label the materials take: clears "hidden" and "only".
+void showAllLabels(MaterialDocument& doc);
+/// The plain document (no overlay) that draws what `doc` means: with "only", one material per run
+/// of consecutive shown labels taking the same material, narrowed to them (the materials each
+/// label takes under `attribute`, as MaterialEvaluator decides); then each hidden label removed
+/// as hideLabel() does, its attribute values from `attribute` (an empty function: unknown).
+/// Without an overlay, the materials as they are. This is the document the renderer and the
+/// label-colour query use.
+MaterialDocument effectiveMaterials(const MaterialDocument& doc,
+                                    const std::function<double(const std::string&, uint32_t)>& attribute);
 /// Every attribute a document names, once each, in order of first use.
 std::vector<std::string> attributesUsed(const MaterialDocument& doc);
 /// An error naming the first attribute that `available` lacks.

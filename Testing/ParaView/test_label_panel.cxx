@@ -1,0 +1,272 @@
+// SPDX-License-Identifier: MIT
+// QtTest of the label tools in a builtin ParaView session: "Export colours to lookup table"
+// clicked in the material editor makes the label array's lookup table categorical (the proxy
+// property IndexedLookup) with annotations for exactly the labels the volume shows and nothing
+// drawn for the others; the pick panel's visibility edits keep the user's materials (and material
+// edits keep the visibility overlay); the pick
+// panel starts hidden when docked the way ParaView docks a plugin's panel, and its pick (a click
+// in a render view) clears when another view becomes active or the picked data is deleted.
+// Usage: csgv_label_panel_test PLUGIN.so FIXTURES_DIR
+#include "pqCSGVMaterialDocument.h"
+#include "pqCSGVMaterialEditor.h"
+#include "pqCSGVPickPanel.h"
+
+#include <pqActiveObjects.h>
+#include <pqDataRepresentation.h>
+#include <pqApplicationCore.h>
+#include <pqObjectBuilder.h>
+#include <pqPipelineSource.h>
+#include <pqView.h>
+#include <pqPVApplicationCore.h>
+#include <pqServer.h>
+#include <pqServerResource.h>
+#include <vtkNew.h>
+#include <vtkSMPluginManager.h>
+#include <vtkSMPropertyHelper.h>
+#include <vtkSMProxy.h>
+#include <vtkSMProxyManager.h>
+#include <vtkSMSessionProxyManager.h>
+#include <vtkSMTransferFunctionManager.h>
+#include <vtkSmartPointer.h>
+
+#include <QAction>
+#include <QApplication>
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QMainWindow>
+#include <QPushButton>
+#include <QSet>
+#include <QTextBrowser>
+#include <QtTest>
+
+namespace
+{
+QString gPlugin, gFixtures;
+
+QSet<qint64> labelsOf(const QJsonObject& colors)
+{
+  QSet<qint64> out;
+  for (const QJsonValue& e : colors.value("labels").toArray())
+  {
+    out.insert(qint64(e.toArray().at(0).toDouble()));
+  }
+  return out;
+}
+}
+
+class TestLabelPanel : public QObject
+{
+  Q_OBJECT
+
+  vtkSmartPointer<vtkSMProxy> Reader, Repr;
+
+  QString materials() const { return vtkSMPropertyHelper(this->Repr, "CSGVMaterials").GetAsString(); }
+  void setMaterials(const QString& text)
+  {
+    vtkSMPropertyHelper(this->Repr, "CSGVMaterials").Set(text.toUtf8().constData());
+    this->Repr->UpdateVTKObjects();
+  }
+
+private Q_SLOTS:
+  void initTestCase()
+  {
+    QVERIFY(vtkSMProxyManager::GetProxyManager()->GetPluginManager()->LoadLocalPlugin(
+      gPlugin.toUtf8().constData()));
+    vtkSMSessionProxyManager* pxm = vtkSMProxyManager::GetProxyManager()->GetActiveSessionProxyManager();
+    this->Reader.TakeReference(pxm->NewProxy("sources", "CSGVReader"));
+    QVERIFY(this->Reader);
+    vtkSMPropertyHelper(this->Reader, "FileName")
+      .Set((gFixtures + "/synthA_b32_rans2_attr.csgv").toUtf8().constData());
+    this->Reader->UpdateVTKObjects();
+    this->Repr.TakeReference(pxm->NewProxy("representations", "CSGVSegmentationVolumeRepresentation"));
+    QVERIFY(this->Repr);
+    vtkSMPropertyHelper(this->Repr, "Input").Set(this->Reader);
+    this->Repr->UpdateVTKObjects();
+  }
+
+  void cleanupTestCase()
+  {
+    this->Repr = nullptr;
+    this->Reader = nullptr;
+  }
+
+  /// Hide, Show only and Show all edit the overlay; the materials stay as the user wrote them.
+  void visibilityKeepsTheMaterials()
+  {
+    const QString user = R"({"materials": [{"name": "red", "filter": {"min": 1, "max": 9},
+      "color": {"mode": "constant", "rgb": [1, 0, 0]}}, {"name": "rest"}]})";
+    const QJsonValue kept = QJsonDocument::fromJson(pqCSGV::serialize(pqCSGV::parseDocument(user)).toUtf8())
+                              .object()
+                              .value("materials");
+    auto doc = [](const QString& text) { return QJsonDocument::fromJson(text.toUtf8()).object(); };
+    QString text = pqCSGV::editLabelVisibility(user, pqCSGV::LabelVisibility::Hide, 3);
+    QCOMPARE(doc(text).value("materials"), kept);
+    QCOMPARE(doc(text).value("hidden").toArray(), QJsonArray({ 3 }));
+    text = pqCSGV::editLabelVisibility(text, pqCSGV::LabelVisibility::ShowOnly, 12);
+    QCOMPARE(doc(text).value("materials"), kept);
+    QCOMPARE(doc(text).value("only").toArray(), QJsonArray({ 12 }));
+    text = pqCSGV::editLabelVisibility(text, pqCSGV::LabelVisibility::ShowAll, 0);
+    QCOMPARE(doc(text).value("materials"), kept);
+    QVERIFY(!doc(text).contains("hidden") && !doc(text).contains("only"));
+    // Text Core refuses is never replaced (by the default document or anything else).
+    QString error;
+    QVERIFY(pqCSGV::editLabelVisibility("{\"materials\": 1}", pqCSGV::LabelVisibility::ShowAll, 0, &error).isEmpty());
+    QVERIFY(!error.isEmpty());
+  }
+
+  /// The editor's "Export colours" button, clicked: a categorical table of the shown labels.
+  void exportColorsMakesACategoricalTable()
+  {
+    this->setMaterials("");
+    const QSet<qint64> all = labelsOf(pqCSGV::queryJson(this->Repr, "colors 4096"));
+    QVERIFY2(all.size() >= 3, "the fixture shows several labels");
+    QVERIFY(!all.contains(0));
+    const qint64 hidden = *all.begin();
+    this->setMaterials(pqCSGV::editLabelVisibility(this->materials(), pqCSGV::LabelVisibility::Hide, hidden));
+    const QJsonObject colors = pqCSGV::queryJson(this->Repr, "colors 4096");
+    QCOMPARE(labelsOf(colors), all - QSet<qint64>{ hidden }); // the query reports what is drawn
+
+    pqCSGVMaterialEditor editor(this->Repr, nullptr);
+    editor.show();
+    QPushButton* button = editor.findChild<QPushButton*>("exportColors");
+    QVERIFY(button);
+    QTest::mouseClick(button, Qt::LeftButton);
+
+    QString array = pqCSGV::queryJson(this->Repr, "summary").value("labelArray").toString();
+    vtkNew<vtkSMTransferFunctionManager> mgr;
+    vtkSMProxy* lut = mgr->GetColorTransferFunction(
+      array.toUtf8().constData(), this->Repr->GetSessionProxyManager());
+    QVERIFY(lut);
+    QCOMPARE(vtkSMPropertyHelper(lut, "IndexedLookup").GetAsInt(), 1);
+    QCOMPARE(vtkSMPropertyHelper(lut, "NanOpacity").GetAsDouble(), 0.0); // label 0, hidden: not drawn
+    vtkSMPropertyHelper ann(lut, "Annotations");
+    QSet<qint64> annotated;
+    for (unsigned i = 0; i + 1 < ann.GetNumberOfElements(); i += 2)
+    {
+      annotated.insert(QString(ann.GetAsString(i)).toLongLong());
+    }
+    QCOMPARE(annotated, labelsOf(colors)); // the legend: only the labels the volume shows
+    const QJsonArray first = colors.value("labels").toArray().at(0).toArray();
+    vtkSMPropertyHelper rgb(lut, "IndexedColors");
+    QCOMPARE(rgb.GetNumberOfElements(), 3u * unsigned(colors.value("labels").toArray().size()));
+    for (int k = 0; k < 3; ++k)
+    {
+      QVERIFY(qAbs(rgb.GetAsDouble(unsigned(k)) - first.at(k + 1).toDouble()) < 1e-6);
+    }
+    // Editing the materials keeps the overlay: the label stays hidden.
+    QPushButton* add = editor.findChild<QPushButton*>("addMaterial");
+    QVERIFY(add);
+    QTest::mouseClick(add, Qt::LeftButton);
+    editor.apply();
+    const QJsonObject edited = QJsonDocument::fromJson(this->materials().toUtf8()).object();
+    QCOMPARE(edited.value("materials").toArray().size(), 2);
+    QCOMPARE(edited.value("hidden").toArray(), QJsonArray({ double(hidden) }));
+    this->setMaterials("");
+  }
+
+  /// Docked as pqPluginDockWidgetsBehavior docks it, the panel stays hidden until opened.
+  void pickPanelStartsHidden()
+  {
+    QMainWindow window;
+    window.show();
+    auto* panel = new pqCSGVPickPanel(&window);
+    window.addDockWidget(Qt::RightDockWidgetArea, panel);
+    QApplication::processEvents();
+    QVERIFY(!panel->isVisible());
+    panel->toggleViewAction()->trigger(); // View > Segmentation Pick
+    QVERIFY(panel->isVisible());
+    // Nothing picked: the edits that need a pick are off.
+    QVERIFY(!panel->findChild<QPushButton*>("hideLabel")->isEnabled());
+    QVERIFY(!panel->findChild<QPushButton*>("showOnlyLabel")->isEnabled());
+  }
+
+  /// A click in the view picks; Hide edits the overlay only; the pick clears when another view
+  /// becomes active and when its data is deleted.
+  void pickPanelFollowsItsViewAndData()
+  {
+    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqPipelineSource* source = builder->createReader(
+      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    QVERIFY(source);
+    pqView* view = builder->createView("RenderView", server);
+    QVERIFY(view);
+    view->widget()->resize(160, 160);
+    view->widget()->show();
+    pqActiveObjects::instance().setActiveView(view);
+    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
+    QVERIFY(display);
+    vtkSMProxy* proxy = display->getProxy();
+    // The GUI's Apply picks the reader's RepresentationType; a bare builder gives Outline.
+    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
+    const QString user = R"({"materials": [{"name": "mine", "color": {"mode": "constant", "rgb": [1, 0.5, 0]}}]})";
+    vtkSMPropertyHelper(proxy, "CSGVMaterials").Set(user.toUtf8().constData());
+    proxy->UpdateVTKObjects();
+    view->resetDisplay();
+    view->forceRender();
+
+    pqCSGVPickPanel panel;
+    panel.show(); // opened from the View menu
+    QPushButton* hide = panel.findChild<QPushButton*>("hideLabel");
+    auto* result = panel.findChild<QTextBrowser*>("pickResult");
+    const QPoint centre(80, 80);
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
+    QVERIFY2(panel.lastPick().value("hit").toBool(), "a click on the volume picks a label");
+    const qint64 label = qint64(panel.lastPick().value("label").toDouble());
+    QVERIFY(hide->isEnabled());
+    QTest::mouseClick(hide, Qt::LeftButton);
+    const QJsonObject edited =
+      QJsonDocument::fromJson(vtkSMPropertyHelper(proxy, "CSGVMaterials").GetAsString()).object();
+    QVERIFY2(edited.value("hidden").toArray() == QJsonArray({ double(label) }),
+      vtkSMPropertyHelper(proxy, "CSGVMaterials").GetAsString());
+    QCOMPARE(edited.value("materials").toArray().size(), 1);
+    QCOMPARE(edited.value("materials").toArray().at(0).toObject().value("name").toString(), QString("mine"));
+
+    pqView* other = builder->createView("RenderView", server);
+    pqActiveObjects::instance().setActiveView(other);
+    QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
+      "another active view clears the pick");
+
+    pqActiveObjects::instance().setActiveView(view);
+    view->forceRender();
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
+    QVERIFY(panel.lastPick().value("hit").toBool());
+    builder->destroy(source);
+    QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
+      "deleting the picked data clears the pick");
+    builder->destroy(other);
+    builder->destroy(view);
+  }
+};
+
+int main(int argc, char** argv)
+{
+  if (argc < 3)
+  {
+    fprintf(stderr, "usage: %s PLUGIN.so FIXTURES_DIR [QtTest options]\n", argv[0]);
+    return 2;
+  }
+  gPlugin = argv[1];
+  gFixtures = argv[2];
+  QApplication app(argc, argv);
+  int pvArgc = 1;
+  char* pvArgv[] = { argv[0], nullptr }; // ParaView's logger wants argv[argc] == nullptr
+  pqPVApplicationCore core(pvArgc, pvArgv);
+  pqServer* server = core.getObjectBuilder()->createServer(pqServerResource("builtin:"));
+  if (!server)
+  {
+    fprintf(stderr, "no builtin session\n");
+    return 1;
+  }
+  TestLabelPanel test;
+  std::vector<char*> rest{ argv[0] };
+  for (int i = 3; i < argc; ++i)
+  {
+    rest.push_back(argv[i]);
+  }
+  const int failed = QTest::qExec(&test, int(rest.size()), rest.data());
+  core.getObjectBuilder()->removeServer(server);
+  return failed;
+}
+
+#include "test_label_panel.moc"
