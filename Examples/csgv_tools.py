@@ -144,6 +144,7 @@ def apply_label_colors(display, target_display=None, array=None, max_labels=4096
     name = array or attribute_summary(display).get("labelArray") or "Labels"
     lut = simple.GetColorTransferFunction(name)
     lut.InterpretValuesAsCategories = 1
+    lut.NanOpacity = 0  # label 0, hidden labels and labels no material takes are not drawn
     annotations, indexed = [], []
     for label, r, g, b, text in colors["labels"]:
         annotations += [str(label), text or str(label)]

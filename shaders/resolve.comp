@@ -65,7 +65,12 @@ void resolvePixel(Frame f, uvec2 px) {
             }
             n = samples.w[from];
             FloatBuf depth = FloatBuf(f.addr[kSlotDepthOut]);
-            if (n > 0u) depth.f[pixel] = depth.f[from];
+            if (n > 0u) {
+                depth.f[pixel] = depth.f[from];
+                // What the pixel shows, it also answers to picking (its own first sample replaces it).
+                Uvec4Buf g = Uvec4Buf(f.addr[kSlotGBuffer]);
+                g.v[pixel] = g.v[from];
+            }
         }
         const uint holes = subgroupAdd(n == 0u ? 1u : 0u); // one atomic per subgroup
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(f.addr[kSlotAlloc]).w[kAllocHoles], holes);

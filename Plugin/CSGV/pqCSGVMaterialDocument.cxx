@@ -12,26 +12,11 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 
-#include <limits>
 #include <string>
 #include <vector>
 
 namespace pqCSGV
 {
-namespace
-{
-
-/// A label's attribute values from a pick answer; text values and absent ones are unknown.
-csgv::LabelAttributeFn attributeFn(const QJsonObject& attributes)
-{
-  return [attributes](const std::string& name) {
-    const QJsonValue v = attributes.value(QString::fromStdString(name));
-    return v.isDouble() ? v.toDouble() : std::numeric_limits<double>::quiet_NaN();
-  };
-}
-
-} // namespace
-
 csgv::MaterialDocument parseDocument(const QString& text, QString* error)
 {
   csgv::Result<csgv::MaterialDocument> doc = csgv::parseMaterialsOrDefault(text.toStdString());
@@ -45,20 +30,6 @@ csgv::MaterialDocument parseDocument(const QString& text, QString* error)
 QString serialize(const csgv::MaterialDocument& doc)
 {
   return QString::fromStdString(csgv::serializeMaterials(doc, -1));
-}
-
-QString hideLabel(const QString& materials, qint64 label, const QJsonObject& attributes)
-{
-  csgv::MaterialDocument doc = parseDocument(materials);
-  csgv::hideLabel(doc, uint64_t(label), attributeFn(attributes));
-  return serialize(doc);
-}
-
-QString showOnlyLabel(const QString& materials, qint64 label, const QJsonObject& attributes)
-{
-  csgv::MaterialDocument doc = parseDocument(materials);
-  csgv::showOnlyLabel(doc, uint64_t(label), attributeFn(attributes));
-  return serialize(doc);
 }
 
 QString editLabelVisibility(

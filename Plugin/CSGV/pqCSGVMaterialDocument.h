@@ -24,12 +24,6 @@ csgv::MaterialDocument parseDocument(const QString& text, QString* error = nullp
 /// The property text of a document: Core's serialisation on one line.
 QString serialize(const csgv::MaterialDocument& doc);
 
-/// Core's csgv::hideLabel on a CSGVMaterials text; `attributes` are the label's values as the
-/// pick query reports them (non-numbers count as unknown).
-QString hideLabel(const QString& materials, qint64 label, const QJsonObject& attributes);
-/// Core's csgv::showOnlyLabel on a CSGVMaterials text.
-QString showOnlyLabel(const QString& materials, qint64 label, const QJsonObject& attributes);
-
 /// The pick panel's label visibility: Core's overlay edits (csgv::hideLabelOver,
 /// csgv::showOnlyLabelOver, csgv::showAllLabels) on a CSGVMaterials text, which keep the user's
 /// materials. Text Core refuses is not edited: the result is empty and `error` says why.

@@ -275,35 +275,6 @@ private Q_SLOTS:
     QCOMPARE(this->child<QLabel>("filterRange")->text(), QString("data range: 0 .. 3"));
   }
 
-  void hideAndShowOnly()
-  {
-    // Label filters are split around the hidden label (order kept).
-    QString doc = pqCSGV::hideLabel("", 7, QJsonObject());
-    QJsonArray m = documentOf(doc).value("materials").toArray();
-    QCOMPARE(m.size(), 2);
-    QCOMPARE(m[0].toObject()["filter"].toObject()["max"].toDouble(), 6.0);
-    QCOMPARE(m[1].toObject()["filter"].toObject()["min"].toDouble(), 8.0);
-    // A material on another attribute holding the label: a first material hides it.
-    const QString byKind = R"({"version":1,"materials":[{"filter":{"attribute":"kind","min":2,"max":2}}]})";
-    m = documentOf(pqCSGV::hideLabel(byKind, 7, QJsonObject{ { "kind", 2 } }))
-          .value("materials")
-          .toArray();
-    QCOMPARE(m.size(), 2);
-    QCOMPARE(m[0].toObject()["opacity"].toDouble(), 0.0);
-    // ... but not when its value lies outside every such filter.
-    m = documentOf(pqCSGV::hideLabel(byKind, 7, QJsonObject{ { "kind", 1 } }))
-          .value("materials")
-          .toArray();
-    QCOMPARE(m.size(), 1);
-    // Show only: the material that takes it, restricted to the label.
-    m = documentOf(pqCSGV::showOnlyLabel(byKind, 7, QJsonObject{ { "kind", 2 } }))
-          .value("materials")
-          .toArray();
-    QCOMPARE(m.size(), 1);
-    QCOMPARE(m[0].toObject()["filter"].toObject()["attribute"].toString(), QString("label"));
-    QCOMPARE(m[0].toObject()["filter"].toObject()["min"].toDouble(), 7.0);
-  }
-
   void propertyIsCoresText()
   {
     // Edits write Core's serialisation (one compact line), so what the editor writes is what
