@@ -7,6 +7,7 @@
 // panel starts hidden when docked the way ParaView docks a plugin's panel, and its pick (a click
 // in a render view) clears when another view becomes active or the picked data is deleted.
 // Usage: csgv_label_panel_test PLUGIN.so FIXTURES_DIR
+#include "PvQtTestMain.h"
 #include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
 #include "pqCSGVPickPanel.h"
@@ -241,32 +242,7 @@ private Q_SLOTS:
 
 int main(int argc, char** argv)
 {
-  if (argc < 3)
-  {
-    fprintf(stderr, "usage: %s PLUGIN.so FIXTURES_DIR [QtTest options]\n", argv[0]);
-    return 2;
-  }
-  gPlugin = argv[1];
-  gFixtures = argv[2];
-  QApplication app(argc, argv);
-  int pvArgc = 1;
-  char* pvArgv[] = { argv[0], nullptr }; // ParaView's logger wants argv[argc] == nullptr
-  pqPVApplicationCore core(pvArgc, pvArgv);
-  pqServer* server = core.getObjectBuilder()->createServer(pqServerResource("builtin:"));
-  if (!server)
-  {
-    fprintf(stderr, "no builtin session\n");
-    return 1;
-  }
-  TestLabelPanel test;
-  std::vector<char*> rest{ argv[0] };
-  for (int i = 3; i < argc; ++i)
-  {
-    rest.push_back(argv[i]);
-  }
-  const int failed = QTest::qExec(&test, int(rest.size()), rest.data());
-  core.getObjectBuilder()->removeServer(server);
-  return failed;
+  return pvqttest::run<TestLabelPanel>(argc, argv, gPlugin, gFixtures);
 }
 
 #include "test_label_panel.moc"

@@ -6,6 +6,7 @@
 // panel. Typing tests send key events at a person's pace, with the editor applied the way the
 // Properties panel applies display properties (on its queued changeFinished). Usage:
 // csgv_material_editor_test PLUGIN.so FIXTURES_DIR
+#include "PvQtTestMain.h"
 #include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
 
@@ -463,33 +464,7 @@ private Q_SLOTS:
 
 int main(int argc, char** argv)
 {
-  if (argc < 3)
-  {
-    fprintf(stderr, "usage: %s PLUGIN.so FIXTURES_DIR [QtTest options]\n", argv[0]);
-    return 2;
-  }
-  gPlugin = argv[1];
-  gFixtures = argv[2];
-  QApplication app(argc, argv);
-  int pvArgc = 1;
-  char* pvArgv[] = { argv[0], nullptr }; // ParaView's logger wants argv[argc] == nullptr
-  pqPVApplicationCore core(pvArgc, pvArgv);
-  pqServer* server = core.getObjectBuilder()->createServer(pqServerResource("builtin:"));
-  if (!server)
-  {
-    fprintf(stderr, "no builtin session\n");
-    return 1;
-  }
-  TestMaterialEditor test;
-  // QtTest sees only its own options.
-  std::vector<char*> rest{ argv[0] };
-  for (int i = 3; i < argc; ++i)
-  {
-    rest.push_back(argv[i]);
-  }
-  const int failed = QTest::qExec(&test, int(rest.size()), rest.data());
-  core.getObjectBuilder()->removeServer(server);
-  return failed;
+  return pvqttest::run<TestMaterialEditor>(argc, argv, gPlugin, gFixtures);
 }
 
 #include "test_material_editor.moc"

@@ -5,6 +5,7 @@
 // nothing for it are hidden and come back for Surface, typing "opacity" in the search finds the
 // material editor, and Shading, Label Array and Clip Box show names and ranges a user reads while
 // writing what pvpython writes. Usage: csgv_property_panel_test PLUGIN.so FIXTURES_DIR
+#include "PvQtTestMain.h"
 #include <pqApplicationCore.h>
 #include <pqInterfaceTracker.h>
 #include <pqObjectBuilder.h>
@@ -235,37 +236,7 @@ private Q_SLOTS:
 
 int main(int argc, char** argv)
 {
-  if (argc < 3)
-  {
-    fprintf(stderr, "usage: %s PLUGIN.so FIXTURES_DIR [QtTest options]\n", argv[0]);
-    return 2;
-  }
-  gPlugin = argv[1];
-  gFixtures = argv[2];
-  QApplication app(argc, argv);
-  int pvArgc = 1;
-  char* pvArgv[] = { argv[0], nullptr }; // ParaView's logger wants argv[argc] == nullptr
-  pqPVApplicationCore core(pvArgc, pvArgv);
-  // The GUI registers ParaView's own widgets (ColorEditor, decorators) before any plugin.
-  core.interfaceTracker()->addInterface(new pqStandardPropertyWidgetInterface(&core));
-  pqServer* server = core.getObjectBuilder()->createServer(pqServerResource("builtin:"));
-  if (!server)
-  {
-    fprintf(stderr, "no builtin session\n");
-    return 1;
-  }
-  int failed = 0;
-  {
-    TestPropertyPanel test;
-    std::vector<char*> rest{ argv[0] };
-    for (int i = 3; i < argc; ++i)
-    {
-      rest.push_back(argv[i]);
-    }
-    failed = QTest::qExec(&test, int(rest.size()), rest.data());
-  }
-  core.getObjectBuilder()->removeServer(server);
-  return failed;
+  return pvqttest::run<TestPropertyPanel>(argc, argv, gPlugin, gFixtures);
 }
 
 #include "test_property_panel.moc"
