@@ -149,8 +149,7 @@ bool pqCSGVPickPanel::eventFilter(QObject* watched, QEvent* event)
 
 bool pqCSGVPickPanel::pickAt(const QPoint& pos)
 {
-  this->Last = QJsonObject();
-  this->LastDisplay = nullptr;
+  this->clearPick();
   if (!this->View || !this->ViewWidget)
   {
     return false;

@@ -66,6 +66,13 @@ uint64_t MemoryReport::total() const {
     return n;
 }
 
+namespace {
+/// Pixels a frame renders at a pixel stride (one of stride^2 per block).
+double renderedPixels(const FrameInput& in, uint32_t stride) {
+    return double((in.width + stride - 1) / stride) * double((in.height + stride - 1) / stride);
+}
+} // namespace
+
 struct Renderer::Impl {
     Context& ctx;
     std::shared_ptr<GpuVolume> volume;
@@ -103,10 +110,10 @@ struct Renderer::Impl {
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
     bool converged = false;           // the last render() reached the sample target; nothing changed since
     uint64_t materialsFingerprint = 0; // of what setMaterials uploaded (0: nothing yet)
-    // render()'s pixel strides of this accumulation: frames start at the coarse one until every
-    // pixel shows a sample (its own or its coarse block's), then go on at the fine one; the coarse
-    // block stays the upsampling block (FrameParams pixel.z). 0: chosen at the first frame.
-    uint32_t coarseStride = 0, fineStride = 0;
+    // render()'s coarse pixel stride of this accumulation: frames start at it until every pixel
+    // shows a sample (its own or its coarse block's), then go on at the settings' stride; the
+    // coarse block stays the upsampling block (FrameParams pixel.z). 0: chosen at the first frame.
+    uint32_t coarseStride = 0;
     bool shownWhole = false;
     double finishSeconds = 0;         // render(): what follows the frames (denoising, read-back), measured
     double secondsPerPixel[4] = {};   // render(): a frame's seconds per rendered pixel, per shading mode
@@ -156,20 +163,19 @@ struct Renderer::Impl {
         while (stride < 8 && double(pixels) * seconds / (stride * stride) > frameSeconds) stride *= 2;
         return stride;
     }
-    /// A still render's strides: coarse enough that the first image (every pixel showing a
+    /// A still render's coarse stride: coarse enough that the first image (every pixel showing a
     /// sample, a few frames as bricks arrive) comes in a fraction of the budget (stride 4 before
-    /// any frame was measured), then the settings' own: every frame costs a full-resolution
-    /// gather besides its rays, so the finest stride converges fastest.
-    void chooseStillStrides(const RenderSettings& st, uint64_t pixels, double budgetSeconds) {
+    /// any frame was measured). Later frames take the settings' own: every frame costs a
+    /// full-resolution gather besides its rays, so the finest stride converges fastest.
+    uint32_t stillCoarseStride(const RenderSettings& st, uint64_t pixels, double budgetSeconds) const {
         const bool measured = secondsPerPixel[0] > 0 || secondsPerPixel[1] > 0 || secondsPerPixel[2] > 0 ||
                               secondsPerPixel[3] > 0;
-        fineStride = std::max<uint32_t>(1, st.subsampling);
-        coarseStride = std::max(fineStride, measured ? strideFor(st, pixels, std::max(budgetSeconds, 0.1) / 8) : 4u);
+        return std::max(std::max<uint32_t>(1, st.subsampling),
+                        measured ? strideFor(st, pixels, std::max(budgetSeconds, 0.1) / 8) : 4u);
     }
     void measureFrame(const RenderSettings& st, const FrameInput& in, const FrameStats& stats) {
         if (stats.milliseconds <= 0) return; // nothing was submitted
-        const uint64_t rw = (in.width + st.subsampling - 1) / st.subsampling, rh = (in.height + st.subsampling - 1) / st.subsampling;
-        const double s = stats.milliseconds / 1000 / double(std::max<uint64_t>(1, rw * rh));
+        const double s = stats.milliseconds / 1000 / std::max(1.0, renderedPixels(in, st.subsampling));
         double& avg = secondsPerPixel[uint32_t(st.shading) & 3];
         avg = avg > 0 ? 0.5 * (avg + s) : s;
     }
@@ -184,6 +190,11 @@ struct Renderer::Impl {
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
     void buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
+    void addDispatch(uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy);
+    /// One resolve pass over the image (every pixel).
+    void addResolve(const FrameInput& in, uint32_t pass, uint32_t src, uint32_t dst);
+    /// The A-trous passes and tone mapping from the gathered image (denoise A) into the output.
+    void addDenoisePasses(const FrameInput& in);
     bool denoises(const RenderSettings& st) const;
     /// The denoising passes over the last frame's gathered image into the output (a still render
     /// defers them to its last frame: the frames before are never shown).
@@ -198,7 +209,7 @@ struct Renderer::Impl {
 
     void resetAccumulation() {
         clearPending = true;
-        coarseStride = fineStride = 0;
+        coarseStride = 0;
         shownWhole = false;
         accumulatedFrames = 0;
         resetDone = evictUnused = limitRequests = false;
@@ -784,42 +795,48 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     resolvePushes.clear();
     resolvePushes.reserve(8); // the list points into it: no reallocation while building
     dispatches.clear();
-    auto add = [&](uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy) {
-        Context::Dispatch d;
-        d.pipeline = pipeline;
-        d.pushConstants = push;
-        d.pushConstantBytes = bytes;
-        d.groups[0] = std::max(gx, 1u);
-        d.groups[1] = std::max(gy, 1u);
-        dispatches.push_back(d);
-    };
     const uint32_t tile = kGroupTile * pixelBlock; // kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
-    const uint32_t gx = (in.width + tile - 1) / tile, gy = (in.height + tile - 1) / tile;
-    auto resolve = [&](uint32_t pass, uint32_t src, uint32_t dst) {
-        resolvePushes.push_back({frameAddress, pass, src, dst});
-        add(pResolve, &resolvePushes.back(), sizeof(ResolvePush), gx, gy);
-    };
-    if (clearPending) resolve(kResolveClear, kSlotDenoiseA, kSlotDenoiseA);
-    add(pRequest, &frameAddress, 8, (brickCount + kGroupBricks - 1) / kGroupBricks, 1);
-    add(pProvision, &frameAddress, 8, 1, 1);
-    add(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
-    add(pCommit, &frameAddress, 8, 1, 1);
+    if (clearPending) addResolve(in, kResolveClear, kSlotDenoiseA, kSlotDenoiseA);
+    addDispatch(pRequest, &frameAddress, 8, (brickCount + kGroupBricks - 1) / kGroupBricks, 1);
+    addDispatch(pProvision, &frameAddress, 8, 1, 1);
+    addDispatch(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
+    addDispatch(pCommit, &frameAddress, 8, 1, 1);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!hostDecode) dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
     const uint32_t stride = st.subsampling;
-    const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride;
-    add(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
+    const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride; // rendered pixels
+    addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
     if (!denoises(st)) {
-        resolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
+        addResolve(in, kResolveGather, kSlotDenoiseA, kSlotColorOut);
         return;
     }
-    resolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
+    addResolve(in, kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
     denoisePending = deferDenoise;
-    if (deferDenoise) return;
-    resolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
-    resolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
-    resolve(kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
-    resolve(kResolveFinal, kSlotDenoiseB, kSlotColorOut);
+    if (!deferDenoise) addDenoisePasses(in);
+}
+
+void Renderer::Impl::addDispatch(uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy) {
+    Context::Dispatch d;
+    d.pipeline = pipeline;
+    d.pushConstants = push;
+    d.pushConstantBytes = bytes;
+    d.groups[0] = std::max(gx, 1u);
+    d.groups[1] = std::max(gy, 1u);
+    dispatches.push_back(d);
+}
+
+void Renderer::Impl::addResolve(const FrameInput& in, uint32_t pass, uint32_t src, uint32_t dst) {
+    const uint32_t tile = kGroupTile * pixelBlock;
+    resolvePushes.push_back({frameAddress, pass, src, dst}); // reserved: the list points into it
+    addDispatch(pResolve, &resolvePushes.back(), sizeof(ResolvePush), (in.width + tile - 1) / tile,
+                (in.height + tile - 1) / tile);
+}
+
+void Renderer::Impl::addDenoisePasses(const FrameInput& in) {
+    addResolve(in, kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
+    addResolve(in, kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
+    addResolve(in, kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
+    addResolve(in, kResolveFinal, kSlotDenoiseB, kSlotColorOut);
 }
 
 bool Renderer::Impl::denoises(const RenderSettings& st) const {
@@ -833,22 +850,8 @@ Status Renderer::Impl::denoiseOutput(const FrameInput& in) {
     denoisePending = false;
     dispatches.clear();
     resolvePushes.clear();
-    resolvePushes.reserve(4);
-    const uint32_t tile = kGroupTile * pixelBlock;
-    const uint32_t passes[4][3] = {{kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB},
-                                   {kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA},
-                                   {kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB},
-                                   {kResolveFinal, kSlotDenoiseB, kSlotColorOut}};
-    for (const auto& p : passes) {
-        resolvePushes.push_back({frameAddress, p[0], p[1], p[2]});
-        Context::Dispatch d;
-        d.pipeline = pResolve;
-        d.pushConstants = &resolvePushes.back();
-        d.pushConstantBytes = sizeof(ResolvePush);
-        d.groups[0] = std::max((in.width + tile - 1) / tile, 1u);
-        d.groups[1] = std::max((in.height + tile - 1) / tile, 1u);
-        dispatches.push_back(d);
-    }
+    resolvePushes.reserve(8);
+    addDenoisePasses(in);
     outputParts = 0;
     return ctx.run(dispatches);
 }
@@ -963,22 +966,19 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
     if (im.converged) return result; // nothing changed since an exact image: it stays
     const uint32_t target = std::max<uint32_t>(1, m_settings.sampleTarget);
     const uint64_t pixels = uint64_t(in.width) * in.height;
-    if (im.coarseStride == 0) {
-        if (request.interactive) im.coarseStride = im.fineStride = std::max<uint32_t>(1, m_settings.subsampling);
-        else im.chooseStillStrides(m_settings, pixels, request.timeBudgetSeconds);
-    }
-    im.fineStride = std::max(im.fineStride, m_settings.subsampling);
-    im.coarseStride = std::max(im.coarseStride, im.fineStride);
+    const uint32_t fine = std::max<uint32_t>(1, m_settings.subsampling);
+    if (im.coarseStride == 0)
+        im.coarseStride = request.interactive ? fine : im.stillCoarseStride(m_settings, pixels, request.timeBudgetSeconds);
+    im.coarseStride = std::max(im.coarseStride, fine);
     im.fillBlock = im.coarseStride;
     RenderSettings settings = m_settings;
-    auto rendered = [&](uint32_t stride) { return double((in.width + stride - 1) / stride) * ((in.height + stride - 1) / stride); };
     const uint32_t maxFrames = target * im.coarseStride * im.coarseStride + 256;
     const auto t0 = std::chrono::steady_clock::now();
     uint32_t idle = 0;
     double before = 0; // seconds elapsed before this frame
     im.deferDenoise = !request.interactive; // the still loop's frames before its last are never shown
     for (uint32_t f = 0; f < maxFrames; ++f) {
-        settings.subsampling = im.shownWhole ? im.fineStride : im.coarseStride;
+        settings.subsampling = im.shownWhole ? fine : im.coarseStride;
         Result<FrameStats> st = im.frame(in, settings, clipToWorld);
         if (!st) {
             im.deferDenoise = im.denoisePending = false;
@@ -992,8 +992,8 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         // The next frame costs this one's time per rendered pixel: stop when it would end past
         // the budget, so the budget holds; but never while a pixel shows nothing (no holes).
-        const uint32_t nextStride = im.shownWhole ? im.fineStride : im.coarseStride;
-        const double next = (elapsed - before) * rendered(nextStride) / rendered(settings.subsampling);
+        const uint32_t nextStride = im.shownWhole ? fine : im.coarseStride;
+        const double next = (elapsed - before) * renderedPixels(in, nextStride) / renderedPixels(in, settings.subsampling);
         before = elapsed;
         if (st->holes == 0 && elapsed + next + im.finishSeconds > request.timeBudgetSeconds) break;
         idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
