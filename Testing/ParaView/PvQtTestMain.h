@@ -14,6 +14,12 @@
 #include <pqServer.h>
 #include <pqServerResource.h>
 #include <pqStandardPropertyWidgetInterface.h>
+#include <vtkSMPluginManager.h>
+#include <vtkSMPropertyHelper.h>
+#include <vtkSMProxy.h>
+#include <vtkSMProxyManager.h>
+#include <vtkSMSessionProxyManager.h>
+#include <vtkSmartPointer.h>
 
 #include <QApplication>
 #include <QString>
@@ -24,6 +30,30 @@
 
 namespace pvqttest
 {
+/// Loads the plugin and makes a CSGV reader of `file` shown by a bare Segmentation Volume
+/// representation proxy (no view); false when a step fails.
+inline bool segmentationVolume(const QString& plugin, const QString& file, vtkSmartPointer<vtkSMProxy>& reader,
+  vtkSmartPointer<vtkSMProxy>& repr)
+{
+  vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
+  if (!manager->GetPluginManager()->LoadLocalPlugin(plugin.toUtf8().constData()))
+  {
+    return false;
+  }
+  vtkSMSessionProxyManager* pxm = manager->GetActiveSessionProxyManager();
+  reader.TakeReference(pxm->NewProxy("sources", "CSGVReader"));
+  repr.TakeReference(pxm->NewProxy("representations", "CSGVSegmentationVolumeRepresentation"));
+  if (!reader || !repr)
+  {
+    return false;
+  }
+  vtkSMPropertyHelper(reader, "FileName").Set(file.toUtf8().constData());
+  reader->UpdateVTKObjects();
+  vtkSMPropertyHelper(repr, "Input").Set(reader);
+  repr->UpdateVTKObjects();
+  return true;
+}
+
 /// Runs `Test` (constructed inside the session) and returns the number of failed checks; the
 /// plugin path and the fixtures folder go to `plugin` and `fixtures` before it is constructed.
 template <class Test>

@@ -71,18 +71,8 @@ class TestLabelPanel : public QObject
 private Q_SLOTS:
   void initTestCase()
   {
-    QVERIFY(vtkSMProxyManager::GetProxyManager()->GetPluginManager()->LoadLocalPlugin(
-      gPlugin.toUtf8().constData()));
-    vtkSMSessionProxyManager* pxm = vtkSMProxyManager::GetProxyManager()->GetActiveSessionProxyManager();
-    this->Reader.TakeReference(pxm->NewProxy("sources", "CSGVReader"));
-    QVERIFY(this->Reader);
-    vtkSMPropertyHelper(this->Reader, "FileName")
-      .Set((gFixtures + "/synthA_b32_rans2_attr.csgv").toUtf8().constData());
-    this->Reader->UpdateVTKObjects();
-    this->Repr.TakeReference(pxm->NewProxy("representations", "CSGVSegmentationVolumeRepresentation"));
-    QVERIFY(this->Repr);
-    vtkSMPropertyHelper(this->Repr, "Input").Set(this->Reader);
-    this->Repr->UpdateVTKObjects();
+    QVERIFY(pvqttest::segmentationVolume(
+      gPlugin, gFixtures + "/synthA_b32_rans2_attr.csgv", this->Reader, this->Repr));
   }
 
   void cleanupTestCase()
