@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: MIT
-// Render stage, one invocation per rendered pixel (every pixel, or one of stride^2 with
-// subsampling): casts the view ray with the stable DDA through cached bricks, shades the first
+// Render stage, one invocation per rendered pixel of the footprint rectangle (Frame rect: every
+// pixel, or one of stride^2 with subsampling): casts the view ray with the stable DDA through cached bricks, shades the first
 // opaque surface (local, shadow ray, ambient occlusion or path tracing) after compositing
 // semi-transparent ones front to back, and accumulates one sample. A ray that needs a brick not
 // in the cache marks it for the next frame and adds no sample, so accumulated images only ever
 // contain complete samples; the k-th sample of a pixel is the same whichever frame computes it.
+// With kFlagResolveInRender it also writes the pixel's output and counts (no gather pass).
 // SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -105,15 +106,11 @@ vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
     return vec3(fv.lightWorld.w * cosL * vis);
 }
 
-/// One sample of the pixel at `cell` in the grid of rendered pixels (all, or one of stride^2).
-void renderPixel(uvec2 cell) {
-    const uint W = fv.image.x, H = fv.image.y, stride = fv.image.z, phase = fv.image.w;
-    const uvec2 px = cell * stride + uvec2(phase % stride, phase / stride);
-    if (px.x >= W || px.y >= H) return;
-    const uint pixel = px.y * W + px.x;
-    UintBuf samplesBuf = UintBuf(f.addr[kSlotSamples]);
-    const uint samples = samplesBuf.w[pixel];
-    if (fv.frame.w != 0u && samples >= fv.frame.w) return; // reached the sample target
+/// The next sample (index `samples`) of pixel px: accumulates it, writes the G-buffer and the
+/// depth, and returns true with the new sum in `total`; false (nothing written) when a brick it
+/// needs is not in the cache.
+bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
+    total = vec4(0.0);
     UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
     if (samples == alloc.w[kAllocPrevMin]) { // one atomic per subgroup: they are costly on CPU devices
         const uint first = subgroupMin(pixel);
@@ -259,15 +256,40 @@ void renderPixel(uvec2 cell) {
     if (!valid) {
         const uint missing = subgroupAdd(1u);
         if (subgroupElect()) atomicAdd(alloc.w[kAllocMissing], missing);
-        return;
+        return false;
     }
     Vec4Buf accum = Vec4Buf(f.addr[kSlotAccum]);
-    accum.v[pixel] += vec4(radiance, 1.0 - transmittance);
-    samplesBuf.w[pixel] = samples + 1u;
+    total = vec4(radiance, 1.0 - transmittance);
+    if (samples > 0u) total += accum.v[pixel]; // the first sample need not read the cleared sum
+    accum.v[pixel] = total;
+    UintBuf(f.addr[kSlotSamples]).w[pixel] = samples + 1u;
     const uint added = subgroupAdd(1u);
     if (subgroupElect()) atomicAdd(alloc.w[kAllocNewSamples], added);
-    Uvec4Buf(f.addr[kSlotGBuffer]).v[pixel] = uvec4(gLabel, gFace | 0x100u, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
+    Uvec4Buf(f.addr[kSlotGBuffer]).v[pixel] =
+        uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
     FloatBuf(f.addr[kSlotDepthOut]).f[pixel] = firstDepth;
+    return true;
+}
+
+/// The pixel at `cell` in the grid of rendered pixels of the footprint rectangle (all, or one
+/// of stride^2): its next sample unless it has reached the sample target; with
+/// kFlagResolveInRender also what the gather would do for it (output colour, counts).
+void renderPixel(uvec2 cell) {
+    const uint stride = fv.image.z, phase = fv.image.w;
+    const uvec2 px = fv.rect.xy + cell * stride + uvec2(phase % stride, phase / stride);
+    if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
+    const uint pixel = px.y * fv.image.x + px.x;
+    const uint samples = UintBuf(f.addr[kSlotSamples]).w[pixel];
+    uint n = samples;
+    vec4 total = vec4(0.0);
+    if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total)) n = samples + 1u;
+    if ((fv.frame.y & kFlagResolveInRender) == 0u) return;
+    if (n != samples) Vec4Buf(f.addr[kSlotColorOut]).v[pixel] = toneMapped(total / float(n));
+    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    const uint fewest = subgroupMin(n); // one atomic per subgroup
+    if (subgroupElect()) atomicMin(alloc.w[kAllocMinSamples], fewest);
+    const uint holes = subgroupAdd(n == 0u ? 1u : 0u);
+    if (subgroupElect() && holes > 0u) atomicAdd(alloc.w[kAllocHoles], holes);
 }
 
 void main() {

@@ -34,7 +34,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Fr
 /// whole members once and take components from these copies.
 struct FrameValues {
     vec4 lightWorld, lightIndex, environment, clipMin, clipMax, pixel, tone;
-    uvec4 frame, image, limits, counts;
+    uvec4 frame, image, limits, counts, rect;
 };
 FrameValues fv;
 void loadFrameValues(Frame f) {
@@ -49,6 +49,7 @@ void loadFrameValues(Frame f) {
     fv.image = f.image;
     fv.limits = f.limits;
     fv.counts = f.counts;
+    fv.rect = f.rect;
 }
 
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer UintBuf { uint w[]; };
@@ -136,6 +137,20 @@ vec4 materialColor(Frame f, uint m, uint label, out float emission) {
         rgb = mat.colour.w == 0u ? paletteColor(h) : colormapAt(f, mat.colour.z, mat.colour.w, float(h) / 4294967295.0);
     }
     return vec4(rgb, mat.rgba.a);
+}
+
+vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
+
+/// Tone mapping, brightness, contrast and gamma of a premultiplied colour (the output's last step).
+vec4 toneMapped(vec4 c) {
+    if (c.a <= 0.0) return c;
+    vec3 rgb = c.rgb / c.a;
+    if (fv.tone.w != 0.0) rgb = aces(rgb);
+    rgb *= fv.tone.x;
+    rgb = (rgb - 0.5) * fv.tone.y + 0.5;
+    rgb = clamp(rgb, 0.0, 1.0);
+    if (fv.tone.z != 1.0) rgb = pow(rgb, vec3(1.0 / fv.tone.z));
+    return vec4(rgb * c.a, c.a);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: MIT
-// Resolve stage, one invocation per pixel, in passes (push constant `pass`):
+// Resolve stage, one invocation per pixel of the footprint rectangle (Frame rect), in passes
+// (the define RESOLVE_PASS, a pipeline each); frames without denoising or upsampling skip it (kFlagResolveInRender):
 //   0 gather (with tone mapping straight into the output when not denoising): average of the accumulated samples; pixels without samples yet (subsampling or a
 //     missing brick) copy the nearest pixel of their stride block that has samples (upsampling);
 //   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
 //     same face, similar depth), fading out as samples accumulate;
-//   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output;
-//   5 clear: starts the accumulation anew.
+//   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output.
+// Pixels outside the rectangle keep what the clear filled in (Renderer.cpp addClear).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -16,34 +17,13 @@ layout(push_constant) uniform Push {
     CSGV_RESOLVE_PUSH_MEMBERS
 } pc;
 
-vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
-
-/// Tone mapping, brightness, contrast and gamma of a premultiplied colour.
-vec4 toneMapped(Frame f, vec4 c) {
-    if (c.a <= 0.0) return c;
-    vec3 rgb = c.rgb / c.a;
-    if (fv.tone.w != 0.0) rgb = aces(rgb);
-    rgb *= fv.tone.x;
-    rgb = (rgb - 0.5) * fv.tone.y + 0.5;
-    rgb = clamp(rgb, 0.0, 1.0);
-    if (fv.tone.z != 1.0) rgb = pow(rgb, vec3(1.0 / fv.tone.z));
-    return vec4(rgb * c.a, c.a);
-}
-
 void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
-    if (px.x >= W || px.y >= H) return;
+    if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
     const uint pixel = px.y * W + px.x;
     UintBuf samples = UintBuf(f.addr[kSlotSamples]);
     Vec4Buf dst = Vec4Buf(f.addr[pc.dst]);
-    if (pc.pass == kResolveClear) {
-        Vec4Buf(f.addr[kSlotAccum]).v[pixel] = vec4(0.0);
-        samples.w[pixel] = 0u;
-        Uvec4Buf(f.addr[kSlotGBuffer]).v[pixel] = uvec4(kNone, 0u, floatBitsToUint(1.0), 0u);
-        FloatBuf(f.addr[kSlotDepthOut]).f[pixel] = 1.0;
-        return;
-    }
-    if (pc.pass == kResolveGather) {
+    if (RESOLVE_PASS == kResolveGather) {
         uint n = samples.w[pixel];
         const uint fewest = subgroupMin(n); // one atomic per subgroup
         if (subgroupElect()) atomicMin(UintBuf(f.addr[kSlotAlloc]).w[kAllocMinSamples], fewest);
@@ -75,24 +55,25 @@ void resolvePixel(Frame f, uvec2 px) {
         const uint holes = subgroupAdd(n == 0u ? 1u : 0u); // one atomic per subgroup
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(f.addr[kSlotAlloc]).w[kAllocHoles], holes);
         const vec4 c = n > 0u ? Vec4Buf(f.addr[kSlotAccum]).v[from] / float(n) : vec4(0.0);
-        dst.v[pixel] = pc.dst == kSlotColorOut ? toneMapped(f, c) : c; // without denoising: one pass
+        dst.v[pixel] = pc.dst == kSlotColorOut ? toneMapped(c) : c; // without denoising: one pass
         return;
     }
     Vec4Buf src = Vec4Buf(f.addr[pc.src]);
     const vec4 centre = src.v[pixel];
-    if (pc.pass <= kResolveAtrous4) {
+    if (RESOLVE_PASS <= kResolveAtrous4) {
         const uint n = samples.w[pixel];
         Uvec4Buf g = Uvec4Buf(f.addr[kSlotGBuffer]);
         const uvec4 gc = g.v[pixel];
         const float dc = uintBitsToFloat(gc.z);
-        const int step = 1 << (pc.pass - kResolveAtrous1);
+        const int step = 1 << (RESOLVE_PASS - kResolveAtrous1);
         const float kernel[3] = float[3](0.25, 0.5, 0.25);
         vec4 sum = vec4(0.0);
         float weights = 0.0;
         for (int dy = -1; dy <= 1; ++dy)
             for (int dx = -1; dx <= 1; ++dx) {
                 const ivec2 q = ivec2(px) + ivec2(dx, dy) * step;
-                if (q.x < 0 || q.y < 0 || q.x >= int(W) || q.y >= int(H)) continue;
+                // Outside the rectangle nothing is ever gathered: only pixels inside take part.
+                if (any(lessThan(q, ivec2(fv.rect.xy))) || any(greaterThanEqual(q, ivec2(fv.rect.zw)))) continue;
                 const uint qi = uint(q.y) * W + uint(q.x);
                 const uvec4 gq = g.v[qi];
                 float wgt = kernel[dx + 1] * kernel[dy + 1];
@@ -106,7 +87,7 @@ void resolvePixel(Frame f, uvec2 px) {
         dst.v[pixel] = mix(filtered, centre, keep);
         return;
     }
-    dst.v[pixel] = toneMapped(f, centre);
+    dst.v[pixel] = toneMapped(centre);
 }
 
 void main() {
@@ -114,5 +95,5 @@ void main() {
     loadFrameValues(f);
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j)
-        resolvePixel(f, gl_GlobalInvocationID.xy * PIXEL_BLOCK + uvec2(j % PIXEL_BLOCK, j / PIXEL_BLOCK));
+        resolvePixel(f, fv.rect.xy + gl_GlobalInvocationID.xy * PIXEL_BLOCK + uvec2(j % PIXEL_BLOCK, j / PIXEL_BLOCK));
 }

@@ -41,6 +41,7 @@ const Probe kProbes[] = {
     CSGV_PROBE(labelHash(0xFFFFFFFEu)), CSGV_PROBE(kLabelPaletteSize),
     CSGV_PROBE(kNone), CSGV_PROBE(kFlagJitter), CSGV_PROBE(kFlagFinest), CSGV_PROBE(kFlagDenoise),
     CSGV_PROBE(kFlagLimitRequests), CSGV_PROBE(kFlagDepthInput), CSGV_PROBE(kFlagEvictUnused), CSGV_PROBE(kFlagLabelMap),
+    CSGV_PROBE(kFlagResolveInRender), CSGV_PROBE(kGBufferSampled),
     CSGV_PROBE(kShadingLocal), CSGV_PROBE(kShadingShadow), CSGV_PROBE(kShadingAo), CSGV_PROBE(kShadingPt),
     CSGV_PROBE(kColorConstant), CSGV_PROBE(kColorColormap), CSGV_PROBE(kColorRandom),
     CSGV_PROBE(kSlotBricks), CSGV_PROBE(kSlotGBuffer), CSGV_PROBE(kSlotDepthIn), CSGV_PROBE(kSlotColorOut),
@@ -48,7 +49,7 @@ const Probe kProbes[] = {
     CSGV_PROBE(kAllocTop), CSGV_PROBE(kAllocMinSamples), CSGV_PROBE(kAllocPrevMin), CSGV_PROBE(kAllocFreeCount),
     CSGV_PROBE(kAllocReqCount), CSGV_PROBE(kAllocPops), CSGV_PROBE(kAllocProvBase), CSGV_PROBE(kAllocProvCount),
     CSGV_PROBE(kAllocWords), CSGV_PROBE(kResolveGather), CSGV_PROBE(kResolveAtrous1), CSGV_PROBE(kResolveAtrous2),
-    CSGV_PROBE(kResolveAtrous4), CSGV_PROBE(kResolveFinal), CSGV_PROBE(kResolveClear),
+    CSGV_PROBE(kResolveAtrous4), CSGV_PROBE(kResolveFinal),
 };
 constexpr uint32_t kProbeCount = sizeof(kProbes) / sizeof(kProbes[0]);
 

@@ -482,11 +482,26 @@ bool Context::lost() const { return m_impl->lost; }
 Status Context::run(const Dispatch* first, size_t count) {
     Impl& im = *m_impl;
     const Dispatch* const last = first + count;
-    for (const Dispatch* d = first; d != last; ++d)
-        if (!im.pipelines.count(d->pipeline)) return Status::error("dispatch of an unknown pipeline");
+    for (const Dispatch* d = first; d != last; ++d) {
+        if (d->fill && (!d->fill->valid() || d->fillBytes % 4 != 0 || d->fillBytes > d->fill->size()))
+            return Status::error("a fill past its buffer's end");
+        if (!d->fill && !im.pipelines.count(d->pipeline)) return Status::error("dispatch of an unknown pipeline");
+    }
     return submitAndWait(im, [&](VkCommandBuffer cmd) {
         for (const Dispatch* it = first; it != last; ++it) {
             const Dispatch& d = *it;
+            if (d.fill) {
+                if (d.fillBytes == 0) continue;
+                im.vk.vkCmdFillBuffer(cmd, reinterpret_cast<VkBuffer>(d.fill->m_buffer), 0, d.fillBytes, d.fillValue);
+                // Barrier: the fill is complete before later dispatches read or write the buffer.
+                VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+                b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+                b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT;
+                im.vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0,
+                                           nullptr, 0, nullptr);
+                continue;
+            }
             const Impl::Pipeline& p = im.pipelines[d.pipeline];
             im.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.pipeline);
             if (d.pushConstantBytes)

@@ -68,6 +68,30 @@ uint64_t MemoryReport::total() const {
 
 namespace {
 /// Pixels a frame renders at a pixel stride (one of stride^2 per block).
+/// The pixels [x0, x1) x [y0, y1) where the index-space box [lo, hi] can appear: its corners
+/// projected, widened by 2 pixels (jittered samples reach 1.5 pixels from their centres), the
+/// origin a multiple of 8 so every pixel stride keeps the same pattern. The whole image when a
+/// corner is behind the eye.
+std::array<uint32_t, 4> footprintRect(const Mat4& indexToClip, const float lo[4], const float hi[4], uint32_t w,
+                                      uint32_t h) {
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    for (int c = 0; c < 8; ++c) {
+        const Vec4 q = transform(indexToClip, {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2], 1.0});
+        if (!(q[3] > 1e-12)) return {0, 0, w, h};
+        x0 = std::min(x0, q[0] / q[3]);
+        x1 = std::max(x1, q[0] / q[3]);
+        y0 = std::min(y0, q[1] / q[3]);
+        y1 = std::max(y1, q[1] / q[3]);
+    }
+    auto pixel = [](double ndc, uint32_t n, double margin) {
+        return uint32_t(std::clamp(std::floor((ndc + 1.0) * 0.5 * n + margin), 0.0, double(n)));
+    };
+    std::array<uint32_t, 4> r{pixel(x0, w, -2.0) & ~7u, pixel(y0, h, -2.0) & ~7u, pixel(x1, w, 3.0), pixel(y1, h, 3.0)};
+    r[2] = std::max(r[2], r[0]);
+    r[3] = std::max(r[3], r[1]);
+    return r;
+}
+
 double renderedPixels(const FrameInput& in, uint32_t stride) {
     return double((in.width + stride - 1) / stride) * double((in.height + stride - 1) / stride);
 }
@@ -77,7 +101,8 @@ struct Renderer::Impl {
     Context& ctx;
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
-    uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pResolve = 0;
+    uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0;
+    uint64_t pResolve[kResolveFinal + 1] = {}; // per resolve pass, compiled on first use
     uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible;
@@ -92,6 +117,7 @@ struct Renderer::Impl {
     uint32_t width = 0, height = 0;
     uint64_t imageCapacity = 0;       // pixels the per-pixel buffers hold
     uint32_t fillBlock = 0;           // upsampling block of the resolve (0: the frame's stride)
+    std::array<uint32_t, 4> rect{};   // the frame's footprint rectangle (FrameParams rect)
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     Mat4 lastWorldToClip{};
@@ -187,18 +213,24 @@ struct Renderer::Impl {
     bool deferDenoise = false;        // frame(): gather only; render() denoises once after its frames
     bool denoisePending = false;      // the last frame gathered without denoising
     Result<uint64_t> ensurePipeline(Shading shading);
+    /// The resolve passes this frame's settings use, compiled on first use.
+    Status ensureResolvePipelines(const RenderSettings& st);
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
     void buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
     void addDispatch(uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy);
-    /// One resolve pass over the image (every pixel).
-    void addResolve(const FrameInput& in, uint32_t pass, uint32_t src, uint32_t dst);
+    /// One resolve pass over the footprint rectangle.
+    void addResolve(uint32_t pass, uint32_t src, uint32_t dst);
     /// The A-trous passes and tone mapping from the gathered image (denoise A) into the output.
-    void addDenoisePasses(const FrameInput& in);
+    void addDenoisePasses();
+    /// A new accumulation: no samples, an empty G-buffer, a transparent output at the far plane.
+    void addClear(const FrameInput& in);
     bool denoises(const RenderSettings& st) const;
+    /// The frame's render pass resolves its own pixels (no gather pass): kFlagResolveInRender.
+    bool resolvesInRender(const RenderSettings& st) const;
     /// The denoising passes over the last frame's gathered image into the output (a still render
     /// defers them to its last frame: the frames before are never shown).
-    Status denoiseOutput(const FrameInput& in);
+    Status denoiseOutput();
     Status submit();
     void applyCachePolicy(const FrameStats& stats, const FrameInput& in);
     // setMaterials' steps.
@@ -303,8 +335,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         uint32_t push;
     };
     for (const Shader& s : {Shader{"cache_request.comp", &im.pRequest, 8}, Shader{"cache_provision.comp", &im.pProvision, 8},
-                            Shader{"cache_assign.comp", &im.pAssign, 8}, Shader{"cache_commit.comp", &im.pCommit, 8},
-                            Shader{"resolve.comp", &im.pResolve, 24}}) {
+                            Shader{"cache_assign.comp", &im.pAssign, 8}, Shader{"cache_commit.comp", &im.pCommit, 8}}) {
         Result<std::vector<uint32_t>> spirv = compileComputeShader(s.name, d);
         if (!spirv) return spirv.status();
         Result<uint64_t> p = context.createComputePipeline(*spirv, s.push);
@@ -667,6 +698,21 @@ Status Renderer::Impl::detectChanges(const FrameInput& in) {
     return Status::ok();
 }
 
+Status Renderer::Impl::ensureResolvePipelines(const RenderSettings& st) {
+    for (uint32_t pass = kResolveGather; pass <= kResolveFinal; ++pass) {
+        const bool needed = pass == kResolveGather ? !resolvesInRender(st) : denoises(st);
+        if (!needed || pResolve[pass]) continue;
+        Defines d = defines;
+        d.emplace_back("RESOLVE_PASS", std::to_string(pass) + "u");
+        Result<std::vector<uint32_t>> spirv = compileComputeShader("resolve.comp", d);
+        if (!spirv) return spirv.status();
+        Result<uint64_t> p = ctx.createComputePipeline(*spirv, sizeof(ResolvePush));
+        if (!p) return Status(p.status()).prefix("resolve.comp");
+        pResolve[pass] = *p;
+    }
+    return Status::ok();
+}
+
 Result<uint64_t> Renderer::Impl::ensurePipeline(Shading shading) {
     uint64_t& pipeline = pRender[uint32_t(shading) & 3];
     if (pipeline) return pipeline;
@@ -718,6 +764,8 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
         p.clipMin[k] = whole ? 0.0f : float(std::clamp<int64_t>(st.clipMin[k], 0, dim[k]));
         p.clipMax[k] = whole ? float(dim[k]) : float(std::clamp<int64_t>(st.clipMax[k], 0, dim[k]));
     }
+    rect = footprintRect(indexToClip, p.clipMin, p.clipMax, in.width, in.height);
+    for (int k = 0; k < 4; ++k) p.rect[k] = rect[size_t(k)];
     p.clipMin[3] = st.lodBias;
     p.clipMax[3] = float(std::sqrt(clipToIndex[4] * clipToIndex[4] + clipToIndex[5] * clipToIndex[5] +
                                    clipToIndex[6] * clipToIndex[6]) * 2.0 / in.height);
@@ -753,6 +801,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     if (in.opaqueDepth) flags |= kFlagDepthInput;
     if (evictUnused) flags |= kFlagEvictUnused;
     if (hasLabelMap) flags |= kFlagLabelMap;
+    if (resolvesInRender(st)) flags |= kFlagResolveInRender;
     const uint32_t stride = st.subsampling;
     p.frame[0] = frameIndex;
     p.frame[1] = flags;
@@ -796,7 +845,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     resolvePushes.reserve(8); // the list points into it: no reallocation while building
     dispatches.clear();
     const uint32_t tile = kGroupTile * pixelBlock; // kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
-    if (clearPending) addResolve(in, kResolveClear, kSlotDenoiseA, kSlotDenoiseA);
+    if (clearPending) addClear(in);
     addDispatch(pRequest, &frameAddress, 8, (brickCount + kGroupBricks - 1) / kGroupBricks, 1);
     addDispatch(pProvision, &frameAddress, 8, 1, 1);
     addDispatch(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
@@ -804,15 +853,16 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!hostDecode) dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
     const uint32_t stride = st.subsampling;
-    const uint32_t rw = (in.width + stride - 1) / stride, rh = (in.height + stride - 1) / stride; // rendered pixels
+    const uint32_t rw = (rect[2] - rect[0] + stride - 1) / stride, rh = (rect[3] - rect[1] + stride - 1) / stride;
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
+    if (resolvesInRender(st)) return;
     if (!denoises(st)) {
-        addResolve(in, kResolveGather, kSlotDenoiseA, kSlotColorOut);
+        addResolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
         return;
     }
-    addResolve(in, kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
+    addResolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
     denoisePending = deferDenoise;
-    if (!deferDenoise) addDenoisePasses(in);
+    if (!deferDenoise) addDenoisePasses();
 }
 
 void Renderer::Impl::addDispatch(uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy) {
@@ -825,18 +875,41 @@ void Renderer::Impl::addDispatch(uint64_t pipeline, const void* push, uint32_t b
     dispatches.push_back(d);
 }
 
-void Renderer::Impl::addResolve(const FrameInput& in, uint32_t pass, uint32_t src, uint32_t dst) {
+void Renderer::Impl::addResolve(uint32_t pass, uint32_t src, uint32_t dst) {
     const uint32_t tile = kGroupTile * pixelBlock;
-    resolvePushes.push_back({frameAddress, pass, src, dst}); // reserved: the list points into it
-    addDispatch(pResolve, &resolvePushes.back(), sizeof(ResolvePush), (in.width + tile - 1) / tile,
-                (in.height + tile - 1) / tile);
+    resolvePushes.push_back({frameAddress, src, dst}); // reserved: the list points into it
+    addDispatch(pResolve[pass], &resolvePushes.back(), sizeof(ResolvePush), (rect[2] - rect[0] + tile - 1) / tile,
+                (rect[3] - rect[1] + tile - 1) / tile);
 }
 
-void Renderer::Impl::addDenoisePasses(const FrameInput& in) {
-    addResolve(in, kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
-    addResolve(in, kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
-    addResolve(in, kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
-    addResolve(in, kResolveFinal, kSlotDenoiseB, kSlotColorOut);
+void Renderer::Impl::addDenoisePasses() {
+    addResolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
+    addResolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
+    addResolve(kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
+    addResolve(kResolveFinal, kSlotDenoiseB, kSlotColorOut);
+}
+
+void Renderer::Impl::addClear(const FrameInput& in) {
+    // Fills, not a compute pass: pixels outside the footprint keep these values all along.
+    const uint64_t n = uint64_t(in.width) * in.height;
+    const std::pair<const Buffer*, uint64_t> zeroed[] = {{&accum, 16}, {&samples, 4}, {&gbuffer, 16}, {&colorOut, 16}};
+    for (const auto& z : zeroed) {
+        Context::Dispatch d;
+        d.fill = z.first;
+        d.fillBytes = n * z.second;
+        dispatches.push_back(d);
+    }
+    Context::Dispatch far;
+    far.fill = &depthOut;
+    far.fillValue = 0x3F800000u; // 1.0f: the far plane
+    far.fillBytes = n * 4;
+    dispatches.push_back(far);
+}
+
+bool Renderer::Impl::resolvesInRender(const RenderSettings& st) const {
+    // Without denoising or upsampling the gather only divides and tone-maps each pixel: the
+    // render pass does that for the pixels it samples, and the others keep their output.
+    return !denoises(st) && st.subsampling == 1 && fillBlock <= 1;
 }
 
 bool Renderer::Impl::denoises(const RenderSettings& st) const {
@@ -846,12 +919,12 @@ bool Renderer::Impl::denoises(const RenderSettings& st) const {
            prevMinSamples < 64;
 }
 
-Status Renderer::Impl::denoiseOutput(const FrameInput& in) {
+Status Renderer::Impl::denoiseOutput() {
     denoisePending = false;
     dispatches.clear();
     resolvePushes.clear();
     resolvePushes.reserve(8);
-    addDenoisePasses(in);
+    addDenoisePasses();
     outputParts = 0;
     return ctx.run(dispatches);
 }
@@ -921,6 +994,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         cacheResetPending = false;
         stats.cacheReset = true;
     }
+    if (!(s = ensureResolvePipelines(st))) return s;
     if (!(s = packParams(in, st, clipToWorld))) return s;
     buildDispatches(in, st, *renderPipeline);
     const auto t0 = std::chrono::steady_clock::now();
@@ -1002,7 +1076,7 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
     im.deferDenoise = false;
     im.fillBlock = 0;
     const auto t1 = std::chrono::steady_clock::now();
-    if (im.denoisePending && !(s = im.denoiseOutput(in))) return s;
+    if (im.denoisePending && !(s = im.denoiseOutput())) return s;
     im.converged = result.last.minSamples >= target;
     (void)output(Color | Depth); // what a compositor needs, read while the frame is fresh
     const double finish = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
@@ -1039,6 +1113,13 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
         out.hitDepth.resize(n);
         out.distance.resize(n);
         for (size_t i = 0; i < n; ++i) {
+            if (!(g[4 * i + 1] & kGBufferSampled)) { // cleared: no sample reached this pixel
+                out.label[i] = kNone;
+                out.face[i] = Face::None;
+                out.hitDepth[i] = 1.0f;
+                out.distance[i] = 0.0f;
+                continue;
+            }
             out.label[i] = g[4 * i];
             out.face[i] = Face(g[4 * i + 1] & 7u);
             std::memcpy(&out.hitDepth[i], &g[4 * i + 2], 4);

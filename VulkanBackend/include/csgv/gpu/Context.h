@@ -88,11 +88,17 @@ public:
     /// A compute pipeline from SPIR-V whose only interface is `pushConstantBytes` of push constants.
     Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes);
     /// Records dispatches of one pipeline with push constants, submits, and waits.
+    /// A compute dispatch, or (with `fill` set) a fill of a buffer's first `fillBytes` with the
+    /// 32-bit word `fillValue`: a clear that costs a memset even on CPU devices, where a
+    /// compute pass pays for every store.
     struct Dispatch {
         uint64_t pipeline = 0;
         const void* pushConstants = nullptr;
         uint32_t pushConstantBytes = 0;
         uint32_t groups[3] = {1, 1, 1};
+        const Buffer* fill = nullptr;
+        uint32_t fillValue = 0;
+        uint64_t fillBytes = 0; ///< a multiple of 4
     };
     Status run(const std::vector<Dispatch>& dispatches) { return run(dispatches.data(), dispatches.size()); }
     /// The same for `count` dispatches starting at `first` (a part of a frame's list, no copy).

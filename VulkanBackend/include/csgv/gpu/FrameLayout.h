@@ -23,6 +23,7 @@ CSGV_CONST(uint32_t, kFlagLimitRequests, 8u)
 CSGV_CONST(uint32_t, kFlagDepthInput, 16u)
 CSGV_CONST(uint32_t, kFlagEvictUnused, 32u)
 CSGV_CONST(uint32_t, kFlagLabelMap, 64u)
+CSGV_CONST(uint32_t, kFlagResolveInRender, 128u) ///< the render pass writes the output and the counts itself (no gather follows)
 
 // Shading modes (Frame.frame.z): the values of csgv::gpu::Shading.
 CSGV_CONST(uint32_t, kShadingLocal, 0u)
@@ -35,6 +36,9 @@ CSGV_CONST(uint32_t, kColorConstant, 0u)
 CSGV_CONST(uint32_t, kColorColormap, 1u)
 CSGV_CONST(uint32_t, kColorRandom, 2u)
 
+/// In a G-buffer entry's second word: the entry holds a sample's first hit (a cleared entry is all 0).
+CSGV_CONST(uint32_t, kGBufferSampled, 0x100u)
+
 // Buffer addresses in Frame.addr.
 CSGV_CONST(uint32_t, kSlotBricks, 0u)         ///< uvec4 per brick: cache word offset, cached lod (kNone), frame+1 of last use, visible
 CSGV_CONST(uint32_t, kSlotCache, 1u)          ///< decoded labels
@@ -44,7 +48,7 @@ CSGV_CONST(uint32_t, kSlotRequests, 4u)       ///< 2 words per request: brick, l
 CSGV_CONST(uint32_t, kSlotDecodes, 5u)        ///< 3 words per decode: brick, inverse level, cache offset
 CSGV_CONST(uint32_t, kSlotAccum, 6u)          ///< vec4 per pixel: sum of premultiplied samples
 CSGV_CONST(uint32_t, kSlotSamples, 7u)        ///< uint per pixel: valid samples
-CSGV_CONST(uint32_t, kSlotGBuffer, 8u)        ///< uvec4 per pixel: label, face | flags, window depth bits, distance bits
+CSGV_CONST(uint32_t, kSlotGBuffer, 8u)        ///< uvec4 per pixel: label, face | kGBufferSampled, window depth bits, distance bits (all 0: no sample)
 CSGV_CONST(uint32_t, kSlotDepthIn, 9u)        ///< float per pixel: window depth of opaque geometry
 CSGV_CONST(uint32_t, kSlotMaterials, 10u)     ///< GpuMaterial array
 CSGV_CONST(uint32_t, kSlotColormaps, 11u)     ///< vec4 colour samples
@@ -85,13 +89,13 @@ CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), ca
 CSGV_CONST(uint32_t, kGroupDecodes, 32u) ///< decode_bricks.comp (per decode)
 CSGV_CONST(uint32_t, kGroupTile, 16u)    ///< render.comp and resolve.comp: kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
 
-// Passes of resolve.comp (push constant `pass`).
+// Passes of resolve.comp (its define RESOLVE_PASS: one pipeline per pass, for CPU devices run
+// every branch a shader holds, taken or not).
 CSGV_CONST(uint32_t, kResolveGather, 0u)  ///< average and upsampling (tone-mapped when not denoising)
 CSGV_CONST(uint32_t, kResolveAtrous1, 1u) ///< A-trous denoising, step 1 (then 2 and 4: passes 2 and 3)
 CSGV_CONST(uint32_t, kResolveAtrous2, 2u)
 CSGV_CONST(uint32_t, kResolveAtrous4, 3u)
 CSGV_CONST(uint32_t, kResolveFinal, 4u)   ///< tone mapping, brightness, contrast, gamma
-CSGV_CONST(uint32_t, kResolveClear, 5u)   ///< starts the accumulation anew
 
 // The GPU decoder's lists (GpuVolume.cpp, cache_assign.comp, decode_bricks.comp, host decoding).
 CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse level, cache word offset
@@ -128,6 +132,7 @@ CSGV_CONST(uint32_t, kDecodeParamWords, 4u)  ///< per dispatch: count (unused in
     CSGV_UVEC4(image)          /* x: W, y: H, z: subsampling stride, w: subsampling phase */        \
     CSGV_UVEC4(limits)         /* x: max requests, y/z: pixels [y, z) that may request, w: bounces */ \
     CSGV_UVEC4(counts)         /* x: materials, y: bricks, z: labels with attributes, w: table size */ \
+    CSGV_UVEC4(rect)           /* pixels [x, z) x [y, w) that can show the volume (x, y multiples of 8) */ \
     uint64_t addr[kSlotCount];
 
 /// One material as the shaders read it (std430, 80 bytes).
@@ -142,7 +147,6 @@ struct GpuMaterial {
 /// Push constants of resolve.comp.
 #define CSGV_RESOLVE_PUSH_MEMBERS                                                                   \
     uint64_t frame;                                                                                 \
-    uint32_t pass;                                                                                  \
     uint32_t src; /* address slot of the input colour */                                            \
     uint32_t dst; /* address slot of the output colour */
 
@@ -152,14 +156,14 @@ struct FrameParams {
 };
 // std430 offsets: mat4 64 bytes, vec4/uvec4 16, uint64 8, no padding in this order.
 static_assert(offsetof(FrameParams, lightWorld) == 256 && offsetof(FrameParams, faceNormals) == 368 &&
-                  offsetof(FrameParams, frame) == 464 && offsetof(FrameParams, addr) == 528 &&
-                  sizeof(FrameParams) == 528 + 8 * kSlotCount,
+                  offsetof(FrameParams, frame) == 464 && offsetof(FrameParams, rect) == 528 &&
+                  offsetof(FrameParams, addr) == 544 && sizeof(FrameParams) == 544 + 8 * kSlotCount,
               "FrameParams must match std430's Frame block");
 static_assert(offsetof(GpuMaterial, colour) == 48 && sizeof(GpuMaterial) == 80, "GpuMaterial must match std430");
 struct ResolvePush {
     CSGV_RESOLVE_PUSH_MEMBERS
 };
-static_assert(sizeof(ResolvePush) == 24, "ResolvePush must match resolve.comp's push constants");
+static_assert(sizeof(ResolvePush) == 16, "ResolvePush must match resolve.comp's push constants");
 struct DecodePush {
     CSGV_DECODE_PUSH_MEMBERS
 };
