@@ -19,6 +19,19 @@ namespace csgv::gpu {
 
 namespace {
 
+/// Compiles a shader with defines into a pipeline; with `profile`, says how long it took.
+Result<uint64_t> makePipeline(Context& ctx, const char* name, const Defines& defines, uint32_t pushBytes, bool profile) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Result<std::vector<uint32_t>> spirv = compileComputeShader(name, defines);
+    if (!spirv) return spirv.status();
+    Result<uint64_t> p = ctx.createComputePipeline(*spirv, pushBytes);
+    if (!p) return Status(p.status()).prefix(name);
+    if (profile)
+        std::fprintf(stderr, "pipeline %s (%s): %.1f ms\n", name, defines.back().first.c_str(),
+                     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    return p;
+}
+
 constexpr uint32_t kColormapSamples = 1024;
 
 static_assert(uint32_t(Shading::Local) == kShadingLocal && uint32_t(Shading::Shadow) == kShadingShadow &&
@@ -329,21 +342,19 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // Pixels per render and resolve invocation along each axis: CPU devices pay per invocation.
     im.pixelBlock = context.device().type == "cpu" ? 2 : 1;
     d.emplace_back("PIXEL_BLOCK", std::to_string(im.pixelBlock) + "u");
+    im.defines = d;
+    im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
     struct Shader {
         const char* name;
         uint64_t* pipeline;
-        uint32_t push;
     };
-    for (const Shader& s : {Shader{"cache_request.comp", &im.pRequest, 8}, Shader{"cache_provision.comp", &im.pProvision, 8},
-                            Shader{"cache_assign.comp", &im.pAssign, 8}, Shader{"cache_commit.comp", &im.pCommit, 8}}) {
-        Result<std::vector<uint32_t>> spirv = compileComputeShader(s.name, d);
-        if (!spirv) return spirv.status();
-        Result<uint64_t> p = context.createComputePipeline(*spirv, s.push);
-        if (!p) return Status(p.status()).prefix(s.name);
+    for (const Shader& s : {Shader{"cache_request.comp", &im.pRequest}, Shader{"cache_provision.comp", &im.pProvision},
+                            Shader{"cache_assign.comp", &im.pAssign}, Shader{"cache_commit.comp", &im.pCommit}}) {
+        Result<uint64_t> p = makePipeline(context, s.name, d, 8, im.profileDispatches);
+        if (!p) return p.status();
         *s.pipeline = *p;
     }
 
-    im.defines = d;
     auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind, const char* what) -> Status {
         Result<Buffer> res = context.createBuffer(std::max<uint64_t>(bytes, 16), kind);
         if (!res) return Status(res.status()).prefix(std::string("allocating the ") + what);
@@ -373,7 +384,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
     im.frameAddress = im.params.address();
-    im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
     // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
     if (!im.hostDecode &&
         !(s = volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * kAllocDecodes, im.cache.address(),
@@ -704,10 +714,8 @@ Status Renderer::Impl::ensureResolvePipelines(const RenderSettings& st) {
         if (!needed || pResolve[pass]) continue;
         Defines d = defines;
         d.emplace_back("RESOLVE_PASS", std::to_string(pass) + "u");
-        Result<std::vector<uint32_t>> spirv = compileComputeShader("resolve.comp", d);
-        if (!spirv) return spirv.status();
-        Result<uint64_t> p = ctx.createComputePipeline(*spirv, sizeof(ResolvePush));
-        if (!p) return Status(p.status()).prefix("resolve.comp");
+        Result<uint64_t> p = makePipeline(ctx, "resolve.comp", d, sizeof(ResolvePush), profileDispatches);
+        if (!p) return p.status();
         pResolve[pass] = *p;
     }
     return Status::ok();
@@ -718,10 +726,8 @@ Result<uint64_t> Renderer::Impl::ensurePipeline(Shading shading) {
     if (pipeline) return pipeline;
     Defines d = defines;
     d.emplace_back("SHADING", std::to_string(uint32_t(shading) & 3) + "u");
-    Result<std::vector<uint32_t>> spirv = compileComputeShader("render.comp", d);
-    if (!spirv) return spirv.status();
-    Result<uint64_t> p = ctx.createComputePipeline(*spirv, 8);
-    if (!p) return Status(p.status()).prefix("render.comp");
+    Result<uint64_t> p = makePipeline(ctx, "render.comp", d, 8, profileDispatches);
+    if (!p) return p.status();
     pipeline = *p;
     return pipeline;
 }
