@@ -12,27 +12,27 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
-    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     const uint i = gl_GlobalInvocationID.x;
     if (i >= alloc.w[kAllocRequests]) return;
-    UintBuf req = UintBuf(f.addr[kSlotRequests]);
+    UintBuf req = UintBuf(frameAddr[kSlotRequests]);
     const uint b = req.w[2u * i];
     const uint l = req.w[2u * i + 1u];
     const uint k = atomicAdd(alloc.w[kAllocPops + l], 1u);
     const uint freeCount = alloc.w[kAllocFreeCount + l];
     uint offset;
     if (k < freeCount) {
-        offset = UintBuf(f.addr[kSlotFree]).w[l * fv.counts.y + freeCount - 1u - k];
+        offset = UintBuf(frameAddr[kSlotFree]).w[l * fv.counts.y + freeCount - 1u - k];
     } else {
         const uint j = k - freeCount;
         if (j >= alloc.w[kAllocProvCount + l]) return;
         offset = alloc.w[kAllocProvBase + l] + j * regionWords(l);
     }
-    Uvec4Buf bricks = Uvec4Buf(f.addr[kSlotBricks]);
+    Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     bricks.v[b].x = offset;
     bricks.v[b].y = l;
     const uint d = atomicAdd(alloc.w[kAllocDecodes], 1u);
-    UintBuf dec = UintBuf(f.addr[kSlotDecodes]);
+    UintBuf dec = UintBuf(frameAddr[kSlotDecodes]);
     dec.w[kDecodeEntryWords * d] = b;
     dec.w[kDecodeEntryWords * d + 1u] = LEVELS - 1u - l;
     dec.w[kDecodeEntryWords * d + 2u] = offset;

@@ -11,7 +11,7 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
-    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     for (uint l = 0u; l < LEVELS; ++l) {
         const uint freeCount = alloc.w[kAllocFreeCount + l];
         alloc.w[kAllocFreeCount + l] = freeCount - min(alloc.w[kAllocPops + l], freeCount);

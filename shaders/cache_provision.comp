@@ -12,7 +12,7 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
-    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     alloc.w[kAllocDecodes] = 0u;
     alloc.w[kAllocRequests] = min(alloc.w[kAllocRequests], fv.limits.x);
     for (uint l = 0u; l < LEVELS; ++l) {

@@ -15,11 +15,11 @@ void main() {
     loadFrameValues(f);
     const uint b = gl_GlobalInvocationID.x;
     if (b >= fv.counts.y) return;
-    Uvec4Buf bricks = Uvec4Buf(f.addr[kSlotBricks]);
-    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     uvec4 s = bricks.v[b];
     const bool used = s.z == fv.frame.x; // marked by the previous frame's rays (frame index + 1)
-    const bool visible = UintBuf(f.addr[kSlotVisible]).w[b] != 0u;
+    const bool visible = UintBuf(frameAddr[kSlotVisible]).w[b] != 0u;
     if ((s.w != 0u) != visible) bricks.v[b].w = visible ? 1u : 0u; // materials changed
     const uint wanted = lodForBrick(f, b);
     if (s.y != kNone) {
@@ -28,7 +28,7 @@ void main() {
         const uint k = atomicAdd(alloc.w[kAllocFreeCount + s.y], 1u);
         // A full stack cannot happen (a level never has more regions than bricks); if it did, the
         // region would only be dead space until the next cache reset.
-        if (k < fv.counts.y) UintBuf(f.addr[kSlotFree]).w[s.y * fv.counts.y + k] = s.x;
+        if (k < fv.counts.y) UintBuf(frameAddr[kSlotFree]).w[s.y * fv.counts.y + k] = s.x;
         bricks.v[b].y = kNone;
         s.y = kNone;
     }
@@ -36,7 +36,7 @@ void main() {
     const uint r = atomicAdd(alloc.w[kAllocRequests], 1u);
     if (r >= fv.limits.x) return; // over this frame's decode budget: asked again next frame
     atomicAdd(alloc.w[kAllocReqCount + wanted], 1u);
-    UintBuf req = UintBuf(f.addr[kSlotRequests]);
+    UintBuf req = UintBuf(frameAddr[kSlotRequests]);
     req.w[2u * r] = b;
     req.w[2u * r + 1u] = wanted;
 }

@@ -17,6 +17,18 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 Frame f;
 ivec3 boxLo, boxHi;
+// The frame's matrices and the world normals of the +x, +y, +z faces, loaded once per invocation
+// (see frameAddr in render_common.glsl).
+mat4 clipToIndex, indexToClip, indexToWorld, worldToIndex;
+vec3 normalX, normalY, normalZ;
+
+/// The world normal of a face (1 + 2 axis + (moving in -axis ? 1 : 0), as Walker.face): the
+/// host's normal of a -axis face is exactly the negated +axis one.
+vec3 faceNormal(uint face) {
+    const uint axis = (face - 1u) / 2u;
+    const vec3 n = axis == 0u ? normalX : (axis == 1u ? normalY : normalZ);
+    return (face - 1u) % 2u == 0u ? -n : n;
+}
 
 vec3 transformPoint(mat4 m, vec3 p) { return (m * vec4(p, 1.0)).xyz; }
 
@@ -70,7 +82,7 @@ bool leaveSurface(Walker w, vec3 dIndex, float tEnd, out Walker s) {
 /// The 64x64 blue-noise tile (VulkanBackend/src/BlueNoise.h), a byte per pixel.
 float blueNoise(uvec2 p) {
     const uint i = (p.y & 63u) * 64u + (p.x & 63u);
-    return (float((UintBuf(f.addr[kSlotBlueNoise]).w[i >> 2u] >> (8u * (i & 3u))) & 255u) + 0.5) * (1.0 / 256.0);
+    return (float((UintBuf(frameAddr[kSlotBlueNoise]).w[i >> 2u] >> (8u * (i & 3u))) & 255u) + 0.5) * (1.0 / 256.0);
 }
 
 /// Two numbers in [0, 1) for a pixel's k-th sample: the blue-noise tile (per pair of dimensions
@@ -90,7 +102,7 @@ vec3 cosineSampleUV(vec3 n, float u, float v) {
 }
 
 
-vec3 toIndexDir(vec3 worldDir) { return (f.worldToIndex * vec4(worldDir, 0.0)).xyz; }
+vec3 toIndexDir(vec3 worldDir) { return (worldToIndex * vec4(worldDir, 0.0)).xyz; }
 
 /// Direct light from the key light at a surface (with a shadow ray when `shadow`); -1 in x when a
 /// brick is missing and `complete`.
@@ -111,7 +123,7 @@ vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
 /// needs is not in the cache.
 bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
     total = vec4(0.0);
-    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     if (samples == alloc.w[kAllocPrevMin]) { // one atomic per subgroup: they are costly on CPU devices
         const uint first = subgroupMin(pixel);
         if (subgroupElect()) atomicMin(alloc.w[kAllocMinRow], first);
@@ -129,7 +141,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
     }
     precise float ndcX = (float(px.x) + 0.5 + jitter.x) * fv.pixel.x - 1.0;
     precise float ndcY = (float(px.y) + 0.5 + jitter.y) * fv.pixel.y - 1.0;
-    const mat4 M = f.clipToIndex;
+    const mat4 M = clipToIndex;
     precise vec4 a, b;
     for (int r = 0; r < 4; ++r) {
         a[r] = M[0][r] * ndcX + M[1][r] * ndcY - M[2][r] + M[3][r];
@@ -140,7 +152,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
     precise vec3 d = e - o;
     float tEnd = 1.0;
     if ((fv.frame.y & kFlagDepthInput) != 0u) {
-        const float z = FloatBuf(f.addr[kSlotDepthIn]).f[pixel];
+        const float z = FloatBuf(frameAddr[kSlotDepthIn]).f[pixel];
         if (z < 1.0) {
             const vec4 q = M * vec4(ndcX, ndcY, 2.0 * z - 1.0, 1.0);
             tEnd = min(tEnd, dot(q.xyz / q.w - o, d) / dot(d, d));
@@ -165,10 +177,10 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
             float emission;
             const vec4 c = materialColor(f, material, label, emission);
             const vec3 q = walkerPoint(w);
-            const vec4 clip = f.indexToClip * vec4(q, 1.0);
+            const vec4 clip = indexToClip * vec4(q, 1.0);
             const float depth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
             if (firstDepth == 1.0) firstDepth = depth;
-            vec3 n = w.face != 0u ? f.faceNormals[w.face - 1u].xyz : -normalize((f.indexToWorld * vec4(d, 0.0)).xyz);
+            vec3 n = w.face != 0u ? faceNormal(w.face) : -normalize((indexToWorld * vec4(d, 0.0)).xyz);
             const vec3 local = c.rgb * (fv.lightIndex.w + directLight(w, n, false, false, false)) + emission * c.rgb;
             if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
                 radiance += transmittance * c.a * local;
@@ -179,7 +191,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
             gLabel = originalLabel(f, label);
             gFace = w.face;
             gDepth = depth;
-            gDistance = length((f.indexToWorld * vec4(q - o, 0.0)).xyz);
+            gDistance = length((indexToWorld * vec4(q - o, 0.0)).xyz);
             vec3 shaded = local;
             const uint mode = SHADING; // one pipeline per mode: the others' code is dropped at compile time
             if (mode == kShadingShadow) {
@@ -233,7 +245,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
                     }
                     float e2;
                     const vec3 c2 = materialColor(f, m2, l2, e2).rgb;
-                    const vec3 n2 = s.face != 0u ? f.faceNormals[s.face - 1u].xyz : -dirW;
+                    const vec3 n2 = s.face != 0u ? faceNormal(s.face) : -dirW;
                     const vec3 d2 = directLight(s, n2, true, false, false);
                     pt += throughput * (c2 * max(d2, vec3(0.0)) + e2 * c2);
                     throughput *= c2;
@@ -258,16 +270,16 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
         if (subgroupElect()) atomicAdd(alloc.w[kAllocMissing], missing);
         return false;
     }
-    Vec4Buf accum = Vec4Buf(f.addr[kSlotAccum]);
+    Vec4Buf accum = Vec4Buf(frameAddr[kSlotAccum]);
     total = vec4(radiance, 1.0 - transmittance);
     if (samples > 0u) total += accum.v[pixel]; // the first sample need not read the cleared sum
     accum.v[pixel] = total;
-    UintBuf(f.addr[kSlotSamples]).w[pixel] = samples + 1u;
+    UintBuf(frameAddr[kSlotSamples]).w[pixel] = samples + 1u;
     const uint added = subgroupAdd(1u);
     if (subgroupElect()) atomicAdd(alloc.w[kAllocNewSamples], added);
-    Uvec4Buf(f.addr[kSlotGBuffer]).v[pixel] =
+    Uvec4Buf(frameAddr[kSlotGBuffer]).v[pixel] =
         uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
-    FloatBuf(f.addr[kSlotDepthOut]).f[pixel] = firstDepth;
+    FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
     return true;
 }
 
@@ -279,13 +291,13 @@ void renderPixel(uvec2 cell) {
     const uvec2 px = fv.rect.xy + cell * stride + uvec2(phase % stride, phase / stride);
     if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
     const uint pixel = px.y * fv.image.x + px.x;
-    const uint samples = UintBuf(f.addr[kSlotSamples]).w[pixel];
+    const uint samples = UintBuf(frameAddr[kSlotSamples]).w[pixel];
     uint n = samples;
     vec4 total = vec4(0.0);
     if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total)) n = samples + 1u;
     if ((fv.frame.y & kFlagResolveInRender) == 0u) return;
-    if (n != samples) Vec4Buf(f.addr[kSlotColorOut]).v[pixel] = toneMapped(total / float(n));
-    UintBuf alloc = UintBuf(f.addr[kSlotAlloc]);
+    if (n != samples) Vec4Buf(frameAddr[kSlotColorOut]).v[pixel] = toneMapped(total / float(n));
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     const uint fewest = subgroupMin(n); // one atomic per subgroup
     if (subgroupElect()) atomicMin(alloc.w[kAllocMinSamples], fewest);
     const uint holes = subgroupAdd(n == 0u ? 1u : 0u);
@@ -295,6 +307,13 @@ void renderPixel(uvec2 cell) {
 void main() {
     f = Frame(pc.frame);
     loadFrameValues(f);
+    clipToIndex = f.clipToIndex;
+    indexToClip = f.indexToClip;
+    indexToWorld = f.indexToWorld;
+    if (SHADING >= kShadingAo) worldToIndex = f.worldToIndex;
+    normalX = f.faceNormals[1].xyz;
+    normalY = f.faceNormals[3].xyz;
+    normalZ = f.faceNormals[5].xyz;
     boxLo = ivec3(fv.clipMin.xyz);
     boxHi = ivec3(fv.clipMax.xyz);
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.

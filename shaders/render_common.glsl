@@ -37,7 +37,11 @@ struct FrameValues {
     uvec4 frame, image, limits, counts, rect;
 };
 FrameValues fv;
+/// The frame's buffer addresses, loaded once per invocation like fv: CPU devices pay for every
+/// load once per lane, uniform or not, so a hot loop must not reload them.
+uint64_t frameAddr[kSlotCount];
 void loadFrameValues(Frame f) {
+    for (uint i = 0u; i < kSlotCount; ++i) frameAddr[i] = f.addr[i];
     fv.lightWorld = f.lightWorld;
     fv.lightIndex = f.lightIndex;
     fv.environment = f.environment;
@@ -82,22 +86,22 @@ float rngNext(inout Rng r) {
 // Materials
 
 uint originalLabel(Frame f, uint label) {
-    if ((fv.frame.y & kFlagLabelMap) != 0u && label < fv.counts.z) return UintBuf(f.addr[kSlotLabelMap]).w[label];
+    if ((fv.frame.y & kFlagLabelMap) != 0u && label < fv.counts.z) return UintBuf(frameAddr[kSlotLabelMap]).w[label];
     return label;
 }
 
 float attributeValue(Frame f, uint attr, uint label) {
     if (attr == kNone) return float(originalLabel(f, label));
     if (label >= fv.counts.z) return uintBitsToFloat(0x7FC00000u); // NaN: matches no interval
-    return FloatBuf(AddrBuf(f.addr[kSlotAttributes]).a[attr]).f[label];
+    return FloatBuf(AddrBuf(frameAddr[kSlotAttributes]).a[attr]).f[label];
 }
 
 /// The first material whose filter holds the label, or kNone (invisible).
 uint materialOf(Frame f, uint label) {
     if (label == kNone) return kNone;
     // Precomputed by the host with the same comparisons when the stored labels are few.
-    if (fv.counts.w != 0u) return label < fv.counts.w ? UintBuf(f.addr[kSlotMaterialTable]).w[label] : kNone;
-    MaterialBuf mats = MaterialBuf(f.addr[kSlotMaterials]);
+    if (fv.counts.w != 0u) return label < fv.counts.w ? UintBuf(frameAddr[kSlotMaterialTable]).w[label] : kNone;
+    MaterialBuf mats = MaterialBuf(frameAddr[kSlotMaterials]);
     const uint n = fv.counts.x;
     for (uint i = 0u; i < n; ++i) {
         const uvec4 flt = mats.m[i].select;
@@ -116,7 +120,7 @@ uint materialOf(Frame f, uint label) {
 vec3 paletteColor(uint h) { return kLabelPalette[h % kLabelPaletteSize]; }
 
 vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
-    Vec4Buf cm = Vec4Buf(f.addr[kSlotColormaps]);
+    Vec4Buf cm = Vec4Buf(frameAddr[kSlotColormaps]);
     const float x = clamp(t, 0.0, 1.0) * float(samples - 1u);
     const uint i = min(uint(x), samples - 2u);
     return mix(cm.v[offset + i].rgb, cm.v[offset + i + 1u].rgb, x - float(i));
@@ -124,7 +128,7 @@ vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
 
 /// Colour (rgb), opacity (a) and emission of a label under material m.
 vec4 materialColor(Frame f, uint m, uint label, out float emission) {
-    const GpuMaterial mat = MaterialBuf(f.addr[kSlotMaterials]).m[m];
+    const GpuMaterial mat = MaterialBuf(frameAddr[kSlotMaterials]).m[m];
     emission = mat.extra.x;
     vec3 rgb = mat.rgba.rgb;
     if (mat.select.w == kColorColormap) {
@@ -182,8 +186,8 @@ struct PaletteRef {
 };
 PaletteRef paletteOf(Frame f, uint brick) {
     PaletteRef p;
-    p.array = AddrBuf(f.addr[kSlotArrays]).a[brick / BRICKS_PER_ARRAY];
-    p.end = UintBuf(f.addr[kSlotStarts]).w[brick + 1u];
+    p.array = AddrBuf(frameAddr[kSlotArrays]).a[brick / BRICKS_PER_ARRAY];
+    p.end = UintBuf(frameAddr[kSlotStarts]).w[brick + 1u];
     return p;
 }
 
@@ -192,9 +196,9 @@ uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette
     const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
     const uint e = mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u);
 #if CACHE_BITS == 32
-    return UintBuf(f.addr[kSlotCache]).w[offset + e];
+    return UintBuf(frameAddr[kSlotCache]).w[offset + e];
 #else
-    const uint word = UintBuf(f.addr[kSlotCache]).w[offset + e / CACHE_PER_WORD];
+    const uint word = UintBuf(frameAddr[kSlotCache]).w[offset + e / CACHE_PER_WORD];
     const uint index = (word >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
     return index == CACHE_MASK ? kNone : UintBuf(palette.array).w[palette.end - 1u - index];
 #endif
@@ -337,7 +341,7 @@ const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cac
 /// needs as used (so the next frame's request pass keeps or decodes them). On MARCH_SURFACE,
 /// `label` and `material` describe the voxel entered.
 uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint label, out uint material) {
-    Uvec4Buf bricks = Uvec4Buf(f.addr[kSlotBricks]);
+    Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     label = kNone;
     material = kNone;
     uint current = kNone;

@@ -21,12 +21,12 @@ void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
     if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
     const uint pixel = px.y * W + px.x;
-    UintBuf samples = UintBuf(f.addr[kSlotSamples]);
+    UintBuf samples = UintBuf(frameAddr[kSlotSamples]);
     Vec4Buf dst = Vec4Buf(f.addr[pc.dst]);
     if (RESOLVE_PASS == kResolveGather) {
         uint n = samples.w[pixel];
         const uint fewest = subgroupMin(n); // one atomic per subgroup
-        if (subgroupElect()) atomicMin(UintBuf(f.addr[kSlotAlloc]).w[kAllocMinSamples], fewest);
+        if (subgroupElect()) atomicMin(UintBuf(frameAddr[kSlotAlloc]).w[kAllocMinSamples], fewest);
         uint from = pixel;
         const uint s = uint(fv.pixel.z); // the upsampling block: the coarsest stride of this accumulation
         if (n == 0u && s > 1u) { // upsampling: the nearest pixel of the block with samples
@@ -44,17 +44,17 @@ void resolvePixel(Frame f, uvec2 px) {
                 }
             }
             n = samples.w[from];
-            FloatBuf depth = FloatBuf(f.addr[kSlotDepthOut]);
+            FloatBuf depth = FloatBuf(frameAddr[kSlotDepthOut]);
             if (n > 0u) {
                 depth.f[pixel] = depth.f[from];
                 // What the pixel shows, it also answers to picking (its own first sample replaces it).
-                Uvec4Buf g = Uvec4Buf(f.addr[kSlotGBuffer]);
+                Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
                 g.v[pixel] = g.v[from];
             }
         }
         const uint holes = subgroupAdd(n == 0u ? 1u : 0u); // one atomic per subgroup
-        if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(f.addr[kSlotAlloc]).w[kAllocHoles], holes);
-        const vec4 c = n > 0u ? Vec4Buf(f.addr[kSlotAccum]).v[from] / float(n) : vec4(0.0);
+        if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocHoles], holes);
+        const vec4 c = n > 0u ? Vec4Buf(frameAddr[kSlotAccum]).v[from] / float(n) : vec4(0.0);
         dst.v[pixel] = pc.dst == kSlotColorOut ? toneMapped(c) : c; // without denoising: one pass
         return;
     }
@@ -62,7 +62,7 @@ void resolvePixel(Frame f, uvec2 px) {
     const vec4 centre = src.v[pixel];
     if (RESOLVE_PASS <= kResolveAtrous4) {
         const uint n = samples.w[pixel];
-        Uvec4Buf g = Uvec4Buf(f.addr[kSlotGBuffer]);
+        Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
         const uvec4 gc = g.v[pixel];
         const float dc = uintBitsToFloat(gc.z);
         const int step = 1 << (RESOLVE_PASS - kResolveAtrous1);
