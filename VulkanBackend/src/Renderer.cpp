@@ -80,7 +80,6 @@ uint64_t MemoryReport::total() const {
 }
 
 namespace {
-/// Pixels a frame renders at a pixel stride (one of stride^2 per block).
 /// The pixels [x0, x1) x [y0, y1) where the index-space box [lo, hi] can appear: its corners
 /// projected, widened by 2 pixels (jittered samples reach 1.5 pixels from their centres), the
 /// origin a multiple of 8 so every pixel stride keeps the same pattern. The whole image when a
@@ -105,6 +104,7 @@ std::array<uint32_t, 4> footprintRect(const Mat4& indexToClip, const float lo[4]
     return r;
 }
 
+/// Pixels a frame renders at a pixel stride (one of stride^2 per block).
 double renderedPixels(const FrameInput& in, uint32_t stride) {
     return double((in.width + stride - 1) / stride) * double((in.height + stride - 1) / stride);
 }
