@@ -1,18 +1,32 @@
 # SPDX-License-Identifier: MIT
 """Segmentation Volume next to ParaView's own "Volume" representation (vtkSmartVolumeMapper,
-nearest interpolation), on the same data, camera and resolution.
+nearest interpolation), on the same data, camera and resolution, over inputs x sizes x shadings.
 
     xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch --force-offscreen-rendering \\
-        Examples/compare_vtk.py --input DATA [--size 640x360] [--frames 20] [--output DIR] [--demos]
+        Examples/compare_vtk.py --input DATA[,DATA...] [--input DATA ...] [--size 640x360,1280x720] \\
+        [--shadings local,shadow,ao,pt] [--frames 20] [--output DIR] [--json FILE] [--demos]
 
 DATA is a .csgv (VTK's side gets the reader's decoded labels; ours keeps them compressed,
 DecodeLabels off), a NIfTI label volume (the plugin's NIfTI reader, point data; ours compresses
-it on the fly) or any image file ParaView opens. For each representation the script prints:
-read time, time to first frame (Show to the end of the first render, data already read), the
-median of N frame times (the camera turns 1 degree before each render; ours renders one frame
-per render: FramesPerStillRender 1, local shading), and peak resident memory (each side runs in a
-child pvbatch of its own, so peaks do not mix; the base of an empty session is printed too). It
-saves VTK's image (left) and ours (right) side by side.
+it on the fly), any image file ParaView opens, or synth:WxHxD[:seed], a procedural volume that
+`csgv compress` writes to DIR/synth_WxHxD[_seed].csgv before any measurement; a later run with
+the same --output reuses that file. The tool is --csgv-tool, else $CSGV_TOOL, else build*/bin/csgv
+of this repository (the newest), else csgv on PATH.
+
+VTK's representation has no shading modes: it is measured once per input and size; ours once
+per input, size and shading (CSGVShading local, shadow, ao or pt; FramesPerStillRender 1: one
+frame per render). Each measurement runs in a child pvbatch of its own (so memory peaks do not
+mix; --timeout bounds it; one killed by a signal is run once more) and prints: read time, time to first frame
+(Show to the end of the first render, data already read), the median of N frame times (the
+camera turns 1 degree before each render), peak resident memory and, for ours, device memory
+(the base of an empty session is printed too). For each input, size and shading it saves VTK's
+image (left) and ours (right) side by side: DIR/<input>_<WxH>_<shading>_side_by_side.png.
+
+At the end it prints a table, one row per (input, size, shading): median frame ms and time to
+first frame of both sides with the ratios VTK / ours, and peak memory; --json FILE writes the
+same rows as a JSON list (null for a missing value). A measurement that fails (a missing file,
+a child that exits with an error or runs past --timeout) gives "-" cells, and the script exits
+with status 1 after printing everything it could.
 
 VTK's transfer function shows the same labels: opacity 0 for label 0 and 1 for every other
 label (a step), colours from one control point a label (flat colours, no shading); building that function is
@@ -20,13 +34,15 @@ quadratic in VTK, so it is timed apart (not in VTK's time to first frame).
 VTK volume-renders labels as float textures and samples its transfer functions into a texture
 of limited width, so it goes wrong where labels do not survive float32 (above 2^24) or where the
 label range holds more labels than the transfer-function texture has texels. --demos builds two
-small volumes that show both, with odd labels red and even labels blue in both renderers, and
-prints how many volume pixels VTK colours like the exact renderer.
+small volumes that show both (at the first --size, local shading), with odd labels red and even
+labels blue in both renderers, and prints how many volume pixels VTK colours like the exact
+renderer.
 """
 import argparse
 import glob
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -46,6 +62,29 @@ def find_plugin(given):
     if not found:
         sys.exit("CSGV.so not found: build the plugin or pass --plugin")
     return found[0]
+
+
+def find_csgv_tool(given):
+    """The `csgv` command-line tool: --csgv-tool, else $CSGV_TOOL, else the newest build*/bin/csgv
+    of this repository, else csgv on PATH. Exits with the reason when there is none."""
+    def usable(path):
+        return os.path.isfile(path) and os.access(path, os.X_OK)
+    if given:
+        if not usable(given):
+            sys.exit("--csgv-tool %s: no such executable file" % given)
+        return given
+    if os.environ.get("CSGV_TOOL"):
+        if not usable(os.environ["CSGV_TOOL"]):
+            sys.exit("CSGV_TOOL=%s: no such executable file" % os.environ["CSGV_TOOL"])
+        return os.environ["CSGV_TOOL"]
+    pattern = os.path.join(os.path.dirname(HERE), "build*", "bin", "csgv")
+    found = sorted((p for p in glob.glob(pattern) if usable(p)), key=os.path.getmtime, reverse=True)
+    if found:
+        return found[0]
+    if shutil.which("csgv"):
+        return shutil.which("csgv")
+    sys.exit("the csgv tool (needed to generate synth: inputs) was not found: not given by --csgv-tool, "
+             "CSGV_TOOL unset, no %s, no csgv on PATH; build the project or pass --csgv-tool PATH" % pattern)
 
 
 def memory_kib():
@@ -78,11 +117,11 @@ def run_child(args):
 
     base = memory_kib()
     LoadPlugin(find_plugin(args.plugin), remote=False, ns=globals())
-    width, height = (int(v) for v in args.size.lower().split("x"))
+    width, height = parse_size(args.size)
     ours = args.only == "csgv"
 
     t0 = time.time()
-    path = args.input
+    path = args.input[0]
     if path.endswith((".nii", ".nii.gz")):
         reader = globals()["NIfTILabelReader"](FileName=path)
     else:
@@ -149,7 +188,7 @@ def run_child(args):
     if ours:
         display = Show(reader, view, "UniformGridRepresentation")
         display.SetRepresentationType("Segmentation Volume")
-        display.CSGVShading = "local"
+        display.CSGVShading = args.shadings
         display.CSGVFramesPerStillRender = 1
         if args.materials:
             display.CSGVMaterials = open(args.materials).read()
@@ -182,7 +221,7 @@ def run_child(args):
         device_mib = display.SMProxy.GetProperty("CSGVDeviceMiB").GetElement(0)
     mem = memory_kib()
     result = {
-        "representation": "Segmentation Volume" if ours else "Volume (vtkSmartVolumeMapper)",
+        "representation": ("Segmentation Volume, " + args.shadings) if ours else "Volume (vtkSmartVolumeMapper)",
         "read_s": read_s,
         "tf_setup_s": None if ours else tf_setup_s,
         "first_frame_s": first_s,
@@ -203,20 +242,40 @@ def run_child(args):
 # Parent: both sides, the side-by-side image, the demonstrations
 
 
-def run_side(args, only, input_path, tag, materials=None, parity=False):
+def run_side(args, only, input_path, tag, size, shading="local", materials=None, parity=False):
+    """One side in a child pvbatch: (its RESULT dict, None) or (None, why it failed)."""
     cmd = [args.pvbatch, "--force-offscreen-rendering", os.path.abspath(__file__), "--only", only,
-           "--input", input_path, "--size", args.size, "--frames", str(args.frames), "--output", args.output,
-           "--tag", tag, "--plugin", find_plugin(args.plugin)]
+           "--input", input_path, "--size", size, "--shadings", shading, "--frames", str(args.frames),
+           "--output", args.output, "--tag", tag, "--plugin", find_plugin(args.plugin)]
     if materials:
         cmd += ["--materials", materials]
     if parity:
         cmd += ["--parity"]
-    run = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    for line in run.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[7:])
-    sys.stdout.write(run.stdout)
-    sys.exit("%s side failed (rc %d)" % (only, run.returncode))
+    for attempt in (1, 2):
+        try:
+            run = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                 timeout=args.timeout)
+            out, why = run.stdout, "rc %d" % run.returncode
+        except subprocess.TimeoutExpired as e:
+            run, out, why = None, e.output or "", "ran past --timeout %g s" % args.timeout
+            if isinstance(out, bytes):
+                out = out.decode(errors="replace")
+        for line in out.splitlines():
+            if line.startswith("RESULT "):
+                return json.loads(line[7:]), None
+        # A child killed by a signal (seen once: X window creation aborting under xvfb) gets one
+        # more try; an error it reports itself, or a timeout, does not.
+        if attempt == 1 and run is not None and run.returncode < 0:
+            print("%s side of %s: child pvbatch died by signal %d, trying once more" % (only, tag, -run.returncode))
+            sys.stdout.flush()
+            continue
+        break
+    lines = [l for l in out.splitlines() if l.strip()]
+    sys.stdout.write("".join("  | %s\n" % l for l in lines[-20:]))
+    last = lines[-1].strip()[:200] if lines else "no output"
+    print("%s side of %s failed (%s): %s" % (only, tag, why, last))
+    sys.stdout.flush()
+    return None, "%s side failed (%s): %s" % (only, why, last)
 
 
 def read_png(path):
@@ -247,24 +306,26 @@ def write_side_by_side(left, right, path):
     w.Write()
 
 
-def report(tag, vtk, ours, args):
-    print("== %s (%s, %s, local shading, %d frames) ==" % (tag, args.input if tag == "data" else tag, args.size,
-                                                          args.frames))
-    print("%-32s %10s %12s %14s %12s" % ("representation", "read s", "1st frame s", "median ms", "peak MiB"))
-    for r in (vtk, ours):
-        print("%-32s %10.2f %12.2f %14.1f %12.1f" % (r["representation"], r["read_s"], r["first_frame_s"],
-                                                      r["median_frame_ms"] or 0, r["peak_rss_mib"]))
-    print("VTK transfer function set-up (one point a label, not in its first frame): %.2f s" % vtk["tf_setup_s"])
-    print("session base (empty pvbatch with the plugin): %.1f MiB" % ours["session_base_mib"])
-    if ours.get("device_mib") is not None:
-        print("Segmentation Volume device memory (encoding, brick cache, buffers): %.1f MiB" % ours["device_mib"])
-    if vtk["median_frame_ms"] and ours["median_frame_ms"]:
-        print("frame time ratio VTK / Segmentation Volume: %.2f" % (vtk["median_frame_ms"] / ours["median_frame_ms"]))
-    print("time to first frame ratio VTK / Segmentation Volume: %.2f" % (vtk["first_frame_s"] / ours["first_frame_s"]))
-    side = os.path.join(args.output, "%s_side_by_side.png" % tag)
-    write_side_by_side(vtk["png"], ours["png"], side)
-    print("images: %s (left: VTK, right: Segmentation Volume)" % side)
+def print_side(r, label):
+    if r is None:
+        print("%-36s %8s %12s %10s %10s %11s" % (label, "-", "-", "-", "-", "-"))
+    else:
+        print("%-36s %8s %12s %10s %10s %11s" % (r["representation"], fmt(r["read_s"], 2), fmt(r["first_frame_s"], 2),
+                                                 fmt(r["median_frame_ms"], 1), fmt(r["peak_rss_mib"], 1),
+                                                 fmt(r.get("device_mib"), 1)))
     sys.stdout.flush()
+
+
+def fmt(value, digits):
+    return "-" if value is None else "%.*f" % (digits, value)
+
+
+def get(result, key):
+    return result.get(key) if result else None
+
+
+def ratio(a, b):
+    return a / b if a is not None and b else None
 
 
 def parity_agreement(vtk_png, ours_png):
@@ -325,15 +386,105 @@ def parity_materials_exact(path, labels):
     return path
 
 
+SHADINGS = ("local", "shadow", "ao", "pt")
+
+
+def parse_size(text):
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if not m or int(m.group(1)) == 0 or int(m.group(2)) == 0:
+        sys.exit("bad size %r: expected WxH, e.g. 640x360" % text)
+    return int(m.group(1)), int(m.group(2))
+
+
+def split_list(values):
+    out = []
+    for v in values:
+        out += [x.strip() for x in v.split(",") if x.strip()]
+    return out
+
+
+def input_name(spec, taken):
+    """A file-name-safe name for an input (image names), unique among `taken`."""
+    if spec.startswith("synth:"):
+        name = "synth_" + spec[6:]
+    else:
+        name = os.path.basename(spec.rstrip("/"))
+        for ext in (".nii.gz", ".nii", ".csgv", ".vti", ".nrrd", ".mha", ".mhd", ".vtk"):
+            if name.endswith(ext) and len(name) > len(ext):
+                name = name[:-len(ext)]
+                break
+    name = re.sub(r"[^A-Za-z0-9._-]+", "_", name) or "input"
+    unique, n = name, 2
+    while unique in taken:
+        unique, n = "%s_%d" % (name, n), n + 1
+    taken.add(unique)
+    return unique
+
+
+def resolve_input(spec, name, args):
+    """(path for pvbatch, None) or (None, why not). A synth: spec is compressed once into
+    DIR/<name>.csgv by the csgv tool and reused when that file is already there."""
+    if not spec.startswith("synth:"):
+        if not os.path.exists(spec):
+            print("%s: no such file" % spec)
+            return None, "no such file: %s" % spec
+        return os.path.abspath(spec), None
+    path = os.path.join(args.output, name + ".csgv")
+    if os.path.exists(path):
+        print("%s: reusing %s" % (spec, path))
+        return path, None
+    tool = find_csgv_tool(args.csgv_tool)
+    print("%s: %s compress %s %s" % (spec, tool, spec, path))
+    sys.stdout.flush()
+    t = time.time()
+    run = subprocess.run([tool, "compress", spec, path, "--quiet"], stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True)
+    if run.returncode != 0 or not os.path.exists(path):
+        lines = [l for l in run.stdout.splitlines() if l.strip()]
+        why = "csgv compress %s failed (rc %d): %s" % (spec, run.returncode, lines[-1] if lines else "no output")
+        print(why)
+        return None, why
+    print("%s: compressed in %.1f s" % (spec, time.time() - t))
+    return path, None
+
+
+COLUMNS = (("input", None), ("size", None), ("shading", None),
+           ("vtk_median_frame_ms", 1), ("ours_median_frame_ms", 1), ("frame_ratio_vtk_over_ours", 2),
+           ("vtk_first_frame_s", 2), ("ours_first_frame_s", 2), ("first_frame_ratio_vtk_over_ours", 2),
+           ("vtk_peak_rss_mib", 0), ("ours_peak_rss_mib", 0), ("ours_device_mib", 0))
+HEADERS = ("input", "size", "shading", "VTK ms", "ours ms", "VTK/ours", "VTK 1st s", "ours 1st s", "VTK/ours",
+           "VTK MiB", "ours MiB", "ours dev MiB")
+
+
+def print_summary(rows, frames):
+    cells = [HEADERS]
+    for r in rows:
+        cells.append(tuple(r[k] if d is None else fmt(r[k], d) for k, d in COLUMNS))
+    widths = [max(len(c[i]) for c in cells) for i in range(len(HEADERS))]
+    print("== summary: median of %d frames (ms), time to first frame (s), peak RSS of each child pvbatch "
+          "and ours on the device (MiB); ratios VTK / ours ==" % frames)
+    for c in cells:
+        print("  ".join(v.ljust(w) if i < 3 else v.rjust(w) for i, (v, w) in enumerate(zip(c, widths))))
+    sys.stdout.flush()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--input", help="a .csgv, NIfTI or other image file (default: the AAL atlas)",
-                    default="/usr/share/mricron/templates/aal.nii.gz")
-    ap.add_argument("--size", default="640x360")
-    ap.add_argument("--frames", type=int, default=20, help="frames timed per representation")
-    ap.add_argument("--output", default=None, help="folder for the images (default: a temporary one)")
+    ap.add_argument("--input", action="append",
+                    help="a .csgv, NIfTI or other image file, or synth:WxHxD[:seed]; repeatable and/or "
+                         "comma-separated (default: the AAL atlas)")
+    ap.add_argument("--size", default="640x360,1280x720", help="comma-separated WxH list (default %(default)s)")
+    ap.add_argument("--shadings", default=",".join(SHADINGS),
+                    help="comma-separated list of our shadings from local,shadow,ao,pt (default %(default)s)")
+    ap.add_argument("--frames", type=int, default=20, help="frames timed per measurement")
+    ap.add_argument("--output", default=None,
+                    help="folder for images and generated synth volumes (default: a temporary one)")
+    ap.add_argument("--json", help="also write the summary rows to this JSON file")
     ap.add_argument("--plugin", help="path of CSGV.so")
+    ap.add_argument("--csgv-tool", help="the csgv command-line tool, for synth: inputs (default: $CSGV_TOOL, "
+                                        "else build*/bin/csgv of this repository, else csgv on PATH)")
     ap.add_argument("--pvbatch", default=shutil.which("pvbatch") or "pvbatch")
+    ap.add_argument("--timeout", type=float, default=1800, help="seconds one child pvbatch may take (%(default)s)")
     ap.add_argument("--demos", action="store_true", help="also show where VTK's volume mapper is wrong")
     ap.add_argument("--no-data", action="store_true", help="only the demonstrations")
     ap.add_argument("--only", choices=("vtk", "csgv"), help=argparse.SUPPRESS)
@@ -348,10 +499,75 @@ def main():
     if args.only:
         return run_child(args)
 
+    inputs = list(dict.fromkeys(split_list(args.input or ["/usr/share/mricron/templates/aal.nii.gz"])))
+    sizes = split_list([args.size])
+    for size in sizes:
+        parse_size(size)
+    shadings = split_list([args.shadings])
+    for shading in shadings:
+        if shading not in SHADINGS:
+            sys.exit("unknown shading %r: choose from %s" % (shading, ",".join(SHADINGS)))
+    if not inputs or not sizes or not shadings:
+        sys.exit("--input, --size and --shadings each need at least one value")
+    if args.frames < 1:
+        sys.exit("--frames must be at least 1")
+
+    failed = False
+    rows = []
     if not args.no_data:
-        vtk = run_side(args, "vtk", args.input, "data")
-        ours = run_side(args, "csgv", args.input, "data")
-        report("data", vtk, ours, args)
+        taken = set()
+        resolved = []
+        for spec in inputs:  # every synth: volume is ready before the first measurement
+            name = input_name(spec, taken)
+            resolved.append((spec, name) + resolve_input(spec, name, args))
+        for spec, name, path, error in resolved:
+            for size in sizes:
+                print("== %s, %s, %d frames ==" % (spec, size, args.frames))
+                print("%-36s %8s %12s %10s %10s %11s" % ("representation", "read s", "1st frame s", "median ms",
+                                                         "peak MiB", "device MiB"))
+                if error:
+                    vtk, vtk_error = None, error
+                else:
+                    vtk, vtk_error = run_side(args, "vtk", path, "%s_%s" % (name, size), size)
+                print_side(vtk, "Volume (vtkSmartVolumeMapper)")
+                base = None
+                for shading in shadings:
+                    if error:
+                        ours, ours_error = None, error
+                    else:
+                        ours, ours_error = run_side(args, "csgv", path, "%s_%s_%s" % (name, size, shading), size,
+                                                    shading)
+                    print_side(ours, "Segmentation Volume, " + shading)
+                    side = None
+                    if vtk and ours:
+                        side = os.path.join(args.output, "%s_%s_%s_side_by_side.png" % (name, size, shading))
+                        write_side_by_side(vtk["png"], ours["png"], side)
+                    base = base or (ours or {}).get("session_base_mib")
+                    errors = sorted(set(e for e in (vtk_error, ours_error) if e))
+                    failed = failed or bool(errors)
+                    rows.append({
+                        "input": spec, "input_path": path, "size": size, "shading": shading, "frames": args.frames,
+                        "vtk_read_s": get(vtk, "read_s"), "ours_read_s": get(ours, "read_s"),
+                        "vtk_median_frame_ms": get(vtk, "median_frame_ms"),
+                        "ours_median_frame_ms": get(ours, "median_frame_ms"),
+                        "frame_ratio_vtk_over_ours": ratio(get(vtk, "median_frame_ms"),
+                                                           get(ours, "median_frame_ms")),
+                        "vtk_first_frame_s": get(vtk, "first_frame_s"), "ours_first_frame_s": get(ours, "first_frame_s"),
+                        "first_frame_ratio_vtk_over_ours": ratio(get(vtk, "first_frame_s"),
+                                                                 get(ours, "first_frame_s")),
+                        "vtk_tf_setup_s": get(vtk, "tf_setup_s"),
+                        "vtk_peak_rss_mib": get(vtk, "peak_rss_mib"), "ours_peak_rss_mib": get(ours, "peak_rss_mib"),
+                        "ours_device_mib": get(ours, "device_mib"),
+                        "side_by_side": side, "errors": errors or None})
+                if vtk:
+                    print("VTK transfer function set-up (one point a label, not in its first frame): %.2f s"
+                          % vtk["tf_setup_s"])
+                if base is not None:
+                    print("session base (empty pvbatch with the plugin): %.1f MiB" % base)
+                if vtk and any(r["side_by_side"] for r in rows[-len(shadings):]):
+                    print("images: %s (left: VTK, right: Segmentation Volume)"
+                          % os.path.join(args.output, "%s_%s_<shading>_side_by_side.png" % (name, size)))
+                sys.stdout.flush()
 
     if args.demos:
         saved_frames = args.frames
@@ -369,18 +585,30 @@ def main():
                 mats = parity_materials_exact(os.path.join(args.output, tag + ".json"), present)
             else:
                 mats = parity_materials(os.path.join(args.output, tag + ".json"))
-            saved_input, args.input = args.input, vti
-            vtk = run_side(args, "vtk", vti, tag, parity=True)
-            ours = run_side(args, "csgv", vti, tag, materials=mats)
-            args.input = saved_input
+            vtk, _ = run_side(args, "vtk", vti, tag, sizes[0], parity=True)
+            ours, _ = run_side(args, "csgv", vti, tag, sizes[0], materials=mats)
+            print("== demo %s: %s ==" % (tag, what))
+            if not (vtk and ours):
+                failed = True
+                print("demo %s failed (see above)" % tag)
+                continue
             agree, pixels = parity_agreement(vtk["png"], ours["png"])
             side = os.path.join(args.output, "%s_side_by_side.png" % tag)
             write_side_by_side(vtk["png"], ours["png"], side)
-            print("== demo %s: %s ==" % (tag, what))
             print("VTK colours %.1f%% of %d volume pixels like the exact renderer (odd red, even blue); images: %s"
                   % (100 * agree, pixels, side))
         args.frames = saved_frames
-    return 0
+
+    if rows:
+        print_summary(rows, args.frames)
+        for r in rows:
+            for e in r["errors"] or []:
+                print("failed: %s, %s, %s: %s" % (r["input"], r["size"], r["shading"], e))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+        print("rows: %s" % os.path.abspath(args.json))
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
