@@ -18,6 +18,7 @@
 #include "csgv/gpu/FrameLayout.h"      // kNone, flags, slots, alloc words, Frame and GpuMaterial layouts
 #include "csgv/materials/Palette.h"    // labelHash, kLabelPalette
 #include "csgv/base/Morton.h"          // mortonSpread (cache entries in Morton order)
+#include "csgv/codec/Layout.h"         // kUniformShift
 
 const float ONE_MINUS_EPSILON = 0.99999994; // the largest float below 1
 // The distance to the planes of an axis the ray runs parallel to (its direction's component is
@@ -60,6 +61,7 @@ layout(buffer_reference, std430, buffer_reference_align = 4) buffer UintBuf { ui
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer FloatBuf { float f[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Buf { vec4 v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer Uvec4Buf { uvec4 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer Uvec2Buf { uvec2 v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer AddrBuf { uint64_t a[]; };
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer MaterialBuf { GpuMaterial m[]; };
@@ -159,6 +161,9 @@ vec4 toneMapped(vec4 c) {
 
 // ---------------------------------------------------------------------------------------------
 // Bricks and the cache
+
+/// Uniform sub-blocks (csgv/codec/Layout.h) have edge 1 << SUB_SHIFT; none when negative.
+const int SUB_SHIFT = int(BRICK_SHIFT) - int(kUniformShift);
 
 uint brickIndexOf(ivec3 voxel) {
     const uvec3 b = uvec3(voxel) >> BRICK_SHIFT;
@@ -349,6 +354,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
     PaletteRef palette;
     palette.array = 0ul;
     palette.end = 0u;
+    uvec2 uniformSubs = uvec2(0u); // the brick's uniform sub-blocks, when cached at the finest level
     for (uint it = 0u; it < 60000u; ++it) {
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
@@ -359,6 +365,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
                 bricks.v[b].z = fv.frame.x + 1u;
                 w.lastBrick = b;
             }
+            uniformSubs = s.w != 0u && s.y == 0u ? Uvec2Buf(frameAddr[kSlotUniform]).v[b] : uvec2(0u);
 #if CACHE_BITS != 32
             if (s.w != 0u && s.y != kNone) palette = paletteOf(f, b);
 #endif
@@ -378,8 +385,16 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
                     return MARCH_SURFACE;
                 }
             }
-            if (s.y == 0u) stableStepFinest(w);
-            else stableStep(w, s.y);
+            // Coarser levels step by their nodes; the finest by voxels, or over a uniform
+            // sub-block whole (no surface inside it; the CPU mirror steps alike).
+            uint k = s.y;
+            if (k == 0u && SUB_SHIFT >= 0) {
+                const uvec3 sub = (uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u)) >> uint(SUB_SHIFT);
+                const uint j = mortonSpread(sub.x) | (mortonSpread(sub.y) << 1u) | (mortonSpread(sub.z) << 2u);
+                if ((((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u) k = uint(SUB_SHIFT);
+            }
+            if (k == 0u) stableStepFinest(w);
+            else stableStep(w, k);
         }
         if (any(lessThan(w.voxel, lo)) || any(greaterThanEqual(w.voxel, hi))) return MARCH_OUT;
     }

@@ -143,6 +143,82 @@ TEST(Renderer, GBufferEqualsStableReferenceCameraInside) {
 
 namespace {
 
+/// Bit j: sub-block j (Morton order, edge brickSize / 4) of `brick` lies inside the volume and
+/// holds one label; computed from the decoded volume, voxel by voxel.
+uint64_t expectedUniformMask(const CompressedVolume& vol, const LabelVolume& labels, uint32_t brick) {
+    const std::array<uint32_t, 3> grid = vol.brickGrid();
+    const uint32_t origin[3] = {brick % grid[0] * vol.brickSize, brick / grid[0] % grid[1] * vol.brickSize,
+                                brick / (grid[0] * grid[1]) * vol.brickSize};
+    const uint32_t edge = vol.brickSize / 4;
+    uint64_t mask = 0;
+    for (uint32_t j = 0; j < 64; ++j) {
+        uint32_t o[3] = {0, 0, 0};
+        for (uint32_t bit = 0; bit < 6; ++bit) o[bit % 3] |= ((j >> bit) & 1u) << (bit / 3); // Morton: x in bit 0
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) {
+            o[a] = origin[a] + o[a] * edge;
+            inside = inside && o[a] + edge <= labels.dim[a];
+        }
+        if (!inside) continue;
+        const uint32_t first = labels.at(o[0], o[1], o[2]);
+        bool same = true;
+        for (uint32_t z = 0; z < edge; ++z)
+            for (uint32_t y = 0; y < edge; ++y)
+                for (uint32_t x = 0; x < edge; ++x) same = same && labels.at(o[0] + x, o[1] + y, o[2] + z) == first;
+        if (same) mask |= uint64_t(1) << j;
+    }
+    return mask;
+}
+
+void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool paletting) {
+    Scene& scene = fixtureScene(ctx, "synthA_b16_nibble.csgv");
+    std::shared_ptr<GpuVolume> gpu = scene.gpu;
+    if (paletting) {
+        GpuVolumeOptions o;
+        o.cachePaletting = true;
+        Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(ctx, scene.volume, o);
+        ASSERT_TRUE(pg.isOk()) << pg.message();
+        gpu = std::move(*pg);
+    }
+    RendererOptions o;
+    o.decode = decode;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, o);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    RenderSettings st;
+    st.finest = true;
+    (*r)->setSettings(st);
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    renderConverged(**r, in, 1, 64);
+    Result<std::vector<Renderer::CachedBrick>> cached = (*r)->cachedBricks();
+    ASSERT_TRUE(cached.isOk()) << cached.message();
+    size_t finest = 0, uniform = 0, mixed = 0;
+    for (const Renderer::CachedBrick& b : *cached) {
+        ASSERT_EQ(b.lod, 0u);
+        ++finest;
+        const uint64_t want = expectedUniformMask(scene.volume, scene.labels, b.brick);
+        EXPECT_EQ(b.uniformSubBlocks, want) << "brick " << b.brick;
+        uniform += want != 0;
+        mixed += want != ~uint64_t(0);
+    }
+    // The view must cache bricks with uniform sub-blocks and bricks with mixed ones.
+    EXPECT_GT(finest, 4u);
+    EXPECT_GT(uniform, 0u);
+    EXPECT_GT(mixed, 0u);
+}
+
+} // namespace
+
+// Host decoding (the default on CPU devices), the GPU decoder's pass, and with cache paletting:
+// each marks exactly the sub-blocks that hold one label.
+TEST(Renderer, UniformSubBlocksAreMarkedExactly) {
+    CSGV_REQUIRE_GPU(ctx);
+    expectUniformMasks(*ctx, RendererOptions::Decode::Auto, false);
+    expectUniformMasks(*ctx, RendererOptions::Decode::Gpu, false);
+    expectUniformMasks(*ctx, RendererOptions::Decode::Gpu, true);
+}
+
+namespace {
+
 std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cacheBytes, const RenderSettings& st,
                                        RendererOptions::Decode decode = RendererOptions::Decode::Auto) {
     RendererOptions o;

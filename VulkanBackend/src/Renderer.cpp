@@ -4,7 +4,10 @@
 #include "csgv/gpu/FrameLayout.h"
 
 #include "csgv/base/Math.h"
+#include "csgv/base/Morton.h"
+#include "csgv/base/WorkerPool.h"
 #include "csgv/codec/Decoder.h"
+#include "csgv/codec/Layout.h"
 
 #include <omp.h>
 
@@ -114,11 +117,11 @@ struct Renderer::Impl {
     Context& ctx;
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
-    uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0;
+    uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
     uint64_t pResolve[kResolveFinal + 1] = {}; // per resolve pass, compiled on first use
     uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
     Defines defines;
-    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible;
+    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     uint32_t materialTableSize = 0;   // entries of materialTable (0: the shader scans the list)
@@ -146,7 +149,8 @@ struct Renderer::Impl {
     std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
     bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
     bool hostDecode = false;          // RendererOptions::decode resolved
-    std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per thread, for host decoding
+    std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per worker, for host decoding
+    std::unique_ptr<WorkerPool> workers; // host decoding's threads: asleep, not spinning, between frames
     bool converged = false;           // the last render() reached the sample target; nothing changed since
     uint64_t materialsFingerprint = 0; // of what setMaterials uploaded (0: nothing yet)
     // render()'s coarse pixel stride of this accumulation: frames start at it until every pixel
@@ -172,18 +176,41 @@ struct Renderer::Impl {
         uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
         const CompressedVolume& vol = volume->volume();
         const uint32_t L = vol.levels();
-        const int threads = std::max(1, omp_get_max_threads());
-        while (int(decoders.size()) < threads) decoders.push_back(std::make_unique<BrickDecoder>(vol));
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-        for (int64_t i = 0; i < int64_t(n); ++i) {
-            BrickDecoder& d = *decoders[size_t(omp_get_thread_num())];
+        if (n == 0) return;
+        uint64_t* uniformMasks = static_cast<uint64_t*>(uniformSubs.mapped());
+        if (!workers) workers = std::make_unique<WorkerPool>();
+        while (decoders.size() < workers->size()) decoders.push_back(std::make_unique<BrickDecoder>(vol));
+        workers->parallelFor(n, [&](uint64_t i, unsigned worker) {
+            BrickDecoder& d = *decoders[worker];
             const uint32_t* e = list + kDecodeEntryWords * i;
             const uint32_t brick = e[0], lod = L - 1 - std::min(e[1], L - 1), offset = e[2];
             const uint64_t words = volume->regionWords(lod);
-            if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) continue;
+            if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) return;
             if (d.decode(brick, lod)) std::memcpy(cacheWords + offset, d.labels(), words * 4);
             else std::fill(cacheWords + offset, cacheWords + offset + words, kNone);
+            if (lod == 0) uniformMasks[brick] = uniformSubBlocks(cacheWords + offset, brick);
+        });
+    }
+
+    /// A brick's finest labels (Morton order) -> its uniform sub-blocks (csgv/codec/Layout.h; as
+    /// cache_uniform.comp computes them after GPU decoding).
+    uint64_t uniformSubBlocks(const uint32_t* labels, uint32_t brick) const {
+        const CompressedVolume& vol = volume->volume();
+        const uint32_t shift = log2u(vol.brickSize);
+        if (shift < kUniformShift) return 0;
+        const uint32_t edge = 1u << (shift - kUniformShift), n = edge * edge * edge;
+        const std::array<uint32_t, 3> grid = vol.brickGrid();
+        const uint32_t b[3] = {brick % grid[0], brick / grid[0] % grid[1], brick / (grid[0] * grid[1])};
+        uint64_t mask = 0;
+        for (uint32_t j = 0; j < 64; ++j) {
+            const uint32_t sub[3] = {mortonX(j), mortonY(j), mortonZ(j)};
+            bool inside = true;
+            for (int a = 0; a < 3; ++a) inside = inside && (b[a] << shift) + (sub[a] + 1) * edge <= vol.dim[a];
+            if (!inside) continue;
+            const uint32_t* run = labels + size_t(j) * n;
+            if (std::all_of(run + 1, run + n, [&](uint32_t l) { return l == run[0]; })) mask |= uint64_t(1) << j;
         }
+        return mask;
     }
 
     explicit Impl(Context& c) : ctx(c) {}
@@ -375,6 +402,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
     if (!(s = make(im.bricks, uint64_t(im.brickCount) * 16, MemoryKind::DeviceLocal, "brick table"))) return s;
     if (!(s = make(im.visible, uint64_t(im.brickCount) * 4, MemoryKind::DeviceLocal, "brick visibility"))) return s;
+    if (!(s = make(im.uniformSubs, uint64_t(im.brickCount) * 8, hostOrDevice, "uniform sub-block masks"))) return s;
     if (!(s = make(im.alloc, kAllocWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
     if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
@@ -389,9 +417,16 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         !(s = volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * kAllocDecodes, im.cache.address(),
                                         im.decodeStates.address(), im.maxRequests, im.frameDecode, im.decodeDispatches)))
         return s;
+    if (!im.hostDecode) {
+        Result<uint64_t> p = makePipeline(context, "cache_uniform.comp", d, 8, im.profileDispatches);
+        if (!p) return p.status();
+        im.pUniform = *p;
+    }
     std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
     for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
+    const std::vector<uint64_t> noMasks(im.brickCount, 0);
+    if (!(s = context.upload(im.uniformSubs, 0, noMasks.data(), noMasks.size() * 8))) return s;
     uint32_t* a = im.allocWords();
     std::fill(a, a + kAllocWords, 0u);
     a[kAllocCapacity] = uint32_t(cacheBytes / 4);
@@ -831,7 +866,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
         {kSlotGBuffer, &gbuffer},     {kSlotDepthIn, &depthIn},     {kSlotMaterials, &materials}, {kSlotColormaps, &colormaps},
         {kSlotAttributes, &attributeTable}, {kSlotColorOut, &colorOut}, {kSlotDepthOut, &depthOut}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
-        {kSlotMaterialTable, &materialTable}};
+        {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
@@ -857,7 +892,10 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     addDispatch(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
     addDispatch(pCommit, &frameAddress, 8, 1, 1);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
-    if (!hostDecode) dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
+    if (!hostDecode) {
+        dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
+        addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
+    }
     const uint32_t stride = st.subsampling;
     const uint32_t rw = (rect[2] - rect[0] + stride - 1) / stride, rh = (rect[3] - rect[1] + stride - 1) / stride;
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
@@ -1139,12 +1177,25 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     return Status::ok();
 }
 
+Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
+    const Impl& im = *m_impl;
+    std::vector<uint32_t> words(size_t(im.brickCount) * 4);
+    std::vector<uint64_t> masks(im.brickCount);
+    Status s = im.ctx.download(im.bricks, 0, words.data(), words.size() * 4);
+    if (s) s = im.ctx.download(im.uniformSubs, 0, masks.data(), masks.size() * 8);
+    if (!s) return s;
+    std::vector<CachedBrick> out;
+    for (uint32_t b = 0; b < im.brickCount; ++b)
+        if (words[4 * b + 1] != kNone) out.push_back({b, words[4 * b + 1], words[4 * b + 1] == 0 ? masks[b] : 0});
+    return out;
+}
+
 MemoryReport Renderer::memory() const {
     const Impl& im = *m_impl;
     MemoryReport r;
     r.buffers.push_back({"encoding", im.volume->deviceBytes()});
     r.buffers.push_back({"brick cache", im.cache.size()});
-    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size()});
+    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
                                                           im.alloc.size() + im.params.size()});

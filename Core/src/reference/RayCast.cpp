@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/reference/RayCast.h"
 #include "csgv/codec/Container.h"
+#include "csgv/codec/Layout.h"
+#include "csgv/base/Morton.h"
 
 #include <algorithm>
 #include <cmath>
@@ -198,6 +200,26 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                 const size_t b = (x >> shift) + grid[0] * ((y >> shift) + size_t(grid[1]) * (z >> shift));
                 if (!brickVisible[b] && visible(volume.at(x, y, z))) brickVisible[b] = 1;
             }
+    // The renderer's uniform sub-blocks (Layout.h): inside the volume, one label.
+    const int subShift = shift - int(kUniformShift);
+    std::vector<uint64_t> uniform(brickVisible.size(), 0);
+    if (subShift >= 0) {
+        const uint32_t edge = 1u << subShift;
+        for (size_t b = 0; b < uniform.size(); ++b) {
+            const uint32_t bc[3] = {uint32_t(b % grid[0]), uint32_t(b / grid[0] % grid[1]), uint32_t(b / (size_t(grid[0]) * grid[1]))};
+            for (uint32_t j = 0; j < 64; ++j) {
+                const uint32_t o[3] = {(bc[0] << shift) + mortonCompact(j) * edge, (bc[1] << shift) + mortonCompact(j >> 1) * edge,
+                                       (bc[2] << shift) + mortonCompact(j >> 2) * edge};
+                if (o[0] + edge > volume.dim[0] || o[1] + edge > volume.dim[1] || o[2] + edge > volume.dim[2]) continue;
+                const uint32_t first = volume.at(o[0], o[1], o[2]);
+                bool same = true;
+                for (uint32_t z = 0; z < edge && same; ++z)
+                    for (uint32_t y = 0; y < edge && same; ++y)
+                        for (uint32_t x = 0; x < edge && same; ++x) same = volume.at(o[0] + x, o[1] + y, o[2] + z) == first;
+                if (same) uniform[b] |= uint64_t(1) << j;
+            }
+        }
+    }
     const float pixX = 2.0f / float(view.width), pixY = 2.0f / float(view.height);
 
     for (uint32_t py = 0; py < view.height; ++py)
@@ -284,7 +306,15 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                             break;
                         }
                     }
-                    stableStep(w, 0);
+                    // A uniform sub-block has no surface inside: stepped over whole.
+                    bool whole = false;
+                    if (subShift >= 0) {
+                        uint32_t j = 0;
+                        for (int k = 0; k < 3; ++k)
+                            j |= mortonSpread(uint32_t(w.voxel[k] & ((1 << shift) - 1)) >> subShift) << k;
+                        whole = ((uniform[bi] >> j) & 1u) != 0;
+                    }
+                    stableStep(w, whole ? subShift : 0);
                 }
                 bool outside = false;
                 for (int k = 0; k < 3; ++k) outside = outside || w.voxel[k] < lo[k] || w.voxel[k] >= hi[k];

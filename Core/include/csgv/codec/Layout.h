@@ -13,6 +13,11 @@ CSGV_NAMESPACE_BEGIN(csgv)
 /// Reserved label: "undefined" inside decoders, "outside the volume" in the GPU cache.
 CSGV_CONST(uint32_t, kInvalidLabel, 0xFFFFFFFFu)
 
+/// A brick's finest labels in Morton order (decoder output, renderer cache) fall into
+/// (1 << kUniformShift)^3 sub-blocks, each a contiguous run: renderers mark the sub-blocks that
+/// lie inside the volume and hold one label (a 64-bit mask per brick) and step over them whole.
+CSGV_CONST(uint32_t, kUniformShift, 2u)
+
 // rANS (CSGV-FORMAT.md section 5): 32-bit state, byte-wise renormalisation.
 CSGV_CONST(uint32_t, kRansProbBits, 14u)
 CSGV_CONST(uint32_t, kRansTotal, 1u << kRansProbBits) ///< frequencies sum to this

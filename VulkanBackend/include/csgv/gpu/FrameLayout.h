@@ -63,7 +63,8 @@ CSGV_CONST(uint32_t, kSlotArrays, 19u)        ///< the encoding: uint64 address 
 CSGV_CONST(uint32_t, kSlotStarts, 20u)        ///< the encoding: brick start words
 CSGV_CONST(uint32_t, kSlotBlueNoise, 21u)     ///< 64x64 bytes of blue noise, four to a uint
 CSGV_CONST(uint32_t, kSlotMaterialTable, 22u) ///< uint per stored label: its material (kNone), when labels are few
-CSGV_CONST(uint32_t, kSlotCount, 23u)
+CSGV_CONST(uint32_t, kSlotUniform, 23u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
+CSGV_CONST(uint32_t, kSlotCount, 24u)
 
 // Words of the cache counter buffer (kSlotAlloc), read by the host between frames.
 CSGV_CONST(uint32_t, kAllocTop, 0u)          ///< cache words handed out from the top
