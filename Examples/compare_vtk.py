@@ -23,7 +23,10 @@ camera turns 1 degree before each render), peak resident memory and, for ours, d
 image (left) and ours (right) side by side: DIR/<input>_<WxH>_<shading>_side_by_side.png.
 
 At the end it prints a table, one row per (input, size, shading): median frame ms and time to
-first frame of both sides with the ratios VTK / ours, and peak memory; --json FILE writes the
+first frame of both sides with the ratios VTK / ours, and peak memory. Part of every frame is
+ParaView's own (clearing, compositing and reading back the view, the Python call): the VTK child
+also times the same view showing only the data's outline ("view ms"), and "net VTK/ours" is the
+ratio of the frame times less that part, the renderers' own cost; --json FILE writes the
 same rows as a JSON list (null for a missing value). A measurement that fails (a missing file,
 a child that exits with an error or runs past --timeout) gives "-" cells, and the script exits
 with status 1 after printing everything it could.
@@ -215,6 +218,20 @@ def run_child(args):
         Render(view)
         times.append(time.time() - t)
     times.sort()
+    # ParaView's own part of every frame (clearing, compositing, read-back of the view, Python):
+    # the same view with only the outline of the data. Both sides pay it.
+    view_ms = None
+    if not ours:
+        display.SetRepresentationType("Outline")
+        Render(view)
+        view_times = []
+        for i in range(args.frames):
+            camera.Azimuth(1.0)
+            t = time.time()
+            Render(view)
+            view_times.append(time.time() - t)
+        view_times.sort()
+        view_ms = 1000 * view_times[len(view_times) // 2]
     device_mib = None
     if ours:
         display.SMProxy.UpdatePropertyInformation()
@@ -226,6 +243,7 @@ def run_child(args):
         "tf_setup_s": None if ours else tf_setup_s,
         "first_frame_s": first_s,
         "median_frame_ms": 1000 * times[len(times) // 2] if times else None,
+        "view_frame_ms": view_ms,
         "frames": len(times),
         "peak_rss_mib": mem["VmHWM"] / 1024.0,
         "device_mib": device_mib,
@@ -322,6 +340,12 @@ def fmt(value, digits):
 
 def get(result, key):
     return result.get(key) if result else None
+
+
+def net(result, view_ms):
+    """A side's median frame time less ParaView's own part of a frame (None when unknown)."""
+    frame = get(result, "median_frame_ms")
+    return None if frame is None or view_ms is None else frame - view_ms
 
 
 def ratio(a, b):
@@ -450,9 +474,10 @@ def resolve_input(spec, name, args):
 
 COLUMNS = (("input", None), ("size", None), ("shading", None),
            ("vtk_median_frame_ms", 1), ("ours_median_frame_ms", 1), ("frame_ratio_vtk_over_ours", 2),
+           ("view_frame_ms", 1), ("net_ratio_vtk_over_ours", 2),
            ("vtk_first_frame_s", 2), ("ours_first_frame_s", 2), ("first_frame_ratio_vtk_over_ours", 2),
            ("vtk_peak_rss_mib", 0), ("ours_peak_rss_mib", 0), ("ours_device_mib", 0))
-HEADERS = ("input", "size", "shading", "VTK ms", "ours ms", "VTK/ours", "VTK 1st s", "ours 1st s", "VTK/ours",
+HEADERS = ("input", "size", "shading", "VTK ms", "ours ms", "VTK/ours", "view ms", "net VTK/ours", "VTK 1st s", "ours 1st s", "VTK/ours",
            "VTK MiB", "ours MiB", "ours dev MiB")
 
 
@@ -552,6 +577,9 @@ def main():
                         "ours_median_frame_ms": get(ours, "median_frame_ms"),
                         "frame_ratio_vtk_over_ours": ratio(get(vtk, "median_frame_ms"),
                                                            get(ours, "median_frame_ms")),
+                        "view_frame_ms": get(vtk, "view_frame_ms"),
+                        "net_ratio_vtk_over_ours": ratio(net(vtk, get(vtk, "view_frame_ms")),
+                                                         net(ours, get(vtk, "view_frame_ms"))),
                         "vtk_first_frame_s": get(vtk, "first_frame_s"), "ours_first_frame_s": get(ours, "first_frame_s"),
                         "first_frame_ratio_vtk_over_ours": ratio(get(vtk, "first_frame_s"),
                                                                  get(ours, "first_frame_s")),
