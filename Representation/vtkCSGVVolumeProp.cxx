@@ -27,6 +27,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <vector>
 
 namespace
@@ -126,6 +127,9 @@ struct vtkCSGVVolumeProp::Impl
   csgvrep::AttributeCache Attributes;
 
   std::shared_ptr<csgv::gpu::Context> Gpu; ///< held while this prop draws
+  /// The device, opened in the background from construction on (loading the Vulkan driver and
+  /// opening a CPU device takes a good part of a second, which Show's own work hides).
+  std::future<std::shared_ptr<csgv::gpu::Context>> GpuOpening;
   csgvrep::ViewRenderer View;
   std::string LastError;
   std::vector<float> Depth, ReducedDepth;
@@ -170,6 +174,12 @@ double vtkCSGVVolumeProp::GetRefinementSlice()
 vtkCSGVVolumeProp::vtkCSGVVolumeProp()
   : P(new Impl)
 {
+  this->P->GpuOpening = std::async(std::launch::async,
+    []
+    {
+      std::string error; // kept by sharedContext: HaveDevice reports it
+      return csgvrep::sharedContext(error);
+    });
 }
 
 vtkCSGVVolumeProp::~vtkCSGVVolumeProp() = default;
@@ -544,6 +554,10 @@ bool vtkCSGVVolumeProp::HaveDevice()
 {
   Impl& p = *this->P;
   std::string contextError;
+  if (!p.Gpu && p.GpuOpening.valid())
+  {
+    p.Gpu = p.GpuOpening.get();
+  }
   if (!p.Gpu)
   {
     p.Gpu = csgvrep::sharedContext(contextError);
