@@ -211,26 +211,25 @@ def run_child(args):
     SaveScreenshot(png, view, ImageResolution=[width, height], TransparentBackground=0)
 
     camera = view.GetActiveCamera()
-    times = []
-    for i in range(args.frames):
-        camera.Azimuth(1.0)
-        t = time.time()
-        Render(view)
-        times.append(time.time() - t)
-    times.sort()
+
+    def frame_times():
+        """Sorted seconds of args.frames renders, the camera turning 1 degree before each."""
+        times = []
+        for i in range(args.frames):
+            camera.Azimuth(1.0)
+            t = time.time()
+            Render(view)
+            times.append(time.time() - t)
+        return sorted(times)
+
+    times = frame_times()
     # ParaView's own part of every frame (clearing, compositing, read-back of the view, Python):
     # the same view with only the outline of the data. Both sides pay it.
     view_ms = None
     if not ours:
         display.SetRepresentationType("Outline")
         Render(view)
-        view_times = []
-        for i in range(args.frames):
-            camera.Azimuth(1.0)
-            t = time.time()
-            Render(view)
-            view_times.append(time.time() - t)
-        view_times.sort()
+        view_times = frame_times()
         view_ms = 1000 * view_times[len(view_times) // 2]
     device_mib = None
     if ours:

@@ -46,6 +46,18 @@ Scene& fixtureScene(Context& ctx, const std::string& name) {
     return *s;
 }
 
+/// The scene's GPU volume, or a new one with cache paletting (null after a failure).
+std::shared_ptr<GpuVolume> gpuVolume(Context& ctx, Scene& scene, bool paletting) {
+    if (!paletting) return scene.gpu;
+    GpuVolumeOptions o;
+    o.cachePaletting = true;
+    Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(ctx, scene.volume, o);
+    EXPECT_TRUE(pg.isOk()) << pg.message();
+    if (!pg) return nullptr;
+    EXPECT_LT((*pg)->cacheBits(), 32u) << "cache paletting";
+    return std::move(*pg);
+}
+
 /// Renders until every pixel has `samples` samples (or `maxFrames` frames).
 FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples, uint32_t maxFrames,
                             uint32_t* framesUsed = nullptr) {
@@ -67,15 +79,8 @@ FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples,
 void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
                                   const std::string& what, bool paletting = false) {
     Scene& scene = fixtureScene(ctx, fixtureName);
-    std::shared_ptr<GpuVolume> gpu = scene.gpu;
-    if (paletting) {
-        GpuVolumeOptions o;
-        o.cachePaletting = true;
-        Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(ctx, scene.volume, o);
-        ASSERT_TRUE(pg.isOk()) << pg.message();
-        ASSERT_LT((*pg)->cacheBits(), 32u) << what;
-        gpu = std::move(*pg);
-    }
+    std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
+    ASSERT_TRUE(gpu) << what;
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu);
     ASSERT_TRUE(r.isOk()) << r.message();
     (*r)->setGeometry(g);
@@ -172,14 +177,8 @@ uint64_t expectedUniformMask(const CompressedVolume& vol, const LabelVolume& lab
 
 void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool paletting) {
     Scene& scene = fixtureScene(ctx, "synthA_b16_nibble.csgv");
-    std::shared_ptr<GpuVolume> gpu = scene.gpu;
-    if (paletting) {
-        GpuVolumeOptions o;
-        o.cachePaletting = true;
-        Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(ctx, scene.volume, o);
-        ASSERT_TRUE(pg.isOk()) << pg.message();
-        gpu = std::move(*pg);
-    }
+    std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
+    ASSERT_TRUE(gpu);
     RendererOptions o;
     o.decode = decode;
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, o);
