@@ -116,3 +116,27 @@ TEST(ShaderCompiler, DiskCacheIsUsedAndSurvivesGarbage) {
     std::fclose(f);
     EXPECT_EQ(rewritten, *first) << "and the file is rewritten";
 }
+
+// Without CSGV_SHADER_CACHE_DIR the cache lives under $XDG_CACHE_HOME (its folders made on the
+// way); CSGV_SHADER_CACHE_DIR set but empty turns it off.
+TEST(ShaderCompiler, DiskCacheDefaultsToTheUserCacheFolder) {
+    const std::string xdg = csgvtest::tempDir() + "/xdg-cache";
+    const std::string folder = xdg + "/csgv/shaders";
+    auto files = [&] {
+        FILE* list = ::popen(("ls '" + folder + "' 2>/dev/null | wc -l").c_str(), "r");
+        int n = -1;
+        if (list && std::fscanf(list, "%d", &n) != 1) n = -1;
+        if (list) ::pclose(list);
+        return n;
+    };
+    const std::string src = "#version 460\nlayout(local_size_x = 1) in;\nvoid main() { /* default cache */ }\n";
+    ::setenv("XDG_CACHE_HOME", xdg.c_str(), 1);
+    ::setenv("CSGV_SHADER_CACHE_DIR", "", 1);
+    ASSERT_TRUE(csgv::gpu::compileComputeSource("default_cache_test.comp", src, {}).isOk());
+    EXPECT_EQ(files(), 0) << "an empty CSGV_SHADER_CACHE_DIR writes nothing";
+    csgv::gpu::clearShaderMemoryCache();
+    ::unsetenv("CSGV_SHADER_CACHE_DIR");
+    ASSERT_TRUE(csgv::gpu::compileComputeSource("default_cache_test.comp", src, {}).isOk());
+    ::unsetenv("XDG_CACHE_HOME");
+    EXPECT_EQ(files(), 1) << "one file in " << folder;
+}

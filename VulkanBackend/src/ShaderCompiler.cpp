@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <mutex>
 
@@ -71,13 +72,24 @@ uint64_t embeddedFingerprint() {
     return value;
 }
 
-/// The on-disk cache file for a key, or "" without CSGV_SHADER_CACHE_DIR.
+/// The disk cache's folder: CSGV_SHADER_CACHE_DIR (set but empty: no disk cache), else
+/// $XDG_CACHE_HOME/csgv/shaders, else $HOME/.cache/csgv/shaders.
+std::string diskCacheDir() {
+    if (const char* dir = std::getenv("CSGV_SHADER_CACHE_DIR")) return dir;
+    const char* xdg = std::getenv("XDG_CACHE_HOME");
+    if (xdg && *xdg) return std::string(xdg) + "/csgv/shaders";
+    const char* home = std::getenv("HOME");
+    if (home && *home) return std::string(home) + "/.cache/csgv/shaders";
+    return "";
+}
+
+/// The on-disk cache file for a key, or "" without a cache folder.
 std::string diskCachePath(const std::string& key) {
-    const char* dir = std::getenv("CSGV_SHADER_CACHE_DIR");
-    if (!dir || !*dir) return "";
+    const std::string dir = diskCacheDir();
+    if (dir.empty()) return "";
     char name[40];
     std::snprintf(name, sizeof(name), "/%016llx.spv", static_cast<unsigned long long>(fnv1a(key, embeddedFingerprint())));
-    return std::string(dir) + name;
+    return dir + name;
 }
 
 bool readDiskCache(const std::string& path, std::vector<uint32_t>& spirv) {
@@ -91,6 +103,8 @@ bool readDiskCache(const std::string& path, std::vector<uint32_t>& spirv) {
 
 void writeDiskCache(const std::string& path, const std::vector<uint32_t>& spirv) {
     if (path.empty()) return;
+    std::error_code ec; // a folder that cannot be made only means no cache entry, as below
+    std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
     AtomicFile f; // a failure only means no cache entry
     if (f.open(path) && f.write(spirv.data(), spirv.size() * 4)) (void)f.commit();
 }

@@ -4,8 +4,10 @@
 /// @brief GLSL to SPIR-V at run time with glslang. Sources come from `shaders/`, embedded into
 /// the binary at build time; `#include "x.glsl"` resolves within that set. Each volume gets its
 /// own specialisation through defines. Results are cached in memory by source name and defines,
-/// and on disk when `CSGV_SHADER_CACHE_DIR` names a folder (one SPIR-V file per source, defines
-/// and version of all embedded sources; unreadable or foreign files are ignored).
+/// and on disk (one SPIR-V file per source, defines and version of all embedded sources;
+/// unreadable or foreign files are ignored) in `CSGV_SHADER_CACHE_DIR`, else
+/// `$XDG_CACHE_HOME/csgv/shaders`, else `~/.cache/csgv/shaders`; `CSGV_SHADER_CACHE_DIR=` (empty)
+/// turns the disk cache off. A later session's first frame then skips glslang.
 
 #include "csgv/base/Status.h"
 
