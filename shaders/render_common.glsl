@@ -130,26 +130,19 @@ vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
 
 /// Colour (rgb), opacity (a) and emission of a label under material m.
 vec4 materialColor(Frame f, uint m, uint label, out float emission) {
-    // Only the members this material's colour mode needs: CPU devices load every component of a
-    // buffer reference one lane at a time, and a whole GpuMaterial is 20 of them.
-    MaterialBuf mats = MaterialBuf(frameAddr[kSlotMaterials]);
-    const vec4 rgba = mats.m[m].rgba;
-    const uint mode = mats.m[m].select.w;
-    emission = mats.m[m].extra.x;
-    vec3 rgb = rgba.rgb;
-    if (mode == kColorColormap) {
-        const uvec4 colour = mats.m[m].colour;
-        const vec4 range = mats.m[m].range;
-        float t = (attributeValue(f, colour.x, label) - range.z) / (range.w - range.z);
+    const GpuMaterial mat = MaterialBuf(frameAddr[kSlotMaterials]).m[m];
+    emission = mat.extra.x;
+    vec3 rgb = mat.rgba.rgb;
+    if (mat.select.w == kColorColormap) {
+        float t = (attributeValue(f, mat.colour.x, label) - mat.range.z) / (mat.range.w - mat.range.z);
         if (isnan(t)) t = 0.0;
-        if (colour.y == 1u) t -= floor(t);
-        rgb = colormapAt(f, colour.z, colour.w, t);
-    } else if (mode == kColorRandom) {
-        const uvec4 colour = mats.m[m].colour;
+        if (mat.colour.y == 1u) t -= floor(t);
+        rgb = colormapAt(f, mat.colour.z, mat.colour.w, t);
+    } else if (mat.select.w == kColorRandom) {
         const uint h = labelHash(originalLabel(f, label));
-        rgb = colour.w == 0u ? paletteColor(h) : colormapAt(f, colour.z, colour.w, float(h) / 4294967295.0);
+        rgb = mat.colour.w == 0u ? paletteColor(h) : colormapAt(f, mat.colour.z, mat.colour.w, float(h) / 4294967295.0);
     }
-    return vec4(rgb, rgba.a);
+    return vec4(rgb, mat.rgba.a);
 }
 
 vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
