@@ -934,9 +934,10 @@ void Renderer::Impl::addDenoisePasses() {
 }
 
 void Renderer::Impl::addClear(const FrameInput& in) {
-    // Fills, not a compute pass: pixels outside the footprint keep these values all along.
+    // Fills, not a compute pass: pixels outside the footprint keep these values all along. The
+    // accumulation needs none: it is read only where a pixel's sample count (cleared) is not 0.
     const uint64_t n = uint64_t(in.width) * in.height;
-    const std::pair<const Buffer*, uint64_t> zeroed[] = {{&accum, 16}, {&samples, 4}, {&gbuffer, 16}, {&colorOut, 16}};
+    const std::pair<const Buffer*, uint64_t> zeroed[] = {{&samples, 4}, {&gbuffer, 16}, {&colorOut, 16}};
     for (const auto& z : zeroed) {
         Context::Dispatch d;
         d.fill = z.first;
