@@ -34,12 +34,11 @@ void main() {
     if (finest && SUB_SHIFT >= 0) {
         const uint brick = dec.w[kDecodeEntryWords * i];
         const uint offset = dec.w[kDecodeEntryWords * i + 2u];
-        const uint edge = 1u << uint(SUB_SHIFT);
-        const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y));
-        const uvec3 o = b * BRICK_SIZE + uvec3(mortonCompact(j), mortonCompact(j >> 1u), mortonCompact(j >> 2u)) * edge;
-        if (all(lessThanEqual(o + edge, VOLUME_DIM))) {
+        const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y)) *
+                        BRICK_SIZE;
+        if (uniformSubBlockInside(j, uint(SUB_SHIFT), b.x, b.y, b.z, VOLUME_DIM.x, VOLUME_DIM.y, VOLUME_DIM.z)) {
             UintBuf cache = UintBuf(frameAddr[kSlotCache]);
-            const uint n = edge * edge * edge, first = j * n;
+            const uint n = 1u << (3u * uint(SUB_SHIFT)), first = j * n;
             const uint v = entryAt(cache, offset, first);
             bool same = true;
             for (uint e = 1u; e < n && same; ++e) same = entryAt(cache, offset, first + e) == v;

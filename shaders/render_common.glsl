@@ -18,7 +18,7 @@
 #include "csgv/gpu/FrameLayout.h"      // kNone, flags, slots, alloc words, Frame and GpuMaterial layouts
 #include "csgv/materials/Palette.h"    // labelHash, kLabelPalette
 #include "csgv/base/Morton.h"          // mortonSpread (cache entries in Morton order)
-#include "csgv/codec/Layout.h"         // kUniformShift
+#include "csgv/codec/Layout.h"         // kUniformShift, uniformSubBlockOf
 
 const float ONE_MINUS_EPSILON = 0.99999994; // the largest float below 1
 // The distance to the planes of an axis the ray runs parallel to (its direction's component is
@@ -389,8 +389,8 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
             // sub-block whole (no surface inside it; the CPU mirror steps alike).
             uint k = s.y;
             if (k == 0u && SUB_SHIFT >= 0) {
-                const uvec3 sub = (uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u)) >> uint(SUB_SHIFT);
-                const uint j = mortonSpread(sub.x) | (mortonSpread(sub.y) << 1u) | (mortonSpread(sub.z) << 2u);
+                const uvec3 local = uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u);
+                const uint j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
                 if ((((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u) k = uint(SUB_SHIFT);
             }
             if (k == 0u) stableStepFinest(w);

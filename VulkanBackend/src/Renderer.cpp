@@ -4,7 +4,6 @@
 #include "csgv/gpu/FrameLayout.h"
 
 #include "csgv/base/Math.h"
-#include "csgv/base/Morton.h"
 #include "csgv/base/WorkerPool.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Layout.h"
@@ -198,15 +197,12 @@ struct Renderer::Impl {
         const CompressedVolume& vol = volume->volume();
         const uint32_t shift = log2u(vol.brickSize);
         if (shift < kUniformShift) return 0;
-        const uint32_t edge = 1u << (shift - kUniformShift), n = edge * edge * edge;
+        const uint32_t subShift = shift - kUniformShift, n = 1u << (3 * subShift);
         const std::array<uint32_t, 3> grid = vol.brickGrid();
-        const uint32_t b[3] = {brick % grid[0], brick / grid[0] % grid[1], brick / (grid[0] * grid[1])};
+        const uint32_t b[3] = {brick % grid[0] << shift, brick / grid[0] % grid[1] << shift, brick / (grid[0] * grid[1]) << shift};
         uint64_t mask = 0;
         for (uint32_t j = 0; j < 64; ++j) {
-            const uint32_t sub[3] = {mortonX(j), mortonY(j), mortonZ(j)};
-            bool inside = true;
-            for (int a = 0; a < 3; ++a) inside = inside && (b[a] << shift) + (sub[a] + 1) * edge <= vol.dim[a];
-            if (!inside) continue;
+            if (!uniformSubBlockInside(j, subShift, b[0], b[1], b[2], vol.dim[0], vol.dim[1], vol.dim[2])) continue;
             const uint32_t* run = labels + size_t(j) * n;
             if (std::all_of(run + 1, run + n, [&](uint32_t l) { return l == run[0]; })) mask |= uint64_t(1) << j;
         }

@@ -206,11 +206,12 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
     if (subShift >= 0) {
         const uint32_t edge = 1u << subShift;
         for (size_t b = 0; b < uniform.size(); ++b) {
-            const uint32_t bc[3] = {uint32_t(b % grid[0]), uint32_t(b / grid[0] % grid[1]), uint32_t(b / (size_t(grid[0]) * grid[1]))};
+            const uint32_t bc[3] = {uint32_t(b % grid[0]) << shift, uint32_t(b / grid[0] % grid[1]) << shift,
+                                    uint32_t(b / (size_t(grid[0]) * grid[1])) << shift};
             for (uint32_t j = 0; j < 64; ++j) {
-                const uint32_t o[3] = {(bc[0] << shift) + mortonCompact(j) * edge, (bc[1] << shift) + mortonCompact(j >> 1) * edge,
-                                       (bc[2] << shift) + mortonCompact(j >> 2) * edge};
-                if (o[0] + edge > volume.dim[0] || o[1] + edge > volume.dim[1] || o[2] + edge > volume.dim[2]) continue;
+                if (!uniformSubBlockInside(j, uint32_t(subShift), bc[0], bc[1], bc[2], volume.dim[0], volume.dim[1], volume.dim[2]))
+                    continue;
+                const uint32_t o[3] = {bc[0] + mortonX(j) * edge, bc[1] + mortonY(j) * edge, bc[2] + mortonZ(j) * edge};
                 const uint32_t first = volume.at(o[0], o[1], o[2]);
                 bool same = true;
                 for (uint32_t z = 0; z < edge && same; ++z)
@@ -307,13 +308,10 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                         }
                     }
                     // A uniform sub-block has no surface inside: stepped over whole.
-                    bool whole = false;
-                    if (subShift >= 0) {
-                        uint32_t j = 0;
-                        for (int k = 0; k < 3; ++k)
-                            j |= mortonSpread(uint32_t(w.voxel[k] & ((1 << shift) - 1)) >> subShift) << k;
-                        whole = ((uniform[bi] >> j) & 1u) != 0;
-                    }
+                    const uint32_t local = (1u << shift) - 1;
+                    const bool whole = subShift >= 0 &&
+                        ((uniform[bi] >> uniformSubBlockOf(uint32_t(w.voxel[0]) & local, uint32_t(w.voxel[1]) & local,
+                                                           uint32_t(w.voxel[2]) & local, uint32_t(subShift))) & 1u) != 0;
                     stableStep(w, whole ? subShift : 0);
                 }
                 bool outside = false;

@@ -7,6 +7,7 @@
 #define CSGV_CODEC_LAYOUT_H
 
 #include "csgv/base/GlslShim.h"
+#include "csgv/base/Morton.h"
 
 CSGV_NAMESPACE_BEGIN(csgv)
 
@@ -16,7 +17,21 @@ CSGV_CONST(uint32_t, kInvalidLabel, 0xFFFFFFFFu)
 /// A brick's finest labels in Morton order (decoder output, renderer cache) fall into
 /// (1 << kUniformShift)^3 sub-blocks, each a contiguous run: renderers mark the sub-blocks that
 /// lie inside the volume and hold one label (a 64-bit mask per brick) and step over them whole.
+/// Sub-blocks have edge 1 << (brick shift - kUniformShift): the `subShift` below.
 CSGV_CONST(uint32_t, kUniformShift, 2u)
+
+/// The Morton number of the sub-block holding brick-local voxel (x, y, z).
+CSGV_FN uint32_t uniformSubBlockOf(uint32_t x, uint32_t y, uint32_t z, uint32_t subShift) {
+    return mortonSpread(x >> subShift) | (mortonSpread(y >> subShift) << 1u) | (mortonSpread(z >> subShift) << 2u);
+}
+
+/// Whether sub-block j of the brick whose lowest voxel is (bx, by, bz) lies wholly inside a
+/// volume of (dx, dy, dz) voxels (only such sub-blocks are ever marked).
+CSGV_FN bool uniformSubBlockInside(uint32_t j, uint32_t subShift, uint32_t bx, uint32_t by, uint32_t bz, uint32_t dx,
+                                   uint32_t dy, uint32_t dz) {
+    return bx + ((mortonX(j) + 1u) << subShift) <= dx && by + ((mortonY(j) + 1u) << subShift) <= dy &&
+           bz + ((mortonZ(j) + 1u) << subShift) <= dz;
+}
 
 // rANS (CSGV-FORMAT.md section 5): 32-bit state, byte-wise renormalisation.
 CSGV_CONST(uint32_t, kRansProbBits, 14u)
