@@ -46,6 +46,7 @@ std::string defaultsJson()
   j["CSGVDenoise"] = d.denoise;
   j["CSGVLightDirection"] = d.lightDirection;
   j["CSGVCacheSizeMiB"] = d.cacheSizeMiB;
+  j["CSGVDeviceMemoryMiB"] = d.deviceMemoryMiB;
   j["CSGVClipBox"] = d.clipBox;
   j["CSGVComputedAttributes"] = d.computedAttributes;
   return j.dump();

@@ -29,6 +29,7 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
     s.render.lightDirection[i] = float(p.lightDirection[size_t(i)]);
   }
   s.cacheBytes = uint64_t(std::max(16, p.cacheSizeMiB)) << 20;
+  s.deviceMemoryBytes = uint64_t(std::max(0, p.deviceMemoryMiB)) << 20;
   s.framesPerStillRender = uint32_t(std::max(1, p.framesPerStillRender));
   s.stillRenderTimeBudget = std::max(0.0, p.stillRenderTimeBudget);
   s.clipBox = p.clipBox;
@@ -84,6 +85,7 @@ void ViewRenderer::setSettings(const ViewSettings& s)
 {
   const ViewSettings& o = this->Settings;
   const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes &&
+    s.deviceMemoryBytes == o.deviceMemoryBytes &&
     s.framesPerStillRender == o.framesPerStillRender &&
     s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.clipBox == o.clipBox;
   if (!same)
@@ -118,12 +120,17 @@ std::string ViewRenderer::ensureRenderer()
     return "no input";
   }
   int renderers = 1;
+  const uint64_t budget = this->Settings.deviceMemoryBytes
+    ? this->Settings.deviceMemoryBytes
+    : csgv::gpu::automaticDeviceMemoryBudget(this->Context->device());
   {
     std::lock_guard<std::mutex> lock(this->Cache->mutex());
     if (!shared->gpu)
     {
+      csgv::gpu::GpuVolumeOptions volumeOptions;
+      volumeOptions.deviceMemoryBytes = budget;
       csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> gpu =
-        csgv::gpu::GpuVolume::create(*this->Context, shared->volume);
+        csgv::gpu::GpuVolume::create(*this->Context, shared->volume, volumeOptions);
       if (!gpu)
       {
         return "uploading the volume: " + gpu.message();
@@ -139,14 +146,19 @@ std::string ViewRenderer::ensureRenderer()
     // Other views of this volume change the count under the mutex.
     renderers = std::max(1, shared->renderers);
   }
-  // Views of one volume split one cache budget.
+  // Views of one volume split one cache budget, and one device-memory budget: each counts the
+  // shared encoding and gets its part of the rest.
   const uint64_t share =
     std::max<uint64_t>(this->Settings.cacheBytes / uint64_t(renderers), 16ull << 20);
-  if (!this->Renderer || share != this->RendererCacheBytes)
+  const uint64_t encoding = shared->gpu->deviceBytes();
+  const uint64_t budgetShare =
+    encoding + (budget - std::min(budget, encoding)) / uint64_t(renderers);
+  if (!this->Renderer || share != this->RendererCacheBytes || budgetShare != this->RendererBudget)
   {
     this->Renderer.reset();
     csgv::gpu::RendererOptions options;
     options.cacheBytes = share;
+    options.deviceMemoryBytes = budgetShare;
     csgv::Result<std::unique_ptr<csgv::gpu::Renderer>> r =
       csgv::gpu::Renderer::create(*this->Context, shared->gpu, options);
     if (!r)
@@ -155,6 +167,7 @@ std::string ViewRenderer::ensureRenderer()
     }
     this->Renderer = std::move(*r);
     this->RendererCacheBytes = share;
+    this->RendererBudget = budgetShare;
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
   }
   if (this->GeometryDirty)
@@ -227,6 +240,11 @@ uint64_t ViewRenderer::cacheBytes() const
 uint64_t ViewRenderer::deviceBytes() const
 {
   return this->Renderer ? this->Renderer->memory().total() : 0;
+}
+
+uint64_t ViewRenderer::deviceBudget() const
+{
+  return this->Renderer ? this->Renderer->deviceMemoryBudget() : 0;
 }
 
 std::string ViewRenderer::render(const FrameRequest& req, bool& changed)

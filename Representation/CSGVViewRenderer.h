@@ -29,7 +29,7 @@ namespace csgvrep
 
 /// @brief The representation's property values. Each default here mirrors the server-manager
 /// XML (Plugin/CSGV/CSGVRepresentation.xml), vtkCSGVRepresentation starts from these, and
-/// Testing/ParaView/test_repr_defaults.py checks that they agree.
+/// Testing/ParaView/test_repr_query.py checks that they agree.
 struct RepresentationProperties
 {
   int shading = 0;               ///< 0 local, 1 shadow, 2 ambient occlusion, 3 path tracing
@@ -41,6 +41,7 @@ struct RepresentationProperties
   int denoise = 1;
   std::array<double, 3> lightDirection{ { 0.35, 0.6, 0.72 } }; ///< view coordinates
   int cacheSizeMiB = 256;
+  int deviceMemoryMiB = 0; ///< 0: automatic (csgv::gpu::automaticDeviceMemoryBudget)
   std::array<int, 6> clipBox{ { 0, 2147483647, 0, 2147483647, 0, 2147483647 } }; ///< inclusive voxels
   int computedAttributes = 0;
 };
@@ -51,6 +52,7 @@ struct ViewSettings
 {
   csgv::gpu::RenderSettings render;
   uint64_t cacheBytes = 0;
+  uint64_t deviceMemoryBytes = 0; ///< 0: automatic
   uint32_t framesPerStillRender = 0;
   double stillRenderTimeBudget = 0; ///< seconds
   std::array<int, 6> clipBox{};     ///< inclusive voxels
@@ -104,6 +106,8 @@ public:
   /// upload included); 0 without a renderer.
   uint64_t cacheBytes() const;
   uint64_t deviceBytes() const;
+  /// The device-memory budget of this view's renderer (its share of the volume's; 0 without one).
+  uint64_t deviceBudget() const;
 
 private:
   std::string ensureRenderer();
@@ -113,7 +117,7 @@ private:
   std::shared_ptr<VolumeCache> Cache; ///< the cache whose mutex guards Source.shared
   std::shared_ptr<csgv::gpu::Context> Context; ///< outlives Renderer
   std::unique_ptr<csgv::gpu::Renderer> Renderer; ///< destroyed before Source's volume
-  uint64_t RendererCacheBytes = 0;
+  uint64_t RendererCacheBytes = 0, RendererBudget = 0;
   bool Counted = false;
   ViewSettings Settings;
   csgv::MaterialDocument Materials;

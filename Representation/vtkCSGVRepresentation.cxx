@@ -48,6 +48,7 @@ vtkCSGVRepresentation::vtkCSGVRepresentation()
   this->Denoise = d.denoise;
   std::copy(d.lightDirection.begin(), d.lightDirection.end(), this->LightDirection);
   this->CacheSizeMiB = d.cacheSizeMiB;
+  this->DeviceMemoryMiB = d.deviceMemoryMiB;
   std::copy(d.clipBox.begin(), d.clipBox.end(), this->ClipBox);
   this->ComputedAttributes = d.computedAttributes;
   this->Prop->SetMaterials("");
@@ -73,6 +74,7 @@ void vtkCSGVRepresentation::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "LightDirection: " << this->LightDirection[0] << " " << this->LightDirection[1]
      << " " << this->LightDirection[2] << "\n";
   os << indent << "CacheSizeMiB: " << this->CacheSizeMiB << "\n";
+  os << indent << "DeviceMemoryMiB: " << this->DeviceMemoryMiB << "\n";
   os << indent << "ClipBox:";
   for (int v : this->ClipBox)
   {
@@ -189,6 +191,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     p.denoise = this->Denoise;
     std::copy(this->LightDirection, this->LightDirection + 3, p.lightDirection.begin());
     p.cacheSizeMiB = this->CacheSizeMiB;
+    p.deviceMemoryMiB = this->DeviceMemoryMiB;
     std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
     this->Prop->SetViewSettings(csgvrep::toViewSettings(p));
     this->Prop->PrepareRender();
@@ -258,6 +261,11 @@ double vtkCSGVRepresentation::GetCacheMiB()
 double vtkCSGVRepresentation::GetDeviceMiB()
 {
   return this->Prop->GetDeviceMiB();
+}
+
+double vtkCSGVRepresentation::GetDeviceBudgetMiB()
+{
+  return this->Prop->GetDeviceBudgetMiB();
 }
 
 void vtkCSGVRepresentation::PushAttributes()

@@ -74,6 +74,12 @@ public:
   /// Brick cache budget in MiB, shared by the views of one volume (default 256).
   vtkSetMacro(CacheSizeMiB, int);
   vtkGetMacro(CacheSizeMiB, int);
+  /// Device-memory budget in MiB for everything this volume's renderers allocate, the encoding
+  /// included, shared by its views (default 0: automatic, three quarters of what the device
+  /// reports this process may use). The cache takes what the rest leaves, up to CacheSizeMiB;
+  /// an encoding larger than the budget is reported and nothing is drawn.
+  vtkSetClampMacro(DeviceMemoryMiB, int, 0, 16777216);
+  vtkGetMacro(DeviceMemoryMiB, int);
   /// Voxel box drawn, inclusive: xmin xmax ymin ymax zmin zmax (clamped to the volume; default
   /// the whole volume).
   vtkSetVector6Macro(ClipBox, int);
@@ -106,6 +112,8 @@ public:
   /// CacheSizeMiB and share one upload of the encoding).
   double GetCacheMiB();
   double GetDeviceMiB();
+  /// This view's device-memory budget in MiB (its share of DeviceMemoryMiB or the automatic one).
+  double GetDeviceBudgetMiB();
 
 protected:
   vtkCSGVRepresentation();
@@ -138,6 +146,7 @@ private:
   int Denoise;
   double LightDirection[3];
   int CacheSizeMiB;
+  int DeviceMemoryMiB;
   int ClipBox[6];
   std::vector<std::string> AttributeFiles;
   std::vector<std::string> DerivedAttributes; ///< name, expression, name, expression...

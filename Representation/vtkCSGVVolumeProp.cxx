@@ -339,6 +339,11 @@ double vtkCSGVVolumeProp::GetDeviceMiB()
   return double(this->P->View.deviceBytes()) / (1 << 20);
 }
 
+double vtkCSGVVolumeProp::GetDeviceBudgetMiB()
+{
+  return double(this->P->View.deviceBudget()) / (1 << 20);
+}
+
 bool vtkCSGVVolumeProp::DrawnMaterials(
   std::map<std::string, std::vector<float>>* arrays, csgv::MaterialEvaluator::AttributeFn* attribute)
 {

@@ -94,6 +94,7 @@ public:
   /// This view's brick cache and its whole device memory (the shared encoding included), MiB.
   double GetCacheMiB();
   double GetDeviceMiB();
+  double GetDeviceBudgetMiB();
 
 protected:
   vtkCSGVVolumeProp();

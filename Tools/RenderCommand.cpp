@@ -34,6 +34,7 @@ struct RenderArgs {
     std::string labelsOut, materials, video;
     uint32_t orbit = 0;
     uint64_t cacheMiB = 256;
+    uint64_t deviceMemoryMiB = 0; ///< 0: automatic
     bool cachePaletting = false;
     std::vector<std::string> attributeFiles;
     std::vector<std::pair<std::string, std::string>> derived; ///< name, SQL expression
@@ -112,6 +113,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     number("--frames", 1, 1e6, [&a](double n) { a.frames = uint32_t(n); });
     number("--orbit", 1, 1e5, [&a](double n) { a.orbit = uint32_t(n); });
     number("--cache-mib", 1, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
+    number("--device-memory-mib", 0, 1 << 24, [&a](double n) { a.deviceMemoryMiB = uint64_t(n); });
     number("--subsampling", 1, 8, [&a](double n) { a.settings.subsampling = uint32_t(n); });
     number("--lod-bias", -16, 16, [&a](double n) { a.settings.lodBias = float(n); });
     number("--blend", 0, 1, [&a](double n) { a.settings.shadingBlend = float(n); });
@@ -305,11 +307,13 @@ int cmdRender(int argc, char** argv) {
     if (!ctx) return fail(ctx.message());
     gpu::GpuVolumeOptions volumeOptions;
     volumeOptions.cachePaletting = a.cachePaletting;
+    volumeOptions.deviceMemoryBytes = a.deviceMemoryMiB << 20;
     Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume, volumeOptions);
     if (!volume) return fail(volume.message());
     std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));
     gpu::RendererOptions options;
     options.cacheBytes = a.cacheMiB << 20;
+    options.deviceMemoryBytes = a.deviceMemoryMiB << 20;
     Result<std::unique_ptr<gpu::Renderer>> renderer = gpu::Renderer::create(**ctx, shared, options);
     if (!renderer) return fail(renderer.message());
     gpu::Renderer& r = **renderer;
@@ -391,6 +395,7 @@ int cmdRender(int argc, char** argv) {
     std::printf("time_to_first_frame_ms: %.1f\n", firstFrameMs);
     for (const auto& b : r.memory().buffers) std::printf("device_memory %s: %.2f MiB\n", b.first.c_str(), b.second / 1048576.0);
     std::printf("device_memory_total_mib: %.2f\n", r.memory().total() / 1048576.0);
+    std::printf("device_memory_budget_mib: %.2f\n", r.deviceMemoryBudget() / 1048576.0);
     std::printf("cache_used_mib: %.2f\n", cacheUsed / 1048576.0);
     return 0;
 }

@@ -60,7 +60,7 @@ std::string usage() {
            "  render IN.csgv OUT.png [--size WxH] [--eye x,y,z] [--center x,y,z] [--up x,y,z]\n"
            "         [--fov-y DEG | --parallel-scale S] [--shading local|shadow|ao|pt] [--frames N]\n"
            "         [--no-jitter] [--finest] [--labels-out FILE] [--materials FILE.json]\n"
-           "         [--video PATTERN --orbit N] [--cache-mib M] [--cache-paletting]\n"
+           "         [--video PATTERN --orbit N] [--cache-mib M] [--device-memory-mib M] [--cache-paletting]\n"
            "         [--subsampling 1|2|4|8] [--lod-bias B]\n"
            "         [--blend B] [--no-denoise] [--tone-mapping] [--background r,g,b]\n"
            "         [--attributes FILE.csv|.txt|.db3]... [--computed-attributes] [--derive NAME=SQL]...\n"

@@ -161,10 +161,11 @@ def repr_info(display):
 
 
 def repr_memory(display):
-    """(brick cache MiB, device MiB) of a Segmentation Volume display's renderer."""
+    """(brick cache MiB, device MiB, device-memory budget MiB) of a Segmentation Volume
+    display's renderer."""
     display.SMProxy.UpdatePropertyInformation()
-    return (display.SMProxy.GetProperty("CSGVCacheMiB").GetElement(0),
-            display.SMProxy.GetProperty("CSGVDeviceMiB").GetElement(0))
+    return tuple(display.SMProxy.GetProperty(name).GetElement(0)
+                 for name in ("CSGVCacheMiB", "CSGVDeviceMiB", "CSGVDeviceBudgetMiB"))
 
 
 def content_mask(image, background=(0, 0, 0), tol=8):

@@ -92,17 +92,41 @@ t.check(np.abs(again.astype(int) - before.astype(int)).mean() < 1,
 # The same source in a second view shares the upload and the cache budget, and still draws.
 d.CSGVCacheSizeMiB = 64
 t.screenshot(v, 160, 120, "v_64.png")
-cache1, _ = t.repr_memory(d)
+cache1, _, _ = t.repr_memory(d)
 v3 = t.render_view(160, 120)
 d3 = Show(csgv, v3)
 d3.CSGVCacheSizeMiB = 64
 v3.ResetCamera()
 t.check(t.content_mask(t.screenshot(v3, 160, 120, "v3.png")).mean() > 0.1, "a second view of the same .csgv draws")
 t.screenshot(v, 160, 120, "v_again.png")
-cache_a, _ = t.repr_memory(d)
-cache_b, _ = t.repr_memory(d3)
+cache_a, _, _ = t.repr_memory(d)
+cache_b, _, _ = t.repr_memory(d3)
 t.check(abs(cache1 - 64) < 1 and abs(cache_a - 32) < 1 and abs(cache_b - 32) < 1,
         "two views of one volume split its 64 MiB cache budget (%.0f -> %.0f + %.0f MiB)" % (cache1, cache_a, cache_b))
+
+# A device-memory budget bounds each view's renderer (the views split it, each counting the
+# shared encoding); the cache takes what the rest leaves. Too small a budget is an error that
+# names it, nothing is drawn, and a larger one draws again.
+_, _, automatic = t.repr_memory(d)
+t.check(automatic > 64, "the automatic device-memory budget is what the device reports (%.0f MiB)" % automatic)
+for display in (d, d3):
+    display.CSGVDeviceMemoryMiB = 12
+bounded = t.screenshot(v, 160, 120, "v_budget.png")
+t.screenshot(v3, 160, 120, "v3_budget.png")
+for name, display in (("first", d), ("second", d3)):
+    cache, device, budget = t.repr_memory(display)
+    t.check(5 < budget < 7 and device <= budget and cache < budget,
+            "the %s view keeps within its share of a 12 MiB budget (cache %.1f, device %.1f, budget %.1f MiB)"
+            % (name, cache, device, budget))
+t.check(np.abs(bounded.astype(int) - again.astype(int)).mean() < 1, "the budget leaves the image as it was")
+with t.ErrorLog() as errors:
+    d.CSGVDeviceMemoryMiB = 1
+    tiny = t.screenshot(v, 160, 120, "v_tiny_budget.png")
+t.check("budget" in errors.text and t.content_mask(tiny).mean() == 0,
+        "a budget too small for the view is refused with a message naming it")
+d.CSGVDeviceMemoryMiB = 0
+d3.CSGVDeviceMemoryMiB = 0
+t.check(t.content_mask(t.screenshot(v, 160, 120, "v_unbounded.png")).mean() > 0.1, "the automatic budget draws again")
 
 # Which array: an image with a float intensity and integer labels (point data) picks the labels;
 # naming the intensity is an error naming it (it holds non-integers); naming the labels draws.

@@ -15,6 +15,15 @@ for key in median_frame_ms time_to_first_frame_ms device_memory_total_mib cache_
   grep -q "^$key: " "$TMP/out" || bad "render summary lacks $key"
 done
 grep -q "^frame 1: " "$TMP/out" || bad "render prints each frame"
+# A device-memory budget bounds the whole device memory and leaves the labels as they were; one
+# too small for the image is one error line naming the budget.
+expect 0 "render under a budget" "$CSGV" render "$DEF" "$TMP/b.png" --size 64x48 --labels-out "$TMP/b.labels" --finest \
+  --no-jitter --device-memory-mib 3
+awk '/^device_memory_total_mib:/ { t = $2 } /^device_memory_budget_mib:/ { b = $2 } END { exit !(b == 3 && t <= b) }' \
+  "$TMP/out" && pass "device memory within --device-memory-mib" || bad "device memory past --device-memory-mib"
+cmp -s "$TMP/a.labels" "$TMP/b.labels" && pass "a budget leaves the labels unchanged" || bad "labels differ under a budget"
+expect 1 "render with a budget too small" "$CSGV" render "$DEF" "$TMP/c.png" --size 640x480 --device-memory-mib 2
+grep -q "budget of 2.0 MiB" "$TMP/err" && pass "the error names the budget" || bad "no budget in the error"
 [ "$(head -c 8 "$TMP/a.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ] && pass "PNG signature" || bad "PNG signature"
 [ "$(stat -c %s "$TMP/a.labels")" -eq $((64 * 48 * 4)) ] && pass "labels-out size" || bad "labels-out size"
 # Every label hit is a label of the volume (decompressed here), and something is hit.

@@ -77,11 +77,14 @@ FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples,
 }
 
 void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
-                                  const std::string& what, bool paletting = false) {
+                                  const std::string& what, bool paletting = false,
+                                  RendererOptions::Decode decode = RendererOptions::Decode::Auto) {
     Scene& scene = fixtureScene(ctx, fixtureName);
     std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
     ASSERT_TRUE(gpu) << what;
-    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu);
+    RendererOptions options;
+    options.decode = decode;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, options);
     ASSERT_TRUE(r.isOk()) << r.message();
     (*r)->setGeometry(g);
     RenderSettings st;
@@ -137,7 +140,11 @@ TEST(Renderer, GBufferEqualsStableReferenceParallelAlongAnAxis) {
 TEST(Renderer, GBufferEqualsStableReferenceWithCachePaletting) {
     CSGV_REQUIRE_GPU(ctx);
     const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
-    expectGBufferEqualsReference(*ctx, "synthA_b32_rans2.csgv", in, Geometry{}, "paletted", true);
+    // Palette indices packed by the GPU decoder and by the host (Core's decoder, then packing).
+    expectGBufferEqualsReference(*ctx, "synthA_b32_rans2.csgv", in, Geometry{}, "paletted, GPU decoding", true,
+                                 RendererOptions::Decode::Gpu);
+    expectGBufferEqualsReference(*ctx, "synthA_b32_rans2.csgv", in, Geometry{}, "paletted, host decoding", true,
+                                 RendererOptions::Decode::Host);
 }
 
 TEST(Renderer, GBufferEqualsStableReferenceCameraInside) {
@@ -214,6 +221,7 @@ TEST(Renderer, UniformSubBlocksAreMarkedExactly) {
     expectUniformMasks(*ctx, RendererOptions::Decode::Auto, false);
     expectUniformMasks(*ctx, RendererOptions::Decode::Gpu, false);
     expectUniformMasks(*ctx, RendererOptions::Decode::Gpu, true);
+    expectUniformMasks(*ctx, RendererOptions::Decode::Host, true);
 }
 
 namespace {
@@ -276,6 +284,96 @@ TEST(Renderer, SmallCacheConvergesLikeLargeCacheLocalWithGpuDecoding) {
 TEST(Renderer, SmallCacheConvergesLikeLargeCacheShadow) {
     CSGV_REQUIRE_GPU(ctx);
     expectSmallCacheConverges(*ctx, Shading::Shadow);
+}
+
+namespace {
+
+uint64_t cacheBytesOf(const Renderer& r) {
+    for (const auto& b : r.memory().buffers)
+        if (b.first == "brick cache") return b.second;
+    return 0;
+}
+
+/// Renders frames until every pixel holds `samples` samples, checking after each frame that the
+/// renderer's device memory stays within its budget.
+FrameOutput renderWithinBudget(Renderer& r, const FrameInput& in, uint32_t samples, const std::string& what) {
+    RenderSettings st = r.settings();
+    st.sampleTarget = samples;
+    r.setSettings(st);
+    uint32_t f = 0, minSamples = 0;
+    for (; f < 1500 && minSamples < samples; ++f) {
+        Result<FrameStats> s = r.renderFrame(in);
+        EXPECT_TRUE(s.isOk()) << what << ": " << s.message();
+        if (!s) break;
+        minSamples = s->minSamples;
+        EXPECT_LE(r.memory().total(), r.deviceMemoryBudget()) << what << ", frame " << f;
+    }
+    EXPECT_EQ(minSamples, samples) << what << ": no convergence in " << f << " frames";
+    FrameOutput out;
+    EXPECT_TRUE(r.readOutput(out).isOk());
+    return out;
+}
+
+} // namespace
+
+// A device-memory budget bounds everything the renderer allocates, the encoding included: the
+// cache takes what the rest leaves, shrinks when a larger image needs room, and the converged
+// first-hit labels equal those of an unconstrained renderer. Budgets too small are refused with
+// the sizes, before anything is uploaded.
+TEST(Renderer, DeviceMemoryBudgetBoundsEveryAllocation) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    const FrameInput small = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 64, 48);
+    const FrameInput large = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 128, 96);
+    RenderSettings st;
+    st.finest = true;
+    st.denoise = false;
+    st.jitter = false;
+    std::unique_ptr<Renderer> free = makeRenderer(*ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(free);
+    const FrameOutput refSmall = renderConverged(*free, small, 1, 100);
+    const FrameOutput refLarge = renderConverged(*free, large, 1, 100);
+    // Everything but the cache at the large size, and twelve finest bricks (32^3 words each).
+    const uint64_t budget = free->memory().total() - cacheBytesOf(*free) + 12ull * 32 * 32 * 32 * 4;
+    RendererOptions o;
+    o.cacheBytes = 64ull << 20;
+    o.deviceMemoryBytes = budget;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    Renderer& bounded = **r;
+    bounded.setSettings(st);
+    EXPECT_EQ(bounded.deviceMemoryBudget(), budget);
+    EXPECT_LE(bounded.memory().total(), budget);
+    EXPECT_EQ(renderWithinBudget(bounded, small, 1, "64x48").label, refSmall.label);
+    const uint64_t cacheBefore = cacheBytesOf(bounded);
+    EXPECT_EQ(renderWithinBudget(bounded, large, 1, "128x96").label, refLarge.label);
+    EXPECT_LT(cacheBytesOf(bounded), cacheBefore) << "the larger image should have taken room from the cache";
+
+    // Too small for the encoding: refused before uploading, with both sizes.
+    GpuVolumeOptions tight;
+    tight.deviceMemoryBytes = GpuVolume::encodingBytes(scene.volume) - 1;
+    Result<std::unique_ptr<GpuVolume>> refused = GpuVolume::create(*ctx, scene.volume, tight);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_NE(refused.message().find("budget"), std::string::npos) << refused.message();
+    EXPECT_EQ(GpuVolume::encodingBytes(scene.volume), scene.gpu->deviceBytes());
+    // Room for the encoding but not for tables and one brick.
+    o.deviceMemoryBytes = scene.gpu->deviceBytes() + 4096;
+    Result<std::unique_ptr<Renderer>> tooSmall = Renderer::create(*ctx, scene.gpu, o);
+    ASSERT_FALSE(tooSmall.isOk());
+    EXPECT_NE(tooSmall.message().find("too small"), std::string::npos) << tooSmall.message();
+    // An image that cannot fit even with the smallest cache is an error, and the renderer stays usable.
+    o.deviceMemoryBytes = budget;
+    Result<std::unique_ptr<Renderer>> again = Renderer::create(*ctx, scene.gpu, o);
+    ASSERT_TRUE(again.isOk()) << again.message();
+    (*again)->setSettings(st);
+    const FrameInput huge = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 1024, 768);
+    EXPECT_EQ(renderWithinBudget(**again, small, 1, "64x48 before the failure").label, refSmall.label);
+    Result<FrameStats> failed = (*again)->renderFrame(huge);
+    ASSERT_FALSE(failed.isOk());
+    EXPECT_NE(failed.message().find("1024x768 image"), std::string::npos) << failed.message();
+    EXPECT_LE((*again)->memory().total(), budget);
+    // The same size as before the failure: its image was given up for the attempt, and comes back.
+    EXPECT_EQ(renderWithinBudget(**again, small, 1, "64x48 after the failure").label, refSmall.label);
 }
 
 TEST(Renderer, SubsamplingConvergesToFullResolution) {

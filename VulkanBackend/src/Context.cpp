@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -61,11 +62,27 @@ DeviceInfo describe(const VulkanFunctions& vk, VkPhysicalDevice pd, uint32_t ind
     info.apiVersion = props.properties.apiVersion;
     info.maxAllocation = m3.maxMemoryAllocationSize;
     info.subgroupSize = subgroup.subgroupSize;
-    VkPhysicalDeviceMemoryProperties mem{};
-    vk.vkGetPhysicalDeviceMemoryProperties(pd, &mem);
+    // What this process may use of the largest device-local heap: VK_EXT_memory_budget's heap
+    // budget (it leaves out what other processes hold) where the device has the extension, else
+    // the heap's size.
+    uint32_t extensionCount = 0;
+    vk.vkEnumerateDeviceExtensionProperties(pd, nullptr, &extensionCount, nullptr);
+    std::vector<VkExtensionProperties> extensions(extensionCount);
+    vk.vkEnumerateDeviceExtensionProperties(pd, nullptr, &extensionCount, extensions.data());
+    extensions.resize(extensionCount);
+    for (const VkExtensionProperties& e : extensions)
+        if (std::strcmp(e.extensionName, VK_EXT_MEMORY_BUDGET_EXTENSION_NAME) == 0) info.memoryBudgetReported = true;
+    VkPhysicalDeviceMemoryBudgetPropertiesEXT budget{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_BUDGET_PROPERTIES_EXT};
+    VkPhysicalDeviceMemoryProperties2 mem2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_PROPERTIES_2};
+    if (info.memoryBudgetReported) mem2.pNext = &budget;
+    vk.vkGetPhysicalDeviceMemoryProperties2(pd, &mem2);
+    const VkPhysicalDeviceMemoryProperties& mem = mem2.memoryProperties;
     for (uint32_t h = 0; h < mem.memoryHeapCount; ++h)
-        if (mem.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
-            info.deviceLocalBytes = std::max<uint64_t>(info.deviceLocalBytes, mem.memoryHeaps[h].size);
+        if ((mem.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) && mem.memoryHeaps[h].size > info.deviceLocalBytes) {
+            info.deviceLocalBytes = mem.memoryHeaps[h].size;
+            info.memoryBudgetBytes = info.memoryBudgetReported && budget.heapBudget[h] > 0 ? budget.heapBudget[h]
+                                                                                           : mem.memoryHeaps[h].size;
+        }
 
     std::vector<std::string> missing;
     if (VK_API_VERSION_MAJOR(info.apiVersion) == 1 && VK_API_VERSION_MINOR(info.apiVersion) < 2)
@@ -298,6 +315,12 @@ void Buffer::release() {
     m_context = nullptr;
     m_buffer = m_memory = 0;
     m_mapped = nullptr;
+}
+
+std::string mebibytes(uint64_t bytes) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / (1 << 20));
+    return text;
 }
 
 Result<Buffer> Context::createBuffer(uint64_t bytes, MemoryKind kind) {

@@ -60,6 +60,10 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     // encoder (valid by construction), and the check is O(bricks).
     Status s;
     if (volume.brickCount() >= (uint64_t(1) << 32)) return Status::error("more than 2^32 bricks are not supported on the GPU");
+    const uint64_t budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
+    if (encodingBytes(volume) > budget)
+        return Status::error("the encoding needs " + mebibytes(encodingBytes(volume)) +
+                             " of device memory, more than the device-memory budget of " + mebibytes(budget));
     std::unique_ptr<GpuVolume> g(new GpuVolume(context, volume));
     std::vector<uint64_t> addresses;
     for (const auto& a : volume.arrays) {
@@ -88,11 +92,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     d.emplace_back("VOLUME_DIM", uvec3Of(volume.dim[0], volume.dim[1], volume.dim[2]));
     d.emplace_back("BRICK_GRID", uvec3Of(grid[0], grid[1], grid[2]));
     d.emplace_back("BRICKS_PER_ARRAY", std::to_string(volume.bricksPerArray) + "u");
-    if (options.cachePaletting) {
-        uint32_t bits = 1;
-        while (bits < 32 && ((uint64_t(1) << bits) - 1) < uint64_t(volume.maxPalette)) ++bits;
-        if (bits <= 16) g->m_cacheBits = bits;
-    }
+    if (options.cachePaletting) g->m_cacheBits = paletteBits(volume);
     d.emplace_back("CACHE_BITS", std::to_string(g->m_cacheBits));
     if (volume.encoding != kEncodingNibble) tableDefines(volume.freqA, "CUM_A", d);
     if (volume.encoding == kEncodingRans2) tableDefines(volume.freqB, "CUM_B", d);
@@ -102,6 +102,22 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (!pipeline) return pipeline.status();
     g->m_decodePipeline = *pipeline;
     return g;
+}
+
+uint32_t GpuVolume::paletteBits(const CompressedVolume& volume) {
+    // Indices 0 .. maxPalette - 1, and the all-ones index for voxels outside the volume.
+    uint32_t bits = 1;
+    while (bits < 32 && ((uint64_t(1) << bits) - 1) < uint64_t(volume.maxPalette)) ++bits;
+    return bits <= 16 ? bits : 32;
+}
+
+uint64_t GpuVolume::encodingBytes(const CompressedVolume& volume) {
+    // As create() allocates them: each array, the address table, the brick starts (the Context
+    // makes no buffer smaller than 4 bytes).
+    auto bytes = [](uint64_t n) { return std::max<uint64_t>(n, 4); };
+    uint64_t n = bytes(volume.arrays.size() * 8) + bytes(volume.brickStarts.size() * 4);
+    for (const auto& a : volume.arrays) n += bytes(a.size() * 4);
+    return n;
 }
 
 uint64_t GpuVolume::deviceBytes() const {

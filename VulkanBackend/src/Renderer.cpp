@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <unordered_map>
 
 namespace csgv::gpu {
 
@@ -112,8 +113,17 @@ double renderedPixels(const FrameInput& in, uint32_t stride) {
 }
 } // namespace
 
+/// Room the cache leaves for the per-pixel buffers when a renderer is made under a tight
+/// budget: a 1280x720 image (92 bytes a pixel; allocateImage), or a quarter of what is left.
+/// Stored labels up to which a table label -> material replaces the shaders' scan of the list.
+constexpr uint32_t kMaterialTableLabels = 1u << 22;
+
+constexpr uint64_t kImageReserveBytes = 92ull * 1280 * 720;
+
 struct Renderer::Impl {
     Context& ctx;
+    uint64_t budget = 0;              // device-memory budget (RendererOptions::deviceMemoryBytes resolved)
+    MemoryKind cacheKind = MemoryKind::DeviceLocal;
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
@@ -185,10 +195,45 @@ struct Renderer::Impl {
             const uint32_t brick = e[0], lod = L - 1 - std::min(e[1], L - 1), offset = e[2];
             const uint64_t words = volume->regionWords(lod);
             if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) return;
-            if (d.decode(brick, lod)) std::memcpy(cacheWords + offset, d.labels(), words * 4);
-            else std::fill(cacheWords + offset, cacheWords + offset + words, kNone);
-            if (lod == 0) uniformMasks[brick] = uniformSubBlocks(cacheWords + offset, brick);
+            const bool ok = bool(d.decode(brick, lod));
+            if (!ok) std::fill(cacheWords + offset, cacheWords + offset + words, kNone); // reads as outside
+            else if (volume->cacheBits() == 32) std::memcpy(cacheWords + offset, d.labels(), words * 4);
+            else packPaletteIndices(brick, d.labels(), uint64_t(d.gridSize()) * d.gridSize() * d.gridSize(), cacheWords + offset);
+            if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
         });
+    }
+
+    /// Cache paletting on the host: `n` labels (Morton order) -> indices into the brick's palette,
+    /// packed as GpuVolume::labelsFromRegion reads them (entry e in word e / per at bit
+    /// (e % per) * bits; all ones outside the volume).
+    void packPaletteIndices(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const {
+        const CompressedVolume& vol = volume->volume();
+        const BrickWords bw = vol.brick(brick);
+        const uint32_t paletteSize = bw.words[vol.levels()];
+        const uint32_t bits = volume->cacheBits(), per = volume->cacheEntriesPerWord(), outside = (1u << bits) - 1u;
+        std::fill(out, out + (n + per - 1) / per, 0u);
+        std::unordered_map<uint32_t, uint32_t> indexOf; // long palettes only
+        if (paletteSize > 32)
+            for (uint32_t k = paletteSize; k-- > 0;) indexOf[bw.words[bw.size - 1 - k]] = k;
+        uint32_t lastLabel = kInvalidLabel, lastIndex = outside;
+        for (uint64_t e = 0; e < n; ++e) {
+            const uint32_t l = labels[e];
+            if (l != lastLabel) { // runs of one label are the rule: one palette search a run
+                lastLabel = l;
+                lastIndex = outside;
+                if (paletteSize > 32) {
+                    const auto it = indexOf.find(l);
+                    if (it != indexOf.end() && l != kInvalidLabel) lastIndex = it->second;
+                } else {
+                    for (uint32_t k = 0; k < paletteSize && l != kInvalidLabel; ++k)
+                        if (bw.words[bw.size - 1 - k] == l) {
+                            lastIndex = k;
+                            break;
+                        }
+                }
+            }
+            out[e / per] |= lastIndex << ((e % per) * bits);
+        }
     }
 
     /// A brick's finest labels (Morton order) -> its uniform sub-blocks (csgv/codec/Layout.h; as
@@ -274,6 +319,9 @@ struct Renderer::Impl {
     Status uploadMaterials(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
                            const std::vector<uint32_t>& storedToOriginal, uint64_t labels);
     Status uploadVisibility(const MaterialMatcher& materialOf);
+    /// Device memory the new materials take (the old ones are freed only after the new ones exist).
+    uint64_t materialBytes(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
+                           const std::vector<uint32_t>& storedToOriginal);
 
     void resetAccumulation() {
         clearPending = true;
@@ -306,6 +354,18 @@ struct Renderer::Impl {
                               {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
                               {&colorOut, n * 16, MemoryKind::HostVisible}, {&depthOut, n * 4, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal}};
+        uint64_t bytes = 0;
+        for (const Part& part : parts) bytes += std::max<uint64_t>(part.bytes, 16);
+        if (usedBytes() + bytes > budget) {
+            // Under the budget, the old image goes first (its size is lost if the new one fails).
+            for (const Part& part : parts) *part.target = Buffer{};
+            imageCapacity = 0;
+            width = height = 0; // no image now: the next frame allocates whatever its size
+            output = FrameOutput{};
+            outputParts = 0;
+            Status s = makeRoom(bytes, "a " + std::to_string(w) + "x" + std::to_string(h) + " image");
+            if (!s) return s;
+        }
         std::vector<Buffer> made;
         for (const Part& part : parts) {
             Result<Buffer> r = ctx.createBuffer(std::max<uint64_t>(part.bytes, 16), part.kind);
@@ -322,6 +382,42 @@ struct Renderer::Impl {
     }
 
     uint32_t* allocWords() { return static_cast<uint32_t*>(alloc.mapped()); }
+
+    /// The smallest cache a renderer works with: one brick at full resolution.
+    uint64_t smallestCacheBytes() const { return std::max<uint64_t>(volume->regionWords(0) * 4, 4096); }
+    /// Every buffer of this renderer, the encoding included (Renderer::memory()).
+    MemoryReport memory() const;
+    uint64_t usedBytes() const;
+    /// Makes room for `bytes` more of device memory within the budget, shrinking the brick cache
+    /// (it then fills anew) when there is not enough; an error says what does not fit.
+    Status makeRoom(uint64_t bytes, const std::string& what) {
+        const uint64_t used = usedBytes();
+        if (used + bytes <= budget) return Status::ok();
+        const uint64_t over = used + bytes - budget;
+        if (cache.size() < over + smallestCacheBytes())
+            return Status::error(what + " needs " + mebibytes(bytes) + " of device memory; the device-memory budget of " +
+                                 mebibytes(budget) + " has " + mebibytes(budget - std::min(budget, used - cache.size())) +
+                                 " left beside the encoding and tables, and the brick cache needs at least " +
+                                 mebibytes(smallestCacheBytes()));
+        return resizeCache((cache.size() - over) & ~uint64_t(3));
+    }
+    /// A new, smaller brick cache: the old one is freed first (the budget holds at every moment)
+    /// and every brick is forgotten (they are requested again by the next frames).
+    Status resizeCache(uint64_t bytes) {
+        cache = Buffer{};
+        decodeDispatches.clear();
+        frameDecode = GpuVolume::FrameDecode{};
+        Result<Buffer> b = ctx.createBuffer(bytes, cacheKind);
+        if (!b) return Status(b.status()).prefix("allocating the brick cache");
+        cache = std::move(*b);
+        Status s;
+        if (!hostDecode &&
+            !(s = volume->appendFrameDecode(decodes.address(), alloc.address() + 4 * kAllocDecodes, cache.address(),
+                                            decodeStates.address(), maxRequests, frameDecode, decodeDispatches)))
+            return s;
+        allocWords()[kAllocCapacity] = uint32_t(bytes / 4);
+        return resetCacheNow();
+    }
 
     /// Forgets every cached brick (defragmentation); bricks keep their marks of last use so they
     /// are requested again by the next frame.
@@ -389,11 +485,30 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // (Entries are counted in 32 bits: with cache paletting, fewer words.)
     const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation,
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
-    const uint64_t cacheBytes = std::min<uint64_t>(std::max<uint64_t>(options.cacheBytes, 4096), maxBytes) & ~uint64_t(3);
+    im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
+    im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
+    // The budget: the encoding and the tables below are fixed; the cache takes what they leave
+    // beside room for an image, and shrinks later if images or materials need more.
+    auto made = [](uint64_t bytes) { return std::max<uint64_t>(bytes, 16); }; // as make() allocates
+    const uint64_t fixed = volume->deviceBytes() + made(sizeof(FrameParams)) + made(uint64_t(im.brickCount) * 16) +
+                           made(uint64_t(im.brickCount) * 4) + made(uint64_t(im.brickCount) * 8) + made(kAllocWords * 4) +
+                           made(uint64_t(im.brickCount) * im.levels * 4) + made(uint64_t(im.maxRequests) * 8) +
+                           made(uint64_t(im.maxRequests) * kDecodeEntryWords * 4) +
+                           made(uint64_t(im.maxRequests) * kDecodeStateWords * 4) + made(sizeof(kBlueNoise64));
+    const uint64_t smallestCache = im.smallestCacheBytes();
+    if (fixed + smallestCache > im.budget)
+        return Status::error("the device-memory budget of " + mebibytes(im.budget) + " is too small: the encoding takes " +
+                             mebibytes(volume->deviceBytes()) + " and the brick tables " +
+                             mebibytes(fixed - volume->deviceBytes()) + ", and the brick cache needs at least " +
+                             mebibytes(smallestCache));
+    const uint64_t imageRoom = std::min<uint64_t>(kImageReserveBytes, (im.budget - fixed - smallestCache) / 4);
+    const uint64_t cacheBytes =
+        std::max(smallestCache, std::min({std::max<uint64_t>(options.cacheBytes, 4096), maxBytes, im.budget - fixed - imageRoom})) &
+        ~uint64_t(3);
     im.hostDecode = options.decode == RendererOptions::Decode::Host ||
                     (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
-    if (im.hostDecode && volume->cacheBits() != 32) im.hostDecode = false; // paletted caches: GPU only
     const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
+    im.cacheKind = hostOrDevice;
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
     if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
     if (!(s = make(im.bricks, uint64_t(im.brickCount) * 16, MemoryKind::DeviceLocal, "brick table"))) return s;
@@ -401,7 +516,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.uniformSubs, uint64_t(im.brickCount) * 8, hostOrDevice, "uniform sub-block masks"))) return s;
     if (!(s = make(im.alloc, kAllocWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
     if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
-    im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
     if (!(s = make(im.decodes, uint64_t(im.maxRequests) * kDecodeEntryWords * 4, hostOrDevice, "decode list"))) return s;
     if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"))) return s;
@@ -584,6 +698,17 @@ uint32_t largestStoredLabel(const CompressedVolume& vol) {
 
 } // namespace
 
+uint64_t Renderer::Impl::materialBytes(const PackedMaterials& packed,
+                                       const std::map<std::string, std::vector<float>>& attributeArrays,
+                                       const std::vector<uint32_t>& storedToOriginal) {
+    auto made = [](uint64_t bytes) { return std::max<uint64_t>(bytes, 16); }; // as uploadDeviceLocal allocates
+    uint64_t n = made(packed.materials.size() * sizeof(GpuMaterial)) + made(packed.colormapSamples.size() * 16) +
+                 made(packed.attributeNames.size() * 8) + made(storedToOriginal.size() * 4);
+    for (const std::string& name : packed.attributeNames) n += made(attributeArrays.at(name).size() * 4);
+    if (largestLabel == kNone) largestLabel = largestStoredLabel(volume->volume()); // once per renderer
+    return n + made(largestLabel < kMaterialTableLabels ? (uint64_t(largestLabel) + 1) * 4 : 0);
+}
+
 Status Renderer::Impl::uploadDeviceLocal(Buffer& dst, const void* data, uint64_t bytes) {
     Result<Buffer> b = ctx.createBuffer(std::max<uint64_t>(bytes, 16), MemoryKind::DeviceLocal);
     if (!b) return b.status();
@@ -623,7 +748,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     // of the material list.
     if (largestLabel == kNone) largestLabel = largestStoredLabel(volume->volume()); // once per renderer
     std::vector<uint32_t> table;
-    if (largestLabel < (1u << 22)) {
+    if (largestLabel < kMaterialTableLabels) {
         table.resize(size_t(largestLabel) + 1);
 #pragma omp parallel for schedule(static, 4096)
         for (int64_t l = 0; l < int64_t(table.size()); ++l) table[size_t(l)] = materialOf(uint32_t(l));
@@ -666,6 +791,7 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     if (fingerprint == im.materialsFingerprint) return Status::ok();
     im.materialsFingerprint = 0;
     resetAccumulation(); // before the uploads: a failure among them must not leave an image called exact
+    if (!(s = im.makeRoom(im.materialBytes(*packed, attributes, storedToOriginal), "the materials and attributes"))) return s;
     if (!(s = im.uploadMaterials(*packed, attributes, storedToOriginal, *labels))) return s;
     if (!(s = im.uploadVisibility(MaterialMatcher{*packed, attributes, storedToOriginal, *labels}))) return s;
     im.materialsFingerprint = fingerprint;
@@ -1187,15 +1313,21 @@ Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
     return out;
 }
 
-MemoryReport Renderer::memory() const {
-    const Impl& im = *m_impl;
+uint64_t Renderer::Impl::usedBytes() const { return memory().total(); }
+
+uint64_t Renderer::deviceMemoryBudget() const { return m_impl->budget; }
+
+MemoryReport Renderer::memory() const { return m_impl->memory(); }
+
+MemoryReport Renderer::Impl::memory() const {
+    const Impl& im = *this;
     MemoryReport r;
     r.buffers.push_back({"encoding", im.volume->deviceBytes()});
     r.buffers.push_back({"brick cache", im.cache.size()});
     r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
-                                                          im.alloc.size() + im.params.size()});
+                                                          im.alloc.size() + im.params.size() + im.blueNoise.size()});
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size()});
     r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorOut.size() + im.depthOut.size() + im.gbuffer.size() +
                                                                    im.depthIn.size()});

@@ -26,10 +26,22 @@ struct DeviceInfo {
     std::string type;            ///< "discrete", "integrated", "virtual", "cpu", "other"
     uint32_t apiVersion = 0;
     uint64_t maxAllocation = 0;  ///< largest single allocation in bytes
-    uint64_t deviceLocalBytes = 0;
+    uint64_t deviceLocalBytes = 0;   ///< size of the largest device-local heap
+    /// What this process may use of that heap when the device opened: VK_EXT_memory_budget's
+    /// heap budget where `memoryBudgetReported`, else the heap's size.
+    uint64_t memoryBudgetBytes = 0;
+    bool memoryBudgetReported = false;
     uint32_t subgroupSize = 0;
     std::string missing;         ///< required features it lacks ("" when usable)
 };
+
+/// The device-memory budget a renderer takes when none is given ("automatic"): three quarters of
+/// what the device reports this process may use, leaving room for other applications and for
+/// ParaView's own OpenGL memory on the same GPU.
+inline uint64_t automaticDeviceMemoryBudget(const DeviceInfo& device) { return device.memoryBudgetBytes / 4 * 3; }
+
+/// "12.5 MiB": device-memory figures in messages.
+std::string mebibytes(uint64_t bytes);
 
 class Context;
 

@@ -34,6 +34,9 @@ struct GpuVolumeOptions {
     /// palette, ceil(log2(largest palette + 1)) bits, floor(32 / bits) to a word, instead of 32-bit
     /// labels. Ignored when the palettes are so large that no two indices fit a word.
     bool cachePaletting = false;
+    /// Device-memory budget in bytes (0: automaticDeviceMemoryBudget of the device): an encoding
+    /// that does not fit is refused before anything is uploaded.
+    uint64_t deviceMemoryBytes = 0;
 };
 
 class GpuVolume {
@@ -43,6 +46,12 @@ public:
     /// reference to `volume` (for its header fields): keep it alive as long as the GpuVolume.
     static Result<std::unique_ptr<GpuVolume>> create(Context& context, const CompressedVolume& volume,
                                                      const GpuVolumeOptions& options = {});
+
+    /// Bits per cache entry with cache paletting: ceil(log2(largest palette + 1)), or 32 when the
+    /// palettes are so large that no two indices fit a word (paletting is then ignored).
+    static uint32_t paletteBits(const CompressedVolume& volume);
+    /// Device memory the encoding of `volume` takes once uploaded (create() allocates exactly this).
+    static uint64_t encodingBytes(const CompressedVolume& volume);
 
     /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
     uint32_t cacheBits() const { return m_cacheBits; }

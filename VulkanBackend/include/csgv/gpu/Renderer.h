@@ -79,12 +79,18 @@ struct RenderSettings {
 };
 
 struct RendererOptions {
-    uint64_t cacheBytes = 256ull << 20; ///< brick cache budget (clamped to the device's limits)
+    uint64_t cacheBytes = 256ull << 20; ///< brick cache budget (clamped to the device's limits and the budget below)
+    /// Device-memory budget in bytes for everything the renderer allocates, its volume's encoding
+    /// included (0: automaticDeviceMemoryBudget of the device). The brick cache takes what the
+    /// encoding, tables and images leave, up to `cacheBytes`; an image or material upload that
+    /// would pass the budget shrinks the cache (which then fills anew) rather than fail.
+    uint64_t deviceMemoryBytes = 0;
     uint32_t maxRequestsPerFrame = 4096; ///< bricks decoded in one frame at most (more wait a frame)
-    /// Where requested bricks are decoded. Auto: on the GPU, except on CPU devices (lavapipe)
-    /// without cache paletting, where Core's decoder fills the (host-visible) cache between the
-    /// frame's cache stages and its rendering, in two submissions: the "GPU" is the CPU there,
-    /// and Core decodes a brick about 80x faster than the GPU shader does on lavapipe.
+    /// Where requested bricks are decoded. Auto: on the GPU, except on CPU devices (lavapipe),
+    /// where Core's decoder fills the (host-visible) cache between the frame's cache stages and
+    /// its rendering (packing palette indices with cache paletting), in two submissions: the
+    /// "GPU" is the CPU there, and Core decodes a brick about 80x faster than the GPU shader does
+    /// on lavapipe.
     enum class Decode { Auto, Gpu, Host };
     Decode decode = Decode::Auto;
 };
@@ -199,6 +205,9 @@ public:
     void resetCache();
 
     MemoryReport memory() const;
+    /// The device-memory budget in force (RendererOptions::deviceMemoryBytes or the automatic one):
+    /// memory().total() never exceeds it.
+    uint64_t deviceMemoryBudget() const;
     const GpuVolume& volume() const { return *m_volume; }
 
     /// A brick in the cache (diagnostics and tests): its level of detail and, at the finest
