@@ -47,6 +47,7 @@ std::string defaultsJson()
   j["CSGVLightDirection"] = d.lightDirection;
   j["CSGVCacheSizeMiB"] = d.cacheSizeMiB;
   j["CSGVDeviceMemoryMiB"] = d.deviceMemoryMiB;
+  j["CSGVCachePaletting"] = d.cachePaletting;
   j["CSGVClipBox"] = d.clipBox;
   j["CSGVComputedAttributes"] = d.computedAttributes;
   return j.dump();

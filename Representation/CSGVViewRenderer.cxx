@@ -30,6 +30,7 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
   }
   s.cacheBytes = uint64_t(std::max(16, p.cacheSizeMiB)) << 20;
   s.deviceMemoryBytes = uint64_t(std::max(0, p.deviceMemoryMiB)) << 20;
+  s.cachePaletting = std::clamp(p.cachePaletting, 0, 2);
   s.framesPerStillRender = uint32_t(std::max(1, p.framesPerStillRender));
   s.stillRenderTimeBudget = std::max(0.0, p.stillRenderTimeBudget);
   s.clipBox = p.clipBox;
@@ -59,6 +60,7 @@ void ViewRenderer::releaseShare()
 void ViewRenderer::clear()
 {
   this->Renderer.reset();
+  this->CachePressure = false;
   this->releaseShare();
   this->Source = VolumeSource{};
 }
@@ -85,9 +87,13 @@ void ViewRenderer::setSettings(const ViewSettings& s)
 {
   const ViewSettings& o = this->Settings;
   const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes &&
-    s.deviceMemoryBytes == o.deviceMemoryBytes &&
+    s.deviceMemoryBytes == o.deviceMemoryBytes && s.cachePaletting == o.cachePaletting &&
     s.framesPerStillRender == o.framesPerStillRender &&
     s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.clipBox == o.clipBox;
+  if (s.cachePaletting != o.cachePaletting)
+  {
+    this->CachePressure = false;
+  }
   if (!same)
   {
     this->Settings = s;
@@ -120,24 +126,40 @@ std::string ViewRenderer::ensureRenderer()
     return "no input";
   }
   int renderers = 1;
+  std::shared_ptr<csgv::gpu::GpuVolume> gpu; // held from here: no other view releases it meanwhile
+  // Cache paletting (the paper's): on when asked, or automatically once the cache of labels ran
+  // full; never where the palettes are too large for two indices to share a word.
+  const bool paletted = csgv::gpu::GpuVolume::paletteBits(shared->volume) < 32 &&
+    (this->Settings.cachePaletting == 1 || (this->Settings.cachePaletting == 2 && this->CachePressure));
+  if (this->Renderer && (this->Renderer->volume().cacheBits() < 32) != paletted)
+  {
+    this->Renderer.reset(); // before the other upload is made: its memory counts
+  }
   const uint64_t budget = this->Settings.deviceMemoryBytes
     ? this->Settings.deviceMemoryBytes
     : csgv::gpu::automaticDeviceMemoryBudget(this->Context->device());
   {
     std::lock_guard<std::mutex> lock(this->Cache->mutex());
-    if (!shared->gpu)
+    std::shared_ptr<csgv::gpu::GpuVolume>& other = shared->gpu[paletted ? 0 : 1];
+    if (other && other.use_count() == 1)
+    {
+      other.reset(); // no view draws from it any more
+    }
+    if (!shared->gpu[paletted])
     {
       csgv::gpu::GpuVolumeOptions volumeOptions;
       volumeOptions.deviceMemoryBytes = budget;
-      csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> gpu =
+      volumeOptions.cachePaletting = paletted;
+      csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> upload =
         csgv::gpu::GpuVolume::create(*this->Context, shared->volume, volumeOptions);
-      if (!gpu)
+      if (!upload)
       {
-        return "uploading the volume: " + gpu.message();
+        return "uploading the volume: " + upload.message();
       }
       shared->context = this->Context;
-      shared->gpu = std::shared_ptr<csgv::gpu::GpuVolume>(std::move(*gpu));
+      shared->gpu[paletted] = std::shared_ptr<csgv::gpu::GpuVolume>(std::move(*upload));
     }
+    gpu = shared->gpu[paletted];
     if (!this->Counted)
     {
       shared->renderers++;
@@ -150,17 +172,18 @@ std::string ViewRenderer::ensureRenderer()
   // shared encoding and gets its part of the rest.
   const uint64_t share =
     std::max<uint64_t>(this->Settings.cacheBytes / uint64_t(renderers), 16ull << 20);
-  const uint64_t encoding = shared->gpu->deviceBytes();
+  const uint64_t encoding = gpu->deviceBytes();
   const uint64_t budgetShare =
     encoding + (budget - std::min(budget, encoding)) / uint64_t(renderers);
-  if (!this->Renderer || share != this->RendererCacheBytes || budgetShare != this->RendererBudget)
+  if (!this->Renderer || share != this->RendererCacheBytes || budgetShare != this->RendererBudget ||
+    &this->Renderer->volume() != gpu.get())
   {
     this->Renderer.reset();
     csgv::gpu::RendererOptions options;
     options.cacheBytes = share;
     options.deviceMemoryBytes = budgetShare;
     csgv::Result<std::unique_ptr<csgv::gpu::Renderer>> r =
-      csgv::gpu::Renderer::create(*this->Context, shared->gpu, options);
+      csgv::gpu::Renderer::create(*this->Context, gpu, options);
     if (!r)
     {
       return "creating the renderer: " + r.message();
@@ -242,6 +265,11 @@ uint64_t ViewRenderer::deviceBytes() const
   return this->Renderer ? this->Renderer->memory().total() : 0;
 }
 
+uint32_t ViewRenderer::cacheBits() const
+{
+  return this->Renderer ? this->Renderer->volume().cacheBits() : 0;
+}
+
 uint64_t ViewRenderer::deviceBudget() const
 {
   return this->Renderer ? this->Renderer->deviceMemoryBudget() : 0;
@@ -276,6 +304,11 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
     return r.message();
   }
   changed = r->changed;
+  if (r->cacheRanFull && this->Settings.cachePaletting == 2 && !this->CachePressure &&
+    this->Renderer->volume().cacheBits() == 32)
+  {
+    this->CachePressure = true; // the next render packs the cache (a new renderer, a new accumulation)
+  }
   if (r->frames > 0)
   {
     this->Stats = r->last;

@@ -42,6 +42,7 @@ struct RepresentationProperties
   std::array<double, 3> lightDirection{ { 0.35, 0.6, 0.72 } }; ///< view coordinates
   int cacheSizeMiB = 256;
   int deviceMemoryMiB = 0; ///< 0: automatic (csgv::gpu::automaticDeviceMemoryBudget)
+  int cachePaletting = 2;  ///< 0 off, 1 on, 2 automatic: on once the cache runs full without it
   std::array<int, 6> clipBox{ { 0, 2147483647, 0, 2147483647, 0, 2147483647 } }; ///< inclusive voxels
   int computedAttributes = 0;
 };
@@ -53,6 +54,7 @@ struct ViewSettings
   csgv::gpu::RenderSettings render;
   uint64_t cacheBytes = 0;
   uint64_t deviceMemoryBytes = 0; ///< 0: automatic
+  int cachePaletting = 2;         ///< RepresentationProperties::cachePaletting
   uint32_t framesPerStillRender = 0;
   double stillRenderTimeBudget = 0; ///< seconds
   std::array<int, 6> clipBox{};     ///< inclusive voxels
@@ -108,6 +110,9 @@ public:
   uint64_t deviceBytes() const;
   /// The device-memory budget of this view's renderer (its share of the volume's; 0 without one).
   uint64_t deviceBudget() const;
+  /// Bits per voxel of this view's brick cache: 32 (labels), fewer with cache paletting; 0
+  /// without a renderer.
+  uint32_t cacheBits() const;
 
 private:
   std::string ensureRenderer();
@@ -118,6 +123,9 @@ private:
   std::shared_ptr<csgv::gpu::Context> Context; ///< outlives Renderer
   std::unique_ptr<csgv::gpu::Renderer> Renderer; ///< destroyed before Source's volume
   uint64_t RendererCacheBytes = 0, RendererBudget = 0;
+  /// Automatic cache paletting: a render found the cache of labels full (reset with the source
+  /// and when the property changes).
+  bool CachePressure = false;
   bool Counted = false;
   ViewSettings Settings;
   csgv::MaterialDocument Materials;

@@ -49,6 +49,7 @@ vtkCSGVRepresentation::vtkCSGVRepresentation()
   std::copy(d.lightDirection.begin(), d.lightDirection.end(), this->LightDirection);
   this->CacheSizeMiB = d.cacheSizeMiB;
   this->DeviceMemoryMiB = d.deviceMemoryMiB;
+  this->CachePaletting = d.cachePaletting;
   std::copy(d.clipBox.begin(), d.clipBox.end(), this->ClipBox);
   this->ComputedAttributes = d.computedAttributes;
   this->Prop->SetMaterials("");
@@ -75,6 +76,7 @@ void vtkCSGVRepresentation::PrintSelf(ostream& os, vtkIndent indent)
      << " " << this->LightDirection[2] << "\n";
   os << indent << "CacheSizeMiB: " << this->CacheSizeMiB << "\n";
   os << indent << "DeviceMemoryMiB: " << this->DeviceMemoryMiB << "\n";
+  os << indent << "CachePaletting: " << this->CachePaletting << "\n";
   os << indent << "ClipBox:";
   for (int v : this->ClipBox)
   {
@@ -192,6 +194,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     std::copy(this->LightDirection, this->LightDirection + 3, p.lightDirection.begin());
     p.cacheSizeMiB = this->CacheSizeMiB;
     p.deviceMemoryMiB = this->DeviceMemoryMiB;
+    p.cachePaletting = this->CachePaletting;
     std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
     this->Prop->SetViewSettings(csgvrep::toViewSettings(p));
     this->Prop->PrepareRender();
@@ -266,6 +269,11 @@ double vtkCSGVRepresentation::GetDeviceMiB()
 double vtkCSGVRepresentation::GetDeviceBudgetMiB()
 {
   return this->Prop->GetDeviceBudgetMiB();
+}
+
+int vtkCSGVRepresentation::GetCacheBits()
+{
+  return this->Prop->GetCacheBits();
 }
 
 void vtkCSGVRepresentation::PushAttributes()

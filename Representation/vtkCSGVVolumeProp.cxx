@@ -344,6 +344,11 @@ double vtkCSGVVolumeProp::GetDeviceBudgetMiB()
   return double(this->P->View.deviceBudget()) / (1 << 20);
 }
 
+int vtkCSGVVolumeProp::GetCacheBits()
+{
+  return int(this->P->View.cacheBits());
+}
+
 bool vtkCSGVVolumeProp::DrawnMaterials(
   std::map<std::string, std::vector<float>>* arrays, csgv::MaterialEvaluator::AttributeFn* attribute)
 {

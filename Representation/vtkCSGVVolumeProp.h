@@ -95,6 +95,7 @@ public:
   double GetCacheMiB();
   double GetDeviceMiB();
   double GetDeviceBudgetMiB();
+  int GetCacheBits();
 
 protected:
   vtkCSGVVolumeProp();

@@ -359,8 +359,8 @@ int cmdRender(int argc, char** argv) {
         in.height = a.height;
         in.worldToClip = cameraMatrix(a, e, centre, radius, boxCentre);
         double viewMs = 0;
-        // Frames until every pixel holds the requested samples (bounded: a frame that adds no
-        // sample and decodes nothing twice in a row ends it).
+        // Frames until every pixel holds the requested samples (bounded: FrameStats::idleLimit()
+        // idle frames in a row end it).
         const uint32_t maxFrames = a.frames * settings.subsampling * settings.subsampling + 256;
         uint32_t idle = 0;
         for (uint32_t f = 0; f < maxFrames; ++f) {
@@ -375,8 +375,8 @@ int cmdRender(int argc, char** argv) {
                         st->requestLimited ? ", requests limited" : "");
             if (firstFrameMs < 0 && st->minSamples >= 1) firstFrameMs = since(tStart);
             if (st->minSamples >= a.frames) break;
-            idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
-            if (idle >= 3) break;
+            idle = st->idle() ? idle + 1 : 0;
+            if (idle >= st->idleLimit()) break;
         }
         if (!(s = r.readOutput(out))) return fail(s.message());
         if (a.orbit) {

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 // Request stage, one invocation per brick: frees the cache regions of bricks that became
-// invisible, that need another level of detail, or (when the cache ran full) that no ray used in
-// the previous frame, onto their level's free stack; and requests bricks the previous frame's
-// rays needed but did not find, at the level their centre's distance asks for.
+// invisible, that need another level of detail, or (under cache pressure) that no ray used for
+// kAllocEvictAge frames (least recently used first: the host lowers the age while the cache stays
+// full), onto their level's free stack; and requests bricks the previous frame's rays needed but
+// did not find, at the level their centre's distance asks for.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
@@ -23,7 +24,10 @@ void main() {
     if ((s.w != 0u) != visible) bricks.v[b].w = visible ? 1u : 0u; // materials changed
     const uint wanted = lodForBrick(f, b);
     if (s.y != kNone) {
-        const bool evict = !visible || (used && s.y != wanted) || (!used && (fv.frame.y & kFlagEvictUnused) != 0u);
+        // s.z is the frame index + 1 of the last use: the age is 0 for the previous frame's bricks.
+    const uint evictAge = alloc.w[kAllocEvictAge];
+    const bool stale = evictAge != 0u && fv.frame.x - s.z >= evictAge;
+    const bool evict = !visible || (used && s.y != wanted) || stale;
         if (!evict) return;
         const uint k = atomicAdd(alloc.w[kAllocFreeCount + s.y], 1u);
         // A full stack cannot happen (a level never has more regions than bricks); if it did, the

@@ -40,7 +40,7 @@ const Probe kProbes[] = {
     CSGV_PROBE(labelHash(0u)), CSGV_PROBE(labelHash(1u)), CSGV_PROBE(labelHash(123456789u)),
     CSGV_PROBE(labelHash(0xFFFFFFFEu)), CSGV_PROBE(kLabelPaletteSize),
     CSGV_PROBE(kNone), CSGV_PROBE(kFlagJitter), CSGV_PROBE(kFlagFinest), CSGV_PROBE(kFlagDenoise),
-    CSGV_PROBE(kFlagLimitRequests), CSGV_PROBE(kFlagDepthInput), CSGV_PROBE(kFlagEvictUnused), CSGV_PROBE(kFlagLabelMap),
+    CSGV_PROBE(kFlagLimitRequests), CSGV_PROBE(kFlagDepthInput), CSGV_PROBE(kFlagLabelMap),
     CSGV_PROBE(kFlagResolveInRender), CSGV_PROBE(kGBufferSampled),
     CSGV_PROBE(kShadingLocal), CSGV_PROBE(kShadingShadow), CSGV_PROBE(kShadingAo), CSGV_PROBE(kShadingPt),
     CSGV_PROBE(kColorConstant), CSGV_PROBE(kColorColormap), CSGV_PROBE(kColorRandom),

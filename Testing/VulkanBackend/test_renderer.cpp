@@ -376,6 +376,59 @@ TEST(Renderer, DeviceMemoryBudgetBoundsEveryAllocation) {
     EXPECT_EQ(renderWithinBudget(**again, small, 1, "64x48 after the failure").label, refSmall.label);
 }
 
+// Graceful cache pressure along a camera path with a cache far smaller than what each view
+// needs: every stop converges to the unconstrained renderer's image, a camera move flushes
+// nothing (no cache reset in the frames after it), the request band grows back once a view
+// fits, and the path holds at most one defragmentation reset per 64 frames.
+TEST(Renderer, CameraPathUnderCachePressureConvergesAtEveryStopWithoutFlushing) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    RenderSettings st;
+    st.finest = true;
+    st.denoise = false;
+    st.jitter = false;
+    std::unique_ptr<Renderer> free = makeRenderer(*ctx, scene, 64ull << 20, st);
+    std::unique_ptr<Renderer> tight = makeRenderer(*ctx, scene, 12ull * 32 * 32 * 32 * 4, st);
+    ASSERT_TRUE(free && tight);
+    uint32_t frames = 0, resets = 0;
+    bool limited = false;
+    for (int stop = 0; stop < 5; ++stop) {
+        const double a = 0.5 * stop;
+        const FrameInput in = perspectiveView({66 + 190 * std::cos(a), 35 + 190 * std::sin(a), 150}, {66, 35, 97}, {0, 0, 1},
+                                              35, 64, 48);
+        const FrameOutput ref = renderConverged(*free, in, 1, 100);
+        RenderSettings target = tight->settings();
+        target.sampleTarget = 1;
+        tight->setSettings(target);
+        uint32_t minSamples = 0, f = 0;
+        for (; f < 1500 && minSamples < 1; ++f, ++frames) {
+            Result<FrameStats> r = tight->renderFrame(in);
+            ASSERT_TRUE(r.isOk()) << r.message();
+            minSamples = r->minSamples;
+            resets += r->cacheReset;
+            limited = limited || r->requestLimited;
+            // The old policy reset the cache at the first "full" after every move (its third frame).
+            if (stop > 0 && f < 16) EXPECT_FALSE(r->cacheReset) << "stop " << stop << ": the camera move flushed the cache";
+        }
+        EXPECT_EQ(minSamples, 1u) << "stop " << stop << " did not converge in " << f << " frames";
+        FrameOutput got;
+        ASSERT_TRUE(tight->readOutput(got).isOk());
+        EXPECT_EQ(got.label, ref.label) << "stop " << stop;
+        EXPECT_EQ(differingValues(got.rgba, ref.rgba), 0u) << "stop " << stop;
+    }
+    EXPECT_TRUE(limited) << "the path should have needed request limitation";
+    EXPECT_LE(resets, 1 + frames / 64) << "defragmentation resets in " << frames << " frames";
+    // A view that needs few bricks (a corner, from close by): the request band grows back.
+    const FrameInput corner = perspectiveView({-20, -20, -20}, {0, 0, 0}, {0, 0, 1}, 20, 64, 48);
+    bool unlimited = false;
+    for (int f = 0; f < 64 && !unlimited; ++f) {
+        Result<FrameStats> r = tight->renderFrame(corner);
+        ASSERT_TRUE(r.isOk()) << r.message();
+        unlimited = !r->requestLimited && !r->cacheFull;
+    }
+    EXPECT_TRUE(unlimited) << "request limitation should end once the view fits the cache";
+}
+
 TEST(Renderer, SubsamplingConvergesToFullResolution) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");

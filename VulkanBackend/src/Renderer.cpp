@@ -118,6 +118,13 @@ double renderedPixels(const FrameInput& in, uint32_t stride) {
 /// Stored labels up to which a table label -> material replaces the shaders' scan of the list.
 constexpr uint32_t kMaterialTableLabels = 1u << 22;
 
+/// Cache pressure (applyCachePolicy): the first eviction age (frames unused), frames without a
+/// full cache before eviction stops, and the fewest frames between defragmentation resets.
+constexpr uint32_t kEvictAgeStart = 8, kQuietFrames = 8, kDefragInterval = 64;
+/// A full cache counts as fragmented when its free stacks hold this share of it or more (regions
+/// of other levels than those requested).
+constexpr uint32_t kFragmentedShare = 4; // 1/4
+
 constexpr uint64_t kImageReserveBytes = 92ull * 1280 * 720;
 
 struct Renderer::Impl {
@@ -151,8 +158,12 @@ struct Renderer::Impl {
     bool clearPending = true;
     bool hadDepth = false;            // the last frame had an opaque depth input (now in depthIn)
     bool cacheResetPending = false;
-    // Cache pressure state since the last reset of the accumulation.
-    bool resetDone = false, evictUnused = false, limitRequests = false;
+    // Cache pressure (applyCachePolicy); it outlives resets of the accumulation: a camera move
+    // keeps the cache and what was learnt about its pressure.
+    uint32_t evictAge = 0;            // evict bricks unused for this many frames (0: no eviction)
+    uint32_t quietFrames = 0;         // frames since the cache last ran full
+    uint32_t framesSinceDefrag = kDefragInterval; // frames since the last defragmentation reset
+    bool limitRequests = false;
     uint32_t bandRow = 0, bandHeight = 0, prevMinSamples = 0;
     GpuVolume::FrameDecode frameDecode; // the decode passes' parameters, made once
     std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
@@ -313,7 +324,10 @@ struct Renderer::Impl {
     /// defers them to its last frame: the frames before are never shown).
     Status denoiseOutput();
     Status submit();
-    void applyCachePolicy(const FrameStats& stats, const FrameInput& in);
+    /// Returns true when it changed how the next frame treats the cache (FrameStats::cacheAdapting).
+    bool applyCachePolicy(const FrameStats& stats, const FrameInput& in, uint32_t stride);
+    /// The free stacks hold a large share of the cache (kFragmentedShare) although it ran full.
+    bool fragmented();
     // setMaterials' steps.
     Status uploadDeviceLocal(Buffer& dst, const void* data, uint64_t bytes);
     Status uploadMaterials(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
@@ -328,7 +342,6 @@ struct Renderer::Impl {
         coarseStride = 0;
         shownWhole = false;
         accumulatedFrames = 0;
-        resetDone = evictUnused = limitRequests = false;
         prevMinSamples = 0;
         converged = false;
     }
@@ -962,7 +975,6 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     if (st.denoise) flags |= kFlagDenoise;
     if (limitRequests) flags |= kFlagLimitRequests;
     if (in.opaqueDepth) flags |= kFlagDepthInput;
-    if (evictUnused) flags |= kFlagEvictUnused;
     if (hasLabelMap) flags |= kFlagLabelMap;
     if (resolvesInRender(st)) flags |= kFlagResolveInRender;
     const uint32_t stride = st.subsampling;
@@ -1001,6 +1013,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     a[kAllocMissing] = 0;
     a[kAllocMinRow] = kNone;
     a[kAllocPrevMin] = prevMinSamples;
+    a[kAllocEvictAge] = evictAge;
 }
 
 void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline) {
@@ -1121,26 +1134,57 @@ Status Renderer::Impl::submit() {
     return ctx.run(dispatches); // one submission: cache stages, decoding, rendering, resolving
 }
 
-void Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput& in) {
-    // Cache pressure, decided between frames: reset once, then evict unused bricks, then limit
-    // requests to a band of pixels (row-major) that starts at the first pixel with the fewest
-    // samples, halved while the cache still runs full.
+bool Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput& in, uint32_t stride) {
+    // Cache pressure, decided between frames, gradually (nothing is flushed because the camera
+    // moved):
+    // - full: evict bricks no ray used for kEvictAgeStart frames, then for half as many each frame
+    //   it stays full, down to the previous frame, or at a pixel stride s the previous s^2 (least
+    //   recently used first); then let only a
+    //   band of pixels (row-major, from the first pixel with the fewest samples) request bricks,
+    //   halved while full. A full cache whose free stacks hold a large share of it is fragmented
+    //   (free regions of other levels than those requested): it is reset (defragmented), at most
+    //   once every kDefragInterval frames.
+    // - not full: the band doubles until it covers the image; kQuietFrames frames later eviction
+    //   stops.
+    // The band always holds the pixel with the fewest samples, so every pixel converges as long as
+    // the cache holds the bricks one pixel's rays need.
+    const uint64_t pixels = uint64_t(in.width) * in.height;
+    // At a pixel stride s a pixel is rendered every s^2 frames: a brick unused for fewer frames
+    // may be needed by the next pixels of its block.
+    const uint32_t youngest = stride * stride;
+    const uint32_t oldAge = evictAge, oldBand = limitRequests ? bandHeight : 0;
+    ++framesSinceDefrag;
     if (stats.cacheFull) {
-        if (!resetDone) {
-            resetDone = true;
+        quietFrames = 0;
+        if (framesSinceDefrag >= kDefragInterval && fragmented()) {
             cacheResetPending = true;
-        } else if (!evictUnused) {
-            evictUnused = true;
+            framesSinceDefrag = 0;
+        } else if (evictAge != youngest) {
+            evictAge = evictAge == 0 ? std::max(kEvictAgeStart, 2 * youngest) : std::max(youngest, evictAge / 2);
         } else if (!limitRequests) {
             limitRequests = true;
-            bandHeight = std::max<uint32_t>(1, in.width * in.height / 2);
+            bandHeight = uint32_t(std::max<uint64_t>(1, pixels / 2));
         } else {
             bandHeight = std::max<uint32_t>(1, bandHeight / 2);
         }
+    } else if (limitRequests) {
+        bandHeight = uint32_t(std::min<uint64_t>(uint64_t(bandHeight) * 2, pixels));
+        limitRequests = bandHeight < pixels;
+    } else if (++quietFrames >= kQuietFrames) {
+        evictAge = 0;
     }
     const uint32_t minRow = allocWords()[kAllocMinRow];
     if (limitRequests) bandRow = minRow == kNone ? 0 : minRow;
     prevMinSamples = stats.minSamples;
+    return cacheResetPending || evictAge != oldAge || (limitRequests ? bandHeight : 0) != oldBand;
+}
+
+bool Renderer::Impl::fragmented() {
+    const uint32_t* a = allocWords();
+    uint64_t freeWords = 0;
+    for (uint32_t l = 0; l < levels; ++l)
+        freeWords += uint64_t(std::min(a[kAllocFreeCount + l], brickCount)) * volume->regionWords(l);
+    return freeWords * kFragmentedShare >= a[kAllocCapacity];
 }
 
 Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
@@ -1183,7 +1227,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     stats.cacheUsedBytes = uint64_t(a[kAllocTop]) * 4;
     stats.cacheFull = a[kAllocFull] != 0;
     stats.requestLimited = limitRequests;
-    applyCachePolicy(stats, in);
+    stats.cacheAdapting = applyCachePolicy(stats, in, st.subsampling);
     return stats;
 }
 
@@ -1227,8 +1271,12 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         }
         im.measureFrame(settings, in, *st);
         result.last = *st;
+        result.cacheRanFull = result.cacheRanFull || st->cacheFull;
         ++result.frames;
-        im.shownWhole = im.shownWhole || st->holes == 0;
+        // Under cache pressure the coarse stride only slows convergence down (a ray finds one
+        // missing brick per turn, and its pixel's turn comes every stride^2 frames): go on at the
+        // settings' stride.
+        im.shownWhole = im.shownWhole || st->holes == 0 || st->cacheFull;
         if (request.interactive || st->minSamples >= target) break;
         const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         // The next frame costs this one's time per rendered pixel: stop when it would end past
@@ -1237,8 +1285,8 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         const double next = (elapsed - before) * renderedPixels(in, nextStride) / renderedPixels(in, settings.subsampling);
         before = elapsed;
         if (st->holes == 0 && elapsed + next + im.finishSeconds > request.timeBudgetSeconds) break;
-        idle = (st->newSamples == 0 && st->decodedBricks == 0) ? idle + 1 : 0;
-        if (idle >= 3) break;
+        idle = st->idle() ? idle + 1 : 0;
+        if (idle >= st->idleLimit()) break;
     }
     im.deferDenoise = false;
     im.fillBlock = 0;

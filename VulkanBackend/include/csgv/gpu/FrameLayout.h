@@ -21,7 +21,6 @@ CSGV_CONST(uint32_t, kFlagFinest, 2u)
 CSGV_CONST(uint32_t, kFlagDenoise, 4u)
 CSGV_CONST(uint32_t, kFlagLimitRequests, 8u)
 CSGV_CONST(uint32_t, kFlagDepthInput, 16u)
-CSGV_CONST(uint32_t, kFlagEvictUnused, 32u)
 CSGV_CONST(uint32_t, kFlagLabelMap, 64u)
 CSGV_CONST(uint32_t, kFlagResolveInRender, 128u) ///< the render pass writes the output and the counts itself (no gather follows)
 
@@ -78,6 +77,7 @@ CSGV_CONST(uint32_t, kAllocMissing, 7u)      ///< pixels whose ray met a brick n
 CSGV_CONST(uint32_t, kAllocMinRow, 8u)       ///< first pixel (row-major) with the previous minimum sample count
 CSGV_CONST(uint32_t, kAllocPrevMin, 9u)      ///< previous frame's minimum sample count (host-written)
 CSGV_CONST(uint32_t, kAllocHoles, 10u)       ///< pixels the resolve left empty (no sample of their own or of their stride block)
+CSGV_CONST(uint32_t, kAllocEvictAge, 11u)    ///< host-written: evict cached bricks no ray used for this many frames (0: none)
 CSGV_CONST(uint32_t, kAllocFreeCount, 16u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocReqCount, 24u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod

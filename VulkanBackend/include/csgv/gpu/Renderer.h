@@ -12,11 +12,13 @@
 ///   (one view ray per pixel, stable multi-level DDA, shading, one sample accumulated; rays that
 ///   meet a missing brick mark it and add nothing) -> resolve (average, upsampling, A-trous
 ///   denoising, tone mapping).
-/// Between frames the host reads a few counters: a cache that ran full is reset once
-/// (defragmentation), then bricks no ray used are evicted (lazy eviction), and if it is still
-/// too small, only a band of pixels may request bricks (brick request limitation), starting at
-/// the first pixel with the fewest samples, so every pixel converges (as long as the cache holds
-/// the bricks one pixel's rays need).
+/// Between frames the host reads a few counters. Under cache pressure bricks are replaced
+/// gradually, least recently used first (those no ray used for 8 frames, then 4, 2, 1); if the
+/// cache is still too small, only a band of pixels may request bricks (brick request limitation),
+/// starting at the first pixel with the fewest samples, halved while the cache runs full and
+/// doubled while it does not, so every pixel converges (as long as the cache holds the bricks one
+/// pixel's rays need). A full cache whose free regions belong to other levels is reset
+/// (defragmentation), at most once every 64 frames; camera moves keep the cache.
 ///
 /// Conventions (those of Core/RayCast.h and of VTK):
 /// - `worldToClip` is column-major (OpenGL layout, VTK's `wcdc` from
@@ -130,6 +132,15 @@ struct FrameStats {
     bool cacheFull = false;
     bool cacheReset = false;      ///< the cache was reset before this frame
     bool requestLimited = false;  ///< brick request limitation was on
+    /// Cache pressure changed how the next frame treats the cache (eviction age, request band, a
+    /// defragmentation reset): a frame without new samples may still lead somewhere.
+    bool cacheAdapting = false;
+
+    /// Nothing happened that later frames build on: no new sample, no decoded brick, no change of
+    /// the cache policy (render loops stop after idleLimit() such frames in a row).
+    bool idle() const { return newSamples == 0 && decodedBricks == 0 && !cacheAdapting; }
+    /// Three cycles of the pixel stride: at stride s a pixel's turn comes every s^2 frames.
+    uint32_t idleLimit() const { return 3 * stride * stride; }
 };
 
 /// @brief One render call of a view: camera, size, opaque depth, and how much to render.
@@ -143,6 +154,7 @@ struct RenderRequest {
 struct RenderResult {
     bool changed = false;   ///< false: the previous output is still exact, nothing rendered
     uint32_t frames = 0;    ///< frames rendered by this call
+    bool cacheRanFull = false; ///< a frame of this call found the brick cache full
     FrameStats last;        ///< statistics of the last frame rendered
 };
 
