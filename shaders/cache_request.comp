@@ -20,7 +20,7 @@ void main() {
     UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     uvec4 s = bricks.v[b];
     const bool used = s.z == fv.frame.x; // marked by the previous frame's rays (frame index + 1)
-    const bool visible = UintBuf(frameAddr[kSlotVisible]).w[b] != 0u;
+    const bool visible = UintBuf(frameAddr[kSlotVisible]).w[2u * b] != kNone;
     if ((s.w != 0u) != visible) bricks.v[b].w = visible ? 1u : 0u; // materials changed
     const uint wanted = lodForBrick(f, b);
     if (s.y != kNone) {

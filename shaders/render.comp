@@ -5,6 +5,9 @@
 // semi-transparent ones front to back, and accumulates one sample. A ray that needs a brick not
 // in the cache marks it for the next frame and adds no sample, so accumulated images only ever
 // contain complete samples; the k-th sample of a pixel is the same whichever frame computes it.
+// A pixel without samples shows a preview meanwhile (no holes): its view ray goes on through
+// missing bricks as blocks of one label (the coarsest level, from the encoding's palette: the
+// host's kSlotVisible), shaded locally; previews are never accumulated.
 // With kFlagResolveInRender it also writes the pixel's output and counts (no gather pass).
 // SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline.
 #version 460
@@ -32,10 +35,24 @@ vec3 faceNormal(uint face) {
 
 vec3 transformPoint(mat4 m, vec3 p) { return (m * vec4(p, 1.0)).xyz; }
 
+/// The walker stands in a brick that is not in the cache (march returned MARCH_MISSING): the
+/// brick counts as one block of its preview label (kSlotVisible: its coarsest level, from the
+/// encoding's palette). True with the label and its material: a surface. False when the ray
+/// already is in that label (behind a semi-transparent block of it): what follows is left out
+/// (no second DDA here: every line in the march loops costs CPU devices in every frame).
+bool coarseBlock(inout Walker w, out uint label, out uint material) {
+    const uvec2 preview = Uvec2Buf(frameAddr[kSlotVisible]).v[brickIndexOf(w.voxel)];
+    label = preview.x;
+    material = preview.y;
+    if (label == w.prevLabel) return false;
+    w.prevLabel = label;
+    return true;
+}
+
 /// Visibility along a secondary ray from the walker's voxel (start inside a free voxel): 1 clear,
 /// 0 blocked, attenuated by semi-transparent surfaces. A brick not in the cache makes it -1 when
-/// `complete` (the sample must not be counted), else it counts as empty (deep path-tracing
-/// bounces: a small bias, as in the paper). `mark`: mark the bricks as used.
+/// `complete` (the sample must not be counted), else it counts at its coarsest level (deep
+/// path-tracing bounces: a small bias, as in the paper). `mark`: mark the bricks as used.
 float visibility(inout Walker w, bool mark, bool complete) {
     float transmittance = 1.0;
     for (uint i = 0u; i < 64u; ++i) {
@@ -44,10 +61,7 @@ float visibility(inout Walker w, bool mark, bool complete) {
         if (r == MARCH_OUT) return transmittance;
         if (r == MARCH_MISSING) {
             if (complete) return -1.0;
-            w.prevLabel = kNone;
-            stableStep(w, BRICK_SHIFT); // beyond the request depth: treat as empty (small bias)
-            if (any(lessThan(w.voxel, boxLo)) || any(greaterThanEqual(w.voxel, boxHi))) return transmittance;
-            continue;
+            if (!coarseBlock(w, label, material)) return transmittance; // beyond the request depth: its coarsest level
         }
         float e;
         transmittance *= 1.0 - materialColor(f, material, label, e).a;
@@ -119,9 +133,12 @@ vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
 }
 
 /// The next sample (index `samples`) of pixel px: accumulates it, writes the G-buffer and the
-/// depth, and returns true with the new sum in `total`; false (nothing written) when a brick it
-/// needs is not in the cache.
-bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
+/// depth, and returns true with the new sum in `total`; false when a brick it needs is not in the
+/// cache: then nothing is written, except for a pixel without samples, whose preview is (its
+/// accumulation word, the G-buffer's kGBufferPreview, the depth), with `preview` true and the
+/// preview in `total`.
+bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool preview) {
+    preview = false;
     total = vec4(0.0);
     UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     if (samples == alloc.w[kAllocPrevMin]) { // one atomic per subgroup: they are costly on CPU devices
@@ -164,15 +181,22 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
     uint gLabel = kNone, gFace = 0u;
     float gDepth = 1.0, gDistance = 0.0, firstDepth = 1.0;
     bool valid = true;
+    // A pixel without samples whose view ray meets a missing brick goes on for a preview: missing
+    // bricks as blocks of their coarsest level (coarseBlock), local shading, nothing requested.
+    const bool previews = samples == 0u;
+    // What a pixel without samples shows when a secondary ray loses the sample.
+    vec3 previewRadiance = vec3(0.0);
+    float previewTransmittance = 1.0;
     Walker w;
     if (startRay(o, d, tEnd, boxLo, boxHi, w)) {
         for (uint layer = 0u; layer < 256u; ++layer) {
             uint label, material;
-            const uint r = march(f, w, boxLo, boxHi, request, label, material);
+            const uint r = march(f, w, boxLo, boxHi, request && valid, label, material);
             if (r == MARCH_OUT) break;
             if (r == MARCH_MISSING) {
                 valid = false;
-                break;
+                if (!previews) break;
+                if (!coarseBlock(w, label, material)) break;
             }
             float emission;
             const vec4 c = materialColor(f, material, label, emission);
@@ -188,12 +212,21 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
                 if (transmittance < 0.01) break;
                 continue;
             }
+            if (!valid) { // a preview: local shading only
+                radiance += transmittance * local;
+                transmittance = 0.0;
+                break;
+            }
             gLabel = originalLabel(f, label);
             gFace = w.face;
             gDepth = depth;
             gDistance = length((indexToWorld * vec4(q - o, 0.0)).xyz);
             vec3 shaded = local;
             const uint mode = SHADING; // one pipeline per mode: the others' code is dropped at compile time
+            if (mode != kShadingLocal) { // should a secondary ray find a brick missing, the preview is this surface lit locally
+                previewRadiance = radiance + transmittance * local;
+                previewTransmittance = 0.0;
+            }
             if (mode == kShadingShadow) {
                 const vec3 direct = directLight(w, n, true, request, true);
                 if (direct.x < 0.0) { valid = false; break; }
@@ -228,11 +261,8 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
                     uint r2 = MARCH_OUT;
                     for (uint pass = 0u; pass < 64u; ++pass) {
                         r2 = march(f, s, boxLo, boxHi, req, l2, m2);
-                        if (r2 == MARCH_MISSING && !complete) {
-                            s.prevLabel = kNone;
-                            stableStep(s, BRICK_SHIFT);
-                            if (any(lessThan(s.voxel, boxLo)) || any(greaterThanEqual(s.voxel, boxHi))) { r2 = MARCH_OUT; break; }
-                            continue;
+                        if (r2 == MARCH_MISSING && !complete) { // deep bounces: the brick's coarsest level
+                            r2 = coarseBlock(s, l2, m2) ? MARCH_SURFACE : MARCH_OUT;
                         }
                         if (r2 != MARCH_SURFACE) break;
                         float e2;
@@ -268,6 +298,17 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total) {
     if (!valid) {
         const uint missing = subgroupAdd(1u);
         if (subgroupElect()) atomicAdd(alloc.w[kAllocMissing], missing);
+        if (previews) {
+            preview = true;
+            if (gLabel == kNone) { // lost on the view ray: the preview is what it gathered
+                previewRadiance = radiance;
+                previewTransmittance = transmittance;
+            }
+            total = vec4(previewRadiance, 1.0 - previewTransmittance);
+            Vec4Buf(frameAddr[kSlotAccum]).v[pixel] = total; // no sample yet: the word is free
+            Uvec4Buf(frameAddr[kSlotGBuffer]).v[pixel] = uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u);
+            FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
+        }
         return false;
     }
     Vec4Buf accum = Vec4Buf(frameAddr[kSlotAccum]);
@@ -294,13 +335,16 @@ void renderPixel(uvec2 cell) {
     const uint samples = UintBuf(frameAddr[kSlotSamples]).w[pixel];
     uint n = samples;
     vec4 total = vec4(0.0);
-    if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total)) n = samples + 1u;
+    bool preview = false;
+    if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total, preview)) n = samples + 1u;
     if ((fv.frame.y & kFlagResolveInRender) == 0u) return;
-    if (n != samples) Vec4Buf(frameAddr[kSlotColorOut]).v[pixel] = toneMapped(total / float(n));
+    if (n != samples || preview) Vec4Buf(frameAddr[kSlotColorOut]).v[pixel] = toneMapped(total / float(max(n, 1u)));
     UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     const uint fewest = subgroupMin(n); // one atomic per subgroup
     if (subgroupElect()) atomicMin(alloc.w[kAllocMinSamples], fewest);
-    const uint holes = subgroupAdd(n == 0u ? 1u : 0u);
+    const uint previews = subgroupAdd(n == 0u && preview ? 1u : 0u);
+    if (subgroupElect() && previews > 0u) atomicAdd(alloc.w[kAllocPreviews], previews);
+    const uint holes = subgroupAdd(n == 0u && !preview ? 1u : 0u);
     if (subgroupElect() && holes > 0u) atomicAdd(alloc.w[kAllocHoles], holes);
 }
 

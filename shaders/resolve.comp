@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 // Resolve stage, one invocation per pixel of the footprint rectangle (Frame rect), in passes
 // (the define RESOLVE_PASS, a pipeline each); frames without denoising or upsampling skip it (kFlagResolveInRender):
-//   0 gather (with tone mapping straight into the output when not denoising): average of the accumulated samples; pixels without samples yet (subsampling or a
-//     missing brick) copy the nearest pixel of their stride block that has samples (upsampling);
+//   0 gather (with tone mapping straight into the output when not denoising): average of the
+//     accumulated samples; a pixel without samples shows its preview (render.comp), else copies
+//     the nearest pixel of its stride block that has samples or a preview (upsampling);
 //   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
 //     same face, similar depth), fading out as samples accumulate;
 //   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output.
@@ -17,6 +18,29 @@ layout(push_constant) uniform Push {
     CSGV_RESOLVE_PUSH_MEMBERS
 } pc;
 
+/// The nearest pixel of px's stride block (edge s) with samples (`sampled`) or with a preview;
+/// kNone when there is none.
+uint nearestInBlock(uvec2 px, uint s, bool sampled) {
+    const uint W = fv.image.x, H = fv.image.y;
+    UintBuf samples = UintBuf(frameAddr[kSlotSamples]);
+    Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
+    const uvec2 b0 = (px / s) * s;
+    uint best = kNone, from = kNone;
+    for (uint k = 0u; k < s * s; ++k) {
+        const uvec2 q = b0 + uvec2(k % s, k / s);
+        if (q.x >= W || q.y >= H) continue;
+        const uint qi = q.y * W + q.x;
+        const ivec2 dq = ivec2(q) - ivec2(px);
+        const uint dist = uint(dq.x * dq.x + dq.y * dq.y);
+        const bool shows = sampled ? samples.w[qi] > 0u : (samples.w[qi] == 0u && (g.v[qi].y & kGBufferPreview) != 0u);
+        if (shows && dist < best) {
+            best = dist;
+            from = qi;
+        }
+    }
+    return from;
+}
+
 void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
     if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
@@ -27,34 +51,32 @@ void resolvePixel(Frame f, uvec2 px) {
         uint n = samples.w[pixel];
         const uint fewest = subgroupMin(n); // one atomic per subgroup
         if (subgroupElect()) atomicMin(UintBuf(frameAddr[kSlotAlloc]).w[kAllocMinSamples], fewest);
-        uint from = pixel;
+        Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
+        // What the pixel shows: its own samples, else (upsampling) the nearest pixel of its stride
+        // block with samples, else its own preview, else the nearest preview of the block.
         const uint s = uint(fv.pixel.z); // the upsampling block: the coarsest stride of this accumulation
-        if (n == 0u && s > 1u) { // upsampling: the nearest pixel of the block with samples
-            const uvec2 b0 = (px / s) * s;
-            uint best = kNone;
-            for (uint k = 0u; k < s * s; ++k) {
-                const uvec2 q = b0 + uvec2(k % s, k / s);
-                if (q.x >= W || q.y >= H) continue;
-                const uint qi = q.y * W + q.x;
-                const ivec2 dq = ivec2(q) - ivec2(px);
-                const uint dist = uint(dq.x * dq.x + dq.y * dq.y);
-                if (samples.w[qi] > 0u && dist < best) {
-                    best = dist;
-                    from = qi;
-                }
-            }
+        uint from = n > 0u ? pixel : (s > 1u ? nearestInBlock(px, s, true) : kNone);
+        bool preview = false;
+        if (from == kNone) {
+            if ((g.v[pixel].y & kGBufferPreview) != 0u) from = pixel;
+            else if (s > 1u) from = nearestInBlock(px, s, false);
+            preview = from != kNone;
+        }
+        const bool shows = from != kNone;
+        if (!shows) from = pixel;
+        if (from != pixel) {
             n = samples.w[from];
             FloatBuf depth = FloatBuf(frameAddr[kSlotDepthOut]);
-            if (n > 0u) {
-                depth.f[pixel] = depth.f[from];
-                // What the pixel shows, it also answers to picking (its own first sample replaces it).
-                Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
-                g.v[pixel] = g.v[from];
-            }
+            depth.f[pixel] = depth.f[from];
+            // What the pixel shows, it also answers to picking (its own first sample replaces it);
+            // a preview answers nothing (and stays its block neighbour's).
+            if (!preview) g.v[pixel] = g.v[from];
         }
-        const uint holes = subgroupAdd(n == 0u ? 1u : 0u); // one atomic per subgroup
+        const uint previews = subgroupAdd(preview ? 1u : 0u);
+        if (subgroupElect() && previews > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPreviews], previews);
+        const uint holes = subgroupAdd(shows ? 0u : 1u); // one atomic per subgroup
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocHoles], holes);
-        const vec4 c = n > 0u ? Vec4Buf(frameAddr[kSlotAccum]).v[from] / float(n) : vec4(0.0);
+        const vec4 c = shows ? Vec4Buf(frameAddr[kSlotAccum]).v[from] / float(max(n, 1u)) : vec4(0.0);
         dst.v[pixel] = pc.dst == kSlotColorOut ? toneMapped(c) : c; // without denoising: one pass
         return;
     }

@@ -429,6 +429,66 @@ TEST(Renderer, CameraPathUnderCachePressureConvergesAtEveryStopWithoutFlushing) 
     EXPECT_TRUE(unlimited) << "request limitation should end once the view fits the cache";
 }
 
+namespace {
+
+size_t coveredPixels(const FrameOutput& out) {
+    size_t n = 0;
+    for (size_t i = 0; i < out.rgba.size() / 4; ++i) n += out.rgba[4 * i + 3] > 0.5f;
+    return n;
+}
+
+/// The first frame of an empty cache shows a preview everywhere (no holes), none of it counted as
+/// a sample, and the image converges to exactly what a renderer whose cache was warm gives.
+void expectPreviewThenExactImage(Context& ctx, Shading shading, uint32_t subsampling) {
+    Scene& scene = fixtureScene(ctx, "synthA_b32_rans2.csgv");
+    const FrameInput in = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 96, 72);
+    RenderSettings st;
+    st.shading = shading;
+    st.subsampling = subsampling;
+    st.denoise = false;
+    st.jitter = false;
+    std::unique_ptr<Renderer> warm = makeRenderer(ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(warm);
+    renderConverged(*warm, in, 1, 200);
+    warm->resetAccumulation(); // the cache stays: every sample below finds its bricks
+    const FrameOutput ref = renderConverged(*warm, in, 1, 200);
+    std::unique_ptr<Renderer> cold = makeRenderer(ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(cold);
+    RenderSettings target = st;
+    target.sampleTarget = 1;
+    cold->setSettings(target);
+    Result<FrameStats> first = cold->renderFrame(in);
+    ASSERT_TRUE(first.isOk()) << first.message();
+    const std::string what = std::string(shadingName(shading)) + ", stride " + std::to_string(subsampling);
+    EXPECT_GT(first->missingPixels, 0u) << what;
+    EXPECT_EQ(first->holes, 0u) << what << ": every pixel shows a preview";
+    EXPECT_GT(first->previews, 0u) << what;
+    FrameOutput preview;
+    ASSERT_TRUE(cold->readOutput(preview).isOk());
+    // Nothing is cached before the first frame: its only samples are of rays that met no visible
+    // brick (transparent); every other pixel shows an uncounted preview.
+    size_t sampled = 0;
+    for (size_t i = 0; i < preview.samples.size(); ++i)
+        if (preview.samples[i] > 0) {
+            ++sampled;
+            ASSERT_EQ(preview.rgba[4 * i + 3], 0.0f) << what << ": a preview counted as a sample at pixel " << i;
+        }
+    EXPECT_EQ(sampled, first->newSamples) << what;
+    EXPECT_GT(coveredPixels(preview), coveredPixels(ref) / 2) << what << ": the preview should show the volume";
+    const FrameOutput got = renderConverged(*cold, in, 1, 200);
+    EXPECT_EQ(got.label, ref.label) << what;
+    EXPECT_EQ(differingValues(got.rgba, ref.rgba), 0u) << what;
+}
+
+} // namespace
+
+TEST(Renderer, FirstFrameShowsAPreviewAndConvergesToTheExactImage) {
+    CSGV_REQUIRE_GPU(ctx);
+    expectPreviewThenExactImage(*ctx, Shading::Local, 1);  // resolved in the render pass
+    expectPreviewThenExactImage(*ctx, Shading::Shadow, 1); // gathered; shadow rays lose the sample
+    expectPreviewThenExactImage(*ctx, Shading::Local, 2);  // gathered with upsampling
+}
+
 TEST(Renderer, SubsamplingConvergesToFullResolution) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
@@ -814,20 +874,23 @@ TEST(Renderer, StillRenderUnderATinyBudgetEndsWithoutHoles) {
     st.sampleTarget = 64;
     st.shading = Shading::PathTracing;
     std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
-    // The first frame of a cold cache leaves the pixels whose bricks are missing empty: holes.
+    // The first frame of a cold cache shows previews where bricks are missing, never holes.
     FrameInput in = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 96, 80);
     Result<FrameStats> first = r->renderFrame(in);
     ASSERT_TRUE(first.isOk()) << first.message();
-    EXPECT_EQ(first->holes, first->missingPixels);
-    EXPECT_GT(first->holes, 0u);
+    EXPECT_EQ(first->holes, 0u);
+    EXPECT_EQ(first->previews, first->missingPixels);
+    EXPECT_GT(first->previews, 0u);
     // A still render with no time to spare stops as soon as every pixel shows a sample (its own
-    // or, at a coarser stride, its block's), far short of the target; later renders go on.
+    // or, at a coarser stride, its block's; a preview is not enough), far short of the target;
+    // later renders go on.
     RenderRequest req;
     req.frame = perspectiveView({210, -70, 150}, {66, 35, 97}, {0, 0, 1}, 30, 96, 80);
     req.timeBudgetSeconds = 0;
     Result<RenderResult> still = r->render(req);
     ASSERT_TRUE(still.isOk()) << still.message();
     EXPECT_EQ(still->last.holes, 0u);
+    EXPECT_EQ(still->last.previews, 0u);
     EXPECT_LT(still->last.minSamples, 64u);
     const uint32_t stride = still->last.stride;
     EXPECT_TRUE(stride == 1 || stride == 2 || stride == 4 || stride == 8) << stride;

@@ -504,7 +504,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // beside room for an image, and shrinks later if images or materials need more.
     auto made = [](uint64_t bytes) { return std::max<uint64_t>(bytes, 16); }; // as make() allocates
     const uint64_t fixed = volume->deviceBytes() + made(sizeof(FrameParams)) + made(uint64_t(im.brickCount) * 16) +
-                           made(uint64_t(im.brickCount) * 4) + made(uint64_t(im.brickCount) * 8) + made(kAllocWords * 4) +
+                           made(uint64_t(im.brickCount) * 8) + made(uint64_t(im.brickCount) * 8) + made(kAllocWords * 4) +
                            made(uint64_t(im.brickCount) * im.levels * 4) + made(uint64_t(im.maxRequests) * 8) +
                            made(uint64_t(im.maxRequests) * kDecodeEntryWords * 4) +
                            made(uint64_t(im.maxRequests) * kDecodeStateWords * 4) + made(sizeof(kBlueNoise64));
@@ -525,7 +525,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
     if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
     if (!(s = make(im.bricks, uint64_t(im.brickCount) * 16, MemoryKind::DeviceLocal, "brick table"))) return s;
-    if (!(s = make(im.visible, uint64_t(im.brickCount) * 4, MemoryKind::DeviceLocal, "brick visibility"))) return s;
+    if (!(s = make(im.visible, uint64_t(im.brickCount) * 8, MemoryKind::DeviceLocal, "brick visibility"))) return s;
     if (!(s = make(im.uniformSubs, uint64_t(im.brickCount) * 8, hostOrDevice, "uniform sub-block masks"))) return s;
     if (!(s = make(im.alloc, kAllocWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
     if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
@@ -776,13 +776,19 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     };
     const CompressedVolume& vol = volume->volume();
     const uint32_t L = vol.levels();
-    std::vector<uint32_t> vis(brickCount, 0u);
+    // Per brick its preview label and that label's material (what a view ray shows of the brick
+    // while it is not cached: its coarsest level, the root label, else the first palette entry a
+    // material draws), kNone twice when no palette entry is drawn (the brick is invisible).
+    std::vector<uint32_t> vis(size_t(brickCount) * 2, kNone);
 #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t b = 0; b < int64_t(brickCount); ++b) {
         const BrickWords bw = vol.brick(uint64_t(b));
         const uint32_t n = bw.words[L];
-        for (uint32_t k = 0; k < n && !vis[size_t(b)]; ++k)
-            if (visibleLabel(bw.words[bw.size - 1 - k])) vis[size_t(b)] = 1;
+        for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
+            if (visibleLabel(bw.words[bw.size - 1 - k])) {
+                vis[2 * size_t(b)] = bw.words[bw.size - 1 - k];
+                vis[2 * size_t(b) + 1] = table.empty() ? materialOf(vis[2 * size_t(b)]) : table[vis[2 * size_t(b)]];
+            }
     }
     return ctx.upload(visible, 0, vis.data(), vis.size() * 4);
 }
@@ -1009,6 +1015,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     a[kAllocFull] = 0;
     a[kAllocMinSamples] = kNone;
     a[kAllocHoles] = 0;
+    a[kAllocPreviews] = 0;
     a[kAllocNewSamples] = 0;
     a[kAllocMissing] = 0;
     a[kAllocMinRow] = kNone;
@@ -1223,6 +1230,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     stats.missingPixels = a[kAllocMissing];
     stats.minSamples = a[kAllocMinSamples] == kNone ? 0 : a[kAllocMinSamples];
     stats.holes = a[kAllocHoles];
+    stats.previews = a[kAllocPreviews];
     stats.stride = st.subsampling;
     stats.cacheUsedBytes = uint64_t(a[kAllocTop]) * 4;
     stats.cacheFull = a[kAllocFull] != 0;
@@ -1276,15 +1284,16 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         // Under cache pressure the coarse stride only slows convergence down (a ray finds one
         // missing brick per turn, and its pixel's turn comes every stride^2 frames): go on at the
         // settings' stride.
-        im.shownWhole = im.shownWhole || st->holes == 0 || st->cacheFull;
+        const bool whole = st->holes == 0 && st->previews == 0; // every pixel shows a sample (its own or its block's)
+        im.shownWhole = im.shownWhole || whole || st->cacheFull;
         if (request.interactive || st->minSamples >= target) break;
         const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         // The next frame costs this one's time per rendered pixel: stop when it would end past
-        // the budget, so the budget holds; but never while a pixel shows nothing (no holes).
+        // the budget, so the budget holds; but never while a pixel shows nothing or a preview.
         const uint32_t nextStride = im.shownWhole ? fine : im.coarseStride;
         const double next = (elapsed - before) * renderedPixels(in, nextStride) / renderedPixels(in, settings.subsampling);
         before = elapsed;
-        if (st->holes == 0 && elapsed + next + im.finishSeconds > request.timeBudgetSeconds) break;
+        if (whole && elapsed + next + im.finishSeconds > request.timeBudgetSeconds) break;
         idle = st->idle() ? idle + 1 : 0;
         if (idle >= st->idleLimit()) break;
     }

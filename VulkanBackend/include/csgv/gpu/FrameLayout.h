@@ -37,6 +37,9 @@ CSGV_CONST(uint32_t, kColorRandom, 2u)
 
 /// In a G-buffer entry's second word: the entry holds a sample's first hit (a cleared entry is all 0).
 CSGV_CONST(uint32_t, kGBufferSampled, 0x100u)
+/// ... or: the pixel has no sample yet and its accumulation word holds a preview (render.comp),
+/// shown until its first sample replaces it.
+CSGV_CONST(uint32_t, kGBufferPreview, 0x200u)
 
 // Buffer addresses in Frame.addr.
 CSGV_CONST(uint32_t, kSlotBricks, 0u)         ///< uvec4 per brick: cache word offset, cached lod (kNone), frame+1 of last use, visible
@@ -57,7 +60,7 @@ CSGV_CONST(uint32_t, kSlotDepthOut, 14u)      ///< float per pixel
 CSGV_CONST(uint32_t, kSlotLabelMap, 15u)      ///< uint per stored label: the original label
 CSGV_CONST(uint32_t, kSlotDenoiseA, 16u)      ///< vec4 per pixel: resolve ping-pong buffers
 CSGV_CONST(uint32_t, kSlotDenoiseB, 17u)
-CSGV_CONST(uint32_t, kSlotVisible, 18u)       ///< uint per brick: 1 when its palette holds a visible label (host, per materials)
+CSGV_CONST(uint32_t, kSlotVisible, 18u)       ///< uvec2 per brick: its preview label (the root label, else the first palette entry with a material) and that material, kNone twice when no palette entry has one (host, per materials)
 CSGV_CONST(uint32_t, kSlotArrays, 19u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
 CSGV_CONST(uint32_t, kSlotStarts, 20u)        ///< the encoding: brick start words
 CSGV_CONST(uint32_t, kSlotBlueNoise, 21u)     ///< 64x64 bytes of blue noise, four to a uint
@@ -77,6 +80,7 @@ CSGV_CONST(uint32_t, kAllocMissing, 7u)      ///< pixels whose ray met a brick n
 CSGV_CONST(uint32_t, kAllocMinRow, 8u)       ///< first pixel (row-major) with the previous minimum sample count
 CSGV_CONST(uint32_t, kAllocPrevMin, 9u)      ///< previous frame's minimum sample count (host-written)
 CSGV_CONST(uint32_t, kAllocHoles, 10u)       ///< pixels the resolve left empty (no sample of their own or of their stride block)
+CSGV_CONST(uint32_t, kAllocPreviews, 12u)     ///< pixels that show a preview (no sample of their own or of their stride block yet)
 CSGV_CONST(uint32_t, kAllocEvictAge, 11u)    ///< host-written: evict cached bricks no ray used for this many frames (0: none)
 CSGV_CONST(uint32_t, kAllocFreeCount, 16u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocReqCount, 24u)    ///< + lod

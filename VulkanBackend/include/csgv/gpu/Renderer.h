@@ -10,8 +10,11 @@
 ///   for) -> provision (regions from the cache top when free stacks run short) -> assign
 ///   (regions to requests, decode list) -> decode (GpuVolume's decoder into the cache) -> render
 ///   (one view ray per pixel, stable multi-level DDA, shading, one sample accumulated; rays that
-///   meet a missing brick mark it and add nothing) -> resolve (average, upsampling, A-trous
-///   denoising, tone mapping).
+///   meet a missing brick mark it and add no sample: a pixel without samples shows a preview
+///   instead, its ray going on through missing bricks at their coarsest level read from the
+///   encoding, never accumulated, so converged images are those of a warm cache; deep
+///   path-tracing bounces, which request nothing, see missing bricks at that level too) ->
+///   resolve (average, upsampling, A-trous denoising, tone mapping).
 /// Between frames the host reads a few counters. Under cache pressure bricks are replaced
 /// gradually, least recently used first (those no ray used for 8 frames, then 4, 2, 1); if the
 /// cache is still too small, only a band of pixels may request bricks (brick request limitation),
@@ -124,7 +127,10 @@ struct FrameStats {
     uint32_t newSamples = 0;      ///< pixels that gained a sample
     uint32_t missingPixels = 0;   ///< pixels whose ray met a brick not yet in the cache
     uint32_t minSamples = 0;      ///< fewest samples of any pixel after the frame
-    uint32_t holes = 0;           ///< pixels shown empty: no sample of their own or of their stride block
+    uint32_t holes = 0;           ///< pixels shown empty: no sample or preview of their own or of their stride block
+    /// Pixels showing a preview: no sample of their own or of their stride block yet, but a view
+    /// ray that went on through missing bricks at their coarsest level (never accumulated).
+    uint32_t previews = 0;
     /// Pixel stride of the frame: the settings', or in a still render coarser while its first image
     /// is incomplete (a slow frame) and then as coarse as a frame within half the budget needs.
     uint32_t stride = 1;
