@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Request stage, one invocation per brick: frees the cache regions of bricks that became
-// invisible, that need another level of detail, or (under cache pressure) that no ray used for
+// invisible, that need another level of detail (used or not: a ray must never sample a brick at
+// another level than the view wants, or converged images would depend on what the cache held
+// before), or (under cache pressure) that no ray used for
 // kAllocEvictAge frames (least recently used first: the host lowers the age while the cache stays
 // full), onto their level's free stack; and requests bricks the previous frame's rays needed but
 // did not find, at the level their centre's distance asks for.
@@ -27,7 +29,7 @@ void main() {
         // s.z is the frame index + 1 of the last use: the age is 0 for the previous frame's bricks.
     const uint evictAge = alloc.w[kAllocEvictAge];
     const bool stale = evictAge != 0u && fv.frame.x - s.z >= evictAge;
-    const bool evict = !visible || (used && s.y != wanted) || stale;
+    const bool evict = !visible || s.y != wanted || stale;
         if (!evict) return;
         const uint k = atomicAdd(alloc.w[kAllocFreeCount + s.y], 1u);
         // A full stack cannot happen (a level never has more regions than bricks); if it did, the

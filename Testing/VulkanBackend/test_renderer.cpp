@@ -489,6 +489,29 @@ TEST(Renderer, FirstFrameShowsAPreviewAndConvergesToTheExactImage) {
     expectPreviewThenExactImage(*ctx, Shading::Local, 2);  // gathered with upsampling
 }
 
+// Levels of detail follow the camera: a renderer whose cache holds bricks at the levels of an
+// earlier, farther view converges to exactly the image of a renderer that only saw this view (a
+// brick cached at another level than the view wants is never sampled, used or not).
+TEST(Renderer, ConvergedImageDoesNotDependOnTheCacheHistory) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    RenderSettings st;
+    st.denoise = false;
+    std::unique_ptr<Renderer> travelled = makeRenderer(*ctx, scene, 64ull << 20, st);
+    std::unique_ptr<Renderer> fresh = makeRenderer(*ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(travelled && fresh);
+    const FrameInput near = perspectiveView({150, -40, 130}, {66, 35, 97}, {0, 0, 1}, 30, 96, 72);
+    for (double distance : {900.0, 600.0, 400.0}) { // farther views first: coarser levels cached
+        const double k = distance / 160.0;
+        renderConverged(*travelled, perspectiveView({66 + 84 * k, 35 - 75 * k, 97 + 33 * k}, {66, 35, 97}, {0, 0, 1}, 30, 96, 72),
+                        2, 200);
+    }
+    const FrameOutput got = renderConverged(*travelled, near, 4, 400);
+    const FrameOutput ref = renderConverged(*fresh, near, 4, 400);
+    EXPECT_EQ(got.label, ref.label);
+    EXPECT_EQ(differingValues(got.rgba, ref.rgba), 0u);
+}
+
 TEST(Renderer, SubsamplingConvergesToFullResolution) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
