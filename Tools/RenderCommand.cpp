@@ -325,6 +325,7 @@ int cmdRender(int argc, char** argv) {
     r.setSettings(settings);
     std::printf("device: %s (%s)\n", (*ctx)->device().name.c_str(), (*ctx)->device().type.c_str());
     std::printf("cache_bits_per_voxel: %u\n", shared->cacheBits());
+    std::printf("detail_separated: %s\n", shared->separated() ? "yes" : "no"); // the finest level in host memory
     std::printf("setup_ms: %.1f\n", since(tStart));
 
     Vec3 boxCentre{};

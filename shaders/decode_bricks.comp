@@ -25,6 +25,7 @@ void main() {
     Uints req = Uints(pc.requests);
     const uint brick = req.w[kDecodeEntryWords * i];
     const uint target = req.w[kDecodeEntryWords * i + 1u];
+    if (SEPARATED != 0 && target == LEVELS - 1u) return; // the finest level is in host memory: the host decodes it
     const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
     Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick);
     Uints saved = Uints(pc.states);

@@ -22,11 +22,17 @@ using namespace csgvtest;
 namespace {
 
 /// Decodes every brick at every level on the GPU and compares in-volume nodes with the CPU.
-void expectGpuEqualsCpu(Context& ctx, const CompressedVolume& vol, const std::string& what, bool paletting = false) {
+void expectGpuEqualsCpu(Context& ctx, const CompressedVolume& vol, const std::string& what, bool paletting = false,
+                        DetailSeparation separation = DetailSeparation::Auto) {
     GpuVolumeOptions options;
     options.cachePaletting = paletting;
+    options.separateDetail = separation;
     Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(ctx, vol, options);
     ASSERT_TRUE(gpu.isOk()) << what << ": " << gpu.message();
+    if (separation == DetailSeparation::Always) {
+        ASSERT_TRUE((*gpu)->separated()) << what;
+        EXPECT_LT((*gpu)->deviceBytes(), GpuVolume::encodingBytes(vol)) << what << ": the finest level stays on the host";
+    }
     if (paletting && vol.maxPalette < 1000) {
         EXPECT_LT((*gpu)->cacheBits(), 32u) << what << ": paletting should pack";
     }
@@ -63,6 +69,20 @@ TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevel) {
 TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevelWithCachePaletting) {
     CSGV_REQUIRE_GPU(ctx);
     for (const std::string& name : allFixtureNames()) expectGpuEqualsCpu(*ctx, loadFixture(name), name + " (paletted)", true);
+}
+
+// Detail separation: the device holds each brick without its finest level (the GPU decodes the
+// coarser levels from that), the host decodes the finest; both with and without cache paletting.
+TEST(GpuDecode, SeparatedFixturesAtEveryLevel) {
+    CSGV_REQUIRE_GPU(ctx);
+    size_t separated = 0;
+    for (const std::string& name : allFixtureNames()) {
+        const CompressedVolume vol = loadFixture(name);
+        if (vol.encoding != kEncodingRans2) continue;
+        expectGpuEqualsCpu(*ctx, vol, name + " (separated)", false, DetailSeparation::Always);
+        if (separated++ == 0) expectGpuEqualsCpu(*ctx, vol, name + " (separated, paletted)", true, DetailSeparation::Always);
+    }
+    EXPECT_GT(separated, 0u) << "no rANS two-table fixture";
 }
 
 TEST(GpuDecode, OurFilesInEveryEncodingAndMask) {

@@ -349,12 +349,19 @@ TEST(Renderer, DeviceMemoryBudgetBoundsEveryAllocation) {
     EXPECT_EQ(renderWithinBudget(bounded, large, 1, "128x96").label, refLarge.label);
     EXPECT_LT(cacheBytesOf(bounded), cacheBefore) << "the larger image should have taken room from the cache";
 
-    // Too small for the encoding: refused before uploading, with both sizes.
+    // Too small for the encoding (held whole; or even without its finest level): refused before
+    // uploading, with both sizes.
     GpuVolumeOptions tight;
     tight.deviceMemoryBytes = GpuVolume::encodingBytes(scene.volume) - 1;
+    tight.separateDetail = DetailSeparation::Never;
     Result<std::unique_ptr<GpuVolume>> refused = GpuVolume::create(*ctx, scene.volume, tight);
     ASSERT_FALSE(refused.isOk());
     EXPECT_NE(refused.message().find("budget"), std::string::npos) << refused.message();
+    tight.separateDetail = DetailSeparation::Auto;
+    tight.deviceMemoryBytes = 4096;
+    refused = GpuVolume::create(*ctx, scene.volume, tight);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_NE(refused.message().find("without its finest level"), std::string::npos) << refused.message();
     EXPECT_EQ(GpuVolume::encodingBytes(scene.volume), scene.gpu->deviceBytes());
     // Room for the encoding but not for tables and one brick.
     o.deviceMemoryBytes = scene.gpu->deviceBytes() + 4096;
@@ -510,6 +517,48 @@ TEST(Renderer, ConvergedImageDoesNotDependOnTheCacheHistory) {
     const FrameOutput ref = renderConverged(*fresh, near, 4, 400);
     EXPECT_EQ(got.label, ref.label);
     EXPECT_EQ(differingValues(got.rgba, ref.rgba), 0u);
+}
+
+// Detail separation: a budget that the whole encoding would take more than half of keeps the
+// finest level in host memory; the renderer decodes it there (GPU decoding: the host fills the
+// finest bricks between the GPU decoding and the render pass; host decoding: as always) and the
+// converged image is exactly the one of a volume held whole, within the budget.
+TEST(Renderer, SeparatedDetailRendersTheSameImageWithinTheBudget) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    const uint64_t whole = GpuVolume::encodingBytes(scene.volume);
+    GpuVolumeOptions o;
+    o.deviceMemoryBytes = 2 * whole - 1; // more than half: separated
+    Result<std::unique_ptr<GpuVolume>> separated = GpuVolume::create(*ctx, scene.volume, o);
+    ASSERT_TRUE(separated.isOk()) << separated.message();
+    ASSERT_TRUE((*separated)->separated());
+    EXPECT_LT((*separated)->deviceBytes(), whole);
+    o.deviceMemoryBytes = 2 * whole;
+    Result<std::unique_ptr<GpuVolume>> kept = GpuVolume::create(*ctx, scene.volume, o);
+    ASSERT_TRUE(kept.isOk()) << kept.message();
+    EXPECT_FALSE((*kept)->separated());
+    std::shared_ptr<GpuVolume> gpu(std::move(*separated));
+
+    const FrameInput in = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 64, 48);
+    RenderSettings st;
+    st.finest = true;
+    st.denoise = false;
+    std::unique_ptr<Renderer> ref = makeRenderer(*ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(ref);
+    const FrameOutput want = renderConverged(*ref, in, 2, 100);
+    for (RendererOptions::Decode decode : {RendererOptions::Decode::Gpu, RendererOptions::Decode::Host}) {
+        RendererOptions ro;
+        ro.decode = decode;
+        ro.cacheBytes = 16ull << 20;
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, ro);
+        ASSERT_TRUE(r.isOk()) << r.message();
+        (*r)->setSettings(st);
+        const FrameOutput got = renderConverged(**r, in, 2, 100);
+        const char* what = decode == RendererOptions::Decode::Gpu ? "GPU decoding" : "host decoding";
+        EXPECT_EQ(got.label, want.label) << what;
+        EXPECT_EQ(differingValues(got.rgba, want.rgba), 0u) << what;
+        EXPECT_EQ((*r)->memory().buffers.front().second, gpu->deviceBytes()) << what;
+    }
 }
 
 TEST(Renderer, SubsamplingConvergesToFullResolution) {

@@ -439,6 +439,32 @@ Status Context::upload(Buffer& dst, uint64_t offset, const void* data, uint64_t 
     });
 }
 
+Status Context::uploadRegions(Buffer& dst, const void* data, const std::vector<CopyRegion>& regions) {
+    uint64_t end = 0;
+    for (const CopyRegion& r : regions) {
+        if (r.dstOffset + r.bytes > dst.size()) return Status::error("upload past the end of a GPU buffer");
+        end = std::max(end, r.srcOffset + r.bytes);
+    }
+    if (regions.empty() || end == 0) return Status::ok();
+    const uint8_t* src = static_cast<const uint8_t*>(data);
+    if (dst.mapped()) {
+        for (const CopyRegion& r : regions) std::memcpy(static_cast<uint8_t*>(dst.mapped()) + r.dstOffset, src + r.srcOffset, size_t(r.bytes));
+        return Status::ok();
+    }
+    Result<Buffer> staging = createBuffer(end, MemoryKind::HostVisible);
+    if (!staging) return staging.status();
+    std::memcpy(staging->mapped(), data, size_t(end));
+    std::vector<VkBufferCopy> copies;
+    copies.reserve(regions.size());
+    for (const CopyRegion& r : regions) copies.push_back(VkBufferCopy{r.srcOffset, r.dstOffset, r.bytes});
+    Impl& im = *m_impl;
+    return submitAndWait(im, [&](VkCommandBuffer cmd) {
+        im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(staging->m_buffer), reinterpret_cast<VkBuffer>(dst.m_buffer),
+                              uint32_t(copies.size()), copies.data());
+        transferBarrier(im.vk, cmd);
+    });
+}
+
 Status Context::download(const Buffer& src, uint64_t offset, void* data, uint64_t bytes) {
     if (offset + bytes > src.size()) return Status::error("download past the end of a GPU buffer");
     if (bytes == 0) return Status::ok();

@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/GpuVolume.h"
 #include "csgv/gpu/FrameLayout.h"
+#include "csgv/codec/Decoder.h"
 
 #include <algorithm>
+#include <unordered_map>
 
 namespace csgv::gpu {
 
@@ -61,12 +63,28 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     Status s;
     if (volume.brickCount() >= (uint64_t(1) << 32)) return Status::error("more than 2^32 bricks are not supported on the GPU");
     const uint64_t budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
-    if (encodingBytes(volume) > budget)
-        return Status::error("the encoding needs " + mebibytes(encodingBytes(volume)) +
-                             " of device memory, more than the device-memory budget of " + mebibytes(budget));
     std::unique_ptr<GpuVolume> g(new GpuVolume(context, volume));
+    // Detail separation: an encoding that would take more than half the budget keeps its finest
+    // level in host memory (mode 2 only: there the finest level is a stream of its own).
+    const bool separable = volume.encoding == kEncodingRans2;
+    const bool separate = separable && (options.separateDetail == DetailSeparation::Always ||
+                                        (options.separateDetail == DetailSeparation::Auto && encodingBytes(volume) > budget / 2));
+    std::vector<std::vector<uint32_t>> baseArrays;
+    std::vector<uint32_t> baseStarts;
+    if (separate) separateDetail(volume, baseArrays, baseStarts);
+    const std::vector<std::vector<uint32_t>>& arrays = separate ? baseArrays : volume.arrays;
+    const std::vector<uint32_t>& starts = separate ? baseStarts : volume.brickStarts;
+    auto bytes = [](uint64_t n) { return std::max<uint64_t>(n, 4); }; // as the Context allocates
+    uint64_t need = bytes(arrays.size() * 8) + bytes(starts.size() * 4);
+    for (const auto& a : arrays) need += bytes(a.size() * 4);
+    if (need > budget)
+        return Status::error("the encoding needs " + mebibytes(need) + " of device memory" +
+                             (separate ? " without its finest level" : "") +
+                             ", more than the device-memory budget of " + mebibytes(budget) +
+                             (separable || separate ? "" : " (only rANS two-table encodings can keep their finest level in host memory)"));
+    g->m_separated = separate;
     std::vector<uint64_t> addresses;
-    for (const auto& a : volume.arrays) {
+    for (const auto& a : arrays) {
         Result<Buffer> b = context.createBuffer(a.size() * 4, MemoryKind::DeviceLocal);
         if (!b) return Status(b.status()).prefix("uploading the encoding");
         s = context.upload(*b, 0, a.data(), a.size() * 4);
@@ -78,10 +96,10 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (!addr) return addr.status();
     if (!(s = context.upload(*addr, 0, addresses.data(), addresses.size() * 8))) return s;
     g->m_addresses = std::move(*addr);
-    Result<Buffer> starts = context.createBuffer(volume.brickStarts.size() * 4, MemoryKind::DeviceLocal);
-    if (!starts) return starts.status();
-    if (!(s = context.upload(*starts, 0, volume.brickStarts.data(), volume.brickStarts.size() * 4))) return s;
-    g->m_starts = std::move(*starts);
+    Result<Buffer> startBuffer = context.createBuffer(starts.size() * 4, MemoryKind::DeviceLocal);
+    if (!startBuffer) return startBuffer.status();
+    if (!(s = context.upload(*startBuffer, 0, starts.data(), starts.size() * 4))) return s;
+    g->m_starts = std::move(*startBuffer);
 
     Defines& d = g->m_defines;
     const auto grid = volume.brickGrid();
@@ -94,6 +112,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     d.emplace_back("BRICKS_PER_ARRAY", std::to_string(volume.bricksPerArray) + "u");
     if (options.cachePaletting) g->m_cacheBits = paletteBits(volume);
     d.emplace_back("CACHE_BITS", std::to_string(g->m_cacheBits));
+    d.emplace_back("SEPARATED", separate ? "1" : "0");
     if (volume.encoding != kEncodingNibble) tableDefines(volume.freqA, "CUM_A", d);
     if (volume.encoding == kEncodingRans2) tableDefines(volume.freqB, "CUM_B", d);
     Result<std::vector<uint32_t>> spirv = compileComputeShader("decode_bricks.comp", d);
@@ -102,6 +121,25 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (!pipeline) return pipeline.status();
     g->m_decodePipeline = *pipeline;
     return g;
+}
+
+void GpuVolume::separateDetail(const CompressedVolume& volume, std::vector<std::vector<uint32_t>>& arrays,
+                               std::vector<uint32_t>& starts) {
+    // Each brick without its finest-level stream (mode 2: stream B, from word header[L-1] / 8 to
+    // the palette): header, stream A, palette. Arrays and starts follow the container's rules
+    // (CSGV-FORMAT.md section 7): start[i] is where brick i - 1 ends, a new array begins at 0.
+    const uint32_t L = volume.levels();
+    const uint64_t n = volume.brickCount();
+    arrays.assign(volume.arrays.size(), {});
+    starts.assign(size_t(n) + 1, 0u);
+    for (uint64_t b = 0; b < n; ++b) {
+        const BrickWords bw = volume.brick(b);
+        std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)];
+        const uint32_t streamB = bw.words[L - 1] / 8, palette = bw.words[L];
+        a.insert(a.end(), bw.words, bw.words + streamB);
+        a.insert(a.end(), bw.words + bw.size - palette, bw.words + bw.size);
+        starts[size_t(b) + 1] = uint32_t(a.size());
+    }
 }
 
 uint32_t GpuVolume::paletteBits(const CompressedVolume& volume) {
@@ -176,12 +214,29 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         dispatches.push_back(d);
     }
     if (!(s = m_context.run(dispatches))) return s;
+    std::vector<uint32_t> status(requests.size(), kDecodeOk);
     if (codes) {
         std::vector<uint32_t> words(requests.size() * kDecodeStateWords);
         if (!(s = m_context.download(*states, 0, words.data(), words.size() * 4))) return s;
-        codes->resize(requests.size());
-        for (size_t i = 0; i < requests.size(); ++i) (*codes)[i] = words[kDecodeStateWords * i + kDecodeStateStatus];
+        for (size_t i = 0; i < requests.size(); ++i) status[i] = words[kDecodeStateWords * i + kDecodeStateStatus];
     }
+    if (m_separated) { // the finest level from host memory (the shader left these requests alone)
+        BrickDecoder decoder(m_volume);
+        std::vector<uint32_t> region;
+        for (size_t i = 0; i < requests.size(); ++i) {
+            if (requests[i].lod != 0) continue;
+            region.assign(regionWords(0), kNone);
+            if (decoder.decode(requests[i].brick, 0)) {
+                const uint64_t n = uint64_t(decoder.gridSize()) * decoder.gridSize() * decoder.gridSize();
+                packRegion(requests[i].brick, decoder.labels(), n, region.data());
+                status[i] = kDecodeOk;
+            } else {
+                status[i] = kDecodeBadOperation; // Core's decoder names no shader result code
+            }
+            if (!(s = m_context.upload(cache, uint64_t(requests[i].cacheOffset) * 4, region.data(), region.size() * 4))) return s;
+        }
+    }
+    if (codes) *codes = std::move(status);
     return Status::ok();
 }
 
@@ -250,6 +305,39 @@ uint64_t GpuVolume::regionWords(uint32_t lod) const {
     const uint64_t entries = std::max<uint64_t>(edge * edge * edge, 1);
     const uint64_t per = cacheEntriesPerWord();
     return (entries + per - 1) / per;
+}
+
+void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const {
+    if (m_cacheBits == 32) {
+        std::copy(labels, labels + n, out);
+        return;
+    }
+    const BrickWords bw = m_volume.brick(brick);
+    const uint32_t paletteSize = bw.words[m_volume.levels()];
+    const uint32_t per = cacheEntriesPerWord(), outside = (1u << m_cacheBits) - 1u;
+    std::fill(out, out + (n + per - 1) / per, 0u);
+    std::unordered_map<uint32_t, uint32_t> indexOf; // long palettes only
+    if (paletteSize > 32)
+        for (uint32_t k = paletteSize; k-- > 0;) indexOf[bw.words[bw.size - 1 - k]] = k;
+    uint32_t lastLabel = kInvalidLabel, lastIndex = outside;
+    for (uint64_t e = 0; e < n; ++e) {
+        const uint32_t l = labels[e];
+        if (l != lastLabel) { // runs of one label are the rule: one palette search a run
+            lastLabel = l;
+            lastIndex = outside;
+            if (paletteSize > 32) {
+                const auto it = indexOf.find(l);
+                if (it != indexOf.end() && l != kInvalidLabel) lastIndex = it->second;
+            } else {
+                for (uint32_t k = 0; k < paletteSize && l != kInvalidLabel; ++k)
+                    if (bw.words[bw.size - 1 - k] == l) {
+                        lastIndex = k;
+                        break;
+                    }
+            }
+        }
+        out[e / per] |= lastIndex << ((e % per) * m_cacheBits);
+    }
 }
 
 std::vector<uint32_t> GpuVolume::labelsFromRegion(uint32_t brick, uint32_t lod, const uint32_t* words) const {

@@ -16,7 +16,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <unordered_map>
 
 namespace csgv::gpu {
 
@@ -169,6 +168,8 @@ struct Renderer::Impl {
     std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
     bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
     bool hostDecode = false;          // RendererOptions::decode resolved
+    bool hostFinest = false;          // GPU decoding of a separated volume: the host decodes the finest level
+    size_t decodeEnd = 0;             // with hostFinest, the first submission ends here (after the GPU decoding)
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per worker, for host decoding
     std::unique_ptr<WorkerPool> workers; // host decoding's threads: asleep, not spinning, between frames
     bool converged = false;           // the last render() reached the sample target; nothing changed since
@@ -208,43 +209,40 @@ struct Renderer::Impl {
             if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) return;
             const bool ok = bool(d.decode(brick, lod));
             if (!ok) std::fill(cacheWords + offset, cacheWords + offset + words, kNone); // reads as outside
-            else if (volume->cacheBits() == 32) std::memcpy(cacheWords + offset, d.labels(), words * 4);
-            else packPaletteIndices(brick, d.labels(), uint64_t(d.gridSize()) * d.gridSize() * d.gridSize(), cacheWords + offset);
+            else volume->packRegion(brick, d.labels(), uint64_t(d.gridSize()) * d.gridSize() * d.gridSize(), cacheWords + offset);
             if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
         });
     }
 
-    /// Cache paletting on the host: `n` labels (Morton order) -> indices into the brick's palette,
-    /// packed as GpuVolume::labelsFromRegion reads them (entry e in word e / per at bit
-    /// (e % per) * bits; all ones outside the volume).
-    void packPaletteIndices(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const {
+    /// Detail separation with GPU decoding: the requests for the finest level (which the decoding
+    /// shader leaves alone) decoded by Core's decoder from host memory and copied into their cache
+    /// regions in one submission, between the GPU decoding and the uniform sub-block pass.
+    Status decodeFinestOnHost() {
+        const uint32_t n = std::min(allocWords()[kAllocDecodes], maxRequests);
+        if (n == 0) return Status::ok();
+        std::vector<uint32_t> list(size_t(n) * kDecodeEntryWords);
+        Status s = ctx.download(decodes, 0, list.data(), list.size() * 4);
+        if (!s) return s;
         const CompressedVolume& vol = volume->volume();
-        const BrickWords bw = vol.brick(brick);
-        const uint32_t paletteSize = bw.words[vol.levels()];
-        const uint32_t bits = volume->cacheBits(), per = volume->cacheEntriesPerWord(), outside = (1u << bits) - 1u;
-        std::fill(out, out + (n + per - 1) / per, 0u);
-        std::unordered_map<uint32_t, uint32_t> indexOf; // long palettes only
-        if (paletteSize > 32)
-            for (uint32_t k = paletteSize; k-- > 0;) indexOf[bw.words[bw.size - 1 - k]] = k;
-        uint32_t lastLabel = kInvalidLabel, lastIndex = outside;
-        for (uint64_t e = 0; e < n; ++e) {
-            const uint32_t l = labels[e];
-            if (l != lastLabel) { // runs of one label are the rule: one palette search a run
-                lastLabel = l;
-                lastIndex = outside;
-                if (paletteSize > 32) {
-                    const auto it = indexOf.find(l);
-                    if (it != indexOf.end() && l != kInvalidLabel) lastIndex = it->second;
-                } else {
-                    for (uint32_t k = 0; k < paletteSize && l != kInvalidLabel; ++k)
-                        if (bw.words[bw.size - 1 - k] == l) {
-                            lastIndex = k;
-                            break;
-                        }
-                }
-            }
-            out[e / per] |= lastIndex << ((e % per) * bits);
-        }
+        const uint32_t finest = vol.levels() - 1;
+        std::vector<uint32_t> picked;
+        for (uint32_t i = 0; i < n; ++i)
+            if (list[kDecodeEntryWords * i + 1] == finest && list[kDecodeEntryWords * i] < brickCount) picked.push_back(i);
+        if (picked.empty()) return Status::ok();
+        const uint64_t words = volume->regionWords(0);
+        std::vector<uint32_t> data(picked.size() * words);
+        std::vector<Context::CopyRegion> regions(picked.size());
+        if (!workers) workers = std::make_unique<WorkerPool>();
+        while (decoders.size() < workers->size()) decoders.push_back(std::make_unique<BrickDecoder>(vol));
+        workers->parallelFor(picked.size(), [&](uint64_t k, unsigned worker) {
+            BrickDecoder& d = *decoders[worker];
+            const uint32_t* e = list.data() + kDecodeEntryWords * picked[k];
+            uint32_t* out = data.data() + k * words;
+            if (d.decode(e[0], 0)) volume->packRegion(e[0], d.labels(), uint64_t(d.gridSize()) * d.gridSize() * d.gridSize(), out);
+            else std::fill(out, out + words, kNone); // reads as outside
+            regions[k] = {k * words * 4, uint64_t(e[2]) * 4, words * 4};
+        });
+        return ctx.uploadRegions(cache, data.data(), regions);
     }
 
     /// A brick's finest labels (Morton order) -> its uniform sub-blocks (csgv/codec/Layout.h; as
@@ -520,6 +518,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         ~uint64_t(3);
     im.hostDecode = options.decode == RendererOptions::Decode::Host ||
                     (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
+    im.hostFinest = volume->separated() && !im.hostDecode;
     const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
     im.cacheKind = hostOrDevice;
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
@@ -1036,6 +1035,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!hostDecode) {
         dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
+        decodeEnd = dispatches.size(); // with hostFinest, the host's finest-level bricks go in here
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
     const uint32_t stride = st.subsampling;
@@ -1126,6 +1126,11 @@ Status Renderer::Impl::submit() {
                 std::fprintf(stderr, "host decode: %.2f ms\n",
                              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
             }
+            if (hostFinest && i == decodeEnd) {
+                if (!(s = decodeFinestOnHost())) return s;
+                std::fprintf(stderr, "host decode of the finest level: %.2f ms\n",
+                             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
+            }
             if (!(s = ctx.run(&dispatches[i], 1))) return s;
             std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, dispatches[i].groups[0], dispatches[i].groups[1],
                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
@@ -1137,6 +1142,13 @@ Status Renderer::Impl::submit() {
         if (!(s = ctx.run(dispatches.data(), cacheStages))) return s;
         decodeOnHost();
         return ctx.run(dispatches.data() + cacheStages, dispatches.size() - cacheStages);
+    }
+    if (hostFinest) {
+        // Two submissions: cache stages and GPU decoding; the host decodes the finest level into
+        // the cache; uniform sub-blocks, render and resolve.
+        if (!(s = ctx.run(dispatches.data(), decodeEnd))) return s;
+        if (!(s = decodeFinestOnHost())) return s;
+        return ctx.run(dispatches.data() + decodeEnd, dispatches.size() - decodeEnd);
     }
     return ctx.run(dispatches); // one submission: cache stages, decoding, rendering, resolving
 }

@@ -94,6 +94,11 @@ public:
     Result<Buffer> createBuffer(uint64_t bytes, MemoryKind kind);
     /// Copies host data into a buffer at an offset (through a staging buffer when not mapped).
     Status upload(Buffer& dst, uint64_t offset, const void* data, uint64_t bytes);
+    /// Copies ranges of `data` into a buffer, in one submission (one staging buffer).
+    struct CopyRegion {
+        uint64_t srcOffset = 0, dstOffset = 0, bytes = 0;
+    };
+    Status uploadRegions(Buffer& dst, const void* data, const std::vector<CopyRegion>& regions);
     /// Copies a buffer range back to the host.
     Status download(const Buffer& src, uint64_t offset, void* data, uint64_t bytes);
 

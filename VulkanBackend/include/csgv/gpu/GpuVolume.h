@@ -28,15 +28,24 @@ struct BrickRequest {
 /// Text for a decode result code of the shader ("ok", "stream runs past its end", ...).
 const char* decodeResultText(uint32_t code);
 
-/// @brief How decoded bricks are stored in a cache.
+/// Whether the finest level's encoding stays in host memory (detail separation, rANS two-table
+/// encodings only): automatically when the whole encoding would take more than half the budget.
+enum class DetailSeparation { Auto, Never, Always };
+
+/// @brief How decoded bricks are stored in a cache, and what of the encoding the device holds.
 struct GpuVolumeOptions {
     /// Cache paletting (the paper's "Cache paletting"): store packed indices into each brick's
     /// palette, ceil(log2(largest palette + 1)) bits, floor(32 / bits) to a word, instead of 32-bit
     /// labels. Ignored when the palettes are so large that no two indices fit a word.
     bool cachePaletting = false;
     /// Device-memory budget in bytes (0: automaticDeviceMemoryBudget of the device): an encoding
-    /// that does not fit is refused before anything is uploaded.
+    /// that does not fit (without its finest level when separated) is refused before anything is
+    /// uploaded.
     uint64_t deviceMemoryBytes = 0;
+    /// Detail separation: the device holds each brick's header, coarse levels and palette; its
+    /// finest level is decoded on the host from the CompressedVolume (which the caller keeps in
+    /// host memory anyway) and written into the cache (decode(), and the renderer's frames).
+    DetailSeparation separateDetail = DetailSeparation::Auto;
 };
 
 class GpuVolume {
@@ -53,6 +62,13 @@ public:
     /// Device memory the encoding of `volume` takes once uploaded (create() allocates exactly this).
     static uint64_t encodingBytes(const CompressedVolume& volume);
 
+    /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): requests for
+    /// level 0 are decoded on the host.
+    bool separated() const { return m_separated; }
+    /// A brick's labels (Morton order, kInvalidLabel outside) as its cache region stores them:
+    /// copied, or with cache paletting packed as palette indices (labelsFromRegion's inverse);
+    /// `n` labels, (n + entries per word - 1) / entries per word words.
+    void packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const;
     /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
     uint32_t cacheBits() const { return m_cacheBits; }
     uint32_t cacheEntriesPerWord() const { return m_cacheBits == 32 ? 1 : 32 / m_cacheBits; }
@@ -99,6 +115,10 @@ private:
     Defines m_defines;
     uint64_t m_decodePipeline = 0;
     uint32_t m_cacheBits = 32;
+    bool m_separated = false;
+    /// The device's part of a separated encoding: each brick without its finest level.
+    static void separateDetail(const CompressedVolume& volume, std::vector<std::vector<uint32_t>>& arrays,
+                               std::vector<uint32_t>& starts);
 };
 
 } // namespace csgv::gpu
