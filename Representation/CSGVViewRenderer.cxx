@@ -138,12 +138,24 @@ std::string ViewRenderer::ensureRenderer()
   const uint64_t budget = this->Settings.deviceMemoryBytes
     ? this->Settings.deviceMemoryBytes
     : csgv::gpu::automaticDeviceMemoryBudget(this->Context->device());
+  // A budget that wants the finest level in host memory, or no more, wants another upload.
+  const bool separated =
+    csgv::gpu::GpuVolume::separates(shared->volume, budget, csgv::gpu::DetailSeparation::Auto);
+  if (this->Renderer && this->Renderer->volume().separated() != separated)
+  {
+    this->Renderer.reset();
+  }
   {
     std::lock_guard<std::mutex> lock(this->Cache->mutex());
     std::shared_ptr<csgv::gpu::GpuVolume>& other = shared->gpu[paletted ? 0 : 1];
     if (other && other.use_count() == 1)
     {
       other.reset(); // no view draws from it any more
+    }
+    std::shared_ptr<csgv::gpu::GpuVolume>& mine = shared->gpu[paletted];
+    if (mine && mine->separated() != separated && mine.use_count() == 1)
+    {
+      mine.reset(); // made for another budget, and no other view draws from it
     }
     if (!shared->gpu[paletted])
     {
@@ -263,6 +275,11 @@ uint64_t ViewRenderer::cacheBytes() const
 uint64_t ViewRenderer::deviceBytes() const
 {
   return this->Renderer ? this->Renderer->memory().total() : 0;
+}
+
+bool ViewRenderer::detailSeparated() const
+{
+  return this->Renderer && this->Renderer->volume().separated();
 }
 
 uint32_t ViewRenderer::cacheBits() const

@@ -113,6 +113,8 @@ public:
   /// Bits per voxel of this view's brick cache: 32 (labels), fewer with cache paletting; 0
   /// without a renderer.
   uint32_t cacheBits() const;
+  /// Whether this view's upload keeps the finest level in host memory (detail separation).
+  bool detailSeparated() const;
 
 private:
   std::string ensureRenderer();

@@ -276,6 +276,11 @@ int vtkCSGVRepresentation::GetCacheBits()
   return this->Prop->GetCacheBits();
 }
 
+int vtkCSGVRepresentation::GetDetailSeparated()
+{
+  return this->Prop->GetDetailSeparated();
+}
+
 void vtkCSGVRepresentation::PushAttributes()
 {
   csgvrep::AttributeConfig c;

@@ -123,6 +123,9 @@ public:
   /// Bits per voxel of this view's brick cache: 32 (labels) or fewer (cache paletting); 0 before
   /// the first render.
   int GetCacheBits();
+  /// 1 when the device holds the encoding without its finest level (detail separation: the
+  /// encoding would take more than half of DeviceMemoryMiB), which the host then decodes.
+  int GetDetailSeparated();
 
 protected:
   vtkCSGVRepresentation();

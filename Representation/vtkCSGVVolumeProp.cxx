@@ -349,6 +349,11 @@ int vtkCSGVVolumeProp::GetCacheBits()
   return int(this->P->View.cacheBits());
 }
 
+int vtkCSGVVolumeProp::GetDetailSeparated()
+{
+  return this->P->View.detailSeparated() ? 1 : 0;
+}
+
 bool vtkCSGVVolumeProp::DrawnMaterials(
   std::map<std::string, std::vector<float>>* arrays, csgv::MaterialEvaluator::AttributeFn* attribute)
 {

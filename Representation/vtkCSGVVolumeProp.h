@@ -96,6 +96,7 @@ public:
   double GetDeviceMiB();
   double GetDeviceBudgetMiB();
   int GetCacheBits();
+  int GetDetailSeparated();
 
 protected:
   vtkCSGVVolumeProp();

@@ -64,11 +64,8 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (volume.brickCount() >= (uint64_t(1) << 32)) return Status::error("more than 2^32 bricks are not supported on the GPU");
     const uint64_t budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
     std::unique_ptr<GpuVolume> g(new GpuVolume(context, volume));
-    // Detail separation: an encoding that would take more than half the budget keeps its finest
-    // level in host memory (mode 2 only: there the finest level is a stream of its own).
     const bool separable = volume.encoding == kEncodingRans2;
-    const bool separate = separable && (options.separateDetail == DetailSeparation::Always ||
-                                        (options.separateDetail == DetailSeparation::Auto && encodingBytes(volume) > budget / 2));
+    const bool separate = separates(volume, budget, options.separateDetail);
     std::vector<std::vector<uint32_t>> baseArrays;
     std::vector<uint32_t> baseStarts;
     if (separate) separateDetail(volume, baseArrays, baseStarts);
@@ -121,6 +118,13 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (!pipeline) return pipeline.status();
     g->m_decodePipeline = *pipeline;
     return g;
+}
+
+bool GpuVolume::separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation) {
+    // Detail separation: an encoding that would take more than half the budget keeps its finest
+    // level in host memory (mode 2 only: there the finest level is a stream of its own).
+    if (volume.encoding != kEncodingRans2) return false;
+    return separation == DetailSeparation::Always || (separation == DetailSeparation::Auto && encodingBytes(volume) > budget / 2);
 }
 
 void GpuVolume::separateDetail(const CompressedVolume& volume, std::vector<std::vector<uint32_t>>& arrays,

@@ -65,6 +65,8 @@ public:
     /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): requests for
     /// level 0 are decoded on the host.
     bool separated() const { return m_separated; }
+    /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
+    static bool separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation);
     /// A brick's labels (Morton order, kInvalidLabel outside) as its cache region stores them:
     /// copied, or with cache paletting packed as palette indices (labelsFromRegion's inverse);
     /// `n` labels, (n + entries per word - 1) / entries per word words.

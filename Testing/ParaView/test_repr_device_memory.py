@@ -1,0 +1,103 @@
+# SPDX-License-Identifier: MIT
+"""Device memory in ParaView. Cache paletting (CSGVCachePaletting): off keeps 32-bit labels in
+the brick cache, on packs palette indices and draws the same image, automatic stays off while the
+cache holds what the view needs and turns on once the cache of labels runs full (under a tight
+device-memory budget), then draws the same image as an unconstrained view. Detail separation: a
+budget that the encoding would take more than half of keeps its finest level in host memory
+(CSGVDetailSeparated), within the budget, with the same image; a larger budget uploads it whole
+again."""
+import os
+import subprocess
+
+import numpy as np
+
+import csgv_pvtest as t
+from paraview.simple import *
+
+t.load_plugin(globals())
+csgv = OpenDataFile(os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv"))
+v = t.render_view(160, 120)
+d = Show(csgv, v)
+d.CSGVFramesPerStillRender = 1
+d.CSGVStillRenderTimeBudget = 60
+v.ResetCamera()
+v.CameraPosition = [-60, 130, 160]
+v.CameraFocalPoint = [66, 35, 97]
+v.CameraViewUp = [0, 0, 1]
+
+
+def cache_bits():
+    d.SMProxy.UpdatePropertyInformation()
+    return d.SMProxy.GetProperty("CSGVCacheBits").GetElement(0)
+
+
+def differs(a, b):
+    return np.abs(a.astype(int) - b.astype(int)).max(axis=2) > 2
+
+
+d.CSGVCachePaletting = 0
+labels = t.screenshot(v, 160, 120, "off.png")
+t.check(cache_bits() == 32, "off: the cache holds 32-bit labels (%d bits)" % cache_bits())
+t.check(t.content_mask(labels).mean() > 0.1, "off: the volume draws")
+
+d.CSGVCachePaletting = 1
+packed = t.screenshot(v, 160, 120, "on.png")
+t.check(0 < cache_bits() < 32, "on: the cache holds packed palette indices (%d bits)" % cache_bits())
+t.check(differs(packed, labels).mean() == 0, "on: the same image as with labels (%.2f%% of pixels differ)"
+        % (100 * differs(packed, labels).mean()))
+
+d.CSGVCachePaletting = 2
+auto = t.screenshot(v, 160, 120, "auto.png")
+t.check(cache_bits() == 32, "automatic: labels while the cache holds the view (%d bits)" % cache_bits())
+t.check(differs(auto, labels).mean() == 0, "automatic: the same image")
+
+# A budget that leaves the cache far less than the view's bricks: the cache runs full, the next
+# render packs it, and the image converges to the same one.
+d.CSGVDeviceMemoryMiB = 3
+t.screenshot(v, 160, 120, "tight1.png")
+t.screenshot(v, 160, 120, "tight2.png")
+tight = t.screenshot(v, 160, 120, "tight3.png")
+t.check(0 < cache_bits() < 32, "automatic: packed once the cache of labels ran full (%d bits)" % cache_bits())
+t.check(differs(tight, labels).mean() == 0, "automatic under a tight budget: the same image (%.2f%% of pixels differ)"
+        % (100 * differs(tight, labels).mean()))
+d.CSGVCachePaletting = 0
+t.screenshot(v, 160, 120, "tight_off.png")
+t.check(cache_bits() == 32, "off again: labels")
+Delete(csgv)
+
+# Detail separation: a synthetic volume whose encoding is a few MiB.
+big = os.path.join(t.temp_dir(), "synth384.csgv")
+subprocess.run([os.environ["CSGV_TOOL"], "compress", "synth:384x384x384", big], check=True, stdout=subprocess.DEVNULL)
+encoding_mib = os.path.getsize(big) / 2**20
+s = OpenDataFile(big)
+v2 = t.render_view(160, 120)
+d2 = Show(s, v2)
+d2.CSGVFramesPerStillRender = 1
+d2.CSGVStillRenderTimeBudget = 60
+v2.ResetCamera()
+
+
+def memory():
+    d2.SMProxy.UpdatePropertyInformation()
+    return tuple(d2.SMProxy.GetProperty(n).GetElement(0)
+                 for n in ("CSGVDetailSeparated", "CSGVDeviceMiB", "CSGVDeviceBudgetMiB"))
+
+
+whole = t.screenshot(v2, 160, 120, "whole.png")
+separated, device_whole, _ = memory()
+t.check(separated == 0 and t.content_mask(whole).mean() > 0.1,
+        "the automatic budget holds the %.1f MiB encoding whole" % encoding_mib)
+budget = int(2 * encoding_mib)  # the encoding takes more than half of it
+t.check(budget >= 4, "the synthetic encoding is large enough for the test (%.1f MiB)" % encoding_mib)
+d2.CSGVDeviceMemoryMiB = budget
+split = t.screenshot(v2, 160, 120, "separated.png")
+separated, device, budget_mib = memory()
+t.check(separated == 1 and device <= budget_mib == budget,
+        "a %d MiB budget keeps the finest level in host memory (%.1f MiB on the device)" % (budget, device))
+t.check(differs(split, whole).mean() == 0, "separated: the same image (%.2f%% of pixels differ)"
+        % (100 * differs(split, whole).mean()))
+d2.CSGVDeviceMemoryMiB = 0
+again = t.screenshot(v2, 160, 120, "whole_again.png")
+separated, _, _ = memory()
+t.check(separated == 0 and differs(again, whole).mean() == 0, "the automatic budget uploads it whole again")
+t.finish()
