@@ -341,6 +341,7 @@ int cmdRender(int argc, char** argv) {
     std::vector<double> frameTimes;
     double firstFrameMs = -1;
     uint64_t cacheUsed = 0;
+    uint32_t fewestSamples = ~0u; // of any view's last frame: below --frames, a view stopped short
     gpu::FrameOutput out;
     for (uint32_t v = 0; v < views; ++v) {
         Vec3 e = eye;
@@ -363,7 +364,7 @@ int cmdRender(int argc, char** argv) {
         // Frames until every pixel holds the requested samples (bounded: FrameStats::idleLimit()
         // idle frames in a row end it).
         const uint32_t maxFrames = a.frames * settings.subsampling * settings.subsampling + 256;
-        uint32_t idle = 0;
+        uint32_t idle = 0, minSamples = 0;
         for (uint32_t f = 0; f < maxFrames; ++f) {
             Result<gpu::FrameStats> st = r.renderFrame(in);
             if (!st) return fail(st.message());
@@ -374,11 +375,13 @@ int cmdRender(int argc, char** argv) {
                         unsigned(frameTimes.size()), st->milliseconds, st->decodedBricks, st->newSamples,
                         st->missingPixels, st->minSamples, st->cacheFull ? ", cache full" : "",
                         st->requestLimited ? ", requests limited" : "");
+            minSamples = st->minSamples;
             if (firstFrameMs < 0 && st->minSamples >= 1) firstFrameMs = since(tStart);
             if (st->minSamples >= a.frames) break;
             idle = st->idle() ? idle + 1 : 0;
             if (idle >= st->idleLimit()) break;
         }
+        fewestSamples = std::min(fewestSamples, minSamples);
         if (!(s = r.readOutput(out))) return fail(s.message());
         if (a.orbit) {
             char name[4096];
@@ -392,6 +395,10 @@ int cmdRender(int argc, char** argv) {
     std::vector<double> sorted = frameTimes;
     std::sort(sorted.begin(), sorted.end());
     std::printf("frames: %zu\n", frameTimes.size());
+    // Not converged: the frame cap or idle frames ended a view first (a cache far too small for
+    // the view converges, but slowly: raise the budget or lower the resolution).
+    if (fewestSamples >= a.frames) std::printf("converged: yes\n");
+    else std::printf("converged: no (a pixel holds %u of %u samples)\n", fewestSamples, a.frames);
     std::printf("median_frame_ms: %.1f\n", sorted.empty() ? 0.0 : sorted[sorted.size() / 2]);
     std::printf("time_to_first_frame_ms: %.1f\n", firstFrameMs);
     for (const auto& b : r.memory().buffers) std::printf("device_memory %s: %.2f MiB\n", b.first.c_str(), b.second / 1048576.0);

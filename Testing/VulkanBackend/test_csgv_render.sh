@@ -11,10 +11,11 @@ DEF=$FIX/synthA_b32_rans2.csgv
 PY=/usr/bin/python3
 
 expect 0 "render" "$CSGV" render "$DEF" "$TMP/a.png" --size 64x48 --labels-out "$TMP/a.labels" --finest --no-jitter
-for key in median_frame_ms time_to_first_frame_ms device_memory_total_mib cache_used_mib; do
+for key in median_frame_ms time_to_first_frame_ms device_memory_total_mib cache_used_mib converged; do
   grep -q "^$key: " "$TMP/out" || bad "render summary lacks $key"
 done
 grep -q "^frame 1: " "$TMP/out" || bad "render prints each frame"
+grep -q "^converged: yes$" "$TMP/out" && pass "the render converged" || bad "converged: yes expected"
 # A device-memory budget bounds the whole device memory and leaves the labels as they were; one
 # too small for the image is one error line naming the budget.
 expect 0 "render under a budget" "$CSGV" render "$DEF" "$TMP/b.png" --size 64x48 --labels-out "$TMP/b.labels" --finest \
