@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/GpuVolume.h"
 #include "csgv/gpu/FrameLayout.h"
-#include "csgv/codec/Decoder.h"
 
 #include <algorithm>
 #include <unordered_map>
@@ -71,9 +70,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (separate) separateDetail(volume, baseArrays, baseStarts);
     const std::vector<std::vector<uint32_t>>& arrays = separate ? baseArrays : volume.arrays;
     const std::vector<uint32_t>& starts = separate ? baseStarts : volume.brickStarts;
-    auto bytes = [](uint64_t n) { return std::max<uint64_t>(n, 4); }; // as the Context allocates
-    uint64_t need = bytes(arrays.size() * 8) + bytes(starts.size() * 4);
-    for (const auto& a : arrays) need += bytes(a.size() * 4);
+    const uint64_t need = uploadBytes(arrays, starts);
     if (need > budget)
         return Status::error("the encoding needs " + mebibytes(need) + " of device memory" +
                              (separate ? " without its finest level" : "") +
@@ -153,14 +150,16 @@ uint32_t GpuVolume::paletteBits(const CompressedVolume& volume) {
     return bits <= 16 ? bits : 32;
 }
 
-uint64_t GpuVolume::encodingBytes(const CompressedVolume& volume) {
+uint64_t GpuVolume::uploadBytes(const std::vector<std::vector<uint32_t>>& arrays, const std::vector<uint32_t>& starts) {
     // As create() allocates them: each array, the address table, the brick starts (the Context
     // makes no buffer smaller than 4 bytes).
     auto bytes = [](uint64_t n) { return std::max<uint64_t>(n, 4); };
-    uint64_t n = bytes(volume.arrays.size() * 8) + bytes(volume.brickStarts.size() * 4);
-    for (const auto& a : volume.arrays) n += bytes(a.size() * 4);
+    uint64_t n = bytes(arrays.size() * 8) + bytes(starts.size() * 4);
+    for (const auto& a : arrays) n += bytes(a.size() * 4);
     return n;
 }
+
+uint64_t GpuVolume::encodingBytes(const CompressedVolume& volume) { return uploadBytes(volume.arrays, volume.brickStarts); }
 
 uint64_t GpuVolume::deviceBytes() const {
     uint64_t n = m_addresses.size() + m_starts.size();
@@ -226,19 +225,17 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     }
     if (m_separated) { // the finest level from host memory (the shader left these requests alone)
         BrickDecoder decoder(m_volume);
-        std::vector<uint32_t> region;
+        const uint64_t words = regionWords(0);
+        std::vector<uint32_t> data;
+        std::vector<Context::CopyRegion> regions;
         for (size_t i = 0; i < requests.size(); ++i) {
             if (requests[i].lod != 0) continue;
-            region.assign(regionWords(0), kNone);
-            if (decoder.decode(requests[i].brick, 0)) {
-                const uint64_t n = uint64_t(decoder.gridSize()) * decoder.gridSize() * decoder.gridSize();
-                packRegion(requests[i].brick, decoder.labels(), n, region.data());
-                status[i] = kDecodeOk;
-            } else {
-                status[i] = kDecodeBadOperation; // Core's decoder names no shader result code
-            }
-            if (!(s = m_context.upload(cache, uint64_t(requests[i].cacheOffset) * 4, region.data(), region.size() * 4))) return s;
+            data.resize(data.size() + words);
+            const bool ok = decodeRegion(decoder, requests[i].brick, 0, data.data() + data.size() - words);
+            status[i] = ok ? kDecodeOk : kDecodeBadOperation; // Core's decoder names no shader result code
+            regions.push_back({(data.size() - words) * 4, uint64_t(requests[i].cacheOffset) * 4, words * 4});
         }
+        if (!(s = m_context.uploadRegions(cache, data.data(), regions))) return s;
     }
     if (codes) *codes = std::move(status);
     return Status::ok();
@@ -309,6 +306,16 @@ uint64_t GpuVolume::regionWords(uint32_t lod) const {
     const uint64_t entries = std::max<uint64_t>(edge * edge * edge, 1);
     const uint64_t per = cacheEntriesPerWord();
     return (entries + per - 1) / per;
+}
+
+bool GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const {
+    if (!decoder.decode(brick, lod)) {
+        std::fill(out, out + regionWords(lod), kNone);
+        return false;
+    }
+    const uint64_t edge = decoder.gridSize();
+    packRegion(brick, decoder.labels(), edge * edge * edge, out);
+    return true;
 }
 
 void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const {

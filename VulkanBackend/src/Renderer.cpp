@@ -112,8 +112,6 @@ double renderedPixels(const FrameInput& in, uint32_t stride) {
 }
 } // namespace
 
-/// Room the cache leaves for the per-pixel buffers when a renderer is made under a tight
-/// budget: a 1280x720 image (92 bytes a pixel; allocateImage), or a quarter of what is left.
 /// Stored labels up to which a table label -> material replaces the shaders' scan of the list.
 constexpr uint32_t kMaterialTableLabels = 1u << 22;
 
@@ -124,6 +122,8 @@ constexpr uint32_t kEvictAgeStart = 8, kQuietFrames = 8, kDefragInterval = 64;
 /// of other levels than those requested).
 constexpr uint32_t kFragmentedShare = 4; // 1/4
 
+/// Room the cache leaves for the per-pixel buffers when a renderer is made under a tight
+/// budget: a 1280x720 image (92 bytes a pixel; allocateImage), or a quarter of what is left.
 constexpr uint64_t kImageReserveBytes = 92ull * 1280 * 720;
 
 struct Renderer::Impl {
@@ -195,23 +195,24 @@ struct Renderer::Impl {
         const uint32_t n = std::min(allocWords()[kAllocDecodes], maxRequests);
         const uint32_t* list = static_cast<const uint32_t*>(decodes.mapped());
         uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
-        const CompressedVolume& vol = volume->volume();
-        const uint32_t L = vol.levels();
+        const uint32_t L = levels;
         if (n == 0) return;
         uint64_t* uniformMasks = static_cast<uint64_t*>(uniformSubs.mapped());
-        if (!workers) workers = std::make_unique<WorkerPool>();
-        while (decoders.size() < workers->size()) decoders.push_back(std::make_unique<BrickDecoder>(vol));
-        workers->parallelFor(n, [&](uint64_t i, unsigned worker) {
+        hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
             BrickDecoder& d = *decoders[worker];
             const uint32_t* e = list + kDecodeEntryWords * i;
             const uint32_t brick = e[0], lod = L - 1 - std::min(e[1], L - 1), offset = e[2];
-            const uint64_t words = volume->regionWords(lod);
-            if (uint64_t(offset) + words > cache.size() / 4 || brick >= brickCount) return;
-            const bool ok = bool(d.decode(brick, lod));
-            if (!ok) std::fill(cacheWords + offset, cacheWords + offset + words, kNone); // reads as outside
-            else volume->packRegion(brick, d.labels(), uint64_t(d.gridSize()) * d.gridSize() * d.gridSize(), cacheWords + offset);
+            if (uint64_t(offset) + volume->regionWords(lod) > cache.size() / 4 || brick >= brickCount) return;
+            const bool ok = volume->decodeRegion(d, brick, lod, cacheWords + offset);
             if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
         });
+    }
+
+    /// The host decoding's worker pool, with a decoder per worker.
+    WorkerPool& hostWorkers() {
+        if (!workers) workers = std::make_unique<WorkerPool>();
+        while (decoders.size() < workers->size()) decoders.push_back(std::make_unique<BrickDecoder>(volume->volume()));
+        return *workers;
     }
 
     /// Detail separation with GPU decoding: the requests for the finest level (which the decoding
@@ -223,8 +224,7 @@ struct Renderer::Impl {
         std::vector<uint32_t> list(size_t(n) * kDecodeEntryWords);
         Status s = ctx.download(decodes, 0, list.data(), list.size() * 4);
         if (!s) return s;
-        const CompressedVolume& vol = volume->volume();
-        const uint32_t finest = vol.levels() - 1;
+        const uint32_t finest = levels - 1;
         std::vector<uint32_t> picked;
         for (uint32_t i = 0; i < n; ++i)
             if (list[kDecodeEntryWords * i + 1] == finest && list[kDecodeEntryWords * i] < brickCount) picked.push_back(i);
@@ -232,14 +232,9 @@ struct Renderer::Impl {
         const uint64_t words = volume->regionWords(0);
         std::vector<uint32_t> data(picked.size() * words);
         std::vector<Context::CopyRegion> regions(picked.size());
-        if (!workers) workers = std::make_unique<WorkerPool>();
-        while (decoders.size() < workers->size()) decoders.push_back(std::make_unique<BrickDecoder>(vol));
-        workers->parallelFor(picked.size(), [&](uint64_t k, unsigned worker) {
-            BrickDecoder& d = *decoders[worker];
+        hostWorkers().parallelFor(picked.size(), [&](uint64_t k, unsigned worker) {
             const uint32_t* e = list.data() + kDecodeEntryWords * picked[k];
-            uint32_t* out = data.data() + k * words;
-            if (d.decode(e[0], 0)) volume->packRegion(e[0], d.labels(), uint64_t(d.gridSize()) * d.gridSize() * d.gridSize(), out);
-            else std::fill(out, out + words, kNone); // reads as outside
+            volume->decodeRegion(*decoders[worker], e[0], 0, data.data() + k * words); // a failed brick reads as outside
             regions[k] = {k * words * 4, uint64_t(e[2]) * 4, words * 4};
         });
         return ctx.uploadRegions(cache, data.data(), regions);
@@ -498,14 +493,33 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
-    // The budget: the encoding and the tables below are fixed; the cache takes what they leave
-    // beside room for an image, and shrinks later if images or materials need more.
-    auto made = [](uint64_t bytes) { return std::max<uint64_t>(bytes, 16); }; // as make() allocates
-    const uint64_t fixed = volume->deviceBytes() + made(sizeof(FrameParams)) + made(uint64_t(im.brickCount) * 16) +
-                           made(uint64_t(im.brickCount) * 8) + made(uint64_t(im.brickCount) * 8) + made(kAllocWords * 4) +
-                           made(uint64_t(im.brickCount) * im.levels * 4) + made(uint64_t(im.maxRequests) * 8) +
-                           made(uint64_t(im.maxRequests) * kDecodeEntryWords * 4) +
-                           made(uint64_t(im.maxRequests) * kDecodeStateWords * 4) + made(sizeof(kBlueNoise64));
+    im.hostDecode = options.decode == RendererOptions::Decode::Host ||
+                    (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
+    im.hostFinest = volume->separated() && !im.hostDecode;
+    const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
+    im.cacheKind = hostOrDevice;
+    // Everything but the cache and the images, sized once: summed for the budget, then allocated.
+    struct Table {
+        Buffer* buffer;
+        uint64_t bytes;
+        MemoryKind kind;
+        const char* what;
+    };
+    const uint64_t bricks = im.brickCount, requests = im.maxRequests;
+    const Table tables[] = {{&im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"},
+                            {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
+                            {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
+                            {&im.uniformSubs, bricks * 8, hostOrDevice, "uniform sub-block masks"},
+                            {&im.alloc, kAllocWords * 4, MemoryKind::HostVisible, "cache counters"},
+                            {&im.freeStacks, bricks * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"},
+                            {&im.requests, requests * 8, MemoryKind::DeviceLocal, "request list"},
+                            {&im.decodes, requests * kDecodeEntryWords * 4, hostOrDevice, "decode list"},
+                            {&im.decodeStates, requests * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"},
+                            {&im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"}};
+    // The budget: the encoding and the tables are fixed; the cache takes what they leave beside
+    // room for an image, and shrinks later if images or materials need more.
+    uint64_t fixed = volume->deviceBytes();
+    for (const Table& t : tables) fixed += std::max<uint64_t>(t.bytes, 16); // as make() allocates
     const uint64_t smallestCache = im.smallestCacheBytes();
     if (fixed + smallestCache > im.budget)
         return Status::error("the device-memory budget of " + mebibytes(im.budget) + " is too small: the encoding takes " +
@@ -516,22 +530,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t cacheBytes =
         std::max(smallestCache, std::min({std::max<uint64_t>(options.cacheBytes, 4096), maxBytes, im.budget - fixed - imageRoom})) &
         ~uint64_t(3);
-    im.hostDecode = options.decode == RendererOptions::Decode::Host ||
-                    (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
-    im.hostFinest = volume->separated() && !im.hostDecode;
-    const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
-    im.cacheKind = hostOrDevice;
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
-    if (!(s = make(im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"))) return s;
-    if (!(s = make(im.bricks, uint64_t(im.brickCount) * 16, MemoryKind::DeviceLocal, "brick table"))) return s;
-    if (!(s = make(im.visible, uint64_t(im.brickCount) * 8, MemoryKind::DeviceLocal, "brick visibility"))) return s;
-    if (!(s = make(im.uniformSubs, uint64_t(im.brickCount) * 8, hostOrDevice, "uniform sub-block masks"))) return s;
-    if (!(s = make(im.alloc, kAllocWords * 4, MemoryKind::HostVisible, "cache counters"))) return s;
-    if (!(s = make(im.freeStacks, uint64_t(im.brickCount) * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"))) return s;
-    if (!(s = make(im.requests, uint64_t(im.maxRequests) * 8, MemoryKind::DeviceLocal, "request list"))) return s;
-    if (!(s = make(im.decodes, uint64_t(im.maxRequests) * kDecodeEntryWords * 4, hostOrDevice, "decode list"))) return s;
-    if (!(s = make(im.decodeStates, uint64_t(im.maxRequests) * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"))) return s;
-    if (!(s = make(im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"))) return s;
+    for (const Table& t : tables)
+        if (!(s = make(*t.buffer, t.bytes, t.kind, t.what))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
     im.frameAddress = im.params.address();
     // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
@@ -1158,9 +1159,8 @@ bool Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput&
     // moved):
     // - full: evict bricks no ray used for kEvictAgeStart frames, then for half as many each frame
     //   it stays full, down to the previous frame, or at a pixel stride s the previous s^2 (least
-    //   recently used first); then let only a
-    //   band of pixels (row-major, from the first pixel with the fewest samples) request bricks,
-    //   halved while full. A full cache whose free stacks hold a large share of it is fragmented
+    //   recently used first); then let only a band of pixels (row-major, from the first pixel
+    //   with the fewest samples) request bricks, halved while full. A full cache whose free stacks hold a large share of it is fragmented
     //   (free regions of other levels than those requested): it is reset (defragmented), at most
     //   once every kDefragInterval frames.
     // - not full: the band doubles until it covers the image; kQuietFrames frames later eviction

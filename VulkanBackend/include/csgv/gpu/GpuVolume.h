@@ -6,6 +6,7 @@
 /// addresses, so volumes of any size work within per-allocation limits.
 
 #include "csgv/codec/Container.h"
+#include "csgv/codec/Decoder.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/FrameLayout.h"
 #include "csgv/gpu/ShaderCompiler.h"
@@ -71,6 +72,10 @@ public:
     /// copied, or with cache paletting packed as palette indices (labelsFromRegion's inverse);
     /// `n` labels, (n + entries per word - 1) / entries per word words.
     void packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const;
+    /// Decodes a brick at `lod` on the host with `decoder` (of this volume) into its cache region
+    /// `out` (regionWords(lod) words, packed as the cache stores it); a brick whose stream fails
+    /// reads as outside the volume (all kNone) and false is returned.
+    bool decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const;
     /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
     uint32_t cacheBits() const { return m_cacheBits; }
     uint32_t cacheEntriesPerWord() const { return m_cacheBits == 32 ? 1 : 32 / m_cacheBits; }
@@ -118,6 +123,8 @@ private:
     uint64_t m_decodePipeline = 0;
     uint32_t m_cacheBits = 32;
     bool m_separated = false;
+    /// Device memory that encoding arrays and brick starts take once uploaded.
+    static uint64_t uploadBytes(const std::vector<std::vector<uint32_t>>& arrays, const std::vector<uint32_t>& starts);
     /// The device's part of a separated encoding: each brick without its finest level.
     static void separateDetail(const CompressedVolume& volume, std::vector<std::vector<uint32_t>>& arrays,
                                std::vector<uint32_t>& starts);
