@@ -124,7 +124,8 @@ public:
   /// the first render.
   int GetCacheBits();
   /// 1 when the device holds the encoding without its finest level (detail separation: the
-  /// encoding would take more than half of DeviceMemoryMiB), which the host then decodes.
+  /// encoding would take more than half of DeviceMemoryMiB): with GPU decoding its streams are
+  /// uploaded as views need them (detail streaming), host decoding reads them in host memory.
   int GetDetailSeparated();
 
 protected:

@@ -35,6 +35,7 @@ struct RenderArgs {
     uint32_t orbit = 0;
     uint64_t cacheMiB = 256;
     uint64_t deviceMemoryMiB = 0; ///< 0: automatic
+    gpu::RendererOptions::Decode decode = gpu::RendererOptions::Decode::Auto;
     bool cachePaletting = false;
     std::vector<std::string> attributeFiles;
     std::vector<std::pair<std::string, std::string>> derived; ///< name, SQL expression
@@ -104,6 +105,14 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     vec("--background", a.background, nullptr);
     number("--fov-y", 0.01, 179, [&a](double n) { a.fovY = n; });
     number("--parallel-scale", 1e-9, 1e12, [&a](double n) { a.parallelScale = n; });
+    values.add("--decode", [&a](const std::string& v) {
+        using D = gpu::RendererOptions::Decode;
+        if (v == "auto") a.decode = D::Auto;
+        else if (v == "gpu") a.decode = D::Gpu;
+        else if (v == "host") a.decode = D::Host;
+        else return Status::error("--decode expects auto, gpu or host, not '" + v + "'");
+        return Status::ok();
+    });
     values.add("--shading", [&a](const std::string& v) {
         Result<gpu::Shading> m = gpu::parseShading(v);
         if (!m) return Status(m.status()).prefix("--shading");
@@ -314,6 +323,7 @@ int cmdRender(int argc, char** argv) {
     gpu::RendererOptions options;
     options.cacheBytes = a.cacheMiB << 20;
     options.deviceMemoryBytes = a.deviceMemoryMiB << 20;
+    options.decode = a.decode;
     Result<std::unique_ptr<gpu::Renderer>> renderer = gpu::Renderer::create(**ctx, shared, options);
     if (!renderer) return fail(renderer.message());
     gpu::Renderer& r = **renderer;
@@ -371,10 +381,13 @@ int cmdRender(int argc, char** argv) {
             viewMs += st->milliseconds;
             cacheUsed = std::max(cacheUsed, st->cacheUsedBytes);
             frameTimes.push_back(st->milliseconds);
-            std::printf("frame %u: %.1f ms, decoded %u bricks, new samples %u, missing %u, min samples %u%s%s\n",
+            std::printf("frame %u: %.1f ms, decoded %u bricks, new samples %u, missing %u, min samples %u%s%s",
                         unsigned(frameTimes.size()), st->milliseconds, st->decodedBricks, st->newSamples,
                         st->missingPixels, st->minSamples, st->cacheFull ? ", cache full" : "",
                         st->requestLimited ? ", requests limited" : "");
+            if (st->detailRequests || st->detailUploads)
+                std::printf(", detail asked %u uploaded %u", st->detailRequests, st->detailUploads);
+            std::printf("\n");
             minSamples = st->minSamples;
             if (firstFrameMs < 0 && st->minSamples >= 1) firstFrameMs = since(tStart);
             if (st->minSamples >= a.frames) break;
@@ -405,6 +418,12 @@ int cmdRender(int argc, char** argv) {
     std::printf("device_memory_total_mib: %.2f\n", r.memory().total() / 1048576.0);
     std::printf("device_memory_budget_mib: %.2f\n", r.deviceMemoryBudget() / 1048576.0);
     std::printf("cache_used_mib: %.2f\n", cacheUsed / 1048576.0);
+    const gpu::DetailCounts detail = r.detailCounts();
+    std::printf("detail_streaming: %s\n", r.streamsDetail() ? "yes" : "no");
+    if (r.streamsDetail())
+        std::printf("detail_uploaded_bricks: %llu\ndetail_uploaded_mib: %.2f\ndetail_evicted_bricks: %llu\n",
+                    (unsigned long long)detail.uploadedBricks, detail.uploadedBytes / 1048576.0,
+                    (unsigned long long)detail.evictedBricks);
     return 0;
 }
 

@@ -5,7 +5,8 @@
 // before), or (under cache pressure) that no ray used for
 // kAllocEvictAge frames (least recently used first: the host lowers the age while the cache stays
 // full), onto their level's free stack; and requests bricks the previous frame's rays needed but
-// did not find, at the level their centre's distance asks for.
+// did not find, at the level their centre's distance asks for (with detail streaming, the next
+// coarser one while the finest level's stream is not on the device).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
@@ -23,13 +24,27 @@ void main() {
     uvec4 s = bricks.v[b];
     const bool used = s.z == fv.frame.x; // marked by the previous frame's rays (frame index + 1)
     const bool visible = UintBuf(frameAddr[kSlotVisible]).w[2u * b] != kNone;
-    if ((s.w != 0u) != visible) bricks.v[b].w = visible ? 1u : 0u; // materials changed
     const uint wanted = lodForBrick(f, b);
+    uint level = wanted;
+#if DETAIL_STREAMING
+    // The finest level needs the brick's stream in the detail buffer, unless the brick holds it
+    // decoded already: until the stream is there the brick stands in at the next coarser level
+    // (exact rays treat it as missing), and the stream is asked for (the host uploads it between
+    // frames).
+    const bool noDetail = wanted == 0u && s.y != 0u && UintBuf(frameAddr[kSlotDetail]).w[2u * b] == kNone;
+    if (noDetail) level = 1u;
+    if (noDetail && used && visible) {
+        const uint k = atomicAdd(alloc.w[kAllocDetailRequests], 1u);
+        if (k < fv.limits.x) UintBuf(frameAddr[kSlotDetailRequests]).w[k] = b;
+    }
+#endif
+    const uint flag = visible ? (level != wanted ? kBrickStandIn : 1u) : 0u;
+    if (s.w != flag) bricks.v[b].w = flag; // materials changed, or the brick's detail
     if (s.y != kNone) {
         // s.z is the frame index + 1 of the last use: the age is 0 for the previous frame's bricks.
-    const uint evictAge = alloc.w[kAllocEvictAge];
-    const bool stale = evictAge != 0u && fv.frame.x - s.z >= evictAge;
-    const bool evict = !visible || s.y != wanted || stale;
+        const uint evictAge = alloc.w[kAllocEvictAge];
+        const bool stale = evictAge != 0u && fv.frame.x - s.z >= evictAge;
+        const bool evict = !visible || s.y != level || stale;
         if (!evict) return;
         const uint k = atomicAdd(alloc.w[kAllocFreeCount + s.y], 1u);
         // A full stack cannot happen (a level never has more regions than bricks); if it did, the
@@ -41,8 +56,8 @@ void main() {
     if (!used || !visible) return;
     const uint r = atomicAdd(alloc.w[kAllocRequests], 1u);
     if (r >= fv.limits.x) return; // over this frame's decode budget: asked again next frame
-    atomicAdd(alloc.w[kAllocReqCount + wanted], 1u);
+    atomicAdd(alloc.w[kAllocReqCount + level], 1u);
     UintBuf req = UintBuf(frameAddr[kSlotRequests]);
     req.w[2u * r] = b;
-    req.w[2u * r + 1u] = wanted;
+    req.w[2u * r + 1u] = level;
 }

@@ -31,6 +31,7 @@ layout(buffer_reference, std430, buffer_reference_align = 4) buffer CacheWords {
 
 #include "csgv/codec/Layout.h" // kInvalidLabel, rANS constants, operation codes, decode results
 #include "csgv/base/Morton.h"
+#include "csgv/gpu/FrameLayout.h" // kNone, kDecodeNoDetail
 
 // Cache paletting (CACHE_BITS < 32): the cache holds palette indices of CACHE_BITS bits, packed
 // CACHE_PER_WORD to a word (never across words); all ones marks voxels outside the volume. Without
@@ -74,13 +75,36 @@ struct DecodeState {
     uint status;   // kDecodeRunning until done
 };
 
+// Detail separation (SEPARATED 1, rANS two tables only): the arrays hold each brick without its
+// finest-level stream (header, stream A, palette); that stream lies in the detail buffer
+// (DetailStream.h), found through the detail table (uvec2 per brick: word offset, kNone when
+// absent; words).
+#ifndef SEPARATED
+#define SEPARATED 0
+#endif
+
 struct Brick {
     Words words;
     uint start;        // first word of the brick in its array
     uint size;         // words
     uint paletteStart; // brick-relative word of the palette's first word
     uvec3 origin;
+#if SEPARATED
+    Words detail;      // the detail buffer
+    uint detailStart;  // word of the detail buffer that stands for brick-relative word 0 (mod 2^32)
+    uint detailEnd;    // brick-relative word where the finest-level stream ends
+    bool hasDetail;    // its finest-level stream is in the detail buffer
+#endif
 };
+
+/// Brick-relative word k of a stream, as in the whole encoding: the finest level's of a separated
+/// volume from the detail buffer.
+uint streamWord(Brick b, bool finest, uint k) {
+#if SEPARATED
+    if (finest) return b.detail.w[b.detailStart + k];
+#endif
+    return b.words.w[b.start + k];
+}
 
 // ---- symbol readers (loop-free) ----
 #if ENCODING == 0
@@ -107,7 +131,7 @@ const uint CUM_B_TABLE[17] = CUM_B;
 
 bool readByte(Brick b, inout DecodeState st) {
     if (st.pos >= st.end) return false;
-    uint word = b.words.w[b.start + st.base + 1u + (st.pos >> 2u)];
+    uint word = streamWord(b, st.level == LEVELS - 1u, st.base + 1u + (st.pos >> 2u));
     st.x = (st.x << 8u) | ((word >> (8u * (st.pos & 3u))) & 0xFFu);
     st.pos++;
     return true;
@@ -138,14 +162,15 @@ bool ransFinished(Brick b, DecodeState st) {
     if (st.x != kRansLowerBound || st.end - st.pos >= 4u) return false;
     // At most 3 padding bytes, all zero.
     bool zero = true;
-    if (st.pos < st.end) zero = zero && ((b.words.w[b.start + st.base + 1u + (st.pos >> 2u)] >> (8u * (st.pos & 3u))) & 0xFFu) == 0u;
-    if (st.pos + 1u < st.end) zero = zero && ((b.words.w[b.start + st.base + 1u + ((st.pos + 1u) >> 2u)] >> (8u * ((st.pos + 1u) & 3u))) & 0xFFu) == 0u;
-    if (st.pos + 2u < st.end) zero = zero && ((b.words.w[b.start + st.base + 1u + ((st.pos + 2u) >> 2u)] >> (8u * ((st.pos + 2u) & 3u))) & 0xFFu) == 0u;
+    const bool finest = st.level == LEVELS - 1u;
+    if (st.pos < st.end) zero = zero && ((streamWord(b, finest, st.base + 1u + (st.pos >> 2u)) >> (8u * (st.pos & 3u))) & 0xFFu) == 0u;
+    if (st.pos + 1u < st.end) zero = zero && ((streamWord(b, finest, st.base + 1u + ((st.pos + 1u) >> 2u)) >> (8u * ((st.pos + 1u) & 3u))) & 0xFFu) == 0u;
+    if (st.pos + 2u < st.end) zero = zero && ((streamWord(b, finest, st.base + 1u + ((st.pos + 2u) >> 2u)) >> (8u * ((st.pos + 2u) & 3u))) & 0xFFu) == 0u;
     return zero;
 }
-void beginRansStream(Brick b, inout DecodeState st, uint startWord, uint endWord) {
+void beginRansStream(Brick b, inout DecodeState st, bool finest, uint startWord, uint endWord) {
     st.base = startWord;
-    st.x = b.words.w[b.start + startWord];
+    st.x = streamWord(b, finest, startWord);
     st.pos = 0u;
     st.end = (endWord - startWord - 1u) * 4u;
 }
@@ -227,12 +252,22 @@ uint visitChild(Brick b, inout DecodeState st, CacheWords cache, uint region, ui
     return kDecodeOk;
 }
 
-Brick openBrick(Addresses arrays, Words starts, uint brick) {
+/// `detailTable` and `detailRing`: the detail table and buffer of a separated volume (else unused).
+Brick openBrick(Addresses arrays, Words starts, uint brick, uint64_t detailTable, uint64_t detailRing) {
     Brick b;
     b.words = Words(arrays.a[brick / BRICKS_PER_ARRAY]);
     b.start = (brick > 0u && brick % BRICKS_PER_ARRAY == 0u) ? 0u : starts.w[brick];
     b.size = starts.w[brick + 1u] - b.start;
     b.paletteStart = b.size - b.words.w[b.start + LEVELS];
+#if SEPARATED
+    const uint entry = 2u * brick;
+    const uint offset = Words(detailTable).w[entry], words = Words(detailTable).w[entry + 1u];
+    const uint streamB = b.words.w[b.start + LEVELS - 1u] / 8u;
+    b.detail = Words(detailRing);
+    b.hasDetail = offset != kNone && words > 0u;
+    b.detailStart = offset - streamB; // + streamB + k: word k of the stream
+    b.detailEnd = streamB + words;
+#endif
     const uvec3 bc = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y));
     b.origin = bc * BRICK_SIZE;
     return b;
@@ -252,9 +287,9 @@ DecodeState initialState(Brick b) {
 #if ENCODING == 0
     beginLevelStream(b, st);
 #elif ENCODING == 1
-    beginRansStream(b, st, LEVELS + 1u, b.paletteStart);
+    beginRansStream(b, st, false, LEVELS + 1u, b.paletteStart);
 #else
-    beginRansStream(b, st, LEVELS + 1u, b.words.w[b.start + LEVELS - 1u] / 8u);
+    beginRansStream(b, st, false, LEVELS + 1u, b.words.w[b.start + LEVELS - 1u] / 8u);
 #endif
 #if ENCODING != 0
     if (st.x < kRansLowerBound) st.status = kDecodeRansIntegrity; // a valid stream never starts lower
@@ -278,7 +313,17 @@ void endLevel(Brick b, inout DecodeState st, uint target) {
         st.status = (target == LEVELS - 1u && !ransFinished(b, st)) ? kDecodeRansIntegrity : kDecodeOk;
         return;
     }
-    if (st.level + 1u == LEVELS - 1u) beginRansStream(b, st, b.words.w[b.start + LEVELS - 1u] / 8u, b.paletteStart);
+#if SEPARATED
+    if (st.level + 1u == LEVELS - 1u) {
+        if (!b.hasDetail) {
+            st.status = kDecodeNoDetail;
+            return;
+        }
+        beginRansStream(b, st, true, b.words.w[b.start + LEVELS - 1u] / 8u, b.detailEnd);
+    }
+#else
+    if (st.level + 1u == LEVELS - 1u) beginRansStream(b, st, true, b.words.w[b.start + LEVELS - 1u] / 8u, b.paletteStart);
+#endif
 #else
     if (st.level == target) {
         st.status = kDecodeOk;

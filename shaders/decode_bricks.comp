@@ -4,8 +4,7 @@
 // and in the end the result code, of request i live in words [12 i, 12 i + 9) of `states`.
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#include "csgv_decode.glsl"
-#include "csgv/gpu/FrameLayout.h" // the decode lists and push constants
+#include "csgv_decode.glsl" // (with csgv/gpu/FrameLayout.h: the decode lists and push constants)
 
 layout(local_size_x = kGroupDecodes) in;
 
@@ -25,9 +24,8 @@ void main() {
     Uints req = Uints(pc.requests);
     const uint brick = req.w[kDecodeEntryWords * i];
     const uint target = req.w[kDecodeEntryWords * i + 1u];
-    if (SEPARATED != 0 && target == LEVELS - 1u) return; // the finest level is in host memory: the host decodes it
     const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
-    Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick);
+    Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick, pc.detail, pc.ring);
     Uints saved = Uints(pc.states);
     const uint o = kDecodeStateWords * i;
     DecodeState st;

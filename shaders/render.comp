@@ -7,7 +7,8 @@
 // contain complete samples; the k-th sample of a pixel is the same whichever frame computes it.
 // A pixel without samples shows a preview meanwhile (no holes): its view ray goes on through
 // missing bricks as blocks of one label (the coarsest level, from the encoding's palette: the
-// host's kSlotVisible), shaded locally; previews are never accumulated.
+// host's kSlotVisible), or at the coarser level a brick stands in at while its finest-level stream
+// is on its way (detail streaming), shaded locally; previews are never accumulated.
 // With kFlagResolveInRender it also writes the pixel's output and counts (no gather pass).
 // SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline.
 #version 460
@@ -49,6 +50,13 @@ bool coarseBlock(inout Walker w, out uint label, out uint material) {
     return true;
 }
 
+/// The walker stands in a brick cached at a coarser level than the view wants, its finest-level
+/// stream on its way (detail streaming): a preview may sample it there.
+bool standsIn(Walker w) {
+    const uvec4 s = Uvec4Buf(frameAddr[kSlotBricks]).v[brickIndexOf(w.voxel)];
+    return s.w == kBrickStandIn && s.y != kNone;
+}
+
 /// Visibility along a secondary ray from the walker's voxel (start inside a free voxel): 1 clear,
 /// 0 blocked, attenuated by semi-transparent surfaces. A brick not in the cache makes it -1 when
 /// `complete` (the sample must not be counted), else it counts at its coarsest level (deep
@@ -57,7 +65,7 @@ float visibility(inout Walker w, bool mark, bool complete) {
     float transmittance = 1.0;
     for (uint i = 0u; i < 64u; ++i) {
         uint label, material;
-        const uint r = march(f, w, boxLo, boxHi, mark, label, material);
+        const uint r = march(f, w, boxLo, boxHi, mark, complete, label, material);
         if (r == MARCH_OUT) return transmittance;
         if (r == MARCH_MISSING) {
             if (complete) return -1.0;
@@ -191,11 +199,14 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
     if (startRay(o, d, tEnd, boxLo, boxHi, w)) {
         for (uint layer = 0u; layer < 256u; ++layer) {
             uint label, material;
-            const uint r = march(f, w, boxLo, boxHi, request && valid, label, material);
+            const uint r = march(f, w, boxLo, boxHi, request && valid, valid, label, material);
             if (r == MARCH_OUT) break;
             if (r == MARCH_MISSING) {
                 valid = false;
                 if (!previews) break;
+#if DETAIL_STREAMING
+                if (standsIn(w)) continue; // the preview goes on through the brick at its coarser level
+#endif
                 if (!coarseBlock(w, label, material)) break;
             }
             float emission;
@@ -260,7 +271,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
                     uint l2 = kNone, m2 = kNone;
                     uint r2 = MARCH_OUT;
                     for (uint pass = 0u; pass < 64u; ++pass) {
-                        r2 = march(f, s, boxLo, boxHi, req, l2, m2);
+                        r2 = march(f, s, boxLo, boxHi, req, complete, l2, m2);
                         if (r2 == MARCH_MISSING && !complete) { // deep bounces: the brick's coarsest level
                             r2 = coarseBlock(s, l2, m2) ? MARCH_SURFACE : MARCH_OUT;
                         }

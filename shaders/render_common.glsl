@@ -337,15 +337,21 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
     return true;
 }
 
+/// Detail streaming (Renderer.cpp): bricks may stand in at a coarser level (kBrickStandIn).
+#ifndef DETAIL_STREAMING
+#define DETAIL_STREAMING 0
+#endif
+
 // Results of march().
 const uint MARCH_OUT = 0u;     // left the box or passed tEnd
 const uint MARCH_SURFACE = 1u; // entered a voxel of a visible label different from the previous one
 const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cache
 
 /// Walks until a surface event, the end, or a missing brick. `request`: mark the bricks the ray
-/// needs as used (so the next frame's request pass keeps or decodes them). On MARCH_SURFACE,
-/// `label` and `material` describe the voxel entered.
-uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint label, out uint material) {
+/// needs as used (so the next frame's request pass keeps or decodes them). `exact`: a brick that
+/// stands in at a coarser level than the view wants (kBrickStandIn) counts as missing; previews
+/// and deep bounces sample it. On MARCH_SURFACE, `label` and `material` describe the voxel entered.
+uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact, out uint label, out uint material) {
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     label = kNone;
     material = kNone;
@@ -365,6 +371,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, out uint l
                 bricks.v[b].z = fv.frame.x + 1u;
                 w.lastBrick = b;
             }
+#if DETAIL_STREAMING
+            if (exact && s.w == kBrickStandIn) s.y = kNone; // not at the view's level yet: missing
+#endif
             uniformSubs = s.w != 0u && s.y == 0u ? Uvec2Buf(frameAddr[kSlotUniform]).v[b] : uvec2(0u);
 #if CACHE_BITS != 32
             if (s.w != 0u && s.y != kNone) palette = paletteOf(f, b);

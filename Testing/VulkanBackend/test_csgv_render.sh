@@ -23,6 +23,20 @@ expect 0 "render under a budget" "$CSGV" render "$DEF" "$TMP/b.png" --size 64x48
 awk '/^device_memory_total_mib:/ { t = $2 } /^device_memory_budget_mib:/ { b = $2 } END { exit !(b == 3 && t <= b) }' \
   "$TMP/out" && pass "device memory within --device-memory-mib" || bad "device memory past --device-memory-mib"
 cmp -s "$TMP/a.labels" "$TMP/b.labels" && pass "a budget leaves the labels unchanged" || bad "labels differ under a budget"
+# GPU decoding under a budget that the encoding takes more than half of streams the finest
+# level's streams (a 2.8 MiB encoding under 5 MiB): the labels of the volume held whole (decoded
+# on the host here), streams uploaded, the budget kept.
+expect 0 "compress a 384^3 volume" "$CSGV" compress synth:384x384x384 "$TMP/s.csgv"
+expect 0 "render it whole" "$CSGV" render "$TMP/s.csgv" "$TMP/w.png" --size 64x48 --labels-out "$TMP/w.labels" --finest \
+  --no-jitter --decode host
+expect 0 "render streaming detail" "$CSGV" render "$TMP/s.csgv" "$TMP/d.png" --size 64x48 --labels-out "$TMP/d.labels" \
+  --finest --no-jitter --device-memory-mib 5 --decode gpu
+grep -q "^detail_separated: yes$" "$TMP/out" && grep -q "^detail_streaming: yes$" "$TMP/out" &&
+  awk '/^detail_uploaded_bricks:/ { n = $2 } /^device_memory_total_mib:/ { t = $2 } END { exit !(n > 0 && t <= 5) }' "$TMP/out" &&
+  pass "detail streamed within the budget" || bad "no detail streaming under --decode gpu"
+cmp -s "$TMP/w.labels" "$TMP/d.labels" && pass "streaming leaves the labels unchanged" || bad "labels differ with detail streaming"
+expect 1 "render with an unknown decoder" "$CSGV" render "$DEF" "$TMP/c.png" --decode fpga
+grep -q "decode expects auto, gpu or host" "$TMP/err" && pass "the error names --decode" || bad "no --decode in the error"
 expect 1 "render with a budget too small" "$CSGV" render "$DEF" "$TMP/c.png" --size 640x480 --device-memory-mib 2
 grep -q "budget of 2.0 MiB" "$TMP/err" && pass "the error names the budget" || bad "no budget in the error"
 [ "$(head -c 8 "$TMP/a.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ] && pass "PNG signature" || bad "PNG signature"

@@ -9,6 +9,7 @@
 #include "csgv/codec/Encoder.h"
 #include "csgv/base/Morton.h"
 #include "csgv/inputs/Procedural.h"
+#include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/GpuVolume.h"
 
 #include <algorithm>
@@ -72,7 +73,8 @@ TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevelWithCachePaletting) {
 }
 
 // Detail separation: the device holds each brick without its finest level (the GPU decodes the
-// coarser levels from that), the host decodes the finest; both with and without cache paletting.
+// coarser levels from that); the finest level's streams go through a detail buffer (DetailStream)
+// and the GPU decodes them from there; both with and without cache paletting.
 TEST(GpuDecode, SeparatedFixturesAtEveryLevel) {
     CSGV_REQUIRE_GPU(ctx);
     size_t separated = 0;
@@ -83,6 +85,69 @@ TEST(GpuDecode, SeparatedFixturesAtEveryLevel) {
         if (separated++ == 0) expectGpuEqualsCpu(*ctx, vol, name + " (separated, paletted)", true, DetailSeparation::Always);
     }
     EXPECT_GT(separated, 0u) << "no rANS two-table fixture";
+}
+
+TEST(DetailStream, RingEvictsTheOldestNeverThePendingBatchAndNamesOnlyCommittedStreams) {
+    CSGV_REQUIRE_GPU(ctx);
+    const CompressedVolume vol = loadFixture("synthA_b16_rans2_legacydelta.csgv");
+    ASSERT_GE(vol.brickCount(), 8u);
+    ASSERT_GT(DetailStream::streamBytes(vol), DetailStream::smallestBytes(vol)) << "the ring must be too small for all";
+    // A ring of twice the longest stream: a batch takes at most half of it.
+    const uint64_t capacity = DetailStream::smallestBytes(vol);
+    Result<std::unique_ptr<DetailStream>> made = DetailStream::create(*ctx, vol, capacity);
+    ASSERT_TRUE(made.isOk()) << made.message();
+    DetailStream& d = **made;
+    EXPECT_EQ(d.capacityBytes(), capacity);
+    EXPECT_EQ(d.deviceBytes(), DetailStream::deviceBytes(vol, capacity));
+    std::vector<uint32_t> all(size_t(vol.brickCount()));
+    for (uint32_t b = 0; b < all.size(); ++b) all[b] = b;
+    // Queued streams are not resident before commit (the table names them only afterwards).
+    ASSERT_TRUE(d.request(all.data(), all.size()).isOk());
+    for (uint32_t b : all) EXPECT_FALSE(d.resident(b)) << b;
+    ASSERT_TRUE(d.commit().isOk());
+    uint64_t firstBatch = 0, bytes = 0;
+    for (uint32_t b : all)
+        if (d.resident(b)) {
+            ++firstBatch;
+            bytes += DetailStream::brickBytes(vol, b);
+        }
+    EXPECT_GE(firstBatch, 1u);
+    EXPECT_LE(bytes, capacity / 2) << "a batch takes at most half the ring";
+    EXPECT_EQ(d.counts().uploadedBricks, firstBatch);
+    EXPECT_EQ(d.counts().uploadedBytes, bytes);
+    // Asking again for resident streams uploads nothing.
+    std::vector<uint32_t> resident;
+    for (uint32_t b : all)
+        if (d.resident(b)) resident.push_back(b);
+    ASSERT_TRUE(d.request(resident.data(), resident.size()).isOk());
+    ASSERT_TRUE(d.commit().isOk());
+    EXPECT_EQ(d.counts().uploadedBricks, firstBatch);
+    // Streaming every brick once, in order, through the small ring evicts the oldest first.
+    size_t next = resident.size();
+    for (int round = 0; round < 10000 && next < all.size(); ++round) {
+        ASSERT_TRUE(d.request(all.data() + next, all.size() - next).isOk());
+        ASSERT_TRUE(d.commit().isOk());
+        const size_t before = next;
+        while (next < all.size() && d.resident(all[next])) ++next;
+        for (uint32_t b : all) // every stream the table names is intact in the ring
+            if (d.resident(b)) {
+                const BrickWords bw = vol.brick(b);
+                const uint32_t L = vol.levels(), begin = bw.words[L - 1] / 8, end = bw.size - bw.words[L];
+                ASSERT_EQ(*d.readStream(b), std::vector<uint32_t>(bw.words + begin, bw.words + end)) << "brick " << b;
+            }
+        ASSERT_GT(next, before) << "every batch takes at least one stream";
+    }
+    ASSERT_EQ(next, all.size());
+    EXPECT_TRUE(d.resident(all.back()));
+    EXPECT_FALSE(d.resident(all.front())) << "the first upload is the oldest";
+    EXPECT_GT(d.counts().evictedBricks, 0u);
+    uint64_t residentBytes = 0;
+    for (uint32_t b : all)
+        if (d.resident(b)) residentBytes += DetailStream::brickBytes(vol, b);
+    EXPECT_LE(residentBytes, capacity);
+    // Too small a ring, and encodings without a stream of their own for the finest level, are refused.
+    EXPECT_FALSE(DetailStream::create(*ctx, vol, capacity - 4).isOk());
+    EXPECT_FALSE(DetailStream::create(*ctx, loadFixture("synthA_b16_nibble.csgv"), 1 << 20).isOk());
 }
 
 TEST(GpuDecode, OurFilesInEveryEncodingAndMask) {

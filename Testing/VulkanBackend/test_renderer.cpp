@@ -11,6 +11,7 @@
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Encoder.h"
 #include "csgv/reference/RayCast.h"
+#include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/Renderer.h"
 
 #include <algorithm>
@@ -520,9 +521,9 @@ TEST(Renderer, ConvergedImageDoesNotDependOnTheCacheHistory) {
 }
 
 // Detail separation: a budget that the whole encoding would take more than half of keeps the
-// finest level in host memory; the renderer decodes it there (GPU decoding: the host fills the
-// finest bricks between the GPU decoding and the render pass; host decoding: as always) and the
-// converged image is exactly the one of a volume held whole, within the budget.
+// finest level in host memory; the renderer streams it (GPU decoding: through the detail buffer;
+// host decoding: Core reads it from host memory) and the converged image is exactly the one of a
+// volume held whole, within the budget.
 TEST(Renderer, SeparatedDetailRendersTheSameImageWithinTheBudget) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
@@ -559,6 +560,99 @@ TEST(Renderer, SeparatedDetailRendersTheSameImageWithinTheBudget) {
         EXPECT_EQ(differingValues(got.rgba, want.rgba), 0u) << what;
         EXPECT_EQ((*r)->memory().buffers.front().second, gpu->deviceBytes()) << what;
     }
+}
+
+TEST(Renderer, DetailStreamingShowsTheCoarserLevelUntilStreamsArriveAndConvergesExactly) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_rans2_legacydelta.csgv");
+    GpuVolumeOptions o;
+    o.separateDetail = DetailSeparation::Always;
+    Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(*ctx, scene.volume, o);
+    ASSERT_TRUE(made.isOk()) << made.message();
+    std::shared_ptr<GpuVolume> gpu(std::move(*made));
+    const FrameInput in = perspectiveView({-60, 130, 160}, {66, 35, 97}, {0, 0, 1}, 35, 64, 48);
+    RenderSettings st;
+    st.finest = true; // every brick wants its finest level, so every brick streams
+    st.denoise = false;
+    std::unique_ptr<Renderer> ref = makeRenderer(*ctx, scene, 64ull << 20, st);
+    ASSERT_TRUE(ref);
+    const FrameOutput want = renderConverged(*ref, in, 2, 100);
+    st.sampleTarget = 2;
+    auto streamingRenderer = [&](uint64_t ringBytes) -> std::unique_ptr<Renderer> {
+        RendererOptions ro;
+        ro.decode = RendererOptions::Decode::Gpu;
+        ro.detailBufferBytes = ringBytes;
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, ro);
+        EXPECT_TRUE(r.isOk()) << r.message();
+        if (!r) return nullptr;
+        EXPECT_TRUE((*r)->streamsDetail());
+        (*r)->setSettings(st);
+        return std::move(*r);
+    };
+    auto converge = [&](Renderer& r, const char* what) {
+        uint32_t frames = 0;
+        for (; frames < 400; ++frames) {
+            Result<FrameStats> f = r.renderFrame(in);
+            ASSERT_TRUE(f.isOk()) << f.message();
+            EXPECT_LE(r.memory().total(), r.deviceMemoryBudget()) << what;
+            if (f->minSamples >= 2) break;
+        }
+        EXPECT_LT(frames, 400u) << what << ": not converged";
+        FrameOutput got;
+        ASSERT_TRUE(r.readOutput(got).isOk());
+        EXPECT_EQ(got.label, want.label) << what;
+        EXPECT_EQ(differingValues(got.rgba, want.rgba), 0u) << what;
+    };
+
+    // The automatic ring holds every stream the view asks for.
+    std::unique_ptr<Renderer> r = streamingRenderer(0);
+    ASSERT_TRUE(r);
+    // Frame 1: nothing cached, previews of brick blocks; its rays mark the bricks they need.
+    Result<FrameStats> f1 = r->renderFrame(in);
+    ASSERT_TRUE(f1.isOk()) << f1.message();
+    EXPECT_EQ(f1->detailRequests, 0u);
+    EXPECT_GT(f1->previews, 0u);
+    FrameOutput o1;
+    ASSERT_TRUE(r->readOutput(o1).isOk());
+    // Frame 2: the bricks stand in at the next coarser level while their streams are asked for;
+    // previews go on through them there (no holes, no sample from a stand-in).
+    Result<FrameStats> f2 = r->renderFrame(in);
+    ASSERT_TRUE(f2.isOk()) << f2.message();
+    EXPECT_GT(f2->detailRequests, 0u);
+    EXPECT_EQ(f2->detailUploads, 0u);
+    EXPECT_EQ(f2->decodedBricks, f2->detailRequests);
+    EXPECT_EQ(f2->holes, 0u);
+    EXPECT_GT(f2->previews, 0u);
+    const std::vector<Renderer::CachedBrick> cached = *r->cachedBricks();
+    ASSERT_FALSE(cached.empty());
+    for (const Renderer::CachedBrick& c : cached) EXPECT_EQ(c.lod, 1u) << "brick " << c.brick << " stands in at level 1";
+    FrameOutput o2;
+    ASSERT_TRUE(r->readOutput(o2).isOk());
+    size_t changed = 0;
+    for (size_t i = 0; i < o1.rgba.size(); ++i) changed += std::fabs(o1.rgba[i] - o2.rgba[i]) > 1e-3f;
+    EXPECT_GT(changed, o1.rgba.size() / 20) << "the stand-ins' level 1 replaces the brick blocks";
+    // Frame 3: the streams were uploaded between the frames: the bricks decode at level 0 and
+    // give exact samples.
+    Result<FrameStats> f3 = r->renderFrame(in);
+    ASSERT_TRUE(f3.isOk()) << f3.message();
+    EXPECT_EQ(f3->detailUploads, f2->detailRequests);
+    EXPECT_GT(f3->newSamples, f2->newSamples);
+    converge(*r, "automatic ring");
+    EXPECT_EQ(r->detailCounts().evictedBricks, 0u);
+
+    // A ring far smaller than the streams the view needs: batches of half the ring, the oldest
+    // streams evicted; bricks decoded at level 0 keep their labels without their streams.
+    const uint64_t tiny = DetailStream::smallestBytes(scene.volume);
+    std::unique_ptr<Renderer> small = streamingRenderer(tiny);
+    ASSERT_TRUE(small);
+    converge(*small, "tiny ring");
+    uint64_t viewStreams = 0;
+    for (const Renderer::CachedBrick& c : *small->cachedBricks())
+        if (c.lod == 0) viewStreams += DetailStream::brickBytes(scene.volume, c.brick);
+    EXPECT_GT(viewStreams, 2 * tiny) << "the view must need more streams than the ring holds";
+    const DetailCounts counts = small->detailCounts();
+    EXPECT_GT(counts.evictedBricks, 0u);
+    EXPECT_GE(counts.uploadedBytes, viewStreams);
 }
 
 TEST(Renderer, SubsamplingConvergesToFullResolution) {

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/GpuVolume.h"
+#include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/FrameLayout.h"
 
 #include <algorithm>
@@ -50,6 +51,7 @@ const char* decodeResultText(uint32_t code) {
     case kDecodePaletteOverflow: return "more PALETTE_ADV than the palette size (or a reserved label)";
     case kDecodeBadDistance: return "PALETTE_D points past the palette or has more than 11 groups";
     case kDecodeRansIntegrity: return "the rANS stream fails its end-of-stream check";
+    case kDecodeNoDetail: return "the finest level's stream is not in the detail buffer";
     case kDecodeRunning: return "decoding did not finish";
     default: return "unknown decode result";
     }
@@ -120,7 +122,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
 bool GpuVolume::separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation) {
     // Detail separation: an encoding that would take more than half the budget keeps its finest
     // level in host memory (mode 2 only: there the finest level is a stream of its own).
-    if (volume.encoding != kEncodingRans2) return false;
+    if (volume.encoding != kEncodingRans2 || volume.levels() < 2) return false;
     return separation == DetailSeparation::Always || (separation == DetailSeparation::Auto && encodingBytes(volume) > budget / 2);
 }
 
@@ -202,11 +204,28 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
     if (!paramBuffer) return paramBuffer.status();
     if (!(s = m_context.upload(*paramBuffer, 0, params.data(), params.size() * 4))) return s;
+    // A separated volume's finest-level streams go to a detail buffer of their own for this call.
+    std::unique_ptr<DetailStream> detail;
+    if (m_separated) {
+        std::vector<uint32_t> finest;
+        for (const BrickRequest& r : requests)
+            if (r.lod == 0) finest.push_back(r.brick);
+        std::sort(finest.begin(), finest.end());
+        finest.erase(std::unique(finest.begin(), finest.end()), finest.end());
+        uint64_t bytes = 0;
+        for (uint32_t b : finest) bytes += DetailStream::brickBytes(m_volume, b);
+        Result<std::unique_ptr<DetailStream>> d =
+            DetailStream::create(m_context, m_volume, std::max(2 * bytes, DetailStream::smallestBytes(m_volume)));
+        if (!d) return d.status();
+        detail = std::move(*d);
+        if (!(s = detail->request(finest.data(), finest.size())) || !(s = detail->commit())) return s;
+    }
+    const uint64_t detailTable = detail ? detail->tableAddress() : 0, detailRing = detail ? detail->ringAddress() : 0;
     std::vector<DecodePush> pushes;
     for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), req->address(), cache.address(),
                                     states->address(), paramBuffer->address() + 4 * kDecodeParamWords * k,
-                                    paramBuffer->address() + 4 * kDecodeParamWords * k});
+                                    paramBuffer->address() + 4 * kDecodeParamWords * k, detailTable, detailRing});
     std::vector<Context::Dispatch> dispatches;
     for (const DecodePush& push : pushes) {
         Context::Dispatch d;
@@ -223,27 +242,14 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         if (!(s = m_context.download(*states, 0, words.data(), words.size() * 4))) return s;
         for (size_t i = 0; i < requests.size(); ++i) status[i] = words[kDecodeStateWords * i + kDecodeStateStatus];
     }
-    if (m_separated) { // the finest level from host memory (the shader left these requests alone)
-        BrickDecoder decoder(m_volume);
-        const uint64_t words = regionWords(0);
-        std::vector<uint32_t> data;
-        std::vector<Context::CopyRegion> regions;
-        for (size_t i = 0; i < requests.size(); ++i) {
-            if (requests[i].lod != 0) continue;
-            data.resize(data.size() + words);
-            const bool ok = decodeRegion(decoder, requests[i].brick, 0, data.data() + data.size() - words);
-            status[i] = ok ? kDecodeOk : kDecodeBadOperation; // Core's decoder names no shader result code
-            regions.push_back({(data.size() - words) * 4, uint64_t(requests[i].cacheOffset) * 4, words * 4});
-        }
-        if (!(s = m_context.uploadRegions(cache, data.data(), regions))) return s;
-    }
     if (codes) *codes = std::move(status);
     return Status::ok();
 }
 
 Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress,
                                     uint64_t statesAddress, uint32_t maxRequests, FrameDecode& storage,
-                                    std::vector<Context::Dispatch>& out) {
+                                    std::vector<Context::Dispatch>& out, const DetailStream* detail) {
+    if (m_separated && !detail) return Status::error("GPU decoding of a separated volume needs a detail stream");
     const uint64_t steps = decodeSteps(m_volume.levels() - 1);
     const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;
     std::vector<uint32_t> params;
@@ -261,7 +267,8 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     storage.pushes.reserve(params.size() / kDecodeParamWords);
     for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         storage.pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
-                                  paramBuffer->address() + 4 * kDecodeParamWords * k, countAddress});
+                                            paramBuffer->address() + 4 * kDecodeParamWords * k, countAddress,
+                                            detail ? detail->tableAddress() : 0, detail ? detail->ringAddress() : 0});
     storage.params = std::move(*paramBuffer);
     for (const auto& push : storage.pushes) {
         Context::Dispatch d;

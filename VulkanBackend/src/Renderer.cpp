@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/Renderer.h"
 #include "BlueNoise.h"
+#include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/FrameLayout.h"
 
 #include "csgv/base/Math.h"
@@ -136,7 +137,7 @@ struct Renderer::Impl {
     uint64_t pResolve[kResolveFinal + 1] = {}; // per resolve pass, compiled on first use
     uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
     Defines defines;
-    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs;
+    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     uint32_t materialTableSize = 0;   // entries of materialTable (0: the shader scans the list)
@@ -168,8 +169,10 @@ struct Renderer::Impl {
     std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
     bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
     bool hostDecode = false;          // RendererOptions::decode resolved
-    bool hostFinest = false;          // GPU decoding of a separated volume: the host decodes the finest level
-    size_t decodeEnd = 0;             // with hostFinest, the first submission ends here (after the GPU decoding)
+    // Detail streaming (GPU decoding of a separated volume): the finest-level streams the frames
+    // ask for, uploaded between frames; bricks wait for theirs at the next coarser level.
+    std::unique_ptr<DetailStream> detail;
+    uint32_t detailUploads = 0;       // bricks whose stream the last commit made resident
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per worker, for host decoding
     std::unique_ptr<WorkerPool> workers; // host decoding's threads: asleep, not spinning, between frames
     bool converged = false;           // the last render() reached the sample target; nothing changed since
@@ -215,29 +218,18 @@ struct Renderer::Impl {
         return *workers;
     }
 
-    /// Detail separation with GPU decoding: the requests for the finest level (which the decoding
-    /// shader leaves alone) decoded by Core's decoder from host memory and copied into their cache
-    /// regions in one submission, between the GPU decoding and the uniform sub-block pass.
-    Status decodeFinestOnHost() {
-        const uint32_t n = std::min(allocWords()[kAllocDecodes], maxRequests);
-        if (n == 0) return Status::ok();
-        std::vector<uint32_t> list(size_t(n) * kDecodeEntryWords);
-        Status s = ctx.download(decodes, 0, list.data(), list.size() * 4);
-        if (!s) return s;
-        const uint32_t finest = levels - 1;
-        std::vector<uint32_t> picked;
-        for (uint32_t i = 0; i < n; ++i)
-            if (list[kDecodeEntryWords * i + 1] == finest && list[kDecodeEntryWords * i] < brickCount) picked.push_back(i);
-        if (picked.empty()) return Status::ok();
-        const uint64_t words = volume->regionWords(0);
-        std::vector<uint32_t> data(picked.size() * words);
-        std::vector<Context::CopyRegion> regions(picked.size());
-        hostWorkers().parallelFor(picked.size(), [&](uint64_t k, unsigned worker) {
-            const uint32_t* e = list.data() + kDecodeEntryWords * picked[k];
-            volume->decodeRegion(*decoders[worker], e[0], 0, data.data() + k * words); // a failed brick reads as outside
-            regions[k] = {k * words * 4, uint64_t(e[2]) * 4, words * 4};
-        });
-        return ctx.uploadRegions(cache, data.data(), regions);
+    /// Detail streaming between frames: the streams the last frame asked for are queued (copied
+    /// on a host thread meanwhile); commitDetail() makes them resident before the next frame.
+    Status requestDetail(FrameStats& stats) {
+        const uint32_t n = std::min(allocWords()[kAllocDetailRequests], maxRequests);
+        stats.detailRequests = n;
+        return detail->request(static_cast<const uint32_t*>(detailRequests.mapped()), n);
+    }
+    Status commitDetail() {
+        const uint64_t before = detail->counts().uploadedBricks;
+        Status s = detail->commit();
+        detailUploads = uint32_t(detail->counts().uploadedBricks - before);
+        return s;
     }
 
     /// A brick's finest labels (Morton order) -> its uniform sub-blocks (csgv/codec/Layout.h; as
@@ -419,7 +411,8 @@ struct Renderer::Impl {
         Status s;
         if (!hostDecode &&
             !(s = volume->appendFrameDecode(decodes.address(), alloc.address() + 4 * kAllocDecodes, cache.address(),
-                                            decodeStates.address(), maxRequests, frameDecode, decodeDispatches)))
+                                            decodeStates.address(), maxRequests, frameDecode, decodeDispatches,
+                                            detail.get())))
             return s;
         allocWords()[kAllocCapacity] = uint32_t(bytes / 4);
         return resetCacheNow();
@@ -467,6 +460,10 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // Pixels per render and resolve invocation along each axis: CPU devices pay per invocation.
     im.pixelBlock = context.device().type == "cpu" ? 2 : 1;
     d.emplace_back("PIXEL_BLOCK", std::to_string(im.pixelBlock) + "u");
+    im.hostDecode = options.decode == RendererOptions::Decode::Host ||
+                    (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
+    const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
+    d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     im.defines = d;
     im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
     struct Shader {
@@ -493,9 +490,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
-    im.hostDecode = options.decode == RendererOptions::Decode::Host ||
-                    (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
-    im.hostFinest = volume->separated() && !im.hostDecode;
     const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
     im.cacheKind = hostOrDevice;
     // Everything but the cache and the images, sized once: summed for the budget, then allocated.
@@ -515,17 +509,36 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                             {&im.requests, requests * 8, MemoryKind::DeviceLocal, "request list"},
                             {&im.decodes, requests * kDecodeEntryWords * 4, hostOrDevice, "decode list"},
                             {&im.decodeStates, requests * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"},
-                            {&im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"}};
+                            {&im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"},
+                            {&im.detailRequests, streaming ? requests * 4 : 0, MemoryKind::HostVisible, "detail request list"}};
     // The budget: the encoding and the tables are fixed; the cache takes what they leave beside
     // room for an image, and shrinks later if images or materials need more.
     uint64_t fixed = volume->deviceBytes();
     for (const Table& t : tables) fixed += std::max<uint64_t>(t.bytes, 16); // as make() allocates
     const uint64_t smallestCache = im.smallestCacheBytes();
+    // Detail streaming, unless the options say: a ring for the streams of two frames' requests of
+    // average length (a stream is only needed until its brick is decoded), at most every stream
+    // and a quarter of what the encoding and tables leave, at least twice the longest stream.
+    uint64_t ringBytes = 0;
+    if (streaming) {
+        const uint64_t smallest = DetailStream::smallestBytes(v), all = DetailStream::streamBytes(v);
+        const uint64_t left = im.budget > fixed + smallestCache ? im.budget - fixed - smallestCache : 0;
+        const uint64_t twoFrames = 2 * requests * (all / std::max<uint64_t>(bricks, 1));
+        ringBytes = options.detailBufferBytes ? std::max(options.detailBufferBytes, smallest)
+                                              : std::max(smallest, std::min({twoFrames, all, left / 4}));
+        fixed += DetailStream::deviceBytes(v, ringBytes);
+    }
     if (fixed + smallestCache > im.budget)
         return Status::error("the device-memory budget of " + mebibytes(im.budget) + " is too small: the encoding takes " +
-                             mebibytes(volume->deviceBytes()) + " and the brick tables " +
+                             mebibytes(volume->deviceBytes()) + " and the brick tables" +
+                             (streaming ? std::string(" and the detail buffer ") : std::string(" ")) +
                              mebibytes(fixed - volume->deviceBytes()) + ", and the brick cache needs at least " +
                              mebibytes(smallestCache));
+    if (streaming) {
+        Result<std::unique_ptr<DetailStream>> ds = DetailStream::create(context, v, ringBytes);
+        if (!ds) return ds.status();
+        im.detail = std::move(*ds);
+    }
     const uint64_t imageRoom = std::min<uint64_t>(kImageReserveBytes, (im.budget - fixed - smallestCache) / 4);
     const uint64_t cacheBytes =
         std::max(smallestCache, std::min({std::max<uint64_t>(options.cacheBytes, 4096), maxBytes, im.budget - fixed - imageRoom})) &
@@ -538,7 +551,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
     if (!im.hostDecode &&
         !(s = volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * kAllocDecodes, im.cache.address(),
-                                        im.decodeStates.address(), im.maxRequests, im.frameDecode, im.decodeDispatches)))
+                                        im.decodeStates.address(), im.maxRequests, im.frameDecode, im.decodeDispatches,
+                                        im.detail.get())))
         return s;
     if (!im.hostDecode) {
         Result<uint64_t> p = makePipeline(context, "cache_uniform.comp", d, 8, im.profileDispatches);
@@ -1010,6 +1024,8 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
+    p.addr[kSlotDetail] = detail ? detail->tableAddress() : 0;
+    p.addr[kSlotDetailRequests] = detailRequests.address();
 
     uint32_t* a = allocWords();
     a[kAllocFull] = 0;
@@ -1021,6 +1037,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     a[kAllocMinRow] = kNone;
     a[kAllocPrevMin] = prevMinSamples;
     a[kAllocEvictAge] = evictAge;
+    a[kAllocDetailRequests] = 0;
 }
 
 void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline) {
@@ -1036,7 +1053,6 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!hostDecode) {
         dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
-        decodeEnd = dispatches.size(); // with hostFinest, the host's finest-level bricks go in here
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
     const uint32_t stride = st.subsampling;
@@ -1127,11 +1143,6 @@ Status Renderer::Impl::submit() {
                 std::fprintf(stderr, "host decode: %.2f ms\n",
                              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
             }
-            if (hostFinest && i == decodeEnd) {
-                if (!(s = decodeFinestOnHost())) return s;
-                std::fprintf(stderr, "host decode of the finest level: %.2f ms\n",
-                             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
-            }
             if (!(s = ctx.run(&dispatches[i], 1))) return s;
             std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, dispatches[i].groups[0], dispatches[i].groups[1],
                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
@@ -1143,13 +1154,6 @@ Status Renderer::Impl::submit() {
         if (!(s = ctx.run(dispatches.data(), cacheStages))) return s;
         decodeOnHost();
         return ctx.run(dispatches.data() + cacheStages, dispatches.size() - cacheStages);
-    }
-    if (hostFinest) {
-        // Two submissions: cache stages and GPU decoding; the host decodes the finest level into
-        // the cache; uniform sub-blocks, render and resolve.
-        if (!(s = ctx.run(dispatches.data(), decodeEnd))) return s;
-        if (!(s = decodeFinestOnHost())) return s;
-        return ctx.run(dispatches.data() + decodeEnd, dispatches.size() - decodeEnd);
     }
     return ctx.run(dispatches); // one submission: cache stages, decoding, rendering, resolving
 }
@@ -1228,8 +1232,11 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (!(s = packParams(in, st, clipToWorld))) return s;
     buildDispatches(in, st, *renderPipeline);
     const auto t0 = std::chrono::steady_clock::now();
+    if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
+    if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stats.detailUploads = detailUploads;
     clearPending = false;
     outputParts = 0; // the read-back output is stale now
     ++frameIndex;
@@ -1386,17 +1393,23 @@ uint64_t Renderer::Impl::usedBytes() const { return memory().total(); }
 
 uint64_t Renderer::deviceMemoryBudget() const { return m_impl->budget; }
 
+bool Renderer::streamsDetail() const { return m_impl->detail != nullptr; }
+
+DetailCounts Renderer::detailCounts() const { return m_impl->detail ? m_impl->detail->counts() : DetailCounts{}; }
+
 MemoryReport Renderer::memory() const { return m_impl->memory(); }
 
 MemoryReport Renderer::Impl::memory() const {
     const Impl& im = *this;
     MemoryReport r;
     r.buffers.push_back({"encoding", im.volume->deviceBytes()});
+    if (im.detail) r.buffers.push_back({"detail buffer and table", im.detail->deviceBytes()});
     r.buffers.push_back({"brick cache", im.cache.size()});
     r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
-                                                          im.alloc.size() + im.params.size() + im.blueNoise.size()});
+                                                          im.alloc.size() + im.params.size() + im.blueNoise.size() +
+                                                          im.detailRequests.size()});
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size()});
     r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorOut.size() + im.depthOut.size() + im.gbuffer.size() +
                                                                    im.depthIn.size()});

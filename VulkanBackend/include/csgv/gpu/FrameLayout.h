@@ -66,7 +66,14 @@ CSGV_CONST(uint32_t, kSlotStarts, 20u)        ///< the encoding: brick start wor
 CSGV_CONST(uint32_t, kSlotBlueNoise, 21u)     ///< 64x64 bytes of blue noise, four to a uint
 CSGV_CONST(uint32_t, kSlotMaterialTable, 22u) ///< uint per stored label: its material (kNone), when labels are few
 CSGV_CONST(uint32_t, kSlotUniform, 23u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
-CSGV_CONST(uint32_t, kSlotCount, 24u)
+CSGV_CONST(uint32_t, kSlotDetail, 24u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
+CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
+CSGV_CONST(uint32_t, kSlotCount, 26u)
+
+/// Brick table word w (kSlotBricks): 0 invisible, 1 visible, kBrickStandIn visible and cached at
+/// the next coarser level than the view wants, because its finest-level stream has not arrived
+/// (detail streaming): exact rays treat it as missing, previews and deep bounces sample it.
+CSGV_CONST(uint32_t, kBrickStandIn, 2u)
 
 // Words of the cache counter buffer (kSlotAlloc), read by the host between frames.
 CSGV_CONST(uint32_t, kAllocTop, 0u)          ///< cache words handed out from the top
@@ -82,6 +89,7 @@ CSGV_CONST(uint32_t, kAllocPrevMin, 9u)      ///< previous frame's minimum sampl
 CSGV_CONST(uint32_t, kAllocHoles, 10u)       ///< pixels the resolve left empty (no sample of their own or of their stride block)
 CSGV_CONST(uint32_t, kAllocPreviews, 12u)     ///< pixels that show a preview (no sample of their own or of their stride block yet)
 CSGV_CONST(uint32_t, kAllocEvictAge, 11u)    ///< host-written: evict cached bricks no ray used for this many frames (0: none)
+CSGV_CONST(uint32_t, kAllocDetailRequests, 13u) ///< entries written to kSlotDetailRequests this frame (may pass the list's length)
 CSGV_CONST(uint32_t, kAllocFreeCount, 16u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocReqCount, 24u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod
@@ -107,6 +115,9 @@ CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse lev
 CSGV_CONST(uint32_t, kDecodeStateWords, 12u) ///< per decode: the decoder state saved between dispatches
 CSGV_CONST(uint32_t, kDecodeStateStatus, 8u) ///< its word holding the result (kDecodeOk, ...)
 CSGV_CONST(uint32_t, kDecodeParamWords, 4u)  ///< per dispatch: count (unused in frames), steps, first, unused
+/// Decode result (besides csgv/codec/Layout.h's): the finest level of a separated volume was
+/// requested but its stream is not in the detail buffer.
+CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
 
 /// Push constants of decode_bricks.comp: only addresses (lavapipe specialises shaders on
 /// push-constant values used in loop conditions, recompiling for every new value).
@@ -117,7 +128,9 @@ CSGV_CONST(uint32_t, kDecodeParamWords, 4u)  ///< per dispatch: count (unused in
     uint64_t cache;    /* the brick cache */                                                        \
     uint64_t states;   /* kDecodeStateWords per decode */                                           \
     uint64_t params;   /* kDecodeParamWords of this dispatch */                                     \
-    uint64_t count;    /* the decode count in its first word (written by the GPU in frames) */
+    uint64_t count;    /* the decode count in its first word (written by the GPU in frames) */   \
+    uint64_t detail;   /* separated volumes: the detail table (kSlotDetail), else 0 */               \
+    uint64_t ring;     /* separated volumes: the detail buffer, else 0 */
 
 /// The frame parameter block (std430), one per frame: GLSL `Frame`, C++ `FrameParams`.
 #define CSGV_FRAME_MEMBERS                                                                          \
@@ -172,7 +185,7 @@ static_assert(sizeof(ResolvePush) == 16, "ResolvePush must match resolve.comp's 
 struct DecodePush {
     CSGV_DECODE_PUSH_MEMBERS
 };
-static_assert(sizeof(DecodePush) == 56, "DecodePush must match decode_bricks.comp's push constants");
+static_assert(sizeof(DecodePush) == 72, "DecodePush must match decode_bricks.comp's push constants");
 #endif
 
 CSGV_NAMESPACE_END

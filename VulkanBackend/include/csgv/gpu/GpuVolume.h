@@ -18,6 +18,8 @@
 
 namespace csgv::gpu {
 
+class DetailStream;
+
 /// One brick to decode: `lod` 0 is full resolution; `cacheOffset` is the first word of its region
 /// ((B >> lod)^3 words), where the labels land in Morton order.
 struct BrickRequest {
@@ -44,8 +46,9 @@ struct GpuVolumeOptions {
     /// uploaded.
     uint64_t deviceMemoryBytes = 0;
     /// Detail separation: the device holds each brick's header, coarse levels and palette; its
-    /// finest level is decoded on the host from the CompressedVolume (which the caller keeps in
-    /// host memory anyway) and written into the cache (decode(), and the renderer's frames).
+    /// finest-level stream stays in the CompressedVolume (which the caller keeps in host memory
+    /// anyway) and is streamed into a detail buffer when wanted (DetailStream.h: the renderer's
+    /// frames; decode() uploads the streams of its requests for the call).
     DetailSeparation separateDetail = DetailSeparation::Auto;
 };
 
@@ -63,8 +66,8 @@ public:
     /// Device memory the encoding of `volume` takes once uploaded (create() allocates exactly this).
     static uint64_t encodingBytes(const CompressedVolume& volume);
 
-    /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): requests for
-    /// level 0 are decoded on the host.
+    /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): decoding level 0
+    /// needs the brick's stream in a DetailStream.
     bool separated() const { return m_separated; }
     /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
     static bool separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation);
@@ -110,8 +113,11 @@ public:
     /// count in the word at `countAddress`; at most `maxRequests`) into the cache at `cacheAddress`,
     /// with kDecodeStateWords of state per request at `statesAddress`. Enough steps for the finest
     /// level. The dispatches depend on nothing but these arguments: build them once.
+    /// A separated volume's finest levels are read from `detail` (required then), whose table
+    /// says which bricks' streams are there: keep it alive while the dispatches are used.
     Status appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress, uint64_t statesAddress,
-                             uint32_t maxRequests, FrameDecode& storage, std::vector<Context::Dispatch>& out);
+                             uint32_t maxRequests, FrameDecode& storage, std::vector<Context::Dispatch>& out,
+                             const DetailStream* detail = nullptr);
 
 private:
     GpuVolume(Context& c, const CompressedVolume& v) : m_context(c), m_volume(v) {}

@@ -38,6 +38,7 @@
 #include "csgv/materials/Materials.h"
 #include "csgv/reference/RayCast.h"
 #include "csgv/gpu/Context.h"
+#include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/GpuVolume.h"
 
 #include <array>
@@ -91,6 +92,11 @@ struct RendererOptions {
     /// would pass the budget shrinks the cache (which then fills anew) rather than fail.
     uint64_t deviceMemoryBytes = 0;
     uint32_t maxRequestsPerFrame = 4096; ///< bricks decoded in one frame at most (more wait a frame)
+    /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
+    /// detail buffer that receives finest-level streams (0: room for two frames' requests of
+    /// average streams, at most all streams and a quarter of what the budget leaves beside the
+    /// encoding and tables; at least twice the longest stream).
+    uint64_t detailBufferBytes = 0;
     /// Where requested bricks are decoded. Auto: on the GPU, except on CPU devices (lavapipe),
     /// where Core's decoder fills the (host-visible) cache between the frame's cache stages and
     /// its rendering (packing palette indices with cache paletting), in two submissions: the
@@ -141,10 +147,14 @@ struct FrameStats {
     /// Cache pressure changed how the next frame treats the cache (eviction age, request band, a
     /// defragmentation reset): a frame without new samples may still lead somewhere.
     bool cacheAdapting = false;
+    /// Detail streaming: bricks whose finest-level stream this frame asked for (they show at the
+    /// next coarser level meanwhile, as previews), and streams uploaded before this frame.
+    uint32_t detailRequests = 0;
+    uint32_t detailUploads = 0;
 
     /// Nothing happened that later frames build on: no new sample, no decoded brick, no change of
-    /// the cache policy (render loops stop after idleLimit() such frames in a row).
-    bool idle() const { return newSamples == 0 && decodedBricks == 0 && !cacheAdapting; }
+    /// the cache policy, no detail asked for or uploaded (render loops stop after idleLimit() such frames in a row).
+    bool idle() const { return newSamples == 0 && decodedBricks == 0 && !cacheAdapting && detailRequests == 0 && detailUploads == 0; }
     /// Three cycles of the pixel stride: at stride s a pixel's turn comes every s^2 frames.
     uint32_t idleLimit() const { return 3 * stride * stride; }
 };
@@ -226,6 +236,10 @@ public:
     /// The device-memory budget in force (RendererOptions::deviceMemoryBytes or the automatic one):
     /// memory().total() never exceeds it.
     uint64_t deviceMemoryBudget() const;
+    /// Detail streaming (GPU decoding of a separated volume): finest-level streams uploaded into the
+    /// detail buffer and evicted from it, since creation (zeros without streaming).
+    bool streamsDetail() const;
+    DetailCounts detailCounts() const;
     const GpuVolume& volume() const { return *m_volume; }
 
     /// A brick in the cache (diagnostics and tests): its level of detail and, at the finest

@@ -1,0 +1,103 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+/// @file DetailStream.h
+/// @brief Detail streaming (the paper's "Memory management"): a separated volume keeps its finest
+/// level's encoding in host memory; the bricks a frame wants at full resolution have their
+/// finest-level streams copied into a detail buffer on the device, where the GPU decoder finds them
+/// through a per-brick table. The buffer is a ring: the oldest upload is evicted first, and a
+/// brick's stream is only needed until the brick is decoded (its cache region holds the labels).
+///
+/// Between frames: request() takes the bricks a frame asked for, places them in the ring (evicting
+/// what they overwrite: their table entries read "absent" at once) and starts copying their
+/// streams out of the encoding on a host thread; commit(), before the next frame, waits for that
+/// copy, transfers the data into the ring in one submission and only then writes the bricks'
+/// table entries. No frame reads a stream while it is being written, and none waits for a
+/// transfer it did not ask for in an earlier frame.
+
+#include "csgv/codec/Container.h"
+#include "csgv/gpu/Context.h"
+
+#include <cstdint>
+#include <deque>
+#include <future>
+#include <memory>
+#include <vector>
+
+namespace csgv::gpu {
+
+/// What a detail stream moved, since its creation.
+struct DetailCounts {
+    uint64_t uploadedBricks = 0, uploadedBytes = 0, evictedBricks = 0;
+};
+
+class DetailStream {
+public:
+    /// The ring holds `capacityBytes` (at least smallestBytes(volume)); the table takes 8 bytes a
+    /// brick (host-visible: written between frames). `volume` must be a rANS two-table encoding
+    /// with at least two levels and outlive the stream.
+    static Result<std::unique_ptr<DetailStream>> create(Context& context, const CompressedVolume& volume,
+                                                        uint64_t capacityBytes);
+    ~DetailStream();
+    DetailStream(const DetailStream&) = delete;
+    DetailStream& operator=(const DetailStream&) = delete;
+
+    /// The smallest ring: twice the longest finest-level stream of any brick (a batch may take half).
+    static uint64_t smallestBytes(const CompressedVolume& volume);
+    /// Ring bytes one brick's finest-level stream takes.
+    static uint64_t brickBytes(const CompressedVolume& volume, uint64_t brick);
+    /// All finest-level streams together (a ring this large never evicts).
+    static uint64_t streamBytes(const CompressedVolume& volume);
+    /// Device memory of a stream with a ring of `capacityBytes`: ring and table.
+    static uint64_t deviceBytes(const CompressedVolume& volume, uint64_t capacityBytes);
+
+    /// Queues the uploads of these bricks' finest-level streams, skipping resident or queued ones
+    /// and what exceeds half the ring in this batch (they are asked for again by later frames).
+    /// Call between frames; at most one batch is pending (a second call commits the first).
+    Status request(const uint32_t* bricks, size_t count);
+    /// Makes the queued streams resident (waits for the host copy; one transfer). Call before a
+    /// frame that may decode them.
+    Status commit();
+    /// Whether a brick's stream is in the ring (committed).
+    bool resident(uint32_t brick) const;
+    /// A resident brick's stream as the ring holds it (read back; for checks).
+    Result<std::vector<uint32_t>> readStream(uint32_t brick) const;
+
+    /// Device addresses: the table (uvec2 per brick: word offset in the ring, kNone when absent;
+    /// words) and the ring.
+    uint64_t tableAddress() const { return m_table.address(); }
+    uint64_t ringAddress() const { return m_ring.address(); }
+    uint64_t deviceBytes() const { return m_table.size() + m_ring.size(); }
+    uint64_t capacityBytes() const { return m_ring.size(); }
+
+    const DetailCounts& counts() const { return m_counts; }
+
+private:
+    DetailStream(Context& c, const CompressedVolume& v) : m_context(c), m_volume(v) {}
+    struct Entry {
+        uint32_t brick;
+        uint32_t offset; ///< ring word
+        uint32_t words;  ///< ring words taken (at least 1)
+        bool pending;    ///< queued in the batch not yet committed
+    };
+    /// Takes `words` ring words at the head, evicting the oldest entries in the way; false when that
+    /// would evict an entry of the pending batch.
+    bool place(uint32_t words, uint32_t& offset);
+    void evictFront();
+    uint32_t* table() const { return static_cast<uint32_t*>(m_table.mapped()); }
+
+    Context& m_context;
+    const CompressedVolume& m_volume;
+    Buffer m_ring, m_table;
+    uint32_t m_capacity = 0; ///< ring words
+    uint32_t m_head = 0;     ///< next free ring word
+    std::deque<Entry> m_entries; ///< oldest first
+    std::vector<uint8_t> m_queued; ///< per brick: in the pending batch
+    // The pending batch: its entries' data, copied on a host thread into `m_staging`.
+    std::vector<Context::CopyRegion> m_regions;
+    std::vector<uint32_t> m_staging;
+    std::vector<Entry> m_batch;
+    std::future<void> m_copy;
+    DetailCounts m_counts;
+};
+
+} // namespace csgv::gpu
