@@ -48,6 +48,7 @@ std::string defaultsJson()
   j["CSGVCacheSizeMiB"] = d.cacheSizeMiB;
   j["CSGVDeviceMemoryMiB"] = d.deviceMemoryMiB;
   j["CSGVCachePaletting"] = d.cachePaletting;
+  j["CSGVDecoding"] = d.decoding;
   j["CSGVClipBox"] = d.clipBox;
   j["CSGVComputedAttributes"] = d.computedAttributes;
   return j.dump();

@@ -31,6 +31,8 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
   s.cacheBytes = uint64_t(std::max(16, p.cacheSizeMiB)) << 20;
   s.deviceMemoryBytes = uint64_t(std::max(0, p.deviceMemoryMiB)) << 20;
   s.cachePaletting = std::clamp(p.cachePaletting, 0, 2);
+  using Decode = csgv::gpu::RendererOptions::Decode;
+  s.decode = p.decoding == 1 ? Decode::Gpu : p.decoding == 2 ? Decode::Host : Decode::Auto;
   s.framesPerStillRender = uint32_t(std::max(1, p.framesPerStillRender));
   s.stillRenderTimeBudget = std::max(0.0, p.stillRenderTimeBudget);
   s.clipBox = p.clipBox;
@@ -88,6 +90,7 @@ void ViewRenderer::setSettings(const ViewSettings& s)
   const ViewSettings& o = this->Settings;
   const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes &&
     s.deviceMemoryBytes == o.deviceMemoryBytes && s.cachePaletting == o.cachePaletting &&
+    s.decode == o.decode &&
     s.framesPerStillRender == o.framesPerStillRender &&
     s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.clipBox == o.clipBox;
   if (s.cachePaletting != o.cachePaletting)
@@ -138,8 +141,15 @@ std::string ViewRenderer::ensureRenderer()
   const uint64_t budget = this->Settings.deviceMemoryBytes
     ? this->Settings.deviceMemoryBytes
     : csgv::gpu::automaticDeviceMemoryBudget(this->Context->device());
-  // A budget that wants the finest level in host memory, or no more, wants another upload.
-  const bool separated =
+  // Host decoding (CPU devices) uploads no encoding; with GPU decoding, a budget that wants the
+  // finest level in host memory, or no more, wants another upload.
+  const bool hostDecoding = csgv::gpu::decodesOnHost(this->Settings.decode, this->Context->device());
+  if (this->Renderer && this->Renderer->volume().hostDecoding() != hostDecoding)
+  {
+    this->Renderer.reset();
+  }
+  const int kind = int(paletted) + 2 * int(hostDecoding); // the upload this view draws from
+  const bool separated = !hostDecoding &&
     csgv::gpu::GpuVolume::separates(shared->volume, budget, csgv::gpu::DetailSeparation::Auto);
   if (this->Renderer && this->Renderer->volume().separated() != separated)
   {
@@ -147,21 +157,24 @@ std::string ViewRenderer::ensureRenderer()
   }
   {
     std::lock_guard<std::mutex> lock(this->Cache->mutex());
-    std::shared_ptr<csgv::gpu::GpuVolume>& other = shared->gpu[paletted ? 0 : 1];
-    if (other && other.use_count() == 1)
+    for (int k = 0; k < 4; ++k)
     {
-      other.reset(); // no view draws from it any more
+      if (k != kind && shared->gpu[k] && shared->gpu[k].use_count() == 1)
+      {
+        shared->gpu[k].reset(); // no view draws from it any more
+      }
     }
-    std::shared_ptr<csgv::gpu::GpuVolume>& mine = shared->gpu[paletted];
+    std::shared_ptr<csgv::gpu::GpuVolume>& mine = shared->gpu[kind];
     if (mine && mine->separated() != separated && mine.use_count() == 1)
     {
       mine.reset(); // made for another budget, and no other view draws from it
     }
-    if (!shared->gpu[paletted])
+    if (!mine)
     {
       csgv::gpu::GpuVolumeOptions volumeOptions;
       volumeOptions.deviceMemoryBytes = budget;
       volumeOptions.cachePaletting = paletted;
+      volumeOptions.hostDecoding = hostDecoding;
       csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> upload =
         csgv::gpu::GpuVolume::create(*this->Context, shared->volume, volumeOptions);
       if (!upload)
@@ -169,9 +182,9 @@ std::string ViewRenderer::ensureRenderer()
         return "uploading the volume: " + upload.message();
       }
       shared->context = this->Context;
-      shared->gpu[paletted] = std::shared_ptr<csgv::gpu::GpuVolume>(std::move(*upload));
+      mine = std::shared_ptr<csgv::gpu::GpuVolume>(std::move(*upload));
     }
-    gpu = shared->gpu[paletted];
+    gpu = mine;
     if (!this->Counted)
     {
       shared->renderers++;
@@ -194,6 +207,7 @@ std::string ViewRenderer::ensureRenderer()
     csgv::gpu::RendererOptions options;
     options.cacheBytes = share;
     options.deviceMemoryBytes = budgetShare;
+    options.decode = this->Settings.decode;
     csgv::Result<std::unique_ptr<csgv::gpu::Renderer>> r =
       csgv::gpu::Renderer::create(*this->Context, gpu, options);
     if (!r)
@@ -280,6 +294,11 @@ uint64_t ViewRenderer::deviceBytes() const
 bool ViewRenderer::detailSeparated() const
 {
   return this->Renderer && this->Renderer->volume().separated();
+}
+
+uint64_t ViewRenderer::detailStreamedBytes() const
+{
+  return this->Renderer ? this->Renderer->detailCounts().uploadedBytes : 0;
 }
 
 uint32_t ViewRenderer::cacheBits() const

@@ -42,6 +42,7 @@ struct RepresentationProperties
   std::array<double, 3> lightDirection{ { 0.35, 0.6, 0.72 } }; ///< view coordinates
   int cacheSizeMiB = 256;
   int deviceMemoryMiB = 0; ///< 0: automatic (csgv::gpu::automaticDeviceMemoryBudget)
+  int decoding = 0;        ///< 0 automatic, 1 GPU, 2 host (csgv::gpu::RendererOptions::Decode)
   int cachePaletting = 2;  ///< 0 off, 1 on, 2 automatic: on once the cache runs full without it
   std::array<int, 6> clipBox{ { 0, 2147483647, 0, 2147483647, 0, 2147483647 } }; ///< inclusive voxels
   int computedAttributes = 0;
@@ -55,6 +56,7 @@ struct ViewSettings
   uint64_t cacheBytes = 0;
   uint64_t deviceMemoryBytes = 0; ///< 0: automatic
   int cachePaletting = 2;         ///< RepresentationProperties::cachePaletting
+  csgv::gpu::RendererOptions::Decode decode = csgv::gpu::RendererOptions::Decode::Auto;
   uint32_t framesPerStillRender = 0;
   double stillRenderTimeBudget = 0; ///< seconds
   std::array<int, 6> clipBox{};     ///< inclusive voxels
@@ -115,6 +117,8 @@ public:
   uint32_t cacheBits() const;
   /// Whether this view's upload keeps the finest level in host memory (detail separation).
   bool detailSeparated() const;
+  /// Finest-level streams this view's renderer uploaded (detail streaming), since it was made.
+  uint64_t detailStreamedBytes() const;
 
 private:
   std::string ensureRenderer();

@@ -61,10 +61,11 @@ struct SharedVolume
   std::string description; ///< where it came from ("CSGVEncoding", "array 'Labels' compressed")
   /// The context `gpu` was created on; declared before `gpu` so that it outlives it.
   std::shared_ptr<csgv::gpu::Context> context;
-  /// The upload, [0] for caches of labels, [1] for cache paletting (views may differ; an upload
-  /// no view uses any more is released when another view switches). Declared after `volume`:
-  /// destroyed first (each keeps a reference to `volume`).
-  std::shared_ptr<csgv::gpu::GpuVolume> gpu[2];
+  /// The uploads: [paletted + 2 * hostDecoding], for caches of labels or palette indices, decoded
+  /// on the GPU or the host (views may differ; an upload no view uses any more is released when
+  /// another view switches). Declared after `volume`: destroyed first (each keeps a reference to
+  /// `volume`).
+  std::shared_ptr<csgv::gpu::GpuVolume> gpu[4];
   /// Renderers using this volume; each one's cache gets an equal share of the cache budget.
   int renderers = 0;
 };

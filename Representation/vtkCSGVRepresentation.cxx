@@ -49,6 +49,7 @@ vtkCSGVRepresentation::vtkCSGVRepresentation()
   std::copy(d.lightDirection.begin(), d.lightDirection.end(), this->LightDirection);
   this->CacheSizeMiB = d.cacheSizeMiB;
   this->DeviceMemoryMiB = d.deviceMemoryMiB;
+  this->Decoding = d.decoding;
   this->CachePaletting = d.cachePaletting;
   std::copy(d.clipBox.begin(), d.clipBox.end(), this->ClipBox);
   this->ComputedAttributes = d.computedAttributes;
@@ -76,6 +77,7 @@ void vtkCSGVRepresentation::PrintSelf(ostream& os, vtkIndent indent)
      << " " << this->LightDirection[2] << "\n";
   os << indent << "CacheSizeMiB: " << this->CacheSizeMiB << "\n";
   os << indent << "DeviceMemoryMiB: " << this->DeviceMemoryMiB << "\n";
+  os << indent << "Decoding: " << this->Decoding << "\n";
   os << indent << "CachePaletting: " << this->CachePaletting << "\n";
   os << indent << "ClipBox:";
   for (int v : this->ClipBox)
@@ -194,6 +196,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     std::copy(this->LightDirection, this->LightDirection + 3, p.lightDirection.begin());
     p.cacheSizeMiB = this->CacheSizeMiB;
     p.deviceMemoryMiB = this->DeviceMemoryMiB;
+    p.decoding = this->Decoding;
     p.cachePaletting = this->CachePaletting;
     std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
     this->Prop->SetViewSettings(csgvrep::toViewSettings(p));
@@ -279,6 +282,11 @@ int vtkCSGVRepresentation::GetCacheBits()
 int vtkCSGVRepresentation::GetDetailSeparated()
 {
   return this->Prop->GetDetailSeparated();
+}
+
+double vtkCSGVRepresentation::GetDetailStreamedMiB()
+{
+  return this->Prop->GetDetailStreamedMiB();
 }
 
 void vtkCSGVRepresentation::PushAttributes()

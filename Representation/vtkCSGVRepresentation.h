@@ -80,6 +80,10 @@ public:
   /// an encoding larger than the budget is reported and nothing is drawn.
   vtkSetClampMacro(DeviceMemoryMiB, int, 0, 16777216);
   vtkGetMacro(DeviceMemoryMiB, int);
+  /// Where bricks are decoded: 0 automatic (the host on CPU devices), 1 the GPU (with detail
+  /// streaming when the budget separates the finest level), 2 the host.
+  vtkSetClampMacro(Decoding, int, 0, 2);
+  vtkGetMacro(Decoding, int);
   /// Cache paletting (the paper's): the brick cache holds packed indices into each brick's
   /// palette instead of 32-bit labels, several times more bricks in the same memory, at the cost
   /// of one more read per voxel. 0 off, 1 on, 2 automatic (default): on once the cache of labels
@@ -127,6 +131,9 @@ public:
   /// encoding would take more than half of DeviceMemoryMiB): with GPU decoding its streams are
   /// uploaded as views need them (detail streaming), host decoding reads them in host memory.
   int GetDetailSeparated();
+  /// MiB of finest-level streams this view uploaded to the device (detail streaming, GPU
+  /// decoding of a separated volume) since its renderer was made.
+  double GetDetailStreamedMiB();
 
 protected:
   vtkCSGVRepresentation();
@@ -160,6 +167,7 @@ private:
   double LightDirection[3];
   int CacheSizeMiB;
   int DeviceMemoryMiB;
+  int Decoding;
   int CachePaletting;
   int ClipBox[6];
   std::vector<std::string> AttributeFiles;

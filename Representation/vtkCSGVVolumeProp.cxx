@@ -354,6 +354,11 @@ int vtkCSGVVolumeProp::GetDetailSeparated()
   return this->P->View.detailSeparated() ? 1 : 0;
 }
 
+double vtkCSGVVolumeProp::GetDetailStreamedMiB()
+{
+  return double(this->P->View.detailStreamedBytes()) / 1048576.0;
+}
+
 bool vtkCSGVVolumeProp::DrawnMaterials(
   std::map<std::string, std::vector<float>>* arrays, csgv::MaterialEvaluator::AttributeFn* attribute)
 {

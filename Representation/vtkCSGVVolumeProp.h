@@ -97,6 +97,7 @@ public:
   double GetDeviceBudgetMiB();
   int GetCacheBits();
   int GetDetailSeparated();
+  double GetDetailStreamedMiB();
 
 protected:
   vtkCSGVVolumeProp();

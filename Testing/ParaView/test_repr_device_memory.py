@@ -2,10 +2,11 @@
 """Device memory in ParaView. Cache paletting (CSGVCachePaletting): off keeps 32-bit labels in
 the brick cache, on packs palette indices and draws the same image, automatic stays off while the
 cache holds what the view needs and turns on once the cache of labels runs full (under a tight
-device-memory budget), then draws the same image as an unconstrained view. Detail separation: a
-budget that the encoding would take more than half of keeps its finest level in host memory
-(CSGVDetailSeparated), within the budget, with the same image; a larger budget uploads it whole
-again."""
+device-memory budget), then draws the same image as an unconstrained view. Detail separation
+(GPU decoding, CSGVDecoding 1): a budget that the encoding would take more than half of keeps its
+finest level in host memory (CSGVDetailSeparated), streamed to the device as the view needs it,
+within the budget, with the same image; a larger budget uploads it whole again. Host decoding
+holds no encoding on the device."""
 import os
 import subprocess
 
@@ -74,30 +75,44 @@ v2 = t.render_view(160, 120)
 d2 = Show(s, v2)
 d2.CSGVFramesPerStillRender = 1
 d2.CSGVStillRenderTimeBudget = 60
+d2.CSGVLODBias = -3  # the finest level for the bricks in view: those are what streaming uploads
 v2.ResetCamera()
 
 
 def memory():
     d2.SMProxy.UpdatePropertyInformation()
     return tuple(d2.SMProxy.GetProperty(n).GetElement(0)
-                 for n in ("CSGVDetailSeparated", "CSGVDeviceMiB", "CSGVDeviceBudgetMiB"))
+                 for n in ("CSGVDetailSeparated", "CSGVDeviceMiB", "CSGVDeviceBudgetMiB", "CSGVDetailStreamedMiB"))
 
 
-whole = t.screenshot(v2, 160, 120, "whole.png")
-separated, device_whole, _ = memory()
-t.check(separated == 0 and t.content_mask(whole).mean() > 0.1,
-        "the automatic budget holds the %.1f MiB encoding whole" % encoding_mib)
+whole = t.screenshot(v2, 160, 120, "whole.png")  # automatic decoding: the host's on CPU devices
+t.check(t.content_mask(whole).mean() > 0.1, "the %.1f MiB encoding draws" % encoding_mib)
+# GPU decoding: the automatic budget holds the encoding whole.
+d2.CSGVDecoding = 1
+gpu_whole = t.screenshot(v2, 160, 120, "gpu_whole.png")
+separated, device_whole, _, _ = memory()
+t.check(separated == 0 and differs(gpu_whole, whole).mean() == 0,
+        "GPU decoding holds the encoding whole under the automatic budget, same image (%.2f%% of pixels differ)"
+        % (100 * differs(gpu_whole, whole).mean()))
 budget = int(2 * encoding_mib)  # the encoding takes more than half of it
 t.check(budget >= 4, "the synthetic encoding is large enough for the test (%.1f MiB)" % encoding_mib)
 d2.CSGVDeviceMemoryMiB = budget
 split = t.screenshot(v2, 160, 120, "separated.png")
-separated, device, budget_mib = memory()
-t.check(separated == 1 and device <= budget_mib == budget,
-        "a %d MiB budget keeps the finest level in host memory (%.1f MiB on the device)" % (budget, device))
+separated, device, budget_mib, streamed = memory()
+t.check(separated == 1 and device <= budget_mib == budget and streamed > 0,
+        "a %d MiB budget keeps the finest level in host memory, %.2f MiB streamed (%.1f MiB on the device)"
+        % (budget, streamed, device))
 t.check(differs(split, whole).mean() == 0, "separated: the same image (%.2f%% of pixels differ)"
         % (100 * differs(split, whole).mean()))
 d2.CSGVDeviceMemoryMiB = 0
 again = t.screenshot(v2, 160, 120, "whole_again.png")
-separated, _, _ = memory()
+separated, _, _, _ = memory()
 t.check(separated == 0 and differs(again, whole).mean() == 0, "the automatic budget uploads it whole again")
+# Host decoding needs no encoding on the device: the same budget holds it with room to spare.
+d2.CSGVDecoding = 2
+d2.CSGVDeviceMemoryMiB = budget
+host = t.screenshot(v2, 160, 120, "host.png")
+separated, device_host, _, _ = memory()
+t.check(separated == 0 and device_host <= budget and differs(host, whole).mean() == 0,
+        "host decoding under %d MiB: nothing separated, %.1f MiB on the device, the same image" % (budget, device_host))
 t.finish()

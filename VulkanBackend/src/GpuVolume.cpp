@@ -38,6 +38,9 @@ uint64_t decodeSteps(uint32_t target) {
     return n;
 }
 
+constexpr const char* kNoEncodingOnTheDevice =
+    "the volume was uploaded for host decoding: the device holds no encoding to decode from";
+
 } // namespace
 
 const char* decodeResultText(uint32_t code) {
@@ -66,19 +69,26 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     const uint64_t budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
     std::unique_ptr<GpuVolume> g(new GpuVolume(context, volume));
     const bool separable = volume.encoding == kEncodingRans2;
-    const bool separate = separates(volume, budget, options.separateDetail);
-    std::vector<std::vector<uint32_t>> baseArrays;
-    std::vector<uint32_t> baseStarts;
-    if (separate) separateDetail(volume, baseArrays, baseStarts);
-    const std::vector<std::vector<uint32_t>>& arrays = separate ? baseArrays : volume.arrays;
-    const std::vector<uint32_t>& starts = separate ? baseStarts : volume.brickStarts;
+    const bool host = options.hostDecoding;
+    const bool separate = !host && separates(volume, budget, options.separateDetail);
+    if (options.cachePaletting) g->m_cacheBits = paletteBits(volume);
+    // What the device holds of each brick: all of it; without its finest-level stream
+    // (separated); with host decoding its palette (cache paletting) or nothing.
+    const DevicePart part = host ? (g->m_cacheBits < 32 ? DevicePart::Palette : DevicePart::Nothing)
+                                 : (separate ? DevicePart::Coarse : DevicePart::Whole);
+    std::vector<std::vector<uint32_t>> partArrays;
+    std::vector<uint32_t> partStarts;
+    if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
+    const std::vector<std::vector<uint32_t>>& arrays = part == DevicePart::Whole ? volume.arrays : partArrays;
+    const std::vector<uint32_t>& starts = part == DevicePart::Whole ? volume.brickStarts : partStarts;
     const uint64_t need = uploadBytes(arrays, starts);
     if (need > budget)
         return Status::error("the encoding needs " + mebibytes(need) + " of device memory" +
-                             (separate ? " without its finest level" : "") +
+                             (separate ? " without its finest level" : host ? " for its palettes" : "") +
                              ", more than the device-memory budget of " + mebibytes(budget) +
-                             (separable || separate ? "" : " (only rANS two-table encodings can keep their finest level in host memory)"));
+                             (separable || separate || host ? "" : " (only rANS two-table encodings can keep their finest level in host memory)"));
     g->m_separated = separate;
+    g->m_hostDecoding = host;
     std::vector<uint64_t> addresses;
     for (const auto& a : arrays) {
         Result<Buffer> b = context.createBuffer(a.size() * 4, MemoryKind::DeviceLocal);
@@ -106,11 +116,11 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     d.emplace_back("VOLUME_DIM", uvec3Of(volume.dim[0], volume.dim[1], volume.dim[2]));
     d.emplace_back("BRICK_GRID", uvec3Of(grid[0], grid[1], grid[2]));
     d.emplace_back("BRICKS_PER_ARRAY", std::to_string(volume.bricksPerArray) + "u");
-    if (options.cachePaletting) g->m_cacheBits = paletteBits(volume);
     d.emplace_back("CACHE_BITS", std::to_string(g->m_cacheBits));
     d.emplace_back("SEPARATED", separate ? "1" : "0");
     if (volume.encoding != kEncodingNibble) tableDefines(volume.freqA, "CUM_A", d);
     if (volume.encoding == kEncodingRans2) tableDefines(volume.freqB, "CUM_B", d);
+    if (host) return g; // nothing to decode from on the device
     Result<std::vector<uint32_t>> spirv = compileComputeShader("decode_bricks.comp", d);
     if (!spirv) return spirv.status();
     Result<uint64_t> pipeline = context.createComputePipeline(*spirv, sizeof(DecodePush));
@@ -126,11 +136,13 @@ bool GpuVolume::separates(const CompressedVolume& volume, uint64_t budget, Detai
     return separation == DetailSeparation::Always || (separation == DetailSeparation::Auto && encodingBytes(volume) > budget / 2);
 }
 
-void GpuVolume::separateDetail(const CompressedVolume& volume, std::vector<std::vector<uint32_t>>& arrays,
-                               std::vector<uint32_t>& starts) {
-    // Each brick without its finest-level stream (mode 2: stream B, from word header[L-1] / 8 to
-    // the palette): header, stream A, palette. Arrays and starts follow the container's rules
-    // (CSGV-FORMAT.md section 7): start[i] is where brick i - 1 ends, a new array begins at 0.
+void GpuVolume::devicePart(const CompressedVolume& volume, DevicePart part, std::vector<std::vector<uint32_t>>& arrays,
+                            std::vector<uint32_t>& starts) {
+    // Coarse: each brick without its finest-level stream (mode 2: stream B, from word
+    // header[L-1] / 8 to the palette): header, stream A, palette. Palette: the palette alone (its
+    // end is where the render pass finds it, as in the whole encoding). Arrays and starts follow
+    // the container's rules (CSGV-FORMAT.md section 7): start[i] is where brick i - 1 ends, a new
+    // array begins at 0.
     const uint32_t L = volume.levels();
     const uint64_t n = volume.brickCount();
     arrays.assign(volume.arrays.size(), {});
@@ -138,9 +150,9 @@ void GpuVolume::separateDetail(const CompressedVolume& volume, std::vector<std::
     for (uint64_t b = 0; b < n; ++b) {
         const BrickWords bw = volume.brick(b);
         std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)];
-        const uint32_t streamB = bw.words[L - 1] / 8, palette = bw.words[L];
-        a.insert(a.end(), bw.words, bw.words + streamB);
-        a.insert(a.end(), bw.words + bw.size - palette, bw.words + bw.size);
+        const uint32_t palette = bw.words[L];
+        if (part == DevicePart::Coarse) a.insert(a.end(), bw.words, bw.words + bw.words[L - 1] / 8);
+        if (part != DevicePart::Nothing) a.insert(a.end(), bw.words + bw.size - palette, bw.words + bw.size);
         starts[size_t(b) + 1] = uint32_t(a.size());
     }
 }
@@ -170,6 +182,7 @@ uint64_t GpuVolume::deviceBytes() const {
 }
 
 Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cache, std::vector<uint32_t>* codes) {
+    if (m_hostDecoding) return Status::error(kNoEncodingOnTheDevice);
     if (requests.empty()) return Status::ok();
     const uint32_t L = m_volume.levels();
     std::vector<uint32_t> words;
@@ -249,6 +262,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
 Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress,
                                     uint64_t statesAddress, uint32_t maxRequests, FrameDecode& storage,
                                     std::vector<Context::Dispatch>& out, const DetailStream* detail) {
+    if (m_hostDecoding) return Status::error(kNoEncodingOnTheDevice);
     if (m_separated && !detail) return Status::error("GPU decoding of a separated volume needs a detail stream");
     const uint64_t steps = decodeSteps(m_volume.levels() - 1);
     const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;

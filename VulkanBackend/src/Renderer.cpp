@@ -436,6 +436,10 @@ struct Renderer::Impl {
 
 Renderer::~Renderer() = default;
 
+bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device) {
+    return decode == RendererOptions::Decode::Host || (decode == RendererOptions::Decode::Auto && device.type == "cpu");
+}
+
 Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared_ptr<GpuVolume> volume,
                                                    const RendererOptions& options) {
     if (!volume) return Status::error("no volume to render");
@@ -460,8 +464,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // Pixels per render and resolve invocation along each axis: CPU devices pay per invocation.
     im.pixelBlock = context.device().type == "cpu" ? 2 : 1;
     d.emplace_back("PIXEL_BLOCK", std::to_string(im.pixelBlock) + "u");
-    im.hostDecode = options.decode == RendererOptions::Decode::Host ||
-                    (options.decode == RendererOptions::Decode::Auto && context.device().type == "cpu");
+    if (volume->hostDecoding() && options.decode == RendererOptions::Decode::Gpu)
+        return Status::error("GPU decoding was asked for, but the volume was uploaded for host decoding");
+    im.hostDecode = volume->hostDecoding() || decodesOnHost(options.decode, context.device());
     const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     im.defines = d;

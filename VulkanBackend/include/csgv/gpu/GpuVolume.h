@@ -50,6 +50,10 @@ struct GpuVolumeOptions {
     /// anyway) and is streamed into a detail buffer when wanted (DetailStream.h: the renderer's
     /// frames; decode() uploads the streams of its requests for the call).
     DetailSeparation separateDetail = DetailSeparation::Auto;
+    /// Bricks are decoded on the host (decodesOnHost() of the renderers' Decode): the device holds
+    /// only what rendering reads of the encoding, each brick's palette with cache paletting, else
+    /// nothing; GPU decoding of this upload is refused. No detail separation then.
+    bool hostDecoding = false;
 };
 
 class GpuVolume {
@@ -69,6 +73,8 @@ public:
     /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): decoding level 0
     /// needs the brick's stream in a DetailStream.
     bool separated() const { return m_separated; }
+    /// Uploaded for host decoding (GpuVolumeOptions::hostDecoding): no encoding to decode from.
+    bool hostDecoding() const { return m_hostDecoding; }
     /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
     static bool separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation);
     /// A brick's labels (Morton order, kInvalidLabel outside) as its cache region stores them:
@@ -129,11 +135,13 @@ private:
     uint64_t m_decodePipeline = 0;
     uint32_t m_cacheBits = 32;
     bool m_separated = false;
+    bool m_hostDecoding = false;
     /// Device memory that encoding arrays and brick starts take once uploaded.
     static uint64_t uploadBytes(const std::vector<std::vector<uint32_t>>& arrays, const std::vector<uint32_t>& starts);
-    /// The device's part of a separated encoding: each brick without its finest level.
-    static void separateDetail(const CompressedVolume& volume, std::vector<std::vector<uint32_t>>& arrays,
-                               std::vector<uint32_t>& starts);
+    /// What the device holds of each brick when not all of it (arrays and starts as the container's).
+    enum class DevicePart { Whole, Coarse, Palette, Nothing };
+    static void devicePart(const CompressedVolume& volume, DevicePart part, std::vector<std::vector<uint32_t>>& arrays,
+                           std::vector<uint32_t>& starts);
 };
 
 } // namespace csgv::gpu

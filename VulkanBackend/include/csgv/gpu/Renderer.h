@@ -106,6 +106,10 @@ struct RendererOptions {
     Decode decode = Decode::Auto;
 };
 
+/// Whether `decode` decodes on the host on this device (Auto: on CPU devices). The one rule for
+/// renderers and for uploads made for them (GpuVolumeOptions::hostDecoding).
+bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device);
+
 /// @brief One frame's inputs.
 struct FrameInput {
     std::array<double, 16> worldToClip{}; ///< column-major
