@@ -143,7 +143,8 @@ std::string ViewRenderer::ensureRenderer()
     : csgv::gpu::automaticDeviceMemoryBudget(this->Context->device());
   // Host decoding (CPU devices) uploads no encoding; with GPU decoding, a budget that wants the
   // finest level in host memory, or no more, wants another upload.
-  const bool hostDecoding = csgv::gpu::decodesOnHost(this->Settings.decode, this->Context->device());
+  const bool hostDecoding =
+    csgv::gpu::decodesOnHost(this->Settings.decode, this->Context->device(), shared->volume, budget);
   if (this->Renderer && this->Renderer->volume().hostDecoding() != hostDecoding)
   {
     this->Renderer.reset();

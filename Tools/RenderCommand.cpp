@@ -317,7 +317,8 @@ int cmdRender(int argc, char** argv) {
     gpu::GpuVolumeOptions volumeOptions;
     volumeOptions.cachePaletting = a.cachePaletting;
     volumeOptions.deviceMemoryBytes = a.deviceMemoryMiB << 20;
-    volumeOptions.hostDecoding = gpu::decodesOnHost(a.decode, (*ctx)->device()); // then no encoding on the device
+    // Host decoding keeps no encoding on the device.
+    volumeOptions.hostDecoding = gpu::decodesOnHost(a.decode, (*ctx)->device(), file->volume, volumeOptions.deviceMemoryBytes);
     Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume, volumeOptions);
     if (!volume) return fail(volume.message());
     std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));

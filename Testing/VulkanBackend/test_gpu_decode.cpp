@@ -11,6 +11,7 @@
 #include "csgv/inputs/Procedural.h"
 #include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/GpuVolume.h"
+#include "csgv/gpu/Renderer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -148,6 +149,49 @@ TEST(DetailStream, RingEvictsTheOldestNeverThePendingBatchAndNamesOnlyCommittedS
     // Too small a ring, and encodings without a stream of their own for the finest level, are refused.
     EXPECT_FALSE(DetailStream::create(*ctx, vol, capacity - 4).isOk());
     EXPECT_FALSE(DetailStream::create(*ctx, loadFixture("synthA_b16_nibble.csgv"), 1 << 20).isOk());
+}
+
+TEST(GpuVolume, WhatEachDecoderKeepsOnTheDeviceAndWhoDecides) {
+    CSGV_REQUIRE_GPU(ctx);
+    const CompressedVolume vol = loadFixture("synthA_b32_rans2.csgv");
+    const uint64_t whole = GpuVolume::encodingBytes(vol);
+    // gpuDecodingBytes is what an upload for GPU decoding takes, whole or separated.
+    for (uint64_t budget : {4 * whole, 2 * whole - 1}) {
+        GpuVolumeOptions o;
+        o.deviceMemoryBytes = budget;
+        Result<std::unique_ptr<GpuVolume>> g = GpuVolume::create(*ctx, vol, o);
+        ASSERT_TRUE(g.isOk()) << g.message();
+        EXPECT_EQ((*g)->separated(), budget < 2 * whole);
+        EXPECT_EQ((*g)->deviceBytes(), GpuVolume::gpuDecodingBytes(vol, budget)) << budget;
+    }
+    // An upload for host decoding holds palettes with cache paletting, else nothing, and refuses
+    // GPU decoding.
+    GpuVolumeOptions host;
+    host.hostDecoding = true;
+    Result<std::unique_ptr<GpuVolume>> none = GpuVolume::create(*ctx, vol, host);
+    ASSERT_TRUE(none.isOk()) << none.message();
+    EXPECT_LE((*none)->deviceBytes(), (vol.brickCount() + 1) * 4 + 16);
+    EXPECT_FALSE((*none)->decodeToHost({BrickRequest{0, 0, 0}}).isOk());
+    host.cachePaletting = true;
+    Result<std::unique_ptr<GpuVolume>> palettes = GpuVolume::create(*ctx, vol, host);
+    ASSERT_TRUE(palettes.isOk()) << palettes.message();
+    EXPECT_GT((*palettes)->deviceBytes(), (*none)->deviceBytes());
+    EXPECT_LT((*palettes)->deviceBytes(), whole / 2);
+    // Who decodes: Host and Gpu as asked; Auto on the host on CPU devices, or where GPU decoding's
+    // encoding would take more than three quarters of the budget.
+    DeviceInfo gpuDevice;
+    gpuDevice.type = "discrete";
+    gpuDevice.memoryBudgetBytes = 8ull << 30;
+    using D = RendererOptions::Decode;
+    EXPECT_FALSE(decodesOnHost(D::Auto, gpuDevice, vol, 0));
+    EXPECT_FALSE(decodesOnHost(D::Auto, gpuDevice, vol, 4 * whole));
+    const uint64_t tight = GpuVolume::gpuDecodingBytes(vol, whole) * 4 / 3 - 64; // separated, coarse part > 3/4
+    EXPECT_TRUE(decodesOnHost(D::Auto, gpuDevice, vol, tight));
+    EXPECT_FALSE(decodesOnHost(D::Gpu, gpuDevice, vol, tight));
+    EXPECT_TRUE(decodesOnHost(D::Host, gpuDevice, vol, 4 * whole));
+    DeviceInfo cpuDevice = gpuDevice;
+    cpuDevice.type = "cpu";
+    EXPECT_TRUE(decodesOnHost(D::Auto, cpuDevice, vol, 4 * whole));
 }
 
 TEST(GpuDecode, OurFilesInEveryEncodingAndMask) {

@@ -175,6 +175,21 @@ uint64_t GpuVolume::uploadBytes(const std::vector<std::vector<uint32_t>>& arrays
 
 uint64_t GpuVolume::encodingBytes(const CompressedVolume& volume) { return uploadBytes(volume.arrays, volume.brickStarts); }
 
+uint64_t GpuVolume::gpuDecodingBytes(const CompressedVolume& volume, uint64_t budget) {
+    if (!separates(volume, budget, DetailSeparation::Auto)) return encodingBytes(volume);
+    // As devicePart(Coarse) would lay it out, counted without copying.
+    const uint32_t L = volume.levels();
+    std::vector<uint64_t> words(volume.arrays.size(), 0);
+    for (uint64_t b = 0; b < volume.brickCount(); ++b) {
+        const BrickWords bw = volume.brick(b);
+        words[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)] += bw.words[L - 1] / 8 + bw.words[L];
+    }
+    auto bytes = [](uint64_t n) { return std::max<uint64_t>(n, 4); }; // as uploadBytes
+    uint64_t n = bytes(words.size() * 8) + bytes((volume.brickCount() + 1) * 4);
+    for (uint64_t w : words) n += bytes(w * 4);
+    return n;
+}
+
 uint64_t GpuVolume::deviceBytes() const {
     uint64_t n = m_addresses.size() + m_starts.size();
     for (const Buffer& b : m_arrays) n += b.size();

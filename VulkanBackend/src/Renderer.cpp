@@ -440,6 +440,13 @@ bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device) {
     return decode == RendererOptions::Decode::Host || (decode == RendererOptions::Decode::Auto && device.type == "cpu");
 }
 
+bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device, const CompressedVolume& volume, uint64_t budget) {
+    if (decodesOnHost(decode, device)) return true;
+    if (decode != RendererOptions::Decode::Auto) return false;
+    if (budget == 0) budget = automaticDeviceMemoryBudget(device);
+    return GpuVolume::gpuDecodingBytes(volume, budget) > budget / 4 * 3;
+}
+
 Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared_ptr<GpuVolume> volume,
                                                    const RendererOptions& options) {
     if (!volume) return Status::error("no volume to render");

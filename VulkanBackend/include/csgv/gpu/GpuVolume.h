@@ -69,6 +69,9 @@ public:
     static uint32_t paletteBits(const CompressedVolume& volume);
     /// Device memory the encoding of `volume` takes once uploaded (create() allocates exactly this).
     static uint64_t encodingBytes(const CompressedVolume& volume);
+    /// Device memory an upload for GPU decoding under `budget` takes (without the finest level
+    /// where the budget separates it; DetailSeparation::Auto).
+    static uint64_t gpuDecodingBytes(const CompressedVolume& volume, uint64_t budget);
 
     /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): decoding level 0
     /// needs the brick's stream in a DetailStream.

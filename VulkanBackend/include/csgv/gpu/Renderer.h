@@ -109,6 +109,11 @@ struct RendererOptions {
 /// Whether `decode` decodes on the host on this device (Auto: on CPU devices). The one rule for
 /// renderers and for uploads made for them (GpuVolumeOptions::hostDecoding).
 bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device);
+/// The same for an upload of `volume` under `budget` bytes (0: automatic): Auto also decodes on
+/// the host when the encoding GPU decoding needs on the device (without its finest level where
+/// the budget separates it) would take more than three quarters of the budget, which then holds
+/// no encoding at all.
+bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device, const CompressedVolume& volume, uint64_t budget);
 
 /// @brief One frame's inputs.
 struct FrameInput {
