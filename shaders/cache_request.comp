@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Request stage, one invocation per brick: frees the cache regions of bricks that became
+// Request stage, one invocation per REQUEST_BLOCK bricks: frees the cache regions of bricks that became
 // invisible, that need another level of detail (used or not: a ray must never sample a brick at
 // another level than the view wants, or converged images would depend on what the cache held
 // before), or (under cache pressure) that no ray used for
@@ -14,15 +14,16 @@
 layout(local_size_x = kGroupBricks) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
-void main() {
-    Frame f = Frame(pc.frame);
-    loadFrameValues(f);
-    const uint b = gl_GlobalInvocationID.x;
-    if (b >= fv.counts.y) return;
+Frame f;
+
+void requestBrick(uint b) {
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
-    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     uvec4 s = bricks.v[b];
     const bool used = s.z == fv.frame.x; // marked by the previous frame's rays (frame index + 1)
+    // Most bricks of a large volume are neither cached nor needed: nothing to do for them, unless
+    // the materials changed which bricks are visible (their flags follow below).
+    if (!used && s.y == kNone && (fv.frame.y & kFlagVisibilityChanged) == 0u) return;
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     const bool visible = UintBuf(frameAddr[kSlotVisible]).w[2u * b] != kNone;
     const uint wanted = lodForBrick(f, b);
     uint level = wanted;
@@ -60,4 +61,14 @@ void main() {
     UintBuf req = UintBuf(frameAddr[kSlotRequests]);
     req.w[2u * r] = b;
     req.w[2u * r + 1u] = level;
+}
+
+void main() {
+    f = Frame(pc.frame);
+    loadFrameValues(f);
+    // REQUEST_BLOCK bricks per invocation: CPU devices pay for every invocation.
+    for (uint k = 0u; k < REQUEST_BLOCK; ++k) {
+        const uint b = gl_GlobalInvocationID.x * REQUEST_BLOCK + k;
+        if (b < fv.counts.y) requestBrick(b);
+    }
 }

@@ -972,6 +972,31 @@ TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     EXPECT_EQ(one->frames, 1u);
 }
 
+TEST(Renderer, MaterialsThatShowHiddenBricksDrawThemAfterFramesWithoutThem) {
+    // The request stage skips bricks that are neither cached nor needed, except in the frame after
+    // the materials changed which bricks are visible: bricks no ray could see before must appear.
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    const FrameInput in = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
+    RenderSettings st;
+    st.finest = true;
+    st.denoise = false;
+    std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+    Result<MaterialDocument> none = parseMaterials(R"({"version": 1, "materials": [
+        {"name": "nothing", "filter": {"attribute": "label", "min": 1, "max": 1}}]})");
+    ASSERT_TRUE(none.isOk()) << none.message();
+    ASSERT_TRUE(r->setMaterials(*none).isOk());
+    const FrameOutput empty = renderConverged(*r, in, 2, 50);
+    EXPECT_TRUE(std::all_of(empty.label.begin(), empty.label.end(), [](uint32_t l) { return l == kInvalidLabel; }));
+    ASSERT_TRUE(r->setMaterials(defaultMaterials()).isOk());
+    const FrameOutput shown = renderConverged(*r, in, 2, 50);
+    std::unique_ptr<Renderer> fresh = makeRenderer(*ctx, scene, 64ull << 20, st);
+    const FrameOutput want = renderConverged(*fresh, in, 2, 50);
+    EXPECT_GT(std::count_if(want.label.begin(), want.label.end(), [](uint32_t l) { return l != kInvalidLabel; }), 100);
+    EXPECT_EQ(shown.label, want.label);
+    EXPECT_EQ(differingValues(shown.rgba, want.rgba), 0u);
+}
+
 TEST(Renderer, ChangesThatKeepTheImageKeepTheAccumulation) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");

@@ -152,6 +152,8 @@ struct Renderer::Impl {
     std::array<uint32_t, 4> rect{};   // the frame's footprint rectangle (FrameParams rect)
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
+    uint32_t requestBlock = 1;        // REQUEST_BLOCK of cache_request.comp (bricks per invocation)
+    bool visibilityChanged = true;    // uploadVisibility ran since the last frame (kFlagVisibilityChanged)
     Mat4 lastWorldToClip{};
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
     uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
@@ -471,6 +473,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // Pixels per render and resolve invocation along each axis: CPU devices pay per invocation.
     im.pixelBlock = context.device().type == "cpu" ? 2 : 1;
     d.emplace_back("PIXEL_BLOCK", std::to_string(im.pixelBlock) + "u");
+    im.requestBlock = context.device().type == "cpu" ? 64 : 1;
+    d.emplace_back("REQUEST_BLOCK", std::to_string(im.requestBlock) + "u");
     if (volume->hostDecoding() && options.decode == RendererOptions::Decode::Gpu)
         return Status::error("GPU decoding was asked for, but the volume was uploaded for host decoding");
     im.hostDecode = volume->hostDecoding() || decodesOnHost(options.decode, context.device());
@@ -816,6 +820,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
                 vis[2 * size_t(b) + 1] = table.empty() ? materialOf(vis[2 * size_t(b)]) : table[vis[2 * size_t(b)]];
             }
     }
+    visibilityChanged = true;
     return ctx.upload(visible, 0, vis.data(), vis.size() * 4);
 }
 
@@ -1009,6 +1014,8 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     if (in.opaqueDepth) flags |= kFlagDepthInput;
     if (hasLabelMap) flags |= kFlagLabelMap;
     if (resolvesInRender(st)) flags |= kFlagResolveInRender;
+    if (visibilityChanged) flags |= kFlagVisibilityChanged;
+    visibilityChanged = false;
     const uint32_t stride = st.subsampling;
     p.frame[0] = frameIndex;
     p.frame[1] = flags;
@@ -1058,7 +1065,8 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     dispatches.clear();
     const uint32_t tile = kGroupTile * pixelBlock; // kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
     if (clearPending) addClear(in);
-    addDispatch(pRequest, &frameAddress, 8, (brickCount + kGroupBricks - 1) / kGroupBricks, 1);
+    const uint32_t perGroup = kGroupBricks * requestBlock;
+    addDispatch(pRequest, &frameAddress, 8, (brickCount + perGroup - 1) / perGroup, 1);
     addDispatch(pProvision, &frameAddress, 8, 1, 1);
     addDispatch(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
     addDispatch(pCommit, &frameAddress, 8, 1, 1);
