@@ -61,7 +61,7 @@ std::string usage() {
            "         [--fov-y DEG | --parallel-scale S] [--shading local|shadow|ao|pt] [--frames N]\n"
            "         [--no-jitter] [--finest] [--labels-out FILE] [--materials FILE.json]\n"
            "         [--video PATTERN --orbit N] [--cache-mib M] [--device-memory-mib M] [--cache-paletting]\n"
-           "         [--subsampling 1|2|4|8] [--lod-bias B]\n"
+           "         [--subsampling 1|2|4|8] [--lod-bias B] [--decode auto|gpu|host]\n"
            "         [--blend B] [--no-denoise] [--tone-mapping] [--background r,g,b]\n"
            "         [--attributes FILE.csv|.txt|.db3]... [--computed-attributes] [--derive NAME=SQL]...\n"
            "      renders on the GPU (CSGV_VULKAN_DEVICE picks the device); --frames N: samples per pixel;\n"
