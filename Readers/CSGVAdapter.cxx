@@ -7,6 +7,8 @@
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
 #include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
 #include <vtkMatrix3x3.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
@@ -348,10 +350,41 @@ void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColum
   }
 }
 
+namespace
+{
+
+/// Stores the byte range of the encoding as the array's cached range (vtkAbstractArray's
+/// PER_COMPONENT and PER_FINITE_COMPONENT, which its Modified() clears): ParaView's data
+/// information asks every field-data array for its range, and VTK's sequential scan of a
+/// gigabytes-long encoding took minutes. The range found here stops at the first 0 and 255.
+void cacheByteRange(vtkUnsignedCharArray* a)
+{
+  const unsigned char* p = a->GetPointer(0);
+  const vtkIdType n = a->GetNumberOfValues();
+  unsigned char lo = 255, hi = 0;
+  for (vtkIdType i = 0; i < n && (lo != 0 || hi != 255); ++i)
+  {
+    lo = std::min(lo, p[i]);
+    hi = std::max(hi, p[i]);
+  }
+  const double range[2] = { n ? double(lo) : VTK_DOUBLE_MAX, n ? double(hi) : VTK_DOUBLE_MIN };
+  for (vtkInformationInformationVectorKey* key :
+    { vtkAbstractArray::PER_COMPONENT(), vtkAbstractArray::PER_FINITE_COMPONENT() })
+  {
+    vtkNew<vtkInformationVector> components;
+    components->SetNumberOfInformationObjects(1);
+    components->GetInformationObject(0)->Set(vtkDataArray::COMPONENT_RANGE(), range, 2);
+    a->GetInformation()->Set(key, components);
+  }
+}
+
+} // namespace
+
 void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
   const csgv::Geometry& corner, const LabelInfo& info, vtkDataArray* range)
 {
   encoding->SetName(kEncodingName);
+  cacheByteRange(encoding);
   fd->AddArray(encoding);
 
   vtkNew<vtkDoubleArray> geometry;
