@@ -71,6 +71,12 @@ public:
         return Status::ok();
     }
     bool readRaw(void* dst, size_t n) override { return std::fread(dst, 1, n, m_file) == n; }
+    /// Moves to `offset` (at most the file's size): later reads go on from there.
+    bool seek(uint64_t offset) {
+        if (offset > m_size || fseeko(m_file, off_t(offset), SEEK_SET) != 0) return false;
+        m_offset = offset;
+        return true;
+    }
 
 private:
     std::FILE* m_file = nullptr;
@@ -159,8 +165,8 @@ void emit(const CompressedVolume& v, const std::function<void(const void*, size_
     out(&kNotDetailSeparated, 1);
 }
 
-Result<CompressedVolume> parse(ByteSource& src) {
-    CompressedVolume v;
+/// Everything before the encoding arrays: the header fields, checked, and the brick starts.
+Status parseHead(ByteSource& src, CompressedVolume& v) {
     char magic[8];
     CSGV_TRY(src.read(magic, 8, "magic"));
     if (std::memcmp(magic, kMagic, 8) != 0) return Status::error("not a CSGV file: the magic 'CMPSGVOL' is missing");
@@ -195,6 +201,25 @@ Result<CompressedVolume> parse(ByteSource& src) {
         return Status::error("field 'brick start count' is " + std::to_string(n) + ", expected " +
                              std::to_string(v.brickCount() + 1) + " for " + std::to_string(v.brickCount()) + " bricks");
     CSGV_TRY(readWords(src, v.brickStarts, n, "brick starts"));
+    return Status::ok();
+}
+
+/// The container's last field, and nothing after it.
+Status parseTail(ByteSource& src) {
+    uint8_t detail = 0;
+    CSGV_TRY(src.get(detail, "detail separated"));
+    if (detail != 0)
+        return Status::error("field 'detail separated' is " + std::to_string(detail) +
+                             ": files on disk must not be detail separated");
+    if (src.remaining() != 0)
+        return Status::error(std::to_string(src.remaining()) + " unexpected bytes after the last field at offset " +
+                             std::to_string(src.offset()));
+    return Status::ok();
+}
+
+Result<CompressedVolume> parse(ByteSource& src) {
+    CompressedVolume v;
+    CSGV_TRY(parseHead(src, v));
     uint64_t m = 0;
     CSGV_TRY(src.get(m, "encoding array count"));
     if (m == 0 || m > src.remaining() / 8)
@@ -208,14 +233,7 @@ Result<CompressedVolume> parse(ByteSource& src) {
                                  " words, more than 2^29");
         CSGV_TRY(readWords(src, v.arrays[size_t(i)], len, "encoding array"));
     }
-    uint8_t detail = 0;
-    CSGV_TRY(src.get(detail, "detail separated"));
-    if (detail != 0)
-        return Status::error("field 'detail separated' is " + std::to_string(detail) +
-                             ": files on disk must not be detail separated");
-    if (src.remaining() != 0)
-        return Status::error(std::to_string(src.remaining()) + " unexpected bytes after the last field at offset " +
-                             std::to_string(src.offset()));
+    CSGV_TRY(parseTail(src));
     CSGV_TRY(checkContainer(v));
     return v;
 }
@@ -339,6 +357,135 @@ Result<CompressedVolume> readCsgv(const std::string& path) {
     Status s = src.open(path);
     if (!s) return s;
     Result<CompressedVolume> r = parse(src);
+    if (!r) return Status(r.status()).prefix(path);
+    return r;
+}
+
+namespace {
+
+Result<CompressedVolume> readPiece(FileSource& src, const BrickBox& box, uint64_t* bytesRead) {
+    CompressedVolume whole;
+    CSGV_TRY(parseHead(src, whole));
+    // The arrays' lengths and where they lie; their words stay on disk.
+    uint64_t m = 0;
+    CSGV_TRY(src.get(m, "encoding array count"));
+    if (m == 0 || m > src.remaining() / 8)
+        return Status::error("field 'encoding array count' is " + std::to_string(m) + ", which the file cannot hold");
+    std::vector<uint64_t> offsets(static_cast<size_t>(m)), lengths(static_cast<size_t>(m));
+    for (uint64_t a = 0; a < m; ++a) {
+        CSGV_TRY(src.get(lengths[size_t(a)], "encoding array length"));
+        if (lengths[size_t(a)] > kMaxWordsPerArray)
+            return Status::error("encoding array " + std::to_string(a) + " has " + std::to_string(lengths[size_t(a)]) +
+                                 " words, more than 2^29");
+        if (lengths[size_t(a)] > src.remaining() / 4)
+            return Status::error("file truncated: encoding array " + std::to_string(a) + " claims " +
+                                 std::to_string(lengths[size_t(a)]) + " words at offset " + std::to_string(src.offset()) +
+                                 ", only " + std::to_string(src.remaining()) + " bytes remain");
+        offsets[size_t(a)] = src.offset();
+        if (!src.seek(src.offset() + lengths[size_t(a)] * 4)) return Status::error("cannot seek in the file");
+    }
+    CSGV_TRY(parseTail(src));
+    const uint64_t bricks = whole.brickCount();
+    const uint64_t expectedArrays =
+        whole.bricksPerArray == kSingleArray ? 1 : (whole.bricksPerArray ? (bricks + whole.bricksPerArray - 1) / whole.bricksPerArray : 0);
+    if (m != expectedArrays)
+        return Status::error("the file has " + std::to_string(m) + " encoding arrays, expected " + std::to_string(expectedArrays));
+    const std::array<uint32_t, 3> grid = whole.brickGrid();
+    for (int a = 0; a < 3; ++a)
+        if (box.lo[a] >= box.hi[a] || box.hi[a] > grid[a])
+            return Status::error("piece of bricks [" + std::to_string(box.lo[a]) + ", " + std::to_string(box.hi[a]) +
+                                 ") along axis " + std::to_string(a) + " is empty or outside the " +
+                                 std::to_string(grid[a]) + " bricks of the volume");
+    uint64_t read = src.offset(); // all but the arrays, which were skipped
+    for (uint64_t len : lengths) read -= len * 4;
+
+    CompressedVolume piece = whole;
+    piece.brickStarts.clear();
+    for (int a = 0; a < 3; ++a)
+        piece.dim[a] = std::min(box.hi[a] * whole.brickSize, whole.dim[a]) - box.lo[a] * whole.brickSize;
+    const uint64_t bpa = whole.bricksPerArray == kSingleArray ? bricks + 1 : whole.bricksPerArray;
+    const uint32_t minWords = minimalBrickWords(whole.levels(), whole.encoding);
+    // Bricks in the piece's order (x fastest), read a run of x-neighbours at a time: they lie one
+    // after the other in the file unless an array ends between them.
+    std::vector<std::vector<uint32_t>> words;
+    words.reserve(size_t(box.bricks()));
+    std::vector<uint32_t> run;
+    for (uint32_t z = box.lo[2]; z < box.hi[2]; ++z)
+        for (uint32_t y = box.lo[1]; y < box.hi[1]; ++y)
+            for (uint32_t x = box.lo[0]; x < box.hi[0];) {
+                const uint64_t first = x + uint64_t(grid[0]) * (y + uint64_t(grid[1]) * z);
+                const size_t array = size_t(first / bpa);
+                uint64_t count = 0;
+                while (x + count < box.hi[0] && (first + count) / bpa == array) ++count;
+                uint64_t begin[2] = {0, 0};
+                std::vector<std::pair<uint64_t, uint64_t>> spans; // per brick, within the array
+                for (uint64_t k = 0; k < count; ++k) {
+                    const uint64_t i = first + k;
+                    const uint64_t b = (i > 0 && i % bpa == 0) ? 0 : whole.brickStarts[size_t(i)];
+                    const uint64_t e = whole.brickStarts[size_t(i + 1)];
+                    if (e < b || e > lengths[array] || e - b < minWords)
+                        return Status::error("brick " + std::to_string(i) + ": words [" + std::to_string(b) + ", " +
+                                             std::to_string(e) + ") are not a brick inside encoding array " +
+                                             std::to_string(array) + " (" + std::to_string(lengths[array]) + " words)");
+                    if (k > 0 && b < spans.back().second)
+                        return Status::error("brick " + std::to_string(i) + ": brick starts out of order");
+                    spans.push_back({b, e});
+                }
+                begin[0] = spans.front().first;
+                begin[1] = spans.back().second;
+                run.resize(size_t(begin[1] - begin[0]));
+                if (!src.seek(offsets[array] + begin[0] * 4))
+                    return Status::error("cannot seek in the file");
+                CSGV_TRY(src.read(run.data(), run.size() * 4, "encoding array"));
+                read += run.size() * 4;
+                for (const auto& sp : spans)
+                    words.emplace_back(run.begin() + ptrdiff_t(sp.first - begin[0]), run.begin() + ptrdiff_t(sp.second - begin[0]));
+                x += uint32_t(count);
+            }
+    // The piece's own arrays: one when it fits, else as few bricks per array as needed.
+    uint64_t total = 0, perArray = words.size();
+    for (const auto& w : words) total += w.size();
+    auto fits = [&](uint64_t n) {
+        for (size_t first = 0; first < words.size(); first += size_t(n)) {
+            uint64_t sum = 0;
+            for (size_t i = first; i < std::min(words.size(), first + size_t(n)); ++i) sum += words[i].size();
+            if (sum > kMaxWordsPerArray) return false;
+        }
+        return true;
+    };
+    if (total > kMaxWordsPerArray) {
+        uint64_t lo = 1, hi = words.size();
+        while (lo < hi) {
+            const uint64_t mid = (lo + hi + 1) / 2;
+            if (fits(mid)) lo = mid;
+            else hi = mid - 1;
+        }
+        perArray = lo;
+    }
+    piece.bricksPerArray = total > kMaxWordsPerArray ? uint32_t(perArray) : kSingleArray;
+    piece.arrays.assign(size_t((words.size() + perArray - 1) / perArray), {});
+    piece.brickStarts.assign(words.size() + 1, 0u);
+    piece.maxPalette = 1;
+    const uint32_t L = whole.levels();
+    for (size_t i = 0; i < words.size(); ++i) {
+        std::vector<uint32_t>& arr = piece.arrays[size_t(i / perArray)];
+        piece.maxPalette = std::max(piece.maxPalette, words[i][L]);
+        arr.insert(arr.end(), words[i].begin(), words[i].end());
+        piece.brickStarts[i + 1] = uint32_t(arr.size());
+        std::vector<uint32_t>().swap(words[i]);
+    }
+    if (bytesRead) *bytesRead = read;
+    CSGV_TRY(checkContainer(piece));
+    return piece;
+}
+
+} // namespace
+
+Result<CompressedVolume> readCsgvPiece(const std::string& path, const BrickBox& box, uint64_t* bytesRead) {
+    FileSource src;
+    Status s = src.open(path);
+    if (!s) return s;
+    Result<CompressedVolume> r = readPiece(src, box, bytesRead);
     if (!r) return Status(r.status()).prefix(path);
     return r;
 }

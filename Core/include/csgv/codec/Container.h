@@ -39,6 +39,7 @@
 ///   into place, and never set the legacy-delta bit.
 
 #include "csgv/codec/Layout.h"
+#include "csgv/codec/Partition.h"
 #include "csgv/base/Checked.h"
 #include "csgv/base/Status.h"
 
@@ -135,6 +136,12 @@ Status checkContainer(const CompressedVolume& vol);
 Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size);
 /// Reads a `.csgv` file; never reads or allocates more than the file holds.
 Result<CompressedVolume> readCsgv(const std::string& path);
+/// Reads the bricks of `box` (whole bricks: Partition.h) of a `.csgv` file as a volume of their
+/// own: the piece's dimensions (bricks cut by the volume's end stay cut), its bricks' words as
+/// stored (an interior brick's encoding does not depend on its neighbours), the file's tables,
+/// the piece's largest palette. Reads the header, the brick starts and only those bricks' bytes
+/// (`bytesRead` counts them); the result has passed checkContainer().
+Result<CompressedVolume> readCsgvPiece(const std::string& path, const BrickBox& box, uint64_t* bytesRead = nullptr);
 
 /// Serialises as version 0016.
 std::vector<uint8_t> serializeCsgv(const CompressedVolume& vol);
