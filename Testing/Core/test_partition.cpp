@@ -124,6 +124,17 @@ TEST(ReadCsgvPiece, TheWholeBoxIsTheFileAndBadBoxesOrFilesAreErrors) {
     Result<CompressedVolume> piece = readCsgvPiece(path, mid);
     ASSERT_TRUE(piece.isOk()) << piece.message();
     EXPECT_TRUE(decodeVolume(*piece, 0)->labels == crop(*src, mid, 16).labels);
+    // The same piece cut from the volume in memory is the same container.
+    Result<CompressedVolume> cutOut = extractPiece(*vol, mid);
+    ASSERT_TRUE(cutOut.isOk()) << cutOut.message();
+    EXPECT_EQ(serializeCsgv(*cutOut), serializeCsgv(*piece));
+    EXPECT_FALSE(extractPiece(*vol, BrickBox{{0, 0, 0}, {9, 1, 1}}).isOk());
+    // The header alone describes the volume without its arrays.
+    Result<CompressedVolume> head = readCsgvHeader(path);
+    ASSERT_TRUE(head.isOk()) << head.message();
+    EXPECT_EQ(head->dim, vol->dim);
+    EXPECT_EQ(head->brickStarts, vol->brickStarts);
+    EXPECT_TRUE(head->arrays.empty());
     // Boxes outside the grid or empty.
     Result<CompressedVolume> outside = readCsgvPiece(path, BrickBox{{0, 0, 0}, {5, 3, 4}});
     ASSERT_FALSE(outside.isOk());

@@ -363,6 +363,67 @@ Result<CompressedVolume> readCsgv(const std::string& path) {
 
 namespace {
 
+/// Fills `piece` (header fields set, dimensions of the piece) with the bricks' words in the
+/// piece's order: one array when they fit, else as few bricks per array as needed; its largest
+/// palette; then checks it.
+Status assemblePiece(CompressedVolume& piece, std::vector<std::vector<uint32_t>>& words) {
+    // The piece's own arrays: one when it fits, else as few bricks per array as needed.
+    uint64_t total = 0, perArray = words.size();
+    for (const auto& w : words) total += w.size();
+    auto fits = [&](uint64_t n) {
+        for (size_t first = 0; first < words.size(); first += size_t(n)) {
+            uint64_t sum = 0;
+            for (size_t i = first; i < std::min(words.size(), first + size_t(n)); ++i) sum += words[i].size();
+            if (sum > kMaxWordsPerArray) return false;
+        }
+        return true;
+    };
+    if (total > kMaxWordsPerArray) {
+        uint64_t lo = 1, hi = words.size();
+        while (lo < hi) {
+            const uint64_t mid = (lo + hi + 1) / 2;
+            if (fits(mid)) lo = mid;
+            else hi = mid - 1;
+        }
+        perArray = lo;
+    }
+    piece.bricksPerArray = total > kMaxWordsPerArray ? uint32_t(perArray) : kSingleArray;
+    piece.arrays.assign(size_t((words.size() + perArray - 1) / perArray), {});
+    piece.brickStarts.assign(words.size() + 1, 0u);
+    piece.maxPalette = 1;
+    const uint32_t L = piece.levels();
+    for (size_t i = 0; i < words.size(); ++i) {
+        std::vector<uint32_t>& arr = piece.arrays[size_t(i / perArray)];
+        piece.maxPalette = std::max(piece.maxPalette, words[i][L]);
+        arr.insert(arr.end(), words[i].begin(), words[i].end());
+        piece.brickStarts[i + 1] = uint32_t(arr.size());
+        std::vector<uint32_t>().swap(words[i]);
+    }
+    return checkContainer(piece);
+}
+
+/// The header of a piece of `whole` made of the bricks `box` (dimensions of the piece), or an
+/// error naming a box outside the grid.
+Result<CompressedVolume> pieceHeader(const CompressedVolume& whole, const BrickBox& box) {
+    const std::array<uint32_t, 3> grid = whole.brickGrid();
+    for (int a = 0; a < 3; ++a)
+        if (box.lo[a] >= box.hi[a] || box.hi[a] > grid[a])
+            return Status::error("piece of bricks [" + std::to_string(box.lo[a]) + ", " + std::to_string(box.hi[a]) +
+                                 ") along axis " + std::to_string(a) + " is empty or outside the " +
+                                 std::to_string(grid[a]) + " bricks of the volume");
+    CompressedVolume piece;
+    piece.version = whole.version;
+    piece.brickSize = whole.brickSize;
+    piece.encoding = whole.encoding;
+    piece.randomAccess = whole.randomAccess;
+    piece.opMask = whole.opMask;
+    piece.freqA = whole.freqA;
+    piece.freqB = whole.freqB;
+    for (int a = 0; a < 3; ++a)
+        piece.dim[a] = std::min(box.hi[a] * whole.brickSize, whole.dim[a]) - box.lo[a] * whole.brickSize;
+    return piece;
+}
+
 Result<CompressedVolume> readPiece(FileSource& src, const BrickBox& box, uint64_t* bytesRead) {
     CompressedVolume whole;
     CSGV_TRY(parseHead(src, whole));
@@ -391,18 +452,11 @@ Result<CompressedVolume> readPiece(FileSource& src, const BrickBox& box, uint64_
     if (m != expectedArrays)
         return Status::error("the file has " + std::to_string(m) + " encoding arrays, expected " + std::to_string(expectedArrays));
     const std::array<uint32_t, 3> grid = whole.brickGrid();
-    for (int a = 0; a < 3; ++a)
-        if (box.lo[a] >= box.hi[a] || box.hi[a] > grid[a])
-            return Status::error("piece of bricks [" + std::to_string(box.lo[a]) + ", " + std::to_string(box.hi[a]) +
-                                 ") along axis " + std::to_string(a) + " is empty or outside the " +
-                                 std::to_string(grid[a]) + " bricks of the volume");
+    Result<CompressedVolume> made = pieceHeader(whole, box);
+    if (!made) return made.status();
+    CompressedVolume& piece = *made;
     uint64_t read = src.offset(); // all but the arrays, which were skipped
     for (uint64_t len : lengths) read -= len * 4;
-
-    CompressedVolume piece = whole;
-    piece.brickStarts.clear();
-    for (int a = 0; a < 3; ++a)
-        piece.dim[a] = std::min(box.hi[a] * whole.brickSize, whole.dim[a]) - box.lo[a] * whole.brickSize;
     const uint64_t bpa = whole.bricksPerArray == kSingleArray ? bricks + 1 : whole.bricksPerArray;
     const uint32_t minWords = minimalBrickWords(whole.levels(), whole.encoding);
     // Bricks in the piece's order (x fastest), read a run of x-neighbours at a time: they lie one
@@ -442,44 +496,39 @@ Result<CompressedVolume> readPiece(FileSource& src, const BrickBox& box, uint64_
                     words.emplace_back(run.begin() + ptrdiff_t(sp.first - begin[0]), run.begin() + ptrdiff_t(sp.second - begin[0]));
                 x += uint32_t(count);
             }
-    // The piece's own arrays: one when it fits, else as few bricks per array as needed.
-    uint64_t total = 0, perArray = words.size();
-    for (const auto& w : words) total += w.size();
-    auto fits = [&](uint64_t n) {
-        for (size_t first = 0; first < words.size(); first += size_t(n)) {
-            uint64_t sum = 0;
-            for (size_t i = first; i < std::min(words.size(), first + size_t(n)); ++i) sum += words[i].size();
-            if (sum > kMaxWordsPerArray) return false;
-        }
-        return true;
-    };
-    if (total > kMaxWordsPerArray) {
-        uint64_t lo = 1, hi = words.size();
-        while (lo < hi) {
-            const uint64_t mid = (lo + hi + 1) / 2;
-            if (fits(mid)) lo = mid;
-            else hi = mid - 1;
-        }
-        perArray = lo;
-    }
-    piece.bricksPerArray = total > kMaxWordsPerArray ? uint32_t(perArray) : kSingleArray;
-    piece.arrays.assign(size_t((words.size() + perArray - 1) / perArray), {});
-    piece.brickStarts.assign(words.size() + 1, 0u);
-    piece.maxPalette = 1;
-    const uint32_t L = whole.levels();
-    for (size_t i = 0; i < words.size(); ++i) {
-        std::vector<uint32_t>& arr = piece.arrays[size_t(i / perArray)];
-        piece.maxPalette = std::max(piece.maxPalette, words[i][L]);
-        arr.insert(arr.end(), words[i].begin(), words[i].end());
-        piece.brickStarts[i + 1] = uint32_t(arr.size());
-        std::vector<uint32_t>().swap(words[i]);
-    }
+    CSGV_TRY(assemblePiece(piece, words));
     if (bytesRead) *bytesRead = read;
-    CSGV_TRY(checkContainer(piece));
-    return piece;
+    return std::move(piece);
 }
 
 } // namespace
+
+Result<CompressedVolume> readCsgvHeader(const std::string& path) {
+    FileSource src;
+    Status s = src.open(path);
+    if (!s) return s;
+    CompressedVolume v;
+    s = parseHead(src, v);
+    if (!s) return s.prefix(path);
+    return v;
+}
+
+Result<CompressedVolume> extractPiece(const CompressedVolume& whole, const BrickBox& box) {
+    Result<CompressedVolume> made = pieceHeader(whole, box);
+    if (!made) return made.status();
+    const std::array<uint32_t, 3> grid = whole.brickGrid();
+    std::vector<std::vector<uint32_t>> words;
+    words.reserve(size_t(box.bricks()));
+    for (uint32_t z = box.lo[2]; z < box.hi[2]; ++z)
+        for (uint32_t y = box.lo[1]; y < box.hi[1]; ++y)
+            for (uint32_t x = box.lo[0]; x < box.hi[0]; ++x) {
+                const BrickWords bw = whole.brick(x + uint64_t(grid[0]) * (y + uint64_t(grid[1]) * z));
+                words.emplace_back(bw.words, bw.words + bw.size);
+            }
+    Status s = assemblePiece(*made, words);
+    if (!s) return s;
+    return made;
+}
 
 Result<CompressedVolume> readCsgvPiece(const std::string& path, const BrickBox& box, uint64_t* bytesRead) {
     FileSource src;

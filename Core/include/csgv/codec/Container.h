@@ -142,6 +142,11 @@ Result<CompressedVolume> readCsgv(const std::string& path);
 /// the piece's largest palette. Reads the header, the brick starts and only those bricks' bytes
 /// (`bytesRead` counts them); the result has passed checkContainer().
 Result<CompressedVolume> readCsgvPiece(const std::string& path, const BrickBox& box, uint64_t* bytesRead = nullptr);
+/// The same piece of a volume in memory (checked structure assumed: checkContainer()).
+Result<CompressedVolume> extractPiece(const CompressedVolume& whole, const BrickBox& box);
+/// A file's header fields (checked) and brick starts, nothing after them: what a reader needs to
+/// describe the volume without reading it (the result has no encoding arrays).
+Result<CompressedVolume> readCsgvHeader(const std::string& path);
 
 /// Serialises as version 0016.
 std::vector<uint8_t> serializeCsgv(const CompressedVolume& vol);
