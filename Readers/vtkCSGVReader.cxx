@@ -4,6 +4,7 @@
 #include "CSGVAdapter.h"
 
 #include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/Partition.h"
 #include "csgv/codec/Encoder.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/LabelVolume.h"
@@ -43,7 +44,9 @@ bool isVrawName(const std::string& path)
 } // namespace
 
 /// @brief What a file yields before any decoding, cached while the file is unchanged so that
-/// changing Level or DecodeLabels never reads the file again.
+/// changing Level or DecodeLabels never reads the file again. RequestInformation reads a `.csgv`
+/// file's header, brick starts and sidecars only; RequestData reads the whole encoding for one
+/// piece, or only its own bricks when the pipeline asks for one of several pieces (MPI ranks).
 class vtkCSGVReader::vtkInternals
 {
 public:
@@ -51,17 +54,32 @@ public:
   int64_t MTime = -1;
   int64_t Size = -1;
   bool Loaded = false;
+  bool Vraw = false; ///< a `.vraw` input, compressed in memory when loaded (always whole)
 
-  vtkSmartPointer<vtkUnsignedCharArray> Encoding; ///< the container bytes (FieldData)
-  csgv::CompressedVolume Volume; ///< the same, parsed once when loaded (RequestData decodes it)
+  // Described by the header and the sidecars.
   csgvvtk::LabelInfo Info;
   csgv::Geometry Geometry; ///< corner origin, level 0
   std::array<uint32_t, 3> Dim{ { 0, 0, 0 } };
+  std::array<uint32_t, 3> Grid{ { 0, 0, 0 } }; ///< bricks along each axis
+  uint32_t BrickSize = 0;
   uint32_t Levels = 0;
-  vtkSmartPointer<vtkDataArray> Range;
   std::vector<csgv::AttributeColumn> Attributes; ///< columns of `_csgv.db3`, indexed by id
 
-  /// Reads the file (when it changed since the last call); returns an error message or "".
+  // The whole volume (one piece), read when first asked for.
+  bool WholeRead = false;
+  vtkSmartPointer<vtkUnsignedCharArray> Encoding; ///< the container bytes (FieldData)
+  csgv::CompressedVolume Volume; ///< the same, parsed once (RequestData decodes it)
+  vtkSmartPointer<vtkDataArray> Range;
+
+  // One piece of several: its bricks only, as a volume of their own.
+  int PieceCount = 0, PieceNumber = -1;
+  csgv::BrickBox Box;
+  vtkSmartPointer<vtkUnsignedCharArray> PieceEncoding;
+  csgv::CompressedVolume PieceVolume;
+  vtkSmartPointer<vtkDataArray> PieceRange;
+  csgv::Geometry PieceGeometry; ///< the piece's corner (the volume's geometry, shifted)
+
+  /// Describes the file (when it changed since the last call); returns an error message or "".
   std::string Load(const std::string& path)
   {
     struct stat st;
@@ -76,32 +94,40 @@ public:
       return std::string();
     }
     this->Loaded = false;
+    this->WholeRead = false;
     this->Encoding = nullptr;
     this->Volume = csgv::CompressedVolume{};
     this->Range = nullptr;
+    this->ForgetPiece();
     this->Attributes.clear();
     this->Info = csgvvtk::LabelInfo{};
     this->Geometry = csgv::Geometry{};
-    const std::string error =
-      isVrawName(path) ? this->LoadVraw(path) : this->LoadCsgv(path, uint64_t(st.st_size));
+    this->Vraw = isVrawName(path);
+    this->Path = path;
+    const std::string error = this->Vraw ? this->LoadVraw(path) : this->LoadHeader(path);
     if (!error.empty())
     {
       this->Encoding = nullptr;
       return error;
     }
-    this->Path = path;
     this->MTime = int64_t(st.st_mtime);
     this->Size = int64_t(st.st_size);
     this->Loaded = true;
     return std::string();
   }
 
-private:
-  std::string LoadCsgv(const std::string& path, uint64_t bytes)
+  /// The whole encoding (one piece); an error message or "".
+  std::string ReadWhole()
   {
+    if (this->WholeRead)
+    {
+      return std::string();
+    }
     // The file's bytes, read once and unchanged, are the encoding handed downstream (no
     // re-serialisation); openCsgv parses those same bytes and gives every caller the same checks
     // of the container and its sidecars.
+    const std::string& path = this->Path;
+    const uint64_t bytes = uint64_t(this->Size);
     std::ifstream in(path, std::ios::binary);
     vtkNew<vtkUnsignedCharArray> enc;
     if (!in || !enc->Allocate(static_cast<vtkIdType>(bytes)))
@@ -119,7 +145,75 @@ private:
     {
       return file.message();
     }
-    const csgv::CsgvFile& f = *file;
+    if (file->volume.dim != this->Dim || file->volume.brickSize != this->BrickSize)
+    {
+      return "'" + path + "' changed while it was read";
+    }
+    this->Range = csgvvtk::paletteRange(file->volume, this->Info);
+    this->Volume = std::move(file->volume);
+    this->Encoding = enc;
+    this->WholeRead = true;
+    return std::string();
+  }
+
+  /// Piece `piece` of `pieces` (csgv::brickPartition of the brick grid: whole bricks); its bricks
+  /// only are read. An empty piece (more pieces than bricks) leaves PieceVolume without bricks.
+  std::string ReadPiece(int pieces, int piece)
+  {
+    if (pieces == this->PieceCount && piece == this->PieceNumber)
+    {
+      return std::string();
+    }
+    this->ForgetPiece();
+    this->Box = csgv::brickPartition(this->Grid, uint32_t(pieces), uint32_t(piece));
+    if (!this->Box.empty())
+    {
+      csgv::Result<csgv::CompressedVolume> part = this->Vraw
+        ? csgv::extractPiece(this->Volume, this->Box)
+        : csgv::readCsgvPiece(this->Path, this->Box);
+      if (!part)
+      {
+        return part.message();
+      }
+      this->PieceVolume = std::move(*part);
+      const std::vector<uint8_t> bytes = csgv::serializeCsgv(this->PieceVolume);
+      vtkNew<vtkUnsignedCharArray> enc;
+      enc->SetNumberOfValues(static_cast<vtkIdType>(bytes.size()));
+      std::copy(bytes.begin(), bytes.end(), enc->GetPointer(0));
+      this->PieceEncoding = enc;
+      this->PieceRange = csgvvtk::paletteRange(this->PieceVolume, this->Info);
+    }
+    // The piece's corner: the volume's geometry at its first voxel.
+    this->PieceGeometry = this->Geometry;
+    for (int r = 0; r < 3; ++r)
+    {
+      double w = this->Geometry.origin[r];
+      for (int c = 0; c < 3; ++c)
+      {
+        w += this->Geometry.direction[3 * r + c] * double(this->Box.lo[c]) * this->BrickSize *
+          this->Geometry.spacing[c];
+      }
+      this->PieceGeometry.origin[r] = w;
+    }
+    this->PieceCount = pieces;
+    this->PieceNumber = piece;
+    return std::string();
+  }
+
+private:
+  void ForgetPiece()
+  {
+    this->PieceCount = 0;
+    this->PieceNumber = -1;
+    this->Box = csgv::BrickBox{};
+    this->PieceEncoding = nullptr;
+    this->PieceVolume = csgv::CompressedVolume{};
+    this->PieceRange = nullptr;
+  }
+
+  /// What the header and sidecars say (no brick is read).
+  void Describe(const csgv::CsgvFile& f)
+  {
     this->Info.relabelled = f.hasAttributes;
     if (f.hasAttributes)
     {
@@ -137,11 +231,19 @@ private:
     }
     this->Geometry = f.metadata.geometry;
     this->Dim = f.volume.dim;
+    this->Grid = f.volume.brickGrid();
+    this->BrickSize = f.volume.brickSize;
     this->Levels = f.volume.levels();
-    this->Range = csgvvtk::paletteRange(f.volume, this->Info);
-    this->Volume = std::move(file->volume);
+  }
 
-    this->Encoding = enc;
+  std::string LoadHeader(const std::string& path)
+  {
+    csgv::Result<csgv::CsgvFile> file = csgv::openCsgvHeader(path);
+    if (!file)
+    {
+      return file.message();
+    }
+    this->Describe(*file);
     return std::string();
   }
 
@@ -167,6 +269,8 @@ private:
     }
     labels = csgv::LabelVolume{};
     this->Dim = vol->dim;
+    this->Grid = vol->brickGrid();
+    this->BrickSize = vol->brickSize;
     this->Levels = vol->levels();
     this->Range = csgvvtk::paletteRange(*vol, this->Info);
     const std::vector<uint8_t> bytes = csgv::serializeCsgv(*vol);
@@ -175,6 +279,7 @@ private:
     enc->SetNumberOfValues(static_cast<vtkIdType>(bytes.size()));
     std::copy(bytes.begin(), bytes.end(), enc->GetPointer(0));
     this->Encoding = enc;
+    this->WholeRead = true;
     return std::string();
   }
 };
@@ -269,8 +374,9 @@ int vtkCSGVReader::RequestInformation(
   }
   std::copy(in.Geometry.direction.begin(), in.Geometry.direction.end(), geometry + 6);
   outInfo->Set(vtkCSGVReader::CSGV_GEOMETRY(), geometry, 15);
-  // Each piece decodes only the bricks under its extent (MPI ranks).
-  outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
+  // Pieces (MPI ranks) are whole bricks that RequestData chooses (csgv::brickPartition) and
+  // reads alone; one piece honours the update extent (decoding only the bricks under it).
+  outInfo->Set(vtkAlgorithm::CAN_HANDLE_PIECE_REQUEST(), 1);
   return 1;
 }
 
@@ -284,27 +390,63 @@ int vtkCSGVReader::RequestData(
     return 0;
   }
   output->Initialize();
-  const vtkInternals& in = *this->Internals;
-  if (!in.Loaded || !in.Encoding)
+  vtkInternals& in = *this->Internals;
+  if (!in.Loaded)
   {
     return 1; // RequestInformation reported why; the output stays empty
   }
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
   const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);
-
-  int ext[6];
-  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  const int pieces = outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+    ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+    : 1;
+  const int piece = outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER())
+    ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER())
+    : 0;
+  int ext[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
+  const std::string readError = pieces > 1 ? in.ReadPiece(pieces, piece) : in.ReadWhole();
+  if (!readError.empty())
+  {
+    vtkErrorMacro(<< readError);
+    return 1; // reported once: a failed request would be re-executed and reported again
+  }
+  const bool isPiece = pieces > 1;
+  if (isPiece)
+  {
+    if (in.Box.empty())
+    {
+      const int none[6] = { 0, -1, 0, -1, 0, -1 };
+      output->SetExtent(const_cast<int*>(none));
+      return 1; // more pieces than bricks: this one has none
+    }
+    // The piece's point extent at this level (whole bricks; the last ones end with the volume).
+    const uint32_t step = in.BrickSize >> lod;
+    for (int a = 0; a < 3; ++a)
+    {
+      ext[2 * a] = int(in.Box.lo[a] * step);
+      ext[2 * a + 1] = in.Box.hi[a] == in.Grid[a] ? int(ld[a]) : int(in.Box.hi[a] * step);
+    }
+  }
+  else if (outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT()))
+  {
+    outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  }
   output->SetExtent(ext);
   csgvvtk::applyGeometry(output, in.Geometry, lod);
-  csgvvtk::addEncodingArrays(output->GetFieldData(), in.Encoding, in.Geometry, in.Info, in.Range);
+  // A piece carries its own bricks as a volume of their own, with its corner: the representation
+  // renders it as it renders a whole volume.
+  csgvvtk::addEncodingArrays(output->GetFieldData(), isPiece ? in.PieceEncoding : in.Encoding,
+    isPiece ? in.PieceGeometry : in.Geometry, in.Info, isPiece ? in.PieceRange : in.Range);
   csgvvtk::addAttributeArrays(output->GetFieldData(), in.Attributes);
+  const csgv::CompressedVolume& volume = isPiece ? in.PieceVolume : in.Volume;
 
   const uint64_t levelVoxels = uint64_t(ld[0]) * ld[1] * ld[2];
   if (!this->DecodeLabels || levelVoxels > static_cast<uint64_t>(this->DecodeThreshold))
   {
     return 1; // labels stay compressed: geometry, encoding and range only
   }
-  // Update extents are in points; cells [ext[2a], ext[2a+1]) of the level image.
+  // Update extents are in points; cells [ext[2a], ext[2a+1]) of the level image (of the piece's
+  // own volume for a piece).
   csgv::Box box;
   for (int a = 0; a < 3; ++a)
   {
@@ -314,13 +456,14 @@ int vtkCSGVReader::RequestData(
     {
       return 1; // a piece without cells
     }
-    box.min[a] = static_cast<uint32_t>(lo);
-    box.max[a] = static_cast<uint32_t>(hi);
+    const int shift = isPiece ? ext[2 * a] : 0;
+    box.min[a] = static_cast<uint32_t>(lo - shift);
+    box.max[a] = static_cast<uint32_t>(hi - shift);
   }
   this->UpdateProgress(0.05);
   csgvvtk::DecodedLabels decoded;
   const std::string error = csgvvtk::decodeBox(
-    in.Volume, lod, box, in.Info, [this](double f) { this->UpdateProgress(0.05 + 0.95 * f); }, decoded);
+    volume, lod, box, in.Info, [this](double f) { this->UpdateProgress(0.05 + 0.95 * f); }, decoded);
   if (!error.empty())
   {
     vtkErrorMacro(<< this->FileName << ": " << error);

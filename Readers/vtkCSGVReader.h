@@ -34,6 +34,14 @@
  *   vtkDoubleArray for numeric columns (NaN where missing), vtkStringArray for text columns.
  *   The Segmentation Volume representation offers them to materials and picking.
  *
+ * Pieces (MPI ranks: pvbatch, pvserver): when the pipeline asks for piece p of n, the reader
+ * hands over whole bricks, piece p of csgv::brickPartition of the brick grid, reading only those
+ * bricks' bytes of the file (RequestInformation reads the header, brick starts and sidecars
+ * only): the output's extent is the piece's (cut at multiples of the brick size), and the
+ * FieldData's `CSGVEncoding` is a container of the piece's bricks alone (a volume of its own)
+ * with `CSGVGeometry` at the piece's corner and `CSGVLabelRange` over its palettes. One piece
+ * honours the update extent as before.
+ *
  * Errors (missing, truncated or malformed files, bad sidecars) are reported with vtkErrorMacro
  * carrying Core's message, and the output is empty.
  */

@@ -175,7 +175,17 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     double bounds[6];
     if (this->Cache && this->ResolveInput(this->Cache) && this->Internals->Source.bounds(bounds))
     {
+      // This rank's piece (the reader hands each rank whole bricks; a piece is a volume of its
+      // own). Translucent materials need the pieces blended front to back: ParaView 5.11's
+      // ordered compositing sorts the ranks by these bounds (it reads the geometry bounds even
+      // where the configuration names others, so both get the piece's).
       vtkPVRenderView::SetGeometryBounds(inInfo, this, bounds);
+      if (this->Prop->DrawsTranslucent())
+      {
+        outInfo->Set(vtkPVRenderView::NEED_ORDERED_COMPOSITING(), 1);
+        vtkPVRenderView::SetOrderedCompositingConfiguration(
+          inInfo, this, vtkPVRenderView::USE_BOUNDS_FOR_REDISTRIBUTION, bounds);
+      }
     }
     vtkPVRenderView::SetRequiresDistributedRendering(inInfo, this, true);
   }

@@ -296,6 +296,11 @@ double* vtkCSGVVolumeProp::GetBounds()
   return this->Bounds;
 }
 
+bool vtkCSGVVolumeProp::DrawsTranslucent() const
+{
+  return this->P->MaterialsValid && !this->P->MaterialsOpaque;
+}
+
 vtkTypeBool vtkCSGVVolumeProp::HasOpaqueGeometry()
 {
   return this->P->MaterialsValid && this->P->MaterialsOpaque ? 1 : 0;

@@ -98,6 +98,8 @@ public:
   int GetCacheBits();
   int GetDetailSeparated();
   double GetDetailStreamedMiB();
+  /// The materials are valid and some are translucent (drawn in the volumetric pass).
+  bool DrawsTranslucent() const;
 
 protected:
   vtkCSGVVolumeProp();
@@ -110,6 +112,7 @@ private:
   /// One pass: render through the view renderer (nothing when its output is still exact), then
   /// upload the output and composite it with depth.
   int Draw(vtkViewport* viewport, bool opaquePass);
+
   /// The shared Vulkan context is there (reported once per process when not).
   bool HaveDevice();
   /// The document the renderer draws (Impl::Drawn, Impl::Skipped) and, when `arrays` is given,

@@ -24,7 +24,7 @@ PKGS_VULKAN=(
 PKGS_PARAVIEW=(
   paraview paraview-dev python3-paraview python3-dev
   qtbase5-dev libqt5opengl5-dev libqt5svg5-dev qttools5-dev
-  libopenmpi-dev libglew-dev liblz4-dev libdouble-conversion-dev libutfcpp-dev
+  libopenmpi-dev openmpi-bin libglew-dev liblz4-dev libdouble-conversion-dev libutfcpp-dev
   libnetcdf-dev libtheora-dev libgl2ps-dev libgdal-dev libavformat-dev libavcodec-dev
   libavutil-dev libswscale-dev libswresample-dev libeigen3-dev libboost-dev
   xvfb xauth

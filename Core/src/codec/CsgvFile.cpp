@@ -48,6 +48,15 @@ Result<CsgvFile> openCsgv(const std::string& path) {
     return openSidecars(std::move(f));
 }
 
+Result<CsgvFile> openCsgvHeader(const std::string& path) {
+    CsgvFile f;
+    f.path = path;
+    Result<CompressedVolume> vol = readCsgvHeader(path);
+    if (!vol) return vol.status();
+    f.volume = std::move(*vol);
+    return openSidecars(std::move(f));
+}
+
 Result<CsgvFile> openCsgv(const std::string& path, const uint8_t* bytes, size_t size) {
     CsgvFile f;
     f.path = path;

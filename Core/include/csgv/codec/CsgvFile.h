@@ -46,5 +46,8 @@ Result<CsgvFile> openCsgv(const std::string& path);
 /// The same for the container's bytes already read from `path` (by a caller that keeps them, such
 /// as the VTK reader handing them downstream), so that the file is read once.
 Result<CsgvFile> openCsgv(const std::string& path, const uint8_t* bytes, size_t size);
+/// The same without the encoding arrays (readCsgvHeader): the volume's header fields and brick
+/// starts and the sidecars, for readers that read bricks later (readCsgvPiece).
+Result<CsgvFile> openCsgvHeader(const std::string& path);
 
 } // namespace csgv

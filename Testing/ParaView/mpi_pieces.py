@@ -1,0 +1,46 @@
+# SPDX-License-Identifier: MIT
+"""Run by test_mpi_pieces.py under `pvbatch --symmetric` (every rank runs it), with 1 rank and
+with N: each rank writes what its reader gave it (extent, encoding bytes) to OUT/rank<r>.json, and
+the composited images of three views go to OUT/<mode>.png (rank 0's; the others write their own
+copy, unused). Usage: mpi_pieces.py OUT"""
+import json
+import os
+import sys
+
+from paraview import servermanager as sm
+from paraview.simple import *
+
+LoadPlugin(os.environ["CSGV_PLUGIN"], remote=False, ns=globals())
+out = sys.argv[1]
+pm = sm.vtkProcessModule.GetProcessModule()
+rank, ranks = pm.GetPartitionId(), pm.GetNumberOfLocalPartitions()
+path = os.path.join(os.environ["CSGV_FIXTURES"], "synthA_b16_nibble.csgv")
+r = CSGVReader(FileName=path, DecodeLabels=0)  # rendered from the encoding alone
+r.UpdatePipeline()
+img = r.GetClientSideObject().GetOutputDataObject(0)
+enc = img.GetFieldData().GetArray("CSGVEncoding")
+facts = {"rank": rank, "ranks": ranks, "extent": list(img.GetExtent()),
+         "encodingBytes": enc.GetNumberOfTuples() if enc else 0, "fileBytes": os.path.getsize(path)}
+
+v = CreateRenderView()
+v.ViewSize = [160, 120]
+v.OrientationAxesVisibility = 0
+v.Background = [0, 0, 0]
+d = Show(r, v)
+d.Representation = "Segmentation Volume"
+d.CSGVFramesPerStillRender = 1
+d.CSGVStillRenderTimeBudget = 60
+v.CameraPosition = [-60, 130, 160]
+v.CameraFocalPoint = [66, 35, 97]
+v.CameraViewUp = [0, 0, 1]
+glass = json.dumps({"version": 1, "materials": [
+    {"name": "glass", "filter": {"attribute": "label", "min": 1, "max": 4294967294}, "opacity": 0.4}]})
+for mode in ("opaque", "translucent", "shadow"):
+    d.CSGVMaterials = glass if mode == "translucent" else ""
+    d.CSGVShading = "shadow" if mode == "shadow" else "local"
+    Render(v)
+    facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
+    name = mode + (".png" if rank == 0 else ".rank%d.png" % rank)
+    SaveScreenshot(os.path.join(out, name), v, ImageResolution=[160, 120], TransparentBackground=0)
+with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
+    json.dump(facts, f)
