@@ -508,11 +508,12 @@ int vtkCSGVInputReader::RequestInformation(
         static_cast<vtkInformationKey*>(vtkDataObject::DIRECTION()),
         static_cast<vtkInformationKey*>(vtkCSGVReader::CSGV_DIMENSIONS()),
         static_cast<vtkInformationKey*>(vtkCSGVReader::CSGV_LEVELS()),
-        static_cast<vtkInformationKey*>(vtkCSGVReader::CSGV_GEOMETRY()),
-        static_cast<vtkInformationKey*>(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT()) })
+        static_cast<vtkInformationKey*>(vtkCSGVReader::CSGV_GEOMETRY()) })
     {
       outInfo->CopyEntry(cached, key);
     }
+    // Sub-extents, as before the cache exists (the cached .csgv is read whole by one reader).
+    outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
     in.Failed = false;
     return 1;
   }
