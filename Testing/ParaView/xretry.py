@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: MIT
 """Runs a command and, only when it failed because the X server refused the connection ("bad X
-server connection": Xvfb drops some connections, and concurrent `xvfb-run -a` sessions on one
-machine can pick the same display and clobber each other's authority; PARAVIEW-NOTES.md), runs
+server connection", or a GLX context it lost: Xvfb drops some connections, and concurrent
+`xvfb-run -a` sessions on one machine can pick the same display and clobber each other's
+authority; PARAVIEW-NOTES.md), runs
 it again under a fresh private Xvfb on a random display, up to three attempts in all. Any other
 failure is reported at once. Usage: xretry.py COMMAND ARGS..."""
 import random
@@ -9,7 +10,7 @@ import shutil
 import subprocess
 import sys
 
-SIGNATURE = "bad X server connection"
+SIGNATURES = ("bad X server connection", "X Error of failed request:  GLXBadContext")
 
 
 def main():
@@ -18,7 +19,7 @@ def main():
         run = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         sys.stdout.write(run.stdout)
         sys.stdout.flush()
-        if run.returncode == 0 or SIGNATURE not in run.stdout:
+        if run.returncode == 0 or not any(sig in run.stdout for sig in SIGNATURES):
             return run.returncode
         if attempt == 2 or not shutil.which("xvfb-run"):
             break
