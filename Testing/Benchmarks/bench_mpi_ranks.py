@@ -66,6 +66,8 @@ def rank_main(a):
         json.dump(facts, f)
     simple.SaveScreenshot(os.path.join(a.out, "image.png" if rank == 0 else "image.rank%d.png" % rank), v,
                           ImageResolution=[w, h], TransparentBackground=0)
+    simple.Hide(r, v)
+    simple.Delete(v)  # before the interpreter's teardown (which lost its GLX context otherwise)
 
 
 def load_png(path):
@@ -129,4 +131,6 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    code = main()
+    if code:  # ranks end normally: pvbatch finalizes MPI only when its script returns
+        sys.exit(code)
