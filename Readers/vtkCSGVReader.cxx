@@ -19,6 +19,7 @@
 #include <vtkInformationIntegerKey.h>
 #include <vtkInformationIntegerVectorKey.h>
 #include <vtkInformationVector.h>
+#include <vtkIntArray.h>
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
@@ -438,6 +439,19 @@ int vtkCSGVReader::RequestData(
   csgvvtk::addEncodingArrays(output->GetFieldData(), isPiece ? in.PieceEncoding : in.Encoding,
     isPiece ? in.PieceGeometry : in.Geometry, in.Info, isPiece ? in.PieceRange : in.Range);
   csgvvtk::addAttributeArrays(output->GetFieldData(), in.Attributes);
+  if (isPiece)
+  {
+    // Where the piece's voxel (0,0,0) lies in the volume (level 0): picking answers in the
+    // volume's voxel coordinates.
+    vtkNew<vtkIntArray> offset;
+    offset->SetName("CSGVPieceOffset");
+    offset->SetNumberOfValues(3);
+    for (int a = 0; a < 3; ++a)
+    {
+      offset->SetValue(a, int(in.Box.lo[a] * in.BrickSize));
+    }
+    output->GetFieldData()->AddArray(offset);
+  }
   const csgv::CompressedVolume& volume = isPiece ? in.PieceVolume : in.Volume;
 
   const uint64_t levelVoxels = uint64_t(ld[0]) * ld[1] * ld[2];

@@ -4,6 +4,9 @@
 #include "csgv/base/Math.h"
 
 #include <vtkBase64Utilities.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkIntArray.h>
 
 #include <nlohmann/json.hpp>
 
@@ -174,6 +177,16 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       const bool invertible = csgv::invert(csgv::indexToWorldMatrix(g), worldToIndex);
       const csgv::Vec3 idx = csgv::transformPoint(worldToIndex, hitP);
       const csgv::Face face = i < out.face.size() ? out.face[i] : csgv::Face::None;
+      // A piece of the volume (MPI ranks) counts voxels from its own corner: the reader says
+      // where that is in the volume.
+      long pieceOffset[3] = { 0, 0, 0 };
+      vtkIntArray* offset = c.input && c.input->GetFieldData()
+        ? vtkIntArray::SafeDownCast(c.input->GetFieldData()->GetArray("CSGVPieceOffset"))
+        : nullptr;
+      for (int k = 0; offset && offset->GetNumberOfValues() == 3 && k < 3; ++k)
+      {
+        pieceOffset[k] = offset->GetValue(k);
+      }
       json voxel = json::array();
       for (int k = 0; invertible && k < 3; ++k)
       {
@@ -188,7 +201,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
           v = long(std::lround(idx[size_t(k)])) - 1;
         }
         const long dim = long(source.shared->volume.dim[size_t(k)]);
-        voxel.push_back(std::max(0L, std::min(dim - 1, v)));
+        voxel.push_back(std::max(0L, std::min(dim - 1, v)) + pieceOffset[k]);
       }
       r["voxel"] = voxel;
       r["world"] = { hitP[0], hitP[1], hitP[2] };

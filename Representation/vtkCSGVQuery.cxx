@@ -1,9 +1,17 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVQuery.h"
 
+#include "CSGVQueryProtocol.h"
 #include "vtkCSGVRepresentation.h"
 
+#include <vtkMultiProcessController.h>
+#include <vtkMultiProcessStream.h>
 #include <vtkObjectFactory.h>
+
+#include <nlohmann/json.hpp>
+
+#include <sstream>
+#include <vector>
 
 vtkStandardNewMacro(vtkCSGVQuery);
 
@@ -24,8 +32,111 @@ void vtkCSGVQuery::SetRepresentation(vtkCSGVRepresentation* representation)
   this->Modified();
 }
 
+void vtkCSGVQuery::SetRequest(const char* request)
+{
+  const std::string text = request ? request : "";
+  delete[] this->Request;
+  this->Request = new char[text.size() + 1];
+  std::copy(text.c_str(), text.c_str() + text.size() + 1, this->Request);
+  this->Modified();
+  this->Gathered = false;
+  vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
+  std::istringstream in(text);
+  std::string what;
+  in >> what;
+  if (!c || c->GetNumberOfProcesses() < 2 || !this->Representation || (what != "pick" && what != "labels"))
+  {
+    return; // answered by GetResult where it is read
+  }
+  // Every rank answers for its own piece; rank 0 keeps, per pixel, the hit nearest the camera
+  // (window depth; ranks without a hit there say 1, the far plane).
+  vtkMultiProcessStream mine;
+  if (what == "pick")
+  {
+    mine << std::string(this->Representation->Query(text.c_str()));
+  }
+  else
+  {
+    uint32_t w = 0, h = 0;
+    std::vector<uint32_t> labels;
+    std::vector<float> depths;
+    this->Representation->LastLabels(w, h, labels, depths);
+    mine << w << h;
+    mine.Push(labels.data(), static_cast<unsigned int>(labels.size()));
+    mine.Push(depths.data(), static_cast<unsigned int>(depths.size()));
+  }
+  std::vector<vtkMultiProcessStream> all;
+  c->Gather(mine, all, 0);
+  if (c->GetLocalProcessId() != 0)
+  {
+    return;
+  }
+  this->Answer.clear();
+  if (what == "pick")
+  {
+    double nearest = 2.0;
+    for (vtkMultiProcessStream& s : all)
+    {
+      std::string answer;
+      s >> answer;
+      const nlohmann::json j = nlohmann::json::parse(answer, nullptr, false);
+      const bool hit = j.is_object() && j.value("hit", false);
+      const double depth = hit && j.contains("depth") ? j["depth"].get<double>() : 1.5;
+      if (this->Answer.empty() || depth < nearest)
+      {
+        nearest = depth;
+        this->Answer = answer;
+      }
+    }
+  }
+  else
+  {
+    uint32_t width = 0, height = 0;
+    std::vector<uint32_t> labels;
+    std::vector<float> depths;
+    for (vtkMultiProcessStream& s : all)
+    {
+      uint32_t w = 0, h = 0;
+      s >> w >> h;
+      unsigned int* l = nullptr;
+      float* d = nullptr;
+      unsigned int nl = 0, nd = 0;
+      s.Pop(l, nl);
+      s.Pop(d, nd);
+      if (labels.empty() && nl == size_t(w) * h && nd == nl)
+      {
+        width = w;
+        height = h;
+        labels.assign(l, l + nl);
+        depths.assign(d, d + nd);
+      }
+      else if (w == width && h == height && nl == labels.size() && nd == nl)
+      {
+        for (size_t i = 0; i < nl; ++i)
+        {
+          if (d[i] < depths[i])
+          {
+            depths[i] = d[i];
+            labels[i] = l[i];
+          }
+        }
+      }
+      delete[] l;
+      delete[] d;
+    }
+    std::ostringstream o;
+    o << width << " " << height << " " << csgvrep::base64(labels.data(), labels.size() * sizeof(uint32_t));
+    this->Answer = o.str();
+  }
+  this->Gathered = true;
+}
+
 const char* vtkCSGVQuery::GetResult()
 {
+  if (this->Gathered)
+  {
+    return this->Answer.c_str();
+  }
   if (!this->Representation)
   {
     this->Answer = "{\"error\": \"no Segmentation Volume representation\"}";

@@ -32,9 +32,12 @@ public:
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
   void SetRepresentation(vtkCSGVRepresentation* representation);
-  vtkSetStringMacro(Request);
+  /// With several processes (MPI ranks: pvbatch, a parallel pvserver) a push reaches every rank,
+  /// so `pick X Y` and `labels` are answered here, collectively: each rank's own answer (its
+  /// piece's first hits) is gathered on rank 0, which keeps the nearest hit per pixel.
+  void SetRequest(const char* request);
   vtkGetStringMacro(Request);
-  /// The answer to Request (computed on each call).
+  /// The answer to Request (computed on each call, except the collective answers above).
   const char* GetResult();
 
 protected:
@@ -48,6 +51,7 @@ private:
   vtkWeakPointer<vtkCSGVRepresentation> Representation;
   char* Request = nullptr;
   std::string Answer;
+  bool Gathered = false; ///< Answer holds the ranks' combined answer to Request (rank 0)
 };
 
 #endif

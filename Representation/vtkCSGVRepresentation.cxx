@@ -294,6 +294,12 @@ int vtkCSGVRepresentation::GetDetailSeparated()
   return this->Prop->GetDetailSeparated();
 }
 
+bool vtkCSGVRepresentation::LastLabels(
+  uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths)
+{
+  return this->Prop->LastLabels(width, height, labels, depths);
+}
+
 double vtkCSGVRepresentation::GetDetailStreamedMiB()
 {
   return this->Prop->GetDetailStreamedMiB();

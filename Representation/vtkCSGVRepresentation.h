@@ -134,6 +134,8 @@ public:
   /// MiB of finest-level streams this view uploaded to the device (detail streaming, GPU
   /// decoding of a separated volume) since its renderer was made.
   double GetDetailStreamedMiB();
+  /// The last render's first-hit labels and window depths (vtkCSGVQuery combines ranks with them).
+  bool LastLabels(uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths);
 
 protected:
   vtkCSGVRepresentation();

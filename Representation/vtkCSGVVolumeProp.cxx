@@ -296,6 +296,18 @@ double* vtkCSGVVolumeProp::GetBounds()
   return this->Bounds;
 }
 
+bool vtkCSGVVolumeProp::LastLabels(
+  uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths)
+{
+  const csgv::gpu::FrameOutput& out = this->P->View.output(csgv::gpu::Renderer::GBuffer);
+  width = out.width;
+  height = out.height;
+  labels = out.label;
+  depths = out.hitDepth;
+  depths.resize(labels.size(), 1.0f);
+  return !labels.empty();
+}
+
 bool vtkCSGVVolumeProp::DrawsTranslucent() const
 {
   return this->P->MaterialsValid && !this->P->MaterialsOpaque;

@@ -100,6 +100,9 @@ public:
   double GetDetailStreamedMiB();
   /// The materials are valid and some are translucent (drawn in the volumetric pass).
   bool DrawsTranslucent() const;
+  /// The last render's first-hit labels and their window depths (row 0 at the bottom); false
+  /// when nothing was rendered.
+  bool LastLabels(uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths);
 
 protected:
   vtkCSGVVolumeProp();

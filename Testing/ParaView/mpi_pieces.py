@@ -10,6 +10,9 @@ import sys
 from paraview import servermanager as sm
 from paraview.simple import *
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "Examples"))
+import csgv_tools  # noqa: E402
+
 LoadPlugin(os.environ["CSGV_PLUGIN"], remote=False, ns=globals())
 out = sys.argv[1]
 pm = sm.vtkProcessModule.GetProcessModule()
@@ -42,5 +45,15 @@ for mode in ("opaque", "translucent", "shadow"):
     facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
     name = mode + (".png" if rank == 0 else ".rank%d.png" % rank)
     SaveScreenshot(os.path.join(out, name), v, ImageResolution=[160, 120], TransparentBackground=0)
+    if mode == "opaque":
+        # Queries answered by all ranks together (vtkCSGVQuery): picks on a grid of pixels and
+        # the label image of this render.
+        picks = {}
+        for y in range(4, 120, 12):
+            for x in range(4, 160, 12):
+                p = csgv_tools.pick(d, x, y)
+                picks["%d %d" % (x, y)] = [p.get("hit"), p.get("label"), p.get("voxel")]
+        facts["picks"] = picks
+        facts["labels"] = csgv_tools.query(d, "labels")
 with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
     json.dump(facts, f)

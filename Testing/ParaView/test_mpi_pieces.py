@@ -4,7 +4,8 @@
 (csgv::brickPartition): disjoint extents that cover the volume, cut at multiples of the brick size,
 and only those bricks' encoding (the pieces' encodings add up to the file, plus one header each).
 Each rank renders its piece from the encoding (DecodeLabels off); IceT composites: opaque
-materials at one sample a pixel give exactly the image of one rank; translucent materials are
+materials at one sample a pixel give exactly the image of one rank, and picks and the label
+image, answered by all ranks together, equal one rank's; translucent materials are
 blended in visibility order (ordered compositing by the pieces' bounds) and shadows cross into
 other ranks' bricks as empty space, so they stay within a stated tolerance (a label that
 continues across a piece boundary starts a second translucent layer there; shadow rays do not
@@ -95,6 +96,13 @@ def main():
               "%d ranks: each holds only its bricks' encoding (%s of %d bytes)" % (ranks, sizes, whole["fileBytes"]))
         check(all(p["ordered_translucent"] and not p["ordered_opaque"] for p in pieces),
               "%d ranks: ordered compositing for translucent materials only" % ranks)
+        # Queries answered by all ranks together: the nearest hit per pixel.
+        picks, want = pieces[0]["picks"], whole["picks"]
+        same = [k for k in want if picks.get(k) == want[k]]
+        hits = sum(1 for k in want if want[k][0])
+        check(len(same) == len(want) and hits > len(want) // 4,
+              "%d ranks: %d of %d picks (%d hits) equal one rank's" % (ranks, len(same), len(want), hits))
+        check(pieces[0]["labels"] == whole["labels"], "%d ranks: the label image equals one rank's" % ranks)
         for mode, tol in TOLERANCE.items():
             a = load(os.path.join(outs[1], mode + ".png"))
             b = load(os.path.join(outs[ranks], mode + ".png"))
