@@ -12,6 +12,7 @@ from paraview.simple import *
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "Examples"))
 import csgv_tools  # noqa: E402
+from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
 
 LoadPlugin(os.environ["CSGV_PLUGIN"], remote=False, ns=globals())
 out = sys.argv[1]
@@ -24,6 +25,16 @@ img = r.GetClientSideObject().GetOutputDataObject(0)
 enc = img.GetFieldData().GetArray("CSGVEncoding")
 facts = {"rank": rank, "ranks": ranks, "extent": list(img.GetExtent()),
          "encodingBytes": enc.GetNumberOfTuples() if enc else 0, "fileBytes": os.path.getsize(path)}
+# The piece's labels decoded at level 1 (a second reader): the driver compares them with the box
+# of one rank's.
+coarse = CSGVReader(FileName=path, DecodeLabels=1, Level=1)
+coarse.UpdatePipeline()
+cimg = coarse.GetClientSideObject().GetOutputDataObject(0)
+ce = cimg.GetExtent()
+facts["level1Extent"] = list(ce)
+vtk_to_numpy(cimg.GetCellData().GetArray("Labels")).reshape(ce[5] - ce[4], ce[3] - ce[2], ce[1] - ce[0]).dump(
+    os.path.join(out, "level1.rank%d.npy" % rank))
+Delete(coarse)
 
 v = CreateRenderView()
 v.ViewSize = [160, 120]

@@ -2,7 +2,8 @@
 """Data-parallel Segmentation Volumes under MPI (issue 14, first steps): mpi_pieces.py runs with
 1, 2 and 4 ranks (`mpiexec -np N pvbatch --symmetric`). Each rank's reader hands it whole bricks
 (csgv::brickPartition): disjoint extents that cover the volume, cut at multiples of the brick size,
-and only those bricks' encoding (the pieces' encodings add up to the file, plus one header each).
+and only those bricks' encoding (the pieces' encodings add up to the file, plus one header each);
+decoded at level 1 they are their boxes of the whole volume.
 Each rank renders its piece from the encoding (DecodeLabels off); IceT composites: opaque
 materials at one sample a pixel give exactly the image of one rank, and picks and the label
 image, answered by all ranks together, equal one rank's; translucent materials are
@@ -103,6 +104,14 @@ def main():
         check(len(same) == len(want) and hits > len(want) // 4,
               "%d ranks: %d of %d picks (%d hits) equal one rank's" % (ranks, len(same), len(want), hits))
         check(pieces[0]["labels"] == whole["labels"], "%d ranks: the label image equals one rank's" % ranks)
+        # Labels decoded from the pieces at level 1 are the boxes of one rank's.
+        full = np.load(os.path.join(outs[1], "level1.rank0.npy"), allow_pickle=True)
+        equal = True
+        for p in pieces:
+            e = p["level1Extent"]
+            got = np.load(os.path.join(outs[ranks], "level1.rank%d.npy" % p["rank"]), allow_pickle=True)
+            equal &= np.array_equal(got, full[e[4]:e[5], e[2]:e[3], e[0]:e[1]])
+        check(equal, "%d ranks: each piece's labels at level 1 equal its box of one rank's" % ranks)
         for mode, tol in TOLERANCE.items():
             a = load(os.path.join(outs[1], mode + ".png"))
             b = load(os.path.join(outs[ranks], mode + ".png"))
