@@ -364,39 +364,25 @@ Result<CompressedVolume> readCsgv(const std::string& path) {
 namespace {
 
 /// Fills `piece` (header fields set, dimensions of the piece) with the bricks' words in the
-/// piece's order: one array when they fit, else as few bricks per array as needed; its largest
-/// palette; then checks it.
+/// piece's order, laid out as a writer would (layoutArrays), with its largest palette; then
+/// checks it.
 Status assemblePiece(CompressedVolume& piece, std::vector<std::vector<uint32_t>>& words) {
-    // The piece's own arrays: one when it fits, else as few bricks per array as needed.
-    uint64_t total = 0, perArray = words.size();
-    for (const auto& w : words) total += w.size();
-    auto fits = [&](uint64_t n) {
-        for (size_t first = 0; first < words.size(); first += size_t(n)) {
-            uint64_t sum = 0;
-            for (size_t i = first; i < std::min(words.size(), first + size_t(n)); ++i) sum += words[i].size();
-            if (sum > kMaxWordsPerArray) return false;
-        }
-        return true;
-    };
-    if (total > kMaxWordsPerArray) {
-        uint64_t lo = 1, hi = words.size();
-        while (lo < hi) {
-            const uint64_t mid = (lo + hi + 1) / 2;
-            if (fits(mid)) lo = mid;
-            else hi = mid - 1;
-        }
-        perArray = lo;
-    }
-    piece.bricksPerArray = total > kMaxWordsPerArray ? uint32_t(perArray) : kSingleArray;
-    piece.arrays.assign(size_t((words.size() + perArray - 1) / perArray), {});
-    piece.brickStarts.assign(words.size() + 1, 0u);
-    piece.maxPalette = 1;
+    std::vector<uint32_t> sizes(words.size());
     const uint32_t L = piece.levels();
+    piece.maxPalette = 1;
+    for (size_t i = 0; i < words.size(); ++i) {
+        sizes[i] = uint32_t(words[i].size());
+        piece.maxPalette = std::max(piece.maxPalette, words[i][L]); // words[i] holds a minimal brick
+    }
+    Result<ArrayLayout> layout = layoutArrays(sizes, kMaxWordsPerArray, ~uint64_t(0));
+    if (!layout) return layout.status();
+    piece.arrays.assign(layout->arrayWords.size(), {});
+    for (size_t a = 0; a < piece.arrays.size(); ++a) piece.arrays[a].reserve(size_t(layout->arrayWords[a]));
+    const uint64_t perArray = layout->perArray;
+    applyLayout(std::move(*layout), piece);
     for (size_t i = 0; i < words.size(); ++i) {
         std::vector<uint32_t>& arr = piece.arrays[size_t(i / perArray)];
-        piece.maxPalette = std::max(piece.maxPalette, words[i][L]);
         arr.insert(arr.end(), words[i].begin(), words[i].end());
-        piece.brickStarts[i + 1] = uint32_t(arr.size());
         std::vector<uint32_t>().swap(words[i]);
     }
     return checkContainer(piece);
@@ -502,6 +488,61 @@ Result<CompressedVolume> readPiece(FileSource& src, const BrickBox& box, uint64_
 }
 
 } // namespace
+
+Result<ArrayLayout> layoutArrays(const std::vector<uint32_t>& brickWords, uint64_t arrayLimit, uint64_t maxOutputBytes) {
+    const uint64_t bricks = brickWords.size();
+    uint64_t total = 0, largestBrick = 0;
+    for (uint32_t w : brickWords) {
+        total += w;
+        largestBrick = std::max<uint64_t>(largestBrick, w);
+    }
+    if (total > maxOutputBytes / 4)
+        return Status::error("the compressed volume needs " + std::to_string(total * 4) +
+                             " bytes, more than the output limit of " + std::to_string(maxOutputBytes));
+    arrayLimit = std::min<uint64_t>(std::max<uint64_t>(arrayLimit, 1), kMaxWordsPerArray);
+    if (largestBrick > arrayLimit)
+        return Status::error("a brick needs " + std::to_string(largestBrick) + " words, more than an encoding array holds");
+    ArrayLayout out;
+    out.perArray = bricks;
+    if (total > arrayLimit) {
+        auto fits = [&](uint64_t n) {
+            for (uint64_t first = 0; first < bricks; first += n) {
+                uint64_t sum = 0;
+                for (uint64_t i = first; i < std::min(bricks, first + n); ++i) sum += brickWords[size_t(i)];
+                if (sum > arrayLimit) return false;
+            }
+            return true;
+        };
+        uint64_t lo = 1, hi = bricks;
+        while (lo < hi) {
+            const uint64_t mid = (lo + hi + 1) / 2;
+            if (fits(mid)) lo = mid;
+            else hi = mid - 1;
+        }
+        out.perArray = lo;
+    }
+    out.brickStarts.assign(size_t(bricks + 1), 0);
+    uint64_t len = 0;
+    for (uint64_t i = 0; i < bricks; ++i) {
+        if (i % out.perArray == 0 && i > 0) {
+            out.arrayWords.push_back(len);
+            out.brickStarts[size_t(i)] = uint32_t(len);
+            len = 0;
+        } else {
+            out.brickStarts[size_t(i)] = uint32_t(len);
+        }
+        len += brickWords[size_t(i)];
+    }
+    out.arrayWords.push_back(len);
+    out.brickStarts[size_t(bricks)] = uint32_t(len);
+    return out;
+}
+
+void applyLayout(ArrayLayout&& layout, CompressedVolume& vol) {
+    // (Moved, not copied: a copy would hold the brick starts twice, 8 bytes a brick, not 4.)
+    vol.bricksPerArray = layout.perArray == layout.brickStarts.size() - 1 ? kSingleArray : uint32_t(layout.perArray);
+    vol.brickStarts = std::move(layout.brickStarts);
+}
 
 Result<CompressedVolume> readCsgvHeader(const std::string& path) {
     FileSource src;

@@ -562,70 +562,9 @@ private:
     std::array<RansSymbol, 16> m_symA, m_symB;
 };
 
-/// @brief Where the encoding arrays split: bricks per array (all of them when one array holds
-/// everything, else the largest equal count whose arrays stay within the limit), the stored
-/// brick starts and each array's length.
-struct ArrayLayout {
-    uint64_t perArray = 0;
-    std::vector<uint32_t> brickStarts;
-    std::vector<uint64_t> arrayWords;
-};
-
-Result<ArrayLayout> layoutArrays(const std::vector<uint32_t>& brickWords, const EncodeOptions& options,
-                                 uint64_t maxOutputBytes) {
-    const uint64_t bricks = brickWords.size();
-    uint64_t total = 0, largestBrick = 0;
-    for (uint32_t w : brickWords) {
-        total += w;
-        largestBrick = std::max<uint64_t>(largestBrick, w);
-    }
-    if (total * 4 > maxOutputBytes)
-        return Status::error("the compressed volume needs " + std::to_string(total * 4) +
-                             " bytes, more than the output limit of " + std::to_string(maxOutputBytes));
-    const uint64_t arrayLimit = std::min<uint64_t>(std::max<uint32_t>(options.maxArrayWords, 1), kMaxWordsPerArray);
-    if (largestBrick > arrayLimit)
-        return Status::error("a brick needs " + std::to_string(largestBrick) + " words, more than an encoding array holds");
-    ArrayLayout out;
-    out.perArray = bricks;
-    if (total > arrayLimit) {
-        auto fits = [&](uint64_t n) {
-            for (uint64_t first = 0; first < bricks; first += n) {
-                uint64_t sum = 0;
-                for (uint64_t i = first; i < std::min(bricks, first + n); ++i) sum += brickWords[size_t(i)];
-                if (sum > arrayLimit) return false;
-            }
-            return true;
-        };
-        uint64_t lo = 1, hi = bricks;
-        while (lo < hi) {
-            const uint64_t mid = (lo + hi + 1) / 2;
-            if (fits(mid)) lo = mid;
-            else hi = mid - 1;
-        }
-        out.perArray = lo;
-    }
-    // A brick that opens an array starts at word 0; its stored start is the previous array's length.
-    out.brickStarts.assign(size_t(bricks + 1), 0);
-    uint64_t len = 0;
-    for (uint64_t i = 0; i < bricks; ++i) {
-        if (i % out.perArray == 0 && i > 0) {
-            out.arrayWords.push_back(len);
-            out.brickStarts[size_t(i)] = uint32_t(len);
-            len = 0;
-        } else {
-            out.brickStarts[size_t(i)] = uint32_t(len);
-        }
-        len += brickWords[size_t(i)];
-    }
-    out.arrayWords.push_back(len);
-    out.brickStarts[size_t(bricks)] = uint32_t(len);
-    return out;
-}
-
-/// Moves the brick starts into `vol` (a copy would hold them twice: 8 bytes a brick, not 4).
-void applyLayout(ArrayLayout&& layout, uint64_t bricks, CompressedVolume& vol) {
-    vol.bricksPerArray = layout.perArray == bricks ? kSingleArray : uint32_t(layout.perArray);
-    vol.brickStarts = std::move(layout.brickStarts);
+/// Words an encoding array may hold under these options.
+uint64_t arrayLimitOf(const EncodeOptions& options) {
+    return std::min<uint64_t>(std::max<uint32_t>(options.maxArrayWords, 1), kMaxWordsPerArray);
 }
 
 /// @brief A temporary file beside the output, unlinked as soon as it is open (nothing is left
@@ -857,11 +796,11 @@ Result<CompressedVolume> encodeVolumeSteps(SlabSource& source, const EncodeOptio
         sizes[i] = uint32_t(words[i].size());
         vol.maxPalette = std::max(vol.maxPalette, words[i][vol.levels()]);
     }
-    Result<ArrayLayout> layout = layoutArrays(sizes, options, maxOutputBytes);
+    Result<ArrayLayout> layout = layoutArrays(sizes, arrayLimitOf(options), maxOutputBytes);
     if (!layout) return layout.status();
     const uint64_t perArray = layout->perArray;
     const std::vector<uint64_t> arrayWords = std::move(layout->arrayWords);
-    applyLayout(std::move(*layout), bricks, vol);
+    applyLayout(std::move(*layout), vol);
     vol.arrays.resize(arrayWords.size());
     for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(arrayWords[a]));
     for (uint64_t i = 0; i < bricks; ++i) {
@@ -942,11 +881,11 @@ Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const
     }
     std::vector<BrickSymbols>().swap(batch);
     words.clear();
-    Result<ArrayLayout> layout = layoutArrays(sizes, options, fileOptions.maxOutputBytes);
+    Result<ArrayLayout> layout = layoutArrays(sizes, arrayLimitOf(options), fileOptions.maxOutputBytes);
     if (!layout) return layout.status();
     std::vector<uint32_t>().swap(sizes);
     const std::vector<uint64_t> arrayWords = std::move(layout->arrayWords);
-    applyLayout(std::move(*layout), bricks, vol);
+    applyLayout(std::move(*layout), vol);
 
     // The container: header and brick starts, then each array's words copied from the scratch file.
     if (!(s = wordFile.rewind())) return s;

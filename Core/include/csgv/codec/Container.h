@@ -124,6 +124,21 @@ struct CompressedVolume {
     uint64_t serializedSize() const;
 };
 
+/// @brief Where the encoding arrays split: bricks per array (all of them when one array holds
+/// everything, else the largest equal count whose arrays stay within the limit), the stored
+/// brick starts (a brick that opens an array starts at word 0; its stored start is the previous
+/// array's length) and each array's length.
+struct ArrayLayout {
+    uint64_t perArray = 0;
+    std::vector<uint32_t> brickStarts;
+    std::vector<uint64_t> arrayWords;
+};
+/// The layout of bricks of these word counts with at most `arrayLimit` (<= 2^29) words an array;
+/// an error when they need more than `maxOutputBytes` or a brick more than an array holds.
+Result<ArrayLayout> layoutArrays(const std::vector<uint32_t>& brickWords, uint64_t arrayLimit, uint64_t maxOutputBytes);
+/// Moves a layout's brick starts and bricks per array into `vol` (its arrays are the caller's).
+void applyLayout(ArrayLayout&& layout, CompressedVolume& vol);
+
 /// Size of the smallest valid brick in words for a level count and encoding (section 3).
 uint32_t minimalBrickWords(uint32_t levels, int32_t encoding);
 
