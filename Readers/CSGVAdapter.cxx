@@ -9,6 +9,7 @@
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
+#include <vtkIntArray.h>
 #include <vtkMatrix3x3.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
@@ -424,6 +425,29 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
     range->SetName(kLabelRangeName);
     fd->AddArray(range);
   }
+}
+
+void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset)
+{
+  vtkNew<vtkIntArray> a;
+  a->SetName(kPieceOffsetName);
+  a->SetNumberOfValues(3);
+  for (int i = 0; i < 3; ++i)
+  {
+    a->SetValue(i, int(offset[size_t(i)]));
+  }
+  fd->AddArray(a);
+}
+
+std::array<long, 3> pieceOffset(vtkFieldData* fd)
+{
+  std::array<long, 3> out{ { 0, 0, 0 } };
+  vtkIntArray* a = fd ? vtkIntArray::SafeDownCast(fd->GetArray(kPieceOffsetName)) : nullptr;
+  for (int i = 0; a && a->GetNumberOfValues() == 3 && i < 3; ++i)
+  {
+    out[size_t(i)] = a->GetValue(i);
+  }
+  return out;
 }
 
 vtkUnsignedCharArray* encodingArray(vtkFieldData* fd)

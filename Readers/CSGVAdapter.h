@@ -51,6 +51,7 @@ constexpr const char* kGeometryName = "CSGVGeometry";
 constexpr const char* kLabelMapName = "CSGVLabelMap";
 constexpr const char* kOriginalTypeName = "CSGVOriginalType";
 constexpr const char* kLabelRangeName = "CSGVLabelRange";
+constexpr const char* kPieceOffsetName = "CSGVPieceOffset";
 /// Prefix of the per-id attribute arrays of a `_csgv.db3` (vtkDoubleArray for numeric columns,
 /// vtkStringArray for text columns), indexed by the id the volume stores.
 constexpr const char* kAttributePrefix = "CSGVAttribute:";
@@ -143,6 +144,11 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
 
 /// Adds one `CSGVAttribute:<name>` array per column (indexed by id).
 void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns);
+
+/// A piece of a volume (MPI ranks, vtkCSGVReader): where its voxel (0,0,0) lies in the volume
+/// (level 0), as FieldData `CSGVPieceOffset` (3 ints); (0,0,0) for a whole volume.
+void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset);
+std::array<long, 3> pieceOffset(vtkFieldData* fd);
 
 /// The encoding array of a FieldData (null when there is none): its pointer and modification
 /// time identify the encoding, so consumers look up what they parsed before without parsing.

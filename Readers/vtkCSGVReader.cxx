@@ -19,7 +19,6 @@
 #include <vtkInformationIntegerKey.h>
 #include <vtkInformationIntegerVectorKey.h>
 #include <vtkInformationVector.h>
-#include <vtkIntArray.h>
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
@@ -125,8 +124,8 @@ public:
       return std::string();
     }
     // The file's bytes, read once and unchanged, are the encoding handed downstream (no
-    // re-serialisation); openCsgv parses those same bytes and gives every caller the same checks
-    // of the container and its sidecars.
+    // re-serialisation); parseCsgv checks and parses those same bytes (the sidecars were read
+    // with the header: Load).
     const std::string& path = this->Path;
     const uint64_t bytes = uint64_t(this->Size);
     std::ifstream in(path, std::ios::binary);
@@ -141,17 +140,17 @@ public:
     {
       return "'" + path + "' changed while it was read";
     }
-    csgv::Result<csgv::CsgvFile> file = csgv::openCsgv(path, enc->GetPointer(0), size_t(bytes));
-    if (!file)
+    csgv::Result<csgv::CompressedVolume> volume = csgv::parseCsgv(enc->GetPointer(0), size_t(bytes));
+    if (!volume)
     {
-      return file.message();
+      return csgv::Status(volume.status()).prefix(path).message();
     }
-    if (file->volume.dim != this->Dim || file->volume.brickSize != this->BrickSize)
+    if (volume->dim != this->Dim || volume->brickSize != this->BrickSize)
     {
       return "'" + path + "' changed while it was read";
     }
-    this->Range = csgvvtk::paletteRange(file->volume, this->Info);
-    this->Volume = std::move(file->volume);
+    this->Range = csgvvtk::paletteRange(*volume, this->Info);
+    this->Volume = std::move(*volume);
     this->Encoding = enc;
     this->WholeRead = true;
     return std::string();
@@ -443,14 +442,8 @@ int vtkCSGVReader::RequestData(
   {
     // Where the piece's voxel (0,0,0) lies in the volume (level 0): picking answers in the
     // volume's voxel coordinates.
-    vtkNew<vtkIntArray> offset;
-    offset->SetName("CSGVPieceOffset");
-    offset->SetNumberOfValues(3);
-    for (int a = 0; a < 3; ++a)
-    {
-      offset->SetValue(a, int(in.Box.lo[a] * in.BrickSize));
-    }
-    output->GetFieldData()->AddArray(offset);
+    csgvvtk::addPieceOffset(output->GetFieldData(),
+      { in.Box.lo[0] * in.BrickSize, in.Box.lo[1] * in.BrickSize, in.Box.lo[2] * in.BrickSize });
   }
   const csgv::CompressedVolume& volume = isPiece ? in.PieceVolume : in.Volume;
 

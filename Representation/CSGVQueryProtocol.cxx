@@ -1,12 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "CSGVQueryProtocol.h"
+#include "CSGVAdapter.h" // the readers' FieldData contract (CSGV::Readers)
 
 #include "csgv/base/Math.h"
 
 #include <vtkBase64Utilities.h>
-#include <vtkFieldData.h>
 #include <vtkImageData.h>
-#include <vtkIntArray.h>
 
 #include <nlohmann/json.hpp>
 
@@ -179,14 +178,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       const csgv::Face face = i < out.face.size() ? out.face[i] : csgv::Face::None;
       // A piece of the volume (MPI ranks) counts voxels from its own corner: the reader says
       // where that is in the volume.
-      long pieceOffset[3] = { 0, 0, 0 };
-      vtkIntArray* offset = c.input && c.input->GetFieldData()
-        ? vtkIntArray::SafeDownCast(c.input->GetFieldData()->GetArray("CSGVPieceOffset"))
-        : nullptr;
-      for (int k = 0; offset && offset->GetNumberOfValues() == 3 && k < 3; ++k)
-      {
-        pieceOffset[k] = offset->GetValue(k);
-      }
+      const std::array<long, 3> pieceOffset = csgvvtk::pieceOffset(c.input ? c.input->GetFieldData() : nullptr);
       json voxel = json::array();
       for (int k = 0; invertible && k < 3; ++k)
       {
@@ -201,7 +193,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
           v = long(std::lround(idx[size_t(k)])) - 1;
         }
         const long dim = long(source.shared->volume.dim[size_t(k)]);
-        voxel.push_back(std::max(0L, std::min(dim - 1, v)) + pieceOffset[k]);
+        voxel.push_back(std::max(0L, std::min(dim - 1, v)) + pieceOffset[size_t(k)]);
       }
       r["voxel"] = voxel;
       r["world"] = { hitP[0], hitP[1], hitP[2] };

@@ -37,33 +37,19 @@ Result<CsgvFile> openSidecars(CsgvFile f) {
     return f;
 }
 
+/// The file at `path` with the volume (or header) read from it and its sidecars.
+Result<CsgvFile> withSidecars(const std::string& path, Result<CompressedVolume> vol) {
+    if (!vol) return vol.status();
+    CsgvFile f;
+    f.path = path;
+    f.volume = std::move(*vol);
+    return openSidecars(std::move(f));
+}
+
 } // namespace
 
-Result<CsgvFile> openCsgv(const std::string& path) {
-    CsgvFile f;
-    f.path = path;
-    Result<CompressedVolume> vol = readCsgv(path);
-    if (!vol) return vol.status();
-    f.volume = std::move(*vol);
-    return openSidecars(std::move(f));
-}
+Result<CsgvFile> openCsgv(const std::string& path) { return withSidecars(path, readCsgv(path)); }
 
-Result<CsgvFile> openCsgvHeader(const std::string& path) {
-    CsgvFile f;
-    f.path = path;
-    Result<CompressedVolume> vol = readCsgvHeader(path);
-    if (!vol) return vol.status();
-    f.volume = std::move(*vol);
-    return openSidecars(std::move(f));
-}
-
-Result<CsgvFile> openCsgv(const std::string& path, const uint8_t* bytes, size_t size) {
-    CsgvFile f;
-    f.path = path;
-    Result<CompressedVolume> vol = parseCsgv(bytes, size);
-    if (!vol) return Status(vol.status()).prefix(path);
-    f.volume = std::move(*vol);
-    return openSidecars(std::move(f));
-}
+Result<CsgvFile> openCsgvHeader(const std::string& path) { return withSidecars(path, readCsgvHeader(path)); }
 
 } // namespace csgv

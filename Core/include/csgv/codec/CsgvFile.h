@@ -43,9 +43,6 @@ struct CsgvFile {
 /// Reads the container and, when present, the metadata and the attribute database (whose volume
 /// size must match).
 Result<CsgvFile> openCsgv(const std::string& path);
-/// The same for the container's bytes already read from `path` (by a caller that keeps them, such
-/// as the VTK reader handing them downstream), so that the file is read once.
-Result<CsgvFile> openCsgv(const std::string& path, const uint8_t* bytes, size_t size);
 /// The same without the encoding arrays (readCsgvHeader): the volume's header fields and brick
 /// starts and the sidecars, for readers that read bricks later (readCsgvPiece).
 Result<CsgvFile> openCsgvHeader(const std::string& path);
