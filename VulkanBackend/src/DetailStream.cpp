@@ -27,20 +27,18 @@ DetailStream::~DetailStream() {
     if (m_copy.valid()) m_copy.wait();
 }
 
-uint64_t DetailStream::smallestBytes(const CompressedVolume& volume) {
-    uint64_t longest = 1;
-    for (uint64_t b = 0; b < volume.brickCount(); ++b) longest = std::max<uint64_t>(longest, finestStream(volume, b).count);
-    return 2 * longest * 4;
+DetailSizes DetailStream::sizes(const CompressedVolume& volume) {
+    uint64_t longest = 1, words = 0;
+    for (uint64_t b = 0; b < volume.brickCount(); ++b) {
+        const uint32_t n = std::max<uint32_t>(finestStream(volume, b).count, 1);
+        longest = std::max<uint64_t>(longest, n);
+        words += n;
+    }
+    return DetailSizes{2 * longest * 4, words * 4};
 }
 
 uint64_t DetailStream::brickBytes(const CompressedVolume& volume, uint64_t brick) {
     return uint64_t(std::max<uint32_t>(finestStream(volume, brick).count, 1)) * 4;
-}
-
-uint64_t DetailStream::streamBytes(const CompressedVolume& volume) {
-    uint64_t words = 0;
-    for (uint64_t b = 0; b < volume.brickCount(); ++b) words += std::max<uint32_t>(finestStream(volume, b).count, 1);
-    return words * 4;
 }
 
 uint64_t DetailStream::deviceBytes(const CompressedVolume& volume, uint64_t capacityBytes) {
@@ -48,11 +46,11 @@ uint64_t DetailStream::deviceBytes(const CompressedVolume& volume, uint64_t capa
 }
 
 Result<std::unique_ptr<DetailStream>> DetailStream::create(Context& context, const CompressedVolume& volume,
-                                                           uint64_t capacityBytes) {
+                                                           uint64_t capacityBytes, const DetailSizes* sizes) {
     if (volume.encoding != kEncodingRans2 || volume.levels() < 2)
         return Status::error("detail streaming needs a rANS two-table encoding with at least two levels");
     if (volume.brickCount() >= kNone) return Status::error("too many bricks for detail streaming");
-    const uint64_t smallest = smallestBytes(volume);
+    const uint64_t smallest = sizes ? sizes->smallestBytes : smallestBytes(volume);
     if (capacityBytes < smallest)
         return Status::error("a detail buffer of " + mebibytes(capacityBytes) + " is smaller than the " +
                              mebibytes(smallest) + " the longest finest-level stream needs");

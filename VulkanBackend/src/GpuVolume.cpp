@@ -89,6 +89,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
                              (separable || separate || host ? "" : " (only rANS two-table encodings can keep their finest level in host memory)"));
     g->m_separated = separate;
     g->m_hostDecoding = host;
+    if (separate) g->m_detailSizes = DetailStream::sizes(volume);
     std::vector<uint64_t> addresses;
     for (const auto& a : arrays) {
         Result<Buffer> b = context.createBuffer(a.size() * 4, MemoryKind::DeviceLocal);
@@ -243,7 +244,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         uint64_t bytes = 0;
         for (uint32_t b : finest) bytes += DetailStream::brickBytes(m_volume, b);
         Result<std::unique_ptr<DetailStream>> d =
-            DetailStream::create(m_context, m_volume, std::max(2 * bytes, DetailStream::smallestBytes(m_volume)));
+            DetailStream::create(m_context, m_volume, std::max(2 * bytes, m_detailSizes.smallestBytes), &m_detailSizes);
         if (!d) return d.status();
         detail = std::move(*d);
         if (!(s = detail->request(finest.data(), finest.size())) || !(s = detail->commit())) return s;

@@ -537,7 +537,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // and a quarter of what the encoding and tables leave, at least twice the longest stream.
     uint64_t ringBytes = 0;
     if (streaming) {
-        const uint64_t smallest = DetailStream::smallestBytes(v), all = DetailStream::streamBytes(v);
+        const uint64_t smallest = volume->detailSizes().smallestBytes, all = volume->detailSizes().streamBytes;
         const uint64_t left = im.budget > fixed + smallestCache ? im.budget - fixed - smallestCache : 0;
         const uint64_t twoFrames = 2 * requests * (all / std::max<uint64_t>(bricks, 1));
         ringBytes = options.detailBufferBytes ? std::max(options.detailBufferBytes, smallest)
@@ -551,7 +551,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                              mebibytes(fixed - volume->deviceBytes()) + ", and the brick cache needs at least " +
                              mebibytes(smallestCache));
     if (streaming) {
-        Result<std::unique_ptr<DetailStream>> ds = DetailStream::create(context, v, ringBytes);
+        Result<std::unique_ptr<DetailStream>> ds = DetailStream::create(context, v, ringBytes, &volume->detailSizes());
         if (!ds) return ds.status();
         im.detail = std::move(*ds);
     }

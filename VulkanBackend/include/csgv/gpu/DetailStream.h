@@ -30,23 +30,28 @@ struct DetailCounts {
     uint64_t uploadedBricks = 0, uploadedBytes = 0, evictedBricks = 0;
 };
 
+/// A volume's finest-level streams, measured in one pass over its bricks (DetailStream::sizes).
+struct DetailSizes {
+    uint64_t smallestBytes = 0; ///< the smallest ring: twice the longest stream (a batch may take half)
+    uint64_t streamBytes = 0;   ///< all streams together (a ring this large never evicts)
+};
+
 class DetailStream {
 public:
-    /// The ring holds `capacityBytes` (at least smallestBytes(volume)); the table takes 8 bytes a
-    /// brick (host-visible: written between frames). `volume` must be a rANS two-table encoding
-    /// with at least two levels and outlive the stream.
+    /// The ring holds `capacityBytes` (at least smallestBytes); the table takes 8 bytes a brick
+    /// (host-visible: written between frames). `volume` must be a rANS two-table encoding with at
+    /// least two levels and outlive the stream. `sizes`: the volume's, when known (else measured).
     static Result<std::unique_ptr<DetailStream>> create(Context& context, const CompressedVolume& volume,
-                                                        uint64_t capacityBytes);
+                                                        uint64_t capacityBytes, const DetailSizes* sizes = nullptr);
     ~DetailStream();
     DetailStream(const DetailStream&) = delete;
     DetailStream& operator=(const DetailStream&) = delete;
 
-    /// The smallest ring: twice the longest finest-level stream of any brick (a batch may take half).
-    static uint64_t smallestBytes(const CompressedVolume& volume);
+    static DetailSizes sizes(const CompressedVolume& volume);
+    static uint64_t smallestBytes(const CompressedVolume& volume) { return sizes(volume).smallestBytes; }
     /// Ring bytes one brick's finest-level stream takes.
     static uint64_t brickBytes(const CompressedVolume& volume, uint64_t brick);
-    /// All finest-level streams together (a ring this large never evicts).
-    static uint64_t streamBytes(const CompressedVolume& volume);
+    static uint64_t streamBytes(const CompressedVolume& volume) { return sizes(volume).streamBytes; }
     /// Device memory of a stream with a ring of `capacityBytes`: ring and table.
     static uint64_t deviceBytes(const CompressedVolume& volume, uint64_t capacityBytes);
 

@@ -8,6 +8,7 @@
 #include "csgv/codec/Container.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/gpu/Context.h"
+#include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/FrameLayout.h"
 #include "csgv/gpu/ShaderCompiler.h"
 
@@ -18,7 +19,6 @@
 
 namespace csgv::gpu {
 
-class DetailStream;
 
 /// One brick to decode: `lod` 0 is full resolution; `cacheOffset` is the first word of its region
 /// ((B >> lod)^3 words), where the labels land in Morton order.
@@ -76,6 +76,8 @@ public:
     /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): decoding level 0
     /// needs the brick's stream in a DetailStream.
     bool separated() const { return m_separated; }
+    /// A separated volume's finest-level streams (measured once, when uploaded).
+    const DetailSizes& detailSizes() const { return m_detailSizes; }
     /// Uploaded for host decoding (GpuVolumeOptions::hostDecoding): no encoding to decode from.
     bool hostDecoding() const { return m_hostDecoding; }
     /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
@@ -139,6 +141,7 @@ private:
     uint32_t m_cacheBits = 32;
     bool m_separated = false;
     bool m_hostDecoding = false;
+    DetailSizes m_detailSizes;
     /// Device memory that encoding arrays and brick starts take once uploaded.
     static uint64_t uploadBytes(const std::vector<std::vector<uint32_t>>& arrays, const std::vector<uint32_t>& starts);
     /// What the device holds of each brick when not all of it (arrays and starts as the container's).
