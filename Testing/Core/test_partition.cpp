@@ -37,7 +37,9 @@ TEST(BrickPartition, EveryBrickBelongsToExactlyOnePieceAndPiecesAreBalanced) {
             }
             EXPECT_TRUE(std::all_of(owners.begin(), owners.end(), [](uint8_t o) { return o == 1; }))
                 << g[0] << "x" << g[1] << "x" << g[2] << " in " << n << " pieces";
-            if (uint64_t(g[0]) * g[1] * g[2] >= 64ull * n) EXPECT_LE(largest, 2 * smallest) << n << " pieces";
+            if (uint64_t(g[0]) * g[1] * g[2] >= 64ull * n) {
+                EXPECT_LE(largest, 2 * smallest) << n << " pieces";
+            }
         }
     EXPECT_EQ(brickPartition({4, 4, 4}, 1, 0), (BrickBox{{0, 0, 0}, {4, 4, 4}}));
     EXPECT_TRUE(brickPartition({4, 4, 4}, 2, 2).empty()) << "no such piece";
@@ -162,4 +164,98 @@ TEST(ReadCsgvPiece, TheWholeBoxIsTheFileAndBadBoxesOrFilesAreErrors) {
     Result<CompressedVolume> broken = readCsgvPiece(bad, BrickBox{{0, 0, 0}, {5, 1, 1}});
     ASSERT_FALSE(broken.isOk());
     EXPECT_NE(broken.message().find("brick"), std::string::npos) << broken.message();
+}
+
+TEST(JoinPieces, PiecesEncodedApartWithSharedCountsJoinToTheWholeEncodingByteForByte) {
+    // The writer's parallel path: each process encodes its whole-brick piece, the pieces' symbol
+    // counts are summed (shareCounts), and the joined file equals the encoding of the whole.
+    SynthSpec spec;
+    spec.dim = {70, 45, 33};
+    spec.cellSize = 7;
+    const Result<LabelVolume> src = generateVolume(spec);
+    ASSERT_TRUE(src.isOk());
+    for (int32_t encoding : {kEncodingNibble, kEncodingRans1, kEncodingRans2})
+        for (uint32_t maxWords : {kMaxWordsPerArray, 4096u}) {
+            EncodeOptions o;
+            o.brickSize = 16;
+            o.encoding = encoding;
+            o.maxArrayWords = maxWords;
+            const Result<CompressedVolume> whole = encodeVolume(*src, o);
+            ASSERT_TRUE(whole.isOk()) << whole.message();
+            const std::vector<uint8_t> want = serializeCsgv(*whole);
+            for (uint32_t n : {1u, 2u, 3u, 5u, 8u, 100u}) {
+                std::vector<BrickBox> boxes;
+                for (uint32_t p = 0; p < n; ++p) boxes.push_back(brickPartition(whole->brickGrid(), n, p));
+                // Round 1 gathers every piece's counts (and stops), round 2 encodes with the sum.
+                SymbolCounts total;
+                for (const BrickBox& box : boxes) {
+                    if (box.empty()) continue;
+                    EncodeOptions count = o;
+                    count.shareCounts = [&](const SymbolCounts& c) -> Result<SymbolCounts> {
+                        total += c;
+                        return Status::error("counted");
+                    };
+                    const Result<CompressedVolume> stopped = encodeVolume(crop(*src, box, 16), count);
+                    ASSERT_FALSE(stopped.isOk());
+                    EXPECT_EQ(stopped.message(), "counted");
+                }
+                std::vector<CompressedVolume> pieces(boxes.size());
+                for (size_t p = 0; p < boxes.size(); ++p) {
+                    if (boxes[p].empty()) continue;
+                    EncodeOptions shared = o;
+                    shared.shareCounts = [&](const SymbolCounts&) -> Result<SymbolCounts> { return total; };
+                    Result<CompressedVolume> piece = encodeVolume(crop(*src, boxes[p], 16), shared);
+                    ASSERT_TRUE(piece.isOk()) << piece.message();
+                    pieces[p] = std::move(*piece);
+                }
+                Result<CompressedVolume> joined = joinPieces(src->dim, boxes, pieces, maxWords);
+                ASSERT_TRUE(joined.isOk()) << joined.message();
+                EXPECT_TRUE(serializeCsgv(*joined) == want)
+                    << encodingName(encoding) << ", " << n << " pieces, arrays of " << maxWords << " words";
+                EXPECT_TRUE(pieces.back().arrays.empty()) << "joined pieces are released";
+            }
+            // Pieces cut out of the file join back to it too.
+            std::vector<BrickBox> boxes = {brickPartition(whole->brickGrid(), 2, 0),
+                                           brickPartition(whole->brickGrid(), 2, 1)};
+            std::vector<CompressedVolume> cut = {*extractPiece(*whole, boxes[0]), *extractPiece(*whole, boxes[1])};
+            Result<CompressedVolume> joined = joinPieces(src->dim, boxes, cut, maxWords);
+            ASSERT_TRUE(joined.isOk()) << joined.message();
+            EXPECT_TRUE(serializeCsgv(*joined) == want);
+        }
+}
+
+TEST(JoinPieces, GapsOverlapsAndMismatchedPiecesAreErrors) {
+    SynthSpec spec;
+    spec.dim = {40, 33, 20};
+    spec.cellSize = 5;
+    const Result<LabelVolume> src = generateVolume(spec);
+    ASSERT_TRUE(src.isOk());
+    EncodeOptions o;
+    o.brickSize = 16;
+    const Result<CompressedVolume> whole = encodeVolume(*src, o);
+    ASSERT_TRUE(whole.isOk());
+    const BrickBox a = brickPartition(whole->brickGrid(), 2, 0), b = brickPartition(whole->brickGrid(), 2, 1);
+    auto join = [&](std::vector<BrickBox> boxes, std::vector<CompressedVolume> pieces) {
+        return joinPieces(src->dim, boxes, pieces);
+    };
+    const CompressedVolume pa = *extractPiece(*whole, a), pb = *extractPiece(*whole, b);
+    EXPECT_TRUE(join({a, b}, {pa, pb}).isOk());
+    EXPECT_TRUE(join({a, b, BrickBox{}}, {pa, pb, CompressedVolume{}}).isOk()) << "empty pieces are skipped";
+    Result<CompressedVolume> gap = join({a}, {pa});
+    ASSERT_FALSE(gap.isOk());
+    EXPECT_NE(gap.message().find("is in no piece"), std::string::npos) << gap.message();
+    Result<CompressedVolume> twice = join({a, b, a}, {pa, pb, pa});
+    ASSERT_FALSE(twice.isOk());
+    EXPECT_NE(twice.message().find("is in pieces 0 and 2"), std::string::npos) << twice.message();
+    CompressedVolume otherTables = pb;
+    otherTables.freqA[0] += 1;
+    otherTables.freqA[1] -= 1;
+    Result<CompressedVolume> mismatch = join({a, b}, {pa, otherTables});
+    ASSERT_FALSE(mismatch.isOk());
+    EXPECT_NE(mismatch.message().find("piece 1 differs"), std::string::npos) << mismatch.message();
+    Result<CompressedVolume> swapped = join({b, a}, {pa, pb});
+    ASSERT_FALSE(swapped.isOk());
+    EXPECT_NE(swapped.message().find("voxels along axis"), std::string::npos) << swapped.message();
+    EXPECT_FALSE(join({a, b}, {pa}).isOk());
+    EXPECT_FALSE(join({BrickBox{}}, {CompressedVolume{}}).isOk());
 }

@@ -571,6 +571,91 @@ Result<CompressedVolume> extractPiece(const CompressedVolume& whole, const Brick
     return made;
 }
 
+Result<CompressedVolume> joinPieces(const std::array<uint32_t, 3>& dim, const std::vector<BrickBox>& boxes,
+                                    std::vector<CompressedVolume>& pieces, uint64_t arrayLimit,
+                                    uint64_t maxOutputBytes) {
+    if (boxes.size() != pieces.size())
+        return Status::error(std::to_string(pieces.size()) + " pieces for " + std::to_string(boxes.size()) + " boxes");
+    const CompressedVolume* first = nullptr;
+    for (size_t i = 0; i < pieces.size() && !first; ++i)
+        if (!boxes[i].empty()) first = &pieces[i];
+    if (!first) return Status::error("no piece holds a brick");
+    CompressedVolume vol;
+    vol.version = first->version;
+    vol.brickSize = first->brickSize;
+    vol.dim = dim;
+    vol.encoding = first->encoding;
+    vol.opMask = first->opMask;
+    vol.freqA = first->freqA;
+    vol.freqB = first->freqB;
+    if (vol.brickCount() > kMaxBricks) return Status::error("the volume needs more than 2^40 bricks");
+    const std::array<uint32_t, 3> grid = vol.brickGrid();
+    const uint32_t B = vol.brickSize;
+    // Which piece holds each brick (-1: none yet).
+    std::vector<int32_t> owner(size_t(vol.brickCount()), -1);
+    for (size_t i = 0; i < pieces.size(); ++i) {
+        const BrickBox& box = boxes[i];
+        if (box.empty()) continue;
+        const CompressedVolume& p = pieces[i];
+        const std::string where = "piece " + std::to_string(i);
+        if (p.version != vol.version || p.brickSize != B || p.encoding != vol.encoding || p.opMask != vol.opMask ||
+            p.freqA != vol.freqA || p.freqB != vol.freqB || p.randomAccess)
+            return Status::error(where + " differs from piece 0 in its version, brick size, encoding, operations or "
+                                 "frequency tables");
+        for (int a = 0; a < 3; ++a) {
+            if (box.hi[a] > grid[a])
+                return Status::error(where + ": bricks [" + std::to_string(box.lo[a]) + ", " +
+                                     std::to_string(box.hi[a]) + ") along axis " + std::to_string(a) +
+                                     " lie outside the " + std::to_string(grid[a]) + " bricks of the volume");
+            const uint32_t size = std::min(box.hi[a] * B, dim[a]) - box.lo[a] * B;
+            if (p.dim[a] != size)
+                return Status::error(where + " is " + std::to_string(p.dim[a]) + " voxels along axis " +
+                                     std::to_string(a) + ", its bricks cover " + std::to_string(size));
+        }
+        for (uint32_t z = box.lo[2]; z < box.hi[2]; ++z)
+            for (uint32_t y = box.lo[1]; y < box.hi[1]; ++y)
+                for (uint32_t x = box.lo[0]; x < box.hi[0]; ++x) {
+                    int32_t& o = owner[size_t(x + uint64_t(grid[0]) * (y + uint64_t(grid[1]) * z))];
+                    if (o >= 0)
+                        return Status::error("brick (" + std::to_string(x) + ", " + std::to_string(y) + ", " +
+                                             std::to_string(z) + ") is in pieces " + std::to_string(o) + " and " +
+                                             std::to_string(i));
+                    o = int32_t(i);
+                }
+    }
+    // Each brick's words and where they are: (piece, brick index in the piece).
+    std::vector<uint32_t> sizes(owner.size());
+    auto local = [&](uint64_t brick) {
+        const uint64_t x = brick % grid[0], y = brick / grid[0] % grid[1], z = brick / grid[0] / grid[1];
+        const BrickBox& box = boxes[size_t(owner[size_t(brick)])];
+        const uint64_t w = box.hi[0] - box.lo[0], h = box.hi[1] - box.lo[1];
+        return (x - box.lo[0]) + w * ((y - box.lo[1]) + h * (z - box.lo[2]));
+    };
+    for (uint64_t i = 0; i < owner.size(); ++i) {
+        if (owner[size_t(i)] < 0)
+            return Status::error("brick " + std::to_string(i % grid[0]) + ", " + std::to_string(i / grid[0] % grid[1]) +
+                                 ", " + std::to_string(i / grid[0] / grid[1]) + " is in no piece");
+        const BrickWords bw = pieces[size_t(owner[size_t(i)])].brick(local(i));
+        sizes[size_t(i)] = uint32_t(bw.size);
+        vol.maxPalette = std::max(vol.maxPalette, bw.words[vol.levels()]);
+    }
+    Result<ArrayLayout> layout = layoutArrays(sizes, arrayLimit, maxOutputBytes);
+    if (!layout) return layout.status();
+    vol.arrays.assign(layout->arrayWords.size(), {});
+    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
+    const uint64_t perArray = layout->perArray;
+    applyLayout(std::move(*layout), vol);
+    for (uint64_t i = 0; i < owner.size(); ++i) {
+        const BrickWords bw = pieces[size_t(owner[size_t(i)])].brick(local(i));
+        std::vector<uint32_t>& arr = vol.arrays[size_t(i / perArray)];
+        arr.insert(arr.end(), bw.words, bw.words + bw.size);
+    }
+    for (CompressedVolume& p : pieces) p = CompressedVolume{};
+    Status s = checkContainer(vol);
+    if (!s) return s;
+    return vol;
+}
+
 Result<CompressedVolume> readCsgvPiece(const std::string& path, const BrickBox& box, uint64_t* bytesRead) {
     FileSource src;
     Status s = src.open(path);

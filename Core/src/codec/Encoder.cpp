@@ -490,24 +490,30 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
     return Status::ok();
 }
 
-/// @brief Symbol counts summed over bricks (order independent, so any thread count gives the
-/// same tables).
-struct SymbolCounts {
-    std::array<uint64_t, 16> a{}, b{};
-    void add(const BrickSymbols& sym, int32_t encoding) {
-        for (int k = 0; k < 16; ++k) {
-            if (encoding == kEncodingRans1) a[k] += uint64_t(sym.countsA[k]) + sym.countsB[k];
-            else {
-                a[k] += sym.countsA[k];
-                b[k] += sym.countsB[k];
-            }
+/// Adds one brick's symbols to `counts` (order independent, so any thread count gives the same
+/// tables).
+void addSymbols(SymbolCounts& counts, const BrickSymbols& sym, int32_t encoding) {
+    for (int k = 0; k < 16; ++k) {
+        if (encoding == kEncodingRans1) counts.a[k] += uint64_t(sym.countsA[k]) + sym.countsB[k];
+        else {
+            counts.a[k] += sym.countsA[k];
+            counts.b[k] += sym.countsB[k];
         }
     }
-};
+}
 
 /// The frequency tables: the caller's fixed ones (checked against what the volume needs) or
-/// normalised counts.
-Status chooseTables(const EncodeOptions& options, const SymbolCounts& counts, CompressedVolume& vol) {
+/// normalised counts, of the whole volume when the caller shares counts between pieces.
+Status chooseTables(const EncodeOptions& options, const SymbolCounts& pieceCounts, CompressedVolume& vol) {
+    SymbolCounts counts = pieceCounts;
+    if (options.shareCounts) {
+        Result<SymbolCounts> shared = options.shareCounts(pieceCounts);
+        if (!shared) return shared.status();
+        counts = *shared;
+        for (int k = 0; k < 16; ++k)
+            if (counts.a[k] < pieceCounts.a[k] || counts.b[k] < pieceCounts.b[k])
+                return Status::error("the shared symbol counts are smaller than this piece's own");
+    }
     if (!options.fixedTables) {
         if (vol.encoding != kEncodingNibble) vol.freqA = normalizeFrequencies(counts.a);
         if (vol.encoding == kEncodingRans2) vol.freqB = normalizeFrequencies(counts.b);
@@ -779,7 +785,7 @@ Result<CompressedVolume> encodeVolumeSteps(SlabSource& source, const EncodeOptio
     Status s = symbolsBySlab(source, vol, options, EncodeToFileOptions().maxBandBytes,
                              [&](uint32_t bz, std::vector<BrickSymbols>& slab) {
         for (size_t i = 0; i < slab.size(); ++i) {
-            counts.add(slab[i], vol.encoding);
+            addSymbols(counts, slab[i], vol.encoding);
             symbols[size_t(bz * perSlab + i)] = std::move(slab[i]);
         }
         return Status::ok();
@@ -848,7 +854,7 @@ Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const
     Status s = symbolsBySlab(source, vol, options, fileOptions.maxBandBytes,
                              [&](uint32_t bz, std::vector<BrickSymbols>& slab) -> Status {
                                  for (const BrickSymbols& b : slab) {
-                                     counts.add(b, vol.encoding);
+                                     addSymbols(counts, b, vol.encoding);
                                      if (Status st = spill(symbols, b); !st) return st;
                                  }
                                  return progress(0.8 * (bz + 1) / grid[2]) ? Status::ok() : cancelled;

@@ -159,6 +159,15 @@ Result<CompressedVolume> readCsgv(const std::string& path);
 Result<CompressedVolume> readCsgvPiece(const std::string& path, const BrickBox& box, uint64_t* bytesRead = nullptr);
 /// The same piece of a volume in memory (checked structure assumed: checkContainer()).
 Result<CompressedVolume> extractPiece(const CompressedVolume& whole, const BrickBox& box);
+/// The inverse of extractPiece: one volume of dimensions `dim` from whole-brick pieces,
+/// `boxes[i]` holding the bricks of `pieces[i]` (pieces with empty boxes are skipped). The boxes
+/// must cover the brick grid once and the pieces agree on every header field but their
+/// dimensions (an error names the first that does not); the result is laid out as the encoder
+/// lays out a volume (layoutArrays), so the pieces of an encoding give back its bytes. The pieces
+/// are emptied once joined.
+Result<CompressedVolume> joinPieces(const std::array<uint32_t, 3>& dim, const std::vector<BrickBox>& boxes,
+                                    std::vector<CompressedVolume>& pieces, uint64_t arrayLimit = kMaxWordsPerArray,
+                                    uint64_t maxOutputBytes = ~uint64_t(0));
 /// A file's header fields (checked) and brick starts, nothing after them: what a reader needs to
 /// describe the volume without reading it (the result has no encoding arrays).
 Result<CompressedVolume> readCsgvHeader(const std::string& path);

@@ -25,6 +25,20 @@
 
 namespace csgv {
 
+/// @brief Pass 1's result: how often each symbol occurs over a volume's bricks, per table (A:
+/// levels 0..L-2, or every level in mode 1; B: the finest level in mode 2). The counts of
+/// whole-brick pieces (Partition.h) add up to the whole volume's.
+struct SymbolCounts {
+    std::array<uint64_t, 16> a{}, b{};
+    SymbolCounts& operator+=(const SymbolCounts& o) {
+        for (int k = 0; k < 16; ++k) {
+            a[k] += o.a[k];
+            b[k] += o.b[k];
+        }
+        return *this;
+    }
+};
+
 struct EncodeOptions {
     uint32_t brickSize = 32;
     int32_t encoding = kEncodingRans2;
@@ -36,6 +50,12 @@ struct EncodeOptions {
     /// Largest encoding array in words (the format's limit is 2^29; smaller values test splitting).
     uint32_t maxArrayWords = kMaxWordsPerArray;
     std::array<uint32_t, 16> tableA{}, tableB{};
+    /// Encoding one volume in whole-brick pieces (one per process) that joinPieces (Container.h)
+    /// makes one file of: called once after pass 1 with this piece's counts, it returns the
+    /// counts of the whole volume (the sum over the pieces), or an error that stops the encoding.
+    /// Tables come from what it returns (unless fixedTables), so every piece's bricks get the
+    /// words they get in the whole volume's encoding. Not called when pass 1 fails.
+    std::function<Result<SymbolCounts>(const SymbolCounts&)> shareCounts;
 };
 
 /// @brief Labels delivered slab by slab: z-slabs of brickSize slices (fewer at the end), x fastest.
