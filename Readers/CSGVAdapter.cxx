@@ -760,7 +760,8 @@ struct Scan
 };
 
 template <class T>
-Scan scanValues(const T* v, size_t n, const std::array<uint32_t, 3>& dim, const std::string& name)
+Scan scanValues(const T* v, size_t n, const std::array<uint32_t, 3>& dim, const std::string& name,
+  const std::array<uint32_t, 3>& offset)
 {
   Scan s;
   for (size_t i = 0; i < n; ++i)
@@ -774,7 +775,8 @@ Scan scanValues(const T* v, size_t n, const std::array<uint32_t, 3>& dim, const 
         const size_t sx = i % dim[0], sy = (i / dim[0]) % dim[1], sz = i / (size_t(dim[0]) * dim[1]);
         std::ostringstream os;
         os.precision(17);
-        os << "voxel (" << sx << ", " << sy << ", " << sz << ") of array '" << name << "' holds " << x
+        os << "voxel (" << sx + offset[0] << ", " << sy + offset[1] << ", " << sz + offset[2]
+           << ") of array '" << name << "' holds " << x
            << ", which is not an integer label";
         s.error = os.str();
         return s;
@@ -809,7 +811,7 @@ void toInputValues(const T* v, size_t n, std::vector<uint64_t>& out)
 
 std::string encodeLabelArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims,
   const csgv::EncodeOptions& options, bool relabel, const std::function<void(double)>& progress,
-  EncodedArray& out)
+  EncodedArray& out, PieceAgreement* pieces)
 {
   const std::string name = array->GetName() ? array->GetName() : "(unnamed)";
   csgv::LabelType labelType;
@@ -844,16 +846,55 @@ std::string encodeLabelArray(vtkDataArray* array, const std::array<uint32_t, 3>&
   {
     vtkTemplateMacro({
       const VTK_TT* values = static_cast<const VTK_TT*>(raw);
-      const Scan scan = scanValues(values, size_t(voxels), dims, name);
+      const Scan scan =
+        scanValues(values, size_t(voxels), dims, name, pieces ? pieces->offset : std::array<uint32_t, 3>{});
+      bool relabelling = !scan.fits || relabel;
+      if (pieces)
+      {
+        // Every piece relabels when one does, with ids of the whole volume.
+        csgv::Result<bool> any = pieces->anyRelabels(scan.error.empty(), relabelling);
+        if (!any)
+        {
+          error = scan.error.empty() ? any.message() : scan.error;
+          break;
+        }
+        relabelling = *any;
+      }
       if (!scan.error.empty())
       {
         error = scan.error;
         break;
       }
-      if (scan.fits && !relabel)
+      if (!relabelling)
       {
         // Streamed from the array: no full-size copy.
         ArraySlabSource<VTK_TT> source(values, dims, progress);
+        vol = csgv::encodeVolume(source, options);
+      }
+      else if (pieces)
+      {
+        csgv::InputVolume in;
+        in.dim = dims;
+        in.type = labelType;
+        toInputValues(values, size_t(voxels), in.values);
+        csgv::StreamingRelabeller relabeller(pieces->volumeDims, options.brickSize);
+        relabeller.observeBox(pieces->offset, dims, in.values.data());
+        csgv::Result<std::vector<uint64_t>> ids = pieces->ids(true, relabeller);
+        csgv::Status used = ids ? relabeller.useIds(*ids) : ids.status();
+        if (!used)
+        {
+          error = used.message();
+          break;
+        }
+        csgv::LabelVolume labels;
+        labels.dim = dims;
+        labels.labels.resize(in.values.size());
+        relabeller.toIds(in.values.data(), in.values.size(), labels.labels.data());
+        in = csgv::InputVolume{};
+        out.mapping.relabelled = true;
+        out.mapping.type = labelType;
+        out.mapping.originalBits = std::move(*ids);
+        ArraySlabSource<uint32_t> source(labels.labels.data(), dims, progress);
         vol = csgv::encodeVolume(source, options);
       }
       else

@@ -106,14 +106,33 @@ struct EncodedArray
   std::string originalType; ///< Core's name of the array's type ("uint16", "float32", ...)
 };
 
+/// @brief What the pieces of one volume encoded in parallel agree on (vtkCSGVWriter under MPI).
+/// The calls are collective: every piece makes each once, in this order, passing ok = false when
+/// it failed before (the others then fail too); errors from another piece come back as results.
+class PieceAgreement
+{
+public:
+  virtual ~PieceAgreement() = default;
+  /// Where this piece's voxel (0,0,0) lies in the volume, and the volume's dimensions.
+  std::array<uint32_t, 3> offset{};
+  std::array<uint32_t, 3> volumeDims{};
+  /// True when any piece relabels (`mine`: this one would: its labels do not fit, or asked).
+  virtual csgv::Result<bool> anyRelabels(bool ok, bool mine) = 0;
+  /// When one relabels: the volume's id table (id -> original bits) from every piece's first
+  /// visits (the relabeller's order over the whole volume).
+  virtual csgv::Result<std::vector<uint64_t>> ids(bool ok, const csgv::StreamingRelabeller& mine) = 0;
+};
+
 /// Compresses a one-component label array of `dims` voxels (x fastest). Labels that fit the
 /// format (0 .. 0xFFFFFFFE) stream to the encoder z-slab by z-slab straight from the array (no
 /// full-size copy; none at all for uint32); others (negative, wide) or `relabel` go through
 /// Core's relabelling to dense ids first. Float arrays must hold integers. `progress` gets the
-/// fraction encoded after each slab. Returns an error message or "".
+/// fraction encoded after each slab. With `pieces`, the array is one whole-brick piece of a volume
+/// encoded in parallel: whether to relabel and the ids are agreed with the other pieces (the
+/// symbol counts through options.shareCounts). Returns an error message or "".
 std::string encodeLabelArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims,
   const csgv::EncodeOptions& options, bool relabel, const std::function<void(double)>& progress,
-  EncodedArray& out);
+  EncodedArray& out, PieceAgreement* pieces = nullptr);
 
 // ---------------------------------------------------------------------------------------------
 // Compressed volume -> VTK

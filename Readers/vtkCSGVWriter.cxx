@@ -9,12 +9,23 @@
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Relabel.h"
 
+#include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkMatrix3x3.h>
+#include <vtkMultiProcessController.h>
+#include <vtkMultiProcessStream.h>
+#include <vtkNew.h>
 #include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkSmartPointer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstring>
 
 vtkStandardNewMacro(vtkCSGVWriter);
 
@@ -41,8 +52,395 @@ int vtkCSGVWriter::FillInputPortInformation(int, vtkInformation* info)
   return 1;
 }
 
+namespace
+{
+
+/// Voxels of a point extent: its cells (`isCell`, at least 1 along an axis, as VTK counts the
+/// cells of flat images) or its points.
+std::array<uint32_t, 3> voxelsOf(const int ext[6], bool isCell)
+{
+  std::array<uint32_t, 3> dims{};
+  for (int a = 0; a < 3; ++a)
+  {
+    const int points = ext[2 * a + 1] - ext[2 * a] + 1;
+    dims[a] = uint32_t(std::max(isCell ? points - 1 : points, points > 0 ? 1 : 0));
+  }
+  return dims;
+}
+
+/// The voxels [lo, hi) this piece writes: its bricks (csgv::brickPartition) of a grid of `dims`
+/// voxels with bricks of `brickSize`; false when the piece has none.
+bool pieceVoxels(const std::array<uint32_t, 3>& dims, int brickSize, int pieces, int piece,
+  std::array<uint32_t, 3>& lo, std::array<uint32_t, 3>& hi)
+{
+  if (brickSize <= 0 || dims[0] == 0 || dims[1] == 0 || dims[2] == 0)
+  {
+    return false;
+  }
+  const uint32_t b = uint32_t(brickSize);
+  const std::array<uint32_t, 3> grid = { (dims[0] + b - 1) / b, (dims[1] + b - 1) / b,
+    (dims[2] + b - 1) / b };
+  const csgv::BrickBox box = csgv::brickPartition(grid, uint32_t(pieces), uint32_t(piece));
+  for (int a = 0; a < 3; ++a)
+  {
+    lo[a] = box.lo[a] * b;
+    hi[a] = std::min(box.hi[a] * b, dims[a]);
+  }
+  return !box.empty();
+}
+
+/// Copies voxels [lo, hi) of the whole grid out of `array`, which lies over the point extent
+/// `ext` of an image whose whole extent is `whole`, into a new array of its type; returns an
+/// error message or "".
+std::string cropVoxels(vtkDataArray* array, const int ext[6], const int whole[6], bool isCell,
+  const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
+  vtkSmartPointer<vtkDataArray>& out)
+{
+  const std::array<uint32_t, 3> have = voxelsOf(ext, isCell);
+  std::array<uint64_t, 3> off{}, size{};
+  for (int a = 0; a < 3; ++a)
+  {
+    const long first = long(whole[2 * a]) + long(lo[a]) - long(ext[2 * a]);
+    size[a] = hi[a] - lo[a];
+    if (first < 0 || uint64_t(first) + size[a] > have[a])
+    {
+      return "the input's extent (" + std::to_string(ext[0]) + ".." + std::to_string(ext[1]) + ", " +
+        std::to_string(ext[2]) + ".." + std::to_string(ext[3]) + ", " + std::to_string(ext[4]) +
+        ".." + std::to_string(ext[5]) + ") does not hold this piece's voxels";
+    }
+    off[a] = uint64_t(first);
+  }
+  if (uint64_t(array->GetNumberOfTuples()) != uint64_t(have[0]) * have[1] * have[2])
+  {
+    return std::string("array '") + (array->GetName() ? array->GetName() : "(unnamed)") +
+      "' does not match its image's extent";
+  }
+  vtkSmartPointer<vtkDataArray> aos = array;
+  if (!array->HasStandardMemoryLayout())
+  {
+    aos = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(array->GetDataType()));
+    aos->DeepCopy(array);
+  }
+  out = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(array->GetDataType()));
+  out->SetName(array->GetName());
+  out->SetNumberOfComponents(array->GetNumberOfComponents());
+  out->SetNumberOfTuples(vtkIdType(size[0] * size[1] * size[2]));
+  const size_t tuple = size_t(array->GetDataTypeSize()) * size_t(array->GetNumberOfComponents());
+  const auto* src = static_cast<const unsigned char*>(aos->GetVoidPointer(0));
+  auto* dst = static_cast<unsigned char*>(out->GetVoidPointer(0));
+  for (uint64_t z = 0; z < size[2]; ++z)
+  {
+    for (uint64_t y = 0; y < size[1]; ++y)
+    {
+      const uint64_t from = ((z + off[2]) * have[1] + (y + off[1])) * have[0] + off[0];
+      std::memcpy(dst + ((z * size[1] + y) * size[0]) * tuple, src + from * tuple, size[0] * tuple);
+    }
+  }
+  return std::string();
+}
+
+/// The files of one volume: sidecars first, the volume last, as Core's compress does.
+csgv::Status writeVolumeFiles(const std::string& path, const csgv::VolumeMetadata& md,
+  const csgv::LabelMapping& mapping, const csgv::CompressedVolume& volume)
+{
+  csgv::Status status;
+  const std::string db = csgv::attributeDbPathFor(path);
+  if (mapping.relabelled)
+  {
+    status = csgv::writeAttributeDb(
+      db, md.dim, mapping.originalBits, csgv::isSignedType(mapping.type));
+  }
+  else if (csgv::fileExists(db) && std::remove(db.c_str()) != 0)
+  {
+    status = csgv::Status::error("cannot remove the stale attribute database '" + db + "'");
+  }
+  if (status)
+  {
+    status = csgv::writeMetadata(csgv::metadataPathFor(path), md);
+  }
+  if (status)
+  {
+    status = csgv::writeCsgv(path, volume);
+  }
+  return status;
+}
+
+constexpr const char* kOtherFailed = "another process could not encode its piece";
+
+/// Symbol counts summed over the processes (one all-reduce), or an error when one of them could
+/// not encode its piece (`ok` false: this one).
+csgv::Result<csgv::SymbolCounts> sumCounts(
+  vtkMultiProcessController* c, bool ok, const csgv::SymbolCounts& mine)
+{
+  unsigned long long send[33] = {}, sum[33] = {};
+  send[0] = ok ? 0 : 1;
+  for (int k = 0; k < 16; ++k)
+  {
+    send[1 + k] = mine.a[k];
+    send[17 + k] = mine.b[k];
+  }
+  c->AllReduce(send, sum, 33, vtkCommunicator::SUM_OP);
+  if (sum[0] != 0)
+  {
+    return csgv::Status::error(kOtherFailed);
+  }
+  csgv::SymbolCounts all;
+  for (int k = 0; k < 16; ++k)
+  {
+    all.a[k] = sum[1 + k];
+    all.b[k] = sum[17 + k];
+  }
+  return all;
+}
+
+/// The settings as Core's options, or an error message (the same on every process).
+std::string checkSettings(const char* fileName, int brickSize, int encoding, const char* operations,
+  int threads, csgv::EncodeOptions& options)
+{
+  const std::string path = fileName ? fileName : "";
+  if (path.size() < 6 || path.compare(path.size() - 5, 5, ".csgv") != 0)
+  {
+    return "the file name '" + path + "' must end in .csgv";
+  }
+  options.brickSize = uint32_t(brickSize);
+  options.encoding = encoding;
+  options.threads = threads;
+  csgv::Result<uint32_t> mask = csgv::parseOperationMask(operations ? operations : "default");
+  if (!mask)
+  {
+    return mask.message();
+  }
+  options.opMask = *mask;
+  csgv::Status status = csgv::checkEncodeOptions(options);
+  return status ? std::string() : status.message();
+}
+
+std::string missingArrayMessage(const char* name)
+{
+  if (name && *name)
+  {
+    return std::string("the input has no array named '") + name + "'";
+  }
+  return "the input has no one-component integer or float array to write";
+}
+
+/// vtkMultiProcessStream's arrays, empty ones included (Push refuses a null array).
+template <class T>
+void pushArray(vtkMultiProcessStream& s, std::vector<T>& v)
+{
+  s << static_cast<unsigned int>(v.size());
+  if (!v.empty())
+  {
+    s.Push(v.data(), static_cast<unsigned int>(v.size()));
+  }
+}
+
+template <class T>
+std::vector<T> popArray(vtkMultiProcessStream& s)
+{
+  unsigned int n = 0;
+  s >> n;
+  std::vector<T> v;
+  if (n > 0)
+  {
+    T* data = nullptr;
+    s.Pop(data, n);
+    v.assign(data, data + n);
+    delete[] data;
+  }
+  return v;
+}
+
+/// @brief The pieces' agreement over MPI (vtkCSGVWriter::WritePieces): whether to relabel, the
+/// ids, the symbol counts. Every process makes each collective call exactly once: catchUp makes
+/// those a piece skipped (it failed first, or holds no bricks).
+class MpiAgreement : public csgvvtk::PieceAgreement
+{
+public:
+  MpiAgreement(vtkMultiProcessController* c, uint32_t brickSize)
+    : Controller(c)
+    , BrickSize(brickSize)
+  {
+  }
+
+  csgv::Result<bool> anyRelabels(bool ok, bool mine) override
+  {
+    this->Asked = true;
+    unsigned long long send[2] = { ok ? 0ull : 1ull, mine ? 1ull : 0ull }, sum[2] = {};
+    this->Controller->AllReduce(send, sum, 2, vtkCommunicator::SUM_OP);
+    if (sum[0] != 0)
+    {
+      return csgv::Status::error(kOtherFailed);
+    }
+    this->Relabelled = sum[1] != 0;
+    return this->Relabelled;
+  }
+
+  csgv::Result<std::vector<uint64_t>> ids(bool ok, const csgv::StreamingRelabeller& mine) override
+  {
+    return this->ExchangeIds(ok, mine.firstVisits());
+  }
+
+  /// The counts of every piece (options.shareCounts).
+  csgv::Result<csgv::SymbolCounts> counts(bool ok, const csgv::SymbolCounts& mine)
+  {
+    this->Shared = true;
+    return sumCounts(this->Controller, ok, mine);
+  }
+
+  void catchUp(bool ok)
+  {
+    if (!this->Asked)
+    {
+      this->anyRelabels(ok, false);
+    }
+    if (this->Relabelled && !this->Exchanged)
+    {
+      this->ExchangeIds(ok, {});
+    }
+    if (!this->Shared)
+    {
+      this->counts(ok, csgv::SymbolCounts{});
+    }
+  }
+
+  bool Relabelled = false;
+  std::vector<uint64_t> Table; ///< id -> original bits, when relabelled
+
+private:
+  /// Process 0 merges every piece's first visits, chooses the ids and sends them to all.
+  csgv::Result<std::vector<uint64_t>> ExchangeIds(
+    bool ok, std::vector<std::pair<uint64_t, csgv::VisitPosition>> visits)
+  {
+    this->Exchanged = true;
+    std::vector<vtkTypeUInt64> labels, bricks;
+    std::vector<unsigned int> voxels;
+    for (const auto& v : visits)
+    {
+      labels.push_back(v.first);
+      bricks.push_back(v.second.brick);
+      voxels.push_back(v.second.voxel);
+    }
+    visits.clear();
+    vtkMultiProcessStream mine;
+    mine << int(ok);
+    pushArray(mine, labels);
+    pushArray(mine, bricks);
+    pushArray(mine, voxels);
+    std::vector<vtkMultiProcessStream> all;
+    this->Controller->Gather(mine, all, 0);
+    vtkMultiProcessStream answer;
+    if (this->Controller->GetLocalProcessId() == 0)
+    {
+      std::string error;
+      csgv::StreamingRelabeller merged(this->volumeDims, this->BrickSize);
+      for (vtkMultiProcessStream& s : all)
+      {
+        int theirOk = 0;
+        s >> theirOk;
+        const std::vector<vtkTypeUInt64> l = popArray<vtkTypeUInt64>(s), b = popArray<vtkTypeUInt64>(s);
+        const std::vector<unsigned int> v = popArray<unsigned int>(s);
+        if (!theirOk)
+        {
+          error = kOtherFailed;
+        }
+        for (size_t i = 0; i < l.size() && i < b.size() && i < v.size(); ++i)
+        {
+          merged.takeFirstVisit(l[i], csgv::VisitPosition{ b[i], v[i] });
+        }
+      }
+      if (error.empty())
+      {
+        const csgv::Status finished = merged.finish();
+        error = finished ? std::string() : finished.message();
+      }
+      std::vector<vtkTypeUInt64> table;
+      if (error.empty())
+      {
+        table.assign(merged.originalBits().begin(), merged.originalBits().end());
+      }
+      answer << error;
+      pushArray(answer, table);
+    }
+    this->Controller->Broadcast(answer, 0);
+    std::string error;
+    answer >> error;
+    const std::vector<vtkTypeUInt64> table = popArray<vtkTypeUInt64>(answer);
+    this->Table.assign(table.begin(), table.end());
+    if (!error.empty())
+    {
+      return csgv::Status::error(error);
+    }
+    return this->Table;
+  }
+
+  vtkMultiProcessController* Controller;
+  uint32_t BrickSize;
+  bool Asked = false;
+  bool Exchanged = false;
+  bool Shared = false;
+};
+
+/// Bytes move between processes in messages of at most this many.
+constexpr vtkIdType kMessageBytes = vtkIdType(1) << 28;
+constexpr int kPieceTag = 41731;
+
+} // namespace
+
+vtkTypeBool vtkCSGVWriter::ProcessRequest(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  const vtkTypeBool result = this->Superclass::ProcessRequest(request, inputVector, outputVector);
+  if (this->NumberOfPieces <= 1 ||
+    !request->Has(vtkStreamingDemandDrivenPipeline::REQUEST_UPDATE_EXTENT()) ||
+    inputVector[0]->GetNumberOfInformationObjects() < 1)
+  {
+    return result;
+  }
+  vtkInformation* in = inputVector[0]->GetInformationObject(0);
+  if (!in->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  {
+    return result;
+  }
+  // The label array may be cell or point data (it is found in WriteData): ask for the voxels
+  // of this piece either way. A piece without bricks asks for one point, so that it still sees
+  // which arrays there are.
+  int whole[6];
+  in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  int ext[6] = { whole[0], whole[0], whole[2], whole[2], whole[4], whole[4] };
+  bool any = false;
+  for (bool isCell : { true, false })
+  {
+    std::array<uint32_t, 3> lo, hi;
+    if (!pieceVoxels(voxelsOf(whole, isCell), this->BrickSize, this->NumberOfPieces, this->Piece,
+          lo, hi))
+    {
+      continue;
+    }
+    for (int a = 0; a < 3; ++a)
+    {
+      const int first = whole[2 * a] + int(lo[a]);
+      const int last = std::min(whole[2 * a + 1], whole[2 * a] + int(hi[a]) - (isCell ? 0 : 1));
+      ext[2 * a] = any ? std::min(ext[2 * a], first) : first;
+      ext[2 * a + 1] = any ? std::max(ext[2 * a + 1], last) : last;
+    }
+    any = true;
+  }
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext, 6);
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), 0);
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), 1);
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  in->Set(vtkStreamingDemandDrivenPipeline::EXACT_EXTENT(), 1);
+  return result;
+}
+
 void vtkCSGVWriter::WriteData()
 {
+  if (this->NumberOfPieces > 1)
+  {
+    this->WritePieces();
+    return;
+  }
   vtkImageData* image = this->GetInput();
   const std::string path = this->FileName ? this->FileName : "";
   if (!image)
@@ -50,9 +448,12 @@ void vtkCSGVWriter::WriteData()
     vtkErrorMacro(<< "the input is not image data");
     return;
   }
-  if (path.size() < 6 || path.compare(path.size() - 5, 5, ".csgv") != 0)
+  csgv::EncodeOptions options;
+  std::string error = checkSettings(this->FileName, this->BrickSize, this->Encoding,
+    this->Operations, this->NumberOfThreads, options);
+  if (!error.empty())
   {
-    vtkErrorMacro(<< "the file name '" << path << "' must end in .csgv");
+    vtkErrorMacro(<< error);
     return;
   }
   bool isCell = true;
@@ -60,14 +461,7 @@ void vtkCSGVWriter::WriteData()
     csgvvtk::findLabelArray(image, this->LabelArrayName ? this->LabelArrayName : "", isCell);
   if (!array)
   {
-    if (this->LabelArrayName && *this->LabelArrayName)
-    {
-      vtkErrorMacro(<< "the input has no array named '" << this->LabelArrayName << "'");
-    }
-    else
-    {
-      vtkErrorMacro(<< "the input has no one-component integer or float array to write");
-    }
+    vtkErrorMacro(<< missingArrayMessage(this->LabelArrayName));
     return;
   }
   const std::string arrayName = array->GetName() ? array->GetName() : "(unnamed)";
@@ -76,27 +470,9 @@ void vtkCSGVWriter::WriteData()
   std::array<uint32_t, 3> dim;
   const csgv::Geometry geometry = csgvvtk::imageGeometry(image, isCell, dim);
 
-  csgv::EncodeOptions options;
-  options.brickSize = uint32_t(this->BrickSize);
-  options.encoding = this->Encoding;
-  options.threads = this->NumberOfThreads;
-  csgv::Result<uint32_t> mask = csgv::parseOperationMask(this->Operations ? this->Operations : "default");
-  if (!mask)
-  {
-    vtkErrorMacro(<< mask.message());
-    return;
-  }
-  options.opMask = *mask;
-  csgv::Status status = csgv::checkEncodeOptions(options);
-  if (!status)
-  {
-    vtkErrorMacro(<< status.message());
-    return;
-  }
-
   this->UpdateProgress(0.0);
   csgvvtk::EncodedArray encoded;
-  const std::string error = csgvvtk::encodeLabelArray(array, dim, options, this->Relabel != 0,
+  error = csgvvtk::encodeLabelArray(array, dim, options, this->Relabel != 0,
     [this](double f) { this->UpdateProgress(0.05 + 0.8 * f); }, encoded);
   if (!error.empty())
   {
@@ -111,36 +487,240 @@ void vtkCSGVWriter::WriteData()
     }
     return;
   }
-  const csgv::LabelMapping& mapping = encoded.mapping;
   this->UpdateProgress(0.9);
 
   csgv::VolumeMetadata md;
   md.dim = dim;
   md.geometry = geometry;
   md.originalType = encoded.originalType;
-  md.relabelled = mapping.relabelled;
+  md.relabelled = encoded.mapping.relabelled;
   md.source = "ParaView array '" + arrayName + "' (" + (isCell ? "cell" : "point") + " data)";
-  // Sidecars first, the volume last, as Core's compress does.
-  const std::string db = csgv::attributeDbPathFor(path);
-  if (mapping.relabelled)
-  {
-    status = csgv::writeAttributeDb(db, dim, mapping.originalBits, csgv::isSignedType(mapping.type));
-  }
-  else if (csgv::fileExists(db) && std::remove(db.c_str()) != 0)
-  {
-    status = csgv::Status::error("cannot remove the stale attribute database '" + db + "'");
-  }
-  if (status)
-  {
-    status = csgv::writeMetadata(csgv::metadataPathFor(path), md);
-  }
-  if (status)
-  {
-    status = csgv::writeCsgv(path, encoded.volume);
-  }
+  const csgv::Status status = writeVolumeFiles(path, md, encoded.mapping, encoded.volume);
   if (!status)
   {
     vtkErrorMacro(<< status.message());
+    return;
+  }
+  this->UpdateProgress(1.0);
+}
+
+void vtkCSGVWriter::WritePieces()
+{
+  vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
+  const int n = this->NumberOfPieces;
+  if (!c || c->GetNumberOfProcesses() != n || c->GetLocalProcessId() != this->Piece)
+  {
+    // Nothing collective can run safely: every process reports this alone.
+    vtkErrorMacro(<< "writing in " << n << " pieces needs as many MPI processes, this one "
+                  << "writing piece " << this->Piece << "; there are "
+                  << (c ? c->GetNumberOfProcesses() : 1) << " (process "
+                  << (c ? c->GetLocalProcessId() : 0) << ")");
+    return;
+  }
+  const int rank = this->Piece;
+  const std::string path = this->FileName ? this->FileName : "";
+  vtkImageData* image = this->GetInput();
+
+  // Settings are the same on every process: they fail everywhere or nowhere.
+  csgv::EncodeOptions options;
+  std::string error = checkSettings(this->FileName, this->BrickSize, this->Encoding,
+    this->Operations, this->NumberOfThreads, options);
+  if (!error.empty())
+  {
+    vtkErrorMacro(<< error);
+    return;
+  }
+
+  // Process 0 chooses the array; every process then takes it from its own piece.
+  vtkMultiProcessStream choice;
+  csgv::LabelType labelType = csgv::LabelType::U32; // process 0's, for the attribute database
+  std::string originalType;
+  if (rank == 0)
+  {
+    bool isCell = true;
+    vtkDataArray* array = image
+      ? csgvvtk::findLabelArray(image, this->LabelArrayName ? this->LabelArrayName : "", isCell)
+      : nullptr;
+    std::string name;
+    if (!image)
+    {
+      error = "the input is not image data";
+    }
+    else if (!array)
+    {
+      error = missingArrayMessage(this->LabelArrayName);
+    }
+    else
+    {
+      name = array->GetName() ? array->GetName() : "";
+      const char* typeName = csgvvtk::labelTypeNameOf(array->GetDataType(), labelType);
+      originalType = typeName ? typeName : "";
+    }
+    choice << error << name << int(isCell);
+  }
+  c->Broadcast(choice, 0);
+  std::string arrayName;
+  int cellData = 1;
+  choice >> error >> arrayName >> cellData;
+  if (!error.empty())
+  {
+    vtkErrorMacro(<< error);
+    return;
+  }
+  const bool isCell = cellData != 0;
+  int whole[6];
+  this->GetInputInformation(0, 0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  const std::array<uint32_t, 3> dims = voxelsOf(whole, isCell);
+  std::array<uint32_t, 3> lo{}, hi{};
+  const bool mine = pieceVoxels(dims, this->BrickSize, n, rank, lo, hi);
+
+  // Every process relabels when one must, with ids of the whole volume; pass 1 over this piece,
+  // counts summed over all pieces, pass 2 with the common tables.
+  csgvvtk::EncodedArray encoded;
+  MpiAgreement agreement(c, uint32_t(this->BrickSize));
+  agreement.offset = lo;
+  agreement.volumeDims = dims;
+  options.shareCounts = [&](const csgv::SymbolCounts& counts) {
+    return agreement.counts(true, counts);
+  };
+  if (mine)
+  {
+    vtkDataArray* array = image
+      ? (isCell ? static_cast<vtkDataSetAttributes*>(image->GetCellData()) : image->GetPointData())
+          ->GetArray(arrayName.c_str())
+      : nullptr;
+    vtkSmartPointer<vtkDataArray> piece;
+    if (!array)
+    {
+      error = "this process's piece has no array '" + arrayName + "'";
+    }
+    else
+    {
+      error = cropVoxels(array, image->GetExtent(), whole, isCell, lo, hi, piece);
+    }
+    if (error.empty())
+    {
+      const std::array<uint32_t, 3> size = { hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2] };
+      error = csgvvtk::encodeLabelArray(piece, size, options, this->Relabel != 0,
+        [this](double f) { this->UpdateProgress(0.05 + 0.8 * f); }, encoded, &agreement);
+    }
+  }
+  agreement.catchUp(error.empty());
+
+  // Process 0 gathers every piece (its words as a container of their own) and writes the file.
+  std::vector<uint8_t> bytes;
+  if (error.empty() && mine)
+  {
+    bytes = csgv::serializeCsgv(encoded.volume);
+    encoded.volume = csgv::CompressedVolume{};
+  }
+  vtkMultiProcessStream head;
+  head << error << static_cast<unsigned long long>(bytes.size());
+  std::vector<vtkMultiProcessStream> heads;
+  c->Gather(head, heads, 0);
+  if (rank != 0 && !bytes.empty())
+  {
+    for (size_t at = 0; at < bytes.size(); at += size_t(kMessageBytes))
+    {
+      c->Send(bytes.data() + at, std::min<vtkIdType>(kMessageBytes, vtkIdType(bytes.size() - at)), 0,
+        kPieceTag);
+    }
+  }
+  std::string outcome;
+  if (rank == 0)
+  {
+    std::vector<csgv::BrickBox> boxes(static_cast<size_t>(n));
+    std::vector<csgv::CompressedVolume> pieces(static_cast<size_t>(n));
+    this->UpdateProgress(0.85);
+    for (int r = 0; r < n; ++r)
+    {
+      std::string theirError;
+      unsigned long long size = 0;
+      heads[size_t(r)] >> theirError >> size;
+      std::vector<uint8_t> theirs;
+      if (r == 0)
+      {
+        theirs.swap(bytes);
+      }
+      else if (size > 0)
+      {
+        theirs.resize(size_t(size));
+        for (size_t at = 0; at < theirs.size(); at += size_t(kMessageBytes))
+        {
+          c->Receive(theirs.data() + at,
+            std::min<vtkIdType>(kMessageBytes, vtkIdType(theirs.size() - at)), r, kPieceTag);
+        }
+      }
+      // The first process that names a cause; the others only know that one failed.
+      if (!theirError.empty() && (outcome.empty() || outcome == kOtherFailed) &&
+        (theirError != kOtherFailed || outcome.empty()))
+      {
+        outcome = theirError == kOtherFailed ? theirError
+                                             : "process " + std::to_string(r) + ": " + theirError;
+      }
+      std::array<uint32_t, 3> plo{}, phi{};
+      if (!pieceVoxels(dims, this->BrickSize, n, r, plo, phi) || !outcome.empty())
+      {
+        continue;
+      }
+      const uint32_t b = uint32_t(this->BrickSize);
+      for (int a = 0; a < 3; ++a)
+      {
+        boxes[size_t(r)].lo[a] = plo[a] / b;
+        boxes[size_t(r)].hi[a] = (phi[a] + b - 1) / b;
+      }
+      csgv::Result<csgv::CompressedVolume> parsed = csgv::parseCsgv(theirs.data(), theirs.size());
+      if (!parsed)
+      {
+        outcome = "the piece of process " + std::to_string(r) + " is not valid: " + parsed.message();
+        continue;
+      }
+      pieces[size_t(r)] = std::move(*parsed);
+    }
+    if (outcome.empty())
+    {
+      csgv::Result<csgv::CompressedVolume> joined =
+        csgv::joinPieces(dims, boxes, pieces, options.maxArrayWords, uint64_t(64) << 30);
+      csgv::Status status = joined.status();
+      if (status)
+      {
+        this->UpdateProgress(0.9);
+        // Geometry of the whole image (this process holds a piece of it).
+        vtkNew<vtkImageData> wholeImage;
+        wholeImage->SetExtent(whole);
+        wholeImage->SetOrigin(image->GetOrigin());
+        wholeImage->SetSpacing(image->GetSpacing());
+        wholeImage->SetDirectionMatrix(image->GetDirectionMatrix());
+        std::array<uint32_t, 3> geometryDims;
+        csgv::VolumeMetadata md;
+        md.dim = dims;
+        md.geometry = csgvvtk::imageGeometry(wholeImage, isCell, geometryDims);
+        md.originalType = originalType;
+        md.relabelled = agreement.Relabelled;
+        md.source = "ParaView array '" + arrayName + "' (" + (isCell ? "cell" : "point") + " data)";
+        csgv::LabelMapping mapping;
+        mapping.relabelled = agreement.Relabelled;
+        mapping.type = labelType;
+        mapping.originalBits = std::move(agreement.Table);
+        status = writeVolumeFiles(path, md, mapping, *joined);
+      }
+      if (!status)
+      {
+        outcome = status.message();
+      }
+    }
+    else
+    {
+      outcome = path + ": " + outcome;
+    }
+  }
+  vtkMultiProcessStream result;
+  result << outcome;
+  c->Broadcast(result, 0);
+  result >> outcome;
+  if (!outcome.empty())
+  {
+    vtkErrorMacro(<< outcome);
     return;
   }
   this->UpdateProgress(1.0);

@@ -18,6 +18,14 @@
  * Every file is written under a temporary name and renamed (Core), sidecars first and the volume
  * last, so a reader never pairs a new `.csgv` with an old database. Encoding runs in parallel
  * (OpenMP) with progress per slab of bricks.
+ *
+ * Under MPI (NumberOfPieces = the processes of the global controller, Piece = this process, as
+ * ParaView's writer proxy sets them): every process asks its input for the whole bricks
+ * csgv::brickPartition gives it with this writer's BrickSize, encodes them with frequency tables
+ * of the symbol counts summed over all processes, and process 0 joins the pieces and writes the
+ * files: the same bytes as one process writes. Labels are relabelled when any piece's labels do
+ * not fit (or Relabel is on), with the ids one process would choose (process 0 merges every
+ * piece's first visits). Errors anywhere reach every process; nothing is left behind.
  */
 #ifndef vtkCSGVWriter_h
 #define vtkCSGVWriter_h
@@ -64,7 +72,18 @@ public:
   vtkSetClampMacro(NumberOfThreads, int, 0, 1024);
   vtkGetMacro(NumberOfThreads, int);
 
+  /// The process count and this process's index under MPI (ParaView's writer proxy sets them);
+  /// 1 and 0 (default) write from this process alone.
+  vtkSetClampMacro(NumberOfPieces, int, 1, VTK_INT_MAX);
+  vtkGetMacro(NumberOfPieces, int);
+  vtkSetClampMacro(Piece, int, 0, VTK_INT_MAX);
+  vtkGetMacro(Piece, int);
+
   vtkImageData* GetInput();
+
+  /// Asks the input for this piece's bricks when writing in pieces.
+  vtkTypeBool ProcessRequest(vtkInformation* request, vtkInformationVector** inputVector,
+    vtkInformationVector* outputVector) override;
 
 protected:
   vtkCSGVWriter();
@@ -72,6 +91,8 @@ protected:
 
   void WriteData() override;
   int FillInputPortInformation(int port, vtkInformation* info) override;
+  /// WriteData's work when NumberOfPieces > 1: every process runs it together.
+  void WritePieces();
 
   char* FileName = nullptr;
   char* LabelArrayName = nullptr;
@@ -80,6 +101,8 @@ protected:
   char* Operations = nullptr;
   vtkTypeBool Relabel = 0;
   int NumberOfThreads = 0;
+  int NumberOfPieces = 1;
+  int Piece = 0;
 
 private:
   vtkCSGVWriter(const vtkCSGVWriter&) = delete;

@@ -12,6 +12,7 @@
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Relabel.h"
 #include "csgv/base/Morton.h"
+#include "csgv/codec/Partition.h"
 
 #include <algorithm>
 #include <cmath>
@@ -510,6 +511,71 @@ TEST(StreamingRelabel, IdsEqualTheReferenceOrderForAnySlabOrder) {
             EXPECT_EQ(p->labels, refIds);
             EXPECT_EQ(m.originalBits, ref);
         }
+}
+
+TEST(StreamingRelabel, PiecesRelabelledApartGetTheIdsOfTheWholeVolume) {
+    // The parallel writer: every process observes its whole-brick piece, one relabeller merges
+    // the first visits and finishes, each piece maps its values with the shared table.
+    std::vector<TestVolume> volumes = wideVolumes();
+    const LabelVolume& a = sourceVolume("synthA");
+    volumes.push_back({"synthA", a.dim, LabelType::U32, std::vector<uint64_t>(a.labels.begin(), a.labels.end())});
+    for (const TestVolume& t : volumes)
+        for (uint32_t brick : {8u, 32u})
+            for (uint32_t n : {2u, 5u}) {
+                std::vector<uint32_t> refIds;
+                const std::vector<uint64_t> ref = referenceRelabel(t.dim, t.values, brick, refIds);
+                const std::array<uint32_t, 3> grid = {(t.dim[0] + brick - 1) / brick, (t.dim[1] + brick - 1) / brick,
+                                                      (t.dim[2] + brick - 1) / brick};
+                std::vector<StreamingRelabeller> pieces;
+                std::vector<std::array<uint32_t, 3>> los, sizes;
+                std::vector<std::vector<uint64_t>> values;
+                StreamingRelabeller merged(t.dim, brick);
+                for (uint32_t p = 0; p < n; ++p) {
+                    const BrickBox box = brickPartition(grid, n, p);
+                    if (box.empty()) continue;
+                    std::array<uint32_t, 3> lo{}, size{};
+                    for (int k = 0; k < 3; ++k) {
+                        lo[k] = box.lo[k] * brick;
+                        size[k] = std::min(box.hi[k] * brick, t.dim[k]) - lo[k];
+                    }
+                    std::vector<uint64_t> v;
+                    for (uint32_t z = 0; z < size[2]; ++z)
+                        for (uint32_t y = 0; y < size[1]; ++y)
+                            for (uint32_t x = 0; x < size[0]; ++x)
+                                v.push_back(t.values[size_t(lo[0] + x + uint64_t(t.dim[0]) *
+                                                                        (lo[1] + y + uint64_t(t.dim[1]) * (lo[2] + z)))]);
+                    pieces.emplace_back(t.dim, brick);
+                    pieces.back().observeBox(lo, size, v.data());
+                    for (const auto& fv : pieces.back().firstVisits()) merged.takeFirstVisit(fv.first, fv.second);
+                    los.push_back(lo);
+                    sizes.push_back(size);
+                    values.push_back(std::move(v));
+                }
+                ASSERT_TRUE(merged.finish().isOk());
+                ASSERT_EQ(merged.originalBits(), ref) << t.name << " brick " << brick << ", " << n << " pieces";
+                for (size_t p = 0; p < pieces.size(); ++p) {
+                    ASSERT_TRUE(pieces[p].useIds(merged.originalBits()).isOk());
+                    std::vector<uint32_t> ids(values[p].size());
+                    ASSERT_TRUE(pieces[p].toIds(values[p].data(), ids.size(), ids.data()));
+                    size_t i = 0;
+                    bool same = true;
+                    for (uint32_t z = 0; z < sizes[p][2]; ++z)
+                        for (uint32_t y = 0; y < sizes[p][1]; ++y)
+                            for (uint32_t x = 0; x < sizes[p][0]; ++x)
+                                same &= ids[i++] == refIds[size_t(los[p][0] + x + uint64_t(t.dim[0]) *
+                                                                            (los[p][1] + y + uint64_t(t.dim[1]) *
+                                                                                                 (los[p][2] + z)))];
+                    EXPECT_TRUE(same) << t.name << " piece " << p;
+                }
+            }
+    // A table that lacks one of the piece's labels is an error naming it.
+    StreamingRelabeller r({4, 1, 1}, 8);
+    const uint64_t v[4] = {0, 7, 9, 7};
+    r.observeBox({0, 0, 0}, {4, 1, 1}, v);
+    const Status lacking = r.useIds({0, 7});
+    ASSERT_FALSE(lacking.isOk());
+    EXPECT_NE(lacking.message().find("label 9"), std::string::npos) << lacking.message();
+    EXPECT_FALSE(r.useIds({5, 7, 9}).isOk()) << "id 0 is label 0";
 }
 
 TEST(StreamingRelabel, AdapterChecksFitMapsIdsAndReadsInBoundedSubSlabs) {

@@ -2,7 +2,8 @@
 """Run by test_mpi_pieces.py under `pvbatch --symmetric` (every rank runs it), with 1 rank and
 with N: each rank writes what its reader gave it (extent, encoding bytes) to OUT/rank<r>.json, and
 the composited images of three views go to OUT/<mode>.png (rank 0's; the others write their own
-copy, unused). Usage: mpi_pieces.py OUT"""
+copy, unused). SaveData to .csgv from every rank writes OUT/written/*: the driver compares the
+files byte for byte with one rank's. Usage: mpi_pieces.py OUT"""
 import json
 import os
 import sys
@@ -68,3 +69,25 @@ for mode in ("opaque", "translucent", "shadow"):
         facts["labels"] = csgv_tools.query(d, "labels")
 with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
     json.dump(facts, f)
+
+# Parallel SaveData: every rank encodes its bricks, rank 0 writes one file. The reader's labels
+# with other brick sizes and encodings than the file's; a plain image's point data whose labels
+# are negative (relabelled with the ids of one rank) and the same forced; one brick for all ranks
+# (the others hold none); a float array that is not integer in one place (an error on every
+# rank, no file).
+written = os.path.join(out, "written")
+if rank == 0:
+    os.makedirs(written, exist_ok=True)
+sm.vtkProcessModule.GetProcessModule().GetGlobalController().Barrier()
+labels = CSGVReader(FileName=path, DecodeLabels=1)
+for brick, encoding in ((16, 0), (32, 2), (8, 1)):
+    SaveData(os.path.join(written, "synthA_b%d_e%d.csgv" % (brick, encoding)), proxy=labels, BrickSize=brick,
+             Encoding=encoding)
+wavelet = Wavelet(WholeExtent=[0, 40, 0, 30, 0, 20])
+negative = Calculator(Input=wavelet, ResultArrayName="lab", ResultArrayType="Int", Function="floor(RTData/20)")
+SaveData(os.path.join(written, "negative.csgv"), proxy=negative, BrickSize=8, LabelArrayName="lab")
+SaveData(os.path.join(written, "forced.csgv"), proxy=labels, BrickSize=32, Relabel=1)
+SaveData(os.path.join(written, "onebrick.csgv"), proxy=negative, BrickSize=64, LabelArrayName="lab", Encoding=1)
+fraction = Calculator(Input=wavelet, ResultArrayName="f", ResultArrayType="Float",
+                      Function="floor(RTData/20) + 0.5*(coordsX==35)*(coordsY==25)*(coordsZ==15)")
+SaveData(os.path.join(written, "fraction.csgv"), proxy=fraction, BrickSize=8, LabelArrayName="f")

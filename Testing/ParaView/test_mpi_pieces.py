@@ -10,7 +10,10 @@ image, answered by all ranks together, equal one rank's; translucent materials a
 blended in visibility order (ordered compositing by the pieces' bounds) and shadows cross into
 other ranks' bricks as empty space, so they stay within a stated tolerance (a label that
 continues across a piece boundary starts a second translucent layer there; shadow rays do not
-see other ranks' bricks yet). Exit 77 (skipped) without mpiexec or pvbatch."""
+see other ranks' bricks yet). SaveData to .csgv from 2 and 4 ranks writes the files one rank
+writes, byte for byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label
+array that is not integer at one voxel fails on every rank and leaves no file.
+Exit 77 (skipped) without mpiexec or pvbatch."""
 import json
 import os
 import shutil
@@ -112,6 +115,15 @@ def main():
             got = np.load(os.path.join(outs[ranks], "level1.rank%d.npy" % p["rank"]), allow_pickle=True)
             equal &= np.array_equal(got, full[e[4]:e[5], e[2]:e[3], e[0]:e[1]])
         check(equal, "%d ranks: each piece's labels at level 1 equal its box of one rank's" % ranks)
+        # The parallel writer: the same files as one rank, byte for byte.
+        want = sorted(os.listdir(os.path.join(outs[1], "written")))
+        got = sorted(os.listdir(os.path.join(outs[ranks], "written")))
+        check(got == want and "negative_csgv.db3" in want and "onebrick.csgv" in want
+              and not any(n.startswith("fraction") for n in want),
+              "%d ranks: SaveData wrote %s (one rank: %s)" % (ranks, got, want))
+        differ = [n for n in want if n in got and open(os.path.join(outs[1], "written", n), "rb").read()
+                  != open(os.path.join(outs[ranks], "written", n), "rb").read()]
+        check(not differ, "%d ranks: written files equal one rank's byte for byte (differ: %s)" % (ranks, differ))
         for mode, tol in TOLERANCE.items():
             a = load(os.path.join(outs[1], mode + ".png"))
             b = load(os.path.join(outs[ranks], mode + ".png"))

@@ -42,21 +42,26 @@ StreamingRelabeller::StreamingRelabeller(const std::array<uint32_t, 3>& dim, uin
 }
 
 void StreamingRelabeller::observe(uint32_t z0, uint32_t depth, const uint64_t* values) {
+    observeBox({0, 0, z0}, {m_dim[0], m_dim[1], depth}, values);
+}
+
+void StreamingRelabeller::observeBox(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& size,
+                                     const uint64_t* values) {
     // Along a row (fixed y, z) positions grow with x: inside a brick the Morton index grows with
     // x, and the next brick along x has a larger brick code. So a run of equal values is first
     // visited at its first voxel, and one lookup per run suffices.
-    const uint32_t W = m_dim[0], H = m_dim[1];
+    const uint32_t W = size[0], H = size[1];
     uint64_t lastValue = 0;
     Entry* last = nullptr;
-    for (uint32_t z = z0; z < z0 + depth; ++z)
+    for (uint32_t z = 0; z < size[2]; ++z)
         for (uint32_t y = 0; y < H; ++y) {
-            const uint64_t* row = values + (uint64_t(z - z0) * H + y) * W;
+            const uint64_t* row = values + (uint64_t(z) * H + y) * W;
             for (uint32_t x = 0; x < W;) {
                 const uint64_t v = row[x];
                 const uint32_t start = x;
                 while (x < W && row[x] == v) ++x;
                 if (v == 0) continue;
-                const VisitPosition p = visitPosition(start, y, z, m_shift);
+                const VisitPosition p = visitPosition(lo[0] + start, lo[1] + y, lo[2] + z, m_shift);
                 if (!last || v != lastValue) {
                     auto ins = m_entries.try_emplace(v, Entry{p, 0});
                     last = &ins.first->second; // node addresses survive rehashing
@@ -66,6 +71,38 @@ void StreamingRelabeller::observe(uint32_t z0, uint32_t depth, const uint64_t* v
                 if (p < last->first) last->first = p;
             }
         }
+}
+
+std::vector<std::pair<uint64_t, VisitPosition>> StreamingRelabeller::firstVisits() const {
+    std::vector<std::pair<uint64_t, VisitPosition>> out;
+    out.reserve(m_entries.size());
+    for (const auto& kv : m_entries) out.push_back({kv.first, kv.second.first});
+    return out;
+}
+
+void StreamingRelabeller::takeFirstVisit(uint64_t value, const VisitPosition& position) {
+    if (value == 0) return;
+    auto ins = m_entries.try_emplace(value, Entry{position, 0});
+    if (!ins.second && position < ins.first->second.first) ins.first->second.first = position;
+}
+
+Status StreamingRelabeller::useIds(const std::vector<uint64_t>& originalBits) {
+    if (originalBits.empty() || originalBits[0] != 0 || originalBits.size() > 0xFFFFFFFFull)
+        return Status::error("an id table starts with id 0 for label 0 and has fewer than 2^32 ids");
+    size_t found = 0;
+    for (size_t id = 1; id < originalBits.size(); ++id) {
+        auto it = m_entries.find(originalBits[id]);
+        if (it == m_entries.end()) continue;
+        it->second.id = uint32_t(id);
+        ++found;
+    }
+    if (found != m_entries.size())
+        for (const auto& kv : m_entries)
+            if (kv.second.id == 0)
+                return Status::error("label " + std::to_string(kv.first) + " has no id in the shared id table");
+    m_originalBits = originalBits;
+    m_finished = true;
+    return Status::ok();
 }
 
 Status StreamingRelabeller::finish() {

@@ -58,6 +58,17 @@ public:
     StreamingRelabeller(const std::array<uint32_t, 3>& dim, uint32_t brickSize);
     /// Pass 1: values of slices [z0, z0 + depth), x fastest.
     void observe(uint32_t z0, uint32_t depth, const uint64_t* values);
+    /// Pass 1 over a box of the volume: `size` voxels from `lo`, x fastest (a piece of a volume
+    /// relabelled in pieces, one relabeller each; see firstVisits).
+    void observeBox(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& size, const uint64_t* values);
+    /// @brief Relabelling in pieces: each piece's relabeller observes its box, one relabeller
+    /// takes every piece's first visits (takeFirstVisit) and finishes; the others take its
+    /// originalBits (useIds) for their own labels. The ids are those of one relabeller seeing all.
+    std::vector<std::pair<uint64_t, VisitPosition>> firstVisits() const;
+    void takeFirstVisit(uint64_t value, const VisitPosition& position);
+    /// Ends pass 1 with ids chosen elsewhere (id -> original bits, [0] = 0); fails naming a label
+    /// this relabeller saw that they lack.
+    Status useIds(const std::vector<uint64_t>& originalBits);
     /// Ends pass 1; fails when there are more labels than ids (2^32 - 1 with 0).
     Status finish();
     /// Pass 2: ids of `count` values. Returns false at the first value pass 1 never saw (the
