@@ -2,6 +2,7 @@
 """Runs a pvpython client script against a fresh pvserver on a free local port, up to three
 times: Xvfb drops some simultaneous connections ("bad X server connection"), which is no fault
 of the code under test; retries run under a private Xvfb on a random display.
+With CSGV_SERVER_RANKS=N (N > 1) the server runs as `mpiexec -np N pvserver`.
 Usage: clientserver_driver.py [--once] PVSERVER PVPYTHON SCRIPT."""
 import os
 import random
@@ -22,7 +23,11 @@ def free_port():
 
 def attempt(pvserver, pvpython, script):
     port = free_port()
-    server = subprocess.Popen([pvserver, "--force-offscreen-rendering", "--server-port=%d" % port],
+    command = [pvserver, "--force-offscreen-rendering", "--server-port=%d" % port]
+    ranks = int(os.environ.get("CSGV_SERVER_RANKS", "1"))
+    if ranks > 1:
+        command = [shutil.which("mpiexec"), "-np", str(ranks)] + command
+    server = subprocess.Popen(command,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
     deadline = time.time() + 60
