@@ -13,6 +13,7 @@
 #include "csgv/materials/Materials.h"
 #include "csgv/inputs/Procedural.h"
 #include "csgv/inputs/Relabel.h"
+#include "csgv/codec/Partition.h"
 
 #include <cmath>
 #include <filesystem>
@@ -486,6 +487,57 @@ TEST(AttributesComputed, EqualBruteForceOnSyntheticVolumes) {
         ASSERT_TRUE(inner.isOk()) << inner.message();
         expectMatchesReference(*inner, bruteForce(*decoded, false));
     }
+}
+
+TEST(AttributesComputed, PiecesSummedWithTheirLayersEqualTheWholeVolume) {
+    // MPI ranks: each computes the sums of its whole-brick piece, the sums are added, faces
+    // between touching pieces come from their outer layers; the table equals the whole volume's.
+    const LabelVolume src = synthVolume(70, 45, 33, 7, 6);
+    for (uint32_t brick : {8u, 16u}) {
+        const CompressedVolume vol = compress(src, brick);
+        for (bool boundary : {true, false}) {
+            ComputeAttributesOptions o;
+            o.countBoundaryFaces = boundary;
+            Result<AttributeTable> whole = computeAttributes(vol, o);
+            ASSERT_TRUE(whole.isOk()) << whole.message();
+            for (uint32_t n : {2u, 3u, 5u, 8u}) {
+                SCOPED_TRACE("brick " + std::to_string(brick) + ", " + std::to_string(n) + " pieces");
+                AttributeSums total;
+                std::vector<PieceLayers> layers;
+                for (uint32_t p = 0; p < n; ++p) {
+                    const BrickBox box = brickPartition(vol.brickGrid(), n, p);
+                    if (box.empty()) continue;
+                    Result<CompressedVolume> piece = extractPiece(vol, box);
+                    ASSERT_TRUE(piece.isOk()) << piece.message();
+                    const std::array<uint32_t, 3> offset = {box.lo[0] * brick, box.lo[1] * brick, box.lo[2] * brick};
+                    Result<AttributeSums> sums = computeAttributeSums(*piece, o, offset, vol.dim);
+                    ASSERT_TRUE(sums.isOk()) << sums.message();
+                    total.add(*sums);
+                    Result<PieceLayers> l = pieceLayers(*piece, offset, vol.dim);
+                    ASSERT_TRUE(l.isOk()) << l.message();
+                    layers.push_back(std::move(*l));
+                }
+                AttributeSums withoutFaces = total;
+                addFacesBetweenPieces(total, layers);
+                Result<AttributeTable> joined = attributeTable(total, o);
+                ASSERT_TRUE(joined.isOk()) << joined.message();
+                expectSameTable(*whole, *joined);
+                // Without the faces between pieces the surface areas are short.
+                Result<AttributeTable> short_ = attributeTable(withoutFaces, o);
+                ASSERT_TRUE(short_.isOk());
+                auto faces = [](const AttributeTable& t) {
+                    double sum = 0;
+                    for (double v : t.column("surface_area")->values) sum += v;
+                    return sum;
+                };
+                EXPECT_LT(faces(*short_), faces(*whole));
+            }
+        }
+    }
+    // A piece that does not fit its volume is an error.
+    const CompressedVolume vol = compress(src, 16);
+    EXPECT_FALSE(computeAttributeSums(vol, {}, {1, 0, 0}, vol.dim).isOk());
+    EXPECT_FALSE(pieceLayers(vol, {0, 0, 1}, vol.dim).isOk());
 }
 
 TEST(AttributesComputed, RelabelledVolumesReportOriginalLabels) {

@@ -157,7 +157,97 @@ const std::vector<std::string>& computedAttributeNames() {
     return names;
 }
 
+namespace {
+
+LabelStats statsAt(const AttributeSums& sums, size_t i) {
+    const uint64_t* v = sums.values.data() + i * AttributeSums::kValues;
+    LabelStats s;
+    s.count = v[0];
+    s.faces = v[1];
+    for (int a = 0; a < 3; ++a) {
+        s.sum[a] = v[2 + a];
+        s.min[a] = uint32_t(v[5 + a]);
+        s.max[a] = uint32_t(v[8 + a]);
+    }
+    return s;
+}
+
+void putStats(const LabelStats& s, uint64_t* v) {
+    v[0] = s.count;
+    v[1] = s.faces;
+    for (int a = 0; a < 3; ++a) {
+        v[2 + a] = s.sum[a];
+        v[5 + a] = s.min[a];
+        v[8 + a] = s.max[a];
+    }
+}
+
+} // namespace
+
+void AttributeSums::add(const AttributeSums& other) {
+    AttributeSums out;
+    out.keys.reserve(keys.size() + other.keys.size());
+    out.values.reserve(values.size() + other.values.size());
+    size_t i = 0, j = 0;
+    while (i < keys.size() || j < other.keys.size()) {
+        LabelStats s;
+        uint32_t key;
+        if (j >= other.keys.size() || (i < keys.size() && keys[i] < other.keys[j])) {
+            key = keys[i];
+            s = statsAt(*this, i++);
+        } else if (i >= keys.size() || other.keys[j] < keys[i]) {
+            key = other.keys[j];
+            s = statsAt(other, j++);
+        } else {
+            key = keys[i];
+            s = statsAt(*this, i++);
+            s.add(statsAt(other, j++));
+        }
+        out.keys.push_back(key);
+        out.values.resize(out.values.size() + kValues);
+        putStats(s, out.values.data() + out.values.size() - kValues);
+    }
+    *this = std::move(out);
+}
+
+void AttributeSums::addFacesBetween(const uint32_t* a, const uint32_t* b, size_t n) {
+    auto facesOf = [&](uint32_t key) -> uint64_t* {
+        const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+        if (it == keys.end() || *it != key) {
+            // A label only a neighbour's layer shows (its piece's sums were not added yet).
+            const size_t at = size_t(it - keys.begin());
+            keys.insert(it, key);
+            LabelStats s;
+            std::vector<uint64_t> v(kValues);
+            putStats(s, v.data());
+            values.insert(values.begin() + std::ptrdiff_t(at * kValues), v.begin(), v.end());
+            return &values[at * kValues + 1];
+        }
+        return &values[size_t(it - keys.begin()) * kValues + 1];
+    };
+    for (size_t x = 0; x < n;) {
+        const uint32_t va = a[x], vb = b[x];
+        if (va == vb) {
+            ++x;
+            continue;
+        }
+        size_t x1 = x + 1;
+        while (x1 < n && a[x1] == va && b[x1] == vb) ++x1;
+        *facesOf(va) += x1 - x;
+        *facesOf(vb) += x1 - x;
+        x = x1;
+    }
+}
+
 Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const ComputeAttributesOptions& options) {
+    Result<AttributeSums> sums = computeAttributeSums(vol, options);
+    if (!sums) return sums.status();
+    return attributeTable(*sums, options);
+}
+
+Result<AttributeSums> computeAttributeSums(const CompressedVolume& vol, const ComputeAttributesOptions& options,
+                                           const std::array<uint32_t, 3>& offset,
+                                           const std::array<uint32_t, 3>& volumeDims) {
     Status check = checkContainer(vol);
     if (!check) return check;
     const uint32_t B = vol.brickSize;
@@ -166,6 +256,17 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
     const uint64_t layerBricks = uint64_t(grid[0]) * grid[1];
     const size_t faceSize = size_t(B) * B;
     const bool countBoundary = options.countBoundaryFaces;
+    // Which sides of this volume are the whole volume's (a piece's inner sides are not).
+    std::array<bool, 6> outer{};
+    for (int a = 0; a < 3; ++a) {
+        const uint32_t whole = volumeDims[a] ? volumeDims[a] : offset[a] + dim[a];
+        if (uint64_t(offset[a]) + dim[a] > whole)
+            return Status::error("a piece of " + std::to_string(dim[a]) + " voxels at " + std::to_string(offset[a]) +
+                                 " along axis " + std::to_string(a) + " does not fit a volume of " +
+                                 std::to_string(whole));
+        outer[size_t(2 * a)] = offset[a] == 0;
+        outer[size_t(2 * a + 1)] = offset[a] + dim[a] == whole;
+    }
 
     // Faces left behind by the bricks of the current layer (6 per brick), and the +z faces of the
     // previous layer. Faces are B x B, indexed (u + v * B) with (u, v) = (y, z), (x, z), (x, y).
@@ -222,9 +323,11 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
                         record(b, st);
                         continue;
                     }
-                    const uint32_t o[3] = {bx * B, by * B, bz * B};
-                    const uint32_t ex = std::min(B, dim[0] - o[0]), ey = std::min(B, dim[1] - o[1]),
-                                   ez = std::min(B, dim[2] - o[2]);
+                    const uint32_t lo[3] = {bx * B, by * B, bz * B};
+                    const uint32_t ex = std::min(B, dim[0] - lo[0]), ey = std::min(B, dim[1] - lo[1]),
+                                   ez = std::min(B, dim[2] - lo[2]);
+                    // Voxel indices of the volume this is a piece of.
+                    const uint32_t o[3] = {offset[0] + lo[0], offset[1] + lo[1], offset[2] + lo[2]};
                     const uint32_t* labels = decoder.labels();
                     bool reserved = false;
                     for (uint32_t z = 0; z < ez; ++z)
@@ -318,22 +421,22 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
                     local.clear();
                     at.reset();
                     other.reset();
-                    auto boundary = [&](const uint32_t* face, uint32_t nu, uint32_t nv) {
-                        if (!countBoundary) return;
+                    auto boundary = [&](Side side, const uint32_t* face, uint32_t nu, uint32_t nv) {
+                        if (!countBoundary || !outer[side]) return;
                         for (uint32_t v = 0; v < nv; ++v) boundaryFaces(face + v * B, nu, at);
                     };
                     auto across = [&](const uint32_t* mine, const uint32_t* theirs, uint32_t nu, uint32_t nv) {
                         for (uint32_t v = 0; v < nv; ++v) facesBetween(mine + v * B, theirs + v * B, nu, at, other);
                     };
-                    if (bx == 0) boundary(f + kMinusX * faceSize, ey, ez);
-                    if (bx + 1 == grid[0]) boundary(f + kPlusX * faceSize, ey, ez);
+                    if (bx == 0) boundary(kMinusX, f + kMinusX * faceSize, ey, ez);
+                    if (bx + 1 == grid[0]) boundary(kPlusX, f + kPlusX * faceSize, ey, ez);
                     else across(f + kPlusX * faceSize, f + (6 + kMinusX) * faceSize, ey, ez);
-                    if (by == 0) boundary(f + kMinusY * faceSize, ex, ez);
-                    if (by + 1 == grid[1]) boundary(f + kPlusY * faceSize, ex, ez);
+                    if (by == 0) boundary(kMinusY, f + kMinusY * faceSize, ex, ez);
+                    if (by + 1 == grid[1]) boundary(kPlusY, f + kPlusY * faceSize, ex, ez);
                     else across(f + kPlusY * faceSize, f + (6 * size_t(grid[0]) + kMinusY) * faceSize, ex, ez);
-                    if (bz == 0) boundary(f + kMinusZ * faceSize, ex, ey);
+                    if (bz == 0) boundary(kMinusZ, f + kMinusZ * faceSize, ex, ey);
                     else across(f + kMinusZ * faceSize, pz, ex, ey);
-                    if (bz + 1 == grid[2]) boundary(f + kPlusZ * faceSize, ex, ey);
+                    if (bz + 1 == grid[2]) boundary(kPlusZ, f + kPlusZ * faceSize, ex, ey);
                     else std::memcpy(pz, f + kPlusZ * faceSize, faceSize * 4);
                     total.addAll(local);
                 } catch (const std::bad_alloc&) {
@@ -352,9 +455,79 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
             perThread[t] = StatsMap();
         }
         const auto& entries = all.entries();
-        std::vector<std::pair<int64_t, uint32_t>> keyed(entries.size()); // label, entry
-        for (size_t e = 0; e < entries.size(); ++e) {
-            const uint32_t key = entries[e].key;
+        std::vector<std::pair<uint32_t, uint32_t>> keyed(entries.size()); // key, entry
+        for (size_t e = 0; e < entries.size(); ++e) keyed[e] = {entries[e].key, uint32_t(e)};
+        std::sort(keyed.begin(), keyed.end());
+        AttributeSums sums;
+        sums.keys.resize(keyed.size());
+        sums.values.resize(keyed.size() * AttributeSums::kValues);
+        for (size_t r = 0; r < keyed.size(); ++r) {
+            sums.keys[r] = keyed[r].first;
+            putStats(entries[keyed[r].second].stats, sums.values.data() + r * AttributeSums::kValues);
+        }
+        return sums;
+    } catch (const std::bad_alloc&) {
+        return Status::error("not enough memory for the attributes of every label");
+    }
+}
+
+Result<PieceLayers> pieceLayers(const CompressedVolume& piece, const std::array<uint32_t, 3>& offset,
+                                const std::array<uint32_t, 3>& volumeDims) {
+    PieceLayers out;
+    for (int a = 0; a < 3; ++a) {
+        out.lo[a] = offset[a];
+        out.hi[a] = offset[a] + piece.dim[a];
+        if (out.hi[a] > volumeDims[a] || out.hi[a] < out.lo[a])
+            return Status::error("a piece of " + std::to_string(piece.dim[a]) + " voxels at " +
+                                 std::to_string(offset[a]) + " along axis " + std::to_string(a) +
+                                 " does not fit a volume of " + std::to_string(volumeDims[a]));
+    }
+    for (int side = 0; side < 6; ++side) {
+        const int a = side / 2;
+        const bool plus = side % 2 == 1;
+        if (plus ? out.hi[a] == volumeDims[a] : out.lo[a] == 0) continue;
+        Box box;
+        box.max = piece.dim;
+        box.min[a] = plus ? piece.dim[a] - 1 : 0;
+        box.max[a] = box.min[a] + 1;
+        Result<LabelVolume> layer = decodeRegion(piece, 0, box);
+        if (!layer) return layer.status();
+        // x fastest, then y, then z: with one axis flat that is the other two in order.
+        out.layers[size_t(side)] = std::move(layer->labels);
+    }
+    return out;
+}
+
+void addFacesBetweenPieces(AttributeSums& sums, const std::vector<PieceLayers>& pieces) {
+    std::vector<uint32_t> rowA, rowB;
+    for (const PieceLayers& A : pieces)
+        for (const PieceLayers& B : pieces)
+            for (int a = 0; a < 3; ++a) {
+                // A's + side against B's - side.
+                const std::vector<uint32_t>& la = A.layers[size_t(2 * a + 1)];
+                const std::vector<uint32_t>& lb = B.layers[size_t(2 * a)];
+                if (&A == &B || A.hi[a] != B.lo[a] || la.empty() || lb.empty()) continue;
+                const int u = a == 0 ? 1 : 0, v = a == 2 ? 1 : 2;
+                const uint32_t u0 = std::max(A.lo[u], B.lo[u]), u1 = std::min(A.hi[u], B.hi[u]);
+                const uint32_t v0 = std::max(A.lo[v], B.lo[v]), v1 = std::min(A.hi[v], B.hi[v]);
+                if (u0 >= u1 || v0 >= v1) continue;
+                const size_t wa = A.hi[u] - A.lo[u], wb = B.hi[u] - B.lo[u];
+                for (uint32_t y = v0; y < v1; ++y) {
+                    const uint32_t* ra = la.data() + size_t(y - A.lo[v]) * wa + (u0 - A.lo[u]);
+                    const uint32_t* rb = lb.data() + size_t(y - B.lo[v]) * wb + (u0 - B.lo[u]);
+                    sums.addFacesBetween(ra, rb, u1 - u0);
+                }
+            }
+}
+
+Result<AttributeTable> attributeTable(const AttributeSums& sums, const ComputeAttributesOptions& options) {
+    try {
+        if (sums.values.size() != sums.keys.size() * AttributeSums::kValues)
+            return Status::error("attribute sums hold " + std::to_string(sums.values.size()) + " values for " +
+                                 std::to_string(sums.keys.size()) + " labels");
+        std::vector<std::pair<int64_t, uint32_t>> keyed(sums.keys.size()); // label, row of the sums
+        for (size_t e = 0; e < sums.keys.size(); ++e) {
+            const uint32_t key = sums.keys[e];
             int64_t label = key;
             if (options.idToLabel) {
                 if (key >= options.idToLabel->size())
@@ -378,7 +551,9 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& vol, const Comp
             cols[c].values.resize(keyed.size());
         }
         for (size_t r = 0; r < keyed.size(); ++r) {
-            const LabelStats& s = entries[keyed[r].second].stats;
+            const LabelStats s = statsAt(sums, keyed[r].second);
+            if (s.count == 0)
+                return Status::error("label " + std::to_string(keyed[r].first) + " has faces but no voxels");
             cols[0].values[r] = double(s.count);
             cols[1].values[r] = double(s.faces);
             for (int a = 0; a < 3; ++a) {

@@ -181,4 +181,43 @@ Result<AttributeTable> computeAttributes(const CompressedVolume& volume, const C
 /// The same for an opened file: ids are mapped to original labels when it was relabelled.
 Result<AttributeTable> computeAttributes(const CsgvFile& file, int threads = 0);
 
+/// @brief The exact integer statistics behind computeAttributes(), per stored label, for a
+/// volume held in whole-brick pieces (MPI ranks): every piece gives its sums
+/// (computeAttributeSums with its offset), the sums add up, addFacesBetween adds the faces across
+/// the pieces' touching sides from their outer voxel layers, and attributeTable() of the total
+/// equals computeAttributes() of the whole volume, bit for bit.
+struct AttributeSums {
+    /// Values per label: count, faces, sum x, y, z, min x, y, z, max x, y, z (voxel indices of
+    /// the volume).
+    static constexpr size_t kValues = 11;
+    std::vector<uint32_t> keys;   ///< stored labels, ascending
+    std::vector<uint64_t> values; ///< kValues per key
+    /// Merges another piece's sums.
+    void add(const AttributeSums& other);
+    /// Faces between two touching layers of n voxels (a[i] faces b[i]): one face more for each
+    /// side of every pair of different labels.
+    void addFacesBetween(const uint32_t* a, const uint32_t* b, size_t n);
+};
+/// The sums of `volume`, which is the piece of a volume of `volumeDims` voxels (zero: the piece is
+/// the volume) whose voxel (0,0,0) is voxel `offset`: voxel indices are the volume's, and the
+/// faces on the piece's sides inside the volume are left out (its neighbours' layers settle them).
+Result<AttributeSums> computeAttributeSums(const CompressedVolume& volume, const ComputeAttributesOptions& options = {},
+                                           const std::array<uint32_t, 3>& offset = {},
+                                           const std::array<uint32_t, 3>& volumeDims = {});
+/// @brief A piece's outer voxel layers on its sides inside the volume, which settle the faces
+/// between pieces (addFacesBetweenPieces).
+struct PieceLayers {
+    std::array<uint32_t, 3> lo{}, hi{}; ///< the piece's voxels [lo, hi) in the volume
+    /// Sides -x, +x, -y, +y, -z, +z: the voxels of the piece's first or last plane across that
+    /// axis, the other two axes in order (the lower one fastest); empty on the volume's boundary.
+    std::array<std::vector<uint32_t>, 6> layers;
+};
+/// The layers of `piece` (voxel (0,0,0) at `offset` of a volume of `volumeDims`), decoded.
+Result<PieceLayers> pieceLayers(const CompressedVolume& piece, const std::array<uint32_t, 3>& offset,
+                                const std::array<uint32_t, 3>& volumeDims);
+/// Adds the faces across every pair of touching pieces (disjoint boxes) to `sums`.
+void addFacesBetweenPieces(AttributeSums& sums, const std::vector<PieceLayers>& pieces);
+/// The table computeAttributes() gives for these sums (options.idToLabel maps stored ids).
+Result<AttributeTable> attributeTable(const AttributeSums& sums, const ComputeAttributesOptions& options = {});
+
 } // namespace csgv
