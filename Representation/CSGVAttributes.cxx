@@ -213,8 +213,13 @@ std::shared_ptr<const csgv::AttributeTable> AttributeCache::get(
     return nullptr;
   }
   const vtkMTimeType fieldTime = image && image->GetFieldData() ? image->GetFieldData()->GetMTime() : 0;
+  const void* computed = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(volumeMutex());
+    computed = source.shared->computed.get();
+  }
   if (this->Valid && this->Volume == source.shared.get() && this->FieldTime == fieldTime &&
-    this->Config == config)
+    this->Config == config && (!config.computed || this->Computed == computed))
   {
     error = this->Error;
     return this->Table;
@@ -223,6 +228,10 @@ std::shared_ptr<const csgv::AttributeTable> AttributeCache::get(
   this->Error = buildTable(image, source, config, *table);
   this->Table = this->Error.empty() ? std::shared_ptr<const csgv::AttributeTable>(table) : nullptr;
   this->Volume = source.shared.get();
+  {
+    std::lock_guard<std::mutex> lock(volumeMutex());
+    this->Computed = source.shared->computed.get();
+  }
   this->FieldTime = fieldTime;
   this->Config = config;
   this->Valid = true;

@@ -57,6 +57,7 @@ public:
 
 private:
   const SharedVolume* Volume = nullptr;
+  const void* Computed = nullptr; ///< the volume's computed table when built (ranks replace it)
   vtkMTimeType FieldTime = 0;
   AttributeConfig Config;
   std::shared_ptr<const csgv::AttributeTable> Table;

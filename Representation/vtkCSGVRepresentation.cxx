@@ -2,6 +2,7 @@
 #include "vtkCSGVRepresentation.h"
 
 #include "CSGVAttributes.h"
+#include "CSGVPieceAttributes.h"
 #include "CSGVViewRenderer.h"
 #include "CSGVVolumeCache.h"
 #include "vtkCSGVVolumeProp.h"
@@ -10,6 +11,7 @@
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
+#include <vtkMultiProcessController.h>
 #include <vtkObjectFactory.h>
 #include <vtkPVRenderView.h>
 #include <vtkPVView.h>
@@ -31,6 +33,10 @@ struct vtkCSGVRepresentation::vtkInternals
   csgvrep::VolumeSource Source;
   std::string Error;
   std::string Reported; ///< the last error reported (each is said once)
+  /// RequestData runs (the same count on every rank) and the one whose computed attributes the
+  /// ranks reduced together.
+  unsigned long DataGeneration = 0;
+  unsigned long ReducedGeneration = 0;
 };
 
 vtkCSGVRepresentation::vtkCSGVRepresentation()
@@ -113,6 +119,7 @@ int vtkCSGVRepresentation::RequestData(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
   this->Cache = nullptr;
+  ++this->Internals->DataGeneration;
   if (inputVector[0]->GetNumberOfInformationObjects() == 1)
   {
     if (vtkImageData* input = vtkImageData::GetData(inputVector[0], 0))
@@ -173,7 +180,9 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     // The data stays where it is (the server in client/server mode): images travel, not labels.
     vtkPVRenderView::SetDeliverToClientAndRenderingProcesses(inInfo, this, false, false);
     double bounds[6];
-    if (this->Cache && this->ResolveInput(this->Cache) && this->Internals->Source.bounds(bounds))
+    const bool resolved = this->Cache && this->ResolveInput(this->Cache);
+    this->ReduceComputedAttributes(resolved);
+    if (resolved && this->Internals->Source.bounds(bounds))
     {
       // This rank's piece (the reader hands each rank whole bricks; a piece is a volume of its
       // own). Translucent materials need the pieces blended front to back: ParaView 5.11's
@@ -347,6 +356,32 @@ void vtkCSGVRepresentation::SetComputedAttributes(int on)
 {
   this->ComputedAttributes = on;
   this->PushAttributes();
+  // Under MPI the ranks compute them together in the next update.
+  this->MarkModified();
+}
+
+void vtkCSGVRepresentation::ReduceComputedAttributes(bool resolved)
+{
+  vtkInternals& in = *this->Internals;
+  vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
+  // Every rank decides alike: the property and the count of data updates are the same on all.
+  if (!this->ComputedAttributes || !c || c->GetNumberOfProcesses() < 2 ||
+    in.ReducedGeneration == in.DataGeneration)
+  {
+    return;
+  }
+  in.ReducedGeneration = in.DataGeneration;
+  bool reduced = false;
+  const std::string error = csgvrep::reduceComputedAttributes(
+    c, resolved ? this->Cache.Get() : nullptr, resolved ? in.Source : csgvrep::VolumeSource{}, reduced);
+  if (!error.empty())
+  {
+    vtkErrorMacro(<< "Segmentation Volume: " << error);
+  }
+  if (reduced)
+  {
+    this->Prop->AttributesChanged();
+  }
 }
 
 const char* vtkCSGVRepresentation::Query(const char* request)

@@ -107,6 +107,7 @@ public:
   void ClearAttributeFiles();
   void AddDerivedAttribute(const char* name, const char* expression);
   void ClearDerivedAttributes();
+  /// Under MPI with pieces of a .csgv, the ranks compute them together (whole-volume values).
   void SetComputedAttributes(int on);
   vtkGetMacro(ComputedAttributes, int);
 
@@ -154,6 +155,9 @@ private:
   /// Resolves the input once per (image, modification time, label array) and reports a failure
   /// once; returns true when there is something to draw.
   bool ResolveInput(vtkImageData* image);
+  /// Under MPI, the ranks' computed attributes of one volume, once per data update (collective;
+  /// `resolved`: this rank has a volume).
+  void ReduceComputedAttributes(bool resolved);
 
   vtkSmartPointer<vtkImageData> Cache;
   vtkCSGVVolumeProp* Prop;

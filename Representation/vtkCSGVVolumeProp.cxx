@@ -277,6 +277,12 @@ void vtkCSGVVolumeProp::SetAttributeConfig(const csgvrep::AttributeConfig& confi
   }
 }
 
+void vtkCSGVVolumeProp::AttributesChanged()
+{
+  this->P->AttributesDirty = true;
+  this->Modified();
+}
+
 void vtkCSGVVolumeProp::Report(const std::string& message)
 {
   if (message == this->P->LastError)

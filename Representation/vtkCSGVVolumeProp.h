@@ -74,6 +74,8 @@ public:
   void SetMaterials(const std::string& json);
   /// Where per-label attributes come from besides the input's FieldData (CSGVAttributes.h).
   void SetAttributeConfig(const csgvrep::AttributeConfig& config);
+  /// The attribute table behind the materials changed (computed attributes of all ranks).
+  void AttributesChanged();
 
   /// Answers a query of vtkCSGVQuery (the commands: CSGVQueryProtocol.h).
   std::string Query(const std::string& request);

@@ -50,9 +50,14 @@ v.CameraFocalPoint = [66, 35, 97]
 v.CameraViewUp = [0, 0, 1]
 glass = json.dumps({"version": 1, "materials": [
     {"name": "glass", "filter": {"attribute": "label", "min": 1, "max": 4294967294}, "opacity": 0.4}]})
-for mode in ("opaque", "translucent", "shadow"):
-    d.CSGVMaterials = glass if mode == "translucent" else ""
+# Computed attributes are the whole volume's on every rank (summed over the ranks): a material
+# that keeps the labels of more than 3000 voxels draws what one rank draws.
+big = json.dumps({"version": 1, "materials": [
+    {"name": "big", "filter": {"attribute": "voxel_count", "min": 3000, "max": 1e12}}]})
+for mode in ("opaque", "translucent", "shadow", "computed"):
+    d.CSGVMaterials = glass if mode == "translucent" else big if mode == "computed" else ""
     d.CSGVShading = "shadow" if mode == "shadow" else "local"
+    d.CSGVComputedAttributes = 1 if mode == "computed" else 0
     Render(v)
     facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
     name = mode + (".png" if rank == 0 else ".rank%d.png" % rank)
@@ -67,6 +72,17 @@ for mode in ("opaque", "translucent", "shadow"):
                 picks["%d %d" % (x, y)] = [p.get("hit"), p.get("label"), p.get("voxel")]
         facts["picks"] = picks
         facts["labels"] = csgv_tools.query(d, "labels")
+    if mode == "computed":
+        # The attributes of picked labels: whole-volume values on every rank.
+        computed = {}
+        for y in range(4, 120, 12):
+            for x in range(4, 160, 12):
+                p = csgv_tools.pick(d, x, y)
+                if p.get("hit"):
+                    a = p.get("attributes", {})
+                    computed[str(p["label"])] = [a.get(k) for k in ("voxel_count", "surface_area", "bbox_min_x",
+                                                                    "bbox_max_z", "centroid_y")]
+        facts["computed"] = computed
 with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
     json.dump(facts, f)
 

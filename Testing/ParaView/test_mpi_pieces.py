@@ -10,7 +10,8 @@ image, answered by all ranks together, equal one rank's; translucent materials a
 blended in visibility order (ordered compositing by the pieces' bounds) and shadows cross into
 other ranks' bricks as empty space, so they stay within a stated tolerance (a label that
 continues across a piece boundary starts a second translucent layer there; shadow rays do not
-see other ranks' bricks yet). SaveData to .csgv from 2 and 4 ranks writes the files one rank
+see other ranks' bricks yet). Computed attributes are summed over the ranks: a material filtered
+by voxel count draws one rank's image and picks report one rank's values. SaveData to .csgv from 2 and 4 ranks writes the files one rank
 writes, byte for byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label
 array that is not integer at one voxel fails on every rank and leaves no file.
 Exit 77 (skipped) without mpiexec or pvbatch."""
@@ -28,7 +29,7 @@ from vtkmodules.vtkIOImage import vtkPNGReader
 HERE = os.path.dirname(os.path.abspath(__file__))
 BRICK = 16
 # Pixels (share) allowed to differ from one rank by more than 16/255, per mode and rank count.
-TOLERANCE = {"opaque": 0.0, "translucent": 0.06, "shadow": 0.05}
+TOLERANCE = {"opaque": 0.0, "translucent": 0.06, "shadow": 0.05, "computed": 0.0}
 failures = []
 
 
@@ -107,6 +108,9 @@ def main():
         check(len(same) == len(want) and hits > len(want) // 4,
               "%d ranks: %d of %d picks (%d hits) equal one rank's" % (ranks, len(same), len(want), hits))
         check(pieces[0]["labels"] == whole["labels"], "%d ranks: the label image equals one rank's" % ranks)
+        got, want = pieces[0]["computed"], whole["computed"]
+        check(len(want) > 3 and got == want, "%d ranks: computed attributes of %d picked labels equal one rank's%s"
+              % (ranks, len(want), "" if got == want else " (%s vs %s)" % (got, want)))
         # Labels decoded from the pieces at level 1 are the boxes of one rank's.
         full = np.load(os.path.join(outs[1], "level1.rank0.npy"), allow_pickle=True)
         equal = True

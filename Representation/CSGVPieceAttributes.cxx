@@ -1,0 +1,177 @@
+// SPDX-License-Identifier: MIT
+#include "CSGVPieceAttributes.h"
+
+#include "CSGVAdapter.h"
+
+#include "csgv/attributes/Attributes.h"
+
+#include <vtkCommunicator.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkMultiProcessController.h>
+#include <vtkMultiProcessStream.h>
+
+#include <mutex>
+
+namespace csgvrep
+{
+
+namespace
+{
+
+template <class T>
+void pushArray(vtkMultiProcessStream& s, const std::vector<T>& v)
+{
+  s << static_cast<unsigned int>(v.size());
+  if (!v.empty())
+  {
+    s.Push(const_cast<T*>(v.data()), static_cast<unsigned int>(v.size()));
+  }
+}
+
+template <class T, class U = T>
+std::vector<U> popArray(vtkMultiProcessStream& s)
+{
+  unsigned int n = 0;
+  s >> n;
+  std::vector<U> v;
+  if (n > 0)
+  {
+    T* data = nullptr;
+    s.Pop(data, n);
+    v.assign(data, data + n);
+    delete[] data;
+  }
+  return v;
+}
+
+} // namespace
+
+std::string reduceComputedAttributes(
+  vtkMultiProcessController* c, vtkImageData* input, const VolumeSource& source, bool& reduced)
+{
+  reduced = false;
+  const std::shared_ptr<SharedVolume> shared = source.shared;
+  vtkFieldData* fd = input ? input->GetFieldData() : nullptr;
+  const bool piece = shared && fd && fd->GetArray(csgvvtk::kPieceOffsetName);
+  // Every rank's input a piece of one file (or nothing): otherwise each keeps its own.
+  int mineOk = !shared || piece ? 1 : 0, allOk = 0;
+  c->AllReduce(&mineOk, &allOk, 1, vtkCommunicator::MIN_OP);
+  if (!allOk)
+  {
+    return std::string();
+  }
+  std::array<uint32_t, 3> offset{}, end{};
+  if (piece)
+  {
+    const std::array<long, 3> o = csgvvtk::pieceOffset(fd);
+    for (int a = 0; a < 3; ++a)
+    {
+      offset[a] = uint32_t(std::max(o[a], 0L));
+      end[a] = offset[a] + shared->volume.dim[a];
+    }
+  }
+  // The volume's dimensions: where the furthest piece ends.
+  unsigned long long mineEnd[3] = { end[0], end[1], end[2] }, dims[3] = {};
+  c->AllReduce(mineEnd, dims, 3, vtkCommunicator::MAX_OP);
+  const std::array<uint32_t, 3> volumeDims = { uint32_t(dims[0]), uint32_t(dims[1]), uint32_t(dims[2]) };
+
+  std::string error;
+  csgv::AttributeSums sums;
+  csgv::PieceLayers layers;
+  if (piece)
+  {
+    csgv::Result<csgv::AttributeSums> s = csgv::computeAttributeSums(shared->volume, {}, offset, volumeDims);
+    csgv::Result<csgv::PieceLayers> l =
+      s ? csgv::pieceLayers(shared->volume, offset, volumeDims) : csgv::Result<csgv::PieceLayers>(s.status());
+    if (!l)
+    {
+      error = "computing attributes of this piece: " + l.message();
+    }
+    else
+    {
+      sums = std::move(*s);
+      layers = std::move(*l);
+    }
+  }
+  vtkMultiProcessStream mine;
+  mine << error << int(piece && error.empty());
+  pushArray(mine, sums.keys);
+  pushArray(mine, std::vector<vtkTypeUInt64>(sums.values.begin(), sums.values.end()));
+  for (int a = 0; a < 3; ++a)
+  {
+    mine << layers.lo[a] << layers.hi[a];
+  }
+  for (const std::vector<uint32_t>& layer : layers.layers)
+  {
+    pushArray(mine, layer);
+  }
+  sums = csgv::AttributeSums{};
+  layers = csgv::PieceLayers{};
+  std::vector<vtkMultiProcessStream> all;
+  c->Gather(mine, all, 0);
+
+  vtkMultiProcessStream answer;
+  if (c->GetLocalProcessId() == 0)
+  {
+    csgv::AttributeSums total;
+    std::vector<csgv::PieceLayers> pieces;
+    std::string first;
+    for (size_t r = 0; r < all.size(); ++r)
+    {
+      std::string theirError;
+      int has = 0;
+      all[r] >> theirError >> has;
+      csgv::AttributeSums theirs;
+      theirs.keys = popArray<unsigned int, uint32_t>(all[r]);
+      theirs.values = popArray<vtkTypeUInt64, uint64_t>(all[r]);
+      csgv::PieceLayers l;
+      for (int a = 0; a < 3; ++a)
+      {
+        all[r] >> l.lo[a] >> l.hi[a];
+      }
+      for (std::vector<uint32_t>& layer : l.layers)
+      {
+        layer = popArray<unsigned int, uint32_t>(all[r]);
+      }
+      if (!theirError.empty() && first.empty())
+      {
+        first = "rank " + std::to_string(r) + ": " + theirError;
+      }
+      if (has)
+      {
+        total.add(theirs);
+        pieces.push_back(std::move(l));
+      }
+    }
+    csgv::addFacesBetweenPieces(total, pieces);
+    answer << first;
+    pushArray(answer, total.keys);
+    pushArray(answer, std::vector<vtkTypeUInt64>(total.values.begin(), total.values.end()));
+  }
+  c->Broadcast(answer, 0);
+  csgv::AttributeSums total;
+  answer >> error;
+  total.keys = popArray<unsigned int, uint32_t>(answer);
+  total.values = popArray<vtkTypeUInt64, uint64_t>(answer);
+  if (!error.empty() || !piece)
+  {
+    return error;
+  }
+  csgv::ComputeAttributesOptions options;
+  if (!shared->idToLabel.empty())
+  {
+    options.idToLabel = &shared->idToLabel;
+  }
+  csgv::Result<csgv::AttributeTable> table = csgv::attributeTable(total, options);
+  if (!table)
+  {
+    return "computing attributes: " + table.message();
+  }
+  std::lock_guard<std::mutex> lock(volumeMutex());
+  shared->computed = std::make_shared<const csgv::AttributeTable>(std::move(*table));
+  reduced = true;
+  return std::string();
+}
+
+} // namespace csgvrep
