@@ -9,8 +9,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
+#include <set>
 #include <cmath>
+#include <cstring>
+#include <map>
 #include <sstream>
 #include <vector>
 
@@ -70,6 +74,120 @@ std::string base64(const void* data, size_t bytes)
   return out;
 }
 
+std::string combineAnswers(const std::string& request, const std::vector<std::string>& answers,
+  const std::vector<std::string>& labelSets)
+{
+  std::istringstream in(request);
+  std::string what;
+  in >> what;
+  std::vector<json> replies;
+  for (const std::string& a : answers)
+  {
+    json j = json::parse(a, nullptr, false);
+    if (j.is_object())
+    {
+      replies.push_back(std::move(j));
+    }
+  }
+  if (replies.empty())
+  {
+    return answers.empty() ? std::string() : answers.front();
+  }
+  if (what == "colors")
+  {
+    size_t cap = 4096;
+    in >> cap;
+    std::map<int64_t, json> byLabel;
+    bool truncated = false;
+    std::string text, error;
+    for (const json& r : replies)
+    {
+      if (r.contains("error"))
+      {
+        error = error.empty() ? r["error"].get<std::string>() : error;
+        continue;
+      }
+      truncated = truncated || r.value("truncated", false);
+      text = text.empty() ? r.value("text", std::string()) : text;
+      for (const json& l : r.value("labels", json::array()))
+      {
+        byLabel.emplace(l[0].get<int64_t>(), l);
+      }
+    }
+    if (byLabel.empty() && !error.empty())
+    {
+      return json({ { "error", error } }).dump();
+    }
+    json labels = json::array();
+    for (auto& kv : byLabel)
+    {
+      if (labels.size() == cap)
+      {
+        truncated = true;
+        break;
+      }
+      labels.push_back(kv.second);
+    }
+    return json({ { "labels", labels }, { "truncated", truncated }, { "text", text } }).dump();
+  }
+  // summary: every rank's attributes (ranges widened), the union of their labels.
+  std::set<int64_t> labels;
+  for (const std::string& set : labelSets)
+  {
+    std::vector<unsigned char> bytes(set.size());
+    const size_t n = vtkBase64Utilities::DecodeSafely(
+      reinterpret_cast<const unsigned char*>(set.data()), set.size(), bytes.data(), bytes.size());
+    for (size_t i = 0; i + sizeof(int64_t) <= n; i += sizeof(int64_t))
+    {
+      int64_t v = 0;
+      std::memcpy(&v, bytes.data() + i, sizeof v);
+      labels.insert(v);
+    }
+  }
+  json out = replies.front();
+  std::vector<std::string> order;
+  std::map<std::string, json> attributes;
+  for (const json& r : replies)
+  {
+    if (out.value("labelArray", std::string()).empty() && !r.value("labelArray", std::string()).empty())
+    {
+      out["labelArray"] = r["labelArray"];
+    }
+    for (const json& a : r.value("attributes", json::array()))
+    {
+      const std::string name = a.value("name", std::string());
+      auto it = attributes.find(name);
+      if (it == attributes.end())
+      {
+        order.push_back(name);
+        attributes[name] = a;
+        continue;
+      }
+      for (const char* key : { "min", "max" })
+      {
+        if (!a.contains(key) || a[key].is_null())
+        {
+          continue;
+        }
+        json& mine = it->second[key];
+        const double v = a[key].get<double>();
+        if (mine.is_null() || (key[1] == 'i' ? v < mine.get<double>() : v > mine.get<double>()))
+        {
+          mine = v;
+        }
+      }
+    }
+  }
+  json list = json::array();
+  for (const std::string& name : order)
+  {
+    list.push_back(attributes[name]);
+  }
+  out["attributes"] = list;
+  out["labels"] = labels.size();
+  return out.dump();
+}
+
 std::string answerQuery(const std::string& request, QueryContext& c)
 {
   std::istringstream in(request);
@@ -104,6 +222,22 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     json s = json::parse(summary);
     s["skipped"] = *c.skipped;
     return s.dump();
+  }
+  if (what == "labelset")
+  {
+    size_t cap = size_t(1) << 22;
+    in >> cap;
+    std::vector<int64_t> labels;
+    if (source.shared)
+    {
+      bool truncated = false;
+      for (uint32_t stored : storedLabels(source.shared->volume, cap, truncated))
+      {
+        labels.push_back(originalLabel(*source.shared, stored));
+      }
+      std::sort(labels.begin(), labels.end());
+    }
+    return base64(labels.data(), labels.size() * sizeof(int64_t));
   }
   if (what == "colors")
   {

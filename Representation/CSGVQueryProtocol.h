@@ -21,8 +21,13 @@
  * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, 0xFFFFFFFF where no opaque voxel was hit (base64 by vtkBase64Utilities) |
  * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...], "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that the volume shows: a material of non-zero opacity takes them in the drawn document (csgv::effectiveMaterials: hidden labels and labels outside "only" are left out) |
  * | `defaults`   | JSON of the representation's property defaults (csgvrep::RepresentationProperties): `{"CSGVShading": 0, ...}` keyed like the server-manager XML, for the test that keeps both equal |
+ * | `labelset N`  | text `BASE64`: at most N original labels present in this process's volume, int64 little-endian, ascending (the label count of `summary` over MPI ranks) |
  * | `stats`      | JSON `{"parses": n, "compressions": n}`: how often this process parsed a CSGV encoding and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
  * | other        | JSON `{"error": "unknown query '<word>'"}` |
+ *
+ * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary` and `colors` are
+ * answered by all ranks together: the nearest hit per pixel, attribute ranges and label sets
+ * over all pieces (combineAnswers).
  *
  * Not a wrapped header: Core and VulkanBackend types may appear here.
  */
@@ -36,6 +41,7 @@
 #include "csgv/materials/Materials.h"
 
 #include <string>
+#include <vector>
 
 class vtkImageData;
 
@@ -57,6 +63,12 @@ struct QueryContext
 
 /// Answers one request of the table above.
 std::string answerQuery(const std::string& request, QueryContext& context);
+
+/// One reply to `summary` or `colors N` from the replies of every rank (each holding a piece):
+/// attribute ranges widened, label counts and colour lists over the union of the ranks' labels
+/// (`labelSets`: each rank's `labelset` reply, for `summary`).
+std::string combineAnswers(const std::string& request, const std::vector<std::string>& answers,
+  const std::vector<std::string>& labelSets);
 
 /// The base64 text of bytes (vtkBase64Utilities, padded with '=').
 std::string base64(const void* data, size_t bytes);

@@ -30,6 +30,10 @@ void vtkCSGVQuery::SetRepresentation(vtkCSGVRepresentation* representation)
 {
   this->Representation = representation;
   this->Modified();
+  if (this->Pending && representation)
+  {
+    this->Gather();
+  }
 }
 
 void vtkCSGVQuery::SetRequest(const char* request)
@@ -39,21 +43,34 @@ void vtkCSGVQuery::SetRequest(const char* request)
   this->Request = new char[text.size() + 1];
   std::copy(text.c_str(), text.c_str() + text.size() + 1, this->Request);
   this->Modified();
+  this->Gather();
+}
+
+void vtkCSGVQuery::Gather()
+{
+  const std::string text = this->Request ? this->Request : "";
   this->Gathered = false;
+  this->Pending = !this->Representation;
   vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
   std::istringstream in(text);
   std::string what;
   in >> what;
-  if (!c || c->GetNumberOfProcesses() < 2 || !this->Representation || (what != "pick" && what != "labels"))
+  if (!c || c->GetNumberOfProcesses() < 2 || !this->Representation ||
+    (what != "pick" && what != "labels" && what != "summary" && what != "colors"))
   {
     return; // answered by GetResult where it is read
   }
   // Every rank answers for its own piece; rank 0 keeps, per pixel, the hit nearest the camera
   // (window depth; ranks without a hit there say 1, the far plane).
   vtkMultiProcessStream mine;
-  if (what == "pick")
+  if (what == "pick" || what == "colors")
   {
     mine << std::string(this->Representation->Query(text.c_str()));
+  }
+  else if (what == "summary")
+  {
+    mine << std::string(this->Representation->Query(text.c_str()));
+    mine << std::string(this->Representation->Query("labelset"));
   }
   else
   {
@@ -72,7 +89,23 @@ void vtkCSGVQuery::SetRequest(const char* request)
     return;
   }
   this->Answer.clear();
-  if (what == "pick")
+  if (what == "summary" || what == "colors")
+  {
+    std::vector<std::string> answers, labelSets;
+    for (vtkMultiProcessStream& s : all)
+    {
+      std::string answer, set;
+      s >> answer;
+      if (what == "summary")
+      {
+        s >> set;
+      }
+      answers.push_back(answer);
+      labelSets.push_back(set);
+    }
+    this->Answer = csgvrep::combineAnswers(text, answers, labelSets);
+  }
+  else if (what == "pick")
   {
     double nearest = 2.0;
     for (vtkMultiProcessStream& s : all)

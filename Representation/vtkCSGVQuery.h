@@ -33,8 +33,10 @@ public:
 
   void SetRepresentation(vtkCSGVRepresentation* representation);
   /// With several processes (MPI ranks: pvbatch, a parallel pvserver) a push reaches every rank,
-  /// so `pick X Y` and `labels` are answered here, collectively: each rank's own answer (its
-  /// piece's first hits) is gathered on rank 0, which keeps the nearest hit per pixel.
+  /// so `pick X Y`, `labels`, `summary` and `colors N` are answered here, collectively: each
+  /// rank's own answer (its piece's) is gathered on rank 0, which keeps the nearest hit per pixel
+  /// or combines them (csgvrep::combineAnswers). A request pushed before the representation
+  /// (the default `summary` is pushed when the proxy is made) is answered when it arrives.
   void SetRequest(const char* request);
   vtkGetStringMacro(Request);
   /// The answer to Request (computed on each call, except the collective answers above).
@@ -52,6 +54,9 @@ private:
   char* Request = nullptr;
   std::string Answer;
   bool Gathered = false; ///< Answer holds the ranks' combined answer to Request (rank 0)
+  bool Pending = false;  ///< Request arrived before the representation
+  /// Answers Request with every rank (when there are several and the request is collective).
+  void Gather();
 };
 
 #endif

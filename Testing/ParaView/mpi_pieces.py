@@ -83,6 +83,9 @@ for mode in ("opaque", "translucent", "shadow", "computed"):
                     computed[str(p["label"])] = [a.get(k) for k in ("voxel_count", "surface_area", "bbox_min_x",
                                                                     "bbox_max_z", "centroid_y")]
         facts["computed"] = computed
+        # The summary (attribute ranges, label count) and the drawn labels' colours over all ranks.
+        facts["summary"] = csgv_tools.attribute_summary(d)
+        facts["colors"] = json.loads(csgv_tools.query(d, "colors 100000"))
 with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
     json.dump(facts, f)
 

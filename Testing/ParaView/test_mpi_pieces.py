@@ -11,7 +11,8 @@ blended in visibility order (ordered compositing by the pieces' bounds) and shad
 other ranks' bricks as empty space, so they stay within a stated tolerance (a label that
 continues across a piece boundary starts a second translucent layer there; shadow rays do not
 see other ranks' bricks yet). Computed attributes are summed over the ranks: a material filtered
-by voxel count draws one rank's image and picks report one rank's values. SaveData to .csgv from 2 and 4 ranks writes the files one rank
+by voxel count draws one rank's image and picks report one rank's values; the attribute summary
+and the drawn labels' colours are answered over all ranks. SaveData to .csgv from 2 and 4 ranks writes the files one rank
 writes, byte for byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label
 array that is not integer at one voxel fails on every rank and leaves no file.
 Exit 77 (skipped) without mpiexec or pvbatch."""
@@ -108,6 +109,12 @@ def main():
         check(len(same) == len(want) and hits > len(want) // 4,
               "%d ranks: %d of %d picks (%d hits) equal one rank's" % (ranks, len(same), len(want), hits))
         check(pieces[0]["labels"] == whole["labels"], "%d ranks: the label image equals one rank's" % ranks)
+        check(pieces[0]["summary"] == whole["summary"] and whole["summary"]["labels"] > 100,
+              "%d ranks: the summary (%d labels, %d attributes) equals one rank's%s"
+              % (ranks, whole["summary"]["labels"], len(whole["summary"]["attributes"]),
+                 "" if pieces[0]["summary"] == whole["summary"] else ": %s" % pieces[0]["summary"]))
+        check(pieces[0]["colors"] == whole["colors"] and len(whole["colors"]["labels"]) > 10,
+              "%d ranks: the drawn labels' colours (%d) equal one rank's" % (ranks, len(whole["colors"]["labels"])))
         got, want = pieces[0]["computed"], whole["computed"]
         check(len(want) > 3 and got == want, "%d ranks: computed attributes of %d picked labels equal one rank's%s"
               % (ranks, len(want), "" if got == want else " (%s vs %s)" % (got, want)))
