@@ -259,3 +259,43 @@ TEST(JoinPieces, GapsOverlapsAndMismatchedPiecesAreErrors) {
     EXPECT_FALSE(join({a, b}, {pa}).isOk());
     EXPECT_FALSE(join({BrickBox{}}, {CompressedVolume{}}).isOk());
 }
+
+TEST(EmbedPiece, APieceInItsVolumesIndexSpaceKeepsItsBricksAndTheRestIsLabelZero) {
+    // MPI ranks render their piece in the whole volume's index space: the piece's bricks at their
+    // place, every other brick absent (label 0), for every fixture and encoding.
+    for (const std::string& name : allFixtureNames()) {
+        const CompressedVolume whole = loadFixture(name);
+        const Result<LabelVolume> labels = decodeVolume(whole, 0);
+        ASSERT_TRUE(labels.isOk()) << labels.message();
+        for (uint32_t n : {2u, 3u}) {
+            const BrickBox box = brickPartition(whole.brickGrid(), n, n - 1);
+            Result<CompressedVolume> piece = extractPiece(whole, box);
+            ASSERT_TRUE(piece.isOk());
+            Result<CompressedVolume> embedded = embedPiece(*piece, box, whole.dim);
+            ASSERT_TRUE(embedded.isOk()) << name << ": " << embedded.message();
+            EXPECT_EQ(embedded->dim, whole.dim);
+            EXPECT_EQ(embedded->brickCount(), whole.brickCount());
+            const Result<LabelVolume> got = decodeVolume(*embedded, 0);
+            ASSERT_TRUE(got.isOk()) << name << ": " << got.message();
+            const uint32_t B = whole.brickSize;
+            bool same = true;
+            for (uint32_t z = 0; z < whole.dim[2] && same; ++z)
+                for (uint32_t y = 0; y < whole.dim[1] && same; ++y)
+                    for (uint32_t x = 0; x < whole.dim[0] && same; ++x) {
+                        const bool mine = box.contains(x / B, y / B, z / B);
+                        same = got->at(x, y, z) == (mine ? labels->at(x, y, z) : 0u);
+                    }
+            EXPECT_TRUE(same) << name << ": piece " << n - 1 << " of " << n;
+            // The piece's bricks keep their words.
+            const uint64_t inside = box.lo[0] + uint64_t(whole.brickGrid()[0]) *
+                                                    (box.lo[1] + uint64_t(whole.brickGrid()[1]) * box.lo[2]);
+            const BrickWords a = embedded->brick(inside), b = whole.brick(inside);
+            EXPECT_TRUE(a.size == b.size && std::equal(a.words, a.words + a.size, b.words)) << name;
+        }
+    }
+    const CompressedVolume whole = loadFixture(allFixtureNames().front());
+    const BrickBox box = brickPartition(whole.brickGrid(), 2, 0);
+    const CompressedVolume piece = *extractPiece(whole, box);
+    EXPECT_FALSE(embedPiece(piece, brickPartition(whole.brickGrid(), 2, 1), whole.dim).isOk()) << "wrong box";
+    EXPECT_FALSE(embedPiece(piece, BrickBox{}, whole.dim).isOk()) << "empty box";
+}

@@ -8,6 +8,7 @@
 #include <functional>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <mutex>
 #include <exception>
 #include <new>
@@ -934,6 +935,91 @@ Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std:
         return Status::error("out of memory while encoding '" + path + "'");
     } catch (const std::exception& e) {
         return Status::error("encoding '" + path + "' failed: " + e.what());
+    }
+}
+
+Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBox& box, const std::array<uint32_t, 3>& dim) {
+    try {
+        const uint32_t B = piece.brickSize;
+        CompressedVolume vol;
+        vol.version = piece.version;
+        vol.brickSize = B;
+        vol.dim = dim;
+        vol.encoding = piece.encoding;
+        vol.opMask = piece.opMask;
+        vol.freqA = piece.freqA;
+        vol.freqB = piece.freqB;
+        if (vol.brickCount() > kMaxBricks) return Status::error("the volume needs more than 2^40 bricks");
+        const std::array<uint32_t, 3> grid = vol.brickGrid();
+        for (int a = 0; a < 3; ++a) {
+            if (box.empty() || box.hi[a] > grid[a])
+                return Status::error("piece of bricks [" + std::to_string(box.lo[a]) + ", " + std::to_string(box.hi[a]) +
+                                     ") along axis " + std::to_string(a) + " is empty or outside the " +
+                                     std::to_string(grid[a]) + " bricks of the volume");
+            const uint32_t size = std::min(box.hi[a] * B, dim[a]) - box.lo[a] * B;
+            if (piece.dim[a] != size)
+                return Status::error("the piece is " + std::to_string(piece.dim[a]) + " voxels along axis " +
+                                     std::to_string(a) + ", its bricks cover " + std::to_string(size));
+        }
+        // An absent brick: label 0 encoded with the piece's tables, once per brick extent (bricks
+        // at the volume's far ends are cut).
+        EncodeOptions o;
+        o.brickSize = B;
+        o.encoding = piece.encoding;
+        o.opMask = piece.opMask & ~kMaskLegacyDelta;
+        o.fixedTables = piece.encoding != kEncodingNibble;
+        o.tableA = piece.freqA;
+        o.tableB = piece.freqB;
+        o.threads = 1;
+        std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> absent;
+        auto absentWords = [&](const std::array<uint32_t, 3>& extent) -> Result<const std::vector<uint32_t>*> {
+            auto it = absent.find(extent);
+            if (it != absent.end()) return &it->second;
+            LabelVolume zeros;
+            zeros.dim = extent;
+            zeros.labels.assign(size_t(zeros.voxelCount()), 0u);
+            Result<CompressedVolume> one = encodeVolume(zeros, o);
+            if (!one) return Status::error("an absent brick cannot be encoded with the piece's tables: " + one.message());
+            const BrickWords bw = one->brick(0);
+            return &(absent[extent] = std::vector<uint32_t>(bw.words, bw.words + bw.size));
+        };
+        const uint64_t bricks = vol.brickCount();
+        std::vector<uint32_t> sizes(static_cast<size_t>(bricks));
+        std::vector<const uint32_t*> from(static_cast<size_t>(bricks));
+        const uint32_t L = vol.levels();
+        const uint64_t pw = box.hi[0] - box.lo[0], ph = box.hi[1] - box.lo[1];
+        vol.maxPalette = 1;
+        for (uint64_t i = 0; i < bricks; ++i) {
+            const uint32_t x = uint32_t(i % grid[0]), y = uint32_t(i / grid[0] % grid[1]), z = uint32_t(i / grid[0] / grid[1]);
+            if (box.contains(x, y, z)) {
+                const BrickWords bw = piece.brick((x - box.lo[0]) + pw * ((y - box.lo[1]) + ph * (z - box.lo[2])));
+                sizes[size_t(i)] = bw.size;
+                from[size_t(i)] = bw.words;
+                vol.maxPalette = std::max(vol.maxPalette, bw.words[L]);
+                continue;
+            }
+            const std::array<uint32_t, 3> extent = {std::min(B, dim[0] - x * B), std::min(B, dim[1] - y * B),
+                                                    std::min(B, dim[2] - z * B)};
+            Result<const std::vector<uint32_t>*> words = absentWords(extent);
+            if (!words) return words.status();
+            sizes[size_t(i)] = uint32_t((*words)->size());
+            from[size_t(i)] = (*words)->data();
+        }
+        Result<ArrayLayout> layout = layoutArrays(sizes, kMaxWordsPerArray, ~uint64_t(0));
+        if (!layout) return layout.status();
+        vol.arrays.assign(layout->arrayWords.size(), {});
+        for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
+        const uint64_t perArray = layout->perArray;
+        applyLayout(std::move(*layout), vol);
+        for (uint64_t i = 0; i < bricks; ++i) {
+            std::vector<uint32_t>& arr = vol.arrays[size_t(i / perArray)];
+            arr.insert(arr.end(), from[size_t(i)], from[size_t(i)] + sizes[size_t(i)]);
+        }
+        Status s = checkContainer(vol);
+        if (!s) return s;
+        return vol;
+    } catch (const std::bad_alloc&) {
+        return Status::error("out of memory while placing a piece in its volume");
     }
 }
 

@@ -17,6 +17,7 @@
 
 #include "csgv/codec/Container.h"
 #include "csgv/codec/LabelVolume.h"
+#include "csgv/codec/Partition.h"
 
 #include <array>
 #include <cstdint>
@@ -121,5 +122,11 @@ uint64_t encoderBandBytes(const SlabSource& source, uint32_t brickSize,
 /// Encodes from a slab source; `maxOutputBytes` bounds the compressed result.
 Result<CompressedVolume> encodeVolume(SlabSource& source, const EncodeOptions& options,
                                       uint64_t maxOutputBytes = uint64_t(64) << 30);
+
+/// A piece (extractPiece, readCsgvPiece) in the index space of its whole volume (dimensions
+/// `dim`): the piece's bricks at `box`, every other brick absent, stored as a brick of label 0 of
+/// the piece's encoding and tables (a few words; renderers told the box never draw them). Lets
+/// every MPI rank render in the same index space, so rays and level-of-detail choices agree.
+Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBox& box, const std::array<uint32_t, 3>& dim);
 
 } // namespace csgv
