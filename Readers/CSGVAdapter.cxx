@@ -427,23 +427,35 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
   }
 }
 
-void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset)
+void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset, const std::array<uint32_t, 3>& volumeDims)
 {
   vtkNew<vtkIntArray> a;
   a->SetName(kPieceOffsetName);
-  a->SetNumberOfValues(3);
+  a->SetNumberOfValues(6);
   for (int i = 0; i < 3; ++i)
   {
     a->SetValue(i, int(offset[size_t(i)]));
+    a->SetValue(3 + i, int(volumeDims[size_t(i)]));
   }
   fd->AddArray(a);
+}
+
+std::array<uint32_t, 3> pieceVolumeDims(vtkFieldData* fd)
+{
+  std::array<uint32_t, 3> out{ { 0, 0, 0 } };
+  vtkIntArray* a = fd ? vtkIntArray::SafeDownCast(fd->GetArray(kPieceOffsetName)) : nullptr;
+  for (int i = 0; a && a->GetNumberOfValues() == 6 && i < 3; ++i)
+  {
+    out[size_t(i)] = uint32_t(std::max(a->GetValue(3 + i), 0));
+  }
+  return out;
 }
 
 std::array<long, 3> pieceOffset(vtkFieldData* fd)
 {
   std::array<long, 3> out{ { 0, 0, 0 } };
   vtkIntArray* a = fd ? vtkIntArray::SafeDownCast(fd->GetArray(kPieceOffsetName)) : nullptr;
-  for (int i = 0; a && a->GetNumberOfValues() == 3 && i < 3; ++i)
+  for (int i = 0; a && a->GetNumberOfValues() >= 3 && i < 3; ++i)
   {
     out[size_t(i)] = a->GetValue(i);
   }

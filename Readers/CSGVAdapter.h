@@ -165,9 +165,11 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
 void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns);
 
 /// A piece of a volume (MPI ranks, vtkCSGVReader): where its voxel (0,0,0) lies in the volume
-/// (level 0), as FieldData `CSGVPieceOffset` (3 ints); (0,0,0) for a whole volume.
-void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset);
+/// (level 0) and the volume's dimensions, as FieldData `CSGVPieceOffset` (6 ints); (0,0,0) and
+/// no dimensions (all 0) for a whole volume.
+void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset, const std::array<uint32_t, 3>& volumeDims);
 std::array<long, 3> pieceOffset(vtkFieldData* fd);
+std::array<uint32_t, 3> pieceVolumeDims(vtkFieldData* fd);
 
 /// The encoding array of a FieldData (null when there is none): its pointer and modification
 /// time identify the encoding, so consumers look up what they parsed before without parsing.

@@ -443,7 +443,7 @@ int vtkCSGVReader::RequestData(
     // Where the piece's voxel (0,0,0) lies in the volume (level 0): picking answers in the
     // volume's voxel coordinates.
     csgvvtk::addPieceOffset(output->GetFieldData(),
-      { in.Box.lo[0] * in.BrickSize, in.Box.lo[1] * in.BrickSize, in.Box.lo[2] * in.BrickSize });
+      { in.Box.lo[0] * in.BrickSize, in.Box.lo[1] * in.BrickSize, in.Box.lo[2] * in.BrickSize }, in.Dim);
   }
   const csgv::CompressedVolume& volume = isPiece ? in.PieceVolume : in.Volume;
 

@@ -40,7 +40,8 @@
  * only): the output's extent is the piece's (cut at multiples of the brick size), and the
  * FieldData's `CSGVEncoding` is a container of the piece's bricks alone (a volume of its own)
  * with `CSGVGeometry` at the piece's corner, `CSGVLabelRange` over its palettes and
- * `CSGVPieceOffset` (3 ints: its first voxel in the volume, level 0). One piece
+ * `CSGVPieceOffset` (6 ints: its first voxel in the volume, level 0, and the volume's
+ * dimensions; the representation draws the piece in the volume's index space). One piece
  * honours the update extent as before.
  *
  * Errors (missing, truncated or malformed files, bad sidecars) are reported with vtkErrorMacro

@@ -104,6 +104,30 @@ std::string fieldDataTable(vtkImageData* image, const SharedVolume& volume, csgv
   return std::string();
 }
 
+/// Computed attributes of the voxels this process holds: the volume, or an MPI rank's own bricks
+/// (until the ranks' sums replace them: CSGVPieceAttributes).
+csgv::Result<csgv::AttributeTable> computedOfOwned(
+  const SharedVolume& volume, const csgv::ComputeAttributesOptions& options)
+{
+  if (volume.owned.empty())
+  {
+    return csgv::computeAttributes(volume.volume, options);
+  }
+  csgv::Result<csgv::CompressedVolume> piece = csgv::extractPiece(volume.volume, volume.owned);
+  if (!piece)
+  {
+    return piece.status();
+  }
+  const uint32_t b = volume.volume.brickSize;
+  csgv::Result<csgv::AttributeSums> sums = csgv::computeAttributeSums(*piece, options,
+    { volume.owned.lo[0] * b, volume.owned.lo[1] * b, volume.owned.lo[2] * b }, volume.volume.dim);
+  if (!sums)
+  {
+    return sums.status();
+  }
+  return csgv::attributeTable(*sums, options);
+}
+
 std::string buildTable(vtkImageData* image, const VolumeSource& source, const AttributeConfig& config,
   csgv::AttributeTable& table)
 {
@@ -144,7 +168,7 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
       {
         options.idToLabel = &volume.idToLabel;
       }
-      csgv::Result<csgv::AttributeTable> t = csgv::computeAttributes(volume.volume, options);
+      csgv::Result<csgv::AttributeTable> t = computedOfOwned(volume, options);
       if (!t)
       {
         return "computing attributes: " + t.message();
@@ -239,13 +263,20 @@ std::shared_ptr<const csgv::AttributeTable> AttributeCache::get(
   return this->Table;
 }
 
-std::vector<uint32_t> storedLabels(const csgv::CompressedVolume& volume, size_t cap, bool& truncated)
+std::vector<uint32_t> storedLabels(const SharedVolume& shared, size_t cap, bool& truncated)
 {
   std::set<uint32_t> seen;
   truncated = false;
+  const csgv::CompressedVolume& volume = shared.volume;
   const uint32_t L = volume.levels();
+  const std::array<uint32_t, 3> grid = volume.brickGrid();
   for (uint64_t b = 0; b < volume.brickCount(); ++b)
   {
+    if (!shared.owned.empty() &&
+      !shared.owned.contains(uint32_t(b % grid[0]), uint32_t(b / grid[0] % grid[1]), uint32_t(b / grid[0] / grid[1])))
+    {
+      continue; // absent: another rank's brick
+    }
     const csgv::BrickWords bw = volume.brick(b);
     for (uint32_t k = 0; k < bw.words[L]; ++k)
     {
@@ -299,7 +330,7 @@ std::string denseColumns(const csgv::AttributeTable& table, const SharedVolume& 
       if (labelCount == 0)
       {
         bool truncated = false;
-        const std::vector<uint32_t> labels = storedLabels(volume.volume, size_t(1) << 26, truncated);
+        const std::vector<uint32_t> labels = storedLabels(volume, size_t(1) << 26, truncated);
         labelCount = labels.empty() ? 1 : uint64_t(labels.back()) + 1;
         if (labelCount > (uint64_t(1) << 26))
         {
@@ -328,7 +359,7 @@ std::string attributeSummary(const csgv::AttributeTable* table, const SharedVolu
   if (volume)
   {
     bool truncated = false;
-    for (uint32_t s : storedLabels(volume->volume, size_t(1) << 22, truncated))
+    for (uint32_t s : storedLabels(*volume, size_t(1) << 22, truncated))
     {
       const double l = double(originalLabel(*volume, s));
       lo = std::isnan(lo) ? l : std::min(lo, l);
@@ -396,7 +427,7 @@ std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::Attri
   const csgv::AttributeColumn* names = nameColumn(table);
   bool truncated = false;
   json labels = json::array();
-  for (uint32_t s : storedLabels(volume.volume, cap, truncated))
+  for (uint32_t s : storedLabels(volume, cap, truncated))
   {
     const int64_t label = originalLabel(volume, s);
     if (label < 0 || label > int64_t(0xFFFFFFFEll))
@@ -411,6 +442,9 @@ std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::Attri
     const std::array<float, 3> c = evaluator.colorOf(uint32_t(label), m);
     labels.push_back({ label, c[0], c[1], c[2], names ? t.text(names->name, label) : std::string() });
   }
+  // Ascending original labels (stored ids of a relabelled volume follow another order).
+  std::sort(labels.begin(), labels.end(),
+    [](const json& a, const json& b) { return a[0].get<int64_t>() < b[0].get<int64_t>(); });
   json o = { { "labels", labels }, { "truncated", truncated },
     { "text", names ? names->name : std::string() } };
   return o.dump();

@@ -70,9 +70,10 @@ private:
 std::string denseColumns(const csgv::AttributeTable& table, const SharedVolume& volume,
   const std::vector<std::string>& names, std::map<std::string, std::vector<float>>& out);
 
-/// Distinct stored labels of the volume (from the finest brick palettes, no decoding),
-/// ascending, at most `cap` (truncated says whether there were more).
-std::vector<uint32_t> storedLabels(const csgv::CompressedVolume& volume, size_t cap, bool& truncated);
+/// Distinct stored labels of the volume (from the finest brick palettes, no decoding; an MPI
+/// rank's piece: of its own bricks), ascending, at most `cap` (truncated says whether there were
+/// more).
+std::vector<uint32_t> storedLabels(const SharedVolume& volume, size_t cap, bool& truncated);
 
 /// The original label of a stored value.
 int64_t originalLabel(const SharedVolume& volume, uint32_t stored);

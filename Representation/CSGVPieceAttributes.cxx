@@ -52,8 +52,9 @@ std::string reduceComputedAttributes(
 {
   reduced = false;
   const std::shared_ptr<SharedVolume> shared = source.shared;
-  vtkFieldData* fd = input ? input->GetFieldData() : nullptr;
-  const bool piece = shared && fd && fd->GetArray(csgvvtk::kPieceOffsetName);
+  (void)input;
+  // A rank's piece placed in the volume's index space (the reader's pieces of a .csgv).
+  const bool piece = shared && !shared->owned.empty();
   // Every rank's input a piece of one file (or nothing): otherwise each keeps its own.
   int mineOk = !shared || piece ? 1 : 0, allOk = 0;
   c->AllReduce(&mineOk, &allOk, 1, vtkCommunicator::MIN_OP);
@@ -61,29 +62,23 @@ std::string reduceComputedAttributes(
   {
     return std::string();
   }
-  std::array<uint32_t, 3> offset{}, end{};
-  if (piece)
-  {
-    const std::array<long, 3> o = csgvvtk::pieceOffset(fd);
-    for (int a = 0; a < 3; ++a)
-    {
-      offset[a] = uint32_t(std::max(o[a], 0L));
-      end[a] = offset[a] + shared->volume.dim[a];
-    }
-  }
-  // The volume's dimensions: where the furthest piece ends.
-  unsigned long long mineEnd[3] = { end[0], end[1], end[2] }, dims[3] = {};
-  c->AllReduce(mineEnd, dims, 3, vtkCommunicator::MAX_OP);
-  const std::array<uint32_t, 3> volumeDims = { uint32_t(dims[0]), uint32_t(dims[1]), uint32_t(dims[2]) };
-
+  std::array<uint32_t, 3> offset{}, volumeDims{};
   std::string error;
   csgv::AttributeSums sums;
   csgv::PieceLayers layers;
   if (piece)
   {
-    csgv::Result<csgv::AttributeSums> s = csgv::computeAttributeSums(shared->volume, {}, offset, volumeDims);
+    const uint32_t b = shared->volume.brickSize;
+    volumeDims = shared->volume.dim;
+    for (int a = 0; a < 3; ++a)
+    {
+      offset[a] = shared->owned.lo[a] * b;
+    }
+    csgv::Result<csgv::CompressedVolume> own = csgv::extractPiece(shared->volume, shared->owned);
+    csgv::Result<csgv::AttributeSums> s =
+      own ? csgv::computeAttributeSums(*own, {}, offset, volumeDims) : csgv::Result<csgv::AttributeSums>(own.status());
     csgv::Result<csgv::PieceLayers> l =
-      s ? csgv::pieceLayers(shared->volume, offset, volumeDims) : csgv::Result<csgv::PieceLayers>(s.status());
+      s ? csgv::pieceLayers(*own, offset, volumeDims) : csgv::Result<csgv::PieceLayers>(s.status());
     if (!l)
     {
       error = "computing attributes of this piece: " + l.message();

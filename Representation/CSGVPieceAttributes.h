@@ -21,8 +21,8 @@ namespace csgvrep
 {
 
 /// Installs the whole volume's computed attributes as `source.shared->computed` on every rank
-/// whose input is a piece of a `.csgv` (FieldData CSGVPieceOffset). Ranks without a volume take
-/// part with nothing. Returns "" or an error (the same on every rank). When some rank's input is
+/// whose input is a piece of a `.csgv` placed in the volume's index space (SharedVolume::owned).
+/// Ranks without a volume take part with nothing. Returns "" or an error (the same on every rank). When some rank's input is
 /// not such a piece (a plain label array each rank compressed), nothing is installed and every
 /// rank keeps the attributes of its own piece ("" is returned and `reduced` is false).
 std::string reduceComputedAttributes(

@@ -231,7 +231,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     if (source.shared)
     {
       bool truncated = false;
-      for (uint32_t stored : storedLabels(source.shared->volume, cap, truncated))
+      for (uint32_t stored : storedLabels(*source.shared, cap, truncated))
       {
         labels.push_back(originalLabel(*source.shared, stored));
       }
@@ -310,9 +310,11 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       const bool invertible = csgv::invert(csgv::indexToWorldMatrix(g), worldToIndex);
       const csgv::Vec3 idx = csgv::transformPoint(worldToIndex, hitP);
       const csgv::Face face = i < out.face.size() ? out.face[i] : csgv::Face::None;
-      // A piece of the volume (MPI ranks) counts voxels from its own corner: the reader says
-      // where that is in the volume.
-      const std::array<long, 3> pieceOffset = csgvvtk::pieceOffset(c.input ? c.input->GetFieldData() : nullptr);
+      // A piece drawn as a volume of its own (MPI ranks, not placed in the volume's index space)
+      // counts voxels from its own corner: the reader says where that is in the volume.
+      const std::array<long, 3> pieceOffset = source.shared->owned.empty()
+        ? csgvvtk::pieceOffset(c.input ? c.input->GetFieldData() : nullptr)
+        : std::array<long, 3>{ { 0, 0, 0 } };
       json voxel = json::array();
       for (int k = 0; invertible && k < 3; ++k)
       {

@@ -176,6 +176,7 @@ std::string ViewRenderer::ensureRenderer()
       volumeOptions.deviceMemoryBytes = budget;
       volumeOptions.cachePaletting = paletted;
       volumeOptions.hostDecoding = hostDecoding;
+      volumeOptions.owned = shared->owned;
       csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> upload =
         csgv::gpu::GpuVolume::create(*this->Context, shared->volume, volumeOptions);
       if (!upload)

@@ -44,6 +44,36 @@ std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
   out.volume = std::move(enc.volume);
   out.encodedGeometry = enc.geometry;
   out.description = "CSGVEncoding";
+  // A rank's piece: placed in the volume's index space (should that fail, it is drawn as a volume
+  // of its own, as before).
+  const std::array<uint32_t, 3> dims = csgvvtk::pieceVolumeDims(fd);
+  const std::array<long, 3> offset = csgvvtk::pieceOffset(fd);
+  const uint32_t b = out.volume.brickSize;
+  if (dims[0] > 0 && dims[1] > 0 && dims[2] > 0 && b > 0 && offset[0] % b == 0 && offset[1] % b == 0 &&
+    offset[2] % b == 0)
+  {
+    csgv::BrickBox box;
+    for (int a = 0; a < 3; ++a)
+    {
+      box.lo[a] = uint32_t(offset[a]) / b;
+      box.hi[a] = box.lo[a] + (out.volume.dim[a] + b - 1) / b;
+    }
+    csgv::Result<csgv::CompressedVolume> embedded = csgv::embedPiece(out.volume, box, dims);
+    if (embedded)
+    {
+      out.pieceDims = out.volume.dim;
+      out.volume = std::move(*embedded);
+      out.owned = box;
+      out.volumeCorner = enc.geometry;
+      for (int r = 0; r < 3; ++r)
+      {
+        for (int c = 0; c < 3; ++c)
+        {
+          out.volumeCorner.origin[r] -= enc.geometry.direction[3 * r + c] * double(offset[c]) * enc.geometry.spacing[c];
+        }
+      }
+    }
+  }
   out.arrayName = csgvvtk::kLabelsName;
   if (enc.info.relabelled)
   {
@@ -85,6 +115,12 @@ bool VolumeSource::bounds(double out[6]) const
   if (!this->shared)
   {
     return false;
+  }
+  if (!this->shared->owned.empty())
+  {
+    // A rank's piece: its own voxels (IceT and ordered compositing need each rank's part).
+    csgvvtk::worldBounds(this->shared->encodedGeometry, this->shared->pieceDims, out);
+    return true;
   }
   csgvvtk::worldBounds(this->corner, this->shared->volume.dim, out);
   return true;
@@ -154,10 +190,11 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
       }
     }
     if (shared &&
-      csgvvtk::encodingDescribes(image, shared->encodedGeometry, shared->volume.dim))
+      csgvvtk::encodingDescribes(
+        image, shared->encodedGeometry, shared->owned.empty() ? shared->volume.dim : shared->pieceDims))
     {
       out.shared = shared;
-      out.corner = shared->encodedGeometry;
+      out.corner = shared->owned.empty() ? shared->encodedGeometry : shared->volumeCorner;
       return std::string();
     }
     // Derived images (Extract's sub-boxes) carry the FieldData too: they show their array.

@@ -54,6 +54,15 @@ struct SharedVolume
   /// Stored id -> original label bits for any relabelled volume (empty: stored labels are the
   /// originals); the key of attribute arrays.
   std::vector<int64_t> idToLabel;
+  /// An MPI rank's piece of a .csgv (the reader's CSGVPieceOffset): `volume` is the piece placed
+  /// in the whole volume's index space (csgv::embedPiece), `owned` its bricks (the others are
+  /// absent: label 0, never drawn), `pieceDims` its own voxels, `volumeCorner` the corner
+  /// geometry of the volume's voxel (0,0,0); `encodedGeometry` stays the piece's corner. Every
+  /// rank then renders in one index space (the same rays, the same level-of-detail choices) and
+  /// the clip box and picked voxels are in the volume's coordinates. Empty `owned`: a whole volume.
+  csgv::BrickBox owned;
+  std::array<uint32_t, 3> pieceDims{};
+  csgv::Geometry volumeCorner;
   /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
   /// (guarded by the volume cache's mutex while being set).
   std::shared_ptr<const csgv::AttributeTable> computed;

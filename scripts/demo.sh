@@ -21,6 +21,6 @@ OUT=$(cd "$OUT" && pwd)
 # ParaView and Mesa write caches under HOME: keep them out of the user's.
 DEMO_HOME=$(mktemp -d)
 trap 'rm -rf "$DEMO_HOME"' EXIT
-HOME="$DEMO_HOME" xvfb-run -a -s "-screen 0 1280x1024x24" \
+HOME="$DEMO_HOME" xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" \
   pvpython --force-offscreen-rendering Examples/render_aal.py "$OUT" --plugin "$PLUGIN" "$@"
 echo "PNGs: $OUT/aal_local.png $OUT/aal_pathtraced.png (and the .csgv: $OUT/aal.csgv)"

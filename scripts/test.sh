@@ -13,5 +13,5 @@ cmake --build "$BUILD" -j "${JOBS:-2}"
 TEST_HOME=$(mktemp -d)
 trap 'rm -rf "$TEST_HOME"' EXIT
 cd "$BUILD"
-HOME="$TEST_HOME" xvfb-run -a -s "-screen 0 1280x1024x24" \
+HOME="$TEST_HOME" xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" \
   ctest --output-on-failure -j "${JOBS:-2}" "$@"

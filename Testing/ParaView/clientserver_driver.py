@@ -72,7 +72,7 @@ def main():
             rc = attempt(pvserver, pvpython, script)
         else:
             sys.stdout.flush()
-            rc = subprocess.run(["xvfb-run", "-n", str(random.randint(200, 899)), "-s", "-screen 0 1280x1024x24",
+            rc = subprocess.run(["xvfb-run", "-n", str(random.randint(200, 899)), "-s", "-screen 0 1280x1024x24 -noreset",
                                  sys.executable, os.path.abspath(__file__), "--once", pvserver, pvpython,
                                  script]).returncode
         sys.stdout.flush()

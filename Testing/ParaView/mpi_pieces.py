@@ -19,7 +19,8 @@ LoadPlugin(os.environ["CSGV_PLUGIN"], remote=False, ns=globals())
 out = sys.argv[1]
 pm = sm.vtkProcessModule.GetProcessModule()
 rank, ranks = pm.GetPartitionId(), pm.GetNumberOfLocalPartitions()
-path = os.path.join(os.environ["CSGV_FIXTURES"], "synthA_b16_nibble.csgv")
+# A relabelled fixture (dense stored ids: attribute arrays can be indexed by them).
+path = os.path.join(os.environ["CSGV_FIXTURES"], "synthA_b32_rans2_attr.csgv")
 r = CSGVReader(FileName=path, DecodeLabels=0)  # rendered from the encoding alone
 r.UpdatePipeline()
 img = r.GetClientSideObject().GetOutputDataObject(0)
@@ -54,10 +55,13 @@ glass = json.dumps({"version": 1, "materials": [
 # that keeps the labels of more than 3000 voxels draws what one rank draws.
 big = json.dumps({"version": 1, "materials": [
     {"name": "big", "filter": {"attribute": "voxel_count", "min": 3000, "max": 1e12}}]})
-for mode in ("opaque", "translucent", "shadow", "computed"):
+# The clip box is in the volume's voxels on every rank (each draws its piece in the volume's index
+# space): a box across the pieces' boundaries cuts every rank's piece where it cuts one rank's.
+for mode in ("opaque", "translucent", "shadow", "computed", "clipped"):
     d.CSGVMaterials = glass if mode == "translucent" else big if mode == "computed" else ""
     d.CSGVShading = "shadow" if mode == "shadow" else "local"
     d.CSGVComputedAttributes = 1 if mode == "computed" else 0
+    d.CSGVClipBox = [20, 100, 5, 60, 50, 150] if mode == "clipped" else [0, 2147483647] * 3
     Render(v)
     facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
     name = mode + (".png" if rank == 0 else ".rank%d.png" % rank)

@@ -28,9 +28,9 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkIOImage import vtkPNGReader
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-BRICK = 16
+BRICK = 32
 # Pixels (share) allowed to differ from one rank by more than 16/255, per mode and rank count.
-TOLERANCE = {"opaque": 0.0, "translucent": 0.06, "shadow": 0.05, "computed": 0.0}
+TOLERANCE = {"opaque": 0.0, "translucent": 0.06, "shadow": 0.05, "computed": 0.0, "clipped": 0.0}
 failures = []
 
 
@@ -113,8 +113,11 @@ def main():
               "%d ranks: the summary (%d labels, %d attributes) equals one rank's%s"
               % (ranks, whole["summary"]["labels"], len(whole["summary"]["attributes"]),
                  "" if pieces[0]["summary"] == whole["summary"] else ": %s" % pieces[0]["summary"]))
+        differ = [(x, y) for x, y in zip(pieces[0]["colors"].get("labels", []), whole["colors"]["labels"]) if x != y]
         check(pieces[0]["colors"] == whole["colors"] and len(whole["colors"]["labels"]) > 10,
-              "%d ranks: the drawn labels' colours (%d) equal one rank's" % (ranks, len(whole["colors"]["labels"])))
+              "%d ranks: the drawn labels' colours (%d) equal one rank's%s" % (
+                  ranks, len(whole["colors"]["labels"]),
+                  "" if pieces[0]["colors"] == whole["colors"] else ": %s" % (differ[:3] or pieces[0]["colors"])))
         got, want = pieces[0]["computed"], whole["computed"]
         check(len(want) > 3 and got == want, "%d ranks: computed attributes of %d picked labels equal one rank's%s"
               % (ranks, len(want), "" if got == want else " (%s vs %s)" % (got, want)))

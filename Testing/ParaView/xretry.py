@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: MIT
 """Runs a command and, only when it failed because the X server refused the connection ("bad X
-server connection", or a GLX context it lost: Xvfb drops some connections, and concurrent
-`xvfb-run -a` sessions on one machine can pick the same display and clobber each other's
-authority; PARAVIEW-NOTES.md), runs
+server connection", or a GLX context it lost: an Xvfb started without -noreset resets when its
+last client leaves and refuses connections meanwhile, and concurrent `xvfb-run -a` sessions on
+one machine can pick the same display and clobber each other's authority; PARAVIEW-NOTES.md), runs
 it again under a fresh private Xvfb on a random display, up to three attempts in all. Any other
 failure is reported at once. Usage: xretry.py COMMAND ARGS..."""
 import random
@@ -25,7 +25,7 @@ def main():
             break
         display = random.randint(200, 899)
         print("xretry: attempt %d lost its X connection, retrying on a private Xvfb :%d" % (attempt + 1, display))
-        command = ["xvfb-run", "-n", str(display), "-s", "-screen 0 1280x1024x24"] + sys.argv[1:]
+        command = ["xvfb-run", "-n", str(display), "-s", "-screen 0 1280x1024x24 -noreset"] + sys.argv[1:]
     print("xretry: giving up")
     return run.returncode
 

@@ -89,6 +89,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
                              (separable || separate || host ? "" : " (only rANS two-table encodings can keep their finest level in host memory)"));
     g->m_separated = separate;
     g->m_hostDecoding = host;
+    g->m_owned = options.owned;
     if (separate) g->m_detailSizes = DetailStream::sizes(volume);
     std::vector<uint64_t> addresses;
     for (const auto& a : arrays) {
@@ -403,6 +404,12 @@ std::vector<uint32_t> GpuVolume::labelsFromRegion(uint32_t brick, uint32_t lod, 
         labels[e] = index == mask || index >= paletteSize ? kInvalidLabel : bw.words[bw.size - 1 - index];
     }
     return labels;
+}
+
+bool GpuVolume::owns(uint64_t b) const {
+    if (m_owned.empty()) return true;
+    const std::array<uint32_t, 3> grid = m_volume.brickGrid();
+    return m_owned.contains(uint32_t(b % grid[0]), uint32_t(b / grid[0] % grid[1]), uint32_t(b / grid[0] / grid[1]));
 }
 
 } // namespace csgv::gpu

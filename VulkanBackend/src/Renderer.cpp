@@ -812,6 +812,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     std::vector<uint32_t> vis(size_t(brickCount) * 2, kNone);
 #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t b = 0; b < int64_t(brickCount); ++b) {
+        if (!volume->owns(uint64_t(b))) continue; // another process's brick (MPI): absent here
         const BrickWords bw = vol.brick(uint64_t(b));
         const uint32_t n = bw.words[L];
         for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)

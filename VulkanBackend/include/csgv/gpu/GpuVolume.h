@@ -6,6 +6,7 @@
 /// addresses, so volumes of any size work within per-allocation limits.
 
 #include "csgv/codec/Container.h"
+#include "csgv/codec/Partition.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/DetailStream.h"
@@ -54,6 +55,9 @@ struct GpuVolumeOptions {
     /// only what rendering reads of the encoding, each brick's palette with cache paletting, else
     /// nothing; GPU decoding of this upload is refused. No detail separation then.
     bool hostDecoding = false;
+    /// The bricks this process draws (an MPI rank's piece placed in its volume's index space,
+    /// embedPiece); the others are absent: never visible, requested or decoded. Empty: all.
+    BrickBox owned;
 };
 
 class GpuVolume {
@@ -80,6 +84,9 @@ public:
     const DetailSizes& detailSizes() const { return m_detailSizes; }
     /// Uploaded for host decoding (GpuVolumeOptions::hostDecoding): no encoding to decode from.
     bool hostDecoding() const { return m_hostDecoding; }
+    /// Whether this process draws brick `b` (GpuVolumeOptions::owned).
+    bool owns(uint64_t b) const;
+    const BrickBox& owned() const { return m_owned; }
     /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
     static bool separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation);
     /// A brick's labels (Morton order, kInvalidLabel outside) as its cache region stores them:
@@ -134,6 +141,7 @@ private:
     GpuVolume(Context& c, const CompressedVolume& v) : m_context(c), m_volume(v) {}
     Context& m_context;
     const CompressedVolume& m_volume;
+    BrickBox m_owned;
     std::vector<Buffer> m_arrays;
     Buffer m_addresses, m_starts;
     Defines m_defines;
