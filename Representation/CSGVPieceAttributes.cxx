@@ -169,4 +169,114 @@ std::string reduceComputedAttributes(
   return std::string();
 }
 
+std::string shareGhostFaces(vtkMultiProcessController* c, const VolumeSource& source)
+{
+  const std::shared_ptr<SharedVolume> shared = source.shared;
+  const bool piece = shared && !shared->owned.empty();
+  std::string error;
+  csgv::PieceLayers layers;
+  if (piece)
+  {
+    const uint32_t b = shared->volume.brickSize;
+    std::array<uint32_t, 3> offset{};
+    for (int a = 0; a < 3; ++a)
+    {
+      offset[a] = shared->owned.lo[a] * b;
+    }
+    csgv::Result<csgv::CompressedVolume> own = csgv::extractPiece(shared->volume, shared->owned);
+    csgv::Result<csgv::PieceLayers> l =
+      own ? csgv::pieceLayers(*own, offset, shared->volume.dim) : csgv::Result<csgv::PieceLayers>(own.status());
+    if (l)
+    {
+      layers = std::move(*l);
+    }
+    else
+    {
+      error = "the piece's outer layers: " + l.message();
+    }
+  }
+  // Every rank gets every piece's layers (gathered on rank 0, broadcast).
+  vtkMultiProcessStream mine;
+  mine << int(piece && error.empty());
+  for (int a = 0; a < 3; ++a)
+  {
+    mine << layers.lo[a] << layers.hi[a];
+  }
+  for (const std::vector<uint32_t>& layer : layers.layers)
+  {
+    pushArray(mine, layer);
+  }
+  layers = csgv::PieceLayers{};
+  std::vector<vtkMultiProcessStream> all;
+  c->Gather(mine, all, 0);
+  // Read a piece's part of a stream (what `mine` holds).
+  auto readPiece = [](vtkMultiProcessStream& s, csgv::PieceLayers& l) {
+    int has = 0;
+    s >> has;
+    for (int a = 0; a < 3; ++a)
+    {
+      s >> l.lo[a] >> l.hi[a];
+    }
+    for (std::vector<uint32_t>& layer : l.layers)
+    {
+      layer = popArray<unsigned int, uint32_t>(s);
+    }
+    return has != 0;
+  };
+  std::vector<csgv::PieceLayers> pieces;
+  vtkMultiProcessStream everyone;
+  if (c->GetLocalProcessId() == 0)
+  {
+    for (vtkMultiProcessStream& s : all)
+    {
+      csgv::PieceLayers l;
+      if (readPiece(s, l))
+      {
+        pieces.push_back(std::move(l));
+      }
+    }
+    everyone << static_cast<unsigned int>(pieces.size());
+    for (const csgv::PieceLayers& l : pieces)
+    {
+      everyone << 1;
+      for (int a = 0; a < 3; ++a)
+      {
+        everyone << l.lo[a] << l.hi[a];
+      }
+      for (const std::vector<uint32_t>& layer : l.layers)
+      {
+        pushArray(everyone, layer);
+      }
+    }
+  }
+  all.clear();
+  c->Broadcast(everyone, 0);
+  if (c->GetLocalProcessId() != 0)
+  {
+    unsigned int n = 0;
+    everyone >> n;
+    for (unsigned int r = 0; r < n; ++r)
+    {
+      csgv::PieceLayers l;
+      readPiece(everyone, l);
+      pieces.push_back(std::move(l));
+    }
+  }
+  if (!piece || !error.empty())
+  {
+    return error;
+  }
+  std::array<uint32_t, 3> lo{}, hi{};
+  const uint32_t b = shared->volume.brickSize;
+  for (int a = 0; a < 3; ++a)
+  {
+    lo[a] = shared->owned.lo[a] * b;
+    hi[a] = lo[a] + shared->pieceDims[a];
+  }
+  auto ghost = std::make_shared<const GhostFaces>(csgv::ghostFaces(lo, hi, shared->volume.dim, pieces));
+  std::lock_guard<std::mutex> lock(volumeMutex());
+  shared->ghost = std::move(ghost);
+  return std::string();
+}
+
 } // namespace csgvrep

@@ -28,6 +28,10 @@ namespace csgvrep
 std::string reduceComputedAttributes(
   vtkMultiProcessController* controller, vtkImageData* input, const VolumeSource& source, bool& reduced);
 
+/// Gives every rank holding a piece of a .csgv (SharedVolume::owned) the labels just beyond its
+/// piece (`source.shared->ghost`), from the neighbours' outer layers. Collective like the above.
+std::string shareGhostFaces(vtkMultiProcessController* controller, const VolumeSource& source);
+
 } // namespace csgvrep
 
 #endif

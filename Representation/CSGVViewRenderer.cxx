@@ -220,6 +220,29 @@ std::string ViewRenderer::ensureRenderer()
     this->RendererCacheBytes = share;
     this->RendererBudget = budgetShare;
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
+    this->GhostUploaded = nullptr;
+  }
+  std::shared_ptr<const GhostFaces> ghost;
+  {
+    std::lock_guard<std::mutex> lock(volumeMutex());
+    ghost = shared->ghost;
+  }
+  if (ghost && ghost.get() != this->GhostUploaded && !shared->owned.empty())
+  {
+    // An MPI rank's piece: the labels just beyond it (CSGVPieceAttributes' shareGhostFaces).
+    const uint32_t b = shared->volume.brickSize;
+    std::array<uint32_t, 3> lo{}, hi{};
+    for (int a = 0; a < 3; ++a)
+    {
+      lo[a] = shared->owned.lo[a] * b;
+      hi[a] = lo[a] + shared->pieceDims[a];
+    }
+    csgv::Status s = this->Renderer->setGhostFaces(lo, hi, *ghost);
+    if (!s)
+    {
+      return s.message();
+    }
+    this->GhostUploaded = ghost.get();
   }
   if (this->GeometryDirty)
   {

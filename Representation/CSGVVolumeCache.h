@@ -44,6 +44,9 @@ namespace csgvrep
 {
 
 /// @brief One compressed volume and its upload, shared by every view showing the same data.
+/// Labels just outside each side of a piece (-x, +x, -y, +y, -z, +z).
+using GhostFaces = std::array<std::vector<uint32_t>, 6>;
+
 struct SharedVolume
 {
   csgv::CompressedVolume volume;
@@ -63,6 +66,9 @@ struct SharedVolume
   csgv::BrickBox owned;
   std::array<uint32_t, 3> pieceDims{};
   csgv::Geometry volumeCorner;
+  /// The labels just beyond a rank's piece (csgv::ghostFaces; set by the ranks together in the
+  /// data phase, guarded by the volume cache's mutex), for translucent materials across ranks.
+  std::shared_ptr<const GhostFaces> ghost;
   /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
   /// (guarded by the volume cache's mutex while being set).
   std::shared_ptr<const csgv::AttributeTable> computed;

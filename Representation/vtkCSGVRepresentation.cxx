@@ -37,6 +37,7 @@ struct vtkCSGVRepresentation::vtkInternals
   /// ranks reduced together.
   unsigned long DataGeneration = 0;
   unsigned long ReducedGeneration = 0;
+  unsigned long GhostGeneration = 0; ///< the update whose ghost faces the ranks shared
 };
 
 vtkCSGVRepresentation::vtkCSGVRepresentation()
@@ -364,9 +365,23 @@ void vtkCSGVRepresentation::ReduceComputedAttributes(bool resolved)
 {
   vtkInternals& in = *this->Internals;
   vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
+  if (!c || c->GetNumberOfProcesses() < 2)
+  {
+    return;
+  }
+  if (in.GhostGeneration != in.DataGeneration)
+  {
+    // The labels beyond each rank's piece, for translucent materials across ranks.
+    in.GhostGeneration = in.DataGeneration;
+    const std::string error =
+      csgvrep::shareGhostFaces(c, resolved ? in.Source : csgvrep::VolumeSource{});
+    if (!error.empty())
+    {
+      vtkErrorMacro(<< "Segmentation Volume: " << error);
+    }
+  }
   // Every rank decides alike: the property and the count of data updates are the same on all.
-  if (!this->ComputedAttributes || !c || c->GetNumberOfProcesses() < 2 ||
-    in.ReducedGeneration == in.DataGeneration)
+  if (!this->ComputedAttributes || in.ReducedGeneration == in.DataGeneration)
   {
     return;
   }

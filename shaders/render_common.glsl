@@ -347,6 +347,27 @@ const uint MARCH_OUT = 0u;     // left the box or passed tEnd
 const uint MARCH_SURFACE = 1u; // entered a voxel of a visible label different from the previous one
 const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cache
 
+/// An MPI rank's piece (kSlotGhost, Renderer::setGhostFaces): a walker that just entered the
+/// piece from the volume beyond it (inside the ray's box [lo, hi)) takes the label it left from
+/// the ghost faces, as one process walking the whole volume would have it.
+void ghostEntry(inout Walker w, ivec3 lo, ivec3 hi) {
+    UintBuf g = UintBuf(frameAddr[kSlotGhost]);
+    const ivec3 plo = ivec3(g.w[0], g.w[1], g.w[2]);
+    const ivec3 phi = ivec3(g.w[3], g.w[4], g.w[5]);
+    if (any(lessThan(w.voxel, plo)) || any(greaterThanEqual(w.voxel, phi))) return;
+    const uint axis = (w.face - 1u) / 2u;
+    const bool up = ((w.face - 1u) & 1u) == 0u; // moving towards +axis: entered through the - side
+    ivec3 prev = w.voxel;
+    prev[axis] += up ? -1 : 1;
+    if (prev[axis] >= plo[axis] && prev[axis] < phi[axis]) return;         // came from inside
+    if (any(lessThan(prev, lo)) || any(greaterThanEqual(prev, hi))) return; // started there
+    const uint off = g.w[6u + 2u * axis + (up ? 0u : 1u)];
+    if (off == 0u) return;
+    const uint u = axis == 0u ? 1u : 0u;
+    const uint v = axis == 2u ? 1u : 2u;
+    w.prevLabel = g.w[off + uint(prev[u] - plo[u]) + uint(phi[u] - plo[u]) * uint(prev[v] - plo[v])];
+}
+
 /// Walks until a surface event, the end, or a missing brick. `request`: mark the bricks the ray
 /// needs as used (so the next frame's request pass keeps or decodes them). `exact`: a brick that
 /// stands in at a coarser level than the view wants (kBrickStandIn) counts as missing; previews
@@ -365,6 +386,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
         if (b != current) { // brick state read once per brick, not per voxel
+            if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(w, lo, hi);
             current = b;
             s = bricks.v[b];
             if (request && s.w != 0u && b != w.lastBrick) {

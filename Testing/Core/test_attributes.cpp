@@ -534,6 +534,39 @@ TEST(AttributesComputed, PiecesSummedWithTheirLayersEqualTheWholeVolume) {
             }
         }
     }
+    // Ghost faces: the labels just outside each piece, from its neighbours' layers.
+    {
+        const CompressedVolume v16 = compress(src, 16);
+        std::vector<PieceLayers> layers;
+        std::vector<BrickBox> boxes;
+        for (uint32_t p = 0; p < 5; ++p) {
+            const BrickBox box = brickPartition(v16.brickGrid(), 5, p);
+            const std::array<uint32_t, 3> offset = {box.lo[0] * 16, box.lo[1] * 16, box.lo[2] * 16};
+            layers.push_back(*pieceLayers(*extractPiece(v16, box), offset, v16.dim));
+            boxes.push_back(box);
+        }
+        for (const PieceLayers& mine : layers) {
+            const auto ghosts = ghostFaces(mine.lo, mine.hi, v16.dim, layers);
+            for (int side = 0; side < 6; ++side) {
+                const int a = side / 2, u = a == 0 ? 1 : 0, v = a == 2 ? 1 : 2;
+                const bool plus = side % 2 == 1;
+                const bool boundary = plus ? mine.hi[a] == v16.dim[a] : mine.lo[a] == 0;
+                ASSERT_EQ(ghosts[size_t(side)].empty(), boundary);
+                if (boundary) continue;
+                bool same = true;
+                for (uint32_t y = mine.lo[v]; y < mine.hi[v]; ++y)
+                    for (uint32_t x = mine.lo[u]; x < mine.hi[u]; ++x) {
+                        std::array<uint32_t, 3> p{};
+                        p[size_t(a)] = plus ? mine.hi[a] : mine.lo[a] - 1;
+                        p[size_t(u)] = x;
+                        p[size_t(v)] = y;
+                        same &= ghosts[size_t(side)][(x - mine.lo[u]) + size_t(mine.hi[u] - mine.lo[u]) * (y - mine.lo[v])] ==
+                                src.at(p[0], p[1], p[2]);
+                    }
+                EXPECT_TRUE(same) << "side " << side;
+            }
+        }
+    }
     // A piece that does not fit its volume is an error.
     const CompressedVolume vol = compress(src, 16);
     EXPECT_FALSE(computeAttributeSums(vol, {}, {1, 0, 0}, vol.dim).isOk());

@@ -140,6 +140,7 @@ struct Renderer::Impl {
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
+    Buffer ghost; // setGhostFaces (empty: not a piece)
     uint32_t materialTableSize = 0;   // entries of materialTable (0: the shader scans the list)
     std::vector<Buffer> attributes;
     uint32_t materialCount = 0, labelCount = 0;
@@ -825,6 +826,32 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     return ctx.upload(visible, 0, vis.data(), vis.size() * 4);
 }
 
+Status Renderer::setGhostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
+                               const std::array<std::vector<uint32_t>, 6>& faces) {
+    Impl& im = *m_impl;
+    std::vector<uint32_t> words(kGhostHeaderWords, 0u);
+    for (int a = 0; a < 3; ++a) {
+        if (hi[a] <= lo[a]) return Status::error("the piece's box is empty along axis " + std::to_string(a));
+        words[size_t(a)] = lo[a];
+        words[size_t(3 + a)] = hi[a];
+    }
+    for (int side = 0; side < 6; ++side) {
+        const int a = side / 2, u = a == 0 ? 1 : 0, v = a == 2 ? 1 : 2;
+        const std::vector<uint32_t>& f = faces[size_t(side)];
+        if (f.empty()) continue;
+        if (f.size() != size_t(hi[u] - lo[u]) * (hi[v] - lo[v]))
+            return Status::error("ghost face " + std::to_string(side) + " holds " + std::to_string(f.size()) +
+                                 " labels, not the piece's face");
+        words[size_t(6 + side)] = uint32_t(words.size());
+        words.insert(words.end(), f.begin(), f.end());
+    }
+    if (words.size() > 0xFFFFFFFFull) return Status::error("the ghost faces are too large");
+    Status s = im.uploadDeviceLocal(im.ghost, words.data(), words.size() * 4);
+    if (!s) return s.prefix("ghost faces");
+    im.resetAccumulation();
+    return Status::ok();
+}
+
 Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::string, std::vector<float>>& attributes,
                               const std::vector<uint32_t>& storedToOriginal) {
     Impl& im = *m_impl;
@@ -1046,6 +1073,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     p.addr[kSlotStarts] = volume->startsAddress();
     p.addr[kSlotDetail] = detail ? detail->tableAddress() : 0;
     p.addr[kSlotDetailRequests] = detailRequests.address();
+    p.addr[kSlotGhost] = ghost.size() > 0 ? ghost.address() : 0;
 
     uint32_t* a = allocWords();
     a[kAllocFull] = 0;
@@ -1438,6 +1466,7 @@ MemoryReport Renderer::Impl::memory() const {
                     im.materialTable.size();
     for (const Buffer& b : im.attributes) attr += b.size();
     r.buffers.push_back({"materials and attributes", attr});
+    if (im.ghost.size() > 0) r.buffers.push_back({"ghost faces (MPI piece)", im.ghost.size()});
     return r;
 }
 

@@ -520,6 +520,34 @@ void addFacesBetweenPieces(AttributeSums& sums, const std::vector<PieceLayers>& 
             }
 }
 
+std::array<std::vector<uint32_t>, 6> ghostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
+                                                const std::array<uint32_t, 3>& volumeDims,
+                                                const std::vector<PieceLayers>& pieces) {
+    std::array<std::vector<uint32_t>, 6> out;
+    for (int side = 0; side < 6; ++side) {
+        const int a = side / 2;
+        const bool plus = side % 2 == 1;
+        if (plus ? hi[a] >= volumeDims[a] : lo[a] == 0) continue;
+        const int u = a == 0 ? 1 : 0, v = a == 2 ? 1 : 2;
+        const uint32_t outside = plus ? hi[a] : lo[a] - 1;
+        const size_t w = hi[u] - lo[u];
+        std::vector<uint32_t>& face = out[size_t(side)];
+        face.assign(w * (hi[v] - lo[v]), kInvalidLabel);
+        for (const PieceLayers& p : pieces) {
+            // The neighbour's layer on the opposite side holds the plane `outside`.
+            const std::vector<uint32_t>& layer = p.layers[size_t(2 * a + (plus ? 0 : 1))];
+            if (layer.empty() || (plus ? p.lo[a] != outside : p.hi[a] != outside + 1)) continue;
+            const uint32_t u0 = std::max(lo[u], p.lo[u]), u1 = std::min(hi[u], p.hi[u]);
+            const uint32_t v0 = std::max(lo[v], p.lo[v]), v1 = std::min(hi[v], p.hi[v]);
+            const size_t pw = p.hi[u] - p.lo[u];
+            for (uint32_t y = v0; y < v1; ++y)
+                for (uint32_t x = u0; x < u1; ++x)
+                    face[(x - lo[u]) + w * (y - lo[v])] = layer[(x - p.lo[u]) + pw * (y - p.lo[v])];
+        }
+    }
+    return out;
+}
+
 Result<AttributeTable> attributeTable(const AttributeSums& sums, const ComputeAttributesOptions& options) {
     try {
         if (sums.values.size() != sums.keys.size() * AttributeSums::kValues)

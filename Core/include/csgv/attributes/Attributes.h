@@ -215,6 +215,13 @@ struct PieceLayers {
 /// The layers of `piece` (voxel (0,0,0) at `offset` of a volume of `volumeDims`), decoded.
 Result<PieceLayers> pieceLayers(const CompressedVolume& piece, const std::array<uint32_t, 3>& offset,
                                 const std::array<uint32_t, 3>& volumeDims);
+/// The labels just outside a piece's box [lo, hi) on each side (-x, +x, -y, +y, -z, +z; laid out
+/// as PieceLayers::layers, over the box's face), from the layers of the pieces beside it; sides on
+/// the volume's boundary are empty, voxels no piece holds are kInvalidLabel. A renderer of the
+/// piece starts a ray that enters from outside with the label it leaves (ghost faces).
+std::array<std::vector<uint32_t>, 6> ghostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
+                                                const std::array<uint32_t, 3>& volumeDims,
+                                                const std::vector<PieceLayers>& pieces);
 /// Adds the faces across every pair of touching pieces (disjoint boxes) to `sums`.
 void addFacesBetweenPieces(AttributeSums& sums, const std::vector<PieceLayers>& pieces);
 /// The table computeAttributes() gives for these sums (options.idToLabel maps stored ids).

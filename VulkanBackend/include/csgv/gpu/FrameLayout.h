@@ -69,7 +69,9 @@ CSGV_CONST(uint32_t, kSlotMaterialTable, 22u) ///< uint per stored label: its ma
 CSGV_CONST(uint32_t, kSlotUniform, 23u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
 CSGV_CONST(uint32_t, kSlotDetail, 24u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
 CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
-CSGV_CONST(uint32_t, kSlotCount, 26u)
+CSGV_CONST(uint32_t, kSlotGhost, 26u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
+CSGV_CONST(uint32_t, kSlotCount, 27u)
+CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 
 /// Brick table word w (kSlotBricks): 0 invisible, 1 visible, kBrickStandIn visible and cached at
 /// the next coarser level than the view wants, because its finest-level stream has not arrived

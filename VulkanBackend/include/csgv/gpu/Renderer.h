@@ -202,6 +202,13 @@ public:
     /// Corner geometry (Metadata.h): origin of voxel (0,0,0)'s corner, spacing, direction. A
     /// different geometry resets the accumulation; the same one keeps it.
     void setGeometry(const Geometry& cornerGeometry);
+    /// An MPI rank's piece of the volume (GpuVolumeOptions::owned), voxels [lo, hi): `faces` are the
+    /// stored labels just outside each side (csgv::ghostFaces: -x, +x, -y, +y, -z, +z; empty on
+    /// the volume's boundary). A ray entering the piece from outside then starts with the label it
+    /// leaves, so a label continuing across the boundary is not a new surface (translucent
+    /// materials composite over the ranks as over one). Restarts the accumulation.
+    Status setGhostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
+                         const std::array<std::vector<uint32_t>, 6>& faces);
     /// Materials with colormaps resolved to control points. `attributes` are per stored label
     /// (index = the label value in the volume); `label` is built in. `storedToOriginal` maps
     /// stored labels to original labels (relabelled files); empty when they are the same.
