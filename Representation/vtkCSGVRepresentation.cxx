@@ -182,7 +182,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     vtkPVRenderView::SetDeliverToClientAndRenderingProcesses(inInfo, this, false, false);
     double bounds[6];
     const bool resolved = this->Cache && this->ResolveInput(this->Cache);
-    this->ReduceComputedAttributes(resolved);
+    this->ShareAcrossRanks(resolved);
     if (resolved && this->Internals->Source.bounds(bounds))
     {
       // This rank's piece (the reader hands each rank whole bricks; a piece is a volume of its
@@ -361,7 +361,7 @@ void vtkCSGVRepresentation::SetComputedAttributes(int on)
   this->MarkModified();
 }
 
-void vtkCSGVRepresentation::ReduceComputedAttributes(bool resolved)
+void vtkCSGVRepresentation::ShareAcrossRanks(bool resolved)
 {
   vtkInternals& in = *this->Internals;
   vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();

@@ -155,9 +155,10 @@ private:
   /// Resolves the input once per (image, modification time, label array) and reports a failure
   /// once; returns true when there is something to draw.
   bool ResolveInput(vtkImageData* image);
-  /// Under MPI, the ranks' computed attributes of one volume, once per data update (collective;
-  /// `resolved`: this rank has a volume).
-  void ReduceComputedAttributes(bool resolved);
+  /// Under MPI, what the ranks holding pieces of one volume share, once per data update
+  /// (collective; `resolved`: this rank has a volume): the labels beyond each piece (ghost faces)
+  /// and, when asked for, the computed attributes summed over the ranks.
+  void ShareAcrossRanks(bool resolved);
 
   vtkSmartPointer<vtkImageData> Cache;
   vtkCSGVVolumeProp* Prop;

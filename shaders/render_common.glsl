@@ -349,8 +349,13 @@ const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cac
 
 /// An MPI rank's piece (kSlotGhost, Renderer::setGhostFaces): a walker that just entered the
 /// piece from the volume beyond it (inside the ray's box [lo, hi)) takes the label it left from
-/// the ghost faces, as one process walking the whole volume would have it.
-void ghostEntry(inout Walker w, ivec3 lo, ivec3 hi) {
+/// the ghost faces, as one process walking the whole volume would have it, when that label is
+/// drawn semi-transparent: a translucent label continuing across the boundary is no new layer.
+/// Other labels keep kNone: an opaque label continuing there was hit in front by the rank before
+/// (the nearest hit wins), and near a brick edge the voxel left may not be the one the whole
+/// volume's walk came from (the ray's voxel path across bricks is not canonical), where taking
+/// it could hide a surface.
+void ghostEntry(Frame f, inout Walker w, ivec3 lo, ivec3 hi) {
     UintBuf g = UintBuf(frameAddr[kSlotGhost]);
     const ivec3 plo = ivec3(g.w[0], g.w[1], g.w[2]);
     const ivec3 phi = ivec3(g.w[3], g.w[4], g.w[5]);
@@ -365,7 +370,10 @@ void ghostEntry(inout Walker w, ivec3 lo, ivec3 hi) {
     if (off == 0u) return;
     const uint u = axis == 0u ? 1u : 0u;
     const uint v = axis == 2u ? 1u : 2u;
-    w.prevLabel = g.w[off + uint(prev[u] - plo[u]) + uint(phi[u] - plo[u]) * uint(prev[v] - plo[v])];
+    const uint label = g.w[off + uint(prev[u] - plo[u]) + uint(phi[u] - plo[u]) * uint(prev[v] - plo[v])];
+    const uint m = label == kNone ? kNone : materialOf(f, label);
+    float e;
+    if (m != kNone && materialColor(f, m, label, e).a < 1.0) w.prevLabel = label;
 }
 
 /// Walks until a surface event, the end, or a missing brick. `request`: mark the bricks the ray
@@ -386,7 +394,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
         if (b != current) { // brick state read once per brick, not per voxel
-            if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(w, lo, hi);
+            if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(f, w, lo, hi);
             current = b;
             s = bricks.v[b];
             if (request && s.w != 0u && b != w.lastBrick) {

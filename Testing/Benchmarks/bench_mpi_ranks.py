@@ -3,9 +3,12 @@
 nothing). Runs itself under `mpiexec -np N pvbatch --symmetric` for each N and prints, per rank:
 reader load time, first image, median of interactive orbit frames, device MiB (CSGVDeviceMiB),
 the encoding bytes the rank holds, peak RSS; then how many pixels of each N's image differ from
-one rank's.
+one rank's. --images DIR keeps each N's image and a side-by-side PNG of them; --write also
+times SaveData to .csgv from the N ranks (the labels decoded per rank, encoded per rank, written
+by rank 0) and compares the files with one rank's byte for byte.
 
 pvpython bench_mpi_ranks.py PLUGIN.so VOLUME.csgv [--ranks 1,2,4] [--size 640x360] [--orbit 6]
+    [--images DIR] [--write]
 """
 import argparse
 import json
@@ -68,6 +71,16 @@ def rank_main(a):
                           ImageResolution=[w, h], TransparentBackground=0)
     simple.Hide(r, v)
     simple.Delete(v)  # before the interpreter's teardown (which lost its GLX context otherwise)
+    if a.write:
+        labels = globals()["CSGVReader"](FileName=a.volume, DecodeLabels=1, DecodeThreshold=2**62)
+        pm.GetGlobalController().Barrier()
+        t0 = time.perf_counter()
+        simple.SaveData(os.path.join(a.out, "written.csgv"), proxy=labels, BrickSize=32)
+        pm.GetGlobalController().Barrier()
+        facts["write_s"] = time.perf_counter() - t0
+        facts["peak_rss_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        with open(os.path.join(a.out, "rank%d.json" % rank), "w") as f:
+            json.dump(facts, f)
 
 
 def load_png(path):
@@ -86,6 +99,8 @@ def main():
     ap.add_argument("--ranks", default="1,2,4")
     ap.add_argument("--size", default="640x360")
     ap.add_argument("--orbit", type=int, default=6)
+    ap.add_argument("--images", help="keep the images and a side-by-side PNG here")
+    ap.add_argument("--write", action="store_true", help="also time a parallel SaveData")
     ap.add_argument("--out", help=argparse.SUPPRESS)  # set when running as a rank
     a = ap.parse_args()
     if a.out:
@@ -103,7 +118,8 @@ def main():
         out = os.path.join(top, "np%d" % n)
         os.makedirs(out)
         command = [shutil.which("pvbatch"), "--symmetric", "--force-offscreen-rendering", os.path.abspath(__file__),
-                   a.plugin, a.volume, "--size", a.size, "--orbit", str(a.orbit), "--out", out]
+                   a.plugin, a.volume, "--size", a.size, "--orbit", str(a.orbit), "--out", out] + \
+                  (["--write"] if a.write else [])
         if n > 1:
             command = [shutil.which("mpiexec"), "-np", str(n)] + command
         run = subprocess.run(["/usr/bin/python3", os.path.join(here, "..", "ParaView", "xretry.py")] + command,
@@ -113,12 +129,36 @@ def main():
             return 1
         for r in range(n):
             f = json.load(open(os.path.join(out, "rank%d.json" % r)))
-            print("%5d %4d %6.2f %7.2f %8.1f %10.1f %12.2f %12.0f" % (
+            print("%5d %4d %6.2f %7.2f %8.1f %10.1f %12.2f %12.0f%s" % (
                 n, r, f["load_s"], f["first_s"], f["orbit_ms"], f["device_mib"], f["encoding_bytes"] / 2**20,
-                f["peak_rss_mib"]))
+                f["peak_rss_mib"], "  write %.1f s" % f["write_s"] if "write_s" in f else ""))
         images[n] = load_png(os.path.join(out, "image.png"))
         sys.stdout.flush()
     base = min(images)
+    if a.write:
+        first = os.path.join(top, "np%d" % base, "written.csgv")
+        for n in images:
+            other = os.path.join(top, "np%d" % n, "written.csgv")
+            same = os.path.isfile(other) and open(other, "rb").read() == open(first, "rb").read()
+            print("%d ranks: SaveData wrote %d bytes, %s %d rank(s)'s" % (
+                n, os.path.getsize(other) if os.path.isfile(other) else 0, "equal to" if same else "NOT equal to", base))
+    if a.images:
+        import numpy as np
+        from vtkmodules.util.numpy_support import numpy_to_vtk
+        from vtkmodules.vtkCommonDataModel import vtkImageData
+        from vtkmodules.vtkIOImage import vtkPNGWriter
+        os.makedirs(a.images, exist_ok=True)
+        w, h = (int(x) for x in a.size.split("x"))
+        for n in images:
+            shutil.copy(os.path.join(top, "np%d" % n, "image.png"), os.path.join(a.images, "ranks%d.png" % n))
+        side = np.concatenate([images[n].reshape(h, w, -1) for n in sorted(images)], axis=1)
+        img = vtkImageData()
+        img.SetDimensions(side.shape[1], side.shape[0], 1)
+        img.GetPointData().SetScalars(numpy_to_vtk(side.reshape(-1, side.shape[2]).astype(np.uint8), deep=True))
+        pw = vtkPNGWriter()
+        pw.SetFileName(os.path.join(a.images, "side_by_side.png"))
+        pw.SetInputData(img)
+        pw.Write()
     for n, img in images.items():
         if n == base:
             continue
