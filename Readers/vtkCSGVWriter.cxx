@@ -2,6 +2,7 @@
 #include "vtkCSGVWriter.h"
 
 #include "CSGVAdapter.h"
+#include "CSGVStreamArrays.h"
 
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/codec/Encoder.h"
@@ -54,6 +55,9 @@ int vtkCSGVWriter::FillInputPortInformation(int, vtkInformation* info)
 
 namespace
 {
+
+using csgvvtk::popArray;
+using csgvvtk::pushArray;
 
 /// Voxels of a point extent: its cells (`isCell`, at least 1 along an axis, as VTK counts the
 /// cells of flat images) or its points.
@@ -224,33 +228,6 @@ std::string missingArrayMessage(const char* name)
   return "the input has no one-component integer or float array to write";
 }
 
-/// vtkMultiProcessStream's arrays, empty ones included (Push refuses a null array).
-template <class T>
-void pushArray(vtkMultiProcessStream& s, std::vector<T>& v)
-{
-  s << static_cast<unsigned int>(v.size());
-  if (!v.empty())
-  {
-    s.Push(v.data(), static_cast<unsigned int>(v.size()));
-  }
-}
-
-template <class T>
-std::vector<T> popArray(vtkMultiProcessStream& s)
-{
-  unsigned int n = 0;
-  s >> n;
-  std::vector<T> v;
-  if (n > 0)
-  {
-    T* data = nullptr;
-    s.Pop(data, n);
-    v.assign(data, data + n);
-    delete[] data;
-  }
-  return v;
-}
-
 /// @brief The pieces' agreement over MPI (vtkCSGVWriter::WritePieces): whether to relabel, the
 /// ids, the symbol counts. Every process makes each collective call exactly once: catchUp makes
 /// those a piece skipped (it failed first, or holds no bricks).
@@ -387,6 +364,226 @@ constexpr int kPieceTag = 41731;
 
 } // namespace
 
+namespace
+{
+
+/// vtkCSGVWriter::WriteData with NumberOfPieces > 1: every process runs it together.
+void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
+{
+  vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
+  const int n = self->GetNumberOfPieces();
+  if (!c || c->GetNumberOfProcesses() != n || c->GetLocalProcessId() != self->GetPiece())
+  {
+    // Nothing collective can run safely: every process reports this alone.
+    vtkErrorWithObjectMacro(self, << "writing in " << n << " pieces needs as many MPI processes, this one "
+                  << "writing piece " << self->GetPiece() << "; there are "
+                  << (c ? c->GetNumberOfProcesses() : 1) << " (process "
+                  << (c ? c->GetLocalProcessId() : 0) << ")");
+    return;
+  }
+  const int rank = self->GetPiece();
+  const std::string path = self->GetFileName() ? self->GetFileName() : "";
+  vtkImageData* image = self->GetInput();
+
+  std::string error;
+
+  // Process 0 chooses the array; every process then takes it from its own piece.
+  vtkMultiProcessStream choice;
+  csgv::LabelType labelType = csgv::LabelType::U32; // process 0's, for the attribute database
+  std::string originalType;
+  if (rank == 0)
+  {
+    bool isCell = true;
+    vtkDataArray* array = image
+      ? csgvvtk::findLabelArray(image, self->GetLabelArrayName() ? self->GetLabelArrayName() : "", isCell)
+      : nullptr;
+    std::string name;
+    if (!image)
+    {
+      error = "the input is not image data";
+    }
+    else if (!array)
+    {
+      error = missingArrayMessage(self->GetLabelArrayName());
+    }
+    else
+    {
+      name = array->GetName() ? array->GetName() : "";
+      const char* typeName = csgvvtk::labelTypeNameOf(array->GetDataType(), labelType);
+      originalType = typeName ? typeName : "";
+    }
+    choice << error << name << int(isCell);
+  }
+  c->Broadcast(choice, 0);
+  std::string arrayName;
+  int cellData = 1;
+  choice >> error >> arrayName >> cellData;
+  if (!error.empty())
+  {
+    vtkErrorWithObjectMacro(self, << error);
+    return;
+  }
+  const bool isCell = cellData != 0;
+  int whole[6];
+  self->GetInputInformation(0, 0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  const std::array<uint32_t, 3> dims = voxelsOf(whole, isCell);
+  std::array<uint32_t, 3> lo{}, hi{};
+  const bool mine = pieceVoxels(dims, self->GetBrickSize(), n, rank, lo, hi);
+
+  // Every process relabels when one must, with ids of the whole volume; pass 1 over this piece,
+  // counts summed over all pieces, pass 2 with the common tables.
+  csgvvtk::EncodedArray encoded;
+  MpiAgreement agreement(c, uint32_t(self->GetBrickSize()));
+  agreement.offset = lo;
+  agreement.volumeDims = dims;
+  options.shareCounts = [&](const csgv::SymbolCounts& counts) {
+    return agreement.counts(true, counts);
+  };
+  if (mine)
+  {
+    vtkDataArray* array = image
+      ? (isCell ? static_cast<vtkDataSetAttributes*>(image->GetCellData()) : image->GetPointData())
+          ->GetArray(arrayName.c_str())
+      : nullptr;
+    vtkSmartPointer<vtkDataArray> piece;
+    if (!array)
+    {
+      error = "this process's piece has no array '" + arrayName + "'";
+    }
+    else
+    {
+      error = cropVoxels(array, image->GetExtent(), whole, isCell, lo, hi, piece);
+    }
+    if (error.empty())
+    {
+      const std::array<uint32_t, 3> size = { hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2] };
+      error = csgvvtk::encodeLabelArray(piece, size, options, self->GetRelabel() != 0,
+        [self](double f) { self->UpdateProgress(0.05 + 0.8 * f); }, encoded, &agreement);
+    }
+  }
+  agreement.catchUp(error.empty());
+
+  // Process 0 gathers every piece (its words as a container of their own) and writes the file.
+  std::vector<uint8_t> bytes;
+  if (error.empty() && mine)
+  {
+    bytes = csgv::serializeCsgv(encoded.volume);
+    encoded.volume = csgv::CompressedVolume{};
+  }
+  vtkMultiProcessStream head;
+  head << error << static_cast<unsigned long long>(bytes.size());
+  std::vector<vtkMultiProcessStream> heads;
+  c->Gather(head, heads, 0);
+  if (rank != 0 && !bytes.empty())
+  {
+    for (size_t at = 0; at < bytes.size(); at += size_t(kMessageBytes))
+    {
+      c->Send(bytes.data() + at, std::min<vtkIdType>(kMessageBytes, vtkIdType(bytes.size() - at)), 0,
+        kPieceTag);
+    }
+  }
+  std::string outcome;
+  if (rank == 0)
+  {
+    std::vector<csgv::BrickBox> boxes(static_cast<size_t>(n));
+    std::vector<csgv::CompressedVolume> pieces(static_cast<size_t>(n));
+    self->UpdateProgress(0.85);
+    for (int r = 0; r < n; ++r)
+    {
+      std::string theirError;
+      unsigned long long size = 0;
+      heads[size_t(r)] >> theirError >> size;
+      std::vector<uint8_t> theirs;
+      if (r == 0)
+      {
+        theirs.swap(bytes);
+      }
+      else if (size > 0)
+      {
+        theirs.resize(size_t(size));
+        for (size_t at = 0; at < theirs.size(); at += size_t(kMessageBytes))
+        {
+          c->Receive(theirs.data() + at,
+            std::min<vtkIdType>(kMessageBytes, vtkIdType(theirs.size() - at)), r, kPieceTag);
+        }
+      }
+      // The first process that names a cause; the others only know that one failed.
+      if (!theirError.empty() && (outcome.empty() || outcome == kOtherFailed) &&
+        (theirError != kOtherFailed || outcome.empty()))
+      {
+        outcome = theirError == kOtherFailed ? theirError
+                                             : "process " + std::to_string(r) + ": " + theirError;
+      }
+      std::array<uint32_t, 3> plo{}, phi{};
+      if (!pieceVoxels(dims, self->GetBrickSize(), n, r, plo, phi) || !outcome.empty())
+      {
+        continue;
+      }
+      const uint32_t b = uint32_t(self->GetBrickSize());
+      for (int a = 0; a < 3; ++a)
+      {
+        boxes[size_t(r)].lo[a] = plo[a] / b;
+        boxes[size_t(r)].hi[a] = (phi[a] + b - 1) / b;
+      }
+      csgv::Result<csgv::CompressedVolume> parsed = csgv::parseCsgv(theirs.data(), theirs.size());
+      if (!parsed)
+      {
+        outcome = "the piece of process " + std::to_string(r) + " is not valid: " + parsed.message();
+        continue;
+      }
+      pieces[size_t(r)] = std::move(*parsed);
+    }
+    if (outcome.empty())
+    {
+      csgv::Result<csgv::CompressedVolume> joined =
+        csgv::joinPieces(dims, boxes, pieces, options.maxArrayWords, uint64_t(64) << 30);
+      csgv::Status status = joined.status();
+      if (status)
+      {
+        self->UpdateProgress(0.9);
+        // Geometry of the whole image (this process holds a piece of it).
+        vtkNew<vtkImageData> wholeImage;
+        wholeImage->SetExtent(whole);
+        wholeImage->SetOrigin(image->GetOrigin());
+        wholeImage->SetSpacing(image->GetSpacing());
+        wholeImage->SetDirectionMatrix(image->GetDirectionMatrix());
+        std::array<uint32_t, 3> geometryDims;
+        csgv::VolumeMetadata md;
+        md.dim = dims;
+        md.geometry = csgvvtk::imageGeometry(wholeImage, isCell, geometryDims);
+        md.originalType = originalType;
+        md.relabelled = agreement.Relabelled;
+        md.source = "ParaView array '" + arrayName + "' (" + (isCell ? "cell" : "point") + " data)";
+        csgv::LabelMapping mapping;
+        mapping.relabelled = agreement.Relabelled;
+        mapping.type = labelType;
+        mapping.originalBits = std::move(agreement.Table);
+        status = writeVolumeFiles(path, md, mapping, *joined);
+      }
+      if (!status)
+      {
+        outcome = status.message();
+      }
+    }
+    else
+    {
+      outcome = path + ": " + outcome;
+    }
+  }
+  vtkMultiProcessStream result;
+  result << outcome;
+  c->Broadcast(result, 0);
+  result >> outcome;
+  if (!outcome.empty())
+  {
+    vtkErrorWithObjectMacro(self, << outcome);
+    return;
+  }
+  self->UpdateProgress(1.0);
+}
+
+} // namespace
+
 vtkTypeBool vtkCSGVWriter::ProcessRequest(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
@@ -436,9 +633,18 @@ vtkTypeBool vtkCSGVWriter::ProcessRequest(
 
 void vtkCSGVWriter::WriteData()
 {
+  // Settings are the same on every process: they fail everywhere or nowhere.
+  csgv::EncodeOptions options;
+  std::string error = checkSettings(this->FileName, this->BrickSize, this->Encoding,
+    this->Operations, this->NumberOfThreads, options);
+  if (!error.empty())
+  {
+    vtkErrorMacro(<< error);
+    return;
+  }
   if (this->NumberOfPieces > 1)
   {
-    this->WritePieces();
+    writePieces(this, options);
     return;
   }
   vtkImageData* image = this->GetInput();
@@ -446,14 +652,6 @@ void vtkCSGVWriter::WriteData()
   if (!image)
   {
     vtkErrorMacro(<< "the input is not image data");
-    return;
-  }
-  csgv::EncodeOptions options;
-  std::string error = checkSettings(this->FileName, this->BrickSize, this->Encoding,
-    this->Operations, this->NumberOfThreads, options);
-  if (!error.empty())
-  {
-    vtkErrorMacro(<< error);
     return;
   }
   bool isCell = true;
@@ -499,228 +697,6 @@ void vtkCSGVWriter::WriteData()
   if (!status)
   {
     vtkErrorMacro(<< status.message());
-    return;
-  }
-  this->UpdateProgress(1.0);
-}
-
-void vtkCSGVWriter::WritePieces()
-{
-  vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
-  const int n = this->NumberOfPieces;
-  if (!c || c->GetNumberOfProcesses() != n || c->GetLocalProcessId() != this->Piece)
-  {
-    // Nothing collective can run safely: every process reports this alone.
-    vtkErrorMacro(<< "writing in " << n << " pieces needs as many MPI processes, this one "
-                  << "writing piece " << this->Piece << "; there are "
-                  << (c ? c->GetNumberOfProcesses() : 1) << " (process "
-                  << (c ? c->GetLocalProcessId() : 0) << ")");
-    return;
-  }
-  const int rank = this->Piece;
-  const std::string path = this->FileName ? this->FileName : "";
-  vtkImageData* image = this->GetInput();
-
-  // Settings are the same on every process: they fail everywhere or nowhere.
-  csgv::EncodeOptions options;
-  std::string error = checkSettings(this->FileName, this->BrickSize, this->Encoding,
-    this->Operations, this->NumberOfThreads, options);
-  if (!error.empty())
-  {
-    vtkErrorMacro(<< error);
-    return;
-  }
-
-  // Process 0 chooses the array; every process then takes it from its own piece.
-  vtkMultiProcessStream choice;
-  csgv::LabelType labelType = csgv::LabelType::U32; // process 0's, for the attribute database
-  std::string originalType;
-  if (rank == 0)
-  {
-    bool isCell = true;
-    vtkDataArray* array = image
-      ? csgvvtk::findLabelArray(image, this->LabelArrayName ? this->LabelArrayName : "", isCell)
-      : nullptr;
-    std::string name;
-    if (!image)
-    {
-      error = "the input is not image data";
-    }
-    else if (!array)
-    {
-      error = missingArrayMessage(this->LabelArrayName);
-    }
-    else
-    {
-      name = array->GetName() ? array->GetName() : "";
-      const char* typeName = csgvvtk::labelTypeNameOf(array->GetDataType(), labelType);
-      originalType = typeName ? typeName : "";
-    }
-    choice << error << name << int(isCell);
-  }
-  c->Broadcast(choice, 0);
-  std::string arrayName;
-  int cellData = 1;
-  choice >> error >> arrayName >> cellData;
-  if (!error.empty())
-  {
-    vtkErrorMacro(<< error);
-    return;
-  }
-  const bool isCell = cellData != 0;
-  int whole[6];
-  this->GetInputInformation(0, 0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-  const std::array<uint32_t, 3> dims = voxelsOf(whole, isCell);
-  std::array<uint32_t, 3> lo{}, hi{};
-  const bool mine = pieceVoxels(dims, this->BrickSize, n, rank, lo, hi);
-
-  // Every process relabels when one must, with ids of the whole volume; pass 1 over this piece,
-  // counts summed over all pieces, pass 2 with the common tables.
-  csgvvtk::EncodedArray encoded;
-  MpiAgreement agreement(c, uint32_t(this->BrickSize));
-  agreement.offset = lo;
-  agreement.volumeDims = dims;
-  options.shareCounts = [&](const csgv::SymbolCounts& counts) {
-    return agreement.counts(true, counts);
-  };
-  if (mine)
-  {
-    vtkDataArray* array = image
-      ? (isCell ? static_cast<vtkDataSetAttributes*>(image->GetCellData()) : image->GetPointData())
-          ->GetArray(arrayName.c_str())
-      : nullptr;
-    vtkSmartPointer<vtkDataArray> piece;
-    if (!array)
-    {
-      error = "this process's piece has no array '" + arrayName + "'";
-    }
-    else
-    {
-      error = cropVoxels(array, image->GetExtent(), whole, isCell, lo, hi, piece);
-    }
-    if (error.empty())
-    {
-      const std::array<uint32_t, 3> size = { hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2] };
-      error = csgvvtk::encodeLabelArray(piece, size, options, this->Relabel != 0,
-        [this](double f) { this->UpdateProgress(0.05 + 0.8 * f); }, encoded, &agreement);
-    }
-  }
-  agreement.catchUp(error.empty());
-
-  // Process 0 gathers every piece (its words as a container of their own) and writes the file.
-  std::vector<uint8_t> bytes;
-  if (error.empty() && mine)
-  {
-    bytes = csgv::serializeCsgv(encoded.volume);
-    encoded.volume = csgv::CompressedVolume{};
-  }
-  vtkMultiProcessStream head;
-  head << error << static_cast<unsigned long long>(bytes.size());
-  std::vector<vtkMultiProcessStream> heads;
-  c->Gather(head, heads, 0);
-  if (rank != 0 && !bytes.empty())
-  {
-    for (size_t at = 0; at < bytes.size(); at += size_t(kMessageBytes))
-    {
-      c->Send(bytes.data() + at, std::min<vtkIdType>(kMessageBytes, vtkIdType(bytes.size() - at)), 0,
-        kPieceTag);
-    }
-  }
-  std::string outcome;
-  if (rank == 0)
-  {
-    std::vector<csgv::BrickBox> boxes(static_cast<size_t>(n));
-    std::vector<csgv::CompressedVolume> pieces(static_cast<size_t>(n));
-    this->UpdateProgress(0.85);
-    for (int r = 0; r < n; ++r)
-    {
-      std::string theirError;
-      unsigned long long size = 0;
-      heads[size_t(r)] >> theirError >> size;
-      std::vector<uint8_t> theirs;
-      if (r == 0)
-      {
-        theirs.swap(bytes);
-      }
-      else if (size > 0)
-      {
-        theirs.resize(size_t(size));
-        for (size_t at = 0; at < theirs.size(); at += size_t(kMessageBytes))
-        {
-          c->Receive(theirs.data() + at,
-            std::min<vtkIdType>(kMessageBytes, vtkIdType(theirs.size() - at)), r, kPieceTag);
-        }
-      }
-      // The first process that names a cause; the others only know that one failed.
-      if (!theirError.empty() && (outcome.empty() || outcome == kOtherFailed) &&
-        (theirError != kOtherFailed || outcome.empty()))
-      {
-        outcome = theirError == kOtherFailed ? theirError
-                                             : "process " + std::to_string(r) + ": " + theirError;
-      }
-      std::array<uint32_t, 3> plo{}, phi{};
-      if (!pieceVoxels(dims, this->BrickSize, n, r, plo, phi) || !outcome.empty())
-      {
-        continue;
-      }
-      const uint32_t b = uint32_t(this->BrickSize);
-      for (int a = 0; a < 3; ++a)
-      {
-        boxes[size_t(r)].lo[a] = plo[a] / b;
-        boxes[size_t(r)].hi[a] = (phi[a] + b - 1) / b;
-      }
-      csgv::Result<csgv::CompressedVolume> parsed = csgv::parseCsgv(theirs.data(), theirs.size());
-      if (!parsed)
-      {
-        outcome = "the piece of process " + std::to_string(r) + " is not valid: " + parsed.message();
-        continue;
-      }
-      pieces[size_t(r)] = std::move(*parsed);
-    }
-    if (outcome.empty())
-    {
-      csgv::Result<csgv::CompressedVolume> joined =
-        csgv::joinPieces(dims, boxes, pieces, options.maxArrayWords, uint64_t(64) << 30);
-      csgv::Status status = joined.status();
-      if (status)
-      {
-        this->UpdateProgress(0.9);
-        // Geometry of the whole image (this process holds a piece of it).
-        vtkNew<vtkImageData> wholeImage;
-        wholeImage->SetExtent(whole);
-        wholeImage->SetOrigin(image->GetOrigin());
-        wholeImage->SetSpacing(image->GetSpacing());
-        wholeImage->SetDirectionMatrix(image->GetDirectionMatrix());
-        std::array<uint32_t, 3> geometryDims;
-        csgv::VolumeMetadata md;
-        md.dim = dims;
-        md.geometry = csgvvtk::imageGeometry(wholeImage, isCell, geometryDims);
-        md.originalType = originalType;
-        md.relabelled = agreement.Relabelled;
-        md.source = "ParaView array '" + arrayName + "' (" + (isCell ? "cell" : "point") + " data)";
-        csgv::LabelMapping mapping;
-        mapping.relabelled = agreement.Relabelled;
-        mapping.type = labelType;
-        mapping.originalBits = std::move(agreement.Table);
-        status = writeVolumeFiles(path, md, mapping, *joined);
-      }
-      if (!status)
-      {
-        outcome = status.message();
-      }
-    }
-    else
-    {
-      outcome = path + ": " + outcome;
-    }
-  }
-  vtkMultiProcessStream result;
-  result << outcome;
-  c->Broadcast(result, 0);
-  result >> outcome;
-  if (!outcome.empty())
-  {
-    vtkErrorMacro(<< outcome);
     return;
   }
   this->UpdateProgress(1.0);

@@ -91,8 +91,6 @@ protected:
 
   void WriteData() override;
   int FillInputPortInformation(int port, vtkInformation* info) override;
-  /// WriteData's work when NumberOfPieces > 1: every process runs it together.
-  void WritePieces();
 
   char* FileName = nullptr;
   char* LabelArrayName = nullptr;

@@ -2,6 +2,7 @@
 #include "CSGVPieceAttributes.h"
 
 #include "CSGVAdapter.h"
+#include "CSGVStreamArrays.h"
 
 #include "csgv/attributes/Attributes.h"
 
@@ -19,31 +20,8 @@ namespace csgvrep
 namespace
 {
 
-template <class T>
-void pushArray(vtkMultiProcessStream& s, const std::vector<T>& v)
-{
-  s << static_cast<unsigned int>(v.size());
-  if (!v.empty())
-  {
-    s.Push(const_cast<T*>(v.data()), static_cast<unsigned int>(v.size()));
-  }
-}
-
-template <class T, class U = T>
-std::vector<U> popArray(vtkMultiProcessStream& s)
-{
-  unsigned int n = 0;
-  s >> n;
-  std::vector<U> v;
-  if (n > 0)
-  {
-    T* data = nullptr;
-    s.Pop(data, n);
-    v.assign(data, data + n);
-    delete[] data;
-  }
-  return v;
-}
+using csgvvtk::popArray;
+using csgvvtk::pushArray;
 
 } // namespace
 
