@@ -1,20 +1,20 @@
 # SPDX-License-Identifier: MIT
-"""Data-parallel Segmentation Volumes under MPI (issue 14, first steps): mpi_pieces.py runs with
-1, 2 and 4 ranks (`mpiexec -np N pvbatch --symmetric`). Each rank's reader hands it whole bricks
+"""Data-parallel Segmentation Volumes under MPI (issue 14): mpi_pieces.py runs with 1, 2 and 4
+ranks (`mpiexec -np N pvbatch --symmetric`). Each rank's reader hands it whole bricks
 (csgv::brickPartition): disjoint extents that cover the volume, cut at multiples of the brick size,
 and only those bricks' encoding (the pieces' encodings add up to the file, plus one header each);
 decoded at level 1 they are their boxes of the whole volume.
-Each rank renders its piece from the encoding (DecodeLabels off); IceT composites: opaque
-materials at one sample a pixel give exactly the image of one rank, and picks and the label
-image, answered by all ranks together, equal one rank's; translucent materials are
-blended in visibility order (ordered compositing by the pieces' bounds) and shadows cross into
-other ranks' bricks as empty space, so they stay within a stated tolerance (a label that
-continues across a piece boundary starts a second translucent layer there; shadow rays do not
-see other ranks' bricks yet). Computed attributes are summed over the ranks: a material filtered
-by voxel count draws one rank's image and picks report one rank's values; the attribute summary
-and the drawn labels' colours are answered over all ranks. SaveData to .csgv from 2 and 4 ranks writes the files one rank
-writes, byte for byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label
-array that is not integer at one voxel fails on every rank and leaves no file.
+Each rank renders its piece from the encoding (DecodeLabels off) in the whole volume's index
+space; IceT composites: opaque materials at one sample a pixel give exactly the image of one
+rank, also with a clip box across the pieces; picks, the label image, the attribute summary and
+the labels' colours, answered by all ranks together, equal one rank's; computed attributes are
+summed over the ranks (a material filtered by voxel count draws one rank's image, picks report
+one rank's values). Translucent materials are blended in visibility order (ordered compositing by
+the pieces' bounds; ghost labels at the pieces' faces) and shadows cross other ranks' bricks as
+empty space, so those stay within a stated tolerance (measured 2.9-3.0 % and 1.0-1.7 % of pixels
+beyond 16/255). SaveData to .csgv from 2 and 4 ranks writes the files one rank writes, byte for
+byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label array that is not
+integer at one voxel fails on every rank and leaves no file.
 Exit 77 (skipped) without mpiexec or pvbatch."""
 import json
 import os
@@ -30,7 +30,7 @@ from vtkmodules.vtkIOImage import vtkPNGReader
 HERE = os.path.dirname(os.path.abspath(__file__))
 BRICK = 32
 # Pixels (share) allowed to differ from one rank by more than 16/255, per mode and rank count.
-TOLERANCE = {"opaque": 0.0, "translucent": 0.06, "shadow": 0.05, "computed": 0.0, "clipped": 0.0}
+TOLERANCE = {"opaque": 0.0, "translucent": 0.04, "shadow": 0.03, "computed": 0.0, "clipped": 0.0}
 failures = []
 
 
