@@ -15,7 +15,6 @@
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
-#include <vtkMatrix3x3.h>
 #include <vtkMultiProcessController.h>
 #include <vtkMultiProcessStream.h>
 #include <vtkNew.h>
@@ -362,11 +361,6 @@ private:
 constexpr vtkIdType kMessageBytes = vtkIdType(1) << 28;
 constexpr int kPieceTag = 41731;
 
-} // namespace
-
-namespace
-{
-
 /// vtkCSGVWriter::WriteData with NumberOfPieces > 1: every process runs it together.
 void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
 {
@@ -508,11 +502,13 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
         }
       }
       // The first process that names a cause; the others only know that one failed.
-      if (!theirError.empty() && (outcome.empty() || outcome == kOtherFailed) &&
-        (theirError != kOtherFailed || outcome.empty()))
+      if (theirError == kOtherFailed)
       {
-        outcome = theirError == kOtherFailed ? theirError
-                                             : "process " + std::to_string(r) + ": " + theirError;
+        outcome = outcome.empty() ? theirError : outcome;
+      }
+      else if (!theirError.empty() && (outcome.empty() || outcome == kOtherFailed))
+      {
+        outcome = "process " + std::to_string(r) + ": " + theirError;
       }
       std::array<uint32_t, 3> plo{}, phi{};
       if (!pieceVoxels(dims, self->GetBrickSize(), n, r, plo, phi) || !outcome.empty())

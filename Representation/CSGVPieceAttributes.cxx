@@ -1,14 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "CSGVPieceAttributes.h"
 
-#include "CSGVAdapter.h"
 #include "CSGVStreamArrays.h"
 
 #include "csgv/attributes/Attributes.h"
 
 #include <vtkCommunicator.h>
-#include <vtkFieldData.h>
-#include <vtkImageData.h>
 #include <vtkMultiProcessController.h>
 #include <vtkMultiProcessStream.h>
 
@@ -23,101 +20,136 @@ namespace
 using csgvvtk::popArray;
 using csgvvtk::pushArray;
 
-} // namespace
-
-std::string reduceComputedAttributes(
-  vtkMultiProcessController* c, vtkImageData* input, const VolumeSource& source, bool& reduced)
+void pushLayers(vtkMultiProcessStream& s, const csgv::PieceLayers& l)
 {
-  reduced = false;
-  const std::shared_ptr<SharedVolume> shared = source.shared;
-  (void)input;
-  // A rank's piece placed in the volume's index space (the reader's pieces of a .csgv).
-  const bool piece = shared && !shared->owned.empty();
-  // Every rank's input a piece of one file (or nothing): otherwise each keeps its own.
-  int mineOk = !shared || piece ? 1 : 0, allOk = 0;
-  c->AllReduce(&mineOk, &allOk, 1, vtkCommunicator::MIN_OP);
-  if (!allOk)
-  {
-    return std::string();
-  }
-  std::array<uint32_t, 3> offset{}, volumeDims{};
-  std::string error;
-  csgv::AttributeSums sums;
-  csgv::PieceLayers layers;
-  if (piece)
-  {
-    const uint32_t b = shared->volume.brickSize;
-    volumeDims = shared->volume.dim;
-    for (int a = 0; a < 3; ++a)
-    {
-      offset[a] = shared->owned.lo[a] * b;
-    }
-    csgv::Result<csgv::CompressedVolume> own = csgv::extractPiece(shared->volume, shared->owned);
-    csgv::Result<csgv::AttributeSums> s =
-      own ? csgv::computeAttributeSums(*own, {}, offset, volumeDims) : csgv::Result<csgv::AttributeSums>(own.status());
-    csgv::Result<csgv::PieceLayers> l =
-      s ? csgv::pieceLayers(*own, offset, volumeDims) : csgv::Result<csgv::PieceLayers>(s.status());
-    if (!l)
-    {
-      error = "computing attributes of this piece: " + l.message();
-    }
-    else
-    {
-      sums = std::move(*s);
-      layers = std::move(*l);
-    }
-  }
-  vtkMultiProcessStream mine;
-  mine << error << int(piece && error.empty());
-  pushArray(mine, sums.keys);
-  pushArray(mine, std::vector<vtkTypeUInt64>(sums.values.begin(), sums.values.end()));
   for (int a = 0; a < 3; ++a)
   {
-    mine << layers.lo[a] << layers.hi[a];
+    s << l.lo[a] << l.hi[a];
   }
-  for (const std::vector<uint32_t>& layer : layers.layers)
+  for (const std::vector<uint32_t>& layer : l.layers)
   {
-    pushArray(mine, layer);
+    pushArray(s, layer);
   }
-  sums = csgv::AttributeSums{};
-  layers = csgv::PieceLayers{};
-  std::vector<vtkMultiProcessStream> all;
-  c->Gather(mine, all, 0);
+}
 
-  vtkMultiProcessStream answer;
+csgv::PieceLayers popLayers(vtkMultiProcessStream& s)
+{
+  csgv::PieceLayers l;
+  for (int a = 0; a < 3; ++a)
+  {
+    s >> l.lo[a] >> l.hi[a];
+  }
+  for (std::vector<uint32_t>& layer : l.layers)
+  {
+    layer = popArray<unsigned int, uint32_t>(s);
+  }
+  return l;
+}
+
+/// Every piece's layers on every rank (gathered on rank 0, broadcast). `mine` holds this rank's
+/// when `has`; a rank that failed to decode its own says so in `error`, which rank 0 sends to all.
+std::string exchangeLayers(vtkMultiProcessController* c, bool has, const csgv::PieceLayers& mine,
+  std::string error, std::vector<csgv::PieceLayers>& all)
+{
+  vtkMultiProcessStream out;
+  out << error << int(has);
+  if (has)
+  {
+    pushLayers(out, mine);
+  }
+  std::vector<vtkMultiProcessStream> gathered;
+  c->Gather(out, gathered, 0);
+  vtkMultiProcessStream everyone;
   if (c->GetLocalProcessId() == 0)
   {
-    csgv::AttributeSums total;
-    std::vector<csgv::PieceLayers> pieces;
     std::string first;
-    for (size_t r = 0; r < all.size(); ++r)
+    for (size_t r = 0; r < gathered.size(); ++r)
     {
       std::string theirError;
-      int has = 0;
-      all[r] >> theirError >> has;
-      csgv::AttributeSums theirs;
-      theirs.keys = popArray<unsigned int, uint32_t>(all[r]);
-      theirs.values = popArray<vtkTypeUInt64, uint64_t>(all[r]);
-      csgv::PieceLayers l;
-      for (int a = 0; a < 3; ++a)
-      {
-        all[r] >> l.lo[a] >> l.hi[a];
-      }
-      for (std::vector<uint32_t>& layer : l.layers)
-      {
-        layer = popArray<unsigned int, uint32_t>(all[r]);
-      }
+      int theirs = 0;
+      gathered[r] >> theirError >> theirs;
       if (!theirError.empty() && first.empty())
       {
         first = "rank " + std::to_string(r) + ": " + theirError;
       }
-      if (has)
+      if (theirs)
       {
-        total.add(theirs);
-        pieces.push_back(std::move(l));
+        all.push_back(popLayers(gathered[r]));
       }
     }
-    csgv::addFacesBetweenPieces(total, pieces);
+    everyone << first << static_cast<unsigned int>(all.size());
+    for (const csgv::PieceLayers& l : all)
+    {
+      pushLayers(everyone, l);
+    }
+  }
+  gathered.clear();
+  c->Broadcast(everyone, 0);
+  if (c->GetLocalProcessId() != 0)
+  {
+    unsigned int n = 0;
+    everyone >> error >> n;
+    for (unsigned int r = 0; r < n; ++r)
+    {
+      all.push_back(popLayers(everyone));
+    }
+    return error;
+  }
+  everyone >> error;
+  return error;
+}
+
+/// The computed attributes of the whole volume from every piece's sums (rank 0 adds them and the
+/// faces between the pieces, from `layers`) on every rank that has a piece.
+std::string reduceComputed(vtkMultiProcessController* c, const std::shared_ptr<SharedVolume>& shared,
+  const std::vector<csgv::PieceLayers>& layers, bool& reduced)
+{
+  std::string error;
+  csgv::AttributeSums sums;
+  if (shared)
+  {
+    const uint32_t b = shared->volume.brickSize;
+    const std::array<uint32_t, 3> offset = { shared->owned.lo[0] * b, shared->owned.lo[1] * b,
+      shared->owned.lo[2] * b };
+    csgv::Result<csgv::CompressedVolume> own = csgv::extractPiece(shared->volume, shared->owned);
+    csgv::Result<csgv::AttributeSums> s = own
+      ? csgv::computeAttributeSums(*own, {}, offset, shared->volume.dim)
+      : csgv::Result<csgv::AttributeSums>(own.status());
+    if (s)
+    {
+      sums = std::move(*s);
+    }
+    else
+    {
+      error = "computing attributes of this piece: " + s.message();
+    }
+  }
+  vtkMultiProcessStream mine;
+  mine << error;
+  pushArray(mine, sums.keys);
+  pushArray(mine, std::vector<vtkTypeUInt64>(sums.values.begin(), sums.values.end()));
+  sums = csgv::AttributeSums{};
+  std::vector<vtkMultiProcessStream> all;
+  c->Gather(mine, all, 0);
+  vtkMultiProcessStream answer;
+  if (c->GetLocalProcessId() == 0)
+  {
+    csgv::AttributeSums total;
+    std::string first;
+    for (size_t r = 0; r < all.size(); ++r)
+    {
+      std::string theirError;
+      all[r] >> theirError;
+      csgv::AttributeSums theirs;
+      theirs.keys = popArray<unsigned int, uint32_t>(all[r]);
+      theirs.values = popArray<vtkTypeUInt64, uint64_t>(all[r]);
+      if (!theirError.empty() && first.empty())
+      {
+        first = "rank " + std::to_string(r) + ": " + theirError;
+      }
+      total.add(theirs);
+    }
+    csgv::addFacesBetweenPieces(total, layers);
     answer << first;
     pushArray(answer, total.keys);
     pushArray(answer, std::vector<vtkTypeUInt64>(total.values.begin(), total.values.end()));
@@ -127,7 +159,7 @@ std::string reduceComputedAttributes(
   answer >> error;
   total.keys = popArray<unsigned int, uint32_t>(answer);
   total.values = popArray<vtkTypeUInt64, uint64_t>(answer);
-  if (!error.empty() || !piece)
+  if (!error.empty() || !shared)
   {
     return error;
   }
@@ -147,114 +179,56 @@ std::string reduceComputedAttributes(
   return std::string();
 }
 
-std::string shareGhostFaces(vtkMultiProcessController* c, const VolumeSource& source)
+} // namespace
+
+std::string shareAcrossRanks(
+  vtkMultiProcessController* c, const VolumeSource& source, bool computed, bool& reduced)
 {
-  const std::shared_ptr<SharedVolume> shared = source.shared;
-  const bool piece = shared && !shared->owned.empty();
+  reduced = false;
+  // Only pieces of one .csgv placed in the volume's index space (or nothing) share.
+  const std::shared_ptr<SharedVolume> shared =
+    source.shared && !source.shared->owned.empty() ? source.shared : nullptr;
+  int mineOk = !source.shared || shared ? 1 : 0, allOk = 0;
+  c->AllReduce(&mineOk, &allOk, 1, vtkCommunicator::MIN_OP);
+  if (!allOk)
+  {
+    return std::string();
+  }
+  // The piece's voxels and their outer layers, decoded from the embedded volume.
+  std::array<uint32_t, 3> lo{}, hi{};
   std::string error;
-  csgv::PieceLayers layers;
-  if (piece)
+  csgv::PieceLayers mine;
+  if (shared)
   {
     const uint32_t b = shared->volume.brickSize;
-    std::array<uint32_t, 3> offset{};
     for (int a = 0; a < 3; ++a)
     {
-      offset[a] = shared->owned.lo[a] * b;
+      lo[a] = shared->owned.lo[a] * b;
+      hi[a] = lo[a] + shared->pieceDims[a];
     }
-    csgv::Result<csgv::CompressedVolume> own = csgv::extractPiece(shared->volume, shared->owned);
-    csgv::Result<csgv::PieceLayers> l =
-      own ? csgv::pieceLayers(*own, offset, shared->volume.dim) : csgv::Result<csgv::PieceLayers>(own.status());
+    csgv::Result<csgv::PieceLayers> l = csgv::pieceLayers(shared->volume, lo, hi);
     if (l)
     {
-      layers = std::move(*l);
+      mine = std::move(*l);
     }
     else
     {
       error = "the piece's outer layers: " + l.message();
     }
   }
-  // Every rank gets every piece's layers (gathered on rank 0, broadcast).
-  vtkMultiProcessStream mine;
-  mine << int(piece && error.empty());
-  for (int a = 0; a < 3; ++a)
+  std::vector<csgv::PieceLayers> layers;
+  error = exchangeLayers(c, shared && error.empty(), mine, error, layers);
+  if (error.empty() && shared)
   {
-    mine << layers.lo[a] << layers.hi[a];
+    auto ghost = std::make_shared<const GhostFaces>(csgv::ghostFaces(lo, hi, shared->volume.dim, layers));
+    std::lock_guard<std::mutex> lock(volumeMutex());
+    shared->ghost = std::move(ghost);
   }
-  for (const std::vector<uint32_t>& layer : layers.layers)
-  {
-    pushArray(mine, layer);
-  }
-  layers = csgv::PieceLayers{};
-  std::vector<vtkMultiProcessStream> all;
-  c->Gather(mine, all, 0);
-  // Read a piece's part of a stream (what `mine` holds).
-  auto readPiece = [](vtkMultiProcessStream& s, csgv::PieceLayers& l) {
-    int has = 0;
-    s >> has;
-    for (int a = 0; a < 3; ++a)
-    {
-      s >> l.lo[a] >> l.hi[a];
-    }
-    for (std::vector<uint32_t>& layer : l.layers)
-    {
-      layer = popArray<unsigned int, uint32_t>(s);
-    }
-    return has != 0;
-  };
-  std::vector<csgv::PieceLayers> pieces;
-  vtkMultiProcessStream everyone;
-  if (c->GetLocalProcessId() == 0)
-  {
-    for (vtkMultiProcessStream& s : all)
-    {
-      csgv::PieceLayers l;
-      if (readPiece(s, l))
-      {
-        pieces.push_back(std::move(l));
-      }
-    }
-    everyone << static_cast<unsigned int>(pieces.size());
-    for (const csgv::PieceLayers& l : pieces)
-    {
-      everyone << 1;
-      for (int a = 0; a < 3; ++a)
-      {
-        everyone << l.lo[a] << l.hi[a];
-      }
-      for (const std::vector<uint32_t>& layer : l.layers)
-      {
-        pushArray(everyone, layer);
-      }
-    }
-  }
-  all.clear();
-  c->Broadcast(everyone, 0);
-  if (c->GetLocalProcessId() != 0)
-  {
-    unsigned int n = 0;
-    everyone >> n;
-    for (unsigned int r = 0; r < n; ++r)
-    {
-      csgv::PieceLayers l;
-      readPiece(everyone, l);
-      pieces.push_back(std::move(l));
-    }
-  }
-  if (!piece || !error.empty())
+  if (!computed || !error.empty())
   {
     return error;
   }
-  std::array<uint32_t, 3> lo{}, hi{};
-  const uint32_t b = shared->volume.brickSize;
-  for (int a = 0; a < 3; ++a)
-  {
-    lo[a] = shared->owned.lo[a] * b;
-    hi[a] = lo[a] + shared->pieceDims[a];
-  }
-  auto ghost = std::make_shared<const GhostFaces>(csgv::ghostFaces(lo, hi, shared->volume.dim, pieces));
-  std::lock_guard<std::mutex> lock(volumeMutex());
-  shared->ghost = std::move(ghost);
-  return std::string();
+  return reduceComputed(c, shared, layers, reduced);
 }
 
 } // namespace csgvrep

@@ -36,8 +36,7 @@ struct vtkCSGVRepresentation::vtkInternals
   /// RequestData runs (the same count on every rank) and the one whose computed attributes the
   /// ranks reduced together.
   unsigned long DataGeneration = 0;
-  unsigned long ReducedGeneration = 0;
-  unsigned long GhostGeneration = 0; ///< the update whose ghost faces the ranks shared
+  unsigned long SharedGeneration = 0; ///< the update whose data the ranks shared
 };
 
 vtkCSGVRepresentation::vtkCSGVRepresentation()
@@ -365,30 +364,16 @@ void vtkCSGVRepresentation::ShareAcrossRanks(bool resolved)
 {
   vtkInternals& in = *this->Internals;
   vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
-  if (!c || c->GetNumberOfProcesses() < 2)
+  // Every rank decides alike: the count of data updates is the same on all (a change of
+  // ComputedAttributes is one: MarkModified).
+  if (!c || c->GetNumberOfProcesses() < 2 || in.SharedGeneration == in.DataGeneration)
   {
     return;
   }
-  if (in.GhostGeneration != in.DataGeneration)
-  {
-    // The labels beyond each rank's piece, for translucent materials across ranks.
-    in.GhostGeneration = in.DataGeneration;
-    const std::string error =
-      csgvrep::shareGhostFaces(c, resolved ? in.Source : csgvrep::VolumeSource{});
-    if (!error.empty())
-    {
-      vtkErrorMacro(<< "Segmentation Volume: " << error);
-    }
-  }
-  // Every rank decides alike: the property and the count of data updates are the same on all.
-  if (!this->ComputedAttributes || in.ReducedGeneration == in.DataGeneration)
-  {
-    return;
-  }
-  in.ReducedGeneration = in.DataGeneration;
+  in.SharedGeneration = in.DataGeneration;
   bool reduced = false;
-  const std::string error = csgvrep::reduceComputedAttributes(
-    c, resolved ? this->Cache.Get() : nullptr, resolved ? in.Source : csgvrep::VolumeSource{}, reduced);
+  const std::string error = csgvrep::shareAcrossRanks(
+    c, resolved ? in.Source : csgvrep::VolumeSource{}, this->ComputedAttributes != 0, reduced);
   if (!error.empty())
   {
     vtkErrorMacro(<< "Segmentation Volume: " << error);

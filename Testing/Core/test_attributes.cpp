@@ -513,7 +513,9 @@ TEST(AttributesComputed, PiecesSummedWithTheirLayersEqualTheWholeVolume) {
                     Result<AttributeSums> sums = computeAttributeSums(*piece, o, offset, vol.dim);
                     ASSERT_TRUE(sums.isOk()) << sums.message();
                     total.add(*sums);
-                    Result<PieceLayers> l = pieceLayers(*piece, offset, vol.dim);
+                    const std::array<uint32_t, 3> end = {offset[0] + piece->dim[0], offset[1] + piece->dim[1],
+                                                         offset[2] + piece->dim[2]};
+                    Result<PieceLayers> l = pieceLayers(vol, offset, end);
                     ASSERT_TRUE(l.isOk()) << l.message();
                     layers.push_back(std::move(*l));
                 }
@@ -542,7 +544,10 @@ TEST(AttributesComputed, PiecesSummedWithTheirLayersEqualTheWholeVolume) {
         for (uint32_t p = 0; p < 5; ++p) {
             const BrickBox box = brickPartition(v16.brickGrid(), 5, p);
             const std::array<uint32_t, 3> offset = {box.lo[0] * 16, box.lo[1] * 16, box.lo[2] * 16};
-            layers.push_back(*pieceLayers(*extractPiece(v16, box), offset, v16.dim));
+            const CompressedVolume piece = *extractPiece(v16, box);
+            const std::array<uint32_t, 3> end = {offset[0] + piece.dim[0], offset[1] + piece.dim[1],
+                                                 offset[2] + piece.dim[2]};
+            layers.push_back(*pieceLayers(v16, offset, end));
             boxes.push_back(box);
         }
         for (const PieceLayers& mine : layers) {
@@ -570,7 +575,8 @@ TEST(AttributesComputed, PiecesSummedWithTheirLayersEqualTheWholeVolume) {
     // A piece that does not fit its volume is an error.
     const CompressedVolume vol = compress(src, 16);
     EXPECT_FALSE(computeAttributeSums(vol, {}, {1, 0, 0}, vol.dim).isOk());
-    EXPECT_FALSE(pieceLayers(vol, {0, 0, 1}, vol.dim).isOk());
+    EXPECT_FALSE(pieceLayers(vol, {0, 0, 1}, {vol.dim[0], vol.dim[1], vol.dim[2] + 1}).isOk());
+    EXPECT_FALSE(pieceLayers(vol, {0, 5, 0}, {4, 5, 4}).isOk()) << "empty";
 }
 
 TEST(AttributesComputed, RelabelledVolumesReportOriginalLabels) {

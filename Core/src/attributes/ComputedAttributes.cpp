@@ -471,26 +471,26 @@ Result<AttributeSums> computeAttributeSums(const CompressedVolume& vol, const Co
     }
 }
 
-Result<PieceLayers> pieceLayers(const CompressedVolume& piece, const std::array<uint32_t, 3>& offset,
-                                const std::array<uint32_t, 3>& volumeDims) {
+Result<PieceLayers> pieceLayers(const CompressedVolume& volume, const std::array<uint32_t, 3>& lo,
+                                const std::array<uint32_t, 3>& hi) {
     PieceLayers out;
-    for (int a = 0; a < 3; ++a) {
-        out.lo[a] = offset[a];
-        out.hi[a] = offset[a] + piece.dim[a];
-        if (out.hi[a] > volumeDims[a] || out.hi[a] < out.lo[a])
-            return Status::error("a piece of " + std::to_string(piece.dim[a]) + " voxels at " +
-                                 std::to_string(offset[a]) + " along axis " + std::to_string(a) +
-                                 " does not fit a volume of " + std::to_string(volumeDims[a]));
-    }
+    out.lo = lo;
+    out.hi = hi;
+    for (int a = 0; a < 3; ++a)
+        if (lo[a] >= hi[a] || hi[a] > volume.dim[a])
+            return Status::error("the piece's voxels [" + std::to_string(lo[a]) + ", " + std::to_string(hi[a]) +
+                                 ") along axis " + std::to_string(a) + " are empty or outside the volume's " +
+                                 std::to_string(volume.dim[a]));
     for (int side = 0; side < 6; ++side) {
         const int a = side / 2;
         const bool plus = side % 2 == 1;
-        if (plus ? out.hi[a] == volumeDims[a] : out.lo[a] == 0) continue;
+        if (plus ? hi[a] == volume.dim[a] : lo[a] == 0) continue;
         Box box;
-        box.max = piece.dim;
-        box.min[a] = plus ? piece.dim[a] - 1 : 0;
+        box.min = lo;
+        box.max = hi;
+        box.min[a] = plus ? hi[a] - 1 : lo[a];
         box.max[a] = box.min[a] + 1;
-        Result<LabelVolume> layer = decodeRegion(piece, 0, box);
+        Result<LabelVolume> layer = decodeRegion(volume, 0, box);
         if (!layer) return layer.status();
         // x fastest, then y, then z: with one axis flat that is the other two in order.
         out.layers[size_t(side)] = std::move(layer->labels);

@@ -374,17 +374,11 @@ Status assemblePiece(CompressedVolume& piece, std::vector<std::vector<uint32_t>>
         sizes[i] = uint32_t(words[i].size());
         piece.maxPalette = std::max(piece.maxPalette, words[i][L]); // words[i] holds a minimal brick
     }
-    Result<ArrayLayout> layout = layoutArrays(sizes, kMaxWordsPerArray, ~uint64_t(0));
-    if (!layout) return layout.status();
-    piece.arrays.assign(layout->arrayWords.size(), {});
-    for (size_t a = 0; a < piece.arrays.size(); ++a) piece.arrays[a].reserve(size_t(layout->arrayWords[a]));
-    const uint64_t perArray = layout->perArray;
-    applyLayout(std::move(*layout), piece);
-    for (size_t i = 0; i < words.size(); ++i) {
-        std::vector<uint32_t>& arr = piece.arrays[size_t(i / perArray)];
-        arr.insert(arr.end(), words[i].begin(), words[i].end());
-        std::vector<uint32_t>().swap(words[i]);
-    }
+    Status s = fillArrays(piece, sizes, kMaxWordsPerArray, ~uint64_t(0), [&](uint64_t i, std::vector<uint32_t>& arr) {
+        arr.insert(arr.end(), words[size_t(i)].begin(), words[size_t(i)].end());
+        std::vector<uint32_t>().swap(words[size_t(i)]);
+    });
+    if (!s) return s;
     return checkContainer(piece);
 }
 
@@ -538,6 +532,18 @@ Result<ArrayLayout> layoutArrays(const std::vector<uint32_t>& brickWords, uint64
     return out;
 }
 
+Status fillArrays(CompressedVolume& vol, const std::vector<uint32_t>& brickWords, uint64_t arrayLimit,
+                  uint64_t maxOutputBytes, const std::function<void(uint64_t, std::vector<uint32_t>&)>& append) {
+    Result<ArrayLayout> layout = layoutArrays(brickWords, arrayLimit, maxOutputBytes);
+    if (!layout) return layout.status();
+    vol.arrays.assign(layout->arrayWords.size(), {});
+    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
+    const uint64_t perArray = layout->perArray;
+    applyLayout(std::move(*layout), vol);
+    for (uint64_t i = 0; i < brickWords.size(); ++i) append(i, vol.arrays[size_t(i / perArray)]);
+    return Status::ok();
+}
+
 void applyLayout(ArrayLayout&& layout, CompressedVolume& vol) {
     // (Moved, not copied: a copy would hold the brick starts twice, 8 bytes a brick, not 4.)
     vol.bricksPerArray = layout.perArray == layout.brickStarts.size() - 1 ? kSingleArray : uint32_t(layout.perArray);
@@ -639,19 +645,13 @@ Result<CompressedVolume> joinPieces(const std::array<uint32_t, 3>& dim, const st
         sizes[size_t(i)] = uint32_t(bw.size);
         vol.maxPalette = std::max(vol.maxPalette, bw.words[vol.levels()]);
     }
-    Result<ArrayLayout> layout = layoutArrays(sizes, arrayLimit, maxOutputBytes);
-    if (!layout) return layout.status();
-    vol.arrays.assign(layout->arrayWords.size(), {});
-    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
-    const uint64_t perArray = layout->perArray;
-    applyLayout(std::move(*layout), vol);
-    for (uint64_t i = 0; i < owner.size(); ++i) {
+    Status s = fillArrays(vol, sizes, arrayLimit, maxOutputBytes, [&](uint64_t i, std::vector<uint32_t>& arr) {
         const BrickWords bw = pieces[size_t(owner[size_t(i)])].brick(local(i));
-        std::vector<uint32_t>& arr = vol.arrays[size_t(i / perArray)];
         arr.insert(arr.end(), bw.words, bw.words + bw.size);
-    }
+    });
+    if (!s) return s;
     for (CompressedVolume& p : pieces) p = CompressedVolume{};
-    Status s = checkContainer(vol);
+    s = checkContainer(vol);
     if (!s) return s;
     return vol;
 }

@@ -803,18 +803,11 @@ Result<CompressedVolume> encodeVolumeSteps(SlabSource& source, const EncodeOptio
         sizes[i] = uint32_t(words[i].size());
         vol.maxPalette = std::max(vol.maxPalette, words[i][vol.levels()]);
     }
-    Result<ArrayLayout> layout = layoutArrays(sizes, arrayLimitOf(options), maxOutputBytes);
-    if (!layout) return layout.status();
-    const uint64_t perArray = layout->perArray;
-    const std::vector<uint64_t> arrayWords = std::move(layout->arrayWords);
-    applyLayout(std::move(*layout), vol);
-    vol.arrays.resize(arrayWords.size());
-    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(arrayWords[a]));
-    for (uint64_t i = 0; i < bricks; ++i) {
-        auto& arr = vol.arrays[size_t(i / perArray)];
+    s = fillArrays(vol, sizes, arrayLimitOf(options), maxOutputBytes, [&](uint64_t i, std::vector<uint32_t>& arr) {
         arr.insert(arr.end(), words[size_t(i)].begin(), words[size_t(i)].end());
-        std::vector<uint32_t>().swap(words[size_t(i)]);
-    }
+        std::vector<uint32_t>().swap(words[size_t(i)]); // released as copied
+    });
+    if (!s) return s;
     return vol;
 }
 
@@ -1005,17 +998,11 @@ Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBo
             sizes[size_t(i)] = uint32_t((*words)->size());
             from[size_t(i)] = (*words)->data();
         }
-        Result<ArrayLayout> layout = layoutArrays(sizes, kMaxWordsPerArray, ~uint64_t(0));
-        if (!layout) return layout.status();
-        vol.arrays.assign(layout->arrayWords.size(), {});
-        for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
-        const uint64_t perArray = layout->perArray;
-        applyLayout(std::move(*layout), vol);
-        for (uint64_t i = 0; i < bricks; ++i) {
-            std::vector<uint32_t>& arr = vol.arrays[size_t(i / perArray)];
+        Status s = fillArrays(vol, sizes, kMaxWordsPerArray, ~uint64_t(0), [&](uint64_t i, std::vector<uint32_t>& arr) {
             arr.insert(arr.end(), from[size_t(i)], from[size_t(i)] + sizes[size_t(i)]);
-        }
-        Status s = checkContainer(vol);
+        });
+        if (!s) return s;
+        s = checkContainer(vol);
         if (!s) return s;
         return vol;
     } catch (const std::bad_alloc&) {

@@ -212,9 +212,10 @@ struct PieceLayers {
     /// axis, the other two axes in order (the lower one fastest); empty on the volume's boundary.
     std::array<std::vector<uint32_t>, 6> layers;
 };
-/// The layers of `piece` (voxel (0,0,0) at `offset` of a volume of `volumeDims`), decoded.
-Result<PieceLayers> pieceLayers(const CompressedVolume& piece, const std::array<uint32_t, 3>& offset,
-                                const std::array<uint32_t, 3>& volumeDims);
+/// The layers of the piece [lo, hi) of `volume` (the whole volume, or a piece placed in its index
+/// space: embedPiece), decoded from the bricks they touch.
+Result<PieceLayers> pieceLayers(const CompressedVolume& volume, const std::array<uint32_t, 3>& lo,
+                                const std::array<uint32_t, 3>& hi);
 /// The labels just outside a piece's box [lo, hi) on each side (-x, +x, -y, +y, -z, +z; laid out
 /// as PieceLayers::layers, over the box's face), from the layers of the pieces beside it; sides on
 /// the volume's boundary are empty, voxels no piece holds are kInvalidLabel. A renderer of the

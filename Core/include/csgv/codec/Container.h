@@ -138,6 +138,10 @@ struct ArrayLayout {
 Result<ArrayLayout> layoutArrays(const std::vector<uint32_t>& brickWords, uint64_t arrayLimit, uint64_t maxOutputBytes);
 /// Moves a layout's brick starts and bricks per array into `vol` (its arrays are the caller's).
 void applyLayout(ArrayLayout&& layout, CompressedVolume& vol);
+/// Lays out bricks of these word counts (layoutArrays) and fills `vol`'s arrays: `append(i, array)`
+/// appends brick i's words to its array, bricks in order (a caller may release them as it goes).
+Status fillArrays(CompressedVolume& vol, const std::vector<uint32_t>& brickWords, uint64_t arrayLimit,
+                  uint64_t maxOutputBytes, const std::function<void(uint64_t, std::vector<uint32_t>&)>& append);
 
 /// Size of the smallest valid brick in words for a level count and encoding (section 3).
 uint32_t minimalBrickWords(uint32_t levels, int32_t encoding);
