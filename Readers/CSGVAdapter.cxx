@@ -647,12 +647,23 @@ csgv::Geometry imageGeometry(vtkImageData* image, bool isCell, std::array<uint32
     }
     g.origin[r] = w; // world position of the extent's first point
   }
-  for (int i = 0; i < 3; ++i)
+  dims = voxelDims(ext, isCell);
+  for (uint32_t& d : dims)
   {
-    const int points = ext[2 * i + 1] - ext[2 * i] + 1;
-    dims[i] = uint32_t(std::max(isCell ? points - 1 : points, 1));
+    d = std::max(d, 1u);
   }
   return isCell ? g : csgv::cellGeometryFromPointGeometry(g);
+}
+
+std::array<uint32_t, 3> voxelDims(const int ext[6], bool isCell)
+{
+  std::array<uint32_t, 3> dims{};
+  for (int a = 0; a < 3; ++a)
+  {
+    const int points = ext[2 * a + 1] - ext[2 * a] + 1;
+    dims[a] = uint32_t(std::max(isCell ? points - 1 : points, points > 0 ? 1 : 0));
+  }
+  return dims;
 }
 
 void worldBounds(const csgv::Geometry& g, const std::array<uint32_t, 3>& dims, double b[6])

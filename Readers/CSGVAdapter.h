@@ -85,6 +85,10 @@ const char* labelTypeNameOf(int vtkType, csgv::LabelType& type);
 /// float array. `isCell` says which attributes it came from; null when there is none.
 vtkDataArray* findLabelArray(vtkImageData* image, const std::string& name, bool& isCell);
 
+/// Voxels of a point extent: its cells (`isCell`; at least 1 along an axis, as VTK counts the
+/// cells of flat images) or its points; 0 along an empty axis.
+std::array<uint32_t, 3> voxelDims(const int extent[6], bool isCell);
+
 /// Corner geometry (origin at the corner of voxel (0,0,0), DESIGN.md "Where voxels are") of the
 /// voxel grid an image's cell (`isCell`) or point array describes, and the grid's dimensions.
 /// Extents need not start at 0; the direction matrix is honoured.

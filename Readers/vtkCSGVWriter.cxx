@@ -58,19 +58,6 @@ namespace
 using csgvvtk::popArray;
 using csgvvtk::pushArray;
 
-/// Voxels of a point extent: its cells (`isCell`, at least 1 along an axis, as VTK counts the
-/// cells of flat images) or its points.
-std::array<uint32_t, 3> voxelsOf(const int ext[6], bool isCell)
-{
-  std::array<uint32_t, 3> dims{};
-  for (int a = 0; a < 3; ++a)
-  {
-    const int points = ext[2 * a + 1] - ext[2 * a] + 1;
-    dims[a] = uint32_t(std::max(isCell ? points - 1 : points, points > 0 ? 1 : 0));
-  }
-  return dims;
-}
-
 /// The voxels [lo, hi) this piece writes: its bricks (csgv::brickPartition) of a grid of `dims`
 /// voxels with bricks of `brickSize`; false when the piece has none.
 bool pieceVoxels(const std::array<uint32_t, 3>& dims, int brickSize, int pieces, int piece,
@@ -99,7 +86,7 @@ std::string cropVoxels(vtkDataArray* array, const int ext[6], const int whole[6]
   const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
   vtkSmartPointer<vtkDataArray>& out)
 {
-  const std::array<uint32_t, 3> have = voxelsOf(ext, isCell);
+  const std::array<uint32_t, 3> have = csgvvtk::voxelDims(ext, isCell);
   std::array<uint64_t, 3> off{}, size{};
   for (int a = 0; a < 3; ++a)
   {
@@ -420,7 +407,7 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
   const bool isCell = cellData != 0;
   int whole[6];
   self->GetInputInformation(0, 0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-  const std::array<uint32_t, 3> dims = voxelsOf(whole, isCell);
+  const std::array<uint32_t, 3> dims = csgvvtk::voxelDims(whole, isCell);
   std::array<uint32_t, 3> lo{}, hi{};
   const bool mine = pieceVoxels(dims, self->GetBrickSize(), n, rank, lo, hi);
 
@@ -605,7 +592,7 @@ vtkTypeBool vtkCSGVWriter::ProcessRequest(
   for (bool isCell : { true, false })
   {
     std::array<uint32_t, 3> lo, hi;
-    if (!pieceVoxels(voxelsOf(whole, isCell), this->BrickSize, this->NumberOfPieces, this->Piece,
+    if (!pieceVoxels(csgvvtk::voxelDims(whole, isCell), this->BrickSize, this->NumberOfPieces, this->Piece,
           lo, hi))
     {
       continue;
