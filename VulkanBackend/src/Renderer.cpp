@@ -1215,7 +1215,9 @@ bool Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput&
     //   recently used first); then let only a band of pixels (row-major, from the first pixel
     //   with the fewest samples) request bricks, halved while full. A full cache whose free stacks hold a large share of it is fragmented
     //   (free regions of other levels than those requested): it is reset (defragmented), at most
-    //   once every kDefragInterval frames.
+    //   once every kDefragInterval frames, or at once when that is the only way on: eviction is at
+    //   its youngest age and the frame could place no brick (a render loop would otherwise see
+    //   idle frames and stop with pixels unsampled).
     // - not full: the band doubles until it covers the image; kQuietFrames frames later eviction
     //   stops.
     // The band always holds the pixel with the fewest samples, so every pixel converges as long as
@@ -1228,7 +1230,8 @@ bool Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput&
     ++framesSinceDefrag;
     if (stats.cacheFull) {
         quietFrames = 0;
-        if (framesSinceDefrag >= kDefragInterval && fragmented()) {
+        const bool blocked = evictAge == youngest && stats.decodedBricks == 0;
+        if ((framesSinceDefrag >= kDefragInterval || blocked) && fragmented()) {
             cacheResetPending = true;
             framesSinceDefrag = 0;
         } else if (evictAge != youngest) {

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Runs on the lent GPU machine from the repository root, with .devbundle carried
+# (scripts/device/bundle.sh): the gpu tests, then csgv render at 1920x1080 in every shading mode
+# on synthetic volumes and the AAL-like fixtures. Results go to $OUT (or ./devout).
+# Usage: bash scripts/device/gpu_check.sh [SIZES] [MODES]
+set -uo pipefail
+root=$(pwd)
+out=${OUT:-$root/devout}; mkdir -p "$out"
+res=/tmp/csgv-gpu-results; rm -rf $res; mkdir -p $res  # packed into $OUT/results.tgz (few files come back)
+b=$root/.devbundle
+export LD_LIBRARY_PATH=$b/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
+         /etc/vulkan/icd.d/nvidia_icd.json; do
+    [ -f "$j" ] && { export VK_DRIVER_FILES=$j VK_ICD_FILENAMES=$j; break; }
+done
+echo "icd: ${VK_DRIVER_FILES:-none}"; nvidia-smi -L 2>&1 | head -2
+# the tests name the source tree and fixtures by the paths they were built with
+mkdir -p /work
+[ -e /work/main ] || ln -s "$root" /work/main
+[ -e /work/shared ] || ln -s "$b/shared" /work/shared
+mkdir -p build/bin && cp -f "$b"/bin/* build/bin/
+export HOME=$(mktemp -d) OMP_NUM_THREADS=${OMP_NUM_THREADS:-16}
+csgv=$root/build/bin/csgv
+sizes=${1:-"aal 256 512 1024"}; modes=${2:-"local shadow ao pt"}
+t0=$(date +%s)
+if [ -z "${SKIP_TESTS:-}" ]; then
+    timeout 240 build/bin/csgv_gpu_tests --gtest_brief=1 >"$out/gpu_tests.log" 2>&1; echo "gpu_tests rc $?"
+    grep -E "FAILED|PASSED|tests ran" "$out/gpu_tests.log" | head -30
+    echo "gpu tests: $(( $(date +%s) - t0 )) s"
+    bash Testing/VulkanBackend/test_csgv_render.sh "$csgv" /work/shared/data/volcanite-0.6 >"$res/render_tool.log" 2>&1
+    echo "csgv_render_tool rc $?"
+fi
+for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
+    v=/tmp/s$n.csgv
+    if [ -f "$b/volumes/$n.csgv" ]; then v=$b/volumes/$n.csgv
+    else [ -f $v ] || "$csgv" compress synth:${n}x${n}x${n} $v --quiet || continue; fi
+    for m in $modes; do
+        CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s${n}_$m.png" --size ${SIZE:-1920x1080} \
+            --shading $m --frames ${FRAMES:-16} --video /tmp/v%03d.png --orbit ${ORBIT:-6} >"$res/r_${n}_$m.log" 2>&1
+        echo "synth $n^3 $m rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib)' $res/r_${n}_$m.log | sed 's/^device: //' | tr '\n' ' ')"
+    done
+done
+echo "total: $(( $(date +%s) - t0 )) s"
+tar czf "$out/results.tgz" -C $res .
