@@ -4,11 +4,13 @@
 #include "CSGVStreamArrays.h"
 
 #include "csgv/attributes/Attributes.h"
+#include "csgv/codec/Decoder.h"
 
 #include <vtkCommunicator.h>
 #include <vtkMultiProcessController.h>
 #include <vtkMultiProcessStream.h>
 
+#include <algorithm>
 #include <mutex>
 
 namespace csgvrep
@@ -179,6 +181,89 @@ std::string reduceComputed(vtkMultiProcessController* c, const std::shared_ptr<S
   return std::string();
 }
 
+/// Device memory the coarse stand-ins may take on each rank: the level is the one with 4^3 nodes
+/// a brick, or a coarser one when that would take more.
+constexpr uint64_t kCoarseStandInBytes = uint64_t(32) << 20;
+
+uint32_t coarseStandInLevel(const csgv::CompressedVolume& v)
+{
+  uint32_t level = 0;
+  while ((v.brickSize >> (level + 1)) >= 4 && level + 1 < v.levels())
+  {
+    ++level; // B >> level = 4 nodes a brick edge at most
+  }
+  for (;; ++level)
+  {
+    const std::array<uint32_t, 3> d = csgv::lodDimensions(v.dim, level);
+    if (uint64_t(d[0]) * d[1] * d[2] * 4 <= kCoarseStandInBytes || level + 1 >= v.levels())
+    {
+      return level;
+    }
+  }
+}
+
+/// The whole volume at a coarse level on every rank: each decodes its own bricks there, and a
+/// maximum over the ranks fills in the others' (every node has one owner; the others give 0).
+std::string shareCoarseStandIns(vtkMultiProcessController* c, const std::shared_ptr<SharedVolume>& shared)
+{
+  unsigned int mine[4] = { 0, 0, 0, 0 }, agreed[4] = { 0, 0, 0, 0 };
+  if (shared)
+  {
+    mine[0] = coarseStandInLevel(shared->volume);
+    const std::array<uint32_t, 3> d = csgv::lodDimensions(shared->volume.dim, mine[0]);
+    std::copy(d.begin(), d.end(), mine + 1);
+  }
+  c->AllReduce(mine, agreed, 4, vtkCommunicator::MAX_OP);
+  const uint64_t n = uint64_t(agreed[1]) * agreed[2] * agreed[3];
+  if (n == 0)
+  {
+    return std::string();
+  }
+  std::vector<uint32_t> grid(n, 0u);
+  std::string error;
+  if (shared && std::equal(mine, mine + 4, agreed))
+  {
+    const uint32_t level = agreed[0], edge = shared->volume.brickSize >> level;
+    csgv::Box box;
+    for (int a = 0; a < 3; ++a)
+    {
+      box.min[a] = shared->owned.lo[a] * edge;
+      box.max[a] = std::min(shared->owned.hi[a] * edge, agreed[1 + a]);
+    }
+    csgv::Result<csgv::LabelVolume> part = csgv::decodeRegion(shared->volume, level, box);
+    if (part)
+    {
+      for (uint32_t z = 0; z < part->dim[2]; ++z)
+        for (uint32_t y = 0; y < part->dim[1]; ++y)
+        {
+          const uint32_t* from = part->labels.data() + part->index(0, y, z);
+          std::copy(from, from + part->dim[0],
+            grid.begin() + box.min[0] + agreed[1] * (uint64_t(box.min[1] + y) + agreed[2] * uint64_t(box.min[2] + z)));
+        }
+    }
+    else
+    {
+      error = "the piece's coarse level: " + part.message();
+    }
+  }
+  else if (shared)
+  {
+    error = "the pieces disagree on the volume's coarse level";
+  }
+  std::vector<uint32_t> all(n);
+  c->AllReduce(grid.data(), all.data(), vtkIdType(n), vtkCommunicator::MAX_OP);
+  if (shared && error.empty())
+  {
+    auto coarse = std::make_shared<CoarseStandIns>();
+    coarse->level = agreed[0];
+    coarse->dims = { agreed[1], agreed[2], agreed[3] };
+    coarse->labels = std::move(all);
+    std::lock_guard<std::mutex> lock(volumeMutex());
+    shared->coarse = std::move(coarse);
+  }
+  return error;
+}
+
 } // namespace
 
 std::string shareAcrossRanks(
@@ -223,6 +308,11 @@ std::string shareAcrossRanks(
     auto ghost = std::make_shared<const GhostFaces>(csgv::ghostFaces(lo, hi, shared->volume.dim, layers));
     std::lock_guard<std::mutex> lock(volumeMutex());
     shared->ghost = std::move(ghost);
+  }
+  const std::string coarseError = shareCoarseStandIns(c, shared); // collective: every rank, always
+  if (error.empty())
+  {
+    error = coarseError;
   }
   if (!computed || !error.empty())
   {

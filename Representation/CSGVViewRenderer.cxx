@@ -220,16 +220,28 @@ std::string ViewRenderer::ensureRenderer()
     this->RendererCacheBytes = share;
     this->RendererBudget = budgetShare;
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
-    this->GhostUploaded = nullptr;
+    this->GhostUploaded = this->CoarseUploaded = nullptr;
   }
   std::shared_ptr<const GhostFaces> ghost;
+  std::shared_ptr<const CoarseStandIns> coarse;
   {
     std::lock_guard<std::mutex> lock(volumeMutex());
     ghost = shared->ghost;
+    coarse = shared->coarse;
+  }
+  if (coarse && coarse.get() != this->CoarseUploaded && !shared->owned.empty())
+  {
+    // An MPI rank's piece: the whole volume at a coarse level, for secondary rays.
+    csgv::Status s = this->Renderer->setCoarseStandIns(coarse->level, coarse->dims, coarse->labels);
+    if (!s)
+    {
+      return s.message();
+    }
+    this->CoarseUploaded = coarse.get();
   }
   if (ghost && ghost.get() != this->GhostUploaded && !shared->owned.empty())
   {
-    // An MPI rank's piece: the labels just beyond it (CSGVPieceAttributes' shareGhostFaces).
+    // An MPI rank's piece: the labels just beyond it (CSGVPieceAttributes' shareAcrossRanks).
     const uint32_t b = shared->volume.brickSize;
     std::array<uint32_t, 3> lo{}, hi{};
     for (int a = 0; a < 3; ++a)

@@ -137,7 +137,8 @@ private:
   csgv::MaterialDocument Materials;
   std::map<std::string, std::vector<float>> Attributes;
   bool MaterialsDirty = true, SettingsDirty = true, GeometryDirty = true;
-  const void* GhostUploaded = nullptr; ///< the SharedVolume::ghost the renderer has
+  const void* GhostUploaded = nullptr;  ///< the SharedVolume::ghost the renderer has
+  const void* CoarseUploaded = nullptr; ///< the SharedVolume::coarse the renderer has
   std::array<double, 16> LastMatrix{};
   csgv::gpu::FrameStats Stats;
   uint32_t FramesLastRender = 0;

@@ -47,6 +47,15 @@ namespace csgvrep
 /// Labels just outside each side of a piece (-x, +x, -y, +y, -z, +z).
 using GhostFaces = std::array<std::vector<uint32_t>, 6>;
 
+/// The whole volume's stored labels at a coarse level, on every rank holding a piece: what
+/// shadow, ambient-occlusion and path-tracing rays see of the other ranks' bricks.
+struct CoarseStandIns
+{
+  uint32_t level = 0;
+  std::array<uint32_t, 3> dims{}; ///< csgv::lodDimensions(volume dims, level)
+  std::vector<uint32_t> labels;   ///< x fastest
+};
+
 struct SharedVolume
 {
   csgv::CompressedVolume volume;
@@ -69,6 +78,8 @@ struct SharedVolume
   /// The labels just beyond a rank's piece (csgv::ghostFaces; set by the ranks together in the
   /// data phase, guarded by the volume cache's mutex), for translucent materials across ranks.
   std::shared_ptr<const GhostFaces> ghost;
+  /// The whole volume at a coarse level (set by the ranks together with `ghost`, same guard).
+  std::shared_ptr<const CoarseStandIns> coarse;
   /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
   /// (guarded by the volume cache's mutex while being set).
   std::shared_ptr<const csgv::AttributeTable> computed;

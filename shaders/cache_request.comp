@@ -23,6 +23,14 @@ void requestBrick(uint b) {
     // Most bricks of a large volume are neither cached nor needed: nothing to do for them, unless
     // the materials changed which bricks are visible (their flags follow below).
     if (!used && s.y == kNone && (fv.frame.y & kFlagVisibilityChanged) == 0u) return;
+#if ABSENT_BRICKS
+    // Another rank's brick: never requested or cached here; its flag tells the rays.
+    const uvec2 preview = Uvec2Buf(frameAddr[kSlotVisible]).v[b];
+    if (preview.x == kNone && preview.y == kBrickAbsent) {
+        if (s.w != kBrickAbsent) bricks.v[b].w = kBrickAbsent;
+        return;
+    }
+#endif
     UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     const bool visible = UintBuf(frameAddr[kSlotVisible]).w[2u * b] != kNone;
     const uint wanted = lodForBrick(f, b);

@@ -88,6 +88,7 @@ bool leaveSurface(Walker w, vec3 dIndex, float tEnd, out Walker s) {
     s.tEnd = tEnd;
     s.prevLabel = kNone;
     s.lastBrick = kNone;
+    s.secondary = true;
     if (w.face != 0u) { // start in the voxel in front of the face
         const uint axis = (w.face - 1u) / 2u;
         if ((w.face - 1u) % 2u == 0u) {

@@ -236,6 +236,7 @@ struct Walker {
     float tEnd;     // stop after this t
     uint prevLabel; // label of the previous voxel (surface events happen when it changes)
     uint lastBrick; // last brick marked as used
+    bool secondary; // a shadow, ambient-occlusion or path-tracing ray (leaveSurface), not a view ray
 };
 
 /// Leaves the current voxel of the level with 2^k voxels per edge (k = 0: finest; k = BRICK_SHIFT:
@@ -302,6 +303,7 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
     w.tEnd = tEnd;
     w.prevLabel = kNone;
     w.lastBrick = kNone;
+    w.secondary = false;
     w.face = 0u;
     precise float t0 = 0.0;
     precise float t1 = tEnd;
@@ -340,6 +342,9 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
 /// Detail streaming (Renderer.cpp): bricks may stand in at a coarser level (kBrickStandIn).
 #ifndef DETAIL_STREAMING
 #define DETAIL_STREAMING 0
+#endif
+#ifndef ABSENT_BRICKS
+#define ABSENT_BRICKS 0 // 1: the volume is an MPI rank's piece (kBrickAbsent bricks)
 #endif
 
 // Results of march().
@@ -412,6 +417,29 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         if (s.w == 0u) {
             w.prevLabel = kNone;
             stableStep(w, BRICK_SHIFT);
+#if ABSENT_BRICKS
+        } else if (s.w == kBrickAbsent) { // another rank's brick (an MPI piece)
+            const uint64_t coarse = frameAddr[kSlotCoarse];
+            if (!w.secondary || coarse == 0ul) { // view rays pass: its owner draws it
+                w.prevLabel = kNone;
+                stableStep(w, BRICK_SHIFT);
+            } else { // secondary rays meet it at the whole volume's coarse level
+                UintBuf c = UintBuf(coarse);
+                const uint k = c.w[0];
+                const uvec3 n = uvec3(w.voxel) >> k;
+                const uint l = c.w[kCoarseHeaderWords + n.x + c.w[1] * (n.y + c.w[2] * n.z)];
+                if (l != w.prevLabel) {
+                    w.prevLabel = l;
+                    const uint m = materialOf(f, l);
+                    if (m != kNone) {
+                        label = l;
+                        material = m;
+                        return MARCH_SURFACE;
+                    }
+                }
+                stableStep(w, k);
+            }
+#endif
         } else {
             if (s.y == kNone) return MARCH_MISSING;
             const uint l = cachedLabel(f, s.x, s.y, w.voxel, palette);

@@ -10,9 +10,11 @@ rank, also with a clip box across the pieces; picks, the label image, the attrib
 the labels' colours, answered by all ranks together, equal one rank's; computed attributes are
 summed over the ranks (a material filtered by voxel count draws one rank's image, picks report
 one rank's values). Translucent materials are blended in visibility order (ordered compositing by
-the pieces' bounds; ghost labels at the pieces' faces) and shadows cross other ranks' bricks as
-empty space, so those stay within a stated tolerance (measured 2.9-3.0 % and 1.0-1.7 % of pixels
-beyond 16/255). SaveData to .csgv from 2 and 4 ranks writes the files one rank writes, byte for
+the pieces' bounds; ghost labels at the pieces' faces) and shadow rays meet other ranks' bricks at
+the whole volume's coarse level (4^3 nodes a brick, shared by the ranks), so those stay within a
+stated tolerance (measured 2.9-3.0 % and 0.76-0.81 % of pixels beyond 16/255; shadows were
+1.0-1.7 % with other ranks' bricks empty, and are 0.64 % with them at full resolution: the rest
+is not the stand-ins). SaveData to .csgv from 2 and 4 ranks writes the files one rank writes, byte for
 byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label array that is not
 integer at one voxel fails on every rank and leaves no file.
 Exit 77 (skipped) without mpiexec or pvbatch."""
@@ -30,7 +32,7 @@ from vtkmodules.vtkIOImage import vtkPNGReader
 HERE = os.path.dirname(os.path.abspath(__file__))
 BRICK = 32
 # Pixels (share) allowed to differ from one rank by more than 16/255, per mode and rank count.
-TOLERANCE = {"opaque": 0.0, "translucent": 0.04, "shadow": 0.03, "computed": 0.0, "clipped": 0.0}
+TOLERANCE = {"opaque": 0.0, "translucent": 0.04, "shadow": 0.015, "computed": 0.0, "clipped": 0.0}
 failures = []
 
 

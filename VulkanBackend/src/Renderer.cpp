@@ -140,7 +140,8 @@ struct Renderer::Impl {
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
-    Buffer ghost; // setGhostFaces (empty: not a piece)
+    Buffer ghost;  // setGhostFaces (empty: not a piece)
+    Buffer coarse; // setCoarseStandIns (empty: none)
     uint32_t materialTableSize = 0;   // entries of materialTable (0: the shader scans the list)
     std::vector<Buffer> attributes;
     uint32_t materialCount = 0, labelCount = 0;
@@ -481,6 +482,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     im.hostDecode = volume->hostDecoding() || decodesOnHost(options.decode, context.device());
     const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
+    d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
     im.defines = d;
     im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
     struct Shader {
@@ -813,7 +815,10 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     std::vector<uint32_t> vis(size_t(brickCount) * 2, kNone);
 #pragma omp parallel for schedule(dynamic, 64)
     for (int64_t b = 0; b < int64_t(brickCount); ++b) {
-        if (!volume->owns(uint64_t(b))) continue; // another process's brick (MPI): absent here
+        if (!volume->owns(uint64_t(b))) { // another process's brick (MPI): absent here
+            vis[2 * size_t(b) + 1] = kBrickAbsent;
+            continue;
+        }
         const BrickWords bw = vol.brick(uint64_t(b));
         const uint32_t n = bw.words[L];
         for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
@@ -848,6 +853,23 @@ Status Renderer::setGhostFaces(const std::array<uint32_t, 3>& lo, const std::arr
     if (words.size() > 0xFFFFFFFFull) return Status::error("the ghost faces are too large");
     Status s = im.uploadDeviceLocal(im.ghost, words.data(), words.size() * 4);
     if (!s) return s.prefix("ghost faces");
+    im.resetAccumulation();
+    return Status::ok();
+}
+
+Status Renderer::setCoarseStandIns(uint32_t level, const std::array<uint32_t, 3>& dims,
+                                   const std::vector<uint32_t>& labels) {
+    Impl& im = *m_impl;
+    const CompressedVolume& v = im.volume->volume();
+    if (level >= v.levels()) return Status::error("coarse stand-ins: level " + std::to_string(level) + " is out of range");
+    if (dims != lodDimensions(v.dim, level) || labels.size() != size_t(dims[0]) * dims[1] * dims[2])
+        return Status::error("coarse stand-ins: " + std::to_string(labels.size()) + " labels do not fill level " +
+                             std::to_string(level) + " of the volume");
+    std::vector<uint32_t> words{level, dims[0], dims[1], dims[2]};
+    static_assert(kCoarseHeaderWords == 4, "the header written here");
+    words.insert(words.end(), labels.begin(), labels.end());
+    Status s = im.uploadDeviceLocal(im.coarse, words.data(), words.size() * 4);
+    if (!s) return s.prefix("coarse stand-ins");
     im.resetAccumulation();
     return Status::ok();
 }
@@ -1074,6 +1096,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     p.addr[kSlotDetail] = detail ? detail->tableAddress() : 0;
     p.addr[kSlotDetailRequests] = detailRequests.address();
     p.addr[kSlotGhost] = ghost.size() > 0 ? ghost.address() : 0;
+    p.addr[kSlotCoarse] = coarse.size() > 0 ? coarse.address() : 0;
 
     uint32_t* a = allocWords();
     a[kAllocFull] = 0;
@@ -1470,6 +1493,7 @@ MemoryReport Renderer::Impl::memory() const {
     for (const Buffer& b : im.attributes) attr += b.size();
     r.buffers.push_back({"materials and attributes", attr});
     if (im.ghost.size() > 0) r.buffers.push_back({"ghost faces (MPI piece)", im.ghost.size()});
+    if (im.coarse.size() > 0) r.buffers.push_back({"coarse stand-ins (MPI piece)", im.coarse.size()});
     return r;
 }
 

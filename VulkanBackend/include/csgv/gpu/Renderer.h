@@ -209,6 +209,11 @@ public:
     /// materials composite over the ranks as over one). Restarts the accumulation.
     Status setGhostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
                          const std::array<std::vector<uint32_t>, 6>& faces);
+    /// An MPI rank's piece: the whole volume's stored labels at level `level` (dimensions
+    /// lodDimensions(volume dims, level), x fastest), so that shadow, ambient-occlusion and
+    /// path-tracing rays meet other ranks' bricks at that level instead of passing through them
+    /// (view rays still pass: the owner draws them). Restarts the accumulation.
+    Status setCoarseStandIns(uint32_t level, const std::array<uint32_t, 3>& dims, const std::vector<uint32_t>& labels);
     /// Materials with colormaps resolved to control points. `attributes` are per stored label
     /// (index = the label value in the volume); `label` is built in. `storedToOriginal` maps
     /// stored labels to original labels (relabelled files); empty when they are the same.
