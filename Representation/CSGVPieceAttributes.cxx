@@ -181,18 +181,14 @@ std::string reduceComputed(vtkMultiProcessController* c, const std::shared_ptr<S
   return std::string();
 }
 
-/// Device memory the coarse stand-ins may take on each rank: the level is the one with 4^3 nodes
-/// a brick, or a coarser one when that would take more.
-constexpr uint64_t kCoarseStandInBytes = uint64_t(32) << 20;
+/// Memory the coarse stand-ins' finest level may take on each rank (the coarser ones add a
+/// seventh): the finest level that fits is shared, exact for small volumes (about 1024^3 at B 32:
+/// level 3, 4^3 nodes a brick, 8 MiB).
+constexpr uint64_t kCoarseStandInBytes = uint64_t(16) << 20;
 
 uint32_t coarseStandInLevel(const csgv::CompressedVolume& v)
 {
-  uint32_t level = 0;
-  while ((v.brickSize >> (level + 1)) >= 4 && level + 1 < v.levels())
-  {
-    ++level; // B >> level = 4 nodes a brick edge at most
-  }
-  for (;; ++level)
+  for (uint32_t level = 0;; ++level)
   {
     const std::array<uint32_t, 3> d = csgv::lodDimensions(v.dim, level);
     if (uint64_t(d[0]) * d[1] * d[2] * 4 <= kCoarseStandInBytes || level + 1 >= v.levels())
@@ -202,62 +198,73 @@ uint32_t coarseStandInLevel(const csgv::CompressedVolume& v)
   }
 }
 
-/// The whole volume at a coarse level on every rank: each decodes its own bricks there, and a
-/// maximum over the ranks fills in the others' (every node has one owner; the others give 0).
+/// The whole volume's levels from coarseStandInLevel to the coarsest on every rank: each decodes
+/// its own bricks there, and a maximum over the ranks fills in the others' (every node has one
+/// owner; the others give 0).
 std::string shareCoarseStandIns(vtkMultiProcessController* c, const std::shared_ptr<SharedVolume>& shared)
 {
-  unsigned int mine[4] = { 0, 0, 0, 0 }, agreed[4] = { 0, 0, 0, 0 };
+  // The first level, the levels and the volume's dimensions: every rank with a piece agrees.
+  unsigned int mine[5] = { 0, 0, 0, 0, 0 }, agreed[5] = { 0, 0, 0, 0, 0 };
   if (shared)
   {
     mine[0] = coarseStandInLevel(shared->volume);
-    const std::array<uint32_t, 3> d = csgv::lodDimensions(shared->volume.dim, mine[0]);
-    std::copy(d.begin(), d.end(), mine + 1);
+    mine[1] = shared->volume.levels();
+    std::copy(shared->volume.dim.begin(), shared->volume.dim.end(), mine + 2);
   }
-  c->AllReduce(mine, agreed, 4, vtkCommunicator::MAX_OP);
-  const uint64_t n = uint64_t(agreed[1]) * agreed[2] * agreed[3];
-  if (n == 0)
+  c->AllReduce(mine, agreed, 5, vtkCommunicator::MAX_OP);
+  const uint32_t first = agreed[0], levels = agreed[1];
+  const std::array<uint32_t, 3> dim{ agreed[2], agreed[3], agreed[4] };
+  if (levels == 0)
   {
     return std::string();
   }
-  std::vector<uint32_t> grid(n, 0u);
-  std::string error;
-  if (shared && std::equal(mine, mine + 4, agreed))
+  std::vector<uint64_t> offsets{ 0 }; // of each level in the exchanged words
+  for (uint32_t l = first; l < levels; ++l)
   {
-    const uint32_t level = agreed[0], edge = shared->volume.brickSize >> level;
+    const std::array<uint32_t, 3> d = csgv::lodDimensions(dim, l);
+    offsets.push_back(offsets.back() + uint64_t(d[0]) * d[1] * d[2]);
+  }
+  std::vector<uint32_t> words(offsets.back(), 0u);
+  std::string error;
+  if (shared && !std::equal(mine, mine + 5, agreed))
+  {
+    error = "the pieces disagree on the volume's coarse levels";
+  }
+  for (uint32_t l = first; shared && error.empty() && l < levels; ++l)
+  {
+    const std::array<uint32_t, 3> d = csgv::lodDimensions(dim, l);
+    const uint32_t edge = shared->volume.brickSize >> l;
     csgv::Box box;
     for (int a = 0; a < 3; ++a)
     {
       box.min[a] = shared->owned.lo[a] * edge;
-      box.max[a] = std::min(shared->owned.hi[a] * edge, agreed[1 + a]);
+      box.max[a] = std::min(shared->owned.hi[a] * edge, d[a]);
     }
-    csgv::Result<csgv::LabelVolume> part = csgv::decodeRegion(shared->volume, level, box);
-    if (part)
+    csgv::Result<csgv::LabelVolume> part = csgv::decodeRegion(shared->volume, l, box);
+    if (!part)
     {
-      for (uint32_t z = 0; z < part->dim[2]; ++z)
-        for (uint32_t y = 0; y < part->dim[1]; ++y)
-        {
-          const uint32_t* from = part->labels.data() + part->index(0, y, z);
-          std::copy(from, from + part->dim[0],
-            grid.begin() + box.min[0] + agreed[1] * (uint64_t(box.min[1] + y) + agreed[2] * uint64_t(box.min[2] + z)));
-        }
+      error = "the piece's level " + std::to_string(l) + ": " + part.message();
+      break;
     }
-    else
-    {
-      error = "the piece's coarse level: " + part.message();
-    }
+    uint32_t* level = words.data() + offsets[l - first];
+    for (uint32_t z = 0; z < part->dim[2]; ++z)
+      for (uint32_t y = 0; y < part->dim[1]; ++y)
+      {
+        const uint32_t* from = part->labels.data() + part->index(0, y, z);
+        std::copy(from, from + part->dim[0],
+          level + box.min[0] + d[0] * (uint64_t(box.min[1] + y) + d[1] * uint64_t(box.min[2] + z)));
+      }
   }
-  else if (shared)
-  {
-    error = "the pieces disagree on the volume's coarse level";
-  }
-  std::vector<uint32_t> all(n);
-  c->AllReduce(grid.data(), all.data(), vtkIdType(n), vtkCommunicator::MAX_OP);
+  std::vector<uint32_t> all(words.size());
+  c->AllReduce(words.data(), all.data(), vtkIdType(words.size()), vtkCommunicator::MAX_OP);
   if (shared && error.empty())
   {
     auto coarse = std::make_shared<CoarseStandIns>();
-    coarse->level = agreed[0];
-    coarse->dims = { agreed[1], agreed[2], agreed[3] };
-    coarse->labels = std::move(all);
+    coarse->first = first;
+    for (size_t i = 0; i + 1 < offsets.size(); ++i)
+    {
+      coarse->levels.emplace_back(all.begin() + offsets[i], all.begin() + offsets[i + 1]);
+    }
     std::lock_guard<std::mutex> lock(volumeMutex());
     shared->coarse = std::move(coarse);
   }

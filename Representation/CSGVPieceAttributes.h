@@ -5,7 +5,7 @@
  * representation's REQUEST_UPDATE, once per data update), never while rendering:
  * - every piece's outer voxel layers, exchanged once; from them each rank gets the labels just
  *   beyond its piece (ghost faces, for translucent materials across ranks);
- * - the whole volume at a coarse level (each rank decodes its own bricks there): what secondary
+ * - the whole volume's coarse levels (each rank decodes its own bricks there): what secondary
  *   rays (shadows, ambient occlusion, path tracing) see of the other ranks' bricks;
  * - when asked for, the computed attributes (voxel count, surface area, bounding box, centroid):
  *   every rank computes exact sums for its piece, rank 0 adds them and the faces across the

@@ -231,8 +231,8 @@ std::string ViewRenderer::ensureRenderer()
   }
   if (coarse && coarse.get() != this->CoarseUploaded && !shared->owned.empty())
   {
-    // An MPI rank's piece: the whole volume at a coarse level, for secondary rays.
-    csgv::Status s = this->Renderer->setCoarseStandIns(coarse->level, coarse->dims, coarse->labels);
+    // An MPI rank's piece: the whole volume's coarse levels, for secondary rays.
+    csgv::Status s = this->Renderer->setCoarseStandIns(coarse->first, coarse->levels);
     if (!s)
     {
       return s.message();

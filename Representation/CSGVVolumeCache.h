@@ -43,19 +43,18 @@ class Context;
 namespace csgvrep
 {
 
-/// @brief One compressed volume and its upload, shared by every view showing the same data.
 /// Labels just outside each side of a piece (-x, +x, -y, +y, -z, +z).
 using GhostFaces = std::array<std::vector<uint32_t>, 6>;
 
-/// The whole volume's stored labels at a coarse level, on every rank holding a piece: what
+/// The whole volume's stored labels at its coarse levels, on every rank holding a piece: what
 /// shadow, ambient-occlusion and path-tracing rays see of the other ranks' bricks.
 struct CoarseStandIns
 {
-  uint32_t level = 0;
-  std::array<uint32_t, 3> dims{}; ///< csgv::lodDimensions(volume dims, level)
-  std::vector<uint32_t> labels;   ///< x fastest
+  uint32_t first = 0;                        ///< the finest level held
+  std::vector<std::vector<uint32_t>> levels; ///< levels first, first + 1, ..., the coarsest; x fastest
 };
 
+/// @brief One compressed volume and its upload, shared by every view showing the same data.
 struct SharedVolume
 {
   csgv::CompressedVolume volume;
@@ -78,7 +77,7 @@ struct SharedVolume
   /// The labels just beyond a rank's piece (csgv::ghostFaces; set by the ranks together in the
   /// data phase, guarded by the volume cache's mutex), for translucent materials across ranks.
   std::shared_ptr<const GhostFaces> ghost;
-  /// The whole volume at a coarse level (set by the ranks together with `ghost`, same guard).
+  /// The whole volume's coarse levels (set by the ranks together with `ghost`, same guard).
   std::shared_ptr<const CoarseStandIns> coarse;
   /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
   /// (guarded by the volume cache's mutex while being set).

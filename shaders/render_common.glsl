@@ -101,8 +101,10 @@ float attributeValue(Frame f, uint attr, uint label) {
 /// The first material whose filter holds the label, or kNone (invisible).
 uint materialOf(Frame f, uint label) {
     if (label == kNone) return kNone;
-    // Precomputed by the host with the same comparisons when the stored labels are few.
-    if (fv.counts.w != 0u) return label < fv.counts.w ? UintBuf(frameAddr[kSlotMaterialTable]).w[label] : kNone;
+    // Precomputed by the host with the same comparisons when the stored labels are few (up to
+    // the largest label of the renderer's bricks; an MPI piece's stand-ins for other ranks'
+    // bricks may hold larger ones: they take the comparisons below).
+    if (label < fv.counts.w) return UintBuf(frameAddr[kSlotMaterialTable]).w[label];
     MaterialBuf mats = MaterialBuf(frameAddr[kSlotMaterials]);
     const uint n = fv.counts.x;
     for (uint i = 0u; i < n; ++i) {
@@ -395,6 +397,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
     palette.array = 0ul;
     palette.end = 0u;
     uvec2 uniformSubs = uvec2(0u); // the brick's uniform sub-blocks, when cached at the finest level
+#if ABSENT_BRICKS
+    uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
+#endif
     for (uint it = 0u; it < 60000u; ++it) {
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
@@ -410,6 +415,10 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             if (exact && s.w == kBrickStandIn) s.y = kNone; // not at the view's level yet: missing
 #endif
             uniformSubs = s.w != 0u && s.y == 0u ? Uvec2Buf(frameAddr[kSlotUniform]).v[b] : uvec2(0u);
+#if ABSENT_BRICKS
+            if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
+                absentLevel = max(lodForBrick(f, b), UintBuf(frameAddr[kSlotCoarse]).w[0]);
+#endif
 #if CACHE_BITS != 32
             if (s.w != 0u && s.y != kNone) palette = paletteOf(f, b);
 #endif
@@ -423,11 +432,12 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             if (!w.secondary || coarse == 0ul) { // view rays pass: its owner draws it
                 w.prevLabel = kNone;
                 stableStep(w, BRICK_SHIFT);
-            } else { // secondary rays meet it at the whole volume's coarse level
+            } else { // secondary rays meet it at its level of detail (kSlotCoarse holds the coarse ones)
                 UintBuf c = UintBuf(coarse);
-                const uint k = c.w[0];
+                const uint k = absentLevel;
+                const uint e = kCoarseHeaderWords + kCoarseLevelWords * (k - c.w[0]);
                 const uvec3 n = uvec3(w.voxel) >> k;
-                const uint l = c.w[kCoarseHeaderWords + n.x + c.w[1] * (n.y + c.w[2] * n.z)];
+                const uint l = c.w[c.w[e] + n.x + c.w[e + 1u] * (n.y + c.w[e + 2u] * n.z)];
                 if (l != w.prevLabel) {
                     w.prevLabel = l;
                     const uint m = materialOf(f, l);
@@ -437,7 +447,8 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                         return MARCH_SURFACE;
                     }
                 }
-                stableStep(w, k);
+                if (k == 0u) stableStepFinest(w);
+                else stableStep(w, k);
             }
 #endif
         } else {

@@ -57,9 +57,13 @@ big = json.dumps({"version": 1, "materials": [
     {"name": "big", "filter": {"attribute": "voxel_count", "min": 3000, "max": 1e12}}]})
 # The clip box is in the volume's voxels on every rank (each draws its piece in the volume's index
 # space): a box across the pieces' boundaries cuts every rank's piece where it cuts one rank's.
-for mode in ("opaque", "translucent", "shadow", "computed", "clipped"):
+# Shadow, ambient-occlusion and path-tracing rays meet other ranks' bricks at their level of
+# detail (the whole volume's coarse levels, shared by the ranks); the denoiser is off (it filters
+# across the screen, and each rank's image has holes where the others draw).
+for mode in ("opaque", "translucent", "shadow", "ao", "pt", "computed", "clipped"):
     d.CSGVMaterials = glass if mode == "translucent" else big if mode == "computed" else ""
-    d.CSGVShading = "shadow" if mode == "shadow" else "local"
+    d.CSGVShading = mode if mode in ("shadow", "ao", "pt") else "local"
+    d.CSGVDenoise = 0
     d.CSGVComputedAttributes = 1 if mode == "computed" else 0
     d.CSGVClipBox = [20, 100, 5, 60, 50, 150] if mode == "clipped" else [0, 2147483647] * 3
     Render(v)

@@ -32,7 +32,7 @@ from vtkmodules.vtkIOImage import vtkPNGReader
 HERE = os.path.dirname(os.path.abspath(__file__))
 BRICK = 32
 # Pixels (share) allowed to differ from one rank by more than 16/255, per mode and rank count.
-TOLERANCE = {"opaque": 0.0, "translucent": 0.04, "shadow": 0.015, "computed": 0.0, "clipped": 0.0}
+TOLERANCE = {"opaque": 0.0, "translucent": 0.04, "shadow": 0.0, "ao": 0.0, "pt": 0.01, "computed": 0.0, "clipped": 0.0}
 failures = []
 
 

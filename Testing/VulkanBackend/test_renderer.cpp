@@ -7,6 +7,7 @@
 #include "TestData.h"
 #include "Png.h"
 
+#include "csgv/codec/Container.h"
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Encoder.h"
@@ -483,71 +484,91 @@ TEST(Renderer, LevelChangesUnderCachePressureConvergeInAnIdleBoundedLoopWithGpuD
 }
 
 /// An MPI rank's piece (GpuVolumeOptions::owned): view rays pass the other ranks' bricks, shadow
-/// rays meet them at the whole volume's coarse level (setCoarseStandIns) instead of passing
-/// through, so the piece's own surfaces are shadowed nearly as in the whole volume.
-TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesAtACoarseLevel) {
+/// rays meet them at their level of detail from the whole volume's coarse levels
+/// (setCoarseStandIns) instead of passing through: with every level there, the piece's own
+/// surfaces are shaded exactly as in the whole volume (finest, and with levels of detail); with
+/// the levels from 3 (4^3 nodes a brick), nearly.
+TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
     CSGV_REQUIRE_GPU(ctx);
-    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2_attr.csgv"); // relabelled: dense ids, a label -> material table
     GpuVolumeOptions o;
     o.owned = brickPartition(scene.volume.brickGrid(), 2, 0); // the lower half in z: the other piece lies above
     ASSERT_EQ(o.owned.hi[2], 3u);
-    Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(*ctx, scene.volume, o);
+    // As a rank holds it: its bricks in the volume's index space, the others label 0 (so its
+    // largest label is its own; the stand-ins hold larger ones).
+    Result<CompressedVolume> own = extractPiece(scene.volume, o.owned);
+    ASSERT_TRUE(own.isOk()) << own.message();
+    Result<CompressedVolume> embedded = embedPiece(*own, o.owned, scene.volume.dim);
+    ASSERT_TRUE(embedded.isOk()) << embedded.message();
+    Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(*ctx, *embedded, o);
     ASSERT_TRUE(pg.isOk()) << pg.message();
     std::shared_ptr<GpuVolume> piece = std::move(*pg);
     RenderSettings st;
     st.shading = Shading::Shadow;
-    st.finest = true;
     st.jitter = false;
     st.denoise = false;
     st.lightInWorld = true;
     st.lightDirection = {0.2f, -0.5f, 0.85f}; // from above, on the camera's side
     const FrameInput in = perspectiveView({66, -260, 70}, {66, 35, 70}, {0, 0, 1}, 40, 96, 72);
-    auto render = [&](std::shared_ptr<GpuVolume> v, bool coarse) {
+    constexpr uint32_t kNoStandIns = ~0u;
+    auto render = [&](std::shared_ptr<GpuVolume> v, uint32_t coarseFrom) {
         RendererOptions ro;
         ro.cacheBytes = 64ull << 20;
         Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, v, ro);
         EXPECT_TRUE(r.isOk()) << r.message();
         if (!r) return FrameOutput{};
         (*r)->setSettings(st);
-        if (coarse) {
-            const uint32_t level = 3; // 4^3 nodes a brick
-            Result<LabelVolume> grid = decodeVolume(scene.volume, level);
-            EXPECT_TRUE(grid.isOk()) << grid.message();
-            if (!grid) return FrameOutput{};
-            Status s = (*r)->setCoarseStandIns(level, grid->dim, grid->labels);
+        if (coarseFrom != kNoStandIns) {
+            std::vector<std::vector<uint32_t>> levels;
+            for (uint32_t l = coarseFrom; l < scene.volume.levels(); ++l) {
+                Result<LabelVolume> grid = decodeVolume(scene.volume, l);
+                EXPECT_TRUE(grid.isOk()) << grid.message();
+                if (!grid) return FrameOutput{};
+                levels.push_back(std::move(grid->labels));
+            }
+            EXPECT_FALSE((*r)->setCoarseStandIns(coarseFrom + 1, levels).isOk()) << "too many levels";
+            levels.back().push_back(0);
+            EXPECT_FALSE((*r)->setCoarseStandIns(coarseFrom, levels).isOk()) << "a level of the wrong size";
+            levels.back().pop_back();
+            Status s = (*r)->setCoarseStandIns(coarseFrom, levels);
             EXPECT_TRUE(s.isOk()) << s.message();
-            EXPECT_FALSE((*r)->setCoarseStandIns(level, {1, 1, 1}, {0}).isOk()) << "a grid of the wrong size";
         }
         return renderConverged(**r, in, 1, 200);
     };
-    const FrameOutput whole = render(scene.gpu, false);
-    const FrameOutput passing = render(piece, false);
-    const FrameOutput standIns = render(piece, true);
-    ASSERT_EQ(passing.label.size(), whole.label.size());
-    ASSERT_EQ(standIns.label.size(), whole.label.size());
-    // View rays are the same with or without stand-ins: the piece draws only its own voxels.
-    EXPECT_EQ(standIns.label, passing.label);
-    // On the piece's surfaces that the whole volume shows too, count the shaded pixels that differ.
-    size_t shared = 0, passingDiffers = 0, standInsDiffer = 0;
-    for (size_t i = 0; i < whole.label.size(); ++i) {
-        if (passing.label[i] == kNone || passing.label[i] != whole.label[i] || whole.depth[i] != passing.depth[i]) continue;
-        ++shared;
-        auto differs = [&](const FrameOutput& o) {
+    for (bool finest : {true, false}) {
+        st.finest = finest;
+        const FrameOutput whole = render(scene.gpu, kNoStandIns);
+        const FrameOutput passing = render(piece, kNoStandIns);
+        const FrameOutput exact = render(piece, 0);
+        const FrameOutput coarse = render(piece, 3);
+        ASSERT_EQ(passing.label.size(), whole.label.size());
+        // View rays are the same with or without stand-ins: the piece draws only its own voxels.
+        EXPECT_EQ(exact.label, passing.label);
+        EXPECT_EQ(coarse.label, passing.label);
+        // On the piece's surfaces that the whole volume shows too, the shaded pixels that differ.
+        size_t shared = 0, passingDiffers = 0, exactDiffers = 0, coarseDiffers = 0;
+        auto differs = [&](const FrameOutput& o, size_t i) {
             for (int c = 0; c < 3; ++c)
                 if (std::fabs(o.rgba[4 * i + c] - whole.rgba[4 * i + c]) > 2.0f / 255) return true;
             return false;
         };
-        passingDiffers += differs(passing);
-        standInsDiffer += differs(standIns);
+        for (size_t i = 0; i < whole.label.size(); ++i) {
+            if (passing.label[i] == kNone || passing.label[i] != whole.label[i] || whole.depth[i] != passing.depth[i])
+                continue;
+            ++shared;
+            passingDiffers += differs(passing, i);
+            exactDiffers += differs(exact, i);
+            coarseDiffers += differs(coarse, i);
+        }
+        const std::string what = finest ? "finest: " : "levels of detail: ";
+        EXPECT_GT(shared, whole.label.size() / 8) << what;
+        EXPECT_GT(passingDiffers, shared / 50) << what << "the other piece should shadow this one (" << shared << " pixels)";
+        EXPECT_EQ(exactDiffers, 0u) << what << "every level stands in";
+        EXPECT_LT(coarseDiffers * 2, passingDiffers) << what << "levels from 3";
+        std::printf("%spixels of the piece: %zu; shaded unlike the whole volume: %zu passing through the other piece, "
+                    "%zu with its levels from 3, %zu with every level\n",
+                    what.c_str(), shared, passingDiffers, coarseDiffers, exactDiffers);
     }
-    EXPECT_GT(shared, whole.label.size() / 8);
-    EXPECT_GT(passingDiffers, shared / 50) << "the other piece should shadow this one (" << shared << " pixels)";
-    EXPECT_LT(standInsDiffer * 2, passingDiffers) << "stand-ins: " << standInsDiffer << " of " << shared
-                                                  << " pixels differ from the whole volume, passing through: "
-                                                  << passingDiffers;
-    std::printf("pixels of the piece: %zu; shaded differently from the whole volume: %zu passing through the other "
-                "piece, %zu with its coarse stand-ins\n",
-                shared, passingDiffers, standInsDiffer);
 }
 
 namespace {

@@ -857,17 +857,26 @@ Status Renderer::setGhostFaces(const std::array<uint32_t, 3>& lo, const std::arr
     return Status::ok();
 }
 
-Status Renderer::setCoarseStandIns(uint32_t level, const std::array<uint32_t, 3>& dims,
-                                   const std::vector<uint32_t>& labels) {
+Status Renderer::setCoarseStandIns(uint32_t first, const std::vector<std::vector<uint32_t>>& levels) {
     Impl& im = *m_impl;
     const CompressedVolume& v = im.volume->volume();
-    if (level >= v.levels()) return Status::error("coarse stand-ins: level " + std::to_string(level) + " is out of range");
-    if (dims != lodDimensions(v.dim, level) || labels.size() != size_t(dims[0]) * dims[1] * dims[2])
-        return Status::error("coarse stand-ins: " + std::to_string(labels.size()) + " labels do not fill level " +
-                             std::to_string(level) + " of the volume");
-    std::vector<uint32_t> words{level, dims[0], dims[1], dims[2]};
-    static_assert(kCoarseHeaderWords == 4, "the header written here");
-    words.insert(words.end(), labels.begin(), labels.end());
+    if (first >= v.levels() || levels.size() != v.levels() - first)
+        return Status::error("coarse stand-ins: levels " + std::to_string(first) + " to the coarsest (" +
+                             std::to_string(v.levels() - 1) + ") are needed, " + std::to_string(levels.size()) + " given");
+    std::vector<uint32_t> words{first, uint32_t(levels.size())};
+    static_assert(kCoarseHeaderWords == 2 && kCoarseLevelWords == 4, "the header written here");
+    words.resize(kCoarseHeaderWords + kCoarseLevelWords * levels.size());
+    for (size_t i = 0; i < levels.size(); ++i) {
+        const std::array<uint32_t, 3> d = lodDimensions(v.dim, first + uint32_t(i));
+        if (levels[i].size() != size_t(d[0]) * d[1] * d[2])
+            return Status::error("coarse stand-ins: " + std::to_string(levels[i].size()) + " labels do not fill level " +
+                                 std::to_string(first + i) + " of the volume");
+        if (words.size() + levels[i].size() > 0xFFFFFFFFull) return Status::error("coarse stand-ins: too large");
+        uint32_t* e = words.data() + kCoarseHeaderWords + kCoarseLevelWords * i;
+        e[0] = uint32_t(words.size());
+        std::copy(d.begin(), d.end(), e + 1);
+        words.insert(words.end(), levels[i].begin(), levels[i].end());
+    }
     Status s = im.uploadDeviceLocal(im.coarse, words.data(), words.size() * 4);
     if (!s) return s.prefix("coarse stand-ins");
     im.resetAccumulation();

@@ -70,17 +70,18 @@ CSGV_CONST(uint32_t, kSlotUniform, 23u)       ///< uvec2 per brick: its uniform 
 CSGV_CONST(uint32_t, kSlotDetail, 24u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
 CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
 CSGV_CONST(uint32_t, kSlotGhost, 26u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
-CSGV_CONST(uint32_t, kSlotCoarse, 27u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): kCoarseHeaderWords words (level k, the level image's dimensions), then the whole volume's stored labels at level k, x fastest; what secondary rays see of other ranks' bricks; 0 when none
+CSGV_CONST(uint32_t, kSlotCoarse, 27u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
 CSGV_CONST(uint32_t, kSlotCount, 28u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
-CSGV_CONST(uint32_t, kCoarseHeaderWords, 4u)
+CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
+CSGV_CONST(uint32_t, kCoarseLevelWords, 4u)
 
 /// Brick table word w (kSlotBricks): 0 invisible, 1 visible, kBrickStandIn visible and cached at
 /// the next coarser level than the view wants, because its finest-level stream has not arrived
 /// (detail streaming): exact rays treat it as missing, previews and deep bounces sample it.
 CSGV_CONST(uint32_t, kBrickStandIn, 2u)
 /// Another MPI rank's brick (GpuVolume::owns): view rays pass it (that rank draws it), secondary
-/// rays see it at the coarse level kSlotCoarse holds. kSlotVisible marks it {kNone, kBrickAbsent}.
+/// rays see it at its level of detail, or the finest level kSlotCoarse holds when that is coarser. kSlotVisible marks it {kNone, kBrickAbsent}.
 CSGV_CONST(uint32_t, kBrickAbsent, 3u)
 
 // Words of the cache counter buffer (kSlotAlloc), read by the host between frames.

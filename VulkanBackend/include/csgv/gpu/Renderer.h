@@ -209,11 +209,13 @@ public:
     /// materials composite over the ranks as over one). Restarts the accumulation.
     Status setGhostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
                          const std::array<std::vector<uint32_t>, 6>& faces);
-    /// An MPI rank's piece: the whole volume's stored labels at level `level` (dimensions
-    /// lodDimensions(volume dims, level), x fastest), so that shadow, ambient-occlusion and
-    /// path-tracing rays meet other ranks' bricks at that level instead of passing through them
-    /// (view rays still pass: the owner draws them). Restarts the accumulation.
-    Status setCoarseStandIns(uint32_t level, const std::array<uint32_t, 3>& dims, const std::vector<uint32_t>& labels);
+    /// An MPI rank's piece: the whole volume's stored labels at levels `first`, first + 1, ..., the
+    /// coarsest (`levels[i]` at level first + i: lodDimensions(volume dims, first + i), x
+    /// fastest), so that shadow, ambient-occlusion and path-tracing rays meet other ranks' bricks
+    /// at their level of detail (as one rank's rays meet them), or at `first` where that is
+    /// coarser, instead of passing through them (view rays still pass: the owner draws them).
+    /// Restarts the accumulation.
+    Status setCoarseStandIns(uint32_t first, const std::vector<std::vector<uint32_t>>& levels);
     /// Materials with colormaps resolved to control points. `attributes` are per stored label
     /// (index = the label value in the volume); `label` is built in. `storedToOriginal` maps
     /// stored labels to original labels (relabelled files); empty when they are the same.
