@@ -42,6 +42,9 @@ v = CreateRenderView()
 v.ViewSize = [160, 120]
 v.OrientationAxesVisibility = 0
 v.Background = [0, 0, 0]
+# ParaView smooths the image IceT composites in ordered compositing with FXAA (on by default),
+# while one rank's volume image is not: off, translucent images of N ranks are one rank's.
+v.UseFXAA = 0
 d = Show(r, v)
 d.Representation = "Segmentation Volume"
 d.CSGVFramesPerStillRender = 1

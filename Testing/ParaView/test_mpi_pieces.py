@@ -9,12 +9,17 @@ space; IceT composites: opaque materials at one sample a pixel give exactly the 
 rank, also with a clip box across the pieces; picks, the label image, the attribute summary and
 the labels' colours, answered by all ranks together, equal one rank's; computed attributes are
 summed over the ranks (a material filtered by voxel count draws one rank's image, picks report
-one rank's values). Translucent materials are blended in visibility order (ordered compositing by
-the pieces' bounds; ghost labels at the pieces' faces) and shadow rays meet other ranks' bricks at
-the whole volume's coarse level (4^3 nodes a brick, shared by the ranks), so those stay within a
-stated tolerance (measured 2.9-3.0 % and 0.76-0.81 % of pixels beyond 16/255; shadows were
-1.0-1.7 % with other ranks' bricks empty, and are 0.64 % with them at full resolution: the rest
-is not the stand-ins). SaveData to .csgv from 2 and 4 ranks writes the files one rank writes, byte for
+one rank's values). Shadow, ambient-occlusion and path-tracing rays meet other ranks' bricks at
+their level of detail (the whole volume's levels, shared by the ranks: every level for this small
+volume), so those images equal one rank's too (the denoiser off: it filters across the screen;
+path tracing within 1 %: deep bounces sample uncached bricks at their coarsest level, which
+depends on what each rank's cache holds; measured 0 pixels). Translucent materials are blended
+in visibility order (ordered compositing by the pieces' bounds; ghost labels at the pieces'
+faces), within a stated tolerance: each rank stops its rays at its own opacity limit and sums its
+layers apart (measured 0.03 % and 0.11 % of pixels beyond 16/255 at 2 and 4 ranks). The view's
+FXAA is off: ParaView smooths the image IceT composites in ordered compositing, never one rank's
+volume image (with it, 2.9-3.0 % of pixels differed).
+SaveData to .csgv from 2 and 4 ranks writes the files one rank writes, byte for
 byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label array that is not
 integer at one voxel fails on every rank and leaves no file.
 Exit 77 (skipped) without mpiexec or pvbatch."""
@@ -32,7 +37,7 @@ from vtkmodules.vtkIOImage import vtkPNGReader
 HERE = os.path.dirname(os.path.abspath(__file__))
 BRICK = 32
 # Pixels (share) allowed to differ from one rank by more than 16/255, per mode and rank count.
-TOLERANCE = {"opaque": 0.0, "translucent": 0.04, "shadow": 0.0, "ao": 0.0, "pt": 0.01, "computed": 0.0, "clipped": 0.0}
+TOLERANCE = {"opaque": 0.0, "translucent": 0.005, "shadow": 0.0, "ao": 0.0, "pt": 0.01, "computed": 0.0, "clipped": 0.0}
 failures = []
 
 
@@ -150,7 +155,7 @@ def main():
                       % (ranks, mode, int((diff > 0).sum())))
                 continue
             off = (diff > 16).mean()
-            check(drawn > 0.1 and off <= tol, "%d ranks, %s: %.2f%% of pixels off by more than 16/255 (at most %.0f%%)"
+            check(drawn > 0.1 and off <= tol, "%d ranks, %s: %.2f%% of pixels off by more than 16/255 (at most %.1f%%)"
                   % (ranks, mode, 100 * off, 100 * tol))
     shutil.rmtree(top, ignore_errors=True)
     print("%d failure(s)" % len(failures))
