@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "CSGVAdapter.h"
 
+#include "csgv/codec/Partition.h"
+
 #include <vtkAOSDataArrayTemplate.h>
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
@@ -451,6 +453,34 @@ std::array<uint32_t, 3> pieceVolumeDims(vtkFieldData* fd)
   return out;
 }
 
+void setBrickPiece(vtkFieldData* fd, const std::vector<int>& words)
+{
+  vtkNew<vtkIntArray> a;
+  a->SetName(kBrickPieceName);
+  for (int w : words)
+  {
+    a->InsertNextValue(w);
+  }
+  fd->AddArray(a);
+}
+
+bool brickPiece(vtkFieldData* fd, int& brick, int& pieces, int& piece, int whole[6])
+{
+  vtkIntArray* a = fd ? vtkIntArray::SafeDownCast(fd->GetArray(kBrickPieceName)) : nullptr;
+  if (!a || a->GetNumberOfValues() != 9)
+  {
+    return false;
+  }
+  brick = a->GetValue(0);
+  pieces = a->GetValue(1);
+  piece = a->GetValue(2);
+  for (int i = 0; i < 6; ++i)
+  {
+    whole[i] = a->GetValue(3 + i);
+  }
+  return brick > 0 && pieces > 1 && piece >= 0 && piece < pieces;
+}
+
 std::array<long, 3> pieceOffset(vtkFieldData* fd)
 {
   std::array<long, 3> out{ { 0, 0, 0 } };
@@ -665,6 +695,98 @@ std::array<uint32_t, 3> voxelDims(const int ext[6], bool isCell)
   }
   return dims;
 }
+
+bool pieceVoxels(const std::array<uint32_t, 3>& dims, int brickSize, int pieces, int piece,
+  std::array<uint32_t, 3>& lo, std::array<uint32_t, 3>& hi)
+{
+  if (brickSize <= 0 || dims[0] == 0 || dims[1] == 0 || dims[2] == 0)
+  {
+    return false;
+  }
+  const uint32_t b = uint32_t(brickSize);
+  const std::array<uint32_t, 3> grid = { (dims[0] + b - 1) / b, (dims[1] + b - 1) / b,
+    (dims[2] + b - 1) / b };
+  const csgv::BrickBox box = csgv::brickPartition(grid, uint32_t(pieces), uint32_t(piece));
+  for (int a = 0; a < 3; ++a)
+  {
+    lo[a] = box.lo[a] * b;
+    hi[a] = std::min(box.hi[a] * b, dims[a]);
+  }
+  return !box.empty();
+}
+
+std::string cropVoxels(vtkDataArray* array, const int ext[6], const int whole[6], bool isCell,
+  const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
+  vtkSmartPointer<vtkDataArray>& out)
+{
+  const std::array<uint32_t, 3> have = voxelDims(ext, isCell);
+  std::array<uint64_t, 3> off{}, size{};
+  for (int a = 0; a < 3; ++a)
+  {
+    const long first = long(whole[2 * a]) + long(lo[a]) - long(ext[2 * a]);
+    size[a] = hi[a] - lo[a];
+    if (first < 0 || uint64_t(first) + size[a] > have[a])
+    {
+      return "the input's extent (" + std::to_string(ext[0]) + ".." + std::to_string(ext[1]) + ", " +
+        std::to_string(ext[2]) + ".." + std::to_string(ext[3]) + ", " + std::to_string(ext[4]) +
+        ".." + std::to_string(ext[5]) + ") does not hold this piece's voxels";
+    }
+    off[a] = uint64_t(first);
+  }
+  if (uint64_t(array->GetNumberOfTuples()) != uint64_t(have[0]) * have[1] * have[2])
+  {
+    return std::string("array '") + (array->GetName() ? array->GetName() : "(unnamed)") +
+      "' does not match its image's extent";
+  }
+  vtkSmartPointer<vtkDataArray> aos = array;
+  if (!array->HasStandardMemoryLayout())
+  {
+    aos = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(array->GetDataType()));
+    aos->DeepCopy(array);
+  }
+  out = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(array->GetDataType()));
+  out->SetName(array->GetName());
+  out->SetNumberOfComponents(array->GetNumberOfComponents());
+  out->SetNumberOfTuples(vtkIdType(size[0] * size[1] * size[2]));
+  const size_t tuple = size_t(array->GetDataTypeSize()) * size_t(array->GetNumberOfComponents());
+  const auto* src = static_cast<const unsigned char*>(aos->GetVoidPointer(0));
+  auto* dst = static_cast<unsigned char*>(out->GetVoidPointer(0));
+  for (uint64_t z = 0; z < size[2]; ++z)
+  {
+    for (uint64_t y = 0; y < size[1]; ++y)
+    {
+      const uint64_t from = ((z + off[2]) * have[1] + (y + off[1])) * have[0] + off[0];
+      std::memcpy(dst + ((z * size[1] + y) * size[0]) * tuple, src + from * tuple, size[0] * tuple);
+    }
+  }
+  return std::string();
+}
+
+void brickPieceExtent(const int whole[6], int brickSize, int pieces, int piece, int ext[6])
+{
+  for (int a = 0; a < 3; ++a)
+  {
+    ext[2 * a] = ext[2 * a + 1] = whole[2 * a];
+  }
+  bool any = false;
+  for (bool isCell : { true, false })
+  {
+    std::array<uint32_t, 3> lo, hi;
+    if (!pieceVoxels(voxelDims(whole, isCell), brickSize, pieces, piece, lo, hi))
+    {
+      continue;
+    }
+    for (int a = 0; a < 3; ++a)
+    {
+      const int first = whole[2 * a] + int(lo[a]);
+      const int last = std::min(whole[2 * a + 1], whole[2 * a] + int(hi[a]) - (isCell ? 0 : 1));
+      ext[2 * a] = any ? std::min(ext[2 * a], first) : first;
+      ext[2 * a + 1] = any ? std::max(ext[2 * a + 1], last) : last;
+    }
+    any = true;
+  }
+}
+
 
 void worldBounds(const csgv::Geometry& g, const std::array<uint32_t, 3>& dims, double b[6])
 {

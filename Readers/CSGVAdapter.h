@@ -52,6 +52,7 @@ constexpr const char* kLabelMapName = "CSGVLabelMap";
 constexpr const char* kOriginalTypeName = "CSGVOriginalType";
 constexpr const char* kLabelRangeName = "CSGVLabelRange";
 constexpr const char* kPieceOffsetName = "CSGVPieceOffset";
+constexpr const char* kBrickPieceName = "CSGVBrickPiece";
 /// Prefix of the per-id attribute arrays of a `_csgv.db3` (vtkDoubleArray for numeric columns,
 /// vtkStringArray for text columns), indexed by the id the volume stores.
 constexpr const char* kAttributePrefix = "CSGVAttribute:";
@@ -88,6 +89,23 @@ vtkDataArray* findLabelArray(vtkImageData* image, const std::string& name, bool&
 /// Voxels of a point extent: its cells (`isCell`; at least 1 along an axis, as VTK counts the
 /// cells of flat images) or its points; 0 along an empty axis.
 std::array<uint32_t, 3> voxelDims(const int extent[6], bool isCell);
+
+/// The voxels [lo, hi) MPI piece `piece` of `pieces` holds of a grid of `dims` voxels: its bricks
+/// (csgv::brickPartition) with bricks of `brickSize`; false when the piece has none.
+bool pieceVoxels(const std::array<uint32_t, 3>& dims, int brickSize, int pieces, int piece,
+  std::array<uint32_t, 3>& lo, std::array<uint32_t, 3>& hi);
+
+/// The point extent `ext` to ask an input of whole extent `whole` for, so that piece `piece` of
+/// `pieces` gets its voxels (pieceVoxels) whether its labels are cell or point data; a piece
+/// without bricks asks for one point, so that it still sees which arrays there are.
+void brickPieceExtent(const int whole[6], int brickSize, int pieces, int piece, int ext[6]);
+
+/// Copies voxels [lo, hi) of the whole grid out of `array`, which lies over the point extent
+/// `ext` of an image whose whole extent is `whole`, into a new array of its type; returns an
+/// error message or "".
+std::string cropVoxels(vtkDataArray* array, const int ext[6], const int whole[6], bool isCell,
+  const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
+  vtkSmartPointer<vtkDataArray>& out);
 
 /// Corner geometry (origin at the corner of voxel (0,0,0), DESIGN.md "Where voxels are") of the
 /// voxel grid an image's cell (`isCell`) or point array describes, and the grid's dimensions.
@@ -174,6 +192,12 @@ void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColum
 void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset, const std::array<uint32_t, 3>& volumeDims);
 std::array<long, 3> pieceOffset(vtkFieldData* fd);
 std::array<uint32_t, 3> pieceVolumeDims(vtkFieldData* fd);
+
+/// An image a consumer asked for as MPI piece `piece` of `pieces` of its input's whole extent
+/// `whole` with bricks of `brick` (brickPieceExtent), as FieldData `CSGVBrickPiece` (9 ints:
+/// brick, pieces, piece, whole extent); brickPiece is false when there is none.
+void setBrickPiece(vtkFieldData* fd, const std::vector<int>& brickPieceWords);
+bool brickPiece(vtkFieldData* fd, int& brick, int& pieces, int& piece, int whole[6]);
 
 /// The encoding array of a FieldData (null when there is none): its pointer and modification
 /// time identify the encoding, so consumers look up what they parsed before without parsing.

@@ -58,77 +58,6 @@ namespace
 using csgvvtk::popArray;
 using csgvvtk::pushArray;
 
-/// The voxels [lo, hi) this piece writes: its bricks (csgv::brickPartition) of a grid of `dims`
-/// voxels with bricks of `brickSize`; false when the piece has none.
-bool pieceVoxels(const std::array<uint32_t, 3>& dims, int brickSize, int pieces, int piece,
-  std::array<uint32_t, 3>& lo, std::array<uint32_t, 3>& hi)
-{
-  if (brickSize <= 0 || dims[0] == 0 || dims[1] == 0 || dims[2] == 0)
-  {
-    return false;
-  }
-  const uint32_t b = uint32_t(brickSize);
-  const std::array<uint32_t, 3> grid = { (dims[0] + b - 1) / b, (dims[1] + b - 1) / b,
-    (dims[2] + b - 1) / b };
-  const csgv::BrickBox box = csgv::brickPartition(grid, uint32_t(pieces), uint32_t(piece));
-  for (int a = 0; a < 3; ++a)
-  {
-    lo[a] = box.lo[a] * b;
-    hi[a] = std::min(box.hi[a] * b, dims[a]);
-  }
-  return !box.empty();
-}
-
-/// Copies voxels [lo, hi) of the whole grid out of `array`, which lies over the point extent
-/// `ext` of an image whose whole extent is `whole`, into a new array of its type; returns an
-/// error message or "".
-std::string cropVoxels(vtkDataArray* array, const int ext[6], const int whole[6], bool isCell,
-  const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
-  vtkSmartPointer<vtkDataArray>& out)
-{
-  const std::array<uint32_t, 3> have = csgvvtk::voxelDims(ext, isCell);
-  std::array<uint64_t, 3> off{}, size{};
-  for (int a = 0; a < 3; ++a)
-  {
-    const long first = long(whole[2 * a]) + long(lo[a]) - long(ext[2 * a]);
-    size[a] = hi[a] - lo[a];
-    if (first < 0 || uint64_t(first) + size[a] > have[a])
-    {
-      return "the input's extent (" + std::to_string(ext[0]) + ".." + std::to_string(ext[1]) + ", " +
-        std::to_string(ext[2]) + ".." + std::to_string(ext[3]) + ", " + std::to_string(ext[4]) +
-        ".." + std::to_string(ext[5]) + ") does not hold this piece's voxels";
-    }
-    off[a] = uint64_t(first);
-  }
-  if (uint64_t(array->GetNumberOfTuples()) != uint64_t(have[0]) * have[1] * have[2])
-  {
-    return std::string("array '") + (array->GetName() ? array->GetName() : "(unnamed)") +
-      "' does not match its image's extent";
-  }
-  vtkSmartPointer<vtkDataArray> aos = array;
-  if (!array->HasStandardMemoryLayout())
-  {
-    aos = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(array->GetDataType()));
-    aos->DeepCopy(array);
-  }
-  out = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(array->GetDataType()));
-  out->SetName(array->GetName());
-  out->SetNumberOfComponents(array->GetNumberOfComponents());
-  out->SetNumberOfTuples(vtkIdType(size[0] * size[1] * size[2]));
-  const size_t tuple = size_t(array->GetDataTypeSize()) * size_t(array->GetNumberOfComponents());
-  const auto* src = static_cast<const unsigned char*>(aos->GetVoidPointer(0));
-  auto* dst = static_cast<unsigned char*>(out->GetVoidPointer(0));
-  for (uint64_t z = 0; z < size[2]; ++z)
-  {
-    for (uint64_t y = 0; y < size[1]; ++y)
-    {
-      const uint64_t from = ((z + off[2]) * have[1] + (y + off[1])) * have[0] + off[0];
-      std::memcpy(dst + ((z * size[1] + y) * size[0]) * tuple, src + from * tuple, size[0] * tuple);
-    }
-  }
-  return std::string();
-}
-
 /// The files of one volume: sidecars first, the volume last, as Core's compress does.
 csgv::Status writeVolumeFiles(const std::string& path, const csgv::VolumeMetadata& md,
   const csgv::LabelMapping& mapping, const csgv::CompressedVolume& volume)
@@ -409,7 +338,7 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
   self->GetInputInformation(0, 0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
   const std::array<uint32_t, 3> dims = csgvvtk::voxelDims(whole, isCell);
   std::array<uint32_t, 3> lo{}, hi{};
-  const bool mine = pieceVoxels(dims, self->GetBrickSize(), n, rank, lo, hi);
+  const bool mine = csgvvtk::pieceVoxels(dims, self->GetBrickSize(), n, rank, lo, hi);
 
   // Every process relabels when one must, with ids of the whole volume; pass 1 over this piece,
   // counts summed over all pieces, pass 2 with the common tables.
@@ -433,7 +362,7 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
     }
     else
     {
-      error = cropVoxels(array, image->GetExtent(), whole, isCell, lo, hi, piece);
+      error = csgvvtk::cropVoxels(array, image->GetExtent(), whole, isCell, lo, hi, piece);
     }
     if (error.empty())
     {
@@ -498,7 +427,7 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
         outcome = "process " + std::to_string(r) + ": " + theirError;
       }
       std::array<uint32_t, 3> plo{}, phi{};
-      if (!pieceVoxels(dims, self->GetBrickSize(), n, r, plo, phi) || !outcome.empty())
+      if (!csgvvtk::pieceVoxels(dims, self->GetBrickSize(), n, r, plo, phi) || !outcome.empty())
       {
         continue;
       }
@@ -583,29 +512,10 @@ vtkTypeBool vtkCSGVWriter::ProcessRequest(
     return result;
   }
   // The label array may be cell or point data (it is found in WriteData): ask for the voxels
-  // of this piece either way. A piece without bricks asks for one point, so that it still sees
-  // which arrays there are.
-  int whole[6];
+  // of this piece either way.
+  int whole[6], ext[6];
   in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-  int ext[6] = { whole[0], whole[0], whole[2], whole[2], whole[4], whole[4] };
-  bool any = false;
-  for (bool isCell : { true, false })
-  {
-    std::array<uint32_t, 3> lo, hi;
-    if (!pieceVoxels(csgvvtk::voxelDims(whole, isCell), this->BrickSize, this->NumberOfPieces, this->Piece,
-          lo, hi))
-    {
-      continue;
-    }
-    for (int a = 0; a < 3; ++a)
-    {
-      const int first = whole[2 * a] + int(lo[a]);
-      const int last = std::min(whole[2 * a + 1], whole[2 * a] + int(hi[a]) - (isCell ? 0 : 1));
-      ext[2 * a] = any ? std::min(ext[2 * a], first) : first;
-      ext[2 * a + 1] = any ? std::max(ext[2 * a + 1], last) : last;
-    }
-    any = true;
-  }
+  csgvvtk::brickPieceExtent(whole, this->BrickSize, this->NumberOfPieces, this->Piece, ext);
   in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext, 6);
   in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), 0);
   in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), 1);

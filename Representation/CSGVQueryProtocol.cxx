@@ -134,6 +134,10 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
   std::set<int64_t> labels;
   for (const std::string& set : labelSets)
   {
+    if (set.empty())
+    {
+      continue; // a rank with no labels (nothing resolved there): VTK asserts on empty buffers
+    }
     std::vector<unsigned char> bytes(set.size());
     const size_t n = vtkBase64Utilities::DecodeSafely(
       reinterpret_cast<const unsigned char*>(set.data()), set.size(), bytes.data(), bytes.size());

@@ -85,11 +85,11 @@ std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
 
 /// A SharedVolume of a plain label array, compressed by the readers' streaming encoder
 /// (relabelling labels the format cannot hold).
-std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims, SharedVolume& out)
+std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims, SharedVolume& out,
+  const csgv::EncodeOptions& options = {})
 {
   csgvvtk::EncodedArray encoded;
-  const std::string error =
-    csgvvtk::encodeLabelArray(array, dims, csgv::EncodeOptions{}, false, nullptr, encoded);
+  const std::string error = csgvvtk::encodeLabelArray(array, dims, options, false, nullptr, encoded);
   if (!error.empty())
   {
     return error;
@@ -105,6 +105,79 @@ std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& di
     out.idToLabel.assign(encoded.mapping.originalBits.begin(), encoded.mapping.originalBits.end());
     out.storedToOriginal = narrowMap(out.idToLabel, !csgv::isSignedType(encoded.mapping.type));
   }
+  return std::string();
+}
+
+/// Shifts a corner geometry by `voxels` along its own axes.
+csgv::Geometry shiftCorner(csgv::Geometry g, const std::array<long, 3>& voxels)
+{
+  for (int r = 0; r < 3; ++r)
+  {
+    for (int c = 0; c < 3; ++c)
+    {
+      g.origin[r] += g.direction[3 * r + c] * double(voxels[c]) * g.spacing[c];
+    }
+  }
+  return g;
+}
+
+/// A plain label array that is an MPI rank's brick piece of its input's whole image
+/// (vtkCSGVRepresentation asked for it: csgvvtk::brickPiece): its voxels are cropped, compressed
+/// with the piece's brick size and placed in the whole image's index space, as a .csgv's pieces
+/// are, so the ranks cast the same rays and share what crosses their pieces. `corner` is the
+/// image's own (its voxel (0,0,0)). A relabelled piece (its own ids) is drawn as a volume of its
+/// own; a piece without bricks draws nothing (`drawn` false).
+std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell, const csgv::Geometry& corner,
+  int brick, int pieces, int piece, const int whole[6], SharedVolume& out, csgv::Geometry& drawnCorner,
+  bool& drawn)
+{
+  drawn = false;
+  const std::array<uint32_t, 3> dims = csgvvtk::voxelDims(whole, isCell);
+  std::array<uint32_t, 3> lo, hi;
+  if (!csgvvtk::pieceVoxels(dims, brick, pieces, piece, lo, hi))
+  {
+    return std::string();
+  }
+  vtkSmartPointer<vtkDataArray> cropped;
+  std::string error = csgvvtk::cropVoxels(array, image->GetExtent(), whole, isCell, lo, hi, cropped);
+  if (!error.empty())
+  {
+    return error;
+  }
+  csgv::EncodeOptions options;
+  options.brickSize = uint32_t(brick);
+  const std::array<uint32_t, 3> own{ hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2] };
+  if (!(error = compressArray(cropped, own, out, options)).empty())
+  {
+    return error;
+  }
+  drawn = true;
+  const int* ext = image->GetExtent();
+  // The image's voxel (0,0,0) is the whole image's voxel (ext - whole).
+  const std::array<long, 3> imageAt{ long(ext[0]) - whole[0], long(ext[2]) - whole[2], long(ext[4]) - whole[4] };
+  out.encodedGeometry =
+    shiftCorner(corner, { long(lo[0]) - imageAt[0], long(lo[1]) - imageAt[1], long(lo[2]) - imageAt[2] });
+  drawnCorner = out.encodedGeometry;
+  if (!out.idToLabel.empty())
+  {
+    return std::string(); // relabelled apart from the other ranks: a volume of its own
+  }
+  csgv::BrickBox box;
+  for (int a = 0; a < 3; ++a)
+  {
+    box.lo[a] = lo[a] / uint32_t(brick);
+    box.hi[a] = (hi[a] + uint32_t(brick) - 1) / uint32_t(brick);
+  }
+  csgv::Result<csgv::CompressedVolume> embedded = csgv::embedPiece(out.volume, box, dims);
+  if (!embedded)
+  {
+    return std::string(); // drawn as a volume of its own
+  }
+  out.pieceDims = out.volume.dim;
+  out.volume = std::move(*embedded);
+  out.owned = box;
+  out.volumeCorner = shiftCorner(corner, { -imageAt[0], -imageAt[1], -imageAt[2] });
+  drawnCorner = out.volumeCorner;
   return std::string();
 }
 
@@ -215,13 +288,33 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
   std::array<uint32_t, 3> dims;
   out.corner = csgvvtk::imageGeometry(image, isCell, dims);
   const Key key{ array, array->GetMTime(), isCell ? 1 : 2, dims };
+  int brick = 0, pieces = 0, piece = 0, whole[6];
+  const bool isPiece = csgvvtk::brickPiece(fd, brick, pieces, piece, whole);
   out.shared = this->lookup(key);
   if (out.shared)
   {
+    if (isPiece) // compressPiece's corner: the whole image's, or the piece's own
+    {
+      out.corner = out.shared->owned.empty() ? out.shared->encodedGeometry : out.shared->volumeCorner;
+    }
     return std::string();
   }
   auto shared = std::make_shared<SharedVolume>();
   this->Compressions++;
+  if (isPiece)
+  {
+    bool drawn = false;
+    const std::string error =
+      compressPiece(image, array, isCell, out.corner, brick, pieces, piece, whole, *shared, out.corner, drawn);
+    if (!error.empty() || !drawn)
+    {
+      out.shared = nullptr;
+      return error;
+    }
+    this->Entries[key] = shared;
+    out.shared = shared;
+    return std::string();
+  }
   const std::string error = compressArray(array, dims, *shared);
   if (!error.empty())
   {

@@ -7,7 +7,11 @@
 #include "CSGVVolumeCache.h"
 #include "vtkCSGVVolumeProp.h"
 
+#include "CSGVAdapter.h"
+
 #include <vtkAlgorithm.h>
+#include <vtkExecutive.h>
+#include <vtkInformationExecutivePortKey.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
@@ -16,6 +20,7 @@
 #include <vtkPVRenderView.h>
 #include <vtkPVView.h>
 #include <vtkRenderer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
 
 #include <algorithm>
 
@@ -37,6 +42,8 @@ struct vtkCSGVRepresentation::vtkInternals
   /// ranks reduced together.
   unsigned long DataGeneration = 0;
   unsigned long SharedGeneration = 0; ///< the update whose data the ranks shared
+  /// The brick piece asked of the input (csgvvtk::setBrickPiece's words), empty when none.
+  std::vector<int> BrickPiece;
 };
 
 vtkCSGVRepresentation::vtkCSGVRepresentation()
@@ -128,9 +135,78 @@ int vtkCSGVRepresentation::RequestData(
       // array and modification time, finds what it compressed or uploaded before.
       this->Cache = vtkSmartPointer<vtkImageData>::New();
       this->Cache->ShallowCopy(input);
+      if (!this->Internals->BrickPiece.empty())
+      {
+        // This rank's bricks of the whole image (RequestUpdateExtent): the volume cache places
+        // them in the whole image's index space.
+        csgvvtk::setBrickPiece(this->Cache->GetFieldData(), this->Internals->BrickPiece);
+      }
     }
   }
   return this->Superclass::RequestData(request, inputVector, outputVector);
+}
+
+namespace
+{
+
+/// Whether the pipeline above `info` (an input's information) hands out pieces itself somewhere
+/// (CAN_HANDLE_PIECE_REQUEST: the CSGV reader's whole bricks, which ParaView's post filter and any
+/// filter between hide from the information at hand).
+bool upstreamHandlesPieces(vtkInformation* info)
+{
+  for (int depth = 0; info && depth < 64; ++depth)
+  {
+    if (info->Get(vtkAlgorithm::CAN_HANDLE_PIECE_REQUEST()) == 1)
+    {
+      return true;
+    }
+    vtkExecutive* producer = nullptr;
+    int port = 0;
+    vtkExecutive::PRODUCER()->Get(info, producer, port);
+    vtkAlgorithm* algorithm = producer ? producer->GetAlgorithm() : nullptr;
+    if (!algorithm || algorithm->GetNumberOfInputPorts() == 0 || algorithm->GetNumberOfInputConnections(0) == 0)
+    {
+      return false;
+    }
+    info = algorithm->GetInputInformation(0, 0);
+  }
+  return false;
+}
+
+} // namespace
+
+int vtkCSGVRepresentation::RequestUpdateExtent(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  const int result = this->Superclass::RequestUpdateExtent(request, inputVector, outputVector);
+  this->Internals->BrickPiece.clear();
+  vtkInformation* in = inputVector[0]->GetNumberOfInformationObjects() == 1
+    ? inputVector[0]->GetInformationObject(0)
+    : nullptr;
+  if (!in || !in->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()) ||
+    !in->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES()) ||
+    upstreamHandlesPieces(in))
+  {
+    return result;
+  }
+  const int pieces = in->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES());
+  const int piece = in->Get(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER());
+  if (pieces <= 1 || piece < 0 || piece >= pieces)
+  {
+    return result;
+  }
+  int whole[6], ext[6];
+  in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  const int brick = int(csgv::EncodeOptions{}.brickSize);
+  csgvvtk::brickPieceExtent(whole, brick, pieces, piece, ext);
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext, 6);
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), 0);
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), 1);
+  in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  in->Set(vtkStreamingDemandDrivenPipeline::EXACT_EXTENT(), 1);
+  this->Internals->BrickPiece = { brick, pieces, piece, whole[0], whole[1], whole[2], whole[3], whole[4],
+    whole[5] };
+  return result;
 }
 
 bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image)

@@ -144,6 +144,12 @@ protected:
 
   int FillInputPortInformation(int port, vtkInformation* info) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  /// With several MPI ranks, an input that does not hand out pieces itself (the CSGV reader does:
+  /// whole bricks of its file) is asked for this rank's whole bricks of its whole extent
+  /// (csgvvtk::brickPieceExtent with the encoder's brick size, exactly: a source that makes more
+  /// is cropped), so that each rank compresses its bricks and draws them in the whole image's
+  /// index space.
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   bool AddToView(vtkView* view) override;
   bool RemoveFromView(vtkView* view) override;
 

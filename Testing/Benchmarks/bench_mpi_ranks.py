@@ -8,7 +8,7 @@ times SaveData to .csgv from the N ranks (the labels decoded per rank, encoded p
 by rank 0) and compares the files with one rank's byte for byte.
 
 pvpython bench_mpi_ranks.py PLUGIN.so VOLUME.csgv [--ranks 1,2,4] [--size 640x360] [--orbit 6]
-    [--images DIR] [--write]
+    [--images DIR] [--write] [--shading local|shadow|ao|pt]
 """
 import argparse
 import json
@@ -41,6 +41,9 @@ def rank_main(a):
     d.SetRepresentationType("Segmentation Volume")
     d.CSGVFramesPerStillRender = 1
     d.CSGVStillRenderTimeBudget = 120
+    d.CSGVShading = a.shading
+    d.CSGVDenoise = 0
+    v.UseFXAA = 0  # ParaView would smooth the composited image of N ranks, not one rank's
     simple.ResetCamera(v)
     cam = v.GetActiveCamera()
     cam.Azimuth(30)
@@ -101,6 +104,8 @@ def main():
     ap.add_argument("--orbit", type=int, default=6)
     ap.add_argument("--images", help="keep the images and a side-by-side PNG here")
     ap.add_argument("--write", action="store_true", help="also time a parallel SaveData")
+    ap.add_argument("--shading", default="local", choices=["local", "shadow", "ao", "pt"],
+                    help="the shading mode (the denoiser is off: it filters across the screen)")
     ap.add_argument("--out", help=argparse.SUPPRESS)  # set when running as a rank
     a = ap.parse_args()
     if a.out:
@@ -118,7 +123,7 @@ def main():
         out = os.path.join(top, "np%d" % n)
         os.makedirs(out)
         command = [shutil.which("pvbatch"), "--symmetric", "--force-offscreen-rendering", os.path.abspath(__file__),
-                   a.plugin, a.volume, "--size", a.size, "--orbit", str(a.orbit), "--out", out] + \
+                   a.plugin, a.volume, "--size", a.size, "--orbit", str(a.orbit), "--shading", a.shading, "--out", out] + \
                   (["--write"] if a.write else [])
         if n > 1:
             command = [shutil.which("mpiexec"), "-np", str(n)] + command

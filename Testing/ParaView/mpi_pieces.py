@@ -97,6 +97,26 @@ for mode in ("opaque", "translucent", "shadow", "ao", "pt", "computed", "clipped
         # The summary (attribute ranges, label count) and the drawn labels' colours over all ranks.
         facts["summary"] = csgv_tools.attribute_summary(d)
         facts["colors"] = json.loads(csgv_tools.query(d, "colors 100000"))
+# A plain label image (a source's integer point data, no .csgv): each rank asks for its whole
+# bricks of the whole image, compresses them and draws them in the whole image's index space.
+Hide(r, v)
+wave = Wavelet(WholeExtent=[0, 80, 0, 60, 0, 100])
+plain = Calculator(Input=wave, ResultArrayName="lab", ResultArrayType="Int", Function="floor(abs(RTData)/25)")
+p = Show(plain, v)
+p.Representation = "Segmentation Volume"
+p.CSGVLabelArray = "lab"
+p.CSGVFramesPerStillRender = 1
+p.CSGVStillRenderTimeBudget = 60
+p.CSGVDenoise = 0
+v.CameraFocalPoint = [40, 30, 50]
+for mode in ("plain", "plain_translucent"):
+    p.CSGVShading = "shadow" if mode == "plain" else "local"
+    p.CSGVMaterials = json.dumps({"version": 1, "materials": [
+        {"name": "m", "filter": {"attribute": "label", "min": 3 if mode == "plain_translucent" else 4,
+                                 "max": 4294967294}, "opacity": 0.4 if mode == "plain_translucent" else 1}]})
+    Render(v)
+    SaveScreenshot(os.path.join(out, mode + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
+                   ImageResolution=[160, 120], TransparentBackground=0)
 with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
     json.dump(facts, f)
 
