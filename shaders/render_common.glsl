@@ -383,6 +383,18 @@ void ghostEntry(Frame f, inout Walker w, ivec3 lo, ivec3 hi) {
     if (m != kNone && materialColor(f, m, label, e).a < 1.0) w.prevLabel = label;
 }
 
+/// The walker enters a voxel of label `l`: a surface event when the label changes to one a
+/// material draws (then `label` and `material` say which).
+bool entersSurface(Frame f, inout Walker w, uint l, inout uint label, inout uint material) {
+    if (l == w.prevLabel) return false;
+    w.prevLabel = l;
+    const uint m = materialOf(f, l);
+    if (m == kNone) return false;
+    label = l;
+    material = m;
+    return true;
+}
+
 /// Walks until a surface event, the end, or a missing brick. `request`: mark the bricks the ray
 /// needs as used (so the next frame's request pass keeps or decodes them). `exact`: a brick that
 /// stands in at a coarser level than the view wants (kBrickStandIn) counts as missing; previews
@@ -437,32 +449,15 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 const uint k = absentLevel;
                 const uint e = kCoarseHeaderWords + kCoarseLevelWords * (k - c.w[0]);
                 const uvec3 n = uvec3(w.voxel) >> k;
-                const uint l = c.w[c.w[e] + n.x + c.w[e + 1u] * (n.y + c.w[e + 2u] * n.z)];
-                if (l != w.prevLabel) {
-                    w.prevLabel = l;
-                    const uint m = materialOf(f, l);
-                    if (m != kNone) {
-                        label = l;
-                        material = m;
-                        return MARCH_SURFACE;
-                    }
-                }
+                if (entersSurface(f, w, c.w[c.w[e] + n.x + c.w[e + 1u] * (n.y + c.w[e + 2u] * n.z)], label, material))
+                    return MARCH_SURFACE;
                 if (k == 0u) stableStepFinest(w);
                 else stableStep(w, k);
             }
 #endif
         } else {
             if (s.y == kNone) return MARCH_MISSING;
-            const uint l = cachedLabel(f, s.x, s.y, w.voxel, palette);
-            if (l != w.prevLabel) {
-                w.prevLabel = l;
-                const uint m = materialOf(f, l);
-                if (m != kNone) {
-                    label = l;
-                    material = m;
-                    return MARCH_SURFACE;
-                }
-            }
+            if (entersSurface(f, w, cachedLabel(f, s.x, s.y, w.voxel, palette), label, material)) return MARCH_SURFACE;
             // Coarser levels step by their nodes; the finest by voxels, or over a uniform
             // sub-block whole (no surface inside it; the CPU mirror steps alike).
             uint k = s.y;
