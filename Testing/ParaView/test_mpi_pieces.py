@@ -19,6 +19,8 @@ faces), within a stated tolerance: each rank stops its rays at its own opacity l
 layers apart (measured 0.03 % and 0.11 % of pixels beyond 16/255 at 2 and 4 ranks). The view's
 FXAA is off: ParaView smooths the image IceT composites in ordered compositing, never one rank's
 volume image (with it, 2.9-3.0 % of pixels differed).
+AO with its denoiser (each rank filters its own image) stays within 0.5 % (measured 0.03-0.05 %);
+a second view of the reader with shadows within 0.1 % (0 and 1 of 19200 pixels).
 A plain integer image (a Wavelet's point data through a Calculator) is asked for in whole bricks
 of its whole extent, compressed per rank and drawn in the whole image's index space: opaque with
 shadows equal one rank's image, translucent within 0.5 % (measured 6-7 of 19200 pixels).
@@ -41,7 +43,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 BRICK = 32
 # Pixels (share) allowed to differ from one rank by more than 16/255, per mode and rank count.
 TOLERANCE = {"opaque": 0.0, "translucent": 0.005, "shadow": 0.0, "ao": 0.0, "pt": 0.01, "computed": 0.0, "clipped": 0.0,
-             "plain": 0.0, "plain_translucent": 0.005}
+             "ao_denoised": 0.005, "view2": 0.001, "plain": 0.0, "plain_translucent": 0.005}
 failures = []
 
 
