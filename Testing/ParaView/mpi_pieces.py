@@ -120,10 +120,11 @@ for mode in ("plain", "plain_translucent"):
     SaveScreenshot(os.path.join(out, mode + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
                    ImageResolution=[160, 120], TransparentBackground=0)
 # A second view of the same reader (its own renderer and cache on every rank, one upload): its
-# image equals one rank's too (1 of 19200 pixels beyond 16/255 at 4 ranks). Known and not
-# understood yet: when this second view is made, rendered and deleted before the plain image's
-# translucent render in the first view, that render differs from one rank's in 1.3 % of pixels
-# (without the second view: 0.05 %); hence it comes last.
+# image equals one rank's too (1 of 19200 pixels beyond 16/255 at 4 ranks). It comes last:
+# pvbatch's views share one render window, and after a second view is made and deleted the
+# first one's composited images are smoothed by FXAA again although its UseFXAA stays off (a
+# translucent render then differed from one rank's in 1.3 % of pixels; setting UseFXAA again, on
+# then off, mends it: each rank's framebuffer was the same either way).
 d.CSGVShading = "local"
 d.CSGVMaterials = ""
 d.CSGVClipBox = [0, 2147483647] * 3
