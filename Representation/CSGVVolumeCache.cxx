@@ -32,6 +32,19 @@ std::vector<uint32_t> narrowMap(const std::vector<int64_t>& map, bool unsigned64
   return out;
 }
 
+/// Shifts a corner geometry by `voxels` along its own axes.
+csgv::Geometry shiftCorner(csgv::Geometry g, const std::array<long, 3>& voxels)
+{
+  for (int r = 0; r < 3; ++r)
+  {
+    for (int c = 0; c < 3; ++c)
+    {
+      g.origin[r] += g.direction[3 * r + c] * double(voxels[c]) * g.spacing[c];
+    }
+  }
+  return g;
+}
+
 /// A SharedVolume of the reader's encoding (parsed here, once per array and modification time).
 std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
 {
@@ -64,14 +77,7 @@ std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
       out.pieceDims = out.volume.dim;
       out.volume = std::move(*embedded);
       out.owned = box;
-      out.volumeCorner = enc.geometry;
-      for (int r = 0; r < 3; ++r)
-      {
-        for (int c = 0; c < 3; ++c)
-        {
-          out.volumeCorner.origin[r] -= enc.geometry.direction[3 * r + c] * double(offset[c]) * enc.geometry.spacing[c];
-        }
-      }
+      out.volumeCorner = shiftCorner(enc.geometry, { -offset[0], -offset[1], -offset[2] });
     }
   }
   out.arrayName = csgvvtk::kLabelsName;
@@ -108,26 +114,14 @@ std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& di
   return std::string();
 }
 
-/// Shifts a corner geometry by `voxels` along its own axes.
-csgv::Geometry shiftCorner(csgv::Geometry g, const std::array<long, 3>& voxels)
-{
-  for (int r = 0; r < 3; ++r)
-  {
-    for (int c = 0; c < 3; ++c)
-    {
-      g.origin[r] += g.direction[3 * r + c] * double(voxels[c]) * g.spacing[c];
-    }
-  }
-  return g;
-}
-
 /// A plain label array that is an MPI rank's brick piece of its input's whole image
 /// (vtkCSGVRepresentation asked for it: csgvvtk::brickPiece): its voxels are cropped, compressed
 /// with the piece's brick size and placed in the whole image's index space, as a .csgv's pieces
 /// are, so the ranks cast the same rays and share what crosses their pieces. `corner` is the
-/// image's own (its voxel (0,0,0)). A relabelled piece (its own ids) is drawn as a volume of its
+/// image's own (its voxel (0,0,0)); `drawnCorner` gets the one to draw with (it may be the
+/// caller's `corner`: that is taken by value). A relabelled piece (its own ids) is drawn as a volume of its
 /// own; a piece without bricks draws nothing (`drawn` false).
-std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell, const csgv::Geometry& corner,
+std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell, const csgv::Geometry corner,
   int brick, int pieces, int piece, const int whole[6], SharedVolume& out, csgv::Geometry& drawnCorner,
   bool& drawn)
 {
