@@ -38,20 +38,27 @@ vtk_to_numpy(cimg.GetCellData().GetArray("Labels")).reshape(ce[5] - ce[4], ce[3]
     os.path.join(out, "level1.rank%d.npy" % rank))
 Delete(coarse)
 
-v = CreateRenderView()
-v.ViewSize = [160, 120]
-v.OrientationAxesVisibility = 0
-v.Background = [0, 0, 0]
-# ParaView smooths the image IceT composites in ordered compositing with FXAA (on by default),
-# while one rank's volume image is not: off, translucent images of N ranks are one rank's.
-v.UseFXAA = 0
-d = Show(r, v)
-d.Representation = "Segmentation Volume"
-d.CSGVFramesPerStillRender = 1
-d.CSGVStillRenderTimeBudget = 60
-v.CameraPosition = [-60, 130, 160]
-v.CameraFocalPoint = [66, 35, 97]
-v.CameraViewUp = [0, 0, 1]
+def segmentation_view(source, position, focal=(66, 35, 97)):
+    """A 160x120 view showing `source` as a Segmentation Volume, one sample a pixel."""
+    view = CreateRenderView()
+    view.ViewSize = [160, 120]
+    view.OrientationAxesVisibility = 0
+    view.Background = [0, 0, 0]
+    # ParaView smooths the image IceT composites in ordered compositing with FXAA (on by
+    # default), while one rank's volume image is not: off, translucent images of N ranks are one
+    # rank's.
+    view.UseFXAA = 0
+    display = Show(source, view)
+    display.Representation = "Segmentation Volume"
+    display.CSGVFramesPerStillRender = 1
+    display.CSGVStillRenderTimeBudget = 60
+    view.CameraPosition = list(position)
+    view.CameraFocalPoint = list(focal)
+    view.CameraViewUp = [0, 0, 1]
+    return view, display
+
+
+v, d = segmentation_view(r, (-60, 130, 160))
 glass = json.dumps({"version": 1, "materials": [
     {"name": "glass", "filter": {"attribute": "label", "min": 1, "max": 4294967294}, "opacity": 0.4}]})
 # Computed attributes are the whole volume's on every rank (summed over the ranks): a material
@@ -128,19 +135,8 @@ for mode in ("plain", "plain_translucent"):
 d.CSGVShading = "local"
 d.CSGVMaterials = ""
 d.CSGVClipBox = [0, 2147483647] * 3
-v2 = CreateRenderView()
-v2.ViewSize = [160, 120]
-v2.OrientationAxesVisibility = 0
-v2.Background = [0, 0, 0]
-v2.UseFXAA = 0
-d2 = Show(r, v2)
-d2.Representation = "Segmentation Volume"
-d2.CSGVFramesPerStillRender = 1
-d2.CSGVStillRenderTimeBudget = 60
+v2, d2 = segmentation_view(r, (200, -90, 40))
 d2.CSGVShading = "shadow"
-v2.CameraPosition = [200, -90, 40]
-v2.CameraFocalPoint = [66, 35, 97]
-v2.CameraViewUp = [0, 0, 1]
 Render(v2)
 SaveScreenshot(os.path.join(out, "view2" + (".png" if rank == 0 else ".rank%d.png" % rank)), v2,
                ImageResolution=[160, 120], TransparentBackground=0)
