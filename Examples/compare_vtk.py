@@ -307,7 +307,12 @@ def read_png(path):
 
 
 def write_side_by_side(left, right, path):
-    import numpy as np
+    """Writes the two images side by side; returns False (nothing written) without numpy (plain
+    python3 rather than pvpython or pvbatch)."""
+    try:
+        import numpy as np
+    except ImportError:
+        return False
     from vtkmodules.util.numpy_support import numpy_to_vtk
     from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkIOImage import vtkPNGWriter
@@ -321,6 +326,7 @@ def write_side_by_side(left, right, path):
     w.SetFileName(path)
     w.SetInputData(img)
     w.Write()
+    return True
 
 
 def print_side(r, label):
@@ -565,7 +571,9 @@ def main():
                     side = None
                     if vtk and ours:
                         side = os.path.join(args.output, "%s_%s_%s_side_by_side.png" % (name, size, shading))
-                        write_side_by_side(vtk["png"], ours["png"], side)
+                        if not write_side_by_side(vtk["png"], ours["png"], side):
+                            print("(no side-by-side image: numpy is missing; run with pvpython or pvbatch)")
+                            side = None
                     base = base or (ours or {}).get("session_base_mib")
                     errors = sorted(set(e for e in (vtk_error, ours_error) if e))
                     failed = failed or bool(errors)
