@@ -104,6 +104,24 @@ std::string fieldDataTable(vtkImageData* image, const SharedVolume& volume, csgv
   return std::string();
 }
 
+} // namespace
+
+csgv::Result<csgv::AttributeSums> ownedAttributeSums(
+  const SharedVolume& volume, const csgv::ComputeAttributesOptions& options)
+{
+  csgv::Result<csgv::CompressedVolume> piece = csgv::extractPiece(volume.volume, volume.owned);
+  if (!piece)
+  {
+    return piece.status();
+  }
+  const uint32_t b = volume.volume.brickSize;
+  return csgv::computeAttributeSums(*piece, options,
+    { volume.owned.lo[0] * b, volume.owned.lo[1] * b, volume.owned.lo[2] * b }, volume.volume.dim);
+}
+
+namespace
+{
+
 /// Computed attributes of the voxels this process holds: the volume, or an MPI rank's own bricks
 /// (until the ranks' sums replace them: CSGVPieceAttributes).
 csgv::Result<csgv::AttributeTable> computedOfOwned(
@@ -113,14 +131,7 @@ csgv::Result<csgv::AttributeTable> computedOfOwned(
   {
     return csgv::computeAttributes(volume.volume, options);
   }
-  csgv::Result<csgv::CompressedVolume> piece = csgv::extractPiece(volume.volume, volume.owned);
-  if (!piece)
-  {
-    return piece.status();
-  }
-  const uint32_t b = volume.volume.brickSize;
-  csgv::Result<csgv::AttributeSums> sums = csgv::computeAttributeSums(*piece, options,
-    { volume.owned.lo[0] * b, volume.owned.lo[1] * b, volume.owned.lo[2] * b }, volume.volume.dim);
+  csgv::Result<csgv::AttributeSums> sums = ownedAttributeSums(volume, options);
   if (!sums)
   {
     return sums.status();

@@ -75,6 +75,11 @@ std::string denseColumns(const csgv::AttributeTable& table, const SharedVolume& 
 /// more).
 std::vector<uint32_t> storedLabels(const SharedVolume& volume, size_t cap, bool& truncated);
 
+/// Exact computed-attribute sums of an MPI rank's own bricks (SharedVolume::owned), with the
+/// volume's voxel indices (csgv::computeAttributeSums): what the ranks add up.
+csgv::Result<csgv::AttributeSums> ownedAttributeSums(
+  const SharedVolume& volume, const csgv::ComputeAttributesOptions& options);
+
 /// The original label of a stored value.
 int64_t originalLabel(const SharedVolume& volume, uint32_t stored);
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "CSGVPieceAttributes.h"
 
+#include "CSGVAttributes.h"
 #include "CSGVStreamArrays.h"
 
 #include "csgv/attributes/Attributes.h"
@@ -110,13 +111,7 @@ std::string reduceComputed(vtkMultiProcessController* c, const std::shared_ptr<S
   csgv::AttributeSums sums;
   if (shared)
   {
-    const uint32_t b = shared->volume.brickSize;
-    const std::array<uint32_t, 3> offset = { shared->owned.lo[0] * b, shared->owned.lo[1] * b,
-      shared->owned.lo[2] * b };
-    csgv::Result<csgv::CompressedVolume> own = csgv::extractPiece(shared->volume, shared->owned);
-    csgv::Result<csgv::AttributeSums> s = own
-      ? csgv::computeAttributeSums(*own, {}, offset, shared->volume.dim)
-      : csgv::Result<csgv::AttributeSums>(own.status());
+    csgv::Result<csgv::AttributeSums> s = ownedAttributeSums(*shared, {});
     if (s)
     {
       sums = std::move(*s);

@@ -45,6 +45,31 @@ csgv::Geometry shiftCorner(csgv::Geometry g, const std::array<long, 3>& voxels)
   return g;
 }
 
+/// Places `out.volume`, an MPI rank's piece (its bricks `box` of a volume of `dims` voxels), in the
+/// volume's index space (csgv::embedPiece), with the corner geometry of the volume's voxel
+/// (0,0,0); false (and `out` as it was: a volume of its own) when the piece does not fit there.
+bool embedInVolume(SharedVolume& out, const csgv::BrickBox& box, const std::array<uint32_t, 3>& dims,
+  const csgv::Geometry& volumeCorner)
+{
+  csgv::Result<csgv::CompressedVolume> embedded = csgv::embedPiece(out.volume, box, dims);
+  if (!embedded)
+  {
+    return false;
+  }
+  out.pieceDims = out.volume.dim;
+  out.volume = std::move(*embedded);
+  out.owned = box;
+  out.volumeCorner = volumeCorner;
+  return true;
+}
+
+/// The corner geometry a parsed encoding or a compressed piece is drawn with: the volume's when
+/// it was placed in the volume's index space, else its own.
+const csgv::Geometry& drawnCorner(const SharedVolume& shared)
+{
+  return shared.owned.empty() ? shared.encodedGeometry : shared.volumeCorner;
+}
+
 /// A SharedVolume of the reader's encoding (parsed here, once per array and modification time).
 std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
 {
@@ -71,14 +96,7 @@ std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
       box.lo[a] = uint32_t(offset[a]) / b;
       box.hi[a] = box.lo[a] + (out.volume.dim[a] + b - 1) / b;
     }
-    csgv::Result<csgv::CompressedVolume> embedded = csgv::embedPiece(out.volume, box, dims);
-    if (embedded)
-    {
-      out.pieceDims = out.volume.dim;
-      out.volume = std::move(*embedded);
-      out.owned = box;
-      out.volumeCorner = shiftCorner(enc.geometry, { -offset[0], -offset[1], -offset[2] });
-    }
+    embedInVolume(out, box, dims, shiftCorner(enc.geometry, { -offset[0], -offset[1], -offset[2] }));
   }
   out.arrayName = csgvvtk::kLabelsName;
   if (enc.info.relabelled)
@@ -118,12 +136,10 @@ std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& di
 /// (vtkCSGVRepresentation asked for it: csgvvtk::brickPiece): its voxels are cropped, compressed
 /// with the piece's brick size and placed in the whole image's index space, as a .csgv's pieces
 /// are, so the ranks cast the same rays and share what crosses their pieces. `corner` is the
-/// image's own (its voxel (0,0,0)); `drawnCorner` gets the one to draw with (it may be the
-/// caller's `corner`: that is taken by value). A relabelled piece (its own ids) is drawn as a volume of its
+/// image's own (its voxel (0,0,0)). A relabelled piece (its own ids) is drawn as a volume of its
 /// own; a piece without bricks draws nothing (`drawn` false).
-std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell, const csgv::Geometry corner,
-  int brick, int pieces, int piece, const int whole[6], SharedVolume& out, csgv::Geometry& drawnCorner,
-  bool& drawn)
+std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell, const csgv::Geometry& corner,
+  int brick, int pieces, int piece, const int whole[6], SharedVolume& out, bool& drawn)
 {
   drawn = false;
   const std::array<uint32_t, 3> dims = csgvvtk::voxelDims(whole, isCell);
@@ -151,7 +167,6 @@ std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell,
   const std::array<long, 3> imageAt{ long(ext[0]) - whole[0], long(ext[2]) - whole[2], long(ext[4]) - whole[4] };
   out.encodedGeometry =
     shiftCorner(corner, { long(lo[0]) - imageAt[0], long(lo[1]) - imageAt[1], long(lo[2]) - imageAt[2] });
-  drawnCorner = out.encodedGeometry;
   if (!out.idToLabel.empty())
   {
     return std::string(); // relabelled apart from the other ranks: a volume of its own
@@ -162,16 +177,7 @@ std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell,
     box.lo[a] = lo[a] / uint32_t(brick);
     box.hi[a] = (hi[a] + uint32_t(brick) - 1) / uint32_t(brick);
   }
-  csgv::Result<csgv::CompressedVolume> embedded = csgv::embedPiece(out.volume, box, dims);
-  if (!embedded)
-  {
-    return std::string(); // drawn as a volume of its own
-  }
-  out.pieceDims = out.volume.dim;
-  out.volume = std::move(*embedded);
-  out.owned = box;
-  out.volumeCorner = shiftCorner(corner, { -imageAt[0], -imageAt[1], -imageAt[2] });
-  drawnCorner = out.volumeCorner;
+  embedInVolume(out, box, dims, shiftCorner(corner, { -imageAt[0], -imageAt[1], -imageAt[2] }));
   return std::string();
 }
 
@@ -261,7 +267,7 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
         image, shared->encodedGeometry, shared->owned.empty() ? shared->volume.dim : shared->pieceDims))
     {
       out.shared = shared;
-      out.corner = shared->owned.empty() ? shared->encodedGeometry : shared->volumeCorner;
+      out.corner = drawnCorner(*shared);
       return std::string();
     }
     // Derived images (Extract's sub-boxes) carry the FieldData too: they show their array.
@@ -287,9 +293,9 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
   out.shared = this->lookup(key);
   if (out.shared)
   {
-    if (isPiece) // compressPiece's corner: the whole image's, or the piece's own
+    if (isPiece)
     {
-      out.corner = out.shared->owned.empty() ? out.shared->encodedGeometry : out.shared->volumeCorner;
+      out.corner = drawnCorner(*out.shared);
     }
     return std::string();
   }
@@ -299,7 +305,7 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
   {
     bool drawn = false;
     const std::string error =
-      compressPiece(image, array, isCell, out.corner, brick, pieces, piece, whole, *shared, out.corner, drawn);
+      compressPiece(image, array, isCell, out.corner, brick, pieces, piece, whole, *shared, drawn);
     if (!error.empty() || !drawn)
     {
       out.shared = nullptr;
@@ -307,6 +313,7 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
     }
     this->Entries[key] = shared;
     out.shared = shared;
+    out.corner = drawnCorner(*shared);
     return std::string();
   }
   const std::string error = compressArray(array, dims, *shared);
