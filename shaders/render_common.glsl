@@ -416,7 +416,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
         if (b != current) { // brick state read once per brick, not per voxel
+#if ABSENT_BRICKS
             if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(f, w, lo, hi);
+#endif
             current = b;
             s = bricks.v[b];
             if (request && s.w != 0u && b != w.lastBrick) {

@@ -518,6 +518,7 @@ TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
         EXPECT_TRUE(r.isOk()) << r.message();
         if (!r) return FrameOutput{};
         (*r)->setSettings(st);
+        if (v == scene.gpu) EXPECT_FALSE((*r)->setCoarseStandIns(0, {}).isOk()) << "stand-ins for a whole volume";
         if (coarseFrom != kNoStandIns) {
             std::vector<std::vector<uint32_t>> levels;
             for (uint32_t l = coarseFrom; l < scene.volume.levels(); ++l) {

@@ -834,6 +834,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
 Status Renderer::setGhostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
                                const std::array<std::vector<uint32_t>, 6>& faces) {
     Impl& im = *m_impl;
+    if (im.volume->owned().empty()) return Status::error("ghost faces are for an MPI rank's piece (GpuVolumeOptions::owned)");
     std::vector<uint32_t> words(kGhostHeaderWords, 0u);
     for (int a = 0; a < 3; ++a) {
         if (hi[a] <= lo[a]) return Status::error("the piece's box is empty along axis " + std::to_string(a));
@@ -860,6 +861,8 @@ Status Renderer::setGhostFaces(const std::array<uint32_t, 3>& lo, const std::arr
 Status Renderer::setCoarseStandIns(uint32_t first, const std::vector<std::vector<uint32_t>>& levels) {
     Impl& im = *m_impl;
     const CompressedVolume& v = im.volume->volume();
+    if (im.volume->owned().empty())
+        return Status::error("coarse stand-ins are for an MPI rank's piece (GpuVolumeOptions::owned)");
     if (first >= v.levels() || levels.size() != v.levels() - first)
         return Status::error("coarse stand-ins: levels " + std::to_string(first) + " to the coarsest (" +
                              std::to_string(v.levels() - 1) + ") are needed, " + std::to_string(levels.size()) + " given");

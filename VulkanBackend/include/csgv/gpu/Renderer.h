@@ -206,7 +206,8 @@ public:
     /// stored labels just outside each side (csgv::ghostFaces: -x, +x, -y, +y, -z, +z; empty on
     /// the volume's boundary). A ray entering the piece from outside then starts with the label it
     /// leaves, so a label continuing across the boundary is not a new surface (translucent
-    /// materials composite over the ranks as over one). Restarts the accumulation.
+    /// materials composite over the ranks as over one). Restarts the accumulation. An error for a
+    /// volume that is not a piece.
     Status setGhostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
                          const std::array<std::vector<uint32_t>, 6>& faces);
     /// An MPI rank's piece: the whole volume's stored labels at levels `first`, first + 1, ..., the
@@ -214,7 +215,7 @@ public:
     /// fastest), so that shadow, ambient-occlusion and path-tracing rays meet other ranks' bricks
     /// at their level of detail (as one rank's rays meet them), or at `first` where that is
     /// coarser, instead of passing through them (view rays still pass: the owner draws them).
-    /// Restarts the accumulation.
+    /// Restarts the accumulation. An error for a volume that is not a piece.
     Status setCoarseStandIns(uint32_t first, const std::vector<std::vector<uint32_t>>& levels);
     /// Materials with colormaps resolved to control points. `attributes` are per stored label
     /// (index = the label value in the volume); `label` is built in. `storedToOriginal` maps
