@@ -12,6 +12,7 @@
 #include <vtkAlgorithm.h>
 #include <vtkExecutive.h>
 #include <vtkInformationExecutivePortKey.h>
+#include <vtkFieldData.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
@@ -135,10 +136,12 @@ int vtkCSGVRepresentation::RequestData(
       // array and modification time, finds what it compressed or uploaded before.
       this->Cache = vtkSmartPointer<vtkImageData>::New();
       this->Cache->ShallowCopy(input);
+      // This rank's bricks of the whole image (RequestUpdateExtent): the volume cache places
+      // them in the whole image's index space. Only this representation says so: an input that
+      // carries the array itself (a saved image, another pipeline) is not taken for a piece.
+      this->Cache->GetFieldData()->RemoveArray(csgvvtk::kBrickPieceName);
       if (!this->Internals->BrickPiece.empty())
       {
-        // This rank's bricks of the whole image (RequestUpdateExtent): the volume cache places
-        // them in the whole image's index space.
         csgvvtk::setBrickPiece(this->Cache->GetFieldData(), this->Internals->BrickPiece);
       }
     }
