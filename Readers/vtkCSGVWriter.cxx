@@ -2,7 +2,7 @@
 #include "vtkCSGVWriter.h"
 
 #include "CSGVAdapter.h"
-#include "CSGVStreamArrays.h"
+#include "CSGVMpiAgreement.h"
 
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/codec/Encoder.h"
@@ -55,8 +55,8 @@ int vtkCSGVWriter::FillInputPortInformation(int, vtkInformation* info)
 namespace
 {
 
-using csgvvtk::popArray;
-using csgvvtk::pushArray;
+using csgvvtk::kOtherFailed;
+using csgvvtk::MpiAgreement;
 
 /// The files of one volume: sidecars first, the volume last, as Core's compress does.
 csgv::Status writeVolumeFiles(const std::string& path, const csgv::VolumeMetadata& md,
@@ -82,34 +82,6 @@ csgv::Status writeVolumeFiles(const std::string& path, const csgv::VolumeMetadat
     status = csgv::writeCsgv(path, volume);
   }
   return status;
-}
-
-constexpr const char* kOtherFailed = "another process could not encode its piece";
-
-/// Symbol counts summed over the processes (one all-reduce), or an error when one of them could
-/// not encode its piece (`ok` false: this one).
-csgv::Result<csgv::SymbolCounts> sumCounts(
-  vtkMultiProcessController* c, bool ok, const csgv::SymbolCounts& mine)
-{
-  unsigned long long send[33] = {}, sum[33] = {};
-  send[0] = ok ? 0 : 1;
-  for (int k = 0; k < 16; ++k)
-  {
-    send[1 + k] = mine.a[k];
-    send[17 + k] = mine.b[k];
-  }
-  c->AllReduce(send, sum, 33, vtkCommunicator::SUM_OP);
-  if (sum[0] != 0)
-  {
-    return csgv::Status::error(kOtherFailed);
-  }
-  csgv::SymbolCounts all;
-  for (int k = 0; k < 16; ++k)
-  {
-    all.a[k] = sum[1 + k];
-    all.b[k] = sum[17 + k];
-  }
-  return all;
 }
 
 /// The settings as Core's options, or an error message (the same on every process).
@@ -142,136 +114,6 @@ std::string missingArrayMessage(const char* name)
   }
   return "the input has no one-component integer or float array to write";
 }
-
-/// @brief The pieces' agreement over MPI (vtkCSGVWriter::WritePieces): whether to relabel, the
-/// ids, the symbol counts. Every process makes each collective call exactly once: catchUp makes
-/// those a piece skipped (it failed first, or holds no bricks).
-class MpiAgreement : public csgvvtk::PieceAgreement
-{
-public:
-  MpiAgreement(vtkMultiProcessController* c, uint32_t brickSize)
-    : Controller(c)
-    , BrickSize(brickSize)
-  {
-  }
-
-  csgv::Result<bool> anyRelabels(bool ok, bool mine) override
-  {
-    this->Asked = true;
-    unsigned long long send[2] = { ok ? 0ull : 1ull, mine ? 1ull : 0ull }, sum[2] = {};
-    this->Controller->AllReduce(send, sum, 2, vtkCommunicator::SUM_OP);
-    if (sum[0] != 0)
-    {
-      return csgv::Status::error(kOtherFailed);
-    }
-    this->Relabelled = sum[1] != 0;
-    return this->Relabelled;
-  }
-
-  csgv::Result<std::vector<uint64_t>> ids(bool ok, const csgv::StreamingRelabeller& mine) override
-  {
-    return this->ExchangeIds(ok, mine.firstVisits());
-  }
-
-  /// The counts of every piece (options.shareCounts).
-  csgv::Result<csgv::SymbolCounts> counts(bool ok, const csgv::SymbolCounts& mine)
-  {
-    this->Shared = true;
-    return sumCounts(this->Controller, ok, mine);
-  }
-
-  void catchUp(bool ok)
-  {
-    if (!this->Asked)
-    {
-      this->anyRelabels(ok, false);
-    }
-    if (this->Relabelled && !this->Exchanged)
-    {
-      this->ExchangeIds(ok, {});
-    }
-    if (!this->Shared)
-    {
-      this->counts(ok, csgv::SymbolCounts{});
-    }
-  }
-
-  bool Relabelled = false;
-  std::vector<uint64_t> Table; ///< id -> original bits, when relabelled
-
-private:
-  /// Process 0 merges every piece's first visits, chooses the ids and sends them to all.
-  csgv::Result<std::vector<uint64_t>> ExchangeIds(
-    bool ok, std::vector<std::pair<uint64_t, csgv::VisitPosition>> visits)
-  {
-    this->Exchanged = true;
-    std::vector<vtkTypeUInt64> labels, bricks;
-    std::vector<unsigned int> voxels;
-    for (const auto& v : visits)
-    {
-      labels.push_back(v.first);
-      bricks.push_back(v.second.brick);
-      voxels.push_back(v.second.voxel);
-    }
-    visits.clear();
-    vtkMultiProcessStream mine;
-    mine << int(ok);
-    pushArray(mine, labels);
-    pushArray(mine, bricks);
-    pushArray(mine, voxels);
-    std::vector<vtkMultiProcessStream> all;
-    this->Controller->Gather(mine, all, 0);
-    vtkMultiProcessStream answer;
-    if (this->Controller->GetLocalProcessId() == 0)
-    {
-      std::string error;
-      csgv::StreamingRelabeller merged(this->volumeDims, this->BrickSize);
-      for (vtkMultiProcessStream& s : all)
-      {
-        int theirOk = 0;
-        s >> theirOk;
-        const std::vector<vtkTypeUInt64> l = popArray<vtkTypeUInt64>(s), b = popArray<vtkTypeUInt64>(s);
-        const std::vector<unsigned int> v = popArray<unsigned int>(s);
-        if (!theirOk)
-        {
-          error = kOtherFailed;
-        }
-        for (size_t i = 0; i < l.size() && i < b.size() && i < v.size(); ++i)
-        {
-          merged.takeFirstVisit(l[i], csgv::VisitPosition{ b[i], v[i] });
-        }
-      }
-      if (error.empty())
-      {
-        const csgv::Status finished = merged.finish();
-        error = finished ? std::string() : finished.message();
-      }
-      std::vector<vtkTypeUInt64> table;
-      if (error.empty())
-      {
-        table.assign(merged.originalBits().begin(), merged.originalBits().end());
-      }
-      answer << error;
-      pushArray(answer, table);
-    }
-    this->Controller->Broadcast(answer, 0);
-    std::string error;
-    answer >> error;
-    const std::vector<vtkTypeUInt64> table = popArray<vtkTypeUInt64>(answer);
-    this->Table.assign(table.begin(), table.end());
-    if (!error.empty())
-    {
-      return csgv::Status::error(error);
-    }
-    return this->Table;
-  }
-
-  vtkMultiProcessController* Controller;
-  uint32_t BrickSize;
-  bool Asked = false;
-  bool Exchanged = false;
-  bool Shared = false;
-};
 
 /// Bytes move between processes in messages of at most this many.
 constexpr vtkIdType kMessageBytes = vtkIdType(1) << 28;
@@ -343,7 +185,7 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
   // Every process relabels when one must, with ids of the whole volume; pass 1 over this piece,
   // counts summed over all pieces, pass 2 with the common tables.
   csgvvtk::EncodedArray encoded;
-  MpiAgreement agreement(c, uint32_t(self->GetBrickSize()));
+  MpiAgreement agreement(c, uint32_t(self->GetBrickSize()), true);
   agreement.offset = lo;
   agreement.volumeDims = dims;
   options.shareCounts = [&](const csgv::SymbolCounts& counts) {

@@ -2,12 +2,14 @@
 #include "CSGVVolumeCache.h"
 
 #include "CSGVAdapter.h" // the readers' FieldData contract and array encoder (CSGV::Readers)
+#include "CSGVMpiAgreement.h"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
 #include <vtkImageData.h>
 #include <vtkUnsignedCharArray.h>
 
+#include <algorithm>
 #include <tuple>
 
 namespace csgvrep
@@ -110,10 +112,10 @@ std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
 /// A SharedVolume of a plain label array, compressed by the readers' streaming encoder
 /// (relabelling labels the format cannot hold).
 std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& dims, SharedVolume& out,
-  const csgv::EncodeOptions& options = {})
+  const csgv::EncodeOptions& options = {}, csgvvtk::PieceAgreement* agreement = nullptr)
 {
   csgvvtk::EncodedArray encoded;
-  const std::string error = csgvvtk::encodeLabelArray(array, dims, options, false, nullptr, encoded);
+  const std::string error = csgvvtk::encodeLabelArray(array, dims, options, false, nullptr, encoded, agreement);
   if (!error.empty())
   {
     return error;
@@ -136,10 +138,13 @@ std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& di
 /// (vtkCSGVRepresentation asked for it: csgvvtk::brickPiece): its voxels are cropped, compressed
 /// with the piece's brick size and placed in the whole image's index space, as a .csgv's pieces
 /// are, so the ranks cast the same rays and share what crosses their pieces. `corner` is the
-/// image's own (its voxel (0,0,0)). A relabelled piece (its own ids) is drawn as a volume of its
-/// own; a piece without bricks draws nothing (`drawn` false).
+/// image's own (its voxel (0,0,0)). Without `agreement` a relabelled piece (its own ids, `ownIds`)
+/// is drawn as a volume of its own; with it (collective: every piece's process calls this) the
+/// pieces relabel alike with the whole image's ids. A piece without bricks draws nothing (`drawn`
+/// false) and makes no collective call (MpiAgreement::catchUp does).
 std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell, const csgv::Geometry& corner,
-  int brick, int pieces, int piece, const int whole[6], SharedVolume& out, bool& drawn)
+  int brick, int pieces, int piece, const int whole[6], SharedVolume& out, bool& drawn,
+  csgvvtk::PieceAgreement* agreement = nullptr)
 {
   drawn = false;
   const std::array<uint32_t, 3> dims = csgvvtk::voxelDims(whole, isCell);
@@ -157,7 +162,12 @@ std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell,
   csgv::EncodeOptions options;
   options.brickSize = uint32_t(brick);
   const std::array<uint32_t, 3> own{ hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2] };
-  if (!(error = compressArray(cropped, own, out, options)).empty())
+  if (agreement)
+  {
+    agreement->offset = lo;
+    agreement->volumeDims = dims;
+  }
+  if (!(error = compressArray(cropped, own, out, options, agreement)).empty())
   {
     return error;
   }
@@ -167,9 +177,10 @@ std::string compressPiece(vtkImageData* image, vtkDataArray* array, bool isCell,
   const std::array<long, 3> imageAt{ long(ext[0]) - whole[0], long(ext[2]) - whole[2], long(ext[4]) - whole[4] };
   out.encodedGeometry =
     shiftCorner(corner, { long(lo[0]) - imageAt[0], long(lo[1]) - imageAt[1], long(lo[2]) - imageAt[2] });
-  if (!out.idToLabel.empty())
+  if (!out.idToLabel.empty() && !agreement)
   {
-    return std::string(); // relabelled apart from the other ranks: a volume of its own
+    out.ownIds = true; // relabelled apart from the other ranks: a volume of its own
+    return std::string();
   }
   csgv::BrickBox box;
   for (int a = 0; a < 3; ++a)
@@ -323,6 +334,42 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
   }
   this->Entries[key] = shared;
   out.shared = shared;
+  return std::string();
+}
+
+std::string VolumeCache::resolveAgreed(
+  vtkImageData* image, const std::string& labelArray, vtkMultiProcessController* controller, VolumeSource& out)
+{
+  out = VolumeSource{};
+  std::lock_guard<std::mutex> lock(this->Mutex);
+  bool isCell = true;
+  vtkDataArray* array = image ? csgvvtk::findLabelArray(image, labelArray, isCell) : nullptr;
+  int brick = 0, pieces = 0, piece = 0, whole[6];
+  const bool isPiece = image && csgvvtk::brickPiece(image->GetFieldData(), brick, pieces, piece, whole);
+  csgvvtk::MpiAgreement agreement(controller, uint32_t(std::max(brick, 1)), false);
+  std::string error;
+  auto shared = std::make_shared<SharedVolume>();
+  bool drawn = false;
+  std::array<uint32_t, 3> dims{};
+  if (!array || !isPiece)
+  {
+    error = !array ? "the input has no label array to compress" : "the input is not a piece of an image";
+  }
+  else
+  {
+    out.corner = csgvvtk::imageGeometry(image, isCell, dims);
+    this->Compressions++;
+    error = compressPiece(image, array, isCell, out.corner, brick, pieces, piece, whole, *shared, drawn, &agreement);
+  }
+  agreement.catchUp(error.empty());
+  if (!error.empty() || !drawn)
+  {
+    out = VolumeSource{};
+    return error;
+  }
+  this->Entries[Key{ array, array->GetMTime(), isCell ? 1 : 2, dims }] = shared;
+  out.shared = shared;
+  out.corner = drawnCorner(*shared);
   return std::string();
 }
 

@@ -31,6 +31,7 @@
 #include <vector>
 
 class vtkImageData;
+class vtkMultiProcessController;
 
 namespace csgv
 {
@@ -82,6 +83,10 @@ struct SharedVolume
   /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
   /// (guarded by the volume cache's mutex while being set).
   std::shared_ptr<const csgv::AttributeTable> computed;
+  /// A plain image's MPI piece relabelled with ids of its own (its labels do not fit the format,
+  /// and this rank numbered them alone): drawn as a volume of its own until the ranks agree on
+  /// the whole image's ids (VolumeCache::resolveAgreed), after which it is placed like any piece.
+  bool ownIds = false;
   std::string arrayName;   ///< the label array users see ("Labels" for the CSGV encoding)
   std::string description; ///< where it came from ("CSGVEncoding", "array 'Labels' compressed")
   /// The context `gpu` was created on; declared before `gpu` so that it outlives it.
@@ -120,6 +125,14 @@ public:
   /// that does not parse, with no label array to fall back on, reports its parse error).
   std::string resolve(vtkImageData* image, const std::string& labelArray, VolumeSource& out);
 
+  /// Collective over `controller`'s processes, each passing its own piece of one plain image
+  /// (csgvvtk::brickPiece): compresses this process's bricks again, relabelled with the ids one
+  /// process gives the whole image when any piece's labels do not fit the format (the processes
+  /// agree through csgvvtk::MpiAgreement), places them in the image's index space and keeps them
+  /// in the cache in place of the piece resolve() compressed alone. A process without bricks
+  /// takes part and resolves to nothing. Returns an error message, or "".
+  std::string resolveAgreed(vtkImageData* image, const std::string& labelArray,
+    vtkMultiProcessController* controller, VolumeSource& out);
   /// Guards the cache and SharedVolume's mutable members (gpu, renderers, computed).
   std::mutex& mutex() { return this->Mutex; }
 

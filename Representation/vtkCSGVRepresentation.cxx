@@ -16,6 +16,7 @@
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
+#include <vtkCommunicator.h>
 #include <vtkMultiProcessController.h>
 #include <vtkObjectFactory.h>
 #include <vtkPVRenderView.h>
@@ -450,6 +451,24 @@ void vtkCSGVRepresentation::ShareAcrossRanks(bool resolved)
     return;
   }
   in.SharedGeneration = in.DataGeneration;
+  // A plain image's pieces relabelled apart (labels the format cannot hold): every rank asked
+  // for bricks alike (RequestUpdateExtent), so all take part when one holds such a piece, and
+  // compress their bricks again with the whole image's ids.
+  if (!in.BrickPiece.empty())
+  {
+    int mine = resolved && in.Source.shared->ownIds ? 1 : 0, any = 0;
+    c->AllReduce(&mine, &any, 1, vtkCommunicator::MAX_OP);
+    if (any != 0)
+    {
+      in.Error = in.Volumes->resolveAgreed(this->Cache, this->LabelArray, c, in.Source);
+      resolved = in.Source.shared != nullptr;
+      if (!in.Error.empty())
+      {
+        in.Reported = in.Error;
+        vtkErrorMacro(<< "Segmentation Volume: " << in.Error);
+      }
+    }
+  }
   bool reduced = false;
   const std::string error = csgvrep::shareAcrossRanks(
     c, resolved ? in.Source : csgvrep::VolumeSource{}, this->ComputedAttributes != 0, reduced);

@@ -126,6 +126,26 @@ for mode in ("plain", "plain_translucent"):
     Render(v)
     SaveScreenshot(os.path.join(out, mode + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
                    ImageResolution=[160, 120], TransparentBackground=0)
+# A plain image whose labels are negative: relabelled to dense ids, the same ids on every rank as
+# one rank gives the whole image (the ranks agree on them in the data phase); materials filter on
+# those ids (the originals do not fit 32 bits), so any rank numbering its labels apart would draw
+# other labels.
+Hide(p, v)
+negative_plain = Calculator(Input=wave, ResultArrayName="neg", ResultArrayType="Int",
+                            Function="floor(abs(RTData)/25) - 4")
+q = Show(negative_plain, v)
+q.Representation = "Segmentation Volume"
+q.CSGVLabelArray = "neg"
+q.CSGVFramesPerStillRender = 1
+q.CSGVStillRenderTimeBudget = 60
+q.CSGVDenoise = 0
+q.CSGVShading = "shadow"
+q.CSGVMaterials = json.dumps({"version": 1, "materials": [
+    {"name": "m", "filter": {"attribute": "label", "min": 3, "max": 4294967294}, "opacity": 1}]})
+Render(v)
+SaveScreenshot(os.path.join(out, "plain_relabelled" + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
+               ImageResolution=[160, 120], TransparentBackground=0)
+Hide(q, v)
 # A second view of the same reader (its own renderer and cache on every rank, one upload): its
 # image equals one rank's too (1 of 19200 pixels beyond 16/255 at 4 ranks). It comes last:
 # pvbatch's views share one render window, and after a second view is made and deleted the
