@@ -27,6 +27,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <future>
 #include <vector>
 
@@ -664,11 +666,26 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   }
   changed = changed || factor != p.LodFactor;
   p.LodFactor = factor;
-  if (!this->UploadTextures(win, changed) || !this->Composite(win))
+  const auto t1 = std::chrono::steady_clock::now();
+  if (!this->UploadTextures(win, changed))
+  {
+    return 0;
+  }
+  const auto t2 = std::chrono::steady_clock::now();
+  if (!this->Composite(win))
   {
     return 0;
   }
   const uint32_t frames = p.View.framesLastRender();
+  static const bool profile = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
+  if (profile)
+  {
+    glFinish(); // the compositing's own time, not the next GL call's
+    auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b)
+    { return std::chrono::duration<double, std::milli>(b - a).count(); };
+    std::fprintf(stderr, "draw: %u frames %.2f ms, textures %.2f ms, composite %.2f ms\n", frames,
+      ms(t0, t1), ms(t1, t2), ms(t2, std::chrono::steady_clock::now()));
+  }
   if (frames > 0)
   {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
