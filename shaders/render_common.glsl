@@ -98,9 +98,21 @@ float attributeValue(Frame f, uint attr, uint label) {
     return FloatBuf(AddrBuf(frameAddr[kSlotAttributes]).a[attr]).f[label];
 }
 
-/// The first material whose filter holds the label, or kNone (invisible).
+#ifndef LABEL_LOOKUP
+#define LABEL_LOOKUP 0 // kLookupScan
+#endif
+/// The first material whose filter holds the label, or kNone (invisible): from the host's table
+/// (LABEL_LOOKUP, LabelLookup.h), which it fills with the same comparisons as the scan below.
 uint materialOf(Frame f, uint label) {
     if (label == kNone) return kNone;
+#if LABEL_LOOKUP == 1 // kLookupDense: every stored label is below the table's end
+    return label < fv.counts.w ? UintBuf(frameAddr[kSlotMaterialTable]).w[label] : kNone;
+#elif LABEL_LOOKUP == 2 // kLookupHashed: the label sits in one of its two slots
+    Uvec2Buf t = Uvec2Buf(frameAddr[kSlotMaterialTable]);
+    const uvec2 a = t.v[labelSlot(label, LABEL_SEED0, LABEL_MASK)];
+    const uvec2 b = t.v[labelSlot(label, LABEL_SEED1, LABEL_MASK)];
+    return a.x == label ? a.y : (b.x == label ? b.y : kNone);
+#else
     // Precomputed by the host with the same comparisons when the stored labels are few (up to
     // the largest label of the renderer's bricks; an MPI piece's stand-ins for other ranks'
     // bricks may hold larger ones: they take the comparisons below).
@@ -119,6 +131,7 @@ uint materialOf(Frame f, uint label) {
         }
     }
     return kNone;
+#endif
 }
 
 vec3 paletteColor(uint h) { return kLabelPalette[h % kLabelPaletteSize]; }
@@ -274,29 +287,6 @@ void stableStep(inout Walker w, uint k) {
     w.face = 1u + 2u * axis + (w.d[axis] > 0.0 ? 0u : 1u);
 }
 
-/// stableStep(w, 0) without its scalings by 1 (bit-identical: x * 1.0 == x, floor of [0, 1) is 0).
-void stableStepFinest(inout Walker w) {
-    const vec3 target = vec3(greaterThan(w.d, vec3(0.0)));
-    precise vec3 dist = (target - w.vpos) * w.invD;
-    dist = mix(dist, vec3(NEVER), equal(w.d, vec3(0.0)));
-    uint axis = 0u;
-    if (dist.y < dist[axis]) axis = 1u;
-    if (dist.z < dist[axis]) axis = 2u;
-    const float dt = dist[axis];
-    precise vec3 np = w.vpos + w.d * dt;
-    np = clamp(np, vec3(0.0), vec3(ONE_MINUS_EPSILON));
-    if (w.d[axis] > 0.0) {
-        w.voxel[axis] += 1;
-        np[axis] = 0.0;
-    } else {
-        w.voxel[axis] -= 1;
-        np[axis] = ONE_MINUS_EPSILON;
-    }
-    w.vpos = np;
-    w.t = w.t + dt;
-    w.face = 1u + 2u * axis + (w.d[axis] > 0.0 ? 0u : 1u);
-}
-
 /// Sets up a walker for the ray o + t d, t in [0, tEnd], clipped to the box [lo, hi) (voxels).
 /// False when the ray misses the box.
 bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
@@ -437,24 +427,24 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             if (s.w != 0u && s.y != kNone) palette = paletteOf(f, b);
 #endif
         }
+        // One step at the level k of the node the walker stands in: CPU devices run every branch
+        // of a loop body for all lanes, so the body holds one stableStep (at k = 0 its scalings
+        // are by 1: exact).
+        uint k = BRICK_SHIFT; // an empty brick (and another rank's, for a view ray) is passed whole
         if (s.w == 0u) {
             w.prevLabel = kNone;
-            stableStep(w, BRICK_SHIFT);
 #if ABSENT_BRICKS
         } else if (s.w == kBrickAbsent) { // another rank's brick (an MPI piece)
             const uint64_t coarse = frameAddr[kSlotCoarse];
             if (!w.secondary || coarse == 0ul) { // view rays pass: its owner draws it
                 w.prevLabel = kNone;
-                stableStep(w, BRICK_SHIFT);
             } else { // secondary rays meet it at its level of detail (kSlotCoarse holds the coarse ones)
                 UintBuf c = UintBuf(coarse);
-                const uint k = absentLevel;
+                k = absentLevel;
                 const uint e = kCoarseHeaderWords + kCoarseLevelWords * (k - c.w[0]);
                 const uvec3 n = uvec3(w.voxel) >> k;
                 if (entersSurface(f, w, c.w[c.w[e] + n.x + c.w[e + 1u] * (n.y + c.w[e + 2u] * n.z)], label, material))
                     return MARCH_SURFACE;
-                if (k == 0u) stableStepFinest(w);
-                else stableStep(w, k);
             }
 #endif
         } else {
@@ -462,15 +452,14 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             if (entersSurface(f, w, cachedLabel(f, s.x, s.y, w.voxel, palette), label, material)) return MARCH_SURFACE;
             // Coarser levels step by their nodes; the finest by voxels, or over a uniform
             // sub-block whole (no surface inside it; the CPU mirror steps alike).
-            uint k = s.y;
+            k = s.y;
             if (k == 0u && SUB_SHIFT >= 0) {
                 const uvec3 local = uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u);
                 const uint j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
                 if ((((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u) k = uint(SUB_SHIFT);
             }
-            if (k == 0u) stableStepFinest(w);
-            else stableStep(w, k);
         }
+        stableStep(w, k);
         if (any(lessThan(w.voxel, lo)) || any(greaterThanEqual(w.voxel, hi))) return MARCH_OUT;
     }
     return MARCH_OUT;

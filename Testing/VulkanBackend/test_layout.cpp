@@ -39,6 +39,8 @@ const Probe kProbes[] = {
     CSGV_PROBE(mortonDecrement(morton3(4u, 1u, 1u), 2u)),
     CSGV_PROBE(labelHash(0u)), CSGV_PROBE(labelHash(1u)), CSGV_PROBE(labelHash(123456789u)),
     CSGV_PROBE(labelHash(0xFFFFFFFEu)), CSGV_PROBE(kLabelPaletteSize),
+    CSGV_PROBE(labelSlot(0u, 0x9E3779B9u, 1023u)), CSGV_PROBE(labelSlot(4282514378u, 0x0BD4BCB6u, 0xFFFFu)),
+    CSGV_PROBE(kLookupScan), CSGV_PROBE(kLookupDense), CSGV_PROBE(kLookupHashed),
     CSGV_PROBE(kNone), CSGV_PROBE(kFlagJitter), CSGV_PROBE(kFlagFinest), CSGV_PROBE(kFlagDenoise),
     CSGV_PROBE(kFlagLimitRequests), CSGV_PROBE(kFlagDepthInput), CSGV_PROBE(kFlagLabelMap),
     CSGV_PROBE(kFlagResolveInRender), CSGV_PROBE(kGBufferSampled), CSGV_PROBE(kGBufferPreview),

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/Renderer.h"
 #include "BlueNoise.h"
+#include "csgv/gpu/LabelLookup.h"
 #include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/FrameLayout.h"
 
@@ -114,7 +115,6 @@ double renderedPixels(const FrameInput& in, uint32_t stride) {
 } // namespace
 
 /// Stored labels up to which a table label -> material replaces the shaders' scan of the list.
-constexpr uint32_t kMaterialTableLabels = 1u << 22;
 
 /// Cache pressure (applyCachePolicy): the first eviction age (frames unused), frames without a
 /// full cache before eviction stops, and the fewest frames between defragmentation resets.
@@ -142,11 +142,11 @@ struct Renderer::Impl {
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer ghost;  // setGhostFaces (empty: not a piece)
     Buffer coarse; // setCoarseStandIns (empty: none)
-    uint32_t materialTableSize = 0;   // entries of materialTable (0: the shader scans the list)
+    uint32_t materialTableSize = 0;   // entries of a dense materialTable (Frame counts.w)
     std::vector<Buffer> attributes;
     uint32_t materialCount = 0, labelCount = 0;
     bool hasLabelMap = false;
-    uint32_t largestLabel = kNone;    // the largest label of any brick palette (computed once)
+    LabelLookup lookup;               // how the shaders find a label's material (planned once)
     Geometry geometry;
     uint32_t width = 0, height = 0;
     uint64_t imageCapacity = 0;       // pixels the per-pixel buffers hold
@@ -483,6 +483,11 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
+    im.lookup = planLabelLookup(v, !volume->owned().empty());
+    d.emplace_back("LABEL_LOOKUP", std::to_string(im.lookup.kind)); // tested by #if: no suffix
+    d.emplace_back("LABEL_SEED0", std::to_string(im.lookup.seeds[0]) + "u");
+    d.emplace_back("LABEL_SEED1", std::to_string(im.lookup.seeds[1]) + "u");
+    d.emplace_back("LABEL_MASK", std::to_string(im.lookup.slots.empty() ? 0 : im.lookup.slots.size() - 1) + "u");
     im.defines = d;
     im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
     struct Shader {
@@ -730,18 +735,6 @@ uint64_t materialsFingerprint(const PackedMaterials& packed, const std::map<std:
     return h == 0 ? 1 : h; // 0 means "nothing uploaded"
 }
 
-/// The largest label any brick palette holds.
-uint32_t largestStoredLabel(const CompressedVolume& vol) {
-    const uint32_t L = vol.levels();
-    uint32_t largest = 0;
-#pragma omp parallel for reduction(max : largest) schedule(dynamic, 64)
-    for (int64_t b = 0; b < int64_t(vol.brickCount()); ++b) {
-        const BrickWords bw = vol.brick(uint64_t(b));
-        for (uint32_t k = 0; k < bw.words[L]; ++k) largest = std::max(largest, bw.words[bw.size - 1 - k]);
-    }
-    return largest;
-}
-
 } // namespace
 
 uint64_t Renderer::Impl::materialBytes(const PackedMaterials& packed,
@@ -751,8 +744,9 @@ uint64_t Renderer::Impl::materialBytes(const PackedMaterials& packed,
     uint64_t n = made(packed.materials.size() * sizeof(GpuMaterial)) + made(packed.colormapSamples.size() * 16) +
                  made(packed.attributeNames.size() * 8) + made(storedToOriginal.size() * 4);
     for (const std::string& name : packed.attributeNames) n += made(attributeArrays.at(name).size() * 4);
-    if (largestLabel == kNone) largestLabel = largestStoredLabel(volume->volume()); // once per renderer
-    return n + made(largestLabel < kMaterialTableLabels ? (uint64_t(largestLabel) + 1) * 4 : 0);
+    const uint64_t table = lookup.kind == kLookupHashed ? lookup.slots.size() * 8
+                           : lookup.largest < kMaterialTableLabels ? (uint64_t(lookup.largest) + 1) * 4 : 0;
+    return n + made(table);
 }
 
 Status Renderer::Impl::uploadDeviceLocal(Buffer& dst, const void* data, uint64_t bytes) {
@@ -790,22 +784,15 @@ Status Renderer::Impl::uploadMaterials(const PackedMaterials& packed,
 }
 
 Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
-    // With few stored labels (up to 2^22), a table label -> material replaces the shader's scan
-    // of the material list.
-    if (largestLabel == kNone) largestLabel = largestStoredLabel(volume->volume()); // once per renderer
-    std::vector<uint32_t> table;
-    if (largestLabel < kMaterialTableLabels) {
-        table.resize(size_t(largestLabel) + 1);
-#pragma omp parallel for schedule(static, 4096)
-        for (int64_t l = 0; l < int64_t(table.size()); ++l) table[size_t(l)] = materialOf(uint32_t(l));
-    }
+    // A table label -> material (LabelLookup) replaces the shader's scan of the material list.
+    const std::vector<uint32_t> table = lookup.table(materialOf);
     Status s = uploadDeviceLocal(materialTable, table.data(), table.size() * 4);
     if (!s) return s;
-    materialTableSize = uint32_t(table.size());
+    materialTableSize = lookup.kind == kLookupHashed ? 0 : uint32_t(table.size());
     // Which bricks can show anything: their palettes against the materials.
-    auto visibleLabel = [&](uint32_t stored) {
-        if (!table.empty()) return stored < table.size() && table[stored] != kNone;
-        return materialOf(stored) != kNone;
+    auto materialOfStored = [&](uint32_t stored) {
+        return table.empty() || (lookup.kind != kLookupHashed && stored >= table.size()) ? materialOf(stored)
+                                                                                          : lookup.hostMaterial(table, stored);
     };
     const CompressedVolume& vol = volume->volume();
     const uint32_t L = vol.levels();
@@ -822,9 +809,9 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         const BrickWords bw = vol.brick(uint64_t(b));
         const uint32_t n = bw.words[L];
         for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
-            if (visibleLabel(bw.words[bw.size - 1 - k])) {
+            if (const uint32_t m = materialOfStored(bw.words[bw.size - 1 - k]); m != kNone) {
                 vis[2 * size_t(b)] = bw.words[bw.size - 1 - k];
-                vis[2 * size_t(b) + 1] = table.empty() ? materialOf(vis[2 * size_t(b)]) : table[vis[2 * size_t(b)]];
+                vis[2 * size_t(b) + 1] = m;
             }
     }
     visibilityChanged = true;

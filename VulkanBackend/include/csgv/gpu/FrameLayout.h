@@ -42,6 +42,25 @@ CSGV_CONST(uint32_t, kGBufferSampled, 0x100u)
 /// shown until its first sample replaces it.
 CSGV_CONST(uint32_t, kGBufferPreview, 0x200u)
 
+// How render_common.glsl's materialOf finds a stored label's material (its define LABEL_LOOKUP,
+// chosen per renderer: LabelLookup.h).
+CSGV_CONST(uint32_t, kLookupScan, 0u)   ///< a table for labels below Frame.counts.w, the material list for the others
+CSGV_CONST(uint32_t, kLookupDense, 1u)  ///< a table label -> material covers every stored label
+CSGV_CONST(uint32_t, kLookupHashed, 2u) ///< a hash table of uvec2 (label, material), two slots a label
+
+/// One of the two slots (`choice` 0 or 1, each with its `seed`) of a label in the hashed table of
+/// LABEL_LOOKUP kLookupHashed, whose size is `mask` + 1 (a power of two): a label is in one of
+/// them (cuckoo hashing), so a lookup reads two slots and loops nowhere.
+CSGV_FN uint32_t labelSlot(uint32_t label, uint32_t seed, uint32_t mask) {
+    uint32_t x = label ^ seed;
+    x ^= x >> 16u;
+    x *= 0x21f0aaadu;
+    x ^= x >> 15u;
+    x *= 0x735a2d97u;
+    x ^= x >> 15u;
+    return x & mask;
+}
+
 // Buffer addresses in Frame.addr.
 CSGV_CONST(uint32_t, kSlotBricks, 0u)         ///< uvec4 per brick: cache word offset, cached lod (kNone), frame+1 of last use, visible
 CSGV_CONST(uint32_t, kSlotCache, 1u)          ///< decoded labels
@@ -65,7 +84,7 @@ CSGV_CONST(uint32_t, kSlotVisible, 18u)       ///< uvec2 per brick: its preview 
 CSGV_CONST(uint32_t, kSlotArrays, 19u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
 CSGV_CONST(uint32_t, kSlotStarts, 20u)        ///< the encoding: brick start words
 CSGV_CONST(uint32_t, kSlotBlueNoise, 21u)     ///< 64x64 bytes of blue noise, four to a uint
-CSGV_CONST(uint32_t, kSlotMaterialTable, 22u) ///< uint per stored label: its material (kNone), when labels are few
+CSGV_CONST(uint32_t, kSlotMaterialTable, 22u) ///< label -> material (kNone): uint per label up to the largest (kLookupDense, kLookupScan) or the hashed uvec2 slots (kLookupHashed)
 CSGV_CONST(uint32_t, kSlotUniform, 23u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
 CSGV_CONST(uint32_t, kSlotDetail, 24u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
 CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)

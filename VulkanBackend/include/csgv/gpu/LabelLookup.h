@@ -1,0 +1,61 @@
+// SPDX-License-Identifier: MIT
+/// @file LabelLookup.h
+/// @brief How the shaders find a stored label's material (render_common.glsl's materialOf): a
+/// table indexed by the label when labels are small, else a two-slot hash table over the labels
+/// the volume's palettes hold. Either replaces the scan of the material list, which CPU devices
+/// (lavapipe) would run at every step of a ray: they execute every branch of a loop body.
+#ifndef CSGV_GPU_LABEL_LOOKUP_H
+#define CSGV_GPU_LABEL_LOOKUP_H
+
+#include "csgv/codec/Container.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace csgv::gpu {
+
+/// Tables up to this many labels (4 bytes each dense, 8 a slot hashed, two slots a label or fewer).
+constexpr uint32_t kMaterialTableLabels = 1u << 22;
+
+struct LabelLookup {
+    uint32_t kind = 0;              ///< kLookupScan, kLookupDense or kLookupHashed (FrameLayout.h)
+    uint32_t largest = 0;           ///< the largest label any palette holds
+    /// kLookupHashed: the label in each slot (kNone: empty), a power of two of them, and the two
+    /// seeds of labelSlot.
+    std::vector<uint32_t> slots;
+    uint32_t seeds[2] = {0, 0};
+    /// The table's words: `materialOf` of every label (dense) or (label, material) per slot.
+    template <class MaterialOf> std::vector<uint32_t> table(const MaterialOf& materialOf) const;
+    /// A label's material in a table made by table() (as the shaders find it; kNone for a label
+    /// the table does not hold).
+    uint32_t hostMaterial(const std::vector<uint32_t>& t, uint32_t label) const;
+};
+
+/// The lookup for a volume's stored labels: dense when the largest label is below
+/// kMaterialTableLabels, hashed when the palettes hold at most kMaterialTableLabels distinct
+/// labels (and 2^25 palette entries in all: counting them must stay quick), else the scan.
+/// `piece`: an MPI rank's piece, whose rays also meet other ranks' labels (stand-ins, ghost
+/// faces): the dense table when it covers this piece's labels, the scan for the rest.
+LabelLookup planLabelLookup(const CompressedVolume& volume, bool piece);
+
+template <class MaterialOf> std::vector<uint32_t> LabelLookup::table(const MaterialOf& materialOf) const {
+    std::vector<uint32_t> t;
+    if (kind == 2u) { // kLookupHashed
+        t.assign(slots.size() * 2, 0xFFFFFFFFu);
+#pragma omp parallel for schedule(static, 4096)
+        for (int64_t i = 0; i < int64_t(slots.size()); ++i) {
+            if (slots[size_t(i)] == 0xFFFFFFFFu) continue;
+            t[2 * size_t(i)] = slots[size_t(i)];
+            t[2 * size_t(i) + 1] = materialOf(slots[size_t(i)]);
+        }
+    } else if (largest < kMaterialTableLabels) {
+        t.resize(size_t(largest) + 1);
+#pragma omp parallel for schedule(static, 4096)
+        for (int64_t l = 0; l < int64_t(t.size()); ++l) t[size_t(l)] = materialOf(uint32_t(l));
+    }
+    return t;
+}
+
+} // namespace csgv::gpu
+
+#endif
