@@ -101,6 +101,15 @@ float attributeValue(Frame f, uint attr, uint label) {
 #ifndef LABEL_LOOKUP
 #define LABEL_LOOKUP 0 // kLookupScan
 #endif
+#if LABEL_LOOKUP == 2
+/// kLookupHashed: the slot holding a stored label (one of its two), or kNone.
+uint hashedSlot(uint label) {
+    Uvec2Buf t = Uvec2Buf(frameAddr[kSlotMaterialTable]);
+    const uint a = labelSlot(label, LABEL_SEED0, LABEL_MASK), b = labelSlot(label, LABEL_SEED1, LABEL_MASK);
+    return t.v[a].x == label ? a : (t.v[b].x == label ? b : kNone);
+}
+#endif
+
 /// The first material whose filter holds the label, or kNone (invisible): from the host's table
 /// (LABEL_LOOKUP, LabelLookup.h), which it fills with the same comparisons as the scan below.
 uint materialOf(Frame f, uint label) {
@@ -108,10 +117,8 @@ uint materialOf(Frame f, uint label) {
 #if LABEL_LOOKUP == 1 // kLookupDense: every stored label is below the table's end
     return label < fv.counts.w ? UintBuf(frameAddr[kSlotMaterialTable]).w[label] : kNone;
 #elif LABEL_LOOKUP == 2 // kLookupHashed: the label sits in one of its two slots
-    Uvec2Buf t = Uvec2Buf(frameAddr[kSlotMaterialTable]);
-    const uvec2 a = t.v[labelSlot(label, LABEL_SEED0, LABEL_MASK)];
-    const uvec2 b = t.v[labelSlot(label, LABEL_SEED1, LABEL_MASK)];
-    return a.x == label ? a.y : (b.x == label ? b.y : kNone);
+    const uint slot = hashedSlot(label);
+    return slot == kNone ? kNone : Uvec2Buf(frameAddr[kSlotMaterialTable]).v[slot].y;
 #else
     // Precomputed by the host with the same comparisons when the stored labels are few (up to
     // the largest label of the renderer's bricks; an MPI piece's stand-ins for other ranks'
@@ -143,8 +150,8 @@ vec3 colormapAt(Frame f, uint offset, uint samples, float t) {
     return mix(cm.v[offset + i].rgb, cm.v[offset + i + 1u].rgb, x - float(i));
 }
 
-/// Colour (rgb), opacity (a) and emission of a label under material m.
-vec4 materialColor(Frame f, uint m, uint label, out float emission) {
+/// Colour (rgb), opacity (a) and emission of a label under material m, computed.
+vec4 materialColorOf(Frame f, uint m, uint label, out float emission) {
     const GpuMaterial mat = MaterialBuf(frameAddr[kSlotMaterials]).m[m];
     emission = mat.extra.x;
     vec3 rgb = mat.rgba.rgb;
@@ -158,6 +165,24 @@ vec4 materialColor(Frame f, uint m, uint label, out float emission) {
         rgb = mat.colour.w == 0u ? paletteColor(h) : colormapAt(f, mat.colour.z, mat.colour.w, float(h) / 4294967295.0);
     }
     return vec4(rgb, mat.rgba.a);
+}
+
+/// Colour (rgb), opacity (a) and emission of a label under material m (its material): with a
+/// label table (LABEL_LOOKUP dense or hashed) read from the colours label_colors.comp computed
+/// with materialColorOf when the materials changed, so a ray step does not evaluate colour modes
+/// (CPU devices run every branch of them at every call).
+vec4 materialColor(Frame f, uint m, uint label, out float emission) {
+#if LABEL_LOOKUP == 1 || LABEL_LOOKUP == 2
+    emission = MaterialBuf(frameAddr[kSlotMaterials]).m[m].extra.x;
+#if LABEL_LOOKUP == 1
+    const uint entry = label;
+#else
+    const uint entry = hashedSlot(label);
+#endif
+    return Vec4Buf(frameAddr[kSlotLabelColors]).v[entry];
+#else
+    return materialColorOf(f, m, label, emission);
+#endif
 }
 
 vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }

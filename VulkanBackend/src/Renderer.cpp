@@ -140,6 +140,8 @@ struct Renderer::Impl {
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
+    Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
+    bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
     Buffer ghost;  // setGhostFaces (empty: not a piece)
     Buffer coarse; // setCoarseStandIns (empty: none)
     uint32_t materialTableSize = 0;   // entries of a dense materialTable (Frame counts.w)
@@ -322,6 +324,11 @@ struct Renderer::Impl {
     Status uploadMaterials(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
                            const std::vector<uint32_t>& storedToOriginal, uint64_t labels);
     Status uploadVisibility(const MaterialMatcher& materialOf);
+    /// Entries of the label table (and of labelColors): a slot each hashed, a label each dense.
+    uint64_t labelColorEntries() const {
+        return lookup.kind == kLookupHashed ? lookup.slots.size() : uint64_t(lookup.largest) + 1;
+    }
+    uint64_t pLabelColors = 0; // label_colors.comp, made on first use
     /// Device memory the new materials take (the old ones are freed only after the new ones exist).
     uint64_t materialBytes(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
                            const std::vector<uint32_t>& storedToOriginal);
@@ -746,7 +753,7 @@ uint64_t Renderer::Impl::materialBytes(const PackedMaterials& packed,
     for (const std::string& name : packed.attributeNames) n += made(attributeArrays.at(name).size() * 4);
     const uint64_t table = lookup.kind == kLookupHashed ? lookup.slots.size() * 8
                            : lookup.largest < kMaterialTableLabels ? (uint64_t(lookup.largest) + 1) * 4 : 0;
-    return n + made(table);
+    return n + made(table) + (lookup.kind != kLookupScan ? made(labelColorEntries() * 16) : 0);
 }
 
 Status Renderer::Impl::uploadDeviceLocal(Buffer& dst, const void* data, uint64_t bytes) {
@@ -789,6 +796,12 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     Status s = uploadDeviceLocal(materialTable, table.data(), table.size() * 4);
     if (!s) return s;
     materialTableSize = lookup.kind == kLookupHashed ? 0 : uint32_t(table.size());
+    if (lookup.kind != kLookupScan) { // the labels' colours, computed by the next frame (label_colors.comp)
+        Result<Buffer> colors = ctx.createBuffer(std::max<uint64_t>(labelColorEntries() * 16, 16), MemoryKind::DeviceLocal);
+        if (!colors) return colors.status();
+        labelColors = std::move(*colors);
+        labelColorsPending = true;
+    }
     // Which bricks can show anything: their palettes against the materials.
     auto materialOfStored = [&](uint32_t stored) {
         return table.empty() || (lookup.kind != kLookupHashed && stored >= table.size()) ? materialOf(stored)
@@ -1088,7 +1101,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
         {kSlotGBuffer, &gbuffer},     {kSlotDepthIn, &depthIn},     {kSlotMaterials, &materials}, {kSlotColormaps, &colormaps},
         {kSlotAttributes, &attributeTable}, {kSlotColorOut, &colorOut}, {kSlotDepthOut, &depthOut}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
-        {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}};
+        {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
@@ -1128,6 +1141,8 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     }
     const uint32_t stride = st.subsampling;
     const uint32_t rw = (rect[2] - rect[0] + stride - 1) / stride, rh = (rect[3] - rect[1] + stride - 1) / stride;
+    if (labelColorsPending) // the materials changed: their colours per label first (ensureLabelColors made the pipeline)
+        addDispatch(pLabelColors, &frameAddress, 8, uint32_t(std::min<uint64_t>((labelColorEntries() + 63) / 64, 4096)), 1);
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
     if (resolvesInRender(st)) return;
     if (!denoises(st)) {
@@ -1303,11 +1318,17 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         stats.cacheReset = true;
     }
     if (!(s = ensureResolvePipelines(st))) return s;
+    if (labelColorsPending && !pLabelColors) {
+        Result<uint64_t> p = makePipeline(ctx, "label_colors.comp", defines, 8, profileDispatches);
+        if (!p) return p.status();
+        pLabelColors = *p;
+    }
     if (!(s = packParams(in, st, clipToWorld))) return s;
     buildDispatches(in, st, *renderPipeline);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
+    labelColorsPending = false;
     if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.detailUploads = detailUploads;

@@ -90,7 +90,8 @@ CSGV_CONST(uint32_t, kSlotDetail, 24u)        ///< detail streaming: uvec2 per b
 CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
 CSGV_CONST(uint32_t, kSlotGhost, 26u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
 CSGV_CONST(uint32_t, kSlotCoarse, 27u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
-CSGV_CONST(uint32_t, kSlotCount, 28u)
+CSGV_CONST(uint32_t, kSlotLabelColors, 28u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
+CSGV_CONST(uint32_t, kSlotCount, 29u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
 CSGV_CONST(uint32_t, kCoarseLevelWords, 4u)
