@@ -340,9 +340,8 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
 /// of stride^2): its next sample unless it has reached the sample target; with
 /// kFlagResolveInRender also what the gather would do for it (output colour, counts).
 void renderPixel(uvec2 cell) {
-    const uint stride = fv.image.z, phase = fv.image.w;
-    const uvec2 px = fv.rect.xy + cell * stride + uvec2(phase % stride, phase / stride);
-    if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
+    uvec2 px;
+    if (!cellPixel(cell, px)) return;
     const uint pixel = px.y * fv.image.x + px.x;
     const uint samples = UintBuf(frameAddr[kSlotSamples]).w[pixel];
     uint n = samples;
@@ -373,6 +372,18 @@ void main() {
     boxLo = ivec3(fv.clipMin.xyz);
     boxHi = ivec3(fv.clipMax.xyz);
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.
+#if PIXEL_LIST
+    // The cells pixel_list.comp listed (the host sized the dispatch to their count): in each
+    // round the lanes of a group take consecutive entries.
+    const uint count = UintBuf(frameAddr[kSlotAlloc]).w[kAllocListCount];
+    UintBuf list = UintBuf(frameAddr[kSlotPixelList]);
+    const uint perGroup = kGroupTile * kGroupTile;
+    for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j) {
+        const uint i = (gl_WorkGroupID.x * PIXEL_BLOCK * PIXEL_BLOCK + j) * perGroup + gl_LocalInvocationIndex;
+        if (i < count) renderPixel(uvec2(list.w[i] & 0xFFFFu, list.w[i] >> 16u));
+    }
+#else
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j)
         renderPixel(gl_GlobalInvocationID.xy * PIXEL_BLOCK + uvec2(j % PIXEL_BLOCK, j / PIXEL_BLOCK));
+#endif
 }

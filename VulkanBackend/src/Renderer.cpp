@@ -141,6 +141,11 @@ struct Renderer::Impl {
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
+    Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
+    bool usesPixelList = false;       // host decoding (CPU devices): two submissions, the render pass sized between them
+    uint64_t pPixelList = 0;
+    std::array<uint32_t, 3> listedGrid{}; // the cell grid (x, y) and stride the host's full list holds (0: none)
+    size_t renderDispatch = 0;        // the render pass's index in `dispatches`
     bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
     Buffer ghost;  // setGhostFaces (empty: not a piece)
     Buffer coarse; // setCoarseStandIns (empty: none)
@@ -315,6 +320,11 @@ struct Renderer::Impl {
     /// defers them to its last frame: the frames before are never shown).
     Status denoiseOutput();
     Status submit();
+    /// PIXEL_LIST: lists the cells the render pass runs over (every cell, or pixel_list.comp's
+    /// dispatch for those below the sample target).
+    void listPixels(const RenderSettings& st);
+    /// PIXEL_LIST: the render pass's groups for the cells listed (after the first submission).
+    void sizeRenderDispatch();
     /// Returns true when it changed how the next frame treats the cache (FrameStats::cacheAdapting).
     bool applyCachePolicy(const FrameStats& stats, const FrameInput& in, uint32_t stride);
     /// The free stacks hold a large share of the cache (kFragmentedShare) although it ran full.
@@ -362,7 +372,8 @@ struct Renderer::Impl {
         const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},    {&samples, n * 4, MemoryKind::DeviceLocal},
                               {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
                               {&colorOut, n * 16, MemoryKind::HostVisible}, {&depthOut, n * 4, MemoryKind::HostVisible},
-                              {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal}};
+                              {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
+                              {&pixelList, usesPixelList ? n * 4 : 0, MemoryKind::HostVisible}};
         uint64_t bytes = 0;
         for (const Part& part : parts) bytes += std::max<uint64_t>(part.bytes, 16);
         if (usedBytes() + bytes > budget) {
@@ -382,6 +393,7 @@ struct Renderer::Impl {
             made.push_back(std::move(*r));
         }
         for (size_t i = 0; i < made.size(); ++i) *parts[i].target = std::move(made[i]);
+        listedGrid = {};
         imageCapacity = n;
         width = w;
         height = h;
@@ -487,6 +499,12 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (volume->hostDecoding() && options.decode == RendererOptions::Decode::Gpu)
         return Status::error("GPU decoding was asked for, but the volume was uploaded for host decoding");
     im.hostDecode = volume->hostDecoding() || decodesOnHost(options.decode, context.device());
+    // With host decoding a frame is two submissions: the render pass can be sized between them to
+    // the pixels that take samples (CPU devices run every branch for all lanes: a pass over the
+    // whole footprint would cost a few pixels' frame as much as a full one).
+    im.usesPixelList = im.hostDecode;
+    d.emplace_back("PIXEL_LIST", im.usesPixelList ? "1" : "0");
+    d.emplace_back("LIST_BLOCK", "16u");
     const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
@@ -1101,7 +1119,8 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
         {kSlotGBuffer, &gbuffer},     {kSlotDepthIn, &depthIn},     {kSlotMaterials, &materials}, {kSlotColormaps, &colormaps},
         {kSlotAttributes, &attributeTable}, {kSlotColorOut, &colorOut}, {kSlotDepthOut, &depthOut}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
-        {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors}};
+        {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors},
+        {kSlotPixelList, &pixelList}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
@@ -1118,6 +1137,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     a[kAllocNewSamples] = 0;
     a[kAllocMissing] = 0;
     a[kAllocMinRow] = kNone;
+    a[kAllocListCount] = 0;
     a[kAllocPrevMin] = prevMinSamples;
     a[kAllocEvictAge] = evictAge;
     a[kAllocDetailRequests] = 0;
@@ -1134,6 +1154,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     addDispatch(pProvision, &frameAddress, 8, 1, 1);
     addDispatch(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
     addDispatch(pCommit, &frameAddress, 8, 1, 1);
+    if (usesPixelList) listPixels(st);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!hostDecode) {
         dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
@@ -1143,7 +1164,8 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     const uint32_t rw = (rect[2] - rect[0] + stride - 1) / stride, rh = (rect[3] - rect[1] + stride - 1) / stride;
     if (labelColorsPending) // the materials changed: their colours per label first (ensureLabelColors made the pipeline)
         addDispatch(pLabelColors, &frameAddress, 8, uint32_t(std::min<uint64_t>((labelColorEntries() + 63) / 64, 4096)), 1);
-    addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile);
+    renderDispatch = dispatches.size();
+    addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
     if (resolvesInRender(st)) return;
     if (!denoises(st)) {
         addResolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
@@ -1219,12 +1241,43 @@ Status Renderer::Impl::denoiseOutput() {
     return ctx.run(dispatches);
 }
 
+void Renderer::Impl::listPixels(const RenderSettings& st) {
+    const uint32_t stride = st.subsampling;
+    const uint32_t gx = (rect[2] - rect[0] + stride - 1) / stride, gy = (rect[3] - rect[1] + stride - 1) / stride;
+    const uint64_t cells = uint64_t(gx) * gy;
+    // When most pixels have taken their last sample but some have not (the still loop's last
+    // frames, or pixels that met missing bricks), pixel_list.comp lists those; otherwise every
+    // cell samples and the host lists them all (written once per grid, read back to nothing).
+    if (!clearPending && st.sampleTarget > 0 && prevMinSamples + 1 >= st.sampleTarget) {
+        addDispatch(pPixelList, &frameAddress, 8, uint32_t((cells + 64 * 16 - 1) / (64 * 16)), 1); // 64 x LIST_BLOCK cells a group
+        listedGrid = {}; // it writes over the host's list
+        return;
+    }
+    const std::array<uint32_t, 3> grid{gx, gy, stride};
+    if (listedGrid != grid) {
+        uint32_t* list = static_cast<uint32_t*>(pixelList.mapped());
+        for (uint32_t y = 0; y < gy; ++y)
+            for (uint32_t x = 0; x < gx; ++x) *list++ = x | (y << 16);
+        listedGrid = grid;
+    }
+    allocWords()[kAllocListCount] = uint32_t(cells);
+}
+
+void Renderer::Impl::sizeRenderDispatch() {
+    if (!usesPixelList) return;
+    const uint64_t perGroup = uint64_t(kGroupTile) * kGroupTile * pixelBlock * pixelBlock;
+    Context::Dispatch& d = dispatches[renderDispatch];
+    d.groups[0] = uint32_t((allocWords()[kAllocListCount] + perGroup - 1) / perGroup);
+    d.groups[1] = 1;
+}
+
 Status Renderer::Impl::submit() {
     Status s;
     if (profileDispatches) { // one submission per dispatch, timed (diagnostics)
         for (size_t i = 0; i < dispatches.size(); ++i) {
             const auto t1 = std::chrono::steady_clock::now();
             if (hostDecode && i == cacheStages) {
+                sizeRenderDispatch();
                 decodeOnHost();
                 std::fprintf(stderr, "host decode: %.2f ms\n",
                              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
@@ -1238,6 +1291,7 @@ Status Renderer::Impl::submit() {
     if (hostDecode) {
         // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
         if (!(s = ctx.run(dispatches.data(), cacheStages))) return s;
+        sizeRenderDispatch();
         decodeOnHost();
         return ctx.run(dispatches.data() + cacheStages, dispatches.size() - cacheStages);
     }
@@ -1318,6 +1372,11 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         stats.cacheReset = true;
     }
     if (!(s = ensureResolvePipelines(st))) return s;
+    if (usesPixelList && !pPixelList) {
+        Result<uint64_t> p = makePipeline(ctx, "pixel_list.comp", defines, 8, profileDispatches);
+        if (!p) return p.status();
+        pPixelList = *p;
+    }
     if (labelColorsPending && !pLabelColors) {
         Result<uint64_t> p = makePipeline(ctx, "label_colors.comp", defines, 8, profileDispatches);
         if (!p) return p.status();

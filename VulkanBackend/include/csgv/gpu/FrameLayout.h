@@ -91,7 +91,8 @@ CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks who
 CSGV_CONST(uint32_t, kSlotGhost, 26u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
 CSGV_CONST(uint32_t, kSlotCoarse, 27u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
 CSGV_CONST(uint32_t, kSlotLabelColors, 28u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
-CSGV_CONST(uint32_t, kSlotCount, 29u)
+CSGV_CONST(uint32_t, kSlotPixelList, 29u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp)
+CSGV_CONST(uint32_t, kSlotCount, 30u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
 CSGV_CONST(uint32_t, kCoarseLevelWords, 4u)
@@ -119,6 +120,7 @@ CSGV_CONST(uint32_t, kAllocHoles, 10u)       ///< pixels the resolve left empty 
 CSGV_CONST(uint32_t, kAllocPreviews, 12u)     ///< pixels that show a preview (no sample of their own or of their stride block yet)
 CSGV_CONST(uint32_t, kAllocEvictAge, 11u)    ///< host-written: evict cached bricks no ray used for this many frames (0: none)
 CSGV_CONST(uint32_t, kAllocDetailRequests, 13u) ///< entries written to kSlotDetailRequests this frame (may pass the list's length)
+CSGV_CONST(uint32_t, kAllocListCount, 14u)   ///< cells in kSlotPixelList this frame (host-zeroed; read back to size the render pass)
 CSGV_CONST(uint32_t, kAllocFreeCount, 16u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocReqCount, 24u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod
