@@ -6,7 +6,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = kGroupLabels) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
@@ -18,7 +18,7 @@ void main() {
 #else
     const uint n = LABEL_MASK + 1u;
 #endif
-    for (uint i = gl_GlobalInvocationID.x; i < n; i += gl_NumWorkGroups.x * 64u) {
+    for (uint i = gl_GlobalInvocationID.x; i < n; i += gl_NumWorkGroups.x * kGroupLabels) {
 #if LABEL_LOOKUP == 1
         const uint label = i;
         const uint m = UintBuf(frameAddr[kSlotMaterialTable]).w[i];

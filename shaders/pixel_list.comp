@@ -11,7 +11,7 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "render_common.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = kGroupList) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 void main() {
@@ -22,10 +22,10 @@ void main() {
     UintBuf samples = UintBuf(frameAddr[kSlotSamples]);
     const uvec2 grid = cellGrid();
     const uint cells = grid.x * grid.y;
-    // LIST_BLOCK rounds per invocation (lavapipe pays per invocation); in each round the lanes
+    // kListBlock rounds per invocation (lavapipe pays per invocation); in each round the lanes
     // of a group take consecutive cells.
-    for (uint k = 0u; k < LIST_BLOCK; ++k) {
-        const uint c = (gl_WorkGroupID.x * LIST_BLOCK + k) * 64u + gl_LocalInvocationID.x;
+    for (uint k = 0u; k < kListBlock; ++k) {
+        const uint c = (gl_WorkGroupID.x * kListBlock + k) * kGroupList + gl_LocalInvocationID.x;
         const uvec2 cell = uvec2(c % max(grid.x, 1u), c / max(grid.x, 1u));
         uvec2 px;
         bool sampling = false;

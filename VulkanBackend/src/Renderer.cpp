@@ -114,8 +114,6 @@ double renderedPixels(const FrameInput& in, uint32_t stride) {
 }
 } // namespace
 
-/// Stored labels up to which a table label -> material replaces the shaders' scan of the list.
-
 /// Cache pressure (applyCachePolicy): the first eviction age (frames unused), frames without a
 /// full cache before eviction stops, and the fewest frames between defragmentation resets.
 constexpr uint32_t kEvictAgeStart = 8, kQuietFrames = 8, kDefragInterval = 64;
@@ -320,6 +318,11 @@ struct Renderer::Impl {
     /// defers them to its last frame: the frames before are never shown).
     Status denoiseOutput();
     Status submit();
+    /// The grid of rendered pixels (cells) of the footprint rectangle at a subsampling stride, as
+    /// render_common.glsl's cellGrid.
+    std::array<uint32_t, 2> cellGrid(uint32_t stride) const {
+        return {(rect[2] - rect[0] + stride - 1) / stride, (rect[3] - rect[1] + stride - 1) / stride};
+    }
     /// PIXEL_LIST: lists the cells the render pass runs over (every cell, or pixel_list.comp's
     /// dispatch for those below the sample target).
     void listPixels(const RenderSettings& st);
@@ -504,7 +507,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     // whole footprint would cost a few pixels' frame as much as a full one).
     im.usesPixelList = im.hostDecode;
     d.emplace_back("PIXEL_LIST", im.usesPixelList ? "1" : "0");
-    d.emplace_back("LIST_BLOCK", "16u");
     const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
@@ -1160,10 +1162,11 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
-    const uint32_t stride = st.subsampling;
-    const uint32_t rw = (rect[2] - rect[0] + stride - 1) / stride, rh = (rect[3] - rect[1] + stride - 1) / stride;
-    if (labelColorsPending) // the materials changed: their colours per label first (ensureLabelColors made the pipeline)
-        addDispatch(pLabelColors, &frameAddress, 8, uint32_t(std::min<uint64_t>((labelColorEntries() + 63) / 64, 4096)), 1);
+    const std::array<uint32_t, 2> cells = cellGrid(st.subsampling);
+    const uint32_t rw = cells[0], rh = cells[1];
+    if (labelColorsPending) // the materials changed: their colours per label first (frame() made the pipeline)
+        addDispatch(pLabelColors, &frameAddress, 8,
+                    uint32_t(std::min<uint64_t>((labelColorEntries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
     if (resolvesInRender(st)) return;
@@ -1243,13 +1246,15 @@ Status Renderer::Impl::denoiseOutput() {
 
 void Renderer::Impl::listPixels(const RenderSettings& st) {
     const uint32_t stride = st.subsampling;
-    const uint32_t gx = (rect[2] - rect[0] + stride - 1) / stride, gy = (rect[3] - rect[1] + stride - 1) / stride;
+    const std::array<uint32_t, 2> g = cellGrid(stride);
+    const uint32_t gx = g[0], gy = g[1];
     const uint64_t cells = uint64_t(gx) * gy;
     // When most pixels have taken their last sample but some have not (the still loop's last
     // frames, or pixels that met missing bricks), pixel_list.comp lists those; otherwise every
     // cell samples and the host lists them all (written once per grid, read back to nothing).
     if (!clearPending && st.sampleTarget > 0 && prevMinSamples + 1 >= st.sampleTarget) {
-        addDispatch(pPixelList, &frameAddress, 8, uint32_t((cells + 64 * 16 - 1) / (64 * 16)), 1); // 64 x LIST_BLOCK cells a group
+        const uint64_t perGroup = uint64_t(kGroupList) * kListBlock;
+        addDispatch(pPixelList, &frameAddress, 8, uint32_t((cells + perGroup - 1) / perGroup), 1);
         listedGrid = {}; // it writes over the host's list
         return;
     }
@@ -1564,11 +1569,12 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
                                                           im.alloc.size() + im.params.size() + im.blueNoise.size() +
                                                           im.detailRequests.size()});
-    r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size()});
+    r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size() +
+                                                         im.pixelList.size()});
     r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorOut.size() + im.depthOut.size() + im.gbuffer.size() +
                                                                    im.depthIn.size()});
     uint64_t attr = im.materials.size() + im.colormaps.size() + im.attributeTable.size() + im.labelMap.size() +
-                    im.materialTable.size();
+                    im.materialTable.size() + im.labelColors.size();
     for (const Buffer& b : im.attributes) attr += b.size();
     r.buffers.push_back({"materials and attributes", attr});
     if (im.ghost.size() > 0) r.buffers.push_back({"ghost faces (MPI piece)", im.ghost.size()});

@@ -132,6 +132,9 @@ CSGV_CONST(uint32_t, kAllocWords, 56u)
 CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), cache_assign.comp (per request)
 CSGV_CONST(uint32_t, kGroupDecodes, 32u) ///< decode_bricks.comp (per decode)
 CSGV_CONST(uint32_t, kGroupTile, 16u)    ///< render.comp and resolve.comp: kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
+CSGV_CONST(uint32_t, kGroupList, 64u)    ///< pixel_list.comp: invocations a group, each taking kListBlock cells
+CSGV_CONST(uint32_t, kListBlock, 16u)
+CSGV_CONST(uint32_t, kGroupLabels, 64u)  ///< label_colors.comp
 
 // Passes of resolve.comp (its define RESOLVE_PASS: one pipeline per pass, for CPU devices run
 // every branch a shader holds, taken or not).
