@@ -110,41 +110,41 @@ for mode in ("opaque", "translucent", "shadow", "ao", "pt", "ao_denoised", "comp
 # bricks of the whole image, compresses them and draws them in the whole image's index space.
 Hide(r, v)
 wave = Wavelet(WholeExtent=[0, 80, 0, 60, 0, 100])
-plain = Calculator(Input=wave, ResultArrayName="lab", ResultArrayType="Int", Function="floor(abs(RTData)/25)")
-p = Show(plain, v)
-p.Representation = "Segmentation Volume"
-p.CSGVLabelArray = "lab"
-p.CSGVFramesPerStillRender = 1
-p.CSGVStillRenderTimeBudget = 60
-p.CSGVDenoise = 0
-v.CameraFocalPoint = [40, 30, 50]
-for mode in ("plain", "plain_translucent"):
-    p.CSGVShading = "shadow" if mode == "plain" else "local"
-    p.CSGVMaterials = json.dumps({"version": 1, "materials": [
-        {"name": "m", "filter": {"attribute": "label", "min": 3 if mode == "plain_translucent" else 4,
-                                 "max": 4294967294}, "opacity": 0.4 if mode == "plain_translucent" else 1}]})
+
+
+def show_labels(function, name):
+    """A Calculator's integer point data `name` = `function` of the wavelet, shown in v."""
+    labels = Calculator(Input=wave, ResultArrayName=name, ResultArrayType="Int", Function=function)
+    display = Show(labels, v)
+    display.Representation = "Segmentation Volume"
+    display.CSGVLabelArray = name
+    display.CSGVFramesPerStillRender = 1
+    display.CSGVStillRenderTimeBudget = 60
+    display.CSGVDenoise = 0
+    return display
+
+
+def shot(mode, display, shading, lowest, opacity):
+    """Renders v with one material from label `lowest` up and saves it as OUT/<mode>.png."""
+    display.CSGVShading = shading
+    display.CSGVMaterials = json.dumps({"version": 1, "materials": [
+        {"name": "m", "filter": {"attribute": "label", "min": lowest, "max": 4294967294}, "opacity": opacity}]})
     Render(v)
     SaveScreenshot(os.path.join(out, mode + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
                    ImageResolution=[160, 120], TransparentBackground=0)
+
+
+p = show_labels("floor(abs(RTData)/25)", "lab")
+v.CameraFocalPoint = [40, 30, 50]
+shot("plain", p, "shadow", 4, 1)
+shot("plain_translucent", p, "local", 3, 0.4)
 # A plain image whose labels are negative: relabelled to dense ids, the same ids on every rank as
 # one rank gives the whole image (the ranks agree on them in the data phase); materials filter on
 # those ids (the originals do not fit 32 bits), so any rank numbering its labels apart would draw
 # other labels.
 Hide(p, v)
-negative_plain = Calculator(Input=wave, ResultArrayName="neg", ResultArrayType="Int",
-                            Function="floor(abs(RTData)/25) - 4")
-q = Show(negative_plain, v)
-q.Representation = "Segmentation Volume"
-q.CSGVLabelArray = "neg"
-q.CSGVFramesPerStillRender = 1
-q.CSGVStillRenderTimeBudget = 60
-q.CSGVDenoise = 0
-q.CSGVShading = "shadow"
-q.CSGVMaterials = json.dumps({"version": 1, "materials": [
-    {"name": "m", "filter": {"attribute": "label", "min": 3, "max": 4294967294}, "opacity": 1}]})
-Render(v)
-SaveScreenshot(os.path.join(out, "plain_relabelled" + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
-               ImageResolution=[160, 120], TransparentBackground=0)
+q = show_labels("floor(abs(RTData)/25) - 4", "neg")
+shot("plain_relabelled", q, "shadow", 3, 1)
 Hide(q, v)
 # A second view of the same reader (its own renderer and cache on every rank, one upload): its
 # image equals one rank's too (1 of 19200 pixels beyond 16/255 at 4 ranks). It comes last:

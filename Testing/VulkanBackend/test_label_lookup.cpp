@@ -30,12 +30,14 @@ std::set<uint32_t> paletteLabels(const CompressedVolume& vol) {
 
 uint32_t someMaterial(uint32_t label) { return label % 3 == 0 ? kNone : label % 7; }
 
+constexpr uint64_t kBudget = uint64_t(1) << 30;
+
 } // namespace
 
 TEST(LabelLookup, LargeLabelsAreHashedAndEveryPaletteLabelIsFoundInOneOfItsTwoSlots) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2.csgv")); // 222 labels up to 4282514378
     ASSERT_TRUE(file.isOk()) << file.message();
-    const LabelLookup lookup = planLabelLookup(file->volume, false);
+    const LabelLookup lookup = planLabelLookup(file->volume, false, kBudget);
     ASSERT_EQ(lookup.kind, kLookupHashed);
     const std::set<uint32_t> labels = paletteLabels(file->volume);
     EXPECT_EQ(lookup.largest, *labels.rbegin());
@@ -60,12 +62,19 @@ TEST(LabelLookup, LargeLabelsAreHashedAndEveryPaletteLabelIsFoundInOneOfItsTwoSl
             EXPECT_EQ(lookup.hostMaterial(table, l), kNone) << "label " << l;
         }
     EXPECT_EQ(lookup.hostMaterial(table, kNone), kNone);
+    // Under a budget the tables would take more than a 64th of, the scan (the cache comes first).
+    const uint64_t bytes = labelLookupBytes(lookup);
+    EXPECT_EQ(bytes, lookup.slots.size() * 24);
+    EXPECT_EQ(planLabelLookup(file->volume, false, 64 * bytes).kind, kLookupHashed);
+    const LabelLookup tight = planLabelLookup(file->volume, false, 64 * bytes - 64);
+    EXPECT_EQ(tight.kind, kLookupScan);
+    EXPECT_TRUE(tight.slots.empty());
 }
 
 TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabels) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2_attr.csgv")); // relabelled: dense ids
     ASSERT_TRUE(file.isOk()) << file.message();
-    const LabelLookup dense = planLabelLookup(file->volume, false);
+    const LabelLookup dense = planLabelLookup(file->volume, false, kBudget);
     EXPECT_EQ(dense.kind, kLookupDense);
     EXPECT_TRUE(dense.slots.empty());
     const std::vector<uint32_t> table = dense.table(someMaterial);
@@ -73,10 +82,10 @@ TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabe
     for (uint32_t l = 0; l <= dense.largest; ++l) EXPECT_EQ(dense.hostMaterial(table, l), someMaterial(l));
     EXPECT_EQ(dense.hostMaterial(table, dense.largest + 1), kNone);
     // An MPI rank's piece: a dense table for its own labels, the scan for larger ones.
-    EXPECT_EQ(planLabelLookup(file->volume, true).kind, kLookupScan);
+    EXPECT_EQ(planLabelLookup(file->volume, true, kBudget).kind, kLookupScan);
     Result<CsgvFile> large = openCsgv(fixture("synthA_b32_rans2.csgv"));
     ASSERT_TRUE(large.isOk()) << large.message();
-    const LabelLookup piece = planLabelLookup(large->volume, true);
+    const LabelLookup piece = planLabelLookup(large->volume, true, kBudget);
     EXPECT_EQ(piece.kind, kLookupScan);
     EXPECT_TRUE(piece.table(someMaterial).empty()) << "labels beyond 2^22: no dense table, the scan";
 }

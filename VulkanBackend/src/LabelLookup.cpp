@@ -30,7 +30,31 @@ bool placeLabels(const std::vector<uint32_t>& labels, uint32_t capacity, const u
 
 } // namespace
 
-LabelLookup planLabelLookup(const CompressedVolume& vol, bool piece) {
+namespace {
+
+LabelLookup planTables(const CompressedVolume& vol, bool piece);
+
+} // namespace
+
+uint64_t labelLookupBytes(const LabelLookup& lookup) {
+    if (lookup.kind == kLookupHashed) return lookup.slots.size() * (8 + 16);
+    const uint64_t dense = lookup.largest < kMaterialTableLabels ? uint64_t(lookup.largest) + 1 : 0;
+    return dense * (lookup.kind == kLookupDense ? 4 + 16 : 4);
+}
+
+LabelLookup planLabelLookup(const CompressedVolume& vol, bool piece, uint64_t budgetBytes) {
+    LabelLookup out = planTables(vol, piece);
+    if (out.kind != kLookupScan && labelLookupBytes(out) > budgetBytes / 64) {
+        out.kind = kLookupScan;
+        out.slots.clear();
+        out.seeds[0] = out.seeds[1] = 0;
+    }
+    return out;
+}
+
+namespace {
+
+LabelLookup planTables(const CompressedVolume& vol, bool piece) {
     LabelLookup out;
     const uint32_t L = vol.levels();
     uint32_t largest = 0;
@@ -73,6 +97,8 @@ LabelLookup planLabelLookup(const CompressedVolume& vol, bool piece) {
     out.slots.clear();
     return out;
 }
+
+} // namespace
 
 uint32_t LabelLookup::hostMaterial(const std::vector<uint32_t>& t, uint32_t label) const {
     if (label == kNone) return kNone;

@@ -510,7 +510,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
-    im.lookup = planLabelLookup(v, !volume->owned().empty());
+    im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
+    im.lookup = planLabelLookup(v, !volume->owned().empty(), im.budget);
     d.emplace_back("LABEL_LOOKUP", std::to_string(im.lookup.kind)); // tested by #if: no suffix
     d.emplace_back("LABEL_SEED0", std::to_string(im.lookup.seeds[0]) + "u");
     d.emplace_back("LABEL_SEED1", std::to_string(im.lookup.seeds[1]) + "u");
@@ -540,7 +541,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation,
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
-    im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
     const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
     im.cacheKind = hostOrDevice;
     // Everything but the cache and the images, sized once: summed for the budget, then allocated.

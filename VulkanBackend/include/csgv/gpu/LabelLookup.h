@@ -35,8 +35,13 @@ struct LabelLookup {
 /// kMaterialTableLabels, hashed when the palettes hold at most kMaterialTableLabels distinct
 /// labels (and 2^25 palette entries in all: counting them must stay quick), else the scan.
 /// `piece`: an MPI rank's piece, whose rays also meet other ranks' labels (stand-ins, ghost
-/// faces): the dense table when it covers this piece's labels, the scan for the rest.
-LabelLookup planLabelLookup(const CompressedVolume& volume, bool piece);
+/// faces): the dense table when it covers this piece's labels, the scan for the rest. The
+/// tables (with the labels' colours, 16 bytes an entry) may take a 64th of `budgetBytes`, the
+/// renderer's device memory: under a tighter budget the brick cache comes first (the scan, with
+/// the dense table where labels are small, as for pieces).
+LabelLookup planLabelLookup(const CompressedVolume& volume, bool piece, uint64_t budgetBytes);
+/// Device bytes of a lookup's table and colours (kLookupScan: the dense table alone, if any).
+uint64_t labelLookupBytes(const LabelLookup& lookup);
 
 template <class MaterialOf> std::vector<uint32_t> LabelLookup::table(const MaterialOf& materialOf) const {
     std::vector<uint32_t> t;
