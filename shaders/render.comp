@@ -26,6 +26,34 @@ ivec3 boxLo, boxHi;
 mat4 clipToIndex, indexToClip, indexToWorld, worldToIndex;
 vec3 normalX, normalY, normalZ;
 
+/// The frame's counters over an invocation's pixels, added to the kAlloc words once per subgroup
+/// at its end (flushCounts): atomics and subgroup operations cost CPU devices a loop over the
+/// lanes each, so not one set per pixel.
+struct Counts {
+    uint prevMin;  // kAllocPrevMin, read once
+    uint minRow;   // kAllocMinRow: the first pixel with the previous minimum sample count
+    uint added;    // kAllocNewSamples
+    uint missing;  // kAllocMissing
+    uint fewest;   // kAllocMinSamples (kFlagResolveInRender)
+    uint previews; // kAllocPreviews
+    uint holes;    // kAllocHoles
+};
+Counts count;
+
+void flushCounts() {
+    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
+    const uint minRow = subgroupMin(count.minRow), fewest = subgroupMin(count.fewest);
+    const uint added = subgroupAdd(count.added), missing = subgroupAdd(count.missing);
+    const uint previews = subgroupAdd(count.previews), holes = subgroupAdd(count.holes);
+    if (!subgroupElect()) return;
+    if (minRow != kNone) atomicMin(alloc.w[kAllocMinRow], minRow);
+    if (fewest != kNone) atomicMin(alloc.w[kAllocMinSamples], fewest);
+    if (added > 0u) atomicAdd(alloc.w[kAllocNewSamples], added);
+    if (missing > 0u) atomicAdd(alloc.w[kAllocMissing], missing);
+    if (previews > 0u) atomicAdd(alloc.w[kAllocPreviews], previews);
+    if (holes > 0u) atomicAdd(alloc.w[kAllocHoles], holes);
+}
+
 /// The world normal of a face (1 + 2 axis + (moving in -axis ? 1 : 0), as Walker.face): the
 /// host's normal of a -axis face is exactly the negated +axis one.
 vec3 faceNormal(uint face) {
@@ -149,11 +177,7 @@ vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
 bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool preview) {
     preview = false;
     total = vec4(0.0);
-    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
-    if (samples == alloc.w[kAllocPrevMin]) { // one atomic per subgroup: they are costly on CPU devices
-        const uint first = subgroupMin(pixel);
-        if (subgroupElect()) atomicMin(alloc.w[kAllocMinRow], first);
-    }
+    if (samples == count.prevMin) count.minRow = min(count.minRow, pixel);
     const bool request = (fv.frame.y & kFlagLimitRequests) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
     Rng rng = rngFor(pixel, samples);
 
@@ -308,8 +332,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
         }
     }
     if (!valid) {
-        const uint missing = subgroupAdd(1u);
-        if (subgroupElect()) atomicAdd(alloc.w[kAllocMissing], missing);
+        ++count.missing;
         if (previews) {
             preview = true;
             if (gLabel == kNone) { // lost on the view ray: the preview is what it gathered
@@ -328,8 +351,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
     if (samples > 0u) total += accum.v[pixel]; // the first sample need not read the cleared sum
     accum.v[pixel] = total;
     UintBuf(frameAddr[kSlotSamples]).w[pixel] = samples + 1u;
-    const uint added = subgroupAdd(1u);
-    if (subgroupElect()) atomicAdd(alloc.w[kAllocNewSamples], added);
+    ++count.added;
     Uvec4Buf(frameAddr[kSlotGBuffer]).v[pixel] =
         uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
     FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
@@ -350,13 +372,11 @@ void renderPixel(uvec2 cell) {
     if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total, preview)) n = samples + 1u;
     if ((fv.frame.y & kFlagResolveInRender) == 0u) return;
     if (n != samples || preview) Vec4Buf(frameAddr[kSlotColorOut]).v[pixel] = toneMapped(total / float(max(n, 1u)));
-    UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
-    const uint fewest = subgroupMin(n); // one atomic per subgroup
-    if (subgroupElect()) atomicMin(alloc.w[kAllocMinSamples], fewest);
-    const uint previews = subgroupAdd(n == 0u && preview ? 1u : 0u);
-    if (subgroupElect() && previews > 0u) atomicAdd(alloc.w[kAllocPreviews], previews);
-    const uint holes = subgroupAdd(n == 0u && !preview ? 1u : 0u);
-    if (subgroupElect() && holes > 0u) atomicAdd(alloc.w[kAllocHoles], holes);
+    count.fewest = min(count.fewest, n);
+    if (n == 0u) {
+        if (preview) ++count.previews;
+        else ++count.holes;
+    }
 }
 
 void main() {
@@ -371,6 +391,7 @@ void main() {
     normalZ = f.faceNormals[5].xyz;
     boxLo = ivec3(fv.clipMin.xyz);
     boxHi = ivec3(fv.clipMax.xyz);
+    count = Counts(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPrevMin], kNone, 0u, 0u, kNone, 0u, 0u);
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.
 #if PIXEL_LIST
     // The cells pixel_list.comp listed (the host sized the dispatch to their count): in each
@@ -386,4 +407,5 @@ void main() {
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j)
         renderPixel(gl_GlobalInvocationID.xy * PIXEL_BLOCK + uvec2(j % PIXEL_BLOCK, j / PIXEL_BLOCK));
 #endif
+    flushCounts();
 }
