@@ -10,7 +10,10 @@
 // host's kSlotVisible), or at the coarser level a brick stands in at while its finest-level stream
 // is on its way (detail streaming), shaded locally; previews are never accumulated.
 // With kFlagResolveInRender it also writes the pixel's output and counts (no gather pass).
-// SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline.
+// SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline. With
+// PIXEL_LIST (host decoding: CPU devices) the invocations take the cells of a list instead of the
+// rectangle's grid (pixel_list.comp): CPU devices run every branch of this shader for all lanes,
+// so pixels that take no sample must not be in the dispatch at all.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -394,14 +397,15 @@ void main() {
     count = Counts(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPrevMin], kNone, 0u, 0u, kNone, 0u, 0u);
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.
 #if PIXEL_LIST
-    // The cells pixel_list.comp listed (the host sized the dispatch to their count): in each
-    // round the lanes of a group take consecutive entries.
-    const uint count = UintBuf(frameAddr[kSlotAlloc]).w[kAllocListCount];
+    // The cells listed (all by the host, or those below the sample target by pixel_list.comp;
+    // the host sized the dispatch to their number): in each round the lanes of a group take
+    // consecutive entries.
+    const uint listed = UintBuf(frameAddr[kSlotAlloc]).w[kAllocListCount];
     UintBuf list = UintBuf(frameAddr[kSlotPixelList]);
     const uint perGroup = kGroupTile * kGroupTile;
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j) {
         const uint i = (gl_WorkGroupID.x * PIXEL_BLOCK * PIXEL_BLOCK + j) * perGroup + gl_LocalInvocationIndex;
-        if (i < count) renderPixel(uvec2(list.w[i] & 0xFFFFu, list.w[i] >> 16u));
+        if (i < listed) renderPixel(uvec2(list.w[i] & 0xFFFFu, list.w[i] >> 16u));
     }
 #else
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j)
