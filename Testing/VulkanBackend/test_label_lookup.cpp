@@ -63,7 +63,8 @@ TEST(LabelLookup, LargeLabelsAreHashedAndEveryPaletteLabelIsFoundInOneOfItsTwoSl
         }
     EXPECT_EQ(lookup.hostMaterial(table, kNone), kNone);
     // Under a budget the tables would take more than a 64th of, the scan (the cache comes first).
-    const uint64_t bytes = labelLookupBytes(lookup);
+    const uint64_t bytes = lookup.tableBytes() + lookup.colorBytes();
+    EXPECT_EQ(lookup.entries(), lookup.slots.size());
     EXPECT_EQ(bytes, lookup.slots.size() * 24);
     EXPECT_EQ(planLabelLookup(file->volume, false, 64 * bytes).kind, kLookupHashed);
     const LabelLookup tight = planLabelLookup(file->volume, false, 64 * bytes - 64);
@@ -79,6 +80,8 @@ TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabe
     EXPECT_TRUE(dense.slots.empty());
     const std::vector<uint32_t> table = dense.table(someMaterial);
     ASSERT_EQ(table.size(), size_t(dense.largest) + 1);
+    EXPECT_EQ(dense.entries(), table.size());
+    EXPECT_EQ(dense.tableBytes() + dense.colorBytes(), table.size() * 20);
     for (uint32_t l = 0; l <= dense.largest; ++l) EXPECT_EQ(dense.hostMaterial(table, l), someMaterial(l));
     EXPECT_EQ(dense.hostMaterial(table, dense.largest + 1), kNone);
     // An MPI rank's piece: a dense table for its own labels, the scan for larger ones.

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/LabelLookup.h"
 
-#include "csgv/gpu/FrameLayout.h"
-
 #include <algorithm>
 
 namespace csgv::gpu {
@@ -28,32 +26,7 @@ bool placeLabels(const std::vector<uint32_t>& labels, uint32_t capacity, const u
     return true;
 }
 
-} // namespace
-
-namespace {
-
-LabelLookup planTables(const CompressedVolume& vol, bool piece);
-
-} // namespace
-
-uint64_t labelLookupBytes(const LabelLookup& lookup) {
-    if (lookup.kind == kLookupHashed) return lookup.slots.size() * (8 + 16);
-    const uint64_t dense = lookup.largest < kMaterialTableLabels ? uint64_t(lookup.largest) + 1 : 0;
-    return dense * (lookup.kind == kLookupDense ? 4 + 16 : 4);
-}
-
-LabelLookup planLabelLookup(const CompressedVolume& vol, bool piece, uint64_t budgetBytes) {
-    LabelLookup out = planTables(vol, piece);
-    if (out.kind != kLookupScan && labelLookupBytes(out) > budgetBytes / 64) {
-        out.kind = kLookupScan;
-        out.slots.clear();
-        out.seeds[0] = out.seeds[1] = 0;
-    }
-    return out;
-}
-
-namespace {
-
+/// planLabelLookup without the budget.
 LabelLookup planTables(const CompressedVolume& vol, bool piece) {
     LabelLookup out;
     const uint32_t L = vol.levels();
@@ -100,12 +73,24 @@ LabelLookup planTables(const CompressedVolume& vol, bool piece) {
 
 } // namespace
 
+LabelLookup planLabelLookup(const CompressedVolume& vol, bool piece, uint64_t budgetBytes) {
+    LabelLookup out = planTables(vol, piece);
+    if (out.kind != kLookupScan && out.tableBytes() + out.colorBytes() > budgetBytes / 64) {
+        out.kind = kLookupScan;
+        out.slots.clear();
+        out.seeds[0] = out.seeds[1] = 0;
+    }
+    return out;
+}
+
 uint32_t LabelLookup::hostMaterial(const std::vector<uint32_t>& t, uint32_t label) const {
     if (label == kNone) return kNone;
     if (kind == kLookupHashed) {
         const uint32_t mask = uint32_t(slots.size()) - 1;
-        for (uint32_t seed : seeds)
-            if (t[2 * size_t(labelSlot(label, seed, mask))] == label) return t[2 * size_t(labelSlot(label, seed, mask)) + 1];
+        for (uint32_t seed : seeds) {
+            const size_t slot = labelSlot(label, seed, mask);
+            if (t[2 * slot] == label) return t[2 * slot + 1];
+        }
         return kNone;
     }
     return label < t.size() ? t[label] : kNone;

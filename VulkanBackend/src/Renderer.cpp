@@ -337,10 +337,6 @@ struct Renderer::Impl {
     Status uploadMaterials(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
                            const std::vector<uint32_t>& storedToOriginal, uint64_t labels);
     Status uploadVisibility(const MaterialMatcher& materialOf);
-    /// Entries of the label table (and of labelColors): a slot each hashed, a label each dense.
-    uint64_t labelColorEntries() const {
-        return lookup.kind == kLookupHashed ? lookup.slots.size() : uint64_t(lookup.largest) + 1;
-    }
     uint64_t pLabelColors = 0; // label_colors.comp, made on first use
     /// Device memory the new materials take (the old ones are freed only after the new ones exist).
     uint64_t materialBytes(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
@@ -771,9 +767,8 @@ uint64_t Renderer::Impl::materialBytes(const PackedMaterials& packed,
     uint64_t n = made(packed.materials.size() * sizeof(GpuMaterial)) + made(packed.colormapSamples.size() * 16) +
                  made(packed.attributeNames.size() * 8) + made(storedToOriginal.size() * 4);
     for (const std::string& name : packed.attributeNames) n += made(attributeArrays.at(name).size() * 4);
-    const uint64_t table = lookup.kind == kLookupHashed ? lookup.slots.size() * 8
-                           : lookup.largest < kMaterialTableLabels ? (uint64_t(lookup.largest) + 1) * 4 : 0;
-    return n + made(table) + (lookup.kind != kLookupScan ? made(labelColorEntries() * 16) : 0);
+    // The label colours are allocated once (their size is the lookup's): counted when not yet there.
+    return n + made(lookup.tableBytes()) + (labelColors.size() == 0 && lookup.colorBytes() > 0 ? made(lookup.colorBytes()) : 0);
 }
 
 Status Renderer::Impl::uploadDeviceLocal(Buffer& dst, const void* data, uint64_t bytes) {
@@ -816,10 +811,12 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     Status s = uploadDeviceLocal(materialTable, table.data(), table.size() * 4);
     if (!s) return s;
     materialTableSize = lookup.kind == kLookupHashed ? 0 : uint32_t(table.size());
-    if (lookup.kind != kLookupScan) { // the labels' colours, computed by the next frame (label_colors.comp)
-        Result<Buffer> colors = ctx.createBuffer(std::max<uint64_t>(labelColorEntries() * 16, 16), MemoryKind::DeviceLocal);
-        if (!colors) return colors.status();
-        labelColors = std::move(*colors);
+    if (lookup.colorBytes() > 0) { // the labels' colours, computed by the next frame (label_colors.comp)
+        if (labelColors.size() == 0) {
+            Result<Buffer> colors = ctx.createBuffer(lookup.colorBytes(), MemoryKind::DeviceLocal);
+            if (!colors) return colors.status();
+            labelColors = std::move(*colors);
+        }
         labelColorsPending = true;
     }
     // Which bricks can show anything: their palettes against the materials.
@@ -1166,7 +1163,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     const uint32_t rw = cells[0], rh = cells[1];
     if (labelColorsPending) // the materials changed: their colours per label first (frame() made the pipeline)
         addDispatch(pLabelColors, &frameAddress, 8,
-                    uint32_t(std::min<uint64_t>((labelColorEntries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
+                    uint32_t(std::min<uint64_t>((lookup.entries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
     if (resolvesInRender(st)) return;

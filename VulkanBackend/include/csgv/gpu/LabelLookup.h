@@ -8,6 +8,7 @@
 #define CSGV_GPU_LABEL_LOOKUP_H
 
 #include "csgv/codec/Container.h"
+#include "csgv/gpu/FrameLayout.h"
 
 #include <cstdint>
 #include <vector>
@@ -18,12 +19,22 @@ namespace csgv::gpu {
 constexpr uint32_t kMaterialTableLabels = 1u << 22;
 
 struct LabelLookup {
-    uint32_t kind = 0;              ///< kLookupScan, kLookupDense or kLookupHashed (FrameLayout.h)
+    uint32_t kind = kLookupScan;    ///< kLookupScan, kLookupDense or kLookupHashed (FrameLayout.h)
     uint32_t largest = 0;           ///< the largest label any palette holds
     /// kLookupHashed: the label in each slot (kNone: empty), a power of two of them, and the two
     /// seeds of labelSlot.
     std::vector<uint32_t> slots;
     uint32_t seeds[2] = {0, 0};
+    /// Entries of the table: a slot each hashed, a label each dense (also kLookupScan when the
+    /// labels are small), else none.
+    uint64_t entries() const {
+        if (kind == kLookupHashed) return slots.size();
+        return largest < kMaterialTableLabels ? uint64_t(largest) + 1 : 0;
+    }
+    /// Device bytes of the table (4 a label dense, 8 a slot hashed) and of the labels' colours
+    /// (16 an entry, with the dense and hashed kinds only: label_colors.comp).
+    uint64_t tableBytes() const { return entries() * (kind == kLookupHashed ? 8 : 4); }
+    uint64_t colorBytes() const { return kind == kLookupScan ? 0 : entries() * 16; }
     /// The table's words: `materialOf` of every label (dense) or (label, material) per slot.
     template <class MaterialOf> std::vector<uint32_t> table(const MaterialOf& materialOf) const;
     /// A label's material in a table made by table() (as the shaders find it; kNone for a label
@@ -40,21 +51,19 @@ struct LabelLookup {
 /// renderer's device memory: under a tighter budget the brick cache comes first (the scan, with
 /// the dense table where labels are small, as for pieces).
 LabelLookup planLabelLookup(const CompressedVolume& volume, bool piece, uint64_t budgetBytes);
-/// Device bytes of a lookup's table and colours (kLookupScan: the dense table alone, if any).
-uint64_t labelLookupBytes(const LabelLookup& lookup);
 
 template <class MaterialOf> std::vector<uint32_t> LabelLookup::table(const MaterialOf& materialOf) const {
     std::vector<uint32_t> t;
-    if (kind == 2u) { // kLookupHashed
-        t.assign(slots.size() * 2, 0xFFFFFFFFu);
+    if (kind == kLookupHashed) {
+        t.assign(slots.size() * 2, kNone);
 #pragma omp parallel for schedule(static, 4096)
         for (int64_t i = 0; i < int64_t(slots.size()); ++i) {
-            if (slots[size_t(i)] == 0xFFFFFFFFu) continue;
+            if (slots[size_t(i)] == kNone) continue;
             t[2 * size_t(i)] = slots[size_t(i)];
             t[2 * size_t(i) + 1] = materialOf(slots[size_t(i)]);
         }
-    } else if (largest < kMaterialTableLabels) {
-        t.resize(size_t(largest) + 1);
+    } else if (entries() > 0) {
+        t.resize(size_t(entries()));
 #pragma omp parallel for schedule(static, 4096)
         for (int64_t l = 0; l < int64_t(t.size()); ++l) t[size_t(l)] = materialOf(uint32_t(l));
     }
