@@ -34,6 +34,18 @@ std::vector<uint32_t> narrowMap(const std::vector<int64_t>& map, bool unsigned64
   return out;
 }
 
+/// Why no label array was found (named `labelArray`, or the first integer one), said alike by
+/// resolve() and resolveAgreed(); `encodingToo`: nor is there a CSGV encoding to draw.
+std::string missingLabelArray(const std::string& labelArray, bool encodingToo)
+{
+  if (!labelArray.empty())
+  {
+    return "the input has no array named '" + labelArray + "'";
+  }
+  return std::string("the input has no label array (one-component integer cell or point data)") +
+    (encodingToo ? " and no CSGV encoding" : "");
+}
+
 /// Shifts a corner geometry by `voxels` along its own axes.
 csgv::Geometry shiftCorner(csgv::Geometry g, const std::array<long, 3>& voxels)
 {
@@ -292,9 +304,7 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
     {
       return encodingError;
     }
-    return labelArray.empty() ? std::string("the input has no label array (one-component integer "
-                                            "cell or point data) and no CSGV encoding")
-                              : "the input has no array named '" + labelArray + "'";
+    return missingLabelArray(labelArray, true);
   }
   std::array<uint32_t, 3> dims;
   out.corner = csgvvtk::imageGeometry(image, isCell, dims);
@@ -353,7 +363,7 @@ std::string VolumeCache::resolveAgreed(
   std::array<uint32_t, 3> dims{};
   if (!array || !isPiece)
   {
-    error = !array ? "the input has no label array to compress" : "the input is not a piece of an image";
+    error = !array ? missingLabelArray(labelArray, false) : "the input is not a piece of an image";
   }
   else
   {

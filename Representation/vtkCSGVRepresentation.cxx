@@ -235,6 +235,13 @@ bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image)
       in.Error = in.Volumes->resolve(image, this->LabelArray, in.Source);
     }
   }
+  this->ReportInputError();
+  return in.Source.shared != nullptr;
+}
+
+void vtkCSGVRepresentation::ReportInputError()
+{
+  vtkInternals& in = *this->Internals;
   if (!in.Error.empty() && in.Error != in.Reported)
   {
     in.Reported = in.Error;
@@ -244,7 +251,6 @@ bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image)
   {
     in.Reported.clear();
   }
-  return in.Source.shared != nullptr;
 }
 
 int vtkCSGVRepresentation::ProcessViewRequest(
@@ -462,11 +468,7 @@ void vtkCSGVRepresentation::ShareAcrossRanks(bool resolved)
     {
       in.Error = in.Volumes->resolveAgreed(this->Cache, this->LabelArray, c, in.Source);
       resolved = in.Source.shared != nullptr;
-      if (!in.Error.empty())
-      {
-        in.Reported = in.Error;
-        vtkErrorMacro(<< "Segmentation Volume: " << in.Error);
-      }
+      this->ReportInputError();
     }
   }
   bool reduced = false;

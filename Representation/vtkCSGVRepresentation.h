@@ -161,9 +161,12 @@ private:
   /// Resolves the input once per (image, modification time, label array) and reports a failure
   /// once; returns true when there is something to draw.
   bool ResolveInput(vtkImageData* image);
+  /// Reports the input's error once (each new one; none again until it changes).
+  void ReportInputError();
   /// Under MPI, what the ranks holding pieces of one volume share, once per data update
-  /// (collective; `resolved`: this rank has a volume): the labels beyond each piece (ghost faces)
-  /// and, when asked for, the computed attributes summed over the ranks.
+  /// (collective; `resolved`: this rank has a volume): the ids of a plain image relabelled piece
+  /// by piece (VolumeCache::resolveAgreed), the labels beyond each piece (ghost faces) and, when
+  /// asked for, the computed attributes summed over the ranks.
   void ShareAcrossRanks(bool resolved);
 
   vtkSmartPointer<vtkImageData> Cache;
