@@ -5,8 +5,9 @@
 // before), or (under cache pressure) that no ray used for
 // kAllocEvictAge frames (least recently used first: the host lowers the age while the cache stays
 // full), onto their level's free stack; and requests bricks the previous frame's rays needed but
-// did not find, at the level their centre's distance asks for (with detail streaming, the next
-// coarser one while the finest level's stream is not on the device).
+// did not find (with kFlagPrefetch: every visible brick not cached), at the level their centre's
+// distance asks for (with detail streaming, the next coarser one while the finest level's stream
+// is not on the device).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
@@ -19,7 +20,9 @@ Frame f;
 void requestBrick(uint b) {
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     uvec4 s = bricks.v[b];
-    const bool used = s.z == fv.frame.x; // marked by the previous frame's rays (frame index + 1)
+    // Marked by the previous frame's rays (frame index + 1), or every brick (kFlagPrefetch: the
+    // visible ones are asked for below).
+    const bool used = s.z == fv.frame.x || (fv.frame.y & kFlagPrefetch) != 0u;
     // Most bricks of a large volume are neither cached nor needed: nothing to do for them, unless
     // the materials changed which bricks are visible (their flags follow below).
     if (!used && s.y == kNone && (fv.frame.y & kFlagVisibilityChanged) == 0u) return;

@@ -1193,6 +1193,49 @@ TEST(Renderer, ChangesThatKeepTheImageKeepTheAccumulation) {
     EXPECT_EQ(r->output().rgba, translucent);
 }
 
+TEST(Renderer, SmallVolumesHaveEveryVisibleBrickDecodedAtTheFirstFrame) {
+    CSGV_REQUIRE_GPU(ctx);
+    // denseB: 60 bricks of 16^3, far below RendererOptions::prefetchVoxels.
+    Scene& scene = fixtureScene(*ctx, "denseB_b16_rans2_delta.csgv");
+    const FrameInput in = perspectiveView({-50, 140, 110}, {38, 30, 22}, {0, 0, 1}, 35, 96, 72);
+    RenderSettings st;
+    st.shading = Shading::Shadow;
+    st.jitter = false;
+    st.denoise = false;
+    st.sampleTarget = 1;
+    for (RendererOptions::Decode decode : {RendererOptions::Decode::Auto, RendererOptions::Decode::Gpu}) {
+        SCOPED_TRACE(decode == RendererOptions::Decode::Gpu ? "GPU decoding" : "the device's decoding");
+        auto cold = [&](uint64_t prefetchVoxels) {
+            RendererOptions o;
+            o.decode = decode;
+            o.cacheBytes = 16ull << 20;
+            o.prefetchVoxels = prefetchVoxels;
+            Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
+            EXPECT_TRUE(r.isOk()) << r.message();
+            if (r) (*r)->setSettings(st);
+            return r ? std::move(*r) : nullptr;
+        };
+        std::unique_ptr<Renderer> fetched = cold(RendererOptions{}.prefetchVoxels), found = cold(0);
+        ASSERT_TRUE(fetched && found);
+        // Every view ray finds its bricks at once: the first frame is complete (shadow rays too).
+        Result<FrameStats> first = fetched->renderFrame(in);
+        ASSERT_TRUE(first.isOk()) << first.message();
+        EXPECT_EQ(first->missingPixels, 0u);
+        EXPECT_EQ(first->previews, 0u);
+        EXPECT_EQ(first->minSamples, 1u);
+        // Without it the rays find them a layer a frame; the converged images are the same.
+        Result<FrameStats> firstFound = found->renderFrame(in);
+        ASSERT_TRUE(firstFound.isOk()) << firstFound.message();
+        EXPECT_GT(firstFound->missingPixels, 0u);
+        FrameOutput a, b;
+        ASSERT_TRUE(fetched->readOutput(a).isOk());
+        b = renderConverged(*found, in, 1, 64);
+        EXPECT_EQ(a.rgba, b.rgba);
+        EXPECT_EQ(a.depth, b.depth);
+        EXPECT_EQ(a.label, b.label);
+    }
+}
+
 TEST(Renderer, StillRenderUnderATinyBudgetEndsWithoutHoles) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");

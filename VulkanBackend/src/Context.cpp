@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <map>
+#include <mutex>
+#include <tuple>
 
 namespace csgv::gpu {
 
@@ -118,6 +120,10 @@ struct Context::Impl {
         VkPipelineLayout layout;
     };
     std::map<uint64_t, Pipeline> pipelines;
+    /// The pipeline made from each SPIR-V (its FNV-1a hash, length and push-constant bytes): a
+    /// renderer made again for the same volume, or another view's, compiles nothing.
+    std::map<std::tuple<uint64_t, size_t, uint32_t>, uint64_t> pipelineOf;
+    std::mutex pipelineMutex; // pipelines may be made on several threads at once (Renderer)
     /// Set after a timeout or device loss: the GPU may still use every object, so nothing is
     /// freed or waited on again (a leak, never a crash or a hang) and all work is refused.
     bool lost = false;
@@ -488,6 +494,14 @@ Status Context::download(const Buffer& src, uint64_t offset, void* data, uint64_
 
 Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes) {
     Impl& im = *m_impl;
+    uint64_t hash = 1469598103934665603ull; // FNV-1a over the words' bytes
+    for (uint32_t w : spirv)
+        for (int b = 0; b < 4; ++b) hash = (hash ^ ((w >> (8 * b)) & 0xFFu)) * 1099511628211ull;
+    const auto key = std::make_tuple(hash, spirv.size(), pushConstantBytes);
+    {
+        std::lock_guard<std::mutex> lock(im.pipelineMutex);
+        if (auto it = im.pipelineOf.find(key); it != im.pipelineOf.end()) return it->second;
+    }
     VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
     smci.codeSize = spirv.size() * 4;
     smci.pCode = spirv.data();
@@ -518,7 +532,14 @@ Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spi
         return Status::error(vkError("vkCreateComputePipelines", r));
     }
     const uint64_t handle = reinterpret_cast<uint64_t>(pipeline);
+    std::lock_guard<std::mutex> lock(im.pipelineMutex);
+    if (auto it = im.pipelineOf.find(key); it != im.pipelineOf.end()) { // another thread made it meanwhile
+        im.vk.vkDestroyPipeline(im.device, pipeline, nullptr);
+        im.vk.vkDestroyPipelineLayout(im.device, layout, nullptr);
+        return it->second;
+    }
     im.pipelines[handle] = Impl::Pipeline{pipeline, layout};
+    im.pipelineOf[key] = handle;
     return handle;
 }
 

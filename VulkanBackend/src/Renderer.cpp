@@ -36,7 +36,35 @@ Result<uint64_t> makePipeline(Context& ctx, const char* name, const Defines& def
     return p;
 }
 
+/// A pipeline to make: the shader, its defines, its push-constant bytes, where its handle goes.
+struct PipelineJob {
+    const char* name;
+    Defines defines;
+    uint32_t pushBytes;
+    uint64_t* out;
+};
+
+/// Makes the pipelines on the workers, in parallel (a CPU device's compiler takes about 120 ms
+/// for the render pipeline, the others a few ms each: the first frame waits for the longest, not
+/// for the sum); the first error is returned.
+Status makePipelines(Context& ctx, WorkerPool& workers, const std::vector<PipelineJob>& jobs, bool profile) {
+    std::vector<Status> results(jobs.size());
+    workers.parallelFor(jobs.size(), [&](uint64_t i, unsigned) {
+        Result<uint64_t> p = makePipeline(ctx, jobs[i].name, jobs[i].defines, jobs[i].pushBytes, profile);
+        if (p) *jobs[i].out = *p;
+        else results[i] = p.status();
+    });
+    for (const Status& r : results)
+        if (!r) return r;
+    return Status::ok();
+}
+
 constexpr uint32_t kColormapSamples = 1024;
+
+/// Seconds a rendered pixel costs per ray before a renderer has measured its own frames (which
+/// then replace this): CPU devices (lavapipe, two cores: 0.11 us for local shading on synthetic
+/// 256^3 and the AAL atlas at 640x360), GPUs (an H200: 0.5 ns at 1920x1080).
+constexpr double kPriorSecondsPerRay[2] = {1.5e-7, 2e-9};
 
 static_assert(uint32_t(Shading::Local) == kShadingLocal && uint32_t(Shading::Shadow) == kShadingShadow &&
                   uint32_t(Shading::AmbientOcclusion) == kShadingAo && uint32_t(Shading::PathTracing) == kShadingPt,
@@ -161,6 +189,11 @@ struct Renderer::Impl {
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     uint32_t requestBlock = 1;        // REQUEST_BLOCK of cache_request.comp (bricks per invocation)
     bool visibilityChanged = true;    // uploadVisibility ran since the last frame (kFlagVisibilityChanged)
+    uint32_t visibleBricks = 0;       // bricks a material draws (uploadVisibility)
+    uint64_t prefetchVoxels = 0;      // RendererOptions::prefetchVoxels
+    // The next frame asks for every visible brick (kFlagPrefetch) when they fit (prefetches()):
+    // set by a new cache or new visibility.
+    bool prefetchPending = true;
     Mat4 lastWorldToClip{};
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
     uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
@@ -262,28 +295,29 @@ struct Renderer::Impl {
     explicit Impl(Context& c) : ctx(c) {}
 
     /// The finest pixel stride (the settings' one or coarser) at which a frame of `pixels` in this
-    /// shading mode, at the cost per pixel measured so far, takes at most `frameSeconds`.
+    /// shading mode, at the cost per pixel measured so far, takes at most `frameSeconds`. Before
+    /// any frame was measured: a prior per device kind (kPriorSecondsPerRay, local shading's
+    /// frames on lavapipe and NVIDIA rounded up), scaled by the rays each mode casts.
     uint32_t strideFor(const RenderSettings& st, uint64_t pixels, double frameSeconds) const {
         const uint32_t mode = uint32_t(st.shading) & 3;
+        const double rays[4] = {1, 2, 2, 4};
         double seconds = secondsPerPixel[mode];
         if (seconds <= 0) { // not measured in this mode: a measured one, scaled by the rays each casts
-            const double rays[4] = {1, 2, 2, 4};
             for (uint32_t m = 0; m < 4; ++m)
                 if (secondsPerPixel[m] > 0) seconds = std::max(seconds, secondsPerPixel[m] / rays[m] * rays[mode]);
         }
+        if (seconds <= 0) seconds = kPriorSecondsPerRay[ctx.device().type == "cpu" ? 0 : 1] * rays[mode];
         uint32_t stride = std::max<uint32_t>(1, st.subsampling);
         while (stride < 8 && double(pixels) * seconds / (stride * stride) > frameSeconds) stride *= 2;
         return stride;
     }
-    /// A still render's coarse stride: coarse enough that the first image (every pixel showing a
-    /// sample, a few frames as bricks arrive) comes in a fraction of the budget (stride 4 before
-    /// any frame was measured). Later frames take the settings' own: every frame costs a
-    /// full-resolution gather besides its rays, so the finest stride converges fastest.
+    /// A still render's coarse stride: coarse enough that a frame takes at most an eighth of the
+    /// budget, so the first image (every pixel showing a sample or a preview, a few frames as
+    /// bricks arrive) comes in a fraction of it. Later frames take the settings' own: every
+    /// frame at a coarse stride costs a full-resolution gather besides its rays, so the finest
+    /// stride converges fastest.
     uint32_t stillCoarseStride(const RenderSettings& st, uint64_t pixels, double budgetSeconds) const {
-        const bool measured = secondsPerPixel[0] > 0 || secondsPerPixel[1] > 0 || secondsPerPixel[2] > 0 ||
-                              secondsPerPixel[3] > 0;
-        return std::max(std::max<uint32_t>(1, st.subsampling),
-                        measured ? strideFor(st, pixels, std::max(budgetSeconds, 0.1) / 8) : 4u);
+        return std::max(std::max<uint32_t>(1, st.subsampling), strideFor(st, pixels, std::max(budgetSeconds, 0.1) / 8));
     }
     void measureFrame(const RenderSettings& st, const FrameInput& in, const FrameStats& stats) {
         if (stats.milliseconds <= 0) return; // nothing was submitted
@@ -298,9 +332,9 @@ struct Renderer::Impl {
     Result<FrameStats> frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     bool deferDenoise = false;        // frame(): gather only; render() denoises once after its frames
     bool denoisePending = false;      // the last frame gathered without denoising
-    Result<uint64_t> ensurePipeline(Shading shading);
-    /// The resolve passes this frame's settings use, compiled on first use.
-    Status ensureResolvePipelines(const RenderSettings& st);
+    /// The pipelines this frame's settings use that are not made yet (the render pass's for the
+    /// shading mode, the resolve passes, the cache passes, ...): made together, in parallel.
+    Status ensurePipelines(const RenderSettings& st);
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
     void buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
@@ -452,7 +486,19 @@ struct Renderer::Impl {
         const uint32_t capacity = a[kAllocCapacity];
         std::fill(a, a + kAllocWords, 0u);
         a[kAllocCapacity] = capacity;
+        prefetchPending = true;
         return Status::ok();
+    }
+    /// Whether a frame asks for every visible brick at once (RendererOptions::prefetchVoxels). A
+    /// new view otherwise finds its bricks one layer a frame: AAL (36 bricks of 32^3) at 1280x720
+    /// on lavapipe took six frames, 0.60 s, to its first complete image, 0.46 s in one frame with
+    /// it. Only for small volumes, where decoding bricks no view ray needs costs little: a
+    /// synthetic 256^3 (512 bricks) decodes in 130 ms on two cores, what a view needs in 22 ms.
+    bool prefetches() const {
+        const uint64_t edge = volume->volume().brickSize;
+        const uint64_t voxels = uint64_t(visibleBricks) * edge * edge * edge;
+        const uint64_t bytes = uint64_t(visibleBricks) * volume->regionWords(0) * 4;
+        return !detail && voxels <= prefetchVoxels && visibleBricks <= maxRequests && bytes <= cache.size() / 4;
     }
 };
 
@@ -514,16 +560,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("LABEL_MASK", std::to_string(im.lookup.slots.empty() ? 0 : im.lookup.slots.size() - 1) + "u");
     im.defines = d;
     im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
-    struct Shader {
-        const char* name;
-        uint64_t* pipeline;
-    };
-    for (const Shader& s : {Shader{"cache_request.comp", &im.pRequest}, Shader{"cache_provision.comp", &im.pProvision},
-                            Shader{"cache_assign.comp", &im.pAssign}, Shader{"cache_commit.comp", &im.pCommit}}) {
-        Result<uint64_t> p = makePipeline(context, s.name, d, 8, im.profileDispatches);
-        if (!p) return p.status();
-        *s.pipeline = *p;
-    }
 
     auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind, const char* what) -> Status {
         Result<Buffer> res = context.createBuffer(std::max<uint64_t>(bytes, 16), kind);
@@ -537,6 +573,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation,
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
+    im.prefetchVoxels = options.prefetchVoxels;
     const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
     im.cacheKind = hostOrDevice;
     // Everything but the cache and the images, sized once: summed for the budget, then allocated.
@@ -601,11 +638,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                                         im.decodeStates.address(), im.maxRequests, im.frameDecode, im.decodeDispatches,
                                         im.detail.get())))
         return s;
-    if (!im.hostDecode) {
-        Result<uint64_t> p = makePipeline(context, "cache_uniform.comp", d, 8, im.profileDispatches);
-        if (!p) return p.status();
-        im.pUniform = *p;
-    }
     std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
     for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
@@ -844,7 +876,9 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
                 vis[2 * size_t(b) + 1] = m;
             }
     }
-    visibilityChanged = true;
+    visibilityChanged = prefetchPending = true;
+    visibleBricks = 0;
+    for (size_t b = 0; b < brickCount; ++b) visibleBricks += vis[2 * b] != kNone ? 1 : 0;
     return ctx.upload(visible, 0, vis.data(), vis.size() * 4);
 }
 
@@ -994,28 +1028,26 @@ Status Renderer::Impl::detectChanges(const FrameInput& in) {
     return Status::ok();
 }
 
-Status Renderer::Impl::ensureResolvePipelines(const RenderSettings& st) {
-    for (uint32_t pass = kResolveGather; pass <= kResolveFinal; ++pass) {
-        const bool needed = pass == kResolveGather ? !resolvesInRender(st) : denoises(st);
-        if (!needed || pResolve[pass]) continue;
+Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
+    std::vector<PipelineJob> jobs;
+    auto need = [&](uint64_t& pipeline, const char* name, const char* define, const std::string& value, uint32_t push) {
+        if (pipeline) return;
         Defines d = defines;
-        d.emplace_back("RESOLVE_PASS", std::to_string(pass) + "u");
-        Result<uint64_t> p = makePipeline(ctx, "resolve.comp", d, sizeof(ResolvePush), profileDispatches);
-        if (!p) return p.status();
-        pResolve[pass] = *p;
-    }
-    return Status::ok();
-}
-
-Result<uint64_t> Renderer::Impl::ensurePipeline(Shading shading) {
-    uint64_t& pipeline = pRender[uint32_t(shading) & 3];
-    if (pipeline) return pipeline;
-    Defines d = defines;
-    d.emplace_back("SHADING", std::to_string(uint32_t(shading) & 3) + "u");
-    Result<uint64_t> p = makePipeline(ctx, "render.comp", d, 8, profileDispatches);
-    if (!p) return p.status();
-    pipeline = *p;
-    return pipeline;
+        if (define) d.emplace_back(define, value);
+        jobs.push_back({name, std::move(d), push, &pipeline});
+    };
+    need(pRender[uint32_t(st.shading) & 3], "render.comp", "SHADING", std::to_string(uint32_t(st.shading) & 3) + "u", 8);
+    for (uint32_t pass = kResolveGather; pass <= kResolveFinal; ++pass)
+        if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st))
+            need(pResolve[pass], "resolve.comp", "RESOLVE_PASS", std::to_string(pass) + "u", sizeof(ResolvePush));
+    need(pRequest, "cache_request.comp", nullptr, "", 8);
+    need(pProvision, "cache_provision.comp", nullptr, "", 8);
+    need(pAssign, "cache_assign.comp", nullptr, "", 8);
+    need(pCommit, "cache_commit.comp", nullptr, "", 8);
+    if (!hostDecode) need(pUniform, "cache_uniform.comp", nullptr, "", 8);
+    if (usesPixelList) need(pPixelList, "pixel_list.comp", nullptr, "", 8);
+    if (labelColorsPending) need(pLabelColors, "label_colors.comp", nullptr, "", 8);
+    return jobs.empty() ? Status::ok() : makePipelines(ctx, hostWorkers(), jobs, profileDispatches);
 }
 
 /// The view: matrices, light, clip box, tone mapping, face normals (then packState).
@@ -1094,7 +1126,8 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     if (hasLabelMap) flags |= kFlagLabelMap;
     if (resolvesInRender(st)) flags |= kFlagResolveInRender;
     if (visibilityChanged) flags |= kFlagVisibilityChanged;
-    visibilityChanged = false;
+    if (prefetchPending && prefetches()) flags |= kFlagPrefetch;
+    visibilityChanged = prefetchPending = false;
     const uint32_t stride = st.subsampling;
     p.frame[0] = frameIndex;
     p.frame[1] = flags;
@@ -1356,8 +1389,8 @@ bool Renderer::Impl::fragmented() {
 }
 
 Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
-    Result<uint64_t> renderPipeline = ensurePipeline(st.shading);
-    if (!renderPipeline) return renderPipeline.status();
+    Status s = ensurePipelines(st);
+    if (!s) return s;
     FrameStats stats;
     if (st.sampleTarget > 0 && prevMinSamples >= st.sampleTarget && !clearPending && !cacheResetPending) {
         // Every pixel holds its samples: the image is final, nothing to submit.
@@ -1367,25 +1400,13 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         stats.cacheUsedBytes = uint64_t(allocWords()[kAllocTop]) * 4;
         return stats;
     }
-    Status s;
     if (cacheResetPending) {
         if (!(s = resetCacheNow())) return s;
         cacheResetPending = false;
         stats.cacheReset = true;
     }
-    if (!(s = ensureResolvePipelines(st))) return s;
-    if (usesPixelList && !pPixelList) {
-        Result<uint64_t> p = makePipeline(ctx, "pixel_list.comp", defines, 8, profileDispatches);
-        if (!p) return p.status();
-        pPixelList = *p;
-    }
-    if (labelColorsPending && !pLabelColors) {
-        Result<uint64_t> p = makePipeline(ctx, "label_colors.comp", defines, 8, profileDispatches);
-        if (!p) return p.status();
-        pLabelColors = *p;
-    }
     if (!(s = packParams(in, st, clipToWorld))) return s;
-    buildDispatches(in, st, *renderPipeline);
+    buildDispatches(in, st, pRender[uint32_t(st.shading) & 3]);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;

@@ -103,6 +103,8 @@ public:
     Status download(const Buffer& src, uint64_t offset, void* data, uint64_t bytes);
 
     /// A compute pipeline from SPIR-V whose only interface is `pushConstantBytes` of push constants.
+    /// The same SPIR-V and push size give the same pipeline, made once per context (it lives as
+    /// long as the context). Several threads may make pipelines at once, while nothing runs.
     Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes);
     /// Records dispatches of one pipeline with push constants, submits, and waits.
     /// A compute dispatch, or (with `fill` set) a fill of a buffer's first `fillBytes` with the

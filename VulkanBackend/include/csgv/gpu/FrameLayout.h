@@ -24,6 +24,7 @@ CSGV_CONST(uint32_t, kFlagDepthInput, 16u)
 CSGV_CONST(uint32_t, kFlagLabelMap, 64u)
 CSGV_CONST(uint32_t, kFlagResolveInRender, 128u) ///< the render pass writes the output and the counts itself (no gather follows)
 CSGV_CONST(uint32_t, kFlagVisibilityChanged, 256u) ///< brick visibility (kSlotVisible) changed: the request stage visits every brick
+CSGV_CONST(uint32_t, kFlagPrefetch, 512u) ///< the request stage asks for every visible brick not cached, used or not
 
 // Shading modes (Frame.frame.z): the values of csgv::gpu::Shading.
 CSGV_CONST(uint32_t, kShadingLocal, 0u)

@@ -92,6 +92,11 @@ struct RendererOptions {
     /// would pass the budget shrinks the cache (which then fills anew) rather than fail.
     uint64_t deviceMemoryBytes = 0;
     uint32_t maxRequestsPerFrame = 4096; ///< bricks decoded in one frame at most (more wait a frame)
+    /// A small volume has every visible brick decoded at the first frame of a new cache (or of new
+    /// visibility) when those bricks hold at most this many voxels, fit one frame's requests and
+    /// a quarter of the cache, and no detail is streamed: a view ray stops at the first brick it
+    /// misses, so otherwise a view finds its bricks one layer a frame (0: never).
+    uint64_t prefetchVoxels = uint64_t(1) << 21;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
     /// average streams, at most all streams and a quarter of what the budget leaves beside the
