@@ -96,7 +96,7 @@ struct RendererOptions {
     /// visibility) when those bricks hold at most this many voxels, fit one frame's requests and
     /// a quarter of the cache, and no detail is streamed: a view ray stops at the first brick it
     /// misses, so otherwise a view finds its bricks one layer a frame (0: never).
-    uint64_t prefetchVoxels = uint64_t(1) << 21;
+    uint64_t prefetchVoxels = uint64_t(1) << 23;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
     /// average streams, at most all streams and a quarter of what the budget leaves beside the
