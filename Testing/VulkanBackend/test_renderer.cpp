@@ -234,6 +234,7 @@ std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cach
     RendererOptions o;
     o.cacheBytes = cacheBytes;
     o.decode = decode;
+    o.prefetchVoxels = 0; // rays find the bricks of a cold cache (the prefetch has a test of its own)
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, scene.gpu, o);
     EXPECT_TRUE(r.isOk()) << r.message();
     if (!r) return nullptr;
