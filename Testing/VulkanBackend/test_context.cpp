@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <thread>
 #include <vector>
 
 #include <cstdlib>
@@ -56,6 +57,48 @@ TEST(GpuContext, BuffersRoundTripThroughBothMemoryKinds) {
         EXPECT_FALSE(ctx->upload(*b, 8, data.data(), data.size() * 4).isOk()); // past the end
     }
     EXPECT_FALSE(ctx->createBuffer(uint64_t(1) << 50, MemoryKind::DeviceLocal).isOk());
+}
+
+TEST(GpuContext, APipelineIsMadeOncePerShaderEvenFromTwoThreads) {
+    CSGV_REQUIRE_GPU(ctx);
+    const std::string src = "#version 460\n#extension GL_EXT_buffer_reference : require\n"
+                            "#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require\n"
+                            "layout(local_size_x = 1) in;\n"
+                            "layout(buffer_reference, std430) buffer Out { uint w[]; };\n"
+                            "layout(push_constant) uniform Push { uint64_t out_; } pc;\n"
+                            "void main() { Out(pc.out_).w[0] = VALUE; }\n";
+    Result<std::vector<uint32_t>> three = compileComputeSource("memo.comp", src, {{"VALUE", "3u"}});
+    Result<std::vector<uint32_t>> four = compileComputeSource("memo.comp", src, {{"VALUE", "4u"}});
+    ASSERT_TRUE(three.isOk() && four.isOk()) << three.message() << four.message();
+    // Made on two threads at once, then again: one pipeline for the same SPIR-V and push size.
+    Result<uint64_t> a = Status::error("not made"), b = Status::error("not made");
+    std::thread other([&] { a = ctx->createComputePipeline(*three, 8); });
+    b = ctx->createComputePipeline(*three, 8);
+    other.join();
+    ASSERT_TRUE(a.isOk() && b.isOk()) << a.message() << b.message();
+    EXPECT_EQ(*a, *b);
+    Result<uint64_t> again = ctx->createComputePipeline(*three, 8);
+    ASSERT_TRUE(again.isOk());
+    EXPECT_EQ(*again, *a);
+    // Other SPIR-V, or another push size, is another pipeline.
+    Result<uint64_t> other4 = ctx->createComputePipeline(*four, 8), push16 = ctx->createComputePipeline(*three, 16);
+    ASSERT_TRUE(other4.isOk() && push16.isOk());
+    EXPECT_NE(*other4, *a);
+    EXPECT_NE(*push16, *a);
+    // Each does what its SPIR-V says.
+    Result<Buffer> out = ctx->createBuffer(4, MemoryKind::HostVisible);
+    ASSERT_TRUE(out.isOk());
+    const uint64_t push = out->address();
+    for (const auto& [pipeline, value] : {std::pair<uint64_t, uint32_t>{*a, 3u}, {*other4, 4u}}) {
+        Context::Dispatch d;
+        d.pipeline = pipeline;
+        d.pushConstants = &push;
+        d.pushConstantBytes = 8;
+        ASSERT_TRUE(ctx->run({d}).isOk());
+        uint32_t got = 0;
+        ASSERT_TRUE(ctx->download(*out, 0, &got, 4).isOk());
+        EXPECT_EQ(got, value);
+    }
 }
 
 TEST(ShaderCompiler, EmbeddedSourcesIncludesAndErrorsWithLines) {
