@@ -546,7 +546,7 @@ bool vtkCSGVVolumeProp::UploadTextures(vtkOpenGLRenderWindow* win, bool changed)
   // A reduced interactive frame is stretched over the view: smooth colours, its depth as it is.
   p.Color->SetMagnificationFilter(p.LodFactor > 1 ? vtkTextureObject::Linear : vtkTextureObject::Nearest);
   win->GetState()->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  if (!p.Color->Create2DFromRaw(out.width, out.height, 4, VTK_FLOAT, const_cast<float*>(out.rgba.data())) ||
+  if (!p.Color->Create2DFromRaw(out.width, out.height, 4, VTK_UNSIGNED_CHAR, const_cast<uint32_t*>(out.rgba8.data())) ||
     !p.DepthTexture->Create2DFromRaw(out.width, out.height, 1, VTK_FLOAT, const_cast<float*>(out.depth.data())))
   {
     this->Report("could not create the compositing textures");
@@ -660,7 +660,7 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   }
   p.LastError.clear();
   const csgv::gpu::FrameOutput& out = p.View.output();
-  if (out.width != request.width || out.height != request.height || out.rgba.empty())
+  if (out.width != request.width || out.height != request.height || out.rgba8.empty())
   {
     return 0;
   }

@@ -374,7 +374,7 @@ void renderPixel(uvec2 cell) {
     bool preview = false;
     if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total, preview)) n = samples + 1u;
     if ((fv.frame.y & kFlagResolveInRender) == 0u) return;
-    if (n != samples || preview) Vec4Buf(frameAddr[kSlotColorOut]).v[pixel] = toneMapped(total / float(max(n, 1u)));
+    if (n != samples || preview) UintBuf(frameAddr[kSlotColorOut]).w[pixel] = packUnorm4x8(toneMapped(total / float(max(n, 1u))));
     count.fewest = min(count.fewest, n);
     if (n == 0u) {
         if (preview) ++count.previews;

@@ -6,7 +6,8 @@
 //     the nearest pixel of its stride block that has samples or a preview (upsampling);
 //   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
 //     same face, similar depth), fading out as samples accumulate;
-//   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output.
+//   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output, 8 bits a
+//     channel (kSlotColorOut).
 // Pixels outside the rectangle keep what the clear filled in (Renderer.cpp addClear).
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -77,7 +78,8 @@ void resolvePixel(Frame f, uvec2 px) {
         const uint holes = subgroupAdd(shows ? 0u : 1u); // one atomic per subgroup
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocHoles], holes);
         const vec4 c = shows ? Vec4Buf(frameAddr[kSlotAccum]).v[from] / float(max(n, 1u)) : vec4(0.0);
-        dst.v[pixel] = pc.dst == kSlotColorOut ? toneMapped(c) : c; // without denoising: one pass
+        if (pc.dst == kSlotColorOut) UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(c)); // without denoising: one pass
+        else dst.v[pixel] = c;
         return;
     }
     Vec4Buf src = Vec4Buf(f.addr[pc.src]);
@@ -109,7 +111,7 @@ void resolvePixel(Frame f, uvec2 px) {
         dst.v[pixel] = mix(filtered, centre, keep);
         return;
     }
-    dst.v[pixel] = toneMapped(centre);
+    UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(centre)); // the final pass: into the output
 }
 
 void main() {

@@ -404,7 +404,7 @@ struct Renderer::Impl {
         };
         const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},    {&samples, n * 4, MemoryKind::DeviceLocal},
                               {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
-                              {&colorOut, n * 16, MemoryKind::HostVisible}, {&depthOut, n * 4, MemoryKind::HostVisible},
+                              {&colorOut, n * 4, MemoryKind::HostVisible}, {&depthOut, n * 4, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
                               {&pixelList, usesPixelList ? n * 4 : 0, MemoryKind::HostVisible}};
         uint64_t bytes = 0;
@@ -1237,7 +1237,7 @@ void Renderer::Impl::addClear(const FrameInput& in) {
     // Fills, not a compute pass: pixels outside the footprint keep these values all along. The
     // accumulation needs none: it is read only where a pixel's sample count (cleared) is not 0.
     const uint64_t n = uint64_t(in.width) * in.height;
-    const std::pair<const Buffer*, uint64_t> zeroed[] = {{&samples, 4}, {&gbuffer, 16}, {&colorOut, 16}};
+    const std::pair<const Buffer*, uint64_t> zeroed[] = {{&samples, 4}, {&gbuffer, 16}, {&colorOut, 4}};
     for (const auto& z : zeroed) {
         Context::Dispatch d;
         d.fill = z.first;
@@ -1498,7 +1498,7 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
     const auto t1 = std::chrono::steady_clock::now();
     if (im.denoisePending && !(s = im.denoiseOutput())) return s;
     im.converged = result.last.minSamples >= target;
-    (void)output(Color | Depth); // what a compositor needs, read while the frame is fresh
+    (void)output(Color8 | Depth); // what a compositor needs, read while the frame is fresh
     const double finish = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     im.finishSeconds = im.finishSeconds > 0 ? 0.5 * (im.finishSeconds + finish) : finish;
     result.changed = true;
@@ -1507,7 +1507,7 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
 
 const FrameOutput& Renderer::output(uint32_t parts) {
     Impl& im = *m_impl;
-    const uint32_t missing = (parts | Color | Depth) & ~im.outputParts;
+    const uint32_t missing = (parts | Color8 | Depth) & ~im.outputParts;
     if (missing && im.width > 0 && readOutput(im.output, missing)) im.outputParts |= missing;
     return im.output;
 }
@@ -1518,9 +1518,12 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     const size_t n = size_t(im.width) * im.height;
     out.width = im.width;
     out.height = im.height;
+    const uint32_t* c = static_cast<const uint32_t*>(im.colorOut.mapped());
+    if (parts & Color8) out.rgba8.assign(c, c + n);
     if (parts & Color) {
-        const float* c = static_cast<const float*>(im.colorOut.mapped());
-        out.rgba.assign(c, c + 4 * n);
+        out.rgba.resize(4 * n);
+        for (size_t i = 0; i < n; ++i)
+            for (int k = 0; k < 4; ++k) out.rgba[4 * i + k] = float((c[i] >> (8 * k)) & 0xFFu) / 255.0f;
     }
     if (parts & Depth) {
         const float* d = static_cast<const float*>(im.depthOut.mapped());

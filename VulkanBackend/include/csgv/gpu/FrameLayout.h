@@ -76,7 +76,7 @@ CSGV_CONST(uint32_t, kSlotDepthIn, 9u)        ///< float per pixel: window depth
 CSGV_CONST(uint32_t, kSlotMaterials, 10u)     ///< GpuMaterial array
 CSGV_CONST(uint32_t, kSlotColormaps, 11u)     ///< vec4 colour samples
 CSGV_CONST(uint32_t, kSlotAttributes, 12u)    ///< uint64 address per attribute: float per label
-CSGV_CONST(uint32_t, kSlotColorOut, 13u)      ///< vec4 per pixel: resolved premultiplied RGBA
+CSGV_CONST(uint32_t, kSlotColorOut, 13u)      ///< uint per pixel: resolved premultiplied RGBA, 8 bits a channel (packUnorm4x8, R lowest): what a view's colour buffer holds
 CSGV_CONST(uint32_t, kSlotDepthOut, 14u)      ///< float per pixel
 CSGV_CONST(uint32_t, kSlotLabelMap, 15u)      ///< uint per stored label: the original label
 CSGV_CONST(uint32_t, kSlotDenoiseA, 16u)      ///< vec4 per pixel: resolve ping-pong buffers

@@ -131,7 +131,8 @@ struct FrameInput {
 /// @brief Per-pixel results, row 0 at the bottom.
 struct FrameOutput {
     uint32_t width = 0, height = 0;
-    std::vector<float> rgba;       ///< premultiplied, 4 floats a pixel
+    std::vector<float> rgba;       ///< premultiplied, 4 floats a pixel (multiples of 1/255: of rgba8)
+    std::vector<uint32_t> rgba8;   ///< the same, as the device writes it: 8 bits a channel, R lowest
     std::vector<float> depth;      ///< window depth of the first surface (1: none)
     std::vector<uint32_t> label;   ///< first opaque label hit (original label), kInvalidLabel: none
     std::vector<Face> face;        ///< its entry face
@@ -248,11 +249,11 @@ public:
     /// samples nothing is submitted. Reads nothing back.
     Result<FrameStats> renderFrame(const FrameInput& input);
     /// Parts of the output to read back (a compositor needs only colour and depth).
-    enum OutputParts : uint32_t { Color = 1, Depth = 2, GBuffer = 4, Samples = 8, All = 15 };
-    /// The output of the last render/renderFrame: colour and depth always, plus `parts`; each part
+    enum OutputParts : uint32_t { Color = 1, Depth = 2, GBuffer = 4, Samples = 8, Color8 = 16, All = 31 };
+    /// The output of the last render/renderFrame: 8-bit colour and depth always, plus `parts`; each part
     /// is read from the device once per frame, on first use (picking and the label image need the
     /// G-buffer, compositing does not). Empty before the first frame.
-    const FrameOutput& output(uint32_t parts = Color | Depth);
+    const FrameOutput& output(uint32_t parts = Color8 | Depth);
     /// Reads the current resolved image and G-buffer into `out` (the parts asked for; others stay
     /// as they are).
     Status readOutput(FrameOutput& out, uint32_t parts = All) const;
