@@ -4,7 +4,7 @@ nearest interpolation), on the same data, camera and resolution, over inputs x s
 
     xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch --force-offscreen-rendering \\
         Examples/compare_vtk.py --input DATA[,DATA...] [--input DATA ...] [--size 640x360,1280x720] \\
-        [--shadings local,shadow,ao,pt] [--frames 20] [--output DIR] [--json FILE] [--demos]
+        [--shadings local,shadow,ao,pt] [--frames 20] [--repeat N] [--output DIR] [--json FILE] [--demos]
 
 DATA is a .csgv (VTK's side gets the reader's decoded labels; ours keeps them compressed,
 DecodeLabels off), a NIfTI label volume (the plugin's NIfTI reader, point data; ours compresses
@@ -21,6 +21,8 @@ mix; --timeout bounds it; one killed by a signal is run once more) and prints: r
 camera turns 1 degree before each render), peak resident memory and, for ours, device memory
 (the base of an empty session is printed too). For each input, size and shading it saves VTK's
 image (left) and ours (right) side by side: DIR/<input>_<WxH>_<shading>_side_by_side.png.
+--repeat N measures each side N times, VTK's and ours in turn, and the table takes the median of
+their times (this machine is noisy: single runs of the same row differ by 10 % and more).
 
 At the end it prints a table, one row per (input, size, shading): median frame ms and time to
 first frame of both sides with the ratios VTK / ours, and peak memory. Part of every frame is
@@ -339,6 +341,23 @@ def print_side(r, label):
     sys.stdout.flush()
 
 
+def combine(runs):
+    """One side's measurement from its --repeat runs (None: a run that failed): the medians of the
+    times over the runs that succeeded, the other figures (memory, images) of the last; None when
+    none succeeded."""
+    done = [r for r in runs if r]
+    if not done:
+        return None
+    out = dict(done[-1])
+    for key in ("read_s", "first_frame_s", "median_frame_ms", "view_frame_ms"):
+        values = sorted(r[key] for r in done if r.get(key) is not None)
+        if values:
+            out[key] = values[len(values) // 2] if len(values) % 2 else 0.5 * (values[len(values) // 2 - 1] +
+                                                                                values[len(values) // 2])
+    out["repeats"] = len(done)
+    return out
+
+
 def fmt(value, digits):
     return "-" if value is None else "%.*f" % (digits, value)
 
@@ -507,6 +526,9 @@ def main():
     ap.add_argument("--shadings", default=",".join(SHADINGS),
                     help="comma-separated list of our shadings from local,shadow,ao,pt (default %(default)s)")
     ap.add_argument("--frames", type=int, default=20, help="frames timed per measurement")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="measure each side this many times, VTK's and ours in turn (a noisy machine): the "
+                         "table gives the median of their times")
     ap.add_argument("--output", default=None,
                     help="folder for images and generated synth volumes (default: a temporary one)")
     ap.add_argument("--json", help="also write the summary rows to this JSON file")
@@ -541,6 +563,8 @@ def main():
         sys.exit("--input, --size and --shadings each need at least one value")
     if args.frames < 1:
         sys.exit("--frames must be at least 1")
+    if args.repeat < 1:
+        sys.exit("--repeat must be at least 1")
 
     failed = False
     rows = []
@@ -555,19 +579,32 @@ def main():
                 print("== %s, %s, %d frames ==" % (spec, size, args.frames))
                 print("%-36s %8s %12s %10s %10s %11s" % ("representation", "read s", "1st frame s", "median ms",
                                                          "peak MiB", "device MiB"))
-                if error:
-                    vtk, vtk_error = None, error
-                else:
-                    vtk, vtk_error = run_side(args, "vtk", path, "%s_%s" % (name, size), size)
-                print_side(vtk, "Volume (vtkSmartVolumeMapper)")
+                # Each side --repeat times, in turn (VTK, then ours in every shading, again ...):
+                # a slow minute of a noisy machine falls on both.
+                vtk_runs, ours_runs, vtk_error, ours_errors = [], {sh: [] for sh in shadings}, None, {}
+                for _ in range(args.repeat):
+                    if error:
+                        run, run_error = None, error
+                    else:
+                        run, run_error = run_side(args, "vtk", path, "%s_%s" % (name, size), size)
+                    vtk_runs.append(run)
+                    vtk_error = vtk_error or run_error
+                    print_side(run, "Volume (vtkSmartVolumeMapper)")
+                    for shading in shadings:
+                        if error:
+                            run, run_error = None, error
+                        else:
+                            run, run_error = run_side(args, "csgv", path, "%s_%s_%s" % (name, size, shading), size,
+                                                      shading)
+                        ours_runs[shading].append(run)
+                        ours_errors[shading] = ours_errors.get(shading) or run_error
+                        print_side(run, "Segmentation Volume, " + shading)
+                vtk = combine(vtk_runs)
+                if args.repeat > 1:
+                    print("(the summary takes the median of the %d runs of each side)" % args.repeat)
                 base = None
                 for shading in shadings:
-                    if error:
-                        ours, ours_error = None, error
-                    else:
-                        ours, ours_error = run_side(args, "csgv", path, "%s_%s_%s" % (name, size, shading), size,
-                                                    shading)
-                    print_side(ours, "Segmentation Volume, " + shading)
+                    ours, ours_error = combine(ours_runs[shading]), ours_errors.get(shading)
                     side = None
                     if vtk and ours:
                         side = os.path.join(args.output, "%s_%s_%s_side_by_side.png" % (name, size, shading))
@@ -579,6 +616,7 @@ def main():
                     failed = failed or bool(errors)
                     rows.append({
                         "input": spec, "input_path": path, "size": size, "shading": shading, "frames": args.frames,
+                        "repeats": args.repeat,
                         "vtk_read_s": get(vtk, "read_s"), "ours_read_s": get(ours, "read_s"),
                         "vtk_median_frame_ms": get(vtk, "median_frame_ms"),
                         "ours_median_frame_ms": get(ours, "median_frame_ms"),
