@@ -13,11 +13,13 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <thread>
 
 namespace csgv::gpu {
 
@@ -44,16 +46,27 @@ struct PipelineJob {
     uint64_t* out;
 };
 
-/// Makes the pipelines on the workers, in parallel (a CPU device's compiler takes about 120 ms
-/// for the render pipeline, the others a few ms each: the first frame waits for the longest, not
-/// for the sum); the first error is returned.
-Status makePipelines(Context& ctx, WorkerPool& workers, const std::vector<PipelineJob>& jobs, bool profile) {
+/// Makes the pipelines in parallel, on threads of their own for as long as it takes (a CPU
+/// device's compiler takes about 120 ms for the render pipeline, the others a few ms each: the
+/// first frame waits for the longest, not for the sum; no pool or decoder is made for it, which a
+/// GPU renderer would never use again); the first error is returned.
+Status makePipelines(Context& ctx, const std::vector<PipelineJob>& jobs, bool profile) {
     std::vector<Status> results(jobs.size());
-    workers.parallelFor(jobs.size(), [&](uint64_t i, unsigned) {
+    auto make = [&](size_t i) {
         Result<uint64_t> p = makePipeline(ctx, jobs[i].name, jobs[i].defines, jobs[i].pushBytes, profile);
         if (p) *jobs[i].out = *p;
         else results[i] = p.status();
-    });
+    };
+    std::atomic<size_t> next{1}; // job 0, the render pipeline (the longest), is this thread's
+    auto work = [&] {
+        for (size_t i = next++; i < jobs.size(); i = next++) make(i);
+    };
+    const size_t cores = std::max(1u, std::thread::hardware_concurrency());
+    std::vector<std::thread> helpers;
+    for (size_t t = 1; t < std::min(cores, jobs.size()); ++t) helpers.emplace_back(work);
+    make(0);
+    work();
+    for (std::thread& t : helpers) t.join();
     for (const Status& r : results)
         if (!r) return r;
     return Status::ok();
@@ -1047,7 +1060,7 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
     if (!hostDecode) need(pUniform, "cache_uniform.comp", nullptr, "", 8);
     if (usesPixelList) need(pPixelList, "pixel_list.comp", nullptr, "", 8);
     if (labelColorsPending) need(pLabelColors, "label_colors.comp", nullptr, "", 8);
-    return jobs.empty() ? Status::ok() : makePipelines(ctx, hostWorkers(), jobs, profileDispatches);
+    return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
 }
 
 /// The view: matrices, light, clip box, tone mapping, face normals (then packState).
