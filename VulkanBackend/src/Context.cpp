@@ -9,7 +9,8 @@
 #include <cstring>
 #include <map>
 #include <mutex>
-#include <tuple>
+#include <utility>
+#include <vector>
 
 namespace csgv::gpu {
 
@@ -120,9 +121,9 @@ struct Context::Impl {
         VkPipelineLayout layout;
     };
     std::map<uint64_t, Pipeline> pipelines;
-    /// The pipeline made from each SPIR-V (its FNV-1a hash, length and push-constant bytes): a
-    /// renderer made again for the same volume, or another view's, compiles nothing.
-    std::map<std::tuple<uint64_t, size_t, uint32_t>, uint64_t> pipelineOf;
+    /// The pipeline made from each SPIR-V and push-constant size (the whole words: a match is
+    /// exact): a renderer made again for the same volume, or another view's, compiles nothing.
+    std::map<std::pair<uint32_t, std::vector<uint32_t>>, uint64_t> pipelineOf;
     std::mutex pipelineMutex; // pipelines may be made on several threads at once (Renderer)
     /// Set after a timeout or device loss: the GPU may still use every object, so nothing is
     /// freed or waited on again (a leak, never a crash or a hang) and all work is refused.
@@ -494,10 +495,7 @@ Status Context::download(const Buffer& src, uint64_t offset, void* data, uint64_
 
 Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes) {
     Impl& im = *m_impl;
-    uint64_t hash = 1469598103934665603ull; // FNV-1a over the words' bytes
-    for (uint32_t w : spirv)
-        for (int b = 0; b < 4; ++b) hash = (hash ^ ((w >> (8 * b)) & 0xFFu)) * 1099511628211ull;
-    const auto key = std::make_tuple(hash, spirv.size(), pushConstantBytes);
+    auto key = std::make_pair(pushConstantBytes, spirv);
     {
         std::lock_guard<std::mutex> lock(im.pipelineMutex);
         if (auto it = im.pipelineOf.find(key); it != im.pipelineOf.end()) return it->second;
@@ -539,7 +537,7 @@ Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spi
         return it->second;
     }
     im.pipelines[handle] = Impl::Pipeline{pipeline, layout};
-    im.pipelineOf[key] = handle;
+    im.pipelineOf.emplace(std::move(key), handle);
     return handle;
 }
 

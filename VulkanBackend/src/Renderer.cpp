@@ -182,7 +182,8 @@ struct Renderer::Impl {
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
     bool usesPixelList = false;       // host decoding (CPU devices): two submissions, the render pass sized between them
-    uint64_t pPixelList = 0;
+    uint64_t pPixelList = 0;          // pixel_list.comp, made on first use
+    uint64_t pLabelColors = 0;        // label_colors.comp, made on first use (with a label table)
     std::array<uint32_t, 3> listedGrid{}; // the cell grid (x, y) and stride the host's full list holds (0: none)
     size_t renderDispatch = 0;        // the render pass's index in `dispatches`
     bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
@@ -384,7 +385,6 @@ struct Renderer::Impl {
     Status uploadMaterials(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
                            const std::vector<uint32_t>& storedToOriginal, uint64_t labels);
     Status uploadVisibility(const MaterialMatcher& materialOf);
-    uint64_t pLabelColors = 0; // label_colors.comp, made on first use
     /// Device memory the new materials take (the old ones are freed only after the new ones exist).
     uint64_t materialBytes(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributeArrays,
                            const std::vector<uint32_t>& storedToOriginal);
@@ -1043,23 +1043,26 @@ Status Renderer::Impl::detectChanges(const FrameInput& in) {
 
 Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
     std::vector<PipelineJob> jobs;
-    auto need = [&](uint64_t& pipeline, const char* name, const char* define, const std::string& value, uint32_t push) {
+    // Every frame asks; only a pipeline not made yet costs anything (its defines are built then).
+    auto need = [&](uint64_t& pipeline, const char* name, uint32_t push = 8, const char* define = nullptr,
+                    uint32_t value = 0) {
         if (pipeline) return;
         Defines d = defines;
-        if (define) d.emplace_back(define, value);
+        if (define) d.emplace_back(define, std::to_string(value) + "u");
         jobs.push_back({name, std::move(d), push, &pipeline});
     };
-    need(pRender[uint32_t(st.shading) & 3], "render.comp", "SHADING", std::to_string(uint32_t(st.shading) & 3) + "u", 8);
+    const uint32_t mode = uint32_t(st.shading) & 3;
+    need(pRender[mode], "render.comp", 8, "SHADING", mode);
     for (uint32_t pass = kResolveGather; pass <= kResolveFinal; ++pass)
         if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st))
-            need(pResolve[pass], "resolve.comp", "RESOLVE_PASS", std::to_string(pass) + "u", sizeof(ResolvePush));
-    need(pRequest, "cache_request.comp", nullptr, "", 8);
-    need(pProvision, "cache_provision.comp", nullptr, "", 8);
-    need(pAssign, "cache_assign.comp", nullptr, "", 8);
-    need(pCommit, "cache_commit.comp", nullptr, "", 8);
-    if (!hostDecode) need(pUniform, "cache_uniform.comp", nullptr, "", 8);
-    if (usesPixelList) need(pPixelList, "pixel_list.comp", nullptr, "", 8);
-    if (labelColorsPending) need(pLabelColors, "label_colors.comp", nullptr, "", 8);
+            need(pResolve[pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
+    need(pRequest, "cache_request.comp");
+    need(pProvision, "cache_provision.comp");
+    need(pAssign, "cache_assign.comp");
+    need(pCommit, "cache_commit.comp");
+    if (!hostDecode) need(pUniform, "cache_uniform.comp");
+    if (usesPixelList) need(pPixelList, "pixel_list.comp");
+    if (labelColorsPending) need(pLabelColors, "label_colors.comp");
     return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
 }
 
