@@ -429,74 +429,76 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     label = kNone;
     material = kNone;
-    uint current = kNone;
-    uvec4 s = uvec4(0u);
-    PaletteRef palette;
-    palette.array = 0ul;
-    palette.end = 0u;
-    uvec2 uniformSubs = uvec2(0u); // the brick's uniform sub-blocks, when cached at the finest level
-#if ABSENT_BRICKS
-    uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
-#endif
-    for (uint it = 0u; it < 60000u; ++it) {
+    // A round per brick: its state is read once, then an inner loop steps through it. CPU devices
+    // run every line of a loop body at every step, masked or not, and a read there is a loop over
+    // the lanes: the brick's reads (its cache entry, uniform sub-blocks, palette) and its use mark
+    // belong here, not in the steps.
+    for (uint it = 0u; it < 60000u;) {
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
-        if (b != current) { // brick state read once per brick, not per voxel
 #if ABSENT_BRICKS
-            if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(f, w, lo, hi);
+        if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(f, w, lo, hi);
 #endif
-            current = b;
-            s = bricks.v[b];
-            if (request && s.w != 0u && b != w.lastBrick) {
-                bricks.v[b].z = fv.frame.x + 1u;
-                w.lastBrick = b;
-            }
+        uvec4 s = bricks.v[b];
+        if (request && s.w != 0u && b != w.lastBrick) {
+            bricks.v[b].z = fv.frame.x + 1u;
+            w.lastBrick = b;
+        }
 #if DETAIL_STREAMING
-            if (exact && s.w == kBrickStandIn) s.y = kNone; // not at the view's level yet: missing
+        if (exact && s.w == kBrickStandIn) s.y = kNone; // not at the view's level yet: missing
 #endif
-            uniformSubs = s.w != 0u && s.y == 0u ? Uvec2Buf(frameAddr[kSlotUniform]).v[b] : uvec2(0u);
+        const uvec2 uniformSubs = s.w != 0u && s.y == 0u ? Uvec2Buf(frameAddr[kSlotUniform]).v[b] : uvec2(0u);
 #if ABSENT_BRICKS
-            if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
-                absentLevel = max(lodForBrick(f, b), UintBuf(frameAddr[kSlotCoarse]).w[0]);
+        uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
+        if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
+            absentLevel = max(lodForBrick(f, b), UintBuf(frameAddr[kSlotCoarse]).w[0]);
 #endif
+        PaletteRef palette;
+        palette.array = 0ul;
+        palette.end = 0u;
 #if CACHE_BITS != 32
-            if (s.w != 0u && s.y != kNone) palette = paletteOf(f, b);
+        if (s.w != 0u && s.y != kNone) palette = paletteOf(f, b);
 #endif
-        }
-        // One step at the level k of the node the walker stands in: CPU devices run every branch
-        // of a loop body for all lanes, so the body holds one stableStep (at k = 0 its scalings
-        // are by 1: exact).
-        uint k = BRICK_SHIFT; // an empty brick (and another rank's, for a view ray) is passed whole
-        if (s.w == 0u) {
-            w.prevLabel = kNone;
-#if ABSENT_BRICKS
-        } else if (s.w == kBrickAbsent) { // another rank's brick (an MPI piece)
-            const uint64_t coarse = frameAddr[kSlotCoarse];
-            if (!w.secondary || coarse == 0ul) { // view rays pass: its owner draws it
+        for (; it < 60000u; ++it) {
+            // One step at the level k of the node the walker stands in: the body holds one
+            // stableStep (at k = 0 its scalings are by 1: exact).
+            uint k = BRICK_SHIFT; // an empty brick (and another rank's, for a view ray) is passed whole
+            if (s.w == 0u) {
                 w.prevLabel = kNone;
-            } else { // secondary rays meet it at its level of detail (kSlotCoarse holds the coarse ones)
-                UintBuf c = UintBuf(coarse);
-                k = absentLevel;
-                const uint e = kCoarseHeaderWords + kCoarseLevelWords * (k - c.w[0]);
-                const uvec3 n = uvec3(w.voxel) >> k;
-                if (entersSurface(f, w, c.w[c.w[e] + n.x + c.w[e + 1u] * (n.y + c.w[e + 2u] * n.z)], label, material))
-                    return MARCH_SURFACE;
-            }
+#if ABSENT_BRICKS
+            } else if (s.w == kBrickAbsent) { // another rank's brick (an MPI piece)
+                const uint64_t coarse = frameAddr[kSlotCoarse];
+                if (!w.secondary || coarse == 0ul) { // view rays pass: its owner draws it
+                    w.prevLabel = kNone;
+                } else { // secondary rays meet it at its level of detail (kSlotCoarse holds the coarse ones)
+                    UintBuf c = UintBuf(coarse);
+                    k = absentLevel;
+                    const uint e = kCoarseHeaderWords + kCoarseLevelWords * (k - c.w[0]);
+                    const uvec3 n = uvec3(w.voxel) >> k;
+                    if (entersSurface(f, w, c.w[c.w[e] + n.x + c.w[e + 1u] * (n.y + c.w[e + 2u] * n.z)], label, material))
+                        return MARCH_SURFACE;
+                }
 #endif
-        } else {
-            if (s.y == kNone) return MARCH_MISSING;
-            if (entersSurface(f, w, cachedLabel(f, s.x, s.y, w.voxel, palette), label, material)) return MARCH_SURFACE;
-            // Coarser levels step by their nodes; the finest by voxels, or over a uniform
-            // sub-block whole (no surface inside it; the CPU mirror steps alike).
-            k = s.y;
-            if (k == 0u && SUB_SHIFT >= 0) {
-                const uvec3 local = uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u);
-                const uint j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
-                if ((((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u) k = uint(SUB_SHIFT);
+            } else {
+                if (s.y == kNone) return MARCH_MISSING;
+                if (entersSurface(f, w, cachedLabel(f, s.x, s.y, w.voxel, palette), label, material)) return MARCH_SURFACE;
+                // Coarser levels step by their nodes; the finest by voxels, or over a uniform
+                // sub-block whole (no surface inside it; the CPU mirror steps alike).
+                k = s.y;
+                if (k == 0u && SUB_SHIFT >= 0) {
+                    const uvec3 local = uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u);
+                    const uint j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
+                    if ((((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u) k = uint(SUB_SHIFT);
+                }
+            }
+            stableStep(w, k);
+            if (any(lessThan(w.voxel, lo)) || any(greaterThanEqual(w.voxel, hi))) return MARCH_OUT;
+            if (w.t > w.tEnd) return MARCH_OUT;
+            if (brickIndexOf(w.voxel) != b) { // the next brick's round
+                ++it;
+                break;
             }
         }
-        stableStep(w, k);
-        if (any(lessThan(w.voxel, lo)) || any(greaterThanEqual(w.voxel, hi))) return MARCH_OUT;
     }
     return MARCH_OUT;
 }
