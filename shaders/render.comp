@@ -70,8 +70,8 @@ vec3 transformPoint(mat4 m, vec3 p) { return (m * vec4(p, 1.0)).xyz; }
 /// The walker stands in a brick that is not in the cache (march returned MARCH_MISSING): the
 /// brick counts as one block of its preview label (kSlotVisible: its coarsest level, from the
 /// encoding's palette). True with the label and its material: a surface. False when the ray
-/// already is in that label (behind a semi-transparent block of it): what follows is left out
-/// (no second DDA here: every line in the march loops costs CPU devices in every frame).
+/// already is in that label (behind a semi-transparent block of it): a view ray's preview then
+/// passes the brick whole (march's passMissing); a deep path-tracing bounce ends there.
 bool coarseBlock(inout Walker w, out uint label, out uint material) {
     const uvec2 preview = Uvec2Buf(frameAddr[kSlotVisible]).v[brickIndexOf(w.voxel)];
     label = preview.x;
@@ -96,7 +96,7 @@ float visibility(inout Walker w, bool mark, bool complete) {
     float transmittance = 1.0;
     for (uint i = 0u; i < 64u; ++i) {
         uint label, material;
-        const uint r = march(f, w, boxLo, boxHi, mark, complete, label, material);
+        const uint r = march(f, w, boxLo, boxHi, mark, complete, false, label, material);
         if (r == MARCH_OUT) return transmittance;
         if (r == MARCH_MISSING) {
             if (complete) return -1.0;
@@ -224,10 +224,12 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
     vec3 previewRadiance = vec3(0.0);
     float previewTransmittance = 1.0;
     Walker w;
+    bool passMissing = false; // a preview's next march passes the missing brick it stands in
     if (startRay(o, d, tEnd, boxLo, boxHi, w)) {
         for (uint layer = 0u; layer < 256u; ++layer) {
             uint label, material;
-            const uint r = march(f, w, boxLo, boxHi, request && valid, valid, label, material);
+            const uint r = march(f, w, boxLo, boxHi, request && valid, valid, passMissing, label, material);
+            passMissing = false;
             if (r == MARCH_OUT) break;
             if (r == MARCH_MISSING) {
                 valid = false;
@@ -235,7 +237,12 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
 #if DETAIL_STREAMING
                 if (standsIn(w)) continue; // the preview goes on through the brick at its coarser level
 #endif
-                if (!coarseBlock(w, label, material)) break;
+                if (!coarseBlock(w, label, material)) {
+                    // Already behind a semi-transparent block of this label (the brick before,
+                    // or the voxels the ray came through): on past the brick.
+                    passMissing = true;
+                    continue;
+                }
             }
             float emission;
             const vec4 c = materialColor(f, material, label, emission);
@@ -299,7 +306,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
                     uint l2 = kNone, m2 = kNone;
                     uint r2 = MARCH_OUT;
                     for (uint pass = 0u; pass < 64u; ++pass) {
-                        r2 = march(f, s, boxLo, boxHi, req, complete, l2, m2);
+                        r2 = march(f, s, boxLo, boxHi, req, complete, false, l2, m2);
                         if (r2 == MARCH_MISSING && !complete) { // deep bounces: the brick's coarsest level
                             r2 = coarseBlock(s, l2, m2) ? MARCH_SURFACE : MARCH_OUT;
                         }

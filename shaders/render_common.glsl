@@ -379,6 +379,9 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
 const uint MARCH_OUT = 0u;     // left the box or passed tEnd
 const uint MARCH_SURFACE = 1u; // entered a voxel of a visible label different from the previous one
 const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cache
+// Brick state word w while march passes a missing brick whole (`passMissing`); never stored:
+// kSlotBricks holds 0, 1, kBrickStandIn, kBrickAbsent.
+const uint BRICK_PASSED = 4u;
 
 /// An MPI rank's piece (kSlotGhost, Renderer::setGhostFaces): a walker that just entered the
 /// piece from the volume beyond it (inside the ray's box [lo, hi)) takes the label it left from
@@ -424,8 +427,11 @@ bool entersSurface(Frame f, inout Walker w, uint l, inout uint label, inout uint
 /// Walks until a surface event, the end, or a missing brick. `request`: mark the bricks the ray
 /// needs as used (so the next frame's request pass keeps or decodes them). `exact`: a brick that
 /// stands in at a coarser level than the view wants (kBrickStandIn) counts as missing; previews
-/// and deep bounces sample it. On MARCH_SURFACE, `label` and `material` describe the voxel entered.
-uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact, out uint label, out uint material) {
+/// and deep bounces sample it. `passMissing`: the walker stands in a missing brick whose preview
+/// label it is in already (a preview behind a semi-transparent block of it): the brick is passed
+/// whole, the label going on. On MARCH_SURFACE, `label` and `material` describe the voxel entered.
+uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact, bool passMissing, out uint label,
+           out uint material) {
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     label = kNone;
     material = kNone;
@@ -447,6 +453,8 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #if DETAIL_STREAMING
         if (exact && s.w == kBrickStandIn) s.y = kNone; // not at the view's level yet: missing
 #endif
+        if (passMissing && s.w != 0u && s.y == kNone) s.w = BRICK_PASSED;
+        passMissing = false;
         const uvec2 uniformSubs = s.w != 0u && s.y == 0u ? Uvec2Buf(frameAddr[kSlotUniform]).v[b] : uvec2(0u);
 #if ABSENT_BRICKS
         uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
@@ -465,6 +473,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             uint k = BRICK_SHIFT; // an empty brick (and another rank's, for a view ray) is passed whole
             if (s.w == 0u) {
                 w.prevLabel = kNone;
+            } else if (s.w == BRICK_PASSED) { // passed whole, its label going on
 #if ABSENT_BRICKS
             } else if (s.w == kBrickAbsent) { // another rank's brick (an MPI piece)
                 const uint64_t coarse = frameAddr[kSlotCoarse];

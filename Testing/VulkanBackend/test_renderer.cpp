@@ -633,6 +633,54 @@ TEST(Renderer, FirstFrameShowsAPreviewAndConvergesToTheExactImage) {
     expectPreviewThenExactImage(*ctx, Shading::Local, 2);  // gathered with upsampling
 }
 
+// A preview goes on through missing bricks of a semi-transparent label to what lies behind them:
+// two bricks of label 1 (half opaque) in front of one of label 2 (opaque), none cached. Before,
+// the preview stopped in the first brick (the same label again: no new surface), half
+// transparent where the converged image is opaque.
+TEST(Renderer, PreviewsSeeThroughMissingBricksOfASemiTransparentLabel) {
+    CSGV_REQUIRE_GPU(ctx);
+    LabelVolume v;
+    v.dim = {48, 16, 16};
+    v.labels.assign(48 * 16 * 16, 1);
+    for (uint32_t z = 0; z < 16; ++z)
+        for (uint32_t y = 0; y < 16; ++y)
+            for (uint32_t x = 32; x < 48; ++x) v.labels[v.index(x, y, z)] = 2;
+    EncodeOptions eo;
+    eo.brickSize = 16;
+    Result<CompressedVolume> vol = encodeVolume(v, eo);
+    ASSERT_TRUE(vol.isOk()) << vol.message();
+    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, *vol);
+    ASSERT_TRUE(gpu.isOk()) << gpu.message();
+    RendererOptions o;
+    o.prefetchVoxels = 0; // a cold first frame: every brick missing
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)), o);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
+        {"filter": {"attribute": "label", "min": 1, "max": 1}, "color": {"mode": "constant", "rgb": [0, 1, 0]}, "opacity": 0.5},
+        {"filter": {"attribute": "label", "min": 2, "max": 2}, "color": {"mode": "constant", "rgb": [1, 0, 0]}}]})");
+    ASSERT_TRUE(doc.isOk()) << doc.message();
+    ASSERT_TRUE((*r)->setMaterials(*doc).isOk());
+    RenderSettings st;
+    st.jitter = false;
+    st.denoise = false;
+    st.sampleTarget = 1;
+    (*r)->setSettings(st);
+    // Down the x axis through the middle of the end face: every ray crosses all three bricks.
+    const FrameInput in = perspectiveView({-40, 8, 8}, {24, 8, 8}, {0, 0, 1}, 10, 16, 16);
+    Result<FrameStats> first = (*r)->renderFrame(in);
+    ASSERT_TRUE(first.isOk()) << first.message();
+    EXPECT_EQ(first->previews, 16u * 16u) << "nothing is cached: every pixel shows a preview";
+    FrameOutput preview;
+    ASSERT_TRUE((*r)->readOutput(preview).isOk());
+    const FrameOutput converged = renderConverged(**r, in, 1, 16);
+    for (size_t i = 0; i < converged.label.size(); ++i) {
+        ASSERT_EQ(converged.label[i], 2u) << "pixel " << i;
+        ASSERT_FLOAT_EQ(converged.rgba[4 * i + 3], 1.0f) << "pixel " << i;
+        ASSERT_FLOAT_EQ(preview.rgba[4 * i + 3], 1.0f) << "the preview of pixel " << i << " should reach label 2";
+        EXPECT_GT(preview.rgba[4 * i], 0.1f) << "red of label 2 behind the green, pixel " << i;
+    }
+}
+
 // Levels of detail follow the camera: a renderer whose cache holds bricks at the levels of an
 // earlier, farther view converges to exactly the image of a renderer that only saw this view (a
 // brick cached at another level than the view wants is never sampled, used or not).
