@@ -252,7 +252,11 @@ uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette
     const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
     const uint e = mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u);
 #if CACHE_BITS == 32
-    return UintBuf(frameAddr[kSlotCache]).w[offset + e];
+    const uint i = offset + e;
+    const uint label = UintBuf(frameAddr[kSlotCache]).w[i];
+    // Never kNone (the cache has fewer words, Renderer.cpp): a second use of the index, so CPU
+    // devices compute it once for all lanes, not lane by lane in the read's loop (7 % of a frame).
+    return i == kNone ? kNone : label;
 #else
     const uint word = UintBuf(frameAddr[kSlotCache]).w[offset + e / CACHE_PER_WORD];
     const uint index = (word >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
