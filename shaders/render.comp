@@ -375,7 +375,7 @@ void renderPixel(uvec2 cell) {
     uvec2 px;
     if (!cellPixel(cell, px)) return;
     const uint pixel = px.y * fv.image.x + px.x;
-    const uint samples = UintBuf(frameAddr[kSlotSamples]).w[pixel];
+    const uint samples = sampleCount(pixel);
     uint n = samples;
     vec4 total = vec4(0.0);
     bool preview = false;
@@ -408,11 +408,13 @@ void main() {
     // the host sized the dispatch to their number): in each round the lanes of a group take
     // consecutive entries.
     const uint listed = UintBuf(frameAddr[kSlotAlloc]).w[kAllocListCount];
-    UintBuf list = UintBuf(frameAddr[kSlotPixelList]);
     const uint perGroup = kGroupTile * kGroupTile;
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j) {
         const uint i = (gl_WorkGroupID.x * PIXEL_BLOCK * PIXEL_BLOCK + j) * perGroup + gl_LocalInvocationIndex;
-        if (i < listed) renderPixel(uvec2(list.w[i] & 0xFFFFu, list.w[i] >> 16u));
+        if (i < listed) {
+            const uint cell = listedCell(i);
+            renderPixel(uvec2(cell & 0xFFFFu, cell >> 16u));
+        }
     }
 #else
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j)

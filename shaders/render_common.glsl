@@ -66,6 +66,45 @@ layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer Add
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer MaterialBuf { GpuMaterial m[]; };
 
+// The render pass reads the words it reads at every step through texel buffers where the renderer
+// made them (RENDER_TEXELS, RendererOptions::renderTexels): CPU devices fetch a texel for all
+// lanes with one gather instruction, where a read through a buffer address loops over the lanes.
+#ifndef RENDER_TEXELS
+#define RENDER_TEXELS 0
+#endif
+#if RENDER_TEXELS
+layout(set = 0, binding = 0) uniform usamplerBuffer cacheTexels;   // kSlotCache
+layout(set = 0, binding = 1) uniform usamplerBuffer brickTexels;   // kSlotBricks
+layout(set = 0, binding = 2) uniform usamplerBuffer uniformTexels; // kSlotUniform
+layout(set = 0, binding = 3) uniform usamplerBuffer tableTexels;   // kSlotMaterialTable
+layout(set = 0, binding = 4) uniform usamplerBuffer colorTexels;   // kSlotLabelColors
+layout(set = 0, binding = 5) uniform usamplerBuffer sampleTexels;  // kSlotSamples
+layout(set = 0, binding = 6) uniform usamplerBuffer listTexels;    // kSlotPixelList
+uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
+uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
+vec4 labelColor(uint e) {
+    const int i = int(4u * e);
+    return uintBitsToFloat(uvec4(texelFetch(colorTexels, i).x, texelFetch(colorTexels, i + 1).x,
+                                 texelFetch(colorTexels, i + 2).x, texelFetch(colorTexels, i + 3).x));
+}
+uint sampleCount(uint pixel) { return texelFetch(sampleTexels, int(pixel)).x; }
+uint listedCell(uint i) { return texelFetch(listTexels, int(i)).x; }
+/// A brick's cache entry (x offset, y level, w flags; z, its last use, is not read).
+uvec4 brickState(uint b) {
+    return uvec4(texelFetch(brickTexels, int(4u * b)).x, texelFetch(brickTexels, int(4u * b + 1u)).x, 0u,
+                 texelFetch(brickTexels, int(4u * b + 3u)).x);
+}
+uvec2 uniformMask(uint b) { return uvec2(texelFetch(uniformTexels, int(2u * b)).x, texelFetch(uniformTexels, int(2u * b + 1u)).x); }
+#else
+uint cacheWord(uint i) { return UintBuf(frameAddr[kSlotCache]).w[i]; }
+uint tableWord(uint i) { return UintBuf(frameAddr[kSlotMaterialTable]).w[i]; }
+vec4 labelColor(uint e) { return Vec4Buf(frameAddr[kSlotLabelColors]).v[e]; }
+uint sampleCount(uint pixel) { return UintBuf(frameAddr[kSlotSamples]).w[pixel]; }
+uint listedCell(uint i) { return UintBuf(frameAddr[kSlotPixelList]).w[i]; }
+uvec4 brickState(uint b) { return Uvec4Buf(frameAddr[kSlotBricks]).v[b]; }
+uvec2 uniformMask(uint b) { return Uvec2Buf(frameAddr[kSlotUniform]).v[b]; }
+#endif
+
 
 // ---------------------------------------------------------------------------------------------
 // Random numbers: PCG (a hash of pixel, sample and dimension), deterministic per pixel and
@@ -104,9 +143,8 @@ float attributeValue(Frame f, uint attr, uint label) {
 #if LABEL_LOOKUP == 2
 /// kLookupHashed: the slot holding a stored label (one of its two), or kNone.
 uint hashedSlot(uint label) {
-    Uvec2Buf t = Uvec2Buf(frameAddr[kSlotMaterialTable]);
     const uint a = labelSlot(label, LABEL_SEED0, LABEL_MASK), b = labelSlot(label, LABEL_SEED1, LABEL_MASK);
-    return t.v[a].x == label ? a : (t.v[b].x == label ? b : kNone);
+    return tableWord(2u * a) == label ? a : (tableWord(2u * b) == label ? b : kNone);
 }
 #endif
 
@@ -115,15 +153,15 @@ uint hashedSlot(uint label) {
 uint materialOf(Frame f, uint label) {
     if (label == kNone) return kNone;
 #if LABEL_LOOKUP == 1 // kLookupDense: every stored label is below the table's end
-    return label < fv.counts.w ? UintBuf(frameAddr[kSlotMaterialTable]).w[label] : kNone;
+    return label < fv.counts.w ? tableWord(label) : kNone;
 #elif LABEL_LOOKUP == 2 // kLookupHashed: the label sits in one of its two slots
     const uint slot = hashedSlot(label);
-    return slot == kNone ? kNone : Uvec2Buf(frameAddr[kSlotMaterialTable]).v[slot].y;
+    return slot == kNone ? kNone : tableWord(2u * slot + 1u);
 #else
     // Precomputed by the host with the same comparisons when the stored labels are few (up to
     // the largest label of the renderer's bricks; an MPI piece's stand-ins for other ranks'
     // bricks may hold larger ones: they take the comparisons below).
-    if (label < fv.counts.w) return UintBuf(frameAddr[kSlotMaterialTable]).w[label];
+    if (label < fv.counts.w) return tableWord(label);
     MaterialBuf mats = MaterialBuf(frameAddr[kSlotMaterials]);
     const uint n = fv.counts.x;
     for (uint i = 0u; i < n; ++i) {
@@ -179,7 +217,7 @@ vec4 materialColor(Frame f, uint m, uint label, out float emission) {
 #else
     const uint entry = hashedSlot(label);
 #endif
-    return Vec4Buf(frameAddr[kSlotLabelColors]).v[entry];
+    return labelColor(entry);
 #else
     return materialColorOf(f, m, label, emission);
 #endif
@@ -253,12 +291,12 @@ uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette
     const uint e = mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u);
 #if CACHE_BITS == 32
     const uint i = offset + e;
-    const uint label = UintBuf(frameAddr[kSlotCache]).w[i];
+    const uint label = cacheWord(i);
     // Never kNone (the cache has fewer words, Renderer.cpp): a second use of the index, so CPU
     // devices compute it once for all lanes, not lane by lane in the read's loop (7 % of a frame).
     return i == kNone ? kNone : label;
 #else
-    const uint word = UintBuf(frameAddr[kSlotCache]).w[offset + e / CACHE_PER_WORD];
+    const uint word = cacheWord(offset + e / CACHE_PER_WORD);
     const uint index = (word >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
     return index == CACHE_MASK ? kNone : UintBuf(palette.array).w[palette.end - 1u - index];
 #endif
@@ -449,7 +487,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #if ABSENT_BRICKS
         if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(f, w, lo, hi);
 #endif
-        uvec4 s = bricks.v[b];
+        uvec4 s = brickState(b);
         if (request && s.w != 0u && b != w.lastBrick) {
             bricks.v[b].z = fv.frame.x + 1u;
             w.lastBrick = b;
@@ -459,7 +497,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #endif
         if (passMissing && s.w != 0u && s.y == kNone) s.w = BRICK_PASSED;
         passMissing = false;
-        const uvec2 uniformSubs = s.w != 0u && s.y == 0u ? Uvec2Buf(frameAddr[kSlotUniform]).v[b] : uvec2(0u);
+        const uvec2 uniformSubs = s.w != 0u && s.y == 0u ? uniformMask(b) : uvec2(0u);
 #if ABSENT_BRICKS
         uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
         if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)

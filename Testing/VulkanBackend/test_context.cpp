@@ -101,6 +101,64 @@ TEST(GpuContext, APipelineIsMadeOncePerShaderEvenFromTwoThreads) {
     }
 }
 
+// Texel sets: a pipeline with two texel bindings reads both buffers' words where they are; a
+// dispatch without the set its pipeline binds (or with one of another count) is refused.
+TEST(GpuContext, TexelSetsFeedTheirBindingsAndMustMatchThePipeline) {
+    CSGV_REQUIRE_GPU(ctx);
+    EXPECT_GT(ctx->device().maxTexelBufferElements, 65536u);
+    const std::string src = "#version 460\n#extension GL_EXT_buffer_reference : require\n"
+                            "#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require\n"
+                            "layout(local_size_x = 64) in;\n"
+                            "layout(set = 0, binding = 0) uniform usamplerBuffer a;\n"
+                            "layout(set = 0, binding = 1) uniform usamplerBuffer b;\n"
+                            "layout(buffer_reference, std430) buffer Out { uint w[]; };\n"
+                            "layout(push_constant) uniform Push { uint64_t out_; } pc;\n"
+                            "void main() {\n"
+                            "    const uint i = gl_GlobalInvocationID.x;\n"
+                            "    Out(pc.out_).w[i] = texelFetch(a, int(i)).x * 1000u + texelFetch(b, int(1023u - i)).x;\n"
+                            "}\n";
+    Result<std::vector<uint32_t>> spirv = compileComputeSource("texels.comp", src, {});
+    ASSERT_TRUE(spirv.isOk()) << spirv.message();
+    Result<uint64_t> pipeline = ctx->createComputePipeline(*spirv, 8, 2);
+    ASSERT_TRUE(pipeline.isOk()) << pipeline.message();
+    std::vector<uint32_t> av(1024), bv(1024);
+    for (uint32_t i = 0; i < 1024; ++i) {
+        av[i] = i * 7u % 1000u;
+        bv[i] = i * 13u % 1000u;
+    }
+    Result<Buffer> a = ctx->createBuffer(av.size() * 4, MemoryKind::DeviceLocal);
+    Result<Buffer> b = ctx->createBuffer(bv.size() * 4, MemoryKind::HostVisible);
+    Result<Buffer> out = ctx->createBuffer(1024 * 4, MemoryKind::HostVisible);
+    ASSERT_TRUE(a.isOk() && b.isOk() && out.isOk());
+    ASSERT_TRUE(ctx->upload(*a, 0, av.data(), av.size() * 4).isOk());
+    ASSERT_TRUE(ctx->upload(*b, 0, bv.data(), bv.size() * 4).isOk());
+    Result<TexelSet> set = ctx->createTexelSet({&*a, &*b});
+    ASSERT_TRUE(set.isOk()) << set.message();
+    EXPECT_EQ(set->bindings(), 2u);
+    const uint64_t push = out->address();
+    Context::Dispatch d;
+    d.pipeline = *pipeline;
+    d.pushConstants = &push;
+    d.pushConstantBytes = 8;
+    d.groups[0] = 1024 / 64;
+    d.texels = &*set;
+    ASSERT_TRUE(ctx->run({d}).isOk());
+    std::vector<uint32_t> got(1024);
+    ASSERT_TRUE(ctx->download(*out, 0, got.data(), got.size() * 4).isOk());
+    for (uint32_t i = 0; i < 1024; ++i) ASSERT_EQ(got[i], av[i] * 1000u + bv[1023 - i]) << i;
+    // Sets must match what a pipeline binds.
+    d.texels = nullptr;
+    const Status none = ctx->run({d});
+    ASSERT_FALSE(none.isOk());
+    EXPECT_NE(none.message().find("texel"), std::string::npos) << none.message();
+    Result<TexelSet> one = ctx->createTexelSet({&*a});
+    ASSERT_TRUE(one.isOk());
+    d.texels = &*one;
+    EXPECT_FALSE(ctx->run({d}).isOk());
+    EXPECT_FALSE(ctx->createTexelSet({}).isOk());
+    EXPECT_FALSE(ctx->createTexelSet({nullptr}).isOk());
+}
+
 TEST(ShaderCompiler, EmbeddedSourcesIncludesAndErrorsWithLines) {
     const auto names = embeddedShaderNames();
     EXPECT_NE(std::find(names.begin(), names.end(), "csgv_decode.glsl"), names.end());

@@ -81,12 +81,14 @@ FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples,
 
 void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
                                   const std::string& what, bool paletting = false,
-                                  RendererOptions::Decode decode = RendererOptions::Decode::Auto) {
+                                  RendererOptions::Decode decode = RendererOptions::Decode::Auto, bool texels = true,
+                                  FrameOutput* image = nullptr) {
     Scene& scene = fixtureScene(ctx, fixtureName);
     std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
     ASSERT_TRUE(gpu) << what;
     RendererOptions options;
     options.decode = decode;
+    options.renderTexels = texels;
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, options);
     ASSERT_TRUE(r.isOk()) << r.message();
     (*r)->setGeometry(g);
@@ -96,6 +98,7 @@ void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, 
     st.denoise = false;
     (*r)->setSettings(st);
     const FrameOutput out = renderConverged(**r, in, 1, 64);
+    if (image) *image = out;
     RayCastView view{in.worldToClip, in.width, in.height};
     const GBuffer ref = castRaysStable(scene.labels, g, view, [](uint32_t l) { return l != 0 && l != kInvalidLabel; },
                                        scene.volume.brickSize);
@@ -148,6 +151,25 @@ TEST(Renderer, GBufferEqualsStableReferenceWithCachePaletting) {
                                  RendererOptions::Decode::Gpu);
     expectGBufferEqualsReference(*ctx, "synthA_b32_rans2.csgv", in, Geometry{}, "paletted, host decoding", true,
                                  RendererOptions::Decode::Host);
+}
+
+// The render pass reads its hottest words through texel buffers where the device allows
+// (RendererOptions::renderTexels), else through buffer addresses, as it does for caches larger
+// than a texel view: both give the reference's G-buffer and the same image, bit for bit.
+TEST(Renderer, GBufferEqualsStableReferenceThroughBufferAddressesAsThroughTexels) {
+    CSGV_REQUIRE_GPU(ctx);
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    for (bool paletted : {false, true}) {
+        const std::string what = paletted ? "paletted, " : "";
+        FrameOutput texels, addresses;
+        expectGBufferEqualsReference(*ctx, "synthA_b32_rans2.csgv", in, Geometry{}, what + "texels", paletted,
+                                     RendererOptions::Decode::Host, true, &texels);
+        expectGBufferEqualsReference(*ctx, "synthA_b32_rans2.csgv", in, Geometry{}, what + "addresses", paletted,
+                                     RendererOptions::Decode::Host, false, &addresses);
+        ASSERT_EQ(texels.rgba.size(), addresses.rgba.size());
+        EXPECT_EQ(texels.rgba, addresses.rgba) << what;
+        EXPECT_EQ(texels.label, addresses.label) << what;
+    }
 }
 
 TEST(Renderer, GBufferEqualsStableReferenceCameraInside) {

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -64,6 +65,7 @@ DeviceInfo describe(const VulkanFunctions& vk, VkPhysicalDevice pd, uint32_t ind
     info.type = typeName(props.properties.deviceType);
     info.apiVersion = props.properties.apiVersion;
     info.maxAllocation = m3.maxMemoryAllocationSize;
+    info.maxTexelBufferElements = props.properties.limits.maxTexelBufferElements;
     info.subgroupSize = subgroup.subgroupSize;
     // What this process may use of the largest device-local heap: VK_EXT_memory_budget's heap
     // budget (it leaves out what other processes hold) where the device has the extension, else
@@ -119,11 +121,30 @@ struct Context::Impl {
     struct Pipeline {
         VkPipeline pipeline;
         VkPipelineLayout layout;
+        uint32_t texelBindings;
     };
     std::map<uint64_t, Pipeline> pipelines;
-    /// The pipeline made from each SPIR-V and push-constant size (the whole words: a match is
-    /// exact): a renderer made again for the same volume, or another view's, compiles nothing.
-    std::map<std::pair<uint32_t, std::vector<uint32_t>>, uint64_t> pipelineOf;
+    /// The pipeline made from each SPIR-V, push-constant size and texel bindings (the whole words:
+    /// a match is exact): a renderer made again for the same volume, or another view's, compiles
+    /// nothing.
+    std::map<std::tuple<uint32_t, uint32_t, std::vector<uint32_t>>, uint64_t> pipelineOf;
+    /// The set layout of n uniform texel buffers (bindings 0..n-1), one per n: pipelines and sets
+    /// of the same n are compatible.
+    std::map<uint32_t, VkDescriptorSetLayout> texelLayouts;
+    Result<VkDescriptorSetLayout> texelLayout(uint32_t n) { // under pipelineMutex
+        if (auto it = texelLayouts.find(n); it != texelLayouts.end()) return it->second;
+        std::vector<VkDescriptorSetLayoutBinding> b(n);
+        for (uint32_t i = 0; i < n; ++i)
+            b[i] = {i, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+        VkDescriptorSetLayoutCreateInfo ci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+        ci.bindingCount = n;
+        ci.pBindings = b.data();
+        VkDescriptorSetLayout layout = VK_NULL_HANDLE;
+        const VkResult r = vk.vkCreateDescriptorSetLayout(device, &ci, nullptr, &layout);
+        if (r != VK_SUCCESS) return Status::error(vkError("vkCreateDescriptorSetLayout", r));
+        texelLayouts[n] = layout;
+        return layout;
+    }
     std::mutex pipelineMutex; // pipelines may be made on several threads at once (Renderer)
     /// Set after a timeout or device loss: the GPU may still use every object, so nothing is
     /// freed or waited on again (a leak, never a crash or a hang) and all work is refused.
@@ -185,6 +206,7 @@ struct Context::Impl {
                 vk.vkDestroyPipeline(device, p.second.pipeline, nullptr);
                 vk.vkDestroyPipelineLayout(device, p.second.layout, nullptr);
             }
+            for (auto& l : texelLayouts) vk.vkDestroyDescriptorSetLayout(device, l.second, nullptr);
             if (fence) vk.vkDestroyFence(device, fence, nullptr);
             if (pool) vk.vkDestroyCommandPool(device, pool, nullptr);
             vk.vkDestroyDevice(device, nullptr);
@@ -339,7 +361,7 @@ Result<Buffer> Context::createBuffer(uint64_t bytes, MemoryKind kind) {
                              std::to_string(m_info.maxAllocation) + " bytes");
     VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
     bci.size = bytes;
-    bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
+    bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
                 VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
     VkBuffer buffer = VK_NULL_HANDLE;
@@ -493,12 +515,110 @@ Status Context::download(const Buffer& src, uint64_t offset, void* data, uint64_
     return Status::ok();
 }
 
-Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes) {
+TexelSet::~TexelSet() { release(); }
+
+TexelSet::TexelSet(TexelSet&& o) noexcept { *this = std::move(o); }
+
+TexelSet& TexelSet::operator=(TexelSet&& o) noexcept {
+    if (this != &o) {
+        release();
+        m_context = o.m_context;
+        m_pool = o.m_pool;
+        m_set = o.m_set;
+        m_views = std::move(o.m_views);
+        o.m_context = nullptr;
+        o.m_pool = o.m_set = 0;
+        o.m_views.clear();
+    }
+    return *this;
+}
+
+void TexelSet::release() {
+    if (!m_context) return;
+    Context::Impl& im = *m_context->m_impl;
+    if (!im.lost) { // else the GPU may still be using them: left (a leak, never a crash)
+        if (m_pool) im.vk.vkDestroyDescriptorPool(im.device, reinterpret_cast<VkDescriptorPool>(m_pool), nullptr);
+        for (uint64_t v : m_views) im.vk.vkDestroyBufferView(im.device, reinterpret_cast<VkBufferView>(v), nullptr);
+    }
+    m_context = nullptr;
+    m_pool = m_set = 0;
+    m_views.clear();
+}
+
+Result<TexelSet> Context::createTexelSet(const std::vector<const Buffer*>& buffers) {
     Impl& im = *m_impl;
-    auto key = std::make_pair(pushConstantBytes, spirv);
+    if (im.lost) return im.lostError();
+    if (buffers.empty()) return Status::error("a texel set of no buffers");
+    TexelSet out;
+    out.m_context = this;
+    for (const Buffer* b : buffers) {
+        if (!b || !b->valid()) return Status::error("a texel view of no buffer");
+        if (b->size() / 4 > m_info.maxTexelBufferElements)
+            return Status::error("a texel view of " + std::to_string(b->size() / 4) + " words exceeds the device's limit of " +
+                                 std::to_string(m_info.maxTexelBufferElements));
+        VkBufferViewCreateInfo vci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+        vci.buffer = reinterpret_cast<VkBuffer>(b->m_buffer);
+        vci.format = VK_FORMAT_R32_UINT;
+        vci.offset = 0;
+        vci.range = b->size() / 4 * 4;
+        VkBufferView view = VK_NULL_HANDLE;
+        const VkResult r = im.vk.vkCreateBufferView(im.device, &vci, nullptr, &view);
+        if (r != VK_SUCCESS) return Status::error(vkError("vkCreateBufferView", r));
+        out.m_views.push_back(reinterpret_cast<uint64_t>(view));
+    }
+    const uint32_t n = uint32_t(buffers.size());
+    VkDescriptorSetLayout layout = VK_NULL_HANDLE;
+    {
+        std::lock_guard<std::mutex> lock(im.pipelineMutex);
+        Result<VkDescriptorSetLayout> l = im.texelLayout(n);
+        if (!l) return l.status();
+        layout = *l;
+    }
+    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, n};
+    VkDescriptorPoolCreateInfo pci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    pci.maxSets = 1;
+    pci.poolSizeCount = 1;
+    pci.pPoolSizes = &size;
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    VkResult r = im.vk.vkCreateDescriptorPool(im.device, &pci, nullptr, &pool);
+    if (r != VK_SUCCESS) return Status::error(vkError("vkCreateDescriptorPool", r));
+    out.m_pool = reinterpret_cast<uint64_t>(pool);
+    VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    ai.descriptorPool = pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &layout;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    r = im.vk.vkAllocateDescriptorSets(im.device, &ai, &set);
+    if (r != VK_SUCCESS) return Status::error(vkError("vkAllocateDescriptorSets", r));
+    out.m_set = reinterpret_cast<uint64_t>(set);
+    std::vector<VkBufferView> views(n);
+    std::vector<VkWriteDescriptorSet> writes(n);
+    for (uint32_t i = 0; i < n; ++i) {
+        views[i] = reinterpret_cast<VkBufferView>(out.m_views[i]);
+        writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+        writes[i].dstSet = set;
+        writes[i].dstBinding = i;
+        writes[i].descriptorCount = 1;
+        writes[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+        writes[i].pTexelBufferView = &views[i];
+    }
+    im.vk.vkUpdateDescriptorSets(im.device, n, writes.data(), 0, nullptr);
+    return out;
+}
+
+Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes,
+                                                uint32_t texelBindings) {
+    Impl& im = *m_impl;
+    auto key = std::make_tuple(pushConstantBytes, texelBindings, spirv);
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
     {
         std::lock_guard<std::mutex> lock(im.pipelineMutex);
         if (auto it = im.pipelineOf.find(key); it != im.pipelineOf.end()) return it->second;
+        if (texelBindings) {
+            Result<VkDescriptorSetLayout> l = im.texelLayout(texelBindings);
+            if (!l) return l.status();
+            setLayout = *l;
+        }
     }
     VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
     smci.codeSize = spirv.size() * 4;
@@ -510,6 +630,8 @@ Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spi
     VkPipelineLayoutCreateInfo lci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
     lci.pushConstantRangeCount = pushConstantBytes ? 1 : 0;
     lci.pPushConstantRanges = &range;
+    lci.setLayoutCount = texelBindings ? 1 : 0;
+    lci.pSetLayouts = &setLayout;
     VkPipelineLayout layout = VK_NULL_HANDLE;
     r = im.vk.vkCreatePipelineLayout(im.device, &lci, nullptr, &layout);
     if (r != VK_SUCCESS) {
@@ -536,7 +658,7 @@ Result<uint64_t> Context::createComputePipeline(const std::vector<uint32_t>& spi
         im.vk.vkDestroyPipelineLayout(im.device, layout, nullptr);
         return it->second;
     }
-    im.pipelines[handle] = Impl::Pipeline{pipeline, layout};
+    im.pipelines[handle] = Impl::Pipeline{pipeline, layout, texelBindings};
     im.pipelineOf.emplace(std::move(key), handle);
     return handle;
 }
@@ -553,7 +675,11 @@ Status Context::run(const Dispatch* first, size_t count) {
     for (const Dispatch* d = first; d != last; ++d) {
         if (d->fill && (!d->fill->valid() || d->fillBytes % 4 != 0 || d->fillBytes > d->fill->size()))
             return Status::error("a fill past its buffer's end");
-        if (!d->fill && !im.pipelines.count(d->pipeline)) return Status::error("dispatch of an unknown pipeline");
+        if (d->fill) continue;
+        auto p = im.pipelines.find(d->pipeline);
+        if (p == im.pipelines.end()) return Status::error("dispatch of an unknown pipeline");
+        if (p->second.texelBindings != (d->texels ? d->texels->bindings() : 0))
+            return Status::error("a dispatch's texel buffers do not match its pipeline's bindings");
     }
     return submitAndWait(im, [&](VkCommandBuffer cmd) {
         for (const Dispatch* it = first; it != last; ++it) {
@@ -572,6 +698,10 @@ Status Context::run(const Dispatch* first, size_t count) {
             }
             const Impl::Pipeline& p = im.pipelines[d.pipeline];
             im.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.pipeline);
+            if (d.texels) {
+                const VkDescriptorSet set = reinterpret_cast<VkDescriptorSet>(d.texels->m_set);
+                im.vk.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 1, &set, 0, nullptr);
+            }
             if (d.pushConstantBytes)
                 im.vk.vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, d.pushConstantBytes,
                                          d.pushConstants);

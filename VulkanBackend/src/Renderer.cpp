@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -26,11 +27,12 @@ namespace csgv::gpu {
 namespace {
 
 /// Compiles a shader with defines into a pipeline; with `profile`, says how long it took.
-Result<uint64_t> makePipeline(Context& ctx, const char* name, const Defines& defines, uint32_t pushBytes, bool profile) {
+Result<uint64_t> makePipeline(Context& ctx, const char* name, const Defines& defines, uint32_t pushBytes,
+                              uint32_t texelBindings, bool profile) {
     const auto t0 = std::chrono::steady_clock::now();
     Result<std::vector<uint32_t>> spirv = compileComputeShader(name, defines);
     if (!spirv) return spirv.status();
-    Result<uint64_t> p = ctx.createComputePipeline(*spirv, pushBytes);
+    Result<uint64_t> p = ctx.createComputePipeline(*spirv, pushBytes, texelBindings);
     if (!p) return Status(p.status()).prefix(name);
     if (profile)
         std::fprintf(stderr, "pipeline %s (%s): %.1f ms\n", name, defines.back().first.c_str(),
@@ -44,6 +46,7 @@ struct PipelineJob {
     Defines defines;
     uint32_t pushBytes;
     uint64_t* out;
+    uint32_t texelBindings = 0;
 };
 
 /// Makes the pipelines in parallel, on threads of their own for as long as it takes (a CPU
@@ -53,7 +56,8 @@ struct PipelineJob {
 Status makePipelines(Context& ctx, const std::vector<PipelineJob>& jobs, bool profile) {
     std::vector<Status> results(jobs.size());
     auto make = [&](size_t i) {
-        Result<uint64_t> p = makePipeline(ctx, jobs[i].name, jobs[i].defines, jobs[i].pushBytes, profile);
+        Result<uint64_t> p =
+            makePipeline(ctx, jobs[i].name, jobs[i].defines, jobs[i].pushBytes, jobs[i].texelBindings, profile);
         if (p) *jobs[i].out = *p;
         else results[i] = p.status();
     };
@@ -177,6 +181,9 @@ struct Renderer::Impl {
     uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
+    TexelSet renderTexels; // the render pass's texel buffers (RendererOptions::renderTexels), or none
+    static constexpr size_t kRenderTexels = 7; // RENDER_TEXELS bindings of render_common.glsl
+    std::array<uint64_t, kRenderTexels> texelAddresses{}; // the buffers they view
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
@@ -225,6 +232,7 @@ struct Renderer::Impl {
     std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
     bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
     bool hostDecode = false;          // RendererOptions::decode resolved
+    bool texelsWanted = true;         // RendererOptions::renderTexels
     // Detail streaming (GPU decoding of a separated volume): the finest-level streams the frames
     // ask for, uploaded between frames; bricks wait for theirs at the next coarser level.
     std::unique_ptr<DetailStream> detail;
@@ -410,6 +418,8 @@ struct Renderer::Impl {
             outputParts = 0;
             return Status::ok();
         }
+        renderTexels = TexelSet{}; // views go first: new buffers may take the old ones' addresses
+        texelAddresses = {};
         struct Part {
             Buffer* target;
             uint64_t bytes;
@@ -468,9 +478,40 @@ struct Renderer::Impl {
                                  mebibytes(smallestCacheBytes()));
         return resizeCache((cache.size() - over) & ~uint64_t(3));
     }
+    /// The render pass's texel buffers (RENDER_TEXELS in render_common.glsl: the cache, the brick
+    /// table, the uniform sub-blocks, the label table, the label colours, the sample counts, the
+    /// pixel list), made again when one of them was, where
+    /// wanted and the device allows views of them whole (else none: the pass reads them through
+    /// their addresses). The render pipeline differs with and without: a change drops it.
+    Status viewRenderBuffers() {
+        // The label colours exist with a label table only: the parameter block stands in (unread).
+        const Buffer* colors = labelColors.valid() ? &labelColors : &params;
+        const Buffer* list = pixelList.valid() ? &pixelList : &params;
+        const std::vector<const Buffer*> views = {&cache, &bricks, &uniformSubs, &materialTable, colors, &samples, list};
+        std::array<uint64_t, kRenderTexels> addresses{};
+        bool fit = texelsWanted;
+        for (size_t i = 0; i < views.size(); ++i) {
+            addresses[i] = views[i]->address();
+            fit = fit && views[i]->valid() && views[i]->size() / 4 <= ctx.device().maxTexelBufferElements;
+        }
+        if (fit && renderTexels.valid() && addresses == texelAddresses) return Status::ok();
+        const bool had = renderTexels.valid();
+        renderTexels = TexelSet{};
+        texelAddresses = {};
+        if (fit) {
+            Result<TexelSet> t = ctx.createTexelSet(views);
+            if (!t) return Status(t.status()).prefix("viewing the render pass's buffers");
+            renderTexels = std::move(*t);
+            texelAddresses = addresses;
+        }
+        if (had != renderTexels.valid()) std::fill(std::begin(pRender), std::end(pRender), uint64_t(0));
+        return Status::ok();
+    }
     /// A new, smaller brick cache: the old one is freed first (the budget holds at every moment)
     /// and every brick is forgotten (they are requested again by the next frames).
     Status resizeCache(uint64_t bytes) {
+        renderTexels = TexelSet{}; // its view goes first: the new cache may take the old one's address
+        texelAddresses = {};
         cache = Buffer{};
         decodeDispatches.clear();
         frameDecode = GpuVolume::FrameDecode{};
@@ -641,6 +682,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         std::max(smallestCache, std::min({std::max<uint64_t>(options.cacheBytes, 4096), maxBytes, im.budget - fixed - imageRoom})) &
         ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
+    im.texelsWanted = options.renderTexels;
     for (const Table& t : tables)
         if (!(s = make(*t.buffer, t.bytes, t.kind, t.what))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
@@ -1053,6 +1095,10 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
     };
     const uint32_t mode = uint32_t(st.shading) & 3;
     need(pRender[mode], "render.comp", 8, "SHADING", mode);
+    if (!jobs.empty() && jobs.back().out == &pRender[mode] && renderTexels.valid()) {
+        jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
+        jobs.back().texelBindings = renderTexels.bindings();
+    }
     for (uint32_t pass = kResolveGather; pass <= kResolveFinal; ++pass)
         if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st))
             need(pResolve[pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
@@ -1215,6 +1261,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
                     uint32_t(std::min<uint64_t>((lookup.entries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
+    if (renderTexels.valid()) dispatches.back().texels = &renderTexels;
     if (resolvesInRender(st)) return;
     if (!denoises(st)) {
         addResolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
@@ -1405,7 +1452,9 @@ bool Renderer::Impl::fragmented() {
 }
 
 Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
-    Status s = ensurePipelines(st);
+    Status s = viewRenderBuffers();
+    if (!s) return s;
+    if (!(s = ensurePipelines(st))) return s;
     if (!s) return s;
     FrameStats stats;
     if (st.sampleTarget > 0 && prevMinSamples >= st.sampleTarget && !clearPending && !cacheResetPending) {

@@ -56,6 +56,15 @@ namespace csgv::gpu {
     X(vkBeginCommandBuffer)                                                                                            \
     X(vkEndCommandBuffer)                                                                                              \
     X(vkResetCommandBuffer)                                                                                            \
+    X(vkCreateBufferView)                                                                                              \
+    X(vkDestroyBufferView)                                                                                             \
+    X(vkCreateDescriptorSetLayout)                                                                                     \
+    X(vkDestroyDescriptorSetLayout)                                                                                    \
+    X(vkCreateDescriptorPool)                                                                                          \
+    X(vkDestroyDescriptorPool)                                                                                         \
+    X(vkAllocateDescriptorSets)                                                                                        \
+    X(vkUpdateDescriptorSets)                                                                                          \
+    X(vkCmdBindDescriptorSets)                                                                                         \
     X(vkCmdBindPipeline)                                                                                               \
     X(vkCmdPushConstants)                                                                                              \
     X(vkCmdDispatch)                                                                                                   \

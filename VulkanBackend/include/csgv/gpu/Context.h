@@ -32,6 +32,7 @@ struct DeviceInfo {
     uint64_t memoryBudgetBytes = 0;
     bool memoryBudgetReported = false;
     uint32_t subgroupSize = 0;
+    uint32_t maxTexelBufferElements = 0; ///< the most elements a texel buffer view may hold
     std::string missing;         ///< required features it lacks ("" when usable)
 };
 
@@ -72,6 +73,31 @@ private:
     void* m_mapped = nullptr;
 };
 
+/// @brief Buffers seen by a pipeline as uniform texel buffers (`usamplerBuffer`, one binding each,
+/// set 0, in order), made by Context::createTexelSet. CPU devices (lavapipe) fetch texels for all
+/// lanes with one gather instruction, where a read through a buffer address is a loop over the
+/// lanes with a branch and a stall for each.
+class TexelSet {
+public:
+    TexelSet() = default;
+    ~TexelSet();
+    TexelSet(TexelSet&& other) noexcept;
+    TexelSet& operator=(TexelSet&& other) noexcept;
+    TexelSet(const TexelSet&) = delete;
+    TexelSet& operator=(const TexelSet&) = delete;
+
+    bool valid() const { return m_set != 0; }
+    uint32_t bindings() const { return uint32_t(m_views.size()); }
+
+private:
+    friend class Context;
+    void release();
+    Context* m_context = nullptr;
+    uint64_t m_pool = 0; ///< VkDescriptorPool (of this set alone)
+    uint64_t m_set = 0;  ///< VkDescriptorSet
+    std::vector<uint64_t> m_views; ///< VkBufferView each
+};
+
 enum class MemoryKind {
     DeviceLocal, ///< fastest for the GPU; filled through upload()
     HostVisible, ///< mapped, coherent; for readback and small per-frame data
@@ -102,10 +128,15 @@ public:
     /// Copies a buffer range back to the host.
     Status download(const Buffer& src, uint64_t offset, void* data, uint64_t bytes);
 
-    /// A compute pipeline from SPIR-V whose only interface is `pushConstantBytes` of push constants.
-    /// The same SPIR-V and push size give the same pipeline, made once per context (it lives as
-    /// long as the context). Several threads may make pipelines at once, while nothing runs.
-    Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes);
+    /// A compute pipeline from SPIR-V whose interface is `pushConstantBytes` of push constants and
+    /// `texelBindings` uniform texel buffers (set 0, bindings 0..n-1: a TexelSet of as many).
+    /// The same SPIR-V, push size and bindings give the same pipeline, made once per context (it
+    /// lives as long as the context). Several threads may make pipelines at once, while nothing runs.
+    Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes,
+                                           uint32_t texelBindings = 0);
+    /// Texel buffer views of 32-bit unsigned words over whole buffers (each at most
+    /// maxTexelBufferElements words), bound together as one set.
+    Result<TexelSet> createTexelSet(const std::vector<const Buffer*>& buffers);
     /// Records dispatches of one pipeline with push constants, submits, and waits.
     /// A compute dispatch, or (with `fill` set) a fill of a buffer's first `fillBytes` with the
     /// 32-bit word `fillValue`: a clear that costs a memset even on CPU devices, where a
@@ -115,6 +146,7 @@ public:
         const void* pushConstants = nullptr;
         uint32_t pushConstantBytes = 0;
         uint32_t groups[3] = {1, 1, 1};
+        const TexelSet* texels = nullptr; ///< for a pipeline with texel bindings
         const Buffer* fill = nullptr;
         uint32_t fillValue = 0;
         uint64_t fillBytes = 0; ///< a multiple of 4
@@ -133,6 +165,7 @@ public:
 private:
     Context();
     friend class Buffer;
+    friend class TexelSet;
     std::unique_ptr<Impl> m_impl;
     DeviceInfo m_info;
 };

@@ -97,6 +97,13 @@ struct RendererOptions {
     /// a quarter of the cache, and no detail is streamed: a view ray stops at the first brick it
     /// misses, so otherwise a view finds its bricks one layer a frame (0: never).
     uint64_t prefetchVoxels = uint64_t(1) << 23;
+    /// The render pass reads the brick cache, the brick table, the uniform sub-blocks and the label
+    /// table as uniform texel buffers where the device allows views of them whole
+    /// (maxTexelBufferElements words; lavapipe: a cache up to 512 MiB): CPU devices then fetch
+    /// such a word for all lanes with one gather instruction, where a read through a buffer
+    /// address is a loop over the lanes. Off: through their addresses, as larger caches always are
+    /// (tests cover both).
+    bool renderTexels = true;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
     /// average streams, at most all streams and a quarter of what the budget leaves beside the
