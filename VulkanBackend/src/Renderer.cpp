@@ -1372,6 +1372,22 @@ void Renderer::Impl::sizeRenderDispatch() {
 Status Renderer::Impl::submit() {
     Status s;
     if (profileDispatches) { // one submission per dispatch, timed (diagnostics)
+        auto stage = [&](const Context::Dispatch& d) -> std::string {
+            if (d.fill) return "clear";
+            const std::pair<uint64_t, const char*> named[] = {
+                {pRequest, "request"}, {pProvision, "provision"}, {pAssign, "assign"}, {pCommit, "commit"},
+                {pUniform, "uniform sub-blocks"}, {pPixelList, "pixel list"}, {pLabelColors, "label colours"}};
+            for (const auto& [p, name] : named)
+                if (d.pipeline == p) return name;
+            for (const uint64_t p : pRender)
+                if (d.pipeline == p) return "render";
+            const char* const resolves[] = {"gather", "a-trous 1", "a-trous 2", "a-trous 4", "final"};
+            static_assert(std::size(resolves) == kResolveFinal + 1, "a name per resolve pass");
+            for (size_t k = 0; k < std::size(pResolve); ++k)
+                if (d.pipeline == pResolve[k]) return resolves[k];
+            return "decode";
+        };
+        const auto t0 = std::chrono::steady_clock::now();
         for (size_t i = 0; i < dispatches.size(); ++i) {
             const auto t1 = std::chrono::steady_clock::now();
             if (hostDecode && i == cacheStages) {
@@ -1381,9 +1397,12 @@ Status Renderer::Impl::submit() {
                              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
             }
             if (!(s = ctx.run(&dispatches[i], 1))) return s;
-            std::fprintf(stderr, "dispatch %zu (%u x %u groups): %.2f ms\n", i, dispatches[i].groups[0], dispatches[i].groups[1],
+            std::fprintf(stderr, "dispatch %zu %s (%u x %u groups): %.2f ms\n", i, stage(dispatches[i]).c_str(),
+                         dispatches[i].groups[0], dispatches[i].groups[1],
                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
         }
+        std::fprintf(stderr, "dispatches: %.2f ms in all\n",
+                     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         return Status::ok();
     }
     if (hostDecode) {
