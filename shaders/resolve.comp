@@ -19,12 +19,36 @@ layout(push_constant) uniform Push {
     CSGV_RESOLVE_PUSH_MEMBERS
 } pc;
 
+// The per-pixel words the passes read, through texel buffers where the renderer made them
+// (RESOLVE_TEXELS: CPU devices fetch a texel for all lanes with one gather instruction, where a
+// read through a buffer address loops over the lanes; the A-trous passes read nine neighbours).
+#ifndef RESOLVE_TEXELS
+#define RESOLVE_TEXELS 0
+#endif
+#if RESOLVE_TEXELS
+layout(set = 0, binding = 0) uniform usamplerBuffer gTexels;      // kSlotGBuffer
+layout(set = 0, binding = 1) uniform usamplerBuffer sampleTexels; // kSlotSamples
+layout(set = 0, binding = 2) uniform usamplerBuffer accumTexels;  // kSlotAccum
+layout(set = 0, binding = 3) uniform usamplerBuffer srcTexels;    // pc.src (kSlotDenoiseA or kSlotDenoiseB)
+uint samplesOf(uint i) { return texelFetch(sampleTexels, int(i)).x; }
+uint gWord(uint i, uint k) { return texelFetch(gTexels, int(4u * i + k)).x; }
+vec4 texels4(usamplerBuffer t, uint i) {
+    const int j = int(4u * i);
+    return uintBitsToFloat(uvec4(texelFetch(t, j).x, texelFetch(t, j + 1).x, texelFetch(t, j + 2).x, texelFetch(t, j + 3).x));
+}
+vec4 accumOf(uint i) { return texels4(accumTexels, i); }
+vec4 sourceOf(uint i) { return texels4(srcTexels, i); }
+#else
+uint samplesOf(uint i) { return UintBuf(frameAddr[kSlotSamples]).w[i]; }
+uint gWord(uint i, uint k) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + k]; }
+vec4 accumOf(uint i) { return Vec4Buf(frameAddr[kSlotAccum]).v[i]; }
+vec4 sourceOf(uint i) { return Vec4Buf(frameAddr[pc.src]).v[i]; }
+#endif
+
 /// The nearest pixel of px's stride block (edge s) with samples (`sampled`) or with a preview;
 /// kNone when there is none.
 uint nearestInBlock(uvec2 px, uint s, bool sampled) {
     const uint W = fv.image.x, H = fv.image.y;
-    UintBuf samples = UintBuf(frameAddr[kSlotSamples]);
-    Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
     const uvec2 b0 = (px / s) * s;
     uint best = kNone, from = kNone;
     for (uint k = 0u; k < s * s; ++k) {
@@ -33,7 +57,7 @@ uint nearestInBlock(uvec2 px, uint s, bool sampled) {
         const uint qi = q.y * W + q.x;
         const ivec2 dq = ivec2(q) - ivec2(px);
         const uint dist = uint(dq.x * dq.x + dq.y * dq.y);
-        const bool shows = sampled ? samples.w[qi] > 0u : (samples.w[qi] == 0u && (g.v[qi].y & kGBufferPreview) != 0u);
+        const bool shows = sampled ? samplesOf(qi) > 0u : (samplesOf(qi) == 0u && (gWord(qi, 1u) & kGBufferPreview) != 0u);
         if (shows && dist < best) {
             best = dist;
             from = qi;
@@ -46,10 +70,9 @@ void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
     if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
     const uint pixel = px.y * W + px.x;
-    UintBuf samples = UintBuf(frameAddr[kSlotSamples]);
     Vec4Buf dst = Vec4Buf(f.addr[pc.dst]);
     if (RESOLVE_PASS == kResolveGather) {
-        uint n = samples.w[pixel];
+        uint n = samplesOf(pixel);
         const uint fewest = subgroupMin(n); // one atomic per subgroup
         if (subgroupElect()) atomicMin(UintBuf(frameAddr[kSlotAlloc]).w[kAllocMinSamples], fewest);
         Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
@@ -59,14 +82,14 @@ void resolvePixel(Frame f, uvec2 px) {
         uint from = n > 0u ? pixel : (s > 1u ? nearestInBlock(px, s, true) : kNone);
         bool preview = false;
         if (from == kNone) {
-            if ((g.v[pixel].y & kGBufferPreview) != 0u) from = pixel;
+            if ((gWord(pixel, 1u) & kGBufferPreview) != 0u) from = pixel;
             else if (s > 1u) from = nearestInBlock(px, s, false);
             preview = from != kNone;
         }
         const bool shows = from != kNone;
         if (!shows) from = pixel;
         if (from != pixel) {
-            n = samples.w[from];
+            n = samplesOf(from);
             FloatBuf depth = FloatBuf(frameAddr[kSlotDepthOut]);
             depth.f[pixel] = depth.f[from];
             // What the pixel shows, it also answers to picking (its own first sample replaces it);
@@ -77,17 +100,15 @@ void resolvePixel(Frame f, uvec2 px) {
         if (subgroupElect() && previews > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPreviews], previews);
         const uint holes = subgroupAdd(shows ? 0u : 1u); // one atomic per subgroup
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocHoles], holes);
-        const vec4 c = shows ? Vec4Buf(frameAddr[kSlotAccum]).v[from] / float(max(n, 1u)) : vec4(0.0);
+        const vec4 c = shows ? accumOf(from) / float(max(n, 1u)) : vec4(0.0);
         if (pc.dst == kSlotColorOut) UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(c)); // without denoising: one pass
         else dst.v[pixel] = c;
         return;
     }
-    Vec4Buf src = Vec4Buf(f.addr[pc.src]);
-    const vec4 centre = src.v[pixel];
+    const vec4 centre = sourceOf(pixel);
     if (RESOLVE_PASS <= kResolveAtrous4) {
-        const uint n = samples.w[pixel];
-        Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
-        const uvec4 gc = g.v[pixel];
+        const uint n = samplesOf(pixel);
+        const uvec3 gc = uvec3(gWord(pixel, 0u), gWord(pixel, 1u), gWord(pixel, 2u));
         const float dc = uintBitsToFloat(gc.z);
         const int step = 1 << (RESOLVE_PASS - kResolveAtrous1);
         const float kernel[3] = float[3](0.25, 0.5, 0.25);
@@ -99,11 +120,11 @@ void resolvePixel(Frame f, uvec2 px) {
                 // Outside the rectangle nothing is ever gathered: only pixels inside take part.
                 if (any(lessThan(q, ivec2(fv.rect.xy))) || any(greaterThanEqual(q, ivec2(fv.rect.zw)))) continue;
                 const uint qi = uint(q.y) * W + uint(q.x);
-                const uvec4 gq = g.v[qi];
+                const uvec3 gq = uvec3(gWord(qi, 0u), gWord(qi, 1u), gWord(qi, 2u));
                 float wgt = kernel[dx + 1] * kernel[dy + 1];
                 if (gq.x != gc.x || (gq.y & 7u) != (gc.y & 7u)) wgt = 0.0;
                 wgt *= exp(-abs(uintBitsToFloat(gq.z) - dc) * 2000.0);
-                sum += wgt * src.v[qi];
+                sum += wgt * sourceOf(qi);
                 weights += wgt;
             }
         const vec4 filtered = weights > 0.0 ? sum / weights : centre;

@@ -655,6 +655,30 @@ TEST(Renderer, FirstFrameShowsAPreviewAndConvergesToTheExactImage) {
     expectPreviewThenExactImage(*ctx, Shading::Local, 2);  // gathered with upsampling
 }
 
+// The resolve passes (gather with upsampling, A-trous denoising, final) read through texel buffers
+// or buffer addresses alike: denoised ambient occlusion at a pixel stride of 2, both ways, bit for bit.
+TEST(Renderer, ResolvePassesGiveTheSameImageThroughTexelsAndBufferAddresses) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    FrameOutput images[2];
+    for (int texels = 0; texels < 2; ++texels) {
+        RendererOptions o;
+        o.renderTexels = texels == 1;
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
+        ASSERT_TRUE(r.isOk()) << r.message();
+        RenderSettings st;
+        st.shading = Shading::AmbientOcclusion;
+        st.subsampling = 2;
+        st.denoise = true;
+        (*r)->setSettings(st);
+        images[texels] = renderConverged(**r, in, 3, 64);
+        ASSERT_GT(coveredPixels(images[texels]), images[texels].rgba.size() / 16);
+    }
+    EXPECT_EQ(images[0].rgba, images[1].rgba);
+    EXPECT_EQ(images[0].label, images[1].label);
+}
+
 // A preview goes on through missing bricks of a semi-transparent label to what lies behind them:
 // two bricks of label 1 (half opaque) in front of one of label 2 (opaque), none cached. Before,
 // the preview stopped in the first brick (the same label again: no new surface), half

@@ -184,6 +184,10 @@ struct Renderer::Impl {
     TexelSet renderTexels; // the render pass's texel buffers (RendererOptions::renderTexels), or none
     static constexpr size_t kRenderTexels = 7; // RENDER_TEXELS bindings of render_common.glsl
     std::array<uint64_t, kRenderTexels> texelAddresses{}; // the buffers they view
+    /// The resolve passes' texel buffers (RESOLVE_TEXELS in resolve.comp): the G-buffer, the sample
+    /// counts, the accumulation and the pass's source, one set per source (denoiseA, denoiseB).
+    TexelSet resolveTexels[2];
+    std::array<uint64_t, 5> resolveAddresses{};
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
@@ -420,6 +424,9 @@ struct Renderer::Impl {
         }
         renderTexels = TexelSet{}; // views go first: new buffers may take the old ones' addresses
         texelAddresses = {};
+        resolveTexels[0] = TexelSet{};
+        resolveTexels[1] = TexelSet{};
+        resolveAddresses = {};
         struct Part {
             Buffer* target;
             uint64_t bytes;
@@ -505,6 +512,29 @@ struct Renderer::Impl {
             texelAddresses = addresses;
         }
         if (had != renderTexels.valid()) std::fill(std::begin(pRender), std::end(pRender), uint64_t(0));
+        return viewResolveBuffers();
+    }
+    /// The same for the resolve passes (the per-pixel buffers).
+    Status viewResolveBuffers() {
+        const std::array<uint64_t, 5> addresses{gbuffer.address(), samples.address(), accum.address(), denoiseA.address(),
+                                                denoiseB.address()};
+        bool fit = texelsWanted;
+        for (const Buffer* b : {&gbuffer, &samples, &accum, &denoiseA, &denoiseB})
+            fit = fit && b->valid() && b->size() / 4 <= ctx.device().maxTexelBufferElements;
+        if (fit && resolveTexels[0].valid() && addresses == resolveAddresses) return Status::ok();
+        const bool had = resolveTexels[0].valid();
+        resolveTexels[0] = TexelSet{};
+        resolveTexels[1] = TexelSet{};
+        resolveAddresses = {};
+        if (fit) {
+            for (int k = 0; k < 2; ++k) {
+                Result<TexelSet> t = ctx.createTexelSet({&gbuffer, &samples, &accum, k == 0 ? &denoiseA : &denoiseB});
+                if (!t) return Status(t.status()).prefix("viewing the resolve passes' buffers");
+                resolveTexels[k] = std::move(*t);
+            }
+            resolveAddresses = addresses;
+        }
+        if (had != resolveTexels[0].valid()) std::fill(std::begin(pResolve), std::end(pResolve), uint64_t(0));
         return Status::ok();
     }
     /// A new, smaller brick cache: the old one is freed first (the budget holds at every moment)
@@ -1100,8 +1130,13 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
         jobs.back().texelBindings = renderTexels.bindings();
     }
     for (uint32_t pass = kResolveGather; pass <= kResolveFinal; ++pass)
-        if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st))
+        if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st)) {
             need(pResolve[pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
+            if (!jobs.empty() && jobs.back().out == &pResolve[pass] && resolveTexels[0].valid()) {
+                jobs.back().defines.emplace_back("RESOLVE_TEXELS", "1");
+                jobs.back().texelBindings = resolveTexels[0].bindings();
+            }
+        }
     need(pRequest, "cache_request.comp");
     need(pProvision, "cache_provision.comp");
     need(pAssign, "cache_assign.comp");
@@ -1287,6 +1322,7 @@ void Renderer::Impl::addResolve(uint32_t pass, uint32_t src, uint32_t dst) {
     resolvePushes.push_back({frameAddress, src, dst}); // reserved: the list points into it
     addDispatch(pResolve[pass], &resolvePushes.back(), sizeof(ResolvePush), (rect[2] - rect[0] + tile - 1) / tile,
                 (rect[3] - rect[1] + tile - 1) / tile);
+    if (resolveTexels[0].valid()) dispatches.back().texels = &resolveTexels[src == kSlotDenoiseB ? 1 : 0];
 }
 
 void Renderer::Impl::addDenoisePasses() {
@@ -1329,6 +1365,7 @@ bool Renderer::Impl::denoises(const RenderSettings& st) const {
 
 Status Renderer::Impl::denoiseOutput() {
     denoisePending = false;
+    if (!pResolve[kResolveFinal]) return Status::ok(); // nothing made to denoise with (no frame since)
     dispatches.clear();
     resolvePushes.clear();
     resolvePushes.reserve(8);
