@@ -132,6 +132,14 @@ TEST(GpuContext, TexelSetsFeedTheirBindingsAndMustMatchThePipeline) {
     ASSERT_TRUE(a.isOk() && b.isOk() && out.isOk());
     ASSERT_TRUE(ctx->upload(*a, 0, av.data(), av.size() * 4).isOk());
     ASSERT_TRUE(ctx->upload(*b, 0, bv.data(), bv.size() * 4).isOk());
+    // Serials tell buffers apart (a new buffer may take a freed one's address) and move with them.
+    EXPECT_NE(a->serial(), 0u);
+    EXPECT_NE(a->serial(), b->serial());
+    Buffer moved = std::move(*out);
+    EXPECT_EQ(out->serial(), 0u);
+    *out = std::move(moved);
+    EXPECT_NE(out->serial(), 0u);
+    EXPECT_NE(out->serial(), b->serial());
     Result<TexelSet> set = ctx->createTexelSet({&*a, &*b});
     ASSERT_TRUE(set.isOk()) << set.message();
     EXPECT_EQ(set->bindings(), 2u);

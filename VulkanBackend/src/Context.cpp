@@ -3,6 +3,7 @@
 #include "VulkanFunctions.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
@@ -322,7 +323,9 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
         m_size = o.m_size;
         m_address = o.m_address;
         m_mapped = o.m_mapped;
+        m_serial = o.m_serial;
         o.m_context = nullptr;
+        o.m_serial = 0;
         o.m_buffer = o.m_memory = 0;
         o.m_mapped = nullptr;
     }
@@ -404,6 +407,8 @@ Result<Buffer> Context::createBuffer(uint64_t bytes, MemoryKind kind) {
     VkBufferDeviceAddressInfo bai{VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO};
     bai.buffer = buffer;
     out.m_address = im.vk.vkGetBufferDeviceAddress(im.device, &bai);
+    static std::atomic<uint64_t> serials{0};
+    out.m_serial = ++serials;
     return out;
 }
 

@@ -13,9 +13,9 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -183,11 +183,11 @@ struct Renderer::Impl {
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
     TexelSet renderTexels; // the render pass's texel buffers (RendererOptions::renderTexels), or none
     static constexpr size_t kRenderTexels = 7; // RENDER_TEXELS bindings of render_common.glsl
-    std::array<uint64_t, kRenderTexels> texelAddresses{}; // the buffers they view
+    std::array<uint64_t, kRenderTexels> texelSerials{}; // the buffers they view (Buffer::serial)
     /// The resolve passes' texel buffers (RESOLVE_TEXELS in resolve.comp): the G-buffer, the sample
     /// counts, the accumulation and the pass's source, one set per source (denoiseA, denoiseB).
     TexelSet resolveTexels[2];
-    std::array<uint64_t, 5> resolveAddresses{};
+    std::array<uint64_t, 5> resolveSerials{};
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
@@ -422,11 +422,9 @@ struct Renderer::Impl {
             outputParts = 0;
             return Status::ok();
         }
-        renderTexels = TexelSet{}; // views go first: new buffers may take the old ones' addresses
-        texelAddresses = {};
+        renderTexels = TexelSet{}; // views go before their buffers
         resolveTexels[0] = TexelSet{};
         resolveTexels[1] = TexelSet{};
-        resolveAddresses = {};
         struct Part {
             Buffer* target;
             uint64_t bytes;
@@ -487,52 +485,52 @@ struct Renderer::Impl {
     }
     /// The render pass's texel buffers (RENDER_TEXELS in render_common.glsl: the cache, the brick
     /// table, the uniform sub-blocks, the label table, the label colours, the sample counts, the
-    /// pixel list), made again when one of them was, where
-    /// wanted and the device allows views of them whole (else none: the pass reads them through
-    /// their addresses). The render pipeline differs with and without: a change drops it.
+    /// pixel list), made again when one of them was (Buffer::serial), where wanted and the device
+    /// allows views of them whole (else none: the pass reads them through their addresses). The
+    /// render pipeline differs with and without: a change drops it.
     Status viewRenderBuffers() {
         // The label colours exist with a label table only: the parameter block stands in (unread).
         const Buffer* colors = labelColors.valid() ? &labelColors : &params;
         const Buffer* list = pixelList.valid() ? &pixelList : &params;
         const std::vector<const Buffer*> views = {&cache, &bricks, &uniformSubs, &materialTable, colors, &samples, list};
-        std::array<uint64_t, kRenderTexels> addresses{};
+        std::array<uint64_t, kRenderTexels> serials{};
         bool fit = texelsWanted;
         for (size_t i = 0; i < views.size(); ++i) {
-            addresses[i] = views[i]->address();
+            serials[i] = views[i]->serial();
             fit = fit && views[i]->valid() && views[i]->size() / 4 <= ctx.device().maxTexelBufferElements;
         }
-        if (fit && renderTexels.valid() && addresses == texelAddresses) return Status::ok();
+        if (fit && renderTexels.valid() && serials == texelSerials) return Status::ok();
         const bool had = renderTexels.valid();
         renderTexels = TexelSet{};
-        texelAddresses = {};
+        texelSerials = {};
         if (fit) {
             Result<TexelSet> t = ctx.createTexelSet(views);
             if (!t) return Status(t.status()).prefix("viewing the render pass's buffers");
             renderTexels = std::move(*t);
-            texelAddresses = addresses;
+            texelSerials = serials;
         }
         if (had != renderTexels.valid()) std::fill(std::begin(pRender), std::end(pRender), uint64_t(0));
         return viewResolveBuffers();
     }
     /// The same for the resolve passes (the per-pixel buffers).
     Status viewResolveBuffers() {
-        const std::array<uint64_t, 5> addresses{gbuffer.address(), samples.address(), accum.address(), denoiseA.address(),
-                                                denoiseB.address()};
+        const std::array<uint64_t, 5> serials{gbuffer.serial(), samples.serial(), accum.serial(), denoiseA.serial(),
+                                              denoiseB.serial()};
         bool fit = texelsWanted;
         for (const Buffer* b : {&gbuffer, &samples, &accum, &denoiseA, &denoiseB})
             fit = fit && b->valid() && b->size() / 4 <= ctx.device().maxTexelBufferElements;
-        if (fit && resolveTexels[0].valid() && addresses == resolveAddresses) return Status::ok();
+        if (fit && resolveTexels[0].valid() && serials == resolveSerials) return Status::ok();
         const bool had = resolveTexels[0].valid();
         resolveTexels[0] = TexelSet{};
         resolveTexels[1] = TexelSet{};
-        resolveAddresses = {};
+        resolveSerials = {};
         if (fit) {
             for (int k = 0; k < 2; ++k) {
                 Result<TexelSet> t = ctx.createTexelSet({&gbuffer, &samples, &accum, k == 0 ? &denoiseA : &denoiseB});
                 if (!t) return Status(t.status()).prefix("viewing the resolve passes' buffers");
                 resolveTexels[k] = std::move(*t);
             }
-            resolveAddresses = addresses;
+            resolveSerials = serials;
         }
         if (had != resolveTexels[0].valid()) std::fill(std::begin(pResolve), std::end(pResolve), uint64_t(0));
         return Status::ok();
@@ -540,8 +538,7 @@ struct Renderer::Impl {
     /// A new, smaller brick cache: the old one is freed first (the budget holds at every moment)
     /// and every brick is forgotten (they are requested again by the next frames).
     Status resizeCache(uint64_t bytes) {
-        renderTexels = TexelSet{}; // its view goes first: the new cache may take the old one's address
-        texelAddresses = {};
+        renderTexels = TexelSet{}; // its view goes before the buffer
         cache = Buffer{};
         decodeDispatches.clear();
         frameDecode = GpuVolume::FrameDecode{};
@@ -1511,7 +1508,6 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     Status s = viewRenderBuffers();
     if (!s) return s;
     if (!(s = ensurePipelines(st))) return s;
-    if (!s) return s;
     FrameStats stats;
     if (st.sampleTarget > 0 && prevMinSamples >= st.sampleTarget && !clearPending && !cacheResetPending) {
         // Every pixel holds its samples: the image is final, nothing to submit.

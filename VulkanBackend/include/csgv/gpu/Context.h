@@ -58,6 +58,9 @@ public:
 
     uint64_t size() const { return m_size; }
     uint64_t address() const { return m_address; }
+    /// Unique in the process for each buffer made (0: none): what a view of it was made of,
+    /// where a new buffer may take a freed one's address.
+    uint64_t serial() const { return m_serial; }
     /// Host pointer for host-visible buffers (nullptr otherwise).
     void* mapped() const { return m_mapped; }
     bool valid() const { return m_buffer != 0; }
@@ -71,6 +74,7 @@ private:
     uint64_t m_size = 0;
     uint64_t m_address = 0;
     void* m_mapped = nullptr;
+    uint64_t m_serial = 0;
 };
 
 /// @brief Buffers seen by a pipeline as uniform texel buffers (`usamplerBuffer`, one binding each,
