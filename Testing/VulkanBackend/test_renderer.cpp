@@ -264,6 +264,25 @@ std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cach
     return std::move(*r);
 }
 
+/// A renderer of a small hand-made volume (bricks of 16), or null after a failure. `encoded`
+/// receives its encoding, which the renderer's GpuVolume refers to: it must outlive the renderer.
+std::unique_ptr<Renderer> volumeRenderer(Context& ctx, const LabelVolume& v, CompressedVolume& encoded,
+                                         const RendererOptions& o = {}) {
+    EncodeOptions eo;
+    eo.brickSize = 16;
+    Result<CompressedVolume> vol = encodeVolume(v, eo);
+    EXPECT_TRUE(vol.isOk()) << vol.message();
+    if (!vol) return nullptr;
+    encoded = std::move(*vol);
+    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(ctx, encoded);
+    EXPECT_TRUE(gpu.isOk()) << gpu.message();
+    if (!gpu) return nullptr;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)), o);
+    EXPECT_TRUE(r.isOk()) << r.message();
+    if (!r) return nullptr;
+    return std::move(*r);
+}
+
 size_t differingValues(const std::vector<float>& a, const std::vector<float>& b) {
     size_t n = 0;
     for (size_t i = 0; i < a.size(); ++i) n += std::fabs(a[i] - b[i]) > 1e-6f;
@@ -691,34 +710,29 @@ TEST(Renderer, PreviewsSeeThroughMissingBricksOfASemiTransparentLabel) {
     for (uint32_t z = 0; z < 16; ++z)
         for (uint32_t y = 0; y < 16; ++y)
             for (uint32_t x = 32; x < 48; ++x) v.labels[v.index(x, y, z)] = 2;
-    EncodeOptions eo;
-    eo.brickSize = 16;
-    Result<CompressedVolume> vol = encodeVolume(v, eo);
-    ASSERT_TRUE(vol.isOk()) << vol.message();
-    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, *vol);
-    ASSERT_TRUE(gpu.isOk()) << gpu.message();
     RendererOptions o;
     o.prefetchVoxels = 0; // a cold first frame: every brick missing
-    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)), o);
-    ASSERT_TRUE(r.isOk()) << r.message();
+    CompressedVolume encoded;
+    std::unique_ptr<Renderer> r = volumeRenderer(*ctx, v, encoded, o);
+    ASSERT_TRUE(r);
     Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
         {"filter": {"attribute": "label", "min": 1, "max": 1}, "color": {"mode": "constant", "rgb": [0, 1, 0]}, "opacity": 0.5},
         {"filter": {"attribute": "label", "min": 2, "max": 2}, "color": {"mode": "constant", "rgb": [1, 0, 0]}}]})");
     ASSERT_TRUE(doc.isOk()) << doc.message();
-    ASSERT_TRUE((*r)->setMaterials(*doc).isOk());
+    ASSERT_TRUE(r->setMaterials(*doc).isOk());
     RenderSettings st;
     st.jitter = false;
     st.denoise = false;
     st.sampleTarget = 1;
-    (*r)->setSettings(st);
+    r->setSettings(st);
     // Down the x axis through the middle of the end face: every ray crosses all three bricks.
     const FrameInput in = perspectiveView({-40, 8, 8}, {24, 8, 8}, {0, 0, 1}, 10, 16, 16);
-    Result<FrameStats> first = (*r)->renderFrame(in);
+    Result<FrameStats> first = r->renderFrame(in);
     ASSERT_TRUE(first.isOk()) << first.message();
     EXPECT_EQ(first->previews, 16u * 16u) << "nothing is cached: every pixel shows a preview";
     FrameOutput preview;
-    ASSERT_TRUE((*r)->readOutput(preview).isOk());
-    const FrameOutput converged = renderConverged(**r, in, 1, 16);
+    ASSERT_TRUE(r->readOutput(preview).isOk());
+    const FrameOutput converged = renderConverged(*r, in, 1, 16);
     for (size_t i = 0; i < converged.label.size(); ++i) {
         ASSERT_EQ(converged.label[i], 2u) << "pixel " << i;
         ASSERT_FLOAT_EQ(converged.rgba[4 * i + 3], 1.0f) << "pixel " << i;
@@ -1032,30 +1046,25 @@ TEST(Renderer, LocalShadingFollowsTheLightAnalytically) {
     for (uint32_t z = 4; z < 28; ++z)
         for (uint32_t y = 4; y < 28; ++y)
             for (uint32_t x = 4; x < 28; ++x) v.labels[v.index(x, y, z)] = 7;
-    EncodeOptions eo;
-    eo.brickSize = 16;
-    Result<CompressedVolume> vol = encodeVolume(v, eo);
-    ASSERT_TRUE(vol.isOk()) << vol.message();
-    Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, *vol);
-    ASSERT_TRUE(gpu.isOk()) << gpu.message();
-    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)));
-    ASSERT_TRUE(r.isOk()) << r.message();
+    CompressedVolume encoded;
+    std::unique_ptr<Renderer> r = volumeRenderer(*ctx, v, encoded);
+    ASSERT_TRUE(r);
     Result<MaterialDocument> doc = parseMaterials(
         R"({"version": 1, "materials": [{"filter": {"attribute": "label", "min": 7, "max": 7},
             "color": {"mode": "constant", "rgb": [0.5, 0.5, 0.5]}}]})");
     ASSERT_TRUE(doc.isOk());
-    ASSERT_TRUE((*r)->setMaterials(*doc).isOk());
+    ASSERT_TRUE(r->setMaterials(*doc).isOk());
     RenderSettings st;
     st.lightInWorld = true;
     st.lightDirection = {0, 0, 1};
     st.lightIntensity = 0.6f;
     st.ambient = 0.2f;
     st.jitter = false;
-    (*r)->setSettings(st);
+    r->setSettings(st);
     // Seen from above and from -x, -y: the top face (+z) and the -x, -y faces are visible.
     for (const auto& eye : {std::array<double, 3>{-40, -50, 70}, std::array<double, 3>{-60, 20, 50}}) {
         const FrameInput in = perspectiveView(eye, {16, 16, 16}, {0, 0, 1}, 40, 64, 64);
-        const FrameOutput out = renderConverged(**r, in, 1, 32);
+        const FrameOutput out = renderConverged(*r, in, 1, 32);
         size_t top = 0, side = 0;
         const float step = 0.5f / 255 + 1e-5f; // the output has 8 bits a channel, rounded
         for (size_t i = 0; i < out.face.size(); ++i) {
