@@ -66,9 +66,10 @@ layout(buffer_reference, std430, buffer_reference_align = 8) readonly buffer Add
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer MaterialBuf { GpuMaterial m[]; };
 
-// The render pass reads the words it reads at every step through texel buffers where the renderer
-// made them (RENDER_TEXELS, RendererOptions::renderTexels): CPU devices fetch a texel for all
-// lanes with one gather instruction, where a read through a buffer address loops over the lanes.
+// The render pass reads its hottest words (those of every step, and the per-pixel ones) through
+// texel buffers where the renderer made them (RENDER_TEXELS, RendererOptions::renderTexels): CPU
+// devices fetch a texel for all lanes with one gather instruction, where a read through a buffer
+// address loops over the lanes.
 #ifndef RENDER_TEXELS
 #define RENDER_TEXELS 0
 #endif
@@ -293,7 +294,8 @@ uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette
     const uint i = offset + e;
     const uint label = cacheWord(i);
     // Never kNone (the cache has fewer words, Renderer.cpp): a second use of the index, so CPU
-    // devices compute it once for all lanes, not lane by lane in the read's loop (7 % of a frame).
+    // devices compute it once for all lanes, not lane by lane inside a buffer-address read's loop
+    // over the lanes (without RENDER_TEXELS: 7 % of a frame).
     return i == kNone ? kNone : label;
 #else
     const uint word = cacheWord(offset + e / CACHE_PER_WORD);
