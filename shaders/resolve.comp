@@ -5,9 +5,9 @@
 //     accumulated samples; a pixel without samples shows its preview (render.comp), else copies
 //     the nearest pixel of its stride block that has samples or a preview (upsampling);
 //   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
-//     same face, similar depth), fading out as samples accumulate;
-//   4 final: tone mapping (ACES fit), brightness, contrast, gamma; premultiplied output, 8 bits a
-//     channel (kSlotColorOut).
+//     same face, similar depth), fading out as samples accumulate; the last writes the output:
+//     tone mapping (ACES fit), brightness, contrast, gamma; premultiplied, 8 bits a channel
+//     (kSlotColorOut).
 // Pixels outside the rectangle keep what the clear filled in (Renderer.cpp addClear).
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -106,7 +106,7 @@ void resolvePixel(Frame f, uvec2 px) {
         return;
     }
     const vec4 centre = sourceOf(pixel);
-    if (RESOLVE_PASS <= kResolveAtrous4) {
+    {
         const uint n = samplesOf(pixel);
         const uvec3 gc = uvec3(gWord(pixel, 0u), gWord(pixel, 1u), gWord(pixel, 2u));
         const float dc = uintBitsToFloat(gc.z);
@@ -129,10 +129,10 @@ void resolvePixel(Frame f, uvec2 px) {
             }
         const vec4 filtered = weights > 0.0 ? sum / weights : centre;
         const float keep = (fv.frame.y & kFlagDenoise) != 0u ? float(n) / float(n + 4u) : 1.0;
-        dst.v[pixel] = mix(filtered, centre, keep);
-        return;
+        const vec4 result = mix(filtered, centre, keep);
+        if (pc.dst == kSlotColorOut) UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(result)); // the last pass
+        else dst.v[pixel] = result;
     }
-    UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(centre)); // the final pass: into the output
 }
 
 void main() {

@@ -177,7 +177,7 @@ struct Renderer::Impl {
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
-    uint64_t pResolve[kResolveFinal + 1] = {}; // per resolve pass, compiled on first use
+    uint64_t pResolve[kResolveAtrous4 + 1] = {}; // per resolve pass, compiled on first use
     uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
@@ -1126,7 +1126,7 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
         jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
         jobs.back().texelBindings = renderTexels.bindings();
     }
-    for (uint32_t pass = kResolveGather; pass <= kResolveFinal; ++pass)
+    for (uint32_t pass = kResolveGather; pass <= kResolveAtrous4; ++pass)
         if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st)) {
             need(pResolve[pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
             if (!jobs.empty() && jobs.back().out == &pResolve[pass] && resolveTexels[0].valid()) {
@@ -1325,8 +1325,7 @@ void Renderer::Impl::addResolve(uint32_t pass, uint32_t src, uint32_t dst) {
 void Renderer::Impl::addDenoisePasses() {
     addResolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
     addResolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
-    addResolve(kResolveAtrous4, kSlotDenoiseA, kSlotDenoiseB);
-    addResolve(kResolveFinal, kSlotDenoiseB, kSlotColorOut);
+    addResolve(kResolveAtrous4, kSlotDenoiseA, kSlotColorOut); // tone-mapped into the output
 }
 
 void Renderer::Impl::addClear(const FrameInput& in) {
@@ -1362,7 +1361,7 @@ bool Renderer::Impl::denoises(const RenderSettings& st) const {
 
 Status Renderer::Impl::denoiseOutput() {
     denoisePending = false;
-    if (!pResolve[kResolveFinal]) return Status::ok(); // nothing made to denoise with (no frame since)
+    if (!pResolve[kResolveAtrous4]) return Status::ok(); // nothing made to denoise with (no frame since)
     dispatches.clear();
     resolvePushes.clear();
     resolvePushes.reserve(8);
@@ -1415,8 +1414,8 @@ Status Renderer::Impl::submit() {
                 if (d.pipeline == p) return name;
             for (const uint64_t p : pRender)
                 if (d.pipeline == p) return "render";
-            const char* const resolves[] = {"gather", "a-trous 1", "a-trous 2", "a-trous 4", "final"};
-            static_assert(std::size(resolves) == kResolveFinal + 1, "a name per resolve pass");
+            const char* const resolves[] = {"gather", "a-trous 1", "a-trous 2", "a-trous 4"};
+            static_assert(std::size(resolves) == kResolveAtrous4 + 1, "a name per resolve pass");
             for (size_t k = 0; k < std::size(pResolve); ++k)
                 if (d.pipeline == pResolve[k]) return resolves[k];
             return "decode";

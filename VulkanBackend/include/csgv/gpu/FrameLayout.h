@@ -142,8 +142,7 @@ CSGV_CONST(uint32_t, kGroupLabels, 64u)  ///< label_colors.comp
 CSGV_CONST(uint32_t, kResolveGather, 0u)  ///< average and upsampling (tone-mapped when not denoising)
 CSGV_CONST(uint32_t, kResolveAtrous1, 1u) ///< A-trous denoising, step 1 (then 2 and 4: passes 2 and 3)
 CSGV_CONST(uint32_t, kResolveAtrous2, 2u)
-CSGV_CONST(uint32_t, kResolveAtrous4, 3u)
-CSGV_CONST(uint32_t, kResolveFinal, 4u)   ///< tone mapping, brightness, contrast, gamma
+CSGV_CONST(uint32_t, kResolveAtrous4, 3u) ///< the last: tone-mapped straight into the output
 
 // The GPU decoder's lists (GpuVolume.cpp, cache_assign.comp, decode_bricks.comp, host decoding).
 CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse level, cache word offset
