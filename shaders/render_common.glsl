@@ -74,13 +74,13 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ma
 #define RENDER_TEXELS 0
 #endif
 #if RENDER_TEXELS
-layout(set = 0, binding = 0) uniform usamplerBuffer cacheTexels;   // kSlotCache
-layout(set = 0, binding = 1) uniform usamplerBuffer brickTexels;   // kSlotBricks
-layout(set = 0, binding = 2) uniform usamplerBuffer uniformTexels; // kSlotUniform
-layout(set = 0, binding = 3) uniform usamplerBuffer tableTexels;   // kSlotMaterialTable
-layout(set = 0, binding = 4) uniform usamplerBuffer colorTexels;   // kSlotLabelColors
-layout(set = 0, binding = 5) uniform usamplerBuffer sampleTexels;  // kSlotSamples
-layout(set = 0, binding = 6) uniform usamplerBuffer listTexels;    // kSlotPixelList
+layout(set = 0, binding = kTexelCache) uniform usamplerBuffer cacheTexels;
+layout(set = 0, binding = kTexelBricks) uniform usamplerBuffer brickTexels;
+layout(set = 0, binding = kTexelUniform) uniform usamplerBuffer uniformTexels;
+layout(set = 0, binding = kTexelMaterialTable) uniform usamplerBuffer tableTexels;
+layout(set = 0, binding = kTexelLabelColors) uniform usamplerBuffer colorTexels;
+layout(set = 0, binding = kTexelSamples) uniform usamplerBuffer sampleTexels;
+layout(set = 0, binding = kTexelPixelList) uniform usamplerBuffer listTexels;
 uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
 uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
 vec4 labelColor(uint e) {

@@ -26,10 +26,10 @@ layout(push_constant) uniform Push {
 #define RESOLVE_TEXELS 0
 #endif
 #if RESOLVE_TEXELS
-layout(set = 0, binding = 0) uniform usamplerBuffer gTexels;      // kSlotGBuffer
-layout(set = 0, binding = 1) uniform usamplerBuffer sampleTexels; // kSlotSamples
-layout(set = 0, binding = 2) uniform usamplerBuffer accumTexels;  // kSlotAccum
-layout(set = 0, binding = 3) uniform usamplerBuffer srcTexels;    // pc.src (kSlotDenoiseA or kSlotDenoiseB)
+layout(set = 0, binding = kResolveTexelGBuffer) uniform usamplerBuffer gTexels;
+layout(set = 0, binding = kResolveTexelSamples) uniform usamplerBuffer sampleTexels;
+layout(set = 0, binding = kResolveTexelAccum) uniform usamplerBuffer accumTexels;
+layout(set = 0, binding = kResolveTexelSource) uniform usamplerBuffer srcTexels;
 uint samplesOf(uint i) { return texelFetch(sampleTexels, int(i)).x; }
 uint gWord(uint i, uint k) { return texelFetch(gTexels, int(4u * i + k)).x; }
 vec4 texels4(usamplerBuffer t, uint i) {

@@ -52,7 +52,8 @@ const Probe kProbes[] = {
     CSGV_PROBE(kAllocEvictAge), CSGV_PROBE(kAllocPreviews),
     CSGV_PROBE(kAllocReqCount), CSGV_PROBE(kAllocPops), CSGV_PROBE(kAllocProvBase), CSGV_PROBE(kAllocProvCount),
     CSGV_PROBE(kAllocWords), CSGV_PROBE(kResolveGather), CSGV_PROBE(kResolveAtrous1), CSGV_PROBE(kResolveAtrous2),
-    CSGV_PROBE(kResolveAtrous4),
+    CSGV_PROBE(kResolveAtrous4), CSGV_PROBE(kTexelCache), CSGV_PROBE(kTexelPixelList),
+    CSGV_PROBE(kRenderTexelCount), CSGV_PROBE(kResolveTexelSource), CSGV_PROBE(kResolveTexelCount),
 };
 constexpr uint32_t kProbeCount = sizeof(kProbes) / sizeof(kProbes[0]);
 

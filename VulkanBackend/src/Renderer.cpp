@@ -76,6 +76,51 @@ Status makePipelines(Context& ctx, const std::vector<PipelineJob>& jobs, bool pr
     return Status::ok();
 }
 
+/// Texel sets over lists of buffers (one set a list, the bindings in list order), made again when
+/// a buffer they view was made again (Buffer::serial: a new buffer may take a freed one's
+/// address); none where not wanted or where a buffer is too large for one view (the passes then
+/// read through buffer addresses).
+struct TexelViews {
+    std::vector<TexelSet> sets;
+    std::vector<uint64_t> serials; // of the buffers viewed, list after list
+    bool made = false;             // the last refresh made sets: what the pipelines were made for
+
+    bool valid() const { return !sets.empty(); }
+    /// Drops the views (before their buffers go); the next refresh makes them again.
+    void clear() {
+        sets.clear();
+        serials.clear();
+    }
+    /// True when the sets came or went since the last refresh: pipelines made for the other case
+    /// must be made again (views made again over new buffers change nothing for them).
+    template <size_t N>
+    Result<bool> refresh(Context& ctx, bool wanted, std::initializer_list<std::array<const Buffer*, N>> lists) {
+        bool fit = wanted, same = valid() && serials.size() == N * lists.size();
+        size_t i = 0;
+        for (const auto& list : lists)
+            for (const Buffer* b : list) {
+                fit = fit && b->valid() && b->size() / 4 <= ctx.device().maxTexelBufferElements;
+                same = same && serials[i++] == b->serial();
+            }
+        if (fit && same) return false;
+        clear();
+        if (fit) {
+            for (const auto& list : lists) {
+                Result<TexelSet> t = ctx.createTexelSet(std::vector<const Buffer*>(list.begin(), list.end()));
+                if (!t) {
+                    clear();
+                    return t.status();
+                }
+                sets.push_back(std::move(*t));
+                for (const Buffer* b : list) serials.push_back(b->serial());
+            }
+        }
+        const bool changed = made != valid();
+        made = valid();
+        return changed;
+    }
+};
+
 constexpr uint32_t kColormapSamples = 1024;
 
 /// Seconds a rendered pixel costs per ray before a renderer has measured its own frames (which
@@ -181,13 +226,10 @@ struct Renderer::Impl {
     uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
-    TexelSet renderTexels; // the render pass's texel buffers (RendererOptions::renderTexels), or none
-    static constexpr size_t kRenderTexels = 7; // RENDER_TEXELS bindings of render_common.glsl
-    std::array<uint64_t, kRenderTexels> texelSerials{}; // the buffers they view (Buffer::serial)
-    /// The resolve passes' texel buffers (RESOLVE_TEXELS in resolve.comp): the G-buffer, the sample
-    /// counts, the accumulation and the pass's source, one set per source (denoiseA, denoiseB).
-    TexelSet resolveTexels[2];
-    std::array<uint64_t, 5> resolveSerials{};
+    /// The render pass's texel buffers (RENDER_TEXELS, RendererOptions::renderTexels), or none.
+    TexelViews renderTexels;
+    /// The resolve passes' (RESOLVE_TEXELS): a set per source, denoiseA then denoiseB.
+    TexelViews resolveTexels;
     Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
@@ -422,9 +464,8 @@ struct Renderer::Impl {
             outputParts = 0;
             return Status::ok();
         }
-        renderTexels = TexelSet{}; // views go before their buffers
-        resolveTexels[0] = TexelSet{};
-        resolveTexels[1] = TexelSet{};
+        renderTexels.clear(); // views go before their buffers
+        resolveTexels.clear();
         struct Part {
             Buffer* target;
             uint64_t bytes;
@@ -483,62 +524,39 @@ struct Renderer::Impl {
                                  mebibytes(smallestCacheBytes()));
         return resizeCache((cache.size() - over) & ~uint64_t(3));
     }
-    /// The render pass's texel buffers (RENDER_TEXELS in render_common.glsl: the cache, the brick
-    /// table, the uniform sub-blocks, the label table, the label colours, the sample counts, the
-    /// pixel list), made again when one of them was (Buffer::serial), where wanted and the device
-    /// allows views of them whole (else none: the pass reads them through their addresses). The
-    /// render pipeline differs with and without: a change drops it.
-    Status viewRenderBuffers() {
-        // The label colours exist with a label table only: the parameter block stands in (unread).
-        const Buffer* colors = labelColors.valid() ? &labelColors : &params;
-        const Buffer* list = pixelList.valid() ? &pixelList : &params;
-        const std::vector<const Buffer*> views = {&cache, &bricks, &uniformSubs, &materialTable, colors, &samples, list};
-        std::array<uint64_t, kRenderTexels> serials{};
-        bool fit = texelsWanted;
-        for (size_t i = 0; i < views.size(); ++i) {
-            serials[i] = views[i]->serial();
-            fit = fit && views[i]->valid() && views[i]->size() / 4 <= ctx.device().maxTexelBufferElements;
-        }
-        if (fit && renderTexels.valid() && serials == texelSerials) return Status::ok();
-        const bool had = renderTexels.valid();
-        renderTexels = TexelSet{};
-        texelSerials = {};
-        if (fit) {
-            Result<TexelSet> t = ctx.createTexelSet(views);
-            if (!t) return Status(t.status()).prefix("viewing the render pass's buffers");
-            renderTexels = std::move(*t);
-            texelSerials = serials;
-        }
-        if (had != renderTexels.valid()) std::fill(std::begin(pRender), std::end(pRender), uint64_t(0));
-        return viewResolveBuffers();
-    }
-    /// The same for the resolve passes (the per-pixel buffers).
-    Status viewResolveBuffers() {
-        const std::array<uint64_t, 5> serials{gbuffer.serial(), samples.serial(), accum.serial(), denoiseA.serial(),
-                                              denoiseB.serial()};
-        bool fit = texelsWanted;
-        for (const Buffer* b : {&gbuffer, &samples, &accum, &denoiseA, &denoiseB})
-            fit = fit && b->valid() && b->size() / 4 <= ctx.device().maxTexelBufferElements;
-        if (fit && resolveTexels[0].valid() && serials == resolveSerials) return Status::ok();
-        const bool had = resolveTexels[0].valid();
-        resolveTexels[0] = TexelSet{};
-        resolveTexels[1] = TexelSet{};
-        resolveSerials = {};
-        if (fit) {
-            for (int k = 0; k < 2; ++k) {
-                Result<TexelSet> t = ctx.createTexelSet({&gbuffer, &samples, &accum, k == 0 ? &denoiseA : &denoiseB});
-                if (!t) return Status(t.status()).prefix("viewing the resolve passes' buffers");
-                resolveTexels[k] = std::move(*t);
-            }
-            resolveSerials = serials;
-        }
-        if (had != resolveTexels[0].valid()) std::fill(std::begin(pResolve), std::end(pResolve), uint64_t(0));
+    /// The texel buffers of the render and resolve passes (FrameLayout.h's kTexel* bindings) for
+    /// the buffers of this frame. Pipelines made with them differ from those made without: a
+    /// change drops those.
+    Status viewBuffers() {
+        // The label colours exist with a label table only, the pixel list with host decoding:
+        // the parameter block stands in (unread).
+        std::array<const Buffer*, kRenderTexelCount> render{};
+        render[kTexelCache] = &cache;
+        render[kTexelBricks] = &bricks;
+        render[kTexelUniform] = &uniformSubs;
+        render[kTexelMaterialTable] = &materialTable;
+        render[kTexelLabelColors] = labelColors.valid() ? &labelColors : &params;
+        render[kTexelSamples] = &samples;
+        render[kTexelPixelList] = pixelList.valid() ? &pixelList : &params;
+        Result<bool> changed = renderTexels.refresh(ctx, texelsWanted, {render});
+        if (!changed) return Status(changed.status()).prefix("viewing the render pass's buffers");
+        if (*changed) std::fill(std::begin(pRender), std::end(pRender), uint64_t(0));
+        std::array<const Buffer*, kResolveTexelCount> resolve{};
+        resolve[kResolveTexelGBuffer] = &gbuffer;
+        resolve[kResolveTexelSamples] = &samples;
+        resolve[kResolveTexelAccum] = &accum;
+        std::array<const Buffer*, kResolveTexelCount> fromB = resolve;
+        resolve[kResolveTexelSource] = &denoiseA;
+        fromB[kResolveTexelSource] = &denoiseB;
+        changed = resolveTexels.refresh(ctx, texelsWanted, {resolve, fromB});
+        if (!changed) return Status(changed.status()).prefix("viewing the resolve passes' buffers");
+        if (*changed) std::fill(std::begin(pResolve), std::end(pResolve), uint64_t(0));
         return Status::ok();
     }
     /// A new, smaller brick cache: the old one is freed first (the budget holds at every moment)
     /// and every brick is forgotten (they are requested again by the next frames).
     Status resizeCache(uint64_t bytes) {
-        renderTexels = TexelSet{}; // its view goes before the buffer
+        renderTexels.clear(); // its view goes before the buffer
         cache = Buffer{};
         decodeDispatches.clear();
         frameDecode = GpuVolume::FrameDecode{};
@@ -1124,14 +1142,14 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
     need(pRender[mode], "render.comp", 8, "SHADING", mode);
     if (!jobs.empty() && jobs.back().out == &pRender[mode] && renderTexels.valid()) {
         jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
-        jobs.back().texelBindings = renderTexels.bindings();
+        jobs.back().texelBindings = kRenderTexelCount;
     }
     for (uint32_t pass = kResolveGather; pass <= kResolveAtrous4; ++pass)
         if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st)) {
             need(pResolve[pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
-            if (!jobs.empty() && jobs.back().out == &pResolve[pass] && resolveTexels[0].valid()) {
+            if (!jobs.empty() && jobs.back().out == &pResolve[pass] && resolveTexels.valid()) {
                 jobs.back().defines.emplace_back("RESOLVE_TEXELS", "1");
-                jobs.back().texelBindings = resolveTexels[0].bindings();
+                jobs.back().texelBindings = kResolveTexelCount;
             }
         }
     need(pRequest, "cache_request.comp");
@@ -1293,7 +1311,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
                     uint32_t(std::min<uint64_t>((lookup.entries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
-    if (renderTexels.valid()) dispatches.back().texels = &renderTexels;
+    if (renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];
     if (resolvesInRender(st)) return;
     if (!denoises(st)) {
         addResolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
@@ -1319,7 +1337,7 @@ void Renderer::Impl::addResolve(uint32_t pass, uint32_t src, uint32_t dst) {
     resolvePushes.push_back({frameAddress, src, dst}); // reserved: the list points into it
     addDispatch(pResolve[pass], &resolvePushes.back(), sizeof(ResolvePush), (rect[2] - rect[0] + tile - 1) / tile,
                 (rect[3] - rect[1] + tile - 1) / tile);
-    if (resolveTexels[0].valid()) dispatches.back().texels = &resolveTexels[src == kSlotDenoiseB ? 1 : 0];
+    if (resolveTexels.valid()) dispatches.back().texels = &resolveTexels.sets[src == kSlotDenoiseB ? 1 : 0];
 }
 
 void Renderer::Impl::addDenoisePasses() {
@@ -1361,7 +1379,6 @@ bool Renderer::Impl::denoises(const RenderSettings& st) const {
 
 Status Renderer::Impl::denoiseOutput() {
     denoisePending = false;
-    if (!pResolve[kResolveAtrous4]) return Status::ok(); // nothing made to denoise with (no frame since)
     dispatches.clear();
     resolvePushes.clear();
     resolvePushes.reserve(8);
@@ -1504,7 +1521,7 @@ bool Renderer::Impl::fragmented() {
 }
 
 Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
-    Status s = viewRenderBuffers();
+    Status s = viewBuffers();
     if (!s) return s;
     if (!(s = ensurePipelines(st))) return s;
     FrameStats stats;

@@ -137,6 +137,23 @@ CSGV_CONST(uint32_t, kGroupList, 64u)    ///< pixel_list.comp: invocations a gro
 CSGV_CONST(uint32_t, kListBlock, 16u)
 CSGV_CONST(uint32_t, kGroupLabels, 64u)  ///< label_colors.comp
 
+// Texel buffer bindings (set 0, R32_UINT views) of the render pass (RENDER_TEXELS,
+// render_common.glsl) and of the resolve passes (RESOLVE_TEXELS, resolve.comp): Renderer.cpp
+// views the buffers in this order.
+CSGV_CONST(uint32_t, kTexelCache, 0u)         ///< kSlotCache
+CSGV_CONST(uint32_t, kTexelBricks, 1u)        ///< kSlotBricks
+CSGV_CONST(uint32_t, kTexelUniform, 2u)       ///< kSlotUniform
+CSGV_CONST(uint32_t, kTexelMaterialTable, 3u) ///< kSlotMaterialTable
+CSGV_CONST(uint32_t, kTexelLabelColors, 4u)   ///< kSlotLabelColors
+CSGV_CONST(uint32_t, kTexelSamples, 5u)       ///< kSlotSamples
+CSGV_CONST(uint32_t, kTexelPixelList, 6u)     ///< kSlotPixelList
+CSGV_CONST(uint32_t, kRenderTexelCount, 7u)
+CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
+CSGV_CONST(uint32_t, kResolveTexelSamples, 1u) ///< kSlotSamples
+CSGV_CONST(uint32_t, kResolveTexelAccum, 2u)   ///< kSlotAccum
+CSGV_CONST(uint32_t, kResolveTexelSource, 3u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)
+CSGV_CONST(uint32_t, kResolveTexelCount, 4u)
+
 // Passes of resolve.comp (its define RESOLVE_PASS: one pipeline per pass, for CPU devices run
 // every branch a shader holds, taken or not).
 CSGV_CONST(uint32_t, kResolveGather, 0u)  ///< average and upsampling (tone-mapped when not denoising)
