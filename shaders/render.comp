@@ -341,31 +341,30 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
             break;
         }
     }
+    // One set of stores for both outcomes (CPU devices run every store, taken or not, as a loop
+    // over the lanes): a sample, or a pixel without samples' preview (no sample yet: its
+    // accumulation word is free), or nothing.
     if (!valid) {
         ++count.missing;
-        if (previews) {
-            preview = true;
-            if (gLabel == kNone) { // lost on the view ray: the preview is what it gathered
-                previewRadiance = radiance;
-                previewTransmittance = transmittance;
-            }
-            total = vec4(previewRadiance, 1.0 - previewTransmittance);
-            Vec4Buf(frameAddr[kSlotAccum]).v[pixel] = total; // no sample yet: the word is free
-            Uvec4Buf(frameAddr[kSlotGBuffer]).v[pixel] = uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u);
-            FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
+        if (gLabel == kNone) { // lost on the view ray: the preview is what it gathered
+            previewRadiance = radiance;
+            previewTransmittance = transmittance;
         }
-        return false;
+        total = vec4(previewRadiance, 1.0 - previewTransmittance);
+        preview = previews;
+    } else {
+        total = vec4(radiance, 1.0 - transmittance);
+        if (samples > 0u) total += Vec4Buf(frameAddr[kSlotAccum]).v[pixel]; // the first sample need not read the cleared sum
+        ++count.added;
     }
-    Vec4Buf accum = Vec4Buf(frameAddr[kSlotAccum]);
-    total = vec4(radiance, 1.0 - transmittance);
-    if (samples > 0u) total += accum.v[pixel]; // the first sample need not read the cleared sum
-    accum.v[pixel] = total;
-    UintBuf(frameAddr[kSlotSamples]).w[pixel] = samples + 1u;
-    ++count.added;
-    Uvec4Buf(frameAddr[kSlotGBuffer]).v[pixel] =
-        uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance));
-    FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
-    return true;
+    if (valid || previews) {
+        Vec4Buf(frameAddr[kSlotAccum]).v[pixel] = total;
+        Uvec4Buf(frameAddr[kSlotGBuffer]).v[pixel] = valid ? uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance))
+                                                           : uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u);
+        FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
+    }
+    if (valid) UintBuf(frameAddr[kSlotSamples]).w[pixel] = samples + 1u;
+    return valid;
 }
 
 /// The pixel at `cell` in the grid of rendered pixels of the footprint rectangle (all, or one
