@@ -73,7 +73,7 @@ vec3 transformPoint(mat4 m, vec3 p) { return (m * vec4(p, 1.0)).xyz; }
 /// already is in that label (behind a semi-transparent block of it): a view ray's preview then
 /// passes the brick whole (march's passMissing); a deep path-tracing bounce ends there.
 bool coarseBlock(inout Walker w, out uint label, out uint material) {
-    const uvec2 preview = Uvec2Buf(frameAddr[kSlotVisible]).v[brickIndexOf(w.voxel)];
+    const uvec2 preview = unpackUint2x32(U64Buf(frameAddr[kSlotVisible]).v[brickIndexOf(w.voxel)]);
     label = preview.x;
     material = preview.y;
     if (label == w.prevLabel) return false;
@@ -354,13 +354,13 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
         preview = previews;
     } else {
         total = vec4(radiance, 1.0 - transmittance);
-        if (samples > 0u) total += Vec4Buf(frameAddr[kSlotAccum]).v[pixel]; // the first sample need not read the cleared sum
+        if (samples > 0u) total += loadVec4(frameAddr[kSlotAccum], pixel); // the first sample need not read the cleared sum
         ++count.added;
     }
     if (valid || previews) {
-        Vec4Buf(frameAddr[kSlotAccum]).v[pixel] = total;
-        Uvec4Buf(frameAddr[kSlotGBuffer]).v[pixel] = valid ? uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance))
-                                                           : uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u);
+        storeVec4(frameAddr[kSlotAccum], pixel, total);
+        storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance))
+                                                        : uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u));
         FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
     }
     if (valid) UintBuf(frameAddr[kSlotSamples]).w[pixel] = samples + 1u;

@@ -41,8 +41,8 @@ vec4 sourceOf(uint i) { return texels4(srcTexels, i); }
 #else
 uint samplesOf(uint i) { return UintBuf(frameAddr[kSlotSamples]).w[i]; }
 uint gWord(uint i, uint k) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + k]; }
-vec4 accumOf(uint i) { return Vec4Buf(frameAddr[kSlotAccum]).v[i]; }
-vec4 sourceOf(uint i) { return Vec4Buf(frameAddr[pc.src]).v[i]; }
+vec4 accumOf(uint i) { return loadVec4(frameAddr[kSlotAccum], i); }
+vec4 sourceOf(uint i) { return loadVec4(frameAddr[pc.src], i); }
 #endif
 
 /// The nearest pixel of px's stride block (edge s) with samples (`sampled`) or with a preview;
@@ -70,12 +70,11 @@ void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
     if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
     const uint pixel = px.y * W + px.x;
-    Vec4Buf dst = Vec4Buf(f.addr[pc.dst]);
     if (RESOLVE_PASS == kResolveGather) {
         uint n = samplesOf(pixel);
         const uint fewest = subgroupMin(n); // one atomic per subgroup
         if (subgroupElect()) atomicMin(UintBuf(frameAddr[kSlotAlloc]).w[kAllocMinSamples], fewest);
-        Uvec4Buf g = Uvec4Buf(frameAddr[kSlotGBuffer]);
+        U64Buf g = U64Buf(frameAddr[kSlotGBuffer]); // two words a read or write (see storeVec4)
         // What the pixel shows: its own samples, else (upsampling) the nearest pixel of its stride
         // block with samples, else its own preview, else the nearest preview of the block.
         const uint s = uint(fv.pixel.z); // the upsampling block: the coarsest stride of this accumulation
@@ -94,7 +93,10 @@ void resolvePixel(Frame f, uvec2 px) {
             depth.f[pixel] = depth.f[from];
             // What the pixel shows, it also answers to picking (its own first sample replaces it);
             // a preview answers nothing (and stays its block neighbour's).
-            if (!preview) g.v[pixel] = g.v[from];
+            if (!preview) {
+                g.v[2u * pixel] = g.v[2u * from];
+                g.v[2u * pixel + 1u] = g.v[2u * from + 1u];
+            }
         }
         const uint previews = subgroupAdd(preview ? 1u : 0u);
         if (subgroupElect() && previews > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPreviews], previews);
@@ -102,7 +104,7 @@ void resolvePixel(Frame f, uvec2 px) {
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocHoles], holes);
         const vec4 c = shows ? accumOf(from) / float(max(n, 1u)) : vec4(0.0);
         if (pc.dst == kSlotColorOut) UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(c)); // without denoising: one pass
-        else dst.v[pixel] = c;
+        else storeVec4(f.addr[pc.dst], pixel, c);
         return;
     }
     const vec4 centre = sourceOf(pixel);
@@ -131,7 +133,7 @@ void resolvePixel(Frame f, uvec2 px) {
         const float keep = (fv.frame.y & kFlagDenoise) != 0u ? float(n) / float(n + 4u) : 1.0;
         const vec4 result = mix(filtered, centre, keep);
         if (pc.dst == kSlotColorOut) UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(result)); // the last pass
-        else dst.v[pixel] = result;
+        else storeVec4(f.addr[pc.dst], pixel, result);
     }
 }
 
