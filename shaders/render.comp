@@ -73,7 +73,7 @@ vec3 transformPoint(mat4 m, vec3 p) { return (m * vec4(p, 1.0)).xyz; }
 /// already is in that label (behind a semi-transparent block of it): a view ray's preview then
 /// passes the brick whole (march's passMissing); a deep path-tracing bounce ends there.
 bool coarseBlock(inout Walker w, out uint label, out uint material) {
-    const uvec2 preview = unpackUint2x32(U64Buf(frameAddr[kSlotVisible]).v[brickIndexOf(w.voxel)]);
+    const uvec2 preview = visibleEntry(brickIndexOf(w.voxel));
     label = preview.x;
     material = preview.y;
     if (label == w.prevLabel) return false;
@@ -136,7 +136,7 @@ bool leaveSurface(Walker w, vec3 dIndex, float tEnd, out Walker s) {
 /// The 64x64 blue-noise tile (VulkanBackend/src/BlueNoise.h), a byte per pixel.
 float blueNoise(uvec2 p) {
     const uint i = (p.y & 63u) * 64u + (p.x & 63u);
-    return (float((UintBuf(frameAddr[kSlotBlueNoise]).w[i >> 2u] >> (8u * (i & 3u))) & 255u) + 0.5) * (1.0 / 256.0);
+    return (float((blueNoiseWord(i >> 2u) >> (8u * (i & 3u))) & 255u) + 0.5) * (1.0 / 256.0);
 }
 
 /// Two numbers in [0, 1) for a pixel's k-th sample: the blue-noise tile (per pair of dimensions
@@ -205,7 +205,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
     precise vec3 d = e - o;
     float tEnd = 1.0;
     if ((fv.frame.y & kFlagDepthInput) != 0u) {
-        const float z = FloatBuf(frameAddr[kSlotDepthIn]).f[pixel];
+        const float z = depthInAt(pixel);
         if (z < 1.0) {
             const vec4 q = M * vec4(ndcX, ndcY, 2.0 * z - 1.0, 1.0);
             tEnd = min(tEnd, dot(q.xyz / q.w - o, d) / dot(d, d));

@@ -99,6 +99,11 @@ layout(set = 0, binding = kTexelMaterialTable) uniform usamplerBuffer tableTexel
 layout(set = 0, binding = kTexelLabelColors) uniform usamplerBuffer colorTexels;
 layout(set = 0, binding = kTexelSamples) uniform usamplerBuffer sampleTexels;
 layout(set = 0, binding = kTexelPixelList) uniform usamplerBuffer listTexels;
+layout(set = 0, binding = kTexelMaterials) uniform usamplerBuffer materialTexels;
+layout(set = 0, binding = kTexelLabelMap) uniform usamplerBuffer labelMapTexels;
+layout(set = 0, binding = kTexelDepthIn) uniform usamplerBuffer depthInTexels;
+layout(set = 0, binding = kTexelBlueNoise) uniform usamplerBuffer blueNoiseTexels;
+layout(set = 0, binding = kTexelVisible) uniform usamplerBuffer visibleTexels;
 uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
 uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
 vec4 labelColor(uint e) {
@@ -114,6 +119,11 @@ uvec4 brickState(uint b) {
                  texelFetch(brickTexels, int(4u * b + 3u)).x);
 }
 uvec2 uniformMask(uint b) { return uvec2(texelFetch(uniformTexels, int(2u * b)).x, texelFetch(uniformTexels, int(2u * b + 1u)).x); }
+float materialEmission(uint m) { return uintBitsToFloat(texelFetch(materialTexels, int(kMaterialWords * m + kMaterialEmissionWord)).x); }
+uint labelMapWord(uint label) { return texelFetch(labelMapTexels, int(label)).x; }
+float depthInAt(uint pixel) { return uintBitsToFloat(texelFetch(depthInTexels, int(pixel)).x); }
+uint blueNoiseWord(uint i) { return texelFetch(blueNoiseTexels, int(i)).x; }
+uvec2 visibleEntry(uint b) { return uvec2(texelFetch(visibleTexels, int(2u * b)).x, texelFetch(visibleTexels, int(2u * b + 1u)).x); }
 #else
 uint cacheWord(uint i) { return UintBuf(frameAddr[kSlotCache]).w[i]; }
 uint tableWord(uint i) { return UintBuf(frameAddr[kSlotMaterialTable]).w[i]; }
@@ -122,6 +132,11 @@ uint sampleCount(uint pixel) { return UintBuf(frameAddr[kSlotSamples]).w[pixel];
 uint listedCell(uint i) { return UintBuf(frameAddr[kSlotPixelList]).w[i]; }
 uvec4 brickState(uint b) { return Uvec4Buf(frameAddr[kSlotBricks]).v[b]; }
 uvec2 uniformMask(uint b) { return Uvec2Buf(frameAddr[kSlotUniform]).v[b]; }
+float materialEmission(uint m) { return MaterialBuf(frameAddr[kSlotMaterials]).m[m].extra.x; }
+uint labelMapWord(uint label) { return UintBuf(frameAddr[kSlotLabelMap]).w[label]; }
+float depthInAt(uint pixel) { return FloatBuf(frameAddr[kSlotDepthIn]).f[pixel]; }
+uint blueNoiseWord(uint i) { return UintBuf(frameAddr[kSlotBlueNoise]).w[i]; }
+uvec2 visibleEntry(uint b) { return unpackUint2x32(U64Buf(frameAddr[kSlotVisible]).v[b]); }
 #endif
 
 
@@ -146,7 +161,7 @@ float rngNext(inout Rng r) {
 // Materials
 
 uint originalLabel(Frame f, uint label) {
-    if ((fv.frame.y & kFlagLabelMap) != 0u && label < fv.counts.z) return UintBuf(frameAddr[kSlotLabelMap]).w[label];
+    if ((fv.frame.y & kFlagLabelMap) != 0u && label < fv.counts.z) return labelMapWord(label);
     return label;
 }
 
@@ -230,7 +245,7 @@ vec4 materialColorOf(Frame f, uint m, uint label, out float emission) {
 /// (CPU devices run every branch of them at every call).
 vec4 materialColor(Frame f, uint m, uint label, out float emission) {
 #if LABEL_LOOKUP == 1 || LABEL_LOOKUP == 2
-    emission = MaterialBuf(frameAddr[kSlotMaterials]).m[m].extra.x;
+    emission = materialEmission(m);
 #if LABEL_LOOKUP == 1
     const uint entry = label;
 #else

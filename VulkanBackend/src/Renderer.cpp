@@ -528,8 +528,9 @@ struct Renderer::Impl {
     /// the buffers of this frame. Pipelines made with them differ from those made without: a
     /// change drops those.
     Status viewBuffers() {
-        // The label colours exist with a label table only, the pixel list with host decoding:
-        // the parameter block stands in (unread).
+        // The label colours exist with a label table only, the pixel list with host decoding, the
+        // label map and the opaque depth when there are some: the parameter block stands in for
+        // what is absent (unread).
         std::array<const Buffer*, kRenderTexelCount> render{};
         render[kTexelCache] = &cache;
         render[kTexelBricks] = &bricks;
@@ -538,6 +539,11 @@ struct Renderer::Impl {
         render[kTexelLabelColors] = labelColors.valid() ? &labelColors : &params;
         render[kTexelSamples] = &samples;
         render[kTexelPixelList] = pixelList.valid() ? &pixelList : &params;
+        render[kTexelMaterials] = materials.valid() ? &materials : &params;
+        render[kTexelLabelMap] = labelMap.valid() ? &labelMap : &params;
+        render[kTexelDepthIn] = depthIn.valid() ? &depthIn : &params;
+        render[kTexelBlueNoise] = blueNoise.valid() ? &blueNoise : &params;
+        render[kTexelVisible] = visible.valid() ? &visible : &params;
         Result<bool> changed = renderTexels.refresh(ctx, texelsWanted, {render});
         if (!changed) return Status(changed.status()).prefix("viewing the render pass's buffers");
         if (*changed) std::fill(std::begin(pRender), std::end(pRender), uint64_t(0));

@@ -147,7 +147,12 @@ CSGV_CONST(uint32_t, kTexelMaterialTable, 3u) ///< kSlotMaterialTable
 CSGV_CONST(uint32_t, kTexelLabelColors, 4u)   ///< kSlotLabelColors
 CSGV_CONST(uint32_t, kTexelSamples, 5u)       ///< kSlotSamples
 CSGV_CONST(uint32_t, kTexelPixelList, 6u)     ///< kSlotPixelList
-CSGV_CONST(uint32_t, kRenderTexelCount, 7u)
+CSGV_CONST(uint32_t, kTexelMaterials, 7u)     ///< kSlotMaterials
+CSGV_CONST(uint32_t, kTexelLabelMap, 8u)      ///< kSlotLabelMap
+CSGV_CONST(uint32_t, kTexelDepthIn, 9u)       ///< kSlotDepthIn
+CSGV_CONST(uint32_t, kTexelBlueNoise, 10u)    ///< kSlotBlueNoise
+CSGV_CONST(uint32_t, kTexelVisible, 11u)      ///< kSlotVisible
+CSGV_CONST(uint32_t, kRenderTexelCount, 12u)
 CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
 CSGV_CONST(uint32_t, kResolveTexelSamples, 1u) ///< kSlotSamples
 CSGV_CONST(uint32_t, kResolveTexelAccum, 2u)   ///< kSlotAccum
@@ -212,6 +217,9 @@ struct GpuMaterial {
     CSGV_UVEC4(colour) // x: colour attribute (kNone = label), y: wrap (1 repeat), z: colormap offset, w: samples (0: palette)
     CSGV_VEC4(extra)   // x: emission
 };
+/// GpuMaterial in 32-bit words (read as texels): its size and where the emission (extra.x) is.
+CSGV_CONST(uint32_t, kMaterialWords, 20u)
+CSGV_CONST(uint32_t, kMaterialEmissionWord, 16u)
 
 /// Push constants of resolve.comp.
 #define CSGV_RESOLVE_PUSH_MEMBERS                                                                   \
@@ -229,6 +237,8 @@ static_assert(offsetof(FrameParams, lightWorld) == 256 && offsetof(FrameParams, 
                   offsetof(FrameParams, addr) == 544 && sizeof(FrameParams) == 544 + 8 * kSlotCount,
               "FrameParams must match std430's Frame block");
 static_assert(offsetof(GpuMaterial, colour) == 48 && sizeof(GpuMaterial) == 80, "GpuMaterial must match std430");
+static_assert(sizeof(GpuMaterial) == 4 * kMaterialWords && offsetof(GpuMaterial, extra) == 4 * kMaterialEmissionWord,
+              "kMaterialWords and kMaterialEmissionWord must match GpuMaterial");
 struct ResolvePush {
     CSGV_RESOLVE_PUSH_MEMBERS
 };
