@@ -175,10 +175,13 @@ float attributeValue(Frame f, uint attr, uint label) {
 #define LABEL_LOOKUP 0 // kLookupScan
 #endif
 #if LABEL_LOOKUP == 2
-/// kLookupHashed: the slot holding a stored label (one of its two), or kNone.
+/// kLookupHashed: the slot holding a stored label, one of its two. The table holds every label
+/// the volume's palettes hold (planLabelLookup), and only those reach the shaders (the cache's
+/// labels, the bricks' preview labels; kNone is tested before), so when the label is not in its
+/// first slot it is in its second: one read, not two.
 uint hashedSlot(uint label) {
-    const uint a = labelSlot(label, LABEL_SEED0, LABEL_MASK), b = labelSlot(label, LABEL_SEED1, LABEL_MASK);
-    return tableWord(2u * a) == label ? a : (tableWord(2u * b) == label ? b : kNone);
+    const uint a = labelSlot(label, LABEL_SEED0, LABEL_MASK);
+    return tableWord(2u * a) == label ? a : labelSlot(label, LABEL_SEED1, LABEL_MASK);
 }
 #endif
 
@@ -189,8 +192,7 @@ uint materialOf(Frame f, uint label) {
 #if LABEL_LOOKUP == 1 // kLookupDense: every stored label is below the table's end
     return label < fv.counts.w ? tableWord(label) : kNone;
 #elif LABEL_LOOKUP == 2 // kLookupHashed: the label sits in one of its two slots
-    const uint slot = hashedSlot(label);
-    return slot == kNone ? kNone : tableWord(2u * slot + 1u);
+    return tableWord(2u * hashedSlot(label) + 1u);
 #else
     // Precomputed by the host with the same comparisons when the stored labels are few (up to
     // the largest label of the renderer's bricks; an MPI piece's stand-ins for other ranks'
@@ -370,8 +372,10 @@ struct Walker {
 /// Leaves the current voxel of the level with 2^k voxels per edge (k = 0: finest; k = BRICK_SHIFT:
 /// the whole brick) through its nearest face.
 void stableStep(inout Walker w, uint k) {
-    const float s = float(1u << k);
-    const float invS = 1.0 / s;
+    // 2^k and 2^-k built from their exponents: the same values as float(1 << k) and 1 / that,
+    // without a conversion and a division at every step.
+    const float s = uintBitsToFloat((127u + k) << 23u);
+    const float invS = uintBitsToFloat((127u - k) << 23u);
     const ivec3 cv = w.voxel >> k;
     precise vec3 cp = (vec3(w.voxel - (cv << k)) + w.vpos) * invS;
     cp = min(cp, vec3(ONE_MINUS_EPSILON));

@@ -38,7 +38,8 @@ struct LabelLookup {
     /// The table's words: `materialOf` of every label (dense) or (label, material) per slot.
     template <class MaterialOf> std::vector<uint32_t> table(const MaterialOf& materialOf) const;
     /// A label's material in a table made by table() (as the shaders find it; kNone for a label
-    /// the table does not hold).
+    /// the table does not hold, which the shaders never meet: their hashed lookup reads the
+    /// second slot without checking it).
     uint32_t hostMaterial(const std::vector<uint32_t>& t, uint32_t label) const;
 };
 
