@@ -66,6 +66,16 @@ uint nearestInBlock(uvec2 px, uint s, bool sampled) {
     return from;
 }
 
+/// A pass's result: tone-mapped into the output, or into a denoising buffer. RESOLVE_OUTPUT
+/// (kResolveToOutput, kResolveToBuffer, kResolveToEither: the push constant's dst) says which
+/// at compile time where the host knows (Renderer.cpp's resolveTarget): CPU devices run both
+/// writes, and the tone mapping, where the shader decides.
+void writeResult(Frame f, uint pixel, vec4 c) {
+    const bool toOutput = RESOLVE_OUTPUT == kResolveToEither ? pc.dst == kSlotColorOut : RESOLVE_OUTPUT == kResolveToOutput;
+    if (toOutput) UintBuf(f.addr[kSlotColorOut]).w[pixel] = packUnorm4x8(toneMapped(c));
+    else storeVec4(f.addr[pc.dst], pixel, c);
+}
+
 void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
     if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
@@ -103,8 +113,7 @@ void resolvePixel(Frame f, uvec2 px) {
         const uint holes = subgroupAdd(shows ? 0u : 1u); // one atomic per subgroup
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocHoles], holes);
         const vec4 c = shows ? accumOf(from) / float(max(n, 1u)) : vec4(0.0);
-        if (pc.dst == kSlotColorOut) UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(c)); // without denoising: one pass
-        else storeVec4(f.addr[pc.dst], pixel, c);
+        writeResult(f, pixel, c); // without denoising, into the output: one pass
         return;
     }
     const vec4 centre = sourceOf(pixel);
@@ -132,8 +141,7 @@ void resolvePixel(Frame f, uvec2 px) {
         const vec4 filtered = weights > 0.0 ? sum / weights : centre;
         const float keep = (fv.frame.y & kFlagDenoise) != 0u ? float(n) / float(n + 4u) : 1.0;
         const vec4 result = mix(filtered, centre, keep);
-        if (pc.dst == kSlotColorOut) UintBuf(f.addr[pc.dst]).w[pixel] = packUnorm4x8(toneMapped(result)); // the last pass
-        else storeVec4(f.addr[pc.dst], pixel, result);
+        writeResult(f, pixel, result);
     }
 }
 

@@ -198,6 +198,13 @@ std::array<uint32_t, 4> footprintRect(const Mat4& indexToClip, const float lo[4]
     return r;
 }
 
+/// Where a resolve pass writes (resolve.comp's RESOLVE_OUTPUT): the gather into the output
+/// without denoising, else into the first denoising buffer; the A-trous passes from one buffer
+/// into the other, the last into the output (addDenoisePasses).
+constexpr uint32_t resolveTarget(uint32_t pass) {
+    return pass == kResolveGather ? kResolveToEither : pass == kResolveAtrous4 ? kResolveToOutput : kResolveToBuffer;
+}
+
 /// Pixels a frame renders at a pixel stride (one of stride^2 per block).
 double renderedPixels(const FrameInput& in, uint32_t stride) {
     return double((in.width + stride - 1) / stride) * double((in.height + stride - 1) / stride);
@@ -1153,9 +1160,12 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
     for (uint32_t pass = kResolveGather; pass <= kResolveAtrous4; ++pass)
         if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st)) {
             need(pResolve[pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
-            if (!jobs.empty() && jobs.back().out == &pResolve[pass] && resolveTexels.valid()) {
-                jobs.back().defines.emplace_back("RESOLVE_TEXELS", "1");
-                jobs.back().texelBindings = kResolveTexelCount;
+            if (!jobs.empty() && jobs.back().out == &pResolve[pass]) {
+                jobs.back().defines.emplace_back("RESOLVE_OUTPUT", std::to_string(resolveTarget(pass)) + "u");
+                if (resolveTexels.valid()) {
+                    jobs.back().defines.emplace_back("RESOLVE_TEXELS", "1");
+                    jobs.back().texelBindings = kResolveTexelCount;
+                }
             }
         }
     need(pRequest, "cache_request.comp");
@@ -1350,6 +1360,9 @@ void Renderer::Impl::addDenoisePasses() {
     addResolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
     addResolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
     addResolve(kResolveAtrous4, kSlotDenoiseA, kSlotColorOut); // tone-mapped into the output
+    static_assert(resolveTarget(kResolveAtrous1) == kResolveToBuffer && resolveTarget(kResolveAtrous2) == kResolveToBuffer &&
+                      resolveTarget(kResolveAtrous4) == kResolveToOutput,
+                  "resolve.comp is compiled for the targets these passes write");
 }
 
 void Renderer::Impl::addClear(const FrameInput& in) {

@@ -165,6 +165,11 @@ CSGV_CONST(uint32_t, kResolveGather, 0u)  ///< average and upsampling (tone-mapp
 CSGV_CONST(uint32_t, kResolveAtrous1, 1u) ///< A-trous denoising, step 1 (then 2 and 4: passes 2 and 3)
 CSGV_CONST(uint32_t, kResolveAtrous2, 2u)
 CSGV_CONST(uint32_t, kResolveAtrous4, 3u) ///< the last: tone-mapped straight into the output
+// Where a resolve pass writes (its define RESOLVE_OUTPUT): the output, a denoising buffer, or
+// either (the push constant's dst).
+CSGV_CONST(uint32_t, kResolveToBuffer, 0u)
+CSGV_CONST(uint32_t, kResolveToOutput, 1u)
+CSGV_CONST(uint32_t, kResolveToEither, 2u)
 
 // The GPU decoder's lists (GpuVolume.cpp, cache_assign.comp, decode_bricks.comp, host decoding).
 CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse level, cache word offset
