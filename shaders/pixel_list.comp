@@ -14,6 +14,15 @@
 layout(local_size_x = kGroupList) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
+/// Cell c of a grid gx cells wide: c / gx through a float division, off by at most one for rows
+/// below 2^16 (cells pack y in 16 bits), then corrected: CPU devices divide integers lane by lane.
+uvec2 cellOf(uint c, uint gx) {
+    uint y = uint((float(c) + 0.5) / float(gx));
+    if (y * gx > c) --y;
+    else if ((y + 1u) * gx <= c) ++y;
+    return uvec2(c - y * gx, y);
+}
+
 void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
@@ -26,7 +35,7 @@ void main() {
     // of a group take consecutive cells.
     for (uint k = 0u; k < kListBlock; ++k) {
         const uint c = (gl_WorkGroupID.x * kListBlock + k) * kGroupList + gl_LocalInvocationID.x;
-        const uvec2 cell = uvec2(c % max(grid.x, 1u), c / max(grid.x, 1u));
+        const uvec2 cell = cellOf(c, max(grid.x, 1u));
         uvec2 px;
         bool sampling = false;
         uint kept = kNone; // the sample count of a pixel left out

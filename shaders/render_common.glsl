@@ -276,13 +276,15 @@ vec4 toneMapped(vec4 c) {
 /// The pixel of `cell` in the grid of rendered pixels of the frame's footprint rectangle (every
 /// pixel, or one of stride^2 at the frame's phase); false when it lies beyond the rectangle.
 bool cellPixel(uvec2 cell, out uvec2 px) {
-    const uint stride = fv.image.z, phase = fv.image.w;
-    px = fv.rect.xy + cell * stride + uvec2(phase % stride, phase / stride);
+    // The stride is 1, 2, 4 or 8 (Renderer::frame refuses others): shifts, not divisions (CPU
+    // devices divide lane by lane).
+    const uint stride = fv.image.z, phase = fv.image.w, shift = uint(findLSB(stride));
+    px = fv.rect.xy + cell * stride + uvec2(phase & (stride - 1u), phase >> shift);
     return px.x < fv.rect.z && px.y < fv.rect.w;
 }
 
 /// Cells of that grid along x and y.
-uvec2 cellGrid() { return (fv.rect.zw - fv.rect.xy + fv.image.z - 1u) / fv.image.z; }
+uvec2 cellGrid() { return (fv.rect.zw - fv.rect.xy + fv.image.z - 1u) >> uint(findLSB(fv.image.z)); }
 
 // ---------------------------------------------------------------------------------------------
 // Bricks and the cache

@@ -49,10 +49,12 @@ vec4 sourceOf(uint i) { return loadVec4(frameAddr[pc.src], i); }
 /// kNone when there is none.
 uint nearestInBlock(uvec2 px, uint s, bool sampled) {
     const uint W = fv.image.x, H = fv.image.y;
-    const uvec2 b0 = (px / s) * s;
+    // s is 1, 2, 4 or 8 (strides): masks and shifts, not divisions (CPU devices divide lane by lane).
+    const uvec2 b0 = px & ~uvec2(s - 1u);
+    const uint shift = uint(findLSB(s));
     uint best = kNone, from = kNone;
     for (uint k = 0u; k < s * s; ++k) {
-        const uvec2 q = b0 + uvec2(k % s, k / s);
+        const uvec2 q = b0 + uvec2(k & (s - 1u), k >> shift);
         if (q.x >= W || q.y >= H) continue;
         const uint qi = q.y * W + q.x;
         const ivec2 dq = ivec2(q) - ivec2(px);
