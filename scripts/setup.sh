@@ -13,6 +13,7 @@ PKGS_CORE=(
   mricron-data
   libhdf5-dev libtiff-dev libblosc-dev
   python3-numpy python3-h5py python3-tifffile python3-zarr
+  valgrind
 )
 # Vulkan backend (lavapipe is the CPU device every GPU test runs on).
 PKGS_VULKAN=(

@@ -65,17 +65,12 @@ layout(buffer_reference, std430, buffer_reference_align = 8) buffer Uvec2Buf { u
 layout(buffer_reference, std430, buffer_reference_align = 8) buffer U64Buf { uint64_t v[]; };
 /// Per-pixel vectors are written (and read) two words at a time: CPU devices write a vector
 /// through a buffer address as a loop over the lanes per component, 64 bits as one component.
-void storeVec4(uint64_t addr, uint i, vec4 v) {
-    const uvec4 u = floatBitsToUint(v);
-    U64Buf b = U64Buf(addr);
-    b.v[2u * i] = packUint2x32(u.xy);
-    b.v[2u * i + 1u] = packUint2x32(u.zw);
-}
 void storeUvec4(uint64_t addr, uint i, uvec4 u) {
     U64Buf b = U64Buf(addr);
     b.v[2u * i] = packUint2x32(u.xy);
     b.v[2u * i + 1u] = packUint2x32(u.zw);
 }
+void storeVec4(uint64_t addr, uint i, vec4 v) { storeUvec4(addr, i, floatBitsToUint(v)); }
 vec4 loadVec4(uint64_t addr, uint i) {
     U64Buf b = U64Buf(addr);
     return uintBitsToFloat(uvec4(unpackUint2x32(b.v[2u * i]), unpackUint2x32(b.v[2u * i + 1u])));
