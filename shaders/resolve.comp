@@ -115,7 +115,7 @@ void resolvePixel(Frame f, uvec2 px) {
         const uint holes = subgroupAdd(shows ? 0u : 1u); // one atomic per subgroup
         if (subgroupElect() && holes > 0u) atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocHoles], holes);
         const vec4 c = shows ? accumOf(from) / float(max(n, 1u)) : vec4(0.0);
-        writeResult(f, pixel, c); // without denoising, into the output: one pass
+        writeResult(f, pixel, c); // into the output without denoising (one pass), else the first denoising buffer
         return;
     }
     const vec4 centre = sourceOf(pixel);

@@ -51,7 +51,8 @@ CSGV_CONST(uint32_t, kLookupHashed, 2u) ///< a hash table of uvec2 (label, mater
 
 /// One of the two slots (`choice` 0 or 1, each with its `seed`) of a label in the hashed table of
 /// LABEL_LOOKUP kLookupHashed, whose size is `mask` + 1 (a power of two): a label is in one of
-/// them (cuckoo hashing), so a lookup reads two slots and loops nowhere.
+/// them (cuckoo hashing), so a lookup reads at most two slots and loops nowhere (the shaders
+/// read one: only labels the table holds reach them, so one not in its first slot is in its second).
 CSGV_FN uint32_t labelSlot(uint32_t label, uint32_t seed, uint32_t mask) {
     uint32_t x = label ^ seed;
     x ^= x >> 16u;
