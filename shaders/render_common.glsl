@@ -86,6 +86,15 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ma
 #ifndef RENDER_TEXELS
 #define RENDER_TEXELS 0
 #endif
+/// Entry i of two or four words of an R32_UINT texel buffer.
+uvec2 texelWords2(usamplerBuffer t, uint i) {
+    const int j = int(2u * i);
+    return uvec2(texelFetch(t, j).x, texelFetch(t, j + 1).x);
+}
+uvec4 texelWords4(usamplerBuffer t, uint i) {
+    const int j = int(4u * i);
+    return uvec4(texelFetch(t, j).x, texelFetch(t, j + 1).x, texelFetch(t, j + 2).x, texelFetch(t, j + 3).x);
+}
 #if RENDER_TEXELS
 layout(set = 0, binding = kTexelCache) uniform usamplerBuffer cacheTexels;
 layout(set = 0, binding = kTexelBricks) uniform usamplerBuffer brickTexels;
@@ -101,11 +110,7 @@ layout(set = 0, binding = kTexelBlueNoise) uniform usamplerBuffer blueNoiseTexel
 layout(set = 0, binding = kTexelVisible) uniform usamplerBuffer visibleTexels;
 uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
 uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
-vec4 labelColor(uint e) {
-    const int i = int(4u * e);
-    return uintBitsToFloat(uvec4(texelFetch(colorTexels, i).x, texelFetch(colorTexels, i + 1).x,
-                                 texelFetch(colorTexels, i + 2).x, texelFetch(colorTexels, i + 3).x));
-}
+vec4 labelColor(uint e) { return uintBitsToFloat(texelWords4(colorTexels, e)); }
 uint sampleCount(uint pixel) { return texelFetch(sampleTexels, int(pixel)).x; }
 uint listedCell(uint i) { return texelFetch(listTexels, int(i)).x; }
 /// A brick's cache entry (x offset, y level, w flags; z, its last use, is not read).
@@ -113,12 +118,12 @@ uvec4 brickState(uint b) {
     return uvec4(texelFetch(brickTexels, int(4u * b)).x, texelFetch(brickTexels, int(4u * b + 1u)).x, 0u,
                  texelFetch(brickTexels, int(4u * b + 3u)).x);
 }
-uvec2 uniformMask(uint b) { return uvec2(texelFetch(uniformTexels, int(2u * b)).x, texelFetch(uniformTexels, int(2u * b + 1u)).x); }
+uvec2 uniformMask(uint b) { return texelWords2(uniformTexels, b); }
 float materialEmission(uint m) { return uintBitsToFloat(texelFetch(materialTexels, int(kMaterialWords * m + kMaterialEmissionWord)).x); }
 uint labelMapWord(uint label) { return texelFetch(labelMapTexels, int(label)).x; }
 float depthInAt(uint pixel) { return uintBitsToFloat(texelFetch(depthInTexels, int(pixel)).x); }
 uint blueNoiseWord(uint i) { return texelFetch(blueNoiseTexels, int(i)).x; }
-uvec2 visibleEntry(uint b) { return uvec2(texelFetch(visibleTexels, int(2u * b)).x, texelFetch(visibleTexels, int(2u * b + 1u)).x); }
+uvec2 visibleEntry(uint b) { return texelWords2(visibleTexels, b); }
 #else
 uint cacheWord(uint i) { return UintBuf(frameAddr[kSlotCache]).w[i]; }
 uint tableWord(uint i) { return UintBuf(frameAddr[kSlotMaterialTable]).w[i]; }

@@ -32,12 +32,8 @@ layout(set = 0, binding = kResolveTexelAccum) uniform usamplerBuffer accumTexels
 layout(set = 0, binding = kResolveTexelSource) uniform usamplerBuffer srcTexels;
 uint samplesOf(uint i) { return texelFetch(sampleTexels, int(i)).x; }
 uint gWord(uint i, uint k) { return texelFetch(gTexels, int(4u * i + k)).x; }
-vec4 texels4(usamplerBuffer t, uint i) {
-    const int j = int(4u * i);
-    return uintBitsToFloat(uvec4(texelFetch(t, j).x, texelFetch(t, j + 1).x, texelFetch(t, j + 2).x, texelFetch(t, j + 3).x));
-}
-vec4 accumOf(uint i) { return texels4(accumTexels, i); }
-vec4 sourceOf(uint i) { return texels4(srcTexels, i); }
+vec4 accumOf(uint i) { return uintBitsToFloat(texelWords4(accumTexels, i)); }
+vec4 sourceOf(uint i) { return uintBitsToFloat(texelWords4(srcTexels, i)); }
 #else
 uint samplesOf(uint i) { return UintBuf(frameAddr[kSlotSamples]).w[i]; }
 uint gWord(uint i, uint k) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + k]; }

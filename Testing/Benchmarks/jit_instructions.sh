@@ -7,6 +7,12 @@
 # e.g. Testing/Benchmarks/jit_instructions.sh build/bin/csgv /tmp/s.csgv 640x360 local 4 --no-denoise
 # Run it once before measuring: the first run also compiles the shaders (Mesa and csgv cache them).
 set -euo pipefail
+if [ $# -lt 2 ]; then
+    echo "usage: jit_instructions.sh CSGV_TOOL VOLUME [SIZE] [SHADING] [FRAMES] [extra render options]" >&2
+    exit 2
+fi
+[ -x "$1" ] || { echo "jit_instructions.sh: $1 is not an executable csgv tool" >&2; exit 2; }
+[ -f "$2" ] || { echo "jit_instructions.sh: no volume $2" >&2; exit 2; }
 tool=$1 volume=$2 size=${3:-640x360} shading=${4:-local} frames=${5:-4}
 shift $(($# < 5 ? $# : 5))
 command -v valgrind > /dev/null || { echo "jit_instructions.sh: valgrind is not installed" >&2; exit 2; }
