@@ -556,7 +556,7 @@ bool vtkCSGVVolumeProp::UploadTextures(vtkOpenGLRenderWindow* win, bool changed)
   return true;
 }
 
-bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win)
+bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win, const int scissor[4])
 {
   Impl& p = *this->P;
   if (!p.Quad)
@@ -578,6 +578,12 @@ bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win)
   vtkOpenGLState::ScopedglDepthFunc depthFunc(state);
   vtkOpenGLState::ScopedglDepthMask depthMask(state);
   vtkOpenGLState::ScopedglBlendFuncSeparate blendFunc(state);
+  vtkOpenGLState::ScopedglEnableDisable scissorTest(state, GL_SCISSOR_TEST);
+  vtkOpenGLState::ScopedglScissor scissorBox(state);
+  // The quad covers the tile; the rasteriser fills the output's non-empty part alone (a CPU
+  // OpenGL shades every covered fragment: at 1280x720 a whole-tile quad costs milliseconds).
+  state->vtkglEnable(GL_SCISSOR_TEST);
+  state->vtkglScissor(scissor[0], scissor[1], scissor[2], scissor[3]);
   state->vtkglEnable(GL_DEPTH_TEST);
   state->vtkglDepthFunc(GL_LEQUAL);
   state->vtkglDepthMask(GL_TRUE);
@@ -673,7 +679,19 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
     return 0;
   }
   const auto t2 = std::chrono::steady_clock::now();
-  if (!this->Composite(win))
+  // The output's non-empty pixels in the window's: the reduced frame's rectangle, a texel wider
+  // (a stretched frame is filtered linearly), times the reduction, within the tile.
+  int scissor[4];
+  for (int k = 0; k < 2; ++k)
+  {
+    const int extent = k == 0 ? width : height;
+    const int margin = factor > 1 ? 1 : 0;
+    const int lo = std::clamp((int(out.rect[size_t(k)]) - margin) * factor, 0, extent);
+    const int hi = std::clamp((int(out.rect[size_t(k) + 2]) + margin) * factor, 0, extent);
+    scissor[k] = (k == 0 ? x0 : y0) + lo;
+    scissor[k + 2] = std::max(0, hi - lo);
+  }
+  if (scissor[2] > 0 && scissor[3] > 0 && !this->Composite(win, scissor))
   {
     return 0;
   }

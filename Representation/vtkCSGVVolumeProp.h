@@ -127,8 +127,9 @@ private:
     std::function<double(const std::string&, uint32_t)>* attribute);
   /// The last output as colour and depth textures (uploaded again only when it changed).
   bool UploadTextures(vtkOpenGLRenderWindow* window, bool changed);
-  /// Draws the textures over the framebuffer with depth test and premultiplied blending.
-  bool Composite(vtkOpenGLRenderWindow* window);
+  /// Draws the textures over the framebuffer with depth test and premultiplied blending, within
+  /// the window pixels `scissor` (x, y, width, height): the output's non-empty part.
+  bool Composite(vtkOpenGLRenderWindow* window, const int scissor[4]);
   void Report(const std::string& message);
 
   struct Impl;

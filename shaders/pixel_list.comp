@@ -52,6 +52,9 @@ void main() {
         base = subgroupMax(base);
         if (sampling) list.w[base + before] = cell.x | (cell.y << 16u);
         const uint fewest = subgroupMin(kept);
-        if (subgroupElect() && fewest != kNone) atomicMin(alloc.w[kAllocMinSamples], fewest);
+        if (subgroupElect() && fewest != kNone) {
+            atomicMin(alloc.w[kAllocMinSamples], fewest);
+            atomicMin(alloc.w[kAllocNextKept], fewest); // left out of the next frame's list too (kFlagListNext)
+        }
     }
 }

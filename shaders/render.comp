@@ -40,6 +40,8 @@ struct Counts {
     uint fewest;   // kAllocMinSamples (kFlagResolveInRender)
     uint previews; // kAllocPreviews
     uint holes;    // kAllocHoles
+    uint kept;     // kAllocNextKept: fewest samples of the cells at the target (kFlagListNext)
+    uint next;     // kFlagListNext: bit j set when the invocation's j-th cell stays below the target
 };
 Counts count;
 
@@ -48,6 +50,8 @@ void flushCounts() {
     const uint minRow = subgroupMin(count.minRow), fewest = subgroupMin(count.fewest);
     const uint added = subgroupAdd(count.added), missing = subgroupAdd(count.missing);
     const uint previews = subgroupAdd(count.previews), holes = subgroupAdd(count.holes);
+    const uint kept = subgroupMin(count.kept);
+    if (kept != kNone && subgroupElect()) atomicMin(alloc.w[kAllocNextKept], kept);
     if (!subgroupElect()) return;
     if (minRow != kNone) atomicMin(alloc.w[kAllocMinRow], minRow);
     if (fewest != kNone) atomicMin(alloc.w[kAllocMinSamples], fewest);
@@ -370,23 +374,48 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
 /// The pixel at `cell` in the grid of rendered pixels of the footprint rectangle (all, or one
 /// of stride^2): its next sample unless it has reached the sample target; with
 /// kFlagResolveInRender also what the gather would do for it (output colour, counts).
-void renderPixel(uvec2 cell) {
+/// Returns whether the cell stays below the sample target (kFlagListNext lists it for the next frame).
+bool renderPixel(uvec2 cell) {
     uvec2 px;
-    if (!cellPixel(cell, px)) return;
+    if (!cellPixel(cell, px)) return false;
     const uint pixel = px.y * fv.image.x + px.x;
     const uint samples = sampleCount(pixel);
     uint n = samples;
     vec4 total = vec4(0.0);
     bool preview = false;
     if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total, preview)) n = samples + 1u;
-    if ((fv.frame.y & kFlagResolveInRender) == 0u) return;
+    const bool below = n < fv.frame.w;
+    if (!below) count.kept = min(count.kept, n);
+    if ((fv.frame.y & kFlagResolveInRender) == 0u) return below;
     if (n != samples || preview) UintBuf(frameAddr[kSlotColorOut]).w[pixel] = packUnorm4x8(toneMapped(total / float(max(n, 1u))));
     count.fewest = min(count.fewest, n);
     if (n == 0u) {
         if (preview) ++count.previews;
         else ++count.holes;
     }
+    return below;
 }
+
+#if PIXEL_LIST
+/// The cell of the invocation's j-th round: the j-th of its entries in the list.
+uint listIndex(uint j) { return (gl_WorkGroupID.x * PIXEL_BLOCK * PIXEL_BLOCK + j) * (kGroupTile * kGroupTile) + gl_LocalInvocationIndex; }
+
+/// kFlagListNext: the cells of this invocation that stay below the sample target (count.next),
+/// appended to the next frame's list (from word width * height of kSlotPixelList) with one
+/// atomic per subgroup, so that frame needs no pixel_list.comp pass over the whole grid. Cells
+/// are few there (the pixels that met missing bricks): the loop runs as often as the most any
+/// lane has.
+void listNext() {
+    const uint n = bitCount(count.next);
+    const uint total = subgroupAdd(n);
+    const uint before = subgroupExclusiveAdd(n);
+    uint base = 0u;
+    if (subgroupElect() && total > 0u) base = atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocNextCount], total);
+    base = subgroupMax(base) + fv.image.x * fv.image.y + before;
+    UintBuf list = UintBuf(frameAddr[kSlotPixelList]);
+    for (uint m = count.next; m != 0u; m &= m - 1u) list.w[base++] = listedCell(listIndex(findLSB(m)));
+}
+#endif
 
 void main() {
     f = Frame(pc.frame);
@@ -400,21 +429,21 @@ void main() {
     normalZ = f.faceNormals[5].xyz;
     boxLo = ivec3(fv.clipMin.xyz);
     boxHi = ivec3(fv.clipMax.xyz);
-    count = Counts(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPrevMin], kNone, 0u, 0u, kNone, 0u, 0u);
+    count = Counts(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPrevMin], kNone, 0u, 0u, kNone, 0u, 0u, kNone, 0u);
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.
 #if PIXEL_LIST
     // The cells listed (all by the host, or those below the sample target by pixel_list.comp;
     // the host sized the dispatch to their number): in each round the lanes of a group take
     // consecutive entries.
     const uint listed = UintBuf(frameAddr[kSlotAlloc]).w[kAllocListCount];
-    const uint perGroup = kGroupTile * kGroupTile;
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j) {
-        const uint i = (gl_WorkGroupID.x * PIXEL_BLOCK * PIXEL_BLOCK + j) * perGroup + gl_LocalInvocationIndex;
+        const uint i = listIndex(j);
         if (i < listed) {
             const uint cell = listedCell(i);
-            renderPixel(uvec2(cell & 0xFFFFu, cell >> 16u));
+            if (renderPixel(uvec2(cell & 0xFFFFu, cell >> 16u))) count.next |= 1u << j;
         }
     }
+    if ((fv.frame.y & kFlagListNext) != 0u) listNext();
 #else
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j)
         renderPixel(gl_GlobalInvocationID.xy * PIXEL_BLOCK + uvec2(j % PIXEL_BLOCK, j / PIXEL_BLOCK));

@@ -1158,6 +1158,43 @@ TEST(Renderer, ClipBoxShowsExactlyTheCroppedVolume) {
     std::printf("clip box: %zu of %zu pixels differ, %zu hits\n", diff, ref.label.size(), hits);
 }
 
+/// Every pixel outside FrameOutput::rect is empty (compositors draw the rectangle alone), and
+/// the rectangle follows the footprint: the volume's part of the image, wider after a move.
+void expectEmptyOutsideRect(const FrameOutput& out) {
+    ASSERT_LE(out.rect[2], out.width);
+    ASSERT_LE(out.rect[3], out.height);
+    size_t inside = 0;
+    for (uint32_t y = 0; y < out.height; ++y)
+        for (uint32_t x = 0; x < out.width; ++x) {
+            const size_t i = size_t(y) * out.width + x;
+            if (x >= out.rect[0] && x < out.rect[2] && y >= out.rect[1] && y < out.rect[3]) {
+                inside += out.rgba8[i] != 0;
+                continue;
+            }
+            ASSERT_EQ(out.rgba8[i], 0u) << x << "," << y;
+            ASSERT_EQ(out.depth[i], 1.0f) << x << "," << y;
+        }
+    EXPECT_GT(inside, 100u);
+}
+
+TEST(Renderer, OutputIsEmptyOutsideItsRectangle) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    RenderSettings st;
+    st.jitter = false;
+    st.clipMin = {20, 10, 50}; // a small box: a small footprint
+    st.clipMax = {60, 40, 90};
+    std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+    const FrameInput a = perspectiveView({-60, -90, 230}, {40, 25, 70}, {0, 0, 1}, 40, 96, 80);
+    FrameOutput out = renderConverged(*r, a, 1, 64);
+    expectEmptyOutsideRect(out);
+    EXPECT_LT(uint64_t(out.rect[2] - out.rect[0]) * (out.rect[3] - out.rect[1]), uint64_t(out.width) * out.height / 2);
+    // Another view: the old footprint was cleared, the new one drawn.
+    const FrameInput b = perspectiveView({160, -40, 200}, {40, 25, 70}, {0, 0, 1}, 40, 96, 80);
+    out = renderConverged(*r, b, 1, 64);
+    expectEmptyOutsideRect(out);
+}
+
 TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");

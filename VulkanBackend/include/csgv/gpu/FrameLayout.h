@@ -25,6 +25,7 @@ CSGV_CONST(uint32_t, kFlagLabelMap, 64u)
 CSGV_CONST(uint32_t, kFlagResolveInRender, 128u) ///< the render pass writes the output and the counts itself (no gather follows)
 CSGV_CONST(uint32_t, kFlagVisibilityChanged, 256u) ///< brick visibility (kSlotVisible) changed: the request stage visits every brick
 CSGV_CONST(uint32_t, kFlagPrefetch, 512u) ///< the request stage asks for every visible brick not cached, used or not
+CSGV_CONST(uint32_t, kFlagListNext, 1024u) ///< PIXEL_LIST: the render pass lists the cells left below the sample target for the next frame (kAllocNextCount)
 
 // Shading modes (Frame.frame.z): the values of csgv::gpu::Shading.
 CSGV_CONST(uint32_t, kShadingLocal, 0u)
@@ -93,7 +94,7 @@ CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks who
 CSGV_CONST(uint32_t, kSlotGhost, 26u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
 CSGV_CONST(uint32_t, kSlotCoarse, 27u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
 CSGV_CONST(uint32_t, kSlotLabelColors, 28u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
-CSGV_CONST(uint32_t, kSlotPixelList, 29u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp)
+CSGV_CONST(uint32_t, kSlotPixelList, 29u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
 CSGV_CONST(uint32_t, kSlotCount, 30u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
@@ -123,12 +124,14 @@ CSGV_CONST(uint32_t, kAllocPreviews, 12u)     ///< pixels that show a preview (n
 CSGV_CONST(uint32_t, kAllocEvictAge, 11u)    ///< host-written: evict cached bricks no ray used for this many frames (0: none)
 CSGV_CONST(uint32_t, kAllocDetailRequests, 13u) ///< entries written to kSlotDetailRequests this frame (may pass the list's length)
 CSGV_CONST(uint32_t, kAllocListCount, 14u)   ///< cells in kSlotPixelList this frame (host-zeroed; read back to size the render pass)
+CSGV_CONST(uint32_t, kAllocNextCount, 15u)   ///< kFlagListNext: cells the render pass listed for the next frame (host-zeroed)
 CSGV_CONST(uint32_t, kAllocFreeCount, 16u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocReqCount, 24u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod
 CSGV_CONST(uint32_t, kAllocProvBase, 40u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocProvCount, 48u)   ///< + lod
-CSGV_CONST(uint32_t, kAllocWords, 56u)
+CSGV_CONST(uint32_t, kAllocNextKept, 56u)    ///< kFlagListNext: fewest samples of the cells the next frame's list leaves out (kNone: none)
+CSGV_CONST(uint32_t, kAllocWords, 57u)
 
 // Workgroup sizes (the shaders' local_size, the host's group counts).
 CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), cache_assign.comp (per request)

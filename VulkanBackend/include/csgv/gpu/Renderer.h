@@ -146,6 +146,9 @@ struct FrameOutput {
     std::vector<float> hitDepth;   ///< window depth of the first opaque hit
     std::vector<float> distance;   ///< world distance from the near plane to the first opaque hit
     std::vector<uint32_t> samples; ///< valid samples per pixel
+    /// Pixels [x0, x1) x [y0, y1) the frames since the accumulation's last reset covered: every
+    /// pixel outside is empty (colour 0, depth 1, no label), so a compositor may draw this alone.
+    std::array<uint32_t, 4> rect{};
 };
 
 struct FrameStats {
