@@ -1186,13 +1186,20 @@ TEST(Renderer, OutputIsEmptyOutsideItsRectangle) {
     st.clipMax = {60, 40, 90};
     std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
     const FrameInput a = perspectiveView({-60, -90, 230}, {40, 25, 70}, {0, 0, 1}, 40, 96, 80);
-    FrameOutput out = renderConverged(*r, a, 1, 64);
+    const FrameOutput first = renderConverged(*r, a, 1, 64);
+    expectEmptyOutsideRect(first);
+    EXPECT_LT(uint64_t(first.rect[2] - first.rect[0]) * (first.rect[3] - first.rect[1]), uint64_t(first.width) * first.height / 2);
+    // The box elsewhere in the image: what the first view drew there was cleared (only the rows
+    // drawn are), the new footprint drawn.
+    const FrameInput b = perspectiveView({-60, -90, 230}, {75, -10, 70}, {0, 0, 1}, 40, 96, 80);
+    const FrameOutput out = renderConverged(*r, b, 1, 64);
     expectEmptyOutsideRect(out);
-    EXPECT_LT(uint64_t(out.rect[2] - out.rect[0]) * (out.rect[3] - out.rect[1]), uint64_t(out.width) * out.height / 2);
-    // Another view: the old footprint was cleared, the new one drawn.
-    const FrameInput b = perspectiveView({160, -40, 200}, {40, 25, 70}, {0, 0, 1}, 40, 96, 80);
-    out = renderConverged(*r, b, 1, 64);
-    expectEmptyOutsideRect(out);
+    size_t moved = 0; // pixels the first view drew outside the second's rectangle
+    for (uint32_t y = 0; y < out.height; ++y)
+        for (uint32_t x = 0; x < out.width; ++x)
+            moved += first.rgba8[size_t(y) * out.width + x] != 0 &&
+                     !(x >= out.rect[0] && x < out.rect[2] && y >= out.rect[1] && y < out.rect[3]);
+    EXPECT_GT(moved, 100u);
 }
 
 TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {

@@ -679,7 +679,8 @@ Status Context::run(const Dispatch* first, size_t count) {
     Impl& im = *m_impl;
     const Dispatch* const last = first + count;
     for (const Dispatch* d = first; d != last; ++d) {
-        if (d->fill && (!d->fill->valid() || d->fillBytes % 4 != 0 || d->fillBytes > d->fill->size()))
+        if (d->fill && (!d->fill->valid() || d->fillBytes % 4 != 0 || d->fillOffset % 4 != 0 ||
+                        d->fillOffset > d->fill->size() || d->fillBytes > d->fill->size() - d->fillOffset))
             return Status::error("a fill past its buffer's end");
         if (d->fill) continue;
         auto p = im.pipelines.find(d->pipeline);
@@ -692,7 +693,8 @@ Status Context::run(const Dispatch* first, size_t count) {
             const Dispatch& d = *it;
             if (d.fill) {
                 if (d.fillBytes == 0) continue;
-                im.vk.vkCmdFillBuffer(cmd, reinterpret_cast<VkBuffer>(d.fill->m_buffer), 0, d.fillBytes, d.fillValue);
+                im.vk.vkCmdFillBuffer(cmd, reinterpret_cast<VkBuffer>(d.fill->m_buffer), d.fillOffset, d.fillBytes,
+                                         d.fillValue);
                 // Barrier: the fill is complete before later dispatches read or write the buffer.
                 VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
                 b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;

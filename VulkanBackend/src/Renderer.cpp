@@ -21,6 +21,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <thread>
+#include <tuple>
 
 namespace csgv::gpu {
 
@@ -260,6 +261,8 @@ struct Renderer::Impl {
     uint32_t fillBlock = 0;           // upsampling block of the resolve (0: the frame's stride)
     std::array<uint32_t, 4> rect{};   // the frame's footprint rectangle (FrameParams rect)
     std::array<uint32_t, 4> drawnRect{}; // the union of the footprints since the last clear (FrameOutput::rect)
+    bool imageDirty = true;           // the per-pixel buffers are new or resized: the next clear fills them whole
+    std::array<uint32_t, 2> clearRows{}; // the rows the frame's clear fills (addClear): drawn since the last clear
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     uint32_t requestBlock = 1;        // REQUEST_BLOCK of cache_request.comp (bricks per invocation)
@@ -473,6 +476,7 @@ struct Renderer::Impl {
     /// interactive size and its full size allocates nothing.
     Status allocateImage(uint32_t w, uint32_t h) {
         const uint64_t n = uint64_t(w) * h;
+        imageDirty = true;
         if (n <= imageCapacity) {
             width = w;
             height = h;
@@ -1387,21 +1391,20 @@ void Renderer::Impl::addDenoisePasses() {
 }
 
 void Renderer::Impl::addClear(const FrameInput& in) {
-    // Fills, not a compute pass: pixels outside the footprint keep these values all along. The
+    // Fills, not a compute pass: pixels outside the footprint keep these values all along, so
+    // only the rows drawn since the last clear need them (all of new or resized buffers). The
     // accumulation needs none: it is read only where a pixel's sample count (cleared) is not 0.
-    const uint64_t n = uint64_t(in.width) * in.height;
-    const std::pair<const Buffer*, uint64_t> zeroed[] = {{&samples, 4}, {&gbuffer, 16}, {&colorOut, 4}};
-    for (const auto& z : zeroed) {
+    const uint64_t first = uint64_t(clearRows[0]) * in.width, n = uint64_t(clearRows[1] - clearRows[0]) * in.width;
+    const std::tuple<const Buffer*, uint64_t, uint32_t> filled[] = {
+        {&samples, 4, 0u}, {&gbuffer, 16, 0u}, {&colorOut, 4, 0u}, {&depthOut, 4, 0x3F800000u /* 1.0f: the far plane */}};
+    for (const auto& [buffer, bytes, value] : filled) {
         Context::Dispatch d;
-        d.fill = z.first;
-        d.fillBytes = n * z.second;
+        d.fill = buffer;
+        d.fillOffset = first * bytes;
+        d.fillBytes = n * bytes;
+        d.fillValue = value;
         dispatches.push_back(d);
     }
-    Context::Dispatch far;
-    far.fill = &depthOut;
-    far.fillValue = 0x3F800000u; // 1.0f: the far plane
-    far.fillBytes = n * 4;
-    dispatches.push_back(far);
 }
 
 bool Renderer::Impl::resolvesInRender(const RenderSettings& st) const {
@@ -1590,7 +1593,11 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         stats.cacheReset = true;
     }
     if (!(s = packParams(in, st, clipToWorld))) return s;
-    if (clearPending || drawnRect[0] >= drawnRect[2] || drawnRect[1] >= drawnRect[3]) {
+    // Outside the rows drawn since the last clear the per-pixel buffers hold their cleared values.
+    const bool drawn = drawnRect[0] < drawnRect[2] && drawnRect[1] < drawnRect[3];
+    clearRows = imageDirty ? std::array<uint32_t, 2>{0, height}
+                           : (drawn ? std::array<uint32_t, 2>{drawnRect[1], drawnRect[3]} : std::array<uint32_t, 2>{0, 0});
+    if (clearPending || !drawn) {
         drawnRect = rect;
     } else {
         for (int k = 0; k < 2; ++k) {
@@ -1606,7 +1613,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.detailUploads = detailUploads;
-    clearPending = false;
+    clearPending = imageDirty = false;
     outputParts = 0; // the read-back output is stale now
     ++frameIndex;
     ++accumulatedFrames;

@@ -142,9 +142,9 @@ public:
     /// maxTexelBufferElements words), bound together as one set.
     Result<TexelSet> createTexelSet(const std::vector<const Buffer*>& buffers);
     /// Records dispatches of one pipeline with push constants, submits, and waits.
-    /// A compute dispatch, or (with `fill` set) a fill of a buffer's first `fillBytes` with the
-    /// 32-bit word `fillValue`: a clear that costs a memset even on CPU devices, where a
-    /// compute pass pays for every store.
+    /// A compute dispatch, or (with `fill` set) a fill of `fillBytes` of a buffer from byte
+    /// `fillOffset` with the 32-bit word `fillValue`: a clear that costs a memset even on CPU
+    /// devices, where a compute pass pays for every store.
     struct Dispatch {
         uint64_t pipeline = 0;
         const void* pushConstants = nullptr;
@@ -154,6 +154,7 @@ public:
         const Buffer* fill = nullptr;
         uint32_t fillValue = 0;
         uint64_t fillBytes = 0; ///< a multiple of 4
+        uint64_t fillOffset = 0; ///< a multiple of 4
     };
     Status run(const std::vector<Dispatch>& dispatches) { return run(dispatches.data(), dispatches.size()); }
     /// The same for `count` dispatches starting at `first` (a part of a frame's list, no copy).
