@@ -438,10 +438,11 @@ void main() {
     const uint listed = UintBuf(frameAddr[kSlotAlloc]).w[kAllocListCount];
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j) {
         const uint i = listIndex(j);
-        if (i < listed) {
-            const uint cell = listedCell(i);
-            if (renderPixel(uvec2(cell & 0xFFFFu, cell >> 16u))) count.next |= 1u << j;
-        }
+        // Later rounds take later entries: a lane past the list's end is done, and CPU devices
+        // leave the loop once every lane is (a short list costs its rounds, not PIXEL_BLOCK^2).
+        if (i >= listed) break;
+        const uint cell = listedCell(i);
+        if (renderPixel(uvec2(cell & 0xFFFFu, cell >> 16u))) count.next |= 1u << j;
     }
     if ((fv.frame.y & kFlagListNext) != 0u) listNext();
 #else
