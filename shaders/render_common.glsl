@@ -261,15 +261,24 @@ vec4 materialColor(Frame f, uint m, uint label, out float emission) {
 
 vec3 aces(vec3 x) { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
 
+#ifndef TONE_CURVES
+#define TONE_CURVES 1
+#endif
 /// Tone mapping, brightness, contrast and gamma of a premultiplied colour (the output's last step).
+/// TONE_CURVES 0: the frame has neither ACES tone mapping nor a gamma other than 1 (the host's
+/// toneCurves): CPU devices would run both, taken or not, for every pixel.
 vec4 toneMapped(vec4 c) {
     if (c.a <= 0.0) return c;
     vec3 rgb = c.rgb / c.a;
+#if TONE_CURVES
     if (fv.tone.w != 0.0) rgb = aces(rgb);
+#endif
     rgb *= fv.tone.x;
     rgb = (rgb - 0.5) * fv.tone.y + 0.5;
     rgb = clamp(rgb, 0.0, 1.0);
+#if TONE_CURVES
     if (fv.tone.z != 1.0) rgb = pow(rgb, vec3(1.0 / fv.tone.z));
+#endif
     return vec4(rgb * c.a, c.a);
 }
 

@@ -1202,6 +1202,59 @@ TEST(Renderer, OutputIsEmptyOutsideItsRectangle) {
     EXPECT_GT(moved, 100u);
 }
 
+/// Every opaque pixel's channel of `curved` is `curve` of the same channel of `plain` (both 8-bit:
+/// the bounds of the curve over plain's rounding interval, rounded), and the curve changed some.
+void expectCurveOfOpaquePixels(const FrameOutput& plain, const FrameOutput& curved, double (*curve)(double),
+                               const char* what) {
+    ASSERT_EQ(plain.rgba8.size(), curved.rgba8.size());
+    size_t opaque = 0, changed = 0;
+    for (size_t i = 0; i < plain.rgba8.size(); ++i) {
+        if ((plain.rgba8[i] >> 24) != 255u) continue;
+        ++opaque;
+        ASSERT_EQ(curved.rgba8[i] >> 24, 255u) << what << " at pixel " << i;
+        for (int k = 0; k < 3; ++k) {
+            const double v0 = double((plain.rgba8[i] >> (8 * k)) & 0xFFu);
+            const uint32_t v1 = (curved.rgba8[i] >> (8 * k)) & 0xFFu;
+            const double lo = std::round(curve(std::max(v0 - 0.5, 0.0) / 255.0) * 255.0);
+            const double hi = std::round(curve(std::min(v0 + 0.5, 255.0) / 255.0) * 255.0);
+            ASSERT_GE(double(v1), lo) << what << " at pixel " << i << " channel " << k << " (was " << v0 << ")";
+            ASSERT_LE(double(v1), hi) << what << " at pixel " << i << " channel " << k << " (was " << v0 << ")";
+            changed += double(v1) != v0;
+        }
+    }
+    EXPECT_GT(opaque, 500u) << what;
+    EXPECT_GT(changed, opaque / 2) << what;
+}
+
+// Gamma and ACES tone mapping (their own pipelines, TONE_CURVES 1; the default passes are compiled
+// without them) apply to the output, locally resolved and through the gather, and switching back
+// gives the plain image bit for bit.
+TEST(Renderer, ToneCurvesApplyToTheOutputAndSwitchBack) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    const FrameInput in = perspectiveView({-60, -90, 230}, {66, 35, 97}, {0, 0, 1}, 40, 96, 80);
+    for (const uint32_t stride : {1u, 2u}) { // the render pass resolves, or the gather does
+        RenderSettings st;
+        st.jitter = false;
+        st.subsampling = stride;
+        std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+        const FrameOutput plain = renderConverged(*r, in, 1, 64);
+        RenderSettings gamma = st;
+        gamma.gamma = 2.2f;
+        r->setSettings(gamma);
+        expectCurveOfOpaquePixels(plain, renderConverged(*r, in, 1, 64), [](double x) { return std::pow(x, 1.0 / 2.2); },
+                                  stride == 1 ? "gamma" : "gamma, gathered");
+        RenderSettings aces = st;
+        aces.toneMapping = true;
+        r->setSettings(aces);
+        expectCurveOfOpaquePixels(plain, renderConverged(*r, in, 1, 64), [](double x) {
+            return std::clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+        }, stride == 1 ? "aces" : "aces, gathered");
+        r->setSettings(st);
+        EXPECT_EQ(renderConverged(*r, in, 1, 64).rgba8, plain.rgba8) << "stride " << stride;
+    }
+}
+
 TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");

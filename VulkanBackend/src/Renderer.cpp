@@ -175,6 +175,13 @@ uint64_t MemoryReport::total() const {
 }
 
 namespace {
+/// The gamma a frame applies (FrameParams tone.z): the settings', 1 for none.
+float frameGamma(const RenderSettings& st) { return st.gamma > 0 ? st.gamma : 1.0f; }
+
+/// TONE_CURVES of render_common.glsl's toneMapped: 1 when the frame has ACES tone mapping or a
+/// gamma other than 1, else 0 (passes compiled without either).
+uint32_t toneCurves(const RenderSettings& st) { return st.toneMapping || frameGamma(st) != 1.0f ? 1 : 0; }
+
 /// The pixels [x0, x1) x [y0, y1) where the index-space box [lo, hi] can appear: its corners
 /// projected, widened by 2 pixels (jittered samples reach 1.5 pixels from their centres), the
 /// origin a multiple of 8 so every pixel stride keeps the same pattern. The whole image when a
@@ -230,8 +237,10 @@ struct Renderer::Impl {
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
-    uint64_t pResolve[kResolveAtrous4 + 1] = {}; // per resolve pass, compiled on first use
-    uint64_t pRender[4] = {0, 0, 0, 0}; // per shading mode, compiled on first use
+    // Per TONE_CURVES (toneCurves) and resolve pass or shading mode, compiled on first use.
+    uint64_t pResolve[2][kResolveAtrous4 + 1] = {};
+    uint64_t pRender[2][4] = {};
+    uint32_t curves = 0; // the frame's TONE_CURVES: which of them its passes use
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
     /// The render pass's texel buffers (RENDER_TEXELS, RendererOptions::renderTexels), or none.
@@ -566,7 +575,7 @@ struct Renderer::Impl {
         render[kTexelVisible] = visible.valid() ? &visible : &params;
         Result<bool> changed = renderTexels.refresh(ctx, texelsWanted, {render});
         if (!changed) return Status(changed.status()).prefix("viewing the render pass's buffers");
-        if (*changed) std::fill(std::begin(pRender), std::end(pRender), uint64_t(0));
+        if (*changed) std::fill(&pRender[0][0], &pRender[0][0] + std::size(pRender) * std::size(pRender[0]), uint64_t(0));
         std::array<const Buffer*, kResolveTexelCount> resolve{};
         resolve[kResolveTexelGBuffer] = &gbuffer;
         resolve[kResolveTexelSamples] = &samples;
@@ -576,7 +585,8 @@ struct Renderer::Impl {
         fromB[kResolveTexelSource] = &denoiseB;
         changed = resolveTexels.refresh(ctx, texelsWanted, {resolve, fromB});
         if (!changed) return Status(changed.status()).prefix("viewing the resolve passes' buffers");
-        if (*changed) std::fill(std::begin(pResolve), std::end(pResolve), uint64_t(0));
+        if (*changed)
+            std::fill(&pResolve[0][0], &pResolve[0][0] + std::size(pResolve) * std::size(pResolve[0]), uint64_t(0));
         return Status::ok();
     }
     /// A new, smaller brick cache: the old one is freed first (the budget holds at every moment)
@@ -1167,16 +1177,20 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
         if (define) d.emplace_back(define, std::to_string(value) + "u");
         jobs.push_back({name, std::move(d), push, &pipeline});
     };
-    const uint32_t mode = uint32_t(st.shading) & 3;
-    need(pRender[mode], "render.comp", 8, "SHADING", mode);
-    if (!jobs.empty() && jobs.back().out == &pRender[mode] && renderTexels.valid()) {
-        jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
-        jobs.back().texelBindings = kRenderTexelCount;
+    const uint32_t mode = uint32_t(st.shading) & 3, tc = toneCurves(st);
+    need(pRender[tc][mode], "render.comp", 8, "SHADING", mode);
+    if (!jobs.empty() && jobs.back().out == &pRender[tc][mode]) {
+        jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
+        if (renderTexels.valid()) {
+            jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
+            jobs.back().texelBindings = kRenderTexelCount;
+        }
     }
     for (uint32_t pass = kResolveGather; pass <= kResolveAtrous4; ++pass)
         if (pass == kResolveGather ? !resolvesInRender(st) : denoises(st)) {
-            need(pResolve[pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
-            if (!jobs.empty() && jobs.back().out == &pResolve[pass]) {
+            need(pResolve[tc][pass], "resolve.comp", sizeof(ResolvePush), "RESOLVE_PASS", pass);
+            if (!jobs.empty() && jobs.back().out == &pResolve[tc][pass]) {
+                jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
                 jobs.back().defines.emplace_back("RESOLVE_OUTPUT", std::to_string(resolveTarget(pass)) + "u");
                 if (resolveTexels.valid()) {
                     jobs.back().defines.emplace_back("RESOLVE_TEXELS", "1");
@@ -1243,7 +1257,7 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
     p.pixel[3] = std::clamp(st.shadingBlend, 0.0f, 1.0f);
     p.tone[0] = st.brightness;
     p.tone[1] = st.contrast;
-    p.tone[2] = st.gamma > 0 ? st.gamma : 1.0f;
+    p.tone[2] = frameGamma(st);
     p.tone[3] = st.toneMapping ? 1.0f : 0.0f;
     // World normals of the index-space faces: the inverse transpose of index-to-world.
     for (int f = 0; f < 6; ++f) {
@@ -1376,7 +1390,7 @@ void Renderer::Impl::addDispatch(uint64_t pipeline, const void* push, uint32_t b
 void Renderer::Impl::addResolve(uint32_t pass, uint32_t src, uint32_t dst) {
     const uint32_t tile = kGroupTile * pixelBlock;
     resolvePushes.push_back({frameAddress, src, dst}); // reserved: the list points into it
-    addDispatch(pResolve[pass], &resolvePushes.back(), sizeof(ResolvePush), (rect[2] - rect[0] + tile - 1) / tile,
+    addDispatch(pResolve[curves][pass], &resolvePushes.back(), sizeof(ResolvePush), (rect[2] - rect[0] + tile - 1) / tile,
                 (rect[3] - rect[1] + tile - 1) / tile);
     if (resolveTexels.valid()) dispatches.back().texels = &resolveTexels.sets[src == kSlotDenoiseB ? 1 : 0];
 }
@@ -1483,12 +1497,14 @@ Status Renderer::Impl::submit() {
                 {pUniform, "uniform sub-blocks"}, {pPixelList, "pixel list"}, {pLabelColors, "label colours"}};
             for (const auto& [p, name] : named)
                 if (d.pipeline == p) return name;
-            for (const uint64_t p : pRender)
-                if (d.pipeline == p) return "render";
+            for (const auto& variant : pRender)
+                for (const uint64_t p : variant)
+                    if (d.pipeline == p) return "render";
             const char* const resolves[] = {"gather", "a-trous 1", "a-trous 2", "a-trous 4"};
             static_assert(std::size(resolves) == kResolveAtrous4 + 1, "a name per resolve pass");
-            for (size_t k = 0; k < std::size(pResolve); ++k)
-                if (d.pipeline == pResolve[k]) return resolves[k];
+            for (const auto& variant : pResolve)
+                for (size_t k = 0; k < std::size(variant); ++k)
+                    if (d.pipeline == variant[k]) return resolves[k];
             return "decode";
         };
         const auto t0 = std::chrono::steady_clock::now();
@@ -1605,7 +1621,8 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
             drawnRect[size_t(k) + 2] = std::max(drawnRect[size_t(k) + 2], rect[size_t(k) + 2]);
         }
     }
-    buildDispatches(in, st, pRender[uint32_t(st.shading) & 3]);
+    curves = toneCurves(st);
+    buildDispatches(in, st, pRender[curves][uint32_t(st.shading) & 3]);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
