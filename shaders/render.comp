@@ -19,6 +19,13 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "render_common.glsl"
 
+// ONE_SAMPLE 1: the frame's sample target is one sample (Renderer.cpp's renderVariant), so
+// takeSample only ever takes a pixel's first: its jitter and the sum's read are compiled out
+// (CPU devices would run them, taken or not).
+#ifndef ONE_SAMPLE
+#define ONE_SAMPLE 0
+#endif
+
 layout(local_size_x = kGroupTile, local_size_y = kGroupTile) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
@@ -191,11 +198,13 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
     // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4,
     // an approximation of the Blackman-Harris filter) by blue noise.
     vec2 jitter = vec2(0.0);
+#if !ONE_SAMPLE
     if ((fv.frame.y & kFlagJitter) != 0u && samples > 0u) {
         const vec2 uv = blueSample(px, samples, 0u);
         const float u = max(uv.x, 1e-7);
         jitter = clamp(0.4 * sqrt(-2.0 * log(u)) * vec2(cos(6.2831853 * uv.y), sin(6.2831853 * uv.y)), -1.5, 1.5);
     }
+#endif
     precise float ndcX = (float(px.x) + 0.5 + jitter.x) * fv.pixel.x - 1.0;
     precise float ndcY = (float(px.y) + 0.5 + jitter.y) * fv.pixel.y - 1.0;
     const mat4 M = clipToIndex;
@@ -358,7 +367,9 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
         preview = previews;
     } else {
         total = vec4(radiance, 1.0 - transmittance);
+#if !ONE_SAMPLE
         if (samples > 0u) total += loadVec4(frameAddr[kSlotAccum], pixel); // the first sample need not read the cleared sum
+#endif
         ++count.added;
     }
     if (valid || previews) {

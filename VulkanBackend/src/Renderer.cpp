@@ -182,6 +182,10 @@ float frameGamma(const RenderSettings& st) { return st.gamma > 0 ? st.gamma : 1.
 /// gamma other than 1, else 0 (passes compiled without either).
 uint32_t toneCurves(const RenderSettings& st) { return st.toneMapping || frameGamma(st) != 1.0f ? 1 : 0; }
 
+/// render.comp's variant: TONE_CURVES, and ONE_SAMPLE (the sample target is one sample, so every
+/// sample the pass takes is a pixel's first: no jitter, no sum to add to).
+uint32_t renderVariant(const RenderSettings& st) { return toneCurves(st) | (st.sampleTarget == 1 ? 2u : 0u); }
+
 /// The pixels [x0, x1) x [y0, y1) where the index-space box [lo, hi] can appear: its corners
 /// projected, widened by 2 pixels (jittered samples reach 1.5 pixels from their centres), the
 /// origin a multiple of 8 so every pixel stride keeps the same pattern. The whole image when a
@@ -237,10 +241,11 @@ struct Renderer::Impl {
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
-    // Per TONE_CURVES (toneCurves) and resolve pass or shading mode, compiled on first use.
+    // Per TONE_CURVES (toneCurves; render.comp also ONE_SAMPLE: renderVariant) and resolve pass
+    // or shading mode, compiled on first use.
     uint64_t pResolve[2][kResolveAtrous4 + 1] = {};
-    uint64_t pRender[2][4] = {};
-    uint32_t curves = 0; // the frame's TONE_CURVES: which of them its passes use
+    uint64_t pRender[4][4] = {}; // [renderVariant][shading]
+    uint32_t curves = 0; // the frame's TONE_CURVES: the resolve passes' pipelines (addResolve)
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
     /// The render pass's texel buffers (RENDER_TEXELS, RendererOptions::renderTexels), or none.
@@ -1177,10 +1182,11 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
         if (define) d.emplace_back(define, std::to_string(value) + "u");
         jobs.push_back({name, std::move(d), push, &pipeline});
     };
-    const uint32_t mode = uint32_t(st.shading) & 3, tc = toneCurves(st);
-    need(pRender[tc][mode], "render.comp", 8, "SHADING", mode);
-    if (!jobs.empty() && jobs.back().out == &pRender[tc][mode]) {
+    const uint32_t mode = uint32_t(st.shading) & 3, tc = toneCurves(st), rv = renderVariant(st);
+    need(pRender[rv][mode], "render.comp", 8, "SHADING", mode);
+    if (!jobs.empty() && jobs.back().out == &pRender[rv][mode]) {
         jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
+        jobs.back().defines.emplace_back("ONE_SAMPLE", st.sampleTarget == 1 ? "1" : "0");
         if (renderTexels.valid()) {
             jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
             jobs.back().texelBindings = kRenderTexelCount;
@@ -1622,7 +1628,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         }
     }
     curves = toneCurves(st);
-    buildDispatches(in, st, pRender[curves][uint32_t(st.shading) & 3]);
+    buildDispatches(in, st, pRender[renderVariant(st)][uint32_t(st.shading) & 3]);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
