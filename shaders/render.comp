@@ -19,9 +19,10 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "render_common.glsl"
 
-// ONE_SAMPLE 1: the frame's sample target is one sample (Renderer.cpp's renderVariant), so
-// takeSample only ever takes a pixel's first: its jitter and the sum's read are compiled out
-// (CPU devices would run them, taken or not).
+// ONE_SAMPLE 1: the frame's sample target is one sample and this pass resolves its pixels
+// (Renderer.cpp's oneSample), so takeSample only ever takes a pixel's first and nothing reads its
+// sum: the jitter and the sum's read and write are compiled out (CPU devices would run them, taken
+// or not); the host starts the accumulation anew before a frame that would read the sums.
 #ifndef ONE_SAMPLE
 #define ONE_SAMPLE 0
 #endif
@@ -373,7 +374,9 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
         ++count.added;
     }
     if (valid || previews) {
+#if !ONE_SAMPLE
         storeVec4(frameAddr[kSlotAccum], pixel, total);
+#endif
         storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance))
                                                         : uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u));
         FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;

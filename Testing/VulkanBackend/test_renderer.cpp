@@ -1255,6 +1255,27 @@ TEST(Renderer, ToneCurvesApplyToTheOutputAndSwitchBack) {
     }
 }
 
+// Frames at a target of one sample keep no sums (ONE_SAMPLE): a higher target, or a stride whose
+// gather reads them, takes the samples again and ends with the image a fresh renderer gives.
+TEST(Renderer, OneSampleFramesGoOnToMoreSamplesExactly) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    const FrameInput in = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 64, 48);
+    for (const uint32_t stride : {1u, 2u}) {
+        RenderSettings st;
+        st.denoise = false;
+        std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+        renderConverged(*r, in, 1, 64);
+        st.subsampling = stride;
+        r->setSettings(st); // the samples are kept (the same image)
+        const FrameOutput more = renderConverged(*r, in, 3, 64);
+        std::unique_ptr<Renderer> fresh = makeRenderer(*ctx, scene, 64ull << 20, st);
+        const FrameOutput want = renderConverged(*fresh, in, 3, 64);
+        EXPECT_EQ(more.rgba8, want.rgba8) << "stride " << stride;
+        EXPECT_EQ(more.samples, want.samples) << "stride " << stride;
+    }
+}
+
 TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");

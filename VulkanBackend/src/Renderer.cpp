@@ -182,10 +182,6 @@ float frameGamma(const RenderSettings& st) { return st.gamma > 0 ? st.gamma : 1.
 /// gamma other than 1, else 0 (passes compiled without either).
 uint32_t toneCurves(const RenderSettings& st) { return st.toneMapping || frameGamma(st) != 1.0f ? 1 : 0; }
 
-/// render.comp's variant: TONE_CURVES, and ONE_SAMPLE (the sample target is one sample, so every
-/// sample the pass takes is a pixel's first: no jitter, no sum to add to).
-uint32_t renderVariant(const RenderSettings& st) { return toneCurves(st) | (st.sampleTarget == 1 ? 2u : 0u); }
-
 /// The pixels [x0, x1) x [y0, y1) where the index-space box [lo, hi] can appear: its corners
 /// projected, widened by 2 pixels (jittered samples reach 1.5 pixels from their centres), the
 /// origin a multiple of 8 so every pixel stride keeps the same pattern. The whole image when a
@@ -290,6 +286,9 @@ struct Renderer::Impl {
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
     uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
     bool clearPending = true;
+    /// Frames since the last clear ran ONE_SAMPLE and kept no sums: a frame that would read them
+    /// (another sample target, a gather) starts the accumulation anew first (frame()).
+    bool sumsStale = false;
     /// kFlagListNext: the cells the last frame's render pass left below the sample target, at
     /// word width * height of pixelList, and the fewest samples of the others; the next frame
     /// takes them as its list when its grid and target are the same (listPixels).
@@ -447,6 +446,12 @@ struct Renderer::Impl {
     /// A new accumulation: no samples, an empty G-buffer, a transparent output at the far plane.
     void addClear(const FrameInput& in);
     bool denoises(const RenderSettings& st) const;
+    /// render.comp's ONE_SAMPLE: the sample target is one sample and the render pass resolves its
+    /// pixels, so every sample it takes is a pixel's first and nothing reads its sum afterwards:
+    /// no jitter, no sum read or written (sumsStale).
+    bool oneSample(const RenderSettings& st) const { return st.sampleTarget == 1 && resolvesInRender(st); }
+    /// render.comp's pipeline variant: TONE_CURVES | ONE_SAMPLE << 1.
+    uint32_t renderVariant(const RenderSettings& st) const { return toneCurves(st) | (oneSample(st) ? 2u : 0u); }
     /// The frame's render pass resolves its own pixels (no gather pass): kFlagResolveInRender.
     bool resolvesInRender(const RenderSettings& st) const;
     /// The denoising passes over the last frame's gathered image into the output (a still render
@@ -1186,7 +1191,7 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
     need(pRender[rv][mode], "render.comp", 8, "SHADING", mode);
     if (!jobs.empty() && jobs.back().out == &pRender[rv][mode]) {
         jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
-        jobs.back().defines.emplace_back("ONE_SAMPLE", st.sampleTarget == 1 ? "1" : "0");
+        jobs.back().defines.emplace_back("ONE_SAMPLE", oneSample(st) ? "1" : "0");
         if (renderTexels.valid()) {
             jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
             jobs.back().texelBindings = kRenderTexelCount;
@@ -1609,6 +1614,11 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         stats.cacheUsedBytes = uint64_t(allocWords()[kAllocTop]) * 4;
         return stats;
     }
+    if (sumsStale && !oneSample(st)) { // the samples so far kept no sums: take them again
+        clearPending = true;
+        accumulatedFrames = 0;
+        prevMinSamples = 0;
+    }
     if (cacheResetPending) {
         if (!(s = resetCacheNow())) return s;
         cacheResetPending = false;
@@ -1636,6 +1646,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.detailUploads = detailUploads;
+    sumsStale = (sumsStale && !clearPending) || oneSample(st);
     clearPending = imageDirty = false;
     outputParts = 0; // the read-back output is stale now
     ++frameIndex;
