@@ -1113,7 +1113,8 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
 void Renderer::setSettings(const RenderSettings& settings) {
     if (settings == m_settings) return; // an unchanged value keeps the accumulated image
     // A pixel's k-th sample is the same whichever frame takes it, so another sample target or
-    // pixel stride keeps every sample taken so far: the accumulation goes on from there.
+    // pixel stride keeps every sample taken so far: the accumulation goes on from there (after
+    // one-sample frames, which keep no sums, frame() takes them again: sumsStale).
     RenderSettings others = settings;
     others.sampleTarget = m_settings.sampleTarget;
     others.subsampling = m_settings.subsampling;

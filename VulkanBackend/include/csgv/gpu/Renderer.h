@@ -242,7 +242,8 @@ public:
                         const std::map<std::string, std::vector<float>>& attributes = {},
                         const std::vector<uint32_t>& storedToOriginal = {});
     /// Different settings reset the accumulation; the same ones keep it, and so does another
-    /// sample target or subsampling alone (the samples taken stay valid).
+    /// sample target or subsampling alone (the samples taken stay valid), except after frames at
+    /// a target of one sample, which keep no sums (CPU-cheap): those samples are taken again.
     void setSettings(const RenderSettings& settings);
     const RenderSettings& settings() const { return m_settings; }
 
