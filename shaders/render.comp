@@ -26,6 +26,10 @@
 #ifndef ONE_SAMPLE
 #define ONE_SAMPLE 0
 #endif
+// DEPTH_INPUT 0: the frame has no opaque depth input (kFlagDepthInput): its reads compiled out.
+#ifndef DEPTH_INPUT
+#define DEPTH_INPUT 1
+#endif
 
 layout(local_size_x = kGroupTile, local_size_y = kGroupTile) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
@@ -218,6 +222,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
     precise vec3 e = b.xyz * (1.0 / b.w);
     precise vec3 d = e - o;
     float tEnd = 1.0;
+#if DEPTH_INPUT
     if ((fv.frame.y & kFlagDepthInput) != 0u) {
         const float z = depthInAt(pixel);
         if (z < 1.0) {
@@ -225,6 +230,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
             tEnd = min(tEnd, dot(q.xyz / q.w - o, d) / dot(d, d));
         }
     }
+#endif
 
     vec3 radiance = vec3(0.0);
     float transmittance = 1.0;

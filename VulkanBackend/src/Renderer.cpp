@@ -237,10 +237,10 @@ struct Renderer::Impl {
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
-    // Per TONE_CURVES (toneCurves; render.comp also ONE_SAMPLE: renderVariant) and resolve pass
+    // Per TONE_CURVES (toneCurves; render.comp also ONE_SAMPLE, DEPTH_INPUT: renderVariant) and resolve pass
     // or shading mode, compiled on first use.
     uint64_t pResolve[2][kResolveAtrous4 + 1] = {};
-    uint64_t pRender[4][4] = {}; // [renderVariant][shading]
+    uint64_t pRender[8][4] = {}; // [renderVariant][shading]
     uint32_t curves = 0; // the frame's TONE_CURVES: the resolve passes' pipelines (addResolve)
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
@@ -434,7 +434,7 @@ struct Renderer::Impl {
     bool denoisePending = false;      // the last frame gathered without denoising
     /// The pipelines this frame's settings use that are not made yet (the render pass's for the
     /// shading mode, the resolve passes, the cache passes, ...): made together, in parallel.
-    Status ensurePipelines(const RenderSettings& st);
+    Status ensurePipelines(const RenderSettings& st, bool depthInput);
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
     void buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
@@ -450,8 +450,11 @@ struct Renderer::Impl {
     /// pixels, so every sample it takes is a pixel's first and nothing reads its sum afterwards:
     /// no jitter, no sum read or written (sumsStale).
     bool oneSample(const RenderSettings& st) const { return st.sampleTarget == 1 && resolvesInRender(st); }
-    /// render.comp's pipeline variant: TONE_CURVES | ONE_SAMPLE << 1.
-    uint32_t renderVariant(const RenderSettings& st) const { return toneCurves(st) | (oneSample(st) ? 2u : 0u); }
+    /// render.comp's pipeline variant: TONE_CURVES | ONE_SAMPLE << 1 | DEPTH_INPUT << 2 (the frame
+    /// has an opaque depth input, kFlagDepthInput).
+    uint32_t renderVariant(const RenderSettings& st, bool depthInput) const {
+        return toneCurves(st) | (oneSample(st) ? 2u : 0u) | (depthInput ? 4u : 0u);
+    }
     /// The frame's render pass resolves its own pixels (no gather pass): kFlagResolveInRender.
     bool resolvesInRender(const RenderSettings& st) const;
     /// The denoising passes over the last frame's gathered image into the output (a still render
@@ -1178,7 +1181,7 @@ Status Renderer::Impl::detectChanges(const FrameInput& in) {
     return Status::ok();
 }
 
-Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
+Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput) {
     std::vector<PipelineJob> jobs;
     // Every frame asks; only a pipeline not made yet costs anything (its defines are built then).
     auto need = [&](uint64_t& pipeline, const char* name, uint32_t push = 8, const char* define = nullptr,
@@ -1188,11 +1191,12 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st) {
         if (define) d.emplace_back(define, std::to_string(value) + "u");
         jobs.push_back({name, std::move(d), push, &pipeline});
     };
-    const uint32_t mode = uint32_t(st.shading) & 3, tc = toneCurves(st), rv = renderVariant(st);
+    const uint32_t mode = uint32_t(st.shading) & 3, tc = toneCurves(st), rv = renderVariant(st, depthInput);
     need(pRender[rv][mode], "render.comp", 8, "SHADING", mode);
     if (!jobs.empty() && jobs.back().out == &pRender[rv][mode]) {
         jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
         jobs.back().defines.emplace_back("ONE_SAMPLE", oneSample(st) ? "1" : "0");
+        jobs.back().defines.emplace_back("DEPTH_INPUT", depthInput ? "1" : "0");
         if (renderTexels.valid()) {
             jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
             jobs.back().texelBindings = kRenderTexelCount;
@@ -1605,7 +1609,7 @@ bool Renderer::Impl::fragmented() {
 Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld) {
     Status s = viewBuffers();
     if (!s) return s;
-    if (!(s = ensurePipelines(st))) return s;
+    if (!(s = ensurePipelines(st, in.opaqueDepth != nullptr))) return s;
     FrameStats stats;
     if (st.sampleTarget > 0 && prevMinSamples >= st.sampleTarget && !clearPending && !cacheResetPending) {
         // Every pixel holds its samples: the image is final, nothing to submit.
@@ -1639,7 +1643,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         }
     }
     curves = toneCurves(st);
-    buildDispatches(in, st, pRender[renderVariant(st)][uint32_t(st.shading) & 3]);
+    buildDispatches(in, st, pRender[renderVariant(st, in.opaqueDepth != nullptr)][uint32_t(st.shading) & 3]);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
