@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -57,6 +58,38 @@ TEST(GpuContext, BuffersRoundTripThroughBothMemoryKinds) {
         EXPECT_FALSE(ctx->upload(*b, 8, data.data(), data.size() * 4).isOk()); // past the end
     }
     EXPECT_FALSE(ctx->createBuffer(uint64_t(1) << 50, MemoryKind::DeviceLocal).isOk());
+}
+
+// A fill writes its range of words alone; one past the end or not word-aligned is refused,
+// naming why, and writes nothing.
+TEST(GpuContext, FillsWriteTheirRangeAndRefuseOthers) {
+    CSGV_REQUIRE_GPU(ctx);
+    Result<Buffer> b = ctx->createBuffer(64 * 4, MemoryKind::HostVisible);
+    ASSERT_TRUE(b.isOk()) << b.message();
+    std::vector<uint32_t> zero(64, 0u);
+    ASSERT_TRUE(ctx->upload(*b, 0, zero.data(), zero.size() * 4).isOk());
+    Context::Dispatch d;
+    d.fill = &*b;
+    d.fillOffset = 16 * 4;
+    d.fillBytes = 8 * 4;
+    d.fillValue = 0x3F800000u;
+    ASSERT_TRUE(ctx->run(&d, 1).isOk());
+    std::vector<uint32_t> back(64);
+    ASSERT_TRUE(ctx->download(*b, 0, back.data(), back.size() * 4).isOk());
+    for (uint32_t i = 0; i < 64; ++i) EXPECT_EQ(back[i], i >= 16 && i < 24 ? 0x3F800000u : 0u) << i;
+    d.fillValue = 7u;
+    d.fillOffset = 60 * 4; // 8 words from word 60 of 64
+    Status s = ctx->run(&d, 1);
+    EXPECT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("past its buffer's end"), std::string::npos) << s.message();
+    d.fillOffset = 2; // not a word
+    s = ctx->run(&d, 1);
+    EXPECT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("32-bit words"), std::string::npos) << s.message();
+    d.fillOffset = ~uint64_t(0) - 3; // offset + bytes would wrap around
+    EXPECT_FALSE(ctx->run(&d, 1).isOk());
+    ASSERT_TRUE(ctx->download(*b, 0, back.data(), back.size() * 4).isOk());
+    for (uint32_t i = 0; i < 64; ++i) EXPECT_NE(back[i], 7u) << i;
 }
 
 TEST(GpuContext, APipelineIsMadeOncePerShaderEvenFromTwoThreads) {

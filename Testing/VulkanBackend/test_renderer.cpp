@@ -1158,6 +1158,8 @@ TEST(Renderer, ClipBoxShowsExactlyTheCroppedVolume) {
     std::printf("clip box: %zu of %zu pixels differ, %zu hits\n", diff, ref.label.size(), hits);
 }
 
+bool inRect(const std::array<uint32_t, 4>& r, uint32_t x, uint32_t y) { return x >= r[0] && x < r[2] && y >= r[1] && y < r[3]; }
+
 /// Every pixel outside FrameOutput::rect is empty (compositors draw the rectangle alone), and
 /// the rectangle follows the footprint: the volume's part of the image, wider after a move.
 void expectEmptyOutsideRect(const FrameOutput& out) {
@@ -1167,7 +1169,7 @@ void expectEmptyOutsideRect(const FrameOutput& out) {
     for (uint32_t y = 0; y < out.height; ++y)
         for (uint32_t x = 0; x < out.width; ++x) {
             const size_t i = size_t(y) * out.width + x;
-            if (x >= out.rect[0] && x < out.rect[2] && y >= out.rect[1] && y < out.rect[3]) {
+            if (inRect(out.rect, x, y)) {
                 inside += out.rgba8[i] != 0;
                 continue;
             }
@@ -1197,8 +1199,7 @@ TEST(Renderer, OutputIsEmptyOutsideItsRectangle) {
     size_t moved = 0; // pixels the first view drew outside the second's rectangle
     for (uint32_t y = 0; y < out.height; ++y)
         for (uint32_t x = 0; x < out.width; ++x)
-            moved += first.rgba8[size_t(y) * out.width + x] != 0 &&
-                     !(x >= out.rect[0] && x < out.rect[2] && y >= out.rect[1] && y < out.rect[3]);
+            moved += first.rgba8[size_t(y) * out.width + x] != 0 && !inRect(out.rect, x, y);
     EXPECT_GT(moved, 100u);
 }
 

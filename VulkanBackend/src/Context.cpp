@@ -679,9 +679,13 @@ Status Context::run(const Dispatch* first, size_t count) {
     Impl& im = *m_impl;
     const Dispatch* const last = first + count;
     for (const Dispatch* d = first; d != last; ++d) {
-        if (d->fill && (!d->fill->valid() || d->fillBytes % 4 != 0 || d->fillOffset % 4 != 0 ||
-                        d->fillOffset > d->fill->size() || d->fillBytes > d->fill->size() - d->fillOffset))
-            return Status::error("a fill past its buffer's end");
+        if (d->fill && !d->fill->valid()) return Status::error("a fill of a buffer that does not exist");
+        if (d->fill && (d->fillBytes % 4 != 0 || d->fillOffset % 4 != 0))
+            return Status::error("a fill of " + std::to_string(d->fillBytes) + " bytes at byte " +
+                                 std::to_string(d->fillOffset) + ": not whole 32-bit words");
+        if (d->fill && (d->fillOffset > d->fill->size() || d->fillBytes > d->fill->size() - d->fillOffset))
+            return Status::error("a fill past its buffer's end (" + std::to_string(d->fillBytes) + " bytes at byte " +
+                                 std::to_string(d->fillOffset) + " of " + std::to_string(d->fill->size()) + ")");
         if (d->fill) continue;
         auto p = im.pipelines.find(d->pipeline);
         if (p == im.pipelines.end()) return Status::error("dispatch of an unknown pipeline");

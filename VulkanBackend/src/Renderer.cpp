@@ -272,7 +272,6 @@ struct Renderer::Impl {
     std::array<uint32_t, 4> rect{};   // the frame's footprint rectangle (FrameParams rect)
     std::array<uint32_t, 4> drawnRect{}; // the union of the footprints since the last clear (FrameOutput::rect)
     bool imageDirty = true;           // the per-pixel buffers are new or resized: the next clear fills them whole
-    std::array<uint32_t, 2> clearRows{}; // the rows the frame's clear fills (addClear): drawn since the last clear
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     uint32_t requestBlock = 1;        // REQUEST_BLOCK of cache_request.comp (bricks per invocation)
@@ -1424,7 +1423,13 @@ void Renderer::Impl::addClear(const FrameInput& in) {
     // Fills, not a compute pass: pixels outside the footprint keep these values all along, so
     // only the rows drawn since the last clear need them (all of new or resized buffers). The
     // accumulation needs none: it is read only where a pixel's sample count (cleared) is not 0.
-    const uint64_t first = uint64_t(clearRows[0]) * in.width, n = uint64_t(clearRows[1] - clearRows[0]) * in.width;
+    uint32_t y0 = 0, y1 = in.height; // new or resized buffers: whole
+    if (!imageDirty) {
+        const bool drawn = drawnRect[0] < drawnRect[2] && drawnRect[1] < drawnRect[3];
+        y0 = drawn ? drawnRect[1] : 0;
+        y1 = drawn ? drawnRect[3] : 0;
+    }
+    const uint64_t first = uint64_t(y0) * in.width, n = uint64_t(y1 - y0) * in.width;
     const std::tuple<const Buffer*, uint64_t, uint32_t> filled[] = {
         {&samples, 4, 0u}, {&gbuffer, 16, 0u}, {&colorOut, 4, 0u}, {&depthOut, 4, 0x3F800000u /* 1.0f: the far plane */}};
     for (const auto& [buffer, bytes, value] : filled) {
@@ -1630,11 +1635,10 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
         stats.cacheReset = true;
     }
     if (!(s = packParams(in, st, clipToWorld))) return s;
-    // Outside the rows drawn since the last clear the per-pixel buffers hold their cleared values.
-    const bool drawn = drawnRect[0] < drawnRect[2] && drawnRect[1] < drawnRect[3];
-    clearRows = imageDirty ? std::array<uint32_t, 2>{0, height}
-                           : (drawn ? std::array<uint32_t, 2>{drawnRect[1], drawnRect[3]} : std::array<uint32_t, 2>{0, 0});
-    if (clearPending || !drawn) {
+    curves = toneCurves(st);
+    buildDispatches(in, st, pRender[renderVariant(st, in.opaqueDepth != nullptr)][uint32_t(st.shading) & 3]);
+    // After the clear (addClear reads what was drawn before it): this frame's footprint joins.
+    if (clearPending || drawnRect[0] >= drawnRect[2] || drawnRect[1] >= drawnRect[3]) {
         drawnRect = rect;
     } else {
         for (int k = 0; k < 2; ++k) {
@@ -1642,8 +1646,6 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
             drawnRect[size_t(k) + 2] = std::max(drawnRect[size_t(k) + 2], rect[size_t(k) + 2]);
         }
     }
-    curves = toneCurves(st);
-    buildDispatches(in, st, pRender[renderVariant(st, in.opaqueDepth != nullptr)][uint32_t(st.shading) & 3]);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
