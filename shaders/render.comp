@@ -188,14 +188,16 @@ vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
     return vec3(fv.lightWorld.w * cosL * vis);
 }
 
-/// The next sample (index `samples`) of pixel px: accumulates it, writes the G-buffer and the
-/// depth, and returns true with the new sum in `total`; false when a brick it needs is not in the
-/// cache: then nothing is written, except for a pixel without samples, whose preview is (its
-/// accumulation word, the G-buffer's kGBufferPreview, the depth), with `preview` true and the
-/// preview in `total`.
-bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool preview) {
+/// The next sample (index `samples`) of pixel px: accumulates it, writes the G-buffer, and
+/// returns true with the new sum in `total` and the window depth of its first surface in
+/// `surfaceDepth`; false when a brick it needs is not in the cache: then nothing is written,
+/// except for a pixel without samples, whose preview is (its accumulation word, the G-buffer's
+/// kGBufferPreview), with `preview` true, the preview in `total` and its depth in
+/// `surfaceDepth`. The caller writes the depth (with the colour: one store).
+bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool preview, out float surfaceDepth) {
     preview = false;
     total = vec4(0.0);
+    surfaceDepth = 1.0;
     if (samples == count.prevMin) count.minRow = min(count.minRow, pixel);
     const bool request = (fv.frame.y & kFlagLimitRequests) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
     Rng rng = rngFor(pixel, samples);
@@ -385,7 +387,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
 #endif
         storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance))
                                                         : uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u));
-        FloatBuf(frameAddr[kSlotDepthOut]).f[pixel] = firstDepth;
+        surfaceDepth = firstDepth;
     }
     if (valid) UintBuf(frameAddr[kSlotSamples]).w[pixel] = samples + 1u;
     return valid;
@@ -403,11 +405,20 @@ bool renderPixel(uvec2 cell) {
     uint n = samples;
     vec4 total = vec4(0.0);
     bool preview = false;
-    if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total, preview)) n = samples + 1u;
+    float depth = 1.0;
+    if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total, preview, depth)) n = samples + 1u;
     const bool below = n < fv.frame.w;
     if (!below) count.kept = min(count.kept, n);
-    if ((fv.frame.y & kFlagResolveInRender) == 0u) return below;
-    if (n != samples || preview) UintBuf(frameAddr[kSlotColorOut]).w[pixel] = packUnorm4x8(toneMapped(total / float(max(n, 1u))));
+    // A sample or a preview changes the pixel's output: its depth, and its colour where this pass
+    // resolves (one 64-bit store: CPU devices run each store as a loop over the lanes). ONE_SAMPLE
+    // frames always resolve here.
+    const bool wrote = n != samples || preview;
+    const uint depthWord = floatBitsToUint(depth) ^ kOutputDepthXor;
+    if (ONE_SAMPLE == 0 && (fv.frame.y & kFlagResolveInRender) == 0u) {
+        if (wrote) UintBuf(frameAddr[kSlotOutput]).w[2u * pixel + 1u] = depthWord;
+        return below;
+    }
+    if (wrote) U64Buf(frameAddr[kSlotOutput]).v[pixel] = packUint2x32(uvec2(packUnorm4x8(toneMapped(total / float(max(n, 1u)))), depthWord));
     count.fewest = min(count.fewest, n);
     if (n == 0u) {
         if (preview) ++count.previews;

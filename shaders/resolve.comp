@@ -7,7 +7,7 @@
 //   1..3 edge-avoiding A-trous denoising with steps 1, 2, 4, guided by the G-buffer (same label,
 //     same face, similar depth), fading out as samples accumulate; the last writes the output:
 //     tone mapping (ACES fit), brightness, contrast, gamma; premultiplied, 8 bits a channel
-//     (kSlotColorOut).
+//     (kSlotOutput's colour words).
 // Pixels outside the rectangle keep what the clear filled in (Renderer.cpp addClear).
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -69,8 +69,8 @@ uint nearestInBlock(uvec2 px, uint s, bool sampled) {
 /// at compile time where the host knows (Renderer.cpp's resolveTarget): CPU devices run both
 /// writes, and the tone mapping, where the shader decides.
 void writeResult(Frame f, uint pixel, vec4 c) {
-    const bool toOutput = RESOLVE_OUTPUT == kResolveToEither ? pc.dst == kSlotColorOut : RESOLVE_OUTPUT == kResolveToOutput;
-    if (toOutput) UintBuf(f.addr[kSlotColorOut]).w[pixel] = packUnorm4x8(toneMapped(c));
+    const bool toOutput = RESOLVE_OUTPUT == kResolveToEither ? pc.dst == kSlotOutput : RESOLVE_OUTPUT == kResolveToOutput;
+    if (toOutput) UintBuf(f.addr[kSlotOutput]).w[2u * pixel] = packUnorm4x8(toneMapped(c));
     else storeVec4(f.addr[pc.dst], pixel, c);
 }
 
@@ -97,8 +97,8 @@ void resolvePixel(Frame f, uvec2 px) {
         if (!shows) from = pixel;
         if (from != pixel) {
             n = samplesOf(from);
-            FloatBuf depth = FloatBuf(frameAddr[kSlotDepthOut]);
-            depth.f[pixel] = depth.f[from];
+            UintBuf words = UintBuf(frameAddr[kSlotOutput]); // the depth words (odd), as they are
+            words.w[2u * pixel + 1u] = words.w[2u * from + 1u];
             // What the pixel shows, it also answers to picking (its own first sample replaces it);
             // a preview answers nothing (and stays its block neighbour's).
             if (!preview) {

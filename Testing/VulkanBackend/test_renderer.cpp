@@ -1179,6 +1179,18 @@ void expectEmptyOutsideRect(const FrameOutput& out) {
     EXPECT_GT(inside, 100u);
 }
 
+/// output()'s colour and depth, which it reads from the device where the last frames drew and
+/// where it read last (Renderer::Impl::readImage), are the whole image's read-back.
+void expectOutputIsWhole(Renderer& r, const FrameOutput& whole) {
+    const FrameOutput& o = r.output();
+    EXPECT_EQ(o.rect, whole.rect);
+    ASSERT_EQ(o.rgba8.size(), whole.rgba8.size());
+    for (size_t i = 0; i < o.rgba8.size(); ++i) {
+        ASSERT_EQ(o.rgba8[i], whole.rgba8[i]) << "pixel " << i;
+        ASSERT_EQ(o.depth[i], whole.depth[i]) << "pixel " << i;
+    }
+}
+
 TEST(Renderer, OutputIsEmptyOutsideItsRectangle) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
@@ -1190,12 +1202,14 @@ TEST(Renderer, OutputIsEmptyOutsideItsRectangle) {
     const FrameInput a = perspectiveView({-60, -90, 230}, {40, 25, 70}, {0, 0, 1}, 40, 96, 80);
     const FrameOutput first = renderConverged(*r, a, 1, 64);
     expectEmptyOutsideRect(first);
+    expectOutputIsWhole(*r, first);
     EXPECT_LT(uint64_t(first.rect[2] - first.rect[0]) * (first.rect[3] - first.rect[1]), uint64_t(first.width) * first.height / 2);
     // The box elsewhere in the image: what the first view drew there was cleared (only the rows
     // drawn are), the new footprint drawn.
     const FrameInput b = perspectiveView({-60, -90, 230}, {75, -10, 70}, {0, 0, 1}, 40, 96, 80);
     const FrameOutput out = renderConverged(*r, b, 1, 64);
     expectEmptyOutsideRect(out);
+    expectOutputIsWhole(*r, out); // the first view's pixels outside this rectangle are gone there too
     size_t moved = 0; // pixels the first view drew outside the second's rectangle
     for (uint32_t y = 0; y < out.height; ++y)
         for (uint32_t x = 0; x < out.width; ++x)

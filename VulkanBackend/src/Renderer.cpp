@@ -248,7 +248,7 @@ struct Renderer::Impl {
     TexelViews renderTexels;
     /// The resolve passes' (RESOLVE_TEXELS): a set per source, denoiseA then denoiseB.
     TexelViews resolveTexels;
-    Buffer accum, samples, gbuffer, depthIn, colorOut, depthOut, denoiseA, denoiseB;
+    Buffer accum, samples, gbuffer, depthIn, colorDepth, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
@@ -327,6 +327,13 @@ struct Renderer::Impl {
     double secondsPerPixel[4] = {};   // render(): a frame's seconds per rendered pixel, per shading mode
     FrameOutput output;               // what output() returns
     uint32_t outputParts = 0;         // OutputParts of `output` read since the last frame
+    // The rectangle of the device image that `output`'s colour and depth were last read from:
+    // outside it they hold empty pixels, as the device does outside its drawn rectangle.
+    std::array<uint32_t, 4> outputRect{};
+    /// Reads `output`'s 8-bit colour and depth: the rows and columns of the drawn rectangle and of
+    /// the one read last (outside both the device and `output` hold empty pixels), all of them
+    /// when the image's size changed.
+    void readImage();
     // The frame's dispatch list and the push constants it points to (rebuilt every frame).
     std::vector<Context::Dispatch> dispatches;
     std::vector<ResolvePush> resolvePushes;
@@ -514,7 +521,7 @@ struct Renderer::Impl {
         };
         const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},    {&samples, n * 4, MemoryKind::DeviceLocal},
                               {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
-                              {&colorOut, n * 4, MemoryKind::HostVisible}, {&depthOut, n * 4, MemoryKind::HostVisible},
+                              {&colorDepth, n * 8, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
                               {&pixelList, usesPixelList ? n * 8 : 0, MemoryKind::HostVisible}}; // this frame's list, the next's
         uint64_t bytes = 0;
@@ -1329,7 +1336,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
         {kSlotBricks, &bricks},       {kSlotCache, &cache},         {kSlotAlloc, &alloc},         {kSlotFree, &freeStacks},
         {kSlotRequests, &requests},   {kSlotDecodes, &decodes},     {kSlotAccum, &accum},         {kSlotSamples, &samples},
         {kSlotGBuffer, &gbuffer},     {kSlotDepthIn, &depthIn},     {kSlotMaterials, &materials}, {kSlotColormaps, &colormaps},
-        {kSlotAttributes, &attributeTable}, {kSlotColorOut, &colorOut}, {kSlotDepthOut, &depthOut}, {kSlotLabelMap, &labelMap},
+        {kSlotAttributes, &attributeTable}, {kSlotOutput, &colorDepth}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
         {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors},
         {kSlotPixelList, &pixelList}};
@@ -1384,7 +1391,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];
     if (resolvesInRender(st)) return;
     if (!denoises(st)) {
-        addResolve(kResolveGather, kSlotDenoiseA, kSlotColorOut);
+        addResolve(kResolveGather, kSlotDenoiseA, kSlotOutput);
         return;
     }
     addResolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
@@ -1413,7 +1420,7 @@ void Renderer::Impl::addResolve(uint32_t pass, uint32_t src, uint32_t dst) {
 void Renderer::Impl::addDenoisePasses() {
     addResolve(kResolveAtrous1, kSlotDenoiseA, kSlotDenoiseB);
     addResolve(kResolveAtrous2, kSlotDenoiseB, kSlotDenoiseA);
-    addResolve(kResolveAtrous4, kSlotDenoiseA, kSlotColorOut); // tone-mapped into the output
+    addResolve(kResolveAtrous4, kSlotDenoiseA, kSlotOutput); // tone-mapped into the output
     static_assert(resolveTarget(kResolveAtrous1) == kResolveToBuffer && resolveTarget(kResolveAtrous2) == kResolveToBuffer &&
                       resolveTarget(kResolveAtrous4) == kResolveToOutput,
                   "resolve.comp is compiled for the targets these passes write");
@@ -1431,7 +1438,7 @@ void Renderer::Impl::addClear(const FrameInput& in) {
     }
     const uint64_t first = uint64_t(y0) * in.width, n = uint64_t(y1 - y0) * in.width;
     const std::tuple<const Buffer*, uint64_t, uint32_t> filled[] = {
-        {&samples, 4, 0u}, {&gbuffer, 16, 0u}, {&colorOut, 4, 0u}, {&depthOut, 4, 0x3F800000u /* 1.0f: the far plane */}};
+        {&samples, 4, 0u}, {&gbuffer, 16, 0u}, {&colorDepth, 8, 0u} /* colour 0, depth 1 (kOutputDepthXor) */};
     for (const auto& [buffer, bytes, value] : filled) {
         Context::Dispatch d;
         d.fill = buffer;
@@ -1752,9 +1759,48 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
 
 const FrameOutput& Renderer::output(uint32_t parts) {
     Impl& im = *m_impl;
-    const uint32_t missing = (parts | Color8 | Depth) & ~im.outputParts;
-    if (missing && im.width > 0 && readOutput(im.output, missing)) im.outputParts |= missing;
+    uint32_t missing = (parts | Color8 | Depth) & ~im.outputParts;
+    if (missing && im.width > 0) {
+        if (missing & (Color8 | Depth)) { // read together, always (both are in every call's parts)
+            im.readImage();
+            im.outputParts |= Color8 | Depth;
+            missing &= ~uint32_t(Color8 | Depth);
+        }
+        if (missing && readOutput(im.output, missing)) im.outputParts |= missing;
+    }
     return im.output;
+}
+
+void Renderer::Impl::readImage() {
+    FrameOutput& out = output;
+    const size_t n = size_t(width) * height;
+    std::array<uint32_t, 4> r = outputRect;
+    const auto empty = [](const std::array<uint32_t, 4>& a) { return a[0] >= a[2] || a[1] >= a[3]; };
+    if (out.width != width || out.height != height || out.rgba8.size() != n || out.depth.size() != n) {
+        out.rgba8.resize(n);
+        out.depth.resize(n);
+        r = {0, 0, width, height};
+    } else if (empty(r)) {
+        r = drawnRect;
+    } else if (!empty(drawnRect)) {
+        for (size_t k = 0; k < 2; ++k) {
+            r[k] = std::min(r[k], drawnRect[k]);
+            r[k + 2] = std::max(r[k + 2], drawnRect[k + 2]);
+        }
+    }
+    out.width = width;
+    out.height = height;
+    out.rect = drawnRect;
+    outputRect = drawnRect;
+    if (empty(r)) return;
+    // kSlotOutput: colour, then depth bits ^ kOutputDepthXor, per pixel.
+    const uint32_t* c = static_cast<const uint32_t*>(colorDepth.mapped());
+    for (uint32_t y = r[1]; y < std::min(r[3], height); ++y)
+        for (size_t i = size_t(y) * width + r[0], end = size_t(y) * width + std::min(r[2], width); i < end; ++i) {
+            out.rgba8[i] = c[2 * i];
+            const uint32_t bits = c[2 * i + 1] ^ kOutputDepthXor;
+            std::memcpy(&out.depth[i], &bits, 4);
+        }
 }
 
 Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
@@ -1764,16 +1810,23 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     out.width = im.width;
     out.height = im.height;
     out.rect = im.drawnRect;
-    const uint32_t* c = static_cast<const uint32_t*>(im.colorOut.mapped());
-    if (parts & Color8) out.rgba8.assign(c, c + n);
+    // kSlotOutput: colour, then depth bits ^ kOutputDepthXor, per pixel.
+    const uint32_t* c = static_cast<const uint32_t*>(im.colorDepth.mapped());
+    if (parts & Color8) {
+        out.rgba8.resize(n);
+        for (size_t i = 0; i < n; ++i) out.rgba8[i] = c[2 * i];
+    }
     if (parts & Color) {
         out.rgba.resize(4 * n);
         for (size_t i = 0; i < n; ++i)
-            for (int k = 0; k < 4; ++k) out.rgba[4 * i + k] = float((c[i] >> (8 * k)) & 0xFFu) / 255.0f;
+            for (int k = 0; k < 4; ++k) out.rgba[4 * i + k] = float((c[2 * i] >> (8 * k)) & 0xFFu) / 255.0f;
     }
     if (parts & Depth) {
-        const float* d = static_cast<const float*>(im.depthOut.mapped());
-        out.depth.assign(d, d + n);
+        out.depth.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const uint32_t bits = c[2 * i + 1] ^ kOutputDepthXor;
+            std::memcpy(&out.depth[i], &bits, 4);
+        }
     }
     if (parts & GBuffer) {
         const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
@@ -1838,7 +1891,7 @@ MemoryReport Renderer::Impl::memory() const {
                                                           im.detailRequests.size()});
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size() +
                                                          im.pixelList.size()});
-    r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorOut.size() + im.depthOut.size() + im.gbuffer.size() +
+    r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorDepth.size() + im.gbuffer.size() +
                                                                    im.depthIn.size()});
     uint64_t attr = im.materials.size() + im.colormaps.size() + im.attributeTable.size() + im.labelMap.size() +
                     im.materialTable.size() + im.labelColors.size();

@@ -43,6 +43,9 @@ CSGV_CONST(uint32_t, kGBufferSampled, 0x100u)
 /// ... or: the pixel has no sample yet and its accumulation word holds a preview (render.comp),
 /// shown until its first sample replaces it.
 CSGV_CONST(uint32_t, kGBufferPreview, 0x200u)
+/// An output depth word (kSlotOutput) is the depth's float bits ^ this (the bits of 1.0f), so a
+/// zero fill clears colour and depth together: no surface, depth 1 (the far plane).
+CSGV_CONST(uint32_t, kOutputDepthXor, 0x3F800000u)
 
 // How render_common.glsl's materialOf finds a stored label's material (its define LABEL_LOOKUP,
 // chosen per renderer: LabelLookup.h).
@@ -78,24 +81,23 @@ CSGV_CONST(uint32_t, kSlotDepthIn, 9u)        ///< float per pixel: window depth
 CSGV_CONST(uint32_t, kSlotMaterials, 10u)     ///< GpuMaterial array
 CSGV_CONST(uint32_t, kSlotColormaps, 11u)     ///< vec4 colour samples
 CSGV_CONST(uint32_t, kSlotAttributes, 12u)    ///< uint64 address per attribute: float per label
-CSGV_CONST(uint32_t, kSlotColorOut, 13u)      ///< uint per pixel: resolved premultiplied RGBA, 8 bits a channel (packUnorm4x8, R lowest): what a view's colour buffer holds
-CSGV_CONST(uint32_t, kSlotDepthOut, 14u)      ///< float per pixel
-CSGV_CONST(uint32_t, kSlotLabelMap, 15u)      ///< uint per stored label: the original label
-CSGV_CONST(uint32_t, kSlotDenoiseA, 16u)      ///< vec4 per pixel: resolve ping-pong buffers
-CSGV_CONST(uint32_t, kSlotDenoiseB, 17u)
-CSGV_CONST(uint32_t, kSlotVisible, 18u)       ///< uvec2 per brick: its preview label (the root label, else the first palette entry with a material) and that material, kNone twice when no palette entry has one (host, per materials)
-CSGV_CONST(uint32_t, kSlotArrays, 19u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
-CSGV_CONST(uint32_t, kSlotStarts, 20u)        ///< the encoding: brick start words
-CSGV_CONST(uint32_t, kSlotBlueNoise, 21u)     ///< 64x64 bytes of blue noise, four to a uint
-CSGV_CONST(uint32_t, kSlotMaterialTable, 22u) ///< label -> material (kNone): uint per label up to the largest (kLookupDense, kLookupScan) or the hashed uvec2 slots (kLookupHashed)
-CSGV_CONST(uint32_t, kSlotUniform, 23u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
-CSGV_CONST(uint32_t, kSlotDetail, 24u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
-CSGV_CONST(uint32_t, kSlotDetailRequests, 25u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
-CSGV_CONST(uint32_t, kSlotGhost, 26u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
-CSGV_CONST(uint32_t, kSlotCoarse, 27u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
-CSGV_CONST(uint32_t, kSlotLabelColors, 28u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
-CSGV_CONST(uint32_t, kSlotPixelList, 29u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
-CSGV_CONST(uint32_t, kSlotCount, 30u)
+CSGV_CONST(uint32_t, kSlotOutput, 13u)        ///< two words per pixel, one 64-bit store: resolved premultiplied RGBA, 8 bits a channel (packUnorm4x8, R lowest: what a view's colour buffer holds), then the window depth of the first surface as its float bits ^ kOutputDepthXor
+CSGV_CONST(uint32_t, kSlotLabelMap, 14u)      ///< uint per stored label: the original label
+CSGV_CONST(uint32_t, kSlotDenoiseA, 15u)      ///< vec4 per pixel: resolve ping-pong buffers
+CSGV_CONST(uint32_t, kSlotDenoiseB, 16u)
+CSGV_CONST(uint32_t, kSlotVisible, 17u)       ///< uvec2 per brick: its preview label (the root label, else the first palette entry with a material) and that material, kNone twice when no palette entry has one (host, per materials)
+CSGV_CONST(uint32_t, kSlotArrays, 18u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
+CSGV_CONST(uint32_t, kSlotStarts, 19u)        ///< the encoding: brick start words
+CSGV_CONST(uint32_t, kSlotBlueNoise, 20u)     ///< 64x64 bytes of blue noise, four to a uint
+CSGV_CONST(uint32_t, kSlotMaterialTable, 21u) ///< label -> material (kNone): uint per label up to the largest (kLookupDense, kLookupScan) or the hashed uvec2 slots (kLookupHashed)
+CSGV_CONST(uint32_t, kSlotUniform, 22u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
+CSGV_CONST(uint32_t, kSlotDetail, 23u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
+CSGV_CONST(uint32_t, kSlotDetailRequests, 24u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
+CSGV_CONST(uint32_t, kSlotGhost, 25u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
+CSGV_CONST(uint32_t, kSlotCoarse, 26u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
+CSGV_CONST(uint32_t, kSlotLabelColors, 27u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
+CSGV_CONST(uint32_t, kSlotPixelList, 28u)     /// PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
+CSGV_CONST(uint32_t, kSlotCount, 29u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
 CSGV_CONST(uint32_t, kCoarseLevelWords, 4u)
