@@ -24,6 +24,7 @@
 #include <vtk_glew.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -142,6 +143,9 @@ struct vtkCSGVVolumeProp::Impl
   vtkSmartPointer<vtkTextureObject> Color, DepthTexture;
   std::unique_ptr<vtkOpenGLQuadHelper> Quad;
   bool TexturesCurrent = false;
+  // The output rectangle the textures were last uploaded from: outside it they hold empty texels,
+  // as the output does outside its own rectangle (csgv::gpu::FrameOutput::rect).
+  std::array<uint32_t, 4> UploadedRect{};
 
   void ReleaseGL(vtkWindow* window)
   {
@@ -545,10 +549,62 @@ bool vtkCSGVVolumeProp::UploadTextures(vtkOpenGLRenderWindow* win, bool changed)
   }
   // A reduced interactive frame is stretched over the view: smooth colours, its depth as it is.
   p.Color->SetMagnificationFilter(p.LodFactor > 1 ? vtkTextureObject::Linear : vtkTextureObject::Nearest);
-  win->GetState()->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  vtkOpenGLState* state = win->GetState();
+  state->vtkglPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  const std::array<uint32_t, 4> last = p.UploadedRect;
+  p.UploadedRect = out.rect;
+  if (p.TexturesCurrent && p.Color->GetHandle() && p.Color->GetWidth() == out.width &&
+    p.Color->GetHeight() == out.height)
+  {
+    // Textures of this size hold the last output: only its rectangle and this one's change (a
+    // CPU OpenGL copies every texel it is given).
+    auto empty = [](const std::array<uint32_t, 4>& r) { return r[0] >= r[2] || r[1] >= r[3]; };
+    std::array<uint32_t, 4> r = out.rect;
+    if (empty(r))
+    {
+      r = last;
+    }
+    else if (!empty(last))
+    {
+      for (size_t k = 0; k < 2; ++k)
+      {
+        r[k] = std::min(r[k], last[k]);
+        r[k + 2] = std::max(r[k + 2], last[k + 2]);
+      }
+    }
+    r[2] = std::min(r[2], out.width);
+    r[3] = std::min(r[3], out.height);
+    if (empty(r))
+    {
+      return true;
+    }
+    const size_t first = size_t(r[1]) * out.width + r[0];
+    const GLsizei w = GLsizei(r[2] - r[0]), h = GLsizei(r[3] - r[1]);
+    while (glGetError() != GL_NO_ERROR)
+    {
+    }
+    state->vtkglPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(out.width));
+    p.Color->Activate();
+    glTexSubImage2D(GL_TEXTURE_2D, 0, GLint(r[0]), GLint(r[1]), w, h, GL_RGBA, GL_UNSIGNED_BYTE,
+      out.rgba8.data() + first);
+    p.Color->Deactivate();
+    p.DepthTexture->Activate();
+    glTexSubImage2D(
+      GL_TEXTURE_2D, 0, GLint(r[0]), GLint(r[1]), w, h, GL_RED, GL_FLOAT, out.depth.data() + first);
+    p.DepthTexture->Deactivate();
+    state->vtkglPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+    if (glGetError() != GL_NO_ERROR)
+    {
+      p.TexturesCurrent = false; // created anew at the next frame
+      this->Report("could not update the compositing textures");
+      return false;
+    }
+    return true;
+  }
   if (!p.Color->Create2DFromRaw(out.width, out.height, 4, VTK_UNSIGNED_CHAR, const_cast<uint32_t*>(out.rgba8.data())) ||
     !p.DepthTexture->Create2DFromRaw(out.width, out.height, 1, VTK_FLOAT, const_cast<float*>(out.depth.data())))
   {
+    p.TexturesCurrent = false;
     this->Report("could not create the compositing textures");
     return false;
   }
