@@ -99,10 +99,11 @@ public:
   /// still exact (same camera, size, depth and settings, accumulation complete): nothing was
   /// rendered and the caller may keep what it drew last time. Returns an error message or "".
   std::string render(const FrameRequest& request, bool& changed);
-  /// The last rendered image (premultiplied RGBA and window depth, rows bottom-up), plus the
-  /// `parts` asked for (csgv::gpu::Renderer::GBuffer: label, face, hit depth, distance), read on
-  /// demand by the backend: compositing needs only colour and depth, picking the rest.
-  const csgv::gpu::FrameOutput& output(uint32_t parts = csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth);
+  /// The last rendered image (premultiplied RGBA, 8 bits a channel, and window depth, rows
+  /// bottom-up), plus the `parts` asked for (csgv::gpu::Renderer::Color: as floats; GBuffer:
+  /// label, face, hit depth, distance), read on demand by the backend: compositing needs only
+  /// the 8-bit colour and depth (each other part is a conversion of the whole image), picking the rest.
+  const csgv::gpu::FrameOutput& output(uint32_t parts = csgv::gpu::Renderer::Color8 | csgv::gpu::Renderer::Depth);
   /// Statistics of the last frame rendered.
   const csgv::gpu::FrameStats& lastStats() const { return this->Stats; }
   uint32_t framesLastRender() const { return this->FramesLastRender; }
