@@ -28,7 +28,7 @@ void main() {
     loadFrameValues(f);
     UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
     UintBuf list = UintBuf(frameAddr[kSlotPixelList]);
-    UintBuf samples = UintBuf(frameAddr[kSlotSamples]);
+    UintBuf gbuffer = UintBuf(frameAddr[kSlotGBuffer]); // sample counts in the second words
     const uvec2 grid = cellGrid();
     const uint cells = grid.x * grid.y;
     // kListBlock rounds per invocation (lavapipe pays per invocation); in each round the lanes
@@ -40,8 +40,8 @@ void main() {
         bool sampling = false;
         uint kept = kNone; // the sample count of a pixel left out
         if (c < cells && cellPixel(cell, px)) {
-            const uint n = samples.w[px.y * fv.image.x + px.x];
-            sampling = fv.frame.w == 0u || n < fv.frame.w;
+            const uint n = gbuffer.w[4u * (px.y * fv.image.x + px.x) + 1u] >> kGBufferCountShift;
+            sampling = wantsSample(n);
             if (!sampling) kept = n;
         }
         const uint one = sampling ? 1u : 0u;

@@ -385,11 +385,12 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
 #if !ONE_SAMPLE
         storeVec4(frameAddr[kSlotAccum], pixel, total);
 #endif
-        storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled, floatBitsToUint(gDepth), floatBitsToUint(gDistance))
+        // The sample count rides in the second word (kGBufferCountShift): one store for both.
+        storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled | ((samples + 1u) << kGBufferCountShift),
+                                                                floatBitsToUint(gDepth), floatBitsToUint(gDistance))
                                                         : uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u));
         surfaceDepth = firstDepth;
     }
-    if (valid) UintBuf(frameAddr[kSlotSamples]).w[pixel] = samples + 1u;
     return valid;
 }
 
@@ -406,7 +407,7 @@ bool renderPixel(uvec2 cell) {
     vec4 total = vec4(0.0);
     bool preview = false;
     float depth = 1.0;
-    if ((fv.frame.w == 0u || samples < fv.frame.w) && takeSample(px, pixel, samples, total, preview, depth)) n = samples + 1u;
+    if (wantsSample(samples) && takeSample(px, pixel, samples, total, preview, depth)) n = samples + 1u;
     const bool below = n < fv.frame.w;
     if (!below) count.kept = min(count.kept, n);
     // A sample or a preview changes the pixel's output: its depth, and its colour where this pass

@@ -101,7 +101,7 @@ layout(set = 0, binding = kTexelBricks) uniform usamplerBuffer brickTexels;
 layout(set = 0, binding = kTexelUniform) uniform usamplerBuffer uniformTexels;
 layout(set = 0, binding = kTexelMaterialTable) uniform usamplerBuffer tableTexels;
 layout(set = 0, binding = kTexelLabelColors) uniform usamplerBuffer colorTexels;
-layout(set = 0, binding = kTexelSamples) uniform usamplerBuffer sampleTexels;
+layout(set = 0, binding = kTexelGBuffer) uniform usamplerBuffer gbufferTexels;
 layout(set = 0, binding = kTexelPixelList) uniform usamplerBuffer listTexels;
 layout(set = 0, binding = kTexelMaterials) uniform usamplerBuffer materialTexels;
 layout(set = 0, binding = kTexelLabelMap) uniform usamplerBuffer labelMapTexels;
@@ -111,7 +111,7 @@ layout(set = 0, binding = kTexelVisible) uniform usamplerBuffer visibleTexels;
 uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
 uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
 vec4 labelColor(uint e) { return uintBitsToFloat(texelWords4(colorTexels, e)); }
-uint sampleCount(uint pixel) { return texelFetch(sampleTexels, int(pixel)).x; }
+uint sampleCount(uint pixel) { return texelFetch(gbufferTexels, int(4u * pixel + 1u)).x >> kGBufferCountShift; }
 uint listedCell(uint i) { return texelFetch(listTexels, int(i)).x; }
 /// A brick's cache entry (x offset, y level, w flags; z, its last use, is not read).
 uvec4 brickState(uint b) {
@@ -128,7 +128,7 @@ uvec2 visibleEntry(uint b) { return texelWords2(visibleTexels, b); }
 uint cacheWord(uint i) { return UintBuf(frameAddr[kSlotCache]).w[i]; }
 uint tableWord(uint i) { return UintBuf(frameAddr[kSlotMaterialTable]).w[i]; }
 vec4 labelColor(uint e) { return Vec4Buf(frameAddr[kSlotLabelColors]).v[e]; }
-uint sampleCount(uint pixel) { return UintBuf(frameAddr[kSlotSamples]).w[pixel]; }
+uint sampleCount(uint pixel) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * pixel + 1u] >> kGBufferCountShift; }
 uint listedCell(uint i) { return UintBuf(frameAddr[kSlotPixelList]).w[i]; }
 uvec4 brickState(uint b) { return Uvec4Buf(frameAddr[kSlotBricks]).v[b]; }
 uvec2 uniformMask(uint b) { return Uvec2Buf(frameAddr[kSlotUniform]).v[b]; }
@@ -291,6 +291,10 @@ bool cellPixel(uvec2 cell, out uvec2 px) {
     px = fv.rect.xy + cell * stride + uvec2(phase & (stride - 1u), phase >> shift);
     return px.x < fv.rect.z && px.y < fv.rect.w;
 }
+
+/// Whether a pixel with n samples takes another: below the frame's sample target (0: none), and
+/// below the most its G-buffer entry counts (kGBufferCountMax).
+bool wantsSample(uint n) { return (fv.frame.w == 0u || n < fv.frame.w) && n < kGBufferCountMax; }
 
 /// Cells of that grid along x and y.
 uvec2 cellGrid() { return (fv.rect.zw - fv.rect.xy + fv.image.z - 1u) >> uint(findLSB(fv.image.z)); }

@@ -27,19 +27,19 @@ layout(push_constant) uniform Push {
 #endif
 #if RESOLVE_TEXELS
 layout(set = 0, binding = kResolveTexelGBuffer) uniform usamplerBuffer gTexels;
-layout(set = 0, binding = kResolveTexelSamples) uniform usamplerBuffer sampleTexels;
 layout(set = 0, binding = kResolveTexelAccum) uniform usamplerBuffer accumTexels;
 layout(set = 0, binding = kResolveTexelSource) uniform usamplerBuffer srcTexels;
-uint samplesOf(uint i) { return texelFetch(sampleTexels, int(i)).x; }
 uint gWord(uint i, uint k) { return texelFetch(gTexels, int(4u * i + k)).x; }
 vec4 accumOf(uint i) { return uintBitsToFloat(texelWords4(accumTexels, i)); }
 vec4 sourceOf(uint i) { return uintBitsToFloat(texelWords4(srcTexels, i)); }
 #else
-uint samplesOf(uint i) { return UintBuf(frameAddr[kSlotSamples]).w[i]; }
 uint gWord(uint i, uint k) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + k]; }
 vec4 accumOf(uint i) { return loadVec4(frameAddr[kSlotAccum], i); }
 vec4 sourceOf(uint i) { return loadVec4(frameAddr[pc.src], i); }
 #endif
+
+/// A pixel's valid samples (its G-buffer entry's second word).
+uint samplesOf(uint i) { return gWord(i, 1u) >> kGBufferCountShift; }
 
 /// The nearest pixel of px's stride block (edge s) with samples (`sampled`) or with a preview;
 /// kNone when there is none.
@@ -101,8 +101,10 @@ void resolvePixel(Frame f, uvec2 px) {
             words.w[2u * pixel + 1u] = words.w[2u * from + 1u];
             // What the pixel shows, it also answers to picking (its own first sample replaces it);
             // a preview answers nothing (and stays its block neighbour's).
+            // Its sample count stays its own (none): the copy answers picking, it adds no samples.
             if (!preview) {
-                g.v[2u * pixel] = g.v[2u * from];
+                const uvec2 w01 = unpackUint2x32(g.v[2u * from]);
+                g.v[2u * pixel] = packUint2x32(uvec2(w01.x, w01.y & ((1u << kGBufferCountShift) - 1u)));
                 g.v[2u * pixel + 1u] = g.v[2u * from + 1u];
             }
         }

@@ -44,6 +44,7 @@ const Probe kProbes[] = {
     CSGV_PROBE(kNone), CSGV_PROBE(kFlagJitter), CSGV_PROBE(kFlagFinest), CSGV_PROBE(kFlagDenoise),
     CSGV_PROBE(kFlagLimitRequests), CSGV_PROBE(kFlagDepthInput), CSGV_PROBE(kFlagLabelMap),
     CSGV_PROBE(kFlagResolveInRender), CSGV_PROBE(kGBufferSampled), CSGV_PROBE(kGBufferPreview),
+    CSGV_PROBE(kGBufferCountShift), CSGV_PROBE(kGBufferCountMax),
     CSGV_PROBE(kShadingLocal), CSGV_PROBE(kShadingShadow), CSGV_PROBE(kShadingAo), CSGV_PROBE(kShadingPt),
     CSGV_PROBE(kColorConstant), CSGV_PROBE(kColorColormap), CSGV_PROBE(kColorRandom),
     CSGV_PROBE(kSlotBricks), CSGV_PROBE(kSlotGBuffer), CSGV_PROBE(kSlotDepthIn), CSGV_PROBE(kSlotOutput),

@@ -248,7 +248,7 @@ struct Renderer::Impl {
     TexelViews renderTexels;
     /// The resolve passes' (RESOLVE_TEXELS): a set per source, denoiseA then denoiseB.
     TexelViews resolveTexels;
-    Buffer accum, samples, gbuffer, depthIn, colorDepth, denoiseA, denoiseB;
+    Buffer accum, gbuffer, depthIn, colorDepth, denoiseA, denoiseB;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
@@ -519,7 +519,7 @@ struct Renderer::Impl {
             uint64_t bytes;
             MemoryKind kind;
         };
-        const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},    {&samples, n * 4, MemoryKind::DeviceLocal},
+        const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},
                               {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
                               {&colorDepth, n * 8, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
@@ -585,7 +585,7 @@ struct Renderer::Impl {
         render[kTexelUniform] = &uniformSubs;
         render[kTexelMaterialTable] = &materialTable;
         render[kTexelLabelColors] = labelColors.valid() ? &labelColors : &params;
-        render[kTexelSamples] = &samples;
+        render[kTexelGBuffer] = &gbuffer;
         render[kTexelPixelList] = pixelList.valid() ? &pixelList : &params;
         render[kTexelMaterials] = materials.valid() ? &materials : &params;
         render[kTexelLabelMap] = labelMap.valid() ? &labelMap : &params;
@@ -597,7 +597,6 @@ struct Renderer::Impl {
         if (*changed) std::fill(&pRender[0][0], &pRender[0][0] + std::size(pRender) * std::size(pRender[0]), uint64_t(0));
         std::array<const Buffer*, kResolveTexelCount> resolve{};
         resolve[kResolveTexelGBuffer] = &gbuffer;
-        resolve[kResolveTexelSamples] = &samples;
         resolve[kResolveTexelAccum] = &accum;
         std::array<const Buffer*, kResolveTexelCount> fromB = resolve;
         resolve[kResolveTexelSource] = &denoiseA;
@@ -1334,7 +1333,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     p.counts[3] = materialTableSize;
     const std::pair<uint32_t, const Buffer*> slots[] = {
         {kSlotBricks, &bricks},       {kSlotCache, &cache},         {kSlotAlloc, &alloc},         {kSlotFree, &freeStacks},
-        {kSlotRequests, &requests},   {kSlotDecodes, &decodes},     {kSlotAccum, &accum},         {kSlotSamples, &samples},
+        {kSlotRequests, &requests},   {kSlotDecodes, &decodes},     {kSlotAccum, &accum},
         {kSlotGBuffer, &gbuffer},     {kSlotDepthIn, &depthIn},     {kSlotMaterials, &materials}, {kSlotColormaps, &colormaps},
         {kSlotAttributes, &attributeTable}, {kSlotOutput, &colorDepth}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
@@ -1438,7 +1437,7 @@ void Renderer::Impl::addClear(const FrameInput& in) {
     }
     const uint64_t first = uint64_t(y0) * in.width, n = uint64_t(y1 - y0) * in.width;
     const std::tuple<const Buffer*, uint64_t, uint32_t> filled[] = {
-        {&samples, 4, 0u}, {&gbuffer, 16, 0u}, {&colorDepth, 8, 0u} /* colour 0, depth 1 (kOutputDepthXor) */};
+        {&gbuffer, 16, 0u} /* no samples */, {&colorDepth, 8, 0u} /* colour 0, depth 1 (kOutputDepthXor) */};
     for (const auto& [buffer, bytes, value] : filled) {
         Context::Dispatch d;
         d.fill = buffer;
@@ -1850,7 +1849,8 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     }
     if (parts & Samples) {
         out.samples.resize(n);
-        return im.ctx.download(im.samples, 0, out.samples.data(), n * 4);
+        const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
+        for (size_t i = 0; i < n; ++i) out.samples[i] = g[4 * i + 1] >> kGBufferCountShift;
     }
     return Status::ok();
 }
@@ -1889,7 +1889,7 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
                                                           im.alloc.size() + im.params.size() + im.blueNoise.size() +
                                                           im.detailRequests.size()});
-    r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.samples.size() + im.denoiseA.size() + im.denoiseB.size() +
+    r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.denoiseA.size() + im.denoiseB.size() +
                                                          im.pixelList.size()});
     r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorDepth.size() + im.gbuffer.size() +
                                                                    im.depthIn.size()});

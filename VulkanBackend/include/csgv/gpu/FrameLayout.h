@@ -43,6 +43,11 @@ CSGV_CONST(uint32_t, kGBufferSampled, 0x100u)
 /// ... or: the pixel has no sample yet and its accumulation word holds a preview (render.comp),
 /// shown until its first sample replaces it.
 CSGV_CONST(uint32_t, kGBufferPreview, 0x200u)
+/// ... and from this bit up: the pixel's valid samples (0 in a cleared entry, as in a preview's),
+/// written with every sample's first hit: one store, no buffer of counts to fill. A pixel takes
+/// no more than kGBufferCountMax (render_common.glsl's wantsSample).
+CSGV_CONST(uint32_t, kGBufferCountShift, 10u)
+CSGV_CONST(uint32_t, kGBufferCountMax, 0x3FFFFFu)
 /// An output depth word (kSlotOutput) is the depth's float bits ^ this (the bits of 1.0f), so a
 /// zero fill clears colour and depth together: no surface, depth 1 (the far plane).
 CSGV_CONST(uint32_t, kOutputDepthXor, 0x3F800000u)
@@ -75,29 +80,28 @@ CSGV_CONST(uint32_t, kSlotFree, 3u)           ///< LEVELS free stacks of brickCo
 CSGV_CONST(uint32_t, kSlotRequests, 4u)       ///< 2 words per request: brick, lod
 CSGV_CONST(uint32_t, kSlotDecodes, 5u)        ///< 3 words per decode: brick, inverse level, cache offset
 CSGV_CONST(uint32_t, kSlotAccum, 6u)          ///< vec4 per pixel: sum of premultiplied samples
-CSGV_CONST(uint32_t, kSlotSamples, 7u)        ///< uint per pixel: valid samples
-CSGV_CONST(uint32_t, kSlotGBuffer, 8u)        ///< uvec4 per pixel: label, face | kGBufferSampled, window depth bits, distance bits (all 0: no sample)
-CSGV_CONST(uint32_t, kSlotDepthIn, 9u)        ///< float per pixel: window depth of opaque geometry
-CSGV_CONST(uint32_t, kSlotMaterials, 10u)     ///< GpuMaterial array
-CSGV_CONST(uint32_t, kSlotColormaps, 11u)     ///< vec4 colour samples
-CSGV_CONST(uint32_t, kSlotAttributes, 12u)    ///< uint64 address per attribute: float per label
-CSGV_CONST(uint32_t, kSlotOutput, 13u)        ///< two words per pixel, one 64-bit store: resolved premultiplied RGBA, 8 bits a channel (packUnorm4x8, R lowest: what a view's colour buffer holds), then the window depth of the first surface as its float bits ^ kOutputDepthXor
-CSGV_CONST(uint32_t, kSlotLabelMap, 14u)      ///< uint per stored label: the original label
-CSGV_CONST(uint32_t, kSlotDenoiseA, 15u)      ///< vec4 per pixel: resolve ping-pong buffers
-CSGV_CONST(uint32_t, kSlotDenoiseB, 16u)
-CSGV_CONST(uint32_t, kSlotVisible, 17u)       ///< uvec2 per brick: its preview label (the root label, else the first palette entry with a material) and that material, kNone twice when no palette entry has one (host, per materials)
-CSGV_CONST(uint32_t, kSlotArrays, 18u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
-CSGV_CONST(uint32_t, kSlotStarts, 19u)        ///< the encoding: brick start words
-CSGV_CONST(uint32_t, kSlotBlueNoise, 20u)     ///< 64x64 bytes of blue noise, four to a uint
-CSGV_CONST(uint32_t, kSlotMaterialTable, 21u) ///< label -> material (kNone): uint per label up to the largest (kLookupDense, kLookupScan) or the hashed uvec2 slots (kLookupHashed)
-CSGV_CONST(uint32_t, kSlotUniform, 22u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
-CSGV_CONST(uint32_t, kSlotDetail, 23u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
-CSGV_CONST(uint32_t, kSlotDetailRequests, 24u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
-CSGV_CONST(uint32_t, kSlotGhost, 25u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
-CSGV_CONST(uint32_t, kSlotCoarse, 26u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
-CSGV_CONST(uint32_t, kSlotLabelColors, 27u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
-CSGV_CONST(uint32_t, kSlotPixelList, 28u)     /// PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
-CSGV_CONST(uint32_t, kSlotCount, 29u)
+CSGV_CONST(uint32_t, kSlotGBuffer, 7u)        ///< uvec4 per pixel: label, face | kGBufferSampled | samples << kGBufferCountShift, window depth bits, distance bits (all 0: no sample)
+CSGV_CONST(uint32_t, kSlotDepthIn, 8u)        ///< float per pixel: window depth of opaque geometry
+CSGV_CONST(uint32_t, kSlotMaterials, 9u)      ///< GpuMaterial array
+CSGV_CONST(uint32_t, kSlotColormaps, 10u)     ///< vec4 colour samples
+CSGV_CONST(uint32_t, kSlotAttributes, 11u)    ///< uint64 address per attribute: float per label
+CSGV_CONST(uint32_t, kSlotOutput, 12u)        ///< two words per pixel, one 64-bit store: resolved premultiplied RGBA, 8 bits a channel (packUnorm4x8, R lowest: what a view's colour buffer holds), then the window depth of the first surface as its float bits ^ kOutputDepthXor
+CSGV_CONST(uint32_t, kSlotLabelMap, 13u)      ///< uint per stored label: the original label
+CSGV_CONST(uint32_t, kSlotDenoiseA, 14u)      ///< vec4 per pixel: resolve ping-pong buffers
+CSGV_CONST(uint32_t, kSlotDenoiseB, 15u)
+CSGV_CONST(uint32_t, kSlotVisible, 16u)       ///< uvec2 per brick: its preview label (the root label, else the first palette entry with a material) and that material, kNone twice when no palette entry has one (host, per materials)
+CSGV_CONST(uint32_t, kSlotArrays, 17u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
+CSGV_CONST(uint32_t, kSlotStarts, 18u)        ///< the encoding: brick start words
+CSGV_CONST(uint32_t, kSlotBlueNoise, 19u)     ///< 64x64 bytes of blue noise, four to a uint
+CSGV_CONST(uint32_t, kSlotMaterialTable, 20u) ///< label -> material (kNone): uint per label up to the largest (kLookupDense, kLookupScan) or the hashed uvec2 slots (kLookupHashed)
+CSGV_CONST(uint32_t, kSlotUniform, 21u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
+CSGV_CONST(uint32_t, kSlotDetail, 22u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
+CSGV_CONST(uint32_t, kSlotDetailRequests, 23u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
+CSGV_CONST(uint32_t, kSlotGhost, 24u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
+CSGV_CONST(uint32_t, kSlotCoarse, 25u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
+CSGV_CONST(uint32_t, kSlotLabelColors, 26u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
+CSGV_CONST(uint32_t, kSlotPixelList, 27u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
+CSGV_CONST(uint32_t, kSlotCount, 28u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
 CSGV_CONST(uint32_t, kCoarseLevelWords, 4u)
@@ -151,7 +155,7 @@ CSGV_CONST(uint32_t, kTexelBricks, 1u)        ///< kSlotBricks
 CSGV_CONST(uint32_t, kTexelUniform, 2u)       ///< kSlotUniform
 CSGV_CONST(uint32_t, kTexelMaterialTable, 3u) ///< kSlotMaterialTable
 CSGV_CONST(uint32_t, kTexelLabelColors, 4u)   ///< kSlotLabelColors
-CSGV_CONST(uint32_t, kTexelSamples, 5u)       ///< kSlotSamples
+CSGV_CONST(uint32_t, kTexelGBuffer, 5u)       ///< kSlotGBuffer (the sample counts in its second words)
 CSGV_CONST(uint32_t, kTexelPixelList, 6u)     ///< kSlotPixelList
 CSGV_CONST(uint32_t, kTexelMaterials, 7u)     ///< kSlotMaterials
 CSGV_CONST(uint32_t, kTexelLabelMap, 8u)      ///< kSlotLabelMap
@@ -160,10 +164,9 @@ CSGV_CONST(uint32_t, kTexelBlueNoise, 10u)    ///< kSlotBlueNoise
 CSGV_CONST(uint32_t, kTexelVisible, 11u)      ///< kSlotVisible
 CSGV_CONST(uint32_t, kRenderTexelCount, 12u)
 CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
-CSGV_CONST(uint32_t, kResolveTexelSamples, 1u) ///< kSlotSamples
-CSGV_CONST(uint32_t, kResolveTexelAccum, 2u)   ///< kSlotAccum
-CSGV_CONST(uint32_t, kResolveTexelSource, 3u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)
-CSGV_CONST(uint32_t, kResolveTexelCount, 4u)
+CSGV_CONST(uint32_t, kResolveTexelAccum, 1u)   ///< kSlotAccum
+CSGV_CONST(uint32_t, kResolveTexelSource, 2u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)
+CSGV_CONST(uint32_t, kResolveTexelCount, 3u)
 
 // Passes of resolve.comp (its define RESOLVE_PASS: one pipeline per pass, for CPU devices run
 // every branch a shader holds, taken or not).
