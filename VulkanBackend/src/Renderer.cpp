@@ -206,6 +206,65 @@ std::array<uint32_t, 4> footprintRect(const Mat4& indexToClip, const float lo[4]
     return r;
 }
 
+/// footprintRect's rows narrowed to the box's outline: for each row y of `rect`, the columns
+/// [x0, x1) (two words a row; x0 == x1 for none) within 2 pixels of where the convex hull of the
+/// box's projected corners crosses the row's pixels, widened by 2 pixels as the rectangle is and
+/// within it. A pixel outside its row's span sees no part of the box. Empty when a corner is
+/// behind the eye (the rectangle is the whole image then).
+std::vector<uint32_t> footprintSpans(const Mat4& indexToClip, const float lo[4], const float hi[4], uint32_t w,
+                                     uint32_t h, const std::array<uint32_t, 4>& rect) {
+    using P = std::array<double, 2>;
+    std::array<P, 8> corners;
+    for (int c = 0; c < 8; ++c) {
+        const Vec4 q = transform(indexToClip, {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2], 1.0});
+        if (!(q[3] > 1e-12)) return {};
+        corners[size_t(c)] = {(q[0] / q[3] + 1.0) * 0.5 * w, (q[1] / q[3] + 1.0) * 0.5 * h};
+    }
+    // The convex hull (monotone chain), counter-clockwise.
+    std::sort(corners.begin(), corners.end());
+    auto cross = [](const P& o, const P& a, const P& b) {
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    };
+    std::vector<P> hull;
+    for (int pass = 0; pass < 2; ++pass) {
+        const size_t start = hull.size();
+        for (int i = 0; i < 8; ++i) {
+            const P& q = corners[size_t(pass == 0 ? i : 7 - i)];
+            while (hull.size() >= start + 2 && cross(hull[hull.size() - 2], hull.back(), q) <= 0) hull.pop_back();
+            hull.push_back(q);
+        }
+        hull.pop_back(); // the next chain starts with it
+    }
+    constexpr double kMargin = 2.0;
+    std::vector<uint32_t> spans(2 * size_t(rect[3] - rect[1]), rect[0]);
+    for (uint32_t y = rect[1]; y < rect[3]; ++y) {
+        // The hull's extent along x within the row's pixels [y, y + 1], widened by the margin.
+        const double ylo = y - kMargin, yhi = y + 1.0 + kMargin;
+        double x0 = 1e300, x1 = -1e300;
+        for (size_t i = 0; i < hull.size(); ++i) {
+            const P& a = hull[i];
+            const P& b = hull[(i + 1) % hull.size()];
+            if (std::max(a[1], b[1]) < ylo || std::min(a[1], b[1]) > yhi) continue;
+            double t0 = 0.0, t1 = 1.0;
+            if (b[1] != a[1]) {
+                const double ta = (ylo - a[1]) / (b[1] - a[1]), tb = (yhi - a[1]) / (b[1] - a[1]);
+                t0 = std::max(0.0, std::min(ta, tb));
+                t1 = std::min(1.0, std::max(ta, tb));
+            }
+            for (const double t : {t0, t1}) {
+                const double x = a[0] + t * (b[0] - a[0]);
+                x0 = std::min(x0, x);
+                x1 = std::max(x1, x);
+            }
+        }
+        if (x0 > x1) continue; // the row sees nothing of the box
+        const size_t r = 2 * size_t(y - rect[1]);
+        spans[r] = uint32_t(std::clamp(std::floor(x0 - kMargin), double(rect[0]), double(rect[2])));
+        spans[r + 1] = uint32_t(std::clamp(std::floor(x1 + kMargin) + 1.0, double(spans[r]), double(rect[2])));
+    }
+    return spans;
+}
+
 /// Where a resolve pass writes (resolve.comp's RESOLVE_OUTPUT): the gather into the output
 /// without denoising, else into the first denoising buffer; the A-trous passes from one buffer
 /// into the other, the last into the output (addDenoisePasses).
@@ -270,6 +329,7 @@ struct Renderer::Impl {
     uint64_t imageCapacity = 0;       // pixels the per-pixel buffers hold
     uint32_t fillBlock = 0;           // upsampling block of the resolve (0: the frame's stride)
     std::array<uint32_t, 4> rect{};   // the frame's footprint rectangle (FrameParams rect)
+    std::vector<uint32_t> spans;      // its rows' spans (footprintSpans; empty: whole rows)
     std::array<uint32_t, 4> drawnRect{}; // the union of the footprints since the last clear (FrameOutput::rect)
     bool imageDirty = true;           // the per-pixel buffers are new or resized: the next clear fills them whole
     uint32_t maxRequests = 0;
@@ -1268,6 +1328,7 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
         p.clipMax[k] = whole ? float(dim[k]) : float(std::clamp<int64_t>(st.clipMax[k], 0, dim[k]));
     }
     rect = footprintRect(indexToClip, p.clipMin, p.clipMax, in.width, in.height);
+    spans = footprintSpans(indexToClip, p.clipMin, p.clipMax, in.width, in.height, rect);
     for (int k = 0; k < 4; ++k) p.rect[k] = rect[size_t(k)];
     p.clipMin[3] = st.lodBias;
     p.clipMax[3] = float(std::sqrt(clipToIndex[4] * clipToIndex[4] + clipToIndex[5] * clipToIndex[5] +
@@ -1494,6 +1555,20 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
         const uint64_t perGroup = uint64_t(kGroupList) * kListBlock;
         addDispatch(pPixelList, &frameAddress, 8, uint32_t((cells + perGroup - 1) / perGroup), 1);
         listedGrid = {}; // it writes over the host's list
+        return;
+    }
+    if (oneSample(st) && !spans.empty()) {
+        // A one-sample frame (stride 1, no resolve pass) takes the pixels within the box's outline
+        // alone: those outside its rows' spans would sample nothing and keep their cleared output
+        // (as pixels outside the rectangle do), their count 0. A later frame that lists the
+        // pixels below the target by their counts (pixel_list.comp) lists them too, harmlessly.
+        uint32_t* list = static_cast<uint32_t*>(pixelList.mapped());
+        uint32_t n = 0;
+        for (uint32_t y = 0; y < gy; ++y)
+            for (uint32_t x = spans[2 * size_t(y)] - rect[0], x1 = spans[2 * size_t(y) + 1] - rect[0]; x < x1; ++x)
+                list[n++] = x | (y << 16);
+        allocWords()[kAllocListCount] = n;
+        listedGrid = {};
         return;
     }
     const std::array<uint32_t, 3> grid{gx, gy, stride};
