@@ -286,7 +286,8 @@ constexpr uint32_t kEvictAgeStart = 8, kQuietFrames = 8, kDefragInterval = 64;
 constexpr uint32_t kFragmentedShare = 4; // 1/4
 
 /// Room the cache leaves for the per-pixel buffers when a renderer is made under a tight
-/// budget: a 1280x720 image (92 bytes a pixel; allocateImage), or a quarter of what is left.
+/// budget: a 1280x720 image at 92 bytes a pixel (allocateImage's buffers take 84 with a pixel
+/// list: some to spare), or a quarter of what is left.
 constexpr uint64_t kImageReserveBytes = 92ull * 1280 * 720;
 
 struct Renderer::Impl {
@@ -370,6 +371,7 @@ struct Renderer::Impl {
     bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
     bool hostDecode = false;          // RendererOptions::decode resolved
     bool texelsWanted = true;         // RendererOptions::renderTexels
+    bool outlineWanted = true;        // RendererOptions::outlineSpans
     // Detail streaming (GPU decoding of a separated volume): the finest-level streams the frames
     // ask for, uploaded between frames; bricks wait for theirs at the next coarser level.
     std::unique_ptr<DetailStream> detail;
@@ -845,6 +847,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
     im.texelsWanted = options.renderTexels;
+    im.outlineWanted = options.outlineSpans;
     for (const Table& t : tables)
         if (!(s = make(*t.buffer, t.bytes, t.kind, t.what))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
@@ -1557,11 +1560,13 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
         listedGrid = {}; // it writes over the host's list
         return;
     }
-    if (oneSample(st) && !spans.empty()) {
-        // A one-sample frame (stride 1, no resolve pass) takes the pixels within the box's outline
-        // alone: those outside its rows' spans would sample nothing and keep their cleared output
-        // (as pixels outside the rectangle do), their count 0. A later frame that lists the
-        // pixels below the target by their counts (pixel_list.comp) lists them too, harmlessly.
+    if (outlineWanted && resolvesInRender(st) && !spans.empty()) {
+        // A frame without a resolve pass (stride 1) takes the pixels within the box's outline
+        // alone (RendererOptions::outlineSpans): those outside its rows' spans would sample
+        // nothing and keep their cleared output (as pixels outside the rectangle do), their count
+        // 0. The frames that follow list the cells the render pass leaves below the target
+        // (kFlagListNext); should pixel_list.comp list by counts instead (a target lowered below
+        // the samples taken), it lists those pixels too: they take samples of nothing.
         uint32_t* list = static_cast<uint32_t*>(pixelList.mapped());
         uint32_t n = 0;
         for (uint32_t y = 0; y < gy; ++y)

@@ -104,6 +104,12 @@ struct RendererOptions {
     /// address is a loop over the lanes. Off: through their addresses, as larger caches always are
     /// (tests cover both).
     bool renderTexels = true;
+    /// Where the host lists the pixels a frame renders (CPU devices), frames that resolve in the
+    /// render pass (stride 1, no denoising) take only those within the clip box's outline: the
+    /// convex hull of its projected corners, 2 pixels wider (the others would see nothing of the
+    /// box; they keep their cleared output and no samples, as pixels outside the footprint
+    /// rectangle do). Off: every pixel of the rectangle (tests cover both).
+    bool outlineSpans = true;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
     /// average streams, at most all streams and a quarter of what the budget leaves beside the
