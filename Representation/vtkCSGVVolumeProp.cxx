@@ -558,23 +558,10 @@ bool vtkCSGVVolumeProp::UploadTextures(vtkOpenGLRenderWindow* win, bool changed)
   {
     // Textures of this size hold the last output: only its rectangle and this one's change (a
     // CPU OpenGL copies every texel it is given).
-    auto empty = [](const std::array<uint32_t, 4>& r) { return r[0] >= r[2] || r[1] >= r[3]; };
-    std::array<uint32_t, 4> r = out.rect;
-    if (empty(r))
-    {
-      r = last;
-    }
-    else if (!empty(last))
-    {
-      for (size_t k = 0; k < 2; ++k)
-      {
-        r[k] = std::min(r[k], last[k]);
-        r[k + 2] = std::max(r[k + 2], last[k + 2]);
-      }
-    }
+    std::array<uint32_t, 4> r = csgv::gpu::rectUnion(out.rect, last);
     r[2] = std::min(r[2], out.width);
     r[3] = std::min(r[3], out.height);
-    if (empty(r))
+    if (csgv::gpu::rectEmpty(r))
     {
       return true;
     }

@@ -1724,14 +1724,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     curves = toneCurves(st);
     buildDispatches(in, st, pRender[renderVariant(st, in.opaqueDepth != nullptr)][uint32_t(st.shading) & 3]);
     // After the clear (addClear reads what was drawn before it): this frame's footprint joins.
-    if (clearPending || drawnRect[0] >= drawnRect[2] || drawnRect[1] >= drawnRect[3]) {
-        drawnRect = rect;
-    } else {
-        for (int k = 0; k < 2; ++k) {
-            drawnRect[size_t(k)] = std::min(drawnRect[size_t(k)], rect[size_t(k)]);
-            drawnRect[size_t(k) + 2] = std::max(drawnRect[size_t(k) + 2], rect[size_t(k) + 2]);
-        }
-    }
+    drawnRect = clearPending ? rect : rectUnion(drawnRect, rect);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
@@ -1853,25 +1846,17 @@ const FrameOutput& Renderer::output(uint32_t parts) {
 void Renderer::Impl::readImage() {
     FrameOutput& out = output;
     const size_t n = size_t(width) * height;
-    std::array<uint32_t, 4> r = outputRect;
-    const auto empty = [](const std::array<uint32_t, 4>& a) { return a[0] >= a[2] || a[1] >= a[3]; };
+    std::array<uint32_t, 4> r = rectUnion(outputRect, drawnRect);
     if (out.width != width || out.height != height || out.rgba8.size() != n || out.depth.size() != n) {
         out.rgba8.resize(n);
         out.depth.resize(n);
         r = {0, 0, width, height};
-    } else if (empty(r)) {
-        r = drawnRect;
-    } else if (!empty(drawnRect)) {
-        for (size_t k = 0; k < 2; ++k) {
-            r[k] = std::min(r[k], drawnRect[k]);
-            r[k + 2] = std::max(r[k + 2], drawnRect[k + 2]);
-        }
     }
     out.width = width;
     out.height = height;
     out.rect = drawnRect;
     outputRect = drawnRect;
-    if (empty(r)) return;
+    if (rectEmpty(r)) return;
     // kSlotOutput: colour, then depth bits ^ kOutputDepthXor, per pixel.
     const uint32_t* c = static_cast<const uint32_t*>(colorDepth.mapped());
     for (uint32_t y = r[1]; y < std::min(r[3], height); ++y)

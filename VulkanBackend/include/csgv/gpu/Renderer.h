@@ -41,6 +41,7 @@
 #include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/GpuVolume.h"
 
+#include <algorithm>
 #include <array>
 #include <map>
 #include <memory>
@@ -142,6 +143,16 @@ struct FrameInput {
 };
 
 /// @brief Per-pixel results, row 0 at the bottom.
+/// A pixel rectangle [x0, x1) x [y0, y1) holds no pixel.
+inline bool rectEmpty(const std::array<uint32_t, 4>& r) { return r[0] >= r[2] || r[1] >= r[3]; }
+
+/// The smallest pixel rectangle holding both (an empty one adds nothing).
+inline std::array<uint32_t, 4> rectUnion(const std::array<uint32_t, 4>& a, const std::array<uint32_t, 4>& b) {
+    if (rectEmpty(a)) return b;
+    if (rectEmpty(b)) return a;
+    return {std::min(a[0], b[0]), std::min(a[1], b[1]), std::max(a[2], b[2]), std::max(a[3], b[3])};
+}
+
 struct FrameOutput {
     uint32_t width = 0, height = 0;
     std::vector<float> rgba;       ///< premultiplied, 4 floats a pixel (multiples of 1/255: of rgba8)
