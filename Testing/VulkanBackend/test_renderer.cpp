@@ -1343,7 +1343,9 @@ TEST(Renderer, OutlineFramesLeaveOutOnlyPixelsOutsideTheBox) {
             }
         }
     }
-    if (ctx->device().type == "cpu") EXPECT_GT(leftOut, 1000u); // the host lists the pixels there
+    if (ctx->device().type == "cpu") { // the host lists the pixels there
+        EXPECT_GT(leftOut, 1000u);
+    }
 }
 
 TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {

@@ -265,6 +265,21 @@ std::vector<uint32_t> footprintSpans(const Mat4& indexToClip, const float lo[4],
     return spans;
 }
 
+/// The pixels [r0, r2) x [r1, r3) of kSlotOutput's words (colour, then depth bits ^
+/// kOutputDepthXor, per pixel) of an image `width` wide, into 8-bit colours and depths of the same
+/// layout (either may be null: not wanted).
+void readColorDepth(const uint32_t* words, uint32_t width, const std::array<uint32_t, 4>& r, uint32_t* rgba8,
+                    float* depth) {
+    for (uint32_t y = r[1]; y < r[3]; ++y)
+        for (size_t i = size_t(y) * width + r[0], end = size_t(y) * width + r[2]; i < end; ++i) {
+            if (rgba8) rgba8[i] = words[2 * i];
+            if (depth) {
+                const uint32_t bits = words[2 * i + 1] ^ kOutputDepthXor;
+                std::memcpy(&depth[i], &bits, 4);
+            }
+        }
+}
+
 /// Where a resolve pass writes (resolve.comp's RESOLVE_OUTPUT): the gather into the output
 /// without denoising, else into the first denoising buffer; the A-trous passes from one buffer
 /// into the other, the last into the output (addDenoisePasses).
@@ -315,7 +330,9 @@ struct Renderer::Impl {
     bool usesPixelList = false;       // host decoding (CPU devices): two submissions, the render pass sized between them
     uint64_t pPixelList = 0;          // pixel_list.comp, made on first use
     uint64_t pLabelColors = 0;        // label_colors.comp, made on first use (with a label table)
-    std::array<uint32_t, 3> listedGrid{}; // the cell grid (x, y) and stride the host's full list holds (0: none)
+    std::array<uint32_t, 3> listedGrid{}; // the cell grid (x, y) and stride the host's list holds (0: none)
+    std::vector<uint32_t> listedSpans;    // ... its rows' spans (listPixels; empty: whole rows)
+    uint32_t listedCount = 0;             // ... and its cells
     size_t renderDispatch = 0;        // the render pass's index in `dispatches`
     bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
     Buffer ghost;  // setGhostFaces (empty: not a piece)
@@ -330,7 +347,7 @@ struct Renderer::Impl {
     uint64_t imageCapacity = 0;       // pixels the per-pixel buffers hold
     uint32_t fillBlock = 0;           // upsampling block of the resolve (0: the frame's stride)
     std::array<uint32_t, 4> rect{};   // the frame's footprint rectangle (FrameParams rect)
-    std::vector<uint32_t> spans;      // its rows' spans (footprintSpans; empty: whole rows)
+    std::vector<uint32_t> spans;      // its rows' spans (footprintSpans; empty: whole rows or not wanted)
     std::array<uint32_t, 4> drawnRect{}; // the union of the footprints since the last clear (FrameOutput::rect)
     bool imageDirty = true;           // the per-pixel buffers are new or resized: the next clear fills them whole
     uint32_t maxRequests = 0;
@@ -1331,7 +1348,9 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
         p.clipMax[k] = whole ? float(dim[k]) : float(std::clamp<int64_t>(st.clipMax[k], 0, dim[k]));
     }
     rect = footprintRect(indexToClip, p.clipMin, p.clipMax, in.width, in.height);
-    spans = footprintSpans(indexToClip, p.clipMin, p.clipMax, in.width, in.height, rect);
+    // Only where the host lists the pixels and the outline is wanted (listPixels).
+    spans = usesPixelList && outlineWanted ? footprintSpans(indexToClip, p.clipMin, p.clipMax, in.width, in.height, rect)
+                                           : std::vector<uint32_t>{};
     for (int k = 0; k < 4; ++k) p.rect[k] = rect[size_t(k)];
     p.clipMin[3] = st.lodBias;
     p.clipMax[3] = float(std::sqrt(clipToIndex[4] * clipToIndex[4] + clipToIndex[5] * clipToIndex[5] +
@@ -1560,30 +1579,31 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
         listedGrid = {}; // it writes over the host's list
         return;
     }
-    if (outlineWanted && resolvesInRender(st) && !spans.empty()) {
-        // A frame without a resolve pass (stride 1) takes the pixels within the box's outline
-        // alone (RendererOptions::outlineSpans): those outside its rows' spans would sample
-        // nothing and keep their cleared output (as pixels outside the rectangle do), their count
-        // 0. The frames that follow list the cells the render pass leaves below the target
-        // (kFlagListNext); should pixel_list.comp list by counts instead (a target lowered below
-        // the samples taken), it lists those pixels too: they take samples of nothing.
+    // A frame without a resolve pass (stride 1) takes the pixels within the box's outline alone
+    // (RendererOptions::outlineSpans): those outside its rows' spans would sample nothing and
+    // keep their cleared output (as pixels outside the rectangle do), their count 0. The frames
+    // that follow list the cells the render pass leaves below the target (kFlagListNext); should
+    // pixel_list.comp list by counts instead (a target lowered below the samples taken), it lists
+    // those pixels too: they take samples of nothing. The list is written again only when its
+    // grid or spans change (the spans are of the rows' cells: columns from the rectangle's edge).
+    std::vector<uint32_t> rows;
+    if (resolvesInRender(st) && !spans.empty()) {
+        rows = spans;
+        for (uint32_t& x : rows) x -= rect[0];
+    }
+    const std::array<uint32_t, 3> grid{gx, gy, stride};
+    if (listedGrid != grid || listedSpans != rows) {
         uint32_t* list = static_cast<uint32_t*>(pixelList.mapped());
         uint32_t n = 0;
         for (uint32_t y = 0; y < gy; ++y)
-            for (uint32_t x = spans[2 * size_t(y)] - rect[0], x1 = spans[2 * size_t(y) + 1] - rect[0]; x < x1; ++x)
+            for (uint32_t x = rows.empty() ? 0 : rows[2 * size_t(y)], x1 = rows.empty() ? gx : rows[2 * size_t(y) + 1];
+                 x < x1; ++x)
                 list[n++] = x | (y << 16);
-        allocWords()[kAllocListCount] = n;
-        listedGrid = {};
-        return;
-    }
-    const std::array<uint32_t, 3> grid{gx, gy, stride};
-    if (listedGrid != grid) {
-        uint32_t* list = static_cast<uint32_t*>(pixelList.mapped());
-        for (uint32_t y = 0; y < gy; ++y)
-            for (uint32_t x = 0; x < gx; ++x) *list++ = x | (y << 16);
         listedGrid = grid;
+        listedSpans = std::move(rows);
+        listedCount = n;
     }
-    allocWords()[kAllocListCount] = uint32_t(cells);
+    allocWords()[kAllocListCount] = listedCount;
 }
 
 void Renderer::Impl::sizeRenderDispatch() {
@@ -1856,15 +1876,10 @@ void Renderer::Impl::readImage() {
     out.height = height;
     out.rect = drawnRect;
     outputRect = drawnRect;
-    if (rectEmpty(r)) return;
-    // kSlotOutput: colour, then depth bits ^ kOutputDepthXor, per pixel.
-    const uint32_t* c = static_cast<const uint32_t*>(colorDepth.mapped());
-    for (uint32_t y = r[1]; y < std::min(r[3], height); ++y)
-        for (size_t i = size_t(y) * width + r[0], end = size_t(y) * width + std::min(r[2], width); i < end; ++i) {
-            out.rgba8[i] = c[2 * i];
-            const uint32_t bits = c[2 * i + 1] ^ kOutputDepthXor;
-            std::memcpy(&out.depth[i], &bits, 4);
-        }
+    r[2] = std::min(r[2], width);
+    r[3] = std::min(r[3], height);
+    if (!rectEmpty(r))
+        readColorDepth(static_cast<const uint32_t*>(colorDepth.mapped()), width, r, out.rgba8.data(), out.depth.data());
 }
 
 Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
@@ -1874,23 +1889,15 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     out.width = im.width;
     out.height = im.height;
     out.rect = im.drawnRect;
-    // kSlotOutput: colour, then depth bits ^ kOutputDepthXor, per pixel.
     const uint32_t* c = static_cast<const uint32_t*>(im.colorDepth.mapped());
-    if (parts & Color8) {
-        out.rgba8.resize(n);
-        for (size_t i = 0; i < n; ++i) out.rgba8[i] = c[2 * i];
-    }
-    if (parts & Color) {
+    if (parts & Color8) out.rgba8.resize(n);
+    if (parts & Depth) out.depth.resize(n);
+    readColorDepth(c, im.width, {0, 0, im.width, im.height}, parts & Color8 ? out.rgba8.data() : nullptr,
+                   parts & Depth ? out.depth.data() : nullptr);
+    if (parts & Color) { // colour words at even indices (readColorDepth)
         out.rgba.resize(4 * n);
         for (size_t i = 0; i < n; ++i)
             for (int k = 0; k < 4; ++k) out.rgba[4 * i + k] = float((c[2 * i] >> (8 * k)) & 0xFFu) / 255.0f;
-    }
-    if (parts & Depth) {
-        out.depth.resize(n);
-        for (size_t i = 0; i < n; ++i) {
-            const uint32_t bits = c[2 * i + 1] ^ kOutputDepthXor;
-            std::memcpy(&out.depth[i], &bits, 4);
-        }
     }
     if (parts & GBuffer) {
         const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());

@@ -142,7 +142,6 @@ struct FrameInput {
     const float* opaqueDepth = nullptr;
 };
 
-/// @brief Per-pixel results, row 0 at the bottom.
 /// A pixel rectangle [x0, x1) x [y0, y1) holds no pixel.
 inline bool rectEmpty(const std::array<uint32_t, 4>& r) { return r[0] >= r[2] || r[1] >= r[3]; }
 
@@ -153,6 +152,7 @@ inline std::array<uint32_t, 4> rectUnion(const std::array<uint32_t, 4>& a, const
     return {std::min(a[0], b[0]), std::min(a[1], b[1]), std::max(a[2], b[2]), std::max(a[3], b[3])};
 }
 
+/// @brief Per-pixel results, row 0 at the bottom.
 struct FrameOutput {
     uint32_t width = 0, height = 0;
     std::vector<float> rgba;       ///< premultiplied, 4 floats a pixel (multiples of 1/255: of rgba8)
