@@ -63,30 +63,38 @@ std::atomic<double> refinementSlice{ 0.0 };
 /// (interactive renders), frames are rendered at 1/f of the view's resolution per axis and
 /// stretched over it, f chosen from the measured cost of a pixel so that a frame takes at most
 /// half the time the view's desired update rate allows (the other half is ParaView's own work).
-/// Still renders are always at full resolution.
+/// The cost is measured per shading mode (a path-traced pixel costs several local ones): a mode
+/// not measured yet takes the dearest measured one. Still renders are always at full resolution.
 class InteractiveResolution
 {
 public:
-  /// The reduction factor (1..8) for a frame of `pixels` at `desiredRate` frames a second.
-  int factor(double pixels, double desiredRate) const
+  /// The reduction factor (1..8) for a frame of `pixels` in shading `mode` at `desiredRate`
+  /// frames a second.
+  int factor(int mode, double pixels, double desiredRate) const
   {
-    if (this->SecondsPerPixel <= 0 || desiredRate <= 0)
+    double seconds = this->SecondsPerPixel[size_t(mode) & 3];
+    if (seconds <= 0)
+    {
+      seconds = *std::max_element(this->SecondsPerPixel.begin(), this->SecondsPerPixel.end());
+    }
+    if (seconds <= 0 || desiredRate <= 0)
     {
       return 1;
     }
     const double frameSeconds = 0.5 / desiredRate;
-    const double f = std::ceil(std::sqrt(pixels * this->SecondsPerPixel / frameSeconds) - 0.05);
+    const double f = std::ceil(std::sqrt(pixels * seconds / frameSeconds) - 0.05);
     return int(std::min(8.0, std::max(1.0, f)));
   }
-  /// A frame of `pixels` took `seconds` (render, read-back and compositing).
-  void record(double seconds, double pixels)
+  /// A frame of `pixels` in shading `mode` took `seconds` (render, read-back and compositing).
+  void record(int mode, double seconds, double pixels)
   {
     const double s = seconds / std::max(1.0, pixels);
-    this->SecondsPerPixel = this->SecondsPerPixel > 0 ? 0.5 * (this->SecondsPerPixel + s) : s;
+    double& avg = this->SecondsPerPixel[size_t(mode) & 3];
+    avg = avg > 0 ? 0.5 * (avg + s) : s;
   }
 
 private:
-  double SecondsPerPixel = 0;
+  std::array<double, 4> SecondsPerPixel{}; ///< per shading mode (csgv::gpu::Shading)
 };
 
 /// The opaque depth of a reduced frame: the full tile's depth at each reduced pixel's centre.
@@ -137,6 +145,7 @@ struct vtkCSGVVolumeProp::Impl
   std::string LastError;
   std::vector<float> Depth, ReducedDepth;
   InteractiveResolution Lod;
+  int Shading = 0; ///< the frames' shading mode (csgv::gpu::Shading), for Lod
   int LodFactor = 1; ///< the reduction of the frame in the textures (1: full resolution)
 
   vtkWeakPointer<vtkOpenGLRenderWindow> Window;
@@ -238,6 +247,7 @@ void vtkCSGVVolumeProp::SetViewSettings(const csgvrep::ViewSettings& settings)
 {
   // Called once per render with every property: the view renderer detects what changed.
   this->P->View.setSettings(settings);
+  this->P->Shading = int(settings.render.shading);
 }
 
 void vtkCSGVVolumeProp::SetMaterials(const std::string& json)
@@ -685,7 +695,7 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   const auto t0 = std::chrono::steady_clock::now();
   const int width = int(request.width), height = int(request.height);
   const int factor = request.interactive
-    ? p.Lod.factor(double(width) * height, win->GetDesiredUpdateRate())
+    ? p.Lod.factor(p.Shading, double(width) * height, win->GetDesiredUpdateRate())
     : 1;
   request.maxStillSeconds = refinementSlice;
   request.width = uint32_t((width + factor - 1) / factor);
@@ -751,7 +761,7 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   if (frames > 0)
   {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    p.Lod.record(seconds / frames, double(request.width) * request.height);
+    p.Lod.record(p.Shading, seconds / frames, double(request.width) * request.height);
   }
   return 1;
 }
