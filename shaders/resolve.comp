@@ -22,6 +22,7 @@ layout(push_constant) uniform Push {
 // The per-pixel words the passes read, through texel buffers where the renderer made them
 // (RESOLVE_TEXELS: CPU devices fetch a texel for all lanes with one gather instruction, where a
 // read through a buffer address loops over the lanes; the A-trous passes read nine neighbours).
+// Each view's texel is a pixel's whole 16-byte record (R32G32B32A32_UINT): one fetch a record.
 #ifndef RESOLVE_TEXELS
 #define RESOLVE_TEXELS 0
 #endif
@@ -29,14 +30,29 @@ layout(push_constant) uniform Push {
 layout(set = 0, binding = kResolveTexelGBuffer) uniform usamplerBuffer gTexels;
 layout(set = 0, binding = kResolveTexelAccum) uniform usamplerBuffer accumTexels;
 layout(set = 0, binding = kResolveTexelSource) uniform usamplerBuffer srcTexels;
-uint gWord(uint i, uint k) { return texelFetch(gTexels, int(4u * i + k)).x; }
-vec4 accumOf(uint i) { return uintBitsToFloat(texelWords4(accumTexels, i)); }
-vec4 sourceOf(uint i) { return uintBitsToFloat(texelWords4(srcTexels, i)); }
+layout(set = 0, binding = kResolveTexelSpans) uniform usamplerBuffer spanTexels;
+uvec4 gWords(uint i) { return texelFetch(gTexels, int(i)); }
+uint gWord(uint i, uint k) { return texelFetch(gTexels, int(i))[k]; }
+vec4 accumOf(uint i) { return uintBitsToFloat(texelFetch(accumTexels, int(i))); }
+vec4 sourceOf(uint i) { return uintBitsToFloat(texelFetch(srcTexels, int(i))); }
+uvec4 spanTexel(uint row, uint t) { return texelFetch(spanTexels, int(2u * row + t)); }
 #else
 uint gWord(uint i, uint k) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + k]; }
+uvec4 gWords(uint i) { return uvec4(unpackUint2x32(U64Buf(frameAddr[kSlotGBuffer]).v[2u * i]),
+                                    unpackUint2x32(U64Buf(frameAddr[kSlotGBuffer]).v[2u * i + 1u])); }
 vec4 accumOf(uint i) { return loadVec4(frameAddr[kSlotAccum], i); }
 vec4 sourceOf(uint i) { return loadVec4(frameAddr[pc.src], i); }
+uvec4 spanTexel(uint row, uint t) { return uvec4(unpackUint2x32(U64Buf(pc.spans).v[4u * row + 2u * t]),
+                                                unpackUint2x32(U64Buf(pc.spans).v[4u * row + 2u * t + 1u])); }
 #endif
+
+/// The pixels of row y this pass takes (pc.spans, its pair of words: Renderer.cpp's
+/// kResolveReach); the rectangle's row without an outline.
+uvec2 passSpan(uint y) {
+    if (pc.spans == 0ul) return fv.rect.xz;
+    const uvec4 t = spanTexel(y - fv.rect.y, uint(RESOLVE_PASS) >> 1u);
+    return (RESOLVE_PASS & 1) != 0 ? t.zw : t.xy;
+}
 
 /// A pixel's valid samples (its G-buffer entry's second word).
 uint samplesOf(uint i) { return gWord(i, 1u) >> kGBufferCountShift; }
@@ -78,6 +94,10 @@ void resolvePixel(Frame f, uvec2 px) {
     const uint W = fv.image.x, H = fv.image.y;
     if (px.x >= fv.rect.z || px.y >= fv.rect.w) return;
     const uint pixel = px.y * W + px.x;
+    // With the box's outline, a pass takes the pixels within its reach of it (the others are
+    // misses whose result is colour 0: their output keeps the clear's).
+    const uvec2 span = passSpan(px.y);
+    if (px.x < span.x || px.x >= span.y) return;
     if (RESOLVE_PASS == kResolveGather) {
         uint n = samplesOf(pixel);
         const uint fewest = subgroupMin(n); // one atomic per subgroup
@@ -119,7 +139,7 @@ void resolvePixel(Frame f, uvec2 px) {
     const vec4 centre = sourceOf(pixel);
     {
         const uint n = samplesOf(pixel);
-        const uvec3 gc = uvec3(gWord(pixel, 0u), gWord(pixel, 1u), gWord(pixel, 2u));
+        const uvec3 gc = gWords(pixel).xyz;
         const float dc = uintBitsToFloat(gc.z);
         const int step = 1 << (RESOLVE_PASS - kResolveAtrous1);
         const float kernel[3] = float[3](0.25, 0.5, 0.25);
@@ -131,7 +151,7 @@ void resolvePixel(Frame f, uvec2 px) {
                 // Outside the rectangle nothing is ever gathered: only pixels inside take part.
                 if (any(lessThan(q, ivec2(fv.rect.xy))) || any(greaterThanEqual(q, ivec2(fv.rect.zw)))) continue;
                 const uint qi = uint(q.y) * W + uint(q.x);
-                const uvec3 gq = uvec3(gWord(qi, 0u), gWord(qi, 1u), gWord(qi, 2u));
+                const uvec3 gq = gWords(qi).xyz;
                 float wgt = kernel[dx + 1] * kernel[dy + 1];
                 if (gq.x != gc.x || (gq.y & 7u) != (gc.y & 7u)) wgt = 0.0;
                 wgt *= exp(-abs(uintBitsToFloat(gq.z) - dc) * 2000.0);

@@ -253,11 +253,12 @@ namespace {
 
 std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cacheBytes, const RenderSettings& st,
                                        RendererOptions::Decode decode = RendererOptions::Decode::Auto,
-                                       bool outlineSpans = true) {
+                                       bool outlineSpans = true, bool texels = true) {
     RendererOptions o;
     o.cacheBytes = cacheBytes;
     o.decode = decode;
     o.outlineSpans = outlineSpans;
+    o.renderTexels = texels;
     o.prefetchVoxels = 0; // rays find the bricks of a cold cache (the prefetch has a test of its own)
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, scene.gpu, o);
     EXPECT_TRUE(r.isOk()) << r.message();
@@ -1296,11 +1297,13 @@ TEST(Renderer, OneSampleFramesGoOnToMoreSamplesExactly) {
     }
 }
 
-// Frames without a resolve pass list only the pixels within the box's outline
-// (RendererOptions::outlineSpans, Renderer.cpp footprintSpans): the pixels they leave out see
-// nothing of the box. Renderers with and without the outline give the same image, depth and
-// G-buffer, one sample and four jittered ones, from views at many angles, close up, and with a
-// clip box.
+// Frames where every pixel takes its own samples list only the pixels within the box's outline
+// (RendererOptions::outlineSpans, Renderer.cpp footprintSpans), and their resolve passes, if any,
+// take those alone (ResolvePush::spans): the pixels they leave out see nothing of the box.
+// Renderers with and without the outline (reading through texels and through addresses) give the
+// same image, depth and G-buffer, one sample and four jittered ones, and four of ambient occlusion
+// and of path tracing denoised (the misses the A-trous passes read are sampled, the passes take
+// the pixels within their reach), from views at many angles, close up, and with a clip box.
 TEST(Renderer, OutlineFramesLeaveOutOnlyPixelsOutsideTheBox) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
@@ -1313,12 +1316,19 @@ TEST(Renderer, OutlineFramesLeaveOutOnlyPixelsOutsideTheBox) {
         {{66, 0, 320}, {66, 35, 97}, false},    {{300, 35, 97}, {66, 35, 97}, false},
         {{140, 110, 170}, {66, 35, 97}, false}, {{-40, 200, 20}, {66, 35, 97}, true},
         {{90, 60, 120}, {30, 10, 60}, false},   {{-60, -90, 230}, {75, -10, 70}, true}};
+    struct Mode {
+        uint32_t target;
+        Shading shading;
+    };
     size_t leftOut = 0;
-    for (const uint32_t target : {1u, 4u}) {
+    for (const Mode mode : {Mode{1, Shading::Local}, Mode{4, Shading::Local}, Mode{4, Shading::AmbientOcclusion},
+                            Mode{4, Shading::PathTracing}}) {
+        const uint32_t target = mode.target;
         for (const View& v : views) {
             RenderSettings st;
             st.jitter = target > 1;
-            st.denoise = false;
+            st.shading = mode.shading;
+            st.denoise = mode.shading != Shading::Local;
             if (v.clip) {
                 st.clipMin = {20, 10, 50};
                 st.clipMax = {60, 40, 90};
@@ -1326,11 +1336,17 @@ TEST(Renderer, OutlineFramesLeaveOutOnlyPixelsOutsideTheBox) {
             const FrameInput in = perspectiveView(v.eye, v.centre, {0, 0, 1}, 40, 96, 80);
             std::unique_ptr<Renderer> outline = makeRenderer(*ctx, scene, 64ull << 20, st);
             std::unique_ptr<Renderer> whole = makeRenderer(*ctx, scene, 64ull << 20, st, RendererOptions::Decode::Auto, false);
+            std::unique_ptr<Renderer> addressed =
+                makeRenderer(*ctx, scene, 64ull << 20, st, RendererOptions::Decode::Auto, true, false);
             const FrameOutput a = renderConverged(*outline, in, target, 64);
             const FrameOutput b = renderConverged(*whole, in, target, 64);
-            const std::string at = "target " + std::to_string(target) + ", eye " + std::to_string(v.eye[0]) + "," +
+            const FrameOutput c = renderConverged(*addressed, in, target, 64);
+            const std::string at = "target " + std::to_string(target) + ", shading " + std::to_string(int(mode.shading)) +
+                                   ", eye " + std::to_string(v.eye[0]) + "," +
                                    std::to_string(v.eye[1]) + "," + std::to_string(v.eye[2]);
             ASSERT_EQ(a.rgba8.size(), b.rgba8.size());
+            EXPECT_EQ(a.rgba8, c.rgba8) << "through addresses, " << at;
+            EXPECT_EQ(a.samples, c.samples) << "through addresses, " << at;
             for (size_t i = 0; i < a.rgba8.size(); ++i) {
                 ASSERT_EQ(a.rgba8[i], b.rgba8[i]) << "pixel " << i << ", " << at;
                 ASSERT_EQ(a.depth[i], b.depth[i]) << "pixel " << i << ", " << at;

@@ -551,22 +551,26 @@ void TexelSet::release() {
     m_views.clear();
 }
 
-Result<TexelSet> Context::createTexelSet(const std::vector<const Buffer*>& buffers) {
+Result<TexelSet> Context::createTexelSet(const std::vector<const Buffer*>& buffers, uint32_t wordsPerTexel) {
     Impl& im = *m_impl;
     if (im.lost) return im.lostError();
     if (buffers.empty()) return Status::error("a texel set of no buffers");
+    if (wordsPerTexel != 1 && wordsPerTexel != 4)
+        return Status::error("texels of " + std::to_string(wordsPerTexel) + " words (1 or 4 are viewed)");
+    const uint64_t texelBytes = 4ull * wordsPerTexel;
     TexelSet out;
     out.m_context = this;
     for (const Buffer* b : buffers) {
         if (!b || !b->valid()) return Status::error("a texel view of no buffer");
-        if (b->size() / 4 > m_info.maxTexelBufferElements)
-            return Status::error("a texel view of " + std::to_string(b->size() / 4) + " words exceeds the device's limit of " +
-                                 std::to_string(m_info.maxTexelBufferElements));
+        if (b->size() / texelBytes > m_info.maxTexelBufferElements)
+            return Status::error("a texel view of " + std::to_string(b->size() / texelBytes) +
+                                 " texels exceeds the device's limit of " + std::to_string(m_info.maxTexelBufferElements));
+        if (b->size() < texelBytes) return Status::error("a texel view of a buffer smaller than one texel");
         VkBufferViewCreateInfo vci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
         vci.buffer = reinterpret_cast<VkBuffer>(b->m_buffer);
-        vci.format = VK_FORMAT_R32_UINT;
+        vci.format = wordsPerTexel == 4 ? VK_FORMAT_R32G32B32A32_UINT : VK_FORMAT_R32_UINT;
         vci.offset = 0;
-        vci.range = b->size() / 4 * 4;
+        vci.range = b->size() / texelBytes * texelBytes;
         VkBufferView view = VK_NULL_HANDLE;
         const VkResult r = im.vk.vkCreateBufferView(im.device, &vci, nullptr, &view);
         if (r != VK_SUCCESS) return Status::error(vkError("vkCreateBufferView", r));

@@ -20,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <thread>
 #include <tuple>
 
@@ -94,20 +95,22 @@ struct TexelViews {
     }
     /// True when the sets came or went since the last refresh: pipelines made for the other case
     /// must be made again (views made again over new buffers change nothing for them).
+    /// `wordsPerTexel`: Context::createTexelSet's (every buffer of the lists).
     template <size_t N>
-    Result<bool> refresh(Context& ctx, bool wanted, std::initializer_list<std::array<const Buffer*, N>> lists) {
+    Result<bool> refresh(Context& ctx, bool wanted, std::initializer_list<std::array<const Buffer*, N>> lists,
+                         uint32_t wordsPerTexel = 1) {
         bool fit = wanted, same = valid() && serials.size() == N * lists.size();
         size_t i = 0;
         for (const auto& list : lists)
             for (const Buffer* b : list) {
-                fit = fit && b->valid() && b->size() / 4 <= ctx.device().maxTexelBufferElements;
+                fit = fit && b->valid() && b->size() / (4u * wordsPerTexel) <= ctx.device().maxTexelBufferElements;
                 same = same && serials[i++] == b->serial();
             }
         if (fit && same) return false;
         clear();
         if (fit) {
             for (const auto& list : lists) {
-                Result<TexelSet> t = ctx.createTexelSet(std::vector<const Buffer*>(list.begin(), list.end()));
+                Result<TexelSet> t = ctx.createTexelSet(std::vector<const Buffer*>(list.begin(), list.end()), wordsPerTexel);
                 if (!t) {
                     clear();
                     return t.status();
@@ -265,6 +268,34 @@ std::vector<uint32_t> footprintSpans(const Mat4& indexToClip, const float lo[4],
     return spans;
 }
 
+/// An outline's `spans` (footprintSpans, rows of `rect`) widened by `widen` pixels each way, the
+/// rows within as many taking part (the pixels within `widen` of the outline, as a square
+/// reaches), within the rectangle.
+std::vector<uint32_t> widenSpans(const std::vector<uint32_t>& spans, const std::array<uint32_t, 4>& rect, uint32_t widen) {
+    const int64_t rows = int64_t(spans.size() / 2), w = widen;
+    std::vector<uint32_t> out(spans.size(), rect[0]);
+    for (int64_t r = 0; r < rows; ++r) {
+        int64_t x0 = std::numeric_limits<int64_t>::max(), x1 = std::numeric_limits<int64_t>::min();
+        for (int64_t q = std::max<int64_t>(0, r - w); q <= std::min(rows - 1, r + w); ++q)
+            if (spans[size_t(2 * q)] < spans[size_t(2 * q + 1)]) {
+                x0 = std::min<int64_t>(x0, int64_t(spans[size_t(2 * q)]) - w);
+                x1 = std::max<int64_t>(x1, int64_t(spans[size_t(2 * q + 1)]) + w);
+            }
+        if (x0 > x1) continue; // none
+        out[size_t(2 * r)] = uint32_t(std::clamp<int64_t>(x0, rect[0], rect[2]));
+        out[size_t(2 * r + 1)] = uint32_t(std::clamp<int64_t>(x1, rect[0], rect[2]));
+    }
+    return out;
+}
+
+/// Denoised frames with an outline: the pixels each resolve pass takes (ResolvePush::spans), those
+/// within this reach of the outline. Beyond the outline every pixel is a miss, and an A-trous
+/// pass's result there differs from a miss's colour 0 only within the reach of the passes so far
+/// (steps 1, 2, 4: 1, 3, 7 pixels): the step-4 pass writes the output within 7, reading the
+/// step-2 pass's results within 7 + 4, which reads the step-1 pass's within 11 + 2, which reads
+/// the gather's and the G-buffer within 13 + 1: so far the render pass samples the misses too.
+constexpr uint32_t kResolveReach[kResolveAtrous4 + 1] = {14, 13, 11, 7};
+
 /// The pixels [r0, r2) x [r1, r3) of kSlotOutput's words (colour, then depth bits ^
 /// kOutputDepthXor, per pixel) of an image `width` wide, into 8-bit colours and depths of the same
 /// layout (either may be null: not wanted).
@@ -327,6 +358,7 @@ struct Renderer::Impl {
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
+    Buffer outlineRows;               // PIXEL_LIST: the resolve passes' spans (ResolvePush::spans), 32 bytes a row
     bool usesPixelList = false;       // host decoding (CPU devices): two submissions, the render pass sized between them
     uint64_t pPixelList = 0;          // pixel_list.comp, made on first use
     uint64_t pLabelColors = 0;        // label_colors.comp, made on first use (with a label table)
@@ -531,6 +563,10 @@ struct Renderer::Impl {
     /// A new accumulation: no samples, an empty G-buffer, a transparent output at the far plane.
     void addClear(const FrameInput& in);
     bool denoises(const RenderSettings& st) const;
+    /// The settings denoise (ambient occlusion and path tracing), until every pixel has 64 samples.
+    static bool denoisedShading(const RenderSettings& st) {
+        return st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing);
+    }
     /// render.comp's ONE_SAMPLE: the sample target is one sample and the render pass resolves its
     /// pixels, so every sample it takes is a pixel's first and nothing reads its sum afterwards:
     /// no jitter, no sum read or written (sumsStale).
@@ -542,6 +578,13 @@ struct Renderer::Impl {
     }
     /// The frame's render pass resolves its own pixels (no gather pass): kFlagResolveInRender.
     bool resolvesInRender(const RenderSettings& st) const;
+    /// A frame that takes only the pixels within the box's outline (footprintSpans): the host
+    /// lists the pixels (CPU devices), RendererOptions::outlineSpans, and every pixel takes its
+    /// own samples (stride 1, no upsampling: a coarse stride's block would copy a sample into
+    /// pixels outside the outline, which later frames would then not take again).
+    bool outlineFrame(const RenderSettings& st) const {
+        return usesPixelList && outlineWanted && st.subsampling == 1 && fillBlock <= 1;
+    }
     /// The denoising passes over the last frame's gathered image into the output (a still render
     /// defers them to its last frame: the frames before are never shown).
     Status denoiseOutput();
@@ -584,7 +627,7 @@ struct Renderer::Impl {
     Status allocateImage(uint32_t w, uint32_t h) {
         const uint64_t n = uint64_t(w) * h;
         imageDirty = true;
-        if (n <= imageCapacity) {
+        if (n <= imageCapacity && (!usesPixelList || outlineRows.size() >= 32ull * h)) {
             width = w;
             height = h;
             output = FrameOutput{};
@@ -602,7 +645,8 @@ struct Renderer::Impl {
                               {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
                               {&colorDepth, n * 8, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
-                              {&pixelList, usesPixelList ? n * 8 : 0, MemoryKind::HostVisible}}; // this frame's list, the next's
+                              {&pixelList, usesPixelList ? n * 8 : 0, MemoryKind::HostVisible}, // this frame's list, the next's
+                              {&outlineRows, usesPixelList ? uint64_t(h) * 32 : 0, MemoryKind::HostVisible}};
         uint64_t bytes = 0;
         for (const Part& part : parts) bytes += std::max<uint64_t>(part.bytes, 16);
         if (usedBytes() + bytes > budget) {
@@ -677,10 +721,11 @@ struct Renderer::Impl {
         std::array<const Buffer*, kResolveTexelCount> resolve{};
         resolve[kResolveTexelGBuffer] = &gbuffer;
         resolve[kResolveTexelAccum] = &accum;
+        resolve[kResolveTexelSpans] = outlineRows.valid() ? &outlineRows : &params;
         std::array<const Buffer*, kResolveTexelCount> fromB = resolve;
         resolve[kResolveTexelSource] = &denoiseA;
         fromB[kResolveTexelSource] = &denoiseB;
-        changed = resolveTexels.refresh(ctx, texelsWanted, {resolve, fromB});
+        changed = resolveTexels.refresh(ctx, texelsWanted, {resolve, fromB}, 4); // a pixel's 16 bytes a texel
         if (!changed) return Status(changed.status()).prefix("viewing the resolve passes' buffers");
         if (*changed)
             std::fill(&pResolve[0][0], &pResolve[0][0] + std::size(pResolve) * std::size(pResolve[0]), uint64_t(0));
@@ -1348,9 +1393,25 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
         p.clipMax[k] = whole ? float(dim[k]) : float(std::clamp<int64_t>(st.clipMax[k], 0, dim[k]));
     }
     rect = footprintRect(indexToClip, p.clipMin, p.clipMax, in.width, in.height);
-    // Only where the host lists the pixels and the outline is wanted (listPixels).
-    spans = usesPixelList && outlineWanted ? footprintSpans(indexToClip, p.clipMin, p.clipMax, in.width, in.height, rect)
-                                           : std::vector<uint32_t>{};
+    // Only where the host lists the pixels, the outline is wanted and every pixel takes its own
+    // samples (outlineFrame).
+    spans = outlineFrame(st) ? footprintSpans(indexToClip, p.clipMin, p.clipMax, in.width, in.height, rect)
+                             : std::vector<uint32_t>{};
+    if (!spans.empty() && denoisedShading(st)) {
+        // The resolve passes' rows (ResolvePush::spans; kResolveReach): the render pass samples the
+        // widest (the frames after denoising ends too, so that they resolve the same pixels).
+        uint32_t* words = static_cast<uint32_t*>(outlineRows.mapped());
+        std::vector<uint32_t> sampled;
+        for (uint32_t pass = 0; pass <= kResolveAtrous4; ++pass) {
+            std::vector<uint32_t> reach = widenSpans(spans, rect, kResolveReach[pass]);
+            for (size_t r = 0; r < reach.size() / 2; ++r) {
+                words[8 * r + 2 * pass] = reach[2 * r];
+                words[8 * r + 2 * pass + 1] = reach[2 * r + 1];
+            }
+            if (pass == 0) sampled = std::move(reach);
+        }
+        spans = std::move(sampled);
+    }
     for (int k = 0; k < 4; ++k) p.rect[k] = rect[size_t(k)];
     p.clipMin[3] = st.lodBias;
     p.clipMax[3] = float(std::sqrt(clipToIndex[4] * clipToIndex[4] + clipToIndex[5] * clipToIndex[5] +
@@ -1493,7 +1554,9 @@ void Renderer::Impl::addDispatch(uint64_t pipeline, const void* push, uint32_t b
 
 void Renderer::Impl::addResolve(uint32_t pass, uint32_t src, uint32_t dst) {
     const uint32_t tile = kGroupTile * pixelBlock;
-    resolvePushes.push_back({frameAddress, src, dst}); // reserved: the list points into it
+    // The passes' spans where the frame takes the outline's pixels alone (packParams wrote them).
+    const uint64_t outline = spans.empty() ? 0 : outlineRows.address();
+    resolvePushes.push_back({frameAddress, src, dst, outline}); // reserved: the list points into it
     addDispatch(pResolve[curves][pass], &resolvePushes.back(), sizeof(ResolvePush), (rect[2] - rect[0] + tile - 1) / tile,
                 (rect[3] - rect[1] + tile - 1) / tile);
     if (resolveTexels.valid()) dispatches.back().texels = &resolveTexels.sets[src == kSlotDenoiseB ? 1 : 0];
@@ -1540,8 +1603,7 @@ bool Renderer::Impl::resolvesInRender(const RenderSettings& st) const {
 bool Renderer::Impl::denoises(const RenderSettings& st) const {
     // Denoising is for the noise of the stochastic modes; it fades out as samples accumulate and
     // is skipped once every pixel has 64.
-    return st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing) &&
-           prevMinSamples < 64;
+    return denoisedShading(st) && prevMinSamples < 64;
 }
 
 Status Renderer::Impl::denoiseOutput() {
@@ -1579,15 +1641,16 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
         listedGrid = {}; // it writes over the host's list
         return;
     }
-    // A frame without a resolve pass (stride 1) takes the pixels within the box's outline alone
-    // (RendererOptions::outlineSpans): those outside its rows' spans would sample nothing and
-    // keep their cleared output (as pixels outside the rectangle do), their count 0. The frames
+    // A frame where every pixel takes its own samples (outlineFrame) takes the pixels within the
+    // box's outline alone (RendererOptions::outlineSpans): those outside its rows' spans would
+    // sample nothing and keep their cleared output (as pixels outside the rectangle do), their
+    // count 0; the resolve passes, if any, skip them too (kFlagOutline). The frames
     // that follow list the cells the render pass leaves below the target (kFlagListNext); should
     // pixel_list.comp list by counts instead (a target lowered below the samples taken), it lists
     // those pixels too: they take samples of nothing. The list is written again only when its
     // grid or spans change (the spans are of the rows' cells: columns from the rectangle's edge).
     std::vector<uint32_t> rows;
-    if (resolvesInRender(st) && !spans.empty()) {
+    if (!spans.empty()) {
         rows = spans;
         for (uint32_t& x : rows) x -= rect[0];
     }
@@ -1962,7 +2025,7 @@ MemoryReport Renderer::Impl::memory() const {
                                                           im.alloc.size() + im.params.size() + im.blueNoise.size() +
                                                           im.detailRequests.size()});
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.denoiseA.size() + im.denoiseB.size() +
-                                                         im.pixelList.size()});
+                                                         im.pixelList.size() + im.outlineRows.size()});
     r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorDepth.size() + im.gbuffer.size() +
                                                                    im.depthIn.size()});
     uint64_t attr = im.materials.size() + im.colormaps.size() + im.attributeTable.size() + im.labelMap.size() +

@@ -138,9 +138,10 @@ public:
     /// lives as long as the context). Several threads may make pipelines at once, while nothing runs.
     Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes,
                                            uint32_t texelBindings = 0);
-    /// Texel buffer views of 32-bit unsigned words over whole buffers (each at most
-    /// maxTexelBufferElements words), bound together as one set.
-    Result<TexelSet> createTexelSet(const std::vector<const Buffer*>& buffers);
+    /// Texel buffer views over whole buffers, bound together as one set: texels of
+    /// `wordsPerTexel` 32-bit unsigned words (1: R32_UINT, 4: R32G32B32A32_UINT, one fetch for a
+    /// 16-byte record), each view at most maxTexelBufferElements texels.
+    Result<TexelSet> createTexelSet(const std::vector<const Buffer*>& buffers, uint32_t wordsPerTexel = 1);
     /// Records dispatches of one pipeline with push constants, submits, and waits.
     /// A compute dispatch, or (with `fill` set) a fill of `fillBytes` of a buffer from byte
     /// `fillOffset` with the 32-bit word `fillValue`: a clear that costs a memset even on CPU

@@ -147,9 +147,9 @@ CSGV_CONST(uint32_t, kGroupList, 64u)    ///< pixel_list.comp: invocations a gro
 CSGV_CONST(uint32_t, kListBlock, 16u)
 CSGV_CONST(uint32_t, kGroupLabels, 64u)  ///< label_colors.comp
 
-// Texel buffer bindings (set 0, R32_UINT views) of the render pass (RENDER_TEXELS,
-// render_common.glsl) and of the resolve passes (RESOLVE_TEXELS, resolve.comp): Renderer.cpp
-// views the buffers in this order.
+// Texel buffer bindings (set 0) of the render pass (RENDER_TEXELS, render_common.glsl; R32_UINT
+// views) and of the resolve passes (RESOLVE_TEXELS, resolve.comp; R32G32B32A32_UINT views, a
+// pixel's 16 bytes a texel): Renderer.cpp views the buffers in this order.
 CSGV_CONST(uint32_t, kTexelCache, 0u)         ///< kSlotCache
 CSGV_CONST(uint32_t, kTexelBricks, 1u)        ///< kSlotBricks
 CSGV_CONST(uint32_t, kTexelUniform, 2u)       ///< kSlotUniform
@@ -166,7 +166,8 @@ CSGV_CONST(uint32_t, kRenderTexelCount, 12u)
 CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
 CSGV_CONST(uint32_t, kResolveTexelAccum, 1u)   ///< kSlotAccum
 CSGV_CONST(uint32_t, kResolveTexelSource, 2u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)
-CSGV_CONST(uint32_t, kResolveTexelCount, 3u)
+CSGV_CONST(uint32_t, kResolveTexelSpans, 3u)   ///< ResolvePush::spans' buffer (its eight words a row: two texels)
+CSGV_CONST(uint32_t, kResolveTexelCount, 4u)
 
 // Passes of resolve.comp (its define RESOLVE_PASS: one pipeline per pass, for CPU devices run
 // every branch a shader holds, taken or not).
@@ -239,7 +240,11 @@ CSGV_CONST(uint32_t, kMaterialEmissionWord, 16u)
 #define CSGV_RESOLVE_PUSH_MEMBERS                                                                   \
     uint64_t frame;                                                                                 \
     uint32_t src; /* address slot of the input colour */                                            \
-    uint32_t dst; /* address slot of the output colour */
+    uint32_t dst; /* address slot of the output colour */                                           \
+    /* Denoised frames with the box's outline (PIXEL_LIST, stride 1), 0 for none: per row of the */ \
+    /* rectangle, the span of pixels [x0, x1) each pass takes, in pass order (two words each; */     \
+    /* Renderer.cpp kResolveReach). The others keep the clear's output. */                          \
+    uint64_t spans;
 
 #ifdef __cplusplus
 struct FrameParams {
@@ -256,7 +261,7 @@ static_assert(sizeof(GpuMaterial) == 4 * kMaterialWords && offsetof(GpuMaterial,
 struct ResolvePush {
     CSGV_RESOLVE_PUSH_MEMBERS
 };
-static_assert(sizeof(ResolvePush) == 16, "ResolvePush must match resolve.comp's push constants");
+static_assert(sizeof(ResolvePush) == 24, "ResolvePush must match resolve.comp's push constants");
 struct DecodePush {
     CSGV_DECODE_PUSH_MEMBERS
 };

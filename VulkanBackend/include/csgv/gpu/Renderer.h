@@ -105,11 +105,13 @@ struct RendererOptions {
     /// address is a loop over the lanes. Off: through their addresses, as larger caches always are
     /// (tests cover both).
     bool renderTexels = true;
-    /// Where the host lists the pixels a frame renders (CPU devices), frames that resolve in the
-    /// render pass (stride 1, no denoising) take only those within the clip box's outline: the
-    /// convex hull of its projected corners, 2 pixels wider (the others would see nothing of the
-    /// box; they keep their cleared output and no samples, as pixels outside the footprint
-    /// rectangle do). Off: every pixel of the rectangle (tests cover both).
+    /// Where the host lists the pixels a frame renders (CPU devices), frames where every pixel
+    /// takes its own samples (stride 1, no coarse first stride) take only those within the clip
+    /// box's outline: the convex hull of its projected corners, 2 pixels wider (the others would
+    /// see nothing of the box; they keep their cleared output and no samples, as pixels outside
+    /// the footprint rectangle do). Denoised frames (ambient occlusion, path tracing) take 14
+    /// pixels more, the misses their A-trous passes read, and each resolve pass the pixels within
+    /// its reach. The same image either way. Off: every pixel of the rectangle (tests cover both).
     bool outlineSpans = true;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
