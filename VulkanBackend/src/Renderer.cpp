@@ -127,6 +127,10 @@ struct TexelViews {
 
 constexpr uint32_t kColormapSamples = 1024;
 
+/// The host's pixel list (listPixels) orders its cells in tiles of this many cells across and
+/// down (a SIMD group's eight lanes on CPU devices).
+constexpr uint32_t kListTile[2] = {2, 4};
+
 /// Seconds a rendered pixel costs per ray before a renderer has measured its own frames (which
 /// then replace this): CPU devices (lavapipe, two cores: 0.11 us for local shading on synthetic
 /// 256^3 and the AAL atlas at 640x360), GPUs (an H200: 0.5 ns at 1920x1080).
@@ -1658,10 +1662,30 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
     if (listedGrid != grid || listedSpans != rows) {
         uint32_t* list = static_cast<uint32_t*>(pixelList.mapped());
         uint32_t n = 0;
+        auto span = [&](uint32_t y) {
+            return rows.empty() ? std::array<uint32_t, 2>{0, gx} : std::array<uint32_t, 2>{rows[2 * size_t(y)], rows[2 * size_t(y) + 1]};
+        };
+        // Eight consecutive entries are one SIMD group's lanes on CPU devices: whole tiles of
+        // kListTile cells first (rays of a compact tile are more alike than a row's eight: fewer
+        // lanes wait at an edge; 2x4 measured fastest), then the cells outside them row by row.
+        constexpr uint32_t kTileW = kListTile[0], kTileH = kListTile[1];
+        std::vector<std::array<uint32_t, 2>> tiled(gy, std::array<uint32_t, 2>{0, 0}); // per row: the tiles' columns
+        for (uint32_t y = 0; y + kTileH <= gy; y += kTileH) {
+            uint32_t x0 = 0, x1 = gx;
+            for (uint32_t r = 0; r < kTileH; ++r) {
+                x0 = std::max(x0, span(y + r)[0]);
+                x1 = std::min(x1, span(y + r)[1]);
+            }
+            if (x1 < x0 + kTileW) continue;
+            x1 = x0 + (x1 - x0) / kTileW * kTileW;
+            for (uint32_t x = x0; x < x1; x += kTileW)
+                for (uint32_t r = 0; r < kTileH; ++r)
+                    for (uint32_t c = 0; c < kTileW; ++c) list[n++] = (x + c) | ((y + r) << 16);
+            for (uint32_t r = 0; r < kTileH; ++r) tiled[y + r] = {x0, x1};
+        }
         for (uint32_t y = 0; y < gy; ++y)
-            for (uint32_t x = rows.empty() ? 0 : rows[2 * size_t(y)], x1 = rows.empty() ? gx : rows[2 * size_t(y) + 1];
-                 x < x1; ++x)
-                list[n++] = x | (y << 16);
+            for (uint32_t x = span(y)[0]; x < span(y)[1]; ++x)
+                if (x < tiled[y][0] || x >= tiled[y][1]) list[n++] = x | (y << 16);
         listedGrid = grid;
         listedSpans = std::move(rows);
         listedCount = n;
