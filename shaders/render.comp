@@ -396,7 +396,8 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
 
 /// The pixel at `cell` in the grid of rendered pixels of the footprint rectangle (all, or one
 /// of stride^2): its next sample unless it has reached the sample target; with
-/// kFlagResolveInRender also what the gather would do for it (output colour, counts).
+/// kFlagResolveInRender also what the gather would do for it (output colour, counts), with
+/// kFlagGatherInRender what the gather would write to the first denoising buffer (and counts).
 /// Returns whether the cell stays below the sample target (kFlagListNext lists it for the next frame).
 bool renderPixel(uvec2 cell) {
     uvec2 px;
@@ -415,11 +416,17 @@ bool renderPixel(uvec2 cell) {
     // frames always resolve here.
     const bool wrote = n != samples || preview;
     const uint depthWord = floatBitsToUint(depth) ^ kOutputDepthXor;
+    const bool gathers = ONE_SAMPLE == 0 && (fv.frame.y & kFlagGatherInRender) != 0u;
     if (ONE_SAMPLE == 0 && (fv.frame.y & kFlagResolveInRender) == 0u) {
         if (wrote) UintBuf(frameAddr[kSlotOutput]).w[2u * pixel + 1u] = depthWord;
-        return below;
+        if (!gathers) return below;
+        // The gather's value (resolve.comp): the average of the samples, a preview, or nothing
+        // (a hole). A pixel that took nothing new keeps the value the last frame left (the host
+        // sets the flag only while the buffer holds it).
+        if (wrote || n == 0u) storeVec4(frameAddr[kSlotDenoiseA], pixel, wrote ? total / float(max(n, 1u)) : vec4(0.0));
+    } else if (wrote) {
+        U64Buf(frameAddr[kSlotOutput]).v[pixel] = packUint2x32(uvec2(packUnorm4x8(toneMapped(total / float(max(n, 1u)))), depthWord));
     }
-    if (wrote) U64Buf(frameAddr[kSlotOutput]).v[pixel] = packUint2x32(uvec2(packUnorm4x8(toneMapped(total / float(max(n, 1u)))), depthWord));
     count.fewest = min(count.fewest, n);
     if (n == 0u) {
         if (preview) ++count.previews;

@@ -1303,7 +1303,8 @@ TEST(Renderer, OneSampleFramesGoOnToMoreSamplesExactly) {
 // Renderers with and without the outline (reading through texels and through addresses) give the
 // same image, depth and G-buffer, one sample and four jittered ones, and four of ambient occlusion
 // and of path tracing denoised (the misses the A-trous passes read are sampled, the passes take
-// the pixels within their reach), from views at many angles, close up, and with a clip box.
+// the pixels within their reach; a still render's frames gather in their render pass), from
+// views at many angles, close up, and with a clip box.
 TEST(Renderer, OutlineFramesLeaveOutOnlyPixelsOutsideTheBox) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
@@ -1347,6 +1348,28 @@ TEST(Renderer, OutlineFramesLeaveOutOnlyPixelsOutsideTheBox) {
             ASSERT_EQ(a.rgba8.size(), b.rgba8.size());
             EXPECT_EQ(a.rgba8, c.rgba8) << "through addresses, " << at;
             EXPECT_EQ(a.samples, c.samples) << "through addresses, " << at;
+            if (mode.shading != Shading::Local) {
+                // A still render's loop (render()): its frames after the first write the gathered
+                // image in their render pass (kFlagGatherInRender), denoised once at the end.
+                // One sample (ParaView's CSGVFramesPerStillRender 1) and the mode's target.
+                RenderRequest req;
+                req.frame = in;
+                req.timeBudgetSeconds = 1e9; // the target ends the loop; every frame at stride 1
+                for (const uint32_t stillTarget : {1u, target}) {
+                    RenderSettings still = st;
+                    still.sampleTarget = stillTarget;
+                    std::unique_ptr<Renderer> loopOutline = makeRenderer(*ctx, scene, 64ull << 20, still);
+                    std::unique_ptr<Renderer> loopWhole =
+                        makeRenderer(*ctx, scene, 64ull << 20, still, RendererOptions::Decode::Auto, false);
+                    Result<RenderResult> ro = loopOutline->render(req), rw = loopWhole->render(req);
+                    ASSERT_TRUE(ro.isOk() && rw.isOk()) << at;
+                    EXPECT_GE(ro->frames, stillTarget) << at;
+                    FrameOutput lo, lw;
+                    ASSERT_TRUE(loopOutline->readOutput(lo).isOk() && loopWhole->readOutput(lw).isOk());
+                    EXPECT_EQ(lo.rgba8, lw.rgba8) << "still loop, target " << stillTarget << ", " << at;
+                    EXPECT_EQ(lo.label, lw.label) << "still loop, target " << stillTarget << ", " << at;
+                }
+            }
             for (size_t i = 0; i < a.rgba8.size(); ++i) {
                 ASSERT_EQ(a.rgba8[i], b.rgba8[i]) << "pixel " << i << ", " << at;
                 ASSERT_EQ(a.depth[i], b.depth[i]) << "pixel " << i << ", " << at;

@@ -553,6 +553,10 @@ struct Renderer::Impl {
     Result<FrameStats> frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     bool deferDenoise = false;        // frame(): gather only; render() denoises once after its frames
     bool denoisePending = false;      // the last frame gathered without denoising
+    // denoiseA holds the gathered image of the accumulation so far (the last frame gathered and
+    // nothing denoised since): a frame may then gather in its render pass (kFlagGatherInRender).
+    bool gatheredValid = false;
+    bool gatherInRender = false;      // this frame's kFlagGatherInRender (packParams)
     /// The pipelines this frame's settings use that are not made yet (the render pass's for the
     /// shading mode, the resolve passes, the cache passes, ...): made together, in parallel.
     Status ensurePipelines(const RenderSettings& st, bool depthInput);
@@ -1401,6 +1405,10 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
     // samples (outlineFrame).
     spans = outlineFrame(st) ? footprintSpans(indexToClip, p.clipMin, p.clipMax, in.width, in.height, rect)
                              : std::vector<uint32_t>{};
+    // A denoised frame of the outline whose cells hold or take all of the gathered image (the
+    // first of an accumulation lists every cell; later ones keep what the last one gathered) has
+    // its render pass write that image: no gather pass over the whole outline.
+    gatherInRender = !spans.empty() && denoises(st) && (clearPending || gatheredValid);
     if (!spans.empty() && denoisedShading(st)) {
         // The resolve passes' rows (ResolvePush::spans; kResolveReach): the render pass samples the
         // widest (the frames after denoising ends too, so that they resolve the same pixels).
@@ -1452,6 +1460,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     if (in.opaqueDepth) flags |= kFlagDepthInput;
     if (hasLabelMap) flags |= kFlagLabelMap;
     if (resolvesInRender(st)) flags |= kFlagResolveInRender;
+    if (gatherInRender) flags |= kFlagGatherInRender;
     if (visibilityChanged) flags |= kFlagVisibilityChanged;
     if (prefetchPending && prefetches()) flags |= kFlagPrefetch;
     // The next frame lists the pixels below the target (listPixels) only if every pixel is one
@@ -1536,12 +1545,15 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
     if (renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];
-    if (resolvesInRender(st)) return;
     if (!denoises(st)) {
-        addResolve(kResolveGather, kSlotDenoiseA, kSlotOutput);
+        gatheredValid = false; // denoiseA is not written
+        if (!resolvesInRender(st)) addResolve(kResolveGather, kSlotDenoiseA, kSlotOutput);
         return;
     }
-    addResolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
+    if (!gatherInRender) addResolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
+    // denoiseA keeps this frame's gathered image only until the denoising passes (the step-2
+    // pass writes it).
+    gatheredValid = deferDenoise;
     denoisePending = deferDenoise;
     if (!deferDenoise) addDenoisePasses();
 }
@@ -1612,6 +1624,7 @@ bool Renderer::Impl::denoises(const RenderSettings& st) const {
 
 Status Renderer::Impl::denoiseOutput() {
     denoisePending = false;
+    gatheredValid = false; // the step-2 pass writes denoiseA
     dispatches.clear();
     resolvePushes.clear();
     resolvePushes.reserve(8);
@@ -1901,7 +1914,7 @@ Result<RenderResult> Renderer::render(const RenderRequest& request) {
         settings.subsampling = im.shownWhole ? fine : im.coarseStride;
         Result<FrameStats> st = im.frame(in, settings, clipToWorld);
         if (!st) {
-            im.deferDenoise = im.denoisePending = false;
+            im.deferDenoise = im.denoisePending = im.gatheredValid = false;
             return st.status();
         }
         im.measureFrame(settings, in, *st);

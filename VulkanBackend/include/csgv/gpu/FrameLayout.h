@@ -26,6 +26,7 @@ CSGV_CONST(uint32_t, kFlagResolveInRender, 128u) ///< the render pass writes the
 CSGV_CONST(uint32_t, kFlagVisibilityChanged, 256u) ///< brick visibility (kSlotVisible) changed: the request stage visits every brick
 CSGV_CONST(uint32_t, kFlagPrefetch, 512u) ///< the request stage asks for every visible brick not cached, used or not
 CSGV_CONST(uint32_t, kFlagListNext, 1024u) ///< PIXEL_LIST: the render pass lists the cells left below the sample target for the next frame (kAllocNextCount)
+CSGV_CONST(uint32_t, kFlagGatherInRender, 2048u) ///< the render pass writes what the gather would (kSlotDenoiseA, counts) for the cells it takes; no gather follows, the denoising passes do
 
 // Shading modes (Frame.frame.z): the values of csgv::gpu::Shading.
 CSGV_CONST(uint32_t, kShadingLocal, 0u)
