@@ -40,7 +40,7 @@ void main() {
         bool sampling = false;
         uint kept = kNone; // the sample count of a pixel left out
         if (c < cells && cellPixel(cell, px)) {
-            const uint n = gbuffer.w[4u * (px.y * fv.image.x + px.x) + 1u] >> kGBufferCountShift;
+            const uint n = currentWord1(gbuffer.w[4u * (px.y * fv.image.x + px.x) + 1u]) >> kGBufferCountShift;
             sampling = wantsSample(n);
             if (!sampling) kept = n;
         }

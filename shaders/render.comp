@@ -386,9 +386,9 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
         storeVec4(frameAddr[kSlotAccum], pixel, total);
 #endif
         // The sample count rides in the second word (kGBufferCountShift): one store for both.
-        storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled | ((samples + 1u) << kGBufferCountShift),
+        storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled | epochBits() | ((samples + 1u) << kGBufferCountShift),
                                                                 floatBitsToUint(gDepth), floatBitsToUint(gDistance))
-                                                        : uvec4(kNone, kGBufferPreview, floatBitsToUint(1.0), 0u));
+                                                        : uvec4(kNone, kGBufferPreview | epochBits(), floatBitsToUint(1.0), 0u));
         surfaceDepth = firstDepth;
     }
     return valid;

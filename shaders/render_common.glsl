@@ -57,6 +57,12 @@ void loadFrameValues(Frame f) {
     fv.rect = f.rect;
 }
 
+/// A G-buffer entry's second word as this accumulation sees it: 0 (cleared) when another wrote it
+/// (kGBufferEpochShift).
+uint currentWord1(uint w1) { return ((w1 >> kGBufferEpochShift) & kGBufferEpochMask) == fv.frame.z ? w1 : 0u; }
+/// The G-buffer epoch bits this accumulation writes.
+uint epochBits() { return fv.frame.z << kGBufferEpochShift; }
+
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer UintBuf { uint w[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer FloatBuf { float f[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Buf { vec4 v[]; };
@@ -111,7 +117,7 @@ layout(set = 0, binding = kTexelVisible) uniform usamplerBuffer visibleTexels;
 uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
 uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
 vec4 labelColor(uint e) { return uintBitsToFloat(texelWords4(colorTexels, e)); }
-uint sampleCount(uint pixel) { return texelFetch(gbufferTexels, int(4u * pixel + 1u)).x >> kGBufferCountShift; }
+uint sampleCount(uint pixel) { return currentWord1(texelFetch(gbufferTexels, int(4u * pixel + 1u)).x) >> kGBufferCountShift; }
 uint listedCell(uint i) { return texelFetch(listTexels, int(i)).x; }
 /// A brick's cache entry (x offset, y level, w flags; z, its last use, is not read).
 uvec4 brickState(uint b) {
@@ -128,7 +134,7 @@ uvec2 visibleEntry(uint b) { return texelWords2(visibleTexels, b); }
 uint cacheWord(uint i) { return UintBuf(frameAddr[kSlotCache]).w[i]; }
 uint tableWord(uint i) { return UintBuf(frameAddr[kSlotMaterialTable]).w[i]; }
 vec4 labelColor(uint e) { return Vec4Buf(frameAddr[kSlotLabelColors]).v[e]; }
-uint sampleCount(uint pixel) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * pixel + 1u] >> kGBufferCountShift; }
+uint sampleCount(uint pixel) { return currentWord1(UintBuf(frameAddr[kSlotGBuffer]).w[4u * pixel + 1u]) >> kGBufferCountShift; }
 uint listedCell(uint i) { return UintBuf(frameAddr[kSlotPixelList]).w[i]; }
 uvec4 brickState(uint b) { return Uvec4Buf(frameAddr[kSlotBricks]).v[b]; }
 uvec2 uniformMask(uint b) { return Uvec2Buf(frameAddr[kSlotUniform]).v[b]; }

@@ -31,14 +31,14 @@ layout(set = 0, binding = kResolveTexelGBuffer) uniform usamplerBuffer gTexels;
 layout(set = 0, binding = kResolveTexelAccum) uniform usamplerBuffer accumTexels;
 layout(set = 0, binding = kResolveTexelSource) uniform usamplerBuffer srcTexels;
 layout(set = 0, binding = kResolveTexelSpans) uniform usamplerBuffer spanTexels;
-uvec4 gWords(uint i) { return texelFetch(gTexels, int(i)); }
-uint gWord(uint i, uint k) { return texelFetch(gTexels, int(i))[k]; }
+uvec4 gRaw(uint i) { return texelFetch(gTexels, int(i)); }
+uint gRaw1(uint i) { return texelFetch(gTexels, int(i)).y; }
 vec4 accumOf(uint i) { return uintBitsToFloat(texelFetch(accumTexels, int(i))); }
 vec4 sourceOf(uint i) { return uintBitsToFloat(texelFetch(srcTexels, int(i))); }
 uvec4 spanTexel(uint row, uint t) { return texelFetch(spanTexels, int(2u * row + t)); }
 #else
-uint gWord(uint i, uint k) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + k]; }
-uvec4 gWords(uint i) { return uvec4(unpackUint2x32(U64Buf(frameAddr[kSlotGBuffer]).v[2u * i]),
+uint gRaw1(uint i) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + 1u]; }
+uvec4 gRaw(uint i) { return uvec4(unpackUint2x32(U64Buf(frameAddr[kSlotGBuffer]).v[2u * i]),
                                     unpackUint2x32(U64Buf(frameAddr[kSlotGBuffer]).v[2u * i + 1u])); }
 vec4 accumOf(uint i) { return loadVec4(frameAddr[kSlotAccum], i); }
 vec4 sourceOf(uint i) { return loadVec4(frameAddr[pc.src], i); }
@@ -54,8 +54,15 @@ uvec2 passSpan(uint y) {
     return (RESOLVE_PASS & 1) != 0 ? t.zw : t.xy;
 }
 
+/// A pixel's G-buffer entry and its second word as this accumulation sees them (all 0 where
+/// another wrote them: currentWord1).
+uvec4 gWords(uint i) {
+    const uvec4 w = gRaw(i);
+    return currentWord1(w.y) != 0u ? w : uvec4(0u);
+}
+uint gWord1(uint i) { return currentWord1(gRaw1(i)); }
 /// A pixel's valid samples (its G-buffer entry's second word).
-uint samplesOf(uint i) { return gWord(i, 1u) >> kGBufferCountShift; }
+uint samplesOf(uint i) { return gWord1(i) >> kGBufferCountShift; }
 
 /// The nearest pixel of px's stride block (edge s) with samples (`sampled`) or with a preview;
 /// kNone when there is none.
@@ -71,7 +78,7 @@ uint nearestInBlock(uvec2 px, uint s, bool sampled) {
         const uint qi = q.y * W + q.x;
         const ivec2 dq = ivec2(q) - ivec2(px);
         const uint dist = uint(dq.x * dq.x + dq.y * dq.y);
-        const bool shows = sampled ? samplesOf(qi) > 0u : (samplesOf(qi) == 0u && (gWord(qi, 1u) & kGBufferPreview) != 0u);
+        const bool shows = sampled ? samplesOf(qi) > 0u : (samplesOf(qi) == 0u && (gWord1(qi) & kGBufferPreview) != 0u);
         if (shows && dist < best) {
             best = dist;
             from = qi;
@@ -109,7 +116,7 @@ void resolvePixel(Frame f, uvec2 px) {
         uint from = n > 0u ? pixel : (s > 1u ? nearestInBlock(px, s, true) : kNone);
         bool preview = false;
         if (from == kNone) {
-            if ((gWord(pixel, 1u) & kGBufferPreview) != 0u) from = pixel;
+            if ((gWord1(pixel) & kGBufferPreview) != 0u) from = pixel;
             else if (s > 1u) from = nearestInBlock(px, s, false);
             preview = from != kNone;
         }

@@ -1387,6 +1387,35 @@ TEST(Renderer, OutlineFramesLeaveOutOnlyPixelsOutsideTheBox) {
     }
 }
 
+// A new accumulation fills the G-buffer only when its epochs wrap (kGBufferEpochShift): entries
+// of earlier ones read as cleared. One renderer with a close view first, then alternating between
+// two others for more than twice kGBufferEpochs accumulations, gives each view's image, G-buffer
+// and sample counts as a fresh renderer does (it fails with no fill at the wrap: the first view's
+// entries outside the others' footprints would come back; or with no epochs).
+TEST(Renderer, AccumulationsReadTheGBufferOfTheirOwnEpochAlone) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    RenderSettings st;
+    st.jitter = false;
+    st.denoise = false;
+    const FrameInput views[3] = {perspectiveView({600, -300, 350}, {66, 35, 97}, {0, 0, 1}, 30, 96, 80),
+                                 perspectiveView({700, 35, 97}, {66, 35, 97}, {0, 0, 1}, 30, 96, 80),
+                                 perspectiveView({90, 60, 120}, {30, 10, 60}, {0, 0, 1}, 60, 96, 80)};
+    FrameOutput fresh[3];
+    for (int v = 0; v < 3; ++v) {
+        std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+        fresh[v] = renderConverged(*r, views[v], 1, 64);
+    }
+    std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+    for (uint32_t i = 0; i < 2 * kGBufferEpochs + 6; ++i) {
+        const int v = i == 0 ? 2 : int(i % 2);
+        const FrameOutput out = renderConverged(*r, views[v], 1, 64);
+        ASSERT_EQ(out.samples, fresh[v].samples) << "accumulation " << i;
+        ASSERT_EQ(out.label, fresh[v].label) << "accumulation " << i;
+        ASSERT_EQ(out.rgba8, fresh[v].rgba8) << "accumulation " << i;
+    }
+}
+
 TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");

@@ -386,6 +386,8 @@ struct Renderer::Impl {
     std::vector<uint32_t> spans;      // its rows' spans (footprintSpans; empty: whole rows or not wanted)
     std::array<uint32_t, 4> drawnRect{}; // the union of the footprints since the last clear (FrameOutput::rect)
     bool imageDirty = true;           // the per-pixel buffers are new or resized: the next clear fills them whole
+    uint32_t gbufferEpoch = 0;        // the accumulation's G-buffer epoch (kGBufferEpochShift; Frame frame.z)
+    bool gbufferFill = false;         // the next clear fills the G-buffer (new buffers, or the epochs wrapped)
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     uint32_t requestBlock = 1;        // REQUEST_BLOCK of cache_request.comp (bricks per invocation)
@@ -684,6 +686,11 @@ struct Renderer::Impl {
     }
 
     uint32_t* allocWords() { return static_cast<uint32_t*>(alloc.mapped()); }
+    /// A G-buffer entry's second word as the last accumulation sees it (render_common.glsl's
+    /// currentWord1): 0 where another accumulation wrote it.
+    uint32_t currentWord1(uint32_t w1) const {
+        return ((w1 >> kGBufferEpochShift) & kGBufferEpochMask) == gbufferEpoch ? w1 : 0u;
+    }
 
     /// The smallest cache a renderer works with: one brick at full resolution.
     uint64_t smallestCacheBytes() const { return std::max<uint64_t>(volume->regionWords(0) * 4, 4096); }
@@ -1474,7 +1481,11 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     const uint32_t stride = st.subsampling;
     p.frame[0] = frameIndex;
     p.frame[1] = flags;
-    p.frame[2] = uint32_t(st.shading);
+    if (clearPending) { // a new accumulation: a new epoch, the G-buffer filled whole when they wrap
+        gbufferEpoch = imageDirty ? 1 : gbufferEpoch % kGBufferEpochs + 1;
+        gbufferFill = gbufferFill || gbufferEpoch == 1; // until a clear fills it
+    }
+    p.frame[2] = gbufferEpoch;
     p.frame[3] = st.sampleTarget;
     p.image[0] = in.width;
     p.image[1] = in.height;
@@ -1590,22 +1601,29 @@ void Renderer::Impl::addDenoisePasses() {
 void Renderer::Impl::addClear(const FrameInput& in) {
     // Fills, not a compute pass: pixels outside the footprint keep these values all along, so
     // only the rows drawn since the last clear need them (all of new or resized buffers). The
-    // accumulation needs none: it is read only where a pixel's sample count (cleared) is not 0.
+    // G-buffer's entries of earlier accumulations read as cleared (their epoch is another), so it
+    // is filled only when new or when the epochs wrap (whole then: an entry of any row may hold
+    // the epoch that comes round again). The accumulation needs none: it is read only where a
+    // pixel's sample count (cleared) is not 0.
     uint32_t y0 = 0, y1 = in.height; // new or resized buffers: whole
     if (!imageDirty) {
         const bool drawn = drawnRect[0] < drawnRect[2] && drawnRect[1] < drawnRect[3];
         y0 = drawn ? drawnRect[1] : 0;
         y1 = drawn ? drawnRect[3] : 0;
     }
+    const uint64_t pixels = uint64_t(in.width) * in.height;
     const uint64_t first = uint64_t(y0) * in.width, n = uint64_t(y1 - y0) * in.width;
-    const std::tuple<const Buffer*, uint64_t, uint32_t> filled[] = {
-        {&gbuffer, 16, 0u} /* no samples */, {&colorDepth, 8, 0u} /* colour 0, depth 1 (kOutputDepthXor) */};
-    for (const auto& [buffer, bytes, value] : filled) {
+    const std::tuple<const Buffer*, uint64_t, uint64_t, uint64_t> filled[] = {
+        {&gbuffer, 16, 0, gbufferFill ? pixels : 0} /* no samples */,
+        {&colorDepth, 8, first, n} /* colour 0, depth 1 (kOutputDepthXor) */};
+    gbufferFill = false;
+    for (const auto& [buffer, bytes, from, count] : filled) {
+        if (count == 0) continue;
         Context::Dispatch d;
         d.fill = buffer;
-        d.fillOffset = first * bytes;
-        d.fillBytes = n * bytes;
-        d.fillValue = value;
+        d.fillOffset = from * bytes;
+        d.fillBytes = count * bytes;
+        d.fillValue = 0;
         dispatches.push_back(d);
     }
 }
@@ -2006,7 +2024,7 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
         out.hitDepth.resize(n);
         out.distance.resize(n);
         for (size_t i = 0; i < n; ++i) {
-            if (!(g[4 * i + 1] & kGBufferSampled)) { // cleared: no sample reached this pixel
+            if (!(im.currentWord1(g[4 * i + 1]) & kGBufferSampled)) { // cleared: no sample reached this pixel
                 out.label[i] = kNone;
                 out.face[i] = Face::None;
                 out.hitDepth[i] = 1.0f;
@@ -2022,7 +2040,7 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     if (parts & Samples) {
         out.samples.resize(n);
         const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
-        for (size_t i = 0; i < n; ++i) out.samples[i] = g[4 * i + 1] >> kGBufferCountShift;
+        for (size_t i = 0; i < n; ++i) out.samples[i] = im.currentWord1(g[4 * i + 1]) >> kGBufferCountShift;
     }
     return Status::ok();
 }

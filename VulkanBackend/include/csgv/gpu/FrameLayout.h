@@ -49,6 +49,12 @@ CSGV_CONST(uint32_t, kGBufferPreview, 0x200u)
 /// no more than kGBufferCountMax (render_common.glsl's wantsSample).
 CSGV_CONST(uint32_t, kGBufferCountShift, 10u)
 CSGV_CONST(uint32_t, kGBufferCountMax, 0x3FFFFFu)
+/// ... and in its bits 3-7: the accumulation it belongs to, 1..kGBufferEpochs (Frame frame.z).
+/// An entry of another reads as cleared (all 0): a new accumulation fills the G-buffer only when
+/// the epochs wrap (and when it is new), not at every camera move.
+CSGV_CONST(uint32_t, kGBufferEpochShift, 3u)
+CSGV_CONST(uint32_t, kGBufferEpochMask, 0x1Fu)
+CSGV_CONST(uint32_t, kGBufferEpochs, 31u)
 /// An output depth word (kSlotOutput) is the depth's float bits ^ this (the bits of 1.0f), so a
 /// zero fill clears colour and depth together: no surface, depth 1 (the far plane).
 CSGV_CONST(uint32_t, kOutputDepthXor, 0x3F800000u)
@@ -218,7 +224,7 @@ CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
     CSGV_VEC4(pixel)           /* x: 2/W, y: 2/H, z: upsampling block (pixels), w: shading blend */ \
     CSGV_VEC4(tone)            /* x: brightness, y: contrast, z: gamma, w: tone mapping (1) */      \
     CSGV_VEC4_ARRAY(faceNormals, 6) /* world normals of the faces -x, +x, -y, +y, -z, +z */         \
-    CSGV_UVEC4(frame)          /* x: frame index, y: flags, z: shading mode, w: sample target */    \
+    CSGV_UVEC4(frame)          /* x: frame index, y: flags, z: G-buffer epoch, w: sample target */  \
     CSGV_UVEC4(image)          /* x: W, y: H, z: subsampling stride, w: subsampling phase */        \
     CSGV_UVEC4(limits)         /* x: max requests, y/z: pixels [y, z) that may request, w: bounces */ \
     CSGV_UVEC4(counts)         /* x: materials, y: bricks, z: labels with attributes, w: table size */ \
