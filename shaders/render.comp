@@ -437,7 +437,10 @@ bool renderPixel(uvec2 cell) {
 
 #if PIXEL_LIST
 /// The cell of the invocation's j-th round: the j-th of its entries in the list.
-uint listIndex(uint j) { return (gl_WorkGroupID.x * PIXEL_BLOCK * PIXEL_BLOCK + j) * (kGroupTile * kGroupTile) + gl_LocalInvocationIndex; }
+uint listIndex(uint j) {
+    const uint lane = gl_LocalInvocationIndex & 7u, simd = gl_LocalInvocationIndex >> 3u;
+    return ((gl_WorkGroupID.x * (kGroupTile * kGroupTile / 8u) + simd) * PIXEL_BLOCK * PIXEL_BLOCK + j) * 8u + lane;
+}
 
 /// kFlagListNext: the cells of this invocation that stay below the sample target (count.next),
 /// appended to the next frame's list (from word width * height of kSlotPixelList) with one
