@@ -436,7 +436,10 @@ bool renderPixel(uvec2 cell) {
 }
 
 #if PIXEL_LIST
-/// The cell of the invocation's j-th round: the j-th of its entries in the list.
+/// The list entry of the invocation's j-th round. CPU devices run eight consecutive invocations
+/// as one SIMD group: the group takes eight consecutive entries a round (a tile of the host's
+/// list, kListTile) and PIXEL_BLOCK^2 consecutive tiles in its rounds (neighbours, whose rays read
+/// the same bricks); the workgroup's 32 groups take consecutive runs of those.
 uint listIndex(uint j) {
     const uint lane = gl_LocalInvocationIndex & 7u, simd = gl_LocalInvocationIndex >> 3u;
     return ((gl_WorkGroupID.x * (kGroupTile * kGroupTile / 8u) + simd) * PIXEL_BLOCK * PIXEL_BLOCK + j) * 8u + lane;
@@ -475,8 +478,8 @@ void main() {
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.
 #if PIXEL_LIST
     // The cells listed (all by the host, or those below the sample target by pixel_list.comp;
-    // the host sized the dispatch to their number): in each round the lanes of a group take
-    // consecutive entries.
+    // the host sized the dispatch to their number): each round, the eight lanes of a SIMD group
+    // take consecutive entries (listIndex).
     const uint listed = UintBuf(frameAddr[kSlotAlloc]).w[kAllocListCount];
     for (uint j = 0u; j < PIXEL_BLOCK * PIXEL_BLOCK; ++j) {
         const uint i = listIndex(j);
