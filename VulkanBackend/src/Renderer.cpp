@@ -1679,7 +1679,7 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
     // A frame where every pixel takes its own samples (outlineFrame) takes the pixels within the
     // box's outline alone (RendererOptions::outlineSpans): those outside its rows' spans would
     // sample nothing and keep their cleared output (as pixels outside the rectangle do), their
-    // count 0; the resolve passes, if any, skip them too (kFlagOutline). The frames
+    // count 0; the resolve passes, if any, skip them too (ResolvePush::spans). The frames
     // that follow list the cells the render pass leaves below the target (kFlagListNext); should
     // pixel_list.comp list by counts instead (a target lowered below the samples taken), it lists
     // those pixels too: they take samples of nothing. The list is written again only when its
