@@ -44,7 +44,8 @@ const Probe kProbes[] = {
     CSGV_PROBE(kNone), CSGV_PROBE(kFlagJitter), CSGV_PROBE(kFlagFinest), CSGV_PROBE(kFlagDenoise),
     CSGV_PROBE(kFlagLimitRequests), CSGV_PROBE(kFlagDepthInput), CSGV_PROBE(kFlagLabelMap),
     CSGV_PROBE(kFlagResolveInRender), CSGV_PROBE(kGBufferSampled), CSGV_PROBE(kGBufferPreview),
-    CSGV_PROBE(kGBufferCountShift), CSGV_PROBE(kGBufferCountMax),
+    CSGV_PROBE(kGBufferCountShift), CSGV_PROBE(kGBufferCountMax), CSGV_PROBE(kGBufferEpochShift),
+    CSGV_PROBE(kGBufferEpochMask), CSGV_PROBE(kGBufferEpochs), CSGV_PROBE(kFlagGatherInRender), CSGV_PROBE(kFlagListNext),
     CSGV_PROBE(kShadingLocal), CSGV_PROBE(kShadingShadow), CSGV_PROBE(kShadingAo), CSGV_PROBE(kShadingPt),
     CSGV_PROBE(kColorConstant), CSGV_PROBE(kColorColormap), CSGV_PROBE(kColorRandom),
     CSGV_PROBE(kSlotBricks), CSGV_PROBE(kSlotGBuffer), CSGV_PROBE(kSlotDepthIn), CSGV_PROBE(kSlotOutput),
@@ -54,7 +55,8 @@ const Probe kProbes[] = {
     CSGV_PROBE(kAllocReqCount), CSGV_PROBE(kAllocPops), CSGV_PROBE(kAllocProvBase), CSGV_PROBE(kAllocProvCount),
     CSGV_PROBE(kAllocWords), CSGV_PROBE(kResolveGather), CSGV_PROBE(kResolveAtrous1), CSGV_PROBE(kResolveAtrous2),
     CSGV_PROBE(kResolveAtrous4), CSGV_PROBE(kTexelCache), CSGV_PROBE(kTexelPixelList),
-    CSGV_PROBE(kRenderTexelCount), CSGV_PROBE(kResolveTexelSource), CSGV_PROBE(kResolveTexelCount),
+    CSGV_PROBE(kRenderTexelCount), CSGV_PROBE(kResolveTexelSource), CSGV_PROBE(kResolveTexelSpans),
+    CSGV_PROBE(kResolveTexelCount),
 };
 constexpr uint32_t kProbeCount = sizeof(kProbes) / sizeof(kProbes[0]);
 
