@@ -441,8 +441,8 @@ bool renderPixel(uvec2 cell) {
 /// list, kListTile) and PIXEL_BLOCK^2 consecutive tiles in its rounds (neighbours, whose rays read
 /// the same bricks); the workgroup's 32 groups take consecutive runs of those.
 uint listIndex(uint j) {
-    const uint lane = gl_LocalInvocationIndex & 7u, simd = gl_LocalInvocationIndex >> 3u;
-    return ((gl_WorkGroupID.x * (kGroupTile * kGroupTile / 8u) + simd) * PIXEL_BLOCK * PIXEL_BLOCK + j) * 8u + lane;
+    const uint lane = gl_LocalInvocationIndex % kListLanes, simd = gl_LocalInvocationIndex / kListLanes;
+    return ((gl_WorkGroupID.x * (kGroupTile * kGroupTile / kListLanes) + simd) * PIXEL_BLOCK * PIXEL_BLOCK + j) * kListLanes + lane;
 }
 
 /// kFlagListNext: the cells of this invocation that stay below the sample target (count.next),

@@ -35,15 +35,17 @@ uvec4 gRaw(uint i) { return texelFetch(gTexels, int(i)); }
 uint gRaw1(uint i) { return texelFetch(gTexels, int(i)).y; }
 vec4 accumOf(uint i) { return uintBitsToFloat(texelFetch(accumTexels, int(i))); }
 vec4 sourceOf(uint i) { return uintBitsToFloat(texelFetch(srcTexels, int(i))); }
-uvec4 spanTexel(uint row, uint t) { return texelFetch(spanTexels, int(2u * row + t)); }
+uvec4 spanTexel(uint row, uint t) { return texelFetch(spanTexels, int(kOutlineRowWords / 4u * row + t)); }
 #else
 uint gRaw1(uint i) { return UintBuf(frameAddr[kSlotGBuffer]).w[4u * i + 1u]; }
 uvec4 gRaw(uint i) { return uvec4(unpackUint2x32(U64Buf(frameAddr[kSlotGBuffer]).v[2u * i]),
                                     unpackUint2x32(U64Buf(frameAddr[kSlotGBuffer]).v[2u * i + 1u])); }
 vec4 accumOf(uint i) { return loadVec4(frameAddr[kSlotAccum], i); }
 vec4 sourceOf(uint i) { return loadVec4(frameAddr[pc.src], i); }
-uvec4 spanTexel(uint row, uint t) { return uvec4(unpackUint2x32(U64Buf(pc.spans).v[4u * row + 2u * t]),
-                                                unpackUint2x32(U64Buf(pc.spans).v[4u * row + 2u * t + 1u])); }
+uvec4 spanTexel(uint row, uint t) {
+    const uint i = kOutlineRowWords / 2u * row + 2u * t;
+    return uvec4(unpackUint2x32(U64Buf(pc.spans).v[i]), unpackUint2x32(U64Buf(pc.spans).v[i + 1u]));
+}
 #endif
 
 /// The pixels of row y this pass takes (pc.spans, its pair of words: Renderer.cpp's

@@ -56,6 +56,7 @@ const Probe kProbes[] = {
     CSGV_PROBE(kAllocWords), CSGV_PROBE(kResolveGather), CSGV_PROBE(kResolveAtrous1), CSGV_PROBE(kResolveAtrous2),
     CSGV_PROBE(kResolveAtrous4), CSGV_PROBE(kTexelCache), CSGV_PROBE(kTexelPixelList),
     CSGV_PROBE(kRenderTexelCount), CSGV_PROBE(kResolveTexelSource), CSGV_PROBE(kResolveTexelSpans),
+    CSGV_PROBE(kListLanes), CSGV_PROBE(kOutlineRowWords),
     CSGV_PROBE(kResolveTexelCount),
 };
 constexpr uint32_t kProbeCount = sizeof(kProbes) / sizeof(kProbes[0]);

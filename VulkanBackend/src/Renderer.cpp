@@ -128,8 +128,9 @@ struct TexelViews {
 constexpr uint32_t kColormapSamples = 1024;
 
 /// The host's pixel list (listPixels) orders its cells in tiles of this many cells across and
-/// down (a SIMD group's eight lanes on CPU devices).
+/// down (a SIMD group's lanes on CPU devices).
 constexpr uint32_t kListTile[2] = {2, 4};
+static_assert(kListTile[0] * kListTile[1] == kListLanes, "a tile is one SIMD group's entries");
 
 /// Seconds a rendered pixel costs per ray before a renderer has measured its own frames (which
 /// then replace this): CPU devices (lavapipe, two cores: 0.11 us for local shading on synthetic
@@ -299,6 +300,7 @@ std::vector<uint32_t> widenSpans(const std::vector<uint32_t>& spans, const std::
 /// step-2 pass's results within 7 + 4, which reads the step-1 pass's within 11 + 2, which reads
 /// the gather's and the G-buffer within 13 + 1: so far the render pass samples the misses too.
 constexpr uint32_t kResolveReach[kResolveAtrous4 + 1] = {14, 13, 11, 7};
+static_assert(kOutlineRowWords == 2 * (kResolveAtrous4 + 1), "a span of two words a resolve pass");
 
 /// The pixels [r0, r2) x [r1, r3) of kSlotOutput's words (colour, then depth bits ^
 /// kOutputDepthXor, per pixel) of an image `width` wide, into 8-bit colours and depths of the same
@@ -362,7 +364,7 @@ struct Renderer::Impl {
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
-    Buffer outlineRows;               // PIXEL_LIST: the resolve passes' spans (ResolvePush::spans), 32 bytes a row
+    Buffer outlineRows;               // PIXEL_LIST: the resolve passes' spans (ResolvePush::spans), kOutlineRowWords a row
     bool usesPixelList = false;       // host decoding (CPU devices): two submissions, the render pass sized between them
     uint64_t pPixelList = 0;          // pixel_list.comp, made on first use
     uint64_t pLabelColors = 0;        // label_colors.comp, made on first use (with a label table)
@@ -573,7 +575,8 @@ struct Renderer::Impl {
     /// A new accumulation: no samples, an empty G-buffer, a transparent output at the far plane.
     void addClear(const FrameInput& in);
     bool denoises(const RenderSettings& st) const;
-    /// The settings denoise (ambient occlusion and path tracing), until every pixel has 64 samples.
+    /// The settings ask for denoising (ambient occlusion and path tracing; denoises() also stops
+    /// it once every pixel has 64 samples).
     static bool denoisedShading(const RenderSettings& st) {
         return st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing);
     }
@@ -637,7 +640,7 @@ struct Renderer::Impl {
     Status allocateImage(uint32_t w, uint32_t h) {
         const uint64_t n = uint64_t(w) * h;
         imageDirty = true;
-        if (n <= imageCapacity && (!usesPixelList || outlineRows.size() >= 32ull * h)) {
+        if (n <= imageCapacity && (!usesPixelList || outlineRows.size() >= 4ull * kOutlineRowWords * h)) {
             width = w;
             height = h;
             output = FrameOutput{};
@@ -656,7 +659,7 @@ struct Renderer::Impl {
                               {&colorDepth, n * 8, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
                               {&pixelList, usesPixelList ? n * 8 : 0, MemoryKind::HostVisible}, // this frame's list, the next's
-                              {&outlineRows, usesPixelList ? uint64_t(h) * 32 : 0, MemoryKind::HostVisible}};
+                              {&outlineRows, usesPixelList ? 4ull * kOutlineRowWords * h : 0, MemoryKind::HostVisible}};
         uint64_t bytes = 0;
         for (const Part& part : parts) bytes += std::max<uint64_t>(part.bytes, 16);
         if (usedBytes() + bytes > budget) {
@@ -1424,8 +1427,8 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
         for (uint32_t pass = 0; pass <= kResolveAtrous4; ++pass) {
             std::vector<uint32_t> reach = widenSpans(spans, rect, kResolveReach[pass]);
             for (size_t r = 0; r < reach.size() / 2; ++r) {
-                words[8 * r + 2 * pass] = reach[2 * r];
-                words[8 * r + 2 * pass + 1] = reach[2 * r + 1];
+                words[kOutlineRowWords * r + 2 * pass] = reach[2 * r];
+                words[kOutlineRowWords * r + 2 * pass + 1] = reach[2 * r + 1];
             }
             if (pass == 0) sampled = std::move(reach);
         }

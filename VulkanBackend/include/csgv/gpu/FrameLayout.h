@@ -28,7 +28,7 @@ CSGV_CONST(uint32_t, kFlagPrefetch, 512u) ///< the request stage asks for every 
 CSGV_CONST(uint32_t, kFlagListNext, 1024u) ///< PIXEL_LIST: the render pass lists the cells left below the sample target for the next frame (kAllocNextCount)
 CSGV_CONST(uint32_t, kFlagGatherInRender, 2048u) ///< the render pass writes what the gather would (kSlotDenoiseA, counts) for the cells it takes; no gather follows, the denoising passes do
 
-// Shading modes (Frame.frame.z): the values of csgv::gpu::Shading.
+// Shading modes (render.comp's SHADING): the values of csgv::gpu::Shading.
 CSGV_CONST(uint32_t, kShadingLocal, 0u)
 CSGV_CONST(uint32_t, kShadingShadow, 1u)
 CSGV_CONST(uint32_t, kShadingAo, 2u)
@@ -152,6 +152,8 @@ CSGV_CONST(uint32_t, kGroupDecodes, 32u) ///< decode_bricks.comp (per decode)
 CSGV_CONST(uint32_t, kGroupTile, 16u)    ///< render.comp and resolve.comp: kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
 CSGV_CONST(uint32_t, kGroupList, 64u)    ///< pixel_list.comp: invocations a group, each taking kListBlock cells
 CSGV_CONST(uint32_t, kListBlock, 16u)
+CSGV_CONST(uint32_t, kListLanes, 8u)     ///< PIXEL_LIST: consecutive invocations CPU devices run as one SIMD group, taking consecutive list entries (render.comp listIndex; the host's tiles, Renderer.cpp kListTile)
+CSGV_CONST(uint32_t, kOutlineRowWords, 8u) ///< ResolvePush::spans: words a row (a span of two words for each resolve pass)
 CSGV_CONST(uint32_t, kGroupLabels, 64u)  ///< label_colors.comp
 
 // Texel buffer bindings (set 0) of the render pass (RENDER_TEXELS, render_common.glsl; R32_UINT
@@ -173,7 +175,7 @@ CSGV_CONST(uint32_t, kRenderTexelCount, 12u)
 CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
 CSGV_CONST(uint32_t, kResolveTexelAccum, 1u)   ///< kSlotAccum
 CSGV_CONST(uint32_t, kResolveTexelSource, 2u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)
-CSGV_CONST(uint32_t, kResolveTexelSpans, 3u)   ///< ResolvePush::spans' buffer (its eight words a row: two texels)
+CSGV_CONST(uint32_t, kResolveTexelSpans, 3u)   ///< ResolvePush::spans' buffer (kOutlineRowWords a row: two texels)
 CSGV_CONST(uint32_t, kResolveTexelCount, 4u)
 
 // Passes of resolve.comp (its define RESOLVE_PASS: one pipeline per pass, for CPU devices run
