@@ -28,7 +28,7 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
   {
     s.render.lightDirection[i] = float(p.lightDirection[size_t(i)]);
   }
-  s.cacheBytes = uint64_t(std::max(16, p.cacheSizeMiB)) << 20;
+  s.cacheBytes = p.cacheSizeMiB > 0 ? uint64_t(std::max(16, p.cacheSizeMiB)) << 20 : 0;
   s.deviceMemoryBytes = uint64_t(std::max(0, p.deviceMemoryMiB)) << 20;
   s.cachePaletting = std::clamp(p.cachePaletting, 0, 2);
   using Decode = csgv::gpu::RendererOptions::Decode;
@@ -197,8 +197,10 @@ std::string ViewRenderer::ensureRenderer()
   }
   // Views of one volume split one cache budget, and one device-memory budget: each counts the
   // shared encoding and gets its part of the rest.
-  const uint64_t share =
-    std::max<uint64_t>(this->Settings.cacheBytes / uint64_t(renderers), 16ull << 20);
+  const uint64_t cacheBytes = this->Settings.cacheBytes
+    ? this->Settings.cacheBytes
+    : csgv::gpu::automaticCacheBytes(this->Context->device());
+  const uint64_t share = std::max<uint64_t>(cacheBytes / uint64_t(renderers), 16ull << 20);
   const uint64_t encoding = gpu->deviceBytes();
   const uint64_t budgetShare =
     encoding + (budget - std::min(budget, encoding)) / uint64_t(renderers);

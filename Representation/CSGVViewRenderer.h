@@ -40,7 +40,7 @@ struct RepresentationProperties
   int subsampling = 1; ///< 1, 2, 4 or 8
   int denoise = 1;
   std::array<double, 3> lightDirection{ { 0.35, 0.6, 0.72 } }; ///< view coordinates
-  int cacheSizeMiB = 256;
+  int cacheSizeMiB = 0;    ///< 0: automatic (csgv::gpu::automaticCacheBytes)
   int deviceMemoryMiB = 0; ///< 0: automatic (csgv::gpu::automaticDeviceMemoryBudget)
   int decoding = 0;        ///< 0 automatic, 1 GPU, 2 host (csgv::gpu::RendererOptions::Decode)
   int cachePaletting = 2;  ///< 0 off, 1 on, 2 automatic: on once the cache runs full without it
@@ -53,7 +53,7 @@ struct RepresentationProperties
 struct ViewSettings
 {
   csgv::gpu::RenderSettings render;
-  uint64_t cacheBytes = 0;
+  uint64_t cacheBytes = 0;        ///< 0: automatic
   uint64_t deviceMemoryBytes = 0; ///< 0: automatic
   int cachePaletting = 2;         ///< RepresentationProperties::cachePaletting
   csgv::gpu::RendererOptions::Decode decode = csgv::gpu::RendererOptions::Decode::Auto;

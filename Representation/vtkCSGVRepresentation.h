@@ -71,8 +71,10 @@ public:
   /// default 0.35 0.6 0.72).
   vtkSetVector3Macro(LightDirection, double);
   vtkGetVector3Macro(LightDirection, double);
-  /// Brick cache budget in MiB, shared by the views of one volume (default 256).
-  vtkSetMacro(CacheSizeMiB, int);
+  /// Brick cache budget in MiB, shared by the views of one volume (default 0: automatic, 256 MiB
+  /// on CPU devices, else a quarter of what the device reports this process may use, 256 MiB to
+  /// 2 GiB; csgv::gpu::automaticCacheBytes).
+  vtkSetClampMacro(CacheSizeMiB, int, 0, 65536);
   vtkGetMacro(CacheSizeMiB, int);
   /// Device-memory budget in MiB for everything this volume's renderers allocate, the encoding
   /// included, shared by its views (default 0: automatic, three quarters of what the device

@@ -33,7 +33,7 @@ struct RenderArgs {
     uint32_t frames = 1;
     std::string labelsOut, materials, video;
     uint32_t orbit = 0;
-    uint64_t cacheMiB = 256;
+    uint64_t cacheMiB = 0; ///< 0: automatic (gpu::automaticCacheBytes)
     uint64_t deviceMemoryMiB = 0; ///< 0: automatic
     gpu::RendererOptions::Decode decode = gpu::RendererOptions::Decode::Auto;
     bool cachePaletting = false;
@@ -121,7 +121,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     });
     number("--frames", 1, 1e6, [&a](double n) { a.frames = uint32_t(n); });
     number("--orbit", 1, 1e5, [&a](double n) { a.orbit = uint32_t(n); });
-    number("--cache-mib", 1, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
+    number("--cache-mib", 0, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
     number("--device-memory-mib", 0, 1 << 24, [&a](double n) { a.deviceMemoryMiB = uint64_t(n); });
     number("--subsampling", 1, 8, [&a](double n) { a.settings.subsampling = uint32_t(n); });
     number("--lod-bias", -16, 16, [&a](double n) { a.settings.lodBias = float(n); });

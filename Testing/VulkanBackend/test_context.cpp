@@ -28,6 +28,23 @@ TEST(GpuContext, ListsDevicesAndOpensOne) {
                 ctx->device().subgroupSize);
 }
 
+// The automatic budgets: a CPU device's cache stays at 256 MiB whatever its host memory; a GPU's
+// is a quarter of what it reports this process may use, between 256 MiB and 2 GiB.
+TEST(GpuContext, AutomaticCacheFollowsTheDevice) {
+    DeviceInfo d;
+    d.type = "cpu";
+    d.memoryBudgetBytes = 100ull << 30;
+    EXPECT_EQ(automaticCacheBytes(d), 256ull << 20);
+    d.type = "discrete";
+    EXPECT_EQ(automaticCacheBytes(d), 2048ull << 20);
+    d.memoryBudgetBytes = 4ull << 30;
+    EXPECT_EQ(automaticCacheBytes(d), 1024ull << 20);
+    d.type = "integrated";
+    d.memoryBudgetBytes = 512ull << 20;
+    EXPECT_EQ(automaticCacheBytes(d), 256ull << 20);
+    EXPECT_EQ(automaticDeviceMemoryBudget(d), 384ull << 20);
+}
+
 TEST(GpuContext, DeviceOverrideThatMatchesNothingIsAClearError) {
     CSGV_REQUIRE_GPU(ctx);
     setenv("CSGV_VULKAN_DEVICE", "no-such-device-xyz", 1);

@@ -367,6 +367,17 @@ FrameOutput renderWithinBudget(Renderer& r, const FrameInput& in, uint32_t sampl
 
 } // namespace
 
+// Options without a cache size take the device's automatic one (within the budget).
+TEST(Renderer, DefaultCacheIsTheDevicesAutomaticOne) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, RendererOptions{});
+    ASSERT_TRUE(r.isOk()) << r.message();
+    const uint64_t wanted = automaticCacheBytes(ctx->device());
+    if (wanted * 2 < (*r)->deviceMemoryBudget()) EXPECT_EQ(cacheBytesOf(**r), wanted);
+    EXPECT_LE((*r)->memory().total(), (*r)->deviceMemoryBudget());
+}
+
 // A device-memory budget bounds everything the renderer allocates, the encoding included: the
 // cache takes what the rest leaves, shrinks when a larger image needs room, and the converged
 // first-hit labels equal those of an unconstrained renderer. Budgets too small are refused with

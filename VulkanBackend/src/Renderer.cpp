@@ -921,9 +921,10 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         if (!ds) return ds.status();
         im.detail = std::move(*ds);
     }
+    const uint64_t wantedCache = options.cacheBytes ? options.cacheBytes : automaticCacheBytes(context.device());
     const uint64_t imageRoom = std::min<uint64_t>(kImageReserveBytes, (im.budget - fixed - smallestCache) / 4);
     const uint64_t cacheBytes =
-        std::max(smallestCache, std::min({std::max<uint64_t>(options.cacheBytes, 4096), maxBytes, im.budget - fixed - imageRoom})) &
+        std::max(smallestCache, std::min({std::max<uint64_t>(wantedCache, 4096), maxBytes, im.budget - fixed - imageRoom})) &
         ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
     im.texelsWanted = options.renderTexels;

@@ -3,10 +3,13 @@
 # (scripts/device/bundle.sh): the gpu tests, then csgv render at 1920x1080 in every shading mode
 # on synthetic volumes and the AAL-like fixtures. Results go to $OUT (or ./devout).
 # Usage: bash scripts/device/gpu_check.sh [SIZES] [MODES]
+# Environment: SKIP_TESTS=1 (renders only), SIZE (1920x1080), FRAMES (16), ORBIT (6), and
+# RENDER_ARGS (more csgv render options, e.g. "--decode host --cache-mib 256") with TAG (a name
+# for the logs and images of that variant).
 set -uo pipefail
 root=$(pwd)
 out=${OUT:-$root/devout}; mkdir -p "$out"
-res=/tmp/csgv-gpu-results; rm -rf $res; mkdir -p $res  # packed into $OUT/results.tgz (few files come back)
+res=/tmp/csgv-gpu-results; mkdir -p $res  # packed into $OUT/results.tgz (few files come back)
 b=$root/.devbundle
 export LD_LIBRARY_PATH=$b/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
@@ -35,10 +38,11 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
     if [ -f "$b/volumes/$n.csgv" ]; then v=$b/volumes/$n.csgv
     else [ -f $v ] || "$csgv" compress synth:${n}x${n}x${n} $v --quiet || continue; fi
     for m in $modes; do
-        CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s${n}_$m.png" --size ${SIZE:-1920x1080} \
-            --shading $m --frames ${FRAMES:-16} --video /tmp/v%03d.png --orbit ${ORBIT:-6} >"$res/r_${n}_$m.log" 2>&1
-        echo "synth $n^3 $m rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib)' $res/r_${n}_$m.log | sed 's/^device: //' | tr '\n' ' ')"
+        t=${n}_$m${TAG:+_$TAG}
+        CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s$t.png" --size ${SIZE:-1920x1080} \
+            --shading $m --frames ${FRAMES:-16} --video /tmp/v%03d.png --orbit ${ORBIT:-6} ${RENDER_ARGS:-} >"$res/r_$t.log" 2>&1
+        echo "$n $m ${TAG:-} rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib|cache_used_mib)' $res/r_$t.log | sed 's/^device: //' | tr '\n' ' ')"
     done
 done
 echo "total: $(( $(date +%s) - t0 )) s"
-tar czf "$out/results.tgz" -C $res .
+tar czf "$out/results${TAG:+_$TAG}.tgz" -C $res .

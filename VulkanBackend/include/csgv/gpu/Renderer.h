@@ -86,7 +86,9 @@ struct RenderSettings {
 };
 
 struct RendererOptions {
-    uint64_t cacheBytes = 256ull << 20; ///< brick cache budget (clamped to the device's limits and the budget below)
+    /// Brick cache budget (0: automaticCacheBytes of the device), clamped to the device's limits
+    /// and the budget below.
+    uint64_t cacheBytes = 0;
     /// Device-memory budget in bytes for everything the renderer allocates, its volume's encoding
     /// included (0: automaticDeviceMemoryBudget of the device). The brick cache takes what the
     /// encoding, tables and images leave, up to `cacheBytes`; an image or material upload that
