@@ -6,7 +6,10 @@
 #extension GL_GOOGLE_include_directive : require
 #include "csgv_decode.glsl" // (with csgv/gpu/FrameLayout.h: the decode lists and push constants)
 
-layout(local_size_x = kGroupDecodes) in;
+// DECODE_GROUP (GpuVolume.cpp decodeGroup): decodes per workgroup, 1 on GPUs (a brick's decoder
+// branches on every symbol: bricks sharing a warp wait for each other's paths), kGroupDecodes on
+// CPU devices.
+layout(local_size_x = DECODE_GROUP) in;
 
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer Uints { uint w[]; };
 

@@ -148,7 +148,7 @@ CSGV_CONST(uint32_t, kAllocWords, 57u)
 
 // Workgroup sizes (the shaders' local_size, the host's group counts).
 CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), cache_assign.comp (per request)
-CSGV_CONST(uint32_t, kGroupDecodes, 32u) ///< decode_bricks.comp (per decode)
+CSGV_CONST(uint32_t, kGroupDecodes, 32u) ///< decode_bricks.comp (per decode) on CPU devices; GPUs take one (GpuVolume.cpp decodeGroup)
 CSGV_CONST(uint32_t, kGroupTile, 16u)    ///< render.comp and resolve.comp: kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
 CSGV_CONST(uint32_t, kGroupList, 64u)    ///< pixel_list.comp: invocations a group, each taking kListBlock cells
 CSGV_CONST(uint32_t, kListBlock, 16u)
