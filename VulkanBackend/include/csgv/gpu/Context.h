@@ -44,7 +44,7 @@ inline uint64_t automaticDeviceMemoryBudget(const DeviceInfo& device) { return d
 /// The brick cache a renderer asks for when none is given ("automatic"): 256 MiB on CPU devices
 /// (host memory, which every other program shares; lavapipe reads a cache of up to 512 MiB through
 /// texel views), elsewhere a quarter of what the device reports this process may use, at least
-/// 256 MiB and at most 2 GiB (a 1024^3 volume at 1920x1080 needs 300-600 MiB of 32-bit cache;
+/// 256 MiB and at most 2 GiB (an orbit of a 1024^3 volume at 1920x1080 used 560-820 MiB of 32-bit cache;
 /// 256 MiB thrashed on an H200). The renderer clamps it to what its budget leaves.
 inline uint64_t automaticCacheBytes(const DeviceInfo& device)
 {
