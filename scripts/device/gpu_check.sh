@@ -2,7 +2,10 @@
 # Runs on the lent GPU machine from the repository root, with .devbundle carried
 # (scripts/device/bundle.sh): the gpu tests, then csgv render at 1920x1080 in every shading mode
 # on synthetic volumes and the AAL-like fixtures. Results go to $OUT (or ./devout).
-# Usage: bash scripts/device/gpu_check.sh [SIZES] [MODES]
+# Usage: bash scripts/device/gpu_check.sh [SIZES] [MODES]   (on the device: it puts the bundle's
+# binaries into build/bin, over a local build's). After each volume's modes it renders the first
+# mode once more, its shaders cached ("warm" time to first frame), and it prints each render's
+# mean dispatch time by stage.
 # Environment: SKIP_TESTS=1 (renders only), SIZE (1920x1080), FRAMES (16), ORBIT (6), and
 # RENDER_ARGS (more csgv render options, e.g. "--decode host --cache-mib 256") with TAG (a name
 # for the logs and images of that variant).
@@ -42,7 +45,15 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
         CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s$t.png" --size ${SIZE:-1920x1080} \
             --shading $m --frames ${FRAMES:-16} --video /tmp/v%03d.png --orbit ${ORBIT:-6} ${RENDER_ARGS:-} >"$res/r_$t.log" 2>&1
         echo "$n $m ${TAG:-} rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib|cache_used_mib)' $res/r_$t.log | sed 's/^device: //' | tr '\n' ' ')"
+        # Mean ms a dispatch of each stage over the orbit's frames (frames that decode included).
+        echo "  stages: $(grep -E '^dispatch [0-9]+ ' $res/r_$t.log | sed -E 's/^dispatch [0-9]+ //; s/ \(.*\)//' |
+            awk -F': ' '{n[$1]++; s[$1] += $2} END {for (k in n) printf "%s %.2f, ", k, s[k] / n[k]}')"
     done
+    # The first mode once more: its shaders and pipelines are cached now (time to first frame warm).
+    m=${modes%% *}
+    CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/warm.png" --size ${SIZE:-1920x1080} --shading $m \
+        --frames 1 ${RENDER_ARGS:-} >"$res/r_${n}_${m}_warm.log" 2>&1
+    echo "$n $m warm: $(grep -E '^(setup_ms|time_to_first_frame_ms)' $res/r_${n}_${m}_warm.log | tr '\n' ' ')"
 done
 echo "total: $(( $(date +%s) - t0 )) s"
 tar czf "$out/results${TAG:+_$TAG}.tgz" -C $res .
