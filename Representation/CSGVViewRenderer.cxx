@@ -88,7 +88,7 @@ void ViewRenderer::setSource(const VolumeSource& source)
 void ViewRenderer::setSettings(const ViewSettings& s)
 {
   const ViewSettings& o = this->Settings;
-  const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes &&
+  const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes && s.processes == o.processes &&
     s.deviceMemoryBytes == o.deviceMemoryBytes && s.cachePaletting == o.cachePaletting &&
     s.decode == o.decode &&
     s.framesPerStillRender == o.framesPerStillRender &&
@@ -199,7 +199,7 @@ std::string ViewRenderer::ensureRenderer()
   // shared encoding and gets its part of the rest.
   const uint64_t cacheBytes = this->Settings.cacheBytes
     ? this->Settings.cacheBytes
-    : csgv::gpu::automaticCacheBytes(this->Context->device());
+    : csgv::gpu::automaticCacheBytes(this->Context->device(), this->Settings.processes);
   const uint64_t share = std::max<uint64_t>(cacheBytes / uint64_t(renderers), 16ull << 20);
   const uint64_t encoding = gpu->deviceBytes();
   const uint64_t budgetShare =

@@ -54,6 +54,7 @@ struct ViewSettings
 {
   csgv::gpu::RenderSettings render;
   uint64_t cacheBytes = 0;        ///< 0: automatic
+  uint32_t processes = 1;         ///< ranks of the MPI job, which an automatic cache is shared by
   uint64_t deviceMemoryBytes = 0; ///< 0: automatic
   int cachePaletting = 2;         ///< RepresentationProperties::cachePaletting
   csgv::gpu::RendererOptions::Decode decode = csgv::gpu::RendererOptions::Decode::Auto;

@@ -304,7 +304,11 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     p.decoding = this->Decoding;
     p.cachePaletting = this->CachePaletting;
     std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
-    this->Prop->SetViewSettings(csgvrep::toViewSettings(p));
+    csgvrep::ViewSettings settings = csgvrep::toViewSettings(p);
+    // Ranks may share a device: an automatic cache takes its share of it.
+    vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
+    settings.processes = uint32_t(std::max(1, controller ? controller->GetNumberOfProcesses() : 1));
+    this->Prop->SetViewSettings(settings);
     this->Prop->PrepareRender();
   }
   return 1;

@@ -72,8 +72,8 @@ public:
   vtkSetVector3Macro(LightDirection, double);
   vtkGetVector3Macro(LightDirection, double);
   /// Brick cache budget in MiB, shared by the views of one volume (default 0: automatic, 256 MiB
-  /// on CPU devices, else a quarter of what the device reports this process may use, 256 MiB to
-  /// 2 GiB; csgv::gpu::automaticCacheBytes).
+  /// on CPU devices, else a quarter of what the device reports this process may use, divided
+  /// among the ranks of an MPI job, 256 MiB to 2 GiB; csgv::gpu::automaticCacheBytes).
   vtkSetClampMacro(CacheSizeMiB, int, 0, 65536);
   vtkGetMacro(CacheSizeMiB, int);
   /// Device-memory budget in MiB for everything this volume's renderers allocate, the encoding

@@ -29,16 +29,22 @@ TEST(GpuContext, ListsDevicesAndOpensOne) {
 }
 
 // The automatic budgets: a CPU device's cache stays at 256 MiB whatever its host memory; a GPU's
-// is a quarter of what it reports this process may use, between 256 MiB and 2 GiB.
+// is a quarter of what it reports this process may use, split among the ranks of an MPI job,
+// between 256 MiB and 2 GiB.
 TEST(GpuContext, AutomaticCacheFollowsTheDevice) {
     DeviceInfo d;
     d.type = "cpu";
     d.memoryBudgetBytes = 100ull << 30;
     EXPECT_EQ(automaticCacheBytes(d), 256ull << 20);
+    EXPECT_EQ(automaticCacheBytes(d, 4), 256ull << 20);
     d.type = "discrete";
     EXPECT_EQ(automaticCacheBytes(d), 2048ull << 20);
+    EXPECT_EQ(automaticCacheBytes(d, 8), 2048ull << 20);  // 100 GiB / 4 / 8: still the most
+    EXPECT_EQ(automaticCacheBytes(d, 40), 640ull << 20);  // ranks that may share the device
     d.memoryBudgetBytes = 4ull << 30;
     EXPECT_EQ(automaticCacheBytes(d), 1024ull << 20);
+    EXPECT_EQ(automaticCacheBytes(d, 2), 512ull << 20);
+    EXPECT_EQ(automaticCacheBytes(d, 8), 256ull << 20); // never below 256 MiB
     d.type = "integrated";
     d.memoryBudgetBytes = 512ull << 20;
     EXPECT_EQ(automaticCacheBytes(d), 256ull << 20);

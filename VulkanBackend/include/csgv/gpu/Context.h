@@ -43,15 +43,17 @@ inline uint64_t automaticDeviceMemoryBudget(const DeviceInfo& device) { return d
 
 /// The brick cache a renderer asks for when none is given ("automatic"): 256 MiB on CPU devices
 /// (host memory, which every other program shares; lavapipe reads a cache of up to 512 MiB through
-/// texel views), elsewhere a quarter of what the device reports this process may use, at least
-/// 256 MiB and at most 2 GiB (an orbit of a 1024^3 volume at 1920x1080 used 560-820 MiB of 32-bit cache;
-/// 256 MiB thrashed on an H200). The renderer clamps it to what its budget leaves.
-inline uint64_t automaticCacheBytes(const DeviceInfo& device)
+/// texel views), elsewhere a quarter of what the device reports this process may use, shared by
+/// `processes` (an MPI job's ranks, which may all use this device and each read the same budget
+/// when it opened), at least 256 MiB and at most 2 GiB (an orbit of a 1024^3 volume at 1920x1080
+/// used 560-820 MiB of 32-bit cache; 256 MiB thrashed on an H200). The renderer clamps it to what
+/// its budget leaves.
+inline uint64_t automaticCacheBytes(const DeviceInfo& device, uint32_t processes = 1)
 {
     constexpr uint64_t least = 256ull << 20, most = 2048ull << 20;
     if (device.type == "cpu") return least;
-    const uint64_t quarter = device.memoryBudgetBytes / 4;
-    return quarter < least ? least : quarter > most ? most : quarter;
+    const uint64_t share = device.memoryBudgetBytes / 4 / (processes ? processes : 1);
+    return share < least ? least : share > most ? most : share;
 }
 
 /// "12.5 MiB": device-memory figures in messages.
