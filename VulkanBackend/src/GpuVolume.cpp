@@ -133,7 +133,8 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (volume.encoding == kEncodingRans2) tableDefines(volume.freqB, "CUM_B", d);
     if (host) return g; // nothing to decode from on the device
     Defines decodeDefines = d;
-    decodeDefines.emplace_back("DECODE_GROUP", std::to_string(decodeGroup(context.device())) + "u");
+    g->m_decodeGroup = decodeGroup(context.device());
+    decodeDefines.emplace_back("DECODE_GROUP", std::to_string(g->m_decodeGroup) + "u");
     Result<std::vector<uint32_t>> spirv = compileComputeShader("decode_bricks.comp", decodeDefines);
     if (!spirv) return spirv.status();
     Result<uint64_t> pipeline = context.createComputePipeline(*spirv, sizeof(DecodePush));
@@ -273,8 +274,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         d.pipeline = m_decodePipeline;
         d.pushConstants = &push;
         d.pushConstantBytes = sizeof(push);
-        const uint32_t group = decodeGroup(m_context.device());
-        d.groups[0] = uint32_t((requests.size() + group - 1) / group);
+        d.groups[0] = uint32_t((requests.size() + m_decodeGroup - 1) / m_decodeGroup);
         dispatches.push_back(d);
     }
     if (!(s = m_context.run(dispatches))) return s;
@@ -318,7 +318,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         d.pipeline = m_decodePipeline;
         d.pushConstants = &push;
         d.pushConstantBytes = sizeof(DecodePush);
-        d.groups[0] = (maxRequests + decodeGroup(m_context.device()) - 1) / decodeGroup(m_context.device());
+        d.groups[0] = (maxRequests + m_decodeGroup - 1) / m_decodeGroup;
         out.push_back(d);
     }
     return Status::ok();

@@ -51,7 +51,7 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
     done
     # The first mode once more: its shaders and pipelines are cached now (time to first frame warm).
     m=${modes%% *}
-    CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/warm.png" --size ${SIZE:-1920x1080} --shading $m \
+    CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s${n}_${m}_warm.png" --size ${SIZE:-1920x1080} --shading $m \
         --frames 1 ${RENDER_ARGS:-} >"$res/r_${n}_${m}_warm.log" 2>&1
     echo "$n $m warm: $(grep -E '^(setup_ms|time_to_first_frame_ms)' $res/r_${n}_${m}_warm.log | tr '\n' ' ')"
 done

@@ -146,6 +146,7 @@ private:
     Buffer m_addresses, m_starts;
     Defines m_defines;
     uint64_t m_decodePipeline = 0;
+    uint32_t m_decodeGroup = 1; ///< decode_bricks.comp's DECODE_GROUP: decodes a workgroup (GpuVolume.cpp decodeGroup)
     uint32_t m_cacheBits = 32;
     bool m_separated = false;
     bool m_hostDecoding = false;
