@@ -61,6 +61,7 @@ void ViewRenderer::releaseShare()
 
 void ViewRenderer::clear()
 {
+  this->settle();
   this->Renderer.reset();
   this->CachePressure = false;
   this->releaseShare();
@@ -69,6 +70,7 @@ void ViewRenderer::clear()
 
 void ViewRenderer::setSource(const VolumeSource& source)
 {
+  this->settle();
   if (source.shared != this->Source.shared)
   {
     this->clear();
@@ -87,6 +89,7 @@ void ViewRenderer::setSource(const VolumeSource& source)
 
 void ViewRenderer::setSettings(const ViewSettings& s)
 {
+  this->settle();
   const ViewSettings& o = this->Settings;
   const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes && s.processes == o.processes &&
     s.deviceMemoryBytes == o.deviceMemoryBytes && s.cachePaletting == o.cachePaletting &&
@@ -107,6 +110,7 @@ void ViewRenderer::setSettings(const ViewSettings& s)
 void ViewRenderer::setMaterials(
   const csgv::MaterialDocument& doc, std::map<std::string, std::vector<float>> attributes)
 {
+  this->settle();
   this->Materials = doc;
   this->Attributes = std::move(attributes);
   this->MaterialsDirty = true;
@@ -303,14 +307,41 @@ std::string ViewRenderer::ensureRenderer()
   return std::string();
 }
 
+void ViewRenderer::prepareInBackground(bool depthInput)
+{
+  this->settle();
+  if (this->Renderer || !this->Source.shared)
+  {
+    return;
+  }
+  this->Preparing = std::async(std::launch::async,
+    [this, depthInput]
+    {
+      if (this->ensureRenderer().empty())
+      {
+        (void)this->Renderer->preparePipelines(depthInput); // the frame reports an error
+      }
+    });
+}
+
+void ViewRenderer::settle() const
+{
+  if (this->Preparing.valid())
+  {
+    this->Preparing.get();
+  }
+}
+
 const csgv::gpu::FrameOutput& ViewRenderer::output(uint32_t parts)
 {
+  this->settle();
   static const csgv::gpu::FrameOutput none;
   return this->Renderer ? this->Renderer->output(parts) : none;
 }
 
 uint64_t ViewRenderer::cacheBytes() const
 {
+  this->settle();
   if (!this->Renderer)
   {
     return 0;
@@ -327,31 +358,37 @@ uint64_t ViewRenderer::cacheBytes() const
 
 uint64_t ViewRenderer::deviceBytes() const
 {
+  this->settle();
   return this->Renderer ? this->Renderer->memory().total() : 0;
 }
 
 bool ViewRenderer::detailSeparated() const
 {
+  this->settle();
   return this->Renderer && this->Renderer->volume().separated();
 }
 
 uint64_t ViewRenderer::detailStreamedBytes() const
 {
+  this->settle();
   return this->Renderer ? this->Renderer->detailCounts().uploadedBytes : 0;
 }
 
 uint32_t ViewRenderer::cacheBits() const
 {
+  this->settle();
   return this->Renderer ? this->Renderer->volume().cacheBits() : 0;
 }
 
 uint64_t ViewRenderer::deviceBudget() const
 {
+  this->settle();
   return this->Renderer ? this->Renderer->deviceMemoryBudget() : 0;
 }
 
 std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
 {
+  this->settle();
   changed = false;
   this->FramesLastRender = 0;
   std::string error = this->ensureRenderer();

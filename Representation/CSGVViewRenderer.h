@@ -19,6 +19,7 @@
 
 #include <array>
 #include <cstdint>
+#include <future>
 #include <map>
 #include <memory>
 #include <string>
@@ -100,6 +101,11 @@ public:
   /// still exact (same camera, size, depth and settings, accumulation complete): nothing was
   /// rendered and the caller may keep what it drew last time. Returns an error message or "".
   std::string render(const FrameRequest& request, bool& changed);
+  /// Makes the renderer and the pipelines of its first frame on a thread of its own (compiling
+  /// them takes a CPU device about 70 ms), so that the caller's work until that frame (ParaView's
+  /// own first render) hides it; does nothing once a renderer exists. Every other call waits
+  /// for it first; an error it meets is met again, and reported, by the next render().
+  void prepareInBackground(bool depthInput);
   /// The last rendered image (premultiplied RGBA, 8 bits a channel, and window depth, rows
   /// bottom-up), plus the `parts` asked for (csgv::gpu::Renderer::Color: as floats; GBuffer:
   /// label, face, hit depth, distance), read on demand by the backend: compositing needs only
@@ -124,6 +130,8 @@ public:
 
 private:
   std::string ensureRenderer();
+  /// Waits for prepareInBackground's work (every public call starts here).
+  void settle() const;
   void releaseShare();
 
   VolumeSource Source;
@@ -144,6 +152,7 @@ private:
   std::array<double, 16> LastMatrix{};
   csgv::gpu::FrameStats Stats;
   uint32_t FramesLastRender = 0;
+  mutable std::future<void> Preparing; ///< prepareInBackground's work
 };
 
 } // namespace csgvrep

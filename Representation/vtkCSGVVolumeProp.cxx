@@ -467,6 +467,9 @@ bool vtkCSGVVolumeProp::PrepareRender()
   }
 
   p.Prepared = true;
+  // The first frame's renderer and pipelines are made from here on, beside ParaView's own work
+  // until the prop draws (nothing once the renderer exists).
+  p.View.prepareInBackground(this->DrawsTranslucent());
   return true;
 }
 

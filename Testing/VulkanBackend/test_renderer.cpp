@@ -1485,6 +1485,58 @@ TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     EXPECT_EQ(one->frames, 1u);
 }
 
+TEST(Renderer, PreparedPipelinesServeTheFirstFrameAndAnUnforeseenOneIsMadeThen) {
+    CSGV_REQUIRE_GPU(shared);
+    // A context of this test's own: the pipelines it holds are this test's alone.
+    Result<std::unique_ptr<Context>> own = Context::create();
+    ASSERT_TRUE(own.isOk()) << own.message();
+    Context& ctx = **own;
+    const CompressedVolume volume = loadFixture("synthA_b16_nibble.csgv");
+    Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(ctx, volume);
+    ASSERT_TRUE(made.isOk()) << made.message();
+    const std::shared_ptr<GpuVolume> gpu = std::move(*made);
+    RenderRequest req;
+    req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
+    req.timeBudgetSeconds = 1e9;
+    RenderSettings st;
+    st.sampleTarget = 1;
+    std::vector<float> depth(size_t(req.frame.width) * req.frame.height, 0.5f);
+    for (const bool texels : {true, false}) {
+        SCOPED_TRACE(texels ? "texel views" : "buffer addresses");
+        RendererOptions o;
+        o.cacheBytes = 64ull << 20;
+        o.renderTexels = texels;
+        auto renderer = [&]() {
+            Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, o);
+            EXPECT_TRUE(r.isOk()) << r.message();
+            if (r) (*r)->setSettings(st);
+            return r ? std::move(*r) : nullptr;
+        };
+        std::unique_ptr<Renderer> prepared = renderer();
+        ASSERT_TRUE(prepared);
+        ASSERT_TRUE(prepared->preparePipelines(false).isOk());
+        const size_t before = ctx.pipelineCount();
+        EXPECT_GT(before, 0u);
+        req.frame.opaqueDepth = nullptr;
+        Result<RenderResult> first = prepared->render(req);
+        ASSERT_TRUE(first.isOk()) << first.message();
+        EXPECT_GE(first->last.minSamples, 1u);
+        EXPECT_EQ(ctx.pipelineCount(), before) << "the first frame made a pipeline the preparation did not";
+        // The same image as a renderer that made its pipelines at its first frame.
+        std::unique_ptr<Renderer> plain = renderer();
+        ASSERT_TRUE(plain && plain->render(req).isOk());
+        EXPECT_EQ(prepared->output().rgba8, plain->output().rgba8);
+        EXPECT_EQ(prepared->output().depth, plain->output().depth);
+        // An opaque depth the preparation did not foresee: that frame makes its pipeline.
+        req.frame.opaqueDepth = depth.data();
+        Result<RenderResult> stopped = prepared->render(req);
+        ASSERT_TRUE(stopped.isOk()) << stopped.message();
+        EXPECT_GT(ctx.pipelineCount(), before);
+        ASSERT_TRUE(plain->render(req).isOk());
+        EXPECT_EQ(prepared->output().rgba8, plain->output().rgba8);
+    }
+}
+
 TEST(Renderer, MaterialsThatShowHiddenBricksDrawThemAfterFramesWithoutThem) {
     // The request stage skips bricks that are neither cached nor needed, except in the frame after
     // the materials changed which bricks are visible: bricks no ray could see before must appear.

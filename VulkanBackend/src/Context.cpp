@@ -147,9 +147,12 @@ struct Context::Impl {
         return layout;
     }
     std::mutex pipelineMutex; // pipelines may be made on several threads at once (Renderer)
+    /// One submission at a time: they share one command buffer and fence, and renderers may be
+    /// made on a thread of their own (uploads) while others render.
+    std::mutex submitMutex;
     /// Set after a timeout or device loss: the GPU may still use every object, so nothing is
     /// freed or waited on again (a leak, never a crash or a hang) and all work is refused.
-    bool lost = false;
+    std::atomic<bool> lost{false};
     uint64_t timeoutNs = uint64_t(120) * 1000000000ull;
     Status lostError() const {
         return Status::error("the Vulkan device stopped responding earlier; create a new context");
@@ -417,6 +420,7 @@ namespace {
 /// Records, submits and waits for one command buffer.
 template <typename Record>
 Status submitAndWait(Context::Impl& im, Record record) {
+    std::lock_guard<std::mutex> lock(im.submitMutex);
     if (im.lost) return im.lostError();
     im.vk.vkResetCommandBuffer(im.cmd, 0);
     VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
@@ -678,6 +682,11 @@ void Context::setSubmitTimeout(double seconds) {
 }
 
 bool Context::lost() const { return m_impl->lost; }
+
+size_t Context::pipelineCount() const {
+    std::lock_guard<std::mutex> lock(m_impl->pipelineMutex);
+    return m_impl->pipelineOf.size();
+}
 
 Status Context::run(const Dispatch* first, size_t count) {
     Impl& im = *m_impl;

@@ -1287,6 +1287,20 @@ bool RenderSettings::operator==(const RenderSettings& o) const {
 
 void Renderer::resetAccumulation() { m_impl->resetAccumulation(); }
 
+Status Renderer::preparePipelines(bool depthInput) {
+    Impl& im = *m_impl;
+    if (!im.renderTexels.valid() && !im.resolveTexels.valid()) {
+        // Before the first frame there are no image buffers to view: the passes are made as the
+        // frame's buffers will most likely be viewed (texel views where wanted and the cache fits
+        // the device's limit; an image's buffers are far smaller). Should
+        // that frame's views say otherwise (TexelViews::refresh), it drops these and makes its own.
+        const bool cacheFits = im.cache.size() / 4 <= im.ctx.device().maxTexelBufferElements;
+        im.renderTexels.made = im.texelsWanted && cacheFits;
+        im.resolveTexels.made = im.texelsWanted;
+    }
+    return im.ensurePipelines(m_settings, depthInput);
+}
+
 void Renderer::resetCache() {
     m_impl->cacheResetPending = true;
     m_impl->converged = false; // the next render() submits (and refills the cache)
@@ -1346,7 +1360,7 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput
         jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
         jobs.back().defines.emplace_back("ONE_SAMPLE", oneSample(st) ? "1" : "0");
         jobs.back().defines.emplace_back("DEPTH_INPUT", depthInput ? "1" : "0");
-        if (renderTexels.valid()) {
+        if (renderTexels.made) {
             jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
             jobs.back().texelBindings = kRenderTexelCount;
         }
@@ -1357,7 +1371,7 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput
             if (!jobs.empty() && jobs.back().out == &pResolve[tc][pass]) {
                 jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
                 jobs.back().defines.emplace_back("RESOLVE_OUTPUT", std::to_string(resolveTarget(pass)) + "u");
-                if (resolveTexels.valid()) {
+                if (resolveTexels.made) {
                     jobs.back().defines.emplace_back("RESOLVE_TEXELS", "1");
                     jobs.back().texelBindings = kResolveTexelCount;
                 }
@@ -1758,12 +1772,13 @@ Status Renderer::Impl::submit() {
         };
         const auto t0 = std::chrono::steady_clock::now();
         for (size_t i = 0; i < dispatches.size(); ++i) {
-            const auto t1 = std::chrono::steady_clock::now();
+            auto t1 = std::chrono::steady_clock::now();
             if (hostDecode && i == cacheStages) {
                 sizeRenderDispatch();
                 decodeOnHost();
-                std::fprintf(stderr, "host decode: %.2f ms\n",
-                             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
+                const auto t2 = std::chrono::steady_clock::now();
+                std::fprintf(stderr, "host decode: %.2f ms\n", std::chrono::duration<double, std::milli>(t2 - t1).count());
+                t1 = t2; // the next dispatch's line is its own time alone
             }
             if (!(s = ctx.run(&dispatches[i], 1))) return s;
             std::fprintf(stderr, "dispatch %zu %s (%u x %u groups): %.2f ms\n", i, stage(dispatches[i]).c_str(),

@@ -150,7 +150,8 @@ public:
     /// A compute pipeline from SPIR-V whose interface is `pushConstantBytes` of push constants and
     /// `texelBindings` uniform texel buffers (set 0, bindings 0..n-1: a TexelSet of as many).
     /// The same SPIR-V, push size and bindings give the same pipeline, made once per context (it
-    /// lives as long as the context). Several threads may make pipelines at once, while nothing runs.
+    /// lives as long as the context). Several threads may make pipelines at once, and submit work
+    /// (one submission runs at a time).
     Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes,
                                            uint32_t texelBindings = 0);
     /// Texel buffer views over whole buffers, bound together as one set: texels of
@@ -180,6 +181,8 @@ public:
     /// refuses all further work and frees nothing the GPU might still use (a leak, not a crash).
     void setSubmitTimeout(double seconds);
     bool lost() const;
+    /// Pipelines this context has made (each once: createComputePipeline).
+    size_t pipelineCount() const;
 
     struct Impl;
 

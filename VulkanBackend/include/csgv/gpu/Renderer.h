@@ -267,6 +267,10 @@ public:
     /// a target of one sample, which keep no sums (CPU-cheap): those samples are taken again.
     void setSettings(const RenderSettings& settings);
     const RenderSettings& settings() const { return m_settings; }
+    /// Makes the pipelines a frame with these settings will use (with or without an opaque depth
+    /// input) now, not at that frame: a caller may overlap their compilation (about 70 ms for the
+    /// render pipeline on a CPU device) with other work. render() makes whatever is still missing.
+    Status preparePipelines(bool depthInput);
 
     /// Renders what the request calls for: one frame when interactive, else frames until every
     /// pixel holds max(1, settings().sampleTarget) samples, the next frame (as long as the last)
