@@ -715,6 +715,58 @@ TEST(Renderer, ResolvePassesGiveTheSameImageThroughTexelsAndBufferAddresses) {
     EXPECT_EQ(images[0].label, images[1].label);
 }
 
+// GPUs keep the G-buffer and the output in device memory and read them back through copies
+// (RendererOptions::readBackThroughCopy forces that here): the same images, frame after frame,
+// as the host reading them mapped, and the copy's rows counted in the renderer's memory.
+TEST(Renderer, OutputsReadBackThroughACopyEqualMappedOnes) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    RenderRequest req;
+    req.frame = perspectiveView({-140, 350, 370}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    req.timeBudgetSeconds = 1e9;
+    std::unique_ptr<Renderer> r[2];
+    for (int copied = 0; copied < 2; ++copied) {
+        RendererOptions o;
+        o.readBackThroughCopy = copied == 1;
+        Result<std::unique_ptr<Renderer>> made = Renderer::create(*ctx, scene.gpu, o);
+        ASSERT_TRUE(made.isOk()) << made.message();
+        r[copied] = std::move(*made);
+        RenderSettings st;
+        st.shading = Shading::AmbientOcclusion;
+        st.sampleTarget = 2;
+        r[copied]->setSettings(st);
+    }
+    for (int view = 0; view < 3; ++view) {
+        SCOPED_TRACE("view " + std::to_string(view));
+        for (auto& renderer : r) ASSERT_TRUE(renderer->render(req).isOk());
+        const FrameOutput& a = r[0]->output();
+        const FrameOutput& b = r[1]->output();
+        ASSERT_GT(coveredPixels(r[0]->output(Renderer::Color)), a.rgba8.size() / 16);
+        EXPECT_EQ(a.rect, b.rect);
+        EXPECT_EQ(a.rgba8, b.rgba8);
+        EXPECT_EQ(a.depth, b.depth);
+        FrameOutput all[2];
+        for (int k = 0; k < 2; ++k) ASSERT_TRUE(r[k]->readOutput(all[k], Renderer::All).isOk());
+        EXPECT_EQ(all[0].rgba, all[1].rgba);
+        EXPECT_EQ(all[0].rgba8, all[1].rgba8);
+        EXPECT_EQ(all[0].label, all[1].label);
+        EXPECT_EQ(all[0].hitDepth, all[1].hitDepth);
+        EXPECT_EQ(all[0].samples, all[1].samples);
+        // The next view moves the volume across the image (NDC x + 0.3, y - 0.3): other rows
+        // drawn, others cleared.
+        for (int c = 0; c < 4; ++c) {
+            req.frame.worldToClip[4 * c] += 0.3 * req.frame.worldToClip[4 * c + 3];
+            req.frame.worldToClip[4 * c + 1] -= 0.3 * req.frame.worldToClip[4 * c + 3];
+        }
+    }
+    auto outputs = [](const Renderer& x) {
+        for (const auto& [name, bytes] : x.memory().buffers)
+            if (name == "outputs (colour, depth, G-buffer)") return bytes;
+        return uint64_t(0);
+    };
+    EXPECT_EQ(outputs(*r[1]) - outputs(*r[0]), 96 * 72 * 8 - 16); // without the copy, a 16-byte stand-in
+}
+
 // A preview goes on through missing bricks of a semi-transparent label to what lies behind them:
 // two bricks of label 1 (half opaque) in front of one of label 2 (opaque), none cached. Before,
 // the preview stopped in the first brick (the same label again: no new surface), half

@@ -525,6 +525,18 @@ Status Context::download(const Buffer& src, uint64_t offset, void* data, uint64_
     return Status::ok();
 }
 
+Status Context::copy(const Buffer& src, uint64_t srcOffset, Buffer& dst, uint64_t dstOffset, uint64_t bytes) {
+    if (srcOffset + bytes > src.size() || dstOffset + bytes > dst.size()) return Status::error("a copy past the end of a GPU buffer");
+    if (bytes == 0) return Status::ok();
+    Impl& im = *m_impl;
+    return submitAndWait(im, [&](VkCommandBuffer cmd) {
+        VkBufferCopy region{srcOffset, dstOffset, bytes};
+        im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(src.m_buffer), reinterpret_cast<VkBuffer>(dst.m_buffer), 1,
+                              &region);
+        transferBarrier(im.vk, cmd);
+    });
+}
+
 TexelSet::~TexelSet() { release(); }
 
 TexelSet::TexelSet(TexelSet&& o) noexcept { *this = std::move(o); }

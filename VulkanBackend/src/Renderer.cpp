@@ -361,6 +361,10 @@ struct Renderer::Impl {
     /// The resolve passes' (RESOLVE_TEXELS): a set per source, denoiseA then denoiseB.
     TexelViews resolveTexels;
     Buffer accum, gbuffer, depthIn, colorDepth, denoiseA, denoiseB;
+    /// The output's rows copied into host memory before the host reads them, where the output is
+    /// read back through a copy (copiedOutput).
+    Buffer readback;
+    bool copiedOutput = false;        // RendererOptions::readBackThroughCopy, or a GPU
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
@@ -655,8 +659,9 @@ struct Renderer::Impl {
             MemoryKind kind;
         };
         const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},
-                              {&gbuffer, n * 16, MemoryKind::HostVisible},  {&depthIn, n * 4, MemoryKind::HostVisible},
-                              {&colorDepth, n * 8, MemoryKind::HostVisible},
+                              {&gbuffer, n * 16, MemoryKind::DeviceLocal},  {&depthIn, n * 4, MemoryKind::HostVisible},
+                              {&colorDepth, n * 8, MemoryKind::DeviceLocal},
+                              {&readback, copiedOutput ? n * 8 : 0, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
                               {&pixelList, usesPixelList ? n * 8 : 0, MemoryKind::HostVisible}, // this frame's list, the next's
                               {&outlineRows, usesPixelList ? 4ull * kOutlineRowWords * h : 0, MemoryKind::HostVisible}};
@@ -928,6 +933,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
     im.texelsWanted = options.renderTexels;
+    im.copiedOutput = options.readBackThroughCopy || context.device().type != "cpu";
     im.outlineWanted = options.outlineSpans;
     for (const Table& t : tables)
         if (!(s = make(*t.buffer, t.bytes, t.kind, t.what))) return s;
@@ -2015,8 +2021,18 @@ void Renderer::Impl::readImage() {
     outputRect = drawnRect;
     r[2] = std::min(r[2], width);
     r[3] = std::min(r[3], height);
-    if (!rectEmpty(r))
-        readColorDepth(static_cast<const uint32_t*>(colorDepth.mapped()), width, r, out.rgba8.data(), out.depth.data());
+    if (rectEmpty(r)) return;
+    const uint32_t* words = static_cast<const uint32_t*>(colorDepth.mapped());
+    if (copiedOutput) { // the rows drawn, copied into host memory: the rest of readback is not read
+        const uint64_t first = uint64_t(r[1]) * width * 8, bytes = uint64_t(r[3] - r[1]) * width * 8;
+        if (!ctx.copy(colorDepth, first, readback, first, bytes)) {
+            std::fill(out.rgba8.begin(), out.rgba8.end(), 0u); // nothing rather than another frame's pixels
+            std::fill(out.depth.begin(), out.depth.end(), 1.0f);
+            return;
+        }
+        words = static_cast<const uint32_t*>(readback.mapped());
+    }
+    readColorDepth(words, width, r, out.rgba8.data(), out.depth.data());
 }
 
 Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
@@ -2026,7 +2042,19 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     out.width = im.width;
     out.height = im.height;
     out.rect = im.drawnRect;
-    const uint32_t* c = static_cast<const uint32_t*>(im.colorDepth.mapped());
+    // The output and the G-buffer as the host sees them: mapped, or copied (Context::download
+    // copies through a staging buffer what is not mapped).
+    auto hostWords = [&](const Buffer& b, uint64_t words, std::vector<uint32_t>& copy) -> Result<const uint32_t*> {
+        if (!im.copiedOutput && b.mapped()) return static_cast<const uint32_t*>(b.mapped());
+        copy.resize(size_t(words));
+        Status s = im.ctx.download(b, 0, copy.data(), words * 4);
+        if (!s) return s;
+        return static_cast<const uint32_t*>(copy.data());
+    };
+    std::vector<uint32_t> outputCopy, gbufferCopy;
+    Result<const uint32_t*> words = hostWords(im.colorDepth, 2 * n, outputCopy);
+    if (!words) return words.status();
+    const uint32_t* c = *words;
     if (parts & Color8) out.rgba8.resize(n);
     if (parts & Depth) out.depth.resize(n);
     readColorDepth(c, im.width, {0, 0, im.width, im.height}, parts & Color8 ? out.rgba8.data() : nullptr,
@@ -2036,8 +2064,13 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
         for (size_t i = 0; i < n; ++i)
             for (int k = 0; k < 4; ++k) out.rgba[4 * i + k] = float((c[2 * i] >> (8 * k)) & 0xFFu) / 255.0f;
     }
+    const uint32_t* g = nullptr;
+    if (parts & (GBuffer | Samples)) {
+        Result<const uint32_t*> gw = hostWords(im.gbuffer, 4 * n, gbufferCopy);
+        if (!gw) return gw.status();
+        g = *gw;
+    }
     if (parts & GBuffer) {
-        const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
         out.label.resize(n);
         out.face.resize(n);
         out.hitDepth.resize(n);
@@ -2058,7 +2091,6 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     }
     if (parts & Samples) {
         out.samples.resize(n);
-        const uint32_t* g = static_cast<const uint32_t*>(im.gbuffer.mapped());
         for (size_t i = 0; i < n; ++i) out.samples[i] = im.currentWord1(g[4 * i + 1]) >> kGBufferCountShift;
     }
     return Status::ok();
@@ -2101,7 +2133,7 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.denoiseA.size() + im.denoiseB.size() +
                                                          im.pixelList.size() + im.outlineRows.size()});
     r.buffers.push_back({"outputs (colour, depth, G-buffer)", im.colorDepth.size() + im.gbuffer.size() +
-                                                                   im.depthIn.size()});
+                                                                   im.depthIn.size() + im.readback.size()});
     uint64_t attr = im.materials.size() + im.colormaps.size() + im.attributeTable.size() + im.labelMap.size() +
                     im.materialTable.size() + im.labelColors.size();
     for (const Buffer& b : im.attributes) attr += b.size();

@@ -146,6 +146,8 @@ public:
     Status uploadRegions(Buffer& dst, const void* data, const std::vector<CopyRegion>& regions);
     /// Copies a buffer range back to the host.
     Status download(const Buffer& src, uint64_t offset, void* data, uint64_t bytes);
+    /// Copies a range of one buffer into another on the device.
+    Status copy(const Buffer& src, uint64_t srcOffset, Buffer& dst, uint64_t dstOffset, uint64_t bytes);
 
     /// A compute pipeline from SPIR-V whose interface is `pushConstantBytes` of push constants and
     /// `texelBindings` uniform texel buffers (set 0, bindings 0..n-1: a TexelSet of as many).

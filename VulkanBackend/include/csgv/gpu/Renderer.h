@@ -115,6 +115,11 @@ struct RendererOptions {
     /// pixels more, the misses their A-trous passes read, and each resolve pass the pixels within
     /// its reach. The same image either way. Off: every pixel of the rectangle (tests cover both).
     bool outlineSpans = true;
+    /// Where the G-buffer and the output live. GPUs keep them in device memory, which their passes
+    /// read and write every frame, and read the output back through a copy into host memory (one
+    /// per image read, of the rows drawn); CPU devices map them (no copy: device memory is host
+    /// memory there). On: the copy on any device (tests cover both).
+    bool readBackThroughCopy = false;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
     /// average streams, at most all streams and a quarter of what the budget leaves beside the
