@@ -711,7 +711,10 @@ Status Context::run(const Dispatch* first, size_t count) {
         if (d->fill && (d->fillOffset > d->fill->size() || d->fillBytes > d->fill->size() - d->fillOffset))
             return Status::error("a fill past its buffer's end (" + std::to_string(d->fillBytes) + " bytes at byte " +
                                  std::to_string(d->fillOffset) + " of " + std::to_string(d->fill->size()) + ")");
-        if (d->fill) continue;
+        if (d->copyFrom && (!d->copyFrom->valid() || !d->copyTo || !d->copyTo->valid() ||
+                            d->copyBytes > d->copyFrom->size() || d->copyBytes > d->copyTo->size()))
+            return Status::error("a copy between buffers that do not exist or hold fewer bytes");
+        if (d->fill || d->copyFrom) continue;
         auto p = im.pipelines.find(d->pipeline);
         if (p == im.pipelines.end()) return Status::error("dispatch of an unknown pipeline");
         if (p->second.texelBindings != (d->texels ? d->texels->bindings() : 0))
@@ -731,6 +734,21 @@ Status Context::run(const Dispatch* first, size_t count) {
                 im.vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
                                            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0,
                                            nullptr, 0, nullptr);
+                continue;
+            }
+            if (d.copyFrom) {
+                if (d.copyBytes == 0) continue;
+                // Barriers: what came before (dispatches, fills, copies) is written before the
+                // copy reads; the copy is written before what follows reads or writes.
+                VkMemoryBarrier before{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+                before.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+                before.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+                im.vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                           VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+                const VkBufferCopy region{0, 0, d.copyBytes};
+                im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(d.copyFrom->m_buffer),
+                                      reinterpret_cast<VkBuffer>(d.copyTo->m_buffer), 1, &region);
+                transferBarrier(im.vk, cmd);
                 continue;
             }
             const Impl::Pipeline& p = im.pipelines[d.pipeline];

@@ -361,10 +361,14 @@ struct Renderer::Impl {
     /// The resolve passes' (RESOLVE_TEXELS): a set per source, denoiseA then denoiseB.
     TexelViews resolveTexels;
     Buffer accum, gbuffer, depthIn, colorDepth, denoiseA, denoiseB;
-    /// The output's rows copied into host memory before the host reads them, where the output is
-    /// read back through a copy (copiedOutput).
-    Buffer readback;
-    bool copiedOutput = false;        // RendererOptions::readBackThroughCopy, or a GPU
+    /// Where the host sees the per-frame buffers through copies (viaCopies): the output's rows
+    /// copied into host memory before the host reads them, and the host's mirror of the cache
+    /// counters (kSlotAlloc), copied to the device before each submission and back after it.
+    Buffer readback, allocHost;
+    /// RendererOptions::readBackThroughCopy, or a GPU: the G-buffer, the output and the counters
+    /// live in device memory (every frame's passes write and read them; their atomics stay on
+    /// the device) and the host reads and writes copies.
+    bool viaCopies = false;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
@@ -661,7 +665,7 @@ struct Renderer::Impl {
         const Part parts[] = {{&accum, n * 16, MemoryKind::DeviceLocal},
                               {&gbuffer, n * 16, MemoryKind::DeviceLocal},  {&depthIn, n * 4, MemoryKind::HostVisible},
                               {&colorDepth, n * 8, MemoryKind::DeviceLocal},
-                              {&readback, copiedOutput ? n * 8 : 0, MemoryKind::HostVisible},
+                              {&readback, viaCopies ? n * 8 : 0, MemoryKind::HostVisible},
                               {&denoiseA, n * 16, MemoryKind::DeviceLocal}, {&denoiseB, n * 16, MemoryKind::DeviceLocal},
                               {&pixelList, usesPixelList ? n * 8 : 0, MemoryKind::HostVisible}, // this frame's list, the next's
                               {&outlineRows, usesPixelList ? 4ull * kOutlineRowWords * h : 0, MemoryKind::HostVisible}};
@@ -693,7 +697,21 @@ struct Renderer::Impl {
         return Status::ok();
     }
 
-    uint32_t* allocWords() { return static_cast<uint32_t*>(alloc.mapped()); }
+    /// The cache counters as the host reads and writes them between submissions (run() carries
+    /// them to the device and back where they live there).
+    uint32_t* allocWords() { return static_cast<uint32_t*>((viaCopies ? allocHost : alloc).mapped()); }
+    /// Submits dispatches (Context::run), with the counters' copies around them where the host
+    /// works on a mirror (viaCopies).
+    Status run(const Context::Dispatch* first, size_t count) {
+        if (!viaCopies) return ctx.run(first, count);
+        std::vector<Context::Dispatch> list(count + 2);
+        list.front().copyFrom = list.back().copyTo = &allocHost;
+        list.front().copyTo = list.back().copyFrom = &alloc;
+        list.front().copyBytes = list.back().copyBytes = kAllocWords * 4;
+        std::copy(first, first + count, list.begin() + 1);
+        return ctx.run(list);
+    }
+    Status run(const std::vector<Context::Dispatch>& list) { return run(list.data(), list.size()); }
     /// A G-buffer entry's second word as the last accumulation sees it (render_common.glsl's
     /// currentWord1): 0 where another accumulation wrote it.
     uint32_t currentWord1(uint32_t w1) const {
@@ -863,6 +881,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("LABEL_MASK", std::to_string(im.lookup.slots.empty() ? 0 : im.lookup.slots.size() - 1) + "u");
     im.defines = d;
     im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
+    // CSGV_READ_THROUGH_COPIES=1: as on GPUs on any device (the tests run the renderer's suite so).
+    const char* copies = std::getenv("CSGV_READ_THROUGH_COPIES");
+    im.viaCopies = options.readBackThroughCopy || context.device().type != "cpu" || (copies && std::string(copies) == "1");
 
     auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind, const char* what) -> Status {
         Result<Buffer> res = context.createBuffer(std::max<uint64_t>(bytes, 16), kind);
@@ -891,7 +912,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                             {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
                             {&im.uniformSubs, bricks * 8, hostOrDevice, "uniform sub-block masks"},
-                            {&im.alloc, kAllocWords * 4, MemoryKind::HostVisible, "cache counters"},
+                            {&im.alloc, kAllocWords * 4, im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "cache counters"},
+                            {&im.allocHost, im.viaCopies ? kAllocWords * 4 : 0, MemoryKind::HostVisible, "cache counters' host copy"},
                             {&im.freeStacks, bricks * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"},
                             {&im.requests, requests * 8, MemoryKind::DeviceLocal, "request list"},
                             {&im.decodes, requests * kDecodeEntryWords * 4, hostOrDevice, "decode list"},
@@ -933,7 +955,6 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
     im.texelsWanted = options.renderTexels;
-    im.copiedOutput = options.readBackThroughCopy || context.device().type != "cpu";
     im.outlineWanted = options.outlineSpans;
     for (const Table& t : tables)
         if (!(s = make(*t.buffer, t.bytes, t.kind, t.what))) return s;
@@ -1672,7 +1693,7 @@ Status Renderer::Impl::denoiseOutput() {
     resolvePushes.reserve(8);
     addDenoisePasses();
     outputParts = 0;
-    return ctx.run(dispatches);
+    return run(dispatches);
 }
 
 void Renderer::Impl::listPixels(const RenderSettings& st) {
@@ -1786,7 +1807,7 @@ Status Renderer::Impl::submit() {
                 std::fprintf(stderr, "host decode: %.2f ms\n", std::chrono::duration<double, std::milli>(t2 - t1).count());
                 t1 = t2; // the next dispatch's line is its own time alone
             }
-            if (!(s = ctx.run(&dispatches[i], 1))) return s;
+            if (!(s = run(&dispatches[i], 1))) return s;
             std::fprintf(stderr, "dispatch %zu %s (%u x %u groups): %.2f ms\n", i, stage(dispatches[i]).c_str(),
                          dispatches[i].groups[0], dispatches[i].groups[1],
                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
@@ -1797,12 +1818,12 @@ Status Renderer::Impl::submit() {
     }
     if (hostDecode) {
         // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
-        if (!(s = ctx.run(dispatches.data(), cacheStages))) return s;
+        if (!(s = run(dispatches.data(), cacheStages))) return s;
         sizeRenderDispatch();
         decodeOnHost();
-        return ctx.run(dispatches.data() + cacheStages, dispatches.size() - cacheStages);
+        return run(dispatches.data() + cacheStages, dispatches.size() - cacheStages);
     }
-    return ctx.run(dispatches); // one submission: cache stages, decoding, rendering, resolving
+    return run(dispatches); // one submission: cache stages, decoding, rendering, resolving
 }
 
 bool Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput& in, uint32_t stride) {
@@ -2023,7 +2044,7 @@ void Renderer::Impl::readImage() {
     r[3] = std::min(r[3], height);
     if (rectEmpty(r)) return;
     const uint32_t* words = static_cast<const uint32_t*>(colorDepth.mapped());
-    if (copiedOutput) { // the rows drawn, copied into host memory: the rest of readback is not read
+    if (viaCopies) { // the rows drawn, copied into host memory: the rest of readback is not read
         const uint64_t first = uint64_t(r[1]) * width * 8, bytes = uint64_t(r[3] - r[1]) * width * 8;
         if (!ctx.copy(colorDepth, first, readback, first, bytes)) {
             std::fill(out.rgba8.begin(), out.rgba8.end(), 0u); // nothing rather than another frame's pixels
@@ -2045,7 +2066,7 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
     // The output and the G-buffer as the host sees them: mapped, or copied (Context::download
     // copies through a staging buffer what is not mapped).
     auto hostWords = [&](const Buffer& b, uint64_t words, std::vector<uint32_t>& copy) -> Result<const uint32_t*> {
-        if (!im.copiedOutput && b.mapped()) return static_cast<const uint32_t*>(b.mapped());
+        if (!im.viaCopies && b.mapped()) return static_cast<const uint32_t*>(b.mapped());
         copy.resize(size_t(words));
         Status s = im.ctx.download(b, 0, copy.data(), words * 4);
         if (!s) return s;
@@ -2128,7 +2149,7 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
-                                                          im.alloc.size() + im.params.size() + im.blueNoise.size() +
+                                                          im.alloc.size() + im.allocHost.size() + im.params.size() + im.blueNoise.size() +
                                                           im.detailRequests.size()});
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.denoiseA.size() + im.denoiseB.size() +
                                                          im.pixelList.size() + im.outlineRows.size()});

@@ -161,7 +161,7 @@ public:
     /// 16-byte record), each view at most maxTexelBufferElements texels.
     Result<TexelSet> createTexelSet(const std::vector<const Buffer*>& buffers, uint32_t wordsPerTexel = 1);
     /// Records dispatches of one pipeline with push constants, submits, and waits.
-    /// A compute dispatch, or (with `fill` set) a fill of `fillBytes` of a buffer from byte
+    /// A compute dispatch, a copy (`copyFrom`), or (with `fill` set) a fill of `fillBytes` of a buffer from byte
     /// `fillOffset` with the 32-bit word `fillValue`: a clear that costs a memset even on CPU
     /// devices, where a compute pass pays for every store.
     struct Dispatch {
@@ -174,6 +174,11 @@ public:
         uint32_t fillValue = 0;
         uint64_t fillBytes = 0; ///< a multiple of 4
         uint64_t fillOffset = 0; ///< a multiple of 4
+        /// With `copyFrom` set: a copy of its first `copyBytes` into `copyTo`, ordered after what
+        /// came before and before what follows (a device buffer's host-visible mirror, filled or read).
+        const Buffer* copyFrom = nullptr;
+        const Buffer* copyTo = nullptr;
+        uint64_t copyBytes = 0;
     };
     Status run(const std::vector<Dispatch>& dispatches) { return run(dispatches.data(), dispatches.size()); }
     /// The same for `count` dispatches starting at `first` (a part of a frame's list, no copy).
