@@ -317,9 +317,16 @@ void ViewRenderer::prepareInBackground(bool depthInput)
   this->Preparing = std::async(std::launch::async,
     [this, depthInput]
     {
-      if (this->ensureRenderer().empty())
+      try
       {
-        (void)this->Renderer->preparePipelines(depthInput); // the frame reports an error
+        if (this->ensureRenderer().empty())
+        {
+          (void)this->Renderer->preparePipelines(depthInput); // the frame reports an error
+        }
+      }
+      catch (...)
+      {
+        // Out of memory, say: render() makes what is missing, and meets (and reports) it there.
       }
     });
 }
