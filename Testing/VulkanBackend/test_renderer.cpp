@@ -738,7 +738,7 @@ TEST(Renderer, OutputsReadBackThroughACopyEqualMappedOnes) {
     }
     for (int view = 0; view < 3; ++view) {
         SCOPED_TRACE("view " + std::to_string(view));
-        for (auto& renderer : r) ASSERT_TRUE(renderer->render(req).isOk());
+        for (auto& renderer : r) { auto rr = renderer->render(req); ASSERT_TRUE(rr.isOk()) << rr.message(); }
         const FrameOutput& a = r[0]->output();
         const FrameOutput& b = r[1]->output();
         ASSERT_GT(coveredPixels(r[0]->output(Renderer::Color)), a.rgba8.size() / 16);

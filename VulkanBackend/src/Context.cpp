@@ -714,6 +714,13 @@ Status Context::run(const Dispatch* first, size_t count) {
         if (d->copyFrom && (!d->copyFrom->valid() || !d->copyTo || !d->copyTo->valid() ||
                             d->copyBytes > d->copyFrom->size() || d->copyBytes > d->copyTo->size()))
             return Status::error("a copy between buffers that do not exist or hold fewer bytes");
+        for (uint32_t i = 0; d->copyFrom && i < d->copyRegionCount; ++i) {
+            const CopyRegion& r = d->copyRegions[i];
+            if (r.srcOffset + r.bytes > d->copyFrom->size() || r.dstOffset + r.bytes > d->copyTo->size())
+                return Status::error("a copy region past the end of its buffer (" + std::to_string(r.bytes) + " bytes from byte " +
+                                     std::to_string(r.srcOffset) + " of " + std::to_string(d->copyFrom->size()) +
+                                     " to byte " + std::to_string(r.dstOffset) + " of " + std::to_string(d->copyTo->size()) + ")");
+        }
         if (d->fill || d->copyFrom) continue;
         auto p = im.pipelines.find(d->pipeline);
         if (p == im.pipelines.end()) return Status::error("dispatch of an unknown pipeline");
@@ -737,7 +744,7 @@ Status Context::run(const Dispatch* first, size_t count) {
                 continue;
             }
             if (d.copyFrom) {
-                if (d.copyBytes == 0) continue;
+                if (d.copyRegions ? d.copyRegionCount == 0 : d.copyBytes == 0) continue;
                 // Barriers: what came before (dispatches, fills, copies) is written before the
                 // copy reads; the copy is written before what follows reads or writes.
                 VkMemoryBarrier before{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
@@ -745,9 +752,15 @@ Status Context::run(const Dispatch* first, size_t count) {
                 before.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
                 im.vk.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                                            VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
-                const VkBufferCopy region{0, 0, d.copyBytes};
+                std::vector<VkBufferCopy> regions;
+                if (d.copyRegions)
+                    for (uint32_t i = 0; i < d.copyRegionCount; ++i)
+                        regions.push_back({d.copyRegions[i].srcOffset, d.copyRegions[i].dstOffset, d.copyRegions[i].bytes});
+                else
+                    regions.push_back({0, 0, d.copyBytes});
                 im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(d.copyFrom->m_buffer),
-                                      reinterpret_cast<VkBuffer>(d.copyTo->m_buffer), 1, &region);
+                                      reinterpret_cast<VkBuffer>(d.copyTo->m_buffer), uint32_t(regions.size()),
+                                      regions.data());
                 transferBarrier(im.vk, cmd);
                 continue;
             }

@@ -365,6 +365,13 @@ struct Renderer::Impl {
     /// copied into host memory before the host reads them, and the host's mirror of the cache
     /// counters (kSlotAlloc), copied to the device before each submission and back after it.
     Buffer readback, allocHost;
+    /// Host decoding with the cache in device memory (GPUs): the bricks a frame decodes, staged in
+    /// host memory (not the device's: not in memory()), and their copies into the cache
+    /// (stagedCacheCopies of them) and the uniform sub-block masks.
+    bool stagedDecode = false;
+    Buffer decodeStaging;
+    std::vector<Context::CopyRegion> stagedCopies;
+    uint32_t stagedCacheCopies = 0;
     /// RendererOptions::readBackThroughCopy, or a GPU: the G-buffer, the output and the counters
     /// live in device memory (every frame's passes write and read them; their atomics stay on
     /// the device) and the host reads and writes copies.
@@ -468,22 +475,99 @@ struct Renderer::Impl {
     uint64_t frameAddress = 0;        // push constant of the cache and render passes (params.address())
 
     /// Decodes the GPU's decode list (brick, inverse level, cache word offset) with Core's decoder
-    /// straight into the host-visible cache; a brick whose stream fails reads as outside.
-    void decodeOnHost() {
+    /// straight into the host-visible cache; a brick whose stream fails reads as outside. Where
+    /// the cache lives in device memory (stagedDecode: GPUs), into a host buffer instead, whose
+    /// regions the next submission copies into the cache and the uniform sub-block masks first
+    /// (stagedCopies); false when that buffer cannot be had.
+    Status decodeOnHost() {
+        stagedCopies.clear();
+        stagedCacheCopies = 0;
         const uint32_t n = std::min(allocWords()[kAllocDecodes], maxRequests);
         const uint32_t* list = static_cast<const uint32_t*>(decodes.mapped());
-        uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
         const uint32_t L = levels;
-        if (n == 0) return;
-        uint64_t* uniformMasks = static_cast<uint64_t*>(uniformSubs.mapped());
+        if (n == 0) return Status::ok();
+        auto entry = [&](uint64_t i, uint32_t& brick, uint32_t& lod, uint32_t& offset) {
+            const uint32_t* e = list + kDecodeEntryWords * i;
+            brick = e[0];
+            lod = L - 1 - std::min(e[1], L - 1);
+            offset = e[2];
+            return uint64_t(offset) + volume->regionWords(lod) <= cache.size() / 4 && brick < brickCount;
+        };
+        if (!stagedDecode) {
+            uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
+            uint64_t* uniformMasks = static_cast<uint64_t*>(uniformSubs.mapped());
+            hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
+                BrickDecoder& d = *decoders[worker];
+                uint32_t brick, lod, offset;
+                if (!entry(i, brick, lod, offset)) return;
+                const bool ok = volume->decodeRegion(d, brick, lod, cacheWords + offset);
+                if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
+            });
+            return Status::ok();
+        }
+        // The regions' places in the host buffer: the bricks' labels one after another, then a
+        // mask per brick decoded at the finest level.
+        std::vector<uint64_t> at(n + 1, 0);
+        uint32_t finest = 0;
+        for (uint64_t i = 0; i < n; ++i) {
+            uint32_t brick, lod, offset;
+            at[i + 1] = at[i] + (entry(i, brick, lod, offset) ? uint64_t(volume->regionWords(lod)) * 4 : 0);
+            finest += entry(i, brick, lod, offset) && lod == 0;
+        }
+        const uint64_t bytes = at[n] + uint64_t(finest) * 8;
+        if (decodeStaging.size() < bytes) {
+            const uint64_t grown = std::max<uint64_t>(bytes, decodeStaging.size() * 2);
+            decodeStaging = Buffer{};
+            Result<Buffer> b = ctx.createBuffer(grown, MemoryKind::HostVisible);
+            if (!b) return Status(b.status()).prefix("allocating host memory for decoded bricks");
+            decodeStaging = std::move(*b);
+        }
+        uint8_t* staging = static_cast<uint8_t*>(decodeStaging.mapped());
+        std::vector<uint64_t> maskAt(n, 0);
+        for (uint64_t i = 0, m = at[n]; i < n; ++i) {
+            uint32_t brick, lod, offset;
+            if (entry(i, brick, lod, offset) && lod == 0) {
+                maskAt[i] = m;
+                m += 8;
+            }
+        }
         hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
             BrickDecoder& d = *decoders[worker];
-            const uint32_t* e = list + kDecodeEntryWords * i;
-            const uint32_t brick = e[0], lod = L - 1 - std::min(e[1], L - 1), offset = e[2];
-            if (uint64_t(offset) + volume->regionWords(lod) > cache.size() / 4 || brick >= brickCount) return;
-            const bool ok = volume->decodeRegion(d, brick, lod, cacheWords + offset);
-            if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
+            uint32_t brick, lod, offset;
+            if (!entry(i, brick, lod, offset)) return;
+            const bool ok = volume->decodeRegion(d, brick, lod, reinterpret_cast<uint32_t*>(staging + at[i]));
+            if (lod == 0) {
+                const uint64_t mask = ok ? uniformSubBlocks(d.labels(), brick) : 0;
+                std::memcpy(staging + maskAt[i], &mask, 8);
+            }
         });
+        for (uint64_t i = 0; i < n; ++i) {
+            uint32_t brick, lod, offset;
+            if (!entry(i, brick, lod, offset)) continue;
+            stagedCopies.push_back({at[i], uint64_t(offset) * 4, at[i + 1] - at[i]});
+        }
+        stagedCacheCopies = uint32_t(stagedCopies.size());
+        for (uint64_t i = 0; i < n; ++i) {
+            uint32_t brick, lod, offset;
+            if (entry(i, brick, lod, offset) && lod == 0) stagedCopies.push_back({maskAt[i], uint64_t(brick) * 8, 8});
+        }
+        return Status::ok();
+    }
+    /// The copies of what decodeOnHost staged, in front of `count` dispatches from `first`.
+    std::vector<Context::Dispatch> withStagedCopies(const Context::Dispatch* first, size_t count) const {
+        std::vector<Context::Dispatch> list;
+        Context::Dispatch c;
+        c.copyFrom = &decodeStaging;
+        c.copyTo = &cache;
+        c.copyRegions = stagedCopies.data();
+        c.copyRegionCount = stagedCacheCopies;
+        if (c.copyRegionCount) list.push_back(c);
+        c.copyTo = &uniformSubs;
+        c.copyRegions = stagedCopies.data() + stagedCacheCopies;
+        c.copyRegionCount = uint32_t(stagedCopies.size()) - stagedCacheCopies;
+        if (c.copyRegionCount) list.push_back(c);
+        list.insert(list.end(), first, first + count);
+        return list;
     }
 
     /// The host decoding's worker pool, with a decoder per worker.
@@ -899,7 +983,11 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
     im.prefetchVoxels = options.prefetchVoxels;
     const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
-    im.cacheKind = hostOrDevice;
+    // Host decoding writes the cache and the masks itself, unless they live in device memory
+    // (viaCopies: GPUs), where the render pass reads them at every step: then through copies.
+    im.stagedDecode = im.hostDecode && im.viaCopies;
+    const MemoryKind cacheKind = im.stagedDecode ? MemoryKind::DeviceLocal : hostOrDevice;
+    im.cacheKind = cacheKind;
     // Everything but the cache and the images, sized once: summed for the budget, then allocated.
     struct Table {
         Buffer* buffer;
@@ -911,7 +999,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const Table tables[] = {{&im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"},
                             {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
-                            {&im.uniformSubs, bricks * 8, hostOrDevice, "uniform sub-block masks"},
+                            {&im.uniformSubs, bricks * 8, cacheKind, "uniform sub-block masks"},
                             {&im.alloc, kAllocWords * 4, im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "cache counters"},
                             {&im.allocHost, im.viaCopies ? kAllocWords * 4 : 0, MemoryKind::HostVisible, "cache counters' host copy"},
                             {&im.freeStacks, bricks * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"},
@@ -953,7 +1041,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t cacheBytes =
         std::max(smallestCache, std::min({std::max<uint64_t>(wantedCache, 4096), maxBytes, im.budget - fixed - imageRoom})) &
         ~uint64_t(3);
-    if (!(s = make(im.cache, cacheBytes, hostOrDevice, "brick cache"))) return s;
+    if (!(s = make(im.cache, cacheBytes, cacheKind, "brick cache"))) return s;
     im.texelsWanted = options.renderTexels;
     im.outlineWanted = options.outlineSpans;
     for (const Table& t : tables)
@@ -1802,7 +1890,8 @@ Status Renderer::Impl::submit() {
             auto t1 = std::chrono::steady_clock::now();
             if (hostDecode && i == cacheStages) {
                 sizeRenderDispatch();
-                decodeOnHost();
+                if (!(s = decodeOnHost())) return s;
+                if (!stagedCopies.empty() && !(s = run(withStagedCopies(nullptr, 0)))) return s;
                 const auto t2 = std::chrono::steady_clock::now();
                 std::fprintf(stderr, "host decode: %.2f ms\n", std::chrono::duration<double, std::milli>(t2 - t1).count());
                 t1 = t2; // the next dispatch's line is its own time alone
@@ -1820,8 +1909,8 @@ Status Renderer::Impl::submit() {
         // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
         if (!(s = run(dispatches.data(), cacheStages))) return s;
         sizeRenderDispatch();
-        decodeOnHost();
-        return run(dispatches.data() + cacheStages, dispatches.size() - cacheStages);
+        if (!(s = decodeOnHost())) return s;
+        return run(withStagedCopies(dispatches.data() + cacheStages, dispatches.size() - cacheStages));
     }
     return run(dispatches); // one submission: cache stages, decoding, rendering, resolving
 }

@@ -179,6 +179,9 @@ public:
         const Buffer* copyFrom = nullptr;
         const Buffer* copyTo = nullptr;
         uint64_t copyBytes = 0;
+        /// Ranges to copy instead of the first `copyBytes` (the array outlives the run).
+        const CopyRegion* copyRegions = nullptr;
+        uint32_t copyRegionCount = 0;
     };
     Status run(const std::vector<Dispatch>& dispatches) { return run(dispatches.data(), dispatches.size()); }
     /// The same for `count` dispatches starting at `first` (a part of a frame's list, no copy).
