@@ -4,6 +4,8 @@
 # GPU tests, the shared libraries they load beyond the C and C++ runtimes, the Vulkan loader and
 # glvnd's dispatch libraries from this machine, and the Volcanite fixtures.
 # Usage: bash scripts/device/bundle.sh [BUILD_DIR]   (then carry .devbundle, run gpu_check.sh)
+# BASE_BUILD=DIR also packs DIR/bin/csgv (another commit's build, same libraries) as the baseline
+# that gpu_check.sh renders beside this one, on the same machine.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 build=${1:-$root/build}
@@ -25,5 +27,10 @@ cp -r "$root/../shared/data/volcanite-0.6" "$out/shared/data/"
 # volumes to render besides synthetic ones: VOLUMES="a.csgv b.csgv" (with their .json)
 mkdir -p "$out/volumes"
 for v in ${VOLUMES:-}; do cp "$v" "$v.json" "$out/volumes/" 2>/dev/null || cp "$v" "$out/volumes/"; done
+if [ -n "${BASE_BUILD:-}" ]; then
+    mkdir -p "$out/base" && cp "$BASE_BUILD/bin/csgv" "$out/base/csgv"
+    strip --strip-unneeded "$out/base/csgv"
+    (cd "$BASE_BUILD/.." && git rev-parse --short HEAD 2>/dev/null) >"$out/base/commit" || true
+fi
 strip --strip-unneeded "$out"/bin/*
 du -sh "$out"

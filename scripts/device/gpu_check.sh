@@ -8,7 +8,9 @@
 # mean dispatch time by stage.
 # Environment: SKIP_TESTS=1 (renders only), SIZE (1920x1080), FRAMES (16), ORBIT (6), and
 # RENDER_ARGS (more csgv render options, e.g. "--decode host --cache-mib 256") with TAG (a name
-# for the logs and images of that variant).
+# for the logs and images of that variant). With a baseline in the bundle (bundle.sh's BASE_BUILD),
+# each render runs with it too, right after, and its line says "base" (compare on one machine;
+# the first of the two compiles the GLSL of shaders they share: compare times to first frame warm).
 set -uo pipefail
 root=$(pwd)
 out=${OUT:-$root/devout}; mkdir -p "$out"
@@ -27,6 +29,7 @@ mkdir -p /work
 mkdir -p build/bin && cp -f "$b"/bin/* build/bin/
 export HOME=$(mktemp -d) OMP_NUM_THREADS=${OMP_NUM_THREADS:-16}
 csgv=$root/build/bin/csgv
+base=; [ -x "$b/base/csgv" ] && { base=$b/base/csgv; echo "baseline: $(cat "$b/base/commit" 2>/dev/null)"; }
 sizes=${1:-"aal 256 512 1024"}; modes=${2:-"local shadow ao pt"}
 t0=$(date +%s)
 if [ -z "${SKIP_TESTS:-}" ]; then
@@ -41,13 +44,16 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
     if [ -f "$b/volumes/$n.csgv" ]; then v=$b/volumes/$n.csgv
     else [ -f $v ] || "$csgv" compress synth:${n}x${n}x${n} $v --quiet || continue; fi
     for m in $modes; do
-        t=${n}_$m${TAG:+_$TAG}
-        CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s$t.png" --size ${SIZE:-1920x1080} \
-            --shading $m --frames ${FRAMES:-16} --video /tmp/v%03d.png --orbit ${ORBIT:-6} ${RENDER_ARGS:-} >"$res/r_$t.log" 2>&1
-        echo "$n $m ${TAG:-} rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib|cache_used_mib)' $res/r_$t.log | sed 's/^device: //' | tr '\n' ' ')"
-        # Mean ms a dispatch of each stage over the orbit's frames (frames that decode included).
-        echo "  stages: $(grep -E '^dispatch [0-9]+ ' $res/r_$t.log | sed -E 's/^dispatch [0-9]+ //; s/ \(.*\)//' |
-            awk -F': ' '{n[$1]++; s[$1] += $2} END {for (k in n) printf "%s %.2f, ", k, s[k] / n[k]}')"
+        for bin in "$csgv" ${base:+"$base"}; do
+            t=${n}_$m${TAG:+_$TAG}; label=${TAG:-}
+            [ "$bin" = "$csgv" ] || { t=${t}_base; label="${label:+$label }base"; }
+            CSGV_PROFILE_DISPATCHES=1 timeout 60 "$bin" render $v "$res/s$t.png" --size ${SIZE:-1920x1080} \
+                --shading $m --frames ${FRAMES:-16} --video /tmp/v%03d.png --orbit ${ORBIT:-6} ${RENDER_ARGS:-} >"$res/r_$t.log" 2>&1
+            echo "$n $m $label rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib|cache_used_mib)' $res/r_$t.log | sed 's/^device: //' | tr '\n' ' ')"
+            # Mean ms a dispatch of each stage over the orbit's frames (frames that decode included).
+            echo "  stages: $(grep -E '^dispatch [0-9]+ ' $res/r_$t.log | sed -E 's/^dispatch [0-9]+ //; s/ \(.*\)//' |
+                awk -F': ' '{n[$1]++; s[$1] += $2} END {for (k in n) printf "%s %.2f, ", k, s[k] / n[k]}')"
+        done
     done
     # The first mode once more: its shaders and pipelines are cached now (time to first frame warm).
     m=${modes%% *}
