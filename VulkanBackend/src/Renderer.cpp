@@ -362,9 +362,10 @@ struct Renderer::Impl {
     TexelViews resolveTexels;
     Buffer accum, gbuffer, depthIn, colorDepth, denoiseA, denoiseB;
     /// Where the host sees the per-frame buffers through copies (viaCopies): the output's rows
-    /// copied into host memory before the host reads them, and the host's mirror of the cache
-    /// counters (kSlotAlloc), copied to the device before each submission and back after it.
-    Buffer readback, allocHost;
+    /// copied into host memory before the host reads them, the host's mirror of the cache
+    /// counters (kSlotAlloc), copied to the device before each submission and back after it, and
+    /// the frame parameters the host writes, copied to the device before each submission.
+    Buffer readback, allocHost, paramsHost;
     /// Host decoding with the cache in device memory (GPUs): the bricks a frame decodes, staged in
     /// host memory (not the device's: not in memory()), and their copies into the cache
     /// (stagedCacheCopies of them) and the uniform sub-block masks.
@@ -788,13 +789,19 @@ struct Renderer::Impl {
     /// works on a mirror (viaCopies).
     Status run(const Context::Dispatch* first, size_t count) {
         if (!viaCopies) return ctx.run(first, count);
-        std::vector<Context::Dispatch> list(count + 2);
-        list.front().copyFrom = list.back().copyTo = &allocHost;
-        list.front().copyTo = list.back().copyFrom = &alloc;
-        list.front().copyBytes = list.back().copyBytes = kAllocWords * 4;
-        std::copy(first, first + count, list.begin() + 1);
+        std::vector<Context::Dispatch> list(count + 3);
+        list[0].copyFrom = &paramsHost; // the frame parameters in
+        list[0].copyTo = &params;
+        list[0].copyBytes = sizeof(FrameParams);
+        list[1].copyFrom = list.back().copyTo = &allocHost; // the counters in, and out at the end
+        list[1].copyTo = list.back().copyFrom = &alloc;
+        list[1].copyBytes = list.back().copyBytes = kAllocWords * 4;
+        std::copy(first, first + count, list.begin() + 2);
         return ctx.run(list);
     }
+    /// The frame parameters as the host writes them (run() carries them to the device where they
+    /// live there).
+    FrameParams& hostParams() { return *static_cast<FrameParams*>((viaCopies ? paramsHost : params).mapped()); }
     Status run(const std::vector<Context::Dispatch>& list) { return run(list.data(), list.size()); }
     /// A G-buffer entry's second word as the last accumulation sees it (render_common.glsl's
     /// currentWord1): 0 where another accumulation wrote it.
@@ -996,7 +1003,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         const char* what;
     };
     const uint64_t bricks = im.brickCount, requests = im.maxRequests;
-    const Table tables[] = {{&im.params, sizeof(FrameParams), MemoryKind::HostVisible, "frame parameters"},
+    const Table tables[] = {{&im.params, sizeof(FrameParams), im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "frame parameters"},
+                            {&im.paramsHost, im.viaCopies ? sizeof(FrameParams) : 0, MemoryKind::HostVisible, "frame parameters' host copy"},
                             {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
                             {&im.uniformSubs, bricks * 8, cacheKind, "uniform sub-block masks"},
@@ -1511,7 +1519,7 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
     const Mat4 indexToClip = multiply(in.worldToClip, indexToWorld);
     const Mat4 clipToIndex = multiply(worldToIndex, clipToWorld);
 
-    FrameParams& p = *static_cast<FrameParams*>(params.mapped());
+    FrameParams& p = hostParams();
     std::memset(&p, 0, sizeof(p));
     toFloat(clipToIndex, p.clipToIndex);
     toFloat(indexToClip, p.indexToClip);
@@ -2024,7 +2032,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     stats.cacheFull = a[kAllocFull] != 0;
     stats.requestLimited = limitRequests;
     const std::array<uint32_t, 2> g = cellGrid(st.subsampling);
-    nextList.valid = (static_cast<const FrameParams*>(params.mapped())->frame[1] & kFlagListNext) != 0;
+    nextList.valid = (hostParams().frame[1] & kFlagListNext) != 0;
     nextList.grid = {g[0], g[1], st.subsampling, st.sampleTarget};
     nextList.count = a[kAllocNextCount];
     nextList.kept = a[kAllocNextKept];
@@ -2238,7 +2246,7 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
-                                                          im.alloc.size() + im.allocHost.size() + im.params.size() + im.blueNoise.size() +
+                                                          im.alloc.size() + im.allocHost.size() + im.params.size() + im.paramsHost.size() + im.blueNoise.size() +
                                                           im.detailRequests.size()});
     r.buffers.push_back({"accumulation and denoise", im.accum.size() + im.denoiseA.size() + im.denoiseB.size() +
                                                          im.pixelList.size() + im.outlineRows.size()});
