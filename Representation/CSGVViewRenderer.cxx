@@ -7,6 +7,7 @@
 #include "csgv/gpu/GpuVolume.h"
 
 #include <algorithm>
+#include <system_error>
 
 namespace csgvrep
 {
@@ -314,21 +315,28 @@ void ViewRenderer::prepareInBackground(bool depthInput)
   {
     return;
   }
-  this->Preparing = std::async(std::launch::async,
-    [this, depthInput]
-    {
-      try
+  try
+  {
+    this->Preparing = std::async(std::launch::async,
+      [this, depthInput]
       {
-        if (this->ensureRenderer().empty())
+        try
         {
-          (void)this->Renderer->preparePipelines(depthInput); // the frame reports an error
+          if (this->ensureRenderer().empty())
+          {
+            (void)this->Renderer->preparePipelines(depthInput); // the frame reports an error
+          }
         }
-      }
-      catch (...)
-      {
-        // Out of memory, say: render() makes what is missing, and meets (and reports) it there.
-      }
-    });
+        catch (...)
+        {
+          // Out of memory, say: render() makes what is missing, and meets (and reports) it there.
+        }
+      });
+  }
+  catch (const std::system_error&)
+  {
+    // No thread to be had: render() makes all of it, as without this call.
+  }
 }
 
 void ViewRenderer::settle() const
