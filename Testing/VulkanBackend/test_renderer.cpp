@@ -715,9 +715,10 @@ TEST(Renderer, ResolvePassesGiveTheSameImageThroughTexelsAndBufferAddresses) {
     EXPECT_EQ(images[0].label, images[1].label);
 }
 
-// GPUs keep the G-buffer and the output in device memory and read them back through copies
-// (RendererOptions::readBackThroughCopy forces that here): the same images, frame after frame,
-// as the host reading them mapped, and the copy's rows counted in the renderer's memory.
+// GPUs keep the G-buffer, the output, the counters and the frame parameters in device memory and
+// the host works on copies (RendererOptions::readBackThroughCopy forces that here): the same
+// images, frame after frame, as the host reading them mapped, and the copy's rows counted in the
+// renderer's memory.
 TEST(Renderer, OutputsReadBackThroughACopyEqualMappedOnes) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
@@ -738,7 +739,10 @@ TEST(Renderer, OutputsReadBackThroughACopyEqualMappedOnes) {
     }
     for (int view = 0; view < 3; ++view) {
         SCOPED_TRACE("view " + std::to_string(view));
-        for (auto& renderer : r) { auto rr = renderer->render(req); ASSERT_TRUE(rr.isOk()) << rr.message(); }
+        for (auto& renderer : r) {
+            Result<RenderResult> done = renderer->render(req);
+            ASSERT_TRUE(done.isOk()) << done.message();
+        }
         const FrameOutput& a = r[0]->output();
         const FrameOutput& b = r[1]->output();
         ASSERT_GT(coveredPixels(r[0]->output(Renderer::Color)), a.rgba8.size() / 16);
