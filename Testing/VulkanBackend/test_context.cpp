@@ -115,6 +115,41 @@ TEST(GpuContext, FillsWriteTheirRangeAndRefuseOthers) {
     for (uint32_t i = 0; i < 64; ++i) EXPECT_NE(back[i], 7u) << i;
 }
 
+// A copy (Context::copy, a copy dispatch's regions) writes its ranges alone; a region past either
+// buffer's end, wrapping around or empty is refused, naming the bytes and offsets, and copies nothing.
+TEST(GpuContext, CopiesWriteTheirRegionsAndRefuseOthers) {
+    CSGV_REQUIRE_GPU(ctx);
+    Result<Buffer> src = ctx->createBuffer(64 * 4, MemoryKind::DeviceLocal);
+    Result<Buffer> dst = ctx->createBuffer(32 * 4, MemoryKind::HostVisible);
+    ASSERT_TRUE(src.isOk() && dst.isOk());
+    std::vector<uint32_t> words(64), zero(32, 0u), back(32);
+    for (uint32_t i = 0; i < 64; ++i) words[i] = 1000u + i;
+    ASSERT_TRUE(ctx->upload(*src, 0, words.data(), words.size() * 4).isOk());
+    ASSERT_TRUE(ctx->upload(*dst, 0, zero.data(), zero.size() * 4).isOk());
+    ASSERT_TRUE(ctx->copy(*src, 40 * 4, *dst, 4 * 4, 8 * 4).isOk()); // words 40..47 to 4..11
+    const Context::CopyRegion regions[] = {{0, 20 * 4, 4}, {63 * 4, 31 * 4, 4}};
+    Context::Dispatch d;
+    d.copyFrom = &*src;
+    d.copyTo = &*dst;
+    d.copyRegions = regions;
+    d.copyRegionCount = 2;
+    ASSERT_TRUE(ctx->run(&d, 1).isOk());
+    ASSERT_TRUE(ctx->download(*dst, 0, back.data(), back.size() * 4).isOk());
+    for (uint32_t i = 0; i < 32; ++i)
+        EXPECT_EQ(back[i], i >= 4 && i < 12 ? 1036u + i : i == 20 ? 1000u : i == 31 ? 1063u : 0u) << i;
+    ASSERT_TRUE(ctx->upload(*dst, 0, zero.data(), zero.size() * 4).isOk());
+    Status s = ctx->copy(*src, 0, *dst, 30 * 4, 4 * 4); // two words past the end of dst
+    EXPECT_FALSE(s.isOk());
+    EXPECT_NE(s.message().find("past the end"), std::string::npos) << s.message();
+    EXPECT_FALSE(ctx->copy(*src, ~uint64_t(0) - 3, *dst, 0, 8).isOk()); // wraps around
+    const Context::CopyRegion empty{0, 0, 0};
+    d.copyRegions = &empty;
+    d.copyRegionCount = 1;
+    EXPECT_FALSE(ctx->run(&d, 1).isOk());
+    ASSERT_TRUE(ctx->download(*dst, 0, back.data(), back.size() * 4).isOk());
+    EXPECT_EQ(back, zero);
+}
+
 TEST(GpuContext, APipelineIsMadeOncePerShaderEvenFromTwoThreads) {
     CSGV_REQUIRE_GPU(ctx);
     const std::string src = "#version 460\n#extension GL_EXT_buffer_reference : require\n"

@@ -526,15 +526,14 @@ Status Context::download(const Buffer& src, uint64_t offset, void* data, uint64_
 }
 
 Status Context::copy(const Buffer& src, uint64_t srcOffset, Buffer& dst, uint64_t dstOffset, uint64_t bytes) {
-    if (srcOffset + bytes > src.size() || dstOffset + bytes > dst.size()) return Status::error("a copy past the end of a GPU buffer");
     if (bytes == 0) return Status::ok();
-    Impl& im = *m_impl;
-    return submitAndWait(im, [&](VkCommandBuffer cmd) {
-        VkBufferCopy region{srcOffset, dstOffset, bytes};
-        im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(src.m_buffer), reinterpret_cast<VkBuffer>(dst.m_buffer), 1,
-                              &region);
-        transferBarrier(im.vk, cmd);
-    });
+    const CopyRegion region{srcOffset, dstOffset, bytes};
+    Dispatch d;
+    d.copyFrom = &src;
+    d.copyTo = &dst;
+    d.copyRegions = &region;
+    d.copyRegionCount = 1;
+    return run(&d, 1); // run() refuses a region past either buffer's end
 }
 
 TexelSet::~TexelSet() { release(); }
@@ -716,8 +715,9 @@ Status Context::run(const Dispatch* first, size_t count) {
             return Status::error("a copy between buffers that do not exist or hold fewer bytes");
         for (uint32_t i = 0; d->copyFrom && i < d->copyRegionCount; ++i) {
             const CopyRegion& r = d->copyRegions[i];
-            if (r.srcOffset + r.bytes > d->copyFrom->size() || r.dstOffset + r.bytes > d->copyTo->size())
-                return Status::error("a copy region past the end of its buffer (" + std::to_string(r.bytes) + " bytes from byte " +
+            const auto past = [&](uint64_t offset, const Buffer* b) { return offset > b->size() || r.bytes > b->size() - offset; };
+            if (r.bytes == 0 || past(r.srcOffset, d->copyFrom) || past(r.dstOffset, d->copyTo))
+                return Status::error("an empty copy region, or one past the end of its buffer (" + std::to_string(r.bytes) + " bytes from byte " +
                                      std::to_string(r.srcOffset) + " of " + std::to_string(d->copyFrom->size()) +
                                      " to byte " + std::to_string(r.dstOffset) + " of " + std::to_string(d->copyTo->size()) + ")");
         }

@@ -96,6 +96,10 @@ struct TexelViews {
     /// True when the sets came or went since the last refresh: pipelines made for the other case
     /// must be made again (views made again over new buffers change nothing for them).
     /// `wordsPerTexel`: Context::createTexelSet's (every buffer of the lists).
+    /// Whether a view of the whole buffer stays within the device's texel limit.
+    static bool fits(const Context& ctx, const Buffer& b, uint32_t wordsPerTexel = 1) {
+        return b.size() / (4u * wordsPerTexel) <= ctx.device().maxTexelBufferElements;
+    }
     template <size_t N>
     Result<bool> refresh(Context& ctx, bool wanted, std::initializer_list<std::array<const Buffer*, N>> lists,
                          uint32_t wordsPerTexel = 1) {
@@ -103,7 +107,7 @@ struct TexelViews {
         size_t i = 0;
         for (const auto& list : lists)
             for (const Buffer* b : list) {
-                fit = fit && b->valid() && b->size() / (4u * wordsPerTexel) <= ctx.device().maxTexelBufferElements;
+                fit = fit && b->valid() && fits(ctx, *b, wordsPerTexel);
                 same = same && serials[i++] == b->serial();
             }
         if (fit && same) return false;
@@ -506,16 +510,21 @@ struct Renderer::Impl {
             });
             return Status::ok();
         }
-        // The regions' places in the host buffer: the bricks' labels one after another, then a
-        // mask per brick decoded at the finest level.
-        std::vector<uint64_t> at(n + 1, 0);
-        uint32_t finest = 0;
+        // Each brick's labels, then (decoded at the finest level) its uniform sub-block mask, one
+        // after another in the host buffer; the copies take them to the cache and the masks.
+        struct Staged {
+            uint32_t brick = 0, lod = 0, offset = 0;
+            uint64_t at = 0, labelBytes = 0; // labelBytes 0: an entry that is not decoded
+        };
+        std::vector<Staged> staged(n);
+        uint64_t bytes = 0;
         for (uint64_t i = 0; i < n; ++i) {
-            uint32_t brick, lod, offset;
-            at[i + 1] = at[i] + (entry(i, brick, lod, offset) ? uint64_t(volume->regionWords(lod)) * 4 : 0);
-            finest += entry(i, brick, lod, offset) && lod == 0;
+            Staged& e = staged[i];
+            if (!entry(i, e.brick, e.lod, e.offset)) continue;
+            e.at = bytes;
+            e.labelBytes = uint64_t(volume->regionWords(e.lod)) * 4;
+            bytes += e.labelBytes + (e.lod == 0 ? 8 : 0);
         }
-        const uint64_t bytes = at[n] + uint64_t(finest) * 8;
         if (decodeStaging.size() < bytes) {
             const uint64_t grown = std::max<uint64_t>(bytes, decodeStaging.size() * 2);
             decodeStaging = Buffer{};
@@ -523,35 +532,22 @@ struct Renderer::Impl {
             if (!b) return Status(b.status()).prefix("allocating host memory for decoded bricks");
             decodeStaging = std::move(*b);
         }
-        uint8_t* staging = static_cast<uint8_t*>(decodeStaging.mapped());
-        std::vector<uint64_t> maskAt(n, 0);
-        for (uint64_t i = 0, m = at[n]; i < n; ++i) {
-            uint32_t brick, lod, offset;
-            if (entry(i, brick, lod, offset) && lod == 0) {
-                maskAt[i] = m;
-                m += 8;
-            }
-        }
+        uint8_t* host = static_cast<uint8_t*>(decodeStaging.mapped());
         hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
+            const Staged& e = staged[i];
+            if (e.labelBytes == 0) return;
             BrickDecoder& d = *decoders[worker];
-            uint32_t brick, lod, offset;
-            if (!entry(i, brick, lod, offset)) return;
-            const bool ok = volume->decodeRegion(d, brick, lod, reinterpret_cast<uint32_t*>(staging + at[i]));
-            if (lod == 0) {
-                const uint64_t mask = ok ? uniformSubBlocks(d.labels(), brick) : 0;
-                std::memcpy(staging + maskAt[i], &mask, 8);
+            const bool ok = volume->decodeRegion(d, e.brick, e.lod, reinterpret_cast<uint32_t*>(host + e.at));
+            if (e.lod == 0) {
+                const uint64_t mask = ok ? uniformSubBlocks(d.labels(), e.brick) : 0;
+                std::memcpy(host + e.at + e.labelBytes, &mask, 8);
             }
         });
-        for (uint64_t i = 0; i < n; ++i) {
-            uint32_t brick, lod, offset;
-            if (!entry(i, brick, lod, offset)) continue;
-            stagedCopies.push_back({at[i], uint64_t(offset) * 4, at[i + 1] - at[i]});
-        }
+        for (const Staged& e : staged)
+            if (e.labelBytes) stagedCopies.push_back({e.at, uint64_t(e.offset) * 4, e.labelBytes});
         stagedCacheCopies = uint32_t(stagedCopies.size());
-        for (uint64_t i = 0; i < n; ++i) {
-            uint32_t brick, lod, offset;
-            if (entry(i, brick, lod, offset) && lod == 0) stagedCopies.push_back({maskAt[i], uint64_t(brick) * 8, 8});
-        }
+        for (const Staged& e : staged)
+            if (e.labelBytes && e.lod == 0) stagedCopies.push_back({e.at + e.labelBytes, uint64_t(e.brick) * 8, 8});
         return Status::ok();
     }
     /// The copies of what decodeOnHost staged, in front of `count` dispatches from `first`.
@@ -1417,8 +1413,7 @@ Status Renderer::preparePipelines(bool depthInput) {
         // frame's buffers will most likely be viewed (texel views where wanted and the cache fits
         // the device's limit; an image's buffers are far smaller). Should
         // that frame's views say otherwise (TexelViews::refresh), it drops these and makes its own.
-        const bool cacheFits = im.cache.size() / 4 <= im.ctx.device().maxTexelBufferElements;
-        im.renderTexels.made = im.texelsWanted && cacheFits;
+        im.renderTexels.made = im.texelsWanted && TexelViews::fits(im.ctx, im.cache);
         im.resolveTexels.made = im.texelsWanted;
     }
     return im.ensurePipelines(m_settings, depthInput);
@@ -1918,7 +1913,9 @@ Status Renderer::Impl::submit() {
         if (!(s = run(dispatches.data(), cacheStages))) return s;
         sizeRenderDispatch();
         if (!(s = decodeOnHost())) return s;
-        return run(withStagedCopies(dispatches.data() + cacheStages, dispatches.size() - cacheStages));
+        const Context::Dispatch* rest = dispatches.data() + cacheStages;
+        const size_t count = dispatches.size() - cacheStages;
+        return stagedCopies.empty() ? run(rest, count) : run(withStagedCopies(rest, count));
     }
     return run(dispatches); // one submission: cache stages, decoding, rendering, resolving
 }
