@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <map>
 
 using namespace csgv;
@@ -79,6 +80,8 @@ FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples,
     return out;
 }
 
+void expectGBufferEquals(const FrameOutput& out, const GBuffer& ref, const std::string& what);
+
 void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
                                   const std::string& what, bool paletting = false,
                                   RendererOptions::Decode decode = RendererOptions::Decode::Auto, bool texels = true,
@@ -102,6 +105,12 @@ void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, 
     RayCastView view{in.worldToClip, in.width, in.height};
     const GBuffer ref = castRaysStable(scene.labels, g, view, [](uint32_t l) { return l != 0 && l != kInvalidLabel; },
                                        scene.volume.brickSize);
+    expectGBufferEquals(out, ref, what);
+}
+
+/// The renderer's G-buffer equals the stable reference's: labels, faces, and depths and
+/// distances within float rounding; the view shows the volume and some background.
+void expectGBufferEquals(const FrameOutput& out, const GBuffer& ref, const std::string& what) {
     size_t labelDiff = 0, faceDiff = 0, depthDiff = 0, hits = 0;
     for (size_t i = 0; i < ref.label.size(); ++i) {
         labelDiff += out.label[i] != ref.label[i];
@@ -182,7 +191,10 @@ namespace {
 
 /// Bit j: sub-block j (Morton order, edge brickSize / 4) of `brick` lies inside the volume and
 /// holds one label; computed from the decoded volume, voxel by voxel.
-uint64_t expectedUniformMask(const CompressedVolume& vol, const LabelVolume& labels, uint32_t brick) {
+/// The brick's sub-blocks inside the volume that hold one label or, given `visible`, no visible
+/// label (the renderer's skipped sub-blocks).
+uint64_t expectedUniformMask(const CompressedVolume& vol, const LabelVolume& labels, uint32_t brick,
+                             const std::function<bool(uint32_t)>& visible = nullptr) {
     const std::array<uint32_t, 3> grid = vol.brickGrid();
     const uint32_t origin[3] = {brick % grid[0] * vol.brickSize, brick / grid[0] % grid[1] * vol.brickSize,
                                 brick / (grid[0] * grid[1]) * vol.brickSize};
@@ -198,11 +210,15 @@ uint64_t expectedUniformMask(const CompressedVolume& vol, const LabelVolume& lab
         }
         if (!inside) continue;
         const uint32_t first = labels.at(o[0], o[1], o[2]);
-        bool same = true;
+        bool same = true, hidden = bool(visible);
         for (uint32_t z = 0; z < edge; ++z)
             for (uint32_t y = 0; y < edge; ++y)
-                for (uint32_t x = 0; x < edge; ++x) same = same && labels.at(o[0] + x, o[1] + y, o[2] + z) == first;
-        if (same) mask |= uint64_t(1) << j;
+                for (uint32_t x = 0; x < edge; ++x) {
+                    const uint32_t l = labels.at(o[0] + x, o[1] + y, o[2] + z);
+                    same = same && l == first;
+                    hidden = hidden && !visible(l);
+                }
+        if (same || hidden) mask |= uint64_t(1) << j;
     }
     return mask;
 }
@@ -228,6 +244,9 @@ void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool palet
         ++finest;
         const uint64_t want = expectedUniformMask(scene.volume, scene.labels, b.brick);
         EXPECT_EQ(b.uniformSubBlocks, want) << "brick " << b.brick;
+        // The default materials draw every label but 0: what they skip beside is label 0 alone.
+        EXPECT_EQ(b.skippedSubBlocks, expectedUniformMask(scene.volume, scene.labels, b.brick, [](uint32_t l) { return l != 0; }))
+            << "brick " << b.brick;
         uniform += want != 0;
         mixed += want != ~uint64_t(0);
     }
@@ -247,6 +266,69 @@ TEST(Renderer, UniformSubBlocksAreMarkedExactly) {
     expectUniformMasks(*ctx, RendererOptions::Decode::Gpu, false);
     expectUniformMasks(*ctx, RendererOptions::Decode::Gpu, true);
     expectUniformMasks(*ctx, RendererOptions::Decode::Host, true);
+}
+
+namespace {
+
+/// Materials that draw the labels in [lo, hi] alone, then those in [hi + 1, max]: each time the
+/// G-buffer equals the stable reference's for those labels (which steps over the same sub-blocks:
+/// one label, or none drawn) and the cached bricks' skipped sub-blocks are exactly those. The
+/// second document keeps the cache: its masks are made anew for every cached brick, or rays
+/// would step over sub-blocks that now show labels.
+void expectSkippedSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Decode decode, bool paletting) {
+    Scene& scene = fixtureScene(ctx, "synthA_b32_rans2.csgv");
+    std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
+    ASSERT_TRUE(gpu);
+    RendererOptions o;
+    o.decode = decode;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, o);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    st.denoise = false;
+    (*r)->setSettings(st);
+    std::vector<uint32_t> labels;
+    for (size_t i = 0; i < scene.labels.labels.size(); ++i)
+        if (scene.labels.labels[i] != 0) labels.push_back(scene.labels.labels[i]);
+    std::sort(labels.begin(), labels.end());
+    labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+    ASSERT_GT(labels.size(), 8u);
+    const uint32_t cut = labels[labels.size() / 3];
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    const std::pair<uint32_t, uint32_t> ranges[] = {{labels.front(), cut}, {cut + 1, labels.back()}};
+    for (const auto& [lo, hi] : ranges) {
+        const std::string what = "labels " + std::to_string(lo) + " to " + std::to_string(hi) +
+                                 (paletting ? ", paletted" : "") + (decode == RendererOptions::Decode::Gpu ? ", GPU decoding" : "");
+        Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [{"name": "some", "filter": {"attribute": "label", "min": )" +
+                                                      std::to_string(lo) + ", \"max\": " + std::to_string(hi) + "}}]}");
+        ASSERT_TRUE(doc.isOk()) << doc.message();
+        ASSERT_TRUE((*r)->setMaterials(*doc).isOk());
+        const FrameOutput out = renderConverged(**r, in, 1, 64);
+        const std::function<bool(uint32_t)> visible = [lo = lo, hi = hi](uint32_t l) { return l >= lo && l <= hi; };
+        const GBuffer ref = castRaysStable(scene.labels, Geometry{}, RayCastView{in.worldToClip, in.width, in.height}, visible,
+                                           scene.volume.brickSize);
+        expectGBufferEquals(out, ref, what);
+        Result<std::vector<Renderer::CachedBrick>> cached = (*r)->cachedBricks();
+        ASSERT_TRUE(cached.isOk()) << cached.message();
+        size_t hiddenOnly = 0;
+        for (const Renderer::CachedBrick& b : *cached) {
+            if (b.lod != 0) continue;
+            const uint64_t want = expectedUniformMask(scene.volume, scene.labels, b.brick, visible);
+            EXPECT_EQ(b.skippedSubBlocks, want) << what << ", brick " << b.brick;
+            hiddenOnly += (want & ~expectedUniformMask(scene.volume, scene.labels, b.brick)) != 0;
+        }
+        EXPECT_GT(hiddenOnly, 0u) << what << ": some cached brick must skip sub-blocks of several labels none drawn";
+    }
+}
+
+} // namespace
+
+TEST(Renderer, SkippedSubBlocksFollowTheMaterialsAndKeepTheGBufferExact) {
+    CSGV_REQUIRE_GPU(ctx);
+    expectSkippedSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Auto, false);
+    expectSkippedSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Gpu, false);
+    expectSkippedSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Gpu, true);
 }
 
 namespace {
@@ -967,7 +1049,8 @@ TEST(Renderer, DetailStreamingShowsTheCoarserLevelUntilStreamsArriveAndConverges
     ASSERT_TRUE(small);
     converge(*small, "tiny ring");
     uint64_t viewStreams = 0;
-    for (const Renderer::CachedBrick& c : *small->cachedBricks())
+    const std::vector<Renderer::CachedBrick> smallCached = *small->cachedBricks();
+    for (const Renderer::CachedBrick& c : smallCached)
         if (c.lod == 0) viewStreams += DetailStream::brickBytes(scene.volume, c.brick);
     EXPECT_GT(viewStreams, 2 * tiny) << "the view must need more streams than the ring holds";
     const DetailCounts counts = small->detailCounts();

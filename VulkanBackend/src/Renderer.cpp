@@ -353,13 +353,14 @@ struct Renderer::Impl {
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
+    uint64_t pSkip = 0, pSkipAll = 0; // cache_skip.comp: the bricks decoded this frame; every cached one (SKIP_ALL)
     // Per TONE_CURVES (toneCurves; render.comp also ONE_SAMPLE, DEPTH_INPUT: renderVariant) and resolve pass
     // or shading mode, compiled on first use.
     uint64_t pResolve[2][kResolveAtrous4 + 1] = {};
     uint64_t pRender[8][4] = {}; // [renderVariant][shading]
     uint32_t curves = 0; // the frame's TONE_CURVES: the resolve passes' pipelines (addResolve)
     Defines defines;
-    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, detailRequests;
+    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, skipSubs, detailRequests;
     /// The render pass's texel buffers (RENDER_TEXELS, RendererOptions::renderTexels), or none.
     TexelViews renderTexels;
     /// The resolve passes' (RESOLVE_TEXELS): a set per source, denoiseA then denoiseB.
@@ -393,6 +394,9 @@ struct Renderer::Impl {
     uint32_t listedCount = 0;             // ... and its cells
     size_t renderDispatch = 0;        // the render pass's index in `dispatches`
     bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
+    bool skipAllPending = false;      // ... and the skipped sub-blocks of every cached brick (cache_skip.comp SKIP_ALL)
+    bool cacheEmpty = true;           // no brick decoded since the cache was made or reset: SKIP_ALL has nothing to do
+    size_t skipDispatch = SIZE_MAX;   // the decoded bricks' cache_skip.comp in `dispatches` (host decoding sizes it)
     Buffer ghost;  // setGhostFaces (empty: not a piece)
     Buffer coarse; // setCoarseStandIns (empty: none)
     uint32_t materialTableSize = 0;   // entries of a dense materialTable (Frame counts.w)
@@ -699,8 +703,12 @@ struct Renderer::Impl {
     /// PIXEL_LIST: lists the cells the render pass runs over (every cell, or pixel_list.comp's
     /// dispatch for those below the sample target).
     void listPixels(const RenderSettings& st);
-    /// PIXEL_LIST: the render pass's groups for the cells listed (after the first submission).
+    /// Host decoding, after the first submission: the groups of the decoded bricks' cache_skip.comp
+    /// and (PIXEL_LIST) of the render pass for the cells listed.
     void sizeRenderDispatch();
+    /// Whether this frame marks the skipped sub-blocks of every cached brick (the materials changed
+    /// since bricks were decoded), not only of those it decodes.
+    bool skipsAll() const { return skipAllPending && !cacheEmpty; }
     /// Returns true when it changed how the next frame treats the cache (FrameStats::cacheAdapting).
     bool applyCachePolicy(const FrameStats& stats, const FrameInput& in, uint32_t stride);
     /// The free stacks hold a large share of the cache (kFragmentedShare) although it ran full.
@@ -833,7 +841,7 @@ struct Renderer::Impl {
         std::array<const Buffer*, kRenderTexelCount> render{};
         render[kTexelCache] = &cache;
         render[kTexelBricks] = &bricks;
-        render[kTexelUniform] = &uniformSubs;
+        render[kTexelSkip] = &skipSubs;
         render[kTexelMaterialTable] = &materialTable;
         render[kTexelLabelColors] = labelColors.valid() ? &labelColors : &params;
         render[kTexelGBuffer] = &gbuffer;
@@ -892,6 +900,7 @@ struct Renderer::Impl {
         std::fill(a, a + kAllocWords, 0u);
         a[kAllocCapacity] = capacity;
         prefetchPending = true;
+        cacheEmpty = true;
         return Status::ok();
     }
     /// Whether a frame asks for every visible brick at once (RendererOptions::prefetchVoxels). A
@@ -1004,6 +1013,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                             {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
                             {&im.uniformSubs, bricks * 8, cacheKind, "uniform sub-block masks"},
+                            {&im.skipSubs, bricks * 8, MemoryKind::DeviceLocal, "skipped sub-block masks"},
                             {&im.alloc, kAllocWords * 4, im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "cache counters"},
                             {&im.allocHost, im.viaCopies ? kAllocWords * 4 : 0, MemoryKind::HostVisible, "cache counters' host copy"},
                             {&im.freeStacks, bricks * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"},
@@ -1063,6 +1073,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
     const std::vector<uint64_t> noMasks(im.brickCount, 0);
     if (!(s = context.upload(im.uniformSubs, 0, noMasks.data(), noMasks.size() * 8))) return s;
+    if (!(s = context.upload(im.skipSubs, 0, noMasks.data(), noMasks.size() * 8))) return s;
     uint32_t* a = im.allocWords();
     std::fill(a, a + kAllocWords, 0u);
     a[kAllocCapacity] = uint32_t(cacheBytes / 4);
@@ -1271,6 +1282,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         }
         labelColorsPending = true;
     }
+    skipAllPending = true; // sub-blocks whose labels no material draws: others now
     // Which bricks can show anything: their palettes against the materials.
     auto materialOfStored = [&](uint32_t stored) {
         return table.empty() || (lookup.kind != kLookupHashed && stored >= table.size()) ? materialOf(stored)
@@ -1500,6 +1512,8 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput
     need(pAssign, "cache_assign.comp");
     need(pCommit, "cache_commit.comp");
     if (!hostDecode) need(pUniform, "cache_uniform.comp");
+    need(pSkip, "cache_skip.comp", 8, "SKIP_ALL", 0);
+    if (skipsAll()) need(pSkipAll, "cache_skip.comp", 8, "SKIP_ALL", 1);
     if (usesPixelList) need(pPixelList, "pixel_list.comp");
     if (labelColorsPending) need(pLabelColors, "label_colors.comp");
     return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
@@ -1642,7 +1656,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
         {kSlotAttributes, &attributeTable}, {kSlotOutput, &colorDepth}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
         {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors},
-        {kSlotPixelList, &pixelList}};
+        {kSlotPixelList, &pixelList}, {kSlotSkip, &skipSubs}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
@@ -1683,6 +1697,15 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (!hostDecode) {
         dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
+    }
+    // The sub-blocks rays step over whole: of every cached brick when the materials changed,
+    // else of the bricks decoded now (a group per decode; host decoding sizes it in submit()).
+    skipDispatch = SIZE_MAX;
+    if (skipsAll()) {
+        addDispatch(pSkipAll, &frameAddress, 8, (brickCount + kSkipGroupBricks - 1) / kSkipGroupBricks, 1);
+    } else {
+        skipDispatch = dispatches.size();
+        addDispatch(pSkip, &frameAddress, 8, maxRequests, 1);
     }
     const std::array<uint32_t, 2> cells = cellGrid(st.subsampling);
     const uint32_t rw = cells[0], rh = cells[1];
@@ -1861,6 +1884,9 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
 }
 
 void Renderer::Impl::sizeRenderDispatch() {
+    // The decoded bricks' skipped sub-blocks: a group per decode (none: one group that leaves).
+    if (skipDispatch < dispatches.size())
+        dispatches[skipDispatch].groups[0] = std::max(1u, std::min(allocWords()[kAllocDecodes], maxRequests));
     if (!usesPixelList) return;
     const uint64_t perGroup = uint64_t(kGroupTile) * kGroupTile * pixelBlock * pixelBlock;
     Context::Dispatch& d = dispatches[renderDispatch];
@@ -1875,7 +1901,8 @@ Status Renderer::Impl::submit() {
             if (d.fill) return "clear";
             const std::pair<uint64_t, const char*> named[] = {
                 {pRequest, "request"}, {pProvision, "provision"}, {pAssign, "assign"}, {pCommit, "commit"},
-                {pUniform, "uniform sub-blocks"}, {pPixelList, "pixel list"}, {pLabelColors, "label colours"}};
+                {pUniform, "uniform sub-blocks"}, {pSkip, "skipped sub-blocks"}, {pSkipAll, "skipped sub-blocks (all)"},
+                {pPixelList, "pixel list"}, {pLabelColors, "label colours"}};
             for (const auto& [p, name] : named)
                 if (d.pipeline == p) return name;
             for (const auto& variant : pRender)
@@ -2007,6 +2034,8 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
     labelColorsPending = false;
+    skipAllPending = false;
+    cacheEmpty = false;
     if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.detailUploads = detailUploads;
@@ -2214,13 +2243,15 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
 Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
     const Impl& im = *m_impl;
     std::vector<uint32_t> words(size_t(im.brickCount) * 4);
-    std::vector<uint64_t> masks(im.brickCount);
+    std::vector<uint64_t> masks(im.brickCount), skips(im.brickCount);
     Status s = im.ctx.download(im.bricks, 0, words.data(), words.size() * 4);
     if (s) s = im.ctx.download(im.uniformSubs, 0, masks.data(), masks.size() * 8);
+    if (s) s = im.ctx.download(im.skipSubs, 0, skips.data(), skips.size() * 8);
     if (!s) return s;
     std::vector<CachedBrick> out;
     for (uint32_t b = 0; b < im.brickCount; ++b)
-        if (words[4 * b + 1] != kNone) out.push_back({b, words[4 * b + 1], words[4 * b + 1] == 0 ? masks[b] : 0});
+        if (const bool finest = words[4 * b + 1] == 0; words[4 * b + 1] != kNone)
+            out.push_back({b, words[4 * b + 1], finest ? masks[b] : 0, finest ? skips[b] : 0});
     return out;
 }
 
@@ -2240,7 +2271,7 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"encoding", im.volume->deviceBytes()});
     if (im.detail) r.buffers.push_back({"detail buffer and table", im.detail->deviceBytes()});
     r.buffers.push_back({"brick cache", im.cache.size()});
-    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size()});
+    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size() + im.skipSubs.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
                                                           im.alloc.size() + im.allocHost.size() + im.params.size() + im.paramsHost.size() + im.blueNoise.size() +

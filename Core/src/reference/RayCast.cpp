@@ -200,12 +200,13 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                 const size_t b = (x >> shift) + grid[0] * ((y >> shift) + size_t(grid[1]) * (z >> shift));
                 if (!brickVisible[b] && visible(volume.at(x, y, z))) brickVisible[b] = 1;
             }
-    // The renderer's uniform sub-blocks (Layout.h): inside the volume, one label.
+    // The sub-blocks the renderer steps over whole (Layout.h; cache_skip.comp): inside the volume,
+    // one label or none visible.
     const int subShift = shift - int(kUniformShift);
-    std::vector<uint64_t> uniform(brickVisible.size(), 0);
+    std::vector<uint64_t> skipped(brickVisible.size(), 0);
     if (subShift >= 0) {
         const uint32_t edge = 1u << subShift;
-        for (size_t b = 0; b < uniform.size(); ++b) {
+        for (size_t b = 0; b < skipped.size(); ++b) {
             const uint32_t bc[3] = {uint32_t(b % grid[0]) << shift, uint32_t(b / grid[0] % grid[1]) << shift,
                                     uint32_t(b / (size_t(grid[0]) * grid[1])) << shift};
             for (uint32_t j = 0; j < 64; ++j) {
@@ -213,11 +214,15 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                     continue;
                 const uint32_t o[3] = {bc[0] + mortonX(j) * edge, bc[1] + mortonY(j) * edge, bc[2] + mortonZ(j) * edge};
                 const uint32_t first = volume.at(o[0], o[1], o[2]);
-                bool same = true;
-                for (uint32_t z = 0; z < edge && same; ++z)
-                    for (uint32_t y = 0; y < edge && same; ++y)
-                        for (uint32_t x = 0; x < edge && same; ++x) same = volume.at(o[0] + x, o[1] + y, o[2] + z) == first;
-                if (same) uniform[b] |= uint64_t(1) << j;
+                bool same = true, hidden = true;
+                for (uint32_t z = 0; z < edge && (same || hidden); ++z)
+                    for (uint32_t y = 0; y < edge && (same || hidden); ++y)
+                        for (uint32_t x = 0; x < edge && (same || hidden); ++x) {
+                            const uint32_t l = volume.at(o[0] + x, o[1] + y, o[2] + z);
+                            same = same && l == first;
+                            hidden = hidden && !visible(l);
+                        }
+                if (same || hidden) skipped[b] |= uint64_t(1) << j;
             }
         }
     }
@@ -307,10 +312,10 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                             break;
                         }
                     }
-                    // A uniform sub-block has no surface inside: stepped over whole.
+                    // A sub-block of one label or none visible has no surface inside: stepped over whole.
                     const uint32_t local = (1u << shift) - 1;
                     const bool whole = subShift >= 0 &&
-                        ((uniform[bi] >> uniformSubBlockOf(uint32_t(w.voxel[0]) & local, uint32_t(w.voxel[1]) & local,
+                        ((skipped[bi] >> uniformSubBlockOf(uint32_t(w.voxel[0]) & local, uint32_t(w.voxel[1]) & local,
                                                            uint32_t(w.voxel[2]) & local, uint32_t(subShift))) & 1u) != 0;
                     stableStep(w, whole ? subShift : 0);
                 }

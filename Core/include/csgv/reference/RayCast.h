@@ -48,7 +48,8 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& cornerGeometry, cons
 
 /// The float mirror of the GPU ray marcher (shaders/render_common.glsl and render.comp): the
 /// paper's stable DDA on an integer voxel plus a sub-voxel offset in [0, 1)^3, with bricks of
-/// `brickSize` that hold no visible voxel skipped whole, operation for operation in single
+/// `brickSize` that hold no visible voxel skipped whole (and, inside them, the sub-blocks of
+/// csgv/codec/Layout.h that hold one label or no visible one), operation for operation in single
 /// precision, so the GPU's G-buffer at the finest level must equal it exactly (labels, faces).
 GBuffer castRaysStable(const LabelVolume& volume, const Geometry& cornerGeometry, const RayCastView& view,
                        const std::function<bool(uint32_t)>& visible, uint32_t brickSize);
