@@ -395,6 +395,7 @@ struct Renderer::Impl {
     size_t renderDispatch = 0;        // the render pass's index in `dispatches`
     bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
     bool skipAllPending = false;      // ... and the skipped sub-blocks of every cached brick (cache_skip.comp SKIP_ALL)
+    bool hiddenLabels = true;         // the materials leave several labels undrawn: sub-blocks of them are skipped too
     bool cacheEmpty = true;           // no brick decoded since the cache was made or reset: SKIP_ALL has nothing to do
     size_t skipDispatch = SIZE_MAX;   // the decoded bricks' cache_skip.comp in `dispatches` (host decoding sizes it)
     Buffer ghost;  // setGhostFaces (empty: not a piece)
@@ -1283,6 +1284,16 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         labelColorsPending = true;
     }
     skipAllPending = true; // sub-blocks whose labels no material draws: others now
+    // With at most one label the materials leave undrawn, a sub-block without drawn labels holds
+    // that label alone: the skipped sub-blocks are the uniform ones (copied, no pass). Without a
+    // table the labels are not known here: the pass decides.
+    uint64_t undrawn = 0;
+    if (lookup.kind == kLookupHashed) {
+        for (size_t i = 0; i < lookup.slots.size() && undrawn < 2; ++i) undrawn += lookup.slots[i] != kNone && table[2 * i + 1] == kNone;
+    } else {
+        undrawn = table.empty() ? 2 : uint64_t(std::count(table.begin(), table.end(), kNone));
+    }
+    hiddenLabels = undrawn > 1;
     // Which bricks can show anything: their palettes against the materials.
     auto materialOfStored = [&](uint32_t stored) {
         return table.empty() || (lookup.kind != kLookupHashed && stored >= table.size()) ? materialOf(stored)
@@ -1512,7 +1523,7 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput
     need(pAssign, "cache_assign.comp");
     need(pCommit, "cache_commit.comp");
     if (!hostDecode) need(pUniform, "cache_uniform.comp");
-    need(pSkip, "cache_skip.comp", 8, "SKIP_ALL", 0);
+    if (hiddenLabels) need(pSkip, "cache_skip.comp", 8, "SKIP_ALL", 0);
     if (skipsAll()) need(pSkipAll, "cache_skip.comp", 8, "SKIP_ALL", 1);
     if (usesPixelList) need(pPixelList, "pixel_list.comp");
     if (labelColorsPending) need(pLabelColors, "label_colors.comp");
@@ -1699,13 +1710,21 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
     // The sub-blocks rays step over whole: of every cached brick when the materials changed,
-    // else of the bricks decoded now (a group per decode; host decoding sizes it in submit()).
+    // else of the bricks decoded now (a group per decode), or the uniform ones copied where the
+    // materials leave one label undrawn at most (host decoding sizes either in submit()).
     skipDispatch = SIZE_MAX;
     if (skipsAll()) {
         addDispatch(pSkipAll, &frameAddress, 8, (brickCount + kSkipGroupBricks - 1) / kSkipGroupBricks, 1);
-    } else {
+    } else if (hiddenLabels) {
         skipDispatch = dispatches.size();
         addDispatch(pSkip, &frameAddress, 8, maxRequests, 1);
+    } else {
+        skipDispatch = dispatches.size();
+        Context::Dispatch c;
+        c.copyFrom = &uniformSubs;
+        c.copyTo = &skipSubs;
+        c.copyBytes = uint64_t(brickCount) * 8;
+        dispatches.push_back(c);
     }
     const std::array<uint32_t, 2> cells = cellGrid(st.subsampling);
     const uint32_t rw = cells[0], rh = cells[1];
@@ -1884,9 +1903,17 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
 }
 
 void Renderer::Impl::sizeRenderDispatch() {
-    // The decoded bricks' skipped sub-blocks: a group per decode (none: one group that leaves).
-    if (skipDispatch < dispatches.size())
-        dispatches[skipDispatch].groups[0] = std::max(1u, std::min(allocWords()[kAllocDecodes], maxRequests));
+    // The decoded bricks' skipped sub-blocks: a group per decode; nothing decoded, nothing to mark.
+    if (skipDispatch < dispatches.size()) {
+        const uint32_t decoded = std::min(allocWords()[kAllocDecodes], maxRequests);
+        if (decoded == 0) {
+            dispatches.erase(dispatches.begin() + std::ptrdiff_t(skipDispatch));
+            if (renderDispatch > skipDispatch) --renderDispatch;
+            skipDispatch = SIZE_MAX;
+        } else if (!dispatches[skipDispatch].copyFrom) {
+            dispatches[skipDispatch].groups[0] = decoded;
+        }
+    }
     if (!usesPixelList) return;
     const uint64_t perGroup = uint64_t(kGroupTile) * kGroupTile * pixelBlock * pixelBlock;
     Context::Dispatch& d = dispatches[renderDispatch];
@@ -1899,6 +1926,7 @@ Status Renderer::Impl::submit() {
     if (profileDispatches) { // one submission per dispatch, timed (diagnostics)
         auto stage = [&](const Context::Dispatch& d) -> std::string {
             if (d.fill) return "clear";
+            if (d.copyFrom) return "copy";
             const std::pair<uint64_t, const char*> named[] = {
                 {pRequest, "request"}, {pProvision, "provision"}, {pAssign, "assign"}, {pCommit, "commit"},
                 {pUniform, "uniform sub-blocks"}, {pSkip, "skipped sub-blocks"}, {pSkipAll, "skipped sub-blocks (all)"},
