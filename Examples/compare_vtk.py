@@ -4,7 +4,8 @@ nearest interpolation), on the same data, camera and resolution, over inputs x s
 
     xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch --force-offscreen-rendering \\
         Examples/compare_vtk.py --input DATA[,DATA...] [--input DATA ...] [--size 640x360,1280x720] \\
-        [--shadings local,shadow,ao,pt] [--frames 20] [--repeat N] [--output DIR] [--json FILE] [--demos]
+        [--shadings local,shadow,ao,pt] [--drawn 1,0.05] [--frames 20] [--repeat N] [--output DIR] [--json FILE]
+        [--demos]
 
 DATA is a .csgv (VTK's side gets the reader's decoded labels; ours keeps them compressed,
 DecodeLabels off), a NIfTI label volume (the plugin's NIfTI reader, point data; ours compresses
@@ -13,8 +14,12 @@ it on the fly), any image file ParaView opens, or synth:WxHxD[:seed], a procedur
 the same --output reuses that file. The tool is --csgv-tool, else $CSGV_TOOL, else build*/bin/csgv
 of this repository (the newest), else csgv on PATH.
 
-VTK's representation has no shading modes: it is measured once per input and size; ours once
-per input, size and shading (CSGVShading local, shadow, ao or pt; FramesPerStillRender 1: one
+--drawn F[,F...] draws the smallest ceil(F n) of the input's n labels alone on both sides (VTK's
+opacity 0 above the last, ours a material for [1, last]): most objects hidden, as when a user
+shows a few of them, and rays cross much empty space (default 1: every label but 0).
+
+VTK's representation has no shading modes: it is measured once per input, size and --drawn
+fraction; ours once per input, size, fraction and shading (CSGVShading local, shadow, ao or pt; FramesPerStillRender 1: one
 frame per render). Each measurement runs in a child pvbatch of its own (so memory peaks do not
 mix; --timeout bounds it; one killed by a signal is run once more) and prints: read time, time to first frame
 (Show to the end of the first render, data already read), the median of N frame times (the
@@ -169,6 +174,14 @@ def run_child(args):
             sys.exit("no label array for VTK's volume representation")
         labels = np.unique(vtk_to_numpy(arr)).astype(np.float64)
         labels = labels[labels != 0]
+        # --drawn F: the smallest ceil(F n) of the n labels alone (opacity 0 above the last);
+        # ours draws the same labels (the parent passes that last label on as --label-max).
+        label_max, cut_edge = None, None
+        if args.drawn < 1 and len(labels):
+            n = max(1, int(np.ceil(args.drawn * len(labels))))
+            label_max = int(labels[n - 1])
+            cut_edge = 0.5 * (labels[n - 1] + (labels[n] if n < len(labels) else labels[n - 1] + 1))
+            labels = labels[:n]
         if args.parity:
             colour = {True: [1.0, 0.0, 0.0], False: [0.0, 0.0, 1.0]}
             colours = [colour[int(l) % 2 == 1] for l in labels]
@@ -187,7 +200,10 @@ def run_child(args):
         lut.RGBPoints = points
         pwf = GetOpacityTransferFunction(arr.GetName())
         hi = float(labels.max()) if len(labels) else 1.0
-        pwf.Points = [0.0, 0.0, 0.5, 0.0, 0.5001, 1.0, 0.5, 0.0, max(hi, 1.0), 1.0, 0.5, 0.0]
+        opacity = [0.0, 0.0, 0.5, 0.0, 0.5001, 1.0, 0.5, 0.0, max(hi, 1.0), 1.0, 0.5, 0.0]
+        if cut_edge is not None:
+            opacity += [cut_edge, 0.0, 0.5, 0.0, max(cut_edge + 1.0, float(arr.GetRange()[1])), 0.0, 0.5, 0.0]
+        pwf.Points = opacity
         tf_setup_s = time.time() - t_tf
     t1 = time.time()
     if ours:
@@ -197,6 +213,10 @@ def run_child(args):
         display.CSGVFramesPerStillRender = 1
         if args.materials:
             display.CSGVMaterials = open(args.materials).read()
+        elif args.label_max is not None:  # --drawn: the labels VTK's side draws, [1, label_max]
+            display.CSGVMaterials = json.dumps({"version": 1, "materials": [{
+                "name": "drawn", "filter": {"attribute": "label", "min": 1, "max": args.label_max},
+                "color": {"mode": "random"}}]})
     else:
         display = Show(reader, view, "UniformGridRepresentation")
         display.SetRepresentationType("Volume")
@@ -242,6 +262,7 @@ def run_child(args):
         "representation": ("Segmentation Volume, " + args.shadings) if ours else "Volume (vtkSmartVolumeMapper)",
         "read_s": read_s,
         "tf_setup_s": None if ours else tf_setup_s,
+        "label_max": None if ours else label_max,
         "first_frame_s": first_s,
         "median_frame_ms": 1000 * times[len(times) // 2] if times else None,
         "view_frame_ms": view_ms,
@@ -261,11 +282,14 @@ def run_child(args):
 # Parent: both sides, the side-by-side image, the demonstrations
 
 
-def run_side(args, only, input_path, tag, size, shading="local", materials=None, parity=False):
+def run_side(args, only, input_path, tag, size, shading="local", materials=None, parity=False, drawn=1.0,
+             label_max=None):
     """One side in a child pvbatch: (its RESULT dict, None) or (None, why it failed)."""
     cmd = [args.pvbatch, "--force-offscreen-rendering", os.path.abspath(__file__), "--only", only,
            "--input", input_path, "--size", size, "--shadings", shading, "--frames", str(args.frames),
-           "--output", args.output, "--tag", tag, "--plugin", find_plugin(args.plugin)]
+           "--output", args.output, "--tag", tag, "--plugin", find_plugin(args.plugin), "--drawn", repr(drawn)]
+    if label_max is not None:
+        cmd += ["--label-max", str(label_max)]
     if materials:
         cmd += ["--materials", materials]
     if parity:
@@ -496,12 +520,21 @@ def resolve_input(spec, name, args):
     return path, None
 
 
-COLUMNS = (("input", None), ("size", None), ("shading", None),
+def drawn_text(fraction):
+    return "%g%%" % (100 * fraction)
+
+
+def drawn_tag(fraction):
+    """The image-name part of a --drawn fraction: none for all labels."""
+    return "" if fraction >= 1 else "_drawn%g" % (100 * fraction)
+
+
+COLUMNS = (("input", None), ("size", None), ("shading", None), ("drawn", None),
            ("vtk_median_frame_ms", 1), ("ours_median_frame_ms", 1), ("frame_ratio_vtk_over_ours", 2),
            ("view_frame_ms", 1), ("net_ratio_vtk_over_ours", 2),
            ("vtk_first_frame_s", 2), ("ours_first_frame_s", 2), ("first_frame_ratio_vtk_over_ours", 2),
            ("vtk_peak_rss_mib", 0), ("ours_peak_rss_mib", 0), ("ours_device_mib", 0))
-HEADERS = ("input", "size", "shading", "VTK ms", "ours ms", "VTK/ours", "view ms", "net VTK/ours", "VTK 1st s", "ours 1st s", "VTK/ours",
+HEADERS = ("input", "size", "shading", "drawn", "VTK ms", "ours ms", "VTK/ours", "view ms", "net VTK/ours", "VTK 1st s", "ours 1st s", "VTK/ours",
            "VTK MiB", "ours MiB", "ours dev MiB")
 
 
@@ -541,9 +574,21 @@ def main():
     ap.add_argument("--no-data", action="store_true", help="only the demonstrations")
     ap.add_argument("--only", choices=("vtk", "csgv"), help=argparse.SUPPRESS)
     ap.add_argument("--tag", default="data", help=argparse.SUPPRESS)
+    ap.add_argument("--drawn", default="1",
+                    help="comma-separated fractions of the input's labels both sides draw, the smallest labels "
+                         "(0.05: the smallest 5 %%; default %(default)s: all): a segmentation with most objects "
+                         "hidden, where rays cross much empty space")
+    ap.add_argument("--label-max", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--materials", help=argparse.SUPPRESS)
     ap.add_argument("--parity", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    try:
+        fractions = [float(v) for v in split_list([args.drawn])]
+    except ValueError:
+        sys.exit("--drawn expects comma-separated fractions in (0, 1], not %r" % args.drawn)
+    if not fractions or any(not 0 < f <= 1 for f in fractions):
+        sys.exit("--drawn expects comma-separated fractions in (0, 1], not %r" % args.drawn)
+    args.drawn = fractions[0]  # a child measures one
     if args.output is None:
         args.output = tempfile.mkdtemp(prefix="csgv-compare-")
     os.makedirs(args.output, exist_ok=True)
@@ -576,71 +621,77 @@ def main():
             resolved.append((spec, name) + resolve_input(spec, name, args))
         for spec, name, path, error in resolved:
             for size in sizes:
-                print("== %s, %s, %d frames ==" % (spec, size, args.frames))
-                print("%-36s %8s %12s %10s %10s %11s" % ("representation", "read s", "1st frame s", "median ms",
-                                                         "peak MiB", "device MiB"))
-                # Each side --repeat times, in turn (VTK, then ours in every shading, again ...):
-                # a slow minute of a noisy machine falls on both.
-                vtk_runs, ours_runs, vtk_error, ours_errors = [], {sh: [] for sh in shadings}, None, {}
-                for _ in range(args.repeat):
-                    if error:
-                        run, run_error = None, error
-                    else:
-                        run, run_error = run_side(args, "vtk", path, "%s_%s" % (name, size), size)
-                    vtk_runs.append(run)
-                    vtk_error = vtk_error or run_error
-                    print_side(run, "Volume (vtkSmartVolumeMapper)")
-                    for shading in shadings:
+                for drawn in fractions:
+                    print("== %s, %s, %s drawn, %d frames ==" % (spec, size, drawn_text(drawn), args.frames))
+                    print("%-36s %8s %12s %10s %10s %11s" % ("representation", "read s", "1st frame s", "median ms",
+                                                             "peak MiB", "device MiB"))
+                    # Each side --repeat times, in turn (VTK, then ours in every shading, again ...):
+                    # a slow minute of a noisy machine falls on both.
+                    vtk_runs, ours_runs, vtk_error, ours_errors = [], {sh: [] for sh in shadings}, None, {}
+                    label_max = None  # --drawn below 1: the last label drawn, from VTK's side
+                    for _ in range(args.repeat):
                         if error:
                             run, run_error = None, error
                         else:
-                            run, run_error = run_side(args, "csgv", path, "%s_%s_%s" % (name, size, shading), size,
-                                                      shading)
-                        ours_runs[shading].append(run)
-                        ours_errors[shading] = ours_errors.get(shading) or run_error
-                        print_side(run, "Segmentation Volume, " + shading)
-                vtk = combine(vtk_runs)
-                if args.repeat > 1:
-                    print("(the summary takes the median of the %d runs of each side)" % args.repeat)
-                base = None
-                for shading in shadings:
-                    ours, ours_error = combine(ours_runs[shading]), ours_errors.get(shading)
-                    side = None
-                    if vtk and ours:
-                        side = os.path.join(args.output, "%s_%s_%s_side_by_side.png" % (name, size, shading))
-                        if not write_side_by_side(vtk["png"], ours["png"], side):
-                            print("(no side-by-side image: numpy is missing; run with pvpython or pvbatch)")
-                            side = None
-                    base = base or (ours or {}).get("session_base_mib")
-                    errors = sorted(set(e for e in (vtk_error, ours_error) if e))
-                    failed = failed or bool(errors)
-                    rows.append({
-                        "input": spec, "input_path": path, "size": size, "shading": shading, "frames": args.frames,
-                        "repeats": args.repeat,
-                        "vtk_read_s": get(vtk, "read_s"), "ours_read_s": get(ours, "read_s"),
-                        "vtk_median_frame_ms": get(vtk, "median_frame_ms"),
-                        "ours_median_frame_ms": get(ours, "median_frame_ms"),
-                        "frame_ratio_vtk_over_ours": ratio(get(vtk, "median_frame_ms"),
-                                                           get(ours, "median_frame_ms")),
-                        "view_frame_ms": get(vtk, "view_frame_ms"),
-                        "net_ratio_vtk_over_ours": ratio(net(vtk, get(vtk, "view_frame_ms")),
-                                                         net(ours, get(vtk, "view_frame_ms"))),
-                        "vtk_first_frame_s": get(vtk, "first_frame_s"), "ours_first_frame_s": get(ours, "first_frame_s"),
-                        "first_frame_ratio_vtk_over_ours": ratio(get(vtk, "first_frame_s"),
-                                                                 get(ours, "first_frame_s")),
-                        "vtk_tf_setup_s": get(vtk, "tf_setup_s"),
-                        "vtk_peak_rss_mib": get(vtk, "peak_rss_mib"), "ours_peak_rss_mib": get(ours, "peak_rss_mib"),
-                        "ours_device_mib": get(ours, "device_mib"),
-                        "side_by_side": side, "errors": errors or None})
-                if vtk:
-                    print("VTK transfer function set-up (one point a label, not in its first frame): %.2f s"
-                          % vtk["tf_setup_s"])
-                if base is not None:
-                    print("session base (empty pvbatch with the plugin): %.1f MiB" % base)
-                if vtk and any(r["side_by_side"] for r in rows[-len(shadings):]):
-                    print("images: %s (left: VTK, right: Segmentation Volume)"
-                          % os.path.join(args.output, "%s_%s_<shading>_side_by_side.png" % (name, size)))
-                sys.stdout.flush()
+                            run, run_error = run_side(args, "vtk", path, "%s_%s%s" % (name, size, drawn_tag(drawn)), size, drawn=drawn)
+                            label_max = label_max if label_max is not None else get(run, "label_max")
+                        vtk_runs.append(run)
+                        vtk_error = vtk_error or run_error
+                        print_side(run, "Volume (vtkSmartVolumeMapper)")
+                        for shading in shadings:
+                            if error:
+                                run, run_error = None, error
+                            elif drawn < 1 and label_max is None:
+                                run, run_error = None, "VTK's side gave no labels to draw (--drawn %g)" % drawn
+                            else:
+                                run, run_error = run_side(args, "csgv", path, "%s_%s%s_%s" % (name, size, drawn_tag(drawn), shading),
+                                                          size, shading, drawn=drawn, label_max=label_max)
+                            ours_runs[shading].append(run)
+                            ours_errors[shading] = ours_errors.get(shading) or run_error
+                            print_side(run, "Segmentation Volume, " + shading)
+                    vtk = combine(vtk_runs)
+                    if args.repeat > 1:
+                        print("(the summary takes the median of the %d runs of each side)" % args.repeat)
+                    base = None
+                    for shading in shadings:
+                        ours, ours_error = combine(ours_runs[shading]), ours_errors.get(shading)
+                        side = None
+                        if vtk and ours:
+                            side = os.path.join(args.output, "%s_%s%s_%s_side_by_side.png" % (name, size, drawn_tag(drawn), shading))
+                            if not write_side_by_side(vtk["png"], ours["png"], side):
+                                print("(no side-by-side image: numpy is missing; run with pvpython or pvbatch)")
+                                side = None
+                        base = base or (ours or {}).get("session_base_mib")
+                        errors = sorted(set(e for e in (vtk_error, ours_error) if e))
+                        failed = failed or bool(errors)
+                        rows.append({
+                            "input": spec, "input_path": path, "size": size, "shading": shading, "frames": args.frames,
+                            "drawn": drawn_text(drawn), "drawn_fraction": drawn, "label_max": label_max,
+                            "repeats": args.repeat,
+                            "vtk_read_s": get(vtk, "read_s"), "ours_read_s": get(ours, "read_s"),
+                            "vtk_median_frame_ms": get(vtk, "median_frame_ms"),
+                            "ours_median_frame_ms": get(ours, "median_frame_ms"),
+                            "frame_ratio_vtk_over_ours": ratio(get(vtk, "median_frame_ms"),
+                                                               get(ours, "median_frame_ms")),
+                            "view_frame_ms": get(vtk, "view_frame_ms"),
+                            "net_ratio_vtk_over_ours": ratio(net(vtk, get(vtk, "view_frame_ms")),
+                                                             net(ours, get(vtk, "view_frame_ms"))),
+                            "vtk_first_frame_s": get(vtk, "first_frame_s"), "ours_first_frame_s": get(ours, "first_frame_s"),
+                            "first_frame_ratio_vtk_over_ours": ratio(get(vtk, "first_frame_s"),
+                                                                     get(ours, "first_frame_s")),
+                            "vtk_tf_setup_s": get(vtk, "tf_setup_s"),
+                            "vtk_peak_rss_mib": get(vtk, "peak_rss_mib"), "ours_peak_rss_mib": get(ours, "peak_rss_mib"),
+                            "ours_device_mib": get(ours, "device_mib"),
+                            "side_by_side": side, "errors": errors or None})
+                    if vtk:
+                        print("VTK transfer function set-up (one point a label, not in its first frame): %.2f s"
+                              % vtk["tf_setup_s"])
+                    if base is not None:
+                        print("session base (empty pvbatch with the plugin): %.1f MiB" % base)
+                    if vtk and any(r["side_by_side"] for r in rows[-len(shadings):]):
+                        print("images: %s (left: VTK, right: Segmentation Volume)"
+                              % os.path.join(args.output, "%s_%s%s_<shading>_side_by_side.png" % (name, size, drawn_tag(drawn))))
+                    sys.stdout.flush()
 
     if args.demos:
         saved_frames = args.frames
