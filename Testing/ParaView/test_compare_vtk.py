@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: MIT
 """Examples/compare_vtk.py end to end on a tiny procedural volume (the benchmark script must keep
 working; its figures are not checked): the summary's JSON rows, the synth volume it compressed, the
-side-by-side images, --repeat, and an input that does not exist, which gives empty cells and exit status 1.
+side-by-side images, --drawn (half of the labels drawn: the last one passed from VTK's side to ours),
+--repeat, and an input that does not exist, which gives empty cells and exit status 1.
 Run with Debian's python3; CSGV_PVBATCH, CSGV_PLUGIN and CSGV_TOOL name the programs."""
 import json
 import os
@@ -29,10 +30,14 @@ def compare(out, inputs, shadings, json_path, extra=()):
 
 def main():
     out = tempfile.mkdtemp(prefix="csgv-compare-test-")
-    code, rows = compare(out, "synth:24x20x16", "local,pt", os.path.join(out, "ok.json"))
+    code, rows = compare(out, "synth:24x20x16", "local,pt", os.path.join(out, "ok.json"), ["--drawn", "1,0.5"])
     assert code == 0, "exit status %d" % code
-    assert [(r["input"], r["size"], r["shading"]) for r in rows] == [
-        ("synth:24x20x16", "64x48", "local"), ("synth:24x20x16", "64x48", "pt")], rows
+    assert [(r["input"], r["size"], r["shading"], r["drawn"]) for r in rows] == [
+        ("synth:24x20x16", "64x48", "local", "100%"), ("synth:24x20x16", "64x48", "pt", "100%"),
+        ("synth:24x20x16", "64x48", "local", "50%"), ("synth:24x20x16", "64x48", "pt", "50%")], rows
+    assert rows[0]["label_max"] is None and rows[1]["label_max"] is None, rows
+    assert isinstance(rows[2]["label_max"], int) and rows[2]["label_max"] == rows[3]["label_max"] > 0, rows
+    assert rows[2]["side_by_side"] != rows[0]["side_by_side"], rows
     for r in rows:
         for key in TIMED:
             assert isinstance(r[key], (int, float)) and r[key] > 0, (key, r)
