@@ -104,7 +104,8 @@ uvec4 texelWords4(usamplerBuffer t, uint i) {
 #if RENDER_TEXELS
 layout(set = 0, binding = kTexelCache) uniform usamplerBuffer cacheTexels;
 layout(set = 0, binding = kTexelBricks) uniform usamplerBuffer brickTexels;
-layout(set = 0, binding = kTexelSkip) uniform usamplerBuffer skipTexels;
+layout(set = 0, binding = kTexelUniform) uniform usamplerBuffer uniformTexels;
+layout(set = 0, binding = kTexelHidden) uniform usamplerBuffer hiddenTexels;
 layout(set = 0, binding = kTexelMaterialTable) uniform usamplerBuffer tableTexels;
 layout(set = 0, binding = kTexelLabelColors) uniform usamplerBuffer colorTexels;
 layout(set = 0, binding = kTexelGBuffer) uniform usamplerBuffer gbufferTexels;
@@ -124,7 +125,8 @@ uvec4 brickState(uint b) {
     return uvec4(texelFetch(brickTexels, int(4u * b)).x, texelFetch(brickTexels, int(4u * b + 1u)).x, 0u,
                  texelFetch(brickTexels, int(4u * b + 3u)).x);
 }
-uvec2 skipMask(uint b) { return texelWords2(skipTexels, b); }
+uvec2 uniformMask(uint b) { return texelWords2(uniformTexels, b); }
+uvec2 hiddenMask(uint b) { return texelWords2(hiddenTexels, b); }
 float materialEmission(uint m) { return uintBitsToFloat(texelFetch(materialTexels, int(kMaterialWords * m + kMaterialEmissionWord)).x); }
 uint labelMapWord(uint label) { return texelFetch(labelMapTexels, int(label)).x; }
 float depthInAt(uint pixel) { return uintBitsToFloat(texelFetch(depthInTexels, int(pixel)).x); }
@@ -137,7 +139,8 @@ vec4 labelColor(uint e) { return Vec4Buf(frameAddr[kSlotLabelColors]).v[e]; }
 uint sampleCount(uint pixel) { return currentWord1(UintBuf(frameAddr[kSlotGBuffer]).w[4u * pixel + 1u]) >> kGBufferCountShift; }
 uint listedCell(uint i) { return UintBuf(frameAddr[kSlotPixelList]).w[i]; }
 uvec4 brickState(uint b) { return Uvec4Buf(frameAddr[kSlotBricks]).v[b]; }
-uvec2 skipMask(uint b) { return Uvec2Buf(frameAddr[kSlotSkip]).v[b]; }
+uvec2 uniformMask(uint b) { return Uvec2Buf(frameAddr[kSlotUniform]).v[b]; }
+uvec2 hiddenMask(uint b) { return Uvec2Buf(frameAddr[kSlotHidden]).v[b]; }
 float materialEmission(uint m) { return MaterialBuf(frameAddr[kSlotMaterials]).m[m].extra.x; }
 uint labelMapWord(uint label) { return UintBuf(frameAddr[kSlotLabelMap]).w[label]; }
 float depthInAt(uint pixel) { return FloatBuf(frameAddr[kSlotDepthIn]).f[pixel]; }
@@ -308,7 +311,7 @@ uvec2 cellGrid() { return (fv.rect.zw - fv.rect.xy + fv.image.z - 1u) >> uint(fi
 // ---------------------------------------------------------------------------------------------
 // Bricks and the cache
 
-/// Sub-blocks (csgv/codec/Layout.h: uniform, skipped) have edge 1 << SUB_SHIFT; none when negative.
+/// Sub-blocks (csgv/codec/Layout.h: uniform, hidden) have edge 1 << SUB_SHIFT; none when negative.
 const int SUB_SHIFT = int(BRICK_SHIFT) - int(kUniformShift);
 
 uint brickIndexOf(ivec3 voxel) {
@@ -539,7 +542,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
     material = kNone;
     // A round per brick: its state is read once, then an inner loop steps through it. CPU devices
     // run every line of a loop body at every step, masked or not, and a read there is a loop over
-    // the lanes: the brick's reads (its cache entry, skipped sub-blocks, palette) and its use mark
+    // the lanes: the brick's reads (its cache entry, sub-block masks, palette) and its use mark
     // belong here, not in the steps.
     for (uint it = 0u; it < 60000u;) {
         if (w.t > w.tEnd) return MARCH_OUT;
@@ -557,7 +560,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #endif
         if (passMissing && s.w != 0u && s.y == kNone) s.w = BRICK_PASSED;
         passMissing = false;
-        const uvec2 skipSubs = s.w != 0u && s.y == 0u ? skipMask(b) : uvec2(0u);
+        const bool finest = s.w != 0u && s.y == 0u;
+        const uvec2 uniformSubs = finest ? uniformMask(b) : uvec2(0u);
+        const uvec2 hiddenSubs = finest ? hiddenMask(b) : uvec2(0u);
 #if ABSENT_BRICKS
         uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
         if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
@@ -592,15 +597,27 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #endif
             } else {
                 if (s.y == kNone) return MARCH_MISSING;
-                if (entersSurface(f, w, cachedLabel(f, s.x, s.y, w.voxel, palette), label, material)) return MARCH_SURFACE;
                 // Coarser levels step by their nodes; the finest by voxels, or over a sub-block
-                // whole that holds one label or none drawn (kSlotSkip: no surface inside it; the
-                // CPU mirror steps alike).
+                // whole: one without drawn labels (kSlotHidden: its label need not be read; with
+                // its 2x2x2 group, the Morton-consecutive byte of the mask, when all are), or a
+                // uniform one after its label (kSlotUniform). No surface lies inside either; the
+                // CPU mirror steps alike.
                 k = s.y;
+                bool hidden = false;
+                uint j = 0u;
                 if (k == 0u && SUB_SHIFT >= 0) {
                     const uvec3 local = uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u);
-                    const uint j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
-                    if ((((j < 32u ? skipSubs.x : skipSubs.y) >> (j & 31u)) & 1u) != 0u) k = uint(SUB_SHIFT);
+                    j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
+                    const uint h = j < 32u ? hiddenSubs.x : hiddenSubs.y;
+                    hidden = ((h >> (j & 31u)) & 1u) != 0u;
+                    if (hidden) k = ((h >> (j & 24u)) & 0xFFu) == 0xFFu ? uint(SUB_SHIFT) + 1u : uint(SUB_SHIFT);
+                }
+                if (hidden) {
+                    w.prevLabel = kNone; // whatever it holds is not drawn: the next drawn label is a surface
+                } else {
+                    if (entersSurface(f, w, cachedLabel(f, s.x, s.y, w.voxel, palette), label, material)) return MARCH_SURFACE;
+                    if (k == 0u && SUB_SHIFT >= 0 && (((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u)
+                        k = uint(SUB_SHIFT);
                 }
             }
             stableStep(w, k);

@@ -353,14 +353,14 @@ struct Renderer::Impl {
     std::shared_ptr<GpuVolume> volume;
     uint32_t brickCount = 0, levels = 0;
     uint64_t pRequest = 0, pProvision = 0, pAssign = 0, pCommit = 0, pUniform = 0;
-    uint64_t pSkip = 0, pSkipAll = 0; // cache_skip.comp: the bricks decoded this frame; every cached one (SKIP_ALL)
+    uint64_t pHidden = 0, pHiddenAll = 0; // cache_hidden.comp: the bricks decoded this frame; every cached one (HIDDEN_ALL)
     // Per TONE_CURVES (toneCurves; render.comp also ONE_SAMPLE, DEPTH_INPUT: renderVariant) and resolve pass
     // or shading mode, compiled on first use.
     uint64_t pResolve[2][kResolveAtrous4 + 1] = {};
     uint64_t pRender[8][4] = {}; // [renderVariant][shading]
     uint32_t curves = 0; // the frame's TONE_CURVES: the resolve passes' pipelines (addResolve)
     Defines defines;
-    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, skipSubs, detailRequests;
+    Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, hiddenSubs, detailRequests;
     /// The render pass's texel buffers (RENDER_TEXELS, RendererOptions::renderTexels), or none.
     TexelViews renderTexels;
     /// The resolve passes' (RESOLVE_TEXELS): a set per source, denoiseA then denoiseB.
@@ -394,10 +394,10 @@ struct Renderer::Impl {
     uint32_t listedCount = 0;             // ... and its cells
     size_t renderDispatch = 0;        // the render pass's index in `dispatches`
     bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
-    bool skipAllPending = false;      // ... and the skipped sub-blocks of every cached brick (cache_skip.comp SKIP_ALL)
-    bool hiddenLabels = true;         // the materials leave several labels undrawn: sub-blocks of them are skipped too
-    bool cacheEmpty = true;           // no brick decoded since the cache was made or reset: SKIP_ALL has nothing to do
-    size_t skipDispatch = SIZE_MAX;   // the decoded bricks' cache_skip.comp in `dispatches` (host decoding sizes it)
+    bool hiddenAllPending = false;    // ... and kSlotHidden is filled with 0, then (hiddenLabels) made for every cached brick
+    bool hiddenLabels = false;        // the volume holds several labels no material draws: cache_hidden.comp marks their sub-blocks
+    bool cacheEmpty = true;           // no brick decoded since the cache was made or reset: HIDDEN_ALL has nothing to do
+    size_t hiddenDispatch = SIZE_MAX; // the decoded bricks' cache_hidden.comp in `dispatches` (host decoding sizes it)
     Buffer ghost;  // setGhostFaces (empty: not a piece)
     Buffer coarse; // setCoarseStandIns (empty: none)
     uint32_t materialTableSize = 0;   // entries of a dense materialTable (Frame counts.w)
@@ -704,12 +704,12 @@ struct Renderer::Impl {
     /// PIXEL_LIST: lists the cells the render pass runs over (every cell, or pixel_list.comp's
     /// dispatch for those below the sample target).
     void listPixels(const RenderSettings& st);
-    /// Host decoding, after the first submission: the groups of the decoded bricks' cache_skip.comp
+    /// Host decoding, after the first submission: the groups of the decoded bricks' cache_hidden.comp
     /// and (PIXEL_LIST) of the render pass for the cells listed.
     void sizeRenderDispatch();
-    /// Whether this frame marks the skipped sub-blocks of every cached brick (the materials changed
+    /// Whether this frame marks the hidden sub-blocks of every cached brick (the materials changed
     /// since bricks were decoded), not only of those it decodes.
-    bool skipsAll() const { return skipAllPending && !cacheEmpty; }
+    bool hiddenAll() const { return hiddenAllPending && hiddenLabels && !cacheEmpty; }
     /// Returns true when it changed how the next frame treats the cache (FrameStats::cacheAdapting).
     bool applyCachePolicy(const FrameStats& stats, const FrameInput& in, uint32_t stride);
     /// The free stacks hold a large share of the cache (kFragmentedShare) although it ran full.
@@ -842,7 +842,8 @@ struct Renderer::Impl {
         std::array<const Buffer*, kRenderTexelCount> render{};
         render[kTexelCache] = &cache;
         render[kTexelBricks] = &bricks;
-        render[kTexelSkip] = &skipSubs;
+        render[kTexelUniform] = &uniformSubs;
+        render[kTexelHidden] = &hiddenSubs;
         render[kTexelMaterialTable] = &materialTable;
         render[kTexelLabelColors] = labelColors.valid() ? &labelColors : &params;
         render[kTexelGBuffer] = &gbuffer;
@@ -1014,7 +1015,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                             {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
                             {&im.uniformSubs, bricks * 8, cacheKind, "uniform sub-block masks"},
-                            {&im.skipSubs, bricks * 8, MemoryKind::DeviceLocal, "skipped sub-block masks"},
+                            {&im.hiddenSubs, bricks * 8, MemoryKind::DeviceLocal, "hidden sub-block masks"},
                             {&im.alloc, kAllocWords * 4, im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "cache counters"},
                             {&im.allocHost, im.viaCopies ? kAllocWords * 4 : 0, MemoryKind::HostVisible, "cache counters' host copy"},
                             {&im.freeStacks, bricks * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"},
@@ -1074,7 +1075,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
     const std::vector<uint64_t> noMasks(im.brickCount, 0);
     if (!(s = context.upload(im.uniformSubs, 0, noMasks.data(), noMasks.size() * 8))) return s;
-    if (!(s = context.upload(im.skipSubs, 0, noMasks.data(), noMasks.size() * 8))) return s;
+    if (!(s = context.upload(im.hiddenSubs, 0, noMasks.data(), noMasks.size() * 8))) return s;
     uint32_t* a = im.allocWords();
     std::fill(a, a + kAllocWords, 0u);
     a[kAllocCapacity] = uint32_t(cacheBytes / 4);
@@ -1283,17 +1284,6 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         }
         labelColorsPending = true;
     }
-    skipAllPending = true; // sub-blocks whose labels no material draws: others now
-    // With at most one label the materials leave undrawn, a sub-block without drawn labels holds
-    // that label alone: the skipped sub-blocks are the uniform ones (copied, no pass). Without a
-    // table the labels are not known here: the pass decides.
-    uint64_t undrawn = 0;
-    if (lookup.kind == kLookupHashed) {
-        for (size_t i = 0; i < lookup.slots.size() && undrawn < 2; ++i) undrawn += lookup.slots[i] != kNone && table[2 * i + 1] == kNone;
-    } else {
-        undrawn = table.empty() ? 2 : uint64_t(std::count(table.begin(), table.end(), kNone));
-    }
-    hiddenLabels = undrawn > 1;
     // Which bricks can show anything: their palettes against the materials.
     auto materialOfStored = [&](uint32_t stored) {
         return table.empty() || (lookup.kind != kLookupHashed && stored >= table.size()) ? materialOf(stored)
@@ -1301,6 +1291,27 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     };
     const CompressedVolume& vol = volume->volume();
     const uint32_t L = vol.levels();
+    // The sub-blocks without drawn labels (kSlotHidden) are made anew, where the volume holds two
+    // labels or more that no material draws (hiddenLabels; Core's castRaysStable decides alike):
+    // with one, such a sub-block holds it alone, a uniform one, and the masks stay 0 (no pass).
+    hiddenAllPending = true;
+    hiddenLabels = false;
+    if (lookup.kind == kLookupHashed) { // the slots hold the palettes' labels
+        uint32_t undrawn = 0;
+        for (size_t i = 0; i < lookup.slots.size() && undrawn < 2; ++i) undrawn += lookup.slots[i] != kNone && table[2 * i + 1] == kNone;
+        hiddenLabels = undrawn > 1;
+    } else if (table.empty() || std::count(table.begin(), table.end(), kNone) > 1) { // labels undrawn, if stored
+        uint32_t first = kNone;
+        for (uint64_t b = 0; b < brickCount && !hiddenLabels; ++b) {
+            if (!volume->owns(b)) continue;
+            const BrickWords bw = vol.brick(b);
+            for (uint32_t k = 0; k < bw.words[L] && !hiddenLabels; ++k)
+                if (const uint32_t l = bw.words[bw.size - 1 - k]; materialOfStored(l) == kNone) {
+                    if (first == kNone) first = l;
+                    hiddenLabels = l != first;
+                }
+        }
+    }
     // Per brick its preview label and that label's material (what a view ray shows of the brick
     // while it is not cached: its coarsest level, the root label, else the first palette entry a
     // material draws), kNone twice when no palette entry is drawn (the brick is invisible).
@@ -1523,8 +1534,8 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput
     need(pAssign, "cache_assign.comp");
     need(pCommit, "cache_commit.comp");
     if (!hostDecode) need(pUniform, "cache_uniform.comp");
-    if (hiddenLabels) need(pSkip, "cache_skip.comp", 8, "SKIP_ALL", 0);
-    if (skipsAll()) need(pSkipAll, "cache_skip.comp", 8, "SKIP_ALL", 1);
+    if (hiddenLabels) need(pHidden, "cache_hidden.comp", 8, "HIDDEN_ALL", 0);
+    if (hiddenAll()) need(pHiddenAll, "cache_hidden.comp", 8, "HIDDEN_ALL", 1);
     if (usesPixelList) need(pPixelList, "pixel_list.comp");
     if (labelColorsPending) need(pLabelColors, "label_colors.comp");
     return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
@@ -1667,7 +1678,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
         {kSlotAttributes, &attributeTable}, {kSlotOutput, &colorDepth}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
         {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors},
-        {kSlotPixelList, &pixelList}, {kSlotSkip, &skipSubs}};
+        {kSlotPixelList, &pixelList}, {kSlotHidden, &hiddenSubs}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
@@ -1709,22 +1720,21 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
-    // The sub-blocks rays step over whole: of every cached brick when the materials changed,
-    // else of the bricks decoded now (a group per decode), or the uniform ones copied where the
-    // materials leave one label undrawn at most (host decoding sizes either in submit()).
-    skipDispatch = SIZE_MAX;
-    if (skipsAll()) {
-        addDispatch(pSkipAll, &frameAddress, 8, (brickCount + kSkipGroupBricks - 1) / kSkipGroupBricks, 1);
+    // The sub-blocks without drawn labels: after a change of materials none, then (where there are
+    // several labels undrawn) those of every cached brick; else those of the bricks decoded now
+    // (a group per decode; host decoding sizes it in submit()).
+    hiddenDispatch = SIZE_MAX;
+    if (hiddenAllPending) {
+        Context::Dispatch zero;
+        zero.fill = &hiddenSubs;
+        zero.fillBytes = uint64_t(brickCount) * 8;
+        dispatches.push_back(zero);
+    }
+    if (hiddenAll()) {
+        addDispatch(pHiddenAll, &frameAddress, 8, (brickCount + kHiddenGroupBricks - 1) / kHiddenGroupBricks, 1);
     } else if (hiddenLabels) {
-        skipDispatch = dispatches.size();
-        addDispatch(pSkip, &frameAddress, 8, maxRequests, 1);
-    } else {
-        skipDispatch = dispatches.size();
-        Context::Dispatch c;
-        c.copyFrom = &uniformSubs;
-        c.copyTo = &skipSubs;
-        c.copyBytes = uint64_t(brickCount) * 8;
-        dispatches.push_back(c);
+        hiddenDispatch = dispatches.size();
+        addDispatch(pHidden, &frameAddress, 8, maxRequests, 1);
     }
     const std::array<uint32_t, 2> cells = cellGrid(st.subsampling);
     const uint32_t rw = cells[0], rh = cells[1];
@@ -1903,15 +1913,15 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
 }
 
 void Renderer::Impl::sizeRenderDispatch() {
-    // The decoded bricks' skipped sub-blocks: a group per decode; nothing decoded, nothing to mark.
-    if (skipDispatch < dispatches.size()) {
+    // The decoded bricks' hidden sub-blocks: a group per decode; nothing decoded, nothing to mark.
+    if (hiddenDispatch < dispatches.size()) {
         const uint32_t decoded = std::min(allocWords()[kAllocDecodes], maxRequests);
         if (decoded == 0) {
-            dispatches.erase(dispatches.begin() + std::ptrdiff_t(skipDispatch));
-            if (renderDispatch > skipDispatch) --renderDispatch;
-            skipDispatch = SIZE_MAX;
-        } else if (!dispatches[skipDispatch].copyFrom) {
-            dispatches[skipDispatch].groups[0] = decoded;
+            dispatches.erase(dispatches.begin() + std::ptrdiff_t(hiddenDispatch));
+            if (renderDispatch > hiddenDispatch) --renderDispatch;
+            hiddenDispatch = SIZE_MAX;
+        } else {
+            dispatches[hiddenDispatch].groups[0] = decoded;
         }
     }
     if (!usesPixelList) return;
@@ -1929,7 +1939,7 @@ Status Renderer::Impl::submit() {
             if (d.copyFrom) return "copy";
             const std::pair<uint64_t, const char*> named[] = {
                 {pRequest, "request"}, {pProvision, "provision"}, {pAssign, "assign"}, {pCommit, "commit"},
-                {pUniform, "uniform sub-blocks"}, {pSkip, "skipped sub-blocks"}, {pSkipAll, "skipped sub-blocks (all)"},
+                {pUniform, "uniform sub-blocks"}, {pHidden, "hidden sub-blocks"}, {pHiddenAll, "hidden sub-blocks (all)"},
                 {pPixelList, "pixel list"}, {pLabelColors, "label colours"}};
             for (const auto& [p, name] : named)
                 if (d.pipeline == p) return name;
@@ -2062,7 +2072,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
     labelColorsPending = false;
-    skipAllPending = false;
+    hiddenAllPending = false;
     cacheEmpty = false;
     if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -2271,15 +2281,15 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
 Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
     const Impl& im = *m_impl;
     std::vector<uint32_t> words(size_t(im.brickCount) * 4);
-    std::vector<uint64_t> masks(im.brickCount), skips(im.brickCount);
+    std::vector<uint64_t> masks(im.brickCount), hidden(im.brickCount);
     Status s = im.ctx.download(im.bricks, 0, words.data(), words.size() * 4);
     if (s) s = im.ctx.download(im.uniformSubs, 0, masks.data(), masks.size() * 8);
-    if (s) s = im.ctx.download(im.skipSubs, 0, skips.data(), skips.size() * 8);
+    if (s) s = im.ctx.download(im.hiddenSubs, 0, hidden.data(), hidden.size() * 8);
     if (!s) return s;
     std::vector<CachedBrick> out;
     for (uint32_t b = 0; b < im.brickCount; ++b)
         if (const bool finest = words[4 * b + 1] == 0; words[4 * b + 1] != kNone)
-            out.push_back({b, words[4 * b + 1], finest ? masks[b] : 0, finest ? skips[b] : 0});
+            out.push_back({b, words[4 * b + 1], finest ? masks[b] : 0, finest ? hidden[b] : 0});
     return out;
 }
 
@@ -2299,7 +2309,7 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"encoding", im.volume->deviceBytes()});
     if (im.detail) r.buffers.push_back({"detail buffer and table", im.detail->deviceBytes()});
     r.buffers.push_back({"brick cache", im.cache.size()});
-    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size() + im.skipSubs.size()});
+    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size() + im.hiddenSubs.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
                                                           im.alloc.size() + im.allocHost.size() + im.params.size() + im.paramsHost.size() + im.blueNoise.size() +

@@ -200,13 +200,23 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                 const size_t b = (x >> shift) + grid[0] * ((y >> shift) + size_t(grid[1]) * (z >> shift));
                 if (!brickVisible[b] && visible(volume.at(x, y, z))) brickVisible[b] = 1;
             }
-    // The sub-blocks the renderer steps over whole (Layout.h; cache_skip.comp): inside the volume,
-    // one label or none visible.
+    // The sub-blocks the renderer steps over whole (Layout.h), inside the volume: uniform ones (one
+    // label) and hidden ones (no visible label; cache_hidden.comp), the latter marked where the
+    // volume holds two labels or more that are not visible (else they are uniform).
+    bool hiddenLabels = false;
+    {
+        uint32_t first = kInvalidLabel;
+        for (size_t i = 0; i < volume.labels.size() && !hiddenLabels; ++i)
+            if (!visible(volume.labels[i])) {
+                if (first == kInvalidLabel) first = volume.labels[i];
+                hiddenLabels = volume.labels[i] != first;
+            }
+    }
     const int subShift = shift - int(kUniformShift);
-    std::vector<uint64_t> skipped(brickVisible.size(), 0);
+    std::vector<uint64_t> uniform(brickVisible.size(), 0), hidden(brickVisible.size(), 0);
     if (subShift >= 0) {
         const uint32_t edge = 1u << subShift;
-        for (size_t b = 0; b < skipped.size(); ++b) {
+        for (size_t b = 0; b < uniform.size(); ++b) {
             const uint32_t bc[3] = {uint32_t(b % grid[0]) << shift, uint32_t(b / grid[0] % grid[1]) << shift,
                                     uint32_t(b / (size_t(grid[0]) * grid[1])) << shift};
             for (uint32_t j = 0; j < 64; ++j) {
@@ -214,15 +224,16 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                     continue;
                 const uint32_t o[3] = {bc[0] + mortonX(j) * edge, bc[1] + mortonY(j) * edge, bc[2] + mortonZ(j) * edge};
                 const uint32_t first = volume.at(o[0], o[1], o[2]);
-                bool same = true, hidden = true;
-                for (uint32_t z = 0; z < edge && (same || hidden); ++z)
-                    for (uint32_t y = 0; y < edge && (same || hidden); ++y)
-                        for (uint32_t x = 0; x < edge && (same || hidden); ++x) {
+                bool same = true, none = hiddenLabels;
+                for (uint32_t z = 0; z < edge && (same || none); ++z)
+                    for (uint32_t y = 0; y < edge && (same || none); ++y)
+                        for (uint32_t x = 0; x < edge && (same || none); ++x) {
                             const uint32_t l = volume.at(o[0] + x, o[1] + y, o[2] + z);
                             same = same && l == first;
-                            hidden = hidden && !visible(l);
+                            none = none && !visible(l);
                         }
-                if (same || hidden) skipped[b] |= uint64_t(1) << j;
+                if (same) uniform[b] |= uint64_t(1) << j;
+                if (none) hidden[b] |= uint64_t(1) << j;
             }
         }
     }
@@ -289,35 +300,41 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                     prev = kInvalidLabel;
                     stableStep(w, shift);
                 } else {
-                    const uint32_t label = volume.at(uint32_t(w.voxel[0]), uint32_t(w.voxel[1]), uint32_t(w.voxel[2]));
-                    if (label != prev) {
-                        prev = label;
-                        if (visible(label)) {
-                            const size_t i = size_t(py) * view.width + px;
-                            out.label[i] = label;
-                            out.face[i] = Face(w.face);
-                            const float q[3] = {float(w.voxel[0]) + w.vpos[0], float(w.voxel[1]) + w.vpos[1],
-                                                float(w.voxel[2]) + w.vpos[2]};
-                            float clip[4];
-                            for (int r = 0; r < 4; ++r)
-                                clip[r] = toClip[r] * q[0] + toClip[4 + r] * q[1] + toClip[8 + r] * q[2] + toClip[12 + r];
-                            out.depth[i] = std::clamp(clip[2] / clip[3] * 0.5f + 0.5f, 0.0f, 1.0f);
-                            float dist2 = 0;
-                            for (int r = 0; r < 3; ++r) {
-                                const float v = toWorld[r] * (q[0] - o[0]) + toWorld[4 + r] * (q[1] - o[1]) +
-                                                toWorld[8 + r] * (q[2] - o[2]);
-                                dist2 += v * v;
-                            }
-                            out.distance[i] = std::sqrt(dist2);
-                            break;
-                        }
-                    }
-                    // A sub-block of one label or none visible has no surface inside: stepped over whole.
+                    // A hidden sub-block (with its Morton-aligned 2x2x2 group when all are) is
+                    // stepped over without its label, a uniform one after it: no surface inside.
                     const uint32_t local = (1u << shift) - 1;
-                    const bool whole = subShift >= 0 &&
-                        ((skipped[bi] >> uniformSubBlockOf(uint32_t(w.voxel[0]) & local, uint32_t(w.voxel[1]) & local,
-                                                           uint32_t(w.voxel[2]) & local, uint32_t(subShift))) & 1u) != 0;
-                    stableStep(w, whole ? subShift : 0);
+                    const uint32_t j = subShift >= 0 ? uniformSubBlockOf(uint32_t(w.voxel[0]) & local, uint32_t(w.voxel[1]) & local,
+                                                                         uint32_t(w.voxel[2]) & local, uint32_t(subShift))
+                                                     : 0;
+                    if (subShift >= 0 && ((hidden[bi] >> j) & 1u) != 0) {
+                        prev = kInvalidLabel;
+                        stableStep(w, ((hidden[bi] >> (j & 56u)) & 0xFFu) == 0xFFu ? subShift + 1 : subShift);
+                    } else {
+                        const uint32_t label = volume.at(uint32_t(w.voxel[0]), uint32_t(w.voxel[1]), uint32_t(w.voxel[2]));
+                        if (label != prev) {
+                            prev = label;
+                            if (visible(label)) {
+                                const size_t i = size_t(py) * view.width + px;
+                                out.label[i] = label;
+                                out.face[i] = Face(w.face);
+                                const float q[3] = {float(w.voxel[0]) + w.vpos[0], float(w.voxel[1]) + w.vpos[1],
+                                                    float(w.voxel[2]) + w.vpos[2]};
+                                float clip[4];
+                                for (int r = 0; r < 4; ++r)
+                                    clip[r] = toClip[r] * q[0] + toClip[4 + r] * q[1] + toClip[8 + r] * q[2] + toClip[12 + r];
+                                out.depth[i] = std::clamp(clip[2] / clip[3] * 0.5f + 0.5f, 0.0f, 1.0f);
+                                float dist2 = 0;
+                                for (int r = 0; r < 3; ++r) {
+                                    const float v = toWorld[r] * (q[0] - o[0]) + toWorld[4 + r] * (q[1] - o[1]) +
+                                                    toWorld[8 + r] * (q[2] - o[2]);
+                                    dist2 += v * v;
+                                }
+                                out.distance[i] = std::sqrt(dist2);
+                                break;
+                            }
+                        }
+                        stableStep(w, subShift >= 0 && ((uniform[bi] >> j) & 1u) != 0 ? subShift : 0);
+                    }
                 }
                 bool outside = false;
                 for (int k = 0; k < 3; ++k) outside = outside || w.voxel[k] < lo[k] || w.voxel[k] >= hi[k];

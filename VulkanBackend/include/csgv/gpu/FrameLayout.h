@@ -108,7 +108,7 @@ CSGV_CONST(uint32_t, kSlotGhost, 24u)         ///< an MPI rank's piece (Renderer
 CSGV_CONST(uint32_t, kSlotCoarse, 25u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
 CSGV_CONST(uint32_t, kSlotLabelColors, 26u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
 CSGV_CONST(uint32_t, kSlotPixelList, 27u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
-CSGV_CONST(uint32_t, kSlotSkip, 28u)         ///< uvec2 per brick cached at the finest level: the sub-blocks march() steps over whole, those of kSlotUniform and those holding no label a material draws (cache_skip.comp, anew when the materials change)
+CSGV_CONST(uint32_t, kSlotHidden, 28u)       ///< uvec2 per brick cached at the finest level: its sub-blocks (Layout.h) inside the volume that hold no label a material draws (cache_hidden.comp); all 0 where the materials leave one label undrawn at most (its sub-blocks are uniform)
 CSGV_CONST(uint32_t, kSlotCount, 29u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
@@ -156,14 +156,14 @@ CSGV_CONST(uint32_t, kListBlock, 16u)
 CSGV_CONST(uint32_t, kListLanes, 8u)     ///< PIXEL_LIST: consecutive invocations CPU devices run as one SIMD group, taking consecutive list entries (render.comp listIndex; the host's tiles, Renderer.cpp kListTile)
 CSGV_CONST(uint32_t, kOutlineRowWords, 8u) ///< ResolvePush::spans: words a row (a span of two words for each resolve pass)
 CSGV_CONST(uint32_t, kGroupLabels, 64u)  ///< label_colors.comp
-CSGV_CONST(uint32_t, kSkipGroupBricks, 16u) ///< cache_skip.comp over the whole brick table (SKIP_ALL): bricks a group takes in turn
+CSGV_CONST(uint32_t, kHiddenGroupBricks, 16u) ///< cache_hidden.comp over the whole brick table (HIDDEN_ALL): bricks a group takes in turn
 
 // Texel buffer bindings (set 0) of the render pass (RENDER_TEXELS, render_common.glsl; R32_UINT
 // views) and of the resolve passes (RESOLVE_TEXELS, resolve.comp; R32G32B32A32_UINT views, a
 // pixel's 16 bytes a texel): Renderer.cpp views the buffers in this order.
 CSGV_CONST(uint32_t, kTexelCache, 0u)         ///< kSlotCache
 CSGV_CONST(uint32_t, kTexelBricks, 1u)        ///< kSlotBricks
-CSGV_CONST(uint32_t, kTexelSkip, 2u)          ///< kSlotSkip
+CSGV_CONST(uint32_t, kTexelUniform, 2u)       ///< kSlotUniform
 CSGV_CONST(uint32_t, kTexelMaterialTable, 3u) ///< kSlotMaterialTable
 CSGV_CONST(uint32_t, kTexelLabelColors, 4u)   ///< kSlotLabelColors
 CSGV_CONST(uint32_t, kTexelGBuffer, 5u)       ///< kSlotGBuffer (the sample counts in its second words)
@@ -173,7 +173,8 @@ CSGV_CONST(uint32_t, kTexelLabelMap, 8u)      ///< kSlotLabelMap
 CSGV_CONST(uint32_t, kTexelDepthIn, 9u)       ///< kSlotDepthIn
 CSGV_CONST(uint32_t, kTexelBlueNoise, 10u)    ///< kSlotBlueNoise
 CSGV_CONST(uint32_t, kTexelVisible, 11u)      ///< kSlotVisible
-CSGV_CONST(uint32_t, kRenderTexelCount, 12u)
+CSGV_CONST(uint32_t, kTexelHidden, 12u)       ///< kSlotHidden
+CSGV_CONST(uint32_t, kRenderTexelCount, 13u)
 CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
 CSGV_CONST(uint32_t, kResolveTexelAccum, 1u)   ///< kSlotAccum
 CSGV_CONST(uint32_t, kResolveTexelSource, 2u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)

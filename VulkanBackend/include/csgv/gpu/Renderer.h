@@ -315,13 +315,14 @@ public:
 
     /// A brick in the cache (diagnostics and tests): its level of detail and, at the finest
     /// level, its uniform sub-blocks (bit j: Morton sub-block j of csgv/codec/Layout.h lies inside
-    /// the volume and holds one label) and the sub-blocks rays step over whole: the uniform ones
-    /// and those inside the volume that hold no label the materials draw.
+    /// the volume and holds one label) and its hidden ones (inside the volume, no label the
+    /// materials draw; marked where the volume holds several undrawn labels, else 0: then they are
+    /// uniform). Rays step over both whole, over a Morton-aligned 2x2x2 group of hidden ones at once.
     struct CachedBrick {
         uint32_t brick = 0;
         uint32_t lod = 0;
         uint64_t uniformSubBlocks = 0;
-        uint64_t skippedSubBlocks = 0;
+        uint64_t hiddenSubBlocks = 0;
     };
     /// Reads the brick table back: the bricks the cache holds now.
     Result<std::vector<CachedBrick>> cachedBricks() const;

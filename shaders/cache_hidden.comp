@@ -1,20 +1,22 @@
 // SPDX-License-Identifier: MIT
-// The sub-blocks march() steps over whole (Frame slot kSlotSkip) of bricks cached at the finest
-// level, one workgroup per brick, one invocation per sub-block (csgv/codec/Layout.h): those inside
-// the volume that hold one label (kSlotUniform: cache_uniform.comp or host decoding wrote them
-// first) or no label a material draws (no surface can be inside either: a walker passing such a
-// sub-block voxel by voxel finds none, and the first voxel after it differs from every label in
-// it or is not drawn). The second kind depends on the materials:
-//   SKIP_ALL 0: the bricks decoded this frame (the decode list), after their uniform masks;
-//   SKIP_ALL 1: every brick of the table cached at the finest level, kSkipGroupBricks a group in
-//               turn (the materials changed; this also covers the bricks decoded this frame).
+// The sub-blocks (csgv/codec/Layout.h) of bricks cached at the finest level that lie inside the
+// volume and hold no label a material draws (Frame slot kSlotHidden): march() steps over them
+// whole without reading a label, and over a 2x2x2 group of them (Morton-consecutive) at once. No
+// surface can be inside: a walker passing such a sub-block voxel by voxel meets only labels
+// without a material, and the first voxel after it shows a surface exactly when its label is
+// drawn, whatever it passed. One workgroup per brick, one invocation per sub-block; the renderer
+// runs it where the materials leave several labels undrawn (else the masks stay 0: such
+// sub-blocks hold the one undrawn label, uniform ones, kSlotUniform):
+//   HIDDEN_ALL 0: the bricks decoded this frame (the decode list);
+//   HIDDEN_ALL 1: every brick of the table cached at the finest level, kHiddenGroupBricks a group
+//                 in turn (the materials changed; this also covers the bricks decoded this frame).
 // Core's castRaysStable marks the same sub-blocks and steps alike, so images stay exact.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
 
-#ifndef SKIP_ALL
-#define SKIP_ALL 0u
+#ifndef HIDDEN_ALL
+#define HIDDEN_ALL 0u
 #endif
 
 layout(local_size_x = 64) in;
@@ -32,16 +34,14 @@ uint labelAt(UintBuf cache, uint offset, uint e, PaletteRef palette) {
 #endif
 }
 
-/// Marks brick's skippable sub-blocks; its finest labels start at cache word `offset`.
+/// Marks the brick's sub-blocks without drawn labels; its finest labels start at cache word `offset`.
 void markBrick(Frame f, uint brick, uint offset) {
     const uint j = gl_LocalInvocationID.x;
     if (j < 2u) bits[j] = 0u;
     barrier();
     const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y)) *
                     BRICK_SIZE;
-    const uvec2 uniformSubs = Uvec2Buf(frameAddr[kSlotUniform]).v[brick];
-    bool skip = (((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u;
-    if (!skip && uniformSubBlockInside(j, uint(SUB_SHIFT), b.x, b.y, b.z, VOLUME_DIM.x, VOLUME_DIM.y, VOLUME_DIM.z)) {
+    if (uniformSubBlockInside(j, uint(SUB_SHIFT), b.x, b.y, b.z, VOLUME_DIM.x, VOLUME_DIM.y, VOLUME_DIM.z)) {
         UintBuf cache = UintBuf(frameAddr[kSlotCache]);
         PaletteRef palette;
         palette.array = 0ul;
@@ -50,25 +50,25 @@ void markBrick(Frame f, uint brick, uint offset) {
         palette = paletteOf(f, brick);
 #endif
         const uint n = 1u << (3u * uint(SUB_SHIFT)), first = j * n;
-        skip = true;
-        for (uint e = 0u; e < n && skip; ++e) skip = materialOf(f, labelAt(cache, offset, first + e, palette)) == kNone;
+        bool hidden = true;
+        for (uint e = 0u; e < n && hidden; ++e) hidden = materialOf(f, labelAt(cache, offset, first + e, palette)) == kNone;
+        if (hidden) atomicOr(bits[j >> 5u], 1u << (j & 31u));
     }
-    if (skip) atomicOr(bits[j >> 5u], 1u << (j & 31u));
     barrier();
-    if (j == 0u) Uvec2Buf(frameAddr[kSlotSkip]).v[brick] = uvec2(bits[0], bits[1]);
+    if (j == 0u) Uvec2Buf(frameAddr[kSlotHidden]).v[brick] = uvec2(bits[0], bits[1]);
     barrier(); // bits is cleared for the next brick only after it was written
 }
 
 void main() {
     Frame f = Frame(pc.frame);
     if (SUB_SHIFT < 0) return;
-    if (SKIP_ALL != 0u) {
+    if (HIDDEN_ALL != 0u) {
         const uint brickCount = BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z;
-        if (gl_WorkGroupID.x * kSkipGroupBricks >= brickCount) return;
+        if (gl_WorkGroupID.x * kHiddenGroupBricks >= brickCount) return;
         loadFrameValues(f);
         Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
-        for (uint k = 0u; k < kSkipGroupBricks; ++k) {
-            const uint brick = gl_WorkGroupID.x * kSkipGroupBricks + k;
+        for (uint k = 0u; k < kHiddenGroupBricks; ++k) {
+            const uint brick = gl_WorkGroupID.x * kHiddenGroupBricks + k;
             if (brick >= brickCount) break;
             const uvec4 s = bricks.v[brick];
             if (s.y == 0u) markBrick(f, brick, s.x); // the same for the whole group: barriers stay uniform
