@@ -25,11 +25,13 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 shared uint bits[2];
 
 /// The label of cache entry e of the region at word `offset` (paletted: its palette's entry).
-uint labelAt(UintBuf cache, uint offset, uint e, PaletteRef palette) {
+/// Through the render pass's texel buffers where the renderer made them (RENDER_TEXELS: one
+/// gather for eight lanes on CPU devices, where a read through an address is a loop over them).
+uint labelAt(uint offset, uint e, PaletteRef palette) {
 #if CACHE_BITS == 32
-    return cache.w[offset + e];
+    return cacheWord(offset + e);
 #else
-    const uint index = (cache.w[offset + e / CACHE_PER_WORD] >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
+    const uint index = (cacheWord(offset + e / CACHE_PER_WORD) >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
     return index == CACHE_MASK ? kNone : UintBuf(palette.array).w[palette.end - 1u - index];
 #endif
 }
@@ -42,7 +44,6 @@ void markBrick(Frame f, uint brick, uint offset) {
     const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y)) *
                     BRICK_SIZE;
     if (uniformSubBlockInside(j, uint(SUB_SHIFT), b.x, b.y, b.z, VOLUME_DIM.x, VOLUME_DIM.y, VOLUME_DIM.z)) {
-        UintBuf cache = UintBuf(frameAddr[kSlotCache]);
         PaletteRef palette;
         palette.array = 0ul;
         palette.end = 0u;
@@ -51,7 +52,7 @@ void markBrick(Frame f, uint brick, uint offset) {
 #endif
         const uint n = 1u << (3u * uint(SUB_SHIFT)), first = j * n;
         bool hidden = true;
-        for (uint e = 0u; e < n && hidden; ++e) hidden = materialOf(f, labelAt(cache, offset, first + e, palette)) == kNone;
+        for (uint e = 0u; e < n && hidden; ++e) hidden = materialOf(f, labelAt(offset, first + e, palette)) == kNone;
         if (hidden) atomicOr(bits[j >> 5u], 1u << (j & 31u));
     }
     barrier();
@@ -66,11 +67,10 @@ void main() {
         const uint brickCount = BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z;
         if (gl_WorkGroupID.x * kHiddenGroupBricks >= brickCount) return;
         loadFrameValues(f);
-        Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
         for (uint k = 0u; k < kHiddenGroupBricks; ++k) {
             const uint brick = gl_WorkGroupID.x * kHiddenGroupBricks + k;
             if (brick >= brickCount) break;
-            const uvec4 s = bricks.v[brick];
+            const uvec4 s = brickState(brick);
             if (s.y == 0u) markBrick(f, brick, s.x); // the same for the whole group: barriers stay uniform
         }
         return;

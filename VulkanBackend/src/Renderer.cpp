@@ -855,7 +855,10 @@ struct Renderer::Impl {
         render[kTexelVisible] = visible.valid() ? &visible : &params;
         Result<bool> changed = renderTexels.refresh(ctx, texelsWanted, {render});
         if (!changed) return Status(changed.status()).prefix("viewing the render pass's buffers");
-        if (*changed) std::fill(&pRender[0][0], &pRender[0][0] + std::size(pRender) * std::size(pRender[0]), uint64_t(0));
+        if (*changed) {
+            std::fill(&pRender[0][0], &pRender[0][0] + std::size(pRender) * std::size(pRender[0]), uint64_t(0));
+            pHidden = pHiddenAll = 0; // they read through the same views
+        }
         std::array<const Buffer*, kResolveTexelCount> resolve{};
         resolve[kResolveTexelGBuffer] = &gbuffer;
         resolve[kResolveTexelAccum] = &accum;
@@ -1534,8 +1537,15 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput
     need(pAssign, "cache_assign.comp");
     need(pCommit, "cache_commit.comp");
     if (!hostDecode) need(pUniform, "cache_uniform.comp");
-    if (hiddenLabels) need(pHidden, "cache_hidden.comp", 8, "HIDDEN_ALL", 0);
-    if (hiddenAll()) need(pHiddenAll, "cache_hidden.comp", 8, "HIDDEN_ALL", 1);
+    // cache_hidden.comp reads the cache and the label table as the render pass does (its texel buffers).
+    for (const auto& [pipeline, all] : {std::pair<uint64_t*, bool>{&pHidden, false}, {&pHiddenAll, true}}) {
+        if (!(all ? hiddenAll() : hiddenLabels)) continue;
+        need(*pipeline, "cache_hidden.comp", 8, "HIDDEN_ALL", all ? 1 : 0);
+        if (!jobs.empty() && jobs.back().out == pipeline && renderTexels.made) {
+            jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
+            jobs.back().texelBindings = kRenderTexelCount;
+        }
+    }
     if (usesPixelList) need(pPixelList, "pixel_list.comp");
     if (labelColorsPending) need(pLabelColors, "label_colors.comp");
     return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
@@ -1736,6 +1746,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         hiddenDispatch = dispatches.size();
         addDispatch(pHidden, &frameAddress, 8, maxRequests, 1);
     }
+    if ((hiddenAll() || hiddenLabels) && renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];
     const std::array<uint32_t, 2> cells = cellGrid(st.subsampling);
     const uint32_t rw = cells[0], rh = cells[1];
     if (labelColorsPending) // the materials changed: their colours per label first (frame() made the pipeline)
