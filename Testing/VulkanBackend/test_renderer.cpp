@@ -276,12 +276,13 @@ namespace {
 /// document keeps the cache: its masks are made anew for every cached brick, or rays would step
 /// over sub-blocks that now show labels. The last leaves one label undrawn: no hidden sub-blocks
 /// (its sub-blocks are uniform ones).
-void expectHiddenSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Decode decode, bool paletting) {
+void expectHiddenSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Decode decode, bool paletting, bool texels = true) {
     Scene& scene = fixtureScene(ctx, "synthA_b32_rans2.csgv");
     std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
     ASSERT_TRUE(gpu);
     RendererOptions o;
     o.decode = decode;
+    o.renderTexels = texels;
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, o);
     ASSERT_TRUE(r.isOk()) << r.message();
     RenderSettings st;
@@ -303,7 +304,8 @@ void expectHiddenSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Deco
     };
     for (const auto& [lo, hi, several] : {Range{labels.front(), cut, true}, Range{cut + 1, labels.back(), true}, Range{1, 4294967294u, false}}) {
         const std::string what = "labels " + std::to_string(lo) + " to " + std::to_string(hi) +
-                                 (paletting ? ", paletted" : "") + (decode == RendererOptions::Decode::Gpu ? ", GPU decoding" : "");
+                                 (paletting ? ", paletted" : "") + (decode == RendererOptions::Decode::Gpu ? ", GPU decoding" : "") +
+                                 (texels ? "" : ", through buffer addresses");
         Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [{"name": "some", "filter": {"attribute": "label", "min": )" +
                                                       std::to_string(lo) + ", \"max\": " + std::to_string(hi) + "}}]}");
         ASSERT_TRUE(doc.isOk()) << doc.message();
@@ -337,6 +339,7 @@ TEST(Renderer, HiddenSubBlocksFollowTheMaterialsAndKeepTheGBufferExact) {
     expectHiddenSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Auto, false);
     expectHiddenSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Gpu, false);
     expectHiddenSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Gpu, true);
+    expectHiddenSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Auto, true, false);
 }
 
 namespace {
