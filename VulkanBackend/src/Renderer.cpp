@@ -396,6 +396,7 @@ struct Renderer::Impl {
     bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
     bool hiddenAllPending = false;    // ... and kSlotHidden is filled with 0, then (hiddenLabels) made for every cached brick
     bool hiddenLabels = false;        // the volume holds several labels no material draws: cache_hidden.comp marks their sub-blocks
+    uint64_t drawnFingerprint = 0;    // which entries of the label table the materials draw (0: none known)
     bool cacheEmpty = true;           // no brick decoded since the cache was made or reset: HIDDEN_ALL has nothing to do
     size_t hiddenDispatch = SIZE_MAX; // the decoded bricks' cache_hidden.comp in `dispatches` (host decoding sizes it)
     Buffer ghost;  // setGhostFaces (empty: not a piece)
@@ -1297,7 +1298,13 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     // The sub-blocks without drawn labels (kSlotHidden) are made anew, where the volume holds two
     // labels or more that no material draws (hiddenLabels; Core's castRaysStable decides alike):
     // with one, such a sub-block holds it alone, a uniform one, and the masks stay 0 (no pass).
-    hiddenAllPending = true;
+    // Materials that draw the same labels (another colour, opacity) keep the masks: the table's
+    // entries drawn or not, fingerprinted (without a table: made anew).
+    uint64_t drawn = 1469598103934665603ull;
+    for (size_t i = lookup.kind == kLookupHashed ? 1 : 0; i < table.size(); i += lookup.kind == kLookupHashed ? 2 : 1)
+        drawn = (drawn ^ (table[i] == kNone ? 0x9Eu : 0x37u)) * 1099511628211ull;
+    if (table.empty() || drawn != drawnFingerprint) hiddenAllPending = true;
+    drawnFingerprint = table.empty() ? 0 : drawn;
     hiddenLabels = false;
     if (lookup.kind == kLookupHashed) { // the slots hold the palettes' labels
         uint32_t undrawn = 0;
