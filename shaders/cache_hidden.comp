@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
-// The sub-blocks (csgv/codec/Layout.h) of bricks cached at the finest level that lie inside the
-// volume and hold no label a material draws (Frame slot kSlotHidden): march() steps over them
-// whole without reading a label, and over a 2x2x2 group of them (Morton-consecutive) at once. No
+// The sub-blocks (csgv/codec/Layout.h) of cached bricks that lie inside the volume and hold no
+// label a material draws at the level the brick is cached at (Frame slot kSlotHidden; levels whose
+// nodes are no larger than a sub-block): march() steps over them whole without reading a label,
+// and over a 2x2x2 group of them (Morton-consecutive) at once. No
 // surface can be inside: a walker passing such a sub-block voxel by voxel meets only labels
 // without a material, and the first voxel after it shows a surface exactly when its label is
 // drawn, whatever it passed. One workgroup per brick, one invocation per sub-block; the renderer
@@ -36,8 +37,9 @@ uint labelAt(uint offset, uint e, PaletteRef palette) {
 #endif
 }
 
-/// Marks the brick's sub-blocks without drawn labels; its finest labels start at cache word `offset`.
-void markBrick(Frame f, uint brick, uint offset) {
+/// Marks the brick's sub-blocks without drawn labels; its labels at `level` start at cache word
+/// `offset`, a sub-block's nodes one Morton run of them.
+void markBrick(Frame f, uint brick, uint offset, uint level) {
     const uint j = gl_LocalInvocationID.x;
     if (j < 2u) bits[j] = 0u;
     barrier();
@@ -50,7 +52,7 @@ void markBrick(Frame f, uint brick, uint offset) {
 #if CACHE_BITS != 32
         palette = paletteOf(f, brick);
 #endif
-        const uint n = 1u << (3u * uint(SUB_SHIFT)), first = j * n;
+        const uint n = 1u << (3u * (uint(SUB_SHIFT) - level)), first = j * n;
         bool hidden = true;
         for (uint e = 0u; e < n && hidden; ++e) hidden = materialOf(f, labelAt(offset, first + e, palette)) == kNone;
         if (hidden) atomicOr(bits[j >> 5u], 1u << (j & 31u));
@@ -71,7 +73,7 @@ void main() {
             const uint brick = gl_WorkGroupID.x * kHiddenGroupBricks + k;
             if (brick >= brickCount) break;
             const uvec4 s = brickState(brick);
-            if (s.y == 0u) markBrick(f, brick, s.x); // the same for the whole group: barriers stay uniform
+            if (s.y <= uint(SUB_SHIFT)) markBrick(f, brick, s.x, s.y); // the same for the whole group: barriers stay uniform
         }
         return;
     }
@@ -80,6 +82,6 @@ void main() {
     if (i >= min(UintBuf(f.addr[kSlotAlloc]).w[kAllocDecodes], f.limits.x)) return;
     loadFrameValues(f);
     UintBuf dec = UintBuf(frameAddr[kSlotDecodes]);
-    if (dec.w[kDecodeEntryWords * i + 1u] == LEVELS - 1u) // inverse level: decoded at the finest
-        markBrick(f, dec.w[kDecodeEntryWords * i], dec.w[kDecodeEntryWords * i + 2u]);
+    const uint level = LEVELS - 1u - min(dec.w[kDecodeEntryWords * i + 1u], LEVELS - 1u); // from the inverse level
+    if (level <= uint(SUB_SHIFT)) markBrick(f, dec.w[kDecodeEntryWords * i], dec.w[kDecodeEntryWords * i + 2u], level);
 }

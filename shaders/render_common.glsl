@@ -560,9 +560,11 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #endif
         if (passMissing && s.w != 0u && s.y == kNone) s.w = BRICK_PASSED;
         passMissing = false;
-        const bool finest = s.w != 0u && s.y == 0u;
-        const uvec2 uniformSubs = finest ? uniformMask(b) : uvec2(0u);
-        const uvec2 hiddenSubs = finest ? hiddenMask(b) : uvec2(0u);
+        // Uniform sub-blocks are marked at the finest level, hidden ones at every level whose
+        // nodes are no larger than a sub-block.
+        const bool subBlocks = s.w != 0u && s.y != kNone && int(s.y) <= SUB_SHIFT;
+        const uvec2 uniformSubs = subBlocks && s.y == 0u ? uniformMask(b) : uvec2(0u);
+        const uvec2 hiddenSubs = subBlocks ? hiddenMask(b) : uvec2(0u);
 #if ABSENT_BRICKS
         uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
         if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
@@ -597,15 +599,16 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #endif
             } else {
                 if (s.y == kNone) return MARCH_MISSING;
-                // Coarser levels step by their nodes; the finest by voxels, or over a sub-block
-                // whole: one without drawn labels (kSlotHidden: its label need not be read; with
-                // its 2x2x2 group, the Morton-consecutive byte of the mask, when all are), or a
-                // uniform one after its label (kSlotUniform). No surface lies inside either; the
-                // CPU mirror steps alike.
+                // Coarser levels step by their nodes, the finest by voxels, or over a sub-block
+                // whole: one without drawn labels (kSlotHidden, at levels whose nodes are no
+                // larger: its label need not be read; with its 2x2x2 group, the Morton-consecutive
+                // byte of the mask, when all are), or at the finest level a uniform one after its
+                // label (kSlotUniform). No surface lies inside either; the CPU mirror (finest
+                // level) steps alike.
                 k = s.y;
                 bool hidden = false;
                 uint j = 0u;
-                if (k == 0u && SUB_SHIFT >= 0) {
+                if (int(k) <= SUB_SHIFT) {
                     const uvec3 local = uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u);
                     j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
                     const uint h = j < 32u ? hiddenSubs.x : hiddenSubs.y;

@@ -334,6 +334,97 @@ void expectHiddenSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Deco
 
 } // namespace
 
+namespace {
+
+/// The hidden sub-blocks of a brick cached at `lod`: those inside the volume whose nodes in the
+/// level image (`level`, the volume decoded at lod) hold no visible label.
+uint64_t expectedHiddenMask(const CompressedVolume& vol, const LabelVolume& level, uint32_t lod, uint32_t brick,
+                            const std::function<bool(uint32_t)>& visible) {
+    const std::array<uint32_t, 3> grid = vol.brickGrid();
+    const uint32_t origin[3] = {brick % grid[0] * vol.brickSize, brick / grid[0] % grid[1] * vol.brickSize,
+                                brick / (grid[0] * grid[1]) * vol.brickSize};
+    const uint32_t edge = vol.brickSize / 4, nodes = edge >> lod;
+    uint64_t mask = 0;
+    for (uint32_t j = 0; j < 64; ++j) {
+        uint32_t o[3] = {0, 0, 0};
+        for (uint32_t bit = 0; bit < 6; ++bit) o[bit % 3] |= ((j >> bit) & 1u) << (bit / 3); // Morton: x in bit 0
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) {
+            inside = inside && origin[a] + (o[a] + 1) * edge <= vol.dim[a];
+            o[a] = (origin[a] + o[a] * edge) >> lod;
+        }
+        bool hidden = inside;
+        for (uint32_t z = 0; z < nodes && hidden; ++z)
+            for (uint32_t y = 0; y < nodes && hidden; ++y)
+                for (uint32_t x = 0; x < nodes && hidden; ++x) hidden = !visible(level.at(o[0] + x, o[1] + y, o[2] + z));
+        if (hidden) mask |= uint64_t(1) << j;
+    }
+    return mask;
+}
+
+} // namespace
+
+// Bricks cached at coarser levels (nodes of 2 and 4 voxels, sub-blocks of 8) have hidden
+// sub-blocks too, marked from their level's labels; stepping over them changes nothing: the
+// G-buffer equals a renderer's that steps over none (there is no CPU mirror of coarser levels).
+TEST(Renderer, HiddenSubBlocksAtCoarserLevelsChangeNothing) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    std::vector<uint32_t> labels(scene.labels.labels);
+    std::sort(labels.begin(), labels.end());
+    labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+    labels.erase(labels.begin()); // label 0
+    ASSERT_GT(labels.size(), 8u);
+    const uint32_t lo = labels.front(), hi = labels[labels.size() / 3];
+    Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [{"name": "some", "filter": {"attribute": "label", "min": )" +
+                                                  std::to_string(lo) + ", \"max\": " + std::to_string(hi) + "}}]}");
+    ASSERT_TRUE(doc.isOk()) << doc.message();
+    const std::function<bool(uint32_t)> visible = [&](uint32_t l) { return l >= lo && l <= hi; };
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    FrameOutput outs[2];
+    for (int hidden = 0; hidden < 2; ++hidden) {
+        RendererOptions o;
+        o.hiddenSubBlocks = hidden == 1;
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
+        ASSERT_TRUE(r.isOk()) << r.message();
+        ASSERT_TRUE((*r)->setMaterials(*doc).isOk());
+        RenderSettings st;
+        st.finest = false;
+        st.lodBias = 1.5f;
+        st.jitter = false;
+        st.denoise = false;
+        (*r)->setSettings(st);
+        outs[hidden] = renderConverged(**r, in, 1, 64);
+        Result<std::vector<Renderer::CachedBrick>> cached = (*r)->cachedBricks();
+        ASSERT_TRUE(cached.isOk()) << cached.message();
+        size_t coarse = 0;
+        for (const Renderer::CachedBrick& b : *cached) {
+            if (!hidden || b.lod > 2) {
+                if (!hidden) EXPECT_EQ(b.hiddenSubBlocks, 0u) << "brick " << b.brick << ": none marked when off";
+                continue;
+            }
+            Result<LabelVolume> level = decodeVolume(scene.volume, b.lod);
+            ASSERT_TRUE(level.isOk()) << level.message();
+            const uint64_t want = expectedHiddenMask(scene.volume, *level, b.lod, b.brick, visible);
+            EXPECT_EQ(b.hiddenSubBlocks, want) << "brick " << b.brick << " at level " << b.lod;
+            coarse += b.lod > 0 && want != 0;
+        }
+        if (hidden) EXPECT_GT(coarse, 0u) << "bricks cached at coarser levels with hidden sub-blocks";
+    }
+    size_t labelDiff = 0, faceDiff = 0, depthDiff = 0, hits = 0;
+    for (size_t i = 0; i < outs[0].label.size(); ++i) {
+        labelDiff += outs[1].label[i] != outs[0].label[i];
+        if (outs[0].label[i] == kNone) continue;
+        ++hits;
+        faceDiff += outs[1].face[i] != outs[0].face[i];
+        depthDiff += std::fabs(outs[1].distance[i] - outs[0].distance[i]) > 1e-4f * std::max(outs[0].distance[i], 1e-3f);
+    }
+    EXPECT_EQ(labelDiff, 0u);
+    EXPECT_EQ(faceDiff, 0u);
+    EXPECT_EQ(depthDiff, 0u);
+    EXPECT_GT(hits, outs[0].label.size() / 20);
+}
+
 TEST(Renderer, HiddenSubBlocksFollowTheMaterialsAndKeepTheGBufferExact) {
     CSGV_REQUIRE_GPU(ctx);
     expectHiddenSubBlocksFollowTheMaterials(*ctx, RendererOptions::Decode::Auto, false);

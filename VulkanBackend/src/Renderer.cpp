@@ -454,6 +454,7 @@ struct Renderer::Impl {
     bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
     bool hostDecode = false;          // RendererOptions::decode resolved
     bool texelsWanted = true;         // RendererOptions::renderTexels
+    bool hiddenWanted = true;         // RendererOptions::hiddenSubBlocks
     bool outlineWanted = true;        // RendererOptions::outlineSpans
     // Detail streaming (GPU decoding of a separated volume): the finest-level streams the frames
     // ask for, uploaded between frames; bricks wait for theirs at the next coarser level.
@@ -1063,6 +1064,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, cacheKind, "brick cache"))) return s;
     im.texelsWanted = options.renderTexels;
+    im.hiddenWanted = options.hiddenSubBlocks;
     im.outlineWanted = options.outlineSpans;
     for (const Table& t : tables)
         if (!(s = make(*t.buffer, t.bytes, t.kind, t.what))) return s;
@@ -1306,7 +1308,8 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     if (table.empty() || drawn != drawnFingerprint) hiddenAllPending = true;
     drawnFingerprint = table.empty() ? 0 : drawn;
     hiddenLabels = false;
-    if (lookup.kind == kLookupHashed) { // the slots hold the palettes' labels
+    if (!hiddenWanted) {
+    } else if (lookup.kind == kLookupHashed) { // the slots hold the palettes' labels
         uint32_t undrawn = 0;
         for (size_t i = 0; i < lookup.slots.size() && undrawn < 2; ++i) undrawn += lookup.slots[i] != kNone && table[2 * i + 1] == kNone;
         hiddenLabels = undrawn > 1;
@@ -2306,8 +2309,8 @@ Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
     if (!s) return s;
     std::vector<CachedBrick> out;
     for (uint32_t b = 0; b < im.brickCount; ++b)
-        if (const bool finest = words[4 * b + 1] == 0; words[4 * b + 1] != kNone)
-            out.push_back({b, words[4 * b + 1], finest ? masks[b] : 0, finest ? hidden[b] : 0});
+        if (const uint32_t lod = words[4 * b + 1]; lod != kNone) // hidden ones at levels whose nodes fit a sub-block
+            out.push_back({b, lod, lod == 0 ? masks[b] : 0, lod + kUniformShift <= log2u(im.volume->volume().brickSize) ? hidden[b] : 0});
     return out;
 }
 

@@ -107,6 +107,10 @@ struct RendererOptions {
     /// address is a loop over the lanes. Off: through their addresses, as larger caches always are
     /// (tests cover both).
     bool renderTexels = true;
+    /// Rays step over the sub-blocks of cached bricks that hold no label the materials draw (at
+    /// levels whose nodes are no larger than a sub-block; cache_hidden.comp marks them where the
+    /// volume holds several undrawn labels). Off: only over uniform ones (tests compare both).
+    bool hiddenSubBlocks = true;
     /// Where the host lists the pixels a frame renders (CPU devices), frames where every pixel
     /// takes its own samples (stride 1, no coarse first stride) take only those within the clip
     /// box's outline: the convex hull of its projected corners, 2 pixels wider (the others would
