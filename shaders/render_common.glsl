@@ -106,6 +106,7 @@ layout(set = 0, binding = kTexelCache) uniform usamplerBuffer cacheTexels;
 layout(set = 0, binding = kTexelBricks) uniform usamplerBuffer brickTexels;
 layout(set = 0, binding = kTexelUniform) uniform usamplerBuffer uniformTexels;
 layout(set = 0, binding = kTexelHidden) uniform usamplerBuffer hiddenTexels;
+layout(set = 0, binding = kTexelEmptyGroups) uniform usamplerBuffer emptyGroupTexels;
 layout(set = 0, binding = kTexelMaterialTable) uniform usamplerBuffer tableTexels;
 layout(set = 0, binding = kTexelLabelColors) uniform usamplerBuffer colorTexels;
 layout(set = 0, binding = kTexelGBuffer) uniform usamplerBuffer gbufferTexels;
@@ -127,6 +128,7 @@ uvec4 brickState(uint b) {
 }
 uvec2 uniformMask(uint b) { return texelWords2(uniformTexels, b); }
 uvec2 hiddenMask(uint b) { return texelWords2(hiddenTexels, b); }
+uint emptyGroupLevel(uint b) { return texelFetch(emptyGroupTexels, int(b)).x; }
 float materialEmission(uint m) { return uintBitsToFloat(texelFetch(materialTexels, int(kMaterialWords * m + kMaterialEmissionWord)).x); }
 uint labelMapWord(uint label) { return texelFetch(labelMapTexels, int(label)).x; }
 float depthInAt(uint pixel) { return uintBitsToFloat(texelFetch(depthInTexels, int(pixel)).x); }
@@ -141,6 +143,7 @@ uint listedCell(uint i) { return UintBuf(frameAddr[kSlotPixelList]).w[i]; }
 uvec4 brickState(uint b) { return Uvec4Buf(frameAddr[kSlotBricks]).v[b]; }
 uvec2 uniformMask(uint b) { return Uvec2Buf(frameAddr[kSlotUniform]).v[b]; }
 uvec2 hiddenMask(uint b) { return Uvec2Buf(frameAddr[kSlotHidden]).v[b]; }
+uint emptyGroupLevel(uint b) { return UintBuf(frameAddr[kSlotEmptyGroups]).w[b]; }
 float materialEmission(uint m) { return MaterialBuf(frameAddr[kSlotMaterials]).m[m].extra.x; }
 uint labelMapWord(uint label) { return UintBuf(frameAddr[kSlotLabelMap]).w[label]; }
 float depthInAt(uint pixel) { return FloatBuf(frameAddr[kSlotDepthIn]).f[pixel]; }
@@ -565,6 +568,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         const bool subBlocks = s.w != 0u && s.y != kNone && int(s.y) <= SUB_SHIFT;
         const uvec2 uniformSubs = subBlocks && s.y == 0u ? uniformMask(b) : uvec2(0u);
         const uvec2 hiddenSubs = subBlocks ? hiddenMask(b) : uvec2(0u);
+        // A brick no material draws is passed whole, with its aligned group of 2^g bricks a side
+        // when none of them is drawn either (kSlotEmptyGroups).
+        const uint emptyLevel = s.w == 0u ? emptyGroupLevel(b) : 0u;
 #if ABSENT_BRICKS
         uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
         if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
@@ -582,6 +588,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             uint k = BRICK_SHIFT; // an empty brick (and another rank's, for a view ray) is passed whole
             if (s.w == 0u) {
                 w.prevLabel = kNone;
+                k += emptyLevel;
             } else if (s.w == BRICK_PASSED) { // passed whole, its label going on
 #if ABSENT_BRICKS
             } else if (s.w == kBrickAbsent) { // another rank's brick (an MPI piece)

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // The CPU reference ray caster: exact analytic cases, and agreement with brute-force sampling
 // along each ray for perspective and parallel views, anisotropic spacing and a rotated grid.
+#include "csgv/codec/BrickGroups.h"
 #include "csgv/codec/Container.h"
 #include "csgv/reference/RayCast.h"
 
@@ -182,4 +183,37 @@ TEST(RayCast, RaysInAPlaneOfTheGridHitLikeTheirNeighbours) {
         EXPECT_EQ(hits(15), hits(16)) << y << " parallel " << parallel;
       }
     }
+}
+
+// Each empty brick's group level is the largest g whose aligned group of 2^g bricks a side holds
+// empty bricks alone (beyond the grid counts as empty), on a grid of odd sizes.
+TEST(RayCast, EmptyBrickGroupsAreTheLargestAlignedOnes) {
+    const std::array<uint32_t, 3> grid = {13, 6, 9};
+    std::mt19937 rng(7);
+    std::vector<uint8_t> empty(size_t(grid[0]) * grid[1] * grid[2]);
+    for (size_t b = 0; b < empty.size(); ++b) {
+        const uint32_t x = uint32_t(b % grid[0]), z = uint32_t(b / (grid[0] * grid[1]));
+        empty[b] = x < 8 && z < 8 ? (rng() % 50 != 0) : (rng() % 3 != 0); // a mostly empty corner
+    }
+    const std::vector<uint32_t> levels = emptyGroupLevels(grid, [&](uint64_t b) { return empty[size_t(b)] != 0; });
+    ASSERT_EQ(levels.size(), empty.size());
+    uint32_t largest = 0;
+    for (uint32_t z = 0; z < grid[2]; ++z)
+        for (uint32_t y = 0; y < grid[1]; ++y)
+            for (uint32_t x = 0; x < grid[0]; ++x) {
+                const size_t b = x + size_t(grid[0]) * (y + size_t(grid[1]) * z);
+                uint32_t want = 0;
+                for (uint32_t g = 1; empty[b] && g <= kEmptyGroupLevels; ++g) {
+                    bool all = true;
+                    for (uint32_t k = (z >> g) << g; k < std::min(grid[2], ((z >> g) + 1) << g); ++k)
+                        for (uint32_t j = (y >> g) << g; j < std::min(grid[1], ((y >> g) + 1) << g); ++j)
+                            for (uint32_t i = (x >> g) << g; i < std::min(grid[0], ((x >> g) + 1) << g); ++i)
+                                all = all && empty[i + size_t(grid[0]) * (j + size_t(grid[1]) * k)];
+                    if (!all) break;
+                    want = g;
+                }
+                EXPECT_EQ(levels[b], want) << x << " " << y << " " << z;
+                largest = std::max(largest, levels[b]);
+            }
+    EXPECT_GE(largest, 2u) << "the grid must have groups of several levels";
 }

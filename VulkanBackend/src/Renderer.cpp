@@ -7,6 +7,7 @@
 
 #include "csgv/base/Math.h"
 #include "csgv/base/WorkerPool.h"
+#include "csgv/codec/BrickGroups.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Layout.h"
 
@@ -383,6 +384,7 @@ struct Renderer::Impl {
     /// the device) and the host reads and writes copies.
     bool viaCopies = false;
     Buffer materials, colormaps, attributeTable, labelMap, blueNoise, materialTable;
+    Buffer emptyGroups;               // kSlotEmptyGroups (uploadVisibility)
     Buffer labelColors;               // vec4 per materialTable entry (label_colors.comp), with a label table
     Buffer pixelList;                 // PIXEL_LIST: the cells the render pass runs over (pixel_list.comp)
     Buffer outlineRows;               // PIXEL_LIST: the resolve passes' spans (ResolvePush::spans), kOutlineRowWords a row
@@ -846,6 +848,7 @@ struct Renderer::Impl {
         render[kTexelBricks] = &bricks;
         render[kTexelUniform] = &uniformSubs;
         render[kTexelHidden] = &hiddenSubs;
+        render[kTexelEmptyGroups] = &emptyGroups;
         render[kTexelMaterialTable] = &materialTable;
         render[kTexelLabelColors] = labelColors.valid() ? &labelColors : &params;
         render[kTexelGBuffer] = &gbuffer;
@@ -1019,6 +1022,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                             {&im.paramsHost, im.viaCopies ? sizeof(FrameParams) : 0, MemoryKind::HostVisible, "frame parameters' host copy"},
                             {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
+                            {&im.emptyGroups, bricks * 4, MemoryKind::DeviceLocal, "empty brick groups"},
                             {&im.uniformSubs, bricks * 8, cacheKind, "uniform sub-block masks"},
                             {&im.hiddenSubs, bricks * 8, MemoryKind::DeviceLocal, "hidden sub-block masks"},
                             {&im.alloc, kAllocWords * 4, im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "cache counters"},
@@ -1346,7 +1350,10 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     visibilityChanged = prefetchPending = true;
     visibleBricks = 0;
     for (size_t b = 0; b < brickCount; ++b) visibleBricks += vis[2 * b] != kNone ? 1 : 0;
-    return ctx.upload(visible, 0, vis.data(), vis.size() * 4);
+    if (Status u = ctx.upload(visible, 0, vis.data(), vis.size() * 4); !u) return u;
+    const std::vector<uint32_t> groups = emptyGroupLevels(
+        vol.brickGrid(), [&](uint64_t b) { return vis[2 * b] == kNone && vis[2 * b + 1] != kBrickAbsent; });
+    return ctx.upload(emptyGroups, 0, groups.data(), groups.size() * 4);
 }
 
 Status Renderer::setGhostFaces(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& hi,
@@ -1698,7 +1705,7 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
         {kSlotAttributes, &attributeTable}, {kSlotOutput, &colorDepth}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
         {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors},
-        {kSlotPixelList, &pixelList}, {kSlotHidden, &hiddenSubs}};
+        {kSlotPixelList, &pixelList}, {kSlotHidden, &hiddenSubs}, {kSlotEmptyGroups, &emptyGroups}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
@@ -2330,7 +2337,8 @@ MemoryReport Renderer::Impl::memory() const {
     r.buffers.push_back({"encoding", im.volume->deviceBytes()});
     if (im.detail) r.buffers.push_back({"detail buffer and table", im.detail->deviceBytes()});
     r.buffers.push_back({"brick cache", im.cache.size()});
-    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size() + im.hiddenSubs.size()});
+    r.buffers.push_back({"brick table and visibility", im.bricks.size() + im.visible.size() + im.uniformSubs.size() + im.hiddenSubs.size() +
+                                                         im.emptyGroups.size()});
     r.buffers.push_back({"free stacks", im.freeStacks.size()});
     r.buffers.push_back({"request and decode lists", im.requests.size() + im.decodes.size() + im.decodeStates.size() +
                                                           im.alloc.size() + im.allocHost.size() + im.params.size() + im.paramsHost.size() + im.blueNoise.size() +

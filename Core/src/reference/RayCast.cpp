@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/reference/RayCast.h"
+#include "csgv/codec/BrickGroups.h"
 #include "csgv/codec/Container.h"
 #include "csgv/codec/Layout.h"
 #include "csgv/base/Morton.h"
@@ -200,6 +201,8 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                 const size_t b = (x >> shift) + grid[0] * ((y >> shift) + size_t(grid[1]) * (z >> shift));
                 if (!brickVisible[b] && visible(volume.at(x, y, z))) brickVisible[b] = 1;
             }
+    const std::vector<uint32_t> emptyGroup =
+        emptyGroupLevels({grid[0], grid[1], grid[2]}, [&](uint64_t b) { return !brickVisible[size_t(b)]; });
     // The sub-blocks the renderer steps over whole (Layout.h), inside the volume: uniform ones (one
     // label) and hidden ones (no visible label; cache_hidden.comp), the latter marked where the
     // volume holds two labels or more that are not visible (else they are uniform).
@@ -296,9 +299,9 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                 if (w.t > w.tEnd) break;
                 const size_t bi = size_t(w.voxel[0] >> shift) +
                                   grid[0] * (size_t(w.voxel[1] >> shift) + size_t(grid[1]) * size_t(w.voxel[2] >> shift));
-                if (!brickVisible[bi]) {
+                if (!brickVisible[bi]) { // with its group of empty bricks (BrickGroups.h)
                     prev = kInvalidLabel;
-                    stableStep(w, shift);
+                    stableStep(w, shift + int(emptyGroup[bi]));
                 } else {
                     // A hidden sub-block (with its Morton-aligned 2x2x2 group when all are) is
                     // stepped over without its label, a uniform one after it: no surface inside.

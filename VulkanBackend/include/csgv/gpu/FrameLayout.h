@@ -109,7 +109,8 @@ CSGV_CONST(uint32_t, kSlotCoarse, 25u)        ///< an MPI rank's piece (Renderer
 CSGV_CONST(uint32_t, kSlotLabelColors, 26u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
 CSGV_CONST(uint32_t, kSlotPixelList, 27u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
 CSGV_CONST(uint32_t, kSlotHidden, 28u)       ///< uvec2 per brick cached at the finest level: its sub-blocks (Layout.h) inside the volume that hold no label a material draws (cache_hidden.comp); all 0 where the materials leave one label undrawn at most (its sub-blocks are uniform)
-CSGV_CONST(uint32_t, kSlotCount, 29u)
+CSGV_CONST(uint32_t, kSlotEmptyGroups, 29u)  ///< uint per brick a material draws nothing of: the largest g such that its aligned group of 2^g bricks a side holds no brick a material draws nor another rank's (csgv/codec/BrickGroups.h, host, per materials); march() steps over the group whole
+CSGV_CONST(uint32_t, kSlotCount, 30u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
 CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
 CSGV_CONST(uint32_t, kCoarseLevelWords, 4u)
@@ -174,7 +175,8 @@ CSGV_CONST(uint32_t, kTexelDepthIn, 9u)       ///< kSlotDepthIn
 CSGV_CONST(uint32_t, kTexelBlueNoise, 10u)    ///< kSlotBlueNoise
 CSGV_CONST(uint32_t, kTexelVisible, 11u)      ///< kSlotVisible
 CSGV_CONST(uint32_t, kTexelHidden, 12u)       ///< kSlotHidden
-CSGV_CONST(uint32_t, kRenderTexelCount, 13u)
+CSGV_CONST(uint32_t, kTexelEmptyGroups, 13u)  ///< kSlotEmptyGroups
+CSGV_CONST(uint32_t, kRenderTexelCount, 14u)
 CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
 CSGV_CONST(uint32_t, kResolveTexelAccum, 1u)   ///< kSlotAccum
 CSGV_CONST(uint32_t, kResolveTexelSource, 2u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)
