@@ -2,15 +2,17 @@
 // The sub-blocks (csgv/codec/Layout.h) of cached bricks that lie inside the volume and hold no
 // label a material draws at the level the brick is cached at (Frame slot kSlotHidden; levels whose
 // nodes are no larger than a sub-block): march() steps over them whole without reading a label,
-// and over a 2x2x2 group of them (Morton-consecutive) at once. No
-// surface can be inside: a walker passing such a sub-block voxel by voxel meets only labels
-// without a material, and the first voxel after it shows a surface exactly when its label is
-// drawn, whatever it passed. One workgroup per brick, one invocation per sub-block; the renderer
-// runs it where the materials leave several labels undrawn (else the masks stay 0: such
-// sub-blocks hold the one undrawn label, uniform ones, kSlotUniform):
+// and over a 2x2x2 group of them (Morton-consecutive) at once. No surface can be inside: a
+// walker passing such a sub-block voxel by voxel meets only labels without a material, and the
+// first voxel after it shows a surface exactly when its label is drawn, whatever it passed. One
+// workgroup per brick, one invocation per sub-block; the renderer runs it where the volume holds
+// several undrawn labels (else the masks stay 0: such sub-blocks hold the one undrawn label,
+// uniform ones, kSlotUniform):
 //   HIDDEN_ALL 0: the bricks decoded this frame (the decode list);
-//   HIDDEN_ALL 1: every brick of the table cached at the finest level, kHiddenGroupBricks a group
-//                 in turn (the materials changed; this also covers the bricks decoded this frame).
+//   HIDDEN_ALL 1: every brick of the table cached at such a level, kHiddenGroupBricks a group in
+//                 turn (the materials changed; this also covers the bricks decoded this frame).
+// It reads the cache, brick table and label table through the render pass's texel buffers where
+// the renderer made them (RENDER_TEXELS: one gather for eight lanes on CPU devices).
 // Core's castRaysStable marks the same sub-blocks and steps alike, so images stay exact.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -24,18 +26,6 @@ layout(local_size_x = 64) in;
 layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 shared uint bits[2];
-
-/// The label of cache entry e of the region at word `offset` (paletted: its palette's entry).
-/// Through the render pass's texel buffers where the renderer made them (RENDER_TEXELS: one
-/// gather for eight lanes on CPU devices, where a read through an address is a loop over them).
-uint labelAt(uint offset, uint e, PaletteRef palette) {
-#if CACHE_BITS == 32
-    return cacheWord(offset + e);
-#else
-    const uint index = (cacheWord(offset + e / CACHE_PER_WORD) >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
-    return index == CACHE_MASK ? kNone : UintBuf(palette.array).w[palette.end - 1u - index];
-#endif
-}
 
 /// Marks the brick's sub-blocks without drawn labels; its labels at `level` start at cache word
 /// `offset`, a sub-block's nodes one Morton run of them.
@@ -54,7 +44,7 @@ void markBrick(Frame f, uint brick, uint offset, uint level) {
 #endif
         const uint n = 1u << (3u * (uint(SUB_SHIFT) - level)), first = j * n;
         bool hidden = true;
-        for (uint e = 0u; e < n && hidden; ++e) hidden = materialOf(f, labelAt(offset, first + e, palette)) == kNone;
+        for (uint e = 0u; e < n && hidden; ++e) hidden = materialOf(f, entryLabel(offset, first + e, palette)) == kNone;
         if (hidden) atomicOr(bits[j >> 5u], 1u << (j & 31u));
     }
     barrier();

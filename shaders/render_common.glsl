@@ -348,10 +348,9 @@ PaletteRef paletteOf(Frame f, uint brick) {
     return p;
 }
 
-/// Label of a voxel in a cached brick decoded at `lod` starting at cache word `offset`.
-uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette) {
-    const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
-    const uint e = mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u);
+/// Label of entry e (Morton order) of a cached region starting at cache word `offset` (the
+/// render pass's voxels, cache_hidden.comp's sub-block runs).
+uint entryLabel(uint offset, uint e, PaletteRef palette) {
 #if CACHE_BITS == 32
     const uint i = offset + e;
     const uint label = cacheWord(i);
@@ -364,6 +363,12 @@ uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette
     const uint index = (word >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
     return index == CACHE_MASK ? kNone : UintBuf(palette.array).w[palette.end - 1u - index];
 #endif
+}
+
+/// Label of a voxel in a cached brick decoded at `lod` starting at cache word `offset`.
+uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette) {
+    const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
+    return entryLabel(offset, mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u), palette);
 }
 
 /// Level of detail for a brick: one voxel of that level about one pixel (footprint at the brick's

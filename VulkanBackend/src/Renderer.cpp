@@ -1311,24 +1311,27 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         drawn = (drawn ^ (table[i] == kNone ? 0x9Eu : 0x37u)) * 1099511628211ull;
     if (table.empty() || drawn != drawnFingerprint) hiddenAllPending = true;
     drawnFingerprint = table.empty() ? 0 : drawn;
-    hiddenLabels = false;
-    if (!hiddenWanted) {
-    } else if (lookup.kind == kLookupHashed) { // the slots hold the palettes' labels
-        uint32_t undrawn = 0;
-        for (size_t i = 0; i < lookup.slots.size() && undrawn < 2; ++i) undrawn += lookup.slots[i] != kNone && table[2 * i + 1] == kNone;
-        hiddenLabels = undrawn > 1;
-    } else if (table.empty() || std::count(table.begin(), table.end(), kNone) > 1) { // labels undrawn, if stored
-        uint32_t first = kNone;
-        for (uint64_t b = 0; b < brickCount && !hiddenLabels; ++b) {
+    auto severalUndrawn = [&] {
+        if (lookup.kind == kLookupHashed) { // the slots hold the palettes' labels
+            uint32_t undrawn = 0;
+            for (size_t i = 0; i < lookup.slots.size() && undrawn < 2; ++i)
+                undrawn += lookup.slots[i] != kNone && table[2 * i + 1] == kNone;
+            return undrawn > 1;
+        }
+        if (!table.empty() && std::count(table.begin(), table.end(), kNone) < 2) return false; // not even among all labels
+        uint32_t first = kNone; // the palettes' labels, until a second undrawn one
+        for (uint64_t b = 0; b < brickCount; ++b) {
             if (!volume->owns(b)) continue;
             const BrickWords bw = vol.brick(b);
-            for (uint32_t k = 0; k < bw.words[L] && !hiddenLabels; ++k)
+            for (uint32_t k = 0; k < bw.words[L]; ++k)
                 if (const uint32_t l = bw.words[bw.size - 1 - k]; materialOfStored(l) == kNone) {
-                    if (first == kNone) first = l;
-                    hiddenLabels = l != first;
+                    if (first != kNone && l != first) return true;
+                    first = l;
                 }
         }
-    }
+        return false;
+    };
+    hiddenLabels = hiddenWanted && severalUndrawn();
     // Per brick its preview label and that label's material (what a view ray shows of the brick
     // while it is not cached: its coarsest level, the root label, else the first palette entry a
     // material draws), kNone twice when no palette entry is drawn (the brick is invisible).
@@ -1964,7 +1967,6 @@ Status Renderer::Impl::submit() {
     if (profileDispatches) { // one submission per dispatch, timed (diagnostics)
         auto stage = [&](const Context::Dispatch& d) -> std::string {
             if (d.fill) return "clear";
-            if (d.copyFrom) return "copy";
             const std::pair<uint64_t, const char*> named[] = {
                 {pRequest, "request"}, {pProvision, "provision"}, {pAssign, "assign"}, {pCommit, "commit"},
                 {pUniform, "uniform sub-blocks"}, {pHidden, "hidden sub-blocks"}, {pHiddenAll, "hidden sub-blocks (all)"},

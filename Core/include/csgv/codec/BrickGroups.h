@@ -18,42 +18,33 @@ constexpr uint32_t kEmptyGroupLevels = 4;
 /// group of 2^g bricks a side holds only bricks `empty(b)` says are empty (the group's part beyond
 /// the grid counts as empty: no ray meets a voxel there); 0 for a brick that is not empty.
 template <class Empty> std::vector<uint32_t> emptyGroupLevels(const std::array<uint32_t, 3>& grid, const Empty& empty) {
-    const uint64_t n = uint64_t(grid[0]) * grid[1] * grid[2];
-    std::vector<uint32_t> level(n, 0);
-    // flags[g]: per group of level g (2^g bricks a side), whether all its bricks are empty.
-    std::vector<uint8_t> flags(n);
-    for (uint64_t b = 0; b < n; ++b) flags[b] = empty(b) ? 1 : 0;
-    std::array<uint32_t, 3> dims = grid;
-    std::vector<std::vector<uint8_t>> byLevel{flags};
+    // Per level g, its groups (2^g bricks a side; x fastest) and whether all their bricks are empty.
+    struct Level {
+        std::array<uint32_t, 3> dims;
+        std::vector<uint8_t> empty;
+        bool at(uint32_t x, uint32_t y, uint32_t z) const { return empty[x + uint64_t(dims[0]) * (y + uint64_t(dims[1]) * z)]; }
+    };
+    std::vector<Level> levels(1, Level{grid, std::vector<uint8_t>(uint64_t(grid[0]) * grid[1] * grid[2])});
+    for (uint64_t b = 0; b < levels[0].empty.size(); ++b) levels[0].empty[b] = empty(b) ? 1 : 0;
     for (uint32_t g = 1; g <= kEmptyGroupLevels; ++g) {
-        const std::array<uint32_t, 3> up = {(dims[0] + 1) / 2, (dims[1] + 1) / 2, (dims[2] + 1) / 2};
-        std::vector<uint8_t> next(uint64_t(up[0]) * up[1] * up[2], 1);
-        const std::vector<uint8_t>& below = byLevel.back();
-        for (uint32_t z = 0; z < dims[2]; ++z)
-            for (uint32_t y = 0; y < dims[1]; ++y)
-                for (uint32_t x = 0; x < dims[0]; ++x)
-                    if (!below[x + uint64_t(dims[0]) * (y + uint64_t(dims[1]) * z)])
-                        next[x / 2 + uint64_t(up[0]) * (y / 2 + uint64_t(up[1]) * (z / 2))] = 0;
-        byLevel.push_back(std::move(next));
-        dims = up;
+        const Level& below = levels.back();
+        const std::array<uint32_t, 3> d = below.dims, up = {(d[0] + 1) / 2, (d[1] + 1) / 2, (d[2] + 1) / 2};
+        Level next{up, std::vector<uint8_t>(uint64_t(up[0]) * up[1] * up[2], 1)};
+        for (uint32_t z = 0; z < d[2]; ++z)
+            for (uint32_t y = 0; y < d[1]; ++y)
+                for (uint32_t x = 0; x < d[0]; ++x)
+                    if (!below.at(x, y, z)) next.empty[x / 2 + uint64_t(up[0]) * (y / 2 + uint64_t(up[1]) * (z / 2))] = 0;
+        levels.push_back(std::move(next));
     }
+    std::vector<uint32_t> out(levels[0].empty.size(), 0);
     for (uint32_t z = 0; z < grid[2]; ++z)
         for (uint32_t y = 0; y < grid[1]; ++y)
             for (uint32_t x = 0; x < grid[0]; ++x) {
-                const uint64_t b = x + uint64_t(grid[0]) * (y + uint64_t(grid[1]) * z);
-                if (!flags[b]) continue;
-                std::array<uint32_t, 3> d = grid;
-                uint32_t g = 0;
-                while (g < kEmptyGroupLevels) {
-                    const std::array<uint32_t, 3> up = {(d[0] + 1) / 2, (d[1] + 1) / 2, (d[2] + 1) / 2};
-                    const uint32_t s = g + 1;
-                    if (!byLevel[s][(x >> s) + uint64_t(up[0]) * ((y >> s) + uint64_t(up[1]) * (z >> s))]) break;
-                    d = up;
-                    g = s;
-                }
-                level[b] = g;
+                uint32_t g = 0; // a group empty at g + 1 holds groups empty at g
+                while (levels[0].at(x, y, z) && g < kEmptyGroupLevels && levels[g + 1].at(x >> (g + 1), y >> (g + 1), z >> (g + 1))) ++g;
+                out[x + uint64_t(grid[0]) * (y + uint64_t(grid[1]) * z)] = g;
             }
-    return level;
+    return out;
 }
 
 } // namespace csgv
