@@ -550,6 +550,84 @@ def print_summary(rows, frames):
     sys.stdout.flush()
 
 
+def measure(args, spec, name, path, error, size, drawn, shadings, rows):
+    """One input at one size and --drawn fraction: VTK's side and ours in every shading, --repeat
+    times in turn; appends a row per shading to `rows`. Returns whether a measurement failed
+    (`error`: the input could not be had, nothing is run)."""
+    failed = False
+    print("== %s, %s, %s drawn, %d frames ==" % (spec, size, drawn_text(drawn), args.frames))
+    print("%-36s %8s %12s %10s %10s %11s" % ("representation", "read s", "1st frame s", "median ms",
+                                             "peak MiB", "device MiB"))
+    # Each side --repeat times, in turn (VTK, then ours in every shading, again ...):
+    # a slow minute of a noisy machine falls on both.
+    vtk_runs, ours_runs, vtk_error, ours_errors = [], {sh: [] for sh in shadings}, None, {}
+    label_max = None  # --drawn below 1: the last label drawn, from VTK's side
+    for _ in range(args.repeat):
+        if error:
+            run, run_error = None, error
+        else:
+            run, run_error = run_side(args, "vtk", path, "%s_%s%s" % (name, size, drawn_tag(drawn)), size, drawn=drawn)
+            label_max = label_max if label_max is not None else get(run, "label_max")
+        vtk_runs.append(run)
+        vtk_error = vtk_error or run_error
+        print_side(run, "Volume (vtkSmartVolumeMapper)")
+        for shading in shadings:
+            if error:
+                run, run_error = None, error
+            elif drawn < 1 and label_max is None:
+                run, run_error = None, "no last label to draw for --drawn %g: VTK's side failed or found no labels" % drawn
+            else:
+                run, run_error = run_side(args, "csgv", path, "%s_%s%s_%s" % (name, size, drawn_tag(drawn), shading),
+                                          size, shading, drawn=drawn, label_max=label_max)
+            ours_runs[shading].append(run)
+            ours_errors[shading] = ours_errors.get(shading) or run_error
+            print_side(run, "Segmentation Volume, " + shading)
+    vtk = combine(vtk_runs)
+    if args.repeat > 1:
+        print("(the summary takes the median of the %d runs of each side)" % args.repeat)
+    base = None
+    for shading in shadings:
+        ours, ours_error = combine(ours_runs[shading]), ours_errors.get(shading)
+        side = None
+        if vtk and ours:
+            side = os.path.join(args.output, "%s_%s%s_%s_side_by_side.png" % (name, size, drawn_tag(drawn), shading))
+            if not write_side_by_side(vtk["png"], ours["png"], side):
+                print("(no side-by-side image: numpy is missing; run with pvpython or pvbatch)")
+                side = None
+        base = base or (ours or {}).get("session_base_mib")
+        errors = sorted(set(e for e in (vtk_error, ours_error) if e))
+        failed = failed or bool(errors)
+        rows.append({
+            "input": spec, "input_path": path, "size": size, "shading": shading, "frames": args.frames,
+            "drawn": drawn_text(drawn), "drawn_fraction": drawn, "label_max": label_max,
+            "repeats": args.repeat,
+            "vtk_read_s": get(vtk, "read_s"), "ours_read_s": get(ours, "read_s"),
+            "vtk_median_frame_ms": get(vtk, "median_frame_ms"),
+            "ours_median_frame_ms": get(ours, "median_frame_ms"),
+            "frame_ratio_vtk_over_ours": ratio(get(vtk, "median_frame_ms"),
+                                               get(ours, "median_frame_ms")),
+            "view_frame_ms": get(vtk, "view_frame_ms"),
+            "net_ratio_vtk_over_ours": ratio(net(vtk, get(vtk, "view_frame_ms")),
+                                             net(ours, get(vtk, "view_frame_ms"))),
+            "vtk_first_frame_s": get(vtk, "first_frame_s"), "ours_first_frame_s": get(ours, "first_frame_s"),
+            "first_frame_ratio_vtk_over_ours": ratio(get(vtk, "first_frame_s"),
+                                                     get(ours, "first_frame_s")),
+            "vtk_tf_setup_s": get(vtk, "tf_setup_s"),
+            "vtk_peak_rss_mib": get(vtk, "peak_rss_mib"), "ours_peak_rss_mib": get(ours, "peak_rss_mib"),
+            "ours_device_mib": get(ours, "device_mib"),
+            "side_by_side": side, "errors": errors or None})
+    if vtk:
+        print("VTK transfer function set-up (one point a label, not in its first frame): %.2f s"
+              % vtk["tf_setup_s"])
+    if base is not None:
+        print("session base (empty pvbatch with the plugin): %.1f MiB" % base)
+    if vtk and any(r["side_by_side"] for r in rows[-len(shadings):]):
+        print("images: %s (left: VTK, right: Segmentation Volume)"
+              % os.path.join(args.output, "%s_%s%s_<shading>_side_by_side.png" % (name, size, drawn_tag(drawn))))
+    sys.stdout.flush()
+    return failed
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--input", action="append",
@@ -622,76 +700,7 @@ def main():
         for spec, name, path, error in resolved:
             for size in sizes:
                 for drawn in fractions:
-                    print("== %s, %s, %s drawn, %d frames ==" % (spec, size, drawn_text(drawn), args.frames))
-                    print("%-36s %8s %12s %10s %10s %11s" % ("representation", "read s", "1st frame s", "median ms",
-                                                             "peak MiB", "device MiB"))
-                    # Each side --repeat times, in turn (VTK, then ours in every shading, again ...):
-                    # a slow minute of a noisy machine falls on both.
-                    vtk_runs, ours_runs, vtk_error, ours_errors = [], {sh: [] for sh in shadings}, None, {}
-                    label_max = None  # --drawn below 1: the last label drawn, from VTK's side
-                    for _ in range(args.repeat):
-                        if error:
-                            run, run_error = None, error
-                        else:
-                            run, run_error = run_side(args, "vtk", path, "%s_%s%s" % (name, size, drawn_tag(drawn)), size, drawn=drawn)
-                            label_max = label_max if label_max is not None else get(run, "label_max")
-                        vtk_runs.append(run)
-                        vtk_error = vtk_error or run_error
-                        print_side(run, "Volume (vtkSmartVolumeMapper)")
-                        for shading in shadings:
-                            if error:
-                                run, run_error = None, error
-                            elif drawn < 1 and label_max is None:
-                                run, run_error = None, "VTK's side gave no labels to draw (--drawn %g)" % drawn
-                            else:
-                                run, run_error = run_side(args, "csgv", path, "%s_%s%s_%s" % (name, size, drawn_tag(drawn), shading),
-                                                          size, shading, drawn=drawn, label_max=label_max)
-                            ours_runs[shading].append(run)
-                            ours_errors[shading] = ours_errors.get(shading) or run_error
-                            print_side(run, "Segmentation Volume, " + shading)
-                    vtk = combine(vtk_runs)
-                    if args.repeat > 1:
-                        print("(the summary takes the median of the %d runs of each side)" % args.repeat)
-                    base = None
-                    for shading in shadings:
-                        ours, ours_error = combine(ours_runs[shading]), ours_errors.get(shading)
-                        side = None
-                        if vtk and ours:
-                            side = os.path.join(args.output, "%s_%s%s_%s_side_by_side.png" % (name, size, drawn_tag(drawn), shading))
-                            if not write_side_by_side(vtk["png"], ours["png"], side):
-                                print("(no side-by-side image: numpy is missing; run with pvpython or pvbatch)")
-                                side = None
-                        base = base or (ours or {}).get("session_base_mib")
-                        errors = sorted(set(e for e in (vtk_error, ours_error) if e))
-                        failed = failed or bool(errors)
-                        rows.append({
-                            "input": spec, "input_path": path, "size": size, "shading": shading, "frames": args.frames,
-                            "drawn": drawn_text(drawn), "drawn_fraction": drawn, "label_max": label_max,
-                            "repeats": args.repeat,
-                            "vtk_read_s": get(vtk, "read_s"), "ours_read_s": get(ours, "read_s"),
-                            "vtk_median_frame_ms": get(vtk, "median_frame_ms"),
-                            "ours_median_frame_ms": get(ours, "median_frame_ms"),
-                            "frame_ratio_vtk_over_ours": ratio(get(vtk, "median_frame_ms"),
-                                                               get(ours, "median_frame_ms")),
-                            "view_frame_ms": get(vtk, "view_frame_ms"),
-                            "net_ratio_vtk_over_ours": ratio(net(vtk, get(vtk, "view_frame_ms")),
-                                                             net(ours, get(vtk, "view_frame_ms"))),
-                            "vtk_first_frame_s": get(vtk, "first_frame_s"), "ours_first_frame_s": get(ours, "first_frame_s"),
-                            "first_frame_ratio_vtk_over_ours": ratio(get(vtk, "first_frame_s"),
-                                                                     get(ours, "first_frame_s")),
-                            "vtk_tf_setup_s": get(vtk, "tf_setup_s"),
-                            "vtk_peak_rss_mib": get(vtk, "peak_rss_mib"), "ours_peak_rss_mib": get(ours, "peak_rss_mib"),
-                            "ours_device_mib": get(ours, "device_mib"),
-                            "side_by_side": side, "errors": errors or None})
-                    if vtk:
-                        print("VTK transfer function set-up (one point a label, not in its first frame): %.2f s"
-                              % vtk["tf_setup_s"])
-                    if base is not None:
-                        print("session base (empty pvbatch with the plugin): %.1f MiB" % base)
-                    if vtk and any(r["side_by_side"] for r in rows[-len(shadings):]):
-                        print("images: %s (left: VTK, right: Segmentation Volume)"
-                              % os.path.join(args.output, "%s_%s%s_<shading>_side_by_side.png" % (name, size, drawn_tag(drawn))))
-                    sys.stdout.flush()
+                    failed = measure(args, spec, name, path, error, size, drawn, shadings, rows) or failed
 
     if args.demos:
         saved_frames = args.frames
