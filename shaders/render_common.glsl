@@ -186,16 +186,6 @@ float attributeValue(Frame f, uint attr, uint label) {
 #ifndef LABEL_LOOKUP
 #define LABEL_LOOKUP 0 // kLookupScan
 #endif
-#if LABEL_LOOKUP == 2
-/// kLookupHashed: the slot holding a stored label, one of its two. The table holds every label
-/// the volume's palettes hold (planLabelLookup), and only those reach the shaders (the cache's
-/// labels, the bricks' preview labels; kNone is tested before), so when the label is not in its
-/// first slot it is in its second: one read, not two.
-uint hashedSlot(uint label) {
-    const uint a = labelSlot(label, LABEL_SEED0, LABEL_MASK);
-    return tableWord(2u * a) == label ? a : labelSlot(label, LABEL_SEED1, LABEL_MASK);
-}
-#endif
 
 /// The first material whose filter holds the label, or kNone (invisible): from the host's table
 /// (LABEL_LOOKUP, LabelLookup.h), which it fills with the same comparisons as the scan below.
@@ -203,8 +193,6 @@ uint materialOf(Frame f, uint label) {
     if (label == kNone) return kNone;
 #if LABEL_LOOKUP == 1 // kLookupDense: every stored label is below the table's end
     return label < fv.counts.w ? tableWord(label) : kNone;
-#elif LABEL_LOOKUP == 2 // kLookupHashed: the label sits in one of its two slots
-    return tableWord(2u * hashedSlot(label) + 1u);
 #else
     // Precomputed by the host with the same comparisons when the stored labels are few (up to
     // the largest label of the renderer's bricks; an MPI piece's stand-ins for other ranks'
@@ -254,18 +242,13 @@ vec4 materialColorOf(Frame f, uint m, uint label, out float emission) {
 }
 
 /// Colour (rgb), opacity (a) and emission of a label under material m (its material): with a
-/// label table (LABEL_LOOKUP dense or hashed) read from the colours label_colors.comp computed
+/// dense label table (LABEL_LOOKUP kLookupDense) read from the colours label_colors.comp computed
 /// with materialColorOf when the materials changed, so a ray step does not evaluate colour modes
 /// (CPU devices run every branch of them at every call).
 vec4 materialColor(Frame f, uint m, uint label, out float emission) {
-#if LABEL_LOOKUP == 1 || LABEL_LOOKUP == 2
-    emission = materialEmission(m);
 #if LABEL_LOOKUP == 1
-    const uint entry = label;
-#else
-    const uint entry = hashedSlot(label);
-#endif
-    return labelColor(entry);
+    emission = materialEmission(m);
+    return labelColor(label);
 #else
     return materialColorOf(f, m, label, emission);
 #endif

@@ -1,8 +1,7 @@
 // SPDX-License-Identifier: MIT
 // The label -> material lookup the shaders use instead of scanning the material list
-// (csgv/gpu/LabelLookup.h): which kind a volume gets, and that the hashed table finds every label
-// the palettes hold (in one of its two slots, as render_common.glsl's materialOf reads them) and
-// no other.
+// (csgv/gpu/LabelLookup.h): which kind a volume gets, and that large labels are stored as ids
+// (their index among the palettes' labels) with a dense table over them.
 #include "TestData.h"
 
 #include "csgv/codec/CsgvFile.h"
@@ -34,50 +33,49 @@ constexpr uint64_t kBudget = uint64_t(1) << 30;
 
 } // namespace
 
-TEST(LabelLookup, LargeLabelsAreHashedAndEveryPaletteLabelIsFoundInOneOfItsTwoSlots) {
+TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2.csgv")); // 222 labels up to 4282514378
     ASSERT_TRUE(file.isOk()) << file.message();
-    const LabelLookup lookup = planLabelLookup(file->volume, false, kBudget);
-    ASSERT_EQ(lookup.kind, kLookupHashed);
+    const std::vector<uint32_t> ids = labelIds(file->volume);
     const std::set<uint32_t> labels = paletteLabels(file->volume);
-    EXPECT_EQ(lookup.largest, *labels.rbegin());
-    ASSERT_GE(lookup.slots.size(), 2 * labels.size());
-    EXPECT_EQ(lookup.slots.size() & (lookup.slots.size() - 1), 0u) << "a power of two";
-    const std::vector<uint32_t> table = lookup.table(someMaterial);
-    ASSERT_EQ(table.size(), 2 * lookup.slots.size());
-    const uint32_t mask = uint32_t(lookup.slots.size()) - 1;
-    size_t stored = 0;
-    for (uint32_t l : lookup.slots) stored += l != kNone;
-    EXPECT_EQ(stored, labels.size()) << "each label once";
-    for (uint32_t l : labels) {
-        const uint32_t a = labelSlot(l, lookup.seeds[0], mask), b = labelSlot(l, lookup.seeds[1], mask);
-        EXPECT_TRUE(table[2 * a] == l || table[2 * b] == l) << "label " << l;
-        EXPECT_EQ(lookup.hostMaterial(table, l), someMaterial(l)) << "label " << l;
-    }
-    // Labels no palette holds have no material, nor has kNone.
+    ASSERT_EQ(ids, std::vector<uint32_t>(labels.begin(), labels.end())) << "the palettes' labels, ascending";
+    for (uint32_t i = 0; i < ids.size(); ++i) EXPECT_EQ(idOfLabel(ids, ids[i]), i);
     size_t absent = 0;
     for (uint32_t l = 1; absent < 1000; l += 4099)
         if (!labels.count(l)) {
             ++absent;
-            EXPECT_EQ(lookup.hostMaterial(table, l), kNone) << "label " << l;
+            EXPECT_EQ(idOfLabel(ids, l), kNone) << "label " << l;
         }
+    EXPECT_EQ(idOfLabel(ids, kNone), kNone);
+    const LabelLookup lookup = planLabelLookup(file->volume, ids, false, kBudget);
+    ASSERT_EQ(lookup.kind, kLookupDense);
+    EXPECT_EQ(lookup.largest, ids.size() - 1);
+    const std::vector<uint32_t> table = lookup.table(someMaterial);
+    ASSERT_EQ(table.size(), ids.size());
+    for (uint32_t i = 0; i < ids.size(); ++i) EXPECT_EQ(lookup.hostMaterial(table, i), someMaterial(i));
+    EXPECT_EQ(lookup.hostMaterial(table, uint32_t(ids.size())), kNone);
     EXPECT_EQ(lookup.hostMaterial(table, kNone), kNone);
-    // Under a budget the tables would take more than a 64th of, the scan (the cache comes first).
+    // Under a budget the tables would take more than a 64th of, the scan (the cache comes first),
+    // which keeps the table over the ids (its colours are what it saves).
     const uint64_t bytes = lookup.tableBytes() + lookup.colorBytes();
-    EXPECT_EQ(lookup.entries(), lookup.slots.size());
-    EXPECT_EQ(bytes, lookup.slots.size() * 24);
-    EXPECT_EQ(planLabelLookup(file->volume, false, 64 * bytes).kind, kLookupHashed);
-    const LabelLookup tight = planLabelLookup(file->volume, false, 64 * bytes - 64);
+    EXPECT_EQ(bytes, ids.size() * 20);
+    EXPECT_EQ(planLabelLookup(file->volume, ids, false, 64 * bytes).kind, kLookupDense);
+    const LabelLookup tight = planLabelLookup(file->volume, ids, false, 64 * bytes - 64);
     EXPECT_EQ(tight.kind, kLookupScan);
-    EXPECT_TRUE(tight.slots.empty());
+    EXPECT_EQ(tight.entries(), ids.size());
+    EXPECT_EQ(tight.colorBytes(), 0u);
+    // Without ids such labels have no table: the scan.
+    const LabelLookup labelsAsThey = planLabelLookup(file->volume, {}, false, kBudget);
+    EXPECT_EQ(labelsAsThey.kind, kLookupScan);
+    EXPECT_EQ(labelsAsThey.entries(), 0u);
 }
 
 TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabels) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2_attr.csgv")); // relabelled: dense ids
     ASSERT_TRUE(file.isOk()) << file.message();
-    const LabelLookup dense = planLabelLookup(file->volume, false, kBudget);
+    EXPECT_TRUE(labelIds(file->volume).empty()) << "small labels are stored as they are";
+    const LabelLookup dense = planLabelLookup(file->volume, {}, false, kBudget);
     EXPECT_EQ(dense.kind, kLookupDense);
-    EXPECT_TRUE(dense.slots.empty());
     const std::vector<uint32_t> table = dense.table(someMaterial);
     ASSERT_EQ(table.size(), size_t(dense.largest) + 1);
     EXPECT_EQ(dense.entries(), table.size());
@@ -85,10 +83,10 @@ TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabe
     for (uint32_t l = 0; l <= dense.largest; ++l) EXPECT_EQ(dense.hostMaterial(table, l), someMaterial(l));
     EXPECT_EQ(dense.hostMaterial(table, dense.largest + 1), kNone);
     // An MPI rank's piece: a dense table for its own labels, the scan for larger ones.
-    EXPECT_EQ(planLabelLookup(file->volume, true, kBudget).kind, kLookupScan);
+    EXPECT_EQ(planLabelLookup(file->volume, {}, true, kBudget).kind, kLookupScan);
     Result<CsgvFile> large = openCsgv(fixture("synthA_b32_rans2.csgv"));
     ASSERT_TRUE(large.isOk()) << large.message();
-    const LabelLookup piece = planLabelLookup(large->volume, true, kBudget);
+    const LabelLookup piece = planLabelLookup(large->volume, {}, true, kBudget);
     EXPECT_EQ(piece.kind, kLookupScan);
     EXPECT_TRUE(piece.table(someMaterial).empty()) << "labels beyond 2^22: no dense table, the scan";
 }

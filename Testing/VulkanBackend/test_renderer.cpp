@@ -15,6 +15,7 @@
 #include "csgv/codec/Partition.h"
 #include "csgv/reference/RayCast.h"
 #include "csgv/gpu/DetailStream.h"
+#include "csgv/gpu/LabelLookup.h"
 #include "csgv/gpu/Renderer.h"
 
 #include <algorithm>
@@ -1312,6 +1313,117 @@ TEST(Renderer, MaterialsWithAttributesSelectTheSameLabelsAsTheReference) {
     EXPECT_EQ(diff, 0u) << "G-buffer labels are the original labels of the odd-labelled voxels hit first";
     EXPECT_EQ(colour, 0u) << "hit pixels are opaque red";
     EXPECT_GT(hits, ref.label.size() / 10);
+}
+
+TEST(Renderer, LargeLabelsStoredAsIdsKeepTheirLabelsAttributesAndColours) {
+    CSGV_REQUIRE_GPU(ctx);
+    // Labels up to 4282514378: the device stores them as ids (their index among the palettes'
+    // labels); a piece (an MPI rank's) keeps them as they are.
+    Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2.csgv"));
+    ASSERT_TRUE(file.isOk()) << file.message();
+    Result<LabelVolume> labels = decodeVolume(file->volume, 0);
+    ASSERT_TRUE(labels.isOk()) << labels.message();
+    GpuVolumeOptions pieceOptions;
+    pieceOptions.owned = BrickBox{{0, 0, 0}, {1, 1, 1}};
+    Result<std::unique_ptr<GpuVolume>> piece = GpuVolume::create(*ctx, file->volume, pieceOptions);
+    ASSERT_TRUE(piece.isOk()) << piece.message();
+    EXPECT_TRUE((*piece)->labelIds().empty());
+    for (const bool paletting : {false, true}) {
+        SCOPED_TRACE(paletting ? "cache paletting" : "labels in the cache");
+        GpuVolumeOptions o;
+        o.cachePaletting = paletting;
+        Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, file->volume, o);
+        ASSERT_TRUE(gpu.isOk()) << gpu.message();
+        ASSERT_EQ((*gpu)->labelIds(), labelIds(file->volume));
+        ASSERT_FALSE((*gpu)->labelIds().empty());
+        ASSERT_EQ((*gpu)->labelIds()[0], 0u) << "the fixture holds label 0";
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)));
+        ASSERT_TRUE(r.isOk()) << r.message();
+        // An attribute per label value covering labels 0 and 1 alone: label 0 (its id too) holds
+        // 5 and is drawn red by it; larger labels read NaN, match no attribute interval, and take
+        // the second material (green) by their label.
+        Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
+            {"name": "five", "filter": {"attribute": "low", "min": 5, "max": 5},
+             "color": {"mode": "constant", "rgb": [1, 0, 0]}},
+            {"name": "large", "filter": {"attribute": "label", "min": 1000, "max": 4294967294},
+             "color": {"mode": "constant", "rgb": [0, 1, 0]}}]})");
+        ASSERT_TRUE(doc.isOk()) << doc.message();
+        ASSERT_TRUE((*r)->setMaterials(*doc, {{"low", {5.0f, 7.0f}}}).isOk());
+        RenderSettings st;
+        st.finest = true;
+        st.jitter = false;
+        (*r)->setSettings(st);
+        const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
+        const FrameOutput out = renderConverged(**r, in, 1, 64);
+        RayCastView view{in.worldToClip, in.width, in.height};
+        const GBuffer ref = castRaysStable(*labels, Geometry{}, view,
+                                           [](uint32_t l) { return l == 0 || (l >= 1000 && l != kInvalidLabel); },
+                                           file->volume.brickSize);
+        size_t diff = 0, zeros = 0, large = 0, colour = 0;
+        for (size_t i = 0; i < ref.label.size(); ++i) {
+            diff += out.label[i] != ref.label[i];
+            if (ref.label[i] == kInvalidLabel) continue;
+            const bool zero = ref.label[i] == 0;
+            (zero ? zeros : large) += 1;
+            const float* c = &out.rgba[4 * i];
+            const bool right = zero ? c[0] > 0.0f && c[1] == 0.0f : c[0] == 0.0f && c[1] > 0.0f;
+            if (!right && colour++ < 3) ADD_FAILURE() << "pixel " << i << " label " << ref.label[i] << ": " << c[0] << " " << c[1] << " " << c[2];
+        }
+        EXPECT_EQ(diff, 0u) << "the G-buffer holds the labels, not their ids";
+        EXPECT_EQ(colour, 0u) << "label 0 red by its attribute, the large labels green";
+        EXPECT_GT(zeros, 0u);
+        EXPECT_GT(large, ref.label.size() / 10);
+    }
+}
+
+TEST(Renderer, AttributesOfLabelsStoredAsIdsAreTheirLabelsValues) {
+    CSGV_REQUIRE_GPU(ctx);
+    // Labels 0, 3, 9 and 2^23 + 5 (stored as ids 0 to 3); an attribute per label value up to 9:
+    // label 3 holds 5 and is drawn red by it, label 9 holds 7 (not drawn), the large label is
+    // drawn green by its label. Ids read the values of their labels, not of their own index.
+    LabelVolume v;
+    v.dim = {32, 32, 32};
+    v.labels.assign(32 * 32 * 32, 0);
+    const uint32_t large = (1u << 23) + 5;
+    for (uint32_t z = 4; z < 28; ++z)
+        for (uint32_t y = 4; y < 28; ++y)
+            for (uint32_t x = 4; x < 28; ++x) v.labels[size_t(v.index(x, y, z))] = x < 12 ? 3 : (y < 16 ? 9 : large);
+    CompressedVolume encoded;
+    std::unique_ptr<Renderer> r = volumeRenderer(*ctx, v, encoded);
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->volume().labelIds(), (std::vector<uint32_t>{0, 3, 9, large}));
+    std::vector<float> low(10, 0.0f);
+    low[3] = 5.0f;
+    low[9] = 7.0f;
+    Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
+        {"name": "five", "filter": {"attribute": "low", "min": 5, "max": 5},
+         "color": {"mode": "constant", "rgb": [1, 0, 0]}},
+        {"name": "large", "filter": {"attribute": "label", "min": 1000, "max": 4294967294},
+         "color": {"mode": "constant", "rgb": [0, 1, 0]}}]})");
+    ASSERT_TRUE(doc.isOk()) << doc.message();
+    ASSERT_TRUE(r->setMaterials(*doc, {{"low", low}}).isOk());
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    r->setSettings(st);
+    const FrameInput in = perspectiveView({-30, 70, 60}, {16, 16, 16}, {0, 0, 1}, 35, 80, 60);
+    const FrameOutput out = renderConverged(*r, in, 1, 64);
+    RayCastView view{in.worldToClip, in.width, in.height};
+    const GBuffer ref = castRaysStable(v, Geometry{}, view, [&](uint32_t l) { return l == 3 || l == large; }, 16);
+    size_t diff = 0, red = 0, green = 0, colour = 0;
+    for (size_t i = 0; i < ref.label.size(); ++i) {
+        diff += out.label[i] != ref.label[i];
+        if (ref.label[i] == kInvalidLabel) continue;
+        const float* c = &out.rgba[4 * i];
+        const bool three = ref.label[i] == 3;
+        (three ? red : green) += 1;
+        if (!(three ? c[0] > 0.0f && c[1] == 0.0f : c[0] == 0.0f && c[1] > 0.0f) && colour++ < 3)
+            ADD_FAILURE() << "pixel " << i << " label " << ref.label[i] << ": " << c[0] << " " << c[1] << " " << c[2];
+    }
+    EXPECT_EQ(diff, 0u) << "the G-buffer holds labels 3 and 2^23 + 5 where the reference has them";
+    EXPECT_EQ(colour, 0u);
+    EXPECT_GT(red, 0u);
+    EXPECT_GT(green, 0u);
 }
 
 TEST(Renderer, LocalShadingFollowsTheLightAnalytically) {

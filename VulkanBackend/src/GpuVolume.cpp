@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/gpu/GpuVolume.h"
+#include "csgv/gpu/LabelLookup.h"
 #include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/FrameLayout.h"
 
@@ -9,6 +10,20 @@
 namespace csgv::gpu {
 
 namespace {
+
+/// Array `i` of the device's encoding arrays (laid out as `starts` says: a brick's palette ends
+/// where its next starts, CSGV-FORMAT.md section 3) with every palette entry replaced by its id.
+std::vector<uint32_t> paletteIdsIn(const CompressedVolume& volume, size_t i, const std::vector<uint32_t>& array,
+                                   const std::vector<uint32_t>& starts, const std::vector<uint32_t>& ids) {
+    std::vector<uint32_t> out = array;
+    const uint64_t n = volume.brickCount(), per = volume.bricksPerArray == kSingleArray ? n : volume.bricksPerArray;
+    const uint32_t L = volume.levels();
+    for (uint64_t b = i * per; b < std::min<uint64_t>(n, (i + 1) * per); ++b) {
+        const uint32_t end = starts[size_t(b) + 1];
+        for (uint32_t k = 0; k < volume.brick(b).words[L]; ++k) out[end - 1 - k] = idOfLabel(ids, out[end - 1 - k]);
+    }
+    return out;
+}
 
 /// Steps per dispatch on CPU devices: llvmpipe ends an invocation's loops after 65535 iterations
 /// in total, and a step takes at most 97 (csgv_decode.glsl).
@@ -85,6 +100,10 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     // (separated); with host decoding its palette (cache paletting) or nothing.
     const DevicePart part = host ? (g->m_cacheBits < 32 ? DevicePart::Palette : DevicePart::Nothing)
                                  : (separate ? DevicePart::Coarse : DevicePart::Whole);
+    // Large labels are stored as ids (labelIds): in the palettes the device holds, and in the
+    // cache regions host decoding writes. An MPI rank's piece keeps its labels: its rays meet
+    // other ranks' (ghost faces, stand-ins).
+    if (options.owned.empty()) g->m_ids = gpu::labelIds(volume);
     std::vector<std::vector<uint32_t>> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
@@ -101,10 +120,15 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     g->m_owned = options.owned;
     if (separate) g->m_detailSizes = DetailStream::sizes(volume);
     std::vector<uint64_t> addresses;
-    for (const auto& a : arrays) {
-        Result<Buffer> b = context.createBuffer(a.size() * 4, MemoryKind::DeviceLocal);
+    for (size_t i = 0; i < arrays.size(); ++i) {
+        const std::vector<uint32_t>& a = arrays[i];
+        // With ids, the palettes' labels replaced (a copy of one array at a time).
+        std::vector<uint32_t> withIds;
+        if (!g->m_ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(volume, i, a, starts, g->m_ids);
+        const std::vector<uint32_t>& up = withIds.empty() ? a : withIds;
+        Result<Buffer> b = context.createBuffer(up.size() * 4, MemoryKind::DeviceLocal);
         if (!b) return Status(b.status()).prefix("uploading the encoding");
-        s = context.upload(*b, 0, a.data(), a.size() * 4);
+        s = context.upload(*b, 0, up.data(), up.size() * 4);
         if (!s) return s;
         addresses.push_back(b->address());
         g->m_arrays.push_back(std::move(*b));
@@ -369,8 +393,19 @@ bool GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod
 }
 
 void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const {
-    if (m_cacheBits == 32) {
+    if (m_cacheBits == 32 && m_ids.empty()) {
         std::copy(labels, labels + n, out);
+        return;
+    }
+    if (m_cacheBits == 32) { // ids: one search a run of one label (runs are the rule in Morton order)
+        uint32_t lastLabel = kInvalidLabel, lastId = kNone;
+        for (uint64_t e = 0; e < n; ++e) {
+            if (labels[e] != lastLabel) {
+                lastLabel = labels[e];
+                lastId = lastLabel == kInvalidLabel ? kNone : idOfLabel(m_ids, lastLabel);
+            }
+            out[e] = lastId;
+        }
         return;
     }
     const BrickWords bw = m_volume.brick(brick);
@@ -405,7 +440,8 @@ std::vector<uint32_t> GpuVolume::labelsFromRegion(uint32_t brick, uint32_t lod, 
     const uint64_t edge = m_volume.brickSize >> lod, n = edge * edge * edge;
     std::vector<uint32_t> labels(n);
     if (m_cacheBits == 32) {
-        std::copy(words, words + n, labels.begin());
+        for (uint64_t e = 0; e < n; ++e)
+            labels[e] = m_ids.empty() ? words[e] : (words[e] < m_ids.size() ? m_ids[words[e]] : kInvalidLabel);
         return labels;
     }
     const uint32_t per = cacheEntriesPerWord(), mask = (1u << m_cacheBits) - 1u;

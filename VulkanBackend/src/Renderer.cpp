@@ -980,11 +980,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
-    im.lookup = planLabelLookup(v, !volume->owned().empty(), im.budget);
+    im.lookup = planLabelLookup(v, volume->labelIds(), !volume->owned().empty(), im.budget);
     d.emplace_back("LABEL_LOOKUP", std::to_string(im.lookup.kind)); // tested by #if: no suffix
-    d.emplace_back("LABEL_SEED0", std::to_string(im.lookup.seeds[0]) + "u");
-    d.emplace_back("LABEL_SEED1", std::to_string(im.lookup.seeds[1]) + "u");
-    d.emplace_back("LABEL_MASK", std::to_string(im.lookup.slots.empty() ? 0 : im.lookup.slots.size() - 1) + "u");
     im.defines = d;
     im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
     // CSGV_READ_THROUGH_COPIES=1: as on GPUs on any device (the tests run the renderer's suite so).
@@ -1206,6 +1203,31 @@ struct MaterialMatcher {
     }
 };
 
+/// The per-label arrays and the label map as the shaders index them where the volume stores
+/// labels as ids (GpuVolume::labelIds; `byId`): value i is the given one of label ids[i] (NaN past
+/// the given arrays' `count` labels, as the shaders read an attribute there), and the label map
+/// gives each id its original label (the given map's, or the label itself).
+struct PerStored {
+    bool byId = false;
+    std::map<std::string, std::vector<float>> attributes;
+    std::vector<uint32_t> storedToOriginal;
+};
+PerStored inStoredLabels(const std::vector<uint32_t>& ids, const std::map<std::string, std::vector<float>>& attributes,
+                         const std::vector<uint32_t>& storedToOriginal, uint64_t count) {
+    PerStored out;
+    if (ids.empty()) return out;
+    out.byId = true;
+    out.storedToOriginal.resize(ids.size());
+    for (size_t i = 0; i < ids.size(); ++i)
+        out.storedToOriginal[i] = !storedToOriginal.empty() && ids[i] < count ? storedToOriginal[ids[i]] : ids[i];
+    for (const auto& [name, values] : attributes) {
+        std::vector<float>& v = out.attributes[name];
+        v.resize(ids.size());
+        for (size_t i = 0; i < ids.size(); ++i) v[i] = ids[i] < count ? values[ids[i]] : std::numeric_limits<float>::quiet_NaN();
+    }
+    return out;
+}
+
 /// A 64-bit digest of everything setMaterials uploads (the packed materials, their colormap
 /// samples, the attribute arrays they name, the label map and count): equal digests, equal images.
 uint64_t materialsFingerprint(const PackedMaterials& packed, const std::map<std::string, std::vector<float>>& attributes,
@@ -1285,7 +1307,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     const std::vector<uint32_t> table = lookup.table(materialOf);
     Status s = uploadDeviceLocal(materialTable, table.data(), table.size() * 4);
     if (!s) return s;
-    materialTableSize = lookup.kind == kLookupHashed ? 0 : uint32_t(table.size());
+    materialTableSize = uint32_t(table.size());
     if (lookup.colorBytes() > 0) { // the labels' colours, computed by the next frame (label_colors.comp)
         if (labelColors.size() == 0) {
             Result<Buffer> colors = ctx.createBuffer(lookup.colorBytes(), MemoryKind::DeviceLocal);
@@ -1296,9 +1318,11 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     }
     // Which bricks can show anything: their palettes against the materials.
     auto materialOfStored = [&](uint32_t stored) {
-        return table.empty() || (lookup.kind != kLookupHashed && stored >= table.size()) ? materialOf(stored)
-                                                                                          : lookup.hostMaterial(table, stored);
+        return stored >= table.size() ? materialOf(stored) : lookup.hostMaterial(table, stored);
     };
+    // The palettes' labels as the shaders see them (ids where the volume stores them).
+    const std::vector<uint32_t>& ids = volume->labelIds();
+    auto storedOf = [&](uint32_t label) { return ids.empty() ? label : idOfLabel(ids, label); };
     const CompressedVolume& vol = volume->volume();
     const uint32_t L = vol.levels();
     // The sub-blocks without drawn labels (kSlotHidden) are made anew, where the volume holds two
@@ -1307,18 +1331,13 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     // Materials that draw the same labels (another colour, opacity) keep the masks: the table's
     // entries drawn or not, fingerprinted (without a table: made anew).
     uint64_t drawn = 1469598103934665603ull;
-    for (size_t i = lookup.kind == kLookupHashed ? 1 : 0; i < table.size(); i += lookup.kind == kLookupHashed ? 2 : 1)
-        drawn = (drawn ^ (table[i] == kNone ? 0x9Eu : 0x37u)) * 1099511628211ull;
+    for (uint32_t m : table) drawn = (drawn ^ (m == kNone ? 0x9Eu : 0x37u)) * 1099511628211ull;
     if (table.empty() || drawn != drawnFingerprint) hiddenAllPending = true;
     drawnFingerprint = table.empty() ? 0 : drawn;
     auto severalUndrawn = [&] {
-        if (lookup.kind == kLookupHashed) { // the slots hold the palettes' labels
-            uint32_t undrawn = 0;
-            for (size_t i = 0; i < lookup.slots.size() && undrawn < 2; ++i)
-                undrawn += lookup.slots[i] != kNone && table[2 * i + 1] == kNone;
-            return undrawn > 1;
-        }
-        if (!table.empty() && std::count(table.begin(), table.end(), kNone) < 2) return false; // not even among all labels
+        const auto undrawn = std::count(table.begin(), table.end(), kNone);
+        if (!ids.empty()) return undrawn > 1; // the table holds the palettes' labels alone
+        if (!table.empty() && undrawn < 2) return false; // not even among all labels
         uint32_t first = kNone; // the palettes' labels, until a second undrawn one
         for (uint64_t b = 0; b < brickCount; ++b) {
             if (!volume->owns(b)) continue;
@@ -1345,8 +1364,8 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         const BrickWords bw = vol.brick(uint64_t(b));
         const uint32_t n = bw.words[L];
         for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
-            if (const uint32_t m = materialOfStored(bw.words[bw.size - 1 - k]); m != kNone) {
-                vis[2 * size_t(b)] = bw.words[bw.size - 1 - k];
+            if (const uint32_t l = storedOf(bw.words[bw.size - 1 - k]), m = materialOfStored(l); m != kNone) {
+                vis[2 * size_t(b)] = l;
                 vis[2 * size_t(b) + 1] = m;
             }
     }
@@ -1421,19 +1440,24 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     for (const auto& a : attributes) names.push_back(a.first);
     Status s = checkAttributes(doc, names);
     if (!s) return s;
-    Result<uint64_t> labels = perLabelCount(attributes, storedToOriginal);
-    if (!labels) return labels.status();
+    Result<uint64_t> given = perLabelCount(attributes, storedToOriginal);
+    if (!given) return given.status();
     Result<PackedMaterials> packed = packMaterials(doc);
     if (!packed) return packed.status();
+    // Where the volume stores ids, the shaders index the per-label arrays and the label map by id.
+    const PerStored perStored = inStoredLabels(im.volume->labelIds(), attributes, storedToOriginal, *given);
+    const auto& attrs = perStored.byId ? perStored.attributes : attributes;
+    const std::vector<uint32_t>& map = perStored.byId ? perStored.storedToOriginal : storedToOriginal;
+    const uint64_t labels = perStored.byId ? perStored.storedToOriginal.size() : *given;
     // What the shaders would read is what they read already (attributes loaded that no material
     // names, a document written anew with the same content): the accumulated image stays.
-    const uint64_t fingerprint = materialsFingerprint(*packed, attributes, storedToOriginal, *labels);
+    const uint64_t fingerprint = materialsFingerprint(*packed, attrs, map, labels);
     if (fingerprint == im.materialsFingerprint) return Status::ok();
     im.materialsFingerprint = 0;
     resetAccumulation(); // before the uploads: a failure among them must not leave an image called exact
-    if (!(s = im.makeRoom(im.materialBytes(*packed, attributes, storedToOriginal), "the materials and attributes"))) return s;
-    if (!(s = im.uploadMaterials(*packed, attributes, storedToOriginal, *labels))) return s;
-    if (!(s = im.uploadVisibility(MaterialMatcher{*packed, attributes, storedToOriginal, *labels}))) return s;
+    if (!(s = im.makeRoom(im.materialBytes(*packed, attrs, map), "the materials and attributes"))) return s;
+    if (!(s = im.uploadMaterials(*packed, attrs, map, labels))) return s;
+    if (!(s = im.uploadVisibility(MaterialMatcher{*packed, attrs, map, labels}))) return s;
     im.materialsFingerprint = fingerprint;
     return Status::ok();
 }

@@ -63,21 +63,6 @@ CSGV_CONST(uint32_t, kOutputDepthXor, 0x3F800000u)
 // chosen per renderer: LabelLookup.h).
 CSGV_CONST(uint32_t, kLookupScan, 0u)   ///< a table for labels below Frame.counts.w, the material list for the others
 CSGV_CONST(uint32_t, kLookupDense, 1u)  ///< a table label -> material covers every stored label
-CSGV_CONST(uint32_t, kLookupHashed, 2u) ///< a hash table of uvec2 (label, material), two slots a label
-
-/// One of the two slots (`choice` 0 or 1, each with its `seed`) of a label in the hashed table of
-/// LABEL_LOOKUP kLookupHashed, whose size is `mask` + 1 (a power of two): a label is in one of
-/// them (cuckoo hashing), so a lookup reads at most two slots and loops nowhere (the shaders
-/// read one: only labels the table holds reach them, so one not in its first slot is in its second).
-CSGV_FN uint32_t labelSlot(uint32_t label, uint32_t seed, uint32_t mask) {
-    uint32_t x = label ^ seed;
-    x ^= x >> 16u;
-    x *= 0x21f0aaadu;
-    x ^= x >> 15u;
-    x *= 0x735a2d97u;
-    x ^= x >> 15u;
-    return x & mask;
-}
 
 // Buffer addresses in Frame.addr.
 CSGV_CONST(uint32_t, kSlotBricks, 0u)         ///< uvec4 per brick: cache word offset, cached lod (kNone), frame+1 of last use, visible
@@ -100,13 +85,13 @@ CSGV_CONST(uint32_t, kSlotVisible, 16u)       ///< uvec2 per brick: its preview 
 CSGV_CONST(uint32_t, kSlotArrays, 17u)        ///< the encoding: uint64 address per array (cache paletting reads palettes)
 CSGV_CONST(uint32_t, kSlotStarts, 18u)        ///< the encoding: brick start words
 CSGV_CONST(uint32_t, kSlotBlueNoise, 19u)     ///< 64x64 bytes of blue noise, four to a uint
-CSGV_CONST(uint32_t, kSlotMaterialTable, 20u) ///< label -> material (kNone): uint per label up to the largest (kLookupDense, kLookupScan) or the hashed uvec2 slots (kLookupHashed)
+CSGV_CONST(uint32_t, kSlotMaterialTable, 20u) ///< label -> material (kNone): uint per stored label up to the largest (LabelLookup.h)
 CSGV_CONST(uint32_t, kSlotUniform, 21u)       ///< uvec2 per brick: its uniform sub-blocks (Layout.h) when cached at the finest level
 CSGV_CONST(uint32_t, kSlotDetail, 22u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
 CSGV_CONST(uint32_t, kSlotDetailRequests, 23u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
 CSGV_CONST(uint32_t, kSlotGhost, 24u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
 CSGV_CONST(uint32_t, kSlotCoarse, 25u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
-CSGV_CONST(uint32_t, kSlotLabelColors, 26u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense, kLookupHashed): the label's colour and opacity under its material (label_colors.comp)
+CSGV_CONST(uint32_t, kSlotLabelColors, 26u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense): the label's colour and opacity under its material (label_colors.comp)
 CSGV_CONST(uint32_t, kSlotPixelList, 27u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
 CSGV_CONST(uint32_t, kSlotHidden, 28u)       ///< uvec2 per brick cached at a level whose nodes are no larger than a sub-block: its sub-blocks (Layout.h) inside the volume that hold no label a material draws at that level (cache_hidden.comp); all 0 where the volume holds one undrawn label at most (such sub-blocks are uniform)
 CSGV_CONST(uint32_t, kSlotEmptyGroups, 29u)  ///< uint per brick a material draws nothing of: the largest g such that its aligned group of 2^g bricks a side holds no brick a material draws nor another rank's (csgv/codec/BrickGroups.h, host, per materials); march() steps over the group whole

@@ -90,13 +90,17 @@ public:
     /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
     static bool separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation);
     /// A brick's labels (Morton order, kInvalidLabel outside) as its cache region stores them:
-    /// copied, or with cache paletting packed as palette indices (labelsFromRegion's inverse);
+    /// copied (as ids with labelIds), or with cache paletting packed as palette indices
+    /// (labelsFromRegion's inverse);
     /// `n` labels, (n + entries per word - 1) / entries per word words.
     void packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const;
     /// Decodes a brick at `lod` on the host with `decoder` (of this volume) into its cache region
     /// `out` (regionWords(lod) words, packed as the cache stores it); a brick whose stream fails
     /// reads as outside the volume (all kNone) and false is returned.
     bool decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const;
+    /// The labels stored as ids (LabelLookup.h labelIds: ascending, a label's id is its index),
+    /// empty when labels are stored as they are. The device's palettes and the cache hold ids then.
+    const std::vector<uint32_t>& labelIds() const { return m_ids; }
     /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
     uint32_t cacheBits() const { return m_cacheBits; }
     uint32_t cacheEntriesPerWord() const { return m_cacheBits == 32 ? 1 : 32 / m_cacheBits; }
@@ -148,6 +152,7 @@ private:
     uint64_t m_decodePipeline = 0;
     uint32_t m_decodeGroup = 1; ///< decode_bricks.comp's DECODE_GROUP: decodes a workgroup (GpuVolume.cpp decodeGroup)
     uint32_t m_cacheBits = 32;
+    std::vector<uint32_t> m_ids;
     bool m_separated = false;
     bool m_hostDecoding = false;
     DetailSizes m_detailSizes;
