@@ -130,6 +130,27 @@ void expectGBufferEquals(const FrameOutput& out, const GBuffer& ref, const std::
     EXPECT_LT(hits, ref.label.size()) << what << ": the view should show some background";
 }
 
+/// `in` at one sample a pixel at the finest level without jitter (as castRaysStable casts it),
+/// its G-buffer compared with `ref`'s (expectGBufferEquals), and each hit pixel's colour with what
+/// `rightColour(label, rgba)` expects of its label (the first three others reported).
+void expectFinestImage(Renderer& r, const FrameInput& in, const GBuffer& ref, const std::string& what,
+                       const std::function<bool(uint32_t, const float*)>& rightColour) {
+    RenderSettings st = r.settings();
+    st.finest = true;
+    st.jitter = false;
+    r.setSettings(st);
+    const FrameOutput out = renderConverged(r, in, 1, 64);
+    expectGBufferEquals(out, ref, what);
+    size_t wrong = 0;
+    for (size_t i = 0; i < ref.label.size(); ++i) {
+        const float* c = &out.rgba[4 * i];
+        if (ref.label[i] == kInvalidLabel || rightColour(ref.label[i], c)) continue;
+        if (wrong++ < 3)
+            ADD_FAILURE() << what << ": pixel " << i << " label " << ref.label[i] << ": " << c[0] << " " << c[1] << " " << c[2] << " " << c[3];
+    }
+    EXPECT_EQ(wrong, 0u) << what << ": hit pixels in their labels' colours";
+}
+
 } // namespace
 
 TEST(Renderer, GBufferEqualsStableReferencePerspective) {
@@ -466,6 +487,17 @@ std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cach
     if (!r) return nullptr;
     (*r)->setSettings(st);
     return std::move(*r);
+}
+
+/// A 32^3 volume of label 0 around a 24^3 block [4, 28)^3 whose voxels take `labelAt(x, y, z)`.
+LabelVolume blockVolume(const std::function<uint32_t(uint32_t, uint32_t, uint32_t)>& labelAt) {
+    LabelVolume v;
+    v.dim = {32, 32, 32};
+    v.labels.assign(32 * 32 * 32, 0);
+    for (uint32_t z = 4; z < 28; ++z)
+        for (uint32_t y = 4; y < 28; ++y)
+            for (uint32_t x = 4; x < 28; ++x) v.labels[size_t(v.index(x, y, z))] = labelAt(x, y, z);
+    return v;
 }
 
 /// A renderer of a small hand-made volume (bricks of 16), or null after a failure. `encoded`
@@ -1291,29 +1323,29 @@ TEST(Renderer, MaterialsWithAttributesSelectTheSameLabelsAsTheReference) {
     EXPECT_FALSE(missing.isOk());
     EXPECT_NE(missing.message().find("parity"), std::string::npos) << missing.message();
     ASSERT_TRUE((*r)->setMaterials(*doc, {{"parity", parity}}, idToLabel).isOk());
-    RenderSettings st;
-    st.finest = true;
-    st.jitter = false;
-    (*r)->setSettings(st);
     const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
-    const FrameOutput out = renderConverged(**r, in, 1, 64);
-    RayCastView view{in.worldToClip, in.width, in.height};
-    const GBuffer ref = castRaysStable(
-        *ids, Geometry{}, view, [&](uint32_t id) { return id < idToLabel.size() && idToLabel[id] % 2 == 1; },
-        file->volume.brickSize);
-    size_t diff = 0, hits = 0, colour = 0;
-    for (size_t i = 0; i < ref.label.size(); ++i) {
-        const uint32_t expected = ref.label[i] == kInvalidLabel ? kInvalidLabel : idToLabel[ref.label[i]];
-        diff += out.label[i] != expected;
-        if (expected == kInvalidLabel) continue;
-        ++hits;
-        const bool red = out.rgba[4 * i] > 0.0f && out.rgba[4 * i + 1] == 0.0f && out.rgba[4 * i + 3] == 1.0f;
-        if (!red && colour++ < 3) ADD_FAILURE() << "pixel " << i << ": " << out.rgba[4 * i] << " " << out.rgba[4 * i + 1] << " " << out.rgba[4 * i + 2] << " " << out.rgba[4 * i + 3] << " label " << out.label[i] << " samples " << out.samples[i] << " depth " << out.hitDepth[i] << " face " << int(out.face[i]);
-    }
-    EXPECT_EQ(diff, 0u) << "G-buffer labels are the original labels of the odd-labelled voxels hit first";
-    EXPECT_EQ(colour, 0u) << "hit pixels are opaque red";
-    EXPECT_GT(hits, ref.label.size() / 10);
+    GBuffer ref = castRaysStable(
+        *ids, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
+        [&](uint32_t id) { return id < idToLabel.size() && idToLabel[id] % 2 == 1; }, file->volume.brickSize);
+    for (uint32_t& l : ref.label) l = l == kInvalidLabel ? l : idToLabel[l]; // the G-buffer holds original labels
+    // The odd-labelled voxels hit first, opaque red.
+    expectFinestImage(**r, in, ref, "parity", [](uint32_t, const float* c) { return c[0] > 0.0f && c[1] == 0.0f && c[3] == 1.0f; });
 }
+
+namespace {
+
+/// Labels whose attribute "low" is 5 red, labels from 1000 up green (first match wins).
+MaterialDocument fiveRedLargeGreen() {
+    Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
+        {"name": "five", "filter": {"attribute": "low", "min": 5, "max": 5},
+         "color": {"mode": "constant", "rgb": [1, 0, 0]}},
+        {"name": "large", "filter": {"attribute": "label", "min": 1000, "max": 4294967294},
+         "color": {"mode": "constant", "rgb": [0, 1, 0]}}]})");
+    EXPECT_TRUE(doc.isOk()) << doc.message();
+    return doc ? *doc : MaterialDocument{};
+}
+
+} // namespace
 
 TEST(Renderer, LargeLabelsStoredAsIdsKeepTheirLabelsAttributesAndColours) {
     CSGV_REQUIRE_GPU(ctx);
@@ -1342,37 +1374,17 @@ TEST(Renderer, LargeLabelsStoredAsIdsKeepTheirLabelsAttributesAndColours) {
         // An attribute per label value covering labels 0 and 1 alone: label 0 (its id too) holds
         // 5 and is drawn red by it; larger labels read NaN, match no attribute interval, and take
         // the second material (green) by their label.
-        Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
-            {"name": "five", "filter": {"attribute": "low", "min": 5, "max": 5},
-             "color": {"mode": "constant", "rgb": [1, 0, 0]}},
-            {"name": "large", "filter": {"attribute": "label", "min": 1000, "max": 4294967294},
-             "color": {"mode": "constant", "rgb": [0, 1, 0]}}]})");
-        ASSERT_TRUE(doc.isOk()) << doc.message();
-        ASSERT_TRUE((*r)->setMaterials(*doc, {{"low", {5.0f, 7.0f}}}).isOk());
-        RenderSettings st;
-        st.finest = true;
-        st.jitter = false;
-        (*r)->setSettings(st);
+        ASSERT_TRUE((*r)->setMaterials(fiveRedLargeGreen(), {{"low", {5.0f, 7.0f}}}).isOk());
         const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
-        const FrameOutput out = renderConverged(**r, in, 1, 64);
-        RayCastView view{in.worldToClip, in.width, in.height};
-        const GBuffer ref = castRaysStable(*labels, Geometry{}, view,
+        const GBuffer ref = castRaysStable(*labels, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
                                            [](uint32_t l) { return l == 0 || (l >= 1000 && l != kInvalidLabel); },
                                            file->volume.brickSize);
-        size_t diff = 0, zeros = 0, large = 0, colour = 0;
-        for (size_t i = 0; i < ref.label.size(); ++i) {
-            diff += out.label[i] != ref.label[i];
-            if (ref.label[i] == kInvalidLabel) continue;
-            const bool zero = ref.label[i] == 0;
-            (zero ? zeros : large) += 1;
-            const float* c = &out.rgba[4 * i];
-            const bool right = zero ? c[0] > 0.0f && c[1] == 0.0f : c[0] == 0.0f && c[1] > 0.0f;
-            if (!right && colour++ < 3) ADD_FAILURE() << "pixel " << i << " label " << ref.label[i] << ": " << c[0] << " " << c[1] << " " << c[2];
-        }
-        EXPECT_EQ(diff, 0u) << "the G-buffer holds the labels, not their ids";
-        EXPECT_EQ(colour, 0u) << "label 0 red by its attribute, the large labels green";
+        size_t zeros = 0;
+        expectFinestImage(**r, in, ref, "labels, not ids", [&](uint32_t l, const float* c) {
+            zeros += l == 0;
+            return l == 0 ? c[0] > 0.0f && c[1] == 0.0f : c[0] == 0.0f && c[1] > 0.0f; // 0 red by its attribute, the rest green
+        });
         EXPECT_GT(zeros, 0u);
-        EXPECT_GT(large, ref.label.size() / 10);
     }
 }
 
@@ -1381,13 +1393,8 @@ TEST(Renderer, AttributesOfLabelsStoredAsIdsAreTheirLabelsValues) {
     // Labels 0, 3, 9 and 2^23 + 5 (stored as ids 0 to 3); an attribute per label value up to 9:
     // label 3 holds 5 and is drawn red by it, label 9 holds 7 (not drawn), the large label is
     // drawn green by its label. Ids read the values of their labels, not of their own index.
-    LabelVolume v;
-    v.dim = {32, 32, 32};
-    v.labels.assign(32 * 32 * 32, 0);
     const uint32_t large = (1u << 23) + 5;
-    for (uint32_t z = 4; z < 28; ++z)
-        for (uint32_t y = 4; y < 28; ++y)
-            for (uint32_t x = 4; x < 28; ++x) v.labels[size_t(v.index(x, y, z))] = x < 12 ? 3 : (y < 16 ? 9 : large);
+    const LabelVolume v = blockVolume([&](uint32_t x, uint32_t y, uint32_t) { return x < 12 ? 3 : (y < 16 ? 9 : large); });
     CompressedVolume encoded;
     std::unique_ptr<Renderer> r = volumeRenderer(*ctx, v, encoded);
     ASSERT_TRUE(r);
@@ -1395,46 +1402,22 @@ TEST(Renderer, AttributesOfLabelsStoredAsIdsAreTheirLabelsValues) {
     std::vector<float> low(10, 0.0f);
     low[3] = 5.0f;
     low[9] = 7.0f;
-    Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
-        {"name": "five", "filter": {"attribute": "low", "min": 5, "max": 5},
-         "color": {"mode": "constant", "rgb": [1, 0, 0]}},
-        {"name": "large", "filter": {"attribute": "label", "min": 1000, "max": 4294967294},
-         "color": {"mode": "constant", "rgb": [0, 1, 0]}}]})");
-    ASSERT_TRUE(doc.isOk()) << doc.message();
-    ASSERT_TRUE(r->setMaterials(*doc, {{"low", low}}).isOk());
-    RenderSettings st;
-    st.finest = true;
-    st.jitter = false;
-    r->setSettings(st);
+    ASSERT_TRUE(r->setMaterials(fiveRedLargeGreen(), {{"low", low}}).isOk());
     const FrameInput in = perspectiveView({-30, 70, 60}, {16, 16, 16}, {0, 0, 1}, 35, 80, 60);
-    const FrameOutput out = renderConverged(*r, in, 1, 64);
-    RayCastView view{in.worldToClip, in.width, in.height};
-    const GBuffer ref = castRaysStable(v, Geometry{}, view, [&](uint32_t l) { return l == 3 || l == large; }, 16);
-    size_t diff = 0, red = 0, green = 0, colour = 0;
-    for (size_t i = 0; i < ref.label.size(); ++i) {
-        diff += out.label[i] != ref.label[i];
-        if (ref.label[i] == kInvalidLabel) continue;
-        const float* c = &out.rgba[4 * i];
-        const bool three = ref.label[i] == 3;
-        (three ? red : green) += 1;
-        if (!(three ? c[0] > 0.0f && c[1] == 0.0f : c[0] == 0.0f && c[1] > 0.0f) && colour++ < 3)
-            ADD_FAILURE() << "pixel " << i << " label " << ref.label[i] << ": " << c[0] << " " << c[1] << " " << c[2];
-    }
-    EXPECT_EQ(diff, 0u) << "the G-buffer holds labels 3 and 2^23 + 5 where the reference has them";
-    EXPECT_EQ(colour, 0u);
-    EXPECT_GT(red, 0u);
-    EXPECT_GT(green, 0u);
+    const GBuffer ref = castRaysStable(v, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
+                                       [&](uint32_t l) { return l == 3 || l == large; }, 16);
+    size_t threes = 0;
+    expectFinestImage(*r, in, ref, "labels 3 and 2^23 + 5", [&](uint32_t l, const float* c) {
+        threes += l == 3;
+        return l == 3 ? c[0] > 0.0f && c[1] == 0.0f : c[0] == 0.0f && c[1] > 0.0f;
+    });
+    EXPECT_GT(threes, 0u);
 }
 
 TEST(Renderer, LocalShadingFollowsTheLightAnalytically) {
     CSGV_REQUIRE_GPU(ctx);
     // A solid 24^3 block of label 7 in a 32^3 volume, white, lit from +z in world space.
-    LabelVolume v;
-    v.dim = {32, 32, 32};
-    v.labels.assign(32 * 32 * 32, 0);
-    for (uint32_t z = 4; z < 28; ++z)
-        for (uint32_t y = 4; y < 28; ++y)
-            for (uint32_t x = 4; x < 28; ++x) v.labels[v.index(x, y, z)] = 7;
+    const LabelVolume v = blockVolume([](uint32_t, uint32_t, uint32_t) { return 7u; });
     CompressedVolume encoded;
     std::unique_ptr<Renderer> r = volumeRenderer(*ctx, v, encoded);
     ASSERT_TRUE(r);
