@@ -36,7 +36,8 @@ constexpr uint64_t kBudget = uint64_t(1) << 30;
 TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2.csgv")); // 222 labels up to 4282514378
     ASSERT_TRUE(file.isOk()) << file.message();
-    const std::vector<uint32_t> ids = labelIds(file->volume);
+    const StoredLabels stored = storedLabels(file->volume, false);
+    const std::vector<uint32_t>& ids = stored.ids;
     const std::set<uint32_t> labels = paletteLabels(file->volume);
     ASSERT_EQ(ids, std::vector<uint32_t>(labels.begin(), labels.end())) << "the palettes' labels, ascending";
     for (uint32_t i = 0; i < ids.size(); ++i) EXPECT_EQ(idOfLabel(ids, ids[i]), i);
@@ -47,9 +48,9 @@ TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
             EXPECT_EQ(idOfLabel(ids, l), kNone) << "label " << l;
         }
     EXPECT_EQ(idOfLabel(ids, kNone), kNone);
-    const LabelLookup lookup = planLabelLookup(file->volume, ids, false, kBudget);
+    EXPECT_EQ(stored.largest, ids.size() - 1) << "the largest id";
+    const LabelLookup lookup = planLabelLookup(stored.largest, false, kBudget);
     ASSERT_EQ(lookup.kind, kLookupDense);
-    EXPECT_EQ(lookup.largest, ids.size() - 1);
     const std::vector<uint32_t> table = lookup.table(someMaterial);
     ASSERT_EQ(table.size(), ids.size());
     for (uint32_t i = 0; i < ids.size(); ++i) EXPECT_EQ(lookup.hostMaterial(table, i), someMaterial(i));
@@ -59,13 +60,16 @@ TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
     // which keeps the table over the ids (its colours are what it saves).
     const uint64_t bytes = lookup.tableBytes() + lookup.colorBytes();
     EXPECT_EQ(bytes, ids.size() * 20);
-    EXPECT_EQ(planLabelLookup(file->volume, ids, false, 64 * bytes).kind, kLookupDense);
-    const LabelLookup tight = planLabelLookup(file->volume, ids, false, 64 * bytes - 64);
+    EXPECT_EQ(planLabelLookup(stored.largest, false, 64 * bytes).kind, kLookupDense);
+    const LabelLookup tight = planLabelLookup(stored.largest, false, 64 * bytes - 64);
     EXPECT_EQ(tight.kind, kLookupScan);
     EXPECT_EQ(tight.entries(), ids.size());
     EXPECT_EQ(tight.colorBytes(), 0u);
-    // Without ids such labels have no table: the scan.
-    const LabelLookup labelsAsThey = planLabelLookup(file->volume, {}, false, kBudget);
+    // A piece stores such labels as they are: no table, the scan.
+    const StoredLabels piece = storedLabels(file->volume, true);
+    EXPECT_TRUE(piece.ids.empty());
+    EXPECT_EQ(piece.largest, *labels.rbegin());
+    const LabelLookup labelsAsThey = planLabelLookup(piece.largest, true, kBudget);
     EXPECT_EQ(labelsAsThey.kind, kLookupScan);
     EXPECT_EQ(labelsAsThey.entries(), 0u);
 }
@@ -73,8 +77,10 @@ TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
 TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabels) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2_attr.csgv")); // relabelled: dense ids
     ASSERT_TRUE(file.isOk()) << file.message();
-    EXPECT_TRUE(labelIds(file->volume).empty()) << "small labels are stored as they are";
-    const LabelLookup dense = planLabelLookup(file->volume, {}, false, kBudget);
+    const StoredLabels stored = storedLabels(file->volume, false);
+    EXPECT_TRUE(stored.ids.empty()) << "small labels are stored as they are";
+    EXPECT_EQ(stored.largest, *paletteLabels(file->volume).rbegin());
+    const LabelLookup dense = planLabelLookup(stored.largest, false, kBudget);
     EXPECT_EQ(dense.kind, kLookupDense);
     const std::vector<uint32_t> table = dense.table(someMaterial);
     ASSERT_EQ(table.size(), size_t(dense.largest) + 1);
@@ -83,10 +89,10 @@ TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabe
     for (uint32_t l = 0; l <= dense.largest; ++l) EXPECT_EQ(dense.hostMaterial(table, l), someMaterial(l));
     EXPECT_EQ(dense.hostMaterial(table, dense.largest + 1), kNone);
     // An MPI rank's piece: a dense table for its own labels, the scan for larger ones.
-    EXPECT_EQ(planLabelLookup(file->volume, {}, true, kBudget).kind, kLookupScan);
+    EXPECT_EQ(planLabelLookup(stored.largest, true, kBudget).kind, kLookupScan);
     Result<CsgvFile> large = openCsgv(fixture("synthA_b32_rans2.csgv"));
     ASSERT_TRUE(large.isOk()) << large.message();
-    const LabelLookup piece = planLabelLookup(large->volume, {}, true, kBudget);
+    const LabelLookup piece = planLabelLookup(storedLabels(large->volume, true).largest, true, kBudget);
     EXPECT_EQ(piece.kind, kLookupScan);
     EXPECT_TRUE(piece.table(someMaterial).empty()) << "labels beyond 2^22: no dense table, the scan";
 }

@@ -64,6 +64,15 @@ std::shared_ptr<GpuVolume> gpuVolume(Context& ctx, Scene& scene, bool paletting)
     return std::move(*pg);
 }
 
+/// A renderer of the scene's GPU volume with options `o` and settings `st`, or null after a failure.
+std::unique_ptr<Renderer> sceneRenderer(Context& ctx, Scene& scene, const RendererOptions& o, const RenderSettings& st) {
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, scene.gpu, o);
+    EXPECT_TRUE(r.isOk()) << r.message();
+    if (!r) return nullptr;
+    (*r)->setSettings(st);
+    return std::move(*r);
+}
+
 /// Renders until every pixel has `samples` samples (or `maxFrames` frames).
 FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples, uint32_t maxFrames,
                             uint32_t* framesUsed = nullptr) {
@@ -214,31 +223,30 @@ TEST(Renderer, GBufferEqualsStableReferenceCameraInside) {
 namespace {
 
 /// Bit j: sub-block j (Morton order, edge brickSize / 4) of `brick` lies inside the volume and
-/// holds one label; computed from the decoded volume, voxel by voxel.
-/// The brick's sub-blocks inside the volume that hold one label or, given `visible`, no visible
-/// label (the renderer's hidden sub-blocks).
-uint64_t expectedUniformMask(const CompressedVolume& vol, const LabelVolume& labels, uint32_t brick,
-                             const std::function<bool(uint32_t)>& visible = nullptr) {
+/// its nodes in `level` (the volume decoded at `lod`) hold one label or, given `visible`, no
+/// visible label (the renderer's uniform and hidden sub-blocks); computed node by node.
+uint64_t expectedSubBlockMask(const CompressedVolume& vol, const LabelVolume& level, uint32_t brick,
+                              const std::function<bool(uint32_t)>& visible = nullptr, uint32_t lod = 0) {
     const std::array<uint32_t, 3> grid = vol.brickGrid();
     const uint32_t origin[3] = {brick % grid[0] * vol.brickSize, brick / grid[0] % grid[1] * vol.brickSize,
                                 brick / (grid[0] * grid[1]) * vol.brickSize};
-    const uint32_t edge = vol.brickSize / 4;
+    const uint32_t edge = vol.brickSize / 4, nodes = edge >> lod;
     uint64_t mask = 0;
     for (uint32_t j = 0; j < 64; ++j) {
         uint32_t o[3] = {0, 0, 0};
         for (uint32_t bit = 0; bit < 6; ++bit) o[bit % 3] |= ((j >> bit) & 1u) << (bit / 3); // Morton: x in bit 0
         bool inside = true;
         for (int a = 0; a < 3; ++a) {
-            o[a] = origin[a] + o[a] * edge;
-            inside = inside && o[a] + edge <= labels.dim[a];
+            inside = inside && origin[a] + (o[a] + 1) * edge <= vol.dim[a];
+            o[a] = (origin[a] + o[a] * edge) >> lod;
         }
         if (!inside) continue;
-        const uint32_t first = labels.at(o[0], o[1], o[2]);
+        const uint32_t first = level.at(o[0], o[1], o[2]);
         bool same = !visible, hidden = bool(visible);
-        for (uint32_t z = 0; z < edge; ++z)
-            for (uint32_t y = 0; y < edge; ++y)
-                for (uint32_t x = 0; x < edge; ++x) {
-                    const uint32_t l = labels.at(o[0] + x, o[1] + y, o[2] + z);
+        for (uint32_t z = 0; z < nodes; ++z)
+            for (uint32_t y = 0; y < nodes; ++y)
+                for (uint32_t x = 0; x < nodes; ++x) {
+                    const uint32_t l = level.at(o[0] + x, o[1] + y, o[2] + z);
                     same = same && l == first;
                     hidden = hidden && !visible(l);
                 }
@@ -266,7 +274,7 @@ void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool palet
     for (const Renderer::CachedBrick& b : *cached) {
         ASSERT_EQ(b.lod, 0u);
         ++finest;
-        const uint64_t want = expectedUniformMask(scene.volume, scene.labels, b.brick);
+        const uint64_t want = expectedSubBlockMask(scene.volume, scene.labels, b.brick);
         EXPECT_EQ(b.uniformSubBlocks, want) << "brick " << b.brick;
         // The default materials leave label 0 alone undrawn: its sub-blocks are uniform ones.
         EXPECT_EQ(b.hiddenSubBlocks, 0u) << "brick " << b.brick;
@@ -368,9 +376,9 @@ void expectHiddenSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Deco
         size_t mixed = 0, groups = 0;
         for (const Renderer::CachedBrick& b : *cached) {
             if (b.lod != 0) continue;
-            const uint64_t want = several ? expectedUniformMask(scene.volume, scene.labels, b.brick, visible) : 0;
+            const uint64_t want = several ? expectedSubBlockMask(scene.volume, scene.labels, b.brick, visible) : 0;
             EXPECT_EQ(b.hiddenSubBlocks, want) << what << ", brick " << b.brick;
-            mixed += (want & ~expectedUniformMask(scene.volume, scene.labels, b.brick)) != 0;
+            mixed += (want & ~expectedSubBlockMask(scene.volume, scene.labels, b.brick)) != 0;
             for (uint32_t g = 0; g < 8; ++g) groups += ((want >> (8 * g)) & 0xFF) == 0xFF;
         }
         if (several) {
@@ -378,36 +386,6 @@ void expectHiddenSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Deco
             EXPECT_GT(groups, 0u) << what << ": and groups of eight hidden sub-blocks";
         }
     }
-}
-
-} // namespace
-
-namespace {
-
-/// The hidden sub-blocks of a brick cached at `lod`: those inside the volume whose nodes in the
-/// level image (`level`, the volume decoded at lod) hold no visible label.
-uint64_t expectedHiddenMask(const CompressedVolume& vol, const LabelVolume& level, uint32_t lod, uint32_t brick,
-                            const std::function<bool(uint32_t)>& visible) {
-    const std::array<uint32_t, 3> grid = vol.brickGrid();
-    const uint32_t origin[3] = {brick % grid[0] * vol.brickSize, brick / grid[0] % grid[1] * vol.brickSize,
-                                brick / (grid[0] * grid[1]) * vol.brickSize};
-    const uint32_t edge = vol.brickSize / 4, nodes = edge >> lod;
-    uint64_t mask = 0;
-    for (uint32_t j = 0; j < 64; ++j) {
-        uint32_t o[3] = {0, 0, 0};
-        for (uint32_t bit = 0; bit < 6; ++bit) o[bit % 3] |= ((j >> bit) & 1u) << (bit / 3); // Morton: x in bit 0
-        bool inside = true;
-        for (int a = 0; a < 3; ++a) {
-            inside = inside && origin[a] + (o[a] + 1) * edge <= vol.dim[a];
-            o[a] = (origin[a] + o[a] * edge) >> lod;
-        }
-        bool hidden = inside;
-        for (uint32_t z = 0; z < nodes && hidden; ++z)
-            for (uint32_t y = 0; y < nodes && hidden; ++y)
-                for (uint32_t x = 0; x < nodes && hidden; ++x) hidden = !visible(level.at(o[0] + x, o[1] + y, o[2] + z));
-        if (hidden) mask |= uint64_t(1) << j;
-    }
-    return mask;
 }
 
 } // namespace
@@ -429,17 +407,15 @@ TEST(Renderer, HiddenSubBlocksAtCoarserLevelsChangeNothing) {
     for (int hidden = 0; hidden < 2; ++hidden) {
         RendererOptions o;
         o.hiddenSubBlocks = hidden == 1;
-        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
-        ASSERT_TRUE(r.isOk()) << r.message();
-        ASSERT_TRUE((*r)->setMaterials(*doc).isOk());
         RenderSettings st;
-        st.finest = false;
         st.lodBias = 1.5f;
         st.jitter = false;
         st.denoise = false;
-        (*r)->setSettings(st);
-        outs[hidden] = renderConverged(**r, in, 1, 64);
-        Result<std::vector<Renderer::CachedBrick>> cached = (*r)->cachedBricks();
+        std::unique_ptr<Renderer> r = sceneRenderer(*ctx, scene, o, st);
+        ASSERT_TRUE(r);
+        ASSERT_TRUE(r->setMaterials(*doc).isOk());
+        outs[hidden] = renderConverged(*r, in, 1, 64);
+        Result<std::vector<Renderer::CachedBrick>> cached = r->cachedBricks();
         ASSERT_TRUE(cached.isOk()) << cached.message();
         size_t coarse = 0;
         for (const Renderer::CachedBrick& b : *cached) {
@@ -449,7 +425,7 @@ TEST(Renderer, HiddenSubBlocksAtCoarserLevelsChangeNothing) {
             }
             Result<LabelVolume> level = decodeVolume(scene.volume, b.lod);
             ASSERT_TRUE(level.isOk()) << level.message();
-            const uint64_t want = expectedHiddenMask(scene.volume, *level, b.lod, b.brick, visible);
+            const uint64_t want = expectedSubBlockMask(scene.volume, *level, b.brick, visible, b.lod);
             EXPECT_EQ(b.hiddenSubBlocks, want) << "brick " << b.brick << " at level " << b.lod;
             coarse += b.lod > 0 && want != 0;
         }
@@ -482,11 +458,7 @@ std::unique_ptr<Renderer> makeRenderer(Context& ctx, Scene& scene, uint64_t cach
     o.outlineSpans = outlineSpans;
     o.renderTexels = texels;
     o.prefetchVoxels = 0; // rays find the bricks of a cold cache (the prefetch has a test of its own)
-    Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, scene.gpu, o);
-    EXPECT_TRUE(r.isOk()) << r.message();
-    if (!r) return nullptr;
-    (*r)->setSettings(st);
-    return std::move(*r);
+    return sceneRenderer(ctx, scene, o, st);
 }
 
 /// A 32^3 volume of label 0 around a 24^3 block [4, 28)^3 whose voxels take `labelAt(x, y, z)`.
@@ -934,14 +906,13 @@ TEST(Renderer, ResolvePassesGiveTheSameImageThroughTexelsAndBufferAddresses) {
     for (int texels = 0; texels < 2; ++texels) {
         RendererOptions o;
         o.renderTexels = texels == 1;
-        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
-        ASSERT_TRUE(r.isOk()) << r.message();
         RenderSettings st;
         st.shading = Shading::AmbientOcclusion;
         st.subsampling = 2;
         st.denoise = true;
-        (*r)->setSettings(st);
-        images[texels] = renderConverged(**r, in, 3, 64);
+        std::unique_ptr<Renderer> r = sceneRenderer(*ctx, scene, o, st);
+        ASSERT_TRUE(r);
+        images[texels] = renderConverged(*r, in, 3, 64);
         ASSERT_GT(coveredPixels(images[texels]), images[texels].rgba.size() / 16);
     }
     EXPECT_EQ(images[0].rgba, images[1].rgba);
@@ -962,13 +933,11 @@ TEST(Renderer, OutputsReadBackThroughACopyEqualMappedOnes) {
     for (int copied = 0; copied < 2; ++copied) {
         RendererOptions o;
         o.readBackThroughCopy = copied == 1;
-        Result<std::unique_ptr<Renderer>> made = Renderer::create(*ctx, scene.gpu, o);
-        ASSERT_TRUE(made.isOk()) << made.message();
-        r[copied] = std::move(*made);
         RenderSettings st;
         st.shading = Shading::AmbientOcclusion;
         st.sampleTarget = 2;
-        r[copied]->setSettings(st);
+        r[copied] = sceneRenderer(*ctx, scene, o, st);
+        ASSERT_TRUE(r[copied]);
     }
     for (int view = 0; view < 3; ++view) {
         SCOPED_TRACE("view " + std::to_string(view));
@@ -1366,7 +1335,7 @@ TEST(Renderer, LargeLabelsStoredAsIdsKeepTheirLabelsAttributesAndColours) {
         o.cachePaletting = paletting;
         Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, file->volume, o);
         ASSERT_TRUE(gpu.isOk()) << gpu.message();
-        ASSERT_EQ((*gpu)->labelIds(), labelIds(file->volume));
+        ASSERT_EQ((*gpu)->labelIds(), storedLabels(file->volume, false).ids);
         ASSERT_FALSE((*gpu)->labelIds().empty());
         ASSERT_EQ((*gpu)->labelIds()[0], 0u) << "the fixture holds label 0";
         Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)));
@@ -1995,10 +1964,7 @@ TEST(Renderer, SmallVolumesHaveEveryVisibleBrickDecodedAtTheFirstFrame) {
             o.decode = decode;
             o.cacheBytes = 16ull << 20;
             o.prefetchVoxels = prefetchVoxels;
-            Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
-            EXPECT_TRUE(r.isOk()) << r.message();
-            if (r) (*r)->setSettings(st);
-            return r ? std::move(*r) : nullptr;
+            return sceneRenderer(*ctx, scene, o, st);
         };
         std::unique_ptr<Renderer> fetched = cold(RendererOptions{}.prefetchVoxels), found = cold(0);
         ASSERT_TRUE(fetched && found);

@@ -100,10 +100,9 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     // (separated); with host decoding its palette (cache paletting) or nothing.
     const DevicePart part = host ? (g->m_cacheBits < 32 ? DevicePart::Palette : DevicePart::Nothing)
                                  : (separate ? DevicePart::Coarse : DevicePart::Whole);
-    // Large labels are stored as ids (labelIds): in the palettes the device holds, and in the
-    // cache regions host decoding writes. An MPI rank's piece keeps its labels: its rays meet
-    // other ranks' (ghost faces, stand-ins).
-    if (options.owned.empty()) g->m_ids = gpu::labelIds(volume);
+    // Large labels are stored as ids (StoredLabels): in the palettes the device holds, and in the
+    // cache regions host decoding writes. An MPI rank's piece keeps its labels.
+    g->m_labels = storedLabels(volume, !options.owned.empty());
     std::vector<std::vector<uint32_t>> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
@@ -124,7 +123,8 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
         const std::vector<uint32_t>& a = arrays[i];
         // With ids, the palettes' labels replaced (a copy of one array at a time).
         std::vector<uint32_t> withIds;
-        if (!g->m_ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(volume, i, a, starts, g->m_ids);
+        const std::vector<uint32_t>& ids = g->m_labels.ids;
+        if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(volume, i, a, starts, ids);
         const std::vector<uint32_t>& up = withIds.empty() ? a : withIds;
         Result<Buffer> b = context.createBuffer(up.size() * 4, MemoryKind::DeviceLocal);
         if (!b) return Status(b.status()).prefix("uploading the encoding");
@@ -393,7 +393,7 @@ bool GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod
 }
 
 void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const {
-    if (m_cacheBits == 32 && m_ids.empty()) {
+    if (m_cacheBits == 32 && m_labels.ids.empty()) {
         std::copy(labels, labels + n, out);
         return;
     }
@@ -402,7 +402,7 @@ void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, u
         for (uint64_t e = 0; e < n; ++e) {
             if (labels[e] != lastLabel) {
                 lastLabel = labels[e];
-                lastId = lastLabel == kInvalidLabel ? kNone : idOfLabel(m_ids, lastLabel);
+                lastId = lastLabel == kInvalidLabel ? kNone : idOfLabel(m_labels.ids, lastLabel);
             }
             out[e] = lastId;
         }
@@ -440,8 +440,8 @@ std::vector<uint32_t> GpuVolume::labelsFromRegion(uint32_t brick, uint32_t lod, 
     const uint64_t edge = m_volume.brickSize >> lod, n = edge * edge * edge;
     std::vector<uint32_t> labels(n);
     if (m_cacheBits == 32) {
-        for (uint64_t e = 0; e < n; ++e)
-            labels[e] = m_ids.empty() ? words[e] : (words[e] < m_ids.size() ? m_ids[words[e]] : kInvalidLabel);
+        const std::vector<uint32_t>& ids = m_labels.ids;
+        for (uint64_t e = 0; e < n; ++e) labels[e] = ids.empty() ? words[e] : (words[e] < ids.size() ? ids[words[e]] : kInvalidLabel);
         return labels;
     }
     const uint32_t per = cacheEntriesPerWord(), mask = (1u << m_cacheBits) - 1u;

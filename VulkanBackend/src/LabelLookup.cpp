@@ -2,15 +2,12 @@
 #include "csgv/gpu/LabelLookup.h"
 
 #include <algorithm>
-#include <utility>
 
 namespace csgv::gpu {
 
-namespace {
-
-/// The largest label of the volume's palettes, and their entries in all.
-std::pair<uint32_t, uint64_t> paletteExtent(const CompressedVolume& vol) {
+StoredLabels storedLabels(const CompressedVolume& vol, bool piece) {
     const uint32_t L = vol.levels();
+    StoredLabels out;
     uint32_t largest = 0;
     uint64_t entries = 0;
 #pragma omp parallel for reduction(max : largest) reduction(+ : entries) schedule(dynamic, 64)
@@ -19,15 +16,8 @@ std::pair<uint32_t, uint64_t> paletteExtent(const CompressedVolume& vol) {
         entries += bw.words[L];
         for (uint32_t k = 0; k < bw.words[L]; ++k) largest = std::max(largest, bw.words[bw.size - 1 - k]);
     }
-    return {largest, entries};
-}
-
-} // namespace
-
-std::vector<uint32_t> labelIds(const CompressedVolume& vol) {
-    const uint32_t L = vol.levels();
-    const auto [largest, entries] = paletteExtent(vol);
-    if (largest < kMaterialTableLabels || entries > (uint64_t(1) << 25)) return {};
+    out.largest = largest;
+    if (piece || largest < kMaterialTableLabels || entries > (uint64_t(1) << 25)) return out;
     std::vector<uint32_t> labels;
     labels.reserve(size_t(entries));
     for (uint64_t b = 0; b < vol.brickCount(); ++b) {
@@ -37,8 +27,10 @@ std::vector<uint32_t> labelIds(const CompressedVolume& vol) {
     std::sort(labels.begin(), labels.end());
     labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
     if (!labels.empty() && labels.back() == kNone) labels.pop_back(); // not a label
-    if (labels.size() > kMaterialTableLabels) return {};
-    return labels;
+    if (labels.empty() || labels.size() > kMaterialTableLabels) return out;
+    out.largest = uint32_t(labels.size() - 1);
+    out.ids = std::move(labels);
+    return out;
 }
 
 uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label) {
@@ -46,10 +38,9 @@ uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label) {
     return it != ids.end() && *it == label ? uint32_t(it - ids.begin()) : kNone;
 }
 
-LabelLookup planLabelLookup(const CompressedVolume& vol, const std::vector<uint32_t>& ids, bool piece,
-                            uint64_t budgetBytes) {
+LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes) {
     LabelLookup out;
-    out.largest = ids.empty() ? paletteExtent(vol).first : uint32_t(ids.size() - 1);
+    out.largest = largestStored;
     // A piece's rays meet other ranks' labels too (the scan takes those beyond its table).
     out.kind = !piece && out.largest < kMaterialTableLabels ? kLookupDense : kLookupScan;
     if (out.kind != kLookupScan && out.tableBytes() + out.colorBytes() > budgetBytes / 64) out.kind = kLookupScan;

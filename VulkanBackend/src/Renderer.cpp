@@ -980,7 +980,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
-    im.lookup = planLabelLookup(v, volume->labelIds(), !volume->owned().empty(), im.budget);
+    im.lookup = planLabelLookup(volume->largestStoredLabel(), !volume->owned().empty(), im.budget);
     d.emplace_back("LABEL_LOOKUP", std::to_string(im.lookup.kind)); // tested by #if: no suffix
     im.defines = d;
     im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
@@ -1444,16 +1444,17 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     if (!given) return given.status();
     Result<PackedMaterials> packed = packMaterials(doc);
     if (!packed) return packed.status();
+    // What the shaders would read is what they read already (attributes loaded that no material
+    // names, a document written anew with the same content): the accumulated image stays. (The
+    // volume's ids, below, are the renderer's for good: the same inputs, the same arrays by id.)
+    const uint64_t fingerprint = materialsFingerprint(*packed, attributes, storedToOriginal, *given);
+    if (fingerprint == im.materialsFingerprint) return Status::ok();
+    im.materialsFingerprint = 0;
     // Where the volume stores ids, the shaders index the per-label arrays and the label map by id.
     const PerStored perStored = inStoredLabels(im.volume->labelIds(), attributes, storedToOriginal, *given);
     const auto& attrs = perStored.byId ? perStored.attributes : attributes;
     const std::vector<uint32_t>& map = perStored.byId ? perStored.storedToOriginal : storedToOriginal;
     const uint64_t labels = perStored.byId ? perStored.storedToOriginal.size() : *given;
-    // What the shaders would read is what they read already (attributes loaded that no material
-    // names, a document written anew with the same content): the accumulated image stays.
-    const uint64_t fingerprint = materialsFingerprint(*packed, attrs, map, labels);
-    if (fingerprint == im.materialsFingerprint) return Status::ok();
-    im.materialsFingerprint = 0;
     resetAccumulation(); // before the uploads: a failure among them must not leave an image called exact
     if (!(s = im.makeRoom(im.materialBytes(*packed, attrs, map), "the materials and attributes"))) return s;
     if (!(s = im.uploadMaterials(*packed, attrs, map, labels))) return s;

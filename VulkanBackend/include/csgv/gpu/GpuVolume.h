@@ -10,6 +10,7 @@
 #include "csgv/codec/Decoder.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/DetailStream.h"
+#include "csgv/gpu/LabelLookup.h"
 #include "csgv/gpu/FrameLayout.h"
 #include "csgv/gpu/ShaderCompiler.h"
 
@@ -98,9 +99,11 @@ public:
     /// `out` (regionWords(lod) words, packed as the cache stores it); a brick whose stream fails
     /// reads as outside the volume (all kNone) and false is returned.
     bool decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const;
-    /// The labels stored as ids (LabelLookup.h labelIds: ascending, a label's id is its index),
-    /// empty when labels are stored as they are. The device's palettes and the cache hold ids then.
-    const std::vector<uint32_t>& labelIds() const { return m_ids; }
+    /// The labels as the device stores them (LabelLookup.h StoredLabels): with ids (ascending, a
+    /// label's id is its index) the device's palettes and the cache hold ids; without (empty),
+    /// the labels themselves.
+    const std::vector<uint32_t>& labelIds() const { return m_labels.ids; }
+    uint32_t largestStoredLabel() const { return m_labels.largest; }
     /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
     uint32_t cacheBits() const { return m_cacheBits; }
     uint32_t cacheEntriesPerWord() const { return m_cacheBits == 32 ? 1 : 32 / m_cacheBits; }
@@ -152,7 +155,7 @@ private:
     uint64_t m_decodePipeline = 0;
     uint32_t m_decodeGroup = 1; ///< decode_bricks.comp's DECODE_GROUP: decodes a workgroup (GpuVolume.cpp decodeGroup)
     uint32_t m_cacheBits = 32;
-    std::vector<uint32_t> m_ids;
+    StoredLabels m_labels;
     bool m_separated = false;
     bool m_hostDecoding = false;
     DetailSizes m_detailSizes;

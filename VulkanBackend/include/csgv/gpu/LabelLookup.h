@@ -19,20 +19,26 @@ namespace csgv::gpu {
 /// Tables up to this many labels (4 bytes each, and 16 for its colour).
 constexpr uint32_t kMaterialTableLabels = 1u << 22;
 
-/// The labels the shaders see as ids, ascending: those of the volume's palettes when one of them
-/// is kMaterialTableLabels or larger and they are at most kMaterialTableLabels distinct labels
-/// (and 2^25 palette entries in all: counting them must stay quick); else none (empty). A label
-/// is stored as its index here: in the device's palettes and the brick cache (GpuVolume), so a
-/// ray step finds its material in one read of a dense table where a hash table would take two
-/// (and the cache's runs of one label are unchanged). The renderer maps ids back for its outputs.
-std::vector<uint32_t> labelIds(const CompressedVolume& volume);
+/// The labels as the shaders see them (stored labels). `ids`: the labels of the volume's palettes,
+/// ascending, when one of them is kMaterialTableLabels or larger, they are at most
+/// kMaterialTableLabels distinct labels (and 2^25 palette entries in all: counting them must stay
+/// quick) and the volume is no MPI rank's piece (whose rays meet other ranks' labels); else none
+/// (empty). A label is then stored as its index in `ids` (its id): in the device's palettes and
+/// the brick cache (GpuVolume), so a ray step finds its material in one read of a dense table
+/// where a hash table would take two (and the cache's runs of one label are unchanged). The
+/// renderer maps ids back for its outputs. `largest`: the largest stored label (an id with ids).
+struct StoredLabels {
+    uint32_t largest = 0;
+    std::vector<uint32_t> ids;
+};
+StoredLabels storedLabels(const CompressedVolume& volume, bool piece);
 
 /// A label's id (its index in `ids`, ascending), kNone when `ids` does not hold it.
 uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label);
 
 struct LabelLookup {
     uint32_t kind = kLookupScan; ///< kLookupScan or kLookupDense (FrameLayout.h)
-    uint32_t largest = 0;        ///< the largest stored label any palette holds (an id with ids)
+    uint32_t largest = 0;        ///< the largest stored label (StoredLabels::largest)
     /// Entries of the table: a stored label each up to the largest, when below
     /// kMaterialTableLabels (also with kLookupScan), else none.
     uint64_t entries() const { return largest < kMaterialTableLabels ? uint64_t(largest) + 1 : 0; }
@@ -46,15 +52,13 @@ struct LabelLookup {
     uint32_t hostMaterial(const std::vector<uint32_t>& t, uint32_t stored) const;
 };
 
-/// The lookup for a volume's stored labels: `ids` (labelIds, empty for none) when the volume
-/// stores ids, the dense table over them; else dense when the largest label is below
-/// kMaterialTableLabels, else the scan. `piece`: an MPI rank's piece, whose rays also meet other
-/// ranks' labels (stand-ins, ghost faces; pieces store no ids): the dense table where it covers
-/// this piece's labels, the scan for the rest. The tables (with the labels' colours, 16 bytes an
-/// entry) may take a 64th of `budgetBytes`, the renderer's device memory: under a tighter budget
-/// the brick cache comes first (the scan, with the table where labels are small, as for pieces).
-LabelLookup planLabelLookup(const CompressedVolume& volume, const std::vector<uint32_t>& ids, bool piece,
-                            uint64_t budgetBytes);
+/// The lookup for a volume's stored labels up to `largestStored` (StoredLabels::largest): dense
+/// when it is below kMaterialTableLabels, else the scan. `piece`: an MPI rank's piece, whose rays
+/// also meet other ranks' labels (stand-ins, ghost faces): the table where it covers this piece's
+/// labels, the scan for the rest. The tables (with the labels' colours, 16 bytes an entry) may
+/// take a 64th of `budgetBytes`, the renderer's device memory: under a tighter budget the brick
+/// cache comes first (the scan, with the table where labels are small, as for pieces).
+LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes);
 
 template <class MaterialOf> std::vector<uint32_t> LabelLookup::table(const MaterialOf& materialOf) const {
     std::vector<uint32_t> t(static_cast<size_t>(entries()));
