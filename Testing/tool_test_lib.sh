@@ -23,3 +23,45 @@ finish() {
   echo "$passes passed, $fails failed"
   [ "$fails" -eq 0 ]
 }
+
+# `expect_bounded CODE MIB SECONDS PATTERN DESCRIPTION COMMAND...`: the adversarial suite's check.
+# Runs COMMAND with its address space capped at MIB MiB (prlimit --as) and killed after SECONDS;
+# asserts the exit status CODE (never a signal: 128+N fails unless CODE asks for it), and for
+# CODE != 0 exactly one "csgv: error:" line that matches the extended regex PATTERN (case
+# insensitive). The child's stderr stays in $TMP/err for further checks.
+expect_bounded() {
+  local want=$1 mib=$2 secs=$3 pattern=$4 what=$5; shift 5
+  prlimit --as=$((mib * 1024 * 1024)) -- timeout -s KILL "$secs" "$@" >"$TMP/out" 2>"$TMP/err"
+  local got=$?
+  if [ "$got" -eq 137 ] && [ "$want" -ne 137 ]; then bad "$what: killed after ${secs}s (time ceiling)"; return; fi
+  if [ "$got" -ne "$want" ]; then bad "$what: exit $got, expected $want ($(head -c 300 "$TMP/err"))"; return; fi
+  if [ "$want" -ne 0 ]; then
+    if [ "$(grep -c '^csgv: error: ' "$TMP/err")" -ne 1 ]; then
+      bad "$what: stderr is not one clear error line: $(head -c 600 "$TMP/err")"; return
+    fi
+    if ! grep '^csgv: error: ' "$TMP/err" | grep -Eqi -- "$pattern"; then
+      bad "$what: message does not match /$pattern/: $(grep '^csgv: error: ' "$TMP/err")"; return
+    fi
+  fi
+  pass "$what"
+}
+
+# `expect_interrupt DESCRIPTION COMMAND...`: starts COMMAND, sends SIGINT after it has run a
+# second, and asserts it exits with status 130 within one more second and one error line.
+expect_interrupt() {
+  local what=$1; shift
+  "$@" >"$TMP/out" 2>"$TMP/err" &
+  local pid=$!
+  sleep 1
+  if ! kill -0 "$pid" 2>/dev/null; then wait "$pid"; bad "$what: ended before the interrupt (exit $?)"; return; fi
+  local t0; t0=$(date +%s%N)
+  kill -INT "$pid"
+  local waited=0
+  while kill -0 "$pid" 2>/dev/null && [ "$waited" -lt 50 ]; do sleep 0.05; waited=$((waited + 1)); done
+  if kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid"; wait "$pid"; bad "$what: still running 2.5 s after SIGINT"; return; fi
+  wait "$pid"; local got=$?
+  local ms=$((($(date +%s%N) - t0) / 1000000))
+  if [ "$got" -ne 130 ]; then bad "$what: exit $got after SIGINT, expected 130 ($(head -c 300 "$TMP/err"))"; return; fi
+  if [ "$ms" -gt 1000 ]; then bad "$what: took ${ms} ms to end after SIGINT"; return; fi
+  pass "$what (${ms} ms)"
+}
