@@ -75,6 +75,7 @@ struct Args {
     bool check = false;
     bool relabel = false;
     bool quiet = false;
+    InputOptions input;
     uint32_t level = 0;
     int threads = 0;
     EncodeOptions encode;
@@ -101,6 +102,7 @@ Status parseArgs(int argc, char** argv, Args& a) {
     app.add_flag("--check", a.check);
     app.add_flag("--relabel", a.relabel);
     app.add_flag("--quiet", a.quiet);
+    app.add_flag("--allow-outside-paths", a.input.allowOutsidePaths);
     app.add_option("files", a.positional);
     ValueOptions values(app);
     const auto small = [&values](const char* name, uint64_t max, auto set) {
@@ -182,7 +184,7 @@ int cmdInfoInput(const Args& a) {
     if (a.stats || a.check)
         return fail(std::string(a.stats ? "--stats" : "--check") + " applies to a .csgv file; " + path +
                     " is an input (compress it first, or drop the option)");
-    Result<std::unique_ptr<InputSource>> src = openCompressInput(path);
+    Result<std::unique_ptr<InputSource>> src = openCompressInput(path, a.input);
     if (!src) return fail(src.message());
     const InputInfo& info = (*src)->info();
     const Geometry& g = info.geometry;
@@ -389,7 +391,7 @@ int cmdVerify(const Args& a) {
     if (a.positional.size() != 2) return fail("verify expects: csgv verify IN.csgv SOURCE");
     Result<CsgvFile> f = openCsgv(a.positional[0]);
     if (!f) return fail(f.message());
-    Result<std::unique_ptr<InputSource>> src = openCompressInput(a.positional[1]);
+    Result<std::unique_ptr<InputSource>> src = openCompressInput(a.positional[1], a.input);
     if (!src) return fail(src.message());
     const CompressedVolume& v = f->volume;
     const auto& sd = (*src)->info().dim;
@@ -482,6 +484,7 @@ int cmdCompress(const Args& a) {
     o.encode = a.encode;
     o.encode.threads = a.threads;
     o.relabel = a.relabel;
+    o.input = a.input;
     CompressReport r;
     ProgressPrinter printer(r);
     o.progress = [&printer, &a](double f, const char* stage) {

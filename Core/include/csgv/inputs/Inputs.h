@@ -63,6 +63,10 @@ struct InputOptions {
     /// Bound on the buffers a source keeps between readSlab calls (chunk or page caches), not
     /// counting the caller's slab. A source that cannot work within it says so when opened.
     uint64_t maxWorkingBytes = uint64_t(1) << 30;
+    /// Files that a dataset names inside itself (a precomputed scale key, an OME-Zarr path, NRRD's
+    /// `data file:`, HDF5 external storage) must lie inside the dataset's own folder unless this
+    /// is set (`csgv --allow-outside-paths`); a refusal names the file it would have read.
+    bool allowOutsidePaths = false;
 };
 
 /// @brief A label volume read z-slab by z-slab at full width. Opened by openInput().
