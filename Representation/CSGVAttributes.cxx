@@ -402,7 +402,7 @@ std::string attributeSummary(const csgv::AttributeTable* table, const SharedVolu
   doc["labels"] = count;
   doc["labelArray"] = labelArray;
   doc["error"] = error;
-  return doc.dump();
+  return doc.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 std::string labelAttributesJson(const csgv::AttributeTable* table, int64_t label)
@@ -426,7 +426,7 @@ std::string labelAttributesJson(const csgv::AttributeTable* table, int64_t label
       }
     }
   }
-  return o.dump();
+  return o.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::AttributeTable* table,
@@ -458,7 +458,7 @@ std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::Attri
     [](const json& a, const json& b) { return a[0].get<int64_t>() < b[0].get<int64_t>(); });
   json o = { { "labels", labels }, { "truncated", truncated },
     { "text", names ? names->name : std::string() } };
-  return o.dump();
+  return o.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 } // namespace csgvrep

@@ -127,7 +127,7 @@ std::string resolveMaterials(const std::string& text, csgv::MaterialDocument& ou
     }
     if (replaced)
     {
-      toParse = doc.dump();
+      toParse = doc.dump(-1, ' ', false, json::error_handler_t::replace);
     }
   }
   csgv::Result<csgv::MaterialDocument> parsed = csgv::parseMaterialsOrDefault(toParse);

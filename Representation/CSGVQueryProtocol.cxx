@@ -57,7 +57,7 @@ std::string defaultsJson()
   j["CSGVDecoding"] = d.decoding;
   j["CSGVClipBox"] = d.clipBox;
   j["CSGVComputedAttributes"] = d.computedAttributes;
-  return j.dump();
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 } // namespace
@@ -116,7 +116,7 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
     }
     if (byLabel.empty() && !error.empty())
     {
-      return json({ { "error", error } }).dump();
+      return json({ { "error", error } }).dump(-1, ' ', false, json::error_handler_t::replace);
     }
     json labels = json::array();
     for (auto& kv : byLabel)
@@ -128,7 +128,7 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
       }
       labels.push_back(kv.second);
     }
-    return json({ { "labels", labels }, { "truncated", truncated }, { "text", text } }).dump();
+    return json({ { "labels", labels }, { "truncated", truncated }, { "text", text } }).dump(-1, ' ', false, json::error_handler_t::replace);
   }
   // summary: every rank's attributes (ranges widened), the union of their labels.
   std::set<int64_t> labels;
@@ -189,7 +189,7 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
   }
   out["attributes"] = list;
   out["labels"] = labels.size();
-  return out.dump();
+  return out.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 std::string answerQuery(const std::string& request, QueryContext& c)
@@ -204,7 +204,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   if (what == "stats")
   {
     const std::shared_ptr<VolumeCache> cache = VolumeCache::instance();
-    return json({ { "parses", cache->parses() }, { "compressions", cache->compressions() } }).dump();
+    return json({ { "parses", cache->parses() }, { "compressions", cache->compressions() } }).dump(-1, ' ', false, json::error_handler_t::replace);
   }
 
   const VolumeSource& source = c.source;
@@ -225,7 +225,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     }
     json s = json::parse(summary);
     s["skipped"] = *c.skipped;
-    return s.dump();
+    return s.dump(-1, ' ', false, json::error_handler_t::replace);
   }
   if (what == "labelset")
   {
@@ -249,11 +249,11 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     in >> cap;
     if (!source.shared)
     {
-      return json({ { "error", c.sourceError } }).dump();
+      return json({ { "error", c.sourceError } }).dump(-1, ' ', false, json::error_handler_t::replace);
     }
     if (!c.materials)
     {
-      return json({ { "error", "the materials are not valid" } }).dump();
+      return json({ { "error", "the materials are not valid" } }).dump(-1, ' ', false, json::error_handler_t::replace);
     }
     // The labels as drawn: the visibility overlay applied, labels of transparent materials left out.
     const csgv::MaterialDocument drawn = csgv::effectiveMaterials(
@@ -278,13 +278,13 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     if (x < 0 || y < 0 || size_t(x) >= out.width || size_t(y) >= out.height || out.label.empty())
     {
       r["error"] = "no rendered pixel there";
-      return r.dump();
+      return r.dump(-1, ' ', false, json::error_handler_t::replace);
     }
     const size_t i = size_t(y) * out.width + size_t(x);
     const uint32_t label = out.label[i];
     if (label == csgv::kInvalidLabel)
     {
-      return r.dump();
+      return r.dump(-1, ' ', false, json::error_handler_t::replace);
     }
     r["hit"] = true;
     r["label"] = label;
@@ -343,9 +343,9 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     {
       r["error"] = tableError;
     }
-    return r.dump();
+    return r.dump(-1, ' ', false, json::error_handler_t::replace);
   }
-  return json({ { "error", "unknown query '" + what + "'" } }).dump();
+  return json({ { "error", "unknown query '" + what + "'" } }).dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 } // namespace csgvrep

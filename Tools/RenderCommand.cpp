@@ -4,6 +4,8 @@
 
 #include "RenderCommand.h"
 #include "CommandLine.h"
+#include "FramePattern.h"
+#include "Interrupt.h"
 #include "Png.h"
 
 #include "csgv/attributes/Attributes.h"
@@ -32,6 +34,7 @@ struct RenderArgs {
     double parallelScale = 0; ///< > 0: parallel projection
     uint32_t frames = 1;
     std::string labelsOut, materials, video;
+    FramePattern videoPattern;
     uint32_t orbit = 0;
     uint64_t cacheMiB = 0; ///< 0: automatic (gpu::automaticCacheBytes)
     uint64_t deviceMemoryMiB = 0; ///< 0: automatic
@@ -153,8 +156,11 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     a.output = positional[1];
     if (!a.video.empty() && a.orbit == 0) return Status::error("--video needs --orbit N");
     if (a.orbit && a.video.empty()) return Status::error("--orbit needs --video PATTERN");
-    if (!a.video.empty() && a.video.find('%') == std::string::npos)
-        return Status::error("--video expects a printf pattern such as frame_%04d.png");
+    if (!a.video.empty()) {
+        Result<FramePattern> p = FramePattern::parse(a.video);
+        if (!p) return p.status();
+        a.videoPattern = *p;
+    }
     return Status::ok();
 }
 
@@ -292,7 +298,7 @@ double since(std::chrono::steady_clock::time_point t0) {
 
 int cmdRender(int argc, char** argv) {
     auto fail = [](const std::string& m) {
-        std::fprintf(stderr, "csgv: error: %s\n", m.c_str());
+        interrupt::reportOnce(m.c_str());
         return 1;
     };
     RenderArgs a;
@@ -378,6 +384,7 @@ int cmdRender(int argc, char** argv) {
         const uint32_t maxFrames = a.frames * settings.subsampling * settings.subsampling + 256;
         uint32_t idle = 0, minSamples = 0;
         for (uint32_t f = 0; f < maxFrames; ++f) {
+            if (cancelRequested()) return fail("interrupted: stopped, no image written");
             Result<gpu::FrameStats> st = r.renderFrame(in);
             if (!st) return fail(st.message());
             viewMs += st->milliseconds;
@@ -399,10 +406,9 @@ int cmdRender(int argc, char** argv) {
         fewestSamples = std::min(fewestSamples, minSamples);
         if (!(s = r.readOutput(out))) return fail(s.message());
         if (a.orbit) {
-            char name[4096];
-            std::snprintf(name, sizeof(name), a.video.c_str(), int(v));
+            const std::string name = a.videoPattern.format(v);
             if (!(s = writeImage(name, out, a.background))) return fail(s.message());
-            std::printf("view %u: %.1f ms -> %s\n", v, viewMs, name);
+            std::printf("view %u: %.1f ms -> %s\n", v, viewMs, name.c_str());
         }
     }
     if (!(s = writeImage(a.output, out, a.background))) return fail(s.message());

@@ -11,6 +11,7 @@
 #include "csgv/inputs/Procedural.h"
 #include "csgv/base/FileUtil.h"
 #include "CommandLine.h"
+#include "Interrupt.h"
 #ifdef CSGV_HAVE_RENDER
 #include "RenderCommand.h"
 #endif
@@ -82,7 +83,7 @@ struct Args {
 };
 
 int fail(const std::string& message) {
-    std::fprintf(stderr, "csgv: error: %s\n", message.c_str());
+    interrupt::reportOnce(message.c_str());
     return 1;
 }
 
@@ -469,15 +470,6 @@ private:
     bool m_printed = false, m_printedEnd = false;
 };
 
-/// Set by SIGINT/SIGTERM during `compress`: the progress callback then cancels, so compressToFile
-/// removes its temporary files before the tool exits.
-volatile std::sig_atomic_t g_interrupted = 0;
-
-extern "C" void onInterrupt(int sig) {
-    g_interrupted = 1;
-    std::signal(sig, SIG_DFL); // a second signal ends the tool at once
-}
-
 int cmdCompress(const Args& a) {
     if (a.positional.size() != 2) return fail("compress expects: csgv compress IN OUT.csgv [options]");
     CompressOptions o;
@@ -488,15 +480,11 @@ int cmdCompress(const Args& a) {
     CompressReport r;
     ProgressPrinter printer(r);
     o.progress = [&printer, &a](double f, const char* stage) {
-        if (g_interrupted) return false;
+        if (cancelRequested()) return false; // Ctrl-C: compressToFile removes its temporaries
         return a.quiet || printer(f, stage);
     };
-    auto oldInt = std::signal(SIGINT, onInterrupt);
-    auto oldTerm = std::signal(SIGTERM, onInterrupt);
     const auto t0 = std::chrono::steady_clock::now();
     Status s = compressToFile(a.positional[0], a.positional[1], o, &r);
-    std::signal(SIGINT, oldInt);
-    std::signal(SIGTERM, oldTerm);
     printer.finish();
     if (!s) return fail(s.message());
     const double t = seconds(t0);
@@ -645,12 +633,38 @@ int run(int argc, char** argv) {
 
 } // namespace
 
+/// "'compress' of 'IN'": what ran, for the messages of failures that carry no context.
+std::string whatRan(int argc, char** argv) {
+    std::string w = argc > 1 ? std::string("'") + argv[1] + "'" : std::string("csgv");
+    for (int i = 2; i < argc; ++i)
+        if (argv[i][0] != '-') return w + " of '" + argv[i] + "'";
+    return w;
+}
+
+/// The limit an allocation ran into, for the out-of-memory message: the address-space limit when
+/// one is set (ulimit -v, prlimit --as), else the memory the system has free.
+std::string memoryLimitText() {
+    struct rlimit rl {};
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
+        return "its address-space limit is " + std::to_string(uint64_t(rl.rlim_cur) >> 20) + " MiB";
+    const long pages = sysconf(_SC_AVPHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    return std::to_string((uint64_t(pages) * uint64_t(page)) >> 20) + " MiB of memory are free";
+}
+
 int main(int argc, char** argv) {
+    interrupt::Guard guard; // Ctrl-C: exit 130 within a second, no partial output (Interrupt.h)
+    int rc = 1;
     try {
-        return run(argc, argv);
+        rc = run(argc, argv);
     } catch (const std::bad_alloc&) {
-        return fail("out of memory");
+        rc = fail(whatRan(argc, argv) + " needs more memory than this process may use (out of memory; " +
+                  memoryLimitText() + ")");
     } catch (const std::exception& e) {
-        return fail(e.what());
+        rc = fail(whatRan(argc, argv) + ": " + e.what());
     }
+    if (rc != 0 && interrupt::Guard::interrupted()) {
+        interrupt::reportOnce("interrupted: stopped, no output written");
+        return kInterruptedExit;
+    }
+    return rc;
 }

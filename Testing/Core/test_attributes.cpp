@@ -5,6 +5,7 @@
 #include "TestData.h"
 
 #include "csgv/attributes/Attributes.h"
+#include "csgv/base/Cancel.h"
 #include "csgv/inputs/Compress.h"
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Decoder.h"
@@ -15,6 +16,7 @@
 #include "csgv/inputs/Relabel.h"
 #include "csgv/codec/Partition.h"
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>

@@ -151,7 +151,7 @@ grep -q -- "--stats applies to a .csgv file" "$TMP/err" || bad "--stats on an in
 expect 1 "info INPUT --check" "$CSGV" info synth:8x8x8 --check
 grep -q -- "--check applies to a .csgv file" "$TMP/err" || bad "--check on an input: $(cat "$TMP/err")"
 
-# SIGINT during compress cancels through the progress callback: exit 1, one message, no
+# SIGINT during compress cancels through the progress callback: exit 130, one message, no
 # temporary or output files left.
 mkdir "$TMP/int"
 "$CSGV" compress synth:512x512x512:5 "$TMP/int/i.csgv" --threads 1 >"$TMP/int.out" 2>"$TMP/int.err" &
@@ -159,7 +159,7 @@ pid=$!
 for _ in $(seq 1 200); do grep -q "^progress:" "$TMP/int.err" 2>/dev/null && break; sleep 0.05; done
 kill -INT "$pid"
 wait "$pid"; rc=$?
-if [ "$rc" -eq 1 ] && grep -q "^csgv: error: .*cancelled" "$TMP/int.err" && [ -z "$(ls -A "$TMP/int")" ]; then
+if [ "$rc" -eq 130 ] && grep -Eq "^csgv: error: .*(cancelled|interrupted)" "$TMP/int.err" && [ -z "$(ls -A "$TMP/int")" ]; then
   pass "SIGINT cancels compress and leaves no file"
 else
   bad "SIGINT during compress: exit $rc, files: $(ls -A "$TMP/int"), stderr: $(tail -2 "$TMP/int.err")"

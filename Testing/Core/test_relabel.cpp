@@ -875,9 +875,9 @@ TEST(Compress, ExceptionsBecomeErrorsAndLeaveNoFiles) {
         }
 }
 
-TEST(Compress, AFailedPublishLeavesNoMismatchedPair) {
-    // An old relabelled volume is replaced; the metadata cannot be written (its name is taken by
-    // a folder): neither the old .csgv nor the new database may be left paired with anything.
+TEST(Compress, AFailedPublishLeavesTheOldSetAsItWas) {
+    // An old relabelled volume is replaced; the metadata cannot be put in place (its name is taken
+    // by a folder): the old volume and its database stay byte-identical, nothing new is left.
     const std::string dir = freshDir("publish");
     const std::string out = dir + "/v.csgv";
     CompressOptions o;
@@ -885,12 +885,18 @@ TEST(Compress, AFailedPublishLeavesNoMismatchedPair) {
     o.relabel = true;
     ASSERT_TRUE(compressToFile("synth:20x20x20:1", out, o).isOk());
     ASSERT_TRUE(fileExists(attributeDbPathFor(out)));
+    const auto bytes = [](const std::string& p) {
+        std::ifstream in(p, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    const std::string oldVolume = bytes(out), oldDb = bytes(attributeDbPathFor(out));
     std::filesystem::remove(metadataPathFor(out));
     std::filesystem::create_directories(metadataPathFor(out) + "/blocker");
     Status s = compressToFile("synth:20x20x20:2", out, o);
     ASSERT_FALSE(s.isOk());
-    EXPECT_FALSE(std::filesystem::exists(out)) << "the old volume is left with new or no sidecars";
-    EXPECT_FALSE(std::filesystem::exists(attributeDbPathFor(out))) << "a database without its volume";
+    EXPECT_NE(s.message().find(metadataPathFor(out)), std::string::npos) << s.message();
+    EXPECT_EQ(bytes(out), oldVolume) << "the old volume changed";
+    EXPECT_EQ(bytes(attributeDbPathFor(out)), oldDb) << "the old database changed";
     for (const auto& e : std::filesystem::directory_iterator(dir))
         EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
     // With the way clear, the next compression publishes a whole, matching set.
@@ -900,6 +906,7 @@ TEST(Compress, AFailedPublishLeavesNoMismatchedPair) {
     ASSERT_TRUE(f.isOk()) << f.message();
     EXPECT_TRUE(f->metadata.relabelled);
     EXPECT_TRUE(f->hasAttributes);
+    EXPECT_NE(bytes(out), oldVolume);
 }
 
 TEST(Compress, MetadataNamesTheInputItself) {

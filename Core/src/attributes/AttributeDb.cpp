@@ -18,6 +18,7 @@ namespace csgv {
 namespace {
 
 using sqlite::DbPtr;
+using sqlite::openReadOnly;
 using sqlite::quoteIdentifier;
 using sqlite::StmtPtr;
 
@@ -58,15 +59,20 @@ Result<std::vector<uint32_t>> AttributeDatabase::labelsAsUint32() const {
 }
 
 Result<AttributeDatabase> readAttributeDb(const std::string& path) {
-    sqlite3* raw = nullptr;
-    const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
-    DbPtr db(raw);
-    if (rc != SQLITE_OK)
-        return Status::error("cannot open attribute database '" + path + "': " +
-                             (raw ? sqlite3_errmsg(raw) : "out of memory"));
+    Result<DbPtr> opened = openReadOnly(path, "attribute database '" + path + "'");
+    if (!opened) return opened.status();
+    DbPtr db = std::move(*opened);
+    sqlite::Deadline deadline(db.get(), sqlite::kReadSeconds); // its tables may be views of any query
     AttributeDatabase out;
     out.path = path;
-    auto fail = [&](const std::string& what) { return Status::error("attribute database '" + path + "': " + what); };
+    auto fail = [&](const std::string& what) {
+        if (deadline.why)
+            return Status::error("attribute database '" + path + "': " +
+                                 (std::string(deadline.why) == "time"
+                                      ? "reading it took longer than 30 s (are its tables views of a join?)"
+                                      : std::string("reading it was cancelled")));
+        return Status::error("attribute database '" + path + "': " + what);
+    };
 
     Result<StmtPtr> info = prepare(db.get(), "SELECT volume_width, volume_height, volume_depth, label_column FROM csgv_info");
     if (!info) return fail(info.message());

@@ -2,6 +2,7 @@
 // The attribute table and its text import (CSV, whitespace-separated tables).
 #include "csgv/attributes/Attributes.h"
 #include "AttributesInternal.h"
+#include "csgv/base/FileUtil.h"
 
 #include <algorithm>
 #include <charconv>
@@ -154,7 +155,24 @@ using namespace detail;
 // ---------------------------------------------------------------------------------------------
 // AttributeTable
 
-AttributeTable::AttributeTable() { m_columns.push_back(AttributeColumn{"label", true, {}, {}}); }
+namespace {
+std::string lowerName(const std::string& name) {
+    std::string l = name;
+    for (char& c : l)
+        if (c >= 'A' && c <= 'Z') c = char(c - 'A' + 'a');
+    return l;
+}
+} // namespace
+
+AttributeTable::AttributeTable() {
+    m_columns.push_back(AttributeColumn{"label", true, {}, {}});
+    reindex();
+}
+
+void AttributeTable::reindex() {
+    m_byName.clear();
+    for (size_t i = 0; i < m_columns.size(); ++i) m_byName.emplace(lowerName(m_columns[i].name), i);
+}
 
 Result<AttributeTable> AttributeTable::fromLabels(std::vector<int64_t> labels) {
     std::sort(labels.begin(), labels.end());
@@ -179,11 +197,8 @@ std::vector<std::string> AttributeTable::columnNames() const {
 }
 
 const AttributeColumn* AttributeTable::column(const std::string& name) const {
-    for (const auto& c : m_columns)
-        if (c.name == name) return &c;
-    for (const auto& c : m_columns)
-        if (iequals(c.name, name)) return &c;
-    return nullptr;
+    const auto it = m_byName.find(lowerName(name));
+    return it == m_byName.end() ? nullptr : &m_columns[it->second];
 }
 
 Status AttributeTable::addColumn(AttributeColumn col, bool replace) {
@@ -194,13 +209,15 @@ Status AttributeTable::addColumn(AttributeColumn col, bool replace) {
                              std::to_string(m_labels.size()) + " labels");
     if (col.numeric) col.text.clear();
     else col.values.clear();
-    for (size_t i = 0; i < m_columns.size(); ++i) {
-        if (!iequals(m_columns[i].name, col.name)) continue;
+    const std::string key = lowerName(col.name);
+    if (const auto it = m_byName.find(key); it != m_byName.end()) {
+        const size_t i = it->second;
         if (i == 0) return Status::error("attribute column 'label' is the label itself and cannot be replaced");
         if (!replace) return Status::error("attribute column '" + col.name + "' already exists");
         m_columns[i] = std::move(col);
         return Status::ok();
     }
+    m_byName.emplace(key, m_columns.size());
     m_columns.push_back(std::move(col));
     return Status::ok();
 }
@@ -209,6 +226,7 @@ bool AttributeTable::removeColumn(const std::string& name) {
     for (size_t i = 1; i < m_columns.size(); ++i)
         if (iequals(m_columns[i].name, name)) {
             m_columns.erase(m_columns.begin() + std::ptrdiff_t(i));
+            reindex();
             return true;
         }
     return false;
@@ -552,12 +570,12 @@ Result<AttributeTable> parseCsv(const std::string& text, const CsvOptions& optio
 }
 
 Result<AttributeTable> readCsv(const std::string& path, const CsvOptions& options) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return Status::error("cannot open attribute table '" + path + "'");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    if (in.bad()) return Status::error("cannot read attribute table '" + path + "'");
-    return parseCsv(ss.str(), options, path);
+    // Parsing holds a few times the text: the file's size is checked before any of it is read
+    // (a FIFO or a device would otherwise be read without end).
+    Result<std::vector<uint8_t>> bytes = readFile(path, kMaxAttributeTextBytes);
+    if (!bytes) return Status::error("attribute table: " + bytes.message() + " (at most " +
+                                     std::to_string(kMaxAttributeTextBytes >> 20) + " MiB of text are read)");
+    return parseCsv(std::string(bytes->begin(), bytes->end()), options, path);
 }
 
 } // namespace csgv

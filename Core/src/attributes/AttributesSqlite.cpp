@@ -20,6 +20,9 @@ using namespace detail;
 namespace {
 
 using sqlite::DbPtr;
+using sqlite::Deadline;
+using sqlite::kReadSeconds;
+using sqlite::openReadOnly;
 using sqlite::prepare;
 using sqlite::quoteIdentifier;
 using sqlite::StmtPtr;
@@ -122,11 +125,9 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
                                        const std::string& labelColumn) {
     std::vector<std::string> tables;
     {
-        sqlite3* raw = nullptr;
-        const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
-        DbPtr db(raw);
-        if (rc != SQLITE_OK)
-            return Status::error("cannot open SQLite database '" + path + "': " + (raw ? sqlite3_errmsg(raw) : "out of memory"));
+        Result<DbPtr> opened = openReadOnly(path, "SQLite database '" + path + "'");
+        if (!opened) return opened.status();
+        DbPtr db = std::move(*opened);
         Result<StmtPtr> st = prepare(db.get(), "SELECT name FROM sqlite_master WHERE type IN ('table', 'view') "
                                                "AND name NOT LIKE 'sqlite\\_%' ESCAPE '\\' ORDER BY name");
         if (!st) return Status::error("SQLite database '" + path + "': " + st.message());
@@ -162,11 +163,10 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
         return attributesFromDatabase(*db);
     }
 
-    sqlite3* raw = nullptr;
-    const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
-    DbPtr db(raw);
-    if (rc != SQLITE_OK)
-        return Status::error("cannot open SQLite database '" + path + "': " + (raw ? sqlite3_errmsg(raw) : "out of memory"));
+    Result<DbPtr> opened = openReadOnly(path, "SQLite database '" + path + "'");
+    if (!opened) return opened.status();
+    DbPtr db = std::move(*opened);
+    Deadline deadline(db.get(), kReadSeconds); // a view may be any query
     const std::string source = "SQLite database '" + path + "', table '" + chosen + "'";
     Result<StmtPtr> st = prepare(db.get(), "SELECT * FROM " + quoteIdentifier(chosen));
     if (!st) return Status::error(source + ": " + st.message());
@@ -180,13 +180,18 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
         for (int c = 0; c < ncol; ++c) row[size_t(c)] = cellText(st->get(), c);
         rows.push_back(std::move(row));
     }
+    if (deadline.why)
+        return Status::error(source + ": " + (std::string(deadline.why) == "time"
+                                                  ? "reading it took longer than " + formatNumber(kReadSeconds) +
+                                                        " s (is it a view of a join?)"
+                                                  : std::string("cancelled")));
     if (step != SQLITE_DONE) return Status::error(source + ": " + sqlite3_errmsg(db.get()));
     return buildTable(names, rows, labelColumn, source,
                       [&](size_t r) { return source + ", row " + std::to_string(r + 1); });
 }
 
 Status addDerivedAttribute(AttributeTable& table, const std::string& name, const std::string& expression,
-                           bool replace) {
+                           bool replace, const DerivedBudget& budget) {
     const std::string what = "derived attribute '" + name + "'";
     auto fail = [&](const std::string& message) {
         return Status::error(what + ": " + message + " (expression: " + expression + ")");
@@ -247,11 +252,22 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     if (!s) return fail(s.message());
 
     sqlite3_set_authorizer(db.get(), readOnlyAuthorizer, nullptr);
+    Deadline deadline(db.get(), budget.seconds);
+    // zeroblob(1e9), printf('%.*c', 1e9, 'x') and the like stop at this size, not at 1 GB.
+    sqlite3_limit(db.get(), SQLITE_LIMIT_LENGTH, int(std::min<int64_t>(budget.valueBytes, 1 << 30)));
+    const auto overBudget = [&]() -> Status {
+        if (!deadline.why) return Status::ok();
+        if (!std::strcmp(deadline.why, "cancelled")) return fail("cancelled");
+        return fail("stopped after its time budget of " + formatNumber(budget.seconds) +
+                    " s (an expression is evaluated once per label; a join of t with itself grows with the "
+                    "label count to that power)");
+    };
     const std::string sql = "SELECT (" + expression + "\n) FROM t ORDER BY label";
     sqlite3_stmt* rawSt = nullptr;
     const char* tail = nullptr;
     if (sqlite3_prepare_v2(db.get(), sql.c_str(), int(sql.size()), &rawSt, &tail) != SQLITE_OK) {
         sqlite3_finalize(rawSt);
+        if (Status b = overBudget(); !b) return b;
         return fail(sqlite3_errmsg(db.get()));
     }
     StmtPtr st(rawSt);
@@ -263,14 +279,27 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     text.reserve(table.rowCount());
     col.values.reserve(table.rowCount());
     int step;
+    uint64_t resultBytes = 0;
     while ((step = sqlite3_step(st.get())) == SQLITE_ROW) {
         const int type = sqlite3_column_type(st.get(), 0);
         if (type == SQLITE_TEXT || type == SQLITE_BLOB) col.numeric = false;
         if (type == SQLITE_NULL) col.values.push_back(std::numeric_limits<double>::quiet_NaN());
         else col.values.push_back(sqlite3_column_double(st.get(), 0));
         text.push_back(cellText(st.get(), 0));
+        resultBytes += text.back().size() + sizeof(std::string);
+        if (resultBytes > budget.resultBytes)
+            return fail("its values exceed the budget of " +
+                        (budget.resultBytes % (1u << 20) ? std::to_string(budget.resultBytes) + " bytes"
+                                                         : std::to_string(budget.resultBytes >> 20) + " MiB") +
+                        " after " +
+                        std::to_string(text.size()) + " of " + std::to_string(table.rowCount()) + " labels");
     }
-    if (step != SQLITE_DONE) return fail(sqlite3_errmsg(db.get()));
+    if (Status b = overBudget(); !b) return b;
+    if (step != SQLITE_DONE) {
+        if (sqlite3_errcode(db.get()) == SQLITE_TOOBIG)
+            return fail("it makes a value larger than the budget of " + std::to_string(budget.valueBytes) + " bytes");
+        return fail(sqlite3_errmsg(db.get()));
+    }
     if (text.size() != table.rowCount()) return fail("the expression did not give one value per label");
     if (!col.numeric) {
         col.values.clear();

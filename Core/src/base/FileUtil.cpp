@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/base/FileUtil.h"
+#include "csgv/base/Cancel.h"
 
 #include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstring>
+#include <mutex>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -18,10 +20,46 @@ bool seekTo(std::FILE* f, uint64_t offset) { return fseeko(f, off_t(offset), SEE
 
 namespace {
 std::atomic<unsigned> g_tmpCounter{0};
+std::atomic<bool> g_cancel{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "requestCancel must be async-signal-safe");
+
+/// The temporaries of this process (a few per command: the list is never trimmed).
+struct Temporaries {
+    std::mutex mutex;
+    std::vector<std::string> paths;
+};
+Temporaries& temporaries() {
+    static Temporaries* t = new Temporaries; // never destroyed: a watchdog may use it at exit
+    return *t;
+}
 } // namespace
 
+void requestCancel() noexcept { g_cancel.store(true, std::memory_order_relaxed); }
+bool cancelRequested() noexcept { return g_cancel.load(std::memory_order_relaxed); }
+void resetCancel() noexcept { g_cancel.store(false, std::memory_order_relaxed); }
+
+void registerTemporary(const std::string& path) {
+    Temporaries& t = temporaries();
+    std::lock_guard<std::mutex> lock(t.mutex);
+    t.paths.push_back(path);
+}
+
+void removeTemporaries() {
+    Temporaries& t = temporaries();
+    // The interrupted thread may hold the lock for a moment; never wait on it for long.
+    std::unique_lock<std::mutex> lock(t.mutex, std::defer_lock);
+    for (int i = 0; i < 100 && !lock.try_lock(); ++i) ::usleep(1000);
+    if (!lock.owns_lock()) return;
+    for (const std::string& p : t.paths) {
+        ::unlink(p.c_str());
+        ::unlink((p + "-journal").c_str());
+    }
+}
+
 std::string temporaryNameFor(const std::string& path) {
-    return path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);
+    std::string name = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);
+    registerTemporary(name);
+    return name;
 }
 
 AtomicFile::~AtomicFile() { discard(); }

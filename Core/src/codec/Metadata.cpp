@@ -37,7 +37,7 @@ Status writeMetadata(const std::string& path, const VolumeMetadata& md) {
     j["original_type"] = md.originalType;
     j["relabelled"] = md.relabelled;
     j["source"] = md.source;
-    const std::string text = j.dump(2) + "\n";
+    const std::string text = j.dump(2, ' ', false, json::error_handler_t::replace) + "\n"; // a source name may be any bytes
     AtomicFile f;
     Status s = f.open(path);
     if (s) s = f.write(text.data(), text.size());
@@ -74,7 +74,13 @@ Result<VolumeMetadata> readMetadata(const std::string& path) {
     if (s) s = numbers("origin", md.geometry.origin.data(), 3, false);
     if (s) s = numbers("direction", md.geometry.direction.data(), 9, false);
     if (!s) return s;
-    for (int a = 0; a < 3; ++a) md.dim[a] = uint32_t(dims[a]);
+    // A dimension is a whole number the container can hold: 2^32 + 10 must not wrap to 10.
+    for (int a = 0; a < 3; ++a) {
+        if (j.contains("dimensions") && (dims[a] != std::floor(dims[a]) || dims[a] > 4294967295.0))
+            return Status::error(where + "'dimensions' holds " + jsonText(j["dimensions"][a]) +
+                                 ", not a whole number from 1 to 4294967295");
+        md.dim[a] = uint32_t(dims[a]);
+    }
     if (j.contains("original_type")) {
         if (!j["original_type"].is_string()) return Status::error(where + "'original_type' must be a string");
         md.originalType = j["original_type"].get<std::string>();

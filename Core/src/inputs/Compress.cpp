@@ -256,7 +256,9 @@ struct Job {
     const std::string& output;
 
     Job(const std::string& in, const std::string& out, const CompressOptions& o, CompressReport& r)
-        : input(in), options(o), rep(r), tmp(temporaryNameFor(out) + ".csgv"), progress(o.progress), output(out) {}
+        : input(in), options(o), rep(r), tmp(temporaryNameFor(out) + ".csgv"), progress(o.progress), output(out) {
+        registerTemporary(tmp);
+    }
     /// Whatever ends the job (an error, an exception unwinding), no temporary volume is left.
     ~Job() {
         if (!published) removeIfThere(tmp);
@@ -269,10 +271,7 @@ struct Job {
         removeIfThere(tmp);
         if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
         // The user named the output, not its temporary (encodeToFile's messages name the latter).
-        std::string message = s.message();
-        for (size_t at = message.find(tmp); at != std::string::npos; at = message.find(tmp, at + output.size()))
-            message.replace(at, tmp.size(), output);
-        return named(Status::error(message), input);
+        return named(Status::error(replaced(s.message(), tmp, output)), input);
     }
 
     /// Opens the input (unless a source is given) and fills what is known before any voxel is read.
@@ -342,32 +341,60 @@ struct Job {
         return Status::ok();
     }
 
-    /// The old volume out first, then the sidecars, the new volume last: a .csgv is never paired
-    /// with another compression's sidecars (Compress.h). When a step fails, what it leaves is
-    /// removed: no volume, no sidecars.
+    /// All or nothing: every new file is first written complete under a temporary name (where a
+    /// full disk or any write error can strike), and only then are they renamed over the old set,
+    /// sidecars first and the volume last. A failure before the renames leaves the old volume and
+    /// its sidecars byte-identical and no new file; the renames themselves only fail on a folder
+    /// changed under us, and each says which file it could not move.
     Status publish(const std::string& output) {
         md.relabelled = mapping.relabelled;
-        if (fileExists(output) && std::remove(output.c_str()) != 0)
-            return Status::error("cannot replace '" + output + "': " + errnoText());
-        Status s = publishSidecarsAndVolume(output);
-        if (!s) {
-            removeIfThere(metadataPathFor(output));
-            removeIfThere(attributeDbPathFor(output));
-        }
-        return s;
-    }
-    Status publishSidecarsAndVolume(const std::string& output) {
-        const std::string db = attributeDbPathFor(output);
+        const std::string db = attributeDbPathFor(output), mdPath = metadataPathFor(output);
+        const std::string dbTmp = temporaryNameFor(db), mdTmp = temporaryNameFor(mdPath);
+        auto dropNew = [&] {
+            removeIfThere(dbTmp);
+            removeIfThere(mdTmp);
+        };
         if (mapping.relabelled) {
-            if (Status s = writeAttributeDb(db, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) return s;
-        } else if (fileExists(db) && std::remove(db.c_str()) != 0) {
-            return Status::error("cannot remove the stale attribute database '" + db + "'");
+            if (Status s = writeAttributeDb(dbTmp, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) {
+                dropNew();
+                return Status::error(replaced(s.message(), dbTmp, db));
+            }
         }
-        if (Status s = writeMetadata(metadataPathFor(output), md); !s) return s;
-        if (std::rename(tmp.c_str(), output.c_str()) != 0)
-            return Status::error("cannot rename '" + tmp + "' to '" + output + "': " + errnoText());
+        if (Status s = writeMetadata(mdTmp, md); !s) {
+            dropNew();
+            return Status::error(replaced(s.message(), mdTmp, mdPath));
+        }
+        // A stale database of an earlier relabelled compression must not pair with the new
+        // volume; it is moved aside first (undone if the rest cannot start) and removed last.
+        std::string staleDb;
+        if (!mapping.relabelled && fileExists(db)) {
+            staleDb = temporaryNameFor(db) + "-stale";
+            if (std::rename(db.c_str(), staleDb.c_str()) != 0) {
+                dropNew();
+                return Status::error("cannot replace the attribute database '" + db + "': " + errnoText());
+            }
+        }
+        auto move = [](const std::string& from, const std::string& to) {
+            if (std::rename(from.c_str(), to.c_str()) == 0) return Status::ok();
+            return Status::error("cannot rename '" + from + "' to '" + to + "': " + errnoText());
+        };
+        Status s = move(mdTmp, mdPath);
+        if (s && mapping.relabelled) s = move(dbTmp, db);
+        if (s) s = move(tmp, output);
+        if (!s) {
+            dropNew();
+            if (!staleDb.empty()) std::rename(staleDb.c_str(), db.c_str());
+            return s;
+        }
         published = true;
+        if (!staleDb.empty()) std::remove(staleDb.c_str());
         return Status::ok();
+    }
+    /// `message` with the temporary name a writer used replaced by the name the user knows.
+    static std::string replaced(std::string message, const std::string& from, const std::string& to) {
+        for (size_t at = message.find(from); at != std::string::npos; at = message.find(from, at + to.size()))
+            message.replace(at, from.size(), to);
+        return message;
     }
 };
 

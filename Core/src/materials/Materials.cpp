@@ -300,7 +300,7 @@ std::string serializeMaterials(const MaterialDocument& doc, int indent) {
     // Written only when set, so documents without an overlay read as they always did.
     if (!doc.hidden.empty()) out["hidden"] = doc.hidden;
     if (!doc.only.empty()) out["only"] = doc.only;
-    return out.dump(indent);
+    return out.dump(indent, ' ', false, json::error_handler_t::replace); // names may be any bytes
 }
 
 MaterialDocument defaultMaterials() {

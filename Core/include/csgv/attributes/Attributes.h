@@ -32,6 +32,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace csgv {
@@ -94,8 +95,14 @@ public:
     std::function<double(const std::string&, uint32_t)> attributeFunction() const;
 
 private:
+    /// Rebuilds m_byName after columns were removed (indices shift).
+    void reindex();
+
     std::vector<int64_t> m_labels;
     std::vector<AttributeColumn> m_columns;
+    /// Lower-case column name -> index: names are unique ignoring case (addColumn), and a lookup
+    /// per added column keeps a table of 100k columns linear to build, not quadratic.
+    std::unordered_map<std::string, size_t> m_byName;
 };
 
 /// Label column names recognised (ignoring case) when none is named: the first column whose name
@@ -118,6 +125,9 @@ struct CsvOptions {
     /// others `colN` by 1-based position).
     std::vector<std::string> columnNames;
 };
+
+/// The largest attribute text file readCsv reads (parsing holds a few times its size).
+constexpr uint64_t kMaxAttributeTextBytes = uint64_t(512) << 20;
 
 /// Parses a delimited table: quoted fields ("a ""b""", delimiters and newlines inside quotes),
 /// unquoted fields trimmed, CR LF or LF, a UTF-8 BOM, blank lines and lines starting with '#'
@@ -155,8 +165,17 @@ std::vector<AttributeColumn> columnsForIds(const AttributeTable& table, const st
 /// CAST(... AS INTEGER) for integer arithmetic), missing values as NULL, text columns as TEXT.
 /// Only a single expression is accepted and it may only read. Results that are all numbers or
 /// NULL give a numeric column, otherwise text. SQLite's errors come back with the expression.
+///
+/// A hostile expression cannot hold a session: it runs under a budget (DerivedBudget) of time,
+/// of a value's size and of the result's bytes, and stops at cancelRequested() (Cancel.h); each
+/// ends it with an error naming the budget.
+struct DerivedBudget {
+    double seconds = 10;                      ///< wall-clock time of the whole evaluation
+    int64_t valueBytes = int64_t(1) << 20;    ///< the largest string or blob the expression makes
+    uint64_t resultBytes = uint64_t(256) << 20; ///< all result values together, as text
+};
 Status addDerivedAttribute(AttributeTable& table, const std::string& name, const std::string& expression,
-                           bool replace = false);
+                           bool replace = false, const DerivedBudget& budget = {});
 
 /// @brief Options of computeAttributes().
 struct ComputeAttributesOptions {

@@ -19,6 +19,13 @@ std::string errnoText();
 /// A name beside `path` unique to this process and call (`path.tmp-PID-N`), for files written
 /// and then renamed or removed; `.tmp-` names are what .gitignore and cleanup tests know.
 std::string temporaryNameFor(const std::string& path);
+/// Remembers a temporary file of this process (temporaryNameFor() remembers every name it hands
+/// out), so that removeTemporaries() can take away what an interrupted process leaves.
+void registerTemporary(const std::string& path);
+/// Removes every remembered temporary that still exists (a renamed one is no longer there), with
+/// SQLite's `-journal` beside it: what a tool's interrupt watchdog calls before it ends the
+/// process, so that an interrupt leaves no partial output. Not async-signal-safe.
+void removeTemporaries();
 /// Seeks a C file to a 64-bit offset; false on failure (errno says why).
 bool seekTo(std::FILE* f, uint64_t offset);
 

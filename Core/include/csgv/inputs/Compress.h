@@ -135,13 +135,11 @@ std::string inputSourceName(const std::string& input);
 Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input, const InputOptions& options = {});
 
 /// Compresses `input` to `output` (and its sidecars). The volume is encoded under a temporary
-/// name; then it is published: an existing `output` is removed first, the sidecars are written
-/// (a stale `_csgv.db3` is removed when no relabelling happened), and the `.csgv` is renamed
-/// last. So a `.csgv` is never paired with another compression's sidecars: a reader sees the old
-/// volume with its old sidecars, no volume, or the new volume with its new sidecars. On any error
-/// or cancel no new file is left, and when publishing fails part way no volume is left at
-/// `output` and its sidecars are removed too. Errors (out of memory included) are returned,
-/// never thrown.
+/// name; then the set is published all or nothing: the new sidecars are written complete under
+/// temporary names too, and only then renamed over the old ones, the `.csgv` last (a stale
+/// `_csgv.db3` is removed when no relabelling happened). Any error or cancel before that (a full
+/// disk included) leaves the old volume and sidecars byte-identical and no new file. Errors (out
+/// of memory included) are returned, never thrown.
 Status compressToFile(const std::string& input, const std::string& output, const CompressOptions& options,
                       CompressReport* report = nullptr);
 /// The same from a source already open (`name` for messages and the metadata's source field).
