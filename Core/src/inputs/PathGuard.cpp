@@ -54,7 +54,7 @@ std::string kindOf(mode_t mode) {
 Result<std::string> resolveInside(const NamedPath& p, bool allowOutside) {
     const std::string folder = p.folder.empty() ? "." : p.folder;
     const fs::path named(p.named);
-    const std::string open = named.is_absolute() ? p.named : (fs::path(folder) / named).string();
+    const std::string open = named.is_absolute() || p.folder.empty() ? p.named : (fs::path(p.folder) / named).string();
     if (allowOutside) return open;
     const fs::path realFolder = resolved(folder);
     if (liesInside(resolved(open), realFolder)) return open;
