@@ -131,7 +131,7 @@ Status inflateChunkFile(const std::string& file, uint64_t limit, std::vector<uin
             const int ret = inflate(&r.z, Z_NO_FLUSH);
             have += step - r.z.avail_out;
             if (have > limit)
-                return fail(file, "gzip data inflate to more than the limit of " + std::to_string(limit) + " bytes");
+                return fail(file, "inflates to more than the limit of " + std::to_string(limit) + " bytes");
             if (ret == Z_STREAM_END) ended = true;
             else if (ret != Z_OK && ret != Z_BUF_ERROR)
                 return fail(file, "gzip data is corrupt (" + std::string(r.z.msg ? r.z.msg : "zlib error " + std::to_string(ret)) +
@@ -149,9 +149,12 @@ Status inflateChunkFile(const std::string& file, uint64_t limit, std::vector<uin
 /// @brief The chunks of one scale, read and decoded one at a time.
 class PrecomputedSource final : public InputSource {
 public:
-    PrecomputedSource(std::string chunkDir, PrecomputedInfo info, size_t scale, bool cacheLayers, uint64_t maxFileBytes)
-        : m_chunkDir(std::move(chunkDir)), m_meta(std::move(info)), m_scale(m_meta.scales[scale]),
-          m_cacheLayers(cacheLayers), m_maxFileBytes(maxFileBytes) {
+    /// `root` is the dataset's folder, which every chunk file must lie in unless `allowOutside`.
+    PrecomputedSource(std::string root, std::string chunkDir, bool allowOutside, PrecomputedInfo info, size_t scale,
+                      bool cacheLayers, uint64_t maxFileBytes)
+        : m_root(std::move(root)), m_chunkDir(std::move(chunkDir)), m_allowOutside(allowOutside),
+          m_meta(std::move(info)), m_scale(m_meta.scales[scale]), m_cacheLayers(cacheLayers),
+          m_maxFileBytes(maxFileBytes) {
         describe();
     }
 
@@ -226,19 +229,27 @@ private:
 
     /// The chunk's file name(s): flat, gzip, nested. Empty when none exists (background). A name
     /// that is there but no regular file (a dangling link, a FIFO, a folder) is an error, not
-    /// background: that would silently read as zeros (and a FIFO would block).
+    /// background: that would silently read as zeros (and a FIFO would block). A chunk that is a
+    /// symbolic link out of the dataset is refused as the scale key would be (a raw chunk of the
+    /// right size would copy any file into the output).
     Result<std::string> chunkFile(const Box& b) const {
         std::array<std::string, 3> range;
         for (size_t i = 0; i < 3; ++i) {
             const int64_t begin = m_scale.voxelOffset[i] + b.lo[i];
             range[i] = std::to_string(begin) + "-" + std::to_string(begin + b.extent[i]);
         }
-        const std::string flat = m_chunkDir + "/" + range[0] + "_" + range[1] + "_" + range[2];
-        for (const std::string& candidate :
-             {flat, flat + ".gz", m_chunkDir + "/" + range[0] + "/" + range[1] + "/" + range[2]}) {
+        const std::string flat = range[0] + "_" + range[1] + "_" + range[2];
+        for (const std::string& name : {flat, flat + ".gz", range[0] + "/" + range[1] + "/" + range[2]}) {
+            const std::string candidate = m_chunkDir + "/" + name;
             const std::string kind = notRegularFile(candidate);
-            if (kind.empty()) return candidate;
-            if (kind != "missing") return fail(candidate, "chunk is " + kind + ", not a regular file");
+            if (kind == "missing") continue;
+            if (!kind.empty()) return fail(candidate, "chunk is " + kind + ", not a regular file");
+            if (!m_allowOutside)
+                if (Result<std::string> inside =
+                        resolveInside({m_scale.key + "/" + name, m_root, "chunk", "the dataset's folder"}, false);
+                    !inside)
+                    return Status(inside.status()).prefix(candidate);
+            return candidate;
         }
         return std::string();
     }
@@ -294,7 +305,9 @@ private:
         return std::to_string(e[0]) + "x" + std::to_string(e[1]) + "x" + std::to_string(e[2]);
     }
 
+    std::string m_root;
     std::string m_chunkDir;
+    bool m_allowOutside;
     PrecomputedInfo m_meta;
     PrecomputedScale m_scale;
     bool m_cacheLayers;
@@ -348,7 +361,8 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
     const bool cacheLayers = layerBytes <= options.maxWorkingBytes - chunkBytes - maxFileBytes;
 
     return std::unique_ptr<InputSource>(
-        std::make_unique<PrecomputedSource>(chunkDir, std::move(*info), *index, cacheLayers, maxFileBytes));
+        std::make_unique<PrecomputedSource>(p.dir, chunkDir, options.allowOutsidePaths, std::move(*info), *index,
+                                            cacheLayers, maxFileBytes));
 }
 
 } // namespace inputs

@@ -167,6 +167,10 @@ private:
     Status copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, uint32_t z0, uint32_t zs, uint32_t ze, uint64_t* out) const;
 
     std::string m_dir;
+    /// Chunk files must lie inside the folder the user named (m_root; m_dir as seen from it)
+    /// unless options allow otherwise: a chunk that links out would copy any file into the output.
+    std::string m_root, m_dirFromRoot;
+    bool m_allowOutside = false;
     ZarrArray m_array;
     int m_axis[3] = {-1, -1, -1};     ///< array axis of x, y, z (-1: z absent, a 2D image)
     uint64_t m_chunk[3] = {1, 1, 1};  ///< chunk extent along x, y, z
@@ -266,6 +270,11 @@ Status ZarrSource::planMemory(const InputOptions& options) {
 Status ZarrSource::open(const std::string& path, const InputOptions& options) {
     Result<Resolved> r = resolve(path, options.allowOutsidePaths);
     if (!r) return r.status();
+    m_allowOutside = options.allowOutsidePaths;
+    m_root = stripSlashes(path);
+    std::error_code ec;
+    m_dirFromRoot = fs::path(r->arrayDir).lexically_normal().lexically_relative(fs::path(m_root).lexically_normal()).string();
+    if (m_dirFromRoot.empty()) m_dirFromRoot = fs::absolute(r->arrayDir, ec).string();
     for (auto step : {&ZarrSource::readArray, &ZarrSource::findAxes})
         if (Status s = (this->*step)(*r); !s) return s;
     placeInSpace(*r);
@@ -308,6 +317,15 @@ Status ZarrSource::load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk) {
     if (!kind.empty()) {
         chunk.loaded = false;
         return fail(p, "chunk is " + kind + ", not a regular file");
+    }
+    if (!m_allowOutside) {
+        const std::string key = p.substr(m_dir.size() + 1);
+        Result<std::string> inside =
+            resolveInside({m_dirFromRoot == "." ? key : m_dirFromRoot + "/" + key, m_root, "chunk", "the dataset's folder"}, false);
+        if (!inside) {
+            chunk.loaded = false;
+            return Status(inside.status()).prefix(p);
+        }
     }
     Result<int> fd = openRegularFile(p);
     CFile f(fd ? ::fdopen(*fd, "rb") : nullptr);

@@ -57,6 +57,12 @@ write(os.path.join(g, ".zattrs"), json.dumps({"multiscales": [{"version": "0.4",
     {"name": "z", "type": "space"}, {"name": "y", "type": "space"}, {"name": "x", "type": "space"}],
     "datasets": [{"path": "../elsewhere/0", "coordinateTransformations": [{"type": "scale", "scale": [1, 1, 1]}]}]}]}).encode())
 zarr_array(os.path.join(h, "fifo.zarr"))  # its chunk 0.0.0 becomes a FIFO below
+# Chunks that are symbolic links out of their dataset, of just the size a raw chunk has.
+zarr_array(os.path.join(h, "link.zarr"))
+os.symlink(os.path.join(h, "elsewhere", "0", "0.0.0"), os.path.join(h, "link.zarr", "0.0.0"))
+precomputed(os.path.join(h, "pc_link"), "s")
+os.makedirs(os.path.join(h, "pc_link", "s"))
+os.symlink(os.path.join(h, "outside", "0-8_0-8_0-8"), os.path.join(h, "pc_link", "s", "0-8_0-8_0-8"))
 
 # -- NRRD: detached headers naming data outside their folder, and a gzip NRRD whose stream goes
 # on for 32 GiB of zeros after the 64 bytes its header claims (32 MiB on disk, no trailer).
@@ -104,6 +110,12 @@ expect_bounded 1 512 10 "up.zarr: multiscale dataset path '\.\./elsewhere/0' lie
   "OME-Zarr dataset path ../elsewhere/0 is refused" "$CSGV" info "$H/up.zarr"
 expect_bounded 0 512 10 "" "OME-Zarr dataset path ../elsewhere/0 is read with --allow-outside-paths" \
   "$CSGV" compress "$H/up.zarr" "$TMP/up.csgv" --quiet --allow-outside-paths
+expect_bounded 1 512 10 "pc_link/s/0-8_0-8_0-8: chunk 's/0-8_0-8_0-8' lies outside the dataset's folder" \
+  "precomputed chunk linking out of the dataset is refused" "$CSGV" compress "$H/pc_link" "$TMP/pc_link.csgv" --quiet
+expect_bounded 0 512 10 "" "precomputed chunk linking out is read with --allow-outside-paths" \
+  "$CSGV" compress "$H/pc_link" "$TMP/pc_link.csgv" --quiet --allow-outside-paths
+expect_bounded 1 512 10 "link.zarr/0.0.0: chunk '0.0.0' lies outside the dataset's folder" \
+  "Zarr chunk linking out of the dataset is refused" "$CSGV" compress "$H/link.zarr" "$TMP/link.csgv" --quiet
 expect_bounded 1 512 10 "up.nhdr: data file '\.\./secret.raw' lies outside the header's folder '.*/n' \(pass --allow-outside-paths" \
   "NRRD data file ../secret.raw is refused" "$CSGV" info "$H/n/up.nhdr"
 expect_bounded 0 512 10 "" "NRRD data file ../secret.raw is read with --allow-outside-paths" \
