@@ -5,7 +5,8 @@
 /// group (its first, full-resolution dataset is read) or an OME `labels` group (its first label
 /// image). Metadata parsing and chunk decoding are in ZarrFormat.cpp. The paths that metadata
 /// name (a multiscale dataset's `path`, a label image's name) must lie inside the group that names
-/// them unless InputOptions::allowOutsidePaths (PathGuard.h).
+/// them, and chunk files inside the folder the user named, unless InputOptions::allowOutsidePaths
+/// (PathGuard.h); a chunk name that is there but no regular file is an error, not fill_value.
 ///
 /// Working memory: when one layer of chunks (every chunk sharing a z chunk index) fits
 /// InputOptions::maxWorkingBytes, the decoded chunks of the current layer are kept, so a chunk
@@ -18,9 +19,9 @@
 #include "csgv/inputs/PathGuard.h"
 #include "csgv/inputs/ZarrFormat.h"
 
-#include <algorithm>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
