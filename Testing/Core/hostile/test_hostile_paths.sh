@@ -2,11 +2,14 @@
 # SPDX-License-Identifier: MIT
 # Hostile inputs (issue 37, items 6-8) for the NRRD, TIFF, Zarr and precomputed readers, through
 # the `csgv` tool under memory and time ceilings (expect_bounded): files a dataset names outside
-# its own folder are refused unless --allow-outside-paths; a dangling link or a FIFO among TIFF
-# slices is named, never skipped, and no FIFO is opened (it would block); a gzip NRRD with
+# its own folder (NRRD data files, precomputed scale keys, OME-Zarr dataset paths, chunks that are
+# links out) are refused unless --allow-outside-paths; a dangling link or a FIFO among TIFF
+# slices or as a Zarr chunk is named, never skipped, and no FIFO is opened (it would block); a
+# gzip NRRD with
 # gigabytes of surplus is refused after a small probe, not inflated to its end; a cut or corrupt
 # precomputed gzip chunk and a looping TIFF page chain get messages that say so. Fixtures are
-# written here, small (the largest is a 32 MiB gzip stream of zeros).
+# written here, small (the largest is a 32 MiB gzip stream of zeros); compress runs one thread,
+# so that the address-space ceiling does not depend on the machine's core count.
 set -u
 CSGV=$1
 PYTHON=${2:-/usr/bin/python3} # the system one, which has numpy and tifffile
@@ -103,23 +106,23 @@ EOF
 expect_bounded 1 512 10 "pc_up/info: scale key '\.\./outside' lies outside the dataset's folder '.*pc_up' \(pass --allow-outside-paths" \
   "precomputed scale key ../outside is refused" "$CSGV" info "$H/pc_up"
 expect_bounded 0 512 10 "" "precomputed scale key ../outside is read with --allow-outside-paths" \
-  "$CSGV" compress "$H/pc_up" "$TMP/pc_up.csgv" --quiet --allow-outside-paths
+  "$CSGV" compress "$H/pc_up" "$TMP/pc_up.csgv" --quiet --threads 1 --allow-outside-paths
 expect_bounded 1 512 10 "scale key '/.*/outside' lies outside the dataset's folder" \
   "precomputed absolute scale key is refused" "$CSGV" info "$H/pc_abs"
 expect_bounded 1 512 10 "up.zarr: multiscale dataset path '\.\./elsewhere/0' lies outside the group's folder" \
   "OME-Zarr dataset path ../elsewhere/0 is refused" "$CSGV" info "$H/up.zarr"
 expect_bounded 0 512 10 "" "OME-Zarr dataset path ../elsewhere/0 is read with --allow-outside-paths" \
-  "$CSGV" compress "$H/up.zarr" "$TMP/up.csgv" --quiet --allow-outside-paths
+  "$CSGV" compress "$H/up.zarr" "$TMP/up.csgv" --quiet --threads 1 --allow-outside-paths
 expect_bounded 1 512 10 "pc_link/s/0-8_0-8_0-8: chunk 's/0-8_0-8_0-8' lies outside the dataset's folder" \
-  "precomputed chunk linking out of the dataset is refused" "$CSGV" compress "$H/pc_link" "$TMP/pc_link.csgv" --quiet
+  "precomputed chunk linking out of the dataset is refused" "$CSGV" compress "$H/pc_link" "$TMP/pc_link.csgv" --quiet --threads 1
 expect_bounded 0 512 10 "" "precomputed chunk linking out is read with --allow-outside-paths" \
-  "$CSGV" compress "$H/pc_link" "$TMP/pc_link.csgv" --quiet --allow-outside-paths
+  "$CSGV" compress "$H/pc_link" "$TMP/pc_link.csgv" --quiet --threads 1 --allow-outside-paths
 expect_bounded 1 512 10 "link.zarr/0.0.0: chunk '0.0.0' lies outside the dataset's folder" \
-  "Zarr chunk linking out of the dataset is refused" "$CSGV" compress "$H/link.zarr" "$TMP/link.csgv" --quiet
+  "Zarr chunk linking out of the dataset is refused" "$CSGV" compress "$H/link.zarr" "$TMP/link.csgv" --quiet --threads 1
 expect_bounded 1 512 10 "up.nhdr: data file '\.\./secret.raw' lies outside the header's folder '.*/n' \(pass --allow-outside-paths" \
   "NRRD data file ../secret.raw is refused" "$CSGV" info "$H/n/up.nhdr"
 expect_bounded 0 512 10 "" "NRRD data file ../secret.raw is read with --allow-outside-paths" \
-  "$CSGV" compress "$H/n/up.nhdr" "$TMP/up_nrrd.csgv" --quiet --allow-outside-paths
+  "$CSGV" compress "$H/n/up.nhdr" "$TMP/up_nrrd.csgv" --quiet --threads 1 --allow-outside-paths
 expect_bounded 1 512 10 "abs.nhdr: data file '/.*secret.raw' lies outside the header's folder" \
   "NRRD absolute data file outside the folder is refused" "$CSGV" info "$H/n/abs.nhdr"
 expect_bounded 1 512 10 "link.nhdr: data file 'link.raw' lies outside the header's folder" \
@@ -137,17 +140,17 @@ rm "$H/slices/s3.tif"
 expect_bounded 0 512 10 "" "TIFF folder of three slices still reads" "$CSGV" info "$H/slices"
 mkfifo "$H/fifo.zarr/0.0.0"
 expect_bounded 1 512 5 "fifo.zarr/0.0\.0: chunk is a FIFO" "a FIFO as a Zarr chunk is refused, not opened" \
-  "$CSGV" compress "$H/fifo.zarr" "$TMP/fifo.csgv" --quiet
+  "$CSGV" compress "$H/fifo.zarr" "$TMP/fifo.csgv" --quiet --threads 1
 expect_bounded 1 512 8 "surplus.nrrd: gzip data in '.*surplus.nrrd' inflate to more than the 64 bytes .* over 65536 bytes more follow" \
-  "gzip NRRD with 32 GiB of surplus is refused without inflating it" "$CSGV" compress "$H/surplus.nrrd" "$TMP/surplus.csgv" --quiet
+  "gzip NRRD with 32 GiB of surplus is refused without inflating it" "$CSGV" compress "$H/surplus.nrrd" "$TMP/surplus.csgv" --quiet --threads 1
 
 # Item 6: messages that say what is wrong.
 expect_bounded 1 512 10 "pc_cut/s/0-8_0-8_0-8.gz: gzip data are cut: the file's 12 bytes end inside the compressed stream" \
-  "cut precomputed gzip chunk" "$CSGV" compress "$H/pc_cut" "$TMP/pc_cut.csgv" --quiet
+  "cut precomputed gzip chunk" "$CSGV" compress "$H/pc_cut" "$TMP/pc_cut.csgv" --quiet --threads 1
 expect_bounded 1 512 10 "pc_empty/s/0-8_0-8_0-8.gz: gzip chunk file is empty" \
-  "empty precomputed gzip chunk" "$CSGV" compress "$H/pc_empty" "$TMP/pc_empty.csgv" --quiet
+  "empty precomputed gzip chunk" "$CSGV" compress "$H/pc_empty" "$TMP/pc_empty.csgv" --quiet --threads 1
 expect_bounded 1 512 10 "pc_notgz/s/0-8_0-8_0-8.gz: gzip data is corrupt \(incorrect header check\)" \
-  "corrupt precomputed gzip chunk" "$CSGV" compress "$H/pc_notgz" "$TMP/pc_notgz.csgv" --quiet
+  "corrupt precomputed gzip chunk" "$CSGV" compress "$H/pc_notgz" "$TMP/pc_notgz.csgv" --quiet --threads 1
 expect_bounded 1 512 10 "loop.tif: its page chain loops back to page 3 after 5 pages" \
   "looping TIFF page chain" "$CSGV" info "$H/loop.tif"
 
