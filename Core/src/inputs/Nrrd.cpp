@@ -474,17 +474,20 @@ protected:
     /// Reads on a little past the last voxel: a stream that ends there has its checksums verified
     /// (and a small surplus, such as padding, is allowed, as teem reads only what it needs); one
     /// that goes on is refused without inflating the rest, which may be gigabytes (a header whose
-    /// sizes are too small, or a decompression bomb behind a small volume).
+    /// sizes are too small, or a decompression bomb behind a small volume). Bytes after the last
+    /// gzip member that are no gzip member are corrupt data here, as everywhere in the stream.
     Status atDataEnd(InputStream& in) override {
+        const uint64_t skip = uint64_t(m_byteSkip);
+        const std::string needed = std::to_string(dataBytes() + skip) + " bytes the header's sizes and type need" +
+                                   (skip ? " (with byte skip)" : "");
         std::vector<uint8_t> probe(kSurplusProbeBytes + 1);
         Result<size_t> got = in.read(probe.data(), probe.size());
+        if (!got && in.failure() == InputStream::Failure::Corrupt)
+            return fail(path(), "corrupt gzip data in '" + data().file + "' after the " + needed + ": " + got.message());
         if (!got) return streamFailure(in, got.status());
         if (*got <= kSurplusProbeBytes) return Status::ok();
-        const uint64_t skip = uint64_t(m_byteSkip);
-        return fail(path(), "gzip data in '" + data().file + "' inflate to more than the " +
-                                std::to_string(dataBytes() + skip) + " bytes the header's sizes and type need" +
-                                (skip ? " (with byte skip)" : "") + ": over " + std::to_string(kSurplusProbeBytes) +
-                                " bytes more follow (refused without inflating the rest)");
+        return fail(path(), "gzip data in '" + data().file + "' inflate to more than the " + needed + ": over " +
+                                std::to_string(kSurplusProbeBytes) + " bytes more follow (refused without inflating the rest)");
     }
 
 private:
