@@ -17,10 +17,13 @@
 #include "TestData.h"
 
 #include "csgv/inputs/Inputs.h"
+#include "csgv/inputs/PathGuard.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/LabelVolume.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -1253,4 +1256,75 @@ TEST(InputsNiftiErrors, GzipChecksumIsVerifiedAfterTheVoxels) {
     const std::string path = tmp("badcrc.nii.gz");
     writeBytes(path, gz);
     EXPECT_TRUE(failsWith(csgv::readNifti(path).status(), {"cannot inflate", "badcrc.nii.gz", "incorrect data check"}));
+}
+
+TEST(InputsNrrdErrors, GzipSurplusIsProbedNotInflatedToItsEnd) {
+    const Bytes voxels = pattern(64);
+    // A little surplus (padding) is read to the stream's end, checksum and all, and accepted.
+    auto r = nrrdRoundTrip("surplus-small.nrrd", nrrdHeader("uint8", "4 4 4", "", "gzip"), gzipBytes(voxels + Bytes(1000, 0)));
+    ASSERT_TRUE(r.isOk()) << r.message();
+    EXPECT_EQ(r->values[63], uint64_t(voxels[63]));
+    // More than 64 KiB is refused where the probe stops (the test's ceiling on gigabytes is in
+    // Testing/Core/hostile/test_hostile_paths.sh).
+    r = nrrdRoundTrip("surplus-large.nrrd", nrrdHeader("uint8", "4 4 4", "", "gzip"), gzipBytes(voxels + Bytes(70000, 0)));
+    EXPECT_TRUE(failsWith(r.status(), {"surplus-large.nrrd", "inflate to more than the 64 bytes", "over 65536 bytes more"}));
+}
+
+// ------------------------------------------------------------------------------------------------
+// PathGuard: what a dataset names must stay inside its folder; nothing named is opened blocking
+// ------------------------------------------------------------------------------------------------
+
+TEST(PathGuard, NamedPathsStayInsideTheFolderAfterDotsAndLinks) {
+    namespace fs = std::filesystem;
+    const std::string root = tmp("pathguard");
+    fs::remove_all(root);
+    const std::string set = root + "/set";
+    for (const std::string& d : {set + "/data", root + "/set2"}) fs::create_directories(d);
+    writeBytes(set + "/data/vol.raw", Bytes(4, 1));
+    writeBytes(root + "/set2/a.raw", Bytes(4, 2));
+    writeBytes(root + "/secret.raw", Bytes(4, 3));
+    fs::create_directory_symlink(set, root + "/alias");     // the dataset reached through a link
+    fs::create_symlink(root + "/secret.raw", set + "/out.raw"); // a link inside pointing out
+    auto guard = [](const std::string& named, const std::string& folder, bool allow = false) {
+        return csgv::inputs::resolveInside({named, folder, "data file", "the header's folder"}, allow);
+    };
+    for (const std::string& inside : {std::string("data/vol.raw"), std::string("data/../data/vol.raw"),
+                                      std::string("./data/vol.raw"), set + "/data/vol.raw", std::string("missing.raw")}) {
+        csgv::Result<std::string> r = guard(inside, set);
+        EXPECT_TRUE(r.isOk()) << inside << ": " << r.message();
+    }
+    EXPECT_EQ(*guard("data/vol.raw", set), set + "/data/vol.raw");
+    EXPECT_TRUE(guard("data/vol.raw", root + "/alias").isOk());
+    const csgv::Result<std::string> up = guard("../secret.raw", set);
+    EXPECT_TRUE(failsWith(up.status(), {"data file '../secret.raw' lies outside the header's folder '" +
+                                            fs::canonical(set).string() + "'",
+                                        "pass --allow-outside-paths"}));
+    // Component-wise: `set2` is not inside `set`; through a link or a missing folder is still out.
+    for (const std::string& outside : {std::string("../set2/a.raw"), root + "/secret.raw", std::string("out.raw"),
+                                       std::string("missing/../../secret.raw"), std::string("/")}) {
+        EXPECT_FALSE(guard(outside, set).isOk()) << outside;
+        EXPECT_FALSE(guard(outside, root + "/alias").isOk()) << outside;
+    }
+    ASSERT_TRUE(guard("../secret.raw", set, true).isOk());
+    EXPECT_EQ(*guard("../secret.raw", set, true), set + "/../secret.raw");
+}
+
+TEST(PathGuard, OpenRegularFileRefusesFifosWithoutBlocking) {
+    const std::string fifo = tmp("pathguard-fifo");
+    std::remove(fifo.c_str());
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    csgv::Result<int> fd = csgv::inputs::openRegularFile(fifo); // would block without O_NONBLOCK
+    EXPECT_TRUE(failsWith(fd.status(), {"FIFO"}));
+    EXPECT_EQ(csgv::inputs::notRegularFile(fifo), "a FIFO (named pipe)");
+    std::remove(fifo.c_str());
+    const std::string dangling = tmp("pathguard-dangling");
+    std::remove(dangling.c_str());
+    ASSERT_EQ(::symlink("/nonexistent/target", dangling.c_str()), 0);
+    EXPECT_EQ(csgv::inputs::notRegularFile(dangling), "a dangling symbolic link");
+    EXPECT_EQ(csgv::inputs::notRegularFile(tmp("pathguard-nothing")), "missing");
+    writeBytes(tmp("pathguard-file"), Bytes(3, 0));
+    EXPECT_EQ(csgv::inputs::notRegularFile(tmp("pathguard-file")), "");
+    fd = csgv::inputs::openRegularFile(tmp("pathguard-file"));
+    ASSERT_TRUE(fd.isOk()) << fd.message();
+    ::close(*fd);
 }

@@ -4,12 +4,15 @@
 /// to its blank line and checked whole (parseNrrdHeader, also the fuzz target's entry), the data
 /// located (line and byte skips; a raw file too short for the sizes is refused then), and the
 /// voxels read slab by slab by VoxelFileSource: raw data by positioned reads of each slab's
-/// bytes, gzip data through one stream kept open between slabs (an earlier slab restarts it).
+/// bytes, gzip data through one stream kept open between slabs (an earlier slab restarts it),
+/// and after the last voxel at most 64 KiB more (NrrdSource::atDataEnd). A detached `data file`
+/// must lie inside the header's folder unless InputOptions::allowOutsidePaths (PathGuard.h).
 /// Working memory: a 128 KiB decode buffer, plus 304 KiB for a gzip stream (its input buffer,
 /// zlib's state and 32 KiB window), whatever the volume's size.
 #include "InputCommon.h"
 
 #include "csgv/inputs/HeaderFormats.h"
+#include "csgv/inputs/PathGuard.h"
 
 #include "csgv/base/Checked.h"
 
@@ -468,7 +471,28 @@ protected:
         }
     }
 
+    /// Reads on a little past the last voxel: a stream that ends there has its checksums verified
+    /// (and a small surplus, such as padding, is allowed, as teem reads only what it needs); one
+    /// that goes on is refused without inflating the rest, which may be gigabytes (a header whose
+    /// sizes are too small, or a decompression bomb behind a small volume). Bytes after the last
+    /// gzip member that are no gzip member are corrupt data here, as everywhere in the stream.
+    Status atDataEnd(InputStream& in) override {
+        const uint64_t skip = uint64_t(m_byteSkip);
+        const std::string needed = std::to_string(dataBytes() + skip) + " bytes the header's sizes and type need" +
+                                   (skip ? " (with byte skip)" : "");
+        std::vector<uint8_t> probe(kSurplusProbeBytes + 1);
+        Result<size_t> got = in.read(probe.data(), probe.size());
+        if (!got && in.failure() == InputStream::Failure::Corrupt)
+            return fail(path(), "corrupt gzip data in '" + data().file + "' after the " + needed + ": " + got.message());
+        if (!got) return streamFailure(in, got.status());
+        if (*got <= kSurplusProbeBytes) return Status::ok();
+        return fail(path(), "gzip data in '" + data().file + "' inflate to more than the " + needed + ": over " +
+                                std::to_string(kSurplusProbeBytes) + " bytes more follow (refused without inflating the rest)");
+    }
+
 private:
+    static constexpr size_t kSurplusProbeBytes = size_t(64) << 10;
+
     std::string m_dataName;
     int64_t m_byteSkip;
 };
@@ -559,8 +583,13 @@ Result<std::unique_ptr<InputSource>> openNrrdSource(const std::string& path, con
     if (wholeVolumeBudget)
         if (Status s = checkBudget(path, {{h->dim[0], h->dim[1], h->dim[2]}}, *wholeVolumeBudget); !s) return s;
 
-    const std::string dataPath =
-        h->dataFile.empty() ? path : h->dataFile[0] == '/' ? h->dataFile : parentFolder(path) + h->dataFile;
+    std::string dataPath = path;
+    if (!h->dataFile.empty()) {
+        Result<std::string> named = resolveInside(
+            {h->dataFile, parentFolder(path), "data file", "the header's folder"}, options.allowOutsidePaths);
+        if (!named) return Status(named.status()).prefix(path);
+        dataPath = *named;
+    }
     const std::string dataName = dataPath == path ? path : dataPath + " (data file of " + path + ")";
     Result<VoxelData> data = locateNrrdData(path, *h, dataPath, dataName);
     if (!data) return data.status();

@@ -9,7 +9,9 @@
 /// voxel_offset, clipped at the volume's end), or that name plus `.gz` (gzip-compressed), or the
 /// nested `<key>/<x0>-<x1>/<y0>-<y1>/<z0>-<z1>`; a chunk with no file is background (zeros).
 /// Encodings `raw` and `compressed_segmentation` (PrecomputedFormat.h); `type` "segmentation",
-/// or "image" with an unsigned integer data_type (an integer image is read as labels).
+/// or "image" with an unsigned integer data_type (an integer image is read as labels). A scale's
+/// key must name a folder inside the dataset's folder unless InputOptions::allowOutsidePaths
+/// (PathGuard.h); a chunk name that is there but no regular file is an error, not background.
 ///
 /// Geometry: spacing = resolution (nm), origin = voxel_offset * resolution, taking integer voxel
 /// coordinates as voxel centres (Inputs.h's convention, and CloudVolume's). Neuroglancer itself
@@ -24,10 +26,16 @@
 /// that, is refused. The layer is cached only when it fits beside both.
 #include "InputCommon.h"
 
+#include "csgv/inputs/PathGuard.h"
 #include "csgv/inputs/PrecomputedFormat.h"
+
+#include <zlib.h>
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 
 namespace csgv {
 namespace inputs {
@@ -62,8 +70,11 @@ Result<size_t> selectScale(const std::string& infoPath, const PrecomputedInfo& i
     const bool digits = std::all_of(selector.begin(), selector.end(), [](char c) { return std::isdigit((unsigned char)c); });
     if (digits && parseInt64(selector, index) && index >= 0 && uint64_t(index) < info.scales.size())
         return size_t(index);
+    // At most kListed keys: an info file may list thousands, and the message is one line.
+    constexpr size_t kListed = 8;
     std::string keys;
-    for (size_t i = 0; i < info.scales.size(); ++i) keys += (i ? ", " : "") + quoted(info.scales[i].key);
+    for (size_t i = 0; i < std::min(info.scales.size(), kListed); ++i) keys += (i ? ", " : "") + quoted(info.scales[i].key);
+    if (info.scales.size() > kListed) keys += ", ...";
     return fail(infoPath, "no scale " + quoted(selector) + " (scales 0.." + std::to_string(info.scales.size() - 1) +
                               ": " + keys + ")");
 }
@@ -74,12 +85,76 @@ std::string encodingText(const PrecomputedScale& s) {
            std::to_string(s.blockSize[2]);
 }
 
+/// @brief Closes a file descriptor and ends a zlib stream on every return path.
+struct GzipChunkReader {
+    int fd = -1;
+    z_stream z{};
+    bool started = false;
+    ~GzipChunkReader() {
+        if (started) inflateEnd(&z);
+        if (fd >= 0) ::close(fd);
+    }
+};
+
+/// Inflates a `.gz` chunk file into `out`, holding at most `limit` + 1 inflated bytes and a
+/// 64 KiB input buffer, and says what is wrong in its own words: corrupt data with zlib's reason,
+/// a stream cut before its end (an empty or half-written file) with the byte counts, or more
+/// than `limit` bytes. (Reading it as a stream and letting the chunk decoder find the size wrong
+/// would call a cut file a "raw chunk of 0 bytes".) Further gzip members are read on, as gzip does.
+Status inflateChunkFile(const std::string& file, uint64_t limit, std::vector<uint8_t>& out) {
+    GzipChunkReader r;
+    Result<int> fd = openRegularFile(file);
+    if (!fd) return fail(file, "cannot open chunk: " + fd.message());
+    r.fd = *fd;
+    // 15 + 32: a 32 KiB window, gzip or zlib wrapper detected (as the stream reader did).
+    if (inflateInit2(&r.z, 15 + 32) != Z_OK) return fail(file, "cannot start zlib");
+    r.started = true;
+    std::vector<uint8_t> in(size_t(64) << 10);
+    uint64_t fileBytes = 0, have = 0;
+    bool ended = false; // the last member read so far has ended (inflate said Z_STREAM_END)
+    out.clear();
+    for (;;) {
+        const ssize_t n = ::read(r.fd, in.data(), in.size());
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) return fail(file, "cannot read chunk: " + errnoText());
+        if (n == 0) break;
+        fileBytes += uint64_t(n);
+        r.z.next_in = in.data();
+        r.z.avail_in = uInt(n);
+        while (r.z.avail_in > 0) {
+            if (ended) inflateReset(&r.z); // another member follows
+            ended = false;
+            const size_t step = size_t(std::min<uint64_t>(uint64_t(1) << 20, limit + 1 - have));
+            if (Status s = resizeOrFail(out, size_t(have + step), file); !s) return s;
+            r.z.next_out = out.data() + have;
+            r.z.avail_out = uInt(step);
+            const int ret = inflate(&r.z, Z_NO_FLUSH);
+            have += step - r.z.avail_out;
+            if (have > limit)
+                return fail(file, "inflates to more than the limit of " + std::to_string(limit) + " bytes");
+            if (ret == Z_STREAM_END) ended = true;
+            else if (ret != Z_OK && ret != Z_BUF_ERROR)
+                return fail(file, "gzip data is corrupt (" + std::string(r.z.msg ? r.z.msg : "zlib error " + std::to_string(ret)) +
+                                      ") at inflated byte " + std::to_string(have));
+        }
+    }
+    if (fileBytes == 0) return fail(file, "gzip chunk file is empty");
+    if (!ended)
+        return fail(file, "gzip data are cut: the file's " + std::to_string(fileBytes) +
+                              " bytes end inside the compressed stream, at inflated byte " + std::to_string(have));
+    out.resize(size_t(have));
+    return Status::ok();
+}
+
 /// @brief The chunks of one scale, read and decoded one at a time.
 class PrecomputedSource final : public InputSource {
 public:
-    PrecomputedSource(std::string chunkDir, PrecomputedInfo info, size_t scale, bool cacheLayers, uint64_t maxFileBytes)
-        : m_chunkDir(std::move(chunkDir)), m_meta(std::move(info)), m_scale(m_meta.scales[scale]),
-          m_cacheLayers(cacheLayers), m_maxFileBytes(maxFileBytes) {
+    /// `root` is the dataset's folder, which every chunk file must lie in unless `allowOutside`.
+    PrecomputedSource(std::string root, std::string chunkDir, bool allowOutside, PrecomputedInfo info, size_t scale,
+                      bool cacheLayers, uint64_t maxFileBytes)
+        : m_root(std::move(root)), m_chunkDir(std::move(chunkDir)), m_allowOutside(allowOutside),
+          m_meta(std::move(info)), m_scale(m_meta.scales[scale]), m_cacheLayers(cacheLayers),
+          m_maxFileBytes(maxFileBytes) {
         describe();
     }
 
@@ -152,17 +227,30 @@ private:
         return Status::ok();
     }
 
-    /// The chunk's file name(s): flat, gzip, nested. Empty when none exists (background).
-    std::string chunkFile(const Box& b) const {
+    /// The chunk's file name(s): flat, gzip, nested. Empty when none exists (background). A name
+    /// that is there but no regular file (a dangling link, a FIFO, a folder) is an error, not
+    /// background: that would silently read as zeros (and a FIFO would block). A chunk that is a
+    /// symbolic link out of the dataset is refused as the scale key would be (a raw chunk of the
+    /// right size would copy any file into the output).
+    Result<std::string> chunkFile(const Box& b) const {
         std::array<std::string, 3> range;
         for (size_t i = 0; i < 3; ++i) {
             const int64_t begin = m_scale.voxelOffset[i] + b.lo[i];
             range[i] = std::to_string(begin) + "-" + std::to_string(begin + b.extent[i]);
         }
-        const std::string flat = m_chunkDir + "/" + range[0] + "_" + range[1] + "_" + range[2];
-        for (const std::string& candidate :
-             {flat, flat + ".gz", m_chunkDir + "/" + range[0] + "/" + range[1] + "/" + range[2]})
-            if (isFile(candidate)) return candidate;
+        const std::string flat = range[0] + "_" + range[1] + "_" + range[2];
+        for (const std::string& name : {flat, flat + ".gz", range[0] + "/" + range[1] + "/" + range[2]}) {
+            const std::string candidate = m_chunkDir + "/" + name;
+            const std::string kind = notRegularFile(candidate);
+            if (kind == "missing") continue;
+            if (!kind.empty()) return fail(candidate, "chunk is " + kind + ", not a regular file");
+            if (!m_allowOutside)
+                if (Result<std::string> inside =
+                        resolveInside({m_scale.key + "/" + name, m_root, "chunk", "the dataset's folder"}, false);
+                    !inside)
+                    return Status(inside.status()).prefix(candidate);
+            return candidate;
+        }
         return std::string();
     }
 
@@ -170,7 +258,9 @@ private:
     Status decodeChunk(const Box& b) {
         const uint64_t voxels = uint64_t(b.extent[0]) * b.extent[1] * b.extent[2]; // <= the open-time chunk
         if (Status s = resizeOrFail(m_chunk, size_t(voxels), m_chunkDir); !s) return s;
-        const std::string file = chunkFile(b);
+        Result<std::string> named = chunkFile(b);
+        if (!named) return named.status();
+        const std::string& file = *named;
         if (file.empty()) {
             std::fill(m_chunk.begin(), m_chunk.end(), 0);
             return Status::ok();
@@ -188,7 +278,9 @@ private:
         }
         const uint64_t bound = raw ? rawBytes + 1 : compressedSegmentationBound(m_info.type, b.extent, m_scale.blockSize);
         std::vector<uint8_t> bytes; // freed once decoded: not held between calls
-        if (Status s = readBoundedFile(file, std::min(bound, m_maxFileBytes), bytes); !s) return s;
+        const uint64_t limit = std::min(bound, m_maxFileBytes);
+        if (Status s = endsWithNoCase(file, ".gz") ? inflateChunkFile(file, limit, bytes) : readBoundedFile(file, limit, bytes); !s)
+            return s;
         const Status s = raw ? decodeRawChunk(bytes.data(), bytes.size(), m_info.type, b.extent, m_chunk.data())
                              : decodeCompressedSegmentation(bytes.data(), bytes.size(), m_info.type, b.extent,
                                                             m_scale.blockSize, m_chunk.data());
@@ -213,7 +305,9 @@ private:
         return std::to_string(e[0]) + "x" + std::to_string(e[1]) + "x" + std::to_string(e[2]);
     }
 
+    std::string m_root;
     std::string m_chunkDir;
+    bool m_allowOutside;
     PrecomputedInfo m_meta;
     PrecomputedScale m_scale;
     bool m_cacheLayers;
@@ -241,7 +335,10 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
     if (!index) return index.status();
     const PrecomputedScale& scale = info->scales[*index];
     if (Status s = checkPrecomputedScale(*info, scale); !s) return fail(infoPath, s.message());
-    const std::string chunkDir = p.dir + "/" + scale.key;
+    Result<std::string> named =
+        resolveInside({scale.key, p.dir, "scale key", "the dataset's folder"}, options.allowOutsidePaths);
+    if (!named) return Status(named.status()).prefix(infoPath);
+    const std::string chunkDir = *named;
     if (!isDir(chunkDir))
         return fail(infoPath, "the chunk folder of scale " + quoted(scale.key) + " (" + chunkDir + ") does not exist");
 
@@ -264,7 +361,8 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
     const bool cacheLayers = layerBytes <= options.maxWorkingBytes - chunkBytes - maxFileBytes;
 
     return std::unique_ptr<InputSource>(
-        std::make_unique<PrecomputedSource>(chunkDir, std::move(*info), *index, cacheLayers, maxFileBytes));
+        std::make_unique<PrecomputedSource>(p.dir, chunkDir, options.allowOutsidePaths, std::move(*info), *index,
+                                            cacheLayers, maxFileBytes));
 }
 
 } // namespace inputs

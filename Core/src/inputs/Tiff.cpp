@@ -15,6 +15,9 @@
 /// comes before `slice_10` (names equal by value, such as `s01` and `s1`, fall back to byte
 /// order). Each slice file must have one page: a folder of multi-page files is refused rather
 /// than concatenated, because such folders usually hold separate volumes (channels, time points).
+/// A matching name that is no regular file (a dangling link, a FIFO, a folder) is an error naming
+/// it, not a slice skipped; no file is opened in a way that could block (PathGuard.h). A page
+/// chain whose next-IFD offset points back to an earlier page is reported as the loop it is.
 ///
 /// Samples: one per pixel, 8/16/32/64-bit unsigned or signed integers, or 32/64-bit floats that
 /// hold integers; any strip or tile layout and any compression this libtiff decodes. A palette
@@ -36,9 +39,13 @@
 /// in the Status; warnings are dropped.
 #include "InputCommon.h"
 
+#include "csgv/inputs/PathGuard.h"
+
 #include <tiffio.h>
 
 #include <fnmatch.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -48,6 +55,7 @@
 #include <filesystem>
 #include <limits>
 #include <type_traits>
+#include <unordered_map>
 
 #if TIFFLIB_VERSION < 20221213
 #error "TIFF input needs libtiff 4.5 or newer (TIFFOpenExt with per-handle error handlers)"
@@ -96,9 +104,16 @@ public:
     static Result<TiffHandle> open(const std::string& file, uint64_t maxAlloc) {
         TiffHandle h;
         h.m_errors = std::make_unique<std::string>();
-        std::error_code ec;
-        h.m_fileBytes = fs::file_size(file, ec);
-        if (ec) return Status::error(ec.message());
+        // Opened by us, so that a FIFO is refused instead of blocking; libtiff closes it from then on.
+        Result<int> fd = openRegularFile(file);
+        if (!fd) return fd.status();
+        struct stat st {};
+        if (::fstat(*fd, &st) != 0) {
+            const std::string why = errnoText();
+            ::close(*fd);
+            return Status::error(why);
+        }
+        h.m_fileBytes = uint64_t(st.st_size);
         TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
         TIFFOpenOptionsSetErrorHandlerExtR(opts, keepError, h.m_errors.get());
         TIFFOpenOptionsSetWarningHandlerExtR(opts, dropWarning, nullptr);
@@ -107,9 +122,12 @@ public:
         const uint64_t cap = std::max<uint64_t>(maxAlloc, uint64_t(64) << 20);
         TIFFOpenOptionsSetMaxSingleMemAlloc(opts, tmsize_t(std::min<uint64_t>(cap, INT64_MAX / 2)));
         // "m": read(2), not mmap: a file truncated while mapped would raise SIGBUS.
-        h.m_tif.reset(TIFFOpenExt(file.c_str(), "rm", opts));
+        h.m_tif.reset(TIFFFdOpenExt(*fd, file.c_str(), "rm", opts));
         TIFFOpenOptionsFree(opts);
-        if (!h.m_tif) return Status::error(h.libtiffSays());
+        if (!h.m_tif) {
+            ::close(*fd); // a failed open leaves the descriptor to its caller
+            return Status::error(h.libtiffSays());
+        }
         return Result<TiffHandle>(std::move(h));
     }
     TIFF* get() const { return m_tif.get(); }
@@ -312,7 +330,9 @@ std::string lastComponent(const std::string& path) {
     return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-/// Regular files of `dir` (symbolic links followed) whose name `keep` accepts, in natural order.
+/// The files of `dir` whose name `keep` accepts, in natural order. Each must be a regular file
+/// (symbolic links followed): a dangling link, a FIFO or a folder among the slices is an error
+/// naming it, since skipping it would silently make the volume thinner (and a FIFO would block).
 template <typename Keep>
 Result<std::vector<std::string>> listFolder(const std::string& dir, const std::string& path, Keep keep) {
     const std::string folder = dir.empty() ? "." : dir;
@@ -321,8 +341,11 @@ Result<std::vector<std::string>> listFolder(const std::string& dir, const std::s
     std::vector<std::string> names;
     for (; !ec && it != end; it.increment(ec)) {
         const std::string name = it->path().filename().string();
-        std::error_code statError; // a dangling link is skipped, not an error
-        if (keep(name) && it->is_regular_file(statError)) names.push_back(name);
+        if (!keep(name)) continue;
+        const std::string kind = notRegularFile(it->path().string());
+        if (!kind.empty())
+            return fail(path, "slice " + quoted(name, 200) + " is " + kind + ", not a TIFF file (remove it, or name the slices by a glob that leaves it out)");
+        names.push_back(name);
     }
     if (ec) return fail(path, "cannot list folder " + folder + ": " + ec.message());
     std::sort(names.begin(), names.end(), naturalLess);
@@ -361,6 +384,31 @@ Result<Listing> listFiles(const std::string& path) {
         l.files = {path};
     }
     return l;
+}
+
+// ---- the page chain ---------------------------------------------------------------------------
+
+/// The offset of the IFD that follows the one at `ifd` (0 at the chain's end), read from the file
+/// (libtiff keeps it private), so that a chain looping back is reported as such. False when the
+/// IFD cannot be read (libtiff then says why).
+bool nextIfdOffset(TIFF* tif, uint64_t ifd, uint64_t& next) {
+    const int fd = TIFFFileno(tif);
+    const bool big = TIFFIsBigTIFF(tif) != 0;
+    const uint16_t one = 1;
+    uint8_t hostFirst = 0;
+    std::memcpy(&hostFirst, &one, 1);
+    const bool fileLittle = (hostFirst == 1) != (TIFFIsByteSwapped(tif) != 0);
+    auto readUint = [&](uint64_t at, unsigned bytes, uint64_t& v) {
+        uint8_t b[8];
+        if (at > uint64_t(std::numeric_limits<off_t>::max()) || ::pread(fd, b, bytes, off_t(at)) != ssize_t(bytes))
+            return false;
+        v = 0;
+        for (unsigned i = 0; i < bytes; ++i) v |= uint64_t(b[fileLittle ? i : bytes - 1 - i]) << (8 * i);
+        return true;
+    };
+    uint64_t entries = 0;
+    if (!readUint(ifd, big ? 8 : 2, entries) || entries > (uint64_t(1) << 40)) return false;
+    return readUint(ifd + (big ? 8 : 2) + entries * (big ? 20 : 12), big ? 8 : 4, next);
 }
 
 // ---- pixels -------------------------------------------------------------------------------------
@@ -448,10 +496,20 @@ private:
     Status scanMultiPage() {
         if (Status s = openFile(0); !s) return s;
         TIFF* tif = m_handle.get();
+        std::unordered_map<uint64_t, uint32_t> pageAt; // IFD offset -> page: a chain that loops is named
         for (uint32_t z = 0;; ++z) {
-            m_pages.push_back({0, uint64_t(TIFFCurrentDirOffset(tif))});
+            const uint64_t ifd = uint64_t(TIFFCurrentDirOffset(tif));
+            pageAt.emplace(ifd, z);
+            m_pages.push_back({0, ifd});
             if (Result<PageLayout> p = checkedLayout(z); !p) return p.status();
             if (TIFFLastDirectory(tif)) return Status::ok();
+            uint64_t next = 0;
+            if (nextIfdOffset(tif, ifd, next))
+                if (const auto seen = pageAt.find(next); seen != pageAt.end())
+                    return fail(m_path, "its page chain loops back to page " + std::to_string(seen->second) + " after " +
+                                            std::to_string(z + 1) + (z == 0 ? " page" : " pages") + " (the IFD at offset " +
+                                            std::to_string(ifd) + " names the one at offset " + std::to_string(next) +
+                                            " as its next)");
             if (!TIFFReadDirectory(tif))
                 return fail(m_path, "page " + std::to_string(z + 1) +
                                         " cannot be read (truncated or corrupt file?): " + m_handle.libtiffSays());

@@ -3,7 +3,10 @@
 /// @brief Zarr v2 arrays and OME-Zarr multiscale images and label groups (`DIR.zarr[/path]`),
 /// read chunk by chunk. The path names an array (a folder with `.zarray`), an OME multiscale
 /// group (its first, full-resolution dataset is read) or an OME `labels` group (its first label
-/// image). Metadata parsing and chunk decoding are in ZarrFormat.cpp.
+/// image). Metadata parsing and chunk decoding are in ZarrFormat.cpp. The paths that metadata
+/// name (a multiscale dataset's `path`, a label image's name) must lie inside the group that names
+/// them, and chunk files inside the folder the user named, unless InputOptions::allowOutsidePaths
+/// (PathGuard.h); a chunk name that is there but no regular file is an error, not fill_value.
 ///
 /// Working memory: when one layer of chunks (every chunk sharing a z chunk index) fits
 /// InputOptions::maxWorkingBytes, the decoded chunks of the current layer are kept, so a chunk
@@ -13,7 +16,10 @@
 #include "InputCommon.h"
 
 #include "csgv/base/Checked.h"
+#include "csgv/inputs/PathGuard.h"
 #include "csgv/inputs/ZarrFormat.h"
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -66,10 +72,14 @@ struct Resolved {
     std::string what;         ///< detail prefix ("label image cells (first of 2): ")
 };
 
-/// The array a multiscale group's `level` names.
-Result<Resolved> levelOf(const std::string& group, ZarrAttrs attrs, size_t level, const std::string& what) {
+/// The array a multiscale group's `level` names (inside the group unless allowOutside).
+Result<Resolved> levelOf(const std::string& group, ZarrAttrs attrs, size_t level, const std::string& what,
+                         bool allowOutside) {
     Resolved r;
-    r.arrayDir = group + "/" + attrs.datasets[level].path;
+    Result<std::string> named =
+        resolveInside({attrs.datasets[level].path, group, "multiscale dataset path", "the group's folder"}, allowOutside);
+    if (!named) return Status(named.status()).prefix(group);
+    r.arrayDir = *named;
     if (!isFile(r.arrayDir + "/.zarray"))
         return fail(group, "multiscale dataset " + inputs::quoted(attrs.datasets[level].path) + " has no .zarray");
     r.multiscale = std::move(attrs);
@@ -96,7 +106,9 @@ std::string describeFolder(const std::string& dir, const ZarrAttrs& attrs) {
     return found;
 }
 
-Result<Resolved> resolve(const std::string& path) {
+/// What `path` names; the paths that metadata name (a multiscale dataset, a label image) must lie
+/// inside the group that names them unless allowOutside.
+Result<Resolved> resolve(const std::string& path, bool allowOutside) {
     const std::string dir = stripSlashes(path);
     if (isFile(dir + "/.zarray")) {
         // An array: a level of an OME multiscale group when its parent says so.
@@ -116,15 +128,17 @@ Result<Resolved> resolve(const std::string& path) {
     if (!isDir(dir)) return fail(dir, "no such Zarr folder");
     Result<ZarrAttrs> attrs = readAttrs(dir);
     if (!attrs) return attrs.status();
-    if (attrs->hasMultiscales) return levelOf(dir, std::move(*attrs), 0, "");
+    if (attrs->hasMultiscales) return levelOf(dir, std::move(*attrs), 0, "", allowOutside);
     if (attrs->hasLabels && !attrs->labels.empty()) {
         const std::string name = attrs->labels[0];
-        const std::string image = dir + "/" + name;
+        Result<std::string> named = resolveInside({name, dir, "label image", "the labels group's folder"}, allowOutside);
+        if (!named) return Status(named.status()).prefix(dir);
+        const std::string image = *named;
         Result<ZarrAttrs> imageAttrs = readAttrs(image);
         if (!imageAttrs) return imageAttrs.status();
         if (!imageAttrs->hasMultiscales) return fail(image, "label image has no multiscales in its .zattrs");
         const std::string what = "label image " + inputs::quoted(name) + " (first of " + std::to_string(attrs->labels.size()) + "): ";
-        return levelOf(image, std::move(*imageAttrs), 0, what);
+        return levelOf(image, std::move(*imageAttrs), 0, what, allowOutside);
     }
     return fail(dir, "not a Zarr array or OME-Zarr image: found " + describeFolder(dir, *attrs));
 }
@@ -154,6 +168,10 @@ private:
     Status copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, uint32_t z0, uint32_t zs, uint32_t ze, uint64_t* out) const;
 
     std::string m_dir;
+    /// Chunk files must lie inside the folder the user named (m_root; m_dir as seen from it)
+    /// unless options allow otherwise: a chunk that links out would copy any file into the output.
+    std::string m_root, m_dirFromRoot;
+    bool m_allowOutside = false;
     ZarrArray m_array;
     int m_axis[3] = {-1, -1, -1};     ///< array axis of x, y, z (-1: z absent, a 2D image)
     uint64_t m_chunk[3] = {1, 1, 1};  ///< chunk extent along x, y, z
@@ -251,8 +269,13 @@ Status ZarrSource::planMemory(const InputOptions& options) {
 }
 
 Status ZarrSource::open(const std::string& path, const InputOptions& options) {
-    Result<Resolved> r = resolve(path);
+    Result<Resolved> r = resolve(path, options.allowOutsidePaths);
     if (!r) return r.status();
+    m_allowOutside = options.allowOutsidePaths;
+    m_root = stripSlashes(path);
+    std::error_code ec;
+    m_dirFromRoot = fs::path(r->arrayDir).lexically_normal().lexically_relative(fs::path(m_root).lexically_normal()).string();
+    if (m_dirFromRoot.empty()) m_dirFromRoot = fs::absolute(r->arrayDir, ec).string();
     for (auto step : {&ZarrSource::readArray, &ZarrSource::findAxes})
         if (Status s = (this->*step)(*r); !s) return s;
     placeInSpace(*r);
@@ -283,16 +306,34 @@ Status ZarrSource::load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk) {
     const std::string p = chunkPath(iz, iy, ix);
     chunk.loaded = true;
     chunk.missing = false;
-    CFile f(std::fopen(p.c_str(), "rb"));
-    if (!f.get()) {
-        if (errno == ENOENT) { // never written: fill_value everywhere
-            chunk.missing = true;
-            chunk.bytes.clear();
-            chunk.bytes.shrink_to_fit();
-            return Status::ok();
-        }
+    // Only a chunk with no name at all was never written (fill_value everywhere): a dangling link
+    // or a FIFO in its place is an error, not background (and a FIFO is never opened: it blocks).
+    const std::string kind = notRegularFile(p);
+    if (kind == "missing") {
+        chunk.missing = true;
+        chunk.bytes.clear();
+        chunk.bytes.shrink_to_fit();
+        return Status::ok();
+    }
+    if (!kind.empty()) {
         chunk.loaded = false;
-        return fail(p, std::string("cannot open chunk: ") + std::strerror(errno));
+        return fail(p, "chunk is " + kind + ", not a regular file");
+    }
+    if (!m_allowOutside) {
+        const std::string key = p.substr(m_dir.size() + 1);
+        Result<std::string> inside =
+            resolveInside({m_dirFromRoot == "." ? key : m_dirFromRoot + "/" + key, m_root, "chunk", "the dataset's folder"}, false);
+        if (!inside) {
+            chunk.loaded = false;
+            return Status(inside.status()).prefix(p);
+        }
+    }
+    Result<int> fd = openRegularFile(p);
+    CFile f(fd ? ::fdopen(*fd, "rb") : nullptr);
+    if (!f.get()) {
+        chunk.loaded = false;
+        if (fd) ::close(*fd);
+        return fail(p, "cannot open chunk: " + (fd ? std::string(std::strerror(errno)) : fd.message()));
     }
     std::error_code ec;
     const uint64_t size = fs::file_size(p, ec);
