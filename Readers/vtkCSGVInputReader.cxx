@@ -525,7 +525,9 @@ int vtkCSGVInputReader::RequestInformation(
   csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgv::Status::error("not opened");
   try
   {
-    source = csgv::openInput(in.Location.Input);
+    csgv::InputOptions inputOptions;
+    inputOptions.allowOutsidePaths = this->AllowOutsidePaths != 0;
+    source = csgv::openInput(in.Location.Input, inputOptions);
   }
   catch (const std::bad_alloc&)
   {
@@ -652,6 +654,7 @@ bool vtkCSGVInputReader::Compress()
   csgv::CompressOptions options;
   options.encode.brickSize = static_cast<uint32_t>(this->BrickSize);
   options.relabel = this->Relabel != 0;
+  options.input.allowOutsidePaths = this->AllowOutsidePaths != 0;
   options.progress = [this, pipelineThread](double fraction, const char*) {
     // VTK events belong to the pipeline's thread; workers only look at the abort flag.
     if (std::this_thread::get_id() == pipelineThread)
@@ -705,6 +708,7 @@ void vtkCSGVInputReader::PrintSelf(ostream& os, vtkIndent indent)
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
   os << indent << "Relabel: " << this->Relabel << "\n";
+  os << indent << "AllowOutsidePaths: " << this->AllowOutsidePaths << "\n";
   os << indent << "BrickSize: " << this->BrickSize << "\n";
   os << indent << "CacheDirectory: " << (this->CacheDirectory ? this->CacheDirectory : "(default)") << "\n";
   os << indent << "DecodeLabels: " << this->DecodeLabels << "\n";

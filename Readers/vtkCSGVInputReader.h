@@ -65,6 +65,13 @@ public:
   vtkGetMacro(Relabel, vtkTypeBool);
   vtkBooleanMacro(Relabel, vtkTypeBool);
 
+  /// Read files that the dataset names outside its own folder (an NRRD `data file:`, a precomputed
+  /// scale key, an OME-Zarr path, HDF5 external storage); default off, so that a file cannot
+  /// make ParaView read another one the user never chose (`csgv --allow-outside-paths`).
+  vtkSetMacro(AllowOutsidePaths, vtkTypeBool);
+  vtkGetMacro(AllowOutsidePaths, vtkTypeBool);
+  vtkBooleanMacro(AllowOutsidePaths, vtkTypeBool);
+
   /// Brick size of the encoding, a power of two in [8, 128] (default 32).
   vtkSetClampMacro(BrickSize, int, 8, 128);
   vtkGetMacro(BrickSize, int);
@@ -102,6 +109,7 @@ protected:
 
   char* FileName = nullptr;
   vtkTypeBool Relabel = 0;
+  vtkTypeBool AllowOutsidePaths = 0;
   int BrickSize = 32;
   char* CacheDirectory = nullptr;
   vtkTypeBool DecodeLabels = 1;

@@ -20,19 +20,23 @@
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
+#include <memory>
+#include <new>
+#include <vector>
 
 vtkStandardNewMacro(vtkCSGVNIfTIReader);
 
-/// @brief The last file's volume. Core reads header and voxels together, so the values read in
-/// RequestInformation are kept for the RequestData that follows, then released.
+/// @brief The last file's source. RequestInformation opens it (its header only: nothing
+/// proportional to what a header claims is allocated there) and RequestData reads it band by band
+/// into an array of the file's own type, so memory is the output plus a bounded band.
 class vtkCSGVNIfTIReader::vtkInternals
 {
 public:
   std::string Path;
-  bool HasValues = false;
-  csgv::InputVolume Volume;
+  std::unique_ptr<csgv::InputSource> Source;
 
   /// Set when the file is not a label volume and VTK's reader reads it instead.
   vtkSmartPointer<vtkNIFTIImageReader> Intensity;
@@ -149,13 +153,70 @@ int vtkCSGVNIfTIReader::CanReadFile(const char* fileName)
   return IsNIfTIFile(fileName) && !IsImageHeader(fileName) ? 1 : 0;
 }
 
+namespace
+{
+/// Bytes of 64-bit values one band of rows holds at most while the output is filled.
+constexpr uint64_t kBandBytes = uint64_t(64) << 20;
+
+/// Calls `band(z, y0, rows, values)` for bands of whole rows of every slice, front to back,
+/// holding at most kBandBytes of values; stops at the first error or when `go_on()` says no.
+template <class Band, class GoOn>
+csgv::Status forEachBand(csgv::InputSource& src, Band band, GoOn go_on)
+{
+  const auto& dim = src.info().dim;
+  const uint64_t rowValues = std::max<uint64_t>(1, dim[0]);
+  // Sources that cannot read part of a slice cheaply (gzip) are read a whole slice at a time.
+  const uint32_t rows = src.readsRows()
+    ? uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(dim[1], kBandBytes / 8 / rowValues)))
+    : dim[1];
+  std::vector<uint64_t> values;
+  try
+  {
+    values.resize(size_t(rowValues * rows));
+  }
+  catch (const std::bad_alloc&)
+  {
+    return csgv::Status::error("out of memory for a band of " + std::to_string(rows) + " rows of " +
+      std::to_string(dim[0]) + " labels");
+  }
+  for (uint32_t z = 0; z < dim[2]; ++z)
+  {
+    for (uint32_t y0 = 0; y0 < dim[1]; y0 += rows)
+    {
+      const uint32_t n = std::min(rows, dim[1] - y0);
+      if (csgv::Status s = src.readRows(z, 1, y0, n, values.data()); !s)
+      {
+        return s;
+      }
+      band(z, y0, n, values.data());
+      if (!go_on(z))
+      {
+        return csgv::Status::error("cancelled");
+      }
+    }
+  }
+  return csgv::Status::ok();
+}
+
+template <class T>
+void convertValues(csgv::LabelType type, const uint64_t* in, size_t n, T* out)
+{
+  const bool isFloat = type == csgv::LabelType::F32 || type == csgv::LabelType::F64;
+  for (size_t i = 0; i < n; ++i)
+  {
+    // Signed and float inputs hold int64 bits; unsigned ones their value.
+    out[i] = (isFloat || csgv::isSignedType(type)) ? static_cast<T>(static_cast<int64_t>(in[i]))
+                                                   : static_cast<T>(in[i]);
+  }
+}
+} // namespace
+
 int vtkCSGVNIfTIReader::RequestInformation(
   vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
   vtkInternals& in = *this->Internals;
-  in.HasValues = false;
-  in.Volume = csgv::InputVolume{};
+  in.Source.reset();
   in.Path.clear();
   if (!this->FileName || !*this->FileName)
   {
@@ -163,12 +224,20 @@ int vtkCSGVNIfTIReader::RequestInformation(
     return 0;
   }
   in.Intensity = nullptr;
-  csgv::Result<csgv::InputVolume> vol = csgv::readNifti(this->FileName);
-  if (!vol && vtkInternals::NotALabelVolume(vol.message()) && in.OpenIntensity(this->FileName))
+  csgv::Result<std::unique_ptr<csgv::InputSource>> src = csgv::openInput(this->FileName);
+  csgv::Status labels = src.status();
+  // Floats are labels only when every value is an integer: a streaming pass decides (bounded
+  // memory), as reading the whole volume did before.
+  if (src && ((*src)->info().type == csgv::LabelType::F32 || (*src)->info().type == csgv::LabelType::F64))
+  {
+    labels = forEachBand(
+      **src, [](uint32_t, uint32_t, uint32_t, const uint64_t*) {}, [](uint32_t) { return true; });
+  }
+  if (!labels && vtkInternals::NotALabelVolume(labels.message()) && in.OpenIntensity(this->FileName))
   {
     if (!this->ExpectsImages)
     {
-      vtkWarningMacro(<< vol.message() << "; not a label volume, so it is read as an intensity "
+      vtkWarningMacro(<< labels.message() << "; not a label volume, so it is read as an intensity "
                       << "image (point array 'Scalars', stored values) with VTK's NIfTI reader");
     }
     vtkInformation* vtkInfo = in.Intensity->GetOutputInformation(0);
@@ -179,19 +248,18 @@ int vtkCSGVNIfTIReader::RequestInformation(
     in.Path = this->FileName;
     return 1;
   }
-  if (!vol)
+  if (!labels)
   {
-    vtkErrorMacro(<< vol.message());
+    vtkErrorMacro(<< labels.message());
     // Reported once; the pipeline goes on with an empty extent and RequestData leaves an empty
     // output, never the previous file's data.
     const int empty[6] = { 0, -1, 0, -1, 0, -1 };
     outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
     return 1;
   }
-  in.Volume = std::move(*vol);
+  in.Source = std::move(*src);
   in.Path = this->FileName;
-  in.HasValues = true;
-  const csgv::InputVolume& v = in.Volume;
+  const csgv::InputInfo& v = in.Source->info();
   // One point more than voxels per axis: voxels are the cells between them.
   int extent[6] = { 0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]) };
   const csgv::Geometry corner = csgv::cellGeometryFromPointGeometry(v.geometry);
@@ -201,22 +269,6 @@ int vtkCSGVNIfTIReader::RequestInformation(
   outInfo->Set(vtkDataObject::DIRECTION(), corner.direction.data(), 9);
   return 1;
 }
-
-namespace
-{
-template <class T>
-void convertValues(const csgv::InputVolume& v, T* out)
-{
-  const size_t n = v.values.size();
-  const bool isFloat = v.type == csgv::LabelType::F32 || v.type == csgv::LabelType::F64;
-  for (size_t i = 0; i < n; ++i)
-  {
-    // Signed and float inputs hold int64 bits; unsigned ones their value.
-    out[i] = (isFloat || csgv::isSignedType(v.type)) ? static_cast<T>(static_cast<int64_t>(v.values[i]))
-                                                      : static_cast<T>(v.values[i]);
-  }
-}
-} // namespace
 
 int vtkCSGVNIfTIReader::RequestData(
   vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
@@ -241,38 +293,63 @@ int vtkCSGVNIfTIReader::RequestData(
     }
     return 1;
   }
-  if (!in.HasValues && in.Path != this->FileName)
+  if (!in.Source || in.Path != this->FileName)
   {
     return 1; // RequestInformation reported why; the output stays empty
   }
-  if (!in.HasValues)
-  {
-    csgv::Result<csgv::InputVolume> vol = csgv::readNifti(this->FileName);
-    if (!vol)
-    {
-      vtkErrorMacro(<< vol.message());
-      return 0;
-    }
-    in.Volume = std::move(*vol);
-    in.Path = this->FileName;
-  }
-  this->UpdateProgress(0.5);
-  const csgv::InputVolume& v = in.Volume;
-  // The whole volume: the file is read whole anyway.
-  output->SetExtent(0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]));
-  csgvvtk::applyGeometry(output, csgv::cellGeometryFromPointGeometry(v.geometry), 0);
+  const csgv::InputInfo& v = in.Source->info();
   const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
   vtkSmartPointer<vtkDataArray> arr = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(type));
   arr->SetName(csgvvtk::kLabelsName);
-  arr->SetNumberOfTuples(static_cast<vtkIdType>(v.values.size()));
-  switch (type)
+  const uint64_t voxels = v.voxelCount();
+  const uint64_t bytes = voxels * uint64_t(arr->GetDataTypeSize());
+  bool allocated = true;
+  try
   {
-    vtkTemplateMacro(convertValues(v, static_cast<VTK_TT*>(arr->GetVoidPointer(0))));
+    arr->SetNumberOfTuples(static_cast<vtkIdType>(voxels));
   }
+  catch (const std::bad_alloc&)
+  {
+    allocated = false;
+  }
+  if (!allocated || (voxels && !arr->GetVoidPointer(0)))
+  {
+    vtkErrorMacro(<< this->FileName << ": " << v.dim[0] << " x " << v.dim[1] << " x " << v.dim[2]
+                  << " labels need " << (bytes >> 20) << " MiB, more than this process can allocate");
+    return 0;
+  }
+  void* base = arr->GetVoidPointer(0);
+  const size_t size = size_t(arr->GetDataTypeSize());
+  const uint64_t slice = uint64_t(v.dim[0]) * v.dim[1];
+  const csgv::LabelType labelType = v.type;
+  csgv::Status s = forEachBand(
+    *in.Source,
+    [&](uint32_t z, uint32_t y0, uint32_t rows, const uint64_t* values) {
+      const uint64_t first = uint64_t(z) * slice + uint64_t(y0) * v.dim[0];
+      char* out = static_cast<char*>(base) + first * size;
+      switch (type)
+      {
+        vtkTemplateMacro(convertValues(labelType, values, size_t(rows) * v.dim[0], reinterpret_cast<VTK_TT*>(out)));
+      }
+    },
+    [&](uint32_t z) {
+      this->UpdateProgress(double(z + 1) / double(std::max<uint32_t>(1, v.dim[2])));
+      return !this->GetAbortExecute();
+    });
+  if (!s)
+  {
+    if (!this->GetAbortExecute())
+    {
+      const std::string message = s.message();
+      vtkErrorMacro(<< (message.find(this->FileName) == std::string::npos ? std::string(this->FileName) + ": " : "")
+                    << message);
+    }
+    output->Initialize();
+    return 0;
+  }
+  output->SetExtent(0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]));
+  csgvvtk::applyGeometry(output, csgv::cellGeometryFromPointGeometry(v.geometry), 0);
   output->GetCellData()->SetScalars(arr);
-  // Release the 8-byte-per-voxel copy: the output now holds the labels.
-  in.Volume = csgv::InputVolume{};
-  in.HasValues = false;
   this->UpdateProgress(1.0);
   return 1;
 }

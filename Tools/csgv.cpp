@@ -67,7 +67,12 @@ std::string usage() {
            "         [--attributes FILE.csv|.txt|.db3]... [--computed-attributes] [--derive NAME=SQL]...\n"
            "      renders on the GPU (CSGV_VULKAN_DEVICE picks the device); --frames N: samples per pixel;\n"
            "      prints each frame's time, the median, the time to the first full frame, device memory\n"
-           "  inputs (IN, SOURCE, INPUT): " + inputs + "\n";
+           "         --video PATTERN: one %d or %0Nd (frame number) and %% for a percent sign\n"
+           "  inputs (IN, SOURCE, INPUT): " + inputs + "\n"
+           "  --allow-outside-paths: read files an input names outside its own folder (NRRD data files,\n"
+           "      precomputed scales, OME-Zarr paths, HDF5 external storage); refused by default\n"
+           "  Ctrl-C or SIGTERM ends any command within a second with exit status 130 and no partial\n"
+           "  output; outputs appear only when complete, and replace an existing set all at once\n";
 }
 
 struct Args {
