@@ -69,7 +69,8 @@ Result<AttributeDatabase> readAttributeDb(const std::string& path) {
         if (deadline.why)
             return Status::error("attribute database '" + path + "': " +
                                  (std::string(deadline.why) == "time"
-                                      ? "reading it took longer than 30 s (are its tables views of a join?)"
+                                      ? "reading it took longer than " + std::to_string(int(sqlite::kReadSeconds)) +
+                                            " s (are its tables views of a join?)"
                                       : std::string("reading it was cancelled")));
         return Status::error("attribute database '" + path + "': " + what);
     };

@@ -38,7 +38,8 @@ inline Result<DbPtr> openReadOnly(const std::string& path, const std::string& wh
     struct stat st {};
     if (::stat(path.c_str(), &st) != 0) return Status::error("cannot open " + what + ": " + std::strerror(errno));
     if (!S_ISREG(st.st_mode)) return Status::error("cannot open " + what + ": not a regular file");
-    std::string uri = "file:";
+    // "file:" + "//x" would make "x" an authority: absolute paths get an empty one ("file:///x").
+    std::string uri = !path.empty() && path[0] == '/' ? "file://" : "file:";
     static const char* hex = "0123456789ABCDEF";
     for (unsigned char c : path) {
         if (c == '%' || c == '?' || c == '#' || c < 0x20 || c >= 0x7f) {

@@ -146,4 +146,9 @@ expect_bounded 0 2048 20 "" "a WAL-mode database is read in a writable folder" "
 [ ! -e r_csgv.db3-shm ] && [ ! -e r_csgv.db3-wal ] && pass "no -shm/-wal written beside the database" \
   || bad "files written beside a sidecar: $(ls r_csgv.db3-* 2>&1)"
 
+# The immutable URI keeps every path a path: '?', '#', '%' in folder names, and '//' in front.
+mkdir -p 'q?#%x' && cp r.csgv r.csgv.json r_csgv.db3 'q?#%x/'
+expect_bounded 0 2048 20 "" "a database in a folder named 'q?#%x' is read" "$CSGV" verify 'q?#%x/r.csgv' "$SRC"
+expect_bounded 0 2048 20 "" "a database under a path starting with //" "$CSGV" verify "/$TMP/r.csgv" "$SRC"
+
 finish
