@@ -17,7 +17,9 @@
 #include <vtk_jsoncpp.h>
 
 #include <QCheckBox>
+#include <QApplication>
 #include <QComboBox>
+#include <QEvent>
 #include <QDoubleSpinBox>
 #include <QDoubleValidator>
 #include <QFileInfo>
@@ -92,6 +94,40 @@ QDoubleSpinBox* numberBox(const char* name, double lo, double hi, double step, Q
   return b;
 }
 
+/// @brief Keeps the mouse wheel from editing a field the user did not click: scrolling the
+/// Properties panel over the editor changed a material's opacity (issue 38). A combo box or number
+/// box takes the wheel only when it has focus, as ParaView's own widgets do; otherwise the event
+/// goes on to the widgets around it, so the panel scrolls.
+class WheelOnlyWhenFocused : public QObject
+{
+public:
+  using QObject::QObject;
+
+  /// Installs the guard on `w` and asks for focus by click or tab only (not by the wheel).
+  static void guard(QWidget* w)
+  {
+    static WheelOnlyWhenFocused* filter = new WheelOnlyWhenFocused(qApp);
+    w->setFocusPolicy(Qt::StrongFocus);
+    w->installEventFilter(filter);
+  }
+
+protected:
+  bool eventFilter(QObject* object, QEvent* event) override
+  {
+    auto* w = qobject_cast<QWidget*>(object);
+    if (event->type() != QEvent::Wheel || !w || w->hasFocus())
+    {
+      return false;
+    }
+    // Qt hands a wheel event that a widget leaves up its parents: the panel's scroll area.
+    if (QWidget* parent = w->parentWidget())
+    {
+      QCoreApplication::sendEvent(parent, event);
+    }
+    return true;
+  }
+};
+
 /// Shows a value in a line edit unless the user is typing in it (focused and changed since the
 /// last commit): a refresh must not rewrite a half-typed number.
 void showText(QLineEdit* e, const QString& text)
@@ -163,7 +199,6 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   this->Problem->setWordWrap(true);
   this->Problem->setStyleSheet("color: #c00000");
   this->Problem->setVisible(false);
-  form->addRow(this->Problem);
   this->Name = new QLineEdit(this->Details);
   this->Name->setObjectName("materialName");
   form->addRow("Name", this->Name);
@@ -230,6 +265,9 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   form->addRow("Opacity", this->Opacity);
   this->Emission = numberBox("emission", 0, 1000, 0.1, this->Details);
   form->addRow("Emission", this->Emission);
+  // Last, so that a reason appearing while a field is typed in moves no field under the
+  // pointer: the next click lands where the user aimed (issue 38).
+  form->addRow(this->Problem);
   top->addWidget(this->Details);
 
   // Attributes.
@@ -285,11 +323,13 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   }
   for (QComboBox* c : { this->FilterAttribute, this->ColorMode, this->ColorAttribute, this->Wrap })
   {
+    WheelOnlyWhenFocused::guard(c);
     connect(c, QOverload<int>::of(&QComboBox::currentIndexChanged), this,
       &pqCSGVMaterialEditor::detailsEdited);
   }
   for (QDoubleSpinBox* s : { this->Opacity, this->Emission })
   {
+    WheelOnlyWhenFocused::guard(s);
     // Without keyboard tracking, valueChanged comes when the user finishes (numberBox()).
     connect(s, QOverload<double>::of(&QDoubleSpinBox::valueChanged), this,
       &pqCSGVMaterialEditor::detailsEdited);

@@ -33,6 +33,7 @@
 #include <QPlainTextEdit>
 #include <QPushButton>
 #include <QtTest>
+#include <QWheelEvent>
 
 #include <array>
 #include <cmath>
@@ -313,6 +314,38 @@ private Q_SLOTS:
     QCOMPARE(this->material(1)["opacity"].toDouble(), 1.0);
   }
 
+  // Issue 38 (5): the wheel over an unfocused number box or combo box scrolls, never edits.
+  void wheelEditsOnlyAFocusedField()
+  {
+    this->setDocument(R"({"materials":[{"name":"a","filter":{"min":1,"max":2}},{"name":"b"}]})");
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    QDoubleSpinBox* opacity = this->child<QDoubleSpinBox>("opacity");
+    QComboBox* wrap = this->child<QComboBox>("colorMode");
+    this->child<QLineEdit>("materialName")->setFocus(Qt::OtherFocusReason);
+    QTest::qWait(kKeyDelay);
+    const int wrapIndex = wrap->currentIndex();
+    auto wheel = [](QWidget* w) {
+      const QPoint at = w->rect().center();
+      QWheelEvent e(at, w->mapToGlobal(at), QPoint(), QPoint(0, -120), Qt::NoButton, Qt::NoModifier,
+        Qt::NoScrollPhase, false);
+      QCoreApplication::sendEvent(w, &e);
+      QCoreApplication::processEvents();
+    };
+    for (int i = 0; i < 3; ++i)
+    {
+      wheel(opacity);
+      wheel(wrap);
+    }
+    QCOMPARE(opacity->value(), 1.0);
+    QCOMPARE(this->material(0)["opacity"].toDouble(), 1.0);
+    QCOMPARE(wrap->currentIndex(), wrapIndex);
+    // Clicked into, the box takes the wheel as any spin box does.
+    opacity->setFocus(Qt::MouseFocusReason);
+    QTest::qWait(kKeyDelay);
+    wheel(opacity);
+    QVERIFY2(opacity->value() < 1.0, qPrintable(QString::number(opacity->value())));
+  }
+
   // ... and the emission box on focus out.
   void typedEmissionAppliesOnFocusOut()
   {
@@ -350,9 +383,14 @@ private Q_SLOTS:
     QListWidget* list = this->child<QListWidget>("materialList");
     list->setCurrentRow(1);
     QLineEdit* min = this->child<QLineEdit>("filterMin");
+    QLineEdit* max = this->child<QLineEdit>("filterMax");
+    const QPoint minAt = min->mapTo(this->Editor, QPoint()), maxAt = max->mapTo(this->Editor, QPoint());
     this->typeInto(min, "20");
     QTest::keyClick(min, Qt::Key_Return);
     QTest::qWait(kKeyDelay);
+    // Issue 38 (5): the reason appears without moving the fields under the pointer.
+    QCOMPARE(min->mapTo(this->Editor, QPoint()), minAt);
+    QCOMPARE(max->mapTo(this->Editor, QPoint()), maxAt);
     QCOMPARE(this->materials().size(), 3); // the document still holds it, as typed
     QCOMPARE(this->material(1)["filter"].toObject()["min"].toDouble(), 20.0);
     QCOMPARE(this->material(1)["filter"].toObject()["max"].toDouble(), 10.0);
