@@ -373,6 +373,37 @@ TEST(StreamingMemory, WorkingBytesFarBelowTheVolumeAndIndependentOfItsSize) {
     }
 }
 
+TEST(StreamingMemory, GzipBandsOfRowsKeepOneSlabInAScratchFileBeyondTheLimit) {
+    // A gzip source reads rows through one inflated slab at the file's width: in memory within
+    // the limit, else in a scratch file that is unlinked at once (the folder stays empty).
+    const Dim d = {{40, 36, 10}};
+    const std::vector<uint64_t> want = makeLabels(d, LabelType::U16);
+    const Bytes nii = niftiHeader(512, 16, d, false) + storeAs(want, LabelType::U16, false);
+    writeBytes(tmp("rows.nii.gz"), gzipBytes(nii));
+    const std::string scratch = tmp("scratch");
+    std::filesystem::remove_all(scratch);
+    std::filesystem::create_directories(scratch);
+    // VoxelFileSource's gzip stream (304 KiB) and decode buffer (the whole data here, being
+    // smaller than its 128 KiB), then room for a slab of 4 slices or for less than one slice.
+    const uint64_t fixed = (uint64_t(304) << 10) + 40 * 36 * 10 * 2, slab = 40 * 36 * 4 * 2;
+    for (const bool spill : {false, true}) {
+        SCOPED_TRACE(spill ? "scratch file" : "memory");
+        csgv::InputOptions options;
+        options.scratchDirectory = scratch;
+        options.maxWorkingBytes = fixed + (spill ? 100 : slab);
+        std::unique_ptr<InputSource> src = open(tmp("rows.nii.gz"), options);
+        ASSERT_TRUE(src);
+        ASSERT_TRUE(src->readsRows());
+        std::vector<uint64_t> band(40 * 5 * 4);
+        ASSERT_TRUE(src->readRows(4, 4, 30, 5, band.data()).isOk());
+        for (size_t i = 0; i < band.size(); ++i)
+            ASSERT_EQ(band[i], want[i % 40 + 40 * (30 + i / 40 % 5 + 36 * (4 + i / 200))]) << i;
+        EXPECT_EQ(src->workingBytes(), fixed + (spill ? 0 : slab));
+        EXPECT_TRUE(std::filesystem::is_empty(scratch));
+        csgvtest::expectSourceContract(*src, want);
+    }
+}
+
 // ------------------------------------------------------------------------------------------------
 // StreamingErrors
 // ------------------------------------------------------------------------------------------------
@@ -424,6 +455,19 @@ TEST(StreamingErrors, TruncatedGzipFailsAtTheSlabWhereItRunsOut) {
         EXPECT_TRUE(src->readSlab(0, 1, slab.data()).isOk());
         EXPECT_TRUE(failsWith(src->readSlab(lastZ, 1, slab.data()), needles));
     }
+}
+
+TEST(StreamingErrors, AGzipHeaderClaimingMoreThanTheFileCanHoldIsRefusedBeforeItsSlab) {
+    // 4000 x 4000 x 32 uint32 labels claimed by a file of a few hundred bytes: a band of rows
+    // would hold the slab (2 GB at the file's width); the file cannot inflate to that.
+    writeBytes(tmp("claims.vraw.gz"), gzipBytes(textBytes("4000 4000 32\nuint32\n") + Bytes(1000, 1)));
+    std::unique_ptr<InputSource> src = open(tmp("claims.vraw.gz"));
+    ASSERT_TRUE(src);
+    std::vector<uint64_t> band(4000 * 2 * 32);
+    EXPECT_TRUE(failsWith(src->readRows(0, 32, 0, 2, band.data()),
+                          {tmp("claims.vraw.gz") + ": slices z 0..31 need 2048000000 bytes, more than the ",
+                           "the rest of the file can inflate to (the header claims more voxels than the file holds)"}));
+    EXPECT_LT(src->workingBytes(), uint64_t(1) << 20);
 }
 
 TEST(StreamingErrors, TruncatedRawDataIsRefusedAtOpen) {

@@ -26,6 +26,12 @@ std::string baseName(const std::string& path) {
     return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
+/// The folder `path` lies in ("." for a bare name).
+std::string folderOf(const std::string& path) {
+    const size_t slash = path.find_last_of('/');
+    return slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+}
+
 double since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -189,6 +195,10 @@ Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, ui
             Status read = whole ? m_source.readSlab(z, d, m_scratch.data()) : m_source.readRows(z, d, y, r, m_scratch.data());
             if (!read) return read;
             m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
+            // Slices before the region, then this region's share by the rows done (the
+            // encoder reads a region's rows for all its slices at once).
+            const double done = (double(z0) + double(z - z0 + d) * double(y + r) / double(dim[1])) / double(dim[2]);
+            if (m_onRead && !m_onRead(std::min(done, 1.0))) return Status::error("cancelled");
             const uint64_t piece = W * r;
             const auto where = [&](uint64_t i) { return voxelText(i, dim[0], y, r, z); };
             for (uint32_t k = 0; k < d; ++k) {
@@ -224,6 +234,16 @@ Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input,
 }
 
 namespace {
+
+/// The share of encodeToFile's fractions that its first pass (reading and encoding the labels)
+/// takes: it reports 0.8 * (slabs done) / slabs (Encoder.cpp). Reads report within that share,
+/// never ahead of what the encoder reports once their slab is done.
+constexpr double kEncoderReadShare = 0.8;
+
+/// Progress and cancellation between the encoder's own reports (LabelSlabAdapter::onRead).
+void reportReads(LabelSlabAdapter& adapter, Progress& progress) {
+    adapter.onRead([&progress](double f) { return progress.report(kEncoderReadShare * f); });
+}
 
 /// One encoding pass of `slabs` into `path`, its fractions reported through `progress`.
 Status encodePass(SlabSource& slabs, const CompressOptions& options, const std::string& path, Progress& progress,
@@ -281,7 +301,10 @@ struct Job {
         if (given) {
             source = given;
         } else {
-            Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
+            // A source's scratch file goes where the encoder's go: beside the output.
+            InputOptions inputOptions = options.input;
+            if (inputOptions.scratchDirectory.empty()) inputOptions.scratchDirectory = folderOf(output);
+            Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, inputOptions);
             if (!opened) return opened.status();
             owned = std::move(*opened);
             source = owned.get();
@@ -311,6 +334,7 @@ struct Job {
             return encodePass(generator, options, tmp, progress, outputBytes);
         }
         LabelSlabAdapter adapter(*source, nullptr);
+        reportReads(adapter, progress);
         Status s = encodePass(adapter, options, tmp, progress, outputBytes);
         rep.workingBytes = encoderBandBytes(adapter, options.encode.brickSize) + adapter.scratchBytes() +
                            adapter.maxSourceWorkingBytes();
@@ -331,6 +355,7 @@ struct Job {
         rep.passes += 2;
         if (!progress.stage("encoding", kRelabellingShare, 1)) return Status::error("cancelled");
         LabelSlabAdapter adapter(*source, &relabeller);
+        reportReads(adapter, progress);
         if (Status s = encodePass(adapter, options, tmp, progress, outputBytes); !s) return s;
         mapping.relabelled = true;
         mapping.originalBits = relabeller.originalBits();

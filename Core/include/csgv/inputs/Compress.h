@@ -90,6 +90,11 @@ public:
     bool readsRows() const override { return m_source.readsRows(); }
     uint32_t chunkDepth() const override { return m_source.info().chunkDepth; }
     Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override;
+    /// Called after every read of the source with the fraction of the volume's voxels read so far
+    /// in the encoder's order (slab after slab, bands of rows within); returning false cancels
+    /// (the read fails with "cancelled"). The encoder reports progress once per slab of bricks,
+    /// which on a very wide volume is minutes apart; reads are at most the scratch apart.
+    void onRead(std::function<bool(double fraction)> callback) { m_onRead = std::move(callback); }
     bool misfit() const { return m_misfit; }
     uint64_t scratchBytes() const { return m_scratch.capacity() * sizeof(uint64_t); }
     uint64_t maxSourceWorkingBytes() const { return m_maxSourceWorking; }
@@ -103,6 +108,7 @@ private:
     std::vector<uint64_t> m_scratch;
     bool m_misfit = false;
     uint64_t m_maxSourceWorking = 0;
+    std::function<bool(double)> m_onRead;
 };
 
 /// Slices per sub-slab of at most `depth` slices of `sliceVoxels` uint64 values within

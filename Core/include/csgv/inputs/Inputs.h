@@ -67,6 +67,11 @@ struct InputOptions {
     /// `data file:`, HDF5 external storage) must lie inside the dataset's own folder unless this
     /// is set (`csgv --allow-outside-paths`); a refusal names the file it would have read.
     bool allowOutsidePaths = false;
+    /// Where a source may put a scratch file (unlinked as soon as it is open, so nothing is left
+    /// behind): a gzip source read in bands of rows keeps one inflated brick-deep slab there when
+    /// it does not fit kSlabMemoryBytes. Empty: $TMPDIR, else /tmp. compressToFile sets the
+    /// output's folder, where the encoder's own scratch files go.
+    std::string scratchDirectory;
 };
 
 /// @brief A label volume read z-slab by z-slab at full width. Opened by openInput().
