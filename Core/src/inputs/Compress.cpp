@@ -213,12 +213,19 @@ Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, ui
                     return Status::error("the input changed during compression (label " + label + " at voxel " +
                                          where(piece * k + miss) + " was not there in the first pass)");
                 }
+                // One branch-free pass in shifts and ors, which SSE2 vectorises (a quarter of a
+                // fill-only volume's time went to a loop that stopped at the first misfit); the
+                // misfit is looked up after. Nonzero for values above 32 bits or 0xFFFFFFFF
+                // (labelFitsFormat's rule).
+                uint64_t misfits = 0;
                 for (uint64_t i = 0; i < piece; ++i) {
-                    if (!labelFitsFormat(src[i])) {
-                        m_misfit = true;
-                        return Status::error("voxel " + where(piece * k + i) + " holds a label that does not fit the format");
-                    }
+                    misfits |= (src[i] >> 32) | (((src[i] & 0xFFFFFFFFu) + 1) >> 32);
                     dst[i] = uint32_t(src[i]);
+                }
+                if (misfits) {
+                    const uint64_t i = uint64_t(std::find_if_not(src, src + piece, labelFitsFormat) - src);
+                    m_misfit = true;
+                    return Status::error("voxel " + where(piece * k + i) + " holds a label that does not fit the format");
                 }
             }
         }

@@ -765,6 +765,10 @@ private:
         const uint64_t cz = m_storage.chunkZ, cy = m_storage.chunkY, cx = m_storage.chunkX;
         const unsigned width = typeBytes(m_type.type);
         const uint64_t zEnd = uint64_t(z0) + depth, yEnd = uint64_t(y0) + rows;
+        if (m_writtenChunks == 0 && m_fill.bad.empty()) { // one fill, not one per chunk row
+            std::fill(out, out + W * rows * depth, m_fill.label);
+            return Status::ok();
+        }
         for (uint64_t kz = z0 / cz; kz * cz < zEnd; ++kz)
             for (uint64_t ky = y0 / cy; ky * cy < yEnd; ++ky)
                 for (uint64_t kx = 0; kx * cx < W; ++kx) {
