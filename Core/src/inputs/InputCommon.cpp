@@ -454,8 +454,10 @@ Status VoxelFileSource::holdSlab(uint32_t z0, uint32_t depth) {
                                     " the rest of the file can inflate to (the header claims more voxels than the "
                                     "file holds)");
         if (Status r = m_slab.reset(bytes, m_slabMemoryLimit, m_scratchDirectory, m_path); !r) return r;
-        for (uint64_t done = 0; done < bytes;) {
+        for (uint64_t done = 0, pieces = 0; done < bytes; ++pieces) {
             const size_t n = size_t(std::min<uint64_t>(m_chunkBytes, bytes - done));
+            // Every 64 pieces (8 MiB, a few ms of inflating): a 2 GB slab takes seconds.
+            if (pieces % 64 == 63 && !keepGoing()) return fail(m_path, "cancelled");
             if (Status r = readStream(n); !r) return r;
             if (Status r = m_slab.write(done, m_buffer.data(), n); !r) return r;
             m_next += n / m_width;

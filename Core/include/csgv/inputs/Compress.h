@@ -94,7 +94,10 @@ public:
     /// in the encoder's order (slab after slab, bands of rows within); returning false cancels
     /// (the read fails with "cancelled"). The encoder reports progress once per slab of bricks,
     /// which on a very wide volume is minutes apart; reads are at most the scratch apart.
-    void onRead(std::function<bool(double fraction)> callback) { m_onRead = std::move(callback); }
+    /// The same callback, with the last fraction, is the source's keepGoing (InputSource::setKeepGoing)
+    /// while this adapter lives.
+    void onRead(std::function<bool(double fraction)> callback);
+    ~LabelSlabAdapter() override;
     bool misfit() const { return m_misfit; }
     uint64_t scratchBytes() const { return m_scratch.capacity() * sizeof(uint64_t); }
     uint64_t maxSourceWorkingBytes() const { return m_maxSourceWorking; }
@@ -109,6 +112,7 @@ private:
     bool m_misfit = false;
     uint64_t m_maxSourceWorking = 0;
     std::function<bool(double)> m_onRead;
+    double m_lastRead = 0; ///< the fraction last reported to m_onRead
 };
 
 /// Slices per sub-slab of at most `depth` slices of `sliceVoxels` uint64 values within

@@ -103,9 +103,17 @@ public:
     virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out);
     /// Bytes of caches held between calls (for reports and the memory tests).
     virtual uint64_t workingBytes() const { return 0; }
+    /// Reads that take long inside one call (a gzip source inflating a slab before serving its
+    /// first band of rows: seconds for a wide slab) call `keepGoing` every few MiB and fail with
+    /// "cancelled" when it returns false, so that a cancel is seen within a fraction of a second.
+    /// Empty (the default): never asked.
+    void setKeepGoing(std::function<bool()> keepGoing) { m_keepGoing = std::move(keepGoing); }
 
 protected:
+    bool keepGoing() const { return !m_keepGoing || m_keepGoing(); }
+
     InputInfo m_info;
+    std::function<bool()> m_keepGoing;
 };
 
 /// True when `path` names an input that openInput() recognises by its form (suffix, `FILE.h5:/dataset`,
