@@ -522,9 +522,20 @@ TEST(Hdf5Hostile, GzipChunksAreInflatedWithinTheChunksSize) {
     EXPECT_EQ(readError("bomb"), file + ":/bomb: cannot read z 0..15: the chunk at (x 0, y 0, z 0) (4086 bytes "
                                         "stored): gzip data inflate to more than the chunk's 8192 bytes");
     EXPECT_EQ(readError("oversized"), file + ":/oversized: cannot read z 0..15: the chunk at (x 0, y 0, z 0) stores "
-                                             "20031 bytes, more than the 8207 a chunk of 8192 bytes can need");
+                                             "20031 bytes, more than the 8211 a chunk of 8192 bytes can need");
     EXPECT_EQ(readError("short"), file + ":/short: cannot read z 0..15: the chunk at (x 0, y 0, z 0) (26 bytes "
                                          "stored): gzip data inflate to 4096 bytes, less than the chunk's 8192");
+}
+
+TEST(Hdf5Hostile, ChecksummedChunksAreDecodedAndChecked) {
+    expectVolume(fx("checksummed.h5"), "checksummed_labels", {12, 11, 10}, LabelType::U64);
+    expectVolume(fx("i8.h5"), "i8_labels", {9, 7, 6}, LabelType::I8); // fletcher32 alone
+    std::unique_ptr<InputSource> s = open(fx("checksum_bad.h5"));
+    ASSERT_NE(s, nullptr);
+    std::vector<uint64_t> slab(12 * 11 * 10);
+    const std::string message = s->readSlab(0, 10, slab.data()).message();
+    EXPECT_CONTAINS(message, fx("checksum_bad.h5") + ": cannot read z 0..9: the chunk at (x 7, y 6, z 5) (");
+    EXPECT_CONTAINS(message, " bytes stored): its fletcher32 checksum does not match (stored ");
 }
 
 TEST(Hdf5Hostile, UnwrittenChunksAreTheFillValue) {

@@ -34,9 +34,11 @@
 ///   Other datasets (contiguous, compact, other filters) are read by libhdf5 straight into the
 ///   caller's buffer at their native width and widened there in place (back to front), with its
 ///   chunk cache sized as above (the dataset is reopened when the access changes between slabs and
-///   bands); its built-in decoders (szip, nbit, scaleoffset, fletcher32) write into a buffer of one
-///   chunk. Chunks larger than the limit are refused. libhdf5 also keeps a type-conversion buffer
-///   (1 MiB) and its metadata cache (a few MiB).
+///   bands); its nbit, scaleoffset and fletcher32 decoders write into a buffer of one chunk, but
+///   NOT bounded: its szip decoder (when built in) allocates what a chunk's first four bytes
+///   state, up to 4 GiB, and plugin filters what they choose. Chunks larger than the limit are
+///   refused. libhdf5 also keeps a type-conversion buffer (1 MiB) and its metadata cache (a few
+///   MiB).
 /// - External storage (raw data in other files) must lie in the HDF5 file's folder unless
 ///   InputOptions::allowOutsidePaths; relative names are resolved there (checkExternalFiles).
 /// - Errors: HDF5's error printer is silenced around every call and its own message (the error
@@ -400,11 +402,12 @@ struct Storage {
     /// The filter pipeline in the order it was applied when writing.
     std::vector<H5Z_filter_t> filters;
     /// True when we read the chunks raw (H5Dread_chunk) and undo the filters ourselves, inflating
-    /// into a buffer of exactly one chunk: every filter is gzip or shuffle, the voxels a standard
-    /// type and the chunk's axes beyond (z, y, x) of size 1. libhdf5's own deflate filter grows
-    /// its output until the stream ends (a crafted chunk of 1 MB reached 1 GB), ours stops at the
-    /// chunk's size. Other pipelines (szip, nbit, scaleoffset, fletcher32, plugins) stay with
-    /// libhdf5, whose built-in decoders write into a buffer of the chunk's size.
+    /// into a buffer of exactly one chunk: every filter is gzip, shuffle or fletcher32 (else adding
+    /// a checksum would hand a crafted gzip chunk back to libhdf5), the voxels a standard type and
+    /// the chunk's axes beyond (z, y, x) of size 1. libhdf5's own deflate filter grows its output
+    /// until the stream ends (a crafted chunk of 1 MB reached 1 GB), ours stops at the chunk's
+    /// size. Other pipelines (szip, nbit, scaleoffset, plugins) stay with libhdf5 (the file's
+    /// @brief says which of its decoders are bounded).
     bool ownDecoding = false;
 };
 
@@ -490,7 +493,7 @@ Result<Storage> storageOf(hid_t dataset, const Axes& axes, hid_t fileType, const
     s.detail += filters.empty() ? ", no filters" : ", filters " + filters;
     s.ownDecoding = spatialOnly && isStandardType(fileType) &&
                     std::all_of(s.filters.begin(), s.filters.end(), [](H5Z_filter_t id) {
-                        return id == H5Z_FILTER_DEFLATE || id == H5Z_FILTER_SHUFFLE;
+                        return id == H5Z_FILTER_DEFLATE || id == H5Z_FILTER_SHUFFLE || id == H5Z_FILTER_FLETCHER32;
                     });
     return s;
 }
@@ -691,6 +694,46 @@ Status inflateChunk(const std::vector<uint8_t>& in, uint64_t want, std::vector<u
     return Status::ok();
 }
 
+/// HDF5's Fletcher-32 (H5_checksum_fletcher32): 16-bit big-endian words, sums folded every 360.
+uint32_t fletcher32(const uint8_t* data, size_t bytes) {
+    uint32_t sum1 = 0, sum2 = 0;
+    for (size_t words = bytes / 2; words > 0;) {
+        const size_t n = std::min<size_t>(words, 360);
+        words -= n;
+        for (size_t i = 0; i < n; ++i, data += 2) {
+            sum1 += (uint32_t(data[0]) << 8) | data[1];
+            sum2 += sum1;
+        }
+        sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+        sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+    }
+    if (bytes % 2) {
+        sum1 += uint32_t(*data) << 8;
+        sum2 += sum1;
+        sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+        sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+    }
+    sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+    sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+    return (sum2 << 16) | sum1;
+}
+
+/// Undoes HDF5's fletcher32 filter: checks and drops the checksum after the data (little-endian;
+/// files of HDF5 before 1.6.3 stored it with its 16-bit halves' bytes swapped, accepted too).
+Status checkFletcher32(std::vector<uint8_t>& data) {
+    if (data.size() < 4) return Status::error("fletcher32 data of " + std::to_string(data.size()) + " bytes hold no checksum");
+    const size_t n = data.size() - 4;
+    const uint32_t sum = fletcher32(data.data(), n);
+    const uint8_t* c = data.data() + n;
+    const uint32_t stored = uint32_t(c[0]) | uint32_t(c[1]) << 8 | uint32_t(c[2]) << 16 | uint32_t(c[3]) << 24;
+    const uint32_t swapped = uint32_t(c[1]) | uint32_t(c[0]) << 8 | uint32_t(c[3]) << 16 | uint32_t(c[2]) << 24;
+    if (stored != sum && swapped != sum)
+        return Status::error("its fletcher32 checksum does not match (stored " + std::to_string(stored) +
+                             ", computed " + std::to_string(sum) + ")");
+    data.resize(n);
+    return Status::ok();
+}
+
 /// Undoes HDF5's shuffle filter: byte j of element i was stored at j * count + i; bytes after
 /// the last whole element were stored as they are.
 void unshuffle(const std::vector<uint8_t>& in, size_t elementBytes, std::vector<uint8_t>& out) {
@@ -846,7 +889,7 @@ private:
             c.fill = true;
             return Status::ok();
         }
-        const uint64_t limit = deflateBound(m_storage.chunkBytes);
+        const uint64_t limit = deflateBound(m_storage.chunkBytes) + 4; // + a fletcher32 checksum
         if (stored > limit)
             return Status::error(where + " stores " + std::to_string(stored) + " bytes, more than the " +
                                  std::to_string(limit) + " a chunk of " + std::to_string(m_storage.chunkBytes) +
@@ -858,6 +901,11 @@ private:
             return Status::error("cannot read " + where + ": " + hdf5Message());
         for (size_t i = m_storage.filters.size(); i-- > 0;) {
             if (i < 32 && (filterMask >> i) & 1u) continue; // the writer skipped this filter for this chunk
+            if (m_storage.filters[i] == H5Z_FILTER_FLETCHER32) {
+                if (Status s = checkFletcher32(data); !s)
+                    return Status::error(where + " (" + std::to_string(stored) + " bytes stored): " + s.message());
+                continue;
+            }
             if (m_storage.filters[i] == H5Z_FILTER_DEFLATE) {
                 if (Status s = inflateChunk(data, m_storage.chunkBytes, next); !s)
                     return Status::error(where + " (" + std::to_string(stored) + " bytes stored): " + s.message());

@@ -181,6 +181,21 @@ def main():
             d = f.create_dataset(name, shape=(16, 16, 16), dtype=np.uint16, chunks=(16, 16, 16), compression="gzip")
             d.id.write_direct_chunk((0, 0, 0), stream)
 
+    # gzip + shuffle + fletcher32 (decoded by us too: a checksum must not hand a crafted chunk back
+    # to libhdf5), and the same with one stored byte of a chunk changed: its checksum fails.
+    a = blocky((10, 11, 12), 3, 14, 1, 1 << 40, np.uint64)
+    with h5py.File(p("checksummed.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(5, 6, 7), compression="gzip", shuffle=True, fletcher32=True)
+    expect(outdir, "checksummed_labels", a)
+    shutil.copy(p("checksummed.h5"), p("checksum_bad.h5"))
+    with h5py.File(p("checksum_bad.h5"), "r") as f:
+        info = f["labels"].id.get_chunk_info_by_coord((5, 6, 7))
+    with open(p("checksum_bad.h5"), "r+b") as fh:
+        fh.seek(info.byte_offset + info.size - 1)
+        last = fh.read(1)
+        fh.seek(info.byte_offset + info.size - 1)
+        fh.write(bytes([last[0] ^ 0x55]))
+
     # Fill values: no chunk written at all (a large volume in a tiny file), and some chunks written
     # among unwritten ones (shuffle + gzip, fill value 5, signed with a negative fill too).
     with h5py.File(p("fill.h5"), "w") as f:
