@@ -420,6 +420,10 @@ Status VoxelFileSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint3
             if (Status s = readRaw(slice * (z0 + z) + W * y0, band, out + band * z); !s) return s;
         return Status::ok();
     }
+    // One slice's rows lie together in the stream: bands read in increasing y (the encoder's
+    // order on a volume one slice deep, `info`'s samples) need no slab, only skipping forward.
+    if (depth == 1 && !(m_slabDepth > 0 && z0 >= m_slabZ0 && z0 < m_slabZ0 + m_slabDepth))
+        return readCompressed(slice * z0 + W * y0, band, out);
     if (Status s = holdSlab(z0, depth); !s) return s;
     const uint64_t perChunk = m_chunkBytes / m_width;
     for (uint32_t z = 0; z < depth; ++z) {
@@ -454,10 +458,8 @@ Status VoxelFileSource::holdSlab(uint32_t z0, uint32_t depth) {
                                     " the rest of the file can inflate to (the header claims more voxels than the "
                                     "file holds)");
         if (Status r = m_slab.reset(bytes, m_slabMemoryLimit, m_scratchDirectory, m_path); !r) return r;
-        for (uint64_t done = 0, pieces = 0; done < bytes; ++pieces) {
+        for (uint64_t done = 0; done < bytes;) {
             const size_t n = size_t(std::min<uint64_t>(m_chunkBytes, bytes - done));
-            // Every 64 pieces (8 MiB, a few ms of inflating): a 2 GB slab takes seconds.
-            if (pieces % 64 == 63 && !keepGoing()) return fail(m_path, "cancelled");
             if (Status r = readStream(n); !r) return r;
             if (Status r = m_slab.write(done, m_buffer.data(), n); !r) return r;
             m_next += n / m_width;
@@ -550,6 +552,9 @@ Status VoxelFileSource::restart() {
 }
 
 Status VoxelFileSource::readStream(size_t bytes) {
+    // Every 64 pieces (8 MiB, a few ms of inflating): a slab, or a skip to a deep slice, can take
+    // seconds.
+    if (++m_pieces % 64 == 0 && !keepGoing()) return fail(m_path, "cancelled");
     Result<size_t> got = m_stream->read(m_buffer.data(), bytes);
     if (!got) return streamFailure(*m_stream, got.status());
     if (*got < bytes) return truncatedInSlice(m_stream->position() - std::min(m_stream->position(), m_data.skip));

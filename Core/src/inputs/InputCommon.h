@@ -194,7 +194,9 @@ struct VoxelData {
 /// of uint32 labels (W x H x 32 x 4 bytes: 2 GiB for 4000 x 4000). A gzip stream cannot seek, so
 /// the first band of rows of a slab inflates the slab's slices once, at the file's native width,
 /// into a SlabStore; the slab's further bands are read from there. That slab stays in memory up to
-/// kSlabMemoryBytes and goes to a scratch file (InputOptions::scratchDirectory) beyond it.
+/// kSlabMemoryBytes and goes to a scratch file (InputOptions::scratchDirectory) beyond it. Bands
+/// one slice deep are read from the stream itself (a slice's rows lie together). Long reads ask
+/// keepGoing() every 8 MiB of the stream.
 ///
 /// Working memory: the decode buffer (at most kChunkBytes) plus, for compressed data, the stream
 /// (kStreamBytes: its 256 KiB input buffer, zlib's inflate state and 32 KiB window) and the
@@ -257,6 +259,7 @@ private:
     int m_fd = -1;                           ///< raw data
     std::unique_ptr<InputStream> m_stream;   ///< compressed data, between calls
     uint64_t m_next = 0;                     ///< the voxel the stream delivers next
+    uint64_t m_pieces = 0;                   ///< stream reads so far (keepGoing every 64)
     SlabStore m_slab;                        ///< compressed data read in bands: one slab, native width
     uint32_t m_slabZ0 = 0, m_slabDepth = 0;  ///< the slices m_slab holds (depth 0: none)
     uint64_t m_slabMemoryLimit = 0;
