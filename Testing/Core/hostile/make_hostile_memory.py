@@ -7,6 +7,7 @@ Each file is small on disk and states a volume whose careless reading needs far 
 time than its size suggests:
 - wide.vraw.gz, wide.nii.gz, wide_gz.nrrd: 4000 x 4000 x 1 uint32 labels, gzip (a brick-deep slab
   of uint32 labels is 2 GB, a band of rows 64 MiB)
+- deep.vraw.gz: 2000 x 2000 x 33 uint8, gzip (its 32-slice slabs go to a scratch file)
 - slice20k.vraw.gz: 20000 x 20000 x 1 uint8 (a slice at 8 bytes a voxel is 3.2 GB)
 - bomb.h5: a 64^3 uint8 dataset in one chunk whose gzip stream inflates to 1 GiB
 - fill_only.h5, fill_16384.h5: 65536^3 and 16384^3 uint8 chunked, no chunk written (fill value 7)
@@ -68,6 +69,14 @@ def main():
         f.write(b"NRRD0004\ntype: uint32\ndimension: 3\nsizes: 4000 4000 1\nencoding: gzip\nendian: little\n\n")
         f.write(gzip.compress(raw, compresslevel=1))
     del raw, labels
+
+    # 2000 x 2000 x 33 uint8: a brick-deep slab is 128 MB at the file's width (a scratch file),
+    # 512 MB as uint32 labels.
+    with gzip.open(p("deep.vraw.gz"), "wb", compresslevel=1) as f:
+        f.write(b"2000 2000 33\nuint8\n")
+        layer = wide_labels(2000, 2000, np.uint8).astype(np.uint8)
+        for z in range(33):
+            f.write(((layer + z) % 250 + 1).astype(np.uint8).tobytes())
 
     # 400 MB of uint8 zeros with a few labels, gzipped piece by piece.
     with gzip.open(p("slice20k.vraw.gz"), "wb", compresslevel=6) as f:

@@ -22,6 +22,14 @@ for f in wide.vraw.gz wide.nii.gz wide_gz.nrrd; do
   expect 0 "verify $f" "$CSGV" verify "$TMP/wide.csgv" "$FX/$f"
 done
 
+# Slabs deeper than a slice: inflated once at the file's width, to a scratch file beside the
+# output past 64 MiB (unlinked at once: nothing is left there).
+mkdir -p "$TMP/deep"
+expect_bounded 0 400 60 "" "compress deep.vraw.gz (2000x2000x33 gzip, slabs in a scratch file) within 400 MiB" \
+  "$CSGV" compress "$FX/deep.vraw.gz" "$TMP/deep/deep.csgv" --threads 2 --quiet
+expect 0 "verify deep.vraw.gz" "$CSGV" verify "$TMP/deep/deep.csgv" "$FX/deep.vraw.gz"
+[ "$(ls "$TMP/deep" | grep -vc '^deep\.csgv')" -eq 0 ] || bad "scratch files left beside the output: $(ls "$TMP/deep")"
+
 # A 64^3 chunk whose stored gzip stream inflates to 1 GiB: refused, naming the chunk and sizes.
 expect_bounded 1 300 20 "bomb\.h5: cannot read z 0\.\.63: the chunk at \(x 0, y 0, z 0\) stores [0-9]+ bytes, more than the [0-9]+ a chunk of 262144 bytes can need" \
   "HDF5 gzip chunk bomb refused within 300 MiB" "$CSGV" compress "$FX/bomb.h5" "$TMP/bomb.csgv" --threads 2 --quiet
