@@ -527,6 +527,30 @@ TEST(Hdf5Hostile, GzipChunksAreInflatedWithinTheChunksSize) {
                                          "stored): gzip data inflate to 4096 bytes, less than the chunk's 8192");
 }
 
+TEST(Hdf5Hostile, GzipChunksOfPipelinesLeftToLibhdf5AreCheckedFirst) {
+    // scaleoffset + gzip: libhdf5 decodes it, after we have inflated its gzip streams within the
+    // chunk's size (and a KiB of filter headers).
+    const std::string file = fx("hostile_chunks.h5");
+    expectVolume(file + ":/scaleoffset", "hostile_chunks_scaleoffset", {16, 16, 16}, LabelType::U16);
+    std::unique_ptr<InputSource> s = open(file + ":/bomb_scaleoffset");
+    ASSERT_NE(s, nullptr);
+    std::vector<uint64_t> slab(16 * 16 * 16);
+    EXPECT_EQ(s->readSlab(0, 16, slab.data()).message(),
+              file + ":/bomb_scaleoffset: cannot read z 0..15: the chunk at (x 0, y 0, z 0) (4086 bytes stored): gzip "
+                     "data inflate to more than 9216 bytes (a chunk's and a KiB of filter headers)");
+}
+
+TEST(Hdf5Hostile, SzipChunksMayNotStateMoreThanTheChunk) {
+    if (!std::filesystem::exists(fx("i8_szip.h5"))) GTEST_SKIP() << "this HDF5 cannot write szip";
+    const std::string file = fx("hostile_chunks.h5");
+    std::unique_ptr<InputSource> s = open(file + ":/szip_claims");
+    ASSERT_NE(s, nullptr);
+    std::vector<uint64_t> slab(16 * 16 * 16);
+    EXPECT_EQ(s->readSlab(0, 16, slab.data()).message(),
+              file + ":/szip_claims: cannot read z 0..15: the chunk at (x 0, y 0, z 0) (64 bytes stored): szip data "
+                     "state 1073741824 bytes, more than the chunk's 8192");
+}
+
 TEST(Hdf5Hostile, ChecksummedChunksAreDecodedAndChecked) {
     expectVolume(fx("checksummed.h5"), "checksummed_labels", {12, 11, 10}, LabelType::U64);
     expectVolume(fx("i8.h5"), "i8_labels", {9, 7, 6}, LabelType::I8); // fletcher32 alone

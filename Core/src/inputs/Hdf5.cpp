@@ -34,11 +34,12 @@
 ///   Other datasets (contiguous, compact, other filters) are read by libhdf5 straight into the
 ///   caller's buffer at their native width and widened there in place (back to front), with its
 ///   chunk cache sized as above (the dataset is reopened when the access changes between slabs and
-///   bands); its nbit, scaleoffset and fletcher32 decoders write into a buffer of one chunk, but
-///   NOT bounded: its szip decoder (when built in) allocates what a chunk's first four bytes
-///   state, up to 4 GiB, and plugin filters what they choose. Chunks larger than the limit are
-///   refused. libhdf5 also keeps a type-conversion buffer (1 MiB) and its metadata cache (a few
-///   MiB).
+///   bands); its nbit and scaleoffset decoders write into a buffer of one chunk, and before it
+///   decodes a pipeline with gzip or szip the chunks a read touches are checked by us
+///   (precheckChunks: gzip inflated within a chunk and a KiB, what szip's header states). NOT
+///   bounded: plugin filters allocate what they choose (only their names are checked: every
+///   filter must be available). Chunks larger than the limit are refused. libhdf5 also keeps a
+///   type-conversion buffer (1 MiB) and its metadata cache (a few MiB).
 /// - External storage (raw data in other files) must lie in the HDF5 file's folder unless
 ///   InputOptions::allowOutsidePaths; relative names are resolved there (checkExternalFiles).
 /// - Errors: HDF5's error printer is silenced around every call and its own message (the error
@@ -409,6 +410,9 @@ struct Storage {
     /// size. Other pipelines (szip, nbit, scaleoffset, plugins) stay with libhdf5 (the file's
     /// @brief says which of its decoders are bounded).
     bool ownDecoding = false;
+    /// Not ownDecoding, but gzip or szip among the filters: chunks are checked before libhdf5
+    /// decodes them (precheckChunks).
+    bool precheck = false;
 };
 
 uint64_t bitsFor(uint64_t n) {
@@ -495,6 +499,9 @@ Result<Storage> storageOf(hid_t dataset, const Axes& axes, hid_t fileType, const
                     std::all_of(s.filters.begin(), s.filters.end(), [](H5Z_filter_t id) {
                         return id == H5Z_FILTER_DEFLATE || id == H5Z_FILTER_SHUFFLE || id == H5Z_FILTER_FLETCHER32;
                     });
+    s.precheck = !s.ownDecoding && std::any_of(s.filters.begin(), s.filters.end(), [](H5Z_filter_t id) {
+        return id == H5Z_FILTER_DEFLATE || id == H5Z_FILTER_SZIP;
+    });
     return s;
 }
 
@@ -664,9 +671,10 @@ struct Description {
 /// that (with every filter applied) is no chunk this dataset's writer made.
 uint64_t deflateBound(uint64_t n) { return n + (n >> 12) + (n >> 14) + (n >> 25) + 13; }
 
-/// Inflates a zlib stream (HDF5's deflate filter) into exactly `want` bytes; a stream that holds
-/// more or fewer is an error, and no more than `want` + 1 bytes are ever produced.
-Status inflateChunk(const std::vector<uint8_t>& in, uint64_t want, std::vector<uint8_t>& out) {
+/// Inflates a zlib stream (HDF5's deflate filter) into `want` bytes (at most `want` unless
+/// `exact`); a stream that holds more (or, exact, fewer) is an error, and no more than `want` + 1
+/// bytes are ever produced.
+Status inflateChunk(const std::vector<uint8_t>& in, uint64_t want, std::vector<uint8_t>& out, bool exact = true) {
     if (Status s = resizeOrFail(out, size_t(want) + 1, "chunk"); !s) return s;
     z_stream z{};
     if (inflateInit(&z) != Z_OK) return Status::error("cannot start zlib");
@@ -684,13 +692,16 @@ Status inflateChunk(const std::vector<uint8_t>& in, uint64_t want, std::vector<u
     }
     const std::string why = z.msg ? z.msg : "";
     inflateEnd(&z);
-    if (got > want) return Status::error("gzip data inflate to more than the chunk's " + std::to_string(want) + " bytes");
+    if (got > want)
+        return Status::error(exact ? "gzip data inflate to more than the chunk's " + std::to_string(want) + " bytes"
+                                   : "gzip data inflate to more than " + std::to_string(want) +
+                                         " bytes (a chunk's and a KiB of filter headers)");
     if (ret != Z_STREAM_END && ret != Z_OK && ret != Z_BUF_ERROR)
         return Status::error("gzip data are corrupt (" + (why.empty() ? "zlib error " + std::to_string(ret) : why) + ")");
-    if (got < want)
+    if (exact && got < want)
         return Status::error("gzip data inflate to " + std::to_string(got) + " bytes, less than the chunk's " +
                              std::to_string(want));
-    out.resize(size_t(want));
+    out.resize(size_t(got));
     return Status::ok();
 }
 
@@ -783,6 +794,11 @@ public:
                                             ": " + s.message());
             return s;
         }
+        if (m_storage.precheck) {
+            Status s = precheckChunks(z0, depth, y0, rows);
+            if (!s) return fail(m_path, "cannot read z " + std::to_string(z0) + ".." + std::to_string(z0 + depth - 1) +
+                                            ": " + s.message());
+        }
         if (Status s = readNative(z0, depth, y0, rows, out); !s) return s;
         return widen(z0, y0, rows, size_t(uint64_t(m_info.dim[0]) * rows * depth), out);
     }
@@ -869,55 +885,114 @@ private:
         m_lru.pop_front();
     }
 
-    /// Reads one chunk raw and undoes its filters, last applied first, each into a buffer of
-    /// bounded size: the stored bytes may not exceed what deflate can need for a chunk, and
-    /// inflating stops at the chunk's size. A chunk never written is marked fill, unread.
-    Status decodeChunk(const std::array<uint64_t, 3>& at, Chunk& c) {
+    /// One chunk's stored bytes as H5Dread_chunk gives them, or none when it was never written.
+    struct RawChunk {
+        bool written = false;
+        std::string where;           ///< "the chunk at (x, y, z)", for messages
+        uint64_t stored = 0;
+        uint32_t filterMask = 0;     ///< bit i set: the writer skipped filter i for this chunk
+        std::vector<uint8_t> data;
+    };
+
+    /// Reads chunk `at` raw, refusing (naming it) stored bytes beyond what any filter of a chunk
+    /// can need: deflate's bound, a fletcher32 checksum, and a KiB of filter headers.
+    Status readRawChunk(const std::array<uint64_t, 3>& at, RawChunk& raw) {
         std::vector<hsize_t> offset(m_storage.chunk.size(), 0);
         const size_t z = size_t(m_axes.zAxis);
         offset[z] = at[0] * m_storage.chunkZ;
         offset[z + 1] = at[1] * m_storage.chunkY;
         offset[z + 2] = at[2] * m_storage.chunkX;
-        const std::string where = "the chunk at (x " + std::to_string(offset[z + 2]) + ", y " +
-                                  std::to_string(offset[z + 1]) + ", z " + std::to_string(offset[z]) + ")";
+        raw.where = "the chunk at (x " + std::to_string(offset[z + 2]) + ", y " + std::to_string(offset[z + 1]) +
+                    ", z " + std::to_string(offset[z]) + ")";
         unsigned mask = 0;
         haddr_t addr = HADDR_UNDEF;
         hsize_t stored = 0;
         if (H5Dget_chunk_info_by_coord(m_dataset.get(), offset.data(), &mask, &addr, &stored) < 0)
-            return Status::error("cannot find " + where + ": " + hdf5Message());
-        if (addr == HADDR_UNDEF) {
+            return Status::error("cannot find " + raw.where + ": " + hdf5Message());
+        raw.written = addr != HADDR_UNDEF;
+        if (!raw.written) return Status::ok();
+        raw.stored = stored;
+        const uint64_t limit = deflateBound(m_storage.chunkBytes) + 4 + (m_storage.ownDecoding ? 0 : 1024);
+        if (stored > limit)
+            return Status::error(raw.where + " stores " + std::to_string(stored) + " bytes, more than the " +
+                                 std::to_string(limit) + " a chunk of " + std::to_string(m_storage.chunkBytes) +
+                                 " bytes can need");
+        if (Status s = resizeOrFail(raw.data, size_t(stored), m_path); !s) return s;
+        if (H5Dread_chunk(m_dataset.get(), H5P_DEFAULT, offset.data(), &raw.filterMask, raw.data.data()) < 0)
+            return Status::error("cannot read " + raw.where + ": " + hdf5Message());
+        return Status::ok();
+    }
+
+    /// Undoes the filters of `raw`, last applied first, while they are ours (fletcher32, gzip,
+    /// shuffle), each into a buffer of bounded size: inflating stops at `limit` bytes (exactly
+    /// the chunk's size when every filter is ours). Stops before any other filter, which it
+    /// returns the index of (+ 1; 0 when all were undone).
+    Result<size_t> undoOurFilters(RawChunk& raw, uint64_t limit, bool exact) {
+        std::vector<uint8_t> next;
+        for (size_t i = m_storage.filters.size(); i-- > 0;) {
+            if (i < 32 && (raw.filterMask >> i) & 1u) continue; // the writer skipped it for this chunk
+            const H5Z_filter_t id = m_storage.filters[i];
+            Status s;
+            if (id == H5Z_FILTER_FLETCHER32) {
+                s = checkFletcher32(raw.data);
+            } else if (id == H5Z_FILTER_DEFLATE) {
+                s = inflateChunk(raw.data, limit, next, exact);
+                raw.data.swap(next);
+            } else if (id == H5Z_FILTER_SHUFFLE) {
+                unshuffle(raw.data, typeBytes(m_type.type), next);
+                raw.data.swap(next);
+            } else {
+                return i + 1;
+            }
+            if (!s) return Status::error(raw.where + " (" + std::to_string(raw.stored) + " bytes stored): " + s.message());
+        }
+        return size_t(0);
+    }
+
+    /// Before libhdf5 decodes chunks of a pipeline that is not all ours (Storage::ownDecoding), the
+    /// chunks a read touches are checked the way we would decode them, as far as the filters are
+    /// ours: a gzip stream may not inflate past the chunk (and a KiB of filter headers), an szip
+    /// block may not state more than the chunk (libhdf5 allocates what its first four bytes say).
+    /// This reads and inflates those chunks twice, for pipelines that are rare among labels.
+    Status precheckChunks(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows) {
+        const uint64_t cz = m_storage.chunkZ, cy = m_storage.chunkY, cx = m_storage.chunkX;
+        for (uint64_t kz = z0 / cz; kz * cz < uint64_t(z0) + depth; ++kz)
+            for (uint64_t ky = y0 / cy; ky * cy < uint64_t(y0) + rows; ++ky)
+                for (uint64_t kx = 0; kx * cx < m_info.dim[0]; ++kx) {
+                    RawChunk raw;
+                    if (Status s = readRawChunk({kz, ky, kx}, raw); !s) return s;
+                    if (!raw.written) continue;
+                    Result<size_t> stopped = undoOurFilters(raw, m_storage.chunkBytes + 1024, false);
+                    if (!stopped) return stopped.status();
+                    if (*stopped == 0 || m_storage.filters[*stopped - 1] != H5Z_FILTER_SZIP) continue;
+                    if (raw.data.size() < 4)
+                        return Status::error(raw.where + " holds " + std::to_string(raw.data.size()) +
+                                             " bytes of szip data, too few for their header");
+                    const uint8_t* b = raw.data.data();
+                    const uint64_t states = uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+                    if (states > m_storage.chunkBytes + 1024)
+                        return Status::error(raw.where + " (" + std::to_string(raw.stored) + " bytes stored): szip data " +
+                                             "state " + std::to_string(states) + " bytes, more than the chunk's " +
+                                             std::to_string(m_storage.chunkBytes));
+                }
+        return Status::ok();
+    }
+
+    /// Decodes one chunk ourselves (Storage::ownDecoding): read raw, filters undone into exactly
+    /// the chunk's size. A chunk never written is marked fill, unread.
+    Status decodeChunk(const std::array<uint64_t, 3>& at, Chunk& c) {
+        RawChunk raw;
+        if (Status s = readRawChunk(at, raw); !s) return s;
+        if (!raw.written) {
             c.fill = true;
             return Status::ok();
         }
-        const uint64_t limit = deflateBound(m_storage.chunkBytes) + 4; // + a fletcher32 checksum
-        if (stored > limit)
-            return Status::error(where + " stores " + std::to_string(stored) + " bytes, more than the " +
-                                 std::to_string(limit) + " a chunk of " + std::to_string(m_storage.chunkBytes) +
-                                 " bytes can need");
-        std::vector<uint8_t> data, next;
-        if (Status s = resizeOrFail(data, size_t(stored), m_path); !s) return s;
-        uint32_t filterMask = 0;
-        if (H5Dread_chunk(m_dataset.get(), H5P_DEFAULT, offset.data(), &filterMask, data.data()) < 0)
-            return Status::error("cannot read " + where + ": " + hdf5Message());
-        for (size_t i = m_storage.filters.size(); i-- > 0;) {
-            if (i < 32 && (filterMask >> i) & 1u) continue; // the writer skipped this filter for this chunk
-            if (m_storage.filters[i] == H5Z_FILTER_FLETCHER32) {
-                if (Status s = checkFletcher32(data); !s)
-                    return Status::error(where + " (" + std::to_string(stored) + " bytes stored): " + s.message());
-                continue;
-            }
-            if (m_storage.filters[i] == H5Z_FILTER_DEFLATE) {
-                if (Status s = inflateChunk(data, m_storage.chunkBytes, next); !s)
-                    return Status::error(where + " (" + std::to_string(stored) + " bytes stored): " + s.message());
-            } else {
-                unshuffle(data, typeBytes(m_type.type), next);
-            }
-            data.swap(next);
-        }
-        if (data.size() != m_storage.chunkBytes)
-            return Status::error(where + " holds " + std::to_string(data.size()) + " bytes once decoded, not the " +
-                                 std::to_string(m_storage.chunkBytes) + " of a chunk");
-        c.bytes = std::move(data);
+        Result<size_t> stopped = undoOurFilters(raw, m_storage.chunkBytes, true);
+        if (!stopped) return stopped.status();
+        if (raw.data.size() != m_storage.chunkBytes)
+            return Status::error(raw.where + " holds " + std::to_string(raw.data.size()) +
+                                 " bytes once decoded, not the " + std::to_string(m_storage.chunkBytes) + " of a chunk");
+        c.bytes = std::move(raw.data);
         return Status::ok();
     }
 

@@ -180,6 +180,18 @@ def main():
                              ("short", zeros_stream(4096))):
             d = f.create_dataset(name, shape=(16, 16, 16), dtype=np.uint16, chunks=(16, 16, 16), compression="gzip")
             d.id.write_direct_chunk((0, 0, 0), stream)
+        # scaleoffset then gzip: a pipeline libhdf5 decodes, whose gzip stream is checked first.
+        d = f.create_dataset("bomb_scaleoffset", shape=(16, 16, 16), dtype=np.uint16, chunks=(16, 16, 16),
+                             scaleoffset=0, compression="gzip")
+        d.id.write_direct_chunk((0, 0, 0), zeros_stream(4 << 20))
+        d = f.create_dataset("scaleoffset", data=np.arange(16 ** 3, dtype=np.uint16).reshape(16, 16, 16) % 1000,
+                             chunks=(8, 16, 16), scaleoffset=0, compression="gzip")
+        expect(outdir, "hostile_chunks_scaleoffset", d[...])
+        if h5py.h5z.filter_avail(h5py.h5z.FILTER_SZIP):
+            # libhdf5's szip decoder allocates what a chunk's first four bytes state: 1 GiB here.
+            d = f.create_dataset("szip_claims", shape=(16, 16, 16), dtype=np.uint16, chunks=(16, 16, 16),
+                                 compression="szip")
+            d.id.write_direct_chunk((0, 0, 0), (1 << 30).to_bytes(4, "little") + bytes(60))
 
     # gzip + shuffle + fletcher32 (decoded by us too: a checksum must not hand a crafted chunk back
     # to libhdf5), and the same with one stored byte of a chunk changed: its checksum fails.
