@@ -142,9 +142,10 @@ double seconds(std::chrono::steady_clock::time_point t0) {
 /// Distinct values of an input: every voxel when the volume is small (exact), otherwise those of
 /// kLabelSampleSlices evenly spaced slices (a lower bound). Memory is bounded whatever the input:
 /// values are read kLabelReadVoxels at a time (sub-slabs, or bands of rows of a slice wider than
-/// that: a 20000 x 20000 slice read whole took 3.2 GB), a slice larger than kLabelSliceVoxels is
-/// sampled by kLabelSampleBands evenly spaced bands of rows (an input that reads whole slices
-/// only is then not counted), and the set stops growing at kMaxCountedLabels.
+/// that: a 20000 x 20000 slice read whole took 3.2 GB; inputs that read whole slices only give
+/// a slice of at most kLabelSliceVoxels), a slice larger than kLabelSliceVoxels is sampled by
+/// kLabelSampleBands evenly spaced bands of rows (an input that reads whole slices only is then
+/// not counted), and the set stops growing at kMaxCountedLabels.
 struct LabelCount {
     uint64_t count = 0;
     bool exact = false;
@@ -176,8 +177,15 @@ Result<LabelCount> countLabels(InputSource& src) {
                 c.capped = seen.size() >= kMaxCountedLabels;
             }
     };
-    // Rows [y0, y0 + rows) of slice z, in reads of at most kLabelReadVoxels (at least one row).
+    // Rows [y0, y0 + rows) of slice z, in reads of at most kLabelReadVoxels (at least one row);
+    // an input that reads whole slices only gives the slice (at most kLabelSliceVoxels here).
     auto addRows = [&](uint32_t z, uint32_t y0, uint32_t rows) -> Status {
+        if (!src.readsRows()) {
+            buf.resize(size_t(slice));
+            if (Status s = src.readSlab(z, 1, buf.data()); !s) return s;
+            add(buf.size());
+            return Status::ok();
+        }
         const uint32_t step = uint32_t(std::clamp<uint64_t>(kLabelReadVoxels / std::max<uint64_t>(W, 1), 1, rows));
         buf.resize(size_t(W * step));
         for (uint32_t y = y0; y < y0 + rows && !c.capped; y += step) {

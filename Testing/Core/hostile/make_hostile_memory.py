@@ -9,6 +9,7 @@ time than its size suggests:
   of uint32 labels is 2 GB, a band of rows 64 MiB)
 - deep.vraw.gz: 2000 x 2000 x 33 uint8, gzip (its 32-slice slabs go to a scratch file)
 - slice20k.vraw.gz: 20000 x 20000 x 1 uint8 (a slice at 8 bytes a voxel is 3.2 GB)
+- slices.tif: 2048 x 1100 x 20 uint16, a format read in whole slices only (150 labels)
 - bomb.h5: a 64^3 uint8 dataset in one chunk whose gzip stream inflates to 1 GiB
 - fill_only.h5, fill_16384.h5: 65536^3 and 16384^3 uint8 chunked, no chunk written (fill value 7)
 - inside/external.h5: a dataset whose raw data is an external file outside the HDF5 file's
@@ -86,6 +87,11 @@ def main():
         block = np.tile(row, 1000).tobytes()
         for _ in range(20):
             f.write(block)
+
+    # A TIFF (read whole slices only) whose slices `info` reads in more than one piece elsewhere.
+    import tifffile
+    t = (np.arange(20 * 1100 * 2048, dtype=np.uint32).reshape(20, 1100, 2048) // 300000).astype(np.uint16)
+    tifffile.imwrite(p("slices.tif"), t)
 
     # One chunk of 64^3 bytes whose stored gzip stream inflates to 1 GiB of zeros: written raw
     # (write_direct_chunk), as a crafted file would hold it.

@@ -40,6 +40,11 @@ expect_bounded 0 300 30 "" "info of a 20000x20000 gzip slice within 300 MiB" "$C
 grep -qx "labels: 21" "$TMP/out" && grep -q "^labels_counted: estimate (1 slices, 4 bands of " "$TMP/out" \
   || bad "info of the 20000x20000 slice: $(cat "$TMP/out")"
 
+# An input that reads whole slices only is sampled by whole slices (of at most 2^25 voxels).
+expect_bounded 0 300 30 "" "info of a TIFF of 2048x1100 slices" "$CSGV" info "$FX/slices.tif"
+grep -Eqx "labels: [0-9]+" "$TMP/out" && grep -qx "labels_counted: estimate (16 slices)" "$TMP/out" \
+  || bad "info of the TIFF: $(cat "$TMP/out")"
+
 # No chunk written: the volume is the fill value, served without reading; the tool says so.
 expect_bounded 0 300 20 "" "info of a 65536^3 volume of fill values" "$CSGV" info "$FX/fill_only.h5"
 grep -q "no chunk written (every voxel is the fill value)" "$TMP/out" && grep -qx "labels: 1" "$TMP/out" \
