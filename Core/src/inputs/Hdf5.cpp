@@ -813,9 +813,13 @@ private:
         bool fill = false;
         std::list<std::array<uint64_t, 3>>::iterator use;
     };
-    /// What an entry costs in the cache: a written chunk its bytes, an unwritten one a token
-    /// amount, so that a volume of fill values still keeps a bounded number of entries.
-    uint64_t costOf(const Chunk& c) const { return c.fill ? 64 : m_storage.chunkBytes; }
+    /// Chunks the cache keeps (only written ones): as many as m_cacheBytes holds, as libhdf5's
+    /// cache would, and, where chunks are tiny (1 byte each) and an entry's map and list nodes
+    /// (about 128 bytes) would dominate, no more than the working-memory limit holds with them.
+    uint64_t chunkLimit() const {
+        const uint64_t c = m_storage.chunkBytes;
+        return std::max<uint64_t>(1, std::min(m_cacheBytes / c, m_maxWorking / (c + 128)));
+    }
 
     /// Rows [y0, y0 + rows) of slices [z0, z0 + depth) from the chunks they touch, each decoded by
     /// us (decodeChunk) or known unwritten and served as the fill value without reading.
@@ -870,17 +874,17 @@ private:
         if (m_writtenChunks == 0) return &m_unwritten; // nothing to look up, nothing to keep
         Chunk c;
         if (Status s = decodeChunk(at, c); !s) return s;
-        const uint64_t cost = costOf(c);
-        while (!m_lru.empty() && m_held + cost > std::max(m_cacheBytes, cost)) dropOldest();
+        // Unwritten chunks are not kept: looking one up again costs less than an entry (a map
+        // node each) for every chunk of a sparse volume.
+        if (c.fill) return &m_unwritten;
+        while (!m_lru.empty() && m_chunks.size() + 1 > chunkLimit()) dropOldest();
         m_lru.push_back(at);
         c.use = std::prev(m_lru.end());
-        m_held += cost;
         return &m_chunks.emplace(at, std::move(c)).first->second;
     }
 
     void dropOldest() {
         auto victim = m_chunks.find(m_lru.front());
-        m_held -= costOf(victim->second);
         m_chunks.erase(victim);
         m_lru.pop_front();
     }
@@ -1009,7 +1013,7 @@ private:
         if (m_storage.ownDecoding) { // our own cache (chunkAt): no reopening
             m_cacheBytes = m_writtenChunks > 0 ? want.bytes : 0;
             m_bandCache = bands;
-            while (!m_lru.empty() && m_held > m_cacheBytes) dropOldest();
+            while (!m_lru.empty() && m_chunks.size() > chunkLimit()) dropOldest();
             return Status::ok();
         }
         m_dataset.reset();
@@ -1090,8 +1094,7 @@ private:
     // Chunks we decoded (Storage::ownDecoding), least recently used first in m_lru.
     std::map<std::array<uint64_t, 3>, Chunk> m_chunks;
     std::list<std::array<uint64_t, 3>> m_lru;
-    uint64_t m_held = 0; ///< costOf() summed over m_chunks
-    Chunk m_unwritten{{}, true, {}}; ///< every chunk when none was written
+    Chunk m_unwritten{{}, true, {}}; ///< every chunk never written (not kept in m_chunks)
 };
 
 /// The file opened read-only, after checking that it is an HDF5 file at all.
