@@ -146,40 +146,92 @@ double seconds(std::chrono::steady_clock::time_point t0) {
 }
 
 /// Distinct values of an input: every voxel when the volume is small (exact), otherwise those of
-/// kLabelSampleSlices evenly spaced slices (a lower bound). Memory: one sub-slab and the set.
+/// kLabelSampleSlices evenly spaced slices (a lower bound). Memory is bounded whatever the input:
+/// values are read kLabelReadVoxels at a time (sub-slabs, or bands of rows of a slice wider than
+/// that: a 20000 x 20000 slice read whole took 3.2 GB; inputs that read whole slices only give
+/// a slice of at most kLabelSliceVoxels), a slice larger than kLabelSliceVoxels is sampled by
+/// kLabelSampleBands evenly spaced bands of rows (an input that reads whole slices only is then
+/// not counted), and the set stops growing at kMaxCountedLabels.
 struct LabelCount {
     uint64_t count = 0;
     bool exact = false;
+    bool capped = false;      ///< the set reached kMaxCountedLabels: count is a lower bound
+    bool skipped = false;     ///< slices too large to sample and the input reads whole slices only
     uint32_t slicesRead = 0;
+    uint32_t bandRows = 0;    ///< rows per band when slices were sampled by bands (0: whole slices)
 };
 constexpr uint64_t kExactLabelVoxels = uint64_t(1) << 24;
 constexpr uint32_t kLabelSampleSlices = 16;
+constexpr uint64_t kLabelReadVoxels = uint64_t(1) << 21;   // 16 MiB of values at once
+constexpr uint64_t kLabelSliceVoxels = uint64_t(1) << 25;  // larger slices are sampled by bands
+constexpr uint32_t kLabelSampleBands = 4;
+constexpr size_t kMaxCountedLabels = size_t(1) << 21;      // about 100 MB of set
 
 Result<LabelCount> countLabels(InputSource& src) {
     const auto& dim = src.info().dim;
-    const uint64_t slice = uint64_t(dim[0]) * dim[1];
+    const uint64_t W = dim[0], H = dim[1], slice = W * H;
     LabelCount c;
     // Exact only by voxel count: a few huge slices read whole would fill the set as surely.
     c.exact = src.info().voxelCount() <= kExactLabelVoxels;
     std::unordered_set<uint64_t> seen;
-    auto add = [&](uint32_t z, uint32_t depth, std::vector<uint64_t>& buf) -> Status {
-        buf.resize(size_t(slice * depth));
-        if (Status s = src.readSlab(z, depth, buf.data()); !s) return s;
-        uint64_t last = buf.empty() ? 0 : ~buf[0];
-        for (uint64_t v : buf)
-            if (v != last) seen.insert(last = v);
-        c.slicesRead += depth;
+    std::vector<uint64_t> buf;
+    auto add = [&](size_t n) {
+        uint64_t last = n ? ~buf[0] : 0;
+        for (size_t i = 0; i < n && !c.capped; ++i)
+            if (buf[i] != last) {
+                seen.insert(last = buf[i]);
+                c.capped = seen.size() >= kMaxCountedLabels;
+            }
+    };
+    // Rows [y0, y0 + rows) of slice z, in reads of at most kLabelReadVoxels (at least one row);
+    // an input that reads whole slices only gives the slice (at most kLabelSliceVoxels here).
+    auto addRows = [&](uint32_t z, uint32_t y0, uint32_t rows) -> Status {
+        if (!src.readsRows()) {
+            buf.resize(size_t(slice));
+            if (Status s = src.readSlab(z, 1, buf.data()); !s) return s;
+            add(buf.size());
+            return Status::ok();
+        }
+        const uint32_t step = uint32_t(std::clamp<uint64_t>(kLabelReadVoxels / std::max<uint64_t>(W, 1), 1, rows));
+        buf.resize(size_t(W * step));
+        for (uint32_t y = y0; y < y0 + rows && !c.capped; y += step) {
+            const uint32_t r = std::min(step, y0 + rows - y);
+            if (Status s = src.readRows(z, 1, y, r, buf.data()); !s) return s;
+            add(size_t(W * r));
+        }
         return Status::ok();
     };
-    std::vector<uint64_t> buf;
     if (c.exact) {
-        Status s = forEachSubSlab(0, dim[2], subSlabDepth(slice, dim[2]),
-                                  [&](uint32_t z, uint32_t depth) { return add(z, depth, buf); });
-        if (!s) return s;
+        const uint32_t step = std::max(1u, uint32_t(std::min<uint64_t>(dim[2], kLabelReadVoxels / std::max<uint64_t>(slice, 1))));
+        for (uint32_t z = 0; z < dim[2] && !c.capped; z += step) {
+            const uint32_t d = std::min(step, dim[2] - z);
+            if (slice <= kLabelReadVoxels || !src.readsRows()) {
+                buf.resize(size_t(slice * d));
+                if (Status s = src.readSlab(z, d, buf.data()); !s) return s;
+                add(buf.size());
+            } else if (Status s = addRows(z, 0, dim[1]); !s) {
+                return s;
+            }
+            c.slicesRead += d;
+        }
     } else {
+        const bool bands = slice > kLabelSliceVoxels;
+        if (bands && (!src.readsRows() || W > kLabelReadVoxels)) {
+            c.skipped = true;
+            return c;
+        }
         const uint32_t n = std::min(kLabelSampleSlices, dim[2]);
-        for (uint32_t i = 0; i < n; ++i)
-            if (Status s = add(uint32_t((2 * uint64_t(i) + 1) * dim[2] / (2 * n)), 1, buf); !s) return s;
+        const uint32_t bandCount = bands ? std::min<uint32_t>(kLabelSampleBands, dim[1]) : 1;
+        c.bandRows = bands ? uint32_t(std::max<uint64_t>(1, kLabelSliceVoxels / kLabelSampleBands / W)) : 0;
+        for (uint32_t i = 0; i < n && !c.capped; ++i) {
+            const uint32_t z = uint32_t((2 * uint64_t(i) + 1) * dim[2] / (2 * n));
+            for (uint32_t b = 0; b < bandCount && !c.capped; ++b) {
+                const uint32_t rows = bands ? std::min<uint32_t>(c.bandRows, dim[1]) : dim[1];
+                const uint32_t y0 = bands ? uint32_t((2 * uint64_t(b) + 1) * (H - rows) / (2 * bandCount)) : 0;
+                if (Status s = addRows(z, y0, rows); !s) return s;
+            }
+            ++c.slicesRead;
+        }
     }
     c.count = seen.size();
     return c;
@@ -205,8 +257,18 @@ int cmdInfoInput(const Args& a) {
     std::printf("spacing: %g %g %g\n", g.spacing[0], g.spacing[1], g.spacing[2]);
     std::printf("origin: %g %g %g\n", g.origin[0], g.origin[1], g.origin[2]);
     // Every line is `key: value` with a value a script can read: the count, then how it was got.
+    if (labels->skipped) {
+        std::printf("labels_counted: none (slices of %llu voxels are sampled by rows, and this input reads whole "
+                    "slices only)\n",
+                    (unsigned long long)(uint64_t(info.dim[0]) * info.dim[1]));
+        return 0;
+    }
     std::printf("labels: %llu\n", (unsigned long long)labels->count);
-    if (labels->exact) std::printf("labels_counted: exact\n");
+    if (labels->capped) std::printf("labels_counted: at least (counting stops at %zu labels)\n", kMaxCountedLabels);
+    else if (labels->exact) std::printf("labels_counted: exact\n");
+    else if (labels->bandRows)
+        std::printf("labels_counted: estimate (%u slices, %u bands of %u rows each)\n", labels->slicesRead,
+                    std::min<uint32_t>(kLabelSampleBands, info.dim[1]), std::min(labels->bandRows, info.dim[1]));
     else std::printf("labels_counted: estimate (%u slices)\n", labels->slicesRead);
     return 0;
 }

@@ -373,6 +373,37 @@ TEST(StreamingMemory, WorkingBytesFarBelowTheVolumeAndIndependentOfItsSize) {
     }
 }
 
+TEST(StreamingMemory, GzipBandsOfRowsKeepOneSlabInAScratchFileBeyondTheLimit) {
+    // A gzip source reads rows through one inflated slab at the file's width: in memory within
+    // the limit, else in a scratch file that is unlinked at once (the folder stays empty).
+    const Dim d = {{40, 36, 10}};
+    const std::vector<uint64_t> want = makeLabels(d, LabelType::U16);
+    const Bytes nii = niftiHeader(512, 16, d, false) + storeAs(want, LabelType::U16, false);
+    writeBytes(tmp("rows.nii.gz"), gzipBytes(nii));
+    const std::string scratch = tmp("scratch");
+    std::filesystem::remove_all(scratch);
+    std::filesystem::create_directories(scratch);
+    // VoxelFileSource's gzip stream (304 KiB) and decode buffer (the whole data here, being
+    // smaller than its 128 KiB), then room for a slab of 4 slices or for less than one slice.
+    const uint64_t fixed = (uint64_t(304) << 10) + 40 * 36 * 10 * 2, slab = 40 * 36 * 4 * 2;
+    for (const bool spill : {false, true}) {
+        SCOPED_TRACE(spill ? "scratch file" : "memory");
+        csgv::InputOptions options;
+        options.scratchDirectory = scratch;
+        options.maxWorkingBytes = fixed + (spill ? 100 : slab);
+        std::unique_ptr<InputSource> src = open(tmp("rows.nii.gz"), options);
+        ASSERT_TRUE(src);
+        ASSERT_TRUE(src->readsRows());
+        std::vector<uint64_t> band(40 * 5 * 4);
+        ASSERT_TRUE(src->readRows(4, 4, 30, 5, band.data()).isOk());
+        for (size_t i = 0; i < band.size(); ++i)
+            ASSERT_EQ(band[i], want[i % 40 + 40 * (30 + i / 40 % 5 + 36 * (4 + i / 200))]) << i;
+        EXPECT_EQ(src->workingBytes(), fixed + (spill ? 0 : slab));
+        EXPECT_TRUE(std::filesystem::is_empty(scratch));
+        csgvtest::expectSourceContract(*src, want);
+    }
+}
+
 // ------------------------------------------------------------------------------------------------
 // StreamingErrors
 // ------------------------------------------------------------------------------------------------
@@ -424,6 +455,35 @@ TEST(StreamingErrors, TruncatedGzipFailsAtTheSlabWhereItRunsOut) {
         EXPECT_TRUE(src->readSlab(0, 1, slab.data()).isOk());
         EXPECT_TRUE(failsWith(src->readSlab(lastZ, 1, slab.data()), needles));
     }
+}
+
+TEST(StreamingErrors, InflatingASlabAsksWhetherToGoOn) {
+    // 1024 x 1024 x 16 uint8 labels (16 MiB inflated): the first band of rows inflates the slab,
+    // asking keepGoing every 8 MiB; a "no" ends the read, and the next read starts afresh.
+    writeBytes(tmp("ask.vraw.gz"), gzipBytes(textBytes("1024 1024 16\nuint8\n") + Bytes(size_t(16) << 20, 3)));
+    std::unique_ptr<InputSource> src = open(tmp("ask.vraw.gz"));
+    ASSERT_TRUE(src);
+    int asked = 0;
+    src->setKeepGoing([&] { return ++asked < 2; });
+    std::vector<uint64_t> band(1024 * 4 * 16);
+    EXPECT_EQ(src->readRows(0, 16, 0, 4, band.data()).message(), tmp("ask.vraw.gz") + ": cancelled");
+    EXPECT_EQ(asked, 2);
+    src->setKeepGoing(nullptr);
+    ASSERT_TRUE(src->readRows(0, 16, 1020, 4, band.data()).isOk());
+    EXPECT_EQ(std::count(band.begin(), band.end(), 3u), std::ptrdiff_t(band.size()));
+}
+
+TEST(StreamingErrors, AGzipHeaderClaimingMoreThanTheFileCanHoldIsRefusedBeforeItsSlab) {
+    // 4000 x 4000 x 32 uint32 labels claimed by a file of a few hundred bytes: a band of rows
+    // would hold the slab (2 GB at the file's width); the file cannot inflate to that.
+    writeBytes(tmp("claims.vraw.gz"), gzipBytes(textBytes("4000 4000 32\nuint32\n") + Bytes(1000, 1)));
+    std::unique_ptr<InputSource> src = open(tmp("claims.vraw.gz"));
+    ASSERT_TRUE(src);
+    std::vector<uint64_t> band(4000 * 2 * 32);
+    EXPECT_TRUE(failsWith(src->readRows(0, 32, 0, 2, band.data()),
+                          {tmp("claims.vraw.gz") + ": slices z 0..31 need 2048000000 bytes, more than the ",
+                           "the rest of the file can inflate to (the header claims more voxels than the file holds)"}));
+    EXPECT_LT(src->workingBytes(), uint64_t(1) << 20);
 }
 
 TEST(StreamingErrors, TruncatedRawDataIsRefusedAtOpen) {
@@ -535,4 +595,29 @@ TEST(StreamingRoundTrip, CompressedGzipInputsDecodeExactly) {
         ASSERT_EQ(v->labels.size(), want.size());
         for (size_t i = 0; i < want.size(); ++i) ASSERT_EQ(uint64_t(f->originalLabel(v->labels[i])), want[i]) << i;
     }
+}
+
+TEST(StreamingRoundTrip, WideGzipSlicesAreRelabelledInBandsOfRows) {
+    // A slice of 2100 x 2100 voxels is 35 MB at 8 bytes a voxel, more than the relabelling pass's
+    // scratch: it observes bands of rows (through the gzip slab) and the result is still exact.
+    const Dim d = {{2100, 2100, 2}};
+    std::vector<uint64_t> want(size_t(d[0]) * d[1] * d[2]);
+    for (size_t i = 0; i < want.size(); ++i) {
+        const size_t x = i % d[0], y = i / d[0] % d[1], z = i / (size_t(d[0]) * d[1]);
+        want[i] = ((x / 40) * 131 + (y / 40) * 17 + z) % 1000 * 1000003u; // beyond uint16, some 0
+    }
+    writeBytes(tmp("wide.vraw.gz"), gzipBytes(textBytes("2100 2100 2\nuint32\n") + storeAs(want, LabelType::U32, false)));
+    csgv::CompressOptions options;
+    options.relabel = true;
+    csgv::CompressReport report;
+    const std::string out = tmp("wide-relabelled.csgv");
+    Status s = csgv::compressToFile(tmp("wide.vraw.gz"), out, options, &report);
+    ASSERT_TRUE(s.isOk()) << s.message();
+    EXPECT_TRUE(report.relabelled);
+    csgv::Result<csgv::CsgvFile> f = csgv::openCsgv(out);
+    ASSERT_TRUE(f.isOk()) << f.message();
+    csgv::Result<csgv::LabelVolume> v = csgv::decodeVolume(f->volume, 0, f->decodeOptions());
+    ASSERT_TRUE(v.isOk()) << v.message();
+    ASSERT_EQ(v->labels.size(), want.size());
+    for (size_t i = 0; i < want.size(); ++i) ASSERT_EQ(uint64_t(f->originalLabel(v->labels[i])), want[i]) << i;
 }

@@ -26,6 +26,12 @@ std::string baseName(const std::string& path) {
     return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
+/// The folder `path` lies in ("." for a bare name).
+std::string folderOf(const std::string& path) {
+    const size_t slash = path.find_last_of('/');
+    return slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+}
+
 double since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -94,21 +100,53 @@ private:
     bool m_cancelled = false;
 };
 
-/// Pass 1: every slab of the source through the relabeller, in sub-slabs of bounded size.
+/// Pass 1: every voxel of the source through the relabeller (which takes them in any order), in
+/// reads of bounded size: sub-slabs of whole slices, or, where one slice at 8 bytes a voxel would
+/// pass the scratch's bound and the source reads rows, bands of rows as deep as its chunks (so no
+/// chunk is decoded twice, and a gzip source inflates each slab once).
 Status observeAll(InputSource& source, StreamingRelabeller& relabeller, Progress& progress,
                   uint64_t& maxSourceWorking) {
     const auto& dim = source.info().dim;
-    const uint64_t slice = uint64_t(dim[0]) * dim[1];
-    // Bounded scratch, and at least 16 reads so progress moves.
-    const uint32_t step = std::min(subSlabDepth(slice, dim[2]), std::max(1u, (dim[2] + 15) / 16));
-    std::vector<uint64_t> scratch(size_t(slice * step));
-    Status s = forEachSubSlab(0, dim[2], step, [&](uint32_t z, uint32_t depth) -> Status {
-        if (Status r = source.readSlab(z, depth, scratch.data()); !r) return r;
+    const uint64_t W = dim[0], slice = W * dim[1];
+    const uint64_t budget = LabelSlabAdapter::kScratchBytes;
+    // Long reads inside the source ask too (InputSource::setKeepGoing), for as long as this pass runs.
+    double last = 0;
+    source.setKeepGoing([&] { return progress.report(last); });
+    struct Unset {
+        InputSource& source;
+        ~Unset() { source.setKeepGoing(nullptr); }
+    } unset{source};
+    const auto observed = [&](uint32_t z, uint32_t depth, uint32_t y, uint32_t rows) {
         maxSourceWorking = std::max(maxSourceWorking, source.workingBytes());
-        relabeller.observe(z, depth, scratch.data());
-        return progress.report(double(z + depth) / dim[2]) ? Status::ok() : Status::error("cancelled");
-    });
-    return s ? relabeller.finish() : s;
+        last = std::max(last, (double(z) + double(depth) * double(y + rows) / double(dim[1])) / double(dim[2]));
+        return progress.report(last) ? Status::ok() : Status::error("cancelled");
+    };
+    std::vector<uint64_t> scratch;
+    if (!source.readsRows() || slice * sizeof(uint64_t) <= budget) {
+        // Bounded scratch (one slice at least), and at least 16 reads so progress moves.
+        const uint32_t step = std::min(subSlabDepth(slice, dim[2]), std::max(1u, (dim[2] + 15) / 16));
+        scratch.resize(size_t(slice * step));
+        Status s = forEachSubSlab(0, dim[2], step, [&](uint32_t z, uint32_t depth) -> Status {
+            if (Status r = source.readSlab(z, depth, scratch.data()); !r) return r;
+            relabeller.observe(z, depth, scratch.data());
+            return observed(z, depth, 0, dim[1]);
+        });
+        return s ? relabeller.finish() : s;
+    }
+    uint32_t depth = std::clamp<uint32_t>(source.info().chunkDepth, 1, dim[2]);
+    if (W * depth * sizeof(uint64_t) > budget) depth = 1;
+    const uint32_t rows = uint32_t(std::clamp<uint64_t>(budget / (W * depth * sizeof(uint64_t)), 1, dim[1]));
+    scratch.resize(size_t(W * rows * depth));
+    for (uint32_t z = 0; z < dim[2]; z += depth) {
+        const uint32_t d = std::min(depth, dim[2] - z);
+        for (uint32_t y = 0; y < dim[1]; y += rows) {
+            const uint32_t r = std::min(rows, dim[1] - y);
+            if (Status s = source.readRows(z, d, y, r, scratch.data()); !s) return s;
+            relabeller.observeBox({0, y, z}, {dim[0], r, d}, scratch.data());
+            if (Status s = observed(z, d, y, r); !s) return s;
+        }
+    }
+    return relabeller.finish();
 }
 
 /// Names the input in a message unless it already does.
@@ -159,6 +197,15 @@ uint32_t subSlabDepth(uint64_t sliceVoxels, uint32_t depth, uint64_t maxBytes) {
 LabelSlabAdapter::LabelSlabAdapter(InputSource& source, const StreamingRelabeller* relabeller, uint64_t maxScratchBytes)
     : m_source(source), m_relabeller(relabeller), m_maxScratchBytes(maxScratchBytes) {}
 
+LabelSlabAdapter::~LabelSlabAdapter() {
+    if (m_onRead) m_source.setKeepGoing(nullptr);
+}
+
+void LabelSlabAdapter::onRead(std::function<bool(double fraction)> callback) {
+    m_onRead = std::move(callback);
+    m_source.setKeepGoing(m_onRead ? std::function<bool()>([this] { return m_onRead(m_lastRead); }) : nullptr);
+}
+
 Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
     return readRegion(z0, depth, 0, m_source.info().dim[1], out);
 }
@@ -189,6 +236,11 @@ Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, ui
             Status read = whole ? m_source.readSlab(z, d, m_scratch.data()) : m_source.readRows(z, d, y, r, m_scratch.data());
             if (!read) return read;
             m_maxSourceWorking = std::max(m_maxSourceWorking, m_source.workingBytes());
+            // Slices before the region, then this region's share by the rows done (the
+            // encoder reads a region's rows for all its slices at once).
+            const double done = (double(z0) + double(z - z0 + d) * double(y + r) / double(dim[1])) / double(dim[2]);
+            m_lastRead = std::max(m_lastRead, std::min(done, 1.0));
+            if (m_onRead && !m_onRead(m_lastRead)) return Status::error("cancelled");
             const uint64_t piece = W * r;
             const auto where = [&](uint64_t i) { return voxelText(i, dim[0], y, r, z); };
             for (uint32_t k = 0; k < d; ++k) {
@@ -203,12 +255,19 @@ Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, ui
                     return Status::error("the input changed during compression (label " + label + " at voxel " +
                                          where(piece * k + miss) + " was not there in the first pass)");
                 }
+                // One branch-free pass in shifts and ors, which SSE2 vectorises (a quarter of a
+                // fill-only volume's time went to a loop that stopped at the first misfit); the
+                // misfit is looked up after. Nonzero for values above 32 bits or 0xFFFFFFFF
+                // (labelFitsFormat's rule).
+                uint64_t misfits = 0;
                 for (uint64_t i = 0; i < piece; ++i) {
-                    if (!labelFitsFormat(src[i])) {
-                        m_misfit = true;
-                        return Status::error("voxel " + where(piece * k + i) + " holds a label that does not fit the format");
-                    }
+                    misfits |= (src[i] >> 32) | (((src[i] & 0xFFFFFFFFu) + 1) >> 32);
                     dst[i] = uint32_t(src[i]);
+                }
+                if (misfits) {
+                    const uint64_t i = uint64_t(std::find_if_not(src, src + piece, labelFitsFormat) - src);
+                    m_misfit = true;
+                    return Status::error("voxel " + where(piece * k + i) + " holds a label that does not fit the format");
                 }
             }
         }
@@ -224,6 +283,16 @@ Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input,
 }
 
 namespace {
+
+/// The share of encodeToFile's fractions that its first pass (reading and encoding the labels)
+/// takes: it reports 0.8 * (slabs done) / slabs (Encoder.cpp). Reads report within that share,
+/// never ahead of what the encoder reports once their slab is done.
+constexpr double kEncoderReadShare = 0.8;
+
+/// Progress and cancellation between the encoder's own reports (LabelSlabAdapter::onRead).
+void reportReads(LabelSlabAdapter& adapter, Progress& progress) {
+    adapter.onRead([&progress](double f) { return progress.report(kEncoderReadShare * f); });
+}
 
 /// One encoding pass of `slabs` into `path`, its fractions reported through `progress`.
 Status encodePass(SlabSource& slabs, const CompressOptions& options, const std::string& path, Progress& progress,
@@ -280,7 +349,10 @@ struct Job {
         if (given) {
             source = given;
         } else {
-            Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, options.input);
+            // A source's scratch file goes where the encoder's go: beside the output.
+            InputOptions inputOptions = options.input;
+            if (inputOptions.scratchDirectory.empty()) inputOptions.scratchDirectory = folderOf(output);
+            Result<std::unique_ptr<InputSource>> opened = openCompressInput(input, inputOptions);
             if (!opened) return opened.status();
             owned = std::move(*opened);
             source = owned.get();
@@ -310,6 +382,7 @@ struct Job {
             return encodePass(generator, options, tmp, progress, outputBytes);
         }
         LabelSlabAdapter adapter(*source, nullptr);
+        reportReads(adapter, progress);
         Status s = encodePass(adapter, options, tmp, progress, outputBytes);
         rep.workingBytes = encoderBandBytes(adapter, options.encode.brickSize) + adapter.scratchBytes() +
                            adapter.maxSourceWorkingBytes();
@@ -330,6 +403,7 @@ struct Job {
         rep.passes += 2;
         if (!progress.stage("encoding", kRelabellingShare, 1)) return Status::error("cancelled");
         LabelSlabAdapter adapter(*source, &relabeller);
+        reportReads(adapter, progress);
         if (Status s = encodePass(adapter, options, tmp, progress, outputBytes); !s) return s;
         mapping.relabelled = true;
         mapping.originalBits = relabeller.originalBits();

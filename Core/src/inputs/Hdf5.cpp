@@ -18,24 +18,30 @@
 ///   origin (centre of voxel 0) from `offset` (CREMI) or `origin`. Spacing 1 and origin 0 when
 ///   absent; an attribute of another shape or with a non-positive spacing is ignored and the
 ///   detail line says so.
-/// - Working memory: HDF5 reads each slab's (or band of rows', readRows) values straight into the
-///   caller's buffer at their native width and they are widened there in place (back to front),
-///   so no slab-sized temporary exists. Between calls the source holds the dataset's chunk
-///   cache: one layer of chunks along z (every chunk a z range touches) when that fits
-///   InputOptions::maxWorkingBytes, so that chunks deeper than the caller's slab are not
-///   decompressed again for the next slab; otherwise one chunk, and each chunk is then
-///   decompressed once per slab that touches it. Bands of rows as deep as whole chunk layers
-///   (the encoder reads them so, InputInfo::chunkDepth) need only the chunks one band touches:
-///   the dataset is reopened with that smaller cache when such reads begin (and with the layer
-///   cache again when slabs are read).
-///   Chunks larger than the limit are refused. Besides that, libhdf5 keeps its own bounded
-///   buffers: a type-conversion buffer (1 MiB), one chunk while decompressing, and its metadata
-///   cache (a few MiB). NOT bounded: libhdf5's own deflate filter grows its output buffer until
-///   the stream ends, so a crafted gzip chunk (a "zip bomb", deflate expands up to 1032:1) can
-///   make libhdf5 allocate far more than the chunk's size while decoding it (libhdf5 1.10 then
-///   uses the chunk's first bytes and reports no error). It cannot be replaced from here:
-///   H5Zregister refuses to modify predefined filters. HDF5 files from untrusted sources may
-///   therefore use that much memory.
+/// - Chunks whose filters are gzip and/or shuffle (nearly all label volumes), on standard types,
+///   are read raw (H5Dread_chunk) and decoded here (Storage::ownDecoding): the stored size is
+///   checked against what deflate can need for one chunk before it is read, inflating stops at the
+///   chunk's size (a crafted chunk that inflates further is an error naming it, where libhdf5's own
+///   deflate filter grows its buffer until the stream ends: 1 MB reached 1 GB), and chunks never
+///   written (H5Dget_chunk_info_by_coord; none at all: H5Dget_num_chunks) are the fill value
+///   without any read, so a volume of fill values costs the encoder's time only.
+/// - Working memory: decoded chunks are cached by us at their native width, within the budget
+///   libhdf5's cache would have: one layer of chunks along z when that fits
+///   InputOptions::maxWorkingBytes, so that chunks deeper than the caller's slab are not decoded
+///   again for the next slab, else one chunk; bands of rows as deep as whole chunk layers (the
+///   encoder reads them so, InputInfo::chunkDepth) keep only the chunks one band touches. Plus one
+///   chunk's stored bytes and its decoding (twice the chunk at most) while a chunk is decoded.
+///   Other datasets (contiguous, compact, other filters) are read by libhdf5 straight into the
+///   caller's buffer at their native width and widened there in place (back to front), with its
+///   chunk cache sized as above (the dataset is reopened when the access changes between slabs and
+///   bands); its nbit and scaleoffset decoders write into a buffer of one chunk, and before it
+///   decodes a pipeline with gzip or szip the chunks a read touches are checked by us
+///   (precheckChunks: gzip inflated within a chunk and a KiB, what szip's header states). NOT
+///   bounded: plugin filters allocate what they choose (only their names are checked: every
+///   filter must be available). Chunks larger than the limit are refused. libhdf5 also keeps a
+///   type-conversion buffer (1 MiB) and its metadata cache (a few MiB).
+/// - External storage (raw data in other files) must lie in the HDF5 file's folder unless
+///   InputOptions::allowOutsidePaths; relative names are resolved there (checkExternalFiles).
 /// - Errors: HDF5's error printer is silenced around every call and its own message (the error
 ///   stack, walked) goes into the Status text; also at exit (see silenceShutdownOnce). Every
 ///   handle is closed on every path.
@@ -46,12 +52,15 @@
 #include "csgv/base/Checked.h"
 
 #include <hdf5.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <list>
+#include <map>
 #include <mutex>
 #include <type_traits>
 #include <utility>
@@ -295,14 +304,28 @@ struct WalkState {
     std::vector<std::string> broken;  ///< objects HDF5 could not open (damaged headers)
 };
 
+/// The dataset access list of every open here: external storage named relatively lies beside
+/// the HDF5 file (libhdf5 would look in the working directory), where checkExternalFiles looks.
+/// libhdf5 refuses to open a dataset already open with another prefix, so every dataset is opened
+/// with this one, never through H5Oopen (which uses the default prefix).
+Handle datasetAccess() {
+    Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
+    if (dapl.valid() && H5Pset_efile_prefix(dapl.get(), "${ORIGIN}") < 0) dapl.reset();
+    return dapl;
+}
+
 herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* data) {
     if (info->type != H5L_TYPE_HARD) return 0; // soft and external links may dangle or leave the file
     auto* state = static_cast<WalkState*>(data);
-    Handle object(H5Oopen(group, name, H5P_DEFAULT), H5Oclose);
-    if (!object.valid())
+    H5O_info_t object{};
+    if (H5Oget_info_by_name2(group, name, &object, H5O_INFO_BASIC, H5P_DEFAULT) < 0) {
         state->broken.push_back(state->prefix + name);
-    else if (H5Iget_type(object.get()) == H5I_DATASET && isIntegerVolume(object.get()))
-        state->volumes.push_back(state->prefix + name);
+        return 0;
+    }
+    if (object.type != H5O_TYPE_DATASET) return 0;
+    Handle d(H5Dopen2(group, name, datasetAccess().get()), H5Dclose);
+    if (!d.valid()) state->broken.push_back(state->prefix + name);
+    else if (isIntegerVolume(d.get())) state->volumes.push_back(state->prefix + name);
     return 0;
 }
 
@@ -330,28 +353,33 @@ Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string
         if (volumes.size() > 1)
             return Status::error("holds several 3D integer datasets (" + listText(volumes) +
                                  "); name one as FILE.h5:/group/dataset");
-        Handle d(H5Dopen2(file, volumes[0].c_str(), H5P_DEFAULT), H5Dclose);
+        Handle d(H5Dopen2(file, volumes[0].c_str(), datasetAccess().get()), H5Dclose);
         if (!d.valid()) return Status::error("cannot open dataset " + volumes[0] + ": " + hdf5Message());
         return std::make_pair(std::move(d), volumes[0]);
     }
-    Handle object(H5Oopen(file, named.c_str(), H5P_DEFAULT), H5Oclose);
-    if (!object.valid()) {
-        const std::string why = hdf5Message();
+    H5O_info_t object{};
+    if (H5Oget_info_by_name2(file, named.c_str(), &object, H5O_INFO_BASIC, H5P_DEFAULT) < 0) {
+        // libhdf5's words for what a reader of the object meets: those of opening it (it fails
+        // before any dataset is opened, so the default prefix conflicts with nothing).
+        H5Eclear2(H5E_DEFAULT);
+        Handle opened(H5Oopen(file, named.c_str(), H5P_DEFAULT), H5Oclose);
+        const std::string why = opened.valid() ? "its header cannot be read" : hdf5Message();
         // A link that exists but whose object does not open is a damaged file, not a wrong name.
         if (H5Lexists(file, named.c_str(), H5P_DEFAULT) > 0) return Status::error("cannot open " + named + ": " + why);
         H5Eclear2(H5E_DEFAULT);
         return Status::error("no dataset " + named + " in the file (" + why + ")");
     }
-    const H5I_type_t kind = H5Iget_type(object.get());
-    if (kind == H5I_GROUP) {
-        const WalkState inside = walkGroup(object.get(), named);
+    if (object.type == H5O_TYPE_GROUP) {
+        Handle group(H5Gopen2(file, named.c_str(), H5P_DEFAULT), H5Gclose);
+        if (!group.valid()) return Status::error("cannot open " + named + ": " + hdf5Message());
+        const WalkState inside = walkGroup(group.get(), named);
         return Status::error(named + " is a group, not a dataset" +
                              (inside.volumes.empty() ? std::string("; it holds no 3D integer dataset")
                                                      : "; its 3D integer datasets: " + listText(inside.volumes)) +
                              brokenText(inside));
     }
-    if (kind != H5I_DATASET) return Status::error(named + " is a named datatype, not a dataset");
-    Handle d(H5Dopen2(file, named.c_str(), H5P_DEFAULT), H5Dclose);
+    if (object.type != H5O_TYPE_DATASET) return Status::error(named + " is a named datatype, not a dataset");
+    Handle d(H5Dopen2(file, named.c_str(), datasetAccess().get()), H5Dclose);
     if (!d.valid()) return Status::error("cannot open dataset " + named + ": " + hdf5Message());
     return std::make_pair(std::move(d), named);
 }
@@ -370,6 +398,21 @@ struct Storage {
     uint64_t yChunks = 0;     ///< chunks along y
     uint32_t chunkY = 1, chunkZ = 1; ///< the chunk's extent along y and z
     uint64_t hashSpan = 1;    ///< chunk-cache hash values one z layer spans (HDF5 packs chunk coordinates in bits)
+    std::vector<hsize_t> chunk; ///< the chunk's shape in the file's axes
+    uint32_t chunkX = 1;
+    /// The filter pipeline in the order it was applied when writing.
+    std::vector<H5Z_filter_t> filters;
+    /// True when we read the chunks raw (H5Dread_chunk) and undo the filters ourselves, inflating
+    /// into a buffer of exactly one chunk: every filter is gzip, shuffle or fletcher32 (else adding
+    /// a checksum would hand a crafted gzip chunk back to libhdf5), the voxels a standard type and
+    /// the chunk's axes beyond (z, y, x) of size 1. libhdf5's own deflate filter grows its output
+    /// until the stream ends (a crafted chunk of 1 MB reached 1 GB), ours stops at the chunk's
+    /// size. Other pipelines (szip, nbit, scaleoffset, plugins) stay with libhdf5 (the file's
+    /// @brief says which of its decoders are bounded).
+    bool ownDecoding = false;
+    /// Not ownDecoding, but gzip or szip among the filters: chunks are checked before libhdf5
+    /// decodes them (precheckChunks).
+    bool precheck = false;
 };
 
 uint64_t bitsFor(uint64_t n) {
@@ -378,8 +421,20 @@ uint64_t bitsFor(uint64_t n) {
     return bits;
 }
 
+/// True for the integer and IEEE float types whose bytes decodeVoxels reads (any byte order):
+/// raw chunks of other types (odd precisions, bit offsets) are left to libhdf5's conversion.
+bool isStandardType(hid_t fileType) {
+    for (hid_t t : {H5T_STD_U8LE, H5T_STD_U8BE, H5T_STD_I8LE, H5T_STD_I8BE, H5T_STD_U16LE, H5T_STD_U16BE,
+                    H5T_STD_I16LE, H5T_STD_I16BE, H5T_STD_U32LE, H5T_STD_U32BE, H5T_STD_I32LE, H5T_STD_I32BE,
+                    H5T_STD_U64LE, H5T_STD_U64BE, H5T_STD_I64LE, H5T_STD_I64BE, H5T_IEEE_F32LE, H5T_IEEE_F32BE,
+                    H5T_IEEE_F64LE, H5T_IEEE_F64BE})
+        if (H5Tequal(fileType, t) > 0) return true;
+    return false;
+}
+
 /// The layout and filters, checking that every filter can be decoded here.
-Result<Storage> storageOf(hid_t dataset, const Axes& axes, size_t typeSize, const std::string& name) {
+Result<Storage> storageOf(hid_t dataset, const Axes& axes, hid_t fileType, const std::string& name) {
+    const size_t typeSize = H5Tget_size(fileType);
     Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
     if (!dcpl.valid()) return Status::error("cannot read the storage of " + name + ": " + hdf5Message());
     Storage s;
@@ -408,6 +463,11 @@ Result<Storage> storageOf(hid_t dataset, const Axes& axes, size_t typeSize, cons
     }
     s.chunkZ = uint32_t(std::min<hsize_t>(chunk[size_t(axes.zAxis)], 0xFFFFFFFFu));
     s.chunkY = uint32_t(std::min<hsize_t>(chunk[size_t(axes.zAxis) + 1], 0xFFFFFFFFu));
+    s.chunkX = uint32_t(std::min<hsize_t>(chunk[size_t(axes.zAxis) + 2], 0xFFFFFFFFu));
+    s.chunk = chunk;
+    bool spatialOnly = true;
+    for (size_t i = 0; i < chunk.size(); ++i)
+        if ((int(i) < axes.zAxis || int(i) > axes.zAxis + 2) && chunk[i] != 1) spatialOnly = false;
     s.hashSpan = layerBits >= 40 ? kSaturated : uint64_t(1) << layerBits;
     const std::vector<hsize_t> spatial(chunk.begin() + axes.zAxis, chunk.begin() + axes.zAxis + 3);
     s.detail = "chunks " + shapeText(spatial);
@@ -422,6 +482,7 @@ Result<Storage> storageOf(hid_t dataset, const Axes& axes, size_t typeSize, cons
         if (id < 0) return Status::error("cannot read the filters of " + name + ": " + hdf5Message());
         const std::string filter = filterName(id, stored);
         filters += (filters.empty() ? "" : "+") + filter;
+        s.filters.push_back(id);
         unsigned info = 0;
         const bool decodes = H5Zfilter_avail(id) > 0 && H5Zget_filter_info(id, &info) >= 0 &&
                              (info & H5Z_FILTER_CONFIG_DECODE_ENABLED);
@@ -434,6 +495,13 @@ Result<Storage> storageOf(hid_t dataset, const Axes& axes, size_t typeSize, cons
                                  "HDF5_PLUGIN_PATH)");
     }
     s.detail += filters.empty() ? ", no filters" : ", filters " + filters;
+    s.ownDecoding = spatialOnly && isStandardType(fileType) &&
+                    std::all_of(s.filters.begin(), s.filters.end(), [](H5Z_filter_t id) {
+                        return id == H5Z_FILTER_DEFLATE || id == H5Z_FILTER_SHUFFLE || id == H5Z_FILTER_FLETCHER32;
+                    });
+    s.precheck = !s.ownDecoding && std::any_of(s.filters.begin(), s.filters.end(), [](H5Z_filter_t id) {
+        return id == H5Z_FILTER_DEFLATE || id == H5Z_FILTER_SZIP;
+    });
     return s;
 }
 
@@ -580,13 +648,113 @@ void floatsToIntegersInPlace(uint64_t* out, size_t n) {
 // The source
 // ------------------------------------------------------------------------------------------------
 
+/// @brief The label of voxels whose chunk was never written (the dataset's fill value).
+struct FillValue {
+    uint64_t label = 0;
+    std::string bad; ///< non-empty: why the fill value is no label (a float with a fraction)
+};
+
 /// @brief What openHdf5 learns about a dataset before reading it.
 struct Description {
     InputInfo info;
     VoxelType voxel;
     Axes axes;
     Storage storage;
+    bool bigEndian = false; ///< the file's byte order (for chunks we decode ourselves)
+    FillValue fill;
+    /// Chunks written to the file: none means every voxel is the fill value, known without a
+    /// query per chunk (a 1.4 KB file may declare 65536^3 voxels in 2^30 chunks).
+    hsize_t writtenChunks = 0;
 };
+
+/// zlib's compressBound: the most bytes deflate can store `n` bytes in. A stored chunk larger than
+/// that (with every filter applied) is no chunk this dataset's writer made.
+uint64_t deflateBound(uint64_t n) { return n + (n >> 12) + (n >> 14) + (n >> 25) + 13; }
+
+/// Inflates a zlib stream (HDF5's deflate filter) into `want` bytes (at most `want` unless
+/// `exact`); a stream that holds more (or, exact, fewer) is an error, and no more than `want` + 1
+/// bytes are ever produced.
+Status inflateChunk(const std::vector<uint8_t>& in, uint64_t want, std::vector<uint8_t>& out, bool exact = true) {
+    if (Status s = resizeOrFail(out, size_t(want) + 1, "chunk"); !s) return s;
+    z_stream z{};
+    if (inflateInit(&z) != Z_OK) return Status::error("cannot start zlib");
+    z.next_in = const_cast<Bytef*>(in.data());
+    z.avail_in = uInt(in.size()); // at most deflateBound(chunk bytes): checked by the caller
+    uint64_t got = 0;
+    int ret = Z_OK;
+    while (ret == Z_OK && got < want + 1) {
+        const uint64_t room = std::min<uint64_t>(want + 1 - got, uint64_t(1) << 30);
+        z.next_out = out.data() + got;
+        z.avail_out = uInt(room);
+        ret = inflate(&z, Z_NO_FLUSH);
+        got += room - z.avail_out;
+        if (ret == Z_BUF_ERROR && z.avail_in == 0) break;
+    }
+    const std::string why = z.msg ? z.msg : "";
+    inflateEnd(&z);
+    if (got > want)
+        return Status::error(exact ? "gzip data inflate to more than the chunk's " + std::to_string(want) + " bytes"
+                                   : "gzip data inflate to more than " + std::to_string(want) +
+                                         " bytes (a chunk's and a KiB of filter headers)");
+    if (ret != Z_STREAM_END && ret != Z_OK && ret != Z_BUF_ERROR)
+        return Status::error("gzip data are corrupt (" + (why.empty() ? "zlib error " + std::to_string(ret) : why) + ")");
+    if (exact && got < want)
+        return Status::error("gzip data inflate to " + std::to_string(got) + " bytes, less than the chunk's " +
+                             std::to_string(want));
+    out.resize(size_t(got));
+    return Status::ok();
+}
+
+/// HDF5's Fletcher-32 (H5_checksum_fletcher32): 16-bit big-endian words, sums folded every 360.
+uint32_t fletcher32(const uint8_t* data, size_t bytes) {
+    uint32_t sum1 = 0, sum2 = 0;
+    for (size_t words = bytes / 2; words > 0;) {
+        const size_t n = std::min<size_t>(words, 360);
+        words -= n;
+        for (size_t i = 0; i < n; ++i, data += 2) {
+            sum1 += (uint32_t(data[0]) << 8) | data[1];
+            sum2 += sum1;
+        }
+        sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+        sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+    }
+    if (bytes % 2) {
+        sum1 += uint32_t(*data) << 8;
+        sum2 += sum1;
+        sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+        sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+    }
+    sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+    sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+    return (sum2 << 16) | sum1;
+}
+
+/// Undoes HDF5's fletcher32 filter: checks and drops the checksum after the data (little-endian;
+/// files of HDF5 before 1.6.3 stored it with its 16-bit halves' bytes swapped, accepted too).
+Status checkFletcher32(std::vector<uint8_t>& data) {
+    if (data.size() < 4) return Status::error("fletcher32 data of " + std::to_string(data.size()) + " bytes hold no checksum");
+    const size_t n = data.size() - 4;
+    const uint32_t sum = fletcher32(data.data(), n);
+    const uint8_t* c = data.data() + n;
+    const uint32_t stored = uint32_t(c[0]) | uint32_t(c[1]) << 8 | uint32_t(c[2]) << 16 | uint32_t(c[3]) << 24;
+    const uint32_t swapped = uint32_t(c[1]) | uint32_t(c[0]) << 8 | uint32_t(c[3]) << 16 | uint32_t(c[2]) << 24;
+    if (stored != sum && swapped != sum)
+        return Status::error("its fletcher32 checksum does not match (stored " + std::to_string(stored) +
+                             ", computed " + std::to_string(sum) + ")");
+    data.resize(n);
+    return Status::ok();
+}
+
+/// Undoes HDF5's shuffle filter: byte j of element i was stored at j * count + i; bytes after
+/// the last whole element were stored as they are.
+void unshuffle(const std::vector<uint8_t>& in, size_t elementBytes, std::vector<uint8_t>& out) {
+    out.resize(in.size());
+    const size_t count = elementBytes ? in.size() / elementBytes : 0;
+    for (size_t j = 0; j < elementBytes; ++j)
+        for (size_t i = 0; i < count; ++i) out[i * elementBytes + j] = in[j * count + i];
+    std::copy(in.begin() + std::ptrdiff_t(count * elementBytes), in.end(),
+              out.begin() + std::ptrdiff_t(count * elementBytes));
+}
 
 Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache);
 
@@ -597,8 +765,10 @@ public:
                uint64_t cacheBytes, uint64_t maxWorkingBytes)
         : m_path(std::move(path)), m_name(std::move(name)), m_file(std::move(file)), m_dataset(std::move(dataset)),
           m_type(what.voxel), m_axes(std::move(what.axes)), m_storage(std::move(what.storage)),
-          m_cacheBytes(cacheBytes), m_maxWorking(maxWorkingBytes) {
+          m_cacheBytes(cacheBytes), m_maxWorking(maxWorkingBytes), m_bigEndian(what.bigEndian),
+          m_fill(std::move(what.fill)), m_writtenChunks(what.writtenChunks) {
         m_info = std::move(what.info);
+        if (m_storage.ownDecoding && m_writtenChunks == 0) m_cacheBytes = 0;
     }
 
     ~Hdf5Source() override {
@@ -618,6 +788,17 @@ public:
         if (depth == 0 || rows == 0) return Status::ok();
         Hdf5Scope scope;
         if (Status s = fitCache(z0, depth, rows); !s) return s;
+        if (m_storage.ownDecoding) {
+            Status s = readChunks(z0, depth, y0, rows, out);
+            if (!s) return fail(m_path, "cannot read z " + std::to_string(z0) + ".." + std::to_string(z0 + depth - 1) +
+                                            ": " + s.message());
+            return s;
+        }
+        if (m_storage.precheck) {
+            Status s = precheckChunks(z0, depth, y0, rows);
+            if (!s) return fail(m_path, "cannot read z " + std::to_string(z0) + ".." + std::to_string(z0 + depth - 1) +
+                                            ": " + s.message());
+        }
         if (Status s = readNative(z0, depth, y0, rows, out); !s) return s;
         return widen(z0, y0, rows, size_t(uint64_t(m_info.dim[0]) * rows * depth), out);
     }
@@ -625,6 +806,200 @@ public:
     uint64_t workingBytes() const override { return m_cacheBytes; }
 
 private:
+    /// @brief A chunk we decoded (its voxels at the file's width and byte order), or a chunk never
+    /// written (fill: no bytes).
+    struct Chunk {
+        std::vector<uint8_t> bytes;
+        bool fill = false;
+        std::list<std::array<uint64_t, 3>>::iterator use;
+    };
+    /// Chunks the cache keeps (only written ones): as many as m_cacheBytes holds, as libhdf5's
+    /// cache would, and, where chunks are tiny (1 byte each) and an entry's map and list nodes
+    /// (about 128 bytes) would dominate, no more than the working-memory limit holds with them.
+    uint64_t chunkLimit() const {
+        const uint64_t c = m_storage.chunkBytes;
+        return std::max<uint64_t>(1, std::min(m_cacheBytes / c, m_maxWorking / (c + 128)));
+    }
+
+    /// Rows [y0, y0 + rows) of slices [z0, z0 + depth) from the chunks they touch, each decoded by
+    /// us (decodeChunk) or known unwritten and served as the fill value without reading.
+    Status readChunks(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) {
+        const uint64_t W = m_info.dim[0];
+        const uint64_t cz = m_storage.chunkZ, cy = m_storage.chunkY, cx = m_storage.chunkX;
+        const unsigned width = typeBytes(m_type.type);
+        const uint64_t zEnd = uint64_t(z0) + depth, yEnd = uint64_t(y0) + rows;
+        if (m_writtenChunks == 0 && m_fill.bad.empty()) { // one fill, not one per chunk row
+            std::fill(out, out + W * rows * depth, m_fill.label);
+            return Status::ok();
+        }
+        for (uint64_t kz = z0 / cz; kz * cz < zEnd; ++kz)
+            for (uint64_t ky = y0 / cy; ky * cy < yEnd; ++ky)
+                for (uint64_t kx = 0; kx * cx < W; ++kx) {
+                    Result<const Chunk*> chunk = chunkAt({kz, ky, kx});
+                    if (!chunk) return chunk.status();
+                    const uint64_t za = std::max<uint64_t>(z0, kz * cz), zb = std::min(zEnd, (kz + 1) * cz);
+                    const uint64_t ya = std::max<uint64_t>(y0, ky * cy), yb = std::min(yEnd, (ky + 1) * cy);
+                    const uint64_t xa = kx * cx, n = std::min(W, xa + cx) - xa;
+                    if ((*chunk)->fill && !m_fill.bad.empty())
+                        return Status::error("voxel (x " + std::to_string(xa) + ", y " + std::to_string(ya) + ", z " +
+                                             std::to_string(za) + ") lies in a chunk never written, and the fill value " +
+                                             m_fill.bad);
+                    for (uint64_t z = za; z < zb; ++z)
+                        for (uint64_t y = ya; y < yb; ++y) {
+                            uint64_t* dst = out + xa + W * ((y - y0) + uint64_t(rows) * (z - z0));
+                            if ((*chunk)->fill) {
+                                std::fill(dst, dst + n, m_fill.label);
+                                continue;
+                            }
+                            const uint8_t* src = (*chunk)->bytes.data() + (((z - kz * cz) * cy + (y - ky * cy)) * cx) * width;
+                            double bad = 0;
+                            const size_t i = widenSamples(src, m_type.type, m_bigEndian, dst, size_t(n), bad);
+                            if (i < n)
+                                return Status::error("voxel (x " + std::to_string(xa + i) + ", y " + std::to_string(y) +
+                                                     ", z " + std::to_string(z) + ") " + notAnIntegerLabel(bad) + " (" +
+                                                     labelTypeName(m_type.type) + " voxels must hold integers within int64)");
+                        }
+                }
+        return Status::ok();
+    }
+
+    /// The chunk at chunk coordinates (z, y, x), from the cache or decoded; the least recently
+    /// used chunks are dropped to keep the cache within m_cacheBytes (at least one chunk).
+    Result<const Chunk*> chunkAt(const std::array<uint64_t, 3>& at) {
+        auto found = m_chunks.find(at);
+        if (found != m_chunks.end()) {
+            m_lru.splice(m_lru.end(), m_lru, found->second.use);
+            return &found->second;
+        }
+        if (m_writtenChunks == 0) return &m_unwritten; // nothing to look up, nothing to keep
+        Chunk c;
+        if (Status s = decodeChunk(at, c); !s) return s;
+        // Unwritten chunks are not kept: looking one up again costs less than an entry (a map
+        // node each) for every chunk of a sparse volume.
+        if (c.fill) return &m_unwritten;
+        while (!m_lru.empty() && m_chunks.size() + 1 > chunkLimit()) dropOldest();
+        m_lru.push_back(at);
+        c.use = std::prev(m_lru.end());
+        return &m_chunks.emplace(at, std::move(c)).first->second;
+    }
+
+    void dropOldest() {
+        auto victim = m_chunks.find(m_lru.front());
+        m_chunks.erase(victim);
+        m_lru.pop_front();
+    }
+
+    /// One chunk's stored bytes as H5Dread_chunk gives them, or none when it was never written.
+    struct RawChunk {
+        bool written = false;
+        std::string where;           ///< "the chunk at (x, y, z)", for messages
+        uint64_t stored = 0;
+        uint32_t filterMask = 0;     ///< bit i set: the writer skipped filter i for this chunk
+        std::vector<uint8_t> data;
+    };
+
+    /// Reads chunk `at` raw, refusing (naming it) stored bytes beyond what any filter of a chunk
+    /// can need: deflate's bound, a fletcher32 checksum, and a KiB of filter headers.
+    Status readRawChunk(const std::array<uint64_t, 3>& at, RawChunk& raw) {
+        std::vector<hsize_t> offset(m_storage.chunk.size(), 0);
+        const size_t z = size_t(m_axes.zAxis);
+        offset[z] = at[0] * m_storage.chunkZ;
+        offset[z + 1] = at[1] * m_storage.chunkY;
+        offset[z + 2] = at[2] * m_storage.chunkX;
+        raw.where = "the chunk at (x " + std::to_string(offset[z + 2]) + ", y " + std::to_string(offset[z + 1]) +
+                    ", z " + std::to_string(offset[z]) + ")";
+        unsigned mask = 0;
+        haddr_t addr = HADDR_UNDEF;
+        hsize_t stored = 0;
+        if (H5Dget_chunk_info_by_coord(m_dataset.get(), offset.data(), &mask, &addr, &stored) < 0)
+            return Status::error("cannot find " + raw.where + ": " + hdf5Message());
+        raw.written = addr != HADDR_UNDEF;
+        if (!raw.written) return Status::ok();
+        raw.stored = stored;
+        const uint64_t limit = deflateBound(m_storage.chunkBytes) + 4 + (m_storage.ownDecoding ? 0 : 1024);
+        if (stored > limit)
+            return Status::error(raw.where + " stores " + std::to_string(stored) + " bytes, more than the " +
+                                 std::to_string(limit) + " a chunk of " + std::to_string(m_storage.chunkBytes) +
+                                 " bytes can need");
+        if (Status s = resizeOrFail(raw.data, size_t(stored), m_path); !s) return s;
+        if (H5Dread_chunk(m_dataset.get(), H5P_DEFAULT, offset.data(), &raw.filterMask, raw.data.data()) < 0)
+            return Status::error("cannot read " + raw.where + ": " + hdf5Message());
+        return Status::ok();
+    }
+
+    /// Undoes the filters of `raw`, last applied first, while they are ours (fletcher32, gzip,
+    /// shuffle), each into a buffer of bounded size: inflating stops at `limit` bytes (exactly
+    /// the chunk's size when every filter is ours). Stops before any other filter, which it
+    /// returns the index of (+ 1; 0 when all were undone).
+    Result<size_t> undoOurFilters(RawChunk& raw, uint64_t limit, bool exact) {
+        std::vector<uint8_t> next;
+        for (size_t i = m_storage.filters.size(); i-- > 0;) {
+            if (i < 32 && (raw.filterMask >> i) & 1u) continue; // the writer skipped it for this chunk
+            const H5Z_filter_t id = m_storage.filters[i];
+            Status s;
+            if (id == H5Z_FILTER_FLETCHER32) {
+                s = checkFletcher32(raw.data);
+            } else if (id == H5Z_FILTER_DEFLATE) {
+                s = inflateChunk(raw.data, limit, next, exact);
+                raw.data.swap(next);
+            } else if (id == H5Z_FILTER_SHUFFLE) {
+                unshuffle(raw.data, typeBytes(m_type.type), next);
+                raw.data.swap(next);
+            } else {
+                return i + 1;
+            }
+            if (!s) return Status::error(raw.where + " (" + std::to_string(raw.stored) + " bytes stored): " + s.message());
+        }
+        return size_t(0);
+    }
+
+    /// Before libhdf5 decodes chunks of a pipeline that is not all ours (Storage::ownDecoding), the
+    /// chunks a read touches are checked the way we would decode them, as far as the filters are
+    /// ours: a gzip stream may not inflate past the chunk (and a KiB of filter headers), an szip
+    /// block may not state more than the chunk (libhdf5 allocates what its first four bytes say).
+    /// This reads and inflates those chunks twice, for pipelines that are rare among labels.
+    Status precheckChunks(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows) {
+        const uint64_t cz = m_storage.chunkZ, cy = m_storage.chunkY, cx = m_storage.chunkX;
+        for (uint64_t kz = z0 / cz; kz * cz < uint64_t(z0) + depth; ++kz)
+            for (uint64_t ky = y0 / cy; ky * cy < uint64_t(y0) + rows; ++ky)
+                for (uint64_t kx = 0; kx * cx < m_info.dim[0]; ++kx) {
+                    RawChunk raw;
+                    if (Status s = readRawChunk({kz, ky, kx}, raw); !s) return s;
+                    if (!raw.written) continue;
+                    Result<size_t> stopped = undoOurFilters(raw, m_storage.chunkBytes + 1024, false);
+                    if (!stopped) return stopped.status();
+                    if (*stopped == 0 || m_storage.filters[*stopped - 1] != H5Z_FILTER_SZIP) continue;
+                    if (raw.data.size() < 4)
+                        return Status::error(raw.where + " holds " + std::to_string(raw.data.size()) +
+                                             " bytes of szip data, too few for their header");
+                    const uint8_t* b = raw.data.data();
+                    const uint64_t states = uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+                    if (states > m_storage.chunkBytes + 1024)
+                        return Status::error(raw.where + " (" + std::to_string(raw.stored) + " bytes stored): szip data " +
+                                             "state " + std::to_string(states) + " bytes, more than the chunk's " +
+                                             std::to_string(m_storage.chunkBytes));
+                }
+        return Status::ok();
+    }
+
+    /// Decodes one chunk ourselves (Storage::ownDecoding): read raw, filters undone into exactly
+    /// the chunk's size. A chunk never written is marked fill, unread.
+    Status decodeChunk(const std::array<uint64_t, 3>& at, Chunk& c) {
+        RawChunk raw;
+        if (Status s = readRawChunk(at, raw); !s) return s;
+        if (!raw.written) {
+            c.fill = true;
+            return Status::ok();
+        }
+        Result<size_t> stopped = undoOurFilters(raw, m_storage.chunkBytes, true);
+        if (!stopped) return stopped.status();
+        if (raw.data.size() != m_storage.chunkBytes)
+            return Status::error(raw.where + " holds " + std::to_string(raw.data.size()) +
+                                 " bytes once decoded, not the " + std::to_string(m_storage.chunkBytes) + " of a chunk");
+        c.bytes = std::move(raw.data);
+        return Status::ok();
+    }
+
     /// Bands of whole chunk layers, read in order, need only the chunks of one band; anything else
     /// gets the layer cache. The cache is fixed when the dataset is opened, so a change of access
     /// reopens it (rarely: the relabelling pass reads slabs, the encoder bands).
@@ -635,6 +1010,12 @@ private:
         const ChunkCache want = bands ? chooseCache(m_storage, m_maxWorking, depth, rows)
                                       : chooseCache(m_storage, m_maxWorking);
         if (bands == m_bandCache && (!bands || want.bytes <= m_cacheBytes)) return Status::ok();
+        if (m_storage.ownDecoding) { // our own cache (chunkAt): no reopening
+            m_cacheBytes = m_writtenChunks > 0 ? want.bytes : 0;
+            m_bandCache = bands;
+            while (!m_lru.empty() && m_chunks.size() > chunkLimit()) dropOldest();
+            return Status::ok();
+        }
         m_dataset.reset();
         Result<Handle> reopened = reopenWithCache(m_file.get(), m_name, want);
         if (!reopened) return fail(m_path, reopened.message());
@@ -707,6 +1088,13 @@ private:
     uint64_t m_cacheBytes = 0;
     uint64_t m_maxWorking = 0;
     bool m_bandCache = false; ///< the cache holds one band's chunks, not a layer's
+    bool m_bigEndian = false;
+    FillValue m_fill;
+    hsize_t m_writtenChunks = 0;
+    // Chunks we decoded (Storage::ownDecoding), least recently used first in m_lru.
+    std::map<std::array<uint64_t, 3>, Chunk> m_chunks;
+    std::list<std::array<uint64_t, 3>> m_lru;
+    Chunk m_unwritten{{}, true, {}}; ///< every chunk never written (not kept in m_chunks)
 };
 
 /// The file opened read-only, after checking that it is an HDF5 file at all.
@@ -725,7 +1113,7 @@ Result<Handle> openFile(const std::string& file) {
 
 /// Reopens the dataset with the chunk cache chosen for it.
 Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache) {
-    Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
+    Handle dapl = datasetAccess();
     // w0 below 1: HDF5 evicts chunks read completely first and, when those do not free enough,
     // partly read ones; at w0 = 1 it never evicts a partly read chunk and the cache outgrows
     // its size (it did, by a whole layer, in our measurements).
@@ -736,8 +1124,62 @@ Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkC
     return Result<Handle>(std::move(d));
 }
 
+/// External storage (raw data in other files, H5Pset_external) may name any file: each must lie
+/// in the HDF5 file's own folder (relative names are resolved there, see reopenWithCache) unless
+/// InputOptions::allowOutsidePaths. Symbolic links are followed before comparing.
+Status checkExternalFiles(hid_t dataset, const std::string& file, const std::string& name, const InputOptions& options) {
+    Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+    if (!dcpl.valid()) return Status::error("cannot read the storage of " + name + ": " + hdf5Message());
+    const int count = H5Pget_external_count(dcpl.get());
+    if (count <= 0 || options.allowOutsidePaths) return Status::ok();
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path folder = fs::weakly_canonical(fs::absolute(fs::path(file), ec).parent_path(), ec);
+    for (int i = 0; i < count; ++i) {
+        char stored[4096] = {0};
+        off_t offset = 0;
+        hsize_t size = 0;
+        if (H5Pget_external(dcpl.get(), unsigned(i), sizeof stored, stored, &offset, &size) < 0)
+            return Status::error("cannot read external file " + std::to_string(i) + " of " + name + ": " + hdf5Message());
+        const fs::path named(stored);
+        const fs::path resolved = fs::weakly_canonical(named.is_absolute() ? named : folder / named, ec);
+        const auto rel = resolved.lexically_relative(folder);
+        if (ec || rel.empty() || *rel.begin() == "..")
+            return Status::error("dataset " + name + " keeps its data in the external file " + quoted(stored, 200) +
+                                 " (" + resolved.string() + "), outside the HDF5 file's folder " + folder.string() +
+                                 "; pass --allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
+    }
+    return Status::ok();
+}
+
+/// The dataset's fill value as a label (0 where none is defined, as libhdf5 reads then).
+FillValue fillValueOf(hid_t dataset, LabelType type) {
+    FillValue f;
+    Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+    H5D_fill_value_t defined = H5D_FILL_VALUE_UNDEFINED;
+    if (!dcpl.valid() || H5Pfill_value_defined(dcpl.get(), &defined) < 0 || defined == H5D_FILL_VALUE_UNDEFINED) {
+        H5Eclear2(H5E_DEFAULT);
+        return f;
+    }
+    if (type == LabelType::F32 || type == LabelType::F64) {
+        double v = 0;
+        int64_t iv = 0;
+        if (H5Pget_fill_value(dcpl.get(), H5T_NATIVE_DOUBLE, &v) >= 0 && floatToInt64(v, iv)) f.label = uint64_t(iv);
+        else f.bad = notAnIntegerLabel(v);
+    } else if (isSignedType(type)) {
+        int64_t v = 0;
+        if (H5Pget_fill_value(dcpl.get(), H5T_NATIVE_INT64, &v) >= 0) f.label = uint64_t(v);
+    } else {
+        uint64_t v = 0;
+        if (H5Pget_fill_value(dcpl.get(), H5T_NATIVE_UINT64, &v) >= 0) f.label = v;
+    }
+    H5Eclear2(H5E_DEFAULT);
+    return f;
+}
+
 /// Everything about the dataset but its cache: type, axes, storage, geometry.
-Result<Description> describe(hid_t dataset, const std::string& name, const InputOptions& options) {
+Result<Description> describe(hid_t dataset, const std::string& file, const std::string& name,
+                             const InputOptions& options) {
     Handle type(H5Dget_type(dataset), H5Tclose);
     Handle space(H5Dget_space(dataset), H5Sclose);
     if (!type.valid() || !space.valid()) return Status::error("cannot read dataset " + name + ": " + hdf5Message());
@@ -746,21 +1188,32 @@ Result<Description> describe(hid_t dataset, const std::string& name, const Input
     if (!voxel) return Status::error("dataset " + name + " " + voxel.message());
     Result<Axes> axes = axesOf(space.get());
     if (!axes) return Status::error("dataset " + name + " " + axes.message());
-    Result<Storage> storage = storageOf(dataset, *axes, H5Tget_size(type.get()), name);
+    Result<Storage> storage = storageOf(dataset, *axes, type.get(), name);
     if (!storage) return storage.status();
     if (storage->chunked && storage->chunkBytes > options.maxWorkingBytes)
         return Status::error("dataset " + name + " has chunks of " + std::to_string(storage->chunkBytes) +
                              " bytes, more than the working-memory limit of " + std::to_string(options.maxWorkingBytes));
+    if (Status s = checkExternalFiles(dataset, file, name, options); !s) return s;
     d.voxel = *voxel;
     d.axes = std::move(*axes);
     d.storage = std::move(*storage);
+    d.bigEndian = H5Tget_order(type.get()) == H5T_ORDER_BE;
+    d.fill = fillValueOf(dataset, d.voxel.type);
+    if (d.storage.chunked) {
+        if (H5Dget_num_chunks(dataset, space.get(), &d.writtenChunks) < 0)
+            return Status::error("cannot count the chunks of " + name + ": " + hdf5Message());
+        if (d.writtenChunks == 0) d.storage.detail += ", no chunk written (every voxel is the fill value)";
+    }
 
     const std::vector<hsize_t>& dims = d.axes.dims;
     const size_t z = size_t(d.axes.zAxis);
     d.info.dim = {uint32_t(dims[z + 2]), uint32_t(dims[z + 1]), uint32_t(dims[z])};
     d.info.type = d.voxel.type;
     d.info.format = "HDF5";
-    d.info.chunkDepth = d.storage.chunked ? d.storage.chunkZ : 1;
+    // With no chunk written there is nothing to decode once per band: bands one slab deep halve
+    // the encoder's band (and the time between its reads, when a cancel is noticed) on a volume
+    // whose chunks are deeper than its bricks.
+    d.info.chunkDepth = d.storage.chunked && d.writtenChunks > 0 ? d.storage.chunkZ : 1;
     std::string notes;
     d.info.geometry = geometryOf(dataset, d.axes, notes);
     d.info.detail = "dataset " + name + ", " + d.storage.detail + notes;
@@ -785,12 +1238,14 @@ Result<std::unique_ptr<InputSource>> openHdf5(const std::string& path, const Inp
         Result<std::pair<Handle, std::string>> found = findDataset(file->get(), where.dataset);
         if (!found) return fail(path, found.message());
         const std::string name = found->second;
-        Result<Description> what = describe(found->first.get(), name, options);
+        Result<Description> what = describe(found->first.get(), where.file, name, options);
         if (!what) return fail(path, what.message());
         // The chunk cache is fixed when a dataset is first opened (later opens share it).
         found->first.reset();
         const ChunkCache cache = chooseCache(what->storage, options.maxWorkingBytes);
-        Result<Handle> dataset = reopenWithCache(file->get(), name, cache);
+        // Chunks we decode ourselves are cached by us: libhdf5 keeps none of them.
+        Result<Handle> dataset =
+            reopenWithCache(file->get(), name, what->storage.ownDecoding ? ChunkCache{0, 521, false} : cache);
         if (!dataset) return fail(path, dataset.message());
         source = std::make_unique<Hdf5Source>(path, name, std::move(*file), std::move(*dataset), std::move(*what),
                                               cache.bytes, options.maxWorkingBytes);

@@ -9,6 +9,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -298,6 +299,71 @@ Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std:
                           " voxels must hold integers within int64)");
 }
 
+// ---- SlabStore
+
+SlabStore::~SlabStore() { clear(); }
+
+void SlabStore::clear() {
+    if (m_fd >= 0) ::close(m_fd);
+    m_fd = -1;
+    std::vector<uint8_t>().swap(m_memory);
+}
+
+Status SlabStore::reset(uint64_t bytes, uint64_t memoryLimit, const std::string& directory, const std::string& path) {
+    m_path = path;
+    if (bytes <= memoryLimit) {
+        if (m_fd >= 0) clear();
+        return resizeOrFail(m_memory, size_t(bytes), path);
+    }
+    clear();
+    std::string dir = directory;
+    if (dir.empty()) {
+        const char* tmp = std::getenv("TMPDIR");
+        dir = tmp && *tmp ? tmp : "/tmp";
+    }
+    m_name = dir + "/csgv-slab-XXXXXX";
+    std::vector<char> name(m_name.begin(), m_name.end());
+    name.push_back('\0');
+    m_fd = ::mkstemp(name.data());
+    if (m_fd < 0) return fail(path, "cannot create a scratch file in '" + dir + "' for a slab of " +
+                                        std::to_string(bytes) + " bytes: " + errnoText());
+    m_name = name.data();
+    ::unlink(m_name.c_str()); // open only: nothing is left behind, whatever happens
+    return Status::ok();
+}
+
+Status SlabStore::write(uint64_t at, const uint8_t* data, size_t bytes) {
+    if (m_fd < 0) {
+        std::memcpy(m_memory.data() + at, data, bytes);
+        return Status::ok();
+    }
+    for (size_t done = 0; done < bytes;) {
+        const ssize_t w = ::pwrite(m_fd, data + done, bytes - done, off_t(at + done));
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0)
+            return fail(m_path, "cannot write " + std::to_string(bytes) + " bytes to the scratch file '" + m_name +
+                                    "' at offset " + std::to_string(at + done) + ": " + errnoText());
+        done += size_t(w);
+    }
+    return Status::ok();
+}
+
+Status SlabStore::read(uint64_t at, uint8_t* data, size_t bytes) const {
+    if (m_fd < 0) {
+        std::memcpy(data, m_memory.data() + at, bytes);
+        return Status::ok();
+    }
+    for (size_t done = 0; done < bytes;) {
+        const ssize_t r = ::pread(m_fd, data + done, bytes - done, off_t(at + done));
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0)
+            return fail(m_path, "cannot read back " + std::to_string(bytes) + " bytes of the scratch file '" + m_name +
+                                    "' at offset " + std::to_string(at + done) + ": " + errnoText());
+        done += size_t(r);
+    }
+    return Status::ok();
+}
+
 // ---- VoxelFileSource
 
 Status VoxelFileSource::init(const std::string& path, const InputInfo& info, const VoxelData& data,
@@ -316,6 +382,8 @@ Status VoxelFileSource::init(const std::string& path, const InputInfo& info, con
     const uint64_t chunk = std::min({uint64_t(kChunkBytes), std::max<uint64_t>(m_dataBytes, m_width),
                                      options.maxWorkingBytes - fixed});
     m_chunkBytes = size_t(chunk / m_width * m_width);
+    m_slabMemoryLimit = std::min(kSlabMemoryBytes, options.maxWorkingBytes - fixed - m_chunkBytes);
+    m_scratchDirectory = options.scratchDirectory;
     if (!data.compressed) {
         m_fd = ::open(data.file.c_str(), O_RDONLY | O_CLOEXEC);
         if (m_fd < 0) return fail(path, "cannot open '" + data.file + "': " + errnoText());
@@ -327,7 +395,9 @@ VoxelFileSource::~VoxelFileSource() {
     if (m_fd >= 0) ::close(m_fd);
 }
 
-uint64_t VoxelFileSource::workingBytes() const { return m_buffer.capacity() + (m_stream ? kStreamBytes : 0); }
+uint64_t VoxelFileSource::workingBytes() const {
+    return m_buffer.capacity() + (m_stream ? kStreamBytes : 0) + m_slab.memoryBytes();
+}
 
 Status VoxelFileSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
     if (Status s = checkSlab(m_info, z0, depth, m_path); !s) return s;
@@ -339,14 +409,84 @@ Status VoxelFileSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
 }
 
 Status VoxelFileSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) {
-    if (m_data.compressed || (y0 == 0 && rows == m_info.dim[1])) return InputSource::readRows(z0, depth, y0, rows, out);
+    if (y0 == 0 && rows == m_info.dim[1]) return readSlab(z0, depth, out);
     if (Status s = checkRows(m_info, z0, depth, y0, rows, m_path); !s) return s;
     if (depth == 0 || rows == 0) return Status::ok();
     if (m_buffer.empty())
         if (Status s = resizeOrFail(m_buffer, m_chunkBytes, m_path); !s) return s;
     const uint64_t W = m_info.dim[0], slice = W * m_info.dim[1], band = W * rows;
-    for (uint32_t z = 0; z < depth; ++z)
-        if (Status s = readRaw(slice * (z0 + z) + W * y0, band, out + band * z); !s) return s;
+    if (!m_data.compressed) {
+        for (uint32_t z = 0; z < depth; ++z)
+            if (Status s = readRaw(slice * (z0 + z) + W * y0, band, out + band * z); !s) return s;
+        return Status::ok();
+    }
+    // One slice's rows lie together in the stream: bands read in increasing y (the encoder's
+    // order on a volume one slice deep, `info`'s samples) need no slab, only skipping forward.
+    if (depth == 1 && !(m_slabDepth > 0 && z0 >= m_slabZ0 && z0 < m_slabZ0 + m_slabDepth))
+        return readCompressed(slice * z0 + W * y0, band, out);
+    if (Status s = holdSlab(z0, depth); !s) return s;
+    const uint64_t perChunk = m_chunkBytes / m_width;
+    for (uint32_t z = 0; z < depth; ++z) {
+        const uint64_t first = slice * (z0 + z) + W * y0; // the voxel in the volume
+        const uint64_t inSlab = slice * (z0 + z - m_slabZ0) + W * y0;
+        for (uint64_t done = 0; done < band;) {
+            const size_t n = size_t(std::min(perChunk, band - done));
+            if (Status s = m_slab.read((inSlab + done) * m_width, m_buffer.data(), n * m_width); !s) return s;
+            if (Status s = decodeVoxels(m_buffer.data(), m_data.stored, m_data.bigEndian, m_info.dim, m_path,
+                                        first + done, out + band * z + done, n);
+                !s)
+                return s;
+            done += n;
+        }
+    }
+    return Status::ok();
+}
+
+Status VoxelFileSource::holdSlab(uint32_t z0, uint32_t depth) {
+    if (m_slabDepth > 0 && z0 >= m_slabZ0 && uint64_t(z0) + depth <= uint64_t(m_slabZ0) + m_slabDepth)
+        return Status::ok();
+    m_slabDepth = 0;
+    const uint64_t slice = uint64_t(m_info.dim[0]) * m_info.dim[1];
+    const uint64_t bytes = slice * depth * m_width;
+    Status s = [&]() -> Status {
+        if (Status r = seekStream(slice * z0); !r) return r;
+        // Nothing the size of the slab is held before the file is known to be able to fill it.
+        if (bytes > m_stream->remainingBound())
+            return fail(m_path, "slices z " + std::to_string(z0) + ".." + std::to_string(z0 + depth - 1) + " need " +
+                                    std::to_string(bytes) + " bytes, more than the " +
+                                    std::to_string(m_stream->remainingBound()) +
+                                    " the rest of the file can inflate to (the header claims more voxels than the "
+                                    "file holds)");
+        if (Status r = m_slab.reset(bytes, m_slabMemoryLimit, m_scratchDirectory, m_path); !r) return r;
+        for (uint64_t done = 0; done < bytes;) {
+            const size_t n = size_t(std::min<uint64_t>(m_chunkBytes, bytes - done));
+            if (Status r = readStream(n); !r) return r;
+            if (Status r = m_slab.write(done, m_buffer.data(), n); !r) return r;
+            m_next += n / m_width;
+            done += n;
+        }
+        if (m_next == m_info.voxelCount()) return atDataEnd(*m_stream);
+        return Status::ok();
+    }();
+    if (!s) {
+        m_stream.reset(); // the next call starts afresh
+        m_slab.clear();
+        return s;
+    }
+    m_slabZ0 = z0;
+    m_slabDepth = depth;
+    return Status::ok();
+}
+
+Status VoxelFileSource::seekStream(uint64_t first) {
+    if (!m_stream || first < m_next)
+        if (Status r = restart(); !r) return r;
+    const uint64_t perChunk = m_chunkBytes / m_width;
+    while (m_next < first) { // skipping forward: inflate and discard
+        const size_t n = size_t(std::min(perChunk, first - m_next));
+        if (Status r = readStream(n * m_width); !r) return r;
+        m_next += n;
+    }
     return Status::ok();
 }
 
@@ -378,13 +518,7 @@ Status VoxelFileSource::readRaw(uint64_t first, uint64_t count, uint64_t* out) {
 Status VoxelFileSource::readCompressed(uint64_t first, uint64_t count, uint64_t* out) {
     const uint64_t perChunk = m_chunkBytes / m_width;
     Status s = [&]() -> Status {
-        if (!m_stream || first < m_next)
-            if (Status r = restart(); !r) return r;
-        while (m_next < first) { // skipping forward: inflate and discard
-            const size_t n = size_t(std::min(perChunk, first - m_next));
-            if (Status r = readStream(n * m_width); !r) return r;
-            m_next += n;
-        }
+        if (Status r = seekStream(first); !r) return r;
         for (uint64_t done = 0; done < count;) {
             const size_t n = size_t(std::min(perChunk, count - done));
             if (Status r = readStream(n * m_width); !r) return r;
@@ -418,6 +552,9 @@ Status VoxelFileSource::restart() {
 }
 
 Status VoxelFileSource::readStream(size_t bytes) {
+    // Every 64 pieces (8 MiB, a few ms of inflating): a slab, or a skip to a deep slice, can take
+    // seconds.
+    if (++m_pieces % 64 == 0 && !keepGoing()) return fail(m_path, "cancelled");
     Result<size_t> got = m_stream->read(m_buffer.data(), bytes);
     if (!got) return streamFailure(*m_stream, got.status());
     if (*got < bytes) return truncatedInSlice(m_stream->position() - std::min(m_stream->position(), m_data.skip));

@@ -144,6 +144,32 @@ size_t widenSamples(const uint8_t* p, LabelType type, bool bigEndian, uint64_t* 
 Status decodeVoxels(const uint8_t* p, LabelType type, bool bigEndian, const std::array<uint32_t, 3>& dim,
                     const std::string& path, uint64_t first, uint64_t* out, size_t n);
 
+/// @brief Bytes written once and then read at any offset: in memory up to a limit, beyond it in a
+/// scratch file that is unlinked as soon as it is open (nothing is left behind, whatever happens,
+/// and the disk space returns when the store is reset or destroyed).
+class SlabStore {
+public:
+    SlabStore() = default;
+    ~SlabStore();
+    SlabStore(const SlabStore&) = delete;
+    SlabStore& operator=(const SlabStore&) = delete;
+
+    /// Makes room for `bytes`: held in memory when they fit `memoryLimit`, else in a scratch file
+    /// in `directory` (InputOptions::scratchDirectory's rule). `path` names the input in errors.
+    Status reset(uint64_t bytes, uint64_t memoryLimit, const std::string& directory, const std::string& path);
+    Status write(uint64_t at, const uint8_t* data, size_t bytes);
+    Status read(uint64_t at, uint8_t* data, size_t bytes) const;
+    /// Memory held (the scratch file's bytes are on disk, not counted).
+    uint64_t memoryBytes() const { return m_memory.capacity(); }
+    bool inFile() const { return m_fd >= 0; }
+    void clear();
+
+private:
+    std::string m_path, m_name;
+    std::vector<uint8_t> m_memory;
+    int m_fd = -1;
+};
+
 /// @brief Where a volume's voxels lie in a file and how they are stored.
 struct VoxelData {
     std::string file;        ///< the file that holds them
@@ -162,9 +188,20 @@ struct VoxelData {
 /// most kChunkBytes, each decoded into the caller's buffer. Compressed data: one InputStream is
 /// kept open between calls; a slab after the last one continues it (skipping forward inflates
 /// and discards), a slab before it restarts the stream from the data's start (the InputSource
-/// contract allows this; reading in increasing z never restarts). Working memory: the decode
-/// buffer (at most kChunkBytes) plus, for compressed data, the stream (kStreamBytes: its 256 KiB
-/// input buffer, zlib's inflate state and 32 KiB window); never anything the size of the volume.
+/// contract allows this; reading in increasing z never restarts).
+///
+/// Both read rows (readsRows), so the encoder holds a band of about 64 MiB, not a brick-deep slab
+/// of uint32 labels (W x H x 32 x 4 bytes: 2 GiB for 4000 x 4000). A gzip stream cannot seek, so
+/// the first band of rows of a slab inflates the slab's slices once, at the file's native width,
+/// into a SlabStore; the slab's further bands are read from there. That slab stays in memory up to
+/// kSlabMemoryBytes and goes to a scratch file (InputOptions::scratchDirectory) beyond it. Bands
+/// one slice deep are read from the stream itself (a slice's rows lie together). Long reads ask
+/// keepGoing() every 8 MiB of the stream.
+///
+/// Working memory: the decode buffer (at most kChunkBytes) plus, for compressed data, the stream
+/// (kStreamBytes: its 256 KiB input buffer, zlib's inflate state and 32 KiB window) and the
+/// slab when read in bands (at most kSlabMemoryBytes in memory); never anything the size of the
+/// volume, and nothing proportional to a slice beyond kSlabMemoryBytes.
 ///
 /// The formats word their own errors (their tests pin the messages): truncated() when the data
 /// end early, streamFailure() when the stream cannot be opened, read or inflated, atDataEnd()
@@ -173,6 +210,9 @@ class VoxelFileSource : public InputSource {
 public:
     static constexpr size_t kChunkBytes = size_t(128) << 10;
     static constexpr uint64_t kStreamBytes = (uint64_t(256) + 48) << 10;
+    /// An inflated slab read in bands stays in memory up to this size (within
+    /// InputOptions::maxWorkingBytes), else it goes to a scratch file.
+    static constexpr uint64_t kSlabMemoryBytes = uint64_t(64) << 20;
 
     /// `info` is what the header said; `data` where the voxels are. Fails (naming `path`) when
     /// the working memory would exceed options.maxWorkingBytes.
@@ -180,8 +220,8 @@ public:
     ~VoxelFileSource() override;
 
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override;
-    /// Uncompressed data reads rows (one pread per slice); a compressed stream reads whole slices.
-    bool readsRows() const override { return !m_data.compressed; }
+    /// Uncompressed data reads rows (one pread per slice); a compressed stream through its slab.
+    bool readsRows() const override { return true; }
     Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) override;
     uint64_t workingBytes() const override;
 
@@ -205,6 +245,10 @@ private:
     /// Reads exactly `bytes` of the stream into the decode buffer's start; fewer is truncation.
     Status readStream(size_t bytes);
     Status truncatedInSlice(uint64_t available) const;
+    /// Compressed data: makes the slab store hold slices [z0, z0 + depth) at native width.
+    Status holdSlab(uint32_t z0, uint32_t depth);
+    /// Compressed data: positions the stream at voxel `first` (restarting it when behind).
+    Status seekStream(uint64_t first);
 
     std::string m_path;
     VoxelData m_data;
@@ -215,6 +259,11 @@ private:
     int m_fd = -1;                           ///< raw data
     std::unique_ptr<InputStream> m_stream;   ///< compressed data, between calls
     uint64_t m_next = 0;                     ///< the voxel the stream delivers next
+    uint64_t m_pieces = 0;                   ///< stream reads so far (keepGoing every 64)
+    SlabStore m_slab;                        ///< compressed data read in bands: one slab, native width
+    uint32_t m_slabZ0 = 0, m_slabDepth = 0;  ///< the slices m_slab holds (depth 0: none)
+    uint64_t m_slabMemoryLimit = 0;
+    std::string m_scratchDirectory;
 };
 
 } // namespace inputs

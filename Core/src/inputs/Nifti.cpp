@@ -4,8 +4,8 @@
 /// whole at open (parseNiftiHeader, also the fuzz target's entry), then the voxels are read slab
 /// by slab by VoxelFileSource: positioned reads of each slab's bytes in a plain file (one too
 /// short for its voxels is refused at open), one gzip stream kept open between slabs otherwise.
-/// Working memory: a 128 KiB decode buffer, plus 304 KiB for a gzip stream (its input buffer,
-/// zlib's state and 32 KiB window), whatever the volume's size.
+/// Working memory: VoxelFileSource's (a decode buffer and a gzip stream, and for gzip read in
+/// bands of rows one inflated slab, in memory up to 64 MiB, else in a scratch file).
 #include "InputCommon.h"
 
 #include "csgv/inputs/HeaderFormats.h"

@@ -6,8 +6,9 @@
 /// VoxelFileSource: positioned reads of each slab's bytes in a plain file, one gzip stream kept
 /// open between slabs otherwise (an earlier slab restarts it), whose label count is checked
 /// where it runs out or, for a surplus, after the last voxel, with readVraw's message.
-/// uint8/uint16 labels widen to uint32, as readVraw does. Working memory: a 128 KiB decode
-/// buffer, plus 304 KiB for a gzip stream (its input buffer, zlib's state and 32 KiB window).
+/// uint8/uint16 labels widen to uint32, as readVraw does. Working memory:
+/// VoxelFileSource's (a decode buffer and a gzip stream, and for gzip read in bands of rows one
+/// inflated slab, in memory up to 64 MiB, else in a scratch file).
 #include "InputCommon.h"
 
 #include "csgv/base/Checked.h"

@@ -12,6 +12,7 @@ name with the dataset path's slashes turned into underscores, e.g. `nested.h5:/a
 import os
 import shutil
 import sys
+import zlib
 
 import h5py
 import numpy as np
@@ -167,6 +168,79 @@ def main():
 
     with open(p("text.h5"), "w") as fh:
         fh.write("labels,1,2,3\nthis is not an HDF5 file\n")
+
+    # Hostile chunks, written raw (write_direct_chunk) as a crafted file holds them. 16^3 uint16
+    # chunks of 8 KiB: one whose gzip stream (within what deflate can need for 8 KiB) inflates
+    # to 4 MiB, one storing far more bytes than any gzip of 8 KiB, one that inflates short.
+    def zeros_stream(n):
+        c = zlib.compressobj(9)
+        return c.compress(bytes(n)) + c.flush()
+    with h5py.File(p("hostile_chunks.h5"), "w") as f:
+        for name, stream in (("bomb", zeros_stream(4 << 20)), ("oversized", zeros_stream(8192) + bytes(20000)),
+                             ("short", zeros_stream(4096))):
+            d = f.create_dataset(name, shape=(16, 16, 16), dtype=np.uint16, chunks=(16, 16, 16), compression="gzip")
+            d.id.write_direct_chunk((0, 0, 0), stream)
+        # scaleoffset then gzip: a pipeline libhdf5 decodes, whose gzip stream is checked first.
+        d = f.create_dataset("bomb_scaleoffset", shape=(16, 16, 16), dtype=np.uint16, chunks=(16, 16, 16),
+                             scaleoffset=0, compression="gzip")
+        d.id.write_direct_chunk((0, 0, 0), zeros_stream(4 << 20))
+        d = f.create_dataset("scaleoffset", data=np.arange(16 ** 3, dtype=np.uint16).reshape(16, 16, 16) % 1000,
+                             chunks=(8, 16, 16), scaleoffset=0, compression="gzip")
+        expect(outdir, "hostile_chunks_scaleoffset", d[...])
+        if h5py.h5z.filter_avail(h5py.h5z.FILTER_SZIP):
+            # libhdf5's szip decoder allocates what a chunk's first four bytes state: 1 GiB here.
+            d = f.create_dataset("szip_claims", shape=(16, 16, 16), dtype=np.uint16, chunks=(16, 16, 16),
+                                 compression="szip")
+            d.id.write_direct_chunk((0, 0, 0), (1 << 30).to_bytes(4, "little") + bytes(60))
+
+    # gzip + shuffle + fletcher32 (decoded by us too: a checksum must not hand a crafted chunk back
+    # to libhdf5), and the same with one stored byte of a chunk changed: its checksum fails.
+    a = blocky((10, 11, 12), 3, 14, 1, 1 << 40, np.uint64)
+    with h5py.File(p("checksummed.h5"), "w") as f:
+        f.create_dataset("labels", data=a, chunks=(5, 6, 7), compression="gzip", shuffle=True, fletcher32=True)
+    expect(outdir, "checksummed_labels", a)
+    shutil.copy(p("checksummed.h5"), p("checksum_bad.h5"))
+    with h5py.File(p("checksum_bad.h5"), "r") as f:
+        info = f["labels"].id.get_chunk_info_by_coord((5, 6, 7))
+    with open(p("checksum_bad.h5"), "r+b") as fh:
+        fh.seek(info.byte_offset + info.size - 1)
+        last = fh.read(1)
+        fh.seek(info.byte_offset + info.size - 1)
+        fh.write(bytes([last[0] ^ 0x55]))
+
+    # Fill values: no chunk written at all (a large volume in a tiny file), and some chunks written
+    # among unwritten ones (shuffle + gzip, fill value 5, signed with a negative fill too).
+    with h5py.File(p("fill.h5"), "w") as f:
+        f.create_dataset("none", shape=(4096, 4096, 4096), dtype=np.uint8, chunks=(64, 64, 64), compression="gzip",
+                         fillvalue=7)
+        d = f.create_dataset("some", shape=(20, 21, 22), dtype=np.uint32, chunks=(8, 8, 8), compression="gzip",
+                             shuffle=True, fillvalue=5)
+        a = np.full((20, 21, 22), 5, np.uint32)
+        a[8:16, 0:8, 8:16] = blocky((8, 8, 8), 2, 13, 1, 1 << 31, np.uint32)
+        a[16:20, 16:21, 16:22] = 9
+        d[8:16, 0:8, 8:16] = a[8:16, 0:8, 8:16]
+        d[16:20, 16:21, 16:22] = 9
+        expect(outdir, "fill_some", a)
+        d = f.create_dataset("negative", shape=(9, 9, 9), dtype=">i2", chunks=(4, 4, 4), compression="gzip",
+                             fillvalue=-3)
+        b = np.full((9, 9, 9), -3, np.int16)
+        b[0:4, 0:4, 0:4] = np.arange(64, dtype=np.int16).reshape(4, 4, 4) - 30
+        d[0:4, 0:4, 0:4] = b[0:4, 0:4, 0:4]
+        expect(outdir, "fill_negative", b)
+
+    # External storage: raw data in a file beside the HDF5 file (named relatively: allowed), and
+    # in a folder beside the fixtures' (named absolutely: outside, refused unless allowed).
+    ext = os.path.join(outdir, "external")
+    os.makedirs(ext, exist_ok=True)
+    raw = (np.arange(6 * 5 * 4) % 7).astype(np.uint8)
+    raw.tofile(os.path.join(ext, "beside.raw"))
+    outside = os.path.abspath(os.path.join(outdir, "outside.raw"))
+    raw.tofile(outside)
+    with h5py.File(os.path.join(ext, "beside.h5"), "w") as f:
+        f.create_dataset("labels", shape=(6, 5, 4), dtype=np.uint8, external=[("beside.raw", 0, raw.size)])
+    with h5py.File(os.path.join(ext, "outside.h5"), "w") as f:
+        f.create_dataset("labels", shape=(6, 5, 4), dtype=np.uint8, external=[(outside, 0, raw.size)])
+    expect(outdir, "external_labels", raw.reshape(6, 5, 4))
 
 
 if __name__ == "__main__":

@@ -15,10 +15,14 @@
 /// pre-scan would cost every such file a full extra read.
 ///
 /// Working memory: the encoder's band (a slab, W * H * brickSize * 4 bytes, unless the input
-/// reads rows: then about EncodeToFileOptions::maxBandBytes) + the adapter's scratch
-/// (kScratchBytes, at least one slice at 8 bytes a voxel) + the source's working set
-/// (InputSource::workingBytes) + the label map when relabelling (about 50 bytes a label) + what
-/// encodeToFile holds for the output.
+/// reads rows, as every format but TIFF, Zarr and precomputed does: then about
+/// EncodeToFileOptions::maxBandBytes, at least one brick row) + the adapter's scratch
+/// (kScratchBytes; at least one slice at 8 bytes a voxel for an input that does not read rows,
+/// else one row) + the source's working set (InputSource::workingBytes) + the label map when
+/// relabelling (about 50 bytes a label; its first pass reads within kScratchBytes the same way)
+/// + what encodeToFile holds for the output. Progress is reported after every read of the
+/// input (LabelSlabAdapter::onRead) as well as after each slab of bricks, and long reads inside
+/// the input ask whether to go on (InputSource::setKeepGoing), so a cancel is seen between them.
 
 #include "csgv/codec/Encoder.h"
 #include "csgv/inputs/Inputs.h"
@@ -77,7 +81,8 @@ struct CompressReport {
 /// slices into a bounded uint64 scratch (never a whole brick-deep slab at 8 bytes a voxel) and
 /// writes format labels: ids through a relabeller, or the values themselves after checking they
 /// fit. A value that does not fit fails the read and sets misfit(), so the caller can restart
-/// with relabelling. Memory: the scratch, max(one slice, kScratchBytes) at 8 bytes a voxel.
+/// with relabelling. Memory: the scratch, kScratchBytes at 8 bytes a voxel, at least one slice
+/// when whole slabs are read, one row when bands of rows are.
 class LabelSlabAdapter : public SlabSource {
 public:
     static constexpr uint64_t kScratchBytes = uint64_t(32) << 20;
@@ -90,6 +95,14 @@ public:
     bool readsRows() const override { return m_source.readsRows(); }
     uint32_t chunkDepth() const override { return m_source.info().chunkDepth; }
     Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override;
+    /// Called after every read of the source with the fraction of the volume's voxels read so far
+    /// in the encoder's order (slab after slab, bands of rows within); returning false cancels
+    /// (the read fails with "cancelled"). The encoder reports progress once per slab of bricks,
+    /// which on a very wide volume is minutes apart; reads are at most the scratch apart.
+    /// The same callback, with the last fraction, is the source's keepGoing (InputSource::setKeepGoing)
+    /// while this adapter lives.
+    void onRead(std::function<bool(double fraction)> callback);
+    ~LabelSlabAdapter() override;
     bool misfit() const { return m_misfit; }
     uint64_t scratchBytes() const { return m_scratch.capacity() * sizeof(uint64_t); }
     uint64_t maxSourceWorkingBytes() const { return m_maxSourceWorking; }
@@ -103,6 +116,8 @@ private:
     std::vector<uint64_t> m_scratch;
     bool m_misfit = false;
     uint64_t m_maxSourceWorking = 0;
+    std::function<bool(double)> m_onRead;
+    double m_lastRead = 0; ///< the fraction last reported to m_onRead
 };
 
 /// Slices per sub-slab of at most `depth` slices of `sliceVoxels` uint64 values within

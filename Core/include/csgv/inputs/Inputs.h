@@ -67,6 +67,11 @@ struct InputOptions {
     /// `data file:`, HDF5 external storage) must lie inside the dataset's own folder unless this
     /// is set (`csgv --allow-outside-paths`); a refusal names the file it would have read.
     bool allowOutsidePaths = false;
+    /// Where a source may put a scratch file (unlinked as soon as it is open, so nothing is left
+    /// behind): a gzip source read in bands of rows keeps one inflated brick-deep slab there when
+    /// it does not fit kSlabMemoryBytes. Empty: $TMPDIR, else /tmp. compressToFile sets the
+    /// output's folder, where the encoder's own scratch files go.
+    std::string scratchDirectory;
 };
 
 /// @brief A label volume read z-slab by z-slab at full width. Opened by openInput().
@@ -98,9 +103,17 @@ public:
     virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out);
     /// Bytes of caches held between calls (for reports and the memory tests).
     virtual uint64_t workingBytes() const { return 0; }
+    /// Reads that take long inside one call (a gzip source inflating a slab before serving its
+    /// first band of rows: seconds for a wide slab) call `keepGoing` every few MiB and fail with
+    /// "cancelled" when it returns false, so that a cancel is seen within a fraction of a second.
+    /// Empty (the default): never asked.
+    void setKeepGoing(std::function<bool()> keepGoing) { m_keepGoing = std::move(keepGoing); }
 
 protected:
+    bool keepGoing() const { return !m_keepGoing || m_keepGoing(); }
+
     InputInfo m_info;
+    std::function<bool()> m_keepGoing;
 };
 
 /// True when `path` names an input that openInput() recognises by its form (suffix, `FILE.h5:/dataset`,

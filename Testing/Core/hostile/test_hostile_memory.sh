@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Hostile inputs against memory and time (issue 37, item 3, with HDF5's share of items 4 and 8):
+# small files that state volumes whose careless reading needs gigabytes or hours. Each case runs
+# `csgv` under an address-space ceiling and a time ceiling (expect_bounded), or is interrupted
+# and must end at once. Fixtures are written here by make_hostile_memory.py (about 10 MB).
+# Before the fixes: gzip compress 2.1 GB (out of memory at 600 MiB), the gzip chunk bomb 1.06 GB,
+# `info` of a 20000 x 20000 slice 3.1 GB, the external file read, the fill-only volume neither
+# progressing nor cancellable for minutes.
+set -u
+CSGV=$(realpath "$1")
+PY=${3:-/usr/bin/python3} # $2: the Volcanite fixtures (unused)
+source "$(dirname "$0")/../../tool_test_lib.sh"
+FX=$TMP/fx
+"$PY" "$(dirname "$0")/make_hostile_memory.py" "$FX" || { echo "FAIL: fixtures"; exit 1; }
+
+# gzip inputs read in bands of rows through one inflated slab at the file's width, not a
+# brick-deep slab of uint32 labels (4000 x 4000 x 32 x 4 bytes = 2 GB): about 160 MB now.
+for f in wide.vraw.gz wide.nii.gz wide_gz.nrrd; do
+  expect_bounded 0 600 60 "" "compress $f (4000x4000 gzip) within 600 MiB" \
+    "$CSGV" compress "$FX/$f" "$TMP/wide.csgv" --threads 2 --quiet
+  expect 0 "verify $f" "$CSGV" verify "$TMP/wide.csgv" "$FX/$f"
+done
+
+# Slabs deeper than a slice: inflated once at the file's width, to a scratch file beside the
+# output past 64 MiB (unlinked at once: nothing is left there).
+mkdir -p "$TMP/deep"
+expect_bounded 0 400 60 "" "compress deep.vraw.gz (2000x2000x33 gzip, slabs in a scratch file) within 400 MiB" \
+  "$CSGV" compress "$FX/deep.vraw.gz" "$TMP/deep/deep.csgv" --threads 2 --quiet
+expect 0 "verify deep.vraw.gz" "$CSGV" verify "$TMP/deep/deep.csgv" "$FX/deep.vraw.gz"
+[ "$(ls "$TMP/deep" | grep -vc '^deep\.csgv')" -eq 0 ] || bad "scratch files left beside the output: $(ls "$TMP/deep")"
+
+# A 64^3 chunk whose stored gzip stream inflates to 1 GiB: refused, naming the chunk and sizes.
+expect_bounded 1 300 20 "bomb\.h5: cannot read z 0\.\.63: the chunk at \(x 0, y 0, z 0\) stores [0-9]+ bytes, more than the [0-9]+ a chunk of 262144 bytes can need" \
+  "HDF5 gzip chunk bomb refused within 300 MiB" "$CSGV" compress "$FX/bomb.h5" "$TMP/bomb.csgv" --threads 2 --quiet
+[ -e "$TMP/bomb.csgv" ] && bad "the refused bomb left an output"
+
+# `info` samples a 20000 x 20000 slice by bands of rows (8 bytes a voxel of it whole: 3.2 GB).
+expect_bounded 0 300 30 "" "info of a 20000x20000 gzip slice within 300 MiB" "$CSGV" info "$FX/slice20k.vraw.gz"
+grep -qx "labels: 21" "$TMP/out" && grep -q "^labels_counted: estimate (1 slices, 4 bands of " "$TMP/out" \
+  || bad "info of the 20000x20000 slice: $(cat "$TMP/out")"
+
+# An input that reads whole slices only is sampled by whole slices (of at most 2^25 voxels).
+expect_bounded 0 300 30 "" "info of a TIFF of 2048x1100 slices" "$CSGV" info "$FX/slices.tif"
+grep -Eqx "labels: [0-9]+" "$TMP/out" && grep -qx "labels_counted: estimate (16 slices)" "$TMP/out" \
+  || bad "info of the TIFF: $(cat "$TMP/out")"
+
+# No chunk written: the volume is the fill value, served without reading; the tool says so.
+expect_bounded 0 300 20 "" "info of a 65536^3 volume of fill values" "$CSGV" info "$FX/fill_only.h5"
+grep -q "no chunk written (every voxel is the fill value)" "$TMP/out" && grep -qx "labels: 1" "$TMP/out" \
+  || bad "info of the fill-only volume: $(cat "$TMP/out")"
+
+# Compressing a wide volume of fill values reports progress between the encoder's slabs (a slab
+# of 16384^2 x 32 voxels takes minutes), so an interrupt ends it at once. 65536^3 (2^48 voxels)
+# stays out of reach in time: it progresses and cancels too, but the encoder's band alone is 268 MB.
+expect_cancel() {
+  local mib=$1 what=$2; shift 2
+  prlimit --as=$((mib * 1024 * 1024)) -- "$@" >"$TMP/out" 2>"$TMP/err" &
+  local pid=$!
+  sleep 1.5
+  if ! kill -0 "$pid" 2>/dev/null; then wait "$pid"; bad "$what: ended before the interrupt (exit $?): $(head -c 300 "$TMP/err")"; return; fi
+  local t0; t0=$(date +%s%N)
+  kill -INT "$pid"
+  local waited=0
+  while kill -0 "$pid" 2>/dev/null && [ "$waited" -lt 60 ]; do sleep 0.05; waited=$((waited + 1)); done
+  if kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid"; wait "$pid"; bad "$what: still running 3 s after SIGINT"; return; fi
+  wait "$pid"; local got=$?
+  local ms=$((($(date +%s%N) - t0) / 1000000))
+  if [ "$got" -ne 130 ]; then bad "$what: exit $got after SIGINT ($(head -c 300 "$TMP/err"))"; return; fi
+  if ! grep -Eq "^csgv: error: (compression of '.*' cancelled|interrupted)" "$TMP/err"; then bad "$what: no cancel message: $(cat "$TMP/err")"; return; fi
+  if [ "$ms" -gt 1000 ]; then bad "$what: took ${ms} ms to end after SIGINT"; return; fi
+  pass "$what (${ms} ms)"
+}
+expect_cancel 800 "compress of a 16384^3 fill-only HDF5 is cancelled at once" \
+  "$CSGV" compress "$FX/fill_16384.h5" "$TMP/fill.csgv" --threads 2
+ls "$TMP" | grep -q "^fill\.csgv" && bad "the cancelled compression left $(ls "$TMP" | grep '^fill\.csgv')"
+
+# External storage may name any file: outside the HDF5 file's folder it is refused (naming it)
+# unless --allow-outside-paths; named relatively it is found beside the file from any folder.
+expect_bounded 1 300 10 "external\.h5: dataset /labels keeps its data in the external file '[^']*/elsewhere/secret\.raw' .*outside the HDF5 file's folder.*--allow-outside-paths" \
+  "HDF5 external storage outside the folder refused" "$CSGV" info "$FX/inside/external.h5"
+expect_bounded 0 300 10 "" "HDF5 external storage outside the folder with --allow-outside-paths" \
+  "$CSGV" info "$FX/inside/external.h5" --allow-outside-paths
+grep -qx "labels: 5" "$TMP/out" || bad "external data read: $(cat "$TMP/out")"
+expect_bounded 0 300 10 "" "HDF5 external storage beside the file, from another folder" \
+  env -C / "$CSGV" info "$FX/inside/external_inside.h5"
+grep -qx "labels: 5" "$TMP/out" || bad "external data beside the file: $(cat "$TMP/out")"
+
+finish
