@@ -127,6 +127,7 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
         DbPtr db(raw);
         if (rc != SQLITE_OK)
             return Status::error("cannot open SQLite database '" + path + "': " + (raw ? sqlite3_errmsg(raw) : "out of memory"));
+        sqlite::ReadBudget budget(db.get(), path);
         Result<StmtPtr> st = prepare(db.get(), "SELECT name FROM sqlite_master WHERE type IN ('table', 'view') "
                                                "AND name NOT LIKE 'sqlite\\_%' ESCAPE '\\' ORDER BY name");
         if (!st) return Status::error("SQLite database '" + path + "': " + st.message());
@@ -167,6 +168,7 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
     DbPtr db(raw);
     if (rc != SQLITE_OK)
         return Status::error("cannot open SQLite database '" + path + "': " + (raw ? sqlite3_errmsg(raw) : "out of memory"));
+    sqlite::ReadBudget budget(db.get(), path);
     const std::string source = "SQLite database '" + path + "', table '" + chosen + "'";
     Result<StmtPtr> st = prepare(db.get(), "SELECT * FROM " + quoteIdentifier(chosen));
     if (!st) return Status::error(source + ": " + st.message());
@@ -177,10 +179,16 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
     int step;
     while ((step = sqlite3_step(st->get())) == SQLITE_ROW) {
         std::vector<std::string> row(static_cast<size_t>(ncol));
-        for (int c = 0; c < ncol; ++c) row[size_t(c)] = cellText(st->get(), c);
+        for (int c = 0; c < ncol; ++c) {
+            if (!budget.takeValue(st->get(), c)) return Status::error(source + ": " + budget.exceeded());
+            row[size_t(c)] = cellText(st->get(), c);
+        }
         rows.push_back(std::move(row));
     }
-    if (step != SQLITE_DONE) return Status::error(source + ": " + sqlite3_errmsg(db.get()));
+    if (step != SQLITE_DONE) {
+        const std::string why = budget.exceeded();
+        return Status::error(source + ": " + (why.empty() ? std::string(sqlite3_errmsg(db.get())) : why));
+    }
     return buildTable(names, rows, labelColumn, source,
                       [&](size_t r) { return source + ", row " + std::to_string(r + 1); });
 }
