@@ -25,17 +25,18 @@ inline void require(bool condition) {
 
 /// The process's scratch folder (created on first use, removed at exit).
 inline const std::string& scratchDir() {
-    static const std::string dir = [] {
+    // Never destroyed: the exit handler that removes the folder runs after static destructors.
+    static const std::string* dir = [] {
         const char* tmp = std::getenv("TMPDIR");
-        std::string pattern = std::string(tmp && *tmp ? tmp : "/tmp") + "/csgv-fuzz-XXXXXX";
-        if (!mkdtemp(pattern.data())) std::abort();
+        auto* pattern = new std::string(std::string(tmp && *tmp ? tmp : "/tmp") + "/csgv-fuzz-XXXXXX");
+        if (!mkdtemp(pattern->data())) std::abort();
         std::atexit([] {
             std::error_code ec;
             std::filesystem::remove_all(scratchDir(), ec);
         });
         return pattern;
     }();
-    return dir;
+    return *dir;
 }
 
 /// An empty folder `name` inside the scratch folder (emptied if it exists).

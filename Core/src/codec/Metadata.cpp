@@ -74,7 +74,13 @@ Result<VolumeMetadata> readMetadata(const std::string& path) {
     if (s) s = numbers("origin", md.geometry.origin.data(), 3, false);
     if (s) s = numbers("direction", md.geometry.direction.data(), 9, false);
     if (!s) return s;
-    for (int a = 0; a < 3; ++a) md.dim[a] = uint32_t(dims[a]);
+    for (int a = 0; a < 3; ++a) {
+        // Whole voxel counts a volume can have (a cast of 0.5 or 1e10 would give 0 or be undefined).
+        if (j.contains("dimensions") && (dims[a] != std::floor(dims[a]) || dims[a] > 4294967295.0))
+            return Status::error(where + "'dimensions' holds " + jsonText(j["dimensions"][a]) +
+                                 ", not a whole number of voxels from 1 to 4294967295");
+        md.dim[a] = uint32_t(dims[a]);
+    }
     if (j.contains("original_type")) {
         if (!j["original_type"].is_string()) return Status::error(where + "'original_type' must be a string");
         md.originalType = j["original_type"].get<std::string>();
