@@ -9,6 +9,7 @@
 
 #include "csgv/codec/Metadata.h"
 
+#include <algorithm>
 #include <cmath>
 
 using namespace csgv;
@@ -39,5 +40,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                   back->geometry.origin == md->geometry.origin && back->geometry.direction == md->geometry.direction &&
                   back->originalType == md->originalType && back->relabelled == md->relabelled &&
                   back->source == md->source);
+
+    // Names from outside (an input's file name, a ParaView array name) may be any bytes: writing
+    // them must not fail, and what is written must read back.
+    md->source.clear();
+    for (size_t i = 0; i < size && i < 64; ++i) md->source += char(data[i] ^ 0x80); // never valid UTF-8 text
+    md->originalType = md->source;
+    fuzz::require(writeMetadata(again, *md).isOk());
+    fuzz::require(readMetadata(again).isOk());
     return 0;
 }

@@ -37,7 +37,9 @@ Status writeMetadata(const std::string& path, const VolumeMetadata& md) {
     j["original_type"] = md.originalType;
     j["relabelled"] = md.relabelled;
     j["source"] = md.source;
-    const std::string text = j.dump(2) + "\n";
+    // The source and type names come from outside (a file name, a ParaView array name) and may be
+    // any bytes; JSON text is UTF-8, so invalid sequences are written as U+FFFD (dump() would throw).
+    const std::string text = j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
     AtomicFile f;
     Status s = f.open(path);
     if (s) s = f.write(text.data(), text.size());

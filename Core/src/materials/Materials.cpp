@@ -300,7 +300,8 @@ std::string serializeMaterials(const MaterialDocument& doc, int indent) {
     // Written only when set, so documents without an overlay read as they always did.
     if (!doc.hidden.empty()) out["hidden"] = doc.hidden;
     if (!doc.only.empty()) out["only"] = doc.only;
-    return out.dump(indent);
+    // Names set through an API (not parsed JSON) may hold bytes that are not UTF-8: U+FFFD, not a throw.
+    return out.dump(indent, ' ', false, json::error_handler_t::replace);
 }
 
 MaterialDocument defaultMaterials() {
