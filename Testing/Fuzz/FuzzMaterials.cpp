@@ -42,6 +42,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
     const MaterialDocument plain = effectiveMaterials(*doc, attribute);
     fuzz::require(plain.hidden.empty() && plain.only.empty());
+    if (doc->only.empty() && doc->hidden.size() <= 64) {
+        // The overlay means what the pick panel's hideLabel does, label by label.
+        MaterialDocument oneByOne = *doc;
+        oneByOne.hidden.clear();
+        for (uint32_t x : doc->hidden)
+            hideLabel(oneByOne, x, [&attribute, x](const std::string& name) { return attribute(name, x); });
+        fuzz::require(serializeMaterials(oneByOne) == serializeMaterials(plain));
+    }
     MaterialDocument resolved = plain;
     if (resolveColormapNames(resolved)) {
         const MaterialEvaluator evaluator(resolved, attribute);
