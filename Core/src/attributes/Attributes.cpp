@@ -485,6 +485,14 @@ Result<AttributeTable> parseCsv(const std::string& text, const CsvOptions& optio
     Status s = tokenize(text, delim, source, records);
     if (!s) return s;
     if (records.empty()) return Status::error(source + ": no rows");
+    // Tables go into SQLite (the attribute database, derived attributes), which takes at most 2000
+    // columns (SQLITE_MAX_COLUMN). A longer first row is not a table of attributes (a row of
+    // labels, say), and comparing the names of so many columns took quadratic time (60,000: 30 s).
+    constexpr size_t kMaxColumns = 2000;
+    if (records[0].fields.size() > kMaxColumns)
+        return Status::error(source + ":" + std::to_string(records[0].line) + ": " +
+                             std::to_string(records[0].fields.size()) + " fields; an attribute table has at most " +
+                             std::to_string(kMaxColumns) + " columns");
 
     bool header = options.header == CsvOptions::Header::Present;
     if (options.header == CsvOptions::Header::Auto) {
