@@ -259,6 +259,21 @@ TEST(AttributesCsv, ErrorsNameTheLine) {
     EXPECT_ERROR(parseCsv("1 2\n", wrong, "t.txt"), "1 column names given for 2 columns");
 }
 
+TEST(AttributesCsv, WideAndRaggedTablesFailEarly) {
+    // A row of 60,000 labels is not a table of attributes (SQLite takes 2000 columns); checking
+    // the names of so many columns against each other took quadratic time (over 30 s).
+    std::string row = "1";
+    for (int i = 2; i <= 60000; ++i) row += "," + std::to_string(i);
+    EXPECT_ERROR(parseCsv(row + "\n", {}, "t.csv"), "t.csv:1", "60000 fields", "at most 2000 columns");
+    // 2000 columns, then many one-field rows: header detection looked down every column of every
+    // row (60 s for a million rows) before the field counts were compared.
+    std::string ragged = "1";
+    for (int i = 1; i < 2000; ++i) ragged += ",a";
+    ragged += "\n";
+    for (int i = 0; i < 200000; ++i) ragged += "x\n";
+    EXPECT_ERROR(parseCsv(ragged, {}, "t.csv"), "t.csv:2", "1 fields, expected 2000");
+}
+
 // ---- the table ----------------------------------------------------------------------------
 
 TEST(AttributeTable, MergeDenseColumnsAndMaterials) {

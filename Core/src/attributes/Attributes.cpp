@@ -498,7 +498,11 @@ Result<AttributeTable> parseCsv(const std::string& text, const CsvOptions& optio
     if (options.header == CsvOptions::Header::Auto) {
         const Record& first = records[0];
         header = std::none_of(first.fields.begin(), first.fields.end(), isNumberField);
-        for (size_t c = 0; !header && c < first.fields.size() && records.size() > 1; ++c) {
+        // Rows of another length are an error below whatever the header; looking down each column of
+        // such a table cost columns x rows (2000 fields, then a million one-field rows: 60 s).
+        const bool ragged = std::any_of(records.begin(), records.end(),
+                                        [&](const Record& r) { return r.fields.size() != first.fields.size(); });
+        for (size_t c = 0; !header && !ragged && c < first.fields.size() && records.size() > 1; ++c) {
             if (isMissing(first.fields[c]) || isNumberField(first.fields[c])) continue;
             bool numericBelow = true, any = false;
             for (size_t r = 1; r < records.size() && numericBelow; ++r) {
