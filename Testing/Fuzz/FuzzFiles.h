@@ -19,9 +19,13 @@
 
 namespace fuzz {
 
-inline void require(bool condition) {
-    if (!condition) std::abort();
+/// Aborts (the fuzzer's finding) when `condition` is false, saying which check failed.
+inline void require(bool condition, int line = 0, const char* text = nullptr) {
+    if (condition) return;
+    if (text) std::fprintf(stderr, "fuzz check failed (line %d): %s\n", line, text);
+    std::abort();
 }
+#define FUZZ_REQUIRE(c) ::fuzz::require((c), __LINE__, #c)
 
 /// The process's scratch folder (created on first use, removed at exit).
 inline const std::string& scratchDir() {
@@ -68,7 +72,7 @@ inline bool namesPath(const std::string& message, const std::string& path) {
 inline void readSlices(csgv::InputSource& source, const std::string& path, uint64_t maxSliceVoxels = uint64_t(1) << 20,
                        uint32_t maxSlices = 16) {
     const csgv::InputInfo& info = source.info();
-    require(info.dim[0] > 0 && info.dim[1] > 0 && info.dim[2] > 0 && !info.format.empty());
+    FUZZ_REQUIRE(info.dim[0] > 0 && info.dim[1] > 0 && info.dim[2] > 0 && !info.format.empty());
     const uint64_t slice = uint64_t(info.dim[0]) * info.dim[1];
     if (slice > maxSliceVoxels) return;
     std::vector<uint64_t> first(slice), buffer(slice);
@@ -76,24 +80,24 @@ inline void readSlices(csgv::InputSource& source, const std::string& path, uint6
     for (uint32_t z = 0; z < info.dim[2] && z < maxSlices; ++z) {
         csgv::Status s = source.readSlab(z, 1, z == 0 ? first.data() : buffer.data());
         if (!s) {
-            require(namesPath(s.message(), path));
+            FUZZ_REQUIRE(namesPath(s.message(), path));
             return;
         }
         if (z == 0) firstRead = true;
     }
     if (firstRead) {
         csgv::Status s = source.readSlab(0, 1, buffer.data());
-        require(s.isOk() || namesPath(s.message(), path));
-        if (s) require(buffer == first);
+        FUZZ_REQUIRE(s.isOk() || namesPath(s.message(), path));
+        if (s) FUZZ_REQUIRE(buffer == first);
     }
     // Bands of rows, where the source reads them cheaply (chunked formats).
     if (source.readsRows() && info.dim[1] > 1) {
         const uint32_t rows = (info.dim[1] + 1) / 2;
         csgv::Status s = source.readRows(0, 1, info.dim[1] - rows, rows, buffer.data());
-        require(s.isOk() || namesPath(s.message(), path));
+        FUZZ_REQUIRE(s.isOk() || namesPath(s.message(), path));
         if (s && firstRead)
             for (uint64_t i = 0; i < uint64_t(rows) * info.dim[0]; ++i)
-                require(buffer[i] == first[uint64_t(info.dim[1] - rows) * info.dim[0] + i]);
+                FUZZ_REQUIRE(buffer[i] == first[uint64_t(info.dim[1] - rows) * info.dim[0] + i]);
     }
 }
 
