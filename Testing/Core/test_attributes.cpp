@@ -261,6 +261,21 @@ TEST(AttributesCsv, ErrorsNameTheLine) {
     EXPECT_ERROR(parseCsv("1 2\n", wrong, "t.txt"), "1 column names given for 2 columns");
 }
 
+TEST(AttributesCsv, WideAndRaggedTablesFailEarly) {
+    // A row of 60,000 labels is not a table of attributes (SQLite takes 2000 columns); checking
+    // the names of so many columns against each other took quadratic time (over 30 s).
+    std::string row = "1";
+    for (int i = 2; i <= 60000; ++i) row += "," + std::to_string(i);
+    EXPECT_ERROR(parseCsv(row + "\n", {}, "t.csv"), "t.csv:1", "60000 fields", "at most 2000 columns");
+    // 2000 columns, then many one-field rows: header detection looked down every column of every
+    // row (60 s for a million rows) before the field counts were compared.
+    std::string ragged = "1";
+    for (int i = 1; i < 2000; ++i) ragged += ",a";
+    ragged += "\n";
+    for (int i = 0; i < 200000; ++i) ragged += "x\n";
+    EXPECT_ERROR(parseCsv(ragged, {}, "t.csv"), "t.csv:2", "1 fields, expected 2000");
+}
+
 // ---- the table ----------------------------------------------------------------------------
 
 TEST(AttributeTable, MergeDenseColumnsAndMaterials) {
@@ -461,6 +476,54 @@ TEST(AttributesDerived, HemisphereFromRegionNames) {
         EXPECT_EQ(left, 54);
         EXPECT_EQ(right, 54);
     }
+}
+
+// A hostile expression ends with an error naming its budget, not after hours or gigabytes; a
+// Ctrl-C (cancelRequested) stops it too. The time ceiling is far above what the budget allows:
+// without it this statement runs for hours.
+TEST(AttributesDerived, HostileExpressionsStopAtTheirBudget) {
+    std::string csv = "label,code\n";
+    for (int i = 1; i <= 400; ++i) csv += std::to_string(i) + "," + std::to_string(i * 7) + "\n";
+    Result<AttributeTable> t = parseCsv(csv);
+    ASSERT_TRUE(t.isOk()) << t.message();
+    DerivedBudget quick;
+    quick.seconds = 0.3;
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_ERROR(addDerivedAttribute(*t, "d", "(SELECT count(*) FROM t a, t b, t c, t d2)", false, quick),
+                 "derived attribute 'd'", "time budget of 0.3 s");
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 20.0);
+    EXPECT_ERROR(addDerivedAttribute(*t, "d", "length(zeroblob(2000000000))"), "larger than the budget of 1048576 bytes");
+    EXPECT_ERROR(addDerivedAttribute(*t, "d", "hex(zeroblob(1000000))"), "larger than the budget");
+    DerivedBudget small;
+    small.resultBytes = 4096;
+    EXPECT_ERROR(addDerivedAttribute(*t, "d", "hex(zeroblob(20))", false, small),
+                 "exceed the budget of 4096 bytes");
+    requestCancel();
+    EXPECT_ERROR(addDerivedAttribute(*t, "d", "(SELECT count(*) FROM t a, t b, t c, t d2)"), "cancelled");
+    resetCancel();
+    EXPECT_FALSE(t->hasColumn("d"));
+    ASSERT_TRUE(addDerivedAttribute(*t, "d", "(SELECT count(*) FROM t a, t b)").isOk()); // 160000 rows: fine
+    EXPECT_EQ(t->value("d", 3), 160000.0);
+}
+
+// Columns are found by a name index: a table of the most columns a table may have (2000) builds
+// in linear time, lookups ignore case, and duplicates (ignoring case) are still refused.
+TEST(AttributesCsv, ColumnsAreFoundByName) {
+    const int columns = 2000;
+    std::string header = "label", row = "1";
+    for (int c = 1; c < columns; ++c) {
+        header += ",c" + std::to_string(c);
+        row += "," + std::to_string(c);
+    }
+    Result<AttributeTable> t = parseCsv(header + "\n" + row + "\n2" + row.substr(1) + "\n");
+    ASSERT_TRUE(t.isOk()) << t.message();
+    EXPECT_EQ(t->columns().size(), size_t(columns));
+    EXPECT_EQ(t->value("c1999", 2), 1999.0);
+    EXPECT_EQ(t->value("C5", 1), 5.0) << "lookups ignore case";
+    EXPECT_ERROR(parseCsv("label,a,A\n1,2,3\n"), "'A' appears twice");
+    ASSERT_TRUE(t->removeColumn("c7"));
+    EXPECT_FALSE(t->hasColumn("C7"));
+    EXPECT_EQ(t->value("c1999", 2), 1999.0) << "the index follows a removal";
 }
 
 // ---- computed attributes --------------------------------------------------------------------

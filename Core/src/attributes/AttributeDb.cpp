@@ -62,17 +62,12 @@ Result<AttributeDatabase> readAttributeDb(const std::string& path) {
     Result<DbPtr> opened = openReadOnly(path, "attribute database '" + path + "'");
     if (!opened) return opened.status();
     DbPtr db = std::move(*opened);
-    sqlite::Deadline deadline(db.get(), sqlite::kReadSeconds); // its tables may be views of any query
+    sqlite::ReadBudget budget(db.get(), path);
     AttributeDatabase out;
     out.path = path;
     auto fail = [&](const std::string& what) {
-        if (deadline.why)
-            return Status::error("attribute database '" + path + "': " +
-                                 (std::string(deadline.why) == "time"
-                                      ? "reading it took longer than " + std::to_string(int(sqlite::kReadSeconds)) +
-                                            " s (are its tables views of a join?)"
-                                      : std::string("reading it was cancelled")));
-        return Status::error("attribute database '" + path + "': " + what);
+        const std::string why = budget.exceeded();
+        return Status::error("attribute database '" + path + "': " + (why.empty() ? what : why));
     };
 
     Result<StmtPtr> info = prepare(db.get(), "SELECT volume_width, volume_height, volume_depth, label_column FROM csgv_info");
@@ -117,12 +112,14 @@ Result<AttributeDatabase> readAttributeDb(const std::string& path) {
                         std::to_string(id));
         if (sqlite3_column_type(st, labelCol) != SQLITE_INTEGER)
             return fail("label of id " + std::to_string(id) + " is not an integer");
+        if (!budget.take(16)) return fail("");
         out.labels.push_back(sqlite3_column_int64(st, labelCol));
         for (size_t k = 0; k < attrCols.size(); ++k) {
             const int c = attrCols[k];
             AttributeColumn& col = out.columns[k];
             const int type = sqlite3_column_type(st, c);
             const char* t = reinterpret_cast<const char*>(sqlite3_column_text(st, c));
+            if (!budget.takeValue(st, c)) return fail("");
             text[k].emplace_back(t ? t : "");
             if (type == SQLITE_INTEGER || type == SQLITE_FLOAT) col.values.push_back(sqlite3_column_double(st, c));
             else if (type == SQLITE_NULL) col.values.push_back(std::numeric_limits<double>::quiet_NaN());

@@ -503,12 +503,24 @@ Result<AttributeTable> parseCsv(const std::string& text, const CsvOptions& optio
     Status s = tokenize(text, delim, source, records);
     if (!s) return s;
     if (records.empty()) return Status::error(source + ": no rows");
+    // Tables go into SQLite (the attribute database, derived attributes), which takes at most 2000
+    // columns (SQLITE_MAX_COLUMN). A longer first row is not a table of attributes (a row of
+    // labels, say), and comparing the names of so many columns took quadratic time (60,000: 30 s).
+    constexpr size_t kMaxColumns = 2000;
+    if (records[0].fields.size() > kMaxColumns)
+        return Status::error(source + ":" + std::to_string(records[0].line) + ": " +
+                             std::to_string(records[0].fields.size()) + " fields; an attribute table has at most " +
+                             std::to_string(kMaxColumns) + " columns");
 
     bool header = options.header == CsvOptions::Header::Present;
     if (options.header == CsvOptions::Header::Auto) {
         const Record& first = records[0];
         header = std::none_of(first.fields.begin(), first.fields.end(), isNumberField);
-        for (size_t c = 0; !header && c < first.fields.size() && records.size() > 1; ++c) {
+        // Rows of another length are an error below whatever the header; looking down each column of
+        // such a table cost columns x rows (2000 fields, then a million one-field rows: 60 s).
+        const bool ragged = std::any_of(records.begin(), records.end(),
+                                        [&](const Record& r) { return r.fields.size() != first.fields.size(); });
+        for (size_t c = 0; !header && !ragged && c < first.fields.size() && records.size() > 1; ++c) {
             if (isMissing(first.fields[c]) || isNumberField(first.fields[c])) continue;
             bool numericBelow = true, any = false;
             for (size_t r = 1; r < records.size() && numericBelow; ++r) {

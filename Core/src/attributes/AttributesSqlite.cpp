@@ -21,7 +21,6 @@ namespace {
 
 using sqlite::DbPtr;
 using sqlite::Deadline;
-using sqlite::kReadSeconds;
 using sqlite::openReadOnly;
 using sqlite::prepare;
 using sqlite::quoteIdentifier;
@@ -128,6 +127,7 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
         Result<DbPtr> opened = openReadOnly(path, "SQLite database '" + path + "'");
         if (!opened) return opened.status();
         DbPtr db = std::move(*opened);
+        sqlite::ReadBudget budget(db.get(), path);
         Result<StmtPtr> st = prepare(db.get(), "SELECT name FROM sqlite_master WHERE type IN ('table', 'view') "
                                                "AND name NOT LIKE 'sqlite\\_%' ESCAPE '\\' ORDER BY name");
         if (!st) return Status::error("SQLite database '" + path + "': " + st.message());
@@ -166,7 +166,7 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
     Result<DbPtr> opened = openReadOnly(path, "SQLite database '" + path + "'");
     if (!opened) return opened.status();
     DbPtr db = std::move(*opened);
-    Deadline deadline(db.get(), kReadSeconds); // a view may be any query
+    sqlite::ReadBudget budget(db.get(), path); // a view may be any query
     const std::string source = "SQLite database '" + path + "', table '" + chosen + "'";
     Result<StmtPtr> st = prepare(db.get(), "SELECT * FROM " + quoteIdentifier(chosen));
     if (!st) return Status::error(source + ": " + st.message());
@@ -177,15 +177,16 @@ Result<AttributeTable> readSqliteTable(const std::string& path, const std::strin
     int step;
     while ((step = sqlite3_step(st->get())) == SQLITE_ROW) {
         std::vector<std::string> row(static_cast<size_t>(ncol));
-        for (int c = 0; c < ncol; ++c) row[size_t(c)] = cellText(st->get(), c);
+        for (int c = 0; c < ncol; ++c) {
+            if (!budget.takeValue(st->get(), c)) return Status::error(source + ": " + budget.exceeded());
+            row[size_t(c)] = cellText(st->get(), c);
+        }
         rows.push_back(std::move(row));
     }
-    if (deadline.why)
-        return Status::error(source + ": " + (std::string(deadline.why) == "time"
-                                                  ? "reading it took longer than " + formatNumber(kReadSeconds) +
-                                                        " s (is it a view of a join?)"
-                                                  : std::string("cancelled")));
-    if (step != SQLITE_DONE) return Status::error(source + ": " + sqlite3_errmsg(db.get()));
+    if (step != SQLITE_DONE) {
+        const std::string why = budget.exceeded();
+        return Status::error(source + ": " + (why.empty() ? std::string(sqlite3_errmsg(db.get())) : why));
+    }
     return buildTable(names, rows, labelColumn, source,
                       [&](size_t r) { return source + ", row " + std::to_string(r + 1); });
 }

@@ -37,7 +37,9 @@ Status writeMetadata(const std::string& path, const VolumeMetadata& md) {
     j["original_type"] = md.originalType;
     j["relabelled"] = md.relabelled;
     j["source"] = md.source;
-    const std::string text = j.dump(2, ' ', false, json::error_handler_t::replace) + "\n"; // a source name may be any bytes
+    // The source and type names come from outside (a file name, a ParaView array name) and may be
+    // any bytes; JSON text is UTF-8, so invalid sequences are written as U+FFFD (dump() would throw).
+    const std::string text = j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
     AtomicFile f;
     Status s = f.open(path);
     if (s) s = f.write(text.data(), text.size());
@@ -74,11 +76,11 @@ Result<VolumeMetadata> readMetadata(const std::string& path) {
     if (s) s = numbers("origin", md.geometry.origin.data(), 3, false);
     if (s) s = numbers("direction", md.geometry.direction.data(), 9, false);
     if (!s) return s;
-    // A dimension is a whole number the container can hold: 2^32 + 10 must not wrap to 10.
     for (int a = 0; a < 3; ++a) {
+        // Whole voxel counts a volume can have (a cast of 0.5 or 1e10 would give 0 or be undefined).
         if (j.contains("dimensions") && (dims[a] != std::floor(dims[a]) || dims[a] > 4294967295.0))
             return Status::error(where + "'dimensions' holds " + jsonText(j["dimensions"][a]) +
-                                 ", not a whole number from 1 to 4294967295");
+                                 ", not a whole number of voxels from 1 to 4294967295");
         md.dim[a] = uint32_t(dims[a]);
     }
     if (j.contains("original_type")) {

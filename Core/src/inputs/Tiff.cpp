@@ -599,12 +599,18 @@ private:
                                 labelTypeName(p.type) + " voxels must hold integers within int64)");
     }
 
+    /// Zeroes the block buffer before a decode: libtiff 4.5 may report a damaged deflate strip as
+    /// decoded in full while leaving its last bytes unwritten (fuzz_tiff), which then held the
+    /// previous strip's pixels, so that reading a page twice gave different values.
+    void clearBlock(size_t bytes) { std::memset(m_block.data(), 0, std::min(bytes, m_block.size())); }
+
     Status readStrips(const PageLayout& p, uint32_t z, uint64_t* page) {
         const size_t rowBytes = size_t(p.width) * typeBytes(p.type);
         for (uint32_t s = 0; s < p.blockCount(); ++s) {
             const uint32_t y0 = s * p.rowsPerStrip;
             const uint32_t rows = std::min(p.rowsPerStrip, p.height - y0);
             const tmsize_t want = tmsize_t(rows * rowBytes);
+            clearBlock(size_t(want));
             const tmsize_t got = TIFFReadEncodedStrip(m_handle.get(), s, m_block.data(), want);
             if (got != want) return decodeFailed(z, "strip", s, got, uint64_t(want));
             for (uint32_t r = 0; r < rows; ++r)
@@ -619,6 +625,7 @@ private:
         for (uint32_t y0 = 0; y0 < p.height; y0 += p.tileHeight) {
             for (uint32_t x0 = 0; x0 < p.width; x0 += p.tileWidth) {
                 const uint32_t tile = TIFFComputeTile(m_handle.get(), x0, y0, 0, 0);
+                clearBlock(size_t(want));
                 const tmsize_t got = TIFFReadEncodedTile(m_handle.get(), tile, m_block.data(), want);
                 if (got != want) return decodeFailed(z, "tile", tile, got, uint64_t(want));
                 const uint32_t rows = std::min(p.tileHeight, p.height - y0);

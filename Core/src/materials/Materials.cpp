@@ -142,6 +142,9 @@ Status parseMaterial(const json& m, size_t index, Material& out) {
     if (!(s = number(m, "emission", emission, ctx))) return s;
     if (opacity < 0 || opacity > 1) return Status::error(ctx + ": 'opacity' must lie in [0, 1]");
     if (emission < 0) return Status::error(ctx + ": 'emission' must not be negative");
+    // Kept as a float: a larger value would become infinity, which JSON cannot write back.
+    if (emission > double(std::numeric_limits<float>::max()))
+        return Status::error(ctx + ": 'emission' " + jsonText(m["emission"]) + " is too large");
     out.opacity = float(opacity);
     out.emission = float(emission);
     return Status::ok();
@@ -221,11 +224,65 @@ std::vector<Material> onlyMaterials(const MaterialDocument& doc, const MaterialE
     return out;
 }
 
+/// What hideLabel() applied to each of `hidden` (sorted) in turn gives, in one pass: hiding them
+/// one by one walks every material per label while the label intervals keep splitting, which is
+/// quadratic (12,000 hidden labels in one interval took seconds). Each interval of a material
+/// filtering on `label` is split around the hidden labels inside it (the pieces in ascending
+/// order, where the material was); each hidden label that a material filtering on another
+/// attribute may take gets a first material "hidden <label>", the largest label first (hideLabel
+/// inserts each at the front).
+std::vector<Material> hideLabels(const std::vector<Material>& materials, const std::vector<uint32_t>& hidden,
+                                 const std::function<double(const std::string&, uint32_t)>& value) {
+    std::vector<Material> out;
+    for (const Material& m : materials) {
+        if (m.filterAttribute != "label") {
+            out.push_back(m);
+            continue;
+        }
+        // Hidden labels at or above the interval's start, in order; each splits off the part below it.
+        double lo = m.filterMin;
+        auto it = std::lower_bound(hidden.begin(), hidden.end(), m.filterMin,
+                                   [](uint32_t h, double v) { return double(h) < v; });
+        for (; it != hidden.end() && double(*it) <= m.filterMax && lo <= m.filterMax; ++it) {
+            const double x = double(*it);
+            if (x < lo) continue; // inside the part already cut away
+            if (lo <= x - 1) {
+                out.push_back(m);
+                out.back().filterMin = lo;
+                out.back().filterMax = x - 1;
+            }
+            lo = x + 1;
+        }
+        if (lo == m.filterMin) out.push_back(m); // no hidden label inside
+        else if (lo <= m.filterMax) {
+            out.push_back(m);
+            out.back().filterMin = lo;
+        }
+    }
+    std::vector<Material> first;
+    for (auto x = hidden.rbegin(); x != hidden.rend(); ++x) {
+        const bool mayTake = std::any_of(materials.begin(), materials.end(), [&](const Material& m) {
+            if (m.filterAttribute == "label") return false;
+            const double v = value(m.filterAttribute, *x);
+            return !(v < m.filterMin || v > m.filterMax); // NaN (unknown) counts as "may"
+        });
+        if (!mayTake) continue;
+        Material h;
+        h.name = "hidden " + std::to_string(*x);
+        h.colorMode = Material::ColorMode::Constant;
+        h.rgb = {{0, 0, 0}};
+        h.opacity = 0;
+        first.push_back(labelOnly(h, double(*x)));
+    }
+    out.insert(out.begin(), first.begin(), first.end());
+    return out;
+}
+
 } // namespace
 
 std::array<float, 3> Colormap::at(double t) const {
     if (points.empty()) return {{1, 1, 1}};
-    t = std::clamp(t, 0.0, 1.0);
+    t = std::isnan(t) ? 0.0 : std::clamp(t, 0.0, 1.0); // clamp keeps a NaN
     size_t i = 1;
     while (i + 1 < points.size() && points[i][0] < t) ++i;
     const auto& a = points[i - 1];
@@ -300,7 +357,8 @@ std::string serializeMaterials(const MaterialDocument& doc, int indent) {
     // Written only when set, so documents without an overlay read as they always did.
     if (!doc.hidden.empty()) out["hidden"] = doc.hidden;
     if (!doc.only.empty()) out["only"] = doc.only;
-    return out.dump(indent, ' ', false, json::error_handler_t::replace); // names may be any bytes
+    // Names set through an API (not parsed JSON) may hold bytes that are not UTF-8: U+FFFD, not a throw.
+    return out.dump(indent, ' ', false, json::error_handler_t::replace);
 }
 
 MaterialDocument defaultMaterials() {
@@ -384,9 +442,7 @@ MaterialDocument effectiveMaterials(const MaterialDocument& doc,
         out.materials = onlyMaterials(doc, MaterialEvaluator(doc, value));
         return out;
     }
-    out.materials = doc.materials;
-    for (uint32_t x : doc.hidden)
-        hideLabel(out, x, [&value, x](const std::string& name) { return value(name, x); });
+    out.materials = hideLabels(doc.materials, doc.hidden, value);
     return out;
 }
 
@@ -526,7 +582,9 @@ std::array<float, 3> MaterialEvaluator::colorOf(uint32_t label, int index) const
         const double v = m.colorAttribute == "label" ? double(label) : m_attribute(m.colorAttribute, label);
         double t = (v - m.colorMin) / (m.colorMax - m.colorMin);
         if (std::isnan(t)) t = 0;
-        if (m.wrap == Material::Wrap::Repeat) t -= std::floor(t);
+        // min == max (not drawable, but the evaluator may still be asked) or a huge value gives an
+        // infinite t: clamped by at(), never wrapped (inf - floor(inf) is NaN).
+        if (m.wrap == Material::Wrap::Repeat && std::isfinite(t)) t -= std::floor(t);
         return m.colormap.at(t);
     }
     case Material::ColorMode::Random:

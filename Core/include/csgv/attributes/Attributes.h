@@ -134,7 +134,7 @@ constexpr uint64_t kMaxAttributeTextBytes = uint64_t(512) << 20;
 /// skipped. Columns whose non-empty fields are all numbers are numeric (empty and `NA` count as
 /// missing); others are text. Labels are integers (integral floats such as `3.0` too). Errors
 /// name `source`, the line and what is wrong: field counts, unterminated quotes, non-integer,
-/// missing or repeated labels.
+/// missing or repeated labels, more than 2000 columns (SQLite's limit: tables end up there).
 Result<AttributeTable> parseCsv(const std::string& text, const CsvOptions& options = {},
                                 const std::string& source = "CSV");
 /// Reads a file and parses it with parseCsv() (errors name the path).
