@@ -14,6 +14,7 @@
 /// - `random` places a label on the colormap at hash(label) / 2^32 (a fixed 32-bit mix), so a
 ///   label has the same colour in every view and session; without a colormap it takes one of 16
 ///   fixed high-contrast colours by the same hash.
+/// - `emission` is a float: a value beyond the largest float (about 3.4e38) is an error.
 /// - Values a half-finished edit leaves (filter min > max, a colour interval with min == max) are
 ///   not parse errors: the material stays in the document, materialProblem() says why it cannot
 ///   be drawn and drawableMaterials() leaves it out, so the rest of the volume keeps drawing.
