@@ -99,6 +99,13 @@ grown = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0) / 1024.0
 t.check(grown < 512 and time.time() - t0 < 60,
         "the claim costs no memory: peak grew %.0f MiB in %.1f s" % (grown, time.time() - t0))
 
+# An HDF5 file that crashes libhdf5 1.10.8 inside itself: its metadata is walked in a child
+# process first, so the reader reports it and the session goes on.
+crash = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "Fuzz", "crashers", "hdf5",
+                          "h5oopen_local_heap_null_memcpy"), "rb").read()[1:]
+path = write("crash.h5", crash)
+expect_error("an HDF5 file that crashes libhdf5", lambda: SegmentationCSGV(FileName=path), "libhdf5 crashed")
+
 # Extract on something without an encoding.
 with t.ErrorLog() as errors:
     x = CSGVExtract(Input=Wavelet())

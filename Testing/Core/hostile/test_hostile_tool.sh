@@ -146,6 +146,15 @@ expect_bounded 0 2048 20 "" "a WAL-mode database is read in a writable folder" "
 [ ! -e r_csgv.db3-shm ] && [ ! -e r_csgv.db3-wal ] && pass "no -shm/-wal written beside the database" \
   || bad "files written beside a sidecar: $(ls r_csgv.db3-* 2>&1)"
 
+# --- A file that crashes libhdf5 itself (1.10.8): refused after a child process met the crash ----
+tail -c +2 "$(dirname "$0")/../../Fuzz/crashers/hdf5/h5oopen_local_heap_null_memcpy" > crash.h5
+for target in crash.h5 crash.h5:/data; do
+  expect_bounded 1 2048 30 "crash\.h5.*libhdf5 crashed \(Segmentation fault\).*separate process" \
+    "$target: libhdf5's crash stays in a child" "$CSGV" info "$target"
+done
+expect_bounded 1 2048 30 "libhdf5 crashed" "compress of it too" "$CSGV" compress crash.h5 crash.csgv
+[ ! -e crash.csgv ] && [ -z "$(ls core* 2>/dev/null)" ] && pass "no output and no core file" || bad "crash.csgv or a core file left"
+
 # The immutable URI keeps every path a path: '?', '#', '%' in folder names, and '//' in front.
 mkdir -p 'q?#%x' && cp r.csgv r.csgv.json r_csgv.db3 'q?#%x/'
 expect_bounded 0 2048 20 "" "a database in a folder named 'q?#%x' is read" "$CSGV" verify 'q?#%x/r.csgv' "$SRC"
