@@ -7,6 +7,7 @@
 #include "csgv/gpu/GpuVolume.h"
 
 #include <algorithm>
+#include <limits>
 #include <system_error>
 
 namespace csgvrep
@@ -424,6 +425,11 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
   if (req.maxStillSeconds > 0)
   {
     request.timeBudgetSeconds = std::min(request.timeBudgetSeconds, req.maxStillSeconds);
+  }
+  if (req.capture)
+  {
+    request.interactive = false;
+    request.timeBudgetSeconds = std::numeric_limits<double>::infinity();
   }
   csgv::Result<csgv::gpu::RenderResult> r = this->Renderer->render(request);
   if (!r)

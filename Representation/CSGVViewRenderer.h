@@ -75,6 +75,9 @@ struct FrameRequest
   const float* opaqueDepth = nullptr; ///< window depth of the tile, row 0 at the bottom
   bool interactive = false;
   double maxStillSeconds = 0; ///< a still render's budget when shorter than the property's (0: none)
+  /// An image that will be written: no time budget, the still loop runs until every pixel holds
+  /// the sample target (or the renderer's own idle limit: a cache too small to progress).
+  bool capture = false;
 };
 
 /// @brief The renderer of one view (one representation instance) and its accumulation state.

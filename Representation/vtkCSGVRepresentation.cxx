@@ -26,6 +26,23 @@
 
 #include <algorithm>
 
+namespace
+{
+/// vtkPVView::GetInCaptureScreenshot is protected in ParaView 5.11 (public from 5.12): read it
+/// through a member pointer named by a subclass, which C++'s access rules allow.
+struct CaptureState : vtkPVView
+{
+  static bool Of(vtkPVView* view)
+  {
+    return view && (view->*(&CaptureState::GetInCaptureScreenshot))();
+  }
+};
+bool InCaptureScreenshot(vtkPVView* view)
+{
+  return CaptureState::Of(view);
+}
+} // namespace
+
 vtkStandardNewMacro(vtkCSGVRepresentation);
 
 /// @brief What the input resolved to, remembered per (image, modification time, label array),
@@ -309,6 +326,9 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
     settings.processes = uint32_t(std::max(1, controller ? controller->GetNumberOfProcesses() : 1));
     this->Prop->SetViewSettings(settings);
+    // SaveScreenshot and SaveAnimation render between the view's PrepareForScreenshot and
+    // CleanupAfterScreenshot: those images are written, so they converge whatever the budget.
+    this->Prop->SetCapture(InCaptureScreenshot(vtkPVView::SafeDownCast(this->GetView())));
     this->Prop->PrepareRender();
   }
   return 1;

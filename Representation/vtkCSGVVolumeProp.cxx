@@ -134,6 +134,7 @@ struct vtkCSGVVolumeProp::Impl
   std::vector<std::string> Skipped;
   bool AttributesDirty = true;  ///< the renderer needs materials and attribute arrays again
   bool Prepared = false;        ///< PrepareRender handed the renderer all it needs
+  bool Capture = false;         ///< SetCapture: the render is for a saved image
   csgvrep::AttributeConfig Config;
   csgvrep::AttributeCache Attributes;
 
@@ -175,6 +176,11 @@ struct vtkCSGVVolumeProp::Impl
 };
 
 vtkStandardNewMacro(vtkCSGVVolumeProp);
+
+void vtkCSGVVolumeProp::SetCapture(bool capture)
+{
+  this->P->Capture = capture;
+}
 
 void vtkCSGVVolumeProp::SetRefinementSlice(double seconds)
 {
@@ -697,10 +703,13 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   }
   const auto t0 = std::chrono::steady_clock::now();
   const int width = int(request.width), height = int(request.height);
+  // A saved image is never a preview: full resolution, no slice, no budget (SetCapture).
+  request.capture = p.Capture;
+  request.interactive = request.interactive && !p.Capture;
   const int factor = request.interactive
     ? p.Lod.factor(p.Shading, double(width) * height, win->GetDesiredUpdateRate())
     : 1;
-  request.maxStillSeconds = refinementSlice;
+  request.maxStillSeconds = p.Capture ? 0.0 : refinementSlice.load();
   request.width = uint32_t((width + factor - 1) / factor);
   request.height = uint32_t((height + factor - 1) / factor);
   // In the volumetric pass (translucent materials) rays stop at the opaque geometry's depth.

@@ -59,6 +59,13 @@ public:
   static void SetRefinementSlice(double seconds);
   static double GetRefinementSlice();
 
+  /// Set while the view renders an image that will be written (SaveScreenshot, SaveAnimation,
+  /// any resolution): such a render ignores the refinement slice and the still-render time
+  /// budget and goes on until every pixel holds CSGVFramesPerStillRender samples at full
+  /// resolution, denoised where the mode denoises. The budget limits interactive refinement,
+  /// never the quality of a saved image.
+  void SetCapture(bool capture);
+
   /// The image to draw (the delivered piece) and what it resolved to in the representation's
   /// data phase (the error when it did not): Draw only renders and composites.
   void SetInput(vtkImageData* image, const csgvrep::VolumeSource& source, const std::string& error);
