@@ -8,6 +8,8 @@
 #include <pqView.h>
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
+#include <vtkSMViewProxy.h>
+#include <vtkRenderWindow.h>
 
 #include <QTimer>
 
@@ -42,6 +44,7 @@ void pqCSGVProgressiveRendering::startup()
     [this](pqView* view) {
       this->LastSamples.remove(view);
       this->Stalls.remove(view);
+      this->AfterInteraction.remove(view);
     });
   for (pqView* view : model->findItems<pqView*>())
   {
@@ -67,6 +70,16 @@ void pqCSGVProgressiveRendering::renderEnded()
   {
     return;
   }
+  // Interactive renders (the mouse moving) neither refine nor count as stalls: the user drives
+  // them, and the still render that follows the release refines from there.
+  vtkSMViewProxy* viewProxy = view->getViewProxy();
+  vtkRenderWindow* window = viewProxy ? viewProxy->GetRenderWindow() : nullptr;
+  if (window && window->GetDesiredUpdateRate() > 1.0)
+  {
+    this->AfterInteraction[view] = true;
+    return;
+  }
+  const bool afterInteraction = this->AfterInteraction.take(view);
   int fewest = -1;
   bool refine = false;
   for (pqRepresentation* repr : view->getRepresentations())
@@ -92,10 +105,11 @@ void pqCSGVProgressiveRendering::renderEnded()
   const int last = this->LastSamples.value(view, -1);
   this->LastSamples[view] = fewest;
   int& stalls = this->Stalls[view];
-  stalls = (!refine || fewest > last || fewest < last) ? 0 : stalls + 1;
+  stalls = (!refine || afterInteraction || fewest > last || fewest < last) ? 0 : stalls + 1;
   if (std::getenv("CSGV_TRACE_REFINEMENT"))
   {
-    std::fprintf(stderr, "csgv refinement: fewest samples %d (last %d), stalls %d\n", fewest, last, stalls);
+    std::fprintf(stderr, "csgv refinement: fewest samples %d (last %d), stalls %d%s\n", fewest, last, stalls,
+      afterInteraction ? ", after interaction" : "");
   }
   if (refine && stalls < 3)
   {

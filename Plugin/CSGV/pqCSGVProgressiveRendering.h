@@ -39,6 +39,10 @@ private Q_SLOTS:
 private:
   QMap<pqView*, int> LastSamples;
   QMap<pqView*, int> Stalls;
+  /// Views whose last render was interactive (the mouse moving): their next still render starts
+  /// a new refinement, whatever its sample count (issue 38: the view stayed coarse when that
+  /// render ended with as few samples as the interactive ones before it).
+  QMap<pqView*, bool> AfterInteraction;
 };
 
 #endif

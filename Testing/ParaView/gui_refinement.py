@@ -14,3 +14,11 @@ d.CSGVFramesPerStillRender = 12
 d.CSGVStillRenderTimeBudget = 0.05
 ResetCamera()
 Render()
+# The mouse moves (interactive renders at reduced resolution), then is released (a still render
+# that may end with as few samples as the interactive ones had): refinement goes on from there.
+view = GetActiveView()
+camera = GetActiveCamera()
+for _ in range(4):
+    camera.Azimuth(5)
+    view.SMProxy.InteractiveRender()
+Render()
