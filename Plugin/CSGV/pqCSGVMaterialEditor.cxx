@@ -487,10 +487,36 @@ void pqCSGVMaterialEditor::refreshAttributes()
   {
     this->Status->setText("Attributes: " + error);
   }
+  else if (this->ReportDerived)
+  {
+    // Feedback for Apply derived: each attribute with what it holds (or that it is missing,
+    // when its expression failed: the error above names why).
+    QStringList parts;
+    for (int i = 0; i + 1 < this->Derived.size(); i += 2)
+    {
+      const QString& name = this->Derived[i];
+      const auto it = this->Attributes.constFind(name);
+      if (it == this->Attributes.constEnd())
+      {
+        parts << name + " (not derived)";
+      }
+      else if (!it->first)
+      {
+        parts << name + " (text)";
+      }
+      else
+      {
+        parts << QString("%1 (%2 to %3)").arg(name).arg(it->second.first).arg(it->second.second);
+      }
+    }
+    this->Status->setText(parts.isEmpty() ? QString("Derived attributes cleared")
+                                          : "Derived attributes applied: " + parts.join(", "));
+  }
   else if (this->DocValid)
   {
     this->Status->setText(QString());
   }
+  this->ReportDerived = false;
   this->rebuildList(this->List->currentRow()); // which materials can be drawn may have changed
 }
 
@@ -930,6 +956,7 @@ void pqCSGVMaterialEditor::applyDerived()
     return;
   }
   this->Derived = pairs;
+  this->ReportDerived = true;
   BEGIN_UNDO_SET("Derived attributes");
   Q_EMIT this->derivedAttributesChanged();
   END_UNDO_SET();

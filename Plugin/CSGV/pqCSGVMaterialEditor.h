@@ -127,6 +127,8 @@ private:
   QString Text; ///< the property's text as last set or committed
   QStringList Files;
   QStringList Derived;
+  /// Set by Apply derived: the next attribute refresh says what the derived attributes became.
+  bool ReportDerived = false;
   /// name -> (numeric, [min, max]) from the rendering process
   QMap<QString, QPair<bool, QPair<double, double>>> Attributes;
   QStringList AttributeOrder;

@@ -487,6 +487,9 @@ private Q_SLOTS:
     QComboBox* attrs = this->child<QComboBox>("filterAttribute");
     QVERIFY2(attrs->findText("double_kind") >= 0, qPrintable(this->child<QLabel>("status")->text()));
     QVERIFY(this->child<QComboBox>("colorAttribute")->findText("double_kind") >= 0);
+    // Issue 38 (8): applying says what the derived attribute became.
+    const QString status = this->child<QLabel>("status")->text();
+    QVERIFY2(status.startsWith("Derived attributes applied: double_kind ("), qPrintable(status));
   }
 };
 
