@@ -16,6 +16,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <exception>
 #include <thread>
 #include <unistd.h>
 
@@ -54,11 +55,15 @@ public:
         sa.sa_flags = SA_RESTART;
         sigaction(SIGINT, &sa, nullptr);
         sigaction(SIGTERM, &sa, nullptr);
-        m_thread = std::thread([this] { watch(); });
+        try {
+            m_thread = std::thread([this] { watch(); });
+        } catch (const std::exception&) {
+            // No thread to be had (a tight memory limit): cancellation through progress alone.
+        }
     }
     ~Guard() {
         m_done = true;
-        m_thread.join();
+        if (m_thread.joinable()) m_thread.join();
     }
     Guard(const Guard&) = delete;
     Guard& operator=(const Guard&) = delete;

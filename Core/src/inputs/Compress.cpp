@@ -10,6 +10,7 @@
 #include "InputCommon.h"
 
 #include <algorithm>
+#include <sys/stat.h>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -423,6 +424,13 @@ struct Job {
     Status publish(const std::string& output) {
         md.relabelled = mapping.relabelled;
         const std::string db = attributeDbPathFor(output), mdPath = metadataPathFor(output);
+        // What the renames will replace must be files (or nothing): a folder in the way would
+        // fail its rename after the others were done.
+        for (const std::string* p : {&output, &mdPath, &db}) {
+            struct stat st {};
+            if (::lstat(p->c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+                return Status::error("cannot replace '" + *p + "': it is a folder");
+        }
         const std::string dbTmp = temporaryNameFor(db), mdTmp = temporaryNameFor(mdPath);
         auto dropNew = [&] {
             removeIfThere(dbTmp);

@@ -1253,6 +1253,9 @@ Status probeMetadataInChild(const Hdf5Path& where, const InputOptions& options) 
     }
     if (pid < 0) return Status::ok();
     if (pid == 0) {
+        // A host's crash handlers (a stack printer that exits with a status) would hide the
+        // signal: the child dies of it as a plain process does.
+        for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) std::signal(sig, SIG_DFL);
         const struct rlimit noCore {0, 0};
         ::setrlimit(RLIMIT_CORE, &noCore); // a crash here is expected: no core file beside the user's data
         {
@@ -1278,8 +1281,11 @@ Status probeMetadataInChild(const Hdf5Path& where, const InputOptions& options) 
         }
         ::usleep(1000);
     }
-    if (WIFSIGNALED(status))
-        return Status::error(std::string("libhdf5 crashed (") + ::strsignal(WTERMSIG(status)) +
+    // The child ends with status 0 whatever it found; anything else is libhdf5 ending it.
+    if (WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) != 0))
+        return Status::error(std::string("libhdf5 crashed (") +
+                             (WIFSIGNALED(status) ? ::strsignal(WTERMSIG(status))
+                                                  : "exit status " + std::to_string(WEXITSTATUS(status))) +
                              ") reading the file's metadata in a separate process: the file is damaged in a way this "
                              "libhdf5 does not survive, so it is not opened");
     return Status::ok();
