@@ -578,6 +578,16 @@ TEST(StreamingErrors, GzipSurplusAndChecksumAfterTheLastVoxel) {
 // StreamingRoundTrip
 // ------------------------------------------------------------------------------------------------
 
+/// The .csgv at `out` decodes to `want`, voxel for voxel, as original labels.
+void expectOriginalLabels(const std::string& out, const std::vector<uint64_t>& want) {
+    csgv::Result<csgv::CsgvFile> f = csgv::openCsgv(out);
+    ASSERT_TRUE(f.isOk()) << f.message();
+    csgv::Result<csgv::LabelVolume> v = csgv::decodeVolume(f->volume, 0, f->decodeOptions());
+    ASSERT_TRUE(v.isOk()) << v.message();
+    ASSERT_EQ(v->labels.size(), want.size());
+    for (size_t i = 0; i < want.size(); ++i) ASSERT_EQ(uint64_t(f->originalLabel(v->labels[i])), want[i]) << i;
+}
+
 TEST(StreamingRoundTrip, CompressedGzipInputsDecodeExactly) {
     const std::vector<uint64_t> want = makeLabels(kDim, LabelType::I16);
     const Bytes be = storeAs(want, LabelType::I16, true);
@@ -588,12 +598,7 @@ TEST(StreamingRoundTrip, CompressedGzipInputsDecodeExactly) {
         const std::string out = tmp(std::string(name) + ".csgv");
         Status s = csgv::compressToFile(tmp(name), out, csgv::CompressOptions{});
         ASSERT_TRUE(s.isOk()) << s.message();
-        csgv::Result<csgv::CsgvFile> f = csgv::openCsgv(out);
-        ASSERT_TRUE(f.isOk()) << f.message();
-        csgv::Result<csgv::LabelVolume> v = csgv::decodeVolume(f->volume, 0, f->decodeOptions());
-        ASSERT_TRUE(v.isOk()) << v.message();
-        ASSERT_EQ(v->labels.size(), want.size());
-        for (size_t i = 0; i < want.size(); ++i) ASSERT_EQ(uint64_t(f->originalLabel(v->labels[i])), want[i]) << i;
+        expectOriginalLabels(out, want);
     }
 }
 
@@ -614,10 +619,5 @@ TEST(StreamingRoundTrip, WideGzipSlicesAreRelabelledInBandsOfRows) {
     Status s = csgv::compressToFile(tmp("wide.vraw.gz"), out, options, &report);
     ASSERT_TRUE(s.isOk()) << s.message();
     EXPECT_TRUE(report.relabelled);
-    csgv::Result<csgv::CsgvFile> f = csgv::openCsgv(out);
-    ASSERT_TRUE(f.isOk()) << f.message();
-    csgv::Result<csgv::LabelVolume> v = csgv::decodeVolume(f->volume, 0, f->decodeOptions());
-    ASSERT_TRUE(v.isOk()) << v.message();
-    ASSERT_EQ(v->labels.size(), want.size());
-    for (size_t i = 0; i < want.size(); ++i) ASSERT_EQ(uint64_t(f->originalLabel(v->labels[i])), want[i]) << i;
+    expectOriginalLabels(out, want);
 }

@@ -332,19 +332,34 @@ Status SlabStore::reset(uint64_t bytes, uint64_t memoryLimit, const std::string&
     return Status::ok();
 }
 
+namespace {
+/// pwrite or pread of all `bytes` at `at`, going on after short transfers and EINTR; false with
+/// errno (or 0 at an unexpected end) when the file fails.
+template <class Transfer>
+bool transferAll(Transfer transfer, uint64_t at, size_t bytes, uint64_t& failedAt) {
+    for (size_t done = 0; done < bytes;) {
+        const ssize_t n = transfer(done, off_t(at + done));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            failedAt = at + done;
+            return false;
+        }
+        done += size_t(n);
+    }
+    return true;
+}
+} // namespace
+
 Status SlabStore::write(uint64_t at, const uint8_t* data, size_t bytes) {
     if (m_fd < 0) {
         std::memcpy(m_memory.data() + at, data, bytes);
         return Status::ok();
     }
-    for (size_t done = 0; done < bytes;) {
-        const ssize_t w = ::pwrite(m_fd, data + done, bytes - done, off_t(at + done));
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0)
-            return fail(m_path, "cannot write " + std::to_string(bytes) + " bytes to the scratch file '" + m_name +
-                                    "' at offset " + std::to_string(at + done) + ": " + errnoText());
-        done += size_t(w);
-    }
+    uint64_t failedAt = 0;
+    if (!transferAll([&](size_t done, off_t off) { return ::pwrite(m_fd, data + done, bytes - done, off); }, at, bytes,
+                     failedAt))
+        return fail(m_path, "cannot write " + std::to_string(bytes) + " bytes to the scratch file '" + m_name +
+                                "' at offset " + std::to_string(failedAt) + ": " + errnoText());
     return Status::ok();
 }
 
@@ -353,14 +368,11 @@ Status SlabStore::read(uint64_t at, uint8_t* data, size_t bytes) const {
         std::memcpy(data, m_memory.data() + at, bytes);
         return Status::ok();
     }
-    for (size_t done = 0; done < bytes;) {
-        const ssize_t r = ::pread(m_fd, data + done, bytes - done, off_t(at + done));
-        if (r < 0 && errno == EINTR) continue;
-        if (r <= 0)
-            return fail(m_path, "cannot read back " + std::to_string(bytes) + " bytes of the scratch file '" + m_name +
-                                    "' at offset " + std::to_string(at + done) + ": " + errnoText());
-        done += size_t(r);
-    }
+    uint64_t failedAt = 0;
+    if (!transferAll([&](size_t done, off_t off) { return ::pread(m_fd, data + done, bytes - done, off); }, at, bytes,
+                     failedAt))
+        return fail(m_path, "cannot read back " + std::to_string(bytes) + " bytes of the scratch file '" + m_name +
+                                "' at offset " + std::to_string(failedAt) + ": " + errnoText());
     return Status::ok();
 }
 
