@@ -8,12 +8,15 @@
 #include "CSGVViewRenderer.h"
 #include "CSGVVolumeCache.h"
 
+#include <vtkCallbackCommand.h>
 #include <vtkImageData.h>
+#include <vtkInformation.h>
 #include <vtkMatrix4x4.h>
 #include <vtkObjectFactory.h>
 #include <vtkOpenGLCamera.h>
 #include <vtkOpenGLQuadHelper.h>
 #include <vtkOpenGLRenderWindow.h>
+#include <vtkOpenGLRenderPass.h>
 #include <vtkOpenGLRenderer.h>
 #include <vtkOpenGLShaderCache.h>
 #include <vtkOpenGLState.h>
@@ -31,15 +34,23 @@
 #include <cstdio>
 #include <cstdlib>
 #include <future>
+#include <map>
 #include <vector>
 
 namespace
 {
 
+/// The compositing shader: the output's premultiplied colour and its window depth. The
+/// `//VTK::DepthPeeling::*` tags are where a translucent render pass (dual depth peeling, order
+/// independent translucency) puts its code, as in VTK's own polygon shaders: the frame is then one
+/// translucent layer at its first hit's depth, sorted with every other translucent surface.
+/// `//CSGV::Straight::Impl` becomes an un-premultiplication when such a pass is active (VTK's
+/// passes take straight colour, as VTK's mappers write it).
 const char* const kFragmentShader = R"(//VTK::System::Dec
 in vec2 texCoord;
 uniform sampler2D csgvColor;
 uniform sampler2D csgvDepth;
+//VTK::DepthPeeling::Dec
 //VTK::Output::Dec
 void main()
 {
@@ -48,8 +59,11 @@ void main()
   {
     discard;
   }
-  gl_FragData[0] = c;
   gl_FragDepth = texture(csgvDepth, texCoord).r;
+  //VTK::DepthPeeling::PreColor
+  gl_FragData[0] = c;
+  //CSGV::Straight::Impl
+  //VTK::DepthPeeling::Impl
 }
 )";
 
@@ -151,8 +165,18 @@ struct vtkCSGVVolumeProp::Impl
 
   vtkWeakPointer<vtkOpenGLRenderWindow> Window;
   vtkSmartPointer<vtkTextureObject> Color, DepthTexture;
-  std::unique_ptr<vtkOpenGLQuadHelper> Quad;
+  /// The compositing quads, one per shader variant (plain, and each stage of a translucent
+  /// render pass), keyed by their fragment source.
+  std::map<std::string, std::unique_ptr<vtkOpenGLQuadHelper>> Quads;
   bool TexturesCurrent = false;
+  /// One frame per render of the renderer: the first pass that draws in a render renders and
+  /// uploads it, every pass of that render composites it (a depth-peeling translucent pass
+  /// draws several times). The renderer's StartEvent sets FramePending.
+  vtkWeakPointer<vtkRenderer> Watched;
+  unsigned long WatchTag = 0;
+  bool FramePending = true;
+  bool FrameReady = false;  ///< the render's frame is in the textures
+  int FrameRect[4] = {};    ///< its non-empty pixels in the tile: x, y, width, height
   // The output rectangle the textures were last uploaded from: outside it they hold empty texels,
   // as the output does outside its own rectangle (csgv::gpu::FrameOutput::rect).
   std::array<uint32_t, 4> UploadedRect{};
@@ -169,7 +193,7 @@ struct vtkCSGVVolumeProp::Impl
     }
     this->Color = nullptr;
     this->DepthTexture = nullptr;
-    this->Quad.reset();
+    this->Quads.clear();
     this->Window = nullptr;
     this->TexturesCurrent = false;
   }
@@ -203,7 +227,13 @@ vtkCSGVVolumeProp::vtkCSGVVolumeProp()
     });
 }
 
-vtkCSGVVolumeProp::~vtkCSGVVolumeProp() = default;
+vtkCSGVVolumeProp::~vtkCSGVVolumeProp()
+{
+  if (this->P->Watched)
+  {
+    this->P->Watched->RemoveObserver(this->P->WatchTag);
+  }
+}
 
 void vtkCSGVVolumeProp::PrintSelf(ostream& os, vtkIndent indent)
 {
@@ -341,6 +371,11 @@ bool vtkCSGVVolumeProp::DrawsTranslucent() const
   return this->P->MaterialsValid && !this->P->MaterialsOpaque;
 }
 
+vtkTypeBool vtkCSGVVolumeProp::HasTranslucentPolygonalGeometry()
+{
+  return this->DrawsTranslucent() ? 1 : 0;
+}
+
 vtkTypeBool vtkCSGVVolumeProp::HasOpaqueGeometry()
 {
   return this->P->MaterialsValid && this->P->MaterialsOpaque ? 1 : 0;
@@ -355,7 +390,7 @@ int vtkCSGVVolumeProp::RenderOpaqueGeometry(vtkViewport* viewport)
   return this->Draw(viewport, true);
 }
 
-int vtkCSGVVolumeProp::RenderVolumetricGeometry(vtkViewport* viewport)
+int vtkCSGVVolumeProp::RenderTranslucentPolygonalGeometry(vtkViewport* viewport)
 {
   if (!this->P->MaterialsValid || this->P->MaterialsOpaque)
   {
@@ -507,34 +542,46 @@ bool frameRequest(vtkOpenGLRenderer* ren, vtkOpenGLCamera* camera, vtkOpenGLRend
   return true;
 }
 
-/// Reads the opaque geometry's window depth of the tile from the framebuffer being drawn (rays
-/// stop there); false when it cannot be read (multisampled framebuffers).
+/// Reads the opaque geometry's window depth of the tile (rays stop there) from the framebuffer
+/// bound for reading, which holds the opaque pass's depth: the window's in a plain translucent
+/// pass, and still the window's while dual depth peeling draws into its own framebuffer (which
+/// has no depth buffer; VTK's peeling copies the opaque depth from the read framebuffer the same
+/// way). No binding changes: vtkOpenGLState's cache stays true. False when there is no depth
+/// to read (no depth attachment, a multisampled framebuffer).
 bool readOpaqueDepth(vtkOpenGLState* state, int x0, int y0, int width, int height, std::vector<float>& depth)
 {
   depth.resize(size_t(width) * height);
-  GLint drawFbo = 0, readFbo = 0, sampleBuffers = 0;
-  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &drawFbo);
-  glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &readFbo);
-  glGetIntegerv(GL_SAMPLE_BUFFERS, &sampleBuffers);
-  if (sampleBuffers != 0)
-  {
-    return false;
-  }
   while (glGetError() != GL_NO_ERROR)
   {
   }
-  if (readFbo != drawFbo)
+  GLint readFbo = 0, type = GL_NONE;
+  glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &readFbo);
+  glGetFramebufferAttachmentParameteriv(GL_READ_FRAMEBUFFER, readFbo != 0 ? GL_DEPTH_ATTACHMENT : GL_DEPTH,
+    GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &type);
+  if (glGetError() != GL_NO_ERROR || type == GL_NONE)
   {
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(drawFbo));
+    return false;
   }
   state->vtkglPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(x0, y0, width, height, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
-  const bool ok = glGetError() == GL_NO_ERROR;
-  if (readFbo != drawFbo)
+  return glGetError() == GL_NO_ERROR;
+}
+
+/// The render passes that asked to shape this prop's shaders in the current pass (dual depth
+/// peeling, order-independent translucency: vtkOpenGLRenderPass::RenderPasses on its keys).
+std::vector<vtkOpenGLRenderPass*> activeRenderPasses(vtkProp* prop)
+{
+  std::vector<vtkOpenGLRenderPass*> passes;
+  vtkInformation* info = prop->GetPropertyKeys();
+  if (info && info->Has(vtkOpenGLRenderPass::RenderPasses()))
   {
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, GLuint(readFbo));
+    const int n = info->Length(vtkOpenGLRenderPass::RenderPasses());
+    for (int i = 0; i < n; ++i)
+    {
+      passes.push_back(static_cast<vtkOpenGLRenderPass*>(info->Get(vtkOpenGLRenderPass::RenderPasses(), i)));
+    }
   }
-  return ok;
+  return passes;
 }
 
 } // namespace
@@ -618,18 +665,39 @@ bool vtkCSGVVolumeProp::UploadTextures(vtkOpenGLRenderWindow* win, bool changed)
   return true;
 }
 
-bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win, const int scissor[4])
+bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win, bool opaquePass)
 {
   Impl& p = *this->P;
-  if (!p.Quad)
+  // A translucent render pass shapes the shader (its tags) and owns the blending and depth-test
+  // state it set up (peeling draws with MAX blending into a framebuffer of its own,
+  // without depth test); without one, the frame is blended here, premultiplied, over what is
+  // there, with depth test, writing depth in the opaque pass only (VTK's translucent surfaces
+  // leave the depth buffer as the opaque pass left it).
+  const std::vector<vtkOpenGLRenderPass*> passes =
+    opaquePass ? std::vector<vtkOpenGLRenderPass*>() : activeRenderPasses(this);
+  std::string vertexSource, geometrySource, fragmentSource = kFragmentShader;
+  for (vtkOpenGLRenderPass* pass : passes)
   {
-    p.Quad.reset(new vtkOpenGLQuadHelper(win, nullptr, kFragmentShader, ""));
+    pass->PreReplaceShaderValues(vertexSource, geometrySource, fragmentSource, nullptr, this);
+  }
+  if (!passes.empty())
+  {
+    vtkShaderProgram::Substitute(fragmentSource, "//CSGV::Straight::Impl", "gl_FragData[0].rgb /= c.a;");
+  }
+  for (vtkOpenGLRenderPass* pass : passes)
+  {
+    pass->PostReplaceShaderValues(vertexSource, geometrySource, fragmentSource, nullptr, this);
+  }
+  std::unique_ptr<vtkOpenGLQuadHelper>& quad = p.Quads[fragmentSource];
+  if (!quad)
+  {
+    quad.reset(new vtkOpenGLQuadHelper(win, nullptr, fragmentSource.c_str(), ""));
   }
   else
   {
-    win->GetShaderCache()->ReadyShaderProgram(p.Quad->Program);
+    win->GetShaderCache()->ReadyShaderProgram(quad->Program);
   }
-  if (!p.Quad->Program || !p.Quad->Program->GetCompiled())
+  if (!quad->Program || !quad->Program->GetCompiled())
   {
     this->Report("the compositing shader did not compile");
     return false;
@@ -642,22 +710,35 @@ bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win, const int scissor[
   vtkOpenGLState::ScopedglBlendFuncSeparate blendFunc(state);
   vtkOpenGLState::ScopedglEnableDisable scissorTest(state, GL_SCISSOR_TEST);
   vtkOpenGLState::ScopedglScissor scissorBox(state);
-  // The quad covers the tile; the rasteriser fills the output's non-empty part alone (a CPU
-  // OpenGL shades every covered fragment: at 1280x720 a whole-tile quad costs milliseconds).
+  // The quad covers the viewport (the tile, or a peeling pass's framebuffer of the tile's size);
+  // the rasteriser fills the output's non-empty part alone (a CPU OpenGL shades every covered
+  // fragment: at 1280x720 a whole-tile quad costs milliseconds).
+  int viewport[4];
+  state->vtkglGetIntegerv(GL_VIEWPORT, viewport);
   state->vtkglEnable(GL_SCISSOR_TEST);
-  state->vtkglScissor(scissor[0], scissor[1], scissor[2], scissor[3]);
-  state->vtkglEnable(GL_DEPTH_TEST);
-  state->vtkglDepthFunc(GL_LEQUAL);
-  state->vtkglDepthMask(GL_TRUE);
-  state->vtkglEnable(GL_BLEND);
-  // Premultiplied colour over what is there.
-  state->vtkglBlendFuncSeparate(GL_ONE, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  state->vtkglScissor(viewport[0] + p.FrameRect[0], viewport[1] + p.FrameRect[1], p.FrameRect[2], p.FrameRect[3]);
+  // Translucent layers never write depth (as vtkOpenGLActor does for translucent actors; order-
+  // independent translucency leaves the mask on, so a later surface behind the frame's first hit
+  // would be lost).
+  state->vtkglDepthMask(opaquePass ? GL_TRUE : GL_FALSE);
+  if (passes.empty())
+  {
+    state->vtkglEnable(GL_DEPTH_TEST);
+    state->vtkglDepthFunc(GL_LEQUAL);
+    state->vtkglEnable(GL_BLEND);
+    // Premultiplied colour over what is there.
+    state->vtkglBlendFuncSeparate(GL_ONE, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  }
 
   p.Color->Activate();
   p.DepthTexture->Activate();
-  p.Quad->Program->SetUniformi("csgvColor", p.Color->GetTextureUnit());
-  p.Quad->Program->SetUniformi("csgvDepth", p.DepthTexture->GetTextureUnit());
-  p.Quad->Render();
+  quad->Program->SetUniformi("csgvColor", p.Color->GetTextureUnit());
+  quad->Program->SetUniformi("csgvDepth", p.DepthTexture->GetTextureUnit());
+  for (vtkOpenGLRenderPass* pass : passes)
+  {
+    pass->SetShaderParameters(quad->Program, nullptr, this, quad->VAO);
+  }
+  quad->Render();
   p.DepthTexture->Deactivate();
   p.Color->Deactivate();
   return true;
@@ -694,12 +775,49 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
     return 0;
   }
   auto* win = vtkOpenGLRenderWindow::SafeDownCast(ren->GetRenderWindow());
+  if (!win)
+  {
+    return 0;
+  }
+  if (p.Watched != ren)
+  {
+    if (p.Watched)
+    {
+      p.Watched->RemoveObserver(p.WatchTag);
+    }
+    vtkNew<vtkCallbackCommand> onStart;
+    onStart->SetClientData(&p);
+    onStart->SetCallback([](vtkObject*, unsigned long, void* impl, void*)
+      { static_cast<Impl*>(impl)->FramePending = true; });
+    p.WatchTag = ren->AddObserver(vtkCommand::StartEvent, onStart);
+    p.Watched = ren;
+    p.FramePending = true;
+  }
+  if (p.FramePending)
+  {
+    p.FramePending = false;
+    p.FrameReady = this->RenderFrame(ren, win, opaquePass);
+  }
+  if (!p.FrameReady)
+  {
+    return 0;
+  }
+  if (p.FrameRect[2] > 0 && p.FrameRect[3] > 0 && !this->Composite(win, opaquePass))
+  {
+    return 0;
+  }
+  return 1;
+}
+
+bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindow* win, bool opaquePass)
+{
+  Impl& p = *this->P;
   auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
   csgvrep::FrameRequest request;
   int x0 = 0, y0 = 0;
-  if (!win || !camera || !this->HaveDevice() || !frameRequest(ren, camera, win, request, x0, y0))
+  if (!camera || !this->HaveDevice() || !frameRequest(ren, camera, win, request, x0, y0))
   {
-    return 0;
+    return false;
   }
   const auto t0 = std::chrono::steady_clock::now();
   const int width = int(request.width), height = int(request.height);
@@ -712,7 +830,8 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   request.maxStillSeconds = p.Capture ? 0.0 : refinementSlice.load();
   request.width = uint32_t((width + factor - 1) / factor);
   request.height = uint32_t((height + factor - 1) / factor);
-  // In the volumetric pass (translucent materials) rays stop at the opaque geometry's depth.
+  // Translucent materials (drawn in the translucent pass): rays stop at the opaque geometry's
+  // depth.
   if (!opaquePass && readOpaqueDepth(win->GetState(), x0, y0, width, height, p.Depth))
   {
     if (factor > 1)
@@ -728,54 +847,49 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   if (!error.empty())
   {
     this->Report(error);
-    return 0;
+    return false;
   }
   p.LastError.clear();
   const csgv::gpu::FrameOutput& out = p.View.output();
   if (out.width != request.width || out.height != request.height || out.rgba8.empty())
   {
-    return 0;
+    return false;
   }
   changed = changed || factor != p.LodFactor;
   p.LodFactor = factor;
   const auto t1 = std::chrono::steady_clock::now();
   if (!this->UploadTextures(win, changed))
   {
-    return 0;
+    return false;
   }
   const auto t2 = std::chrono::steady_clock::now();
-  // The output's non-empty pixels in the window's: the reduced frame's rectangle, a texel wider
+  // The output's non-empty pixels in the tile's: the reduced frame's rectangle, a texel wider
   // (a stretched frame is filtered linearly), times the reduction, within the tile.
-  int scissor[4];
   for (int k = 0; k < 2; ++k)
   {
     const int extent = k == 0 ? width : height;
     const int margin = factor > 1 ? 1 : 0;
     const int lo = std::clamp((int(out.rect[size_t(k)]) - margin) * factor, 0, extent);
     const int hi = std::clamp((int(out.rect[size_t(k) + 2]) + margin) * factor, 0, extent);
-    scissor[k] = (k == 0 ? x0 : y0) + lo;
-    scissor[k + 2] = std::max(0, hi - lo);
-  }
-  if (scissor[2] > 0 && scissor[3] > 0 && !this->Composite(win, scissor))
-  {
-    return 0;
+    p.FrameRect[k] = lo;
+    p.FrameRect[k + 2] = std::max(0, hi - lo);
   }
   const uint32_t frames = p.View.framesLastRender();
   static const bool profile = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
   if (profile)
   {
-    glFinish(); // the compositing's own time, not the next GL call's
+    glFinish(); // the upload's own time, not the next GL call's
     auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b)
     { return std::chrono::duration<double, std::milli>(b - a).count(); };
-    std::fprintf(stderr, "draw: %u frames %.2f ms (opaque depth %.2f ms), textures %.2f ms, composite %.2f ms\n",
-      frames, ms(t0, t1), ms(t0, tDepth), ms(t1, t2), ms(t2, std::chrono::steady_clock::now()));
+    std::fprintf(stderr, "draw: %u frames %.2f ms (opaque depth %.2f ms), textures %.2f ms\n", frames,
+      ms(t0, t1), ms(t0, tDepth), ms(t1, t2));
   }
   if (frames > 0)
   {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     p.Lod.record(p.Shading, seconds / frames, double(request.width) * request.height);
   }
-  return 1;
+  return true;
 }
 
 void vtkCSGVVolumeProp::ReleaseGraphicsResources(vtkWindow* window)

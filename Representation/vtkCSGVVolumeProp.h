@@ -36,6 +36,7 @@
 
 class vtkImageData;
 class vtkOpenGLRenderWindow;
+class vtkOpenGLRenderer;
 class vtkWindow;
 
 namespace csgvrep
@@ -91,8 +92,12 @@ public:
   using vtkProp3D::GetBounds;
 
   int RenderOpaqueGeometry(vtkViewport* viewport) override;
-  int RenderVolumetricGeometry(vtkViewport* viewport) override;
-  vtkTypeBool HasTranslucentPolygonalGeometry() override { return 0; }
+  /// Translucent materials are drawn as translucent geometry, not as a volume: the frame is one
+  /// translucent layer at its first hit's depth, so that depth peeling (and order-independent
+  /// translucency) sorts it with translucent surfaces and widgets; VTK's volume peeling needs
+  /// its ray-casting shader, which a finished frame cannot take part in.
+  int RenderTranslucentPolygonalGeometry(vtkViewport* viewport) override;
+  vtkTypeBool HasTranslucentPolygonalGeometry() override;
   vtkTypeBool HasOpaqueGeometry() override;
   void ReleaseGraphicsResources(vtkWindow* window) override;
 
@@ -107,7 +112,7 @@ public:
   int GetCacheBits();
   int GetDetailSeparated();
   double GetDetailStreamedMiB();
-  /// The materials are valid and some are translucent (drawn in the volumetric pass).
+  /// The materials are valid and some are translucent (drawn in the translucent pass).
   bool DrawsTranslucent() const;
   /// The last render's first-hit labels and their window depths (row 0 at the bottom); false
   /// when nothing was rendered.
@@ -121,9 +126,13 @@ private:
   vtkCSGVVolumeProp(const vtkCSGVVolumeProp&) = delete;
   void operator=(const vtkCSGVVolumeProp&) = delete;
 
-  /// One pass: render through the view renderer (nothing when its output is still exact), then
-  /// upload the output and composite it with depth.
+  /// One pass: the first pass of a render of the renderer renders the frame (RenderFrame), every
+  /// pass composites it with depth (a translucent pass may draw several times in one render:
+  /// depth peeling).
   int Draw(vtkViewport* viewport, bool opaquePass);
+  /// Renders through the view renderer (nothing when its output is still exact) and uploads
+  /// the output; false when there is nothing to composite.
+  bool RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindow* win, bool opaquePass);
 
   /// The shared Vulkan context is there (reported once per process when not).
   bool HaveDevice();
@@ -134,9 +143,10 @@ private:
     std::function<double(const std::string&, uint32_t)>* attribute);
   /// The last output as colour and depth textures (uploaded again only when it changed).
   bool UploadTextures(vtkOpenGLRenderWindow* window, bool changed);
-  /// Draws the textures over the framebuffer with depth test and premultiplied blending, within
-  /// the window pixels `scissor` (x, y, width, height): the output's non-empty part.
-  bool Composite(vtkOpenGLRenderWindow* window, const int scissor[4]);
+  /// Draws the textures over the framebuffer with depth, within the output's non-empty part
+  /// (Impl::FrameRect): blended premultiplied with depth test on its own, or as the active
+  /// translucent render pass (depth peeling) shapes its shader and state.
+  bool Composite(vtkOpenGLRenderWindow* window, bool opaquePass);
   void Report(const std::string& message);
 
   struct Impl;

@@ -108,4 +108,85 @@ under = (X > 4 + edge) & (X < 28 - edge) & (Y > 4 + edge) & (Y < 28 - edge)
 p = shot[under].astype(int)
 blend = ((p[:, 1] > 60) & (p[:, 2] > 60)).mean()
 t.check(blend > 0.99, "translucent plane in front of an opaque-material volume blends over it (%.1f%%)" % (100 * blend))
+
+# Translucent materials beside translucent geometry: ParaView depth-peels (its default), and the
+# frame takes part as one translucent layer at its first hit's depth. A half-transparent plane in
+# front of the block's face (z = N + 10) blends over the volume: both = plane + (1 - 0.5) volume,
+# from the plane and the volume rendered alone. A plane inside the block (z = 16), behind the
+# face, is seen through the volume: blue is the volume's alone, and green the plane's attenuated
+# by the volume's alpha, measured from the volume alone over a white background. Before, the
+# frame was drawn in the volume pass of the peeling, read a depth buffer the peeling framebuffer
+# does not have, and bound the read framebuffer behind vtkOpenGLState's back: stripes, wrong
+# colours and "Error in cache state for GL_READ_FRAMEBUFFER_BINDING" on every render.
+d.CSGVMaterials = t.constant_materials([0.0, 0.0, 1.0], 0.6)
+inner = under & ~(np.abs(X - 16) < 1) & ~(np.abs(Y - 16) < 1)
+
+
+def alone(display):
+    other = dp if display is d else d
+    other.Visibility = 0
+    image = t.screenshot(v, W, H, "alone.png").astype(int)
+    other.Visibility = 1
+    return image
+
+
+for z, where in ((N + 10.0, "in front of"), (16.0, "inside")):
+    plane.Origin = [4, 4, z]
+    plane.Point1 = [28, 4, z]
+    plane.Point2 = [4, 28, z]
+    with t.ErrorLog() as errors:
+        both = t.screenshot(v, W, H, "peeled_%d.png" % z).astype(int)
+        plane_alone = alone(dp)
+        volume_alone = alone(d)
+    t.check(errors.text == "", "translucent plane %s a translucent-material volume: no errors (%s)"
+            % (where, errors.text.strip()[:300]))
+    if where == "in front of":
+        expected = plane_alone + volume_alone // 2
+        err = np.abs(both[inner] - expected[inner]).max()
+        t.check(err <= 4, "translucent plane in front of translucent materials blends over them "
+                "(largest error %d of 255)" % err)
+    else:
+        v.Background = [1.0, 1.0, 1.0]
+        dp.Visibility = 0
+        over_white = t.screenshot(v, W, H, "white.png").astype(int)
+        dp.Visibility = 1
+        v.Background = [0.0, 0.0, 0.0]
+        transmitted = (over_white[..., 0] - volume_alone[..., 0]) / 255.0  # 1 - the volume's alpha
+        green = transmitted * plane_alone[..., 1]
+        err_g = np.abs(both[..., 1][inner] - green[inner]).max()
+        err_b = np.abs(both[..., 2][inner] - volume_alone[..., 2][inner]).max()
+        t.check(transmitted[inner].min() > 0.1 and err_g <= 4 and err_b <= 4,
+                "translucent plane behind the face of translucent materials shows through them "
+                "(transmitted %.2f, largest error green %d, blue %d)" % (transmitted[inner].mean(), err_g, err_b))
+
+# A second Segmentation Volume (red, half transparent, in front) and ParaView's own Volume
+# representation beside the first, with FXAA: each composites by depth, nothing is logged.
+dp.Visibility = 0
+front_path = os.path.join(t.temp_dir(), "front.vti")
+small = vtkImageData()
+small.SetDimensions(17, 17, 17)
+small.SetOrigin(8, 8, N + 8)
+small_labels = numpy_to_vtk(np.ones(16 ** 3, dtype=np.uint8), deep=1)
+small_labels.SetName("block")
+small.GetCellData().AddArray(small_labels)
+w = vtkXMLImageDataWriter()
+w.SetFileName(front_path)
+w.SetInputData(small)
+w.Write()
+front = Show(OpenDataFile(front_path), v)
+front.SetRepresentationType("Segmentation Volume")
+front.CSGVFramesPerStillRender = 2
+front.CSGVMaterials = t.constant_materials([1.0, 0.0, 0.0], 0.5)
+wavelet = Show(Wavelet(WholeExtent=[20, 36, 20, 36, N + 4, N + 20]), v)
+wavelet.SetRepresentationType("Volume")
+ColorBy(wavelet, ("POINTS", "RTData"))
+v.UseFXAA = 1
+with t.ErrorLog() as errors:
+    shot = t.screenshot(v, W, H, "two_volumes.png").astype(int)
+v.UseFXAA = 0
+t.check(errors.text == "", "two Segmentation Volumes, a ParaView Volume and FXAA: no errors (%s)"
+        % errors.text.strip()[:300])
+centre = shot[90:110, 90:110].reshape(-1, 3)
+t.check((centre[:, 0] > 60).all() and (centre[:, 2] > 30).all() and (centre[:, 1] < 20).all(),
+        "the front Segmentation Volume blends over the one behind (red over blue, %s)" % centre.mean(axis=0))
 t.finish()
