@@ -326,6 +326,21 @@ vtkSmartPointer<vtkDataArray> paletteRange(const csgv::CompressedVolume& vol, co
   return result;
 }
 
+namespace
+{
+
+/// Adds an array the plugin keeps for itself (the encoding, its geometry and label map, piece
+/// bookkeeping, per-label attributes) to `fd`, marked vtkAbstractArray::GUI_HIDE: ParaView's
+/// array lists (colour by, selection, filters' array choices) leave such arrays out (issue 38,
+/// item 6); the spreadsheet still shows them.
+void addInternal(vtkFieldData* fd, vtkAbstractArray* array)
+{
+  array->GetInformation()->Set(vtkAbstractArray::GUI_HIDE(), 1);
+  fd->AddArray(array);
+}
+
+} // namespace
+
 void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns)
 {
   for (const csgv::AttributeColumn& c : columns)
@@ -337,7 +352,7 @@ void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColum
       a->SetName(name.c_str());
       a->SetNumberOfValues(static_cast<vtkIdType>(c.values.size()));
       std::copy(c.values.begin(), c.values.end(), a->GetPointer(0));
-      fd->AddArray(a);
+      addInternal(fd, a);
     }
     else
     {
@@ -348,7 +363,7 @@ void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColum
       {
         a->SetValue(static_cast<vtkIdType>(i), c.text[i]);
       }
-      fd->AddArray(a);
+      addInternal(fd, a);
     }
   }
 }
@@ -388,7 +403,7 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
 {
   encoding->SetName(kEncodingName);
   cacheByteRange(encoding);
-  fd->AddArray(encoding);
+  addInternal(fd, encoding);
 
   vtkNew<vtkDoubleArray> geometry;
   geometry->SetName(kGeometryName);
@@ -402,7 +417,7 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
   {
     geometry->SetValue(6 + i, corner.direction[i]);
   }
-  fd->AddArray(geometry);
+  addInternal(fd, geometry);
 
   if (info.relabelled)
   {
@@ -414,18 +429,18 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
     {
       std::memcpy(map->GetVoidPointer(0), info.map.data(), info.map.size() * sizeof(int64_t));
     }
-    fd->AddArray(map);
+    addInternal(fd, map);
   }
 
   vtkNew<vtkStringArray> type;
   type->SetName(kOriginalTypeName);
   type->InsertNextValue(info.originalType);
-  fd->AddArray(type);
+  addInternal(fd, type);
 
   if (range)
   {
     range->SetName(kLabelRangeName);
-    fd->AddArray(range);
+    addInternal(fd, range);
   }
 }
 
@@ -439,7 +454,7 @@ void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset, con
     a->SetValue(i, int(offset[size_t(i)]));
     a->SetValue(3 + i, int(volumeDims[size_t(i)]));
   }
-  fd->AddArray(a);
+  addInternal(fd, a);
 }
 
 std::array<uint32_t, 3> pieceVolumeDims(vtkFieldData* fd)
@@ -461,7 +476,7 @@ void setBrickPiece(vtkFieldData* fd, const std::vector<int>& words)
   {
     a->InsertNextValue(w);
   }
-  fd->AddArray(a);
+  addInternal(fd, a);
 }
 
 bool brickPiece(vtkFieldData* fd, int& brick, int& pieces, int& piece, int whole[6])

@@ -2,8 +2,12 @@
 #include "pqCSGVMaterialEditor.h"
 
 #include "pqCSGVMaterialDocument.h"
+#include "pqCSGVSharedAttributes.h"
 
 #include <pqActiveObjects.h>
+#include <pqApplicationCore.h>
+#include <pqDataRepresentation.h>
+#include <pqServerManagerModel.h>
 #include <pqColorChooserButton.h>
 #include <pqFileDialog.h>
 #include <pqPresetDialog.h>
@@ -12,6 +16,7 @@
 #include <pqView.h>
 #include <vtkCommand.h>
 #include <vtkSMProperty.h>
+#include <vtkSMPropertyHelper.h>
 #include <vtkSMPropertyGroup.h>
 #include <vtkSMProxy.h>
 #include <vtk_jsoncpp.h>
@@ -30,6 +35,7 @@
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
+#include <QMenu>
 #include <QPlainTextEdit>
 #include <QPushButton>
 #include <QStyle>
@@ -184,7 +190,11 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   this->Duplicate = button("Duplicate", "duplicateMaterial", "Duplicate the selected material", this);
   this->Up = button("Up", "moveMaterialUp", "Move the selected material up (earlier wins)", this);
   this->Down = button("Down", "moveMaterialDown", "Move the selected material down", this);
-  for (QPushButton* b : { this->Add, this->Remove, this->Duplicate, this->Up, this->Down })
+  this->CopyFromView = button("From view...", "copyMaterials",
+    "Copy the materials this data has in another view (materials are per view, as display properties are; "
+    "attribute files and derived attributes are shared by every view)",
+    this);
+  for (QPushButton* b : { this->Add, this->Remove, this->Duplicate, this->Up, this->Down, this->CopyFromView })
   {
     row->addWidget(b);
   }
@@ -316,6 +326,7 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   connect(this->Duplicate, &QPushButton::clicked, this, &pqCSGVMaterialEditor::duplicateMaterial);
   connect(this->Up, &QPushButton::clicked, this, &pqCSGVMaterialEditor::moveMaterialUp);
   connect(this->Down, &QPushButton::clicked, this, &pqCSGVMaterialEditor::moveMaterialDown);
+  connect(this->CopyFromView, &QPushButton::clicked, this, &pqCSGVMaterialEditor::copyMaterialsFromView);
   for (QLineEdit* e : { this->Name, this->FilterMin, this->FilterMax, this->ColormapName,
          this->ColorMin, this->ColorMax })
   {
@@ -1005,4 +1016,54 @@ void pqCSGVMaterialEditor::exportColors()
   {
     v->render();
   }
+}
+
+void pqCSGVMaterialEditor::copyMaterialsFromView()
+{
+  // The same data's Segmentation Volumes in other views, named by their view.
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  QList<QPair<QString, vtkSMProxy*>> others;
+  for (vtkSMProxy* other : pqCSGVSharedAttributes::siblings(this->proxy()))
+  {
+    auto* representation = model->findItem<pqDataRepresentation*>(other);
+    pqView* view = representation ? representation->getView() : nullptr;
+    if (view)
+    {
+      others << qMakePair(view->getSMName(), other);
+    }
+  }
+  if (others.isEmpty())
+  {
+    this->Status->setText("No other view shows this data: show it in another view first.");
+    return;
+  }
+  QPair<QString, vtkSMProxy*> from = others.front();
+  if (others.size() > 1)
+  {
+    QMenu menu(this);
+    menu.setObjectName("copyMaterialsMenu");
+    for (int i = 0; i < others.size(); ++i)
+    {
+      menu.addAction(others[i].first)->setData(i);
+    }
+    QAction* chosen = menu.exec(this->CopyFromView->mapToGlobal(QPoint(0, this->CopyFromView->height())));
+    if (!chosen)
+    {
+      return;
+    }
+    from = others[chosen->data().toInt()];
+  }
+  QString error;
+  const csgv::MaterialDocument doc =
+    pqCSGV::parseDocument(QString::fromUtf8(vtkSMPropertyHelper(from.second, "CSGVMaterials").GetAsString()), &error);
+  if (!error.isEmpty())
+  {
+    this->Status->setText("The materials in " + from.first + " are not valid (" + error + "); nothing was copied.");
+    return;
+  }
+  this->Doc = doc;
+  this->DocValid = true;
+  this->rebuildList(0);
+  this->commit("Copy materials from " + from.first);
+  this->Status->setText(QString("Copied %1 material(s) from %2.").arg(this->Doc.materials.size()).arg(from.first));
 }

@@ -88,6 +88,9 @@ public Q_SLOTS:
   void clearAttributes();
   void choosePreset();
   void exportColors();
+  /// Copies the materials of this data's Segmentation Volume in another view (a menu when
+  /// several views show it), as one undoable edit.
+  void copyMaterialsFromView();
 
 Q_SIGNALS:
   void materialsChanged();
@@ -138,7 +141,7 @@ private:
   QTimer* RefreshTimer; ///< coalesces the refreshes several pushed properties ask for
 
   QListWidget* List;
-  QPushButton *Add, *Remove, *Duplicate, *Up, *Down;
+  QPushButton *Add, *Remove, *Duplicate, *Up, *Down, *CopyFromView;
   QGroupBox* Details;
   QLineEdit* Name;
   QComboBox* FilterAttribute;

@@ -44,6 +44,19 @@ for name in names:
             name + ": palette label range equals the source's")
     if name.endswith("_attr.csgv"):
         t.check(fd.GetArray("CSGVLabelMap") is not None, name + ": CSGVLabelMap present (relabelled file)")
+    # The plugin's own arrays are marked GUI_HIDE: ParaView's array lists (colour by, selection,
+    # filters) leave them out (issue 38, item 6); the labels stay.
+    internal = [fd.GetAbstractArray(i) for i in range(fd.GetNumberOfArrays())
+                if fd.GetAbstractArray(i).GetName().startswith("CSGV")]
+    t.check(internal and all(a.GetInformation().Get(vtkAbstractArray.GUI_HIDE()) == 1 for a in internal),
+            name + ": the plugin's own arrays are hidden from ParaView's array lists (%s)"
+            % ", ".join(a.GetName() for a in internal))
+    if name == names[0]:
+        view = CreateRenderView()
+        domain = Show(r, view).GetProperty("ColorArrayName").SMProperty.GetDomain("array_list")
+        listed = [domain.GetString(i) for i in range(domain.GetNumberOfStrings())]
+        t.check(listed == ["Labels"], name + ": colour by lists the labels alone (%s)" % listed)
+        Delete(view)
     Delete(r)
 
 # The sources through the .vraw reader (Volcanite's raw format).

@@ -1,0 +1,167 @@
+// SPDX-License-Identifier: MIT
+// QtTest of issue 38, item 7, in a builtin ParaView session with two render views: attribute
+// files, derived attributes and computed attributes belong to the data (pqCSGVSharedAttributes:
+// a second view of the same data takes them, and a change in either view reaches the other),
+// while materials stay per view and the editor copies them from the other view in one click
+// (undoable). Usage: csgv_shared_attributes_test PLUGIN.so FIXTURES_DIR
+#include "PvQtTestMain.h"
+#include "pqCSGVMaterialEditor.h"
+#include "pqCSGVSharedAttributes.h"
+
+#include <pqApplicationCore.h>
+#include <pqDataRepresentation.h>
+#include <pqObjectBuilder.h>
+#include <pqPipelineSource.h>
+#include <pqServerManagerModel.h>
+#include <pqUndoStack.h>
+#include <pqView.h>
+#include <vtkSMPropertyHelper.h>
+#include <vtkSMProxy.h>
+
+#include <QLabel>
+#include <QPushButton>
+#include <QtTest>
+
+namespace
+{
+QString gPlugin, gFixtures;
+
+void setStrings(vtkSMProxy* proxy, const char* name, const QStringList& values)
+{
+  vtkSMPropertyHelper h(proxy, name);
+  h.SetNumberOfElements(unsigned(values.size()));
+  for (int i = 0; i < values.size(); ++i)
+  {
+    h.Set(unsigned(i), values[i].toUtf8().constData());
+  }
+  proxy->UpdateVTKObjects();
+}
+
+QStringList strings(vtkSMProxy* proxy, const char* name)
+{
+  QStringList out;
+  vtkSMPropertyHelper h(proxy, name);
+  for (unsigned int i = 0; i < h.GetNumberOfElements(); ++i)
+  {
+    out << QString::fromUtf8(h.GetAsString(i));
+  }
+  return out;
+}
+}
+
+class TestSharedAttributes : public QObject
+{
+  Q_OBJECT
+
+  pqCSGVSharedAttributes* Shared = nullptr;
+  pqPipelineSource* Reader = nullptr;
+  pqView *View1 = nullptr, *View2 = nullptr;
+  vtkSMProxy *Repr1 = nullptr, *Repr2 = nullptr;
+
+  vtkSMProxy* show(pqView* view)
+  {
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqDataRepresentation* r = builder->createDataRepresentation(this->Reader->getOutputPort(0), view);
+    if (!r)
+    {
+      return nullptr;
+    }
+    vtkSMPropertyHelper(r->getProxy(), "Representation").Set("Segmentation Volume");
+    r->getProxy()->UpdateVTKObjects();
+    QCoreApplication::processEvents(); // pqCSGVSharedAttributes links it from the event loop
+    return r->getProxy();
+  }
+
+private Q_SLOTS:
+  void initTestCase()
+  {
+    vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
+    QVERIFY(manager->GetPluginManager()->LoadLocalPlugin(gPlugin.toUtf8().constData()));
+    this->Shared = new pqCSGVSharedAttributes(this);
+    this->Shared->startup();
+    pqApplicationCore* core = pqApplicationCore::instance();
+    pqServer* server = core->getServerManagerModel()->findItems<pqServer*>().front();
+    pqObjectBuilder* builder = core->getObjectBuilder();
+    this->Reader = builder->createReader(
+      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    QVERIFY(this->Reader);
+    this->View1 = builder->createView("RenderView", server);
+    this->View2 = builder->createView("RenderView", server);
+    QVERIFY(this->View1 && this->View2);
+    this->Repr1 = this->show(this->View1);
+    QVERIFY(this->Repr1);
+  }
+
+  void secondViewTakesTheAttributes()
+  {
+    vtkSMPropertyHelper(this->Repr1, "CSGVAttributeFiles").Set(0, "/data/regions.csv");
+    setStrings(this->Repr1, "CSGVDerivedAttributes", { "double_kind", "kind * 2" });
+    vtkSMPropertyHelper(this->Repr1, "CSGVComputedAttributes").Set(1);
+    this->Repr1->UpdateVTKObjects();
+    this->Repr2 = this->show(this->View2);
+    QVERIFY(this->Repr2);
+    QCOMPARE(strings(this->Repr2, "CSGVAttributeFiles"), QStringList{ "/data/regions.csv" });
+    QCOMPARE(strings(this->Repr2, "CSGVDerivedAttributes"), (QStringList{ "double_kind", "kind * 2" }));
+    QCOMPARE(vtkSMPropertyHelper(this->Repr2, "CSGVComputedAttributes").GetAsInt(), 1);
+    QCOMPARE(pqCSGVSharedAttributes::siblings(this->Repr2).size(), 1);
+  }
+
+  void aChangeInEitherViewReachesTheOther()
+  {
+    setStrings(this->Repr2, "CSGVDerivedAttributes", { "half_kind", "kind / 2.0" });
+    this->Repr2->UpdateVTKObjects();
+    QCOMPARE(strings(this->Repr1, "CSGVDerivedAttributes"), (QStringList{ "half_kind", "kind / 2.0" }));
+    vtkSMPropertyHelper(this->Repr1, "CSGVAttributeFiles").SetNumberOfElements(0);
+    this->Repr1->UpdateVTKObjects();
+    QCOMPARE(strings(this->Repr2, "CSGVAttributeFiles"), QStringList{});
+  }
+
+  void materialsStayPerViewAndCopyInOneClick()
+  {
+    const QString mine = R"({"version":1,"materials":[{"name":"red","color":{"mode":"constant","rgb":[1,0,0]}}]})";
+    vtkSMPropertyHelper(this->Repr1, "CSGVMaterials").Set(mine.toUtf8().constData());
+    this->Repr1->UpdateVTKObjects();
+    QVERIFY(QString(vtkSMPropertyHelper(this->Repr2, "CSGVMaterials").GetAsString()).isEmpty());
+
+    pqCSGVMaterialEditor editor(this->Repr2, nullptr);
+    connect(&editor, &pqPropertyWidget::changeFinished, &editor, &pqPropertyWidget::apply);
+    QPushButton* copy = editor.findChild<QPushButton*>("copyMaterials");
+    QVERIFY(copy);
+    pqUndoStack* undo = pqApplicationCore::instance()->getUndoStack();
+    copy->click();
+    editor.apply();
+    const QString copied = vtkSMPropertyHelper(this->Repr2, "CSGVMaterials").GetAsString();
+    QVERIFY2(copied.contains("\"red\""), qPrintable(copied));
+    const QString status = editor.findChild<QLabel*>("status")->text();
+    QVERIFY2(status.startsWith("Copied 1 material(s) from "), qPrintable(status));
+    if (undo)
+    {
+      QVERIFY(undo->canUndo());
+    }
+    // And back: the other view's materials are its own.
+    vtkSMPropertyHelper(this->Repr2, "CSGVMaterials").Set("");
+    this->Repr2->UpdateVTKObjects();
+    QCOMPARE(QString(vtkSMPropertyHelper(this->Repr1, "CSGVMaterials").GetAsString()), mine);
+  }
+
+  void aRemovedViewLeavesTheOthersLinked()
+  {
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqView* view3 = builder->createView("RenderView", this->View1->getServer());
+    vtkSMProxy* repr3 = this->show(view3);
+    QVERIFY(repr3);
+    QCOMPARE(strings(repr3, "CSGVDerivedAttributes"), (QStringList{ "half_kind", "kind / 2.0" }));
+    builder->destroy(this->View2);
+    this->View2 = nullptr;
+    setStrings(repr3, "CSGVDerivedAttributes", { "k3", "kind * 3" });
+    repr3->UpdateVTKObjects();
+    QCOMPARE(strings(this->Repr1, "CSGVDerivedAttributes"), (QStringList{ "k3", "kind * 3" }));
+  }
+};
+
+int main(int argc, char** argv)
+{
+  return pvqttest::run<TestSharedAttributes>(argc, argv, gPlugin, gFixtures);
+}
+
+#include "test_shared_attributes.moc"
