@@ -702,6 +702,11 @@ size_t Context::pipelineCount() const {
 Status Context::run(const Dispatch* first, size_t count) {
     Impl& im = *m_impl;
     const Dispatch* const last = first + count;
+    // Each dispatch's pipeline, looked up under the lock that guards the table: another renderer
+    // may be making pipelines on a thread of its own meanwhile (a new view preparing, a renderer
+    // warming the other shading modes), and a map read during an insert is a data race.
+    std::vector<Impl::Pipeline> resolved(count);
+    std::unique_lock<std::mutex> tableLock(im.pipelineMutex);
     for (const Dispatch* d = first; d != last; ++d) {
         if (d->fill && !d->fill->valid()) return Status::error("a fill of a buffer that does not exist");
         if (d->fill && (d->fillBytes % 4 != 0 || d->fillOffset % 4 != 0))
@@ -726,7 +731,9 @@ Status Context::run(const Dispatch* first, size_t count) {
         if (p == im.pipelines.end()) return Status::error("dispatch of an unknown pipeline");
         if (p->second.texelBindings != (d->texels ? d->texels->bindings() : 0))
             return Status::error("a dispatch's texel buffers do not match its pipeline's bindings");
+        resolved[size_t(d - first)] = p->second;
     }
+    tableLock.unlock();
     return submitAndWait(im, [&](VkCommandBuffer cmd) {
         for (const Dispatch* it = first; it != last; ++it) {
             const Dispatch& d = *it;
@@ -764,7 +771,7 @@ Status Context::run(const Dispatch* first, size_t count) {
                 transferBarrier(im.vk, cmd);
                 continue;
             }
-            const Impl::Pipeline& p = im.pipelines[d.pipeline];
+            const Impl::Pipeline& p = resolved[size_t(it - first)];
             im.vk.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.pipeline);
             if (d.texels) {
                 const VkDescriptorSet set = reinterpret_cast<VkDescriptorSet>(d.texels->m_set);
