@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fcntl.h>
@@ -45,8 +46,11 @@ namespace fs = std::filesystem;
 /// @brief Where an input lives on disk and where its cache goes.
 struct InputLocation
 {
-  std::string Input;      ///< what csgv::openInput gets (absolute)
-  std::string Stamped;    ///< the file or folder whose state the stamp records
+  std::string Input;      ///< what csgv::openInput gets (absolute); a stack's slices, one a line
+  std::string Stamped;    ///< the file or folder whose state the stamp records ("" for a stack)
+  std::vector<std::string> Slices; ///< an image stack's slice files in z order (absolute), or none
+  std::string Display;    ///< the input in messages: as the user named it, or a stack's ends
+  std::string Stem;       ///< the cache's name stem in a shared cache folder
   std::string BesidePath; ///< the cache beside the input (`.csgv` included)
   std::string Error;      ///< why the input cannot be located ("" when it can)
 };
@@ -125,6 +129,8 @@ InputLocation locate(const std::string& fileName)
   InputLocation loc;
   const std::string path = absolutePath(folderForDialogFile(fileName));
   loc.Input = path;
+  loc.Display = fileName;
+  loc.Stem = fs::path(path).filename().string();
   std::string inner; // the part of the input inside Stamped (an HDF5 dataset, a glob)
   if (exists(path))
   {
@@ -171,6 +177,74 @@ InputLocation locate(const std::string& fileName)
   const std::string suffix = flattened(inner);
   loc.BesidePath = container + (suffix.empty() ? std::string() : "_" + suffix) + ".csgv";
   return loc;
+}
+
+/// A file's name without a `.tif` / `.tiff` suffix.
+std::string tiffStem(const std::string& path)
+{
+  std::string name = fs::path(path).filename().string();
+  const std::string low = lowered(name);
+  for (const char* suffix : { ".tif", ".tiff" })
+  {
+    const size_t n = std::char_traits<char>::length(suffix);
+    if (low.size() > n && low.compare(low.size() - n, n, suffix) == 0)
+    {
+      name.resize(name.size() - n);
+      break;
+    }
+  }
+  return name;
+}
+
+/// An image stack of slice files: its cache is named after the first and the last slice,
+/// `slice_0000.tif` .. `slice_0127.tif` -> `slice_0000-0127.csgv`, beside the first one (its own
+/// folder: the stamp follows the slice files, not the folder, so the cache may live there).
+InputLocation locateStack(const std::vector<std::string>& files)
+{
+  InputLocation loc;
+  for (const std::string& f : files)
+  {
+    loc.Slices.push_back(absolutePath(f));
+    loc.Input += (loc.Input.empty() ? "" : "\n") + loc.Slices.back();
+  }
+  loc.Display = csgv::sliceListName(loc.Slices);
+  const std::string first = tiffStem(loc.Slices.front());
+  const std::string last = tiffStem(loc.Slices.back());
+  // The common beginning of the two names, not cut inside a run of digits (the slice number).
+  size_t common = 0;
+  while (common < first.size() && common < last.size() && first[common] == last[common])
+  {
+    ++common;
+  }
+  while (common > 0 && std::isdigit(static_cast<unsigned char>(first[common - 1])))
+  {
+    --common;
+  }
+  const std::string rest = last.substr(common);
+  loc.Stem = first + "-" + (rest.empty() ? std::string("stack") : rest);
+  const std::string folder = fs::path(loc.Slices.front()).parent_path().string();
+  loc.BesidePath = (folder.empty() ? std::string(".") : folder) + "/" + flattened(loc.Stem) + ".csgv";
+  return loc;
+}
+
+/// Opens the input `loc` names: a stack of slices, or any form csgv::openInput takes. Core
+/// returns errors as values; anything thrown still must not leave into ParaView.
+csgv::Result<std::unique_ptr<csgv::InputSource>> openSource(
+  const InputLocation& loc, const csgv::InputOptions& options)
+{
+  try
+  {
+    return loc.Slices.empty() ? csgv::openInput(loc.Input, options)
+                              : csgv::openTiffSlices(loc.Slices, options);
+  }
+  catch (const std::bad_alloc&)
+  {
+    return csgv::Status::error("out of memory while opening '" + loc.Display + "'");
+  }
+  catch (...)
+  {
+    return csgv::Status::error("opening '" + loc.Display + "' failed unexpectedly");
+  }
 }
 
 /// 64-bit FNV-1a: a stable name for an input's cache in the shared cache folder.
@@ -242,7 +316,7 @@ std::string chooseCache(const InputLocation& loc, const std::string& cacheDirect
     error = "cannot write the cache folder '" + dir + "'";
     return std::string();
   }
-  const std::string stem = flattened(fs::path(loc.Input).filename().string());
+  const std::string stem = flattened(loc.Stem);
   return absolutePath(dir) + "/" + (stem.empty() ? std::string() : stem + "-") + hashName(loc.Input) + ".csgv";
 }
 
@@ -279,14 +353,32 @@ int64_t mtimeNs(const struct stat& st)
 /// input cannot be examined.
 std::string currentStamp(const InputLocation& loc, int relabel, int brickSize)
 {
+  uint64_t files = 0, bytes = 0;
+  int64_t newest = 0;
   struct stat st;
-  if (::stat(loc.Stamped.c_str(), &st) != 0)
+  std::string input = jsonString(loc.Input);
+  if (!loc.Slices.empty())
+  {
+    // A stack: its slice files in order (a reordered or shorter list is another volume).
+    input = "[";
+    for (const std::string& slice : loc.Slices)
+    {
+      if (::stat(slice.c_str(), &st) != 0)
+      {
+        return std::string();
+      }
+      input += (files == 0 ? "\n    " : ",\n    ") + jsonString(slice);
+      ++files;
+      bytes += uint64_t(st.st_size);
+      newest = std::max(newest, mtimeNs(st));
+    }
+    input += "\n  ]";
+  }
+  else if (::stat(loc.Stamped.c_str(), &st) != 0)
   {
     return std::string();
   }
-  uint64_t files = 0, bytes = 0;
-  int64_t newest = 0;
-  if (S_ISDIR(st.st_mode))
+  else if (S_ISDIR(st.st_mode))
   {
     // Folders (Zarr, precomputed, TIFF slices): any chunk added, removed or rewritten changes the
     // count, the total size or the newest modification time.
@@ -314,7 +406,7 @@ std::string currentStamp(const InputLocation& loc, int relabel, int brickSize)
     newest = mtimeNs(st);
   }
   std::ostringstream s;
-  s << "{\n  \"input\": " << jsonString(loc.Input) << ",\n  \"relabel\": " << (relabel ? 1 : 0)
+  s << "{\n  \"input\": " << input << ",\n  \"relabel\": " << (relabel ? 1 : 0)
     << ",\n  \"brickSize\": " << brickSize << ",\n  \"files\": " << files << ",\n  \"bytes\": " << bytes
     << ",\n  \"newestMtimeNs\": " << newest << "\n}\n";
   return s.str();
@@ -381,6 +473,12 @@ public:
   vtkMTimeType StampMTime = 0;
   std::string StampTopLevel;
   bool Failed = true;
+  /// FileNames as set (AddFileName); what is read is chosen in ChooseInputs.
+  std::vector<std::string> FileNames;
+  /// The inputs of the last RequestInformation (FileName alone, or FileNames) and, for a time
+  /// series, the step whose file Location and Cache describe.
+  std::vector<std::string> Inputs;
+  int Step = 0;
   /// The reader's MTime and the input's stamp when RequestData last failed: the pipeline asks
   /// again for the extent it announced (an empty output does not cover it), and the same
   /// request must neither compress again nor report again.
@@ -463,6 +561,119 @@ int vtkCSGVInputReader::CanReadFile(const char* fileName)
   return loc.Error.empty() && csgv::isInputPath(loc.Input) ? 1 : 0;
 }
 
+namespace
+{
+enum SeriesModes
+{
+  NoInput = 0,
+  OneInput = 1,
+  ImageStack = 2,
+  TimeSeries = 3
+};
+
+/// The time step a request asks for: time values are the file indices 0, 1, ..., N - 1, and a
+/// time between two of them shows the earlier file (as vtkFileSeriesReader does).
+int requestedStep(vtkInformation* outInfo, int steps)
+{
+  if (!outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP()))
+  {
+    return 0;
+  }
+  const double t = outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP());
+  if (!(t > 0.0)) // NaN too
+  {
+    return 0;
+  }
+  return int(std::min<double>(std::floor(t + 1e-9), double(steps - 1)));
+}
+} // namespace
+
+void vtkCSGVInputReader::AddFileName(const char* fileName)
+{
+  this->Internals->FileNames.emplace_back(fileName ? fileName : "");
+  this->Modified();
+}
+
+void vtkCSGVInputReader::RemoveAllFileNames()
+{
+  if (!this->Internals->FileNames.empty())
+  {
+    this->Internals->FileNames.clear();
+    this->Modified();
+  }
+}
+
+int vtkCSGVInputReader::GetNumberOfFileNames()
+{
+  return static_cast<int>(this->Internals->FileNames.size());
+}
+
+const char* vtkCSGVInputReader::GetFileNameAt(int index)
+{
+  const std::vector<std::string>& names = this->Internals->FileNames;
+  return index >= 0 && index < static_cast<int>(names.size()) ? names[size_t(index)].c_str() : nullptr;
+}
+
+bool vtkCSGVInputReader::ChooseInputs(std::string& error)
+{
+  vtkInternals& in = *this->Internals;
+  in.Inputs.clear();
+  const std::string single = this->FileName ? this->FileName : "";
+  for (const std::string& name : in.FileNames)
+  {
+    if (name.empty())
+    {
+      error = "FileNames has an empty entry";
+      return false;
+    }
+  }
+  if (!in.FileNames.empty() && !single.empty() &&
+    !(in.FileNames.size() == 1 && in.FileNames[0] == single))
+  {
+    // A script that sets FileName on a reader the file dialog made (or the reverse) would
+    // otherwise read one of the two silently.
+    error = "both FileName ('" + single + "') and FileNames (" + std::to_string(in.FileNames.size()) +
+      (in.FileNames.size() == 1 ? " file" : " files") + ", '" + in.FileNames[0] +
+      "' first) are set; set only one of them";
+    return false;
+  }
+  in.Inputs = in.FileNames.empty() ? std::vector<std::string>{ single } : in.FileNames;
+  if (in.Inputs.size() == 1)
+  {
+    if (in.Inputs[0].empty())
+    {
+      error = "no FileName set";
+      return false;
+    }
+    this->SeriesMode = OneInput;
+    return true;
+  }
+  if (!this->ReadAsImageStack)
+  {
+    this->SeriesMode = TimeSeries;
+    return true;
+  }
+  // What the first file is decides, as a user would: a 2D TIFF is a slice of a stack, anything
+  // with depth (a multi-page TIFF, HDF5, NRRD...) is a volume of its own, one per time step.
+  const InputLocation first = locate(in.Inputs[0]);
+  if (!first.Error.empty())
+  {
+    error = first.Error;
+    return false;
+  }
+  csgv::InputOptions options;
+  options.allowOutsidePaths = this->AllowOutsidePaths != 0;
+  csgv::Result<std::unique_ptr<csgv::InputSource>> source = openSource(first, options);
+  if (!source)
+  {
+    error = source.message();
+    return false;
+  }
+  const csgv::InputInfo& info = (*source)->info();
+  this->SeriesMode = info.format == "TIFF" && info.dim[2] == 1 ? ImageStack : TimeSeries;
+  return true;
+}
+
 int vtkCSGVInputReader::RequestInformation(
   vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
@@ -470,27 +681,91 @@ int vtkCSGVInputReader::RequestInformation(
   vtkInternals& in = *this->Internals;
   in.Failed = true;
   in.Cache.clear();
+  this->SeriesMode = NoInput;
   // Errors are reported once here; the pipeline goes on with an empty extent and RequestData
   // leaves an empty output (as vtkCSGVReader does).
   const int empty[6] = { 0, -1, 0, -1, 0, -1 };
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
-  if (!this->FileName || !*this->FileName)
+  outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_STEPS());
+  outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_RANGE());
+  std::string error;
+  if (!this->ChooseInputs(error))
   {
-    vtkErrorMacro(<< "no FileName set");
+    this->SeriesMode = NoInput;
+    vtkErrorMacro(<< error);
     return 1;
   }
-  in.Location = locate(this->FileName);
+  in.Step = 0;
+  if (this->SeriesMode == TimeSeries)
+  {
+    const int steps = static_cast<int>(in.Inputs.size());
+    std::vector<double> times(in.Inputs.size());
+    for (int i = 0; i < steps; ++i)
+    {
+      times[size_t(i)] = i;
+    }
+    const double range[2] = { 0.0, double(steps - 1) };
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_STEPS(), times.data(), steps);
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_RANGE(), range, 2);
+    in.Step = requestedStep(outInfo, steps);
+  }
+  this->PrepareInput(outInfo);
+  return 1;
+}
+
+int vtkCSGVInputReader::RequestUpdateExtent(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInternals& in = *this->Internals;
+  if (this->SeriesMode != TimeSeries)
+  {
+    return 1;
+  }
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  const int step = requestedStep(outInfo, static_cast<int>(in.Inputs.size()));
+  if (step == in.Step)
+  {
+    return 1;
+  }
+  // Another time step is another file: announce its extent (as vtkFileSeriesReader does), and
+  // ask it whole when the extent asked of the previous file does not fit it.
+  in.Step = step;
+  this->PrepareInput(outInfo);
+  int whole[6], ext[6];
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  bool inside = true;
+  for (int a = 0; a < 3; ++a)
+  {
+    inside = inside && ext[2 * a] >= whole[2 * a] && ext[2 * a + 1] <= whole[2 * a + 1];
+  }
+  if (!inside)
+  {
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+  }
+  return 1;
+}
+
+void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
+{
+  vtkInternals& in = *this->Internals;
+  in.Failed = true;
+  in.Cache.clear();
+  const int empty[6] = { 0, -1, 0, -1, 0, -1 };
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
+  in.Location = this->SeriesMode == ImageStack ? locateStack(in.Inputs)
+                                               : locate(in.Inputs[size_t(in.Step)]);
   if (!in.Location.Error.empty())
   {
     vtkErrorMacro(<< in.Location.Error);
-    return 1;
+    return;
   }
   std::string error;
   in.Cache = chooseCache(in.Location, this->CacheDirectory ? this->CacheDirectory : "", error);
   if (in.Cache.empty())
   {
-    vtkErrorMacro(<< this->FileName << ": " << error);
-    return 1;
+    vtkErrorMacro(<< in.Location.Display << ": " << error);
+    return;
   }
   in.UpdateStamp(this, true);
 
@@ -515,32 +790,28 @@ int vtkCSGVInputReader::RequestInformation(
     // Sub-extents, as before the cache exists (the cached .csgv is read whole by one reader).
     outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
     in.Failed = false;
-    return 1;
+    return;
   }
 
   // Not compressed yet: the input's header gives what the .csgv will say (Core writes the
   // input's centre-origin geometry as corner-origin metadata, and a brick size of 2^n gives
   // n + 1 levels).
-  // Core returns errors as values; anything thrown still must not leave into ParaView.
-  csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgv::Status::error("not opened");
-  try
-  {
-    csgv::InputOptions inputOptions;
-    inputOptions.allowOutsidePaths = this->AllowOutsidePaths != 0;
-    source = csgv::openInput(in.Location.Input, inputOptions);
-  }
-  catch (const std::bad_alloc&)
-  {
-    source = csgv::Status::error("out of memory while opening '" + in.Location.Input + "'");
-  }
-  catch (...)
-  {
-    source = csgv::Status::error("opening '" + in.Location.Input + "' failed unexpectedly");
-  }
+  csgv::InputOptions inputOptions;
+  inputOptions.allowOutsidePaths = this->AllowOutsidePaths != 0;
+  csgv::Result<std::unique_ptr<csgv::InputSource>> source = openSource(in.Location, inputOptions);
   if (!source)
   {
-    vtkErrorMacro(<< source.message());
-    return 1;
+    if (this->SeriesMode == ImageStack)
+    {
+      vtkErrorMacro(<< source.message() << " (the " << in.Inputs.size()
+                    << " files were read as the slices of one volume; with ReadAsImageStack off each"
+                       " file is one time step)");
+    }
+    else
+    {
+      vtkErrorMacro(<< source.message());
+    }
+    return;
   }
   const csgv::InputInfo& info = (*source)->info();
   const csgv::Geometry geometry = csgv::cellGeometryFromPointGeometry(info.geometry);
@@ -567,7 +838,6 @@ int vtkCSGVInputReader::RequestInformation(
   outInfo->Set(vtkCSGVReader::CSGV_GEOMETRY(), geometry15, 15);
   outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
   in.Failed = false;
-  return 1;
 }
 
 int vtkCSGVInputReader::RequestData(
@@ -582,6 +852,20 @@ int vtkCSGVInputReader::RequestData(
   output->Initialize();
   vtkInternals& in = *this->Internals;
   this->Compressed = 0;
+  if (this->SeriesMode == TimeSeries)
+  {
+    // RequestUpdateExtent has switched to the requested step's file; a request that came
+    // without one (it should not) switches here.
+    const int step = requestedStep(outInfo, static_cast<int>(in.Inputs.size()));
+    if (step != in.Step)
+    {
+      in.Step = step;
+      this->PrepareInput(outInfo);
+    }
+    // Every output says which step it is, failed ones too (an output without a time would be
+    // asked for again at every render).
+    output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), double(in.Step));
+  }
   if (in.Failed)
   {
     return 1; // RequestInformation reported why
@@ -590,7 +874,8 @@ int vtkCSGVInputReader::RequestData(
   in.UpdateStamp(this, false);
   if (in.Stamp.empty())
   {
-    vtkErrorMacro(<< "cannot examine '" << in.Location.Stamped << "'");
+    vtkErrorMacro(<< "cannot examine '"
+                  << (in.Location.Slices.empty() ? in.Location.Stamped : in.Location.Display) << "'");
     return 1;
   }
   if (this->GetMTime() == in.FailedMTime && in.Stamp == in.FailedStamp)
@@ -619,7 +904,7 @@ int vtkCSGVInputReader::RequestData(
   if (!inside)
   {
     // The .csgv disagrees with what the header promised (it should not): give it whole.
-    vtkWarningMacro(<< "'" << in.Cache << "' has another extent than '" << this->FileName << "' announced");
+    vtkWarningMacro(<< "'" << in.Cache << "' has another extent than '" << in.Location.Display << "' announced");
     std::copy(whole, whole + 6, ext);
   }
   if (whole[0] > whole[1] || !in.Reader->UpdateExtent(ext) ||
@@ -632,6 +917,10 @@ int vtkCSGVInputReader::RequestData(
     return 1;
   }
   output->ShallowCopy(in.Reader->GetOutput());
+  if (this->SeriesMode == TimeSeries)
+  {
+    output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), double(in.Step));
+  }
   this->UpdateProgress(1.0);
   return 1;
 }
@@ -666,19 +955,42 @@ bool vtkCSGVInputReader::Compress()
   // A progress observer may abort before Core reports any progress.
   if (this->GetAbortExecute())
   {
-    vtkErrorMacro(<< "compressing '" << this->FileName << "' was cancelled");
+    vtkErrorMacro(<< "compressing '" << in.Location.Display << "' was cancelled");
     return false;
   }
   csgv::CompressReport report;
   csgv::Status status;
-  try
+  if (in.Location.Slices.empty())
   {
-    status = csgv::compressToFile(in.Location.Input, in.Cache, options, &report);
+    try
+    {
+      status = csgv::compressToFile(in.Location.Input, in.Cache, options, &report);
+    }
+    catch (...)
+    {
+      // compressToFile returns its errors; this is the last guard of the ParaView session.
+      status = csgv::Status::error("compressing '" + in.Location.Input + "' failed unexpectedly");
+    }
   }
-  catch (...)
+  else
   {
-    // compressToFile returns its errors; this is the last guard of the ParaView session.
-    status = csgv::Status::error("compressing '" + in.Location.Input + "' failed unexpectedly");
+    // A stack has no single name for compressToFile: open its slices and hand over the source
+    // (its scratch files, if any, go where the encoder's do: beside the cache).
+    csgv::InputOptions inputOptions = options.input;
+    inputOptions.scratchDirectory = fs::path(in.Cache).parent_path().string();
+    csgv::Result<std::unique_ptr<csgv::InputSource>> source = openSource(in.Location, inputOptions);
+    status = source ? csgv::Status::ok() : source.status();
+    try
+    {
+      if (source)
+      {
+        status = csgv::compressSourceToFile(**source, in.Location.Display, in.Cache, options, &report);
+      }
+    }
+    catch (...)
+    {
+      status = csgv::Status::error("compressing '" + in.Location.Display + "' failed unexpectedly");
+    }
   }
   if (!status)
   {
@@ -688,7 +1000,7 @@ bool vtkCSGVInputReader::Compress()
   if (this->GetAbortExecute())
   {
     // Finished before Core looked at the flag: the files are whole, so keep them, but say so.
-    vtkWarningMacro(<< "compressing '" << this->FileName << "' finished before it could be cancelled");
+    vtkWarningMacro(<< "compressing '" << in.Location.Display << "' finished before it could be cancelled");
   }
   // The stamp names the cache just written (before the new reader looks at it, so a concurrent
   // writer's later .csgv never matches it).
@@ -707,6 +1019,13 @@ void vtkCSGVInputReader::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
+  os << indent << "FileNames: " << this->Internals->FileNames.size() << "\n";
+  for (const std::string& name : this->Internals->FileNames)
+  {
+    os << indent.GetNextIndent() << name << "\n";
+  }
+  os << indent << "ReadAsImageStack: " << this->ReadAsImageStack << "\n";
+  os << indent << "SeriesMode: " << this->SeriesMode << "\n";
   os << indent << "Relabel: " << this->Relabel << "\n";
   os << indent << "AllowOutsidePaths: " << this->AllowOutsidePaths << "\n";
   os << indent << "BrickSize: " << this->BrickSize << "\n";

@@ -12,15 +12,30 @@
  * a `.zarray`, `.zgroup` or `.zattrs` file stands for its Zarr folder and a precomputed `info` file
  * for its folder.
  *
+ * File series (FileNames; why: ParaView's file dialog groups `slice_0000.tif` ... `slice_0127.tif`
+ * into one entry and hands the whole group to the reader's repeatable file-name property, see
+ * CSGVReaders.xml): one name is read as FileName would be. Several names are, as in ParaView's
+ * own TIFF Series Reader:
+ * - an image stack when ReadAsImageStack is on (default) and the first file is a single-page (2D)
+ *   TIFF: file i is slice z = i of one volume, in the order given (csgv::openTiffSlices; every
+ *   slice must match the first one's size and type, and an error names the one that differs);
+ * - a time series otherwise (the first file is a 3D volume: a multi-page TIFF, HDF5, NRRD...; or
+ *   ReadAsImageStack is off): file i is time step i (TIME_STEPS 0, 1, ..., N - 1), each compressed
+ *   to its own cache when its time is first shown.
+ * FileName and FileNames are not merged: setting both (other than FileNames = {FileName}) is an
+ * error, so that no file is silently left out.
+ *
  * Cache (why: compressing a large volume takes minutes; opening the `.csgv` takes seconds):
  * - Where: with CacheDirectory empty (default), beside the input as `<input>.csgv` when the input's
  *   folder is writable (for a path inside a `.zarr` store, beside the store, `<store>_<path>.csgv`;
- *   for `FILE.h5:/dataset`, `FILE.h5_dataset.csgv`), otherwise in `$XDG_CACHE_HOME` (or
+ *   for `FILE.h5:/dataset`, `FILE.h5_dataset.csgv`; for a stack `slice_0000.tif` ..
+ *   `slice_0127.tif`, `slice_0000-0127.csgv` beside the first slice), otherwise in `$XDG_CACHE_HOME` (or
  *   `~/.cache`) `/csgv-paraview/<hash of the absolute input path>.csgv`. A non-empty
  *   CacheDirectory always holds the hashed name. Sidecars `.csgv.json` and `_csgv.db3` go with it.
  * - Reuse: `<cache>.stamp` records the input path, the options that shape the encoding (Relabel,
  *   BrickSize) and the input's state: size and modification time of a file, or for a folder the
- *   number of files under it, their total size and the newest modification time; and the
+ *   number of files under it, their total size and the newest modification time (for a stack,
+ *   the same over its slice files, whose list the stamp records in order); and the
  *   identity (inode, size, modification time) of the `.csgv` it was written for, so that with two
  *   writers racing a stamp never vouches for the other writer's `.csgv`. The cache is reused while
  *   the stamp matches the input and the `.csgv`; otherwise the input is compressed again. A
@@ -48,6 +63,8 @@
 #include "CSGVReadersModule.h"
 #include "vtkImageAlgorithm.h"
 
+#include <string> // for ChooseInputs
+
 class CSGVREADERS_EXPORT vtkCSGVInputReader : public vtkImageAlgorithm
 {
 public:
@@ -58,6 +75,24 @@ public:
   /// The input, in any form csgv::openInput() accepts (see the class comment).
   vtkSetStringMacro(FileName);
   vtkGetStringMacro(FileName);
+
+  /// The inputs of a file series, in order (ParaView's repeatable FileNames property; see the
+  /// class comment). Empty by default; when not empty, FileName must be empty or the only entry.
+  void AddFileName(const char* fileName);
+  void RemoveAllFileNames();
+  int GetNumberOfFileNames();
+  /// Entry `index` of FileNames (null outside [0, GetNumberOfFileNames())).
+  const char* GetFileNameAt(int index);
+
+  /// Several FileNames whose first is a single-page TIFF: on (default) reads them as the z slices
+  /// of one volume; off reads every file as one time step (ParaView's ReadAsImageStack).
+  vtkSetMacro(ReadAsImageStack, vtkTypeBool);
+  vtkGetMacro(ReadAsImageStack, vtkTypeBool);
+  vtkBooleanMacro(ReadAsImageStack, vtkTypeBool);
+
+  /// How the last RequestInformation read its inputs: 0 nothing (no valid input), 1 one input,
+  /// 2 an image stack of several TIFF slices, 3 a time series of several inputs.
+  vtkGetMacro(SeriesMode, int);
 
   /// Relabel to dense ids even when the labels fit the format (default off; labels that do not
   /// fit, such as 64-bit or negative ones, are always relabelled).
@@ -105,6 +140,8 @@ protected:
   ~vtkCSGVInputReader() override;
 
   int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  /// A time series switches to the file of the requested time step here (announcing its extent).
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   char* FileName = nullptr;
@@ -116,6 +153,8 @@ protected:
   vtkIdType DecodeThreshold = vtkIdType(512) * 1024 * 1024;
   int Level = 0;
   int Compressed = 0;
+  vtkTypeBool ReadAsImageStack = 1;
+  int SeriesMode = 0;
 
 private:
   vtkCSGVInputReader(const vtkCSGVInputReader&) = delete;
@@ -123,6 +162,13 @@ private:
 
   /// Compresses the input to the cache and stamps it; false (reported) on error or cancellation.
   bool Compress();
+  /// Which inputs FileName and FileNames name and how they are read (SeriesMode); false with
+  /// `error` set when they conflict, are empty, or the first one cannot be opened.
+  bool ChooseInputs(std::string& error);
+  /// Locates the current input (the one input, the stack, or the current time step's file),
+  /// chooses its cache and announces its extent and geometry in `outInfo`; errors are reported
+  /// and leave the extent empty.
+  void PrepareInput(vtkInformation* outInfo);
   /// Remembers that the current request failed (see vtkInternals::FailedMTime).
   void RememberFailure();
 

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <unistd.h>
 #include <fstream>
 #include <iterator>
 
@@ -163,6 +164,81 @@ TEST(InputTiff, FolderAndGlobOfSlicesInNaturalOrder) {
     expectVolume(at("mixed/slice_*.tif"), "slices", {14, 10, 12}, LabelType::U16);
     expectVolume(at("mixed/slice_[0-9]*.ti?"), "slices", {14, 10, 12}, LabelType::U16);
     EXPECT_EQ(detailOf("mixed/slice_*.tif"), "glob of 12 slices, strips of 3 rows, deflate");
+}
+
+TEST(InputTiff, ListOfSlicesKeepsTheGivenOrder) {
+    // The order a caller gives is the volume's z order (ParaView's file dialog hands a series in
+    // its own order): slices 12, 1, 2, ..., 11 put the last slice first.
+    const std::vector<uint64_t> sorted = expectedValues("slices");
+    const uint64_t slice = 14 * 10;
+    std::vector<std::string> files;
+    std::vector<uint64_t> expected;
+    for (int i : {12, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11}) {
+        files.push_back(at("slices/slice_" + std::to_string(i) + ".tif"));
+        expected.insert(expected.end(), sorted.begin() + (i - 1) * slice, sorted.begin() + i * slice);
+    }
+    Result<std::unique_ptr<InputSource>> src = openTiffSlices(files);
+    ASSERT_TRUE(src.isOk()) << src.message();
+    EXPECT_EQ((*src)->info().dim, (std::array<uint32_t, 3>{14, 10, 12}));
+    EXPECT_EQ((*src)->info().type, LabelType::U16);
+    EXPECT_EQ((*src)->info().format, "TIFF");
+    EXPECT_EQ((*src)->info().detail, "list of 12 slices, strips of 10 rows, uncompressed");
+    Result<InputVolume> all = readAll(**src, "list");
+    ASSERT_TRUE(all.isOk()) << all.message();
+    EXPECT_TRUE(all->values == expected);
+    csgvtest::expectSourceContract(**src, expected);
+    EXPECT_EQ(sliceListName(files), at("slices/slice_12.tif") + " .. slice_11.tif");
+
+    // One file is a volume of depth 1; a compression from the list is exact.
+    Result<std::unique_ptr<InputSource>> one = openTiffSlices({at("slices/slice_3.tif")});
+    ASSERT_TRUE(one.isOk()) << one.message();
+    EXPECT_EQ((*one)->info().dim, (std::array<uint32_t, 3>{14, 10, 1}));
+    const std::string output = csgvtest::tempDir() + "/tiff_list.csgv";
+    CompressOptions options;
+    options.encode.brickSize = 8;
+    Status s = compressSourceToFile(**src, sliceListName(files), output, options);
+    ASSERT_TRUE(s.isOk()) << s.message();
+    Result<CompressedVolume> vol = readCsgv(output);
+    ASSERT_TRUE(vol.isOk()) << vol.message();
+    Result<LabelVolume> decoded = decodeVolume(*vol, 0);
+    ASSERT_TRUE(decoded.isOk()) << decoded.message();
+    ASSERT_EQ(decoded->labels.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i)
+        ASSERT_EQ(uint64_t(decoded->labels[i]), expected[i]) << "voxel " << i;
+}
+
+TEST(InputTiff, ListOfSlicesNamesTheOneThatDiffers) {
+    auto listFailure = [](const std::vector<std::string>& files) {
+        testing::internal::CaptureStderr();
+        Result<std::unique_ptr<InputSource>> src = openTiffSlices(files);
+        EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+        EXPECT_FALSE(src.isOk()) << "the list was accepted";
+        if (src) return std::string();
+        EXPECT_EQ(src.message().rfind(sliceListName(files), 0), 0u) << src.message();
+        return src.message();
+    };
+    const std::string s2 = at("bad_slice_size/s2.tif");
+    EXPECT_CONTAINS(listFailure({at("bad_slice_size/s1.tif"), s2, at("bad_slice_size/s3.tif")}),
+                    "slice " + s2 + " (z 1) is 7 x 5 uint16 but the first page is 6 x 5 uint16");
+    EXPECT_CONTAINS(listFailure({at("bad_slice_type/s1.tif"), at("bad_slice_type/s2.tif")}),
+                    "slice " + at("bad_slice_type/s2.tif") + " (z 1) is 6 x 5 uint8");
+    EXPECT_CONTAINS(listFailure({at("multipage_slices/a.tif"), at("multipage_slices/b.tif")}),
+                    "slice " + at("multipage_slices/a.tif") +
+                        " (z 0) has more than one page; a list of slices takes single-page (2D) TIFF files");
+    EXPECT_CONTAINS(listFailure({at("slices/slice_1.tif"), at("text.tif")}),
+                    "slice 'text.tif' cannot be opened as TIFF");
+    // Names that are no regular file are refused by name before anything is opened.
+    const std::string dangling = csgvtest::tempDir() + "/tiff_list_dangling.tif";
+    std::remove(dangling.c_str());
+    ASSERT_EQ(::symlink((csgvtest::tempDir() + "/nowhere.tif").c_str(), dangling.c_str()), 0);
+    EXPECT_CONTAINS(listFailure({at("slices/slice_1.tif"), dangling}),
+                    "slice '" + dangling + "' (z 1) is a dangling symbolic link, not a TIFF file");
+    EXPECT_CONTAINS(listFailure({at("slices/slice_1.tif"), at("slices")}), "(z 1) is a folder, not a TIFF file");
+    EXPECT_CONTAINS(listFailure({at("slices/slice_1.tif"), at("no_such.tif")}),
+                    "slice '" + at("no_such.tif") + "' (z 1) does not exist");
+    Result<std::unique_ptr<InputSource>> none = openTiffSlices({});
+    ASSERT_FALSE(none.isOk());
+    EXPECT_CONTAINS(none.message(), "no TIFF slice files given");
 }
 
 TEST(InputTiff, CompressRoundTripIsExact) {

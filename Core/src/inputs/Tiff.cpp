@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 /// @file Tiff.cpp
 /// @brief TIFF input through libtiff, streamed page by page: a multi-page file (page z is slice
-/// z), a folder of single-page slice files, or a glob of them.
+/// z), a folder of single-page slice files, a glob of them, or an ordered list of them.
 ///
 /// Forms (claimsTiff; `.zarr` and precomputed folders are claimed before this one):
 /// - `X.tif` / `X.tiff`: every IFD of the main chain is one z page (SubIFDs are not visited);
@@ -11,10 +11,13 @@
 /// - a glob (`*`, `?` or `[` in the last path component, matched with fnmatch(3) over that
 ///   folder's listing, hidden files only by an explicit leading dot; wildcards in the folder
 ///   part are taken literally): one slice per file.
-/// Slices are sorted by name in natural order: runs of digits compare by value, so `slice_2`
-/// comes before `slice_10` (names equal by value, such as `s01` and `s1`, fall back to byte
-/// order). Each slice file must have one page: a folder of multi-page files is refused rather
-/// than concatenated, because such folders usually hold separate volumes (channels, time points).
+/// - a list of files (openTiffSlices, what ParaView's file dialog hands over for a file series):
+///   one slice per file, in the order given.
+/// Slices of a folder or glob are sorted by name in natural order: runs of digits compare by
+/// value, so `slice_2` comes before `slice_10` (names equal by value, such as `s01` and `s1`,
+/// fall back to byte order). Each slice file must have one page: a folder (or list) of
+/// multi-page files is refused rather than concatenated, because such files usually are separate
+/// volumes (channels, time points).
 /// A matching name that is no regular file (a dangling link, a FIFO, a folder) is an error naming
 /// it, not a slice skipped; no file is opened in a way that could block (PathGuard.h). A page
 /// chain whose next-IFD offset points back to an earlier page is reported as the loop it is.
@@ -357,7 +360,7 @@ Result<std::vector<std::string>> listFolder(const std::string& dir, const std::s
 
 /// @brief The files of an input and how they were named.
 struct Listing {
-    enum class Form { MultiPage, Folder, Glob } form = Form::MultiPage;
+    enum class Form { MultiPage, Folder, Glob, List } form = Form::MultiPage;
     std::vector<std::string> files;
 };
 
@@ -383,6 +386,22 @@ Result<Listing> listFiles(const std::string& path) {
     } else {
         l.files = {path};
     }
+    return l;
+}
+
+/// A list of slice files as given; like listFolder, a name that is no regular file is an error
+/// naming it (`name` starts the message).
+Result<Listing> listGiven(const std::vector<std::string>& files, const std::string& name) {
+    Listing l;
+    l.form = Listing::Form::List;
+    if (files.empty()) return Status::error("no TIFF slice files given");
+    for (size_t z = 0; z < files.size(); ++z) {
+        const std::string kind = notRegularFile(files[z]);
+        if (kind.empty()) continue;
+        return fail(name, "slice " + quoted(files[z], 400) + " (z " + std::to_string(z) + ") " +
+                              (kind == "missing" ? std::string("does not exist") : "is " + kind + ", not a TIFF file"));
+    }
+    l.files = files;
     return l;
 }
 
@@ -460,6 +479,9 @@ public:
 private:
     std::string pageName(uint32_t z) const {
         if (m_form == Listing::Form::MultiPage) return "page " + std::to_string(z);
+        // The whole path of a listed slice: a list may span folders, and the name is all a user
+        // has to find the one that differs.
+        if (m_form == Listing::Form::List) return "slice " + m_files[m_pages[z].file] + " (z " + std::to_string(z) + ")";
         return "slice " + fs::path(m_files[m_pages[z].file]).filename().string() + " (z " + std::to_string(z) + ")";
     }
 
@@ -521,10 +543,14 @@ private:
             if (Status s = openFile(f); !s) return s;
             m_pages.push_back({f, uint64_t(TIFFCurrentDirOffset(m_handle.get()))});
             if (Result<PageLayout> p = checkedLayout(f); !p) return p.status();
-            if (!TIFFLastDirectory(m_handle.get()))
+            if (TIFFLastDirectory(m_handle.get())) continue;
+            if (m_form == Listing::Form::List)
                 return fail(m_path, pageName(f) +
-                                        " has more than one page; slices of a folder or glob must be single-page "
-                                        "TIFF files (a multi-page file is opened by its own name)");
+                                        " has more than one page; a list of slices takes single-page (2D) TIFF files "
+                                        "(a multi-page file is a volume of its own)");
+            return fail(m_path, pageName(f) +
+                                    " has more than one page; slices of a folder or glob must be single-page "
+                                    "TIFF files (a multi-page file is opened by its own name)");
         }
         return Status::ok();
     }
@@ -536,6 +562,7 @@ private:
             return (m_pages.size() == 1 ? "single page" : "multi-page, " + n + " pages") + ", " + layoutText(m_first);
         case Listing::Form::Folder: return "folder of " + n + " slices, " + layoutText(m_first);
         case Listing::Form::Glob: return "glob of " + n + " slices, " + layoutText(m_first);
+        case Listing::Form::List: return "list of " + n + " slices, " + layoutText(m_first);
         }
         return {};
     }
@@ -680,4 +707,26 @@ Result<std::unique_ptr<InputSource>> openTiff(const std::string& path, const Inp
 }
 
 } // namespace inputs
+
+std::string sliceListName(const std::vector<std::string>& files) {
+    if (files.empty()) return "(no slices)";
+    if (files.size() == 1) return files[0];
+    const std::string& first = files.front();
+    const std::string& last = files.back();
+    const size_t a = first.find_last_of('/'), b = last.find_last_of('/');
+    const std::string firstDir = a == std::string::npos ? "" : first.substr(0, a);
+    const std::string lastDir = b == std::string::npos ? "" : last.substr(0, b);
+    return first + " .. " + (firstDir == lastDir ? inputs::lastComponent(last) : last);
+}
+
+Result<std::unique_ptr<InputSource>> openTiffSlices(const std::vector<std::string>& files, const InputOptions& options) {
+    const std::string name = sliceListName(files);
+    Result<inputs::Listing> listing = inputs::listGiven(files, name);
+    if (!listing) return listing.status();
+    auto source = std::make_unique<inputs::TiffSource>(name, std::move(*listing), options);
+    if (Status s = source->scan(); !s) return s;
+    if (Status s = inputs::checkDimensions(source->info(), name); !s) return s;
+    return std::unique_ptr<InputSource>(std::move(source));
+}
+
 } // namespace csgv

@@ -3,8 +3,8 @@
 /// @file Inputs.h
 /// @brief Label volumes from files other than `.csgv`, read slab by slab (InputSource) so that no
 /// step holds the whole decoded volume: Volcanite's `.vraw`, NRRD, NIfTI-1, HDF5, TIFF (one
-/// multi-page file, a folder or a glob of slices), Zarr v2 / OME-Zarr and Neuroglancer
-/// precomputed. Values are kept at full width (uint64, signed ones sign-extended) so that nothing
+/// multi-page file, a folder, a glob or an ordered list of slices), Zarr v2 / OME-Zarr and
+/// Neuroglancer precomputed. Values are kept at full width (uint64, signed ones sign-extended) so that nothing
 /// is truncated before relabelling. The format table (name, how a path is recognised, the
 /// opener) is in Core/src/inputs/Inputs.cpp; each format is one file beside it.
 
@@ -124,6 +124,18 @@ bool isInputPath(const std::string& path);
 Result<std::unique_ptr<InputSource>> openInput(const std::string& path, const InputOptions& options = {});
 /// The recognised forms, for messages and `--help`: "`.vraw`, ..., `DIR.zarr[/path]`, ...".
 std::string supportedInputForms();
+
+/// TIFF slice files as one volume in the order given, file i at z = i (not sorted: the caller's
+/// order is the volume's): what ParaView's file dialog hands over for a series `slice_0000.tif`,
+/// `slice_0001.tif`, ... As for a folder of slices, each file must be a single-page TIFF with the
+/// first one's width, height and sample type, and a name that is no regular file (a dangling link,
+/// a FIFO) is refused; the message names the slice that differs. Messages start with
+/// sliceListName(files).
+Result<std::unique_ptr<InputSource>> openTiffSlices(const std::vector<std::string>& files,
+                                                    const InputOptions& options = {});
+/// A list of slices by its ends, "DIR/first.tif .. last.tif" (the last one's folder too when it
+/// differs from the first's), for messages and a volume's metadata.
+std::string sliceListName(const std::vector<std::string>& files);
 
 /// Reads a whole input into memory (small volumes, tests, the ParaView NIfTI reader). `maxBytes`
 /// bounds the values in memory (8 bytes a voxel) and is checked before allocating.
