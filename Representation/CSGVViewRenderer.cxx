@@ -225,6 +225,7 @@ std::string ViewRenderer::ensureRenderer()
       return "creating the renderer: " + r.message();
     }
     this->Renderer = std::move(*r);
+    this->Warmed = false;
     this->RendererCacheBytes = share;
     this->RendererBudget = budgetShare;
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
@@ -446,6 +447,13 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
   {
     this->Stats = r->last;
     this->FramesLastRender = r->frames;
+    if (!request.interactive && !this->Warmed)
+    {
+      // The first still frame is on screen: the other shading modes' pipelines are made in the
+      // background, so that switching the mode shows a frame at once (issue 38, item 4).
+      this->Renderer->warmShadingModes(req.opaqueDepth != nullptr);
+      this->Warmed = true;
+    }
   }
   return std::string();
 }

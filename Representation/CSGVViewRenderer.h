@@ -145,6 +145,7 @@ private:
   /// Automatic cache paletting: a render found the cache of labels full (reset with the source
   /// and when the property changes).
   bool CachePressure = false;
+  bool Warmed = false; ///< this renderer was asked to warm the other shading modes' pipelines
   bool Counted = false;
   ViewSettings Settings;
   csgv::MaterialDocument Materials;

@@ -1861,6 +1861,47 @@ TEST(Renderer, PreparedPipelinesServeTheFirstFrameAndAnUnforeseenOneIsMadeThen) 
     }
 }
 
+TEST(Renderer, WarmedShadingModesSwitchWithoutMakingPipelines) {
+    // Issue 38, item 4: after a frame, warmShadingModes makes the other modes' pipelines in the
+    // background, so switching the mode makes none at its first frame (on a CPU device a new
+    // mode's render pipeline took about a second); the images equal those of a renderer that made
+    // its pipelines at the switch.
+    Result<std::unique_ptr<Context>> own = Context::create();
+    ASSERT_TRUE(own.isOk()) << own.message();
+    Context& ctx = **own;
+    const CompressedVolume volume = loadFixture("synthA_b16_nibble.csgv");
+    Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(ctx, volume);
+    ASSERT_TRUE(made.isOk()) << made.message();
+    const std::shared_ptr<GpuVolume> gpu = std::move(*made);
+    RenderRequest req;
+    req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
+    req.timeBudgetSeconds = 1e9;
+    RenderSettings st;
+    st.sampleTarget = 2;
+    RendererOptions o;
+    o.cacheBytes = 64ull << 20;
+    Result<std::unique_ptr<Renderer>> warmed = Renderer::create(ctx, gpu, o);
+    ASSERT_TRUE(warmed.isOk()) << warmed.message();
+    (*warmed)->setSettings(st);
+    ASSERT_TRUE((*warmed)->render(req).isOk());
+    (*warmed)->warmShadingModes(false);
+    (*warmed)->waitForWarming();
+    const size_t before = ctx.pipelineCount();
+    for (uint32_t mode = 0; mode < kShadingModes; ++mode) {
+        SCOPED_TRACE("shading mode " + std::to_string(mode));
+        st.shading = Shading(mode);
+        (*warmed)->setSettings(st);
+        Result<RenderResult> r = (*warmed)->render(req);
+        ASSERT_TRUE(r.isOk()) << r.message();
+        EXPECT_EQ(ctx.pipelineCount(), before) << "switching the mode made a pipeline the warming did not";
+        Result<std::unique_ptr<Renderer>> plain = Renderer::create(ctx, gpu, o);
+        ASSERT_TRUE(plain.isOk()) << plain.message();
+        (*plain)->setSettings(st);
+        ASSERT_TRUE((*plain)->render(req).isOk());
+        EXPECT_EQ((*warmed)->output().rgba8, (*plain)->output().rgba8);
+    }
+}
+
 TEST(Renderer, MaterialsThatShowHiddenBricksDrawThemAfterFramesWithoutThem) {
     // The request stage skips bricks that are neither cached nor needed, except in the frame after
     // the materials changed which bricks are visible: bricks no ray could see before must appear.

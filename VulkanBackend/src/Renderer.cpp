@@ -12,6 +12,9 @@
 #include "csgv/codec/Layout.h"
 
 #include <omp.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -21,7 +24,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <future>
 #include <limits>
+#include <system_error>
 #include <thread>
 #include <tuple>
 
@@ -41,6 +46,14 @@ Result<uint64_t> makePipeline(Context& ctx, const char* name, const Defines& def
         std::fprintf(stderr, "pipeline %s (%s): %.1f ms\n", name, defines.back().first.c_str(),
                      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     return p;
+}
+
+/// Lowers the calling thread's scheduling priority (Linux: a thread's own nice value), so that
+/// background compilation yields to frames and the GUI on a CPU device.
+void lowerThisThreadsPriority() {
+#ifdef __linux__
+    (void)setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), 10);
+#endif
 }
 
 /// A pipeline to make: the shader, its defines, its push-constant bytes, where its handle goes.
@@ -662,6 +675,17 @@ struct Renderer::Impl {
     /// The pipelines this frame's settings use that are not made yet (the render pass's for the
     /// shading mode, the resolve passes, the cache passes, ...): made together, in parallel.
     Status ensurePipelines(const RenderSettings& st, bool depthInput);
+    /// What ensurePipelines makes for these settings (the pipelines not made yet, their outputs
+    /// pointing at this Impl's handles); reads the state only.
+    std::vector<PipelineJob> pipelineJobs(const RenderSettings& st, bool depthInput);
+    /// Renderer::warmShadingModes's compilation on a thread of its own (it touches the context
+    /// only, never this state); stopWarming asks it to stop between pipelines.
+    std::future<void> warming;
+    std::atomic<bool> stopWarming{false};
+    ~Impl() {
+        stopWarming = true;
+        if (warming.valid()) warming.wait();
+    }
     Status packParams(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
     void packState(const FrameInput& in, const RenderSettings& st, FrameParams& p);
     void buildDispatches(const FrameInput& in, const RenderSettings& st, uint64_t renderPipeline);
@@ -1545,6 +1569,11 @@ Status Renderer::Impl::detectChanges(const FrameInput& in) {
 }
 
 Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput) {
+    const std::vector<PipelineJob> jobs = pipelineJobs(st, depthInput);
+    return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
+}
+
+std::vector<PipelineJob> Renderer::Impl::pipelineJobs(const RenderSettings& st, bool depthInput) {
     std::vector<PipelineJob> jobs;
     // Every frame asks; only a pipeline not made yet costs anything (its defines are built then).
     auto need = [&](uint64_t& pipeline, const char* name, uint32_t push = 8, const char* define = nullptr,
@@ -1593,7 +1622,38 @@ Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput
     }
     if (usesPixelList) need(pPixelList, "pixel_list.comp");
     if (labelColorsPending) need(pLabelColors, "label_colors.comp");
-    return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
+    return jobs;
+}
+
+void Renderer::warmShadingModes(bool depthInput) {
+    Impl& im = *m_impl;
+    if (im.warming.valid()) return; // once per renderer
+    std::vector<PipelineJob> jobs;
+    for (uint32_t mode = 0; mode < kShadingModes; ++mode) {
+        RenderSettings st = m_settings;
+        st.shading = Shading(mode);
+        for (PipelineJob& j : im.pipelineJobs(st, depthInput)) jobs.push_back(std::move(j));
+    }
+    if (jobs.empty()) return;
+    Context* ctx = &im.ctx;
+    std::atomic<bool>* stop = &im.stopWarming;
+    try {
+        im.warming = std::async(std::launch::async, [ctx, stop, jobs = std::move(jobs)] {
+            lowerThisThreadsPriority(); // frames and the GUI first
+            for (const PipelineJob& j : jobs) {
+                if (stop->load()) return;
+                // Into the context's pipeline table (by SPIR-V) and the shader cache: the frame
+                // that needs it finds it there; an error is met (and reported) by that frame.
+                (void)makePipeline(*ctx, j.name, j.defines, j.pushBytes, j.texelBindings, false);
+            }
+        });
+    } catch (const std::system_error&) {
+        // No thread to be had: a mode's first frame makes its pipelines, as without this call.
+    }
+}
+
+void Renderer::waitForWarming() {
+    if (m_impl->warming.valid()) m_impl->warming.wait();
 }
 
 /// The view: matrices, light, clip box, tone mapping, face normals (then packState).

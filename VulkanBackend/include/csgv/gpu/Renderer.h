@@ -51,6 +51,8 @@
 namespace csgv::gpu {
 
 enum class Shading { Local = 0, Shadow = 1, AmbientOcclusion = 2, PathTracing = 3 };
+/// How many shading modes there are (Shading's values are 0 .. kShadingModes - 1).
+constexpr uint32_t kShadingModes = 4;
 
 /// Text name ("local", "shadow", "ao", "pt") and its inverse.
 const char* shadingName(Shading s);
@@ -280,6 +282,12 @@ public:
     /// input) now, not at that frame: a caller may overlap their compilation (about 70 ms for the
     /// render pipeline on a CPU device) with other work. render() makes whatever is still missing.
     Status preparePipelines(bool depthInput);
+    /// Starts making, on a thread of its own at a low priority, the pipelines the other shading
+    /// modes need with these settings (once per renderer; it touches the shared context only), so
+    /// that switching the mode shows its first frame without waiting for the compiler (about a
+    /// second per mode on a CPU device). Frames do not wait for it. waitForWarming: for tests.
+    void warmShadingModes(bool depthInput);
+    void waitForWarming();
 
     /// Renders what the request calls for: one frame when interactive, else frames until every
     /// pixel holds max(1, settings().sampleTarget) samples, the next frame (as long as the last)
