@@ -8,7 +8,9 @@
 ///   bits 0-1: 0 or 1: the rest is one (multi-page) file `fuzz.tif`; 2: the rest, split at each
 ///             "SLICE" (at most 3 pieces), is a folder of slices `s1.tif`, `s2.tif`...  opened as
 ///             `DIR/`; 3: the same folder opened as the glob `DIR/s*.tif`;
-///   bits 2-3: InputOptions::maxWorkingBytes: 4 KiB, 64 KiB, 1 MiB or 64 MiB.
+///   bits 2-3: InputOptions::maxWorkingBytes: 4 KiB, 64 KiB, 1 MiB or 64 MiB;
+///   bit 4:    with a folder of slices, open the slice files as an explicit list instead
+///             (openTiffSlices, what ParaView's file dialog hands over), last one first.
 /// Every failure must name the path opened; an opened source must keep InputSource's contract.
 
 #include "FuzzFiles.h"
@@ -28,6 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
     const std::string dir = fuzz::freshDir("tiff");
     std::string path;
+    std::vector<std::string> slices;
     if ((mode & 3) < 2) {
         path = dir + "/fuzz.tif";
         fuzz::writeFile(path, rest, restSize);
@@ -43,14 +46,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                         end = i;
                         break;
                     }
-            fuzz::writeFile(dir + "/s" + std::to_string(slice) + ".tif", rest + begin, end - begin);
+            slices.insert(slices.begin(), dir + "/s" + std::to_string(slice) + ".tif");
+            fuzz::writeFile(slices.front(), rest + begin, end - begin);
             if (end == restSize) break;
             begin = end + sep;
         }
         path = (mode & 3) == 2 ? dir + "/" : dir + "/s*.tif";
     }
 
-    Result<std::unique_ptr<InputSource>> source = openInput(path, options);
+    const bool list = (mode & 3) >= 2 && (mode & 16);
+    if (list) path = sliceListName(slices);
+    Result<std::unique_ptr<InputSource>> source = list ? openTiffSlices(slices, options) : openInput(path, options);
     if (!source) {
         fuzz::require(fuzz::namesPath(source.message(), path));
         return 0;

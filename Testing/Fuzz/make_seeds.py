@@ -40,7 +40,8 @@ def blocky(shape, dtype, lo=0, hi=6):
     return rng.integers(lo, hi, size=shape).astype(dtype)
 
 
-# ---- tiff: mode byte (bits 0-1 form, bits 2-3 working budget), then the file(s) -----------------
+# ---- tiff: mode byte (bits 0-1 form, bits 2-3 working budget, bit 4 a folder's slices as an
+# explicit list), then the file(s) -----------------------------------------------------------------
 def tiff_bytes(vol, **kw):
     kw.setdefault('photometric', 'minisblack')
     b = io.BytesIO()
@@ -75,6 +76,10 @@ def tiffs():
     seed('tiff', 'folder_mismatch.bin', bytes([2 | (2 << 2)]) + a + b'SLICE' + odd)
     two = tiff_bytes(blocky((2, 5, 6), np.uint16))
     seed('tiff', 'folder_multipage.bin', bytes([2 | (2 << 2)]) + a + b'SLICE' + two)
+    # The same as explicit lists of slice files (openTiffSlices).
+    seed('tiff', 'list3_u16.bin', bytes([2 | (1 << 2) | 16]) + a + b'SLICE' + b + b'SLICE' + c)
+    seed('tiff', 'list_mismatch.bin', bytes([2 | (2 << 2) | 16]) + a + b'SLICE' + odd)
+    seed('tiff', 'list_multipage.bin', bytes([2 | (2 << 2) | 16]) + a + b'SLICE' + two)
 
 
 # ---- hdf5: mode byte (bits 0-1 dataset path, bits 2-3 budget), then the file -------------------
