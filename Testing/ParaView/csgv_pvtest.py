@@ -172,6 +172,26 @@ def content_mask(image, background=(0, 0, 0), tol=8):
     return np.abs(image.astype(int) - np.array(background, int)).max(axis=2) > tol
 
 
+def block_vti(n, origin=(0.0, 0.0, 0.0), name="block.vti"):
+    """A .vti of n^3 cells, every cell label 1 (uint8 cell array "block"), its corner at `origin`
+    (compressed on the fly when shown as a Segmentation Volume); returns its path."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+    img = vtkImageData()
+    img.SetDimensions(n + 1, n + 1, n + 1)
+    img.SetOrigin(*origin)
+    labels = numpy_to_vtk(np.ones(n * n * n, dtype=np.uint8), deep=1)
+    labels.SetName("block")
+    img.GetCellData().AddArray(labels)
+    path = os.path.join(temp_dir(), name)
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputData(img)
+    w.Write()
+    return path
+
+
 def constant_materials(rgb, opacity=1.0):
     import json
     return json.dumps({"version": 1, "materials": [

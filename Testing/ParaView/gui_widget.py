@@ -13,9 +13,6 @@ import sys
 sys.path.insert(0, os.environ["CSGV_TEST_DIR"])
 import numpy as np  # noqa: E402
 from paraview.simple import *  # noqa: E402,F401
-from vtkmodules.util.numpy_support import numpy_to_vtk  # noqa: E402
-from vtkmodules.vtkCommonDataModel import vtkImageData  # noqa: E402
-from vtkmodules.vtkIOXML import vtkXMLImageDataWriter  # noqa: E402
 
 import csgv_pvtest as t  # noqa: E402
 
@@ -28,17 +25,6 @@ def check(cond, what):
 
 try:
     N = 32
-    img = vtkImageData()
-    img.SetDimensions(N + 1, N + 1, N + 1)
-    labels = numpy_to_vtk(np.ones(N * N * N, dtype=np.uint8), deep=1)
-    labels.SetName("block")
-    img.GetCellData().AddArray(labels)
-    path = os.path.join(t.temp_dir(), "block.vti")
-    w = vtkXMLImageDataWriter()
-    w.SetFileName(path)
-    w.SetInputData(img)
-    w.Write()
-
     W = H = 200
     SCALE = 20.0
     v = GetActiveViewOrCreate("RenderView")
@@ -46,7 +32,7 @@ try:
     if "UseColorPaletteForBackground" in v.ListProperties():
         v.UseColorPaletteForBackground = 0
     v.Background = [0.0, 0.0, 0.0]
-    block = OpenDataFile(path)
+    block = OpenDataFile(t.block_vti(N))
     d = Show(block, v)
     d.SetRepresentationType("Segmentation Volume")
     d.CSGVFramesPerStillRender = 2

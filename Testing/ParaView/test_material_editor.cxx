@@ -474,6 +474,32 @@ private Q_SLOTS:
     QCOMPARE(looks(this->property(), 16), looks(R"({"materials":[]})", 16));
   }
 
+  // Issue 38 (5): choosing another filter attribute changes which labels the material takes, never
+  // how they look: the colour (mode, colormap, attribute, interval) stays as it was.
+  void filterAttributeKeepsTheLook()
+  {
+    for (const QString doc : { QString(R"({"version":1,"materials":[{"name":"all"}]})"),
+           QString(R"({"version":1,"materials":[{"name":"c","color":{"mode":"colormap","attribute":"score","min":0,"max":1,"colormap":"Turbo"}}]})"),
+           QString(R"({"version":1,"materials":[{"name":"k","color":{"mode":"constant","rgb":[0.2,0.4,0.6]}}]})") })
+    {
+      this->setDocument(doc);
+      this->Editor->refreshAttributes();
+      QTest::qWait(2 * kKeyDelay);
+      this->child<QListWidget>("materialList")->setCurrentRow(0);
+      const QJsonObject before = this->material(0);
+      QComboBox* filter = this->child<QComboBox>("filterAttribute");
+      QVERIFY(filter->findText("kind") >= 0);
+      filter->setCurrentText("kind");
+      QTest::qWait(kKeyDelay);
+      const QJsonObject after = this->material(0);
+      QCOMPARE(after["filter"].toObject()["attribute"].toString(), QString("kind"));
+      QVERIFY2(after["color"] == before["color"],
+        qPrintable(QJsonDocument(before["color"].toObject()).toJson() + " became " +
+          QJsonDocument(after["color"].toObject()).toJson()));
+      QCOMPARE(after["opacity"], before["opacity"]);
+    }
+  }
+
   // A new attribute column is in the drop-downs as soon as the panel applied it (no Refresh).
   void newAttributeAppearsAtOnce()
   {

@@ -11,25 +11,13 @@ translucent block in front of the sphere's rim blends blue over red). The block 
 import os
 
 import numpy as np
-from vtkmodules.util.numpy_support import numpy_to_vtk
-from vtkmodules.vtkCommonDataModel import vtkImageData
-from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
 
 import csgv_pvtest as t
 from paraview.simple import *
 
 t.load_plugin(globals())
 N = 32
-img = vtkImageData()
-img.SetDimensions(N + 1, N + 1, N + 1)
-labels = numpy_to_vtk(np.ones(N * N * N, dtype=np.uint8), deep=1)
-labels.SetName("block")
-img.GetCellData().AddArray(labels)
-path = os.path.join(t.temp_dir(), "block.vti")
-w = vtkXMLImageDataWriter()
-w.SetFileName(path)
-w.SetInputData(img)
-w.Write()
+path = t.block_vti(N)
 
 W = H = 200
 SCALE = 20.0                      # parallel scale: 10 pixels a world unit... 200 / 40 = 5
@@ -162,18 +150,7 @@ for z, where in ((N + 10.0, "in front of"), (16.0, "inside")):
 # A second Segmentation Volume (red, half transparent, in front) and ParaView's own Volume
 # representation beside the first, with FXAA: each composites by depth, nothing is logged.
 dp.Visibility = 0
-front_path = os.path.join(t.temp_dir(), "front.vti")
-small = vtkImageData()
-small.SetDimensions(17, 17, 17)
-small.SetOrigin(8, 8, N + 8)
-small_labels = numpy_to_vtk(np.ones(16 ** 3, dtype=np.uint8), deep=1)
-small_labels.SetName("block")
-small.GetCellData().AddArray(small_labels)
-w = vtkXMLImageDataWriter()
-w.SetFileName(front_path)
-w.SetInputData(small)
-w.Write()
-front = Show(OpenDataFile(front_path), v)
+front = Show(OpenDataFile(t.block_vti(16, (8, 8, N + 8), "front.vti")), v)
 front.SetRepresentationType("Segmentation Volume")
 front.CSGVFramesPerStillRender = 2
 front.CSGVMaterials = t.constant_materials([1.0, 0.0, 0.0], 0.5)

@@ -1809,19 +1809,39 @@ TEST(Renderer, RenderRunsTheStillLoopOnceAndSkipsUnchangedViews) {
     EXPECT_EQ(one->frames, 1u);
 }
 
+namespace {
+/// A context of the test's own (the pipelines it holds are that test's alone) with the nibble
+/// fixture uploaded, and a still request of a perspective view of it; false on failure (reported).
+/// Filled in place: the GPU volume keeps the address of `volume`.
+struct OwnContext {
+    CompressedVolume volume; // the GPU volume reads it
+    std::unique_ptr<Context> ctx;
+    std::shared_ptr<GpuVolume> gpu;
+    RenderRequest req;
+};
+bool makeOwnContext(OwnContext& o) {
+    Result<std::unique_ptr<Context>> own = Context::create();
+    EXPECT_TRUE(own.isOk()) << own.message();
+    if (!own) return false;
+    o.volume = loadFixture("synthA_b16_nibble.csgv");
+    Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(**own, o.volume);
+    EXPECT_TRUE(made.isOk()) << made.message();
+    if (!made) return false;
+    o.ctx = std::move(*own);
+    o.gpu = std::move(*made);
+    o.req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
+    o.req.timeBudgetSeconds = 1e9;
+    return true;
+}
+} // namespace
+
 TEST(Renderer, PreparedPipelinesServeTheFirstFrameAndAnUnforeseenOneIsMadeThen) {
     CSGV_REQUIRE_GPU(shared);
-    // A context of this test's own: the pipelines it holds are this test's alone.
-    Result<std::unique_ptr<Context>> own = Context::create();
-    ASSERT_TRUE(own.isOk()) << own.message();
-    Context& ctx = **own;
-    const CompressedVolume volume = loadFixture("synthA_b16_nibble.csgv");
-    Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(ctx, volume);
-    ASSERT_TRUE(made.isOk()) << made.message();
-    const std::shared_ptr<GpuVolume> gpu = std::move(*made);
-    RenderRequest req;
-    req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
-    req.timeBudgetSeconds = 1e9;
+    OwnContext own;
+    ASSERT_TRUE(makeOwnContext(own));
+    Context& ctx = *own.ctx;
+    const std::shared_ptr<GpuVolume> gpu = own.gpu;
+    RenderRequest req = own.req;
     RenderSettings st;
     st.sampleTarget = 1;
     std::vector<float> depth(size_t(req.frame.width) * req.frame.height, 0.5f);
@@ -1866,16 +1886,12 @@ TEST(Renderer, WarmedShadingModesSwitchWithoutMakingPipelines) {
     // background, so switching the mode makes none at its first frame (on a CPU device a new
     // mode's render pipeline took about a second); the images equal those of a renderer that made
     // its pipelines at the switch.
-    Result<std::unique_ptr<Context>> own = Context::create();
-    ASSERT_TRUE(own.isOk()) << own.message();
-    Context& ctx = **own;
-    const CompressedVolume volume = loadFixture("synthA_b16_nibble.csgv");
-    Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(ctx, volume);
-    ASSERT_TRUE(made.isOk()) << made.message();
-    const std::shared_ptr<GpuVolume> gpu = std::move(*made);
-    RenderRequest req;
-    req.frame = perspectiveView({200, -80, 150}, {66, 35, 97}, {0, 0, 1}, 30, 48, 40);
-    req.timeBudgetSeconds = 1e9;
+    CSGV_REQUIRE_GPU(shared);
+    OwnContext own;
+    ASSERT_TRUE(makeOwnContext(own));
+    Context& ctx = *own.ctx;
+    const std::shared_ptr<GpuVolume> gpu = own.gpu;
+    const RenderRequest req = own.req;
     RenderSettings st;
     st.sampleTarget = 2;
     RendererOptions o;
