@@ -133,17 +133,26 @@ def show_only_label(materials_text, label, attribute=lambda name: None):
 
 
 def apply_label_colors(display, target_display=None, array=None, max_labels=4096):
-    """Makes ParaView's lookup table of the label array categorical, with each label's material
-    colour and its name (a text attribute such as `name`) as annotation, so a Slice or Threshold
-    of the same data (target_display, coloured by the array) shows the volume's colours and its
-    legend lists region names. Returns the lookup-table proxy."""
+    """Makes a categorical lookup table of this data's own ("Labels (SOURCE materials)"; the label
+    array's shared table is left alone), with each label's material colour and its name (a text
+    attribute such as `name`) as annotation, so a Slice or Threshold of the same data
+    (target_display, coloured by the array) shows the volume's colours and its legend lists region
+    names. Returns the lookup-table proxy."""
     from paraview import simple
     colors = label_colors(display, max_labels)
     if "error" in colors:
         raise RuntimeError(colors["error"])
     name = array or attribute_summary(display).get("labelArray") or "Labels"
-    lut = simple.GetColorTransferFunction(name)
+    # A table of this data's own, named as the material editor's export names it
+    # (pqCSGV::labelColorTableName): the label array's shared table stays as other data use it.
+    source = ""
+    for (key, _), proxy in simple.GetSources().items():
+        if proxy.SMProxy == display.Input.SMProxy:
+            source = key
+    lut = simple.GetColorTransferFunction(
+        "%s (%s materials)" % (name, source) if source else "%s (materials)" % name)
     lut.InterpretValuesAsCategories = 1
+    lut.AutomaticRescaleRangeMode = "Never"
     lut.NanOpacity = 0  # label 0, hidden labels and labels no material takes are not drawn
     annotations, indexed = [], []
     for label, r, g, b, text in colors["labels"]:

@@ -1,16 +1,25 @@
 // SPDX-License-Identifier: MIT
 #include "pqCSGVMaterialDocument.h"
 
+#include <pqApplicationCore.h>
+#include <pqDataRepresentation.h>
+#include <pqPipelineSource.h>
+#include <pqServerManagerModel.h>
+#include <pqView.h>
+#include <vtkSMPVRepresentationProxy.h>
 #include <vtkSMProperty.h>
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
 #include <vtkSMSessionProxyManager.h>
 #include <vtkSMTransferFunctionManager.h>
+#include <vtkSMTransferFunctionProxy.h>
 #include <vtkNew.h>
 #include <vtkSmartPointer.h>
 
 #include <QJsonArray>
 #include <QJsonDocument>
+#include <QSet>
+#include <QStringList>
 
 #include <string>
 #include <vector>
@@ -100,9 +109,16 @@ QString exportLabelColors(vtkSMProxy* display)
   QString array = queryJson(display, "summary").value("labelArray").toString();
   if (array.isEmpty())
     array = "Labels";
+  // A table of this data's own: the label array's shared table (every dataset with an array of
+  // that name) stays as it is (issue 38, item 6: another dataset then raised "Could not determine
+  // discrete values").
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  auto* self = model->findItem<pqDataRepresentation*>(display);
+  pqPipelineSource* source = self ? self->getInput() : nullptr;
+  const QString table = labelColorTableName(array, source ? source->getSMName() : QString());
   vtkSMSessionProxyManager* pxm = display->GetSessionProxyManager();
   vtkNew<vtkSMTransferFunctionManager> mgr;
-  vtkSMProxy* lut = mgr->GetColorTransferFunction(array.toUtf8().constData(), pxm);
+  vtkSMProxy* lut = mgr->GetColorTransferFunction(table.toUtf8().constData(), pxm);
   if (!lut)
     return "No lookup table";
   std::vector<std::string> annotations;
@@ -120,6 +136,8 @@ QString exportLabelColors(vtkSMProxy* display)
   }
   // IndexedLookup is the proxy property; InterpretValuesAsCategories is only its Python name.
   vtkSMPropertyHelper(lut, "IndexedLookup").Set(1);
+  // The labels are the categories: never rescaled from the data of whatever shows it.
+  vtkSMPropertyHelper(lut, "AutomaticRescaleRangeMode").Set(vtkSMTransferFunctionManager::NEVER);
   // Values without an annotation are what the volume leaves empty: keep them empty here too.
   vtkSMPropertyHelper(lut, "NanOpacity").Set(0.0);
   vtkSMPropertyHelper ann(lut, "Annotations");
@@ -128,10 +146,56 @@ QString exportLabelColors(vtkSMProxy* display)
     ann.Set(unsigned(i), annotations[i].c_str());
   vtkSMPropertyHelper(lut, "IndexedColors").Set(rgb.data(), unsigned(rgb.size()));
   lut->UpdateVTKObjects();
-  return QString("Lookup table '%1': %2 label colours%3")
-    .arg(array)
+
+  // The displays of this data and of what is made from it (Slice, Threshold, ...) coloured by the
+  // label array take the table, with a legend that fits: one entry per label up to
+  // kLegendLabels, else the colours alone and a title that says where the names are.
+  QSet<pqPipelineSource*> family;
+  for (QList<pqPipelineSource*> todo{ source }; !todo.isEmpty();)
+  {
+    pqPipelineSource* s = todo.takeLast();
+    if (s && !family.contains(s))
+    {
+      family.insert(s);
+      todo << s->getAllConsumers();
+    }
+  }
+  QStringList applied;
+  for (pqDataRepresentation* r : model->findItems<pqDataRepresentation*>())
+  {
+    vtkSMProxy* proxy = r->getProxy();
+    if (proxy == display || !family.contains(r->getInput()) || !proxy->GetProperty("LookupTable") ||
+      !proxy->GetProperty("ColorArrayName") ||
+      QString(vtkSMPropertyHelper(proxy, "ColorArrayName").GetInputArrayNameToProcess()) != array)
+      continue;
+    vtkSMPropertyHelper(proxy, "LookupTable").Set(lut);
+    proxy->UpdateVTKObjects();
+    pqView* view = r->getView();
+    if (view && vtkSMPVRepresentationProxy::SetScalarBarVisibility(proxy, view->getProxy(), r->isVisible()))
+    {
+      if (vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy()))
+      {
+        const bool fits = labels.size() <= kLegendLabels;
+        vtkSMPropertyHelper(bar, "DrawAnnotations").Set(fits ? 1 : 0);
+        const QString title = fits ? array : QString("%1: %2 labels (names: View > Segmentation Pick)").arg(array).arg(labels.size());
+        vtkSMPropertyHelper(bar, "Title").Set(title.toUtf8().constData());
+        bar->UpdateVTKObjects();
+      }
+      view->render();
+    }
+    applied << r->getInput()->getSMName();
+  }
+  return QString("Lookup table '%1': %2 label colours%3%4")
+    .arg(table)
     .arg(labels.size())
-    .arg(colors.value("truncated").toBool() ? " (truncated)" : "");
+    .arg(colors.value("truncated").toBool() ? " (truncated)" : "")
+    .arg(applied.isEmpty() ? QString("; colour a Slice or Threshold of this data by '%1' and export again to use it").arg(array)
+                           : QString("; applied to %1").arg(applied.join(", ")));
+}
+
+QString labelColorTableName(const QString& array, const QString& source)
+{
+  return source.isEmpty() ? QString("%1 (materials)").arg(array) : QString("%1 (%2 materials)").arg(array, source);
 }
 
 } // namespace pqCSGV

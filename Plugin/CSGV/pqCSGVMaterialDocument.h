@@ -44,11 +44,19 @@ QString query(vtkSMProxy* display, const QString& request);
 /// query() parsed as a JSON object.
 QJsonObject queryJson(vtkSMProxy* display, const QString& request);
 
-/// Makes the lookup table of the display's label array categorical (IndexedLookup) with one
-/// annotation per label the volume shows: its material colour and name (a text attribute).
-/// Other values (label 0, hidden labels, labels no material takes) are not drawn (NaN opacity 0),
-/// as in the volume, and the legend lists only the shown labels. Returns a message for the user.
+/// Makes a categorical lookup table of this data's own (labelColorTableName: the label array's
+/// shared table, which other datasets use, is left alone) with one annotation per label the
+/// volume shows: its material colour and name (a text attribute). Other values (label 0, hidden
+/// labels, labels no material takes) are not drawn (NaN opacity 0), as in the volume. The
+/// displays of this data and of filters made from it that are coloured by the label array take
+/// the table and show its legend: one entry per label up to kLegendLabels, else the colours
+/// alone under a title that names the count. Returns a message for the user.
 QString exportLabelColors(vtkSMProxy* display);
+/// The name of the lookup table exportLabelColors makes for `array` of the pipeline source named
+/// `source`: "Labels (aal.nii.gz materials)".
+QString labelColorTableName(const QString& array, const QString& source);
+/// Legends with more labels than this show colours without names (they would run past the view).
+constexpr int kLegendLabels = 40;
 
 } // namespace pqCSGV
 

@@ -125,10 +125,16 @@ private Q_SLOTS:
 
     QString array = pqCSGV::queryJson(this->Repr, "summary").value("labelArray").toString();
     vtkNew<vtkSMTransferFunctionManager> mgr;
+    // A table of its own (the display is no pipeline's here: no source name); the label array's
+    // shared table stays as it was (issue 38, item 6).
     vtkSMProxy* lut = mgr->GetColorTransferFunction(
-      array.toUtf8().constData(), this->Repr->GetSessionProxyManager());
+      pqCSGV::labelColorTableName(array, QString()).toUtf8().constData(), this->Repr->GetSessionProxyManager());
     QVERIFY(lut);
+    vtkSMProxy* shared = mgr->GetColorTransferFunction(array.toUtf8().constData(), this->Repr->GetSessionProxyManager());
+    QVERIFY(shared && shared != lut);
+    QCOMPARE(vtkSMPropertyHelper(shared, "IndexedLookup").GetAsInt(), 0);
     QCOMPARE(vtkSMPropertyHelper(lut, "IndexedLookup").GetAsInt(), 1);
+    QCOMPARE(vtkSMPropertyHelper(lut, "AutomaticRescaleRangeMode").GetAsInt(), int(vtkSMTransferFunctionManager::NEVER));
     QCOMPARE(vtkSMPropertyHelper(lut, "NanOpacity").GetAsDouble(), 0.0); // label 0, hidden: not drawn
     vtkSMPropertyHelper ann(lut, "Annotations");
     QSet<qint64> annotated;

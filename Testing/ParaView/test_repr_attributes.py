@@ -179,4 +179,7 @@ entry = next(e for e in colors["labels"] if e[0] == 1)
 idx = ann.index("1") // 2
 t.check(np.allclose(list(lut.IndexedColors)[3 * idx:3 * idx + 3], entry[1:4]), "label 1 has its material colour in the LUT")
 t.check(ds.ColorArrayName[1] == s["labelArray"], "the slice is coloured by %s" % s["labelArray"])
+shared = GetColorTransferFunction(s["labelArray"])
+t.check(lut.SMProxy != shared.SMProxy and shared.InterpretValuesAsCategories == 0 and ds.LookupTable.SMProxy == lut.SMProxy,
+        "the table is the data's own (the label array's shared table is left alone)")
 t.finish()

@@ -3,8 +3,10 @@
 // files, derived attributes and computed attributes belong to the data (pqCSGVSharedAttributes:
 // a second view of the same data takes them, and a change in either view reaches the other),
 // while materials stay per view and the editor copies them from the other view in one click
-// (undoable). Usage: csgv_shared_attributes_test PLUGIN.so FIXTURES_DIR
+// (undoable); the editor's colour export makes a table of the data's own that a Slice of it takes
+// (item 6). Usage: csgv_shared_attributes_test PLUGIN.so FIXTURES_DIR
 #include "PvQtTestMain.h"
+#include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
 #include "pqCSGVSharedAttributes.h"
 
@@ -15,8 +17,13 @@
 #include <pqServerManagerModel.h>
 #include <pqUndoStack.h>
 #include <pqView.h>
+#include <vtkDataObject.h>
+#include <vtkNew.h>
+#include <vtkSMPVRepresentationProxy.h>
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
+#include <vtkSMTransferFunctionManager.h>
+#include <vtkSMTransferFunctionProxy.h>
 
 #include <QLabel>
 #include <QPushButton>
@@ -142,6 +149,50 @@ private Q_SLOTS:
     vtkSMPropertyHelper(this->Repr2, "CSGVMaterials").Set("");
     this->Repr2->UpdateVTKObjects();
     QCOMPARE(QString(vtkSMPropertyHelper(this->Repr1, "CSGVMaterials").GetAsString()), mine);
+  }
+
+  /// "Export colours" in the editor: a table of this data's own, taken by a Slice of it coloured
+  /// by the label array (with a legend that fits), and not by other data (issue 38, item 6).
+  void exportedColoursReachASliceOfThisDataOnly()
+  {
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqPipelineSource* slice = builder->createFilter("filters", "Cut", this->Reader);
+    QVERIFY(slice);
+    pqPipelineSource* other = builder->createReader(
+      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2.csgv" }, this->Reader->getServer());
+    QVERIFY(other);
+    auto shown = [&](pqPipelineSource* s) {
+      pqDataRepresentation* r = builder->createDataRepresentation(s->getOutputPort(0), this->View1);
+      vtkSMPVRepresentationProxy::SetScalarColoring(r->getProxy(), "Labels", vtkDataObject::CELL);
+      r->getProxy()->UpdateVTKObjects();
+      return r->getProxy();
+    };
+    vtkSMProxy* sliceRepr = shown(slice);
+    vtkSMProxy* otherRepr = shown(other);
+    vtkSMPropertyHelper(otherRepr, "Representation").Set("Surface");
+    otherRepr->UpdateVTKObjects();
+    vtkSMProxy* sharedBefore = vtkSMPropertyHelper(otherRepr, "LookupTable").GetAsProxy();
+    QVERIFY(sharedBefore);
+
+    pqCSGVMaterialEditor editor(this->Repr1, nullptr);
+    QPushButton* button = editor.findChild<QPushButton*>("exportColors");
+    QVERIFY(button);
+    button->click();
+    const QString status = editor.findChild<QLabel*>("status")->text();
+    vtkNew<vtkSMTransferFunctionManager> mgr;
+    vtkSMProxy* lut = mgr->GetColorTransferFunction(
+      pqCSGV::labelColorTableName("Labels", this->Reader->getSMName()).toUtf8().constData(),
+      this->Repr1->GetSessionProxyManager());
+    QVERIFY2(vtkSMPropertyHelper(sliceRepr, "LookupTable").GetAsProxy() == lut, qPrintable(status));
+    QVERIFY2(status.contains("applied to " + slice->getSMName()), qPrintable(status));
+    QCOMPARE(vtkSMPropertyHelper(otherRepr, "LookupTable").GetAsProxy(), sharedBefore);
+    QCOMPARE(vtkSMPropertyHelper(sharedBefore, "IndexedLookup").GetAsInt(), 0);
+    const int labels = vtkSMPropertyHelper(lut, "Annotations").GetNumberOfElements() / 2;
+    QVERIFY(labels > 0);
+    vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, this->View1->getProxy());
+    QVERIFY(bar);
+    QCOMPARE(vtkSMPropertyHelper(bar, "DrawAnnotations").GetAsInt(), labels <= pqCSGV::kLegendLabels ? 1 : 0);
+    QCOMPARE(vtkSMPropertyHelper(bar, "Visibility").GetAsInt(), 1);
   }
 
   void aRemovedViewLeavesTheOthersLinked()
