@@ -412,44 +412,198 @@ BandShape bandShape(const SlabSource& source, uint32_t B, uint64_t maxBandBytes)
     return shape;
 }
 
+/// @brief The symbols of constant bricks, made without their voxels: one template per brick
+/// extent of the volume (inside, and cut at the far end of each axis: at most 8), encoded once
+/// from a brick of label 0 by the same BrickEncoder as every brick. A constant brick's operations
+/// do not depend on its label (every node carries it, so each choice compares equal labels, the
+/// PALETTE_D index included), only its palette does, which holds the label in every entry. So a
+/// copy of the template with the label in its palette is, symbol for symbol, what encoding the
+/// brick's voxels gives.
+class ConstantBricks {
+public:
+    ConstantBricks(const CompressedVolume& vol, uint32_t opMask) : m_B(vol.brickSize) {
+        const uint32_t B = m_B;
+        BrickEncoder enc(B, opMask);
+        const std::vector<uint32_t> zeros(size_t(B) * B * B, 0u);
+        for (uint32_t key = 0; key < 8; ++key) {
+            std::array<uint32_t, 3> extent{};
+            bool exists = true;
+            for (int a = 0; a < 3; ++a) {
+                const uint32_t cut = vol.dim[a] % B;
+                const bool far = (key >> a) & 1u;
+                exists = exists && (!far || cut != 0);
+                extent[a] = far ? cut : B;
+            }
+            if (!exists) continue;
+            Status s = enc.encode(zeros.data(), B, B, 0, 0, 0, 0, extent, m_templates[key]);
+            (void)s; // label 0 is never the reserved one
+        }
+    }
+    /// The symbols of the brick of this extent whose every voxel holds `label` (not 0xFFFFFFFF).
+    void make(const std::array<uint32_t, 3>& extent, uint32_t label, BrickSymbols& out) const {
+        uint32_t key = 0;
+        for (int a = 0; a < 3; ++a) key |= extent[a] == m_B ? 0u : 1u << a;
+        out = m_templates[key];
+        std::fill(out.palette.begin(), out.palette.end(), label);
+    }
+
+private:
+    uint32_t m_B;
+    std::array<BrickSymbols, 8> m_templates;
+};
+
+/// @brief Where the bricks of one band of pass 1 lie: bricks x fastest, then brick rows, then
+/// slabs (the pass-1 loop's order).
+struct BandBricks {
+    uint32_t z0 = 0, depth = 0, y0 = 0, rows = 0;
+    uint64_t firstRow = 0, rowsHere = 0, slabs = 0; ///< brick rows: the first, how many; slabs
+    uint64_t perSlab() const { return gridX * rowsHere; }
+    uint64_t count() const { return perSlab() * slabs; }
+    uint32_t gridX = 0;
+};
+
+/// A band brick no uniform box covers whole with one label (or one holding the reserved label,
+/// which must be read for its error).
+constexpr uint64_t kScanBrick = ~uint64_t(0);
+
+/// For each brick of `band` (BandBricks order): the label of the uniform boxes that cover it whole
+/// with one label, else kScanBrick. Boxes are disjoint (SlabSource::uniformBoxes), so a brick is
+/// covered when the voxels they share with it add up to its own. Time: the bricks each box touches.
+void uniformBricks(const std::vector<UniformBox>& boxes, const BandBricks& band, const CompressedVolume& vol,
+                   std::vector<uint64_t>& label, std::vector<uint64_t>& covered) {
+    const uint32_t B = vol.brickSize;
+    constexpr uint64_t kUnset = uint64_t(1) << 63;
+    label.assign(size_t(band.count()), kUnset);
+    covered.assign(size_t(band.count()), 0);
+    const std::array<uint32_t, 3> lo = {0, band.y0, band.z0};
+    const std::array<uint32_t, 3> hi = {vol.dim[0], band.y0 + band.rows, band.z0 + band.depth};
+    for (const UniformBox& box : boxes) {
+        std::array<uint32_t, 3> a{}, b{}; // the box within the band
+        for (int k = 0; k < 3; ++k) {
+            a[k] = std::max(box.lo[k], lo[k]);
+            b[k] = std::min(box.hi[k], hi[k]);
+        }
+        if (a[0] >= b[0] || a[1] >= b[1] || a[2] >= b[2]) continue;
+        const bool valid = box.value < kInvalidLabel;
+        for (uint32_t bz = (a[2] - band.z0) / B; bz * B + band.z0 < b[2]; ++bz)
+            for (uint32_t by = a[1] / B; by * B < b[1]; ++by)
+                for (uint32_t bx = a[0] / B; bx * B < b[0]; ++bx) {
+                    const size_t i = size_t(bz * band.perSlab() + (by - band.firstRow) * band.gridX + bx);
+                    const uint32_t z = band.z0 + bz * B;
+                    const uint64_t shared = uint64_t(std::min(b[0], (bx + 1) * B) - std::max(a[0], bx * B)) *
+                                            (std::min(b[1], (by + 1) * B) - std::max(a[1], by * B)) *
+                                            (std::min(b[2], z + B) - std::max(a[2], z));
+                    covered[i] += shared;
+                    label[i] = !valid || (label[i] != kUnset && label[i] != box.value) ? kScanBrick : box.value;
+                }
+    }
+    for (uint64_t i = 0; i < band.count(); ++i) {
+        const uint64_t k = i / band.perSlab(), by = band.firstRow + i % band.perSlab() / band.gridX,
+                       bx = i % band.gridX;
+        const uint64_t voxels = uint64_t(std::min<uint64_t>(B, vol.dim[0] - bx * B)) *
+                                std::min<uint64_t>(B, vol.dim[1] - by * B) *
+                                std::min<uint64_t>(B, vol.dim[2] - (band.z0 + k * B));
+        if (label[size_t(i)] == kUnset || covered[size_t(i)] != voxels) label[size_t(i)] = kScanBrick;
+    }
+}
+
 /// Pass 1, band by band (bandShape): level hierarchy, operations and symbols of every brick,
-/// handed to `take(bz, slabSymbols)` slab by slab in order (bricks x fastest, then y).
+/// handed to `take(bz, slabSymbols)` slab by slab in order (bricks x fastest, then y). Bricks the
+/// source's uniform boxes cover (EncodeOptions::useUniformBoxes) are made by ConstantBricks; only
+/// the brick rows of a band that hold another brick are read, none when there is none.
 Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const EncodeOptions& options,
                      uint64_t maxBandBytes, const std::function<Status(uint32_t, std::vector<BrickSymbols>&)>& take) {
     const uint32_t B = vol.brickSize, W = vol.dim[0], H = vol.dim[1], D = vol.dim[2];
     const auto grid = vol.brickGrid();
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
     const BandShape shape = bandShape(source, B, maxBandBytes);
+    // Allocated at the first read: a volume of uniform boxes never needs it.
     std::vector<uint32_t> band;
-    if (!source.slabInMemory(0)) {
-        const uint64_t bandVoxels = uint64_t(W) * shape.rows * B * shape.slabs;
-        try {
-            band.resize(size_t(bandVoxels));
-        } catch (const std::bad_alloc&) {
-            return Status::error("out of memory for a band of " + std::to_string(bandVoxels) + " labels");
-        }
-    }
+    const uint64_t bandVoxels = uint64_t(W) * shape.rows * B * shape.slabs;
     const uint64_t brickRowsPerBand = (shape.rows + B - 1) / B;
     const int nThreads =
         int(std::min<uint64_t>(uint64_t(threadsFor(options)), uint64_t(grid[0]) * brickRowsPerBand * shape.slabs));
     std::vector<std::vector<BrickSymbols>> symbols(shape.slabs);
+    std::vector<UniformBox> boxes;
+    std::vector<uint64_t> uniform, covered;
+    std::optional<ConstantBricks> constants;
     for (uint32_t bz0 = 0; bz0 < grid[2]; bz0 += shape.slabs) {
         const uint32_t slabs = std::min(shape.slabs, grid[2] - bz0);
         const uint32_t z0 = bz0 * B, depth = std::min(slabs * B, D - z0);
         for (uint32_t k = 0; k < slabs; ++k) symbols[k].assign(size_t(perSlab), BrickSymbols{});
         for (uint32_t y0 = 0; y0 < H; y0 += shape.rows) {
             const uint32_t rows = std::min(shape.rows, H - y0);
+            BandBricks bb;
+            bb.z0 = z0;
+            bb.depth = depth;
+            bb.y0 = y0;
+            bb.rows = rows;
+            bb.firstRow = y0 / B;
+            bb.rowsHere = (rows + B - 1) / B;
+            bb.slabs = slabs;
+            bb.gridX = grid[0];
+            const uint64_t bandBricks = bb.count();
+            // The rows to read: the brick rows holding a brick that no uniform box covers.
+            uint32_t readY0 = y0, readRows = rows;
+            boxes.clear();
+            if (options.useUniformBoxes) source.uniformBoxes(z0, depth, y0, rows, boxes);
+            if (boxes.empty()) {
+                uniform.assign(size_t(bandBricks), kScanBrick);
+            } else {
+                uniformBricks(boxes, bb, vol, uniform, covered);
+                uint64_t firstScan = bb.rowsHere, lastScan = 0;
+                for (uint64_t i = 0; i < bandBricks; ++i)
+                    if (uniform[size_t(i)] == kScanBrick) {
+                        const uint64_t r = i % bb.perSlab() / bb.gridX;
+                        firstScan = std::min(firstScan, r);
+                        lastScan = std::max(lastScan, r);
+                    }
+                if (firstScan == bb.rowsHere) readRows = 0;
+                else if (source.readsRows()) {
+                    readY0 = y0 + uint32_t(firstScan) * B;
+                    readRows = std::min(y0 + rows, y0 + uint32_t(lastScan + 1) * B) - readY0;
+                }
+                if (!constants && std::count(uniform.begin(), uniform.end(), kScanBrick) < std::ptrdiff_t(bandBricks))
+                    constants.emplace(vol, options.opMask);
+            }
             const uint32_t* bandData = source.slabInMemory(z0);
-            if (!bandData) {
-                Status s = rows == H ? source.readSlab(z0, depth, band.data())
-                                     : source.readRows(z0, depth, y0, rows, band.data());
+            if (bandData) {
+                readY0 = y0;
+                readRows = rows;
+            } else if (readRows > 0) {
+                if (band.empty()) {
+                    try {
+                        band.resize(size_t(bandVoxels));
+                    } catch (const std::bad_alloc&) {
+                        return Status::error("out of memory for a band of " + std::to_string(bandVoxels) + " labels");
+                    }
+                }
+                Status s = readRows == H ? source.readSlab(z0, depth, band.data())
+                                         : source.readRows(z0, depth, readY0, readRows, band.data());
                 if (!s) return s;
                 bandData = band.data();
             }
             // Bricks of the band: x fastest, then y, then the slab; errors reported for the first
             // brick in file order (slab, then y, then x).
-            const uint64_t firstRow = y0 / B, bandRowsHere = (rows + B - 1) / B;
-            const uint64_t bandBricks = uint64_t(grid[0]) * bandRowsHere * slabs;
+            const uint64_t firstRow = bb.firstRow, bandRowsHere = bb.rowsHere;
+            const auto brickOf = [&](uint64_t i, uint32_t& k, uint64_t& inSlab, std::array<uint32_t, 3>& extent) {
+                k = uint32_t(i / (grid[0] * bandRowsHere));
+                inSlab = firstRow * grid[0] + i % (grid[0] * bandRowsHere);
+                const uint32_t bx = uint32_t(inSlab % grid[0]), by = uint32_t(inSlab / grid[0]);
+                extent = {std::min(B, W - bx * B), std::min(B, H - by * B), std::min(B, D - (z0 + k * B))};
+            };
+            if (readRows == 0) {
+                // Every brick constant: copies of a template, cheaper than waking the workers
+                // (whose spinning at the region's end cost ten times the work on a busy machine).
+                for (uint64_t i = 0; i < bandBricks; ++i) {
+                    uint32_t k = 0;
+                    uint64_t inSlab = 0;
+                    std::array<uint32_t, 3> extent{};
+                    brickOf(i, k, inSlab, extent);
+                    constants->make(extent, uint32_t(uniform[size_t(i)]), symbols[k][size_t(inSlab)]);
+                }
+                continue;
+            }
             std::mutex mutex;
             Status error;
             uint64_t errorBrick = ~uint64_t(0);
@@ -460,18 +614,21 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
                 thrown.run([&] { enc.emplace(B, options.opMask); });
 #pragma omp for schedule(dynamic, 1)
                 for (int64_t i = 0; i < int64_t(bandBricks); ++i) {
-                    if (!enc) continue;
-                    const uint32_t k = uint32_t(uint64_t(i) / (grid[0] * bandRowsHere));
-                    const uint64_t inSlab = firstRow * grid[0] + uint64_t(i) % (grid[0] * bandRowsHere);
+                    uint32_t k = 0;
+                    uint64_t inSlab = 0;
+                    std::array<uint32_t, 3> extent{};
+                    brickOf(uint64_t(i), k, inSlab, extent);
                     const uint32_t bx = uint32_t(inSlab % grid[0]), by = uint32_t(inSlab / grid[0]);
                     const uint32_t zk = z0 + k * B;
-                    const std::array<uint32_t, 3> extent = {std::min(B, W - bx * B), std::min(B, H - by * B),
-                                                            std::min(B, D - zk)};
-                    const uint32_t* slabData = bandData + uint64_t(k) * B * rows * W;
+                    BrickSymbols& out = symbols[k][size_t(inSlab)];
+                    if (uniform[size_t(i)] != kScanBrick) {
+                        thrown.run([&] { constants->make(extent, uint32_t(uniform[size_t(i)]), out); });
+                        continue;
+                    }
+                    if (!enc) continue;
+                    const uint32_t* slabData = bandData + uint64_t(k) * B * readRows * W;
                     Status st;
-                    thrown.run([&] {
-                        st = enc->encode(slabData, W, rows, y0, bx * B, by * B, zk, extent, symbols[k][size_t(inSlab)]);
-                    });
+                    thrown.run([&] { st = enc->encode(slabData, W, readRows, readY0, bx * B, by * B, zk, extent, out); });
                     if (!st) {
                         std::lock_guard<std::mutex> lock(mutex);
                         const uint64_t order = uint64_t(k) * perSlab + inSlab;

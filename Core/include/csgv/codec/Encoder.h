@@ -14,15 +14,20 @@
 /// - header[1..L-1] of modes 1 and 2 hold the pre-entropy (nibble) level starts, as in mode 0.
 /// - Bricks go into one encoding array while they fit in 2^29 words; otherwise into the fewest
 ///   arrays of a constant brick count that each fit.
+/// - Bricks a source knows to hold one label without reading them (SlabSource::uniformBoxes: an
+///   HDF5 chunk never written) are copied from a constant brick encoded once per brick extent,
+///   with the same bytes as encoding their voxels: a volume of fill values costs time per brick.
 
 #include "csgv/codec/Container.h"
 #include "csgv/codec/LabelVolume.h"
 #include "csgv/codec/Partition.h"
+#include "csgv/base/UniformBox.h"
 
 #include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace csgv {
 
@@ -57,6 +62,11 @@ struct EncodeOptions {
     /// Tables come from what it returns (unless fixedTables), so every piece's bricks get the
     /// words they get in the whole volume's encoding. Not called when pass 1 fails.
     std::function<Result<SymbolCounts>(const SymbolCounts&)> shareCounts;
+    /// Trust SlabSource::uniformBoxes: a brick they cover whole with one label is written as the
+    /// constant brick of that label and extent without reading or scanning its voxels, and a band
+    /// of rows whose bricks are all such is not read. The bytes are those of reading every voxel
+    /// (false: the tests compare the two).
+    bool useUniformBoxes = true;
 };
 
 /// @brief Labels delivered slab by slab: z-slabs of brickSize slices (fewer at the end), x fastest.
@@ -82,6 +92,14 @@ public:
     virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out);
     /// Sources already in memory return slice z0's labels here, saving readSlab's copy.
     virtual const uint32_t* slabInMemory(uint32_t /*z0*/) const { return nullptr; }
+    /// Boxes of rows [y0, y0 + rows) of slices [z0, z0 + depth) known to hold one label each
+    /// (UniformBox::value a label), without reading: put in `out`, disjoint, inside the region
+    /// (InputSource::uniformBoxes's contract, with labels). The encoder asks before reading each
+    /// band. The default lists none.
+    virtual void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) {
+        (void)z0, (void)depth, (void)y0, (void)rows;
+        out.clear();
+    }
 };
 
 /// Parses "default" (pnls), "all" (pnlds) or letters p, x, y, z, n, l, d, s into an operation mask.
@@ -109,9 +127,9 @@ struct EncodeToFileOptions {
 /// Encodes from a slab source straight into a `.csgv` file at `path` (written under a temporary
 /// name and renamed), giving the bytes writeCsgv(encodeVolume(...)) gives. Unlike encodeVolume,
 /// the compressed volume is never in memory at once: memory is one band of labels (a slab unless
-/// the source readsRows), the held symbols (serialized, bounded by heldSymbolBytes), one slab of
-/// bricks' symbols and words and 4 bytes a brick; the rest passes through two scratch files
-/// beside the output, unlinked while open.
+/// the source readsRows; none while every band is uniform), the held symbols (serialized, bounded
+/// by heldSymbolBytes), one slab of bricks' symbols and words and 4 bytes a brick; the rest passes
+/// through two scratch files beside the output, unlinked while open.
 Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
                     const EncodeToFileOptions& fileOptions = {}, uint64_t* outputBytes = nullptr);
 
