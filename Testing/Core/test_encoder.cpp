@@ -422,6 +422,33 @@ TEST(Encoder, AVolumeOfUniformBoxesIsNeverRead) {
     EXPECT_NE(s.message().find("label 0xFFFFFFFF at voxel (0, 0, 0) is reserved"), std::string::npos) << s.message();
 }
 
+TEST(Encoder, ABrickIndexTooLargeIsRefusedBeforeAnyWork) {
+    // 65536^3 voxels in bricks of 32: 2^33 bricks, 64 GiB of index. Nothing is read.
+    EXPECT_EQ(encoderIndexBytes({65536, 65536, 65536}, 32), uint64_t(64) << 30);
+    EXPECT_EQ(encoderIndexBytes({70, 60, 50}, 16), uint64_t(8) * 5 * 4 * 4);
+    EXPECT_EQ(encoderIndexBytes({0xFFFFFFFFu, 0xFFFFFFFFu, 0xFFFFFFFFu}, 8), ~uint64_t(0)); // saturates
+    const Status s = checkEncoderIndex({65536, 65536, 65536}, 32, uint64_t(16) << 30);
+    EXPECT_EQ(s.message(), "a 65536x65536x65536 volume in bricks of 32^3 needs 68719476736 bytes of brick index in "
+                           "memory (8 for each of its 8589934592 bricks), more than the limit of 17179869184 bytes "
+                           "(the encoder's index limit); bricks of 64^3 need 8589934592 (--brick-size 64)");
+    EXPECT_TRUE(checkEncoderIndex({65536, 65536, 65536}, 128, uint64_t(16) << 30).isOk());
+    std::string why;
+    EXPECT_GT(automaticIndexLimit(&why), 0u);
+    EXPECT_EQ(why.rfind("half of ", 0), 0u) << why;
+    LabelVolume small = synth(40, 40, 40, 1, 5);
+    RowSlabSource slabs(small);
+    EncodeToFileOptions fo;
+    fo.maxIndexBytes = 100; // 27 bricks of 16: 216 bytes
+    EncodeOptions o;
+    o.brickSize = 16;
+    const std::string path = tempDir() + "/index-refused.csgv";
+    const Status refused = encodeToFile(slabs, o, path, fo);
+    EXPECT_NE(refused.message().find("needs 216 bytes of brick index"), std::string::npos) << refused.message();
+    EXPECT_NE(refused.message().find("bricks of 32^3 need 64 (--brick-size 32)"), std::string::npos) << refused.message();
+    EXPECT_TRUE(slabs.bands.empty());
+    EXPECT_FALSE(std::filesystem::exists(path));
+}
+
 TEST(Encoder, ToFileGivesTheBytesOfTheInMemoryEncoderHeldSpilledAndSplit) {
     const LabelVolume src = synth(70, 60, 50, 9, 7);
     for (int32_t encoding : {kEncodingNibble, kEncodingRans1, kEncodingRans2})

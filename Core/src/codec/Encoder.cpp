@@ -16,6 +16,9 @@
 #include <omp.h>
 #include <unordered_map>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 namespace csgv {
 
 namespace {
@@ -878,6 +881,46 @@ uint64_t encoderBandBytes(const SlabSource& source, uint32_t brickSize, uint64_t
     return uint64_t(source.dimensions()[0]) * shape.rows * brickSize * shape.slabs * sizeof(uint32_t);
 }
 
+/// Bricks of a volume (saturating: 2^32 voxels a side in bricks of 8 would be 2^87).
+static uint64_t bricksOf(const std::array<uint32_t, 3>& dim, uint32_t brickSize) {
+    const uint64_t B = std::max<uint32_t>(brickSize, 1);
+    const auto along = [&](int a) { return (uint64_t(dim[a]) + B - 1) / B; };
+    return product3(along(0), along(1), along(2));
+}
+
+uint64_t encoderIndexBytes(const std::array<uint32_t, 3>& dim, uint32_t brickSize) {
+    return mulSaturate(8, bricksOf(dim, brickSize));
+}
+
+uint64_t automaticIndexLimit(std::string* why) {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    uint64_t memory = pages > 0 && page > 0 ? uint64_t(pages) * uint64_t(page) : ~uint64_t(0);
+    std::string what = "this machine's " + std::to_string(memory >> 20) + " MiB of memory";
+    struct rlimit rl {};
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && uint64_t(rl.rlim_cur) < memory) {
+        memory = uint64_t(rl.rlim_cur);
+        what = "the process's address-space limit of " + std::to_string(memory >> 20) + " MiB";
+    }
+    if (why) *why = "half of " + what;
+    return memory / 2;
+}
+
+Status checkEncoderIndex(const std::array<uint32_t, 3>& dim, uint32_t brickSize, uint64_t maxIndexBytes) {
+    std::string why = "the encoder's index limit";
+    const uint64_t limit = maxIndexBytes ? maxIndexBytes : automaticIndexLimit(&why);
+    const uint64_t need = encoderIndexBytes(dim, brickSize);
+    if (need <= limit) return Status::ok();
+    std::string larger;
+    for (uint32_t b = brickSize * 2; b <= 128 && larger.empty(); b *= 2)
+        if (const uint64_t n = encoderIndexBytes(dim, b); n <= limit)
+            larger = "; bricks of " + std::to_string(b) + "^3 need " + std::to_string(n) + " (--brick-size " +
+                     std::to_string(b) + ")";
+    return Status::error("a " + std::to_string(dim[0]) + "x" + std::to_string(dim[1]) + "x" + std::to_string(dim[2]) +
+                         " volume in bricks of " + std::to_string(brickSize) + "^3 needs " + std::to_string(need) +
+                         " bytes of brick index in memory (8 for each of its " + std::to_string(bricksOf(dim, brickSize)) +
+                         " bricks), more than the limit of " + std::to_string(limit) + " bytes (" + why + ")" + larger);
+}
+
 Status SlabSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
     if (y0 == 0 && rows == dimensions()[1]) return readSlab(z0, depth, out);
     return Status::error("this label source reads whole slices only");
@@ -992,6 +1035,7 @@ Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const
     Result<CompressedVolume> made = newVolume(source, options);
     if (!made) return made.status();
     CompressedVolume& vol = *made;
+    if (Status s = checkEncoderIndex(vol.dim, vol.brickSize, fileOptions.maxIndexBytes); !s) return s;
     const uint64_t bricks = vol.brickCount();
     const auto grid = vol.brickGrid();
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];

@@ -331,6 +331,7 @@ Status encodePass(SlabSource& slabs, const CompressOptions& options, const std::
                   uint64_t& outputBytes) {
     EncodeToFileOptions fo;
     fo.maxOutputBytes = options.maxOutputBytes;
+    fo.maxIndexBytes = options.maxIndexBytes;
     fo.progress = [&progress](double f) { return progress.report(f); };
     return encodeToFile(slabs, options.encode, path, fo, &outputBytes);
 }
@@ -523,6 +524,9 @@ Status compress(InputSource* given, const std::string& input, const std::string&
     Job job(input, output, options, rep);
     if (Status s = job.open(given); !s) return s;
     rep.readSeconds = since(tStart);
+    // An index that cannot fit is refused now, not after a relabelling pass or the first slabs.
+    if (Status s = checkEncoderIndex(rep.dim, options.encode.brickSize, options.maxIndexBytes); !s)
+        return job.failed(s);
 
     // Labels kept in one optimistic pass unless relabelling is asked for or a label does not fit.
     auto t0 = std::chrono::steady_clock::now();

@@ -122,14 +122,36 @@ struct EncodeToFileOptions {
     /// Called after each slab of bricks and while writing, with the fraction done (0..1);
     /// returning false cancels (nothing is left at `path`).
     std::function<bool(double fraction)> progress;
+    /// Bound on the brick index (encoderIndexBytes), checked before any work. 0: automatic, half
+    /// the smaller of the machine's memory and the process's address-space limit (ulimit -v).
+    uint64_t maxIndexBytes = 0;
 };
+
+/// Bytes of the per-brick state encodeToFile holds for the whole volume whatever its labels: each
+/// brick's word count, then its start in the file, 4 bytes each and both at once while the
+/// encoding arrays are laid out (8 bytes a brick). 65536^3 voxels in bricks of 32^3 are 2^33
+/// bricks: 64 GiB.
+uint64_t encoderIndexBytes(const std::array<uint32_t, 3>& dim, uint32_t brickSize);
+/// The limit maxIndexBytes = 0 stands for, and how it is worded in messages ("half of ...").
+uint64_t automaticIndexLimit(std::string* why = nullptr);
+/// Refuses, before any work, a volume whose brick index passes `maxIndexBytes` (0: automatic), in
+/// one line naming the dimensions, the bytes needed, the limit and a brick size that would fit.
+Status checkEncoderIndex(const std::array<uint32_t, 3>& dim, uint32_t brickSize, uint64_t maxIndexBytes = 0);
 
 /// Encodes from a slab source straight into a `.csgv` file at `path` (written under a temporary
 /// name and renamed), giving the bytes writeCsgv(encodeVolume(...)) gives. Unlike encodeVolume,
 /// the compressed volume is never in memory at once: memory is one band of labels (a slab unless
 /// the source readsRows; none while every band is uniform), the held symbols (serialized, bounded
-/// by heldSymbolBytes), one slab of bricks' symbols and words and 4 bytes a brick; the rest passes
-/// through two scratch files beside the output, unlinked while open.
+/// by heldSymbolBytes), one slab of bricks' symbols and words, and the brick index, 8 bytes a
+/// brick of the whole volume (encoderIndexBytes; refused before any work past maxIndexBytes); the
+/// rest passes through two scratch files beside the output, unlinked while open.
+///
+/// Per brick, on a volume of one label (every brick constant: the least a volume costs; bricks
+/// of 32^3, rans2, measured): 8 bytes of index; 49 bytes of held symbols until heldSymbolBytes,
+/// then in the scratch file; about 350 bytes a brick of one slab (its BrickSymbols in pass 1, its
+/// symbols and words in pass 2: a 32768 x 32768 slab of 2^20 bricks is 360 MiB); 36 bytes of words
+/// in the second scratch file and 40 in the output. Peaks: 4096^3 (2^21 bricks) 150 MiB, 8192^3
+/// 290 MiB (the held symbols spill past 256 MiB), 65536^3 refused (64 GiB of index).
 Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
                     const EncodeToFileOptions& fileOptions = {}, uint64_t* outputBytes = nullptr);
 

@@ -20,7 +20,8 @@
 /// (kScratchBytes; at least one slice at 8 bytes a voxel for an input that does not read rows,
 /// else one row) + the source's working set (InputSource::workingBytes) + the label map when
 /// relabelling (about 50 bytes a label; its first pass reads within kScratchBytes the same way)
-/// + what encodeToFile holds for the output. Regions
+/// + what encodeToFile holds for the output (Encoder.h: 8 bytes a brick of index, checked as soon as
+/// the input is open against CompressOptions::maxIndexBytes, and bounded per-slab state). Regions
 /// the input knows to hold one value (InputSource::uniformBoxes: HDF5 chunks never written) are
 /// neither read nor scanned, in either pass: a volume of fill values costs time per brick, and no
 /// band of labels at all. Progress is reported after every read of the
@@ -56,6 +57,9 @@ struct CompressOptions {
     CompressProgress progress;
     bool relabel = false;                          ///< force dense relabelling
     uint64_t maxOutputBytes = uint64_t(64) << 30;
+    /// Bound on the encoder's brick index (EncodeToFileOptions::maxIndexBytes; 0: automatic),
+    /// checked as soon as the input is open, before any voxel is read.
+    uint64_t maxIndexBytes = 0;
 };
 
 /// @brief What a compression did. dim, inputFormat, originalType and voxels are filled as soon as
