@@ -460,9 +460,9 @@ private:
 struct BandBricks {
     uint32_t z0 = 0, depth = 0, y0 = 0, rows = 0;
     uint64_t firstRow = 0, rowsHere = 0, slabs = 0; ///< brick rows: the first, how many; slabs
+    uint64_t gridX = 0;                             ///< bricks along x
     uint64_t perSlab() const { return gridX * rowsHere; }
     uint64_t count() const { return perSlab() * slabs; }
-    uint32_t gridX = 0;
 };
 
 /// A band brick no uniform box covers whole with one label (or one holding the reserved label,
@@ -474,37 +474,34 @@ constexpr uint64_t kScanBrick = ~uint64_t(0);
 /// covered when the voxels they share with it add up to its own. Time: the bricks each box touches.
 void uniformBricks(const std::vector<UniformBox>& boxes, const BandBricks& band, const CompressedVolume& vol,
                    std::vector<uint64_t>& label, std::vector<uint64_t>& covered) {
-    const uint32_t B = vol.brickSize;
+    const uint64_t B = vol.brickSize;
     constexpr uint64_t kUnset = uint64_t(1) << 63;
     label.assign(size_t(band.count()), kUnset);
     covered.assign(size_t(band.count()), 0);
-    const std::array<uint32_t, 3> lo = {0, band.y0, band.z0};
-    const std::array<uint32_t, 3> hi = {vol.dim[0], band.y0 + band.rows, band.z0 + band.depth};
+    // 64-bit coordinates: a brick's far end may lie past 2^32.
+    const std::array<uint64_t, 3> lo = {0, band.y0, band.z0};
+    const std::array<uint64_t, 3> hi = {vol.dim[0], uint64_t(band.y0) + band.rows, uint64_t(band.z0) + band.depth};
     for (const UniformBox& box : boxes) {
-        std::array<uint32_t, 3> a{}, b{}; // the box within the band
+        std::array<uint64_t, 3> a{}, b{}; // the box within the band
         for (int k = 0; k < 3; ++k) {
-            a[k] = std::max(box.lo[k], lo[k]);
-            b[k] = std::min(box.hi[k], hi[k]);
+            a[k] = std::max<uint64_t>(box.lo[k], lo[k]);
+            b[k] = std::min<uint64_t>(box.hi[k], hi[k]);
         }
         if (a[0] >= b[0] || a[1] >= b[1] || a[2] >= b[2]) continue;
         const bool valid = box.value < kInvalidLabel;
-        for (uint32_t bz = (a[2] - band.z0) / B; bz * B + band.z0 < b[2]; ++bz)
-            for (uint32_t by = a[1] / B; by * B < b[1]; ++by)
-                for (uint32_t bx = a[0] / B; bx * B < b[0]; ++bx) {
+        const auto overlap = [&](int k, uint64_t start) { return std::min(b[k], start + B) - std::max(a[k], start); };
+        for (uint64_t bz = (a[2] - band.z0) / B; band.z0 + bz * B < b[2]; ++bz)
+            for (uint64_t by = a[1] / B; by * B < b[1]; ++by)
+                for (uint64_t bx = a[0] / B; bx * B < b[0]; ++bx) {
                     const size_t i = size_t(bz * band.perSlab() + (by - band.firstRow) * band.gridX + bx);
-                    const uint32_t z = band.z0 + bz * B;
-                    const uint64_t shared = uint64_t(std::min(b[0], (bx + 1) * B) - std::max(a[0], bx * B)) *
-                                            (std::min(b[1], (by + 1) * B) - std::max(a[1], by * B)) *
-                                            (std::min(b[2], z + B) - std::max(a[2], z));
-                    covered[i] += shared;
+                    covered[i] += overlap(0, bx * B) * overlap(1, by * B) * overlap(2, band.z0 + bz * B);
                     label[i] = !valid || (label[i] != kUnset && label[i] != box.value) ? kScanBrick : box.value;
                 }
     }
     for (uint64_t i = 0; i < band.count(); ++i) {
         const uint64_t k = i / band.perSlab(), by = band.firstRow + i % band.perSlab() / band.gridX,
                        bx = i % band.gridX;
-        const uint64_t voxels = uint64_t(std::min<uint64_t>(B, vol.dim[0] - bx * B)) *
-                                std::min<uint64_t>(B, vol.dim[1] - by * B) *
+        const uint64_t voxels = std::min<uint64_t>(B, vol.dim[0] - bx * B) * std::min<uint64_t>(B, vol.dim[1] - by * B) *
                                 std::min<uint64_t>(B, vol.dim[2] - (band.z0 + k * B));
         if (label[size_t(i)] == kUnset || covered[size_t(i)] != voxels) label[size_t(i)] = kScanBrick;
     }

@@ -1116,13 +1116,13 @@ private:
         start[z + 1] = y0;
         count[z + 1] = rows;
         count[z + 2] = m_info.dim[0];
-        // The memory space has the selection's shape: HDF5 then maps chunks to memory by blocks
-        // (a 1D memory space made it map element by element, at a fifth of the speed).
         if (m_fill.leftByLibhdf5) { // what libhdf5 leaves alone is the fill value, not the buffer's past
             const size_t w = m_fill.native.size(), n = size_t(uint64_t(m_info.dim[0]) * rows * depth);
             auto* bytes = reinterpret_cast<uint8_t*>(out);
             for (size_t i = 0; i < n; ++i) std::memcpy(bytes + i * w, m_fill.native.data(), w);
         }
+        // The memory space has the selection's shape: HDF5 then maps chunks to memory by blocks
+        // (a 1D memory space made it map element by element, at a fifth of the speed).
         Handle fileSpace(H5Dget_space(m_dataset.get()), H5Sclose);
         Handle memSpace(H5Screate_simple(int(rank), count.data(), nullptr), H5Sclose);
         if (!fileSpace.valid() || !memSpace.valid() ||
