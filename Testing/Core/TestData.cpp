@@ -150,10 +150,41 @@ void expectSourceContract(csgv::InputSource& source, const std::vector<uint64_t>
                         }
                 }
     }
+    // Uniform boxes (any source may list some): inside the region asked about, disjoint, and every
+    // voxel of each holds its value; over whole slabs, and over bands of rows when the source
+    // reads them.
+    const uint32_t W = info.dim[0], H = info.dim[1];
+    std::vector<csgv::UniformBox> boxes;
+    const auto checkBoxes = [&](uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows) {
+        source.uniformBoxes(z0, depth, y0, rows, boxes);
+        const std::string region = "uniformBoxes(" + std::to_string(z0) + ", " + std::to_string(depth) + ", " +
+                                   std::to_string(y0) + ", " + std::to_string(rows) + ")";
+        const std::array<uint32_t, 3> lo = {0, y0, z0}, hi = {W, y0 + rows, z0 + depth};
+        for (size_t i = 0; i < boxes.size(); ++i) {
+            const csgv::UniformBox& b = boxes[i];
+            for (int a = 0; a < 3; ++a)
+                ASSERT_TRUE(b.lo[a] >= lo[a] && b.lo[a] < b.hi[a] && b.hi[a] <= hi[a]) << region << ": box " << i
+                                                                                        << " is empty or outside";
+            for (size_t j = 0; j < i; ++j) {
+                const csgv::UniformBox& o = boxes[j];
+                bool apart = false;
+                for (int a = 0; a < 3; ++a) apart = apart || b.hi[a] <= o.lo[a] || o.hi[a] <= b.lo[a];
+                ASSERT_TRUE(apart) << region << ": boxes " << j << " and " << i << " overlap";
+            }
+            for (uint32_t z = b.lo[2]; z < b.hi[2]; ++z)
+                for (uint32_t y = b.lo[1]; y < b.hi[1]; ++y)
+                    for (uint32_t x = b.lo[0]; x < b.hi[0]; ++x)
+                        ASSERT_EQ(expected[size_t(x + uint64_t(W) * (y + uint64_t(H) * z))], b.value)
+                            << region << ": box " << i << " voxel (" << x << ", " << y << ", " << z << ")";
+        }
+    };
+    for (uint32_t depth : {1u, 4u, D})
+        for (uint32_t z0 = 0; z0 < D; z0 += depth) checkBoxes(z0, std::min(depth, D - z0), 0, H);
     // Bands of rows, when the source reads them: every row band of a few heights at a few depths,
     // bottom band first, the same values readSlab gives; rows past the volume are an error.
     if (!source.readsRows()) return;
-    const uint32_t W = info.dim[0], H = info.dim[1];
+    for (uint32_t rows : {3u, 16u})
+        for (uint32_t y0 = 0; y0 < H; y0 += rows) checkBoxes(0, D, y0, std::min(rows, H - y0));
     for (uint32_t rows : {1u, 3u, H})
         for (uint32_t depth : {1u, 4u, D}) {
             if (rows == 0 || rows > H || depth == 0 || depth > D) continue;

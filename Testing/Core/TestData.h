@@ -37,7 +37,9 @@ int runFixtureScript(const std::string& script, const std::vector<std::string>& 
 /// Checks the InputSource contract (Inputs.h) on a source whose whole content is `expected`
 /// (x fastest, full width): slabs of depth 1, 2, 5 and the whole depth, in increasing,
 /// decreasing and shuffled order, each twice, all give the expected values (gtest failures name
-/// the first differing voxel). Every input format's tests call it on their fixtures.
+/// the first differing voxel); uniform boxes (InputSource::uniformBoxes) of slabs and bands lie
+/// inside them, are disjoint and hold their value. Every input format's tests call it on their
+/// fixtures.
 void expectSourceContract(csgv::InputSource& source, const std::vector<uint64_t>& expected);
 
 /// Bytes of test files, and the helpers the input tests write them with.

@@ -316,6 +316,139 @@ TEST(Encoder, ReservedLabelInABandIsReportedAtItsVoxel) {
     EXPECT_NE(d.message().find("label 0xFFFFFFFF at voxel (39, 39, 3) is reserved"), std::string::npos) << d.message();
 }
 
+namespace {
+
+/// @brief A RowSlabSource that lists boxes it holds one label in (SlabSource::uniformBoxes),
+/// clipped to each region asked about, as a chunked file lists chunks never written.
+class UniformBoxSource : public RowSlabSource {
+public:
+    UniformBoxSource(const LabelVolume& v, std::vector<UniformBox> boxes) : RowSlabSource(v), m_boxes(std::move(boxes)) {}
+    Status readSlab(uint32_t z0, uint32_t depth, uint32_t* out) override {
+        bands.push_back({z0, depth, 0, dimensions()[1]}); // whole slabs are reads too
+        return RowSlabSource::readSlab(z0, depth, out);
+    }
+    void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override {
+        out.clear();
+        const std::array<uint32_t, 3> lo = {0, y0, z0}, hi = {dimensions()[0], y0 + rows, z0 + depth};
+        for (UniformBox b : m_boxes) {
+            for (int a = 0; a < 3; ++a) {
+                b.lo[a] = std::max(b.lo[a], lo[a]);
+                b.hi[a] = std::min(b.hi[a], hi[a]);
+            }
+            if (b.voxels() > 0) out.push_back(b);
+        }
+    }
+
+private:
+    std::vector<UniformBox> m_boxes;
+};
+
+/// `v` with every voxel of `box` set to its value.
+void paint(LabelVolume& v, const UniformBox& box) {
+    for (uint32_t z = box.lo[2]; z < box.hi[2]; ++z)
+        for (uint32_t y = box.lo[1]; y < box.hi[1]; ++y)
+            for (uint32_t x = box.lo[0]; x < box.hi[0]; ++x)
+                v.labels[size_t(x + uint64_t(v.dim[0]) * (y + uint64_t(v.dim[1]) * z))] = uint32_t(box.value);
+}
+
+} // namespace
+
+TEST(Encoder, UniformBoxesGiveTheBytesOfReadingEveryVoxel) {
+    // Labels 7 over y < 28 (in four boxes cut where no brick is), 3 and 0 in boxes of odd sizes,
+    // the rest Voronoi cells: every brick size, encoding and operation mask gives the bytes of the
+    // in-memory encoder, which reads every voxel. Bricks the boxes cover are not read: with bricks
+    // of 16 no band asks for rows 0..15.
+    LabelVolume src = synth(70, 60, 50, 9, 7);
+    const std::vector<UniformBox> boxes = {{{{0, 0, 0}}, {{37, 28, 19}}, 7},  {{{37, 0, 0}}, {{70, 28, 19}}, 7},
+                                           {{{0, 0, 19}}, {{37, 28, 50}}, 7}, {{{37, 0, 19}}, {{70, 28, 50}}, 7},
+                                           {{{10, 30, 20}}, {{45, 60, 41}}, 3}, {{{50, 40, 0}}, {{70, 60, 50}}, 0}};
+    for (const UniformBox& b : boxes) paint(src, b);
+    const auto check = [&](const EncodeOptions& o, const std::string& what) {
+        Result<CompressedVolume> mem = encodeVolume(src, o);
+        ASSERT_TRUE(mem.isOk()) << what << ": " << mem.message();
+        UniformBoxSource slabs(src, boxes);
+        const std::string path = tempDir() + "/uniform-boxes.csgv";
+        const Status s = encodeToFile(slabs, o, path);
+        ASSERT_TRUE(s.isOk()) << what << ": " << s.message();
+        EXPECT_TRUE(readBytes(path) == serializeCsgv(*mem)) << what;
+        if (o.brickSize == 16) {
+            for (const auto& band : slabs.bands) EXPECT_GE(band[2], 16u) << what << ": rows 0..15 are uniform";
+        }
+    };
+    for (uint32_t brick : {8u, 16u, 32u})
+        for (int32_t encoding : {kEncodingNibble, kEncodingRans1, kEncodingRans2}) {
+            EncodeOptions o;
+            o.brickSize = brick;
+            o.encoding = encoding;
+            check(o, "brick " + std::to_string(brick) + " " + encodingName(encoding));
+        }
+    for (const char* mask : kMasks) {
+        EncodeOptions o;
+        o.brickSize = 16;
+        o.opMask = *parseOperationMask(mask);
+        check(o, std::string("mask ") + mask);
+    }
+}
+
+TEST(Encoder, AVolumeOfUniformBoxesIsNeverRead) {
+    // One label everywhere, listed as boxes that cut bricks: no read at all, the bytes of the
+    // volume read voxel by voxel, and the reserved label is still read and named at its voxel.
+    LabelVolume src;
+    src.dim = {45, 38, 29};
+    src.labels.assign(size_t(45 * 38 * 29), 5u);
+    const std::vector<UniformBox> boxes = {{{{0, 0, 0}}, {{45, 13, 29}}, 5}, {{{0, 13, 0}}, {{45, 38, 29}}, 5}};
+    for (uint32_t brick : {8u, 16u, 32u}) {
+        EncodeOptions o;
+        o.brickSize = brick;
+        Result<CompressedVolume> mem = encodeVolume(src, o);
+        ASSERT_TRUE(mem.isOk()) << mem.message();
+        UniformBoxSource slabs(src, boxes);
+        const std::string path = tempDir() + "/uniform-all.csgv";
+        ASSERT_TRUE(encodeToFile(slabs, o, path).isOk());
+        EXPECT_TRUE(readBytes(path) == serializeCsgv(*mem)) << brick;
+        EXPECT_TRUE(slabs.bands.empty()) << brick;
+        // The same boxes ignored: every band read, the same bytes.
+        o.useUniformBoxes = false;
+        UniformBoxSource ignored(src, boxes);
+        ASSERT_TRUE(encodeToFile(ignored, o, path).isOk());
+        EXPECT_TRUE(readBytes(path) == serializeCsgv(*mem)) << brick;
+        EXPECT_FALSE(ignored.bands.empty()) << brick;
+    }
+    src.labels.assign(src.labels.size(), kInvalidLabel);
+    UniformBoxSource reserved(src, {{{{0, 0, 0}}, {{45, 38, 29}}, kInvalidLabel}});
+    EncodeOptions o;
+    o.brickSize = 16;
+    const Status s = encodeToFile(reserved, o, tempDir() + "/uniform-reserved.csgv");
+    EXPECT_NE(s.message().find("label 0xFFFFFFFF at voxel (0, 0, 0) is reserved"), std::string::npos) << s.message();
+}
+
+TEST(Encoder, ABrickIndexTooLargeIsRefusedBeforeAnyWork) {
+    // 65536^3 voxels in bricks of 32: 2^33 bricks, 64 GiB of index. Nothing is read.
+    EXPECT_EQ(encoderIndexBytes({65536, 65536, 65536}, 32), uint64_t(64) << 30);
+    EXPECT_EQ(encoderIndexBytes({70, 60, 50}, 16), uint64_t(8) * 5 * 4 * 4);
+    EXPECT_EQ(encoderIndexBytes({0xFFFFFFFFu, 0xFFFFFFFFu, 0xFFFFFFFFu}, 8), ~uint64_t(0)); // saturates
+    const Status s = checkEncoderIndex({65536, 65536, 65536}, 32, uint64_t(16) << 30);
+    EXPECT_EQ(s.message(), "a 65536x65536x65536 volume in bricks of 32^3 needs 68719476736 bytes of brick index in "
+                           "memory (8 for each of its 8589934592 bricks), more than the limit of 17179869184 bytes "
+                           "(the encoder's index limit); bricks of 64^3 need 8589934592 (--brick-size 64)");
+    EXPECT_TRUE(checkEncoderIndex({65536, 65536, 65536}, 128, uint64_t(16) << 30).isOk());
+    std::string why;
+    EXPECT_GT(automaticIndexLimit(&why), 0u);
+    EXPECT_EQ(why.rfind("half of ", 0), 0u) << why;
+    LabelVolume small = synth(40, 40, 40, 1, 5);
+    RowSlabSource slabs(small);
+    EncodeToFileOptions fo;
+    fo.maxIndexBytes = 100; // 27 bricks of 16: 216 bytes
+    EncodeOptions o;
+    o.brickSize = 16;
+    const std::string path = tempDir() + "/index-refused.csgv";
+    const Status refused = encodeToFile(slabs, o, path, fo);
+    EXPECT_NE(refused.message().find("needs 216 bytes of brick index"), std::string::npos) << refused.message();
+    EXPECT_NE(refused.message().find("bricks of 32^3 need 64 (--brick-size 32)"), std::string::npos) << refused.message();
+    EXPECT_TRUE(slabs.bands.empty());
+    EXPECT_FALSE(std::filesystem::exists(path));
+}
+
 TEST(Encoder, ToFileGivesTheBytesOfTheInMemoryEncoderHeldSpilledAndSplit) {
     const LabelVolume src = synth(70, 60, 50, 9, 7);
     for (int32_t encoding : {kEncodingNibble, kEncodingRans1, kEncodingRans2})

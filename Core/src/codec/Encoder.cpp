@@ -16,6 +16,9 @@
 #include <omp.h>
 #include <unordered_map>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 namespace csgv {
 
 namespace {
@@ -412,44 +415,195 @@ BandShape bandShape(const SlabSource& source, uint32_t B, uint64_t maxBandBytes)
     return shape;
 }
 
+/// @brief The symbols of constant bricks, made without their voxels: one template per brick
+/// extent of the volume (inside, and cut at the far end of each axis: at most 8), encoded once
+/// from a brick of label 0 by the same BrickEncoder as every brick. A constant brick's operations
+/// do not depend on its label (every node carries it, so each choice compares equal labels, the
+/// PALETTE_D index included), only its palette does, which holds the label in every entry. So a
+/// copy of the template with the label in its palette is, symbol for symbol, what encoding the
+/// brick's voxels gives.
+class ConstantBricks {
+public:
+    ConstantBricks(const CompressedVolume& vol, uint32_t opMask) : m_B(vol.brickSize) {
+        const uint32_t B = m_B;
+        BrickEncoder enc(B, opMask);
+        const std::vector<uint32_t> zeros(size_t(B) * B * B, 0u);
+        for (uint32_t key = 0; key < 8; ++key) {
+            std::array<uint32_t, 3> extent{};
+            bool exists = true;
+            for (int a = 0; a < 3; ++a) {
+                const uint32_t cut = vol.dim[a] % B;
+                const bool far = (key >> a) & 1u;
+                exists = exists && (!far || cut != 0);
+                extent[a] = far ? cut : B;
+            }
+            if (!exists) continue;
+            Status s = enc.encode(zeros.data(), B, B, 0, 0, 0, 0, extent, m_templates[key]);
+            (void)s; // label 0 is never the reserved one
+        }
+    }
+    /// The symbols of the brick of this extent whose every voxel holds `label` (not 0xFFFFFFFF).
+    void make(const std::array<uint32_t, 3>& extent, uint32_t label, BrickSymbols& out) const {
+        uint32_t key = 0;
+        for (int a = 0; a < 3; ++a) key |= extent[a] == m_B ? 0u : 1u << a;
+        out = m_templates[key];
+        std::fill(out.palette.begin(), out.palette.end(), label);
+    }
+
+private:
+    uint32_t m_B;
+    std::array<BrickSymbols, 8> m_templates;
+};
+
+/// @brief Where the bricks of one band of pass 1 lie: bricks x fastest, then brick rows, then
+/// slabs (the pass-1 loop's order).
+struct BandBricks {
+    uint32_t z0 = 0, depth = 0, y0 = 0, rows = 0;
+    uint64_t firstRow = 0, rowsHere = 0, slabs = 0; ///< brick rows: the first, how many; slabs
+    uint64_t gridX = 0;                             ///< bricks along x
+    uint64_t perSlab() const { return gridX * rowsHere; }
+    uint64_t count() const { return perSlab() * slabs; }
+};
+
+/// A band brick no uniform box covers whole with one label (or one holding the reserved label,
+/// which must be read for its error).
+constexpr uint64_t kScanBrick = ~uint64_t(0);
+
+/// For each brick of `band` (BandBricks order): the label of the uniform boxes that cover it whole
+/// with one label, else kScanBrick. Boxes are disjoint (SlabSource::uniformBoxes), so a brick is
+/// covered when the voxels they share with it add up to its own. Time: the bricks each box touches.
+void uniformBricks(const std::vector<UniformBox>& boxes, const BandBricks& band, const CompressedVolume& vol,
+                   std::vector<uint64_t>& label, std::vector<uint64_t>& covered) {
+    const uint64_t B = vol.brickSize;
+    constexpr uint64_t kUnset = uint64_t(1) << 63;
+    label.assign(size_t(band.count()), kUnset);
+    covered.assign(size_t(band.count()), 0);
+    // 64-bit coordinates: a brick's far end may lie past 2^32.
+    const std::array<uint64_t, 3> lo = {0, band.y0, band.z0};
+    const std::array<uint64_t, 3> hi = {vol.dim[0], uint64_t(band.y0) + band.rows, uint64_t(band.z0) + band.depth};
+    for (const UniformBox& box : boxes) {
+        std::array<uint64_t, 3> a{}, b{}; // the box within the band
+        for (int k = 0; k < 3; ++k) {
+            a[k] = std::max<uint64_t>(box.lo[k], lo[k]);
+            b[k] = std::min<uint64_t>(box.hi[k], hi[k]);
+        }
+        if (a[0] >= b[0] || a[1] >= b[1] || a[2] >= b[2]) continue;
+        const bool valid = box.value < kInvalidLabel;
+        const auto overlap = [&](int k, uint64_t start) { return std::min(b[k], start + B) - std::max(a[k], start); };
+        for (uint64_t bz = (a[2] - band.z0) / B; band.z0 + bz * B < b[2]; ++bz)
+            for (uint64_t by = a[1] / B; by * B < b[1]; ++by)
+                for (uint64_t bx = a[0] / B; bx * B < b[0]; ++bx) {
+                    const size_t i = size_t(bz * band.perSlab() + (by - band.firstRow) * band.gridX + bx);
+                    covered[i] += overlap(0, bx * B) * overlap(1, by * B) * overlap(2, band.z0 + bz * B);
+                    label[i] = !valid || (label[i] != kUnset && label[i] != box.value) ? kScanBrick : box.value;
+                }
+    }
+    for (uint64_t i = 0; i < band.count(); ++i) {
+        const uint64_t k = i / band.perSlab(), by = band.firstRow + i % band.perSlab() / band.gridX,
+                       bx = i % band.gridX;
+        const uint64_t voxels = std::min<uint64_t>(B, vol.dim[0] - bx * B) * std::min<uint64_t>(B, vol.dim[1] - by * B) *
+                                std::min<uint64_t>(B, vol.dim[2] - (band.z0 + k * B));
+        if (label[size_t(i)] == kUnset || covered[size_t(i)] != voxels) label[size_t(i)] = kScanBrick;
+    }
+}
+
 /// Pass 1, band by band (bandShape): level hierarchy, operations and symbols of every brick,
-/// handed to `take(bz, slabSymbols)` slab by slab in order (bricks x fastest, then y).
+/// handed to `take(bz, slabSymbols)` slab by slab in order (bricks x fastest, then y). Bricks the
+/// source's uniform boxes cover (EncodeOptions::useUniformBoxes) are made by ConstantBricks; only
+/// the brick rows of a band that hold another brick are read, none when there is none.
 Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const EncodeOptions& options,
                      uint64_t maxBandBytes, const std::function<Status(uint32_t, std::vector<BrickSymbols>&)>& take) {
     const uint32_t B = vol.brickSize, W = vol.dim[0], H = vol.dim[1], D = vol.dim[2];
     const auto grid = vol.brickGrid();
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];
     const BandShape shape = bandShape(source, B, maxBandBytes);
+    // Allocated at the first read: a volume of uniform boxes never needs it.
     std::vector<uint32_t> band;
-    if (!source.slabInMemory(0)) {
-        const uint64_t bandVoxels = uint64_t(W) * shape.rows * B * shape.slabs;
-        try {
-            band.resize(size_t(bandVoxels));
-        } catch (const std::bad_alloc&) {
-            return Status::error("out of memory for a band of " + std::to_string(bandVoxels) + " labels");
-        }
-    }
+    const uint64_t bandVoxels = uint64_t(W) * shape.rows * B * shape.slabs;
     const uint64_t brickRowsPerBand = (shape.rows + B - 1) / B;
     const int nThreads =
         int(std::min<uint64_t>(uint64_t(threadsFor(options)), uint64_t(grid[0]) * brickRowsPerBand * shape.slabs));
     std::vector<std::vector<BrickSymbols>> symbols(shape.slabs);
+    std::vector<UniformBox> boxes;
+    std::vector<uint64_t> uniform, covered;
+    std::optional<ConstantBricks> constants;
     for (uint32_t bz0 = 0; bz0 < grid[2]; bz0 += shape.slabs) {
         const uint32_t slabs = std::min(shape.slabs, grid[2] - bz0);
         const uint32_t z0 = bz0 * B, depth = std::min(slabs * B, D - z0);
         for (uint32_t k = 0; k < slabs; ++k) symbols[k].assign(size_t(perSlab), BrickSymbols{});
         for (uint32_t y0 = 0; y0 < H; y0 += shape.rows) {
             const uint32_t rows = std::min(shape.rows, H - y0);
+            BandBricks bb;
+            bb.z0 = z0;
+            bb.depth = depth;
+            bb.y0 = y0;
+            bb.rows = rows;
+            bb.firstRow = y0 / B;
+            bb.rowsHere = (rows + B - 1) / B;
+            bb.slabs = slabs;
+            bb.gridX = grid[0];
+            const uint64_t bandBricks = bb.count();
+            // The rows to read: the brick rows holding a brick that no uniform box covers.
+            uint32_t readY0 = y0, readRows = rows;
+            boxes.clear();
+            if (options.useUniformBoxes) source.uniformBoxes(z0, depth, y0, rows, boxes);
+            if (boxes.empty()) {
+                uniform.assign(size_t(bandBricks), kScanBrick);
+            } else {
+                uniformBricks(boxes, bb, vol, uniform, covered);
+                uint64_t firstScan = bb.rowsHere, lastScan = 0;
+                for (uint64_t i = 0; i < bandBricks; ++i)
+                    if (uniform[size_t(i)] == kScanBrick) {
+                        const uint64_t r = i % bb.perSlab() / bb.gridX;
+                        firstScan = std::min(firstScan, r);
+                        lastScan = std::max(lastScan, r);
+                    }
+                if (firstScan == bb.rowsHere) readRows = 0;
+                else if (source.readsRows()) {
+                    readY0 = y0 + uint32_t(firstScan) * B;
+                    readRows = std::min(y0 + rows, y0 + uint32_t(lastScan + 1) * B) - readY0;
+                }
+                if (!constants && std::count(uniform.begin(), uniform.end(), kScanBrick) < std::ptrdiff_t(bandBricks))
+                    constants.emplace(vol, options.opMask);
+            }
             const uint32_t* bandData = source.slabInMemory(z0);
-            if (!bandData) {
-                Status s = rows == H ? source.readSlab(z0, depth, band.data())
-                                     : source.readRows(z0, depth, y0, rows, band.data());
+            if (bandData) {
+                readY0 = y0;
+                readRows = rows;
+            } else if (readRows > 0) {
+                if (band.empty()) {
+                    try {
+                        band.resize(size_t(bandVoxels));
+                    } catch (const std::bad_alloc&) {
+                        return Status::error("out of memory for a band of " + std::to_string(bandVoxels) + " labels");
+                    }
+                }
+                Status s = readRows == H ? source.readSlab(z0, depth, band.data())
+                                         : source.readRows(z0, depth, readY0, readRows, band.data());
                 if (!s) return s;
                 bandData = band.data();
             }
             // Bricks of the band: x fastest, then y, then the slab; errors reported for the first
             // brick in file order (slab, then y, then x).
-            const uint64_t firstRow = y0 / B, bandRowsHere = (rows + B - 1) / B;
-            const uint64_t bandBricks = uint64_t(grid[0]) * bandRowsHere * slabs;
+            const uint64_t firstRow = bb.firstRow, bandRowsHere = bb.rowsHere;
+            const auto brickOf = [&](uint64_t i, uint32_t& k, uint64_t& inSlab, std::array<uint32_t, 3>& extent) {
+                k = uint32_t(i / (grid[0] * bandRowsHere));
+                inSlab = firstRow * grid[0] + i % (grid[0] * bandRowsHere);
+                const uint32_t bx = uint32_t(inSlab % grid[0]), by = uint32_t(inSlab / grid[0]);
+                extent = {std::min(B, W - bx * B), std::min(B, H - by * B), std::min(B, D - (z0 + k * B))};
+            };
+            if (readRows == 0) {
+                // Every brick constant: copies of a template, cheaper than waking the workers
+                // (whose spinning at the region's end cost ten times the work on a busy machine).
+                for (uint64_t i = 0; i < bandBricks; ++i) {
+                    uint32_t k = 0;
+                    uint64_t inSlab = 0;
+                    std::array<uint32_t, 3> extent{};
+                    brickOf(i, k, inSlab, extent);
+                    constants->make(extent, uint32_t(uniform[size_t(i)]), symbols[k][size_t(inSlab)]);
+                }
+                continue;
+            }
             std::mutex mutex;
             Status error;
             uint64_t errorBrick = ~uint64_t(0);
@@ -460,18 +614,21 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
                 thrown.run([&] { enc.emplace(B, options.opMask); });
 #pragma omp for schedule(dynamic, 1)
                 for (int64_t i = 0; i < int64_t(bandBricks); ++i) {
-                    if (!enc) continue;
-                    const uint32_t k = uint32_t(uint64_t(i) / (grid[0] * bandRowsHere));
-                    const uint64_t inSlab = firstRow * grid[0] + uint64_t(i) % (grid[0] * bandRowsHere);
+                    uint32_t k = 0;
+                    uint64_t inSlab = 0;
+                    std::array<uint32_t, 3> extent{};
+                    brickOf(uint64_t(i), k, inSlab, extent);
                     const uint32_t bx = uint32_t(inSlab % grid[0]), by = uint32_t(inSlab / grid[0]);
                     const uint32_t zk = z0 + k * B;
-                    const std::array<uint32_t, 3> extent = {std::min(B, W - bx * B), std::min(B, H - by * B),
-                                                            std::min(B, D - zk)};
-                    const uint32_t* slabData = bandData + uint64_t(k) * B * rows * W;
+                    BrickSymbols& out = symbols[k][size_t(inSlab)];
+                    if (uniform[size_t(i)] != kScanBrick) {
+                        thrown.run([&] { constants->make(extent, uint32_t(uniform[size_t(i)]), out); });
+                        continue;
+                    }
+                    if (!enc) continue;
+                    const uint32_t* slabData = bandData + uint64_t(k) * B * readRows * W;
                     Status st;
-                    thrown.run([&] {
-                        st = enc->encode(slabData, W, rows, y0, bx * B, by * B, zk, extent, symbols[k][size_t(inSlab)]);
-                    });
+                    thrown.run([&] { st = enc->encode(slabData, W, readRows, readY0, bx * B, by * B, zk, extent, out); });
                     if (!st) {
                         std::lock_guard<std::mutex> lock(mutex);
                         const uint64_t order = uint64_t(k) * perSlab + inSlab;
@@ -721,6 +878,46 @@ uint64_t encoderBandBytes(const SlabSource& source, uint32_t brickSize, uint64_t
     return uint64_t(source.dimensions()[0]) * shape.rows * brickSize * shape.slabs * sizeof(uint32_t);
 }
 
+/// Bricks of a volume (saturating: 2^32 voxels a side in bricks of 8 would be 2^87).
+static uint64_t bricksOf(const std::array<uint32_t, 3>& dim, uint32_t brickSize) {
+    const uint64_t B = std::max<uint32_t>(brickSize, 1);
+    const auto along = [&](int a) { return (uint64_t(dim[a]) + B - 1) / B; };
+    return product3(along(0), along(1), along(2));
+}
+
+uint64_t encoderIndexBytes(const std::array<uint32_t, 3>& dim, uint32_t brickSize) {
+    return mulSaturate(8, bricksOf(dim, brickSize));
+}
+
+uint64_t automaticIndexLimit(std::string* why) {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    uint64_t memory = pages > 0 && page > 0 ? uint64_t(pages) * uint64_t(page) : ~uint64_t(0);
+    std::string what = "this machine's " + std::to_string(memory >> 20) + " MiB of memory";
+    struct rlimit rl {};
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && uint64_t(rl.rlim_cur) < memory) {
+        memory = uint64_t(rl.rlim_cur);
+        what = "the process's address-space limit of " + std::to_string(memory >> 20) + " MiB";
+    }
+    if (why) *why = "half of " + what;
+    return memory / 2;
+}
+
+Status checkEncoderIndex(const std::array<uint32_t, 3>& dim, uint32_t brickSize, uint64_t maxIndexBytes) {
+    std::string why = "the encoder's index limit";
+    const uint64_t limit = maxIndexBytes ? maxIndexBytes : automaticIndexLimit(&why);
+    const uint64_t need = encoderIndexBytes(dim, brickSize);
+    if (need <= limit) return Status::ok();
+    std::string larger;
+    for (uint32_t b = brickSize * 2; b <= 128 && larger.empty(); b *= 2)
+        if (const uint64_t n = encoderIndexBytes(dim, b); n <= limit)
+            larger = "; bricks of " + std::to_string(b) + "^3 need " + std::to_string(n) + " (--brick-size " +
+                     std::to_string(b) + ")";
+    return Status::error("a " + std::to_string(dim[0]) + "x" + std::to_string(dim[1]) + "x" + std::to_string(dim[2]) +
+                         " volume in bricks of " + std::to_string(brickSize) + "^3 needs " + std::to_string(need) +
+                         " bytes of brick index in memory (8 for each of its " + std::to_string(bricksOf(dim, brickSize)) +
+                         " bricks), more than the limit of " + std::to_string(limit) + " bytes (" + why + ")" + larger);
+}
+
 Status SlabSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
     if (y0 == 0 && rows == dimensions()[1]) return readSlab(z0, depth, out);
     return Status::error("this label source reads whole slices only");
@@ -835,6 +1032,7 @@ Status encodeToFileSteps(SlabSource& source, const EncodeOptions& options, const
     Result<CompressedVolume> made = newVolume(source, options);
     if (!made) return made.status();
     CompressedVolume& vol = *made;
+    if (Status s = checkEncoderIndex(vol.dim, vol.brickSize, fileOptions.maxIndexBytes); !s) return s;
     const uint64_t bricks = vol.brickCount();
     const auto grid = vol.brickGrid();
     const uint64_t perSlab = uint64_t(grid[0]) * grid[1];

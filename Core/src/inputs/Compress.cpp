@@ -105,8 +105,8 @@ private:
 /// reads of bounded size: sub-slabs of whole slices, or, where one slice at 8 bytes a voxel would
 /// pass the scratch's bound and the source reads rows, bands of rows as deep as its chunks (so no
 /// chunk is decoded twice, and a gzip source inflates each slab once).
-Status observeAll(InputSource& source, StreamingRelabeller& relabeller, Progress& progress,
-                  uint64_t& maxSourceWorking) {
+Status observeAll(InputSource& source, StreamingRelabeller& relabeller, const CompressOptions& options,
+                  Progress& progress, uint64_t& maxSourceWorking) {
     const auto& dim = source.info().dim;
     const uint64_t W = dim[0], slice = W * dim[1];
     const uint64_t budget = LabelSlabAdapter::kScratchBytes;
@@ -122,14 +122,30 @@ Status observeAll(InputSource& source, StreamingRelabeller& relabeller, Progress
         last = std::max(last, (double(z) + double(depth) * double(y + rows) / double(dim[1])) / double(dim[2]));
         return progress.report(last) ? Status::ok() : Status::error("cancelled");
     };
+    // What the source knows to be uniform is observed without reading (each box is first
+    // visited at its lowest corner: positions grow with x, y and z); a read covered whole by
+    // such boxes is skipped.
+    std::vector<UniformBox> boxes;
+    const auto knownUniform = [&](uint32_t z, uint32_t depth, uint32_t y, uint32_t rows) {
+        if (!options.encode.useUniformBoxes) return false;
+        source.uniformBoxes(z, depth, y, rows, boxes);
+        uint64_t voxels = 0;
+        for (const UniformBox& box : boxes) {
+            relabeller.observeUniform(box);
+            voxels += box.voxels();
+        }
+        return voxels == W * rows * depth;
+    };
     std::vector<uint64_t> scratch;
     if (!source.readsRows() || slice * sizeof(uint64_t) <= budget) {
         // Bounded scratch (one slice at least), and at least 16 reads so progress moves.
         const uint32_t step = std::min(subSlabDepth(slice, dim[2]), std::max(1u, (dim[2] + 15) / 16));
-        scratch.resize(size_t(slice * step));
         Status s = forEachSubSlab(0, dim[2], step, [&](uint32_t z, uint32_t depth) -> Status {
-            if (Status r = source.readSlab(z, depth, scratch.data()); !r) return r;
-            relabeller.observe(z, depth, scratch.data());
+            if (!knownUniform(z, depth, 0, dim[1])) {
+                scratch.resize(size_t(slice * step));
+                if (Status r = source.readSlab(z, depth, scratch.data()); !r) return r;
+                relabeller.observe(z, depth, scratch.data());
+            }
             return observed(z, depth, 0, dim[1]);
         });
         return s ? relabeller.finish() : s;
@@ -137,13 +153,15 @@ Status observeAll(InputSource& source, StreamingRelabeller& relabeller, Progress
     uint32_t depth = std::clamp<uint32_t>(source.info().chunkDepth, 1, dim[2]);
     if (W * depth * sizeof(uint64_t) > budget) depth = 1;
     const uint32_t rows = uint32_t(std::clamp<uint64_t>(budget / (W * depth * sizeof(uint64_t)), 1, dim[1]));
-    scratch.resize(size_t(W * rows * depth));
     for (uint32_t z = 0; z < dim[2]; z += depth) {
         const uint32_t d = std::min(depth, dim[2] - z);
         for (uint32_t y = 0; y < dim[1]; y += rows) {
             const uint32_t r = std::min(rows, dim[1] - y);
-            if (Status s = source.readRows(z, d, y, r, scratch.data()); !s) return s;
-            relabeller.observeBox({0, y, z}, {dim[0], r, d}, scratch.data());
+            if (!knownUniform(z, d, y, r)) {
+                scratch.resize(size_t(W * rows * depth));
+                if (Status s = source.readRows(z, d, y, r, scratch.data()); !s) return s;
+                relabeller.observeBox({0, y, z}, {dim[0], r, d}, scratch.data());
+            }
             if (Status s = observed(z, d, y, r); !s) return s;
         }
     }
@@ -213,6 +231,19 @@ Status LabelSlabAdapter::readSlab(uint32_t z0, uint32_t depth, uint32_t* out) {
 
 Status LabelSlabAdapter::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
     return readRegion(z0, depth, y0, rows, out);
+}
+
+void LabelSlabAdapter::uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows,
+                                    std::vector<UniformBox>& out) {
+    m_source.uniformBoxes(z0, depth, y0, rows, out);
+    size_t kept = 0;
+    for (const UniformBox& box : out) {
+        uint32_t label = 0;
+        if (m_relabeller ? !m_relabeller->toIds(&box.value, 1, &label) : !labelFitsFormat(box.value)) continue;
+        out[kept] = box;
+        out[kept++].value = m_relabeller ? label : box.value;
+    }
+    out.resize(kept);
 }
 
 Status LabelSlabAdapter::readRegion(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) {
@@ -300,6 +331,7 @@ Status encodePass(SlabSource& slabs, const CompressOptions& options, const std::
                   uint64_t& outputBytes) {
     EncodeToFileOptions fo;
     fo.maxOutputBytes = options.maxOutputBytes;
+    fo.maxIndexBytes = options.maxIndexBytes;
     fo.progress = [&progress](double f) { return progress.report(f); };
     return encodeToFile(slabs, options.encode, path, fo, &outputBytes);
 }
@@ -399,7 +431,7 @@ struct Job {
         uint64_t sourceWorking = 0;
         if (!progress.stage("relabelling", 0, kRelabellingShare)) return Status::error("cancelled");
         const auto t0 = std::chrono::steady_clock::now();
-        if (Status s = observeAll(*source, relabeller, progress, sourceWorking); !s) return s;
+        if (Status s = observeAll(*source, relabeller, options, progress, sourceWorking); !s) return s;
         rep.relabelSeconds = since(t0);
         rep.passes += 2;
         if (!progress.stage("encoding", kRelabellingShare, 1)) return Status::error("cancelled");
@@ -492,6 +524,9 @@ Status compress(InputSource* given, const std::string& input, const std::string&
     Job job(input, output, options, rep);
     if (Status s = job.open(given); !s) return s;
     rep.readSeconds = since(tStart);
+    // An index that cannot fit is refused now, not after a relabelling pass or the first slabs.
+    if (Status s = checkEncoderIndex(rep.dim, options.encode.brickSize, options.maxIndexBytes); !s)
+        return job.failed(s);
 
     // Labels kept in one optimistic pass unless relabelling is asked for or a label does not fit.
     auto t0 = std::chrono::steady_clock::now();

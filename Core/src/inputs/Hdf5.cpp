@@ -24,7 +24,14 @@
 ///   chunk's size (a crafted chunk that inflates further is an error naming it, where libhdf5's own
 ///   deflate filter grows its buffer until the stream ends: 1 MB reached 1 GB), and chunks never
 ///   written (H5Dget_chunk_info_by_coord; none at all: H5Dget_num_chunks) are the fill value
-///   without any read, so a volume of fill values costs the encoder's time only.
+///   without any read.
+/// - Fill values: voxels never written are the dataset's fill value (converted to the label type
+///   as libhdf5 converts it; 0 when none is defined) on every path. libhdf5 itself leaves them
+///   as the caller's buffer held them when the fill time is "never" or no fill value is defined,
+///   so readNative fills the buffer first. uniformBoxes lists the chunks never written (one
+///   index lookup each; the whole region when no chunk was written, or contiguous storage never
+///   allocated) as boxes of the fill value, which the encoder writes as constant bricks without
+///   reading them: a volume of fill values compresses in time per chunk and brick, not per voxel.
 /// - Working memory: decoded chunks are cached by us at their native width, within the budget
 ///   libhdf5's cache would have: one layer of chunks along z when that fits
 ///   InputOptions::maxWorkingBytes, so that chunks deeper than the caller's slab are not decoded
@@ -399,6 +406,7 @@ Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string
 struct Storage {
     std::string detail;       ///< "chunks 8x10x7, filters shuffle+gzip" or "contiguous"
     bool chunked = false;
+    bool contiguous = false;
     uint64_t chunkBytes = 0;
     uint64_t layerChunks = 0; ///< chunks one z range touches
     uint64_t rowChunks = 0;   ///< chunks one z range of one y range of chunks touches
@@ -447,6 +455,7 @@ Result<Storage> storageOf(hid_t dataset, const Axes& axes, hid_t fileType, const
     Storage s;
     const H5D_layout_t layout = H5Pget_layout(dcpl.get());
     if (layout != H5D_CHUNKED) {
+        s.contiguous = layout == H5D_CONTIGUOUS;
         s.detail = layout == H5D_COMPACT ? "compact" : layout == H5D_VIRTUAL ? "virtual" : "contiguous";
         return s;
     }
@@ -659,6 +668,12 @@ void floatsToIntegersInPlace(uint64_t* out, size_t n) {
 struct FillValue {
     uint64_t label = 0;
     std::string bad; ///< non-empty: why the fill value is no label (a float with a fraction)
+    bool defined = false; ///< a fill value is defined (by the writer or libhdf5's default 0)
+    /// libhdf5 leaves the caller's buffer as it was where storage was never written (fill time
+    /// "never", or no fill value defined): readNative fills it with `native` first, so that those
+    /// voxels are the fill value on every path, never what the buffer held before.
+    bool leftByLibhdf5 = false;
+    std::vector<uint8_t> native; ///< the fill value as one voxel of the read's memory type
 };
 
 /// @brief What openHdf5 learns about a dataset before reading it.
@@ -672,6 +687,9 @@ struct Description {
     /// Chunks written to the file: none means every voxel is the fill value, known without a
     /// query per chunk (a 1.4 KB file may declare 65536^3 voxels in 2^30 chunks).
     hsize_t writtenChunks = 0;
+    /// Contiguous storage never allocated (nothing written, no external file): every voxel is the
+    /// fill value too.
+    bool unallocated = false;
 };
 
 /// zlib's compressBound: the most bytes deflate can store `n` bytes in. A stored chunk larger than
@@ -773,7 +791,7 @@ public:
         : m_path(std::move(path)), m_name(std::move(name)), m_file(std::move(file)), m_dataset(std::move(dataset)),
           m_type(what.voxel), m_axes(std::move(what.axes)), m_storage(std::move(what.storage)),
           m_cacheBytes(cacheBytes), m_maxWorking(maxWorkingBytes), m_bigEndian(what.bigEndian),
-          m_fill(std::move(what.fill)), m_writtenChunks(what.writtenChunks) {
+          m_fill(std::move(what.fill)), m_writtenChunks(what.writtenChunks), m_unallocated(what.unallocated) {
         m_info = std::move(what.info);
         if (m_storage.ownDecoding && m_writtenChunks == 0) m_cacheBytes = 0;
     }
@@ -808,6 +826,44 @@ public:
         }
         if (Status s = readNative(z0, depth, y0, rows, out); !s) return s;
         return widen(z0, y0, rows, size_t(uint64_t(m_info.dim[0]) * rows * depth), out);
+    }
+
+    /// Chunks never written are the fill value (readChunks serves them so; libhdf5 does for the
+    /// pipelines it decodes, readNative seeing to it when libhdf5 would leave them alone): one
+    /// index lookup per chunk of the region (none when no chunk was written), runs along x
+    /// merged into one box. None when the fill value is no label (a float with a fraction: the
+    /// read names the voxel) or a lookup fails (the read says why).
+    void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override {
+        out.clear();
+        if (!checkRows(m_info, z0, depth, y0, rows, m_path) || depth == 0 || rows == 0 || !m_fill.bad.empty()) return;
+        const uint32_t W = m_info.dim[0], zEnd = z0 + depth, yEnd = y0 + rows;
+        if (m_unallocated || (m_storage.chunked && m_writtenChunks == 0)) {
+            out.push_back({{{0, y0, z0}}, {{W, yEnd, zEnd}}, m_fill.label});
+            return;
+        }
+        if (!m_storage.chunked) return;
+        const uint64_t cz = m_storage.chunkZ, cy = m_storage.chunkY, cx = m_storage.chunkX;
+        Hdf5Scope scope;
+        for (uint64_t kz = z0 / cz; kz * cz < zEnd; ++kz)
+            for (uint64_t ky = y0 / cy; ky * cy < yEnd; ++ky) {
+                const uint32_t za = uint32_t(std::max<uint64_t>(z0, kz * cz)), zb = uint32_t(std::min<uint64_t>(zEnd, (kz + 1) * cz));
+                const uint32_t ya = uint32_t(std::max<uint64_t>(y0, ky * cy)), yb = uint32_t(std::min<uint64_t>(yEnd, (ky + 1) * cy));
+                uint64_t run = ~uint64_t(0); // where the current run of unwritten chunks starts
+                for (uint64_t kx = 0; kx * cx < W; ++kx) {
+                    Result<bool> written = chunkWritten({kz, ky, kx});
+                    if (!written) {
+                        H5Eclear2(H5E_DEFAULT);
+                        out.clear();
+                        return;
+                    }
+                    if (!*written && run == ~uint64_t(0)) run = kx * cx;
+                    if (*written && run != ~uint64_t(0)) {
+                        out.push_back({{{uint32_t(run), ya, za}}, {{uint32_t(kx * cx), yb, zb}}, m_fill.label});
+                        run = ~uint64_t(0);
+                    }
+                }
+                if (run != ~uint64_t(0)) out.push_back({{{uint32_t(run), ya, za}}, {{W, yb, zb}}, m_fill.label});
+            }
     }
 
     uint64_t workingBytes() const override { return m_cacheBytes; }
@@ -905,14 +961,32 @@ private:
         std::vector<uint8_t> data;
     };
 
-    /// Reads chunk `at` raw, refusing (naming it) stored bytes beyond what any filter of a chunk
-    /// can need: deflate's bound, a fletcher32 checksum, and a KiB of filter headers.
-    Status readRawChunk(const std::array<uint64_t, 3>& at, RawChunk& raw) {
+    /// The file offset of the chunk at chunk coordinates (z, y, x), in the file's axes.
+    std::vector<hsize_t> chunkOffset(const std::array<uint64_t, 3>& at) const {
         std::vector<hsize_t> offset(m_storage.chunk.size(), 0);
         const size_t z = size_t(m_axes.zAxis);
         offset[z] = at[0] * m_storage.chunkZ;
         offset[z + 1] = at[1] * m_storage.chunkY;
         offset[z + 2] = at[2] * m_storage.chunkX;
+        return offset;
+    }
+
+    /// Whether the chunk at chunk coordinates (z, y, x) was written (an index lookup, no read).
+    Result<bool> chunkWritten(const std::array<uint64_t, 3>& at) {
+        const std::vector<hsize_t> offset = chunkOffset(at);
+        unsigned mask = 0;
+        haddr_t addr = HADDR_UNDEF;
+        hsize_t stored = 0;
+        if (H5Dget_chunk_info_by_coord(m_dataset.get(), offset.data(), &mask, &addr, &stored) < 0)
+            return Status::error(hdf5Message());
+        return addr != HADDR_UNDEF;
+    }
+
+    /// Reads chunk `at` raw, refusing (naming it) stored bytes beyond what any filter of a chunk
+    /// can need: deflate's bound, a fletcher32 checksum, and a KiB of filter headers.
+    Status readRawChunk(const std::array<uint64_t, 3>& at, RawChunk& raw) {
+        const std::vector<hsize_t> offset = chunkOffset(at);
+        const size_t z = size_t(m_axes.zAxis);
         raw.where = "the chunk at (x " + std::to_string(offset[z + 2]) + ", y " + std::to_string(offset[z + 1]) +
                     ", z " + std::to_string(offset[z]) + ")";
         unsigned mask = 0;
@@ -1042,6 +1116,11 @@ private:
         start[z + 1] = y0;
         count[z + 1] = rows;
         count[z + 2] = m_info.dim[0];
+        if (m_fill.leftByLibhdf5) { // what libhdf5 leaves alone is the fill value, not the buffer's past
+            const size_t w = m_fill.native.size(), n = size_t(uint64_t(m_info.dim[0]) * rows * depth);
+            auto* bytes = reinterpret_cast<uint8_t*>(out);
+            for (size_t i = 0; i < n; ++i) std::memcpy(bytes + i * w, m_fill.native.data(), w);
+        }
         // The memory space has the selection's shape: HDF5 then maps chunks to memory by blocks
         // (a 1D memory space made it map element by element, at a fifth of the speed).
         Handle fileSpace(H5Dget_space(m_dataset.get()), H5Sclose);
@@ -1098,6 +1177,7 @@ private:
     bool m_bigEndian = false;
     FillValue m_fill;
     hsize_t m_writtenChunks = 0;
+    bool m_unallocated = false;
     // Chunks we decoded (Storage::ownDecoding), least recently used first in m_lru.
     std::map<std::array<uint64_t, 3>, Chunk> m_chunks;
     std::list<std::array<uint64_t, 3>> m_lru;
@@ -1159,15 +1239,24 @@ Status checkExternalFiles(hid_t dataset, const std::string& file, const std::str
     return Status::ok();
 }
 
-/// The dataset's fill value as a label (0 where none is defined, as libhdf5 reads then).
-FillValue fillValueOf(hid_t dataset, LabelType type) {
+/// The dataset's fill value as a label (0 where none is defined), and whether libhdf5 leaves
+/// voxels never written alone when it reads them: with fill time "never" (checked: a buffer
+/// filled with 99 beforehand still holds 99 there), or without a defined fill value.
+FillValue fillValueOf(hid_t dataset, const VoxelType& voxel) {
+    const LabelType type = voxel.type;
     FillValue f;
+    f.native.assign(H5Tget_size(voxel.memType), 0);
     Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
     H5D_fill_value_t defined = H5D_FILL_VALUE_UNDEFINED;
+    H5D_fill_time_t time = H5D_FILL_TIME_IFSET;
     if (!dcpl.valid() || H5Pfill_value_defined(dcpl.get(), &defined) < 0 || defined == H5D_FILL_VALUE_UNDEFINED) {
         H5Eclear2(H5E_DEFAULT);
+        f.leftByLibhdf5 = true;
         return f;
     }
+    f.defined = true;
+    f.leftByLibhdf5 = H5Pget_fill_time(dcpl.get(), &time) >= 0 && time == H5D_FILL_TIME_NEVER;
+    if (H5Pget_fill_value(dcpl.get(), voxel.memType, f.native.data()) < 0) std::fill(f.native.begin(), f.native.end(), 0);
     if (type == LabelType::F32 || type == LabelType::F64) {
         double v = 0;
         int64_t iv = 0;
@@ -1205,11 +1294,19 @@ Result<Description> describe(hid_t dataset, const std::string& file, const std::
     d.axes = std::move(*axes);
     d.storage = std::move(*storage);
     d.bigEndian = H5Tget_order(type.get()) == H5T_ORDER_BE;
-    d.fill = fillValueOf(dataset, d.voxel.type);
+    d.fill = fillValueOf(dataset, d.voxel);
     if (d.storage.chunked) {
         if (H5Dget_num_chunks(dataset, space.get(), &d.writtenChunks) < 0)
             return Status::error("cannot count the chunks of " + name + ": " + hdf5Message());
         if (d.writtenChunks == 0) d.storage.detail += ", no chunk written (every voxel is the fill value)";
+    } else if (d.storage.contiguous && d.fill.defined) {
+        // libhdf5 refuses to read unallocated storage without a defined fill value: not uniform then.
+        H5D_space_status_t status = H5D_SPACE_STATUS_ERROR;
+        Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+        d.unallocated = dcpl.valid() && H5Pget_external_count(dcpl.get()) == 0 &&
+                        H5Dget_space_status(dataset, &status) >= 0 && status == H5D_SPACE_STATUS_NOT_ALLOCATED;
+        H5Eclear2(H5E_DEFAULT);
+        if (d.unallocated) d.storage.detail += ", never written (every voxel is the fill value)";
     }
 
     const std::vector<hsize_t>& dims = d.axes.dims;

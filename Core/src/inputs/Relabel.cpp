@@ -80,6 +80,11 @@ std::vector<std::pair<uint64_t, VisitPosition>> StreamingRelabeller::firstVisits
     return out;
 }
 
+void StreamingRelabeller::observeUniform(const UniformBox& box) {
+    if (box.voxels() == 0) return;
+    takeFirstVisit(box.value, visitPosition(box.lo[0], box.lo[1], box.lo[2], m_shift));
+}
+
 void StreamingRelabeller::takeFirstVisit(uint64_t value, const VisitPosition& position) {
     if (value == 0) return;
     auto ins = m_entries.try_emplace(value, Entry{position, 0});

@@ -12,6 +12,8 @@ time than its size suggests:
 - slices.tif: 2048 x 1100 x 20 uint16, a format read in whole slices only (150 labels)
 - bomb.h5: a 64^3 uint8 dataset in one chunk whose gzip stream inflates to 1 GiB
 - fill_only.h5, fill_16384.h5: 65536^3 and 16384^3 uint8 chunked, no chunk written (fill value 7)
+- fill_4096.h5: 4096^3 uint32 in chunks of 64^3, no chunk written (fill value 7): 2^36 voxels in
+  1.4 KB, compressed in time per brick (2^21 bricks of 32^3)
 - inside/external.h5: a dataset whose raw data is an external file outside the HDF5 file's
   folder (named absolutely, so that libhdf5 finds it from any working directory)
 - inside/external_inside.h5: the same with its external file beside it, named relatively
@@ -103,6 +105,8 @@ def main():
         with h5py.File(p(name), "w") as f:
             f.create_dataset("labels", shape=(n, n, n), dtype=np.uint8, chunks=(64, 64, 64), compression="gzip",
                              fillvalue=7)
+    with h5py.File(p("fill_4096.h5"), "w") as f:
+        f.create_dataset("labels", shape=(4096, 4096, 4096), dtype=np.uint32, chunks=(64, 64, 64), fillvalue=7)
 
     outside = os.path.join(out, "elsewhere")
     os.makedirs(os.path.join(out, "inside"), exist_ok=True)

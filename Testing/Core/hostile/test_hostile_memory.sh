@@ -50,9 +50,31 @@ expect_bounded 0 300 20 "" "info of a 65536^3 volume of fill values" "$CSGV" inf
 grep -q "no chunk written (every voxel is the fill value)" "$TMP/out" && grep -qx "labels: 1" "$TMP/out" \
   || bad "info of the fill-only volume: $(cat "$TMP/out")"
 
-# Compressing a wide volume of fill values reports progress between the encoder's slabs (a slab
-# of 16384^2 x 32 voxels takes minutes), so an interrupt ends it at once. 65536^3 (2^48 voxels)
-# stays out of reach in time: it progresses and cancels too, but the encoder's band alone is 268 MB.
+# A volume of fill values compresses in time per brick, not per voxel: chunks never written are
+# not read, their bricks are written constant (4096^3: 2^21 bricks in 1.3 to 2 s here, 515 s when
+# every voxel was read), and it decodes to the fill value (level 5: one voxel a brick).
+expect_bounded 0 300 10 "" "compress of a 4096^3 fill-only HDF5 within seconds and 300 MiB" \
+  "$CSGV" compress "$FX/fill_4096.h5" "$TMP/fill4096.csgv" --threads 2 --quiet
+expect 0 "decompress the 4096^3 fill-only volume at level 5" \
+  "$CSGV" decompress "$TMP/fill4096.csgv" "$TMP/fill4096.nrrd" --level 5
+"$PY" -c "import sys; d = open(sys.argv[1], 'rb').read(); b = d[d.index(b'\n\n') + 2:]
+sys.exit(0 if len(b) == 4 * 128**3 and b == (7).to_bytes(4, 'little') * 128**3 else 1)" "$TMP/fill4096.nrrd" \
+  || bad "the 4096^3 fill-only volume does not decode to 128^3 sevens at level 5"
+rm -f "$TMP/fill4096.csgv" "$TMP/fill4096.nrrd"
+
+# A brick index that cannot fit is refused at once, naming the file, the dimensions, the bytes
+# and the limit: 65536^3 in bricks of 32 is 2^33 bricks, 64 GiB of index (the encoder's only
+# per-brick memory for the whole volume, 8 bytes a brick); under a 800 MiB ceiling, 16384^3 (1 GiB)
+# is refused too, with the brick size that fits.
+expect_bounded 1 300 5 "fill_only\.h5: a 65536x65536x65536 volume in bricks of 32\^3 needs 68719476736 bytes of brick index in memory \(8 for each of its 8589934592 bricks\), more than the limit of 157286400 bytes \(half of the process's address-space limit of 300 MiB\)\$" \
+  "compress of a 65536^3 fill-only HDF5 refused at once" \
+  "$CSGV" compress "$FX/fill_only.h5" "$TMP/huge.csgv" --threads 2 --quiet
+expect_bounded 1 800 5 "fill_16384\.h5: a 16384x16384x16384 volume in bricks of 32\^3 needs 1073741824 bytes .* more than the limit of 419430400 bytes \(half of the process's address-space limit of 800 MiB\); bricks of 64\^3 need 134217728 \(--brick-size 64\)" \
+  "compress of a 16384^3 fill-only HDF5 under 800 MiB refused at once, naming a brick size that fits" \
+  "$CSGV" compress "$FX/fill_16384.h5" "$TMP/huge.csgv" --threads 2 --quiet
+ls "$TMP" | grep -q "^huge\.csgv" && bad "a refused compression left $(ls "$TMP" | grep '^huge\.csgv')"
+
+# 16384^3 in bricks of 64 (2^24 bricks, tens of seconds) progresses and an interrupt ends it at once.
 expect_cancel() {
   local mib=$1 what=$2; shift 2
   local before=$fails
@@ -62,7 +84,7 @@ expect_cancel() {
     || bad "$what: no cancel message: $(cat "$TMP/err")"
 }
 expect_cancel 800 "compress of a 16384^3 fill-only HDF5 is cancelled at once" \
-  "$CSGV" compress "$FX/fill_16384.h5" "$TMP/fill.csgv" --threads 2
+  "$CSGV" compress "$FX/fill_16384.h5" "$TMP/fill.csgv" --threads 2 --brick-size 64
 ls "$TMP" | grep -q "^fill\.csgv" && bad "the cancelled compression left $(ls "$TMP" | grep '^fill\.csgv')"
 
 # External storage may name any file: outside the HDF5 file's folder it is refused (naming it)

@@ -228,6 +228,57 @@ def main():
         d[0:4, 0:4, 0:4] = b[0:4, 0:4, 0:4]
         expect(outdir, "fill_negative", b)
 
+    # A few chunks written among many never written (the encoder's constant-region path,
+    # Hdf5Uniform): chunks that divide bricks of 8 and 16 and chunks that divide no brick; fill
+    # values 0, 7, negative and float; pipelines we decode (none, gzip, shuffle) and one libhdf5
+    # decodes (scaleoffset); fill time "never" on both (libhdf5 leaves those voxels alone: they are
+    # the fill value all the same); contiguous storage never written. 45 x 50 x 70 voxels cut
+    # bricks of 8, 16 and 32 at every far end.
+    shape = (45, 50, 70)
+    with h5py.File(p("uniform.h5"), "w") as f:
+        def partly(name, dtype, chunks, fill, never=False, **kw):
+            if never:  # h5py 3.7 has no fill_time: the low-level API
+                dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+                dcpl.set_chunk(chunks)
+                dcpl.set_fill_time(h5py.h5d.FILL_TIME_NEVER)
+                dcpl.set_fill_value(np.array(fill, dtype))
+                if kw.get("scaleoffset") is not None:
+                    dcpl.set_scaleoffset(h5py.h5z.SO_INT, h5py.h5z.SO_INT_MINBITS_DEFAULT)
+                else:
+                    dcpl.set_deflate(4)
+                h5py.h5d.create(f.id, name.encode(), h5py.h5t.py_create(np.dtype(dtype)),
+                                h5py.h5s.create_simple(shape), dcpl=dcpl)
+                d = f[name]
+            else:
+                d = f.create_dataset(name, shape=shape, dtype=dtype, chunks=chunks, fillvalue=fill, **kw)
+            a = np.full(shape, fill, dtype)
+            cz, cy, cx = chunks
+            regions = [
+                (slice(0, 10), slice(0, 12), slice(0, 20)),                       # varied labels
+                (slice(cz, 2 * cz), slice(cy, 2 * cy), slice(2 * cx, 3 * cx)),   # a chunk of the fill value, written
+                (slice(30, 45), slice(34, 50), slice(40, 70)),                     # another label, constant
+            ]
+            a[regions[0]] = blocky((10, 12, 20), 3, 41, 1, 120, dtype)
+            a[regions[2]] = 9
+            for r in regions:
+                if never:  # whole chunks: the rest of a chunk written in part is not the fill value
+                    r = tuple(slice(q.start // c * c, min(n, -(-q.stop // c) * c)) for q, c, n in zip(r, chunks, shape))
+                d[r] = a[r]
+            expect(outdir, "uniform_" + name, a)
+        partly("aligned0", np.uint32, (16, 16, 16), 0, compression="gzip")
+        partly("odd7", np.uint32, (12, 20, 24), 7, compression="gzip", shuffle=True)
+        partly("big7", np.uint16, (40, 40, 40), 7)
+        partly("negative", np.int16, (16, 16, 16), -3, compression="gzip")
+        partly("float4", np.float32, (10, 10, 10), 4.0, compression="gzip")
+        partly("scaleoffset5", np.uint16, (16, 16, 16), 5, scaleoffset=0)
+        partly("never7", np.uint32, (16, 16, 16), 7, never=True)
+        partly("never_scaleoffset7", np.uint16, (16, 16, 16), 7, never=True, scaleoffset=0)
+        f.create_dataset("contiguous11", shape=shape, dtype=np.uint8, fillvalue=11)
+        expect(outdir, "uniform_contiguous11", np.full(shape, 11, np.uint8))
+        # A fill value that is no label: nothing is uniform, reading a chunk never written fails.
+        d = f.create_dataset("fill_fraction", shape=shape, dtype=np.float32, chunks=(16, 16, 16), fillvalue=2.5)
+        d[0:16, 0:16, 0:16] = 1
+
     # External storage: raw data in a file beside the HDF5 file (named relatively: allowed), and
     # in a folder beside the fixtures' (named absolutely: outside, refused unless allowed).
     ext = os.path.join(outdir, "external")

@@ -14,15 +14,20 @@
 /// - header[1..L-1] of modes 1 and 2 hold the pre-entropy (nibble) level starts, as in mode 0.
 /// - Bricks go into one encoding array while they fit in 2^29 words; otherwise into the fewest
 ///   arrays of a constant brick count that each fit.
+/// - Bricks a source knows to hold one label without reading them (SlabSource::uniformBoxes: an
+///   HDF5 chunk never written) are copied from a constant brick encoded once per brick extent,
+///   with the same bytes as encoding their voxels: a volume of fill values costs time per brick.
 
 #include "csgv/codec/Container.h"
 #include "csgv/codec/LabelVolume.h"
 #include "csgv/codec/Partition.h"
+#include "csgv/base/UniformBox.h"
 
 #include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace csgv {
 
@@ -57,6 +62,11 @@ struct EncodeOptions {
     /// Tables come from what it returns (unless fixedTables), so every piece's bricks get the
     /// words they get in the whole volume's encoding. Not called when pass 1 fails.
     std::function<Result<SymbolCounts>(const SymbolCounts&)> shareCounts;
+    /// Trust SlabSource::uniformBoxes: a brick they cover whole with one label is written as the
+    /// constant brick of that label and extent without reading or scanning its voxels, and a band
+    /// of rows whose bricks are all such is not read. The bytes are those of reading every voxel
+    /// (false: the tests compare the two).
+    bool useUniformBoxes = true;
 };
 
 /// @brief Labels delivered slab by slab: z-slabs of brickSize slices (fewer at the end), x fastest.
@@ -82,6 +92,14 @@ public:
     virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out);
     /// Sources already in memory return slice z0's labels here, saving readSlab's copy.
     virtual const uint32_t* slabInMemory(uint32_t /*z0*/) const { return nullptr; }
+    /// Boxes of rows [y0, y0 + rows) of slices [z0, z0 + depth) known to hold one label each
+    /// (UniformBox::value a label), without reading: put in `out`, disjoint, inside the region
+    /// (InputSource::uniformBoxes's contract, with labels). The encoder asks before reading each
+    /// band. The default lists none.
+    virtual void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) {
+        (void)z0, (void)depth, (void)y0, (void)rows;
+        out.clear();
+    }
 };
 
 /// Parses "default" (pnls), "all" (pnlds) or letters p, x, y, z, n, l, d, s into an operation mask.
@@ -104,14 +122,36 @@ struct EncodeToFileOptions {
     /// Called after each slab of bricks and while writing, with the fraction done (0..1);
     /// returning false cancels (nothing is left at `path`).
     std::function<bool(double fraction)> progress;
+    /// Bound on the brick index (encoderIndexBytes), checked before any work. 0: automatic, half
+    /// the smaller of the machine's memory and the process's address-space limit (ulimit -v).
+    uint64_t maxIndexBytes = 0;
 };
+
+/// Bytes of the per-brick state encodeToFile holds for the whole volume whatever its labels: each
+/// brick's word count, then its start in the file, 4 bytes each and both at once while the
+/// encoding arrays are laid out (8 bytes a brick). 65536^3 voxels in bricks of 32^3 are 2^33
+/// bricks: 64 GiB.
+uint64_t encoderIndexBytes(const std::array<uint32_t, 3>& dim, uint32_t brickSize);
+/// The limit maxIndexBytes = 0 stands for, and how it is worded in messages ("half of ...").
+uint64_t automaticIndexLimit(std::string* why = nullptr);
+/// Refuses, before any work, a volume whose brick index passes `maxIndexBytes` (0: automatic), in
+/// one line naming the dimensions, the bytes needed, the limit and a brick size that would fit.
+Status checkEncoderIndex(const std::array<uint32_t, 3>& dim, uint32_t brickSize, uint64_t maxIndexBytes = 0);
 
 /// Encodes from a slab source straight into a `.csgv` file at `path` (written under a temporary
 /// name and renamed), giving the bytes writeCsgv(encodeVolume(...)) gives. Unlike encodeVolume,
 /// the compressed volume is never in memory at once: memory is one band of labels (a slab unless
-/// the source readsRows), the held symbols (serialized, bounded by heldSymbolBytes), one slab of
-/// bricks' symbols and words and 4 bytes a brick; the rest passes through two scratch files
-/// beside the output, unlinked while open.
+/// the source readsRows; none while every band is uniform), the held symbols (serialized, bounded
+/// by heldSymbolBytes), one slab of bricks' symbols and words, and the brick index, 8 bytes a
+/// brick of the whole volume (encoderIndexBytes; refused before any work past maxIndexBytes); the
+/// rest passes through two scratch files beside the output, unlinked while open.
+///
+/// Per brick, on a volume of one label (every brick constant: the least a volume costs; bricks
+/// of 32^3, rans2, measured): 8 bytes of index; 49 bytes of held symbols until heldSymbolBytes,
+/// then in the scratch file; about 350 bytes a brick of one slab (its BrickSymbols in pass 1, its
+/// symbols and words in pass 2: a 32768 x 32768 slab of 2^20 bricks is 360 MiB); 36 bytes of words
+/// in the second scratch file and 40 in the output. Peaks: 4096^3 (2^21 bricks) 150 MiB, 8192^3
+/// 290 MiB (the held symbols spill past 256 MiB), 65536^3 refused (64 GiB of index).
 Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std::string& path,
                     const EncodeToFileOptions& fileOptions = {}, uint64_t* outputBytes = nullptr);
 

@@ -20,7 +20,11 @@
 /// (kScratchBytes; at least one slice at 8 bytes a voxel for an input that does not read rows,
 /// else one row) + the source's working set (InputSource::workingBytes) + the label map when
 /// relabelling (about 50 bytes a label; its first pass reads within kScratchBytes the same way)
-/// + what encodeToFile holds for the output. Progress is reported after every read of the
+/// + what encodeToFile holds for the output (Encoder.h: 8 bytes a brick of index, checked as soon as
+/// the input is open against CompressOptions::maxIndexBytes, and bounded per-slab state). Regions
+/// the input knows to hold one value (InputSource::uniformBoxes: HDF5 chunks never written) are
+/// neither read nor scanned, in either pass: a volume of fill values costs time per brick, and no
+/// band of labels at all. Progress is reported after every read of the
 /// input (LabelSlabAdapter::onRead) as well as after each slab of bricks, and long reads inside
 /// the input ask whether to go on (InputSource::setKeepGoing), so a cancel is seen between them.
 
@@ -53,6 +57,9 @@ struct CompressOptions {
     CompressProgress progress;
     bool relabel = false;                          ///< force dense relabelling
     uint64_t maxOutputBytes = uint64_t(64) << 30;
+    /// Bound on the encoder's brick index (EncodeToFileOptions::maxIndexBytes; 0: automatic),
+    /// checked as soon as the input is open, before any voxel is read.
+    uint64_t maxIndexBytes = 0;
 };
 
 /// @brief What a compression did. dim, inputFormat, originalType and voxels are filled as soon as
@@ -95,6 +102,11 @@ public:
     bool readsRows() const override { return m_source.readsRows(); }
     uint32_t chunkDepth() const override { return m_source.info().chunkDepth; }
     Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint32_t* out) override;
+    /// The source's uniform boxes (InputSource::uniformBoxes) with their values made labels as
+    /// readRows makes them (ids through the relabeller). A value that is no label (negative,
+    /// wider than 32 bits, 0xFFFFFFFF, unknown to the relabeller) drops its box: the read then
+    /// meets it and fails as it would have (misfit()).
+    void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override;
     /// Called after every read of the source with the fraction of the volume's voxels read so far
     /// in the encoder's order (slab after slab, bands of rows within); returning false cancels
     /// (the read fails with "cancelled"). The encoder reports progress once per slab of bricks,

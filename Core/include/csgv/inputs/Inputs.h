@@ -11,6 +11,7 @@
 #include "csgv/base/Checked.h"
 #include "csgv/base/Geometry.h"
 #include "csgv/base/Status.h"
+#include "csgv/base/UniformBox.h"
 
 #include <array>
 #include <cstdint>
@@ -101,6 +102,18 @@ public:
     /// only. A chunked source read in bands of whole chunk layers (z0 and depth multiples of
     /// info().chunkDepth, or reaching the last slice) may keep just the chunks of one band.
     virtual Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out);
+    /// Boxes of rows [y0, y0 + rows) of slices [z0, z0 + depth) (all of x) that hold one value
+    /// each, known without reading a voxel: put in `out` (replacing what it held), disjoint,
+    /// inside the region, each with the full-width value readRows gives there. Listing none is
+    /// always right (the default: "don't know"); a source lists what it knows for about one
+    /// lookup per chunk, never per voxel (HDF5: chunks never written are the fill value). A
+    /// source that cannot tell (an error looking up a chunk) lists none; its read then says
+    /// what is wrong. The encoder writes the bricks they cover without reading them
+    /// (SlabSource::uniformBoxes), so a volume of fill values costs time per brick, not per voxel.
+    virtual void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) {
+        (void)z0, (void)depth, (void)y0, (void)rows;
+        out.clear();
+    }
     /// Bytes of caches held between calls (for reports and the memory tests).
     virtual uint64_t workingBytes() const { return 0; }
     /// Reads that take long inside one call (a gzip source inflating a slab before serving its

@@ -61,6 +61,10 @@ public:
     /// Pass 1 over a box of the volume: `size` voxels from `lo`, x fastest (a piece of a volume
     /// relabelled in pieces, one relabeller each; see firstVisits).
     void observeBox(const std::array<uint32_t, 3>& lo, const std::array<uint32_t, 3>& size, const uint64_t* values);
+    /// Pass 1 over a box known to hold one value (InputSource::uniformBoxes), without its voxels:
+    /// visiting positions grow with each coordinate, so the box is first visited at its lowest
+    /// corner.
+    void observeUniform(const UniformBox& box);
     /// @brief Relabelling in pieces: each piece's relabeller observes its box, one relabeller
     /// takes every piece's first visits (takeFirstVisit) and finishes; the others take its
     /// originalBits (useIds) for their own labels. The ids are those of one relabeller seeing all.
