@@ -90,6 +90,22 @@ inline void readSlices(csgv::InputSource& source, const std::string& path, uint6
         FUZZ_REQUIRE(s.isOk() || namesPath(s.message(), path));
         if (s) FUZZ_REQUIRE(buffer == first);
     }
+    // The boxes the source says hold one value (HDF5: chunks never written): inside the first
+    // slice's region, disjoint, and what the read gave there.
+    if (firstRead) {
+        std::vector<csgv::UniformBox> boxes;
+        source.uniformBoxes(0, 1, 0, info.dim[1], boxes);
+        std::vector<uint8_t> covered(slice, 0);
+        for (const csgv::UniformBox& b : boxes) {
+            FUZZ_REQUIRE(b.lo[2] == 0 && b.hi[2] == 1 && b.hi[0] <= info.dim[0] && b.hi[1] <= info.dim[1]);
+            for (uint32_t y = b.lo[1]; y < b.hi[1]; ++y)
+                for (uint32_t x = b.lo[0]; x < b.hi[0]; ++x) {
+                    const uint64_t i = uint64_t(y) * info.dim[0] + x;
+                    FUZZ_REQUIRE(!covered[i] && first[i] == b.value);
+                    covered[i] = 1;
+                }
+        }
+    }
     // Bands of rows, where the source reads them cheaply (chunked formats).
     if (source.readsRows() && info.dim[1] > 1) {
         const uint32_t rows = (info.dim[1] + 1) / 2;

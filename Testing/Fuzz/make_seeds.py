@@ -134,6 +134,19 @@ def hdf5s():
         seed('hdf5', name + '.bin', bytes([path | ((i % 4) << 2)]) + h5_bytes(build))
     seed('hdf5', 'earliest_plain.bin', bytes([1 | (1 << 2)]) + h5_bytes(plain, libver='earliest'), limit=12288)
     seed('hdf5', 'root_group.bin', bytes([3]) + h5_bytes(grouped))
+    # Chunks never written are the fill value (InputSource::uniformBoxes): none written, and some.
+    seed('hdf5', 'fill_only.bin', bytes([0 | (1 << 2)]) + h5_bytes(fill_only))
+    seed('hdf5', 'partly_written.bin', bytes([0 | (2 << 2)]) + h5_bytes(partly_written))
+
+
+def fill_only(f):
+    f.create_dataset('data', shape=(6, 8, 10), chunks=(2, 4, 4), dtype=np.uint32, fillvalue=7)
+
+
+def partly_written(f):
+    d = f.create_dataset('data', shape=(6, 8, 10), chunks=(2, 4, 4), dtype=np.int16, fillvalue=-3,
+                         compression='gzip')
+    d[0:2, 0:4, 4:8] = blocky((2, 4, 4), np.int16, 0, 9)
 
 
 # ---- metadata: the .csgv.json text ----------------------------------------------------------------
