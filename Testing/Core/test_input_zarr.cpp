@@ -6,6 +6,7 @@
 #include "TestData.h"
 
 #include "csgv/codec/Container.h"
+#include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/inputs/Compress.h"
 #include "csgv/inputs/Inputs.h"
@@ -119,6 +120,66 @@ TEST(ZarrInput, MissingChunksAreFillValue) {
     expectFixture("missing_fill0.zarr", LabelType::U32, {{8, 8, 8}}, "zlib");
     expectFixture("missing_fill7.zarr", LabelType::U32, {{8, 8, 8}}, "zlib");
     EXPECT_EQ(expectedValues("missing_fill7.zarr")[0], 7u);
+}
+
+TEST(ZarrInput, MissingChunksAreUniformBoxesThatCompressToTheBytesOfReadingThem) {
+    // The chunks with no file are listed as boxes of fill_value (issue 37, item 4: a .zarray that
+    // names a huge array and no chunk took time per voxel), and the encoder writes what reading
+    // every voxel writes. An array of 32 x 24 x 16 in raw chunks of 8^3, three of its 24 chunks
+    // written, fill_value 5, in bricks of 8 (chunks and bricks coincide) and 16 (a brick holds
+    // written and missing chunks, or only missing ones).
+    std::unique_ptr<InputSource> src = openOk("missing_fill7.zarr");
+    ASSERT_TRUE(src);
+    std::vector<csgv::UniformBox> boxes;
+    src->uniformBoxes(0, 8, 0, 8, boxes);
+    uint64_t voxels = 0;
+    for (const csgv::UniformBox& b : boxes) {
+        EXPECT_EQ(b.value, 7u);
+        voxels += b.voxels();
+    }
+    EXPECT_EQ(voxels, 3u * 64u); // its three missing chunks of 4^3
+
+    const std::string dir = csgvtest::tempDir() + "/zarr-uniform";
+    const std::string array = dir + "/sparse.zarr";
+    std::filesystem::create_directories(array);
+    std::ofstream(array + "/.zarray") << R"({"zarr_format": 2, "shape": [16, 24, 32], "chunks": [8, 8, 8], "dtype": "<u4",
+        "compressor": null, "fill_value": 5, "order": "C", "filters": null})";
+    std::vector<uint32_t> expected(32 * 24 * 16, 5);
+    for (const std::array<uint32_t, 3>& c : {std::array<uint32_t, 3>{0, 0, 0}, {1, 2, 3}, {0, 1, 2}}) { // z, y, x
+        std::vector<uint32_t> chunk(512);
+        for (uint32_t i = 0; i < 512; ++i) {
+            const uint32_t x = c[2] * 8 + i % 8, y = c[1] * 8 + (i / 8) % 8, z = c[0] * 8 + i / 64;
+            chunk[i] = (x * 7 + y * 3 + z) % 40 + 1;
+            expected[x + 32 * (y + 24 * z)] = chunk[i];
+        }
+        std::ofstream(array + "/" + std::to_string(c[0]) + "." + std::to_string(c[1]) + "." + std::to_string(c[2]),
+                      std::ios::binary)
+            .write(reinterpret_cast<const char*>(chunk.data()), std::streamsize(chunk.size() * 4));
+    }
+    for (uint32_t brick : {8u, 16u}) {
+        SCOPED_TRACE("bricks of " + std::to_string(brick));
+        std::string bytes[2];
+        for (int fast = 0; fast < 2; ++fast) {
+            csgv::CompressOptions options;
+            options.encode.brickSize = brick;
+            options.encode.useUniformBoxes = fast == 1;
+            const std::string out = dir + "/sparse" + std::to_string(brick) + (fast ? "-fast" : "-slow") + ".csgv";
+            const csgv::Status st = csgv::compressToFile(array, out, options);
+            ASSERT_TRUE(st.isOk()) << st.message();
+            std::ifstream f(out, std::ios::binary);
+            bytes[fast].assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+            if (fast) {
+                csgv::Result<csgv::CsgvFile> file = csgv::openCsgv(out);
+                ASSERT_TRUE(file.isOk()) << file.message();
+                csgv::Result<csgv::LabelVolume> v = csgv::decodeVolume(file->volume, 0, file->decodeOptions());
+                ASSERT_TRUE(v.isOk()) << v.message();
+                ASSERT_EQ(v->labels.size(), expected.size());
+                for (size_t i = 0; i < expected.size(); ++i) ASSERT_EQ(v->labels[i], expected[i]) << "voxel " << i;
+            }
+        }
+        ASSERT_FALSE(bytes[0].empty());
+        EXPECT_TRUE(bytes[0] == bytes[1]) << "the missing chunks' boxes changed the bytes";
+    }
 }
 
 TEST(ZarrInput, OmeMultiscaleLevelsAndGeometry) {

@@ -12,7 +12,9 @@
 /// InputOptions::maxWorkingBytes, the decoded chunks of the current layer are kept, so a chunk
 /// deeper than the caller's slab is decoded once; otherwise each request decodes the chunks it
 /// touches one at a time (one decoded chunk). Either way, plus one compressed chunk file (at most
-/// the decoded chunk size + 1/16 + 4 KiB: a larger file is refused, not read).
+/// the decoded chunk size + 1/16 + 4 KiB: a larger file is refused, not read). Chunks with no file
+/// are fill_value and are listed as uniform boxes, so a volume of them compresses per chunk and
+/// brick, not per voxel (uniformBoxes).
 #include "InputCommon.h"
 
 #include "csgv/base/Checked.h"
@@ -149,6 +151,9 @@ public:
     Status open(const std::string& path, const InputOptions& options);
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override;
     uint64_t workingBytes() const override;
+    /// Chunks with no file at all are fill_value (when it is an integer label): one box each, runs
+    /// along x merged, found with one lookup a chunk and no read (InputSource::uniformBoxes).
+    void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override;
 
 private:
     /// One decoded chunk of the cached layer (or the scratch chunk).
@@ -413,6 +418,29 @@ Status ZarrSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
             }
     }
     return Status::ok();
+}
+
+void ZarrSource::uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) {
+    out.clear();
+    if (!checkRows(m_info, z0, depth, y0, rows, m_dir) || depth == 0 || rows == 0 || !m_array.fillIsLabel) return;
+    const uint64_t W = m_info.dim[0], zEnd = uint64_t(z0) + depth, yEnd = uint64_t(y0) + rows;
+    for (uint64_t iz = z0 / m_chunk[2]; iz * m_chunk[2] < zEnd; ++iz)
+        for (uint64_t iy = y0 / m_chunk[1]; iy * m_chunk[1] < yEnd; ++iy) {
+            const uint32_t za = uint32_t(std::max<uint64_t>(z0, iz * m_chunk[2]));
+            const uint32_t zb = uint32_t(std::min<uint64_t>(zEnd, (iz + 1) * m_chunk[2]));
+            const uint32_t ya = uint32_t(std::max<uint64_t>(y0, iy * m_chunk[1]));
+            const uint32_t yb = uint32_t(std::min<uint64_t>(yEnd, (iy + 1) * m_chunk[1]));
+            uint64_t run = ~uint64_t(0); // where the current run of missing chunks starts
+            for (uint64_t ix = 0; ix <= m_grid[0]; ++ix) {
+                // Only a name that is not there at all is fill_value (load() refuses the rest).
+                const bool missing = ix < m_grid[0] && notRegularFile(chunkPath(iz, iy, ix)) == "missing";
+                if (missing && run == ~uint64_t(0)) run = ix * m_chunk[0];
+                if (!missing && run != ~uint64_t(0)) {
+                    out.push_back({{{uint32_t(run), ya, za}}, {{uint32_t(std::min(W, ix * m_chunk[0])), yb, zb}}, m_array.fill});
+                    run = ~uint64_t(0);
+                }
+            }
+        }
 }
 
 uint64_t ZarrSource::workingBytes() const {

@@ -61,6 +61,14 @@ expect 0 "decompress the 4096^3 fill-only volume at level 5" \
 sys.exit(0 if len(b) == 4 * 128**3 and b == (7).to_bytes(4, 'little') * 128**3 else 1)" "$TMP/fill4096.nrrd" \
   || bad "the 4096^3 fill-only volume does not decode to 128^3 sevens at level 5"
 rm -f "$TMP/fill4096.csgv" "$TMP/fill4096.nrrd"
+# The same for a Zarr array whose 200-byte .zarray names 4096^3 voxels and no chunk file: missing
+# chunks are fill_value, listed without reading (it took about 13 minutes).
+mkdir -p "$TMP/fill4096.zarr"
+printf '{"zarr_format": 2, "shape": [4096, 4096, 4096], "chunks": [64, 64, 64], "dtype": "<u4", "compressor": null, "fill_value": 7, "order": "C", "filters": null}' \
+  > "$TMP/fill4096.zarr/.zarray"
+expect_bounded 0 300 10 "" "compress of a 4096^3 Zarr array without chunk files within seconds and 300 MiB" \
+  "$CSGV" compress "$TMP/fill4096.zarr" "$TMP/fill4096.csgv" --threads 2 --quiet
+rm -rf "$TMP/fill4096.csgv" "$TMP/fill4096.zarr"
 
 # A brick index that cannot fit is refused at once, naming the file, the dimensions, the bytes
 # and the limit: 65536^3 in bricks of 32 is 2^33 bricks, 64 GiB of index (the encoder's only
