@@ -7,7 +7,8 @@
 /// into the info's `scales`, 0 = full resolution, the default) or `#KEY` (a scale's `key`, e.g.
 /// `DIR#16_16_16`). Chunks are `<key>/<x0>-<x1>_<y0>-<y1>_<z0>-<z1>` (voxel coordinates including
 /// voxel_offset, clipped at the volume's end), or that name plus `.gz` (gzip-compressed), or the
-/// nested `<key>/<x0>-<x1>/<y0>-<y1>/<z0>-<z1>`; a chunk with no file is background (zeros).
+/// nested `<key>/<x0>-<x1>/<y0>-<y1>/<z0>-<z1>`; a chunk with no file is background (zeros), listed
+/// as a uniform box without reading (uniformBoxes: a volume of background compresses per brick).
 /// Encodings `raw` and `compressed_segmentation` (PrecomputedFormat.h); `type` "segmentation",
 /// or "image" with an unsigned integer data_type (an integer image is read as labels). A scale's
 /// key must name a folder inside the dataset's folder unless InputOptions::allowOutsidePaths
@@ -175,6 +176,35 @@ public:
 
     uint64_t workingBytes() const override {
         return (m_layer.capacity() + m_chunk.capacity()) * sizeof(uint64_t);
+    }
+
+    /// Chunks with no file are background (0): one box each, runs along x merged, found with one
+    /// lookup a chunk and no read (InputSource::uniformBoxes). A name that is there but refused
+    /// (chunkFile's errors) is no box: the read reports it.
+    void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override {
+        out.clear();
+        if (!checkRows(m_info, z0, depth, y0, rows, m_chunkDir) || depth == 0 || rows == 0) return;
+        const uint64_t zEnd = uint64_t(z0) + depth, yEnd = uint64_t(y0) + rows;
+        const std::array<uint32_t, 3>& c = m_scale.chunkSize;
+        for (uint32_t layer = z0 / c[2]; uint64_t(layer) * c[2] < zEnd; ++layer)
+            for (uint32_t gy = y0 / c[1]; uint64_t(gy) * c[1] < yEnd; ++gy) {
+                const uint32_t za = std::max(z0, layer * c[2]), zb = uint32_t(std::min<uint64_t>(zEnd, uint64_t(layer + 1) * c[2]));
+                const uint32_t ya = std::max(y0, gy * c[1]), yb = uint32_t(std::min<uint64_t>(yEnd, uint64_t(gy + 1) * c[1]));
+                int64_t run = -1; // where the current run of chunks without a file starts
+                for (uint32_t gx = 0; gx <= chunksAlong(0); ++gx) {
+                    bool background = false;
+                    if (gx < chunksAlong(0)) {
+                        const Result<std::string> file = chunkFile(chunkBox(gx, gy, layer));
+                        background = file.isOk() && file->empty();
+                    }
+                    if (background && run < 0) run = int64_t(gx) * c[0];
+                    if (!background && run >= 0) {
+                        const uint32_t xb = uint32_t(std::min<uint64_t>(m_info.dim[0], uint64_t(gx) * c[0]));
+                        out.push_back({{{uint32_t(run), ya, za}}, {{xb, yb, zb}}, 0});
+                        run = -1;
+                    }
+                }
+            }
     }
 
 private:

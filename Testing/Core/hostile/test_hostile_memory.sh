@@ -69,6 +69,13 @@ printf '{"zarr_format": 2, "shape": [4096, 4096, 4096], "chunks": [64, 64, 64], 
 expect_bounded 0 300 10 "" "compress of a 4096^3 Zarr array without chunk files within seconds and 300 MiB" \
   "$CSGV" compress "$TMP/fill4096.zarr" "$TMP/fill4096.csgv" --threads 2 --quiet
 rm -rf "$TMP/fill4096.csgv" "$TMP/fill4096.zarr"
+# And a Neuroglancer precomputed scale without chunk files (background): 8 s at 1024^3 before.
+mkdir -p "$TMP/empty_pc/s0"
+printf '{"@type": "neuroglancer_multiscale_volume", "type": "segmentation", "data_type": "uint32", "num_channels": 1, "scales": [{"key": "s0", "size": [4096, 4096, 4096], "resolution": [1, 1, 1], "voxel_offset": [0, 0, 0], "chunk_sizes": [[64, 64, 64]], "encoding": "raw"}]}' \
+  > "$TMP/empty_pc/info"
+expect_bounded 0 300 10 "" "compress of a 4096^3 precomputed scale without chunk files within seconds and 300 MiB" \
+  "$CSGV" compress "$TMP/empty_pc" "$TMP/empty_pc.csgv" --threads 2 --quiet
+rm -rf "$TMP/empty_pc.csgv" "$TMP/empty_pc"
 
 # A brick index that cannot fit is refused at once, naming the file, the dimensions, the bytes
 # and the limit: 65536^3 in bricks of 32 is 2^33 bricks, 64 GiB of index (the encoder's only
