@@ -101,11 +101,15 @@ QJsonObject queryJson(vtkSMProxy* display, const QString& request)
   return QJsonDocument::fromJson(query(display, request).toUtf8()).object();
 }
 
-QString exportLabelColors(vtkSMProxy* display)
+vtkSMProxy* labelColorTable(vtkSMProxy* display, QString* message)
 {
   const QJsonObject colors = queryJson(display, "colors 4096");
   if (colors.contains("error"))
-    return QString("No colours: %1").arg(colors.value("error").toString());
+  {
+    if (message)
+      *message = QString("No colours: %1").arg(colors.value("error").toString());
+    return nullptr;
+  }
   QString array = queryJson(display, "summary").value("labelArray").toString();
   if (array.isEmpty())
     array = "Labels";
@@ -116,11 +120,14 @@ QString exportLabelColors(vtkSMProxy* display)
   auto* self = model->findItem<pqDataRepresentation*>(display);
   pqPipelineSource* source = self ? self->getInput() : nullptr;
   const QString table = labelColorTableName(array, source ? source->getSMName() : QString());
-  vtkSMSessionProxyManager* pxm = display->GetSessionProxyManager();
   vtkNew<vtkSMTransferFunctionManager> mgr;
-  vtkSMProxy* lut = mgr->GetColorTransferFunction(table.toUtf8().constData(), pxm);
+  vtkSMProxy* lut = mgr->GetColorTransferFunction(table.toUtf8().constData(), display->GetSessionProxyManager());
   if (!lut)
-    return "No lookup table";
+  {
+    if (message)
+      *message = "No lookup table";
+    return nullptr;
+  }
   std::vector<std::string> annotations;
   std::vector<double> rgb;
   const QJsonArray labels = colors.value("labels").toArray();
@@ -146,12 +153,47 @@ QString exportLabelColors(vtkSMProxy* display)
     ann.Set(unsigned(i), annotations[i].c_str());
   vtkSMPropertyHelper(lut, "IndexedColors").Set(rgb.data(), unsigned(rgb.size()));
   lut->UpdateVTKObjects();
+  if (message)
+    *message = QString("Lookup table '%1': %2 label colours%3")
+                 .arg(table)
+                 .arg(labels.size())
+                 .arg(colors.value("truncated").toBool() ? " (truncated)" : "");
+  return lut;
+}
 
+void showLegend(vtkSMProxy* lut, vtkSMProxy* display, pqView* view)
+{
+  if (!view || !vtkSMPVRepresentationProxy::SetScalarBarVisibility(display, view->getProxy(), true))
+    return;
+  vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy());
+  if (!bar)
+    return;
+  // One entry per label up to kLegendLabels, else the colours alone and a title with the count.
+  const int labels = int(vtkSMPropertyHelper(lut, "Annotations").GetNumberOfElements() / 2);
+  const QString array = queryJson(display, "summary").value("labelArray").toString();
+  const QString name = array.isEmpty() ? QString("Labels") : array;
+  const bool fits = labels <= kLegendLabels;
+  vtkSMPropertyHelper(bar, "DrawAnnotations").Set(fits ? 1 : 0);
+  const QString title = fits ? name : QString("%1: %2 labels (names: View > Segmentation Pick)").arg(name).arg(labels);
+  vtkSMPropertyHelper(bar, "Title").Set(title.toUtf8().constData());
+  bar->UpdateVTKObjects();
+}
+
+QString exportLabelColors(vtkSMProxy* display)
+{
+  QString message;
+  vtkSMProxy* lut = labelColorTable(display, &message);
+  if (!lut)
+    return message;
+  QString array = queryJson(display, "summary").value("labelArray").toString();
+  if (array.isEmpty())
+    array = "Labels";
   // The displays of this data and of what is made from it (Slice, Threshold, ...) coloured by the
-  // label array take the table, with a legend that fits: one entry per label up to
-  // kLegendLabels, else the colours alone and a title that says where the names are.
+  // label array take the table and show its legend.
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  auto* self = model->findItem<pqDataRepresentation*>(display);
   QSet<pqPipelineSource*> family;
-  for (QList<pqPipelineSource*> todo{ source }; !todo.isEmpty();)
+  for (QList<pqPipelineSource*> todo{ self ? self->getInput() : nullptr }; !todo.isEmpty();)
   {
     pqPipelineSource* s = todo.takeLast();
     if (s && !family.contains(s))
@@ -170,27 +212,19 @@ QString exportLabelColors(vtkSMProxy* display)
       continue;
     vtkSMPropertyHelper(proxy, "LookupTable").Set(lut);
     proxy->UpdateVTKObjects();
-    pqView* view = r->getView();
-    if (view && vtkSMPVRepresentationProxy::SetScalarBarVisibility(proxy, view->getProxy(), r->isVisible()))
+    if (r->isVisible())
     {
-      if (vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy()))
-      {
-        const bool fits = labels.size() <= kLegendLabels;
-        vtkSMPropertyHelper(bar, "DrawAnnotations").Set(fits ? 1 : 0);
-        const QString title = fits ? array : QString("%1: %2 labels (names: View > Segmentation Pick)").arg(array).arg(labels.size());
-        vtkSMPropertyHelper(bar, "Title").Set(title.toUtf8().constData());
-        bar->UpdateVTKObjects();
-      }
-      view->render();
+      showLegend(lut, proxy, r->getView());
+    }
+    if (r->getView())
+    {
+      r->getView()->render();
     }
     applied << r->getInput()->getSMName();
   }
-  return QString("Lookup table '%1': %2 label colours%3%4")
-    .arg(table)
-    .arg(labels.size())
-    .arg(colors.value("truncated").toBool() ? " (truncated)" : "")
-    .arg(applied.isEmpty() ? QString("; colour a Slice or Threshold of this data by '%1' and export again to use it").arg(array)
-                           : QString("; applied to %1").arg(applied.join(", ")));
+  return message +
+    (applied.isEmpty() ? QString("; colour a Slice or Threshold of this data by '%1' and export again to use it").arg(array)
+                       : QString("; applied to %1").arg(applied.join(", ")));
 }
 
 QString labelColorTableName(const QString& array, const QString& source)

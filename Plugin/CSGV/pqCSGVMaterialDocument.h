@@ -13,6 +13,7 @@
 #include <QJsonObject>
 #include <QString>
 
+class pqView;
 class vtkSMProxy;
 
 namespace pqCSGV
@@ -52,6 +53,12 @@ QJsonObject queryJson(vtkSMProxy* display, const QString& request);
 /// the table and show its legend: one entry per label up to kLegendLabels, else the colours
 /// alone under a title that names the count. Returns a message for the user.
 QString exportLabelColors(vtkSMProxy* display);
+/// The table exportLabelColors makes, made (again) from what the display draws now; null with a
+/// `message` when the display cannot tell (`message` also says what was made).
+vtkSMProxy* labelColorTable(vtkSMProxy* display, QString* message = nullptr);
+/// Shows `lut`'s legend for `display` in `view`, one entry per label up to kLegendLabels, else the
+/// colours alone under a title that names the count.
+void showLegend(vtkSMProxy* lut, vtkSMProxy* display, pqView* view);
 /// The name of the lookup table exportLabelColors makes for `array` of the pipeline source named
 /// `source`: "Labels (aal.nii.gz materials)".
 QString labelColorTableName(const QString& array, const QString& source);

@@ -84,6 +84,8 @@ private Q_SLOTS:
   {
     vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
     QVERIFY(manager->GetPluginManager()->LoadLocalPlugin(gPlugin.toUtf8().constData()));
+    // (The plugin's own pqCSGVSharedAttributes runs too: LoadLocalPlugin starts its auto-starts;
+    // a second instance links the same properties again, harmlessly.)
     this->Shared = new pqCSGVSharedAttributes(this);
     this->Shared->startup();
     pqApplicationCore* core = pqApplicationCore::instance();
@@ -193,6 +195,42 @@ private Q_SLOTS:
     QVERIFY(bar);
     QCOMPARE(vtkSMPropertyHelper(bar, "DrawAnnotations").GetAsInt(), labels <= pqCSGV::kLegendLabels ? 1 : 0);
     QCOMPARE(vtkSMPropertyHelper(bar, "Visibility").GetAsInt(), 1);
+  }
+
+  /// Colour by the label array on a Segmentation Volume: its display takes the data's own table
+  /// (the materials' colours and names) and shows that legend, made again when the materials
+  /// change (pqCSGVColorLegend; issue 38, item 6).
+  void colourByLabelsShowsTheMaterialsLegend()
+  {
+    // The plugin's auto-starts run in this session (LoadLocalPlugin starts them): its own
+    // pqCSGVColorLegend acts here.
+    const QString red = R"({"version":1,"materials":[{"name":"r","color":{"mode":"constant","rgb":[1,0,0]}}]})";
+    vtkSMPropertyHelper(this->Repr1, "CSGVMaterials").Set(red.toUtf8().constData());
+    this->Repr1->UpdateVTKObjects();
+    vtkSMPVRepresentationProxy::SetScalarColoring(this->Repr1, "Labels", vtkDataObject::CELL);
+    this->Repr1->UpdateVTKObjects();
+    QTest::qWait(200);
+    vtkNew<vtkSMTransferFunctionManager> mgr;
+    vtkSMProxy* own = mgr->GetColorTransferFunction(
+      pqCSGV::labelColorTableName("Labels", this->Reader->getSMName()).toUtf8().constData(),
+      this->Repr1->GetSessionProxyManager());
+    QCOMPARE(vtkSMPropertyHelper(this->Repr1, "LookupTable").GetAsProxy(), own);
+    vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(own, this->View1->getProxy());
+    QVERIFY(bar);
+    QCOMPARE(vtkSMPropertyHelper(bar, "Visibility").GetAsInt(), 1);
+    vtkSMPropertyHelper colors(own, "IndexedColors");
+    QVERIFY(colors.GetNumberOfElements() >= 3);
+    QCOMPARE(colors.GetAsDouble(0), 1.0);
+    QCOMPARE(colors.GetAsDouble(1), 0.0);
+    // New materials, a new legend.
+    const QString blue = R"({"version":1,"materials":[{"name":"b","color":{"mode":"constant","rgb":[0,0,1]}}]})";
+    vtkSMPropertyHelper(this->Repr1, "CSGVMaterials").Set(blue.toUtf8().constData());
+    this->Repr1->UpdateVTKObjects();
+    QTest::qWait(200);
+    QCOMPARE(vtkSMPropertyHelper(own, "IndexedColors").GetAsDouble(2), 1.0);
+    QCOMPARE(vtkSMPropertyHelper(own, "IndexedColors").GetAsDouble(0), 0.0);
+    vtkSMPVRepresentationProxy::SetScalarColoring(this->Repr1, nullptr, vtkDataObject::CELL);
+    this->Repr1->UpdateVTKObjects();
   }
 
   void aRemovedViewLeavesTheOthersLinked()
