@@ -194,11 +194,18 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
     "Copy the materials this data has in another view (materials are per view, as display properties are; "
     "attribute files and derived attributes are shared by every view)",
     this);
-  for (QPushButton* b : { this->Add, this->Remove, this->Duplicate, this->Up, this->Down, this->CopyFromView })
+  // Two rows of three, so that the editor fits the Properties panel's default width.
+  auto* second = new QHBoxLayout();
+  for (QPushButton* b : { this->Add, this->Remove, this->Duplicate })
   {
     row->addWidget(b);
   }
+  for (QPushButton* b : { this->Up, this->Down, this->CopyFromView })
+  {
+    second->addWidget(b);
+  }
   top->addLayout(row);
+  top->addLayout(second);
 
   // Details of the selected material.
   this->Details = new QGroupBox("Material", this);
@@ -297,19 +304,23 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
   this->FilesLabel->setObjectName("attributeFiles");
   this->FilesLabel->setWordWrap(true);
   al->addWidget(this->FilesLabel);
-  this->Computed = new QCheckBox("Computed attributes (voxel count, surface area, bbox, centroid)", attrs);
+  this->Computed = new QCheckBox("Computed attributes", attrs);
+  this->Computed->setToolTip("voxel_count, surface_area, bbox_min/max_x/y/z and centroid_x/y/z, computed from the "
+                             "compressed volume once per volume");
   this->Computed->setObjectName("computedAttributes");
   al->addWidget(this->Computed);
-  al->addWidget(new QLabel("Derived attributes, one per line: name = SQL expression", attrs));
+  auto* derivedLabel = new QLabel("Derived attributes, one per line: name = SQL expression", attrs);
+  derivedLabel->setWordWrap(true);
+  al->addWidget(derivedLabel);
   this->DerivedEdit = new QPlainTextEdit(attrs);
   this->DerivedEdit->setObjectName("derivedAttributes");
   this->DerivedEdit->setMaximumHeight(60);
   al->addWidget(this->DerivedEdit);
   auto* dr = new QHBoxLayout();
   auto* applyDerived = button("Apply derived", "applyDerived", "Set the derived attributes", attrs);
-  auto* exportColors = button("Export colours to lookup table", "exportColors",
-    "Make the label array's lookup table categorical with the materials' colours and region names, "
-    "so Slice and Threshold show the same colours",
+  auto* exportColors = button("Export colours", "exportColors",
+    "Export colours to a lookup table of this data's own (categorical: the materials' colours and "
+    "region names), given to the Slices and Thresholds of this data coloured by the label array",
     attrs);
   dr->addWidget(applyDerived);
   dr->addWidget(exportColors);

@@ -176,6 +176,9 @@ private Q_SLOTS:
     QVERIFY(this->Editor->findChild<QPushButton*>("loadAttributes"));
     QVERIFY(this->Editor->findChild<QPushButton*>("choosePreset"));
     QVERIFY(this->Editor->findChild<QPushButton*>("exportColors"));
+    // It fits the Properties panel at its default width (about 470 pixels with its margins).
+    QVERIFY2(this->Editor->minimumSizeHint().width() <= 440,
+      qPrintable(QString("minimum width %1").arg(this->Editor->minimumSizeHint().width())));
   }
 
   void addRemoveDuplicateReorder()
