@@ -6,6 +6,7 @@
 #include <pqPipelineSource.h>
 #include <pqServerManagerModel.h>
 #include <pqView.h>
+#include <vtkSMCoreUtilities.h>
 #include <vtkSMPVRepresentationProxy.h>
 #include <vtkSMProperty.h>
 #include <vtkSMPropertyHelper.h>
@@ -17,6 +18,7 @@
 #include <vtkSmartPointer.h>
 
 #include <QJsonArray>
+#include <QFileInfo>
 #include <QJsonDocument>
 #include <QSet>
 #include <QStringList>
@@ -225,6 +227,21 @@ QString exportLabelColors(vtkSMProxy* display)
   return message +
     (applied.isEmpty() ? QString("; colour a Slice or Threshold of this data by '%1' and export again to use it").arg(array)
                        : QString("; applied to %1").arg(applied.join(", ")));
+}
+
+QString dataFolder(vtkSMProxy* display)
+{
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  auto* self = model->findItem<pqDataRepresentation*>(display);
+  pqPipelineSource* source = self ? self->getInput() : nullptr;
+  vtkSMProxy* proxy = source ? source->getProxy() : nullptr;
+  const char* property = proxy ? vtkSMCoreUtilities::GetFileNameProperty(proxy) : nullptr;
+  if (!property)
+    return QString();
+  vtkSMPropertyHelper name(proxy, property);
+  const QString file = name.GetNumberOfElements() > 0 ? QString::fromUtf8(name.GetAsString(0)) : QString();
+  // A reader's file, or (a folder reader) the folder itself: the folder it lies in either way.
+  return file.isEmpty() ? QString() : QFileInfo(file).absolutePath();
 }
 
 QString labelColorTableName(const QString& array, const QString& source)

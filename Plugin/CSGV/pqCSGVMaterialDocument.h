@@ -59,6 +59,9 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, QString* message = nullptr);
 /// Shows `lut`'s legend for `display` in `view`, one entry per label up to kLegendLabels, else the
 /// colours alone under a title that names the count.
 void showLegend(vtkSMProxy* lut, vtkSMProxy* display, pqView* view);
+/// The folder of the file the display's data was read from (its pipeline source's file name
+/// property), where attribute files usually lie; empty when the data has no file.
+QString dataFolder(vtkSMProxy* display);
 /// The name of the lookup table exportLabelColors makes for `array` of the pipeline source named
 /// `source`: "Labels (aal.nii.gz materials)".
 QString labelColorTableName(const QString& array, const QString& source);

@@ -921,7 +921,8 @@ void pqCSGVMaterialEditor::moveMaterialDown()
 void pqCSGVMaterialEditor::loadAttributes()
 {
   pqServer* server = pqActiveObjects::instance().activeServer();
-  pqFileDialog dialog(server, this, "Load per-label attributes", QString(),
+  // Where the data lies (attribute tables usually lie beside it), not the working directory.
+  pqFileDialog dialog(server, this, "Load per-label attributes", pqCSGV::dataFolder(this->proxy()),
     "Attribute tables (*.csv *.tsv *.txt *.db3 *.sqlite *.sqlite3 *.db);;All files (*)");
   dialog.setObjectName("CSGVAttributeFileDialog");
   dialog.setFileMode(pqFileDialog::ExistingFiles);

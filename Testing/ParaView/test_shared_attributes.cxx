@@ -25,6 +25,7 @@
 #include <vtkSMTransferFunctionManager.h>
 #include <vtkSMTransferFunctionProxy.h>
 
+#include <QFileInfo>
 #include <QLabel>
 #include <QPushButton>
 #include <QtTest>
@@ -99,6 +100,11 @@ private Q_SLOTS:
     QVERIFY(this->View1 && this->View2);
     this->Repr1 = this->show(this->View1);
     QVERIFY(this->Repr1);
+  }
+
+  void attributeDialogStartsBesideTheData()
+  {
+    QCOMPARE(pqCSGV::dataFolder(this->Repr1), QFileInfo(gFixtures + "/x").absolutePath());
   }
 
   void secondViewTakesTheAttributes()
