@@ -16,7 +16,7 @@ namespace csgvrep
 ViewSettings toViewSettings(const RepresentationProperties& p)
 {
   ViewSettings s;
-  s.render.shading = csgv::gpu::Shading(std::clamp(p.shading, 0, 3));
+  s.render.shading = csgv::gpu::Shading(std::clamp(p.shading, 0, int(csgv::gpu::kShadingModes) - 1));
   s.render.shadingBlend = float(std::clamp(p.shadingBlend, 0.0, 1.0));
   s.render.lodBias = float(p.lodBias);
   int sub = 1;

@@ -77,8 +77,9 @@ std::atomic<double> refinementSlice{ 0.0 };
 /// (interactive renders), frames are rendered at 1/f of the view's resolution per axis and
 /// stretched over it, f chosen from the measured cost of a pixel so that a frame takes at most
 /// half the time the view's desired update rate allows (the other half is ParaView's own work).
-/// The cost is measured per shading mode (a path-traced pixel costs several local ones): a mode
-/// not measured yet takes the dearest measured one. Still renders are always at full resolution.
+/// The cost is measured per shading mode by the backend's time model (csgv::gpu::ModeCosts: a
+/// mode not measured yet is scaled from a measured one by the rays each casts), here of the whole
+/// draw (render, read-back and compositing). Still renders are always at full resolution.
 class InteractiveResolution
 {
 public:
@@ -86,11 +87,7 @@ public:
   /// frames a second.
   int factor(int mode, double pixels, double desiredRate) const
   {
-    double seconds = this->SecondsPerPixel[size_t(mode) & 3];
-    if (seconds <= 0)
-    {
-      seconds = *std::max_element(this->SecondsPerPixel.begin(), this->SecondsPerPixel.end());
-    }
+    const double seconds = this->Costs.secondsPerPixel(csgv::gpu::Shading(mode));
     if (seconds <= 0 || desiredRate <= 0)
     {
       return 1;
@@ -100,15 +97,10 @@ public:
     return int(std::min(8.0, std::max(1.0, f)));
   }
   /// A frame of `pixels` in shading `mode` took `seconds` (render, read-back and compositing).
-  void record(int mode, double seconds, double pixels)
-  {
-    const double s = seconds / std::max(1.0, pixels);
-    double& avg = this->SecondsPerPixel[size_t(mode) & 3];
-    avg = avg > 0 ? 0.5 * (avg + s) : s;
-  }
+  void record(int mode, double seconds, double pixels) { this->Costs.record(csgv::gpu::Shading(mode), seconds, pixels); }
 
 private:
-  std::array<double, 4> SecondsPerPixel{}; ///< per shading mode (csgv::gpu::Shading)
+  csgv::gpu::ModeCosts Costs;
 };
 
 /// The opaque depth of a reduced frame: the full tile's depth at each reduced pixel's centre.

@@ -2099,3 +2099,21 @@ TEST(Renderer, StillRenderDenoisesOnlyItsLastFrameAndGivesTheSameImage) {
     const FrameOutput byFrame = renderConverged(*frames, req.frame, 3, 64);
     EXPECT_EQ(still->output(Renderer::Color).rgba, byFrame.rgba);
 }
+
+TEST(ModeCosts, MeasuredModesAreTheirOwnAndOthersScaleByTheirRays) {
+    // The one time model of the backend's strides and the representation's interactive
+    // resolution (issue 39: it existed twice, each with its own fallback).
+    ModeCosts costs;
+    EXPECT_EQ(costs.secondsPerPixel(Shading::PathTracing), 0.0); // nothing measured
+    costs.record(Shading::Local, 2.0, 1e8);                      // 2e-8 s a pixel
+    EXPECT_DOUBLE_EQ(costs.secondsPerPixel(Shading::Local), 2e-8);
+    EXPECT_DOUBLE_EQ(costs.secondsPerPixel(Shading::Shadow), 4e-8);      // two rays a sample
+    EXPECT_DOUBLE_EQ(costs.secondsPerPixel(Shading::PathTracing), 8e-8); // about four
+    costs.record(Shading::PathTracing, 1.0, 1e8);
+    EXPECT_DOUBLE_EQ(costs.secondsPerPixel(Shading::PathTracing), 1e-8); // measured wins
+    costs.record(Shading::PathTracing, 3.0, 1e8);
+    EXPECT_DOUBLE_EQ(costs.secondsPerPixel(Shading::PathTracing), 2e-8); // a running average
+    // Unmeasured modes take the dearest estimate: local's 2e-8 x 2 over path tracing's 2e-8 / 4 x 2.
+    EXPECT_DOUBLE_EQ(costs.secondsPerPixel(Shading::AmbientOcclusion), 4e-8);
+    EXPECT_EQ(shadingIndex(Shading(7)), 0u);
+}

@@ -790,7 +790,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     }
     if (!(s = packParams(in, st, clipToWorld))) return s;
     curves = toneCurves(st);
-    buildDispatches(in, st, pRender[renderVariant(st, in.opaqueDepth != nullptr)][uint32_t(st.shading) & 3]);
+    buildDispatches(in, st, pRender[renderVariant(st, in.opaqueDepth != nullptr)][shadingIndex(st.shading)]);
     // After the clear (addClear reads what was drawn before it): this frame's footprint joins.
     drawnRect = clearPending ? rect : rectUnion(drawnRect, rect);
     const auto t0 = std::chrono::steady_clock::now();

@@ -316,7 +316,7 @@ struct Renderer::Impl {
     // Per TONE_CURVES (toneCurves; render.comp also ONE_SAMPLE, DEPTH_INPUT: renderVariant) and resolve pass
     // or shading mode, compiled on first use.
     uint64_t pResolve[2][kResolveAtrous4 + 1] = {};
-    uint64_t pRender[8][4] = {}; // [renderVariant][shading]
+    uint64_t pRender[8][kShadingModes] = {}; // [renderVariant][shadingIndex]
     uint32_t curves = 0; // the frame's TONE_CURVES: the resolve passes' pipelines (addResolve)
     Defines defines;
     Buffer params, bricks, cache, alloc, freeStacks, requests, decodes, decodeStates, visible, uniformSubs, hiddenSubs, detailRequests;
@@ -430,7 +430,7 @@ struct Renderer::Impl {
     uint32_t coarseStride = 0;
     bool shownWhole = false;
     double finishSeconds = 0;         // render(): what follows the frames (denoising, read-back), measured
-    double secondsPerPixel[4] = {};   // render(): a frame's seconds per rendered pixel, per shading mode
+    ModeCosts costs;                  // render(): a frame's seconds per rendered pixel, per shading mode
     FrameOutput output;               // what output() returns
     uint32_t outputParts = 0;         // OutputParts of `output` read since the last frame
     // The rectangle of the device image that `output`'s colour and depth were last read from:
@@ -580,14 +580,9 @@ struct Renderer::Impl {
     /// any frame was measured: a prior per device kind (kPriorSecondsPerRay, local shading's
     /// frames on lavapipe and NVIDIA rounded up), scaled by the rays each mode casts.
     uint32_t strideFor(const RenderSettings& st, uint64_t pixels, double frameSeconds) const {
-        const uint32_t mode = uint32_t(st.shading) & 3;
-        const double rays[4] = {1, 2, 2, 4};
-        double seconds = secondsPerPixel[mode];
-        if (seconds <= 0) { // not measured in this mode: a measured one, scaled by the rays each casts
-            for (uint32_t m = 0; m < 4; ++m)
-                if (secondsPerPixel[m] > 0) seconds = std::max(seconds, secondsPerPixel[m] / rays[m] * rays[mode]);
-        }
-        if (seconds <= 0) seconds = kPriorSecondsPerRay[ctx.device().type == "cpu" ? 0 : 1] * rays[mode];
+        double seconds = costs.secondsPerPixel(st.shading);
+        if (seconds <= 0)
+            seconds = kPriorSecondsPerRay[ctx.device().type == "cpu" ? 0 : 1] * kRaysPerSample[shadingIndex(st.shading)];
         uint32_t stride = std::max<uint32_t>(1, st.subsampling);
         while (stride < 8 && double(pixels) * seconds / (stride * stride) > frameSeconds) stride *= 2;
         return stride;
@@ -602,9 +597,7 @@ struct Renderer::Impl {
     }
     void measureFrame(const RenderSettings& st, const FrameInput& in, const FrameStats& stats) {
         if (stats.milliseconds <= 0) return; // nothing was submitted
-        const double s = stats.milliseconds / 1000 / std::max(1.0, renderedPixels(in, st.subsampling));
-        double& avg = secondsPerPixel[uint32_t(st.shading) & 3];
-        avg = avg > 0 ? 0.5 * (avg + s) : s;
+        costs.record(st.shading, stats.milliseconds / 1000, renderedPixels(in, st.subsampling));
     }
 
     // The steps of a frame, in order (renderFrame and render).

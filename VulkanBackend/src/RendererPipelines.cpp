@@ -88,7 +88,7 @@ std::vector<PipelineJob> Renderer::Impl::pipelineJobs(const RenderSettings& st, 
         if (define) d.emplace_back(define, std::to_string(value) + "u");
         jobs.push_back({name, std::move(d), push, &pipeline});
     };
-    const uint32_t mode = uint32_t(st.shading) & 3, tc = toneCurves(st), rv = renderVariant(st, depthInput);
+    const uint32_t mode = shadingIndex(st.shading), tc = toneCurves(st), rv = renderVariant(st, depthInput);
     need(pRender[rv][mode], "render.comp", 8, "SHADING", mode);
     if (!jobs.empty() && jobs.back().out == &pRender[rv][mode]) {
         jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
