@@ -461,4 +461,40 @@ std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::Attri
   return o.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
+std::string attributeSpanJson(const csgv::AttributeTable* table, const SharedVolume& volume,
+  const std::string& attribute, const std::string& filter, double lo, double hi)
+{
+  csgv::AttributeTable empty;
+  const csgv::AttributeTable& t = table ? *table : empty;
+  const csgv::MaterialEvaluator::AttributeFn value = t.attributeFunction();
+  auto of = [&](const std::string& name, int64_t label)
+  { return name == "label" ? double(label) : value(name, uint32_t(label)); };
+  double min = std::numeric_limits<double>::quiet_NaN(), max = min;
+  size_t count = 0;
+  bool truncated = false;
+  for (uint32_t s : storedLabels(volume, size_t(1) << 22, truncated))
+  {
+    const int64_t label = originalLabel(volume, s);
+    if (label < 0 || label > int64_t(0xFFFFFFFEll))
+    {
+      continue;
+    }
+    const double f = of(filter, label);
+    if (!(f >= lo && f <= hi))
+    {
+      continue;
+    }
+    const double v = of(attribute, label);
+    if (std::isnan(v))
+    {
+      continue;
+    }
+    min = std::isnan(min) ? v : std::min(min, v);
+    max = std::isnan(max) ? v : std::max(max, v);
+    ++count;
+  }
+  return json({ { "min", numberOrNull(min) }, { "max", numberOrNull(max) }, { "labels", count } })
+    .dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
 } // namespace csgvrep

@@ -96,6 +96,11 @@ std::string labelAttributesJson(const csgv::AttributeTable* table, int64_t label
 /// or a fully transparent one, are left out: they are not drawn), with the first text attribute (`name` preferred) as annotation.
 std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::AttributeTable* table,
   const SharedVolume& volume, size_t cap);
+/// `span` query: the range of `attribute` over the labels present whose `filter` attribute lies in
+/// [lo, hi] (what a material's filter holds), `{"min", "max", "labels": count}` (null ends when
+/// none): the interval a material keeps its labels with when its filter attribute changes.
+std::string attributeSpanJson(const csgv::AttributeTable* table, const SharedVolume& volume,
+  const std::string& attribute, const std::string& filter, double lo, double hi);
 
 } // namespace csgvrep
 

@@ -130,6 +130,35 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
     }
     return json({ { "labels", labels }, { "truncated", truncated }, { "text", text } }).dump(-1, ' ', false, json::error_handler_t::replace);
   }
+  if (what == "span")
+  {
+    // Every rank's range widened, their label counts summed (ranks hold different labels).
+    json out = { { "min", nullptr }, { "max", nullptr }, { "labels", 0 } };
+    size_t labels = 0;
+    for (const json& r : replies)
+    {
+      if (r.contains("error"))
+      {
+        continue;
+      }
+      labels += r.value("labels", size_t(0));
+      for (const char* key : { "min", "max" })
+      {
+        if (!r.contains(key) || !r[key].is_number())
+        {
+          continue;
+        }
+        const double v = r[key].get<double>();
+        json& mine = out[key];
+        if (mine.is_null() || (key[1] == 'i' ? v < mine.get<double>() : v > mine.get<double>()))
+        {
+          mine = v;
+        }
+      }
+    }
+    out["labels"] = labels;
+    return out.dump(-1, ' ', false, json::error_handler_t::replace);
+  }
   // summary: every rank's attributes (ranges widened), the union of their labels.
   std::set<int64_t> labels;
   for (const std::string& set : labelSets)
@@ -242,6 +271,24 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       std::sort(labels.begin(), labels.end());
     }
     return base64(labels.data(), labels.size() * sizeof(int64_t));
+  }
+  if (what == "span")
+  {
+    // span {"attribute": A, "filter": F, "min": lo, "max": hi} (JSON: names may hold spaces).
+    std::string rest;
+    std::getline(in, rest);
+    const json q = json::parse(rest, nullptr, false);
+    if (!q.is_object() || !q.contains("attribute") || !q.contains("filter") || !q.contains("min") ||
+      !q.contains("max") || !q["min"].is_number() || !q["max"].is_number())
+    {
+      return json({ { "error", "span takes {\"attribute\", \"filter\", \"min\", \"max\"}" } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    if (!source.shared)
+    {
+      return json({ { "error", c.sourceError } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    return attributeSpanJson(table.get(), *source.shared, q.value("attribute", std::string()),
+      q.value("filter", std::string()), q["min"].get<double>(), q["max"].get<double>());
   }
   if (what == "colors")
   {

@@ -32,6 +32,8 @@
 #include <QGroupBox>
 #include <QHBoxLayout>
 #include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
@@ -687,13 +689,35 @@ bool pqCSGVMaterialEditor::dataRange(const std::string& attribute, double& lo, d
   return std::isfinite(lo) && std::isfinite(hi);
 }
 
+bool pqCSGVMaterialEditor::spanOfLabels(const Material& old, const std::string& attribute, double& lo, double& hi) const
+{
+  QJsonObject request;
+  request["attribute"] = QString::fromStdString(attribute);
+  request["filter"] = QString::fromStdString(old.filterAttribute);
+  request["min"] = old.filterMin;
+  request["max"] = old.filterMax;
+  const QJsonObject span = pqCSGV::queryJson(
+    this->proxy(), "span " + QString::fromUtf8(QJsonDocument(request).toJson(QJsonDocument::Compact)));
+  if (!span.value("min").isDouble() || !span.value("max").isDouble())
+  {
+    return false; // no label had both, or no answer: the data range
+  }
+  lo = span.value("min").toDouble();
+  hi = span.value("max").toDouble();
+  return std::isfinite(lo) && std::isfinite(hi);
+}
+
 void pqCSGVMaterialEditor::adoptDataRanges(const Material& old, Material& m) const
 {
   double lo = 0, hi = 0;
-  if (m.filterAttribute != old.filterAttribute && this->dataRange(m.filterAttribute, lo, hi))
+  if (m.filterAttribute != old.filterAttribute &&
+    (this->spanOfLabels(old, m.filterAttribute, lo, hi) || this->dataRange(m.filterAttribute, lo, hi)))
   {
-    // The old interval meant nothing for the new attribute. On `label`, 0 stays empty space
-    // as in Core's default filter.
+    // The old interval meant nothing for the new attribute: the new one spans the labels the
+    // material took, so it keeps them while the user types its own (issue 38, item 5: taking the
+    // whole data range showed every label in this material's colour mid-edit), and a material
+    // that took every label takes the whole range. On `label`, 0 stays empty space as in Core's
+    // default filter.
     m.filterMin = m.filterAttribute == "label" ? std::max(lo, Material().filterMin) : lo;
     m.filterMax = std::max(m.filterMin, hi);
   }

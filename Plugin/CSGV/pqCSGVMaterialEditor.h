@@ -118,6 +118,9 @@ private:
   /// New intervals where the user switched attributes or colour mode: the data range of the
   /// attribute now named, so the material keeps drawing something sensible.
   void adoptDataRanges(const csgv::Material& old, csgv::Material& m) const;
+  /// The range of `attribute` over the labels present that `old`'s filter holds (the
+  /// representation's `span` query); false when none has a value.
+  bool spanOfLabels(const csgv::Material& old, const std::string& attribute, double& lo, double& hi) const;
   /// csgv::materialProblem() with the attribute names the rendering process reported.
   QString problemOf(const csgv::Material& m) const;
   /// Observer of the representation: refreshes the attributes once an attribute property has

@@ -436,6 +436,25 @@ private Q_SLOTS:
     QCOMPARE(f["max"].toDouble(), this->range("label").second);
   }
 
+  // Issue 38 (5): a material that takes some labels keeps them when its filter attribute changes:
+  // the new interval spans those labels' values (labels 109072276, 109823955, 109832614 and
+  // 119517298 have kind 1, 0, 0, 1), not the attribute's whole data range (0 .. 3), which showed
+  // every label in this material's colour until the user typed an interval.
+  void filterAttributeKeepsTheMaterialsLabels()
+  {
+    this->setDocument(R"({"version":1,"materials":[{"name":"some","filter":{"attribute":"label","min":109000000,"max":120000000},)"
+                      R"("color":{"mode":"constant","rgb":[1,0,0]}},{"name":"rest"}]})");
+    this->Editor->refreshAttributes();
+    QTest::qWait(2 * kKeyDelay);
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    this->child<QComboBox>("filterAttribute")->setCurrentText("kind");
+    QTest::qWait(kKeyDelay);
+    const QJsonObject f = this->material(0)["filter"].toObject();
+    QCOMPARE(f["attribute"].toString(), QString("kind"));
+    QCOMPARE(f["min"].toDouble(), 0.0);
+    QCOMPARE(f["max"].toDouble(), 1.0);
+  }
+
   // Issue 15 (4): colormap mode maps the colour attribute's data range, also after a change of
   // attribute.
   void colormapTakesTheDataRange()
