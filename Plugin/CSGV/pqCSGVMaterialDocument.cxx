@@ -5,6 +5,7 @@
 #include <pqDataRepresentation.h>
 #include <pqPipelineSource.h>
 #include <pqServerManagerModel.h>
+#include <pqUndoStack.h>
 #include <pqView.h>
 #include <vtkSMCoreUtilities.h>
 #include <vtkSMPVRepresentationProxy.h>
@@ -86,16 +87,27 @@ QString query(vtkSMProxy* display, const QString& request)
   if (!rep)
     return QString();
   vtkSMSessionProxyManager* pxm = rep->GetSessionProxyManager();
+  // A question is no edit: the query proxy's state is kept off the undo stack (each query was an
+  // undo step "Changed 'vtkSMProxy'" that did nothing).
+  pqUndoStack* undo = pqApplicationCore::instance() ? pqApplicationCore::instance()->getUndoStack() : nullptr;
+  if (undo)
+    undo->beginNonUndoableChanges();
   vtkSmartPointer<vtkSMProxy> q;
   q.TakeReference(pxm->NewProxy("misc", "CSGVQuery"));
-  if (!q)
-    return QString();
-  vtkSMPropertyHelper(q, "Representation").Set(rep);
-  vtkSMPropertyHelper(q, "Request").Set(request.toUtf8().constData());
-  q->UpdateVTKObjects();
-  q->UpdatePropertyInformation();
-  const char* s = vtkSMPropertyHelper(q, "Result").GetAsString();
-  return s ? QString::fromUtf8(s) : QString();
+  QString answer;
+  if (q)
+  {
+    vtkSMPropertyHelper(q, "Representation").Set(rep);
+    vtkSMPropertyHelper(q, "Request").Set(request.toUtf8().constData());
+    q->UpdateVTKObjects();
+    q->UpdatePropertyInformation();
+    const char* s = vtkSMPropertyHelper(q, "Result").GetAsString();
+    answer = s ? QString::fromUtf8(s) : QString();
+  }
+  q = nullptr; // deleted while changes are not recorded
+  if (undo)
+    undo->endNonUndoableChanges();
+  return answer;
 }
 
 QJsonObject queryJson(vtkSMProxy* display, const QString& request)

@@ -16,6 +16,7 @@
 #include <pqPipelineSource.h>
 #include <pqServerManagerModel.h>
 #include <pqUndoStack.h>
+#include <pqUndoStackBuilder.h>
 #include <pqView.h>
 #include <vtkDataObject.h>
 #include <vtkNew.h>
@@ -84,6 +85,13 @@ private Q_SLOTS:
   void initTestCase()
   {
     vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
+    // The GUI's undo stack, made as pqUndoRedoBehavior makes it.
+    if (!pqApplicationCore::instance()->getUndoStack())
+    {
+      vtkNew<pqUndoStackBuilder> builder;
+      manager->SetUndoStackBuilder(builder);
+      pqApplicationCore::instance()->setUndoStack(new pqUndoStack(builder, this));
+    }
     QVERIFY(manager->GetPluginManager()->LoadLocalPlugin(gPlugin.toUtf8().constData()));
     // (The plugin's own pqCSGVSharedAttributes runs too: LoadLocalPlugin starts its auto-starts;
     // a second instance links the same properties again, harmlessly.)
@@ -100,6 +108,22 @@ private Q_SLOTS:
     QVERIFY(this->View1 && this->View2);
     this->Repr1 = this->show(this->View1);
     QVERIFY(this->Repr1);
+  }
+
+  /// A question to the representation is no edit: nothing on the undo stack (the GUI pass saw a
+  /// second undo step, "Changed 'vtkSMProxy'", after each shading change: the editor's queries).
+  void queriesLeaveNoUndoStep()
+  {
+    pqUndoStack* undo = pqApplicationCore::instance()->getUndoStack();
+    if (!undo)
+    {
+      QSKIP("no undo stack in this session");
+    }
+    undo->clear();
+    QVERIFY(!undo->canUndo());
+    pqCSGV::queryJson(this->Repr1, "summary");
+    pqCSGV::queryJson(this->Repr1, "colors 16");
+    QVERIFY2(!undo->canUndo(), qPrintable(undo->undoLabel()));
   }
 
   void attributeDialogStartsBesideTheData()
