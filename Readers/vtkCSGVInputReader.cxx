@@ -464,6 +464,9 @@ class vtkCSGVInputReader::vtkInternals
 public:
   vtkSmartPointer<vtkCSGVReader> Reader;
   vtkNew<vtkCallbackCommand> ProgressForwarder;
+  /// Where reading the cached .csgv starts on the progress bar: its last tenth after compressing
+  /// in this request, all of it when the cache was there already (it sat at 98% meanwhile).
+  double ReadProgressFrom = 0.9;
   InputLocation Location;
   std::string Cache;
   std::string Stamp; ///< the input's state when RequestInformation looked
@@ -529,12 +532,13 @@ vtkCSGVInputReader::vtkCSGVInputReader()
   : Internals(new vtkInternals)
 {
   this->SetNumberOfInputPorts(0);
-  // Reading the cached .csgv is the last tenth of the progress bar.
+  // Reading the cached .csgv is the last tenth of the progress bar after compressing, else all.
   this->Internals->ProgressForwarder->SetClientData(this);
   this->Internals->ProgressForwarder->SetCallback(
     [](vtkObject* caller, unsigned long, void* clientData, void*) {
       auto* self = static_cast<vtkCSGVInputReader*>(clientData);
-      self->UpdateProgress(0.9 + 0.1 * static_cast<vtkAlgorithm*>(caller)->GetProgress());
+      const double from = self->Internals->ReadProgressFrom;
+      self->UpdateProgress(from + (1.0 - from) * static_cast<vtkAlgorithm*>(caller)->GetProgress());
     });
   this->Internals->ResetReader();
 }
@@ -883,7 +887,9 @@ int vtkCSGVInputReader::RequestData(
     return 1; // this very request failed and was reported; it is retried once something changes
   }
   this->UpdateProgress(0.0);
-  if (!in.CacheIsValid() && !this->Compress())
+  const bool compress = !in.CacheIsValid();
+  in.ReadProgressFrom = compress ? 0.9 : 0.0;
+  if (compress && !this->Compress())
   {
     this->RememberFailure();
     return 1;

@@ -168,6 +168,9 @@ t.check(mtime_ns(beside) == csgv_mtime and open(beside + ".stamp").read() == sta
         "the .csgv and its stamp are untouched")
 check_labels(img, vol, "cached")
 t.check(len(progress) >= 1 and progress[-1] == 1.0, "progress reaches 1 when reading the cache")
+# Reading the cache is the whole bar, not its last tenth (the GUI sat at 98% while it decoded).
+t.check(any(0.0 < p < 0.9 for p in progress),
+        "reading the cache reports progress below 90%% (%s)" % ", ".join("%.2f" % p for p in progress[:8]))
 Delete(r)
 
 # OpenDataFile's factory offers the reader for .nrrd.
