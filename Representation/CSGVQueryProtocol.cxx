@@ -279,7 +279,8 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     std::getline(in, rest);
     const json q = json::parse(rest, nullptr, false);
     if (!q.is_object() || !q.contains("attribute") || !q.contains("filter") || !q.contains("min") ||
-      !q.contains("max") || !q["min"].is_number() || !q["max"].is_number())
+      !q.contains("max") || !q["attribute"].is_string() || !q["filter"].is_string() ||
+      !q["min"].is_number() || !q["max"].is_number())
     {
       return json({ { "error", "span takes {\"attribute\", \"filter\", \"min\", \"max\"}" } }).dump(-1, ' ', false, json::error_handler_t::replace);
     }
@@ -287,8 +288,8 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     {
       return json({ { "error", c.sourceError } }).dump(-1, ' ', false, json::error_handler_t::replace);
     }
-    return attributeSpanJson(table.get(), *source.shared, q.value("attribute", std::string()),
-      q.value("filter", std::string()), q["min"].get<double>(), q["max"].get<double>());
+    return attributeSpanJson(table.get(), *source.shared, q["attribute"].get<std::string>(),
+      q["filter"].get<std::string>(), q["min"].get<double>(), q["max"].get<double>());
   }
   if (what == "colors")
   {

@@ -9,6 +9,7 @@
 #include "CSGVVolumeCache.h"
 
 #include <vtkCallbackCommand.h>
+#include <nlohmann/json.hpp>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkMatrix4x4.h>
@@ -906,5 +907,14 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   c.attributes = &p.Attributes;
   c.config = &p.Config;
   c.view = &p.View;
-  return csgvrep::answerQuery(request, c);
+  // A request comes from any client or script: whatever it holds, the session goes on.
+  try
+  {
+    return csgvrep::answerQuery(request, c);
+  }
+  catch (const std::exception& e)
+  {
+    return nlohmann::json({ { "error", std::string("cannot answer '") + request.substr(0, 80) + "': " + e.what() } })
+      .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  }
 }

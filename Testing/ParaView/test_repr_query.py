@@ -78,6 +78,16 @@ t.check([e[0] for e in json.loads(ct.query(d, "colors 4096"))["labels"]] == show
         "colors: a label of an opacity-0 material left out")
 d.CSGVMaterials = ""
 
+# span: the range of an attribute over the labels a filter holds; malformed requests (any client
+# or script may send one) are an error answer, never the end of the session.
+sp = json.loads(ct.query(d, 'span {"attribute": "label", "filter": "label", "min": %d, "max": %d}' % (a, b)))
+t.check(sp.get("min") == min(a, b) and sp.get("max") == max(a, b) and sp.get("labels", 0) >= 1,
+        "span: labels %d..%d span themselves (%s)" % (min(a, b), max(a, b), sp))
+for bad in ('span', 'span {', 'span {"attribute": 5, "filter": "label", "min": 0, "max": 1}',
+            'span {"attribute": "label", "filter": [1], "min": 0, "max": 1}',
+            'span {"attribute": "label", "filter": "label", "min": "a", "max": 1}'):
+    t.check("error" in json.loads(ct.query(d, bad)), "span: %r is an error answer" % bad[:60])
+
 # stats: the encoding was parsed once; renders, camera moves and pipeline updates that keep the
 # same encoding array parse nothing more, and nothing was compressed (the encoding is used as is).
 before = json.loads(ct.query(d, "stats"))
