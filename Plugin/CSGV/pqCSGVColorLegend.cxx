@@ -105,8 +105,8 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
   {
     return;
   }
-  QString labels = pqCSGV::queryJson(proxy, "summary").value("labelArray").toString();
-  if (colorBy != (labels.isEmpty() ? QString("Labels") : labels))
+  const QString labels = pqCSGV::labelArrayOf(proxy);
+  if (colorBy != labels)
   {
     return; // another array: ParaView's own legend of it, as for any display
   }
@@ -114,7 +114,7 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
   auto* display = model->findItem<pqDataRepresentation*>(proxy);
   pqView* view = display ? display->getView() : nullptr;
   vtkSMProxy* shared = vtkSMPropertyHelper(proxy, "LookupTable", true).GetAsProxy();
-  vtkSMProxy* own = pqCSGV::labelColorTable(proxy);
+  vtkSMProxy* own = pqCSGV::labelColorTable(proxy, labels);
   if (!own || !view)
   {
     return;
@@ -128,6 +128,6 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
       vtkSMPVRepresentationProxy::HideScalarBarIfNotNeeded(shared, view->getProxy());
     }
   }
-  pqCSGV::showLegend(own, proxy, view);
+  pqCSGV::showLegend(own, labels, proxy, view);
   view->render();
 }

@@ -115,7 +115,13 @@ QJsonObject queryJson(vtkSMProxy* display, const QString& request)
   return QJsonDocument::fromJson(query(display, request).toUtf8()).object();
 }
 
-vtkSMProxy* labelColorTable(vtkSMProxy* display, QString* message)
+QString labelArrayOf(vtkSMProxy* display)
+{
+  const QString array = queryJson(display, "summary").value("labelArray").toString();
+  return array.isEmpty() ? QString("Labels") : array;
+}
+
+vtkSMProxy* labelColorTable(vtkSMProxy* display, const QString& array, QString* message)
 {
   const QJsonObject colors = queryJson(display, "colors 4096");
   if (colors.contains("error"))
@@ -124,9 +130,6 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, QString* message)
       *message = QString("No colours: %1").arg(colors.value("error").toString());
     return nullptr;
   }
-  QString array = queryJson(display, "summary").value("labelArray").toString();
-  if (array.isEmpty())
-    array = "Labels";
   // A table of this data's own: the label array's shared table (every dataset with an array of
   // that name) stays as it is (issue 38, item 6: another dataset then raised "Could not determine
   // discrete values").
@@ -175,7 +178,7 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, QString* message)
   return lut;
 }
 
-void showLegend(vtkSMProxy* lut, vtkSMProxy* display, pqView* view)
+void showLegend(vtkSMProxy* lut, const QString& array, vtkSMProxy* display, pqView* view)
 {
   if (!view || !vtkSMPVRepresentationProxy::SetScalarBarVisibility(display, view->getProxy(), true))
     return;
@@ -184,11 +187,9 @@ void showLegend(vtkSMProxy* lut, vtkSMProxy* display, pqView* view)
     return;
   // One entry per label up to kLegendLabels, else the colours alone and a title with the count.
   const int labels = int(vtkSMPropertyHelper(lut, "Annotations").GetNumberOfElements() / 2);
-  const QString array = queryJson(display, "summary").value("labelArray").toString();
-  const QString name = array.isEmpty() ? QString("Labels") : array;
   const bool fits = labels <= kLegendLabels;
   vtkSMPropertyHelper(bar, "DrawAnnotations").Set(fits ? 1 : 0);
-  const QString title = fits ? name : QString("%1: %2 labels (names: View > Segmentation Pick)").arg(name).arg(labels);
+  const QString title = fits ? array : QString("%1: %2 labels (names: View > Segmentation Pick)").arg(array).arg(labels);
   vtkSMPropertyHelper(bar, "Title").Set(title.toUtf8().constData());
   bar->UpdateVTKObjects();
 }
@@ -196,12 +197,10 @@ void showLegend(vtkSMProxy* lut, vtkSMProxy* display, pqView* view)
 QString exportLabelColors(vtkSMProxy* display)
 {
   QString message;
-  vtkSMProxy* lut = labelColorTable(display, &message);
+  const QString array = labelArrayOf(display);
+  vtkSMProxy* lut = labelColorTable(display, array, &message);
   if (!lut)
     return message;
-  QString array = queryJson(display, "summary").value("labelArray").toString();
-  if (array.isEmpty())
-    array = "Labels";
   // The displays of this data and of what is made from it (Slice, Threshold, ...) coloured by the
   // label array take the table and show its legend.
   pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
@@ -228,7 +227,7 @@ QString exportLabelColors(vtkSMProxy* display)
     proxy->UpdateVTKObjects();
     if (r->isVisible())
     {
-      showLegend(lut, proxy, r->getView());
+      showLegend(lut, array, proxy, r->getView());
     }
     if (r->getView())
     {

@@ -53,12 +53,15 @@ QJsonObject queryJson(vtkSMProxy* display, const QString& request);
 /// the table and show its legend: one entry per label up to kLegendLabels, else the colours
 /// alone under a title that names the count. Returns a message for the user.
 QString exportLabelColors(vtkSMProxy* display);
-/// The table exportLabelColors makes, made (again) from what the display draws now; null with a
-/// `message` when the display cannot tell (`message` also says what was made).
-vtkSMProxy* labelColorTable(vtkSMProxy* display, QString* message = nullptr);
-/// Shows `lut`'s legend for `display` in `view`, one entry per label up to kLegendLabels, else the
-/// colours alone under a title that names the count.
-void showLegend(vtkSMProxy* lut, vtkSMProxy* display, pqView* view);
+/// The name of the display's label array (its `summary`; "Labels" when it does not say).
+QString labelArrayOf(vtkSMProxy* display);
+/// The table exportLabelColors makes for `array` (labelArrayOf), made (again) from what the
+/// display draws now; null with a `message` when the display cannot tell (`message` also says
+/// what was made).
+vtkSMProxy* labelColorTable(vtkSMProxy* display, const QString& array, QString* message = nullptr);
+/// Shows `lut`'s legend (titled `array`) for `display` in `view`, one entry per label up to
+/// kLegendLabels, else the colours alone under a title that names the count.
+void showLegend(vtkSMProxy* lut, const QString& array, vtkSMProxy* display, pqView* view);
 /// The folder of the file the display's data was read from (its pipeline source's file name
 /// property), where attribute files usually lie; empty when the data has no file.
 QString dataFolder(vtkSMProxy* display);
