@@ -178,9 +178,9 @@ public:
         return (m_layer.capacity() + m_chunk.capacity()) * sizeof(uint64_t);
     }
 
-    /// Chunks with no file are background (0): one box each, runs along x merged, found with one
-    /// lookup a chunk and no read (InputSource::uniformBoxes). A name that is there but refused
-    /// (chunkFile's errors) is no box: the read reports it.
+    /// Chunks with no file are background (0): one box each, runs along x merged, found with a
+    /// stat of each name a chunk may have and no read (InputSource::uniformBoxes). A name that is
+    /// there but refused (chunkFile's errors) is no box: the read reports it.
     void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override {
         out.clear();
         if (!checkRows(m_info, z0, depth, y0, rows, m_chunkDir) || depth == 0 || rows == 0) return;
@@ -194,8 +194,10 @@ public:
                 for (uint32_t gx = 0; gx <= chunksAlong(0); ++gx) {
                     bool background = false;
                     if (gx < chunksAlong(0)) {
-                        const Result<std::string> file = chunkFile(chunkBox(gx, gy, layer));
-                        background = file.isOk() && file->empty();
+                        // No name there at all (chunkFile's "none"): one stat a name, no path check.
+                        background = true;
+                        for (const std::string& name : chunkNames(chunkBox(gx, gy, layer)))
+                            background = background && notRegularFile(m_chunkDir + "/" + name) == "missing";
                     }
                     if (background && run < 0) run = int64_t(gx) * c[0];
                     if (!background && run >= 0) {
@@ -262,14 +264,19 @@ private:
     /// background: that would silently read as zeros (and a FIFO would block). A chunk that is a
     /// symbolic link out of the dataset is refused as the scale key would be (a raw chunk of the
     /// right size would copy any file into the output).
-    Result<std::string> chunkFile(const Box& b) const {
+    /// The names a chunk's file may have, relative to the scale's folder: flat, gzip, nested.
+    std::array<std::string, 3> chunkNames(const Box& b) const {
         std::array<std::string, 3> range;
         for (size_t i = 0; i < 3; ++i) {
             const int64_t begin = m_scale.voxelOffset[i] + b.lo[i];
             range[i] = std::to_string(begin) + "-" + std::to_string(begin + b.extent[i]);
         }
         const std::string flat = range[0] + "_" + range[1] + "_" + range[2];
-        for (const std::string& name : {flat, flat + ".gz", range[0] + "/" + range[1] + "/" + range[2]}) {
+        return {flat, flat + ".gz", range[0] + "/" + range[1] + "/" + range[2]};
+    }
+
+    Result<std::string> chunkFile(const Box& b) const {
+        for (const std::string& name : chunkNames(b)) {
             const std::string candidate = m_chunkDir + "/" + name;
             const std::string kind = notRegularFile(candidate);
             if (kind == "missing") continue;
