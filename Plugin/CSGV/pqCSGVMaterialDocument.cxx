@@ -169,6 +169,9 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, const QString& array, QString* 
   for (size_t i = 0; i < annotations.size(); ++i)
     ann.Set(unsigned(i), annotations[i].c_str());
   vtkSMPropertyHelper(lut, "IndexedColors").Set(rgb.data(), unsigned(rgb.size()));
+  // The annotations are ours: ParaView must not compute them from the data (with more than 32
+  // labels it cannot, and the GUI said so in a dialog each time the display was coloured).
+  vtkSMPropertyHelper(lut, "AnnotationsInitialized").Set(1);
   lut->UpdateVTKObjects();
   if (message)
     *message = QString("Lookup table '%1': %2 label colours%3")

@@ -135,6 +135,9 @@ private Q_SLOTS:
     QCOMPARE(vtkSMPropertyHelper(shared, "IndexedLookup").GetAsInt(), 0);
     QCOMPARE(vtkSMPropertyHelper(lut, "IndexedLookup").GetAsInt(), 1);
     QCOMPARE(vtkSMPropertyHelper(lut, "AutomaticRescaleRangeMode").GetAsInt(), int(vtkSMTransferFunctionManager::NEVER));
+    // Ours, not computed from the data (ParaView's GUI said in a dialog that it could not, with
+    // more than 32 labels, each time a display was coloured by the table).
+    QCOMPARE(vtkSMPropertyHelper(lut, "AnnotationsInitialized").GetAsInt(), 1);
     QCOMPARE(vtkSMPropertyHelper(lut, "NanOpacity").GetAsDouble(), 0.0); // label 0, hidden: not drawn
     vtkSMPropertyHelper ann(lut, "Annotations");
     QSet<qint64> annotated;
