@@ -43,20 +43,9 @@ std::string defaultsJson()
 {
   const RepresentationProperties d;
   json j;
-  j["CSGVShading"] = d.shading;
-  j["CSGVShadingBlend"] = d.shadingBlend;
-  j["CSGVFramesPerStillRender"] = d.framesPerStillRender;
-  j["CSGVStillRenderTimeBudget"] = d.stillRenderTimeBudget;
-  j["CSGVLODBias"] = d.lodBias;
-  j["CSGVSubsampling"] = d.subsampling;
-  j["CSGVDenoise"] = d.denoise;
-  j["CSGVLightDirection"] = d.lightDirection;
-  j["CSGVCacheSizeMiB"] = d.cacheSizeMiB;
-  j["CSGVDeviceMemoryMiB"] = d.deviceMemoryMiB;
-  j["CSGVCachePaletting"] = d.cachePaletting;
-  j["CSGVDecoding"] = d.decoding;
-  j["CSGVClipBox"] = d.clipBox;
-  j["CSGVComputedAttributes"] = d.computedAttributes;
+#define CSGV_PROPERTY(Name, member, type, count, values) j["CSGV" #Name] = d.member;
+#include "CSGVProperties.def"
+#undef CSGV_PROPERTY
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 

@@ -5,6 +5,7 @@
 
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/GpuVolume.h"
+#include "csgv/gpu/UploadPolicy.h"
 
 #include <algorithm>
 #include <limits>
@@ -37,6 +38,7 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
   s.decode = p.decoding == 1 ? Decode::Gpu : p.decoding == 2 ? Decode::Host : Decode::Auto;
   s.framesPerStillRender = uint32_t(std::max(1, p.framesPerStillRender));
   s.stillRenderTimeBudget = std::max(0.0, p.stillRenderTimeBudget);
+  s.refinementSlice = std::max(0.0, p.refinementSlice);
   s.clipBox = p.clipBox;
   return s;
 }
@@ -97,7 +99,8 @@ void ViewRenderer::setSettings(const ViewSettings& s)
     s.deviceMemoryBytes == o.deviceMemoryBytes && s.cachePaletting == o.cachePaletting &&
     s.decode == o.decode &&
     s.framesPerStillRender == o.framesPerStillRender &&
-    s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.clipBox == o.clipBox;
+    s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.refinementSlice == o.refinementSlice &&
+    s.clipBox == o.clipBox;
   if (s.cachePaletting != o.cachePaletting)
   {
     this->CachePressure = false;
@@ -136,55 +139,39 @@ std::string ViewRenderer::ensureRenderer()
   }
   int renderers = 1;
   std::shared_ptr<csgv::gpu::GpuVolume> gpu; // held from here: no other view releases it meanwhile
-  // Cache paletting (the paper's): on when asked, or automatically once the cache of labels ran
-  // full; never where the palettes are too large for two indices to share a word.
-  const bool paletted = csgv::gpu::GpuVolume::paletteBits(shared->volume) < 32 &&
-    (this->Settings.cachePaletting == 1 || (this->Settings.cachePaletting == 2 && this->CachePressure));
-  if (this->Renderer && (this->Renderer->volume().cacheBits() < 32) != paletted)
+  // The backend's upload policy: which upload of the volume this view draws from, and its share
+  // of the budgets (csgv/gpu/UploadPolicy.h).
+  csgv::gpu::UploadRequest want;
+  want.deviceMemoryBytes = this->Settings.deviceMemoryBytes;
+  want.cacheBytes = this->Settings.cacheBytes;
+  want.processes = this->Settings.processes;
+  want.decode = this->Settings.decode;
+  want.cachePaletting = this->Settings.cachePaletting;
+  want.cachePressure = this->CachePressure;
+  csgv::gpu::UploadPlan plan = csgv::gpu::planUpload(this->Context->device(), shared->volume, want);
+  plan.volume.owned = shared->owned;
+  if (this->Renderer && !plan.serves(this->Renderer->volume()))
   {
     this->Renderer.reset(); // before the other upload is made: its memory counts
   }
-  const uint64_t budget = this->Settings.deviceMemoryBytes
-    ? this->Settings.deviceMemoryBytes
-    : csgv::gpu::automaticDeviceMemoryBudget(this->Context->device());
-  // Host decoding (CPU devices) uploads no encoding; with GPU decoding, a budget that wants the
-  // finest level in host memory, or no more, wants another upload.
-  const bool hostDecoding =
-    csgv::gpu::decodesOnHost(this->Settings.decode, this->Context->device(), shared->volume, budget);
-  if (this->Renderer && this->Renderer->volume().hostDecoding() != hostDecoding)
-  {
-    this->Renderer.reset();
-  }
-  const int kind = int(paletted) + 2 * int(hostDecoding); // the upload this view draws from
-  const bool separated = !hostDecoding &&
-    csgv::gpu::GpuVolume::separates(shared->volume, budget, csgv::gpu::DetailSeparation::Auto);
-  if (this->Renderer && this->Renderer->volume().separated() != separated)
-  {
-    this->Renderer.reset();
-  }
   {
     std::lock_guard<std::mutex> lock(this->Cache->mutex());
-    for (int k = 0; k < 4; ++k)
+    for (uint32_t k = 0; k < csgv::gpu::kUploadKinds; ++k)
     {
-      if (k != kind && shared->gpu[k] && shared->gpu[k].use_count() == 1)
+      if (k != plan.kind && shared->gpu[k] && shared->gpu[k].use_count() == 1)
       {
         shared->gpu[k].reset(); // no view draws from it any more
       }
     }
-    std::shared_ptr<csgv::gpu::GpuVolume>& mine = shared->gpu[kind];
-    if (mine && mine->separated() != separated && mine.use_count() == 1)
+    std::shared_ptr<csgv::gpu::GpuVolume>& mine = shared->gpu[plan.kind];
+    if (mine && !plan.serves(*mine) && mine.use_count() == 1)
     {
       mine.reset(); // made for another budget, and no other view draws from it
     }
     if (!mine)
     {
-      csgv::gpu::GpuVolumeOptions volumeOptions;
-      volumeOptions.deviceMemoryBytes = budget;
-      volumeOptions.cachePaletting = paletted;
-      volumeOptions.hostDecoding = hostDecoding;
-      volumeOptions.owned = shared->owned;
       csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> upload =
-        csgv::gpu::GpuVolume::create(*this->Context, shared->volume, volumeOptions);
+        csgv::gpu::GpuVolume::create(*this->Context, shared->volume, plan.volume);
       if (!upload)
       {
         return "uploading the volume: " + upload.message();
@@ -201,23 +188,12 @@ std::string ViewRenderer::ensureRenderer()
     // Other views of this volume change the count under the mutex.
     renderers = std::max(1, shared->renderers);
   }
-  // Views of one volume split one cache budget, and one device-memory budget: each counts the
-  // shared encoding and gets its part of the rest.
-  const uint64_t cacheBytes = this->Settings.cacheBytes
-    ? this->Settings.cacheBytes
-    : csgv::gpu::automaticCacheBytes(this->Context->device(), this->Settings.processes);
-  const uint64_t share = std::max<uint64_t>(cacheBytes / uint64_t(renderers), 16ull << 20);
-  const uint64_t encoding = gpu->deviceBytes();
-  const uint64_t budgetShare =
-    encoding + (budget - std::min(budget, encoding)) / uint64_t(renderers);
-  if (!this->Renderer || share != this->RendererCacheBytes || budgetShare != this->RendererBudget ||
-    &this->Renderer->volume() != gpu.get())
+  const csgv::gpu::RendererOptions options =
+    plan.share(gpu->deviceBytes(), uint32_t(renderers), this->Settings.decode);
+  if (!this->Renderer || options.cacheBytes != this->RendererCacheBytes ||
+    options.deviceMemoryBytes != this->RendererBudget || &this->Renderer->volume() != gpu.get())
   {
     this->Renderer.reset();
-    csgv::gpu::RendererOptions options;
-    options.cacheBytes = share;
-    options.deviceMemoryBytes = budgetShare;
-    options.decode = this->Settings.decode;
     csgv::Result<std::unique_ptr<csgv::gpu::Renderer>> r =
       csgv::gpu::Renderer::create(*this->Context, gpu, options);
     if (!r)
@@ -226,8 +202,8 @@ std::string ViewRenderer::ensureRenderer()
     }
     this->Renderer = std::move(*r);
     this->Warmed = false;
-    this->RendererCacheBytes = share;
-    this->RendererBudget = budgetShare;
+    this->RendererCacheBytes = options.cacheBytes;
+    this->RendererBudget = options.deviceMemoryBytes;
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
     this->GhostUploaded = this->CoarseUploaded = nullptr;
   }
@@ -356,6 +332,21 @@ const csgv::gpu::FrameOutput& ViewRenderer::output(uint32_t parts)
   return this->Renderer ? this->Renderer->output(parts) : none;
 }
 
+int ViewRenderer::interactiveReduction(double pixels, double desiredRate) const
+{
+  this->settle();
+  return this->Renderer ? this->Renderer->interactiveReduction(pixels, desiredRate) : 1;
+}
+
+void ViewRenderer::recordDraw(double seconds, uint32_t frames, double pixels)
+{
+  this->settle();
+  if (this->Renderer)
+  {
+    this->Renderer->recordDraw(seconds, frames, pixels);
+  }
+}
+
 uint64_t ViewRenderer::cacheBytes() const
 {
   this->settle();
@@ -423,9 +414,9 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
   request.frame.opaqueDepth = req.opaqueDepth;
   request.interactive = req.interactive;
   request.timeBudgetSeconds = this->Settings.stillRenderTimeBudget;
-  if (req.maxStillSeconds > 0)
+  if (this->Settings.refinementSlice > 0)
   {
-    request.timeBudgetSeconds = std::min(request.timeBudgetSeconds, req.maxStillSeconds);
+    request.timeBudgetSeconds = std::min(request.timeBudgetSeconds, this->Settings.refinementSlice);
   }
   if (req.capture)
   {

@@ -23,30 +23,26 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace csgvrep
 {
 
-/// @brief The representation's property values. Each default here mirrors the server-manager
-/// XML (Plugin/CSGV/CSGVRepresentation.xml), vtkCSGVRepresentation starts from these, and
-/// Testing/ParaView/test_repr_query.py checks that they agree.
+/// A property's value: one T, or `count` of them.
+template <class T, int count>
+using PropertyValue = std::conditional_t<count == 1, T, std::array<T, size_t(count)>>;
+#define CSGV_UNPAREN(...) __VA_ARGS__
+
+/// @brief The representation's property values, one field per row of CSGVProperties.def, which
+/// holds their defaults (the server-manager XML's default_values are written from the same rows).
+/// Units and meanings: the XML's documentation (Plugin/CSGV/CSGVRepresentation.xml.in).
 struct RepresentationProperties
 {
-  int shading = 0;               ///< 0 local, 1 shadow, 2 ambient occlusion, 3 path tracing
-  double shadingBlend = 1.0;     ///< 0: local shading only ... 1: the chosen mode only
-  int framesPerStillRender = 16; ///< samples per pixel a still render accumulates
-  double stillRenderTimeBudget = 3.0; ///< seconds
-  double lodBias = 0.0;
-  int subsampling = 1; ///< 1, 2, 4 or 8
-  int denoise = 1;
-  std::array<double, 3> lightDirection{ { 0.35, 0.6, 0.72 } }; ///< view coordinates
-  int cacheSizeMiB = 0;    ///< 0: automatic (csgv::gpu::automaticCacheBytes)
-  int deviceMemoryMiB = 0; ///< 0: automatic (csgv::gpu::automaticDeviceMemoryBudget)
-  int decoding = 0;        ///< 0 automatic, 1 GPU, 2 host (csgv::gpu::RendererOptions::Decode)
-  int cachePaletting = 2;  ///< 0 off, 1 on, 2 automatic: on once the cache runs full without it
-  std::array<int, 6> clipBox{ { 0, 2147483647, 0, 2147483647, 0, 2147483647 } }; ///< inclusive voxels
-  int computedAttributes = 0;
+#define CSGV_PROPERTY(Name, member, type, count, values)                                           \
+  PropertyValue<type, count> member{ CSGV_UNPAREN values };
+#include "CSGVProperties.def"
+#undef CSGV_PROPERTY
 };
 
 /// @brief Everything the representation's properties set, besides materials and the array, in
@@ -61,6 +57,7 @@ struct ViewSettings
   csgv::gpu::RendererOptions::Decode decode = csgv::gpu::RendererOptions::Decode::Auto;
   uint32_t framesPerStillRender = 0;
   double stillRenderTimeBudget = 0; ///< seconds
+  double refinementSlice = 0;       ///< a still render's seconds when shorter than the budget (0: none)
   std::array<int, 6> clipBox{};     ///< inclusive voxels
 };
 
@@ -74,7 +71,6 @@ struct FrameRequest
   uint32_t width = 0, height = 0;
   const float* opaqueDepth = nullptr; ///< window depth of the tile, row 0 at the bottom
   bool interactive = false;
-  double maxStillSeconds = 0; ///< a still render's budget when shorter than the property's (0: none)
   /// An image that will be written: no time budget, the still loop runs until every pixel holds
   /// the sample target (or the renderer's own idle limit: a cache too small to progress).
   bool capture = false;
@@ -116,6 +112,13 @@ public:
   const csgv::gpu::FrameOutput& output(uint32_t parts = csgv::gpu::Renderer::Color8 | csgv::gpu::Renderer::Depth);
   /// Statistics of the last frame rendered.
   const csgv::gpu::FrameStats& lastStats() const { return this->Stats; }
+  /// The reduction factor per axis (1..8) of an interactive frame of `pixels` for a view drawn
+  /// at `desiredRate` frames a second: the backend's time model (csgv::gpu::Renderer::
+  /// interactiveReduction); 1 without a renderer.
+  int interactiveReduction(double pixels, double desiredRate) const;
+  /// The last render()'s `frames` of `pixels` each were drawn (rendered, read back, composited)
+  /// in `seconds`: what the time model learns of a whole draw.
+  void recordDraw(double seconds, uint32_t frames, double pixels);
   uint32_t framesLastRender() const { return this->FramesLastRender; }
   /// Device memory of this view's renderer: its brick cache and everything (the shared encoding
   /// upload included); 0 without a renderer.

@@ -19,6 +19,7 @@
 #include "csgv/base/Geometry.h"
 #include "csgv/codec/Container.h"
 #include "csgv/gpu/GpuVolume.h"
+#include "csgv/gpu/UploadPolicy.h"
 
 #include <vtkType.h>
 
@@ -91,11 +92,11 @@ struct SharedVolume
   std::string description; ///< where it came from ("CSGVEncoding", "array 'Labels' compressed")
   /// The context `gpu` was created on; declared before `gpu` so that it outlives it.
   std::shared_ptr<csgv::gpu::Context> context;
-  /// The uploads: [paletted + 2 * hostDecoding], for caches of labels or palette indices, decoded
+  /// The uploads: [paletted + 2 * hostDecoding] (csgv::gpu::UploadPlan::kind), for caches of labels or palette indices, decoded
   /// on the GPU or the host (views may differ; an upload no view uses any more is released when
   /// another view switches). Declared after `volume`: destroyed first (each keeps a reference to
   /// `volume`).
-  std::shared_ptr<csgv::gpu::GpuVolume> gpu[4];
+  std::shared_ptr<csgv::gpu::GpuVolume> gpu[csgv::gpu::kUploadKinds];
   /// Renderers using this volume; each one's cache gets an equal share of the cache budget.
   int renderers = 0;
 };

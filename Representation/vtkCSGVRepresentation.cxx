@@ -28,6 +28,39 @@
 
 namespace
 {
+
+/// A property's value between the representation's members (T or T[n]) and
+/// csgvrep::RepresentationProperties' fields (T or std::array<T, n>), both ways.
+template <class T>
+void copyProperty(const T& from, T& to)
+{
+  to = from;
+}
+template <class T, size_t n>
+void copyProperty(const std::array<T, n>& from, T (&to)[n])
+{
+  std::copy(from.begin(), from.end(), to);
+}
+template <class T, size_t n>
+void copyProperty(const T (&from)[n], std::array<T, n>& to)
+{
+  std::copy(from, from + n, to.begin());
+}
+template <class T>
+void printProperty(ostream& os, const T& v)
+{
+  os << " " << v << "\n";
+}
+template <class T, size_t n>
+void printProperty(ostream& os, const T (&v)[n])
+{
+  for (const T& x : v)
+  {
+    os << " " << x;
+  }
+  os << "\n";
+}
+
 /// vtkPVView::GetInCaptureScreenshot is protected in ParaView 5.11 (public from 5.12): read it
 /// through a member pointer named by a subclass, which C++'s access rules allow.
 struct CaptureState : vtkPVView
@@ -69,22 +102,11 @@ vtkCSGVRepresentation::vtkCSGVRepresentation()
   : Prop(vtkCSGVVolumeProp::New())
   , Internals(new vtkInternals)
 {
-  // One set of defaults: csgvrep::RepresentationProperties mirrors the XML.
+  // The defaults: CSGVProperties.def's, which the XML's are written from.
   const csgvrep::RepresentationProperties d;
-  this->Shading = d.shading;
-  this->ShadingBlend = d.shadingBlend;
-  this->FramesPerStillRender = d.framesPerStillRender;
-  this->StillRenderTimeBudget = d.stillRenderTimeBudget;
-  this->LODBias = d.lodBias;
-  this->Subsampling = d.subsampling;
-  this->Denoise = d.denoise;
-  std::copy(d.lightDirection.begin(), d.lightDirection.end(), this->LightDirection);
-  this->CacheSizeMiB = d.cacheSizeMiB;
-  this->DeviceMemoryMiB = d.deviceMemoryMiB;
-  this->Decoding = d.decoding;
-  this->CachePaletting = d.cachePaletting;
-  std::copy(d.clipBox.begin(), d.clipBox.end(), this->ClipBox);
-  this->ComputedAttributes = d.computedAttributes;
+#define CSGV_PROPERTY(Name, member, type, count, values) copyProperty(d.member, this->Name);
+#include "CSGVProperties.def"
+#undef CSGV_PROPERTY
   this->Prop->SetMaterials("");
 }
 
@@ -98,25 +120,10 @@ void vtkCSGVRepresentation::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "LabelArray: " << this->LabelArray << "\n";
-  os << indent << "Shading: " << this->Shading << "\n";
-  os << indent << "ShadingBlend: " << this->ShadingBlend << "\n";
-  os << indent << "FramesPerStillRender: " << this->FramesPerStillRender << "\n";
-  os << indent << "StillRenderTimeBudget: " << this->StillRenderTimeBudget << "\n";
-  os << indent << "LODBias: " << this->LODBias << "\n";
-  os << indent << "Subsampling: " << this->Subsampling << "\n";
-  os << indent << "Denoise: " << this->Denoise << "\n";
-  os << indent << "LightDirection: " << this->LightDirection[0] << " " << this->LightDirection[1]
-     << " " << this->LightDirection[2] << "\n";
-  os << indent << "CacheSizeMiB: " << this->CacheSizeMiB << "\n";
-  os << indent << "DeviceMemoryMiB: " << this->DeviceMemoryMiB << "\n";
-  os << indent << "Decoding: " << this->Decoding << "\n";
-  os << indent << "CachePaletting: " << this->CachePaletting << "\n";
-  os << indent << "ClipBox:";
-  for (int v : this->ClipBox)
-  {
-    os << " " << v;
-  }
-  os << "\n";
+#define CSGV_PROPERTY(Name, member, type, count, values)                                           \
+  printProperty(os << indent << #Name ":", this->Name);
+#include "CSGVProperties.def"
+#undef CSGV_PROPERTY
   os << indent << "AttributeFiles:";
   for (const std::string& f : this->AttributeFiles)
   {
@@ -308,19 +315,9 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     this->Prop->SetInput(image, this->Internals->Source, this->Internals->Error);
     // Every property, gathered once per render (the view renderer detects what changed).
     csgvrep::RepresentationProperties p;
-    p.shading = this->Shading;
-    p.shadingBlend = this->ShadingBlend;
-    p.framesPerStillRender = this->FramesPerStillRender;
-    p.stillRenderTimeBudget = this->StillRenderTimeBudget;
-    p.lodBias = this->LODBias;
-    p.subsampling = this->Subsampling;
-    p.denoise = this->Denoise;
-    std::copy(this->LightDirection, this->LightDirection + 3, p.lightDirection.begin());
-    p.cacheSizeMiB = this->CacheSizeMiB;
-    p.deviceMemoryMiB = this->DeviceMemoryMiB;
-    p.decoding = this->Decoding;
-    p.cachePaletting = this->CachePaletting;
-    std::copy(this->ClipBox, this->ClipBox + 6, p.clipBox.begin());
+#define CSGV_PROPERTY(Name, member, type, count, values) copyProperty(this->Name, p.member);
+#include "CSGVProperties.def"
+#undef CSGV_PROPERTY
     csgvrep::ViewSettings settings = csgvrep::toViewSettings(p);
     // Ranks may share a device: an automatic cache takes its share of it.
     vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();

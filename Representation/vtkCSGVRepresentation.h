@@ -43,8 +43,9 @@ public:
   void SetLabelArray(const char* name);
   const char* GetLabelArray() { return this->LabelArray.c_str(); }
 
-  // The properties below are gathered into the backend's settings once per render. Defaults:
-  // the server-manager XML, mirrored by csgvrep::RepresentationProperties (CSGVViewRenderer.h).
+  // The properties below (the rows of CSGVProperties.def, which holds their defaults) are
+  // gathered into the backend's settings once per render.
+
 
   /// 0 local, 1 shadow, 2 ambient occlusion, 3 path tracing (default 0).
   vtkSetMacro(Shading, int);
@@ -96,6 +97,10 @@ public:
   /// the whole volume).
   vtkSetVector6Macro(ClipBox, int);
   vtkGetVector6Macro(ClipBox, int);
+  /// Seconds a still render may take where the application renders again until the volume
+  /// converges (ParaView's GUI); 0: the whole StillRenderTimeBudget (default 0).
+  vtkSetClampMacro(RefinementSlice, double, 0, 600);
+  vtkGetMacro(RefinementSlice, double);
   /// The material document of MATERIALS.md ("": the default document); ParaView preset names
   /// are resolved here. A malformed document is reported and nothing is drawn.
   void SetMaterials(const char* json);
@@ -174,7 +179,7 @@ private:
   vtkSmartPointer<vtkImageData> Cache;
   vtkCSGVVolumeProp* Prop;
   std::string LabelArray;
-  // Initialised from csgvrep::RepresentationProperties in the constructor (one set of defaults).
+  // Initialised from CSGVProperties.def's defaults in the constructor.
   int Shading;
   double ShadingBlend;
   int FramesPerStillRender;
@@ -188,6 +193,7 @@ private:
   int Decoding;
   int CachePaletting;
   int ClipBox[6];
+  double RefinementSlice;
   std::vector<std::string> AttributeFiles;
   std::vector<std::string> DerivedAttributes; ///< name, expression, name, expression...
   int ComputedAttributes;

@@ -71,39 +71,6 @@ void main()
 /// The no-device message is the same for every view: say it once per process.
 std::atomic<bool> deviceReported{ false };
 
-/// vtkCSGVVolumeProp::SetRefinementSlice (0: none).
-std::atomic<double> refinementSlice{ 0.0 };
-
-/// @brief ParaView's level of detail for the Segmentation Volume: while the mouse moves
-/// (interactive renders), frames are rendered at 1/f of the view's resolution per axis and
-/// stretched over it, f chosen from the measured cost of a pixel so that a frame takes at most
-/// half the time the view's desired update rate allows (the other half is ParaView's own work).
-/// The cost is measured per shading mode by the backend's time model (csgv::gpu::ModeCosts: a
-/// mode not measured yet is scaled from a measured one by the rays each casts), here of the whole
-/// draw (render, read-back and compositing). Still renders are always at full resolution.
-class InteractiveResolution
-{
-public:
-  /// The reduction factor (1..8) for a frame of `pixels` in shading `mode` at `desiredRate`
-  /// frames a second.
-  int factor(int mode, double pixels, double desiredRate) const
-  {
-    const double seconds = this->Costs.secondsPerPixel(csgv::gpu::Shading(mode));
-    if (seconds <= 0 || desiredRate <= 0)
-    {
-      return 1;
-    }
-    const double frameSeconds = 0.5 / desiredRate;
-    const double f = std::ceil(std::sqrt(pixels * seconds / frameSeconds) - 0.05);
-    return int(std::min(8.0, std::max(1.0, f)));
-  }
-  /// A frame of `pixels` in shading `mode` took `seconds` (render, read-back and compositing).
-  void record(int mode, double seconds, double pixels) { this->Costs.record(csgv::gpu::Shading(mode), seconds, pixels); }
-
-private:
-  csgv::gpu::ModeCosts Costs;
-};
-
 /// The opaque depth of a reduced frame: the full tile's depth at each reduced pixel's centre.
 void reduceDepth(const std::vector<float>& full, int width, int height, int factor, uint32_t w, uint32_t h,
   std::vector<float>& out)
@@ -152,8 +119,6 @@ struct vtkCSGVVolumeProp::Impl
   csgvrep::ViewRenderer View;
   std::string LastError;
   std::vector<float> Depth, ReducedDepth;
-  InteractiveResolution Lod;
-  int Shading = 0; ///< the frames' shading mode (csgv::gpu::Shading), for Lod
   int LodFactor = 1; ///< the reduction of the frame in the textures (1: full resolution)
 
   vtkWeakPointer<vtkOpenGLRenderWindow> Window;
@@ -197,16 +162,6 @@ vtkStandardNewMacro(vtkCSGVVolumeProp);
 void vtkCSGVVolumeProp::SetCapture(bool capture)
 {
   this->P->Capture = capture;
-}
-
-void vtkCSGVVolumeProp::SetRefinementSlice(double seconds)
-{
-  refinementSlice = seconds > 0 ? seconds : 0.0;
-}
-
-double vtkCSGVVolumeProp::GetRefinementSlice()
-{
-  return refinementSlice;
 }
 
 vtkCSGVVolumeProp::vtkCSGVVolumeProp()
@@ -276,7 +231,6 @@ void vtkCSGVVolumeProp::SetViewSettings(const csgvrep::ViewSettings& settings)
 {
   // Called once per render with every property: the view renderer detects what changed.
   this->P->View.setSettings(settings);
-  this->P->Shading = int(settings.render.shading);
 }
 
 void vtkCSGVVolumeProp::SetMaterials(const std::string& json)
@@ -817,10 +771,11 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
   // A saved image is never a preview: full resolution, no slice, no budget (SetCapture).
   request.capture = p.Capture;
   request.interactive = request.interactive && !p.Capture;
+  // ParaView's level of detail: interactive frames at a resolution the backend's time model
+  // chooses for the view's desired update rate (csgv/gpu/FramePolicy.h).
   const int factor = request.interactive
-    ? p.Lod.factor(p.Shading, double(width) * height, win->GetDesiredUpdateRate())
+    ? p.View.interactiveReduction(double(width) * height, win->GetDesiredUpdateRate())
     : 1;
-  request.maxStillSeconds = p.Capture ? 0.0 : refinementSlice.load();
   request.width = uint32_t((width + factor - 1) / factor);
   request.height = uint32_t((height + factor - 1) / factor);
   // Translucent materials (drawn in the translucent pass): rays stop at the opaque geometry's
@@ -877,11 +832,8 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
     std::fprintf(stderr, "draw: %u frames %.2f ms (opaque depth %.2f ms), textures %.2f ms\n", frames,
       ms(t0, t1), ms(t0, tDepth), ms(t1, t2));
   }
-  if (frames > 0)
-  {
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    p.Lod.record(p.Shading, seconds / frames, double(request.width) * request.height);
-  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  p.View.recordDraw(seconds, frames, double(request.width) * request.height);
   return true;
 }
 

@@ -53,13 +53,6 @@ public:
   vtkTypeMacro(vtkCSGVVolumeProp, vtkProp3D);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
-  /// In a GUI session whose plugin renders again until every volume converges (the progressive
-  /// refinement auto-start), still renders end after this many seconds (never before the image
-  /// is whole), so the GUI answers the mouse between them; 0 (pvpython, pvbatch): each volume's
-  /// CSGVStillRenderTimeBudget alone. Process-wide.
-  static void SetRefinementSlice(double seconds);
-  static double GetRefinementSlice();
-
   /// Set while the view renders an image that will be written (SaveScreenshot, SaveAnimation,
   /// any resolution): such a render ignores the refinement slice and the still-render time
   /// budget and goes on until every pixel holds CSGVFramesPerStillRender samples at full

@@ -22,6 +22,11 @@ check_layer(shaders "vtk|Q[A-Z]|pq" "VTK or Qt headers")
 check_layer(Readers "Q[A-Z]|qt|pq|vulkan/" "Qt or Vulkan headers")
 check_layer(Representation "Q[A-Z]|qt|pq" "Qt headers")
 
+# The plugin's GUI reaches the representation only through its server-manager properties, which
+# work in client/server sessions too: no header of Representation/ (the renderer's classes live
+# on the rendering process) and none of VulkanBackend/.
+check_layer(Plugin "vtkCSGVVolumeProp|vtkCSGVRepresentation|CSGVViewRenderer|CSGVVolumeCache|csgv/gpu/" "headers of Representation/ or VulkanBackend/")
+
 # The representation uses the readers' public adapter (CSGVAdapter.h) through its module
 # dependency: no private header of Readers/ (the former vtkCSGVInternals.h) and no path into it.
 check_layer(Representation "vtkCSGVInternals|[^\">]*Readers/" "private headers of Readers/")

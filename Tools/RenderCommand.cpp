@@ -12,6 +12,7 @@
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/gpu/Renderer.h"
+#include "csgv/gpu/UploadPolicy.h"
 
 #include <algorithm>
 #include <chrono>
@@ -296,6 +297,12 @@ double since(std::chrono::steady_clock::time_point t0) {
 
 } // namespace
 
+std::string shadingChoices() {
+    std::string names;
+    for (const gpu::ShadingMode& m : gpu::kShadingModeTable) names += (names.empty() ? "" : "|") + std::string(m.name);
+    return names;
+}
+
 int cmdRender(int argc, char** argv) {
     auto fail = [](const std::string& m) {
         interrupt::reportOnce(m.c_str());
@@ -320,18 +327,17 @@ int cmdRender(int argc, char** argv) {
     if (!(s = gatherAttributes(a, *file, doc, attributes))) return fail(s.message());
     Result<std::unique_ptr<gpu::Context>> ctx = gpu::Context::create();
     if (!ctx) return fail(ctx.message());
-    gpu::GpuVolumeOptions volumeOptions;
-    volumeOptions.cachePaletting = a.cachePaletting;
-    volumeOptions.deviceMemoryBytes = a.deviceMemoryMiB << 20;
-    // Host decoding keeps no encoding on the device.
-    volumeOptions.hostDecoding = gpu::decodesOnHost(a.decode, (*ctx)->device(), file->volume, volumeOptions.deviceMemoryBytes);
-    Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume, volumeOptions);
+    // The backend's upload policy, for one renderer (csgv/gpu/UploadPolicy.h).
+    gpu::UploadRequest want;
+    want.deviceMemoryBytes = a.deviceMemoryMiB << 20;
+    want.cacheBytes = a.cacheMiB << 20;
+    want.decode = a.decode;
+    want.cachePaletting = a.cachePaletting ? 1 : 0;
+    const gpu::UploadPlan plan = gpu::planUpload((*ctx)->device(), file->volume, want);
+    Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume, plan.volume);
     if (!volume) return fail(volume.message());
     std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));
-    gpu::RendererOptions options;
-    options.cacheBytes = a.cacheMiB << 20;
-    options.deviceMemoryBytes = a.deviceMemoryMiB << 20;
-    options.decode = a.decode;
+    const gpu::RendererOptions options = plan.share(shared->deviceBytes(), 1, a.decode);
     Result<std::unique_ptr<gpu::Renderer>> renderer = gpu::Renderer::create(**ctx, shared, options);
     if (!renderer) return fail(renderer.message());
     gpu::Renderer& r = **renderer;

@@ -40,6 +40,11 @@ namespace {
 /// The usage text; the input forms come from the format table, so a new reader shows up here.
 std::string usage() {
     const std::string inputs = "synth:WxHxD[:seed], " + supportedInputForms();
+#ifdef CSGV_HAVE_RENDER
+    const std::string shadings = shadingChoices();
+#else
+    const std::string shadings = "MODE";
+#endif
     return "usage: csgv <command> [options]\n"
            "  info IN.csgv [--stats] [--check] [--threads N]\n"
            "      key: value lines describing the file; --stats decodes it and prints label statistics,\n"
@@ -59,7 +64,7 @@ std::string usage() {
            "  bench IN [--threads N] [--brick-size N] [--encoding E] [--ops O]\n"
            "      bits/voxel, encode and decode Mvoxel/s, and zstd -19 / gzip -9 of the raw uint32 labels\n"
            "  render IN.csgv OUT.png [--size WxH] [--eye x,y,z] [--center x,y,z] [--up x,y,z]\n"
-           "         [--fov-y DEG | --parallel-scale S] [--shading local|shadow|ao|pt] [--frames N]\n"
+           "         [--fov-y DEG | --parallel-scale S] [--shading " + shadings + "] [--frames N]\n"
            "         [--no-jitter] [--finest] [--labels-out FILE] [--materials FILE.json]\n"
            "         [--video PATTERN --orbit N] [--cache-mib M] [--device-memory-mib M] [--cache-paletting]\n"
            "         [--subsampling 1|2|4|8] [--lod-bias B] [--decode auto|gpu|host]\n"

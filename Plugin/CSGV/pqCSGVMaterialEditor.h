@@ -48,6 +48,7 @@ class QListWidget;
 class QPlainTextEdit;
 class QPushButton;
 class QTimer;
+class QVBoxLayout;
 class pqColorChooserButton;
 class vtkObject;
 class vtkSMPropertyGroup;
@@ -108,6 +109,13 @@ private Q_SLOTS:
   void applyDerived();
 
 private:
+  // The widgets, section by section (pqCSGVMaterialEditorLayout.cxx).
+  void buildList(QVBoxLayout* top);
+  QGroupBox* buildDetails();
+  QGroupBox* buildAttributes();
+  void connectDetails();
+  void linkProperties(vtkSMProxy* proxy);
+
   void commit(const QString& undoLabel);
   void rebuildList(int select);
   void showDetails();

@@ -13,8 +13,6 @@
 
 #include <QTimer>
 
-#include "vtkCSGVVolumeProp.h"
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -35,10 +33,12 @@ pqCSGVProgressiveRendering::~pqCSGVProgressiveRendering() = default;
 
 void pqCSGVProgressiveRendering::startup()
 {
-  // This GUI renders again until the volumes converge, so a still render need not hold the GUI
-  // for its whole budget: short ones keep it answering the mouse while the image refines.
-  vtkCSGVVolumeProp::SetRefinementSlice(kRefinementSliceSeconds);
   pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  QObject::connect(model, &pqServerManagerModel::representationAdded, this, &pqCSGVProgressiveRendering::slice);
+  for (pqRepresentation* repr : model->findItems<pqRepresentation*>())
+  {
+    this->slice(repr);
+  }
   QObject::connect(model, &pqServerManagerModel::viewAdded, this, &pqCSGVProgressiveRendering::watch);
   QObject::connect(model, &pqServerManagerModel::viewRemoved, this,
     [this](pqView* view) {
@@ -52,9 +52,22 @@ void pqCSGVProgressiveRendering::startup()
   }
 }
 
-void pqCSGVProgressiveRendering::shutdown()
+void pqCSGVProgressiveRendering::shutdown() {}
+
+void pqCSGVProgressiveRendering::slice(pqRepresentation* repr)
 {
-  vtkCSGVVolumeProp::SetRefinementSlice(0);
+  // This GUI renders again until the volumes converge, so a still render need not hold the GUI
+  // for its whole budget: short ones keep it answering the mouse while the image refines. Through
+  // the representation's own property (not saved in state files); builtin sessions only, like
+  // the refinement itself.
+  vtkSMProxy* proxy = repr ? repr->getProxy() : nullptr;
+  if (!proxy || !proxy->GetProperty("CSGVRefinementSlice") || !repr->getServer() ||
+    repr->getServer()->isRemote())
+  {
+    return;
+  }
+  vtkSMPropertyHelper(proxy, "CSGVRefinementSlice").Set(kRefinementSliceSeconds);
+  proxy->UpdateVTKObjects();
 }
 
 void pqCSGVProgressiveRendering::watch(pqView* view)

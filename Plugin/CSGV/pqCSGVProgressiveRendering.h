@@ -10,8 +10,10 @@
  * visible Segmentation Volume holds fewer samples per pixel than its FramesPerStillRender and
  * renders keep adding samples (three renders in a row without progress stop it until something
  * changes); the GUI stays responsive between renders, and any interaction simply takes over.
- * CSGV_TRACE_REFINEMENT=1 prints each decision. Builtin sessions only: in client/server mode the sample count lives on the
- * server, and the client-side value would not tell.
+ * CSGV_TRACE_REFINEMENT=1 prints each decision. Still renders are cut into short slices through
+ * each representation's CSGVRefinementSlice property (the GUI stays answering the mouse between
+ * them). Builtin sessions only: in client/server mode the sample count lives on the server, and
+ * the client-side value would not tell.
  */
 #ifndef pqCSGVProgressiveRendering_h
 #define pqCSGVProgressiveRendering_h
@@ -20,6 +22,7 @@
 #include <QObject>
 #include <QPointer>
 
+class pqRepresentation;
 class pqView;
 
 class pqCSGVProgressiveRendering : public QObject
@@ -34,6 +37,8 @@ public:
 
 private Q_SLOTS:
   void watch(pqView* view);
+  /// Gives a representation with CSGVRefinementSlice the GUI's slice.
+  void slice(pqRepresentation* repr);
   void renderEnded();
 
 private:

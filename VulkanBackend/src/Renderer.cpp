@@ -4,20 +4,15 @@
 namespace csgv::gpu {
 
 
-const char* shadingName(Shading s) {
-    switch (s) {
-    case Shading::Local: return "local";
-    case Shading::Shadow: return "shadow";
-    case Shading::AmbientOcclusion: return "ao";
-    case Shading::PathTracing: return "pt";
-    }
-    return "local";
-}
+const char* shadingName(Shading s) { return shadingMode(s).name; }
 
 Result<Shading> parseShading(const std::string& name) {
-    for (Shading s : {Shading::Local, Shading::Shadow, Shading::AmbientOcclusion, Shading::PathTracing})
-        if (name == shadingName(s)) return s;
-    return Status::error("unknown shading mode '" + name + "' (local, shadow, ao, pt)");
+    std::string names;
+    for (const ShadingMode& m : kShadingModeTable) {
+        if (name == m.name) return m.mode;
+        names += (names.empty() ? "" : ", ") + std::string(m.name);
+    }
+    return Status::error("unknown shading mode '" + name + "' (" + names + ")");
 }
 
 uint64_t MemoryReport::total() const {
@@ -71,20 +66,20 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("REQUEST_BLOCK", std::to_string(im.requestBlock) + "u");
     if (volume->hostDecoding() && options.decode == RendererOptions::Decode::Gpu)
         return Status::error("GPU decoding was asked for, but the volume was uploaded for host decoding");
-    im.hostDecode = volume->hostDecoding() || decodesOnHost(options.decode, context.device());
+    im.resolved.hostDecode = volume->hostDecoding() || decodesOnHost(options.decode, context.device());
     // With host decoding a frame is two submissions: the render pass can be sized between them to
     // the pixels that take samples (CPU devices run every branch for all lanes: a pass over the
     // whole footprint would cost a few pixels' frame as much as a full one).
-    im.usesPixelList = im.hostDecode;
+    im.usesPixelList = im.resolved.hostDecode;
     d.emplace_back("PIXEL_LIST", im.usesPixelList ? "1" : "0");
-    const bool streaming = volume->separated() && !im.hostDecode; // host decoding reads every level from host memory
+    const bool streaming = volume->separated() && !im.resolved.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
     im.lookup = planLabelLookup(volume->largestStoredLabel(), !volume->owned().empty(), im.budget);
     d.emplace_back("LABEL_LOOKUP", std::to_string(im.lookup.kind)); // tested by #if: no suffix
     im.defines = d;
-    im.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
+    im.resolved.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
     // CSGV_READ_THROUGH_COPIES=1: as on GPUs on any device (the tests run the renderer's suite so).
     const char* copies = std::getenv("CSGV_READ_THROUGH_COPIES");
     im.viaCopies = options.readBackThroughCopy || context.device().type != "cpu" || (copies && std::string(copies) == "1");
@@ -101,11 +96,11 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation,
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
-    im.prefetchVoxels = options.prefetchVoxels;
-    const MemoryKind hostOrDevice = im.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
+    im.resolved.prefetchVoxels = options.prefetchVoxels;
+    const MemoryKind hostOrDevice = im.resolved.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
     // Host decoding writes the cache and the masks itself, unless they live in device memory
     // (viaCopies: GPUs), where the render pass reads them at every step: then through copies.
-    im.stagedDecode = im.hostDecode && im.viaCopies;
+    im.stagedDecode = im.resolved.hostDecode && im.viaCopies;
     const MemoryKind cacheKind = im.stagedDecode ? MemoryKind::DeviceLocal : hostOrDevice;
     im.cacheKind = cacheKind;
     // Everything but the cache and the images, sized once: summed for the budget, then allocated.
@@ -165,15 +160,15 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         std::max(smallestCache, std::min({std::max<uint64_t>(wantedCache, 4096), maxBytes, im.budget - fixed - imageRoom})) &
         ~uint64_t(3);
     if (!(s = make(im.cache, cacheBytes, cacheKind, "brick cache"))) return s;
-    im.texelsWanted = options.renderTexels;
-    im.hiddenWanted = options.hiddenSubBlocks;
-    im.outlineWanted = options.outlineSpans;
+    im.resolved.texelsWanted = options.renderTexels;
+    im.resolved.hiddenWanted = options.hiddenSubBlocks;
+    im.resolved.outlineWanted = options.outlineSpans;
     for (const Table& t : tables)
         if (!(s = make(*t.buffer, t.bytes, t.kind, t.what))) return s;
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
     im.frameAddress = im.params.address();
     // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
-    if (!im.hostDecode &&
+    if (!im.resolved.hostDecode &&
         !(s = volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * kAllocDecodes, im.cache.address(),
                                         im.decodeStates.address(), im.maxRequests, im.frameDecode, im.decodeDispatches,
                                         im.detail.get())))
@@ -208,7 +203,7 @@ void Renderer::setSettings(const RenderSettings& settings) {
     others.subsampling = m_settings.subsampling;
     const bool keep = others == m_settings;
     m_settings = settings;
-    if (keep) m_impl->converged = false;
+    if (keep) m_impl->accumulation.converged = false;
     else resetAccumulation();
 }
 
@@ -224,8 +219,8 @@ bool RenderSettings::operator==(const RenderSettings& o) const {
 void Renderer::resetAccumulation() { m_impl->resetAccumulation(); }
 
 void Renderer::resetCache() {
-    m_impl->cacheResetPending = true;
-    m_impl->converged = false; // the next render() submits (and refills the cache)
+    m_impl->cacheState.cacheResetPending = true;
+    m_impl->accumulation.converged = false; // the next render() submits (and refills the cache)
 }
 
 // ---- one frame, in named steps ----
@@ -247,20 +242,20 @@ Status Renderer::Impl::detectChanges(const FrameInput& in) {
     if (in.width != width || in.height != height) {
         Status s = allocateImage(in.width, in.height);
         if (!s) return s;
-        hadDepth = false;
+        accumulation.hadDepth = false;
         resetAccumulation();
     }
-    if (in.worldToClip != lastWorldToClip) {
-        lastWorldToClip = in.worldToClip;
+    if (in.worldToClip != accumulation.lastWorldToClip) {
+        accumulation.lastWorldToClip = in.worldToClip;
         resetAccumulation();
     }
     // Opaque geometry that moved (or appeared) changes where rays stop: start anew. The renderer's
     // own copy is the host-visible buffer the shaders read: one comparison, at most one copy.
     const size_t depthBytes = size_t(in.width) * in.height * 4;
-    if (bool(in.opaqueDepth) != hadDepth ||
+    if (bool(in.opaqueDepth) != accumulation.hadDepth ||
         (in.opaqueDepth && std::memcmp(depthIn.mapped(), in.opaqueDepth, depthBytes) != 0)) {
         if (in.opaqueDepth) std::memcpy(depthIn.mapped(), in.opaqueDepth, depthBytes);
-        hadDepth = in.opaqueDepth != nullptr;
+        accumulation.hadDepth = in.opaqueDepth != nullptr;
         resetAccumulation();
     }
     return Status::ok();
@@ -312,7 +307,7 @@ Status Renderer::Impl::packParams(const FrameInput& in, const RenderSettings& st
     // A denoised frame of the outline whose cells hold or take all of the gathered image (the
     // first of an accumulation lists every cell; later ones keep what the last one gathered) has
     // its render pass write that image: no gather pass over the whole outline.
-    gatherInRender = !spans.empty() && denoises(st) && (clearPending || gatheredValid);
+    denoising.gatherInRender = !spans.empty() && denoises(st) && (accumulation.clearPending || denoising.gatheredValid);
     if (!spans.empty() && denoisedShading(st)) {
         // The resolve passes' rows (ResolvePush::spans; kResolveReach): the render pass samples the
         // widest (the frames after denoising ends too, so that they resolve the same pixels).
@@ -360,37 +355,37 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     if (st.jitter) flags |= kFlagJitter;
     if (st.finest) flags |= kFlagFinest;
     if (st.denoise) flags |= kFlagDenoise;
-    if (limitRequests) flags |= kFlagLimitRequests;
+    if (cacheState.limitRequests) flags |= kFlagLimitRequests;
     if (in.opaqueDepth) flags |= kFlagDepthInput;
     if (hasLabelMap) flags |= kFlagLabelMap;
     if (resolvesInRender(st)) flags |= kFlagResolveInRender;
-    if (gatherInRender) flags |= kFlagGatherInRender;
-    if (visibilityChanged) flags |= kFlagVisibilityChanged;
-    if (prefetchPending && prefetches()) flags |= kFlagPrefetch;
+    if (denoising.gatherInRender) flags |= kFlagGatherInRender;
+    if (cacheState.visibilityChanged) flags |= kFlagVisibilityChanged;
+    if (cacheState.prefetchPending && prefetches()) flags |= kFlagPrefetch;
     // The next frame lists the pixels below the target (listPixels) only if every pixel is one
     // sample or less short of it then (a frame adds at most one). A cell is the same pixel in the
     // next frame only without subsampling (a stride's cells take another pixel of their block
     // each frame).
     if (usesPixelList && st.subsampling == 1 && st.sampleTarget > 0 &&
-        (clearPending ? 0 : prevMinSamples) + 2 >= st.sampleTarget)
+        (accumulation.clearPending ? 0 : accumulation.prevMinSamples) + 2 >= st.sampleTarget)
         flags |= kFlagListNext;
-    visibilityChanged = prefetchPending = false;
+    cacheState.visibilityChanged = cacheState.prefetchPending = false;
     const uint32_t stride = st.subsampling;
     p.frame[0] = frameIndex;
     p.frame[1] = flags;
-    if (clearPending) { // a new accumulation: a new epoch, the G-buffer filled whole when they wrap
-        gbufferEpoch = imageDirty ? 1 : gbufferEpoch % kGBufferEpochs + 1;
-        gbufferFill = gbufferFill || gbufferEpoch == 1; // until a clear fills it
+    if (accumulation.clearPending) { // a new accumulation: a new epoch, the G-buffer filled whole when they wrap
+        imageState.gbufferEpoch = imageState.imageDirty ? 1 : imageState.gbufferEpoch % kGBufferEpochs + 1;
+        imageState.gbufferFill = imageState.gbufferFill || imageState.gbufferEpoch == 1; // until a clear fills it
     }
-    p.frame[2] = gbufferEpoch;
+    p.frame[2] = imageState.gbufferEpoch;
     p.frame[3] = st.sampleTarget;
     p.image[0] = in.width;
     p.image[1] = in.height;
     p.image[2] = stride;
-    p.image[3] = accumulatedFrames % (stride * stride);
+    p.image[3] = accumulation.accumulatedFrames % (stride * stride);
     p.limits[0] = maxRequests;
-    p.limits[1] = bandRow;
-    p.limits[2] = bandRow + bandHeight;
+    p.limits[1] = cacheState.bandRow;
+    p.limits[2] = cacheState.bandRow + cacheState.bandHeight;
     p.limits[3] = std::min<uint32_t>(st.maxBounces, 32);
     p.counts[0] = materialCount;
     p.counts[1] = brickCount;
@@ -423,8 +418,8 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     a[kAllocListCount] = 0;
     a[kAllocNextCount] = 0;
     a[kAllocNextKept] = kNone;
-    a[kAllocPrevMin] = prevMinSamples;
-    a[kAllocEvictAge] = evictAge;
+    a[kAllocPrevMin] = accumulation.prevMinSamples;
+    a[kAllocEvictAge] = cacheState.evictAge;
     a[kAllocDetailRequests] = 0;
 }
 
@@ -433,7 +428,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     resolvePushes.reserve(8); // the list points into it: no reallocation while building
     dispatches.clear();
     const uint32_t tile = kGroupTile * pixelBlock; // kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
-    if (clearPending) addClear(in);
+    if (accumulation.clearPending) addClear(in);
     const uint32_t perGroup = kGroupBricks * requestBlock;
     addDispatch(pRequest, &frameAddress, 8, (brickCount + perGroup - 1) / perGroup, 1);
     addDispatch(pProvision, &frameAddress, 8, 1, 1);
@@ -441,7 +436,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     addDispatch(pCommit, &frameAddress, 8, 1, 1);
     if (usesPixelList) listPixels(st);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
-    if (!hostDecode) {
+    if (!resolved.hostDecode) {
         dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
@@ -449,7 +444,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     // several labels undrawn) those of every cached brick; else those of the bricks decoded now
     // (a group per decode; host decoding sizes it in submit()).
     hiddenDispatch = SIZE_MAX;
-    if (hiddenAllPending) {
+    if (materialState.hiddenAllPending) {
         Context::Dispatch zero;
         zero.fill = &hiddenSubs;
         zero.fillBytes = uint64_t(brickCount) * 8;
@@ -457,30 +452,30 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     }
     if (hiddenAll()) {
         addDispatch(pHiddenAll, &frameAddress, 8, (brickCount + kHiddenGroupBricks - 1) / kHiddenGroupBricks, 1);
-    } else if (hiddenLabels) {
+    } else if (materialState.hiddenLabels) {
         hiddenDispatch = dispatches.size();
         addDispatch(pHidden, &frameAddress, 8, maxRequests, 1);
     }
-    if ((hiddenAll() || hiddenLabels) && renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];
+    if ((hiddenAll() || materialState.hiddenLabels) && renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];
     const std::array<uint32_t, 2> cells = cellGrid(st.subsampling);
     const uint32_t rw = cells[0], rh = cells[1];
-    if (labelColorsPending) // the materials changed: their colours per label first (frame() made the pipeline)
+    if (materialState.labelColorsPending) // the materials changed: their colours per label first (frame() made the pipeline)
         addDispatch(pLabelColors, &frameAddress, 8,
                     uint32_t(std::min<uint64_t>((lookup.entries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
     if (renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];
     if (!denoises(st)) {
-        gatheredValid = false; // denoiseA is not written
+        denoising.gatheredValid = false; // denoiseA is not written
         if (!resolvesInRender(st)) addResolve(kResolveGather, kSlotDenoiseA, kSlotOutput);
         return;
     }
-    if (!gatherInRender) addResolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
+    if (!denoising.gatherInRender) addResolve(kResolveGather, kSlotDenoiseA, kSlotDenoiseA);
     // denoiseA keeps this frame's gathered image only until the denoising passes (the step-2
     // pass writes it).
-    gatheredValid = deferDenoise;
-    denoisePending = deferDenoise;
-    if (!deferDenoise) addDenoisePasses();
+    denoising.gatheredValid = denoising.deferDenoise;
+    denoising.denoisePending = denoising.deferDenoise;
+    if (!denoising.deferDenoise) addDenoisePasses();
 }
 
 void Renderer::Impl::addDispatch(uint64_t pipeline, const void* push, uint32_t bytes, uint32_t gx, uint32_t gy) {
@@ -520,7 +515,7 @@ void Renderer::Impl::addClear(const FrameInput& in) {
     // the epoch that comes round again). The accumulation needs none: it is read only where a
     // pixel's sample count (cleared) is not 0.
     uint32_t y0 = 0, y1 = in.height; // new or resized buffers: whole
-    if (!imageDirty) {
+    if (!imageState.imageDirty) {
         const bool drawn = drawnRect[0] < drawnRect[2] && drawnRect[1] < drawnRect[3];
         y0 = drawn ? drawnRect[1] : 0;
         y1 = drawn ? drawnRect[3] : 0;
@@ -528,9 +523,9 @@ void Renderer::Impl::addClear(const FrameInput& in) {
     const uint64_t pixels = uint64_t(in.width) * in.height;
     const uint64_t first = uint64_t(y0) * in.width, n = uint64_t(y1 - y0) * in.width;
     const std::tuple<const Buffer*, uint64_t, uint64_t, uint64_t> filled[] = {
-        {&gbuffer, 16, 0, gbufferFill ? pixels : 0} /* no samples */,
+        {&gbuffer, 16, 0, imageState.gbufferFill ? pixels : 0} /* no samples */,
         {&colorDepth, 8, first, n} /* colour 0, depth 1 (kOutputDepthXor) */};
-    gbufferFill = false;
+    imageState.gbufferFill = false;
     for (const auto& [buffer, bytes, from, count] : filled) {
         if (count == 0) continue;
         Context::Dispatch d;
@@ -551,12 +546,12 @@ bool Renderer::Impl::resolvesInRender(const RenderSettings& st) const {
 bool Renderer::Impl::denoises(const RenderSettings& st) const {
     // Denoising is for the noise of the stochastic modes; it fades out as samples accumulate and
     // is skipped once every pixel has 64.
-    return denoisedShading(st) && prevMinSamples < 64;
+    return denoisedShading(st) && accumulation.prevMinSamples < 64;
 }
 
 Status Renderer::Impl::denoiseOutput() {
-    denoisePending = false;
-    gatheredValid = false; // the step-2 pass writes denoiseA
+    denoising.denoisePending = false;
+    denoising.gatheredValid = false; // the step-2 pass writes denoiseA
     dispatches.clear();
     resolvePushes.clear();
     resolvePushes.reserve(8);
@@ -573,8 +568,8 @@ void Renderer::Impl::listPixels(const RenderSettings& st) {
     // When most pixels have taken their last sample but some have not (the still loop's last
     // frames, or pixels that met missing bricks), pixel_list.comp lists those; otherwise every
     // cell samples and the host lists them all (written once per grid, read back to nothing).
-    if (!clearPending && st.sampleTarget > 0 && prevMinSamples + 1 >= st.sampleTarget) {
-        const NextList& nl = nextList;
+    if (!accumulation.clearPending && st.sampleTarget > 0 && accumulation.prevMinSamples + 1 >= st.sampleTarget) {
+        const Accumulation::NextList& nl = accumulation.nextList;
         if (nl.valid && nl.grid == std::array<uint32_t, 4>{gx, gy, stride, st.sampleTarget}) {
             // The last render pass listed them: no pass over the whole grid.
             uint32_t* list = static_cast<uint32_t*>(pixelList.mapped());
@@ -659,7 +654,7 @@ void Renderer::Impl::sizeRenderDispatch() {
 
 Status Renderer::Impl::submit() {
     Status s;
-    if (profileDispatches) { // one submission per dispatch, timed (diagnostics)
+    if (resolved.profileDispatches) { // one submission per dispatch, timed (diagnostics)
         auto stage = [&](const Context::Dispatch& d) -> std::string {
             if (d.fill) return "clear";
             const std::pair<uint64_t, const char*> named[] = {
@@ -681,7 +676,7 @@ Status Renderer::Impl::submit() {
         const auto t0 = std::chrono::steady_clock::now();
         for (size_t i = 0; i < dispatches.size(); ++i) {
             auto t1 = std::chrono::steady_clock::now();
-            if (hostDecode && i == cacheStages) {
+            if (resolved.hostDecode && i == cacheStages) {
                 sizeRenderDispatch();
                 if (!(s = decodeOnHost())) return s;
                 if (!stagedCopies.empty() && !(s = run(withStagedCopies(nullptr, 0)))) return s;
@@ -698,7 +693,7 @@ Status Renderer::Impl::submit() {
                      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         return Status::ok();
     }
-    if (hostDecode) {
+    if (resolved.hostDecode) {
         // Two submissions: cache stages; Core decodes the list into the cache; render and resolve.
         if (!(s = run(dispatches.data(), cacheStages))) return s;
         sizeRenderDispatch();
@@ -729,32 +724,32 @@ bool Renderer::Impl::applyCachePolicy(const FrameStats& stats, const FrameInput&
     // At a pixel stride s a pixel is rendered every s^2 frames: a brick unused for fewer frames
     // may be needed by the next pixels of its block.
     const uint32_t youngest = stride * stride;
-    const uint32_t oldAge = evictAge, oldBand = limitRequests ? bandHeight : 0;
-    ++framesSinceDefrag;
+    const uint32_t oldAge = cacheState.evictAge, oldBand = cacheState.limitRequests ? cacheState.bandHeight : 0;
+    ++cacheState.framesSinceDefrag;
     if (stats.cacheFull) {
-        quietFrames = 0;
-        const bool blocked = evictAge == youngest && stats.decodedBricks == 0;
-        if ((framesSinceDefrag >= kDefragInterval || blocked) && fragmented()) {
-            cacheResetPending = true;
-            framesSinceDefrag = 0;
-        } else if (evictAge != youngest) {
-            evictAge = evictAge == 0 ? std::max(kEvictAgeStart, 2 * youngest) : std::max(youngest, evictAge / 2);
-        } else if (!limitRequests) {
-            limitRequests = true;
-            bandHeight = uint32_t(std::max<uint64_t>(1, pixels / 2));
+        cacheState.quietFrames = 0;
+        const bool blocked = cacheState.evictAge == youngest && stats.decodedBricks == 0;
+        if ((cacheState.framesSinceDefrag >= kDefragInterval || blocked) && fragmented()) {
+            cacheState.cacheResetPending = true;
+            cacheState.framesSinceDefrag = 0;
+        } else if (cacheState.evictAge != youngest) {
+            cacheState.evictAge = cacheState.evictAge == 0 ? std::max(kEvictAgeStart, 2 * youngest) : std::max(youngest, cacheState.evictAge / 2);
+        } else if (!cacheState.limitRequests) {
+            cacheState.limitRequests = true;
+            cacheState.bandHeight = uint32_t(std::max<uint64_t>(1, pixels / 2));
         } else {
-            bandHeight = std::max<uint32_t>(1, bandHeight / 2);
+            cacheState.bandHeight = std::max<uint32_t>(1, cacheState.bandHeight / 2);
         }
-    } else if (limitRequests) {
-        bandHeight = uint32_t(std::min<uint64_t>(uint64_t(bandHeight) * 2, pixels));
-        limitRequests = bandHeight < pixels;
-    } else if (++quietFrames >= kQuietFrames) {
-        evictAge = 0;
+    } else if (cacheState.limitRequests) {
+        cacheState.bandHeight = uint32_t(std::min<uint64_t>(uint64_t(cacheState.bandHeight) * 2, pixels));
+        cacheState.limitRequests = cacheState.bandHeight < pixels;
+    } else if (++cacheState.quietFrames >= kQuietFrames) {
+        cacheState.evictAge = 0;
     }
     const uint32_t minRow = allocWords()[kAllocMinRow];
-    if (limitRequests) bandRow = minRow == kNone ? 0 : minRow;
-    prevMinSamples = stats.minSamples;
-    return cacheResetPending || evictAge != oldAge || (limitRequests ? bandHeight : 0) != oldBand;
+    if (cacheState.limitRequests) cacheState.bandRow = minRow == kNone ? 0 : minRow;
+    accumulation.prevMinSamples = stats.minSamples;
+    return cacheState.cacheResetPending || cacheState.evictAge != oldAge || (cacheState.limitRequests ? cacheState.bandHeight : 0) != oldBand;
 }
 
 bool Renderer::Impl::fragmented() {
@@ -770,46 +765,46 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (!s) return s;
     if (!(s = ensurePipelines(st, in.opaqueDepth != nullptr))) return s;
     FrameStats stats;
-    if (st.sampleTarget > 0 && prevMinSamples >= st.sampleTarget && !clearPending && !cacheResetPending) {
+    if (st.sampleTarget > 0 && accumulation.prevMinSamples >= st.sampleTarget && !accumulation.clearPending && !cacheState.cacheResetPending) {
         // Every pixel holds its samples: the image is final, nothing to submit.
-        stats.frame = accumulatedFrames;
-        stats.minSamples = prevMinSamples;
+        stats.frame = accumulation.accumulatedFrames;
+        stats.minSamples = accumulation.prevMinSamples;
         stats.stride = st.subsampling;
         stats.cacheUsedBytes = uint64_t(allocWords()[kAllocTop]) * 4;
         return stats;
     }
-    if (sumsStale && !oneSample(st)) { // the samples so far kept no sums: take them again
-        clearPending = true;
-        accumulatedFrames = 0;
-        prevMinSamples = 0;
+    if (accumulation.sumsStale && !oneSample(st)) { // the samples so far kept no sums: take them again
+        accumulation.clearPending = true;
+        accumulation.accumulatedFrames = 0;
+        accumulation.prevMinSamples = 0;
     }
-    if (cacheResetPending) {
+    if (cacheState.cacheResetPending) {
         if (!(s = resetCacheNow())) return s;
-        cacheResetPending = false;
+        cacheState.cacheResetPending = false;
         stats.cacheReset = true;
     }
     if (!(s = packParams(in, st, clipToWorld))) return s;
     curves = toneCurves(st);
     buildDispatches(in, st, pRender[renderVariant(st, in.opaqueDepth != nullptr)][shadingIndex(st.shading)]);
     // After the clear (addClear reads what was drawn before it): this frame's footprint joins.
-    drawnRect = clearPending ? rect : rectUnion(drawnRect, rect);
+    drawnRect = accumulation.clearPending ? rect : rectUnion(drawnRect, rect);
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
-    labelColorsPending = false;
-    hiddenAllPending = false;
-    cacheEmpty = false;
+    materialState.labelColorsPending = false;
+    materialState.hiddenAllPending = false;
+    cacheState.cacheEmpty = false;
     if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.detailUploads = detailUploads;
-    sumsStale = (sumsStale && !clearPending) || oneSample(st);
-    clearPending = imageDirty = false;
+    accumulation.sumsStale = (accumulation.sumsStale && !accumulation.clearPending) || oneSample(st);
+    accumulation.clearPending = imageState.imageDirty = false;
     outputParts = 0; // the read-back output is stale now
     ++frameIndex;
-    ++accumulatedFrames;
+    ++accumulation.accumulatedFrames;
 
     const uint32_t* a = allocWords();
-    stats.frame = accumulatedFrames;
+    stats.frame = accumulation.accumulatedFrames;
     stats.decodedBricks = a[kAllocDecodes];
     stats.newSamples = a[kAllocNewSamples];
     stats.missingPixels = a[kAllocMissing];
@@ -819,12 +814,12 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     stats.stride = st.subsampling;
     stats.cacheUsedBytes = uint64_t(a[kAllocTop]) * 4;
     stats.cacheFull = a[kAllocFull] != 0;
-    stats.requestLimited = limitRequests;
+    stats.requestLimited = cacheState.limitRequests;
     const std::array<uint32_t, 2> g = cellGrid(st.subsampling);
-    nextList.valid = (hostParams().frame[1] & kFlagListNext) != 0;
-    nextList.grid = {g[0], g[1], st.subsampling, st.sampleTarget};
-    nextList.count = a[kAllocNextCount];
-    nextList.kept = a[kAllocNextKept];
+    accumulation.nextList.valid = (hostParams().frame[1] & kFlagListNext) != 0;
+    accumulation.nextList.grid = {g[0], g[1], st.subsampling, st.sampleTarget};
+    accumulation.nextList.count = a[kAllocNextCount];
+    accumulation.nextList.kept = a[kAllocNextKept];
     stats.cacheAdapting = applyCachePolicy(stats, in, st.subsampling);
     return stats;
 }
@@ -836,67 +831,6 @@ Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     if (!s) return s;
     if (!(s = im.detectChanges(in))) return s;
     return im.frame(in, m_settings, clipToWorld);
-}
-
-Result<RenderResult> Renderer::render(const RenderRequest& request) {
-    Impl& im = *m_impl;
-    const FrameInput& in = request.frame;
-    Mat4 clipToWorld{};
-    Status s = im.validate(in, m_settings, clipToWorld);
-    if (!s) return s;
-    if (!(s = im.detectChanges(in))) return s; // once per call: the frames below see the same input
-    RenderResult result;
-    if (im.converged) return result; // nothing changed since an exact image: it stays
-    const uint32_t target = std::max<uint32_t>(1, m_settings.sampleTarget);
-    const uint64_t pixels = uint64_t(in.width) * in.height;
-    const uint32_t fine = std::max<uint32_t>(1, m_settings.subsampling);
-    if (im.coarseStride == 0)
-        im.coarseStride = request.interactive ? fine : im.stillCoarseStride(m_settings, pixels, request.timeBudgetSeconds);
-    im.coarseStride = std::max(im.coarseStride, fine);
-    im.fillBlock = im.coarseStride;
-    RenderSettings settings = m_settings;
-    const uint32_t maxFrames = target * im.coarseStride * im.coarseStride + 256;
-    const auto t0 = std::chrono::steady_clock::now();
-    uint32_t idle = 0;
-    double before = 0; // seconds elapsed before this frame
-    im.deferDenoise = !request.interactive; // the still loop's frames before its last are never shown
-    for (uint32_t f = 0; f < maxFrames; ++f) {
-        settings.subsampling = im.shownWhole ? fine : im.coarseStride;
-        Result<FrameStats> st = im.frame(in, settings, clipToWorld);
-        if (!st) {
-            im.deferDenoise = im.denoisePending = im.gatheredValid = false;
-            return st.status();
-        }
-        im.measureFrame(settings, in, *st);
-        result.last = *st;
-        result.cacheRanFull = result.cacheRanFull || st->cacheFull;
-        ++result.frames;
-        // Under cache pressure the coarse stride only slows convergence down (a ray finds one
-        // missing brick per turn, and its pixel's turn comes every stride^2 frames): go on at the
-        // settings' stride.
-        const bool whole = st->holes == 0 && st->previews == 0; // every pixel shows a sample (its own or its block's)
-        im.shownWhole = im.shownWhole || whole || st->cacheFull;
-        if (request.interactive || st->minSamples >= target) break;
-        const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        // The next frame costs this one's time per rendered pixel: stop when it would end past
-        // the budget, so the budget holds; but never while a pixel shows nothing or a preview.
-        const uint32_t nextStride = im.shownWhole ? fine : im.coarseStride;
-        const double next = (elapsed - before) * renderedPixels(in, nextStride) / renderedPixels(in, settings.subsampling);
-        before = elapsed;
-        if (whole && elapsed + next + im.finishSeconds > request.timeBudgetSeconds) break;
-        idle = st->idle() ? idle + 1 : 0;
-        if (idle >= st->idleLimit()) break;
-    }
-    im.deferDenoise = false;
-    im.fillBlock = 0;
-    const auto t1 = std::chrono::steady_clock::now();
-    if (im.denoisePending && !(s = im.denoiseOutput())) return s;
-    im.converged = result.last.minSamples >= target;
-    (void)output(Color8 | Depth); // what a compositor needs, read while the frame is fresh
-    const double finish = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-    im.finishSeconds = im.finishSeconds > 0 ? 0.5 * (im.finishSeconds + finish) : finish;
-    result.changed = true;
-    return result;
 }
 
 uint64_t Renderer::Impl::usedBytes() const { return memory().total(); }

@@ -122,10 +122,6 @@ static_assert(kListTile[0] * kListTile[1] == kListLanes, "a tile is one SIMD gro
 /// 256^3 and the AAL atlas at 640x360), GPUs (an H200: 0.5 ns at 1920x1080).
 constexpr double kPriorSecondsPerRay[2] = {1.5e-7, 2e-9};
 
-static_assert(uint32_t(Shading::Local) == kShadingLocal && uint32_t(Shading::Shadow) == kShadingShadow &&
-                  uint32_t(Shading::AmbientOcclusion) == kShadingAo && uint32_t(Shading::PathTracing) == kShadingPt,
-              "Shading must match FrameLayout.h");
-
 inline void toFloat(const Mat4& m, float* out) {
     for (int i = 0; i < 16; ++i) out[i] = float(m[i]);
 }
@@ -301,12 +297,114 @@ constexpr uint32_t kFragmentedShare = 4; // 1/4
 /// list: some to spare), or a quarter of what is left.
 constexpr uint64_t kImageReserveBytes = 92ull * 1280 * 720;
 
+/// @brief The accumulation: what the frames since the last clear gathered for one camera, size,
+/// opaque depth and settings. Its invariants:
+/// - clearPending: the next frame clears first (no samples, an empty G-buffer, a transparent
+///   output); resetAccumulation() sets it, and every other field returns to its start with it.
+/// - converged implies !clearPending: the output holds the sample target at every pixel and
+///   nothing changed since, so render() returns it without a frame.
+/// - coarseStride == 0 until render()'s first frame of the accumulation chooses it; shownWhole
+///   once every pixel showed a sample (its own or its coarse block's): frames then go on at the
+///   settings' stride, and the coarse block stays the upsampling block (FrameParams pixel.z).
+/// - sumsStale: frames since the clear ran ONE_SAMPLE and kept no sums, so a frame that would read
+///   them (another sample target, a gather) clears first (frame()).
+/// - nextList.valid: the last frame's render pass listed the cells left below the sample target
+///   (kFlagListNext) at word width * height of pixelList, with the fewest samples of the others;
+///   the next frame takes them as its list when its grid and target are the same (listPixels).
+struct Accumulation {
+    bool clearPending = true;
+    uint32_t accumulatedFrames = 0; ///< frames since the clear
+    uint32_t prevMinSamples = 0;    ///< the fewest samples of a pixel after the last frame
+    bool sumsStale = false;
+    struct NextList {
+        bool valid = false;
+        std::array<uint32_t, 4> grid{}; ///< cells across, down, stride, sample target
+        uint32_t count = 0, kept = kNone;
+    } nextList;
+    bool hadDepth = false; ///< the last frame had an opaque depth input (now in depthIn)
+    bool converged = false;
+    uint32_t coarseStride = 0;
+    bool shownWhole = false;
+    Mat4 lastWorldToClip{}; ///< the camera the accumulation is for
+};
+
+/// @brief Denoising in the still loop. deferDenoise holds only inside render()'s loop (frames
+/// gather without denoising, render() denoises once after them); denoisePending: the last frame
+/// gathered and nothing denoised since; gatheredValid: denoiseA holds the gathered image of all
+/// the accumulation's samples, so a frame may gather in its render pass (gatherInRender, this
+/// frame's kFlagGatherInRender, set by packParams). A failed frame clears all four.
+struct Denoising {
+    bool deferDenoise = false;
+    bool denoisePending = false;
+    bool gatheredValid = false;
+    bool gatherInRender = false;
+};
+
+/// @brief What new materials ask of the next frame's cache passes. labelColorsPending: it
+/// computes labelColors first (label_colors.comp); hiddenAllPending: kSlotHidden is filled with 0,
+/// then (hiddenLabels) made for every cached brick; hiddenLabels: the volume holds several labels
+/// no material draws, so cache_hidden.comp marks their sub-blocks. The fingerprints (0: none
+/// known) tell whether new materials change what is drawn at all.
+struct MaterialState {
+    bool labelColorsPending = false;
+    bool hiddenAllPending = false;
+    bool hiddenLabels = false;
+    uint64_t drawnFingerprint = 0;     ///< which entries of the label table the materials draw
+    uint64_t materialsFingerprint = 0; ///< of what setMaterials uploaded
+};
+
+/// @brief The brick cache between frames; it outlives resets of the accumulation (a camera move
+/// keeps the cache and what was learnt about its pressure). cacheEmpty: no brick decoded since
+/// the cache was made or reset (HIDDEN_ALL has nothing to do); cacheResetPending: the next frame
+/// empties it first (defragmentation); prefetchPending: the next frame asks for every visible
+/// brick (kFlagPrefetch) when they fit (prefetches()), set by a new cache or new visibility;
+/// visibilityChanged: uploadVisibility ran since the last frame (kFlagVisibilityChanged). Under
+/// pressure (applyCachePolicy): bricks unused for evictAge frames are evicted (0: none), and with
+/// limitRequests only the pixel rows [bandRow, bandRow + bandHeight) request bricks.
+struct CacheState {
+    bool cacheEmpty = true;
+    bool cacheResetPending = false;
+    bool prefetchPending = true;
+    bool visibilityChanged = true;
+    uint32_t evictAge = 0;
+    uint32_t quietFrames = 0;                     ///< frames since the cache last ran full
+    uint32_t framesSinceDefrag = kDefragInterval; ///< frames since the last defragmentation reset
+    bool limitRequests = false;
+    uint32_t bandRow = 0, bandHeight = 0;
+};
+
+/// @brief The per-pixel buffers. imageDirty: they are new or resized, so the next clear fills
+/// them whole; gbufferFill: the next clear fills the G-buffer (new buffers, or the epochs
+/// wrapped); gbufferEpoch: the accumulation's G-buffer epoch (kGBufferEpochShift; Frame frame.z).
+struct ImageState {
+    bool imageDirty = true;
+    uint32_t gbufferEpoch = 0;
+    bool gbufferFill = false;
+};
+
+/// @brief RendererOptions and the environment, resolved once by create(); constant afterwards.
+struct ResolvedOptions {
+    bool profileDispatches = false; ///< CSGV_PROFILE_DISPATCHES
+    bool hostDecode = false;        ///< RendererOptions::decode
+    bool texelsWanted = true;       ///< RendererOptions::renderTexels
+    bool hiddenWanted = true;       ///< RendererOptions::hiddenSubBlocks
+    bool outlineWanted = true;      ///< RendererOptions::outlineSpans
+    uint64_t prefetchVoxels = 0;    ///< RendererOptions::prefetchVoxels
+};
+
 } // namespace renderer_detail
 
 using namespace renderer_detail;
 
 struct Renderer::Impl {
     Context& ctx;
+    // The renderer's state, in the named parts above (each with its invariants).
+    ResolvedOptions resolved;
+    Accumulation accumulation;
+    Denoising denoising;
+    MaterialState materialState;
+    CacheState cacheState;
+    ImageState imageState;
     uint64_t budget = 0;              // device-memory budget (RendererOptions::deviceMemoryBytes resolved)
     MemoryKind cacheKind = MemoryKind::DeviceLocal;
     std::shared_ptr<GpuVolume> volume;
@@ -353,11 +451,6 @@ struct Renderer::Impl {
     std::vector<uint32_t> listedSpans;    // ... its rows' spans (listPixels; empty: whole rows)
     uint32_t listedCount = 0;             // ... and its cells
     size_t renderDispatch = 0;        // the render pass's index in `dispatches`
-    bool labelColorsPending = false;  // the materials changed: the next frame computes labelColors first
-    bool hiddenAllPending = false;    // ... and kSlotHidden is filled with 0, then (hiddenLabels) made for every cached brick
-    bool hiddenLabels = false;        // the volume holds several labels no material draws: cache_hidden.comp marks their sub-blocks
-    uint64_t drawnFingerprint = 0;    // which entries of the label table the materials draw (0: none known)
-    bool cacheEmpty = true;           // no brick decoded since the cache was made or reset: HIDDEN_ALL has nothing to do
     size_t hiddenDispatch = SIZE_MAX; // the decoded bricks' cache_hidden.comp in `dispatches` (host decoding sizes it)
     Buffer ghost;  // setGhostFaces (empty: not a piece)
     Buffer coarse; // setCoarseStandIns (empty: none)
@@ -373,64 +466,22 @@ struct Renderer::Impl {
     std::array<uint32_t, 4> rect{};   // the frame's footprint rectangle (FrameParams rect)
     std::vector<uint32_t> spans;      // its rows' spans (footprintSpans; empty: whole rows or not wanted)
     std::array<uint32_t, 4> drawnRect{}; // the union of the footprints since the last clear (FrameOutput::rect)
-    bool imageDirty = true;           // the per-pixel buffers are new or resized: the next clear fills them whole
-    uint32_t gbufferEpoch = 0;        // the accumulation's G-buffer epoch (kGBufferEpochShift; Frame frame.z)
-    bool gbufferFill = false;         // the next clear fills the G-buffer (new buffers, or the epochs wrapped)
     uint32_t maxRequests = 0;
     uint32_t pixelBlock = 1;          // PIXEL_BLOCK of render.comp and resolve.comp
     uint32_t requestBlock = 1;        // REQUEST_BLOCK of cache_request.comp (bricks per invocation)
-    bool visibilityChanged = true;    // uploadVisibility ran since the last frame (kFlagVisibilityChanged)
     uint32_t visibleBricks = 0;       // bricks a material draws (uploadVisibility)
-    uint64_t prefetchVoxels = 0;      // RendererOptions::prefetchVoxels
-    // The next frame asks for every visible brick (kFlagPrefetch) when they fit (prefetches()):
-    // set by a new cache or new visibility.
-    bool prefetchPending = true;
-    Mat4 lastWorldToClip{};
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
-    uint32_t accumulatedFrames = 0;   // since the last reset of the accumulation
-    bool clearPending = true;
-    /// Frames since the last clear ran ONE_SAMPLE and kept no sums: a frame that would read them
-    /// (another sample target, a gather) starts the accumulation anew first (frame()).
-    bool sumsStale = false;
-    /// kFlagListNext: the cells the last frame's render pass left below the sample target, at
-    /// word width * height of pixelList, and the fewest samples of the others; the next frame
-    /// takes them as its list when its grid and target are the same (listPixels).
-    struct NextList {
-        bool valid = false;
-        std::array<uint32_t, 4> grid{}; // cells across, down, stride, sample target
-        uint32_t count = 0, kept = kNone;
-    } nextList;
-    bool hadDepth = false;            // the last frame had an opaque depth input (now in depthIn)
-    bool cacheResetPending = false;
-    // Cache pressure (applyCachePolicy); it outlives resets of the accumulation: a camera move
-    // keeps the cache and what was learnt about its pressure.
-    uint32_t evictAge = 0;            // evict bricks unused for this many frames (0: no eviction)
-    uint32_t quietFrames = 0;         // frames since the cache last ran full
-    uint32_t framesSinceDefrag = kDefragInterval; // frames since the last defragmentation reset
-    bool limitRequests = false;
-    uint32_t bandRow = 0, bandHeight = 0, prevMinSamples = 0;
     GpuVolume::FrameDecode frameDecode; // the decode passes' parameters, made once
     std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
-    bool profileDispatches = false;   // CSGV_PROFILE_DISPATCHES, read once
-    bool hostDecode = false;          // RendererOptions::decode resolved
-    bool texelsWanted = true;         // RendererOptions::renderTexels
-    bool hiddenWanted = true;         // RendererOptions::hiddenSubBlocks
-    bool outlineWanted = true;        // RendererOptions::outlineSpans
     // Detail streaming (GPU decoding of a separated volume): the finest-level streams the frames
     // ask for, uploaded between frames; bricks wait for theirs at the next coarser level.
     std::unique_ptr<DetailStream> detail;
     uint32_t detailUploads = 0;       // bricks whose stream the last commit made resident
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per worker, for host decoding
     std::unique_ptr<WorkerPool> workers; // host decoding's threads: asleep, not spinning, between frames
-    bool converged = false;           // the last render() reached the sample target; nothing changed since
-    uint64_t materialsFingerprint = 0; // of what setMaterials uploaded (0: nothing yet)
-    // render()'s coarse pixel stride of this accumulation: frames start at it until every pixel
-    // shows a sample (its own or its coarse block's), then go on at the settings' stride; the
-    // coarse block stays the upsampling block (FrameParams pixel.z). 0: chosen at the first frame.
-    uint32_t coarseStride = 0;
-    bool shownWhole = false;
     double finishSeconds = 0;         // render(): what follows the frames (denoising, read-back), measured
     ModeCosts costs;                  // render(): a frame's seconds per rendered pixel, per shading mode
+    ModeCosts drawCosts;              // recordDraw(): the caller's whole draw of a frame, per output pixel
     FrameOutput output;               // what output() returns
     uint32_t outputParts = 0;         // OutputParts of `output` read since the last frame
     // The rectangle of the device image that `output`'s colour and depth were last read from:
@@ -451,165 +502,40 @@ struct Renderer::Impl {
     /// the cache lives in device memory (stagedDecode: GPUs), into a host buffer instead, whose
     /// regions the next submission copies into the cache and the uniform sub-block masks first
     /// (stagedCopies); false when that buffer cannot be had.
-    Status decodeOnHost() {
-        stagedCopies.clear();
-        stagedCacheCopies = 0;
-        const uint32_t n = std::min(allocWords()[kAllocDecodes], maxRequests);
-        const uint32_t* list = static_cast<const uint32_t*>(decodes.mapped());
-        const uint32_t L = levels;
-        if (n == 0) return Status::ok();
-        auto entry = [&](uint64_t i, uint32_t& brick, uint32_t& lod, uint32_t& offset) {
-            const uint32_t* e = list + kDecodeEntryWords * i;
-            brick = e[0];
-            lod = L - 1 - std::min(e[1], L - 1);
-            offset = e[2];
-            return uint64_t(offset) + volume->regionWords(lod) <= cache.size() / 4 && brick < brickCount;
-        };
-        if (!stagedDecode) {
-            uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
-            uint64_t* uniformMasks = static_cast<uint64_t*>(uniformSubs.mapped());
-            hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
-                BrickDecoder& d = *decoders[worker];
-                uint32_t brick, lod, offset;
-                if (!entry(i, brick, lod, offset)) return;
-                const bool ok = volume->decodeRegion(d, brick, lod, cacheWords + offset);
-                if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
-            });
-            return Status::ok();
-        }
-        // Each brick's labels, then (decoded at the finest level) its uniform sub-block mask, one
-        // after another in the host buffer; the copies take them to the cache and the masks.
-        struct Staged {
-            uint32_t brick = 0, lod = 0, offset = 0;
-            uint64_t at = 0, labelBytes = 0; // labelBytes 0: an entry that is not decoded
-        };
-        std::vector<Staged> staged(n);
-        uint64_t bytes = 0;
-        for (uint64_t i = 0; i < n; ++i) {
-            Staged& e = staged[i];
-            if (!entry(i, e.brick, e.lod, e.offset)) continue;
-            e.at = bytes;
-            e.labelBytes = uint64_t(volume->regionWords(e.lod)) * 4;
-            bytes += e.labelBytes + (e.lod == 0 ? 8 : 0);
-        }
-        if (decodeStaging.size() < bytes) {
-            const uint64_t grown = std::max<uint64_t>(bytes, decodeStaging.size() * 2);
-            decodeStaging = Buffer{};
-            Result<Buffer> b = ctx.createBuffer(grown, MemoryKind::HostVisible);
-            if (!b) return Status(b.status()).prefix("allocating host memory for decoded bricks");
-            decodeStaging = std::move(*b);
-        }
-        uint8_t* host = static_cast<uint8_t*>(decodeStaging.mapped());
-        hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
-            const Staged& e = staged[i];
-            if (e.labelBytes == 0) return;
-            BrickDecoder& d = *decoders[worker];
-            const bool ok = volume->decodeRegion(d, e.brick, e.lod, reinterpret_cast<uint32_t*>(host + e.at));
-            if (e.lod == 0) {
-                const uint64_t mask = ok ? uniformSubBlocks(d.labels(), e.brick) : 0;
-                std::memcpy(host + e.at + e.labelBytes, &mask, 8);
-            }
-        });
-        for (const Staged& e : staged)
-            if (e.labelBytes) stagedCopies.push_back({e.at, uint64_t(e.offset) * 4, e.labelBytes});
-        stagedCacheCopies = uint32_t(stagedCopies.size());
-        for (const Staged& e : staged)
-            if (e.labelBytes && e.lod == 0) stagedCopies.push_back({e.at + e.labelBytes, uint64_t(e.brick) * 8, 8});
-        return Status::ok();
-    }
+    Status decodeOnHost();
     /// The copies of what decodeOnHost staged, in front of `count` dispatches from `first`.
-    std::vector<Context::Dispatch> withStagedCopies(const Context::Dispatch* first, size_t count) const {
-        std::vector<Context::Dispatch> list;
-        Context::Dispatch c;
-        c.copyFrom = &decodeStaging;
-        c.copyTo = &cache;
-        c.copyRegions = stagedCopies.data();
-        c.copyRegionCount = stagedCacheCopies;
-        if (c.copyRegionCount) list.push_back(c);
-        c.copyTo = &uniformSubs;
-        c.copyRegions = stagedCopies.data() + stagedCacheCopies;
-        c.copyRegionCount = uint32_t(stagedCopies.size()) - stagedCacheCopies;
-        if (c.copyRegionCount) list.push_back(c);
-        list.insert(list.end(), first, first + count);
-        return list;
-    }
-
+    std::vector<Context::Dispatch> withStagedCopies(const Context::Dispatch* first, size_t count) const;
     /// The host decoding's worker pool, with a decoder per worker.
-    WorkerPool& hostWorkers() {
-        if (!workers) workers = std::make_unique<WorkerPool>();
-        while (decoders.size() < workers->size()) decoders.push_back(std::make_unique<BrickDecoder>(volume->volume()));
-        return *workers;
-    }
-
+    WorkerPool& hostWorkers();
     /// Detail streaming between frames: the streams the last frame asked for are queued (copied
     /// on a host thread meanwhile); commitDetail() makes them resident before the next frame.
-    Status requestDetail(FrameStats& stats) {
-        const uint32_t n = std::min(allocWords()[kAllocDetailRequests], maxRequests);
-        stats.detailRequests = n;
-        return detail->request(static_cast<const uint32_t*>(detailRequests.mapped()), n);
-    }
-    Status commitDetail() {
-        const uint64_t before = detail->counts().uploadedBricks;
-        Status s = detail->commit();
-        detailUploads = uint32_t(detail->counts().uploadedBricks - before);
-        return s;
-    }
-
+    Status requestDetail(FrameStats& stats);
+    Status commitDetail();
     /// A brick's finest labels (Morton order) -> its uniform sub-blocks (csgv/codec/Layout.h; as
     /// cache_uniform.comp computes them after GPU decoding).
-    uint64_t uniformSubBlocks(const uint32_t* labels, uint32_t brick) const {
-        const CompressedVolume& vol = volume->volume();
-        const uint32_t shift = log2u(vol.brickSize);
-        if (shift < kUniformShift) return 0;
-        const uint32_t subShift = shift - kUniformShift, n = 1u << (3 * subShift);
-        const std::array<uint32_t, 3> grid = vol.brickGrid();
-        const uint32_t b[3] = {brick % grid[0] << shift, brick / grid[0] % grid[1] << shift, brick / (grid[0] * grid[1]) << shift};
-        uint64_t mask = 0;
-        for (uint32_t j = 0; j < 64; ++j) {
-            if (!uniformSubBlockInside(j, subShift, b[0], b[1], b[2], vol.dim[0], vol.dim[1], vol.dim[2])) continue;
-            const uint32_t* run = labels + size_t(j) * n;
-            if (std::all_of(run + 1, run + n, [&](uint32_t l) { return l == run[0]; })) mask |= uint64_t(1) << j;
-        }
-        return mask;
-    }
+    uint64_t uniformSubBlocks(const uint32_t* labels, uint32_t brick) const;
 
     explicit Impl(Context& c) : ctx(c) {}
 
+    // Frame policy (RendererFramePolicy.cpp).
     /// The finest pixel stride (the settings' one or coarser) at which a frame of `pixels` in this
     /// shading mode, at the cost per pixel measured so far, takes at most `frameSeconds`. Before
     /// any frame was measured: a prior per device kind (kPriorSecondsPerRay, local shading's
     /// frames on lavapipe and NVIDIA rounded up), scaled by the rays each mode casts.
-    uint32_t strideFor(const RenderSettings& st, uint64_t pixels, double frameSeconds) const {
-        double seconds = costs.secondsPerPixel(st.shading);
-        if (seconds <= 0)
-            seconds = kPriorSecondsPerRay[ctx.device().type == "cpu" ? 0 : 1] * kRaysPerSample[shadingIndex(st.shading)];
-        uint32_t stride = std::max<uint32_t>(1, st.subsampling);
-        while (stride < 8 && double(pixels) * seconds / (stride * stride) > frameSeconds) stride *= 2;
-        return stride;
-    }
+    uint32_t strideFor(const RenderSettings& st, uint64_t pixels, double frameSeconds) const;
     /// A still render's coarse stride: coarse enough that a frame takes at most an eighth of the
     /// budget, so the first image (every pixel showing a sample or a preview, a few frames as
     /// bricks arrive) comes in a fraction of it. Later frames take the settings' own: every
     /// frame at a coarse stride costs a full-resolution gather besides its rays, so the finest
     /// stride converges fastest.
-    uint32_t stillCoarseStride(const RenderSettings& st, uint64_t pixels, double budgetSeconds) const {
-        return std::max(std::max<uint32_t>(1, st.subsampling), strideFor(st, pixels, std::max(budgetSeconds, 0.1) / 8));
-    }
-    void measureFrame(const RenderSettings& st, const FrameInput& in, const FrameStats& stats) {
-        if (stats.milliseconds <= 0) return; // nothing was submitted
-        costs.record(st.shading, stats.milliseconds / 1000, renderedPixels(in, st.subsampling));
-    }
+    uint32_t stillCoarseStride(const RenderSettings& st, uint64_t pixels, double budgetSeconds) const;
+    /// The time model learns a frame's cost.
+    void measureFrame(const RenderSettings& st, const FrameInput& in, const FrameStats& stats);
 
     // The steps of a frame, in order (renderFrame and render).
     Status validate(const FrameInput& in, const RenderSettings& st, Mat4& clipToWorld) const;
     Status detectChanges(const FrameInput& in);
     Result<FrameStats> frame(const FrameInput& in, const RenderSettings& st, const Mat4& clipToWorld);
-    bool deferDenoise = false;        // frame(): gather only; render() denoises once after its frames
-    bool denoisePending = false;      // the last frame gathered without denoising
-    // denoiseA holds the gathered image of the accumulation so far (the last frame gathered and
-    // nothing denoised since): a frame may then gather in its render pass (kFlagGatherInRender).
-    bool gatheredValid = false;
-    bool gatherInRender = false;      // this frame's kFlagGatherInRender (packParams)
     /// The pipelines this frame's settings use that are not made yet (the render pass's for the
     /// shading mode, the resolve passes, the cache passes, ...): made together, in parallel.
     Status ensurePipelines(const RenderSettings& st, bool depthInput);
@@ -638,7 +564,7 @@ struct Renderer::Impl {
     /// The settings ask for denoising (ambient occlusion and path tracing; denoises() also stops
     /// it once every pixel has 64 samples).
     static bool denoisedShading(const RenderSettings& st) {
-        return st.denoise && (st.shading == Shading::AmbientOcclusion || st.shading == Shading::PathTracing);
+        return st.denoise && shadingMode(st.shading).denoised;
     }
     /// render.comp's ONE_SAMPLE: the sample target is one sample and the render pass resolves its
     /// pixels, so every sample it takes is a pixel's first and nothing reads its sum afterwards:
@@ -656,7 +582,7 @@ struct Renderer::Impl {
     /// own samples (stride 1, no upsampling: a coarse stride's block would copy a sample into
     /// pixels outside the outline, which later frames would then not take again).
     bool outlineFrame(const RenderSettings& st) const {
-        return usesPixelList && outlineWanted && st.subsampling == 1 && fillBlock <= 1;
+        return usesPixelList && resolved.outlineWanted && st.subsampling == 1 && fillBlock <= 1;
     }
     /// The denoising passes over the last frame's gathered image into the output (a still render
     /// defers them to its last frame: the frames before are never shown).
@@ -675,7 +601,7 @@ struct Renderer::Impl {
     void sizeRenderDispatch();
     /// Whether this frame marks the hidden sub-blocks of every cached brick (the materials changed
     /// since bricks were decoded), not only of those it decodes.
-    bool hiddenAll() const { return hiddenAllPending && hiddenLabels && !cacheEmpty; }
+    bool hiddenAll() const { return materialState.hiddenAllPending && materialState.hiddenLabels && !cacheState.cacheEmpty; }
     /// Returns true when it changed how the next frame treats the cache (FrameStats::cacheAdapting).
     bool applyCachePolicy(const FrameStats& stats, const FrameInput& in, uint32_t stride);
     /// The free stacks hold a large share of the cache (kFragmentedShare) although it ran full.
@@ -690,12 +616,12 @@ struct Renderer::Impl {
                            const std::vector<uint32_t>& storedToOriginal);
 
     void resetAccumulation() {
-        clearPending = true;
-        coarseStride = 0;
-        shownWhole = false;
-        accumulatedFrames = 0;
-        prevMinSamples = 0;
-        converged = false;
+        accumulation.clearPending = true;
+        accumulation.coarseStride = 0;
+        accumulation.shownWhole = false;
+        accumulation.accumulatedFrames = 0;
+        accumulation.prevMinSamples = 0;
+        accumulation.converged = false;
     }
 
     /// The per-pixel buffers for a new size, all or nothing: a failure keeps the old size whole.
@@ -703,7 +629,7 @@ struct Renderer::Impl {
     /// interactive size and its full size allocates nothing.
     Status allocateImage(uint32_t w, uint32_t h) {
         const uint64_t n = uint64_t(w) * h;
-        imageDirty = true;
+        imageState.imageDirty = true;
         if (n <= imageCapacity && (!usesPixelList || outlineRows.size() >= 4ull * kOutlineRowWords * h)) {
             width = w;
             height = h;
@@ -777,7 +703,7 @@ struct Renderer::Impl {
     /// A G-buffer entry's second word as the last accumulation sees it (render_common.glsl's
     /// currentWord1): 0 where another accumulation wrote it.
     uint32_t currentWord1(uint32_t w1) const {
-        return ((w1 >> kGBufferEpochShift) & kGBufferEpochMask) == gbufferEpoch ? w1 : 0u;
+        return ((w1 >> kGBufferEpochShift) & kGBufferEpochMask) == imageState.gbufferEpoch ? w1 : 0u;
     }
 
     /// The smallest cache a renderer works with: one brick at full resolution.
@@ -820,7 +746,7 @@ struct Renderer::Impl {
         render[kTexelDepthIn] = depthIn.valid() ? &depthIn : &params;
         render[kTexelBlueNoise] = blueNoise.valid() ? &blueNoise : &params;
         render[kTexelVisible] = visible.valid() ? &visible : &params;
-        Result<bool> changed = renderTexels.refresh(ctx, texelsWanted, {render});
+        Result<bool> changed = renderTexels.refresh(ctx, resolved.texelsWanted, {render});
         if (!changed) return Status(changed.status()).prefix("viewing the render pass's buffers");
         if (*changed) {
             std::fill(&pRender[0][0], &pRender[0][0] + std::size(pRender) * std::size(pRender[0]), uint64_t(0));
@@ -833,7 +759,7 @@ struct Renderer::Impl {
         std::array<const Buffer*, kResolveTexelCount> fromB = resolve;
         resolve[kResolveTexelSource] = &denoiseA;
         fromB[kResolveTexelSource] = &denoiseB;
-        changed = resolveTexels.refresh(ctx, texelsWanted, {resolve, fromB}, 4); // a pixel's 16 bytes a texel
+        changed = resolveTexels.refresh(ctx, resolved.texelsWanted, {resolve, fromB}, 4); // a pixel's 16 bytes a texel
         if (!changed) return Status(changed.status()).prefix("viewing the resolve passes' buffers");
         if (*changed)
             std::fill(&pResolve[0][0], &pResolve[0][0] + std::size(pResolve) * std::size(pResolve[0]), uint64_t(0));
@@ -850,7 +776,7 @@ struct Renderer::Impl {
         if (!b) return Status(b.status()).prefix("allocating the brick cache");
         cache = std::move(*b);
         Status s;
-        if (!hostDecode &&
+        if (!resolved.hostDecode &&
             !(s = volume->appendFrameDecode(decodes.address(), alloc.address() + 4 * kAllocDecodes, cache.address(),
                                             decodeStates.address(), maxRequests, frameDecode, decodeDispatches,
                                             detail.get())))
@@ -871,8 +797,8 @@ struct Renderer::Impl {
         const uint32_t capacity = a[kAllocCapacity];
         std::fill(a, a + kAllocWords, 0u);
         a[kAllocCapacity] = capacity;
-        prefetchPending = true;
-        cacheEmpty = true;
+        cacheState.prefetchPending = true;
+        cacheState.cacheEmpty = true;
         return Status::ok();
     }
     /// Whether a frame asks for every visible brick at once (RendererOptions::prefetchVoxels). A
@@ -884,7 +810,7 @@ struct Renderer::Impl {
         const uint64_t edge = volume->volume().brickSize;
         const uint64_t voxels = uint64_t(visibleBricks) * edge * edge * edge;
         const uint64_t bytes = uint64_t(visibleBricks) * volume->regionWords(0) * 4;
-        return !detail && voxels <= prefetchVoxels && visibleBricks <= maxRequests && bytes <= cache.size() / 4;
+        return !detail && voxels <= resolved.prefetchVoxels && visibleBricks <= maxRequests && bytes <= cache.size() / 4;
     }
 };
 

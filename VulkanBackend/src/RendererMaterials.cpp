@@ -224,7 +224,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
             if (!colors) return colors.status();
             labelColors = std::move(*colors);
         }
-        labelColorsPending = true;
+        materialState.labelColorsPending = true;
     }
     // Which bricks can show anything: their palettes against the materials.
     auto materialOfStored = [&](uint32_t stored) {
@@ -242,8 +242,8 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     // entries drawn or not, fingerprinted (without a table: made anew).
     uint64_t drawn = 1469598103934665603ull;
     for (uint32_t m : table) drawn = (drawn ^ (m == kNone ? 0x9Eu : 0x37u)) * 1099511628211ull;
-    if (table.empty() || drawn != drawnFingerprint) hiddenAllPending = true;
-    drawnFingerprint = table.empty() ? 0 : drawn;
+    if (table.empty() || drawn != materialState.drawnFingerprint) materialState.hiddenAllPending = true;
+    materialState.drawnFingerprint = table.empty() ? 0 : drawn;
     auto severalUndrawn = [&] {
         const auto undrawn = std::count(table.begin(), table.end(), kNone);
         if (!ids.empty()) return undrawn > 1; // the table holds the palettes' labels alone
@@ -260,7 +260,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         }
         return false;
     };
-    hiddenLabels = hiddenWanted && severalUndrawn();
+    materialState.hiddenLabels = resolved.hiddenWanted && severalUndrawn();
     // Per brick its preview label and that label's material (what a view ray shows of the brick
     // while it is not cached: its coarsest level, the root label, else the first palette entry a
     // material draws), kNone twice when no palette entry is drawn (the brick is invisible).
@@ -279,7 +279,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
                 vis[2 * size_t(b) + 1] = m;
             }
     }
-    visibilityChanged = prefetchPending = true;
+    cacheState.visibilityChanged = cacheState.prefetchPending = true;
     visibleBricks = 0;
     for (size_t b = 0; b < brickCount; ++b) visibleBricks += vis[2 * b] != kNone ? 1 : 0;
     if (Status u = ctx.upload(visible, 0, vis.data(), vis.size() * 4); !u) return u;
@@ -358,8 +358,8 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     // names, a document written anew with the same content): the accumulated image stays. (The
     // volume's ids, below, are the renderer's for good: the same inputs, the same arrays by id.)
     const uint64_t fingerprint = materialsFingerprint(*packed, attributes, storedToOriginal, *given);
-    if (fingerprint == im.materialsFingerprint) return Status::ok();
-    im.materialsFingerprint = 0;
+    if (fingerprint == im.materialState.materialsFingerprint) return Status::ok();
+    im.materialState.materialsFingerprint = 0;
     // Where the volume stores ids, the shaders index the per-label arrays and the label map by id.
     const PerStored perStored = inStoredLabels(im.volume->labelIds(), attributes, storedToOriginal, *given);
     const auto& attrs = perStored.byId ? perStored.attributes : attributes;
@@ -369,7 +369,7 @@ Status Renderer::setMaterials(const MaterialDocument& doc, const std::map<std::s
     if (!(s = im.makeRoom(im.materialBytes(*packed, attrs, map), "the materials and attributes"))) return s;
     if (!(s = im.uploadMaterials(*packed, attrs, map, labels))) return s;
     if (!(s = im.uploadVisibility(MaterialMatcher{*packed, attrs, map, labels}))) return s;
-    im.materialsFingerprint = fingerprint;
+    im.materialState.materialsFingerprint = fingerprint;
     return Status::ok();
 }
 

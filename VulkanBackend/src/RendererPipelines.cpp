@@ -67,15 +67,15 @@ Status Renderer::preparePipelines(bool depthInput) {
         // frame's buffers will most likely be viewed (texel views where wanted and the cache fits
         // the device's limit; an image's buffers are far smaller). Should
         // that frame's views say otherwise (TexelViews::refresh), it drops these and makes its own.
-        im.renderTexels.made = im.texelsWanted && TexelViews::fits(im.ctx, im.cache);
-        im.resolveTexels.made = im.texelsWanted;
+        im.renderTexels.made = im.resolved.texelsWanted && TexelViews::fits(im.ctx, im.cache);
+        im.resolveTexels.made = im.resolved.texelsWanted;
     }
     return im.ensurePipelines(m_settings, depthInput);
 }
 
 Status Renderer::Impl::ensurePipelines(const RenderSettings& st, bool depthInput) {
     const std::vector<PipelineJob> jobs = pipelineJobs(st, depthInput);
-    return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, profileDispatches);
+    return jobs.empty() ? Status::ok() : makePipelines(ctx, jobs, resolved.profileDispatches);
 }
 
 std::vector<PipelineJob> Renderer::Impl::pipelineJobs(const RenderSettings& st, bool depthInput) {
@@ -89,7 +89,7 @@ std::vector<PipelineJob> Renderer::Impl::pipelineJobs(const RenderSettings& st, 
         jobs.push_back({name, std::move(d), push, &pipeline});
     };
     const uint32_t mode = shadingIndex(st.shading), tc = toneCurves(st), rv = renderVariant(st, depthInput);
-    need(pRender[rv][mode], "render.comp", 8, "SHADING", mode);
+    need(pRender[rv][mode], "render.comp", 8, "SHADING", shadingMode(st.shading).define);
     if (!jobs.empty() && jobs.back().out == &pRender[rv][mode]) {
         jobs.back().defines.emplace_back("TONE_CURVES", std::to_string(tc));
         jobs.back().defines.emplace_back("ONE_SAMPLE", oneSample(st) ? "1" : "0");
@@ -115,10 +115,10 @@ std::vector<PipelineJob> Renderer::Impl::pipelineJobs(const RenderSettings& st, 
     need(pProvision, "cache_provision.comp");
     need(pAssign, "cache_assign.comp");
     need(pCommit, "cache_commit.comp");
-    if (!hostDecode) need(pUniform, "cache_uniform.comp");
+    if (!resolved.hostDecode) need(pUniform, "cache_uniform.comp");
     // cache_hidden.comp reads the cache and the label table as the render pass does (its texel buffers).
     for (const auto& [pipeline, all] : {std::pair<uint64_t*, bool>{&pHidden, false}, {&pHiddenAll, true}}) {
-        if (!(all ? hiddenAll() : hiddenLabels)) continue;
+        if (!(all ? hiddenAll() : materialState.hiddenLabels)) continue;
         need(*pipeline, "cache_hidden.comp", 8, "HIDDEN_ALL", all ? 1 : 0);
         if (!jobs.empty() && jobs.back().out == pipeline && renderTexels.made) {
             jobs.back().defines.emplace_back("RENDER_TEXELS", "1");
@@ -126,7 +126,7 @@ std::vector<PipelineJob> Renderer::Impl::pipelineJobs(const RenderSettings& st, 
         }
     }
     if (usesPixelList) need(pPixelList, "pixel_list.comp");
-    if (labelColorsPending) need(pLabelColors, "label_colors.comp");
+    if (materialState.labelColorsPending) need(pLabelColors, "label_colors.comp");
     return jobs;
 }
 

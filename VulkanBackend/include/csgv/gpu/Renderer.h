@@ -39,6 +39,7 @@
 #include "csgv/reference/RayCast.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/DetailStream.h"
+#include "csgv/gpu/FramePolicy.h"
 #include "csgv/gpu/GpuVolume.h"
 
 #include <algorithm>
@@ -50,43 +51,7 @@
 
 namespace csgv::gpu {
 
-enum class Shading { Local = 0, Shadow = 1, AmbientOcclusion = 2, PathTracing = 3 };
-/// How many shading modes there are (Shading's values are 0 .. kShadingModes - 1).
-constexpr uint32_t kShadingModes = 4;
-/// A shading mode as an index 0 .. kShadingModes - 1 (a value out of range counts as Local).
-constexpr uint32_t shadingIndex(Shading s) { return uint32_t(s) < kShadingModes ? uint32_t(s) : 0; }
-/// Rays a sample casts in each mode, roughly (local: the view ray; shadow and ambient occlusion:
-/// one more; path tracing: about four): what a mode costs against another before it is measured.
-constexpr double kRaysPerSample[kShadingModes] = {1, 2, 2, 4};
-
-/// @brief The cost of a pixel in each shading mode, measured frame by frame (a running average):
-/// the one time model of the backend's strides and the representation's interactive resolution.
-/// A mode not measured yet is estimated from the dearest measured one, scaled by the rays each
-/// casts (kRaysPerSample); 0 when nothing was measured.
-class ModeCosts {
-public:
-    /// A frame of `pixels` in mode `s` took `seconds`.
-    void record(Shading s, double seconds, double pixels) {
-        if (seconds <= 0) return;
-        const double perPixel = seconds / (pixels > 1 ? pixels : 1);
-        double& avg = m_perPixel[shadingIndex(s)];
-        avg = avg > 0 ? 0.5 * (avg + perPixel) : perPixel;
-    }
-    double secondsPerPixel(Shading s) const {
-        const uint32_t mode = shadingIndex(s);
-        double seconds = m_perPixel[mode];
-        for (uint32_t m = 0; seconds <= 0 && m < kShadingModes; ++m) // none measured: from the others
-            for (uint32_t k = 0; k < kShadingModes; ++k)
-                if (m_perPixel[k] > 0 && m_perPixel[k] / kRaysPerSample[k] * kRaysPerSample[mode] > seconds)
-                    seconds = m_perPixel[k] / kRaysPerSample[k] * kRaysPerSample[mode];
-        return seconds;
-    }
-
-private:
-    double m_perPixel[kShadingModes] = {};
-};
-
-/// Text name ("local", "shadow", "ao", "pt") and its inverse.
+/// A mode's name (ShadingMode::name) and its inverse.
 const char* shadingName(Shading s);
 Result<Shading> parseShading(const std::string& name);
 
@@ -342,6 +307,14 @@ public:
     /// Reads the current resolved image and G-buffer into `out` (the parts asked for; others stay
     /// as they are).
     Status readOutput(FrameOutput& out, uint32_t parts = All) const;
+    /// The time model's view of a caller's whole draw: the last render() ended a draw of `frames`
+    /// frames of `pixels` each, in the settings' shading mode, that took `seconds` (render,
+    /// read-back and compositing; FramePolicy.h).
+    void recordDraw(double seconds, uint32_t frames, double pixels);
+    /// The reduction factor per axis (1..8) of an interactive frame of `pixels` in the settings'
+    /// shading mode, so that a draw takes at most half of 1 / `desiredRate` seconds: from the draws
+    /// recorded, else from this renderer's own frames (FramePolicy.h's interactiveReduction).
+    int interactiveReduction(double pixels, double desiredRate) const;
     /// Starts accumulating anew (the cache stays).
     void resetAccumulation();
     /// Empties the brick cache.
