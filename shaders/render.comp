@@ -10,10 +10,11 @@
 // host's kSlotVisible), or at the coarser level a brick stands in at while its finest-level stream
 // is on its way (detail streaming), shaded locally; previews are never accumulated.
 // With kFlagResolveInRender it also writes the pixel's output and counts (no gather pass).
-// SHADING (0 local, 1 shadow, 2 ao, 3 pt) is a define: each mode is its own pipeline. With
-// PIXEL_LIST (host decoding: CPU devices) the invocations take the cells of a list instead of the
-// rectangle's grid (pixel_list.comp): CPU devices run every branch of this shader for all lanes,
-// so pixels that take no sample must not be in the dispatch at all.
+// SHADING (a kShading* value of FrameLayout.h) is a define: each mode is its own pipeline and its
+// code one function (shadeShadow, shadeAmbientOcclusion, shadePathTraced; local shading is what
+// every surface gets). With PIXEL_LIST (host decoding: CPU devices) the invocations take the cells
+// of a list instead of the rectangle's grid (pixel_list.comp): CPU devices run every branch of
+// this shader for all lanes, so pixels that take no sample must not be in the dispatch at all.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -188,22 +189,138 @@ vec3 directLight(Walker w, vec3 n, bool shadow, bool mark, bool complete) {
     return vec3(fv.lightWorld.w * cosL * vis);
 }
 
-/// The next sample (index `samples`) of pixel px: accumulates it, writes the G-buffer, and
-/// returns true with the new sum in `total` and the window depth of its first surface in
-/// `surfaceDepth`; false when a brick it needs is not in the cache: then nothing is written,
-/// except for a pixel without samples, whose preview is (its accumulation word, the G-buffer's
-/// kGBufferPreview), with `preview` true, the preview in `total` and its depth in
-/// `surfaceDepth`. The caller writes the depth (with the colour: one store).
-bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool preview, out float surfaceDepth) {
-    preview = false;
-    total = vec4(0.0);
-    surfaceDepth = 1.0;
-    if (samples == count.prevMin) count.minRow = min(count.minRow, pixel);
-    const bool request = (fv.frame.y & kFlagLimitRequests) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
-    Rng rng = rngFor(pixel, samples);
+/// A surface of colour `c` lit by the ambient light and `direct` from the key light, plus its
+/// emission: local shading (direct without a shadow ray) and shadow shading (with one).
+vec3 lit(vec4 c, float emission, vec3 direct) { return c.rgb * (fv.lightIndex.w + direct) + emission * c.rgb; }
 
-    // The view ray: sample 0 through the pixel centre, later ones jittered (Gaussian, sigma 0.4,
-    // an approximation of the Blackman-Harris filter) by blue noise.
+// ---------------------------------------------------------------------------------------------
+// Shading modes: one function each for the first opaque surface a view ray meets (the walker `w`
+// has just entered it; `n` its world normal, `c` and `emission` its material). Each returns false
+// when a secondary ray finds a brick missing that the sample must have (the sample is lost, its
+// bricks are requested when `request`), else true with the surface's radiance in `shaded`.
+// Local shading needs none: it is the `local` every surface gets (traceView).
+// ---------------------------------------------------------------------------------------------
+
+/// Shadow: the key light through a shadow ray.
+bool shadeShadow(Walker w, vec3 n, vec4 c, float emission, bool request, out vec3 shaded) {
+    const vec3 direct = directLight(w, n, true, request, true);
+    if (direct.x < 0.0) return false;
+    shaded = lit(c, emission, direct);
+    return true;
+}
+
+/// Ambient occlusion: the visibility along one cosine-distributed ray (blue noise over the
+/// sample's pixel) up to the radius (Frame environment.w) scales the ambient light plus half the
+/// key light's intensity; the other half of the key light is its direct light without a shadow ray.
+bool shadeAmbientOcclusion(Walker w, vec3 n, vec4 c, float emission, bool request, uvec2 px, uint samples,
+                           out vec3 shaded) {
+    Walker s;
+    float vis = 1.0;
+    const vec2 uv = blueSample(px, samples, 1u);
+    const vec3 dir = toIndexDir(cosineSampleUV(n, uv.x, uv.y));
+    if (leaveSurface(w, dir / length(dir), fv.environment.w, s)) vis = visibility(s, request, true);
+    if (vis < 0.0) return false;
+    const vec3 direct = directLight(w, n, false, false, false);
+    shaded = c.rgb * ((fv.lightIndex.w + 0.5 * fv.lightWorld.w) * vis + 0.5 * direct) + emission * c.rgb;
+    return true;
+}
+
+/// Path tracing: the key light with a shadow ray, then up to Frame limits.w diffuse bounces
+/// (cosine-distributed; the first by blue noise, the others by the pixel's random numbers), each
+/// lit by the key light with a shadow ray and by the sky (Frame environment.rgb) when it leaves
+/// the volume. Semi-transparent surfaces along a bounce interact with the probability of their
+/// opacity. Only the first bounce requests bricks and must find them all; deeper ones see missing
+/// bricks at their coarsest level. Russian roulette from the third bounce.
+bool shadePathTraced(Walker w, vec3 n, vec4 c, float emission, bool request, uvec2 px, uint pixel, uint samples,
+                     out vec3 shaded) {
+    const vec3 direct = directLight(w, n, true, request, true);
+    if (direct.x < 0.0) return false;
+    Rng rng = rngFor(pixel, samples);
+    vec3 pt = c.rgb * direct + emission * c.rgb;
+    vec3 throughput = c.rgb;
+    Walker at = w;
+    vec3 atN = n;
+    for (uint bounce = 1u; bounce <= fv.limits.w; ++bounce) {
+        const bool req = request && bounce == 1u; // only the first bounce requests bricks
+        const bool complete = bounce == 1u;        // ... and must find them all
+        Walker s;
+        const vec2 uv = bounce == 1u ? blueSample(px, samples, 1u) : vec2(rngNext(rng), rngNext(rng));
+        const vec3 dirW = cosineSampleUV(atN, uv.x, uv.y);
+        if (!leaveSurface(at, toIndexDir(dirW), 1e30, s)) {
+            pt += throughput * fv.environment.rgb;
+            break;
+        }
+        uint l2 = kNone, m2 = kNone;
+        uint r2 = MARCH_OUT;
+        for (uint pass = 0u; pass < 64u; ++pass) {
+            r2 = march(f, s, boxLo, boxHi, req, complete, false, l2, m2);
+            if (r2 == MARCH_MISSING && !complete) { // deep bounces: the brick's coarsest level
+                r2 = coarseBlock(s, l2, m2) ? MARCH_SURFACE : MARCH_OUT;
+            }
+            if (r2 != MARCH_SURFACE) break;
+            float e2;
+            if (rngNext(rng) < materialColor(f, m2, l2, e2).a) break; // interacts
+        }
+        if (r2 == MARCH_MISSING) return false;
+        if (r2 == MARCH_OUT) {
+            pt += throughput * fv.environment.rgb;
+            break;
+        }
+        float e2;
+        const vec3 c2 = materialColor(f, m2, l2, e2).rgb;
+        const vec3 n2 = s.face != 0u ? faceNormal(s.face) : -dirW;
+        const vec3 d2 = directLight(s, n2, true, false, false);
+        pt += throughput * (c2 * max(d2, vec3(0.0)) + e2 * c2);
+        throughput *= c2;
+        if (bounce >= 3u) { // Russian roulette
+            const float p = max(throughput.r, max(throughput.g, throughput.b));
+            if (rngNext(rng) >= p) break;
+            throughput /= p;
+        }
+        at = s;
+        atN = n2;
+    }
+    shaded = pt;
+    return true;
+}
+
+/// The first opaque surface shaded in the pipeline's mode (SHADING, one pipeline per mode: the
+/// other modes' code is dropped at compile time); `local` is its local shading.
+bool shadeSurface(Walker w, vec3 n, vec4 c, float emission, vec3 local, bool request, uvec2 px, uint pixel,
+                  uint samples, out vec3 shaded) {
+    const uint mode = SHADING;
+    if (mode == kShadingShadow) return shadeShadow(w, n, c, emission, request, shaded);
+    if (mode == kShadingAo) return shadeAmbientOcclusion(w, n, c, emission, request, px, samples, shaded);
+    if (mode == kShadingPt) return shadePathTraced(w, n, c, emission, request, px, pixel, samples, shaded);
+    shaded = local;
+    return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// A sample: the view ray, the surfaces along it, the stores.
+// ---------------------------------------------------------------------------------------------
+
+/// A sample in the making: what the view ray gathered front to back and its first opaque surface
+/// (the G-buffer entry).
+struct Sample {
+    vec3 radiance;
+    float transmittance;
+    uint label;       // the first opaque surface's original label (kNone: none) ...
+    uint face;        // ... its entry face (0: none) ...
+    float depth;      // ... its window depth ...
+    float distance;   // ... and its world distance from the ray's origin
+    float firstDepth; // window depth of the first surface, semi-transparent or not (1: none)
+    bool valid;       // false: a brick the sample needs is not in the cache
+    // What a pixel without samples shows when a secondary ray loses the sample.
+    vec3 previewRadiance;
+    float previewTransmittance;
+};
+
+/// The view ray of a pixel's sample `samples` in index space, from `rayO` (the near plane) along
+/// `rayD` (to the far plane at t = 1), ending at `tEnd` (before the opaque depth input): sample 0
+/// through the pixel centre, later ones jittered (Gaussian, sigma 0.4, an approximation of the
+/// Blackman-Harris filter) by blue noise.
+void viewRay(uvec2 px, uint pixel, uint samples, out vec3 rayO, out vec3 rayD, out float tEnd) {
     vec2 jitter = vec2(0.0);
 #if !ONE_SAMPLE
     if ((fv.frame.y & kFlagJitter) != 0u && samples > 0u) {
@@ -223,7 +340,7 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
     precise vec3 o = a.xyz * (1.0 / a.w);
     precise vec3 e = b.xyz * (1.0 / b.w);
     precise vec3 d = e - o;
-    float tEnd = 1.0;
+    tEnd = 1.0;
 #if DEPTH_INPUT
     if ((fv.frame.y & kFlagDepthInput) != 0u) {
         const float z = depthInAt(pixel);
@@ -233,165 +350,128 @@ bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool pre
         }
     }
 #endif
+    rayO = o;
+    rayD = d;
+}
 
-    vec3 radiance = vec3(0.0);
-    float transmittance = 1.0;
-    uint gLabel = kNone, gFace = 0u;
-    float gDepth = 1.0, gDistance = 0.0, firstDepth = 1.0;
-    bool valid = true;
-    // A pixel without samples whose view ray meets a missing brick goes on for a preview: missing
-    // bricks as blocks of their coarsest level (coarseBlock), local shading, nothing requested.
+/// The view ray's surfaces front to back: semi-transparent ones composited with local shading,
+/// the first opaque one shaded in the pipeline's mode (shadeSurface). A ray that meets a missing
+/// brick loses the sample; for a pixel without samples (`samples` 0) it goes on for a preview:
+/// missing bricks as blocks of their coarsest level (coarseBlock), local shading, nothing requested.
+Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 d, float tEnd) {
+    Sample s = Sample(vec3(0.0), 1.0, kNone, 0u, 1.0, 0.0, 1.0, true, vec3(0.0), 1.0);
     const bool previews = samples == 0u;
-    // What a pixel without samples shows when a secondary ray loses the sample.
-    vec3 previewRadiance = vec3(0.0);
-    float previewTransmittance = 1.0;
     Walker w;
     bool passMissing = false; // a preview's next march passes the missing brick it stands in
-    if (startRay(o, d, tEnd, boxLo, boxHi, w)) {
-        for (uint layer = 0u; layer < 256u; ++layer) {
-            uint label, material;
-            const uint r = march(f, w, boxLo, boxHi, request && valid, valid, passMissing, label, material);
-            passMissing = false;
-            if (r == MARCH_OUT) break;
-            if (r == MARCH_MISSING) {
-                valid = false;
-                if (!previews) break;
+    if (!startRay(o, d, tEnd, boxLo, boxHi, w)) return s;
+    for (uint layer = 0u; layer < 256u; ++layer) {
+        uint label, material;
+        const uint r = march(f, w, boxLo, boxHi, request && s.valid, s.valid, passMissing, label, material);
+        passMissing = false;
+        if (r == MARCH_OUT) break;
+        if (r == MARCH_MISSING) {
+            s.valid = false;
+            if (!previews) break;
 #if DETAIL_STREAMING
-                if (standsIn(w)) continue; // the preview goes on through the brick at its coarser level
+            if (standsIn(w)) continue; // the preview goes on through the brick at its coarser level
 #endif
-                if (!coarseBlock(w, label, material)) {
-                    // Already behind a semi-transparent block of this label (the brick before,
-                    // or the voxels the ray came through): on past the brick.
-                    passMissing = true;
-                    continue;
-                }
-            }
-            float emission;
-            const vec4 c = materialColor(f, material, label, emission);
-            const vec3 q = walkerPoint(w);
-            const vec4 clip = indexToClip * vec4(q, 1.0);
-            const float depth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
-            if (firstDepth == 1.0) firstDepth = depth;
-            vec3 n = w.face != 0u ? faceNormal(w.face) : -normalize((indexToWorld * vec4(d, 0.0)).xyz);
-            const vec3 local = c.rgb * (fv.lightIndex.w + directLight(w, n, false, false, false)) + emission * c.rgb;
-            if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
-                radiance += transmittance * c.a * local;
-                transmittance *= 1.0 - c.a;
-                if (transmittance < 0.01) break;
+            if (!coarseBlock(w, label, material)) {
+                // Already behind a semi-transparent block of this label (the brick before,
+                // or the voxels the ray came through): on past the brick.
+                passMissing = true;
                 continue;
             }
-            if (!valid) { // a preview: local shading only
-                radiance += transmittance * local;
-                transmittance = 0.0;
-                break;
-            }
-            gLabel = originalLabel(f, label);
-            gFace = w.face;
-            gDepth = depth;
-            gDistance = length((indexToWorld * vec4(q - o, 0.0)).xyz);
-            vec3 shaded = local;
-            const uint mode = SHADING; // one pipeline per mode: the others' code is dropped at compile time
-            if (mode != kShadingLocal) { // should a secondary ray find a brick missing, the preview is this surface lit locally
-                previewRadiance = radiance + transmittance * local;
-                previewTransmittance = 0.0;
-            }
-            if (mode == kShadingShadow) {
-                const vec3 direct = directLight(w, n, true, request, true);
-                if (direct.x < 0.0) { valid = false; break; }
-                shaded = c.rgb * (fv.lightIndex.w + direct) + emission * c.rgb;
-            } else if (mode == kShadingAo) {
-                Walker s;
-                float vis = 1.0;
-                const vec2 uv = blueSample(px, samples, 1u);
-                const vec3 dir = toIndexDir(cosineSampleUV(n, uv.x, uv.y));
-                if (leaveSurface(w, dir / length(dir), fv.environment.w, s)) vis = visibility(s, request, true);
-                if (vis < 0.0) { valid = false; break; }
-                const vec3 direct = directLight(w, n, false, false, false);
-                shaded = c.rgb * ((fv.lightIndex.w + 0.5 * fv.lightWorld.w) * vis + 0.5 * direct) + emission * c.rgb;
-            } else if (mode == kShadingPt) {
-                vec3 direct = directLight(w, n, true, request, true);
-                if (direct.x < 0.0) { valid = false; break; }
-                vec3 pt = c.rgb * direct + emission * c.rgb;
-                vec3 throughput = c.rgb;
-                Walker at = w;
-                vec3 atN = n;
-                for (uint bounce = 1u; bounce <= fv.limits.w; ++bounce) {
-                    const bool req = request && bounce == 1u; // only the first bounce requests bricks
-                    const bool complete = bounce == 1u;        // ... and must find them all
-                    Walker s;
-                    const vec2 uv = bounce == 1u ? blueSample(px, samples, 1u) : vec2(rngNext(rng), rngNext(rng));
-                    const vec3 dirW = cosineSampleUV(atN, uv.x, uv.y);
-                    if (!leaveSurface(at, toIndexDir(dirW), 1e30, s)) {
-                        pt += throughput * fv.environment.rgb;
-                        break;
-                    }
-                    uint l2 = kNone, m2 = kNone;
-                    uint r2 = MARCH_OUT;
-                    for (uint pass = 0u; pass < 64u; ++pass) {
-                        r2 = march(f, s, boxLo, boxHi, req, complete, false, l2, m2);
-                        if (r2 == MARCH_MISSING && !complete) { // deep bounces: the brick's coarsest level
-                            r2 = coarseBlock(s, l2, m2) ? MARCH_SURFACE : MARCH_OUT;
-                        }
-                        if (r2 != MARCH_SURFACE) break;
-                        float e2;
-                        if (rngNext(rng) < materialColor(f, m2, l2, e2).a) break; // interacts
-                    }
-                    if (r2 == MARCH_MISSING) { valid = false; break; }
-                    if (r2 == MARCH_OUT) {
-                        pt += throughput * fv.environment.rgb;
-                        break;
-                    }
-                    float e2;
-                    const vec3 c2 = materialColor(f, m2, l2, e2).rgb;
-                    const vec3 n2 = s.face != 0u ? faceNormal(s.face) : -dirW;
-                    const vec3 d2 = directLight(s, n2, true, false, false);
-                    pt += throughput * (c2 * max(d2, vec3(0.0)) + e2 * c2);
-                    throughput *= c2;
-                    if (bounce >= 3u) { // Russian roulette
-                        const float p = max(throughput.r, max(throughput.g, throughput.b));
-                        if (rngNext(rng) >= p) break;
-                        throughput /= p;
-                    }
-                    at = s;
-                    atN = n2;
-                }
-                if (!valid) break;
-                shaded = pt;
-            }
-            radiance += transmittance * mix(local, shaded, fv.pixel.w);
-            transmittance = 0.0;
+        }
+        float emission;
+        const vec4 c = materialColor(f, material, label, emission);
+        const vec3 q = walkerPoint(w);
+        const vec4 clip = indexToClip * vec4(q, 1.0);
+        const float depth = clamp(clip.z / clip.w * 0.5 + 0.5, 0.0, 1.0);
+        if (s.firstDepth == 1.0) s.firstDepth = depth;
+        vec3 n = w.face != 0u ? faceNormal(w.face) : -normalize((indexToWorld * vec4(d, 0.0)).xyz);
+        const vec3 local = lit(c, emission, directLight(w, n, false, false, false));
+        if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
+            s.radiance += s.transmittance * c.a * local;
+            s.transmittance *= 1.0 - c.a;
+            if (s.transmittance < 0.01) break;
+            continue;
+        }
+        if (!s.valid) { // a preview: local shading only
+            s.radiance += s.transmittance * local;
+            s.transmittance = 0.0;
             break;
         }
-    }
-    // One set of stores for both outcomes (CPU devices run every store, taken or not, as a loop
-    // over the lanes): a sample, or a pixel without samples' preview (no sample yet: its
-    // accumulation word is free), or nothing.
-    if (!valid) {
-        ++count.missing;
-        if (gLabel == kNone) { // lost on the view ray: the preview is what it gathered
-            previewRadiance = radiance;
-            previewTransmittance = transmittance;
+        s.label = originalLabel(f, label);
+        s.face = w.face;
+        s.depth = depth;
+        s.distance = length((indexToWorld * vec4(q - o, 0.0)).xyz);
+        if (SHADING != kShadingLocal) { // should a secondary ray find a brick missing, the preview is this surface lit locally
+            s.previewRadiance = s.radiance + s.transmittance * local;
+            s.previewTransmittance = 0.0;
         }
-        total = vec4(previewRadiance, 1.0 - previewTransmittance);
+        vec3 shaded;
+        if (!shadeSurface(w, n, c, emission, local, request, px, pixel, samples, shaded)) {
+            s.valid = false;
+            break;
+        }
+        s.radiance += s.transmittance * mix(local, shaded, fv.pixel.w);
+        s.transmittance = 0.0;
+        break;
+    }
+    return s;
+}
+
+/// Stores sample `samples` of pixel `pixel`: accumulates it and writes the G-buffer, or, when it
+/// is lost, a pixel without samples' preview (no sample yet: its accumulation word is free; the
+/// G-buffer's kGBufferPreview), or nothing. One set of stores for both outcomes (CPU devices run
+/// every store, taken or not, as a loop over the lanes). Returns the sample's validity, with the
+/// new sum (or the preview) in `total` and the window depth of its first surface in `surfaceDepth`.
+bool storeSample(uint pixel, uint samples, Sample s, out vec4 total, out bool preview, out float surfaceDepth) {
+    preview = false;
+    surfaceDepth = 1.0;
+    const bool previews = samples == 0u;
+    if (!s.valid) {
+        ++count.missing;
+        if (s.label == kNone) { // lost on the view ray: the preview is what it gathered
+            s.previewRadiance = s.radiance;
+            s.previewTransmittance = s.transmittance;
+        }
+        total = vec4(s.previewRadiance, 1.0 - s.previewTransmittance);
         preview = previews;
     } else {
-        total = vec4(radiance, 1.0 - transmittance);
+        total = vec4(s.radiance, 1.0 - s.transmittance);
 #if !ONE_SAMPLE
         if (samples > 0u) total += loadVec4(frameAddr[kSlotAccum], pixel); // the first sample need not read the cleared sum
 #endif
         ++count.added;
     }
-    if (valid || previews) {
+    if (s.valid || previews) {
 #if !ONE_SAMPLE
         storeVec4(frameAddr[kSlotAccum], pixel, total);
 #endif
         // The sample count rides in the second word (kGBufferCountShift): one store for both.
-        storeUvec4(frameAddr[kSlotGBuffer], pixel, valid ? uvec4(gLabel, gFace | kGBufferSampled | epochBits() | ((samples + 1u) << kGBufferCountShift),
-                                                                floatBitsToUint(gDepth), floatBitsToUint(gDistance))
-                                                        : uvec4(kNone, kGBufferPreview | epochBits(), floatBitsToUint(1.0), 0u));
-        surfaceDepth = firstDepth;
+        storeUvec4(frameAddr[kSlotGBuffer], pixel, s.valid ? uvec4(s.label, s.face | kGBufferSampled | epochBits() | ((samples + 1u) << kGBufferCountShift),
+                                                                  floatBitsToUint(s.depth), floatBitsToUint(s.distance))
+                                                          : uvec4(kNone, kGBufferPreview | epochBits(), floatBitsToUint(1.0), 0u));
+        surfaceDepth = s.firstDepth;
     }
-    return valid;
+    return s.valid;
+}
+
+/// The next sample (index `samples`) of pixel px: accumulates it, writes the G-buffer, and
+/// returns true with the new sum in `total` and the window depth of its first surface in
+/// `surfaceDepth`; false when a brick it needs is not in the cache: then nothing is written,
+/// except for a pixel without samples, whose preview is (its accumulation word, the G-buffer's
+/// kGBufferPreview), with `preview` true, the preview in `total` and its depth in
+/// `surfaceDepth`. The caller writes the depth (with the colour: one store).
+bool takeSample(uvec2 px, uint pixel, uint samples, out vec4 total, out bool preview, out float surfaceDepth) {
+    if (samples == count.prevMin) count.minRow = min(count.minRow, pixel);
+    const bool request = (fv.frame.y & kFlagLimitRequests) == 0u || (pixel >= fv.limits.y && pixel < fv.limits.z);
+    vec3 o, d;
+    float tEnd;
+    viewRay(px, pixel, samples, o, d, tEnd);
+    const Sample s = traceView(px, pixel, samples, request, o, d, tEnd);
+    return storeSample(pixel, samples, s, total, preview, surfaceDepth);
 }
 
 /// The pixel at `cell` in the grid of rendered pixels of the footprint rectangle (all, or one
@@ -468,7 +548,7 @@ void main() {
     clipToIndex = f.clipToIndex;
     indexToClip = f.indexToClip;
     indexToWorld = f.indexToWorld;
-    if (SHADING >= kShadingAo) worldToIndex = f.worldToIndex;
+    if (SHADING == kShadingAo || SHADING == kShadingPt) worldToIndex = f.worldToIndex; // toIndexDir's modes
     normalX = f.faceNormals[1].xyz;
     normalY = f.faceNormals[3].xyz;
     normalZ = f.faceNormals[5].xyz;
