@@ -726,7 +726,7 @@ TEST(AttributesComputed, CorruptStreamsAreErrorsNeverCrashes) {
     int failures = 0;
     for (int i = 0; i < 60; ++i) {
         CompressedVolume vol = clean;
-        std::vector<uint32_t>& words = vol.arrays[0];
+        std::vector<uint32_t>& words = vol.arrays[0].owned();
         for (int k = 0; k < 3; ++k) words[next() % words.size()] ^= 1u << (next() % 32);
         SCOPED_TRACE("mutation " + std::to_string(i));
         const bool valid = checkContainer(vol).isOk() && validateStreams(vol, 1).isOk();

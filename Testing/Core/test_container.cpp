@@ -35,7 +35,7 @@ CompressedVolume splitArrays(const CompressedVolume& in, uint32_t perArray) {
         }
         const BrickWords bw = in.brick(i);
         if (i % perArray != 0) out.brickStarts[size_t(i)] = uint32_t(out.arrays.back().size());
-        out.arrays.back().insert(out.arrays.back().end(), bw.words, bw.words + bw.size);
+        out.arrays.back().owned().insert(out.arrays.back().owned().end(), bw.words, bw.words + bw.size);
     }
     out.brickStarts[size_t(bricks)] = uint32_t(out.arrays.back().size());
     return out;
@@ -84,6 +84,54 @@ TEST(Container, SplitArraysDecodeLikeOneArray) {
             ASSERT_TRUE(a.isOk() && b.isOk()) << b.message();
             EXPECT_EQ(a->labels, b->labels) << name << " per array " << perArray;
         }
+    }
+}
+
+TEST(Container, SharedParseViewsTheBytesItWasGivenAndDecodesTheSame) {
+    // parseCsgvShared over bytes placed as allocateCsgvBytes places them: every encoding array is
+    // a view into those bytes (no second copy), the volume equals parseCsgv's word for word, and
+    // outlives every other owner of the bytes. At any other phase it copies, and still equals.
+    for (const std::string& name : allFixtureNames()) {
+        const std::vector<uint8_t> file = fixtureBytes(name);
+        Result<CompressedVolume> plain = parseCsgv(file.data(), file.size());
+        ASSERT_TRUE(plain.isOk()) << name << ": " << plain.message();
+        for (size_t phase = 0; phase < 4; ++phase) {
+            std::shared_ptr<uint8_t> bytes = allocateCsgvBytes(file.size() + 4);
+            ASSERT_TRUE(bytes);
+            ASSERT_EQ(reinterpret_cast<uintptr_t>(bytes.get()) % 4, kCsgvBytesPhase);
+            uint8_t* at = bytes.get() + (phase + 4 - kCsgvBytesPhase) % 4; // an address of `phase` modulo 4
+            std::copy(file.begin(), file.end(), at);
+            Result<CompressedVolume> shared = parseCsgvShared(at, file.size(), bytes);
+            ASSERT_TRUE(shared.isOk()) << name << ": " << shared.message();
+            bytes.reset(); // the volume keeps them
+            ASSERT_EQ(shared->arrays.size(), plain->arrays.size());
+            for (size_t a = 0; a < plain->arrays.size(); ++a) {
+                EXPECT_EQ(shared->arrays[a].isView(), phase == kCsgvBytesPhase) << name << " phase " << phase;
+                EXPECT_TRUE(std::equal(shared->arrays[a].begin(), shared->arrays[a].end(), plain->arrays[a].begin(),
+                                       plain->arrays[a].end()))
+                    << name << " array " << a;
+            }
+            EXPECT_EQ(serializeCsgv(*shared), file) << name << " phase " << phase;
+            Result<LabelVolume> a = decodeVolume(*plain, 0);
+            Result<LabelVolume> b = decodeVolume(*shared, 0);
+            ASSERT_TRUE(a.isOk() && b.isOk()) << b.message();
+            EXPECT_EQ(a->labels, b->labels) << name << " phase " << phase;
+        }
+    }
+}
+
+TEST(Container, SharedParseOfHostileBytesFailsLikeTheCopyingOne) {
+    // Truncated anywhere: the same error either way, and no view past the end.
+    const std::vector<uint8_t> file = fixtureBytes("synthA_b32_rans2.csgv");
+    for (size_t cut : {size_t(10), size_t(200), file.size() / 2, file.size() - 5, file.size() - 1}) {
+        std::shared_ptr<uint8_t> bytes = allocateCsgvBytes(cut);
+        ASSERT_TRUE(bytes);
+        std::copy(file.begin(), file.begin() + ptrdiff_t(cut), bytes.get());
+        Result<CompressedVolume> plain = parseCsgv(bytes.get(), cut);
+        Result<CompressedVolume> shared = parseCsgvShared(bytes.get(), cut, bytes);
+        ASSERT_FALSE(plain.isOk());
+        ASSERT_FALSE(shared.isOk()) << "cut at " << cut;
+        EXPECT_EQ(plain.message(), shared.message()) << "cut at " << cut;
     }
 }
 

@@ -268,7 +268,7 @@ CompressedVolume cropBricks(const CompressedVolume& v, std::array<uint32_t, 3> f
             for (uint32_t x = 0; x < count[0]; ++x) {
                 const uint64_t i = (first[0] + x) + uint64_t(g[0]) * ((first[1] + y) + uint64_t(g[1]) * (first[2] + z));
                 const BrickWords bw = v.brick(i);
-                out.arrays[0].insert(out.arrays[0].end(), bw.words, bw.words + bw.size);
+                out.arrays[0].owned().insert(out.arrays[0].owned().end(), bw.words, bw.words + bw.size);
                 out.brickStarts.push_back(uint32_t(out.arrays[0].size()));
             }
     return out;
@@ -482,7 +482,7 @@ TEST(MalformedContainer, EncodingArrays) {
     v.bricksPerArray = 0;
     EXPECT_TRUE(failsWith(reparse(v), {"bricks per encoding array"}));
     v = good;
-    v.arrays.push_back({1, 2, 3});
+    v.arrays.push_back(std::vector<uint32_t>{1, 2, 3});
     EXPECT_TRUE(failsWith(reparse(v), {"2 encoding arrays, expected 1"}));
     std::vector<uint8_t> b = csgv::serializeCsgv(good);
     const Layout l = layoutOf(good);
@@ -516,7 +516,7 @@ CompressedVolume splitArrays(const CompressedVolume& v, uint32_t perArray) {
             out.brickStarts[size_t(i)] = uint32_t(out.arrays.back().size());
         }
         const BrickWords bw = v.brick(i);
-        out.arrays.back().insert(out.arrays.back().end(), bw.words, bw.words + bw.size);
+        out.arrays.back().owned().insert(out.arrays.back().owned().end(), bw.words, bw.words + bw.size);
     }
     out.brickStarts.back() = uint32_t(out.arrays.back().size());
     return out;
@@ -552,7 +552,7 @@ TEST(MalformedContainer, SplitArrays) {
     v.bricksPerArray = kPer + 1;
     EXPECT_FALSE(reparse(v).isOk());
     v = split;
-    v.arrays[2].resize(v.arrays[2].size() / 2);
+    v.arrays[2].owned().resize(v.arrays[2].size() / 2);
     EXPECT_TRUE(failsWith(reparse(v), {"past the end of encoding array 2"}));
 }
 
@@ -1176,7 +1176,7 @@ struct MutationStats {
 /// Applies one random corruption to a volume's encoding arrays, brick starts or tables.
 void mutateVolume(CompressedVolume& v, std::mt19937& rng) {
     auto uni = [&](uint64_t n) { return n ? uint64_t(rng() % n) : 0; };
-    std::vector<uint32_t>& arr = v.arrays[0];
+    std::vector<uint32_t>& arr = v.arrays[0].owned();
     const uint32_t L = v.levels();
     const uint64_t b = uni(v.brickCount());
     const uint32_t begin = v.brickStarts[size_t(b)];

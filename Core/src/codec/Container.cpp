@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <memory>
@@ -50,6 +51,13 @@ public:
     MemorySource(const uint8_t* data, size_t size) : m_data(data) { m_size = size; }
     bool readRaw(void* dst, size_t n) override {
         std::memcpy(dst, m_data + m_offset, n);
+        return true;
+    }
+    /// The bytes at the current offset (parseCsgvShared's views).
+    const uint8_t* here() const { return m_data + m_offset; }
+    bool skip(uint64_t n) {
+        if (n > remaining()) return false;
+        m_offset += n;
         return true;
     }
 
@@ -217,7 +225,9 @@ Status parseTail(ByteSource& src) {
     return Status::ok();
 }
 
-Result<CompressedVolume> parse(ByteSource& src) {
+/// `viewed`: a memory source whose arrays are kept as views where aligned (parseCsgvShared).
+Result<CompressedVolume> parse(ByteSource& src, MemorySource* viewed = nullptr,
+                               const std::shared_ptr<const void>& keeper = nullptr) {
     CompressedVolume v;
     CSGV_TRY(parseHead(src, v));
     uint64_t m = 0;
@@ -231,7 +241,16 @@ Result<CompressedVolume> parse(ByteSource& src) {
         if (len > kMaxWordsPerArray)
             return Status::error("encoding array " + std::to_string(i) + " has " + std::to_string(len) +
                                  " words, more than 2^29");
-        CSGV_TRY(readWords(src, v.arrays[size_t(i)], len, "encoding array"));
+        if (viewed && reinterpret_cast<uintptr_t>(viewed->here()) % alignof(uint32_t) == 0) {
+            const uint8_t* words = viewed->here();
+            if (len > src.remaining() / 4 || !viewed->skip(len * 4))
+                return Status::error("file truncated: field 'encoding array' claims " + std::to_string(len) +
+                                     " words at offset " + std::to_string(src.offset()) + ", only " +
+                                     std::to_string(src.remaining()) + " bytes remain");
+            v.arrays[size_t(i)] = WordArray::view(reinterpret_cast<const uint32_t*>(words), size_t(len), keeper);
+            continue;
+        }
+        CSGV_TRY(readWords(src, v.arrays[size_t(i)].owned(), len, "encoding array"));
     }
     CSGV_TRY(parseTail(src));
     CSGV_TRY(checkContainer(v));
@@ -350,6 +369,21 @@ Status checkContainer(const CompressedVolume& v) {
 Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size) {
     MemorySource src(data, size);
     return parse(src);
+}
+
+Result<CompressedVolume> parseCsgvShared(const uint8_t* data, size_t size, std::shared_ptr<const void> keeper) {
+    MemorySource src(data, size);
+    if (!keeper) return parse(src);
+    return parse(src, &src, keeper);
+}
+
+std::shared_ptr<uint8_t> allocateCsgvBytes(size_t size) {
+    constexpr size_t kPad = 4 + kCsgvBytesPhase; // room to place the start, from a 16-byte aligned block
+    if (size > SIZE_MAX - kPad) return nullptr;
+    uint8_t* block = static_cast<uint8_t*>(std::malloc(size + kPad));
+    if (!block) return nullptr;
+    const size_t shift = (kCsgvBytesPhase + 4 - reinterpret_cast<uintptr_t>(block) % 4) % 4;
+    return std::shared_ptr<uint8_t>(block + shift, [block](uint8_t*) { std::free(block); });
 }
 
 Result<CompressedVolume> readCsgv(const std::string& path) {
@@ -537,10 +571,10 @@ Status fillArrays(CompressedVolume& vol, const std::vector<uint32_t>& brickWords
     Result<ArrayLayout> layout = layoutArrays(brickWords, arrayLimit, maxOutputBytes);
     if (!layout) return layout.status();
     vol.arrays.assign(layout->arrayWords.size(), {});
-    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].reserve(size_t(layout->arrayWords[a]));
+    for (size_t a = 0; a < vol.arrays.size(); ++a) vol.arrays[a].owned().reserve(size_t(layout->arrayWords[a]));
     const uint64_t perArray = layout->perArray;
     applyLayout(std::move(*layout), vol);
-    for (uint64_t i = 0; i < brickWords.size(); ++i) append(i, vol.arrays[size_t(i / perArray)]);
+    for (uint64_t i = 0; i < brickWords.size(); ++i) append(i, vol.arrays[size_t(i / perArray)].owned());
     return Status::ok();
 }
 

@@ -40,12 +40,14 @@
 
 #include "csgv/codec/Layout.h"
 #include "csgv/codec/Partition.h"
+#include "csgv/codec/WordArray.h"
 #include "csgv/base/Checked.h"
 #include "csgv/base/Status.h"
 
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -108,7 +110,7 @@ struct CompressedVolume {
     std::array<uint32_t, 16> freqB{}; ///< mode 2: the finest level
     uint32_t bricksPerArray = kSingleArray;
     std::vector<uint32_t> brickStarts; ///< bricks + 1 entries (see BrickWords brick())
-    std::vector<std::vector<uint32_t>> arrays;
+    std::vector<WordArray> arrays;    ///< owned, or views into a mapped file (readCsgvMapped)
 
     /// Number of levels L = log2(B) + 1 (level 0 = one node per brick).
     uint32_t levels() const;
@@ -153,6 +155,17 @@ Status checkContainer(const CompressedVolume& vol);
 
 /// Parses a container from memory; the result has passed checkContainer().
 Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size);
+/// The same, with the encoding arrays as views into `data` (WordArray::view) wherever their words
+/// lie on 4-byte boundaries (else copies): `keeper` keeps `data` alive and unchanged while the
+/// volume, or any copy of it, lives. One copy of an encoding then serves the bytes and the parse.
+Result<CompressedVolume> parseCsgvShared(const uint8_t* data, size_t size, std::shared_ptr<const void> keeper);
+/// Where a `.csgv`'s bytes should start, modulo 4, for parseCsgvShared to view every encoding
+/// array: the arrays' words start at byte 69 + 4k of a file (CSGV-FORMAT.md), so bytes placed
+/// at an address of 3 modulo 4 put them on word boundaries.
+constexpr size_t kCsgvBytesPhase = 3;
+/// A buffer of `size` bytes for a `.csgv` at an address of kCsgvBytesPhase modulo 4 (null when
+/// no memory is to be had); its shared owner frees it.
+std::shared_ptr<uint8_t> allocateCsgvBytes(size_t size);
 /// Reads a `.csgv` file; never reads or allocates more than the file holds.
 Result<CompressedVolume> readCsgv(const std::string& path);
 /// Reads the bricks of `box` (whole bricks: Partition.h) of a `.csgv` file as a volume of their
