@@ -13,9 +13,9 @@ namespace {
 
 /// Array `i` of the device's encoding arrays (laid out as `starts` says: a brick's palette ends
 /// where its next starts, CSGV-FORMAT.md section 3) with every palette entry replaced by its id.
-std::vector<uint32_t> paletteIdsIn(const CompressedVolume& volume, size_t i, const std::vector<uint32_t>& array,
+std::vector<uint32_t> paletteIdsIn(const CompressedVolume& volume, size_t i, const WordArray& array,
                                    const std::vector<uint32_t>& starts, const std::vector<uint32_t>& ids) {
-    std::vector<uint32_t> out = array;
+    std::vector<uint32_t> out(array.begin(), array.end());
     const uint64_t n = volume.brickCount(), per = volume.bricksPerArray == kSingleArray ? n : volume.bricksPerArray;
     const uint32_t L = volume.levels();
     for (uint64_t b = i * per; b < std::min<uint64_t>(n, (i + 1) * per); ++b) {
@@ -103,10 +103,10 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     // Large labels are stored as ids (StoredLabels): in the palettes the device holds, and in the
     // cache regions host decoding writes. An MPI rank's piece keeps its labels.
     g->m_labels = storedLabels(volume, !options.owned.empty());
-    std::vector<std::vector<uint32_t>> partArrays;
+    std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
-    const std::vector<std::vector<uint32_t>>& arrays = part == DevicePart::Whole ? volume.arrays : partArrays;
+    const std::vector<WordArray>& arrays = part == DevicePart::Whole ? volume.arrays : partArrays;
     const std::vector<uint32_t>& starts = part == DevicePart::Whole ? volume.brickStarts : partStarts;
     const uint64_t need = uploadBytes(arrays, starts);
     if (need > budget)
@@ -120,15 +120,16 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (separate) g->m_detailSizes = DetailStream::sizes(volume);
     std::vector<uint64_t> addresses;
     for (size_t i = 0; i < arrays.size(); ++i) {
-        const std::vector<uint32_t>& a = arrays[i];
+        const WordArray& a = arrays[i];
         // With ids, the palettes' labels replaced (a copy of one array at a time).
         std::vector<uint32_t> withIds;
         const std::vector<uint32_t>& ids = g->m_labels.ids;
         if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(volume, i, a, starts, ids);
-        const std::vector<uint32_t>& up = withIds.empty() ? a : withIds;
-        Result<Buffer> b = context.createBuffer(up.size() * 4, MemoryKind::DeviceLocal);
+        const uint32_t* up = withIds.empty() ? a.data() : withIds.data();
+        const size_t words = withIds.empty() ? a.size() : withIds.size();
+        Result<Buffer> b = context.createBuffer(words * 4, MemoryKind::DeviceLocal);
         if (!b) return Status(b.status()).prefix("uploading the encoding");
-        s = context.upload(*b, 0, up.data(), up.size() * 4);
+        s = context.upload(*b, 0, up, words * 4);
         if (!s) return s;
         addresses.push_back(b->address());
         g->m_arrays.push_back(std::move(*b));
@@ -174,7 +175,7 @@ bool GpuVolume::separates(const CompressedVolume& volume, uint64_t budget, Detai
     return separation == DetailSeparation::Always || (separation == DetailSeparation::Auto && encodingBytes(volume) > budget / 2);
 }
 
-void GpuVolume::devicePart(const CompressedVolume& volume, DevicePart part, std::vector<std::vector<uint32_t>>& arrays,
+void GpuVolume::devicePart(const CompressedVolume& volume, DevicePart part, std::vector<WordArray>& arrays,
                             std::vector<uint32_t>& starts) {
     // Coarse: each brick without its finest-level stream (mode 2: stream B, from word
     // header[L-1] / 8 to the palette): header, stream A, palette. Palette: the palette alone (its
@@ -187,7 +188,7 @@ void GpuVolume::devicePart(const CompressedVolume& volume, DevicePart part, std:
     starts.assign(size_t(n) + 1, 0u);
     for (uint64_t b = 0; b < n; ++b) {
         const BrickWords bw = volume.brick(b);
-        std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)];
+        std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)].owned();
         const uint32_t palette = bw.words[L];
         if (part == DevicePart::Coarse) a.insert(a.end(), bw.words, bw.words + bw.words[L - 1] / 8);
         if (part != DevicePart::Nothing) a.insert(a.end(), bw.words + bw.size - palette, bw.words + bw.size);
@@ -202,7 +203,7 @@ uint32_t GpuVolume::paletteBits(const CompressedVolume& volume) {
     return bits <= 16 ? bits : 32;
 }
 
-uint64_t GpuVolume::uploadBytes(const std::vector<std::vector<uint32_t>>& arrays, const std::vector<uint32_t>& starts) {
+uint64_t GpuVolume::uploadBytes(const std::vector<WordArray>& arrays, const std::vector<uint32_t>& starts) {
     // As create() allocates them: each array, the address table, the brick starts (the Context
     // makes no buffer smaller than 4 bytes).
     auto bytes = [](uint64_t n) { return std::max<uint64_t>(n, 4); };

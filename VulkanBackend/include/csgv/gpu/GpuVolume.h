@@ -160,10 +160,10 @@ private:
     bool m_hostDecoding = false;
     DetailSizes m_detailSizes;
     /// Device memory that encoding arrays and brick starts take once uploaded.
-    static uint64_t uploadBytes(const std::vector<std::vector<uint32_t>>& arrays, const std::vector<uint32_t>& starts);
+    static uint64_t uploadBytes(const std::vector<WordArray>& arrays, const std::vector<uint32_t>& starts);
     /// What the device holds of each brick when not all of it (arrays and starts as the container's).
     enum class DevicePart { Whole, Coarse, Palette, Nothing };
-    static void devicePart(const CompressedVolume& volume, DevicePart part, std::vector<std::vector<uint32_t>>& arrays,
+    static void devicePart(const CompressedVolume& volume, DevicePart part, std::vector<WordArray>& arrays,
                            std::vector<uint32_t>& starts);
 };
 
