@@ -7,6 +7,8 @@
  * data, the encoding in FieldData; see vtkCSGVReader.h) and a volume larger than memory opens like
  * a small one.
  *
+ * Where inputs and caches live and the stamp are in CSGVInputCache.h; this class is the pipeline.
+ *
  * FileName takes every form csgv::openInput() takes (`FILE.h5[:/dataset]`, `DIR.zarr[/path]`, a
  * precomputed or TIFF folder, a slice glob...). ParaView's file dialog picks files, not folders, so
  * a `.zarray`, `.zgroup` or `.zattrs` file stands for its Zarr folder and a precomputed `info` file
