@@ -4,6 +4,7 @@
 #include "CSGVInputCache.h"
 #include "vtkCSGVReader.h"
 
+#include "csgv/base/FileUtil.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Compress.h"
@@ -137,7 +138,10 @@ int vtkCSGVInputReader::CanReadFile(const char* fileName)
     return 0;
   }
   const InputLocation loc = csgvvtk::locateInput(fileName);
-  return loc.Error.empty() && csgv::isInputPath(loc.Input) ? 1 : 0;
+  const bool ownReader = csgv::endsWithNoCase(loc.Input, ".vraw") ||
+    csgv::endsWithNoCase(loc.Input, ".vraw.gz") || csgv::endsWithNoCase(loc.Input, ".nii") ||
+    csgv::endsWithNoCase(loc.Input, ".nii.gz");
+  return loc.Error.empty() && !ownReader && csgv::isInputPath(loc.Input) ? 1 : 0;
 }
 
 namespace
