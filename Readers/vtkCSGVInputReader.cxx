@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVInputReader.h"
 
+#include "CSGVInputCache.h"
 #include "vtkCSGVReader.h"
 
 #include "csgv/base/FileUtil.h"
@@ -23,440 +24,15 @@
 #include <vtkStreamingDemandDrivenPipeline.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <fcntl.h>
-#include <exception>
 #include <filesystem>
-#include <fstream>
-#include <new>
-#include <sstream>
-#include <sys/stat.h>
+#include <memory>
 #include <thread>
-#include <unistd.h>
 
 vtkStandardNewMacro(vtkCSGVInputReader);
 
-namespace
-{
-namespace fs = std::filesystem;
-
-/// @brief Where an input lives on disk and where its cache goes.
-struct InputLocation
-{
-  std::string Input;      ///< what csgv::openInput gets (absolute); a stack's slices, one a line
-  std::string Stamped;    ///< the file or folder whose state the stamp records ("" for a stack)
-  std::vector<std::string> Slices; ///< an image stack's slice files in z order (absolute), or none
-  std::string Display;    ///< the input in messages: as the user named it, or a stack's ends
-  std::string Stem;       ///< the cache's name stem in a shared cache folder
-  std::string BesidePath; ///< the cache beside the input (`.csgv` included)
-  std::string Error;      ///< why the input cannot be located ("" when it can)
-};
-
-bool isDirectory(const std::string& path)
-{
-  struct stat st;
-  return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
-}
-
-bool exists(const std::string& path)
-{
-  struct stat st;
-  return ::stat(path.c_str(), &st) == 0;
-}
-
-std::string absolutePath(const std::string& path)
-{
-  std::error_code ec;
-  fs::path p = fs::absolute(fs::path(path), ec);
-  if (ec)
-  {
-    p = fs::path(path);
-  }
-  std::string s = p.lexically_normal().string();
-  while (s.size() > 1 && s.back() == '/')
-  {
-    s.pop_back(); // "DIR/" and "DIR" are the same input and must share one cache
-  }
-  return s;
-}
-
-std::string lowered(std::string s)
-{
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
-  return s;
-}
-
-/// A path inside a container as part of a file name: "/labels/0" -> "labels_0".
-std::string flattened(const std::string& inner)
-{
-  std::string out;
-  for (char c : inner)
-  {
-    const bool keep = std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_';
-    if (!keep && (out.empty() || out.back() == '_'))
-    {
-      continue;
-    }
-    out += keep ? c : '_';
-  }
-  while (!out.empty() && out.back() == '_')
-  {
-    out.pop_back();
-  }
-  return out;
-}
-
-/// ParaView's file dialog opens files: a Zarr metadata file stands for its folder, a precomputed
-/// `info` file for its folder.
-std::string folderForDialogFile(const std::string& path)
-{
-  const fs::path p(path);
-  const std::string name = p.filename().string();
-  if ((name == ".zarray" || name == ".zgroup" || name == ".zattrs" || name == "info") &&
-    !isDirectory(path))
-  {
-    const std::string parent = p.parent_path().string();
-    return parent.empty() ? std::string(".") : parent;
-  }
-  return path;
-}
-
-InputLocation locate(const std::string& fileName)
-{
-  InputLocation loc;
-  const std::string path = absolutePath(folderForDialogFile(fileName));
-  loc.Input = path;
-  loc.Display = fileName;
-  loc.Stem = fs::path(path).filename().string();
-  std::string inner; // the part of the input inside Stamped (an HDF5 dataset, a glob)
-  if (exists(path))
-  {
-    loc.Stamped = path;
-  }
-  else if (path.find_first_of("*?[") != std::string::npos)
-  {
-    const fs::path p(path);
-    loc.Stamped = p.parent_path().string();
-    inner = p.filename().string();
-  }
-  else
-  {
-    const size_t colon = path.rfind(':');
-    if (colon != std::string::npos && colon > 0 && exists(path.substr(0, colon)))
-    {
-      loc.Stamped = path.substr(0, colon);
-      inner = path.substr(colon + 1);
-    }
-  }
-  if (loc.Stamped.empty() || !exists(loc.Stamped))
-  {
-    loc.Error = "cannot open '" + fileName + "': no such file or folder";
-    return loc;
-  }
-  // Beside a Zarr store rather than inside it (a store is one dataset to its users).
-  std::string container = loc.Stamped;
-  fs::path walked;
-  for (const fs::path& part : fs::path(loc.Stamped))
-  {
-    walked /= part;
-    const std::string s = lowered(part.string());
-    if (s.size() > 5 && s.compare(s.size() - 5, 5, ".zarr") == 0)
-    {
-      container = walked.string();
-      const std::string rel = fs::path(loc.Stamped).lexically_relative(walked).string();
-      if (rel != "." && !rel.empty())
-      {
-        inner = inner.empty() ? rel : rel + "/" + inner;
-      }
-      break;
-    }
-  }
-  const std::string suffix = flattened(inner);
-  loc.BesidePath = container + (suffix.empty() ? std::string() : "_" + suffix) + ".csgv";
-  return loc;
-}
-
-/// A file's name without a `.tif` / `.tiff` suffix.
-std::string tiffStem(const std::string& path)
-{
-  std::string name = fs::path(path).filename().string();
-  const std::string low = lowered(name);
-  for (const char* suffix : { ".tif", ".tiff" })
-  {
-    const size_t n = std::char_traits<char>::length(suffix);
-    if (low.size() > n && low.compare(low.size() - n, n, suffix) == 0)
-    {
-      name.resize(name.size() - n);
-      break;
-    }
-  }
-  return name;
-}
-
-/// An image stack of slice files: its cache is named after the first and the last slice,
-/// `slice_0000.tif` .. `slice_0127.tif` -> `slice_0000-0127.csgv`, beside the first one (its own
-/// folder: the stamp follows the slice files, not the folder, so the cache may live there).
-InputLocation locateStack(const std::vector<std::string>& files)
-{
-  InputLocation loc;
-  for (const std::string& f : files)
-  {
-    loc.Slices.push_back(absolutePath(f));
-    loc.Input += (loc.Input.empty() ? "" : "\n") + loc.Slices.back();
-  }
-  loc.Display = csgv::sliceListName(loc.Slices);
-  const std::string first = tiffStem(loc.Slices.front());
-  const std::string last = tiffStem(loc.Slices.back());
-  // The common beginning of the two names, not cut inside a run of digits (the slice number).
-  size_t common = 0;
-  while (common < first.size() && common < last.size() && first[common] == last[common])
-  {
-    ++common;
-  }
-  while (common > 0 && std::isdigit(static_cast<unsigned char>(first[common - 1])))
-  {
-    --common;
-  }
-  const std::string rest = last.substr(common);
-  loc.Stem = first + "-" + (rest.empty() ? std::string("stack") : rest);
-  const std::string folder = fs::path(loc.Slices.front()).parent_path().string();
-  loc.BesidePath = (folder.empty() ? std::string(".") : folder) + "/" + flattened(loc.Stem) + ".csgv";
-  return loc;
-}
-
-/// Opens the input `loc` names: a stack of slices, or any form csgv::openInput takes. Core
-/// returns errors as values; anything thrown still must not leave into ParaView.
-csgv::Result<std::unique_ptr<csgv::InputSource>> openSource(
-  const InputLocation& loc, const csgv::InputOptions& options)
-{
-  try
-  {
-    return loc.Slices.empty() ? csgv::openInput(loc.Input, options)
-                              : csgv::openTiffSlices(loc.Slices, options);
-  }
-  catch (const std::bad_alloc&)
-  {
-    return csgv::Status::error("out of memory while opening '" + loc.Display + "'");
-  }
-  catch (...)
-  {
-    return csgv::Status::error("opening '" + loc.Display + "' failed unexpectedly");
-  }
-}
-
-/// 64-bit FNV-1a: a stable name for an input's cache in the shared cache folder.
-std::string hashName(const std::string& s)
-{
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s)
-  {
-    h = (h ^ c) * 1099511628211ull;
-  }
-  char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(h));
-  return hex;
-}
-
-/// True when a file can be created in `dir` by this process (as its effective user; a mode
-/// check would be wrong for root and for ACLs).
-bool canCreateIn(const std::string& dir)
-{
-  const std::string probe = dir + "/.csgv-probe-" + std::to_string(::getpid());
-  const int fd = ::open(probe.c_str(), O_CREAT | O_EXCL | O_WRONLY, 0600);
-  if (fd < 0)
-  {
-    return false;
-  }
-  ::close(fd);
-  ::unlink(probe.c_str());
-  return true;
-}
-
-std::string defaultCacheRoot()
-{
-  const char* xdg = std::getenv("XDG_CACHE_HOME");
-  if (xdg && xdg[0] == '/')
-  {
-    return std::string(xdg) + "/csgv-paraview";
-  }
-  const char* home = std::getenv("HOME");
-  if (home && *home)
-  {
-    return std::string(home) + "/.cache/csgv-paraview";
-  }
-  return std::string();
-}
-
-/// The cache path for `loc`, creating the cache folder when needed; "" with `error` set when no
-/// place can be written.
-std::string chooseCache(const InputLocation& loc, const std::string& cacheDirectory, std::string& error)
-{
-  std::string dir = cacheDirectory;
-  if (dir.empty())
-  {
-    const std::string besideDir = fs::path(loc.BesidePath).parent_path().string();
-    if (canCreateIn(besideDir))
-    {
-      return loc.BesidePath;
-    }
-    dir = defaultCacheRoot();
-    if (dir.empty())
-    {
-      error = "'" + besideDir + "' is not writable and neither XDG_CACHE_HOME nor HOME is set";
-      return std::string();
-    }
-  }
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!canCreateIn(dir))
-  {
-    error = "cannot write the cache folder '" + dir + "'";
-    return std::string();
-  }
-  const std::string stem = flattened(loc.Stem);
-  return absolutePath(dir) + "/" + (stem.empty() ? std::string() : stem + "-") + hashName(loc.Input) + ".csgv";
-}
-
-std::string jsonString(const std::string& s)
-{
-  std::string out = "\"";
-  for (unsigned char c : s)
-  {
-    if (c == '"' || c == '\\')
-    {
-      out += '\\';
-      out += char(c);
-    }
-    else if (c < 0x20)
-    {
-      char esc[8];
-      std::snprintf(esc, sizeof(esc), "\\u%04x", c);
-      out += esc;
-    }
-    else
-    {
-      out += char(c);
-    }
-  }
-  return out + "\"";
-}
-
-int64_t mtimeNs(const struct stat& st)
-{
-  return int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
-}
-
-/// The stamp text that describes the input's current state and the encoding options; "" when the
-/// input cannot be examined.
-std::string currentStamp(const InputLocation& loc, int relabel, int brickSize)
-{
-  uint64_t files = 0, bytes = 0;
-  int64_t newest = 0;
-  struct stat st;
-  std::string input = jsonString(loc.Input);
-  if (!loc.Slices.empty())
-  {
-    // A stack: its slice files in order (a reordered or shorter list is another volume).
-    input = "[";
-    for (const std::string& slice : loc.Slices)
-    {
-      if (::stat(slice.c_str(), &st) != 0)
-      {
-        return std::string();
-      }
-      input += (files == 0 ? "\n    " : ",\n    ") + jsonString(slice);
-      ++files;
-      bytes += uint64_t(st.st_size);
-      newest = std::max(newest, mtimeNs(st));
-    }
-    input += "\n  ]";
-  }
-  else if (::stat(loc.Stamped.c_str(), &st) != 0)
-  {
-    return std::string();
-  }
-  else if (S_ISDIR(st.st_mode))
-  {
-    // Folders (Zarr, precomputed, TIFF slices): any chunk added, removed or rewritten changes the
-    // count, the total size or the newest modification time.
-    std::error_code ec;
-    for (fs::recursive_directory_iterator it(loc.Stamped, fs::directory_options::skip_permission_denied, ec), end;
-         !ec && it != end; it.increment(ec))
-    {
-      struct stat fst;
-      if (::stat(it->path().c_str(), &fst) == 0 && S_ISREG(fst.st_mode))
-      {
-        ++files;
-        bytes += uint64_t(fst.st_size);
-        newest = std::max(newest, mtimeNs(fst));
-      }
-    }
-    if (ec)
-    {
-      return std::string();
-    }
-  }
-  else
-  {
-    files = 1;
-    bytes = uint64_t(st.st_size);
-    newest = mtimeNs(st);
-  }
-  std::ostringstream s;
-  s << "{\n  \"input\": " << input << ",\n  \"relabel\": " << (relabel ? 1 : 0)
-    << ",\n  \"brickSize\": " << brickSize << ",\n  \"files\": " << files << ",\n  \"bytes\": " << bytes
-    << ",\n  \"newestMtimeNs\": " << newest << "\n}\n";
-  return s.str();
-}
-
-/// The cache's own identity (inode, size, modification time) as the stamp's last line, after the
-/// input's JSON state: a stamp vouches only for the very .csgv it was written for, so when two
-/// writers race, a stamp never vouches for the other writer's file. "" when the cache is missing.
-std::string cacheIdentity(const std::string& cache)
-{
-  struct stat st;
-  if (::stat(cache.c_str(), &st) != 0)
-  {
-    return std::string();
-  }
-  std::ostringstream s;
-  s << "cache: " << uint64_t(st.st_ino) << " " << uint64_t(st.st_size) << " " << mtimeNs(st) << "\n";
-  return s.str();
-}
-
-/// What of the stamped file or folder a stat shows (no walk): enough to tell, between
-/// RequestInformation and RequestData of one update, whether the walk must be done again.
-std::string topLevelState(const std::string& path)
-{
-  struct stat st;
-  if (::stat(path.c_str(), &st) != 0)
-  {
-    return std::string();
-  }
-  return std::to_string(uint64_t(st.st_ino)) + " " + std::to_string(uint64_t(st.st_size)) + " " +
-    std::to_string(mtimeNs(st));
-}
-
-std::string readText(const std::string& path)
-{
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return in ? s.str() : std::string();
-}
-
-/// Writes the stamp through Core's AtomicFile (a temporary name unique to this process and call,
-/// renamed into place), so a reader never sees half a stamp.
-bool writeStamp(const std::string& path, const std::string& text)
-{
-  csgv::AtomicFile file;
-  return file.open(path) && file.write(text.data(), text.size()) && file.commit();
-}
-
-} // namespace
+using csgvvtk::InputLocation;
 
 /// @brief The internal `.csgv` reader and what RequestInformation found for RequestData.
 class vtkCSGVInputReader::vtkInternals
@@ -505,8 +81,8 @@ public:
     {
       return false;
     }
-    const std::string identity = cacheIdentity(this->Cache);
-    return !identity.empty() && readText(this->Cache + ".stamp") == this->Stamp + identity &&
+    const std::string identity = csgvvtk::cacheIdentity(this->Cache);
+    return !identity.empty() && csgvvtk::readStamp(this->Cache + ".stamp") == this->Stamp + identity &&
       this->Reader->CanReadFile(this->Cache.c_str());
   }
 
@@ -514,14 +90,14 @@ public:
   /// when the reader and the stamped path's own stat are unchanged since.
   void UpdateStamp(vtkCSGVInputReader* self, bool forInformation)
   {
-    const std::string top = topLevelState(this->Location.Stamped);
+    const std::string top = csgvvtk::topLevelState(this->Location.Stamped);
     if (!forInformation && this->StampFromInformation && self->GetMTime() == this->StampMTime &&
       top == this->StampTopLevel && !top.empty())
     {
       this->StampFromInformation = false; // the next update walks again
       return;
     }
-    this->Stamp = currentStamp(this->Location, self->GetRelabel(), self->GetBrickSize());
+    this->Stamp = csgvvtk::currentStamp(this->Location, self->GetRelabel(), self->GetBrickSize());
     this->StampFromInformation = forInformation;
     this->StampMTime = self->GetMTime();
     this->StampTopLevel = top;
@@ -561,8 +137,11 @@ int vtkCSGVInputReader::CanReadFile(const char* fileName)
   {
     return 0;
   }
-  const InputLocation loc = locate(fileName);
-  return loc.Error.empty() && csgv::isInputPath(loc.Input) ? 1 : 0;
+  const InputLocation loc = csgvvtk::locateInput(fileName);
+  const bool ownReader = csgv::endsWithNoCase(loc.Input, ".vraw") ||
+    csgv::endsWithNoCase(loc.Input, ".vraw.gz") || csgv::endsWithNoCase(loc.Input, ".nii") ||
+    csgv::endsWithNoCase(loc.Input, ".nii.gz");
+  return loc.Error.empty() && !ownReader && csgv::isInputPath(loc.Input) ? 1 : 0;
 }
 
 namespace
@@ -659,7 +238,7 @@ bool vtkCSGVInputReader::ChooseInputs(std::string& error)
   }
   // What the first file is decides, as a user would: a 2D TIFF is a slice of a stack, anything
   // with depth (a multi-page TIFF, HDF5, NRRD...) is a volume of its own, one per time step.
-  const InputLocation first = locate(in.Inputs[0]);
+  const InputLocation first = csgvvtk::locateInput(in.Inputs[0]);
   if (!first.Error.empty())
   {
     error = first.Error;
@@ -667,7 +246,7 @@ bool vtkCSGVInputReader::ChooseInputs(std::string& error)
   }
   csgv::InputOptions options;
   options.allowOutsidePaths = this->AllowOutsidePaths != 0;
-  csgv::Result<std::unique_ptr<csgv::InputSource>> source = openSource(first, options);
+  csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgvvtk::openSource(first, options);
   if (!source)
   {
     error = source.message();
@@ -757,15 +336,15 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   in.Cache.clear();
   const int empty[6] = { 0, -1, 0, -1, 0, -1 };
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
-  in.Location = this->SeriesMode == ImageStack ? locateStack(in.Inputs)
-                                               : locate(in.Inputs[size_t(in.Step)]);
+  in.Location = this->SeriesMode == ImageStack ? csgvvtk::locateStack(in.Inputs)
+                                               : csgvvtk::locateInput(in.Inputs[size_t(in.Step)]);
   if (!in.Location.Error.empty())
   {
     vtkErrorMacro(<< in.Location.Error);
     return;
   }
   std::string error;
-  in.Cache = chooseCache(in.Location, this->CacheDirectory ? this->CacheDirectory : "", error);
+  in.Cache = csgvvtk::chooseCache(in.Location, this->CacheDirectory ? this->CacheDirectory : "", error);
   if (in.Cache.empty())
   {
     vtkErrorMacro(<< in.Location.Display << ": " << error);
@@ -802,7 +381,7 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   // n + 1 levels).
   csgv::InputOptions inputOptions;
   inputOptions.allowOutsidePaths = this->AllowOutsidePaths != 0;
-  csgv::Result<std::unique_ptr<csgv::InputSource>> source = openSource(in.Location, inputOptions);
+  csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgvvtk::openSource(in.Location, inputOptions);
   if (!source)
   {
     if (this->SeriesMode == ImageStack)
@@ -983,8 +562,8 @@ bool vtkCSGVInputReader::Compress()
     // A stack has no single name for compressToFile: open its slices and hand over the source
     // (its scratch files, if any, go where the encoder's do: beside the cache).
     csgv::InputOptions inputOptions = options.input;
-    inputOptions.scratchDirectory = fs::path(in.Cache).parent_path().string();
-    csgv::Result<std::unique_ptr<csgv::InputSource>> source = openSource(in.Location, inputOptions);
+    inputOptions.scratchDirectory = std::filesystem::path(in.Cache).parent_path().string();
+    csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgvvtk::openSource(in.Location, inputOptions);
     status = source ? csgv::Status::ok() : source.status();
     try
     {
@@ -1010,8 +589,8 @@ bool vtkCSGVInputReader::Compress()
   }
   // The stamp names the cache just written (before the new reader looks at it, so a concurrent
   // writer's later .csgv never matches it).
-  const std::string identity = cacheIdentity(in.Cache);
-  if (identity.empty() || !writeStamp(in.Cache + ".stamp", in.Stamp + identity))
+  const std::string identity = csgvvtk::cacheIdentity(in.Cache);
+  if (identity.empty() || !csgvvtk::writeStamp(in.Cache + ".stamp", in.Stamp + identity))
   {
     vtkWarningMacro(<< "cannot write '" << in.Cache << ".stamp'; the input will be compressed again next time");
   }

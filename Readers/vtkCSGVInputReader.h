@@ -7,6 +7,11 @@
  * data, the encoding in FieldData; see vtkCSGVReader.h) and a volume larger than memory opens like
  * a small one.
  *
+ * Its family in ParaView is every input without a reader of its own: `.vraw` belongs to
+ * vtkCSGVReader and NIfTI to vtkCSGVNIfTIReader, so CanReadFile refuses those two (the reader
+ * factory then offers one reader per file); a script that names one here still gets it compressed.
+ * Where inputs and caches live and the stamp are in CSGVInputCache.h; this class is the pipeline.
+ *
  * FileName takes every form csgv::openInput() takes (`FILE.h5[:/dataset]`, `DIR.zarr[/path]`, a
  * precomputed or TIFF folder, a slice glob...). ParaView's file dialog picks files, not folders, so
  * a `.zarray`, `.zgroup` or `.zattrs` file stands for its Zarr folder and a precomputed `info` file
@@ -132,7 +137,8 @@ public:
   vtkGetMacro(Compressed, int);
 
   /// 1 when `fileName` is in a form Core opens (after mapping Zarr metadata and precomputed `info`
-  /// files to their folders) and exists; says nothing about whether its content is valid.
+  /// files to their folders), exists and is neither `.vraw` nor NIfTI (their own readers' family);
+  /// says nothing about whether its content is valid.
   virtual int CanReadFile(const char* fileName);
 
 protected:

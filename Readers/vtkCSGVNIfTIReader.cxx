@@ -150,7 +150,7 @@ bool vtkCSGVNIfTIReader::IsImageHeader(const char* fileName)
 
 int vtkCSGVNIfTIReader::CanReadFile(const char* fileName)
 {
-  return IsNIfTIFile(fileName) && !IsImageHeader(fileName) ? 1 : 0;
+  return IsNIfTIFile(fileName) && IsImageHeader(fileName) == bool(this->ExpectImages) ? 1 : 0;
 }
 
 namespace
@@ -235,7 +235,7 @@ int vtkCSGVNIfTIReader::RequestInformation(
   }
   if (!labels && vtkInternals::NotALabelVolume(labels.message()) && in.OpenIntensity(this->FileName))
   {
-    if (!this->ExpectsImages)
+    if (!this->ExpectImages)
     {
       vtkWarningMacro(<< labels.message() << "; not a label volume, so it is read as an intensity "
                       << "image (point array 'Scalars', stored values) with VTK's NIfTI reader");
@@ -358,4 +358,5 @@ void vtkCSGVNIfTIReader::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
+  os << indent << "ExpectImages: " << this->ExpectImages << "\n";
 }

@@ -16,12 +16,18 @@
  *
  * Intensity images: since this is ParaView's only NIfTI reader here, files that Core refuses as
  * label volumes (floats that are not integers, scaled data) are read with VTK's
- * vtkNIFTIImageReader instead, with a warning (none from vtkCSGVNIfTIImageReader, the proxy the
- * reader factory picks for files whose header says they are images): point array "Scalars" holding the stored values
- * (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Intensities stay
+ * vtkNIFTIImageReader instead, with a warning (none with ExpectImages on): point array "Scalars"
+ * holding the stored values (scl_slope/scl_inter not applied), placed with the same sform-else-qform rule. Intensities stay
  * point data, as ParaView's image readers give them (interpolated by Volume and Contour); their
  * points are the voxel centres, so they sit on the cell centres of an atlas of the same grid.
  * Other errors (missing, truncated, unsupported files) give Core's message and an empty output.
+ *
+ * One class for the NIfTI family, two proxies (CSGVReaders.xml): ParaView's reader factory picks
+ * a proxy by CanReadFile and the proxy's hints give the default representation, so label volumes
+ * ("NIfTI Label Reader", CSGVNIfTIReader) open as Segmentation Volume and images ("NIfTI Image
+ * Reader", CSGVNIfTIImageReader: the same class with ExpectImages turned on at creation) as
+ * ParaView opens other images, instead of a Segmentation Volume that cannot draw intensities.
+ * ExpectImages changes only CanReadFile and the warning; the output is the same.
  */
 #ifndef vtkCSGVNIfTIReader_h
 #define vtkCSGVNIfTIReader_h
@@ -39,8 +45,15 @@ public:
   vtkSetStringMacro(FileName);
   vtkGetStringMacro(FileName);
 
+  /// Off (default): offered for label volumes, and an intensity image is read with a warning. On:
+  /// offered for images, read without one (the "NIfTI Image Reader" proxy sets it on creation:
+  /// post_creation="ExpectImagesOn", which runs before the reader factory asks CanReadFile).
+  vtkSetMacro(ExpectImages, vtkTypeBool);
+  vtkGetMacro(ExpectImages, vtkTypeBool);
+  vtkBooleanMacro(ExpectImages, vtkTypeBool);
+
   /// 1 for a NIfTI-1 file (`.nii` with a NIfTI-1 header, or any `.nii.gz`) that IsImageHeader
-  /// does not call an image; else 0.
+  /// calls an image when ExpectImages is on, and does not when it is off; else 0.
   virtual int CanReadFile(const char* fileName);
 
   /// True when the header says the file holds an image rather than labels: floating-point or
@@ -62,8 +75,7 @@ protected:
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   char* FileName = nullptr;
-  /// Set by the image reader: an intensity image is what it was chosen for, not worth a warning.
-  bool ExpectsImages = false;
+  vtkTypeBool ExpectImages = 0;
 
 private:
   vtkCSGVNIfTIReader(const vtkCSGVNIfTIReader&) = delete;

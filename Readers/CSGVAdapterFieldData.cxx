@@ -1,0 +1,290 @@
+// SPDX-License-Identifier: MIT
+// CSGVAdapter.h, the FieldData contract: the encoding, geometry, label map, original type,
+// label range, piece and attribute arrays written (add*) and read back (readEncodingArrays).
+#include "CSGVAdapter.h"
+
+#include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkIntArray.h>
+#include <vtkNew.h>
+#include <vtkStringArray.h>
+#include <vtkUnsignedCharArray.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace csgvvtk
+{
+namespace
+{
+
+/// Adds an array the plugin keeps for itself (the encoding, its geometry and label map, piece
+/// bookkeeping, per-label attributes) to `fd`, marked vtkAbstractArray::GUI_HIDE: ParaView's
+/// array lists (colour by, selection, filters' array choices) leave such arrays out (issue 38,
+/// item 6); the spreadsheet still shows them.
+void addInternal(vtkFieldData* fd, vtkAbstractArray* array)
+{
+  array->GetInformation()->Set(vtkAbstractArray::GUI_HIDE(), 1);
+  fd->AddArray(array);
+}
+
+} // namespace
+
+void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns)
+{
+  for (const csgv::AttributeColumn& c : columns)
+  {
+    const std::string name = std::string(kAttributePrefix) + c.name;
+    if (c.numeric)
+    {
+      vtkNew<vtkDoubleArray> a;
+      a->SetName(name.c_str());
+      a->SetNumberOfValues(static_cast<vtkIdType>(c.values.size()));
+      std::copy(c.values.begin(), c.values.end(), a->GetPointer(0));
+      addInternal(fd, a);
+    }
+    else
+    {
+      vtkNew<vtkStringArray> a;
+      a->SetName(name.c_str());
+      a->SetNumberOfValues(static_cast<vtkIdType>(c.text.size()));
+      for (size_t i = 0; i < c.text.size(); ++i)
+      {
+        a->SetValue(static_cast<vtkIdType>(i), c.text[i]);
+      }
+      addInternal(fd, a);
+    }
+  }
+}
+
+namespace
+{
+
+/// Stores the byte range of the encoding as the array's cached range (vtkAbstractArray's
+/// PER_COMPONENT and PER_FINITE_COMPONENT, which its Modified() clears): ParaView's data
+/// information asks every field-data array for its range, and VTK's sequential scan of a
+/// gigabytes-long encoding took minutes. The range found here stops at the first 0 and 255.
+void cacheByteRange(vtkUnsignedCharArray* a)
+{
+  const unsigned char* p = a->GetPointer(0);
+  const vtkIdType n = a->GetNumberOfValues();
+  unsigned char lo = 255, hi = 0;
+  for (vtkIdType i = 0; i < n && (lo != 0 || hi != 255); ++i)
+  {
+    lo = std::min(lo, p[i]);
+    hi = std::max(hi, p[i]);
+  }
+  const double range[2] = { n ? double(lo) : VTK_DOUBLE_MAX, n ? double(hi) : VTK_DOUBLE_MIN };
+  for (vtkInformationInformationVectorKey* key :
+    { vtkAbstractArray::PER_COMPONENT(), vtkAbstractArray::PER_FINITE_COMPONENT() })
+  {
+    vtkNew<vtkInformationVector> components;
+    components->SetNumberOfInformationObjects(1);
+    components->GetInformationObject(0)->Set(vtkDataArray::COMPONENT_RANGE(), range, 2);
+    a->GetInformation()->Set(key, components);
+  }
+}
+
+} // namespace
+
+void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
+  const csgv::Geometry& corner, const LabelInfo& info, vtkDataArray* range)
+{
+  encoding->SetName(kEncodingName);
+  cacheByteRange(encoding);
+  addInternal(fd, encoding);
+
+  vtkNew<vtkDoubleArray> geometry;
+  geometry->SetName(kGeometryName);
+  geometry->SetNumberOfValues(15);
+  for (int i = 0; i < 3; ++i)
+  {
+    geometry->SetValue(i, corner.spacing[i]);
+    geometry->SetValue(3 + i, corner.origin[i]);
+  }
+  for (int i = 0; i < 9; ++i)
+  {
+    geometry->SetValue(6 + i, corner.direction[i]);
+  }
+  addInternal(fd, geometry);
+
+  if (info.relabelled)
+  {
+    vtkSmartPointer<vtkDataArray> map = vtk::TakeSmartPointer(
+      vtkDataArray::CreateDataArray(info.unsigned64 ? VTK_TYPE_UINT64 : VTK_TYPE_INT64));
+    map->SetName(kLabelMapName);
+    map->SetNumberOfTuples(static_cast<vtkIdType>(info.map.size()));
+    if (!info.map.empty())
+    {
+      std::memcpy(map->GetVoidPointer(0), info.map.data(), info.map.size() * sizeof(int64_t));
+    }
+    addInternal(fd, map);
+  }
+
+  vtkNew<vtkStringArray> type;
+  type->SetName(kOriginalTypeName);
+  type->InsertNextValue(info.originalType);
+  addInternal(fd, type);
+
+  if (range)
+  {
+    range->SetName(kLabelRangeName);
+    addInternal(fd, range);
+  }
+}
+
+void addPieceOffset(vtkFieldData* fd, const std::array<uint32_t, 3>& offset, const std::array<uint32_t, 3>& volumeDims)
+{
+  vtkNew<vtkIntArray> a;
+  a->SetName(kPieceOffsetName);
+  a->SetNumberOfValues(6);
+  for (int i = 0; i < 3; ++i)
+  {
+    a->SetValue(i, int(offset[size_t(i)]));
+    a->SetValue(3 + i, int(volumeDims[size_t(i)]));
+  }
+  addInternal(fd, a);
+}
+
+std::array<uint32_t, 3> pieceVolumeDims(vtkFieldData* fd)
+{
+  std::array<uint32_t, 3> out{ { 0, 0, 0 } };
+  vtkIntArray* a = fd ? vtkIntArray::SafeDownCast(fd->GetArray(kPieceOffsetName)) : nullptr;
+  for (int i = 0; a && a->GetNumberOfValues() == 6 && i < 3; ++i)
+  {
+    out[size_t(i)] = uint32_t(std::max(a->GetValue(3 + i), 0));
+  }
+  return out;
+}
+
+void setBrickPiece(vtkFieldData* fd, const std::vector<int>& words)
+{
+  vtkNew<vtkIntArray> a;
+  a->SetName(kBrickPieceName);
+  for (int w : words)
+  {
+    a->InsertNextValue(w);
+  }
+  addInternal(fd, a);
+}
+
+bool brickPiece(vtkFieldData* fd, int& brick, int& pieces, int& piece, int whole[6])
+{
+  vtkIntArray* a = fd ? vtkIntArray::SafeDownCast(fd->GetArray(kBrickPieceName)) : nullptr;
+  if (!a || a->GetNumberOfValues() != 9)
+  {
+    return false;
+  }
+  brick = a->GetValue(0);
+  pieces = a->GetValue(1);
+  piece = a->GetValue(2);
+  for (int i = 0; i < 6; ++i)
+  {
+    whole[i] = a->GetValue(3 + i);
+  }
+  return brick > 0 && pieces > 1 && piece >= 0 && piece < pieces;
+}
+
+std::array<long, 3> pieceOffset(vtkFieldData* fd)
+{
+  std::array<long, 3> out{ { 0, 0, 0 } };
+  vtkIntArray* a = fd ? vtkIntArray::SafeDownCast(fd->GetArray(kPieceOffsetName)) : nullptr;
+  for (int i = 0; a && a->GetNumberOfValues() >= 3 && i < 3; ++i)
+  {
+    out[size_t(i)] = a->GetValue(i);
+  }
+  return out;
+}
+
+vtkUnsignedCharArray* encodingArray(vtkFieldData* fd)
+{
+  return fd ? vtkUnsignedCharArray::SafeDownCast(fd->GetAbstractArray(kEncodingName)) : nullptr;
+}
+
+std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out)
+{
+  vtkUnsignedCharArray* enc = encodingArray(fd);
+  if (!enc || enc->GetNumberOfComponents() != 1)
+  {
+    return "the input carries no CSGV encoding (FieldData array 'CSGVEncoding', as the CSGV reader "
+           "writes it)";
+  }
+  csgv::Result<csgv::CompressedVolume> vol =
+    csgv::parseCsgv(enc->GetPointer(0), static_cast<size_t>(enc->GetNumberOfValues()));
+  if (!vol)
+  {
+    return "CSGVEncoding: " + vol.message();
+  }
+  out.volume = std::move(*vol);
+
+  out.geometry = csgv::Geometry{};
+  vtkDataArray* geometry = vtkDataArray::SafeDownCast(fd->GetAbstractArray(kGeometryName));
+  if (geometry && geometry->GetNumberOfValues() == 15)
+  {
+    for (int i = 0; i < 3; ++i)
+    {
+      out.geometry.spacing[i] = geometry->GetComponent(i, 0);
+      out.geometry.origin[i] = geometry->GetComponent(3 + i, 0);
+    }
+    for (int i = 0; i < 9; ++i)
+    {
+      out.geometry.direction[i] = geometry->GetComponent(6 + i, 0);
+    }
+  }
+
+  out.info = LabelInfo{};
+  vtkStringArray* type = vtkStringArray::SafeDownCast(fd->GetAbstractArray(kOriginalTypeName));
+  if (type && type->GetNumberOfValues() == 1)
+  {
+    out.info.originalType = type->GetValue(0);
+  }
+  vtkDataArray* map = vtkDataArray::SafeDownCast(fd->GetAbstractArray(kLabelMapName));
+  if (map)
+  {
+    const int t = map->GetDataType();
+    const bool isUnsigned = t == VTK_UNSIGNED_LONG || t == VTK_UNSIGNED_LONG_LONG;
+    const bool isSigned = t == VTK_LONG || t == VTK_LONG_LONG || t == VTK_ID_TYPE;
+    if (map->GetDataTypeSize() != 8 || (!isUnsigned && !isSigned) || map->GetNumberOfComponents() != 1)
+    {
+      return "CSGVLabelMap must be a one-component 64-bit integer array";
+    }
+    out.info.relabelled = true;
+    out.info.unsigned64 = isUnsigned;
+    out.info.map.resize(static_cast<size_t>(map->GetNumberOfValues()));
+    if (!out.info.map.empty())
+    {
+      std::memcpy(out.info.map.data(), map->GetVoidPointer(0), out.info.map.size() * sizeof(int64_t));
+    }
+  }
+  return std::string();
+}
+
+std::shared_ptr<const EncodedInput> EncodingMemo::get(vtkFieldData* fd, std::string& error)
+{
+  vtkUnsignedCharArray* enc = encodingArray(fd);
+  const vtkMTimeType mtime = enc ? enc->GetMTime() : 0;
+  if (!enc || enc != this->Array || mtime != this->MTime)
+  {
+    auto parsed = std::make_shared<EncodedInput>();
+    this->Error = readEncodingArrays(fd, *parsed);
+    this->Parsed = this->Error.empty() ? parsed : nullptr;
+    this->Array = enc;
+    this->MTime = mtime;
+  }
+  error = this->Error;
+  return this->Parsed;
+}
+
+void applyGeometry(vtkImageData* image, const csgv::Geometry& corner, uint32_t lod)
+{
+  const double scale = double(uint64_t(1) << lod);
+  image->SetSpacing(corner.spacing[0] * scale, corner.spacing[1] * scale, corner.spacing[2] * scale);
+  image->SetOrigin(corner.origin.data());
+  image->SetDirectionMatrix(corner.direction.data());
+}
+
+} // namespace csgvvtk
