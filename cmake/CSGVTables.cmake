@@ -3,6 +3,9 @@
 # - Representation/CSGVProperties.def: each setting's default values (CSGV_DEFAULT_<Name>);
 # - VulkanBackend/include/csgv/gpu/ShadingModes.h: the shading modes' rows (the CSGVShading
 #   enumeration's entries, the GUI's labels and the modes' one-line documentation).
+# - Core/src/inputs/Inputs.cpp: each input format's file name extensions and patterns
+#   (CSGV_EXTENSIONS_<Format>, CSGV_PATTERNS_<Format>, <Format> from its opener inputs::open<Format>)
+#   for the readers' ReaderFactory hints; every format must be named by the readers' template.
 # A row that does not match its form stops the configuration (a table edited out of form would
 # otherwise leave an XML default or a mode behind).
 
@@ -48,6 +51,29 @@ function(csgv_write_representation_xml template output)
   endforeach()
   if(value EQUAL 0)
     message(FATAL_ERROR "${modes}: no shading mode rows found")
+  endif()
+  configure_file("${template}" "${output}" @ONLY)
+endfunction()
+
+function(csgv_write_readers_xml template output)
+  set(table "${PROJECT_SOURCE_DIR}/Core/src/inputs/Inputs.cpp")
+  set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS "${table}" "${template}")
+  file(READ "${template}" text)
+  file(STRINGS "${table}" rows REGEX "^ *\\{.*inputs::open")
+  set(count 0)
+  foreach(row IN LISTS rows)
+    if(NOT row MATCHES "^    \\{\"[^\"]*\", \"([a-z0-9. ]*)\", \"([a-z.* ]*)\", inputs::claims[A-Za-z0-9]+, inputs::open([A-Za-z0-9]+)\\},$")
+      message(FATAL_ERROR "${table}: an input format row out of form: ${row}")
+    endif()
+    set(CSGV_EXTENSIONS_${CMAKE_MATCH_3} "${CMAKE_MATCH_1}")
+    set(CSGV_PATTERNS_${CMAKE_MATCH_3} "${CMAKE_MATCH_2}")
+    if(NOT text MATCHES "@CSGV_(EXTENSIONS|PATTERNS)_${CMAKE_MATCH_3}@")
+      message(FATAL_ERROR "${template}: no reader offers the input format ${CMAKE_MATCH_3} (name @CSGV_EXTENSIONS_${CMAKE_MATCH_3}@ or @CSGV_PATTERNS_${CMAKE_MATCH_3}@ in a ReaderFactory)")
+    endif()
+    math(EXPR count "${count} + 1")
+  endforeach()
+  if(count EQUAL 0)
+    message(FATAL_ERROR "${table}: no input format rows found")
   endif()
   configure_file("${template}" "${output}" @ONLY)
 endfunction()

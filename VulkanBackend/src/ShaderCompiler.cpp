@@ -2,6 +2,7 @@
 #include "csgv/gpu/ShaderCompiler.h"
 
 #include "csgv/base/FileUtil.h"
+#include "csgv/base/Hash.h"
 
 #include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>
@@ -56,17 +57,11 @@ private:
     }
 };
 
-/// FNV-1a, 64 bits: names cache files (not a security boundary: the files are our own).
-uint64_t fnv1a(const std::string& text, uint64_t h = 1469598103934665603ull) {
-    for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
-    return h;
-}
-
 /// Every embedded source, so a cache file never outlives a change to an included file.
 uint64_t embeddedFingerprint() {
     static const uint64_t value = [] {
-        uint64_t h = fnv1a("csgv shaders 1");
-        for (const std::string& n : embeddedShaderNames()) h = fnv1a(std::string(embeddedShader(n)), fnv1a(n, h));
+        uint64_t h = fnv1a64("csgv shaders 1");
+        for (const std::string& n : embeddedShaderNames()) h = fnv1a64(std::string(embeddedShader(n)), fnv1a64(n, h));
         return h;
     }();
     return value;
@@ -88,7 +83,7 @@ std::string diskCachePath(const std::string& key) {
     const std::string dir = diskCacheDir();
     if (dir.empty()) return "";
     char name[40];
-    std::snprintf(name, sizeof(name), "/%016llx.spv", static_cast<unsigned long long>(fnv1a(key, embeddedFingerprint())));
+    std::snprintf(name, sizeof(name), "/%016llx.spv", static_cast<unsigned long long>(fnv1a64(key, embeddedFingerprint())));
     return dir + name;
 }
 

@@ -45,21 +45,27 @@ namespace {
 
 /// @brief One input format: how a path is recognised and how it is opened.
 struct Format {
-    const char* forms; ///< for messages, in the order they are listed
+    const char* forms;      ///< for messages, in the order they are listed
+    const char* extensions; ///< file name extensions ParaView's reader factory offers it for
+    const char* patterns;   ///< ... and file names it matches (the files inside a folder format)
     bool (*claims)(const std::string& path);
     Result<std::unique_ptr<InputSource>> (*open)(const std::string& path, const InputOptions& options);
 };
 
 // First match wins: folders that are Zarr or precomputed are claimed before a TIFF folder.
+// One row a line, in this form: cmake/CSGVTables.cmake reads the extensions and patterns of each
+// (by its opener's name) into the readers' server-manager XML (Plugin/CSGV/CSGVReaders.xml.in).
+// clang-format off
 const Format kFormats[] = {
-    {"`.vraw`, `.vraw.gz`", inputs::claimsVraw, inputs::openVraw},
-    {"`.nrrd`, `.nhdr`", inputs::claimsNrrd, inputs::openNrrd},
-    {"`.nii`, `.nii.gz`", inputs::claimsNifti, inputs::openNifti},
-    {"`FILE.h5[:/dataset]`, `FILE.hdf5[:/dataset]`", inputs::claimsHdf5, inputs::openHdf5},
-    {"`DIR.zarr[/path]`", inputs::claimsZarr, inputs::openZarr},
-    {"a Neuroglancer precomputed folder `DIR[/info][#scale]`", inputs::claimsPrecomputed, inputs::openPrecomputed},
-    {"`.tif`, `.tiff`, a folder or a glob of TIFF slices", inputs::claimsTiff, inputs::openTiff},
+    {"`.vraw`, `.vraw.gz`", "vraw vraw.gz", "", inputs::claimsVraw, inputs::openVraw},
+    {"`.nrrd`, `.nhdr`", "nrrd nhdr", "", inputs::claimsNrrd, inputs::openNrrd},
+    {"`.nii`, `.nii.gz`", "nii nii.gz", "", inputs::claimsNifti, inputs::openNifti},
+    {"`FILE.h5[:/dataset]`, `FILE.hdf5[:/dataset]`", "h5 hdf5", "", inputs::claimsHdf5, inputs::openHdf5},
+    {"`DIR.zarr[/path]`", "", ".zarray .zgroup .zattrs", inputs::claimsZarr, inputs::openZarr},
+    {"a Neuroglancer precomputed folder `DIR[/info][#scale]`", "", "info", inputs::claimsPrecomputed, inputs::openPrecomputed},
+    {"`.tif`, `.tiff`, a folder or a glob of TIFF slices", "tif tiff", "", inputs::claimsTiff, inputs::openTiff},
 };
+// clang-format on
 
 const Format* formatOf(const std::string& path) {
     for (const Format& f : kFormats)
