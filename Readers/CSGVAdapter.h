@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+class vtkAbstractArray;
 class vtkDataArray;
 class vtkFieldData;
 class vtkImageData;
@@ -202,6 +203,14 @@ bool brickPiece(vtkFieldData* fd, int& brick, int& pieces, int& piece, int whole
 /// The encoding array of a FieldData (null when there is none): its pointer and modification
 /// time identify the encoding, so consumers look up what they parsed before without parsing.
 vtkUnsignedCharArray* encodingArray(vtkFieldData* fd);
+/// An empty encoding array of `bytes` bytes placed as csgv::newCsgvBytes places them, so that a
+/// parse of it (readEncodingArrays, parseCsgvShared) views its words instead of copying them:
+/// one copy of an encoding serves its bytes and every parse in the process. Null without memory.
+vtkSmartPointer<vtkUnsignedCharArray> newEncodingArray(uint64_t bytes);
+/// A shared owner that keeps `array`, and so its memory, alive (a reference): the keeper of
+/// WordArray views into it. The array must not be changed while views live (FieldData arrays
+/// are not: the pipeline passes them on shallowly).
+std::shared_ptr<const void> keepArray(vtkAbstractArray* array);
 
 /// @brief What a consumer of the FieldData layout gets back.
 struct EncodedInput
@@ -211,7 +220,9 @@ struct EncodedInput
   LabelInfo info;
 };
 /// Parses the arrays of vtkCSGVReader.h's layout (the whole container: callers parse once per
-/// encoding array and modification time); returns an error message or "".
+/// encoding array and modification time); returns an error message or "". The volume's arrays
+/// view the encoding array's memory where it was made by newEncodingArray (the reader's, in the
+/// same process), else they are copies.
 std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out);
 
 /// @brief The parsed encoding of a FieldData, parsed again only when the encoding array or its

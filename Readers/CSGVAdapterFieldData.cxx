@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 
 namespace csgvvtk
 {
@@ -205,6 +206,33 @@ vtkUnsignedCharArray* encodingArray(vtkFieldData* fd)
   return fd ? vtkUnsignedCharArray::SafeDownCast(fd->GetAbstractArray(kEncodingName)) : nullptr;
 }
 
+vtkSmartPointer<vtkUnsignedCharArray> newEncodingArray(uint64_t bytes)
+{
+  if (bytes > uint64_t(std::numeric_limits<vtkIdType>::max()) || bytes > SIZE_MAX)
+  {
+    return nullptr;
+  }
+  uint8_t* memory = csgv::newCsgvBytes(size_t(bytes));
+  if (!memory)
+  {
+    return nullptr;
+  }
+  auto array = vtkSmartPointer<vtkUnsignedCharArray>::New();
+  array->SetArray(memory, static_cast<vtkIdType>(bytes), 0, vtkUnsignedCharArray::VTK_DATA_ARRAY_USER_DEFINED);
+  array->SetArrayFreeFunction(csgv::freeCsgvBytes);
+  return array;
+}
+
+std::shared_ptr<const void> keepArray(vtkAbstractArray* array)
+{
+  if (!array)
+  {
+    return nullptr;
+  }
+  array->Register(nullptr);
+  return std::shared_ptr<const void>(array->GetVoidPointer(0), [array](const void*) { array->UnRegister(nullptr); });
+}
+
 std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out)
 {
   vtkUnsignedCharArray* enc = encodingArray(fd);
@@ -213,8 +241,8 @@ std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out)
     return "the input carries no CSGV encoding (FieldData array 'CSGVEncoding', as the CSGV reader "
            "writes it)";
   }
-  csgv::Result<csgv::CompressedVolume> vol =
-    csgv::parseCsgv(enc->GetPointer(0), static_cast<size_t>(enc->GetNumberOfValues()));
+  csgv::Result<csgv::CompressedVolume> vol = csgv::parseCsgvShared(
+    enc->GetPointer(0), static_cast<size_t>(enc->GetNumberOfValues()), keepArray(enc));
   if (!vol)
   {
     return "CSGVEncoding: " + vol.message();

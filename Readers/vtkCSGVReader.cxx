@@ -128,19 +128,21 @@ public:
     // with the header: Load).
     const std::string& path = this->Path;
     const uint64_t bytes = uint64_t(this->Size);
+    // Placed so that the parse below views the bytes' words, and so does every later parse of
+    // the FieldData array in this process (the representation's): one copy of the encoding.
     std::ifstream in(path, std::ios::binary);
-    vtkNew<vtkUnsignedCharArray> enc;
-    if (!in || !enc->Allocate(static_cast<vtkIdType>(bytes)))
+    vtkSmartPointer<vtkUnsignedCharArray> enc = csgvvtk::newEncodingArray(bytes);
+    if (!in || !enc)
     {
       return "cannot read '" + path + "'";
     }
-    enc->SetNumberOfValues(static_cast<vtkIdType>(bytes));
     in.read(reinterpret_cast<char*>(enc->GetPointer(0)), static_cast<std::streamsize>(bytes));
     if (uint64_t(in.gcount()) != bytes || in.peek() != std::ifstream::traits_type::eof())
     {
       return "'" + path + "' changed while it was read";
     }
-    csgv::Result<csgv::CompressedVolume> volume = csgv::parseCsgv(enc->GetPointer(0), size_t(bytes));
+    csgv::Result<csgv::CompressedVolume> volume =
+      csgv::parseCsgvShared(enc->GetPointer(0), size_t(bytes), csgvvtk::keepArray(enc));
     if (!volume)
     {
       return csgv::Status(volume.status()).prefix(path).message();

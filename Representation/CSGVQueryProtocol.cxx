@@ -222,7 +222,9 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   if (what == "stats")
   {
     const std::shared_ptr<VolumeCache> cache = VolumeCache::instance();
-    return json({ { "parses", cache->parses() }, { "compressions", cache->compressions() } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    return json({ { "parses", cache->parses() }, { "sharedParses", cache->sharedParses() },
+                  { "compressions", cache->compressions() } })
+      .dump(-1, ' ', false, json::error_handler_t::replace);
   }
 
   const VolumeSource& source = c.source;

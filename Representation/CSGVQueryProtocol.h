@@ -23,7 +23,7 @@
  * | `span {"attribute": A, "filter": F, "min": lo, "max": hi}` | JSON `{"min", "max", "labels"}`: the range of A over the labels present whose F lies in [lo, hi] (null ends when none), every rank's widened |
  * | `defaults`   | JSON of the representation's property defaults (csgvrep::RepresentationProperties): `{"CSGVShading": 0, ...}` keyed like the server-manager XML, for the test that keeps both equal |
  * | `labelset N`  | text `BASE64`: at most N original labels present in this process's volume, int64 little-endian, ascending (the label count of `summary` over MPI ranks) |
- * | `stats`      | JSON `{"parses": n, "compressions": n}`: how often this process parsed a CSGV encoding and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
+ * | `stats`      | JSON `{"parses": n, "sharedParses": n, "compressions": n}`: how often this process parsed a CSGV encoding (of those, how often its words were viewed where the reader put them, not copied) and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
  * | other        | JSON `{"error": "unknown query '<word>'"}` |
  *
  * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary` and `colors` are

@@ -277,6 +277,13 @@ std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelAr
       if (encodingError.empty())
       {
         this->Parses++;
+        // The arrays view the reader's bytes (one copy of the encoding in this process), or
+        // were copied (an encoding array delivered from elsewhere).
+        if (std::all_of(parsed->volume.arrays.begin(), parsed->volume.arrays.end(),
+              [](const csgv::WordArray& a) { return a.isView(); }))
+        {
+          this->SharedParses++;
+        }
         shared = parsed;
         this->Entries[key] = shared;
       }

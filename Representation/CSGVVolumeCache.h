@@ -141,6 +141,8 @@ public:
   /// process (for benchmarks and tests: both happen once per array and modification time).
   uint64_t parses() const { return this->Parses; }
   uint64_t compressions() const { return this->Compressions; }
+  /// Parses whose encoding arrays view the FieldData array's memory (no copy of the encoding).
+  uint64_t sharedParses() const { return this->SharedParses; }
 
 private:
   struct Key
@@ -156,6 +158,7 @@ private:
   std::mutex Mutex;
   std::map<Key, std::weak_ptr<SharedVolume>> Entries;
   uint64_t Parses = 0;
+  uint64_t SharedParses = 0;
   uint64_t Compressions = 0;
 };
 

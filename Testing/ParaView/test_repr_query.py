@@ -38,6 +38,11 @@ t.check(json.loads(ct.query(d, "stats")).get("compressions") == 0, "stats: a .cs
 d.CSGVFramesPerStillRender = 1
 v.ResetCamera()
 t.screenshot(v, W, H)
+stats = json.loads(ct.query(d, "stats"))
+# One copy of the encoding in this process (issue 40): the representation's parse views the
+# bytes the reader read, it does not copy them.
+t.check(stats.get("parses") == 1 and stats.get("sharedParses") == 1,
+        "stats: the representation's parse shares the reader's bytes (%r)" % stats)
 
 # summary
 s = json.loads(ct.query(d, "summary"))

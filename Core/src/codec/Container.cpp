@@ -377,13 +377,23 @@ Result<CompressedVolume> parseCsgvShared(const uint8_t* data, size_t size, std::
     return parse(src, &src, keeper);
 }
 
+uint8_t* newCsgvBytes(size_t size) {
+    // A 16-byte aligned block, the bytes kCsgvBytesPhase into it (freeCsgvBytes steps back).
+    constexpr size_t kAlign = 16;
+    if (size > SIZE_MAX - kAlign) return nullptr;
+    void* block = nullptr;
+    if (posix_memalign(&block, kAlign, size + kAlign) != 0) return nullptr;
+    return static_cast<uint8_t*>(block) + kCsgvBytesPhase;
+}
+
+void freeCsgvBytes(void* bytes) {
+    if (bytes) std::free(static_cast<uint8_t*>(bytes) - kCsgvBytesPhase);
+}
+
 std::shared_ptr<uint8_t> allocateCsgvBytes(size_t size) {
-    constexpr size_t kPad = 4 + kCsgvBytesPhase; // room to place the start, from a 16-byte aligned block
-    if (size > SIZE_MAX - kPad) return nullptr;
-    uint8_t* block = static_cast<uint8_t*>(std::malloc(size + kPad));
-    if (!block) return nullptr;
-    const size_t shift = (kCsgvBytesPhase + 4 - reinterpret_cast<uintptr_t>(block) % 4) % 4;
-    return std::shared_ptr<uint8_t>(block + shift, [block](uint8_t*) { std::free(block); });
+    uint8_t* bytes = newCsgvBytes(size);
+    if (!bytes) return nullptr;
+    return std::shared_ptr<uint8_t>(bytes, freeCsgvBytes);
 }
 
 Result<CompressedVolume> readCsgv(const std::string& path) {

@@ -164,7 +164,11 @@ Result<CompressedVolume> parseCsgvShared(const uint8_t* data, size_t size, std::
 /// at an address of 3 modulo 4 put them on word boundaries.
 constexpr size_t kCsgvBytesPhase = 3;
 /// A buffer of `size` bytes for a `.csgv` at an address of kCsgvBytesPhase modulo 4 (null when
-/// no memory is to be had); its shared owner frees it.
+/// no memory is to be had), freed by freeCsgvBytes (a C-style free function, so that a VTK array
+/// can own it: VTK_DATA_ARRAY_USER_DEFINED).
+uint8_t* newCsgvBytes(size_t size);
+void freeCsgvBytes(void* bytes);
+/// newCsgvBytes, owned by a shared pointer.
 std::shared_ptr<uint8_t> allocateCsgvBytes(size_t size);
 /// Reads a `.csgv` file; never reads or allocates more than the file holds.
 Result<CompressedVolume> readCsgv(const std::string& path);
