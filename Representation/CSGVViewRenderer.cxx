@@ -207,6 +207,12 @@ std::string ViewRenderer::ensureRenderer()
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
     this->GhostUploaded = this->CoarseUploaded = nullptr;
   }
+  return this->updateRenderer(*shared);
+}
+
+std::string ViewRenderer::updateRenderer(SharedVolume& volume)
+{
+  SharedVolume* shared = &volume;
   std::shared_ptr<const GhostFaces> ghost;
   std::shared_ptr<const CoarseStandIns> coarse;
   {

@@ -135,7 +135,12 @@ public:
   uint64_t detailStreamedBytes() const;
 
 private:
+  /// Makes the renderer (the backend's upload policy: csgv::gpu::planUpload) when there is none
+  /// or it is made for other budgets, then updateRenderer. Returns an error message or "".
   std::string ensureRenderer();
+  /// Brings the renderer up to date with what changed since: a piece's ghost faces and coarse
+  /// stand-ins, geometry, materials, settings.
+  std::string updateRenderer(SharedVolume& shared);
   /// Waits for prepareInBackground's work (every public call starts here).
   void settle() const;
   void releaseShare();
