@@ -312,7 +312,7 @@ int cmdRender(int argc, char** argv) {
     Status s = parseRenderArgs(argc, argv, a);
     if (!s) return fail(s.message());
     const auto tStart = std::chrono::steady_clock::now();
-    Result<CsgvFile> file = openCsgv(a.input);
+    Result<CsgvFile> file = openCsgvMapped(a.input);
     if (!file) return fail(file.message());
     MaterialDocument doc = defaultMaterials();
     if (!a.materials.empty()) {

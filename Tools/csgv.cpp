@@ -282,7 +282,7 @@ int cmdInfo(const Args& a) {
     if (a.positional.size() != 1) return fail("info expects one file: csgv info IN.csgv|INPUT");
     if (!endsWithNoCase(a.positional[0], ".csgv") && (isSynthName(a.positional[0]) || isInputPath(a.positional[0])))
         return cmdInfoInput(a);
-    Result<CsgvFile> f = openCsgv(a.positional[0]);
+    Result<CsgvFile> f = openCsgvMapped(a.positional[0]);
     if (!f) return fail(f.message());
     const CompressedVolume& v = f->volume;
     const uint64_t bytes = v.serializedSize();
@@ -356,7 +356,7 @@ int cmdDecompress(const Args& a) {
     const std::string& out = a.positional[1];
     const bool nrrd = endsWithNoCase(out, ".nrrd");
     if (!nrrd && !endsWithNoCase(out, ".vraw")) return fail("output '" + out + "' must end in .vraw or .nrrd");
-    Result<CsgvFile> f = openCsgv(a.positional[0]);
+    Result<CsgvFile> f = openCsgvMapped(a.positional[0]);
     if (!f) return fail(f.message());
     if (f->wideLabels && !nrrd)
         return fail(a.positional[0] + ": the original labels do not fit uint32 (" + f->metadata.originalType +
@@ -462,7 +462,7 @@ int verifyCoarseLevels(const CsgvFile& f, const std::string& csgvPath, int threa
 
 int cmdVerify(const Args& a) {
     if (a.positional.size() != 2) return fail("verify expects: csgv verify IN.csgv SOURCE");
-    Result<CsgvFile> f = openCsgv(a.positional[0]);
+    Result<CsgvFile> f = openCsgvMapped(a.positional[0]);
     if (!f) return fail(f.message());
     Result<std::unique_ptr<InputSource>> src = openCompressInput(a.positional[1], a.input);
     if (!src) return fail(src.message());

@@ -76,8 +76,26 @@ bool contains(const std::string& hay, const std::string& needle) { return hay.fi
     return ::testing::AssertionFailure() << "message \"" << s.message() << "\" contains none of" << want;
 }
 
+/// The bytes at an address of `phase` modulo 4, kept by the returned owner (a `.csgv`'s words
+/// lie at byte 69 + 4k: phase 0 puts them at 1 modulo 4, as in a memory-mapped file).
+std::shared_ptr<const uint8_t> bytesAtPhase(const std::vector<uint8_t>& bytes, size_t phase, const uint8_t** at) {
+    std::shared_ptr<uint8_t> block(new uint8_t[bytes.size() + 8], std::default_delete<uint8_t[]>());
+    uint8_t* p = block.get() + (phase + 4 - reinterpret_cast<uintptr_t>(block.get()) % 4) % 4;
+    std::copy(bytes.begin(), bytes.end(), p);
+    *at = p;
+    return block;
+}
+
+/// The status of parsing `bytes` (copied), which parsing them as unaligned views
+/// (parseCsgvShared, as readCsgvMapped parses a mapped file) must equal.
 Status parseStatus(const std::vector<uint8_t>& bytes) {
-    return csgv::parseCsgv(bytes.data(), bytes.size()).status();
+    const Status copied = csgv::parseCsgv(bytes.data(), bytes.size()).status();
+    const uint8_t* at = nullptr;
+    std::shared_ptr<const uint8_t> keeper = bytesAtPhase(bytes, 0, &at);
+    const Status viewed = csgv::parseCsgvShared(at, bytes.size(), keeper).status();
+    EXPECT_EQ(copied.isOk(), viewed.isOk());
+    EXPECT_EQ(copied.message(), viewed.message()) << "a view parses unlike a copy";
+    return copied;
 }
 
 /// Writes a (corrupted) volume and parses it back: the status of the container checks.
@@ -124,7 +142,7 @@ MutableBrick mutableBrick(CompressedVolume& v, uint64_t i) {
     EXPECT_EQ(v.bricksPerArray, csgv::kSingleArray);
     EXPECT_EQ(v.arrays.size(), 1u);
     const uint32_t begin = v.brickStarts[size_t(i)];
-    return MutableBrick{v.arrays[0].data() + begin, v.brickStarts[size_t(i) + 1] - begin};
+    return MutableBrick{v.arrays[0].owned().data() + begin, v.brickStarts[size_t(i) + 1] - begin};
 }
 
 /// First word of brick i's palette.
@@ -134,7 +152,7 @@ uint32_t paletteStart(const CompressedVolume& v, uint64_t i) {
 }
 
 /// Nibble-mode symbol access: symbol k of a word is in bits 31-4k .. 28-4k.
-uint32_t getSym(const uint32_t* w, uint64_t pos) { return (w[pos >> 3] >> (28 - 4 * (pos & 7))) & 15u; }
+uint32_t getSym(csgv::WordPtr w, uint64_t pos) { return (w[pos >> 3] >> (28 - 4 * (pos & 7))) & 15u; }
 void setSym(uint32_t* w, uint64_t pos, uint32_t s) {
     const uint32_t shift = 28 - 4 * uint32_t(pos & 7);
     w[pos >> 3] = (w[pos >> 3] & ~(15u << shift)) | ((s & 15u) << shift);
@@ -232,6 +250,15 @@ void expectStreamError(const CompressedVolume& bad, uint64_t brick, const std::v
     const Status all = csgv::validateStreams(*parsed, 0);
     EXPECT_FALSE(all.isOk());
     EXPECT_EQ(all.message(), s.message()) << "validateStreams must report the only broken brick";
+    // The same error from the words read where a mapped file holds them (1 modulo 4).
+    const uint8_t* at = nullptr;
+    std::shared_ptr<const uint8_t> keeper = bytesAtPhase(bytes, 0, &at);
+    csgv::Result<CompressedVolume> viewed = csgv::parseCsgvShared(at, bytes.size(), keeper);
+    ASSERT_TRUE(viewed.isOk()) << viewed.message();
+    ASSERT_TRUE(viewed->arrays[0].isView());
+    BrickDecoder viewDecoder(*viewed);
+    EXPECT_EQ(viewDecoder.decode(brick, 0).message(), s.message()) << "an unaligned view decodes unlike a copy";
+    EXPECT_EQ(csgv::validateStreams(*viewed, 0).message(), s.message());
 }
 
 constexpr uint64_t kNoBrick = ~uint64_t(0);

@@ -228,7 +228,7 @@ TEST(GpuDecode, CorruptStreamsEndWithAnErrorCode) {
     // Nibble fixture: replace the first level-1 symbol of brick 0 (after the root) with 7.
     CompressedVolume vol = loadFixture("synthA_b16_nibble.csgv");
     const uint32_t L = vol.levels();
-    uint32_t* w = vol.arrays[0].data() + vol.brickStarts[0];
+    uint32_t* w = vol.arrays[0].owned().data() + vol.brickStarts[0];
     const uint32_t pos = w[1]; // level 1 start (the root did not stop in this brick)
     ASSERT_GT(w[2], w[1]) << "fixture brick 0 must visit level 1";
     w[pos >> 3] = (w[pos >> 3] & ~(0xFu << (28 - 4 * (pos & 7)))) | (7u << (28 - 4 * (pos & 7)));
@@ -241,7 +241,7 @@ TEST(GpuDecode, CorruptStreamsEndWithAnErrorCode) {
     (void)L;
     // rANS: shorten stream A of brick 3 by a word; the integrity check or the stream end catches it.
     CompressedVolume rans = loadFixture("synthA_b32_rans2.csgv");
-    uint32_t* rb = rans.arrays[0].data() + rans.brickStarts[3];
+    uint32_t* rb = rans.arrays[0].owned().data() + rans.brickStarts[3];
     rb[rans.levels() - 1] -= 8;
     if (checkContainer(rans).isOk()) {
         Result<std::unique_ptr<GpuVolume>> g2 = GpuVolume::create(*ctx, rans);

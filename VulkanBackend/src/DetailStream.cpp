@@ -11,7 +11,7 @@ namespace {
 
 /// A brick's finest-level stream (mode 2: stream B, from word header[L-1] / 8 to the palette).
 struct Stream {
-    const uint32_t* words;
+    WordPtr words; ///< any alignment (a mapped file's view)
     uint32_t count;
 };
 Stream finestStream(const CompressedVolume& volume, uint64_t brick) {
@@ -143,7 +143,7 @@ Status DetailStream::request(const uint32_t* bricks, size_t count) {
         uint64_t at = 0;
         for (const Entry& e : m_batch) {
             const Stream st = finestStream(m_volume, e.brick);
-            std::copy(st.words, st.words + st.count, m_staging.begin() + ptrdiff_t(at));
+            st.words.copyTo(m_staging.data() + at, st.count);
             at += e.words;
         }
     });

@@ -15,7 +15,8 @@ namespace {
 /// where its next starts, CSGV-FORMAT.md section 3) with every palette entry replaced by its id.
 std::vector<uint32_t> paletteIdsIn(const CompressedVolume& volume, size_t i, const WordArray& array,
                                    const std::vector<uint32_t>& starts, const std::vector<uint32_t>& ids) {
-    std::vector<uint32_t> out(array.begin(), array.end());
+    std::vector<uint32_t> out(array.size());
+    array.copyTo(out.data(), 0, out.size());
     const uint64_t n = volume.brickCount(), per = volume.bricksPerArray == kSingleArray ? n : volume.bricksPerArray;
     const uint32_t L = volume.levels();
     for (uint64_t b = i * per; b < std::min<uint64_t>(n, (i + 1) * per); ++b) {
@@ -125,7 +126,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
         std::vector<uint32_t> withIds;
         const std::vector<uint32_t>& ids = g->m_labels.ids;
         if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(volume, i, a, starts, ids);
-        const uint32_t* up = withIds.empty() ? a.data() : withIds.data();
+        const void* up = withIds.empty() ? a.bytes() : withIds.data(); // any alignment: copied bytewise
         const size_t words = withIds.empty() ? a.size() : withIds.size();
         Result<Buffer> b = context.createBuffer(words * 4, MemoryKind::DeviceLocal);
         if (!b) return Status(b.status()).prefix("uploading the encoding");
@@ -190,8 +191,8 @@ void GpuVolume::devicePart(const CompressedVolume& volume, DevicePart part, std:
         const BrickWords bw = volume.brick(b);
         std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)].owned();
         const uint32_t palette = bw.words[L];
-        if (part == DevicePart::Coarse) a.insert(a.end(), bw.words, bw.words + bw.words[L - 1] / 8);
-        if (part != DevicePart::Nothing) a.insert(a.end(), bw.words + bw.size - palette, bw.words + bw.size);
+        if (part == DevicePart::Coarse) appendWords(a, bw.words, bw.words[L - 1] / 8);
+        if (part != DevicePart::Nothing) appendWords(a, bw.words + (bw.size - palette), palette);
         starts[size_t(b) + 1] = uint32_t(a.size());
     }
 }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/codec/Container.h"
 #include "csgv/base/FileUtil.h"
+#include "csgv/base/MappedFile.h"
 
 #include <cerrno>
 #include <cstdio>
@@ -168,7 +169,7 @@ void emit(const CompressedVolume& v, const std::function<void(const void*, size_
     for (const auto& a : v.arrays) {
         const uint64_t len = a.size();
         out(&len, 8);
-        out(a.data(), a.size() * 4);
+        out(a.bytes(), a.size() * 4);
     }
     out(&kNotDetailSeparated, 1);
 }
@@ -225,7 +226,8 @@ Status parseTail(ByteSource& src) {
     return Status::ok();
 }
 
-/// `viewed`: a memory source whose arrays are kept as views where aligned (parseCsgvShared).
+/// `viewed`: a memory source whose arrays are kept as views (parseCsgvShared, readCsgvMapped), at
+/// whatever byte address they lie (WordArray reads them through WordPtr).
 Result<CompressedVolume> parse(ByteSource& src, MemorySource* viewed = nullptr,
                                const std::shared_ptr<const void>& keeper = nullptr) {
     CompressedVolume v;
@@ -241,13 +243,13 @@ Result<CompressedVolume> parse(ByteSource& src, MemorySource* viewed = nullptr,
         if (len > kMaxWordsPerArray)
             return Status::error("encoding array " + std::to_string(i) + " has " + std::to_string(len) +
                                  " words, more than 2^29");
-        if (viewed && reinterpret_cast<uintptr_t>(viewed->here()) % alignof(uint32_t) == 0) {
+        if (viewed) {
             const uint8_t* words = viewed->here();
             if (len > src.remaining() / 4 || !viewed->skip(len * 4))
                 return Status::error("file truncated: field 'encoding array' claims " + std::to_string(len) +
                                      " words at offset " + std::to_string(src.offset()) + ", only " +
                                      std::to_string(src.remaining()) + " bytes remain");
-            v.arrays[size_t(i)] = WordArray::view(reinterpret_cast<const uint32_t*>(words), size_t(len), keeper);
+            v.arrays[size_t(i)] = WordArray::view(words, size_t(len), keeper);
             continue;
         }
         CSGV_TRY(readWords(src, v.arrays[size_t(i)].owned(), len, "encoding array"));
@@ -279,7 +281,7 @@ BrickWords CompressedVolume::brick(uint64_t i) const {
     const auto& arr = arrays[size_t(i / bpa)];
     const uint32_t begin = (i > 0 && i % bpa == 0) ? 0 : brickStarts[size_t(i)];
     const uint32_t end = brickStarts[size_t(i + 1)];
-    return BrickWords{arr.data() + begin, end - begin};
+    return BrickWords{arr.words() + begin, end - begin};
 }
 
 uint64_t CompressedVolume::serializedSize() const {
@@ -332,7 +334,7 @@ Status checkContainer(const CompressedVolume& v) {
         if (size < minWords)
             return Status::error(where + ": " + std::to_string(size) + " words, less than the minimal brick of " +
                                  std::to_string(minWords));
-        const uint32_t* w = v.arrays[arrayIndex].data() + begin;
+        const WordPtr w = v.arrays[arrayIndex].words() + std::ptrdiff_t(begin);
         if (w[0] != (L + 1) * 8)
             return Status::error(where + ": level 0 start is " + std::to_string(w[0]) + ", expected " +
                                  std::to_string((L + 1) * 8));
@@ -401,6 +403,16 @@ Result<CompressedVolume> readCsgv(const std::string& path) {
     Status s = src.open(path);
     if (!s) return s;
     Result<CompressedVolume> r = parse(src);
+    if (!r) return Status(r.status()).prefix(path);
+    return r;
+}
+
+Result<CompressedVolume> readCsgvMapped(const std::string& path) {
+    Result<std::shared_ptr<const MappedFile>> file = MappedFile::open(path);
+    if (!file) return file.status();
+    const MappedFile& bytes = **file;
+    MemorySource src(bytes.data(), bytes.size());
+    Result<CompressedVolume> r = parse(src, &src, *file);
     if (!r) return Status(r.status()).prefix(path);
     return r;
 }
@@ -614,7 +626,8 @@ Result<CompressedVolume> extractPiece(const CompressedVolume& whole, const Brick
         for (uint32_t y = box.lo[1]; y < box.hi[1]; ++y)
             for (uint32_t x = box.lo[0]; x < box.hi[0]; ++x) {
                 const BrickWords bw = whole.brick(x + uint64_t(grid[0]) * (y + uint64_t(grid[1]) * z));
-                words.emplace_back(bw.words, bw.words + bw.size);
+                words.emplace_back(bw.size);
+                bw.words.copyTo(words.back().data(), bw.size);
             }
     Status s = assemblePiece(*made, words);
     if (!s) return s;
@@ -691,7 +704,7 @@ Result<CompressedVolume> joinPieces(const std::array<uint32_t, 3>& dim, const st
     }
     Status s = fillArrays(vol, sizes, arrayLimit, maxOutputBytes, [&](uint64_t i, std::vector<uint32_t>& arr) {
         const BrickWords bw = pieces[size_t(owner[size_t(i)])].brick(local(i));
-        arr.insert(arr.end(), bw.words, bw.words + bw.size);
+        appendWords(arr, bw.words, bw.size);
     });
     if (!s) return s;
     for (CompressedVolume& p : pieces) p = CompressedVolume{};

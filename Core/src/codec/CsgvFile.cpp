@@ -86,6 +86,8 @@ Result<CsgvFile> withSidecars(const std::string& path, Result<CompressedVolume> 
 
 Result<CsgvFile> openCsgv(const std::string& path) { return withSidecars(path, readCsgv(path)); }
 
+Result<CsgvFile> openCsgvMapped(const std::string& path) { return withSidecars(path, readCsgvMapped(path)); }
+
 Result<CsgvFile> openCsgvHeader(const std::string& path) { return withSidecars(path, readCsgvHeader(path)); }
 
 } // namespace csgv

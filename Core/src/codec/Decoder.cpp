@@ -20,7 +20,7 @@ std::string place(uint64_t brick, uint32_t level, uint32_t levels, int64_t node)
 
 /// Raw 4-bit symbols of one level (mode 0), bounded by the next level's start or the palette.
 struct NibbleReader {
-    const uint32_t* words;
+    WordPtr words;
     uint64_t pos;
     uint64_t end;
     bool next(uint32_t& s) {
@@ -33,9 +33,11 @@ struct NibbleReader {
 
 } // namespace
 
-/// rANS decoder over one stream (section 4.1): state word first, then bytes read forward.
+/// rANS decoder over one stream (section 4.1): state word first, then bytes read forward. Byte j
+/// of the stream sits at bits 8*(j mod 4) of word j/4 after the state, which on a little-endian
+/// host (Words.h) is byte j of memory: the reader takes bytes as they lie, at any alignment.
 struct RansReader {
-    const uint32_t* words; ///< the stream's first word (the state)
+    const uint8_t* bytes; ///< the stream's first byte after the state word
     uint32_t x;
     uint64_t bytePos = 0;
     uint64_t byteEnd;
@@ -43,8 +45,9 @@ struct RansReader {
     const uint32_t* freq;
     const uint32_t* cum;
 
-    RansReader(const uint32_t* w, uint32_t startWord, uint32_t endWord, const BrickDecoder::RansTable& t)
-        : words(w + startWord + 1), x(w[startWord]), byteEnd(uint64_t(endWord - startWord - 1) * 4),
+    RansReader(WordPtr w, uint32_t startWord, uint32_t endWord, const BrickDecoder::RansTable& t)
+        : bytes(static_cast<const uint8_t*>((w + startWord + 1).bytes())), x(w[startWord]),
+          byteEnd(uint64_t(endWord - startWord - 1) * 4),
           slotSymbol(t.symbol.data()), freq(t.freq.data()), cum(t.cum.data()) {}
 
     bool next(uint32_t& s) {
@@ -53,7 +56,7 @@ struct RansReader {
         x = freq[s] * (x >> kRansProbBits) + c - cum[s];
         while (x < kRansLowerBound) {
             if (bytePos >= byteEnd) return false;
-            x = (x << 8) | ((words[bytePos >> 2] >> (8 * (bytePos & 3))) & 0xFFu);
+            x = (x << 8) | bytes[bytePos];
             ++bytePos;
         }
         return true;
@@ -62,7 +65,7 @@ struct RansReader {
     bool finished() const {
         if (x != kRansLowerBound || byteEnd - bytePos >= 4) return false;
         for (uint64_t p = bytePos; p < byteEnd; ++p)
-            if ((words[p >> 2] >> (8 * (p & 3))) & 0xFFu) return false;
+            if (bytes[p]) return false;
         return true;
     }
 };
@@ -98,7 +101,7 @@ template <typename Reader>
 Status BrickDecoder::decodeLevels(uint64_t index, const BrickWords& bw, Reader& reader, uint32_t firstLevel,
                                   uint32_t lastLevel) {
     const uint32_t L = m_levels;
-    const uint32_t* w = bw.words;
+    const WordPtr w = bw.words;
     const uint32_t paletteSize = w[L];
     const auto& dim = m_vol.dim;
     for (uint32_t l = firstLevel; l <= lastLevel; ++l) {
@@ -231,7 +234,7 @@ Status BrickDecoder::decode(uint64_t index, uint32_t lod) {
     m_origin = {uint32_t(index % grid[0]) * m_vol.brickSize, uint32_t((index / grid[0]) % grid[1]) * m_vol.brickSize,
                 uint32_t(index / (uint64_t(grid[0]) * grid[1])) * m_vol.brickSize};
     const BrickWords bw = m_vol.brick(index);
-    const uint32_t* w = bw.words;
+    const WordPtr w = bw.words;
     const uint32_t target = L - 1 - lod;
     const uint32_t paletteStart = bw.size - w[L];
     m_paletteCursor = bw.size - 1;
@@ -278,9 +281,11 @@ Status BrickDecoder::decode(uint64_t index, uint32_t lod) {
 namespace {
 
 /// Runs fn(decoder, brickIndex) over bricks in parallel; returns the error of the lowest brick.
+/// After an error only bricks above the lowest failed one are skipped, so that the lowest is
+/// always decoded and the message does not depend on which thread failed first.
 template <typename Fn>
 Status forEachBrick(const CompressedVolume& vol, const std::vector<uint64_t>& bricks, int threads, Fn fn) {
-    std::atomic<bool> failed{false};
+    std::atomic<uint64_t> lowestFailed{~uint64_t(0)};
     std::mutex mutex;
     uint64_t errorBrick = ~uint64_t(0);
     Status error;
@@ -292,15 +297,15 @@ Status forEachBrick(const CompressedVolume& vol, const std::vector<uint64_t>& br
         BrickDecoder decoder(vol);
 #pragma omp for schedule(dynamic, 4)
         for (int64_t i = 0; i < n; ++i) {
-            if (failed.load(std::memory_order_relaxed)) continue;
+            if (bricks[size_t(i)] > lowestFailed.load(std::memory_order_relaxed)) continue;
             Status s = fn(decoder, bricks[size_t(i)]);
             if (!s) {
                 std::lock_guard<std::mutex> lock(mutex);
                 if (bricks[size_t(i)] < errorBrick) {
                     errorBrick = bricks[size_t(i)];
                     error = s;
+                    lowestFailed = errorBrick;
                 }
-                failed = true;
             }
         }
     }

@@ -1176,7 +1176,7 @@ Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBo
         };
         const uint64_t bricks = vol.brickCount();
         std::vector<uint32_t> sizes(static_cast<size_t>(bricks));
-        std::vector<const uint32_t*> from(static_cast<size_t>(bricks));
+        std::vector<WordPtr> from(static_cast<size_t>(bricks));
         const uint32_t L = vol.levels();
         const uint64_t pw = box.hi[0] - box.lo[0], ph = box.hi[1] - box.lo[1];
         vol.maxPalette = 1;
@@ -1197,7 +1197,7 @@ Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBo
             from[size_t(i)] = (*words)->data();
         }
         Status s = fillArrays(vol, sizes, kMaxWordsPerArray, ~uint64_t(0), [&](uint64_t i, std::vector<uint32_t>& arr) {
-            arr.insert(arr.end(), from[size_t(i)], from[size_t(i)] + sizes[size_t(i)]);
+            appendWords(arr, from[size_t(i)], sizes[size_t(i)]);
         });
         if (!s) return s;
         s = checkContainer(vol);

@@ -91,9 +91,9 @@ struct Limits {
     uint64_t maxOutputBytes = uint64_t(16) << 30; ///< decoded images, written files
 };
 
-/// Words of one brick inside its encoding array.
+/// Words of one brick inside its encoding array (at any byte address: read through WordPtr).
 struct BrickWords {
-    const uint32_t* words = nullptr;
+    WordPtr words;
     uint32_t size = 0;
 };
 
@@ -155,13 +155,15 @@ Status checkContainer(const CompressedVolume& vol);
 
 /// Parses a container from memory; the result has passed checkContainer().
 Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size);
-/// The same, with the encoding arrays as views into `data` (WordArray::view) wherever their words
-/// lie on 4-byte boundaries (else copies): `keeper` keeps `data` alive and unchanged while the
-/// volume, or any copy of it, lives. One copy of an encoding then serves the bytes and the parse.
+/// The same, with the encoding arrays as views into `data` (WordArray::view, at whatever byte
+/// address the words lie): `keeper` keeps `data` alive and unchanged while the volume, or any copy
+/// of it, lives. One copy of an encoding then serves the bytes and the parse. Without a keeper,
+/// parseCsgv.
 Result<CompressedVolume> parseCsgvShared(const uint8_t* data, size_t size, std::shared_ptr<const void> keeper);
-/// Where a `.csgv`'s bytes should start, modulo 4, for parseCsgvShared to view every encoding
-/// array: the arrays' words start at byte 69 + 4k of a file (CSGV-FORMAT.md), so bytes placed
-/// at an address of 3 modulo 4 put them on word boundaries.
+/// Where a `.csgv`'s bytes may start, modulo 4, to put the encoding arrays' words on 4-byte
+/// boundaries: they start at byte 69 + 4k of a file (CSGV-FORMAT.md). Views no longer need it
+/// (words are read with memcpy loads), but aligned words let a consumer that wants a
+/// `const uint32_t*` (a GPU upload API, SIMD code) take them as they are.
 constexpr size_t kCsgvBytesPhase = 3;
 /// A buffer of `size` bytes for a `.csgv` at an address of kCsgvBytesPhase modulo 4 (null when
 /// no memory is to be had), freed by freeCsgvBytes (a C-style free function, so that a VTK array
@@ -172,6 +174,13 @@ void freeCsgvBytes(void* bytes);
 std::shared_ptr<uint8_t> allocateCsgvBytes(size_t size);
 /// Reads a `.csgv` file; never reads or allocates more than the file holds.
 Result<CompressedVolume> readCsgv(const std::string& path);
+/// The same checks and errors as readCsgv, without copying the file: the file is memory-mapped
+/// read-only (MappedFile; read into memory where it cannot be mapped: a pipe, an empty file) and
+/// the encoding arrays are views into the mapping, which they keep alive. Only the header and
+/// brick starts are copied. The caller must not let the file be truncated or rewritten in place
+/// while the volume lives (a rename over it is fine): touching a page past a truncated end
+/// raises SIGBUS.
+Result<CompressedVolume> readCsgvMapped(const std::string& path);
 /// Reads the bricks of `box` (whole bricks: Partition.h) of a `.csgv` file as a volume of their
 /// own: the piece's dimensions (bricks cut by the volume's end stay cut), its bricks' words as
 /// stored (an interior brick's encoding does not depend on its neighbours), the file's tables,

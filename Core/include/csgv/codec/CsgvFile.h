@@ -43,6 +43,11 @@ struct CsgvFile {
 /// Reads the container and, when present, the metadata and the attribute database (whose volume
 /// size must match).
 Result<CsgvFile> openCsgv(const std::string& path);
+/// The same with the container memory-mapped (readCsgvMapped): the encoding arrays view the
+/// file, so opening costs no copy of it. For callers that hold the volume while nobody rewrites
+/// the file in place (the command-line tools); a long-lived session that must survive a file
+/// truncated under it reads it (openCsgv).
+Result<CsgvFile> openCsgvMapped(const std::string& path);
 /// The same without the encoding arrays (readCsgvHeader): the volume's header fields and brick
 /// starts and the sidecars, for readers that read bricks later (readCsgvPiece).
 Result<CsgvFile> openCsgvHeader(const std::string& path);
