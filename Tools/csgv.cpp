@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: MIT
 /// @file csgv.cpp
-/// @brief The `csgv` command-line tool: info, decompress, verify. Exit 0 on success, 1 with one
+/// @brief The `csgv` command-line tool: info, decompress, extract, verify. Exit 0 on success, 1 with one
 /// message on stderr for any user or data error; no input may end it with a signal.
 
 #include "csgv/inputs/Compress.h"
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Decoder.h"
+#include "csgv/codec/Extract.h"
 #include "csgv/codec/LabelVolume.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Procedural.h"
@@ -54,6 +55,12 @@ std::string usage() {
            "      exact up to 2^24 voxels, otherwise an estimate from 16 evenly spaced slices)\n"
            "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
            "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
+           "  extract IN.csgv OUT.nrrd|OUT.vraw --labels L1,L2,... | --query SQL [--mask] [--level L]\n"
+           "          [--box x0,y0,z0,x1,y1,z1] [--max-labels N] [--max-output-mib M] [--threads N]\n"
+           "      the selected labels (original labels; --query: an SQL condition over the _csgv.db3's\n"
+           "      columns) as a label image (others 0) or a uint8 mask (--mask), cropped to their bounding\n"
+           "      box, decoding only the bricks whose palettes hold one; --box in full-resolution voxels,\n"
+           "      half-open; NRRD origin and spacing overlay the volume; limits: 1000000 labels, 4096 MiB\n"
            "  verify IN.csgv SOURCE [--threads N]\n"
            "      SOURCE: any input below; compared slab by slab; exit 0 only if every voxel and every\n"
            "      coarse level matches SOURCE (through the attribute database when there is one)\n"
@@ -90,6 +97,16 @@ struct Args {
     uint32_t level = 0;
     int threads = 0;
     EncodeOptions encode;
+    // extract
+    bool mask = false;
+    bool hasLabels = false;
+    std::vector<int64_t> labels;
+    std::string query;
+    bool hasQuery = false;
+    bool hasBox = false;
+    Box box;
+    uint64_t maxLabels = kDefaultMaxExtractLabels;
+    uint64_t maxOutputMiB = 4096;
 };
 
 int fail(const std::string& message) {
@@ -113,6 +130,7 @@ Status parseArgs(int argc, char** argv, Args& a) {
     app.add_flag("--check", a.check);
     app.add_flag("--relabel", a.relabel);
     app.add_flag("--quiet", a.quiet);
+    app.add_flag("--mask", a.mask);
     app.add_flag("--allow-outside-paths", a.input.allowOutsidePaths);
     app.add_option("files", a.positional);
     ValueOptions values(app);
@@ -129,6 +147,56 @@ Status parseArgs(int argc, char** argv, Args& a) {
     small("--level", 31, [&a](uint64_t n) { a.level = uint32_t(n); });
     small("--threads", 1024, [&a](uint64_t n) { a.threads = int(n); });
     small("--brick-size", 1024, [&a](uint64_t n) { a.encode.brickSize = uint32_t(n); });
+    small("--max-output-mib", uint64_t(1) << 40, [&a](uint64_t n) { a.maxOutputMiB = n; });
+    values.add("--max-labels", [&a](const std::string& v) {
+        if (!parseUnsigned(v, uint64_t(1) << 32, a.maxLabels) || a.maxLabels == 0)
+            return Status::error("option --max-labels expects a positive integer, not '" + v + "'");
+        return Status::ok();
+    });
+    values.add("--labels", [&a](const std::string& v) {
+        // Comma-separated integers: negative and unsigned 64-bit labels as their int64 bits.
+        a.labels.clear();
+        a.hasLabels = true;
+        size_t at = 0;
+        while (at <= v.size()) {
+            const size_t comma = std::min(v.find(',', at), v.size());
+            const std::string item = v.substr(at, comma - at);
+            const bool negative = !item.empty() && item[0] == '-';
+            const std::string digits = negative ? item.substr(1) : item;
+            uint64_t n = 0;
+            const bool ok = !digits.empty() && digits.size() <= 20 && digits.find_first_not_of("0123456789") == std::string::npos &&
+                            (digits.size() < 20 || digits <= "18446744073709551615");
+            if (ok) n = std::stoull(digits);
+            if (!ok || (negative && n > uint64_t(1) << 63))
+                return Status::error("--labels expects comma-separated integer labels, not '" + item + "' in '" + v + "'");
+            a.labels.push_back(negative ? int64_t(0 - n) : int64_t(n));
+            at = comma + 1;
+        }
+        return Status::ok();
+    });
+    values.add("--query", [&a](const std::string& v) {
+        a.query = v;
+        a.hasQuery = true;
+        return Status::ok();
+    });
+    values.add("--box", [&a](const std::string& v) {
+        uint64_t n[6];
+        size_t at = 0;
+        for (int i = 0; i < 6; ++i) {
+            const size_t comma = i < 5 ? v.find(',', at) : v.size();
+            if (comma == std::string::npos || !parseUnsigned(v.substr(at, comma - at), 0xFFFFFFFFu, n[i]))
+                return Status::error("--box expects six non-negative integers x0,y0,z0,x1,y1,z1, not '" + v + "'");
+            at = comma + 1;
+        }
+        if (at != v.size() + 1)
+            return Status::error("--box expects six non-negative integers x0,y0,z0,x1,y1,z1, not '" + v + "'");
+        for (int c = 0; c < 3; ++c) {
+            a.box.min[c] = uint32_t(n[c]);
+            a.box.max[c] = uint32_t(n[c + 3]);
+        }
+        a.hasBox = true;
+        return Status::ok();
+    });
     values.add("--encoding", [&a](const std::string& v) {
         if (v == "nibble" || v == "0") a.encode.encoding = kEncodingNibble;
         else if (v == "rans1" || v == "1") a.encode.encoding = kEncodingRans1;
@@ -380,6 +448,84 @@ int cmdDecompress(const Args& a) {
         w = writeNrrd(out, *vol, g);
     }
     return w ? 0 : fail(w.message());
+}
+
+double peakRssMiB();
+
+int cmdExtract(const Args& a) {
+    if (a.positional.size() != 2)
+        return fail("extract expects: csgv extract IN.csgv OUT.nrrd|OUT.vraw --labels L1,L2,... | --query SQL [options]");
+    const std::string& in = a.positional[0];
+    const std::string& out = a.positional[1];
+    const bool nrrd = endsWithNoCase(out, ".nrrd");
+    if (!nrrd && !endsWithNoCase(out, ".vraw")) return fail("output '" + out + "' must end in .vraw or .nrrd");
+    if (a.hasLabels == a.hasQuery)
+        return fail(a.hasLabels ? "extract takes --labels or --query, not both"
+                                : "extract needs a selection: --labels L1,L2,... or --query SQL");
+    const auto t0 = std::chrono::steady_clock::now();
+    Result<CsgvFile> f = openCsgvMapped(in);
+    if (!f) return fail(f.message());
+    if (f->wideLabels && !a.mask && !nrrd)
+        return fail(in + ": the original labels do not fit uint32 (" + f->metadata.originalType +
+                    "); extract to .nrrd or extract a --mask instead");
+    ExtractOptions o;
+    o.mask = a.mask;
+    o.lod = a.level;
+    o.hasBox = a.hasBox;
+    o.box = a.box;
+    o.maxLabels = a.maxLabels;
+    o.maxOutputBytes = a.maxOutputMiB << 20;
+    o.threads = a.threads;
+    o.progress = [](double) { return !cancelRequested(); };
+    if (a.hasQuery) {
+        Result<std::vector<int64_t>> q = labelsMatchingQuery(*f, a.query);
+        if (!q) return fail(in + ": " + q.message());
+        if (q->empty()) return fail("the query selects no label of " + f->attributes.path + "; nothing written");
+        o.labels = std::move(*q);
+    } else {
+        o.labels = a.labels;
+    }
+    Result<ExtractResult> r = extractLabels(*f, o);
+    if (!r) return fail(in + ": " + r.message());
+    if (cancelRequested()) return fail("interrupted");
+    if (r->empty())
+        return fail("no voxel of the " + std::to_string(r->labelsSelected) + " selected labels lies " +
+                    (a.hasBox ? "in the box" : "in the volume") + " at level " + std::to_string(a.level) + " (" +
+                    std::to_string(r->bricksDecoded) + " of " + std::to_string(r->bricksTotal) +
+                    " bricks decoded); nothing written");
+    // Node (0,0,0) of the output is node `offset` of the level image: the corner geometry moves
+    // there, then NRRD takes the centre of the first node, as decompress writes it.
+    const Geometry g = pointGeometryFromCellGeometry(extractGeometry(f->metadata.geometry, a.level, r->offset));
+    Status w;
+    if (a.mask) {
+        w = nrrd ? writeNrrd(out, r->dim, "uint8", r->mask.data(), 1, g) : writeVrawUint8(out, r->dim, r->mask.data());
+    } else if (f->wideLabels) {
+        std::vector<int64_t> wide(r->labels.size());
+        for (size_t i = 0; i < wide.size(); ++i) wide[i] = r->labels[i] == kInvalidLabel ? 0 : f->originalLabel(r->labels[i]);
+        w = writeNrrd(out, r->dim, f->attributes.labelsUnsigned64 ? "uint64" : "int64", wide.data(), 8, g);
+    } else {
+        LabelVolume v;
+        v.dim = r->dim;
+        v.labels = std::move(r->labels);
+        w = nrrd ? writeNrrd(out, v, g) : writeVraw(out, v);
+    }
+    if (!w) return fail(w.message());
+    std::printf("output: %s\n", out.c_str());
+    std::printf("type: %s\n", a.mask ? "mask uint8" : "labels");
+    std::printf("level: %u\n", a.level);
+    std::printf("labels: %llu\n", (unsigned long long)r->labelsSelected);
+    std::printf("labels_found: %llu\n", (unsigned long long)r->labelsFound);
+    std::printf("bricks_total: %llu\n", (unsigned long long)r->bricksTotal);
+    std::printf("bricks_in_box: %llu\n", (unsigned long long)r->bricksInBox);
+    std::printf("bricks_decoded: %llu\n", (unsigned long long)r->bricksDecoded);
+    std::printf("bricks_with_voxels: %llu\n", (unsigned long long)r->bricksWithVoxels);
+    std::printf("voxels: %llu\n", (unsigned long long)r->voxels);
+    std::printf("box: %u %u %u %u %u %u\n", r->offset[0], r->offset[1], r->offset[2], r->offset[0] + r->dim[0],
+                r->offset[1] + r->dim[1], r->offset[2] + r->dim[2]);
+    std::printf("dimensions: %u %u %u\n", r->dim[0], r->dim[1], r->dim[2]);
+    std::printf("seconds: %.3f\n", seconds(t0));
+    std::printf("peak_memory_mib: %.1f\n", peakRssMiB());
+    return 0;
 }
 
 /// @brief Level 0 of a .csgv against any input, slab by slab: the source's values become the
@@ -697,6 +843,7 @@ int run(int argc, char** argv) {
     const std::string cmd = argv[1];
     if (cmd == "info") return cmdInfo(a);
     if (cmd == "decompress") return cmdDecompress(a);
+    if (cmd == "extract") return cmdExtract(a);
     if (cmd == "verify") return cmdVerify(a);
     if (cmd == "compress") return cmdCompress(a);
     if (cmd == "bench") return cmdBench(a);

@@ -107,6 +107,17 @@ Status writeVraw(const std::string& path, const LabelVolume& vol) {
     return s;
 }
 
+Status writeVrawUint8(const std::string& path, const std::array<uint32_t, 3>& dim, const uint8_t* values) {
+    const std::string header =
+        std::to_string(dim[0]) + " " + std::to_string(dim[1]) + " " + std::to_string(dim[2]) + "\nuint8\n";
+    AtomicFile f;
+    Status s = f.open(path);
+    if (s) s = f.write(header.data(), header.size());
+    if (s) s = f.write(values, size_t(uint64_t(dim[0]) * dim[1] * dim[2]));
+    if (s) s = f.commit();
+    return s;
+}
+
 Status writeNrrd(const std::string& path, const std::array<uint32_t, 3>& dim, const char* nrrdType,
                  const void* data, size_t bytesPerVoxel, const Geometry& g) {
     std::ostringstream h;

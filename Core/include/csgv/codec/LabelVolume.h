@@ -48,6 +48,8 @@ Result<LabelVolume> parseVraw(const std::vector<uint8_t>& bytes);
 std::vector<uint8_t> serializeVraw(const LabelVolume& vol);
 /// Writes `.vraw` (uint32) through a temporary file renamed into place.
 Status writeVraw(const std::string& path, const LabelVolume& vol);
+/// Writes `.vraw` with uint8 values (a mask), through a temporary file renamed into place.
+Status writeVrawUint8(const std::string& path, const std::array<uint32_t, 3>& dim, const uint8_t* values);
 /// Writes a raw little-endian NRRD of any voxel type ("uint32", "int64", ...) with its geometry
 /// (`origin` the centre of voxel 0), through a temporary file renamed into place.
 Status writeNrrd(const std::string& path, const std::array<uint32_t, 3>& dim, const char* nrrdType,
