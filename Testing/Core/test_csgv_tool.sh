@@ -167,6 +167,57 @@ fi
 expect 1 "info of a missing input" "$CSGV" info "$TMP/none.nrrd"
 "$CSGV" --help | grep -q "DIR.zarr" || bad "usage lacks the input forms"
 
+# extract: a label image equals the decompressed volume's voxels of the label in the reported box
+# (cut out of the full decode); a mask; key lines; bad selections leave no file.
+ATTR=$FIX/synthA_b32_rans2_attr.csgv
+expect 0 "extract labels" "$CSGV" extract "$DEF" "$TMP/x.vraw" --labels 1223801393,743171196
+for key in bricks_decoded bricks_total labels voxels box seconds; do
+  grep -q "^$key: " "$TMP/out" || bad "extract lacks key $key"
+done
+grep -qx "bricks_total: 105" "$TMP/out" || bad "extract bricks_total: $(grep bricks_total "$TMP/out")"
+grep -qx "bricks_decoded: 4" "$TMP/out" || bad "extract bricks_decoded: $(grep bricks_decoded "$TMP/out")"
+box=$(sed -n 's/^box: //p' "$TMP/out")
+"$CSGV" decompress "$DEF" "$TMP/full.vraw" >/dev/null
+/usr/bin/python3 - "$TMP/full.vraw" "$TMP/x.vraw" $box <<'PY' || bad "extract differs from the decompressed volume"
+import sys, numpy as np
+def vraw(p):
+    b = open(p, 'rb').read(); l1 = b.index(b'\n'); l2 = b.index(b'\n', l1 + 1)
+    w, h, d = map(int, b[:l1].split()); t = b[l1 + 1:l2].decode()
+    return np.frombuffer(b[l2 + 1:], dtype=t).reshape(d, h, w)
+full, got = vraw(sys.argv[1]), vraw(sys.argv[2])
+x0, y0, z0, x1, y1, z1 = map(int, sys.argv[3:9])
+cut = full[z0:z1, y0:y1, x0:x1]
+want = np.where(np.isin(cut, [1223801393, 743171196]), cut, 0)
+sel = np.isin(full, [1223801393, 743171196])
+zs, ys, xs = np.nonzero(sel)
+assert (zs.min(), ys.min(), xs.min(), zs.max() + 1, ys.max() + 1, xs.max() + 1) == (z0, y0, x0, z1, y1, x1), "box not tight"
+assert got.shape == want.shape and (got == want).all()
+PY
+expect 0 "extract mask nrrd level 1" "$CSGV" extract "$ATTR" "$TMP/m.nrrd" --labels 1223801393 --mask --level 1 --threads 1
+grep -aq "^type: uint8" "$TMP/m.nrrd" || bad "extract mask type"
+grep -aq "space directions: (2,0,0) (0,2,0) (0,0,2)" "$TMP/m.nrrd" || bad "extract level 1 spacing"
+expect 0 "extract query" "$CSGV" extract "$ATTR" "$TMP/q.nrrd" --query "voxels > 5000 and kind = 3" --mask
+expect 0 "extract with geometry" "$CSGV" extract "$TMP/g.csgv" "$TMP/g3.nrrd" --labels 3 --box 1,1,1,4,3,2
+grep -aq "space origin: (-89.5,-123,-69.5)" "$TMP/g3.nrrd" || bad "extract origin: $(grep -a 'space origin' "$TMP/g3.nrrd")"
+rm -f "$TMP"/e.*
+expect 1 "extract without a selection" "$CSGV" extract "$DEF" "$TMP/e.nrrd"
+expect 1 "extract empty selection" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --labels ,
+expect 1 "extract unknown labels" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --labels 1223801393,5,6
+grep -q "2 of the 3 selected labels occur nowhere.*: 5, 6" "$TMP/err" || bad "unknown labels message: $(cat "$TMP/err")"
+expect 1 "extract unknown labels (database)" "$CSGV" extract "$ATTR" "$TMP/e.nrrd" --labels 7
+expect 1 "extract box outside" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --labels 1223801393 --box 0,0,0,134,10,10
+expect 1 "extract bad box" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --labels 1223801393 --box 0,0,0,10,10
+expect 1 "extract too many labels" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --labels 1223801393,743171196 --max-labels 1
+expect 1 "extract over the output limit" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --labels 0 --max-output-mib 1
+grep -q "more than the output limit" "$TMP/err" || bad "output limit message: $(cat "$TMP/err")"
+expect 1 "extract empty result" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --labels 1223801393 --box 0,0,0,2,2,2
+grep -q "nothing written" "$TMP/err" || bad "empty result message: $(cat "$TMP/err")"
+expect 1 "extract bad query" "$CSGV" extract "$ATTR" "$TMP/e.nrrd" --query "voxels >"
+expect 1 "extract query without database" "$CSGV" extract "$DEF" "$TMP/e.nrrd" --query "voxels > 1"
+expect 1 "extract labels and query" "$CSGV" extract "$ATTR" "$TMP/e.nrrd" --query "voxels > 1" --labels 1
+expect 1 "extract bad extension" "$CSGV" extract "$DEF" "$TMP/e.raw" --labels 1223801393
+ls "$TMP"/e.* >/dev/null 2>&1 && bad "a failed extract left a file"
+
 # User errors.
 expect 1 "no arguments" "$CSGV"
 expect 0 "help" "$CSGV" --help
