@@ -133,7 +133,7 @@ void stableStep(Walker& w, int k) {
     float cp[3], dist[3];
     for (int i = 0; i < 3; ++i) {
         cv[i] = w.voxel[i] >> k;
-        cp[i] = (float(w.voxel[i] - (cv[i] << k)) + w.vpos[i]) * invS;
+        cp[i] = (float(w.voxel[i] - cv[i] * (1 << k)) + w.vpos[i]) * invS;
         cp[i] = std::min(cp[i], kOneMinusEpsilon);
         const float target = w.d[i] > 0.0f ? 1.0f : 0.0f;
         // Parallel to the axis: its planes are never crossed (render_common.glsl's NEVER).
@@ -155,7 +155,7 @@ void stableStep(Walker& w, int k) {
     for (int i = 0; i < 3; ++i) {
         const float fine = np[i] * s;
         const float fl = std::floor(fine);
-        w.voxel[i] = (cv[i] << k) + int(fl);
+        w.voxel[i] = cv[i] * (1 << k) + int(fl); // cv may be -1 (the walk leaving the volume): no shift of a negative
         w.vpos[i] = fine - fl;
     }
     w.t = w.t + dt;
