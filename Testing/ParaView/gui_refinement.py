@@ -9,6 +9,12 @@ from paraview.simple import *
 
 r = OpenDataFile(os.path.join(os.environ["CSGV_FIXTURES"], "synthA_b32_rans2.csgv"))
 d = Show(r)
+# The GUI's refinement slice reaches the representation as a property (internal: not in state
+# files), set by the auto-start when the representation was added.
+import sys
+from paraview import servermanager as sm
+sys.stderr.write("csgv slice: %g\n" % sm.vtkSMPropertyHelper(d.SMProxy, "CSGVRefinementSlice").GetAsDouble())
+sys.stderr.flush()
 d.CSGVShading = "pt"
 d.CSGVFramesPerStillRender = 12
 d.CSGVStillRenderTimeBudget = 0.05

@@ -2,7 +2,7 @@
 """Runs the ParaView GUI with the CSGV plugin and gui_refinement.py, with CSGV_TRACE_REFINEMENT
 on, and passes when the auto-start refined a Segmentation Volume from below its sample target
 to the target (the trace then reports no volume left to refine), and again after the script's
-interactive renders (the still render after them is marked "after interaction"). The GUI is closed afterwards.
+interactive renders, and the representation's CSGVRefinementSlice was set by the auto-start (the still render after them is marked "after interaction"). The GUI is closed afterwards.
 Usage: gui_refinement_driver.py PARAVIEW PLUGIN_DIR SCRIPT"""
 import os
 import subprocess
@@ -16,11 +16,13 @@ def main():
     gui = subprocess.Popen([paraview, "--plugin-search-paths=" + plugin_dir, "--plugins=CSGV",
                             "--script=" + script], env=env, stdout=subprocess.PIPE,
                            stderr=subprocess.STDOUT, text=True)
-    refined, converged, released, log = 0, False, False, []
+    refined, converged, released, log, slice_ = 0, False, False, [], None
     deadline = time.time() + 90
     try:
         for line in gui.stdout:
             log.append(line)
+            if line.startswith("csgv slice:"):
+                slice_ = float(line.split(":")[1])
             if "csgv refinement:" in line:
                 fewest = int(line.split("fewest samples")[1].split()[0])
                 released = released or "after interaction" in line
@@ -35,6 +37,10 @@ def main():
         gui.kill()
         gui.wait()
     sys.stdout.write("".join(l for l in log if "csgv refinement" in l or "ERR" in l or "bad X" in l))
+    if not slice_ or slice_ <= 0:
+        print("FAIL the representation's CSGVRefinementSlice is %r: the GUI's slice did not reach it" % slice_)
+        return 1
+    print("ok   the GUI set the representation's refinement slice (%g s)" % slice_)
     if converged and refined >= 2:
         print("ok   the GUI refined the volume over %d renders to its sample target, also after "
               "interactive renders" % refined)
