@@ -1,0 +1,383 @@
+// SPDX-License-Identifier: MIT
+#include "vtkCSGVExtractLabels.h"
+
+#include "CSGVAdapter.h"
+
+#include "csgv/codec/Extract.h"
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkDiscreteFlyingEdges3D.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+#include <vtkStringArray.h>
+#include <vtkTypeInt64Array.h>
+#include <vtkTypeUInt32Array.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+#include <set>
+
+vtkStandardNewMacro(vtkCSGVExtractLabels);
+
+class vtkCSGVExtractLabels::vtkInternals
+{
+public:
+  csgvvtk::EncodingMemo Encoding;
+};
+
+namespace
+{
+
+/// "3, 17 40" -> {3, 17, 40}; false with the first word that is not an integer.
+bool parseLabels(const std::string& text, std::vector<int64_t>& out, std::string& bad)
+{
+  std::string word;
+  auto flush = [&]() {
+    if (word.empty())
+    {
+      return true;
+    }
+    char* end = nullptr;
+    errno = 0;
+    const long long v = std::strtoll(word.c_str(), &end, 10);
+    if (errno != 0 || !end || *end != '\0')
+    {
+      bad = word;
+      return false;
+    }
+    out.push_back(int64_t(v));
+    word.clear();
+    return true;
+  };
+  for (char c : text)
+  {
+    if (std::isspace(static_cast<unsigned char>(c)) || c == ',' || c == ';')
+    {
+      if (!flush())
+      {
+        return false;
+      }
+    }
+    else
+    {
+      word += c;
+    }
+  }
+  return flush();
+}
+
+/// The opened file the FieldData describes: its encoding (views: no copy), geometry, and, for a
+/// relabelled file, its labels and attribute columns (the CSGVAttribute arrays).
+csgv::CsgvFile fileOf(const csgvvtk::EncodedInput& enc, vtkFieldData* fd)
+{
+  csgv::CsgvFile file;
+  file.path = "the input's CSGV encoding";
+  file.volume = enc.volume;
+  file.metadata.geometry = enc.geometry;
+  if (!enc.info.relabelled)
+  {
+    return file;
+  }
+  file.hasAttributes = true;
+  file.attributes.path = "the input's attribute arrays";
+  file.attributes.labelColumn = "label";
+  file.attributes.labels = enc.info.map;
+  file.attributes.labelsUnsigned64 = enc.info.unsigned64;
+  const size_t prefix = std::strlen(csgvvtk::kAttributePrefix);
+  for (int i = 0; fd && i < fd->GetNumberOfArrays(); ++i)
+  {
+    vtkAbstractArray* a = fd->GetAbstractArray(i);
+    if (!a || !a->GetName() || std::strncmp(a->GetName(), csgvvtk::kAttributePrefix, prefix) != 0 ||
+      a->GetNumberOfComponents() != 1 || size_t(a->GetNumberOfTuples()) != enc.info.map.size())
+    {
+      continue;
+    }
+    csgv::AttributeColumn c;
+    c.name = a->GetName() + prefix;
+    if (auto* d = vtkDataArray::SafeDownCast(a))
+    {
+      c.values.resize(size_t(d->GetNumberOfTuples()));
+      for (vtkIdType k = 0; k < d->GetNumberOfTuples(); ++k)
+      {
+        c.values[size_t(k)] = d->GetComponent(k, 0);
+      }
+    }
+    else if (auto* s = vtkStringArray::SafeDownCast(a))
+    {
+      c.numeric = false;
+      c.text.resize(size_t(s->GetNumberOfValues()));
+      for (vtkIdType k = 0; k < s->GetNumberOfValues(); ++k)
+      {
+        c.text[size_t(k)] = s->GetValue(k);
+      }
+    }
+    else
+    {
+      continue;
+    }
+    file.attributes.columns.push_back(std::move(c));
+  }
+  csgv::Result<std::vector<uint32_t>> narrow = file.attributes.labelsAsUint32();
+  if (narrow)
+  {
+    file.idToLabel = std::move(*narrow);
+  }
+  else
+  {
+    file.wideLabels = true;
+  }
+  return file;
+}
+
+} // namespace
+
+vtkCSGVExtractLabels::vtkCSGVExtractLabels()
+  : Internals(new vtkInternals)
+{
+}
+
+vtkCSGVExtractLabels::~vtkCSGVExtractLabels()
+{
+  delete this->Internals;
+}
+
+void vtkCSGVExtractLabels::SetLabels(const char* labels)
+{
+  const std::string v = labels ? labels : "";
+  if (v != this->Labels)
+  {
+    this->Labels = v;
+    this->Modified();
+  }
+}
+
+void vtkCSGVExtractLabels::SetQuery(const char* query)
+{
+  const std::string v = query ? query : "";
+  if (v != this->Query)
+  {
+    this->Query = v;
+    this->Modified();
+  }
+}
+
+int vtkCSGVExtractLabels::FillInputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
+  return 1;
+}
+
+int vtkCSGVExtractLabels::RequestUpdateExtent(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
+{
+  // The input's whole extent, as its representation asks for it, so the reader is not
+  // re-executed for another extent; it decodes nothing when its labels stay compressed.
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  int whole[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+  return 1;
+}
+
+int vtkCSGVExtractLabels::RequestData(
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkImageData* input = vtkImageData::GetData(inputVector[0], 0);
+  vtkPolyData* output = vtkPolyData::GetData(outputVector, 0);
+  if (!input || !output)
+  {
+    return 0;
+  }
+  output->Initialize();
+  this->BricksDecoded = this->BricksTotal = 0;
+  std::string error;
+  std::shared_ptr<const csgvvtk::EncodedInput> parsed = this->Internals->Encoding.get(input->GetFieldData(), error);
+  if (!parsed)
+  {
+    vtkErrorMacro(<< error << " (apply CSGV Extract Labels to the CSGV reader's output)");
+    return 1; // reported once; the output stays empty
+  }
+  const csgv::CsgvFile file = fileOf(*parsed, input->GetFieldData());
+
+  csgv::ExtractOptions o;
+  const bool byLabels = this->Labels.find_first_not_of(" \t\r\n,;") != std::string::npos;
+  const bool byQuery = this->Query.find_first_not_of(" \t\r\n") != std::string::npos;
+  if (byLabels == byQuery)
+  {
+    vtkErrorMacro(<< (byLabels ? "give Labels or a Query, not both" : "no labels selected: give Labels (e.g. \"3 17 40\") or a Query"));
+    return 1;
+  }
+  if (byLabels)
+  {
+    std::string bad;
+    if (!parseLabels(this->Labels, o.labels, bad))
+    {
+      vtkErrorMacro(<< "Labels: '" << bad << "' is not an integer label");
+      return 1;
+    }
+  }
+  else
+  {
+    csgv::Result<std::vector<int64_t>> matched = csgv::labelsMatchingQuery(file, this->Query);
+    if (!matched)
+    {
+      vtkErrorMacro(<< matched.message());
+      return 1;
+    }
+    if (matched->empty())
+    {
+      vtkWarningMacro(<< "the query selects no label");
+      return 1;
+    }
+    o.labels = std::move(*matched);
+  }
+  const std::array<uint32_t, 3>& dim = parsed->volume.dim;
+  o.hasBox = true;
+  for (int a = 0; a < 3; ++a)
+  {
+    const int lo = std::min(std::max(this->VOI[2 * a], 0), int(dim[size_t(a)]) - 1);
+    const int hi = std::min(std::max(this->VOI[2 * a + 1], lo), int(dim[size_t(a)]) - 1);
+    o.box.min[a] = uint32_t(lo);
+    o.box.max[a] = uint32_t(hi) + 1;
+  }
+  o.lod = uint32_t(std::min<int>(this->Level, int(parsed->volume.levels()) - 1));
+  o.maxLabels = uint64_t(this->MaxLabels);
+  o.maxOutputBytes = uint64_t(this->MaxOutputMiB) << 20;
+  o.progress = [this](double f) {
+    this->UpdateProgress(0.8 * f);
+    return !this->GetAbortExecute();
+  };
+  csgv::Result<csgv::ExtractResult> r = csgv::extractLabels(file, o);
+  if (!r)
+  {
+    vtkErrorMacro(<< r.message());
+    return 1;
+  }
+  this->BricksDecoded = int(std::min<uint64_t>(r->bricksDecoded, VTK_INT_MAX));
+  this->BricksTotal = int(std::min<uint64_t>(r->bricksTotal, VTK_INT_MAX));
+  if (r->empty())
+  {
+    vtkWarningMacro(<< "no voxel of the selected labels lies in the box");
+    return 1;
+  }
+
+  // The label image, one voxel of background around it (closed surfaces at the crop), as point
+  // samples at the voxel centres: in the output's corner index space (node (i,j,k) covers
+  // [i, i+1] x ...), padded point p is node p - 1, centred at p - 0.5.
+  const std::array<uint32_t, 3> d = r->dim;
+  vtkNew<vtkImageData> image;
+  image->SetDimensions(int(d[0]) + 2, int(d[1]) + 2, int(d[2]) + 2);
+  image->SetOrigin(-0.5, -0.5, -0.5);
+  image->SetSpacing(1, 1, 1);
+  vtkNew<vtkTypeUInt32Array> scalars;
+  scalars->SetName("Label");
+  scalars->SetNumberOfValues(vtkIdType(d[0] + 2) * (d[1] + 2) * (d[2] + 2));
+  // Stored ids where labels are wider than 32 bits (others: kInvalidLabel), shifted by one so
+  // that the background is 0; labels as they are otherwise (a selected label 0 cannot be told from
+  // the background: refused below).
+  const bool wide = file.wideLabels;
+  std::set<uint32_t> values;
+  uint32_t* s = scalars->GetPointer(0);
+  std::fill(s, s + scalars->GetNumberOfValues(), 0u);
+  for (uint32_t z = 0; z < d[2]; ++z)
+  {
+    for (uint32_t y = 0; y < d[1]; ++y)
+    {
+      const uint32_t* row = r->labels.data() + size_t(d[0]) * (y + size_t(d[1]) * z);
+      uint32_t* to = s + 1 + size_t(d[0] + 2) * ((y + 1) + size_t(d[1] + 2) * (z + 1));
+      for (uint32_t x = 0; x < d[0]; ++x)
+      {
+        const uint32_t v = wide ? (row[x] == csgv::kInvalidLabel ? 0u : row[x] + 1) : row[x];
+        to[x] = v;
+        if (v)
+        {
+          values.insert(v);
+        }
+      }
+    }
+  }
+  if (!wide && std::find(o.labels.begin(), o.labels.end(), 0) != o.labels.end())
+  {
+    vtkWarningMacro(<< "label 0 is the background of the meshes: it gets no surface");
+  }
+  image->GetPointData()->SetScalars(scalars);
+  vtkNew<vtkDiscreteFlyingEdges3D> contour;
+  contour->SetInputData(image);
+  contour->ComputeScalarsOn();
+  contour->ComputeNormalsOff();
+  contour->ComputeGradientsOff();
+  int n = 0;
+  for (uint32_t v : values)
+  {
+    contour->SetValue(n++, double(v));
+  }
+  contour->Update();
+  this->UpdateProgress(0.9);
+  vtkPolyData* mesh = contour->GetOutput();
+
+  // World coordinates: the extracted image's corner geometry (spacing * 2^level, origin at its
+  // first node's corner, the volume's direction).
+  const csgv::Geometry g = csgv::extractGeometry(parsed->geometry, r->lod, r->offset);
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(mesh->GetNumberOfPoints());
+  for (vtkIdType i = 0; i < mesh->GetNumberOfPoints(); ++i)
+  {
+    double p[3];
+    mesh->GetPoint(i, p);
+    double w[3];
+    for (int row = 0; row < 3; ++row)
+    {
+      w[row] = g.origin[size_t(row)];
+      for (int c = 0; c < 3; ++c)
+      {
+        w[row] += g.direction[size_t(3 * row + c)] * g.spacing[size_t(c)] * p[c];
+      }
+    }
+    points->SetPoint(i, w);
+  }
+  output->SetPoints(points);
+  output->SetPolys(mesh->GetPolys());
+  // The label of each triangle (all its vertices carry it), as the original label.
+  vtkDataArray* pointLabels = mesh->GetPointData()->GetScalars();
+  vtkNew<vtkTypeInt64Array> cellLabels;
+  cellLabels->SetName("Label");
+  cellLabels->SetNumberOfValues(mesh->GetNumberOfCells());
+  vtkCellArray* polys = mesh->GetPolys();
+  vtkIdType cell = 0;
+  polys->InitTraversal();
+  vtkIdType npts = 0;
+  const vtkIdType* pts = nullptr;
+  while (polys->GetNextCell(npts, pts))
+  {
+    const uint32_t v = pointLabels && npts > 0 ? uint32_t(pointLabels->GetComponent(pts[0], 0)) : 0u;
+    cellLabels->SetValue(cell++, wide ? file.originalLabel(v - 1) : int64_t(v));
+  }
+  output->GetCellData()->AddArray(cellLabels);
+  output->GetCellData()->SetActiveScalars("Label");
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+void vtkCSGVExtractLabels::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "Labels: " << this->Labels << "\n";
+  os << indent << "Query: " << this->Query << "\n";
+  os << indent << "VOI: " << this->VOI[0] << " " << this->VOI[1] << " " << this->VOI[2] << " "
+     << this->VOI[3] << " " << this->VOI[4] << " " << this->VOI[5] << "\n";
+  os << indent << "Level: " << this->Level << "\n";
+  os << indent << "BricksDecoded: " << this->BricksDecoded << " of " << this->BricksTotal << "\n";
+}

@@ -1,0 +1,77 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @class vtkCSGVExtractLabels
+ * @brief Surface meshes of a selection of labels of the CSGV encoding carried by its input (the
+ * FieldData of vtkCSGVReader's output), decoded from only the bricks whose palettes hold a
+ * selected label (csgv::extractLabels, issue 41).
+ *
+ * The selection: Labels (original labels, separated by spaces or commas) or Query (an SQL
+ * condition over the attribute columns of a relabelled file, e.g. `voxels > 1000`), within the
+ * voxel box VOI (inclusive, full resolution, as vtkCSGVExtract's) at level Level. The output is
+ * one closed surface per label around its voxels (discrete flying edges over the voxel centres:
+ * every vertex lies on a face between a selected voxel and another), triangles with the label as
+ * cell data "Label", in world coordinates that overlay the volume. Memory is bounded by the
+ * selection's bounding box, never the volume; MaxLabels (default 1,000,000) and MaxOutputMiB
+ * (the label image the meshes are made from, default 4096) refuse larger selections with a
+ * message. BricksDecoded and BricksTotal tell what it took.
+ */
+#ifndef vtkCSGVExtractLabels_h
+#define vtkCSGVExtractLabels_h
+
+#include "CSGVReadersModule.h"
+#include "vtkPolyDataAlgorithm.h"
+
+#include <string>
+
+class CSGVREADERS_EXPORT vtkCSGVExtractLabels : public vtkPolyDataAlgorithm
+{
+public:
+  static vtkCSGVExtractLabels* New();
+  vtkTypeMacro(vtkCSGVExtractLabels, vtkPolyDataAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  /// Original labels, separated by spaces or commas ("" with a Query).
+  void SetLabels(const char* labels);
+  const char* GetLabels() { return this->Labels.c_str(); }
+  /// An SQL condition over the attribute columns selecting labels ("" with Labels).
+  void SetQuery(const char* query);
+  const char* GetQuery() { return this->Query.c_str(); }
+  /// Inclusive voxel box at full resolution: xmin, xmax, ymin, ymax, zmin, zmax.
+  vtkSetVector6Macro(VOI, int);
+  vtkGetVector6Macro(VOI, int);
+  /// Level of detail, 0 (full resolution) to the file's coarsest level (clamped).
+  vtkSetClampMacro(Level, int, 0, 7);
+  vtkGetMacro(Level, int);
+  vtkSetClampMacro(MaxLabels, int, 1, VTK_INT_MAX);
+  vtkGetMacro(MaxLabels, int);
+  vtkSetClampMacro(MaxOutputMiB, int, 1, VTK_INT_MAX);
+  vtkGetMacro(MaxOutputMiB, int);
+
+  /// What the last execution decoded: bricks whose palettes hold a selected label, of all.
+  vtkGetMacro(BricksDecoded, int);
+  vtkGetMacro(BricksTotal, int);
+
+protected:
+  vtkCSGVExtractLabels();
+  ~vtkCSGVExtractLabels() override;
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+  std::string Labels;
+  std::string Query;
+  int VOI[6] = { 0, VTK_INT_MAX, 0, VTK_INT_MAX, 0, VTK_INT_MAX };
+  int Level = 0;
+  int MaxLabels = 1000000;
+  int MaxOutputMiB = 4096;
+  int BricksDecoded = 0;
+  int BricksTotal = 0;
+
+private:
+  vtkCSGVExtractLabels(const vtkCSGVExtractLabels&) = delete;
+  void operator=(const vtkCSGVExtractLabels&) = delete;
+  class vtkInternals; ///< the input's encoding, parsed once per encoding array and time
+  vtkInternals* Internals;
+};
+
+#endif
