@@ -6,6 +6,8 @@
 
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
+#include <vtkExecutive.h>
+#include <vtkInformationExecutivePortKey.h>
 #include <vtkFieldData.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
@@ -42,14 +44,41 @@ int vtkCSGVExtract::FillInputPortInformation(int, vtkInformation* info)
   return 1;
 }
 
+namespace
+{
+/// The reader's output information behind `inInfo`: ParaView puts a vtkPVPostFilter (array
+/// conversions) after every source, which does not pass the reader's own keys on; look through
+/// it (and only it: any other filter between may have changed the volume).
+vtkInformation* readerInformation(vtkInformation* inInfo)
+{
+  vtkInformation* info = inInfo;
+  for (int depth = 0; info && depth < 4; ++depth)
+  {
+    if (info->Has(vtkCSGVReader::CSGV_DIMENSIONS()) && info->Has(vtkCSGVReader::CSGV_LEVELS()) &&
+      info->Has(vtkCSGVReader::CSGV_GEOMETRY()))
+    {
+      return info;
+    }
+    vtkExecutive* producer = vtkExecutive::PRODUCER()->GetExecutive(info);
+    vtkAlgorithm* algorithm = producer ? producer->GetAlgorithm() : nullptr;
+    if (!algorithm || !algorithm->IsA("vtkPVPostFilter") || algorithm->GetNumberOfInputPorts() < 1 ||
+      algorithm->GetNumberOfInputConnections(0) < 1)
+    {
+      return nullptr;
+    }
+    info = algorithm->GetInputInformation(0, 0);
+  }
+  return nullptr;
+}
+} // namespace
+
 bool vtkCSGVExtract::InputVolumeInfo(vtkInformation* inInfo, int dims[3], int& levels, double geometry[15])
 {
-  if (inInfo->Has(vtkCSGVReader::CSGV_DIMENSIONS()) && inInfo->Has(vtkCSGVReader::CSGV_LEVELS()) &&
-    inInfo->Has(vtkCSGVReader::CSGV_GEOMETRY()))
+  if (vtkInformation* info = readerInformation(inInfo))
   {
-    inInfo->Get(vtkCSGVReader::CSGV_DIMENSIONS(), dims);
-    levels = inInfo->Get(vtkCSGVReader::CSGV_LEVELS());
-    inInfo->Get(vtkCSGVReader::CSGV_GEOMETRY(), geometry);
+    info->Get(vtkCSGVReader::CSGV_DIMENSIONS(), dims);
+    levels = info->Get(vtkCSGVReader::CSGV_LEVELS());
+    info->Get(vtkCSGVReader::CSGV_GEOMETRY(), geometry);
     return true;
   }
   // Not straight from the reader: use the encoding of data that already exists upstream.

@@ -141,6 +141,100 @@ csgv::CsgvFile fileOf(const csgvvtk::EncodedInput& enc, vtkFieldData* fd)
   return file;
 }
 
+
+/// Labels extracted one by one (each in its own bounding box) up to this many; more at once.
+constexpr size_t kLabelsOneByOne = 256;
+
+/// Appends the surfaces of an extracted label image to `points`/`polys`/`labels`: discrete flying
+/// edges over the voxel centres (one voxel of background around, so the surfaces close at the
+/// crop), in world coordinates (the extracted image's corner geometry), the original label per
+/// triangle.
+void appendMeshes(const csgv::ExtractResult& r, const csgv::CsgvFile& file, const csgv::Geometry& volume,
+  vtkPoints* points, vtkCellArray* polys, vtkTypeInt64Array* labels)
+{
+  // In the output's corner index space (node (i,j,k) covers [i, i+1] x ...), padded point p is
+  // node p - 1, centred at p - 0.5.
+  const std::array<uint32_t, 3> d = r.dim;
+  vtkNew<vtkImageData> image;
+  image->SetDimensions(int(d[0]) + 2, int(d[1]) + 2, int(d[2]) + 2);
+  image->SetOrigin(-0.5, -0.5, -0.5);
+  image->SetSpacing(1, 1, 1);
+  vtkNew<vtkTypeUInt32Array> scalars;
+  scalars->SetName("Label");
+  scalars->SetNumberOfValues(vtkIdType(d[0] + 2) * (d[1] + 2) * (d[2] + 2));
+  // Stored ids where labels are wider than 32 bits (others: kInvalidLabel), shifted by one so
+  // that the background is 0; labels as they are otherwise (label 0 is the background).
+  const bool wide = file.wideLabels;
+  std::set<uint32_t> values;
+  uint32_t* s = scalars->GetPointer(0);
+  std::fill(s, s + scalars->GetNumberOfValues(), 0u);
+  for (uint32_t z = 0; z < d[2]; ++z)
+  {
+    for (uint32_t y = 0; y < d[1]; ++y)
+    {
+      const uint32_t* row = r.labels.data() + size_t(d[0]) * (y + size_t(d[1]) * z);
+      uint32_t* to = s + 1 + size_t(d[0] + 2) * ((y + 1) + size_t(d[1] + 2) * (z + 1));
+      for (uint32_t x = 0; x < d[0]; ++x)
+      {
+        const uint32_t v = wide ? (row[x] == csgv::kInvalidLabel ? 0u : row[x] + 1) : row[x];
+        to[x] = v;
+        if (v)
+        {
+          values.insert(v);
+        }
+      }
+    }
+  }
+  image->GetPointData()->SetScalars(scalars);
+  vtkNew<vtkDiscreteFlyingEdges3D> contour;
+  contour->SetInputData(image);
+  contour->ComputeScalarsOn();
+  contour->ComputeNormalsOff();
+  contour->ComputeGradientsOff();
+  int n = 0;
+  for (uint32_t v : values)
+  {
+    contour->SetValue(n++, double(v));
+  }
+  contour->Update();
+  vtkPolyData* mesh = contour->GetOutput();
+
+  const csgv::Geometry g = csgv::extractGeometry(volume, r.lod, r.offset);
+  const vtkIdType first = points->GetNumberOfPoints();
+  for (vtkIdType i = 0; i < mesh->GetNumberOfPoints(); ++i)
+  {
+    double p[3];
+    mesh->GetPoint(i, p);
+    double w[3];
+    for (int row = 0; row < 3; ++row)
+    {
+      w[row] = g.origin[size_t(row)];
+      for (int c = 0; c < 3; ++c)
+      {
+        w[row] += g.direction[size_t(3 * row + c)] * g.spacing[size_t(c)] * p[c];
+      }
+    }
+    points->InsertNextPoint(w);
+  }
+  vtkDataArray* pointLabels = mesh->GetPointData()->GetScalars();
+  vtkCellArray* cells = mesh->GetPolys();
+  cells->InitTraversal();
+  vtkIdType npts = 0;
+  const vtkIdType* pts = nullptr;
+  std::vector<vtkIdType> shifted;
+  while (cells->GetNextCell(npts, pts))
+  {
+    shifted.assign(pts, pts + npts);
+    for (vtkIdType& id : shifted)
+    {
+      id += first;
+    }
+    polys->InsertNextCell(npts, shifted.data());
+    const uint32_t v = pointLabels && npts > 0 ? uint32_t(pointLabels->GetComponent(pts[0], 0)) : 0u;
+    labels->InsertNextValue(wide ? file.originalLabel(v - 1) : int64_t(v));
+  }
+}
+
 } // namespace
 
 vtkCSGVExtractLabels::vtkCSGVExtractLabels()
@@ -255,116 +349,72 @@ int vtkCSGVExtractLabels::RequestData(
   o.lod = uint32_t(std::min<int>(this->Level, int(parsed->volume.levels()) - 1));
   o.maxLabels = uint64_t(this->MaxLabels);
   o.maxOutputBytes = uint64_t(this->MaxOutputMiB) << 20;
-  o.progress = [this](double f) {
-    this->UpdateProgress(0.8 * f);
-    return !this->GetAbortExecute();
-  };
-  csgv::Result<csgv::ExtractResult> r = csgv::extractLabels(file, o);
-  if (!r)
+  // One extraction per label while there are few (each label's own bounding box: scattered
+  // labels do not make one box of the whole volume), else one for all.
+  const std::vector<int64_t> selected = o.labels;
+  std::vector<std::vector<int64_t>> groups;
+  if (o.labels.size() <= kLabelsOneByOne)
   {
-    vtkErrorMacro(<< r.message());
+    std::set<int64_t> distinct(o.labels.begin(), o.labels.end());
+    for (int64_t l : distinct)
+    {
+      groups.push_back({ l });
+    }
+  }
+  else
+  {
+    groups.push_back(o.labels);
+  }
+  if (selected.size() > uint64_t(this->MaxLabels))
+  {
+    vtkErrorMacro(<< selected.size() << " labels selected, more than MaxLabels (" << this->MaxLabels << ")");
     return 1;
   }
-  this->BricksDecoded = int(std::min<uint64_t>(r->bricksDecoded, VTK_INT_MAX));
-  this->BricksTotal = int(std::min<uint64_t>(r->bricksTotal, VTK_INT_MAX));
-  if (r->empty())
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  vtkNew<vtkCellArray> polys;
+  vtkNew<vtkTypeInt64Array> cellLabels;
+  cellLabels->SetName("Label");
+  uint64_t decoded = 0, total = 0;
+  bool any = false;
+  for (size_t gi = 0; gi < groups.size(); ++gi)
+  {
+    o.labels = groups[gi];
+    const double from = double(gi) / double(groups.size()), width = 1.0 / double(groups.size());
+    o.progress = [this, from, width](double f) {
+      this->UpdateProgress(from + 0.8 * width * f);
+      return !this->GetAbortExecute();
+    };
+    csgv::Result<csgv::ExtractResult> r = csgv::extractLabels(file, o);
+    if (!r)
+    {
+      vtkErrorMacro(<< r.message());
+      output->Initialize();
+      return 1;
+    }
+    decoded += r->bricksDecoded;
+    total = r->bricksTotal;
+    if (r->empty())
+    {
+      continue;
+    }
+    any = true;
+    appendMeshes(*r, file, parsed->geometry, points, polys, cellLabels);
+    this->UpdateProgress(from + width);
+  }
+  this->BricksDecoded = int(std::min<uint64_t>(decoded, VTK_INT_MAX));
+  this->BricksTotal = int(std::min<uint64_t>(total, VTK_INT_MAX));
+  if (!any)
   {
     vtkWarningMacro(<< "no voxel of the selected labels lies in the box");
     return 1;
   }
-
-  // The label image, one voxel of background around it (closed surfaces at the crop), as point
-  // samples at the voxel centres: in the output's corner index space (node (i,j,k) covers
-  // [i, i+1] x ...), padded point p is node p - 1, centred at p - 0.5.
-  const std::array<uint32_t, 3> d = r->dim;
-  vtkNew<vtkImageData> image;
-  image->SetDimensions(int(d[0]) + 2, int(d[1]) + 2, int(d[2]) + 2);
-  image->SetOrigin(-0.5, -0.5, -0.5);
-  image->SetSpacing(1, 1, 1);
-  vtkNew<vtkTypeUInt32Array> scalars;
-  scalars->SetName("Label");
-  scalars->SetNumberOfValues(vtkIdType(d[0] + 2) * (d[1] + 2) * (d[2] + 2));
-  // Stored ids where labels are wider than 32 bits (others: kInvalidLabel), shifted by one so
-  // that the background is 0; labels as they are otherwise (a selected label 0 cannot be told from
-  // the background: refused below).
-  const bool wide = file.wideLabels;
-  std::set<uint32_t> values;
-  uint32_t* s = scalars->GetPointer(0);
-  std::fill(s, s + scalars->GetNumberOfValues(), 0u);
-  for (uint32_t z = 0; z < d[2]; ++z)
-  {
-    for (uint32_t y = 0; y < d[1]; ++y)
-    {
-      const uint32_t* row = r->labels.data() + size_t(d[0]) * (y + size_t(d[1]) * z);
-      uint32_t* to = s + 1 + size_t(d[0] + 2) * ((y + 1) + size_t(d[1] + 2) * (z + 1));
-      for (uint32_t x = 0; x < d[0]; ++x)
-      {
-        const uint32_t v = wide ? (row[x] == csgv::kInvalidLabel ? 0u : row[x] + 1) : row[x];
-        to[x] = v;
-        if (v)
-        {
-          values.insert(v);
-        }
-      }
-    }
-  }
-  if (!wide && std::find(o.labels.begin(), o.labels.end(), 0) != o.labels.end())
+  if (!file.wideLabels && std::find(selected.begin(), selected.end(), 0) != selected.end())
   {
     vtkWarningMacro(<< "label 0 is the background of the meshes: it gets no surface");
   }
-  image->GetPointData()->SetScalars(scalars);
-  vtkNew<vtkDiscreteFlyingEdges3D> contour;
-  contour->SetInputData(image);
-  contour->ComputeScalarsOn();
-  contour->ComputeNormalsOff();
-  contour->ComputeGradientsOff();
-  int n = 0;
-  for (uint32_t v : values)
-  {
-    contour->SetValue(n++, double(v));
-  }
-  contour->Update();
-  this->UpdateProgress(0.9);
-  vtkPolyData* mesh = contour->GetOutput();
-
-  // World coordinates: the extracted image's corner geometry (spacing * 2^level, origin at its
-  // first node's corner, the volume's direction).
-  const csgv::Geometry g = csgv::extractGeometry(parsed->geometry, r->lod, r->offset);
-  vtkNew<vtkPoints> points;
-  points->SetDataTypeToDouble();
-  points->SetNumberOfPoints(mesh->GetNumberOfPoints());
-  for (vtkIdType i = 0; i < mesh->GetNumberOfPoints(); ++i)
-  {
-    double p[3];
-    mesh->GetPoint(i, p);
-    double w[3];
-    for (int row = 0; row < 3; ++row)
-    {
-      w[row] = g.origin[size_t(row)];
-      for (int c = 0; c < 3; ++c)
-      {
-        w[row] += g.direction[size_t(3 * row + c)] * g.spacing[size_t(c)] * p[c];
-      }
-    }
-    points->SetPoint(i, w);
-  }
   output->SetPoints(points);
-  output->SetPolys(mesh->GetPolys());
-  // The label of each triangle (all its vertices carry it), as the original label.
-  vtkDataArray* pointLabels = mesh->GetPointData()->GetScalars();
-  vtkNew<vtkTypeInt64Array> cellLabels;
-  cellLabels->SetName("Label");
-  cellLabels->SetNumberOfValues(mesh->GetNumberOfCells());
-  vtkCellArray* polys = mesh->GetPolys();
-  vtkIdType cell = 0;
-  polys->InitTraversal();
-  vtkIdType npts = 0;
-  const vtkIdType* pts = nullptr;
-  while (polys->GetNextCell(npts, pts))
-  {
-    const uint32_t v = pointLabels && npts > 0 ? uint32_t(pointLabels->GetComponent(pts[0], 0)) : 0u;
-    cellLabels->SetValue(cell++, wide ? file.originalLabel(v - 1) : int64_t(v));
-  }
+  output->SetPolys(polys);
   output->GetCellData()->AddArray(cellLabels);
   output->GetCellData()->SetActiveScalars("Label");
   this->UpdateProgress(1.0);
