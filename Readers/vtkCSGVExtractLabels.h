@@ -13,7 +13,9 @@
  * cell data "Label", in world coordinates that overlay the volume. Memory is bounded by the
  * selection's bounding box, never the volume; MaxLabels (default 1,000,000) and MaxOutputMiB
  * (the label image the meshes are made from, default 4096) refuse larger selections with a
- * message. BricksDecoded and BricksTotal tell what it took.
+ * message. Up to 256 labels are meshed one by one, each in its own bounding box (scattered
+ * labels would otherwise make one box of most of the volume). BricksDecoded and BricksTotal
+ * tell what it took.
  */
 #ifndef vtkCSGVExtractLabels_h
 #define vtkCSGVExtractLabels_h
@@ -47,7 +49,8 @@ public:
   vtkSetClampMacro(MaxOutputMiB, int, 1, VTK_INT_MAX);
   vtkGetMacro(MaxOutputMiB, int);
 
-  /// What the last execution decoded: bricks whose palettes hold a selected label, of all.
+  /// What the last execution decoded: brick decodes (only bricks whose palettes hold a selected
+  /// label, once per such label: labels are meshed one by one), and the volume's bricks.
   vtkGetMacro(BricksDecoded, int);
   vtkGetMacro(BricksTotal, int);
 
