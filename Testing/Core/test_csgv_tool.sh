@@ -218,6 +218,26 @@ expect 1 "extract labels and query" "$CSGV" extract "$ATTR" "$TMP/e.nrrd" --quer
 expect 1 "extract bad extension" "$CSGV" extract "$DEF" "$TMP/e.raw" --labels 1223801393
 ls "$TMP"/e.* >/dev/null 2>&1 && bad "a failed extract left a file"
 
+# extract to meshes: key lines, formats, counts; --mask, unknown labels and an unwritable path
+# leave no file (test_mesh.cpp checks the faces against the decoded volume).
+for ext in obj ply stl; do
+  expect 0 "extract mesh $ext" "$CSGV" extract "$DEF" "$TMP/mesh.$ext" --labels 1223801393,743171196
+  for key in output type labels labels_with_voxels vertices faces triangles seconds; do
+    grep -q "^$key: " "$TMP/out" || bad "extract mesh $ext lacks key $key"
+  done
+done
+[ "$(grep -c '^g label_' "$TMP/mesh.obj")" = 2 ] || bad "extract obj groups"
+faces=$(sed -n 's/^triangles: //p' "$TMP/out")
+[ "$(grep -c '^f ' "$TMP/mesh.obj")" = "$faces" ] || bad "extract obj triangle count"
+head -c 200 "$TMP/mesh.ply" | grep -aq "element face $faces" || bad "extract ply face count"
+[ "$(stat -c %s "$TMP/mesh.stl")" = "$((84 + 50 * faces))" ] || bad "extract stl size"
+expect 1 "extract mesh with --mask" "$CSGV" extract "$DEF" "$TMP/e.obj" --labels 1223801393 --mask
+grep -q "no --mask" "$TMP/err" || bad "mesh --mask message: $(cat "$TMP/err")"
+expect 1 "extract mesh unknown label" "$CSGV" extract "$DEF" "$TMP/e.ply" --labels 1223801393,5
+expect 1 "extract mesh unwritable" "$CSGV" extract "$DEF" "$TMP/none/e.stl" --labels 1223801393
+expect 1 "extract mesh empty result" "$CSGV" extract "$DEF" "$TMP/e.stl" --labels 1223801393 --box 0,0,0,2,2,2
+ls "$TMP"/e.* "$TMP"/*.tmp-* >/dev/null 2>&1 && bad "a failed mesh extract left a file"
+
 # User errors.
 expect 1 "no arguments" "$CSGV"
 expect 0 "help" "$CSGV" --help
