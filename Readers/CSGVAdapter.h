@@ -41,6 +41,7 @@ class vtkAbstractArray;
 class vtkDataArray;
 class vtkFieldData;
 class vtkImageData;
+class vtkInformation;
 class vtkUnsignedCharArray;
 
 namespace csgvvtk
@@ -245,6 +246,11 @@ private:
 /// at some level (the reader's output); false for images derived from it (Extract's sub-boxes,
 /// resampled data) that still carry the FieldData.
 bool encodingDescribes(vtkImageData* image, const csgv::Geometry& g, const std::array<uint32_t, 3>& dims);
+
+/// Asks the input for its whole extent (a filter of the encoding, RequestUpdateExtent), as its
+/// representation asks for it, so the reader is not executed again for another extent; it
+/// decodes nothing when its labels stay compressed.
+void requestWholeInput(vtkInformation* inInfo);
 
 /// Sets spacing, origin and direction of `image` for level `lod` of a corner-origin geometry.
 void applyGeometry(vtkImageData* image, const csgv::Geometry& corner, uint32_t lod);

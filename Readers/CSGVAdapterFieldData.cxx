@@ -11,6 +11,7 @@
 #include <vtkInformationVector.h>
 #include <vtkIntArray.h>
 #include <vtkNew.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
 #include <vtkStringArray.h>
 #include <vtkUnsignedCharArray.h>
 
@@ -204,6 +205,13 @@ std::array<long, 3> pieceOffset(vtkFieldData* fd)
 vtkUnsignedCharArray* encodingArray(vtkFieldData* fd)
 {
   return fd ? vtkUnsignedCharArray::SafeDownCast(fd->GetAbstractArray(kEncodingName)) : nullptr;
+}
+
+void requestWholeInput(vtkInformation* inInfo)
+{
+  int whole[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
 }
 
 vtkSmartPointer<vtkUnsignedCharArray> newEncodingArray(uint64_t bytes)

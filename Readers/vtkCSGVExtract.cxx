@@ -143,12 +143,7 @@ int vtkCSGVExtract::RequestInformation(
 int vtkCSGVExtract::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
-  // The input's whole extent, as its representation asks for it, so the reader is not
-  // re-executed for another extent; it decodes nothing when its labels stay compressed.
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  int whole[6];
-  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+  csgvvtk::requestWholeInput(inputVector[0]->GetInformationObject(0));
   return 1;
 }
 
