@@ -62,7 +62,7 @@ std::string usage() {
            "      columns) as a label image (others 0) or a uint8 mask (--mask), cropped to their bounding\n"
            "      box, decoding only the bricks whose palettes hold one; --box in full-resolution voxels,\n"
            "      half-open; NRRD origin and spacing overlay the volume; limits: 1000000 labels, 4096 MiB\n"
-           "  extract IN.csgv OUT.obj|OUT.ply|OUT.stl --labels L1,L2,... | --query SQL [--level L] [--box ...]\n"
+           "  extract IN.csgv OUT.obj|OUT.ply|OUT.stl|OUT.vtp --labels L1,L2,... | --query SQL [--level L] [--box ...]\n"
            "      voxel-face surfaces of the selected labels in world coordinates, each label extracted on\n"
            "      its own (OBJ: a group label_L per label; PLY: a label per face; STL: no labels)\n"
            "  verify IN.csgv SOURCE [--threads N]\n"
@@ -470,7 +470,7 @@ int extractMesh(const CsgvFile& f, const ExtractOptions& o, const Args& a, const
                     "; nothing written");
     if (Status st = writer.commit(); !st) return fail(st.message());
     std::printf("output: %s\n", out.c_str());
-    std::printf("type: mesh %s\n", format == MeshFormat::Obj ? "obj" : format == MeshFormat::Ply ? "ply" : "stl");
+    std::printf("type: mesh %s\n", format == MeshFormat::Obj ? "obj" : format == MeshFormat::Ply ? "ply" : format == MeshFormat::Vtp ? "vtp" : "stl");
     std::printf("level: %u\n", a.level);
     std::printf("labels: %llu\n", (unsigned long long)r->labelsSelected);
     std::printf("labels_with_voxels: %llu\n", (unsigned long long)r->labelsWithVoxels);
@@ -487,14 +487,14 @@ int extractMesh(const CsgvFile& f, const ExtractOptions& o, const Args& a, const
 
 int cmdExtract(const Args& a) {
     if (a.positional.size() != 2)
-        return fail("extract expects: csgv extract IN.csgv OUT.nrrd|OUT.vraw|OUT.obj|OUT.ply|OUT.stl --labels L1,L2,... | --query SQL [options]");
+        return fail("extract expects: csgv extract IN.csgv OUT.nrrd|OUT.vraw|OUT.obj|OUT.ply|OUT.stl|OUT.vtp --labels L1,L2,... | --query SQL [options]");
     const std::string& in = a.positional[0];
     const std::string& out = a.positional[1];
     const bool nrrd = endsWithNoCase(out, ".nrrd");
     MeshFormat meshFormat = MeshFormat::Obj;
     const bool mesh = meshFormatFor(out, meshFormat);
     if (!nrrd && !mesh && !endsWithNoCase(out, ".vraw"))
-        return fail("output '" + out + "' must end in .vraw, .nrrd, .obj, .ply or .stl");
+        return fail("output '" + out + "' must end in .vraw, .nrrd, .obj, .ply, .stl or .vtp");
     if (mesh && a.mask) return fail("--mask is for label images (.nrrd, .vraw); a mesh output (" + out + ") takes no --mask");
     if (a.hasLabels == a.hasQuery)
         return fail(a.hasLabels ? "extract takes --labels or --query, not both"

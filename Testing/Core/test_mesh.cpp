@@ -228,8 +228,11 @@ TEST(Mesh, WritersReadBack) {
     }
     const std::string dir = tempDir() + "/mesh_rt";
     std::filesystem::create_directories(dir);
-    for (MeshFormat fmt : {MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Stl}) {
-        const std::string path = dir + (fmt == MeshFormat::Obj ? "/m.obj" : fmt == MeshFormat::Ply ? "/m.ply" : "/m.stl");
+    for (MeshFormat fmt : {MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Stl, MeshFormat::Vtp}) {
+        const std::string path = dir + (fmt == MeshFormat::Obj ? "/m.obj"
+                                        : fmt == MeshFormat::Ply ? "/m.ply"
+                                        : fmt == MeshFormat::Vtp ? "/m.vtp"
+                                                                 : "/m.stl");
         {
             MeshFileWriter w;
             ASSERT_TRUE(w.open(path, fmt, o.labels).isOk());
@@ -287,6 +290,28 @@ TEST(Mesh, WritersReadBack) {
                 for (int k = 0; k < 3; ++k) ASSERT_EQ(get<uint32_t>(b, at), tris[i][size_t(k)]);
                 ASSERT_EQ(wide ? get<int64_t>(b, at) : int64_t(get<int32_t>(b, at)), triLabel[i]);
             }
+        } else if (fmt == MeshFormat::Vtp) {
+            // The counts in the Piece, then the appended blocks (UInt64 byte count, then the
+            // bytes): points, the triangles' labels, connectivity, offsets (VTK reading the file
+            // is checked by the paraview test test_extract_labels.py).
+            const std::vector<uint8_t> b = readAll(path);
+            const std::string text(b.begin(), b.end());
+            EXPECT_NE(text.find("NumberOfPoints=\"" + std::to_string(verts.size()) + "\""), std::string::npos);
+            EXPECT_NE(text.find("NumberOfPolys=\"" + std::to_string(tris.size()) + "\""), std::string::npos);
+            const size_t raw = text.find("<AppendedData encoding=\"raw\">");
+            ASSERT_NE(raw, std::string::npos);
+            size_t at = text.find('_', raw) + 1;
+            ASSERT_EQ(get<uint64_t>(b, at), 24 * verts.size());
+            for (const auto& v : verts)
+                for (int k = 0; k < 3; ++k) ASSERT_EQ(get<double>(b, at), v[size_t(k)]);
+            ASSERT_EQ(get<uint64_t>(b, at), 8 * tris.size());
+            for (int64_t l : triLabel) ASSERT_EQ(get<int64_t>(b, at), l);
+            ASSERT_EQ(get<uint64_t>(b, at), 24 * tris.size());
+            for (const auto& t : tris)
+                for (int k = 0; k < 3; ++k) ASSERT_EQ(uint64_t(get<int64_t>(b, at)), t[size_t(k)]);
+            ASSERT_EQ(get<uint64_t>(b, at), 8 * tris.size());
+            for (size_t i = 0; i < tris.size(); ++i) ASSERT_EQ(get<int64_t>(b, at), int64_t(3 * (i + 1)));
+            EXPECT_EQ(text.substr(at), "\n  </AppendedData>\n</VTKFile>\n");
         } else {
             const std::vector<uint8_t> b = readAll(path);
             ASSERT_EQ(b.size(), 84 + 50 * tris.size());
@@ -307,7 +332,7 @@ TEST(Mesh, BadInputLeavesNoFile) {
     ASSERT_TRUE(f.isOk());
     const std::string dir = tempDir() + "/mesh_bad";
     std::filesystem::create_directories(dir);
-    for (MeshFormat fmt : {MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Stl}) {
+    for (MeshFormat fmt : {MeshFormat::Obj, MeshFormat::Ply, MeshFormat::Stl, MeshFormat::Vtp}) {
         {
             ExtractOptions o;
             o.labels = {123456789}; // in no palette
@@ -326,6 +351,7 @@ TEST(Mesh, BadInputLeavesNoFile) {
     EXPECT_TRUE(meshFormatFor("a.OBJ", fmt) && fmt == MeshFormat::Obj);
     EXPECT_TRUE(meshFormatFor("a.ply", fmt) && fmt == MeshFormat::Ply);
     EXPECT_TRUE(meshFormatFor("a.Stl", fmt) && fmt == MeshFormat::Stl);
+    EXPECT_TRUE(meshFormatFor("a.vtp", fmt) && fmt == MeshFormat::Vtp);
     EXPECT_FALSE(meshFormatFor("a.nrrd", fmt));
 }
 

@@ -151,4 +151,29 @@ lf = t.fetch(xf)
 t.check(lf.GetNumberOfCells() == vol1.size and np.array_equal(t.cell_labels(lf), vol1.ravel()),
         "CSGV Extract on a reader that has not run: the level-1 labels (%d cells)" % lf.GetNumberOfCells())
 
+# `csgv extract OUT.vtp` (Core's writer, no VTK) is read by VTK's own XML reader: the counts it
+# printed, the selected labels as cell data, vertices on voxel corners (voxel-face meshes).
+csgv_tool = os.environ.get("CSGV_TOOL", "")
+if csgv_tool and os.path.exists(csgv_tool):
+    import subprocess
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+    out = os.path.join(t.temp_dir(), "labels.vtp")
+    run = subprocess.run([csgv_tool, "extract", os.path.join(t.FIXTURES, name), out, "--labels",
+                          ",".join(str(v) for v in chosen[:2])], capture_output=True, text=True)
+    keys = dict(l.split(": ", 1) for l in run.stdout.splitlines() if ": " in l)
+    rd = vtkXMLPolyDataReader()
+    rd.SetFileName(out)
+    rd.Update()
+    pv = rd.GetOutput()
+    lab = pv.GetCellData().GetArray("Label")
+    qv = (vtk_to_numpy(pv.GetPoints().GetData()) - origin) / spacing if pv.GetNumberOfPoints() else np.zeros((0, 3))
+    t.check(run.returncode == 0 and pv.GetNumberOfPoints() == int(keys.get("vertices", -1)) and
+            pv.GetNumberOfPolys() == int(keys.get("triangles", -1)) and lab is not None and
+            sorted(set(vtk_to_numpy(lab).tolist())) == sorted(chosen[:2]) and
+            bool(np.all(np.abs(qv - np.round(qv)) < 1e-6)),
+            "csgv extract .vtp: VTK reads %d points and %d triangles (csgv said %s and %s), labels and voxel corners"
+            % (pv.GetNumberOfPoints(), pv.GetNumberOfPolys(), keys.get("vertices"), keys.get("triangles")))
+else:
+    t.check(False, "the csgv tool (CSGV_TOOL=%r)" % csgv_tool)
+
 t.finish()

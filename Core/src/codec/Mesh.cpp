@@ -120,6 +120,7 @@ bool meshFormatFor(const std::string& path, MeshFormat& format) {
     if (endsWithNoCase(path, ".obj")) format = MeshFormat::Obj;
     else if (endsWithNoCase(path, ".ply")) format = MeshFormat::Ply;
     else if (endsWithNoCase(path, ".stl")) format = MeshFormat::Stl;
+    else if (endsWithNoCase(path, ".vtp")) format = MeshFormat::Vtp;
     else return false;
     return true;
 }
@@ -129,12 +130,14 @@ struct MeshFileWriter::Impl {
     std::string path;
     MeshFormat format = MeshFormat::Obj;
     bool wideLabel = false; ///< PLY: int64 labels
-    std::FILE* scratchA = nullptr; ///< PLY vertices, STL triangles
-    std::FILE* scratchB = nullptr; ///< PLY faces
+    std::FILE* scratchA = nullptr; ///< PLY and VTP vertices, STL triangles
+    std::FILE* scratchB = nullptr; ///< PLY faces, VTP triangle labels
+    std::FILE* scratchC = nullptr; ///< VTP connectivity
     std::string buffer;
     ~Impl() {
         if (scratchA) std::fclose(scratchA);
         if (scratchB) std::fclose(scratchB);
+        if (scratchC) std::fclose(scratchC);
     }
     Status flushTo(std::FILE* f) {
         if (buffer.empty()) return Status::ok();
@@ -172,8 +175,10 @@ Status MeshFileWriter::open(const std::string& path, MeshFormat format, const st
     if (Status st = m->out.open(path); !st) return st;
     if (format != MeshFormat::Obj) {
         m->scratchA = std::tmpfile();
-        if (format == MeshFormat::Ply) m->scratchB = std::tmpfile();
-        if (!m->scratchA || (format == MeshFormat::Ply && !m->scratchB))
+        if (format == MeshFormat::Ply || format == MeshFormat::Vtp) m->scratchB = std::tmpfile();
+        if (format == MeshFormat::Vtp) m->scratchC = std::tmpfile();
+        if (!m->scratchA || ((format == MeshFormat::Ply || format == MeshFormat::Vtp) && !m->scratchB) ||
+            (format == MeshFormat::Vtp && !m->scratchC))
             return Status::error(path + ": cannot create a scratch file: " + errnoText());
     }
     return Status::ok();
@@ -223,6 +228,28 @@ Status MeshFileWriter::add(const LabelMesh& mesh) {
                 if (Status st = m->flushTo(m->scratchB); !st) return st;
         }
         if (Status st = m->flushTo(m->scratchB); !st) return st;
+    } else if (m->format == MeshFormat::Vtp) {
+        for (const auto& v : mesh.vertices) {
+            put(b, v[0]);
+            put(b, v[1]);
+            put(b, v[2]);
+            if (b.size() > (1u << 20))
+                if (Status st = m->flushTo(m->scratchA); !st) return st;
+        }
+        if (Status st = m->flushTo(m->scratchA); !st) return st;
+        for (size_t k = 0; k < 2 * mesh.quads.size(); ++k) {
+            put(b, int64_t(mesh.label));
+            if (b.size() > (1u << 20))
+                if (Status st = m->flushTo(m->scratchB); !st) return st;
+        }
+        if (Status st = m->flushTo(m->scratchB); !st) return st;
+        for (const auto& q : mesh.quads) {
+            const int64_t i[4] = {int64_t(base + q[0]), int64_t(base + q[1]), int64_t(base + q[2]), int64_t(base + q[3])};
+            for (int64_t x : {i[0], i[1], i[2], i[0], i[2], i[3]}) put(b, x);
+            if (b.size() > (1u << 20))
+                if (Status st = m->flushTo(m->scratchC); !st) return st;
+        }
+        if (Status st = m->flushTo(m->scratchC); !st) return st;
     } else {
         if (m_triangles + 2 * mesh.quads.size() > std::numeric_limits<uint32_t>::max())
             return Status::error(m->path + ": more than 2^32 - 1 triangles, more than binary STL counts");
@@ -263,6 +290,51 @@ Status MeshFileWriter::commit() {
         if (Status st = m->out.write(header.data(), header.size()); !st) return st;
         if (Status st = m->copy(m->scratchA); !st) return st;
         if (Status st = m->copy(m->scratchB); !st) return st;
+    } else if (m->format == MeshFormat::Vtp) {
+        // VTK XML PolyData, every array appended raw (each block: its byte count as UInt64, then
+        // the bytes): points, the triangles' labels, connectivity, offsets.
+        const uint64_t n = m_vertices, t = m_triangles;
+        const uint64_t oLabels = 8 + 24 * n, oConn = oLabels + 8 + 8 * t, oOffsets = oConn + 8 + 24 * t;
+        const std::string header =
+            "<?xml version=\"1.0\"?>\n"
+            "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+            "  <PolyData>\n"
+            "    <Piece NumberOfPoints=\"" + std::to_string(n) + "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" "
+            "NumberOfStrips=\"0\" NumberOfPolys=\"" + std::to_string(t) + "\">\n"
+            "      <Points>\n"
+            "        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"appended\" offset=\"0\"/>\n"
+            "      </Points>\n"
+            "      <CellData Scalars=\"Label\">\n"
+            "        <DataArray type=\"Int64\" Name=\"Label\" format=\"appended\" offset=\"" + std::to_string(oLabels) + "\"/>\n"
+            "      </CellData>\n"
+            "      <Polys>\n"
+            "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"appended\" offset=\"" + std::to_string(oConn) + "\"/>\n"
+            "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"appended\" offset=\"" + std::to_string(oOffsets) + "\"/>\n"
+            "      </Polys>\n"
+            "    </Piece>\n"
+            "  </PolyData>\n"
+            "  <AppendedData encoding=\"raw\">\n   _";
+        if (Status st = m->out.write(header.data(), header.size()); !st) return st;
+        std::string count;
+        auto block = [&](uint64_t bytes, std::FILE* f) {
+            count.clear();
+            put(count, bytes);
+            if (Status st = m->out.write(count.data(), count.size()); !st) return st;
+            return m->copy(f);
+        };
+        if (Status st = block(24 * n, m->scratchA); !st) return st;
+        if (Status st = block(8 * t, m->scratchB); !st) return st;
+        if (Status st = block(24 * t, m->scratchC); !st) return st;
+        std::string& b = m->buffer;
+        b.clear();
+        put(b, uint64_t(8 * t));
+        for (uint64_t k = 1; k <= t; ++k) {
+            put(b, int64_t(3 * k));
+            if (b.size() > (1u << 20))
+                if (Status st = m->flushTo(nullptr); !st) return st;
+        }
+        b += "\n  </AppendedData>\n</VTKFile>\n";
+        if (Status st = m->flushTo(nullptr); !st) return st;
     } else if (m->format == MeshFormat::Stl) {
         char header[80] = {};
         std::snprintf(header, sizeof header, "csgv extract: voxel-face surfaces (binary STL: labels not stored)");

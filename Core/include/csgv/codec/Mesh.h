@@ -68,9 +68,10 @@ struct MeshSummary {
 /// (CsgvFile::metadata.geometry). The first error (an unknown label, a limit, the sink) stops it.
 Result<MeshSummary> extractMeshes(const CsgvFile& file, const ExtractOptions& options, MeshSink& sink);
 
-enum class MeshFormat { Obj, Ply, Stl };
+enum class MeshFormat { Obj, Ply, Stl, Vtp };
 
-/// The format named by a path's extension (.obj, .ply, .stl; any case), or false.
+/// The format named by a path's extension (.obj, .ply, .stl, .vtp; any case), or false. VTP is
+/// VTK's XML PolyData (appended raw binary, little-endian, 64-bit), with the label as cell data.
 bool meshFormatFor(const std::string& path, MeshFormat& format);
 
 /// @brief Writes meshes to a file atomically: nothing appears under the name until commit().
