@@ -151,6 +151,18 @@ struct MeshFileWriter::Impl {
         buffer.clear();
         return st;
     }
+    /// Flushes the buffer to `f` (the output when null) once it holds 1 MiB.
+    Status spill(std::FILE* f) { return buffer.size() > (1u << 20) ? flushTo(f) : Status::ok(); }
+    /// A mesh's vertices as three doubles each (PLY, VTP), into `f`.
+    Status putVertices(const LabelMesh& mesh, std::FILE* f) {
+        for (const auto& v : mesh.vertices) {
+            put(buffer, v[0]);
+            put(buffer, v[1]);
+            put(buffer, v[2]);
+            if (Status st = spill(f); !st) return st;
+        }
+        return flushTo(f);
+    }
     Status copy(std::FILE* f) {
         if (std::fflush(f) != 0 || std::fseek(f, 0, SEEK_SET) != 0)
             return Status::error(path + ": cannot read back a scratch file: " + errnoText());
@@ -192,27 +204,18 @@ Status MeshFileWriter::add(const LabelMesh& mesh) {
         char line[128];
         for (const auto& v : mesh.vertices) {
             b.append(line, size_t(std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", v[0], v[1], v[2])));
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(nullptr); !st) return st;
+            if (Status st = m->spill(nullptr); !st) return st;
         }
         for (const auto& q : mesh.quads) {
             const unsigned long long a = base + q[0] + 1, c1 = base + q[1] + 1, c2 = base + q[2] + 1, c3 = base + q[3] + 1;
             b.append(line, size_t(std::snprintf(line, sizeof line, "f %llu %llu %llu\nf %llu %llu %llu\n", a, c1, c2, a, c2, c3)));
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(nullptr); !st) return st;
+            if (Status st = m->spill(nullptr); !st) return st;
         }
         if (Status st = m->flushTo(nullptr); !st) return st;
     } else if (m->format == MeshFormat::Ply) {
         if (base + mesh.vertices.size() > std::numeric_limits<uint32_t>::max())
             return Status::error(m->path + ": more than 2^32 - 1 vertices, more than PLY's uint indices hold");
-        for (const auto& v : mesh.vertices) {
-            put(b, v[0]);
-            put(b, v[1]);
-            put(b, v[2]);
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(m->scratchA); !st) return st;
-        }
-        if (Status st = m->flushTo(m->scratchA); !st) return st;
+        if (Status st = m->putVertices(mesh, m->scratchA); !st) return st;
         for (const auto& q : mesh.quads) {
             const uint32_t i[4] = {uint32_t(base + q[0]), uint32_t(base + q[1]), uint32_t(base + q[2]), uint32_t(base + q[3])};
             const uint32_t tri[2][3] = {{i[0], i[1], i[2]}, {i[0], i[2], i[3]}};
@@ -224,30 +227,20 @@ Status MeshFileWriter::add(const LabelMesh& mesh) {
                 if (m->wideLabel) put(b, int64_t(mesh.label));
                 else put(b, int32_t(mesh.label));
             }
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(m->scratchB); !st) return st;
+            if (Status st = m->spill(m->scratchB); !st) return st;
         }
         if (Status st = m->flushTo(m->scratchB); !st) return st;
     } else if (m->format == MeshFormat::Vtp) {
-        for (const auto& v : mesh.vertices) {
-            put(b, v[0]);
-            put(b, v[1]);
-            put(b, v[2]);
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(m->scratchA); !st) return st;
-        }
-        if (Status st = m->flushTo(m->scratchA); !st) return st;
+        if (Status st = m->putVertices(mesh, m->scratchA); !st) return st;
         for (size_t k = 0; k < 2 * mesh.quads.size(); ++k) {
             put(b, int64_t(mesh.label));
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(m->scratchB); !st) return st;
+            if (Status st = m->spill(m->scratchB); !st) return st;
         }
         if (Status st = m->flushTo(m->scratchB); !st) return st;
         for (const auto& q : mesh.quads) {
             const int64_t i[4] = {int64_t(base + q[0]), int64_t(base + q[1]), int64_t(base + q[2]), int64_t(base + q[3])};
             for (int64_t x : {i[0], i[1], i[2], i[0], i[2], i[3]}) put(b, x);
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(m->scratchC); !st) return st;
+            if (Status st = m->spill(m->scratchC); !st) return st;
         }
         if (Status st = m->flushTo(m->scratchC); !st) return st;
     } else {
@@ -269,8 +262,7 @@ Status MeshFileWriter::add(const LabelMesh& mesh) {
                     for (double c : *p) put(b, float(c));
                 put(b, uint16_t(0));
             }
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(m->scratchA); !st) return st;
+            if (Status st = m->spill(m->scratchA); !st) return st;
         }
         if (Status st = m->flushTo(m->scratchA); !st) return st;
     }
@@ -330,8 +322,7 @@ Status MeshFileWriter::commit() {
         put(b, uint64_t(8 * t));
         for (uint64_t k = 1; k <= t; ++k) {
             put(b, int64_t(3 * k));
-            if (b.size() > (1u << 20))
-                if (Status st = m->flushTo(nullptr); !st) return st;
+            if (Status st = m->spill(nullptr); !st) return st;
         }
         b += "\n  </AppendedData>\n</VTKFile>\n";
         if (Status st = m->flushTo(nullptr); !st) return st;
