@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <csignal>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -264,4 +266,69 @@ TEST(Mapped, APipeIsReadToItsEnd) {
     ASSERT_TRUE(labels.isOk()) << labels.message();
     EXPECT_EQ(labels->labels, sourceVolume(name).labels);
     ::unlink(fifo.c_str());
+}
+
+TEST(Mapped, AFileTruncatedUnderItsMappingReadsZerosAndSaysSo) {
+    // Without the guard, touching a page past the new end raises SIGBUS and the process dies.
+    const size_t page = size_t(::sysconf(_SC_PAGESIZE));
+    std::vector<uint8_t> bytes(3 * page);
+    for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = uint8_t(1 + i % 251);
+    const std::string path = writeTemp("truncated-under.bin", bytes);
+    Result<std::shared_ptr<const MappedFile>> m = MappedFile::open(path);
+    ASSERT_TRUE(m.isOk()) << m.message();
+    const MappedFile& f = **m;
+    ASSERT_TRUE(f.isMapped());
+    EXPECT_TRUE(MappedFile::mappedAt(f.data() + 5));
+    EXPECT_FALSE(MappedFile::mappedAt(bytes.data()));
+    EXPECT_FALSE(f.damaged());
+    ASSERT_EQ(::truncate(path.c_str(), off_t(page)), 0);
+    EXPECT_EQ(f.data()[10], bytes[10]) << "the first page is still the file's";
+    volatile const uint8_t* p = f.data();
+    EXPECT_EQ(p[2 * page + 7], 0) << "a page past the new end reads zeros";
+    EXPECT_TRUE(f.damaged());
+    EXPECT_TRUE(MappedFile::damagedAt(f.data()));
+    EXPECT_EQ(p[page + 1], 0);
+    // A second mapping of the same (now short) file is sound.
+    Result<std::shared_ptr<const MappedFile>> again = MappedFile::open(path);
+    ASSERT_TRUE(again.isOk());
+    EXPECT_EQ((*again)->size(), page);
+    EXPECT_FALSE((*again)->damaged());
+}
+
+TEST(Mapped, ASigbusOutsideTheMappingsStillReachesThePreviousHandler) {
+    // A SIGBUS sent by kill() is no fault of a mapping: it goes to the handler that was there.
+    const std::vector<uint8_t> bytes(100, 7);
+    static std::atomic<int> seen{0};
+    struct sigaction mine {}, before {};
+    mine.sa_handler = [](int) { seen.fetch_add(1); };
+    sigemptyset(&mine.sa_mask);
+    ASSERT_EQ(::sigaction(SIGBUS, &mine, &before), 0);
+    Result<std::shared_ptr<const MappedFile>> m = MappedFile::open(writeTemp("chained.bin", bytes)); // installs the guard over ours
+    ASSERT_TRUE(m.isOk() && (*m)->isMapped());
+    ::raise(SIGBUS);
+    EXPECT_EQ(seen.load(), 1);
+    ::sigaction(SIGBUS, &before, nullptr);
+}
+
+TEST(Mapped, ReleasedPagesReadTheSameAndLeaveTheProcess) {
+    const size_t page = size_t(::sysconf(_SC_PAGESIZE));
+    std::vector<uint8_t> bytes(64 * page);
+    std::mt19937 rng(5);
+    for (auto& b : bytes) b = uint8_t(rng());
+    const std::string path = writeTemp("released.bin", bytes);
+    Result<std::shared_ptr<const MappedFile>> m = MappedFile::open(path);
+    ASSERT_TRUE(m.isOk() && (*m)->isMapped());
+    const MappedFile& f = **m;
+    EXPECT_TRUE(std::equal(bytes.begin(), bytes.end(), f.data()));
+    EXPECT_EQ(f.residentBytes(), f.size()) << "just written and read: in the page cache";
+    f.release(0, f.size());
+    f.willNeed(0, f.size());
+    MappedFile::releaseAt(f.data() + 3, 10);
+    EXPECT_TRUE(std::equal(bytes.begin(), bytes.end(), f.data())) << "released pages are read again from the file";
+    EXPECT_EQ(MappedFile::absentBytesAt(f.data(), f.size()), 0u);
+    // Anonymous memory is never released (it would read as zeros).
+    std::vector<uint8_t> mine(bytes.begin(), bytes.end());
+    MappedFile::releaseAt(mine.data(), mine.size());
+    EXPECT_EQ(mine, bytes);
+    EXPECT_EQ(MappedFile::absentBytesAt(mine.data(), mine.size()), 0u);
 }

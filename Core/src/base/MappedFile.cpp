@@ -7,7 +7,10 @@
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <signal.h>
 #include <algorithm>
+#include <atomic>
+#include <mutex>
 #include <new>
 #include <vector>
 
@@ -66,10 +69,161 @@ Result<std::vector<uint8_t>> readToEnd(int fd, uint64_t limit, const std::string
     return bytes;
 }
 
+
+// The SIGBUS guard. Mappings register in a fixed table the handler reads without locks (a signal
+// handler may take none); registering and unregistering take a mutex.
+constexpr int kSlots = 1024;
+struct Slot {
+    std::atomic<uintptr_t> begin{0}, end{0};
+    std::atomic<bool> damaged{false};
+};
+Slot g_slots[kSlots];
+std::mutex g_registry;
+struct sigaction g_previous {};
+std::atomic<uintptr_t> g_pageSize{4096};
+
+uintptr_t pageSize() { return g_pageSize.load(std::memory_order_relaxed); }
+
+int findSlot(uintptr_t a) {
+    for (int i = 0; i < kSlots; ++i) {
+        const uintptr_t b = g_slots[i].begin.load(std::memory_order_acquire);
+        if (b && a >= b && a < g_slots[i].end.load(std::memory_order_acquire)) return i;
+    }
+    return -1;
+}
+
+void onSigbus(int signal, siginfo_t* info, void* context) {
+    const uintptr_t a = reinterpret_cast<uintptr_t>(info->si_addr);
+    const int slot = info->si_code > 0 ? findSlot(a) : -1; // a fault, not a kill()
+    if (slot >= 0) {
+        // The file ended before this page: read zeros from here on (MAP_FIXED replaces the page
+        // atomically; mmap is a plain system call, safe in a handler on Linux).
+        void* page = reinterpret_cast<void*>(a & ~(pageSize() - 1));
+        if (::mmap(page, size_t(pageSize()), PROT_READ, MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED, -1, 0) != MAP_FAILED) {
+            g_slots[slot].damaged.store(true, std::memory_order_release);
+            return; // the access is retried and reads zeros
+        }
+    }
+    // Not ours: whatever handled SIGBUS before us.
+    if ((g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_sigaction) {
+        g_previous.sa_sigaction(signal, info, context);
+        return;
+    }
+    if (!(g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_handler != SIG_DFL && g_previous.sa_handler != SIG_IGN) {
+        g_previous.sa_handler(signal);
+        return;
+    }
+    // The default action: restore it; a fault recurs as the instruction is retried, a kill() is
+    // sent again.
+    struct sigaction dfl {};
+    dfl.sa_handler = SIG_DFL;
+    sigemptyset(&dfl.sa_mask);
+    ::sigaction(SIGBUS, &dfl, nullptr);
+    if (info->si_code <= 0) ::raise(SIGBUS);
+}
+
+/// Installs the handler unless it is in place (again, when someone replaced it since: chained to
+/// theirs). Called with g_registry held.
+void installGuard() {
+    g_pageSize.store(uintptr_t(::sysconf(_SC_PAGESIZE)), std::memory_order_relaxed);
+    struct sigaction current {};
+    if (::sigaction(SIGBUS, nullptr, &current) != 0) return;
+    if ((current.sa_flags & SA_SIGINFO) && current.sa_sigaction == onSigbus) return;
+    struct sigaction mine {};
+    mine.sa_sigaction = onSigbus;
+    mine.sa_flags = SA_SIGINFO | SA_NODEFER | SA_ONSTACK;
+    sigemptyset(&mine.sa_mask);
+    g_previous = current;
+    ::sigaction(SIGBUS, &mine, nullptr);
+}
+
+int registerMapping(const uint8_t* data, size_t size) {
+    std::lock_guard<std::mutex> lock(g_registry);
+    installGuard();
+    for (int i = 0; i < kSlots; ++i) {
+        if (g_slots[i].begin.load(std::memory_order_relaxed)) continue;
+        g_slots[i].damaged.store(false, std::memory_order_relaxed);
+        g_slots[i].end.store(reinterpret_cast<uintptr_t>(data) + size, std::memory_order_release);
+        g_slots[i].begin.store(reinterpret_cast<uintptr_t>(data), std::memory_order_release);
+        return i;
+    }
+    return -1; // more than kSlots live mappings: this one is unguarded
+}
+
+void unregisterMapping(int slot) {
+    if (slot < 0) return;
+    std::lock_guard<std::mutex> lock(g_registry);
+    g_slots[slot].begin.store(0, std::memory_order_release);
+    g_slots[slot].end.store(0, std::memory_order_release);
+}
+
+/// [address, address + size) widened to whole pages and clipped to the mapping of `slot`.
+bool pageRange(int slot, const void* address, size_t size, uintptr_t& begin, size_t& length) {
+    if (slot < 0 || size == 0) return false;
+    const uintptr_t lo = g_slots[slot].begin.load(std::memory_order_acquire), hi = g_slots[slot].end.load(std::memory_order_acquire);
+    uintptr_t a = std::max(reinterpret_cast<uintptr_t>(address), lo);
+    uintptr_t e = std::min(reinterpret_cast<uintptr_t>(address) + size, hi);
+    if (!lo || a >= e) return false;
+    a &= ~(pageSize() - 1);
+    e = (e + pageSize() - 1) & ~(pageSize() - 1);
+    begin = a;
+    length = size_t(e - a);
+    return true;
+}
+
+void adviseAt(const void* address, size_t size, int advice) {
+    uintptr_t b = 0;
+    size_t n = 0;
+    if (pageRange(findSlot(reinterpret_cast<uintptr_t>(address)), address, size, b, n))
+        ::madvise(reinterpret_cast<void*>(b), n, advice);
+}
+
 } // namespace
 
 MappedFile::~MappedFile() {
-    if (m_mapped) ::munmap(const_cast<uint8_t*>(m_data), m_size);
+    if (!m_mapped) return;
+    unregisterMapping(m_slot);
+    ::munmap(const_cast<uint8_t*>(m_data), m_size);
+}
+
+bool MappedFile::damaged() const { return m_slot >= 0 && g_slots[m_slot].damaged.load(std::memory_order_acquire); }
+
+bool MappedFile::damagedAt(const void* address) {
+    const int slot = findSlot(reinterpret_cast<uintptr_t>(address));
+    return slot >= 0 && g_slots[slot].damaged.load(std::memory_order_acquire);
+}
+
+bool MappedFile::mappedAt(const void* address) { return findSlot(reinterpret_cast<uintptr_t>(address)) >= 0; }
+
+void MappedFile::release(size_t offset, size_t size) const {
+    if (m_mapped && offset < m_size) releaseAt(m_data + offset, std::min(size, m_size - offset));
+}
+
+void MappedFile::willNeed(size_t offset, size_t size) const {
+    if (m_mapped && offset < m_size) willNeedAt(m_data + offset, std::min(size, m_size - offset));
+}
+
+void MappedFile::releaseAt(const void* address, size_t size) { adviseAt(address, size, MADV_DONTNEED); }
+void MappedFile::willNeedAt(const void* address, size_t size) { adviseAt(address, size, MADV_WILLNEED); }
+
+size_t MappedFile::residentBytes() const {
+    if (!m_mapped) return m_size;
+    return m_size - absentBytesAt(m_data, m_size);
+}
+
+size_t MappedFile::absentBytesAt(const void* address, size_t size) {
+    uintptr_t b = 0;
+    size_t n = 0;
+    if (!pageRange(findSlot(reinterpret_cast<uintptr_t>(address)), address, size, b, n)) return 0;
+    const size_t pages = n / size_t(pageSize());
+    size_t absent = 0;
+    std::vector<unsigned char> in(std::min<size_t>(pages, size_t(1) << 16));
+    for (size_t done = 0; done < pages; done += in.size()) {
+        const size_t k = std::min(in.size(), pages - done);
+        if (::mincore(reinterpret_cast<void*>(b + done * pageSize()), k * size_t(pageSize()), in.data()) != 0) return 0;
+        for (size_t i = 0; i < k; ++i) absent += (in[i] & 1) ? 0 : 1;
+    }
+    return absent * size_t(pageSize());
 }
 
 Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& path, const Options& options) {
@@ -93,6 +247,7 @@ Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& pa
                 f->m_data = static_cast<const uint8_t*>(p);
                 f->m_size = size;
                 f->m_mapped = true;
+                f->m_slot = registerMapping(f->m_data, size);
                 return std::shared_ptr<const MappedFile>(std::move(f));
             }
             // Some file systems cannot map (ENODEV); reading still works.

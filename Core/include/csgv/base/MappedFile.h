@@ -19,10 +19,14 @@ namespace csgv {
 /// @brief The bytes of one file, alive as long as the object (hand out a shared_ptr to it as the
 /// keeper of views into them: WordArray::view).
 ///
-/// A mapping shows the file as it is on disk: the file must not be truncated or rewritten in
-/// place while the object lives (touching a page past a truncated end raises SIGBUS); a new file
-/// renamed over the path does no harm, the mapping keeps the old one. Writers in this project
-/// write through a temporary and rename (AtomicFile).
+/// A mapping shows the file as it is on disk; a new file renamed over the path does no harm (the
+/// mapping keeps the old one; writers in this project write through a temporary and rename:
+/// AtomicFile). A file truncated under the mapping would raise SIGBUS where a page past its new
+/// end is touched: every mapping is guarded against that. A process-wide SIGBUS handler (installed
+/// with the first mapping, chained to whatever handler was there before) replaces such a page
+/// with zeros and marks the mapping damaged, so the reader sees zeros (a `.csgv` brick of zeros
+/// fails to decode with a clear error) instead of dying; damaged() and damagedAt() tell callers
+/// to say why. Faults outside the mappings go to the previous handler as before.
 class MappedFile {
 public:
     struct Options {
@@ -54,12 +58,40 @@ public:
     /// Bytes of private memory the object holds (a mapping: none; it is the page cache's).
     size_t privateBytes() const { return m_mapped ? 0 : m_size; }
 
+    /// True once a page of the mapping had to be replaced by zeros because the file shrank under it.
+    bool damaged() const;
+    /// Whether `address` lies in a live guarded mapping that is damaged (for callers that hold
+    /// only a view of the bytes: a decode error there names the cause).
+    static bool damagedAt(const void* address);
+    /// Whether `address` lies in a live mapping of a file (whose pages release() may drop: they
+    /// are read again from the file when touched).
+    static bool mappedAt(const void* address);
+
+    /// Page control of a mapping (no-ops for bytes read into memory). Byte ranges are widened to
+    /// whole pages. release(): the process gives the range's pages back (MADV_DONTNEED; the
+    /// kernel's page cache may keep them, and touching them again reads them from the cache or
+    /// the file), so its resident memory stays bounded however much of the file it sweeps.
+    /// willNeed(): starts reading the range in the background (MADV_WILLNEED: read-ahead).
+    void release(size_t offset, size_t size) const;
+    void willNeed(size_t offset, size_t size) const;
+    /// Static forms for a view: `address` and `size` within one mapping of a file (mappedAt),
+    /// else nothing happens (anonymous memory must never be released: it would read as zeros).
+    static void releaseAt(const void* address, size_t size);
+    static void willNeedAt(const void* address, size_t size);
+    /// Bytes of the mapping in memory now (mincore: the page cache's pages of the file, mapped
+    /// into this process or not); the size when read.
+    size_t residentBytes() const;
+    /// Of [address, address + size) within a mapping, the bytes whose pages are not in memory
+    /// (those a touch must read from the disk); 0 outside mappings.
+    static size_t absentBytesAt(const void* address, size_t size);
+
 private:
     MappedFile() = default;
     std::string m_path;
     const uint8_t* m_data = nullptr;
     size_t m_size = 0;
     bool m_mapped = false;
+    int m_slot = -1; ///< its entry in the guard's registry (a mapping)
     std::vector<uint8_t> m_read; ///< the bytes where they were read, not mapped
 };
 
