@@ -352,12 +352,6 @@ void Buffer::release() {
     m_mapped = nullptr;
 }
 
-std::string mebibytes(uint64_t bytes) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / (1 << 20));
-    return text;
-}
-
 Result<Buffer> Context::createBuffer(uint64_t bytes, MemoryKind kind) {
     Impl& im = *m_impl;
     if (im.lost) return im.lostError();

@@ -3,6 +3,7 @@
 /// @file Status.h
 /// @brief Errors as values: nothing in Core throws across its boundary, calls exit or aborts.
 
+#include <cstdint>
 #include <string>
 #include <utility>
 
@@ -54,5 +55,8 @@ private:
     T m_value{};
     Status m_status;
 };
+
+/// "12.5 MiB": memory figures in messages (host and device budgets alike).
+std::string mebibytes(uint64_t bytes);
 
 } // namespace csgv

@@ -56,9 +56,6 @@ inline uint64_t automaticCacheBytes(const DeviceInfo& device, uint32_t processes
     return share < least ? least : share > most ? most : share;
 }
 
-/// "12.5 MiB": device-memory figures in messages.
-std::string mebibytes(uint64_t bytes);
-
 class Context;
 
 /// @brief A buffer in device memory, addressed in shaders through its device address.

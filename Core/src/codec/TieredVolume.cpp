@@ -1,0 +1,175 @@
+// SPDX-License-Identifier: MIT
+#include "csgv/codec/TieredVolume.h"
+#include "csgv/base/MappedFile.h"
+#include "csgv/base/Math.h"
+
+#include <algorithm>
+#include <sys/resource.h>
+
+namespace csgv {
+
+namespace {
+
+/// Stream B of a brick: [begin, end) in its words (CSGV-FORMAT.md section 4.2).
+struct FinestRange {
+    uint32_t begin = 0, end = 0;
+};
+FinestRange finestRange(const BrickWords& bw, uint32_t L) {
+    const uint32_t begin = std::min(bw.words[L - 1] / 8, bw.size), palette = bw.words[L];
+    const uint32_t end = bw.size >= palette ? bw.size - palette : 0;
+    return {begin, std::max(begin, end)};
+}
+
+/// The sweep releases what it has read every this many bytes.
+constexpr uint64_t kSweepWindow = uint64_t(32) << 20;
+
+} // namespace
+
+bool TieredVolume::tierable(const CompressedVolume& full) {
+    if (full.encoding != kEncodingRans2 || full.levels() < 2 || full.arrays.empty()) return false;
+    for (const WordArray& a : full.arrays)
+        if (!a.isView() || (a.size() && !MappedFile::mappedAt(a.bytes()))) return false;
+    return true;
+}
+
+Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr<const CompressedVolume> full,
+                                                                   const Options& options) {
+    if (!full || !tierable(*full))
+        return Status::error("only a rANS two-table encoding read from a mapped file can keep its finest level on disk");
+    const CompressedVolume& v = *full;
+    std::shared_ptr<TieredVolume> t(new TieredVolume());
+    t->m_full = full;
+    CompressedVolume& c = t->m_coarse;
+    // Every header field as it is; the arrays hold the coarse bricks, in the full volume's
+    // arrays (a coarse brick is never longer than its brick, so every array still fits).
+    c.version = v.version;
+    c.brickSize = v.brickSize;
+    c.dim = v.dim;
+    c.encoding = v.encoding;
+    c.randomAccess = v.randomAccess;
+    c.maxPalette = v.maxPalette;
+    c.opMask = v.opMask;
+    c.freqA = v.freqA;
+    c.freqB = v.freqB;
+    c.bricksPerArray = v.bricksPerArray;
+    const uint64_t n = v.brickCount();
+    const uint32_t L = v.levels();
+    const uint64_t per = v.bricksPerArray == kSingleArray ? n + 1 : v.bricksPerArray;
+    // The coarse tier's size, from the brick starts alone: each brick less its stream B plus one
+    // word. Stream lengths need the bricks' headers, so the budget is checked as the sweep goes.
+    try {
+        t->m_finestWords.resize(size_t(n));
+        c.brickStarts.assign(size_t(n) + 1, 0u);
+        c.arrays.assign(v.arrays.size(), WordArray());
+    } catch (const std::bad_alloc&) {
+        return Status::error("no memory for the tables of " + std::to_string(n) + " bricks");
+    }
+    const uint64_t budget = options.budgetBytes;
+    uint64_t resident = uint64_t(n) * 8 + 8, swept = 0, releasedUpTo = 0;
+    const auto over = [&] {
+        return Status::error("the coarse levels need more than " + mebibytes(resident) + " of host memory (" +
+                             mebibytes(t->residentBytes()) + " so far), more than the host-memory budget of " +
+                             mebibytes(budget) + "; raise the budget");
+    };
+    if (options.progress && !options.progress(0.0)) return Status::error("cancelled");
+    size_t array = 0;
+    const uint8_t* sweepBase = v.arrays.empty() ? nullptr : static_cast<const uint8_t*>(v.arrays[0].bytes());
+    for (uint64_t b = 0; b < n; ++b) {
+        const size_t a = size_t(b / per);
+        if (a != array) { // the previous array is done: release all of it
+            MappedFile::releaseAt(v.arrays[array].bytes(), v.arrays[array].size() * 4);
+            array = a;
+            sweepBase = static_cast<const uint8_t*>(v.arrays[a].bytes());
+            releasedUpTo = 0;
+        }
+        const BrickWords bw = v.brick(b);
+        const FinestRange f = finestRange(bw, L);
+        const uint32_t palette = bw.size - f.end;
+        std::vector<uint32_t>& out = c.arrays[a].owned();
+        const size_t at = out.size();
+        try {
+            out.resize(at + f.begin + 1 + palette);
+        } catch (const std::bad_alloc&) {
+            return Status::error("no memory for the coarse levels (" + mebibytes(resident) + " so far)");
+        }
+        bw.words.copyTo(out.data() + at, f.begin);
+        out[at + f.begin] = kRansLowerBound; // the bare initial state: a stream B of no symbols
+        (bw.words + std::ptrdiff_t(f.end)).copyTo(out.data() + at + f.begin + 1, palette);
+        c.brickStarts[size_t(b) + 1] = uint32_t(out.size());
+        t->m_finestWords[size_t(b)] = f.end - f.begin;
+        t->m_longest = std::max(t->m_longest, f.end - f.begin);
+        t->m_finestTotal += f.end - f.begin;
+        resident += uint64_t(f.begin + 1 + palette) * 4;
+        swept += uint64_t(bw.size) * 4;
+        if (budget && resident > budget) return over();
+        // Release what the sweep has passed (a page may hold the start of the next brick: it is
+        // read again when touched).
+        const uint64_t offset = uint64_t(static_cast<const uint8_t*>(bw.words.bytes()) - sweepBase);
+        if (offset > releasedUpTo + kSweepWindow) {
+            MappedFile::releaseAt(sweepBase + releasedUpTo, size_t(offset - releasedUpTo));
+            releasedUpTo = offset;
+            if (options.progress && !options.progress(double(b) / double(n))) return Status::error("cancelled");
+        }
+    }
+    if (!v.arrays.empty()) MappedFile::releaseAt(v.arrays[array].bytes(), v.arrays[array].size() * 4);
+    // Arrays that start a new array: brick starts as the container stores them (CSGV-FORMAT.md
+    // section 7: the stored start of a brick opening an array is the previous array's length).
+    for (uint64_t b = per; b < n; b += per) c.brickStarts[size_t(b)] = uint32_t(c.arrays[size_t(b / per) - 1].size());
+    for (WordArray& a : c.arrays) a.owned().shrink_to_fit();
+    (void)swept;
+    return std::shared_ptr<const TieredVolume>(std::move(t));
+}
+
+uint64_t TieredVolume::residentBytes() const {
+    uint64_t n = uint64_t(m_coarse.brickStarts.capacity()) * 4 + uint64_t(m_finestWords.capacity()) * 4;
+    for (const WordArray& a : m_coarse.arrays) n += a.ownedBytes();
+    return n;
+}
+
+void TieredVolume::count(uint64_t brick) const {
+    const BrickWords bw = m_full->brick(brick);
+    const FinestRange f = finestRange(bw, m_full->levels());
+    const size_t bytes = size_t(f.end - f.begin) * 4;
+    m_bricks.fetch_add(1, std::memory_order_relaxed);
+    m_bytes.fetch_add(bytes, std::memory_order_relaxed);
+    m_disk.fetch_add(MappedFile::absentBytesAt((bw.words + std::ptrdiff_t(f.begin)).bytes(), bytes), std::memory_order_relaxed);
+}
+
+void TieredVolume::copyFinest(uint64_t brick, uint32_t* dst) const {
+    count(brick);
+    const BrickWords bw = m_full->brick(brick);
+    const FinestRange f = finestRange(bw, m_full->levels());
+    (bw.words + std::ptrdiff_t(f.begin)).copyTo(dst, f.end - f.begin);
+}
+
+void TieredVolume::noteRead(uint64_t brick) const { count(brick); }
+
+void TieredVolume::release(const uint32_t* bricks, size_t count) const {
+    for (size_t i = 0; i < count; ++i) {
+        if (bricks[i] >= m_finestWords.size()) continue;
+        const BrickWords bw = m_full->brick(bricks[i]);
+        MappedFile::releaseAt(bw.words.bytes(), size_t(bw.size) * 4);
+    }
+    m_released.fetch_add(count, std::memory_order_relaxed);
+}
+
+void TieredVolume::readAhead(const uint32_t* bricks, size_t count) const {
+    for (size_t i = 0; i < count; ++i) {
+        if (bricks[i] >= m_finestWords.size()) continue;
+        const BrickWords bw = m_full->brick(bricks[i]);
+        MappedFile::willNeedAt(bw.words.bytes(), size_t(bw.size) * 4);
+    }
+    m_readAhead.fetch_add(count, std::memory_order_relaxed);
+}
+
+TierCounts TieredVolume::counts() const {
+    TierCounts c;
+    c.finestBricks = m_bricks.load();
+    c.finestBytes = m_bytes.load();
+    c.diskBytes = m_disk.load();
+    c.readAheadBricks = m_readAhead.load();
+    c.releasedBricks = m_released.load();
+    return c;
+}
+
+} // namespace csgv
