@@ -10,11 +10,13 @@
 
 #include "csgv/attributes/Attributes.h"
 #include "csgv/codec/CsgvFile.h"
+#include "csgv/codec/TieredVolume.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/gpu/Renderer.h"
 #include "csgv/gpu/UploadPolicy.h"
 
 #include <algorithm>
+#include <sys/resource.h>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -39,6 +41,7 @@ struct RenderArgs {
     uint32_t orbit = 0;
     uint64_t cacheMiB = 0; ///< 0: automatic (gpu::automaticCacheBytes)
     uint64_t deviceMemoryMiB = 0; ///< 0: automatic
+    uint64_t hostMemoryMiB = 0;   ///< 0: automatic (TieredVolume::automaticBudget)
     gpu::RendererOptions::Decode decode = gpu::RendererOptions::Decode::Auto;
     bool cachePaletting = false;
     std::vector<std::string> attributeFiles;
@@ -127,6 +130,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     number("--orbit", 1, 1e5, [&a](double n) { a.orbit = uint32_t(n); });
     number("--cache-mib", 0, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
     number("--device-memory-mib", 0, 1 << 24, [&a](double n) { a.deviceMemoryMiB = uint64_t(n); });
+    number("--host-memory-mib", 0, 1 << 24, [&a](double n) { a.hostMemoryMiB = uint64_t(n); });
     number("--subsampling", 1, 8, [&a](double n) { a.settings.subsampling = uint32_t(n); });
     number("--lod-bias", -16, 16, [&a](double n) { a.settings.lodBias = float(n); });
     number("--blend", 0, 1, [&a](double n) { a.settings.shadingBlend = float(n); });
@@ -303,6 +307,13 @@ std::string shadingChoices() {
     return names;
 }
 
+/// The process's peak resident memory (getrusage: Linux gives KiB).
+double peakRssMiB() {
+    struct rusage u {};
+    ::getrusage(RUSAGE_SELF, &u);
+    return double(u.ru_maxrss) / 1024.0;
+}
+
 int cmdRender(int argc, char** argv) {
     auto fail = [](const std::string& m) {
         interrupt::reportOnce(m.c_str());
@@ -333,8 +344,19 @@ int cmdRender(int argc, char** argv) {
     want.cacheBytes = a.cacheMiB << 20;
     want.decode = a.decode;
     want.cachePaletting = a.cachePaletting ? 1 : 0;
-    const gpu::UploadPlan plan = gpu::planUpload((*ctx)->device(), file->volume, want);
-    Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, file->volume, plan.volume);
+    // An encoding larger than the host-memory budget keeps its finest level in the file.
+    const uint64_t hostBudget = a.hostMemoryMiB ? a.hostMemoryMiB << 20 : TieredVolume::automaticBudget();
+    if (TieredVolume::wanted(file->volume, hostBudget)) {
+        TieredVolume::Options to;
+        to.budgetBytes = hostBudget;
+        to.progress = [](double) { return !cancelRequested(); };
+        Result<std::shared_ptr<const TieredVolume>> tiers = TieredVolume::create(std::make_shared<const CompressedVolume>(file->volume), to);
+        if (!tiers) return fail(cancelRequested() ? "interrupted: stopped, no image written" : a.input + ": " + tiers.message());
+        want.tiers = *tiers;
+    }
+    const CompressedVolume& drawn = want.tiers ? want.tiers->coarse() : file->volume;
+    const gpu::UploadPlan plan = gpu::planUpload((*ctx)->device(), drawn, want);
+    Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, drawn, plan.volume);
     if (!volume) return fail(volume.message());
     std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));
     const gpu::RendererOptions options = plan.share(shared->deviceBytes(), 1, a.decode);
@@ -350,6 +372,9 @@ int cmdRender(int argc, char** argv) {
     std::printf("device: %s (%s)\n", (*ctx)->device().name.c_str(), (*ctx)->device().type.c_str());
     std::printf("cache_bits_per_voxel: %u\n", shared->cacheBits());
     std::printf("detail_separated: %s\n", shared->separated() ? "yes" : "no"); // the finest level in host memory
+    std::printf("host_memory_budget_mib: %.2f\n", hostBudget / 1048576.0);
+    std::printf("finest_level_on_disk: %s\n", want.tiers ? "yes" : "no");
+    if (want.tiers) std::printf("host_coarse_mib: %.2f\n", want.tiers->residentBytes() / 1048576.0);
     std::printf("setup_ms: %.1f\n", since(tStart));
 
     Vec3 boxCentre{};
@@ -432,6 +457,13 @@ int cmdRender(int argc, char** argv) {
     std::printf("device_memory_total_mib: %.2f\n", r.memory().total() / 1048576.0);
     std::printf("device_memory_budget_mib: %.2f\n", r.deviceMemoryBudget() / 1048576.0);
     std::printf("cache_used_mib: %.2f\n", cacheUsed / 1048576.0);
+    if (want.tiers) {
+        const TierCounts t = want.tiers->counts();
+        std::printf("file_read_bricks: %llu\nfile_read_mib: %.2f\ndisk_read_mib: %.2f\nread_ahead_bricks: %llu\n",
+                    (unsigned long long)t.fileBricks, t.fileBytes / 1048576.0, t.diskBytes / 1048576.0,
+                    (unsigned long long)t.readAheadBricks);
+    }
+    std::printf("host_peak_rss_mib: %.1f\n", peakRssMiB());
     const gpu::DetailCounts detail = r.detailCounts();
     std::printf("detail_streaming: %s\n", r.streamsDetail() ? "yes" : "no");
     if (r.streamsDetail())

@@ -44,6 +44,7 @@ TEST(Tiered, CoarseTierDecodesEveryLevelButTheFinestAsTheWholeDoes) {
         Result<std::shared_ptr<const TieredVolume>> t = TieredVolume::create(full, {});
         ASSERT_TRUE(t.isOk()) << name << ": " << t.message();
         const TieredVolume& tiers = **t;
+        EXPECT_TRUE(tiers.hasCoarseTier());
         const CompressedVolume& coarse = tiers.coarse();
         EXPECT_TRUE(checkContainer(coarse).isOk()) << name << ": " << checkContainer(coarse).message();
         EXPECT_LT(coarse.serializedSize(), full->serializedSize()) << name;
@@ -69,8 +70,8 @@ TEST(Tiered, CoarseTierDecodesEveryLevelButTheFinestAsTheWholeDoes) {
         }
         EXPECT_EQ(tiers.finestBytesTotal(), total * 4);
         const TierCounts c = tiers.counts();
-        EXPECT_EQ(c.finestBricks, full->brickCount());
-        EXPECT_EQ(c.finestBytes, total * 4);
+        EXPECT_EQ(c.fileBricks, full->brickCount());
+        EXPECT_EQ(c.fileBytes, total * 4);
         // Released pages decode the same, and read-ahead changes nothing.
         Result<LabelVolume> before = decodeVolume(*full, 0);
         ASSERT_TRUE(before.isOk()) << before.message();
@@ -87,15 +88,26 @@ TEST(Tiered, CoarseTierDecodesEveryLevelButTheFinestAsTheWholeDoes) {
     }
 }
 
-TEST(Tiered, ABudgetTheCoarseLevelsExceedIsRefusedNamingBoth) {
+TEST(Tiered, ABudgetTheCoarseLevelsExceedKeepsNoLevelResident) {
     std::shared_ptr<const CompressedVolume> full = mappedCopy(rans2Fixtures().front(), "tiered-budget.csgv");
     ASSERT_TRUE(full);
     TieredVolume::Options o;
-    o.budgetBytes = 64;
-    Result<std::shared_ptr<const TieredVolume>> t = TieredVolume::create(full, o);
-    ASSERT_FALSE(t.isOk());
-    EXPECT_NE(t.message().find("host-memory budget of 0.0 MiB"), std::string::npos) << t.message();
-    EXPECT_NE(t.message().find("coarse levels need"), std::string::npos) << t.message();
+    for (uint64_t budget : {uint64_t(64), full->serializedSize() / 4}) {
+        o.budgetBytes = budget;
+        Result<std::shared_ptr<const TieredVolume>> t = TieredVolume::create(full, o);
+        ASSERT_TRUE(t.isOk()) << t.message();
+        const TieredVolume& tiers = **t;
+        EXPECT_FALSE(tiers.hasCoarseTier());
+        EXPECT_EQ(&tiers.coarse(), full.get()) << "every level is the file's";
+        EXPECT_EQ(tiers.residentBytes(), 0u);
+        const uint32_t L = full->levels();
+        for (uint64_t b = 0; b < full->brickCount(); ++b) {
+            const BrickWords bw = full->brick(b);
+            ASSERT_EQ(tiers.finestWords(b), bw.size - bw.words[L] - bw.words[L - 1] / 8);
+        }
+    }
+    EXPECT_TRUE(TieredVolume::wanted(*full, 64));
+    EXPECT_FALSE(TieredVolume::wanted(*full, full->serializedSize()));
     o.budgetBytes = 64 << 20;
     Result<std::shared_ptr<const TieredVolume>> fits = TieredVolume::create(full, o);
     ASSERT_TRUE(fits.isOk()) << fits.message();

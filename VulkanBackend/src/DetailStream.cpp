@@ -27,6 +27,22 @@ DetailStream::~DetailStream() {
     if (m_copy.valid()) m_copy.wait();
 }
 
+DetailSizes DetailStream::sizes(const TieredVolume& tiers) {
+    if (!tiers.hasCoarseTier()) return sizes(tiers.full()); // measured on the file
+    return DetailSizes{2 * uint64_t(std::max<uint32_t>(tiers.longestFinestWords(), 1)) * 4,
+                       tiers.finestBytesTotal()}; // a valid brick's stream B has a word at least
+}
+
+uint32_t DetailStream::streamWords(uint64_t b) const {
+    return m_tiers ? m_tiers->finestWords(b) : finestStream(m_volume, b).count;
+}
+
+void DetailStream::copyStream(uint64_t b, uint32_t* dst) const {
+    if (m_tiers) return m_tiers->copyFinest(b, dst);
+    const Stream st = finestStream(m_volume, b);
+    st.words.copyTo(dst, st.count);
+}
+
 DetailSizes DetailStream::sizes(const CompressedVolume& volume) {
     uint64_t longest = 1, words = 0;
     for (uint64_t b = 0; b < volume.brickCount(); ++b) {
@@ -37,8 +53,8 @@ DetailSizes DetailStream::sizes(const CompressedVolume& volume) {
     return DetailSizes{2 * longest * 4, words * 4};
 }
 
-uint64_t DetailStream::brickBytes(const CompressedVolume& volume, uint64_t brick) {
-    return uint64_t(std::max<uint32_t>(finestStream(volume, brick).count, 1)) * 4;
+uint64_t DetailStream::brickBytes(const CompressedVolume& volume, uint64_t brick, const TieredVolume* tiers) {
+    return uint64_t(std::max<uint32_t>(tiers ? tiers->finestWords(brick) : finestStream(volume, brick).count, 1)) * 4;
 }
 
 uint64_t DetailStream::deviceBytes(const CompressedVolume& volume, uint64_t capacityBytes) {
@@ -46,16 +62,18 @@ uint64_t DetailStream::deviceBytes(const CompressedVolume& volume, uint64_t capa
 }
 
 Result<std::unique_ptr<DetailStream>> DetailStream::create(Context& context, const CompressedVolume& volume,
-                                                           uint64_t capacityBytes, const DetailSizes* sizes) {
+                                                           uint64_t capacityBytes, const DetailSizes* sizes,
+                                                           const TieredVolume* tiers) {
     if (volume.encoding != kEncodingRans2 || volume.levels() < 2)
         return Status::error("detail streaming needs a rANS two-table encoding with at least two levels");
     if (volume.brickCount() >= kNone) return Status::error("too many bricks for detail streaming");
-    const uint64_t smallest = sizes ? sizes->smallestBytes : smallestBytes(volume);
+    if (tiers && &tiers->coarse() != &volume) return Status::error("detail streaming of tiers needs their coarse volume");
+    const uint64_t smallest = sizes ? sizes->smallestBytes : tiers ? DetailStream::sizes(*tiers).smallestBytes : smallestBytes(volume);
     if (capacityBytes < smallest)
         return Status::error("a detail buffer of " + mebibytes(capacityBytes) + " is smaller than the " +
                              mebibytes(smallest) + " the longest finest-level stream needs");
     const uint64_t words = std::min<uint64_t>(capacityBytes / 4, kNone - 1);
-    std::unique_ptr<DetailStream> d(new DetailStream(context, volume));
+    std::unique_ptr<DetailStream> d(new DetailStream(context, volume, tiers));
     Result<Buffer> ring = context.createBuffer(words * 4, MemoryKind::DeviceLocal);
     if (!ring) return Status(ring.status()).prefix("allocating the detail buffer");
     Result<Buffer> table = context.createBuffer(std::max<uint64_t>(volume.brickCount() * 8, 16), MemoryKind::HostVisible);
@@ -118,10 +136,11 @@ Status DetailStream::request(const uint32_t* bricks, size_t count) {
     if (!s) return s;
     const uint64_t batchLimit = m_capacity / 2;
     uint64_t batchWords = 0;
-    for (size_t i = 0; i < count; ++i) {
+    size_t i = 0;
+    for (; i < count; ++i) {
         const uint32_t b = bricks[i];
         if (b >= m_volume.brickCount() || m_queued[b] || resident(b)) continue;
-        const uint32_t words = std::max<uint32_t>(finestStream(m_volume, b).count, 1);
+        const uint32_t words = std::max<uint32_t>(streamWords(b), 1);
         if (batchWords + words > batchLimit) break; // later frames ask again
         uint32_t offset = 0;
         if (!place(words, offset)) break;
@@ -130,6 +149,8 @@ Status DetailStream::request(const uint32_t* bricks, size_t count) {
         m_queued[b] = 1;
         batchWords += words;
     }
+    // What this batch could not take, the next frames ask for: their pages are read meanwhile.
+    if (m_tiers && i < count) m_tiers->readAhead(bricks + i, std::min<size_t>(count - i, m_batch.size() + 64));
     if (m_batch.empty()) return Status::ok();
     // The streams are copied out of the encoding on a host thread while the caller goes on.
     m_staging.assign(size_t(batchWords), 0u);
@@ -141,11 +162,13 @@ Status DetailStream::request(const uint32_t* bricks, size_t count) {
     }
     m_copy = std::async(std::launch::async, [this] {
         uint64_t at = 0;
+        std::vector<uint32_t> copied;
         for (const Entry& e : m_batch) {
-            const Stream st = finestStream(m_volume, e.brick);
-            st.words.copyTo(m_staging.data() + at, st.count);
+            copyStream(e.brick, m_staging.data() + at);
             at += e.words;
+            copied.push_back(e.brick);
         }
+        if (m_tiers) m_tiers->release(copied.data(), copied.size()); // in the staging buffer now
     });
     return Status::ok();
 }
@@ -161,7 +184,7 @@ Status DetailStream::commit() {
         m_queued[e.brick] = 0;
         if (!s) continue;
         table()[2 * size_t(e.brick)] = e.offset;
-        table()[2 * size_t(e.brick) + 1] = finestStream(m_volume, e.brick).count;
+        table()[2 * size_t(e.brick) + 1] = streamWords(e.brick);
         ++m_counts.uploadedBricks;
         m_counts.uploadedBytes += uint64_t(e.words) * 4;
     }

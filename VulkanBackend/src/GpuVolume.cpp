@@ -95,7 +95,10 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     std::unique_ptr<GpuVolume> g(new GpuVolume(context, volume));
     const bool separable = volume.encoding == kEncodingRans2;
     const bool host = options.hostDecoding;
-    const bool separate = !host && separates(volume, budget, options.separateDetail);
+    if (options.tiers && &options.tiers->coarse() != &volume)
+        return Status::error("an upload of tiers takes their coarse volume");
+    // Tiers keep the finest level in the file: a GPU decoder streams it like a separated one's.
+    const bool separate = !host && (options.tiers || separates(volume, budget, options.separateDetail));
     if (options.cachePaletting) g->m_cacheBits = paletteBits(volume);
     // What the device holds of each brick: all of it; without its finest-level stream
     // (separated); with host decoding its palette (cache paletting) or nothing.
@@ -118,7 +121,8 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     g->m_separated = separate;
     g->m_hostDecoding = host;
     g->m_owned = options.owned;
-    if (separate) g->m_detailSizes = DetailStream::sizes(volume);
+    g->m_tiers = options.tiers;
+    if (separate) g->m_detailSizes = options.tiers ? DetailStream::sizes(*options.tiers) : DetailStream::sizes(volume);
     std::vector<uint64_t> addresses;
     for (size_t i = 0; i < arrays.size(); ++i) {
         const WordArray& a = arrays[i];
@@ -281,9 +285,9 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         std::sort(finest.begin(), finest.end());
         finest.erase(std::unique(finest.begin(), finest.end()), finest.end());
         uint64_t bytes = 0;
-        for (uint32_t b : finest) bytes += DetailStream::brickBytes(m_volume, b);
-        Result<std::unique_ptr<DetailStream>> d =
-            DetailStream::create(m_context, m_volume, std::max(2 * bytes, m_detailSizes.smallestBytes), &m_detailSizes);
+        for (uint32_t b : finest) bytes += DetailStream::brickBytes(m_volume, b, m_tiers.get());
+        Result<std::unique_ptr<DetailStream>> d = DetailStream::create(
+            m_context, m_volume, std::max(2 * bytes, m_detailSizes.smallestBytes), &m_detailSizes, m_tiers.get());
         if (!d) return d.status();
         detail = std::move(*d);
         if (!(s = detail->request(finest.data(), finest.size())) || !(s = detail->commit())) return s;

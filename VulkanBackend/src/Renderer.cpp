@@ -150,7 +150,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                              mebibytes(fixed - volume->deviceBytes()) + ", and the brick cache needs at least " +
                              mebibytes(smallestCache));
     if (streaming) {
-        Result<std::unique_ptr<DetailStream>> ds = DetailStream::create(context, v, ringBytes, &volume->detailSizes());
+        Result<std::unique_ptr<DetailStream>> ds = DetailStream::create(context, v, ringBytes, &volume->detailSizes(), volume->tiers());
         if (!ds) return ds.status();
         im.detail = std::move(*ds);
     }

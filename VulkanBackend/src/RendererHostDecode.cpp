@@ -25,12 +25,14 @@ Status Renderer::Impl::decodeOnHost() {
         uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
         uint64_t* uniformMasks = static_cast<uint64_t*>(uniformSubs.mapped());
         hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
-            BrickDecoder& d = *decoders[worker];
             uint32_t brick, lod, offset;
             if (!entry(i, brick, lod, offset)) return;
+            BrickDecoder& d = decoderFor(worker, lod);
+            readsFile(brick, lod);
             const bool ok = volume->decodeRegion(d, brick, lod, cacheWords + offset);
             if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
         });
+        afterHostDecode(list, n);
         return Status::ok();
     }
     // Each brick's labels, then (decoded at the finest level) its uniform sub-block mask, one
@@ -59,13 +61,15 @@ Status Renderer::Impl::decodeOnHost() {
     hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
         const Staged& e = staged[i];
         if (e.labelBytes == 0) return;
-        BrickDecoder& d = *decoders[worker];
+        BrickDecoder& d = decoderFor(worker, e.lod);
+        readsFile(e.brick, e.lod);
         const bool ok = volume->decodeRegion(d, e.brick, e.lod, reinterpret_cast<uint32_t*>(host + e.at));
         if (e.lod == 0) {
             const uint64_t mask = ok ? uniformSubBlocks(d.labels(), e.brick) : 0;
             std::memcpy(host + e.at + e.labelBytes, &mask, 8);
         }
     });
+    afterHostDecode(list, n);
     for (const Staged& e : staged)
         if (e.labelBytes) stagedCopies.push_back({e.at, uint64_t(e.offset) * 4, e.labelBytes});
     stagedCacheCopies = uint32_t(stagedCopies.size());
@@ -90,9 +94,25 @@ std::vector<Context::Dispatch> Renderer::Impl::withStagedCopies(const Context::D
     return list;
 }
 
+void Renderer::Impl::afterHostDecode(const uint32_t* list, uint32_t n) {
+    const TieredVolume* tiers = volume->tiers();
+    if (!tiers) return;
+    std::vector<uint32_t> finest, next;
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t* e = list + kDecodeEntryWords * i;
+        if (e[0] >= brickCount) continue;
+        if (e[1] >= levels - 1 || !tiers->hasCoarseTier()) finest.push_back(e[0]); // read from the file
+        if (e[1] == levels - 2) next.push_back(e[0]); // inverse level L - 1 is full resolution
+    }
+    tiers->release(finest.data(), finest.size());
+    tiers->readAhead(next.data(), next.size());
+}
+
 WorkerPool& Renderer::Impl::hostWorkers() {
     if (!workers) workers = std::make_unique<WorkerPool>();
     while (decoders.size() < workers->size()) decoders.push_back(std::make_unique<BrickDecoder>(volume->volume()));
+    if (const TieredVolume* tiers = volume->tiers())
+        while (finestDecoders.size() < workers->size()) finestDecoders.push_back(std::make_unique<BrickDecoder>(tiers->full()));
     return *workers;
 }
 

@@ -478,6 +478,23 @@ struct Renderer::Impl {
     std::unique_ptr<DetailStream> detail;
     uint32_t detailUploads = 0;       // bricks whose stream the last commit made resident
     std::vector<std::unique_ptr<BrickDecoder>> decoders; // one per worker, for host decoding
+    std::vector<std::unique_ptr<BrickDecoder>> finestDecoders; // with tiers: of the file, for level 0
+    /// Host decoding's decoder of `worker` for a brick at `lod` (tiers: the finest level is the file's).
+    BrickDecoder& decoderFor(unsigned worker, uint32_t lod) {
+        return lod == 0 && volume->tiers() ? *finestDecoders[worker] : *decoders[worker];
+    }
+    /// Whether host decoding reads a brick at `lod` from the file (tiers: the finest level, and
+    /// every level where no coarse tier is resident), counting it when so.
+    bool readsFile(uint32_t brick, uint32_t lod) const {
+        const TieredVolume* t = volume->tiers();
+        if (!t || (lod != 0 && t->hasCoarseTier())) return false;
+        t->noteRead(brick);
+        return true;
+    }
+    /// With tiers, after host decoding: the pages of the bricks decoded from the file leave the
+    /// process, and the bricks decoded one level coarser are read ahead (the next frames refine
+    /// them).
+    void afterHostDecode(const uint32_t* list, uint32_t n);
     std::unique_ptr<WorkerPool> workers; // host decoding's threads: asleep, not spinning, between frames
     double finishSeconds = 0;         // render(): what follows the frames (denoising, read-back), measured
     ModeCosts costs;                  // render(): a frame's seconds per rendered pixel, per shading mode

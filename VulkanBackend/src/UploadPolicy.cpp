@@ -13,8 +13,9 @@ UploadPlan planUpload(const DeviceInfo& device, const CompressedVolume& volume, 
     // Host decoding (CPU devices) uploads no encoding; with GPU decoding, a budget that wants the
     // finest level in host memory, or no more, wants another upload.
     plan.volume.hostDecoding = decodesOnHost(request.decode, device, volume, plan.volume.deviceMemoryBytes);
+    plan.volume.tiers = request.tiers;
     plan.separated = !plan.volume.hostDecoding &&
-                     GpuVolume::separates(volume, plan.volume.deviceMemoryBytes, DetailSeparation::Auto);
+                     (request.tiers || GpuVolume::separates(volume, plan.volume.deviceMemoryBytes, DetailSeparation::Auto));
     plan.kind = uint32_t(plan.volume.cachePaletting) + 2 * uint32_t(plan.volume.hostDecoding);
     plan.cacheBytes = request.cacheBytes ? request.cacheBytes : automaticCacheBytes(device, request.processes);
     return plan;
@@ -22,7 +23,7 @@ UploadPlan planUpload(const DeviceInfo& device, const CompressedVolume& volume, 
 
 bool UploadPlan::serves(const GpuVolume& upload) const {
     return (upload.cacheBits() < 32) == volume.cachePaletting && upload.hostDecoding() == volume.hostDecoding &&
-           upload.separated() == separated;
+           upload.separated() == separated && upload.tiers() == volume.tiers.get();
 }
 
 RendererOptions UploadPlan::share(uint64_t encodingBytes, uint32_t renderers, RendererOptions::Decode decode) const {

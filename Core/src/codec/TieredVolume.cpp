@@ -4,6 +4,7 @@
 #include "csgv/base/Math.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <sys/resource.h>
 
 namespace csgv {
@@ -25,6 +26,25 @@ constexpr uint64_t kSweepWindow = uint64_t(32) << 20;
 
 } // namespace
 
+uint64_t TieredVolume::automaticBudget() {
+    std::FILE* f = std::fopen("/proc/meminfo", "r");
+    if (!f) return 0;
+    char line[256];
+    unsigned long long kib = 0;
+    while (std::fgets(line, sizeof line, f))
+        if (std::sscanf(line, "MemAvailable: %llu kB", &kib) == 1) break;
+    std::fclose(f);
+    return uint64_t(kib) * 1024 / 2;
+}
+
+bool TieredVolume::wanted(const CompressedVolume& full, uint64_t budgetBytes) {
+    const uint64_t budget = budgetBytes ? budgetBytes : automaticBudget();
+    if (budget == 0 || !tierable(full)) return false;
+    uint64_t bytes = 0;
+    for (const WordArray& a : full.arrays) bytes += uint64_t(a.size()) * 4;
+    return bytes > budget;
+}
+
 bool TieredVolume::tierable(const CompressedVolume& full) {
     if (full.encoding != kEncodingRans2 || full.levels() < 2 || full.arrays.empty()) return false;
     for (const WordArray& a : full.arrays)
@@ -42,6 +62,7 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
     CompressedVolume& c = t->m_coarse;
     // Every header field as it is; the arrays hold the coarse bricks, in the full volume's
     // arrays (a coarse brick is never longer than its brick, so every array still fits).
+    c = CompressedVolume{};
     c.version = v.version;
     c.brickSize = v.brickSize;
     c.dim = v.dim;
@@ -55,26 +76,25 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
     const uint64_t n = v.brickCount();
     const uint32_t L = v.levels();
     const uint64_t per = v.bricksPerArray == kSingleArray ? n + 1 : v.bricksPerArray;
-    // The coarse tier's size, from the brick starts alone: each brick less its stream B plus one
-    // word. Stream lengths need the bricks' headers, so the budget is checked as the sweep goes.
+    const uint64_t budget = options.budgetBytes;
+    // Stream lengths need the bricks' headers, so the budget is checked as the sweep goes; the
+    // arrays reserve what the budget allows (untouched reserved pages take no memory), so that
+    // they never grow by copying.
     try {
         t->m_finestWords.resize(size_t(n));
         c.brickStarts.assign(size_t(n) + 1, 0u);
         c.arrays.assign(v.arrays.size(), WordArray());
+        for (size_t a = 0; a < v.arrays.size(); ++a)
+            c.arrays[a].owned().reserve(size_t(budget ? std::min<uint64_t>(v.arrays[a].size(), budget / 4) : v.arrays[a].size()));
     } catch (const std::bad_alloc&) {
         return Status::error("no memory for the tables of " + std::to_string(n) + " bricks");
     }
-    const uint64_t budget = options.budgetBytes;
-    uint64_t resident = uint64_t(n) * 8 + 8, swept = 0, releasedUpTo = 0;
-    const auto over = [&] {
-        return Status::error("the coarse levels need more than " + mebibytes(resident) + " of host memory (" +
-                             mebibytes(t->residentBytes()) + " so far), more than the host-memory budget of " +
-                             mebibytes(budget) + "; raise the budget");
-    };
+    uint64_t resident = t->residentBytes(), releasedUpTo = 0;
     if (options.progress && !options.progress(0.0)) return Status::error("cancelled");
     size_t array = 0;
-    const uint8_t* sweepBase = v.arrays.empty() ? nullptr : static_cast<const uint8_t*>(v.arrays[0].bytes());
-    for (uint64_t b = 0; b < n; ++b) {
+    const uint8_t* sweepBase = static_cast<const uint8_t*>(v.arrays[0].bytes());
+    bool fits = !budget || resident <= budget;
+    for (uint64_t b = 0; b < n && fits; ++b) {
         const size_t a = size_t(b / per);
         if (a != array) { // the previous array is done: release all of it
             MappedFile::releaseAt(v.arrays[array].bytes(), v.arrays[array].size() * 4);
@@ -85,13 +105,15 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
         const BrickWords bw = v.brick(b);
         const FinestRange f = finestRange(bw, L);
         const uint32_t palette = bw.size - f.end;
+        const uint64_t words = uint64_t(f.begin) + 1 + palette;
+        resident += words * 4;
         std::vector<uint32_t>& out = c.arrays[a].owned();
-        const size_t at = out.size();
-        try {
-            out.resize(at + f.begin + 1 + palette);
-        } catch (const std::bad_alloc&) {
-            return Status::error("no memory for the coarse levels (" + mebibytes(resident) + " so far)");
+        if ((budget && resident > budget) || out.size() + words > out.capacity()) {
+            fits = false; // the coarse levels do not fit: every level is read from the file
+            break;
         }
+        const size_t at = out.size();
+        out.resize(at + size_t(words));
         bw.words.copyTo(out.data() + at, f.begin);
         out[at + f.begin] = kRansLowerBound; // the bare initial state: a stream B of no symbols
         (bw.words + std::ptrdiff_t(f.end)).copyTo(out.data() + at + f.begin + 1, palette);
@@ -99,9 +121,6 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
         t->m_finestWords[size_t(b)] = f.end - f.begin;
         t->m_longest = std::max(t->m_longest, f.end - f.begin);
         t->m_finestTotal += f.end - f.begin;
-        resident += uint64_t(f.begin + 1 + palette) * 4;
-        swept += uint64_t(bw.size) * 4;
-        if (budget && resident > budget) return over();
         // Release what the sweep has passed (a page may hold the start of the next brick: it is
         // read again when touched).
         const uint64_t offset = uint64_t(static_cast<const uint8_t*>(bw.words.bytes()) - sweepBase);
@@ -111,42 +130,55 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
             if (options.progress && !options.progress(double(b) / double(n))) return Status::error("cancelled");
         }
     }
-    if (!v.arrays.empty()) MappedFile::releaseAt(v.arrays[array].bytes(), v.arrays[array].size() * 4);
+    MappedFile::releaseAt(v.arrays[array].bytes(), v.arrays[array].size() * 4);
+    if (!fits) {
+        // No resident tier: the finest table goes too (streams are measured when asked for).
+        t->m_coarse = CompressedVolume{};
+        t->m_finestWords = {};
+        t->m_hasCoarse = false;
+        return std::shared_ptr<const TieredVolume>(std::move(t));
+    }
     // Arrays that start a new array: brick starts as the container stores them (CSGV-FORMAT.md
     // section 7: the stored start of a brick opening an array is the previous array's length).
     for (uint64_t b = per; b < n; b += per) c.brickStarts[size_t(b)] = uint32_t(c.arrays[size_t(b / per) - 1].size());
-    for (WordArray& a : c.arrays) a.owned().shrink_to_fit();
-    (void)swept;
+    t->m_hasCoarse = true;
     return std::shared_ptr<const TieredVolume>(std::move(t));
 }
 
+uint32_t TieredVolume::finestWords(uint64_t brick) const {
+    if (m_hasCoarse) return m_finestWords[size_t(brick)];
+    const FinestRange f = finestRange(m_full->brick(brick), m_full->levels());
+    return f.end - f.begin;
+}
+
 uint64_t TieredVolume::residentBytes() const {
-    uint64_t n = uint64_t(m_coarse.brickStarts.capacity()) * 4 + uint64_t(m_finestWords.capacity()) * 4;
-    for (const WordArray& a : m_coarse.arrays) n += a.ownedBytes();
+    uint64_t n = uint64_t(m_coarse.brickStarts.size()) * 4 + uint64_t(m_finestWords.size()) * 4;
+    for (const WordArray& a : m_coarse.arrays) n += uint64_t(a.size()) * 4; // reserved, untouched pages take nothing
     return n;
 }
 
-void TieredVolume::count(uint64_t brick) const {
-    const BrickWords bw = m_full->brick(brick);
-    const FinestRange f = finestRange(bw, m_full->levels());
-    const size_t bytes = size_t(f.end - f.begin) * 4;
+void TieredVolume::count(const void* bytes, size_t size) const {
     m_bricks.fetch_add(1, std::memory_order_relaxed);
-    m_bytes.fetch_add(bytes, std::memory_order_relaxed);
-    m_disk.fetch_add(MappedFile::absentBytesAt((bw.words + std::ptrdiff_t(f.begin)).bytes(), bytes), std::memory_order_relaxed);
+    m_bytes.fetch_add(size, std::memory_order_relaxed);
+    m_disk.fetch_add(MappedFile::absentBytesAt(bytes, size), std::memory_order_relaxed);
 }
 
 void TieredVolume::copyFinest(uint64_t brick, uint32_t* dst) const {
-    count(brick);
     const BrickWords bw = m_full->brick(brick);
     const FinestRange f = finestRange(bw, m_full->levels());
-    (bw.words + std::ptrdiff_t(f.begin)).copyTo(dst, f.end - f.begin);
+    const WordPtr from = bw.words + std::ptrdiff_t(f.begin);
+    count(from.bytes(), size_t(f.end - f.begin) * 4);
+    from.copyTo(dst, f.end - f.begin);
 }
 
-void TieredVolume::noteRead(uint64_t brick) const { count(brick); }
+void TieredVolume::noteRead(uint64_t brick) const {
+    const BrickWords bw = m_full->brick(brick);
+    count(bw.words.bytes(), size_t(bw.size) * 4);
+}
 
 void TieredVolume::release(const uint32_t* bricks, size_t count) const {
     for (size_t i = 0; i < count; ++i) {
-        if (bricks[i] >= m_finestWords.size()) continue;
+        if (bricks[i] >= m_full->brickCount()) continue;
         const BrickWords bw = m_full->brick(bricks[i]);
         MappedFile::releaseAt(bw.words.bytes(), size_t(bw.size) * 4);
     }
@@ -155,7 +187,7 @@ void TieredVolume::release(const uint32_t* bricks, size_t count) const {
 
 void TieredVolume::readAhead(const uint32_t* bricks, size_t count) const {
     for (size_t i = 0; i < count; ++i) {
-        if (bricks[i] >= m_finestWords.size()) continue;
+        if (bricks[i] >= m_full->brickCount()) continue;
         const BrickWords bw = m_full->brick(bricks[i]);
         MappedFile::willNeedAt(bw.words.bytes(), size_t(bw.size) * 4);
     }
@@ -164,8 +196,8 @@ void TieredVolume::readAhead(const uint32_t* bricks, size_t count) const {
 
 TierCounts TieredVolume::counts() const {
     TierCounts c;
-    c.finestBricks = m_bricks.load();
-    c.finestBytes = m_bytes.load();
+    c.fileBricks = m_bricks.load();
+    c.fileBytes = m_bytes.load();
     c.diskBytes = m_disk.load();
     c.readAheadBricks = m_readAhead.load();
     c.releasedBricks = m_released.load();

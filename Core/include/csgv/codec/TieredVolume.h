@@ -21,8 +21,11 @@
 ///
 /// Building the coarse tier is one sweep over the file that releases the pages behind it, so the
 /// process's resident memory stays near coarse + a sweep window however large the file is. The
-/// host-memory budget is the coarse tier plus the finest-stream table plus what callers copy
-/// out; create() refuses a budget the coarse tier does not fit.
+/// host-memory budget bounds the coarse tier and its tables. Where the coarse levels do not fit
+/// it, the sweep stops as soon as they pass it and no level is resident: coarse() is the whole
+/// (mapped) volume, every brick is read from the file when decoded, and its pages are released
+/// after (hasCoarseTier() false). Host decoding works either way; GPU decoding then uploads the
+/// coarse part from the file as detail separation does.
 ///
 /// Decisions: the coarse tier keeps each brick's header and palette unchanged (palette entries
 /// first used at the finest level included: cache paletting and palette lookups see the same
@@ -41,9 +44,9 @@ namespace csgv {
 
 /// What the finest tier moved since the tiers were built.
 struct TierCounts {
-    uint64_t finestBricks = 0;   ///< streams copied out (copyFinest) or decoded from the file (noteRead)
-    uint64_t finestBytes = 0;    ///< their bytes
-    uint64_t diskBytes = 0;      ///< of those, bytes whose pages were not in memory when asked (read from disk)
+    uint64_t fileBricks = 0; ///< streams copied out (copyFinest) and bricks decoded from the file (noteRead)
+    uint64_t fileBytes = 0;  ///< their bytes (a stream's; a decoded brick's whole encoding)
+    uint64_t diskBytes = 0;  ///< of those, bytes whose pages were not in memory when asked (read from disk)
     uint64_t readAheadBricks = 0;
     uint64_t releasedBricks = 0;
 };
@@ -57,22 +60,32 @@ public:
         std::function<bool(double)> progress;
     };
 
+    /// The host-memory budget when the caller sets none (0): half the memory available now
+    /// (MemAvailable in /proc/meminfo), or no limit (0) where that is unknown.
+    static uint64_t automaticBudget();
+    /// Whether `full` is to be tiered under `budgetBytes` (0: automaticBudget()): tierable, and
+    /// its encoding arrays take more than the budget.
+    static bool wanted(const CompressedVolume& full, uint64_t budgetBytes);
     /// Whether `full` can be tiered: a rANS two-table encoding of at least two levels whose
     /// arrays view a mapping of a file (MappedFile::mappedAt).
     static bool tierable(const CompressedVolume& full);
     /// Sweeps `full` (tierable; checked by checkContainer) once, copying the coarse tier and
-    /// measuring the finest streams; an error when the coarse tier exceeds the budget (naming
-    /// both) or the sweep is cancelled.
+    /// measuring the finest streams (no coarse tier where it would exceed the budget); an error
+    /// when the sweep is cancelled or the brick tables find no memory.
     static Result<std::shared_ptr<const TieredVolume>> create(std::shared_ptr<const CompressedVolume> full,
                                                                const Options& options);
 
-    const CompressedVolume& coarse() const { return m_coarse; }
+    /// Whether the coarse levels are resident (they fit the budget).
+    bool hasCoarseTier() const { return m_hasCoarse; }
+    /// The volume to draw from: the coarse tier, or the whole volume without one.
+    const CompressedVolume& coarse() const { return m_hasCoarse ? m_coarse : *m_full; }
     const CompressedVolume& full() const { return *m_full; }
     std::shared_ptr<const CompressedVolume> fullShared() const { return m_full; }
 
     /// Words of brick b's finest-level stream (stream B: 1 or more in a valid brick; 0 where the
     /// container leaves no room for it, which then fails to decode).
-    uint32_t finestWords(uint64_t brick) const { return m_finestWords[size_t(brick)]; }
+    uint32_t finestWords(uint64_t brick) const;
+    /// With a coarse tier: the longest stream and all streams together (measured by the sweep).
     uint32_t longestFinestWords() const { return m_longest; }
     uint64_t finestBytesTotal() const { return m_finestTotal * 4; }
     /// Host memory the tiers hold: the coarse tier's arrays and starts, the finest table.
@@ -92,10 +105,11 @@ public:
 
 private:
     TieredVolume() = default;
-    void count(uint64_t brick) const;
+    void count(const void* bytes, size_t size) const;
     std::shared_ptr<const CompressedVolume> m_full;
     CompressedVolume m_coarse;
     std::vector<uint32_t> m_finestWords;
+    bool m_hasCoarse = false;
     uint32_t m_longest = 1;
     uint64_t m_finestTotal = 0;
     mutable std::atomic<uint64_t> m_bricks{0}, m_bytes{0}, m_disk{0}, m_readAhead{0}, m_released{0};

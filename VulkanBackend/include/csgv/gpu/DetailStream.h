@@ -15,6 +15,7 @@
 /// transfer it did not ask for in an earlier frame.
 
 #include "csgv/codec/Container.h"
+#include "csgv/codec/TieredVolume.h"
 #include "csgv/gpu/Context.h"
 
 #include <cstdint>
@@ -41,16 +42,21 @@ public:
     /// The ring holds `capacityBytes` (at least smallestBytes); the table takes 8 bytes a brick
     /// (host-visible: written between frames). `volume` must be a rANS two-table encoding with at
     /// least two levels and outlive the stream. `sizes`: the volume's, when known (else measured).
+    /// `tiers`: the volume is tiers->coarse(); the streams are read from the file (copyFinest),
+    /// whose pages are released once copied, and the bricks a batch could not take are read ahead
+    /// (they are asked for again by the next frames).
     static Result<std::unique_ptr<DetailStream>> create(Context& context, const CompressedVolume& volume,
-                                                        uint64_t capacityBytes, const DetailSizes* sizes = nullptr);
+                                                        uint64_t capacityBytes, const DetailSizes* sizes = nullptr,
+                                                        const TieredVolume* tiers = nullptr);
     ~DetailStream();
     DetailStream(const DetailStream&) = delete;
     DetailStream& operator=(const DetailStream&) = delete;
 
     static DetailSizes sizes(const CompressedVolume& volume);
+    static DetailSizes sizes(const TieredVolume& tiers);
     static uint64_t smallestBytes(const CompressedVolume& volume) { return sizes(volume).smallestBytes; }
     /// Ring bytes one brick's finest-level stream takes.
-    static uint64_t brickBytes(const CompressedVolume& volume, uint64_t brick);
+    static uint64_t brickBytes(const CompressedVolume& volume, uint64_t brick, const TieredVolume* tiers = nullptr);
     static uint64_t streamBytes(const CompressedVolume& volume) { return sizes(volume).streamBytes; }
     /// Device memory of a stream with a ring of `capacityBytes`: ring and table.
     static uint64_t deviceBytes(const CompressedVolume& volume, uint64_t capacityBytes);
@@ -77,7 +83,10 @@ public:
     const DetailCounts& counts() const { return m_counts; }
 
 private:
-    DetailStream(Context& c, const CompressedVolume& v) : m_context(c), m_volume(v) {}
+    DetailStream(Context& c, const CompressedVolume& v, const TieredVolume* t) : m_context(c), m_volume(v), m_tiers(t) {}
+    /// Brick b's finest-level stream: its words, and a copy of them to `dst`.
+    uint32_t streamWords(uint64_t b) const;
+    void copyStream(uint64_t b, uint32_t* dst) const;
     struct Entry {
         uint32_t brick;
         uint32_t offset; ///< ring word
@@ -92,6 +101,7 @@ private:
 
     Context& m_context;
     const CompressedVolume& m_volume;
+    const TieredVolume* m_tiers = nullptr;
     Buffer m_ring, m_table;
     uint32_t m_capacity = 0; ///< ring words
     uint32_t m_head = 0;     ///< next free ring word

@@ -59,6 +59,10 @@ struct GpuVolumeOptions {
     /// The bricks this process draws (an MPI rank's piece placed in its volume's index space,
     /// embedPiece); the others are absent: never visible, requested or decoded. Empty: all.
     BrickBox owned;
+    /// The volume is tiers->coarse() (TieredVolume.h: the finest level stays in the file): GPU
+    /// decoding separates detail (the streams come from the file through a DetailStream), host
+    /// decoding reads the finest level from tiers->full(). Null: the volume is whole.
+    std::shared_ptr<const TieredVolume> tiers;
 };
 
 class GpuVolume {
@@ -81,6 +85,8 @@ public:
     /// The finest level stays in host memory (GpuVolumeOptions::separateDetail): decoding level 0
     /// needs the brick's stream in a DetailStream.
     bool separated() const { return m_separated; }
+    /// The tiers the volume was uploaded from (GpuVolumeOptions::tiers), or null.
+    const TieredVolume* tiers() const { return m_tiers.get(); }
     /// A separated volume's finest-level streams (measured once, when uploaded).
     const DetailSizes& detailSizes() const { return m_detailSizes; }
     /// Uploaded for host decoding (GpuVolumeOptions::hostDecoding): no encoding to decode from.
@@ -159,6 +165,7 @@ private:
     bool m_separated = false;
     bool m_hostDecoding = false;
     DetailSizes m_detailSizes;
+    std::shared_ptr<const TieredVolume> m_tiers;
     /// Device memory that encoding arrays and brick starts take once uploaded.
     static uint64_t uploadBytes(const std::vector<WordArray>& arrays, const std::vector<uint32_t>& starts);
     /// What the device holds of each brick when not all of it (arrays and starts as the container's).

@@ -28,6 +28,8 @@ struct UploadRequest {
     /// (`cachePressure`). Never where the palettes are too large for two indices to share a word.
     int cachePaletting = 2;
     bool cachePressure = false;
+    /// The volume is tiers->coarse(): its finest level stays in the file (TieredVolume.h).
+    std::shared_ptr<const TieredVolume> tiers;
 };
 
 /// The kinds of upload of one volume: [paletted + 2 * hostDecoding].
