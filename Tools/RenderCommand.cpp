@@ -464,6 +464,10 @@ int cmdRender(int argc, char** argv) {
                     (unsigned long long)t.readAheadBricks);
     }
     std::printf("host_peak_rss_mib: %.1f\n", peakRssMiB());
+    std::printf("bad_bricks: %llu\n", (unsigned long long)r.badBricks());
+    if (r.badBricks())
+        std::fprintf(stderr, "csgv: warning: %s: %llu bricks failed to decode and are drawn empty; the first: %s\n",
+                     a.input.c_str(), (unsigned long long)r.badBricks(), r.firstBadBrick().c_str());
     const gpu::DetailCounts detail = r.detailCounts();
     std::printf("detail_streaming: %s\n", r.streamsDetail() ? "yes" : "no");
     if (r.streamsDetail())

@@ -4,6 +4,8 @@
 #include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/FrameLayout.h"
 
+#include "csgv/base/MappedFile.h"
+
 #include <algorithm>
 #include <unordered_map>
 
@@ -107,6 +109,10 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     // Large labels are stored as ids (StoredLabels): in the palettes the device holds, and in the
     // cache regions host decoding writes. An MPI rank's piece keeps its labels.
     g->m_labels = storedLabels(volume, !options.owned.empty());
+    // The palettes just read are the file's only if no page of it was cut off (MappedFile's guard).
+    for (const WordArray& a : volume.arrays)
+        if (MappedFile::damagedAt(a.bytes(), a.size() * 4))
+            return Status::error("the file changed on disk while it was open (it was cut short); open it again");
     std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
@@ -388,14 +394,21 @@ uint64_t GpuVolume::regionWords(uint32_t lod) const {
     return (entries + per - 1) / per;
 }
 
-bool GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const {
-    if (!decoder.decode(brick, lod)) {
+Status GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const {
+    Status s = decoder.decode(brick, lod);
+    // Bytes of a mapped file cut short under its mapping read as zeros (MappedFile's guard),
+    // which may even decode: such a brick is refused whatever the decoder said.
+    const CompressedVolume& v = lod == 0 && m_tiers ? m_tiers->full() : m_volume;
+    const BrickWords bw = v.brick(brick);
+    if (MappedFile::damagedAt(bw.words.bytes(), size_t(bw.size) * 4))
+        s = Status::error("brick " + std::to_string(brick) + ": the file changed on disk while it was open (it was cut short)");
+    if (!s) {
         std::fill(out, out + regionWords(lod), kNone);
-        return false;
+        return s;
     }
     const uint64_t edge = decoder.gridSize();
     packRegion(brick, decoder.labels(), edge * edge * edge, out);
-    return true;
+    return Status::ok();
 }
 
 void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const {

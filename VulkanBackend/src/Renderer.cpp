@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "RendererImpl.h"
 
+#include <utility>
+
 namespace csgv::gpu {
 
 
@@ -797,6 +799,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (detail && !(s = requestDetail(stats))) return s;
     stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     stats.detailUploads = detailUploads;
+    stats.badBricks = std::exchange(frameBadBricks, 0u);
     accumulation.sumsStale = (accumulation.sumsStale && !accumulation.clearPending) || oneSample(st);
     accumulation.clearPending = imageState.imageDirty = false;
     outputParts = 0; // the read-back output is stale now
@@ -840,6 +843,16 @@ uint64_t Renderer::deviceMemoryBudget() const { return m_impl->budget; }
 bool Renderer::streamsDetail() const { return m_impl->detail != nullptr; }
 
 DetailCounts Renderer::detailCounts() const { return m_impl->detail ? m_impl->detail->counts() : DetailCounts{}; }
+
+uint64_t Renderer::badBricks() const {
+    std::lock_guard<std::mutex> lock(m_impl->badMutex);
+    return m_impl->badBricks;
+}
+
+std::string Renderer::firstBadBrick() const {
+    std::lock_guard<std::mutex> lock(m_impl->badMutex);
+    return m_impl->firstBadBrick;
+}
 
 MemoryReport Renderer::memory() const { return m_impl->memory(); }
 

@@ -29,7 +29,9 @@ Status Renderer::Impl::decodeOnHost() {
             if (!entry(i, brick, lod, offset)) return;
             BrickDecoder& d = decoderFor(worker, lod);
             readsFile(brick, lod);
-            const bool ok = volume->decodeRegion(d, brick, lod, cacheWords + offset);
+            const Status st = volume->decodeRegion(d, brick, lod, cacheWords + offset);
+            const bool ok = st.isOk();
+            if (!ok) noteBadBrick(st);
             if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
         });
         afterHostDecode(list, n);
@@ -63,7 +65,9 @@ Status Renderer::Impl::decodeOnHost() {
         if (e.labelBytes == 0) return;
         BrickDecoder& d = decoderFor(worker, e.lod);
         readsFile(e.brick, e.lod);
-        const bool ok = volume->decodeRegion(d, e.brick, e.lod, reinterpret_cast<uint32_t*>(host + e.at));
+        const Status st = volume->decodeRegion(d, e.brick, e.lod, reinterpret_cast<uint32_t*>(host + e.at));
+        const bool ok = st.isOk();
+        if (!ok) noteBadBrick(st);
         if (e.lod == 0) {
             const uint64_t mask = ok ? uniformSubBlocks(d.labels(), e.brick) : 0;
             std::memcpy(host + e.at + e.labelBytes, &mask, 8);

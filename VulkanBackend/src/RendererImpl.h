@@ -8,6 +8,8 @@
 #include "BlueNoise.h"
 #include "csgv/gpu/LabelLookup.h"
 #include "csgv/gpu/DetailStream.h"
+
+#include <mutex>
 #include "csgv/gpu/FrameLayout.h"
 
 #include "csgv/base/Math.h"
@@ -495,6 +497,17 @@ struct Renderer::Impl {
     /// process, and the bricks decoded one level coarser are read ahead (the next frames refine
     /// them).
     void afterHostDecode(const uint32_t* list, uint32_t n);
+    /// Host decoding's failed bricks: counted, the first error kept.
+    std::mutex badMutex;
+    uint64_t badBricks = 0;
+    uint32_t frameBadBricks = 0;
+    std::string firstBadBrick;
+    void noteBadBrick(const Status& s) {
+        std::lock_guard<std::mutex> lock(badMutex);
+        ++badBricks;
+        ++frameBadBricks;
+        if (firstBadBrick.empty()) firstBadBrick = s.message();
+    }
     std::unique_ptr<WorkerPool> workers; // host decoding's threads: asleep, not spinning, between frames
     double finishSeconds = 0;         // render(): what follows the frames (denoising, read-back), measured
     ModeCosts costs;                  // render(): a frame's seconds per rendered pixel, per shading mode

@@ -76,6 +76,7 @@ constexpr int kSlots = 1024;
 struct Slot {
     std::atomic<uintptr_t> begin{0}, end{0};
     std::atomic<bool> damaged{false};
+    std::atomic<uintptr_t> firstDamaged{UINTPTR_MAX}; ///< the lowest page replaced by zeros
 };
 Slot g_slots[kSlots];
 std::mutex g_registry;
@@ -100,6 +101,10 @@ void onSigbus(int signal, siginfo_t* info, void* context) {
         // atomically; mmap is a plain system call, safe in a handler on Linux).
         void* page = reinterpret_cast<void*>(a & ~(pageSize() - 1));
         if (::mmap(page, size_t(pageSize()), PROT_READ, MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED, -1, 0) != MAP_FAILED) {
+            uintptr_t first = g_slots[slot].firstDamaged.load(std::memory_order_relaxed);
+            const uintptr_t here = reinterpret_cast<uintptr_t>(page);
+            while (here < first && !g_slots[slot].firstDamaged.compare_exchange_weak(first, here)) {
+            }
             g_slots[slot].damaged.store(true, std::memory_order_release);
             return; // the access is retried and reads zeros
         }
@@ -143,6 +148,7 @@ int registerMapping(const uint8_t* data, size_t size) {
     for (int i = 0; i < kSlots; ++i) {
         if (g_slots[i].begin.load(std::memory_order_relaxed)) continue;
         g_slots[i].damaged.store(false, std::memory_order_relaxed);
+        g_slots[i].firstDamaged.store(UINTPTR_MAX, std::memory_order_relaxed);
         g_slots[i].end.store(reinterpret_cast<uintptr_t>(data) + size, std::memory_order_release);
         g_slots[i].begin.store(reinterpret_cast<uintptr_t>(data), std::memory_order_release);
         return i;
@@ -188,9 +194,10 @@ MappedFile::~MappedFile() {
 
 bool MappedFile::damaged() const { return m_slot >= 0 && g_slots[m_slot].damaged.load(std::memory_order_acquire); }
 
-bool MappedFile::damagedAt(const void* address) {
+bool MappedFile::damagedAt(const void* address, size_t size) {
     const int slot = findSlot(reinterpret_cast<uintptr_t>(address));
-    return slot >= 0 && g_slots[slot].damaged.load(std::memory_order_acquire);
+    return slot >= 0 && g_slots[slot].damaged.load(std::memory_order_acquire) &&
+           reinterpret_cast<uintptr_t>(address) + size > g_slots[slot].firstDamaged.load(std::memory_order_acquire);
 }
 
 bool MappedFile::mappedAt(const void* address) { return findSlot(reinterpret_cast<uintptr_t>(address)) >= 0; }

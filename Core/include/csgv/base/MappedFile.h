@@ -60,9 +60,11 @@ public:
 
     /// True once a page of the mapping had to be replaced by zeros because the file shrank under it.
     bool damaged() const;
-    /// Whether `address` lies in a live guarded mapping that is damaged (for callers that hold
-    /// only a view of the bytes: a decode error there names the cause).
-    static bool damagedAt(const void* address);
+    /// Whether [address, address + size) lies in a live guarded mapping and reaches a page that
+    /// was replaced by zeros (for callers that hold only a view of the bytes: what they read there
+    /// is not the file's). A file cut short fails every page past its new end, and the first such
+    /// page touched is the lowest: bytes before it are the file's.
+    static bool damagedAt(const void* address, size_t size = 1);
     /// Whether `address` lies in a live mapping of a file (whose pages release() may drop: they
     /// are read again from the file when touched).
     static bool mappedAt(const void* address);

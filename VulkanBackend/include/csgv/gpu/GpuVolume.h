@@ -103,8 +103,9 @@ public:
     void packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, uint32_t* out) const;
     /// Decodes a brick at `lod` on the host with `decoder` (of this volume) into its cache region
     /// `out` (regionWords(lod) words, packed as the cache stores it); a brick whose stream fails
-    /// reads as outside the volume (all kNone) and false is returned.
-    bool decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const;
+    /// reads as outside the volume (all kNone) and the decoder's error is returned (naming the
+    /// brick, and the file where it changed under its mapping: MappedFile::damagedAt).
+    Status decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const;
     /// The labels as the device stores them (LabelLookup.h StoredLabels): with ids (ascending, a
     /// label's id is its index) the device's palettes and the cache hold ids; without (empty),
     /// the labels themselves.

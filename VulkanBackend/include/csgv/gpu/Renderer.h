@@ -205,6 +205,7 @@ struct FrameStats {
     /// next coarser level meanwhile, as previews), and streams uploaded before this frame.
     uint32_t detailRequests = 0;
     uint32_t detailUploads = 0;
+    uint32_t badBricks = 0;       ///< bricks this frame failed to decode (Renderer::firstBadBrick says why)
 
     /// Nothing happened that later frames build on: no new sample, no decoded brick, no change of
     /// the cache policy, no detail asked for or uploaded (render loops stop after idleLimit() such frames in a row).
@@ -328,6 +329,10 @@ public:
     /// detail buffer and evicted from it, since creation (zeros without streaming).
     bool streamsDetail() const;
     DetailCounts detailCounts() const;
+    /// Bricks whose encoding failed to decode on the host since the renderer was made (a corrupt
+    /// or truncated brick: it is drawn as empty, the rest renders), and the first one's error.
+    uint64_t badBricks() const;
+    std::string firstBadBrick() const;
     const GpuVolume& volume() const { return *m_volume; }
 
     /// A brick in the cache (diagnostics and tests): its level of detail and, at the finest
