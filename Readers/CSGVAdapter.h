@@ -19,6 +19,7 @@
 #ifndef CSGVAdapter_h
 #define CSGVAdapter_h
 
+#include "csgv/base/MappedFile.h"
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/base/Geometry.h"
 #include "csgv/codec/Container.h"
@@ -208,6 +209,11 @@ vtkUnsignedCharArray* encodingArray(vtkFieldData* fd);
 /// parse of it (readEncodingArrays, parseCsgvShared) views its words instead of copying them:
 /// one copy of an encoding serves its bytes and every parse in the process. Null without memory.
 vtkSmartPointer<vtkUnsignedCharArray> newEncodingArray(uint64_t bytes);
+/// An encoding array over a file's mapped bytes (csgv::MappedFile: read-only, guarded against the
+/// file being cut short), which the array keeps alive: the encoding takes no private memory, the
+/// page cache holds what was touched, and a parse of it views the mapping (TieredVolume can then
+/// keep the finest level on disk). Null when the size does not fit a VTK array.
+vtkSmartPointer<vtkUnsignedCharArray> mappedEncodingArray(std::shared_ptr<const csgv::MappedFile> file);
 /// A shared owner that keeps `array`, and so its memory, alive (a reference): the keeper of
 /// WordArray views into it. The array must not be changed while views live (FieldData arrays
 /// are not: the pipeline passes them on shallowly).

@@ -16,6 +16,8 @@
 #include <vtkUnsignedCharArray.h>
 
 #include <algorithm>
+#include <mutex>
+#include <unordered_map>
 #include <cstring>
 #include <limits>
 
@@ -228,6 +230,52 @@ vtkSmartPointer<vtkUnsignedCharArray> newEncodingArray(uint64_t bytes)
   auto array = vtkSmartPointer<vtkUnsignedCharArray>::New();
   array->SetArray(memory, static_cast<vtkIdType>(bytes), 0, vtkUnsignedCharArray::VTK_DATA_ARRAY_USER_DEFINED);
   array->SetArrayFreeFunction(csgv::freeCsgvBytes);
+  return array;
+}
+
+namespace
+{
+// The mappings that encoding arrays hold, by their first byte (a VTK array's free function gets
+// the pointer alone).
+std::mutex& mappedMutex()
+{
+  static std::mutex m;
+  return m;
+}
+std::unordered_map<const void*, std::pair<std::shared_ptr<const csgv::MappedFile>, int>>& mappedArrays()
+{
+  static std::unordered_map<const void*, std::pair<std::shared_ptr<const csgv::MappedFile>, int>> m;
+  return m;
+}
+void releaseMapped(void* bytes)
+{
+  std::shared_ptr<const csgv::MappedFile> last; // unmapped outside the lock
+  std::lock_guard<std::mutex> lock(mappedMutex());
+  auto it = mappedArrays().find(bytes);
+  if (it != mappedArrays().end() && --it->second.second == 0)
+  {
+    last = std::move(it->second.first);
+    mappedArrays().erase(it);
+  }
+}
+} // namespace
+
+vtkSmartPointer<vtkUnsignedCharArray> mappedEncodingArray(std::shared_ptr<const csgv::MappedFile> file)
+{
+  if (!file || file->size() == 0 || file->size() > size_t(std::numeric_limits<vtkIdType>::max()))
+  {
+    return nullptr;
+  }
+  void* bytes = const_cast<uint8_t*>(file->data()); // read-only: nothing writes an encoding array
+  {
+    std::lock_guard<std::mutex> lock(mappedMutex());
+    auto& entry = mappedArrays()[bytes];
+    entry.first = file;
+    entry.second++;
+  }
+  auto array = vtkSmartPointer<vtkUnsignedCharArray>::New();
+  array->SetVoidArray(bytes, static_cast<vtkIdType>(file->size()), 0, vtkUnsignedCharArray::VTK_DATA_ARRAY_USER_DEFINED);
+  array->SetArrayFreeFunction(releaseMapped);
   return array;
 }
 

@@ -3,6 +3,7 @@
 
 #include "CSGVAdapter.h"
 
+#include "csgv/base/MappedFile.h"
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Partition.h"
 #include "csgv/codec/Encoder.h"
@@ -123,26 +124,29 @@ public:
     {
       return std::string();
     }
-    // The file's bytes, read once and unchanged, are the encoding handed downstream (no
-    // re-serialisation); parseCsgv checks and parses those same bytes (the sidecars were read
-    // with the header: Load).
+    // The file's bytes, mapped read-only (csgv::MappedFile: guarded against the file being cut
+    // short under the mapping; read where mapping is impossible), are the encoding handed
+    // downstream (no re-serialisation, no private copy); parseCsgv checks and parses those same
+    // bytes (the sidecars were read with the header: Load), and so does every later parse of the
+    // FieldData array in this process (the representation's): one copy of the encoding, the
+    // page cache's.
     const std::string& path = this->Path;
-    const uint64_t bytes = uint64_t(this->Size);
-    // Placed so that the parse below views the bytes' words, and so does every later parse of
-    // the FieldData array in this process (the representation's): one copy of the encoding.
-    std::ifstream in(path, std::ios::binary);
-    vtkSmartPointer<vtkUnsignedCharArray> enc = csgvvtk::newEncodingArray(bytes);
-    if (!in || !enc)
+    csgv::Result<std::shared_ptr<const csgv::MappedFile>> file = csgv::MappedFile::open(path);
+    if (!file)
     {
-      return "cannot read '" + path + "'";
+      return file.message();
     }
-    in.read(reinterpret_cast<char*>(enc->GetPointer(0)), static_cast<std::streamsize>(bytes));
-    if (uint64_t(in.gcount()) != bytes || in.peek() != std::ifstream::traits_type::eof())
+    if (uint64_t((*file)->size()) != uint64_t(this->Size))
     {
       return "'" + path + "' changed while it was read";
     }
-    csgv::Result<csgv::CompressedVolume> volume =
-      csgv::parseCsgvShared(enc->GetPointer(0), size_t(bytes), csgvvtk::keepArray(enc));
+    vtkSmartPointer<vtkUnsignedCharArray> enc = csgvvtk::mappedEncodingArray(*file);
+    if (!enc)
+    {
+      return "cannot read '" + path + "'";
+    }
+    csgv::Result<csgv::CompressedVolume> volume = csgv::parseCsgvShared(
+      enc->GetPointer(0), size_t(enc->GetNumberOfValues()), csgvvtk::keepArray(enc));
     if (!volume)
     {
       return csgv::Status(volume.status()).prefix(path).message();
@@ -152,6 +156,9 @@ public:
       return "'" + path + "' changed while it was read";
     }
     this->Range = csgvvtk::paletteRange(*volume, this->Info);
+    // The checks and the palette sweep touched every brick: the pages leave this process (the
+    // page cache keeps them while it has room), so opening a file larger than memory is bounded.
+    (*file)->release(0, (*file)->size());
     this->Volume = std::move(*volume);
     this->Encoding = enc;
     this->WholeRead = true;
@@ -475,10 +482,11 @@ int vtkCSGVReader::RequestData(
     volume, lod, box, in.Info, [this](double f) { this->UpdateProgress(0.05 + 0.95 * f); }, decoded);
   if (!error.empty())
   {
-    vtkErrorMacro(<< this->FileName << ": " << error);
-    output->Initialize();
+    // The encoding stays on the output (the Segmentation Volume draws every other brick and
+    // names the bad ones); only the decoded label array is missing.
+    vtkErrorMacro(<< this->FileName << ": " << error
+                  << " (the Labels array is not loaded; the Segmentation Volume draws the other bricks)");
     return 1; // reported once: a failed request would be re-executed and reported again
-
   }
   if (!decoded.warning.empty())
   {

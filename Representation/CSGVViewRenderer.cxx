@@ -3,6 +3,7 @@
 
 #include "CSGVGpuContext.h"
 
+#include "csgv/codec/TieredVolume.h"
 #include "csgv/gpu/Context.h"
 #include "csgv/gpu/GpuVolume.h"
 #include "csgv/gpu/UploadPolicy.h"
@@ -33,6 +34,7 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
   }
   s.cacheBytes = p.cacheSizeMiB > 0 ? uint64_t(std::max(16, p.cacheSizeMiB)) << 20 : 0;
   s.deviceMemoryBytes = uint64_t(std::max(0, p.deviceMemoryMiB)) << 20;
+  s.hostMemoryBytes = uint64_t(std::max(0, p.hostMemoryMiB)) << 20;
   s.cachePaletting = std::clamp(p.cachePaletting, 0, 2);
   using Decode = csgv::gpu::RendererOptions::Decode;
   s.decode = p.decoding == 1 ? Decode::Gpu : p.decoding == 2 ? Decode::Host : Decode::Auto;
@@ -41,6 +43,32 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
   s.refinementSlice = std::max(0.0, p.refinementSlice);
   s.clipBox = p.clipBox;
   return s;
+}
+
+std::shared_ptr<const csgv::TieredVolume> ViewRenderer::tiersFor(
+  SharedVolume& shared, uint64_t hostMemoryBytes, std::string& error)
+{
+  const uint64_t budget = hostMemoryBytes ? hostMemoryBytes : csgv::TieredVolume::automaticBudget();
+  std::lock_guard<std::mutex> lock(this->Cache->mutex());
+  if (!shared.owned.empty() || !csgv::TieredVolume::wanted(shared.volume, budget))
+  {
+    return nullptr; // an MPI piece holds only its bricks; a volume within the budget stays whole
+  }
+  if (!shared.tiers || shared.tiersBudget != budget)
+  {
+    csgv::TieredVolume::Options o;
+    o.budgetBytes = budget;
+    csgv::Result<std::shared_ptr<const csgv::TieredVolume>> t =
+      csgv::TieredVolume::create(std::make_shared<const csgv::CompressedVolume>(shared.volume), o);
+    if (!t)
+    {
+      error = "keeping the finest level on disk: " + t.message();
+      return nullptr;
+    }
+    shared.tiers = *t;
+    shared.tiersBudget = budget;
+  }
+  return shared.tiers;
 }
 
 ViewRenderer::ViewRenderer()
@@ -96,7 +124,8 @@ void ViewRenderer::setSettings(const ViewSettings& s)
   this->settle();
   const ViewSettings& o = this->Settings;
   const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes && s.processes == o.processes &&
-    s.deviceMemoryBytes == o.deviceMemoryBytes && s.cachePaletting == o.cachePaletting &&
+    s.deviceMemoryBytes == o.deviceMemoryBytes && s.hostMemoryBytes == o.hostMemoryBytes &&
+    s.cachePaletting == o.cachePaletting &&
     s.decode == o.decode &&
     s.framesPerStillRender == o.framesPerStillRender &&
     s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.refinementSlice == o.refinementSlice &&
@@ -148,7 +177,16 @@ std::string ViewRenderer::ensureRenderer()
   want.decode = this->Settings.decode;
   want.cachePaletting = this->Settings.cachePaletting;
   want.cachePressure = this->CachePressure;
-  csgv::gpu::UploadPlan plan = csgv::gpu::planUpload(this->Context->device(), shared->volume, want);
+  // An encoding larger than the host-memory budget keeps its finest level in the file (one set
+  // of tiers per volume and budget, shared by its views).
+  std::string tierError;
+  want.tiers = tiersFor(*shared, this->Settings.hostMemoryBytes, tierError);
+  if (!tierError.empty())
+  {
+    return tierError;
+  }
+  const csgv::CompressedVolume& drawn = want.tiers ? want.tiers->coarse() : shared->volume;
+  csgv::gpu::UploadPlan plan = csgv::gpu::planUpload(this->Context->device(), drawn, want);
   plan.volume.owned = shared->owned;
   if (this->Renderer && !plan.serves(this->Renderer->volume()))
   {
@@ -171,7 +209,7 @@ std::string ViewRenderer::ensureRenderer()
     if (!mine)
     {
       csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> upload =
-        csgv::gpu::GpuVolume::create(*this->Context, shared->volume, plan.volume);
+        csgv::gpu::GpuVolume::create(*this->Context, drawn, plan.volume);
       if (!upload)
       {
         return "uploading the volume: " + upload.message();
@@ -386,6 +424,32 @@ uint64_t ViewRenderer::detailStreamedBytes() const
 {
   this->settle();
   return this->Renderer ? this->Renderer->detailCounts().uploadedBytes : 0;
+}
+
+int ViewRenderer::levelsOnDisk() const
+{
+  this->settle();
+  const csgv::TieredVolume* t = this->Renderer ? this->Renderer->volume().tiers() : nullptr;
+  return t ? (t->hasCoarseTier() ? 1 : 2) : 0;
+}
+
+uint64_t ViewRenderer::fileReadBytes() const
+{
+  this->settle();
+  const csgv::TieredVolume* t = this->Renderer ? this->Renderer->volume().tiers() : nullptr;
+  return t ? t->counts().fileBytes : 0;
+}
+
+uint64_t ViewRenderer::badBricks() const
+{
+  this->settle();
+  return this->Renderer ? this->Renderer->badBricks() : 0;
+}
+
+std::string ViewRenderer::firstBadBrick() const
+{
+  this->settle();
+  return this->Renderer ? this->Renderer->firstBadBrick() : std::string();
 }
 
 uint32_t ViewRenderer::cacheBits() const

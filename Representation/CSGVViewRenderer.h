@@ -53,6 +53,7 @@ struct ViewSettings
   uint64_t cacheBytes = 0;        ///< 0: automatic
   uint32_t processes = 1;         ///< ranks of the MPI job, which an automatic cache is shared by
   uint64_t deviceMemoryBytes = 0; ///< 0: automatic
+  uint64_t hostMemoryBytes = 0;   ///< 0: automatic (csgv::TieredVolume::automaticBudget)
   int cachePaletting = 2;         ///< RepresentationProperties::cachePaletting
   csgv::gpu::RendererOptions::Decode decode = csgv::gpu::RendererOptions::Decode::Auto;
   uint32_t framesPerStillRender = 0;
@@ -133,11 +134,23 @@ public:
   bool detailSeparated() const;
   /// Finest-level streams this view's renderer uploaded (detail streaming), since it was made.
   uint64_t detailStreamedBytes() const;
+  /// Where this view's upload reads the encoding (csgv::TieredVolume): 0 all in host memory, 1
+  /// the coarse levels in memory and the finest level from the file, 2 every level from the file.
+  int levelsOnDisk() const;
+  /// Bytes the volume's tiers read from the file on demand (shared by its views).
+  uint64_t fileReadBytes() const;
+  /// Bricks this view's renderer failed to decode (drawn empty) and the first one's error.
+  uint64_t badBricks() const;
+  std::string firstBadBrick() const;
 
 private:
   /// Makes the renderer (the backend's upload policy: csgv::gpu::planUpload) when there is none
   /// or it is made for other budgets, then updateRenderer. Returns an error message or "".
   std::string ensureRenderer();
+  /// The volume's tiers under this host-memory budget (0: automatic), made once per volume and
+  /// budget and shared by its views; null when the volume stays whole (it fits the budget, is
+  /// not a mapped rANS two-table encoding, or is an MPI piece). `error` says why they failed.
+  std::shared_ptr<const csgv::TieredVolume> tiersFor(SharedVolume& shared, uint64_t hostMemoryBytes, std::string& error);
   /// Brings the renderer up to date with what changed since: a piece's ghost faces and coarse
   /// stand-ins, geometry, materials, settings.
   std::string updateRenderer(SharedVolume& shared);

@@ -421,6 +421,21 @@ double vtkCSGVRepresentation::GetDetailStreamedMiB()
   return this->Prop->GetDetailStreamedMiB();
 }
 
+int vtkCSGVRepresentation::GetLevelsOnDisk()
+{
+  return this->Prop->GetLevelsOnDisk();
+}
+
+double vtkCSGVRepresentation::GetFileReadMiB()
+{
+  return this->Prop->GetFileReadMiB();
+}
+
+int vtkCSGVRepresentation::GetBadBricks()
+{
+  return this->Prop->GetBadBricks();
+}
+
 void vtkCSGVRepresentation::PushAttributes()
 {
   csgvrep::AttributeConfig c;

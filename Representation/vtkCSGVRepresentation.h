@@ -83,6 +83,12 @@ public:
   /// an encoding larger than the budget is reported and nothing is drawn.
   vtkSetClampMacro(DeviceMemoryMiB, int, 0, 16777216);
   vtkGetMacro(DeviceMemoryMiB, int);
+  /// Host-memory budget in MiB for the encoding (default 0: automatic, half the memory available
+  /// when the volume is uploaded). A `.csgv` (rANS two-table, memory-mapped by the reader) larger
+  /// than the budget keeps its coarse levels in memory when they fit it and reads the finest
+  /// level (else every level) from the file on demand (csgv::TieredVolume).
+  vtkSetClampMacro(HostMemoryMiB, int, 0, 16777216);
+  vtkGetMacro(HostMemoryMiB, int);
   /// Where bricks are decoded: 0 automatic (the host on CPU devices), 1 the GPU (with detail
   /// streaming when the budget separates the finest level), 2 the host.
   vtkSetClampMacro(Decoding, int, 0, 2);
@@ -142,6 +148,13 @@ public:
   /// MiB of finest-level streams this view uploaded to the device (detail streaming, GPU
   /// decoding of a separated volume) since its renderer was made.
   double GetDetailStreamedMiB();
+  /// Where the encoding is read from (HostMemoryMiB): 0 all in host memory, 1 the coarse levels
+  /// in memory and the finest level from the file, 2 every level from the file.
+  int GetLevelsOnDisk();
+  /// MiB this volume read from its file on demand (levels on disk), since they were split.
+  double GetFileReadMiB();
+  /// Bricks this view failed to decode (a corrupt or cut-short file): drawn empty, reported once.
+  int GetBadBricks();
   /// The last render's first-hit labels and window depths (vtkCSGVQuery combines ranks with them).
   bool LastLabels(uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths);
 
@@ -190,6 +203,7 @@ private:
   double LightDirection[3];
   int CacheSizeMiB;
   int DeviceMemoryMiB;
+  int HostMemoryMiB;
   int Decoding;
   int CachePaletting;
   int ClipBox[6];

@@ -28,6 +28,7 @@
 #include <vtk_glew.h>
 
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -94,6 +95,7 @@ struct vtkCSGVVolumeProp::Impl
   vtkSmartPointer<vtkImageData> Input;
   csgvrep::VolumeSource Source; ///< what Input resolved to (in the representation's data phase)
   std::string SourceError;      ///< why it did not (reported there)
+  uint64_t ReportedBadBricks = 0; ///< bricks that failed to decode, as last reported
 
   std::string MaterialsText;
   bool MaterialsParsed = false; ///< MaterialsText was parsed (the first SetMaterials may pass "")
@@ -384,6 +386,21 @@ int vtkCSGVVolumeProp::GetDetailSeparated()
 double vtkCSGVVolumeProp::GetDetailStreamedMiB()
 {
   return double(this->P->View.detailStreamedBytes()) / 1048576.0;
+}
+
+int vtkCSGVVolumeProp::GetLevelsOnDisk()
+{
+  return this->P->View.levelsOnDisk();
+}
+
+double vtkCSGVVolumeProp::GetFileReadMiB()
+{
+  return double(this->P->View.fileReadBytes()) / 1048576.0;
+}
+
+int vtkCSGVVolumeProp::GetBadBricks()
+{
+  return int(std::min<uint64_t>(this->P->View.badBricks(), uint64_t(std::numeric_limits<int>::max())));
 }
 
 bool vtkCSGVVolumeProp::DrawnMaterials(
@@ -798,6 +815,15 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
     return false;
   }
   p.LastError.clear();
+  // Bricks whose encoding failed to decode are drawn empty and the rest renders: said once per
+  // renderer (the count is CSGVBadBricks), naming the first.
+  const uint64_t bad = p.View.badBricks();
+  if (bad > 0 && p.ReportedBadBricks == 0)
+  {
+    vtkWarningMacro(<< "Segmentation Volume: " << bad << " brick(s) failed to decode and are drawn empty; the first: "
+                    << p.View.firstBadBrick());
+  }
+  p.ReportedBadBricks = bad;
   const csgv::gpu::FrameOutput& out = p.View.output();
   if (out.width != request.width || out.height != request.height || out.rgba8.empty())
   {

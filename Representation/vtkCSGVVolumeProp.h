@@ -105,6 +105,9 @@ public:
   int GetCacheBits();
   int GetDetailSeparated();
   double GetDetailStreamedMiB();
+  int GetLevelsOnDisk();
+  double GetFileReadMiB();
+  int GetBadBricks();
   /// The materials are valid and some are translucent (drawn in the translucent pass).
   bool DrawsTranslucent() const;
   /// The last render's first-hit labels and their window depths (row 0 at the bottom); false

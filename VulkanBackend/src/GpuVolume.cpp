@@ -153,6 +153,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (!startBuffer) return startBuffer.status();
     if (!(s = context.upload(*startBuffer, 0, starts.data(), starts.size() * 4))) return s;
     g->m_starts = std::move(*startBuffer);
+    if (options.tiers) options.tiers->releaseFile(); // the palette scan and the upload read it all
 
     Defines& d = g->m_defines;
     const auto grid = volume.brickGrid();

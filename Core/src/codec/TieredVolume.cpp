@@ -185,6 +185,10 @@ void TieredVolume::release(const uint32_t* bricks, size_t count) const {
     m_released.fetch_add(count, std::memory_order_relaxed);
 }
 
+void TieredVolume::releaseFile() const {
+    for (const WordArray& a : m_full->arrays) MappedFile::releaseAt(a.bytes(), a.size() * 4);
+}
+
 void TieredVolume::readAhead(const uint32_t* bricks, size_t count) const {
     for (size_t i = 0; i < count; ++i) {
         if (bricks[i] >= m_full->brickCount()) continue;

@@ -98,6 +98,9 @@ public:
     void noteRead(uint64_t brick) const;
     /// The pages of these bricks leave the process (their streams were copied or decoded).
     void release(const uint32_t* bricks, size_t count) const;
+    /// Every page of the file leaves the process (after a sweep over the whole volume: an upload,
+    /// a palette scan).
+    void releaseFile() const;
     /// Starts reading these bricks' pages in the background.
     void readAhead(const uint32_t* bricks, size_t count) const;
 

@@ -1,0 +1,105 @@
+# SPDX-License-Identifier: MIT
+"""Host memory in ParaView (issue 40). The reader maps a .csgv (no private copy of the encoding).
+CSGVHostMemoryMiB: a budget the encoding exceeds keeps the coarse levels in memory and reads the
+finest level from the file (CSGVLevelsOnDisk 1), a budget the coarse levels exceed reads every
+level from the file (2); either draws the image of the whole encoding, by host and by GPU decoding,
+and the automatic budget holds it whole again. A file with corrupt bricks in view draws the rest,
+counts them (CSGVBadBricks) and warns once, naming a brick."""
+import os
+import struct
+import subprocess
+
+import numpy as np
+
+import csgv_pvtest as t
+from paraview.simple import *
+
+t.load_plugin(globals())
+path = os.path.join(t.temp_dir(), "synth384.csgv")
+subprocess.run([os.environ["CSGV_TOOL"], "compress", "synth:384x384x384", path], check=True, stdout=subprocess.DEVNULL)
+file_mib = os.path.getsize(path) / 2**20
+
+
+def mapped_in_this_process(p):
+    with open("/proc/self/maps") as f:
+        return any(line.rstrip().endswith(p) for line in f)
+
+
+def differs(a, b):
+    return np.abs(a.astype(int) - b.astype(int)).max(axis=2) > 2
+
+
+def show(p):
+    src = OpenDataFile(p)
+    view = t.render_view(160, 120)
+    disp = Show(src, view)
+    disp.CSGVFramesPerStillRender = 1
+    disp.CSGVStillRenderTimeBudget = 60
+    disp.CSGVLODBias = -3  # the finest level for the bricks in view: what is read from the file
+    view.ResetCamera()
+    return src, view, disp
+
+
+def info(disp, name):
+    disp.SMProxy.UpdatePropertyInformation()
+    return disp.SMProxy.GetProperty(name).GetElement(0)
+
+
+s, v, d = show(path)
+whole = t.screenshot(v, 160, 120, "whole.png")
+t.check(t.content_mask(whole).mean() > 0.1, "the %.1f MiB encoding draws" % file_mib)
+t.check(mapped_in_this_process(path), "the reader maps the file instead of reading a copy")
+t.check(info(d, "CSGVLevelsOnDisk") == 0, "the automatic budget holds it whole")
+
+for decoding, name in ((2, "host"), (1, "GPU")):
+    d.CSGVDecoding = decoding
+    ref = t.screenshot(v, 160, 120, "ref_%s.png" % name)
+    t.check(differs(ref, whole).mean() == 0, "%s decoding: the same image as automatic decoding" % name)
+    for budget, levels in ((2, 1), (1, 2)):
+        d.CSGVHostMemoryMiB = budget
+        got = t.screenshot(v, 160, 120, "budget%d_%s.png" % (budget, name))
+        on_disk, read = info(d, "CSGVLevelsOnDisk"), info(d, "CSGVFileReadMiB")
+        t.check(on_disk == levels, "%s decoding, %d MiB of a %.1f MiB encoding: levels on disk %d (want %d)"
+                % (name, budget, file_mib, on_disk, levels))
+        t.check(read > 0, "%s decoding, %d MiB: %.2f MiB read from the file on demand" % (name, budget, read))
+        t.check(differs(got, whole).mean() == 0, "%s decoding, %d MiB: the same image (%.2f%% of pixels differ)"
+                % (name, budget, 100 * differs(got, whole).mean()))
+    d.CSGVHostMemoryMiB = 0
+    again = t.screenshot(v, 160, 120, "again_%s.png" % name)
+    t.check(info(d, "CSGVLevelsOnDisk") == 0 and differs(again, whole).mean() == 0,
+            "%s decoding: the automatic budget holds it whole again, the same image" % name)
+Delete(s)
+
+# Corrupt bricks in view (the top layer the default camera looks at, the deepest in the file):
+# their finest streams overwritten. The rest draws; they are counted and named once.
+bad = os.path.join(t.temp_dir(), "corrupt384.csgv")
+b = bytearray(open(path, "rb").read())
+off = 41 + 128 + 4
+n = struct.unpack_from("<Q", b, off)[0]
+off += 8
+starts = struct.unpack_from("<%dI" % n, b, off)
+base = off + 4 * n + 16
+L = 6
+for brick in [x + 12 * (y + 12 * 11) for x in range(3, 9) for y in range(3, 9)]:
+    s0, e0 = starts[brick], starts[brick + 1]
+    begin = struct.unpack_from("<I", b, base + 4 * (s0 + L - 1))[0] // 8
+    pal = struct.unpack_from("<I", b, base + 4 * (s0 + L))[0]
+    for w in range(s0 + begin, e0 - pal):
+        struct.pack_into("<I", b, base + 4 * w, 0xFFFFFFFF)
+open(bad, "wb").write(bytes(b))
+for budget in (0, 1):
+    s2, v2, d2 = show(bad)
+    d2.CSGVHostMemoryMiB = budget
+    with t.ErrorLog() as log:
+        img = t.screenshot(v2, 160, 120, "corrupt%d.png" % budget)
+        t.screenshot(v2, 160, 120, "corrupt%d_again.png" % budget)
+    count = info(d2, "CSGVBadBricks")
+    t.check(count > 0, "budget %d: %d bricks that fail to decode are counted" % (budget, count))
+    t.check(log.text.count("failed to decode and are drawn empty") == 1 and "brick " in log.text,
+            "budget %d: the representation warns once, naming a brick: %r" % (budget, log.text[-300:]))
+    t.check(log.text.count("the Labels array is not loaded") <= 1,
+            "budget %d: the reader's decode error is reported once at most" % budget)
+    same = 1 - differs(img, whole).mean()
+    t.check(0.8 < same < 1, "budget %d: the rest draws as before (%.1f%% of pixels the same)" % (budget, 100 * same))
+    Delete(s2)
+t.finish()
