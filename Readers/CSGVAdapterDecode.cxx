@@ -3,11 +3,14 @@
 // original label type (decodeBox), the palette label range, VTK type names.
 #include "CSGVAdapter.h"
 
+#include "csgv/base/MappedFile.h"
+
 #include <vtkAOSDataArrayTemplate.h>
 #include <vtkDataArray.h>
 #include <vtkType.h>
 
 #include <algorithm>
+#include <memory>
 #include <limits>
 #include <type_traits>
 
@@ -79,9 +82,17 @@ void forEachPaletteEntry(const csgv::CompressedVolume& vol, F&& f)
 {
   const uint32_t L = vol.levels();
   const uint64_t bricks = vol.brickCount();
+  // A mapped file's pages leave the process behind the sweep (a file larger than memory).
+  std::vector<std::unique_ptr<csgv::ReleaseBehind>> behind;
+  for (const csgv::WordArray& a : vol.arrays)
+  {
+    behind.push_back(std::make_unique<csgv::ReleaseBehind>(a.bytes(), a.size() * 4));
+  }
+  const uint64_t perArray = vol.bricksPerArray == csgv::kSingleArray ? bricks + 1 : vol.bricksPerArray;
   for (uint64_t i = 0; i < bricks; ++i)
   {
     const csgv::BrickWords bw = vol.brick(i);
+    behind[size_t(i / perArray)]->reached(bw.words.bytes());
     if (bw.size < L + 1)
     {
       continue; // checkContainer refuses this; stay safe anyway

@@ -286,7 +286,8 @@ TEST(Mapped, AFileTruncatedUnderItsMappingReadsZerosAndSaysSo) {
     volatile const uint8_t* p = f.data();
     EXPECT_EQ(p[2 * page + 7], 0) << "a page past the new end reads zeros";
     EXPECT_TRUE(f.damaged());
-    EXPECT_TRUE(MappedFile::damagedAt(f.data()));
+    EXPECT_TRUE(MappedFile::damagedAt(f.data(), f.size())) << "the range reaches a page of zeros";
+    EXPECT_FALSE(MappedFile::damagedAt(f.data(), 10)) << "bytes before the new end are the file's";
     EXPECT_EQ(p[page + 1], 0);
     // A second mapping of the same (now short) file is sound.
     Result<std::shared_ptr<const MappedFile>> again = MappedFile::open(path);

@@ -45,11 +45,14 @@ void DetailStream::copyStream(uint64_t b, uint32_t* dst) const {
 
 DetailSizes DetailStream::sizes(const CompressedVolume& volume) {
     uint64_t longest = 1, words = 0;
-    for (uint64_t b = 0; b < volume.brickCount(); ++b) {
-        const uint32_t n = std::max<uint32_t>(finestStream(volume, b).count, 1);
-        longest = std::max<uint64_t>(longest, n);
-        words += n;
-    }
+    sweepBricks(volume, kSweepBricks, [&](uint64_t from, uint64_t to) { // a mapped file's pages go behind it
+        for (uint64_t b = from; b < to; ++b) {
+            const uint32_t n = std::max<uint32_t>(finestStream(volume, b).count, 1);
+            longest = std::max<uint64_t>(longest, n);
+            words += n;
+        }
+        return true;
+    });
     return DetailSizes{2 * longest * 4, words * 4};
 }
 

@@ -198,14 +198,19 @@ void GpuVolume::devicePart(const CompressedVolume& volume, DevicePart part, std:
     const uint64_t n = volume.brickCount();
     arrays.assign(volume.arrays.size(), {});
     starts.assign(size_t(n) + 1, 0u);
-    for (uint64_t b = 0; b < n; ++b) {
-        const BrickWords bw = volume.brick(b);
-        std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)].owned();
-        const uint32_t palette = bw.words[L];
-        if (part == DevicePart::Coarse) appendWords(a, bw.words, bw.words[L - 1] / 8);
-        if (part != DevicePart::Nothing) appendWords(a, bw.words + (bw.size - palette), palette);
-        starts[size_t(b) + 1] = uint32_t(a.size());
-    }
+    if (part == DevicePart::Nothing) return; // no words: every brick starts (and ends) at 0
+    sweepBricks(volume, kSweepBricks, [&](uint64_t from, uint64_t to) { // a mapped file's pages go behind it
+        for (uint64_t b = from; b < to; ++b) {
+            const BrickWords bw = volume.brick(b);
+            std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)].owned();
+            const uint32_t palette = bw.words[L];
+            if (part == DevicePart::Coarse) appendWords(a, bw.words, bw.words[L - 1] / 8);
+            appendWords(a, bw.words + (bw.size - palette), palette);
+            starts[size_t(b) + 1] = uint32_t(a.size());
+        }
+        return true;
+    });
+    (void)n;
 }
 
 uint32_t GpuVolume::paletteBits(const CompressedVolume& volume) {
@@ -231,10 +236,13 @@ uint64_t GpuVolume::gpuDecodingBytes(const CompressedVolume& volume, uint64_t bu
     // As devicePart(Coarse) would lay it out, counted without copying.
     const uint32_t L = volume.levels();
     std::vector<uint64_t> words(volume.arrays.size(), 0);
-    for (uint64_t b = 0; b < volume.brickCount(); ++b) {
-        const BrickWords bw = volume.brick(b);
-        words[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)] += bw.words[L - 1] / 8 + bw.words[L];
-    }
+    sweepBricks(volume, kSweepBricks, [&](uint64_t from, uint64_t to) {
+        for (uint64_t b = from; b < to; ++b) {
+            const BrickWords bw = volume.brick(b);
+            words[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)] += bw.words[L - 1] / 8 + bw.words[L];
+        }
+        return true;
+    });
     auto bytes = [](uint64_t n) { return std::max<uint64_t>(n, 4); }; // as uploadBytes
     uint64_t n = bytes(words.size() * 8) + bytes((volume.brickCount() + 1) * 4);
     for (uint64_t w : words) n += bytes(w * 4);

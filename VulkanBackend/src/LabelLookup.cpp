@@ -33,20 +33,27 @@ StoredLabels storedLabels(const CompressedVolume& vol, bool piece) {
     StoredLabels out;
     uint32_t largest = 0;
     uint64_t entries = 0;
+    // In chunks, so that a mapped file's pages leave the process behind the sweep.
+    sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
 #pragma omp parallel for reduction(max : largest) reduction(+ : entries) schedule(dynamic, 64)
-    for (int64_t b = 0; b < int64_t(vol.brickCount()); ++b) {
-        const BrickWords bw = vol.brick(uint64_t(b));
-        entries += bw.words[L];
-        for (uint32_t k = 0; k < bw.words[L]; ++k) largest = std::max(largest, bw.words[bw.size - 1 - k]);
-    }
+        for (int64_t b = int64_t(from); b < int64_t(to); ++b) {
+            const BrickWords bw = vol.brick(uint64_t(b));
+            entries += bw.words[L];
+            for (uint32_t k = 0; k < bw.words[L]; ++k) largest = std::max(largest, bw.words[bw.size - 1 - k]);
+        }
+        return true;
+    });
     out.largest = largest;
     if (piece || largest < kMaterialTableLabels || entries > (uint64_t(1) << 25)) return out;
     std::vector<uint32_t> labels;
     labels.reserve(size_t(entries));
-    for (uint64_t b = 0; b < vol.brickCount(); ++b) {
-        const BrickWords bw = vol.brick(b);
-        for (uint32_t k = 0; k < bw.words[L]; ++k) labels.push_back(bw.words[bw.size - 1 - k]);
-    }
+    sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
+        for (uint64_t b = from; b < to; ++b) {
+            const BrickWords bw = vol.brick(b);
+            for (uint32_t k = 0; k < bw.words[L]; ++k) labels.push_back(bw.words[bw.size - 1 - k]);
+        }
+        return true;
+    });
     sortWords(labels);
     labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
     if (!labels.empty() && labels.back() == kNone) labels.pop_back(); // not a label

@@ -24,7 +24,7 @@ Status Renderer::Impl::decodeOnHost() {
     if (!stagedDecode) {
         uint32_t* cacheWords = static_cast<uint32_t*>(cache.mapped());
         uint64_t* uniformMasks = static_cast<uint64_t*>(uniformSubs.mapped());
-        hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
+        decodeInBatches(n, [&](uint64_t i, unsigned worker) {
             uint32_t brick, lod, offset;
             if (!entry(i, brick, lod, offset)) return;
             BrickDecoder& d = decoderFor(worker, lod);
@@ -34,7 +34,6 @@ Status Renderer::Impl::decodeOnHost() {
             if (!ok) noteBadBrick(st);
             if (lod == 0) uniformMasks[brick] = ok ? uniformSubBlocks(d.labels(), brick) : 0;
         });
-        afterHostDecode(list, n);
         return Status::ok();
     }
     // Each brick's labels, then (decoded at the finest level) its uniform sub-block mask, one
@@ -60,7 +59,7 @@ Status Renderer::Impl::decodeOnHost() {
         decodeStaging = std::move(*b);
     }
     uint8_t* host = static_cast<uint8_t*>(decodeStaging.mapped());
-    hostWorkers().parallelFor(n, [&](uint64_t i, unsigned worker) {
+    decodeInBatches(n, [&](uint64_t i, unsigned worker) {
         const Staged& e = staged[i];
         if (e.labelBytes == 0) return;
         BrickDecoder& d = decoderFor(worker, e.lod);
@@ -73,7 +72,6 @@ Status Renderer::Impl::decodeOnHost() {
             std::memcpy(host + e.at + e.labelBytes, &mask, 8);
         }
     });
-    afterHostDecode(list, n);
     for (const Staged& e : staged)
         if (e.labelBytes) stagedCopies.push_back({e.at, uint64_t(e.offset) * 4, e.labelBytes});
     stagedCacheCopies = uint32_t(stagedCopies.size());
@@ -96,6 +94,19 @@ std::vector<Context::Dispatch> Renderer::Impl::withStagedCopies(const Context::D
     if (c.copyRegionCount) list.push_back(c);
     list.insert(list.end(), first, first + count);
     return list;
+}
+
+void Renderer::Impl::decodeInBatches(uint32_t n, const std::function<void(uint64_t, unsigned)>& decode) {
+    const uint32_t* list = static_cast<const uint32_t*>(decodes.mapped());
+    if (!volume->tiers()) return hostWorkers().parallelFor(n, decode);
+    // Bricks read from the file give their pages back batch by batch (a batch of a frame's
+    // thousands would map hundreds of MiB of it first).
+    constexpr uint32_t kBatch = 256;
+    for (uint32_t from = 0; from < n; from += kBatch) {
+        const uint32_t count = std::min(kBatch, n - from);
+        hostWorkers().parallelFor(count, [&](uint64_t i, unsigned worker) { decode(from + i, worker); });
+        afterHostDecode(list + kDecodeEntryWords * size_t(from), count);
+    }
 }
 
 void Renderer::Impl::afterHostDecode(const uint32_t* list, uint32_t n) {

@@ -9,6 +9,7 @@
 #include "csgv/gpu/LabelLookup.h"
 #include "csgv/gpu/DetailStream.h"
 
+#include <functional>
 #include <mutex>
 #include "csgv/gpu/FrameLayout.h"
 
@@ -497,6 +498,9 @@ struct Renderer::Impl {
     /// process, and the bricks decoded one level coarser are read ahead (the next frames refine
     /// them).
     void afterHostDecode(const uint32_t* list, uint32_t n);
+    /// Runs `decode(i, worker)` for the first `n` entries of the decode list on the host workers;
+    /// with tiers in batches, each followed by afterHostDecode.
+    void decodeInBatches(uint32_t n, const std::function<void(uint64_t, unsigned)>& decode);
     /// Host decoding's failed bricks: counted, the first error kept.
     std::mutex badMutex;
     uint64_t badBricks = 0;

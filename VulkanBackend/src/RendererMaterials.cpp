@@ -249,36 +249,43 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         if (!ids.empty()) return undrawn > 1; // the table holds the palettes' labels alone
         if (!table.empty() && undrawn < 2) return false; // not even among all labels
         uint32_t first = kNone; // the palettes' labels, until a second undrawn one
-        for (uint64_t b = 0; b < brickCount; ++b) {
-            if (!volume->owns(b)) continue;
-            const BrickWords bw = vol.brick(b);
-            for (uint32_t k = 0; k < bw.words[L]; ++k)
-                if (const uint32_t l = bw.words[bw.size - 1 - k]; materialOfStored(l) == kNone) {
-                    if (first != kNone && l != first) return true;
-                    first = l;
-                }
-        }
-        return false;
+        bool several = false;
+        sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
+            for (uint64_t b = from; b < to && !several; ++b) {
+                if (!volume->owns(b)) continue;
+                const BrickWords bw = vol.brick(b);
+                for (uint32_t k = 0; k < bw.words[L] && !several; ++k)
+                    if (const uint32_t l = bw.words[bw.size - 1 - k]; materialOfStored(l) == kNone) {
+                        several = first != kNone && l != first;
+                        first = l;
+                    }
+            }
+            return !several;
+        });
+        return several;
     };
     materialState.hiddenLabels = resolved.hiddenWanted && severalUndrawn();
     // Per brick its preview label and that label's material (what a view ray shows of the brick
     // while it is not cached: its coarsest level, the root label, else the first palette entry a
     // material draws), kNone twice when no palette entry is drawn (the brick is invisible).
     std::vector<uint32_t> vis(size_t(brickCount) * 2, kNone);
+    sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t b = 0; b < int64_t(brickCount); ++b) {
-        if (!volume->owns(uint64_t(b))) { // another process's brick (MPI): absent here
-            vis[2 * size_t(b) + 1] = kBrickAbsent;
-            continue;
-        }
-        const BrickWords bw = vol.brick(uint64_t(b));
-        const uint32_t n = bw.words[L];
-        for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
-            if (const uint32_t l = storedOf(bw.words[bw.size - 1 - k]), m = materialOfStored(l); m != kNone) {
-                vis[2 * size_t(b)] = l;
-                vis[2 * size_t(b) + 1] = m;
+        for (int64_t b = int64_t(from); b < int64_t(to); ++b) {
+            if (!volume->owns(uint64_t(b))) { // another process's brick (MPI): absent here
+                vis[2 * size_t(b) + 1] = kBrickAbsent;
+                continue;
             }
-    }
+            const BrickWords bw = vol.brick(uint64_t(b));
+            const uint32_t n = bw.words[L];
+            for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
+                if (const uint32_t l = storedOf(bw.words[bw.size - 1 - k]), m = materialOfStored(l); m != kNone) {
+                    vis[2 * size_t(b)] = l;
+                    vis[2 * size_t(b) + 1] = m;
+                }
+        }
+        return true;
+    });
     cacheState.visibilityChanged = cacheState.prefetchPending = true;
     visibleBricks = 0;
     for (size_t b = 0; b < brickCount; ++b) visibleBricks += vis[2 * b] != kNone ? 1 : 0;

@@ -180,7 +180,10 @@ bool pageRange(int slot, const void* address, size_t size, uintptr_t& begin, siz
 void adviseAt(const void* address, size_t size, int advice) {
     uintptr_t b = 0;
     size_t n = 0;
-    if (pageRange(findSlot(reinterpret_cast<uintptr_t>(address)), address, size, b, n))
+    // A range widened past the mapping's start is found by its end.
+    int slot = findSlot(reinterpret_cast<uintptr_t>(address));
+    if (slot < 0 && size) slot = findSlot(reinterpret_cast<uintptr_t>(address) + size - 1);
+    if (pageRange(slot, address, size, b, n))
         ::madvise(reinterpret_cast<void*>(b), n, advice);
 }
 

@@ -293,6 +293,25 @@ uint64_t CompressedVolume::serializedSize() const {
     return size + 1;
 }
 
+void sweepBricks(const CompressedVolume& vol, uint64_t chunk, const std::function<bool(uint64_t, uint64_t)>& f) {
+    const uint64_t n = vol.brickCount();
+    chunk = std::max<uint64_t>(chunk, 1);
+    const uint64_t per = vol.bricksPerArray == kSingleArray ? n + 1 : vol.bricksPerArray;
+    for (uint64_t from = 0; from < n; from += chunk) {
+        const uint64_t to = std::min(n, from + chunk);
+        const bool more = f(from, to);
+        // The chunk's bricks, array by array (a new array may begin inside it).
+        for (uint64_t a = from; a < to; a = (a / per + 1) * per) {
+            const uint64_t b = std::min(to, (a / per + 1) * per) - 1;
+            const BrickWords first = vol.brick(a), last = vol.brick(b);
+            const auto* p = static_cast<const uint8_t*>(first.words.bytes());
+            const auto* e = static_cast<const uint8_t*>(last.words.bytes()) + size_t(last.size) * 4;
+            if (e > p) MappedFile::releaseAt(p, size_t(e - p));
+        }
+        if (!more) return;
+    }
+}
+
 uint32_t minimalBrickWords(uint32_t levels, int32_t encoding) {
     return levels + (encoding == kEncodingRans2 ? 4 : 3);
 }
@@ -318,9 +337,22 @@ Status checkContainer(const CompressedVolume& v) {
     const uint32_t L = v.levels();
     const uint32_t minWords = minimalBrickWords(L, v.encoding);
     const uint64_t bpa = v.bricksPerArray == kSingleArray ? bricks + 1 : v.bricksPerArray;
+    // A mapped file's pages leave the process behind the sweep (a file larger than memory).
+    std::unique_ptr<ReleaseBehind> behind;
+    size_t behindArray = ~size_t(0);
     for (uint64_t i = 0; i < bricks; ++i) {
-        const std::string where = "brick " + std::to_string(i);
+        struct Where { // "brick i", made only for a message
+            uint64_t i;
+            operator std::string() const { return "brick " + std::to_string(i); }
+            std::string operator+(const std::string& s) const { return std::string(*this) + s; }
+            std::string operator+(const char* s) const { return std::string(*this) + s; }
+        } where{i};
         const size_t arrayIndex = size_t(i / bpa);
+        if (arrayIndex != behindArray) {
+            behind.reset();
+            behind = std::make_unique<ReleaseBehind>(v.arrays[arrayIndex].bytes(), v.arrays[arrayIndex].size() * 4);
+            behindArray = arrayIndex;
+        }
         const uint64_t arrayLen = v.arrays[arrayIndex].size();
         const uint64_t begin = (i > 0 && i % bpa == 0) ? 0 : v.brickStarts[size_t(i)];
         const uint64_t end = v.brickStarts[size_t(i + 1)];
@@ -335,6 +367,7 @@ Status checkContainer(const CompressedVolume& v) {
             return Status::error(where + ": " + std::to_string(size) + " words, less than the minimal brick of " +
                                  std::to_string(minWords));
         const WordPtr w = v.arrays[arrayIndex].words() + std::ptrdiff_t(begin);
+        behind->reached(w.bytes());
         if (w[0] != (L + 1) * 8)
             return Status::error(where + ": level 0 start is " + std::to_string(w[0]) + ", expected " +
                                  std::to_string((L + 1) * 8));

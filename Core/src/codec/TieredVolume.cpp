@@ -177,11 +177,12 @@ void TieredVolume::noteRead(uint64_t brick) const {
 }
 
 void TieredVolume::release(const uint32_t* bricks, size_t count) const {
-    for (size_t i = 0; i < count; ++i) {
-        if (bricks[i] >= m_full->brickCount()) continue;
-        const BrickWords bw = m_full->brick(bricks[i]);
-        MappedFile::releaseAt(bw.words.bytes(), size_t(bw.size) * 4);
-    }
+    // A fault on a file mapping maps more than the page it needs (Linux's fault-around, large
+    // folios): no brick range names all that the decodes mapped. Every page of the file goes
+    // (one madvise over the mapping; unmapped stretches cost nothing), and a brick another view
+    // is reading meanwhile is read again from the page cache.
+    (void)bricks;
+    if (count > 0) releaseFile();
     m_released.fetch_add(count, std::memory_order_relaxed);
 }
 

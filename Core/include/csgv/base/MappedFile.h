@@ -97,4 +97,33 @@ private:
     std::vector<uint8_t> m_read; ///< the bytes where they were read, not mapped
 };
 
+/// @brief Gives back the pages a forward sweep over a mapped file has passed (MappedFile::
+/// releaseAt every `window` bytes, and the whole range when the sweep ends), so that a sweep over
+/// a file larger than memory keeps a window of it resident, not all of it. Nothing happens for
+/// memory that is not a mapping of a file.
+class ReleaseBehind {
+public:
+    ReleaseBehind(const void* begin, size_t size, size_t window = size_t(32) << 20)
+        : m_begin(static_cast<const uint8_t*>(begin)), m_done(m_begin), m_size(size), m_window(window),
+          m_active(size > 0 && MappedFile::mappedAt(begin)) {}
+    ~ReleaseBehind() {
+        if (m_active) MappedFile::releaseAt(m_begin, m_size);
+    }
+    ReleaseBehind(const ReleaseBehind&) = delete;
+    ReleaseBehind& operator=(const ReleaseBehind&) = delete;
+    /// The sweep has read everything before `at`.
+    void reached(const void* at) {
+        const uint8_t* p = static_cast<const uint8_t*>(at);
+        if (!m_active || p < m_done + m_window) return;
+        MappedFile::releaseAt(m_done, size_t(p - m_done));
+        m_done = p;
+    }
+
+private:
+    const uint8_t* m_begin;
+    const uint8_t* m_done;
+    size_t m_size, m_window;
+    bool m_active;
+};
+
 } // namespace csgv

@@ -145,6 +145,15 @@ void applyLayout(ArrayLayout&& layout, CompressedVolume& vol);
 Status fillArrays(CompressedVolume& vol, const std::vector<uint32_t>& brickWords, uint64_t arrayLimit,
                   uint64_t maxOutputBytes, const std::function<void(uint64_t, std::vector<uint32_t>&)>& append);
 
+/// Bricks a sweep over a whole volume reads between releasing a mapped file's pages
+/// (sweepBricks): about 100 MiB of a typical encoding.
+constexpr uint64_t kSweepBricks = uint64_t(1) << 16;
+/// Runs `f(from, to)` over consecutive ranges of at most `chunk` bricks [from, to), in order;
+/// after each, the pages of those bricks leave the process where the volume views a mapped file
+/// (MappedFile::releaseAt), so that a sweep over a volume larger than memory keeps about a chunk
+/// of it resident. `f` returns false to stop the sweep.
+void sweepBricks(const CompressedVolume& vol, uint64_t chunk, const std::function<bool(uint64_t, uint64_t)>& f);
+
 /// Size of the smallest valid brick in words for a level count and encoding (section 3).
 uint32_t minimalBrickWords(uint32_t levels, int32_t encoding);
 
