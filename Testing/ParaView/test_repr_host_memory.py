@@ -102,4 +102,21 @@ for budget in (0, 1):
     same = 1 - differs(img, whole).mean()
     t.check(0.8 < same < 1, "budget %d: the rest draws as before (%.1f%% of pixels the same)" % (budget, 100 * same))
     Delete(s2)
+
+# A file cut short while it is open (mapped): the session survives, and says why.
+for budget in (0, 1):
+    cut = os.path.join(t.temp_dir(), "cut%d.csgv" % budget)
+    with open(path, "rb") as f, open(cut, "wb") as g:
+        g.write(f.read())
+    s3, v3, d3 = show(cut)
+    d3.CSGVHostMemoryMiB = budget
+    d3.CSGVLODBias = 2  # coarse levels first: the finest are decoded after the cut
+    t.screenshot(v3, 160, 120, "cut%d_before.png" % budget)
+    os.truncate(cut, os.path.getsize(cut) // 3)
+    with t.ErrorLog() as log:
+        d3.CSGVLODBias = -3
+        after = t.screenshot(v3, 160, 120, "cut%d_after.png" % budget)
+    said = "changed on disk" in log.text or "truncated" in log.text or "changed while it was read" in log.text
+    t.check(said, "budget %d: a file cut short while open is named, no crash: %r" % (budget, log.text[-300:]))
+    Delete(s3)
 t.finish()
