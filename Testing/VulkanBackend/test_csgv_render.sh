@@ -35,6 +35,22 @@ grep -q "^detail_separated: yes$" "$TMP/out" && grep -q "^detail_streaming: yes$
   awk '/^detail_uploaded_bricks:/ { n = $2 } /^device_memory_total_mib:/ { t = $2 } END { exit !(n > 0 && t <= 5) }' "$TMP/out" &&
   pass "detail streamed within the budget" || bad "no detail streaming under --decode gpu"
 cmp -s "$TMP/w.labels" "$TMP/d.labels" && pass "streaming leaves the labels unchanged" || bad "labels differ with detail streaming"
+# A host-memory budget below the encoding (2.8 MiB) keeps the coarse levels in memory (2 MiB) or
+# none (1 MiB) and reads the rest from the file: the same labels, by host and by GPU decoding.
+for dec in host gpu; do
+  for mib in 2 1; do
+    expect 0 "render with $mib MiB of host memory, $dec decoding" "$CSGV" render "$TMP/s.csgv" "$TMP/h.png" --size 64x48 \
+      --labels-out "$TMP/h.labels" --finest --no-jitter --decode $dec --host-memory-mib $mib
+    grep -q "^finest_level_on_disk: yes$" "$TMP/out" &&
+      awk -v mib=$mib '/^host_coarse_mib:/ { c = $2 } /^file_read_mib:/ { r = $2 } END { exit !((mib == 2 ? c > 0 : c == 0) && c <= mib && r > 0) }' "$TMP/out" &&
+      pass "$mib MiB, $dec: the finest level read from the file" || bad "$mib MiB, $dec: no tiers"
+    cmp -s "$TMP/w.labels" "$TMP/h.labels" && pass "$mib MiB, $dec: the same labels" || bad "$mib MiB, $dec: labels differ"
+  done
+done
+expect 0 "render with a budget the encoding fits" "$CSGV" render "$TMP/s.csgv" "$TMP/h.png" --size 64x48 --host-memory-mib 64
+grep -q "^finest_level_on_disk: no$" "$TMP/out" && pass "a budget the encoding fits keeps it whole" || bad "tiers within the budget"
+expect 1 "render with a negative host budget" "$CSGV" render "$TMP/s.csgv" "$TMP/h.png" --host-memory-mib -1
+grep -q "host-memory-mib" "$TMP/err" && pass "the error names --host-memory-mib" || bad "no --host-memory-mib in the error"
 expect 1 "render with an unknown decoder" "$CSGV" render "$DEF" "$TMP/c.png" --decode fpga
 grep -q "decode expects auto, gpu or host" "$TMP/err" && pass "the error names --decode" || bad "no --decode in the error"
 expect 1 "render with a budget too small" "$CSGV" render "$DEF" "$TMP/c.png" --size 640x480 --device-memory-mib 2
