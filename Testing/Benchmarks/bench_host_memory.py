@@ -25,17 +25,9 @@ import numpy as np
 from paraview import simple
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "Examples"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import csgv_tools as ct  # noqa: E402
-
-
-def rollup():
-    fields = {}
-    with open("/proc/self/smaps_rollup") as f:
-        for line in f:
-            parts = line.split()
-            if len(parts) >= 2 and parts[0].endswith(":"):
-                fields[parts[0][:-1]] = int(parts[1])
-    return fields
+from bench_host_copies import rollup  # noqa: E402 (/proc/self/smaps_rollup's fields, in KiB)
 
 
 def memory_line(what):
