@@ -205,10 +205,6 @@ bool brickPiece(vtkFieldData* fd, int& brick, int& pieces, int& piece, int whole
 /// The encoding array of a FieldData (null when there is none): its pointer and modification
 /// time identify the encoding, so consumers look up what they parsed before without parsing.
 vtkUnsignedCharArray* encodingArray(vtkFieldData* fd);
-/// An empty encoding array of `bytes` bytes placed as csgv::newCsgvBytes places them, so that a
-/// parse of it (readEncodingArrays, parseCsgvShared) views its words instead of copying them:
-/// one copy of an encoding serves its bytes and every parse in the process. Null without memory.
-vtkSmartPointer<vtkUnsignedCharArray> newEncodingArray(uint64_t bytes);
 /// An encoding array over a file's mapped bytes (csgv::MappedFile: read-only, guarded against the
 /// file being cut short), which the array keeps alive: the encoding takes no private memory, the
 /// page cache holds what was touched, and a parse of it views the mapping (TieredVolume can then
@@ -228,8 +224,8 @@ struct EncodedInput
 };
 /// Parses the arrays of vtkCSGVReader.h's layout (the whole container: callers parse once per
 /// encoding array and modification time); returns an error message or "". The volume's arrays
-/// view the encoding array's memory where it was made by newEncodingArray (the reader's, in the
-/// same process), else they are copies.
+/// view the encoding array's memory, which they keep alive (the reader's mapping of the file, in
+/// the same process: mappedEncodingArray).
 std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out);
 
 /// @brief The parsed encoding of a FieldData, parsed again only when the encoding array or its

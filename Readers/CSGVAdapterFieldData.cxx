@@ -216,23 +216,6 @@ void requestWholeInput(vtkInformation* inInfo)
   inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
 }
 
-vtkSmartPointer<vtkUnsignedCharArray> newEncodingArray(uint64_t bytes)
-{
-  if (bytes > uint64_t(std::numeric_limits<vtkIdType>::max()) || bytes > SIZE_MAX)
-  {
-    return nullptr;
-  }
-  uint8_t* memory = csgv::newCsgvBytes(size_t(bytes));
-  if (!memory)
-  {
-    return nullptr;
-  }
-  auto array = vtkSmartPointer<vtkUnsignedCharArray>::New();
-  array->SetArray(memory, static_cast<vtkIdType>(bytes), 0, vtkUnsignedCharArray::VTK_DATA_ARRAY_USER_DEFINED);
-  array->SetArrayFreeFunction(csgv::freeCsgvBytes);
-  return array;
-}
-
 namespace
 {
 // The mappings that encoding arrays hold, by their first byte (a VTK array's free function gets
