@@ -325,6 +325,7 @@ int cmdRender(int argc, char** argv) {
     const auto tStart = std::chrono::steady_clock::now();
     Result<CsgvFile> file = openCsgvMapped(a.input);
     if (!file) return fail(file.message());
+    const double openMs = since(tStart);
     MaterialDocument doc = defaultMaterials();
     if (!a.materials.empty()) {
         Result<std::vector<uint8_t>> text = readFile(a.materials, 64ull << 20);
@@ -336,8 +337,11 @@ int cmdRender(int argc, char** argv) {
     }
     std::map<std::string, std::vector<float>> attributes;
     if (!(s = gatherAttributes(a, *file, doc, attributes))) return fail(s.message());
+    const auto tContext = std::chrono::steady_clock::now();
     Result<std::unique_ptr<gpu::Context>> ctx = gpu::Context::create();
     if (!ctx) return fail(ctx.message());
+    const double contextMs = since(tContext);
+    const auto tUpload = std::chrono::steady_clock::now();
     // The backend's upload policy, for one renderer (csgv/gpu/UploadPolicy.h).
     gpu::UploadRequest want;
     want.deviceMemoryBytes = a.deviceMemoryMiB << 20;
@@ -359,6 +363,8 @@ int cmdRender(int argc, char** argv) {
     Result<std::unique_ptr<gpu::GpuVolume>> volume = gpu::GpuVolume::create(**ctx, drawn, plan.volume);
     if (!volume) return fail(volume.message());
     std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));
+    const double uploadMs = since(tUpload);
+    const auto tRenderer = std::chrono::steady_clock::now();
     const gpu::RendererOptions options = plan.share(shared->deviceBytes(), 1, a.decode);
     Result<std::unique_ptr<gpu::Renderer>> renderer = gpu::Renderer::create(**ctx, shared, options);
     if (!renderer) return fail(renderer.message());
@@ -375,7 +381,8 @@ int cmdRender(int argc, char** argv) {
     std::printf("host_memory_budget_mib: %.2f\n", hostBudget / 1048576.0);
     std::printf("finest_level_on_disk: %s\n", want.tiers ? "yes" : "no");
     if (want.tiers) std::printf("host_coarse_mib: %.2f\n", want.tiers->residentBytes() / 1048576.0);
-    std::printf("setup_ms: %.1f\n", since(tStart));
+    std::printf("setup_ms: %.1f (open %.1f, device %.1f, tiers and upload %.1f, renderer %.1f)\n", since(tStart), openMs,
+                contextMs, uploadMs, since(tRenderer));
 
     Vec3 boxCentre{};
     double radius = 1;
