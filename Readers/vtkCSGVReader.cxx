@@ -131,7 +131,9 @@ public:
     // FieldData array in this process (the representation's): one copy of the encoding, the
     // page cache's.
     const std::string& path = this->Path;
-    csgv::Result<std::shared_ptr<const csgv::MappedFile>> file = csgv::MappedFile::open(path);
+    csgv::MappedFile::Options mapping;
+    mapping.copyOnWrite = true; // a VTK array: a user's script may write to it (its copy, never the file)
+    csgv::Result<std::shared_ptr<const csgv::MappedFile>> file = csgv::MappedFile::open(path, mapping);
     if (!file)
     {
       return file.message();

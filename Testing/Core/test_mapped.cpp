@@ -333,3 +333,19 @@ TEST(Mapped, ReleasedPagesReadTheSameAndLeaveTheProcess) {
     EXPECT_EQ(mine, bytes);
     EXPECT_EQ(MappedFile::absentBytesAt(mine.data(), mine.size()), 0u);
 }
+
+TEST(Mapped, ACopyOnWriteMappingTakesWritesAndLeavesTheFile) {
+    std::vector<uint8_t> bytes(10000, 3);
+    const std::string path = writeTemp("cow.bin", bytes);
+    MappedFile::Options o;
+    o.copyOnWrite = true;
+    Result<std::shared_ptr<const MappedFile>> m = MappedFile::open(path, o);
+    ASSERT_TRUE(m.isOk() && (*m)->isMapped()) << m.message();
+    uint8_t* p = const_cast<uint8_t*>((*m)->data()); // what a VTK array over it allows
+    p[5000] = 9;
+    EXPECT_EQ((*m)->data()[5000], 9);
+    std::ifstream in(path, std::ios::binary);
+    std::vector<uint8_t> onDisk((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(onDisk, bytes) << "the file is unchanged";
+    EXPECT_TRUE(MappedFile::mappedAt(p));
+}

@@ -68,6 +68,12 @@ for decoding, name in ((2, "host"), (1, "GPU")):
     again = t.screenshot(v, 160, 120, "again_%s.png" % name)
     t.check(info(d, "CSGVLevelsOnDisk") == 0 and differs(again, whole).mean() == 0,
             "%s decoding: the automatic budget holds it whole again, the same image" % name)
+# A script that writes into the encoding array (the reader's mapping of the file) changes this
+# process's copy, never the file, and does not crash the session.
+before = open(path, "rb").read()
+enc = s.GetClientSideObject().GetOutputDataObject(0).GetFieldData().GetAbstractArray("CSGVEncoding")
+enc.SetValue(enc.GetNumberOfValues() // 2, (enc.GetValue(enc.GetNumberOfValues() // 2) + 1) % 256)
+t.check(open(path, "rb").read() == before, "a write into the mapped encoding array leaves the file unchanged")
 Delete(s)
 
 # Corrupt bricks in view (the top layer the default camera looks at, the deepest in the file):

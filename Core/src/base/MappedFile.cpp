@@ -100,7 +100,8 @@ void onSigbus(int signal, siginfo_t* info, void* context) {
         // The file ended before this page: read zeros from here on (MAP_FIXED replaces the page
         // atomically; mmap is a plain system call, safe in a handler on Linux).
         void* page = reinterpret_cast<void*>(a & ~(pageSize() - 1));
-        if (::mmap(page, size_t(pageSize()), PROT_READ, MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED, -1, 0) != MAP_FAILED) {
+        // Writable, so that a copy-on-write mapping's writers do not fault there either.
+        if (::mmap(page, size_t(pageSize()), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED, -1, 0) != MAP_FAILED) {
             uintptr_t first = g_slots[slot].firstDamaged.load(std::memory_order_relaxed);
             const uintptr_t here = reinterpret_cast<uintptr_t>(page);
             while (here < first && !g_slots[slot].firstDamaged.compare_exchange_weak(first, here)) {
@@ -252,7 +253,9 @@ Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& pa
         const size_t size = size_t(st.st_size);
         if (size == 0) return std::shared_ptr<const MappedFile>(std::move(f)); // nothing to map
         if (!options.read) {
-            void* p = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, d.fd, 0);
+            void* p = options.copyOnWrite
+                          ? ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_NORESERVE, d.fd, 0)
+                          : ::mmap(nullptr, size, PROT_READ, MAP_SHARED, d.fd, 0);
             if (p != MAP_FAILED) {
                 f->m_data = static_cast<const uint8_t*>(p);
                 f->m_size = size;

@@ -33,6 +33,11 @@ public:
         /// Read the file into memory instead of mapping it (what happens anyway where mapping
         /// fails); for tests and for callers that want private bytes.
         bool read = false;
+        /// Map copy-on-write (MAP_PRIVATE, readable and writable): a write to the bytes changes
+        /// this process's copy of that page, never the file, and never faults. For bytes handed
+        /// to code that may write to them (a VTK array a user's script can change); the pages no
+        /// one writes are the page cache's as with a read-only mapping.
+        bool copyOnWrite = false;
         /// Refuse to read more than this into memory (a pipe has no size to check beforehand;
         /// the limit does not apply to a mapping, which takes no private memory).
         uint64_t maxReadBytes = ~uint64_t(0);
