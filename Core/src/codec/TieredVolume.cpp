@@ -21,6 +21,9 @@ FinestRange finestRange(const BrickWords& bw, uint32_t L) {
     return {begin, std::max(begin, end)};
 }
 
+/// Bricks apart that estimate the coarse tier's size.
+constexpr uint64_t kEstimateStride = 64;
+
 /// The sweep releases what it has read every this many bytes.
 constexpr uint64_t kSweepWindow = uint64_t(32) << 20;
 
@@ -91,6 +94,27 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
     }
     uint64_t resident = t->residentBytes(), releasedUpTo = 0;
     if (options.progress && !options.progress(0.0)) return Status::error("cancelled");
+    // Coarse levels far past the budget are not copied to find that out: every 64th brick's
+    // estimate decides first (within an eighth of the budget, the sweep decides).
+    if (budget) {
+        uint64_t words = 0, sampled = 0;
+        std::unique_ptr<ReleaseBehind> behind; // a touch maps a large folio: release as it goes
+        for (uint64_t b = 0; b < n; b += kEstimateStride, ++sampled) {
+            if (!behind || b % per < kEstimateStride)
+                behind = std::make_unique<ReleaseBehind>(v.arrays[size_t(b / per)].bytes(), v.arrays[size_t(b / per)].size() * 4);
+            const BrickWords bw = v.brick(b);
+            behind->reached(bw.words.bytes());
+            const FinestRange f = finestRange(bw, L);
+            words += uint64_t(f.begin) + 1 + (bw.size - f.end);
+        }
+        behind.reset();
+        if (sampled && resident + words * 4 / sampled * n > budget + budget / 8) {
+            t->m_coarse = CompressedVolume{};
+            t->m_finestWords = {};
+            t->m_hasCoarse = false;
+            return std::shared_ptr<const TieredVolume>(std::move(t));
+        }
+    }
     size_t array = 0;
     const uint8_t* sweepBase = static_cast<const uint8_t*>(v.arrays[0].bytes());
     bool fits = !budget || resident <= budget;
