@@ -8,6 +8,7 @@
 #include "csgv/base/MappedFile.h"
 #include "csgv/codec/Container.h"
 #include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
 #include "csgv/codec/TieredVolume.h"
 
 #include <gtest/gtest.h>
@@ -147,4 +148,39 @@ TEST(Tiered, TheSweepCanBeCancelled) {
     ASSERT_FALSE(t.isOk());
     EXPECT_EQ(t.message(), "cancelled");
     EXPECT_EQ(asked, 1);
+}
+
+TEST(Tiered, SplitEncodingArraysKeepTheirLayoutInTheCoarseTier) {
+    // Bricks spread over many encoding arrays (a small array limit stands in for 2^29 words): the
+    // coarse tier's brick starts follow the container's rule for bricks that open an array.
+    EncodeOptions eo;
+    eo.brickSize = 16;
+    eo.maxArrayWords = 4000;
+    const LabelVolume& labels = sourceVolume("synthA_b32_rans2.csgv");
+    Result<CompressedVolume> enc = encodeVolume(labels, eo);
+    ASSERT_TRUE(enc.isOk()) << enc.message();
+    ASSERT_GT(enc->arrays.size(), 3u);
+    const std::string path = tempDir() + "/tiered-split.csgv";
+    ASSERT_TRUE(writeCsgv(path, *enc).isOk());
+    Result<CompressedVolume> m = readCsgvMapped(path);
+    ASSERT_TRUE(m.isOk()) << m.message();
+    auto full = std::make_shared<const CompressedVolume>(std::move(*m));
+    for (uint64_t budget : {uint64_t(0), uint64_t(1) << 20, uint64_t(100)}) {
+        TieredVolume::Options o;
+        o.budgetBytes = budget;
+        Result<std::shared_ptr<const TieredVolume>> t = TieredVolume::create(full, o);
+        ASSERT_TRUE(t.isOk()) << t.message();
+        const CompressedVolume& coarse = (*t)->coarse();
+        EXPECT_EQ((*t)->hasCoarseTier(), budget != 100) << budget;
+        EXPECT_TRUE(checkContainer(coarse).isOk()) << checkContainer(coarse).message();
+        EXPECT_EQ(coarse.arrays.size(), full->arrays.size());
+        for (uint32_t lod = 1; lod < full->levels(); ++lod) {
+            Result<LabelVolume> a = decodeVolume(*full, lod), b = decodeVolume(coarse, lod);
+            ASSERT_TRUE(a.isOk() && b.isOk()) << b.message();
+            EXPECT_EQ(a->labels, b->labels) << "budget " << budget << " lod " << lod;
+        }
+        Result<LabelVolume> finest = decodeVolume(*full, 0);
+        ASSERT_TRUE(finest.isOk());
+        EXPECT_EQ(finest->labels, labels.labels);
+    }
 }
