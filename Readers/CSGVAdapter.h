@@ -20,6 +20,7 @@
 #define CSGVAdapter_h
 
 #include "csgv/base/MappedFile.h"
+#include "csgv/codec/CsgvFile.h"
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/base/Geometry.h"
 #include "csgv/codec/Container.h"
@@ -227,6 +228,11 @@ struct EncodedInput
 /// view the encoding array's memory, which they keep alive (the reader's mapping of the file, in
 /// the same process: mappedEncodingArray).
 std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out);
+
+/// The opened file a FieldData describes (a parse of it: readEncodingArrays): its encoding
+/// (views, no copy), geometry, and for a relabelled file its labels and attribute columns (the
+/// CSGVAttribute arrays), as csgv::openCsgv gives them for the file.
+csgv::CsgvFile fileOfInput(const EncodedInput& enc, vtkFieldData* fd);
 
 /// @brief The parsed encoding of a FieldData, parsed again only when the encoding array or its
 /// modification time changes (one per consumer: a filter's RequestInformation and RequestData

@@ -78,70 +78,6 @@ bool parseLabels(const std::string& text, std::vector<int64_t>& out, std::string
   return flush();
 }
 
-/// The opened file the FieldData describes: its encoding (views: no copy), geometry, and, for a
-/// relabelled file, its labels and attribute columns (the CSGVAttribute arrays).
-csgv::CsgvFile fileOf(const csgvvtk::EncodedInput& enc, vtkFieldData* fd)
-{
-  csgv::CsgvFile file;
-  file.path = "the input's CSGV encoding";
-  file.volume = enc.volume;
-  file.metadata.geometry = enc.geometry;
-  if (!enc.info.relabelled)
-  {
-    return file;
-  }
-  file.hasAttributes = true;
-  file.attributes.path = "the input's attribute arrays";
-  file.attributes.labelColumn = "label";
-  file.attributes.labels = enc.info.map;
-  file.attributes.labelsUnsigned64 = enc.info.unsigned64;
-  const size_t prefix = std::strlen(csgvvtk::kAttributePrefix);
-  for (int i = 0; fd && i < fd->GetNumberOfArrays(); ++i)
-  {
-    vtkAbstractArray* a = fd->GetAbstractArray(i);
-    if (!a || !a->GetName() || std::strncmp(a->GetName(), csgvvtk::kAttributePrefix, prefix) != 0 ||
-      a->GetNumberOfComponents() != 1 || size_t(a->GetNumberOfTuples()) != enc.info.map.size())
-    {
-      continue;
-    }
-    csgv::AttributeColumn c;
-    c.name = a->GetName() + prefix;
-    if (auto* d = vtkDataArray::SafeDownCast(a))
-    {
-      c.values.resize(size_t(d->GetNumberOfTuples()));
-      for (vtkIdType k = 0; k < d->GetNumberOfTuples(); ++k)
-      {
-        c.values[size_t(k)] = d->GetComponent(k, 0);
-      }
-    }
-    else if (auto* s = vtkStringArray::SafeDownCast(a))
-    {
-      c.numeric = false;
-      c.text.resize(size_t(s->GetNumberOfValues()));
-      for (vtkIdType k = 0; k < s->GetNumberOfValues(); ++k)
-      {
-        c.text[size_t(k)] = s->GetValue(k);
-      }
-    }
-    else
-    {
-      continue;
-    }
-    file.attributes.columns.push_back(std::move(c));
-  }
-  csgv::Result<std::vector<uint32_t>> narrow = file.attributes.labelsAsUint32();
-  if (narrow)
-  {
-    file.idToLabel = std::move(*narrow);
-  }
-  else
-  {
-    file.wideLabels = true;
-  }
-  return file;
-}
-
-
 /// Labels extracted one by one (each in its own bounding box) up to this many; more at once.
 constexpr size_t kLabelsOneByOne = 256;
 
@@ -298,7 +234,7 @@ int vtkCSGVExtractLabels::RequestData(
     vtkErrorMacro(<< error << " (apply CSGV Extract Labels to the CSGV reader's output)");
     return 1; // reported once; the output stays empty
   }
-  const csgv::CsgvFile file = fileOf(*parsed, input->GetFieldData());
+  const csgv::CsgvFile file = csgvvtk::fileOfInput(*parsed, input->GetFieldData());
 
   csgv::ExtractOptions o;
   const bool byLabels = this->Labels.find_first_not_of(" \t\r\n,;") != std::string::npos;

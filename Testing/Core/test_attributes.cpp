@@ -16,6 +16,7 @@
 #include "csgv/inputs/Relabel.h"
 #include "csgv/codec/Partition.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -741,4 +742,28 @@ TEST(AttributesComputed, CorruptStreamsAreErrorsNeverCrashes) {
         expectMatchesReference(*t, bruteForce(*decoded, true));
     }
     EXPECT_GT(failures, 10);
+}
+
+TEST(ComputedAttributes, ProgressIsReportedAndCancelStops) {
+    const CompressedVolume vol = loadFixture("synthA_b16_rans2_legacydelta.csgv");
+    ComputeAttributesOptions o;
+    std::vector<double> seen;
+    o.progress = [&](double f) {
+        seen.push_back(f);
+        return true;
+    };
+    Result<AttributeTable> all = computeAttributes(vol, o);
+    ASSERT_TRUE(all.isOk()) << all.message();
+    ASSERT_FALSE(seen.empty());
+    EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+    EXPECT_GE(seen.front(), 0.0);
+    EXPECT_LT(seen.back(), 1.0);
+    Result<AttributeTable> plain = computeAttributes(vol);
+    ASSERT_TRUE(plain.isOk());
+    EXPECT_EQ(all->labels(), plain->labels()) << "progress changes nothing";
+    int calls = 0;
+    o.progress = [&](double) { return ++calls < 3; };
+    Result<AttributeTable> stopped = computeAttributes(vol, o);
+    ASSERT_FALSE(stopped.isOk());
+    EXPECT_EQ(stopped.message(), "cancelled");
 }

@@ -287,6 +287,7 @@ Result<AttributeSums> computeAttributeSums(const CompressedVolume& vol, const Co
     for (uint32_t i = 0; i < 128; ++i) spread[i] = mortonSpread(i);
 
     std::atomic<bool> failed{false};
+    double reported = 0; // the fraction last reported (thread 0 alone touches it)
     std::mutex mutex;
     uint64_t errorBrick = ~uint64_t(0);
     Status error;
@@ -317,6 +318,13 @@ Result<AttributeSums> computeAttributeSums(const CompressedVolume& vol, const Co
                 if (failed.load(std::memory_order_relaxed)) continue;
                 const uint32_t bx = uint32_t(uint64_t(i) % grid[0]), by = uint32_t(uint64_t(i) / grid[0]);
                 const uint64_t b = uint64_t(i) + layerBricks * bz;
+                // Progress and cancellation, asked on the calling thread (OpenMP's thread 0)
+                // between its bricks: a caller's callback runs where the caller does.
+                if (options.progress && omp_get_thread_num() == 0 &&
+                    !options.progress(reported = std::max(reported, double(b) / double(layerBricks * grid[2])))) {
+                    record(~uint64_t(0) - 1, Status::error("cancelled"));
+                    continue;
+                }
                 try {
                     Status st = decoder.decode(b, 0);
                     if (!st) {
@@ -413,6 +421,13 @@ Result<AttributeSums> computeAttributeSums(const CompressedVolume& vol, const Co
                 if (failed.load(std::memory_order_relaxed)) continue;
                 const uint32_t bx = uint32_t(uint64_t(i) % grid[0]), by = uint32_t(uint64_t(i) / grid[0]);
                 const uint64_t b = uint64_t(i) + layerBricks * bz;
+                // Progress and cancellation, asked on the calling thread (OpenMP's thread 0)
+                // between its bricks: a caller's callback runs where the caller does.
+                if (options.progress && omp_get_thread_num() == 0 &&
+                    !options.progress(reported = std::max(reported, double(b) / double(layerBricks * grid[2])))) {
+                    record(~uint64_t(0) - 1, Status::error("cancelled"));
+                    continue;
+                }
                 try {
                     const uint32_t ex = std::min(B, dim[0] - bx * B), ey = std::min(B, dim[1] - by * B),
                                    ez = std::min(B, dim[2] - bz * B);

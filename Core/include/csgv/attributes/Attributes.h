@@ -184,6 +184,9 @@ struct ComputeAttributesOptions {
     /// When set, the volume stores ids into this table (AttributeDatabase::labels): results are
     /// keyed by original label; an id past its end is an error.
     const std::vector<int64_t>* idToLabel = nullptr;
+    /// Called now and then with the fraction done (0..1), on the calling thread; false stops the
+    /// work with the error "cancelled" (within a brick's decode per thread).
+    std::function<bool(double)> progress;
 };
 
 /// Names of the computed columns, in table order.
