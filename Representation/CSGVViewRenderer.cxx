@@ -48,13 +48,27 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
 std::shared_ptr<const csgv::TieredVolume> ViewRenderer::tiersFor(
   SharedVolume& shared, uint64_t hostMemoryBytes, std::string& error)
 {
-  const uint64_t budget = hostMemoryBytes ? hostMemoryBytes : csgv::TieredVolume::automaticBudget();
   std::lock_guard<std::mutex> lock(this->Cache->mutex());
+  // Decided once per volume and setting: the automatic budget follows the memory available when
+  // it is decided, not every render (a budget that moved with it would rebuild the tiers).
+  // Views with different settings each keep theirs.
+  auto known = shared.tiers.find(hostMemoryBytes);
+  if (known != shared.tiers.end())
+  {
+    return known->second;
+  }
+  // Tiers of other settings that no upload draws from any more go (their coarse copies count
+  // against the host memory too).
+  for (auto it = shared.tiers.begin(); it != shared.tiers.end();)
+  {
+    it = it->second && it->second.use_count() == 1 ? shared.tiers.erase(it) : std::next(it);
+  }
+  const uint64_t budget = hostMemoryBytes ? hostMemoryBytes : csgv::TieredVolume::automaticBudget();
   if (!shared.owned.empty() || !csgv::TieredVolume::wanted(shared.volume, budget))
   {
+    shared.tiers[hostMemoryBytes] = nullptr;
     return nullptr; // an MPI piece holds only its bricks; a volume within the budget stays whole
   }
-  if (!shared.tiers || shared.tiersBudget != budget)
   {
     csgv::TieredVolume::Options o;
     o.budgetBytes = budget;
@@ -62,13 +76,12 @@ std::shared_ptr<const csgv::TieredVolume> ViewRenderer::tiersFor(
       csgv::TieredVolume::create(std::make_shared<const csgv::CompressedVolume>(shared.volume), o);
     if (!t)
     {
-      error = "keeping the finest level on disk: " + t.message();
+      error = "keeping the finest level on disk: " + t.message(); // asked again next time
       return nullptr;
     }
-    shared.tiers = *t;
-    shared.tiersBudget = budget;
+    shared.tiers[hostMemoryBytes] = *t;
+    return *t;
   }
-  return shared.tiers;
 }
 
 ViewRenderer::ViewRenderer()

@@ -91,10 +91,11 @@ struct SharedVolume
   bool ownIds = false;
   std::string arrayName;   ///< the label array users see ("Labels" for the CSGV encoding)
   std::string description; ///< where it came from ("CSGVEncoding", "array 'Labels' compressed")
-  /// The volume under a host-memory budget it exceeds (ViewRenderer::tiersFor: the finest level
-  /// read from the mapped file; guarded by the volume cache's mutex), and that budget.
-  std::shared_ptr<const csgv::TieredVolume> tiers;
-  uint64_t tiersBudget = 0;
+  /// By host-memory setting (bytes; 0: automatic): the volume under that budget
+  /// (ViewRenderer::tiersFor: the finest level read from the mapped file), or null when it stays
+  /// whole; decided once per setting (the automatic budget when first asked), guarded by the
+  /// volume cache's mutex.
+  std::map<uint64_t, std::shared_ptr<const csgv::TieredVolume>> tiers;
   /// The context `gpu` was created on; declared before `gpu` so that it outlives it.
   std::shared_ptr<csgv::gpu::Context> context;
   /// The uploads: [paletted + 2 * hostDecoding] (csgv::gpu::UploadPlan::kind), for caches of labels or palette indices, decoded

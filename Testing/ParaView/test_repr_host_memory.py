@@ -68,6 +68,27 @@ for decoding, name in ((2, "host"), (1, "GPU")):
     again = t.screenshot(v, 160, 120, "again_%s.png" % name)
     t.check(info(d, "CSGVLevelsOnDisk") == 0 and differs(again, whole).mean() == 0,
             "%s decoding: the automatic budget holds it whole again, the same image" % name)
+# Two views of one volume with budgets of their own: the same image.
+d.CSGVDecoding = 0
+d.CSGVHostMemoryMiB = 1
+vb = t.render_view(160, 120)
+db = Show(s, vb)
+db.CSGVFramesPerStillRender = 1
+db.CSGVStillRenderTimeBudget = 60
+db.CSGVLODBias = -3
+db.CSGVHostMemoryMiB = 2
+vb.CameraPosition, vb.CameraFocalPoint, vb.CameraViewUp = v.CameraPosition, v.CameraFocalPoint, v.CameraViewUp
+for rnd in range(2):
+    one = t.screenshot(v, 160, 120, "two_views_a%d.png" % rnd)
+    two = t.screenshot(vb, 160, 120, "two_views_b%d.png" % rnd)
+# Views of one volume share its upload of a kind, as with device budgets: the second draws from
+# the first's tiers while the first draws from them.
+t.check(info(d, "CSGVLevelsOnDisk") == info(db, "CSGVLevelsOnDisk") == 2 and differs(one, whole).mean() == 0
+        and differs(two, whole).mean() == 0, "two views, 1 and 2 MiB: one upload (levels on disk %d and %d), the same image"
+        % (info(d, "CSGVLevelsOnDisk"), info(db, "CSGVLevelsOnDisk")))
+Delete(db)
+d.CSGVHostMemoryMiB = 0
+
 # A script that writes into the encoding array (the reader's mapping of the file) changes this
 # process's copy, never the file, and does not crash the session.
 before = open(path, "rb").read()
