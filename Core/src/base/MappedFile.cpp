@@ -255,7 +255,10 @@ Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& pa
         if (!options.read) {
             void* p = options.copyOnWrite
                           ? ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_NORESERVE, d.fd, 0)
-                          : ::mmap(nullptr, size, PROT_READ, MAP_SHARED, d.fd, 0);
+                          : MAP_FAILED;
+            // Copy-on-write can be refused where the kernel counts it against memory
+            // (overcommit_memory 2): a read-only mapping still beats reading the file.
+            if (p == MAP_FAILED) p = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, d.fd, 0);
             if (p != MAP_FAILED) {
                 f->m_data = static_cast<const uint8_t*>(p);
                 f->m_size = size;
