@@ -349,3 +349,19 @@ TEST(Mapped, ACopyOnWriteMappingTakesWritesAndLeavesTheFile) {
     EXPECT_EQ(onDisk, bytes) << "the file is unchanged";
     EXPECT_TRUE(MappedFile::mappedAt(p));
 }
+
+TEST(Mapped, ABrickOfAFileCutShortUnderItsMappingFailsToDecodeNamingTheCause) {
+    // Zeros may even decode; the decoder refuses a brick that reached a page of zeros.
+    const std::string name = "synthA_b32_rans2.csgv";
+    const std::vector<uint8_t> bytes = fixtureBytes(name);
+    const std::string path = writeTemp("cut-under-decoder.csgv", bytes);
+    Result<CompressedVolume> mapped = readCsgvMapped(path);
+    ASSERT_TRUE(mapped.isOk()) << mapped.message();
+    ASSERT_EQ(::truncate(path.c_str(), off_t(bytes.size() / 2)), 0);
+    Result<LabelVolume> labels = decodeVolume(*mapped, 0);
+    ASSERT_FALSE(labels.isOk());
+    EXPECT_NE(labels.message().find("the file changed on disk while it was open"), std::string::npos) << labels.message();
+    // The bricks before the cut still decode (the first brick lies in the first half).
+    BrickDecoder d(*mapped);
+    EXPECT_TRUE(d.decode(0, 0).isOk());
+}

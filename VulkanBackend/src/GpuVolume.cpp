@@ -145,6 +145,10 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
         addresses.push_back(b->address());
         g->m_arrays.push_back(std::move(*b));
     }
+    // What was uploaded is the file's only if no page of it was cut off meanwhile.
+    for (const WordArray& a : arrays)
+        if (MappedFile::damagedAt(a.bytes(), a.size() * 4))
+            return Status::error("the file changed on disk while it was open (it was cut short); open it again");
     Result<Buffer> addr = context.createBuffer(addresses.size() * 8, MemoryKind::DeviceLocal);
     if (!addr) return addr.status();
     if (!(s = context.upload(*addr, 0, addresses.data(), addresses.size() * 8))) return s;
@@ -404,13 +408,7 @@ uint64_t GpuVolume::regionWords(uint32_t lod) const {
 }
 
 Status GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t lod, uint32_t* out) const {
-    Status s = decoder.decode(brick, lod);
-    // Bytes of a mapped file cut short under its mapping read as zeros (MappedFile's guard),
-    // which may even decode: such a brick is refused whatever the decoder said.
-    const CompressedVolume& v = lod == 0 && m_tiers ? m_tiers->full() : m_volume;
-    const BrickWords bw = v.brick(brick);
-    if (MappedFile::damagedAt(bw.words.bytes(), size_t(bw.size) * 4))
-        s = Status::error("brick " + std::to_string(brick) + ": the file changed on disk while it was open (it was cut short)");
+    Status s = decoder.decode(brick, lod); // refuses a brick of a file cut short under its mapping
     if (!s) {
         std::fill(out, out + regionWords(lod), kNone);
         return s;

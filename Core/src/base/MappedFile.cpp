@@ -77,6 +77,7 @@ struct Slot {
     std::atomic<uintptr_t> begin{0}, end{0};
     std::atomic<bool> damaged{false};
     std::atomic<uintptr_t> firstDamaged{UINTPTR_MAX}; ///< the lowest page replaced by zeros
+    std::atomic<int> fd{-1}; ///< the mapped file, open while mapped (cutShortAt asks its size)
 };
 Slot g_slots[kSlots];
 std::mutex g_registry;
@@ -85,8 +86,11 @@ std::atomic<uintptr_t> g_pageSize{4096};
 
 uintptr_t pageSize() { return g_pageSize.load(std::memory_order_relaxed); }
 
+std::atomic<int> g_slotsUsed{0}; ///< slots below this index have been used (a lookup stops there)
+
 int findSlot(uintptr_t a) {
-    for (int i = 0; i < kSlots; ++i) {
+    const int used = g_slotsUsed.load(std::memory_order_acquire);
+    for (int i = 0; i < used; ++i) {
         const uintptr_t b = g_slots[i].begin.load(std::memory_order_acquire);
         if (b && a >= b && a < g_slots[i].end.load(std::memory_order_acquire)) return i;
     }
@@ -143,15 +147,17 @@ void installGuard() {
     ::sigaction(SIGBUS, &mine, nullptr);
 }
 
-int registerMapping(const uint8_t* data, size_t size) {
+int registerMapping(const uint8_t* data, size_t size, int fd) {
     std::lock_guard<std::mutex> lock(g_registry);
     installGuard();
     for (int i = 0; i < kSlots; ++i) {
         if (g_slots[i].begin.load(std::memory_order_relaxed)) continue;
         g_slots[i].damaged.store(false, std::memory_order_relaxed);
         g_slots[i].firstDamaged.store(UINTPTR_MAX, std::memory_order_relaxed);
+        g_slots[i].fd.store(fd, std::memory_order_relaxed);
         g_slots[i].end.store(reinterpret_cast<uintptr_t>(data) + size, std::memory_order_release);
         g_slots[i].begin.store(reinterpret_cast<uintptr_t>(data), std::memory_order_release);
+        if (g_slotsUsed.load(std::memory_order_relaxed) <= i) g_slotsUsed.store(i + 1, std::memory_order_release);
         return i;
     }
     return -1; // more than kSlots live mappings: this one is unguarded
@@ -162,6 +168,7 @@ void unregisterMapping(int slot) {
     std::lock_guard<std::mutex> lock(g_registry);
     g_slots[slot].begin.store(0, std::memory_order_release);
     g_slots[slot].end.store(0, std::memory_order_release);
+    g_slots[slot].fd.store(-1, std::memory_order_release);
 }
 
 /// [address, address + size) widened to whole pages and clipped to the mapping of `slot`.
@@ -194,6 +201,19 @@ MappedFile::~MappedFile() {
     if (!m_mapped) return;
     unregisterMapping(m_slot);
     ::munmap(const_cast<uint8_t*>(m_data), m_size);
+    if (m_fd >= 0) ::close(m_fd);
+}
+
+bool MappedFile::cutShortAt(const void* address, size_t size) {
+    const uintptr_t a = reinterpret_cast<uintptr_t>(address);
+    const int slot = findSlot(a);
+    if (slot < 0) return false;
+    if (damagedAt(address, size)) return true;
+    const int fd = g_slots[slot].fd.load(std::memory_order_acquire);
+    struct stat st {};
+    if (fd < 0 || ::fstat(fd, &st) != 0) return false;
+    const uintptr_t offset = a - g_slots[slot].begin.load(std::memory_order_acquire);
+    return uint64_t(st.st_size) < uint64_t(offset) + size;
 }
 
 bool MappedFile::damaged() const { return m_slot >= 0 && g_slots[m_slot].damaged.load(std::memory_order_acquire); }
@@ -263,7 +283,9 @@ Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& pa
                 f->m_data = static_cast<const uint8_t*>(p);
                 f->m_size = size;
                 f->m_mapped = true;
-                f->m_slot = registerMapping(f->m_data, size);
+                f->m_fd = d.fd; // kept open: cutShortAt asks the file's size
+                d.fd = -1;
+                f->m_slot = registerMapping(f->m_data, size, f->m_fd);
                 return std::shared_ptr<const MappedFile>(std::move(f));
             }
             // Some file systems cannot map (ENODEV); reading still works.

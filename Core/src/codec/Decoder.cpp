@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/codec/Decoder.h"
+#include "csgv/base/MappedFile.h"
 #include "csgv/base/Morton.h"
 
 #include <algorithm>
@@ -224,6 +225,22 @@ Status BrickDecoder::decodeLevels(uint64_t index, const BrickWords& bw, Reader& 
 }
 
 Status BrickDecoder::decode(uint64_t index, uint32_t lod) {
+    Status s = decodeBrick(index, lod);
+    // A mapped file cut short under the decoder reads zeros past its new end (MappedFile's
+    // guard), which may even decode: such a brick is an error whatever it decoded to.
+    if (index < m_vol.brickCount()) {
+        const BrickWords bw = m_vol.brick(index);
+        // A failure asks the file's size too: the page that holds a new end reads zeros past it
+        // without a fault.
+        if (s ? MappedFile::damagedAt(bw.words.bytes(), size_t(bw.size) * 4)
+              : MappedFile::cutShortAt(bw.words.bytes(), size_t(bw.size) * 4))
+            return Status::error("brick " + std::to_string(index) +
+                                 ": the file changed on disk while it was open (it was cut short)");
+    }
+    return s;
+}
+
+Status BrickDecoder::decodeBrick(uint64_t index, uint32_t lod) {
     const uint32_t L = m_levels;
     if (index >= m_vol.brickCount())
         return Status::error("brick " + std::to_string(index) + " does not exist (" +

@@ -70,6 +70,11 @@ public:
     /// is not the file's). A file cut short fails every page past its new end, and the first such
     /// page touched is the lowest: bytes before it are the file's.
     static bool damagedAt(const void* address, size_t size = 1);
+    /// Whether [address, address + size) in a live mapping lies past the file's end now (or
+    /// reached a page of zeros): the file was cut short under the mapping. Asks the file's size
+    /// (a system call): for explaining an error, not for every read. Bytes of the page that holds
+    /// the new end read as zeros without a fault, which only this tells.
+    static bool cutShortAt(const void* address, size_t size);
     /// Whether `address` lies in a live mapping of a file (whose pages release() may drop: they
     /// are read again from the file when touched).
     static bool mappedAt(const void* address);
@@ -99,6 +104,7 @@ private:
     size_t m_size = 0;
     bool m_mapped = false;
     int m_slot = -1; ///< its entry in the guard's registry (a mapping)
+    int m_fd = -1;   ///< the mapped file (a mapping keeps it open)
     std::vector<uint8_t> m_read; ///< the bytes where they were read, not mapped
 };
 

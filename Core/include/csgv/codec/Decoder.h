@@ -36,13 +36,16 @@ public:
 
     /// Decodes brick `index` down to `lod`. Afterwards labels() holds that level's nodes in Morton
     /// order of the brick-local grid of (B >> lod)^3 nodes; nodes outside the volume hold
-    /// kInvalidLabel unless an ancestor's stop bit filled them.
+    /// kInvalidLabel unless an ancestor's stop bit filled them. A brick of a mapped file that
+    /// was cut short under the decoder (MappedFile's guard read zeros for it) is an error naming
+    /// the file's change, whatever it decoded to.
     Status decode(uint64_t index, uint32_t lod);
     const uint32_t* labels() const { return m_labels.data() + m_levelOffset[m_decodedLevel]; }
     /// Nodes per axis of the last decoded level.
     uint32_t gridSize() const { return 1u << m_decodedLevel; }
 
 private:
+    Status decodeBrick(uint64_t index, uint32_t lod);
     template <typename Reader>
     Status decodeLevels(uint64_t index, const BrickWords& bw, Reader& reader, uint32_t firstLevel,
                         uint32_t lastLevel);
