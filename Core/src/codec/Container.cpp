@@ -480,14 +480,9 @@ Result<CompressedVolume> pieceHeader(const CompressedVolume& whole, const BrickB
             return Status::error("piece of bricks [" + std::to_string(box.lo[a]) + ", " + std::to_string(box.hi[a]) +
                                  ") along axis " + std::to_string(a) + " is empty or outside the " +
                                  std::to_string(grid[a]) + " bricks of the volume");
-    CompressedVolume piece;
-    piece.version = whole.version;
-    piece.brickSize = whole.brickSize;
-    piece.encoding = whole.encoding;
-    piece.randomAccess = whole.randomAccess;
-    piece.opMask = whole.opMask;
-    piece.freqA = whole.freqA;
-    piece.freqB = whole.freqB;
+    CompressedVolume piece = whole.headerFields(); // its largest palette and array split are its own (assemblePiece)
+    piece.maxPalette = 0;
+    piece.bricksPerArray = kSingleArray;
     for (int a = 0; a < 3; ++a)
         piece.dim[a] = std::min(box.hi[a] * whole.brickSize, whole.dim[a]) - box.lo[a] * whole.brickSize;
     return piece;

@@ -1132,14 +1132,8 @@ Status encodeToFile(SlabSource& source, const EncodeOptions& options, const std:
 Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBox& box, const std::array<uint32_t, 3>& dim) {
     try {
         const uint32_t B = piece.brickSize;
-        CompressedVolume vol;
-        vol.version = piece.version;
-        vol.brickSize = B;
+        CompressedVolume vol = piece.headerFields(); // placed in `dim`; palette and arrays below
         vol.dim = dim;
-        vol.encoding = piece.encoding;
-        vol.opMask = piece.opMask;
-        vol.freqA = piece.freqA;
-        vol.freqB = piece.freqB;
         if (vol.brickCount() > kMaxBricks) return Status::error("the volume needs more than 2^40 bricks");
         const std::array<uint32_t, 3> grid = vol.brickGrid();
         for (int a = 0; a < 3; ++a) {

@@ -65,17 +65,7 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
     CompressedVolume& c = t->m_coarse;
     // Every header field as it is; the arrays hold the coarse bricks, in the full volume's
     // arrays (a coarse brick is never longer than its brick, so every array still fits).
-    c = CompressedVolume{};
-    c.version = v.version;
-    c.brickSize = v.brickSize;
-    c.dim = v.dim;
-    c.encoding = v.encoding;
-    c.randomAccess = v.randomAccess;
-    c.maxPalette = v.maxPalette;
-    c.opMask = v.opMask;
-    c.freqA = v.freqA;
-    c.freqB = v.freqB;
-    c.bricksPerArray = v.bricksPerArray;
+    c = v.headerFields();
     const uint64_t n = v.brickCount();
     const uint32_t L = v.levels();
     const uint64_t per = v.bricksPerArray == kSingleArray ? n + 1 : v.bricksPerArray;

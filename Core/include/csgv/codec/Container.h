@@ -124,6 +124,22 @@ struct CompressedVolume {
     BrickWords brick(uint64_t i) const;
     /// Bytes the container occupies when written.
     uint64_t serializedSize() const;
+    /// A volume with this one's header fields (everything but the brick starts and the arrays),
+    /// for one made from it: a piece, a tier, a volume a piece is placed in.
+    CompressedVolume headerFields() const {
+        CompressedVolume h;
+        h.version = version;
+        h.brickSize = brickSize;
+        h.dim = dim;
+        h.encoding = encoding;
+        h.randomAccess = randomAccess;
+        h.maxPalette = maxPalette;
+        h.opMask = opMask;
+        h.freqA = freqA;
+        h.freqB = freqB;
+        h.bricksPerArray = bricksPerArray;
+        return h;
+    }
 };
 
 /// @brief Where the encoding arrays split: bricks per array (all of them when one array holds
