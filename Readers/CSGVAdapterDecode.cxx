@@ -3,14 +3,12 @@
 // original label type (decodeBox), the palette label range, VTK type names.
 #include "CSGVAdapter.h"
 
-#include "csgv/base/MappedFile.h"
 
 #include <vtkAOSDataArrayTemplate.h>
 #include <vtkDataArray.h>
 #include <vtkType.h>
 
 #include <algorithm>
-#include <memory>
 #include <limits>
 #include <type_traits>
 
@@ -81,29 +79,24 @@ template <class F>
 void forEachPaletteEntry(const csgv::CompressedVolume& vol, F&& f)
 {
   const uint32_t L = vol.levels();
-  const uint64_t bricks = vol.brickCount();
-  // A mapped file's pages leave the process behind the sweep (a file larger than memory).
-  std::vector<std::unique_ptr<csgv::ReleaseBehind>> behind;
-  for (const csgv::WordArray& a : vol.arrays)
-  {
-    behind.push_back(std::make_unique<csgv::ReleaseBehind>(a.bytes(), a.size() * 4));
-  }
-  const uint64_t perArray = vol.bricksPerArray == csgv::kSingleArray ? bricks + 1 : vol.bricksPerArray;
-  for (uint64_t i = 0; i < bricks; ++i)
-  {
-    const csgv::BrickWords bw = vol.brick(i);
-    behind[size_t(i / perArray)]->reached(bw.words.bytes());
-    if (bw.size < L + 1)
+  // In chunks whose pages leave the process behind the sweep (a mapped file larger than memory).
+  csgv::sweepBricks(vol, csgv::kSweepBricks, [&](uint64_t from, uint64_t to) {
+    for (uint64_t i = from; i < to; ++i)
     {
-      continue; // checkContainer refuses this; stay safe anyway
+      const csgv::BrickWords bw = vol.brick(i);
+      if (bw.size < L + 1)
+      {
+        continue; // checkContainer refuses this; stay safe anyway
+      }
+      // The palette is stored reversed at the end of the brick (Container.h).
+      const uint32_t n = std::min(bw.words[L], bw.size - (L + 1));
+      for (uint32_t k = 0; k < n; ++k)
+      {
+        f(bw.words[bw.size - 1 - k]);
+      }
     }
-    // The palette is stored reversed at the end of the brick (Container.h).
-    const uint32_t n = std::min(bw.words[L], bw.size - (L + 1));
-    for (uint32_t k = 0; k < n; ++k)
-    {
-      f(bw.words[bw.size - 1 - k]);
-    }
-  }
+    return true;
+  });
 }
 
 /// @brief Palette value -> label of type T, checked once up front so decoding never narrows.

@@ -78,7 +78,7 @@ TEST(Tiered, CoarseTierDecodesEveryLevelButTheFinestAsTheWholeDoes) {
         ASSERT_TRUE(before.isOk()) << before.message();
         std::vector<uint32_t> all(size_t(full->brickCount()));
         for (size_t i = 0; i < all.size(); ++i) all[i] = uint32_t(i);
-        tiers.release(all.data(), all.size());
+        tiers.release(all.size());
         tiers.readAhead(all.data(), all.size());
         EXPECT_EQ(tiers.counts().releasedBricks, all.size());
         Result<LabelVolume> finest = decodeVolume(*full, 0);

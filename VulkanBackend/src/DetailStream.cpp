@@ -165,13 +165,11 @@ Status DetailStream::request(const uint32_t* bricks, size_t count) {
     }
     m_copy = std::async(std::launch::async, [this] {
         uint64_t at = 0;
-        std::vector<uint32_t> copied;
         for (const Entry& e : m_batch) {
             copyStream(e.brick, m_staging.data() + at);
             at += e.words;
-            copied.push_back(e.brick);
         }
-        if (m_tiers) m_tiers->release(copied.data(), copied.size()); // in the staging buffer now
+        if (m_tiers) m_tiers->release(m_batch.size()); // in the staging buffer now
     });
     return Status::ok();
 }

@@ -109,10 +109,6 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     // Large labels are stored as ids (StoredLabels): in the palettes the device holds, and in the
     // cache regions host decoding writes. An MPI rank's piece keeps its labels.
     g->m_labels = storedLabels(volume, !options.owned.empty());
-    // The palettes just read are the file's only if no page of it was cut off (MappedFile's guard).
-    for (const WordArray& a : volume.arrays)
-        if (MappedFile::damagedAt(a.bytes(), a.size() * 4))
-            return Status::error("the file changed on disk while it was open (it was cut short); open it again");
     std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
@@ -145,8 +141,9 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
         addresses.push_back(b->address());
         g->m_arrays.push_back(std::move(*b));
     }
-    // What was uploaded is the file's only if no page of it was cut off meanwhile.
-    for (const WordArray& a : arrays)
+    // The palettes scanned and the words uploaded are the file's only if no page of it was cut
+    // off meanwhile (MappedFile's guard: a page once replaced by zeros stays marked).
+    for (const WordArray& a : volume.arrays)
         if (MappedFile::damagedAt(a.bytes(), a.size() * 4))
             return Status::error("the file changed on disk while it was open (it was cut short); open it again");
     Result<Buffer> addr = context.createBuffer(addresses.size() * 8, MemoryKind::DeviceLocal);

@@ -26,9 +26,6 @@ void sortWords(std::vector<uint32_t>& v) {
     }
 }
 
-/// Largest labels below this are gathered as bits (32 MiB at most), the others sorted.
-constexpr uint32_t kBitmapLabels = 1u << 28;
-
 } // namespace
 
 StoredLabels storedLabels(const CompressedVolume& vol, bool piece) {
@@ -49,44 +46,24 @@ StoredLabels storedLabels(const CompressedVolume& vol, bool piece) {
     out.largest = largest;
     if (piece || largest < kMaterialTableLabels || entries > (uint64_t(1) << 25)) return out;
     std::vector<uint32_t> labels;
-    if (largest < kBitmapLabels) {
-        // The labels present as bits (at most 32 MiB): one pass sets them, one collects them in
-        // order, without the copy and the sort of every palette entry (perf: a fifth of
-        // `csgv render`'s set-up on synth 2048^3, 9.4 million entries).
-        std::vector<uint64_t> present(size_t(largest >> 6) + 1, 0);
-        sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
-            for (uint64_t b = from; b < to; ++b) {
-                const BrickWords bw = vol.brick(b);
-                for (uint32_t k = 0; k < bw.words[L]; ++k) {
-                    const uint32_t l = bw.words[bw.size - 1 - k];
-                    present[l >> 6] |= uint64_t(1) << (l & 63);
-                }
+    // Neighbouring bricks hold the same labels: a direct-mapped table of labels seen lately
+    // keeps most repeats out of the list to sort (kNone, which it starts with, is no label).
+    std::vector<uint32_t> seen(size_t(1) << 16, kNone);
+    sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
+        for (uint64_t b = from; b < to; ++b) {
+            const BrickWords bw = vol.brick(b);
+            for (uint32_t k = 0; k < bw.words[L]; ++k) {
+                const uint32_t l = bw.words[bw.size - 1 - k];
+                uint32_t& slot = seen[(l * 0x9E3779B1u) >> 16];
+                if (slot == l) continue;
+                slot = l;
+                labels.push_back(l);
             }
-            return true;
-        });
-        for (size_t w = 0; w < present.size(); ++w)
-            for (uint64_t bits = present[w]; bits; bits &= bits - 1)
-                labels.push_back(uint32_t(w * 64 + size_t(__builtin_ctzll(bits))));
-    } else {
-        // Neighbouring bricks hold the same labels: a direct-mapped table of labels seen lately
-        // keeps most repeats out of the list to sort (kNone, which it starts with, is no label).
-        std::vector<uint32_t> seen(size_t(1) << 16, kNone);
-        sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
-            for (uint64_t b = from; b < to; ++b) {
-                const BrickWords bw = vol.brick(b);
-                for (uint32_t k = 0; k < bw.words[L]; ++k) {
-                    const uint32_t l = bw.words[bw.size - 1 - k];
-                    uint32_t& slot = seen[(l * 0x9E3779B1u) >> 16];
-                    if (slot == l) continue;
-                    slot = l;
-                    labels.push_back(l);
-                }
-            }
-            return true;
-        });
-        sortWords(labels);
-        labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
-    }
+        }
+        return true;
+    });
+    sortWords(labels);
+    labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
     if (!labels.empty() && labels.back() == kNone) labels.pop_back(); // not a label
     if (labels.empty() || labels.size() > kMaterialTableLabels) return out;
     out.largest = uint32_t(labels.size() - 1);

@@ -112,14 +112,15 @@ void Renderer::Impl::decodeInBatches(uint32_t n, const std::function<void(uint64
 void Renderer::Impl::afterHostDecode(const uint32_t* list, uint32_t n) {
     const TieredVolume* tiers = volume->tiers();
     if (!tiers) return;
-    std::vector<uint32_t> finest, next;
+    size_t fromFile = 0;
+    std::vector<uint32_t> next;
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t* e = list + kDecodeEntryWords * i;
         if (e[0] >= brickCount) continue;
-        if (e[1] >= levels - 1 || !tiers->hasCoarseTier()) finest.push_back(e[0]); // read from the file
+        if (e[1] >= levels - 1 || !tiers->hasCoarseTier()) ++fromFile; // read from the file
         if (e[1] == levels - 2) next.push_back(e[0]); // inverse level L - 1 is full resolution
     }
-    tiers->release(finest.data(), finest.size());
+    tiers->release(fromFile);
     tiers->readAhead(next.data(), next.size());
 }
 

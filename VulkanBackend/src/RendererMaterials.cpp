@@ -270,33 +270,19 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     // material draws), kNone twice when no palette entry is drawn (the brick is invisible).
     std::vector<uint32_t> vis(size_t(brickCount) * 2, kNone);
     sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
-#pragma omp parallel
-        {
-            // Label -> stored id, direct-mapped per thread: neighbouring bricks share labels, so
-            // most lookups skip the search (perf: idOfLabel was a tenth of set-up on synth 2048^3).
-            std::vector<uint64_t> known(ids.empty() ? 0 : size_t(1) << 12, ~uint64_t(0));
-            auto cachedStoredOf = [&](uint32_t label) {
-                if (known.empty()) return label;
-                uint64_t& e = known[(label * 0x9E3779B1u) >> 20];
-                if (uint32_t(e >> 32) == label && e != ~uint64_t(0)) return uint32_t(e);
-                const uint32_t id = storedOf(label);
-                e = (uint64_t(label) << 32) | id;
-                return id;
-            };
-#pragma omp for schedule(dynamic, 64)
-            for (int64_t b = int64_t(from); b < int64_t(to); ++b) {
-                if (!volume->owns(uint64_t(b))) { // another process's brick (MPI): absent here
-                    vis[2 * size_t(b) + 1] = kBrickAbsent;
-                    continue;
-                }
-                const BrickWords bw = vol.brick(uint64_t(b));
-                const uint32_t n = bw.words[L];
-                for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
-                    if (const uint32_t l = cachedStoredOf(bw.words[bw.size - 1 - k]), m = materialOfStored(l); m != kNone) {
-                        vis[2 * size_t(b)] = l;
-                        vis[2 * size_t(b) + 1] = m;
-                    }
+#pragma omp parallel for schedule(dynamic, 64)
+        for (int64_t b = int64_t(from); b < int64_t(to); ++b) {
+            if (!volume->owns(uint64_t(b))) { // another process's brick (MPI): absent here
+                vis[2 * size_t(b) + 1] = kBrickAbsent;
+                continue;
             }
+            const BrickWords bw = vol.brick(uint64_t(b));
+            const uint32_t n = bw.words[L];
+            for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
+                if (const uint32_t l = storedOf(bw.words[bw.size - 1 - k]), m = materialOfStored(l); m != kNone) {
+                    vis[2 * size_t(b)] = l;
+                    vis[2 * size_t(b) + 1] = m;
+                }
         }
         return true;
     });

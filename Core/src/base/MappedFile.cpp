@@ -230,17 +230,9 @@ void MappedFile::release(size_t offset, size_t size) const {
     if (m_mapped && offset < m_size) releaseAt(m_data + offset, std::min(size, m_size - offset));
 }
 
-void MappedFile::willNeed(size_t offset, size_t size) const {
-    if (m_mapped && offset < m_size) willNeedAt(m_data + offset, std::min(size, m_size - offset));
-}
 
 void MappedFile::releaseAt(const void* address, size_t size) { adviseAt(address, size, MADV_DONTNEED); }
 void MappedFile::willNeedAt(const void* address, size_t size) { adviseAt(address, size, MADV_WILLNEED); }
-
-size_t MappedFile::residentBytes() const {
-    if (!m_mapped) return m_size;
-    return m_size - absentBytesAt(m_data, m_size);
-}
 
 size_t MappedFile::absentBytesAt(const void* address, size_t size) {
     uintptr_t b = 0;

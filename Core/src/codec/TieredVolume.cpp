@@ -24,8 +24,6 @@ FinestRange finestRange(const BrickWords& bw, uint32_t L) {
 /// Bricks apart that estimate the coarse tier's size.
 constexpr uint64_t kEstimateStride = 64;
 
-/// The sweep releases what it has read every this many bytes.
-constexpr uint64_t kSweepWindow = uint64_t(32) << 20;
 
 } // namespace
 
@@ -82,7 +80,14 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
     } catch (const std::bad_alloc&) {
         return Status::error("no memory for the tables of " + std::to_string(n) + " bricks");
     }
-    uint64_t resident = t->residentBytes(), releasedUpTo = 0;
+    uint64_t resident = t->residentBytes();
+    // Without a resident tier the finest table goes too (streams are measured when asked for).
+    auto noCoarseTier = [&] {
+        t->m_coarse = CompressedVolume{};
+        t->m_finestWords = {};
+        t->m_hasCoarse = false;
+        return std::shared_ptr<const TieredVolume>(std::move(t));
+    };
     if (options.progress && !options.progress(0.0)) return Status::error("cancelled");
     // Coarse levels far past the budget are not copied to find that out: every 64th brick's
     // estimate decides first (within an eighth of the budget, the sweep decides).
@@ -98,60 +103,37 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
             words += uint64_t(f.begin) + 1 + (bw.size - f.end);
         }
         behind.reset();
-        if (sampled && resident + words * 4 / sampled * n > budget + budget / 8) {
-            t->m_coarse = CompressedVolume{};
-            t->m_finestWords = {};
-            t->m_hasCoarse = false;
-            return std::shared_ptr<const TieredVolume>(std::move(t));
-        }
+        if (sampled && resident + words * 4 / sampled * n > budget + budget / 8) return noCoarseTier();
     }
-    size_t array = 0;
-    const uint8_t* sweepBase = static_cast<const uint8_t*>(v.arrays[0].bytes());
-    bool fits = !budget || resident <= budget;
-    for (uint64_t b = 0; b < n && fits; ++b) {
-        const size_t a = size_t(b / per);
-        if (a != array) { // the previous array is done: release all of it
-            MappedFile::releaseAt(v.arrays[array].bytes(), v.arrays[array].size() * 4);
-            array = a;
-            sweepBase = static_cast<const uint8_t*>(v.arrays[a].bytes());
-            releasedUpTo = 0;
+    // The copy, in chunks whose pages leave behind it (sweepBricks).
+    bool fits = !budget || resident <= budget, cancelled = false;
+    sweepBricks(v, kSweepBricks, [&](uint64_t from, uint64_t to) {
+        for (uint64_t b = from; b < to && fits; ++b) {
+            const BrickWords bw = v.brick(b);
+            const FinestRange f = finestRange(bw, L);
+            const uint32_t palette = bw.size - f.end;
+            const uint64_t words = uint64_t(f.begin) + 1 + palette;
+            resident += words * 4;
+            std::vector<uint32_t>& out = c.arrays[size_t(b / per)].owned();
+            if ((budget && resident > budget) || out.size() + words > out.capacity()) {
+                fits = false; // the coarse levels do not fit: every level is read from the file
+                break;
+            }
+            const size_t at = out.size();
+            out.resize(at + size_t(words));
+            bw.words.copyTo(out.data() + at, f.begin);
+            out[at + f.begin] = kRansLowerBound; // the bare initial state: a stream B of no symbols
+            (bw.words + std::ptrdiff_t(f.end)).copyTo(out.data() + at + f.begin + 1, palette);
+            c.brickStarts[size_t(b) + 1] = uint32_t(out.size());
+            t->m_finestWords[size_t(b)] = f.end - f.begin;
+            t->m_longest = std::max(t->m_longest, f.end - f.begin);
+            t->m_finestTotal += f.end - f.begin;
         }
-        const BrickWords bw = v.brick(b);
-        const FinestRange f = finestRange(bw, L);
-        const uint32_t palette = bw.size - f.end;
-        const uint64_t words = uint64_t(f.begin) + 1 + palette;
-        resident += words * 4;
-        std::vector<uint32_t>& out = c.arrays[a].owned();
-        if ((budget && resident > budget) || out.size() + words > out.capacity()) {
-            fits = false; // the coarse levels do not fit: every level is read from the file
-            break;
-        }
-        const size_t at = out.size();
-        out.resize(at + size_t(words));
-        bw.words.copyTo(out.data() + at, f.begin);
-        out[at + f.begin] = kRansLowerBound; // the bare initial state: a stream B of no symbols
-        (bw.words + std::ptrdiff_t(f.end)).copyTo(out.data() + at + f.begin + 1, palette);
-        c.brickStarts[size_t(b) + 1] = uint32_t(out.size());
-        t->m_finestWords[size_t(b)] = f.end - f.begin;
-        t->m_longest = std::max(t->m_longest, f.end - f.begin);
-        t->m_finestTotal += f.end - f.begin;
-        // Release what the sweep has passed (a page may hold the start of the next brick: it is
-        // read again when touched).
-        const uint64_t offset = uint64_t(static_cast<const uint8_t*>(bw.words.bytes()) - sweepBase);
-        if (offset > releasedUpTo + kSweepWindow) {
-            MappedFile::releaseAt(sweepBase + releasedUpTo, size_t(offset - releasedUpTo));
-            releasedUpTo = offset;
-            if (options.progress && !options.progress(double(b) / double(n))) return Status::error("cancelled");
-        }
-    }
-    MappedFile::releaseAt(v.arrays[array].bytes(), v.arrays[array].size() * 4);
-    if (!fits) {
-        // No resident tier: the finest table goes too (streams are measured when asked for).
-        t->m_coarse = CompressedVolume{};
-        t->m_finestWords = {};
-        t->m_hasCoarse = false;
-        return std::shared_ptr<const TieredVolume>(std::move(t));
-    }
+        cancelled = fits && options.progress && !options.progress(double(to) / double(n));
+        return fits && !cancelled;
+    });
+    if (cancelled) return Status::error("cancelled");
+    if (!fits) return noCoarseTier();
     // Arrays that start a new array: brick starts as the container stores them (CSGV-FORMAT.md
     // section 7: the stored start of a brick opening an array is the previous array's length).
     for (uint64_t b = per; b < n; b += per) c.brickStarts[size_t(b)] = uint32_t(c.arrays[size_t(b / per) - 1].size());
@@ -190,14 +172,13 @@ void TieredVolume::noteRead(uint64_t brick) const {
     count(bw.words.bytes(), size_t(bw.size) * 4);
 }
 
-void TieredVolume::release(const uint32_t* bricks, size_t count) const {
+void TieredVolume::release(size_t bricks) const {
     // A fault on a file mapping maps more than the page it needs (Linux's fault-around, large
-    // folios): no brick range names all that the decodes mapped. Every page of the file goes
+    // folios): no brick range names all that the reads mapped. Every page of the file goes
     // (one madvise over the mapping; unmapped stretches cost nothing), and a brick another view
     // is reading meanwhile is read again from the page cache.
-    (void)bricks;
-    if (count > 0) releaseFile();
-    m_released.fetch_add(count, std::memory_order_relaxed);
+    if (bricks > 0) releaseFile();
+    m_released.fetch_add(bricks, std::memory_order_relaxed);
 }
 
 void TieredVolume::releaseFile() const {

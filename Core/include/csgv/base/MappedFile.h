@@ -83,16 +83,12 @@ public:
     /// whole pages. release(): the process gives the range's pages back (MADV_DONTNEED; the
     /// kernel's page cache may keep them, and touching them again reads them from the cache or
     /// the file), so its resident memory stays bounded however much of the file it sweeps.
-    /// willNeed(): starts reading the range in the background (MADV_WILLNEED: read-ahead).
     void release(size_t offset, size_t size) const;
-    void willNeed(size_t offset, size_t size) const;
     /// Static forms for a view: `address` and `size` within one mapping of a file (mappedAt),
     /// else nothing happens (anonymous memory must never be released: it would read as zeros).
+    /// willNeedAt(): starts reading the range in the background (MADV_WILLNEED: read-ahead).
     static void releaseAt(const void* address, size_t size);
     static void willNeedAt(const void* address, size_t size);
-    /// Bytes of the mapping in memory now (mincore: the page cache's pages of the file, mapped
-    /// into this process or not); the size when read.
-    size_t residentBytes() const;
     /// Of [address, address + size) within a mapping, the bytes whose pages are not in memory
     /// (those a touch must read from the disk); 0 outside mappings.
     static size_t absentBytesAt(const void* address, size_t size);

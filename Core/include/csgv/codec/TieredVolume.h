@@ -96,10 +96,10 @@ public:
     /// Counts brick b as read from the file by a decoder of full() (host decoding at full
     /// resolution); call before decoding it. Thread-safe.
     void noteRead(uint64_t brick) const;
-    /// The pages of these bricks leave the process (their streams were copied or decoded): every
-    /// page of the file does, since a fault maps neighbouring pages too (fault-around, large
-    /// folios) that no brick range names; a reader elsewhere reads them again from the page cache.
-    void release(const uint32_t* bricks, size_t count) const;
+    /// After `bricks` bricks were copied or decoded from the file: the file's pages leave the
+    /// process (all of them, since a fault maps neighbouring pages too (fault-around, large
+    /// folios) that no brick range names; a reader elsewhere reads them again from the page cache).
+    void release(size_t bricks) const;
     /// Every page of the file leaves the process (after a sweep over the whole volume: an upload,
     /// a palette scan).
     void releaseFile() const;
