@@ -101,6 +101,8 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
             behind->reached(bw.words.bytes());
             const FinestRange f = finestRange(bw, L);
             words += uint64_t(f.begin) + 1 + (bw.size - f.end);
+            // From a cold disk the samples read much of the file: ask now and then.
+            if (sampled % 4096 == 4095 && options.progress && !options.progress(0.0)) return Status::error("cancelled");
         }
         behind.reset();
         if (sampled && resident + words * 4 / sampled * n > budget + budget / 8) return noCoarseTier();
