@@ -9,6 +9,7 @@
 #include "csgv/base/Status.h"
 
 #include <CLI/CLI.hpp>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <functional>
@@ -18,6 +19,14 @@
 #include <vector>
 
 namespace csgv {
+
+/// The process's peak resident memory in MiB (getrusage; Linux counts KiB): the commands'
+/// `peak_memory_mib` and `host_peak_rss_mib`.
+inline double peakRssMiB() {
+    struct rusage ru {};
+    ::getrusage(RUSAGE_SELF, &ru);
+    return double(ru.ru_maxrss) / 1024.0;
+}
 
 /// A CLI11 app for one subcommand: no generated help (csgv --help prints the usage the README
 /// documents), unknown options collected rather than thrown (they get our message), and a value

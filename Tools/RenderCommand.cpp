@@ -16,7 +16,6 @@
 #include "csgv/gpu/UploadPolicy.h"
 
 #include <algorithm>
-#include <sys/resource.h>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -305,13 +304,6 @@ std::string shadingChoices() {
     std::string names;
     for (const gpu::ShadingMode& m : gpu::kShadingModeTable) names += (names.empty() ? "" : "|") + std::string(m.name);
     return names;
-}
-
-/// The process's peak resident memory (getrusage: Linux gives KiB).
-double peakRssMiB() {
-    struct rusage u {};
-    ::getrusage(RUSAGE_SELF, &u);
-    return double(u.ru_maxrss) / 1024.0;
 }
 
 int cmdRender(int argc, char** argv) {

@@ -30,7 +30,6 @@
 #include <unordered_map>
 #include <unordered_set>
 #include <unistd.h>
-#include <sys/resource.h>
 #include <vector>
 #include <zlib.h>
 #include <zstd.h>
@@ -456,8 +455,6 @@ int cmdDecompress(const Args& a) {
     return w ? 0 : fail(w.message());
 }
 
-double peakRssMiB();
-
 /// `extract` to a surface mesh: label by label into the writer, which commits at the end.
 int extractMesh(const CsgvFile& f, const ExtractOptions& o, const Args& a, const std::string& in, const std::string& out,
                 MeshFormat format, std::chrono::steady_clock::time_point t0) {
@@ -665,12 +662,6 @@ int cmdVerify(const Args& a) {
     if (int rc = verifyCoarseLevels(*f, a.positional[0], a.threads); rc != 0) return rc;
     std::printf("verified: %u levels\n", v.levels());
     return 0;
-}
-
-double peakRssMiB() {
-    struct rusage ru {};
-    getrusage(RUSAGE_SELF, &ru);
-    return double(ru.ru_maxrss) / 1024.0;
 }
 
 /// @brief Compression progress on stderr: percentage, stage and rate. On a terminal one line
