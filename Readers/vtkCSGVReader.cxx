@@ -157,10 +157,9 @@ public:
     {
       return "'" + path + "' changed while it was read";
     }
+    // The checks and the palette sweep give the pages back behind them (a file larger than
+    // memory opens within a window of it).
     this->Range = csgvvtk::paletteRange(*volume, this->Info);
-    // The checks and the palette sweep touched every brick: the pages leave this process (the
-    // page cache keeps them while it has room), so opening a file larger than memory is bounded.
-    (*file)->release(0, (*file)->size());
     this->Volume = std::move(*volume);
     this->Encoding = enc;
     this->WholeRead = true;

@@ -322,7 +322,7 @@ TEST(Mapped, ReleasedPagesReadTheSameAndLeaveTheProcess) {
     const MappedFile& f = **m;
     EXPECT_TRUE(std::equal(bytes.begin(), bytes.end(), f.data()));
     EXPECT_EQ(MappedFile::absentBytesAt(f.data(), f.size()), 0u) << "just written and read: in the page cache";
-    f.release(0, f.size());
+    MappedFile::releaseAt(f.data(), f.size());
     MappedFile::willNeedAt(f.data(), f.size());
     MappedFile::releaseAt(f.data() + 3, 10);
     EXPECT_TRUE(std::equal(bytes.begin(), bytes.end(), f.data())) << "released pages are read again from the file";

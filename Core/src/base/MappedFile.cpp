@@ -226,9 +226,6 @@ bool MappedFile::damagedAt(const void* address, size_t size) {
 
 bool MappedFile::mappedAt(const void* address) { return findSlot(reinterpret_cast<uintptr_t>(address)) >= 0; }
 
-void MappedFile::release(size_t offset, size_t size) const {
-    if (m_mapped && offset < m_size) releaseAt(m_data + offset, std::min(size, m_size - offset));
-}
 
 
 void MappedFile::releaseAt(const void* address, size_t size) { adviseAt(address, size, MADV_DONTNEED); }

@@ -79,14 +79,13 @@ public:
     /// are read again from the file when touched).
     static bool mappedAt(const void* address);
 
-    /// Page control of a mapping (no-ops for bytes read into memory). Byte ranges are widened to
-    /// whole pages. release(): the process gives the range's pages back (MADV_DONTNEED; the
-    /// kernel's page cache may keep them, and touching them again reads them from the cache or
-    /// the file), so its resident memory stays bounded however much of the file it sweeps.
-    void release(size_t offset, size_t size) const;
-    /// Static forms for a view: `address` and `size` within one mapping of a file (mappedAt),
-    /// else nothing happens (anonymous memory must never be released: it would read as zeros).
-    /// willNeedAt(): starts reading the range in the background (MADV_WILLNEED: read-ahead).
+    /// Page control of a mapping, for `address` and `size` within one mapping of a file
+    /// (mappedAt); else nothing happens (anonymous memory must never be released: it would read
+    /// as zeros). Byte ranges are widened to whole pages. releaseAt(): the process gives the
+    /// range's pages back (MADV_DONTNEED; the kernel's page cache may keep them, and touching them
+    /// again reads them from the cache or the file), so its resident memory stays bounded however
+    /// much of the file it sweeps. willNeedAt(): starts reading the range in the background
+    /// (MADV_WILLNEED: read-ahead).
     static void releaseAt(const void* address, size_t size);
     static void willNeedAt(const void* address, size_t size);
     /// Of [address, address + size) within a mapping, the bytes whose pages are not in memory
