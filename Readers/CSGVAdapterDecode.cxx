@@ -9,6 +9,7 @@
 #include <vtkType.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <limits>
 #include <type_traits>
 
@@ -83,13 +84,13 @@ void forEachPaletteEntry(const csgv::CompressedVolume& vol, F&& f)
   csgv::sweepBricks(vol, csgv::kSweepBricks, [&](uint64_t from, uint64_t to) {
     for (uint64_t i = from; i < to; ++i)
     {
-      const csgv::BrickWords bw = vol.brick(i);
-      if (bw.size < L + 1)
+      if (!csgv::brickSound(vol, i))
       {
-        continue; // checkContainer refuses this; stay safe anyway
+        continue; // a bad brick (checkBrick): its decoder names it when it is reached
       }
+      const csgv::BrickWords bw = vol.brick(i);
       // The palette is stored reversed at the end of the brick (Container.h).
-      const uint32_t n = std::min(bw.words[L], bw.size - (L + 1));
+      const uint32_t n = bw.words[L];
       for (uint32_t k = 0; k < n; ++k)
       {
         f(bw.words[bw.size - 1 - k]);
@@ -97,6 +98,39 @@ void forEachPaletteEntry(const csgv::CompressedVolume& vol, F&& f)
     }
     return true;
   });
+}
+
+/// The smallest and largest palette entry of the sound bricks (false when there is none), in
+/// parallel: the reader's one sweep over the bricks when it opens a volume. (A plain function:
+/// OpenMP regions stay out of the generic lambdas of withConverter.)
+bool storedRange(const csgv::CompressedVolume& vol, uint32_t& lo, uint32_t& hi)
+{
+  const uint32_t L = vol.levels();
+  uint32_t least = std::numeric_limits<uint32_t>::max(), most = 0;
+  uint64_t entries = 0;
+  csgv::sweepBricks(vol, csgv::kSweepBricks, [&](uint64_t from, uint64_t to) {
+#pragma omp parallel for reduction(min : least) reduction(max : most) reduction(+ : entries) schedule(dynamic, 1024)
+    for (int64_t b = int64_t(from); b < int64_t(to); ++b)
+    {
+      if (!csgv::brickSound(vol, uint64_t(b)))
+      {
+        continue; // a bad brick (checkBrick): its decoder names it when it is reached
+      }
+      const csgv::BrickWords bw = vol.brick(uint64_t(b));
+      const uint32_t n = bw.words[L];
+      entries += n;
+      for (uint32_t k = 0; k < n; ++k)
+      {
+        const uint32_t v = bw.words[bw.size - 1 - k];
+        least = std::min(least, v);
+        most = std::max(most, v);
+      }
+    }
+    return true;
+  });
+  lo = least;
+  hi = most;
+  return entries > 0;
 }
 
 /// @brief Palette value -> label of type T, checked once up front so decoding never narrows.
@@ -124,6 +158,10 @@ struct Converter
         this->table[id] = info.unsigned64 ? static_cast<T>(static_cast<uint64_t>(bits)) : static_cast<T>(bits);
       }
       return true;
+    }
+    if (fitsUnsigned<T>(std::numeric_limits<uint32_t>::max()))
+    {
+      return true; // every stored label fits: no sweep
     }
     bool ok = true;
     forEachPaletteEntry(vol, [&](uint32_t v) { ok = ok && fitsUnsigned<T>(v); });
@@ -221,13 +259,19 @@ std::string decodeBox(const csgv::CompressedVolume& vol, uint32_t lod, const csg
     auto* typed = static_cast<vtkAOSDataArrayTemplate<T>*>(arr.GetPointer());
     typed->SetName(kLabelsName);
     typed->SetNumberOfComponents(1);
-    if (!typed->Allocate(static_cast<vtkIdType>(sliceSize * nz)))
+    // Zeros past the labels, as many as the image has points beyond its cells: ParaView 5.11's
+    // Contour by these cell labels runs vtkSynchronizedTemplates3D, which reads them as point
+    // scalars, past the array's end (a fault where a guard page follows the allocation: an
+    // OpenMP thread's stack did in paraview_filters).
+    const uint64_t cells = sliceSize * nz, slack = (nx + 1) * (ny + 1) * (nz + 1) - cells;
+    T* dst = static_cast<T*>(std::malloc(size_t(cells + slack) * sizeof(T)));
+    if (!dst)
     {
-      error = "out of memory for " + std::to_string(sliceSize * nz) + " labels";
+      error = "out of memory for " + std::to_string(cells) + " labels";
       return;
     }
-    typed->SetNumberOfValues(static_cast<vtkIdType>(sliceSize * nz));
-    T* dst = typed->GetPointer(0);
+    std::fill(dst + cells, dst + cells + slack, T(0));
+    typed->SetArray(dst, static_cast<vtkIdType>(cells), 0, vtkAOSDataArrayTemplate<T>::VTK_DATA_ARRAY_FREE);
     // Slabs one brick deep at this level: decodeRegion touches each brick once, the temporary is
     // one slab of uint32, and progress advances per brick layer.
     const uint32_t nodesPerBrick = std::max(1u, vol.brickSize >> lod);
@@ -288,24 +332,26 @@ vtkSmartPointer<vtkDataArray> paletteRange(const csgv::CompressedVolume& vol, co
     using T = decltype(t);
     bool any = false;
     T lo = T(0), hi = T(0);
-    forEachPaletteEntry(vol, [&](uint32_t v) {
-      T value;
-      if (conv.relabelled)
-      {
+    if (!conv.relabelled)
+    {
+      uint32_t rawLo = 0, rawHi = 0;
+      any = storedRange(vol, rawLo, rawHi);
+      lo = static_cast<T>(rawLo);
+      hi = static_cast<T>(rawHi);
+    }
+    else
+    {
+      forEachPaletteEntry(vol, [&](uint32_t v) {
         if (v >= conv.table.size())
         {
           return; // reported when decoding
         }
-        value = conv.table[v];
-      }
-      else
-      {
-        value = static_cast<T>(v);
-      }
-      lo = any ? std::min(lo, value) : value;
-      hi = any ? std::max(hi, value) : value;
-      any = true;
-    });
+        const T value = conv.table[v];
+        lo = any ? std::min(lo, value) : value;
+        hi = any ? std::max(hi, value) : value;
+        any = true;
+      });
+    }
     result = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(vtkTypeTraits<T>::VTK_TYPE_ID));
     auto* typed = static_cast<vtkAOSDataArrayTemplate<T>*>(result.GetPointer());
     typed->SetNumberOfValues(2);

@@ -38,8 +38,12 @@ std::vector<int64_t> paletteLabels(const csgv::CompressedVolume& vol)
   csgv::sweepBricks(vol, csgv::kSweepBricks, [&](uint64_t from, uint64_t to) {
     for (uint64_t b = from; b < to; ++b)
     {
+      if (!csgv::brickSound(vol, b))
+      {
+        continue; // a bad brick (checkBrick): its labels cannot be read
+      }
       const csgv::BrickWords bw = vol.brick(b);
-      const uint32_t n = std::min(bw.words[L], bw.size - std::min(bw.size, L + 1));
+      const uint32_t n = bw.words[L];
       for (uint32_t k = 0; k < n; ++k)
       {
         all.push_back(bw.words[bw.size - 1 - k]);

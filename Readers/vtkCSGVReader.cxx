@@ -185,11 +185,22 @@ public:
       {
         return part.message();
       }
-      this->PieceVolume = std::move(*part);
-      const std::vector<uint8_t> bytes = csgv::serializeCsgv(this->PieceVolume);
+      // One copy of the piece: its bytes, handed downstream, which the parse views (as the whole
+      // volume's parse views the mapped file).
       vtkNew<vtkUnsignedCharArray> enc;
-      enc->SetNumberOfValues(static_cast<vtkIdType>(bytes.size()));
-      std::copy(bytes.begin(), bytes.end(), enc->GetPointer(0));
+      {
+        std::vector<uint8_t> bytes = csgv::serializeCsgv(*part);
+        *part = csgv::CompressedVolume{};
+        enc->SetNumberOfValues(static_cast<vtkIdType>(bytes.size()));
+        std::copy(bytes.begin(), bytes.end(), enc->GetPointer(0));
+      }
+      csgv::Result<csgv::CompressedVolume> viewed = csgv::parseCsgvShared(
+        enc->GetPointer(0), size_t(enc->GetNumberOfValues()), csgvvtk::keepArray(enc));
+      if (!viewed)
+      {
+        return viewed.message();
+      }
+      this->PieceVolume = std::move(*viewed);
       this->PieceEncoding = enc;
       this->PieceRange = csgvvtk::paletteRange(this->PieceVolume, this->Info);
     }

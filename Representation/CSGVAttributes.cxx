@@ -288,6 +288,10 @@ std::vector<uint32_t> storedLabels(const SharedVolume& shared, size_t cap, bool&
     {
       continue; // absent: another rank's brick
     }
+    if (!csgv::brickSound(volume, b))
+    {
+      continue; // a bad brick (checkBrick): drawn empty
+    }
     const csgv::BrickWords bw = volume.brick(b);
     for (uint32_t k = 0; k < bw.words[L]; ++k)
     {

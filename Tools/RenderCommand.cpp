@@ -278,6 +278,7 @@ Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const Materia
     if (!file.hasAttributes) {
         const uint32_t L = file.volume.levels();
         for (uint64_t b = 0; b < file.volume.brickCount(); ++b) {
+            if (!brickSound(file.volume, b)) continue; // a bad brick: drawn empty
             const BrickWords bw = file.volume.brick(b);
             for (uint32_t k = 0; k < bw.words[L]; ++k) labelCount = std::max<uint64_t>(labelCount, uint64_t(bw.words[bw.size - 1 - k]) + 1);
         }

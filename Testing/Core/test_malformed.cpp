@@ -98,8 +98,27 @@ Status parseStatus(const std::vector<uint8_t>& bytes) {
     return copied;
 }
 
-/// Writes a (corrupted) volume and parses it back: the status of the container checks.
-Status reparse(const CompressedVolume& v) { return parseStatus(csgv::serializeCsgv(v)); }
+/// Writes a (corrupted) volume and parses it back: the status of the container checks. A parse
+/// checks the layout only (checkLayout); a brick's header words are checked when the brick is
+/// reached: then the first unsound brick's decoder must refuse it with checkBrick's message, which
+/// is the status returned, and checkContainer must say the same.
+Status reparse(const CompressedVolume& v) {
+    const std::vector<uint8_t> bytes = csgv::serializeCsgv(v);
+    const Status parsed = parseStatus(bytes);
+    if (!parsed) return parsed;
+    const CompressedVolume back = *csgv::parseCsgv(bytes.data(), bytes.size());
+    const std::vector<uint64_t> unsound = csgv::unsoundBricks(back);
+    const Status whole = csgv::checkContainer(back);
+    EXPECT_EQ(whole.isOk(), unsound.empty());
+    if (unsound.empty()) return whole;
+    const Status brick = csgv::checkBrick(back, unsound.front());
+    csgv::BrickDecoder dec(back);
+    const Status decoded = dec.decode(unsound.front(), 0);
+    EXPECT_FALSE(decoded.isOk());
+    EXPECT_EQ(decoded.message(), brick.message()) << "the decoder refuses an unsound brick as checkBrick does";
+    EXPECT_EQ(whole.message(), brick.message());
+    return brick;
+}
 
 /// Parsed fixtures, read once per process; tests copy them before corrupting.
 const CompressedVolume& fixtureVolume(const std::string& name) {
@@ -666,6 +685,72 @@ TEST(MalformedContainer, PaletteSizeZero) {
         mutableBrick(v, 9).w[v.levels()] = 0;
         EXPECT_TRUE(failsWith(reparse(v), {"brick 9:", "palette size is 0"})) << name;
     }
+}
+
+TEST(MalformedContainer, BrickHeadersAreCheckedWhenReached) {
+    // Opening reads no brick (O(header + brick starts)): a brick whose header words are wrong
+    // opens, is refused by name when reached, and every other brick decodes as before.
+    for (const char* name : {kNibble, kRans1, kRans2}) {
+        const CompressedVolume& good = fixtureVolume(name);
+        CompressedVolume v = good;
+        const uint64_t bad = good.brickCount() / 2;
+        mutableBrick(v, bad).w[v.levels()] = v.maxPalette + 7;
+        const std::vector<uint8_t> bytes = csgv::serializeCsgv(v);
+        csgv::Result<CompressedVolume> back = csgv::parseCsgv(bytes.data(), bytes.size());
+        ASSERT_TRUE(back.isOk()) << name << ": " << back.message();
+        EXPECT_EQ(csgv::unsoundBricks(*back), std::vector<uint64_t>{bad}) << name;
+        EXPECT_FALSE(csgv::brickSound(*back, bad));
+        csgv::BrickDecoder dec(*back), ref(good);
+        for (uint64_t b = 0; b < good.brickCount(); ++b) {
+            const Status s = dec.decode(b, 0);
+            if (b == bad) {
+                EXPECT_TRUE(failsWith(s, {"brick " + std::to_string(bad) + ":", "exceeds the file's largest palette"}));
+                continue;
+            }
+            ASSERT_TRUE(s.isOk()) << name << " brick " << b << ": " << s.message();
+            ASSERT_TRUE(ref.decode(b, 0).isOk());
+            const uint64_t n = uint64_t(good.brickSize) * good.brickSize * good.brickSize;
+            ASSERT_TRUE(std::equal(dec.labels(), dec.labels() + n, ref.labels())) << name << " brick " << b;
+        }
+        // A writer refuses it: no file carries the bad brick on.
+        const std::string out = ::testing::TempDir() + "/reached_" + name + ".csgv";
+        EXPECT_TRUE(failsWith(csgv::writeCsgv(out, *back), {"brick " + std::to_string(bad) + ":"}));
+        std::FILE* f = std::fopen(out.c_str(), "rb");
+        EXPECT_EQ(f, nullptr) << "a refused write leaves no file";
+        if (f) std::fclose(f);
+    }
+}
+
+TEST(MalformedContainer, APieceCarriesABadBrickOnToBeNamedWhenReached) {
+    // An MPI rank reads its piece alone (readCsgvPiece, extractPiece): a bad brick header in it
+    // stays bad in the piece (the piece's largest palette ignores it) and is named when reached;
+    // the piece's other bricks decode.
+    const CompressedVolume& good = fixtureVolume(kRans2);
+    CompressedVolume v = good;
+    const auto grid = good.brickGrid();
+    const uint32_t bx = grid[0] / 2, by = grid[1] / 2, bz = grid[2] / 2;
+    const uint64_t bad = bx + uint64_t(grid[0]) * (by + uint64_t(grid[1]) * bz);
+    mutableBrick(v, bad).w[v.levels()] = v.maxPalette + 1;
+    const std::string path = ::testing::TempDir() + "/piece_bad_header.csgv";
+    const std::vector<uint8_t> bytes = csgv::serializeCsgv(v);
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    ASSERT_EQ(std::fwrite(bytes.data(), 1, bytes.size(), f), bytes.size());
+    std::fclose(f);
+    csgv::BrickBox box;
+    box.lo = {bx, by, bz};
+    box.hi = {bx + 1, by + 1, grid[2]};
+    const csgv::Result<CompressedVolume> whole = csgv::parseCsgv(bytes.data(), bytes.size());
+    ASSERT_TRUE(whole.isOk()) << whole.message();
+    for (int from = 0; from < 2; ++from) {
+        csgv::Result<CompressedVolume> piece = from ? csgv::extractPiece(*whole, box) : csgv::readCsgvPiece(path, box);
+        ASSERT_TRUE(piece.isOk()) << piece.message();
+        EXPECT_EQ(csgv::unsoundBricks(*piece), std::vector<uint64_t>{0}) << "the box's first brick";
+        csgv::BrickDecoder dec(*piece);
+        EXPECT_TRUE(failsWith(dec.decode(0, 0), {"brick 0:", "exceeds the file's largest palette"}));
+        for (uint64_t b = 1; b < piece->brickCount(); ++b) EXPECT_TRUE(dec.decode(b, 0).isOk()) << b;
+    }
+    std::remove(path.c_str());
 }
 
 TEST(MalformedContainer, PaletteSizeLargerThanFileMaximum) {

@@ -4,7 +4,8 @@ CSGVHostMemoryMiB: a budget the encoding exceeds keeps the coarse levels in memo
 finest level from the file (CSGVLevelsOnDisk 1), a budget the coarse levels exceed reads every
 level from the file (2); either draws the image of the whole encoding, by host and by GPU decoding,
 and the automatic budget holds it whole again. A file with corrupt bricks in view draws the rest,
-counts them (CSGVBadBricks) and warns once, naming a brick."""
+counts them (CSGVBadBricks) and warns once, naming a brick; one whose bricks have wrong header
+words opens (the open reads no brick) and does the same."""
 import os
 import struct
 import subprocess
@@ -126,6 +127,38 @@ for budget in (0, 1):
             "budget %d: the representation warns once, naming a brick: %r" % (budget, log.text[-300:]))
     t.check(log.text.count("the Labels array is not loaded") <= 1,
             "budget %d: the reader's decode error is reported once at most" % budget)
+    same = 1 - differs(img, whole).mean()
+    t.check(0.8 < same < 1, "budget %d: the rest draws as before (%.1f%% of pixels the same)" % (budget, 100 * same))
+    Delete(s2)
+
+# Bricks whose header words are wrong (their palette sizes past the file's largest palette): the
+# file opens without reading a brick (the open checks the header and brick starts), the bricks are
+# named when the volume is uploaded, counted exactly, drawn empty, and the rest draws.
+bad = os.path.join(t.temp_dir(), "badheaders384.csgv")
+b = bytearray(open(path, "rb").read())
+wrong = [x + 12 * (y + 12 * 11) for x in range(4, 8) for y in range(4, 8)]
+for brick in wrong:
+    struct.pack_into("<I", b, base + 4 * (starts[brick] + L), 0x7FFFFFFF)
+open(bad, "wb").write(bytes(b))
+for budget in (0, 1):
+    with t.ErrorLog() as log:
+        s2, v2, d2 = show(bad)
+        s2.UpdatePipeline()
+    fd = s2.GetClientSideObject().GetOutputDataObject(0).GetFieldData()
+    named = ("brick %d: palette size" % wrong[0]) in log.text
+    # It opens: the encoding is on the output; the one error, if any, is the reader's label
+    # decode (under its DecodeThreshold) naming the first bad brick.
+    t.check(fd.GetAbstractArray("CSGVEncoding") is not None and log.text.count("ERR") <= 1
+            and ("ERR" not in log.text or named),
+            "budget %d: a file with bad brick headers opens: %r" % (budget, log.text[-300:]))
+    d2.CSGVHostMemoryMiB = budget
+    with t.ErrorLog() as log:
+        img = t.screenshot(v2, 160, 120, "badheaders%d.png" % budget)
+        t.screenshot(v2, 160, 120, "badheaders%d_again.png" % budget)
+    count = info(d2, "CSGVBadBricks")
+    t.check(count == len(wrong), "budget %d: %d of the %d bricks with wrong headers counted" % (budget, count, len(wrong)))
+    t.check(log.text.count("drawn empty") == 1 and ("brick %d: palette size" % wrong[0]) in log.text,
+            "budget %d: the representation warns once, naming the first: %r" % (budget, log.text[-300:]))
     same = 1 - differs(img, whole).mean()
     t.check(0.8 < same < 1, "budget %d: the rest draws as before (%.1f%% of pixels the same)" % (budget, 100 * same))
     Delete(s2)

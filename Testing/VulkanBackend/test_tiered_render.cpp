@@ -15,6 +15,7 @@
 #include "csgv/gpu/Renderer.h"
 
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <cstdlib>
 #include <unistd.h>
@@ -141,6 +142,44 @@ TEST(Tiered, ACorruptBrickDeepInTheFileIsNamedAndTheRestRenders) {
     for (size_t i = 0; i < got.label.size(); ++i) (got.label[i] == want.label[i] ? same : differ)++;
     EXPECT_GT(differ, 0u) << "the bad brick was in view";
     EXPECT_GT(same, 4 * differ) << "the rest renders";
+}
+
+TEST(Tiered, BricksWithWrongHeadersOpenAreNamedAndDrawnEmpty) {
+    // Opening checks the layout only (O(header + brick starts)): bricks whose header words are
+    // wrong (here their palette sizes) are found when the volume is uploaded, never decoded (the
+    // GPU decoder trusts a brick's header), counted as bad bricks and drawn empty, whole or in
+    // tiers, by GPU and by host decoding, while every other brick renders.
+    CSGV_REQUIRE_GPU(ctx);
+    const CompressedVolume whole = loadFixture(kFixture);
+    std::vector<uint8_t> bytes = fixtureBytes(kFixture);
+    const uint32_t L = whole.levels();
+    const std::vector<uint64_t> bad = {3 + 5 * (0 + 3 * 6), 4 + 5 * (1 + 3 * 6), 3 + 5 * (2 + 3 * 6)};
+    for (uint64_t b : bad) {
+        const uint32_t wrong = whole.maxPalette + 7;
+        std::memcpy(&bytes[wordOffset(whole, bytes, b, L)], &wrong, 4);
+    }
+    std::shared_ptr<const CompressedVolume> full = mapped(tempDir() + "/tiered-bad-headers.csgv", bytes);
+    ASSERT_TRUE(full) << "a bad brick header does not stop the file opening";
+    EXPECT_EQ(unsoundBricks(*full), bad);
+    for (RendererOptions::Decode decode : {RendererOptions::Decode::Gpu, RendererOptions::Decode::Host}) {
+        const char* what = decode == RendererOptions::Decode::Gpu ? "GPU decoding" : "host decoding";
+        const FrameOutput want = render(*ctx, whole, nullptr, decode);
+        for (int budget : {-1, 0, 64}) { // whole; coarse levels resident; every level from the file
+            std::shared_ptr<const TieredVolume> tiers = budget < 0 ? nullptr : tiersOf(full, uint64_t(budget));
+            Renderer* r = nullptr;
+            std::unique_ptr<Renderer> owner;
+            const FrameOutput got = render(*ctx, tiers ? tiers->coarse() : *full, tiers, decode, &r, &owner);
+            ASSERT_TRUE(r) << what << ", budget " << budget;
+            EXPECT_EQ(r->badBricks(), bad.size()) << what << ", budget " << budget;
+            EXPECT_NE(r->firstBadBrick().find("brick " + std::to_string(bad[0]) + ": palette size"), std::string::npos)
+                << r->firstBadBrick();
+            ASSERT_EQ(got.label.size(), want.label.size());
+            size_t same = 0, differ = 0;
+            for (size_t i = 0; i < got.label.size(); ++i) (got.label[i] == want.label[i] ? same : differ)++;
+            EXPECT_GT(differ, 0u) << what << ", budget " << budget << ": the bad bricks were in view";
+            EXPECT_GT(same, 4 * differ) << what << ", budget " << budget << ": the rest renders";
+        }
+    }
 }
 
 TEST(Tiered, AFileCutShortUnderItsMappingIsNamedNotACrash) {

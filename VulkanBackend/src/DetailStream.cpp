@@ -17,6 +17,7 @@ struct Stream {
 Stream finestStream(const CompressedVolume& volume, uint64_t brick) {
     const BrickWords bw = volume.brick(brick);
     const uint32_t L = volume.levels();
+    if (!brickSound(volume, brick)) return {bw.words, 0u}; // never decoded (GpuVolume::unsound)
     const uint32_t begin = bw.words[L - 1] / 8, end = bw.size - bw.words[L];
     return {bw.words + begin, end > begin ? end - begin : 0u};
 }

@@ -15,13 +15,14 @@ namespace {
 
 /// Array `i` of the device's encoding arrays (laid out as `starts` says: a brick's palette ends
 /// where its next starts, CSGV-FORMAT.md section 3) with every palette entry replaced by its id.
-std::vector<uint32_t> paletteIdsIn(const CompressedVolume& volume, size_t i, const WordArray& array,
+std::vector<uint32_t> paletteIdsIn(const GpuVolume& g, const CompressedVolume& volume, size_t i, const WordArray& array,
                                    const std::vector<uint32_t>& starts, const std::vector<uint32_t>& ids) {
     std::vector<uint32_t> out(array.size());
     array.copyTo(out.data(), 0, out.size());
     const uint64_t n = volume.brickCount(), per = volume.bricksPerArray == kSingleArray ? n : volume.bricksPerArray;
     const uint32_t L = volume.levels();
     for (uint64_t b = i * per; b < std::min<uint64_t>(n, (i + 1) * per); ++b) {
+        if (!g.sound(b)) continue; // never decoded: its words go up as they are
         const uint32_t end = starts[size_t(b) + 1];
         for (uint32_t k = 0; k < volume.brick(b).words[L]; ++k) out[end - 1 - k] = idOfLabel(ids, out[end - 1 - k]);
     }
@@ -89,8 +90,8 @@ const char* decodeResultText(uint32_t code) {
 
 Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const CompressedVolume& volume,
                                                      const GpuVolumeOptions& options) {
-    // No second checkContainer(): every CompressedVolume comes from parseCsgv (checked) or the
-    // encoder (valid by construction), and the check is O(bricks).
+    // A parse checks the layout (checkLayout); bricks whose header words are wrong are found here,
+    // once, and never decoded or drawn (Renderer counts them as bad bricks).
     Status s;
     if (volume.brickCount() >= (uint64_t(1) << 32)) return Status::error("more than 2^32 bricks are not supported on the GPU");
     const uint64_t budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
@@ -109,6 +110,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     // Large labels are stored as ids (StoredLabels): in the palettes the device holds, and in the
     // cache regions host decoding writes. An MPI rank's piece keeps its labels.
     g->m_labels = storedLabels(volume, !options.owned.empty());
+    g->m_unsound = g->m_labels.unsound;
     std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
@@ -131,7 +133,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
         // With ids, the palettes' labels replaced (a copy of one array at a time).
         std::vector<uint32_t> withIds;
         const std::vector<uint32_t>& ids = g->m_labels.ids;
-        if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(volume, i, a, starts, ids);
+        if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(*g, volume, i, a, starts, ids);
         const void* up = withIds.empty() ? a.bytes() : withIds.data(); // any alignment: copied bytewise
         const size_t words = withIds.empty() ? a.size() : withIds.size();
         Result<Buffer> b = context.createBuffer(words * 4, MemoryKind::DeviceLocal);
@@ -204,6 +206,10 @@ void GpuVolume::devicePart(const CompressedVolume& volume, DevicePart part, std:
         for (uint64_t b = from; b < to; ++b) {
             const BrickWords bw = volume.brick(b);
             std::vector<uint32_t>& a = arrays[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)].owned();
+            if (!brickSound(volume, b)) { // never decoded: no words on the device
+                starts[size_t(b) + 1] = uint32_t(a.size());
+                continue;
+            }
             const uint32_t palette = bw.words[L];
             if (part == DevicePart::Coarse) appendWords(a, bw.words, bw.words[L - 1] / 8);
             appendWords(a, bw.words + (bw.size - palette), palette);
@@ -240,7 +246,8 @@ uint64_t GpuVolume::gpuDecodingBytes(const CompressedVolume& volume, uint64_t bu
     sweepBricks(volume, kSweepBricks, [&](uint64_t from, uint64_t to) {
         for (uint64_t b = from; b < to; ++b) {
             const BrickWords bw = volume.brick(b);
-            words[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)] += bw.words[L - 1] / 8 + bw.words[L];
+            if (brickSound(volume, b))
+                words[volume.bricksPerArray == kSingleArray ? 0 : size_t(b / volume.bricksPerArray)] += bw.words[L - 1] / 8 + bw.words[L];
         }
         return true;
     });
@@ -265,6 +272,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     for (const BrickRequest& r : requests) {
         if (r.brick >= m_volume.brickCount()) return Status::error("request for brick " + std::to_string(r.brick) + ", which does not exist");
         if (r.lod >= L) return Status::error("request for level of detail " + std::to_string(r.lod));
+        if (!sound(r.brick)) return checkBrick(m_volume, r.brick); // the GPU decoder trusts a brick's header
         if ((uint64_t(r.cacheOffset) + regionWords(r.lod)) * 4 > cache.size())
             return Status::error("brick " + std::to_string(r.brick) + " does not fit the cache at word " +
                                  std::to_string(r.cacheOffset));
@@ -432,7 +440,7 @@ void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, u
         return;
     }
     const BrickWords bw = m_volume.brick(brick);
-    const uint32_t paletteSize = bw.words[m_volume.levels()];
+    const uint32_t paletteSize = sound(brick) ? bw.words[m_volume.levels()] : 0; // never decoded when unsound
     const uint32_t per = cacheEntriesPerWord(), outside = (1u << m_cacheBits) - 1u;
     std::fill(out, out + (n + per - 1) / per, 0u);
     std::unordered_map<uint32_t, uint32_t> indexOf; // long palettes only
@@ -469,7 +477,7 @@ std::vector<uint32_t> GpuVolume::labelsFromRegion(uint32_t brick, uint32_t lod, 
     }
     const uint32_t per = cacheEntriesPerWord(), mask = (1u << m_cacheBits) - 1u;
     const BrickWords bw = m_volume.brick(brick);
-    const uint32_t paletteSize = bw.words[m_volume.levels()];
+    const uint32_t paletteSize = sound(brick) ? bw.words[m_volume.levels()] : 0; // never decoded when unsound
     for (uint64_t e = 0; e < n; ++e) {
         const uint32_t index = (words[e / per] >> ((e % per) * m_cacheBits)) & mask;
         labels[e] = index == mask || index >= paletteSize ? kInvalidLabel : bw.words[bw.size - 1 - index];

@@ -33,16 +33,27 @@ StoredLabels storedLabels(const CompressedVolume& vol, bool piece) {
     StoredLabels out;
     uint32_t largest = 0;
     uint64_t entries = 0;
-    // In chunks, so that a mapped file's pages leave the process behind the sweep.
+    // In chunks, so that a mapped file's pages leave the process behind the sweep. Bricks whose
+    // header words are wrong are found here (a parse checks the layout only): never drawn, their
+    // palettes are not read.
+    std::vector<uint8_t> bad;
     sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
+        bad.assign(size_t(to - from), 0);
 #pragma omp parallel for reduction(max : largest) reduction(+ : entries) schedule(dynamic, 64)
         for (int64_t b = int64_t(from); b < int64_t(to); ++b) {
+            if (!brickSound(vol, uint64_t(b))) {
+                bad[size_t(b - int64_t(from))] = 1;
+                continue;
+            }
             const BrickWords bw = vol.brick(uint64_t(b));
             entries += bw.words[L];
             for (uint32_t k = 0; k < bw.words[L]; ++k) largest = std::max(largest, bw.words[bw.size - 1 - k]);
         }
+        for (uint64_t b = from; b < to; ++b)
+            if (bad[size_t(b - from)]) out.unsound.push_back(b);
         return true;
     });
+    auto sound = [&](uint64_t b) { return out.unsound.empty() || !std::binary_search(out.unsound.begin(), out.unsound.end(), b); };
     out.largest = largest;
     if (piece || largest < kMaterialTableLabels || entries > (uint64_t(1) << 25)) return out;
     std::vector<uint32_t> labels;
@@ -51,6 +62,7 @@ StoredLabels storedLabels(const CompressedVolume& vol, bool piece) {
     std::vector<uint32_t> seen(size_t(1) << 16, kNone);
     sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
         for (uint64_t b = from; b < to; ++b) {
+            if (!sound(b)) continue;
             const BrickWords bw = vol.brick(b);
             for (uint32_t k = 0; k < bw.words[L]; ++k) {
                 const uint32_t l = bw.words[bw.size - 1 - k];

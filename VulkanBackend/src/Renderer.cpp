@@ -49,6 +49,11 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (v.brickCount() > (uint64_t(1) << 28)) return Status::error("more than 2^28 bricks cannot be rendered");
     im.brickCount = uint32_t(v.brickCount());
     im.levels = v.levels();
+    // Bricks whose header words are wrong are drawn empty: bad bricks from the start.
+    if (!volume->unsound().empty()) {
+        im.badBricks = volume->unsound().size();
+        im.firstBadBrick = checkBrick(v, volume->unsound().front()).message();
+    }
 
     Defines d;
     d.emplace_back("BRICK_SIZE", std::to_string(v.brickSize) + "u");

@@ -252,7 +252,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         bool several = false;
         sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
             for (uint64_t b = from; b < to && !several; ++b) {
-                if (!volume->owns(b)) continue;
+                if (!volume->owns(b) || !volume->sound(b)) continue;
                 const BrickWords bw = vol.brick(b);
                 for (uint32_t k = 0; k < bw.words[L] && !several; ++k)
                     if (const uint32_t l = bw.words[bw.size - 1 - k]; materialOfStored(l) == kNone) {
@@ -276,6 +276,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
                 vis[2 * size_t(b) + 1] = kBrickAbsent;
                 continue;
             }
+            if (!volume->sound(uint64_t(b))) continue; // drawn empty: never requested (a bad brick)
             const BrickWords bw = vol.brick(uint64_t(b));
             const uint32_t n = bw.words[L];
             for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)

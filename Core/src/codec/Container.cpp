@@ -255,7 +255,7 @@ Result<CompressedVolume> parse(ByteSource& src, MemorySource* viewed = nullptr,
         CSGV_TRY(readWords(src, v.arrays[size_t(i)].owned(), len, "encoding array"));
     }
     CSGV_TRY(parseTail(src));
-    CSGV_TRY(checkContainer(v));
+    CSGV_TRY(checkLayout(v));
     return v;
 }
 
@@ -316,7 +316,7 @@ uint32_t minimalBrickWords(uint32_t levels, int32_t encoding) {
     return levels + (encoding == kEncodingRans2 ? 4 : 3);
 }
 
-Status checkContainer(const CompressedVolume& v) {
+Status checkLayout(const CompressedVolume& v) {
     CSGV_TRY(checkHeaderFields(v));
     const uint64_t bricks = v.brickCount();
     if (v.brickStarts.size() != bricks + 1)
@@ -334,71 +334,112 @@ Status checkContainer(const CompressedVolume& v) {
         if (v.arrays[a].size() > kMaxWordsPerArray)
             return Status::error("encoding array " + std::to_string(a) + " exceeds 2^29 words");
 
+    const uint32_t minWords = minimalBrickWords(v.levels(), v.encoding);
+    const uint64_t bpa = v.bricksPerArray == kSingleArray ? bricks + 1 : v.bricksPerArray;
+    // The brick starts alone: no brick's words are read (a file larger than memory opens without
+    // reading it; checkBrick checks a brick's header words when a sweep or decoder reaches it).
+    for (uint64_t i = 0; i < bricks; ++i) {
+        const size_t arrayIndex = size_t(i / bpa);
+        const uint64_t arrayLen = v.arrays[arrayIndex].size();
+        const uint64_t begin = (i > 0 && i % bpa == 0) ? 0 : v.brickStarts[size_t(i)];
+        const uint64_t end = v.brickStarts[size_t(i + 1)];
+        if (end < begin)
+            return Status::error("brick " + std::to_string(i) + ": brick starts out of order (" + std::to_string(begin) +
+                                 " then " + std::to_string(end) + ")");
+        if (end > arrayLen)
+            return Status::error("brick " + std::to_string(i) + ": ends at word " + std::to_string(end) +
+                                 ", past the end of encoding array " + std::to_string(arrayIndex) + " (" +
+                                 std::to_string(arrayLen) + " words)");
+        if (end - begin < minWords)
+            return Status::error("brick " + std::to_string(i) + ": " + std::to_string(end - begin) +
+                                 " words, less than the minimal brick of " + std::to_string(minWords));
+    }
+    return Status::ok();
+}
+
+namespace {
+
+/// checkBrick's checks; the message only where `why` asks for it (sweeps ask brickSound).
+bool brickHeaderSound(const CompressedVolume& v, uint64_t i, std::string* why) {
+    auto fail = [&](const std::string& s) {
+        if (why) *why = "brick " + std::to_string(i) + s;
+        return false;
+    };
     const uint32_t L = v.levels();
-    const uint32_t minWords = minimalBrickWords(L, v.encoding);
+    const BrickWords bw = v.brick(i);
+    const uint64_t size = bw.size; // at least the minimal brick (checkLayout)
+    const WordPtr w = bw.words;
+    if (w[0] != (L + 1) * 8)
+        return fail(": level 0 start is " + std::to_string(w[0]) + ", expected " + std::to_string((L + 1) * 8));
+    const uint32_t palette = w[L];
+    if (palette == 0) return fail(": palette size is 0");
+    if (palette > v.maxPalette)
+        return fail(": palette size " + std::to_string(palette) + " exceeds the file's largest palette " +
+                    std::to_string(v.maxPalette));
+    const uint64_t streamWords = (v.encoding == kEncodingRans2) ? 2 : 1;
+    if (uint64_t(palette) + L + 1 + streamWords > size)
+        return fail(": palette size " + std::to_string(palette) + " does not fit in its " + std::to_string(size) +
+                    " words");
+    const uint64_t paletteStart = size - palette; // first palette word
+    if (v.encoding == kEncodingNibble) {
+        for (uint32_t l = 1; l < L; ++l)
+            if (w[l] < w[l - 1])
+                return fail(", level " + std::to_string(l) + ": start " + std::to_string(w[l]) + " is before level " +
+                            std::to_string(l - 1) + "'s start " + std::to_string(w[l - 1]));
+        if (w[L - 1] > paletteStart * 8)
+            return fail(", level " + std::to_string(L - 1) + ": start " + std::to_string(w[L - 1]) +
+                        " lies in the palette");
+    } else if (v.encoding == kEncodingRans2) {
+        const uint32_t s = w[L - 1];
+        if (s % 8 != 0 || s < w[0] + 8 || s / 8 >= paletteStart)
+            return fail(", level " + std::to_string(L - 1) + ": stream B start " + std::to_string(s) +
+                        " is not a word boundary between " + std::to_string(w[0] + 8) + " and the palette at symbol " +
+                        std::to_string(paletteStart * 8));
+    }
+    return true;
+}
+
+} // namespace
+
+bool brickSound(const CompressedVolume& v, uint64_t i) { return brickHeaderSound(v, i, nullptr); }
+
+Status checkBrick(const CompressedVolume& v, uint64_t i) {
+    std::string why;
+    return brickHeaderSound(v, i, &why) ? Status::ok() : Status::error(why);
+}
+
+Status checkContainer(const CompressedVolume& v) {
+    CSGV_TRY(checkLayout(v));
+    const uint64_t bricks = v.brickCount();
     const uint64_t bpa = v.bricksPerArray == kSingleArray ? bricks + 1 : v.bricksPerArray;
     // A mapped file's pages leave the process behind the sweep (a file larger than memory).
     std::unique_ptr<ReleaseBehind> behind;
     size_t behindArray = ~size_t(0);
     for (uint64_t i = 0; i < bricks; ++i) {
-        struct Where { // "brick i", made only for a message
-            uint64_t i;
-            operator std::string() const { return "brick " + std::to_string(i); }
-            std::string operator+(const std::string& s) const { return std::string(*this) + s; }
-            std::string operator+(const char* s) const { return std::string(*this) + s; }
-        } where{i};
         const size_t arrayIndex = size_t(i / bpa);
         if (arrayIndex != behindArray) {
             behind.reset();
             behind = std::make_unique<ReleaseBehind>(v.arrays[arrayIndex].bytes(), v.arrays[arrayIndex].size() * 4);
             behindArray = arrayIndex;
         }
-        const uint64_t arrayLen = v.arrays[arrayIndex].size();
-        const uint64_t begin = (i > 0 && i % bpa == 0) ? 0 : v.brickStarts[size_t(i)];
-        const uint64_t end = v.brickStarts[size_t(i + 1)];
-        if (end < begin)
-            return Status::error(where + ": brick starts out of order (" + std::to_string(begin) + " then " +
-                                 std::to_string(end) + ")");
-        if (end > arrayLen)
-            return Status::error(where + ": ends at word " + std::to_string(end) + ", past the end of encoding array " +
-                                 std::to_string(arrayIndex) + " (" + std::to_string(arrayLen) + " words)");
-        const uint64_t size = end - begin;
-        if (size < minWords)
-            return Status::error(where + ": " + std::to_string(size) + " words, less than the minimal brick of " +
-                                 std::to_string(minWords));
-        const WordPtr w = v.arrays[arrayIndex].words() + std::ptrdiff_t(begin);
-        behind->reached(w.bytes());
-        if (w[0] != (L + 1) * 8)
-            return Status::error(where + ": level 0 start is " + std::to_string(w[0]) + ", expected " +
-                                 std::to_string((L + 1) * 8));
-        const uint32_t palette = w[L];
-        if (palette == 0) return Status::error(where + ": palette size is 0");
-        if (palette > v.maxPalette)
-            return Status::error(where + ": palette size " + std::to_string(palette) +
-                                 " exceeds the file's largest palette " + std::to_string(v.maxPalette));
-        const uint64_t streamWords = (v.encoding == kEncodingRans2) ? 2 : 1;
-        if (uint64_t(palette) + L + 1 + streamWords > size)
-            return Status::error(where + ": palette size " + std::to_string(palette) + " does not fit in its " +
-                                 std::to_string(size) + " words");
-        const uint64_t paletteStart = size - palette; // first palette word
-        if (v.encoding == kEncodingNibble) {
-            for (uint32_t l = 1; l < L; ++l)
-                if (w[l] < w[l - 1])
-                    return Status::error(where + ", level " + std::to_string(l) + ": start " + std::to_string(w[l]) +
-                                         " is before level " + std::to_string(l - 1) + "'s start " +
-                                         std::to_string(w[l - 1]));
-            if (w[L - 1] > paletteStart * 8)
-                return Status::error(where + ", level " + std::to_string(L - 1) + ": start " +
-                                     std::to_string(w[L - 1]) + " lies in the palette");
-        } else if (v.encoding == kEncodingRans2) {
-            const uint32_t s = w[L - 1];
-            if (s % 8 != 0 || s < w[0] + 8 || s / 8 >= paletteStart)
-                return Status::error(where + ", level " + std::to_string(L - 1) + ": stream B start " +
-                                     std::to_string(s) + " is not a word boundary between " + std::to_string(w[0] + 8) +
-                                     " and the palette at symbol " + std::to_string(paletteStart * 8));
-        }
+        behind->reached(v.brick(i).words.bytes());
+        CSGV_TRY(checkBrick(v, i));
     }
     return Status::ok();
+}
+
+std::vector<uint64_t> unsoundBricks(const CompressedVolume& v) {
+    std::vector<uint64_t> out;
+    std::vector<uint8_t> bad;
+    sweepBricks(v, kSweepBricks, [&](uint64_t from, uint64_t to) {
+        bad.assign(size_t(to - from), 0);
+#pragma omp parallel for schedule(static, 1024)
+        for (int64_t b = int64_t(from); b < int64_t(to); ++b) bad[size_t(b - int64_t(from))] = !brickSound(v, uint64_t(b));
+        for (uint64_t b = from; b < to; ++b)
+            if (bad[size_t(b - from)]) out.push_back(b);
+        return true;
+    });
+    return out;
 }
 
 Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size) {
@@ -452,23 +493,26 @@ Result<CompressedVolume> readCsgvMapped(const std::string& path) {
 
 namespace {
 
-/// Fills `piece` (header fields set, dimensions of the piece) with the bricks' words in the
-/// piece's order, laid out as a writer would (layoutArrays), with its largest palette; then
-/// checks it.
+/// Fills `piece` (header fields set, dimensions of the piece, the whole volume's largest palette)
+/// with the bricks' words in the piece's order, laid out as a writer would (layoutArrays), with
+/// its largest palette; then checks its layout. A brick whose header words are wrong stays so in
+/// the piece (its palette size, past the whole's largest, is not taken for the piece's), so that
+/// the piece's decoders and renderer name it when it is reached and draw the rest.
 Status assemblePiece(CompressedVolume& piece, std::vector<std::vector<uint32_t>>& words) {
     std::vector<uint32_t> sizes(words.size());
     const uint32_t L = piece.levels();
+    const uint32_t wholeLargest = piece.maxPalette;
     piece.maxPalette = 1;
     for (size_t i = 0; i < words.size(); ++i) {
         sizes[i] = uint32_t(words[i].size());
-        piece.maxPalette = std::max(piece.maxPalette, words[i][L]); // words[i] holds a minimal brick
+        if (words[i].size() > L && words[i][L] <= wholeLargest) piece.maxPalette = std::max(piece.maxPalette, words[i][L]);
     }
     Status s = fillArrays(piece, sizes, kMaxWordsPerArray, ~uint64_t(0), [&](uint64_t i, std::vector<uint32_t>& arr) {
         arr.insert(arr.end(), words[size_t(i)].begin(), words[size_t(i)].end());
         std::vector<uint32_t>().swap(words[size_t(i)]);
     });
     if (!s) return s;
-    return checkContainer(piece);
+    return checkLayout(piece);
 }
 
 /// The header of a piece of `whole` made of the bricks `box` (dimensions of the piece), or an
@@ -481,7 +525,6 @@ Result<CompressedVolume> pieceHeader(const CompressedVolume& whole, const BrickB
                                  ") along axis " + std::to_string(a) + " is empty or outside the " +
                                  std::to_string(grid[a]) + " bricks of the volume");
     CompressedVolume piece = whole.headerFields(); // its largest palette and array split are its own (assemblePiece)
-    piece.maxPalette = 0;
     piece.bricksPerArray = kSingleArray;
     for (int a = 0; a < 3; ++a)
         piece.dim[a] = std::min(box.hi[a] * whole.brickSize, whole.dim[a]) - box.lo[a] * whole.brickSize;

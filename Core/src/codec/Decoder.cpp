@@ -247,6 +247,8 @@ Status BrickDecoder::decodeBrick(uint64_t index, uint32_t lod) {
                              std::to_string(m_vol.brickCount()) + " bricks)");
     if (lod >= L)
         return Status::error("level of detail " + std::to_string(lod) + " is out of range 0.." + std::to_string(L - 1));
+    // A parse checks the layout only: the brick's header words are checked when it is reached.
+    if (Status c = checkBrick(m_vol, index); !c) return c;
     const auto grid = m_vol.brickGrid();
     m_origin = {uint32_t(index % grid[0]) * m_vol.brickSize, uint32_t((index / grid[0]) % grid[1]) * m_vol.brickSize,
                 uint32_t(index / (uint64_t(grid[0]) * grid[1])) * m_vol.brickSize};

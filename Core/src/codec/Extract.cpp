@@ -191,8 +191,10 @@ Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& 
             const bool boxedBrick = inBox(b);
             boxed += boxedBrick;
             const BrickWords bw = vol.brick(b);
-            const uint32_t n = bw.words[L];
-            bool hit = false;
+            // An unsound brick in the box is a candidate: its decoder names what is wrong with it.
+            const bool sound = brickSound(vol, b);
+            const uint32_t n = sound ? bw.words[L] : 0;
+            bool hit = !sound;
             for (uint32_t k = 0; k < n; ++k) {
                 const int64_t at = sel->find(bw.words[bw.size - 1 - k]);
                 if (at < 0) continue;

@@ -15,7 +15,12 @@ namespace {
 struct FinestRange {
     uint32_t begin = 0, end = 0;
 };
-FinestRange finestRange(const BrickWords& bw, uint32_t L) {
+FinestRange finestRange(const CompressedVolume& v, uint64_t b) {
+    const BrickWords bw = v.brick(b);
+    const uint32_t L = v.levels();
+    // An unsound brick (checkBrick) stays whole in the coarse tier, where its decoders refuse it
+    // as they would in the file: no finest-level stream.
+    if (!brickSound(v, b)) return {bw.size, bw.size};
     const uint32_t begin = std::min(bw.words[L - 1] / 8, bw.size), palette = bw.words[L];
     const uint32_t end = bw.size >= palette ? bw.size - palette : 0;
     return {begin, std::max(begin, end)};
@@ -65,7 +70,6 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
     // arrays (a coarse brick is never longer than its brick, so every array still fits).
     c = v.headerFields();
     const uint64_t n = v.brickCount();
-    const uint32_t L = v.levels();
     const uint64_t per = v.bricksPerArray == kSingleArray ? n + 1 : v.bricksPerArray;
     const uint64_t budget = options.budgetBytes;
     // Stream lengths need the bricks' headers, so the budget is checked as the sweep goes; the
@@ -99,8 +103,8 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
                 behind = std::make_unique<ReleaseBehind>(v.arrays[size_t(b / per)].bytes(), v.arrays[size_t(b / per)].size() * 4);
             const BrickWords bw = v.brick(b);
             behind->reached(bw.words.bytes());
-            const FinestRange f = finestRange(bw, L);
-            words += uint64_t(f.begin) + 1 + (bw.size - f.end);
+            const FinestRange f = finestRange(v, b);
+            words += f.begin == bw.size ? bw.size : uint64_t(f.begin) + 1 + (bw.size - f.end);
             // From a cold disk the samples read much of the file: ask now and then.
             if (sampled % 4096 == 4095 && options.progress && !options.progress(0.0)) return Status::error("cancelled");
         }
@@ -112,9 +116,10 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
     sweepBricks(v, kSweepBricks, [&](uint64_t from, uint64_t to) {
         for (uint64_t b = from; b < to && fits; ++b) {
             const BrickWords bw = v.brick(b);
-            const FinestRange f = finestRange(bw, L);
+            const FinestRange f = finestRange(v, b);
+            const bool whole = f.begin == bw.size;
             const uint32_t palette = bw.size - f.end;
-            const uint64_t words = uint64_t(f.begin) + 1 + palette;
+            const uint64_t words = whole ? bw.size : uint64_t(f.begin) + 1 + palette;
             resident += words * 4;
             std::vector<uint32_t>& out = c.arrays[size_t(b / per)].owned();
             if ((budget && resident > budget) || out.size() + words > out.capacity()) {
@@ -123,9 +128,13 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
             }
             const size_t at = out.size();
             out.resize(at + size_t(words));
-            bw.words.copyTo(out.data() + at, f.begin);
-            out[at + f.begin] = kRansLowerBound; // the bare initial state: a stream B of no symbols
-            (bw.words + std::ptrdiff_t(f.end)).copyTo(out.data() + at + f.begin + 1, palette);
+            if (whole) {
+                bw.words.copyTo(out.data() + at, bw.size);
+            } else {
+                bw.words.copyTo(out.data() + at, f.begin);
+                out[at + f.begin] = kRansLowerBound; // the bare initial state: a stream B of no symbols
+                (bw.words + std::ptrdiff_t(f.end)).copyTo(out.data() + at + f.begin + 1, palette);
+            }
             c.brickStarts[size_t(b) + 1] = uint32_t(out.size());
             t->m_finestWords[size_t(b)] = f.end - f.begin;
             t->m_longest = std::max(t->m_longest, f.end - f.begin);
@@ -145,7 +154,7 @@ Result<std::shared_ptr<const TieredVolume>> TieredVolume::create(std::shared_ptr
 
 uint32_t TieredVolume::finestWords(uint64_t brick) const {
     if (m_hasCoarse) return m_finestWords[size_t(brick)];
-    const FinestRange f = finestRange(m_full->brick(brick), m_full->levels());
+    const FinestRange f = finestRange(*m_full, brick);
     return f.end - f.begin;
 }
 
@@ -163,7 +172,7 @@ void TieredVolume::count(const void* bytes, size_t size) const {
 
 void TieredVolume::copyFinest(uint64_t brick, uint32_t* dst) const {
     const BrickWords bw = m_full->brick(brick);
-    const FinestRange f = finestRange(bw, m_full->levels());
+    const FinestRange f = finestRange(*m_full, brick);
     const WordPtr from = bw.words + std::ptrdiff_t(f.begin);
     count(from.bytes(), size_t(f.end - f.begin) * 4);
     from.copyTo(dst, f.end - f.begin);

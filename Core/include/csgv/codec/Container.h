@@ -120,7 +120,7 @@ struct CompressedVolume {
     uint64_t voxelCount() const { return product3(dim[0], dim[1], dim[2]); } ///< saturating
     /// True when PALETTE_D is followed by one 4-bit distance symbol (version 0015, mask bit 64).
     bool legacyDelta() const { return version == 15 || (opMask & kMaskLegacyDelta) != 0; }
-    /// The words of brick i (checked structure assumed: see checkContainer()).
+    /// The words of brick i (brick starts checked: checkLayout(); its header words: checkBrick()).
     BrickWords brick(uint64_t i) const;
     /// Bytes the container occupies when written.
     uint64_t serializedSize() const;
@@ -173,12 +173,26 @@ void sweepBricks(const CompressedVolume& vol, uint64_t chunk, const std::functio
 /// Size of the smallest valid brick in words for a level count and encoding (section 3).
 uint32_t minimalBrickWords(uint32_t levels, int32_t encoding);
 
-/// Every container-level check of CSGV-FORMAT.md section 9 on a volume in memory (header fields,
-/// frequencies, array sizes, brick starts, per-brick header words). Stream contents are checked
-/// while decoding.
+/// The checks of CSGV-FORMAT.md section 9 that need no brick's words: header fields,
+/// frequencies, array sizes, brick starts in order and within their arrays, every brick at least
+/// the minimal brick. O(header + brick starts): what a parse checks, so that opening a file reads
+/// none of its bricks.
+Status checkLayout(const CompressedVolume& vol);
+/// Brick i's header words (level starts, palette size) on a volume that passed checkLayout():
+/// an error names the brick and what is wrong. Whatever reads a brick's header or palette checks
+/// the brick first: decoders refuse it (BrickDecoder::decode), sweeps skip it (brickSound), the
+/// renderer draws it empty.
+Status checkBrick(const CompressedVolume& vol, uint64_t i);
+/// checkBrick without the message (a sweep's test, before it reads a palette).
+bool brickSound(const CompressedVolume& vol, uint64_t i);
+/// Every brick that fails checkBrick, ascending (one sweep that gives a mapped file's pages back).
+std::vector<uint64_t> unsoundBricks(const CompressedVolume& vol);
+/// checkLayout and checkBrick of every brick: all container-level checks (an encoder's output,
+/// a writer's input). Stream contents are checked while decoding.
 Status checkContainer(const CompressedVolume& vol);
 
-/// Parses a container from memory; the result has passed checkContainer().
+/// Parses a container from memory; the result has passed checkLayout() (its bricks are checked
+/// when reached: checkBrick).
 Result<CompressedVolume> parseCsgv(const uint8_t* data, size_t size);
 /// The same, with the encoding arrays as views into `data` (WordArray::view, at whatever byte
 /// address the words lie): `keeper` keeps `data` alive and unchanged while the volume, or any copy
@@ -210,9 +224,11 @@ Result<CompressedVolume> readCsgvMapped(const std::string& path);
 /// own: the piece's dimensions (bricks cut by the volume's end stay cut), its bricks' words as
 /// stored (an interior brick's encoding does not depend on its neighbours), the file's tables,
 /// the piece's largest palette. Reads the header, the brick starts and only those bricks' bytes
-/// (`bytesRead` counts them); the result has passed checkContainer().
+/// (`bytesRead` counts them); the result has passed checkLayout() (a brick whose header words are
+/// wrong is refused by checkBrick when reached, as in the whole file).
 Result<CompressedVolume> readCsgvPiece(const std::string& path, const BrickBox& box, uint64_t* bytesRead = nullptr);
-/// The same piece of a volume in memory (checked structure assumed: checkContainer()).
+/// The same piece of a volume in memory (its layout checked: checkLayout(); an unsound brick in
+/// the box makes it an error naming the brick).
 Result<CompressedVolume> extractPiece(const CompressedVolume& whole, const BrickBox& box);
 /// The inverse of extractPiece: one volume of dimensions `dim` from whole-brick pieces,
 /// `boxes[i]` holding the bricks of `pieces[i]` (pieces with empty boxes are skipped). The boxes

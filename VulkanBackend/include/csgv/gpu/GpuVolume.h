@@ -15,6 +15,7 @@
 #include "csgv/gpu/ShaderCompiler.h"
 
 #include <array>
+#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -93,6 +94,10 @@ public:
     bool hostDecoding() const { return m_hostDecoding; }
     /// Whether this process draws brick `b` (GpuVolumeOptions::owned).
     bool owns(uint64_t b) const;
+    /// The bricks whose header words fail checkBrick (found when uploaded), ascending: never
+    /// decoded or drawn (the renderer draws them empty and counts them as bad bricks).
+    const std::vector<uint64_t>& unsound() const { return m_unsound; }
+    bool sound(uint64_t b) const { return m_unsound.empty() || !std::binary_search(m_unsound.begin(), m_unsound.end(), b); }
     const BrickBox& owned() const { return m_owned; }
     /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
     static bool separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation);
@@ -156,6 +161,7 @@ private:
     Context& m_context;
     const CompressedVolume& m_volume;
     BrickBox m_owned;
+    std::vector<uint64_t> m_unsound;
     std::vector<Buffer> m_arrays;
     Buffer m_addresses, m_starts;
     Defines m_defines;

@@ -30,6 +30,9 @@ constexpr uint32_t kMaterialTableLabels = 1u << 22;
 struct StoredLabels {
     uint32_t largest = 0;
     std::vector<uint32_t> ids;
+    /// The bricks whose header words fail checkBrick, ascending: their palettes are not read
+    /// (found in the same sweep).
+    std::vector<uint64_t> unsound;
 };
 StoredLabels storedLabels(const CompressedVolume& volume, bool piece);
 
