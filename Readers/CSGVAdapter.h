@@ -24,6 +24,7 @@
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/base/Geometry.h"
 #include "csgv/codec/Container.h"
+#include "csgv/codec/Palettes.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Encoder.h"
 #include "csgv/codec/Metadata.h"
@@ -179,6 +180,10 @@ std::string decodeBox(const csgv::CompressedVolume& vol, uint32_t lod, const csg
 /// The range of original labels over every brick palette, without decoding; written as a
 /// 2-value array of the type decodeBox would produce.
 vtkSmartPointer<vtkDataArray> paletteRange(const csgv::CompressedVolume& vol, const LabelInfo& info);
+/// The same from the volume's palette summary (no sweep unless a relabelled volume has more
+/// distinct ids than the summary lists).
+vtkSmartPointer<vtkDataArray> paletteRange(
+  const csgv::CompressedVolume& vol, const LabelInfo& info, const csgv::PaletteSummary& palettes);
 
 // ---------------------------------------------------------------------------------------------
 // The FieldData contract
@@ -215,11 +220,19 @@ vtkSmartPointer<vtkUnsignedCharArray> mappedEncodingArray(std::shared_ptr<const 
 /// WordArray views into it. The array must not be changed while views live (FieldData arrays
 /// are not: the pipeline passes them on shallowly).
 std::shared_ptr<const void> keepArray(vtkAbstractArray* array);
+/// Attaches the reader's palette summary (csgv::summarizePalettes, made when it opened the file)
+/// to its mapped encoding array (mappedEncodingArray; other arrays are left alone): a parse of
+/// that array in this process (readEncodingArrays) takes it instead of reading the palettes again.
+void attachPaletteSummary(vtkAbstractArray* mapped, std::shared_ptr<const csgv::PaletteSummary> palettes);
+/// The summary attached to this mapped encoding array, or null.
+std::shared_ptr<const csgv::PaletteSummary> paletteSummaryOf(vtkAbstractArray* array);
 
 /// @brief What a consumer of the FieldData layout gets back.
 struct EncodedInput
 {
   csgv::CompressedVolume volume;
+  /// What the reader found in its palettes (the same process, the reader's mapped array), or null.
+  std::shared_ptr<const csgv::PaletteSummary> palettes;
   csgv::Geometry geometry; ///< level 0, origin at the corner of voxel (0,0,0)
   LabelInfo info;
 };

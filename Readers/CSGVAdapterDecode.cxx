@@ -100,39 +100,6 @@ void forEachPaletteEntry(const csgv::CompressedVolume& vol, F&& f)
   });
 }
 
-/// The smallest and largest palette entry of the sound bricks (false when there is none), in
-/// parallel: the reader's one sweep over the bricks when it opens a volume. (A plain function:
-/// OpenMP regions stay out of the generic lambdas of withConverter.)
-bool storedRange(const csgv::CompressedVolume& vol, uint32_t& lo, uint32_t& hi)
-{
-  const uint32_t L = vol.levels();
-  uint32_t least = std::numeric_limits<uint32_t>::max(), most = 0;
-  uint64_t entries = 0;
-  csgv::sweepBricks(vol, csgv::kSweepBricks, [&](uint64_t from, uint64_t to) {
-#pragma omp parallel for reduction(min : least) reduction(max : most) reduction(+ : entries) schedule(dynamic, 1024)
-    for (int64_t b = int64_t(from); b < int64_t(to); ++b)
-    {
-      if (!csgv::brickSound(vol, uint64_t(b)))
-      {
-        continue; // a bad brick (checkBrick): its decoder names it when it is reached
-      }
-      const csgv::BrickWords bw = vol.brick(uint64_t(b));
-      const uint32_t n = bw.words[L];
-      entries += n;
-      for (uint32_t k = 0; k < n; ++k)
-      {
-        const uint32_t v = bw.words[bw.size - 1 - k];
-        least = std::min(least, v);
-        most = std::max(most, v);
-      }
-    }
-    return true;
-  });
-  lo = least;
-  hi = most;
-  return entries > 0;
-}
-
 /// @brief Palette value -> label of type T, checked once up front so decoding never narrows.
 template <class T>
 struct Converter
@@ -326,31 +293,43 @@ std::string decodeBox(const csgv::CompressedVolume& vol, uint32_t lod, const csg
 
 vtkSmartPointer<vtkDataArray> paletteRange(const csgv::CompressedVolume& vol, const LabelInfo& info)
 {
+  return paletteRange(vol, info, csgv::summarizePalettes(vol, csgv::kSummaryLabels));
+}
+
+vtkSmartPointer<vtkDataArray> paletteRange(
+  const csgv::CompressedVolume& vol, const LabelInfo& info, const csgv::PaletteSummary& palettes)
+{
   vtkSmartPointer<vtkDataArray> result;
   std::string warning;
   withConverter(vol, info, warning, [&](auto t, const auto& conv) {
     using T = decltype(t);
     bool any = false;
     T lo = T(0), hi = T(0);
-    if (!conv.relabelled)
+    auto take = [&](uint32_t v) {
+      if (conv.relabelled && v >= conv.table.size())
+      {
+        return; // reported when decoding
+      }
+      const T value = conv.relabelled ? conv.table[v] : static_cast<T>(v);
+      lo = any ? std::min(lo, value) : value;
+      hi = any ? std::max(hi, value) : value;
+      any = true;
+    };
+    if (!conv.relabelled && palettes.entries)
     {
-      uint32_t rawLo = 0, rawHi = 0;
-      any = storedRange(vol, rawLo, rawHi);
-      lo = static_cast<T>(rawLo);
-      hi = static_cast<T>(rawHi);
+      take(palettes.smallest);
+      take(palettes.largest);
     }
-    else
+    else if (palettes.labelsComplete)
     {
-      forEachPaletteEntry(vol, [&](uint32_t v) {
-        if (v >= conv.table.size())
-        {
-          return; // reported when decoding
-        }
-        const T value = conv.table[v];
-        lo = any ? std::min(lo, value) : value;
-        hi = any ? std::max(hi, value) : value;
-        any = true;
-      });
+      for (uint32_t v : palettes.labels)
+      {
+        take(v);
+      }
+    }
+    else if (palettes.entries)
+    {
+      forEachPaletteEntry(vol, take); // more distinct ids than the summary lists
     }
     result = vtk::TakeSmartPointer(vtkDataArray::CreateDataArray(vtkTypeTraits<T>::VTK_TYPE_ID));
     auto* typed = static_cast<vtkAOSDataArrayTemplate<T>*>(result.GetPointer());

@@ -225,9 +225,16 @@ std::mutex& mappedMutex()
   static std::mutex m;
   return m;
 }
-std::unordered_map<const void*, std::pair<std::shared_ptr<const csgv::MappedFile>, int>>& mappedArrays()
+struct MappedArray
 {
-  static std::unordered_map<const void*, std::pair<std::shared_ptr<const csgv::MappedFile>, int>> m;
+  std::shared_ptr<const csgv::MappedFile> file;
+  int arrays = 0;
+  /// What the reader found in the palettes when it opened the file (attachPaletteSummary).
+  std::shared_ptr<const csgv::PaletteSummary> palettes;
+};
+std::unordered_map<const void*, MappedArray>& mappedArrays()
+{
+  static std::unordered_map<const void*, MappedArray> m;
   return m;
 }
 void releaseMapped(void* bytes)
@@ -235,9 +242,9 @@ void releaseMapped(void* bytes)
   std::shared_ptr<const csgv::MappedFile> last; // unmapped outside the lock
   std::lock_guard<std::mutex> lock(mappedMutex());
   auto it = mappedArrays().find(bytes);
-  if (it != mappedArrays().end() && --it->second.second == 0)
+  if (it != mappedArrays().end() && --it->second.arrays == 0)
   {
-    last = std::move(it->second.first);
+    last = std::move(it->second.file);
     mappedArrays().erase(it);
   }
 }
@@ -253,13 +260,42 @@ vtkSmartPointer<vtkUnsignedCharArray> mappedEncodingArray(std::shared_ptr<const 
   {
     std::lock_guard<std::mutex> lock(mappedMutex());
     auto& entry = mappedArrays()[bytes];
-    entry.first = file;
-    entry.second++;
+    entry.file = file;
+    entry.arrays++;
   }
   auto array = vtkSmartPointer<vtkUnsignedCharArray>::New();
   array->SetVoidArray(bytes, static_cast<vtkIdType>(file->size()), 0, vtkUnsignedCharArray::VTK_DATA_ARRAY_USER_DEFINED);
   array->SetArrayFreeFunction(releaseMapped);
   return array;
+}
+
+void attachPaletteSummary(vtkAbstractArray* mapped, std::shared_ptr<const csgv::PaletteSummary> palettes)
+{
+  if (!mapped || mapped->GetNumberOfValues() == 0)
+  {
+    return;
+  }
+  std::lock_guard<std::mutex> lock(mappedMutex());
+  auto it = mappedArrays().find(mapped->GetVoidPointer(0));
+  if (it != mappedArrays().end() && it->second.file &&
+    it->second.file->size() == size_t(mapped->GetNumberOfValues()))
+  {
+    it->second.palettes = std::move(palettes);
+  }
+}
+
+std::shared_ptr<const csgv::PaletteSummary> paletteSummaryOf(vtkAbstractArray* array)
+{
+  if (!array || array->GetNumberOfValues() == 0)
+  {
+    return nullptr;
+  }
+  std::lock_guard<std::mutex> lock(mappedMutex());
+  auto it = mappedArrays().find(array->GetVoidPointer(0));
+  // The same mapping, whole: a parse of this array has the reader's palettes.
+  const bool same = it != mappedArrays().end() && it->second.file &&
+    it->second.file->size() == size_t(array->GetNumberOfValues());
+  return same ? it->second.palettes : nullptr;
 }
 
 std::shared_ptr<const void> keepArray(vtkAbstractArray* array)
@@ -287,6 +323,7 @@ std::string readEncodingArrays(vtkFieldData* fd, EncodedInput& out)
     return "CSGVEncoding: " + vol.message();
   }
   out.volume = std::move(*vol);
+  out.palettes = paletteSummaryOf(enc);
 
   out.geometry = csgv::Geometry{};
   vtkDataArray* geometry = vtkDataArray::SafeDownCast(fd->GetAbstractArray(kGeometryName));

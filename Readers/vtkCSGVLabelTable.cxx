@@ -17,6 +17,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <memory>
 
 vtkStandardNewMacro(vtkCSGVLabelTable);
 
@@ -30,35 +32,17 @@ namespace
 {
 
 /// The labels of a volume that is not relabelled: every palette entry, each once, ascending
-/// (a mapped file's pages are given back as the sweep goes).
-std::vector<int64_t> paletteLabels(const csgv::CompressedVolume& vol)
+/// (the reader's palette summary when it lists them all; else one sweep that gives a mapped
+/// file's pages back as it goes).
+std::vector<int64_t> paletteLabels(const csgvvtk::EncodedInput& enc)
 {
-  std::vector<uint32_t> all;
-  const uint32_t L = vol.levels();
-  csgv::sweepBricks(vol, csgv::kSweepBricks, [&](uint64_t from, uint64_t to) {
-    for (uint64_t b = from; b < to; ++b)
-    {
-      if (!csgv::brickSound(vol, b))
-      {
-        continue; // a bad brick (checkBrick): its labels cannot be read
-      }
-      const csgv::BrickWords bw = vol.brick(b);
-      const uint32_t n = bw.words[L];
-      for (uint32_t k = 0; k < n; ++k)
-      {
-        all.push_back(bw.words[bw.size - 1 - k]);
-      }
-      if (all.size() > (size_t(1) << 24)) // keep the list short: sort and drop repeats now
-      {
-        std::sort(all.begin(), all.end());
-        all.erase(std::unique(all.begin(), all.end()), all.end());
-      }
-    }
-    return true;
-  });
-  std::sort(all.begin(), all.end());
-  all.erase(std::unique(all.begin(), all.end()), all.end());
-  return std::vector<int64_t>(all.begin(), all.end());
+  std::shared_ptr<const csgv::PaletteSummary> palettes = enc.palettes;
+  if (!palettes || !palettes->labelsComplete)
+  {
+    palettes = std::make_shared<const csgv::PaletteSummary>(
+      csgv::summarizePalettes(enc.volume, std::numeric_limits<size_t>::max()));
+  }
+  return std::vector<int64_t>(palettes->labels.begin(), palettes->labels.end());
 }
 
 /// A table column as a VTK array: labels and ids as 64-bit integers, other numbers as doubles
@@ -149,7 +133,7 @@ int vtkCSGVLabelTable::RequestData(
   // The rows: the attribute database's labels (with csgv_id) or the palettes' labels.
   csgv::Result<csgv::AttributeTable> table = file.hasAttributes
     ? csgv::attributesFromDatabase(file.attributes)
-    : csgv::AttributeTable::fromLabels(paletteLabels(file.volume));
+    : csgv::AttributeTable::fromLabels(paletteLabels(*parsed));
   if (!table)
   {
     vtkErrorMacro(<< "the label table: " << table.message());

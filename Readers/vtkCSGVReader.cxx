@@ -157,9 +157,13 @@ public:
     {
       return "'" + path + "' changed while it was read";
     }
-    // The checks and the palette sweep give the pages back behind them (a file larger than
-    // memory opens within a window of it).
-    this->Range = csgvvtk::paletteRange(*volume, this->Info);
+    // One sweep over the palettes (it gives the pages back behind it: a file larger than memory
+    // opens within a window of it): the label range, and the summary that the representation's
+    // parse of this array takes instead of sweeping again (csgvvtk::attachPaletteSummary).
+    auto palettes = std::make_shared<const csgv::PaletteSummary>(
+      csgv::summarizePalettes(*volume, csgv::kSummaryLabels));
+    this->Range = csgvvtk::paletteRange(*volume, this->Info, *palettes);
+    csgvvtk::attachPaletteSummary(enc, palettes);
     this->Volume = std::move(*volume);
     this->Encoding = enc;
     this->WholeRead = true;

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <set>
 
 namespace csgvrep
@@ -276,8 +277,15 @@ std::shared_ptr<const csgv::AttributeTable> AttributeCache::get(
 
 std::vector<uint32_t> storedLabels(const SharedVolume& shared, size_t cap, bool& truncated)
 {
-  std::set<uint32_t> seen;
   truncated = false;
+  // The palette summary lists them when the reader or an upload made it (a whole volume's).
+  if (const auto palettes = std::atomic_load(&shared.palettes); palettes && palettes->labelsComplete && shared.owned.empty())
+  {
+    truncated = palettes->labels.size() > cap;
+    return std::vector<uint32_t>(
+      palettes->labels.begin(), palettes->labels.begin() + std::ptrdiff_t(std::min(cap, palettes->labels.size())));
+  }
+  std::set<uint32_t> seen;
   const csgv::CompressedVolume& volume = shared.volume;
   const uint32_t L = volume.levels();
   const std::array<uint32_t, 3> grid = volume.brickGrid();

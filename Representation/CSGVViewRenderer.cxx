@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <memory>
 #include <system_error>
 
 namespace csgvrep
@@ -221,6 +222,13 @@ std::string ViewRenderer::ensureRenderer()
     }
     if (!mine)
     {
+      if (!shared->palettes) // read elsewhere with atomic_load (CSGVAttributes.cxx)
+      {
+        std::atomic_store(&shared->palettes,
+          std::shared_ptr<const csgv::PaletteSummary>(std::make_shared<const csgv::PaletteSummary>(
+            csgv::summarizePalettes(shared->volume, csgv::kSummaryLabels))));
+      }
+      plan.volume.palettes = shared->palettes;
       csgv::Result<std::unique_ptr<csgv::gpu::GpuVolume>> upload =
         csgv::gpu::GpuVolume::create(*this->Context, drawn, plan.volume);
       if (!upload)

@@ -113,6 +113,10 @@ std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
     embedInVolume(out, box, dims, shiftCorner(enc.geometry, { -offset[0], -offset[1], -offset[2] }));
   }
   out.arrayName = csgvvtk::kLabelsName;
+  if (out.owned.empty())
+  {
+    out.palettes = enc.palettes; // the reader's sweep of these palettes (a placed piece has more)
+  }
   if (enc.info.relabelled)
   {
     out.idToLabel = enc.info.map;

@@ -91,6 +91,10 @@ struct SharedVolume
   bool ownIds = false;
   std::string arrayName;   ///< the label array users see ("Labels" for the CSGV encoding)
   std::string description; ///< where it came from ("CSGVEncoding", "array 'Labels' compressed")
+  /// What the palettes hold (csgv::summarizePalettes): the reader's, made when it opened the file,
+  /// or made at the first upload (guarded by the volume cache's mutex); every upload of the
+  /// volume (and of its tiers: the coarse tier keeps the palettes) takes it.
+  std::shared_ptr<const csgv::PaletteSummary> palettes;
   /// By host-memory setting (bytes; 0: automatic): the volume under that budget
   /// (ViewRenderer::tiersFor: the finest level read from the mapped file), or null when it stays
   /// whole; decided once per setting (the automatic budget when first asked), guarded by the

@@ -71,6 +71,9 @@ std::string usage() {
            "           [--threads N] [--relabel] [--quiet]\n"
            "      writes OUT.json (geometry) and OUT's _csgv.db3 when labels are relabelled; progress on\n"
            "      stderr unless --quiet; letters p x y z n l d s\n"
+           "  tile IN.csgv OUT.csgv --times X,Y,Z [--max-output-mib M] [--quiet]\n"
+           "      IN repeated X x Y x Z times, its bricks copied as stored (dimensions must be whole\n"
+           "      bricks): a volume larger than memory in the time it takes to write it (benchmarks)\n"
            "  bench IN [--threads N] [--brick-size N] [--encoding E] [--ops O]\n"
            "      bits/voxel, encode and decode Mvoxel/s, and zstd -19 / gzip -9 of the raw uint32 labels\n"
            "  render IN.csgv OUT.png [--size WxH] [--eye x,y,z] [--center x,y,z] [--up x,y,z]\n"
@@ -112,6 +115,9 @@ struct Args {
     Box box;
     uint64_t maxLabels = kDefaultMaxExtractLabels;
     uint64_t maxOutputMiB = 4096;
+    // tile
+    bool hasTimes = false;
+    std::array<uint32_t, 3> times{{1, 1, 1}};
 };
 
 int fail(const std::string& message) {
@@ -200,6 +206,19 @@ Status parseArgs(int argc, char** argv, Args& a) {
             a.box.max[c] = uint32_t(n[c + 3]);
         }
         a.hasBox = true;
+        return Status::ok();
+    });
+    values.add("--times", [&a](const std::string& v) {
+        uint64_t n[3];
+        size_t at = 0;
+        for (int i = 0; i < 3; ++i) {
+            const size_t comma = i < 2 ? v.find(',', at) : v.size();
+            if (comma == std::string::npos || !parseUnsigned(v.substr(at, comma - at), 1024, n[i]) || n[i] == 0)
+                return Status::error("--times expects three repeat counts X,Y,Z from 1 to 1024, not '" + v + "'");
+            at = comma + 1;
+        }
+        for (int c = 0; c < 3; ++c) a.times[c] = uint32_t(n[c]);
+        a.hasTimes = true;
         return Status::ok();
     });
     values.add("--encoding", [&a](const std::string& v) {
@@ -757,6 +776,36 @@ int cmdCompress(const Args& a) {
     return 0;
 }
 
+int cmdTile(const Args& a) {
+    if (a.positional.size() != 2 || !a.hasTimes) return fail("tile expects: csgv tile IN.csgv OUT.csgv --times X,Y,Z");
+    Result<CompressedVolume> src = readCsgvMapped(a.positional[0]);
+    if (!src) return fail(src.message());
+    Limits limits;
+    limits.maxOutputBytes = a.maxOutputMiB << 20;
+    const auto t0 = std::chrono::steady_clock::now();
+    int shown = -1;
+    Status s = writeTiledCsgv(a.positional[1], *src, a.times, limits, [&](double f) {
+        if (cancelRequested()) return false; // Ctrl-C: the temporary goes, OUT stays as it was
+        if (!a.quiet && int(f * 20) != shown) {
+            shown = int(f * 20);
+            std::fprintf(stderr, "\rtiling: %3d%%", shown * 5);
+        }
+        return true;
+    });
+    if (!a.quiet) std::fprintf(stderr, "\n");
+    if (!s) return fail(s.message());
+    Result<CompressedVolume> out = readCsgvHeader(a.positional[1]);
+    if (!out) return fail(out.message());
+    std::printf("output: %s\n", a.positional[1].c_str());
+    std::printf("dimensions: %u %u %u\n", out->dim[0], out->dim[1], out->dim[2]);
+    std::printf("bricks: %llu\n", (unsigned long long)out->brickCount());
+    const Result<uint64_t> bytes = fileSize(a.positional[1]);
+    std::printf("bytes: %llu\n", (unsigned long long)(bytes ? *bytes : 0));
+    std::printf("seconds: %.3f\n", seconds(t0));
+    std::printf("peak_memory_mib: %.1f\n", peakRssMiB());
+    return 0;
+}
+
 /// Repeats fn until at least minSeconds have passed; returns seconds per run.
 template <typename Fn>
 double timeIt(Fn fn, double minSeconds = 1.0) {
@@ -878,6 +927,7 @@ int run(int argc, char** argv) {
     if (cmd == "verify") return cmdVerify(a);
     if (cmd == "compress") return cmdCompress(a);
     if (cmd == "bench") return cmdBench(a);
+    if (cmd == "tile") return cmdTile(a);
     return fail("unknown command '" + cmd + "' (try csgv --help)");
 }
 

@@ -251,6 +251,19 @@ expect 1 "output folder missing" "$CSGV" decompress "$DEF" "$TMP/no/dir/c.vraw"
 [ -e "$TMP/c.vraw" ] && bad "a failed decompress left a file"
 ls "$TMP" | grep -q tmp- && bad "a temporary file was left behind"
 
+# tile: a volume of whole bricks repeated, decoding cleanly; refusals leave no file.
+expect 0 "compress a whole-brick volume" "$CSGV" compress synth:64x64x64 "$TMP/w.csgv" --quiet
+expect 0 "tile 2,1,3" "$CSGV" tile "$TMP/w.csgv" "$TMP/wt.csgv" --times 2,1,3 --quiet
+grep -q "^dimensions: 128 64 192" "$TMP/out" || bad "tile dimensions: $(cat "$TMP/out")"
+expect 0 "the tiled volume decodes" "$CSGV" info "$TMP/wt.csgv" --check
+grep -q "^check: ok (48 bricks" "$TMP/out" || bad "tile check: $(cat "$TMP/out")"
+expect 1 "tile of partial bricks" "$CSGV" tile "$DEF" "$TMP/pt.csgv" --times 2,2,2
+grep -q "not a multiple of the brick size" "$TMP/err" || bad "partial-brick message: $(cat "$TMP/err")"
+expect 1 "tile without --times" "$CSGV" tile "$TMP/w.csgv" "$TMP/pt.csgv"
+expect 1 "tile with a zero count" "$CSGV" tile "$TMP/w.csgv" "$TMP/pt.csgv" --times 2,0,2
+expect 1 "tile past the output limit" "$CSGV" tile "$TMP/w.csgv" "$TMP/pt.csgv" --times 8,8,8 --max-output-mib 1
+[ -e "$TMP/pt.csgv" ] && bad "a refused tile left a file"
+
 # Malformed files: never a signal, always one clear message.
 head -c 5000 "$DEF" > "$TMP/trunc.csgv"
 expect 1 "truncated file" "$CSGV" info "$TMP/trunc.csgv"

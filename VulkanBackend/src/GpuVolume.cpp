@@ -109,7 +109,8 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
                                  : (separate ? DevicePart::Coarse : DevicePart::Whole);
     // Large labels are stored as ids (StoredLabels): in the palettes the device holds, and in the
     // cache regions host decoding writes. An MPI rank's piece keeps its labels.
-    g->m_labels = storedLabels(volume, !options.owned.empty());
+    g->m_labels = options.palettes ? storedLabels(*options.palettes, !options.owned.empty())
+                                   : storedLabels(volume, !options.owned.empty());
     g->m_unsound = g->m_labels.unsound;
     std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;

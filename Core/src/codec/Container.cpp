@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <memory>
 
 namespace csgv {
@@ -850,6 +851,56 @@ Status writeCsgvStreamed(const std::string& path, const CompressedVolume& vol, c
     if (ws) ws = sink(&kNotDetailSeparated, 1);
     if (!ws) return ws;
     return file.commit();
+}
+
+Status writeTiledCsgv(const std::string& path, const CompressedVolume& src, const std::array<uint32_t, 3>& times,
+                      const Limits& limits, const std::function<bool(double)>& progress) {
+    const std::string refusing = "refusing to tile into '" + path + "'";
+    CSGV_TRY(checkLayout(src).prefix(refusing));
+    CompressedVolume vol = src.headerFields();
+    const std::array<uint32_t, 3> grid = src.brickGrid();
+    for (int a = 0; a < 3; ++a) {
+        if (times[a] == 0) return Status::error(refusing + ": a repeat count is 0");
+        if (src.dim[a] % src.brickSize != 0)
+            return Status::error(refusing + ": dimension " + std::to_string(a) + " (" + std::to_string(src.dim[a]) +
+                                 ") is not a multiple of the brick size " + std::to_string(src.brickSize) +
+                                 ": only volumes of whole bricks tile");
+        const uint64_t d = uint64_t(src.dim[a]) * times[a];
+        if (d > uint64_t(std::numeric_limits<int32_t>::max()))
+            return Status::error(refusing + ": dimension " + std::to_string(a) + " would be " + std::to_string(d));
+        vol.dim[a] = uint32_t(d);
+    }
+    const uint64_t n = vol.brickCount();
+    if (n >= (uint64_t(1) << 31)) return Status::error(refusing + ": " + std::to_string(n) + " bricks");
+    const std::vector<uint64_t> unsound = unsoundBricks(src);
+    if (!unsound.empty()) return checkBrick(src, unsound.front()).prefix(refusing);
+    const std::array<uint32_t, 3> big = vol.brickGrid();
+    auto source = [&](uint64_t i) {
+        const uint64_t x = i % big[0], y = i / big[0] % big[1], z = i / big[0] / big[1];
+        return x % grid[0] + uint64_t(grid[0]) * (y % grid[1] + uint64_t(grid[1]) * (z % grid[2]));
+    };
+    std::vector<uint32_t> sizes;
+    try {
+        sizes.resize(size_t(n));
+    } catch (const std::bad_alloc&) {
+        return Status::error(refusing + ": no memory for the sizes of " + std::to_string(n) + " bricks");
+    }
+    for (uint64_t i = 0; i < n; ++i) sizes[size_t(i)] = src.brick(source(i)).size;
+    Result<ArrayLayout> layout = layoutArrays(sizes, kMaxWordsPerArray, limits.maxOutputBytes);
+    if (!layout) return Status(layout.status()).prefix(refusing);
+    std::vector<uint32_t>().swap(sizes);
+    const uint64_t per = layout->perArray;
+    const std::vector<uint64_t> arrayWords = layout->arrayWords;
+    applyLayout(std::move(*layout), vol);
+    return writeCsgvStreamed(path, vol, arrayWords, limits, [&](size_t a, const ByteSink& out) -> Status {
+        const uint64_t from = uint64_t(a) * per, to = std::min(n, from + per);
+        for (uint64_t i = from; i < to; ++i) {
+            if (progress && i % 65536 == 0 && !progress(double(i) / double(n))) return Status::error("cancelled");
+            const BrickWords bw = src.brick(source(i));
+            CSGV_TRY(out(bw.words.bytes(), size_t(bw.size) * 4)); // the file's bytes: little-endian words
+        }
+        return Status::ok();
+    });
 }
 
 const char* encodingName(int32_t encoding) {

@@ -258,6 +258,15 @@ using ByteSink = std::function<Status(const void* data, size_t bytes)>;
 Status writeCsgvStreamed(const std::string& path, const CompressedVolume& vol, const std::vector<uint64_t>& arrayWords,
                          const Limits& limits, const std::function<Status(size_t array, const ByteSink& out)>& words);
 
+/// Writes `src` repeated times[0] x times[1] x times[2] (its bricks copied as stored: a whole
+/// brick's encoding does not depend on where it lies) to `path` (writeCsgvStreamed: a temporary
+/// renamed into place): a volume far larger than memory, or than any encoder run here would
+/// make, from a smaller encoding (benchmarks of the host-memory budget). Refused unless every
+/// dimension is a multiple of the brick size and every brick passes checkBrick. `progress(f)`
+/// returns false to cancel (nothing is left behind).
+Status writeTiledCsgv(const std::string& path, const CompressedVolume& src, const std::array<uint32_t, 3>& times,
+                      const Limits& limits = {}, const std::function<bool(double)>& progress = {});
+
 /// "nibble", "rans1", "rans2", "wavelet-matrix", "huffman-wavelet-matrix" or "unknown".
 const char* encodingName(int32_t encoding);
 /// Operation letters of a mask ("pnls", "pnlds", ...), with "L" appended for legacy delta.

@@ -64,6 +64,11 @@ struct GpuVolumeOptions {
     /// decoding separates detail (the streams come from the file through a DetailStream), host
     /// decoding reads the finest level from tiers->full(). Null: the volume is whole.
     std::shared_ptr<const TieredVolume> tiers;
+    /// The volume's palette summary when its owner has it (summarizePalettes with a cap of at
+    /// least kMaterialTableLabels, of this volume or of the full volume of `tiers`, whose coarse
+    /// tier holds the same palettes): the upload then reads no palette for its stored labels.
+    /// Null: summarized here.
+    std::shared_ptr<const PaletteSummary> palettes;
 };
 
 class GpuVolume {

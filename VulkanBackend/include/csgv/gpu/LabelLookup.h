@@ -9,6 +9,7 @@
 #define CSGV_GPU_LABEL_LOOKUP_H
 
 #include "csgv/codec/Container.h"
+#include "csgv/codec/Palettes.h"
 #include "csgv/gpu/FrameLayout.h"
 
 #include <cstdint>
@@ -17,7 +18,7 @@
 namespace csgv::gpu {
 
 /// Tables up to this many labels (4 bytes each, and 16 for its colour).
-constexpr uint32_t kMaterialTableLabels = 1u << 22;
+constexpr uint32_t kMaterialTableLabels = kSummaryLabels; // a palette summary lists as many (Palettes.h)
 
 /// The labels as the shaders see them (stored labels). `ids`: the labels of the volume's palettes,
 /// ascending, when one of them is kMaterialTableLabels or larger, they are at most
@@ -35,6 +36,9 @@ struct StoredLabels {
     std::vector<uint64_t> unsound;
 };
 StoredLabels storedLabels(const CompressedVolume& volume, bool piece);
+/// The same from the volume's palette summary (summarizePalettes with a cap of at least
+/// kMaterialTableLabels).
+StoredLabels storedLabels(const PaletteSummary& palettes, bool piece);
 
 /// A label's id (its index in `ids`, ascending), kNone when `ids` does not hold it.
 uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label);
