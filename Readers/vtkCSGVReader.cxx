@@ -26,6 +26,7 @@
 #include <vtkUnsignedCharArray.h>
 
 #include <algorithm>
+#include <functional>
 #include <cctype>
 #include <cstring>
 #include <fstream>
@@ -117,8 +118,9 @@ public:
     return std::string();
   }
 
-  /// The whole encoding (one piece); an error message or "".
-  std::string ReadWhole()
+  /// The whole encoding (one piece); an error message or "". `progress(f)` returns false to
+  /// cancel (the palette sweep reads a file larger than memory from disk).
+  std::string ReadWhole(const std::function<bool(double)>& progress)
   {
     if (this->WholeRead)
     {
@@ -160,8 +162,12 @@ public:
     // One sweep over the palettes (it gives the pages back behind it: a file larger than memory
     // opens within a window of it): the label range, and the summary that the representation's
     // parse of this array takes instead of sweeping again (csgvvtk::attachPaletteSummary).
-    auto palettes = std::make_shared<const csgv::PaletteSummary>(
-      csgv::summarizePalettes(*volume, csgv::kSummaryLabels));
+    csgv::Result<csgv::PaletteSummary> summary = csgv::summarizePalettes(*volume, csgv::kSummaryLabels, progress);
+    if (!summary)
+    {
+      return "'" + path + "': " + summary.message();
+    }
+    auto palettes = std::make_shared<const csgv::PaletteSummary>(std::move(*summary));
     this->Range = csgvvtk::paletteRange(*volume, this->Info, *palettes);
     csgvvtk::attachPaletteSummary(enc, palettes);
     this->Volume = std::move(*volume);
@@ -429,7 +435,15 @@ int vtkCSGVReader::RequestData(
     ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER())
     : 0;
   int ext[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
-  const std::string readError = pieces > 1 ? in.ReadPiece(pieces, piece) : in.ReadWhole();
+  // A read cancelled before is read again now (the executive does not clear the flag; cleared
+  // here, while executing, the MTime it bumps asks for no second execution).
+  this->SetAbortExecute(0);
+  this->SetProgressText("Reading the palettes");
+  const std::string readError = pieces > 1 ? in.ReadPiece(pieces, piece) : in.ReadWhole([this](double f) {
+    this->UpdateProgress(0.05 * f); // the sweep of the palettes at open; decoding labels follows
+    return !this->GetAbortExecute();
+  });
+  this->SetProgressText(nullptr);
   if (!readError.empty())
   {
     vtkErrorMacro(<< readError);

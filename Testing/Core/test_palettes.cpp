@@ -125,3 +125,20 @@ TEST(Tiled, TheTiledVolumeDecodesAsTheSourceRepeated) {
         EXPECT_FALSE(fileSize(tempDir() + "/no.csgv").isOk()) << "nothing left behind";
     }
 }
+
+TEST(Palettes, ProgressIsAskedAndCancels) {
+    const CompressedVolume v = loadFixture("synthA_b32_rans2.csgv");
+    std::vector<double> seen;
+    Result<PaletteSummary> s = summarizePalettes(v, kSummaryLabels, [&](double f) {
+        seen.push_back(f);
+        return true;
+    });
+    ASSERT_TRUE(s.isOk());
+    EXPECT_EQ(s->labels, summarizePalettes(v, kSummaryLabels).labels);
+    ASSERT_GE(seen.size(), 2u);
+    EXPECT_EQ(seen.front(), 0.0);
+    EXPECT_EQ(seen.back(), 1.0);
+    const Result<PaletteSummary> c = summarizePalettes(v, kSummaryLabels, [](double f) { return f < 0.5; });
+    ASSERT_FALSE(c.isOk());
+    EXPECT_EQ(c.message(), "cancelled");
+}

@@ -112,6 +112,33 @@ with t.ErrorLog() as errors:
     x.UpdatePipeline()
 t.check("carries no CSGV volume" in errors.text, "Extract on a Wavelet: clear error")
 
+# A read the user cancels (AbortExecute during the sweep of the palettes at open, shown with its
+# progress text): one clear "cancelled" error and an empty output from that update; the next
+# update reads the file (VTK takes an aborted output for one to make again).
+cancel_path = write("cancel.csgv", data)
+rc = OpenDataFile(cancel_path)
+alg = rc.GetClientSideObject()
+seen = []
+
+
+def abort_once(obj, event):
+    if not seen and obj.GetProgressText() == "Reading the palettes":
+        seen.append(obj.GetProgress())
+        obj.SetAbortExecute(1)
+
+
+tag = alg.AddObserver("ProgressEvent", abort_once)
+with t.ErrorLog() as errors:
+    rc.UpdatePipeline()
+img = alg.GetOutputDataObject(0)
+t.check(len(seen) == 1 and errors.text.count("cancelled") == 1 and img.GetNumberOfCells() == 0,
+        "a read cancelled at open: one clear error, empty output (%d aborts, %d cells: %r)" % (len(seen), img.GetNumberOfCells(), errors.text[-300:]))
+alg.RemoveObserver(tag)
+alg.Modified()
+img = t.fetch(rc)
+t.check(np.array_equal(t.cell_labels(img), t.source_volume("synthA_").ravel()), "the next update reads the cancelled file")
+Delete(rc)
+
 # The session goes on: a valid file reads correctly afterwards.
 r = OpenDataFile(good)
 img = t.fetch(r)

@@ -48,7 +48,15 @@ void sortUnique(std::vector<uint32_t>& v) {
 } // namespace
 
 PaletteSummary summarizePalettes(const CompressedVolume& vol, size_t labelCap) {
+    return *summarizePalettes(vol, labelCap, {});
+}
+
+Result<PaletteSummary> summarizePalettes(const CompressedVolume& vol, size_t labelCap,
+                                         const std::function<bool(double)>& progress) {
     PaletteSummary out;
+    bool cancelled = false;
+    const uint64_t bricks = vol.brickCount();
+    if (progress && !progress(0.0)) return Status::error("cancelled");
     const uint32_t L = vol.levels();
     const int threads = std::max(1, omp_get_max_threads());
     std::vector<Local> local(static_cast<size_t>(threads));
@@ -96,8 +104,10 @@ PaletteSummary summarizePalettes(const CompressedVolume& vol, size_t labelCap) {
         }
         for (uint64_t b = from; b < to; ++b)
             if (bad[size_t(b - from)]) out.unsound.push_back(b);
-        return true;
+        cancelled = progress && !progress(double(to) / double(bricks));
+        return !cancelled;
     });
+    if (cancelled) return Status::error("cancelled");
     bool over = false;
     size_t listed = 0;
     for (const Local& me : local) {

@@ -7,6 +7,7 @@
 #include "csgv/codec/Container.h"
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace csgv {
@@ -32,6 +33,11 @@ struct PaletteSummary {
 /// sweepBricks), checking each brick's header words (checkBrick) before it reads the palette.
 /// `labelCap`: the most distinct entries listed (PaletteSummary::labels).
 PaletteSummary summarizePalettes(const CompressedVolume& vol, size_t labelCap);
+/// The same with `progress(fraction)` asked between chunks of bricks (about every 100 MiB of a
+/// typical encoding: a sweep of a file larger than memory reads it from disk); false cancels
+/// ("cancelled").
+Result<PaletteSummary> summarizePalettes(const CompressedVolume& vol, size_t labelCap,
+                                         const std::function<bool(double)>& progress);
 
 /// Sorts 32-bit words: linear in their count (two passes of 16 bits) for long lists.
 void sortWords(std::vector<uint32_t>& v);
