@@ -57,6 +57,11 @@ TEST(Palettes, EveryFixtureAsAPlainReadingOfItsPalettes) {
             EXPECT_TRUE(s.labelsComplete) << name;
             EXPECT_EQ(s.labels, std::vector<uint32_t>(want.labels.begin(), want.labels.end())) << name << ", " << threads;
             EXPECT_TRUE(s.unsound.empty()) << name;
+            ASSERT_EQ(s.first.size(), v.brickCount()) << name;
+            for (uint64_t b = 0; b < v.brickCount(); ++b) {
+                const BrickWords bw = v.brick(b);
+                ASSERT_EQ(s.first[size_t(b)], bw.words[bw.size - 1]) << name << ": brick " << b << "'s root label";
+            }
             // A cap of exactly the distinct labels lists them; one less lists none.
             const size_t n = want.labels.size();
             EXPECT_TRUE(summarizePalettes(v, n).labelsComplete) << name;

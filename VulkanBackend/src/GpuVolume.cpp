@@ -109,8 +109,15 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
                                  : (separate ? DevicePart::Coarse : DevicePart::Whole);
     // Large labels are stored as ids (StoredLabels): in the palettes the device holds, and in the
     // cache regions host decoding writes. An MPI rank's piece keeps its labels.
-    g->m_labels = options.palettes ? storedLabels(*options.palettes, !options.owned.empty())
-                                   : storedLabels(volume, !options.owned.empty());
+    try {
+        g->m_palettes = options.palettes ? options.palettes
+                                         : std::make_shared<const PaletteSummary>(summarizePalettes(volume, kMaterialTableLabels));
+    } catch (const std::bad_alloc&) {
+        return Status::error("no memory for the palette summary of " + std::to_string(volume.brickCount()) + " bricks");
+    }
+    if (g->m_palettes->first.size() != volume.brickCount())
+        return Status::error("the palette summary given is not this volume's");
+    g->m_labels = storedLabels(*g->m_palettes, !options.owned.empty());
     g->m_unsound = g->m_labels.unsound;
     std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;

@@ -269,6 +269,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     // while it is not cached: its coarsest level, the root label, else the first palette entry a
     // material draws), kNone twice when no palette entry is drawn (the brick is invisible).
     std::vector<uint32_t> vis(size_t(brickCount) * 2, kNone);
+    const std::vector<uint32_t>& first = volume->palettes().first;
     sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
 #pragma omp parallel for schedule(dynamic, 64)
         for (int64_t b = int64_t(from); b < int64_t(to); ++b) {
@@ -277,9 +278,16 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
                 continue;
             }
             if (!volume->sound(uint64_t(b))) continue; // drawn empty: never requested (a bad brick)
+            // The root label, from the palette summary: drawn (the rule), the palette is not read
+            // (for a file larger than memory: not read from disk again).
+            if (const uint32_t l = storedOf(first[size_t(b)]), m = materialOfStored(l); m != kNone) {
+                vis[2 * size_t(b)] = l;
+                vis[2 * size_t(b) + 1] = m;
+                continue;
+            }
             const BrickWords bw = vol.brick(uint64_t(b));
             const uint32_t n = bw.words[L];
-            for (uint32_t k = 0; k < n && vis[2 * size_t(b)] == kNone; ++k)
+            for (uint32_t k = 1; k < n && vis[2 * size_t(b)] == kNone; ++k)
                 if (const uint32_t l = storedOf(bw.words[bw.size - 1 - k]), m = materialOfStored(l); m != kNone) {
                     vis[2 * size_t(b)] = l;
                     vis[2 * size_t(b) + 1] = m;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <new>
 
 namespace csgv {
 
@@ -48,7 +49,9 @@ void sortUnique(std::vector<uint32_t>& v) {
 } // namespace
 
 PaletteSummary summarizePalettes(const CompressedVolume& vol, size_t labelCap) {
-    return *summarizePalettes(vol, labelCap, {});
+    Result<PaletteSummary> r = summarizePalettes(vol, labelCap, {});
+    if (!r) throw std::bad_alloc(); // without a progress callback, only memory fails it
+    return std::move(*r);
 }
 
 Result<PaletteSummary> summarizePalettes(const CompressedVolume& vol, size_t labelCap,
@@ -57,6 +60,11 @@ Result<PaletteSummary> summarizePalettes(const CompressedVolume& vol, size_t lab
     bool cancelled = false;
     const uint64_t bricks = vol.brickCount();
     if (progress && !progress(0.0)) return Status::error("cancelled");
+    try {
+        out.first.assign(size_t(bricks), 0u);
+    } catch (const std::bad_alloc&) {
+        return Status::error("no memory for the root labels of " + std::to_string(bricks) + " bricks");
+    }
     const uint32_t L = vol.levels();
     const int threads = std::max(1, omp_get_max_threads());
     std::vector<Local> local(static_cast<size_t>(threads));
@@ -81,6 +89,7 @@ Result<PaletteSummary> summarizePalettes(const CompressedVolume& vol, size_t lab
                 }
                 const BrickWords bw = vol.brick(uint64_t(b));
                 const uint32_t n = bw.words[L];
+                out.first[size_t(b)] = bw.words[bw.size - 1]; // a sound brick's palette has an entry
                 me.entries += n;
                 for (uint32_t k = 0; k < n; ++k) {
                     const uint32_t l = bw.words[bw.size - 1 - k];

@@ -27,11 +27,16 @@ struct PaletteSummary {
     bool labelsComplete = false;
     /// The bricks whose header words fail checkBrick, ascending: their palettes are not read.
     std::vector<uint64_t> unsound;
+    /// Each brick's first palette entry, its root label (0 for an unsound brick): what a renderer
+    /// shows of a brick it has not decoded, found without reading the palette again (for a file
+    /// larger than memory, again from disk).
+    std::vector<uint32_t> first;
 };
 
 /// Sweeps every brick once (in parallel, in chunks whose pages a mapped file gives back:
 /// sweepBricks), checking each brick's header words (checkBrick) before it reads the palette.
 /// `labelCap`: the most distinct entries listed (PaletteSummary::labels).
+/// Throws std::bad_alloc when there is no memory for its tables.
 PaletteSummary summarizePalettes(const CompressedVolume& vol, size_t labelCap);
 /// The same with `progress(fraction)` asked between chunks of bricks (about every 100 MiB of a
 /// typical encoding: a sweep of a file larger than memory reads it from disk); false cancels
