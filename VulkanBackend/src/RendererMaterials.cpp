@@ -248,6 +248,13 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         const auto undrawn = std::count(table.begin(), table.end(), kNone);
         if (!ids.empty()) return undrawn > 1; // the table holds the palettes' labels alone
         if (!table.empty() && undrawn < 2) return false; // not even among all labels
+        // The palette summary's labels (a whole volume's), without reading a palette again.
+        if (const PaletteSummary& palettes = volume->palettes(); palettes.labelsComplete && volume->owned().empty()) {
+            int count = 0;
+            for (uint32_t l : palettes.labels)
+                if (materialOfStored(storedOf(l)) == kNone && ++count > 1) return true;
+            return false;
+        }
         uint32_t first = kNone; // the palettes' labels, until a second undrawn one
         bool several = false;
         sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
