@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 // Decodes a list of brick requests (brick index, inverse level, cache word offset), one
 // invocation per request, at most `steps` steps per dispatch (see csgv_decode.glsl); the state,
-// and in the end the result code, of request i live in words [12 i, 12 i + 9) of `states`.
+// and in the end the result code, of request i live in words [12 i, 12 i + 9) of `states`. A
+// decode that fails leaves its region outside the volume (drawn empty) and counts in the
+// dispatch's parameters (kDecodeParamFailures: the renderer's bad bricks).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "csgv_decode.glsl" // (with csgv/gpu/FrameLayout.h: the decode lists and push constants)
@@ -38,7 +40,21 @@ void main() {
         st = DecodeState(saved.w[o], saved.w[o + 1u], saved.w[o + 2u], saved.w[o + 3u], saved.w[o + 4u],
                          saved.w[o + 5u], saved.w[o + 6u], saved.w[o + 7u], saved.w[o + kDecodeStateStatus]);
     }
-    if (st.status == kDecodeRunning) decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
+    if (st.status == kDecodeRunning) {
+        decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
+        if (st.status != kDecodeRunning && st.status != kDecodeOk) {
+            // Failed (a corrupt stream): the region reads as outside the volume (drawn empty),
+            // and the dispatch's parameters tell the host (the first failure named).
+            const uint edge = BRICK_SIZE >> (LEVELS - 1u - target);
+            const uint words = (edge * edge * edge + CACHE_PER_WORD - 1u) / CACHE_PER_WORD;
+            CacheWords cache = CacheWords(pc.cache);
+            for (uint k = 0u; k < words; ++k) cache.w[region / CACHE_PER_WORD + k] = 0xFFFFFFFFu;
+            if (atomicAdd(params.w[kDecodeParamFailures], 1u) == 0u) {
+                params.w[kDecodeParamFailedBrick] = brick + 1u;
+                params.w[kDecodeParamFailedCode] = st.status;
+            }
+        }
+    }
     saved.w[o] = st.level;
     saved.w[o + 1u] = st.pm;
     saved.w[o + 2u] = st.x;

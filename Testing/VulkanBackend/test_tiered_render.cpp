@@ -14,6 +14,7 @@
 #include "csgv/gpu/GpuVolume.h"
 #include "csgv/gpu/Renderer.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <functional>
@@ -115,33 +116,52 @@ TEST(Tiered, EveryBudgetRendersTheWholeEncodingsLabelsAndImage) {
 TEST(Tiered, ACorruptBrickDeepInTheFileIsNamedAndTheRestRenders) {
     CSGV_REQUIRE_GPU(ctx);
     const CompressedVolume whole = loadFixture(kFixture);
-    std::vector<uint8_t> bytes = fixtureBytes(kFixture);
-    // The bricks of the top layer the camera sees (brick grid 5 x 3 x 7: z 6, x 3 and 4), the
-    // deepest in the file: their finest streams overwritten.
     const uint32_t L = whole.levels();
-    uint64_t bad = 0;
+    // The bricks of the top layer the camera sees (brick grid 5 x 3 x 7: z 6, x 3 and 4), the
+    // deepest in the file: their finest streams overwritten (fails at once), or one word of each
+    // in the middle of it flipped (typically decodes to the end, then fails the rANS integrity
+    // check: a failed decode must not show what it wrote).
+    for (bool flip : {false, true}) {
+    std::vector<uint8_t> bytes = fixtureBytes(kFixture);
     for (uint64_t b : {3 + 5 * (0 + 3 * 6), 4 + 5 * (0 + 3 * 6), 3 + 5 * (1 + 3 * 6), 4 + 5 * (1 + 3 * 6), 3 + 5 * (2 + 3 * 6), 4 + 5 * (2 + 3 * 6)}) {
         const BrickWords bw = whole.brick(b);
         const uint32_t from = bw.words[L - 1] / 8, to = bw.size - bw.words[L];
-        for (uint32_t w = from; w < to; ++w)
-            for (int k = 0; k < 4; ++k) bytes[wordOffset(whole, bytes, b, w) + size_t(k)] = 0xFF;
-        bad = bad ? bad : b;
+        for (uint32_t w = flip ? (from + to) / 2 : from; w < (flip ? (from + to) / 2 + 1 : to); ++w)
+            for (int k = 0; k < 4; ++k) bytes[wordOffset(whole, bytes, b, w) + size_t(k)] ^= flip ? 0x5A : 0xFF;
     }
     std::shared_ptr<const CompressedVolume> full = mapped(tempDir() + "/tiered-corrupt.csgv", bytes);
     ASSERT_TRUE(full);
-    const FrameOutput want = render(*ctx, whole, nullptr, RendererOptions::Decode::Host);
-    std::shared_ptr<const TieredVolume> tiers = tiersOf(full, 64);
-    Renderer* r = nullptr;
-    std::unique_ptr<Renderer> owner;
-    const FrameOutput got = render(*ctx, tiers->coarse(), tiers, RendererOptions::Decode::Host, &r, &owner);
-    ASSERT_TRUE(r);
-    EXPECT_GE(r->badBricks(), 1u);
-    EXPECT_NE(r->firstBadBrick().find("brick "), std::string::npos) << r->firstBadBrick();
-    ASSERT_EQ(got.label.size(), want.label.size());
-    size_t same = 0, differ = 0;
-    for (size_t i = 0; i < got.label.size(); ++i) (got.label[i] == want.label[i] ? same : differ)++;
-    EXPECT_GT(differ, 0u) << "the bad brick was in view";
-    EXPECT_GT(same, 4 * differ) << "the rest renders";
+    // Host decoding names the failed bricks; GPU decoding too (decode_bricks.comp counts them in
+    // its dispatches' parameters) and draws them empty, whole or in tiers.
+    const std::vector<uint32_t> labels = summarizePalettes(whole, kSummaryLabels).labels;
+    std::vector<uint32_t> hostLabels[2]; // by tiered: GPU decoding must draw the same (failed bricks empty)
+    for (RendererOptions::Decode decode : {RendererOptions::Decode::Host, RendererOptions::Decode::Gpu}) {
+        const bool gpu = decode == RendererOptions::Decode::Gpu;
+        const FrameOutput want = render(*ctx, whole, nullptr, decode);
+        for (bool tiered : {true, false}) {
+            std::shared_ptr<const TieredVolume> tiers = tiered ? tiersOf(full, 64) : nullptr;
+            Renderer* r = nullptr;
+            std::unique_ptr<Renderer> owner;
+            const FrameOutput got = render(*ctx, tiers ? tiers->coarse() : *full, tiers, decode, &r, &owner);
+            const std::string what = std::string(flip ? "a word flipped, " : "streams overwritten, ") +
+                                     (gpu ? "GPU" : "host") + " decoding, " + (tiered ? "tiers" : "whole");
+            ASSERT_TRUE(r) << what;
+            EXPECT_GE(r->badBricks(), 1u) << what;
+            EXPECT_NE(r->firstBadBrick().find(gpu ? ", GPU decode: " : "brick "), std::string::npos) << what << ": " << r->firstBadBrick();
+            ASSERT_EQ(got.label.size(), want.label.size());
+            size_t same = 0, differ = 0, foreign = 0;
+            for (size_t i = 0; i < got.label.size(); ++i) {
+                (got.label[i] == want.label[i] ? same : differ)++;
+                foreign += got.label[i] != kNone && !std::binary_search(labels.begin(), labels.end(), got.label[i]) ? 1 : 0;
+            }
+            EXPECT_GT(differ, 0u) << what << ": the bad brick was in view";
+            EXPECT_GT(same, 4 * differ) << what << ": the rest renders";
+            EXPECT_EQ(foreign, 0u) << what << ": what shows is the volume's labels";
+            if (!gpu) hostLabels[tiered] = got.label;
+            else EXPECT_EQ(got.label, hostLabels[tiered]) << what << ": the failed bricks drawn empty, as host decoding draws them";
+        }
+    }
+    }
 }
 
 TEST(Tiered, BricksWithWrongHeadersOpenAreNamedAndDrawnEmpty) {

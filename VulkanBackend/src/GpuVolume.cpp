@@ -303,7 +303,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
         params.push_back(uint32_t(requests.size()));
         params.push_back(uint32_t(std::min<uint64_t>(perDispatch, steps - done)));
         params.push_back(done == 0 ? 1u : 0u);
-        params.push_back(0u);
+        params.resize(params.size() + kDecodeParamWords - 3, 0u); // failures reported here
     }
     Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
     if (!paramBuffer) return paramBuffer.status();
@@ -362,7 +362,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         params.push_back(0u);
         params.push_back(uint32_t(std::min<uint64_t>(perDispatch, steps - done)));
         params.push_back(done == 0 ? 1u : 0u);
-        params.push_back(0u);
+        params.resize(params.size() + kDecodeParamWords - 3, 0u); // failures reported here
     }
     Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
     if (!paramBuffer) return paramBuffer.status();

@@ -798,6 +798,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     const auto t0 = std::chrono::steady_clock::now();
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
+    if (!resolved.hostDecode) noteGpuDecodeFailures();
     materialState.labelColorsPending = false;
     materialState.hiddenAllPending = false;
     cacheState.cacheEmpty = false;

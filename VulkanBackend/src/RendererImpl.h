@@ -512,6 +512,22 @@ struct Renderer::Impl {
         ++frameBadBricks;
         if (firstBadBrick.empty()) firstBadBrick = s.message();
     }
+    /// GPU decoding's failed bricks of the frame just finished (decode_bricks.comp counts them in
+    /// its dispatches' host-visible parameters, which are cleared here for the next frame).
+    void noteGpuDecodeFailures() {
+        auto* p = static_cast<uint32_t*>(frameDecode.params.mapped());
+        for (size_t k = 0; p && k < frameDecode.pushes.size(); ++k) {
+            uint32_t* w = p + k * kDecodeParamWords;
+            if (w[kDecodeParamFailures] == 0) continue;
+            std::lock_guard<std::mutex> lock(badMutex);
+            badBricks += w[kDecodeParamFailures];
+            frameBadBricks += w[kDecodeParamFailures];
+            if (firstBadBrick.empty())
+                firstBadBrick = "brick " + std::to_string(w[kDecodeParamFailedBrick] - 1) +
+                                ", GPU decode: " + decodeResultText(w[kDecodeParamFailedCode]);
+            w[kDecodeParamFailures] = w[kDecodeParamFailedBrick] = w[kDecodeParamFailedCode] = 0;
+        }
+    }
     std::unique_ptr<WorkerPool> workers; // host decoding's threads: asleep, not spinning, between frames
     double finishSeconds = 0;         // render(): what follows the frames (denoising, read-back), measured
     ModeCosts costs;                  // render(): a frame's seconds per rendered pixel, per shading mode

@@ -184,7 +184,12 @@ CSGV_CONST(uint32_t, kResolveToEither, 2u)
 CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse level, cache word offset
 CSGV_CONST(uint32_t, kDecodeStateWords, 12u) ///< per decode: the decoder state saved between dispatches
 CSGV_CONST(uint32_t, kDecodeStateStatus, 8u) ///< its word holding the result (kDecodeOk, ...)
-CSGV_CONST(uint32_t, kDecodeParamWords, 4u)  ///< per dispatch: count (unused in frames), steps, first, unused
+CSGV_CONST(uint32_t, kDecodeParamWords, 8u)  ///< per dispatch: count (unused in frames), steps, first, then kDecodeParam*
+/// Words of a dispatch's parameters (host-visible) where decode_bricks.comp reports the decodes
+/// that failed in it (drawn empty): how many, the first one's brick + 1 and its result code.
+CSGV_CONST(uint32_t, kDecodeParamFailures, 3u)
+CSGV_CONST(uint32_t, kDecodeParamFailedBrick, 4u)
+CSGV_CONST(uint32_t, kDecodeParamFailedCode, 5u)
 /// Decode result (besides csgv/codec/Layout.h's): the finest level of a separated volume was
 /// requested but its stream is not in the detail buffer.
 CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
