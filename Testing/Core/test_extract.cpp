@@ -7,6 +7,7 @@
 
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
 #include "csgv/codec/Extract.h"
 
 #include <gtest/gtest.h>
@@ -299,3 +300,77 @@ TEST(Extract, QuerySelectsLabelsOfTheAttributeDatabase) {
 }
 
 } // namespace
+
+TEST_P(ExtractFixture, SelectionBoxesAreDisjointAndExtractTheSameVoxels) {
+    const CsgvFile f = openFixture(GetParam());
+    for (uint32_t lod : {0u, 2u}) {
+        Result<LabelVolume> full = decodeVolume(f.volume, lod, f.decodeOptions());
+        ASSERT_TRUE(full.isOk()) << full.message();
+        ExtractOptions o;
+        o.labels = someLabels(*full, 10);
+        o.lod = lod;
+        o.threads = 2;
+        Result<ExtractResult> whole = extractLabels(f, o);
+        ASSERT_TRUE(whole.isOk()) << whole.message();
+        Result<std::vector<Box>> boxes = selectionBoxes(f, o);
+        ASSERT_TRUE(boxes.isOk()) << boxes.message();
+        ASSERT_FALSE(boxes->empty());
+        for (size_t i = 0; i < boxes->size(); ++i)
+            for (size_t j = i + 1; j < boxes->size(); ++j) {
+                bool apart = false;
+                for (int a = 0; a < 3; ++a)
+                    apart = apart || (*boxes)[i].max[a] <= (*boxes)[j].min[a] || (*boxes)[j].max[a] <= (*boxes)[i].min[a];
+                EXPECT_TRUE(apart) << GetParam() << ": boxes " << i << " and " << j << " overlap";
+            }
+        uint64_t voxels = 0;
+        for (const Box& b : *boxes) {
+            ExtractOptions ob = o;
+            ob.hasBox = true;
+            ob.box = b;
+            Result<ExtractResult> r = extractLabels(f, ob);
+            ASSERT_TRUE(r.isOk()) << r.message();
+            voxels += r->voxels;
+            std::array<uint32_t, 3> lo{}, hi{};
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = b.min[a] >> lod;
+                hi[a] = std::min(full->dim[a], (b.max[a] + (1u << lod) - 1) >> lod);
+            }
+            SCOPED_TRACE(GetParam() + " lod " + std::to_string(lod));
+            expectMatchesOracle(f, ob, *r, *full, lo, hi);
+        }
+        EXPECT_EQ(voxels, whole->voxels) << GetParam() << ": the boxes hold every selected voxel once";
+    }
+}
+
+TEST(Extract, AScatteredLabelGetsABoxPerPlace) {
+    LabelVolume v;
+    v.dim = {64, 64, 64};
+    v.labels.assign(size_t(v.voxelCount()), 1);
+    for (uint32_t z = 0; z < 4; ++z)
+        for (uint32_t y = 0; y < 4; ++y)
+            for (uint32_t x = 0; x < 4; ++x) {
+                v.labels[size_t(v.index(x, y, z))] = 7;
+                v.labels[size_t(v.index(60 + x, 60 + y, 60 + z))] = 7;
+                v.labels[size_t(v.index(30 + x, 2 + y, 40 + z))] = 9;
+            }
+    EncodeOptions eo;
+    eo.brickSize = 16;
+    Result<CompressedVolume> c = encodeVolume(v, eo);
+    ASSERT_TRUE(c.isOk()) << c.message();
+    CsgvFile f;
+    f.volume = std::move(*c);
+    ExtractOptions o;
+    o.labels = {7};
+    Result<std::vector<Box>> boxes = selectionBoxes(f, o);
+    ASSERT_TRUE(boxes.isOk()) << boxes.message();
+    ASSERT_EQ(boxes->size(), 2u) << "two corners, two boxes";
+    EXPECT_EQ((*boxes)[0].min, (std::array<uint32_t, 3>{0, 0, 0}));
+    EXPECT_EQ((*boxes)[0].max, (std::array<uint32_t, 3>{16, 16, 16}));
+    EXPECT_EQ((*boxes)[1].min, (std::array<uint32_t, 3>{48, 48, 48}));
+    EXPECT_EQ((*boxes)[1].max, (std::array<uint32_t, 3>{64, 64, 64}));
+    o.labels = {7, 9};
+    EXPECT_EQ(selectionBoxes(f, o)->size(), 3u);
+    EXPECT_EQ(selectionBoxes(f, o, 2)->size(), 1u) << "more groups than allowed: their union";
+    o.labels = {5};
+    EXPECT_FALSE(selectionBoxes(f, o).isOk() && !selectionBoxes(f, o)->empty()) << "a label no brick holds: no box";
+}

@@ -4,6 +4,7 @@
 #include "csgv/base/Morton.h"
 
 #include <algorithm>
+#include <tuple>
 #include <atomic>
 #include <cmath>
 #include <mutex>
@@ -118,6 +119,126 @@ Geometry extractGeometry(const Geometry& corner, uint32_t lod, const std::array<
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) g.origin[r] += corner.direction[3 * r + c] * double(offset[c]) * g.spacing[c];
     return g;
+}
+
+Result<std::vector<Box>> selectionBoxes(const CsgvFile& file, const ExtractOptions& o, size_t maxBoxes) {
+    const CompressedVolume& vol = file.volume;
+    std::vector<int64_t> unknown;
+    Result<Selection> sel = selectIds(file, o.labels, o.maxLabels, unknown);
+    if (!sel) return sel.status();
+    Box box;
+    box.max = vol.dim;
+    if (o.hasBox)
+        for (int a = 0; a < 3; ++a) {
+            box.min[a] = std::min(o.box.min[a], vol.dim[a]);
+            box.max[a] = std::min(std::max(o.box.max[a], box.min[a]), vol.dim[a]);
+        }
+    const auto grid = vol.brickGrid();
+    const uint32_t B = vol.brickSize;
+    std::array<uint32_t, 3> glo{}, ghi{}; // the bricks the box meets
+    for (int a = 0; a < 3; ++a) {
+        glo[a] = box.min[a] / B;
+        ghi[a] = box.max[a] > box.min[a] ? (box.max[a] - 1) / B + 1 : glo[a];
+    }
+    const uint32_t L = vol.levels();
+    // Step 2's scan: the bricks in the box whose palettes hold a selected id.
+    std::vector<uint8_t> held(size_t(vol.brickCount()), 0);
+    std::vector<uint64_t> marked;
+    sweepBricks(vol, kSweepBricks, [&](uint64_t from, uint64_t to) {
+        for (uint64_t b = from; b < to; ++b) {
+            const uint32_t c[3] = {uint32_t(b % grid[0]), uint32_t(b / grid[0] % grid[1]), uint32_t(b / grid[0] / grid[1])};
+            if (c[0] < glo[0] || c[0] >= ghi[0] || c[1] < glo[1] || c[1] >= ghi[1] || c[2] < glo[2] || c[2] >= ghi[2]) continue;
+            if (!brickSound(vol, b)) { // its decoder names it: extracted, it fails clearly
+                held[size_t(b)] = 1;
+                marked.push_back(b);
+                continue;
+            }
+            const BrickWords bw = vol.brick(b);
+            for (uint32_t k = 0, n = bw.words[L]; k < n; ++k)
+                if (sel->contains(bw.words[bw.size - 1 - k])) {
+                    held[size_t(b)] = 1;
+                    marked.push_back(b);
+                    break;
+                }
+        }
+        return true;
+    });
+    // Groups of 26-connected held bricks, each as its box of bricks [lo, hi).
+    struct Group {
+        std::array<uint32_t, 3> lo, hi;
+    };
+    std::vector<Group> groups;
+    std::vector<uint64_t> stack;
+    for (uint64_t start : marked) {
+        if (held[size_t(start)] != 1) continue;
+        Group g{{~0u, ~0u, ~0u}, {0, 0, 0}};
+        held[size_t(start)] = 2;
+        stack.assign(1, start);
+        while (!stack.empty()) {
+            const uint64_t b = stack.back();
+            stack.pop_back();
+            const int64_t c[3] = {int64_t(b % grid[0]), int64_t(b / grid[0] % grid[1]), int64_t(b / grid[0] / grid[1])};
+            for (int a = 0; a < 3; ++a) {
+                g.lo[a] = std::min(g.lo[a], uint32_t(c[a]));
+                g.hi[a] = std::max(g.hi[a], uint32_t(c[a]) + 1);
+            }
+            for (int dz = -1; dz <= 1; ++dz)
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dx = -1; dx <= 1; ++dx) {
+                        const int64_t x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
+                        if (x < 0 || y < 0 || z < 0 || x >= grid[0] || y >= grid[1] || z >= grid[2]) continue;
+                        const uint64_t n = uint64_t(x) + uint64_t(grid[0]) * (uint64_t(y) + uint64_t(grid[1]) * uint64_t(z));
+                        if (held[size_t(n)] == 1) {
+                            held[size_t(n)] = 2;
+                            stack.push_back(n);
+                        }
+                    }
+        }
+        groups.push_back(g);
+        if (groups.size() > maxBoxes) break;
+    }
+    auto overlap = [](const Group& p, const Group& q) {
+        for (int a = 0; a < 3; ++a)
+            if (p.hi[a] <= q.lo[a] || q.hi[a] <= p.lo[a]) return false;
+        return true;
+    };
+    if (groups.size() > maxBoxes) { // one box: the union
+        Group u = groups.front();
+        for (uint64_t b : marked)
+            for (int a = 0; a < 3; ++a) {
+                const uint32_t c = a == 0 ? uint32_t(b % grid[0]) : a == 1 ? uint32_t(b / grid[0] % grid[1]) : uint32_t(b / grid[0] / grid[1]);
+                u.lo[a] = std::min(u.lo[a], c);
+                u.hi[a] = std::max(u.hi[a], c + 1);
+            }
+        groups.assign(1, u);
+    }
+    // Merged while two boxes overlap (a group nested in another's box would be extracted twice).
+    for (bool merged = true; merged;) {
+        merged = false;
+        for (size_t i = 0; i < groups.size() && !merged; ++i)
+            for (size_t j = i + 1; j < groups.size() && !merged; ++j)
+                if (overlap(groups[i], groups[j])) {
+                    for (int a = 0; a < 3; ++a) {
+                        groups[i].lo[a] = std::min(groups[i].lo[a], groups[j].lo[a]);
+                        groups[i].hi[a] = std::max(groups[i].hi[a], groups[j].hi[a]);
+                    }
+                    groups.erase(groups.begin() + std::ptrdiff_t(j));
+                    merged = true;
+                }
+    }
+    std::vector<Box> out;
+    for (const Group& g : groups) {
+        Box v;
+        for (int a = 0; a < 3; ++a) {
+            v.min[a] = std::max(box.min[a], g.lo[a] * B);
+            v.max[a] = std::min(box.max[a], uint32_t(std::min<uint64_t>(uint64_t(g.hi[a]) * B, vol.dim[a])));
+        }
+        out.push_back(v);
+    }
+    std::sort(out.begin(), out.end(), [](const Box& p, const Box& q) {
+        return std::tie(p.min[2], p.min[1], p.min[0]) < std::tie(q.min[2], q.min[1], q.min[0]);
+    });
+    return out;
 }
 
 Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& o) {

@@ -90,6 +90,15 @@ struct ExtractResult {
 /// stream error in a decoded brick, cancellation. An empty result is not an error.
 Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& options);
 
+/// Where the selection lies, as boxes to extract one at a time (full-resolution voxels,
+/// half-open, within options.box): the bricks whose palettes hold a selected label, in groups of
+/// 26-connected bricks, merged until no two groups' boxes overlap, each the box of its bricks.
+/// No selected voxel of one box touches another box's, so meshes or images extracted box by box
+/// are those of the whole selection, while a selection scattered over the volume never makes
+/// one box of it (a label in two corners: two small boxes). More than `maxBoxes` groups: their
+/// union, one box. Empty: no brick holds a selected label. Errors as extractLabels' selection.
+Result<std::vector<Box>> selectionBoxes(const CsgvFile& file, const ExtractOptions& options, size_t maxBoxes = 256);
+
 /// The corner geometry (CsgvFile::metadata's convention: origin at the minimum corner of node 0)
 /// of an extracted image, so it overlays the volume: spacing times 2^lod, origin moved to the
 /// output's first node.
