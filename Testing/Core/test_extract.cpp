@@ -312,9 +312,11 @@ TEST_P(ExtractFixture, SelectionBoxesAreDisjointAndExtractTheSameVoxels) {
         o.threads = 2;
         Result<ExtractResult> whole = extractLabels(f, o);
         ASSERT_TRUE(whole.isOk()) << whole.message();
-        Result<std::vector<Box>> boxes = selectionBoxes(f, o);
+        for (size_t most : {size_t(256), size_t(3)}) { // 3: neighbouring groups joined
+        Result<std::vector<Box>> boxes = selectionBoxes(f, o, most);
         ASSERT_TRUE(boxes.isOk()) << boxes.message();
         ASSERT_FALSE(boxes->empty());
+        EXPECT_LE(boxes->size(), most);
         for (size_t i = 0; i < boxes->size(); ++i)
             for (size_t j = i + 1; j < boxes->size(); ++j) {
                 bool apart = false;
@@ -339,6 +341,7 @@ TEST_P(ExtractFixture, SelectionBoxesAreDisjointAndExtractTheSameVoxels) {
             expectMatchesOracle(f, ob, *r, *full, lo, hi);
         }
         EXPECT_EQ(voxels, whole->voxels) << GetParam() << ": the boxes hold every selected voxel once";
+        }
     }
 }
 
@@ -370,7 +373,22 @@ TEST(Extract, AScatteredLabelGetsABoxPerPlace) {
     EXPECT_EQ((*boxes)[1].max, (std::array<uint32_t, 3>{64, 64, 64}));
     o.labels = {7, 9};
     EXPECT_EQ(selectionBoxes(f, o)->size(), 3u);
-    EXPECT_EQ(selectionBoxes(f, o, 2)->size(), 1u) << "more groups than allowed: their union";
+    // More groups than boxes allowed: neighbours joined, at most that many boxes, disjoint, and
+    // every selected voxel still in one of them.
+    for (size_t most : {1u, 2u}) {
+        Result<std::vector<Box>> few = selectionBoxes(f, o, most);
+        ASSERT_TRUE(few.isOk());
+        EXPECT_GE(few->size(), 1u);
+        EXPECT_LE(few->size(), most);
+        uint64_t voxels = 0;
+        for (const Box& b : *few) {
+            ExtractOptions ob = o;
+            ob.hasBox = true;
+            ob.box = b;
+            voxels += extractLabels(f, ob)->voxels;
+        }
+        EXPECT_EQ(voxels, 3u * 64u) << "at most " << most << " boxes";
+    }
     o.labels = {5};
     EXPECT_FALSE(selectionBoxes(f, o).isOk() && !selectionBoxes(f, o)->empty()) << "a label no brick holds: no box";
 }

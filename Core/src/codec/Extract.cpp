@@ -195,22 +195,38 @@ Result<std::vector<Box>> selectionBoxes(const CsgvFile& file, const ExtractOptio
                     }
         }
         groups.push_back(g);
-        if (groups.size() > maxBoxes) break;
     }
     auto overlap = [](const Group& p, const Group& q) {
         for (int a = 0; a < 3; ++a)
             if (p.hi[a] <= q.lo[a] || q.hi[a] <= p.lo[a]) return false;
         return true;
     };
-    if (groups.size() > maxBoxes) { // one box: the union
-        Group u = groups.front();
-        for (uint64_t b : marked)
-            for (int a = 0; a < 3; ++a) {
-                const uint32_t c = a == 0 ? uint32_t(b % grid[0]) : a == 1 ? uint32_t(b / grid[0] % grid[1]) : uint32_t(b / grid[0] / grid[1]);
-                u.lo[a] = std::min(u.lo[a], c);
-                u.hi[a] = std::max(u.hi[a], c + 1);
-            }
-        groups.assign(1, u);
+    auto join = [](Group& into, const Group& g) {
+        for (int a = 0; a < 3; ++a) {
+            into.lo[a] = std::min(into.lo[a], g.lo[a]);
+            into.hi[a] = std::max(into.hi[a], g.hi[a]);
+        }
+    };
+    if (groups.size() > std::max<size_t>(maxBoxes, 1)) {
+        // More groups than boxes: neighbours in Morton order of their corners joined, maxBoxes
+        // runs of them (nearby groups share a box; far ones do not, unlike one box of them all).
+        auto morton = [](const Group& g) {
+            uint64_t m = 0;
+            for (int bit = 0; bit < 21; ++bit)
+                for (int a = 0; a < 3; ++a) m |= uint64_t((g.lo[a] >> bit) & 1u) << (3 * bit + a);
+            return m;
+        };
+        std::sort(groups.begin(), groups.end(), [&](const Group& p, const Group& q) { return morton(p) < morton(q); });
+        const size_t runs = std::max<size_t>(maxBoxes, 1);
+        std::vector<Group> joined;
+        for (size_t r = 0; r < runs; ++r) {
+            const size_t from = groups.size() * r / runs, to = groups.size() * (r + 1) / runs;
+            if (from == to) continue;
+            Group u = groups[from];
+            for (size_t i = from + 1; i < to; ++i) join(u, groups[i]);
+            joined.push_back(u);
+        }
+        groups.swap(joined);
     }
     // Merged while two boxes overlap (a group nested in another's box would be extracted twice).
     for (bool merged = true; merged;) {
@@ -218,10 +234,7 @@ Result<std::vector<Box>> selectionBoxes(const CsgvFile& file, const ExtractOptio
         for (size_t i = 0; i < groups.size() && !merged; ++i)
             for (size_t j = i + 1; j < groups.size() && !merged; ++j)
                 if (overlap(groups[i], groups[j])) {
-                    for (int a = 0; a < 3; ++a) {
-                        groups[i].lo[a] = std::min(groups[i].lo[a], groups[j].lo[a]);
-                        groups[i].hi[a] = std::max(groups[i].hi[a], groups[j].hi[a]);
-                    }
+                    join(groups[i], groups[j]);
                     groups.erase(groups.begin() + std::ptrdiff_t(j));
                     merged = true;
                 }

@@ -95,8 +95,9 @@ Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& 
 /// 26-connected bricks, merged until no two groups' boxes overlap, each the box of its bricks.
 /// No selected voxel of one box touches another box's, so meshes or images extracted box by box
 /// are those of the whole selection, while a selection scattered over the volume never makes
-/// one box of it (a label in two corners: two small boxes). More than `maxBoxes` groups: their
-/// union, one box. Empty: no brick holds a selected label. Errors as extractLabels' selection.
+/// one box of it (a label in two corners: two small boxes). More than `maxBoxes` groups: runs
+/// of neighbours in Morton order joined into at most `maxBoxes` boxes (then merged where they
+/// overlap). Empty: no brick holds a selected label. Errors as extractLabels' selection.
 Result<std::vector<Box>> selectionBoxes(const CsgvFile& file, const ExtractOptions& options, size_t maxBoxes = 256);
 
 /// The corner geometry (CsgvFile::metadata's convention: origin at the minimum corner of node 0)
