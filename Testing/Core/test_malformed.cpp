@@ -18,6 +18,7 @@
 
 #include "csgv/codec/Container.h"
 #include "csgv/codec/Decoder.h"
+#include "csgv/codec/Palettes.h"
 #include "csgv/base/Morton.h"
 
 #include <gtest/gtest.h>
@@ -107,7 +108,7 @@ Status reparse(const CompressedVolume& v) {
     const Status parsed = parseStatus(bytes);
     if (!parsed) return parsed;
     const CompressedVolume back = *csgv::parseCsgv(bytes.data(), bytes.size());
-    const std::vector<uint64_t> unsound = csgv::unsoundBricks(back);
+    const std::vector<uint64_t> unsound = csgv::summarizePalettes(back, 0).unsound;
     const Status whole = csgv::checkContainer(back);
     EXPECT_EQ(whole.isOk(), unsound.empty());
     if (unsound.empty()) return whole;
@@ -698,7 +699,7 @@ TEST(MalformedContainer, BrickHeadersAreCheckedWhenReached) {
         const std::vector<uint8_t> bytes = csgv::serializeCsgv(v);
         csgv::Result<CompressedVolume> back = csgv::parseCsgv(bytes.data(), bytes.size());
         ASSERT_TRUE(back.isOk()) << name << ": " << back.message();
-        EXPECT_EQ(csgv::unsoundBricks(*back), std::vector<uint64_t>{bad}) << name;
+        EXPECT_EQ(csgv::summarizePalettes(*back, 0).unsound, std::vector<uint64_t>{bad}) << name;
         EXPECT_FALSE(csgv::brickSound(*back, bad));
         csgv::BrickDecoder dec(*back), ref(good);
         for (uint64_t b = 0; b < good.brickCount(); ++b) {
@@ -745,7 +746,7 @@ TEST(MalformedContainer, APieceCarriesABadBrickOnToBeNamedWhenReached) {
     for (int from = 0; from < 2; ++from) {
         csgv::Result<CompressedVolume> piece = from ? csgv::extractPiece(*whole, box) : csgv::readCsgvPiece(path, box);
         ASSERT_TRUE(piece.isOk()) << piece.message();
-        EXPECT_EQ(csgv::unsoundBricks(*piece), std::vector<uint64_t>{0}) << "the box's first brick";
+        EXPECT_EQ(csgv::summarizePalettes(*piece, 0).unsound, std::vector<uint64_t>{0}) << "the box's first brick";
         csgv::BrickDecoder dec(*piece);
         EXPECT_TRUE(failsWith(dec.decode(0, 0), {"brick 0:", "exceeds the file's largest palette"}));
         for (uint64_t b = 1; b < piece->brickCount(); ++b) EXPECT_TRUE(dec.decode(b, 0).isOk()) << b;

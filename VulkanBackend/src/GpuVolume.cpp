@@ -118,7 +118,6 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (g->m_palettes->first.size() != volume.brickCount())
         return Status::error("the palette summary given is not this volume's");
     g->m_labels = storedLabels(*g->m_palettes, !options.owned.empty());
-    g->m_unsound = g->m_labels.unsound;
     std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);

@@ -8,7 +8,6 @@ namespace csgv::gpu {
 StoredLabels storedLabels(const PaletteSummary& palettes, bool piece) {
     StoredLabels out;
     out.largest = palettes.largest;
-    out.unsound = palettes.unsound;
     // Ids only where a dense table of the labels themselves would be too large, and not for an
     // MPI rank's piece (whose rays meet other ranks' labels).
     if (piece || palettes.largest < kMaterialTableLabels || palettes.entries > (uint64_t(1) << 25) || !palettes.labelsComplete)

@@ -185,8 +185,6 @@ Status checkLayout(const CompressedVolume& vol);
 Status checkBrick(const CompressedVolume& vol, uint64_t i);
 /// checkBrick without the message (a sweep's test, before it reads a palette).
 bool brickSound(const CompressedVolume& vol, uint64_t i);
-/// Every brick that fails checkBrick, ascending (one sweep that gives a mapped file's pages back).
-std::vector<uint64_t> unsoundBricks(const CompressedVolume& vol);
 /// checkLayout and checkBrick of every brick: all container-level checks (an encoder's output,
 /// a writer's input). Stream contents are checked while decoding.
 Status checkContainer(const CompressedVolume& vol);

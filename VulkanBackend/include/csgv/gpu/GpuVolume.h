@@ -101,11 +101,14 @@ public:
     bool owns(uint64_t b) const;
     /// The bricks whose header words fail checkBrick (found when uploaded), ascending: never
     /// decoded or drawn (the renderer draws them empty and counts them as bad bricks).
-    const std::vector<uint64_t>& unsound() const { return m_unsound; }
+    const std::vector<uint64_t>& unsound() const { return m_palettes->unsound; }
     /// What the palettes hold (GpuVolumeOptions::palettes, or made when uploaded): among it each
     /// brick's first palette entry, which the visibility sweep takes without reading the palette.
     const PaletteSummary& palettes() const { return *m_palettes; }
-    bool sound(uint64_t b) const { return m_unsound.empty() || !std::binary_search(m_unsound.begin(), m_unsound.end(), b); }
+    bool sound(uint64_t b) const {
+        const std::vector<uint64_t>& bad = m_palettes->unsound;
+        return bad.empty() || !std::binary_search(bad.begin(), bad.end(), b);
+    }
     const BrickBox& owned() const { return m_owned; }
     /// Whether create() separates `volume` under `budget` bytes (0 is not automatic here).
     static bool separates(const CompressedVolume& volume, uint64_t budget, DetailSeparation separation);
@@ -169,7 +172,6 @@ private:
     Context& m_context;
     const CompressedVolume& m_volume;
     BrickBox m_owned;
-    std::vector<uint64_t> m_unsound;
     std::shared_ptr<const PaletteSummary> m_palettes;
     std::vector<Buffer> m_arrays;
     Buffer m_addresses, m_starts;

@@ -31,9 +31,6 @@ constexpr uint32_t kMaterialTableLabels = kSummaryLabels; // a palette summary l
 struct StoredLabels {
     uint32_t largest = 0;
     std::vector<uint32_t> ids;
-    /// The bricks whose header words fail checkBrick, ascending: their palettes are not read
-    /// (found in the same sweep).
-    std::vector<uint64_t> unsound;
 };
 StoredLabels storedLabels(const CompressedVolume& volume, bool piece);
 /// The same from the volume's palette summary (summarizePalettes with a cap of at least
