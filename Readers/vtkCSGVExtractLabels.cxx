@@ -308,49 +308,27 @@ int vtkCSGVExtractLabels::RequestData(
   cellLabels->SetName("Label");
   uint64_t decoded = 0, total = 0;
   bool any = false;
-  const csgv::Box userBox = o.box;
+  total = parsed->volume.brickCount();
   for (size_t gi = 0; gi < groups.size(); ++gi)
   {
     o.labels = groups[gi];
-    o.box = userBox;
-    // Where the group lies, box by box (csgv::selectionBoxes): a label in two far corners of the
-    // volume is two small boxes, never one of the whole volume.
-    csgv::Result<std::vector<csgv::Box>> boxes = csgv::selectionBoxes(file, o);
-    if (!boxes)
+    const double from = double(gi) / double(groups.size()), width = 1.0 / double(groups.size());
+    o.progress = [this, from, width](double f) {
+      this->UpdateProgress(from + width * f);
+      return !this->GetAbortExecute();
+    };
+    // Where the group lies, box by box: a label in two far corners of the volume is two small
+    // boxes, never one of the whole volume.
+    const csgv::Status s = csgv::extractByBoxes(file, o, [&](csgv::ExtractResult& r) {
+      any = true;
+      appendMeshes(r, file, parsed->geometry, points, polys, cellLabels);
+      return csgv::Status::ok();
+    }, &decoded);
+    if (!s)
     {
-      vtkErrorMacro(<< boxes.message());
+      vtkErrorMacro(<< s.message());
       output->Initialize();
       return 1;
-    }
-    total = parsed->volume.brickCount();
-    if (boxes->empty())
-    {
-      boxes->push_back(userBox); // no brick holds them: the extraction says why (or finds none)
-    }
-    for (size_t bi = 0; bi < boxes->size(); ++bi)
-    {
-      o.box = (*boxes)[bi];
-      const double from = (double(gi) + double(bi) / double(boxes->size())) / double(groups.size());
-      const double width = 1.0 / double(groups.size()) / double(boxes->size());
-      o.progress = [this, from, width](double f) {
-        this->UpdateProgress(from + 0.8 * width * f);
-        return !this->GetAbortExecute();
-      };
-      csgv::Result<csgv::ExtractResult> r = csgv::extractLabels(file, o);
-      if (!r)
-      {
-        vtkErrorMacro(<< r.message());
-        output->Initialize();
-        return 1;
-      }
-      decoded += r->bricksDecoded;
-      if (r->empty())
-      {
-        continue;
-      }
-      any = true;
-      appendMeshes(*r, file, parsed->geometry, points, polys, cellLabels);
-      this->UpdateProgress(from + width);
     }
   }
   this->BricksDecoded = int(std::min<uint64_t>(decoded, VTK_INT_MAX));

@@ -254,6 +254,26 @@ Result<std::vector<Box>> selectionBoxes(const CsgvFile& file, const ExtractOptio
     return out;
 }
 
+Status extractByBoxes(const CsgvFile& file, const ExtractOptions& options,
+                      const std::function<Status(ExtractResult&)>& take, uint64_t* bricksDecoded) {
+    Result<std::vector<Box>> boxes = selectionBoxes(file, options);
+    if (!boxes) return boxes.status();
+    if (boxes->empty()) boxes->push_back(options.hasBox ? options.box : Box{{0, 0, 0}, file.volume.dim});
+    ExtractOptions o = options;
+    o.hasBox = true;
+    const double n = double(boxes->size());
+    for (size_t k = 0; k < boxes->size(); ++k) {
+        o.box = (*boxes)[k];
+        if (options.progress) o.progress = [&options, k, n](double f) { return options.progress((double(k) + f) / n); };
+        Result<ExtractResult> r = extractLabels(file, o);
+        if (!r) return r.status();
+        if (bricksDecoded) *bricksDecoded += r->bricksDecoded;
+        if (r->empty()) continue;
+        if (Status s = take(*r); !s) return s;
+    }
+    return Status::ok();
+}
+
 Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& o) {
     const CompressedVolume& vol = file.volume;
     const uint32_t L = vol.levels();

@@ -97,32 +97,23 @@ Result<MeshSummary> extractMeshes(const CsgvFile& file, const ExtractOptions& op
         ExtractOptions o = options;
         o.labels = {labels[i]};
         o.mask = true;
-        // The label where it lies, box by box (selectionBoxes): its mask never spans the volume
-        // between two far places. No box (no brick holds it): one extraction says why.
-        Result<std::vector<Box>> boxes = selectionBoxes(file, o);
-        if (!boxes) return boxes.status();
-        if (boxes->empty()) boxes->push_back(options.hasBox ? options.box : Box{{0, 0, 0}, file.volume.dim});
+        if (options.progress)
+            o.progress = [&options, i, n](double f) { return options.progress((double(i) + f) / n); };
+        // The label where it lies, box by box: its mask never spans the volume between two far
+        // places.
         bool any = false;
-        for (size_t k = 0; k < boxes->size(); ++k) {
-            o.hasBox = true;
-            o.box = (*boxes)[k];
-            const double at = double(i) + double(k) / double(boxes->size()), span = 1.0 / double(boxes->size());
-            if (options.progress)
-                o.progress = [&options, at, span, n](double f) { return options.progress((at + span * f) / n); };
-            Result<ExtractResult> r = extractLabels(file, o);
-            if (!r) return r.status();
-            s.bricksDecoded += r->bricksDecoded;
-            if (r->empty()) continue;
+        Status st = extractByBoxes(file, o, [&](ExtractResult& r) -> Status {
             any = true;
-            s.voxels += r->voxels;
-            const Geometry g = extractGeometry(file.metadata.geometry, options.lod, r->offset);
-            Result<LabelMesh> m = meshFromMask(r->mask.data(), r->dim, g, labels[i]);
+            s.voxels += r.voxels;
+            const Geometry g = extractGeometry(file.metadata.geometry, options.lod, r.offset);
+            Result<LabelMesh> m = meshFromMask(r.mask.data(), r.dim, g, labels[i]);
             if (!m) return m.status();
-            *r = ExtractResult();
+            r = ExtractResult();
             s.vertices += m->vertices.size();
             s.quads += m->quads.size();
-            if (Status st = sink.add(*m); !st) return st;
-        }
+            return sink.add(*m);
+        }, &s.bricksDecoded);
+        if (!st) return st;
         s.labelsWithVoxels += any ? 1 : 0;
     }
     return s;

@@ -100,6 +100,14 @@ Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& 
 /// overlap). Empty: no brick holds a selected label. Errors as extractLabels' selection.
 Result<std::vector<Box>> selectionBoxes(const CsgvFile& file, const ExtractOptions& options, size_t maxBoxes = 256);
 
+/// Extracts the selection box by box (selectionBoxes within options.box; when no brick holds it,
+/// one extraction of options.box, which says why or finds nothing): `take(result)` for each box's
+/// non-empty result, in turn, so that one box's output can be dropped before the next is made.
+/// options.progress spans all the boxes; `bricksDecoded` adds up what each decoded. The first
+/// error (of an extraction or of `take`) ends it.
+Status extractByBoxes(const CsgvFile& file, const ExtractOptions& options,
+                      const std::function<Status(ExtractResult&)>& take, uint64_t* bricksDecoded = nullptr);
+
 /// The corner geometry (CsgvFile::metadata's convention: origin at the minimum corner of node 0)
 /// of an extracted image, so it overlays the volume: spacing times 2^lod, origin moved to the
 /// output's first node.
