@@ -498,3 +498,82 @@ TEST(Materials, EffectiveMaterialsWithoutAnOverlayAreTheMaterials) {
     const int m = e.materialOf(8);
     EXPECT_TRUE(m < 0 || drawn.materials[size_t(m)].opacity == 0.0f);
 }
+
+TEST(Materials, SelectionParsesStrictlyEditsAndRoundTrips) {
+    MaterialDocument d = docOf(R"j({"materials": [], "selected": [9, 3, 3], "selectionStyle": "dim",
+                                    "selectionColor": [0, 1, 0.5]})j");
+    EXPECT_EQ(d.selected, (std::vector<uint32_t>{3, 9}));
+    EXPECT_EQ(d.selectionStyle, MaterialDocument::SelectionStyle::Dim);
+    EXPECT_EQ(d.selectionColor, (std::array<float, 3>{{0, 1, 0.5f}}));
+    const MaterialDocument back = docOf(serializeMaterials(d));
+    EXPECT_EQ(back.selected, d.selected);
+    EXPECT_EQ(back.selectionStyle, d.selectionStyle);
+    EXPECT_EQ(back.selectionColor, d.selectionColor);
+    // The defaults are not written: a document without a selection reads as it always did.
+    EXPECT_EQ(serializeMaterials(docOf(kTwoMaterials)).find("select"), std::string::npos);
+    editSelection(d, {7, 3, 7}, SelectionEdit::Add);
+    EXPECT_EQ(d.selected, (std::vector<uint32_t>{3, 7, 9}));
+    editSelection(d, {3, 4}, SelectionEdit::Remove);
+    EXPECT_EQ(d.selected, (std::vector<uint32_t>{7, 9}));
+    editSelection(d, {1}, SelectionEdit::Replace);
+    EXPECT_EQ(d.selected, (std::vector<uint32_t>{1}));
+    EXPECT_EQ(d.selectionStyle, MaterialDocument::SelectionStyle::Dim); // the look stays
+    editSelection(d, {}, SelectionEdit::Replace);
+    EXPECT_TRUE(d.selected.empty());
+    for (const char* bad : {R"j({"selected": [-2]})j", R"j({"selected": 3})j", R"j({"selectionStyle": "glow"})j",
+                            R"j({"selectionStyle": 1})j", R"j({"selectionColor": [1, 0]})j",
+                            R"j({"selectionColor": [1, 0, 2]})j", R"j({"selectionColor": "red"})j"}) {
+        Result<MaterialDocument> r = parseMaterials(bad);
+        ASSERT_FALSE(r.isOk()) << bad;
+        EXPECT_NE(r.message().find("select"), std::string::npos) << r.message();
+    }
+}
+
+TEST(Materials, SelectionHighlightsOrDimsOnlyWhatIsDrawn) {
+    MaterialDocument d = docOf(kTwoMaterials);
+    const std::vector<std::string> before = namesTaken(effectiveMaterials(d, kindOf), 12);
+    hideLabelOver(d, 3);
+    editSelection(d, {2, 3, 6, 8, 10}, SelectionEdit::Replace); // 3 hidden, 10 no material takes
+    MaterialDocument drawn = effectiveMaterials(d, kindOf);
+    std::vector<std::string> want = before;
+    want[2] = want[6] = want[8] = "selected";
+    want[3] = "";
+    std::vector<std::string> got = namesTaken(drawn, 12);
+    MaterialEvaluator e(drawn, kindOf);
+    if (const int m = e.materialOf(3); m >= 0 && drawn.materials[size_t(m)].opacity == 0) got[3] = "";
+    EXPECT_EQ(got, want);
+    for (uint32_t l : {2u, 6u, 8u}) {
+        const int m = e.materialOf(l);
+        EXPECT_EQ(e.colorOf(l, m), (std::array<float, 3>{{1, 0, 1}})) << l;
+        EXPECT_EQ(drawn.materials[size_t(m)].opacity, 1.0f) << l; // "rest" is translucent: the highlight is not
+    }
+    // The rest as the document without a selection draws it.
+    MaterialDocument unselected = d;
+    editSelection(unselected, {}, SelectionEdit::Replace);
+    const MaterialDocument plain = effectiveMaterials(unselected, kindOf);
+    MaterialEvaluator p(plain, kindOf);
+    for (uint32_t l : {1u, 4u, 5u, 7u, 9u, 11u}) {
+        EXPECT_EQ(e.colorOf(l, e.materialOf(l)), p.colorOf(l, p.materialOf(l))) << l;
+        EXPECT_EQ(drawn.materials[size_t(e.materialOf(l))].opacity, plain.materials[size_t(p.materialOf(l))].opacity);
+    }
+    // Consecutive selected labels share one highlight material.
+    editSelection(d, {4, 5, 6, 7}, SelectionEdit::Replace);
+    drawn = effectiveMaterials(d, kindOf);
+    EXPECT_EQ(drawn.materials.size(), plain.materials.size() + 1);
+
+    // "dim": the selected labels keep their look, the others fade.
+    d.selectionStyle = MaterialDocument::SelectionStyle::Dim;
+    editSelection(d, {2, 3, 6, 8}, SelectionEdit::Replace);
+    drawn = effectiveMaterials(d, kindOf);
+    MaterialEvaluator dim(drawn, kindOf);
+    for (uint32_t l = 0; l < 12; ++l) {
+        const int m = dim.materialOf(l), q = p.materialOf(l);
+        ASSERT_EQ(m < 0, q < 0) << l;
+        if (m < 0) continue;
+        const float wantOpacity = plain.materials[size_t(q)].opacity * (l == 2 || l == 6 || l == 8 ? 1.0f : kDimmedOpacity);
+        EXPECT_FLOAT_EQ(drawn.materials[size_t(m)].opacity, wantOpacity) << l;
+        EXPECT_EQ(dim.colorOf(l, m), p.colorOf(l, q)) << l;
+    }
+    const int hidden = dim.materialOf(3); // hidden stays hidden
+    EXPECT_TRUE(hidden < 0 || drawn.materials[size_t(hidden)].opacity == 0.0f);
+}

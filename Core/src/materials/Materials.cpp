@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -326,13 +327,34 @@ std::array<float, 3> Colormap::at(double t) const {
 
 uint32_t labelHash(uint32_t x) { return layout::labelHash(x); } // Palette.h, shared with the GPU
 
+/// "selectionStyle" ("highlight" or "dim") and "selectionColor" ([r, g, b] in [0, 1]).
+Status parseSelectionLook(const json& j, MaterialDocument& doc) {
+    if (j.contains("selectionStyle")) {
+        const json& v = j["selectionStyle"];
+        if (v == "highlight") doc.selectionStyle = MaterialDocument::SelectionStyle::Highlight;
+        else if (v == "dim") doc.selectionStyle = MaterialDocument::SelectionStyle::Dim;
+        else return Status::error("material document: 'selectionStyle' must be \"highlight\" or \"dim\", not " + jsonText(v));
+    }
+    if (j.contains("selectionColor")) {
+        const json& v = j["selectionColor"];
+        bool ok = v.is_array() && v.size() == 3;
+        for (size_t i = 0; ok && i < 3; ++i) {
+            ok = v[i].is_number() && v[i].get<double>() >= 0 && v[i].get<double>() <= 1;
+            if (ok) doc.selectionColor[i] = float(v[i].get<double>());
+        }
+        if (!ok) return Status::error("material document: 'selectionColor' must be [r, g, b] in [0, 1], not " + jsonText(v));
+    }
+    return Status::ok();
+}
+
 Result<MaterialDocument> parseMaterials(const std::string& text) {
     const std::string deep = jsonTooDeep(text.data(), text.size());
     if (!deep.empty()) return Status::error("material document: " + deep);
     json j = json::parse(text, nullptr, false);
     if (j.is_discarded()) return Status::error("material document: not valid JSON");
     if (!j.is_object()) return Status::error("material document: must be a JSON object");
-    Status s = onlyKeys(j, {"version", "materials", "hidden", "only"}, "material document");
+    Status s = onlyKeys(j, {"version", "materials", "hidden", "only", "selected", "selectionStyle", "selectionColor"},
+                        "material document");
     if (!s) return s;
     MaterialDocument doc;
     if (j.contains("version")) {
@@ -341,6 +363,8 @@ Result<MaterialDocument> parseMaterials(const std::string& text) {
     }
     if (!(s = labelList(j, "hidden", doc.hidden))) return s;
     if (!(s = labelList(j, "only", doc.only))) return s;
+    if (!(s = labelList(j, "selected", doc.selected))) return s;
+    if (!(s = parseSelectionLook(j, doc))) return s;
     if (!j.contains("materials")) {
         doc.materials = defaultMaterials().materials;
         return doc;
@@ -389,6 +413,10 @@ std::string serializeMaterials(const MaterialDocument& doc, int indent) {
     // Written only when set, so documents without an overlay read as they always did.
     if (!doc.hidden.empty()) out["hidden"] = doc.hidden;
     if (!doc.only.empty()) out["only"] = doc.only;
+    if (!doc.selected.empty()) out["selected"] = doc.selected;
+    if (doc.selectionStyle != MaterialDocument::SelectionStyle::Highlight) out["selectionStyle"] = "dim";
+    if (doc.selectionColor != MaterialDocument{}.selectionColor)
+        out["selectionColor"] = {shortest(doc.selectionColor[0]), shortest(doc.selectionColor[1]), shortest(doc.selectionColor[2])};
     // Names set through an API (not parsed JSON) may hold bytes that are not UTF-8: U+FFFD, not a throw.
     return out.dump(indent, ' ', false, json::error_handler_t::replace);
 }
@@ -462,6 +490,23 @@ void showAllLabels(MaterialDocument& doc) {
     doc.only.clear();
 }
 
+void editSelection(MaterialDocument& doc, const std::vector<uint32_t>& labels, SelectionEdit edit) {
+    std::vector<uint32_t> sorted = labels;
+    std::sort(sorted.begin(), sorted.end());
+    sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+    std::vector<uint32_t> out;
+    switch (edit) {
+    case SelectionEdit::Replace: out = std::move(sorted); break;
+    case SelectionEdit::Add:
+        std::set_union(doc.selected.begin(), doc.selected.end(), sorted.begin(), sorted.end(), std::back_inserter(out));
+        break;
+    case SelectionEdit::Remove:
+        std::set_difference(doc.selected.begin(), doc.selected.end(), sorted.begin(), sorted.end(), std::back_inserter(out));
+        break;
+    }
+    doc.selected = std::move(out);
+}
+
 MaterialDocument effectiveMaterials(const MaterialDocument& doc,
                                     const std::function<double(const std::string&, uint32_t)>& attribute) {
     const auto value = [&attribute](const std::string& name, uint32_t label) {
@@ -472,9 +517,37 @@ MaterialDocument effectiveMaterials(const MaterialDocument& doc,
     if (!doc.only.empty()) {
         // Hidden labels are skipped here, so nothing is left to hide.
         out.materials = onlyMaterials(doc, MaterialEvaluator(doc, value));
-        return out;
+    } else {
+        out.materials = hideLabels(doc.materials, doc.hidden, value);
     }
-    out.materials = hideLabels(doc.materials, doc.hidden, value);
+    if (doc.selected.empty()) return out;
+    // The selection over what the overlay leaves drawn.
+    const MaterialEvaluator drawn(out, value);
+    std::vector<Material> front;
+    int last = -1;
+    for (uint32_t x : doc.selected) {
+        const int m = drawn.materialOf(x);
+        if (m < 0 || out.materials[size_t(m)].opacity <= 0) continue; // not drawn: not shown selected
+        const bool highlight = doc.selectionStyle == MaterialDocument::SelectionStyle::Highlight;
+        if ((highlight || m == last) && !front.empty() && front.back().filterMax == double(x) - 1) {
+            front.back().filterMax = double(x);
+            continue;
+        }
+        if (highlight) {
+            Material h;
+            h.name = "selected";
+            h.colorMode = Material::ColorMode::Constant;
+            h.rgb = doc.selectionColor;
+            front.push_back(labelOnly(h, double(x)));
+        } else {
+            front.push_back(labelOnly(out.materials[size_t(m)], double(x)));
+        }
+        last = m;
+    }
+    if (doc.selectionStyle == MaterialDocument::SelectionStyle::Dim)
+        for (Material& m : out.materials) m.opacity *= kDimmedOpacity;
+    front.insert(front.end(), std::make_move_iterator(out.materials.begin()), std::make_move_iterator(out.materials.end()));
+    out.materials = std::move(front);
     return out;
 }
 

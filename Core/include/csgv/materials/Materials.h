@@ -24,6 +24,12 @@
 ///   drawn). Labels are integers in [0, 4294967294]; both default to empty and are written only
 ///   when not empty. A label in both is hidden. effectiveMaterials() turns a document with an
 ///   overlay into the plain one the renderer draws.
+/// - The label selection (issue 41) is a third overlay: `"selected": [labels]` (sorted, unique, as
+///   the other two), shown in the style `"selectionStyle"`: `"highlight"` (the default: selected
+///   labels drawn opaque in `"selectionColor"`, default [1, 0, 1], ParaView's selection magenta)
+///   or `"dim"` (selected labels keep their look, every other label's opacity is multiplied by
+///   kDimmedOpacity). Only labels the document draws are shown selected: a hidden label stays
+///   hidden. The keys are written only when they differ from the defaults.
 
 #include "csgv/base/Status.h"
 
@@ -64,11 +70,19 @@ struct Material {
     float emission = 0;
 };
 
+/// The opacity factor of the labels that are not selected in the selection style "dim".
+constexpr float kDimmedOpacity = 0.15f;
+
 struct MaterialDocument {
+    enum class SelectionStyle { Highlight, Dim };
+
     int version = 1;
     std::vector<Material> materials;
     std::vector<uint32_t> hidden; ///< labels not drawn whatever material takes them (sorted, unique)
     std::vector<uint32_t> only;   ///< when not empty, the only labels drawn (sorted, unique)
+    std::vector<uint32_t> selected; ///< the label selection, shown in selectionStyle (sorted, unique)
+    SelectionStyle selectionStyle = SelectionStyle::Highlight;
+    std::array<float, 3> selectionColor{{1, 0, 1}}; ///< "highlight": the selected labels' colour
 };
 
 /// Parses a document; errors name the material (its number in the list, from 1, and its name) and
@@ -102,10 +116,18 @@ void hideLabelOver(MaterialDocument& doc, uint32_t label);
 void showOnlyLabelOver(MaterialDocument& doc, uint32_t label);
 /// Shows every label the materials take: clears "hidden" and "only".
 void showAllLabels(MaterialDocument& doc);
+/// The label selection: `labels` (any order, repeats) replace it, are added to it or are removed
+/// from it; the style and colour stay.
+enum class SelectionEdit { Replace, Add, Remove };
+void editSelection(MaterialDocument& doc, const std::vector<uint32_t>& labels, SelectionEdit edit);
 /// The plain document (no overlay) that draws what `doc` means: with "only", one material per run
 /// of consecutive shown labels taking the same material, narrowed to them (the materials each
 /// label takes under `attribute`, as MaterialEvaluator decides); then each hidden label removed
 /// as hideLabel() does, its attribute values from `attribute` (an empty function: unknown).
+/// Then the selection: in front, one material per run of consecutive selected labels that this
+/// document draws (a material of non-zero opacity takes them) and that take the same material:
+/// "highlight" gives them selectionColor, opaque; "dim" keeps their material, narrowed to them,
+/// and every material after them has its opacity multiplied by kDimmedOpacity.
 /// Without an overlay, the materials as they are. This is the document the renderer and the
 /// label-colour query use.
 MaterialDocument effectiveMaterials(const MaterialDocument& doc,
