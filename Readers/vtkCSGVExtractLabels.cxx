@@ -23,6 +23,8 @@
 #include <vtkStringArray.h>
 #include <vtkTypeInt64Array.h>
 #include <vtkTypeUInt32Array.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkSmartPointer.h>
 
 #include <algorithm>
 #include <cctype>
@@ -171,6 +173,49 @@ void appendMeshes(const csgv::ExtractResult& r, const csgv::CsgvFile& file, cons
   }
 }
 
+/// The extracted image as cell data of `image`, in the volume's geometry at the result's level:
+/// "Mask" (uint8) or "Label" (the original labels: uint32, or int64 where the file's labels are
+/// wider than 32 bits; 0 where no selected label is).
+void fillImage(const csgv::ExtractResult& r, const csgv::CsgvFile& file, const csgv::Geometry& volume, vtkImageData* image)
+{
+  int ext[6];
+  for (int a = 0; a < 3; ++a)
+  {
+    ext[2 * a] = int(r.offset[size_t(a)]);
+    ext[2 * a + 1] = int(r.offset[size_t(a)] + r.dim[size_t(a)]);
+  }
+  image->SetExtent(ext);
+  csgvvtk::applyGeometry(image, volume, r.lod);
+  const vtkIdType n = vtkIdType(r.dim[0]) * r.dim[1] * r.dim[2];
+  if (!r.mask.empty())
+  {
+    vtkNew<vtkUnsignedCharArray> mask;
+    mask->SetName("Mask");
+    mask->SetNumberOfValues(n);
+    std::copy(r.mask.begin(), r.mask.end(), mask->GetPointer(0));
+    image->GetCellData()->SetScalars(mask);
+    return;
+  }
+  if (file.wideLabels)
+  {
+    vtkNew<vtkTypeInt64Array> labels;
+    labels->SetName("Label");
+    labels->SetNumberOfValues(n);
+    for (vtkIdType i = 0; i < n; ++i)
+    {
+      const uint32_t id = r.labels[size_t(i)];
+      labels->SetValue(i, id == csgv::kInvalidLabel ? 0 : file.originalLabel(id));
+    }
+    image->GetCellData()->SetScalars(labels);
+    return;
+  }
+  vtkNew<vtkTypeUInt32Array> labels;
+  labels->SetName("Label");
+  labels->SetNumberOfValues(n);
+  std::copy(r.labels.begin(), r.labels.end(), labels->GetPointer(0));
+  image->GetCellData()->SetScalars(labels);
+}
+
 } // namespace
 
 vtkCSGVExtractLabels::vtkCSGVExtractLabels()
@@ -209,6 +254,29 @@ int vtkCSGVExtractLabels::FillInputPortInformation(int, vtkInformation* info)
   return 1;
 }
 
+int vtkCSGVExtractLabels::FillOutputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkDataObject"); // meshes or an image: OutputType
+  return 1;
+}
+
+int vtkCSGVExtractLabels::RequestDataObject(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* info = outputVector->GetInformationObject(0);
+  vtkDataObject* output = info->Get(vtkDataObject::DATA_OBJECT());
+  const bool image = this->OutputType != MESHES;
+  if (!output || (image ? !vtkImageData::SafeDownCast(output) : !vtkPolyData::SafeDownCast(output)))
+  {
+    vtkSmartPointer<vtkDataObject> made;
+    if (image)
+      made = vtkSmartPointer<vtkImageData>::New();
+    else
+      made = vtkSmartPointer<vtkPolyData>::New();
+    info->Set(vtkDataObject::DATA_OBJECT(), made);
+  }
+  return 1;
+}
+
 int vtkCSGVExtractLabels::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
@@ -220,7 +288,7 @@ int vtkCSGVExtractLabels::RequestData(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
   vtkImageData* input = vtkImageData::GetData(inputVector[0], 0);
-  vtkPolyData* output = vtkPolyData::GetData(outputVector, 0);
+  vtkDataObject* output = vtkDataObject::GetData(outputVector, 0);
   if (!input || !output)
   {
     return 0;
@@ -283,6 +351,7 @@ int vtkCSGVExtractLabels::RequestData(
   // One extraction per label while there are few (each label's own bounding box: scattered
   // labels do not make one box of the whole volume), else one for all.
   const std::vector<int64_t> selected = o.labels;
+  uint64_t total = 0;
   std::vector<std::vector<int64_t>> groups;
   if (o.labels.size() <= kLabelsOneByOne)
   {
@@ -301,14 +370,41 @@ int vtkCSGVExtractLabels::RequestData(
     vtkErrorMacro(<< selected.size() << " labels selected, more than MaxLabels (" << this->MaxLabels << ")");
     return 1;
   }
+  total = parsed->volume.brickCount();
+  this->BricksTotal = int(std::min<uint64_t>(total, VTK_INT_MAX));
+  if (auto* image = vtkImageData::SafeDownCast(output))
+  {
+    // One image of the selection's bounding box (memory bounded by it: MaxOutputMiB).
+    o.labels = selected;
+    o.mask = this->OutputType == MASK;
+    o.progress = [this](double f) {
+      this->UpdateProgress(f);
+      return !this->GetAbortExecute();
+    };
+    csgv::Result<csgv::ExtractResult> r = csgv::extractLabels(file, o);
+    if (!r)
+    {
+      vtkErrorMacro(<< r.message());
+      return 1;
+    }
+    this->BricksDecoded = int(std::min<uint64_t>(r->bricksDecoded, VTK_INT_MAX));
+    if (r->empty())
+    {
+      vtkWarningMacro(<< "no voxel of the selected labels lies in the box");
+      return 1;
+    }
+    fillImage(*r, file, parsed->geometry, image);
+    this->UpdateProgress(1.0);
+    return 1;
+  }
+  vtkPolyData* meshes = vtkPolyData::SafeDownCast(output);
   vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
   vtkNew<vtkCellArray> polys;
   vtkNew<vtkTypeInt64Array> cellLabels;
   cellLabels->SetName("Label");
-  uint64_t decoded = 0, total = 0;
+  uint64_t decoded = 0;
   bool any = false;
-  total = parsed->volume.brickCount();
   for (size_t gi = 0; gi < groups.size(); ++gi)
   {
     o.labels = groups[gi];
@@ -342,10 +438,10 @@ int vtkCSGVExtractLabels::RequestData(
   {
     vtkWarningMacro(<< "label 0 is the background of the meshes: it gets no surface");
   }
-  output->SetPoints(points);
-  output->SetPolys(polys);
-  output->GetCellData()->AddArray(cellLabels);
-  output->GetCellData()->SetActiveScalars("Label");
+  meshes->SetPoints(points);
+  meshes->SetPolys(polys);
+  meshes->GetCellData()->AddArray(cellLabels);
+  meshes->GetCellData()->SetActiveScalars("Label");
   this->UpdateProgress(1.0);
   return 1;
 }
@@ -358,5 +454,6 @@ void vtkCSGVExtractLabels::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "VOI: " << this->VOI[0] << " " << this->VOI[1] << " " << this->VOI[2] << " "
      << this->VOI[3] << " " << this->VOI[4] << " " << this->VOI[5] << "\n";
   os << indent << "Level: " << this->Level << "\n";
+  os << indent << "OutputType: " << this->OutputType << "\n";
   os << indent << "BricksDecoded: " << this->BricksDecoded << " of " << this->BricksTotal << "\n";
 }

@@ -15,21 +15,36 @@
  * (the label image the meshes are made from, default 4096) refuse larger selections with a
  * message. Up to 256 labels are meshed one by one, each in its own bounding box (scattered
  * labels would otherwise make one box of most of the volume). BricksDecoded and BricksTotal
- * tell what it took.
+ * tell what it took. OutputType MASK or LABEL_IMAGE makes one image of the selection's bounding
+ * box instead (csgv::extractLabels over all the labels at once), cell data in the volume's
+ * geometry at Level, so it overlays the volume cell for cell.
  */
 #ifndef vtkCSGVExtractLabels_h
 #define vtkCSGVExtractLabels_h
 
 #include "CSGVReadersModule.h"
-#include "vtkPolyDataAlgorithm.h"
+#include "vtkDataObjectAlgorithm.h"
 
 #include <string>
 
-class CSGVREADERS_EXPORT vtkCSGVExtractLabels : public vtkPolyDataAlgorithm
+class CSGVREADERS_EXPORT vtkCSGVExtractLabels : public vtkDataObjectAlgorithm
 {
 public:
   static vtkCSGVExtractLabels* New();
-  vtkTypeMacro(vtkCSGVExtractLabels, vtkPolyDataAlgorithm);
+  vtkTypeMacro(vtkCSGVExtractLabels, vtkDataObjectAlgorithm);
+
+  /// What is made of the selection: surface meshes (vtkPolyData), or an image cropped to the
+  /// selection's bounding box (vtkImageData, cell data, the volume's geometry at Level): a mask
+  /// ("Mask", uint8: 1 where a selected label is) or a label image ("Label": the selected
+  /// labels, 0 elsewhere).
+  enum OutputTypes
+  {
+    MESHES = 0,
+    MASK = 1,
+    LABEL_IMAGE = 2
+  };
+  vtkSetClampMacro(OutputType, int, MESHES, LABEL_IMAGE);
+  vtkGetMacro(OutputType, int);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
   /// Original labels, separated by spaces or commas ("" with a Query).
@@ -58,6 +73,8 @@ protected:
   vtkCSGVExtractLabels();
   ~vtkCSGVExtractLabels() override;
   int FillInputPortInformation(int port, vtkInformation* info) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
+  int RequestDataObject(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
@@ -65,6 +82,7 @@ protected:
   std::string Query;
   int VOI[6] = { 0, VTK_INT_MAX, 0, VTK_INT_MAX, 0, VTK_INT_MAX };
   int Level = 0;
+  int OutputType = MESHES;
   int MaxLabels = 1000000;
   int MaxOutputMiB = 4096;
   int BricksDecoded = 0;

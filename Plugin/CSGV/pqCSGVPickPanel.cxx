@@ -1,11 +1,15 @@
 // SPDX-License-Identifier: MIT
 #include "pqCSGVPickPanel.h"
 
+#include "pqCSGVLabelSelection.h"
 #include "pqCSGVMaterialDocument.h"
 
 #include <pqActiveObjects.h>
 #include <pqApplicationCore.h>
 #include <pqDataRepresentation.h>
+#include <pqObjectBuilder.h>
+#include <pqOutputPort.h>
+#include <pqPipelineSource.h>
 #include <pqServerManagerModel.h>
 #include <pqUndoStack.h>
 #include <pqView.h>
@@ -13,6 +17,8 @@
 #include <vtkSMProxy.h>
 
 #include <QCheckBox>
+#include <QComboBox>
+#include <QLabel>
 #include <QHBoxLayout>
 #include <QJsonArray>
 #include <QMouseEvent>
@@ -69,6 +75,32 @@ void pqCSGVPickPanel::build()
   buttons->addWidget(this->ShowOnly);
   buttons->addWidget(this->ShowAll);
   l->addLayout(buttons);
+  auto* selection = new QHBoxLayout();
+  this->SelectOnClick = new QCheckBox("Select on click", w);
+  this->SelectOnClick->setObjectName("selectOnClick");
+  this->SelectOnClick->setChecked(true);
+  this->SelectOnClick->setToolTip("A click selects the picked label; Ctrl+click adds it, Shift+click removes it");
+  this->SelectionStyle = new QComboBox(w);
+  this->SelectionStyle->setObjectName("selectionStyle");
+  this->SelectionStyle->addItems({ "Highlight", "Dim the rest" });
+  this->SelectionStyle->setToolTip("How the selected labels are shown");
+  this->ClearSelection = new QPushButton("Clear selection", w);
+  this->ClearSelection->setObjectName("clearSelection");
+  this->ExtractSelection = new QPushButton("Extract selection", w);
+  this->ExtractSelection->setObjectName("extractSelection");
+  this->ExtractSelection->setToolTip("A CSGV Extract Labels filter of the selected labels (press Apply)");
+  selection->addWidget(this->SelectOnClick);
+  selection->addWidget(this->SelectionStyle);
+  selection->addWidget(this->ClearSelection);
+  selection->addWidget(this->ExtractSelection);
+  l->addLayout(selection);
+  this->SelectionInfo = new QLabel(w);
+  this->SelectionInfo->setObjectName("selectionInfo");
+  this->SelectionInfo->setWordWrap(true);
+  l->addWidget(this->SelectionInfo);
+  connect(this->ClearSelection, &QPushButton::clicked, this, &pqCSGVPickPanel::clearSelection);
+  connect(this->ExtractSelection, &QPushButton::clicked, this, &pqCSGVPickPanel::extractSelection);
+  connect(this->SelectionStyle, QOverload<int>::of(&QComboBox::activated), this, &pqCSGVPickPanel::setSelectionStyle);
   this->Hide->setEnabled(false);
   this->ShowOnly->setEnabled(false);
   this->setWidget(w);
@@ -79,6 +111,15 @@ void pqCSGVPickPanel::build()
   connect(pqApplicationCore::instance()->getServerManagerModel(),
     &pqServerManagerModel::preRepresentationRemoved, this, &pqCSGVPickPanel::representationRemoved);
   this->setView(pqActiveObjects::instance().activeView());
+  // Undo, redo and edits elsewhere (the table, ParaView's tools) change the selection too.
+  if (pqUndoStack* undo = pqApplicationCore::instance()->getUndoStack())
+  {
+    connect(undo, &pqUndoStack::stackChanged, this, &pqCSGVPickPanel::updateSelectionInfo);
+  }
+  connect(&pqActiveObjects::instance(),
+    QOverload<pqRepresentation*>::of(&pqActiveObjects::representationChanged), this,
+    &pqCSGVPickPanel::updateSelectionInfo);
+  this->updateSelectionInfo();
   // An optional dock, hidden until the user opens it from the View menu (see the class comment).
   this->hide();
 }
@@ -128,14 +169,29 @@ bool pqCSGVPickPanel::eventFilter(QObject* watched, QEvent* event)
       auto* e = static_cast<QMouseEvent*>(event);
       this->Pressed = e->button() == Qt::LeftButton;
       this->PressPos = e->pos();
+      this->PressModifiers = e->modifiers();
     }
     else if (event->type() == QEvent::MouseButtonRelease && this->Pressed)
     {
       auto* e = static_cast<QMouseEvent*>(event);
       this->Pressed = false;
-      if ((e->pos() - this->PressPos).manhattanLength() <= 3)
+      if ((e->pos() - this->PressPos).manhattanLength() <= 3 && this->pickAt(e->pos()) &&
+        this->SelectOnClick->isChecked())
       {
-        this->pickAt(e->pos());
+        const csgv::SelectionEdit edit = (this->PressModifiers & Qt::ControlModifier) ? csgv::SelectionEdit::Add
+          : (this->PressModifiers & Qt::ShiftModifier)                               ? csgv::SelectionEdit::Remove
+                                                                                     : csgv::SelectionEdit::Replace;
+        QString error;
+        const auto label = uint32_t(this->Last.value("label").toDouble());
+        if (!pqCSGVLabelSelection::edit(this->LastDisplay, { label }, edit, "Select label", &error))
+        {
+          this->Result->append(QString("<i>%1</i>").arg(error.toHtmlEscaped()));
+        }
+        this->updateSelectionInfo();
+        if (this->View)
+        {
+          this->View->render();
+        }
       }
     }
     else if (event->type() == QEvent::MouseMove && this->Follow->isChecked() &&
@@ -181,6 +237,7 @@ bool pqCSGVPickPanel::pickAt(const QPoint& pos)
   }
   this->Last = best;
   this->LastDisplay = bestDisplay;
+  this->updateSelectionInfo();
   this->Hide->setEnabled(bestDisplay != nullptr);
   this->ShowOnly->setEnabled(bestDisplay != nullptr);
   if (!bestDisplay)
@@ -272,4 +329,101 @@ void pqCSGVPickPanel::showAllLabels()
     }
   }
   this->editVisibility("Show all labels", display, pqCSGV::LabelVisibility::ShowAll);
+}
+
+vtkSMProxy* pqCSGVPickPanel::selectionDisplay() const
+{
+  if (this->LastDisplay)
+  {
+    return this->LastDisplay;
+  }
+  pqDataRepresentation* r = pqActiveObjects::instance().activeRepresentation();
+  return r && r->getProxy()->GetProperty("CSGVMaterials") ? r->getProxy() : nullptr;
+}
+
+void pqCSGVPickPanel::updateSelectionInfo()
+{
+  vtkSMProxy* display = this->selectionDisplay();
+  const std::vector<uint32_t> labels = pqCSGV::selectedLabels(display);
+  this->ClearSelection->setEnabled(!labels.empty());
+  this->ExtractSelection->setEnabled(!labels.empty());
+  if (!display || labels.empty())
+  {
+    this->SelectionInfo->setText("No label selected.");
+    return;
+  }
+  constexpr size_t kShown = 12;
+  QString text = QString("%1 label%2 selected: ").arg(labels.size()).arg(labels.size() == 1 ? "" : "s");
+  text += pqCSGV::labelsText(std::vector<uint32_t>(labels.begin(), labels.begin() + std::min(labels.size(), kShown)));
+  if (labels.size() > kShown)
+  {
+    text += " ...";
+  }
+  this->SelectionInfo->setText(text);
+  const QString style = QString::fromUtf8(vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString());
+  this->SelectionStyle->setCurrentIndex(
+    pqCSGV::parseDocument(style).selectionStyle == csgv::MaterialDocument::SelectionStyle::Dim ? 1 : 0);
+}
+
+void pqCSGVPickPanel::clearSelection()
+{
+  if (vtkSMProxy* display = this->selectionDisplay())
+  {
+    pqCSGVLabelSelection::edit(display, {}, csgv::SelectionEdit::Replace, "Clear label selection");
+    if (this->View)
+    {
+      this->View->render();
+    }
+  }
+  this->updateSelectionInfo();
+}
+
+void pqCSGVPickPanel::setSelectionStyle(int index)
+{
+  vtkSMProxy* display = this->selectionDisplay();
+  if (!display)
+  {
+    return;
+  }
+  QString error;
+  csgv::MaterialDocument doc =
+    pqCSGV::parseDocument(QString::fromUtf8(vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString()), &error);
+  if (!error.isEmpty())
+  {
+    this->Result->setHtml(QString("<i>The materials are not valid: %1</i>").arg(error.toHtmlEscaped()));
+    return;
+  }
+  doc.selectionStyle =
+    index == 1 ? csgv::MaterialDocument::SelectionStyle::Dim : csgv::MaterialDocument::SelectionStyle::Highlight;
+  BEGIN_UNDO_SET("Label selection style");
+  vtkSMPropertyHelper(display, "CSGVMaterials").Set(pqCSGV::serialize(doc).toUtf8().constData());
+  display->UpdateVTKObjects();
+  END_UNDO_SET();
+  if (this->View)
+  {
+    this->View->render();
+  }
+}
+
+void pqCSGVPickPanel::extractSelection()
+{
+  vtkSMProxy* display = this->selectionDisplay();
+  const std::vector<uint32_t> labels = pqCSGV::selectedLabels(display);
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  auto* r = model->findItem<pqDataRepresentation*>(display);
+  pqOutputPort* port = r ? r->getOutputPortFromInput() : nullptr;
+  if (labels.empty() || !port)
+  {
+    return;
+  }
+  BEGIN_UNDO_SET("Extract selected labels");
+  pqPipelineSource* filter = pqApplicationCore::instance()->getObjectBuilder()->createFilter(
+    "filters", "CSGVExtractLabels", port->getSource(), port->getPortNumber());
+  if (filter)
+  {
+    vtkSMPropertyHelper(filter->getProxy(), "Labels").Set(pqCSGV::labelsText(labels).toUtf8().constData());
+    filter->getProxy()->UpdateVTKObjects();
+    pqActiveObjects::instance().setActiveSource(filter);
+  }
+  END_UNDO_SET();
 }

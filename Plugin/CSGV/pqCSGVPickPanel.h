@@ -20,7 +20,16 @@
  * View > Segmentation Pick opens it (pqPluginDockWidgetsBehavior adds an explicitly hidden dock
  * without showing it).
  *
- * objectNames: pickEnabled, followMouse, pickResult, hideLabel, showOnlyLabel, showAllLabels.
+ * The label selection (pqCSGVLabelSelection: one per data set, drawn highlighted or with the rest
+ * dimmed, linked to CSGV Label Tables and ParaView's selection tools): with "Select on click", a
+ * click selects the picked label, Ctrl+click adds it, Shift+click removes it (ParaView's
+ * modifiers). "Clear selection" empties it, the style box switches highlight and dim, and
+ * "Extract selection" makes a CSGV Extract Labels filter of the selected labels (waiting for
+ * Apply). The line under the buttons counts the selection of the display last picked (or the
+ * active one).
+ *
+ * objectNames: pickEnabled, followMouse, pickResult, hideLabel, showOnlyLabel, showAllLabels,
+ * selectOnClick, clearSelection, extractSelection, selectionStyle, selectionInfo.
  */
 #ifndef pqCSGVPickPanel_h
 #define pqCSGVPickPanel_h
@@ -33,6 +42,8 @@
 #include <vtkWeakPointer.h>
 
 class QCheckBox;
+class QComboBox;
+class QLabel;
 class QPushButton;
 class QTextBrowser;
 class pqRepresentation;
@@ -63,6 +74,12 @@ public Q_SLOTS:
   void hideLabel();
   void showOnlyLabel();
   void showAllLabels();
+  void clearSelection();
+  /// A CSGV Extract Labels filter of the selected labels (on the display's input), not yet applied.
+  void extractSelection();
+  void setSelectionStyle(int index);
+  /// Says what the selection of the current display holds.
+  void updateSelectionInfo();
 
 protected:
   bool eventFilter(QObject* watched, QEvent* event) override;
@@ -76,6 +93,8 @@ private Q_SLOTS:
 
 private:
   void build();
+  /// The display the selection buttons act on: the last picked one, else the active one.
+  vtkSMProxy* selectionDisplay() const;
   void editVisibility(const QString& undoLabel, vtkSMProxy* display, pqCSGV::LabelVisibility edit);
 
   QPointer<pqView> View;
@@ -89,6 +108,11 @@ private:
   QCheckBox* Follow;
   QTextBrowser* Result;
   QPushButton *Hide, *ShowOnly, *ShowAll;
+  QCheckBox* SelectOnClick;
+  QPushButton *ClearSelection, *ExtractSelection;
+  QComboBox* SelectionStyle;
+  QLabel* SelectionInfo;
+  Qt::KeyboardModifiers PressModifiers;
 };
 
 #endif

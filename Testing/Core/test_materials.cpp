@@ -7,6 +7,7 @@
 #include <fstream>
 #include <gtest/gtest.h>
 #include <map>
+#include <random>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -576,4 +577,42 @@ TEST(Materials, SelectionHighlightsOrDimsOnlyWhatIsDrawn) {
     }
     const int hidden = dim.materialOf(3); // hidden stays hidden
     EXPECT_TRUE(hidden < 0 || drawn.materials[size_t(hidden)].opacity == 0.0f);
+}
+
+TEST(Materials, FirstIntervalIsTheFirstIntervalHoldingAValue) {
+    // Against a scan, over random overlapping, nested, adjacent and empty intervals.
+    std::mt19937 rng(41);
+    for (int round = 0; round < 200; ++round) {
+        std::vector<std::pair<uint64_t, uint64_t>> v;
+        const int n = 1 + int(rng() % 40);
+        for (int i = 0; i < n; ++i) {
+            const uint64_t a = rng() % 100, len = rng() % 30;
+            v.emplace_back(a + 3, rng() % 8 == 0 ? a + 2 - len % 3 : a + 3 + len); // some empty (lo > hi)
+        }
+        const FirstInterval f(v);
+        for (uint64_t x = 0; x < 140; ++x) {
+            int64_t want = -1;
+            for (size_t i = 0; i < v.size() && want < 0; ++i)
+                if (v[i].first <= x && x <= v[i].second) want = int64_t(i);
+            ASSERT_EQ(f.find(x), want) << "round " << round << " value " << x;
+        }
+    }
+    EXPECT_EQ(FirstInterval({{0, 4294967295ull}}).find(4294967295ull), 0);
+    EXPECT_EQ(FirstInterval({{5, ~0ull}, {0, ~0ull}}).find(4), 1);
+}
+
+TEST(Materials, AHundredThousandSelectedLabelsAreDrawnWithoutAScanPerLabel) {
+    MaterialDocument d = docOf(kTwoMaterials);
+    d.materials[2].filterMax = 4294967294.0; // "rest": 5 and up
+    std::vector<uint32_t> many;
+    for (uint32_t l = 10; l < 400000; l += 4) many.push_back(l);
+    editSelection(d, many, SelectionEdit::Replace);
+    // (A scan of 100,000 materials per label made this take minutes.)
+    const MaterialDocument drawn = effectiveMaterials(d, kindOf);
+    MaterialEvaluator e(drawn, kindOf);
+    uint64_t selected = 0;
+    for (uint32_t l = 0; l < 400000; ++l)
+        if (const int m = e.materialOf(l); m >= 0) selected += drawn.materials[size_t(m)].name == "selected";
+    // Labels with kind 2 (l % 3 == 2) take "kind 2", drawn too: every selected label is drawn.
+    EXPECT_EQ(selected, many.size());
 }

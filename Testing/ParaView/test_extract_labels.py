@@ -120,6 +120,60 @@ vol1 = t.cell_labels(lvl).reshape(dims[2], dims[1], dims[0])
 check_mesh(pts1, labels1, cells1, vol1, 2, "level 1")
 e.Level = 0
 
+# Output Type Mask and Label image: one image of the selection's bounding box, cell for cell on
+# the volume (the source volume is the oracle), at level 0, in a box and at level 1.
+def image_of(f):
+    f.UpdatePipeline()
+    im = sm.Fetch(f)
+    t.check(im.IsA("vtkImageData"), "an image output is vtkImageData (%s)" % im.GetClassName())
+    ext = im.GetExtent()
+    dims = [ext[2 * a + 1] - ext[2 * a] for a in range(3)]
+    arr = im.GetCellData().GetScalars()
+    vals = vtk_to_numpy(arr).reshape(dims[2], dims[1], dims[0]) if arr is not None else None
+    return im, ext, vals, (arr.GetName() if arr is not None else None)
+
+
+def check_image(f, vol, what, box=None):
+    """vol: the label image at the filter's level, (D, H, W); box: [x0, x1, y0, y1, z0, z1) nodes."""
+    sel = np.isin(vol, chosen)
+    if box is not None:
+        inside = np.zeros_like(sel)
+        inside[box[4]:box[5], box[2]:box[3], box[0]:box[1]] = True
+        sel &= inside
+    zs, ys, xs = np.nonzero(sel)
+    want_ext = [xs.min(), xs.max() + 1, ys.min(), ys.max() + 1, zs.min(), zs.max() + 1]
+    for mode, name in ((1, "Mask"), (2, "Label")):
+        f.OutputType = mode
+        im, ext, vals, arr = image_of(f)
+        t.check(list(ext) == [int(v) for v in want_ext], "%s, %s: the extent is the selection's bounding box (%s, want %s)"
+                % (what, name, list(ext), want_ext))
+        crop = vol[ext[4]:ext[5], ext[2]:ext[3], ext[0]:ext[1]]
+        csel = sel[ext[4]:ext[5], ext[2]:ext[3], ext[0]:ext[1]]
+        want = csel.astype(np.uint8) if mode == 1 else np.where(csel, crop, 0)
+        t.check(arr == name and vals is not None and np.array_equal(vals, want),
+                "%s, %s: equals the decoded volume's voxels of the selected labels" % (what, name))
+        lvl_img = t.fetch(x1) if f.Level else img
+        t.check(np.allclose(im.GetSpacing(), lvl_img.GetSpacing()) and np.allclose(im.GetOrigin(), lvl_img.GetOrigin()),
+                "%s, %s: the volume's spacing and origin (cell for cell on it)" % (what, name))
+    f.UpdatePropertyInformation()
+    t.check(0 < f.GetPropertyValue("BricksDecoded") < f.GetPropertyValue("BricksTotal"),
+            "%s: only bricks holding a selected label decoded (%d of %d)"
+            % (what, f.GetPropertyValue("BricksDecoded"), f.GetPropertyValue("BricksTotal")))
+    f.OutputType = 0
+
+
+e.Labels = " ".join(str(v) for v in chosen)
+check_image(e, src, "level 0")
+e.VOI = [W // 4, W // 2 - 1, 0, H - 1, 2, D - 1]
+check_image(e, src, "a VOI", [W // 4, W // 2, 0, H, 2, D])
+e.VOI = [0, 2147483647, 0, 2147483647, 0, 2147483647]
+e.Level = 1
+check_image(e, vol1, "level 1")
+e.Level = 0
+# Back to meshes: polygonal data again.
+pts2, labels2, cells2 = mesh_of(e)
+t.check(len(cells2) == len(cells), "switching Output Type back gives the same meshes (%d triangles)" % len(cells2))
+
 # Bad selections: an error, an empty output, no crash.
 for bad_labels, what in (("99999999", "an unknown label"), ("3 x", "a word that is not a label"), ("", "nothing")):
     e.Labels = bad_labels

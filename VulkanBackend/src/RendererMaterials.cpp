@@ -88,6 +88,17 @@ Result<PackedMaterials> packMaterials(const MaterialDocument& doc) {
     return out;
 }
 
+/// The leading materials that filter on `label`, as one index (a selection or "only" overlay puts
+/// one material per run of labels there, 100,000 for as many scattered labels).
+FirstInterval leadingLabelMaterials(const PackedMaterials& packed) {
+    std::vector<std::pair<uint64_t, uint64_t>> leading;
+    for (const GpuMaterial& g : packed.materials) {
+        if (g.select[0] != kNone) break;
+        leading.emplace_back(g.select[1], g.select[2]); // select[1] > select[2]: holds none
+    }
+    return FirstInterval(leading);
+}
+
 /// The first material whose filter holds a stored label, with the GPU's own comparisons
 /// (integers for `label`, floats for attributes): what render_common.glsl's materialOf does.
 struct MaterialMatcher {
@@ -95,10 +106,15 @@ struct MaterialMatcher {
     const std::map<std::string, std::vector<float>>& attributes;
     const std::vector<uint32_t>& storedToOriginal;
     uint64_t labelCount;
+    FirstInterval leading = leadingLabelMaterials(packed);
 
     uint32_t operator()(uint32_t stored) const {
         if (stored == kNone) return kNone;
-        for (size_t i = 0; i < packed.materials.size(); ++i) {
+        if (leading.size() > 0) {
+            const uint32_t l = !storedToOriginal.empty() && stored < labelCount ? storedToOriginal[stored] : stored;
+            if (const int64_t i = leading.find(l); i >= 0) return uint32_t(i);
+        }
+        for (size_t i = leading.size(); i < packed.materials.size(); ++i) {
             const GpuMaterial& g = packed.materials[i];
             if (g.select[0] == kNone) {
                 const uint32_t l = !storedToOriginal.empty() && stored < labelCount ? storedToOriginal[stored] : stored;

@@ -666,11 +666,52 @@ Status resolveColormapNames(MaterialDocument& doc) {
     return Status::ok();
 }
 
+FirstInterval::FirstInterval(const std::vector<std::pair<uint64_t, uint64_t>>& intervals)
+    : m_intervals(intervals.size()) {
+    // The union so far as disjoint, non-adjacent components: each interval adds the gaps it
+    // leaves between them and merges them, so the work is O(n log n) whatever the overlaps.
+    std::map<uint64_t, uint64_t> covered;
+    for (size_t i = 0; i < intervals.size(); ++i) {
+        const uint64_t a = intervals[i].first, b = std::min<uint64_t>(intervals[i].second, uint64_t(1) << 62); // no b + 1 overflow
+        if (a > b) continue;
+        auto it = covered.upper_bound(a);
+        if (it != covered.begin() && std::prev(it)->second + 1 >= a) --it;
+        uint64_t from = a, lo = a, hi = b;
+        while (it != covered.end() && it->first <= b + 1) {
+            if (it->first > from) m_pieces.push_back({from, std::min(it->first - 1, b), uint32_t(i)});
+            from = std::max(from, it->second + 1);
+            lo = std::min(lo, it->first);
+            hi = std::max(hi, it->second);
+            it = covered.erase(it);
+        }
+        if (from <= b) m_pieces.push_back({from, b, uint32_t(i)});
+        covered[lo] = hi;
+    }
+    std::sort(m_pieces.begin(), m_pieces.end(), [](const Piece& x, const Piece& y) { return x.lo < y.lo; });
+}
+
+int64_t FirstInterval::find(uint64_t v) const {
+    auto it = std::upper_bound(m_pieces.begin(), m_pieces.end(), v, [](uint64_t x, const Piece& p) { return x < p.lo; });
+    if (it == m_pieces.begin()) return -1;
+    --it;
+    return v <= it->hi ? int64_t(it->index) : -1;
+}
+
 MaterialEvaluator::MaterialEvaluator(const MaterialDocument& doc, AttributeFn attribute)
-    : m_doc(doc), m_attribute(std::move(attribute)) {}
+    : m_doc(doc), m_attribute(std::move(attribute)) {
+    std::vector<std::pair<uint64_t, uint64_t>> leading;
+    for (const Material& m : doc.materials) {
+        if (m.filterAttribute != "label") break;
+        // The labels a closed interval of doubles holds: [ceil(min), floor(max)] within 32 bits.
+        const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
+        leading.push_back(!(lo <= hi) ? std::make_pair(uint64_t(1), uint64_t(0)) : std::make_pair(uint64_t(lo), uint64_t(hi)));
+    }
+    m_leading = FirstInterval(leading);
+}
 
 int MaterialEvaluator::materialOf(uint32_t label) const {
-    for (size_t i = 0; i < m_doc.materials.size(); ++i) {
+    if (const int64_t i = m_leading.find(label); i >= 0) return int(i);
+    for (size_t i = m_leading.size(); i < m_doc.materials.size(); ++i) {
         const Material& m = m_doc.materials[i];
         const double v = m.filterAttribute == "label" ? double(label) : m_attribute(m.filterAttribute, label);
         if (v >= m.filterMin && v <= m.filterMax) return int(i); // closed interval; NaN never matches

@@ -152,6 +152,28 @@ Status resolveColormapNames(MaterialDocument& doc);
 Result<Colormap> builtinColormap(const std::string& name);
 std::vector<std::string> builtinColormapNames();
 
+/// @brief The first of a list of closed intervals that holds a value, in O(log n): the leading
+/// materials that filter on `label` (the overlays put one per run of labels there: a selection or
+/// "only" of 100,000 scattered labels makes as many) would otherwise be scanned per label.
+class FirstInterval {
+public:
+    FirstInterval() = default;
+    /// `intervals` [lo, hi] in order (lo > hi: empty; hi is taken as at most 2^62); the first that
+    /// holds a value is its answer.
+    explicit FirstInterval(const std::vector<std::pair<uint64_t, uint64_t>>& intervals);
+    /// The index of the first interval holding `v`, or -1.
+    int64_t find(uint64_t v) const;
+    size_t size() const { return m_intervals; }
+
+private:
+    struct Piece {
+        uint64_t lo, hi;
+        uint32_t index;
+    };
+    std::vector<Piece> m_pieces; ///< disjoint, ascending: where each interval is the first
+    size_t m_intervals = 0;
+};
+
 /// @brief CPU reference of material evaluation. `attribute(name, label)` gives a label's value of
 /// an attribute ("label" is the label itself).
 class MaterialEvaluator {
@@ -166,6 +188,7 @@ public:
 private:
     const MaterialDocument& m_doc;
     AttributeFn m_attribute;
+    FirstInterval m_leading; ///< the leading materials that filter on `label`
 };
 
 /// The stable 32-bit hash that places labels for `random` colouring.

@@ -1,0 +1,420 @@
+// SPDX-License-Identifier: MIT
+#include "pqCSGVLabelSelection.h"
+
+#include "pqCSGVMaterialDocument.h"
+
+#include <pqApplicationCore.h>
+#include <pqDataRepresentation.h>
+#include <pqOutputPort.h>
+#include <pqPVApplicationCore.h>
+#include <pqPipelineFilter.h>
+#include <pqRenderView.h>
+#include <pqSelectionManager.h>
+#include <pqServerManagerModel.h>
+#include <pqUndoStack.h>
+#include <pqView.h>
+#include <vtkAbstractArray.h>
+#include <vtkAlgorithm.h>
+#include <vtkCommand.h>
+#include <vtkPVRenderView.h>
+#include <vtkRenderWindowInteractor.h>
+#include <vtkSMPropertyHelper.h>
+#include <vtkSMProxy.h>
+#include <vtkSMRenderViewProxy.h>
+#include <vtkSMSessionProxyManager.h>
+#include <vtkSMSourceProxy.h>
+#include <vtkSelectionNode.h>
+#include <vtkSmartPointer.h>
+#include <vtkTable.h>
+
+#include <QByteArray>
+#include <QStringList>
+#include <QTimer>
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+
+namespace
+{
+pqCSGVLabelSelection* Instance = nullptr;
+
+/// Changes to helper proxies (fetching rows) are no edits: kept off the undo stack.
+struct NotUndoable
+{
+  pqUndoStack* Stack = pqApplicationCore::instance() ? pqApplicationCore::instance()->getUndoStack() : nullptr;
+  NotUndoable()
+  {
+    if (this->Stack)
+      this->Stack->beginNonUndoableChanges();
+  }
+  ~NotUndoable()
+  {
+    if (this->Stack)
+      this->Stack->endNonUndoableChanges();
+  }
+};
+
+/// The pipeline output a display shows.
+pqOutputPort* inputOf(vtkSMProxy* display)
+{
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  auto* r = model->findItem<pqDataRepresentation*>(display);
+  return r ? r->getOutputPortFromInput() : nullptr;
+}
+
+/// Every display (all views) of `port` that holds a label selection (a Segmentation Volume's).
+QList<vtkSMProxy*> volumeDisplaysOf(pqOutputPort* port)
+{
+  QList<vtkSMProxy*> out;
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  for (pqDataRepresentation* r : model->findItems<pqDataRepresentation*>())
+  {
+    if (port && r->getOutputPortFromInput() == port && r->getProxy()->GetProperty("CSGVMaterials"))
+    {
+      out.push_back(r->getProxy());
+    }
+  }
+  return out;
+}
+
+bool isLabelTable(pqPipelineSource* source)
+{
+  const char* name = source ? source->getProxy()->GetXMLName() : nullptr;
+  return name && std::strcmp(name, "CSGVLabelTable") == 0;
+}
+
+/// The column "label" of a table output, fetched to the client (ParaView's ReductionFilter, as
+/// servermanager.Fetch does: builtin and client/server alike).
+std::vector<int64_t> fetchLabels(vtkSMSourceProxy* source, unsigned int port)
+{
+  NotUndoable keepOff;
+  std::vector<int64_t> out;
+  vtkSmartPointer<vtkSMSourceProxy> reduce;
+  reduce.TakeReference(
+    vtkSMSourceProxy::SafeDownCast(source->GetSessionProxyManager()->NewProxy("filters", "ReductionFilter")));
+  if (!reduce)
+    return out;
+  vtkSMPropertyHelper(reduce, "Input").Set(source, port);
+  vtkSMPropertyHelper(reduce, "PassThrough").Set(0); // rank 0's table, where the label table is made
+  reduce->UpdateVTKObjects();
+  reduce->UpdatePipeline();
+  auto* algorithm = vtkAlgorithm::SafeDownCast(reduce->GetClientSideObject());
+  vtkTable* table = vtkTable::SafeDownCast(algorithm ? algorithm->GetOutputDataObject(0) : nullptr);
+  vtkAbstractArray* labels = table ? table->GetColumnByName("label") : nullptr;
+  if (!labels)
+    return out;
+  out.reserve(size_t(labels->GetNumberOfTuples()));
+  for (vtkIdType i = 0; i < labels->GetNumberOfTuples(); ++i)
+    out.push_back(labels->GetVariantValue(i).ToTypeInt64());
+  return out;
+}
+
+/// The labels of the rows a selection picks out of a label table.
+std::vector<int64_t> labelsOfSelectedRows(pqOutputPort* table)
+{
+  vtkSMSourceProxy* selection = table->getSelectionInput();
+  if (!selection)
+    return {};
+  NotUndoable keepOff;
+  vtkSmartPointer<vtkSMSourceProxy> extract;
+  extract.TakeReference(vtkSMSourceProxy::SafeDownCast(
+    table->getSource()->getProxy()->GetSessionProxyManager()->NewProxy("filters", "ExtractSelection")));
+  if (!extract)
+    return {};
+  vtkSMPropertyHelper(extract, "Input").Set(table->getSource()->getProxy(), table->getPortNumber());
+  vtkSMPropertyHelper(extract, "Selection").Set(selection, table->getSelectionInputPort());
+  extract->UpdateVTKObjects();
+  return fetchLabels(extract, 0);
+}
+
+/// Document labels: [0, 4294967294] (wider labels cannot be drawn selected).
+std::vector<uint32_t> documentLabels(const std::vector<int64_t>& labels)
+{
+  std::vector<uint32_t> out;
+  for (int64_t l : labels)
+    if (l >= 0 && double(l) <= csgv::kMaxMaterialLabel)
+      out.push_back(uint32_t(l));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+} // namespace
+
+namespace pqCSGV
+{
+std::vector<uint32_t> selectedLabels(vtkSMProxy* display)
+{
+  if (!display || !display->GetProperty("CSGVMaterials"))
+    return {};
+  QString error;
+  const csgv::MaterialDocument doc =
+    parseDocument(QString::fromUtf8(vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString()), &error);
+  return error.isEmpty() ? doc.selected : std::vector<uint32_t>();
+}
+
+std::vector<uint32_t> labelsInRectangle(vtkSMProxy* display, int x0, int y0, int x1, int y1)
+{
+  const QStringList reply = query(display, "labels").split(' ');
+  if (reply.size() != 3)
+    return {};
+  const long w = reply[0].toLong(), h = reply[1].toLong();
+  const QByteArray pixels = QByteArray::fromBase64(reply[2].toLatin1());
+  if (w <= 0 || h <= 0 || pixels.size() != w * h * 4)
+    return {};
+  const long xa = std::max(0L, long(std::min(x0, x1))), xb = std::min(w - 1, long(std::max(x0, x1)));
+  const long ya = std::max(0L, long(std::min(y0, y1))), yb = std::min(h - 1, long(std::max(y0, y1)));
+  std::vector<uint32_t> out;
+  for (long y = ya; y <= yb; ++y)
+  {
+    for (long x = xa; x <= xb; ++x)
+    {
+      uint32_t v = 0;
+      std::memcpy(&v, pixels.constData() + 4 * (y * w + x), 4); // little-endian, as the hosts here
+      if (v != 0xFFFFFFFFu)
+        out.push_back(v);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+QString labelsText(const std::vector<uint32_t>& labels)
+{
+  QStringList words;
+  for (uint32_t l : labels)
+    words << QString::number(l);
+  return words.join(' ');
+}
+} // namespace pqCSGV
+
+pqCSGVLabelSelection::pqCSGVLabelSelection(QObject* parent)
+  : QObject(parent)
+{
+}
+
+pqCSGVLabelSelection::~pqCSGVLabelSelection()
+{
+  this->shutdown();
+}
+
+pqCSGVLabelSelection* pqCSGVLabelSelection::instance()
+{
+  return Instance;
+}
+
+void pqCSGVLabelSelection::startup()
+{
+  Instance = this;
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  connect(model, &pqServerManagerModel::viewAdded, this, &pqCSGVLabelSelection::viewAdded);
+  connect(model, &pqServerManagerModel::preViewRemoved, this, &pqCSGVLabelSelection::viewRemoved);
+  for (pqView* v : model->findItems<pqView*>())
+    this->viewAdded(v);
+  if (pqPVApplicationCore* core = pqPVApplicationCore::instance())
+    if (pqSelectionManager* selections = core->selectionManager())
+      connect(selections, &pqSelectionManager::selectionChanged, this, &pqCSGVLabelSelection::selectionChanged);
+}
+
+void pqCSGVLabelSelection::shutdown()
+{
+  if (Instance == this)
+    Instance = nullptr;
+  if (pqApplicationCore* core = pqApplicationCore::instance())
+    disconnect(core->getServerManagerModel(), nullptr, this, nullptr);
+  if (pqPVApplicationCore* core = pqPVApplicationCore::instance())
+    if (pqSelectionManager* selections = core->selectionManager())
+      disconnect(selections, nullptr, this, nullptr);
+  for (auto it = this->Observed.begin(); it != this->Observed.end(); ++it)
+    if (auto* rv = qobject_cast<pqRenderView*>(it.key()))
+      if (vtkSMRenderViewProxy* rmp = rv->getRenderViewProxy())
+        rmp->RemoveObserver(it.value());
+  this->Observed.clear();
+}
+
+void pqCSGVLabelSelection::viewAdded(pqView* view)
+{
+  auto* rv = qobject_cast<pqRenderView*>(view);
+  vtkSMRenderViewProxy* rmp = rv ? rv->getRenderViewProxy() : nullptr;
+  if (!rmp || this->Observed.contains(view))
+    return;
+  // Before ParaView's own reaction (priority 0), which ends the selection mode: the mode tells a
+  // rectangle (int[4]) from a polygon (vtkIntArray) here.
+  const unsigned long id =
+    rmp->AddObserver(vtkCommand::SelectionChangedEvent, this, &pqCSGVLabelSelection::regionSelected, 1.0f);
+  this->Observed.insert(view, id);
+}
+
+void pqCSGVLabelSelection::viewRemoved(pqView* view)
+{
+  auto it = this->Observed.find(view);
+  if (it == this->Observed.end())
+    return;
+  if (auto* rv = qobject_cast<pqRenderView*>(view))
+    if (vtkSMRenderViewProxy* rmp = rv->getRenderViewProxy())
+      rmp->RemoveObserver(it.value());
+  this->Observed.erase(it);
+}
+
+void pqCSGVLabelSelection::regionSelected(vtkObject* caller, unsigned long, void* calldata)
+{
+  auto* rmp = vtkSMRenderViewProxy::SafeDownCast(caller);
+  pqView* view = nullptr;
+  for (auto it = this->Observed.begin(); it != this->Observed.end(); ++it)
+    if (auto* rv = qobject_cast<pqRenderView*>(it.key()); rv && rv->getRenderViewProxy() == rmp)
+      view = it.key();
+  if (!rmp || !view || !calldata || vtkSMPropertyHelper(rmp, "InteractionMode").GetAsInt() != vtkPVRenderView::INTERACTION_MODE_SELECTION)
+    return;
+  const int* r = static_cast<const int*>(calldata);
+  const std::array<int, 4> region{ { r[0], r[1], r[2], r[3] } };
+  vtkRenderWindowInteractor* interactor = rmp->GetInteractor();
+  const bool ctrl = interactor && interactor->GetControlKey(), shift = interactor && interactor->GetShiftKey();
+  const csgv::SelectionEdit edit = ctrl ? csgv::SelectionEdit::Add
+    : shift                             ? csgv::SelectionEdit::Remove
+                                        : csgv::SelectionEdit::Replace;
+  // After ParaView's own selection, which clears the selections it did not make.
+  QPointer<pqView> guarded(view);
+  QTimer::singleShot(0, this, [guarded, region, edit]() {
+    if (guarded)
+      pqCSGVLabelSelection::selectRectangle(guarded, region.data(), edit);
+  });
+}
+
+void pqCSGVLabelSelection::selectRectangle(pqView* view, const int region[4], csgv::SelectionEdit edit)
+{
+  for (pqRepresentation* r : view->getRepresentations())
+  {
+    auto* dr = qobject_cast<pqDataRepresentation*>(r);
+    if (!dr || !dr->isVisible() || !dr->getProxy()->GetProperty("Representation"))
+      continue;
+    const char* type = vtkSMPropertyHelper(dr->getProxy(), "Representation").GetAsString();
+    if (!type || std::strcmp(type, "Segmentation Volume") != 0)
+      continue;
+    const std::vector<uint32_t> labels =
+      pqCSGV::labelsInRectangle(dr->getProxy(), region[0], region[1], region[2], region[3]);
+    if (labels.empty() && edit != csgv::SelectionEdit::Replace)
+      continue;
+    pqCSGVLabelSelection::edit(dr->getProxy(), labels, edit, "Select labels");
+  }
+  view->render();
+}
+
+bool pqCSGVLabelSelection::edit(vtkSMProxy* display, const std::vector<uint32_t>& labels,
+  csgv::SelectionEdit edit, const QString& undoLabel, QString* error)
+{
+  pqOutputPort* port = inputOf(display);
+  QList<vtkSMProxy*> displays = volumeDisplaysOf(port);
+  if (!displays.contains(display))
+    displays.push_front(display);
+  // Every display's text edited first, so that an invalid one changes none.
+  QList<QByteArray> texts;
+  std::vector<uint32_t> selected;
+  for (vtkSMProxy* d : displays)
+  {
+    QString why;
+    const QString current = QString::fromUtf8(vtkSMPropertyHelper(d, "CSGVMaterials").GetAsString());
+    csgv::MaterialDocument doc = pqCSGV::parseDocument(current, &why);
+    if (!why.isEmpty())
+    {
+      if (error)
+        *error = QString("The materials are not valid, so labels cannot be selected: %1").arg(why);
+      return false;
+    }
+    csgv::editSelection(doc, labels, edit);
+    if (d == display)
+      selected = doc.selected;
+    const QString text = pqCSGV::serialize(doc);
+    texts.push_back(text == current ? QByteArray() : text.toUtf8());
+  }
+  bool changed = false;
+  for (const QByteArray& t : texts)
+    changed = changed || !t.isEmpty();
+  if (changed)
+  {
+    BEGIN_UNDO_SET(undoLabel);
+    for (int i = 0; i < displays.size(); ++i)
+    {
+      if (texts[i].isEmpty())
+        continue;
+      vtkSMPropertyHelper(displays[i], "CSGVMaterials").Set(texts[i].constData());
+      displays[i]->UpdateVTKObjects();
+    }
+    END_UNDO_SET();
+  }
+  pqCSGVLabelSelection* self = Instance;
+  if (self && !self->Busy && port)
+  {
+    self->Busy = true;
+    selectRows(port, selected);
+    self->Busy = false;
+  }
+  return true;
+}
+
+void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uint32_t>& labels)
+{
+  pqSelectionManager* selections = pqPVApplicationCore::instance() ? pqPVApplicationCore::instance()->selectionManager() : nullptr;
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  for (pqPipelineSource* s : model->findItems<pqPipelineSource*>())
+  {
+    auto* table = qobject_cast<pqPipelineFilter*>(s);
+    if (!isLabelTable(s) || !table || table->getAnyInput() != input || s->getNumberOfOutputPorts() < 1)
+      continue;
+    pqOutputPort* out = s->getOutputPort(0);
+    if (labels.empty())
+    {
+      if (out->getSelectionInput())
+      {
+        out->setSelectionInput(nullptr, 0);
+        if (selections)
+          selections->clearSelection(out);
+      }
+      continue;
+    }
+    // Rows are the table's labels in ascending order: an ID selection of rows (ParaView's
+    // selectors look IDs up in a sorted list; a threshold per label would be scanned per row).
+    const std::vector<int64_t> rows = fetchLabels(vtkSMSourceProxy::SafeDownCast(s->getProxy()), 0);
+    std::vector<vtkIdType> ids;
+    for (uint32_t l : labels)
+    {
+      const auto it = std::lower_bound(rows.begin(), rows.end(), int64_t(l));
+      if (it != rows.end() && *it == int64_t(l))
+      {
+        ids.push_back(0); // process 0's table
+        ids.push_back(vtkIdType(it - rows.begin()));
+      }
+    }
+    NotUndoable keepOff;
+    vtkSmartPointer<vtkSMSourceProxy> selection;
+    selection.TakeReference(vtkSMSourceProxy::SafeDownCast(
+      s->getProxy()->GetSessionProxyManager()->NewProxy("sources", "IDSelectionSource")));
+    if (!selection)
+      continue;
+    vtkSMPropertyHelper(selection, "FieldType").Set(vtkSelectionNode::ROW);
+    vtkSMPropertyHelper(selection, "IDs").Set(ids.data(), static_cast<unsigned int>(ids.size()));
+    selection->UpdateVTKObjects();
+    out->setSelectionInput(selection, 0);
+    if (selections)
+      selections->select(out);
+  }
+}
+
+void pqCSGVLabelSelection::selectionChanged(pqOutputPort* port)
+{
+  if (this->Busy || !port || !isLabelTable(port->getSource()) || !port->getSelectionInput())
+    return;
+  auto* table = qobject_cast<pqPipelineFilter*>(port->getSource());
+  pqOutputPort* input = table ? table->getAnyInput() : nullptr;
+  const QList<vtkSMProxy*> displays = volumeDisplaysOf(input);
+  if (displays.isEmpty())
+    return;
+  const std::vector<uint32_t> labels = documentLabels(labelsOfSelectedRows(port));
+  if (labels == pqCSGV::selectedLabels(displays.front()))
+    return;
+  this->Busy = true; // the rows are selected already
+  pqCSGVLabelSelection::edit(displays.front(), labels, csgv::SelectionEdit::Replace, "Select labels from the table");
+  this->Busy = false;
+  for (pqView* v : pqApplicationCore::instance()->getServerManagerModel()->findItems<pqView*>())
+    v->render();
+}
