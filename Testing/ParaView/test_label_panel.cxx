@@ -6,8 +6,14 @@
 // edits keep the visibility overlay); the pick
 // panel starts hidden when docked the way ParaView docks a plugin's panel, and its pick (a click
 // in a render view) clears when another view becomes active or the picked data is deleted.
+// The label selection (pqCSGVLabelSelection, issue 41): a click selects (Ctrl adds, Shift
+// removes), ParaView's rectangle tools select what the view shows in the rectangle, a CSGV Label
+// Table's rows follow the 3D selection and a selection of rows selects their labels, the
+// selected labels are drawn in the highlight colour, every edit is one undo step, and "Extract
+// selection" makes a CSGV Extract Labels filter of them.
 // Usage: csgv_label_panel_test PLUGIN.so FIXTURES_DIR
 #include "PvQtTestMain.h"
+#include "pqCSGVLabelSelection.h"
 #include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
 #include "pqCSGVPickPanel.h"
@@ -16,6 +22,20 @@
 #include <pqDataRepresentation.h>
 #include <pqApplicationCore.h>
 #include <pqObjectBuilder.h>
+#include <pqOutputPort.h>
+#include <pqRenderView.h>
+#include <pqSelectionManager.h>
+#include <pqServerManagerModel.h>
+#include <pqUndoStack.h>
+#include <pqUndoStackBuilder.h>
+#include <vtkAbstractArray.h>
+#include <vtkAlgorithm.h>
+#include <vtkCommand.h>
+#include <vtkPVRenderView.h>
+#include <vtkSMRenderViewProxy.h>
+#include <vtkSMSourceProxy.h>
+#include <vtkSelectionNode.h>
+#include <vtkTable.h>
 #include <pqPipelineSource.h>
 #include <pqView.h>
 #include <pqPVApplicationCore.h>
@@ -31,6 +51,8 @@
 #include <vtkSmartPointer.h>
 
 #include <QAction>
+#include <QComboBox>
+#include <QLabel>
 #include <QApplication>
 #include <QJsonArray>
 #include <QJsonDocument>
@@ -236,6 +258,166 @@ private Q_SLOTS:
       "deleting the picked data clears the pick");
     builder->destroy(other);
     builder->destroy(view);
+  }
+
+  void selectionLinksPickToolsTableAndExtract()
+  {
+    pqApplicationCore* core = pqApplicationCore::instance();
+    vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
+    if (!core->getUndoStack())
+    {
+      vtkNew<pqUndoStackBuilder> undoBuilder;
+      manager->SetUndoStackBuilder(undoBuilder);
+      core->setUndoStack(new pqUndoStack(undoBuilder, this));
+    }
+    // (The plugin's own instance runs too; a second one makes the same edits, which change nothing.)
+    pqCSGVLabelSelection links;
+    links.startup();
+    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqObjectBuilder* builder = core->getObjectBuilder();
+    pqPipelineSource* source = builder->createReader(
+      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    QVERIFY(source);
+    auto* view = qobject_cast<pqRenderView*>(builder->createView("RenderView", server));
+    QVERIFY(view);
+    view->widget()->resize(160, 160);
+    view->widget()->show();
+    pqActiveObjects::instance().setActiveView(view);
+    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
+    vtkSMProxy* proxy = display->getProxy();
+    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
+    proxy->UpdateVTKObjects();
+    view->resetDisplay();
+    view->forceRender();
+    pqPipelineSource* table = builder->createFilter("filters", "CSGVLabelTable", source);
+    QVERIFY(table);
+    vtkSMSourceProxy::SafeDownCast(table->getProxy())->UpdatePipeline();
+    auto* tableData = vtkTable::SafeDownCast(
+      vtkAlgorithm::SafeDownCast(table->getProxy()->GetClientSideObject())->GetOutputDataObject(0));
+    QVERIFY(tableData && tableData->GetColumnByName("label"));
+    vtkAbstractArray* rows = tableData->GetColumnByName("label");
+    auto rowOf = [rows](uint32_t label) {
+      for (vtkIdType i = 0; i < rows->GetNumberOfTuples(); ++i)
+        if (rows->GetVariantValue(i).ToTypeInt64() == int64_t(label))
+          return i;
+      return vtkIdType(-1);
+    };
+    auto selectedRows = [table]() {
+      std::vector<vtkIdType> out;
+      vtkSMSourceProxy* sel = table->getOutputPort(0)->getSelectionInput();
+      if (!sel || !sel->GetProperty("IDs"))
+        return out;
+      const std::vector<vtkIdType> ids = vtkSMPropertyHelper(sel, "IDs").GetIdTypeArray();
+      for (size_t i = 1; i < ids.size(); i += 2)
+        out.push_back(ids[i]);
+      return out;
+    };
+
+    // ParaView's rectangle tool: the region event of the view proxy, in selection mode.
+    const std::vector<uint32_t> shown = pqCSGV::labelsInRectangle(proxy, 0, 0, 159, 159);
+    QVERIFY2(shown.size() >= 2, "the view shows labels");
+    const std::vector<uint32_t> corner = pqCSGV::labelsInRectangle(proxy, 60, 60, 100, 100);
+    QVERIFY(!corner.empty());
+    vtkSMRenderViewProxy* rmp = view->getRenderViewProxy();
+    vtkSMPropertyHelper(rmp, "InteractionMode").Set(vtkPVRenderView::INTERACTION_MODE_SELECTION);
+    rmp->UpdateVTKObjects();
+    int region[4] = { 60, 60, 100, 100 };
+    rmp->InvokeEvent(vtkCommand::SelectionChangedEvent, region);
+    vtkSMPropertyHelper(rmp, "InteractionMode").Set(vtkPVRenderView::INTERACTION_MODE_3D);
+    rmp->UpdateVTKObjects();
+    QTRY_VERIFY2(pqCSGV::selectedLabels(proxy) == corner, "a rectangle selects the labels shown in it");
+    QCOMPARE(QString(core->getUndoStack()->undoLabel()), QString("Select labels"));
+    // The table's rows follow.
+    std::vector<vtkIdType> want;
+    for (uint32_t l : corner)
+      if (rowOf(l) >= 0)
+        want.push_back(rowOf(l));
+    QVERIFY2(!want.empty() && selectedRows() == want, "the label table's rows follow the 3D selection");
+
+    // Drawn highlighted: the colour query gives the selection colour for a selected label only.
+    const QJsonObject colors = pqCSGV::queryJson(proxy, "colors 100000");
+    int magenta = 0, selectedSeen = 0;
+    for (const QJsonValue& e : colors.value("labels").toArray())
+    {
+      const QJsonArray c = e.toArray();
+      const bool isSelected = std::binary_search(corner.begin(), corner.end(), uint32_t(c.at(0).toDouble()));
+      const bool isMagenta = c.at(1).toDouble() == 1 && c.at(2).toDouble() == 0 && c.at(3).toDouble() == 1;
+      selectedSeen += isSelected;
+      magenta += isMagenta;
+      QVERIFY2(isSelected == isMagenta, "the selected labels, and only they, are drawn in the highlight colour");
+    }
+    QVERIFY(selectedSeen == int(corner.size()) && magenta > 0);
+
+    // Rows selected in the table (the Spreadsheet's clicks) select their labels in 3D.
+    vtkSmartPointer<vtkSMSourceProxy> rowsSel;
+    rowsSel.TakeReference(vtkSMSourceProxy::SafeDownCast(
+      table->getProxy()->GetSessionProxyManager()->NewProxy("sources", "IDSelectionSource")));
+    const vtkIdType ids[] = { 0, 1, 0, 2 };
+    vtkSMPropertyHelper(rowsSel, "FieldType").Set(vtkSelectionNode::ROW);
+    vtkSMPropertyHelper(rowsSel, "IDs").Set(ids, 4);
+    rowsSel->UpdateVTKObjects();
+    table->getOutputPort(0)->setSelectionInput(rowsSel, 0);
+    pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
+    const std::vector<uint32_t> fromRows{ uint32_t(rows->GetVariantValue(1).ToTypeInt64()),
+      uint32_t(rows->GetVariantValue(2).ToTypeInt64()) };
+    QVERIFY2(pqCSGV::selectedLabels(proxy) == fromRows, "selected rows select their labels");
+    // A query over the rows (Find Data's kind): labels in a range of the label column.
+    vtkSmartPointer<vtkSMSourceProxy> query;
+    query.TakeReference(vtkSMSourceProxy::SafeDownCast(
+      table->getProxy()->GetSessionProxyManager()->NewProxy("sources", "ThresholdSelectionSource")));
+    vtkSMPropertyHelper(query, "FieldType").Set(vtkSelectionNode::ROW);
+    vtkSMPropertyHelper(query, "ArrayName").Set("label");
+    const double range[] = { double(rows->GetVariantValue(3).ToTypeInt64()), double(rows->GetVariantValue(5).ToTypeInt64()) };
+    vtkSMPropertyHelper(query, "Thresholds").Set(range, 2);
+    query->UpdateVTKObjects();
+    table->getOutputPort(0)->setSelectionInput(query, 0);
+    pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
+    QCOMPARE(pqCSGV::selectedLabels(proxy).size(), size_t(3));
+    QCOMPARE(pqCSGV::selectedLabels(proxy).front(), uint32_t(range[0]));
+    // Undo gives back the selection before.
+    core->getUndoStack()->undo();
+    QVERIFY2(pqCSGV::selectedLabels(proxy) == fromRows, "undo gives back the previous selection");
+
+    // The pick panel: a click selects, Ctrl+click adds, Shift+click removes.
+    pqCSGVPickPanel panel;
+    panel.show();
+    view->forceRender();
+    const QPoint centre(80, 80);
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
+    QVERIFY(panel.lastPick().value("hit").toBool());
+    const auto picked = uint32_t(panel.lastPick().value("label").toDouble());
+    QVERIFY(pqCSGV::selectedLabels(proxy) == std::vector<uint32_t>{ picked });
+    QVERIFY(panel.findChild<QLabel*>("selectionInfo")->text().startsWith("1 label selected"));
+    pqCSGVLabelSelection::edit(proxy, fromRows, csgv::SelectionEdit::Add, "Select labels");
+    view->forceRender();
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::ShiftModifier, centre);
+    std::vector<uint32_t> rest = fromRows;
+    rest.erase(std::remove(rest.begin(), rest.end(), picked), rest.end());
+    QVERIFY2(pqCSGV::selectedLabels(proxy) == rest, "Shift+click removes the picked label");
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::ControlModifier, centre);
+    std::vector<uint32_t> back = rest;
+    back.push_back(picked);
+    std::sort(back.begin(), back.end());
+    QVERIFY2(pqCSGV::selectedLabels(proxy) == back, "Ctrl+click adds it");
+    // Dim style, then Extract selection: a CSGV Extract Labels of the selected labels.
+    auto* style = panel.findChild<QComboBox*>("selectionStyle");
+    style->setCurrentIndex(1);
+    QMetaObject::invokeMethod(style, "activated", Q_ARG(int, 1));
+    QVERIFY(QString(vtkSMPropertyHelper(proxy, "CSGVMaterials").GetAsString()).contains("\"selectionStyle\":\"dim\""));
+    QTest::mouseClick(panel.findChild<QPushButton*>("extractSelection"), Qt::LeftButton);
+    pqPipelineSource* extract = pqActiveObjects::instance().activeSource();
+    QVERIFY(extract && QString(extract->getProxy()->GetXMLName()) == "CSGVExtractLabels");
+    QCOMPARE(QString(vtkSMPropertyHelper(extract->getProxy(), "Labels").GetAsString()), pqCSGV::labelsText(back));
+    // Clear selection empties it, and the rows' selection with it.
+    QTest::mouseClick(panel.findChild<QPushButton*>("clearSelection"), Qt::LeftButton);
+    QVERIFY(pqCSGV::selectedLabels(proxy).empty());
+    QVERIFY(table->getOutputPort(0)->getSelectionInput() == nullptr);
+
+    builder->destroy(extract);
+    builder->destroy(table);
+    builder->destroy(source);
+    builder->destroy(view);
+    links.shutdown();
   }
 };
 
