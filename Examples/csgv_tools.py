@@ -9,6 +9,9 @@ material document, and the materials' colours as a categorical lookup table.
     csgv_tools.attribute_summary(d)      # attribute names and ranges
     csgv_tools.pick(d, 100, 80)          # label, voxel, attributes under pixel (100, 80)
     d.CSGVMaterials = csgv_tools.hide_label(d.CSGVMaterials, 42)
+    d.CSGVMaterials = csgv_tools.select_labels(d.CSGVMaterials, [3, 17], style="dim")
+    csgv_tools.selected_labels(d.CSGVMaterials)       # [3, 17]: e.g. CSGVExtractLabels(Labels=...)
+    csgv_tools.labels_in_rectangle(d, 0, 0, 99, 99)   # labels shown in a pixel rectangle
     csgv_tools.apply_label_colors(d, slice_display)   # same colours and region names on a Slice
 
 The questions go through the server-manager proxy misc/CSGVQuery (Representation/vtkCSGVQuery.h).
@@ -130,6 +133,54 @@ def show_only_label(materials_text, label, attribute=lambda name: None):
             return json.dumps(doc)
     doc["materials"] = [{"name": "label %d" % label, "filter": _label_filter(label)}]
     return json.dumps(doc)
+
+
+def select_labels(materials_text, labels, edit="replace", style=None, color=None):
+    """The material document with its label selection (the "selected" overlay, drawn by Core's
+    csgv::effectiveMaterials; the GUI's pick panel, ParaView's selection tools and the label
+    table edit the same key) replaced by, added to or reduced by `labels` (`edit`: "replace",
+    "add" or "remove"), optionally with its style ("highlight" or "dim") and highlight colour
+    ([r, g, b] in [0, 1]). The materials and the other overlays stay as they are."""
+    doc = _document(materials_text)
+    have = set(int(x) for x in doc.get("selected", []))
+    given = set(int(x) for x in labels)
+    if edit == "replace":
+        have = given
+    elif edit == "add":
+        have |= given
+    elif edit == "remove":
+        have -= given
+    else:
+        raise ValueError("edit must be 'replace', 'add' or 'remove', not %r" % (edit,))
+    if any(x < 0 or x > MAX_LABEL for x in have):
+        raise ValueError("labels are integers in [0, %d]" % MAX_LABEL)
+    if have:
+        doc["selected"] = sorted(have)
+    else:
+        doc.pop("selected", None)
+    if style is not None:
+        if style not in ("highlight", "dim"):
+            raise ValueError("style must be 'highlight' or 'dim', not %r" % (style,))
+        doc["selectionStyle"] = style
+    if color is not None:
+        doc["selectionColor"] = [float(c) for c in color]
+    return json.dumps(doc)
+
+
+def selected_labels(materials_text):
+    """The label selection of a material document, ascending."""
+    return sorted(int(x) for x in _document(materials_text).get("selected", []))
+
+
+def labels_in_rectangle(display, x0, y0, x1, y1):
+    """The labels the display's last render shows (first opaque hits) in the pixel rectangle
+    [x0, x1] x [y0, y1] (inclusive, origin bottom left), ascending: what ParaView's rectangle
+    selection tools select in the GUI."""
+    img = label_image(display)
+    ya, yb = sorted((int(y0), int(y1)))
+    xa, xb = sorted((int(x0), int(x1)))
+    part = img[max(ya, 0):yb + 1, max(xa, 0):xb + 1]
+    return sorted(int(x) for x in set(part[part != 0xFFFFFFFF].tolist()))
 
 
 def apply_label_colors(display, target_display=None, array=None, max_labels=4096):

@@ -24,6 +24,8 @@
 #include <vtkTypeInt64Array.h>
 #include <vtkTypeUInt32Array.h>
 #include <vtkUnsignedCharArray.h>
+#include <vtkQuadricDecimation.h>
+#include <vtkWindowedSincPolyDataFilter.h>
 #include <vtkSmartPointer.h>
 
 #include <algorithm>
@@ -87,8 +89,15 @@ constexpr size_t kLabelsOneByOne = 256;
 /// edges over the voxel centres (one voxel of background around, so the surfaces close at the
 /// crop), in world coordinates (the extracted image's corner geometry), the original label per
 /// triangle.
+/// Smoothing and decimation of the meshes (0: none).
+struct MeshFinish
+{
+  int smoothing = 0;     ///< windowed-sinc iterations
+  double decimation = 0; ///< quadric decimation's target reduction, [0, 0.95]
+};
+
 void appendMeshes(const csgv::ExtractResult& r, const csgv::CsgvFile& file, const csgv::Geometry& volume,
-  vtkPoints* points, vtkCellArray* polys, vtkTypeInt64Array* labels)
+  const MeshFinish& finish, vtkPoints* points, vtkCellArray* polys, vtkTypeInt64Array* labels)
 {
   // In the output's corner index space (node (i,j,k) covers [i, i+1] x ...), padded point p is
   // node p - 1, centred at p - 0.5.
@@ -135,7 +144,32 @@ void appendMeshes(const csgv::ExtractResult& r, const csgv::CsgvFile& file, cons
     contour->SetValue(n++, double(v));
   }
   contour->Update();
-  vtkPolyData* mesh = contour->GetOutput();
+  vtkSmartPointer<vtkPolyData> mesh = contour->GetOutput();
+  if (finish.smoothing > 0 && mesh->GetNumberOfPolys() > 0)
+  {
+    // Windowed sinc keeps the triangles and the point labels; vertices leave the voxel faces.
+    vtkNew<vtkWindowedSincPolyDataFilter> smooth;
+    smooth->SetInputData(mesh);
+    smooth->SetNumberOfIterations(finish.smoothing);
+    smooth->SetPassBand(0.1);
+    smooth->BoundarySmoothingOff();
+    smooth->FeatureEdgeSmoothingOff();
+    smooth->NonManifoldSmoothingOn();
+    smooth->NormalizeCoordinatesOn();
+    smooth->Update();
+    mesh = smooth->GetOutput();
+  }
+  // Decimation makes new triangles without point labels: one label per mesh only (the caller
+  // meshes labels one by one when it decimates).
+  if (finish.decimation > 0 && values.size() == 1 && mesh->GetNumberOfPolys() > 0)
+  {
+    vtkNew<vtkQuadricDecimation> decimate;
+    decimate->SetInputData(mesh);
+    decimate->SetTargetReduction(finish.decimation);
+    decimate->VolumePreservationOn();
+    decimate->Update();
+    mesh = decimate->GetOutput();
+  }
 
   const csgv::Geometry g = csgv::extractGeometry(volume, r.lod, r.offset);
   const vtkIdType first = points->GetNumberOfPoints();
@@ -168,7 +202,9 @@ void appendMeshes(const csgv::ExtractResult& r, const csgv::CsgvFile& file, cons
       id += first;
     }
     polys->InsertNextCell(npts, shifted.data());
-    const uint32_t v = pointLabels && npts > 0 ? uint32_t(pointLabels->GetComponent(pts[0], 0)) : 0u;
+    const uint32_t v = values.size() == 1 ? *values.begin()
+      : pointLabels && npts > 0           ? uint32_t(pointLabels->GetComponent(pts[0], 0))
+                                          : 0u;
     labels->InsertNextValue(wide ? file.originalLabel(v - 1) : int64_t(v));
   }
 }
@@ -405,6 +441,14 @@ int vtkCSGVExtractLabels::RequestData(
   cellLabels->SetName("Label");
   uint64_t decoded = 0;
   bool any = false;
+  MeshFinish finish;
+  finish.smoothing = this->Smoothing;
+  finish.decimation = this->Decimation;
+  if (finish.decimation > 0 && groups.size() == 1 && selected.size() > 1)
+  {
+    vtkWarningMacro(<< "Decimation applies to selections of at most " << kLabelsOneByOne
+                    << " labels (meshed one by one); these meshes are not decimated");
+  }
   for (size_t gi = 0; gi < groups.size(); ++gi)
   {
     o.labels = groups[gi];
@@ -417,7 +461,7 @@ int vtkCSGVExtractLabels::RequestData(
     // boxes, never one of the whole volume.
     const csgv::Status s = csgv::extractByBoxes(file, o, [&](csgv::ExtractResult& r) {
       any = true;
-      appendMeshes(r, file, parsed->geometry, points, polys, cellLabels);
+      appendMeshes(r, file, parsed->geometry, finish, points, polys, cellLabels);
       return csgv::Status::ok();
     }, &decoded);
     if (!s)
@@ -455,5 +499,7 @@ void vtkCSGVExtractLabels::PrintSelf(ostream& os, vtkIndent indent)
      << this->VOI[3] << " " << this->VOI[4] << " " << this->VOI[5] << "\n";
   os << indent << "Level: " << this->Level << "\n";
   os << indent << "OutputType: " << this->OutputType << "\n";
+  os << indent << "Smoothing: " << this->Smoothing << "\n";
+  os << indent << "Decimation: " << this->Decimation << "\n";
   os << indent << "BricksDecoded: " << this->BricksDecoded << " of " << this->BricksTotal << "\n";
 }

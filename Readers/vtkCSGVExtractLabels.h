@@ -59,6 +59,13 @@ public:
   /// Level of detail, 0 (full resolution) to the file's coarsest level (clamped).
   vtkSetClampMacro(Level, int, 0, 7);
   vtkGetMacro(Level, int);
+  /// Meshes only: windowed-sinc smoothing iterations (0, the default: none; the vertices then
+  /// leave the voxel faces) and quadric decimation's target reduction (0 to 0.95; 0 none),
+  /// for selections of at most 256 labels.
+  vtkSetClampMacro(Smoothing, int, 0, 1000);
+  vtkGetMacro(Smoothing, int);
+  vtkSetClampMacro(Decimation, double, 0.0, 0.95);
+  vtkGetMacro(Decimation, double);
   vtkSetClampMacro(MaxLabels, int, 1, VTK_INT_MAX);
   vtkGetMacro(MaxLabels, int);
   vtkSetClampMacro(MaxOutputMiB, int, 1, VTK_INT_MAX);
@@ -83,6 +90,8 @@ protected:
   int VOI[6] = { 0, VTK_INT_MAX, 0, VTK_INT_MAX, 0, VTK_INT_MAX };
   int Level = 0;
   int OutputType = MESHES;
+  int Smoothing = 0;
+  double Decimation = 0;
   int MaxLabels = 1000000;
   int MaxOutputMiB = 4096;
   int BricksDecoded = 0;

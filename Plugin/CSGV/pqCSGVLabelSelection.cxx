@@ -3,6 +3,8 @@
 
 #include "pqCSGVMaterialDocument.h"
 
+#include "csgv/codec/Extract.h"
+
 #include <pqApplicationCore.h>
 #include <pqDataRepresentation.h>
 #include <pqOutputPort.h>
@@ -38,6 +40,10 @@
 namespace
 {
 pqCSGVLabelSelection* Instance = nullptr;
+
+/// A selection is held in the material property's text and drawn as one material per run of
+/// labels: larger ones are refused (CSGV Extract Labels' default MaxLabels, the same bound).
+constexpr size_t kMaxSelectedLabels = csgv::kDefaultMaxExtractLabels;
 
 /// Changes to helper proxies (fetching rows) are no edits: kept off the undo stack.
 struct NotUndoable
@@ -295,7 +301,9 @@ void pqCSGVLabelSelection::selectRectangle(pqView* view, const int region[4], cs
       pqCSGV::labelsInRectangle(dr->getProxy(), region[0], region[1], region[2], region[3]);
     if (labels.empty() && edit != csgv::SelectionEdit::Replace)
       continue;
-    pqCSGVLabelSelection::edit(dr->getProxy(), labels, edit, "Select labels");
+    QString error;
+    if (!pqCSGVLabelSelection::edit(dr->getProxy(), labels, edit, "Select labels", &error))
+      qWarning("%s", qUtf8Printable(error));
   }
   view->render();
 }
@@ -322,6 +330,15 @@ bool pqCSGVLabelSelection::edit(vtkSMProxy* display, const std::vector<uint32_t>
       return false;
     }
     csgv::editSelection(doc, labels, edit);
+    if (doc.selected.size() > kMaxSelectedLabels)
+    {
+      if (error)
+        *error = QString("%1 labels would be selected, more than %2: select fewer (a query, a smaller "
+                         "rectangle), or extract them by a Query in CSGV Extract Labels")
+                   .arg(doc.selected.size())
+                   .arg(kMaxSelectedLabels);
+      return false;
+    }
     if (d == display)
       selected = doc.selected;
     const QString text = pqCSGV::serialize(doc);
@@ -413,7 +430,9 @@ void pqCSGVLabelSelection::selectionChanged(pqOutputPort* port)
   if (labels == pqCSGV::selectedLabels(displays.front()))
     return;
   this->Busy = true; // the rows are selected already
-  pqCSGVLabelSelection::edit(displays.front(), labels, csgv::SelectionEdit::Replace, "Select labels from the table");
+  QString error;
+  if (!pqCSGVLabelSelection::edit(displays.front(), labels, csgv::SelectionEdit::Replace, "Select labels from the table", &error))
+    qWarning("%s", qUtf8Printable(error));
   this->Busy = false;
   for (pqView* v : pqApplicationCore::instance()->getServerManagerModel()->findItems<pqView*>())
     v->render();

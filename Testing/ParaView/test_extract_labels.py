@@ -120,6 +120,24 @@ vol1 = t.cell_labels(lvl).reshape(dims[2], dims[1], dims[0])
 check_mesh(pts1, labels1, cells1, vol1, 2, "level 1")
 e.Level = 0
 
+# Smoothing keeps every triangle and its label, moving vertices off the voxel faces by less than a
+# voxel; decimation removes about the asked fraction of triangles, each label keeping a mesh.
+e.Smoothing = 20
+pts_s, labels_s, cells_s = mesh_of(e)
+t.check(len(cells_s) == len(cells) and np.array_equal(labels_s, labels), "smoothing keeps the triangles and their labels")
+moved = np.abs(pts_s - pts).max(axis=1) / spacing.min()
+t.check(moved.max() < 1.0 and moved.max() > 0.05, "smoothing moves vertices, by less than a voxel (max %.3f)" % moved.max())
+e.Smoothing = 0
+e.Decimation = 0.5
+pts_d, labels_d, cells_d = mesh_of(e)
+t.check(0.3 * len(cells) < len(cells_d) <= 0.6 * len(cells), "decimation 0.5 halves the triangles (%d of %d)" % (len(cells_d), len(cells)))
+t.check(sorted(set(int(x) for x in labels_d)) == sorted(chosen), "decimated: every label keeps a mesh, labelled")
+for lab in chosen:
+    a, b = pts[np.unique(np.array(cells)[labels == lab])], pts_d[np.unique(np.array(cells_d)[labels_d == lab])]
+    t.check(np.all(b.min(axis=0) >= a.min(axis=0) - spacing) and np.all(b.max(axis=0) <= a.max(axis=0) + spacing),
+            "decimated label %d stays within its voxels' box" % lab)
+e.Decimation = 0
+
 # Output Type Mask and Label image: one image of the selection's bounding box, cell for cell on
 # the volume (the source volume is the oracle), at level 0, in a box and at level 1.
 def image_of(f):

@@ -52,6 +52,35 @@ d.CSGVMaterials = json.dumps(dict(user, only=[hidden]))
 only = labels("only.png")
 t.check(set(np.unique(only[only != INVALID]).tolist()) == {hidden}, "only: just label %d" % hidden)
 
+# The label selection ("selected", issue 41): highlighted, the same labels are seen, the selected
+# one in the selection colour; dimmed, the others are translucent, so only the selected label is
+# hit opaque (the label image), and where it was seen before it still is.
+d.CSGVMaterials = ct.select_labels(json.dumps(user), [hidden])
+t.check(ct.selected_labels(d.CSGVMaterials) == [hidden], "select_labels sets the selection")
+shot = t.screenshot(v, W, H, "selected.png")
+sel = ct.label_image(d)
+t.check(np.array_equal(sel, before), "highlighted: the same labels are seen")
+mine = shot[::-1][sel == hidden].astype(int)  # row 0 at the bottom, as the label image
+rest = shot[::-1][(sel != hidden) & (sel != INVALID)].astype(int)
+t.check(len(mine) > 0 and np.median(mine[:, 1]) < 0.25 * np.median(mine[:, 0]) and abs(np.median(mine[:, 0]) - np.median(mine[:, 2])) <= 2,
+        "the selected label is drawn magenta (median rgb %s)" % (np.median(mine, axis=0),))
+t.check(len(rest) > 0 and np.median(rest[:, 1]) > 0.3 * np.median(rest[:, 0]),
+        "the other labels keep the user's orange (median rgb %s)" % (np.median(rest, axis=0),))
+d.CSGVMaterials = ct.select_labels(d.CSGVMaterials, [], style="dim")
+t.check(np.array_equal(labels("unselected.png"), before), "an empty selection draws as none")
+d.CSGVMaterials = ct.select_labels(d.CSGVMaterials, [hidden], style="dim")
+dim = labels("dim.png")
+t.check(set(np.unique(dim[dim != INVALID]).tolist()) == {hidden}, "dimmed: only the selected label is opaque")
+t.check(np.all(dim[before == hidden] == hidden), "dimmed: the selected label is seen wherever it was")
+t.check(json.loads(d.CSGVMaterials)["materials"] == user["materials"], "the user's materials stay as written")
+# The selection as CSGV Extract Labels' input: a mask of exactly the selected label's voxels.
+e = CSGVExtractLabels(Input=r, Labels=" ".join(str(x) for x in ct.selected_labels(d.CSGVMaterials)), OutputType="Mask")
+m = t.fetch(e)
+src = t.source_volume("synthA_b32_rans2.csgv")
+t.check(int(m.GetCellData().GetArray("Mask").GetRange()[1]) == 1 and
+        int(sum(m.GetCellData().GetArray("Mask").GetValue(i) for i in range(m.GetNumberOfCells()))) == int(np.sum(src == hidden)),
+        "Extract Labels of the selection: a mask of its voxels")
+
 d.CSGVMaterials = json.dumps(user)
 t.check(np.array_equal(labels("all.png"), before), "without the overlay: the first image again")
 t.finish()
