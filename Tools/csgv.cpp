@@ -55,7 +55,7 @@ std::string usage() {
            "      exact up to 2^24 voxels, otherwise an estimate from 16 evenly spaced slices)\n"
            "  decompress IN.csgv OUT.vraw|OUT.nrrd [--level L] [--threads N]\n"
            "      level 0 = full resolution, 1 = half, ...; original labels when a _csgv.db3 is beside IN\n"
-           "  extract IN.csgv OUT.nrrd|OUT.vraw --labels L1,L2,... | --query SQL [--mask] [--level L]\n"
+           "  extract IN.csgv OUT.nrrd|OUT.vti|OUT.vraw --labels L1,L2,... | --query SQL [--mask] [--level L]\n"
            "          [--box x0,y0,z0,x1,y1,z1] [--max-labels N] [--max-output-mib M] [--threads N]\n"
            "      the selected labels (original labels; --query: an SQL condition over the _csgv.db3's\n"
            "      columns) as a label image (others 0) or a uint8 mask (--mask), cropped to their bounding\n"
@@ -505,15 +505,16 @@ int extractMesh(const CsgvFile& f, const ExtractOptions& o, const Args& a, const
 
 int cmdExtract(const Args& a) {
     if (a.positional.size() != 2)
-        return fail("extract expects: csgv extract IN.csgv OUT.nrrd|OUT.vraw|OUT.obj|OUT.ply|OUT.stl|OUT.vtp --labels L1,L2,... | --query SQL [options]");
+        return fail("extract expects: csgv extract IN.csgv OUT.nrrd|OUT.vti|OUT.vraw|OUT.obj|OUT.ply|OUT.stl|OUT.vtp --labels L1,L2,... | --query SQL [options]");
     const std::string& in = a.positional[0];
     const std::string& out = a.positional[1];
-    const bool nrrd = endsWithNoCase(out, ".nrrd");
+    const bool vti = endsWithNoCase(out, ".vti");
+    const bool nrrd = endsWithNoCase(out, ".nrrd") || vti; // typed, with geometry: every label width
     MeshFormat meshFormat = MeshFormat::Obj;
     const bool mesh = meshFormatFor(out, meshFormat);
     if (!nrrd && !mesh && !endsWithNoCase(out, ".vraw"))
-        return fail("output '" + out + "' must end in .vraw, .nrrd, .obj, .ply, .stl or .vtp");
-    if (mesh && a.mask) return fail("--mask is for label images (.nrrd, .vraw); a mesh output (" + out + ") takes no --mask");
+        return fail("output '" + out + "' must end in .vraw, .nrrd, .vti, .obj, .ply, .stl or .vtp");
+    if (mesh && a.mask) return fail("--mask is for label images (.nrrd, .vti, .vraw); a mesh output (" + out + ") takes no --mask");
     if (a.hasLabels == a.hasQuery)
         return fail(a.hasLabels ? "extract takes --labels or --query, not both"
                                 : "extract needs a selection: --labels L1,L2,... or --query SQL");
@@ -552,8 +553,18 @@ int cmdExtract(const Args& a) {
     // Node (0,0,0) of the output is node `offset` of the level image: the corner geometry moves
     // there, then NRRD takes the centre of the first node, as decompress writes it.
     const Geometry g = pointGeometryFromCellGeometry(extractGeometry(f->metadata.geometry, a.level, r->offset));
+    // VTK's image data: cells at their place in the level image (the level's corner geometry).
+    const Geometry level = extractGeometry(f->metadata.geometry, a.level, {0, 0, 0});
     Status w;
-    if (a.mask) {
+    if (vti && a.mask) {
+        w = writeVti(out, r->offset, r->dim, "UInt8", "Mask", r->mask.data(), 1, level);
+    } else if (vti && f->wideLabels) {
+        std::vector<int64_t> wide(r->labels.size());
+        for (size_t i = 0; i < wide.size(); ++i) wide[i] = r->labels[i] == kInvalidLabel ? 0 : f->originalLabel(r->labels[i]);
+        w = writeVti(out, r->offset, r->dim, f->attributes.labelsUnsigned64 ? "UInt64" : "Int64", "Label", wide.data(), 8, level);
+    } else if (vti) {
+        w = writeVti(out, r->offset, r->dim, "UInt32", "Label", r->labels.data(), 4, level);
+    } else if (a.mask) {
         w = nrrd ? writeNrrd(out, r->dim, "uint8", r->mask.data(), 1, g) : writeVrawUint8(out, r->dim, r->mask.data());
     } else if (f->wideLabels) {
         std::vector<int64_t> wide(r->labels.size());

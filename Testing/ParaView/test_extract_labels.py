@@ -245,6 +245,32 @@ if csgv_tool and os.path.exists(csgv_tool):
             bool(np.all(np.abs(qv - np.round(qv)) < 1e-6)),
             "csgv extract .vtp: VTK reads %d points and %d triangles (csgv said %s and %s), labels and voxel corners"
             % (pv.GetNumberOfPoints(), pv.GetNumberOfPolys(), keys.get("vertices"), keys.get("triangles")))
+    # `csgv extract OUT.vti` equals CSGV Extract Labels' image, cell for cell (extent, origin,
+    # spacing, values), for a mask and a label image, at level 0 and 1.
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+    e.Query = ""
+    e.Labels = " ".join(str(v) for v in chosen)
+    for level in (0, 1):
+        for mask, mode, arr_name in ((True, 1, "Mask"), (False, 2, "Label")):
+            out = os.path.join(t.temp_dir(), "sel%d%s.vti" % (level, arr_name))
+            args = [csgv_tool, "extract", os.path.join(t.FIXTURES, name), out, "--labels",
+                    ",".join(str(v) for v in chosen), "--level", str(level)] + (["--mask"] if mask else [])
+            run = subprocess.run(args, capture_output=True, text=True)
+            rd = vtkXMLImageDataReader()
+            rd.SetFileName(out)
+            rd.Update()
+            got = rd.GetOutput()
+            e.Level = level
+            e.OutputType = mode
+            im = image_of(e)[0]
+            ga, wa = got.GetCellData().GetArray(arr_name), im.GetCellData().GetArray(arr_name)
+            t.check(run.returncode == 0 and ga is not None and wa is not None and
+                    list(got.GetExtent()) == list(im.GetExtent()) and
+                    np.allclose(got.GetOrigin(), im.GetOrigin()) and np.allclose(got.GetSpacing(), im.GetSpacing()) and
+                    np.array_equal(vtk_to_numpy(ga), vtk_to_numpy(wa)),
+                    "csgv extract .vti, level %d, %s: equals CSGV Extract Labels' image (extent %s, %s)"
+                    % (level, arr_name, list(got.GetExtent()), run.stderr.strip()[:200]))
+    e.Level, e.OutputType = 0, 0
 else:
     t.check(False, "the csgv tool (CSGV_TOOL=%r)" % csgv_tool)
 

@@ -138,6 +138,34 @@ Status writeNrrd(const std::string& path, const std::array<uint32_t, 3>& dim, co
     return s;
 }
 
+Status writeVti(const std::string& path, const std::array<uint32_t, 3>& offset, const std::array<uint32_t, 3>& dim,
+                const char* vtkType, const char* name, const void* data, size_t bytesPerVoxel, const Geometry& g) {
+    std::ostringstream extent;
+    for (int a = 0; a < 3; ++a) extent << (a ? " " : "") << offset[a] << ' ' << uint64_t(offset[a]) + dim[a];
+    std::ostringstream h;
+    h.precision(17);
+    h << "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\">\n  <ImageData WholeExtent=\""
+      << extent.str() << "\" Origin=\"" << g.origin[0] << ' ' << g.origin[1] << ' ' << g.origin[2] << "\" Spacing=\""
+      << g.spacing[0] << ' ' << g.spacing[1] << ' ' << g.spacing[2] << "\" Direction=\"";
+    for (int i = 0; i < 9; ++i) h << (i ? " " : "") << g.direction[size_t(i)];
+    h << "\">\n    <Piece Extent=\"" << extent.str() << "\">\n      <PointData/>\n      <CellData Scalars=\"" << name
+      << "\">\n        <DataArray type=\"" << vtkType << "\" Name=\"" << name
+      << "\" format=\"appended\" offset=\"0\"/>\n      </CellData>\n    </Piece>\n  </ImageData>\n"
+         "  <AppendedData encoding=\"raw\">\n   _";
+    const std::string header = h.str();
+    const uint64_t bytes = uint64_t(dim[0]) * dim[1] * dim[2] * bytesPerVoxel;
+    const std::string footer = "\n  </AppendedData>\n</VTKFile>\n";
+    AtomicFile f;
+    Status s = f.open(path);
+    if (s) s = f.write(header.data(), header.size());
+    if (s) s = f.write(&bytes, 8); // the block's byte count (header_type UInt64, little-endian hosts)
+    if (s) s = f.write(data, size_t(bytes));
+    if (s) s = f.write(footer.data(), footer.size());
+    if (s) s = f.commit();
+    return s;
+}
+
 Status writeNrrd(const std::string& path, const LabelVolume& vol, const Geometry& centred) {
     return writeNrrd(path, vol.dim, "uint32", vol.labels.data(), 4, centred);
 }

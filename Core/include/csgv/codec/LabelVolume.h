@@ -54,6 +54,13 @@ Status writeVrawUint8(const std::string& path, const std::array<uint32_t, 3>& di
 /// (`origin` the centre of voxel 0), through a temporary file renamed into place.
 Status writeNrrd(const std::string& path, const std::array<uint32_t, 3>& dim, const char* nrrdType,
                  const void* data, size_t bytesPerVoxel, const Geometry& centred);
+/// Writes VTK's XML image data (`.vti`, raw appended, little-endian, 64-bit block header) holding
+/// one cell array `name` of `vtkType` ("UInt8", "UInt32", "Int64", "UInt64"): the cells
+/// `offset` + [0, dim) of an image whose node (0,0,0) has its minimum corner at `corner`'s origin
+/// (point extent offset .. offset + dim, spacing, direction), so it overlays the volume as
+/// ParaView's CSGV Extract Labels image does. Through a temporary file renamed into place.
+Status writeVti(const std::string& path, const std::array<uint32_t, 3>& offset, const std::array<uint32_t, 3>& dim,
+                const char* vtkType, const char* name, const void* data, size_t bytesPerVoxel, const Geometry& corner);
 /// Writes uint32 labels as NRRD.
 Status writeNrrd(const std::string& path, const LabelVolume& vol, const Geometry& centred = {});
 
