@@ -23,6 +23,7 @@
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
 #include <vtkSMRenderViewProxy.h>
+#include <vtkSMSelectionHelper.h>
 #include <vtkSMSessionProxyManager.h>
 #include <vtkSMSourceProxy.h>
 #include <vtkSelectionNode.h>
@@ -362,9 +363,16 @@ bool pqCSGVLabelSelection::edit(vtkSMProxy* display, const std::vector<uint32_t>
   pqCSGVLabelSelection* self = Instance;
   if (self && !self->Busy && port)
   {
-    self->Busy = true;
-    selectRows(port, selected);
-    self->Busy = false;
+    // From the event loop, after the edit's own signals (an edit may come from inside a view's
+    // mouse event: the pick panel).
+    QPointer<pqOutputPort> guarded(port);
+    QTimer::singleShot(0, self, [self, guarded, selected]() {
+      if (!guarded)
+        return;
+      self->Busy = true;
+      selectRows(guarded, selected);
+      self->Busy = false;
+    });
   }
   return true;
 }
@@ -411,7 +419,14 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
     vtkSMPropertyHelper(selection, "FieldType").Set(vtkSelectionNode::ROW);
     vtkSMPropertyHelper(selection, "IDs").Set(ids.data(), static_cast<unsigned int>(ids.size()));
     selection->UpdateVTKObjects();
-    out->setSelectionInput(selection, 0);
+    // ParaView 5.11's selection inputs are AppendSelections of selection sources (its Find Data
+    // frame reads the first source through them, and crashed on a bare source).
+    vtkSmartPointer<vtkSMSourceProxy> append;
+    append.TakeReference(
+      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(selection)));
+    if (!append)
+      continue;
+    out->setSelectionInput(append, 0);
     if (selections)
       selections->select(out);
   }

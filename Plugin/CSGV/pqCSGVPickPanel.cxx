@@ -162,7 +162,8 @@ void pqCSGVPickPanel::setView(pqView* view)
 
 bool pqCSGVPickPanel::eventFilter(QObject* watched, QEvent* event)
 {
-  if (watched == this->ViewWidget && this->Enabled->isChecked())
+  // Only while the panel is open: a hidden panel neither picks nor selects on clicks.
+  if (watched == this->ViewWidget && this->Enabled->isChecked() && this->isVisible())
   {
     if (event->type() == QEvent::MouseButtonPress)
     {

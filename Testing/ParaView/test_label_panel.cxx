@@ -20,6 +20,7 @@
 
 #include <pqActiveObjects.h>
 #include <pqDataRepresentation.h>
+#include <pqFindDataCurrentSelectionFrame.h>
 #include <pqApplicationCore.h>
 #include <pqObjectBuilder.h>
 #include <pqOutputPort.h>
@@ -33,6 +34,7 @@
 #include <vtkCommand.h>
 #include <vtkPVRenderView.h>
 #include <vtkSMRenderViewProxy.h>
+#include <vtkSMSelectionHelper.h>
 #include <vtkSMSourceProxy.h>
 #include <vtkSelectionNode.h>
 #include <vtkTable.h>
@@ -273,6 +275,9 @@ private Q_SLOTS:
     // (The plugin's own instance runs too; a second one makes the same edits, which change nothing.)
     pqCSGVLabelSelection links;
     links.startup();
+    // Find Data's "current selection" frame, as the GUI has it: it reads every new selection
+    // (and crashed on a selection input that was not an AppendSelections).
+    pqFindDataCurrentSelectionFrame findData;
     pqServer* server = pqActiveObjects::instance().activeServer();
     pqObjectBuilder* builder = core->getObjectBuilder();
     pqPipelineSource* source = builder->createReader(
@@ -304,7 +309,9 @@ private Q_SLOTS:
     };
     auto selectedRows = [table]() {
       std::vector<vtkIdType> out;
-      vtkSMSourceProxy* sel = table->getOutputPort(0)->getSelectionInput();
+      // An AppendSelections of one ID selection source, as ParaView 5.11 makes them.
+      vtkSMSourceProxy* append = table->getOutputPort(0)->getSelectionInput();
+      vtkSMProxy* sel = append && append->GetProperty("Input") ? vtkSMPropertyHelper(append, "Input").GetAsProxy(0) : nullptr;
       if (!sel || !sel->GetProperty("IDs"))
         return out;
       const std::vector<vtkIdType> ids = vtkSMPropertyHelper(sel, "IDs").GetIdTypeArray();
@@ -332,7 +339,8 @@ private Q_SLOTS:
     for (uint32_t l : corner)
       if (rowOf(l) >= 0)
         want.push_back(rowOf(l));
-    QVERIFY2(!want.empty() && selectedRows() == want, "the label table's rows follow the 3D selection");
+    QVERIFY(!want.empty());
+    QTRY_VERIFY2(selectedRows() == want, "the label table's rows follow the 3D selection");
 
     // Drawn highlighted: the colour query gives the selection colour for a selected label only.
     const QJsonObject colors = pqCSGV::queryJson(proxy, "colors 100000");
@@ -356,7 +364,10 @@ private Q_SLOTS:
     vtkSMPropertyHelper(rowsSel, "FieldType").Set(vtkSelectionNode::ROW);
     vtkSMPropertyHelper(rowsSel, "IDs").Set(ids, 4);
     rowsSel->UpdateVTKObjects();
-    table->getOutputPort(0)->setSelectionInput(rowsSel, 0);
+    vtkSmartPointer<vtkSMSourceProxy> appended;
+    appended.TakeReference(
+      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(rowsSel)));
+    table->getOutputPort(0)->setSelectionInput(appended, 0);
     pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
     const std::vector<uint32_t> fromRows{ uint32_t(rows->GetVariantValue(1).ToTypeInt64()),
       uint32_t(rows->GetVariantValue(2).ToTypeInt64()) };
@@ -370,7 +381,9 @@ private Q_SLOTS:
     const double range[] = { double(rows->GetVariantValue(3).ToTypeInt64()), double(rows->GetVariantValue(5).ToTypeInt64()) };
     vtkSMPropertyHelper(query, "Thresholds").Set(range, 2);
     query->UpdateVTKObjects();
-    table->getOutputPort(0)->setSelectionInput(query, 0);
+    appended.TakeReference(
+      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(query)));
+    table->getOutputPort(0)->setSelectionInput(appended, 0);
     pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
     QCOMPARE(pqCSGV::selectedLabels(proxy).size(), size_t(3));
     QCOMPARE(pqCSGV::selectedLabels(proxy).front(), uint32_t(range[0]));
@@ -411,7 +424,7 @@ private Q_SLOTS:
     // Clear selection empties it, and the rows' selection with it.
     QTest::mouseClick(panel.findChild<QPushButton*>("clearSelection"), Qt::LeftButton);
     QVERIFY(pqCSGV::selectedLabels(proxy).empty());
-    QVERIFY(table->getOutputPort(0)->getSelectionInput() == nullptr);
+    QTRY_VERIFY(table->getOutputPort(0)->getSelectionInput() == nullptr);
 
     builder->destroy(extract);
     builder->destroy(table);
