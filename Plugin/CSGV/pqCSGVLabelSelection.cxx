@@ -5,6 +5,7 @@
 
 #include "csgv/codec/Extract.h"
 
+#include <pqActiveObjects.h>
 #include <pqApplicationCore.h>
 #include <pqDataRepresentation.h>
 #include <pqOutputPort.h>
@@ -428,7 +429,14 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
       continue;
     out->setSelectionInput(append, 0);
     if (selections)
+    {
+      // ParaView's selection manager makes the selected port the active one; a selection made in
+      // 3D leaves the active source (the volume, a filter) as it was.
+      pqPipelineSource* active = pqActiveObjects::instance().activeSource();
       selections->select(out);
+      if (active && active != s)
+        pqActiveObjects::instance().setActiveSource(active);
+    }
   }
 }
 

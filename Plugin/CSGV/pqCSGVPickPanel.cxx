@@ -409,7 +409,16 @@ void pqCSGVPickPanel::setSelectionStyle(int index)
 void pqCSGVPickPanel::extractSelection()
 {
   vtkSMProxy* display = this->selectionDisplay();
-  const std::vector<uint32_t> labels = pqCSGV::selectedLabels(display);
+  std::vector<uint32_t> labels = pqCSGV::selectedLabels(display);
+  // Label 0 is the background of the meshes; when no material takes it (empty space, the
+  // default), a selection that holds it (a query over the table's rows) extracts the rest.
+  const csgv::MaterialDocument doc =
+    pqCSGV::parseDocument(QString::fromUtf8(vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString()));
+  if (!labels.empty() && labels.front() == 0 && 
+    csgv::MaterialEvaluator(doc, [](const std::string&, uint32_t) { return std::nan(""); }).materialOf(0) < 0)
+  {
+    labels.erase(labels.begin());
+  }
   pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
   auto* r = model->findItem<pqDataRepresentation*>(display);
   pqOutputPort* port = r ? r->getOutputPortFromInput() : nullptr;

@@ -325,6 +325,7 @@ private Q_SLOTS:
     QVERIFY2(shown.size() >= 2, "the view shows labels");
     const std::vector<uint32_t> corner = pqCSGV::labelsInRectangle(proxy, 60, 60, 100, 100);
     QVERIFY(!corner.empty());
+    pqActiveObjects::instance().setActiveSource(source);
     vtkSMRenderViewProxy* rmp = view->getRenderViewProxy();
     vtkSMPropertyHelper(rmp, "InteractionMode").Set(vtkPVRenderView::INTERACTION_MODE_SELECTION);
     rmp->UpdateVTKObjects();
@@ -341,6 +342,7 @@ private Q_SLOTS:
         want.push_back(rowOf(l));
     QVERIFY(!want.empty());
     QTRY_VERIFY2(selectedRows() == want, "the label table's rows follow the 3D selection");
+    QVERIFY2(pqActiveObjects::instance().activeSource() == source, "a 3D selection leaves the active source");
 
     // Drawn highlighted: the colour query gives the selection colour for a selected label only.
     const QJsonObject colors = pqCSGV::queryJson(proxy, "colors 100000");
@@ -417,6 +419,8 @@ private Q_SLOTS:
     style->setCurrentIndex(1);
     QMetaObject::invokeMethod(style, "activated", Q_ARG(int, 1));
     QVERIFY(QString(vtkSMPropertyHelper(proxy, "CSGVMaterials").GetAsString()).contains("\"selectionStyle\":\"dim\""));
+    // Label 0 (the background, no material takes it) is left out of the extraction.
+    pqCSGVLabelSelection::edit(proxy, { 0 }, csgv::SelectionEdit::Add, "Select labels");
     QTest::mouseClick(panel.findChild<QPushButton*>("extractSelection"), Qt::LeftButton);
     pqPipelineSource* extract = pqActiveObjects::instance().activeSource();
     QVERIFY(extract && QString(extract->getProxy()->GetXMLName()) == "CSGVExtractLabels");
