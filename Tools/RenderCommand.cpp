@@ -20,6 +20,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <unordered_map>
 
 namespace csgv {
 
@@ -330,6 +332,24 @@ int cmdRender(int argc, char** argv) {
     }
     std::map<std::string, std::vector<float>> attributes;
     if (!(s = gatherAttributes(a, *file, doc, attributes))) return fail(s.message());
+    // The label overlays ("hidden", "only", "selected") drawn as ParaView draws them: the plain
+    // document effectiveMaterials makes, the labels' attribute values from the arrays above.
+    if (!doc.hidden.empty() || !doc.only.empty() || !doc.selected.empty()) {
+        std::unordered_map<int64_t, uint32_t> idOf;
+        if (file->hasAttributes)
+            for (size_t id = 0; id < file->attributes.labels.size(); ++id) idOf.emplace(file->attributes.labels[id], uint32_t(id));
+        doc = effectiveMaterials(doc, [&](const std::string& name, uint32_t label) {
+            const auto column = attributes.find(name);
+            if (column == attributes.end()) return std::numeric_limits<double>::quiet_NaN();
+            size_t index = label;
+            if (file->hasAttributes) {
+                const auto it = idOf.find(int64_t(label));
+                if (it == idOf.end()) return std::numeric_limits<double>::quiet_NaN();
+                index = it->second;
+            }
+            return index < column->second.size() ? double(column->second[index]) : std::numeric_limits<double>::quiet_NaN();
+        });
+    }
     const auto tContext = std::chrono::steady_clock::now();
     Result<std::unique_ptr<gpu::Context>> ctx = gpu::Context::create();
     if (!ctx) return fail(ctx.message());

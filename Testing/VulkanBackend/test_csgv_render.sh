@@ -87,6 +87,23 @@ import struct
 px=struct.unpack('<%dI'%(64*48),open('$TMP/b.labels','rb').read())
 assert $TOP not in px
 " && pass "a hidden label is gone" || bad "hidden label still visible"
+# The label overlays as ParaView draws them: "hidden" takes the label away, and "selected" with
+# the style "dim" leaves only the selected label opaque (the others at 15 % opacity).
+echo "{\"hidden\": [$TOP]}" > "$TMP/hid.json"
+expect 0 "render with a hidden overlay" "$CSGV" render "$DEF" "$TMP/h.png" --size 64x48 --labels-out "$TMP/h.labels" --finest --no-jitter --materials "$TMP/hid.json"
+$PY -c "
+import struct
+px=struct.unpack('<%dI'%(64*48),open('$TMP/h.labels','rb').read())
+assert $TOP not in px
+" && pass "an overlay's hidden label is gone" || bad "the hidden overlay is not drawn"
+echo "{\"selected\": [$TOP], \"selectionStyle\": \"dim\"}" > "$TMP/sel.json"
+expect 0 "render with a dimmed selection" "$CSGV" render "$DEF" "$TMP/s.png" --size 64x48 --labels-out "$TMP/s.labels" --finest --no-jitter --materials "$TMP/sel.json"
+$PY -c "
+import struct
+a=struct.unpack('<%dI'%(64*48),open('$TMP/a.labels','rb').read())
+s=struct.unpack('<%dI'%(64*48),open('$TMP/s.labels','rb').read())
+assert set(s) <= {$TOP, 0xFFFFFFFF} and all(y == $TOP for x, y in zip(a, s) if x == $TOP)
+" && pass "a dimmed selection: only the selected label is opaque" || bad "the selection overlay is not drawn"
 # Errors: one line, exit 1.
 expect 1 "missing input" "$CSGV" render "$TMP/nope.csgv" "$TMP/x.png"
 expect 1 "bad size" "$CSGV" render "$DEF" "$TMP/x.png" --size 0x10
