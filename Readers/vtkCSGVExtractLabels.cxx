@@ -12,6 +12,7 @@
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
 #include <vtkImageData.h>
+#include <vtkMultiBlockDataSet.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
 #include <vtkNew.h>
@@ -301,11 +302,11 @@ int vtkCSGVExtractLabels::RequestDataObject(vtkInformation*, vtkInformationVecto
   vtkInformation* info = outputVector->GetInformationObject(0);
   vtkDataObject* output = info->Get(vtkDataObject::DATA_OBJECT());
   const bool image = this->OutputType != MESHES;
-  if (!output || (image ? !vtkImageData::SafeDownCast(output) : !vtkPolyData::SafeDownCast(output)))
+  if (!output || (image ? !vtkMultiBlockDataSet::SafeDownCast(output) : !vtkPolyData::SafeDownCast(output)))
   {
     vtkSmartPointer<vtkDataObject> made;
     if (image)
-      made = vtkSmartPointer<vtkImageData>::New();
+      made = vtkSmartPointer<vtkMultiBlockDataSet>::New();
     else
       made = vtkSmartPointer<vtkPolyData>::New();
     info->Set(vtkDataObject::DATA_OBJECT(), made);
@@ -408,8 +409,13 @@ int vtkCSGVExtractLabels::RequestData(
   }
   total = parsed->volume.brickCount();
   this->BricksTotal = int(std::min<uint64_t>(total, VTK_INT_MAX));
-  if (auto* image = vtkImageData::SafeDownCast(output))
+  if (auto* blocks = vtkMultiBlockDataSet::SafeDownCast(output))
   {
+    // The image is a block of its own: its extent (the selection's bounding box) is known only
+    // here, while an image output's whole extent is fixed in the information pass (the input
+    // volume's), and ParaView's Surface representation draws the faces of the whole extent (a
+    // cropped image output showed nothing). A block's extent is its own.
+    vtkNew<vtkImageData> image;
     // One image of the selection's bounding box (memory bounded by it: MaxOutputMiB).
     o.labels = selected;
     o.mask = this->OutputType == MASK;
@@ -430,6 +436,9 @@ int vtkCSGVExtractLabels::RequestData(
       return 1;
     }
     fillImage(*r, file, parsed->geometry, image);
+    blocks->SetNumberOfBlocks(1);
+    blocks->SetBlock(0, image);
+    blocks->GetMetaData(0u)->Set(vtkCompositeDataSet::NAME(), this->OutputType == MASK ? "Mask" : "Label");
     this->UpdateProgress(1.0);
     return 1;
   }

@@ -17,7 +17,8 @@
  * labels would otherwise make one box of most of the volume). BricksDecoded and BricksTotal
  * tell what it took. OutputType MASK or LABEL_IMAGE makes one image of the selection's bounding
  * box instead (csgv::extractLabels over all the labels at once), cell data in the volume's
- * geometry at Level, so it overlays the volume cell for cell.
+ * geometry at Level, so it overlays the volume cell for cell; it is the one block of a
+ * multiblock output (see OutputType).
  */
 #ifndef vtkCSGVExtractLabels_h
 #define vtkCSGVExtractLabels_h
@@ -34,9 +35,10 @@ public:
   vtkTypeMacro(vtkCSGVExtractLabels, vtkDataObjectAlgorithm);
 
   /// What is made of the selection: surface meshes (vtkPolyData), or an image cropped to the
-  /// selection's bounding box (vtkImageData, cell data, the volume's geometry at Level): a mask
-  /// ("Mask", uint8: 1 where a selected label is) or a label image ("Label": the selected
-  /// labels, 0 elsewhere).
+  /// selection's bounding box (a vtkImageData, cell data, the volume's geometry at Level, as the
+  /// one block of a vtkMultiBlockDataSet: an image output's whole extent would be the input
+  /// volume's, fixed before the box is known): a mask ("Mask", uint8: 1 where a selected label
+  /// is) or a label image ("Label": the selected labels, 0 elsewhere).
   enum OutputTypes
   {
     MESHES = 0,

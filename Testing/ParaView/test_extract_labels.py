@@ -142,8 +142,10 @@ e.Decimation = 0
 # the volume (the source volume is the oracle), at level 0, in a box and at level 1.
 def image_of(f):
     f.UpdatePipeline()
-    im = sm.Fetch(f)
-    t.check(im.IsA("vtkImageData"), "an image output is vtkImageData (%s)" % im.GetClassName())
+    mb = sm.Fetch(f)
+    t.check(mb.IsA("vtkMultiBlockDataSet") and mb.GetNumberOfBlocks() == 1 and mb.GetBlock(0).IsA("vtkImageData"),
+            "an image output is one vtkImageData block (%s)" % mb.GetClassName())
+    im = mb.GetBlock(0)
     ext = im.GetExtent()
     dims = [ext[2 * a + 1] - ext[2 * a] for a in range(3)]
     arr = im.GetCellData().GetScalars()

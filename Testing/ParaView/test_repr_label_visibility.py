@@ -75,7 +75,7 @@ t.check(np.all(dim[before == hidden] == hidden), "dimmed: the selected label is 
 t.check(json.loads(d.CSGVMaterials)["materials"] == user["materials"], "the user's materials stay as written")
 # The selection as CSGV Extract Labels' input: a mask of exactly the selected label's voxels.
 e = CSGVExtractLabels(Input=r, Labels=" ".join(str(x) for x in ct.selected_labels(d.CSGVMaterials)), OutputType="Mask")
-m = t.fetch(e)
+m = t.fetch(e).GetBlock(0)
 src = t.source_volume("synthA_b32_rans2.csgv")
 t.check(int(m.GetCellData().GetArray("Mask").GetRange()[1]) == 1 and
         int(sum(m.GetCellData().GetArray("Mask").GetValue(i) for i in range(m.GetNumberOfCells()))) == int(np.sum(src == hidden)),
