@@ -3,8 +3,6 @@
 
 #include "pqCSGVMaterialDocument.h"
 
-#include "csgv/codec/Extract.h"
-
 #include <pqActiveObjects.h>
 #include <pqApplicationCore.h>
 #include <pqDataRepresentation.h>
@@ -44,8 +42,8 @@ namespace
 pqCSGVLabelSelection* Instance = nullptr;
 
 /// A selection is held in the material property's text and drawn as one material per run of
-/// labels: larger ones are refused (CSGV Extract Labels' default MaxLabels, the same bound).
-constexpr size_t kMaxSelectedLabels = csgv::kDefaultMaxExtractLabels;
+/// labels: larger ones are refused (the document's own bound, csgv::kMaxOverlayLabels).
+constexpr size_t kMaxSelectedLabels = csgv::kMaxOverlayLabels;
 
 /// Changes to helper proxies (fetching rows) are no edits: kept off the undo stack.
 struct NotUndoable

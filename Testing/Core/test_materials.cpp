@@ -521,6 +521,13 @@ TEST(Materials, SelectionParsesStrictlyEditsAndRoundTrips) {
     EXPECT_EQ(d.selectionStyle, MaterialDocument::SelectionStyle::Dim); // the look stays
     editSelection(d, {}, SelectionEdit::Replace);
     EXPECT_TRUE(d.selected.empty());
+    {
+        std::string many = R"j({"selected": [)j";
+        for (size_t i = 0; i <= kMaxOverlayLabels; ++i) many += (i ? "," : "") + std::to_string(2 * i);
+        Result<MaterialDocument> r = parseMaterials(many + "]}");
+        ASSERT_FALSE(r.isOk());
+        EXPECT_NE(r.message().find("more than 1000000"), std::string::npos) << r.message();
+    }
     for (const char* bad : {R"j({"selected": [-2]})j", R"j({"selected": 3})j", R"j({"selectionStyle": "glow"})j",
                             R"j({"selectionStyle": 1})j", R"j({"selectionColor": [1, 0]})j",
                             R"j({"selectionColor": [1, 0, 2]})j", R"j({"selectionColor": "red"})j"}) {

@@ -187,6 +187,9 @@ Status labelList(const json& j, const char* key, std::vector<uint32_t>& out) {
     if (!j.contains(key)) return Status::ok();
     const std::string ctx = std::string("material document: '") + key + "'";
     if (!j[key].is_array()) return Status::error(ctx + " must be a list of labels, not " + jsonText(j[key]));
+    if (j[key].size() > kMaxOverlayLabels)
+        return Status::error(ctx + " lists " + std::to_string(j[key].size()) + " labels, more than " +
+                             std::to_string(kMaxOverlayLabels) + " (each run of them is drawn as a material of its own)");
     for (const json& v : j[key]) {
         const bool integral = v.is_number_integer() || (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>());
         if (!integral || !(v.get<double>() >= 0 && v.get<double>() <= kMaxMaterialLabel))

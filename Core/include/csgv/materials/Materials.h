@@ -70,6 +70,9 @@ struct Material {
     float emission = 0;
 };
 
+/// The most labels one overlay list ("hidden", "only", "selected") may hold: each run of
+/// scattered labels becomes a material of its own on the device.
+constexpr size_t kMaxOverlayLabels = 1000000;
 /// The opacity factor of the labels that are not selected in the selection style "dim".
 constexpr float kDimmedOpacity = 0.15f;
 
