@@ -12,6 +12,7 @@ material document, and the materials' colours as a categorical lookup table.
     d.CSGVMaterials = csgv_tools.select_labels(d.CSGVMaterials, [3, 17], style="dim")
     csgv_tools.selected_labels(d.CSGVMaterials)       # [3, 17]: e.g. CSGVExtractLabels(Labels=...)
     csgv_tools.labels_in_rectangle(d, 0, 0, 99, 99)   # labels shown in a pixel rectangle
+    csgv_tools.labels_matching(d, "voxels > 1000")    # labels whose attributes match (SQL)
     csgv_tools.apply_label_colors(d, slice_display)   # same colours and region names on a Slice
 
 The questions go through the server-manager proxy misc/CSGVQuery (Representation/vtkCSGVQuery.h).
@@ -170,6 +171,17 @@ def select_labels(materials_text, labels, edit="replace", style=None, color=None
 def selected_labels(materials_text):
     """The label selection of a material document, ascending."""
     return sorted(int(x) for x in _document(materials_text).get("selected", []))
+
+
+def labels_matching(display, condition):
+    """The labels (ascending) whose attributes make the SQL `condition` true, e.g.
+    `"voxels > 1000 and kind = 2"`: the representation's attribute table (database, loaded,
+    computed and derived columns), answered where the data lives. Raises ValueError with SQLite's
+    message for a condition it refuses."""
+    answer = json.loads(query(display, "match " + condition) or "{}")
+    if "error" in answer or "labels" not in answer:
+        raise ValueError(answer.get("error", "no answer"))
+    return [int(x) for x in answer["labels"]]
 
 
 def labels_in_rectangle(display, x0, y0, x1, y1):

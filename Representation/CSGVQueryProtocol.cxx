@@ -119,6 +119,41 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
     }
     return json({ { "labels", labels }, { "truncated", truncated }, { "text", text } }).dump(-1, ' ', false, json::error_handler_t::replace);
   }
+  if (what == "match")
+  {
+    // The union of every rank's labels (ranks hold different labels), the first error.
+    std::set<int64_t> labels;
+    bool truncated = false;
+    std::string error;
+    for (const json& r : replies)
+    {
+      if (r.contains("error"))
+      {
+        error = error.empty() ? r["error"].get<std::string>() : error;
+        continue;
+      }
+      truncated = truncated || r.value("truncated", false);
+      for (const json& l : r.value("labels", json::array()))
+      {
+        labels.insert(l.get<int64_t>());
+      }
+    }
+    if (labels.empty() && !error.empty())
+    {
+      return json({ { "error", error } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    json out = json::array();
+    for (int64_t l : labels)
+    {
+      if (out.size() == csgv::kMaxOverlayLabels)
+      {
+        truncated = true;
+        break;
+      }
+      out.push_back(l);
+    }
+    return json({ { "labels", out }, { "truncated", truncated } }).dump(-1, ' ', false, json::error_handler_t::replace);
+  }
   if (what == "span")
   {
     // Every rank's range widened, their label counts summed (ranks hold different labels).
@@ -281,6 +316,53 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     }
     return attributeSpanJson(table.get(), *source.shared, q["attribute"].get<std::string>(),
       q["filter"].get<std::string>(), q["min"].get<double>(), q["max"].get<double>());
+  }
+  if (what == "match")
+  {
+    // match SQL: the labels whose attributes make the condition true (the label selection's query).
+    std::string condition;
+    std::getline(in, condition);
+    if (!source.shared || !table)
+    {
+      return json({ { "error", tableError.empty() ? std::string("no attributes") : tableError } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    // One row per label present here (a file without a database has rows only where attribute
+    // files give them) joined with the attribute table's rows and columns.
+    bool truncated = false;
+    std::vector<int64_t> present;
+    for (uint32_t stored : storedLabels(*source.shared, size_t(1) << 22, truncated))
+    {
+      present.push_back(originalLabel(*source.shared, stored));
+    }
+    csgv::Result<csgv::AttributeTable> rows = csgv::AttributeTable::fromLabels(std::move(present));
+    if (!rows)
+    {
+      return json({ { "error", rows.message() } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    if (csgv::Status merged = rows->merge(*table, csgv::AttributeTable::OnConflict::Replace); !merged)
+    {
+      return json({ { "error", merged.message() } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    csgv::Result<std::vector<int64_t>> matched = csgv::labelsWhere(*rows, condition);
+    if (!matched)
+    {
+      return json({ { "error", matched.message() } }).dump(-1, ' ', false, json::error_handler_t::replace);
+    }
+    json labels = json::array();
+    for (int64_t l : *matched)
+    {
+      if (l < 0 || double(l) > csgv::kMaxMaterialLabel)
+      {
+        continue; // beyond what a material document can name
+      }
+      if (labels.size() == csgv::kMaxOverlayLabels)
+      {
+        truncated = true;
+        break;
+      }
+      labels.push_back(l);
+    }
+    return json({ { "labels", labels }, { "truncated", truncated } }).dump(-1, ' ', false, json::error_handler_t::replace);
   }
   if (what == "colors")
   {

@@ -21,12 +21,13 @@
  * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, 0xFFFFFFFF where no opaque voxel was hit (base64 by vtkBase64Utilities) |
  * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...] (ascending labels), "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that the volume shows: a material of non-zero opacity takes them in the drawn document (csgv::effectiveMaterials: hidden labels and labels outside "only" are left out) |
  * | `span {"attribute": A, "filter": F, "min": lo, "max": hi}` | JSON `{"min", "max", "labels"}`: the range of A over the labels present whose F lies in [lo, hi] (null ends when none), every rank's widened |
+ * | `match SQL`  | JSON `{"labels": [original labels, ascending], "truncated": bool}`: the labels whose attributes make the SQL condition true (csgv::labelsWhere over the representation's attribute table: database, loaded, computed and derived columns), at most csgv::kMaxOverlayLabels; `{"error": ...}` for a condition SQLite refuses; every rank's labels united |
  * | `defaults`   | JSON of the representation's property defaults (csgvrep::RepresentationProperties): `{"CSGVShading": 0, ...}` keyed like the server-manager XML, for the test that keeps both equal |
  * | `labelset N`  | text `BASE64`: at most N original labels present in this process's volume, int64 little-endian, ascending (the label count of `summary` over MPI ranks) |
  * | `stats`      | JSON `{"parses": n, "sharedParses": n, "compressions": n}`: how often this process parsed a CSGV encoding (of those, how often its words were viewed where the reader put them, not copied) and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
  * | other        | JSON `{"error": "unknown query '<word>'"}` |
  *
- * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary` and `colors` are
+ * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary`, `colors`, `span` and `match` are
  * answered by all ranks together: the nearest hit per pixel, attribute ranges and label sets
  * over all pieces (combineAnswers).
  *

@@ -56,14 +56,15 @@ void vtkCSGVQuery::Gather()
   std::string what;
   in >> what;
   if (!c || c->GetNumberOfProcesses() < 2 || !this->Representation ||
-    (what != "pick" && what != "labels" && what != "summary" && what != "colors" && what != "span"))
+    (what != "pick" && what != "labels" && what != "summary" && what != "colors" && what != "span" &&
+      what != "match"))
   {
     return; // answered by GetResult where it is read
   }
   // Every rank answers for its own piece; rank 0 keeps, per pixel, the hit nearest the camera
   // (window depth; ranks without a hit there say 1, the far plane).
   vtkMultiProcessStream mine;
-  if (what == "pick" || what == "colors" || what == "span")
+  if (what == "pick" || what == "colors" || what == "span" || what == "match")
   {
     mine << std::string(this->Representation->Query(text.c_str()));
   }
@@ -89,7 +90,7 @@ void vtkCSGVQuery::Gather()
     return;
   }
   this->Answer.clear();
-  if (what == "summary" || what == "colors" || what == "span")
+  if (what == "summary" || what == "colors" || what == "span" || what == "match")
   {
     std::vector<std::string> answers, labelSets;
     for (vtkMultiProcessStream& s : all)

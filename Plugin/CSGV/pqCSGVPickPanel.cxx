@@ -19,6 +19,7 @@
 #include <QCheckBox>
 #include <QComboBox>
 #include <QLabel>
+#include <QLineEdit>
 #include <QHBoxLayout>
 #include <QJsonArray>
 #include <QMouseEvent>
@@ -94,6 +95,12 @@ void pqCSGVPickPanel::build()
   selection->addWidget(this->ClearSelection);
   selection->addWidget(this->ExtractSelection);
   l->addLayout(selection);
+  this->SelectQuery = new QLineEdit(w);
+  this->SelectQuery->setObjectName("selectQuery");
+  this->SelectQuery->setPlaceholderText("Select where (SQL), e.g. voxels > 1000 and kind = 2");
+  this->SelectQuery->setToolTip("Selects the labels whose attributes make the condition true (Enter)");
+  l->addWidget(this->SelectQuery);
+  connect(this->SelectQuery, &QLineEdit::returnPressed, this, &pqCSGVPickPanel::selectByQuery);
   this->SelectionInfo = new QLabel(w);
   this->SelectionInfo->setObjectName("selectionInfo");
   this->SelectionInfo->setWordWrap(true);
@@ -436,4 +443,41 @@ void pqCSGVPickPanel::extractSelection()
     pqActiveObjects::instance().setActiveSource(filter);
   }
   END_UNDO_SET();
+}
+
+void pqCSGVPickPanel::selectByQuery()
+{
+  vtkSMProxy* display = this->selectionDisplay();
+  const QString condition = this->SelectQuery->text().trimmed();
+  if (!display || condition.isEmpty())
+  {
+    return;
+  }
+  const QJsonObject answer = pqCSGV::queryJson(display, "match " + condition);
+  if (answer.contains("error") || !answer.contains("labels"))
+  {
+    this->Result->setHtml(QString("<i>The query selects nothing: %1</i>")
+                            .arg(answer.value("error").toString("no answer").toHtmlEscaped()));
+    return;
+  }
+  std::vector<uint32_t> labels;
+  for (const QJsonValue& v : answer.value("labels").toArray())
+  {
+    labels.push_back(uint32_t(v.toDouble()));
+  }
+  QString error;
+  if (!pqCSGVLabelSelection::edit(display, labels, csgv::SelectionEdit::Replace, "Select labels by query", &error))
+  {
+    this->Result->setHtml(QString("<i>%1</i>").arg(error.toHtmlEscaped()));
+  }
+  else if (answer.value("truncated").toBool())
+  {
+    this->Result->setHtml(QString("<i>The query matches more labels than a selection holds; the first %1 are selected.</i>")
+                            .arg(labels.size()));
+  }
+  this->updateSelectionInfo();
+  if (this->View)
+  {
+    this->View->render();
+  }
 }

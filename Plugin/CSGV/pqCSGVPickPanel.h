@@ -25,11 +25,12 @@
  * click selects the picked label, Ctrl+click adds it, Shift+click removes it (ParaView's
  * modifiers). "Clear selection" empties it, the style box switches highlight and dim, and
  * "Extract selection" makes a CSGV Extract Labels filter of the selected labels (waiting for
- * Apply). The line under the buttons counts the selection of the display last picked (or the
+ * Apply). The query box selects the labels for which an SQL condition over their attributes is
+ * true (`voxels > 1000 and region = 'hippocampus'`; Enter). The line under the buttons counts the selection of the display last picked (or the
  * active one).
  *
  * objectNames: pickEnabled, followMouse, pickResult, hideLabel, showOnlyLabel, showAllLabels,
- * selectOnClick, clearSelection, extractSelection, selectionStyle, selectionInfo.
+ * selectOnClick, clearSelection, extractSelection, selectionStyle, selectQuery, selectionInfo.
  */
 #ifndef pqCSGVPickPanel_h
 #define pqCSGVPickPanel_h
@@ -44,6 +45,7 @@
 class QCheckBox;
 class QComboBox;
 class QLabel;
+class QLineEdit;
 class QPushButton;
 class QTextBrowser;
 class pqRepresentation;
@@ -78,6 +80,9 @@ public Q_SLOTS:
   /// A CSGV Extract Labels filter of the selected labels (on the display's input), not yet applied.
   void extractSelection();
   void setSelectionStyle(int index);
+  /// Selects the labels for which the SQL condition in the query box is true (misc/CSGVQuery
+  /// `match`: the representation's attributes, loaded and derived ones included).
+  void selectByQuery();
   /// Says what the selection of the current display holds.
   void updateSelectionInfo();
 
@@ -111,6 +116,7 @@ private:
   QCheckBox* SelectOnClick;
   QPushButton *ClearSelection, *ExtractSelection;
   QComboBox* SelectionStyle;
+  QLineEdit* SelectQuery;
   QLabel* SelectionInfo;
   Qt::KeyboardModifiers PressModifiers;
 };

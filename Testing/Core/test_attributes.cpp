@@ -429,6 +429,25 @@ TEST(AttributesSqlite, WriterNeverTouchesAnotherWritersTemporary) {
 
 // ---- derived attributes ---------------------------------------------------------------------
 
+TEST(AttributesDerived, LabelsWhereAConditionHolds) {
+    Result<AttributeTable> t = parseCsv("1 Precentral_L 2001\n2 Precentral_R 2002\n95 Vermis_1_2 9100\n7 Odd 5\n");
+    ASSERT_TRUE(t.isOk()) << t.message();
+    Result<std::vector<int64_t>> l = labelsWhere(*t, "code > 2001 and name LIKE '%\\_%' ESCAPE '\\'");
+    ASSERT_TRUE(l.isOk()) << l.message();
+    EXPECT_EQ(*l, (std::vector<int64_t>{2, 95}));
+    EXPECT_EQ(*labelsWhere(*t, "name = 'Odd' or label = 1"), (std::vector<int64_t>{1, 7}));
+    EXPECT_TRUE(labelsWhere(*t, "0")->empty());
+    EXPECT_EQ(t->columnNames().size(), 3u) << "the table is left as it was";
+    // A column named like the helper's is no clash.
+    AttributeTable u = *t;
+    ASSERT_TRUE(addDerivedAttribute(u, "csgv_condition", "label * 0").isOk());
+    EXPECT_EQ(*labelsWhere(u, "label > 90"), (std::vector<int64_t>{95}));
+    EXPECT_ERROR(labelsWhere(*t, "name"), "gives text");
+    EXPECT_ERROR(labelsWhere(*t, "   "), "empty");
+    EXPECT_FALSE(labelsWhere(*t, "code >").isOk());
+    EXPECT_FALSE(labelsWhere(*t, "nope = 1").isOk());
+}
+
 TEST(AttributesDerived, HemisphereFromRegionNames) {
     Result<AttributeTable> t = parseCsv("1 Precentral_L 2001\n2 Precentral_R 2002\n95 Vermis_1_2 9100\n"
                                         "3 Odd_Lx 1\n");

@@ -41,6 +41,7 @@ facts["picks"] = picks
 facts["labels"] = csgv_tools.query(d, "labels")
 summary = csgv_tools.attribute_summary(d)
 facts["summary_error"] = summary.get("error", "")
+facts["match"] = csgv_tools.labels_matching(d, "label % 3 = 0")  # every rank's labels united
 labels = CSGVReader(FileName=path, DecodeLabels=1)
 SaveData(os.path.join(out, "written.csgv"), proxy=labels, BrickSize=32)
 with open(os.path.join(out, "facts.json"), "w") as f:

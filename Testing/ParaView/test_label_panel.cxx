@@ -55,6 +55,7 @@
 #include <QAction>
 #include <QComboBox>
 #include <QLabel>
+#include <QLineEdit>
 #include <QApplication>
 #include <QJsonArray>
 #include <QJsonDocument>
@@ -414,6 +415,28 @@ private Q_SLOTS:
     back.push_back(picked);
     std::sort(back.begin(), back.end());
     QVERIFY2(pqCSGV::selectedLabels(proxy) == back, "Ctrl+click adds it");
+    // The query box: the labels whose attributes make the SQL condition true (the table's rows
+    // are the oracle); a condition SQLite refuses says why and leaves the selection.
+    {
+      std::vector<uint32_t> wanted;
+      vtkAbstractArray* voxels = tableData->GetColumnByName("voxels");
+      vtkAbstractArray* kind = tableData->GetColumnByName("kind");
+      QVERIFY(voxels && kind);
+      for (vtkIdType i = 0; i < rows->GetNumberOfTuples(); ++i)
+        if (voxels->GetVariantValue(i).ToDouble() > 5000 && kind->GetVariantValue(i).ToInt() == 2)
+          wanted.push_back(uint32_t(rows->GetVariantValue(i).ToTypeInt64()));
+      QVERIFY(!wanted.empty());
+      auto* queryBox = panel.findChild<QLineEdit*>("selectQuery");
+      QVERIFY(queryBox);
+      queryBox->setText("voxels > 5000 and kind = 2");
+      QTest::keyClick(queryBox, Qt::Key_Return);
+      QVERIFY2(pqCSGV::selectedLabels(proxy) == wanted, "the query box selects the labels that match");
+      queryBox->setText("voxels >");
+      QTest::keyClick(queryBox, Qt::Key_Return);
+      QVERIFY2(pqCSGV::selectedLabels(proxy) == wanted, "a bad condition leaves the selection");
+      QVERIFY(panel.findChild<QTextBrowser*>("pickResult")->toPlainText().contains("selects nothing"));
+      pqCSGVLabelSelection::edit(proxy, back, csgv::SelectionEdit::Replace, "Select labels");
+    }
     // Dim style, then Extract selection: a CSGV Extract Labels of the selected labels.
     auto* style = panel.findChild<QComboBox*>("selectionStyle");
     style->setCurrentIndex(1);

@@ -72,6 +72,8 @@ def main():
           "%d of %d picks (%d hits) equal one rank's" % (len(same), len(one["picks"]), hits))
     check(two["labels"] == one["labels"], "the label image equals one rank's")
     check(not two["summary_error"], "the attribute summary answers (%r)" % two["summary_error"])
+    check(len(one["match"]) > 0 and two["match"] == one["match"],
+          "a label query (match) answers the same labels from 2 ranks as from 1 (%d)" % len(one["match"]))
     w1, w2 = os.path.join(outs[1], "written.csgv"), os.path.join(outs[2], "written.csgv")
     check(os.path.isfile(w2) and filecmp.cmp(w1, w2, shallow=False),
           "SaveData from the client writes, from 2 server ranks, the bytes of one")

@@ -105,6 +105,25 @@ after = json.loads(ct.query(d, "stats"))
 t.check(after["parses"] == before["parses"] >= 1 and after["compressions"] == before["compressions"],
         "stats: no parse or compression on renders and updates of the same data (%r -> %r)" % (before, after))
 
+# match: the labels whose attributes make an SQL condition true, against the CSGV Label Table's
+# rows of the same file (its attribute database); conditions SQLite refuses, text results and
+# empty conditions are error answers.
+ra = OpenDataFile(os.path.join(t.FIXTURES, "synthA_b32_rans2_attr.csgv"))
+da = Show(ra, v)
+da.SetRepresentationType("Segmentation Volume")
+Hide(r, v)
+t.screenshot(v, W, H, "match.png")
+tab = t.fetch(CSGVLabelTable(Input=ra))
+col = lambda name: [tab.GetColumnByName(name).GetValue(i) for i in range(tab.GetNumberOfRows())]
+want = sorted(int(l) for l, n, k in zip(col("label"), col("voxels"), col("kind")) if n > 5000 and k == 2)
+got = ct.labels_matching(da, "voxels > 5000 and kind = 2")
+t.check(len(want) > 0 and got == want, "match: the labels with voxels > 5000 and kind = 2 (%d, want %d)" % (len(got), len(want)))
+for bad in ("voxels >", "no_such_column > 1", "'text'", "", "1; DROP TABLE t"):
+    t.check("error" in json.loads(ct.query(da, "match " + bad)), "match: %r is an error answer" % bad)
+t.check(json.loads(ct.query(da, "match 0")) == {"labels": [], "truncated": False}, "match: a false condition selects none")
+Hide(ra, v)
+Show(r, v)
+
 # unknown
 u = json.loads(ct.query(d, "frobnicate"))
 t.check("unknown query" in u.get("error", ""), "unknown command: an error naming it")

@@ -319,4 +319,21 @@ Result<AttributeTable> readAttributeFile(const std::string& path) {
     return t;
 }
 
+Result<std::vector<int64_t>> labelsWhere(const AttributeTable& table, const std::string& condition,
+                                         const DerivedBudget& budget) {
+    if (condition.find_first_not_of(" \t\r\n") == std::string::npos) return Status::error("the condition is empty");
+    AttributeTable t = table;
+    // A name no column takes (derived columns replace: the copy's own is the answer).
+    std::string name = "csgv_condition";
+    while (t.column(name)) name += "_";
+    if (Status s = addDerivedAttribute(t, name, condition, false, budget); !s) return s;
+    const AttributeColumn* c = t.column(name);
+    if (!c) return Status::error("no result column");
+    if (!c->numeric) return Status::error("'" + condition + "' gives text, not a condition (true or false per label)");
+    std::vector<int64_t> labels;
+    for (size_t i = 0; i < t.rowCount(); ++i)
+        if (!std::isnan(c->values[i]) && c->values[i] != 0) labels.push_back(t.labels()[i]);
+    return labels;
+}
+
 } // namespace csgv

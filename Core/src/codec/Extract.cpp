@@ -539,14 +539,8 @@ Result<std::vector<int64_t>> labelsMatchingQuery(const CsgvFile& file, const std
                              ") to query; select labels by value instead");
     Result<AttributeTable> table = attributesFromDatabase(file.attributes);
     if (!table) return table.status();
-    const std::string name = "csgv_extract_query";
-    if (Status s = addDerivedAttribute(*table, name, query, true); !s) return Status::error("query: " + s.message());
-    const AttributeColumn* c = table->column(name);
-    if (!c) return Status::error("query: no result column");
-    if (!c->numeric) return Status::error("query: '" + query + "' gives text, not a condition (true or false per label)");
-    std::vector<int64_t> labels;
-    for (size_t i = 0; i < table->rowCount(); ++i)
-        if (!std::isnan(c->values[i]) && c->values[i] != 0) labels.push_back(table->labels()[i]);
+    Result<std::vector<int64_t>> labels = labelsWhere(*table, query);
+    if (!labels) return Status::error("query: " + labels.message());
     return labels;
 }
 

@@ -176,6 +176,12 @@ struct DerivedBudget {
 };
 Status addDerivedAttribute(AttributeTable& table, const std::string& name, const std::string& expression,
                            bool replace = false, const DerivedBudget& budget = {});
+/// The labels (ascending) of the table's rows for which the SQL condition `condition` over its
+/// columns is true (non-zero, not NULL), e.g. `voxels > 1000 and region = 'hippocampus'`: an
+/// addDerivedAttribute() on a copy, with its rules and budget. An error when the condition is not
+/// valid SQL or gives text.
+Result<std::vector<int64_t>> labelsWhere(const AttributeTable& table, const std::string& condition,
+                                         const DerivedBudget& budget = {});
 
 /// @brief Options of computeAttributes().
 struct ComputeAttributesOptions {
