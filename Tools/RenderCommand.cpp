@@ -3,6 +3,7 @@
 /// @brief `csgv render`: the batch front end of VulkanBackend's renderer.
 
 #include "RenderCommand.h"
+#include "CameraPath.h"
 #include "CommandLine.h"
 #include "FramePattern.h"
 #include "Interrupt.h"
@@ -40,6 +41,9 @@ struct RenderArgs {
     std::string labelsOut, materials, video;
     FramePattern videoPattern;
     uint32_t orbit = 0;
+    std::string cameraPath;       ///< --camera-path FILE: the poses to render, one after the other
+    bool volcaniteCamera = false; ///< --camera volcanite: Volcanite 0.6's default orbital pose
+    uint32_t framesPerView = 0;   ///< 0: until converged; N: exactly N frames a pose (previews allowed)
     uint64_t cacheMiB = 0; ///< 0: automatic (gpu::automaticCacheBytes)
     uint64_t deviceMemoryMiB = 0; ///< 0: automatic
     uint64_t hostMemoryMiB = 0;   ///< 0: automatic (TieredVolume::automaticBudget)
@@ -129,6 +133,12 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     });
     number("--frames", 1, 1e6, [&a](double n) { a.frames = uint32_t(n); });
     number("--orbit", 1, 1e5, [&a](double n) { a.orbit = uint32_t(n); });
+    number("--frames-per-view", 1, 1e6, [&a](double n) { a.framesPerView = uint32_t(n); });
+    values.add("--camera", [&a](const std::string& v) {
+        if (v != "volcanite") return Status::error("--camera expects volcanite (Volcanite 0.6's default orbital pose), not '" + v + "'");
+        a.volcaniteCamera = true;
+        return Status::ok();
+    });
     number("--cache-mib", 0, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
     number("--device-memory-mib", 0, 1 << 24, [&a](double n) { a.deviceMemoryMiB = uint64_t(n); });
     number("--host-memory-mib", 0, 1 << 24, [&a](double n) { a.hostMemoryMiB = uint64_t(n); });
@@ -148,6 +158,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     });
     for (auto [name, target] : {std::pair<const char*, std::string*>{"--labels-out", &a.labelsOut},
                                 {"--materials", &a.materials},
+                                {"--camera-path", &a.cameraPath},
                                 {"--video", &a.video}})
         values.add(name, [target](const std::string& v) {
             *target = v;
@@ -160,8 +171,12 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     if (positional.size() != 2) return Status::error("render needs IN.csgv and OUT.png");
     a.input = positional[0];
     a.output = positional[1];
-    if (!a.video.empty() && a.orbit == 0) return Status::error("--video needs --orbit N");
-    if (a.orbit && a.video.empty()) return Status::error("--orbit needs --video PATTERN");
+    if (!a.video.empty() && a.orbit == 0 && a.cameraPath.empty())
+        return Status::error("--video needs --orbit N or --camera-path FILE");
+    if (!a.cameraPath.empty() && (a.orbit || a.haveEye || a.haveCenter || a.volcaniteCamera))
+        return Status::error("--camera-path gives every pose: it takes no --orbit, --eye, --center or --camera");
+    if (a.volcaniteCamera && (a.haveEye || a.haveCenter))
+        return Status::error("--camera volcanite places the eye and the centre: it takes no --eye or --center");
     if (!a.video.empty()) {
         Result<FramePattern> p = FramePattern::parse(a.video);
         if (!p) return p.status();
@@ -190,17 +205,17 @@ void worldBounds(const CsgvFile& file, Vec3& centre, double& radius) {
     radius = 0.5 * length3({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
 }
 
-std::array<double, 16> cameraMatrix(const RenderArgs& a, const Vec3& eye, const Vec3& centre, double radius,
-                                    const Vec3& boxCentre) {
+std::array<double, 16> cameraMatrix(const RenderArgs& a, const CameraPose& pose, double radius, const Vec3& boxCentre) {
+    const Vec3& eye = pose.eye;
     const double dist = length3({eye[0] - boxCentre[0], eye[1] - boxCentre[1], eye[2] - boxCentre[2]});
     const double zNear = std::max(dist - radius, std::max(radius, 1e-6) * 1e-3);
     const double zFar = dist + radius + 1e-6;
     const double aspect = double(a.width) / a.height;
-    const std::array<double, 16> view = lookAtMatrix(eye, centre, a.up);
+    const std::array<double, 16> view = lookAtMatrix(eye, pose.center, pose.up);
     const std::array<double, 16> proj =
         a.parallelScale > 0 ? orthographicMatrix(-a.parallelScale * aspect, a.parallelScale * aspect, -a.parallelScale,
                                                  a.parallelScale, zNear, zFar)
-                            : perspectiveMatrix(a.fovY, aspect, zNear, zFar);
+                            : perspectiveMatrix(pose.fovY, aspect, zNear, zFar);
     return multiply(proj, view);
 }
 
@@ -318,6 +333,13 @@ int cmdRender(int argc, char** argv) {
     Status s = parseRenderArgs(argc, argv, a);
     if (!s) return fail(s.message());
     const auto tStart = std::chrono::steady_clock::now();
+    // A camera path is read before anything is set up: its errors come at once.
+    std::vector<CameraPose> path;
+    if (!a.cameraPath.empty()) {
+        Result<std::vector<CameraPose>> read = readCameraPath(a.cameraPath);
+        if (!read) return fail(read.message());
+        path = std::move(*read);
+    }
     Result<CsgvFile> file = openCsgvMapped(a.input);
     if (!file) return fail(file.message());
     const double openMs = since(tStart);
@@ -400,39 +422,43 @@ int cmdRender(int argc, char** argv) {
     Vec3 boxCentre{};
     double radius = 1;
     worldBounds(*file, boxCentre, radius);
-    const Vec3 centre = a.haveCenter ? a.center : boxCentre;
-    Vec3 eye = a.eye;
-    if (!a.haveEye) { // a default view from the front, above and to the right
-        const double dist = radius / std::sin(a.fovY * 3.14159265358979 / 360.0) * 1.05;
-        eye = {centre[0] + 0.55 * dist, centre[1] - 0.7 * dist, centre[2] + 0.45 * dist};
+    // The poses: a camera path, else the given (or default, or Volcanite's) pose, orbited.
+    std::vector<CameraPose> poses = path;
+    if (poses.empty()) {
+        CameraPose first;
+        first.center = a.haveCenter ? a.center : boxCentre;
+        first.up = a.up;
+        first.fovY = a.fovY;
+        first.eye = a.eye;
+        if (a.volcaniteCamera) {
+            const Geometry& g = file->metadata.geometry;
+            first = volcanitePose(boxCentre, {file->volume.dim[0] * g.spacing[0], file->volume.dim[1] * g.spacing[1],
+                                              file->volume.dim[2] * g.spacing[2]});
+        } else if (!a.haveEye) { // a default view from the front, above and to the right
+            const double dist = radius / std::sin(a.fovY * 3.14159265358979 / 360.0) * 1.05;
+            const Vec3& c = first.center;
+            first.eye = {c[0] + 0.55 * dist, c[1] - 0.7 * dist, c[2] + 0.45 * dist};
+        }
+        if (const std::string why = poseProblem(first); !why.empty()) return fail("the camera: " + why);
+        poses = a.orbit ? orbitPoses(first, a.orbit) : std::vector<CameraPose>{first};
     }
-    const uint32_t views = a.orbit ? a.orbit : 1;
-    std::vector<double> frameTimes;
+    const uint32_t views = uint32_t(poses.size());
+    std::vector<double> frameTimes, viewTimes;
     double firstFrameMs = -1;
     uint64_t cacheUsed = 0;
     uint32_t fewestSamples = ~0u; // of any view's last frame: below --frames, a view stopped short
     gpu::FrameOutput out;
     for (uint32_t v = 0; v < views; ++v) {
-        Vec3 e = eye;
-        if (a.orbit) { // rotate the eye about the up axis through the centre
-            const double ang = 2 * 3.14159265358979 * v / a.orbit;
-            Vec3 u = a.up;
-            const double ul = length3(u);
-            for (double& x : u) x /= ul;
-            const Vec3 p{eye[0] - centre[0], eye[1] - centre[1], eye[2] - centre[2]};
-            const double dot = p[0] * u[0] + p[1] * u[1] + p[2] * u[2];
-            const Vec3 cr{u[1] * p[2] - u[2] * p[1], u[2] * p[0] - u[0] * p[2], u[0] * p[1] - u[1] * p[0]};
-            for (int k = 0; k < 3; ++k)
-                e[k] = centre[k] + p[k] * std::cos(ang) + cr[k] * std::sin(ang) + u[k] * dot * (1 - std::cos(ang));
-        }
         gpu::FrameInput in;
         in.width = a.width;
         in.height = a.height;
-        in.worldToClip = cameraMatrix(a, e, centre, radius, boxCentre);
+        in.worldToClip = cameraMatrix(a, poses[v], radius, boxCentre);
         double viewMs = 0;
         // Frames until every pixel holds the requested samples (bounded: FrameStats::idleLimit()
-        // idle frames in a row end it).
-        const uint32_t maxFrames = a.frames * settings.subsampling * settings.subsampling + 256;
+        // idle frames in a row end it), or exactly --frames-per-view of them (a moving camera:
+        // one frame a pose shows what it holds, previews included, as an interactive view does).
+        const uint32_t maxFrames =
+            a.framesPerView ? a.framesPerView : a.frames * settings.subsampling * settings.subsampling + 256;
         uint32_t idle = 0, minSamples = 0;
         for (uint32_t f = 0; f < maxFrames; ++f) {
             if (cancelRequested()) return fail("interrupted: stopped, no image written");
@@ -450,13 +476,15 @@ int cmdRender(int argc, char** argv) {
             std::printf("\n");
             minSamples = st->minSamples;
             if (firstFrameMs < 0 && st->minSamples >= 1) firstFrameMs = since(tStart);
+            if (a.framesPerView) continue;
             if (st->minSamples >= a.frames) break;
             idle = st->idle() ? idle + 1 : 0;
             if (idle >= st->idleLimit()) break;
         }
         fewestSamples = std::min(fewestSamples, minSamples);
         if (!(s = r.readOutput(out))) return fail(s.message());
-        if (a.orbit) {
+        viewTimes.push_back(viewMs);
+        if (!a.video.empty()) {
             const std::string name = a.videoPattern.format(v);
             if (!(s = writeImage(name, out, a.background))) return fail(s.message());
             std::printf("view %u: %.1f ms -> %s\n", v, viewMs, name.c_str());
@@ -467,9 +495,19 @@ int cmdRender(int argc, char** argv) {
     std::vector<double> sorted = frameTimes;
     std::sort(sorted.begin(), sorted.end());
     std::printf("frames: %zu\n", frameTimes.size());
+    std::printf("views: %u\n", views);
+    if (a.framesPerView) std::printf("frames_per_view: %u\n", a.framesPerView);
+    std::vector<double> sortedViews = viewTimes;
+    std::sort(sortedViews.begin(), sortedViews.end());
+    std::printf("median_view_ms: %.1f\n", sortedViews.empty() ? 0.0 : sortedViews[sortedViews.size() / 2]);
+    double pathMs = 0;
+    for (double t : viewTimes) pathMs += t;
+    std::printf("path_ms: %.1f\n", pathMs);
     // Not converged: the frame cap or idle frames ended a view first (a cache far too small for
     // the view converges, but slowly: raise the budget or lower the resolution).
-    if (fewestSamples >= a.frames) std::printf("converged: yes\n");
+    if (a.framesPerView) std::printf("converged: %s (--frames-per-view: a pixel holds %u of %u samples)\n",
+                                     fewestSamples >= a.frames ? "yes" : "no", fewestSamples, a.frames);
+    else if (fewestSamples >= a.frames) std::printf("converged: yes\n");
     else std::printf("converged: no (a pixel holds %u of %u samples)\n", fewestSamples, a.frames);
     std::printf("median_frame_ms: %.1f\n", sorted.empty() ? 0.0 : sorted[sorted.size() / 2]);
     std::printf("time_to_first_frame_ms: %.1f\n", firstFrameMs);

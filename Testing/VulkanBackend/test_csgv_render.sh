@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # `csgv render`'s interface: exit codes and one error line for bad input, the PNG and the
 # --labels-out file (size, top row first, only labels of the volume), materials hiding labels,
-# the printed summary, and the orbit video.
+# the printed summary, the orbit video, camera paths and one frame a pose.
 set -u
 CSGV=$1
 FIX=$2
@@ -124,6 +124,43 @@ expect 0 "orbit video" "$CSGV" render "$DEF" "$TMP/v.png" --size 32x24 --video "
 for m in ao pt; do
   expect 0 "shading $m" "$CSGV" render "$DEF" "$TMP/$m.png" --size 32x24 --shading $m --frames 2 --subsampling 2
 done
+# Camera paths (issue 42): a one-pose path renders exactly what the same pose given by --eye,
+# --center, --up and --fov-y renders; a 3-pose path with one frame a pose renders 3 frames and 3
+# images; Volcanite's default pose renders; bad paths are one error line naming file and line.
+echo "# eye, centre, up, fov-y" > "$TMP/one.path"
+echo "-60 130 160, 66 35 97, 0 0 1, 40" >> "$TMP/one.path"
+expect 0 "one-pose camera path" "$CSGV" render "$DEF" "$TMP/p1.png" --size 48x32 --labels-out "$TMP/p1.labels" --finest --no-jitter --camera-path "$TMP/one.path"
+expect 0 "the same pose by options" "$CSGV" render "$DEF" "$TMP/p2.png" --size 48x32 --labels-out "$TMP/p2.labels" --finest --no-jitter \
+  --eye -60,130,160 --center 66,35,97 --up 0,0,1 --fov-y 40
+cmp -s "$TMP/p1.labels" "$TMP/p2.labels" && pass "a path pose renders as the same options do" || bad "camera path pose differs"
+printf '%s\n' "-60 130 160 66 35 97 0 0 1 40" "190 130 160 66 35 97 0 0 1 40" "66 35 400 66 35 97 0 1 0 30" > "$TMP/three.path"
+expect 0 "3-pose path, one frame a pose" "$CSGV" render "$DEF" "$TMP/p3.png" --size 32x24 --camera-path "$TMP/three.path" \
+  --frames-per-view 1 --frames 4 --video "$TMP/pv%d.png"
+grep -q "^views: 3$" "$TMP/out" && grep -q "^frames: 3$" "$TMP/out" && grep -q "^frames_per_view: 1$" "$TMP/out" &&
+  grep -q "^path_ms: " "$TMP/out" && grep -q "^converged: no (--frames-per-view" "$TMP/out" &&
+  pass "one frame a pose: 3 frames for 3 views, not converged at 4 samples" || bad "frames-per-view summary: $(grep -E '^(views|frames|converged)' "$TMP/out" | tr '\n' ' ')"
+[ -e "$TMP/pv0.png" ] && [ -e "$TMP/pv2.png" ] && [ ! -e "$TMP/pv3.png" ] && pass "an image per pose" || bad "path images"
+expect 0 "Volcanite's default pose, orbited" "$CSGV" render "$DEF" "$TMP/vc.png" --size 32x24 --camera volcanite --orbit 2 --frames-per-view 2
+grep -q "^views: 2$" "$TMP/out" && pass "--orbit without --video renders its views" || bad "orbit views"
+bad_path() { printf '%s\n' "$2" > "$TMP/bad.path"; expect 1 "camera path: $1" "$CSGV" render "$DEF" "$TMP/x.png" --camera-path "$TMP/bad.path"
+  grep -q "bad.path" "$TMP/err" || bad "camera path: $1: the error does not name the file"; }
+bad_path "nine numbers" "1 2 3 4 5 6 0 0 1"
+bad_path "a word" "1 2 3 4 5 6 0 0 1 x"
+bad_path "nan" "1 2 3 4 5 6 0 0 1 nan"
+bad_path "eye at the centre" "1 2 3 1 2 3 0 0 1 30"
+bad_path "up along the view" "0 0 0 0 0 5 0 0 1 30"
+bad_path "zero field of view" "0 0 9 0 0 0 0 1 0 0"
+bad_path "field of view 180" "0 0 9 0 0 0 0 1 0 180"
+grep -q "line 1: " "$TMP/err" && pass "the error names the line" || bad "camera path error without its line: $(cat "$TMP/err")"
+bad_path "no pose" "# only a comment"
+printf '0 0 9 0 0 0 0 1 0 30\n%.0s' $(seq 1 100001) > "$TMP/bad.path"
+expect 1 "camera path: too many poses" "$CSGV" render "$DEF" "$TMP/x.png" --camera-path "$TMP/bad.path"
+expect 1 "camera path: missing file" "$CSGV" render "$DEF" "$TMP/x.png" --camera-path "$TMP/nope.path"
+expect 1 "camera path with --orbit" "$CSGV" render "$DEF" "$TMP/x.png" --camera-path "$TMP/one.path" --orbit 3
+expect 1 "--camera volcanite with --eye" "$CSGV" render "$DEF" "$TMP/x.png" --camera volcanite --eye 1,2,3
+expect 1 "--camera of another name" "$CSGV" render "$DEF" "$TMP/x.png" --camera paraview
+expect 1 "--frames-per-view 0" "$CSGV" render "$DEF" "$TMP/x.png" --frames-per-view 0
+[ ! -e "$TMP/x.png" ] && pass "no image after camera errors" || bad "an image was written after a camera error"
 # Attributes from a text table and a derived SQL attribute drive materials: the AAL atlas with
 # only the left hemisphere (region names ending in _L) visible.
 AAL=/usr/share/mricron/templates/aal.nii.gz

@@ -6,7 +6,11 @@
 # binaries into build/bin, over a local build's). After each volume's modes it renders the first
 # mode once more, its shaders cached ("warm" time to first frame), and it prints each render's
 # mean dispatch time by stage.
-# Environment: SKIP_TESTS=1 (renders only), SIZE (1920x1080), FRAMES (16), ORBIT (6), and
+# Every render uses Volcanite 0.6's default orbital pose (--camera volcanite), orbited about +z.
+# After the modes, a moving-camera row: MOVING (32) poses of that orbit, one frame each
+# (--frames-per-view 1, previews allowed, as an interactive view and Volcanite show them): its
+# median frame and the whole path's time.
+# Environment: SKIP_TESTS=1 (renders only), SIZE (1920x1080), FRAMES (16), ORBIT (6), MOVING (32), and
 # RENDER_ARGS (more csgv render options, e.g. "--decode host --cache-mib 256") with TAG (a name
 # for the logs and images of that variant). With a baseline in the bundle (bundle.sh's BASE_BUILD),
 # each render runs with it too, right after, and its line says "base" (compare on one machine;
@@ -48,17 +52,21 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
             t=${n}_$m${TAG:+_$TAG}; label=${TAG:-}
             [ "$bin" = "$csgv" ] || { t=${t}_base; label="${label:+$label }base"; }
             CSGV_PROFILE_DISPATCHES=1 timeout 60 "$bin" render $v "$res/s$t.png" --size ${SIZE:-1920x1080} \
-                --shading $m --frames ${FRAMES:-16} --video /tmp/v%03d.png --orbit ${ORBIT:-6} ${RENDER_ARGS:-} >"$res/r_$t.log" 2>&1
+                --shading $m --frames ${FRAMES:-16} --camera volcanite --orbit ${ORBIT:-6} ${RENDER_ARGS:-} >"$res/r_$t.log" 2>&1
             echo "$n $m $label rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib|cache_used_mib)' $res/r_$t.log | sed 's/^device: //' | tr '\n' ' ')"
             # Mean ms a dispatch of each stage over the orbit's frames (frames that decode included).
             echo "  stages: $(grep -E '^dispatch [0-9]+ ' $res/r_$t.log | sed -E 's/^dispatch [0-9]+ //; s/ \(.*\)//' |
                 awk -F': ' '{n[$1]++; s[$1] += $2} END {for (k in n) printf "%s %.2f, ", k, s[k] / n[k]}')"
         done
     done
-    # The first mode once more: its shaders and pipelines are cached now (time to first frame warm).
+    # A moving camera: one frame a pose along the orbit (the first mode).
     m=${modes%% *}
+    timeout 120 "$csgv" render $v "$res/s${n}_${m}_moving.png" --size ${SIZE:-1920x1080} --shading $m --camera volcanite \
+        --orbit ${MOVING:-32} --frames-per-view 1 ${RENDER_ARGS:-} >"$res/r_${n}_${m}_moving.log" 2>&1
+    echo "$n $m moving rc $?: $(grep -E '^(views|median_frame_ms|path_ms)' $res/r_${n}_${m}_moving.log | tr '\n' ' ')"
+    # The first mode once more: its shaders and pipelines are cached now (time to first frame warm).
     CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s${n}_${m}_warm.png" --size ${SIZE:-1920x1080} --shading $m \
-        --frames 1 ${RENDER_ARGS:-} >"$res/r_${n}_${m}_warm.log" 2>&1
+        --camera volcanite --frames 1 ${RENDER_ARGS:-} >"$res/r_${n}_${m}_warm.log" 2>&1
     echo "$n $m warm: $(grep -E '^(setup_ms|time_to_first_frame_ms)' $res/r_${n}_${m}_warm.log | tr '\n' ' ')"
 done
 echo "total: $(( $(date +%s) - t0 )) s"
