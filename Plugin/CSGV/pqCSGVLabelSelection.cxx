@@ -90,22 +90,29 @@ bool isLabelTable(pqPipelineSource* source)
   return name && std::strcmp(name, "CSGVLabelTable") == 0;
 }
 
-/// The column "label" of a table output, fetched to the client (ParaView's ReductionFilter, as
-/// servermanager.Fetch does: builtin and client/server alike).
+/// The column "label" of a table output, fetched to the client as servermanager.Fetch does:
+/// ParaView's ReductionFilter (rank 0's table, where the label table is made) on the server, then
+/// ClientServerMoveData to the client (the reduction's own client-side copy is empty in
+/// client/server mode).
 std::vector<int64_t> fetchLabels(vtkSMSourceProxy* source, unsigned int port)
 {
   NotUndoable keepOff;
   std::vector<int64_t> out;
-  vtkSmartPointer<vtkSMSourceProxy> reduce;
-  reduce.TakeReference(
-    vtkSMSourceProxy::SafeDownCast(source->GetSessionProxyManager()->NewProxy("filters", "ReductionFilter")));
-  if (!reduce)
+  vtkSMSessionProxyManager* pxm = source->GetSessionProxyManager();
+  vtkSmartPointer<vtkSMSourceProxy> reduce, move;
+  reduce.TakeReference(vtkSMSourceProxy::SafeDownCast(pxm->NewProxy("filters", "ReductionFilter")));
+  move.TakeReference(vtkSMSourceProxy::SafeDownCast(pxm->NewProxy("filters", "ClientServerMoveData")));
+  if (!reduce || !move)
     return out;
   vtkSMPropertyHelper(reduce, "Input").Set(source, port);
-  vtkSMPropertyHelper(reduce, "PassThrough").Set(0); // rank 0's table, where the label table is made
+  vtkSMPropertyHelper(reduce, "PassThrough").Set(0);
   reduce->UpdateVTKObjects();
   reduce->UpdatePipeline();
-  auto* algorithm = vtkAlgorithm::SafeDownCast(reduce->GetClientSideObject());
+  vtkSMPropertyHelper(move, "Input").Set(reduce, 0);
+  vtkSMPropertyHelper(move, "OutputDataType").Set(VTK_TABLE);
+  move->UpdateVTKObjects();
+  move->UpdatePipeline();
+  auto* algorithm = vtkAlgorithm::SafeDownCast(move->GetClientSideObject());
   vtkTable* table = vtkTable::SafeDownCast(algorithm ? algorithm->GetOutputDataObject(0) : nullptr);
   vtkAbstractArray* labels = table ? table->GetColumnByName("label") : nullptr;
   if (!labels)
