@@ -151,6 +151,8 @@ def run_child(args):
     if "UseColorPaletteForBackground" in view.ListProperties():
         view.UseColorPaletteForBackground = 0
     view.Background = [1.0, 1.0, 1.0]
+    if args.fxaa != "view":  # ParaView's FXAA (on by default) costs each side by its image's edges
+        view.UseFXAA = 1 if args.fxaa == "on" else 0
     centre = [(b[0] + b[1]) / 2, (b[2] + b[3]) / 2, (b[4] + b[5]) / 2]
     diag = ((b[1] - b[0]) ** 2 + (b[3] - b[2]) ** 2 + (b[5] - b[4]) ** 2) ** 0.5
     view.CameraFocalPoint = centre
@@ -287,7 +289,8 @@ def run_side(args, only, input_path, tag, size, shading="local", materials=None,
     """One side in a child pvbatch: (its RESULT dict, None) or (None, why it failed)."""
     cmd = [args.pvbatch, "--force-offscreen-rendering", os.path.abspath(__file__), "--only", only,
            "--input", input_path, "--size", size, "--shadings", shading, "--frames", str(args.frames),
-           "--output", args.output, "--tag", tag, "--plugin", find_plugin(args.plugin), "--drawn", repr(drawn)]
+           "--output", args.output, "--tag", tag, "--plugin", find_plugin(args.plugin), "--drawn", repr(drawn),
+           "--fxaa", args.fxaa]
     if label_max is not None:
         cmd += ["--label-max", str(label_max)]
     if materials:
@@ -650,6 +653,9 @@ def main():
     ap.add_argument("--timeout", type=float, default=1800, help="seconds one child pvbatch may take (%(default)s)")
     ap.add_argument("--demos", action="store_true", help="also show where VTK's volume mapper is wrong")
     ap.add_argument("--no-data", action="store_true", help="only the demonstrations")
+    ap.add_argument("--fxaa", choices=("view", "on", "off"), default="view",
+                    help="ParaView's FXAA in both views: the view's default (on in ParaView 5.11), on or off; it is "
+                         "part of the frame time and costs more over sharp images (default %(default)s)")
     ap.add_argument("--only", choices=("vtk", "csgv"), help=argparse.SUPPRESS)
     ap.add_argument("--tag", default="data", help=argparse.SUPPRESS)
     ap.add_argument("--drawn", default="1",
