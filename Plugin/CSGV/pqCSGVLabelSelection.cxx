@@ -45,22 +45,6 @@ pqCSGVLabelSelection* Instance = nullptr;
 /// labels: larger ones are refused (the document's own bound, csgv::kMaxOverlayLabels).
 constexpr size_t kMaxSelectedLabels = csgv::kMaxOverlayLabels;
 
-/// Changes to helper proxies (fetching rows) are no edits: kept off the undo stack.
-struct NotUndoable
-{
-  pqUndoStack* Stack = pqApplicationCore::instance() ? pqApplicationCore::instance()->getUndoStack() : nullptr;
-  NotUndoable()
-  {
-    if (this->Stack)
-      this->Stack->beginNonUndoableChanges();
-  }
-  ~NotUndoable()
-  {
-    if (this->Stack)
-      this->Stack->endNonUndoableChanges();
-  }
-};
-
 /// The pipeline output a display shows.
 pqOutputPort* inputOf(vtkSMProxy* display)
 {
@@ -96,7 +80,7 @@ bool isLabelTable(pqPipelineSource* source)
 /// client/server mode).
 std::vector<int64_t> fetchLabels(vtkSMSourceProxy* source, unsigned int port)
 {
-  NotUndoable keepOff;
+  pqScopedUndoExclude keepOff; // helper proxies (fetching rows) are no edits
   std::vector<int64_t> out;
   vtkSMSessionProxyManager* pxm = source->GetSessionProxyManager();
   vtkSmartPointer<vtkSMSourceProxy> reduce, move;
@@ -129,7 +113,7 @@ std::vector<int64_t> labelsOfSelectedRows(pqOutputPort* table)
   vtkSMSourceProxy* selection = table->getSelectionInput();
   if (!selection)
     return {};
-  NotUndoable keepOff;
+  pqScopedUndoExclude keepOff; // helper proxies (fetching rows) are no edits
   vtkSmartPointer<vtkSMSourceProxy> extract;
   extract.TakeReference(vtkSMSourceProxy::SafeDownCast(
     table->getSource()->getProxy()->GetSessionProxyManager()->NewProxy("filters", "ExtractSelection")));
@@ -223,6 +207,7 @@ void pqCSGVLabelSelection::startup()
   pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
   connect(model, &pqServerManagerModel::viewAdded, this, &pqCSGVLabelSelection::viewAdded);
   connect(model, &pqServerManagerModel::preViewRemoved, this, &pqCSGVLabelSelection::viewRemoved);
+  connect(model, &pqServerManagerModel::preSourceRemoved, this, &pqCSGVLabelSelection::forgetRows);
   for (pqView* v : model->findItems<pqView*>())
     this->viewAdded(v);
   if (pqPVApplicationCore* core = pqPVApplicationCore::instance())
@@ -244,6 +229,7 @@ void pqCSGVLabelSelection::shutdown()
       if (vtkSMRenderViewProxy* rmp = rv->getRenderViewProxy())
         rmp->RemoveObserver(it.value());
   this->Observed.clear();
+  this->RowLabels.clear();
 }
 
 void pqCSGVLabelSelection::viewAdded(pqView* view)
@@ -376,7 +362,7 @@ bool pqCSGVLabelSelection::edit(vtkSMProxy* display, const std::vector<uint32_t>
       if (!guarded)
         return;
       self->Busy = true;
-      selectRows(guarded, selected);
+      self->selectRows(guarded, selected);
       self->Busy = false;
     });
   }
@@ -405,7 +391,7 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
     }
     // Rows are the table's labels in ascending order: an ID selection of rows (ParaView's
     // selectors look IDs up in a sorted list; a threshold per label would be scanned per row).
-    const std::vector<int64_t> rows = fetchLabels(vtkSMSourceProxy::SafeDownCast(s->getProxy()), 0);
+    const std::vector<int64_t>& rows = this->rowLabels(s);
     std::vector<vtkIdType> ids;
     for (uint32_t l : labels)
     {
@@ -416,7 +402,7 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
         ids.push_back(vtkIdType(it - rows.begin()));
       }
     }
-    NotUndoable keepOff;
+    pqScopedUndoExclude keepOff; // helper proxies (fetching rows) are no edits
     vtkSmartPointer<vtkSMSourceProxy> selection;
     selection.TakeReference(vtkSMSourceProxy::SafeDownCast(
       s->getProxy()->GetSessionProxyManager()->NewProxy("sources", "IDSelectionSource")));
@@ -443,6 +429,24 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
         pqActiveObjects::instance().setActiveSource(active);
     }
   }
+}
+
+void pqCSGVLabelSelection::forgetRows(pqPipelineSource* table)
+{
+  this->RowLabels.remove(table);
+}
+
+const std::vector<int64_t>& pqCSGVLabelSelection::rowLabels(pqPipelineSource* table)
+{
+  auto it = this->RowLabels.find(table);
+  if (it == this->RowLabels.end())
+  {
+    // Fetched again after the table's next update (the file changed, attributes were computed).
+    connect(table, QOverload<pqPipelineSource*>::of(&pqPipelineSource::dataUpdated), this,
+      &pqCSGVLabelSelection::forgetRows, Qt::UniqueConnection);
+    it = this->RowLabels.insert(table, fetchLabels(vtkSMSourceProxy::SafeDownCast(table->getProxy()), 0));
+  }
+  return *it;
 }
 
 void pqCSGVLabelSelection::selectionChanged(pqOutputPort* port)

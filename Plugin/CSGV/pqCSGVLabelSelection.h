@@ -83,14 +83,18 @@ private Q_SLOTS:
   void viewAdded(pqView* view);
   void viewRemoved(pqView* view);
   void selectionChanged(pqOutputPort* port);
+  void forgetRows(pqPipelineSource* table);
 
 private:
   /// A selection tool's region (SelectionChangedEvent of a render view proxy).
   void regionSelected(vtkObject* caller, unsigned long, void* calldata);
   /// Selects the rows of `labels` in every CSGV Label Table made from `input`.
-  static void selectRows(pqOutputPort* input, const std::vector<uint32_t>& labels);
+  void selectRows(pqOutputPort* input, const std::vector<uint32_t>& labels);
+  /// A label table's `label` column (its rows, ascending), fetched once per update of its data.
+  const std::vector<int64_t>& rowLabels(pqPipelineSource* table);
 
   QMap<pqView*, unsigned long> Observed; ///< render view -> its SelectionChangedEvent observer
+  QMap<pqPipelineSource*, std::vector<int64_t>> RowLabels; ///< rowLabels' answers, dropped on dataUpdated
   bool Busy = false;                    ///< an edit of ours is on its way round the links
 };
 

@@ -89,9 +89,7 @@ QString query(vtkSMProxy* display, const QString& request)
   vtkSMSessionProxyManager* pxm = rep->GetSessionProxyManager();
   // A question is no edit: the query proxy's state is kept off the undo stack (each query was an
   // undo step "Changed 'vtkSMProxy'" that did nothing).
-  pqUndoStack* undo = pqApplicationCore::instance() ? pqApplicationCore::instance()->getUndoStack() : nullptr;
-  if (undo)
-    undo->beginNonUndoableChanges();
+  pqScopedUndoExclude keepOff;
   vtkSmartPointer<vtkSMProxy> q;
   q.TakeReference(pxm->NewProxy("misc", "CSGVQuery"));
   QString answer;
@@ -105,8 +103,6 @@ QString query(vtkSMProxy* display, const QString& request)
     answer = s ? QString::fromUtf8(s) : QString();
   }
   q = nullptr; // deleted while changes are not recorded
-  if (undo)
-    undo->endNonUndoableChanges();
   return answer;
 }
 
