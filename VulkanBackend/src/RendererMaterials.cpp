@@ -42,11 +42,10 @@ Result<uint64_t> perLabelCount(const std::map<std::string, std::vector<float>>& 
 Result<GpuMaterial> packMaterial(const Material& m, size_t index, PackedMaterials& out) {
     GpuMaterial g{};
     g.select[0] = out.attributeIndex(m.filterAttribute);
-    // Label filters compare integers: [ceil(min), floor(max)] within 32 bits (empty: min > max).
-    const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
-    g.select[1] = lo > 4294967295.0 ? kNone : uint32_t(lo);
-    g.select[2] = hi < 0 ? 0u : uint32_t(hi);
-    if (lo > hi) g.select[1] = 1, g.select[2] = 0;
+    // Label filters compare integers (empty: select[1] > select[2]), as the CPU evaluator does.
+    const auto [lo, hi] = labelInterval(m);
+    g.select[1] = uint32_t(lo);
+    g.select[2] = uint32_t(hi);
     g.select[3] = m.colorMode == Material::ColorMode::Constant   ? kColorConstant
                   : m.colorMode == Material::ColorMode::Colormap ? kColorColormap
                                                                  : kColorRandom;

@@ -669,6 +669,12 @@ Status resolveColormapNames(MaterialDocument& doc) {
     return Status::ok();
 }
 
+std::pair<uint64_t, uint64_t> labelInterval(const Material& m) {
+    const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
+    if (!(lo <= hi) || std::isnan(m.filterMin) || std::isnan(m.filterMax)) return {1, 0}; // std::max/min pass a NaN on
+    return {uint64_t(lo), uint64_t(hi)};
+}
+
 FirstInterval::FirstInterval(const std::vector<std::pair<uint64_t, uint64_t>>& intervals)
     : m_intervals(intervals.size()) {
     // The union so far as disjoint, non-adjacent components: each interval adds the gaps it
@@ -705,9 +711,7 @@ MaterialEvaluator::MaterialEvaluator(const MaterialDocument& doc, AttributeFn at
     std::vector<std::pair<uint64_t, uint64_t>> leading;
     for (const Material& m : doc.materials) {
         if (m.filterAttribute != "label") break;
-        // The labels a closed interval of doubles holds: [ceil(min), floor(max)] within 32 bits.
-        const double lo = std::ceil(std::max(m.filterMin, 0.0)), hi = std::floor(std::min(m.filterMax, 4294967295.0));
-        leading.push_back(!(lo <= hi) ? std::make_pair(uint64_t(1), uint64_t(0)) : std::make_pair(uint64_t(lo), uint64_t(hi)));
+        leading.push_back(labelInterval(m));
     }
     m_leading = FirstInterval(leading);
 }

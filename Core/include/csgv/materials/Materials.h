@@ -37,6 +37,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace csgv {
@@ -154,6 +155,11 @@ Status resolveColormapNames(MaterialDocument& doc);
 /// "Viridis (matplotlib)", "Turbo", "Cool to Warm", "Grayscale".
 Result<Colormap> builtinColormap(const std::string& name);
 std::vector<std::string> builtinColormapNames();
+
+/// The labels a material filtering on `label` holds, as integers: [ceil(max(min, 0)),
+/// floor(min(max, 2^32 - 1))], or {1, 0} (none) when that is empty or a bound is NaN. The CPU
+/// evaluator and the renderer's packed materials compare labels against this one interval.
+std::pair<uint64_t, uint64_t> labelInterval(const Material& m);
 
 /// @brief The first of a list of closed intervals that holds a value, in O(log n): the leading
 /// materials that filter on `label` (the overlays put one per run of labels there: a selection or
