@@ -235,14 +235,11 @@ void fillImage(const csgv::ExtractResult& r, const csgv::CsgvFile& file, const c
   }
   if (file.wideLabels)
   {
+    const std::vector<int64_t> original = csgv::originalLabels(r, file);
     vtkNew<vtkTypeInt64Array> labels;
     labels->SetName("Label");
     labels->SetNumberOfValues(n);
-    for (vtkIdType i = 0; i < n; ++i)
-    {
-      const uint32_t id = r.labels[size_t(i)];
-      labels->SetValue(i, id == csgv::kInvalidLabel ? 0 : file.originalLabel(id));
-    }
+    std::copy(original.begin(), original.end(), labels->GetPointer(0));
     image->GetCellData()->SetScalars(labels);
     return;
   }
@@ -388,7 +385,6 @@ int vtkCSGVExtractLabels::RequestData(
   // One extraction per label while there are few (each label's own bounding box: scattered
   // labels do not make one box of the whole volume), else one for all.
   const std::vector<int64_t> selected = o.labels;
-  uint64_t total = 0;
   std::vector<std::vector<int64_t>> groups;
   if (o.labels.size() <= kLabelsOneByOne)
   {
@@ -407,8 +403,7 @@ int vtkCSGVExtractLabels::RequestData(
     vtkErrorMacro(<< selected.size() << " labels selected, more than MaxLabels (" << this->MaxLabels << ")");
     return 1;
   }
-  total = parsed->volume.brickCount();
-  this->BricksTotal = int(std::min<uint64_t>(total, VTK_INT_MAX));
+  this->BricksTotal = int(std::min<uint64_t>(parsed->volume.brickCount(), VTK_INT_MAX));
   if (auto* blocks = vtkMultiBlockDataSet::SafeDownCast(output))
   {
     // The image is a block of its own: its extent (the selection's bounding box) is known only
@@ -481,7 +476,6 @@ int vtkCSGVExtractLabels::RequestData(
     }
   }
   this->BricksDecoded = int(std::min<uint64_t>(decoded, VTK_INT_MAX));
-  this->BricksTotal = int(std::min<uint64_t>(total, VTK_INT_MAX));
   if (!any)
   {
     vtkWarningMacro(<< "no voxel of the selected labels lies in the box");

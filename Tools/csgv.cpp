@@ -513,11 +513,10 @@ int cmdExtract(const Args& a) {
         return fail("extract expects: csgv extract IN.csgv OUT.nrrd|OUT.vti|OUT.vraw|OUT.obj|OUT.ply|OUT.stl|OUT.vtp --labels L1,L2,... | --query SQL [options]");
     const std::string& in = a.positional[0];
     const std::string& out = a.positional[1];
-    const bool vti = endsWithNoCase(out, ".vti");
-    const bool nrrd = endsWithNoCase(out, ".nrrd") || vti; // typed, with geometry: every label width
+    const bool vti = endsWithNoCase(out, ".vti"), nrrd = endsWithNoCase(out, ".nrrd");
     MeshFormat meshFormat = MeshFormat::Obj;
     const bool mesh = meshFormatFor(out, meshFormat);
-    if (!nrrd && !mesh && !endsWithNoCase(out, ".vraw"))
+    if (!nrrd && !vti && !mesh && !endsWithNoCase(out, ".vraw"))
         return fail("output '" + out + "' must end in .vraw, .nrrd, .vti, .obj, .ply, .stl or .vtp");
     if (mesh && a.mask) return fail("--mask is for label images (.nrrd, .vti, .vraw); a mesh output (" + out + ") takes no --mask");
     if (a.hasLabels == a.hasQuery)
@@ -526,9 +525,9 @@ int cmdExtract(const Args& a) {
     const auto t0 = std::chrono::steady_clock::now();
     Result<CsgvFile> f = openCsgvMapped(in);
     if (!f) return fail(f.message());
-    if (f->wideLabels && !a.mask && !nrrd && !mesh)
+    if (f->wideLabels && !a.mask && !nrrd && !vti && !mesh)
         return fail(in + ": the original labels do not fit uint32 (" + f->metadata.originalType +
-                    "); extract to .nrrd or extract a --mask instead");
+                    "); extract to .nrrd or .vti or extract a --mask instead");
     ExtractOptions o;
     o.mask = a.mask;
     o.lod = a.level;
@@ -561,20 +560,18 @@ int cmdExtract(const Args& a) {
     // VTK's image data: cells at their place in the level image (the level's corner geometry).
     const Geometry level = extractGeometry(f->metadata.geometry, a.level, {0, 0, 0});
     Status w;
+    const bool wide = f->wideLabels && !a.mask;
+    const std::vector<int64_t> original = wide ? originalLabels(*r, *f) : std::vector<int64_t>();
+    const bool u64 = f->attributes.labelsUnsigned64;
     if (vti && a.mask) {
         w = writeVti(out, r->offset, r->dim, "UInt8", "Mask", r->mask.data(), 1, level);
-    } else if (vti && f->wideLabels) {
-        std::vector<int64_t> wide(r->labels.size());
-        for (size_t i = 0; i < wide.size(); ++i) wide[i] = r->labels[i] == kInvalidLabel ? 0 : f->originalLabel(r->labels[i]);
-        w = writeVti(out, r->offset, r->dim, f->attributes.labelsUnsigned64 ? "UInt64" : "Int64", "Label", wide.data(), 8, level);
     } else if (vti) {
-        w = writeVti(out, r->offset, r->dim, "UInt32", "Label", r->labels.data(), 4, level);
+        w = wide ? writeVti(out, r->offset, r->dim, u64 ? "UInt64" : "Int64", "Label", original.data(), 8, level)
+                 : writeVti(out, r->offset, r->dim, "UInt32", "Label", r->labels.data(), 4, level);
     } else if (a.mask) {
         w = nrrd ? writeNrrd(out, r->dim, "uint8", r->mask.data(), 1, g) : writeVrawUint8(out, r->dim, r->mask.data());
-    } else if (f->wideLabels) {
-        std::vector<int64_t> wide(r->labels.size());
-        for (size_t i = 0; i < wide.size(); ++i) wide[i] = r->labels[i] == kInvalidLabel ? 0 : f->originalLabel(r->labels[i]);
-        w = writeNrrd(out, r->dim, f->attributes.labelsUnsigned64 ? "uint64" : "int64", wide.data(), 8, g);
+    } else if (wide) {
+        w = writeNrrd(out, r->dim, u64 ? "uint64" : "int64", original.data(), 8, g);
     } else {
         LabelVolume v;
         v.dim = r->dim;

@@ -134,6 +134,25 @@ grep -qx "relabelled: yes" "$TMP/out" || bad "negative int32 NIfTI not relabelle
 expect 0 "verify nifti int32" "$CSGV" verify "$TMP/n32.csgv" "$TMP/n32.nii"
 expect 1 "verify nifti with a changed voxel" "$CSGV" verify "$TMP/n32.csgv" "$TMP/n32b.nii"
 grep -q "voxel (6, 5, 4)" "$TMP/err" || bad "verify of changed NIfTI voxel: $(cat "$TMP/err")"
+# Labels that do not fit uint32 (negative int32) extract to .vti as Int64 original labels, 0 elsewhere.
+expect 0 "extract negative labels to vti" "$CSGV" extract "$TMP/n32.csgv" "$TMP/n32.vti" --labels -7,99993
+/usr/bin/python3 - "$TMP/n32.vti" "$TMP/n32.nii" <<'PY' && pass "vti: Int64 original labels" || bad "vti of labels that do not fit uint32"
+import re, sys
+import numpy as np
+t = open(sys.argv[1], 'rb').read()
+head = t[:t.index(b'_', t.index(b'<AppendedData')) + 1].decode()
+assert 'type="Int64" Name="Label"' in head, head
+e = [int(v) for v in re.search(r'WholeExtent="([^"]+)"', head).group(1).split()]
+n = (e[1] - e[0]) * (e[3] - e[2]) * (e[5] - e[4])
+off = len(head)
+assert int.from_bytes(t[off:off + 8], 'little') == 8 * n
+got = np.frombuffer(t[off + 8:off + 8 + 8 * n], '<i8').reshape(e[5] - e[4], e[3] - e[2], e[1] - e[0])
+src = np.frombuffer(open(sys.argv[2], 'rb').read()[352:], '<i4').reshape(9, 10, 12)
+crop = src[e[4]:e[5], e[2]:e[3], e[0]:e[1]]
+want = np.where(np.isin(crop, [-7, 99993]), crop, 0)
+assert np.array_equal(got, want), (np.unique(got), np.unique(want))
+assert set(np.unique(got)) == {0, -7, 99993}
+PY
 expect 1 "verify against a source of other dimensions" "$CSGV" verify "$TMP/n32.csgv" "$TMP/g.nrrd"
 grep -q "dimensions differ" "$TMP/err" || bad "dimension mismatch message: $(cat "$TMP/err")"
 expect 0 "verify against synth" "$CSGV" verify "$TMP/p.csgv" synth:40x30x20:3

@@ -533,6 +533,12 @@ Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& 
     return r;
 }
 
+std::vector<int64_t> originalLabels(const ExtractResult& r, const CsgvFile& file) {
+    std::vector<int64_t> out(r.labels.size());
+    for (size_t i = 0; i < out.size(); ++i) out[i] = r.labels[i] == kInvalidLabel ? 0 : file.originalLabel(r.labels[i]);
+    return out;
+}
+
 Result<std::vector<int64_t>> labelsMatchingQuery(const CsgvFile& file, const std::string& query) {
     if (!file.hasAttributes)
         return Status::error("no attribute database (" + attributeDbPathFor(file.path) +

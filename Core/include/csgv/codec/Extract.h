@@ -85,6 +85,10 @@ struct ExtractResult {
     uint64_t outputBytes() const { return uint64_t(dim[0]) * dim[1] * dim[2] * (mask.empty() ? 4 : 1); }
 };
 
+/// A label image's values as original labels where the file's labels are wider than 32 bits
+/// (ExtractResult::labels holds stored ids there): file.originalLabel of each, 0 where no selected
+/// label is (kInvalidLabel).
+std::vector<int64_t> originalLabels(const ExtractResult& result, const CsgvFile& file);
 /// Extracts the selected labels of an opened file (see the file comment). Errors: unknown or too
 /// many labels, a box outside the volume, a level out of range, an output over the limit, a
 /// stream error in a decoded brick, cancellation. An empty result is not an error.
