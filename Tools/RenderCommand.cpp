@@ -21,8 +21,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <limits>
-#include <unordered_map>
 
 namespace csgv {
 
@@ -263,12 +261,11 @@ Status drawable(const MaterialDocument& doc, const std::vector<std::string>& att
 /// The per-label attributes the materials use, as floats indexed by the stored label: from the
 /// file's database, --attributes tables (CSV/text or SQLite), --computed-attributes and --derive.
 Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const MaterialDocument& doc,
-                        std::map<std::string, std::vector<float>>& out) {
+                        std::map<std::string, std::vector<float>>& out, AttributeTable& table) {
     std::vector<std::string> used;
     for (const std::string& n : attributesUsed(doc))
         if (n != "label") used.push_back(n);
     if (used.empty()) return drawable(doc, {"label"});
-    AttributeTable table;
     Status s;
     if (file.hasAttributes) {
         Result<AttributeTable> t = attributesFromDatabase(file.attributes);
@@ -353,25 +350,11 @@ int cmdRender(int argc, char** argv) {
         if (!(s = resolveColormapNames(doc))) return fail(a.materials + ": " + s.message());
     }
     std::map<std::string, std::vector<float>> attributes;
-    if (!(s = gatherAttributes(a, *file, doc, attributes))) return fail(s.message());
+    AttributeTable table;
+    if (!(s = gatherAttributes(a, *file, doc, attributes, table))) return fail(s.message());
     // The label overlays ("hidden", "only", "selected") drawn as ParaView draws them: the plain
-    // document effectiveMaterials makes, the labels' attribute values from the arrays above.
-    if (!doc.hidden.empty() || !doc.only.empty() || !doc.selected.empty()) {
-        std::unordered_map<int64_t, uint32_t> idOf;
-        if (file->hasAttributes)
-            for (size_t id = 0; id < file->attributes.labels.size(); ++id) idOf.emplace(file->attributes.labels[id], uint32_t(id));
-        doc = effectiveMaterials(doc, [&](const std::string& name, uint32_t label) {
-            const auto column = attributes.find(name);
-            if (column == attributes.end()) return std::numeric_limits<double>::quiet_NaN();
-            size_t index = label;
-            if (file->hasAttributes) {
-                const auto it = idOf.find(int64_t(label));
-                if (it == idOf.end()) return std::numeric_limits<double>::quiet_NaN();
-                index = it->second;
-            }
-            return index < column->second.size() ? double(column->second[index]) : std::numeric_limits<double>::quiet_NaN();
-        });
-    }
+    // document effectiveMaterials makes, the labels' attribute values from the same table.
+    doc = effectiveMaterials(doc, table.attributeFunction());
     const auto tContext = std::chrono::steady_clock::now();
     Result<std::unique_ptr<gpu::Context>> ctx = gpu::Context::create();
     if (!ctx) return fail(ctx.message());
