@@ -313,10 +313,18 @@ TEST(Materials, LabelEditsMatchTheSharedCases) {
             return attrs.contains(a) ? attrs[a].get<double>() : std::nan("");
         };
         MaterialDocument d = docOf(input);
-        const uint64_t label = c["label"].get<uint64_t>();
-        if (c["op"] == "hide") hideLabel(d, label, attribute);
-        else if (c["op"] == "showOnly") showOnlyLabel(d, label, attribute);
-        else FAIL() << "unknown op " << c["op"].dump();
+        if (c["op"] == "select") {
+            const std::string edit = c["edit"].get<std::string>();
+            editSelection(d, c["labels"].get<std::vector<uint32_t>>(),
+                          edit == "add" ? SelectionEdit::Add : edit == "remove" ? SelectionEdit::Remove : SelectionEdit::Replace);
+            if (c.contains("style"))
+                d.selectionStyle = c["style"] == "dim" ? MaterialDocument::SelectionStyle::Dim : MaterialDocument::SelectionStyle::Highlight;
+        } else {
+            const uint64_t label = c["label"].get<uint64_t>();
+            if (c["op"] == "hide") hideLabel(d, label, attribute);
+            else if (c["op"] == "showOnly") showOnlyLabel(d, label, attribute);
+            else FAIL() << "unknown op " << c["op"].dump();
+        }
         EXPECT_EQ(serializeMaterials(d), canonical(c["expected"].dump()));
     }
 }

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
-"""Examples/csgv_tools.py's hide_label and show_only_label against the cases in
-material_label_edits.json, which Core's csgv::hideLabel and csgv::showOnlyLabel pass in
+"""Examples/csgv_tools.py's hide_label, show_only_label and select_labels against the cases in
+material_label_edits.json, which Core's csgv::hideLabel, csgv::showOnlyLabel and csgv::editSelection pass in
 Testing/Core/test_materials.cpp (Materials.LabelEditsMatchTheSharedCases): pvpython cannot call
 Core, so the shared cases keep the two implementations from drifting apart."""
 import json
@@ -30,7 +30,11 @@ def normalised(doc):
         out.append({"name": m.get("name", ""),
                     "filter": {"attribute": f["attribute"], "min": num(f["min"]), "max": num(f["max"])},
                     "color": c, "opacity": num(m.get("opacity", 1)), "emission": num(m.get("emission", 0))})
-    return {"version": int(doc.get("version", 1)), "materials": out}
+    return {"version": int(doc.get("version", 1)), "materials": out,
+            "hidden": sorted(int(x) for x in doc.get("hidden", [])), "only": sorted(int(x) for x in doc.get("only", [])),
+            "selected": sorted(int(x) for x in doc.get("selected", [])),
+            "selectionStyle": doc.get("selectionStyle", "highlight"),
+            "selectionColor": num(doc.get("selectionColor", [1, 0, 1]))}
 
 
 failures = 0
@@ -40,8 +44,11 @@ assert len(cases) >= 10, "the shared cases are missing"
 for case in cases:
     text = case["input"] if isinstance(case["input"], str) else json.dumps(case["input"])
     attrs = case.get("attributes", {})
-    fn = {"hide": ct.hide_label, "showOnly": ct.show_only_label}[case["op"]]
-    got = normalised(json.loads(fn(text, case["label"], lambda name: attrs.get(name))))
+    if case["op"] == "select":
+        got = normalised(json.loads(ct.select_labels(text, case["labels"], case["edit"], case.get("style"))))
+    else:
+        fn = {"hide": ct.hide_label, "showOnly": ct.show_only_label}[case["op"]]
+        got = normalised(json.loads(fn(text, case["label"], lambda name: attrs.get(name))))
     want = normalised(case["expected"])
     ok = got == want
     failures += not ok
@@ -51,8 +58,8 @@ for case in cases:
 
 # The default document is Core's defaultMaterials() (one material "all", every non-zero label).
 default = normalised(ct.DEFAULT_DOCUMENT)
-want = {"version": 1, "materials": [{"name": "all", "filter": {"attribute": "label", "min": 1.0, "max": MAX_LABEL},
-                                     "color": {"mode": "random"}, "opacity": 1.0, "emission": 0.0}]}
+want = normalised({"version": 1, "materials": [{"name": "all", "filter": {"attribute": "label", "min": 1.0, "max": MAX_LABEL},
+                                                "color": {"mode": "random"}, "opacity": 1.0, "emission": 0.0}]})
 if default != want:
     failures += 1
     print("FAIL: DEFAULT_DOCUMENT is not Core's default document: %s" % json.dumps(default))
