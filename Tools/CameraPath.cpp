@@ -13,7 +13,7 @@ namespace {
 
 using Vec3 = std::array<double, 3>;
 
-double norm(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+double norm(const Vec3& v) { return std::hypot(v[0], v[1], v[2]); }
 
 Vec3 cross(const Vec3& a, const Vec3& b) {
     return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
@@ -48,11 +48,12 @@ std::string poseProblem(const CameraPose& p) {
             if (!std::isfinite(x)) return "a coordinate is not a finite number";
     if (!(p.fovY > 0 && p.fovY < 180)) return "the field of view must lie between 0 and 180 degrees";
     const Vec3 view{p.center[0] - p.eye[0], p.center[1] - p.eye[1], p.center[2] - p.eye[2]};
-    const double d = norm(view);
+    const double d = norm(view), u = norm(p.up); // std::hypot: no overflow or underflow of the squares
+    if (!std::isfinite(d)) return "the eye is too far from the centre";
     if (!(d > 0)) return "the eye is at the centre";
-    const double u = norm(p.up);
     if (!(u > 0)) return "the up vector is zero";
-    if (norm(cross(view, p.up)) <= 1e-9 * d * u) return "the up vector lies along the view direction";
+    const Vec3 v{view[0] / d, view[1] / d, view[2] / d}, w{p.up[0] / u, p.up[1] / u, p.up[2] / u};
+    if (norm(cross(v, w)) <= 1e-9) return "the up vector lies along the view direction";
     return std::string();
 }
 
