@@ -106,6 +106,30 @@ for mode in ("opaque", "translucent", "shadow", "ao", "pt", "ao_denoised", "comp
         # The summary (attribute ranges, label count) and the drawn labels' colours over all ranks.
         facts["summary"] = csgv_tools.attribute_summary(d)
         facts["colors"] = json.loads(csgv_tools.query(d, "colors 100000"))
+# ParaView's defaults: the representation's samples a pixel for a still render and the view's
+# FXAA on, opaque and translucent. The ranks' images of several samples a pixel are blended in
+# visibility order (a pixel on a piece's silhouette holds that piece's share of the samples).
+frames = d.GetProperty("CSGVFramesPerStillRender")
+frames.SMProperty.ResetToDefault()
+d.UpdateVTKObjects()
+facts["default_frames"] = d.CSGVFramesPerStillRender
+d.CSGVMaterials = ""
+d.CSGVClipBox = [0, 2147483647] * 3
+d.CSGVShading = "local"
+v.UseFXAA = 1
+for mode in ("defaults_opaque", "defaults_translucent"):
+    d.CSGVMaterials = glass if mode == "defaults_translucent" else ""
+    Render(v)
+    facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
+    SaveScreenshot(os.path.join(out, mode + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
+                   ImageResolution=[160, 120], TransparentBackground=0)
+d.CSGVMaterials = ""
+d.CSGVFramesPerStillRender = 1
+# Off again, and set anew (see the second view below).
+v.UseFXAA = 1
+v.UseFXAA = 0
+Render(v)
+
 # A plain label image (a source's integer point data, no .csgv): each rank asks for its whole
 # bricks of the whole image, compresses them and draws them in the whole image's index space.
 Hide(r, v)
