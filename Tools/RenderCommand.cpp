@@ -431,7 +431,10 @@ int cmdRender(int argc, char** argv) {
     uint64_t cacheUsed = 0;
     uint32_t fewestSamples = ~0u; // of any view's last frame: below --frames, a view stopped short
     gpu::FrameOutput out;
+    gpu::Renderer::WorkingSet largest; // the largest view's working set
+    uint32_t largestView = 0;
     for (uint32_t v = 0; v < views; ++v) {
+        const uint32_t mark = r.frameMark();
         gpu::FrameInput in;
         in.width = a.width;
         in.height = a.height;
@@ -466,6 +469,13 @@ int cmdRender(int argc, char** argv) {
         }
         fewestSamples = std::min(fewestSamples, minSamples);
         if (!(s = r.readOutput(out))) return fail(s.message());
+        // Outside the view's time: the brick table read back.
+        Result<gpu::Renderer::WorkingSet> ws = r.workingSet(mark);
+        if (!ws) return fail(ws.message());
+        if (ws->bytes > largest.bytes) {
+            largest = *ws;
+            largestView = v;
+        }
         viewTimes.push_back(viewMs);
         if (!a.video.empty()) {
             const std::string name = a.videoPattern.format(v);
@@ -498,6 +508,19 @@ int cmdRender(int argc, char** argv) {
     std::printf("device_memory_total_mib: %.2f\n", r.memory().total() / 1048576.0);
     std::printf("device_memory_budget_mib: %.2f\n", r.deviceMemoryBudget() / 1048576.0);
     std::printf("cache_used_mib: %.2f\n", cacheUsed / 1048576.0);
+    // A view whose bricks the cache cannot hold decodes some of them again and again before it
+    // converges (many more frames than an unconstrained cache needs): say so, and what would hold it.
+    const double setMiB = largest.bytes / 1048576.0, cacheMiB = largest.cacheBytes / 1048576.0;
+    std::printf("view_working_set_mib: %.2f (view %u: %llu bricks; the brick cache holds %.2f MiB)\n", setMiB,
+                largestView, (unsigned long long)largest.bricks, cacheMiB);
+    if (largest.bytes <= largest.cacheBytes)
+        std::printf("cache_holds_view: yes\n");
+    else
+        std::printf("cache_holds_view: no: view %u touches %llu bricks, about %.1f MiB of brick cache, and the cache has "
+                    "%.1f MiB: it decodes bricks again before it converges (raise --cache-mib, or --device-memory-mib "
+                    "that the cache is part of, by at least %.0f MiB, or render a smaller image)\n",
+                    largestView, (unsigned long long)largest.bricks, setMiB, cacheMiB,
+                    std::ceil((largest.bytes - largest.cacheBytes) / 1048576.0));
     if (want.tiers) {
         const TierCounts t = want.tiers->counts();
         std::printf("file_read_bricks: %llu\nfile_read_mib: %.2f\ndisk_read_mib: %.2f\nread_ahead_bricks: %llu\n",

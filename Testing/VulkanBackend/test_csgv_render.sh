@@ -16,6 +16,16 @@ for key in median_frame_ms time_to_first_frame_ms device_memory_total_mib cache_
 done
 grep -q "^frame 1: " "$TMP/out" || bad "render prints each frame"
 grep -q "^converged: yes$" "$TMP/out" && pass "the render converged" || bad "converged: yes expected"
+grep -q "^cache_holds_view: yes$" "$TMP/out" &&
+  awk '/^view_working_set_mib:/ { w = $2 } END { exit !(w > 0) }' "$TMP/out" &&
+  pass "the view's working set, held by the cache" || bad "no working set, or not held"
+# A cache smaller than the view's working set converges (bricks decoded again) to the same labels,
+# and the summary says the cache cannot hold the view and what to raise.
+expect 0 "render with a 1 MiB cache" "$CSGV" render "$DEF" "$TMP/k.png" --size 64x48 --labels-out "$TMP/k.labels" --finest \
+  --no-jitter --cache-mib 1
+grep -q "^cache_holds_view: no: view 0 touches .*(raise --cache-mib" "$TMP/out" && grep -q "^converged: yes$" "$TMP/out" &&
+  pass "a cache too small for the view is named" || bad "a cache too small for the view is not named"
+cmp -s "$TMP/a.labels" "$TMP/k.labels" && pass "a small cache leaves the labels unchanged" || bad "labels differ with a small cache"
 # A device-memory budget bounds the whole device memory and leaves the labels as they were; one
 # too small for the image is one error line naming the budget.
 expect 0 "render under a budget" "$CSGV" render "$DEF" "$TMP/b.png" --size 64x48 --labels-out "$TMP/b.labels" --finest \

@@ -125,4 +125,26 @@ Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
     return out;
 }
 
+uint32_t Renderer::frameMark() const { return m_impl->frameIndex; }
+
+Result<Renderer::WorkingSet> Renderer::workingSet(uint32_t mark) const {
+    const Impl& im = *m_impl;
+    std::vector<uint32_t> words(size_t(im.brickCount) * 4);
+    if (Status s = im.ctx.download(im.bricks, 0, words.data(), words.size() * 4); !s) return s;
+    WorkingSet w;
+    w.cacheBytes = im.cache.size();
+    uint64_t cachedBytes = 0;
+    for (size_t b = 0; b < im.brickCount; ++b) {
+        if (words[4 * b + 2] <= mark) continue; // the frame index + 1 of the brick's last use
+        ++w.bricks;
+        if (const uint32_t lod = words[4 * b + 1]; lod != kNone) {
+            ++w.cachedBricks;
+            cachedBytes += im.volume->regionWords(lod) * 4;
+        }
+    }
+    const uint64_t mean = w.cachedBricks ? cachedBytes / w.cachedBricks : im.volume->regionWords(0) * 4;
+    w.bytes = cachedBytes + (w.bricks - w.cachedBricks) * mean;
+    return w;
+}
+
 } // namespace csgv::gpu

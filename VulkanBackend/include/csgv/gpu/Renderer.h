@@ -349,6 +349,21 @@ public:
     /// Reads the brick table back: the bricks the cache holds now.
     Result<std::vector<CachedBrick>> cachedBricks() const;
 
+    /// The bricks a view's rays touched (its working set) and the brick cache that has to hold
+    /// them: whether a budget lets a view converge without decoding its own bricks again.
+    struct WorkingSet {
+        uint64_t bricks = 0;       ///< drawn bricks some ray touched since the mark, cached or not
+        uint64_t cachedBricks = 0; ///< of those, the ones in the cache now
+        /// Cache bytes they take: the cached ones' at their level, the others at the cached ones'
+        /// mean (exact when every brick is wanted at one level, as with --finest).
+        uint64_t bytes = 0;
+        uint64_t cacheBytes = 0;   ///< the brick cache's size
+    };
+    /// A mark before a view's first frame (the frame counter, never reset).
+    uint32_t frameMark() const;
+    /// Reads the brick table back: the bricks touched by the frames since `mark`.
+    Result<WorkingSet> workingSet(uint32_t mark) const;
+
     struct Impl;
 
 private:
