@@ -23,6 +23,7 @@
 #include <cstdlib>
 #include <functional>
 #include <map>
+#include <set>
 
 using namespace csgv;
 using namespace csgv::gpu;
@@ -288,6 +289,51 @@ void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool palet
 }
 
 } // namespace
+
+// A view's working set (csgv render's view_working_set_mib): the bricks its rays touched, each at
+// the level the view wants (the host's mirror of lodForBrick). Without prefetching, a fresh cache
+// large enough holds exactly those bricks after the view converges, each at that level: the same
+// count and bytes. The frames of a later view from elsewhere touch others; a mark after the last
+// frame holds none.
+TEST(Renderer, WorkingSetIsTheViewsBricksAtTheirLevels) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b16_nibble.csgv");
+    std::shared_ptr<GpuVolume> gpu = gpuVolume(*ctx, scene, false);
+    ASSERT_TRUE(gpu);
+    RendererOptions o;
+    o.prefetchVoxels = 0;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, o);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    // From afar, at 40x30: several levels of detail.
+    const FrameInput in = perspectiveView({-120, 160, 200}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 40, 30);
+    const uint32_t mark = (*r)->frameMark();
+    renderConverged(**r, in, 1, 64);
+    Result<Renderer::WorkingSet> ws = (*r)->workingSet(mark);
+    ASSERT_TRUE(ws.isOk()) << ws.message();
+    Result<std::vector<Renderer::CachedBrick>> cached = (*r)->cachedBricks();
+    ASSERT_TRUE(cached.isOk()) << cached.message();
+    uint64_t bytes = 0;
+    std::set<uint32_t> levels;
+    for (const Renderer::CachedBrick& b : *cached) {
+        bytes += gpu->regionWords(b.lod) * 4;
+        levels.insert(b.lod);
+    }
+    EXPECT_GT(ws->bricks, 4u);
+    EXPECT_EQ(ws->bricks, cached->size());
+    EXPECT_EQ(ws->cachedBricks, ws->bricks);
+    EXPECT_EQ(ws->bytes, bytes);
+    EXPECT_GT(levels.size(), 1u) << "the view should want several levels";
+    EXPECT_GT(ws->cacheBytes, ws->bytes);
+    const uint32_t second = (*r)->frameMark();
+    renderConverged(**r, perspectiveView({300, -200, -150}, {48, 40, 30}, {0, 0, 1}, 40, 96, 72), 1, 64);
+    Result<Renderer::WorkingSet> other = (*r)->workingSet(second);
+    ASSERT_TRUE(other.isOk());
+    EXPECT_GT(other->bricks, 4u);
+    Result<Renderer::WorkingSet> none = (*r)->workingSet((*r)->frameMark());
+    ASSERT_TRUE(none.isOk());
+    EXPECT_EQ(none->bricks, 0u);
+    EXPECT_EQ(none->bytes, 0u);
+}
 
 // Host decoding (the default on CPU devices), the GPU decoder's pass, and with cache paletting:
 // each marks exactly the sub-blocks that hold one label.

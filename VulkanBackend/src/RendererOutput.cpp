@@ -1,8 +1,12 @@
 // SPDX-License-Identifier: MIT
 /// @file RendererOutput.cpp
 /// @brief The renderer's read-back room: the output image (colour, depth, first-hit labels and
-/// their depths) read from the device as the caller asks, and the cached bricks' list.
+/// their depths) read from the device as the caller asks, the cached bricks' list and a view's
+/// working set.
 #include "RendererImpl.h"
+
+#include <algorithm>
+#include <cmath>
 
 namespace csgv::gpu {
 
@@ -127,23 +131,47 @@ Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
 
 uint32_t Renderer::frameMark() const { return m_impl->frameIndex; }
 
+namespace {
+
+/// The level of detail the last frame's rays want for a brick: render_common.glsl's
+/// lodForBrick, on the host (column-major matrices, as the shaders read them).
+uint32_t wantedLevel(const FrameParams& p, const CompressedVolume& v, uint64_t brick) {
+    if ((p.frame[1] & kFlagFinest) != 0u) return 0u;
+    const std::array<uint32_t, 3> grid = v.brickGrid();
+    const uint64_t b[3] = {brick % grid[0], (brick / grid[0]) % grid[1], brick / (uint64_t(grid[0]) * grid[1])};
+    const float centre[4] = {(float(b[0]) + 0.5f) * float(v.brickSize), (float(b[1]) + 0.5f) * float(v.brickSize),
+                             (float(b[2]) + 0.5f) * float(v.brickSize), 1.0f};
+    auto apply = [](const float* m, const float* x, float* y) {
+        for (int i = 0; i < 4; ++i) y[i] = m[i] * x[0] + m[4 + i] * x[1] + m[8 + i] * x[2] + m[12 + i] * x[3];
+    };
+    float clip[4], back[4];
+    apply(p.indexToClip, centre, clip);
+    apply(p.clipToIndex, clip, back);
+    const float footprint = p.clipMax[3] * std::fabs(clip[3] / back[3]);
+    const float l = std::floor(std::log2(std::max(footprint, 1e-30f)) + p.clipMin[3]);
+    return uint32_t(std::clamp(l, 0.0f, float(v.levels() - 1u)));
+}
+
+} // namespace
+
 Result<Renderer::WorkingSet> Renderer::workingSet(uint32_t mark) const {
     const Impl& im = *m_impl;
     std::vector<uint32_t> words(size_t(im.brickCount) * 4);
     if (Status s = im.ctx.download(im.bricks, 0, words.data(), words.size() * 4); !s) return s;
     WorkingSet w;
     w.cacheBytes = im.cache.size();
-    uint64_t cachedBytes = 0;
+    // Each brick at the level the view wants (the last frame's camera): a thrashing cache holds
+    // some of them at a stand-in's level, or not at all.
+    const FrameParams& p = const_cast<Impl&>(im).hostParams();
+    const CompressedVolume& v = im.volume->volume();
+    std::vector<uint64_t> levelBytes(v.levels());
+    for (uint32_t l = 0; l < v.levels(); ++l) levelBytes[l] = im.volume->regionWords(l) * 4;
     for (size_t b = 0; b < im.brickCount; ++b) {
         if (words[4 * b + 2] <= mark) continue; // the frame index + 1 of the brick's last use
         ++w.bricks;
-        if (const uint32_t lod = words[4 * b + 1]; lod != kNone) {
-            ++w.cachedBricks;
-            cachedBytes += im.volume->regionWords(lod) * 4;
-        }
+        w.cachedBricks += words[4 * b + 1] != kNone;
+        w.bytes += levelBytes[wantedLevel(p, v, b)];
     }
-    const uint64_t mean = w.cachedBricks ? cachedBytes / w.cachedBricks : im.volume->regionWords(0) * 4;
-    w.bytes = cachedBytes + (w.bricks - w.cachedBricks) * mean;
     return w;
 }
 

@@ -354,8 +354,7 @@ public:
     struct WorkingSet {
         uint64_t bricks = 0;       ///< drawn bricks some ray touched since the mark, cached or not
         uint64_t cachedBricks = 0; ///< of those, the ones in the cache now
-        /// Cache bytes they take: the cached ones' at their level, the others at the cached ones'
-        /// mean (exact when every brick is wanted at one level, as with --finest).
+        /// Cache bytes they take, each at the level the last frame's camera wants for it.
         uint64_t bytes = 0;
         uint64_t cacheBytes = 0;   ///< the brick cache's size
     };
