@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 
 using namespace csgv;
@@ -33,6 +34,43 @@ constexpr uint64_t kBudget = uint64_t(1) << 30;
 
 } // namespace
 
+// The grouped index finds exactly what a binary search of all ids finds: dense labels, labels
+// clustered at both ends of the 32-bit range, one id, the largest label there is, and labels
+// between, below and above them.
+TEST(LabelLookup, TheIdIndexFindsWhatABinarySearchFinds) {
+    std::vector<std::vector<uint32_t>> cases;
+    std::vector<uint32_t> dense(70000);
+    for (uint32_t i = 0; i < dense.size(); ++i) dense[i] = i;
+    cases.push_back(dense);
+    std::vector<uint32_t> ends;
+    for (uint32_t i = 0; i < 3000; ++i) ends.push_back(i * 3);
+    for (uint32_t i = 0; i < 3000; ++i) ends.push_back(0xFFFFFFFEu - 3000 * 7 + i * 7);
+    cases.push_back(ends);
+    cases.push_back({5});
+    cases.push_back({0xFFFFFFFEu});
+    std::vector<uint32_t> spread;
+    uint64_t x = 88172645463325252ull;
+    for (int i = 0; i < 50000; ++i) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        spread.push_back(uint32_t(x % 0xFFFFFFFFull));
+    }
+    std::sort(spread.begin(), spread.end());
+    spread.erase(std::unique(spread.begin(), spread.end()), spread.end());
+    cases.push_back(spread);
+    for (const std::vector<uint32_t>& ids : cases) {
+        const LabelIdIndex index = LabelIdIndex::build(ids);
+        EXPECT_LE(index.start.size(), (size_t(1) << 22) + 2);
+        for (uint32_t i = 0; i < ids.size(); ++i) ASSERT_EQ(index.find(ids, ids[i]), i);
+        std::vector<uint32_t> probes = {0, 1, 2, 4, 6, kNone, 0xFFFFFFFEu, 0x7FFFFFFFu, 0x80000000u};
+        for (uint32_t id : ids) {
+            if (probes.size() > 200000) break;
+            probes.push_back(id + 1);
+            probes.push_back(id - 1);
+        }
+        for (uint32_t l : probes) ASSERT_EQ(index.find(ids, l), idOfLabel(ids, l)) << "label " << l;
+    }
+}
+
 TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2.csgv")); // 222 labels up to 4282514378
     ASSERT_TRUE(file.isOk()) << file.message();
@@ -41,6 +79,8 @@ TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
     const std::set<uint32_t> labels = paletteLabels(file->volume);
     ASSERT_EQ(ids, std::vector<uint32_t>(labels.begin(), labels.end())) << "the palettes' labels, ascending";
     for (uint32_t i = 0; i < ids.size(); ++i) EXPECT_EQ(idOfLabel(ids, ids[i]), i);
+    for (uint32_t i = 0; i < ids.size(); ++i) EXPECT_EQ(stored.storedOf(ids[i]), i);
+    EXPECT_EQ(stored.storedOf(kNone), kNone);
     size_t absent = 0;
     for (uint32_t l = 1; absent < 1000; l += 4099)
         if (!labels.count(l)) {

@@ -16,15 +16,17 @@ namespace {
 /// Array `i` of the device's encoding arrays (laid out as `starts` says: a brick's palette ends
 /// where its next starts, CSGV-FORMAT.md section 3) with every palette entry replaced by its id.
 std::vector<uint32_t> paletteIdsIn(const GpuVolume& g, const CompressedVolume& volume, size_t i, const WordArray& array,
-                                   const std::vector<uint32_t>& starts, const std::vector<uint32_t>& ids) {
+                                   const std::vector<uint32_t>& starts) {
     std::vector<uint32_t> out(array.size());
     array.copyTo(out.data(), 0, out.size());
     const uint64_t n = volume.brickCount(), per = volume.bricksPerArray == kSingleArray ? n : volume.bricksPerArray;
     const uint32_t L = volume.levels();
-    for (uint64_t b = i * per; b < std::min<uint64_t>(n, (i + 1) * per); ++b) {
-        if (!g.sound(b)) continue; // never decoded: its words go up as they are
+    const int64_t from = int64_t(i * per), to = int64_t(std::min<uint64_t>(n, (i + 1) * per));
+#pragma omp parallel for schedule(static, 4096)
+    for (int64_t b = from; b < to; ++b) {
+        if (!g.sound(uint64_t(b))) continue; // never decoded: its words go up as they are
         const uint32_t end = starts[size_t(b) + 1];
-        for (uint32_t k = 0; k < volume.brick(b).words[L]; ++k) out[end - 1 - k] = idOfLabel(ids, out[end - 1 - k]);
+        for (uint32_t k = 0; k < volume.brick(uint64_t(b)).words[L]; ++k) out[end - 1 - k] = g.storedOf(out[end - 1 - k]);
     }
     return out;
 }
@@ -140,7 +142,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
         // With ids, the palettes' labels replaced (a copy of one array at a time).
         std::vector<uint32_t> withIds;
         const std::vector<uint32_t>& ids = g->m_labels.ids;
-        if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(*g, volume, i, a, starts, ids);
+        if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(*g, volume, i, a, starts);
         const void* up = withIds.empty() ? a.bytes() : withIds.data(); // any alignment: copied bytewise
         const size_t words = withIds.empty() ? a.size() : withIds.size();
         Result<Buffer> b = context.createBuffer(words * 4, MemoryKind::DeviceLocal);
@@ -440,7 +442,7 @@ void GpuVolume::packRegion(uint32_t brick, const uint32_t* labels, uint64_t n, u
         for (uint64_t e = 0; e < n; ++e) {
             if (labels[e] != lastLabel) {
                 lastLabel = labels[e];
-                lastId = lastLabel == kInvalidLabel ? kNone : idOfLabel(m_labels.ids, lastLabel);
+                lastId = lastLabel == kInvalidLabel ? kNone : m_labels.storedOf(lastLabel);
             }
             out[e] = lastId;
         }

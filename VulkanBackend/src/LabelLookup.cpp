@@ -17,11 +17,39 @@ StoredLabels storedLabels(const PaletteSummary& palettes, bool piece) {
     if (labels.empty() || labels.size() > kMaterialTableLabels) return out;
     out.largest = uint32_t(labels.size() - 1);
     out.ids = std::move(labels);
+    out.index = LabelIdIndex::build(out.ids);
     return out;
 }
 
 StoredLabels storedLabels(const CompressedVolume& vol, bool piece) {
     return storedLabels(summarizePalettes(vol, kMaterialTableLabels), piece);
+}
+
+LabelIdIndex LabelIdIndex::build(const std::vector<uint32_t>& ids) {
+    LabelIdIndex x;
+    if (ids.empty()) return x;
+    auto width = [](uint64_t v) { uint32_t w = 0; while (v >> w) ++w; return w; };
+    // About one id a group: groups = the ids' count rounded up to a power of two, over the
+    // labels' bits (at most 2^22 groups, 16 MiB, for the most ids a table takes).
+    const uint32_t groupBits = std::min<uint32_t>(std::max<uint32_t>(width(ids.size()), 1), 22);
+    const uint32_t labelBits = width(ids.back());
+    x.shift = labelBits > groupBits ? labelBits - groupBits : 0;
+    const size_t groups = size_t(ids.back() >> x.shift) + 2; // the last one ends the ids
+    x.start.assign(groups, uint32_t(ids.size()));
+    size_t i = 0;
+    for (size_t k = 0; k < groups; ++k) {
+        while (i < ids.size() && (ids[i] >> x.shift) < k) ++i;
+        x.start[k] = uint32_t(i);
+    }
+    return x;
+}
+
+uint32_t LabelIdIndex::find(const std::vector<uint32_t>& ids, uint32_t label) const {
+    const size_t k = label >> shift;
+    if (k + 1 >= start.size()) return kNone;
+    const auto first = ids.begin() + start[k], last = ids.begin() + start[k + 1];
+    const auto it = std::lower_bound(first, last, label);
+    return it != last && *it == label ? uint32_t(it - ids.begin()) : kNone;
 }
 
 uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label) {

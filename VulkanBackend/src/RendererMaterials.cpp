@@ -246,8 +246,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
         return stored >= table.size() ? materialOf(stored) : lookup.hostMaterial(table, stored);
     };
     // The palettes' labels as the shaders see them (ids where the volume stores them).
-    const std::vector<uint32_t>& ids = volume->labelIds();
-    auto storedOf = [&](uint32_t label) { return ids.empty() ? label : idOfLabel(ids, label); };
+    auto storedOf = [&](uint32_t label) { return volume->storedOf(label); };
     const CompressedVolume& vol = volume->volume();
     const uint32_t L = vol.levels();
     // The sub-blocks without drawn labels (kSlotHidden) are made anew, where the volume holds two
@@ -261,7 +260,7 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     materialState.drawnFingerprint = table.empty() ? 0 : drawn;
     auto severalUndrawn = [&] {
         const auto undrawn = std::count(table.begin(), table.end(), kNone);
-        if (!ids.empty()) return undrawn > 1; // the table holds the palettes' labels alone
+        if (!volume->labelIds().empty()) return undrawn > 1; // the table holds the palettes' labels alone
         if (!table.empty() && undrawn < 2) return false; // not even among all labels
         // The palette summary's labels (a whole volume's), without reading a palette again.
         if (const PaletteSummary& palettes = volume->palettes(); palettes.labelsComplete && volume->owned().empty()) {

@@ -126,6 +126,8 @@ public:
     /// label's id is its index) the device's palettes and the cache hold ids; without (empty),
     /// the labels themselves.
     const std::vector<uint32_t>& labelIds() const { return m_labels.ids; }
+    /// A label as the device stores it (StoredLabels::storedOf).
+    uint32_t storedOf(uint32_t label) const { return m_labels.storedOf(label); }
     uint32_t largestStoredLabel() const { return m_labels.largest; }
     /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
     uint32_t cacheBits() const { return m_cacheBits; }
