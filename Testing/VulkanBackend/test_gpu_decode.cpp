@@ -25,10 +25,11 @@ namespace {
 
 /// Decodes every brick at every level on the GPU and compares in-volume nodes with the CPU.
 void expectGpuEqualsCpu(Context& ctx, const CompressedVolume& vol, const std::string& what, bool paletting = false,
-                        DetailSeparation separation = DetailSeparation::Auto) {
+                        DetailSeparation separation = DetailSeparation::Auto, uint64_t uploadChunk = 0) {
     GpuVolumeOptions options;
     options.cachePaletting = paletting;
     options.separateDetail = separation;
+    if (uploadChunk) options.uploadChunkBytes = uploadChunk;
     Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(ctx, vol, options);
     ASSERT_TRUE(gpu.isOk()) << what << ": " << gpu.message();
     if (separation == DetailSeparation::Always) {
@@ -66,6 +67,19 @@ void expectGpuEqualsCpu(Context& ctx, const CompressedVolume& vol, const std::st
 TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevel) {
     CSGV_REQUIRE_GPU(ctx);
     for (const std::string& name : allFixtureNames()) expectGpuEqualsCpu(*ctx, loadFixture(name), name);
+}
+
+// The encoding goes up in pieces of whole bricks (palette labels replaced by ids on the way):
+// pieces of 4 KiB (a brick or a few each, the largest brick alone where it is larger), whole and
+// separated, decode as the CPU does.
+TEST(GpuDecode, AnUploadInSmallPiecesDecodesTheSame) {
+    CSGV_REQUIRE_GPU(ctx);
+    for (const std::string& name : {std::string("synthA_b32_rans2.csgv"), std::string("synthA_b16_nibble.csgv")}) {
+        const CompressedVolume vol = loadFixture(name);
+        expectGpuEqualsCpu(*ctx, vol, name + " (4 KiB pieces)", false, DetailSeparation::Auto, 4096);
+        if (vol.encoding == kEncodingRans2)
+            expectGpuEqualsCpu(*ctx, vol, name + " (4 KiB pieces, separated)", false, DetailSeparation::Always, 4096);
+    }
 }
 
 TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevelWithCachePaletting) {

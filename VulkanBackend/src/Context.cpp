@@ -472,6 +472,37 @@ Status Context::upload(Buffer& dst, uint64_t offset, const void* data, uint64_t 
     });
 }
 
+Status Context::uploadFilled(Buffer& dst, uint64_t bytes, uint64_t chunk,
+                             const std::function<uint64_t(uint64_t offset, void* out, uint64_t room)>& fill) {
+    if (bytes > dst.size()) return Status::error("upload past the end of a GPU buffer");
+    if (bytes == 0) return Status::ok();
+    if (dst.mapped()) { // the same pieces, written in place
+        for (uint64_t at = 0; at < bytes;) {
+            const uint64_t room = std::min(bytes - at, std::max<uint64_t>(chunk, 4));
+            const uint64_t n = fill(at, static_cast<uint8_t*>(dst.mapped()) + at, room);
+            if (n == 0 || n > room) return Status::error("an upload's source gave no data");
+            at += n;
+        }
+        return Status::ok();
+    }
+    Result<Buffer> staging = createBuffer(std::min(bytes, std::max<uint64_t>(chunk, 4)), MemoryKind::HostVisible);
+    if (!staging) return staging.status();
+    Impl& im = *m_impl;
+    for (uint64_t at = 0; at < bytes;) {
+        const uint64_t n = fill(at, staging->mapped(), std::min(bytes - at, staging->size()));
+        if (n == 0 || n > std::min(bytes - at, staging->size())) return Status::error("an upload's source gave no data");
+        Status s = submitAndWait(im, [&](VkCommandBuffer cmd) {
+            VkBufferCopy region{0, at, n};
+            im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(staging->m_buffer), reinterpret_cast<VkBuffer>(dst.m_buffer),
+                                  1, &region);
+            transferBarrier(im.vk, cmd);
+        });
+        if (!s) return s;
+        at += n;
+    }
+    return Status::ok();
+}
+
 Status Context::uploadRegions(Buffer& dst, const void* data, const std::vector<CopyRegion>& regions) {
     uint64_t end = 0;
     for (const CopyRegion& r : regions) {

@@ -13,22 +13,39 @@ namespace csgv::gpu {
 
 namespace {
 
-/// Array `i` of the device's encoding arrays (laid out as `starts` says: a brick's palette ends
-/// where its next starts, CSGV-FORMAT.md section 3) with every palette entry replaced by its id.
-std::vector<uint32_t> paletteIdsIn(const GpuVolume& g, const CompressedVolume& volume, size_t i, const WordArray& array,
-                                   const std::vector<uint32_t>& starts) {
-    std::vector<uint32_t> out(array.size());
-    array.copyTo(out.data(), 0, out.size());
+/// Writes the words from `w0` on of array `i` of the device's encoding arrays (laid out as
+/// `starts` says: a brick's palette ends where its next starts, CSGV-FORMAT.md section 3) into
+/// `out`, whole bricks up to `room` words, with every palette entry replaced by its id when the
+/// volume stores ids: the count written, 0 when a brick does not fit.
+uint64_t fillArray(const GpuVolume& g, const CompressedVolume& volume, size_t i, const WordArray& array,
+                   const std::vector<uint32_t>& starts, uint64_t w0, uint32_t* out, uint64_t room) {
     const uint64_t n = volume.brickCount(), per = volume.bricksPerArray == kSingleArray ? n : volume.bricksPerArray;
+    const uint64_t first = i * per, last = std::min<uint64_t>(n, (i + 1) * per); // the array's bricks
+    // Bricks [b0, b1) end in (w0, w1]: from the first ending after w0 to the last ending in room.
+    auto endOf = [&](uint64_t b) { return uint64_t(starts[size_t(b) + 1]); };
+    auto firstEndingAfter = [&](uint64_t w) {
+        uint64_t lo = first, hi = last;
+        while (lo < hi) {
+            const uint64_t mid = lo + (hi - lo) / 2;
+            if (endOf(mid) <= w) lo = mid + 1;
+            else hi = mid;
+        }
+        return lo;
+    };
+    const uint64_t b0 = firstEndingAfter(w0), b1 = firstEndingAfter(w0 + room);
+    const uint64_t w1 = w0 + room >= array.size() ? array.size() : (b1 > b0 ? endOf(b1 - 1) : w0);
+    if (w1 <= w0) return 0;
+    array.copyTo(out, size_t(w0), size_t(w1 - w0));
+    if (g.labelIds().empty()) return w1 - w0;
     const uint32_t L = volume.levels();
-    const int64_t from = int64_t(i * per), to = int64_t(std::min<uint64_t>(n, (i + 1) * per));
+    const int64_t from = int64_t(b0), to = int64_t(std::min(b1, last));
 #pragma omp parallel for schedule(static, 4096)
     for (int64_t b = from; b < to; ++b) {
         if (!g.sound(uint64_t(b))) continue; // never decoded: its words go up as they are
-        const uint32_t end = starts[size_t(b) + 1];
+        const uint64_t end = endOf(uint64_t(b)) - w0;
         for (uint32_t k = 0; k < volume.brick(uint64_t(b)).words[L]; ++k) out[end - 1 - k] = g.storedOf(out[end - 1 - k]);
     }
-    return out;
+    return w1 - w0;
 }
 
 /// Steps per dispatch on CPU devices: llvmpipe ends an invocation's loops after 65535 iterations
@@ -137,18 +154,26 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     g->m_tiers = options.tiers;
     if (separate) g->m_detailSizes = options.tiers ? DetailStream::sizes(*options.tiers) : DetailStream::sizes(volume);
     std::vector<uint64_t> addresses;
+    // Pieces of whole bricks: at least the largest brick a piece.
+    uint64_t chunk = std::max<uint64_t>(options.uploadChunkBytes, 4);
+    for (size_t b = 0; b + 1 < starts.size(); ++b)
+        if (starts[b + 1] > starts[b]) chunk = std::max<uint64_t>(chunk, uint64_t(starts[b + 1] - starts[b]) * 4);
     for (size_t i = 0; i < arrays.size(); ++i) {
         const WordArray& a = arrays[i];
-        // With ids, the palettes' labels replaced (a copy of one array at a time).
-        std::vector<uint32_t> withIds;
-        const std::vector<uint32_t>& ids = g->m_labels.ids;
-        if (!ids.empty() && part != DevicePart::Nothing) withIds = paletteIdsIn(*g, volume, i, a, starts);
-        const void* up = withIds.empty() ? a.bytes() : withIds.data(); // any alignment: copied bytewise
-        const size_t words = withIds.empty() ? a.size() : withIds.size();
-        Result<Buffer> b = context.createBuffer(words * 4, MemoryKind::DeviceLocal);
+        Result<Buffer> b = context.createBuffer(a.size() * 4, MemoryKind::DeviceLocal);
         if (!b) return Status(b.status()).prefix("uploading the encoding");
-        s = context.upload(*b, 0, up, words * 4);
-        if (!s) return s;
+        // A chunk at a time, with ids the palettes' labels replaced on the way (none to replace
+        // when the device holds no palettes).
+        const bool ids = part != DevicePart::Nothing;
+        s = context.uploadFilled(*b, a.size() * 4, chunk, [&](uint64_t offset, void* out, uint64_t room) {
+            const uint64_t w0 = offset / 4;
+            if (!ids) {
+                a.copyTo(static_cast<uint32_t*>(out), size_t(w0), size_t(room / 4));
+                return room / 4 * 4;
+            }
+            return 4 * fillArray(*g, volume, i, a, starts, w0, static_cast<uint32_t*>(out), room / 4);
+        });
+        if (!s) return Status(s).prefix("uploading the encoding");
         addresses.push_back(b->address());
         g->m_arrays.push_back(std::move(*b));
     }

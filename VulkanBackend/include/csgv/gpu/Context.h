@@ -14,6 +14,7 @@
 #include "csgv/base/Status.h"
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -136,6 +137,12 @@ public:
     Result<Buffer> createBuffer(uint64_t bytes, MemoryKind kind);
     /// Copies host data into a buffer at an offset (through a staging buffer when not mapped).
     Status upload(Buffer& dst, uint64_t offset, const void* data, uint64_t bytes);
+    /// Fills a buffer's first `bytes` in pieces written straight into a staging buffer of at most
+    /// `chunk` bytes (or the buffer's own mapping): `fill(offset, out, room)` writes the bytes
+    /// from `offset` on, at most `room` of them, and returns how many (more than 0, a multiple of
+    /// 4, unless it fails: 0). Host memory stays one chunk whatever the size.
+    Status uploadFilled(Buffer& dst, uint64_t bytes, uint64_t chunk,
+                        const std::function<uint64_t(uint64_t offset, void* out, uint64_t room)>& fill);
     /// Copies ranges of `data` into a buffer, in one submission (one staging buffer).
     struct CopyRegion {
         uint64_t srcOffset = 0, dstOffset = 0, bytes = 0;

@@ -69,6 +69,9 @@ struct GpuVolumeOptions {
     /// tier holds the same palettes): the upload then reads no palette for its stored labels.
     /// Null: summarized here.
     std::shared_ptr<const PaletteSummary> palettes;
+    /// Host memory the upload takes at a time (whole bricks a piece, at least the largest brick):
+    /// the encoding goes up in pieces, its palettes' labels replaced by ids on the way.
+    uint64_t uploadChunkBytes = uint64_t(64) << 20;
 };
 
 class GpuVolume {
