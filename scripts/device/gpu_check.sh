@@ -10,6 +10,9 @@
 # After the modes, a moving-camera row: MOVING (32) poses of that orbit, one frame each
 # (--frames-per-view 1, previews allowed, as an interactive view and Volcanite show them): its
 # median frame and the whole path's time.
+# With BUDGET_MIB (e.g. 560 for synth 2048^3): a budget row per volume, a 16-view orbit at --finest
+# with GPU decoding, unconstrained and under that device-memory budget: frames, the largest view's
+# working set against the brick cache (cache_holds_view), detail streams uploaded and evicted.
 # Environment: SKIP_TESTS=1 (renders only), SIZE (1920x1080), FRAMES (16), ORBIT (6), MOVING (32), and
 # RENDER_ARGS (more csgv render options, e.g. "--decode host --cache-mib 256") with TAG (a name
 # for the logs and images of that variant). With a baseline in the bundle (bundle.sh's BASE_BUILD),
@@ -53,7 +56,7 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
             [ "$bin" = "$csgv" ] || { t=${t}_base; label="${label:+$label }base"; }
             CSGV_PROFILE_DISPATCHES=1 timeout 60 "$bin" render $v "$res/s$t.png" --size ${SIZE:-1920x1080} \
                 --shading $m --frames ${FRAMES:-16} --camera volcanite --orbit ${ORBIT:-6} ${RENDER_ARGS:-} >"$res/r_$t.log" 2>&1
-            echo "$n $m $label rc $?: $(grep -E '^(device:|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib|cache_used_mib)' $res/r_$t.log | sed 's/^device: //' | tr '\n' ' ')"
+            echo "$n $m $label rc $?: $(grep -E '^(device:|setup_ms|median_frame_ms|time_to_first_frame_ms|frames|converged|device_memory_total_mib|cache_used_mib)' $res/r_$t.log | sed 's/^device: //' | tr '\n' ' ')"
             # Mean ms a dispatch of each stage over the orbit's frames (frames that decode included).
             echo "  stages: $(grep -E '^dispatch [0-9]+ ' $res/r_$t.log | sed -E 's/^dispatch [0-9]+ //; s/ \(.*\)//' |
                 awk -F': ' '{n[$1]++; s[$1] += $2} END {for (k in n) printf "%s %.2f, ", k, s[k] / n[k]}')"
@@ -64,6 +67,14 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
     timeout 120 "$csgv" render $v "$res/s${n}_${m}_moving.png" --size ${SIZE:-1920x1080} --shading $m --camera volcanite \
         --orbit ${MOVING:-32} --frames-per-view 1 ${RENDER_ARGS:-} >"$res/r_${n}_${m}_moving.log" 2>&1
     echo "$n $m moving rc $?: $(grep -E '^(views|median_frame_ms|path_ms)' $res/r_${n}_${m}_moving.log | tr '\n' ' ')"
+    # Under a device-memory budget: frames to converge a 16-view orbit against unconstrained.
+    if [ -n "${BUDGET_MIB:-}" ]; then
+        for mib in 0 $BUDGET_MIB; do
+            timeout 300 "$csgv" render $v "$res/s${n}_budget$mib.png" --size ${SIZE:-1920x1080} --finest --decode gpu \
+                --camera volcanite --orbit 16 --device-memory-mib $mib ${RENDER_ARGS:-} >"$res/r_${n}_budget$mib.log" 2>&1
+            echo "$n budget $mib rc $?: $(grep -E '^(frames|path_ms|converged|device_memory_total_mib|view_working_set_mib|cache_holds_view|detail_uploaded_mib|detail_evicted_bricks)' $res/r_${n}_budget$mib.log | cut -c1-160 | tr '\n' ' ')"
+        done
+    fi
     # The first mode once more: its shaders and pipelines are cached now (time to first frame warm).
     CSGV_PROFILE_DISPATCHES=1 timeout 60 "$csgv" render $v "$res/s${n}_${m}_warm.png" --size ${SIZE:-1920x1080} --shading $m \
         --camera volcanite --frames 1 ${RENDER_ARGS:-} >"$res/r_${n}_${m}_warm.log" 2>&1
