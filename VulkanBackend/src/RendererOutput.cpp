@@ -156,8 +156,6 @@ uint32_t wantedLevel(const FrameParams& p, const CompressedVolume& v, uint64_t b
 
 Result<Renderer::WorkingSet> Renderer::workingSet(uint32_t mark) const {
     const Impl& im = *m_impl;
-    std::vector<uint32_t> words(size_t(im.brickCount) * 4);
-    if (Status s = im.ctx.download(im.bricks, 0, words.data(), words.size() * 4); !s) return s;
     WorkingSet w;
     w.cacheBytes = im.cache.size();
     // Each brick at the level the view wants (the last frame's camera): a thrashing cache holds
@@ -166,11 +164,18 @@ Result<Renderer::WorkingSet> Renderer::workingSet(uint32_t mark) const {
     const CompressedVolume& v = im.volume->volume();
     std::vector<uint64_t> levelBytes(v.levels());
     for (uint32_t l = 0; l < v.levels(); ++l) levelBytes[l] = im.volume->regionWords(l) * 4;
-    for (size_t b = 0; b < im.brickCount; ++b) {
-        if (words[4 * b + 2] <= mark) continue; // the frame index + 1 of the brick's last use
-        ++w.bricks;
-        w.cachedBricks += words[4 * b + 1] != kNone;
-        w.bytes += levelBytes[wantedLevel(p, v, b)];
+    // The table in slices (16 bytes a brick: 256 MiB at 8192^3, 16 MiB at a time).
+    constexpr uint64_t kSlice = uint64_t(1) << 20;
+    std::vector<uint32_t> words(size_t(std::min<uint64_t>(im.brickCount, kSlice)) * 4);
+    for (uint64_t from = 0; from < im.brickCount; from += kSlice) {
+        const uint64_t n = std::min<uint64_t>(kSlice, im.brickCount - from);
+        if (Status s = im.ctx.download(im.bricks, from * 16, words.data(), n * 16); !s) return s;
+        for (uint64_t i = 0; i < n; ++i) {
+            if (words[4 * i + 2] <= mark) continue; // the frame index + 1 of the brick's last use
+            ++w.bricks;
+            w.cachedBricks += words[4 * i + 1] != kNone;
+            w.bytes += levelBytes[wantedLevel(p, v, from + i)];
+        }
     }
     return w;
 }
