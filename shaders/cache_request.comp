@@ -74,12 +74,30 @@ void requestBrick(uint b) {
     req.w[2u * r + 1u] = level;
 }
 
+/// Whether requestBrick has anything to do for a brick (it returns at once otherwise).
+bool mayNeedWork(uint b) {
+    const uvec4 s = Uvec4Buf(frameAddr[kSlotBricks]).v[b];
+    return s.z == fv.frame.x || s.y != kNone || (fv.frame.y & (kFlagPrefetch | kFlagVisibilityChanged)) != 0u;
+}
+
 void main() {
     f = Frame(pc.frame);
     loadFrameValues(f);
-    // REQUEST_BLOCK bricks per invocation: CPU devices pay for every invocation.
-    for (uint k = 0u; k < REQUEST_BLOCK; ++k) {
-        const uint b = gl_GlobalInvocationID.x * REQUEST_BLOCK + k;
-        if (b < fv.counts.y) requestBrick(b);
+    // REQUEST_BLOCK bricks per invocation: CPU devices pay for every invocation. They also run
+    // every line of a called function for every SIMD lane, masked or not: requestBrick's whole
+    // body for each of a large volume's bricks (8.6 ms a frame over 2048^3's 262,144 bricks on
+    // two cores, most of a moving camera's time). So the cheap test first, for all of the
+    // invocation's bricks, and the work for the few that pass.
+    if (REQUEST_BLOCK > 1u) {
+        uint todo[REQUEST_BLOCK];
+        uint n = 0u;
+        for (uint k = 0u; k < REQUEST_BLOCK; ++k) {
+            const uint b = gl_GlobalInvocationID.x * REQUEST_BLOCK + k;
+            if (b < fv.counts.y && mayNeedWork(b)) todo[n++] = b;
+        }
+        for (uint i = 0u; i < n; ++i) requestBrick(todo[i]);
+        return;
     }
+    const uint b = gl_GlobalInvocationID.x;
+    if (b < fv.counts.y) requestBrick(b);
 }
