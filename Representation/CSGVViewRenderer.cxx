@@ -514,14 +514,31 @@ std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
     request.interactive = false;
     request.timeBudgetSeconds = std::numeric_limits<double>::infinity();
   }
+  const uint32_t mark = this->Renderer->frameMark();
   csgv::Result<csgv::gpu::RenderResult> r = this->Renderer->render(request);
   if (!r)
   {
     return r.message();
   }
   changed = r->changed;
-  if (r->cacheRanFull && this->Settings.cachePaletting == 2 && !this->CachePressure &&
-    this->Renderer->volume().cacheBits() == 32)
+  const bool packNext = r->cacheRanFull && this->Settings.cachePaletting == 2 && !this->CachePressure &&
+    this->Renderer->volume().cacheBits() == 32;
+  if (!request.interactive && r->frames > 0)
+  {
+    // A still render that filled the cache: did the cache hold what its frames touched? (The
+    // brick table read back, 16 bytes a brick, only then; not when the next renderer packs the
+    // cache anyway.)
+    this->Shortfall = {};
+    if (r->cacheRanFull && !packNext)
+    {
+      csgv::Result<csgv::gpu::Renderer::WorkingSet> ws = this->Renderer->workingSet(mark);
+      if (ws && ws->bytes > ws->cacheBytes)
+      {
+        this->Shortfall = *ws;
+      }
+    }
+  }
+  if (packNext)
   {
     this->CachePressure = true; // the next render packs the cache (a new renderer, a new accumulation)
   }

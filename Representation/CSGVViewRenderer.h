@@ -142,6 +142,10 @@ public:
   /// Bricks this view's renderer failed to decode (drawn empty) and the first one's error.
   uint64_t badBricks() const;
   std::string firstBadBrick() const;
+  /// The last still render whose view the brick cache could not hold (it decoded bricks again
+  /// before it converged): the bricks its rays touched, the cache bytes they take and the cache's
+  /// size; zeros when the last still render's cache held its view or never ran full.
+  const csgv::gpu::Renderer::WorkingSet& cacheShortfall() const { return this->Shortfall; }
 
 private:
   /// Makes the renderer (the backend's upload policy: csgv::gpu::planUpload) when there is none
@@ -176,6 +180,7 @@ private:
   const void* CoarseUploaded = nullptr; ///< the SharedVolume::coarse the renderer has
   std::array<double, 16> LastMatrix{};
   csgv::gpu::FrameStats Stats;
+  csgv::gpu::Renderer::WorkingSet Shortfall;
   uint32_t FramesLastRender = 0;
   mutable std::future<void> Preparing; ///< prepareInBackground's work
 };

@@ -96,6 +96,7 @@ struct vtkCSGVVolumeProp::Impl
   csgvrep::VolumeSource Source; ///< what Input resolved to (in the representation's data phase)
   std::string SourceError;      ///< why it did not (reported there)
   uint64_t ReportedBadBricks = 0; ///< bricks that failed to decode, as last reported
+  bool ReportedShortfall = false; ///< said that the cache cannot hold the view, until it can
 
   std::string MaterialsText;
   bool MaterialsParsed = false; ///< MaterialsText was parsed (the first SetMaterials may pass "")
@@ -824,6 +825,21 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
                     << p.View.firstBadBrick());
   }
   p.ReportedBadBricks = bad;
+  // A view the brick cache cannot hold converges slowly (its bricks decoded again and again):
+  // said once, until a still render's cache holds its view again.
+  const csgv::gpu::Renderer::WorkingSet& shortfall = p.View.cacheShortfall();
+  if (shortfall.bytes > shortfall.cacheBytes && !p.ReportedShortfall)
+  {
+    char text[512];
+    std::snprintf(text, sizeof(text),
+      "Segmentation Volume: this view touches %llu bricks, about %.1f MiB of brick cache, and the cache holds "
+      "%.1f MiB: bricks are decoded again before the image converges (raise Cache Size (MiB) or Device "
+      "Memory Budget (MiB) by at least %.0f MiB, or make the view smaller)",
+      static_cast<unsigned long long>(shortfall.bricks), shortfall.bytes / 1048576.0,
+      shortfall.cacheBytes / 1048576.0, std::ceil((shortfall.bytes - shortfall.cacheBytes) / 1048576.0));
+    vtkWarningMacro(<< text);
+  }
+  p.ReportedShortfall = shortfall.bytes > shortfall.cacheBytes;
   const csgv::gpu::FrameOutput& out = p.View.output();
   if (out.width != request.width || out.height != request.height || out.rgba8.empty())
   {

@@ -115,4 +115,45 @@ host = t.screenshot(v2, 160, 120, "host.png")
 separated, device_host, _, _ = memory()
 t.check(separated == 0 and device_host <= budget and differs(host, whole).mean() == 0,
         "host decoding under %d MiB: nothing separated, %.1f MiB on the device, the same image" % (budget, device_host))
+
+# A budget whose cache cannot hold what the view touches (640x480 of the 384^3 volume at the
+# finest level: about 196 bricks, 24.5 MiB of 32-bit labels; 32 MiB leave the cache about 7 MiB):
+# the image still converges, and a warning says so once, with what to raise; a budget that holds
+# the view clears it, and the tight one says it again.
+from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow  # noqa: E402
+
+# One view of the volume: views of one volume split the budget.
+Delete(d2)
+del d2
+Delete(v2)
+del v2
+v3 = t.render_view(640, 480)
+d3 = Show(s, v3)
+d3.CSGVCachePaletting = 0
+d3.CSGVStillRenderTimeBudget = 60
+v3.ResetCamera()
+previous = vtkOutputWindow.GetInstance()
+messages = vtkStringOutputWindow()
+vtkOutputWindow.SetInstance(messages)
+try:
+    d3.CSGVDeviceMemoryMiB = 32
+    Render(v3)
+    first = messages.GetOutput().count("this view touches")
+    GetActiveCamera().Azimuth(1)
+    Render(v3)
+    repeated = messages.GetOutput().count("this view touches")
+    d3.CSGVDeviceMemoryMiB = 0
+    Render(v3)
+    held = messages.GetOutput().count("this view touches")
+    d3.CSGVDeviceMemoryMiB = 32
+    GetActiveCamera().Azimuth(1)
+    Render(v3)
+    again = messages.GetOutput().count("this view touches")
+    text = messages.GetOutput()
+finally:
+    vtkOutputWindow.SetInstance(previous)
+t.check(first == 1 and "Device Memory Budget (MiB) by at least" in text,
+        "a cache too small for the view: one warning naming the budget (%d): %s" % (first, text[-400:]))
+t.check(repeated == 1 and held == 1 and again == 2,
+        "said once while it lasts, again after a budget held the view (%d, %d, %d)" % (repeated, held, again))
 t.finish()
