@@ -117,12 +117,16 @@ d.CSGVMaterials = ""
 d.CSGVClipBox = [0, 2147483647] * 3
 d.CSGVShading = "local"
 v.UseFXAA = 1
+# With another display in the view (ParaView redistributes its geometry by the pieces' bounds).
+box = Show(Outline(Input=r), v)
+box.AmbientColor = box.DiffuseColor = [1, 1, 0]
 for mode in ("defaults_opaque", "defaults_translucent"):
     d.CSGVMaterials = glass if mode == "defaults_translucent" else ""
     Render(v)
     facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
     SaveScreenshot(os.path.join(out, mode + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
                    ImageResolution=[160, 120], TransparentBackground=0)
+Hide(box.Input, v)
 d.CSGVMaterials = ""
 d.CSGVFramesPerStillRender = 1
 # Off again, and set anew (see the second view below).

@@ -19,10 +19,11 @@ faces), within a stated tolerance: each rank stops its rays at its own opacity l
 layers apart (measured 0.03 % and 0.11 % of pixels beyond 16/255 at 2 and 4 ranks). The view's
 FXAA is off: ParaView smooths the image IceT composites in ordered compositing, never one rank's
 volume image (with it, 2.9-3.0 % of pixels differed).
-With ParaView's defaults (the representation's 16 samples a pixel, FXAA on) opaque and translucent
-images stay within 0.5 %: the ranks' images are blended in visibility order, a pixel on a piece's
-silhouette holding its share of the samples as alpha (with a depth composite, 1.2-1.6 % of pixels
-differed; measured now 0.01-0.15 %, docs/mpi-design.md "Silhouettes").
+With ParaView's defaults (the representation's 16 samples a pixel, FXAA on) and an Outline of the
+volume in the view, opaque and translucent images stay within 0.5 %: the ranks' images are blended
+in visibility order, a pixel on a piece's silhouette holding its share of the samples as alpha
+(with a depth composite, 1.2-1.6 % of pixels differed; measured now 0.04-0.18 %,
+docs/mpi-design.md "Silhouettes").
 AO with its denoiser (each rank filters its own image) stays within 0.5 % (measured 0.03-0.05 %);
 a second view of the reader with shadows within 0.1 % (0 and 1 of 19200 pixels).
 A plain integer image (a Wavelet's point data through a Calculator) is asked for in whole bricks
