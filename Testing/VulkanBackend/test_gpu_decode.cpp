@@ -80,6 +80,23 @@ TEST(GpuDecode, AnUploadInSmallPiecesDecodesTheSame) {
         if (vol.encoding == kEncodingRans2)
             expectGpuEqualsCpu(*ctx, vol, name + " (4 KiB pieces, separated)", false, DetailSeparation::Always, 4096);
     }
+    // A file of several arrays (a brick that begins an array begins at its word 0) whose labels
+    // are stored as ids (all above 3e9).
+    SynthSpec spec;
+    spec.dim = {45, 38, 29};
+    spec.cellSize = 6;
+    LabelVolume src = *generateVolume(spec);
+    for (uint32_t& l : src.labels) l += 3000000000u;
+    EncodeOptions o;
+    o.brickSize = 8;
+    Result<CompressedVolume> one = encodeVolume(src, o);
+    ASSERT_TRUE(one.isOk());
+    o.maxArrayWords = uint32_t(one->arrays[0].size() / 5);
+    Result<CompressedVolume> split = encodeVolume(src, o);
+    ASSERT_TRUE(split.isOk()) << split.message();
+    ASSERT_GE(split->arrays.size(), 5u);
+    expectGpuEqualsCpu(*ctx, *split, "several arrays, ids (4 KiB pieces)", false, DetailSeparation::Auto, 4096);
+    expectGpuEqualsCpu(*ctx, *split, "several arrays, ids (4 KiB pieces, separated)", false, DetailSeparation::Always, 4096);
 }
 
 TEST(GpuDecode, EveryVolcaniteFixtureAtEveryLevelWithCachePaletting) {

@@ -154,10 +154,16 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     g->m_tiers = options.tiers;
     if (separate) g->m_detailSizes = options.tiers ? DetailStream::sizes(*options.tiers) : DetailStream::sizes(volume);
     std::vector<uint64_t> addresses;
-    // Pieces of whole bricks: at least the largest brick a piece.
+    // Pieces of whole bricks: at least the largest brick a piece (a brick that begins an array
+    // begins at its word 0).
     uint64_t chunk = std::max<uint64_t>(options.uploadChunkBytes, 4);
-    for (size_t b = 0; b + 1 < starts.size(); ++b)
-        if (starts[b + 1] > starts[b]) chunk = std::max<uint64_t>(chunk, uint64_t(starts[b + 1] - starts[b]) * 4);
+    {
+        const uint64_t n = volume.brickCount(), per = volume.bricksPerArray == kSingleArray ? n + 1 : volume.bricksPerArray;
+        for (uint64_t b = 0; b < n && b + 1 < starts.size(); ++b) {
+            const uint64_t begin = b > 0 && b % per == 0 ? 0 : starts[size_t(b)], end = starts[size_t(b) + 1];
+            if (end > begin) chunk = std::max<uint64_t>(chunk, (end - begin) * 4);
+        }
+    }
     for (size_t i = 0; i < arrays.size(); ++i) {
         const WordArray& a = arrays[i];
         Result<Buffer> b = context.createBuffer(a.size() * 4, MemoryKind::DeviceLocal);
