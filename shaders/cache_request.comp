@@ -17,15 +17,19 @@ layout(push_constant) uniform Push { uint64_t frame; } pc;
 
 Frame f;
 
+/// Marked by the previous frame's rays (frame index + 1), or every brick (kFlagPrefetch: the
+/// visible ones are asked for below).
+bool usedBrick(uvec4 s) { return s.z == fv.frame.x || (fv.frame.y & kFlagPrefetch) != 0u; }
+
+/// Most bricks of a large volume are neither cached nor needed: nothing to do for them, unless
+/// the materials changed which bricks are visible (their flags follow in requestBrick).
+bool needsWork(uvec4 s) { return usedBrick(s) || s.y != kNone || (fv.frame.y & kFlagVisibilityChanged) != 0u; }
+
 void requestBrick(uint b) {
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     uvec4 s = bricks.v[b];
-    // Marked by the previous frame's rays (frame index + 1), or every brick (kFlagPrefetch: the
-    // visible ones are asked for below).
-    const bool used = s.z == fv.frame.x || (fv.frame.y & kFlagPrefetch) != 0u;
-    // Most bricks of a large volume are neither cached nor needed: nothing to do for them, unless
-    // the materials changed which bricks are visible (their flags follow below).
-    if (!used && s.y == kNone && (fv.frame.y & kFlagVisibilityChanged) == 0u) return;
+    const bool used = usedBrick(s);
+    if (!needsWork(s)) return;
 #if ABSENT_BRICKS
     // Another rank's brick: never requested or cached here; its flag tells the rays.
     const uvec2 preview = Uvec2Buf(frameAddr[kSlotVisible]).v[b];
@@ -74,12 +78,6 @@ void requestBrick(uint b) {
     req.w[2u * r + 1u] = level;
 }
 
-/// Whether requestBrick has anything to do for a brick (it returns at once otherwise).
-bool mayNeedWork(uint b) {
-    const uvec4 s = Uvec4Buf(frameAddr[kSlotBricks]).v[b];
-    return s.z == fv.frame.x || s.y != kNone || (fv.frame.y & (kFlagPrefetch | kFlagVisibilityChanged)) != 0u;
-}
-
 void main() {
     f = Frame(pc.frame);
     loadFrameValues(f);
@@ -93,7 +91,7 @@ void main() {
         uint n = 0u;
         for (uint k = 0u; k < REQUEST_BLOCK; ++k) {
             const uint b = gl_GlobalInvocationID.x * REQUEST_BLOCK + k;
-            if (b < fv.counts.y && mayNeedWork(b)) todo[n++] = b;
+            if (b < fv.counts.y && needsWork(Uvec4Buf(frameAddr[kSlotBricks]).v[b])) todo[n++] = b;
         }
         for (uint i = 0u; i < n; ++i) requestBrick(todo[i]);
         return;
