@@ -28,6 +28,12 @@ std::set<uint32_t> paletteLabels(const CompressedVolume& vol) {
     return labels;
 }
 
+/// A label's index in ascending `ids` by a binary search of them all: the reference.
+uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label) {
+    const auto it = std::lower_bound(ids.begin(), ids.end(), label);
+    return it != ids.end() && *it == label ? uint32_t(it - ids.begin()) : kNone;
+}
+
 uint32_t someMaterial(uint32_t label) { return label % 3 == 0 ? kNone : label % 7; }
 
 constexpr uint64_t kBudget = uint64_t(1) << 30;

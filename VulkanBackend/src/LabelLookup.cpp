@@ -52,10 +52,6 @@ uint32_t LabelIdIndex::find(const std::vector<uint32_t>& ids, uint32_t label) co
     return it != last && *it == label ? uint32_t(it - ids.begin()) : kNone;
 }
 
-uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label) {
-    const auto it = std::lower_bound(ids.begin(), ids.end(), label);
-    return it != ids.end() && *it == label ? uint32_t(it - ids.begin()) : kNone;
-}
 
 LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes) {
     LabelLookup out;

@@ -20,14 +20,6 @@ namespace csgv::gpu {
 /// Tables up to this many labels (4 bytes each, and 16 for its colour).
 constexpr uint32_t kMaterialTableLabels = kSummaryLabels; // a palette summary lists as many (Palettes.h)
 
-/// The labels as the shaders see them (stored labels). `ids`: the labels of the volume's palettes,
-/// ascending, when one of them is kMaterialTableLabels or larger, they are at most
-/// kMaterialTableLabels distinct labels (and 2^25 palette entries in all: counting them must stay
-/// quick) and the volume is no MPI rank's piece (whose rays meet other ranks' labels); else none
-/// (empty). A label is then stored as its index in `ids` (its id): in the device's palettes and
-/// the brick cache (GpuVolume), so a ray step finds its material in one read of a dense table
-/// where a hash table would take two (and the cache's runs of one label are unchanged). The
-/// renderer maps ids back for its outputs. `largest`: the largest stored label (an id with ids).
 /// Finds a label's id in a few reads: the ids grouped by their label's high bits (`start[k]`: the
 /// first id whose label >> shift is k or more), about one id a group, then a binary search in its
 /// group. A binary search of all ids took 20-odd reads scattered over megabytes: relabelling the
@@ -40,6 +32,14 @@ struct LabelIdIndex {
     uint32_t find(const std::vector<uint32_t>& ids, uint32_t label) const;
 };
 
+/// The labels as the shaders see them (stored labels). `ids`: the labels of the volume's palettes,
+/// ascending, when one of them is kMaterialTableLabels or larger, they are at most
+/// kMaterialTableLabels distinct labels (and 2^25 palette entries in all: counting them must stay
+/// quick) and the volume is no MPI rank's piece (whose rays meet other ranks' labels); else none
+/// (empty). A label is then stored as its index in `ids` (its id): in the device's palettes and
+/// the brick cache (GpuVolume), so a ray step finds its material in one read of a dense table
+/// where a hash table would take two (and the cache's runs of one label are unchanged). The
+/// renderer maps ids back for its outputs. `largest`: the largest stored label (an id with ids).
 struct StoredLabels {
     uint32_t largest = 0;
     std::vector<uint32_t> ids;
@@ -52,8 +52,6 @@ StoredLabels storedLabels(const CompressedVolume& volume, bool piece);
 /// kMaterialTableLabels).
 StoredLabels storedLabels(const PaletteSummary& palettes, bool piece);
 
-/// A label's id (its index in `ids`, ascending), kNone when `ids` does not hold it.
-uint32_t idOfLabel(const std::vector<uint32_t>& ids, uint32_t label);
 
 struct LabelLookup {
     uint32_t kind = kLookupScan; ///< kLookupScan or kLookupDense (FrameLayout.h)
