@@ -431,7 +431,8 @@ int cmdRender(int argc, char** argv) {
     uint64_t cacheUsed = 0;
     uint32_t fewestSamples = ~0u; // of any view's last frame: below --frames, a view stopped short
     gpu::FrameOutput out;
-    gpu::Renderer::WorkingSet largest; // the largest view's working set
+    constexpr uint32_t kMeasuredViews = 16;
+    gpu::Renderer::WorkingSet largest; // the largest measured view's working set
     uint32_t largestView = 0;
     for (uint32_t v = 0; v < views; ++v) {
         const uint32_t mark = r.frameMark();
@@ -446,12 +447,14 @@ int cmdRender(int argc, char** argv) {
         const uint32_t maxFrames =
             a.framesPerView ? a.framesPerView : a.frames * settings.subsampling * settings.subsampling + 256;
         uint32_t idle = 0, minSamples = 0;
+        bool cacheFull = false; // in some frame of this view
         for (uint32_t f = 0; f < maxFrames; ++f) {
             if (cancelRequested()) return fail("interrupted: stopped, no image written");
             Result<gpu::FrameStats> st = r.renderFrame(in);
             if (!st) return fail(st.message());
             viewMs += st->milliseconds;
             cacheUsed = std::max(cacheUsed, st->cacheUsedBytes);
+            cacheFull = cacheFull || st->cacheFull;
             frameTimes.push_back(st->milliseconds);
             std::printf("frame %u: %.1f ms, decoded %u bricks, new samples %u, missing %u, min samples %u%s%s",
                         unsigned(frameTimes.size()), st->milliseconds, st->decodedBricks, st->newSamples,
@@ -469,12 +472,16 @@ int cmdRender(int argc, char** argv) {
         }
         fewestSamples = std::min(fewestSamples, minSamples);
         if (!(s = r.readOutput(out))) return fail(s.message());
-        // Outside the view's time: the brick table read back.
-        Result<gpu::Renderer::WorkingSet> ws = r.workingSet(mark);
-        if (!ws) return fail(ws.message());
-        if (ws->bytes > largest.bytes) {
-            largest = *ws;
-            largestView = v;
+        // The view's working set, outside its time (the brick table read back, 16 bytes a brick):
+        // for the first kMeasuredViews views and every view whose cache ran full (a long path over
+        // a large volume would read the table once a pose).
+        if (v < kMeasuredViews || cacheFull) {
+            Result<gpu::Renderer::WorkingSet> ws = r.workingSet(mark);
+            if (!ws) return fail(ws.message());
+            if (ws->bytes > largest.bytes) {
+                largest = *ws;
+                largestView = v;
+            }
         }
         viewTimes.push_back(viewMs);
         if (!a.video.empty()) {
