@@ -487,17 +487,11 @@ Status Context::uploadFilled(Buffer& dst, uint64_t bytes, uint64_t chunk,
     }
     Result<Buffer> staging = createBuffer(std::min(bytes, std::max<uint64_t>(chunk, 4)), MemoryKind::HostVisible);
     if (!staging) return staging.status();
-    Impl& im = *m_impl;
     for (uint64_t at = 0; at < bytes;) {
-        const uint64_t n = fill(at, staging->mapped(), std::min(bytes - at, staging->size()));
-        if (n == 0 || n > std::min(bytes - at, staging->size())) return Status::error("an upload's source gave no data");
-        Status s = submitAndWait(im, [&](VkCommandBuffer cmd) {
-            VkBufferCopy region{0, at, n};
-            im.vk.vkCmdCopyBuffer(cmd, reinterpret_cast<VkBuffer>(staging->m_buffer), reinterpret_cast<VkBuffer>(dst.m_buffer),
-                                  1, &region);
-            transferBarrier(im.vk, cmd);
-        });
-        if (!s) return s;
+        const uint64_t room = std::min(bytes - at, staging->size());
+        const uint64_t n = fill(at, staging->mapped(), room);
+        if (n == 0 || n > room) return Status::error("an upload's source gave no data");
+        if (Status s = copy(*staging, 0, dst, at, n); !s) return s;
         at += n;
     }
     return Status::ok();
