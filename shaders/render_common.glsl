@@ -18,7 +18,7 @@
 #include "csgv/gpu/FrameLayout.h"      // kNone, flags, slots, alloc words, Frame and GpuMaterial layouts
 #include "csgv/materials/Palette.h"    // labelHash, kLabelPalette
 #include "csgv/base/Morton.h"          // mortonSpread (cache entries in Morton order)
-#include "csgv/codec/Layout.h"         // kUniformShift, uniformSubBlockOf
+#include "csgv/codec/Layout.h"         // kUniformShift (sub-blocks: uniformSubBlockOf, as brickMorton)
 
 const float ONE_MINUS_EPSILON = 0.99999994; // the largest float below 1
 // The distance to the planes of an axis the ray runs parallel to (its direction's component is
@@ -92,15 +92,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ma
 #ifndef RENDER_TEXELS
 #define RENDER_TEXELS 0
 #endif
-/// Entry i of two or four words of an R32_UINT texel buffer.
-uvec2 texelWords2(usamplerBuffer t, uint i) {
-    const int j = int(2u * i);
-    return uvec2(texelFetch(t, j).x, texelFetch(t, j + 1).x);
-}
-uvec4 texelWords4(usamplerBuffer t, uint i) {
-    const int j = int(4u * i);
-    return uvec4(texelFetch(t, j).x, texelFetch(t, j + 1).x, texelFetch(t, j + 2).x, texelFetch(t, j + 3).x);
-}
+// A binding's texels are 1, 2 or 4 words (Renderer's kRenderTexelWords): a record is one fetch.
 #if RENDER_TEXELS
 layout(set = 0, binding = kTexelCache) uniform usamplerBuffer cacheTexels;
 layout(set = 0, binding = kTexelBricks) uniform usamplerBuffer brickTexels;
@@ -118,22 +110,19 @@ layout(set = 0, binding = kTexelBlueNoise) uniform usamplerBuffer blueNoiseTexel
 layout(set = 0, binding = kTexelVisible) uniform usamplerBuffer visibleTexels;
 uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
 uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
-vec4 labelColor(uint e) { return uintBitsToFloat(texelWords4(colorTexels, e)); }
+vec4 labelColor(uint e) { return uintBitsToFloat(texelFetch(colorTexels, int(e))); }
 uint sampleCount(uint pixel) { return currentWord1(texelFetch(gbufferTexels, int(4u * pixel + 1u)).x) >> kGBufferCountShift; }
 uint listedCell(uint i) { return texelFetch(listTexels, int(i)).x; }
-/// A brick's cache entry (x offset, y level, w flags; z, its last use, is not read).
-uvec4 brickState(uint b) {
-    return uvec4(texelFetch(brickTexels, int(4u * b)).x, texelFetch(brickTexels, int(4u * b + 1u)).x, 0u,
-                 texelFetch(brickTexels, int(4u * b + 3u)).x);
-}
-uvec2 uniformMask(uint b) { return texelWords2(uniformTexels, b); }
-uvec2 hiddenMask(uint b) { return texelWords2(hiddenTexels, b); }
+/// A brick's cache entry (x offset, y level, w flags; z is its last use).
+uvec4 brickState(uint b) { return texelFetch(brickTexels, int(b)); }
+uvec2 uniformMask(uint b) { return texelFetch(uniformTexels, int(b)).xy; }
+uvec2 hiddenMask(uint b) { return texelFetch(hiddenTexels, int(b)).xy; }
 uint emptyGroupLevel(uint b) { return texelFetch(emptyGroupTexels, int(b)).x; }
 float materialEmission(uint m) { return uintBitsToFloat(texelFetch(materialTexels, int(kMaterialWords * m + kMaterialEmissionWord)).x); }
 uint labelMapWord(uint label) { return texelFetch(labelMapTexels, int(label)).x; }
 float depthInAt(uint pixel) { return uintBitsToFloat(texelFetch(depthInTexels, int(pixel)).x); }
 uint blueNoiseWord(uint i) { return texelFetch(blueNoiseTexels, int(i)).x; }
-uvec2 visibleEntry(uint b) { return texelWords2(visibleTexels, b); }
+uvec2 visibleEntry(uint b) { return texelFetch(visibleTexels, int(b)).xy; }
 #else
 uint cacheWord(uint i) { return UintBuf(frameAddr[kSlotCache]).w[i]; }
 uint tableWord(uint i) { return UintBuf(frameAddr[kSlotMaterialTable]).w[i]; }
@@ -348,10 +337,23 @@ uint entryLabel(uint offset, uint e, PaletteRef palette) {
 #endif
 }
 
-/// Label of a voxel in a cached brick decoded at `lod` starting at cache word `offset`.
-uint cachedLabel(Frame f, uint offset, uint lod, ivec3 voxel, PaletteRef palette) {
-    const uvec3 local = (uvec3(voxel) & uvec3(BRICK_SIZE - 1u)) >> lod;
-    return entryLabel(offset, mortonSpread(local.x) | (mortonSpread(local.y) << 1u) | (mortonSpread(local.z) << 2u), palette);
+/// The Morton code of a voxel inside its brick at the finest level: entry e of the brick at
+/// level `lod` holds the voxel when e = code >> 3 lod, and its sub-block is code >> 3 SUB_SHIFT
+/// (one code a step serves both). Only the spreading stages BRICK_SHIFT bits need (mortonSpread
+/// of Morton.h has all four): CPU devices run each of them for every ray step.
+uint brickMorton(ivec3 voxel) {
+    uvec3 v = uvec3(voxel) & uvec3(BRICK_SIZE - 1u);
+    if (BRICK_SHIFT > 8u) v = (v | (v << 16u)) & 0x030000FFu;
+    if (BRICK_SHIFT > 4u) v = (v | (v << 8u)) & 0x0300F00Fu;
+    if (BRICK_SHIFT > 2u) v = (v | (v << 4u)) & 0x030C30C3u;
+    if (BRICK_SHIFT > 1u) v = (v | (v << 2u)) & 0x09249249u;
+    return v.x | (v.y << 1u) | (v.z << 2u);
+}
+
+/// Label of the voxel whose brickMorton code is `code` in a cached brick decoded at `lod`
+/// starting at cache word `offset`.
+uint cachedLabel(Frame f, uint offset, uint lod, uint code, PaletteRef palette) {
+    return entryLabel(offset, code >> (3u * lod), palette);
 }
 
 /// Level of detail for a brick: one voxel of that level about one pixel (footprint at the brick's
@@ -603,9 +605,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 k = s.y;
                 bool hidden = false;
                 uint j = 0u;
+                const uint code = brickMorton(w.voxel);
                 if (int(k) <= SUB_SHIFT) {
-                    const uvec3 local = uvec3(w.voxel) & uvec3(BRICK_SIZE - 1u);
-                    j = uniformSubBlockOf(local.x, local.y, local.z, uint(SUB_SHIFT));
+                    j = code >> (3u * uint(SUB_SHIFT));
                     const uint h = j < 32u ? hiddenSubs.x : hiddenSubs.y;
                     hidden = ((h >> (j & 31u)) & 1u) != 0u;
                     if (hidden) k = ((h >> (j & 24u)) & 0xFFu) == 0xFFu ? uint(SUB_SHIFT) + 1u : uint(SUB_SHIFT);
@@ -613,7 +615,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 if (hidden) {
                     w.prevLabel = kNone; // whatever it holds is not drawn: the next drawn label is a surface
                 } else {
-                    if (entersSurface(f, w, cachedLabel(f, s.x, s.y, w.voxel, palette), label, material)) return MARCH_SURFACE;
+                    if (entersSurface(f, w, cachedLabel(f, s.x, s.y, code, palette), label, material)) return MARCH_SURFACE;
                     if (k == 0u && SUB_SHIFT >= 0 && (((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u)
                         k = uint(SUB_SHIFT);
                 }

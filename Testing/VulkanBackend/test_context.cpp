@@ -258,6 +258,65 @@ TEST(GpuContext, TexelSetsFeedTheirBindingsAndMustMatchThePipeline) {
     EXPECT_FALSE(ctx->createTexelSet({nullptr}).isOk());
 }
 
+// Texels of their own width a binding (1, 2 or 4 words: R32, R32G32, R32G32B32A32): one fetch
+// reads a whole record of the same buffer words; other widths and a count that is not one a
+// buffer are refused.
+TEST(GpuContext, TexelSetsViewEachBufferAtItsOwnWidth) {
+    CSGV_REQUIRE_GPU(ctx);
+    const std::string src = "#version 460\n#extension GL_EXT_buffer_reference : require\n"
+                            "#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require\n"
+                            "layout(local_size_x = 64) in;\n"
+                            "layout(set = 0, binding = 0) uniform usamplerBuffer one;\n"
+                            "layout(set = 0, binding = 1) uniform usamplerBuffer two;\n"
+                            "layout(set = 0, binding = 2) uniform usamplerBuffer four;\n"
+                            "layout(buffer_reference, std430) buffer Out { uint w[]; };\n"
+                            "layout(push_constant) uniform Push { uint64_t out_; } pc;\n"
+                            "void main() {\n"
+                            "    const uint i = gl_GlobalInvocationID.x;\n"
+                            "    const uvec2 t = texelFetch(two, int(i)).xy;\n"
+                            "    const uvec4 f = texelFetch(four, int(i)).xyzw;\n"
+                            "    Out o = Out(pc.out_);\n"
+                            "    o.w[7u * i] = texelFetch(one, int(i)).x;\n"
+                            "    o.w[7u * i + 1u] = t.x; o.w[7u * i + 2u] = t.y;\n"
+                            "    o.w[7u * i + 3u] = f.x; o.w[7u * i + 4u] = f.y; o.w[7u * i + 5u] = f.z; o.w[7u * i + 6u] = f.w;\n"
+                            "}\n";
+    Result<std::vector<uint32_t>> spirv = compileComputeSource("texel_widths.comp", src, {});
+    ASSERT_TRUE(spirv.isOk()) << spirv.message();
+    Result<uint64_t> pipeline = ctx->createComputePipeline(*spirv, 8, 3);
+    ASSERT_TRUE(pipeline.isOk()) << pipeline.message();
+    constexpr uint32_t n = 256;
+    std::vector<uint32_t> words(4 * n);
+    for (uint32_t i = 0; i < words.size(); ++i) words[i] = i * 2654435761u;
+    Result<Buffer> b = ctx->createBuffer(words.size() * 4, MemoryKind::DeviceLocal);
+    Result<Buffer> out = ctx->createBuffer(7 * n * 4, MemoryKind::HostVisible);
+    ASSERT_TRUE(b.isOk() && out.isOk());
+    ASSERT_TRUE(ctx->upload(*b, 0, words.data(), words.size() * 4).isOk());
+    Result<TexelSet> set = ctx->createTexelSet({&*b, &*b, &*b}, std::vector<uint32_t>{1, 2, 4});
+    ASSERT_TRUE(set.isOk()) << set.message();
+    const uint64_t push = out->address();
+    Context::Dispatch d;
+    d.pipeline = *pipeline;
+    d.pushConstants = &push;
+    d.pushConstantBytes = 8;
+    d.groups[0] = n / 64;
+    d.texels = &*set;
+    ASSERT_TRUE(ctx->run({d}).isOk());
+    std::vector<uint32_t> got(7 * n);
+    ASSERT_TRUE(ctx->download(*out, 0, got.data(), got.size() * 4).isOk());
+    for (uint32_t i = 0; i < n; ++i) {
+        ASSERT_EQ(got[7 * i], words[i]) << i;
+        ASSERT_EQ(got[7 * i + 1], words[2 * i]) << i;
+        ASSERT_EQ(got[7 * i + 2], words[2 * i + 1]) << i;
+        for (uint32_t k = 0; k < 4; ++k) ASSERT_EQ(got[7 * i + 3 + k], words[4 * i + k]) << i << " " << k;
+    }
+    const Result<TexelSet> three = ctx->createTexelSet({&*b}, std::vector<uint32_t>{3});
+    ASSERT_FALSE(three.isOk());
+    EXPECT_NE(three.message().find("3 words"), std::string::npos) << three.message();
+    const Result<TexelSet> counts = ctx->createTexelSet({&*b, &*b}, std::vector<uint32_t>{1});
+    ASSERT_FALSE(counts.isOk());
+    EXPECT_NE(counts.message().find("2 buffers given 1 texel widths"), std::string::npos) << counts.message();
+}
+
 TEST(ShaderCompiler, EmbeddedSourcesIncludesAndErrorsWithLines) {
     const auto names = embeddedShaderNames();
     EXPECT_NE(std::find(names.begin(), names.end(), "csgv_decode.glsl"), names.end());

@@ -586,15 +586,25 @@ void TexelSet::release() {
 }
 
 Result<TexelSet> Context::createTexelSet(const std::vector<const Buffer*>& buffers, uint32_t wordsPerTexel) {
+    return createTexelSet(buffers, std::vector<uint32_t>(buffers.size(), wordsPerTexel));
+}
+
+Result<TexelSet> Context::createTexelSet(const std::vector<const Buffer*>& buffers,
+                                         const std::vector<uint32_t>& wordsPerTexel) {
     Impl& im = *m_impl;
     if (im.lost) return im.lostError();
     if (buffers.empty()) return Status::error("a texel set of no buffers");
-    if (wordsPerTexel != 1 && wordsPerTexel != 4)
-        return Status::error("texels of " + std::to_string(wordsPerTexel) + " words (1 or 4 are viewed)");
-    const uint64_t texelBytes = 4ull * wordsPerTexel;
+    if (wordsPerTexel.size() != buffers.size())
+        return Status::error("a texel set of " + std::to_string(buffers.size()) + " buffers given " +
+                             std::to_string(wordsPerTexel.size()) + " texel widths");
     TexelSet out;
     out.m_context = this;
-    for (const Buffer* b : buffers) {
+    for (size_t i = 0; i < buffers.size(); ++i) {
+        const Buffer* b = buffers[i];
+        const uint32_t words = wordsPerTexel[i];
+        if (words != 1 && words != 2 && words != 4)
+            return Status::error("texels of " + std::to_string(words) + " words (1, 2 or 4 are viewed)");
+        const uint64_t texelBytes = 4ull * words;
         if (!b || !b->valid()) return Status::error("a texel view of no buffer");
         if (b->size() / texelBytes > m_info.maxTexelBufferElements)
             return Status::error("a texel view of " + std::to_string(b->size() / texelBytes) +
@@ -602,7 +612,7 @@ Result<TexelSet> Context::createTexelSet(const std::vector<const Buffer*>& buffe
         if (b->size() < texelBytes) return Status::error("a texel view of a buffer smaller than one texel");
         VkBufferViewCreateInfo vci{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
         vci.buffer = reinterpret_cast<VkBuffer>(b->m_buffer);
-        vci.format = wordsPerTexel == 4 ? VK_FORMAT_R32G32B32A32_UINT : VK_FORMAT_R32_UINT;
+        vci.format = words == 4 ? VK_FORMAT_R32G32B32A32_UINT : (words == 2 ? VK_FORMAT_R32G32_UINT : VK_FORMAT_R32_UINT);
         vci.offset = 0;
         vci.range = b->size() / texelBytes * texelBytes;
         VkBufferView view = VK_NULL_HANDLE;

@@ -79,7 +79,7 @@ struct TexelViews {
     }
     /// True when the sets came or went since the last refresh: pipelines made for the other case
     /// must be made again (views made again over new buffers change nothing for them).
-    /// `wordsPerTexel`: Context::createTexelSet's (every buffer of the lists).
+    /// `wordsPerTexel`: Context::createTexelSet's, binding by binding (the same in every list).
     /// Whether a view of the whole buffer stays within the device's texel limit.
     static bool fits(const Context& ctx, const Buffer& b, uint32_t wordsPerTexel = 1) {
         return b.size() / (4u * wordsPerTexel) <= ctx.device().maxTexelBufferElements;
@@ -87,18 +87,27 @@ struct TexelViews {
     template <size_t N>
     Result<bool> refresh(Context& ctx, bool wanted, std::initializer_list<std::array<const Buffer*, N>> lists,
                          uint32_t wordsPerTexel = 1) {
+        std::array<uint32_t, N> words;
+        words.fill(wordsPerTexel);
+        return refresh(ctx, wanted, lists, words);
+    }
+    template <size_t N>
+    Result<bool> refresh(Context& ctx, bool wanted, std::initializer_list<std::array<const Buffer*, N>> lists,
+                         const std::array<uint32_t, N>& wordsPerTexel) {
         bool fit = wanted, same = valid() && serials.size() == N * lists.size();
         size_t i = 0;
         for (const auto& list : lists)
-            for (const Buffer* b : list) {
-                fit = fit && b->valid() && fits(ctx, *b, wordsPerTexel);
+            for (size_t k = 0; k < N; ++k) {
+                const Buffer* b = list[k];
+                fit = fit && b->valid() && fits(ctx, *b, wordsPerTexel[k]);
                 same = same && serials[i++] == b->serial();
             }
         if (fit && same) return false;
         clear();
         if (fit) {
             for (const auto& list : lists) {
-                Result<TexelSet> t = ctx.createTexelSet(std::vector<const Buffer*>(list.begin(), list.end()), wordsPerTexel);
+                Result<TexelSet> t = ctx.createTexelSet(std::vector<const Buffer*>(list.begin(), list.end()),
+                                                        std::vector<uint32_t>(wordsPerTexel.begin(), wordsPerTexel.end()));
                 if (!t) {
                     clear();
                     return t.status();
@@ -777,6 +786,16 @@ struct Renderer::Impl {
     /// The texel buffers of the render and resolve passes (FrameLayout.h's kTexel* bindings) for
     /// the buffers of this frame. Pipelines made with them differ from those made without: a
     /// change drops those.
+    /// Words a texel of each render-pass binding (render_common.glsl reads a record with one
+    /// fetch: CPU devices pay for a fetch about as much whatever its width): a brick's entry and
+    /// a label's colour are four, the sub-block masks and the preview entries two.
+    static constexpr std::array<uint32_t, kRenderTexelCount> kRenderTexelWords = [] {
+        std::array<uint32_t, kRenderTexelCount> w{};
+        for (uint32_t& x : w) x = 1u;
+        w[kTexelBricks] = w[kTexelLabelColors] = 4u;
+        w[kTexelUniform] = w[kTexelHidden] = w[kTexelVisible] = 2u;
+        return w;
+    }();
     Status viewBuffers() {
         // The label colours exist with a label table only, the pixel list with host decoding, the
         // label map and the opaque depth when there are some: the parameter block stands in for
@@ -796,7 +815,7 @@ struct Renderer::Impl {
         render[kTexelDepthIn] = depthIn.valid() ? &depthIn : &params;
         render[kTexelBlueNoise] = blueNoise.valid() ? &blueNoise : &params;
         render[kTexelVisible] = visible.valid() ? &visible : &params;
-        Result<bool> changed = renderTexels.refresh(ctx, resolved.texelsWanted, {render});
+        Result<bool> changed = renderTexels.refresh(ctx, resolved.texelsWanted, {render}, kRenderTexelWords);
         if (!changed) return Status(changed.status()).prefix("viewing the render pass's buffers");
         if (*changed) {
             std::fill(&pRender[0][0], &pRender[0][0] + std::size(pRender) * std::size(pRender[0]), uint64_t(0));

@@ -161,9 +161,11 @@ public:
     Result<uint64_t> createComputePipeline(const std::vector<uint32_t>& spirv, uint32_t pushConstantBytes,
                                            uint32_t texelBindings = 0);
     /// Texel buffer views over whole buffers, bound together as one set: texels of
-    /// `wordsPerTexel` 32-bit unsigned words (1: R32_UINT, 4: R32G32B32A32_UINT, one fetch for a
-    /// 16-byte record), each view at most maxTexelBufferElements texels.
+    /// `wordsPerTexel` 32-bit unsigned words (1: R32_UINT, 2: R32G32_UINT, 4: R32G32B32A32_UINT,
+    /// one fetch for an 8- or 16-byte record), each view at most maxTexelBufferElements texels.
     Result<TexelSet> createTexelSet(const std::vector<const Buffer*>& buffers, uint32_t wordsPerTexel = 1);
+    /// The same with each buffer's own texel width (`wordsPerTexel[i]` for buffers[i]).
+    Result<TexelSet> createTexelSet(const std::vector<const Buffer*>& buffers, const std::vector<uint32_t>& wordsPerTexel);
     /// Records dispatches of one pipeline with push constants, submits, and waits.
     /// A compute dispatch, a copy (`copyFrom`), or (with `fill` set) a fill of `fillBytes` of a buffer from byte
     /// `fillOffset` with the 32-bit word `fillValue`: a clear that costs a memset even on CPU
