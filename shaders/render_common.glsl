@@ -399,26 +399,25 @@ void stableStep(inout Walker w, uint k) {
     const vec3 target = vec3(greaterThan(w.d, vec3(0.0)));
     precise vec3 dist = (target - cp) * (w.invD * s);
     dist = mix(dist, vec3(NEVER), equal(w.d, vec3(0.0))); // a ray parallel to an axis never crosses its planes
-    uint axis = 0u;
-    if (dist.y < dist[axis]) axis = 1u;
-    if (dist.z < dist[axis]) axis = 2u;
-    const float dt = dist[axis];
+    // The nearest plane's axis (the first of equals), chosen by selects: a vector indexed by a
+    // per-lane axis is a round trip through memory on CPU devices, at every step.
+    const bool overX = dist.y < dist.x;
+    const float nearXY = overX ? dist.y : dist.x;
+    const bool isZ = dist.z < nearXY;
+    const bvec3 crossed = bvec3(!isZ && !overX, !isZ && overX, isZ);
+    const uint axis = isZ ? 2u : (overX ? 1u : 0u);
+    const float dt = isZ ? dist.z : nearXY;
+    const bvec3 up = greaterThan(w.d, vec3(0.0));
     precise vec3 np = cp + (w.d * invS) * dt;
     np = clamp(np, vec3(0.0), vec3(ONE_MINUS_EPSILON));
-    ivec3 ncv = cv;
-    if (w.d[axis] > 0.0) {
-        ncv[axis] += 1;
-        np[axis] = 0.0;
-    } else {
-        ncv[axis] -= 1;
-        np[axis] = ONE_MINUS_EPSILON;
-    }
+    np = mix(np, mix(vec3(ONE_MINUS_EPSILON), vec3(0.0), up), crossed);
+    const ivec3 ncv = cv + mix(ivec3(0), mix(ivec3(-1), ivec3(1), up), crossed);
     precise vec3 fine = np * s;
     const vec3 fl = floor(fine);
     w.voxel = (ncv << k) + ivec3(fl);
     w.vpos = fine - fl;
     w.t = w.t + dt;
-    w.face = 1u + 2u * axis + (w.d[axis] > 0.0 ? 0u : 1u);
+    w.face = 1u + 2u * axis + ((isZ ? up.z : (overX ? up.y : up.x)) ? 0u : 1u);
 }
 
 /// Sets up a walker for the ray o + t d, t in [0, tEnd], clipped to the box [lo, hi) (voxels).
