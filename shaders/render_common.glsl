@@ -35,7 +35,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Fr
 /// whole members once and take components from these copies.
 struct FrameValues {
     vec4 lightWorld, lightIndex, environment, clipMin, clipMax, pixel, tone;
-    uvec4 frame, image, limits, counts, rect;
+    uvec4 frame, image, limits, counts, rect, drawn;
 };
 FrameValues fv;
 /// The frame's buffer addresses, loaded once per invocation like fv: CPU devices pay for every
@@ -55,6 +55,7 @@ void loadFrameValues(Frame f) {
     fv.limits = f.limits;
     fv.counts = f.counts;
     fv.rect = f.rect;
+    fv.drawn = f.drawn;
 }
 
 /// A G-buffer entry's second word as this accumulation sees it: 0 (cleared) when another wrote it
@@ -521,6 +522,18 @@ bool entersSurface(Frame f, inout Walker w, uint l, inout uint label, inout uint
     return true;
 }
 
+/// The walker enters a voxel of label `l`: a candidate for a surface event when the label
+/// changes to one within the interval that holds every drawn label (Frame drawn; `label` then
+/// says which). march looks a candidate's material up once the steps' loop has let it go: a step
+/// reads no material table (CPU devices run every line of that loop at every step, taken or not).
+bool entersCandidate(inout Walker w, uint l, inout uint label) {
+    if (l == w.prevLabel) return false;
+    w.prevLabel = l;
+    if (l < fv.drawn.x || l > fv.drawn.y) return false;
+    label = l;
+    return true;
+}
+
 /// Walks until a surface event, the end, or a missing brick. `request`: mark the bricks the ray
 /// needs as used (so the next frame's request pass keeps or decodes them). `exact`: a brick that
 /// stands in at a coarser level than the view wants (kBrickStandIn) counts as missing; previews
@@ -565,6 +578,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
             absentLevel = max(lodForBrick(f, b), UintBuf(frameAddr[kSlotCoarse]).w[0]);
 #endif
+        bool candidate = false;
         PaletteRef palette;
         palette.array = 0ul;
         palette.end = 0u;
@@ -614,7 +628,10 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 if (hidden) {
                     w.prevLabel = kNone; // whatever it holds is not drawn: the next drawn label is a surface
                 } else {
-                    if (entersSurface(f, w, cachedLabel(f, s.x, s.y, code, palette), label, material)) return MARCH_SURFACE;
+                    if (entersCandidate(w, cachedLabel(f, s.x, s.y, code, palette), label)) {
+                        candidate = true;
+                        break;
+                    }
                     if (k == 0u && SUB_SHIFT >= 0 && (((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u)
                         k = uint(SUB_SHIFT);
                 }
@@ -626,6 +643,11 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 ++it;
                 break;
             }
+        }
+        if (candidate) { // a surface if a material draws the label; else the next round walks on from it
+            material = materialOf(f, label);
+            if (material != kNone) return MARCH_SURFACE;
+            label = kNone;
         }
     }
     return MARCH_OUT;

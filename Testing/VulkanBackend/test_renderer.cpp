@@ -1347,6 +1347,84 @@ TEST(Renderer, MaterialsWithAttributesSelectTheSameLabelsAsTheReference) {
     expectFinestImage(**r, in, ref, "parity", [](uint32_t, const float* c) { return c[0] > 0.0f && c[1] == 0.0f && c[3] == 1.0f; });
 }
 
+// Ray steps take a label change within the interval of drawn labels as a candidate and look its
+// material up once out of the steps' loop (render_common.glsl's entersCandidate). Drawn labels
+// with undrawn ones between them, one interval of labels whose ends the view shows (an interval
+// a label too short at either end misses them), and none at all hit what the reference hits.
+TEST(Renderer, DrawnLabelsWithUndrawnOnesBetweenThemHitAsTheReference) {
+    CSGV_REQUIRE_GPU(ctx);
+    const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
+    for (const char* name : {"synthA_b32_rans2_attr.csgv", "synthA_b32_rans2.csgv"}) {
+        SCOPED_TRACE(name);
+        Result<CsgvFile> file = openCsgv(fixture(name));
+        ASSERT_TRUE(file.isOk()) << file.message();
+        Result<LabelVolume> stored = decodeVolume(file->volume, 0);
+        ASSERT_TRUE(stored.isOk()) << stored.message();
+        Result<std::unique_ptr<GpuVolume>> gpu = GpuVolume::create(*ctx, file->volume);
+        ASSERT_TRUE(gpu.isOk()) << gpu.message();
+        // Original labels of the stored ones (the first fixture stores ids, not in label order).
+        const std::vector<uint32_t>& ids = file->idToLabel;
+        auto original = [&](uint32_t s) { return ids.empty() ? s : (s < ids.size() ? ids[s] : kInvalidLabel); };
+        std::vector<float> parity(ids.size()); // an attribute of the ids (the labels' parity)
+        for (size_t i = 0; i < ids.size(); ++i) parity[i] = float(ids[i] % 2);
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, std::shared_ptr<GpuVolume>(std::move(*gpu)));
+        ASSERT_TRUE(r.isOk()) << r.message();
+        auto reference = [&](const std::function<bool(uint32_t)>& drawn) {
+            GBuffer ref = castRaysStable(*stored, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
+                                         [&](uint32_t s) { return original(s) != kInvalidLabel && drawn(original(s)); },
+                                         file->volume.brickSize);
+            for (uint32_t& l : ref.label) l = l == kInvalidLabel ? l : original(l);
+            return ref;
+        };
+        const GBuffer all = reference([](uint32_t l) { return l != 0; });
+        std::vector<uint32_t> shown;
+        for (uint32_t l : all.label)
+            if (l != kInvalidLabel) shown.push_back(l);
+        std::sort(shown.begin(), shown.end());
+        shown.erase(std::unique(shown.begin(), shown.end()), shown.end());
+        ASSERT_GT(shown.size(), 8u);
+        const uint32_t lo = shown[shown.size() / 4], hi = shown[3 * shown.size() / 4];
+        const uint32_t gapLo = shown[shown.size() / 2 - 1], gapHi = shown[shown.size() / 2 + 1];
+        auto range = [](uint32_t a, uint32_t b) {
+            return "{\"name\": \"[" + std::to_string(a) + ", " + std::to_string(b) +
+                   "]\", \"filter\": {\"attribute\": \"label\", \"min\": " + std::to_string(a) + ", \"max\": " + std::to_string(b) + "}}";
+        };
+        struct Case {
+            std::string what, materials;
+            std::function<bool(uint32_t)> drawn; // of an original label
+        } cases[] = {
+            {"odd labels alone", ids.empty() ? "" : R"({"version": 1, "materials": [{"name": "odd", "filter": {"attribute": "parity", "min": 1, "max": 1}}]})",
+             [](uint32_t l) { return l % 2 == 1; }},
+            {"two intervals", "{\"version\": 1, \"materials\": [" + range(lo, gapLo) + ", " + range(gapHi, hi) + "]}",
+             [&](uint32_t l) { return (l >= lo && l <= gapLo) || (l >= gapHi && l <= hi); }},
+            {"one interval", "{\"version\": 1, \"materials\": [" + range(lo, hi) + "]}", [&](uint32_t l) { return l >= lo && l <= hi; }},
+            {"none", R"({"version": 1, "materials": [{"name": "none", "filter": {"attribute": "label", "min": 4294967290, "max": 4294967294}}]})",
+             [](uint32_t) { return false; }},
+        };
+        for (const Case& c : cases) {
+            if (c.materials.empty()) continue; // the parity of ids only
+            Result<MaterialDocument> doc = parseMaterials(c.materials);
+            ASSERT_TRUE(doc.isOk()) << doc.message();
+            const Status set = ids.empty() ? (*r)->setMaterials(*doc) : (*r)->setMaterials(*doc, {{"parity", parity}}, ids);
+            ASSERT_TRUE(set.isOk()) << c.what << ": " << set.message();
+            const GBuffer ref = reference(c.drawn);
+            const ptrdiff_t hits = std::count_if(ref.label.begin(), ref.label.end(), [](uint32_t l) { return l != kInvalidLabel; });
+            if (c.what == "none") { // an empty interval: nothing is hit
+                ASSERT_EQ(hits, 0);
+                const FrameOutput out = renderConverged(**r, in, 1, 64);
+                EXPECT_EQ(std::count(out.label.begin(), out.label.end(), kNone), ptrdiff_t(out.label.size()));
+                continue;
+            }
+            EXPECT_GT(hits, 100) << c.what;
+            if (c.what == "one interval") { // both ends are hit
+                EXPECT_NE(std::find(ref.label.begin(), ref.label.end(), lo), ref.label.end());
+                EXPECT_NE(std::find(ref.label.begin(), ref.label.end(), hi), ref.label.end());
+            }
+            expectFinestImage(**r, in, ref, c.what, [](uint32_t, const float*) { return true; });
+        }
+    }
+}
+
 namespace {
 
 /// Labels whose attribute "low" is 5 red, labels from 1000 up green (first match wins).

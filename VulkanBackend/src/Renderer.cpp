@@ -398,6 +398,9 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     p.counts[1] = brickCount;
     p.counts[2] = labelCount;
     p.counts[3] = materialTableSize;
+    p.drawn[0] = drawnFirst;
+    p.drawn[1] = drawnLast;
+    p.drawn[2] = p.drawn[3] = 0;
     const std::pair<uint32_t, const Buffer*> slots[] = {
         {kSlotBricks, &bricks},       {kSlotCache, &cache},         {kSlotAlloc, &alloc},         {kSlotFree, &freeStacks},
         {kSlotRequests, &requests},   {kSlotDecodes, &decodes},     {kSlotAccum, &accum},

@@ -467,6 +467,9 @@ struct Renderer::Impl {
     Buffer ghost;  // setGhostFaces (empty: not a piece)
     Buffer coarse; // setCoarseStandIns (empty: none)
     uint32_t materialTableSize = 0;   // entries of a dense materialTable (Frame counts.w)
+    /// Stored labels [first, last] hold every label a material draws (Frame drawn): the ray
+    /// steps' candidates for a surface (render_common.glsl's entersCandidate).
+    uint32_t drawnFirst = 0, drawnLast = kNone - 1;
     std::vector<Buffer> attributes;
     uint32_t materialCount = 0, labelCount = 0;
     bool hasLabelMap = false;

@@ -233,6 +233,17 @@ Status Renderer::Impl::uploadVisibility(const MaterialMatcher& materialOf) {
     Status s = uploadDeviceLocal(materialTable, table.data(), table.size() * 4);
     if (!s) return s;
     materialTableSize = uint32_t(table.size());
+    // The drawn labels' interval: the table's when it covers every stored label (kLookupDense),
+    // else any label may be drawn. None drawn: an empty interval.
+    drawnFirst = 0;
+    drawnLast = kNone - 1;
+    if (lookup.kind == kLookupDense) {
+        const auto drawn = [](uint32_t m) { return m != kNone; };
+        const auto first = std::find_if(table.begin(), table.end(), drawn);
+        const auto last = std::find_if(table.rbegin(), table.rend(), drawn);
+        drawnFirst = first == table.end() ? 1u : uint32_t(first - table.begin());
+        drawnLast = first == table.end() ? 0u : uint32_t(table.rend() - last) - 1u;
+    }
     if (lookup.colorBytes() > 0) { // the labels' colours, computed by the next frame (label_colors.comp)
         if (labelColors.size() == 0) {
             Result<Buffer> colors = ctx.createBuffer(lookup.colorBytes(), MemoryKind::DeviceLocal);

@@ -226,6 +226,7 @@ CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
     CSGV_UVEC4(limits)         /* x: max requests, y/z: pixels [y, z) that may request, w: bounces */ \
     CSGV_UVEC4(counts)         /* x: materials, y: bricks, z: labels with attributes, w: table size */ \
     CSGV_UVEC4(rect)           /* pixels [x, z) x [y, w) that can show the volume (x, y multiples of 8) */ \
+    CSGV_UVEC4(drawn)          /* x/y: the stored labels [x, y] hold every one a material draws; zw: 0 */ \
     uint64_t addr[kSlotCount];
 
 /// One material as the shaders read it (std430, 80 bytes).
@@ -257,7 +258,8 @@ struct FrameParams {
 // std430 offsets: mat4 64 bytes, vec4/uvec4 16, uint64 8, no padding in this order.
 static_assert(offsetof(FrameParams, lightWorld) == 256 && offsetof(FrameParams, faceNormals) == 368 &&
                   offsetof(FrameParams, frame) == 464 && offsetof(FrameParams, rect) == 528 &&
-                  offsetof(FrameParams, addr) == 544 && sizeof(FrameParams) == 544 + 8 * kSlotCount,
+                  offsetof(FrameParams, drawn) == 544 && offsetof(FrameParams, addr) == 560 &&
+                  sizeof(FrameParams) == 560 + 8 * kSlotCount,
               "FrameParams must match std430's Frame block");
 static_assert(offsetof(GpuMaterial, colour) == 48 && sizeof(GpuMaterial) == 80, "GpuMaterial must match std430");
 static_assert(sizeof(GpuMaterial) == 4 * kMaterialWords && offsetof(GpuMaterial, extra) == 4 * kMaterialEmissionWord,
