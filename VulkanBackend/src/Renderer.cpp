@@ -838,6 +838,12 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
 
 Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     Impl& im = *m_impl;
+    struct Mark { // the frame's start and end, for the warming (Impl::lastFrameNs)
+        std::atomic<int64_t>& at;
+        void now() { at = std::chrono::steady_clock::now().time_since_epoch().count(); }
+        ~Mark() { now(); }
+    } mark{im.lastFrameNs};
+    mark.now();
     Mat4 clipToWorld{};
     Status s = im.validate(in, m_settings, clipToWorld);
     if (!s) return s;

@@ -608,6 +608,9 @@ struct Renderer::Impl {
     /// only, never this state); stopWarming asks it to stop between pipelines.
     std::future<void> warming;
     std::atomic<bool> stopWarming{false};
+    /// When the last frame began or ended (steady clock, ns): on a CPU device the warming makes a
+    /// pipeline only once frames have paused (kWarmAfterIdle).
+    std::atomic<int64_t> lastFrameNs{0};
     ~Impl() {
         stopWarming = true;
         if (warming.valid()) warming.wait();

@@ -5,6 +5,9 @@
 /// them before the first frame, and warming the other shading modes in the background.
 #include "RendererImpl.h"
 
+#include <sched.h>
+#include <thread>
+
 namespace csgv::gpu {
 namespace renderer_detail {
 
@@ -22,11 +25,16 @@ Result<uint64_t> makePipeline(Context& ctx, const char* name, const Defines& def
     return p;
 }
 
-/// Lowers the calling thread's scheduling priority (Linux: a thread's own nice value), so that
-/// background compilation yields to frames and the GUI on a CPU device.
+/// Lowers the calling thread's scheduling priority, so that background compilation yields to
+/// frames and the GUI on a CPU device. Linux: the idle policy, which runs the thread only on a
+/// core nothing else wants (a nice value of 10 still took a core from a CPU device's render
+/// workers often enough to make their frames up to twice as long while the other shading modes
+/// were made); where that is refused, the thread's own nice value.
 void lowerThisThreadsPriority() {
 #ifdef __linux__
-    (void)setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), 10);
+    const sched_param idle{};
+    if (sched_setscheduler(pid_t(syscall(SYS_gettid)), SCHED_IDLE, &idle) != 0)
+        (void)setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), 10);
 #endif
 }
 
@@ -130,6 +138,9 @@ std::vector<PipelineJob> Renderer::Impl::pipelineJobs(const RenderSettings& st, 
     return jobs;
 }
 
+/// How long frames must have paused before a CPU device's warming makes its next pipeline.
+constexpr std::chrono::milliseconds kWarmAfterIdle{250};
+
 void Renderer::warmShadingModes(bool depthInput) {
     Impl& im = *m_impl;
     if (im.warming.valid()) return; // once per renderer
@@ -142,10 +153,18 @@ void Renderer::warmShadingModes(bool depthInput) {
     if (jobs.empty()) return;
     Context* ctx = &im.ctx;
     std::atomic<bool>* stop = &im.stopWarming;
+    // A CPU device renders on the cores the compiler would take (and shares their caches): each
+    // pipeline waits until frames have paused for kWarmAfterIdle (a moving camera keeps its pace;
+    // the modes are made while the view rests).
+    const std::atomic<int64_t>* lastFrame = ctx->device().type == "cpu" ? &im.lastFrameNs : nullptr;
     try {
-        im.warming = std::async(std::launch::async, [ctx, stop, jobs = std::move(jobs)] {
+        im.warming = std::async(std::launch::async, [ctx, stop, lastFrame, jobs = std::move(jobs)] {
             lowerThisThreadsPriority(); // frames and the GUI first
             for (const PipelineJob& j : jobs) {
+                while (lastFrame && !stop->load() &&
+                       std::chrono::steady_clock::now().time_since_epoch().count() - lastFrame->load() <
+                           std::chrono::duration_cast<std::chrono::nanoseconds>(kWarmAfterIdle).count())
+                    std::this_thread::sleep_for(std::chrono::milliseconds(20));
                 if (stop->load()) return;
                 // Into the context's pipeline table (by SPIR-V) and the shader cache: the frame
                 // that needs it finds it there; an error is met (and reported) by that frame.
