@@ -549,12 +549,14 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
     // run every line of a loop body at every step, masked or not, and a read there is a loop over
     // the lanes: the brick's reads (its cache entry, sub-block masks, palette) and its use mark
     // belong here, not in the steps.
+    bool resumed = false; // this round walks on from a candidate no material draws (same brick)
     for (uint it = 0u; it < 60000u;) {
         if (w.t > w.tEnd) return MARCH_OUT;
         const uint b = brickIndexOf(w.voxel);
 #if ABSENT_BRICKS
-        if (w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(f, w, lo, hi);
+        if (!resumed && w.face != 0u && frameAddr[kSlotGhost] != 0ul) ghostEntry(f, w, lo, hi);
 #endif
+        resumed = false;
         uvec4 s = brickState(b);
         if (request && s.w != 0u && b != w.lastBrick) {
             bricks.v[b].z = fv.frame.x + 1u;
@@ -648,6 +650,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             material = materialOf(f, label);
             if (material != kNone) return MARCH_SURFACE;
             label = kNone;
+            resumed = true;
         }
     }
     return MARCH_OUT;
