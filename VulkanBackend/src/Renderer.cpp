@@ -799,6 +799,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     // After the clear (addClear reads what was drawn before it): this frame's footprint joins.
     drawnRect = accumulation.clearPending ? rect : rectUnion(drawnRect, rect);
     const auto t0 = std::chrono::steady_clock::now();
+    lastFrameTicks = t0.time_since_epoch().count(); // the device's work begins (the warming waits)
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
     if (!resolved.hostDecode) noteGpuDecodeFailures();
@@ -806,7 +807,9 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     materialState.hiddenAllPending = false;
     cacheState.cacheEmpty = false;
     if (detail && !(s = requestDetail(stats))) return s;
-    stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const auto t1 = std::chrono::steady_clock::now();
+    lastFrameTicks = t1.time_since_epoch().count();
+    stats.milliseconds = std::chrono::duration<double, std::milli>(t1 - t0).count();
     stats.detailUploads = detailUploads;
     stats.badBricks = std::exchange(frameBadBricks, 0u);
     accumulation.sumsStale = (accumulation.sumsStale && !accumulation.clearPending) || oneSample(st);
@@ -838,12 +841,6 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
 
 Result<FrameStats> Renderer::renderFrame(const FrameInput& in) {
     Impl& im = *m_impl;
-    struct Mark { // the frame's start and end, for the warming (Impl::lastFrameNs)
-        std::atomic<int64_t>& at;
-        void now() { at = std::chrono::steady_clock::now().time_since_epoch().count(); }
-        ~Mark() { now(); }
-    } mark{im.lastFrameNs};
-    mark.now();
     Mat4 clipToWorld{};
     Status s = im.validate(in, m_settings, clipToWorld);
     if (!s) return s;

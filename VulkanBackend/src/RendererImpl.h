@@ -608,9 +608,9 @@ struct Renderer::Impl {
     /// only, never this state); stopWarming asks it to stop between pipelines.
     std::future<void> warming;
     std::atomic<bool> stopWarming{false};
-    /// When the last frame began or ended (steady clock, ns): on a CPU device the warming makes a
-    /// pipeline only once frames have paused (kWarmAfterIdle).
-    std::atomic<int64_t> lastFrameNs{0};
+    /// When the last frame's device work began or ended (steady clock ticks, Impl::frame): on a
+    /// CPU device the warming makes a pipeline only once frames have paused (kWarmAfterIdle).
+    std::atomic<std::chrono::steady_clock::rep> lastFrameTicks{0};
     ~Impl() {
         stopWarming = true;
         if (warming.valid()) warming.wait();
@@ -789,9 +789,6 @@ struct Renderer::Impl {
                                  mebibytes(smallestCacheBytes()));
         return resizeCache((cache.size() - over) & ~uint64_t(3));
     }
-    /// The texel buffers of the render and resolve passes (FrameLayout.h's kTexel* bindings) for
-    /// the buffers of this frame. Pipelines made with them differ from those made without: a
-    /// change drops those.
     /// Words a texel of each render-pass binding (render_common.glsl reads a record with one
     /// fetch: CPU devices pay for a fetch about as much whatever its width): a brick's entry and
     /// a label's colour are four, the sub-block masks and the preview entries two.
@@ -802,6 +799,9 @@ struct Renderer::Impl {
         w[kTexelUniform] = w[kTexelHidden] = w[kTexelVisible] = 2u;
         return w;
     }();
+    /// The texel buffers of the render and resolve passes (FrameLayout.h's kTexel* bindings) for
+    /// the buffers of this frame. Pipelines made with them differ from those made without: a
+    /// change drops those.
     Status viewBuffers() {
         // The label colours exist with a label table only, the pixel list with host decoding, the
         // label map and the opaque depth when there are some: the parameter block stands in for

@@ -156,14 +156,14 @@ void Renderer::warmShadingModes(bool depthInput) {
     // A CPU device renders on the cores the compiler would take (and shares their caches): each
     // pipeline waits until frames have paused for kWarmAfterIdle (a moving camera keeps its pace;
     // the modes are made while the view rests).
-    const std::atomic<int64_t>* lastFrame = ctx->device().type == "cpu" ? &im.lastFrameNs : nullptr;
+    const auto* lastFrame = ctx->device().type == "cpu" ? &im.lastFrameTicks : nullptr;
     try {
         im.warming = std::async(std::launch::async, [ctx, stop, lastFrame, jobs = std::move(jobs)] {
             lowerThisThreadsPriority(); // frames and the GUI first
             for (const PipelineJob& j : jobs) {
+                using Clock = std::chrono::steady_clock;
                 while (lastFrame && !stop->load() &&
-                       std::chrono::steady_clock::now().time_since_epoch().count() - lastFrame->load() <
-                           std::chrono::duration_cast<std::chrono::nanoseconds>(kWarmAfterIdle).count())
+                       Clock::now() - Clock::time_point(Clock::duration(lastFrame->load())) < kWarmAfterIdle)
                     std::this_thread::sleep_for(std::chrono::milliseconds(20));
                 if (stop->load()) return;
                 // Into the context's pipeline table (by SPIR-V) and the shader cache: the frame
