@@ -545,7 +545,8 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     label = kNone;
     material = kNone;
-    // A round per brick: its state is read once, then an inner loop steps through it. CPU devices
+    // A round per brick (and one more after a candidate no material draws, walking on from it in
+    // the same brick): its state is read once, then an inner loop steps through it. CPU devices
     // run every line of a loop body at every step, masked or not, and a read there is a loop over
     // the lanes: the brick's reads (its cache entry, sub-block masks, palette) and its use mark
     // belong here, not in the steps.

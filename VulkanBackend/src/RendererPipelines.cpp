@@ -5,7 +5,6 @@
 /// them before the first frame, and warming the other shading modes in the background.
 #include "RendererImpl.h"
 
-#include <sched.h>
 #include <thread>
 
 namespace csgv::gpu {
@@ -25,16 +24,13 @@ Result<uint64_t> makePipeline(Context& ctx, const char* name, const Defines& def
     return p;
 }
 
-/// Lowers the calling thread's scheduling priority, so that background compilation yields to
-/// frames and the GUI on a CPU device. Linux: the idle policy, which runs the thread only on a
-/// core nothing else wants (a nice value of 10 still took a core from a CPU device's render
-/// workers often enough to make their frames up to twice as long while the other shading modes
-/// were made); where that is refused, the thread's own nice value.
+/// Lowers the calling thread's scheduling priority (Linux: a thread's own nice value), so that
+/// background compilation yields to frames and the GUI on a CPU device. Not the idle policy: on
+/// cores busy with other work it would all but stop, and a renderer going away waits for the
+/// pipeline its warming is making (kWarmAfterIdle keeps the warming from a moving camera's frames).
 void lowerThisThreadsPriority() {
 #ifdef __linux__
-    const sched_param idle{};
-    if (sched_setscheduler(pid_t(syscall(SYS_gettid)), SCHED_IDLE, &idle) != 0)
-        (void)setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), 10);
+    (void)setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), 10);
 #endif
 }
 
