@@ -321,16 +321,41 @@ PaletteRef paletteOf(Frame f, uint brick) {
     return p;
 }
 
+#ifndef UNIFORM_LEVELS
+#define UNIFORM_LEVELS 0
+#endif
+#if UNIFORM_LEVELS && CACHE_BITS != 32
+#error uniform levels ride on 32-bit cache words
+#endif
+
+/// The label of a cache word of 32 bits: with UNIFORM_LEVELS (GpuVolume::uniformLevels) the words
+/// of bricks at the finest level hold their uniform level above it (csgv/codec/Layout.h); kNone
+/// (outside the volume) stays kNone.
+uint wordLabel(uint word) {
+#if UNIFORM_LEVELS
+    return word == kNone ? kNone : word & kUniformLabelMask;
+#else
+    return word;
+#endif
+}
+
+#if CACHE_BITS == 32
+/// Word of entry e (Morton order) of a cached region starting at cache word `offset`.
+uint entryWord(uint offset, uint e) {
+    const uint i = offset + e;
+    const uint word = cacheWord(i);
+    // Never kNone (the cache has fewer words, Renderer.cpp): a second use of the index, so CPU
+    // devices compute it once for all lanes, not lane by lane inside a buffer-address read's loop
+    // over the lanes (without RENDER_TEXELS: 7 % of a frame).
+    return i == kNone ? kNone : word;
+}
+#endif
+
 /// Label of entry e (Morton order) of a cached region starting at cache word `offset` (the
 /// render pass's voxels, cache_hidden.comp's sub-block runs).
 uint entryLabel(uint offset, uint e, PaletteRef palette) {
 #if CACHE_BITS == 32
-    const uint i = offset + e;
-    const uint label = cacheWord(i);
-    // Never kNone (the cache has fewer words, Renderer.cpp): a second use of the index, so CPU
-    // devices compute it once for all lanes, not lane by lane inside a buffer-address read's loop
-    // over the lanes (without RENDER_TEXELS: 7 % of a frame).
-    return i == kNone ? kNone : label;
+    return wordLabel(entryWord(offset, e));
 #else
     const uint word = cacheWord(offset + e / CACHE_PER_WORD);
     const uint index = (word >> ((e % CACHE_PER_WORD) * uint(CACHE_BITS))) & CACHE_MASK;
@@ -571,7 +596,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         // Uniform sub-blocks are marked at the finest level, hidden ones at every level whose
         // nodes are no larger than a sub-block.
         const bool subBlocks = s.w != 0u && s.y != kNone && int(s.y) <= SUB_SHIFT;
+#if !UNIFORM_LEVELS
         const uvec2 uniformSubs = subBlocks && s.y == 0u ? uniformMask(b) : uvec2(0u);
+#endif
         const uvec2 hiddenSubs = subBlocks ? hiddenMask(b) : uvec2(0u);
         // A brick no material draws is passed whole, with its aligned group of 2^g bricks a side
         // when none of them is drawn either (kSlotEmptyGroups).
@@ -616,7 +643,8 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 // whole: one without drawn labels (kSlotHidden, at levels whose nodes are no
                 // larger: its label need not be read; with its 2x2x2 group, the Morton-consecutive
                 // byte of the mask, when all are), or at the finest level a uniform one after its
-                // label (kSlotUniform). No surface lies inside either; the CPU mirror (finest
+                // label (kSlotUniform; with UNIFORM_LEVELS the largest uniform cube around the voxel, its
+                // level in the word). No surface lies inside either; the CPU mirror (finest
                 // level) steps alike.
                 k = s.y;
                 bool hidden = false;
@@ -631,12 +659,24 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 if (hidden) {
                     w.prevLabel = kNone; // whatever it holds is not drawn: the next drawn label is a surface
                 } else {
+#if UNIFORM_LEVELS
+                    // At the finest level, on past the largest uniform cube around the voxel, its
+                    // level read with the label (one gather a step; a bad brick's kNone words pass
+                    // the brick).
+                    const uint word = entryWord(s.x, code >> (3u * s.y));
+                    if (entersCandidate(w, wordLabel(word), label)) {
+                        candidate = true;
+                        break;
+                    }
+                    if (k == 0u) k = min(word >> kUniformLevelShift, BRICK_SHIFT);
+#else
                     if (entersCandidate(w, cachedLabel(f, s.x, s.y, code, palette), label)) {
                         candidate = true;
                         break;
                     }
                     if (k == 0u && SUB_SHIFT >= 0 && (((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u)
                         k = uint(SUB_SHIFT);
+#endif
                 }
             }
             stableStep(w, k);

@@ -3,6 +3,7 @@
 // along each ray for perspective and parallel views, anisotropic spacing and a rotated grid.
 #include "csgv/codec/BrickGroups.h"
 #include "csgv/codec/Container.h"
+#include "csgv/codec/UniformLevels.h"
 #include "csgv/reference/RayCast.h"
 
 #include <algorithm>
@@ -170,9 +171,10 @@ TEST(RayCast, RaysInAPlaneOfTheGridHitLikeTheirNeighbours) {
     view.height = 31;
     for (const double y : {8.5, 8.0}) { // eye in a voxel's middle and on a voxel boundary
       for (const bool parallel : {false, true}) {
+       for (const UniformSteps steps : {UniformSteps::SubBlocks, UniformSteps::Levels}) {
         view.worldToClip = multiply(parallel ? orthographicMatrix(-12, 12, -12, 12, 1, 100) : perspectiveMatrix(30, 1.0, 1.0, 100.0),
                                     lookAtMatrix({-40, y, 8.5}, {8, y, 8.5}, {0, 0, 1}));
-        const GBuffer g = castRaysStable(vol, Geometry{}, view, nonZero, 8);
+        const GBuffer g = castRaysStable(vol, Geometry{}, view, nonZero, 8, steps);
         auto hits = [&](uint32_t row) {
             uint32_t n = 0;
             for (uint32_t x = 0; x < view.width; ++x) n += g.label[size_t(row) * view.width + x] == 3u;
@@ -181,6 +183,7 @@ TEST(RayCast, RaysInAPlaneOfTheGridHitLikeTheirNeighbours) {
         EXPECT_GT(hits(15), 0u) << y << " parallel " << parallel;
         EXPECT_EQ(hits(15), hits(14)) << y << " parallel " << parallel;
         EXPECT_EQ(hits(15), hits(16)) << y << " parallel " << parallel;
+       }
       }
     }
 }
@@ -216,4 +219,48 @@ TEST(RayCast, EmptyBrickGroupsAreTheLargestAlignedOnes) {
                 largest = std::max(largest, levels[b]);
             }
     EXPECT_GE(largest, 2u) << "the grid must have groups of several levels";
+}
+
+// Each voxel's uniform level is the largest k whose aligned cube of 2^k voxels around it lies inside
+// the volume and holds one label (brute force over every cube), on a brick of 16^3 made of uniform
+// cubes of every size, a few voxels changed, partly beyond a volume of odd sizes.
+TEST(RayCast, UniformLevelsAreTheLargestUniformCubesInside) {
+    const uint32_t shift = 4, edge = 1u << shift, n = edge * edge * edge;
+    std::mt19937 rng(11);
+    for (const std::array<uint32_t, 3> dim : {std::array<uint32_t, 3>{32, 32, 32}, std::array<uint32_t, 3>{29, 30, 27}}) {
+        const std::array<uint32_t, 3> origin = {16, 16, 16};
+        std::vector<uint32_t> labels(n);
+        for (uint32_t e = 0; e < n; ++e) {
+            // A label per cube of a size that varies over the brick (eighths of it: 2^0 .. 2^3).
+            const uint32_t size = (e >> 9) % 4;
+            labels[e] = 1 + (e >> (3 * size)) % 3;
+        }
+        for (int k = 0; k < 20; ++k) labels[(k % 2 == 0 ? 512 : 2560) + rng() % 512] = 9; // single voxels break cubes (eighths 1 and 5)
+        for (uint32_t e = 0; e < n; ++e) { // beyond the volume: outside (kInvalidLabel), as decoders give it
+            const uint32_t x = origin[0] + mortonX(e), y = origin[1] + mortonY(e), z = origin[2] + mortonZ(e);
+            if (x >= dim[0] || y >= dim[1] || z >= dim[2]) labels[e] = kInvalidLabel;
+        }
+        std::vector<uint8_t> levels(n / 8); // one a run of eight entries
+        uniformLevels(labels.data(), shift, origin, dim, levels.data());
+        uint32_t seen[5] = {};
+        for (uint32_t e = 0; e < n; ++e) {
+            uint32_t want = 0;
+            for (uint32_t k = shift; k >= 1 && want == 0; --k) {
+                const uint32_t first = e & ~((1u << (3 * k)) - 1);
+                bool inside = true, same = true;
+                for (uint32_t i = first; i < first + (1u << (3 * k)); ++i) {
+                    inside = inside && origin[0] + mortonX(i) < dim[0] && origin[1] + mortonY(i) < dim[1] &&
+                             origin[2] + mortonZ(i) < dim[2];
+                    same = same && labels[i] == labels[first];
+                }
+                if (inside && same) want = k;
+            }
+            ASSERT_EQ(levels[e / 8], want) << "entry " << e << " of a volume " << dim[0] << "x" << dim[1] << "x" << dim[2];
+            ++seen[want];
+        }
+        if (dim[0] == 32) // every level below the brick's occurs where the brick lies inside
+            for (uint32_t k = 0; k < 4; ++k) EXPECT_GT(seen[k], 0u) << "level " << k;
+        else
+            EXPECT_GT(seen[0] * seen[1] * seen[2], 0u);
+    }
 }

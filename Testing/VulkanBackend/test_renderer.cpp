@@ -13,6 +13,7 @@
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Encoder.h"
 #include "csgv/codec/Partition.h"
+#include "csgv/codec/UniformLevels.h"
 #include "csgv/reference/RayCast.h"
 #include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/LabelLookup.h"
@@ -94,6 +95,10 @@ FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples,
 
 void expectGBufferEquals(const FrameOutput& out, const GBuffer& ref, const std::string& what, size_t minHitShare = 10);
 
+/// How Core's castRaysStable must step to mirror a renderer: over the uniform cubes its cache words
+/// carry (GpuVolume::uniformLevels), else over uniform sub-blocks.
+UniformSteps stepsOf(const Renderer& r) { return r.volume().uniformLevels() ? UniformSteps::Levels : UniformSteps::SubBlocks; }
+
 void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
                                   const std::string& what, bool paletting = false,
                                   RendererOptions::Decode decode = RendererOptions::Decode::Auto, bool texels = true,
@@ -116,7 +121,7 @@ void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, 
     if (image) *image = out;
     RayCastView view{in.worldToClip, in.width, in.height};
     const GBuffer ref = castRaysStable(scene.labels, g, view, [](uint32_t l) { return l != 0 && l != kInvalidLabel; },
-                                       scene.volume.brickSize);
+                                       scene.volume.brickSize, stepsOf(**r));
     expectGBufferEquals(out, ref, what);
 }
 
@@ -199,6 +204,39 @@ TEST(Renderer, GBufferEqualsStableReferenceWithCachePaletting) {
 // The render pass reads its hottest words through texel buffers where the device allows
 // (RendererOptions::renderTexels), else through buffer addresses, as it does for caches larger
 // than a texel view: both give the reference's G-buffer and the same image, bit for bit.
+// Without uniform levels (GpuVolumeOptions::uniformLevels off, as for labels of 2^29 and more) a
+// cache of 32-bit labels steps over uniform sub-blocks alone, and the G-buffer equals Core's
+// stepping so, after host and GPU decoding.
+TEST(Renderer, GBufferEqualsStableReferenceWithoutUniformLevels) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    ASSERT_TRUE(scene.gpu->uniformLevels());
+    GpuVolumeOptions vo;
+    vo.uniformLevels = false;
+    Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(*ctx, scene.volume, vo);
+    ASSERT_TRUE(made.isOk()) << made.message();
+    ASSERT_FALSE((*made)->uniformLevels());
+    const std::shared_ptr<GpuVolume> gpu(std::move(*made));
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    for (const RendererOptions::Decode decode : {RendererOptions::Decode::Host, RendererOptions::Decode::Gpu}) {
+        RendererOptions o;
+        o.decode = decode;
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, o);
+        ASSERT_TRUE(r.isOk()) << r.message();
+        ASSERT_EQ(stepsOf(**r), UniformSteps::SubBlocks);
+        RenderSettings st;
+        st.finest = true;
+        st.jitter = false;
+        st.denoise = false;
+        (*r)->setSettings(st);
+        const FrameOutput out = renderConverged(**r, in, 1, 64);
+        const GBuffer ref = castRaysStable(scene.labels, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
+                                           [](uint32_t l) { return l != 0 && l != kInvalidLabel; }, scene.volume.brickSize,
+                                           UniformSteps::SubBlocks);
+        expectGBufferEquals(out, ref, decode == RendererOptions::Decode::Gpu ? "sub-blocks, GPU decoding" : "sub-blocks, host decoding");
+    }
+}
+
 TEST(Renderer, GBufferEqualsStableReferenceThroughBufferAddressesAsThroughTexels) {
     CSGV_REQUIRE_GPU(ctx);
     const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
@@ -256,6 +294,24 @@ uint64_t expectedSubBlockMask(const CompressedVolume& vol, const LabelVolume& le
     return mask;
 }
 
+/// Core's uniform levels of brick `b` (UniformLevels.h), from the volume's labels.
+std::vector<uint8_t> expectedUniformLevels(const CompressedVolume& vol, const LabelVolume& labels, uint32_t b) {
+    uint32_t shift = 0;
+    while ((1u << shift) < vol.brickSize) ++shift;
+    const std::array<uint32_t, 3> grid = vol.brickGrid();
+    const std::array<uint32_t, 3> origin = {b % grid[0] << shift, b / grid[0] % grid[1] << shift, b / (grid[0] * grid[1]) << shift};
+    const uint32_t n = 1u << (3 * shift);
+    std::vector<uint32_t> morton(n);
+    for (uint32_t e = 0; e < n; ++e) {
+        const uint32_t x = origin[0] + mortonX(e), y = origin[1] + mortonY(e), z = origin[2] + mortonZ(e);
+        morton[e] = x < vol.dim[0] && y < vol.dim[1] && z < vol.dim[2] ? labels.at(x, y, z) : kInvalidLabel;
+    }
+    std::vector<uint8_t> runs(n / 8), levels(n);
+    uniformLevels(morton.data(), shift, origin, {vol.dim[0], vol.dim[1], vol.dim[2]}, runs.data());
+    for (uint32_t e = 0; e < n; ++e) levels[e] = runs[e / 8];
+    return levels;
+}
+
 void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool paletting) {
     Scene& scene = fixtureScene(ctx, "synthA_b16_nibble.csgv");
     std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
@@ -272,11 +328,19 @@ void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool palet
     Result<std::vector<Renderer::CachedBrick>> cached = (*r)->cachedBricks();
     ASSERT_TRUE(cached.isOk()) << cached.message();
     size_t finest = 0, uniform = 0, mixed = 0;
+    uint32_t deepest = 0;
     for (const Renderer::CachedBrick& b : *cached) {
         ASSERT_EQ(b.lod, 0u);
         ++finest;
         const uint64_t want = expectedSubBlockMask(scene.volume, scene.labels, b.brick);
         EXPECT_EQ(b.uniformSubBlocks, want) << "brick " << b.brick;
+        // Uniform levels ride in the cache words where they hold labels (not palette indices).
+        ASSERT_EQ(b.uniformLevels.empty(), paletting) << "brick " << b.brick;
+        if (!paletting) {
+            const std::vector<uint8_t> levels = expectedUniformLevels(scene.volume, scene.labels, b.brick);
+            EXPECT_EQ(b.uniformLevels, levels) << "brick " << b.brick;
+            for (const uint8_t l : levels) deepest = std::max<uint32_t>(deepest, l);
+        }
         // The default materials leave label 0 alone undrawn: its sub-blocks are uniform ones.
         EXPECT_EQ(b.hiddenSubBlocks, 0u) << "brick " << b.brick;
         uniform += want != 0;
@@ -286,6 +350,10 @@ void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool palet
     EXPECT_GT(finest, 4u);
     EXPECT_GT(uniform, 0u);
     EXPECT_GT(mixed, 0u);
+    // ... and cubes larger than a sub-block (levels above it come from several sub-blocks).
+    uint32_t subShift = 0;
+    while ((1u << (subShift + kUniformShift)) < scene.volume.brickSize) ++subShift;
+    if (!paletting) EXPECT_GT(deepest, subShift);
 }
 
 } // namespace
@@ -404,7 +472,7 @@ void expectHiddenSubBlocksFollowTheMaterials(Context& ctx, RendererOptions::Deco
         const FrameOutput out = renderConverged(**r, in, 1, 64);
         const std::function<bool(uint32_t)> visible = [lo = lo, hi = hi](uint32_t l) { return l >= lo && l <= hi; };
         const GBuffer ref = castRaysStable(scene.labels, Geometry{}, RayCastView{in.worldToClip, in.width, in.height}, visible,
-                                           scene.volume.brickSize);
+                                           scene.volume.brickSize, stepsOf(**r));
         expectGBufferEquals(out, ref, what, emptyGroups ? 100 : 10);
         if (emptyGroups) { // rays step over them whole: the G-buffer above covers that
             const std::array<uint32_t, 3> grid = scene.volume.brickGrid();
@@ -1341,7 +1409,7 @@ TEST(Renderer, MaterialsWithAttributesSelectTheSameLabelsAsTheReference) {
     const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
     GBuffer ref = castRaysStable(
         *ids, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
-        [&](uint32_t id) { return id < idToLabel.size() && idToLabel[id] % 2 == 1; }, file->volume.brickSize);
+        [&](uint32_t id) { return id < idToLabel.size() && idToLabel[id] % 2 == 1; }, file->volume.brickSize, stepsOf(**r));
     for (uint32_t& l : ref.label) l = l == kInvalidLabel ? l : idToLabel[l]; // the G-buffer holds original labels
     // The odd-labelled voxels hit first, opaque red.
     expectFinestImage(**r, in, ref, "parity", [](uint32_t, const float* c) { return c[0] > 0.0f && c[1] == 0.0f && c[3] == 1.0f; });
@@ -1372,7 +1440,7 @@ TEST(Renderer, DrawnLabelsWithUndrawnOnesBetweenThemHitAsTheReference) {
         auto reference = [&](const std::function<bool(uint32_t)>& drawn) {
             GBuffer ref = castRaysStable(*stored, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
                                          [&](uint32_t s) { return original(s) != kInvalidLabel && drawn(original(s)); },
-                                         file->volume.brickSize);
+                                         file->volume.brickSize, stepsOf(**r));
             for (uint32_t& l : ref.label) l = l == kInvalidLabel ? l : original(l);
             return ref;
         };
@@ -1471,7 +1539,7 @@ TEST(Renderer, LargeLabelsStoredAsIdsKeepTheirLabelsAttributesAndColours) {
         const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
         const GBuffer ref = castRaysStable(*labels, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
                                            [](uint32_t l) { return l == 0 || (l >= 1000 && l != kInvalidLabel); },
-                                           file->volume.brickSize);
+                                           file->volume.brickSize, stepsOf(**r));
         size_t zeros = 0;
         expectFinestImage(**r, in, ref, "labels, not ids", [&](uint32_t l, const float* c) {
             zeros += l == 0;
@@ -1498,7 +1566,7 @@ TEST(Renderer, AttributesOfLabelsStoredAsIdsAreTheirLabelsValues) {
     ASSERT_TRUE(r->setMaterials(fiveRedLargeGreen(), {{"low", low}}).isOk());
     const FrameInput in = perspectiveView({-30, 70, 60}, {16, 16, 16}, {0, 0, 1}, 35, 80, 60);
     const GBuffer ref = castRaysStable(v, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
-                                       [&](uint32_t l) { return l == 3 || l == large; }, 16);
+                                       [&](uint32_t l) { return l == 3 || l == large; }, 16, stepsOf(*r));
     size_t threes = 0;
     expectFinestImage(*r, in, ref, "labels 3 and 2^23 + 5", [&](uint32_t l, const float* c) {
         threes += l == 3;

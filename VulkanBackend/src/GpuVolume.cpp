@@ -5,6 +5,7 @@
 #include "csgv/gpu/FrameLayout.h"
 
 #include "csgv/base/MappedFile.h"
+#include "csgv/codec/UniformLevels.h"
 
 #include <algorithm>
 #include <unordered_map>
@@ -137,6 +138,7 @@ Result<std::unique_ptr<GpuVolume>> GpuVolume::create(Context& context, const Com
     if (g->m_palettes->first.size() != volume.brickCount())
         return Status::error("the palette summary given is not this volume's");
     g->m_labels = storedLabels(*g->m_palettes, !options.owned.empty());
+    g->m_uniformLevels = options.uniformLevels && g->m_cacheBits == 32 && g->m_labels.largest < kUniformLabelMask;
     std::vector<WordArray> partArrays;
     std::vector<uint32_t> partStarts;
     if (part != DevicePart::Whole) devicePart(volume, part, partArrays, partStarts);
@@ -460,6 +462,19 @@ Status GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t l
     }
     const uint64_t edge = decoder.gridSize();
     packRegion(brick, decoder.labels(), edge * edge * edge, out);
+    if (lod == 0 && m_uniformLevels) { // each word's uniform level above its label (Layout.h)
+        uint32_t shift = 0;
+        while ((1u << shift) < m_volume.brickSize) ++shift;
+        const std::array<uint32_t, 3> grid = m_volume.brickGrid();
+        const std::array<uint32_t, 3> origin = {uint32_t(brick % grid[0]) << shift, uint32_t(brick / grid[0] % grid[1]) << shift,
+                                                uint32_t(brick / (uint64_t(grid[0]) * grid[1])) << shift};
+        thread_local std::vector<uint8_t> levels; // decodeRegion runs on the host workers (one a run of eight)
+        levels.resize(edge * edge * edge / 8);
+        csgv::uniformLevels(out, shift, origin, {m_volume.dim[0], m_volume.dim[1], m_volume.dim[2]}, levels.data());
+        for (uint64_t r = 0; r < levels.size(); ++r)
+            if (const uint32_t bits = uint32_t(levels[r]) << kUniformLevelShift)
+                for (uint32_t* w = out + 8 * r; w != out + 8 * r + 8; ++w) *w |= bits;
+    }
     return Status::ok();
 }
 
@@ -512,7 +527,11 @@ std::vector<uint32_t> GpuVolume::labelsFromRegion(uint32_t brick, uint32_t lod, 
     std::vector<uint32_t> labels(n);
     if (m_cacheBits == 32) {
         const std::vector<uint32_t>& ids = m_labels.ids;
-        for (uint64_t e = 0; e < n; ++e) labels[e] = ids.empty() ? words[e] : (words[e] < ids.size() ? ids[words[e]] : kInvalidLabel);
+        for (uint64_t e = 0; e < n; ++e) {
+            // Uniform levels ride above the labels of bricks at the finest level (kNone stays all ones).
+            const uint32_t w = m_uniformLevels && words[e] != kNone ? words[e] & kUniformLabelMask : words[e];
+            labels[e] = ids.empty() ? w : (w < ids.size() ? ids[w] : kInvalidLabel);
+        }
         return labels;
     }
     const uint32_t per = cacheEntriesPerWord(), mask = (1u << m_cacheBits) - 1u;

@@ -63,6 +63,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("BRICK_GRID", uvec3Of(v.brickGrid()));
     d.emplace_back("BRICKS_PER_ARRAY", std::to_string(v.bricksPerArray) + "u");
     d.emplace_back("CACHE_BITS", std::to_string(volume->cacheBits()));
+    d.emplace_back("UNIFORM_LEVELS", volume->uniformLevels() ? "1" : "0");
     // Pixels per render and resolve invocation along each axis: CPU devices pay per invocation
     // (16 pixels against 4: 10-15 % less time a frame on lavapipe, local shading).
     constexpr uint32_t kCpuPixelBlock = 4;

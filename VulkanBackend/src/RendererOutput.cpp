@@ -124,8 +124,15 @@ Result<std::vector<Renderer::CachedBrick>> Renderer::cachedBricks() const {
     if (!s) return s;
     std::vector<CachedBrick> out;
     for (uint32_t b = 0; b < im.brickCount; ++b)
-        if (const uint32_t lod = words[4 * b + 1]; lod != kNone) // hidden ones at levels whose nodes fit a sub-block
-            out.push_back({b, lod, lod == 0 ? masks[b] : 0, lod + kUniformShift <= log2u(im.volume->volume().brickSize) ? hidden[b] : 0});
+        if (const uint32_t lod = words[4 * b + 1]; lod != kNone) { // hidden ones at levels whose nodes fit a sub-block
+            out.push_back({b, lod, lod == 0 ? masks[b] : 0, lod + kUniformShift <= log2u(im.volume->volume().brickSize) ? hidden[b] : 0, {}});
+            if (lod != 0 || !im.volume->uniformLevels()) continue;
+            std::vector<uint32_t> region(im.volume->regionWords(0));
+            if (!(s = im.ctx.download(im.cache, uint64_t(words[4 * b]) * 4, region.data(), region.size() * 4))) return s;
+            out.back().uniformLevels.resize(region.size());
+            for (size_t e = 0; e < region.size(); ++e)
+                out.back().uniformLevels[e] = region[e] == kNone ? 0 : uint8_t(region[e] >> kUniformLevelShift);
+        }
     return out;
 }
 

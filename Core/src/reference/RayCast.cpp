@@ -3,6 +3,7 @@
 #include "csgv/codec/BrickGroups.h"
 #include "csgv/codec/Container.h"
 #include "csgv/codec/Layout.h"
+#include "csgv/codec/UniformLevels.h"
 #include "csgv/base/Morton.h"
 
 #include <algorithm>
@@ -165,7 +166,7 @@ void stableStep(Walker& w, int k) {
 } // namespace
 
 GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCastView& view,
-                       const std::function<bool(uint32_t)>& visible, uint32_t brickSize) {
+                       const std::function<bool(uint32_t)>& visible, uint32_t brickSize, UniformSteps steps) {
     GBuffer out;
     out.width = view.width;
     out.height = view.height;
@@ -237,6 +238,28 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                         }
                 if (same) uniform[b] |= uint64_t(1) << j;
                 if (none) hidden[b] |= uint64_t(1) << j;
+            }
+        }
+    }
+    // Uniform levels: every voxel's, brick by brick (UniformLevels.h, on the brick's Morton order).
+    std::vector<uint8_t> voxelLevel;
+    if (steps == UniformSteps::Levels) {
+        voxelLevel.assign(volume.labels.size(), 0);
+        const uint64_t n = uint64_t(1) << (3 * shift);
+        std::vector<uint32_t> morton(n);
+        std::vector<uint8_t> levels(n / 8);
+        const std::array<uint32_t, 3> dim = {volume.dim[0], volume.dim[1], volume.dim[2]};
+        for (size_t b = 0; b < brickVisible.size(); ++b) {
+            const std::array<uint32_t, 3> bc = {uint32_t(b % grid[0]) << shift, uint32_t(b / grid[0] % grid[1]) << shift,
+                                                uint32_t(b / (size_t(grid[0]) * grid[1])) << shift};
+            for (uint64_t e = 0; e < n; ++e) {
+                const uint32_t x = bc[0] + mortonX(uint32_t(e)), y = bc[1] + mortonY(uint32_t(e)), z = bc[2] + mortonZ(uint32_t(e));
+                morton[e] = x < dim[0] && y < dim[1] && z < dim[2] ? volume.at(x, y, z) : kInvalidLabel;
+            }
+            uniformLevels(morton.data(), uint32_t(shift), bc, dim, levels.data());
+            for (uint64_t e = 0; e < n; ++e) {
+                const uint32_t x = bc[0] + mortonX(uint32_t(e)), y = bc[1] + mortonY(uint32_t(e)), z = bc[2] + mortonZ(uint32_t(e));
+                if (x < dim[0] && y < dim[1] && z < dim[2]) voxelLevel[x + size_t(dim[0]) * (y + size_t(dim[1]) * z)] = levels[e / 8];
             }
         }
     }
@@ -336,7 +359,11 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                                 break;
                             }
                         }
-                        stableStep(w, subShift >= 0 && ((uniform[bi] >> j) & 1u) != 0 ? subShift : 0);
+                        if (steps == UniformSteps::Levels)
+                            stableStep(w, voxelLevel[size_t(w.voxel[0]) +
+                                                     volume.dim[0] * (size_t(w.voxel[1]) + size_t(volume.dim[1]) * size_t(w.voxel[2]))]);
+                        else
+                            stableStep(w, subShift >= 0 && ((uniform[bi] >> j) & 1u) != 0 ? subShift : 0);
                     }
                 }
                 bool outside = false;

@@ -20,6 +20,14 @@ CSGV_CONST(uint32_t, kInvalidLabel, 0xFFFFFFFFu)
 /// Sub-blocks have edge 1 << (brick shift - kUniformShift): the `subShift` below.
 CSGV_CONST(uint32_t, kUniformShift, 2u)
 
+/// Uniform levels (csgv/codec/UniformLevels.h): where a renderer's cache holds 32-bit labels all
+/// below kUniformLabelMask, a word of a brick cached at the finest level holds its label in the low
+/// kUniformLevelShift bits and, above them, its uniform level: the largest k such that the aligned
+/// cube of 2^k voxels holding it lies inside the volume and holds one label. Rays step over that
+/// cube whole once they read the label (no surface lies inside it). kInvalidLabel words stay all ones.
+CSGV_CONST(uint32_t, kUniformLevelShift, 29u)
+CSGV_CONST(uint32_t, kUniformLabelMask, 0x1FFFFFFFu)
+
 /// The Morton number of the sub-block holding brick-local voxel (x, y, z).
 CSGV_FN uint32_t uniformSubBlockOf(uint32_t x, uint32_t y, uint32_t z, uint32_t subShift) {
     return mortonSpread(x >> subShift) | (mortonSpread(y >> subShift) << 1u) | (mortonSpread(z >> subShift) << 2u);

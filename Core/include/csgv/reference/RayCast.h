@@ -49,10 +49,17 @@ GBuffer castRays(const LabelVolume& volume, const Geometry& cornerGeometry, cons
 /// The float mirror of the GPU ray marcher (shaders/render_common.glsl and render.comp): the
 /// paper's stable DDA on an integer voxel plus a sub-voxel offset in [0, 1)^3, with bricks of
 /// `brickSize` that hold no visible voxel skipped whole (and, inside them, the sub-blocks of
-/// csgv/codec/Layout.h that hold one label or no visible one), operation for operation in single
+/// csgv/codec/Layout.h that hold one label or no visible one, and uniform cubes as `steps` says),
+/// operation for operation in single
 /// precision, so the GPU's G-buffer at the finest level must equal it exactly (labels, faces).
+/// How the marcher steps over a voxel whose label it read and found no surface: to the end of
+/// its sub-block when that is uniform (the renderer's 64-bit masks), or of the largest uniform cube
+/// around it (uniform levels, csgv/codec/UniformLevels.h: the renderer's cache of small labels).
+enum class UniformSteps { SubBlocks, Levels };
+
 GBuffer castRaysStable(const LabelVolume& volume, const Geometry& cornerGeometry, const RayCastView& view,
-                       const std::function<bool(uint32_t)>& visible, uint32_t brickSize);
+                       const std::function<bool(uint32_t)>& visible, uint32_t brickSize,
+                       UniformSteps steps = UniformSteps::SubBlocks);
 
 // Matrix helpers (indexToWorldMatrix, lookAtMatrix, multiply, invert, ...): csgv/base/Math.h.
 

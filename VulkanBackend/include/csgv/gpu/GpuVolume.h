@@ -72,6 +72,11 @@ struct GpuVolumeOptions {
     /// Host memory the upload takes at a time (whole bricks a piece, at least the largest brick):
     /// the encoding goes up in pieces, its palettes' labels replaced by ids on the way.
     uint64_t uploadChunkBytes = uint64_t(64) << 20;
+    /// Uniform levels (csgv/codec/Layout.h kUniformLevelShift) in the cache words of bricks at the
+    /// finest level, where the cache holds 32-bit labels all below kUniformLabelMask: rays step over
+    /// the largest uniform cube around a voxel, not only over uniform sub-blocks. False: the
+    /// sub-blocks alone (as with cache paletting or larger labels).
+    bool uniformLevels = true;
 };
 
 class GpuVolume {
@@ -135,6 +140,10 @@ public:
     /// Bits per cache entry: 32 (labels) or fewer (palette indices, cache paletting).
     uint32_t cacheBits() const { return m_cacheBits; }
     uint32_t cacheEntriesPerWord() const { return m_cacheBits == 32 ? 1 : 32 / m_cacheBits; }
+    /// Whether the cache words of bricks at the finest level carry their uniform levels
+    /// (GpuVolumeOptions::uniformLevels; the shaders' UNIFORM_LEVELS): decodeRegion writes them,
+    /// cache_uniform.comp after GPU decoding, and rays step by them.
+    bool uniformLevels() const { return m_uniformLevels; }
     /// Cache words of one brick decoded at `lod`.
     uint64_t regionWords(uint32_t lod) const;
     /// Labels (Morton order, kInvalidLabel outside the volume) of a brick's cache region as
@@ -184,6 +193,7 @@ private:
     uint64_t m_decodePipeline = 0;
     uint32_t m_decodeGroup = 1; ///< decode_bricks.comp's DECODE_GROUP: decodes a workgroup (GpuVolume.cpp decodeGroup)
     uint32_t m_cacheBits = 32;
+    bool m_uniformLevels = false;
     StoredLabels m_labels;
     bool m_separated = false;
     bool m_hostDecoding = false;

@@ -336,7 +336,7 @@ public:
     const GpuVolume& volume() const { return *m_volume; }
 
     /// A brick in the cache (diagnostics and tests): its level of detail and, at the finest
-    /// level, its uniform sub-blocks (bit j: Morton sub-block j of csgv/codec/Layout.h lies inside
+    /// level, its uniform levels and its uniform sub-blocks (bit j: Morton sub-block j of csgv/codec/Layout.h lies inside
     /// the volume and holds one label) and its hidden ones (inside the volume, no label the
     /// materials draw; marked where the volume holds several undrawn labels, else 0: then they are
     /// uniform). Rays step over both whole, over a Morton-aligned 2x2x2 group of hidden ones at once.
@@ -345,6 +345,9 @@ public:
         uint32_t lod = 0;
         uint64_t uniformSubBlocks = 0;
         uint64_t hiddenSubBlocks = 0;
+        /// With GpuVolume::uniformLevels, at the finest level: each entry's uniform level (Morton
+        /// order, csgv/codec/UniformLevels.h) as its cache word holds it; else empty.
+        std::vector<uint8_t> uniformLevels;
     };
     /// Reads the brick table back: the bricks the cache holds now.
     Result<std::vector<CachedBrick>> cachedBricks() const;
