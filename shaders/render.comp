@@ -54,7 +54,7 @@ struct Counts {
     uint previews; // kAllocPreviews
     uint holes;    // kAllocHoles
     uint kept;     // kAllocNextKept: fewest samples of the cells at the target (kFlagListNext)
-    uint next;     // kFlagListNext: bit j set when the invocation's j-th cell stays below the target
+    uvec2 next;    // kFlagListNext: bit j (of 64: PIXEL_BLOCK^2 cells) set when the invocation's j-th cell stays below the target
 };
 Counts count;
 
@@ -531,14 +531,15 @@ uint listIndex(uint j) {
 /// are few there (the pixels that met missing bricks): the loop runs as often as the most any
 /// lane has.
 void listNext() {
-    const uint n = bitCount(count.next);
+    const uint n = bitCount(count.next.x) + bitCount(count.next.y);
     const uint total = subgroupAdd(n);
     const uint before = subgroupExclusiveAdd(n);
     uint base = 0u;
     if (subgroupElect() && total > 0u) base = atomicAdd(UintBuf(frameAddr[kSlotAlloc]).w[kAllocNextCount], total);
     base = subgroupMax(base) + fv.image.x * fv.image.y + before;
     UintBuf list = UintBuf(frameAddr[kSlotPixelList]);
-    for (uint m = count.next; m != 0u; m &= m - 1u) list.w[base++] = listedCell(listIndex(findLSB(m)));
+    for (uint word = 0u; word < 2u; ++word)
+        for (uint m = count.next[word]; m != 0u; m &= m - 1u) list.w[base++] = listedCell(listIndex(32u * word + uint(findLSB(m))));
 }
 #endif
 
@@ -554,7 +555,7 @@ void main() {
     normalZ = f.faceNormals[5].xyz;
     boxLo = ivec3(fv.clipMin.xyz);
     boxHi = ivec3(fv.clipMax.xyz);
-    count = Counts(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPrevMin], kNone, 0u, 0u, kNone, 0u, 0u, kNone, 0u);
+    count = Counts(UintBuf(frameAddr[kSlotAlloc]).w[kAllocPrevMin], kNone, 0u, 0u, kNone, 0u, 0u, kNone, uvec2(0u));
     // PIXEL_BLOCK^2 pixels per invocation: lavapipe spends about 0.1 us on each invocation itself.
 #if PIXEL_LIST
     // The cells listed (all by the host, or those below the sample target by pixel_list.comp;
@@ -567,7 +568,7 @@ void main() {
         // leave the loop once every lane is (a short list costs its rounds, not PIXEL_BLOCK^2).
         if (i >= listed) break;
         const uint cell = listedCell(i);
-        if (renderPixel(uvec2(cell & 0xFFFFu, cell >> 16u))) count.next |= 1u << j;
+        if (renderPixel(uvec2(cell & 0xFFFFu, cell >> 16u))) count.next[j >> 5u] |= 1u << (j & 31u);
     }
     if ((fv.frame.y & kFlagListNext) != 0u) listNext();
 #else
