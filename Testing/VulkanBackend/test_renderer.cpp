@@ -99,16 +99,10 @@ void expectGBufferEquals(const FrameOutput& out, const GBuffer& ref, const std::
 /// carry (GpuVolume::uniformLevels), else over uniform sub-blocks.
 UniformSteps stepsOf(const Renderer& r) { return r.volume().uniformLevels() ? UniformSteps::Levels : UniformSteps::SubBlocks; }
 
-void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
-                                  const std::string& what, bool paletting = false,
-                                  RendererOptions::Decode decode = RendererOptions::Decode::Auto, bool texels = true,
-                                  FrameOutput* image = nullptr) {
-    Scene& scene = fixtureScene(ctx, fixtureName);
-    std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
-    ASSERT_TRUE(gpu) << what;
-    RendererOptions options;
-    options.decode = decode;
-    options.renderTexels = texels;
+/// A renderer of `gpu` (the scene's volume) with `options`, at one sample a pixel at the finest
+/// level without jitter: its G-buffer equals castRaysStable's, stepping as the renderer does.
+void expectGBufferOfVolume(Context& ctx, Scene& scene, const std::shared_ptr<GpuVolume>& gpu, const RendererOptions& options,
+                           const FrameInput& in, const Geometry& g, const std::string& what, FrameOutput* image = nullptr) {
     Result<std::unique_ptr<Renderer>> r = Renderer::create(ctx, gpu, options);
     ASSERT_TRUE(r.isOk()) << r.message();
     (*r)->setGeometry(g);
@@ -123,6 +117,19 @@ void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, 
     const GBuffer ref = castRaysStable(scene.labels, g, view, [](uint32_t l) { return l != 0 && l != kInvalidLabel; },
                                        scene.volume.brickSize, stepsOf(**r));
     expectGBufferEquals(out, ref, what);
+}
+
+void expectGBufferEqualsReference(Context& ctx, const std::string& fixtureName, const FrameInput& in, const Geometry& g,
+                                  const std::string& what, bool paletting = false,
+                                  RendererOptions::Decode decode = RendererOptions::Decode::Auto, bool texels = true,
+                                  FrameOutput* image = nullptr) {
+    Scene& scene = fixtureScene(ctx, fixtureName);
+    std::shared_ptr<GpuVolume> gpu = gpuVolume(ctx, scene, paletting);
+    ASSERT_TRUE(gpu) << what;
+    RendererOptions options;
+    options.decode = decode;
+    options.renderTexels = texels;
+    expectGBufferOfVolume(ctx, scene, gpu, options, in, g, what, image);
 }
 
 /// The renderer's G-buffer equals the stable reference's: labels, faces, and depths and
@@ -201,9 +208,6 @@ TEST(Renderer, GBufferEqualsStableReferenceWithCachePaletting) {
                                  RendererOptions::Decode::Host);
 }
 
-// The render pass reads its hottest words through texel buffers where the device allows
-// (RendererOptions::renderTexels), else through buffer addresses, as it does for caches larger
-// than a texel view: both give the reference's G-buffer and the same image, bit for bit.
 // Without uniform levels (GpuVolumeOptions::uniformLevels off, as for labels of 2^29 and more) a
 // cache of 32-bit labels steps over uniform sub-blocks alone, and the G-buffer equals Core's
 // stepping so, after host and GPU decoding.
@@ -215,28 +219,20 @@ TEST(Renderer, GBufferEqualsStableReferenceWithoutUniformLevels) {
     vo.uniformLevels = false;
     Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(*ctx, scene.volume, vo);
     ASSERT_TRUE(made.isOk()) << made.message();
-    ASSERT_FALSE((*made)->uniformLevels());
+    ASSERT_FALSE((*made)->uniformLevels()); // stepsOf then gives castRaysStable UniformSteps::SubBlocks
     const std::shared_ptr<GpuVolume> gpu(std::move(*made));
     const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
     for (const RendererOptions::Decode decode : {RendererOptions::Decode::Host, RendererOptions::Decode::Gpu}) {
         RendererOptions o;
         o.decode = decode;
-        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, o);
-        ASSERT_TRUE(r.isOk()) << r.message();
-        ASSERT_EQ(stepsOf(**r), UniformSteps::SubBlocks);
-        RenderSettings st;
-        st.finest = true;
-        st.jitter = false;
-        st.denoise = false;
-        (*r)->setSettings(st);
-        const FrameOutput out = renderConverged(**r, in, 1, 64);
-        const GBuffer ref = castRaysStable(scene.labels, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
-                                           [](uint32_t l) { return l != 0 && l != kInvalidLabel; }, scene.volume.brickSize,
-                                           UniformSteps::SubBlocks);
-        expectGBufferEquals(out, ref, decode == RendererOptions::Decode::Gpu ? "sub-blocks, GPU decoding" : "sub-blocks, host decoding");
+        expectGBufferOfVolume(*ctx, scene, gpu, o, in, Geometry{}, decode == RendererOptions::Decode::Gpu ? "sub-blocks, GPU decoding"
+                                                                                                          : "sub-blocks, host decoding");
     }
 }
 
+// The render pass reads its hottest words through texel buffers where the device allows
+// (RendererOptions::renderTexels), else through buffer addresses, as it does for caches larger
+// than a texel view: both give the reference's G-buffer and the same image, bit for bit.
 TEST(Renderer, GBufferEqualsStableReferenceThroughBufferAddressesAsThroughTexels) {
     CSGV_REQUIRE_GPU(ctx);
     const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
