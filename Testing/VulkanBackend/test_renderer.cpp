@@ -582,12 +582,13 @@ LabelVolume blockVolume(const std::function<uint32_t(uint32_t, uint32_t, uint32_
     return v;
 }
 
-/// A renderer of a small hand-made volume (bricks of 16), or null after a failure. `encoded`
-/// receives its encoding, which the renderer's GpuVolume refers to: it must outlive the renderer.
+/// A renderer of a small hand-made volume (bricks of 16 unless said), or null after a failure.
+/// `encoded` receives its encoding, which the renderer's GpuVolume refers to: it must outlive the
+/// renderer.
 std::unique_ptr<Renderer> volumeRenderer(Context& ctx, const LabelVolume& v, CompressedVolume& encoded,
-                                         const RendererOptions& o = {}) {
+                                         const RendererOptions& o = {}, uint32_t brickSize = 16) {
     EncodeOptions eo;
-    eo.brickSize = 16;
+    eo.brickSize = brickSize;
     Result<CompressedVolume> vol = encodeVolume(v, eo);
     EXPECT_TRUE(vol.isOk()) << vol.message();
     if (!vol) return nullptr;
@@ -600,6 +601,54 @@ std::unique_ptr<Renderer> volumeRenderer(Context& ctx, const LabelVolume& v, Com
     if (!r) return nullptr;
     return std::move(*r);
 }
+
+} // namespace
+
+// Uniform levels at the smallest and a large brick size (sub-blocks of 2 and 16 voxels, levels up
+// to 3 and 6), on a volume of odd sizes whose bricks reach beyond it: the cached words' levels equal
+// Core's after host and GPU decoding, and the G-buffer equals castRaysStable's stepping by them.
+TEST(Renderer, UniformLevelsOfEveryBrickSizeStepExactly) {
+    CSGV_REQUIRE_GPU(ctx);
+    LabelVolume v;
+    v.dim = {70, 61, 53};
+    v.labels.resize(size_t(v.dim[0]) * v.dim[1] * v.dim[2]);
+    for (uint32_t z = 0; z < v.dim[2]; ++z) // slabs of one label (a fifth of them label 0), a few voxels off
+        for (uint32_t y = 0; y < v.dim[1]; ++y)
+            for (uint32_t x = 0; x < v.dim[0]; ++x)
+                v.labels[size_t(v.index(x, y, z))] = (x * 7 + y * 3 + z * 5) % 97 == 0 ? 9 : (x / 12 + y / 9 + z / 7) % 5;
+    const FrameInput in = perspectiveView({-60, 140, 120}, {35, 30, 26}, {0.1, 0.2, 1}, 40, 96, 72);
+    for (const uint32_t brickSize : {8u, 64u})
+        for (const RendererOptions::Decode decode : {RendererOptions::Decode::Host, RendererOptions::Decode::Gpu}) {
+            const std::string what = "bricks of " + std::to_string(brickSize) +
+                                     (decode == RendererOptions::Decode::Gpu ? ", GPU decoding" : ", host decoding");
+            CompressedVolume encoded;
+            RendererOptions o;
+            o.decode = decode;
+            std::unique_ptr<Renderer> r = volumeRenderer(*ctx, v, encoded, o, brickSize);
+            ASSERT_TRUE(r) << what;
+            ASSERT_TRUE(r->volume().uniformLevels()) << what;
+            RenderSettings st;
+            st.finest = true;
+            st.jitter = false;
+            st.denoise = false;
+            r->setSettings(st);
+            const FrameOutput out = renderConverged(*r, in, 1, 64);
+            const GBuffer ref = castRaysStable(v, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
+                                               [](uint32_t l) { return l != 0 && l != kInvalidLabel; }, brickSize, UniformSteps::Levels);
+            expectGBufferEquals(out, ref, what);
+            Result<std::vector<Renderer::CachedBrick>> cached = r->cachedBricks();
+            ASSERT_TRUE(cached.isOk()) << cached.message();
+            size_t checked = 0;
+            for (const Renderer::CachedBrick& b : *cached) {
+                if (b.lod != 0) continue;
+                EXPECT_EQ(b.uniformLevels, expectedUniformLevels(encoded, v, b.brick)) << what << ", brick " << b.brick;
+                ++checked;
+            }
+            EXPECT_GT(checked, 1u) << what;
+        }
+}
+
+namespace {
 
 size_t differingValues(const std::vector<float>& a, const std::vector<float>& b) {
     size_t n = 0;
