@@ -660,20 +660,20 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                     w.prevLabel = kNone; // whatever it holds is not drawn: the next drawn label is a surface
                 } else {
 #if UNIFORM_LEVELS
-                    // At the finest level, on past the largest uniform cube around the voxel, its
-                    // level read with the label (one gather a step; a bad brick's kNone words pass
-                    // the brick).
-                    const uint word = entryWord(s.x, code >> (3u * s.y));
-                    if (entersCandidate(w, wordLabel(word), label)) {
+                    const uint word = entryWord(s.x, code >> (3u * s.y)); // the label, its uniform level above it
+                    const uint voxelLabel = wordLabel(word);
+#else
+                    const uint voxelLabel = cachedLabel(f, s.x, s.y, code, palette);
+#endif
+                    if (entersCandidate(w, voxelLabel, label)) {
                         candidate = true;
                         break;
                     }
+#if UNIFORM_LEVELS
+                    // At the finest level, on past the largest uniform cube around the voxel (a bad
+                    // brick's kNone words pass the brick).
                     if (k == 0u) k = min(word >> kUniformLevelShift, BRICK_SHIFT);
 #else
-                    if (entersCandidate(w, cachedLabel(f, s.x, s.y, code, palette), label)) {
-                        candidate = true;
-                        break;
-                    }
                     if (k == 0u && SUB_SHIFT >= 0 && (((j < 32u ? uniformSubs.x : uniformSubs.y) >> (j & 31u)) & 1u) != 0u)
                         k = uint(SUB_SHIFT);
 #endif

@@ -7,6 +7,7 @@
 #include "TestData.h"
 #include "Png.h"
 
+#include "csgv/base/Checked.h"
 #include "csgv/codec/BrickGroups.h"
 #include "csgv/codec/Container.h"
 #include "csgv/codec/CsgvFile.h"
@@ -292,8 +293,7 @@ uint64_t expectedSubBlockMask(const CompressedVolume& vol, const LabelVolume& le
 
 /// Core's uniform levels of brick `b` (UniformLevels.h), from the volume's labels.
 std::vector<uint8_t> expectedUniformLevels(const CompressedVolume& vol, const LabelVolume& labels, uint32_t b) {
-    uint32_t shift = 0;
-    while ((1u << shift) < vol.brickSize) ++shift;
+    const uint32_t shift = floorLog2(vol.brickSize);
     const std::array<uint32_t, 3> grid = vol.brickGrid();
     const std::array<uint32_t, 3> origin = {b % grid[0] << shift, b / grid[0] % grid[1] << shift, b / (grid[0] * grid[1]) << shift};
     const uint32_t n = 1u << (3 * shift);
@@ -347,9 +347,7 @@ void expectUniformMasks(Context& ctx, RendererOptions::Decode decode, bool palet
     EXPECT_GT(uniform, 0u);
     EXPECT_GT(mixed, 0u);
     // ... and cubes larger than a sub-block (levels above it come from several sub-blocks).
-    uint32_t subShift = 0;
-    while ((1u << (subShift + kUniformShift)) < scene.volume.brickSize) ++subShift;
-    if (!paletting) EXPECT_GT(deepest, subShift);
+    if (!paletting) EXPECT_GT(deepest, floorLog2(scene.volume.brickSize) - kUniformShift);
 }
 
 } // namespace

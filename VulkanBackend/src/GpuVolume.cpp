@@ -4,6 +4,7 @@
 #include "csgv/gpu/DetailStream.h"
 #include "csgv/gpu/FrameLayout.h"
 
+#include "csgv/base/Checked.h"
 #include "csgv/base/MappedFile.h"
 #include "csgv/codec/UniformLevels.h"
 
@@ -463,14 +464,10 @@ Status GpuVolume::decodeRegion(BrickDecoder& decoder, uint32_t brick, uint32_t l
     const uint64_t edge = decoder.gridSize();
     packRegion(brick, decoder.labels(), edge * edge * edge, out);
     if (lod == 0 && m_uniformLevels) { // each word's uniform level above its label (Layout.h)
-        uint32_t shift = 0;
-        while ((1u << shift) < m_volume.brickSize) ++shift;
-        const std::array<uint32_t, 3> grid = m_volume.brickGrid();
-        const std::array<uint32_t, 3> origin = {uint32_t(brick % grid[0]) << shift, uint32_t(brick / grid[0] % grid[1]) << shift,
-                                                uint32_t(brick / (uint64_t(grid[0]) * grid[1])) << shift};
         thread_local std::vector<uint8_t> levels; // decodeRegion runs on the host workers (one a run of eight)
         levels.resize(edge * edge * edge / 8);
-        csgv::uniformLevels(out, shift, origin, {m_volume.dim[0], m_volume.dim[1], m_volume.dim[2]}, levels.data());
+        uniformLevelsOfBrick(out, floorLog2(m_volume.brickSize), brick, {m_volume.dim[0], m_volume.dim[1], m_volume.dim[2]},
+                             levels.data());
         for (uint64_t r = 0; r < levels.size(); ++r)
             if (const uint32_t bits = uint32_t(levels[r]) << kUniformLevelShift)
                 for (uint32_t* w = out + 8 * r; w != out + 8 * r + 8; ++w) *w |= bits;

@@ -249,18 +249,18 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
         std::vector<uint32_t> morton(n);
         std::vector<uint8_t> levels(n / 8);
         const std::array<uint32_t, 3> dim = {volume.dim[0], volume.dim[1], volume.dim[2]};
+        std::vector<size_t> voxelOf(n); // the volume index of each Morton entry, SIZE_MAX beyond the volume
         for (size_t b = 0; b < brickVisible.size(); ++b) {
-            const std::array<uint32_t, 3> bc = {uint32_t(b % grid[0]) << shift, uint32_t(b / grid[0] % grid[1]) << shift,
-                                                uint32_t(b / (size_t(grid[0]) * grid[1])) << shift};
+            const uint32_t bc[3] = {uint32_t(b % grid[0]) << shift, uint32_t(b / grid[0] % grid[1]) << shift,
+                                    uint32_t(b / (size_t(grid[0]) * grid[1])) << shift};
             for (uint64_t e = 0; e < n; ++e) {
                 const uint32_t x = bc[0] + mortonX(uint32_t(e)), y = bc[1] + mortonY(uint32_t(e)), z = bc[2] + mortonZ(uint32_t(e));
-                morton[e] = x < dim[0] && y < dim[1] && z < dim[2] ? volume.at(x, y, z) : kInvalidLabel;
+                voxelOf[e] = x < dim[0] && y < dim[1] && z < dim[2] ? x + size_t(dim[0]) * (y + size_t(dim[1]) * z) : SIZE_MAX;
+                morton[e] = voxelOf[e] != SIZE_MAX ? volume.labels[voxelOf[e]] : kInvalidLabel;
             }
-            uniformLevels(morton.data(), uint32_t(shift), bc, dim, levels.data());
-            for (uint64_t e = 0; e < n; ++e) {
-                const uint32_t x = bc[0] + mortonX(uint32_t(e)), y = bc[1] + mortonY(uint32_t(e)), z = bc[2] + mortonZ(uint32_t(e));
-                if (x < dim[0] && y < dim[1] && z < dim[2]) voxelLevel[x + size_t(dim[0]) * (y + size_t(dim[1]) * z)] = levels[e / 8];
-            }
+            uniformLevelsOfBrick(morton.data(), uint32_t(shift), b, dim, levels.data());
+            for (uint64_t e = 0; e < n; ++e)
+                if (voxelOf[e] != SIZE_MAX) voxelLevel[voxelOf[e]] = levels[e / 8];
         }
     }
     const float pixX = 2.0f / float(view.width), pixY = 2.0f / float(view.height);
@@ -360,8 +360,7 @@ GBuffer castRaysStable(const LabelVolume& volume, const Geometry& g, const RayCa
                             }
                         }
                         if (steps == UniformSteps::Levels)
-                            stableStep(w, voxelLevel[size_t(w.voxel[0]) +
-                                                     volume.dim[0] * (size_t(w.voxel[1]) + size_t(volume.dim[1]) * size_t(w.voxel[2]))]);
+                            stableStep(w, voxelLevel[size_t(volume.index(uint32_t(w.voxel[0]), uint32_t(w.voxel[1]), uint32_t(w.voxel[2])))]);
                         else
                             stableStep(w, subShift >= 0 && ((uniform[bi] >> j) & 1u) != 0 ? subShift : 0);
                     }

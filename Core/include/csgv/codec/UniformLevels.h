@@ -57,6 +57,16 @@ inline void uniformLevels(const uint32_t* labels, uint32_t shift, const std::arr
     }
 }
 
+/// The same for brick `brick` (x fastest) of a volume of `dim` voxels in bricks of 2^shift a side.
+inline void uniformLevelsOfBrick(const uint32_t* labels, uint32_t shift, uint64_t brick, const std::array<uint32_t, 3>& dim,
+                                 uint8_t* out) {
+    const uint32_t edge = 1u << shift;
+    const uint64_t gx = (dim[0] + edge - 1) / edge, gy = (dim[1] + edge - 1) / edge;
+    const std::array<uint32_t, 3> origin = {uint32_t(brick % gx) << shift, uint32_t(brick / gx % gy) << shift,
+                                            uint32_t(brick / (gx * gy)) << shift};
+    uniformLevels(labels, shift, origin, dim, out);
+}
+
 } // namespace csgv
 
 #endif
