@@ -46,6 +46,7 @@ struct RenderArgs {
     uint64_t deviceMemoryMiB = 0; ///< 0: automatic
     uint64_t hostMemoryMiB = 0;   ///< 0: automatic (TieredVolume::automaticBudget)
     gpu::RendererOptions::Decode decode = gpu::RendererOptions::Decode::Auto;
+    uint32_t decodeSteps = gpu::RendererOptions::kDecodeStepsAuto;
     bool cachePaletting = false;
     std::vector<std::string> attributeFiles;
     std::vector<std::pair<std::string, std::string>> derived; ///< name, SQL expression
@@ -121,6 +122,15 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
         else if (v == "gpu") a.decode = D::Gpu;
         else if (v == "host") a.decode = D::Host;
         else return Status::error("--decode expects auto, gpu or host, not '" + v + "'");
+        return Status::ok();
+    });
+    values.add("--decode-steps", [&a](const std::string& v) {
+        unsigned n = 0;
+        char extra = 0;
+        if (v == "all") a.decodeSteps = gpu::RendererOptions::kDecodeStepsAll;
+        else if (v == "auto") a.decodeSteps = gpu::RendererOptions::kDecodeStepsAuto;
+        else if (std::sscanf(v.c_str(), "%u%c", &n, &extra) == 1 && n >= 1 && n <= 1000000) a.decodeSteps = n;
+        else return Status::error("--decode-steps expects auto, all or a number of steps from 1 to 1000000, not '" + v + "'");
         return Status::ok();
     });
     values.add("--shading", [&a](const std::string& v) {
@@ -383,7 +393,8 @@ int cmdRender(int argc, char** argv) {
     std::shared_ptr<gpu::GpuVolume> shared(std::move(*volume));
     const double uploadMs = since(tUpload);
     const auto tRenderer = std::chrono::steady_clock::now();
-    const gpu::RendererOptions options = plan.share(shared->deviceBytes(), 1, a.decode);
+    gpu::RendererOptions options = plan.share(shared->deviceBytes(), 1, a.decode);
+    options.decodeStepsPerFrame = a.decodeSteps;
     Result<std::unique_ptr<gpu::Renderer>> renderer = gpu::Renderer::create(**ctx, shared, options);
     if (!renderer) return fail(renderer.message());
     gpu::Renderer& r = **renderer;

@@ -2,6 +2,8 @@
 // Assign stage, one invocation per request: takes a region from the level's free stack, else
 // from the regions provisioned at the top, records it for the brick and queues its decoding.
 // Requests that find no region stay undecoded (the cache is full; see Renderer.cpp).
+// CARRY_DECODES: the brick's level is set when its decoding ends (decode_bricks.comp), maybe
+// frames later; until then the region is the brick's (x) and the rays find it missing (y kNone).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
@@ -30,7 +32,9 @@ void main() {
     }
     Uvec4Buf bricks = Uvec4Buf(frameAddr[kSlotBricks]);
     bricks.v[b].x = offset;
+#if !CARRY_DECODES
     bricks.v[b].y = l;
+#endif
     const uint d = atomicAdd(alloc.w[kAllocDecodes], 1u);
     UintBuf dec = UintBuf(frameAddr[kSlotDecodes]);
     dec.w[kDecodeEntryWords * d] = b;

@@ -73,5 +73,8 @@ void main() {
     loadFrameValues(f);
     UintBuf dec = UintBuf(frameAddr[kSlotDecodes]);
     const uint level = LEVELS - 1u - min(dec.w[kDecodeEntryWords * i + 1u], LEVELS - 1u); // from the inverse level
+#if CARRY_DECODES
+    if (Uvec4Buf(frameAddr[kSlotBricks]).v[dec.w[kDecodeEntryWords * i]].y == kNone) return; // still being decoded
+#endif
     if (level <= uint(SUB_SHIFT)) markBrick(f, dec.w[kDecodeEntryWords * i], dec.w[kDecodeEntryWords * i + 2u], level);
 }

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Provision stage, one invocation: for each level whose free stack cannot serve all of its
 // requests, hands out regions from the top of the cache; flags the cache as full when the top
-// is reached. Also clears the decode count of the previous frame.
+// is reached. Also clears the decode count of the previous frame (CARRY_DECODES: starts it at
+// the decodes the previous frame carried over, the first entries of this frame's list).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "render_common.glsl"
@@ -13,8 +14,15 @@ void main() {
     Frame f = Frame(pc.frame);
     loadFrameValues(f);
     UintBuf alloc = UintBuf(frameAddr[kSlotAlloc]);
-    alloc.w[kAllocDecodes] = 0u;
-    alloc.w[kAllocRequests] = min(alloc.w[kAllocRequests], fv.limits.x);
+#if CARRY_DECODES
+    const uint carried = min(alloc.w[kAllocCarry], fv.limits.x);
+    alloc.w[kAllocCarry] = 0u;
+#else
+    const uint carried = 0u;
+#endif
+    alloc.w[kAllocDecodes] = carried;
+    alloc.w[kAllocCarried] = carried;
+    alloc.w[kAllocRequests] = min(alloc.w[kAllocRequests], fv.limits.x - carried);
     for (uint l = 0u; l < LEVELS; ++l) {
         const uint freeCount = min(alloc.w[kAllocFreeCount + l], fv.counts.y);
         alloc.w[kAllocFreeCount + l] = freeCount;

@@ -56,6 +56,10 @@ void requestBrick(uint b) {
 #endif
     const uint flag = visible ? (level != wanted ? kBrickStandIn : 1u) : 0u;
     if (s.w != flag) bricks.v[b].w = flag; // materials changed, or the brick's detail
+#if CARRY_DECODES
+    // Being decoded (a region, no level yet): left alone until its decoding ends.
+    if (s.y == kNone && s.x != kNone) return;
+#endif
     if (s.y != kNone) {
         // s.z is the frame index + 1 of the last use: the age is 0 for the previous frame's bricks.
         const uint evictAge = alloc.w[kAllocEvictAge];
@@ -66,11 +70,18 @@ void requestBrick(uint b) {
         // A full stack cannot happen (a level never has more regions than bricks); if it did, the
         // region would only be dead space until the next cache reset.
         if (k < fv.counts.y) UintBuf(frameAddr[kSlotFree]).w[s.y * fv.counts.y + k] = s.x;
+#if CARRY_DECODES
+        bricks.v[b].xy = uvec2(kNone); // no region: not being decoded either
+#else
         bricks.v[b].y = kNone;
+#endif
         s.y = kNone;
     }
     if (!used || !visible) return;
     const uint r = atomicAdd(alloc.w[kAllocRequests], 1u);
+#if CARRY_DECODES
+    if (r + min(alloc.w[kAllocCarry], fv.limits.x) >= fv.limits.x) return; // the list holds carried decodes first
+#endif
     if (r >= fv.limits.x) return; // over this frame's decode budget: asked again next frame
     atomicAdd(alloc.w[kAllocReqCount + level], 1u);
     UintBuf req = UintBuf(frameAddr[kSlotRequests]);

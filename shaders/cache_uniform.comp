@@ -79,6 +79,9 @@ void main() {
     UintBuf dec = UintBuf(frameAddr[kSlotDecodes]);
     const bool finest = dec.w[kDecodeEntryWords * i + 1u] == LEVELS - 1u; // inverse level
     const uint brick = dec.w[kDecodeEntryWords * i];
+#if CARRY_DECODES
+    if (Uvec4Buf(frameAddr[kSlotBricks]).v[brick].y == kNone) return; // still being decoded (the whole group)
+#endif
     const uint offset = dec.w[kDecodeEntryWords * i + 2u];
     const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y)) *
                     BRICK_SIZE;

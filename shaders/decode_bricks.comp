@@ -14,6 +14,7 @@
 layout(local_size_x = DECODE_GROUP) in;
 
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer Uints { uint w[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer Uvec4s { uvec4 v[]; };
 
 layout(push_constant) uniform Push {
     CSGV_DECODE_PUSH_MEMBERS
@@ -32,15 +33,19 @@ void main() {
     const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
     Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick, pc.detail, pc.ring);
     Uints saved = Uints(pc.states);
-    const uint o = kDecodeStateWords * i;
+    uint o = kDecodeStateWords * i;
+    // Decodes that carry over frames (pc.alloc set, RendererOptions::decodeStepsPerFrame): the
+    // list's first kAllocCarried entries continue from the previous frame, their states saved.
+    const bool carry = pc.alloc != 0ul;
     DecodeState st;
-    if (first != 0u) {
+    if (first != 0u && (!carry || i >= Uints(pc.alloc).w[kAllocCarried])) {
         st = initialState(b);
     } else {
         st = DecodeState(saved.w[o], saved.w[o + 1u], saved.w[o + 2u], saved.w[o + 3u], saved.w[o + 4u],
                          saved.w[o + 5u], saved.w[o + 6u], saved.w[o + 7u], saved.w[o + kDecodeStateStatus]);
     }
-    if (st.status == kDecodeRunning) {
+    const bool running = st.status == kDecodeRunning;
+    if (running) {
         decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
         if (st.status != kDecodeRunning && st.status != kDecodeOk) {
             // Failed (a corrupt stream): the region reads as outside the volume (drawn empty),
@@ -54,6 +59,18 @@ void main() {
                 params.w[kDecodeParamFailedCode] = st.status;
             }
         }
+    }
+    if (carry && running && st.status != kDecodeRunning) // ended (or failed: drawn empty): the rays may read it
+        Uvec4s(pc.bricks).v[brick].y = LEVELS - 1u - target;
+    if (carry && st.status == kDecodeRunning && params.w[kDecodeParamCarry] != 0u) {
+        // The frame's steps are spent: on in the next frame's list.
+        const uint k = atomicAdd(Uints(pc.alloc).w[kAllocCarry], 1u);
+        Uints next = Uints(pc.next);
+        next.w[kDecodeEntryWords * k] = brick;
+        next.w[kDecodeEntryWords * k + 1u] = target;
+        next.w[kDecodeEntryWords * k + 2u] = req.w[kDecodeEntryWords * i + 2u];
+        saved = Uints(pc.nextStates);
+        o = kDecodeStateWords * k;
     }
     saved.w[o] = st.level;
     saved.w[o + 1u] = st.pm;

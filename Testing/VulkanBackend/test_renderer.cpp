@@ -602,6 +602,54 @@ std::unique_ptr<Renderer> volumeRenderer(Context& ctx, const LabelVolume& v, Com
 
 } // namespace
 
+// GPU decodes that carry over frames (RendererOptions::decodeStepsPerFrame, as on GPUs): a brick
+// whose decoding takes more steps than a frame gives is missing to the rays until it ends, frames
+// later; the converged G-buffer is the reference's, bit for bit. Steps that one dispatch takes (300)
+// and that CPU devices split into three (1100: 512, 512, 76), after a view whose decodes are still
+// running when the camera moves on (their bricks half decoded, some no longer wanted), and under a
+// cache too small for the view (evictions and cache resets while decodes are carried).
+TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    const FrameInput in = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0.1, 0.2, 1}, 40, 96, 72);
+    const FrameInput away = perspectiveView({300, -200, -150}, {48, 40, 30}, {0, 0, 1}, 20, 48, 36);
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    st.denoise = false;
+    const GBuffer ref = castRaysStable(scene.labels, Geometry{}, RayCastView{in.worldToClip, in.width, in.height},
+                                       [](uint32_t l) { return l != 0 && l != kInvalidLabel; }, scene.volume.brickSize,
+                                       scene.gpu->uniformLevels() ? UniformSteps::Levels : UniformSteps::SubBlocks);
+    ASSERT_GT(scene.gpu->decodeSteps(), 1100u);
+    uint32_t allFrames = 0;
+    for (const uint32_t steps : {RendererOptions::kDecodeStepsAll, 1100u, 300u}) {
+        for (const bool moved : {false, true}) {
+            for (const uint64_t cacheBytes : {uint64_t(0), uint64_t(6) << 20}) {
+                if (steps == RendererOptions::kDecodeStepsAll && (moved || cacheBytes)) continue;
+                const std::string what = "steps " + std::to_string(steps) + (moved ? ", after another view" : "") +
+                                         (cacheBytes ? ", a small cache" : "");
+                RendererOptions o;
+                o.decode = RendererOptions::Decode::Gpu;
+                o.decodeStepsPerFrame = steps;
+                o.cacheBytes = cacheBytes;
+                o.prefetchVoxels = 0; // bricks are asked for as rays find them
+                Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
+                ASSERT_TRUE(r.isOk()) << r.message();
+                (*r)->setSettings(st);
+                if (moved) // a few frames of another view: decodes still running when it changes
+                    for (int f = 0; f < 3; ++f) ASSERT_TRUE((*r)->renderFrame(away).isOk()) << what;
+                uint32_t frames = 0;
+                const FrameOutput out = renderConverged(**r, in, 1, 400, &frames);
+                expectGBufferEquals(out, ref, what);
+                EXPECT_EQ((*r)->badBricks(), 0u) << what;
+                if (steps == RendererOptions::kDecodeStepsAll) allFrames = frames;
+                // A finest-level brick takes decodeSteps() / steps frames: more frames than decodes in one.
+                else if (!moved && !cacheBytes) EXPECT_GT(frames, allFrames + scene.gpu->decodeSteps() / steps - 1) << what;
+            }
+        }
+    }
+}
+
 // Uniform levels at the smallest and a large brick size (sub-blocks of 2 and 16 voxels, levels up
 // to 3 and 6), on a volume of odd sizes whose bricks reach beyond it: the cached words' levels equal
 // Core's after host and GPU decoding, and the G-buffer equals castRaysStable's stepping by them.

@@ -81,7 +81,7 @@ void tableDefines(const std::array<uint32_t, 16>& f, const char* cumName, Define
 
 /// Steps the shader needs for a brick decoded to inverse level `target` (csgv_decode.glsl): the
 /// root, then each level's parents and one step to close the level.
-uint64_t decodeSteps(uint32_t target) {
+uint64_t stepsToLevel(uint32_t target) {
     uint64_t n = 1;
     for (uint32_t l = 1; l <= target; ++l) n += (uint64_t(1) << (3 * (l - 1))) + 1;
     return n;
@@ -331,7 +331,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     if (!states) return states.status();
     // Every brick needs the same fixed number of dispatches for its level: no host round trip.
     uint64_t steps = 0;
-    for (const BrickRequest& r : requests) steps = std::max(steps, decodeSteps(L - 1 - r.lod));
+    for (const BrickRequest& r : requests) steps = std::max(steps, stepsToLevel(L - 1 - r.lod));
     const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;
     std::vector<uint32_t> params;
     for (uint64_t done = 0; done < steps; done += perDispatch) {
@@ -364,7 +364,7 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
     for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), req->address(), cache.address(),
                                     states->address(), paramBuffer->address() + 4 * kDecodeParamWords * k,
-                                    paramBuffer->address() + 4 * kDecodeParamWords * k, detailTable, detailRing});
+                                    paramBuffer->address() + 4 * kDecodeParamWords * k, detailTable, detailRing, 0, 0, 0, 0});
     std::vector<Context::Dispatch> dispatches;
     for (const DecodePush& push : pushes) {
         Context::Dispatch d;
@@ -387,10 +387,13 @@ Status GpuVolume::decode(const std::vector<BrickRequest>& requests, Buffer& cach
 
 Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress,
                                     uint64_t statesAddress, uint32_t maxRequests, FrameDecode& storage,
-                                    std::vector<Context::Dispatch>& out, const DetailStream* detail) {
+                                    std::vector<Context::Dispatch>& out, const DetailStream* detail, const Carry* carryOrNull) {
     if (m_hostDecoding) return Status::error(kNoEncodingOnTheDevice);
     if (m_separated && !detail) return Status::error("GPU decoding of a separated volume needs a detail stream");
-    const uint64_t steps = decodeSteps(m_volume.levels() - 1);
+    const Carry carry = carryOrNull ? *carryOrNull : Carry{};
+    const bool carries = carry.stepsPerFrame != 0 && carry.stepsPerFrame < decodeSteps();
+    if (carries && detail) return Status::error("decodes that carry over frames cannot stream detail");
+    const uint64_t steps = carries ? carry.stepsPerFrame : decodeSteps();
     const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;
     std::vector<uint32_t> params;
     for (uint64_t done = 0; done < steps; done += perDispatch) {
@@ -398,6 +401,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         params.push_back(uint32_t(std::min<uint64_t>(perDispatch, steps - done)));
         params.push_back(done == 0 ? 1u : 0u);
         params.resize(params.size() + kDecodeParamWords - 3, 0u); // failures reported here
+        params[params.size() - kDecodeParamWords + kDecodeParamCarry] = carries && done + perDispatch >= steps ? 1u : 0u;
     }
     Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
     if (!paramBuffer) return paramBuffer.status();
@@ -408,7 +412,9 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     for (size_t k = 0; k < params.size() / kDecodeParamWords; ++k)
         storage.pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
                                             paramBuffer->address() + 4 * kDecodeParamWords * k, countAddress,
-                                            detail ? detail->tableAddress() : 0, detail ? detail->ringAddress() : 0});
+                                            detail ? detail->tableAddress() : 0, detail ? detail->ringAddress() : 0,
+                                            carries ? carry.alloc : 0, carries ? carry.bricks : 0, carries ? carry.next : 0,
+                                            carries ? carry.nextStates : 0});
     storage.params = std::move(*paramBuffer);
     for (const auto& push : storage.pushes) {
         Context::Dispatch d;
@@ -420,6 +426,8 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     }
     return Status::ok();
 }
+
+uint64_t GpuVolume::decodeSteps() const { return stepsToLevel(m_volume.levels() - 1); }
 
 Result<std::vector<uint32_t>> GpuVolume::decodeToHost(const std::vector<BrickRequest>& requests) {
     std::vector<BrickRequest> placed = requests;

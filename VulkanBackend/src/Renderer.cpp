@@ -83,6 +83,18 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("PIXEL_LIST", im.usesPixelList ? "1" : "0");
     const bool streaming = volume->separated() && !im.resolved.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
+    // GPU decodes that carry over frames: fewer steps a frame than a brick's finest level needs.
+    // CSGV_DECODE_STEPS=N: N steps where the options leave it automatic, on any device (the gpu
+    // tests run so on CPU devices, as GPUs do).
+    uint32_t steps = options.decodeStepsPerFrame;
+    if (steps == RendererOptions::kDecodeStepsAuto) {
+        const char* env = std::getenv("CSGV_DECODE_STEPS");
+        steps = env && std::atol(env) > 0          ? uint32_t(std::min<long>(std::atol(env), RendererOptions::kDecodeStepsAll))
+                : context.device().type == "cpu" ? RendererOptions::kDecodeStepsAll
+                                                 : RendererOptions::kGpuDecodeStepsPerFrame;
+    }
+    im.resolved.carrySteps = !im.resolved.hostDecode && !streaming && steps < volume->decodeSteps() ? steps : 0;
+    d.emplace_back("CARRY_DECODES", im.resolved.carrySteps ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
     im.lookup = planLabelLookup(volume->largestStoredLabel(), !volume->owned().empty(), im.budget);
@@ -119,7 +131,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
         MemoryKind kind;
         const char* what;
     };
-    const uint64_t bricks = im.brickCount, requests = im.maxRequests;
+    const uint64_t bricks = im.brickCount, requests = im.maxRequests, lists = im.resolved.carrySteps ? 2 : 1;
     const Table tables[] = {{&im.params, sizeof(FrameParams), im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "frame parameters"},
                             {&im.paramsHost, im.viaCopies ? sizeof(FrameParams) : 0, MemoryKind::HostVisible, "frame parameters' host copy"},
                             {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
@@ -131,8 +143,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                             {&im.allocHost, im.viaCopies ? kAllocWords * 4 : 0, MemoryKind::HostVisible, "cache counters' host copy"},
                             {&im.freeStacks, bricks * im.levels * 4, MemoryKind::DeviceLocal, "free stacks"},
                             {&im.requests, requests * 8, MemoryKind::DeviceLocal, "request list"},
-                            {&im.decodes, requests * kDecodeEntryWords * 4, hostOrDevice, "decode list"},
-                            {&im.decodeStates, requests * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"},
+                            {&im.decodes, lists * requests * kDecodeEntryWords * 4, hostOrDevice, "decode list"},
+                            {&im.decodeStates, lists * requests * kDecodeStateWords * 4, MemoryKind::DeviceLocal, "decoder states"},
                             {&im.blueNoise, sizeof(kBlueNoise64), MemoryKind::DeviceLocal, "blue-noise tile"},
                             {&im.detailRequests, streaming ? requests * 4 : 0, MemoryKind::HostVisible, "detail request list"}};
     // The budget: the encoding and the tables are fixed; the cache takes what they leave beside
@@ -177,11 +189,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     if (!(s = context.upload(im.blueNoise, 0, kBlueNoise64, sizeof(kBlueNoise64)))) return s;
     im.frameAddress = im.params.address();
     // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
-    if (!im.resolved.hostDecode &&
-        !(s = volume->appendFrameDecode(im.decodes.address(), im.alloc.address() + 4 * kAllocDecodes, im.cache.address(),
-                                        im.decodeStates.address(), im.maxRequests, im.frameDecode, im.decodeDispatches,
-                                        im.detail.get())))
-        return s;
+    if (!(s = im.makeFrameDecodes())) return s;
     std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
     for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
@@ -405,13 +413,14 @@ void Renderer::Impl::packState(const FrameInput& in, const RenderSettings& st, F
     p.drawn[2] = p.drawn[3] = 0;
     const std::pair<uint32_t, const Buffer*> slots[] = {
         {kSlotBricks, &bricks},       {kSlotCache, &cache},         {kSlotAlloc, &alloc},         {kSlotFree, &freeStacks},
-        {kSlotRequests, &requests},   {kSlotDecodes, &decodes},     {kSlotAccum, &accum},
+        {kSlotRequests, &requests},   {kSlotAccum, &accum},
         {kSlotGBuffer, &gbuffer},     {kSlotDepthIn, &depthIn},     {kSlotMaterials, &materials}, {kSlotColormaps, &colormaps},
         {kSlotAttributes, &attributeTable}, {kSlotOutput, &colorDepth}, {kSlotLabelMap, &labelMap},
         {kSlotDenoiseA, &denoiseA},   {kSlotDenoiseB, &denoiseB},   {kSlotVisible, &visible},     {kSlotBlueNoise, &blueNoise},
         {kSlotMaterialTable, &materialTable}, {kSlotUniform, &uniformSubs}, {kSlotLabelColors, &labelColors},
         {kSlotPixelList, &pixelList}, {kSlotHidden, &hiddenSubs}, {kSlotEmptyGroups, &emptyGroups}};
     for (const auto& sl : slots) p.addr[sl.first] = sl.second->address();
+    p.addr[kSlotDecodes] = decodeList(decodeParity);
     p.addr[kSlotArrays] = volume->arraysAddress();
     p.addr[kSlotStarts] = volume->startsAddress();
     p.addr[kSlotDetail] = detail ? detail->tableAddress() : 0;
@@ -449,7 +458,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (usesPixelList) listPixels(st);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!resolved.hostDecode) {
-        dispatches.insert(dispatches.end(), decodeDispatches.begin(), decodeDispatches.end());
+        dispatches.insert(dispatches.end(), decodeDispatches[decodeParity].begin(), decodeDispatches[decodeParity].end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
     // The sub-blocks without drawn labels: after a change of materials none, then (where there are
@@ -805,6 +814,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (detail && !(s = commitDetail())) return s;
     if (!(s = submit())) return s;
     if (!resolved.hostDecode) noteGpuDecodeFailures();
+    if (resolved.carrySteps) decodeParity ^= 1; // the next frame decodes from the list this one carried into
     materialState.labelColorsPending = false;
     materialState.hiddenAllPending = false;
     cacheState.cacheEmpty = false;

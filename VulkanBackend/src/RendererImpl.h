@@ -402,6 +402,9 @@ struct ResolvedOptions {
     bool hiddenWanted = true;       ///< RendererOptions::hiddenSubBlocks
     bool outlineWanted = true;      ///< RendererOptions::outlineSpans
     uint64_t prefetchVoxels = 0;    ///< RendererOptions::prefetchVoxels
+    /// RendererOptions::decodeStepsPerFrame: GPU decodes carry over frames (CARRY_DECODES), each
+    /// taking this many steps a frame (0: every decode ends in its frame).
+    uint32_t carrySteps = 0;
 };
 
 } // namespace renderer_detail
@@ -486,8 +489,33 @@ struct Renderer::Impl {
     uint32_t requestBlock = 1;        // REQUEST_BLOCK of cache_request.comp (bricks per invocation)
     uint32_t visibleBricks = 0;       // bricks a material draws (uploadVisibility)
     uint32_t frameIndex = 1;          // global, never reset (bricks remember the frame of last use)
-    GpuVolume::FrameDecode frameDecode; // the decode passes' parameters, made once
-    std::vector<Context::Dispatch> decodeDispatches; // GPU decoding of the frame's requests (same every frame)
+    // GPU decoding of the frame's requests: the passes' parameters and dispatches, made once. Where
+    // decodes carry over frames (resolved.carrySteps) the decode list and states are two, a frame
+    // decoding from one (decodeParity) and carrying into the other: a set for each.
+    GpuVolume::FrameDecode frameDecode[2];
+    std::vector<Context::Dispatch> decodeDispatches[2];
+    uint32_t decodeParity = 0;
+    /// The decode list (or its states, `states`) a frame of parity `parity` decodes from.
+    uint64_t decodeList(uint32_t parity, bool states = false) const {
+        const Buffer& b = states ? decodeStates : decodes;
+        return b.address() + (resolved.carrySteps ? parity * (b.size() / 2) : 0);
+    }
+    /// The decode dispatches of both parities (GPU decoding), for the current cache.
+    Status makeFrameDecodes() {
+        for (uint32_t parity = 0; parity < 2; ++parity) {
+            decodeDispatches[parity].clear();
+            frameDecode[parity] = GpuVolume::FrameDecode{};
+            if (resolved.hostDecode || (parity == 1 && !resolved.carrySteps)) continue;
+            GpuVolume::Carry carry;
+            if (resolved.carrySteps)
+                carry = {resolved.carrySteps, alloc.address(), bricks.address(), decodeList(parity ^ 1), decodeList(parity ^ 1, true)};
+            Status s = volume->appendFrameDecode(decodeList(parity), alloc.address() + 4 * kAllocDecodes, cache.address(),
+                                                 decodeList(parity, true), maxRequests, frameDecode[parity],
+                                                 decodeDispatches[parity], detail.get(), &carry);
+            if (!s) return s;
+        }
+        return Status::ok();
+    }
     // Detail streaming (GPU decoding of a separated volume): the finest-level streams the frames
     // ask for, uploaded between frames; bricks wait for theirs at the next coarser level.
     std::unique_ptr<DetailStream> detail;
@@ -527,8 +555,9 @@ struct Renderer::Impl {
     /// GPU decoding's failed bricks of the frame just finished (decode_bricks.comp counts them in
     /// its dispatches' host-visible parameters, which are cleared here for the next frame).
     void noteGpuDecodeFailures() {
-        auto* p = static_cast<uint32_t*>(frameDecode.params.mapped());
-        for (size_t k = 0; p && k < frameDecode.pushes.size(); ++k) {
+        const GpuVolume::FrameDecode& ran = frameDecode[decodeParity];
+        auto* p = static_cast<uint32_t*>(ran.params.mapped());
+        for (size_t k = 0; p && k < ran.pushes.size(); ++k) {
             uint32_t* w = p + k * kDecodeParamWords;
             if (w[kDecodeParamFailures] == 0) continue;
             std::lock_guard<std::mutex> lock(badMutex);
@@ -845,17 +874,13 @@ struct Renderer::Impl {
     Status resizeCache(uint64_t bytes) {
         renderTexels.clear(); // its view goes before the buffer
         cache = Buffer{};
-        decodeDispatches.clear();
-        frameDecode = GpuVolume::FrameDecode{};
+        for (auto& list : decodeDispatches) list.clear();
+        for (auto& d : frameDecode) d = GpuVolume::FrameDecode{};
         Result<Buffer> b = ctx.createBuffer(bytes, cacheKind);
         if (!b) return Status(b.status()).prefix("allocating the brick cache");
         cache = std::move(*b);
         Status s;
-        if (!resolved.hostDecode &&
-            !(s = volume->appendFrameDecode(decodes.address(), alloc.address() + 4 * kAllocDecodes, cache.address(),
-                                            decodeStates.address(), maxRequests, frameDecode, decodeDispatches,
-                                            detail.get())))
-            return s;
+        if (!(s = makeFrameDecodes())) return s;
         allocWords()[kAllocCapacity] = uint32_t(bytes / 4);
         return resetCacheNow();
     }

@@ -131,7 +131,9 @@ CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod
 CSGV_CONST(uint32_t, kAllocProvBase, 40u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocProvCount, 48u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocNextKept, 56u)    ///< kFlagListNext: fewest samples of the cells the next frame's list leaves out (kNone: none)
-CSGV_CONST(uint32_t, kAllocWords, 57u)
+CSGV_CONST(uint32_t, kAllocCarry, 57u)      ///< CARRY_DECODES: decodes the frame's last decode dispatch left unfinished, moved to the other decode list for the next frame
+CSGV_CONST(uint32_t, kAllocCarried, 58u)    ///< CARRY_DECODES: this frame's decodes carried from the previous frame (its list's first entries)
+CSGV_CONST(uint32_t, kAllocWords, 59u)
 
 // Workgroup sizes (the shaders' local_size, the host's group counts).
 CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), cache_assign.comp (per request)
@@ -190,6 +192,10 @@ CSGV_CONST(uint32_t, kDecodeParamWords, 8u)  ///< per dispatch: count (unused in
 CSGV_CONST(uint32_t, kDecodeParamFailures, 3u)
 CSGV_CONST(uint32_t, kDecodeParamFailedBrick, 4u)
 CSGV_CONST(uint32_t, kDecodeParamFailedCode, 5u)
+/// Word of a frame's decode dispatch parameters: 1 in the frame's last decode dispatch where
+/// decodes carry over frames (RendererOptions::decodeStepsPerFrame): it moves those still running
+/// to the other decode list (DecodePush::next), their states too, for the next frame.
+CSGV_CONST(uint32_t, kDecodeParamCarry, 6u)
 /// Decode result (besides csgv/codec/Layout.h's): the finest level of a separated volume was
 /// requested but its stream is not in the detail buffer.
 CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
@@ -205,7 +211,11 @@ CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
     uint64_t params;   /* kDecodeParamWords of this dispatch */                                     \
     uint64_t count;    /* the decode count in its first word (written by the GPU in frames) */   \
     uint64_t detail;   /* separated volumes: the detail table (kSlotDetail), else 0 */               \
-    uint64_t ring;     /* separated volumes: the detail buffer, else 0 */
+    uint64_t ring;     /* separated volumes: the detail buffer, else 0 */                           \
+    uint64_t alloc;    /* frames whose decodes carry over: the cache counters (kAllocCarry), else 0 */ \
+    uint64_t bricks;   /* ... the brick table: a decode that ends sets its brick's level */         \
+    uint64_t next;     /* ... the next frame's decode list */                                       \
+    uint64_t nextStates; /* ... and its states */
 
 /// The frame parameter block (std430), one per frame: GLSL `Frame`, C++ `FrameParams`.
 #define CSGV_FRAME_MEMBERS                                                                          \
@@ -271,7 +281,7 @@ static_assert(sizeof(ResolvePush) == 24, "ResolvePush must match resolve.comp's 
 struct DecodePush {
     CSGV_DECODE_PUSH_MEMBERS
 };
-static_assert(sizeof(DecodePush) == 72, "DecodePush must match decode_bricks.comp's push constants");
+static_assert(sizeof(DecodePush) == 104, "DecodePush must match decode_bricks.comp's push constants");
 #endif
 
 CSGV_NAMESPACE_END

@@ -135,6 +135,17 @@ struct RendererOptions {
     /// on lavapipe.
     enum class Decode { Auto, Gpu, Host };
     Decode decode = Decode::Auto;
+    /// GPU decoding: decoder steps a frame gives each brick (a step: one node's 8 children; a
+    /// 32^3 brick takes 4,686 to its finest level, GpuVolume::decodeSteps). A brick decodes one
+    /// invocation at a time, so a frame that decodes waits for its longest brick (about 5 ms on an
+    /// H200 for a finest-level brick, whatever else the frame does): with fewer steps its decoding
+    /// goes on in the next frames, the rays finding the brick missing until it ends (previews
+    /// stand in while the camera moves, and the image converges once it is there).
+    /// kDecodeStepsAuto: kGpuDecodeStepsPerFrame on GPUs, every step on CPU devices (one frame).
+    /// Not with detail streaming (every step: a stream stays in its ring only for its frame).
+    static constexpr uint32_t kDecodeStepsAuto = 0, kDecodeStepsAll = 0xFFFFFFFFu;
+    static constexpr uint32_t kGpuDecodeStepsPerFrame = 1024;
+    uint32_t decodeStepsPerFrame = kDecodeStepsAuto;
 };
 
 /// Whether `decode` decodes on the host on this device (Auto: on CPU devices). The one rule for
