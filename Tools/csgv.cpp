@@ -92,7 +92,7 @@ std::string usage() {
            "         0.5 rad, azimuth 4.0 rad, up +z, fov 59.4 degrees); --orbit turns it about the up axis\n"
            "         --frames-per-view N: exactly N frames a pose, converged or not (1: a moving camera)\n"
            "         --decode-steps N: GPU decoding gives each brick N steps a frame, going on in the next\n"
-           "         frames (auto: 1024 on GPUs, all on CPU devices; all: every brick ends in its frame)\n"
+           "         frames (auto: 512 on GPUs, all on CPU devices; all: every brick ends in its frame)\n"
            "         --host-memory-mib M: a rANS two-table encoding larger than M (0: half the available\n"
            "         memory) keeps its coarse levels in memory and reads the finest level from the file\n"
            "  inputs (IN, SOURCE, INPUT): " + inputs + "\n"

@@ -26,6 +26,19 @@ expect 0 "render with a 1 MiB cache" "$CSGV" render "$DEF" "$TMP/k.png" --size 6
 grep -q "^cache_holds_view: no: view 0 touches .*(raise --cache-mib" "$TMP/out" && grep -q "^converged: yes$" "$TMP/out" &&
   pass "a cache too small for the view is named" || bad "a cache too small for the view is not named"
 cmp -s "$TMP/a.labels" "$TMP/k.labels" && pass "a small cache leaves the labels unchanged" || bad "labels differ with a small cache"
+# GPU decodes carried over frames (--decode-steps): the same labels, more frames; with a cache too
+# small for the view too (frames then take every step).
+for cache in 0 1; do
+  expect 0 "render with decodes carried over frames, cache $cache MiB" "$CSGV" render "$DEF" "$TMP/d.png" --size 64x48 \
+    --labels-out "$TMP/d.labels" --finest --no-jitter --decode gpu --decode-steps 300 --cache-mib $cache
+  grep -q "^converged: yes$" "$TMP/out" && cmp -s "$TMP/a.labels" "$TMP/d.labels" &&
+    pass "carried decodes leave the labels unchanged (cache $cache MiB)" || bad "carried decodes change the labels (cache $cache MiB)"
+done
+for steps in 0 -3 x 2000000 1e3 ""; do
+  expect 1 "render with --decode-steps '$steps'" "$CSGV" render "$DEF" "$TMP/c.png" --decode-steps "$steps"
+  grep -q "decode-steps expects auto, all or a number" "$TMP/err" || bad "the error does not name --decode-steps ('$steps')"
+done
+[ ! -e "$TMP/c.png" ] && pass "no image after --decode-steps errors" || bad "an image after --decode-steps errors"
 # A device-memory budget bounds the whole device memory and leaves the labels as they were; one
 # too small for the image is one error line naming the budget.
 expect 0 "render under a budget" "$CSGV" render "$DEF" "$TMP/b.png" --size 64x48 --labels-out "$TMP/b.labels" --finest \

@@ -391,9 +391,9 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     if (m_hostDecoding) return Status::error(kNoEncodingOnTheDevice);
     if (m_separated && !detail) return Status::error("GPU decoding of a separated volume needs a detail stream");
     const Carry carry = carryOrNull ? *carryOrNull : Carry{};
-    const bool carries = carry.stepsPerFrame != 0 && carry.stepsPerFrame < decodeSteps();
+    const bool carries = carry.alloc != 0;
     if (carries && detail) return Status::error("decodes that carry over frames cannot stream detail");
-    const uint64_t steps = carries ? carry.stepsPerFrame : decodeSteps();
+    const uint64_t steps = carry.stepsPerFrame ? std::min<uint64_t>(carry.stepsPerFrame, decodeSteps()) : decodeSteps();
     const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;
     std::vector<uint32_t> params;
     for (uint64_t done = 0; done < steps; done += perDispatch) {

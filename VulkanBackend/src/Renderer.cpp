@@ -458,7 +458,9 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (usesPixelList) listPixels(st);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!resolved.hostDecode) {
-        dispatches.insert(dispatches.end(), decodeDispatches[decodeParity].begin(), decodeDispatches[decodeParity].end());
+        decodeWhole = resolved.carrySteps && (cacheState.evictAge != 0 || cacheState.limitRequests);
+        const auto& passes = decodeDispatches[decodeParity][decodeWhole];
+        dispatches.insert(dispatches.end(), passes.begin(), passes.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     }
     // The sub-blocks without drawn labels: after a change of materials none, then (where there are

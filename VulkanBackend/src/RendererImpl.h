@@ -492,9 +492,12 @@ struct Renderer::Impl {
     // GPU decoding of the frame's requests: the passes' parameters and dispatches, made once. Where
     // decodes carry over frames (resolved.carrySteps) the decode list and states are two, a frame
     // decoding from one (decodeParity) and carrying into the other: a set for each.
-    GpuVolume::FrameDecode frameDecode[2];
-    std::vector<Context::Dispatch> decodeDispatches[2];
+    // Under cache pressure (evictions, limited requests) a frame takes every step instead (its
+    // second set, [parity][1]): a thrashing cache needs each brick soon more than short frames.
+    GpuVolume::FrameDecode frameDecode[2][2];
+    std::vector<Context::Dispatch> decodeDispatches[2][2];
     uint32_t decodeParity = 0;
+    bool decodeWhole = false; ///< the frame being built decodes with every step (its set [parity][1])
     /// The decode list (or its states, `states`) a frame of parity `parity` decodes from.
     uint64_t decodeList(uint32_t parity, bool states = false) const {
         const Buffer& b = states ? decodeStates : decodes;
@@ -502,18 +505,20 @@ struct Renderer::Impl {
     }
     /// The decode dispatches of both parities (GPU decoding), for the current cache.
     Status makeFrameDecodes() {
-        for (uint32_t parity = 0; parity < 2; ++parity) {
-            decodeDispatches[parity].clear();
-            frameDecode[parity] = GpuVolume::FrameDecode{};
-            if (resolved.hostDecode || (parity == 1 && !resolved.carrySteps)) continue;
-            GpuVolume::Carry carry;
-            if (resolved.carrySteps)
-                carry = {resolved.carrySteps, alloc.address(), bricks.address(), decodeList(parity ^ 1), decodeList(parity ^ 1, true)};
-            Status s = volume->appendFrameDecode(decodeList(parity), alloc.address() + 4 * kAllocDecodes, cache.address(),
-                                                 decodeList(parity, true), maxRequests, frameDecode[parity],
-                                                 decodeDispatches[parity], detail.get(), &carry);
-            if (!s) return s;
-        }
+        for (uint32_t parity = 0; parity < 2; ++parity)
+            for (uint32_t whole = 0; whole < 2; ++whole) {
+                decodeDispatches[parity][whole].clear();
+                frameDecode[parity][whole] = GpuVolume::FrameDecode{};
+                if (resolved.hostDecode || ((parity == 1 || whole == 1) && !resolved.carrySteps)) continue;
+                GpuVolume::Carry carry;
+                if (resolved.carrySteps)
+                    carry = {whole ? 0u : resolved.carrySteps, alloc.address(), bricks.address(), decodeList(parity ^ 1),
+                             decodeList(parity ^ 1, true)};
+                Status s = volume->appendFrameDecode(decodeList(parity), alloc.address() + 4 * kAllocDecodes, cache.address(),
+                                                     decodeList(parity, true), maxRequests, frameDecode[parity][whole],
+                                                     decodeDispatches[parity][whole], detail.get(), &carry);
+                if (!s) return s;
+            }
         return Status::ok();
     }
     // Detail streaming (GPU decoding of a separated volume): the finest-level streams the frames
@@ -555,7 +560,7 @@ struct Renderer::Impl {
     /// GPU decoding's failed bricks of the frame just finished (decode_bricks.comp counts them in
     /// its dispatches' host-visible parameters, which are cleared here for the next frame).
     void noteGpuDecodeFailures() {
-        const GpuVolume::FrameDecode& ran = frameDecode[decodeParity];
+        const GpuVolume::FrameDecode& ran = frameDecode[decodeParity][decodeWhole];
         auto* p = static_cast<uint32_t*>(ran.params.mapped());
         for (size_t k = 0; p && k < ran.pushes.size(); ++k) {
             uint32_t* w = p + k * kDecodeParamWords;
@@ -874,8 +879,10 @@ struct Renderer::Impl {
     Status resizeCache(uint64_t bytes) {
         renderTexels.clear(); // its view goes before the buffer
         cache = Buffer{};
-        for (auto& list : decodeDispatches) list.clear();
-        for (auto& d : frameDecode) d = GpuVolume::FrameDecode{};
+        for (auto& lists : decodeDispatches)
+            for (auto& list : lists) list.clear();
+        for (auto& sets : frameDecode)
+            for (auto& d : sets) d = GpuVolume::FrameDecode{};
         Result<Buffer> b = ctx.createBuffer(bytes, cacheKind);
         if (!b) return Status(b.status()).prefix("allocating the brick cache");
         cache = std::move(*b);

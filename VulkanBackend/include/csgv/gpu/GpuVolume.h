@@ -177,14 +177,14 @@ public:
     /// level. The dispatches depend on nothing but these arguments: build them once.
     /// A separated volume's finest levels are read from `detail` (required then), whose table
     /// says which bricks' streams are there: keep it alive while the dispatches are used.
-    /// With `carry` (its stepsPerFrame below the finest level's decodeSteps()), a frame's decoding
-    /// stops after that many steps of each brick: the frame's last dispatch moves the decodes still
-    /// running, their states too, to the list at `carry.next` for the next frame (whose first
-    /// entries they are; kAllocCarry, kAllocCarried), and a decode that ends sets its brick's level
-    /// in the brick table (until then the brick is missing to the rays).
+    /// With `carry` (its addresses set), a frame's decoding stops after stepsPerFrame steps of each
+    /// brick: the frame's last dispatch moves the decodes still running, their states too, to the
+    /// list at `carry.next` for the next frame (whose first entries they are; kAllocCarry,
+    /// kAllocCarried), and a decode that ends sets its brick's level in the brick table (until then
+    /// the brick is missing to the rays).
     struct Carry {
-        uint32_t stepsPerFrame = 0;  ///< 0: every decode ends in its frame (no carry)
-        uint64_t alloc = 0;          ///< the cache counters
+        uint32_t stepsPerFrame = 0;  ///< 0: every step (the carried decodes end in this frame too)
+        uint64_t alloc = 0;          ///< the cache counters (0: no carry)
         uint64_t bricks = 0;         ///< the brick table
         uint64_t next = 0, nextStates = 0; ///< the next frame's decode list and states
     };
