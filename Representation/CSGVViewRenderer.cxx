@@ -39,6 +39,8 @@ ViewSettings toViewSettings(const RepresentationProperties& p)
   s.cachePaletting = std::clamp(p.cachePaletting, 0, 2);
   using Decode = csgv::gpu::RendererOptions::Decode;
   s.decode = p.decoding == 1 ? Decode::Gpu : p.decoding == 2 ? Decode::Host : Decode::Auto;
+  // 0 automatic; more steps than any brick takes: every step (a brick's decoding in its frame).
+  s.decodeSteps = uint32_t(std::clamp(p.decodeStepsPerFrame, 0, 1000000));
   s.framesPerStillRender = uint32_t(std::max(1, p.framesPerStillRender));
   s.stillRenderTimeBudget = std::max(0.0, p.stillRenderTimeBudget);
   s.refinementSlice = std::max(0.0, p.refinementSlice);
@@ -140,7 +142,7 @@ void ViewRenderer::setSettings(const ViewSettings& s)
   const bool same = s.render == o.render && s.cacheBytes == o.cacheBytes && s.processes == o.processes &&
     s.deviceMemoryBytes == o.deviceMemoryBytes && s.hostMemoryBytes == o.hostMemoryBytes &&
     s.cachePaletting == o.cachePaletting &&
-    s.decode == o.decode &&
+    s.decode == o.decode && s.decodeSteps == o.decodeSteps &&
     s.framesPerStillRender == o.framesPerStillRender &&
     s.stillRenderTimeBudget == o.stillRenderTimeBudget && s.refinementSlice == o.refinementSlice &&
     s.clipBox == o.clipBox;
@@ -247,10 +249,12 @@ std::string ViewRenderer::ensureRenderer()
     // Other views of this volume change the count under the mutex.
     renderers = std::max(1, shared->renderers);
   }
-  const csgv::gpu::RendererOptions options =
+  csgv::gpu::RendererOptions options =
     plan.share(gpu->deviceBytes(), uint32_t(renderers), this->Settings.decode);
+  options.decodeStepsPerFrame = this->Settings.decodeSteps;
   if (!this->Renderer || options.cacheBytes != this->RendererCacheBytes ||
-    options.deviceMemoryBytes != this->RendererBudget || &this->Renderer->volume() != gpu.get())
+    options.deviceMemoryBytes != this->RendererBudget ||
+    options.decodeStepsPerFrame != this->RendererDecodeSteps || &this->Renderer->volume() != gpu.get())
   {
     this->Renderer.reset();
     csgv::Result<std::unique_ptr<csgv::gpu::Renderer>> r =
@@ -263,6 +267,7 @@ std::string ViewRenderer::ensureRenderer()
     this->Warmed = false;
     this->RendererCacheBytes = options.cacheBytes;
     this->RendererBudget = options.deviceMemoryBytes;
+    this->RendererDecodeSteps = options.decodeStepsPerFrame;
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
     this->GhostUploaded = this->CoarseUploaded = nullptr;
   }

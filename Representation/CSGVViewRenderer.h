@@ -56,6 +56,7 @@ struct ViewSettings
   uint64_t hostMemoryBytes = 0;   ///< 0: automatic (csgv::TieredVolume::automaticBudget)
   int cachePaletting = 2;         ///< RepresentationProperties::cachePaletting
   csgv::gpu::RendererOptions::Decode decode = csgv::gpu::RendererOptions::Decode::Auto;
+  uint32_t decodeSteps = 0; ///< csgv::gpu::RendererOptions::decodeStepsPerFrame (0: automatic)
   uint32_t framesPerStillRender = 0;
   double stillRenderTimeBudget = 0; ///< seconds
   double refinementSlice = 0;       ///< a still render's seconds when shorter than the budget (0: none)
@@ -167,6 +168,7 @@ private:
   std::shared_ptr<csgv::gpu::Context> Context; ///< outlives Renderer
   std::unique_ptr<csgv::gpu::Renderer> Renderer; ///< destroyed before Source's volume
   uint64_t RendererCacheBytes = 0, RendererBudget = 0;
+  uint32_t RendererDecodeSteps = 0;
   /// Automatic cache paletting: a render found the cache of labels full (reset with the source
   /// and when the property changes).
   bool CachePressure = false;

@@ -93,6 +93,10 @@ public:
   /// streaming when the budget separates the finest level), 2 the host.
   vtkSetClampMacro(Decoding, int, 0, 2);
   vtkGetMacro(Decoding, int);
+  /// GPU decoding: decoder steps a brick takes a frame, its decoding going on in the next frames
+  /// (csgv::gpu::RendererOptions::decodeStepsPerFrame): 0 automatic (default), 1000000 every step.
+  vtkSetClampMacro(DecodeStepsPerFrame, int, 0, 1000000);
+  vtkGetMacro(DecodeStepsPerFrame, int);
   /// Cache paletting (the paper's): the brick cache holds packed indices into each brick's
   /// palette instead of 32-bit labels, several times more bricks in the same memory, at the cost
   /// of one more read per voxel. 0 off, 1 on, 2 automatic (default): on once the cache of labels
@@ -205,6 +209,7 @@ private:
   int DeviceMemoryMiB;
   int HostMemoryMiB;
   int Decoding;
+  int DecodeStepsPerFrame;
   int CachePaletting;
   int ClipBox[6];
   double RefinementSlice;

@@ -5,8 +5,9 @@ cache holds what the view needs and turns on once the cache of labels runs full 
 device-memory budget), then draws the same image as an unconstrained view. Detail separation
 (GPU decoding, CSGVDecoding 1): a budget that the encoding would take more than half of keeps its
 finest level in host memory (CSGVDetailSeparated), streamed to the device as the view needs it,
-within the budget, with the same image; a larger budget uploads it whole again. Host decoding
-holds no encoding on the device."""
+within the budget, with the same image; a larger budget uploads it whole again; decodes carried
+over frames (CSGVDecodeStepsPerFrame) give the same image. Host decoding holds no encoding on the
+device."""
 import os
 import subprocess
 
@@ -94,6 +95,13 @@ separated, device_whole, _, _ = memory()
 t.check(separated == 0 and differs(gpu_whole, whole).mean() == 0,
         "GPU decoding holds the encoding whole under the automatic budget, same image (%.2f%% of pixels differ)"
         % (100 * differs(gpu_whole, whole).mean()))
+# Decodes carried over frames (CSGVDecodeStepsPerFrame, as on GPUs): the still render converges
+# to the same image.
+d2.CSGVDecodeStepsPerFrame = 300
+carried = t.screenshot(v2, 160, 120, "gpu_carried.png")
+t.check(differs(carried, whole).mean() == 0, "GPU decodes carried over frames: the same image (%.2f%% of pixels differ)"
+        % (100 * differs(carried, whole).mean()))
+d2.CSGVDecodeStepsPerFrame = 0
 budget = int(2 * encoding_mib)  # the encoding takes more than half of it
 t.check(budget >= 4, "the synthetic encoding is large enough for the test (%.1f MiB)" % encoding_mib)
 d2.CSGVDeviceMemoryMiB = budget
