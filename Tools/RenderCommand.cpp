@@ -473,6 +473,7 @@ int cmdRender(int argc, char** argv) {
                         st->requestLimited ? ", requests limited" : "");
             if (st->detailRequests || st->detailUploads)
                 std::printf(", detail asked %u uploaded %u", st->detailRequests, st->detailUploads);
+            if (st->carriedDecodes) std::printf(", decodes carried %u", st->carriedDecodes);
             std::printf("\n");
             minSamples = st->minSamples;
             if (firstFrameMs < 0 && st->minSamples >= 1) firstFrameMs = since(tStart);

@@ -458,7 +458,10 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (usesPixelList) listPixels(st);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!resolved.hostDecode) {
-        decodeWhole = resolved.carrySteps && (cacheState.evictAge != 0 || cacheState.limitRequests);
+        // Steps are spared only in a frame that begins an accumulation (a moving camera renders
+        // nothing else): the frames that follow converge, and take every step (as a thrashing cache
+        // does, which needs each brick soon).
+        decodeWhole = resolved.carrySteps && (!accumulation.clearPending || cacheState.evictAge != 0 || cacheState.limitRequests);
         const auto& passes = decodeDispatches[decodeParity][decodeWhole];
         dispatches.insert(dispatches.end(), passes.begin(), passes.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
@@ -835,6 +838,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     const uint32_t* a = allocWords();
     stats.frame = accumulation.accumulatedFrames;
     stats.decodedBricks = a[kAllocDecodes];
+    stats.carriedDecodes = resolved.carrySteps ? a[kAllocCarry] : 0;
     stats.newSamples = a[kAllocNewSamples];
     stats.missingPixels = a[kAllocMissing];
     stats.minSamples = a[kAllocMinSamples] == kNone ? 0 : a[kAllocMinSamples];

@@ -492,8 +492,9 @@ struct Renderer::Impl {
     // GPU decoding of the frame's requests: the passes' parameters and dispatches, made once. Where
     // decodes carry over frames (resolved.carrySteps) the decode list and states are two, a frame
     // decoding from one (decodeParity) and carrying into the other: a set for each.
-    // Under cache pressure (evictions, limited requests) a frame takes every step instead (its
-    // second set, [parity][1]): a thrashing cache needs each brick soon more than short frames.
+    // Frames that go on accumulating, and frames under cache pressure (evictions, limited
+    // requests), take every step instead (the second set, [parity][1]): a still view converges
+    // as soon as without carrying, and a thrashing cache needs each brick soon.
     GpuVolume::FrameDecode frameDecode[2][2];
     std::vector<Context::Dispatch> decodeDispatches[2][2];
     uint32_t decodeParity = 0;

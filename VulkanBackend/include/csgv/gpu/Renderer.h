@@ -140,10 +140,13 @@ struct RendererOptions {
     /// invocation, so a frame that decodes waits for its longest brick (about 5 ms on an H200 for a
     /// finest-level brick, whatever else the frame does): with fewer steps its decoding goes on in
     /// the next frames, the rays finding the brick missing until it ends (previews stand in while
-    /// the camera moves; the image converges once it is there). H200, synth 2048^3 at 1920x1080,
-    /// one frame a pose of an orbit: median 6.8 ms a frame with every step, 3.2 with 1024, 2.7 with
-    /// 512. Under cache pressure (evictions or limited requests) frames take every step: a
-    /// thrashing cache needs each brick soon (a 1 MiB cache: 92 frames against 257 and more).
+    /// the camera moves). H200, synth 2048^3 at 1920x1080, one frame a pose of an orbit: median
+    /// 6.8 ms a frame with every step, 3.2 with 1024, 2.7 with 512. Only a frame that begins an
+    /// accumulation (a new camera, a moving one's every frame) spares steps: the frames that go
+    /// on accumulating take every step, so a still view converges as soon as without (sparing them
+    /// too took 4x the frames and 1.4x the time for a 16-view orbit of 2048^3, H200), and so do
+    /// frames under cache pressure (evictions or limited requests: a thrashing cache needs each
+    /// brick soon; a 1 MiB cache took 257 frames and more instead of 89).
     /// kDecodeStepsAuto: kGpuDecodeStepsPerFrame on GPUs, every step on CPU devices (one frame).
     /// Not with detail streaming (every step: a stream stays in its ring only for its frame).
     static constexpr uint32_t kDecodeStepsAuto = 0, kDecodeStepsAll = 0xFFFFFFFFu;
@@ -197,7 +200,8 @@ struct FrameOutput {
 struct FrameStats {
     double milliseconds = 0;      ///< wall time of the frame's submission
     uint32_t frame = 0;           ///< frames since the last reset of the accumulation
-    uint32_t decodedBricks = 0;
+    uint32_t decodedBricks = 0;   ///< bricks the frame decoded, those it carried on included
+    uint32_t carriedDecodes = 0;  ///< decodes still running after the frame (RendererOptions::decodeStepsPerFrame)
     uint32_t newSamples = 0;      ///< pixels that gained a sample
     uint32_t missingPixels = 0;   ///< pixels whose ray met a brick not yet in the cache
     uint32_t minSamples = 0;      ///< fewest samples of any pixel after the frame
