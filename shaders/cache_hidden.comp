@@ -72,7 +72,7 @@ void main() {
     if (i >= min(UintBuf(f.addr[kSlotAlloc]).w[kAllocDecodes], f.limits.x)) return;
     loadFrameValues(f);
     UintBuf dec = UintBuf(frameAddr[kSlotDecodes]);
-    const uint level = LEVELS - 1u - min(dec.w[kDecodeEntryWords * i + 1u], LEVELS - 1u); // from the inverse level
+    const uint level = LEVELS - 1u - min(dec.w[kDecodeEntryWords * i + 1u] & ~kDecodeEntryFailed, LEVELS - 1u); // from the inverse level
 #if CARRY_DECODES
     if (Uvec4Buf(frameAddr[kSlotBricks]).v[dec.w[kDecodeEntryWords * i]].y == kNone) return; // still being decoded
 #endif

@@ -2,8 +2,9 @@
 // Decodes a list of brick requests (brick index, inverse level, cache word offset), one
 // invocation per request, at most `steps` steps per dispatch (see csgv_decode.glsl); the state,
 // and in the end the result code, of request i live in words [12 i, 12 i + 9) of `states`. A
-// decode that fails leaves its region outside the volume (drawn empty) and counts in the
-// dispatch's parameters (kDecodeParamFailures: the renderer's bad bricks).
+// decode that fails leaves its region outside the volume (drawn empty; in frames cache_uniform.comp
+// fills it, kDecodeParamMarkFailed) and counts in the dispatch's parameters (kDecodeParamFailures:
+// the renderer's bad bricks).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "csgv_decode.glsl" // (with csgv/gpu/FrameLayout.h: the decode lists and push constants)
@@ -29,7 +30,7 @@ void main() {
     if (i >= count) return;
     Uints req = Uints(pc.requests);
     const uint brick = req.w[kDecodeEntryWords * i];
-    const uint target = req.w[kDecodeEntryWords * i + 1u];
+    const uint target = req.w[kDecodeEntryWords * i + 1u] & ~kDecodeEntryFailed;
     const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
     Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick, pc.detail, pc.ring);
     Uints saved = Uints(pc.states);
@@ -50,10 +51,14 @@ void main() {
         if (st.status != kDecodeRunning && st.status != kDecodeOk) {
             // Failed (a corrupt stream): the region reads as outside the volume (drawn empty),
             // and the dispatch's parameters tell the host (the first failure named).
-            const uint edge = BRICK_SIZE >> (LEVELS - 1u - target);
-            const uint words = (edge * edge * edge + CACHE_PER_WORD - 1u) / CACHE_PER_WORD;
-            CacheWords cache = CacheWords(pc.cache);
-            for (uint k = 0u; k < words; ++k) cache.w[region / CACHE_PER_WORD + k] = 0xFFFFFFFFu;
+            if (params.w[kDecodeParamMarkFailed] != 0u) { // frames: cache_uniform.comp fills it
+                req.w[kDecodeEntryWords * i + 1u] = target | kDecodeEntryFailed;
+            } else {
+                const uint edge = BRICK_SIZE >> (LEVELS - 1u - target);
+                const uint words = (edge * edge * edge + CACHE_PER_WORD - 1u) / CACHE_PER_WORD;
+                CacheWords cache = CacheWords(pc.cache);
+                for (uint k = 0u; k < words; ++k) cache.w[region / CACHE_PER_WORD + k] = 0xFFFFFFFFu;
+            }
             if (atomicAdd(params.w[kDecodeParamFailures], 1u) == 0u) {
                 params.w[kDecodeParamFailedBrick] = brick + 1u;
                 params.w[kDecodeParamFailedCode] = st.status;

@@ -666,6 +666,87 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
     }
 }
 
+// A brick whose decoding fails is drawn empty by GPU decoding as by host decoding, whatever its
+// size and however its decoding is split into dispatches and frames. Bricks of 64 on a volume of
+// odd sizes, the finest streams of some overwritten (fails at once) or one word in the middle of
+// each flipped (decodes far, then fails): GPU decoding once filled a failed region in one
+// invocation, which llvmpipe's loop limit cut short (64^3 words), leaving part of what it wrote
+// visible, differently for steps of 300 and 512 a dispatch (up to 10 % of a view's pixels off
+// host decoding's); cache_uniform.comp fills it now, 64 invocations to a brick.
+TEST(Renderer, FailedBricksAreDrawnEmptyByEveryDecoderWhateverTheSteps) {
+    CSGV_REQUIRE_GPU(ctx);
+    LabelVolume v;
+    v.dim = {150, 131, 97};
+    v.labels.resize(size_t(v.dim[0]) * v.dim[1] * v.dim[2]);
+    for (uint32_t z = 0; z < v.dim[2]; ++z)
+        for (uint32_t y = 0; y < v.dim[1]; ++y)
+            for (uint32_t x = 0; x < v.dim[0]; ++x)
+                v.labels[size_t(v.index(x, y, z))] = (x * 7 + y * 3 + z * 5) % 89 == 0 ? 9 : (x / 11 + y / 7 + z / 9) % 6 + 1;
+    EncodeOptions eo;
+    eo.brickSize = 64;
+    Result<CompressedVolume> encoded = encodeVolume(v, eo);
+    ASSERT_TRUE(encoded.isOk()) << encoded.message();
+    const FrameInput in = perspectiveView({-90, 260, 230}, {75, 65, 48}, {0, 0, 1}, 40, 160, 120);
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    st.denoise = false;
+    for (const bool flip : {false, true}) {
+        CompressedVolume bad = *encoded;
+        const uint32_t L = bad.levels();
+        std::vector<std::vector<uint32_t>> arrays(bad.arrays.size());
+        for (size_t a = 0; a < arrays.size(); ++a) {
+            arrays[a].resize(bad.arrays[a].size());
+            bad.arrays[a].copyTo(arrays[a].data(), 0, arrays[a].size());
+        }
+        for (uint64_t b = 0; b < bad.brickCount(); b += 2) { // every other brick
+            const BrickWords bw = bad.brick(b);
+            const uint32_t start = (b > 0 && b % bad.bricksPerArray == 0) ? 0 : bad.brickStarts[b];
+            std::vector<uint32_t>& words = arrays[b / bad.bricksPerArray];
+            const uint32_t from = bw.words[L - 1] / 8, to = bw.size - bw.words[L];
+            if (to <= from + 2) continue;
+            if (flip) words[start + (from + to) / 2] ^= 0x5A5A5A5Au;
+            else for (uint32_t w = from; w < to; ++w) words[start + w] = 0xFFFFFFFFu;
+        }
+        for (size_t a = 0; a < arrays.size(); ++a) bad.arrays[a] = WordArray(std::move(arrays[a]));
+        std::shared_ptr<GpuVolume> gpu;
+        {
+            Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(*ctx, bad);
+            ASSERT_TRUE(made.isOk()) << made.message();
+            gpu = std::move(*made);
+        }
+        std::vector<uint32_t> hostLabels;
+        const std::pair<RendererOptions::Decode, uint32_t> ways[] = {{RendererOptions::Decode::Host, RendererOptions::kDecodeStepsAll},
+                                                                     {RendererOptions::Decode::Gpu, RendererOptions::kDecodeStepsAll},
+                                                                     {RendererOptions::Decode::Gpu, 300u}};
+        for (const auto& [decode, steps] : ways) {
+            const std::string what = std::string(flip ? "a word flipped, " : "streams overwritten, ") +
+                                     (decode == RendererOptions::Decode::Gpu ? "GPU decoding, steps " + std::to_string(steps) : "host decoding");
+            RendererOptions o;
+            o.decode = decode;
+            o.decodeStepsPerFrame = steps;
+            Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, o);
+            ASSERT_TRUE(r.isOk()) << r.message();
+            (*r)->setSettings(st);
+            if (steps != RendererOptions::kDecodeStepsAll) // a moving camera first: decodes carried, some fail on the way
+                for (int f = 0; f < 8; ++f)
+                    ASSERT_TRUE((*r)->renderFrame(perspectiveView({-90.0 + 3 * f, 260, 230}, {75, 65, 48}, {0, 0, 1}, 40, 80, 60)).isOk());
+            const FrameOutput out = renderConverged(**r, in, 1, 200);
+            EXPECT_GE((*r)->badBricks(), 1u) << what;
+            if (decode == RendererOptions::Decode::Host) {
+                hostLabels = out.label;
+                size_t hits = 0;
+                for (uint32_t l : out.label) hits += l != kInvalidLabel ? 1 : 0;
+                EXPECT_GT(hits, out.label.size() / 8) << what << ": the volume is in view";
+                continue;
+            }
+            size_t differ = 0;
+            for (size_t i = 0; i < out.label.size(); ++i) differ += out.label[i] != hostLabels[i];
+            EXPECT_EQ(differ, 0u) << what << ": pixels whose labels differ from host decoding's";
+        }
+    }
+}
+
 // Uniform levels at the smallest and a large brick size (sub-blocks of 2 and 16 voxels, levels up
 // to 3 and 6), on a volume of odd sizes whose bricks reach beyond it: the cached words' levels equal
 // Core's after host and GPU decoding, and the G-buffer equals castRaysStable's stepping by them.

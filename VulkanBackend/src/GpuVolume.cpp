@@ -402,6 +402,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         params.push_back(done == 0 ? 1u : 0u);
         params.resize(params.size() + kDecodeParamWords - 3, 0u); // failures reported here
         params[params.size() - kDecodeParamWords + kDecodeParamCarry] = carries && done + perDispatch >= steps ? 1u : 0u;
+        params[params.size() - kDecodeParamWords + kDecodeParamMarkFailed] = 1u; // cache_uniform.comp fills failed regions
     }
     Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
     if (!paramBuffer) return paramBuffer.status();

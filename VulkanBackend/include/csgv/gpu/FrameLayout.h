@@ -196,6 +196,12 @@ CSGV_CONST(uint32_t, kDecodeParamFailedCode, 5u)
 /// decodes carry over frames (RendererOptions::decodeStepsPerFrame): it moves those still running
 /// to the other decode list (DecodePush::next), their states too, for the next frame.
 CSGV_CONST(uint32_t, kDecodeParamCarry, 6u)
+/// Word of a frame's decode dispatch parameters: 1 where a failed decode only marks its entry
+/// (kDecodeEntryFailed on its inverse level) and cache_uniform.comp fills its region, 64
+/// invocations to a brick: one invocation filling a region of 64^3 words (or 32^3 after many
+/// steps) ran into llvmpipe's loop limit and left part of a bad brick's labels visible.
+CSGV_CONST(uint32_t, kDecodeParamMarkFailed, 7u)
+CSGV_CONST(uint32_t, kDecodeEntryFailed, 0x80000000u) ///< on a decode entry's inverse level: its decoding failed
 /// Decode result (besides csgv/codec/Layout.h's): the finest level of a separated volume was
 /// requested but its stream is not in the detail buffer.
 CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
