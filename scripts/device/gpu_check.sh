@@ -17,9 +17,11 @@
 # with GPU decoding, unconstrained and under that device-memory budget: frames, the largest view's
 # working set against the brick cache (cache_holds_view), detail streams uploaded and evicted.
 # The warm run's stages line gives each stage's total ms over the first frame (and its dispatch count).
-# Environment: BUDGET_SIZES (the volumes that get the budget row; default all), SKIP_TESTS=1 (renders only), SIZE (1920x1080), FRAMES (16), ORBIT (6), MOVING (32), and
-# RENDER_ARGS (more csgv render options, e.g. "--decode host --cache-mib 256") with TAG (a name
-# for the logs and images of that variant). With a baseline in the bundle (bundle.sh's BASE_BUILD),
+# Environment: BUDGET_SIZES (the volumes that get the budget row; default all), BUDGET_TIMEOUT
+# (300 s a budget render), SKIP_TESTS=1 (renders only), PROFILE=0, SIZE (1920x1080), FRAMES (16),
+# ORBIT (6), MOVING (32), and RENDER_ARGS (more csgv render options, e.g. "--decode host" or
+# "--decode-steps all") with TAG (a name for the logs of that variant; its summary lines append to
+# the same summary.txt, its logs go to results_TAG.tgz, the images stay on the machine). With a baseline in the bundle (bundle.sh's BASE_BUILD),
 # each render runs with it too, right after, and its line says "base" (compare on one machine;
 # the first of the two compiles the GLSL of shaders they share: compare times to first frame warm).
 set -uo pipefail
