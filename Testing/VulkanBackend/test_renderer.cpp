@@ -603,9 +603,9 @@ std::unique_ptr<Renderer> volumeRenderer(Context& ctx, const LabelVolume& v, Com
 } // namespace
 
 // GPU decodes that carry over frames (RendererOptions::decodeStepsPerFrame, as on GPUs): in a frame
-// that begins an accumulation (a moving camera's every frame) a brick whose decoding takes more
-// steps than the frame gives is missing to the rays, its decoding going on in the next frames; the
-// frames that go on accumulating take every step. The converged G-buffer is the reference's, bit
+// that begins an accumulation (a moving camera's every frame) or refines a full image, a brick
+// whose decoding takes more steps than the frame gives is missing to the rays, its decoding going
+// on in the next frames; the frames between take every step. The converged G-buffer is the reference's, bit
 // for bit, and a still view converges within one frame of decoding whole: with steps that one
 // dispatch takes (300) and that CPU devices split into three (1100: 512, 512, 76), after a moving
 // camera whose decodes are still running when it stops (their bricks half decoded, some no longer
@@ -664,6 +664,30 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
             }
         }
     }
+    // Refining (ambient occlusion, 12 samples): once every pixel holds a sample, frames carry the
+    // decodes its secondary rays ask for; the G-buffer stays the reference's.
+    RendererOptions o;
+    o.decode = RendererOptions::Decode::Gpu;
+    o.decodeStepsPerFrame = 300;
+    o.prefetchVoxels = 0;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    RenderSettings ao = st;
+    ao.shading = Shading::AmbientOcclusion;
+    ao.sampleTarget = 12;
+    (*r)->setSettings(ao);
+    uint32_t carriedRefining = 0, minSamples = 0;
+    for (int f = 0; f < 400 && minSamples < ao.sampleTarget; ++f) {
+        Result<FrameStats> s = (*r)->renderFrame(in);
+        ASSERT_TRUE(s.isOk()) << s.message();
+        if (minSamples >= 1) carriedRefining = std::max(carriedRefining, s->carriedDecodes);
+        minSamples = s->minSamples;
+    }
+    EXPECT_GE(minSamples, ao.sampleTarget) << "refining converges";
+    EXPECT_GT(carriedRefining, 0u) << "frames after the first full image carry decodes";
+    FrameOutput out;
+    ASSERT_TRUE((*r)->readOutput(out).isOk());
+    expectGBufferEquals(out, ref, "ambient occlusion, refining with carried decodes");
 }
 
 // A brick whose decoding fails is drawn empty by GPU decoding as by host decoding, whatever its

@@ -458,10 +458,13 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (usesPixelList) listPixels(st);
     cacheStages = dispatches.size(); // with host decoding, the first submission ends here
     if (!resolved.hostDecode) {
-        // Steps are spared only in a frame that begins an accumulation (a moving camera renders
-        // nothing else): the frames that follow converge, and take every step (as a thrashing cache
-        // does, which needs each brick soon).
-        decodeWhole = resolved.carrySteps && (!accumulation.clearPending || cacheState.evictAge != 0 || cacheState.limitRequests);
+        // Steps are spared in a frame that begins an accumulation (a moving camera renders nothing
+        // else) and once every pixel holds a sample (refining: shorter frames, fewer samples
+        // lost to bricks on their way); the frames between take every step, so the first full
+        // image comes as soon as without carrying, as do frames under cache pressure (a
+        // thrashing cache needs each brick soon).
+        const bool incomplete = !accumulation.clearPending && accumulation.prevMinSamples == 0;
+        decodeWhole = resolved.carrySteps && (incomplete || cacheState.evictAge != 0 || cacheState.limitRequests);
         const auto& passes = decodeDispatches[decodeParity][decodeWhole];
         dispatches.insert(dispatches.end(), passes.begin(), passes.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)

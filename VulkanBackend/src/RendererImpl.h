@@ -492,9 +492,10 @@ struct Renderer::Impl {
     // GPU decoding of the frame's requests: the passes' parameters and dispatches, made once. Where
     // decodes carry over frames (resolved.carrySteps) the decode list and states are two, a frame
     // decoding from one (decodeParity) and carrying into the other: a set for each.
-    // Frames that go on accumulating, and frames under cache pressure (evictions, limited
-    // requests), take every step instead (the second set, [parity][1]): a still view converges
-    // as soon as without carrying, and a thrashing cache needs each brick soon.
+    // The frames after a view's first one until every pixel holds a sample, and frames under
+    // cache pressure (evictions, limited requests), take every step instead (the second set,
+    // [parity][1]): the first full image comes as soon as without carrying, and a thrashing
+    // cache needs each brick soon.
     GpuVolume::FrameDecode frameDecode[2][2];
     std::vector<Context::Dispatch> decodeDispatches[2][2];
     uint32_t decodeParity = 0;
