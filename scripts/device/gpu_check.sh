@@ -7,8 +7,9 @@
 # mode once more, its shaders cached ("warm" time to first frame). Timed renders run without
 # CSGV_PROFILE_DISPATCHES (its timestamp queries slow small frames); each row's stages line comes
 # from a second, profiled render (PROFILE=0 skips those): mean ms a dispatch of each stage.
-# static_ms: the median of the frames that decode nothing and sample every pixel (a still camera
-# after its bricks are in the cache, what a peer's static frame time measures).
+# static_ms: the median of the frames that decode nothing, miss no brick and sample at least 70 %
+# as many pixels as the orbit's fullest frame (a still camera after its bricks are in the cache;
+# "none" where every such frame decodes), with how many there were.
 # Every render uses Volcanite 0.6's default orbital pose (--camera volcanite), orbited about +z.
 # After the modes, a moving-camera row: MOVING (32) poses of that orbit, one frame each
 # (--frames-per-view 1, previews allowed, as an interactive view and Volcanite show them): its
@@ -48,11 +49,10 @@ sizes=${1:-"aal 256 512 1024"}; modes=${2:-"local shadow ao pt"}
 t0=$(date +%s)
 # summary KEY...: the render log's lines of those keys on one line
 summary() { grep -E "^($2)" "$1" | sed 's/^device: //' | cut -c1-160 | tr '\n' ' '; }
-# static LOG: median ms of full frames that decoded nothing
-static() { awk '/^frame [0-9]+:/ {s=$11; sub(/,/,"",s); m=$13; sub(/,/,"",m);
-    if (s+0 > mx) mx = s+0; n++; T[n]=$3; D[n]=$6; S[n]=s+0; M[n]=m+0}
-    END {for (i = 1; i <= n; i++) if (D[i]==0 && M[i]==0 && S[i]==mx) print T[i]}' "$1" | sort -g |
-    awk '{v[NR]=$1} END {print NR ? v[int((NR+1)/2)] : "none"}'; }
+# static LOG: median ms of full frames that decoded nothing (fields of csgv render's frame lines)
+static() { sed 's/,//g' "$1" | awk '/^frame [0-9]+:/ {n++; T[n]=$3; D[n]=$6; S[n]=$10+0; M[n]=$12+0; if (S[n] > mx) mx = S[n]}
+    END {for (i = 1; i <= n; i++) if (D[i]==0 && M[i]==0 && S[i] >= 0.7 * mx) print T[i]}' | sort -g |
+    awk '{v[NR]=$1} END {print NR ? v[int((NR+1)/2)] " (" NR " frames)" : "none"}'; }
 # stages LOG [total]: mean ms a dispatch of each stage (total: the sum and count instead)
 stages() { grep -E '^dispatch [0-9]+ ' "$1" | sed -E 's/^dispatch [0-9]+ //; s/ \(.*\)//' |
     awk -F': ' -v tot="${2:-}" '{n[$1]++; s[$1] += $2} END {for (k in n) if (tot) printf "%s %.2f (%d), ", k, s[k], n[k];
