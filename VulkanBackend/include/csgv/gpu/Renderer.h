@@ -143,8 +143,9 @@ struct RendererOptions {
     /// the camera moves). H200, synth 2048^3 at 1920x1080, one frame a pose of an orbit: median
     /// 6.8 ms a frame with every step, 3.2 with 1024, 2.7 with 512. Steps are spared in a frame
     /// that begins an accumulation (a new camera, a moving one's every frame) and once every pixel
-    /// holds a sample (refining: 16 samples over a 6-view orbit of 2048^3 took 0.69 s against
-    /// 0.85 with every step in path tracing, 0.30 against 0.38 in local shading); the frames
+    /// holds a sample (refining; carrying in every frame, 16 samples over a 6-view orbit of
+    /// 2048^3 took 0.69 s against 0.85 with every step in path tracing, 0.30 against 0.38 in
+    /// local shading); the frames
     /// between take every step, so the first full image comes as soon as without (sparing them
     /// too took 4x the frames and 1.4x the time for a 16-view orbit at one sample), and so do
     /// frames under cache pressure (evictions or limited requests: a thrashing cache needs each
