@@ -39,33 +39,33 @@ void main() {
     // list's first kAllocCarried entries continue from the previous frame, their states saved.
     const bool carry = pc.alloc != 0ul;
     DecodeState st;
-    if (first != 0u && (!carry || i >= Uints(pc.alloc).w[kAllocCarried])) {
-        st = initialState(b);
+    const bool starts = first != 0u && (!carry || i >= Uints(pc.alloc).w[kAllocCarried]);
+    if (starts) {
+        st = initialState(b); // may fail at once (a stream's first state word too small)
     } else {
         st = DecodeState(saved.w[o], saved.w[o + 1u], saved.w[o + 2u], saved.w[o + 3u], saved.w[o + 4u],
                          saved.w[o + 5u], saved.w[o + 6u], saved.w[o + 7u], saved.w[o + kDecodeStateStatus]);
     }
     const bool running = st.status == kDecodeRunning;
-    if (running) {
-        decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
-        if (st.status != kDecodeRunning && st.status != kDecodeOk) {
-            // Failed (a corrupt stream): the region reads as outside the volume (drawn empty),
-            // and the dispatch's parameters tell the host (the first failure named).
-            if (params.w[kDecodeParamMarkFailed] != 0u) { // frames: cache_uniform.comp fills it
-                req.w[kDecodeEntryWords * i + 1u] = target | kDecodeEntryFailed;
-            } else {
-                const uint edge = BRICK_SIZE >> (LEVELS - 1u - target);
-                const uint words = (edge * edge * edge + CACHE_PER_WORD - 1u) / CACHE_PER_WORD;
-                CacheWords cache = CacheWords(pc.cache);
-                for (uint k = 0u; k < words; ++k) cache.w[region / CACHE_PER_WORD + k] = 0xFFFFFFFFu;
-            }
-            if (atomicAdd(params.w[kDecodeParamFailures], 1u) == 0u) {
-                params.w[kDecodeParamFailedBrick] = brick + 1u;
-                params.w[kDecodeParamFailedCode] = st.status;
-            }
+    if (running) decodeSteps(b, st, target, CacheWords(pc.cache), region, steps);
+    const bool ended = st.status != kDecodeRunning && (running || starts); // in this dispatch
+    if (ended && st.status != kDecodeOk) {
+        // Failed (a corrupt stream): the region reads as outside the volume (drawn empty),
+        // and the dispatch's parameters tell the host (the first failure named).
+        if (params.w[kDecodeParamMarkFailed] != 0u) { // frames: cache_uniform.comp fills it
+            req.w[kDecodeEntryWords * i + 1u] = target | kDecodeEntryFailed;
+        } else {
+            const uint edge = BRICK_SIZE >> (LEVELS - 1u - target);
+            const uint words = (edge * edge * edge + CACHE_PER_WORD - 1u) / CACHE_PER_WORD;
+            CacheWords cache = CacheWords(pc.cache);
+            for (uint k = 0u; k < words; ++k) cache.w[region / CACHE_PER_WORD + k] = 0xFFFFFFFFu;
+        }
+        if (atomicAdd(params.w[kDecodeParamFailures], 1u) == 0u) {
+            params.w[kDecodeParamFailedBrick] = brick + 1u;
+            params.w[kDecodeParamFailedCode] = st.status;
         }
     }
-    if (carry && running && st.status != kDecodeRunning) // ended (or failed: drawn empty): the rays may read it
+    if (carry && ended) // ended (or failed: drawn empty): the rays may read it
         Uvec4s(pc.bricks).v[brick].y = LEVELS - 1u - target;
     if (carry && st.status == kDecodeRunning && params.w[kDecodeParamCarry] != 0u) {
         // The frame's steps are spent: on in the next frame's list.

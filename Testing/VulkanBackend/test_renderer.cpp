@@ -692,8 +692,10 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
 
 // A brick whose decoding fails is drawn empty by GPU decoding as by host decoding, whatever its
 // size and however its decoding is split into dispatches and frames. Bricks of 64 on a volume of
-// odd sizes, the finest streams of some overwritten (fails at once) or one word in the middle of
-// each flipped (decodes far, then fails): GPU decoding once filled a failed region in one
+// odd sizes, the finest streams of some overwritten (fails at once), one word in the middle of
+// each flipped (decodes far, then fails), or the first stream's state word zeroed (fails as the
+// decoder sets up, before any step: such a brick once stayed missing, its region in use, when
+// decodes carried over frames, and unfilled otherwise): GPU decoding once filled a failed region in one
 // invocation, which llvmpipe's loop limit cut short (64^3 words), leaving part of what it wrote
 // visible, differently for steps of 300 and 512 a dispatch (up to 10 % of a view's pixels off
 // host decoding's); cache_uniform.comp fills it now, 64 invocations to a brick.
@@ -715,7 +717,9 @@ TEST(Renderer, FailedBricksAreDrawnEmptyByEveryDecoderWhateverTheSteps) {
     st.finest = true;
     st.jitter = false;
     st.denoise = false;
-    for (const bool flip : {false, true}) {
+    enum Damage { Overwritten, Flipped, FirstStateZero };
+    for (const Damage damage : {Overwritten, Flipped, FirstStateZero}) {
+        const bool flip = damage == Flipped;
         CompressedVolume bad = *encoded;
         const uint32_t L = bad.levels();
         std::vector<std::vector<uint32_t>> arrays(bad.arrays.size());
@@ -729,7 +733,8 @@ TEST(Renderer, FailedBricksAreDrawnEmptyByEveryDecoderWhateverTheSteps) {
             std::vector<uint32_t>& words = arrays[b / bad.bricksPerArray];
             const uint32_t from = bw.words[L - 1] / 8, to = bw.size - bw.words[L];
             if (to <= from + 2) continue;
-            if (flip) words[start + (from + to) / 2] ^= 0x5A5A5A5Au;
+            if (damage == FirstStateZero) words[start + L + 1] = 0; // the first stream's rANS state: fails as it starts
+            else if (flip) words[start + (from + to) / 2] ^= 0x5A5A5A5Au;
             else for (uint32_t w = from; w < to; ++w) words[start + w] = 0xFFFFFFFFu;
         }
         for (size_t a = 0; a < arrays.size(); ++a) bad.arrays[a] = WordArray(std::move(arrays[a]));
@@ -744,7 +749,7 @@ TEST(Renderer, FailedBricksAreDrawnEmptyByEveryDecoderWhateverTheSteps) {
                                                                      {RendererOptions::Decode::Gpu, RendererOptions::kDecodeStepsAll},
                                                                      {RendererOptions::Decode::Gpu, 300u}};
         for (const auto& [decode, steps] : ways) {
-            const std::string what = std::string(flip ? "a word flipped, " : "streams overwritten, ") +
+            const std::string what = std::string(damage == FirstStateZero ? "first state zero, " : flip ? "a word flipped, " : "streams overwritten, ") +
                                      (decode == RendererOptions::Decode::Gpu ? "GPU decoding, steps " + std::to_string(steps) : "host decoding");
             RendererOptions o;
             o.decode = decode;

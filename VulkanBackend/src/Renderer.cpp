@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "RendererImpl.h"
 
+#include <cstdlib>
 #include <utility>
 
 namespace csgv::gpu {
@@ -89,7 +90,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     uint32_t steps = options.decodeStepsPerFrame;
     if (steps == RendererOptions::kDecodeStepsAuto) {
         const char* env = std::getenv("CSGV_DECODE_STEPS");
-        steps = env && std::atol(env) > 0          ? uint32_t(std::min<long>(std::atol(env), RendererOptions::kDecodeStepsAll))
+        const unsigned long long n = env ? std::strtoull(env, nullptr, 10) : 0; // "-3" wraps to huge: every step
+        steps = n > 0                            ? uint32_t(std::min<unsigned long long>(n, RendererOptions::kDecodeStepsAll))
                 : context.device().type == "cpu" ? RendererOptions::kDecodeStepsAll
                                                  : RendererOptions::kGpuDecodeStepsPerFrame;
     }
