@@ -84,20 +84,19 @@ void main() {
     if (Uvec4Buf(frameAddr[kSlotBricks]).v[brick].y == kNone) return; // still being decoded (the whole group)
 #endif
     const uint offset = dec.w[kDecodeEntryWords * i + 2u];
+    UintBuf cache = UintBuf(frameAddr[kSlotCache]);
     if ((code & kDecodeEntryFailed) != 0u) {
         // Its decoding failed (decode_bricks.comp): the region reads as outside the volume (drawn
         // empty), every invocation a share of it, no uniform sub-blocks.
         const uint edge = BRICK_SIZE >> (LEVELS - 1u - (code & ~kDecodeEntryFailed));
         const uint words = (edge * edge * edge + CACHE_PER_WORD - 1u) / CACHE_PER_WORD;
-        UintBuf region = UintBuf(frameAddr[kSlotCache]);
-        for (uint k = j; k < words; k += 64u) region.w[offset + k] = 0xFFFFFFFFu;
+        for (uint k = j; k < words; k += 64u) cache.w[offset + k] = 0xFFFFFFFFu;
         if (j == 0u) Uvec2Buf(frameAddr[kSlotUniform]).v[brick] = uvec2(0u);
         return;
     }
     const uvec3 b = uvec3(brick % BRICK_GRID.x, (brick / BRICK_GRID.x) % BRICK_GRID.y, brick / (BRICK_GRID.x * BRICK_GRID.y)) *
                     BRICK_SIZE;
     const uint n = SUB_SHIFT >= 0 ? 1u << (3u * uint(max(SUB_SHIFT, 0))) : 0u, first = j * n;
-    UintBuf cache = UintBuf(frameAddr[kSlotCache]);
     const bool inside = finest && SUB_SHIFT >= 0 &&
                         uniformSubBlockInside(j, uint(SUB_SHIFT), b.x, b.y, b.z, VOLUME_DIM.x, VOLUME_DIM.y, VOLUME_DIM.z);
     if (inside) {

@@ -634,30 +634,29 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
                 o.decodeStepsPerFrame = steps;
                 o.cacheBytes = cacheBytes;
                 o.prefetchVoxels = 0; // bricks are asked for as rays find them
-                Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
-                ASSERT_TRUE(r.isOk()) << r.message();
-                (*r)->setSettings(st);
+                std::unique_ptr<Renderer> r = sceneRenderer(*ctx, scene, o, st);
+                ASSERT_TRUE(r) << what;
                 uint32_t carried = 0;
                 if (moved) { // a camera turning slowly about the volume, a frame a pose: each frame carries decodes on
                     const int poses = int(scene.gpu->decodeSteps() / std::min(steps, 4096u)) + 8;
                     for (int f = 0; f < poses; ++f) {
                         const double a = 0.01 * f;
-                        Result<FrameStats> s = (*r)->renderFrame(
+                        Result<FrameStats> s = r->renderFrame(
                             perspectiveView({48 + 220 * std::cos(a), 40 + 220 * std::sin(a), 120}, {48, 40, 30}, {0, 0, 1}, 30, 48, 36));
                         ASSERT_TRUE(s.isOk()) << what << ": " << s.message();
                         carried = std::max(carried, s->carriedDecodes);
                     }
                     // Decodes went on from frame to frame: bricks of the finest level ended while it moved.
-                    Result<std::vector<Renderer::CachedBrick>> cached = (*r)->cachedBricks();
+                    Result<std::vector<Renderer::CachedBrick>> cached = r->cachedBricks();
                     ASSERT_TRUE(cached.isOk()) << cached.message();
                     EXPECT_FALSE(cached->empty()) << what << ": no brick ended its decoding while the camera moved";
                 }
                 if (steps == RendererOptions::kDecodeStepsAll) EXPECT_EQ(carried, 0u) << what;
                 else if (moved) EXPECT_GT(carried, 0u) << what << ": finest-level bricks take " << scene.gpu->decodeSteps() << " steps";
                 uint32_t frames = 0;
-                const FrameOutput out = renderConverged(**r, in, 1, 400, &frames);
+                const FrameOutput out = renderConverged(*r, in, 1, 400, &frames);
                 expectGBufferEquals(out, ref, what);
-                EXPECT_EQ((*r)->badBricks(), 0u) << what;
+                EXPECT_EQ(r->badBricks(), 0u) << what;
                 if (moved || cacheBytes) continue;
                 if (steps == RendererOptions::kDecodeStepsAll) allFrames = frames;
                 else EXPECT_LE(frames, allFrames + 1) << what << ": the frames after the first take every step";
@@ -670,15 +669,14 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
     o.decode = RendererOptions::Decode::Gpu;
     o.decodeStepsPerFrame = 300;
     o.prefetchVoxels = 0;
-    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, scene.gpu, o);
-    ASSERT_TRUE(r.isOk()) << r.message();
     RenderSettings ao = st;
     ao.shading = Shading::AmbientOcclusion;
     ao.sampleTarget = 12;
-    (*r)->setSettings(ao);
+    std::unique_ptr<Renderer> r = sceneRenderer(*ctx, scene, o, ao);
+    ASSERT_TRUE(r);
     uint32_t carriedRefining = 0, minSamples = 0;
     for (int f = 0; f < 400 && minSamples < ao.sampleTarget; ++f) {
-        Result<FrameStats> s = (*r)->renderFrame(in);
+        Result<FrameStats> s = r->renderFrame(in);
         ASSERT_TRUE(s.isOk()) << s.message();
         if (minSamples >= 1) carriedRefining = std::max(carriedRefining, s->carriedDecodes);
         minSamples = s->minSamples;
@@ -686,7 +684,7 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
     EXPECT_GE(minSamples, ao.sampleTarget) << "refining converges";
     EXPECT_GT(carriedRefining, 0u) << "frames after the first full image carry decodes";
     FrameOutput out;
-    ASSERT_TRUE((*r)->readOutput(out).isOk());
+    ASSERT_TRUE(r->readOutput(out).isOk());
     expectGBufferEquals(out, ref, "ambient occlusion, refining with carried decodes");
 }
 

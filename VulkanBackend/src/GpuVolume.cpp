@@ -414,8 +414,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         storage.pushes.push_back(DecodePush{m_addresses.address(), m_starts.address(), requests, cacheAddress, statesAddress,
                                             paramBuffer->address() + 4 * kDecodeParamWords * k, countAddress,
                                             detail ? detail->tableAddress() : 0, detail ? detail->ringAddress() : 0,
-                                            carries ? carry.alloc : 0, carries ? carry.bricks : 0, carries ? carry.next : 0,
-                                            carries ? carry.nextStates : 0});
+                                            carry.alloc, carry.bricks, carry.next, carry.nextStates});
     storage.params = std::move(*paramBuffer);
     for (const auto& push : storage.pushes) {
         Context::Dispatch d;

@@ -843,7 +843,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     const uint32_t* a = allocWords();
     stats.frame = accumulation.accumulatedFrames;
     stats.decodedBricks = a[kAllocDecodes];
-    stats.carriedDecodes = resolved.carrySteps ? a[kAllocCarry] : 0;
+    stats.carriedDecodes = a[kAllocCarry]; // 0 unless decodes carry (cache_provision.comp)
     stats.newSamples = a[kAllocNewSamples];
     stats.missingPixels = a[kAllocMissing];
     stats.minSamples = a[kAllocMinSamples] == kNone ? 0 : a[kAllocMinSamples];
