@@ -767,9 +767,18 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   {
     return 0;
   }
+  static const bool profile = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
+  const auto t0 = std::chrono::steady_clock::now();
   if (p.FrameRect[2] > 0 && p.FrameRect[3] > 0 && !this->Composite(win, opaquePass))
   {
     return 0;
+  }
+  if (profile)
+  {
+    glFinish(); // the composite's own time
+    std::fprintf(stderr, "composite: %.2f ms (%dx%d pixels)\n",
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(), p.FrameRect[2],
+      p.FrameRect[3]);
   }
   return 1;
 }
