@@ -34,6 +34,8 @@ void main() {
     bricks.v[b].x = offset;
 #if !CARRY_DECODES
     bricks.v[b].y = l;
+#else
+    inFlightWords().w[b] = 0u; // nothing of this decoding is complete yet (decode_bricks.comp)
 #endif
     const uint d = atomicAdd(alloc.w[kAllocDecodes], 1u);
     UintBuf dec = UintBuf(frameAddr[kSlotDecodes]);

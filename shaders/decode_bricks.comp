@@ -67,6 +67,14 @@ void main() {
     }
     if (carry && ended) // ended (or failed: drawn empty): the rays may read it
         Uvec4s(pc.bricks).v[brick].y = LEVELS - 1u - target;
+    if (carry && st.status == kDecodeRunning && st.level >= 1u) {
+        // Its progress for previews (kInFlightValid, after the brick table): the levels above
+        // st.level are complete, nodes of edge 2^(LEVELS - st.level) finest voxels; the region
+        // is laid out for level LEVELS - 1 - target. Decoding the next level overwrites a node's
+        // last word only with its last child's label: a label of that node still.
+        const uint64_t table = pc.bricks + 16ul * uint64_t(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z);
+        Uints(table).w[brick] = kInFlightValid | ((LEVELS - st.level) << 8u) | (LEVELS - 1u - target);
+    }
     if (carry && st.status == kDecodeRunning && params.w[kDecodeParamCarry] != 0u) {
         // The frame's steps are spent: on in the next frame's list.
         const uint k = atomicAdd(Uints(pc.alloc).w[kAllocCarry], 1u);

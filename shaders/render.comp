@@ -98,6 +98,16 @@ bool coarseBlock(inout Walker w, out uint label, out uint material) {
     return true;
 }
 
+#if IN_FLIGHT_PREVIEWS
+/// The walker stands in a brick still being decoded whose coarser levels are complete
+/// (kInFlightValid): a preview may sample it there (march, not exact).
+bool inFlight(Walker w) {
+    const uint b = brickIndexOf(w.voxel);
+    const uvec4 s = brickState(b);
+    return s.y == kNone && s.x != kNone && inFlightWords().w[b] != 0u;
+}
+#endif
+
 /// The walker stands in a brick cached at a coarser level than the view wants, its finest-level
 /// stream on its way (detail streaming): a preview may sample it there.
 bool standsIn(Walker w) {
@@ -374,6 +384,9 @@ Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 
             if (!previews) break;
 #if DETAIL_STREAMING
             if (standsIn(w)) continue; // the preview goes on through the brick at its coarser level
+#endif
+#if IN_FLIGHT_PREVIEWS
+            if (inFlight(w)) continue; // ... at the coarser levels its decoding completed
 #endif
             if (!coarseBlock(w, label, material)) {
                 // Already behind a semi-transparent block of this label (the brick before,

@@ -376,12 +376,6 @@ uint brickMorton(ivec3 voxel) {
     return v.x | (v.y << 1u) | (v.z << 2u);
 }
 
-/// Label of the voxel whose brickMorton code is `code` in a cached brick decoded at `lod`
-/// starting at cache word `offset`.
-uint cachedLabel(Frame f, uint offset, uint lod, uint code, PaletteRef palette) {
-    return entryLabel(offset, code >> (3u * lod), palette);
-}
-
 /// Level of detail for a brick: one voxel of that level about one pixel (footprint at the brick's
 /// centre), shifted by the bias; 0 everywhere with kFlagFinest.
 uint lodForBrick(Frame f, uint brick) {
@@ -489,6 +483,20 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
     w.tEnd = t1;
     return true;
 }
+
+#ifndef CARRY_DECODES
+#define CARRY_DECODES 0
+#endif
+#ifndef IN_FLIGHT_PREVIEWS
+#define IN_FLIGHT_PREVIEWS 0 // 1: previews read bricks still being decoded (RendererOptions::inFlightPreviews)
+#endif
+#if CARRY_DECODES
+/// The words after the brick table: each brick's decoding progress while it carries over frames
+/// (kInFlightValid).
+UintBuf inFlightWords() {
+    return UintBuf(frameAddr[kSlotBricks] + 16ul * uint64_t(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z));
+}
+#endif
 
 /// Detail streaming (Renderer.cpp): bricks may stand in at a coarser level (kBrickStandIn).
 #ifndef DETAIL_STREAMING
@@ -600,6 +608,23 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         const uvec2 uniformSubs = subBlocks && s.y == 0u ? uniformMask(b) : uvec2(0u);
 #endif
         const uvec2 hiddenSubs = subBlocks ? hiddenMask(b) : uvec2(0u);
+#if IN_FLIGHT_PREVIEWS
+        // A preview reads a brick still being decoded (a region, no level) at the finest level its
+        // decoding completed: the region is laid out for level s.y, a node's label in the last
+        // word of its Morton range (inFlightMask), the steps go by nodes of edge 2^inFlightStep.
+        // No sub-blocks are known for it (subBlocks above is false).
+        uint inFlightMask = 0u, inFlightStep = 0u;
+        if (!exact && s.w != 0u && s.w != BRICK_PASSED && s.y == kNone && s.x != kNone) {
+            const uint p = inFlightWords().w[b];
+            if (p != 0u) {
+                s.y = p & 0xFFu;
+                inFlightStep = (p >> 8u) & 0xFFu;
+                inFlightMask = (1u << (3u * (inFlightStep - s.y))) - 1u;
+            }
+        }
+#else
+        const uint inFlightMask = 0u, inFlightStep = 0u;
+#endif
         // A brick no material draws is passed whole, with its aligned group of 2^g bricks a side
         // when none of them is drawn either (kSlotEmptyGroups).
         const uint emptyLevel = s.w == 0u ? emptyGroupLevel(b) : 0u;
@@ -646,7 +671,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 // label (kSlotUniform; with UNIFORM_LEVELS the largest uniform cube around the voxel, its
                 // level in the word). No surface lies inside either; the CPU mirror (finest
                 // level) steps alike.
-                k = s.y;
+                k = max(s.y, inFlightStep);
                 bool hidden = false;
                 uint j = 0u;
                 const uint code = brickMorton(w.voxel);
@@ -660,10 +685,10 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                     w.prevLabel = kNone; // whatever it holds is not drawn: the next drawn label is a surface
                 } else {
 #if UNIFORM_LEVELS
-                    const uint word = entryWord(s.x, code >> (3u * s.y)); // the label, its uniform level above it
+                    const uint word = entryWord(s.x, (code >> (3u * s.y)) | inFlightMask); // the label, its uniform level above it
                     const uint voxelLabel = wordLabel(word);
 #else
-                    const uint voxelLabel = cachedLabel(f, s.x, s.y, code, palette);
+                    const uint voxelLabel = entryLabel(s.x, (code >> (3u * s.y)) | inFlightMask, palette);
 #endif
                     if (entersCandidate(w, voxelLabel, label)) {
                         candidate = true;

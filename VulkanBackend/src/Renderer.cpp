@@ -97,6 +97,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     }
     im.resolved.carrySteps = !im.resolved.hostDecode && !streaming && steps < volume->decodeSteps() ? steps : 0;
     d.emplace_back("CARRY_DECODES", im.resolved.carrySteps ? "1" : "0");
+    d.emplace_back("IN_FLIGHT_PREVIEWS", im.resolved.carrySteps && options.inFlightPreviews && volume->cacheBits() == 32 ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
     im.lookup = planLabelLookup(volume->largestStoredLabel(), !volume->owned().empty(), im.budget);
@@ -136,7 +137,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t bricks = im.brickCount, requests = im.maxRequests, lists = im.resolved.carrySteps ? 2 : 1;
     const Table tables[] = {{&im.params, sizeof(FrameParams), im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "frame parameters"},
                             {&im.paramsHost, im.viaCopies ? sizeof(FrameParams) : 0, MemoryKind::HostVisible, "frame parameters' host copy"},
-                            {&im.bricks, bricks * 16, MemoryKind::DeviceLocal, "brick table"},
+                            {&im.bricks, bricks * (im.resolved.carrySteps ? 20 : 16), MemoryKind::DeviceLocal, "brick table"}, // kInFlightValid
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
                             {&im.emptyGroups, bricks * 4, MemoryKind::DeviceLocal, "empty brick groups"},
                             {&im.uniformSubs, bricks * 8, cacheKind, "uniform sub-block masks"},
@@ -192,7 +193,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     im.frameAddress = im.params.address();
     // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
     if (!(s = im.makeFrameDecodes())) return s;
-    std::vector<uint32_t> brickWords(size_t(im.brickCount) * 4, 0u);
+    std::vector<uint32_t> brickWords(size_t(im.brickCount) * (im.resolved.carrySteps ? 5 : 4), 0u); // no decodes in flight
     for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
     const std::vector<uint64_t> noMasks(im.brickCount, 0);

@@ -107,6 +107,13 @@ CSGV_CONST(uint32_t, kBrickStandIn, 2u)
 /// Another MPI rank's brick (GpuVolume::owns): view rays pass it (that rank draws it), secondary
 /// rays see it at its level of detail, or the finest level kSlotCoarse holds when that is coarser. kSlotVisible marks it {kNone, kBrickAbsent}.
 CSGV_CONST(uint32_t, kBrickAbsent, 3u)
+/// CARRY_DECODES: the brick table (kSlotBricks) is followed by a word per brick, the progress of
+/// its decoding while it carries over frames (a region, no level yet): kInFlightValid | k << 8 |
+/// l, where the region is laid out for level l (decode_bricks.comp: a node's label in the last
+/// word of its Morton range) and the nodes of edge 2^k (finest voxels, k > l) are complete; 0
+/// before its first level is. Previews read such a brick there (IN_FLIGHT_PREVIEWS); cache_assign
+/// clears the word when it gives the brick a region.
+CSGV_CONST(uint32_t, kInFlightValid, 0x80000000u)
 
 // Words of the cache counter buffer (kSlotAlloc), read by the host between frames.
 CSGV_CONST(uint32_t, kAllocTop, 0u)          ///< cache words handed out from the top

@@ -123,6 +123,11 @@ struct RendererOptions {
     /// per image read, of the rows drawn); CPU devices map them (no copy: device memory is host
     /// memory there). On: the copy on any device (tests cover both).
     bool readBackThroughCopy = false;
+    /// Where GPU decodes carry over frames (decodeStepsPerFrame), previews read a brick still being
+    /// decoded at the finest level its decoding has completed (a moving camera shows its coarser
+    /// levels instead of one label a brick while its finest level is on its way); exact rays
+    /// still find it missing. Off: one label a brick, as before (tests compare both).
+    bool inFlightPreviews = true;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
     /// average streams, at most all streams and a quarter of what the budget leaves beside the
@@ -140,7 +145,7 @@ struct RendererOptions {
     /// invocation, so a frame that decodes waits for its longest brick (about 5 ms on an H200 for a
     /// finest-level brick, whatever else the frame does): with fewer steps its decoding goes on in
     /// the next frames, the rays finding the brick missing until it ends (previews stand in while
-    /// the camera moves). H200, synth 2048^3 at 1920x1080, one frame a pose of an orbit: median
+    /// the camera moves, at the levels its decoding completed: inFlightPreviews). H200, synth 2048^3 at 1920x1080, one frame a pose of an orbit: median
     /// 6.8 ms a frame with every step, 4.1 with 2048, 3.2 with 1024, 2.7 with 512, the pixels
     /// showing previews 3 %, 12 %, 22 % and 37 % (frame time against detail while moving: on that
     /// GPU every choice is above a display's refresh). Steps are spared in a frame
