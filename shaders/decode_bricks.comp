@@ -71,7 +71,8 @@ void main() {
         // Its progress for previews (kInFlightValid, after the brick table): the levels above
         // st.level are complete, nodes of edge 2^(LEVELS - st.level) finest voxels; the region
         // is laid out for level LEVELS - 1 - target. Decoding the next level overwrites a node's
-        // last word only with its last child's label: a label of that node still.
+        // last word with its last child's label: a label of that node, or kNone where that child
+        // lies outside the volume (march then reads the first child's).
         const uint64_t table = pc.bricks + 16ul * uint64_t(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z);
         Uints(table).w[brick] = kInFlightValid | ((LEVELS - st.level) << 8u) | (LEVELS - 1u - target);
     }

@@ -490,6 +490,9 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
 #ifndef IN_FLIGHT_PREVIEWS
 #define IN_FLIGHT_PREVIEWS 0 // 1: previews read bricks still being decoded (RendererOptions::inFlightPreviews)
 #endif
+#if IN_FLIGHT_PREVIEWS && CACHE_BITS != 32
+#error in-flight previews read 32-bit cache words (a paletted brick's palette is read only once it is cached)
+#endif
 #if CARRY_DECODES
 /// The words after the brick table: each brick's decoding progress while it carries over frames
 /// (kInFlightValid).
@@ -684,11 +687,25 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 if (hidden) {
                     w.prevLabel = kNone; // whatever it holds is not drawn: the next drawn label is a surface
                 } else {
+                    const uint entry = (code >> (3u * s.y)) | inFlightMask;
+#if IN_FLIGHT_PREVIEWS
+                    // A node of a brick in flight whose children the decoder has visited holds its
+                    // last child's label in its last word: kNone where that child lies outside the
+                    // volume (a brick at the volume's upper faces). Its first child, at the node's
+                    // low corner, is inside (the walker is): the last word of that child's range.
+                    const uint firstChild = (entry & ~inFlightMask) | (inFlightMask >> 3u);
+#endif
 #if UNIFORM_LEVELS
-                    const uint word = entryWord(s.x, (code >> (3u * s.y)) | inFlightMask); // the label, its uniform level above it
+                    uint word = entryWord(s.x, entry); // the label, its uniform level above it
+#if IN_FLIGHT_PREVIEWS
+                    if (inFlightMask != 0u && word == kNone) word = entryWord(s.x, firstChild);
+#endif
                     const uint voxelLabel = wordLabel(word);
 #else
-                    const uint voxelLabel = entryLabel(s.x, (code >> (3u * s.y)) | inFlightMask, palette);
+                    uint voxelLabel = entryLabel(s.x, entry, palette);
+#if IN_FLIGHT_PREVIEWS
+                    if (inFlightMask != 0u && voxelLabel == kNone) voxelLabel = entryLabel(s.x, firstChild, palette);
+#endif
 #endif
                     if (entersCandidate(w, voxelLabel, label)) {
                         candidate = true;

@@ -766,6 +766,77 @@ TEST(Renderer, PreviewsReadBricksStillBeingDecoded) {
     EXPECT_LE(nearby[0], 0.55) << "one label a brick shows few pixels as converged";
 }
 
+// A solid volume (every voxel a drawn label) of sides that are no multiples of the brick size: a
+// preview's first surface is where its ray enters the volume, whatever the decoder has completed
+// of the bricks there. Nodes at the volume's upper faces whose last child lies outside hold kNone
+// in their last word once their children are visited: read as it is, such a node was see-through,
+// and previews showed surfaces behind it. Few steps a frame: every level's state is published.
+TEST(Renderer, InFlightPreviewsOfASolidVolumeShowItsFaces) {
+    CSGV_REQUIRE_GPU(ctx);
+    LabelVolume v;
+    v.dim = {70, 45, 38};
+    v.labels.resize(size_t(v.dim[0]) * v.dim[1] * v.dim[2]);
+    for (uint32_t z = 0; z < v.dim[2]; ++z)
+        for (uint32_t y = 0; y < v.dim[1]; ++y)
+            for (uint32_t x = 0; x < v.dim[0]; ++x) v.labels[size_t(v.index(x, y, z))] = (x / 5 + y / 7 + z / 3) % 50 + 1;
+    EncodeOptions eo;
+    eo.brickSize = 32;
+    Result<CompressedVolume> encoded = encodeVolume(v, eo);
+    ASSERT_TRUE(encoded.isOk()) << encoded.message();
+    std::shared_ptr<GpuVolume> gpu;
+    {
+        Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(*ctx, *encoded);
+        ASSERT_TRUE(made.isOk()) << made.message();
+        gpu = std::move(*made);
+    }
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    st.denoise = false;
+    // Two poses in turn (a new camera every frame: decodes carry), seeing the volume's +x, +y, +z faces.
+    const FrameInput poses[2] = {perspectiveView({160, 130, 110}, {35, 22, 19}, {0, 0, 1}, 40, 64, 48),
+                                 perspectiveView({150, 140, 115}, {35, 22, 19}, {0, 0, 1}, 40, 64, 48)};
+    std::vector<float> refDepth[2];
+    for (int k = 0; k < 2; ++k) {
+        RendererOptions every;
+        every.decode = RendererOptions::Decode::Gpu;
+        every.decodeStepsPerFrame = RendererOptions::kDecodeStepsAll;
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, every);
+        ASSERT_TRUE(r.isOk()) << r.message();
+        (*r)->setSettings(st);
+        refDepth[k] = renderConverged(**r, poses[k], 1, 200).depth;
+    }
+    RendererOptions o;
+    o.decode = RendererOptions::Decode::Gpu;
+    o.decodeStepsPerFrame = 24;
+    o.prefetchVoxels = 0;
+    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, o);
+    ASSERT_TRUE(r.isOk()) << r.message();
+    (*r)->setSettings(st);
+    size_t previews = 0, wrong = 0;
+    uint32_t carried = 0;
+    for (int f = 0; f < 60; ++f) {
+        Result<FrameStats> stats = (*r)->renderFrame(poses[f % 2]);
+        ASSERT_TRUE(stats.isOk()) << stats.message();
+        carried = std::max(carried, stats->carriedDecodes);
+        FrameOutput out;
+        ASSERT_TRUE((*r)->readOutput(out).isOk());
+        for (size_t i = 0; i < out.depth.size(); ++i) {
+            if (out.samples[i] != 0 || refDepth[f % 2][i] >= 1.0f) continue; // sampled, or no volume there
+            ++previews;
+            if (out.depth[i] != refDepth[f % 2][i]) {
+                if (wrong == 0)
+                    ADD_FAILURE() << "frame " << f << ", pixel " << i << ": a preview at depth " << out.depth[i]
+                                  << ", the volume's face at " << refDepth[f % 2][i];
+                ++wrong;
+            }
+        }
+    }
+    EXPECT_GT(carried, 0u) << "decodes in flight";
+    EXPECT_GT(previews, size_t(20000)) << "frames that show previews";
+    EXPECT_EQ(wrong, 0u) << "previews behind the volume's faces, of " << previews;
+}
+
 // A brick whose decoding fails is drawn empty by GPU decoding as by host decoding, whatever its
 // size and however its decoding is split into dispatches and frames. Bricks of 64 on a volume of
 // odd sizes, the finest streams of some overwritten (fails at once), one word in the middle of

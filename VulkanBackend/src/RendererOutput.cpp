@@ -171,7 +171,8 @@ Result<Renderer::WorkingSet> Renderer::workingSet(uint32_t mark) const {
     const CompressedVolume& v = im.volume->volume();
     std::vector<uint64_t> levelBytes(v.levels());
     for (uint32_t l = 0; l < v.levels(); ++l) levelBytes[l] = im.volume->regionWords(l) * 4;
-    // The table in slices (16 bytes a brick: 256 MiB at 8192^3, 16 MiB at a time).
+    // The table in slices (16 bytes a brick, the in-flight words after it aside: 256 MiB at 8192^3,
+    // 16 MiB at a time).
     constexpr uint64_t kSlice = uint64_t(1) << 20;
     std::vector<uint32_t> words(size_t(std::min<uint64_t>(im.brickCount, kSlice)) * 4);
     for (uint64_t from = 0; from < im.brickCount; from += kSlice) {

@@ -226,7 +226,7 @@ CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
     uint64_t detail;   /* separated volumes: the detail table (kSlotDetail), else 0 */               \
     uint64_t ring;     /* separated volumes: the detail buffer, else 0 */                           \
     uint64_t alloc;    /* frames whose decodes carry over: the cache counters (kAllocCarry), else 0 */ \
-    uint64_t bricks;   /* ... the brick table: a decode that ends sets its brick's level */         \
+    uint64_t bricks;   /* ... the brick table: a decode that ends sets its brick's level; the words after it, a running one's progress (kInFlightValid) */ \
     uint64_t next;     /* ... the next frame's decode list */                                       \
     uint64_t nextStates; /* ... and its states */
 

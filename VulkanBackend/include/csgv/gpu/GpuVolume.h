@@ -185,7 +185,7 @@ public:
     struct Carry {
         uint32_t stepsPerFrame = 0;  ///< 0: every step (the carried decodes end in this frame too)
         uint64_t alloc = 0;          ///< the cache counters (0: no carry)
-        uint64_t bricks = 0;         ///< the brick table
+        uint64_t bricks = 0;         ///< the brick table, a word a brick after it (kInFlightValid: 20 bytes a brick in all)
         uint64_t next = 0, nextStates = 0; ///< the next frame's decode list and states
     };
     Status appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress, uint64_t statesAddress,

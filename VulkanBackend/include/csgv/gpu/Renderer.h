@@ -125,8 +125,9 @@ struct RendererOptions {
     bool readBackThroughCopy = false;
     /// Where GPU decodes carry over frames (decodeStepsPerFrame), previews read a brick still being
     /// decoded at the finest level its decoding has completed (a moving camera shows its coarser
-    /// levels instead of one label a brick while its finest level is on its way); exact rays
-    /// still find it missing. Off: one label a brick, as before (tests compare both).
+    /// levels instead of one label a brick while its finest level is on its way), and so do path
+    /// tracing's deep bounces (as they read detail streaming's stand-ins); exact rays still find
+    /// it missing. Off: one label a brick, as before (tests compare both).
     bool inFlightPreviews = true;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
