@@ -76,6 +76,27 @@ std::unique_ptr<Renderer> sceneRenderer(Context& ctx, Scene& scene, const Render
     return std::move(*r);
 }
 
+/// A label volume of size `dim` whose voxel (x, y, z) holds label(x, y, z).
+template <typename F>
+LabelVolume labelVolumeOf(const std::array<uint32_t, 3>& dim, F label) {
+    LabelVolume v;
+    v.dim = dim;
+    v.labels.resize(size_t(v.dim[0]) * v.dim[1] * v.dim[2]);
+    for (uint32_t z = 0; z < v.dim[2]; ++z)
+        for (uint32_t y = 0; y < v.dim[1]; ++y)
+            for (uint32_t x = 0; x < v.dim[0]; ++x) v.labels[size_t(v.index(x, y, z))] = label(x, y, z);
+    return v;
+}
+
+/// Settings whose images tests compare exactly: the finest level, no jitter, no denoising.
+RenderSettings exactSettings() {
+    RenderSettings st;
+    st.finest = true;
+    st.jitter = false;
+    st.denoise = false;
+    return st;
+}
+
 /// Renders until every pixel has `samples` samples (or `maxFrames` frames).
 FrameOutput renderConverged(Renderer& r, const FrameInput& in, uint32_t samples, uint32_t maxFrames,
                             uint32_t* framesUsed = nullptr) {
@@ -696,10 +717,7 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
 TEST(Renderer, PreviewsReadBricksStillBeingDecoded) {
     CSGV_REQUIRE_GPU(ctx);
     Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
-    RenderSettings st;
-    st.finest = true;
-    st.jitter = false;
-    st.denoise = false;
+    const RenderSettings st = exactSettings();
     auto pose = [](int f) {
         const double a = 0.01 * f;
         return perspectiveView({48 + 220 * std::cos(a), 40 + 220 * std::sin(a), 120}, {48, 40, 30}, {0, 0, 1}, 30, 64, 48);
@@ -773,12 +791,7 @@ TEST(Renderer, PreviewsReadBricksStillBeingDecoded) {
 // and previews showed surfaces behind it. Few steps a frame: every level's state is published.
 TEST(Renderer, InFlightPreviewsOfASolidVolumeShowItsFaces) {
     CSGV_REQUIRE_GPU(ctx);
-    LabelVolume v;
-    v.dim = {70, 45, 38};
-    v.labels.resize(size_t(v.dim[0]) * v.dim[1] * v.dim[2]);
-    for (uint32_t z = 0; z < v.dim[2]; ++z)
-        for (uint32_t y = 0; y < v.dim[1]; ++y)
-            for (uint32_t x = 0; x < v.dim[0]; ++x) v.labels[size_t(v.index(x, y, z))] = (x / 5 + y / 7 + z / 3) % 50 + 1;
+    const LabelVolume v = labelVolumeOf({70, 45, 38}, [](uint32_t x, uint32_t y, uint32_t z) { return (x / 5 + y / 7 + z / 3) % 50 + 1; });
     EncodeOptions eo;
     eo.brickSize = 32;
     Result<CompressedVolume> encoded = encodeVolume(v, eo);
@@ -789,10 +802,7 @@ TEST(Renderer, InFlightPreviewsOfASolidVolumeShowItsFaces) {
         ASSERT_TRUE(made.isOk()) << made.message();
         gpu = std::move(*made);
     }
-    RenderSettings st;
-    st.finest = true;
-    st.jitter = false;
-    st.denoise = false;
+    const RenderSettings st = exactSettings();
     // Two poses in turn (a new camera every frame: decodes carry), seeing the volume's +x, +y, +z faces.
     const FrameInput poses[2] = {perspectiveView({160, 130, 110}, {35, 22, 19}, {0, 0, 1}, 40, 64, 48),
                                  perspectiveView({150, 140, 115}, {35, 22, 19}, {0, 0, 1}, 40, 64, 48)};
@@ -848,13 +858,9 @@ TEST(Renderer, InFlightPreviewsOfASolidVolumeShowItsFaces) {
 // host decoding's); cache_uniform.comp fills it now, 64 invocations to a brick.
 TEST(Renderer, FailedBricksAreDrawnEmptyByEveryDecoderWhateverTheSteps) {
     CSGV_REQUIRE_GPU(ctx);
-    LabelVolume v;
-    v.dim = {150, 131, 97};
-    v.labels.resize(size_t(v.dim[0]) * v.dim[1] * v.dim[2]);
-    for (uint32_t z = 0; z < v.dim[2]; ++z)
-        for (uint32_t y = 0; y < v.dim[1]; ++y)
-            for (uint32_t x = 0; x < v.dim[0]; ++x)
-                v.labels[size_t(v.index(x, y, z))] = (x * 7 + y * 3 + z * 5) % 89 == 0 ? 9 : (x / 11 + y / 7 + z / 9) % 6 + 1;
+    const LabelVolume v = labelVolumeOf({150, 131, 97}, [](uint32_t x, uint32_t y, uint32_t z) {
+        return (x * 7 + y * 3 + z * 5) % 89 == 0 ? 9u : (x / 11 + y / 7 + z / 9) % 6 + 1;
+    });
     EncodeOptions eo;
     eo.brickSize = 64;
     Result<CompressedVolume> encoded = encodeVolume(v, eo);
