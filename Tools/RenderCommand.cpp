@@ -42,6 +42,7 @@ struct RenderArgs {
     std::string cameraPath;       ///< --camera-path FILE: the poses to render, one after the other
     bool volcaniteCamera = false; ///< --camera volcanite: Volcanite 0.6's default orbital pose
     uint32_t framesPerView = 0;   ///< 0: until converged; N: exactly N frames a pose (previews allowed)
+    bool compareConverged = false; ///< --compare-converged: each pose's last frame against its converged image
     uint64_t cacheMiB = 0; ///< 0: automatic (gpu::automaticCacheBytes)
     uint64_t deviceMemoryMiB = 0; ///< 0: automatic
     uint64_t hostMemoryMiB = 0;   ///< 0: automatic (TieredVolume::automaticBudget)
@@ -85,6 +86,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     app.add_flag("--finest", a.settings.finest);
     app.add_flag("--cache-paletting", a.cachePaletting);
     app.add_flag("--computed-attributes", a.computedAttributes);
+    app.add_flag("--compare-converged", a.compareConverged);
     ValueOptions values(app);
     const auto number = [&values](const std::string& name, double lo, double hi, auto set) {
         values.add(name, [name, lo, hi, set](const std::string& v) {
@@ -181,6 +183,8 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     a.output = positional[1];
     if (!a.video.empty() && a.orbit == 0 && a.cameraPath.empty())
         return Status::error("--video needs --orbit N or --camera-path FILE");
+    if (a.compareConverged && a.framesPerView == 0)
+        return Status::error("--compare-converged needs --frames-per-view N (without it every view converges)");
     if (!a.cameraPath.empty() && (a.orbit || a.haveEye || a.haveCenter || a.volcaniteCamera))
         return Status::error("--camera-path gives every pose: it takes no --orbit, --eye, --center or --camera");
     if (a.volcaniteCamera && (a.haveEye || a.haveCenter))
@@ -192,6 +196,35 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     }
     return Status::ok();
 }
+
+/// How much of a moving camera's frame shows what the converged image of its pose shows: of the
+/// pixels where either shows something, those within 2/255 in every channel; the same of the
+/// frame's previews (pixels without samples that show something).
+struct Agreement {
+    uint64_t shown = 0, same = 0, previews = 0, previewsSame = 0;
+};
+Agreement compareToConverged(const gpu::FrameOutput& moving, const gpu::FrameOutput& converged) {
+    Agreement g;
+    const auto near = [](uint32_t a, uint32_t b) {
+        for (int k = 0; k < 32; k += 8)
+            if (std::abs(int((a >> k) & 0xFFu) - int((b >> k) & 0xFFu)) > 2) return false;
+        return true;
+    };
+    for (size_t i = 0; i < moving.rgba8.size() && i < converged.rgba8.size(); ++i) {
+        const bool any = (moving.rgba8[i] >> 24) != 0 || (converged.rgba8[i] >> 24) != 0;
+        if (!any) continue;
+        const bool same = near(moving.rgba8[i], converged.rgba8[i]);
+        ++g.shown;
+        g.same += same;
+        if (i < moving.samples.size() && moving.samples[i] == 0 && (moving.rgba8[i] >> 24) != 0) {
+            ++g.previews;
+            g.previewsSame += same;
+        }
+    }
+    return g;
+}
+
+double percent(uint64_t part, uint64_t whole) { return whole ? 100.0 * double(part) / double(whole) : 100.0; }
 
 double length3(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
 
@@ -395,15 +428,30 @@ int cmdRender(int argc, char** argv) {
     const auto tRenderer = std::chrono::steady_clock::now();
     gpu::RendererOptions options = plan.share(shared->deviceBytes(), 1, a.decode);
     options.decodeStepsPerFrame = a.decodeSteps;
-    Result<std::unique_ptr<gpu::Renderer>> renderer = gpu::Renderer::create(**ctx, shared, options);
-    if (!renderer) return fail(renderer.message());
-    gpu::Renderer& r = **renderer;
-    r.setGeometry(file->metadata.geometry);
-    if (!(s = r.setMaterials(doc, attributes, file->hasAttributes && !file->wideLabels ? file->idToLabel : std::vector<uint32_t>{})))
-        return fail(s.message());
     gpu::RenderSettings settings = a.settings;
     settings.sampleTarget = a.frames;
-    r.setSettings(settings);
+    const auto makeRenderer = [&](const gpu::RendererOptions& o) -> Result<std::unique_ptr<gpu::Renderer>> {
+        Result<std::unique_ptr<gpu::Renderer>> made = gpu::Renderer::create(**ctx, shared, o);
+        if (!made) return made.status();
+        (*made)->setGeometry(file->metadata.geometry);
+        if (Status m = (*made)->setMaterials(doc, attributes, file->hasAttributes && !file->wideLabels ? file->idToLabel : std::vector<uint32_t>{}); !m)
+            return m;
+        (*made)->setSettings(settings);
+        return made;
+    };
+    Result<std::unique_ptr<gpu::Renderer>> renderer = makeRenderer(options);
+    if (!renderer) return fail(renderer.message());
+    gpu::Renderer& r = **renderer;
+    // --compare-converged: a second renderer whose decodes end in their frame renders each pose to
+    // its converged image (not timed).
+    std::unique_ptr<gpu::Renderer> reference;
+    if (a.compareConverged) {
+        gpu::RendererOptions every = options;
+        every.decodeStepsPerFrame = gpu::RendererOptions::kDecodeStepsAll;
+        Result<std::unique_ptr<gpu::Renderer>> made = makeRenderer(every);
+        if (!made) return fail("--compare-converged: " + made.message());
+        reference = std::move(*made);
+    }
     std::printf("device: %s (%s)\n", (*ctx)->device().name.c_str(), (*ctx)->device().type.c_str());
     std::printf("cache_bits_per_voxel: %u\n", shared->cacheBits());
     std::printf("detail_separated: %s\n", shared->separated() ? "yes" : "no"); // the finest level in host memory
@@ -437,7 +485,7 @@ int cmdRender(int argc, char** argv) {
         poses = a.orbit ? orbitPoses(first, a.orbit) : std::vector<CameraPose>{first};
     }
     const uint32_t views = uint32_t(poses.size());
-    std::vector<double> frameTimes, viewTimes;
+    std::vector<double> frameTimes, viewTimes, asConverged, previewsAsConverged;
     double firstFrameMs = -1;
     uint64_t cacheUsed = 0;
     uint32_t fewestSamples = ~0u; // of any view's last frame: below --frames, a view stopped short
@@ -484,6 +532,25 @@ int cmdRender(int argc, char** argv) {
         }
         fewestSamples = std::min(fewestSamples, minSamples);
         if (!(s = r.readOutput(out))) return fail(s.message());
+        if (reference) {
+            uint32_t idleRef = 0;
+            for (uint32_t f = 0; f < a.frames * settings.subsampling * settings.subsampling + 256; ++f) {
+                if (cancelRequested()) return fail("interrupted: stopped, no image written");
+                Result<gpu::FrameStats> st = reference->renderFrame(in);
+                if (!st) return fail("--compare-converged: " + st.message());
+                if (st->minSamples >= a.frames) break;
+                idleRef = st->idle() ? idleRef + 1 : 0;
+                if (idleRef >= st->idleLimit()) break;
+            }
+            gpu::FrameOutput converged;
+            if (!(s = reference->readOutput(converged, gpu::Renderer::Color8))) return fail(s.message());
+            const Agreement g = compareToConverged(out, converged);
+            asConverged.push_back(percent(g.same, g.shown));
+            previewsAsConverged.push_back(percent(g.previewsSame, g.previews));
+            std::printf("view %u as converged: %.1f %% of %llu pixels, previews %.1f %% of %llu\n", v, asConverged.back(),
+                        static_cast<unsigned long long>(g.shown), previewsAsConverged.back(),
+                        static_cast<unsigned long long>(g.previews));
+        }
         // The view's working set, outside its time (the brick table read back, 16 bytes a brick):
         // for the first kMeasuredViews views and every view whose cache ran full (a long path over
         // a large volume would read the table once a pose).
@@ -522,6 +589,11 @@ int cmdRender(int argc, char** argv) {
     else if (fewestSamples >= a.frames) std::printf("converged: yes\n");
     else std::printf("converged: no (a pixel holds %u of %u samples)\n", fewestSamples, a.frames);
     std::printf("median_frame_ms: %.1f\n", sorted.empty() ? 0.0 : sorted[sorted.size() / 2]);
+    if (reference) {
+        for (std::vector<double>* shares : {&asConverged, &previewsAsConverged}) std::sort(shares->begin(), shares->end());
+        std::printf("as_converged_pct: %.1f (median over views; previews %.1f)\n", asConverged[asConverged.size() / 2],
+                    previewsAsConverged[previewsAsConverged.size() / 2]);
+    }
     std::printf("time_to_first_frame_ms: %.1f\n", firstFrameMs);
     for (const auto& b : r.memory().buffers) std::printf("device_memory %s: %.2f MiB\n", b.first.c_str(), b.second / 1048576.0);
     std::printf("device_memory_total_mib: %.2f\n", r.memory().total() / 1048576.0);

@@ -13,7 +13,9 @@
 # Every render uses Volcanite 0.6's default orbital pose (--camera volcanite), orbited about +z.
 # After the modes, a moving-camera row: MOVING (32) poses of that orbit, one frame each
 # (--frames-per-view 1, previews allowed, as an interactive view and Volcanite show them): its
-# median frame and the whole path's time.
+# median frame and the whole path's time, and how much of each pose's frame shows what its
+# converged image shows (as_converged_pct: --compare-converged, a second renderer, not timed;
+# COMPARE= leaves it out).
 # With BUDGET_MIB (e.g. 560 for synth 2048^3): a budget row per volume, a 16-view orbit at --finest
 # with GPU decoding, unconstrained and under that device-memory budget: frames, the largest view's
 # working set against the brick cache (cache_holds_view), detail streams uploaded and evicted.
@@ -63,7 +65,9 @@ render() {
     timeout $secs "$bin" render $v "$res/s$name.png" --size ${SIZE:-1920x1080} "$@" ${RENDER_ARGS:-} >"$res/r_$name.log" 2>&1
     local rc=$?
     if [ "${PROFILE:-1}" != 0 ]; then
-        CSGV_PROFILE_DISPATCHES=1 timeout $secs "$bin" render $v "$res/s${name}_prof.png" --size ${SIZE:-1920x1080} "$@" \
+        local prof=() x # the stages of the timed renderer alone: no converged images beside it
+        for x in "$@"; do [ "$x" = --compare-converged ] || prof+=("$x"); done
+        CSGV_PROFILE_DISPATCHES=1 timeout $secs "$bin" render $v "$res/s${name}_prof.png" --size ${SIZE:-1920x1080} "${prof[@]}" \
             ${RENDER_ARGS:-} >"$res/r_${name}_prof.log" 2>&1
     fi
     return $rc
@@ -90,8 +94,8 @@ for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
     done
     # A moving camera: one frame a pose along the orbit (the first mode).
     m=${modes%% *}; bin=$csgv; t=${n}_${m}_moving${TAG:+_$TAG}
-    render $t 120 --shading $m --camera volcanite --orbit ${MOVING:-32} --frames-per-view 1
-    echo "$n $m moving rc $?: $(summary $res/r_$t.log 'views|median_frame_ms|path_ms')"
+    render $t 120 --shading $m --camera volcanite --orbit ${MOVING:-32} --frames-per-view 1 ${COMPARE---compare-converged}
+    echo "$n $m moving rc $?: $(summary $res/r_$t.log 'views|median_frame_ms|path_ms|as_converged_pct')"
     [ -f $res/r_${t}_prof.log ] && echo "  stages: $(stages $res/r_${t}_prof.log)"
     # Under a device-memory budget: frames to converge a 16-view orbit against unconstrained.
     if [ -n "${BUDGET_MIB:-}" ] && [[ " ${BUDGET_SIZES:-$n} " == *" $n "* ]]; then
