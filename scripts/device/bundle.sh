@@ -5,7 +5,8 @@
 # glvnd's dispatch libraries from this machine, and the Volcanite fixtures.
 # Usage: bash scripts/device/bundle.sh [BUILD_DIR]   (then carry .devbundle, run gpu_check.sh)
 # BASE_BUILD=DIR also packs DIR/bin/csgv (another commit's build, same libraries) as the baseline
-# that gpu_check.sh renders beside this one, on the same machine.
+# that gpu_check.sh renders beside this one, on the same machine. VOLCANITE=DIR packs a headless
+# Volcanite (scripts/device/build_volcanite.sh) for volcanite_check.sh.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 build=${1:-$root/build}
@@ -31,6 +32,18 @@ if [ -n "${BASE_BUILD:-}" ]; then
     mkdir -p "$out/base" && cp "$BASE_BUILD/bin/csgv" "$out/base/csgv"
     strip --strip-unneeded "$out/base/csgv"
     (cd "$BASE_BUILD/.." && git rev-parse --short HEAD 2>/dev/null) >"$out/base/commit" || true
+fi
+# VOLCANITE=DIR (a headless build by build_volcanite.sh): the peer renderer for volcanite_check.sh,
+# its libraries, and the shader folders it reads by the absolute paths it was built with.
+if [ -n "${VOLCANITE:-}" ]; then
+    mkdir -p "$out/volcanite"
+    cp "$VOLCANITE/build/volcanite/volcanite" "$out/volcanite/"
+    strip --strip-unneeded "$out/volcanite/volcanite"
+    ldd "$out/volcanite/volcanite" | awk '$3 ~ /^\// {print $1, $3}' | while read -r name path; do
+        [[ $name =~ $skip ]] || cp -Lu "$path" "$out/lib/$name"
+    done
+    tar -C / -cf "$out/volcanite/data.tar" "${VOLCANITE#/}/lib/vvv/data" "${VOLCANITE#/}/volcanite/data"
+    cp "$VOLCANITE/COMMIT" "$out/volcanite/commit" 2>/dev/null || true
 fi
 strip --strip-unneeded "$out"/bin/*
 du -sh "$out"
