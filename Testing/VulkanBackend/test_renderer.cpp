@@ -796,55 +796,57 @@ TEST(Renderer, InFlightPreviewsOfASolidVolumeShowItsFaces) {
     eo.brickSize = 32;
     Result<CompressedVolume> encoded = encodeVolume(v, eo);
     ASSERT_TRUE(encoded.isOk()) << encoded.message();
-    std::shared_ptr<GpuVolume> gpu;
-    {
-        Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(*ctx, *encoded);
-        ASSERT_TRUE(made.isOk()) << made.message();
-        gpu = std::move(*made);
-    }
     const RenderSettings st = exactSettings();
     // Two poses in turn (a new camera every frame: decodes carry), seeing the volume's +x, +y, +z faces.
     const FrameInput poses[2] = {perspectiveView({160, 130, 110}, {35, 22, 19}, {0, 0, 1}, 40, 64, 48),
                                  perspectiveView({150, 140, 115}, {35, 22, 19}, {0, 0, 1}, 40, 64, 48)};
-    std::vector<float> refDepth[2];
-    for (int k = 0; k < 2; ++k) {
-        RendererOptions every;
-        every.decode = RendererOptions::Decode::Gpu;
-        every.decodeStepsPerFrame = RendererOptions::kDecodeStepsAll;
-        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, every);
+    for (const bool uniformLevels : {true, false}) { // march reads a word with its level, or a label
+        const std::string what = uniformLevels ? "uniform levels" : "plain labels";
+        GpuVolumeOptions go;
+        go.uniformLevels = uniformLevels;
+        Result<std::unique_ptr<GpuVolume>> made = GpuVolume::create(*ctx, *encoded, go);
+        ASSERT_TRUE(made.isOk()) << made.message();
+        const std::shared_ptr<GpuVolume> gpu = std::move(*made);
+        std::vector<float> refDepth[2];
+        for (int k = 0; k < 2; ++k) {
+            RendererOptions every;
+            every.decode = RendererOptions::Decode::Gpu;
+            every.decodeStepsPerFrame = RendererOptions::kDecodeStepsAll;
+            Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, every);
+            ASSERT_TRUE(r.isOk()) << r.message();
+            (*r)->setSettings(st);
+            refDepth[k] = renderConverged(**r, poses[k], 1, 200).depth;
+        }
+        RendererOptions o;
+        o.decode = RendererOptions::Decode::Gpu;
+        o.decodeStepsPerFrame = 24;
+        o.prefetchVoxels = 0;
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, o);
         ASSERT_TRUE(r.isOk()) << r.message();
         (*r)->setSettings(st);
-        refDepth[k] = renderConverged(**r, poses[k], 1, 200).depth;
-    }
-    RendererOptions o;
-    o.decode = RendererOptions::Decode::Gpu;
-    o.decodeStepsPerFrame = 24;
-    o.prefetchVoxels = 0;
-    Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, gpu, o);
-    ASSERT_TRUE(r.isOk()) << r.message();
-    (*r)->setSettings(st);
-    size_t previews = 0, wrong = 0;
-    uint32_t carried = 0;
-    for (int f = 0; f < 60; ++f) {
-        Result<FrameStats> stats = (*r)->renderFrame(poses[f % 2]);
-        ASSERT_TRUE(stats.isOk()) << stats.message();
-        carried = std::max(carried, stats->carriedDecodes);
-        FrameOutput out;
-        ASSERT_TRUE((*r)->readOutput(out).isOk());
-        for (size_t i = 0; i < out.depth.size(); ++i) {
-            if (out.samples[i] != 0 || refDepth[f % 2][i] >= 1.0f) continue; // sampled, or no volume there
-            ++previews;
-            if (out.depth[i] != refDepth[f % 2][i]) {
-                if (wrong == 0)
-                    ADD_FAILURE() << "frame " << f << ", pixel " << i << ": a preview at depth " << out.depth[i]
-                                  << ", the volume's face at " << refDepth[f % 2][i];
-                ++wrong;
+        size_t previews = 0, wrong = 0;
+        uint32_t carried = 0;
+        for (int f = 0; f < 60; ++f) {
+            Result<FrameStats> stats = (*r)->renderFrame(poses[f % 2]);
+            ASSERT_TRUE(stats.isOk()) << stats.message();
+            carried = std::max(carried, stats->carriedDecodes);
+            FrameOutput out;
+            ASSERT_TRUE((*r)->readOutput(out).isOk());
+            for (size_t i = 0; i < out.depth.size(); ++i) {
+                if (out.samples[i] != 0 || refDepth[f % 2][i] >= 1.0f) continue; // sampled, or no volume there
+                ++previews;
+                if (out.depth[i] != refDepth[f % 2][i]) {
+                    if (wrong == 0)
+                        ADD_FAILURE() << what << ", frame " << f << ", pixel " << i << ": a preview at depth "
+                                      << out.depth[i] << ", the volume's face at " << refDepth[f % 2][i];
+                    ++wrong;
+                }
             }
         }
+        EXPECT_GT(carried, 0u) << what << ": decodes in flight";
+        EXPECT_GT(previews, size_t(20000)) << what << ": frames that show previews";
+        EXPECT_EQ(wrong, 0u) << what << ": previews behind the volume's faces, of " << previews;
     }
-    EXPECT_GT(carried, 0u) << "decodes in flight";
-    EXPECT_GT(previews, size_t(20000)) << "frames that show previews";
-    EXPECT_EQ(wrong, 0u) << "previews behind the volume's faces, of " << previews;
 }
 
 // A brick whose decoding fails is drawn empty by GPU decoding as by host decoding, whatever its
