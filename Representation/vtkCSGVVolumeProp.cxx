@@ -69,6 +69,13 @@ void main()
 }
 )";
 
+/// CSGV_PROFILE_DISPATCHES: each draw prints its stages' times (README, "CSGV_PROFILE_DISPATCHES").
+bool profiling()
+{
+  static const bool on = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
+  return on;
+}
+
 /// The no-device message is the same for every view: say it once per process.
 std::atomic<bool> deviceReported{ false };
 
@@ -767,13 +774,12 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   {
     return 0;
   }
-  static const bool profile = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
   const auto t0 = std::chrono::steady_clock::now();
   if (p.FrameRect[2] > 0 && p.FrameRect[3] > 0 && !this->Composite(win, opaquePass))
   {
     return 0;
   }
-  if (profile)
+  if (profiling())
   {
     glFinish(); // the composite's own time
     std::fprintf(stderr, "composite: %.2f ms (%dx%d pixels)\n",
@@ -874,8 +880,7 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
     p.FrameRect[k + 2] = std::max(0, hi - lo);
   }
   const uint32_t frames = p.View.framesLastRender();
-  static const bool profile = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
-  if (profile)
+  if (profiling())
   {
     glFinish(); // the upload's own time, not the next GL call's
     auto ms = [](std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b)

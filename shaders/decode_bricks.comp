@@ -73,8 +73,7 @@ void main() {
         // is laid out for level LEVELS - 1 - target. Decoding the next level overwrites a node's
         // last word with its last child's label: a label of that node, or kNone where that child
         // lies outside the volume (march then reads the first child's).
-        const uint64_t table = pc.bricks + 16ul * uint64_t(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z);
-        Uints(table).w[brick] = kInFlightValid | ((LEVELS - st.level) << 8u) | (LEVELS - 1u - target);
+        Uints(pc.bricks + inFlightWordsOffset(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z)).w[brick] = kInFlightValid | ((LEVELS - st.level) << 8u) | (LEVELS - 1u - target);
     }
     if (carry && st.status == kDecodeRunning && params.w[kDecodeParamCarry] != 0u) {
         // The frame's steps are spent: on in the next frame's list.

@@ -103,8 +103,7 @@ bool coarseBlock(inout Walker w, out uint label, out uint material) {
 /// (kInFlightValid): a preview may sample it there (march, not exact).
 bool inFlight(Walker w) {
     const uint b = brickIndexOf(w.voxel);
-    const uvec4 s = brickState(b);
-    return s.y == kNone && s.x != kNone && inFlightWords().w[b] != 0u;
+    return inFlightProgress(b, brickState(b)) != 0u;
 }
 #endif
 

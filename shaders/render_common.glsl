@@ -496,8 +496,13 @@ bool startRay(vec3 o, vec3 d, float tEnd, ivec3 lo, ivec3 hi, out Walker w) {
 #if CARRY_DECODES
 /// The words after the brick table: each brick's decoding progress while it carries over frames
 /// (kInFlightValid).
-UintBuf inFlightWords() {
-    return UintBuf(frameAddr[kSlotBricks] + 16ul * uint64_t(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z));
+UintBuf inFlightWords() { return UintBuf(frameAddr[kSlotBricks] + inFlightWordsOffset(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z)); }
+#endif
+#if IN_FLIGHT_PREVIEWS
+/// Brick b's decoding progress (kInFlightValid) where previews may read it (its state `s`: visible,
+/// a region and no level, a decoding in flight with a level complete), else 0.
+uint inFlightProgress(uint b, uvec4 s) {
+    return s.w != 0u && s.y == kNone && s.x != kNone ? inFlightWords().w[b] : 0u;
 }
 #endif
 
@@ -617,8 +622,8 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         // word of its Morton range (inFlightMask), the steps go by nodes of edge 2^inFlightStep.
         // No sub-blocks are known for it (subBlocks above is false).
         uint inFlightMask = 0u, inFlightStep = 0u;
-        if (!exact && s.w != 0u && s.w != BRICK_PASSED && s.y == kNone && s.x != kNone) {
-            const uint p = inFlightWords().w[b];
+        if (!exact && s.w != BRICK_PASSED) {
+            const uint p = inFlightProgress(b, s);
             if (p != 0u) {
                 s.y = p & 0xFFu;
                 inFlightStep = (p >> 8u) & 0xFFu;

@@ -137,7 +137,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t bricks = im.brickCount, requests = im.maxRequests, lists = im.resolved.carrySteps ? 2 : 1;
     const Table tables[] = {{&im.params, sizeof(FrameParams), im.viaCopies ? MemoryKind::DeviceLocal : MemoryKind::HostVisible, "frame parameters"},
                             {&im.paramsHost, im.viaCopies ? sizeof(FrameParams) : 0, MemoryKind::HostVisible, "frame parameters' host copy"},
-                            {&im.bricks, bricks * (im.resolved.carrySteps ? 20 : 16), MemoryKind::DeviceLocal, "brick table"}, // kInFlightValid
+                            {&im.bricks, inFlightWordsOffset(im.brickCount) + (im.resolved.carrySteps ? bricks * 4 : 0), MemoryKind::DeviceLocal,
+                             "brick table"}, // and the in-flight words (kInFlightValid) with carried decodes
                             {&im.visible, bricks * 8, MemoryKind::DeviceLocal, "brick visibility"},
                             {&im.emptyGroups, bricks * 4, MemoryKind::DeviceLocal, "empty brick groups"},
                             {&im.uniformSubs, bricks * 8, cacheKind, "uniform sub-block masks"},
@@ -193,8 +194,8 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     im.frameAddress = im.params.address();
     // The GPU decoding passes read the request list the frame wrote: the same dispatches every frame.
     if (!(s = im.makeFrameDecodes())) return s;
-    std::vector<uint32_t> brickWords(size_t(im.brickCount) * (im.resolved.carrySteps ? 5 : 4), 0u); // no decodes in flight
-    for (size_t b = 0; b < im.brickCount; ++b) brickWords[4 * b] = brickWords[4 * b + 1] = kNone;
+    std::vector<uint32_t> brickWords(size_t(im.bricks.size() / 4), 0u); // and no decodes in flight
+    for (size_t b = 0; b < im.brickCount; ++b) brickWords[kBrickEntryWords * b] = brickWords[kBrickEntryWords * b + 1] = kNone;
     if (!(s = context.upload(im.bricks, 0, brickWords.data(), brickWords.size() * 4))) return s;
     const std::vector<uint64_t> noMasks(im.brickCount, 0);
     if (!(s = context.upload(im.uniformSubs, 0, noMasks.data(), noMasks.size() * 8))) return s;

@@ -33,11 +33,7 @@ out=${OUT:-$root/devout}; mkdir -p "$out"
 res=/tmp/csgv-gpu-results; mkdir -p $res  # packed into $OUT/results.tgz after each volume (few files come back)
 exec > >(tee -a "$out/summary.txt") 2>&1  # what it printed comes back even if the run is cut short
 b=$root/.devbundle
-export LD_LIBRARY_PATH=$b/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
-for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
-         /etc/vulkan/icd.d/nvidia_icd.json; do
-    [ -f "$j" ] && { export VK_DRIVER_FILES=$j VK_ICD_FILENAMES=$j; break; }
-done
+source "$root/scripts/device/device_env.sh"
 echo "icd: ${VK_DRIVER_FILES:-none}"; nvidia-smi -L 2>&1 | head -2
 # the tests name the source tree and fixtures by the paths they were built with
 mkdir -p /work
@@ -80,9 +76,7 @@ if [ -z "${SKIP_TESTS:-}" ]; then
     echo "csgv_render_tool rc $?"
 fi
 for n in $sizes; do  # a number: synth:N^3; else a .csgv in .devbundle/volumes
-    v=/tmp/s$n.csgv
-    if [ -f "$b/volumes/$n.csgv" ]; then v=$b/volumes/$n.csgv
-    else [ -f $v ] || "$csgv" compress synth:${n}x${n}x${n} $v --quiet >/dev/null || continue; fi
+    v=$(volume_of "$n" "$csgv") || { echo "$n: no volume"; continue; }
     for m in $modes; do
         for bin in "$csgv" ${base:+"$base"}; do
             t=${n}_$m${TAG:+_$TAG}; label=${TAG:-}

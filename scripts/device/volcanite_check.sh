@@ -17,11 +17,7 @@ res=/tmp/csgv-gpu-results; mkdir -p $res
 exec > >(tee -a "$out/summary.txt") 2>&1
 b=$root/.devbundle
 [ -x "$b/volcanite/volcanite" ] || { echo "no Volcanite in the bundle (VOLCANITE=DIR bash scripts/device/bundle.sh)"; exit 1; }
-export LD_LIBRARY_PATH=$b/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
-for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
-         /etc/vulkan/icd.d/nvidia_icd.json; do
-    [ -f "$j" ] && { export VK_DRIVER_FILES=$j VK_ICD_FILENAMES=$j; break; }
-done
+source "$root/scripts/device/device_env.sh"
 # Its shaders where it was built to read them.
 tar -C / -xf "$b/volcanite/data.tar"
 echo "volcanite $(cat "$b/volcanite/commit" 2>/dev/null), icd ${VK_DRIVER_FILES:-none}"
@@ -31,10 +27,7 @@ log=$res/volcanite_eval.txt
 echo "#fmt:{name} frames {rendered_frames} med_ms {frame_med_ms:.3} avg_ms {frame_avg_ms:.3} first_ms {frame_ms_00:.3} min_spp {min_spp} gpu_mb {mem_total_mb:.1}" >"$log"
 declare -A preset=([local]=local-shading [shadow]=global-shadows [ao]=ambient-occlusion [pt]=path-tracing)
 for n in ${1:-"aal 256 512 1024"}; do
-    v=/tmp/s$n.csgv
-    if [ -f "$b/volumes/$n.csgv" ]; then v=$b/volumes/$n.csgv
-    elif [ ! -f "$v" ]; then "$csgv" compress "synth:${n}x${n}x${n}" "$v" >/dev/null || { echo "$n: no volume"; continue; }
-    fi
+    v=$(volume_of "$n" "$csgv") || { echo "$n: no volume"; continue; }
     for m in ${2:-"local shadow ao pt"}; do
         t0=$(date +%s.%N)
         timeout ${VTIMEOUT:-120} "$b/volcanite/volcanite" --headless -r ${SIZE:-1920x1080} --config "${preset[$m]}" \

@@ -114,6 +114,10 @@ CSGV_CONST(uint32_t, kBrickAbsent, 3u)
 /// before its first level is. Previews read such a brick there (IN_FLIGHT_PREVIEWS); cache_assign
 /// clears the word when it gives the brick a region.
 CSGV_CONST(uint32_t, kInFlightValid, 0x80000000u)
+CSGV_CONST(uint32_t, kBrickEntryWords, 4u) ///< kSlotBricks: a uvec4 a brick
+/// Where the in-flight words begin: bytes after the brick table's address (the host sizes the
+/// table by it, decode_bricks.comp and the render pass find the words by it).
+CSGV_FN uint64_t inFlightWordsOffset(uint32_t brickCount) { return uint64_t(4u * kBrickEntryWords) * uint64_t(brickCount); }
 
 // Words of the cache counter buffer (kSlotAlloc), read by the host between frames.
 CSGV_CONST(uint32_t, kAllocTop, 0u)          ///< cache words handed out from the top
