@@ -109,6 +109,7 @@ layout(set = 0, binding = kTexelLabelMap) uniform usamplerBuffer labelMapTexels;
 layout(set = 0, binding = kTexelDepthIn) uniform usamplerBuffer depthInTexels;
 layout(set = 0, binding = kTexelBlueNoise) uniform usamplerBuffer blueNoiseTexels;
 layout(set = 0, binding = kTexelVisible) uniform usamplerBuffer visibleTexels;
+layout(set = 0, binding = kTexelOutput) uniform usamplerBuffer outputTexels;
 uint cacheWord(uint i) { return texelFetch(cacheTexels, int(i)).x; }
 uint tableWord(uint i) { return texelFetch(tableTexels, int(i)).x; }
 vec4 labelColor(uint e) { return uintBitsToFloat(texelFetch(colorTexels, int(e))); }
@@ -124,6 +125,7 @@ uint labelMapWord(uint label) { return texelFetch(labelMapTexels, int(label)).x;
 float depthInAt(uint pixel) { return uintBitsToFloat(texelFetch(depthInTexels, int(pixel)).x); }
 uint blueNoiseWord(uint i) { return texelFetch(blueNoiseTexels, int(i)).x; }
 uvec2 visibleEntry(uint b) { return texelFetch(visibleTexels, int(b)).xy; }
+uint outputWord(uint pixel) { return texelFetch(outputTexels, int(pixel)).x; }
 #else
 uint cacheWord(uint i) { return UintBuf(frameAddr[kSlotCache]).w[i]; }
 uint tableWord(uint i) { return UintBuf(frameAddr[kSlotMaterialTable]).w[i]; }

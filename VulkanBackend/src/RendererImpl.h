@@ -827,12 +827,12 @@ struct Renderer::Impl {
     }
     /// Words a texel of each render-pass binding (render_common.glsl reads a record with one
     /// fetch: CPU devices pay for a fetch about as much whatever its width): a brick's entry and
-    /// a label's colour are four, the sub-block masks and the preview entries two.
+    /// a label's colour are four, the sub-block masks, the preview entries and a pixel's output two.
     static constexpr std::array<uint32_t, kRenderTexelCount> kRenderTexelWords = [] {
         std::array<uint32_t, kRenderTexelCount> w{};
         for (uint32_t& x : w) x = 1u;
         w[kTexelBricks] = w[kTexelLabelColors] = 4u;
-        w[kTexelUniform] = w[kTexelHidden] = w[kTexelVisible] = 2u;
+        w[kTexelUniform] = w[kTexelHidden] = w[kTexelVisible] = w[kTexelOutput] = 2u;
         return w;
     }();
     /// The texel buffers of the render and resolve passes (FrameLayout.h's kTexel* bindings) for
@@ -857,6 +857,7 @@ struct Renderer::Impl {
         render[kTexelDepthIn] = depthIn.valid() ? &depthIn : &params;
         render[kTexelBlueNoise] = blueNoise.valid() ? &blueNoise : &params;
         render[kTexelVisible] = visible.valid() ? &visible : &params;
+        render[kTexelOutput] = &colorDepth;
         Result<bool> changed = renderTexels.refresh(ctx, resolved.texelsWanted, {render}, kRenderTexelWords);
         if (!changed) return Status(changed.status()).prefix("viewing the render pass's buffers");
         if (*changed) {

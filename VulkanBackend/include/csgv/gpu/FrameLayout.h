@@ -174,7 +174,8 @@ CSGV_CONST(uint32_t, kTexelBlueNoise, 10u)    ///< kSlotBlueNoise
 CSGV_CONST(uint32_t, kTexelVisible, 11u)      ///< kSlotVisible
 CSGV_CONST(uint32_t, kTexelHidden, 12u)       ///< kSlotHidden
 CSGV_CONST(uint32_t, kTexelEmptyGroups, 13u)  ///< kSlotEmptyGroups
-CSGV_CONST(uint32_t, kRenderTexelCount, 14u)
+CSGV_CONST(uint32_t, kTexelOutput, 14u)       ///< kSlotOutput (render.comp's PREFETCH_OUTPUT: read early, never used)
+CSGV_CONST(uint32_t, kRenderTexelCount, 15u)
 CSGV_CONST(uint32_t, kResolveTexelGBuffer, 0u) ///< kSlotGBuffer
 CSGV_CONST(uint32_t, kResolveTexelAccum, 1u)   ///< kSlotAccum
 CSGV_CONST(uint32_t, kResolveTexelSource, 2u)  ///< the pass's source (kSlotDenoiseA or kSlotDenoiseB)
@@ -253,7 +254,7 @@ CSGV_CONST(uint32_t, kDecodeNoDetail, 9u)
     CSGV_UVEC4(limits)         /* x: max requests, y/z: pixels [y, z) that may request, w: bounces */ \
     CSGV_UVEC4(counts)         /* x: materials, y: bricks, z: labels with attributes, w: table size */ \
     CSGV_UVEC4(rect)           /* pixels [x, z) x [y, w) that can show the volume (x, y multiples of 8) */ \
-    CSGV_UVEC4(drawn)          /* x/y: the stored labels [x, y] hold every one a material draws; zw: 0 */ \
+    CSGV_UVEC4(drawn)          /* x/y: the stored labels [x, y] hold every one a material draws; zw: 0 (z keeps render.comp's PREFETCH_OUTPUT read) */ \
     uint64_t addr[kSlotCount];
 
 /// One material as the shaders read it (std430, 80 bytes).
