@@ -8,6 +8,7 @@
 #include "csgv/codec/Encoder.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
+#include "csgv/inputs/Compress.h"
 #include "csgv/inputs/Relabel.h"
 
 #include <vtkCellData.h>
@@ -58,28 +59,30 @@ namespace
 using csgvvtk::kOtherFailed;
 using csgvvtk::MpiAgreement;
 
-/// The files of one volume: sidecars first, the volume last, as Core's compress does.
+/// The files of one volume, published all or nothing as Core's compress publishes them
+/// (csgv::publishVolumeFiles): the volume complete under a temporary name, then the sidecars, then
+/// the renames; any failure leaves the old set as it was.
 csgv::Status writeVolumeFiles(const std::string& path, const csgv::VolumeMetadata& md,
   const csgv::LabelMapping& mapping, const csgv::CompressedVolume& volume)
 {
-  csgv::Status status;
-  const std::string db = csgv::attributeDbPathFor(path);
-  if (mapping.relabelled)
-  {
-    status = csgv::writeAttributeDb(
-      db, md.dim, mapping.originalBits, csgv::isSignedType(mapping.type));
-  }
-  else if (csgv::fileExists(db) && std::remove(db.c_str()) != 0)
-  {
-    status = csgv::Status::error("cannot remove the stale attribute database '" + db + "'");
-  }
+  const std::string tmp = csgv::temporaryNameFor(path) + ".csgv";
+  csgv::Status status = csgv::writeCsgv(tmp, volume);
   if (status)
   {
-    status = csgv::writeMetadata(csgv::metadataPathFor(path), md);
+    status = csgv::publishVolumeFiles(path, tmp, md, mapping);
   }
-  if (status)
+  if (!status)
   {
-    status = csgv::writeCsgv(path, volume);
+    std::remove(tmp.c_str());
+    // The user named the volume, not its temporaries ('<path>.tmp-...', quoted in messages).
+    std::string message = status.message();
+    const std::string prefix = path + ".tmp-";
+    for (size_t at = message.find(prefix); at != std::string::npos; at = message.find(prefix, at + path.size()))
+    {
+      const size_t end = message.find('\'', at);
+      message.replace(at, (end == std::string::npos ? message.size() : end) - at, path);
+    }
+    status = csgv::Status::error(message);
   }
   return status;
 }

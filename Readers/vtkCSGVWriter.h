@@ -15,9 +15,11 @@
  * point data is taken as voxels centred on their points and converted with Core's
  * cellGeometryFromPointGeometry. Direction is kept. Image extents need not start at 0.
  *
- * Every file is written under a temporary name and renamed (Core), sidecars first and the volume
- * last, so a reader never pairs a new `.csgv` with an old database. Encoding runs in parallel
- * (OpenMP) with progress per slab of bricks.
+ * The files are published all or nothing (Core's csgv::publishVolumeFiles, as `csgv compress`):
+ * every new file is written complete under a temporary name before any is renamed over the old
+ * set, sidecars first and the volume last, so a failure (a full disk) leaves the old volume and
+ * its sidecars as they were, and a reader never pairs a `.csgv` with another's sidecars. Encoding
+ * runs in parallel (OpenMP) with progress per slab of bricks.
  *
  * Under MPI (NumberOfPieces = the processes of the global controller, Piece = this process, as
  * ParaView's writer proxy sets them): every process asks its input for the whole bricks

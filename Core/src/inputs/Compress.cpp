@@ -316,6 +316,90 @@ Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input,
 
 namespace {
 
+/// `message` with the temporary name a writer used replaced by the name the user knows.
+std::string replacedName(std::string message, const std::string& from, const std::string& to) {
+    for (size_t at = message.find(from); at != std::string::npos; at = message.find(from, at + to.size()))
+        message.replace(at, from.size(), to);
+    return message;
+}
+
+} // namespace
+
+Status publishVolumeFiles(const std::string& output, const std::string& volumeTmp, const VolumeMetadata& md,
+                          const LabelMapping& mapping) {
+    const std::string db = attributeDbPathFor(output), mdPath = metadataPathFor(output);
+    // What the renames will replace must be files (or nothing): a folder in the way would fail
+    // its rename after the others were done.
+    for (const std::string* p : {&output, &mdPath, &db}) {
+        struct stat st {};
+        if (::lstat(p->c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+            return Status::error("cannot replace '" + *p + "': it is a folder");
+    }
+    // Every new file complete under a temporary name first: a full disk or any write error
+    // strikes here, before anything of the old set is touched.
+    const std::string dbTmp = temporaryNameFor(db), mdTmp = temporaryNameFor(mdPath);
+    auto dropNew = [&] {
+        for (const std::string* p : {&dbTmp, &mdTmp})
+            if (fileExists(*p)) std::remove(p->c_str());
+    };
+    VolumeMetadata written = md;
+    written.relabelled = mapping.relabelled;
+    if (mapping.relabelled) {
+        if (Status s = writeAttributeDb(dbTmp, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) {
+            dropNew();
+            return Status::error(replacedName(s.message(), dbTmp, db));
+        }
+    }
+    if (Status s = writeMetadata(mdTmp, written); !s) {
+        dropNew();
+        return Status::error(replacedName(s.message(), mdTmp, mdPath));
+    }
+    // Then the renames, sidecars first and the volume last. Each file of the old set is moved
+    // aside before its replacement comes in (a stale database of an earlier relabelling goes
+    // without one), so a rename that fails (a folder changed under us) puts the old set back
+    // whole; the old files go once the volume is in place.
+    struct Move {
+        std::string from, to, aside; // from empty: `to` is removed (the stale database)
+        bool asideDone = false, moved = false;
+    };
+    std::vector<Move> moves;
+    moves.push_back({mdTmp, mdPath, {}});
+    if (mapping.relabelled) moves.push_back({dbTmp, db, {}});
+    else if (fileExists(db)) moves.push_back({{}, db, {}});
+    moves.push_back({volumeTmp, output, {}});
+    Status s;
+    for (Move& m : moves) {
+        if (fileExists(m.to)) {
+            m.aside = temporaryNameFor(m.to) + "-old";
+            if (std::rename(m.to.c_str(), m.aside.c_str()) != 0) {
+                s = Status::error("cannot replace '" + m.to + "': " + errnoText());
+                break;
+            }
+            m.asideDone = true;
+        }
+        if (!m.from.empty()) {
+            if (std::rename(m.from.c_str(), m.to.c_str()) != 0) {
+                s = Status::error("cannot rename '" + m.from + "' to '" + m.to + "': " + errnoText());
+                break;
+            }
+            m.moved = true;
+        }
+    }
+    if (!s) {
+        for (auto m = moves.rbegin(); m != moves.rend(); ++m) {
+            if (m->moved) std::rename(m->to.c_str(), m->from.c_str()); // the caller's volume stays its own
+            if (m->asideDone) std::rename(m->aside.c_str(), m->to.c_str());
+        }
+        dropNew();
+        return s;
+    }
+    for (const Move& m : moves)
+        if (m.asideDone) std::remove(m.aside.c_str());
+    return Status::ok();
+}
+
+namespace {
+
 /// The share of encodeToFile's fractions that its first pass (reading and encoding the labels)
 /// takes: it reports 0.8 * (slabs done) / slabs (Encoder.cpp). Reads report within that share,
 /// never ahead of what the encoder reports once their slab is done.
@@ -373,7 +457,7 @@ struct Job {
         removeIfThere(tmp);
         if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
         // The user named the output, not its temporary (encodeToFile's messages name the latter).
-        return named(Status::error(replaced(s.message(), tmp, output)), input);
+        return named(Status::error(replacedName(s.message(), tmp, output)), input);
     }
 
     /// Opens the input (unless a source is given) and fills what is known before any voxel is read.
@@ -448,67 +532,11 @@ struct Job {
         return Status::ok();
     }
 
-    /// All or nothing: every new file is first written complete under a temporary name (where a
-    /// full disk or any write error can strike), and only then are they renamed over the old set,
-    /// sidecars first and the volume last. A failure before the renames leaves the old volume and
-    /// its sidecars byte-identical and no new file; the renames themselves only fail on a folder
-    /// changed under us, and each says which file it could not move.
     Status publish(const std::string& output) {
         md.relabelled = mapping.relabelled;
-        const std::string db = attributeDbPathFor(output), mdPath = metadataPathFor(output);
-        // What the renames will replace must be files (or nothing): a folder in the way would
-        // fail its rename after the others were done.
-        for (const std::string* p : {&output, &mdPath, &db}) {
-            struct stat st {};
-            if (::lstat(p->c_str(), &st) == 0 && S_ISDIR(st.st_mode))
-                return Status::error("cannot replace '" + *p + "': it is a folder");
-        }
-        const std::string dbTmp = temporaryNameFor(db), mdTmp = temporaryNameFor(mdPath);
-        auto dropNew = [&] {
-            removeIfThere(dbTmp);
-            removeIfThere(mdTmp);
-        };
-        if (mapping.relabelled) {
-            if (Status s = writeAttributeDb(dbTmp, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) {
-                dropNew();
-                return Status::error(replaced(s.message(), dbTmp, db));
-            }
-        }
-        if (Status s = writeMetadata(mdTmp, md); !s) {
-            dropNew();
-            return Status::error(replaced(s.message(), mdTmp, mdPath));
-        }
-        // A stale database of an earlier relabelled compression must not pair with the new
-        // volume; it is moved aside first (undone if the rest cannot start) and removed last.
-        std::string staleDb;
-        if (!mapping.relabelled && fileExists(db)) {
-            staleDb = temporaryNameFor(db) + "-stale";
-            if (std::rename(db.c_str(), staleDb.c_str()) != 0) {
-                dropNew();
-                return Status::error("cannot replace the attribute database '" + db + "': " + errnoText());
-            }
-        }
-        auto move = [](const std::string& from, const std::string& to) {
-            if (std::rename(from.c_str(), to.c_str()) == 0) return Status::ok();
-            return Status::error("cannot rename '" + from + "' to '" + to + "': " + errnoText());
-        };
-        Status s = move(mdTmp, mdPath);
-        if (s && mapping.relabelled) s = move(dbTmp, db);
-        if (s) s = move(tmp, output);
-        if (!s) {
-            dropNew();
-            if (!staleDb.empty()) std::rename(staleDb.c_str(), db.c_str());
-            return s;
-        }
-        published = true;
-        if (!staleDb.empty()) std::remove(staleDb.c_str());
-        return Status::ok();
-    }
-    /// `message` with the temporary name a writer used replaced by the name the user knows.
-    static std::string replaced(std::string message, const std::string& from, const std::string& to) {
-        for (size_t at = message.find(from); at != std::string::npos; at = message.find(from, at + to.size()))
-            message.replace(at, from.size(), to);
-        return message;
+        Status s = publishVolumeFiles(output, tmp, md, mapping);
+        published = bool(s);
+        return s;
     }
 };
 

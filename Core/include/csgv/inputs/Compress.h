@@ -29,6 +29,7 @@
 /// the input ask whether to go on (InputSource::setKeepGoing), so a cancel is seen between them.
 
 #include "csgv/codec/Encoder.h"
+#include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Inputs.h"
 #include "csgv/inputs/Relabel.h"
 
@@ -172,5 +173,14 @@ Status compressToFile(const std::string& input, const std::string& output, const
 /// The same from a source already open (`name` for messages and the metadata's source field).
 Status compressSourceToFile(InputSource& source, const std::string& name, const std::string& output,
                             const CompressOptions& options, CompressReport* report = nullptr);
+/// Publishes a volume written complete at `volumeTmp` (a temporary name beside `output`) as
+/// `output`, with its sidecars: all or nothing. The metadata (`md`, its relabelled flag from
+/// `mapping`) and, when relabelled, the attribute database are written complete under temporary
+/// names first; a failure there (a full disk) leaves the old set byte-identical and no new file.
+/// Then each file is renamed over its old one, sidecars first and the volume last, each old file
+/// moved aside first (a stale `_csgv.db3` of an earlier relabelling goes): a rename that fails puts
+/// the old set back whole. On failure `volumeTmp` is still there for the caller to remove.
+Status publishVolumeFiles(const std::string& output, const std::string& volumeTmp, const VolumeMetadata& md,
+                          const LabelMapping& mapping);
 
 } // namespace csgv
