@@ -9,6 +9,8 @@
 #include "csgv/gpu/UploadPolicy.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <system_error>
@@ -16,9 +18,91 @@
 namespace csgvrep
 {
 
-ViewSettings toViewSettings(const RepresentationProperties& p)
+namespace
+{
+
+std::string numberText(double v)
+{
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.10g", v);
+  return text;
+}
+
+/// A number within [lo, hi]: held to the nearer end, a NaN to the default, each saying so (a value
+/// set from Python or a state file passes no domain).
+template <class T>
+void holdWithin(T& v, double lo, double hi, T fallback, const char* name, std::vector<std::string>& notes)
+{
+  const double x = double(v);
+  if (x >= lo && x <= hi)
+  {
+    return;
+  }
+  const T held = std::isnan(x) ? fallback : T(x < lo ? lo : hi);
+  notes.push_back(std::string(name) + " " + numberText(x) + " is " +
+    (std::isnan(x) ? std::string("not a number") : "outside [" + numberText(lo) + ", " + numberText(hi) + "]") + ": " +
+    numberText(double(held)) + " is used");
+  v = held;
+}
+
+/// An enumeration's value among `allowed`, else the default, saying so.
+void holdAmong(int& v, const std::vector<int>& allowed, int fallback, const char* name, std::vector<std::string>& notes)
+{
+  if (std::find(allowed.begin(), allowed.end(), v) != allowed.end())
+  {
+    return;
+  }
+  std::string list;
+  for (int a : allowed)
+  {
+    list += (list.empty() ? "" : ", ") + std::to_string(a);
+  }
+  notes.push_back(std::string(name) + " " + std::to_string(v) + " is not one of " + list + ": " + std::to_string(fallback) +
+    " is used");
+  v = fallback;
+}
+
+/// The values toViewSettings uses: numbers within their CSGVProperties.def ranges, enumerations
+/// among their values, a light direction of finite, not all zero, components; `notes` says what
+/// was changed.
+RepresentationProperties heldProperties(const RepresentationProperties& given, std::vector<std::string>& notes)
+{
+  RepresentationProperties p = given;
+  const RepresentationProperties d;
+#define CSGV_PROPERTY(Name, member, type, count, values)
+#define CSGV_RANGE(Name, member, lo, hi) holdWithin(p.member, lo, hi, d.member, "CSGV" #Name, notes);
+#include "CSGVProperties.def"
+#undef CSGV_RANGE
+#undef CSGV_PROPERTY
+  std::vector<int> modes(csgv::gpu::kShadingModes);
+  for (size_t m = 0; m < modes.size(); ++m)
+  {
+    modes[m] = int(m);
+  }
+  holdAmong(p.shading, modes, d.shading, "CSGVShading", notes);
+  holdAmong(p.subsampling, { 1, 2, 4, 8 }, d.subsampling, "CSGVSubsampling", notes);
+  holdAmong(p.denoise, { 0, 1 }, d.denoise, "CSGVDenoise", notes);
+  holdAmong(p.decoding, { 0, 1, 2 }, d.decoding, "CSGVDecoding", notes);
+  holdAmong(p.cachePaletting, { 0, 1, 2 }, d.cachePaletting, "CSGVCachePaletting", notes);
+  holdAmong(p.computedAttributes, { 0, 1 }, d.computedAttributes, "CSGVComputedAttributes", notes);
+  const auto& l = p.lightDirection;
+  const bool finite = std::isfinite(l[0]) && std::isfinite(l[1]) && std::isfinite(l[2]);
+  if (!finite || (l[0] == 0 && l[1] == 0 && l[2] == 0))
+  {
+    notes.push_back("CSGVLightDirection (" + numberText(l[0]) + ", " + numberText(l[1]) + ", " + numberText(l[2]) +
+      ") is " + (finite ? "zero" : "not finite") + ": the default (" + numberText(d.lightDirection[0]) + ", " +
+      numberText(d.lightDirection[1]) + ", " + numberText(d.lightDirection[2]) + ") is used");
+    p.lightDirection = d.lightDirection;
+  }
+  return p;
+}
+
+} // namespace
+
+ViewSettings toViewSettings(const RepresentationProperties& given)
 {
   ViewSettings s;
+  const RepresentationProperties p = heldProperties(given, s.notes);
   s.render.shading = csgv::gpu::Shading(std::clamp(p.shading, 0, int(csgv::gpu::kShadingModes) - 1));
   s.render.shadingBlend = float(std::clamp(p.shadingBlend, 0.0, 1.0));
   s.render.lodBias = float(p.lodBias);

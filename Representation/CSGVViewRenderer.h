@@ -61,9 +61,14 @@ struct ViewSettings
   double stillRenderTimeBudget = 0; ///< seconds
   double refinementSlice = 0;       ///< a still render's seconds when shorter than the budget (0: none)
   std::array<int, 6> clipBox{};     ///< inclusive voxels
+  /// Values the settings do not take as given (outside their ranges, NaN, not among an
+  /// enumeration's values, a light direction of zero or not finite), each naming the property and
+  /// what is used instead: the representation warns with them.
+  std::vector<std::string> notes;
 };
 
-/// The backend's settings of a set of property values (clamped to what the backend takes).
+/// The backend's settings of a set of property values (held to their ranges, as `notes` says, and
+/// clamped to what the backend takes).
 ViewSettings toViewSettings(const RepresentationProperties& p);
 
 /// @brief One frame request from the compositing prop.

@@ -326,6 +326,18 @@ int vtkCSGVRepresentation::ProcessViewRequest(
 #include "CSGVProperties.def"
 #undef CSGV_PROPERTY
     csgvrep::ViewSettings settings = csgvrep::toViewSettings(p);
+    // Values that are not taken as given (from Python or a state file: no domain checks them)
+    // are said once, until they change.
+    std::string notes;
+    for (const std::string& n : settings.notes)
+    {
+      notes += (notes.empty() ? "" : "; ") + n;
+    }
+    if (notes != this->SettingsNotes && !notes.empty())
+    {
+      vtkWarningMacro(<< "Segmentation Volume: " << notes);
+    }
+    this->SettingsNotes = notes;
     // Ranks may share a device: an automatic cache takes its share of it.
     vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
     settings.processes = uint32_t(std::max(1, controller ? controller->GetNumberOfProcesses() : 1));

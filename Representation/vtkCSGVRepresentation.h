@@ -217,6 +217,7 @@ private:
   std::vector<std::string> DerivedAttributes; ///< name, expression, name, expression...
   int ComputedAttributes;
   std::string QueryResult;
+  std::string SettingsNotes; ///< the last settings warned about (toViewSettings' notes)
 
   struct vtkInternals;
   vtkInternals* Internals;

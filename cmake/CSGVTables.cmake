@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 # Tables that C++ and the server-manager XML share, read once here and written into the XML:
-# - Representation/CSGVProperties.def: each setting's default values (CSGV_DEFAULT_<Name>);
+# - Representation/CSGVProperties.def: each setting's default values (CSGV_DEFAULT_<Name>) and
+#   the ranges of numbers (CSGV_MIN_<Name>, CSGV_MAX_<Name>);
 # - VulkanBackend/include/csgv/gpu/ShadingModes.h: the shading modes' rows (the CSGVShading
 #   enumeration's entries, the GUI's labels and the modes' one-line documentation).
 # - Core/src/inputs/Inputs.cpp: each input format's file name extensions and patterns
@@ -28,6 +29,18 @@ function(csgv_write_representation_xml template output)
       message(FATAL_ERROR "${defs}: ${name} has ${n} default values, not ${count}")
     endif()
     set(CSGV_DEFAULT_${name} "${values}")
+  endforeach()
+
+  file(STRINGS "${defs}" rows REGEX "^CSGV_RANGE")
+  foreach(row IN LISTS rows)
+    if(NOT row MATCHES "^CSGV_RANGE\\(([A-Za-z]+), [A-Za-z]+, (-?[0-9.]+), (-?[0-9.]+)\\)$")
+      message(FATAL_ERROR "${defs}: a range row out of form: ${row}")
+    endif()
+    if(NOT DEFINED CSGV_DEFAULT_${CMAKE_MATCH_1})
+      message(FATAL_ERROR "${defs}: a range for ${CMAKE_MATCH_1}, which no property row names")
+    endif()
+    set(CSGV_MIN_${CMAKE_MATCH_1} "${CMAKE_MATCH_2}")
+    set(CSGV_MAX_${CMAKE_MATCH_1} "${CMAKE_MATCH_3}")
   endforeach()
 
   file(STRINGS "${modes}" rows REGEX "^    \\{Shading::")

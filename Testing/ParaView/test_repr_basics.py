@@ -162,6 +162,37 @@ t.check("intensity" in errors.text and t.content_mask(img4).mean() == 0,
 d4.CSGVLabelArray = "labels"
 t.check(t.content_mask(t.screenshot(v4, 120, 90, "named.png")).mean() > 0.1, "the array chosen by name draws")
 
+# Values no domain checks (Python, state files) are held to their ranges, each named in one
+# warning: a NaN light direction or blend draws as the defaults do (not black), a huge
+# FramesPerStillRender renders as 4096 would (it made saving a screenshot run without end).
+v4.ViewSize = [64, 48]
+d4.CSGVShading = "shadow"
+d4.CSGVFramesPerStillRender = 1
+reference = t.screenshot(v4, 64, 48, "held_reference.png")
+with t.ErrorLog() as errors:
+    d4.CSGVLightDirection = [float("nan")] * 3
+    d4.CSGVShadingBlend = float("nan")
+    held = t.screenshot(v4, 64, 48, "held.png")
+t.check(np.array_equal(held, reference), "NaN light direction and blend draw as the defaults do")
+for name in ("CSGVLightDirection (nan, nan, nan) is not finite", "CSGVShadingBlend nan is not a number: 1 is used"):
+    t.check(name in errors.text, "the warning names it: %s (%s)" % (name, errors.text.strip()[:300]))
+with t.ErrorLog() as errors:
+    Render(v4)
+t.check(errors.text.strip() == "", "said once, not at every render (%s)" % errors.text.strip()[:200])
+d4.CSGVShading = "local"
+d4.CSGVLightDirection = [0, 0, 0]
+with t.ErrorLog() as errors:
+    d4.CSGVFramesPerStillRender = 2147483647
+    d4.CSGVShading = 7
+    Render(v4)
+t.check("CSGVFramesPerStillRender 2147483647 is outside [1, 4096]: 4096 is used" in errors.text
+        and "CSGVLightDirection (0, 0, 0) is zero" in errors.text and "CSGVShading 7 is not one of 0, 1, 2, 3: 0 is used"
+        in errors.text, "a huge frame count, a zero light and an unknown mode are named (%s)" % errors.text.strip()[:400])
+d4.CSGVFramesPerStillRender = 1
+d4.CSGVShading = "local"
+d4.CSGVLightDirection = [0.35, 0.6, 0.72]
+d4.CSGVShadingBlend = 1
+
 # Hidden: nothing drawn.
 Hide(csgv, v)
 t.check(t.content_mask(t.screenshot(v, 160, 120, "hidden.png")).mean() == 0, "hidden: nothing drawn")
