@@ -198,7 +198,11 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
   {
     if (d.first.empty())
     {
-      continue;
+      if (d.second.empty())
+      {
+        continue; // an empty row (the editor's new one)
+      }
+      return "a derived attribute needs a name (its expression: '" + d.second.substr(0, 80) + "')";
     }
     if (!(s = csgv::addDerivedAttribute(table, d.first, d.second, true)))
     {

@@ -116,6 +116,7 @@ struct vtkCSGVVolumeProp::Impl
   /// gets it applied, csgv::effectiveMaterials); Skipped says why.
   csgv::MaterialDocument Drawn;
   std::vector<std::string> Skipped;
+  std::string ReportedSkipped; ///< the Skipped reasons last warned about
   bool AttributesDirty = true;  ///< the renderer needs materials and attribute arrays again
   bool Prepared = false;        ///< PrepareRender handed the renderer all it needs
   bool Capture = false;         ///< SetCapture: the render is for a saved image
@@ -415,7 +416,9 @@ bool vtkCSGVVolumeProp::DrawnMaterials(
   std::map<std::string, std::vector<float>>* arrays, csgv::MaterialEvaluator::AttributeFn* attribute)
 {
   Impl& p = *this->P;
-  bool needed = false;
+  // Attribute files and derived attributes a user gave are read even when no material names
+  // them yet, so that one that cannot be read is said now.
+  bool needed = !p.Config.files.empty() || !p.Config.derived.empty();
   for (const std::string& n : csgv::attributesUsed(p.Doc))
   {
     needed = needed || n != "label";
@@ -439,6 +442,18 @@ bool vtkCSGVVolumeProp::DrawnMaterials(
   }
   p.Skipped.clear();
   p.Drawn = csgv::drawableMaterials(p.Doc, &available, &p.Skipped);
+  // Materials left out (an attribute not available, an empty colormap range) are said once,
+  // until the reasons change.
+  std::string skipped;
+  for (const std::string& why : p.Skipped)
+  {
+    skipped += (skipped.empty() ? "" : "; ") + why;
+  }
+  if (!skipped.empty() && skipped != p.ReportedSkipped)
+  {
+    vtkWarningMacro(<< "Segmentation Volume: " << skipped);
+  }
+  p.ReportedSkipped = skipped;
   if (!arrays || !table)
   {
     return true;

@@ -182,4 +182,25 @@ t.check(ds.ColorArrayName[1] == s["labelArray"], "the slice is coloured by %s" %
 shared = GetColorTransferFunction(s["labelArray"])
 t.check(lut.SMProxy != shared.SMProxy and shared.InterpretValuesAsCategories == 0 and ds.LookupTable.SMProxy == lut.SMProxy,
         "the table is the data's own (the label array's shared table is left alone)")
+
+# What cannot be used is said, not only in the summary query: an attribute file that cannot be
+# read (even before a material names it), a derived attribute without a name, and a material
+# whose attribute is not available.
+with t.ErrorLog() as errors:
+    dl.CSGVAttributeFiles = ["/nonexistent/regions.csv"]
+    dl.CSGVMaterials = ""
+    Render(v2)
+t.check("/nonexistent/regions.csv" in errors.text, "an attribute file that cannot be read is named (%s)" % errors.text.strip()[:200])
+with t.ErrorLog() as errors:
+    dl.CSGVAttributeFiles = []
+    dl.CSGVDerivedAttributes = ["", "label * 2"]
+    Render(v2)
+t.check("needs a name" in errors.text, "a derived attribute without a name is named (%s)" % errors.text.strip()[:200])
+dl.CSGVDerivedAttributes = []
+with t.ErrorLog() as errors:
+    dl.CSGVMaterials = json.dumps({"version": 1, "materials": [{"filter": {"attribute": "nope", "min": 0, "max": 1}}]})
+    Render(v2)
+    Render(v2)
+t.check(errors.text.count("filter attribute 'nope' is not available") == 1,
+        "a material left out is said once (%s)" % errors.text.strip()[:200])
 t.finish()
