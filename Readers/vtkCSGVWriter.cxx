@@ -113,7 +113,8 @@ std::string missingArrayMessage(const char* name)
 {
   if (name && *name)
   {
-    return std::string("the input has no array named '") + name + "'";
+    const std::string n = name;
+    return "the input has no array named '" + n.substr(0, 200) + (n.size() > 200 ? "...'" : "'");
   }
   return "the input has no one-component integer or float array to write";
 }

@@ -12,7 +12,9 @@
 #include <algorithm>
 #include <array>
 #include <set>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <sstream>
@@ -47,6 +49,33 @@ std::string defaultsJson()
 #include "CSGVProperties.def"
 #undef CSGV_PROPERTY
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+/// The request's next word as a whole number in [lo, hi] into `value` (which keeps its default
+/// when there is no word, unless `required`): "" or an error naming the word.
+std::string nextNumber(std::istringstream& in, const char* what, long long lo, long long hi, long long& value,
+  bool required = false)
+{
+  std::string word;
+  if (!(in >> word))
+  {
+    return required ? std::string(what) + " needs a whole number" : std::string();
+  }
+  errno = 0;
+  char* end = nullptr;
+  const long long v = std::strtoll(word.c_str(), &end, 10);
+  if (*end != '\0' || errno == ERANGE || v < lo || v > hi)
+  {
+    return std::string(what) + ": '" + word.substr(0, 40) + "' is not a whole number from " + std::to_string(lo) +
+      " to " + std::to_string(hi);
+  }
+  value = v;
+  return std::string();
+}
+
+std::string errorJson(const std::string& message)
+{
+  return json({ { "error", message } }).dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 } // namespace
@@ -284,8 +313,12 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   }
   if (what == "labelset")
   {
-    size_t cap = size_t(1) << 22;
-    in >> cap;
+    long long given = 1LL << 22;
+    if (const std::string bad = nextNumber(in, "labelset", 0, 1LL << 40, given); !bad.empty())
+    {
+      return errorJson(bad);
+    }
+    const size_t cap = size_t(given);
     std::vector<int64_t> labels;
     if (source.shared)
     {
@@ -366,8 +399,12 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   }
   if (what == "colors")
   {
-    size_t cap = 4096;
-    in >> cap;
+    long long given = 4096;
+    if (const std::string bad = nextNumber(in, "colors", 0, 1LL << 40, given); !bad.empty())
+    {
+      return errorJson(bad);
+    }
+    const size_t cap = size_t(given);
     if (!source.shared)
     {
       return json({ { "error", c.sourceError } }).dump(-1, ' ', false, json::error_handler_t::replace);
@@ -393,9 +430,18 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   }
   if (what == "pick")
   {
-    long x = -1, y = -1;
-    in >> x >> y;
+    long long x = -1, y = -1;
+    std::string bad = nextNumber(in, "pick x", -(1LL << 31), 1LL << 31, x, true);
+    if (bad.empty())
+    {
+      bad = nextNumber(in, "pick y", -(1LL << 31), 1LL << 31, y, true);
+    }
     json r = { { "hit", false } };
+    if (!bad.empty())
+    {
+      r["error"] = bad;
+      return r.dump(-1, ' ', false, json::error_handler_t::replace);
+    }
     if (x < 0 || y < 0 || size_t(x) >= out.width || size_t(y) >= out.height || out.label.empty())
     {
       r["error"] = "no rendered pixel there";
@@ -466,7 +512,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     }
     return r.dump(-1, ' ', false, json::error_handler_t::replace);
   }
-  return json({ { "error", "unknown query '" + what + "'" } }).dump(-1, ' ', false, json::error_handler_t::replace);
+  return errorJson("unknown query '" + what.substr(0, 80) + (what.size() > 80 ? "...'" : "'"));
 }
 
 } // namespace csgvrep

@@ -40,7 +40,7 @@ std::string missingLabelArray(const std::string& labelArray, bool encodingToo)
 {
   if (!labelArray.empty())
   {
-    return "the input has no array named '" + labelArray + "'";
+    return "the input has no array named '" + labelArray.substr(0, 200) + (labelArray.size() > 200 ? "...'" : "'");
   }
   return std::string("the input has no label array (one-component integer cell or point data)") +
     (encodingToo ? " and no CSGV encoding" : "");

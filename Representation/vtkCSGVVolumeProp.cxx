@@ -300,7 +300,10 @@ void vtkCSGVVolumeProp::Report(const std::string& message)
     return;
   }
   this->P->LastError = message;
-  vtkErrorMacro(<< "Segmentation Volume: " << message);
+  // A message quotes what it names: a value of megabytes set from Python stays a line.
+  constexpr size_t kLongest = 2000;
+  vtkErrorMacro(<< "Segmentation Volume: " << message.substr(0, kLongest)
+                << (message.size() > kLongest ? "... (" + std::to_string(message.size() - kLongest) + " more characters)" : ""));
 }
 
 double* vtkCSGVVolumeProp::GetBounds()
