@@ -56,8 +56,9 @@ public:
   vtkSetMacro(BrickSize, int);
   vtkGetMacro(BrickSize, int);
 
-  /// 0 nibble, 1 rANS with one table, 2 rANS with two tables (default).
-  vtkSetClampMacro(Encoding, int, 0, 2);
+  /// 0 nibble, 1 rANS with one table, 2 rANS with two tables (default); another value is an
+  /// error naming it when writing (not another encoding written).
+  vtkSetMacro(Encoding, int);
   vtkGetMacro(Encoding, int);
 
   /// Operation letters as `csgv compress --ops` takes them: "default" (pnls), "all" (pnlds) or

@@ -131,6 +131,12 @@ brick, enc, mask = struct.unpack_from("<I", head, 12)[0], struct.unpack_from("<i
 t.check((brick, enc, mask) == (16, 0, 0x1AF), "BrickSize/Encoding/Operations in the header (%d, %d, 0x%x)" % (brick, enc, mask))
 t.check(np.array_equal(t.cell_labels(out), labels.ravel()), "props: labels equal")
 
+# An encoding the format does not have is refused, naming it (it was written as another).
+with t.ErrorLog() as errors:
+    path, out = roundtrip("bad_encoding", image([("seg", labels)]), Encoding=99)
+t.check(out is None and not os.path.exists(path) and "encoding 99" in errors.text,
+        "Encoding 99: refused with a message naming it (%s)" % errors.text.strip()[:200])
+
 # A save over an existing set that fails on a full disk (a file size limit here: the new volume
 # cannot be written, its small sidecars could) leaves the old volume, metadata and attribute
 # database byte-identical, so the old set opens with its own labels; the error names the volume,
