@@ -6,11 +6,13 @@
 #include <pqApplicationCore.h>
 #include <pqDataRepresentation.h>
 #include <pqServerManagerModel.h>
+#include <pqUndoStack.h>
 #include <pqView.h>
 #include <vtkCommand.h>
 #include <vtkSMPVRepresentationProxy.h>
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
+#include <vtkSMTransferFunctionProxy.h>
 
 #include <QTimer>
 
@@ -99,6 +101,8 @@ void pqCSGVColorLegend::propertyModified(vtkObject* object, unsigned long, void*
 
 void pqCSGVColorLegend::update(vtkSMProxy* proxy)
 {
+  // Follows the user's change (colouring, materials) and is undone with it: no undo steps of its own.
+  pqScopedUndoExclude exclude;
   const QString representation = vtkSMPropertyHelper(proxy, "Representation", true).GetAsString();
   const QString colorBy = vtkSMPropertyHelper(proxy, "ColorArrayName", true).GetInputArrayNameToProcess();
   if (representation != "Segmentation Volume" || colorBy.isEmpty())
@@ -125,9 +129,34 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
     proxy->UpdateVTKObjects();
     if (shared)
     {
-      vtkSMPVRepresentationProxy::HideScalarBarIfNotNeeded(shared, view->getProxy());
+      hideUnusedLegend(shared, view);
     }
   }
   pqCSGV::showLegend(own, labels, proxy, view);
   view->render();
+}
+
+void pqCSGVColorLegend::hideUnusedLegend(vtkSMProxy* lut, pqView* view)
+{
+  // ParaView showed the shared table's legend when the colouring was chosen; no other visible
+  // display of the view maps its data through that table now: it goes.
+  for (pqRepresentation* r : view->getRepresentations())
+  {
+    vtkSMProxy* other = r ? r->getProxy() : nullptr;
+    if (r && r->isVisible() && other && other->GetProperty("LookupTable") &&
+      vtkSMPropertyHelper(other, "LookupTable", true).GetAsProxy() == lut &&
+      other->GetProperty("ColorArrayName"))
+    {
+      const char* array = vtkSMPropertyHelper(other, "ColorArrayName", true).GetInputArrayNameToProcess();
+      if (array && *array)
+      {
+        return;
+      }
+    }
+  }
+  if (vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy()))
+  {
+    vtkSMPropertyHelper(bar, "Visibility").Set(0);
+    bar->UpdateVTKObjects();
+  }
 }

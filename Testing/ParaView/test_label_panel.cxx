@@ -13,6 +13,7 @@
 // selection" makes a CSGV Extract Labels filter of them.
 // Usage: csgv_label_panel_test PLUGIN.so FIXTURES_DIR
 #include "PvQtTestMain.h"
+#include "pqCSGVColorLegend.h"
 #include "pqCSGVLabelSelection.h"
 #include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
@@ -50,6 +51,9 @@
 #include <vtkSMProxyManager.h>
 #include <vtkSMSessionProxyManager.h>
 #include <vtkSMTransferFunctionManager.h>
+#include <vtkSMTransferFunctionProxy.h>
+#include <vtkSMPVRepresentationProxy.h>
+#include <vtkDataObject.h>
 #include <vtkSmartPointer.h>
 
 #include <QAction>
@@ -458,6 +462,69 @@ private Q_SLOTS:
     builder->destroy(source);
     builder->destroy(view);
     links.shutdown();
+  }
+
+  /// Colouring by the label array (as the colour toolbar does it: the coloring, then the legend)
+  /// shows one legend, the volume's own (the shared table's was left showing beside it), and is
+  /// one undo step: the legend's own edits follow it, and redo stays possible.
+  void colouringByLabelsShowsOneLegendAndIsOneUndoStep()
+  {
+    pqApplicationCore* core = pqApplicationCore::instance();
+    vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
+    if (!core->getUndoStack())
+    {
+      vtkNew<pqUndoStackBuilder> undoBuilder;
+      manager->SetUndoStackBuilder(undoBuilder);
+      core->setUndoStack(new pqUndoStack(undoBuilder, this));
+    }
+    pqCSGVColorLegend legends; // (the plugin's own instance runs too: the same edits)
+    legends.startup();
+    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqObjectBuilder* builder = core->getObjectBuilder();
+    pqPipelineSource* source = builder->createReader(
+      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    QVERIFY(source);
+    auto* view = qobject_cast<pqRenderView*>(builder->createView("RenderView", server));
+    QVERIFY(view);
+    view->widget()->resize(160, 160);
+    view->widget()->show();
+    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
+    vtkSMProxy* proxy = display->getProxy();
+    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
+    proxy->UpdateVTKObjects();
+    view->resetDisplay();
+    view->forceRender();
+    const QString array = pqCSGV::labelArrayOf(proxy);
+    QVERIFY(!array.isEmpty());
+    core->getUndoStack()->clear();
+
+    core->getUndoStack()->beginUndoSet("Colour by labels");
+    QVERIFY(vtkSMPVRepresentationProxy::SetScalarColoring(proxy, array.toUtf8().constData(), vtkDataObject::CELL));
+    vtkSMPVRepresentationProxy::SetScalarBarVisibility(proxy, view->getProxy(), true);
+    core->getUndoStack()->endUndoSet();
+    QTest::qWait(100); // the legend follows from the event loop
+    view->forceRender();
+
+    vtkNew<vtkSMTransferFunctionManager> mgr;
+    vtkSMProxy* shared = mgr->GetColorTransferFunction(array.toUtf8().constData(), proxy->GetSessionProxyManager());
+    vtkSMProxy* own = vtkSMPropertyHelper(proxy, "LookupTable").GetAsProxy();
+    QVERIFY(shared && own && own != shared);
+    auto visible = [&](vtkSMProxy* lut) {
+      vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy());
+      return bar && vtkSMPropertyHelper(bar, "Visibility").GetAsInt() != 0;
+    };
+    QVERIFY2(visible(own), "the volume's own legend shows");
+    QVERIFY2(!visible(shared), "the shared table's legend is hidden (nothing else uses it)");
+
+    QCOMPARE(QString(core->getUndoStack()->undoLabel()), QString("Colour by labels"));
+    core->getUndoStack()->undo();
+    QTest::qWait(100);
+    QVERIFY2(core->getUndoStack()->canRedo(), "one undo reverts it and redo stays possible");
+    const char* colored = vtkSMPropertyHelper(proxy, "ColorArrayName").GetInputArrayNameToProcess();
+    QVERIFY2(!colored || !*colored, "one undo: the display is not coloured by the labels any more");
+    legends.shutdown();
+    builder->destroy(source);
+    builder->destroy(view);
   }
 };
 
