@@ -69,6 +69,9 @@ public:
 
   // The whole volume (one piece), read when first asked for.
   bool WholeRead = false;
+  /// Why reading the encoding failed (a damaged file): said once, not read again at every
+  /// execution the pipeline asks for (a new file or a changed one clears it with the rest).
+  std::string ReadFailure;
   vtkSmartPointer<vtkUnsignedCharArray> Encoding; ///< the container bytes (FieldData)
   csgv::CompressedVolume Volume; ///< the same, parsed once (RequestData decodes it)
   vtkSmartPointer<vtkDataArray> Range;
@@ -97,6 +100,7 @@ public:
     }
     this->Loaded = false;
     this->WholeRead = false;
+    this->ReadFailure.clear();
     this->Encoding = nullptr;
     this->Volume = csgv::CompressedVolume{};
     this->Range = nullptr;
@@ -439,6 +443,10 @@ int vtkCSGVReader::RequestData(
   // here, while executing, the MTime it bumps asks for no second execution).
   this->SetAbortExecute(0);
   this->SetProgressText("Reading the palettes");
+  if (!in.ReadFailure.empty())
+  {
+    return 1; // said when it failed; the output stays empty
+  }
   const std::string readError = pieces > 1 ? in.ReadPiece(pieces, piece) : in.ReadWhole([this](double f) {
     this->UpdateProgress(0.05 * f); // the sweep of the palettes at open; decoding labels follows
     return !this->GetAbortExecute();
@@ -447,6 +455,10 @@ int vtkCSGVReader::RequestData(
   if (!readError.empty())
   {
     vtkErrorMacro(<< readError);
+    if (!this->GetAbortExecute())
+    {
+      in.ReadFailure = readError; // a cancelled read is read again when asked again
+    }
     return 1; // reported once: a failed request would be re-executed and reported again
   }
   const bool isPiece = pieces > 1;

@@ -45,6 +45,16 @@ with t.ErrorLog() as errors:
     img = t.fetch(r) if r is not None else None
 t.check(r is not None and img.GetNumberOfCells() == 0 and "trunc_open.csgv" in errors.text,
         "OpenDataFile of a truncated file: error and empty output")
+# Said once, however often the pipeline executes it again (open, show, render: it was five times).
+with t.ErrorLog() as errors:
+    r2 = OpenDataFile(path)
+    v = t.render_view(64, 48)
+    Show(r2, v)
+    Render(v)
+    Render(v)
+t.check(errors.text.count("trunc_open.csgv: file truncated") == 1,
+        "a truncated file's error is said once (%d times)" % errors.text.count("trunc_open.csgv: file truncated"))
+Delete(r2)
 
 expect_error("not a csgv", lambda: CSGVReader(FileName=write("garbage.csgv", b"hello world" * 100)), "garbage.csgv")
 expect_error("missing file", lambda: CSGVReader(FileName=os.path.join(tmp, "none.csgv")), "none.csgv")
