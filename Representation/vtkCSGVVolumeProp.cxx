@@ -445,8 +445,60 @@ bool vtkCSGVVolumeProp::DrawnMaterials(
   }
   p.Skipped.clear();
   p.Drawn = csgv::drawableMaterials(p.Doc, &available, &p.Skipped);
-  // Materials left out (an attribute not available, an empty colormap range) are said once,
-  // until the reasons change.
+  if (arrays && table)
+  {
+    if (attribute)
+    {
+      *attribute = table->attributeFunction();
+    }
+    // Arrays for the attributes the drawn materials name (only those are built and uploaded).
+    // An attribute that cannot be one (text, or labels too large to index an array) leaves out
+    // the materials that name it, with the reason; the others draw.
+    std::map<std::string, std::string> unusable;
+    for (const std::string& name : csgv::attributesUsed(p.Drawn))
+    {
+      std::map<std::string, std::vector<float>> one;
+      const std::string why = csgvrep::denseColumns(*table, *p.View.source().shared, { name }, one);
+      if (why.empty())
+      {
+        arrays->insert(one.begin(), one.end());
+      }
+      else
+      {
+        unusable[name] = why;
+      }
+    }
+    if (!unusable.empty())
+    {
+      std::vector<std::string> usable;
+      for (const std::string& name : available)
+      {
+        if (!unusable.count(name))
+        {
+          usable.push_back(name);
+        }
+      }
+      p.Skipped.clear();
+      p.Drawn = csgv::drawableMaterials(p.Doc, &usable, &p.Skipped);
+      for (std::string& why : p.Skipped)
+      {
+        for (const auto& [name, reason] : unusable)
+        {
+          if (why.find("'" + name + "'") != std::string::npos)
+          {
+            why += " (" + reason + ")";
+          }
+        }
+      }
+      const std::vector<std::string> used = csgv::attributesUsed(p.Drawn);
+      for (auto it = arrays->begin(); it != arrays->end();)
+      {
+        it = std::find(used.begin(), used.end(), it->first) == used.end() ? arrays->erase(it) : std::next(it);
+      }
+    }
+  }
+  // Materials left out (an attribute not available or not usable, an empty colormap range) are
+  // said once, until the reasons change.
   std::string skipped;
   for (const std::string& why : p.Skipped)
   {
@@ -457,22 +509,6 @@ bool vtkCSGVVolumeProp::DrawnMaterials(
     vtkWarningMacro(<< "Segmentation Volume: " << skipped);
   }
   p.ReportedSkipped = skipped;
-  if (!arrays || !table)
-  {
-    return true;
-  }
-  if (attribute)
-  {
-    *attribute = table->attributeFunction();
-  }
-  // Arrays for the attributes the drawn materials name (only those are built and uploaded).
-  const std::string error =
-    csgvrep::denseColumns(*table, *p.View.source().shared, csgv::attributesUsed(p.Drawn), *arrays);
-  if (!error.empty())
-  {
-    this->Report("Materials: " + error);
-    return false;
-  }
   return true;
 }
 

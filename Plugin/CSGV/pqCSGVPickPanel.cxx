@@ -20,6 +20,7 @@
 #include <QComboBox>
 #include <QLabel>
 #include <QLineEdit>
+#include <QGridLayout>
 #include <QHBoxLayout>
 #include <QJsonArray>
 #include <QMouseEvent>
@@ -62,7 +63,9 @@ void pqCSGVPickPanel::build()
   this->Result->setObjectName("pickResult");
   this->Result->setPlaceholderText("Click on a Segmentation Volume in the render view.");
   l->addWidget(this->Result);
-  auto* buttons = new QHBoxLayout();
+  // Two columns at most a row: the dock stays narrow enough to sit beside the view (in one row
+  // each, these made it wider than a 1600-pixel screen with the window).
+  auto* buttons = new QGridLayout();
   this->Hide = new QPushButton("Hide this label", w);
   this->Hide->setObjectName("hideLabel");
   this->ShowOnly = new QPushButton("Show only this label", w);
@@ -72,11 +75,11 @@ void pqCSGVPickPanel::build()
   this->Hide->setToolTip("Do not draw the picked label (the materials stay as they are)");
   this->ShowOnly->setToolTip("Draw only the picked label, in its material (the materials stay)");
   this->ShowAll->setToolTip("Draw every label the materials take again");
-  buttons->addWidget(this->Hide);
-  buttons->addWidget(this->ShowOnly);
-  buttons->addWidget(this->ShowAll);
+  buttons->addWidget(this->Hide, 0, 0);
+  buttons->addWidget(this->ShowOnly, 0, 1);
+  buttons->addWidget(this->ShowAll, 1, 0);
   l->addLayout(buttons);
-  auto* selection = new QHBoxLayout();
+  auto* selection = new QGridLayout();
   this->SelectOnClick = new QCheckBox("Select on click", w);
   this->SelectOnClick->setObjectName("selectOnClick");
   this->SelectOnClick->setChecked(true);
@@ -90,10 +93,10 @@ void pqCSGVPickPanel::build()
   this->ExtractSelection = new QPushButton("Extract selection", w);
   this->ExtractSelection->setObjectName("extractSelection");
   this->ExtractSelection->setToolTip("A CSGV Extract Labels filter of the selected labels (press Apply)");
-  selection->addWidget(this->SelectOnClick);
-  selection->addWidget(this->SelectionStyle);
-  selection->addWidget(this->ClearSelection);
-  selection->addWidget(this->ExtractSelection);
+  selection->addWidget(this->SelectOnClick, 0, 0);
+  selection->addWidget(this->SelectionStyle, 0, 1);
+  selection->addWidget(this->ClearSelection, 1, 0);
+  selection->addWidget(this->ExtractSelection, 1, 1);
   l->addLayout(selection);
   this->SelectQuery = new QLineEdit(w);
   this->SelectQuery->setObjectName("selectQuery");

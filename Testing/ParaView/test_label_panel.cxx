@@ -207,6 +207,10 @@ private Q_SLOTS:
     // Nothing picked: the edits that need a pick are off.
     QVERIFY(!panel->findChild<QPushButton*>("hideLabel")->isEnabled());
     QVERIFY(!panel->findChild<QPushButton*>("showOnlyLabel")->isEnabled());
+    // Narrow enough to sit beside a view: two buttons a row (one row of four widened a window
+    // that filled a 1600-pixel screen past it).
+    QVERIFY2(panel->minimumSizeHint().width() < 420,
+      qPrintable(QString("the panel needs %1 pixels").arg(panel->minimumSizeHint().width())));
   }
 
   /// A click in the view picks; Hide edits the overlay only; the pick clears when another view

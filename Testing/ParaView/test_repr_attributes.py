@@ -78,6 +78,23 @@ n = len(range(0, len(xs), max(1, len(xs) // 25)))
 t.check(good == n, "pick: label matches the label image and its voxel holds it (%d of %d)" % (good, n))
 t.check(not ct.pick(d, 0, 0)["hit"], "pick on the background: no hit")
 
+# --- an attribute that cannot be an array ------------------------------------------------------
+# synthA's labels (up to 4.3e9, no database) cannot index attribute arrays: a material that
+# filters by such an attribute is left out with that reason, and the others draw (the whole
+# volume went blank, the reason only in Output Messages).
+d.CSGVAttributeFiles = [os.path.join(t.FIXTURES, "synthA_attributes.csv")]
+with t.ErrorLog() as errors:
+    d.CSGVMaterials = json.dumps({"version": 1, "materials": [
+        {"name": "scored", "filter": {"attribute": "score", "min": 0.5, "max": 1}, "color": {"mode": "random"}},
+        {"name": "rest", "color": {"mode": "random"}}]})
+    rest = labels_after_render(v, d, "unusable.png")
+t.check(np.array_equal(rest, before), "the other material draws every label as before")
+skipped = json.loads(ct.query(d, "summary")).get("skipped", [])
+t.check(len(skipped) == 1 and "'score'" in skipped[0] and "too large" in skipped[0] and "too large" in errors.text,
+        "the material is left out, with the reason in the summary and a warning (%s)" % skipped)
+d.CSGVAttributeFiles = []
+d.CSGVMaterials = ""
+
 Delete(d)
 
 # --- the _csgv.db3 beside a .csgv ----------------------------------------------------------------
