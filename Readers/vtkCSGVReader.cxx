@@ -69,8 +69,9 @@ public:
 
   // The whole volume (one piece), read when first asked for.
   bool WholeRead = false;
-  /// Why reading the encoding failed (a damaged file): said once, not read again at every
+  /// Why parsing the whole encoding failed (a damaged file): said once, not read again at every
   /// execution the pipeline asks for (a new file or a changed one clears it with the rest).
+  /// Failures to map or read the file (which may pass) and pieces are tried again each time.
   std::string ReadFailure;
   vtkSmartPointer<vtkUnsignedCharArray> Encoding; ///< the container bytes (FieldData)
   csgv::CompressedVolume Volume; ///< the same, parsed once (RequestData decodes it)
@@ -157,7 +158,8 @@ public:
       enc->GetPointer(0), size_t(enc->GetNumberOfValues()), csgvvtk::keepArray(enc));
     if (!volume)
     {
-      return csgv::Status(volume.status()).prefix(path).message();
+      this->ReadFailure = csgv::Status(volume.status()).prefix(path).message();
+      return this->ReadFailure;
     }
     if (volume->dim != this->Dim || volume->brickSize != this->BrickSize)
     {
@@ -443,7 +445,7 @@ int vtkCSGVReader::RequestData(
   // here, while executing, the MTime it bumps asks for no second execution).
   this->SetAbortExecute(0);
   this->SetProgressText("Reading the palettes");
-  if (!in.ReadFailure.empty())
+  if (pieces <= 1 && !in.ReadFailure.empty())
   {
     return 1; // said when it failed; the output stays empty
   }
@@ -455,10 +457,6 @@ int vtkCSGVReader::RequestData(
   if (!readError.empty())
   {
     vtkErrorMacro(<< readError);
-    if (!this->GetAbortExecute())
-    {
-      in.ReadFailure = readError; // a cancelled read is read again when asked again
-    }
     return 1; // reported once: a failed request would be re-executed and reported again
   }
   const bool isPiece = pieces > 1;

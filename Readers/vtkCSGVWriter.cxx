@@ -79,7 +79,7 @@ csgv::Status writeVolumeFiles(const std::string& path, const csgv::VolumeMetadat
     const std::string prefix = path + ".tmp-";
     for (size_t at = message.find(prefix); at != std::string::npos; at = message.find(prefix, at + path.size()))
     {
-      const size_t end = message.find('\'', at);
+      const size_t end = message.find('\'', at + prefix.size()); // a quote in the path is no end
       message.replace(at, (end == std::string::npos ? message.size() : end) - at, path);
     }
     status = csgv::Status::error(message);

@@ -445,8 +445,15 @@ bool vtkCSGVVolumeProp::DrawnMaterials(
   }
   p.Skipped.clear();
   p.Drawn = csgv::drawableMaterials(p.Doc, &available, &p.Skipped);
-  if (arrays && table)
+  // The same check whether a render asks (arrays) or a query (what is drawn): a query before the
+  // next render says what that render will leave out.
+  std::map<std::string, std::vector<float>> unused;
+  if (table)
   {
+    if (!arrays)
+    {
+      arrays = &unused;
+    }
     if (attribute)
     {
       *attribute = table->attributeFunction();

@@ -105,8 +105,18 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
   pqScopedUndoExclude exclude;
   const QString representation = vtkSMPropertyHelper(proxy, "Representation", true).GetAsString();
   const QString colorBy = vtkSMPropertyHelper(proxy, "ColorArrayName", true).GetInputArrayNameToProcess();
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  auto* display = model->findItem<pqDataRepresentation*>(proxy);
+  pqView* view = display ? display->getView() : nullptr;
+  vtkSMProxy* shared = vtkSMPropertyHelper(proxy, "LookupTable", true).GetAsProxy();
   if (representation != "Segmentation Volume" || colorBy.isEmpty())
   {
+    // Not coloured any more (Solid Color, or an undo of the colouring, which leaves the table
+    // this class set): its legend goes unless another display uses it.
+    if (shared && view && colorBy.isEmpty())
+    {
+      hideUnusedLegend(shared, view);
+    }
     return;
   }
   const QString labels = pqCSGV::labelArrayOf(proxy);
@@ -114,10 +124,6 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
   {
     return; // another array: ParaView's own legend of it, as for any display
   }
-  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
-  auto* display = model->findItem<pqDataRepresentation*>(proxy);
-  pqView* view = display ? display->getView() : nullptr;
-  vtkSMProxy* shared = vtkSMPropertyHelper(proxy, "LookupTable", true).GetAsProxy();
   vtkSMProxy* own = pqCSGV::labelColorTable(proxy, labels);
   if (!own || !view)
   {

@@ -526,6 +526,7 @@ private Q_SLOTS:
     QVERIFY2(core->getUndoStack()->canRedo(), "one undo reverts it and redo stays possible");
     const char* colored = vtkSMPropertyHelper(proxy, "ColorArrayName").GetInputArrayNameToProcess();
     QVERIFY2(!colored || !*colored, "one undo: the display is not coloured by the labels any more");
+    QVERIFY2(!visible(own) && !visible(shared), "no legend stays after the undo");
     legends.shutdown();
     builder->destroy(source);
     builder->destroy(view);

@@ -87,7 +87,9 @@ with t.ErrorLog() as errors:
     d.CSGVMaterials = json.dumps({"version": 1, "materials": [
         {"name": "scored", "filter": {"attribute": "score", "min": 0.5, "max": 1}, "color": {"mode": "random"}},
         {"name": "rest", "color": {"mode": "random"}}]})
+    early = json.loads(ct.query(d, "summary")).get("skipped", [])  # asked before the render
     rest = labels_after_render(v, d, "unusable.png")
+t.check(len(early) == 1 and "too large" in early[0], "a query before the render says it too (%s)" % early)
 t.check(np.array_equal(rest, before), "the other material draws every label as before")
 skipped = json.loads(ct.query(d, "summary")).get("skipped", [])
 t.check(len(skipped) == 1 and "'score'" in skipped[0] and "too large" in skipped[0] and "too large" in errors.text,

@@ -386,12 +386,14 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
         }
     }
     if (!s) {
+        std::string stranded; // old files that could not be put back, named in the error
         for (auto m = moves.rbegin(); m != moves.rend(); ++m) {
             if (m->moved) std::rename(m->to.c_str(), m->from.c_str()); // the caller's volume stays its own
-            if (m->asideDone) std::rename(m->aside.c_str(), m->to.c_str());
+            if (m->asideDone && std::rename(m->aside.c_str(), m->to.c_str()) != 0)
+                stranded += "; the old '" + m->to + "' is at '" + m->aside + "'";
         }
         dropNew();
-        return s;
+        return Status::error(s.message() + stranded);
     }
     for (const Move& m : moves)
         if (m.asideDone) std::remove(m.aside.c_str());
