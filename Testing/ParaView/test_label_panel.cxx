@@ -97,6 +97,44 @@ class TestLabelPanel : public QObject
     this->Repr->UpdateVTKObjects();
   }
 
+  /// The application's undo stack, made as the GUI makes it when there is none.
+  void ensureUndoStack()
+  {
+    pqApplicationCore* core = pqApplicationCore::instance();
+    if (!core->getUndoStack())
+    {
+      vtkNew<pqUndoStackBuilder> undoBuilder;
+      vtkSMProxyManager::GetProxyManager()->SetUndoStackBuilder(undoBuilder);
+      core->setUndoStack(new pqUndoStack(undoBuilder, this));
+    }
+  }
+  /// The attribute fixture read into a new, active 160x160 render view as a Segmentation Volume
+  /// (camera reset, rendered): its display's proxy, or nullptr when any step fails.
+  vtkSMProxy* shownInNewView(pqPipelineSource*& source, pqRenderView*& view)
+  {
+    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    source = builder->createReader("sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    view = source ? qobject_cast<pqRenderView*>(builder->createView("RenderView", server)) : nullptr;
+    if (!view)
+    {
+      return nullptr;
+    }
+    view->widget()->resize(160, 160);
+    view->widget()->show();
+    pqActiveObjects::instance().setActiveView(view);
+    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
+    if (!display)
+    {
+      return nullptr;
+    }
+    vtkSMPropertyHelper(display->getProxy(), "Representation").Set("Segmentation Volume");
+    display->getProxy()->UpdateVTKObjects();
+    view->resetDisplay();
+    view->forceRender();
+    return display->getProxy();
+  }
+
 private Q_SLOTS:
   void initTestCase()
   {
@@ -274,35 +312,18 @@ private Q_SLOTS:
   void selectionLinksPickToolsTableAndExtract()
   {
     pqApplicationCore* core = pqApplicationCore::instance();
-    vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
-    if (!core->getUndoStack())
-    {
-      vtkNew<pqUndoStackBuilder> undoBuilder;
-      manager->SetUndoStackBuilder(undoBuilder);
-      core->setUndoStack(new pqUndoStack(undoBuilder, this));
-    }
+    this->ensureUndoStack();
     // (The plugin's own instance runs too; a second one makes the same edits, which change nothing.)
     pqCSGVLabelSelection links;
     links.startup();
     // Find Data's "current selection" frame, as the GUI has it: it reads every new selection
     // (and crashed on a selection input that was not an AppendSelections).
     pqFindDataCurrentSelectionFrame findData;
-    pqServer* server = pqActiveObjects::instance().activeServer();
     pqObjectBuilder* builder = core->getObjectBuilder();
-    pqPipelineSource* source = builder->createReader(
-      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
-    QVERIFY(source);
-    auto* view = qobject_cast<pqRenderView*>(builder->createView("RenderView", server));
-    QVERIFY(view);
-    view->widget()->resize(160, 160);
-    view->widget()->show();
-    pqActiveObjects::instance().setActiveView(view);
-    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
-    vtkSMProxy* proxy = display->getProxy();
-    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
-    proxy->UpdateVTKObjects();
-    view->resetDisplay();
-    view->forceRender();
+    pqPipelineSource* source = nullptr;
+    pqRenderView* view = nullptr;
+    vtkSMProxy* proxy = this->shownInNewView(source, view);
+    QVERIFY(proxy);
     pqPipelineSource* table = builder->createFilter("filters", "CSGVLabelTable", source);
     QVERIFY(table);
     vtkSMSourceProxy::SafeDownCast(table->getProxy())->UpdatePipeline();
@@ -474,30 +495,14 @@ private Q_SLOTS:
   void colouringByLabelsShowsOneLegendAndIsOneUndoStep()
   {
     pqApplicationCore* core = pqApplicationCore::instance();
-    vtkSMProxyManager* manager = vtkSMProxyManager::GetProxyManager();
-    if (!core->getUndoStack())
-    {
-      vtkNew<pqUndoStackBuilder> undoBuilder;
-      manager->SetUndoStackBuilder(undoBuilder);
-      core->setUndoStack(new pqUndoStack(undoBuilder, this));
-    }
+    this->ensureUndoStack();
     pqCSGVColorLegend legends; // (the plugin's own instance runs too: the same edits)
     legends.startup();
-    pqServer* server = pqActiveObjects::instance().activeServer();
     pqObjectBuilder* builder = core->getObjectBuilder();
-    pqPipelineSource* source = builder->createReader(
-      "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
-    QVERIFY(source);
-    auto* view = qobject_cast<pqRenderView*>(builder->createView("RenderView", server));
-    QVERIFY(view);
-    view->widget()->resize(160, 160);
-    view->widget()->show();
-    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
-    vtkSMProxy* proxy = display->getProxy();
-    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
-    proxy->UpdateVTKObjects();
-    view->resetDisplay();
-    view->forceRender();
+    pqPipelineSource* source = nullptr;
+    pqRenderView* view = nullptr;
+    vtkSMProxy* proxy = this->shownInNewView(source, view);
+    QVERIFY(proxy);
     const QString array = pqCSGV::labelArrayOf(proxy);
     QVERIFY(!array.isEmpty());
     core->getUndoStack()->clear();
