@@ -113,9 +113,14 @@ ViewSettings toViewSettings(const RepresentationProperties& given)
   }
   s.render.subsampling = uint32_t(sub);
   s.render.denoise = p.denoise != 0;
+  // Components beyond float's range (1e308, 1e-300) would be infinite or 0 as floats, and the
+  // backend's normalisation NaN (a black volume): such a direction is scaled in double first.
+  const auto& l = p.lightDirection;
+  const double largest = std::max({ std::abs(l[0]), std::abs(l[1]), std::abs(l[2]) }); // > 0: held
+  const double scale = largest > 1e30 || largest < 1e-30 ? 1.0 / largest : 1.0;
   for (int i = 0; i < 3; ++i)
   {
-    s.render.lightDirection[i] = float(p.lightDirection[size_t(i)]);
+    s.render.lightDirection[i] = float(l[size_t(i)] * scale);
   }
   s.cacheBytes = p.cacheSizeMiB > 0 ? uint64_t(std::max(16, p.cacheSizeMiB)) << 20 : 0;
   s.deviceMemoryBytes = uint64_t(std::max(0, p.deviceMemoryMiB)) << 20;

@@ -174,6 +174,12 @@ with t.ErrorLog() as errors:
     d4.CSGVShadingBlend = float("nan")
     held = t.screenshot(v4, 64, 48, "held.png")
 t.check(np.array_equal(held, reference), "NaN light direction and blend draw as the defaults do")
+d4.CSGVLightDirection = [0.35e308, 0.6e308, 0.72e308]  # finite, beyond float: the same direction
+t.check(np.abs(t.screenshot(v4, 64, 48, "held_huge.png").astype(int) - reference.astype(int)).max() <= 1,
+        "a light direction of huge components draws as the same direction does")
+d4.CSGVLightDirection = [0.35e-300, 0.6e-300, 0.72e-300]  # and of tiny ones
+t.check(np.abs(t.screenshot(v4, 64, 48, "held_tiny.png").astype(int) - reference.astype(int)).max() <= 1,
+        "a light direction of tiny components draws as the same direction does")
 for name in ("CSGVLightDirection (nan, nan, nan) is not finite", "CSGVShadingBlend nan is not a number: 1 is used"):
     t.check(name in errors.text, "the warning names it: %s (%s)" % (name, errors.text.strip()[:300]))
 with t.ErrorLog() as errors:
