@@ -444,11 +444,11 @@ int vtkCSGVReader::RequestData(
   // A read cancelled before is read again now (the executive does not clear the flag; cleared
   // here, while executing, the MTime it bumps asks for no second execution).
   this->SetAbortExecute(0);
-  this->SetProgressText("Reading the palettes");
   if (pieces <= 1 && !in.ReadFailure.empty())
   {
     return 1; // said when it failed; the output stays empty
   }
+  this->SetProgressText("Reading the palettes");
   const std::string readError = pieces > 1 ? in.ReadPiece(pieces, piece) : in.ReadWhole([this](double f) {
     this->UpdateProgress(0.05 * f); // the sweep of the palettes at open; decoding labels follows
     return !this->GetAbortExecute();

@@ -4,9 +4,7 @@
 #include "CSGVAdapter.h"
 #include "CSGVMpiAgreement.h"
 
-#include "csgv/attributes/AttributeDb.h"
 #include "csgv/codec/Encoder.h"
-#include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Compress.h"
 #include "csgv/inputs/Relabel.h"
@@ -58,34 +56,6 @@ namespace
 
 using csgvvtk::kOtherFailed;
 using csgvvtk::MpiAgreement;
-
-/// The files of one volume, published all or nothing as Core's compress publishes them
-/// (csgv::publishVolumeFiles): the volume complete under a temporary name, then the sidecars, then
-/// the renames; any failure leaves the old set as it was.
-csgv::Status writeVolumeFiles(const std::string& path, const csgv::VolumeMetadata& md,
-  const csgv::LabelMapping& mapping, const csgv::CompressedVolume& volume)
-{
-  const std::string tmp = csgv::temporaryNameFor(path) + ".csgv";
-  csgv::Status status = csgv::writeCsgv(tmp, volume);
-  if (status)
-  {
-    status = csgv::publishVolumeFiles(path, tmp, md, mapping);
-  }
-  if (!status)
-  {
-    std::remove(tmp.c_str());
-    // The user named the volume, not its temporaries ('<path>.tmp-...', quoted in messages).
-    std::string message = status.message();
-    const std::string prefix = path + ".tmp-";
-    for (size_t at = message.find(prefix); at != std::string::npos; at = message.find(prefix, at + path.size()))
-    {
-      const size_t end = message.find('\'', at + prefix.size()); // a quote in the path is no end
-      message.replace(at, (end == std::string::npos ? message.size() : end) - at, path);
-    }
-    status = csgv::Status::error(message);
-  }
-  return status;
-}
 
 /// The settings as Core's options, or an error message (the same on every process).
 std::string checkSettings(const char* fileName, int brickSize, int encoding, const char* operations,
@@ -316,7 +286,7 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
         mapping.relabelled = agreement.Relabelled;
         mapping.type = labelType;
         mapping.originalBits = std::move(agreement.Table);
-        status = writeVolumeFiles(path, md, mapping, *joined);
+        status = csgv::writeVolumeFiles(path, *joined, md, mapping);
       }
       if (!status)
       {
@@ -432,7 +402,7 @@ void vtkCSGVWriter::WriteData()
   md.originalType = encoded.originalType;
   md.relabelled = encoded.mapping.relabelled;
   md.source = "ParaView array '" + arrayName + "' (" + (isCell ? "cell" : "point") + " data)";
-  const csgv::Status status = writeVolumeFiles(path, md, encoded.mapping, encoded.volume);
+  const csgv::Status status = csgv::writeVolumeFiles(path, encoded.volume, md, encoded.mapping);
   if (!status)
   {
     vtkErrorMacro(<< status.message());

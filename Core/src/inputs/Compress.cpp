@@ -5,6 +5,7 @@
 #include "csgv/inputs/Compress.h"
 #include "csgv/attributes/AttributeDb.h"
 #include "csgv/base/FileUtil.h"
+#include "csgv/codec/Container.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Procedural.h"
 #include "InputCommon.h"
@@ -398,6 +399,24 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     for (const Move& m : moves)
         if (m.asideDone) std::remove(m.aside.c_str());
     return Status::ok();
+}
+
+Status writeVolumeFiles(const std::string& output, const CompressedVolume& volume, const VolumeMetadata& md,
+                        const LabelMapping& mapping) {
+    const std::string tmp = temporaryNameFor(output) + ".csgv";
+    Status s = writeCsgv(tmp, volume);
+    if (s) s = publishVolumeFiles(output, tmp, md, mapping);
+    if (s) return s;
+    if (fileExists(tmp)) std::remove(tmp.c_str());
+    // The user named the output, not its temporaries ('<output>.tmp-...' up to the closing quote:
+    // writeCsgv's own temporary is named after this one).
+    std::string message = s.message();
+    const std::string prefix = output + ".tmp-";
+    for (size_t at = message.find(prefix); at != std::string::npos; at = message.find(prefix, at + output.size())) {
+        const size_t end = message.find('\'', at + prefix.size()); // a quote in the path is no end
+        message.replace(at, (end == std::string::npos ? message.size() : end) - at, output);
+    }
+    return Status::error(message);
 }
 
 namespace {

@@ -182,5 +182,10 @@ Status compressSourceToFile(InputSource& source, const std::string& name, const 
 /// the old set back whole. On failure `volumeTmp` is still there for the caller to remove.
 Status publishVolumeFiles(const std::string& output, const std::string& volumeTmp, const VolumeMetadata& md,
                           const LabelMapping& mapping);
+/// Writes `volume` complete under a temporary name and publishes it with its sidecars
+/// (publishVolumeFiles): all or nothing, the temporary removed on failure, the error naming
+/// `output` rather than any temporary. What ParaView's writer calls.
+Status writeVolumeFiles(const std::string& output, const CompressedVolume& volume, const VolumeMetadata& md,
+                        const LabelMapping& mapping);
 
 } // namespace csgv
