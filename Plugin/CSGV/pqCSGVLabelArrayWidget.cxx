@@ -10,6 +10,8 @@
 #include <vtkPVArrayInformation.h>
 #include <vtkPVDataInformation.h>
 #include <vtkPVDataSetAttributesInformation.h>
+#include <vtkPVXMLElement.h>
+#include <vtkSMProperty.h>
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMSourceProxy.h>
 #include <vtkType.h>
@@ -54,6 +56,11 @@ bool isIntegerType(int type)
   }
 }
 
+bool isFloatType(int type)
+{
+  return type == VTK_FLOAT || type == VTK_DOUBLE;
+}
+
 const QString kNotInInput = QStringLiteral(" (not in the input)");
 } // namespace
 
@@ -63,6 +70,17 @@ pqCSGVLabelArrayWidget::pqCSGVLabelArrayWidget(vtkSMProxy* proxy, vtkSMProperty*
   , Combo(new QComboBox(this))
 {
   this->Combo->setObjectName("LabelArrayCombo");
+  this->AutomaticTip =
+    tr("The CSGV encoding when the input has one, else the first integer array (cell data first)");
+  vtkPVXMLElement* hints = property->GetHints();
+  if (vtkPVXMLElement* e = hints ? hints->FindNestedElementByName("CSGVLabelArrays") : nullptr)
+  {
+    this->Floats = QString(e->GetAttributeOrEmpty("floats")) == "1";
+    if (e->GetAttribute("automatic"))
+    {
+      this->AutomaticTip = QString(e->GetAttribute("automatic"));
+    }
+  }
   this->Combo->setSizeAdjustPolicy(QComboBox::AdjustToMinimumContentsLengthWithIcon);
   auto* layout = new QHBoxLayout(this);
   layout->setContentsMargins(0, 0, 0, 0);
@@ -100,11 +118,8 @@ void pqCSGVLabelArrayWidget::refill()
   const QSignalBlocker blocker(this->Combo);
   this->Combo->clear();
   this->Combo->addItem(tr("(automatic)"), QStringLiteral(""));
-  this->Combo->setItemData(
-    0,
-    tr("The CSGV encoding when the input has one, else the first integer array (cell data first)"),
-    Qt::ToolTipRole);
-  for (const auto& array : integerArrays(this->proxy()))
+  this->Combo->setItemData(0, this->AutomaticTip, Qt::ToolTipRole);
+  for (const auto& array : labelArrays(this->proxy(), this->Floats))
   {
     if (this->Combo->findData(array.first) < 0)
     {
@@ -118,24 +133,35 @@ void pqCSGVLabelArrayWidget::refill()
 
 QVector<QPair<QString, bool>> pqCSGVLabelArrayWidget::integerArrays(vtkSMProxy* display)
 {
+  return labelArrays(display, false);
+}
+
+QVector<QPair<QString, bool>> pqCSGVLabelArrayWidget::labelArrays(vtkSMProxy* display, bool floats)
+{
   QVector<QPair<QString, bool>> arrays;
   vtkPVDataInformation* info = inputInformation(display);
   if (!info)
   {
     return arrays;
   }
-  for (int association : { vtkDataObject::CELL, vtkDataObject::POINT })
+  // Integer arrays first, then (when asked) floats: the order findLabelArray chooses in.
+  for (int wantInteger = 1; wantInteger >= (floats ? 0 : 1); --wantInteger)
   {
-    vtkPVDataSetAttributesInformation* attributes = info->GetAttributeInformation(association);
-    for (int i = 0; attributes && i < attributes->GetNumberOfArrays(); ++i)
+    for (int association : { vtkDataObject::CELL, vtkDataObject::POINT })
     {
-      vtkPVArrayInformation* array = attributes->GetArrayInformation(i);
-      const char* name = array->GetName();
-      // VTK's own arrays (vtkGhostType, vtkOriginalCellIds...) are not labels.
-      if (name && QString(name).startsWith("vtk") == false && array->GetNumberOfComponents() == 1 &&
-          isIntegerType(array->GetDataType()))
+      vtkPVDataSetAttributesInformation* attributes = info->GetAttributeInformation(association);
+      for (int i = 0; attributes && i < attributes->GetNumberOfArrays(); ++i)
       {
-        arrays.push_back({ QString(name), association == vtkDataObject::CELL });
+        vtkPVArrayInformation* array = attributes->GetArrayInformation(i);
+        const char* name = array->GetName();
+        const int type = array->GetDataType();
+        // VTK's own arrays (vtkGhostType, vtkOriginalCellIds...) are not labels.
+        if (name && QString(name).startsWith("vtk") == false &&
+            array->GetNumberOfComponents() == 1 &&
+            (wantInteger ? isIntegerType(type) : isFloatType(type)))
+        {
+          arrays.push_back({ QString(name), association == vtkDataObject::CELL });
+        }
       }
     }
   }

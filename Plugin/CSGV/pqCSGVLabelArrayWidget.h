@@ -1,11 +1,15 @@
 // SPDX-License-Identifier: MIT
 /**
  * @class pqCSGVLabelArrayWidget
- * @brief "Label Array" of the Segmentation Volume (panel_widget "csgv_label_array"): a drop-down
- * of the input's one-component integer arrays, cell data first, after "(automatic)".
+ * @brief A label array property (panel_widget "csgv_label_array"): a drop-down of the input's
+ * one-component integer arrays, cell data first, after "(automatic)". The Segmentation Volume's
+ * "Label Array" and the CSGV Writer's "Label Array Name" (Save Data) use it.
  *
  * "(automatic)" writes the empty string, which the representation reads as "the CSGV encoding
- * when present, else the first integer array (cell data first)", as pvpython's default does. A
+ * when present, else the first integer array (cell data first)", as pvpython's default does. The
+ * property's hints may say otherwise: `<CSGVLabelArrays floats="1" automatic="..."/>` also lists
+ * one-component float arrays (the writer takes floats that hold integers) and gives the tooltip of
+ * "(automatic)". A
  * name the input does not offer (another array set from pvpython, or one not computed yet) stays
  * shown, marked "(not in the input)", so the widget never changes the property by itself.
  *
@@ -41,6 +45,8 @@ public:
 
   /// One-component integer arrays of the display's input: (name, is cell data), cell data first.
   static QVector<QPair<QString, bool>> integerArrays(vtkSMProxy* display);
+  /// The same, with one-component float arrays too when `floats` (after the integer ones).
+  static QVector<QPair<QString, bool>> labelArrays(vtkSMProxy* display, bool floats);
   /// Voxels per axis of the label volume the display draws: cells when its label array is cell
   /// data (or the CSGV encoding), points when it is point data; zeros without input.
   static std::array<int, 3> voxelDimensions(vtkSMProxy* display);
@@ -55,6 +61,8 @@ private Q_SLOTS:
 
 private:
   QComboBox* Combo;
+  bool Floats = false;     ///< the hints' floats="1": float arrays are listed too
+  QString AutomaticTip;    ///< the tooltip of "(automatic)"
 };
 
 #endif

@@ -4,7 +4,8 @@
 // (loaded from CSGV.so as the GUI loads them): the composite representation's controls that do
 // nothing for it are hidden and come back for Surface, typing "opacity" in the search finds the
 // material editor, and Shading, Label Array and Clip Box show names and ranges a user reads while
-// writing what pvpython writes. Usage: csgv_property_panel_test PLUGIN.so FIXTURES_DIR
+// writing what pvpython writes; Save Data's CSGV Writer offers its label arrays in the same
+// drop-down. Usage: csgv_property_panel_test PLUGIN.so FIXTURES_DIR
 #include "PvQtTestMain.h"
 #include <pqApplicationCore.h>
 #include <pqInterfaceTracker.h>
@@ -197,6 +198,57 @@ private Q_SLOTS:
     QCOMPARE(QString(this->text("CSGVLabelArray")), QString("elsewhere"));
     vtkSMPropertyHelper(this->Display, "CSGVLabelArray").Set("");
     this->Display->UpdateVTKObjects();
+  }
+
+  void writerLabelArrayIsADropDown()
+  {
+    // Save Data's dialog shows the writer's properties in a pqProxyWidget of the writer proxy.
+    vtkSMSessionProxyManager* pxm =
+      vtkSMProxyManager::GetProxyManager()->GetActiveSessionProxyManager();
+    auto itemsOf = [](QComboBox* combo) {
+      QStringList names;
+      for (int i = 0; i < combo->count(); ++i)
+      {
+        names << combo->itemText(i);
+      }
+      return names;
+    };
+    vtkSmartPointer<vtkSMProxy> writer;
+    writer.TakeReference(pxm->NewProxy("writers", "CSGVWriter"));
+    QVERIFY(writer);
+    vtkSMPropertyHelper(writer, "Input").Set(this->Reader);
+    writer->UpdateVTKObjects();
+    {
+      pqProxyWidget panel(writer);
+      panel.setApplyChangesImmediately(true);
+      panel.show();
+      auto* combo = panel.findChild<QComboBox*>("LabelArrayCombo");
+      QVERIFY(combo);
+      QCOMPARE(itemsOf(combo), QStringList({ "(automatic)", "Labels" }));
+      QCOMPARE(combo->currentIndex(), 0);
+      QVERIFY(combo->itemData(0, Qt::ToolTipRole).toString().contains("float"));
+      combo->setFocus();
+      QTest::keyClick(combo, Qt::Key_Down);
+      QTRY_COMPARE(QString(vtkSMPropertyHelper(writer, "LabelArrayName").GetAsString()),
+                   QString("Labels"));
+    }
+    // The writer takes floats that hold integers: a float array is offered too.
+    vtkSmartPointer<vtkSMSourceProxy> wavelet;
+    wavelet.TakeReference(
+      vtkSMSourceProxy::SafeDownCast(pxm->NewProxy("sources", "RTAnalyticSource")));
+    QVERIFY(wavelet);
+    wavelet->UpdateVTKObjects();
+    wavelet->UpdatePipeline();
+    vtkSMPropertyHelper(writer, "Input").Set(wavelet);
+    vtkSMPropertyHelper(writer, "LabelArrayName").Set("");
+    writer->UpdateVTKObjects();
+    {
+      pqProxyWidget panel(writer);
+      panel.show();
+      auto* combo = panel.findChild<QComboBox*>("LabelArrayCombo");
+      QVERIFY(combo);
+      QCOMPARE(itemsOf(combo), QStringList({ "(automatic)", "RTData" }));
+    }
   }
 
   void clipBoxShowsTheExtent()
