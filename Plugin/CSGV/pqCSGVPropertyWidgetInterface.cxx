@@ -4,6 +4,7 @@
 #include "pqCSGVClipBoxWidget.h"
 #include "pqCSGVEnumerationWidget.h"
 #include "pqCSGVLabelArrayWidget.h"
+#include "pqCSGVLogRangeWidget.h"
 #include "pqCSGVMaterialDocument.h"
 
 #include <pqGenericPropertyWidgetDecorator.h>
@@ -111,6 +112,10 @@ pqPropertyWidget* pqCSGVPropertyWidgetInterface::createWidgetForProperty(vtkSMPr
   if (std::strcmp(type, "csgv_enumeration") == 0)
   {
     return new pqCSGVEnumerationWidget(proxy, property, parent);
+  }
+  if (std::strcmp(type, "csgv_log_range") == 0)
+  {
+    return new pqCSGVLogRangeWidget(proxy, property, parent);
   }
   return nullptr;
 }

@@ -25,6 +25,8 @@
 
 #include <QApplication>
 #include <QComboBox>
+#include <QDoubleSpinBox>
+#include <QSlider>
 #include <QSpinBox>
 #include <QtTest>
 
@@ -283,6 +285,68 @@ private Q_SLOTS:
     QTest::keyClicks(maxX, "132");
     QTest::keyClick(maxX, Qt::Key_Return);
     QTRY_COMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(1), 2147483647);
+  }
+
+  void wideRangesUseALogarithmicSlider()
+  {
+    this->chooseRepresentation("Segmentation Volume");
+    pqPropertyWidget* frames = this->widget("CSGVFramesPerStillRender");
+    QVERIFY(frames);
+    auto* slider = frames->findChild<QSlider*>("LogSlider");
+    auto* box = frames->findChild<QSpinBox*>("LogValue");
+    QVERIFY(slider && box);
+    QVERIFY(slider->isVisibleTo(this->Panel.get()));
+    auto frameCount = [this]() {
+      return vtkSMPropertyHelper(this->Display, "CSGVFramesPerStillRender").GetAsInt();
+    };
+    // The default, 16 of 1-4096, sits a third of the way along (ParaView's linear slider put it
+    // at 0.4 %), and 64 half way.
+    QCOMPARE(frameCount(), 16);
+    QCOMPARE(box->value(), 16);
+    QCOMPARE(slider->value(), 333);
+    box->setFocus();
+    box->selectAll();
+    QTest::keyClicks(box, "64");
+    QTest::qWait(100);
+    QCOMPARE(frameCount(), 16); // typing alone applies nothing
+    QTest::keyClick(box, Qt::Key_Return);
+    QTRY_COMPARE(frameCount(), 64);
+    QCOMPARE(slider->value(), 500);
+    // The slider's keys: a page is a twelfth (a factor of two here); the ends are the range's.
+    slider->setFocus();
+    QTest::keyClick(slider, Qt::Key_PageUp);
+    QTRY_COMPARE(frameCount(), 128);
+    QTest::keyClick(slider, Qt::Key_End);
+    QTRY_COMPARE(frameCount(), 4096);
+    QCOMPARE(box->value(), 4096);
+    QTest::keyClick(slider, Qt::Key_Home);
+    QTRY_COMPARE(frameCount(), 1);
+    // A value set from pvpython moves both.
+    vtkSMPropertyHelper(this->Display, "CSGVFramesPerStillRender").Set(16);
+    this->Display->UpdateVTKObjects();
+    QTRY_COMPARE(box->value(), 16);
+    QCOMPARE(slider->value(), 333);
+
+    // A double: the time budget's 3 s of 0-600 s a fifth of the way; the left end is 0.
+    pqPropertyWidget* budget = this->widget("CSGVStillRenderTimeBudget");
+    QVERIFY(budget);
+    auto* budgetSlider = budget->findChild<QSlider*>("LogSlider");
+    auto* budgetBox = budget->findChild<QDoubleSpinBox*>("LogValue");
+    QVERIFY(budgetSlider && budgetBox);
+    auto seconds = [this]() {
+      return vtkSMPropertyHelper(this->Display, "CSGVStillRenderTimeBudget").GetAsDouble();
+    };
+    QCOMPARE(seconds(), 3.0);
+    QCOMPARE(budgetSlider->value(), 217);
+    budgetSlider->setFocus();
+    QTest::keyClick(budgetSlider, Qt::Key_Home);
+    QTRY_COMPARE(seconds(), 0.0);
+    budgetBox->setFocus();
+    budgetBox->selectAll();
+    QTest::keyClicks(budgetBox, "3");
+    QTest::keyClick(budgetBox, Qt::Key_Return);
+    QTRY_COMPARE(seconds(), 3.0);
+    QCOMPARE(budgetSlider->value(), 217);
   }
 };
 
