@@ -94,6 +94,8 @@ struct vtkCSGVRepresentation::vtkInternals
   /// ranks reduced together.
   unsigned long DataGeneration = 0;
   unsigned long SharedGeneration = 0; ///< the update whose data the ranks shared
+  /// The update whose data the prop was last given (a render, or a query before one).
+  unsigned long PropGeneration = ~0ul;
   /// The brick piece asked of the input (csgvvtk::setBrickPiece's words), empty when none.
   std::vector<int> BrickPiece;
 };
@@ -320,6 +322,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     auto* image = vtkImageData::SafeDownCast(vtkPVView::GetDeliveredPiece(inInfo, this));
     this->ResolveInput(image);
     this->Prop->SetInput(image, this->Internals->Source, this->Internals->Error);
+    this->Internals->PropGeneration = this->Internals->DataGeneration;
     // Every property, gathered once per render (the view renderer detects what changed).
     csgvrep::RepresentationProperties p;
 #define CSGV_PROPERTY(Name, member, type, count, values) copyProperty(this->Name, p.member);
@@ -547,11 +550,15 @@ const char* vtkCSGVRepresentation::Query(const char* request)
     // the input here first. Queries run on the rendering processes only (vtkCSGVQuery).
     this->Update();
   }
-  if (!this->Prop->HasInput() && this->Cache)
+  vtkInternals& in = *this->Internals;
+  if ((!this->Prop->HasInput() && this->Cache) || in.PropGeneration != in.DataGeneration)
   {
-    // Nothing rendered yet: the query answers from the input resolved now.
+    // Nothing rendered yet, or not since the data changed (a new file, or one that failed to
+    // read: its empty output): the query answers from the input resolved now, not from what the
+    // last render drew.
     this->ResolveInput(this->Cache);
-    this->Prop->SetInput(this->Cache, this->Internals->Source, this->Internals->Error);
+    this->Prop->SetInput(this->Cache, in.Source, in.Error);
+    in.PropGeneration = in.DataGeneration;
   }
   this->QueryResult = this->Prop->Query(request ? request : "");
   return this->QueryResult.c_str();

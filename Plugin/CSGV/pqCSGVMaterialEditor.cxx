@@ -108,7 +108,13 @@ pqCSGVMaterialEditor::~pqCSGVMaterialEditor()
   if (this->Observed)
   {
     this->Observed->RemoveObserver(this->ObserverTag);
+    this->Observed->RemoveObserver(this->DataObserverTag);
   }
+}
+
+void pqCSGVMaterialEditor::dataUpdated(vtkObject*, unsigned long, void*)
+{
+  this->RefreshTimer->start();
 }
 
 void pqCSGVMaterialEditor::propertyPushed(vtkObject*, unsigned long, void* name)
@@ -207,7 +213,14 @@ void pqCSGVMaterialEditor::refreshAttributes()
     this->AttributeOrder << name;
   }
   const QString error = summary.value("error").toString();
-  if (!error.isEmpty() && error != "the input is empty")
+  if (error == "the input is empty" || error == "no input")
+  {
+    // The output of a file that failed to read, or of a filter that produced nothing: the
+    // materials stay editable for data to come, but the user learns why nothing is drawn.
+    this->Status->setText(tr("The input is empty: there are no labels to draw. When a file "
+                             "failed to read, the Output Messages say why."));
+  }
+  else if (!error.isEmpty())
   {
     this->Status->setText("Attributes: " + error);
   }

@@ -134,6 +134,9 @@ private:
   /// Observer of the representation: refreshes the attributes once an attribute property has
   /// been pushed to the rendering process (not before, when the query would miss it).
   void propertyPushed(vtkObject*, unsigned long, void* name);
+  /// Observer of the representation: its data was updated (a new file, a reader's failure): the
+  /// attributes and whether there is anything to draw are asked again.
+  void dataUpdated(vtkObject*, unsigned long, void*);
 
   /// Core's document (its defaults and checks live there); the widgets edit it, commit() writes it.
   csgv::MaterialDocument Doc;
@@ -149,6 +152,7 @@ private:
   bool Updating = false;
   vtkWeakPointer<vtkSMProxy> Observed; ///< the proxy whose property pushes propertyPushed() sees
   unsigned long ObserverTag = 0;
+  unsigned long DataObserverTag = 0;
   QTimer* RefreshTimer; ///< coalesces the refreshes several pushed properties ask for
 
   QListWidget* List;

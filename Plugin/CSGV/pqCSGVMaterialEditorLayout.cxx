@@ -131,6 +131,8 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
     this->Observed = rep;
     this->ObserverTag =
       rep->AddObserver(vtkCommand::UpdatePropertyEvent, this, &pqCSGVMaterialEditor::propertyPushed);
+    this->DataObserverTag =
+      rep->AddObserver(vtkCommand::UpdateDataEvent, this, &pqCSGVMaterialEditor::dataUpdated);
   }
 
   this->Doc = csgv::defaultMaterials();

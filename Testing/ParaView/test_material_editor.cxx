@@ -16,6 +16,7 @@
 #include <pqServerResource.h>
 #include <vtkSMPluginManager.h>
 #include <vtkSMPropertyHelper.h>
+#include <vtkSMRepresentationProxy.h>
 #include <vtkSMProxy.h>
 #include <vtkSMProxyManager.h>
 #include <vtkSMSessionProxyManager.h>
@@ -32,6 +33,7 @@
 #include <QListWidget>
 #include <QPlainTextEdit>
 #include <QPushButton>
+#include <QTemporaryDir>
 #include <QtTest>
 #include <QWheelEvent>
 
@@ -538,6 +540,39 @@ private Q_SLOTS:
     // Issue 38 (8): applying says what the derived attribute became.
     const QString status = this->child<QLabel>("status")->text();
     QVERIFY2(status.startsWith("Derived attributes applied: double_kind ("), qPrintable(status));
+  }
+
+  // A file that fails to read leaves an empty output: the editor says there is nothing to draw,
+  // and follows the data back when the file reads again (no Refresh, no new panel).
+  void emptyInputIsSaidAndNewDataRefreshes()
+  {
+    QTemporaryDir dir;
+    QVERIFY(dir.isValid());
+    const QString good = gFixtures + "/synthA_b32_rans2_attr.csgv";
+    const QString broken = dir.filePath("broken.csgv");
+    {
+      QFile in(good);
+      QFile out(broken);
+      QVERIFY(in.open(QIODevice::ReadOnly) && out.open(QIODevice::WriteOnly));
+      out.write(in.read(in.size() / 2));
+    }
+    auto* repr = vtkSMRepresentationProxy::SafeDownCast(this->Repr);
+    QVERIFY(repr);
+    auto load = [&](const QString& file) {
+      vtkSMPropertyHelper(this->Reader, "FileName").Set(file.toUtf8().constData());
+      this->Reader->UpdateVTKObjects();
+      repr->UpdatePipeline(); // as a view's update does after Apply
+    };
+    QLabel* status = this->child<QLabel>("status");
+    QComboBox* filter = this->child<QComboBox>("filterAttribute");
+    this->setDocument(R"({"materials":[{"name":"a"}]})");
+    this->child<QListWidget>("materialList")->setCurrentRow(0);
+    load(broken);
+    QTRY_VERIFY2(status->text().startsWith("The input is empty"), qPrintable(status->text()));
+    QVERIFY(filter->findText("kind") < 0);
+    load(good);
+    QTRY_VERIFY2(filter->findText("kind") >= 0, qPrintable(status->text()));
+    QCOMPARE(status->text(), QString());
   }
 };
 
