@@ -71,7 +71,11 @@ RepresentationProperties heldProperties(const RepresentationProperties& given, s
   const RepresentationProperties d;
 #define CSGV_PROPERTY(Name, member, type, count, values)
 #define CSGV_RANGE(Name, member, lo, hi) holdWithin(p.member, lo, hi, d.member, "CSGV" #Name, notes);
+#define CSGV_LIST(...) __VA_ARGS__
+#define CSGV_ENUM(Name, member, values, texts) holdAmong(p.member, { CSGV_LIST values }, d.member, "CSGV" #Name, notes);
 #include "CSGVProperties.def"
+#undef CSGV_ENUM
+#undef CSGV_LIST
 #undef CSGV_RANGE
 #undef CSGV_PROPERTY
   std::vector<int> modes(csgv::gpu::kShadingModes);
@@ -80,11 +84,6 @@ RepresentationProperties heldProperties(const RepresentationProperties& given, s
     modes[m] = int(m);
   }
   holdAmong(p.shading, modes, d.shading, "CSGVShading", notes);
-  holdAmong(p.subsampling, { 1, 2, 4, 8 }, d.subsampling, "CSGVSubsampling", notes);
-  holdAmong(p.denoise, { 0, 1 }, d.denoise, "CSGVDenoise", notes);
-  holdAmong(p.decoding, { 0, 1, 2 }, d.decoding, "CSGVDecoding", notes);
-  holdAmong(p.cachePaletting, { 0, 1, 2 }, d.cachePaletting, "CSGVCachePaletting", notes);
-  holdAmong(p.computedAttributes, { 0, 1 }, d.computedAttributes, "CSGVComputedAttributes", notes);
   const auto& l = p.lightDirection;
   const bool finite = std::isfinite(l[0]) && std::isfinite(l[1]) && std::isfinite(l[2]);
   if (!finite || (l[0] == 0 && l[1] == 0 && l[2] == 0))

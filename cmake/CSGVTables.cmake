@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: MIT
 # Tables that C++ and the server-manager XML share, read once here and written into the XML:
-# - Representation/CSGVProperties.def: each setting's default values (CSGV_DEFAULT_<Name>) and
-#   the ranges of numbers (CSGV_MIN_<Name>, CSGV_MAX_<Name>);
+# - Representation/CSGVProperties.def: each setting's default values (CSGV_DEFAULT_<Name>), the
+#   ranges of numbers (CSGV_MIN_<Name>, CSGV_MAX_<Name>) and the enumerations' domains
+#   (CSGV_DOMAIN_<Name>, which the template must name for every enumeration row);
 # - VulkanBackend/include/csgv/gpu/ShadingModes.h: the shading modes' rows (the CSGVShading
 #   enumeration's entries, the GUI's labels and the modes' one-line documentation).
 # - Core/src/inputs/Inputs.cpp: each input format's file name extensions and patterns
@@ -41,6 +42,42 @@ function(csgv_write_representation_xml template output)
     endif()
     set(CSGV_MIN_${CMAKE_MATCH_1} "${CMAKE_MATCH_2}")
     set(CSGV_MAX_${CMAKE_MATCH_1} "${CMAKE_MATCH_3}")
+  endforeach()
+
+  file(READ "${template}" template_text)
+  file(STRINGS "${defs}" rows REGEX "^CSGV_ENUM")
+  foreach(row IN LISTS rows)
+    if(NOT row MATCHES "^CSGV_ENUM\\(([A-Za-z]+), [A-Za-z]+, \\(([-0-9, ]+)\\), \\((\"[^\"]+\"(, \"[^\"]+\")*)\\)\\)$")
+      message(FATAL_ERROR "${defs}: an enumeration row out of form: ${row}")
+    endif()
+    set(name "${CMAKE_MATCH_1}")
+    string(REPLACE ", " ";" values "${CMAKE_MATCH_2}")
+    string(REGEX REPLACE "\"(, )?" ";" texts "${CMAKE_MATCH_3}")
+    if(NOT DEFINED CSGV_DEFAULT_${name})
+      message(FATAL_ERROR "${defs}: an enumeration for ${name}, which no property row names")
+    endif()
+    if(NOT template_text MATCHES "@CSGV_DOMAIN_${name}@")
+      message(FATAL_ERROR "${template}: the enumeration ${name} is not written (name @CSGV_DOMAIN_${name}@ in its property)")
+    endif()
+    list(FILTER texts EXCLUDE REGEX "^$")
+    list(LENGTH values nv)
+    list(LENGTH texts nt)
+    if(NOT nv EQUAL nt)
+      message(FATAL_ERROR "${defs}: ${name} has ${nv} values and ${nt} names")
+    endif()
+    if(values STREQUAL "0;1" AND texts STREQUAL "off;on")
+      set(CSGV_DOMAIN_${name} "<BooleanDomain name=\"bool\"/>")
+    else()
+      set(domain "<EnumerationDomain name=\"enum\">")
+      math(EXPR last "${nv} - 1")
+      foreach(i RANGE ${last})
+        list(GET values ${i} v)
+        list(GET texts ${i} t)
+        string(APPEND domain "\n          <Entry value=\"${v}\" text=\"${t}\"/>")
+      endforeach()
+      string(APPEND domain "\n        </EnumerationDomain>")
+      set(CSGV_DOMAIN_${name} "${domain}")
+    endif()
   endforeach()
 
   file(STRINGS "${modes}" rows REGEX "^    \\{Shading::")
