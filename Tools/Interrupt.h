@@ -79,6 +79,9 @@ private:
         const auto deadline = clock::now() + std::chrono::milliseconds(400);
         while (!m_done && clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(10));
         if (m_done) return;
+        // Not between the renames of a set being published: wait for them (microseconds), and
+        // hold the lock until the process ends so that no other set starts.
+        const std::unique_lock<std::mutex> publishing = holdPublishing();
         removeTemporaries();
         reportOnce(g_signal == SIGTERM ? "terminated (SIGTERM): stopped, no output written"
                                        : "interrupted (Ctrl-C): stopped, no output written");

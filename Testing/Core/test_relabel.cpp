@@ -15,6 +15,9 @@
 #include "csgv/codec/Partition.h"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <unordered_map>
 #include <unordered_set>
@@ -286,6 +289,36 @@ TEST(Compress, NrrdWithNegativeAndWideLabelsComesBackExactly) {
     Result<LabelVolume> d = decodeVolume(f->volume, 0, f->decodeOptions());
     ASSERT_TRUE(d.isOk());
     for (size_t i = 0; i < values.size(); ++i) ASSERT_EQ(f->originalLabel(d->labels[i]), values[i]) << i;
+}
+
+// An interrupt watchdog holds the publishing lock before it removes temporaries and ends the
+// process (Tools/Interrupt.h): a set being published waits for it with every file complete under
+// its temporary name, and no rename of the set happens meanwhile (none lands half published).
+TEST(Compress, PublishingWaitsForTheLockWithTheFilesComplete) {
+    const std::string dir = freshDir("publish_lock");
+    std::atomic<bool> done{false};
+    Status result;
+    std::thread writer;
+    {
+        const std::unique_lock<std::mutex> held = holdPublishing();
+        writer = std::thread([&] {
+            result = compressToFile("synth:24x20x16:3", dir + "/v.csgv", CompressOptions{});
+            done = true;
+        });
+        // Encoding 24x20x16 takes milliseconds; the set then waits at its renames.
+        std::this_thread::sleep_for(std::chrono::milliseconds(700));
+        EXPECT_FALSE(done.load());
+        std::vector<std::string> names;
+        for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+        EXPECT_TRUE(std::none_of(names.begin(), names.end(), [](const std::string& n) { return n == "v.csgv" || n == "v.csgv.json"; }));
+        // The volume and the metadata complete under temporary names.
+        EXPECT_EQ(std::count_if(names.begin(), names.end(), [](const std::string& n) { return n.find(".tmp-") != std::string::npos; }), 2)
+            << names.size();
+    }
+    writer.join();
+    ASSERT_TRUE(result.isOk()) << result.message();
+    EXPECT_TRUE(openCsgv(dir + "/v.csgv").isOk());
+    EXPECT_TRUE(std::filesystem::exists(dir + "/v.csgv.json"));
 }
 
 TEST(Metadata, DeeplyNestedJsonIsRefusedNotAStackOverflow) {

@@ -63,6 +63,11 @@ void removeTemporaries() {
     }
 }
 
+std::unique_lock<std::mutex> holdPublishing() {
+    static std::mutex* publishing = new std::mutex; // never destroyed: a watchdog may hold it at exit
+    return std::unique_lock<std::mutex>(*publishing);
+}
+
 std::string temporaryNameFor(const std::string& path) {
     std::string name = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);
     registerTemporary(name);

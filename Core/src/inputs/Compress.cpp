@@ -364,6 +364,8 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
         bool asideDone = false, moved = false;
     };
     std::vector<Move> moves;
+    // No interrupt between the renames (an interrupt watchdog waits for this, FileUtil.h).
+    const std::unique_lock<std::mutex> publishing = holdPublishing();
     moves.push_back({mdTmp, mdPath, {}});
     if (mapping.relabelled) moves.push_back({dbTmp, db, {}});
     else if (fileExists(db)) moves.push_back({{}, db, {}});

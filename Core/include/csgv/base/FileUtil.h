@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,11 @@ void registerTemporary(const std::string& path);
 /// SQLite's `-journal` beside it: what a tool's interrupt watchdog calls before it ends the
 /// process, so that an interrupt leaves no partial output. Not async-signal-safe.
 void removeTemporaries();
+/// Held while a set of files is renamed into place (publishVolumeFiles: renames of microseconds,
+/// nothing that may block). A tool's interrupt watchdog takes it before removeTemporaries() and
+/// keeps it until it ends the process, so an interrupt never lands between one set's renames
+/// (which would leave a new sidecar beside the old volume).
+std::unique_lock<std::mutex> holdPublishing();
 /// Seeks a C file to a 64-bit offset; false on failure (errno says why).
 bool seekTo(std::FILE* f, uint64_t offset);
 
