@@ -118,6 +118,19 @@ struct vtkCSGVVolumeProp::Impl
   std::vector<std::string> Skipped;
   std::string ReportedSkipped; ///< the Skipped reasons last warned about
   bool AttributesDirty = true;  ///< the renderer needs materials and attribute arrays again
+  /// A query made while AttributesDirty built the next render's arrays and attribute function
+  /// (DrawnMaterials): the render takes them instead of building them again. Valid while
+  /// AttributesDirty has not been set anew (markAttributesDirty drops them).
+  bool Queried = false;
+  std::map<std::string, std::vector<float>> QueriedArrays;
+  csgv::MaterialEvaluator::AttributeFn QueriedAttribute;
+  void markAttributesDirty()
+  {
+    this->AttributesDirty = true;
+    this->Queried = false;
+    this->QueriedArrays.clear();
+    this->QueriedAttribute = nullptr;
+  }
   bool Prepared = false;        ///< PrepareRender handed the renderer all it needs
   bool Capture = false;         ///< SetCapture: the render is for a saved image
   csgvrep::AttributeConfig Config;
@@ -228,7 +241,7 @@ void vtkCSGVVolumeProp::SetInput(
   }
   if (newVolume)
   {
-    p.AttributesDirty = true; // attributes come from the image's FieldData and the volume
+    p.markAttributesDirty(); // attributes come from the image's FieldData and the volume
   }
   this->Modified();
 }
@@ -272,7 +285,7 @@ void vtkCSGVVolumeProp::SetMaterials(const std::string& json)
     };
     p.MaterialsOpaque = opaque(doc) && opaque(csgv::effectiveMaterials(doc, {}));
     p.Doc = std::move(doc);
-    p.AttributesDirty = true;
+    p.markAttributesDirty();
   }
   this->Modified();
 }
@@ -282,14 +295,14 @@ void vtkCSGVVolumeProp::SetAttributeConfig(const csgvrep::AttributeConfig& confi
   if (config != this->P->Config)
   {
     this->P->Config = config;
-    this->P->AttributesDirty = true;
+    this->P->markAttributesDirty();
     this->Modified();
   }
 }
 
 void vtkCSGVVolumeProp::AttributesChanged()
 {
-  this->P->AttributesDirty = true;
+  this->P->markAttributesDirty();
   this->Modified();
 }
 
@@ -531,7 +544,14 @@ bool vtkCSGVVolumeProp::PrepareRender()
   {
     std::map<std::string, std::vector<float>> arrays;
     csgv::MaterialEvaluator::AttributeFn attribute;
-    if (!this->DrawnMaterials(&arrays, &attribute))
+    if (p.Queried)
+    {
+      // A query since the change built them (and said what it had to say).
+      arrays = std::move(p.QueriedArrays);
+      attribute = std::move(p.QueriedAttribute);
+      p.Queried = false;
+    }
+    else if (!this->DrawnMaterials(&arrays, &attribute))
     {
       return false;
     }
@@ -967,9 +987,12 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   c.input = p.Input;
   c.source = p.Source;
   c.sourceError = p.Source.shared ? std::string() : (p.SourceError.empty() ? "no input" : p.SourceError);
-  if (p.MaterialsValid && p.Source.shared && p.AttributesDirty)
+  if (p.MaterialsValid && p.Source.shared && p.AttributesDirty && !p.Queried)
   {
-    this->DrawnMaterials(nullptr, nullptr); // not rendered since the last change: what it will draw
+    // Not rendered since the last change: what it will draw. The arrays are kept for that render.
+    p.QueriedArrays.clear();
+    p.QueriedAttribute = nullptr;
+    p.Queried = this->DrawnMaterials(&p.QueriedArrays, &p.QueriedAttribute);
   }
   c.materials = p.MaterialsValid ? &p.Drawn : nullptr;
   c.skipped = &p.Skipped;
