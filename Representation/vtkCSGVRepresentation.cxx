@@ -239,7 +239,7 @@ int vtkCSGVRepresentation::RequestUpdateExtent(
   return result;
 }
 
-bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image)
+bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image, bool report)
 {
   vtkInternals& in = *this->Internals;
   const vtkMTimeType t = image ? image->GetMTime() : 0;
@@ -261,7 +261,10 @@ bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image)
       in.Error = in.Volumes->resolve(image, this->LabelArray, in.Source);
     }
   }
-  this->ReportInputError();
+  if (report)
+  {
+    this->ReportInputError();
+  }
   return in.Source.shared != nullptr;
 }
 
@@ -556,7 +559,7 @@ const char* vtkCSGVRepresentation::Query(const char* request)
     // Nothing rendered yet, or not since the data changed (a new file, or one that failed to
     // read: its empty output): the query answers from the input resolved now, not from what the
     // last render drew.
-    this->ResolveInput(this->Cache);
+    this->ResolveInput(this->Cache, false);
     this->Prop->SetInput(this->Cache, in.Source, in.Error);
     in.PropGeneration = in.DataGeneration;
   }

@@ -182,9 +182,11 @@ private:
   void operator=(const vtkCSGVRepresentation&) = delete;
 
   void PushAttributes();
-  /// Resolves the input once per (image, modification time, label array) and reports a failure
-  /// once; returns true when there is something to draw.
-  bool ResolveInput(vtkImageData* image);
+  /// Resolves the input once per (image, modification time, label array) and, when `report`,
+  /// reports a failure once; returns true when there is something to draw. A query does not
+  /// report: its answer holds the error, and a display shown as something else (an Outline of a
+  /// float image, whose hidden Segmentation Volume the GUI's panels ask) has nothing to report.
+  bool ResolveInput(vtkImageData* image, bool report = true);
   /// Reports the input's error once (each new one; none again until it changes).
   void ReportInputError();
   /// Under MPI, what the ranks holding pieces of one volume share, once per data update

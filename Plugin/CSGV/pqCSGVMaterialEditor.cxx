@@ -200,6 +200,12 @@ void pqCSGVMaterialEditor::showEvent(QShowEvent* e)
 
 void pqCSGVMaterialEditor::refreshAttributes()
 {
+  if (!this->isVisible())
+  {
+    // Hidden (the display is shown as Outline, Surface...): nothing to ask the representation,
+    // which may not even hold labels; showEvent refreshes.
+    return;
+  }
   const QJsonObject summary = pqCSGV::queryJson(this->proxy(), "summary");
   this->Attributes.clear();
   this->AttributeOrder.clear();

@@ -135,4 +135,22 @@ for request, named in (("colors abc", "'abc'"), ("colors -1", "'-1'"), ("labelse
                        ("pick 1.5e3 nan", "'1.5e3'"), ("pick 3 nan", "'nan'"), ("pick", "needs a whole number")):
     e = json.loads(ct.query(d, request))  # labelset answers base64 when it answers, an error as JSON
     t.check(named in e.get("error", ""), "%s: refused, naming %s (%s)" % (request, named, e))
+
+# A float image shown as Outline: the GUI's panels ask its (hidden) Segmentation Volume, whose
+# input cannot be labels. The answer says why; nothing is logged as an error (a red Output
+# Messages window popped up for any float image's Apply).
+wavelet = Wavelet()
+dw = Show(wavelet, v)
+t.check(dw.Representation == "Outline", "the wavelet shows as Outline (%s)" % dw.Representation)
+with t.ErrorLog() as errors:
+    answer = json.loads(ct.query(dw, "summary"))
+    Render(v)
+t.check("not an integer label" in answer.get("error", ""), "the answer names the problem (%s)" % answer)
+t.check(errors.text.strip() == "", "nothing logged for a display not shown as Segmentation Volume (%s)" % errors.text.strip()[:300])
+# Shown as one, the problem is said.
+with t.ErrorLog() as errors:
+    dw.SetRepresentationType("Segmentation Volume")
+    Render(v)
+t.check("not an integer label" in errors.text, "shown as Segmentation Volume, the error is said (%s)" % errors.text.strip()[:300])
+Delete(wavelet)
 t.finish()
