@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "pqCSGVLogRangeWidget.h"
 
+#include <vtkPVXMLElement.h>
 #include <vtkSMDoubleRangeDomain.h>
 #include <vtkSMIntRangeDomain.h>
 #include <vtkSMIntVectorProperty.h>
@@ -86,6 +87,19 @@ pqCSGVLogRangeWidget::pqCSGVLogRangeWidget(vtkSMProxy* proxy, vtkSMProperty* pro
     this->Box = box;
   }
   this->Box->setObjectName("LogValue");
+  // One width for every such box, whatever its range: the sliders' right ends line up.
+  {
+    QDoubleSpinBox widest;
+    widest.setDecimals(kDecimals);
+    widest.setRange(0, 16777216.0);
+    this->Box->setFixedWidth(widest.sizeHint().width());
+  }
+  // The value the minimum stands for, when the property's hints name one (0: "automatic").
+  vtkPVXMLElement* hints = property->GetHints();
+  if (vtkPVXMLElement* e = hints ? hints->FindNestedElementByName("CSGVMinimumText") : nullptr)
+  {
+    this->Box->setSpecialValueText(QString(e->GetAttributeOrEmpty("text")));
+  }
   // Typed digits apply on Enter or when the box loses focus, not one by one.
   this->Box->setKeyboardTracking(false);
   this->Box->setToolTip(tr("%1 to %2").arg(this->Minimum).arg(this->Maximum));

@@ -9,7 +9,8 @@
  * slider jumps by dozens. Here the slider's position t in [0, 1] stands for
  * min + (max - min + 1)^t - 1: every factor of two takes the same length, and the minimum (often
  * 0, "automatic") is the left end. The spin box takes any value of the range; typing applies on
- * Enter or when the box loses focus, as ParaView's own line edits do.
+ * Enter or when the box loses focus, as ParaView's own line edits do. `<Hints><CSGVMinimumText
+ * text="automatic"/></Hints>` shows that text for the minimum (0 standing for automatic).
  */
 #ifndef pqCSGVLogRangeWidget_h
 #define pqCSGVLogRangeWidget_h

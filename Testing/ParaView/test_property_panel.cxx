@@ -347,6 +347,18 @@ private Q_SLOTS:
     QTest::keyClick(budgetBox, Qt::Key_Return);
     QTRY_COMPARE(seconds(), 3.0);
     QCOMPARE(budgetSlider->value(), 217);
+
+    // 0 of the cache size is automatic, and says so; every box has one width (the sliders' ends
+    // line up).
+    pqPropertyWidget* cache = this->widget("CSGVCacheSizeMiB");
+    QVERIFY(cache);
+    auto* cacheBox = cache->findChild<QSpinBox*>("LogValue");
+    QVERIFY(cacheBox);
+    QCOMPARE(vtkSMPropertyHelper(this->Display, "CSGVCacheSizeMiB").GetAsInt(), 0);
+    QCOMPARE(cacheBox->text(), QString("automatic"));
+    QCOMPARE(box->text(), QString("16")); // no such text where the minimum means no more than itself
+    QCOMPARE(cacheBox->width(), box->width());
+    QCOMPARE(budgetBox->width(), box->width());
   }
 };
 
