@@ -431,10 +431,10 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   if (what == "pick")
   {
     long long x = -1, y = -1;
-    std::string bad = nextNumber(in, "pick x", -(1LL << 31), 1LL << 31, x, true);
+    std::string bad = nextNumber(in, "pick x", -(1LL << 31), (1LL << 31) - 1, x, true);
     if (bad.empty())
     {
-      bad = nextNumber(in, "pick y", -(1LL << 31), 1LL << 31, y, true);
+      bad = nextNumber(in, "pick y", -(1LL << 31), (1LL << 31) - 1, y, true);
     }
     json r = { { "hit", false } };
     if (!bad.empty())

@@ -94,8 +94,10 @@ struct vtkCSGVRepresentation::vtkInternals
   /// ranks reduced together.
   unsigned long DataGeneration = 0;
   unsigned long SharedGeneration = 0; ///< the update whose data the ranks shared
-  /// The update whose data the prop was last given (a render, or a query before one).
-  unsigned long PropGeneration = ~0ul;
+  /// Resolutions of the input (ResolveInput: a new image, a new modification time or another
+  /// label array), and the one the prop was last given (a render, or a query before one).
+  unsigned long Resolutions = 0;
+  unsigned long PropResolution = ~0ul;
   /// The brick piece asked of the input (csgvvtk::setBrickPiece's words), empty when none.
   std::vector<int> BrickPiece;
 };
@@ -249,6 +251,7 @@ bool vtkCSGVRepresentation::ResolveInput(vtkImageData* image, bool report)
     in.ImageTime = t;
     in.Array = this->LabelArray;
     in.Resolved = true;
+    ++in.Resolutions;
     // Held until the new input resolved: a new image sharing the old one's arrays (the pipeline
     // re-executed, the label array named again) finds the volume still in the cache.
     const csgvrep::VolumeSource previous = std::move(in.Source);
@@ -325,7 +328,7 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     auto* image = vtkImageData::SafeDownCast(vtkPVView::GetDeliveredPiece(inInfo, this));
     this->ResolveInput(image);
     this->Prop->SetInput(image, this->Internals->Source, this->Internals->Error);
-    this->Internals->PropGeneration = this->Internals->DataGeneration;
+    this->Internals->PropResolution = this->Internals->Resolutions;
     // Every property, gathered once per render (the view renderer detects what changed).
     csgvrep::RepresentationProperties p;
 #define CSGV_PROPERTY(Name, member, type, count, values) copyProperty(this->Name, p.member);
@@ -553,15 +556,15 @@ const char* vtkCSGVRepresentation::Query(const char* request)
     // the input here first. Queries run on the rendering processes only (vtkCSGVQuery).
     this->Update();
   }
+  // The input as the representation last updated it (a new file's data, a file that failed to
+  // read, after the view's update), resolved with the label array set now: the query answers for
+  // that, not for what the last render drew. Nothing is resolved again when nothing changed.
   vtkInternals& in = *this->Internals;
-  if ((!this->Prop->HasInput() && this->Cache) || in.PropGeneration != in.DataGeneration)
+  this->ResolveInput(this->Cache, false);
+  if (in.PropResolution != in.Resolutions)
   {
-    // Nothing rendered yet, or not since the data changed (a new file, or one that failed to
-    // read: its empty output): the query answers from the input resolved now, not from what the
-    // last render drew.
-    this->ResolveInput(this->Cache, false);
     this->Prop->SetInput(this->Cache, in.Source, in.Error);
-    in.PropGeneration = in.DataGeneration;
+    in.PropResolution = in.Resolutions;
   }
   this->QueryResult = this->Prop->Query(request ? request : "");
   return this->QueryResult.c_str();

@@ -75,33 +75,33 @@ public:
   /// Brick cache budget in MiB, shared by the views of one volume (default 0: automatic, 256 MiB
   /// on CPU devices, else a quarter of what the device reports this process may use, divided
   /// among the ranks of an MPI job, 256 MiB to 2 GiB; csgv::gpu::automaticCacheBytes).
-  vtkSetClampMacro(CacheSizeMiB, int, 0, 65536);
+  vtkSetMacro(CacheSizeMiB, int); // toViewSettings holds it (CSGVProperties.def), saying so
   vtkGetMacro(CacheSizeMiB, int);
   /// Device-memory budget in MiB for everything this volume's renderers allocate, the encoding
   /// included, shared by its views (default 0: automatic, three quarters of what the device
   /// reports this process may use). The cache takes what the rest leaves, up to CacheSizeMiB;
   /// an encoding larger than the budget is reported and nothing is drawn.
-  vtkSetClampMacro(DeviceMemoryMiB, int, 0, 16777216);
+  vtkSetMacro(DeviceMemoryMiB, int); // toViewSettings holds it (CSGVProperties.def), saying so
   vtkGetMacro(DeviceMemoryMiB, int);
   /// Host-memory budget in MiB for the encoding (default 0: automatic, half the memory available
   /// when the volume is uploaded). A `.csgv` (rANS two-table, memory-mapped by the reader) larger
   /// than the budget keeps its coarse levels in memory when they fit it and reads the finest
   /// level (else every level) from the file on demand (csgv::TieredVolume).
-  vtkSetClampMacro(HostMemoryMiB, int, 0, 16777216);
+  vtkSetMacro(HostMemoryMiB, int); // toViewSettings holds it (CSGVProperties.def), saying so
   vtkGetMacro(HostMemoryMiB, int);
   /// Where bricks are decoded: 0 automatic (the host on CPU devices), 1 the GPU (with detail
   /// streaming when the budget separates the finest level), 2 the host.
-  vtkSetClampMacro(Decoding, int, 0, 2);
+  vtkSetMacro(Decoding, int); // toViewSettings holds it (CSGVProperties.def), saying so
   vtkGetMacro(Decoding, int);
   /// GPU decoding: decoder steps a brick takes a frame, its decoding going on in the next frames
   /// (csgv::gpu::RendererOptions::decodeStepsPerFrame): 0 automatic (default), 1000000 every step.
-  vtkSetClampMacro(DecodeStepsPerFrame, int, 0, 1000000);
+  vtkSetMacro(DecodeStepsPerFrame, int); // toViewSettings holds it (CSGVProperties.def), saying so
   vtkGetMacro(DecodeStepsPerFrame, int);
   /// Cache paletting (the paper's): the brick cache holds packed indices into each brick's
   /// palette instead of 32-bit labels, several times more bricks in the same memory, at the cost
   /// of one more read per voxel. 0 off, 1 on, 2 automatic (default): on once the cache of labels
   /// runs full. Volumes whose palettes are too large for two indices to share a word keep labels.
-  vtkSetClampMacro(CachePaletting, int, 0, 2);
+  vtkSetMacro(CachePaletting, int); // toViewSettings holds it (CSGVProperties.def), saying so
   vtkGetMacro(CachePaletting, int);
   /// Voxel box drawn, inclusive: xmin xmax ymin ymax zmin zmax (clamped to the volume; default
   /// the whole volume).
@@ -109,7 +109,7 @@ public:
   vtkGetVector6Macro(ClipBox, int);
   /// Seconds a still render may take where the application renders again until the volume
   /// converges (ParaView's GUI); 0: the whole StillRenderTimeBudget (default 0).
-  vtkSetClampMacro(RefinementSlice, double, 0, 600);
+  vtkSetMacro(RefinementSlice, double); // toViewSettings holds it (CSGVProperties.def), saying so
   vtkGetMacro(RefinementSlice, double);
   /// The material document of MATERIALS.md ("": the default document); ParaView preset names
   /// are resolved here. A malformed document is reported and nothing is drawn.

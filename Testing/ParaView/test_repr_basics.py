@@ -191,12 +191,18 @@ with t.ErrorLog() as errors:
     d4.CSGVFramesPerStillRender = 2147483647
     d4.CSGVShading = 7
     d4.GetProperty("CSGVSubsampling").SetData(3)  # not an entry: as a state file could set it
+    d4.GetProperty("CSGVDecoding").SetData(7)
+    d4.GetProperty("CSGVCacheSizeMiB").SetData(-5)
     Render(v4)
 t.check("CSGVFramesPerStillRender 2147483647 is outside [1, 4096]: 4096 is used" in errors.text
         and "CSGVLightDirection (0, 0, 0) is zero" in errors.text and "CSGVShading 7 is not one of 0, 1, 2, 3: 0 is used"
-        in errors.text and "CSGVSubsampling 3 is not one of 1, 2, 4, 8: 1 is used" in errors.text,
+        in errors.text and "CSGVSubsampling 3 is not one of 1, 2, 4, 8: 1 is used" in errors.text
+        and "CSGVDecoding 7 is not one of 0, 1, 2: 0 is used" in errors.text
+        and "CSGVCacheSizeMiB -5 is outside [0, 65536]: 0 is used" in errors.text,
         "a huge frame count, a zero light and unknown enumeration values are named (%s)" % errors.text.strip()[:400])
 d4.CSGVSubsampling = "1"
+d4.CSGVDecoding = "Automatic"
+d4.CSGVCacheSizeMiB = 0
 d4.CSGVFramesPerStillRender = 1
 d4.CSGVShading = "local"
 d4.CSGVLightDirection = [0.35, 0.6, 0.72]

@@ -136,6 +136,25 @@ for request, named in (("colors abc", "'abc'"), ("colors -1", "'-1'"), ("labelse
     e = json.loads(ct.query(d, request))  # labelset answers base64 when it answers, an error as JSON
     t.check(named in e.get("error", ""), "%s: refused, naming %s (%s)" % (request, named, e))
 
+# A query answers for the label array set now, before any render (it answered for the array of
+# the last render), and for the data the view updated last (a new file after the view's update).
+labels_before = json.loads(ct.query(d, "summary")).get("labels")
+d.CSGVLabelArray = "NoSuchArray"
+missing = json.loads(ct.query(d, "summary"))
+t.check("NoSuchArray" in missing.get("error", "") and missing.get("labels") == 0,
+        "a missing label array set without a render: the answer names it (%s)" % missing)
+d.CSGVLabelArray = ""
+t.check(json.loads(ct.query(d, "summary")).get("labels") == labels_before,
+        "the automatic array again: the labels again (%d)" % labels_before)
+r.FileName = os.path.join(t.FIXTURES, "denseB_b32_rans1.csgv")
+v.Update()
+dense = json.loads(ct.query(d, "summary")).get("labels")
+t.check(dense != labels_before and dense > 0, "another file, after the view's update: its labels (%s, before %d)"
+        % (dense, labels_before))
+r.FileName = os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv")
+v.Update()
+t.check(json.loads(ct.query(d, "summary")).get("labels") == labels_before, "the first file again")
+
 # A float image shown as Outline: the GUI's panels ask its (hidden) Segmentation Volume, whose
 # input cannot be labels. The answer says why; nothing is logged as an error (a red Output
 # Messages window popped up for any float image's Apply).
