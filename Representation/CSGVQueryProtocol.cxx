@@ -78,6 +78,18 @@ std::string errorJson(const std::string& message)
   return json({ { "error", message } }).dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
+/// "" when the request has no words left, else an error naming the first (a command given more
+/// than it takes: "summary extra" is not silently a summary).
+std::string extraWords(std::istringstream& in, const std::string& what)
+{
+  std::string word;
+  if (!(in >> word))
+  {
+    return std::string();
+  }
+  return "'" + what + "' takes no more than it was given: '" + word.substr(0, 40) + "' is left over";
+}
+
 } // namespace
 
 std::string base64(const void* data, size_t bytes)
@@ -279,6 +291,15 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   std::istringstream in(request);
   std::string what;
   in >> what;
+  // Commands without arguments, and those of numbers (their words are read first), take nothing
+  // more; "match" and "span" take the rest of the request.
+  if (what == "defaults" || what == "stats" || what == "summary" || what == "labels")
+  {
+    if (const std::string extra = extraWords(in, what); !extra.empty())
+    {
+      return errorJson(extra);
+    }
+  }
   if (what == "defaults")
   {
     return defaultsJson();
@@ -317,6 +338,10 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     if (const std::string bad = nextNumber(in, "labelset", 0, 1LL << 40, given); !bad.empty())
     {
       return errorJson(bad);
+    }
+    if (const std::string extra = extraWords(in, "labelset"); !extra.empty())
+    {
+      return errorJson(extra);
     }
     const size_t cap = size_t(given);
     std::vector<int64_t> labels;
@@ -404,6 +429,10 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     {
       return errorJson(bad);
     }
+    if (const std::string extra = extraWords(in, "colors"); !extra.empty())
+    {
+      return errorJson(extra);
+    }
     const size_t cap = size_t(given);
     if (!source.shared)
     {
@@ -435,6 +464,10 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     if (bad.empty())
     {
       bad = nextNumber(in, "pick y", -(1LL << 31), (1LL << 31) - 1, y, true);
+    }
+    if (bad.empty())
+    {
+      bad = extraWords(in, "pick");
     }
     json r = { { "hit", false } };
     if (!bad.empty())

@@ -132,7 +132,9 @@ t.check("unknown query" in json.loads(u).get("error", "") and len(u) < 300, "a h
 # Arguments that are not whole numbers in range are refused, naming them (they were read as 0,
 # as unlimited, or as another pixel).
 for request, named in (("colors abc", "'abc'"), ("colors -1", "'-1'"), ("labelset 1.5", "'1.5'"),
-                       ("pick 1.5e3 nan", "'1.5e3'"), ("pick 3 nan", "'nan'"), ("pick", "needs a whole number")):
+                       ("pick 1.5e3 nan", "'1.5e3'"), ("pick 3 nan", "'nan'"), ("pick", "needs a whole number"),
+                       ("summary extra args", "'extra'"), ("stats 1", "'1'"), ("colors 5 6", "'6'"),
+                       ("pick 1 2 3", "'3'"), ("defaults x", "'x'")):
     e = json.loads(ct.query(d, request))  # labelset answers base64 when it answers, an error as JSON
     t.check(named in e.get("error", ""), "%s: refused, naming %s (%s)" % (request, named, e))
 
