@@ -46,6 +46,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <cstring>
 #include <utility>
 
@@ -426,6 +427,50 @@ bool pqCSGVMaterialEditor::spanOfLabels(const Material& old, const std::string& 
   return std::isfinite(lo) && std::isfinite(hi);
 }
 
+int pqCSGVMaterialEditor::keepLabelZeroEmpty(int row, const Material& old)
+{
+  // Label 0's value of each attribute the document names (the span of the labels [0, 0]: NaN
+  // where label 0 is not in the volume or has no value).
+  std::map<std::string, double> values;
+  auto value = [&](const std::string& attribute) {
+    if (attribute == "label")
+    {
+      return 0.0;
+    }
+    auto it = values.find(attribute);
+    if (it == values.end())
+    {
+      Material zero;
+      zero.filterAttribute = "label";
+      zero.filterMin = 0;
+      zero.filterMax = 0;
+      double lo = 0, hi = 0;
+      it = values.emplace(attribute, this->spanOfLabels(zero, attribute, lo, hi) ? lo : std::nan("")).first;
+    }
+    return it->second;
+  };
+  auto drawsZero = [&](const csgv::MaterialDocument& doc) {
+    const csgv::MaterialDocument drawn = csgv::drawableMaterials(doc, nullptr, nullptr);
+    const csgv::MaterialEvaluator e(drawn, [&](const std::string& a, uint32_t) { return value(a); });
+    const int m = e.materialOf(0);
+    return m >= 0 && drawn.materials[size_t(m)].opacity > 0;
+  };
+  csgv::MaterialDocument before = this->Doc;
+  before.materials[size_t(row)] = old;
+  if (drawsZero(before) || !drawsZero(this->Doc))
+  {
+    return 0;
+  }
+  const size_t count = this->Doc.materials.size();
+  csgv::hideLabel(this->Doc, 0, value);
+  const Material& now = this->Doc.materials[size_t(row) + (this->Doc.materials.size() - count)];
+  this->Status->setText(QString("Label 0 (empty space) has %1 = %2, inside the new interval: the material "
+                                "\"hidden 0\" first keeps it empty, as it was.")
+                          .arg(QString::fromStdString(now.filterAttribute))
+                          .arg(value(now.filterAttribute)));
+  return int(this->Doc.materials.size() - count);
+}
+
 void pqCSGVMaterialEditor::adoptDataRanges(const Material& old, Material& m) const
 {
   double lo = 0, hi = 0;
@@ -545,7 +590,9 @@ void pqCSGVMaterialEditor::detailsEdited()
   m.opacity = float(this->Opacity->value());
   m.emission = float(this->Emission->value());
   this->adoptDataRanges(old, m);
+  const bool newFilter = m.filterAttribute != old.filterAttribute;
   this->Doc.materials[i] = std::move(m);
+  const int row = newFilter ? i + this->keepLabelZeroEmpty(i, old) : i;
   // What was typed is committed: showDetails() may now write the boxes in canonical form.
   for (QLineEdit* e : { this->Name, this->FilterMin, this->FilterMax, this->ColorHex, this->ColormapName,
          this->ColorMin, this->ColorMax })
@@ -553,7 +600,7 @@ void pqCSGVMaterialEditor::detailsEdited()
     e->setModified(false);
   }
   this->commit("Edit material");
-  this->rebuildList(i);
+  this->rebuildList(row);
 }
 
 void pqCSGVMaterialEditor::colorChosen()

@@ -129,6 +129,11 @@ private:
   /// The range of `attribute` over the labels present that `old`'s filter holds (the
   /// representation's `span` query); false when none has a value.
   bool spanOfLabels(const csgv::Material& old, const std::string& attribute, double& lo, double& hi) const;
+  /// After material `row` changed its filter attribute (Doc holds the new one, `old` the one
+  /// before): label 0 (empty space) that no material drew before and the new interval takes (its
+  /// value of the new attribute lies inside: the background filled the box) is hidden again with
+  /// Core's hideLabel, a "hidden 0" material first. Returns the materials inserted before `row`.
+  int keepLabelZeroEmpty(int row, const csgv::Material& old);
   /// csgv::materialProblem() with the attribute names the rendering process reported.
   QString problemOf(const csgv::Material& m) const;
   /// Observer of the representation: refreshes the attributes once an attribute property has
