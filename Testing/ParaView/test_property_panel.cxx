@@ -146,6 +146,9 @@ private Q_SLOTS:
     QVERIFY(!this->shown("Opacity"));
     this->Panel->filterWidgets(false, "color");
     QVERIFY(this->shown("csgv_material_editor"));
+    // The attribute files, derived and computed attributes live in the same section.
+    this->Panel->filterWidgets(false, "attrib");
+    QVERIFY(this->shown("csgv_material_editor"));
     this->Panel->filterWidgets(true);
   }
 
