@@ -61,6 +61,9 @@ constexpr const char* kBrickPieceName = "CSGVBrickPiece";
 /// Prefix of the per-id attribute arrays of a `_csgv.db3` (vtkDoubleArray for numeric columns,
 /// vtkStringArray for text columns), indexed by the id the volume stores.
 constexpr const char* kAttributePrefix = "CSGVAttribute:";
+/// FieldData string: a label table found beside the input (labelTableBeside), which the
+/// representation reads as an attribute file before the user's own.
+constexpr const char* kAttributeSidecarName = "CSGVAttributeSidecar";
 /// Name of the decoded label array.
 constexpr const char* kLabelsName = "Labels";
 
@@ -194,6 +197,14 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
 
 /// Adds one `CSGVAttribute:<name>` array per column (indexed by id).
 void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns);
+
+/// The label table an atlas keeps beside its NIfTI file (MRIcron's templates: `aal.nii.gz` has
+/// `aal.nii.txt`, "index name code" lines): `<input without .gz>.txt` when `input` ends in `.nii`
+/// or `.nii.gz` and that is a regular file; "" otherwise.
+std::string labelTableBeside(const std::string& input);
+/// Names it in `fd` (kAttributeSidecarName), or reads the name back ("" when none).
+void setAttributeSidecar(vtkFieldData* fd, const std::string& path);
+std::string attributeSidecar(vtkFieldData* fd);
 
 /// A piece of a volume (MPI ranks, vtkCSGVReader): where its voxel (0,0,0) lies in the volume
 /// (level 0) and the volume's dimensions, as FieldData `CSGVPieceOffset` (6 ints); (0,0,0) and

@@ -16,6 +16,8 @@
 #include <vtkUnsignedCharArray.h>
 
 #include <algorithm>
+#include <cctype>
+#include <sys/stat.h>
 #include <mutex>
 #include <unordered_map>
 #include <cstring>
@@ -37,6 +39,62 @@ void addInternal(vtkFieldData* fd, vtkAbstractArray* array)
 }
 
 } // namespace
+
+std::string labelTableBeside(const std::string& input)
+{
+  auto endsWith = [&](const char* suffix) {
+    const size_t n = std::strlen(suffix);
+    if (input.size() < n)
+    {
+      return false;
+    }
+    for (size_t i = 0; i < n; ++i)
+    {
+      if (std::tolower(static_cast<unsigned char>(input[input.size() - n + i])) != suffix[i])
+      {
+        return false;
+      }
+    }
+    return true;
+  };
+  std::string stem;
+  if (endsWith(".nii.gz"))
+  {
+    stem = input.substr(0, input.size() - 3);
+  }
+  else if (endsWith(".nii"))
+  {
+    stem = input;
+  }
+  else
+  {
+    return std::string();
+  }
+  const std::string path = stem + ".txt";
+  struct stat st
+  {
+  };
+  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) ? path : std::string();
+}
+
+void setAttributeSidecar(vtkFieldData* fd, const std::string& path)
+{
+  fd->RemoveArray(kAttributeSidecarName);
+  if (path.empty())
+  {
+    return;
+  }
+  vtkNew<vtkStringArray> a;
+  a->SetName(kAttributeSidecarName);
+  a->InsertNextValue(path);
+  addInternal(fd, a);
+}
+
+std::string attributeSidecar(vtkFieldData* fd)
+{
+  auto* a = fd ? vtkStringArray::SafeDownCast(fd->GetAbstractArray(kAttributeSidecarName)) : nullptr;
+  return a && a->GetNumberOfValues() == 1 ? a->GetValue(0) : std::string();
+}
 
 void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns)
 {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVInputReader.h"
 
+#include "CSGVAdapter.h"
 #include "CSGVInputCache.h"
 #include "vtkCSGVReader.h"
 
@@ -502,6 +503,12 @@ int vtkCSGVInputReader::RequestData(
     return 1;
   }
   output->ShallowCopy(in.Reader->GetOutput());
+  if (in.Location.Slices.empty())
+  {
+    // An atlas's label names beside it (MRIcron's `aal.nii.txt`): the representation reads them
+    // as attributes (names in Segmentation Pick and the legend) without Load attributes.
+    csgvvtk::setAttributeSidecar(output->GetFieldData(), csgvvtk::labelTableBeside(in.Location.Input));
+  }
   if (this->SeriesMode == TimeSeries)
   {
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), double(in.Step));

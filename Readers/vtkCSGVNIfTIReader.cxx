@@ -350,6 +350,9 @@ int vtkCSGVNIfTIReader::RequestData(
   output->SetExtent(0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]));
   csgvvtk::applyGeometry(output, csgv::cellGeometryFromPointGeometry(v.geometry), 0);
   output->GetCellData()->SetScalars(arr);
+  // An atlas's label names beside it (MRIcron's `aal.nii.txt`): the Segmentation Volume reads
+  // them as attributes (names in Segmentation Pick and the legend) without Load attributes.
+  csgvvtk::setAttributeSidecar(output->GetFieldData(), csgvvtk::labelTableBeside(this->FileName));
   this->UpdateProgress(1.0);
   return 1;
 }

@@ -150,6 +150,19 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
     return error;
   }
   csgv::Status s;
+  // A label table the reader found beside the input (an atlas's `.nii.txt`): read before the
+  // user's files, which replace its columns. Not the user's file: one that does not read as a
+  // table (a `.txt` of something else) is left out, not an error that would take the others.
+  const std::string sidecar = csgvvtk::attributeSidecar(image ? image->GetFieldData() : nullptr);
+  if (!sidecar.empty() && std::find(config.files.begin(), config.files.end(), sidecar) == config.files.end())
+  {
+    csgv::Result<csgv::AttributeTable> t = csgv::readAttributeFile(sidecar);
+    csgv::AttributeTable merged = table;
+    if (t && merged.merge(*t, csgv::AttributeTable::OnConflict::Keep))
+    {
+      table = std::move(merged);
+    }
+  }
   for (const std::string& path : config.files)
   {
     if (path.empty())

@@ -68,6 +68,55 @@ r2 = OpenDataFile(nii)
 t.check(r2 is not None and r2.GetXMLName() == "CSGVNIfTIReader", ".nii opened by the plugin's NIfTI reader")
 t.check(np.array_equal(t.cell_labels(t.fetch(r2)), labels), ".nii labels equal the .nii.gz ones")
 
+# An atlas's label names beside it (MRIcron's `aal.nii.txt`, "index name code" lines) are the
+# Segmentation Volume's attributes without Load attributes: names in picks and the legend. A
+# `.txt` beside that is not a table adds nothing and says nothing (it is not the user's file).
+import json
+import sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "Examples"))
+import csgv_tools as ct  # noqa: E402
+view = t.render_view(96, 72)
+
+
+def attribute_names(reader):
+    d = Show(reader, view)
+    d.SetRepresentationType("Segmentation Volume")
+    d.CSGVFramesPerStillRender = 1
+    view.ResetCamera()
+    Render(view)
+    names = [a["name"] for a in json.loads(ct.query(d, "summary"))["attributes"]]
+    Hide(reader, view)
+    return names
+
+
+TABLE = os.path.splitext(t.AAL)[0] + ".txt"  # aal.nii.gz -> aal.nii.txt
+if os.path.exists(TABLE):
+    t.check(attribute_names(r) == ["label", "name", "code"],
+            "aal.nii.gz with aal.nii.txt beside it: its columns are attributes (%s)" % attribute_names(r))
+    names = {int(line.split()[0]): line.split()[1] for line in open(TABLE) if line.strip()}
+    colors = json.loads(ct.query(GetDisplayProperties(r, view), "colors 4096"))
+    named = {e[0]: e[4] for e in colors["labels"]}
+    t.check(colors.get("text") == "name" and all(named[k] == names[k] for k in named if k in names) and len(named) == 116,
+            "the legend's colours carry the region names (%d labels, %s)" % (len(named), list(named.items())[:2]))
+t.check(attribute_names(r2) == ["label"], "a .nii without a table beside it: the label alone")
+with_table = os.path.join(tmp, "atlas.nii")
+shutil.copyfile(nii, with_table)
+with open(with_table[:-4] + ".nii.txt", "w") as f:
+    f.write("1 first 10\n2 second 20\n")
+r3 = OpenDataFile(with_table)
+t.check(attribute_names(r3) == ["label", "name", "code"], "a .nii with a table beside it (%s)" % attribute_names(r3))
+garbage = os.path.join(tmp, "garbage.nii")
+shutil.copyfile(nii, garbage)
+with open(garbage + ".txt", "wb") as f:
+    f.write(bytes(range(256)) * 64)
+with t.ErrorLog() as log:
+    r4 = OpenDataFile(garbage)
+    got = attribute_names(r4)
+t.check(got == ["label"] and log.text.strip() == "", "a .txt beside that is not a table: nothing added, nothing said (%s, %s)"
+        % (got, log.text.strip()[:200]))
+Delete(r3)
+Delete(r4)
+
 # AAL -> ParaView's .csgv writer -> reader.
 out = os.path.join(tmp, "aal.csgv")
 SaveData(out, proxy=r)
