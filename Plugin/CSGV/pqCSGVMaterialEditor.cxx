@@ -113,6 +113,12 @@ pqCSGVMaterialEditor::~pqCSGVMaterialEditor()
   }
 }
 
+void pqCSGVMaterialEditor::say(const QString& text)
+{
+  this->Status->setText(text);
+  this->StatusFromRefresh = false;
+}
+
 void pqCSGVMaterialEditor::dataUpdated(vtkObject*, unsigned long, void*)
 {
   this->RefreshTimer->start();
@@ -151,7 +157,7 @@ void pqCSGVMaterialEditor::setMaterials(const QString& text)
   QString error;
   this->Doc = pqCSGV::parseDocument(text, &error);
   this->DocValid = error.isEmpty();
-  this->Status->setText(
+  this->say(
     this->DocValid ? QString() : "The material document is not valid (" + error + "); editing starts from the default.");
   const int row = this->List->currentRow();
   this->rebuildList(row < 0 ? 0 : row);
@@ -226,10 +232,12 @@ void pqCSGVMaterialEditor::refreshAttributes()
     // materials stay editable for data to come, but the user learns why nothing is drawn.
     this->Status->setText(tr("The input is empty: there are no labels to draw. When a file "
                              "failed to read, the Output Messages say why."));
+    this->StatusFromRefresh = true;
   }
   else if (!error.isEmpty())
   {
     this->Status->setText("Attributes: " + error);
+    this->StatusFromRefresh = true;
   }
   else if (this->ReportDerived)
   {
@@ -253,12 +261,14 @@ void pqCSGVMaterialEditor::refreshAttributes()
         parts << QString("%1 (%2 to %3)").arg(name).arg(it->second.first).arg(it->second.second);
       }
     }
-    this->Status->setText(parts.isEmpty() ? QString("Derived attributes cleared")
-                                          : "Derived attributes applied: " + parts.join(", "));
+    this->say(parts.isEmpty() ? QString("Derived attributes cleared")
+                              : "Derived attributes applied: " + parts.join(", "));
   }
-  else if (this->DocValid)
+  else if (this->DocValid && this->StatusFromRefresh)
   {
-    this->Status->setText(QString());
+    // What the last refresh said (an error, an empty input) no longer holds; what an edit said
+    // (a colour that was not one, a copy, a hidden label 0) stays until the next one.
+    this->say(QString());
   }
   this->ReportDerived = false;
   this->rebuildList(this->List->currentRow()); // which materials can be drawn may have changed
@@ -464,7 +474,7 @@ int pqCSGVMaterialEditor::keepLabelZeroEmpty(int row, const Material& old)
   const size_t count = this->Doc.materials.size();
   csgv::hideLabel(this->Doc, 0, value);
   const Material& now = this->Doc.materials[size_t(row) + (this->Doc.materials.size() - count)];
-  this->Status->setText(QString("Label 0 (empty space) has %1 = %2, inside the new interval: the material "
+  this->say(QString("Label 0 (empty space) has %1 = %2, inside the new interval: the material "
                                 "\"hidden 0\" first keeps it empty, as it was.")
                           .arg(QString::fromStdString(now.filterAttribute))
                           .arg(value(now.filterAttribute)));
@@ -622,7 +632,7 @@ void pqCSGVMaterialEditor::hexEdited()
   const QColor c(this->ColorHex->text().trimmed());
   if (!c.isValid())
   {
-    this->Status->setText("Not a colour: " + this->ColorHex->text());
+    this->say("Not a colour: " + this->ColorHex->text());
     return;
   }
   const bool was = this->Updating;
@@ -813,7 +823,7 @@ void pqCSGVMaterialEditor::exportColors()
   BEGIN_UNDO_SET("Export label colours");
   const QString message = pqCSGV::exportLabelColors(this->proxy());
   END_UNDO_SET();
-  this->Status->setText(message);
+  this->say(message);
   if (pqView* v = this->view())
   {
     v->render();
@@ -836,7 +846,7 @@ void pqCSGVMaterialEditor::copyMaterialsFromView()
   }
   if (others.isEmpty())
   {
-    this->Status->setText("No other view shows this data: show it in another view first.");
+    this->say("No other view shows this data: show it in another view first.");
     return;
   }
   QPair<QString, vtkSMProxy*> from = others.front();
@@ -860,12 +870,12 @@ void pqCSGVMaterialEditor::copyMaterialsFromView()
     pqCSGV::parseDocument(QString::fromUtf8(vtkSMPropertyHelper(from.second, "CSGVMaterials").GetAsString()), &error);
   if (!error.isEmpty())
   {
-    this->Status->setText("The materials in " + from.first + " are not valid (" + error + "); nothing was copied.");
+    this->say("The materials in " + from.first + " are not valid (" + error + "); nothing was copied.");
     return;
   }
   this->Doc = doc;
   this->DocValid = true;
   this->rebuildList(0);
   this->commit("Copy materials from " + from.first);
-  this->Status->setText(QString("Copied %1 material(s) from %2.").arg(this->Doc.materials.size()).arg(from.first));
+  this->say(QString("Copied %1 material(s) from %2.").arg(this->Doc.materials.size()).arg(from.first));
 }

@@ -142,6 +142,9 @@ private:
   /// Observer of the representation: its data was updated (a new file, a reader's failure): the
   /// attributes and whether there is anything to draw are asked again.
   void dataUpdated(vtkObject*, unsigned long, void*);
+  /// Shows an edit's message in the status line; it stays until the next message (a refresh
+  /// clears only what a refresh said: StatusFromRefresh).
+  void say(const QString& text);
 
   /// Core's document (its defaults and checks live there); the widgets edit it, commit() writes it.
   csgv::MaterialDocument Doc;
@@ -158,6 +161,7 @@ private:
   vtkWeakPointer<vtkSMProxy> Observed; ///< the proxy whose property pushes propertyPushed() sees
   unsigned long ObserverTag = 0;
   unsigned long DataObserverTag = 0;
+  bool StatusFromRefresh = false; ///< the status line shows what refreshAttributes found
   QTimer* RefreshTimer; ///< coalesces the refreshes several pushed properties ask for
 
   QListWidget* List;

@@ -569,6 +569,10 @@ private Q_SLOTS:
     QVERIFY2(this->child<QLabel>("status")->text().contains("Label 0 (empty space) has kind = 3"),
       qPrintable(this->child<QLabel>("status")->text()));
     QCOMPARE(this->child<QListWidget>("materialList")->currentRow(), 1); // still the edited one
+    // A refresh (the view's update after the edit) keeps the message: only what a refresh said
+    // is cleared by the next one.
+    this->Editor->refreshAttributes();
+    QVERIFY(this->child<QLabel>("status")->text().contains("Label 0 (empty space)"));
     // What the renderer draws for label 0: nothing (the representation's own colours, every
     // label: 0 is not among them).
     auto zeroDrawn = [this]() {
