@@ -149,12 +149,27 @@ int64_t mtimeNs(const struct stat& st)
 InputLocation locateInput(const std::string& fileName)
 {
   InputLocation loc;
-  const std::string path = absolutePath(folderForDialogFile(fileName));
-  loc.Input = path;
+  // A Neuroglancer precomputed scale, `DIR[/info]#N` or `#KEY` (as the csgv tool takes it): the
+  // part before '#' exists, the whole name does not.
+  std::string scale;
+  std::string named = fileName;
+  const size_t hash = fileName.rfind('#');
+  if (hash != std::string::npos && hash > 0 && !exists(absolutePath(fileName)) &&
+    exists(absolutePath(folderForDialogFile(fileName.substr(0, hash)))))
+  {
+    scale = fileName.substr(hash);
+    named = fileName.substr(0, hash);
+  }
+  const std::string path = absolutePath(folderForDialogFile(named));
+  loc.Input = path + scale;
   loc.Display = fileName;
   loc.Stem = fs::path(path).filename().string();
-  std::string inner; // the part of the input inside Stamped (an HDF5 dataset, a glob)
-  if (exists(path))
+  std::string inner = scale; // the part of the input inside Stamped (an HDF5 dataset, a glob, a scale)
+  if (!scale.empty())
+  {
+    loc.Stamped = path;
+  }
+  else if (exists(path))
   {
     loc.Stamped = path;
   }

@@ -69,7 +69,7 @@ std::string usage() {
            "      coarse level matches SOURCE (through the attribute database when there is one)\n"
            "  compress IN OUT.csgv [--brick-size N] [--encoding nibble|rans1|rans2] [--ops default|all|LETTERS]\n"
            "           [--threads N] [--relabel] [--quiet]\n"
-           "      writes OUT.json (geometry) and OUT's _csgv.db3 when labels are relabelled; progress on\n"
+           "      writes OUT.csgv.json (geometry) and OUT_csgv.db3 when labels are relabelled; progress on\n"
            "      stderr unless --quiet; letters p x y z n l d s\n"
            "  tile IN.csgv OUT.csgv --times X,Y,Z [--max-output-mib M] [--quiet]\n"
            "      IN repeated X x Y x Z times, its bricks copied as stored (dimensions must be whole\n"

@@ -73,7 +73,10 @@ elif fmt == "zarr":
 elif fmt == "precomputed":
     folder = os.path.join(tmp, "seg_precomputed")
     write_precomputed(folder)
-    cases = [(os.path.join(folder, "info"), os.path.join(folder, "info"), folder + ".csgv")]
+    # A scale named as the csgv tool takes it, `DIR#N` or `DIR/info#KEY` (each its own cache).
+    cases = [(os.path.join(folder, "info"), os.path.join(folder, "info"), folder + ".csgv"),
+             (folder + "#0", None, folder + "_0.csgv"),
+             (os.path.join(folder, "info") + "#s0", None, folder + "_s0.csgv")]
 else:
     t.log("FAIL unknown format %r" % fmt)
     sys.exit(1)
