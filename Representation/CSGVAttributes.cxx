@@ -219,7 +219,9 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
     }
     if (!(s = csgv::addDerivedAttribute(table, d.first, d.second, true)))
     {
-      return "derived attribute '" + d.first + "': " + s.message();
+      // Core's message names the attribute already ("derived attribute 'x': ...").
+      const std::string named = "derived attribute '" + d.first + "'";
+      return s.message().compare(0, named.size(), named) == 0 ? s.message() : named + ": " + s.message();
     }
   }
   return std::string();

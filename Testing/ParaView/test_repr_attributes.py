@@ -215,6 +215,11 @@ with t.ErrorLog() as errors:
     dl.CSGVDerivedAttributes = ["", "label * 2"]
     Render(v2)
 t.check("needs a name" in errors.text, "a derived attribute without a name is named (%s)" % errors.text.strip()[:200])
+with t.ErrorLog() as errors:
+    dl.CSGVDerivedAttributes = ["twice", "no_such_column * 2"]
+    Render(v2)
+t.check("derived attribute 'twice'" in errors.text and errors.text.count("derived attribute 'twice'") == 1,
+        "a derived attribute that fails is named once (%s)" % errors.text.strip()[:300])
 dl.CSGVDerivedAttributes = []
 with t.ErrorLog() as errors:
     dl.CSGVMaterials = json.dumps({"version": 1, "materials": [{"filter": {"attribute": "nope", "min": 0, "max": 1}}]})
