@@ -140,8 +140,12 @@ csgv::Result<csgv::AttributeTable> computedOfOwned(
   return csgv::attributeTable(*sums, options);
 }
 
+/// The attribute table of the configuration. Returns what makes the table unusable (its FieldData
+/// columns unreadable); `problems` gets each source that could not be added (a file that does not
+/// read, a computation or derived attribute that fails), which is left out while the others stay:
+/// materials naming a left-out column are skipped with that reason, the rest draw.
 std::string buildTable(vtkImageData* image, const VolumeSource& source, const AttributeConfig& config,
-  csgv::AttributeTable& table)
+  csgv::AttributeTable& table, std::string& problems)
 {
   SharedVolume& volume = *source.shared;
   std::string error = fieldDataTable(image, volume, table);
@@ -149,10 +153,11 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
   {
     return error;
   }
+  auto problem = [&](const std::string& text) { problems += (problems.empty() ? "" : "; ") + text; };
   csgv::Status s;
   // A label table the reader found beside the input (an atlas's `.nii.txt`): read before the
   // user's files, which replace its columns. Not the user's file: one that does not read as a
-  // table (a `.txt` of something else) is left out, not an error that would take the others.
+  // table (a `.txt` of something else) is left out without a word.
   const std::string sidecar = csgvvtk::attributeSidecar(image ? image->GetFieldData() : nullptr);
   if (!sidecar.empty() && std::find(config.files.begin(), config.files.end(), sidecar) == config.files.end())
   {
@@ -172,11 +177,11 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
     csgv::Result<csgv::AttributeTable> t = csgv::readAttributeFile(path);
     if (!t)
     {
-      return t.message();
+      problem(t.message());
     }
-    if (!(s = table.merge(*t, csgv::AttributeTable::OnConflict::Replace)))
+    else if (!(s = table.merge(*t, csgv::AttributeTable::OnConflict::Replace)))
     {
-      return path + ": " + s.message();
+      problem(path + ": " + s.message());
     }
   }
   if (config.computed)
@@ -194,34 +199,37 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
         options.idToLabel = &volume.idToLabel;
       }
       csgv::Result<csgv::AttributeTable> t = computedOfOwned(volume, options);
-      if (!t)
+      if (t)
       {
-        return "computing attributes: " + t.message();
+        computed = std::make_shared<const csgv::AttributeTable>(std::move(*t));
+        std::lock_guard<std::mutex> lock(volumeMutex());
+        volume.computed = computed;
       }
-      computed = std::make_shared<const csgv::AttributeTable>(std::move(*t));
-      std::lock_guard<std::mutex> lock(volumeMutex());
-      volume.computed = computed;
+      else
+      {
+        problem("computing attributes: " + t.message());
+      }
     }
-    if (!(s = table.merge(*computed, csgv::AttributeTable::OnConflict::Replace)))
+    if (computed && !(s = table.merge(*computed, csgv::AttributeTable::OnConflict::Replace)))
     {
-      return "computed attributes: " + s.message();
+      problem("computed attributes: " + s.message());
     }
   }
   for (const auto& d : config.derived)
   {
     if (d.first.empty())
     {
-      if (d.second.empty())
+      if (!d.second.empty()) // an empty row is the editor's new one
       {
-        continue; // an empty row (the editor's new one)
+        problem("a derived attribute needs a name (its expression: '" + d.second.substr(0, 80) + "')");
       }
-      return "a derived attribute needs a name (its expression: '" + d.second.substr(0, 80) + "')";
+      continue;
     }
     if (!(s = csgv::addDerivedAttribute(table, d.first, d.second, true)))
     {
       // Core's message names the attribute already ("derived attribute 'x': ...").
       const std::string named = "derived attribute '" + d.first + "'";
-      return s.message().compare(0, named.size(), named) == 0 ? s.message() : named + ": " + s.message();
+      problem(s.message().compare(0, named.size(), named) == 0 ? s.message() : named + ": " + s.message());
     }
   }
   return std::string();
@@ -280,8 +288,13 @@ std::shared_ptr<const csgv::AttributeTable> AttributeCache::get(
     return this->Table;
   }
   auto table = std::make_shared<csgv::AttributeTable>();
-  this->Error = buildTable(image, source, config, *table);
+  std::string problems;
+  this->Error = buildTable(image, source, config, *table, problems);
   this->Table = this->Error.empty() ? std::shared_ptr<const csgv::AttributeTable>(table) : nullptr;
+  if (this->Error.empty())
+  {
+    this->Error = problems; // said, with the table of what could be added
+  }
   this->Volume = source.shared.get();
   {
     std::lock_guard<std::mutex> lock(volumeMutex());

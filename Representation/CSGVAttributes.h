@@ -51,7 +51,8 @@ struct AttributeConfig
 class AttributeCache
 {
 public:
-  /// The table (nullptr with `error` set when a source failed).
+  /// The table, with `error` saying which sources (a file, computed or derived attributes) were
+  /// left out of it; nullptr with `error` set when there is none (no input, unreadable FieldData).
   std::shared_ptr<const csgv::AttributeTable> get(
     vtkImageData* image, const VolumeSource& source, const AttributeConfig& config, std::string& error);
 

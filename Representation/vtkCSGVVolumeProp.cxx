@@ -451,8 +451,10 @@ bool vtkCSGVVolumeProp::DrawnMaterials(
     {
       available = table->columnNames();
     }
-    else
+    if (!error.empty())
     {
+      // Unusable (no table), or a source left out of it: materials naming what is missing are
+      // skipped below, with the reason.
       this->Report("attributes: " + error);
     }
   }

@@ -215,12 +215,24 @@ with t.ErrorLog() as errors:
     dl.CSGVDerivedAttributes = ["", "label * 2"]
     Render(v2)
 t.check("needs a name" in errors.text, "a derived attribute without a name is named (%s)" % errors.text.strip()[:200])
+HEMISPHERE = ["hemisphere", r"CASE WHEN name LIKE '%\_L' ESCAPE '\' THEN 0 WHEN name LIKE '%\_R' ESCAPE '\' THEN 1 END"]
 with t.ErrorLog() as errors:
-    dl.CSGVDerivedAttributes = ["twice", "no_such_column * 2"]
+    dl.CSGVAttributeFiles = ["/usr/share/mricron/templates/aal.nii.txt"]
+    dl.CSGVDerivedAttributes = HEMISPHERE + ["twice", "no_such_column * 2"]
+    dl.CSGVMaterials = json.dumps({"version": 1, "materials": [
+        {"name": "left", "filter": {"attribute": "hemisphere", "min": 0, "max": 0}}]})
     Render(v2)
 t.check("derived attribute 'twice'" in errors.text and errors.text.count("derived attribute 'twice'") == 1,
         "a derived attribute that fails is named once (%s)" % errors.text.strip()[:300])
+# The one that fails is left out; the file's columns and the other derived attribute stay, and
+# the material naming one of those draws (one typo took every attribute away).
+summary = json.loads(ct.query(dl, "summary"))
+columns = [a["name"] for a in summary["attributes"]]
+t.check("name" in columns and "hemisphere" in columns and "twice" not in columns and "twice" in summary.get("error", "")
+        and not summary.get("skipped"), "a failing derived attribute is left out alone (%s; %s; skipped %s)"
+        % (columns, summary.get("error"), summary.get("skipped")))
 dl.CSGVDerivedAttributes = []
+dl.CSGVAttributeFiles = []
 with t.ErrorLog() as errors:
     dl.CSGVMaterials = json.dumps({"version": 1, "materials": [{"filter": {"attribute": "nope", "min": 0, "max": 1}}]})
     Render(v2)
