@@ -217,19 +217,14 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
   }
   for (const auto& d : config.derived)
   {
-    if (d.first.empty())
+    if (d.first.empty() && d.second.empty())
     {
-      if (!d.second.empty()) // an empty row is the editor's new one
-      {
-        problem("a derived attribute needs a name (its expression: '" + d.second.substr(0, 80) + "')");
-      }
-      continue;
+      continue; // an empty row (the editor's new one)
     }
+    // Core names the attribute (or says it needs a name) in its message.
     if (!(s = csgv::addDerivedAttribute(table, d.first, d.second, true)))
     {
-      // Core's message names the attribute already ("derived attribute 'x': ...").
-      const std::string named = "derived attribute '" + d.first + "'";
-      problem(s.message().compare(0, named.size(), named) == 0 ? s.message() : named + ": " + s.message());
+      problem(s.message());
     }
   }
   return std::string();
