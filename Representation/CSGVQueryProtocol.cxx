@@ -242,7 +242,20 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
       labels.insert(v);
     }
   }
+  // Empty only when every rank's piece is (a rank may hold no bricks of the volume); the error of
+  // a rank with data, else the first rank's.
   json out = replies.front();
+  bool empty = true;
+  for (const json& r : replies)
+  {
+    if (!r.value("empty", false))
+    {
+      empty = false;
+      out["error"] = r.value("error", std::string());
+      break;
+    }
+  }
+  out["empty"] = empty;
   std::vector<std::string> order;
   std::map<std::string, json> attributes;
   for (const json& r : replies)
@@ -324,12 +337,12 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   {
     const std::string summary = attributeSummary(
       table.get(), source.shared.get(), source.shared ? source.shared->arrayName : std::string(), tableError);
-    if (!c.skipped || c.skipped->empty())
-    {
-      return summary;
-    }
     json s = json::parse(summary);
-    s["skipped"] = *c.skipped;
+    s["empty"] = c.emptyInput;
+    if (c.skipped && !c.skipped->empty())
+    {
+      s["skipped"] = *c.skipped;
+    }
     return s.dump(-1, ' ', false, json::error_handler_t::replace);
   }
   if (what == "labelset")

@@ -989,6 +989,7 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   c.input = p.Input;
   c.source = p.Source;
   c.sourceError = p.Source.shared ? std::string() : (p.SourceError.empty() ? "no input" : p.SourceError);
+  c.emptyInput = !p.Source.shared && (!p.Input || p.Input->GetNumberOfPoints() == 0);
   if (p.MaterialsValid && p.Source.shared && p.AttributesDirty && !p.Queried)
   {
     // Not rendered since the last change: what it will draw. The arrays are kept for that render.

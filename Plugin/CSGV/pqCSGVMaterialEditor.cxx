@@ -226,7 +226,7 @@ void pqCSGVMaterialEditor::refreshAttributes()
     this->AttributeOrder << name;
   }
   const QString error = summary.value("error").toString();
-  if (error == "the input is empty" || error == "no input")
+  if (summary.value("empty").toBool())
   {
     // The output of a file that failed to read, or of a filter that produced nothing: the
     // materials stay editable for data to come, but the user learns why nothing is drawn.

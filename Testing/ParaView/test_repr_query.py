@@ -46,8 +46,9 @@ t.check(stats.get("parses") == 1 and stats.get("sharedParses") == 1,
 
 # summary
 s = json.loads(ct.query(d, "summary"))
-t.check(s.get("labelArray") == "Labels" and s.get("labels", 0) > 0 and "attributes" in s,
-        "summary: label array, label count and attributes (%r)" % {k: s.get(k) for k in ("labelArray", "labels")})
+t.check(s.get("labelArray") == "Labels" and s.get("labels", 0) > 0 and "attributes" in s and s.get("empty") is False,
+        "summary: label array, label count, attributes, not empty (%r)"
+        % {k: s.get(k) for k in ("labelArray", "labels", "empty")})
 
 # labels: "W H BASE64", decodable with Python's base64 into W*H uint32 values
 w, h, data = ct.query(d, "labels").split(" ", 2)
@@ -143,8 +144,8 @@ for request, named in (("colors abc", "'abc'"), ("colors -1", "'-1'"), ("labelse
 labels_before = json.loads(ct.query(d, "summary")).get("labels")
 d.CSGVLabelArray = "NoSuchArray"
 missing = json.loads(ct.query(d, "summary"))
-t.check("NoSuchArray" in missing.get("error", "") and missing.get("labels") == 0,
-        "a missing label array set without a render: the answer names it (%s)" % missing)
+t.check("NoSuchArray" in missing.get("error", "") and missing.get("labels") == 0 and missing.get("empty") is False,
+        "a missing label array set without a render: the answer names it, the input is not empty (%s)" % missing)
 d.CSGVLabelArray = ""
 t.check(json.loads(ct.query(d, "summary")).get("labels") == labels_before,
         "the automatic array again: the labels again (%d)" % labels_before)
@@ -153,9 +154,23 @@ v.Update()
 dense = json.loads(ct.query(d, "summary")).get("labels")
 t.check(dense != labels_before and dense > 0, "another file, after the view's update: its labels (%s, before %d)"
         % (dense, labels_before))
+# A file that fails to read leaves an empty output: the summary says so with a flag (the
+# material editor's "The input is empty" line reads it), whatever the error's words.
+with open(os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv"), "rb") as f:
+    head = f.read(4096)
+truncated = os.path.join(t.temp_dir(), "truncated.csgv")
+with open(truncated, "wb") as f:
+    f.write(head)
+with t.ErrorLog() as errors:
+    r.FileName = truncated
+    v.Update()
+    empty = json.loads(ct.query(d, "summary"))
+t.check(empty.get("empty") is True and empty.get("labels") == 0 and "truncated" in errors.text,
+        "a file that failed to read: the summary says the input is empty (%s)" % empty)
 r.FileName = os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv")
 v.Update()
-t.check(json.loads(ct.query(d, "summary")).get("labels") == labels_before, "the first file again")
+again = json.loads(ct.query(d, "summary"))
+t.check(again.get("labels") == labels_before and again.get("empty") is False, "the first file again")
 
 # A float image shown as Outline: the GUI's panels ask its (hidden) Segmentation Volume, whose
 # input cannot be labels. The answer says why; nothing is logged as an error (a red Output
@@ -166,7 +181,8 @@ t.check(dw.Representation == "Outline", "the wavelet shows as Outline (%s)" % dw
 with t.ErrorLog() as errors:
     answer = json.loads(ct.query(dw, "summary"))
     Render(v)
-t.check("not an integer label" in answer.get("error", ""), "the answer names the problem (%s)" % answer)
+t.check("not an integer label" in answer.get("error", "") and answer.get("empty") is False,
+        "the answer names the problem; the input is not empty (%s)" % answer)
 t.check(errors.text.strip() == "", "nothing logged for a display not shown as Segmentation Volume (%s)" % errors.text.strip()[:300])
 # Shown as one, the problem is said.
 with t.ErrorLog() as errors:
