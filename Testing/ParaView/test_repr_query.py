@@ -38,6 +38,12 @@ t.check(json.loads(ct.query(d, "stats")).get("compressions") == 0, "stats: a .cs
 d.CSGVFramesPerStillRender = 1
 v.ResetCamera()
 t.screenshot(v, W, H)
+# The read-only statistics, read now (csgv_tools.render_stats: paraview.simple has no attributes
+# for information properties, and GetPropertyValue gives the last information update's value).
+rs = ct.render_stats(d)
+frames, fewest = t.repr_info(d)
+t.check(len(rs) >= 11 and rs.get("CSGVMinSamples") == fewest >= 1 and rs.get("CSGVFramesLastRender") == frames
+        and rs.get("CSGVCacheMiB", 0) > 0, "render_stats: every read-only statistic, current (%s)" % rs)
 stats = json.loads(ct.query(d, "stats"))
 # One copy of the encoding in this process (issue 40): the representation's parse views the
 # bytes the reader read, it does not copy them.
