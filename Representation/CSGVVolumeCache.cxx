@@ -7,9 +7,12 @@
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
 #include <vtkImageData.h>
+#include <vtkMatrix4x4.h>
 #include <vtkUnsignedCharArray.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <tuple>
 
 namespace csgvrep
@@ -252,6 +255,74 @@ std::shared_ptr<SharedVolume> VolumeCache::lookup(const Key& key)
   }
   auto it = this->Entries.find(key);
   return it == this->Entries.end() ? nullptr : it->second.lock();
+}
+
+VolumeSource VolumeSource::placed(vtkMatrix4x4* placement) const
+{
+  VolumeSource out = *this;
+  if (!placement || placement->IsIdentity())
+  {
+    return out;
+  }
+  const csgv::Geometry& g = this->corner;
+  csgv::Geometry& p = out.corner;
+  for (int r = 0; r < 3; ++r)
+  {
+    p.origin[r] = placement->GetElement(r, 3);
+    for (int k = 0; k < 3; ++k)
+    {
+      p.origin[r] += placement->GetElement(r, k) * g.origin[k];
+    }
+  }
+  for (int c = 0; c < 3; ++c)
+  {
+    // Column c of M3 * direction * spacing: the world step of index axis c.
+    double axis[3] = { 0, 0, 0 };
+    for (int r = 0; r < 3; ++r)
+    {
+      for (int k = 0; k < 3; ++k)
+      {
+        axis[r] += placement->GetElement(r, k) * g.direction[3 * k + c] * g.spacing[c];
+      }
+    }
+    const double length = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    p.spacing[c] = length; // 0 for a zero scale: the renderer says the geometry is singular
+    for (int r = 0; r < 3; ++r)
+    {
+      p.direction[3 * r + c] = length > 0 ? axis[r] / length : (r == c ? 1.0 : 0.0);
+    }
+  }
+  return out;
+}
+
+void placeBounds(vtkMatrix4x4* placement, double bounds[6])
+{
+  if (!placement || placement->IsIdentity())
+  {
+    return;
+  }
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k)
+  {
+    lo[k] = std::numeric_limits<double>::infinity();
+    hi[k] = -lo[k];
+  }
+  for (int corner = 0; corner < 8; ++corner)
+  {
+    const double in[4] = { bounds[(corner & 1) ? 1 : 0], bounds[(corner & 2) ? 3 : 2], bounds[(corner & 4) ? 5 : 4], 1.0 };
+    double out[4];
+    placement->MultiplyPoint(in, out);
+    for (int k = 0; k < 3; ++k)
+    {
+      lo[k] = std::min(lo[k], out[k]);
+      hi[k] = std::max(hi[k], out[k]);
+    }
+  }
+  for (int k = 0; k < 3; ++k)
+  {
+    bounds[2 * k] = lo[k];
+    bounds[2 * k + 1] = hi[k];
+  }
 }
 
 std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelArray, VolumeSource& out)

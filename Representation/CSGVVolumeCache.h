@@ -33,6 +33,7 @@
 #include <vector>
 
 class vtkImageData;
+class vtkMatrix4x4;
 class vtkMultiProcessController;
 
 namespace csgv
@@ -120,7 +121,18 @@ struct VolumeSource
   /// World bounds of the voxels drawn (point data: voxels centred on points, half a voxel
   /// beyond the image's bounds). False when there is nothing to draw.
   bool bounds(double out[6]) const;
+
+  /// The source drawn where `placement` (a vtkProp3D's matrix: the display's Position,
+  /// Orientation, Scale and Origin) puts it: its corner geometry mapped by the matrix (spacing
+  /// the lengths of the mapped axes, direction their unit vectors; any affine map, shears
+  /// included, since the renderer takes a full index-to-world matrix). The same source when the
+  /// matrix is the identity or null.
+  VolumeSource placed(vtkMatrix4x4* placement) const;
 };
+
+/// Replaces `bounds` (xmin xmax ymin ymax zmin zmax) by the axis-aligned box around their eight
+/// corners mapped by `placement` (nothing for a null or identity matrix).
+void placeBounds(vtkMatrix4x4* placement, double bounds[6]);
 
 /// @brief The process-wide cache of compressed volumes, keyed by (array, modification time).
 class VolumeCache

@@ -285,6 +285,26 @@ void vtkCSGVRepresentation::ReportInputError()
   }
 }
 
+void vtkCSGVRepresentation::SetPosition(double x, double y, double z)
+{
+  this->Prop->SetPosition(x, y, z);
+}
+
+void vtkCSGVRepresentation::SetOrientation(double x, double y, double z)
+{
+  this->Prop->SetOrientation(x, y, z);
+}
+
+void vtkCSGVRepresentation::SetScale(double x, double y, double z)
+{
+  this->Prop->SetScale(x, y, z);
+}
+
+void vtkCSGVRepresentation::SetOrigin(double x, double y, double z)
+{
+  this->Prop->SetOrigin(x, y, z);
+}
+
 int vtkCSGVRepresentation::ProcessViewRequest(
   vtkInformationRequestKey* request, vtkInformation* inInfo, vtkInformation* outInfo)
 {
@@ -302,6 +322,8 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     this->ShareAcrossRanks(resolved);
     if (resolved && this->Internals->Source.bounds(bounds))
     {
+      // Where the Transforming properties place the piece (an axis-aligned box around it).
+      csgvrep::placeBounds(this->Prop->GetMatrix(), bounds);
       // This rank's piece (the reader hands each rank whole bricks; a piece is a volume of its
       // own). Translucent materials need the pieces blended front to back: ParaView 5.11's
       // ordered compositing sorts the ranks by these bounds (it reads the geometry bounds even

@@ -39,6 +39,14 @@ public:
     vtkInformation* outInfo) override;
   void SetVisibility(bool visible) override;
 
+  /// The display's Transforming properties (ParaView's Position, Orientation, Scale and Origin,
+  /// shared with the surface representation): the volume is drawn, picked and bounded where
+  /// they place it, as vtkProp3D places an actor (its voxels, clip box and attributes stay).
+  void SetPosition(double x, double y, double z);
+  void SetOrientation(double x, double y, double z);
+  void SetScale(double x, double y, double z);
+  void SetOrigin(double x, double y, double z);
+
   /// Label array by name ("": the CSGV encoding if present, else the first integer array).
   void SetLabelArray(const char* name);
   const char* GetLabelArray() { return this->LabelArray.c_str(); }

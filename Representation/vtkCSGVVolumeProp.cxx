@@ -237,7 +237,7 @@ void vtkCSGVVolumeProp::SetInput(
   }
   else
   {
-    p.View.setSource(source);
+    p.View.setSource(source.placed(this->GetMatrix()));
   }
   if (newVolume)
   {
@@ -325,6 +325,7 @@ double* vtkCSGVVolumeProp::GetBounds()
   {
     return nullptr;
   }
+  csgvrep::placeBounds(this->GetMatrix(), this->Bounds);
   return this->Bounds;
 }
 
@@ -875,6 +876,12 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
 bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindow* win, bool opaquePass)
 {
   Impl& p = *this->P;
+  if (p.Source.shared)
+  {
+    // Where the display's Position, Orientation and Scale put the volume now (a new place
+    // starts the accumulation anew; the same place changes nothing).
+    p.View.setSource(p.Source.placed(this->GetMatrix()));
+  }
   auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
   csgvrep::FrameRequest request;
   int x0 = 0, y0 = 0;
@@ -987,7 +994,7 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   Impl& p = *this->P;
   csgvrep::QueryContext c;
   c.input = p.Input;
-  c.source = p.Source;
+  c.source = p.Source.placed(this->GetMatrix()); // picks answer where the volume is drawn
   c.sourceError = p.Source.shared ? std::string() : (p.SourceError.empty() ? "no input" : p.SourceError);
   c.emptyInput = !p.Source.shared && (!p.Input || p.Input->GetNumberOfPoints() == 0);
   if (p.MaterialsValid && p.Source.shared && p.AttributesDirty && !p.Queried)
