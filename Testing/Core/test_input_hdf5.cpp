@@ -353,9 +353,13 @@ TEST(Hdf5Errors, SeveralCandidatesAreListed) {
                                          "FILE.h5:/group/dataset");
 }
 
-TEST(Hdf5Errors, NoCandidate) {
+TEST(Hdf5Errors, NoCandidateListsWhatItPassedOver) {
+    // What the file holds instead, and why each is not a candidate: a user who expected one of
+    // them learns what to do (name a float dataset; fix a shape).
     EXPECT_CONTAINS(openError(fx("none.h5")),
-                    fx("none.h5") + ": holds no 3D integer dataset; name one as FILE.h5:/group/dataset");
+                    fx("none.h5") + ": holds no 3D integer dataset; passed over: /flat is 2D (shape 3x4), /raw holds "
+                                    "floats (shape 2x3x4; read only when named, where they hold integers); name one as "
+                                    "FILE.h5:/group/dataset");
 }
 
 TEST(Hdf5Errors, MissingDatasetPath) {

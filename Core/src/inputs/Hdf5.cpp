@@ -299,12 +299,21 @@ Result<Axes> axesOf(hid_t space) {
     return a;
 }
 
-/// True for a dataset that auto-picking takes: integer voxels on (z, y, x) axes.
-bool isIntegerVolume(hid_t dataset) {
+/// Why auto-picking passes over a dataset, "" when it takes it (integer voxels on (z, y, x)
+/// axes): its shape's problem, its type's, or that floats are read only when named.
+std::string passedOver(hid_t dataset) {
     Handle type(H5Dget_type(dataset), H5Tclose);
     Handle space(H5Dget_space(dataset), H5Sclose);
-    if (!type.valid() || !space.valid() || H5Tget_class(type.get()) != H5T_INTEGER) return false;
-    return voxelTypeOf(type.get()).isOk() && axesOf(space.get()).isOk();
+    if (!type.valid() || !space.valid()) return "cannot be read";
+    const Result<Axes> axes = axesOf(space.get());
+    // The problem itself, without the rule after it ("is 2D (shape 3x4)").
+    auto first = [](const std::string& m) { return m.substr(0, m.find(';')); };
+    if (!axes) return first(axes.message());
+    const Result<VoxelType> voxel = voxelTypeOf(type.get());
+    if (!voxel) return first(voxel.message());
+    if (H5Tget_class(type.get()) != H5T_INTEGER)
+        return "holds floats (shape " + shapeText(axes->dims) + "; read only when named, where they hold integers)";
+    return "";
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -316,6 +325,7 @@ struct WalkState {
     std::string prefix;               ///< path of the group walked, ending in '/'
     std::vector<std::string> volumes; ///< 3D integer datasets
     std::vector<std::string> broken;  ///< objects HDF5 could not open (damaged headers)
+    std::vector<std::string> passed;  ///< other datasets, each with why it is not a candidate
 };
 
 /// The dataset access list of every open here: external storage named relatively lies beside
@@ -339,7 +349,8 @@ herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* da
     if (object.type != H5O_TYPE_DATASET) return 0;
     Handle d(H5Dopen2(group, name, datasetAccess().get()), H5Dclose);
     if (!d.valid()) state->broken.push_back(state->prefix + name);
-    else if (isIntegerVolume(d.get())) state->volumes.push_back(state->prefix + name);
+    else if (const std::string why = passedOver(d.get()); why.empty()) state->volumes.push_back(state->prefix + name);
+    else state->passed.push_back(state->prefix + name + " " + why);
     return 0;
 }
 
@@ -356,13 +367,19 @@ std::string brokenText(const WalkState& walk) {
     return walk.broken.empty() ? "" : " (HDF5 could not open " + listText(walk.broken) + ")";
 }
 
+/// The datasets a walk passed over and why ("" when none): what a user who expected one of them
+/// needs to read.
+std::string passedText(const WalkState& walk) {
+    return walk.passed.empty() ? "" : "; passed over: " + listText(walk.passed, 4);
+}
+
 /// The dataset to read: the one named, or the file's only 3D integer dataset.
 Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string& named) {
     if (named.empty()) {
         const WalkState walk = walkGroup(file, "/");
         const std::vector<std::string>& volumes = walk.volumes;
         if (volumes.empty())
-            return Status::error("holds no 3D integer dataset" + brokenText(walk) +
+            return Status::error("holds no 3D integer dataset" + brokenText(walk) + passedText(walk) +
                                  "; name one as FILE.h5:/group/dataset");
         if (volumes.size() > 1)
             return Status::error("holds several 3D integer datasets (" + listText(volumes) +
@@ -388,7 +405,7 @@ Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string
         if (!group.valid()) return Status::error("cannot open " + named + ": " + hdf5Message());
         const WalkState inside = walkGroup(group.get(), named);
         return Status::error(named + " is a group, not a dataset" +
-                             (inside.volumes.empty() ? std::string("; it holds no 3D integer dataset")
+                             (inside.volumes.empty() ? "; it holds no 3D integer dataset" + passedText(inside)
                                                      : "; its 3D integer datasets: " + listText(inside.volumes)) +
                              brokenText(inside));
     }
