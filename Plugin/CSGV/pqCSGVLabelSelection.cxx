@@ -34,6 +34,7 @@
 #include <QTimer>
 
 #include <algorithm>
+#include <memory>
 #include <array>
 #include <cstring>
 
@@ -208,6 +209,7 @@ void pqCSGVLabelSelection::startup()
   connect(model, &pqServerManagerModel::viewAdded, this, &pqCSGVLabelSelection::viewAdded);
   connect(model, &pqServerManagerModel::preViewRemoved, this, &pqCSGVLabelSelection::viewRemoved);
   connect(model, &pqServerManagerModel::preSourceRemoved, this, &pqCSGVLabelSelection::forgetRows);
+  connect(model, &pqServerManagerModel::sourceAdded, this, &pqCSGVLabelSelection::sourceAdded);
   for (pqView* v : model->findItems<pqView*>())
     this->viewAdded(v);
   if (pqPVApplicationCore* core = pqPVApplicationCore::instance())
@@ -429,6 +431,30 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
         pqActiveObjects::instance().setActiveSource(active);
     }
   }
+}
+
+void pqCSGVLabelSelection::sourceAdded(pqPipelineSource* source)
+{
+  if (!isLabelTable(source))
+    return;
+  // Its input and rows exist at its first update (not yet when it is added): then its rows take
+  // the selection made before it existed, once (later selections reach it as they are made).
+  auto once = std::make_shared<QMetaObject::Connection>();
+  *once = connect(source, QOverload<pqPipelineSource*>::of(&pqPipelineSource::dataUpdated), this,
+    [this, once](pqPipelineSource* table) {
+      QObject::disconnect(*once);
+      auto* filter = qobject_cast<pqPipelineFilter*>(table);
+      pqOutputPort* input = filter ? filter->getAnyInput() : nullptr;
+      const QList<vtkSMProxy*> displays = volumeDisplaysOf(input);
+      if (this->Busy || displays.isEmpty())
+        return;
+      const std::vector<uint32_t> labels = pqCSGV::selectedLabels(displays.front());
+      if (labels.empty())
+        return;
+      this->Busy = true; // the labels are selected already
+      this->selectRows(input, labels);
+      this->Busy = false;
+    });
 }
 
 void pqCSGVLabelSelection::forgetRows(pqPipelineSource* table)

@@ -84,6 +84,8 @@ private Q_SLOTS:
   void viewRemoved(pqView* view);
   void selectionChanged(pqOutputPort* port);
   void forgetRows(pqPipelineSource* table);
+  /// A new CSGV Label Table takes the labels selected already: its rows follow at its first update.
+  void sourceAdded(pqPipelineSource* source);
 
 private:
   /// A selection tool's region (SelectionChangedEvent of a render view proxy).

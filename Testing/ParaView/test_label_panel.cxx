@@ -337,10 +337,10 @@ private Q_SLOTS:
           return i;
       return vtkIdType(-1);
     };
-    auto selectedRows = [table]() {
+    auto selectedRowsOf = [](pqPipelineSource* t) {
       std::vector<vtkIdType> out;
       // An AppendSelections of one ID selection source, as ParaView 5.11 makes them.
-      vtkSMSourceProxy* append = table->getOutputPort(0)->getSelectionInput();
+      vtkSMSourceProxy* append = t->getOutputPort(0)->getSelectionInput();
       vtkSMProxy* sel = append && append->GetProperty("Input") ? vtkSMPropertyHelper(append, "Input").GetAsProxy(0) : nullptr;
       if (!sel || !sel->GetProperty("IDs"))
         return out;
@@ -349,6 +349,7 @@ private Q_SLOTS:
         out.push_back(ids[i]);
       return out;
     };
+    auto selectedRows = [table, selectedRowsOf]() { return selectedRowsOf(table); };
 
     // ParaView's rectangle tool: the region event of the view proxy, in selection mode.
     const std::vector<uint32_t> shown = pqCSGV::labelsInRectangle(proxy, 0, 0, 159, 159);
@@ -373,6 +374,14 @@ private Q_SLOTS:
     QVERIFY(!want.empty());
     QTRY_VERIFY2(selectedRows() == want, "the label table's rows follow the 3D selection");
     QVERIFY2(pqActiveObjects::instance().activeSource() == source, "a 3D selection leaves the active source");
+    // A table made after the selection takes it at its first update (it stayed empty until the
+    // next selection).
+    pqPipelineSource* later = builder->createFilter("filters", "CSGVLabelTable", source);
+    QVERIFY(later);
+    vtkSMSourceProxy::SafeDownCast(later->getProxy())->UpdatePipeline();
+    QTRY_VERIFY2(selectedRowsOf(later) == want, "a label table made after the selection shows it");
+    builder->destroy(later);
+    pqActiveObjects::instance().setActiveSource(source);
 
     // Drawn highlighted: the colour query gives the selection colour for a selected label only.
     const QJsonObject colors = pqCSGV::queryJson(proxy, "colors 100000");
