@@ -21,6 +21,7 @@
 #include <vtkStreamingDemandDrivenPipeline.h>
 
 #include <algorithm>
+#include <sys/stat.h>
 #include <cstring>
 #include <fstream>
 #include <memory>
@@ -103,6 +104,13 @@ bool vtkCSGVNIfTIReader::IsNIfTIFile(const char* fileName)
     return false;
   }
   const std::string path(fileName);
+  struct stat st
+  {
+  };
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+  {
+    return false; // a FIFO would block File > Open, a device never end: regular files only
+  }
   const size_t n = path.size();
   if (n > 7 && path.compare(n - 7, 7, ".nii.gz") == 0)
   {

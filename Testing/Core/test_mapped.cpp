@@ -19,6 +19,7 @@
 #include <random>
 #include <sstream>
 #include <sys/stat.h>
+#include <chrono>
 #include <thread>
 #include <unistd.h>
 
@@ -266,6 +267,17 @@ TEST(Mapped, APipeIsReadToItsEnd) {
     ASSERT_TRUE(labels.isOk()) << labels.message();
     EXPECT_EQ(labels->labels, sourceVolume(name).labels);
     ::unlink(fifo.c_str());
+}
+
+TEST(Mapped, ADeviceIsRefusedAtOnce) {
+    // /dev/zero never ends: read to its end, it took memory until none was left (3.1 GB in 3 s
+    // under a 4 GiB cap).
+    const auto t0 = std::chrono::steady_clock::now();
+    Result<std::shared_ptr<const MappedFile>> zero = MappedFile::open("/dev/zero");
+    ASSERT_FALSE(zero.isOk());
+    EXPECT_EQ(zero.message(), "'/dev/zero' is a device, not a file");
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+    EXPECT_FALSE(readCsgvMapped("/dev/zero").isOk());
 }
 
 TEST(Mapped, AFileTruncatedUnderItsMappingReadsZerosAndSaysSo) {

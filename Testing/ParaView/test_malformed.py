@@ -149,6 +149,32 @@ img = t.fetch(rc)
 t.check(np.array_equal(t.cell_labels(img), t.source_volume("synthA_").ravel()), "the next update reads the cancelled file")
 Delete(rc)
 
+# A FIFO named like a volume: File > Open asked the readers, whose check opened it and waited for a
+# writer for good (ParaView frozen); a regular file only is theirs, so ParaView says no reader
+# takes it. A writer here after 5 s unblocks a reader that opened it (and says so).
+import threading
+for name in ("fifo.csgv", "fifo.nii"):
+    fifo = os.path.join(tmp, name)
+    os.mkfifo(fifo)
+    blocked = []
+
+    def unblock(path=fifo, seen=blocked):
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+            seen.append(True)  # a reader had it open
+            os.close(fd)
+        except OSError:
+            pass  # no reader: nobody opened it
+
+    timer = threading.Timer(5.0, unblock)
+    timer.start()
+    try:
+        OpenDataFile(fifo)
+    except Exception:
+        pass  # "No reader found"
+    timer.join()
+    t.check(not blocked, "a FIFO named %s is no reader's: nothing opened it" % name)
+
 # The session goes on: a valid file reads correctly afterwards.
 r = OpenDataFile(good)
 img = t.fetch(r)

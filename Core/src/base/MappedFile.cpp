@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/base/MappedFile.h"
+#include "csgv/base/FileUtil.h"
 
 #include <cerrno>
 #include <cstring>
@@ -293,8 +294,17 @@ Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& pa
         f->m_size = size;
         return std::shared_ptr<const MappedFile>(std::move(f));
     }
-    if (S_ISFIFO(st.st_mode) || S_ISCHR(st.st_mode) || S_ISSOCK(st.st_mode)) {
-        Result<std::vector<uint8_t>> bytes = readToEnd(d.fd, options.maxReadBytes, path);
+    // A character device (/dev/zero, a terminal) is no file: it may never end.
+    if (S_ISCHR(st.st_mode)) return Status::error("'" + path + "' is a device, not a file");
+    if (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode)) {
+        // A stream has no size to check beforehand: without a limit of the caller's, at most half
+        // the memory available now (1 GiB where that is unknown).
+        uint64_t limit = options.maxReadBytes;
+        if (limit == ~uint64_t(0)) {
+            const uint64_t available = availableMemoryBytes();
+            limit = available ? available / 2 : uint64_t(1) << 30;
+        }
+        Result<std::vector<uint8_t>> bytes = readToEnd(d.fd, limit, path);
         if (!bytes) return bytes.status();
         f->m_read = std::move(*bytes);
         f->m_size = f->m_read.size();

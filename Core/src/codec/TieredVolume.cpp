@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/codec/TieredVolume.h"
+
+#include "csgv/base/FileUtil.h"
 #include "csgv/base/MappedFile.h"
 #include "csgv/base/Math.h"
 
@@ -32,16 +34,7 @@ constexpr uint64_t kEstimateStride = 64;
 
 } // namespace
 
-uint64_t TieredVolume::automaticBudget() {
-    std::FILE* f = std::fopen("/proc/meminfo", "r");
-    if (!f) return 0;
-    char line[256];
-    unsigned long long kib = 0;
-    while (std::fgets(line, sizeof line, f))
-        if (std::sscanf(line, "MemAvailable: %llu kB", &kib) == 1) break;
-    std::fclose(f);
-    return uint64_t(kib) * 1024 / 2;
-}
+uint64_t TieredVolume::automaticBudget() { return availableMemoryBytes() / 2; }
 
 bool TieredVolume::wanted(const CompressedVolume& full, uint64_t budgetBytes) {
     const uint64_t budget = budgetBytes ? budgetBytes : automaticBudget();

@@ -136,6 +136,8 @@ Result<std::vector<uint8_t>> readFile(const std::string& path, uint64_t maxBytes
 Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes);
 /// True when the path names an existing file.
 bool fileExists(const std::string& path);
+/// The memory available now (MemAvailable of /proc/meminfo) in bytes; 0 where unknown.
+uint64_t availableMemoryBytes();
 /// True when `s` ends with `suffix` (lowercase ASCII), ignoring case: file extensions.
 bool endsWithNoCase(const std::string& s, const char* suffix);
 

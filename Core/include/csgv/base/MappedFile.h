@@ -39,14 +39,15 @@ public:
         /// one writes are the page cache's as with a read-only mapping.
         bool copyOnWrite = false;
         /// Refuse to read more than this into memory (a pipe has no size to check beforehand;
-        /// the limit does not apply to a mapping, which takes no private memory).
+        /// the limit does not apply to a mapping, which takes no private memory). Unset, a pipe
+        /// or socket is read up to half the memory available when it is opened.
         uint64_t maxReadBytes = ~uint64_t(0);
     };
 
     /// Opens `path`: a regular file is mapped (an empty one needs no mapping), and read where
-    /// mapping fails; a pipe, socket or character device is read to its end. Errors name the file:
-    /// one that cannot be opened (and why), one that is not a regular file or a stream (a
-    /// folder), a read or mapping failure, a stream longer than maxReadBytes.
+    /// mapping fails; a pipe or socket is read to its end. Errors name the file: one that cannot
+    /// be opened (and why), a character device (/dev/zero never ends), one that is not a regular
+    /// file or a stream (a folder), a read or mapping failure, a stream longer than the limit.
     static Result<std::shared_ptr<const MappedFile>> open(const std::string& path, const Options& options);
     static Result<std::shared_ptr<const MappedFile>> open(const std::string& path) { return open(path, Options{}); }
 
