@@ -878,9 +878,16 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
   Impl& p = *this->P;
   if (p.Source.shared)
   {
-    // Where the display's Position, Orientation and Scale put the volume now (a new place
-    // starts the accumulation anew; the same place changes nothing).
-    p.View.setSource(p.Source.placed(this->GetMatrix()));
+    // Where the display's Position, Orientation and Scale put the volume now: a new place
+    // starts the accumulation anew. The same place changes nothing and waits for nothing
+    // (setSource would wait for the background preparation before the opaque depth is read).
+    const csgvrep::VolumeSource placed = p.Source.placed(this->GetMatrix());
+    const csgv::Geometry& now = p.View.source().corner;
+    if (placed.corner.origin != now.origin || placed.corner.spacing != now.spacing ||
+      placed.corner.direction != now.direction)
+    {
+      p.View.setSource(placed);
+    }
   }
   auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
   csgvrep::FrameRequest request;
