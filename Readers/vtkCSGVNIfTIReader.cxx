@@ -3,6 +3,7 @@
 
 #include "CSGVAdapter.h"
 
+#include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Inputs.h"
 
@@ -21,7 +22,6 @@
 #include <vtkStreamingDemandDrivenPipeline.h>
 
 #include <algorithm>
-#include <sys/stat.h>
 #include <cstring>
 #include <fstream>
 #include <memory>
@@ -104,10 +104,7 @@ bool vtkCSGVNIfTIReader::IsNIfTIFile(const char* fileName)
     return false;
   }
   const std::string path(fileName);
-  struct stat st
-  {
-  };
-  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+  if (csgv::existsButNotRegular(path))
   {
     return false; // a FIFO would block File > Open, a device never end: regular files only
   }

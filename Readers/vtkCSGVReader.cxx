@@ -345,10 +345,7 @@ int vtkCSGVReader::CanReadFile(const char* fileName)
     return 0;
   }
   const std::string path(fileName);
-  struct stat st
-  {
-  };
-  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+  if (csgv::existsButNotRegular(path))
   {
     // Only regular files: opening a FIFO here blocks ParaView's File > Open until a writer
     // comes, and a device never ends (ParaView then says no reader takes it).

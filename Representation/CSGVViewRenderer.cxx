@@ -206,21 +206,23 @@ void ViewRenderer::clear()
 
 void ViewRenderer::setSource(const VolumeSource& source)
 {
+  if (source.shared == this->Source.shared && source.corner == this->Source.corner)
+  {
+    // Nothing changes, and nothing waits for the background preparation (which only reads the
+    // source): the prop passes its placement before every frame.
+    return;
+  }
   this->settle();
   if (source.shared != this->Source.shared)
   {
     this->clear();
     this->Source = source;
-    this->GeometryDirty = true;
-    return;
   }
-  const csgv::Geometry& a = source.corner;
-  const csgv::Geometry& b = this->Source.corner;
-  if (a.origin != b.origin || a.spacing != b.spacing || a.direction != b.direction)
+  else
   {
     this->Source.corner = source.corner;
-    this->GeometryDirty = true;
   }
+  this->GeometryDirty = true;
 }
 
 void ViewRenderer::setSettings(const ViewSettings& s)

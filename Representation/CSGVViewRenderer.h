@@ -90,7 +90,8 @@ public:
   ViewRenderer();
   ~ViewRenderer();
 
-  /// A changed source recreates the renderer; a changed geometry only resets accumulation.
+  /// A changed source recreates the renderer; a changed geometry only resets accumulation; the
+  /// same source and geometry return at once (no wait for the background preparation).
   void setSource(const VolumeSource& source);
   void setSettings(const ViewSettings& settings);
   /// Materials and the per-stored-label arrays of the attributes they name.

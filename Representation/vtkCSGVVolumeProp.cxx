@@ -221,10 +221,7 @@ void vtkCSGVVolumeProp::SetInput(
 {
   Impl& p = *this->P;
   p.SourceError = error;
-  const csgv::Geometry& a = source.corner;
-  const csgv::Geometry& b = p.Source.corner;
-  if (image == p.Input && source.shared == p.Source.shared && a.origin == b.origin &&
-    a.spacing == b.spacing && a.direction == b.direction)
+  if (image == p.Input && source.shared == p.Source.shared && source.corner == p.Source.corner)
   {
     return;
   }
@@ -879,15 +876,8 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
   if (p.Source.shared)
   {
     // Where the display's Position, Orientation and Scale put the volume now: a new place
-    // starts the accumulation anew. The same place changes nothing and waits for nothing
-    // (setSource would wait for the background preparation before the opaque depth is read).
-    const csgvrep::VolumeSource placed = p.Source.placed(this->GetMatrix());
-    const csgv::Geometry& now = p.View.source().corner;
-    if (placed.corner.origin != now.origin || placed.corner.spacing != now.spacing ||
-      placed.corner.direction != now.direction)
-    {
-      p.View.setSource(placed);
-    }
+    // starts the accumulation anew, the same place changes nothing.
+    p.View.setSource(p.Source.placed(this->GetMatrix()));
   }
   auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());
   csgvrep::FrameRequest request;

@@ -209,7 +209,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
 
 void Renderer::setGeometry(const Geometry& g) {
     Impl& im = *m_impl;
-    if (g.origin == im.geometry.origin && g.spacing == im.geometry.spacing && g.direction == im.geometry.direction) return;
+    if (g == im.geometry) return;
     im.geometry = g;
     resetAccumulation();
 }

@@ -139,6 +139,11 @@ uint64_t availableMemoryBytes() {
     return uint64_t(kib) * 1024;
 }
 
+bool existsButNotRegular(const std::string& path) {
+    struct stat st {};
+    return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
+}
+
 bool fileExists(const std::string& path) {
     struct stat st {};
     return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);

@@ -136,6 +136,10 @@ Result<std::vector<uint8_t>> readFile(const std::string& path, uint64_t maxBytes
 Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes);
 /// True when the path names an existing file.
 bool fileExists(const std::string& path);
+/// True when the path names something that exists and is not a regular file: a folder, FIFO,
+/// device or socket (a FIFO's open waits for a writer, a device may never end). Found by stat
+/// alone, nothing is opened.
+bool existsButNotRegular(const std::string& path);
 /// The memory available now (MemAvailable of /proc/meminfo) in bytes; 0 where unknown.
 uint64_t availableMemoryBytes();
 /// True when `s` ends with `suffix` (lowercase ASCII), ignoring case: file extensions.

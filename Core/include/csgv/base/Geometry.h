@@ -16,4 +16,10 @@ struct Geometry {
     std::array<double, 9> direction{{1, 0, 0, 0, 1, 0, 0, 0, 1}};
 };
 
+/// The same placement, exactly (a changed one restarts a renderer's accumulation).
+inline bool operator==(const Geometry& a, const Geometry& b) {
+    return a.origin == b.origin && a.spacing == b.spacing && a.direction == b.direction;
+}
+inline bool operator!=(const Geometry& a, const Geometry& b) { return !(a == b); }
+
 } // namespace csgv
