@@ -295,11 +295,23 @@ VolumeSource VolumeSource::placed(vtkMatrix4x4* placement) const
   return out;
 }
 
-void placeBounds(vtkMatrix4x4* placement, double bounds[6])
+bool finitePlacement(vtkMatrix4x4* placement)
+{
+  for (int i = 0; placement && i < 16; ++i)
+  {
+    if (!std::isfinite(placement->GetData()[i]))
+    {
+      return false;
+    }
+  }
+  return true;
+}
+
+bool placeBounds(vtkMatrix4x4* placement, double bounds[6])
 {
   if (!placement || placement->IsIdentity())
   {
-    return;
+    return true;
   }
   double lo[3], hi[3];
   for (int k = 0; k < 3; ++k)
@@ -318,11 +330,14 @@ void placeBounds(vtkMatrix4x4* placement, double bounds[6])
       hi[k] = std::max(hi[k], out[k]);
     }
   }
+  bool finite = true;
   for (int k = 0; k < 3; ++k)
   {
     bounds[2 * k] = lo[k];
     bounds[2 * k + 1] = hi[k];
+    finite = finite && std::isfinite(lo[k]) && std::isfinite(hi[k]);
   }
+  return finite;
 }
 
 std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelArray, VolumeSource& out)

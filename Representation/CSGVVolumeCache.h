@@ -131,8 +131,12 @@ struct VolumeSource
 };
 
 /// Replaces `bounds` (xmin xmax ymin ymax zmin zmax) by the axis-aligned box around their eight
-/// corners mapped by `placement` (nothing for a null or identity matrix).
-void placeBounds(vtkMatrix4x4* placement, double bounds[6]);
+/// corners mapped by `placement` (nothing for a null or identity matrix). False when the result
+/// is not finite (a NaN or infinite Position, Scale or Orientation): no bounds to give.
+bool placeBounds(vtkMatrix4x4* placement, double bounds[6]);
+
+/// Whether every element of `placement` is finite (null: the identity, finite).
+bool finitePlacement(vtkMatrix4x4* placement);
 
 /// @brief The process-wide cache of compressed volumes, keyed by (array, modification time).
 class VolumeCache

@@ -320,10 +320,10 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     double bounds[6];
     const bool resolved = this->Cache && this->ResolveInput(this->Cache);
     this->ShareAcrossRanks(resolved);
-    if (resolved && this->Internals->Source.bounds(bounds))
+    // Where the Transforming properties place the piece (an axis-aligned box around it); none
+    // for a placement that is not finite (the prop says so when it draws).
+    if (resolved && this->Internals->Source.bounds(bounds) && csgvrep::placeBounds(this->Prop->GetMatrix(), bounds))
     {
-      // Where the Transforming properties place the piece (an axis-aligned box around it).
-      csgvrep::placeBounds(this->Prop->GetMatrix(), bounds);
       // This rank's piece (the reader hands each rank whole bricks; a piece is a volume of its
       // own). Translucent materials need the pieces blended front to back: ParaView 5.11's
       // ordered compositing sorts the ranks by these bounds (it reads the geometry bounds even

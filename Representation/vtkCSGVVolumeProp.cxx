@@ -322,8 +322,8 @@ double* vtkCSGVVolumeProp::GetBounds()
   {
     return nullptr;
   }
-  csgvrep::placeBounds(this->GetMatrix(), this->Bounds);
-  return this->Bounds;
+  // A placement that is not finite has no bounds (RenderFrame says why nothing is drawn).
+  return csgvrep::placeBounds(this->GetMatrix(), this->Bounds) ? this->Bounds : nullptr;
 }
 
 bool vtkCSGVVolumeProp::LastLabels(
@@ -877,6 +877,11 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
   {
     // Where the display's Position, Orientation and Scale put the volume now: a new place
     // starts the accumulation anew, the same place changes nothing.
+    if (!csgvrep::finitePlacement(this->GetMatrix()))
+    {
+      this->Report("the display's Position, Scale, Orientation or Origin is not finite: nothing is drawn");
+      return false;
+    }
     p.View.setSource(p.Source.placed(this->GetMatrix()));
   }
   auto* camera = vtkOpenGLCamera::SafeDownCast(ren->GetActiveCamera());

@@ -10,7 +10,7 @@ ignored: the volume stayed while an Outline of the same display moved).
   Orientation set: the volume's silhouette lies within the outline's box on the screen, and the
   outline's corners lie within a pixel of the volume's (their extents on the screen agree).
 - Bounds: ResetCamera frames the moved volume (ParaView takes the bounds with the matrix).
-- A zero scale is not drawn, with an error, and nothing breaks.
+- A zero scale, or a Position that is not finite, is not drawn, with an error, and nothing breaks.
 - A state file keeps the placement."""
 import os
 import sys
@@ -127,6 +127,15 @@ t.check("singular" in errors.text, "a zero scale is said (%s)" % errors.text.str
 d.Scale = [1, 1, 1]
 Render(v)
 t.check((ct.label_image(d) != INVALID).mean() > 0.15, "a scale of one draws again")
+# A Position that is not finite: said, nothing drawn (it drew nothing without a word), no bounds
+# for the view (its camera stays finite); a finite one draws again.
+with t.ErrorLog() as errors:
+    d.Position = [float("nan"), 0, 0]
+    Render(v)
+t.check("not finite" in errors.text, "a NaN Position is said (%s)" % errors.text.strip()[:200])
+d.Position = [1000, 0, 0]
+Render(v)
+t.check((ct.label_image(d) != INVALID).mean() > 0.15, "a finite Position draws again")
 
 # 5. A state file keeps the placement: loaded, the same label image.
 RenameSource("volume", r)
