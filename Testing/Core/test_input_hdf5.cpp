@@ -28,6 +28,7 @@
 #include <iterator>
 #include <memory>
 #include <string>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <vector>
 
@@ -600,6 +601,76 @@ TEST(Hdf5Hostile, ExternalStorageOutsideTheFileFolderIsRefused) {
     std::unique_ptr<InputSource> s = open(outside, allow);
     ASSERT_NE(s, nullptr);
     csgvtest::expectSourceContract(*s, expected("external_labels"));
+}
+
+TEST(Hdf5Hostile, ExternalStorageThatIsNoRegularFileIsRefusedEvenWhenAllowed) {
+    // /dev/zero never ends (a FIFO would block for good): what the user allowed is files.
+    InputOptions allow;
+    allow.allowOutsidePaths = true;
+    for (const InputOptions& options : {InputOptions{}, allow})
+        EXPECT_CONTAINS(openError(fx("external/device.h5"), options),
+                        "dataset /labels keeps its data in the external file '/dev/zero' (/dev/zero), which is not a "
+                        "regular file");
+}
+
+TEST(Hdf5Hostile, ExternalLinksAndVirtualSourcesOutsideTheFileFolderAreRefused) {
+    // Beside the file they are read (relative names are found there, whatever the working
+    // directory), and a virtual dataset that is its own source neither loops nor is refused.
+    expectVolume(fx("links/elink_beside.h5") + ":/d", "link_labels", {4, 5, 6}, LabelType::U16);
+    expectVolume(fx("links/vds_beside.h5"), "link_labels", {4, 5, 6}, LabelType::U16);
+    EXPECT_NE(open(fx("links/vds_self.h5")), nullptr);
+
+    const std::string outside = std::filesystem::weakly_canonical(fx("outside_target.h5")).string();
+    const std::string nested = std::filesystem::weakly_canonical(fx("links/vds_outside.h5")).string();
+    const std::string link = "an external link in '/' leads to ";
+    struct Case {
+        std::string path, says;
+    };
+    InputOptions allow;
+    allow.allowOutsidePaths = true;
+    for (const Case& c : {
+             Case{"links/elink_outside.h5:/d", link + "'/labels' in '" + outside + "' (" + outside + ")"},
+             Case{"links/elink_outside.h5:/g/labels", link + "'/g' in '" + outside + "'"}, // a group on the way
+             Case{"links/elink_outside.h5:/s", link + "'/labels' in '" + outside + "'"},   // behind a soft link
+             Case{"links/elink_relative_outside.h5:/d", link + "'/labels' in '../outside_target.h5' (" + outside + ")"},
+             Case{"links/vds_outside.h5", "virtual dataset /labels takes voxels from 'labels' in '" + outside + "'"},
+             Case{"links/vds_relative_outside.h5",
+                  "virtual dataset /labels takes voxels from 'labels' in '../outside_target.h5' (" + outside + ")"},
+             Case{"links/vds_nested.h5", "virtual dataset " + nested + ":labels takes voxels from 'labels' in '" +
+                                             outside + "'"},
+             Case{"links/vds_through_link.h5",
+                  "the source '/e' of virtual dataset /labels: " + link + "'/labels' in '" + outside + "'"},
+         }) {
+        const std::string message = openError(fx(c.path));
+        EXPECT_CONTAINS(message, c.says);
+        EXPECT_CONTAINS(message, ", outside the HDF5 file's folder ");
+        EXPECT_CONTAINS(message, "; pass --allow-outside-paths");
+        std::unique_ptr<InputSource> s = open(fx(c.path), allow);
+        ASSERT_NE(s, nullptr) << c.path;
+        csgvtest::expectSourceContract(*s, expected("link_labels"));
+    }
+}
+
+TEST(Hdf5Hostile, AFifoALinkOrAVirtualDatasetNamesIsRefusedAtOnce) {
+    // libhdf5 would open the FIFO and wait for a writer for good.
+    namespace fs = std::filesystem;
+    const std::string dir = csgvtest::tempDir() + "/hdf5_pipe";
+    fs::create_directories(dir);
+    for (const char* name : {"elink_pipe.h5", "vds_pipe.h5"})
+        fs::copy_file(fx(std::string("links/") + name), dir + "/" + name, fs::copy_options::overwrite_existing);
+    const std::string pipe = dir + "/pipe.h5";
+    ::unlink(pipe.c_str());
+    ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+    const std::string shown = fs::weakly_canonical(pipe).string();
+    InputOptions allow;
+    allow.allowOutsidePaths = true;
+    for (const InputOptions& options : {InputOptions{}, allow}) {
+        EXPECT_CONTAINS(openError(dir + "/elink_pipe.h5:/d", options),
+                        "an external link in '/' leads to '/labels' in 'pipe.h5' (" + shown + "), which is not a regular file");
+        EXPECT_CONTAINS(openError(dir + "/vds_pipe.h5", options),
+                        "virtual dataset /labels takes voxels from 'labels' in 'pipe.h5' (" + shown +
+                            "), which is not a regular file");
+    }
 }
 
 TEST(Hdf5Hostile, CompressingFillValuesProgressesWithinTheFirstSlabAndCancels) {

@@ -48,7 +48,11 @@
 ///   filter must be available). Chunks larger than the limit are refused. libhdf5 also keeps a
 ///   type-conversion buffer (1 MiB) and its metadata cache (a few MiB).
 /// - External storage (raw data in other files) must lie in the HDF5 file's folder unless
-///   InputOptions::allowOutsidePaths; relative names are resolved there (checkExternalFiles).
+///   InputOptions::allowOutsidePaths; relative names are resolved there (checkStorageFiles). So
+///   must the files external links lead to (checked by libhdf5's callback before it opens one,
+///   for every link a name crosses) and the sources of virtual datasets, nested ones included
+///   (checkDatasetFiles): each must be a regular file (a FIFO would block for good) and, where
+///   libhdf5 would go on searching past a file it cannot open, an HDF5 file.
 /// - Errors: HDF5's error printer is silenced around every call and its own message (the error
 ///   stack, walked) goes into the Status text; also at exit (see silenceShutdownOnce). Every
 ///   handle is closed on every path.
@@ -71,6 +75,7 @@
 #include <filesystem>
 #include <list>
 #include <map>
+#include <set>
 #include <mutex>
 #include <type_traits>
 #include <utility>
@@ -317,6 +322,242 @@ std::string passedOver(hid_t dataset) {
 }
 
 // ------------------------------------------------------------------------------------------------
+// Files an HDF5 file names: external links, virtual dataset sources, external storage
+// ------------------------------------------------------------------------------------------------
+
+namespace fs = std::filesystem;
+
+/// @brief Where the files an HDF5 file names may lie, and what the external-link callback found.
+/// Its address is kept by libhdf5 in every access list made here, and by every dataset opened
+/// with one (a virtual dataset opens its sources with its own copy when read): it lives as long
+/// as the file's handles (Hdf5Source owns it).
+struct FileRules {
+    fs::path folder;              ///< the named HDF5 file's folder (canonical)
+    bool allowOutside = false;    ///< InputOptions::allowOutsidePaths
+    std::string refused;          ///< why the callback refused an external link ("" when it did not)
+    std::set<std::pair<std::string, std::string>> checkedSources; ///< (file, dataset) of checked virtual sources
+};
+
+FileRules rulesFor(const std::string& file, const InputOptions& options) {
+    std::error_code ec;
+    FileRules rules;
+    rules.folder = fs::weakly_canonical(fs::absolute(fs::path(file), ec).parent_path(), ec);
+    rules.allowOutside = options.allowOutsidePaths;
+    return rules;
+}
+
+/// True when the file carries HDF5's signature where a superblock may start (0, 512, 1024, ...).
+bool hasHdf5Signature(const fs::path& path) {
+    static const char kSignature[8] = {'\211', 'H', 'D', 'F', '\r', '\n', '\032', '\n'};
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return false;
+    bool found = false;
+    char head[8];
+    for (long at = 0; !found && at >= 0 && at < (long(1) << 40); at = at ? at * 2 : 512) {
+        if (std::fseek(f, at, SEEK_SET) != 0 || std::fread(head, 1, 8, f) != 8) break;
+        found = std::memcmp(head, kSignature, 8) == 0;
+    }
+    std::fclose(f);
+    return found;
+}
+
+/// The places libhdf5 looks for a file an external link or a virtual dataset names, in its order
+/// (H5Lcreate_external, H5Pset_virtual): an absolute name itself; then, for a relative name (or an
+/// absolute one's last component when that does not exist), each prefix in the environment
+/// variable, the folder of the file that holds the name, and the name as it stands (the working
+/// directory). We set no prefix property. libhdf5 takes the first place it can open.
+std::vector<fs::path> searchOrder(const std::string& stored, const fs::path& holderFolder, const char* envVariable) {
+    std::vector<fs::path> places;
+    fs::path name(stored);
+    std::error_code ec;
+    if (name.is_absolute()) {
+        places.push_back(name);
+        if (fs::exists(name, ec)) return places;
+        name = name.filename();
+    }
+    if (const char* env = std::getenv(envVariable)) {
+        std::string prefixes(env);
+        for (size_t at = 0; at <= prefixes.size();) {
+            const size_t colon = std::min(prefixes.find(':', at), prefixes.size());
+            if (colon > at) places.push_back(fs::path(prefixes.substr(at, colon - at)) / name);
+            at = colon + 1;
+        }
+    }
+    places.push_back(holderFolder / name);
+    places.push_back(name);
+    return places;
+}
+
+/// The rule for a file an HDF5 file names (`what` says which: "the external link /d"): the first
+/// place of `places` that exists is the file read (none: the name dangles, libhdf5 says so). It
+/// must be a regular file (a FIFO would block the read for good, a device never end), lie in the
+/// named file's folder unless allowed, and, where libhdf5 goes on to the next place when it
+/// cannot open one, be an HDF5 file, so that it is the one opened.
+Status checkNamedFile(const FileRules& rules, const std::string& stored, const std::vector<fs::path>& places,
+                      bool mustBeHdf5, const std::string& what) {
+    std::error_code ec;
+    for (const fs::path& place : places) {
+        const fs::file_status status = fs::status(place, ec);
+        if (!fs::exists(status)) continue;
+        const fs::path resolved = fs::weakly_canonical(fs::absolute(place, ec), ec);
+        const std::string names = what + " " + quoted(stored, 200) + " (" + resolved.string() + ")";
+        if (!fs::is_regular_file(status)) return Status::error(names + ", which is not a regular file");
+        const fs::path rel = resolved.lexically_relative(rules.folder);
+        if (!rules.allowOutside && (ec || rel.empty() || *rel.begin() == ".."))
+            return Status::error(names + ", outside the HDF5 file's folder " + rules.folder.string() +
+                                 "; pass --allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
+        if (mustBeHdf5 && !hasHdf5Signature(place)) return Status::error(names + ", which is not an HDF5 file");
+        return Status::ok();
+    }
+    return Status::ok();
+}
+
+/// libhdf5's external-link callback: runs before the target file is opened, for every external
+/// link any name traverses (the last component or one on the way).
+herr_t checkExternalLink(const char* parentFile, const char* parentGroup, const char* childFile, const char* childObject,
+                         unsigned*, hid_t, void* data) {
+    auto* rules = static_cast<FileRules*>(data);
+    std::error_code ec;
+    const fs::path holder = fs::absolute(fs::path(parentFile), ec).parent_path();
+    const Status s = checkNamedFile(*rules, childFile, searchOrder(childFile, holder, "HDF5_EXT_PREFIX"), true,
+                                    "an external link in " + quoted(parentGroup, 200) + " leads to " +
+                                        quoted(childObject, 200) + " in");
+    if (s) return 0;
+    rules->refused = s.message();
+    return -1;
+}
+
+/// A link access list (or one of its subclasses: group and dataset access) that checks every
+/// external link it traverses with the rules.
+Handle linkAccess(FileRules& rules, hid_t cls = H5P_LINK_ACCESS) {
+    Handle lapl(H5Pcreate(cls), H5Pclose);
+    if (lapl.valid() && H5Pset_elink_cb(lapl.get(), checkExternalLink, &rules) < 0) lapl.reset();
+    return lapl;
+}
+
+/// The dataset access list of every open here: external links checked, and external storage
+/// named relatively lies beside the HDF5 file that holds the dataset (libhdf5 would look in the
+/// working directory), where checkStorageFiles looks. libhdf5 refuses to open a dataset already
+/// open with another prefix, so every dataset is opened with this one, never through H5Oopen
+/// (which uses the default prefix).
+Handle datasetAccess(FileRules& rules) {
+    Handle dapl = linkAccess(rules, H5P_DATASET_ACCESS);
+    if (dapl.valid() && H5Pset_efile_prefix(dapl.get(), "${ORIGIN}") < 0) dapl.reset();
+    return dapl;
+}
+
+/// The error of a call that failed: the external-link callback's refusal when it refused (taken,
+/// so the next call starts clean), else libhdf5's words (after `words` and a colon, when given).
+std::string failure(FileRules& rules, const std::string& words) {
+    if (rules.refused.empty()) return words.empty() ? hdf5Message() : words + ": " + hdf5Message();
+    H5Eclear2(H5E_DEFAULT);
+    return std::exchange(rules.refused, std::string());
+}
+
+/// The name of the file that holds an open object (the one an external link led to, if any).
+std::string holderOf(hid_t object) {
+    const ssize_t n = H5Fget_name(object, nullptr, 0);
+    if (n <= 0) return "";
+    std::string name(size_t(n) + 1, '\0');
+    H5Fget_name(object, name.data(), name.size());
+    name.resize(size_t(n));
+    return name;
+}
+
+/// External storage (raw data in other files, H5Pset_external) may name any file: each must be a
+/// regular file in the named HDF5 file's folder unless allowed (checkNamedFile). Relative names
+/// are resolved beside the file that holds the dataset (datasetAccess).
+Status checkStorageFiles(hid_t dataset, hid_t dcpl, const FileRules& rules, const std::string& name) {
+    const int count = H5Pget_external_count(dcpl);
+    std::error_code ec;
+    const fs::path holder = fs::absolute(fs::path(holderOf(dataset)), ec).parent_path();
+    for (int i = 0; i < count; ++i) {
+        char stored[4096] = {0};
+        off_t offset = 0;
+        hsize_t size = 0;
+        if (H5Pget_external(dcpl, unsigned(i), sizeof stored, stored, &offset, &size) < 0)
+            return Status::error("cannot read external file " + std::to_string(i) + " of " + name + ": " + hdf5Message());
+        const fs::path named(stored);
+        const fs::path place = named.is_absolute() ? named : holder / named;
+        if (Status s = checkNamedFile(rules, stored, {place}, false, "dataset " + name + " keeps its data in the external file"); !s)
+            return s;
+    }
+    return Status::ok();
+}
+
+/// How deep virtual datasets may take their voxels from other virtual datasets.
+constexpr int kMostVirtualDepth = 8;
+
+/// A virtual dataset reads its voxels from source datasets, in its own file (".") or others,
+/// which libhdf5 opens when the voxels are read: each source file must pass checkNamedFile, and
+/// each source (opened here with the rules, so external links on its path are checked too) the
+/// same checks as the dataset, nested virtual datasets included. Sources named by a pattern
+/// (printf form, for unlimited dimensions) cannot be checked one by one: refused unless allowed.
+Status checkDatasetFiles(hid_t dataset, FileRules& rules, const std::string& name, int depth = 0) {
+    Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+    if (!dcpl.valid()) return Status::error("cannot read the storage of " + name + ": " + hdf5Message());
+    if (Status s = checkStorageFiles(dataset, dcpl.get(), rules, name); !s) return s;
+    if (H5Pget_layout(dcpl.get()) != H5D_VIRTUAL) return Status::ok();
+    if (depth >= kMostVirtualDepth)
+        return Status::error("virtual dataset " + name + " takes voxels from virtual datasets nested more than " +
+                             std::to_string(kMostVirtualDepth) + " deep");
+    size_t count = 0;
+    if (H5Pget_virtual_count(dcpl.get(), &count) < 0)
+        return Status::error("cannot read the sources of virtual dataset " + name + ": " + hdf5Message());
+    std::error_code ec;
+    const std::string holderName = holderOf(dataset);
+    const fs::path holder = fs::absolute(fs::path(holderName), ec).parent_path();
+    auto text = [&](ssize_t (*get)(hid_t, size_t, char*, size_t), size_t i) {
+        const ssize_t n = get(dcpl.get(), i, nullptr, 0);
+        std::string s(n > 0 ? size_t(n) + 1 : 1, '\0');
+        if (n > 0) get(dcpl.get(), i, s.data(), s.size());
+        s.resize(n > 0 ? size_t(n) : 0);
+        return s;
+    };
+    for (size_t i = 0; i < count; ++i) {
+        if (cancelRequested()) return Status::error("cancelled");
+        const std::string file = text(H5Pget_virtual_filename, i), source = text(H5Pget_virtual_dsetname, i);
+        const std::string what = "virtual dataset " + name + " takes voxels from " + quoted(source, 200) + " in";
+        if (file.empty()) return Status::error("cannot read source " + std::to_string(i) + " of virtual dataset " + name);
+        if (file != "." && !rules.allowOutside && (file.find('%') != std::string::npos || source.find('%') != std::string::npos))
+            return Status::error("virtual dataset " + name + " names its sources by a pattern (" + quoted(file, 200) +
+                                 "), which cannot be checked against the HDF5 file's folder; pass --allow-outside-paths "
+                                 "(InputOptions::allowOutsidePaths) to read it");
+        if (file != ".") {
+            if (Status s = checkNamedFile(rules, file, searchOrder(file, holder, "HDF5_VDS_PREFIX"), true, what); !s)
+                return s;
+        }
+        if (file.find('%') != std::string::npos || source.find('%') != std::string::npos) continue;
+        // The source itself: its external links, storage and sources. Each once (a dataset that
+        // is its own source, or a thousand mappings from one source).
+        fs::path sourceFile = holderName;
+        if (file != ".")
+            for (const fs::path& place : searchOrder(file, holder, "HDF5_VDS_PREFIX"))
+                if (fs::exists(place, ec)) {
+                    sourceFile = place;
+                    break;
+                }
+        const std::string key = fs::weakly_canonical(fs::absolute(sourceFile, ec), ec).string();
+        if (!rules.checkedSources.insert({key, source}).second) continue;
+        Handle opened(file == "." ? H5Iget_file_id(dataset) : H5Fopen(sourceFile.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT),
+                      H5Fclose);
+        if (!opened.valid()) {
+            H5Eclear2(H5E_DEFAULT);
+            continue; // libhdf5 fills what it cannot read from a missing source with the fill value
+        }
+        Handle d(H5Dopen2(opened.get(), source.c_str(), datasetAccess(rules).get()), H5Dclose);
+        if (!d.valid()) {
+            if (!rules.refused.empty()) return Status::error("the source " + quoted(source, 200) + " of virtual dataset " + name + ": " +
+                                     failure(rules, ""));
+            H5Eclear2(H5E_DEFAULT);
+            continue;
+        }
+        if (Status s = checkDatasetFiles(d.get(), rules, key + ":" + source, depth + 1); !s) return s;
+    }
+    return Status::ok();
+}
+
+// ------------------------------------------------------------------------------------------------
 // Finding the dataset
 // ------------------------------------------------------------------------------------------------
 
@@ -326,17 +567,8 @@ struct WalkState {
     std::vector<std::string> volumes; ///< 3D integer datasets
     std::vector<std::string> broken;  ///< objects HDF5 could not open (damaged headers)
     std::vector<std::string> passed;  ///< other datasets, each with why it is not a candidate
+    FileRules* rules = nullptr;
 };
-
-/// The dataset access list of every open here: external storage named relatively lies beside
-/// the HDF5 file (libhdf5 would look in the working directory), where checkExternalFiles looks.
-/// libhdf5 refuses to open a dataset already open with another prefix, so every dataset is opened
-/// with this one, never through H5Oopen (which uses the default prefix).
-Handle datasetAccess() {
-    Handle dapl(H5Pcreate(H5P_DATASET_ACCESS), H5Pclose);
-    if (dapl.valid() && H5Pset_efile_prefix(dapl.get(), "${ORIGIN}") < 0) dapl.reset();
-    return dapl;
-}
 
 herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* data) {
     if (info->type != H5L_TYPE_HARD) return 0; // soft and external links may dangle or leave the file
@@ -347,7 +579,7 @@ herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* da
         return 0;
     }
     if (object.type != H5O_TYPE_DATASET) return 0;
-    Handle d(H5Dopen2(group, name, datasetAccess().get()), H5Dclose);
+    Handle d(H5Dopen2(group, name, datasetAccess(*state->rules).get()), H5Dclose);
     if (!d.valid()) state->broken.push_back(state->prefix + name);
     else if (const std::string why = passedOver(d.get()); why.empty()) state->volumes.push_back(state->prefix + name);
     else state->passed.push_back(state->prefix + name + " " + why);
@@ -355,8 +587,9 @@ herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* da
 }
 
 /// The 3D integer datasets under a group (every depth).
-WalkState walkGroup(hid_t group, const std::string& groupPath) {
+WalkState walkGroup(hid_t group, const std::string& groupPath, FileRules& rules) {
     WalkState state;
+    state.rules = &rules;
     state.prefix = groupPath.empty() || groupPath.back() != '/' ? groupPath + "/" : groupPath;
     H5Lvisit(group, H5_INDEX_NAME, H5_ITER_INC, visitLink, &state);
     H5Eclear2(H5E_DEFAULT);
@@ -374,9 +607,9 @@ std::string passedText(const WalkState& walk) {
 }
 
 /// The dataset to read: the one named, or the file's only 3D integer dataset.
-Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string& named) {
+Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string& named, FileRules& rules) {
     if (named.empty()) {
-        const WalkState walk = walkGroup(file, "/");
+        const WalkState walk = walkGroup(file, "/", rules);
         const std::vector<std::string>& volumes = walk.volumes;
         if (volumes.empty())
             return Status::error("holds no 3D integer dataset" + brokenText(walk) + passedText(walk) +
@@ -384,34 +617,38 @@ Result<std::pair<Handle, std::string>> findDataset(hid_t file, const std::string
         if (volumes.size() > 1)
             return Status::error("holds several 3D integer datasets (" + listText(volumes) +
                                  "); name one as FILE.h5:/group/dataset");
-        Handle d(H5Dopen2(file, volumes[0].c_str(), datasetAccess().get()), H5Dclose);
+        Handle d(H5Dopen2(file, volumes[0].c_str(), datasetAccess(rules).get()), H5Dclose);
         if (!d.valid()) return Status::error("cannot open dataset " + volumes[0] + ": " + hdf5Message());
         return std::make_pair(std::move(d), volumes[0]);
     }
+    // Every call that follows the name checks the external links it crosses (linkAccess).
+    const Handle lapl = linkAccess(rules);
     H5O_info_t object{};
-    if (H5Oget_info_by_name2(file, named.c_str(), &object, H5O_INFO_BASIC, H5P_DEFAULT) < 0) {
+    if (H5Oget_info_by_name2(file, named.c_str(), &object, H5O_INFO_BASIC, lapl.get()) < 0) {
+        if (!rules.refused.empty()) return Status::error(failure(rules, ""));
         // libhdf5's words for what a reader of the object meets: those of opening it (it fails
         // before any dataset is opened, so the default prefix conflicts with nothing).
         H5Eclear2(H5E_DEFAULT);
-        Handle opened(H5Oopen(file, named.c_str(), H5P_DEFAULT), H5Oclose);
-        const std::string why = opened.valid() ? "its header cannot be read" : hdf5Message();
+        Handle opened(H5Oopen(file, named.c_str(), lapl.get()), H5Oclose);
+        const std::string why = opened.valid() ? "its header cannot be read" : failure(rules, "");
         // A link that exists but whose object does not open is a damaged file, not a wrong name.
-        if (H5Lexists(file, named.c_str(), H5P_DEFAULT) > 0) return Status::error("cannot open " + named + ": " + why);
+        if (H5Lexists(file, named.c_str(), lapl.get()) > 0) return Status::error("cannot open " + named + ": " + why);
         H5Eclear2(H5E_DEFAULT);
+        rules.refused.clear();
         return Status::error("no dataset " + named + " in the file (" + why + ")");
     }
     if (object.type == H5O_TYPE_GROUP) {
-        Handle group(H5Gopen2(file, named.c_str(), H5P_DEFAULT), H5Gclose);
-        if (!group.valid()) return Status::error("cannot open " + named + ": " + hdf5Message());
-        const WalkState inside = walkGroup(group.get(), named);
+        Handle group(H5Gopen2(file, named.c_str(), linkAccess(rules, H5P_GROUP_ACCESS).get()), H5Gclose);
+        if (!group.valid()) return Status::error(failure(rules, "cannot open " + named));
+        const WalkState inside = walkGroup(group.get(), named, rules);
         return Status::error(named + " is a group, not a dataset" +
                              (inside.volumes.empty() ? "; it holds no 3D integer dataset" + passedText(inside)
                                                      : "; its 3D integer datasets: " + listText(inside.volumes)) +
                              brokenText(inside));
     }
     if (object.type != H5O_TYPE_DATASET) return Status::error(named + " is a named datatype, not a dataset");
-    Handle d(H5Dopen2(file, named.c_str(), datasetAccess().get()), H5Dclose);
-    if (!d.valid()) return Status::error("cannot open dataset " + named + ": " + hdf5Message());
+    Handle d(H5Dopen2(file, named.c_str(), datasetAccess(rules).get()), H5Dclose);
+    if (!d.valid()) return Status::error(failure(rules, "cannot open dataset " + named));
     return std::make_pair(std::move(d), named);
 }
 
@@ -798,14 +1035,15 @@ void unshuffle(const std::vector<uint8_t>& in, size_t elementBytes, std::vector<
               out.begin() + std::ptrdiff_t(count * elementBytes));
 }
 
-Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache);
+Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache, FileRules& rules);
 
 /// @brief One HDF5 dataset read slab by slab (see the file's @brief for the memory bound).
 class Hdf5Source : public InputSource {
 public:
-    Hdf5Source(std::string path, std::string name, Handle file, Handle dataset, Description what,
-               uint64_t cacheBytes, uint64_t maxWorkingBytes)
-        : m_path(std::move(path)), m_name(std::move(name)), m_file(std::move(file)), m_dataset(std::move(dataset)),
+    Hdf5Source(std::string path, std::string name, std::unique_ptr<FileRules> rules, Handle file, Handle dataset,
+               Description what, uint64_t cacheBytes, uint64_t maxWorkingBytes)
+        : m_path(std::move(path)), m_name(std::move(name)), m_rules(std::move(rules)), m_file(std::move(file)),
+          m_dataset(std::move(dataset)),
           m_type(what.voxel), m_axes(std::move(what.axes)), m_storage(std::move(what.storage)),
           m_cacheBytes(cacheBytes), m_maxWorking(maxWorkingBytes), m_bigEndian(what.bigEndian),
           m_fill(std::move(what.fill)), m_writtenChunks(what.writtenChunks), m_unallocated(what.unallocated) {
@@ -1115,7 +1353,7 @@ private:
             return Status::ok();
         }
         m_dataset.reset();
-        Result<Handle> reopened = reopenWithCache(m_file.get(), m_name, want);
+        Result<Handle> reopened = reopenWithCache(m_file.get(), m_name, want, *m_rules);
         if (!reopened) return fail(m_path, reopened.message());
         m_dataset = std::move(*reopened);
         m_cacheBytes = want.bytes;
@@ -1183,6 +1421,8 @@ private:
 
     std::string m_path;
     std::string m_name; ///< the dataset's path in the file
+    /// Kept by libhdf5 in the access lists of the handles below: declared first, destroyed last.
+    std::unique_ptr<FileRules> m_rules;
     Handle m_file;
     Handle m_dataset;
     VoxelType m_type;
@@ -1216,44 +1456,16 @@ Result<Handle> openFile(const std::string& file) {
 }
 
 /// Reopens the dataset with the chunk cache chosen for it.
-Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache) {
-    Handle dapl = datasetAccess();
+Result<Handle> reopenWithCache(hid_t file, const std::string& name, const ChunkCache& cache, FileRules& rules) {
+    Handle dapl = datasetAccess(rules);
     // w0 below 1: HDF5 evicts chunks read completely first and, when those do not free enough,
     // partly read ones; at w0 = 1 it never evicts a partly read chunk and the cache outgrows
     // its size (it did, by a whole layer, in our measurements).
     if (!dapl.valid() || H5Pset_chunk_cache(dapl.get(), size_t(cache.slots), size_t(cache.bytes), 0.75) < 0)
         return Status::error("cannot set the chunk cache: " + hdf5Message());
     Handle d(H5Dopen2(file, name.c_str(), dapl.get()), H5Dclose);
-    if (!d.valid()) return Status::error("cannot open dataset " + name + ": " + hdf5Message());
+    if (!d.valid()) return Status::error(failure(rules, "cannot open dataset " + name));
     return Result<Handle>(std::move(d));
-}
-
-/// External storage (raw data in other files, H5Pset_external) may name any file: each must lie
-/// in the HDF5 file's own folder (relative names are resolved there, see reopenWithCache) unless
-/// InputOptions::allowOutsidePaths. Symbolic links are followed before comparing.
-Status checkExternalFiles(hid_t dataset, const std::string& file, const std::string& name, const InputOptions& options) {
-    Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
-    if (!dcpl.valid()) return Status::error("cannot read the storage of " + name + ": " + hdf5Message());
-    const int count = H5Pget_external_count(dcpl.get());
-    if (count <= 0 || options.allowOutsidePaths) return Status::ok();
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    const fs::path folder = fs::weakly_canonical(fs::absolute(fs::path(file), ec).parent_path(), ec);
-    for (int i = 0; i < count; ++i) {
-        char stored[4096] = {0};
-        off_t offset = 0;
-        hsize_t size = 0;
-        if (H5Pget_external(dcpl.get(), unsigned(i), sizeof stored, stored, &offset, &size) < 0)
-            return Status::error("cannot read external file " + std::to_string(i) + " of " + name + ": " + hdf5Message());
-        const fs::path named(stored);
-        const fs::path resolved = fs::weakly_canonical(named.is_absolute() ? named : folder / named, ec);
-        const auto rel = resolved.lexically_relative(folder);
-        if (ec || rel.empty() || *rel.begin() == "..")
-            return Status::error("dataset " + name + " keeps its data in the external file " + quoted(stored, 200) +
-                                 " (" + resolved.string() + "), outside the HDF5 file's folder " + folder.string() +
-                                 "; pass --allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
-    }
-    return Status::ok();
 }
 
 /// The dataset's fill value as a label (0 where none is defined), and whether libhdf5 leaves
@@ -1291,8 +1503,7 @@ FillValue fillValueOf(hid_t dataset, const VoxelType& voxel) {
 }
 
 /// Everything about the dataset but its cache: type, axes, storage, geometry.
-Result<Description> describe(hid_t dataset, const std::string& file, const std::string& name,
-                             const InputOptions& options) {
+Result<Description> describe(hid_t dataset, const std::string& name, const InputOptions& options, FileRules& rules) {
     Handle type(H5Dget_type(dataset), H5Tclose);
     Handle space(H5Dget_space(dataset), H5Sclose);
     if (!type.valid() || !space.valid()) return Status::error("cannot read dataset " + name + ": " + hdf5Message());
@@ -1306,7 +1517,7 @@ Result<Description> describe(hid_t dataset, const std::string& file, const std::
     if (storage->chunked && storage->chunkBytes > options.maxWorkingBytes)
         return Status::error("dataset " + name + " has chunks of " + std::to_string(storage->chunkBytes) +
                              " bytes, more than the working-memory limit of " + std::to_string(options.maxWorkingBytes));
-    if (Status s = checkExternalFiles(dataset, file, name, options); !s) return s;
+    if (Status s = checkDatasetFiles(dataset, rules, name); !s) return s;
     d.voxel = *voxel;
     d.axes = std::move(*axes);
     d.storage = std::move(*storage);
@@ -1376,8 +1587,9 @@ Status probeMetadataInChild(const Hdf5Path& where, const InputOptions& options) 
             Hdf5Scope scope;
             Result<Handle> file = openFile(where.file);
             if (file) {
-                Result<std::pair<Handle, std::string>> found = findDataset(file->get(), where.dataset);
-                if (found) (void)describe(found->first.get(), where.file, found->second, options);
+                FileRules rules = rulesFor(where.file, options);
+                Result<std::pair<Handle, std::string>> found = findDataset(file->get(), where.dataset, rules);
+                if (found) (void)describe(found->first.get(), found->second, options, rules);
             }
         }
         ::_exit(0); // errors are the parent's to find and word; no exit handlers, no stdio flush
@@ -1413,19 +1625,20 @@ Result<std::unique_ptr<InputSource>> openHdf5(const std::string& path, const Inp
         Hdf5Scope scope;
         Result<Handle> file = openFile(where.file);
         if (!file) return fail(path, file.message());
-        Result<std::pair<Handle, std::string>> found = findDataset(file->get(), where.dataset);
+        auto rules = std::make_unique<FileRules>(rulesFor(where.file, options));
+        Result<std::pair<Handle, std::string>> found = findDataset(file->get(), where.dataset, *rules);
         if (!found) return fail(path, found.message());
         const std::string name = found->second;
-        Result<Description> what = describe(found->first.get(), where.file, name, options);
+        Result<Description> what = describe(found->first.get(), name, options, *rules);
         if (!what) return fail(path, what.message());
         // The chunk cache is fixed when a dataset is first opened (later opens share it).
         found->first.reset();
         const ChunkCache cache = chooseCache(what->storage, options.maxWorkingBytes);
         // Chunks we decode ourselves are cached by us: libhdf5 keeps none of them.
         Result<Handle> dataset =
-            reopenWithCache(file->get(), name, what->storage.ownDecoding ? ChunkCache{0, 521, false} : cache);
+            reopenWithCache(file->get(), name, what->storage.ownDecoding ? ChunkCache{0, 521, false} : cache, *rules);
         if (!dataset) return fail(path, dataset.message());
-        source = std::make_unique<Hdf5Source>(path, name, std::move(*file), std::move(*dataset), std::move(*what),
+        source = std::make_unique<Hdf5Source>(path, name, std::move(rules), std::move(*file), std::move(*dataset), std::move(*what),
                                               cache.bytes, options.maxWorkingBytes);
     }
     return std::unique_ptr<InputSource>(std::move(source));

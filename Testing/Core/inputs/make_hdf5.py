@@ -292,6 +292,50 @@ def main():
     with h5py.File(os.path.join(ext, "outside.h5"), "w") as f:
         f.create_dataset("labels", shape=(6, 5, 4), dtype=np.uint8, external=[(outside, 0, raw.size)])
     expect(outdir, "external_labels", raw.reshape(6, 5, 4))
+    with h5py.File(os.path.join(ext, "device.h5"), "w") as f:
+        f.create_dataset("labels", shape=(6, 5, 4), dtype=np.uint8, external=[("/dev/zero", 0, raw.size)])
+
+    # External links and virtual datasets name other files, which libhdf5 opens when a name is
+    # followed or voxels are read. links/ holds names of files beside them (read), of a file in
+    # the folder above (refused unless allowed: absolutely, relatively, through a group, behind a
+    # soft link, from a virtual dataset beside that takes its voxels from outside, from a source in
+    # its own file that is an external link), a virtual dataset that is its own source, and names
+    # of "pipe.h5", which the tests make a FIFO in a copy of the folder.
+    links = os.path.join(outdir, "links")
+    os.makedirs(links, exist_ok=True)
+    a = blocky((6, 5, 4), 2, 40, 1, 60000, np.uint16)
+    expect(outdir, "link_labels", a)
+    outside = os.path.abspath(os.path.join(outdir, "outside_target.h5"))
+    for target in (os.path.join(links, "target.h5"), outside):
+        with h5py.File(target, "w") as f:
+            f.create_dataset("labels", data=a)
+            f.create_group("g").create_dataset("labels", data=a)
+
+    def virtual(name, source_file, source="labels", extra=None):
+        layout = h5py.VirtualLayout(shape=a.shape, dtype=a.dtype)
+        layout[:] = h5py.VirtualSource(source_file, source, shape=a.shape, dtype=a.dtype)
+        with h5py.File(os.path.join(links, name), "w", libver="latest") as f:
+            if extra:
+                extra(f)
+            f.create_virtual_dataset("labels", layout, fillvalue=0)
+
+    def links_file(name, **entries):
+        with h5py.File(os.path.join(links, name), "w") as f:
+            for key, link in entries.items():
+                f[key] = link
+
+    links_file("elink_beside.h5", d=h5py.ExternalLink("target.h5", "/labels"))
+    links_file("elink_outside.h5", d=h5py.ExternalLink(outside, "/labels"), g=h5py.ExternalLink(outside, "/g"),
+               s=h5py.SoftLink("/d"))
+    links_file("elink_relative_outside.h5", d=h5py.ExternalLink("../outside_target.h5", "/labels"))
+    links_file("elink_pipe.h5", d=h5py.ExternalLink("pipe.h5", "/labels"))
+    virtual("vds_beside.h5", "target.h5")
+    virtual("vds_outside.h5", outside)
+    virtual("vds_relative_outside.h5", "../outside_target.h5")
+    virtual("vds_nested.h5", "vds_outside.h5")
+    virtual("vds_self.h5", ".", "labels")
+    virtual("vds_through_link.h5", ".", "/e", lambda f: f.__setitem__("e", h5py.ExternalLink(outside, "/labels")))
+    virtual("vds_pipe.h5", "pipe.h5")
 
 
 if __name__ == "__main__":
