@@ -324,6 +324,14 @@ def main():
             for key, link in entries.items():
                 f[key] = link
 
+    # A chain of 1500 nested groups with one dataset at its end (the walk looked every object up
+    # by its whole path: 30 s).
+    with h5py.File(p("deep_groups.h5"), "w") as f:
+        g = f
+        for _ in range(1500):
+            g = g.create_group("g")
+        g.create_dataset("labels", data=a)
+
     links_file("elink_beside.h5", d=h5py.ExternalLink("target.h5", "/labels"))
     links_file("elink_outside.h5", d=h5py.ExternalLink(outside, "/labels"), g=h5py.ExternalLink(outside, "/g"),
                s=h5py.SoftLink("/d"))
