@@ -372,6 +372,37 @@ std::string topLevelState(const std::string& path)
     std::to_string(mtimeNs(st));
 }
 
+std::string namedFilesState(const std::vector<std::string>& files)
+{
+  std::string text;
+  for (const std::string& file : files)
+  {
+    const std::string state = topLevelState(file);
+    text += "named: " + (state.empty() ? std::string("missing") : state) + " " +
+      nlohmann::json(file).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  }
+  return text;
+}
+
+std::vector<std::string> namedFilesIn(const std::string& stamp)
+{
+  std::vector<std::string> files;
+  for (size_t at = stamp.find("\nnamed: "); at != std::string::npos; at = stamp.find("\nnamed: ", at + 1))
+  {
+    const size_t quote = stamp.find('"', at + 1), end = stamp.find('\n', at + 1);
+    if (quote == std::string::npos || end == std::string::npos || quote > end)
+    {
+      continue;
+    }
+    const nlohmann::json path = nlohmann::json::parse(stamp.substr(quote, end - quote), nullptr, false);
+    if (path.is_string())
+    {
+      files.push_back(path.get<std::string>());
+    }
+  }
+  return files;
+}
+
 std::string readStamp(const std::string& path)
 {
   csgv::Result<std::vector<uint8_t>> bytes = csgv::readFile(path, kMaxStampBytes);

@@ -60,6 +60,15 @@ std::string cacheIdentity(const std::string& cache);
 /// RequestInformation and RequestData of one update, whether the walk must be done again.
 std::string topLevelState(const std::string& path);
 
+/// The state of the files an input names besides itself (csgv::InputInfo::namedFiles: an NRRD's
+/// data file, an HDF5 file's external links, storage and virtual sources), one line each, for the
+/// stamp: `named: INODE SIZE MTIME "PATH"`, or `named: missing "PATH"` (the path as JSON).
+std::string namedFilesState(const std::vector<std::string>& files);
+
+/// The files a stamp's `named:` lines list (none for a stamp without any, or a damaged line: the
+/// stamp then no longer matches and the input is compressed again).
+std::vector<std::string> namedFilesIn(const std::string& stamp);
+
 /// The text of a stamp file ("" when it is missing or unreadable).
 std::string readStamp(const std::string& path);
 

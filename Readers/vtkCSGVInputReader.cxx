@@ -82,8 +82,12 @@ public:
     {
       return false;
     }
+    // The files the input names besides itself (an NRRD's data file, an HDF5 file's links) are
+    // those the stamp lists, taken again now.
     const std::string identity = csgvvtk::cacheIdentity(this->Cache);
-    return !identity.empty() && csgvvtk::readStamp(this->Cache + ".stamp") == this->Stamp + identity &&
+    const std::string stamp = csgvvtk::readStamp(this->Cache + ".stamp");
+    return !identity.empty() &&
+      stamp == this->Stamp + csgvvtk::namedFilesState(csgvvtk::namedFilesIn(stamp)) + identity &&
       this->Reader->CanReadFile(this->Cache.c_str());
   }
 
@@ -597,7 +601,8 @@ bool vtkCSGVInputReader::Compress()
   // The stamp names the cache just written (before the new reader looks at it, so a concurrent
   // writer's later .csgv never matches it).
   const std::string identity = csgvvtk::cacheIdentity(in.Cache);
-  if (identity.empty() || !csgvvtk::writeStamp(in.Cache + ".stamp", in.Stamp + identity))
+  if (identity.empty() ||
+    !csgvvtk::writeStamp(in.Cache + ".stamp", in.Stamp + csgvvtk::namedFilesState(report.namedFiles) + identity))
   {
     vtkWarningMacro(<< "cannot write '" << in.Cache << ".stamp'; the input will be compressed again next time");
   }

@@ -195,6 +195,57 @@ t.check(compressed == 1 and mtime_ns(beside) != csgv_mtime, "a modified input is
 check_labels(img, vol2, "modified")
 Delete(r)
 
+# --- Files the input names: their changes make the cache stale too --------------------------------
+# A detached NRRD header and its data file: the header stays as it is, the data change.
+nhdr = os.path.join(src, "detached.nhdr")
+raw = os.path.join(src, "detached.raw")
+d, h, w = vol.shape
+with open(nhdr, "w") as f:
+    f.write("NRRD0004\ntype: uint32\ndimension: 3\nsizes: %d %d %d\nendian: little\nencoding: raw\n"
+            "data file: detached.raw\n" % (w, h, d))
+vol.astype("<u4").tofile(raw)
+r, img, _, compressed = open_input(nhdr)
+t.check(compressed == 1, "a detached NRRD is compressed")
+t.check('named: ' in open(nhdr + ".csgv.stamp").read() and raw in open(nhdr + ".csgv.stamp").read(),
+        "its stamp lists the data file")
+Delete(r)
+r, img, _, compressed = open_input(nhdr)
+t.check(compressed == 0, "unchanged, the detached NRRD's cache is reused")
+Delete(r)
+vol2.astype("<u4").tofile(raw)
+st = os.stat(raw)
+os.utime(raw, ns=(st.st_atime_ns, st.st_mtime_ns + 2_000_000_000))
+r, img, _, compressed = open_input(nhdr)
+t.check(compressed == 1, "a changed data file is compressed again (the header is unchanged)")
+check_labels(img, vol2, "new data file")
+Delete(r)
+
+# An HDF5 file whose dataset is an external link to another file beside it.
+try:
+    import h5py
+except ImportError:
+    h5py = None
+if h5py is None:
+    t.log("skip HDF5 external link case: no h5py")
+else:
+    target, linking = os.path.join(src, "target.h5"), os.path.join(src, "linking.h5")
+    with h5py.File(target, "w") as f:
+        f["labels"] = vol.astype(np.uint32)
+    with h5py.File(linking, "w") as f:
+        f["d"] = h5py.ExternalLink("target.h5", "/labels")
+    r, img, _, compressed = open_input(linking + ":/d")
+    t.check(compressed == 1, "an HDF5 external link is compressed")
+    check_labels(img, vol, "HDF5 external link")
+    Delete(r)
+    with h5py.File(target, "w") as f:
+        f["labels"] = vol2.astype(np.uint32)
+    st = os.stat(target)
+    os.utime(target, ns=(st.st_atime_ns, st.st_mtime_ns + 2_000_000_000))
+    r, img, _, compressed = open_input(linking + ":/d")
+    t.check(compressed == 1, "a changed link target is compressed again (the linking file is unchanged)")
+    check_labels(img, vol2, "new link target")
+    Delete(r)
+
 # --- Encoding options are part of the stamp -----------------------------------------------------
 r, img, _, compressed = open_input(nrrd, BrickSize=16)
 t.check(compressed == 1, "another brick size compresses again")

@@ -508,6 +508,7 @@ struct Job {
         rep.dim = info.dim;
         rep.voxels = info.voxelCount();
         rep.inputFormat = info.format;
+        rep.namedFiles = info.namedFiles;
         return Status::ok();
     }
 

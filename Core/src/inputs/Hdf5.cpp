@@ -336,6 +336,7 @@ struct FileRules {
     bool allowOutside = false;    ///< InputOptions::allowOutsidePaths
     std::string refused;          ///< why the callback refused an external link ("" when it did not)
     std::set<std::pair<std::string, std::string>> checkedSources; ///< (file, dataset) of checked virtual sources
+    std::set<std::string> named;  ///< every file found for a name (canonical): InputInfo::namedFiles
 };
 
 FileRules rulesFor(const std::string& file, const InputOptions& options) {
@@ -393,7 +394,7 @@ std::vector<fs::path> searchOrder(const std::string& stored, const fs::path& hol
 /// must be a regular file (a FIFO would block the read for good, a device never end), lie in the
 /// named file's folder unless allowed, and, where libhdf5 goes on to the next place when it
 /// cannot open one, be an HDF5 file, so that it is the one opened.
-Status checkNamedFile(const FileRules& rules, const std::string& stored, const std::vector<fs::path>& places,
+Status checkNamedFile(FileRules& rules, const std::string& stored, const std::vector<fs::path>& places,
                       bool mustBeHdf5, const std::string& what) {
     std::error_code ec;
     for (const fs::path& place : places) {
@@ -407,6 +408,7 @@ Status checkNamedFile(const FileRules& rules, const std::string& stored, const s
             return Status::error(names + ", outside the HDF5 file's folder " + rules.folder.string() +
                                  "; pass --allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
         if (mustBeHdf5 && !hasHdf5Signature(place)) return Status::error(names + ", which is not an HDF5 file");
+        rules.named.insert(resolved.string());
         return Status::ok();
     }
     return Status::ok();
@@ -467,7 +469,7 @@ std::string holderOf(hid_t object) {
 /// External storage (raw data in other files, H5Pset_external) may name any file: each must be a
 /// regular file in the named HDF5 file's folder unless allowed (checkNamedFile). Relative names
 /// are resolved beside the file that holds the dataset (datasetAccess).
-Status checkStorageFiles(hid_t dataset, hid_t dcpl, const FileRules& rules, const std::string& name) {
+Status checkStorageFiles(hid_t dataset, hid_t dcpl, FileRules& rules, const std::string& name) {
     const int count = H5Pget_external_count(dcpl);
     std::error_code ec;
     const fs::path holder = fs::absolute(fs::path(holderOf(dataset)), ec).parent_path();
@@ -1566,6 +1568,7 @@ Result<Description> describe(hid_t dataset, const std::string& name, const Input
     std::string notes;
     d.info.geometry = geometryOf(dataset, d.axes, notes);
     d.info.detail = "dataset " + name + ", " + d.storage.detail + notes;
+    d.info.namedFiles.assign(rules.named.begin(), rules.named.end());
     return d;
 }
 

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <map>
 
 namespace csgv {
@@ -600,7 +601,11 @@ Result<std::unique_ptr<InputSource>> openNrrdSource(const std::string& path, con
     info.geometry = h->geometry;
     info.format = "NRRD";
     info.detail = voxelDetail(h->type, h->bigEndian, h->gzip);
-    if (dataPath != path) info.detail += ", data in '" + dataPath + "'";
+    if (dataPath != path) {
+        info.detail += ", data in '" + dataPath + "'";
+        std::error_code ec;
+        info.namedFiles.push_back(std::filesystem::absolute(dataPath, ec).string());
+    }
     auto src = std::make_unique<NrrdSource>(dataName, h->byteSkip);
     if (Status s = src->init(path, info, *data, options); !s) return s;
     return std::unique_ptr<InputSource>(std::move(src));

@@ -36,6 +36,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace csgv {
 
@@ -69,6 +70,7 @@ struct CompressReport {
     std::array<uint32_t, 3> dim{{0, 0, 0}};
     uint64_t voxels = 0;
     std::string inputFormat;   ///< "synth", "vraw", "NRRD", "NIfTI", "HDF5", ...
+    std::vector<std::string> namedFiles; ///< the input's InputInfo::namedFiles
     uint64_t outputBytes = 0;
     bool relabelled = false;
     uint64_t labelCount = 0;   ///< ids in the database when relabelled (0 included)

@@ -53,6 +53,10 @@ struct InputInfo {
     /// Slices stored together (the z extent of a chunk; 1 for formats stored slice by slice):
     /// readers that read rows serve bands this deep from a small cache (see readRows).
     uint32_t chunkDepth = 1;
+    /// Other files whose bytes make the volume, absolute: NRRD's data file, HDF5 external storage,
+    /// the targets of external links followed and the sources of virtual datasets. A cache of the
+    /// volume (vtkCSGVInputReader's stamp) is stale when one of them changes.
+    std::vector<std::string> namedFiles;
 
     /// Saturates at kSaturated instead of wrapping; openInput refuses any input whose voxels
     /// would need 2^64 bytes or more at full width, so for an opened source it is exact.
