@@ -2,6 +2,7 @@
 #include "vtkCSGVInputReader.h"
 
 #include "CSGVAdapter.h"
+#include "CSGVFileSeries.h"
 #include "CSGVInputCache.h"
 #include "vtkCSGVReader.h"
 
@@ -54,7 +55,7 @@ public:
   std::string StampTopLevel;
   bool Failed = true;
   /// FileNames as set (AddFileName); what is read is chosen in ChooseInputs.
-  std::vector<std::string> FileNames;
+  csgvvtk::FileSeries FileNames;
   /// The inputs of the last RequestInformation (FileName alone, or FileNames) and, for a time
   /// series, the step whose file Location and Cache describe.
   std::vector<std::string> Inputs;
@@ -159,80 +160,41 @@ enum SeriesModes
   TimeSeries = 3
 };
 
-/// The time step a request asks for: time values are the file indices 0, 1, ..., N - 1, and a
-/// time between two of them shows the earlier file (as vtkFileSeriesReader does).
-int requestedStep(vtkInformation* outInfo, int steps)
-{
-  if (!outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP()))
-  {
-    return 0;
-  }
-  const double t = outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP());
-  if (!(t > 0.0)) // NaN too
-  {
-    return 0;
-  }
-  return int(std::min<double>(std::floor(t + 1e-9), double(steps - 1)));
-}
 } // namespace
 
 void vtkCSGVInputReader::AddFileName(const char* fileName)
 {
-  this->Internals->FileNames.emplace_back(fileName ? fileName : "");
+  this->Internals->FileNames.Add(fileName);
   this->Modified();
 }
 
 void vtkCSGVInputReader::RemoveAllFileNames()
 {
-  if (!this->Internals->FileNames.empty())
+  if (this->Internals->FileNames.Clear())
   {
-    this->Internals->FileNames.clear();
     this->Modified();
   }
 }
 
 int vtkCSGVInputReader::GetNumberOfFileNames()
 {
-  return static_cast<int>(this->Internals->FileNames.size());
+  return this->Internals->FileNames.Count();
 }
 
 const char* vtkCSGVInputReader::GetFileNameAt(int index)
 {
-  const std::vector<std::string>& names = this->Internals->FileNames;
-  return index >= 0 && index < static_cast<int>(names.size()) ? names[size_t(index)].c_str() : nullptr;
+  return this->Internals->FileNames.At(index);
 }
 
 bool vtkCSGVInputReader::ChooseInputs(std::string& error)
 {
   vtkInternals& in = *this->Internals;
-  in.Inputs.clear();
-  const std::string single = this->FileName ? this->FileName : "";
-  for (const std::string& name : in.FileNames)
+  if (!in.FileNames.Choose(this->FileName, in.Inputs, error))
   {
-    if (name.empty())
-    {
-      error = "FileNames has an empty entry";
-      return false;
-    }
-  }
-  if (!in.FileNames.empty() && !single.empty() &&
-    !(in.FileNames.size() == 1 && in.FileNames[0] == single))
-  {
-    // A script that sets FileName on a reader the file dialog made (or the reverse) would
-    // otherwise read one of the two silently.
-    error = "both FileName ('" + single + "') and FileNames (" + std::to_string(in.FileNames.size()) +
-      (in.FileNames.size() == 1 ? " file" : " files") + ", '" + in.FileNames[0] +
-      "' first) are set; set only one of them";
     return false;
   }
-  in.Inputs = in.FileNames.empty() ? std::vector<std::string>{ single } : in.FileNames;
   if (in.Inputs.size() == 1)
   {
-    if (in.Inputs[0].empty())
-    {
-      error = "no FileName set";
-      return false;
-    }
     this->SeriesMode = OneInput;
     return true;
   }
@@ -274,8 +236,7 @@ int vtkCSGVInputReader::RequestInformation(
   // leaves an empty output (as vtkCSGVReader does).
   const int empty[6] = { 0, -1, 0, -1, 0, -1 };
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
-  outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_STEPS());
-  outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_RANGE());
+  csgvvtk::ClearSteps(outInfo);
   std::string error;
   if (!this->ChooseInputs(error))
   {
@@ -287,51 +248,48 @@ int vtkCSGVInputReader::RequestInformation(
   if (this->SeriesMode == TimeSeries)
   {
     const int steps = static_cast<int>(in.Inputs.size());
-    std::vector<double> times(in.Inputs.size());
-    for (int i = 0; i < steps; ++i)
-    {
-      times[size_t(i)] = i;
-    }
-    const double range[2] = { 0.0, double(steps - 1) };
-    outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_STEPS(), times.data(), steps);
-    outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_RANGE(), range, 2);
-    in.Step = requestedStep(outInfo, steps);
+    csgvvtk::AnnounceSteps(outInfo, steps);
+    in.Step = csgvvtk::RequestedStep(outInfo, steps);
   }
   this->PrepareInput(outInfo);
   return 1;
 }
 
+vtkTypeBool vtkCSGVInputReader::ProcessRequest(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  if (request->Has(vtkStreamingDemandDrivenPipeline::REQUEST_TIME_DEPENDENT_INFORMATION()))
+  {
+    this->SwitchStep(outputVector->GetInformationObject(0));
+    return 1;
+  }
+  return this->Superclass::ProcessRequest(request, inputVector, outputVector);
+}
+
 int vtkCSGVInputReader::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
-  vtkInternals& in = *this->Internals;
-  if (this->SeriesMode != TimeSeries)
-  {
-    return 1;
-  }
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
-  const int step = requestedStep(outInfo, static_cast<int>(in.Inputs.size()));
-  if (step == in.Step)
+  this->SwitchStep(outInfo);
+  if (this->SeriesMode == TimeSeries)
   {
-    return 1;
-  }
-  // Another time step is another file: announce its extent (as vtkFileSeriesReader does), and
-  // ask it whole when the extent asked of the previous file does not fit it.
-  in.Step = step;
-  this->PrepareInput(outInfo);
-  int whole[6], ext[6];
-  outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
-  bool inside = true;
-  for (int a = 0; a < 3; ++a)
-  {
-    inside = inside && ext[2 * a] >= whole[2 * a] && ext[2 * a + 1] <= whole[2 * a + 1];
-  }
-  if (!inside)
-  {
-    outInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+    csgvvtk::FitUpdateExtent(outInfo);
   }
   return 1;
+}
+
+void vtkCSGVInputReader::SwitchStep(vtkInformation* outInfo)
+{
+  vtkInternals& in = *this->Internals;
+  const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
+  if (this->SeriesMode == TimeSeries && step != in.Step)
+  {
+    // Another time step is another file: announce its extent, as vtkFileSeriesReader does
+    // (and fit the update extent left from the previous step, see vtkCSGVReader::SwitchStep).
+    in.Step = step;
+    this->PrepareInput(outInfo);
+    csgvvtk::FitUpdateExtent(outInfo);
+  }
 }
 
 void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
@@ -444,7 +402,7 @@ int vtkCSGVInputReader::RequestData(
   {
     // RequestUpdateExtent has switched to the requested step's file; a request that came
     // without one (it should not) switches here.
-    const int step = requestedStep(outInfo, static_cast<int>(in.Inputs.size()));
+    const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
     if (step != in.Step)
     {
       in.Step = step;
@@ -616,8 +574,8 @@ void vtkCSGVInputReader::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
-  os << indent << "FileNames: " << this->Internals->FileNames.size() << "\n";
-  for (const std::string& name : this->Internals->FileNames)
+  os << indent << "FileNames: " << this->Internals->FileNames.Count() << "\n";
+  for (const std::string& name : this->Internals->FileNames.All())
   {
     os << indent.GetNextIndent() << name << "\n";
   }

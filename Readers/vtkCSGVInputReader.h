@@ -147,7 +147,10 @@ protected:
 
   int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   /// A time series switches to the file of the requested time step here (announcing its extent).
+  /// Time-dependent information, as vtkCSGVReader (SwitchStep there).
+  vtkTypeBool ProcessRequest(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  void SwitchStep(vtkInformation* outInfo);
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   char* FileName = nullptr;

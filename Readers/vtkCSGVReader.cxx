@@ -2,6 +2,7 @@
 #include "vtkCSGVReader.h"
 
 #include "CSGVAdapter.h"
+#include "CSGVFileSeries.h"
 
 #include "csgv/base/MappedFile.h"
 #include "csgv/codec/CsgvFile.h"
@@ -52,6 +53,12 @@ bool isVrawName(const std::string& path)
 class vtkCSGVReader::vtkInternals
 {
 public:
+  csgvvtk::FileSeries FileNames; ///< as set (AddFileName)
+  /// What the last RequestInformation chose (FileName alone, or FileNames) and the time step
+  /// whose file is described.
+  std::vector<std::string> Inputs;
+  int Step = 0;
+
   std::string Path;
   int64_t MTime = -1;
   int64_t Size = -1;
@@ -373,16 +380,94 @@ int vtkCSGVReader::CanReadFile(const char* fileName)
     : 0;
 }
 
+void vtkCSGVReader::AddFileName(const char* fileName)
+{
+  this->Internals->FileNames.Add(fileName);
+  this->Modified();
+}
+
+void vtkCSGVReader::RemoveAllFileNames()
+{
+  if (this->Internals->FileNames.Clear())
+  {
+    this->Modified();
+  }
+}
+
+int vtkCSGVReader::GetNumberOfFileNames()
+{
+  return this->Internals->FileNames.Count();
+}
+
+const char* vtkCSGVReader::GetFileNameAt(int index)
+{
+  return this->Internals->FileNames.At(index);
+}
+
 int vtkCSGVReader::RequestInformation(
   vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
-  if (!this->FileName || !*this->FileName)
+  vtkInternals& in = *this->Internals;
+  csgvvtk::ClearSteps(outInfo);
+  std::string error;
+  if (!in.FileNames.Choose(this->FileName, in.Inputs, error))
   {
-    vtkErrorMacro(<< "no FileName set");
+    vtkErrorMacro(<< error);
+    in.Loaded = false; // never the previous file's data
     return 0;
   }
-  const std::string error = this->Internals->Load(this->FileName);
+  const int steps = static_cast<int>(in.Inputs.size());
+  if (steps > 1)
+  {
+    csgvvtk::AnnounceSteps(outInfo, steps);
+  }
+  in.Step = csgvvtk::RequestedStep(outInfo, steps);
+  this->DescribeFile(outInfo);
+  return 1;
+}
+
+vtkTypeBool vtkCSGVReader::ProcessRequest(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  if (request->Has(vtkStreamingDemandDrivenPipeline::REQUEST_TIME_DEPENDENT_INFORMATION()))
+  {
+    this->SwitchStep(outputVector->GetInformationObject(0));
+    return 1;
+  }
+  return this->Superclass::ProcessRequest(request, inputVector, outputVector);
+}
+
+int vtkCSGVReader::RequestUpdateExtent(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  this->SwitchStep(outInfo);
+  if (this->Internals->Inputs.size() > 1)
+  {
+    csgvvtk::FitUpdateExtent(outInfo);
+  }
+  return 1;
+}
+
+void vtkCSGVReader::SwitchStep(vtkInformation* outInfo)
+{
+  vtkInternals& in = *this->Internals;
+  const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
+  if (in.Inputs.size() > 1 && step != in.Step)
+  {
+    // Another time step is another file: announce its extent, as vtkFileSeriesReader does.
+    // The update extent left from the previous step (the proxy's own UpdatePipeline asks it
+    // again) would fail the executive's check before RequestUpdateExtent is asked.
+    in.Step = step;
+    this->DescribeFile(outInfo);
+    csgvvtk::FitUpdateExtent(outInfo);
+  }
+}
+
+void vtkCSGVReader::DescribeFile(vtkInformation* outInfo)
+{
+  const std::string error = this->Internals->Load(this->Internals->Inputs[size_t(this->Internals->Step)]);
   if (!error.empty())
   {
     vtkErrorMacro(<< error);
@@ -390,7 +475,7 @@ int vtkCSGVReader::RequestInformation(
     // output, never the previous file's data.
     const int empty[6] = { 0, -1, 0, -1, 0, -1 };
     outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
-    return 1;
+    return;
   }
   const vtkInternals& in = *this->Internals;
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
@@ -420,7 +505,6 @@ int vtkCSGVReader::RequestInformation(
   // Pieces (MPI ranks) are whole bricks that RequestData chooses (csgv::brickPartition) and
   // reads alone; one piece honours the update extent (decoding only the bricks under it).
   outInfo->Set(vtkAlgorithm::CAN_HANDLE_PIECE_REQUEST(), 1);
-  return 1;
 }
 
 int vtkCSGVReader::RequestData(
@@ -434,6 +518,19 @@ int vtkCSGVReader::RequestData(
   }
   output->Initialize();
   vtkInternals& in = *this->Internals;
+  if (in.Inputs.size() > 1)
+  {
+    // RequestUpdateExtent has switched to the requested step's file; a request that came
+    // without one (it should not) switches here. Every output says which step it is, failed
+    // ones too (an output without a time would be asked for again at every render).
+    const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
+    if (step != in.Step)
+    {
+      in.Step = step;
+      this->DescribeFile(outInfo);
+    }
+    output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), double(in.Step));
+  }
   if (!in.Loaded)
   {
     return 1; // RequestInformation reported why; the output stays empty
@@ -530,13 +627,13 @@ int vtkCSGVReader::RequestData(
   {
     // The encoding stays on the output (the Segmentation Volume draws every other brick and
     // names the bad ones); only the decoded label array is missing.
-    vtkErrorMacro(<< this->FileName << ": " << error
+    vtkErrorMacro(<< in.Path << ": " << error
                   << " (the Labels array is not loaded; the Segmentation Volume draws the other bricks)");
     return 1; // reported once: a failed request would be re-executed and reported again
   }
   if (!decoded.warning.empty())
   {
-    vtkWarningMacro(<< this->FileName << ": " << decoded.warning);
+    vtkWarningMacro(<< in.Path << ": " << decoded.warning);
   }
   output->GetCellData()->SetScalars(decoded.array);
   return 1;
@@ -546,6 +643,11 @@ void vtkCSGVReader::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
+  os << indent << "FileNames: " << this->Internals->FileNames.Count() << "\n";
+  for (const std::string& name : this->Internals->FileNames.All())
+  {
+    os << indent.GetNextIndent() << name << "\n";
+  }
   os << indent << "DecodeLabels: " << this->DecodeLabels << "\n";
   os << indent << "DecodeThreshold: " << this->DecodeThreshold << "\n";
   os << indent << "Level: " << this->Level << "\n";

@@ -44,6 +44,11 @@
  * dimensions; the representation draws the piece in the volume's index space). One piece
  * honours the update extent as before.
  *
+ * File series (FileNames; CSGVFileSeries.h says why): several files are a time series, step i
+ * the i-th file (time values 0, 1, ..., N - 1; each step may have its own dimensions), read
+ * one at a time as FileName would be, pieces included. FileName stays for scripts and state
+ * files; setting both (other than FileNames = {FileName}) is an error.
+ *
  * Errors (missing, truncated or malformed files, bad sidecars) are reported with vtkErrorMacro
  * carrying Core's message, and the output is empty.
  */
@@ -66,6 +71,14 @@ public:
 
   vtkSetStringMacro(FileName);
   vtkGetStringMacro(FileName);
+
+  /// The files of a time series, in order (ParaView's repeatable FileNames property). Empty by
+  /// default; when not empty, FileName must be empty or the only entry.
+  void AddFileName(const char* fileName);
+  void RemoveAllFileNames();
+  int GetNumberOfFileNames();
+  /// Entry `index` of FileNames (null outside [0, GetNumberOfFileNames())).
+  const char* GetFileNameAt(int index);
 
   /// Decode labels into the "Labels" cell array when the level holds at most DecodeThreshold
   /// voxels (default on).
@@ -102,6 +115,15 @@ protected:
 
   int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  /// A time series declares time-dependent information: the pipeline asks for it
+  /// (REQUEST_TIME_DEPENDENT_INFORMATION) once the requested time is known, before any consumer
+  /// computes its update extent, and the reader switches to that step's file and announces its
+  /// extent there (SwitchStep). RequestUpdateExtent switches too, for requests without that pass.
+  vtkTypeBool ProcessRequest(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  void SwitchStep(vtkInformation* outInfo);
+  /// Reads the current file's header and sidecars and announces its extent and geometry.
+  void DescribeFile(vtkInformation* outInfo);
 
   char* FileName = nullptr;
   vtkTypeBool DecodeLabels = 1;

@@ -1,0 +1,131 @@
+// SPDX-License-Identifier: MIT
+#include "CSGVFileSeries.h"
+
+#include <vtkInformation.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace csgvvtk
+{
+
+bool FileSeries::Clear()
+{
+  const bool had = !this->Names.empty();
+  this->Names.clear();
+  return had;
+}
+
+const char* FileSeries::At(int index) const
+{
+  return index >= 0 && index < this->Count() ? this->Names[size_t(index)].c_str() : nullptr;
+}
+
+bool FileSeries::Choose(const char* fileName, std::vector<std::string>& inputs, std::string& error) const
+{
+  inputs.clear();
+  const std::string single = fileName ? fileName : "";
+  for (const std::string& name : this->Names)
+  {
+    if (name.empty())
+    {
+      error = "FileNames has an empty entry";
+      return false;
+    }
+  }
+  if (!this->Names.empty() && !single.empty() && !(this->Names.size() == 1 && this->Names[0] == single))
+  {
+    // A script that sets FileName on a reader the file dialog made (or the reverse) would
+    // otherwise read one of the two silently.
+    error = "both FileName ('" + single + "') and FileNames (" + std::to_string(this->Names.size()) +
+      (this->Names.size() == 1 ? " file" : " files") + ", '" + this->Names[0] +
+      "' first) are set; set only one of them";
+    return false;
+  }
+  inputs = this->Names.empty() ? std::vector<std::string>{ single } : this->Names;
+  if (inputs.size() == 1 && inputs[0].empty())
+  {
+    error = "no FileName set";
+    inputs.clear();
+    return false;
+  }
+  return true;
+}
+
+int RequestedStep(vtkInformation* outInfo, int steps)
+{
+  if (steps <= 1 || !outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP()))
+  {
+    return 0;
+  }
+  const double t = outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP());
+  if (!(t > 0.0)) // NaN too
+  {
+    return 0;
+  }
+  return int(std::min<double>(std::floor(t + 1e-9), double(steps - 1)));
+}
+
+void AnnounceSteps(vtkInformation* outInfo, int steps)
+{
+  std::vector<double> times(size_t(std::max(steps, 0)));
+  for (int i = 0; i < steps; ++i)
+  {
+    times[size_t(i)] = i;
+  }
+  const double range[2] = { 0.0, double(steps - 1) };
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_STEPS(), times.data(), steps);
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_RANGE(), range, 2);
+  // Each step is a file with its own extent: the pipeline asks for it once the time is known.
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_DEPENDENT_INFORMATION(), 1);
+  // Consumers downstream (ParaView's post filter, representations) keep the whole extent of the
+  // step they saw last and ask it again before the reader can answer (the executive checks the
+  // request against the new step's extent first): the reader takes any request and fits it to
+  // the step's extent in RequestUpdateExtent (FitUpdateExtent).
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::UNRESTRICTED_UPDATE_EXTENT(), 1);
+}
+
+void ClearSteps(vtkInformation* outInfo)
+{
+  outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_STEPS());
+  outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_RANGE());
+  outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_DEPENDENT_INFORMATION());
+  outInfo->Remove(vtkStreamingDemandDrivenPipeline::UNRESTRICTED_UPDATE_EXTENT());
+}
+
+void FitUpdateExtent(vtkInformation* outInfo)
+{
+  int whole[6], ext[6];
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+  bool inside = true;
+  for (int a = 0; a < 3; ++a)
+  {
+    inside = inside && ext[2 * a] >= whole[2 * a] && ext[2 * a + 1] <= whole[2 * a + 1];
+  }
+  if (!inside)
+  {
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+  }
+  // The executive unites each request with the extents requested before in the same cycle
+  // (COMBINED_UPDATE_EXTENT): one of the previous step would bring its extent back.
+  if (outInfo->Has(vtkStreamingDemandDrivenPipeline::COMBINED_UPDATE_EXTENT()))
+  {
+    int combined[6];
+    outInfo->Get(vtkStreamingDemandDrivenPipeline::COMBINED_UPDATE_EXTENT(), combined);
+    bool fits = true;
+    for (int a = 0; a < 3; ++a)
+    {
+      fits = fits && (combined[2 * a] > combined[2 * a + 1] ||
+                       (combined[2 * a] >= whole[2 * a] && combined[2 * a + 1] <= whole[2 * a + 1]));
+    }
+    if (!fits)
+    {
+      static const int empty[6] = { 0, -1, 0, -1, 0, -1 };
+      outInfo->Set(vtkStreamingDemandDrivenPipeline::COMBINED_UPDATE_EXTENT(), empty, 6);
+    }
+  }
+}
+
+} // namespace csgvvtk

@@ -1,0 +1,63 @@
+// SPDX-License-Identifier: MIT
+/**
+ * @file CSGVFileSeries.h
+ * @brief A reader's FileName and FileNames, and the time series FileNames makes (private to
+ * Readers/; used by vtkCSGVReader and vtkCSGVInputReader).
+ *
+ * Why FileNames: ParaView's file dialog groups `s_0.csgv` ... `s_9.csgv` into one entry and
+ * hands the whole group to a repeatable (`repeat_command`) property only; any other reader gets
+ * the first file, silently. FileName stays for scripts and state files; setting both (other than
+ * FileNames = {FileName}) is an error, never one of the two read silently.
+ *
+ * Time steps are the file indices 0, 1, ..., N - 1; a time between two shows the earlier file
+ * (as vtkFileSeriesReader does). Another step is another file, possibly of another extent: it is
+ * announced in RequestUpdateExtent, where the requested time is known.
+ */
+#ifndef CSGVFileSeries_h
+#define CSGVFileSeries_h
+
+#include <string>
+#include <vector>
+
+class vtkInformation;
+
+namespace csgvvtk
+{
+
+/// @brief FileNames as set, in order.
+class FileSeries
+{
+public:
+  void Add(const char* fileName) { this->Names.emplace_back(fileName ? fileName : ""); }
+  /// True when there was something to remove (the reader is then Modified).
+  bool Clear();
+  int Count() const { return static_cast<int>(this->Names.size()); }
+  /// Entry `index` (null outside [0, Count())).
+  const char* At(int index) const;
+  const std::vector<std::string>& All() const { return this->Names; }
+
+  /// What is read: FileName alone, or FileNames. False with `error` when both are set and
+  /// differ, an entry is empty, or nothing is set.
+  bool Choose(const char* fileName, std::vector<std::string>& inputs, std::string& error) const;
+
+private:
+  std::vector<std::string> Names;
+};
+
+/// The time step a request asks for, in [0, steps).
+int RequestedStep(vtkInformation* outInfo, int steps);
+
+/// Publishes time steps 0 .. steps - 1, their range, and that the information (the extent)
+/// depends on the time (the reader answers REQUEST_TIME_DEPENDENT_INFORMATION).
+void AnnounceSteps(vtkInformation* outInfo, int steps);
+
+/// Removes what AnnounceSteps published.
+void ClearSteps(vtkInformation* outInfo);
+
+/// After another step's extent was announced: the update extent asked of the previous file
+/// becomes the whole extent when it does not fit this one.
+void FitUpdateExtent(vtkInformation* outInfo);
+
+} // namespace csgvvtk
+
+#endif
