@@ -337,6 +337,9 @@ struct FileRules {
     std::string refused;          ///< why the callback refused an external link ("" when it did not)
     std::set<std::pair<std::string, std::string>> checkedSources; ///< (file, dataset) of checked virtual sources
     std::set<std::string> named;  ///< every file found for a name (canonical): InputInfo::namedFiles
+    /// Virtual source file names already checked, by the folder they were named from and the
+    /// name, with the file found (a dataset may take a million mappings from one file).
+    std::map<std::string, fs::path> checkedNames;
 };
 
 FileRules rulesFor(const std::string& file, const InputOptions& options) {
@@ -525,20 +528,24 @@ Status checkDatasetFiles(hid_t dataset, FileRules& rules, const std::string& nam
             return Status::error("virtual dataset " + name + " names its sources by a pattern (" + quoted(file, 200) +
                                  "), which cannot be checked against the HDF5 file's folder; pass --allow-outside-paths "
                                  "(InputOptions::allowOutsidePaths) to read it");
+        fs::path sourceFile = holderName; // where libhdf5 finds the source's file
         if (file != ".") {
-            if (Status s = checkNamedFile(rules, file, searchOrder(file, holder, "HDF5_VDS_PREFIX"), true, what); !s)
-                return s;
+            const auto [known, added] = rules.checkedNames.emplace(holder.string() + "\n" + file, fs::path());
+            if (added) {
+                const std::vector<fs::path> places = searchOrder(file, holder, "HDF5_VDS_PREFIX");
+                if (Status s = checkNamedFile(rules, file, places, true, what); !s) return s;
+                for (const fs::path& place : places)
+                    if (fs::exists(place, ec)) {
+                        known->second = place;
+                        break;
+                    }
+            }
+            if (known->second.empty()) continue; // no such file: libhdf5 reads the fill value
+            sourceFile = known->second;
         }
         if (file.find('%') != std::string::npos || source.find('%') != std::string::npos) continue;
         // The source itself: its external links, storage and sources. Each once (a dataset that
         // is its own source, or a thousand mappings from one source).
-        fs::path sourceFile = holderName;
-        if (file != ".")
-            for (const fs::path& place : searchOrder(file, holder, "HDF5_VDS_PREFIX"))
-                if (fs::exists(place, ec)) {
-                    sourceFile = place;
-                    break;
-                }
         const std::string key = fs::weakly_canonical(fs::absolute(sourceFile, ec), ec).string();
         if (!rules.checkedSources.insert({key, source}).second) continue;
         Handle opened(file == "." ? H5Iget_file_id(dataset) : H5Fopen(sourceFile.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT),
