@@ -1328,3 +1328,19 @@ TEST(PathGuard, OpenRegularFileRefusesFifosWithoutBlocking) {
     ASSERT_TRUE(fd.isOk()) << fd.message();
     ::close(*fd);
 }
+
+TEST(InputsErrors, AFifoOrAFolderIsSaidAsSuch) {
+    // Found by an attack pass: a FIFO named .nii, .nii.gz or .vraw.gz was "no such file".
+    for (const char* name : {"fifo.nii", "fifo.nii.gz", "fifo.vraw.gz"}) {
+        const std::string path = tmp(name);
+        ::unlink(path.c_str());
+        ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+        csgv::Result<std::unique_ptr<csgv::InputSource>> r = csgv::openInput(path, {});
+        EXPECT_FALSE(r.isOk());
+        EXPECT_NE(r.message().find("'" + path + "' is a FIFO (named pipe), not a file"), std::string::npos) << r.message();
+        ::unlink(path.c_str());
+    }
+    const std::string missing = tmp("missing.nii");
+    csgv::Result<std::unique_ptr<csgv::InputSource>> r = csgv::openInput(missing, {});
+    EXPECT_NE(r.message().find("cannot open '" + missing + "': no such file"), std::string::npos) << r.message();
+}

@@ -144,6 +144,19 @@ bool existsButNotRegular(const std::string& path) {
     return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
 }
 
+Status regularFile(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0)
+        return Status::error("cannot open '" + path + "': " + (errno == ENOENT ? "no such file" : errnoText()));
+    if (S_ISREG(st.st_mode)) return Status::ok();
+    const char* what = S_ISDIR(st.st_mode)                           ? "a folder"
+                       : S_ISFIFO(st.st_mode)                        ? "a FIFO (named pipe)"
+                       : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device"
+                       : S_ISSOCK(st.st_mode)                        ? "a socket"
+                                                                     : "not a regular file";
+    return Status::error("'" + path + "' is " + what + ", not a file");
+}
+
 bool fileExists(const std::string& path) {
     struct stat st {};
     return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
@@ -360,7 +373,7 @@ Result<uint64_t> InputStream::skip(uint64_t bytes) {
 
 Result<std::vector<uint8_t>> readFileMaybeGz(const std::string& path, uint64_t maxBytes) {
     if (!endsWithNoCase(path, ".gz")) return readFile(path, maxBytes);
-    if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
+    if (Status s = regularFile(path); !s) return s;
     InputStream in;
     if (Status s = in.open(path); !s) {
         if (in.failure() == InputStream::Failure::Open) return Status::error("cannot open '" + path + "'");

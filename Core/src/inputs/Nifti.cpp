@@ -225,7 +225,7 @@ Result<NiftiHeader> parseNiftiHeader(const uint8_t* bytes, size_t size, const st
 
 Result<std::unique_ptr<InputSource>> openNiftiSource(const std::string& path, const InputOptions& options,
                                                      const uint64_t* wholeVolumeBudget) {
-    if (!fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
+    if (Status s = regularFile(path); !s) return s;
     // The header through the stream that also tells whether the file is gzip (whatever its name,
     // as gzopen decides).
     InputStream stream;

@@ -65,7 +65,9 @@ bool claimsVraw(const std::string& path) { return endsWithNoCase(path, ".vraw") 
 
 Result<std::unique_ptr<InputSource>> openVraw(const std::string& path, const InputOptions& options) {
     const bool gzName = endsWithNoCase(path, ".gz");
-    if (gzName && !fileExists(path)) return Status::error("cannot open '" + path + "': no such file");
+    if (gzName) {
+        if (Status s = regularFile(path); !s) return s;
+    }
     Result<uint64_t> size = fileSize(path);
     if (!size) return size.status();
     // A `.vraw.gz` whose content is not gzip is read as it is (what gzopen does).

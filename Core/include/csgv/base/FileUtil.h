@@ -140,6 +140,9 @@ bool fileExists(const std::string& path);
 /// device or socket (a FIFO's open waits for a writer, a device may never end). Found by stat
 /// alone, nothing is opened.
 bool existsButNotRegular(const std::string& path);
+/// Ok for an existing regular file, else what it is, by stat alone: "cannot open 'P': no such
+/// file", "'P' is a FIFO (named pipe), not a file", "... a folder ...", "... a device ...".
+Status regularFile(const std::string& path);
 /// The memory available now (MemAvailable of /proc/meminfo) in bytes; 0 where unknown.
 uint64_t availableMemoryBytes();
 /// True when `s` ends with `suffix` (lowercase ASCII), ignoring case: file extensions.
