@@ -888,6 +888,15 @@ TEST(InputsNiftiErrors, HeaderProblems) {
     EXPECT_TRUE(failsWith(csgv::readNifti(tmp("absent.nii.gz")).status(), {"absent.nii.gz"}));
 }
 
+TEST(InputsNiftiErrors, BitpixThatDisagreesWithTheDatatype) {
+    // uint16 (datatype 512) with bitpix 8: one reader would read bytes, another pairs of them.
+    NiftiSpec s = niftiSpec(512, 8, 2, 2, 2);
+    EXPECT_TRUE(failsWith(niftiRoundTrip("bitpix.nii", s, Bytes(16, 1)).status(),
+                          {"bitpix.nii", "bitpix 8 disagrees with datatype 512", "16 bits a voxel", "damaged"}));
+    s.bitpix = 16;
+    EXPECT_TRUE(niftiRoundTrip("bitpix_ok.nii", s, Bytes(16, 1)).isOk());
+}
+
 TEST(InputsNiftiErrors, TruncatedAndHuge) {
     NiftiSpec s = niftiSpec(4, 16, 4, 4, 4);
     EXPECT_TRUE(failsWith(niftiRoundTrip("truncated.nii", s, Bytes(127, 0)).status(),

@@ -174,6 +174,12 @@ Result<NiftiHeader> parseFields(const uint8_t* head, const std::string& name) {
     if (!niftiType(datatype, out.type))
         return fail(name, "datatype " + std::to_string(datatype) + " (" + niftiTypeName(datatype) +
                               ") is not supported; a label volume needs an integer or float type");
+    // A reader that trusts bitpix would read another voxel size than one that trusts datatype.
+    const int bitpix = hf.i16(72);
+    if (bitpix != int(typeBytes(out.type) * 8))
+        return fail(name, "bitpix " + std::to_string(bitpix) + " disagrees with datatype " + std::to_string(datatype) +
+                              " (" + niftiTypeName(datatype) + ", " + std::to_string(typeBytes(out.type) * 8) +
+                              " bits a voxel): the header is damaged");
 
     double slope = hf.f32(112), inter = hf.f32(116);
     // nifti1_io treats non-finite scale fields as absent.
