@@ -421,6 +421,12 @@ int cmdInfo(const Args& a) {
         const auto t0 = std::chrono::steady_clock::now();
         Status s = validateStreams(v, a.threads);
         if (!s) return fail(a.positional[0] + ": " + s.message());
+        // The header's largest palette is the largest brick palette (readers size buffers by it).
+        uint32_t largest = 0;
+        for (uint64_t i = 0; i < v.brickCount(); ++i) largest = std::max(largest, v.brick(i).words[v.levels()]);
+        if (largest != v.maxPalette)
+            return fail(a.positional[0] + ": the header says the largest palette holds " + std::to_string(v.maxPalette) +
+                        " labels, but the largest brick palette holds " + std::to_string(largest));
         std::printf("check: ok (%llu bricks, %.3f s)\n", (unsigned long long)v.brickCount(), seconds(t0));
     }
     if (a.stats) {

@@ -169,6 +169,12 @@ expect 1 "info INPUT --stats" "$CSGV" info "$TMP/n16.nrrd" --stats
 grep -q -- "--stats applies to a .csgv file" "$TMP/err" || bad "--stats on an input: $(cat "$TMP/err")"
 expect 1 "info INPUT --check" "$CSGV" info synth:8x8x8 --check
 grep -q -- "--check applies to a .csgv file" "$TMP/err" || bad "--check on an input: $(cat "$TMP/err")"
+# A header whose largest palette (bytes 33..36) no brick has: --check says so (readers size by it).
+cp "$DEF" "$TMP/pal.csgv"
+printf '\377\377\377\377' | dd of="$TMP/pal.csgv" bs=1 seek=33 conv=notrunc status=none
+expect 1 "info --check, a false largest palette" "$CSGV" info "$TMP/pal.csgv" --check
+grep -q "the header says the largest palette holds 4294967295 labels, but the largest brick palette holds" "$TMP/err" ||
+  bad "false largest palette: $(cat "$TMP/err")"
 
 # SIGINT during compress cancels through the progress callback: exit 130, one message, no
 # temporary or output files left.
