@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <sys/resource.h>
 #include <unistd.h>
 #include <fstream>
 #include <iterator>
@@ -315,13 +316,116 @@ TEST(InputTiff, NotTiffOrNothingToRead) {
 
 TEST(InputTiff, LimitsAreChecked) {
     InputOptions small;
-    small.maxWorkingBytes = 100; // one 16x16 uint16 tile needs 512 bytes
+    small.maxWorkingBytes = 100; // one 16x16 uint16 tile needs 512 bytes, its deflate state 64 KiB
     Result<std::unique_ptr<InputSource>> src = openInput(at("tiled_deflate.tif"), small);
     ASSERT_FALSE(src.isOk());
-    EXPECT_CONTAINS(src.message(), "page 0: one decoded tile takes 512 bytes, more than half the working-memory limit");
+    EXPECT_CONTAINS(src.message(), "page 0: reading needs ");
+    EXPECT_CONTAINS(src.message(), " bytes of working memory (a decoded tile of 512 bytes, ");
+    EXPECT_CONTAINS(src.message(), " compressed bytes of one and 65536 bytes of decoder state), more than the "
+                                   "working-memory limit of 100 bytes; a file saved with smaller strips or tiles needs less");
 
     std::unique_ptr<InputSource> u8 = openOk(at("u8.tif"));
     ASSERT_TRUE(u8);
     std::vector<uint64_t> out(10 * 9 * 2);
     EXPECT_FALSE(u8->readSlab(4, 2, out.data()).isOk());
+}
+
+// ---- memory -----------------------------------------------------------------------------------
+
+TEST(InputTiff, WorkingMemoryIsKnownWhenOpened) {
+    // Pages of strips of 4, 4 and 32 rows of 64 uint8 (uncompressed: a strip's bytes are its
+    // pixels): reading needs the largest strip and its bytes, 2048 + 2048, which the third page
+    // brings. Refused when opened, before any pixel is decoded, naming that page.
+    const std::string path = at("growing_strips.tif");
+    InputOptions options;
+    options.maxWorkingBytes = 4095;
+    Result<std::unique_ptr<InputSource>> refused = openInput(path, options);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_EQ(refused.message(), path + ": page 2: reading needs 4096 bytes of working memory (a decoded strip of "
+                                        "2048 bytes, 2048 compressed bytes of one and 0 bytes of decoder state), more "
+                                        "than the working-memory limit of 4095 bytes; a file saved with smaller "
+                                        "strips or tiles needs less");
+    // At the limit it opens, reads every voxel exactly and holds no more than it said.
+    options.maxWorkingBytes = 4096;
+    Result<std::unique_ptr<InputSource>> src = openInput(path, options);
+    ASSERT_TRUE(src.isOk()) << src.message();
+    const std::vector<uint64_t> expected = expectedValues("growing_strips.tif");
+    Result<InputVolume> all = readAll(**src, path);
+    ASSERT_TRUE(all.isOk()) << all.message();
+    EXPECT_TRUE(all->values == expected);
+    EXPECT_LE((*src)->workingBytes(), 4096u);
+}
+
+TEST(InputTiff, CraftedBlockSizesAreRefusedByName) {
+    EXPECT_CONTAINS(failure(at("huge_tile.tif")), "page 0 has tiles of 1073741824 x 1073741824 for a 64 x 64 image: "
+                                                  "a tile far larger than the image (a corrupt or crafted header)");
+    EXPECT_CONTAINS(failure(at("strip_claims.tif")),
+                    "page 0: strip 0 claims 70000 compressed bytes for 16 decoded ones, far more than any codec "
+                    "writes (a corrupt or crafted header)");
+}
+
+TEST(InputTiff, ShallowVolumeBandHoldsOnlyItsSlices) {
+    // 512 x 384 x 3 uint16 in bricks of 32: the encoder's band is the volume's 3 slices of uint32
+    // labels (it was 32 slices, 24 MiB), the adapter's scratch those slices at 64 bits, the
+    // source one deflate strip of 16 rows and its bytes.
+    const std::string input = at("shallow.tif");
+    const std::string output = csgvtest::tempDir() + "/tiff_shallow.csgv";
+    const uint64_t volume = 512 * 384 * 3;
+    CompressOptions options;
+    options.encode.brickSize = 32;
+    CompressReport report;
+    Status s = compressToFile(input, output, options, &report);
+    ASSERT_TRUE(s.isOk()) << s.message();
+    EXPECT_GE(report.workingBytes, volume * (4 + 8));
+    EXPECT_LE(report.workingBytes, volume * (4 + 8) + (64u << 10));
+    Result<CompressedVolume> vol = readCsgv(output);
+    ASSERT_TRUE(vol.isOk()) << vol.message();
+    Result<LabelVolume> decoded = decodeVolume(*vol, 0);
+    ASSERT_TRUE(decoded.isOk()) << decoded.message();
+    EXPECT_EQ(decoded->dim, (std::array<uint32_t, 3>{512, 384, 3}));
+    const std::vector<uint64_t> expected = expectedValues("shallow.tif");
+    ASSERT_EQ(decoded->labels.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i)
+        ASSERT_EQ(uint64_t(decoded->labels[i]), expected[i]) << "voxel " << i;
+}
+
+namespace {
+
+/// This process's mapped bytes now (VmSize of /proc/self/status), 0 where unknown.
+uint64_t mappedBytes() {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind("VmSize:", 0) == 0) return std::stoull(line.substr(7)) * 1024;
+    return 0;
+}
+
+} // namespace
+
+TEST(InputTiff, BandBeyondTheMemoryAllowedIsRefusedBeforeReading) {
+    // 4096 x 4096 x 33 pages of zeros (one shared deflate strip, 20 KB): bricks of 32 need a band of
+    // 2 GiB of labels. Under an address-space limit 768 MiB above what is mapped now, the
+    // compression is refused before the band is allocated, with the bytes, the limit and a brick
+    // size that fits; the limit is restored after.
+    struct rlimit old {};
+    ASSERT_EQ(getrlimit(RLIMIT_AS, &old), 0);
+    const uint64_t mapped = mappedBytes();
+    ASSERT_GT(mapped, 0u);
+    const rlim_t limit = rlim_t(mapped + (uint64_t(768) << 20));
+    if (old.rlim_max != RLIM_INFINITY && old.rlim_max < limit) GTEST_SKIP() << "the hard address-space limit is lower";
+    struct rlimit lowered = old;
+    lowered.rlim_cur = limit;
+    ASSERT_EQ(setrlimit(RLIMIT_AS, &lowered), 0);
+    const std::string output = csgvtest::tempDir() + "/tiff_deep_wide.csgv";
+    CompressOptions options;
+    options.encode.brickSize = 32;
+    options.encode.threads = 1;
+    Status s = compressToFile(at("deep_wide.tif"), output, options);
+    ASSERT_EQ(setrlimit(RLIMIT_AS, &old), 0);
+    ASSERT_FALSE(s.isOk());
+    EXPECT_CONTAINS(s.message(), "a band of 4096 x 4096 x 32 labels (bricks of 32^3) needs 2147483648 bytes of memory, "
+                                 "more than the process's address-space limit of " +
+                                     std::to_string(limit >> 20) + " MiB; bricks of ");
+    EXPECT_CONTAINS(s.message(), "(--brick-size ");
+    EXPECT_FALSE(std::ifstream(output).good()) << "the refused compression left " << output;
 }

@@ -394,26 +394,98 @@ private:
 };
 
 /// @brief How pass 1 reads the labels: bands of `rows` rows (whole brick rows) of `slabs`
-/// brick-deep slabs at once. A source that does not read rows gives whole slabs, one at a time;
-/// one that does is read in bands of about maxBandBytes, as deep as its chunks (chunkDepth()) so
-/// that no chunk is read twice.
+/// brick-deep slabs at once, `depth` slices deep. A source that does not read rows gives whole
+/// slabs, one at a time; one that does is read in bands of about maxBandBytes, as deep as its
+/// chunks (chunkDepth()) so that no chunk is read twice.
 struct BandShape {
     uint32_t rows = 0;
     uint32_t slabs = 1;
+    /// Slices a band holds: the slabs' slices, never more than the volume has (a single slice
+    /// in bricks of 32 is one slice of labels, not 32).
+    uint32_t depth = 0;
 };
 
 BandShape bandShape(const SlabSource& source, uint32_t B, uint64_t maxBandBytes) {
     const auto dim = source.dimensions();
     BandShape shape;
     shape.rows = dim[1];
-    if (!source.readsRows() || source.slabInMemory(0)) return shape;
-    const uint32_t slabsPerVolume = (dim[2] + B - 1) / B;
-    shape.slabs = std::clamp<uint32_t>((source.chunkDepth() + B - 1) / B, 1, std::max(slabsPerVolume, 1u));
-    const uint64_t brickRowBytes = uint64_t(dim[0]) * B * B * shape.slabs * sizeof(uint32_t);
-    const uint64_t brickRows = std::max<uint64_t>(1, maxBandBytes / std::max<uint64_t>(brickRowBytes, 1));
-    shape.rows = uint32_t(std::min<uint64_t>(dim[1], brickRows * B));
+    if (source.readsRows() && !source.slabInMemory(0)) {
+        const uint32_t slabsPerVolume = (dim[2] + B - 1) / B;
+        shape.slabs = std::clamp<uint32_t>((source.chunkDepth() + B - 1) / B, 1, std::max(slabsPerVolume, 1u));
+        const uint64_t brickRowBytes = uint64_t(dim[0]) * B * B * shape.slabs * sizeof(uint32_t);
+        const uint64_t brickRows = std::max<uint64_t>(1, maxBandBytes / std::max<uint64_t>(brickRowBytes, 1));
+        shape.rows = uint32_t(std::min<uint64_t>(dim[1], brickRows * B));
+    }
+    shape.depth = uint32_t(std::min<uint64_t>(uint64_t(shape.slabs) * B, dim[2]));
     return shape;
 }
+
+/// Bytes of a band of `shape` over slices `width` labels wide (saturating).
+uint64_t bandBytes(const BandShape& shape, uint32_t width) {
+    return mulSaturate(product3(width, shape.rows, shape.depth), sizeof(uint32_t));
+}
+
+/// The memory this process may use: the machine's, or the address-space limit (ulimit -v) where
+/// that is smaller; `what` words it for messages.
+uint64_t memoryAllowed(std::string* what) {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    uint64_t memory = pages > 0 && page > 0 ? uint64_t(pages) * uint64_t(page) : ~uint64_t(0);
+    std::string text = "this machine's " + std::to_string(memory >> 20) + " MiB of memory";
+    struct rlimit rl {};
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && uint64_t(rl.rlim_cur) < memory) {
+        memory = uint64_t(rl.rlim_cur);
+        text = "the process's address-space limit of " + std::to_string(memory >> 20) + " MiB";
+    }
+    if (what) *what = text;
+    return memory;
+}
+
+/// Pass 1's band of labels for `source` in bricks of B, refused before it is allocated when it
+/// cannot fit the memory the process may use, and when its allocation fails: the message names
+/// the band, the bytes it needs, the limit, and a brick size whose band fits, where one does.
+class BandMemory {
+public:
+    BandMemory(const SlabSource& source, uint32_t B, uint64_t maxBandBytes)
+        : m_source(source), m_B(B), m_maxBandBytes(maxBandBytes), m_shape(bandShape(source, B, maxBandBytes)) {}
+
+    /// Sizes `band` for the shape's labels.
+    Status allocate(std::vector<uint32_t>& band) const {
+        std::string what;
+        const uint64_t limit = memoryAllowed(&what);
+        const uint64_t bytes = bandBytes(m_shape, m_source.dimensions()[0]);
+        if (bytes > limit) return refusal("more than " + what, limit);
+        try {
+            band.resize(size_t(bytes / sizeof(uint32_t)));
+        } catch (const std::bad_alloc&) {
+            return refusal("and the allocation failed (" + what + ")", limit);
+        }
+        return Status::ok();
+    }
+
+private:
+    Status refusal(const std::string& why, uint64_t limit) const {
+        const uint32_t W = m_source.dimensions()[0];
+        std::string smaller;
+        for (uint32_t b = m_B / 2; b >= 8 && smaller.empty(); b /= 2) {
+            const uint64_t bytes = bandBytes(bandShape(m_source, b, m_maxBandBytes), W);
+            if (bytes < bandBytes(m_shape, W) && (bytes <= limit || b == 8))
+                smaller = (bytes <= limit ? "; bricks of " : "; even bricks of ") + std::to_string(b) + "^3 need " +
+                          std::to_string(bytes) + " (--brick-size " + std::to_string(b) + ")";
+        }
+        if (smaller.empty())
+            smaller = m_shape.depth < m_B ? "; a smaller --brick-size needs no less: the band is as deep as the volume"
+                                          : "; bricks of 8^3 are the smallest";
+        return Status::error("a band of " + std::to_string(W) + " x " + std::to_string(m_shape.rows) + " x " +
+                             std::to_string(m_shape.depth) + " labels (bricks of " + std::to_string(m_B) +
+                             "^3) needs " + std::to_string(bandBytes(m_shape, W)) + " bytes of memory, " + why +
+                             smaller);
+    }
+
+    const SlabSource& m_source;
+    uint32_t m_B;
+    uint64_t m_maxBandBytes;
+    BandShape m_shape;
+};
 
 /// @brief The symbols of constant bricks, made without their voxels: one template per brick
 /// extent of the volume (inside, and cut at the far end of each axis: at most 8), encoded once
@@ -519,7 +591,6 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
     const BandShape shape = bandShape(source, B, maxBandBytes);
     // Allocated at the first read: a volume of uniform boxes never needs it.
     std::vector<uint32_t> band;
-    const uint64_t bandVoxels = uint64_t(W) * shape.rows * B * shape.slabs;
     const uint64_t brickRowsPerBand = (shape.rows + B - 1) / B;
     const int nThreads =
         int(std::min<uint64_t>(uint64_t(threadsFor(options)), uint64_t(grid[0]) * brickRowsPerBand * shape.slabs));
@@ -571,13 +642,8 @@ Status symbolsBySlab(SlabSource& source, const CompressedVolume& vol, const Enco
                 readY0 = y0;
                 readRows = rows;
             } else if (readRows > 0) {
-                if (band.empty()) {
-                    try {
-                        band.resize(size_t(bandVoxels));
-                    } catch (const std::bad_alloc&) {
-                        return Status::error("out of memory for a band of " + std::to_string(bandVoxels) + " labels");
-                    }
-                }
+                if (band.empty())
+                    if (Status s = BandMemory(source, B, maxBandBytes).allocate(band); !s) return s;
                 Status s = readRows == H ? source.readSlab(z0, depth, band.data())
                                          : source.readRows(z0, depth, readY0, readRows, band.data());
                 if (!s) return s;
@@ -875,7 +941,7 @@ private:
 uint64_t encoderBandBytes(const SlabSource& source, uint32_t brickSize, uint64_t maxBandBytes) {
     if (source.slabInMemory(0)) return 0;
     const BandShape shape = bandShape(source, brickSize, maxBandBytes);
-    return uint64_t(source.dimensions()[0]) * shape.rows * brickSize * shape.slabs * sizeof(uint32_t);
+    return bandBytes(shape, source.dimensions()[0]);
 }
 
 /// Bricks of a volume (saturating: 2^32 voxels a side in bricks of 8 would be 2^87).
@@ -890,14 +956,8 @@ uint64_t encoderIndexBytes(const std::array<uint32_t, 3>& dim, uint32_t brickSiz
 }
 
 uint64_t automaticIndexLimit(std::string* why) {
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-    uint64_t memory = pages > 0 && page > 0 ? uint64_t(pages) * uint64_t(page) : ~uint64_t(0);
-    std::string what = "this machine's " + std::to_string(memory >> 20) + " MiB of memory";
-    struct rlimit rl {};
-    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && uint64_t(rl.rlim_cur) < memory) {
-        memory = uint64_t(rl.rlim_cur);
-        what = "the process's address-space limit of " + std::to_string(memory >> 20) + " MiB";
-    }
+    std::string what;
+    const uint64_t memory = memoryAllowed(&what);
     if (why) *why = "half of " + what;
     return memory / 2;
 }

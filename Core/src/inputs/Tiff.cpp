@@ -30,8 +30,12 @@
 /// z spacing tag, and its X/YResolution are mostly a meaningless 72 dpi default.
 ///
 /// Working memory: one decoded strip or tile (reused; pixels are widened from it straight into
-/// the caller's slab) plus libtiff's buffer of that strip's compressed bytes; both are checked
-/// against InputOptions::maxWorkingBytes. One file is open at a time: the multi-page file, or the
+/// the caller's slab), libtiff's buffer of one strip's compressed bytes and the codec's state
+/// (ReadMemory). Their sum over the largest of each on any page is checked against
+/// InputOptions::maxWorkingBytes when the input is opened, before any pixel is decoded, and again
+/// as each page is read (the file may have changed). A tile far larger than its image, or a strip
+/// or tile claiming far more compressed bytes than its pixels can need, is refused by name: only a
+/// crafted or corrupt header has one. One file is open at a time: the multi-page file, or the
 /// slice being read. Each page's IFD offset is cached when opened, so a page is reached with
 /// one TIFFSetSubDirectory, not by walking the chain.
 ///
@@ -150,6 +154,9 @@ private:
 
 // ---- one page's layout ------------------------------------------------------------------------
 
+/// a + b, or kSaturated where that would wrap (sizes from a header).
+constexpr uint64_t addSaturate(uint64_t a, uint64_t b) { return a > kSaturated - b ? kSaturated : a + b; }
+
 /// @brief What a page is (size, type) and how its pixels are stored (strips or tiles).
 struct PageLayout {
     uint32_t width = 0, height = 0;
@@ -158,11 +165,12 @@ struct PageLayout {
     uint32_t tileWidth = 0, tileHeight = 0; ///< tiled
     uint32_t rowsPerStrip = 0;              ///< stripped (clamped to the height)
     uint16_t compression = COMPRESSION_NONE;
+    uint64_t largestCompressed = 0; ///< the most compressed bytes of one strip or tile (once checked)
 
-    /// Bytes of one decoded strip or tile.
+    /// Bytes of one decoded strip or tile (saturating: a header may claim tiles of 2^32 x 2^32).
     uint64_t blockBytes() const {
         const uint64_t pixels = tiled ? uint64_t(tileWidth) * tileHeight : uint64_t(rowsPerStrip) * width;
-        return pixels * typeBytes(type);
+        return mulSaturate(pixels, typeBytes(type));
     }
     uint64_t blockCount() const {
         if (!tiled) return (uint64_t(height) + rowsPerStrip - 1) / rowsPerStrip;
@@ -237,6 +245,21 @@ std::string readSamples(TIFF* tif, PageLayout& p) {
     return why;
 }
 
+/// A tile may pad the image (tiles are multiples of 16 wide and tall, and a writer may use one
+/// size for every image), but one larger than the whole image and than this is no layout a
+/// writer chooses: a header written to make a reader allocate.
+constexpr uint64_t kLargestPaddingTileBytes = uint64_t(16) << 20;
+
+/// Empty when the page's tiles are of a size an image can have, else what is wrong.
+std::string tileSizeProblem(const PageLayout& p) {
+    const auto upTo16 = [](uint32_t n) { return (uint64_t(n) + 15) / 16 * 16; };
+    const uint64_t paddedImage = product3(upTo16(p.width), upTo16(p.height), typeBytes(p.type));
+    if (p.blockBytes() <= std::max(paddedImage, kLargestPaddingTileBytes)) return {};
+    return "has tiles of " + std::to_string(p.tileWidth) + " x " + std::to_string(p.tileHeight) + " for a " +
+           std::to_string(p.width) + " x " + std::to_string(p.height) +
+           " image: a tile far larger than the image (a corrupt or crafted header)";
+}
+
 /// How the page's pixels are stored: strips or tiles, and the codec; empty when readable.
 std::string readBlocks(TIFF* tif, PageLayout& p) {
     uint32_t imageDepth = 1;
@@ -252,6 +275,7 @@ std::string readBlocks(TIFF* tif, PageLayout& p) {
         TIFFGetField(tif, TIFFTAG_TILEWIDTH, &p.tileWidth);
         TIFFGetField(tif, TIFFTAG_TILELENGTH, &p.tileHeight);
         if (p.tileWidth == 0 || p.tileHeight == 0) return "is tiled but has no tile size";
+        if (std::string why = tileSizeProblem(p); !why.empty()) return why;
         blocks = TIFFNumberOfTiles(tif);
     } else {
         uint32_t rps = p.height;
@@ -282,13 +306,43 @@ std::string differenceFrom(const PageLayout& p, const PageLayout& ref) {
     return " is " + p.sizeAndType() + " but the first page is " + ref.sizeAndType() + " (every page must match)";
 }
 
-/// Checks the working memory a page needs (one decoded block and its compressed bytes).
-Status checkBlockBudget(const PageLayout& p, const std::string& path, const std::string& where, uint64_t maxBytes) {
-    if (p.blockBytes() <= maxBytes / 2) return Status::ok();
-    return fail(path, where + ": one decoded " + (p.tiled ? "tile" : "strip") + " takes " +
-                          std::to_string(p.blockBytes()) + " bytes, more than half the working-memory limit of " +
-                          std::to_string(maxBytes) + " bytes");
+/// The state a codec keeps while decoding one strip or tile, beside the decoded and compressed
+/// bytes: zlib's inflate state and 32 KiB window, libtiff's LZW code table (5119 entries of 16
+/// bytes). Other codecs (JPEG, LZMA, zstd, WebP...) stage up to a decoded block of their own and
+/// keep tables or a window: an estimate of one more block and 1 MiB.
+uint64_t decoderStateBytes(const PageLayout& p) {
+    switch (p.compression) {
+    case COMPRESSION_NONE:
+    case COMPRESSION_PACKBITS: return 0;
+    case COMPRESSION_ADOBE_DEFLATE:
+    case COMPRESSION_DEFLATE: return uint64_t(64) << 10;
+    case COMPRESSION_LZW: return uint64_t(128) << 10;
+    default: return addSaturate(p.blockBytes(), uint64_t(1) << 20);
+    }
 }
+
+/// @brief The working memory reading needs: the largest decoded strip or tile (the reader's one
+/// buffer), the most compressed bytes of one (libtiff's raw buffer) and the largest codec state,
+/// over the pages seen so far.
+struct ReadMemory {
+    uint64_t block = 0, compressed = 0, decoder = 0;
+    uint64_t total() const { return addSaturate(addSaturate(block, compressed), decoder); }
+    void add(const PageLayout& p) {
+        block = std::max(block, p.blockBytes());
+        compressed = std::max(compressed, p.largestCompressed);
+        decoder = std::max(decoder, decoderStateBytes(p));
+    }
+    /// "a decoded strip of N bytes, ...": what total() is made of, for a message.
+    std::string parts(bool tiled) const {
+        return std::string("a decoded ") + (tiled ? "tile" : "strip") + " of " + std::to_string(block) + " bytes, " +
+               std::to_string(compressed) + " compressed bytes of one and " + std::to_string(decoder) +
+               " bytes of decoder state";
+    }
+};
+
+/// Compressed bytes beyond which a strip or tile holds more than any codec writes for its pixels
+/// (LZW's worst case is 1.5 times, JPEG's headers a few KiB): a corrupt or crafted byte count.
+uint64_t mostCompressedBytes(const PageLayout& p) { return addSaturate(mulSaturate(p.blockBytes(), 4), 64 << 10); }
 
 // ---- finding the slice files ----------------------------------------------------------------
 
@@ -511,8 +565,20 @@ private:
             m_haveFirst = true;
         }
         if (std::string diff = differenceFrom(*p, m_first); !diff.empty()) return fail(m_path, pageName(z) + diff);
-        if (Status s = checkBlockBudget(*p, m_path, pageName(z), m_maxWorkingBytes); !s) return s;
+        if (Status s = checkBlocksInFile(*p, z); !s) return s;
+        if (Status s = checkMemory(*p, z); !s) return s;
         return p;
+    }
+
+    /// Adds page z to the working memory reading needs, and refuses it when that passes the
+    /// working-memory limit.
+    Status checkMemory(const PageLayout& p, uint32_t z) {
+        m_need.add(p);
+        if (m_need.total() <= m_maxWorkingBytes) return Status::ok();
+        return fail(m_path, pageName(z) + ": reading needs " + std::to_string(m_need.total()) +
+                                " bytes of working memory (" + m_need.parts(p.tiled) +
+                                "), more than the working-memory limit of " + std::to_string(m_maxWorkingBytes) +
+                                " bytes; a file saved with smaller strips or tiles needs less");
     }
 
     Status scanMultiPage() {
@@ -576,14 +642,14 @@ private:
             return fail(m_path, pageName(z) + " cannot be read: " + m_handle.libtiffSays());
         Result<PageLayout> p = checkedLayout(z);
         if (!p) return p.status();
-        if (Status s = checkBlocksInFile(*p, z); !s) return s;
         if (Status s = resizeOrFail(m_block, size_t(p->blockBytes()), m_path); !s) return s;
+        m_largestCompressedBlock = std::max(m_largestCompressedBlock, p->largestCompressed);
         return p->tiled ? readTiles(*p, z, out) : readStrips(*p, z, out);
     }
 
-    /// Every strip or tile must lie inside the file: a truncated file gets a message that says
-    /// so, and libtiff is never asked for more compressed bytes than the budget allows.
-    Status checkBlocksInFile(const PageLayout& p, uint32_t z) {
+    /// Every strip or tile must lie inside the file (a truncated file gets a message that says
+    /// so) and hold no more compressed bytes than its pixels can need; sets p.largestCompressed.
+    Status checkBlocksInFile(PageLayout& p, uint32_t z) {
         TIFF* tif = m_handle.get();
         const uint64_t fileBytes = m_handle.fileBytes();
         const char* kind = p.tiled ? "tile" : "strip";
@@ -599,10 +665,12 @@ private:
                                         std::to_string(offset) + " to " + std::to_string(offset + bytes) +
                                         ") lies beyond the end of the file (" + std::to_string(fileBytes) +
                                         " bytes): the file is truncated (or its offsets are corrupt)");
-            if (bytes > m_maxWorkingBytes - p.blockBytes())
+            if (bytes > mostCompressedBytes(p))
                 return fail(m_path, pageName(z) + ": " + kind + " " + std::to_string(b) + " claims " +
-                                        std::to_string(bytes) + " compressed bytes, beyond the working-memory limit");
-            m_largestCompressedBlock = std::max(m_largestCompressedBlock, bytes);
+                                        std::to_string(bytes) + " compressed bytes for " +
+                                        std::to_string(p.blockBytes()) +
+                                        " decoded ones, far more than any codec writes (a corrupt or crafted header)");
+            p.largestCompressed = std::max(p.largestCompressed, bytes);
         }
         return Status::ok();
     }
@@ -675,7 +743,8 @@ private:
     TiffHandle m_handle;
     uint32_t m_openFile = 0;
     std::vector<uint8_t> m_block;          ///< one decoded strip or tile
-    uint64_t m_largestCompressedBlock = 0; ///< libtiff's raw buffer holds at most this
+    uint64_t m_largestCompressedBlock = 0; ///< libtiff's raw buffer holds at most this (pages read)
+    ReadMemory m_need;                     ///< what reading needs, over the pages checked
 };
 
 } // namespace

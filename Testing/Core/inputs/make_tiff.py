@@ -102,6 +102,45 @@ tifffile.TIFF.COMPRESSORS._codecs[5] = lzw_encode
 tifffile.TIFF.COMPRESSORS._codecs[32773] = packbits_encode
 
 
+def crafted_tiff(path, pages, tail=b''):
+    """A little-endian classic TIFF written field by field, for headers no writer would make.
+
+    Each page is a dict: w, h, data (one strip or tile of bytes), and optionally tile=(tw, th),
+    comp (259), count (the byte count to claim instead of len(data)). Several pages may share
+    one data block (shared=True on the later ones). `tail` is appended after everything.
+    """
+    import struct
+    out = bytearray(b'II*\0\0\0\0\0')
+    offsets = []
+    for p in pages:
+        if p.get('shared') and offsets:
+            offsets.append(offsets[-1])
+            continue
+        offsets.append(len(out))
+        out += p['data']
+        out += b'\0' * (len(out) % 2)
+    link = 4
+    for p, offset in zip(pages, offsets):
+        count = p.get('count', len(p['data']))
+        tags = [(256, 4, p['w']), (257, 4, p['h']), (258, 3, 8), (259, 3, p.get('comp', 1)), (262, 3, 1),
+                (277, 3, 1)]
+        if 'tile' in p:
+            tags += [(322, 4, p['tile'][0]), (323, 4, p['tile'][1]), (324, 4, offset), (325, 4, count)]
+        else:
+            tags += [(273, 4, offset), (278, 4, p['h']), (279, 4, count)]
+        tags.sort()
+        ifd = len(out)
+        struct.pack_into('<I', out, link, ifd)
+        out += struct.pack('<H', len(tags))
+        for tag, kind, value in tags:
+            out += struct.pack('<HHI', tag, kind, 1) + struct.pack('<H' if kind == 3 else '<I', value).ljust(4, b'\0')
+        link = len(out)
+        out += b'\0\0\0\0'
+    out += tail
+    with open(path, 'wb') as f:
+        f.write(out)
+
+
 def expected(path, vol):
     vol = np.asarray(vol)
     if vol.dtype.kind in 'if':
@@ -167,6 +206,18 @@ def main():
     write(out, 'f32_int.tif', f32)
     write(out, 'single.tif', rng.integers(0, 1000, size=(9, 8), dtype=np.uint16)[np.newaxis])
 
+    # Memory: a shallow wide volume (the encoder's band must hold its 3 slices, not a brick's
+    # 32), and a file whose strips grow from page to page (its working memory is that of its
+    # largest strip, known when it is opened).
+    shallow = (rng.integers(0, 50, size=(3, 24, 32)) * 7 + 1).astype(np.uint16)
+    write(out, 'shallow.tif', np.repeat(np.repeat(shallow, 16, axis=1), 16, axis=2), compression='zlib',
+          rowsperstrip=16)
+    with tifffile.TiffWriter(os.path.join(out, 'growing_strips.tif')) as w:
+        grow = rng.integers(0, 256, size=(3, 32, 64), dtype=np.uint8)
+        for page, rps in zip(grow, [4, 4, 32]):
+            w.write(page, photometric='minisblack', rowsperstrip=rps, contiguous=False)
+    expected(os.path.join(out, 'growing_strips.tif'), grow)
+
     slices = [np.full((10, 14), 0, np.uint16) + np.arange(14, dtype=np.uint16) + 100 * (i + 1) for i in range(12)]
     names = ['slice_%d.tif' % (i + 1) for i in range(12)]
     write_slices(os.path.join(out, 'slices'), names, slices)
@@ -209,6 +260,17 @@ def main():
             whole = f.read()
         with open(path, 'wb') as f:
             f.write(whole[:-30])
+    # Crafted headers: a 64 x 64 page in one tile of 2^30 x 2^30; a 4 x 4 page whose one strip
+    # claims 70000 bytes (present in the file, far more than 16 pixels can need); 33 pages of
+    # 4096 x 4096 zeros sharing one deflate strip (a 4096^2 x 32 band of uint32 labels is 2 GiB).
+    import zlib
+    crafted_tiff(os.path.join(out, 'huge_tile.tif'), [dict(w=64, h=64, tile=(2**30, 2**30), data=b'\0' * 16)])
+    crafted_tiff(os.path.join(out, 'strip_claims.tif'), [dict(w=4, h=4, data=b'\1' * 16, count=70000)],
+                 tail=b'\0' * 70000)
+    zeros = zlib.compress(b'\0' * (4096 * 4096), 9)
+    crafted_tiff(os.path.join(out, 'deep_wide.tif'),
+                 [dict(w=4096, h=4096, comp=8, data=zeros, shared=z > 0) for z in range(33)])
+
     os.makedirs(os.path.join(out, 'empty'), exist_ok=True)
     with open(os.path.join(out, 'text.tif'), 'w') as f:
         f.write('this is a text file, not a TIFF\n')

@@ -14,7 +14,7 @@
 /// uint32/uint64 case) are read once, and a restart wastes at most one partial encode, where a
 /// pre-scan would cost every such file a full extra read.
 ///
-/// Working memory: the encoder's band (a slab, W * H * brickSize * 4 bytes, unless the input
+/// Working memory: the encoder's band (a slab, W * H * min(brickSize, D) * 4 bytes, unless the input
 /// reads rows, as every format but TIFF, Zarr and precomputed does: then about
 /// EncodeToFileOptions::maxBandBytes, at least one brick row) + the adapter's scratch
 /// (kScratchBytes; at least one slice at 8 bytes a voxel for an input that does not read rows,
