@@ -17,6 +17,7 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <string>
 #include <thread>
 #include <unistd.h>
 
@@ -37,10 +38,30 @@ extern "C" inline void onSignal(int sig) {
     requestCancel();
 }
 
+/// The text with its control characters written as \n, \r, \t or \xNN: a name in a message (a
+/// slice named with a newline, a terminal escape, libtiff's words about it) can neither forge a
+/// second "csgv: error:" line nor drive the terminal.
+inline std::string oneLine(const char* text) {
+    std::string out;
+    for (const char* c = text; *c; ++c) {
+        const unsigned char u = static_cast<unsigned char>(*c);
+        if (u >= 0x20 && u != 0x7f) out += *c;
+        else if (u == '\n') out += "\\n";
+        else if (u == '\r') out += "\\r";
+        else if (u == '\t') out += "\\t";
+        else {
+            char hex[8];
+            std::snprintf(hex, sizeof hex, "\\x%02x", u);
+            out += hex;
+        }
+    }
+    return out;
+}
+
 /// Writes the one error line unless one was written already; false when it was.
 inline bool reportOnce(const char* text) {
     if (g_reported.exchange(true)) return false;
-    std::fprintf(stderr, "csgv: error: %s\n", text);
+    std::fprintf(stderr, "csgv: error: %s\n", oneLine(text).c_str());
     std::fflush(stderr);
     return true;
 }

@@ -169,6 +169,10 @@ expect 1 "info INPUT --stats" "$CSGV" info "$TMP/n16.nrrd" --stats
 grep -q -- "--stats applies to a .csgv file" "$TMP/err" || bad "--stats on an input: $(cat "$TMP/err")"
 expect 1 "info INPUT --check" "$CSGV" info synth:8x8x8 --check
 grep -q -- "--check applies to a .csgv file" "$TMP/err" || bad "--check on an input: $(cat "$TMP/err")"
+# A name with a newline cannot forge a second error line.
+expect 1 "info, a name with a newline" "$CSGV" info "$(printf '%s/a\ncsgv: error: FAKE.nii' "$TMP")"
+[ "$(grep -c 'csgv: error:' "$TMP/err")" = 1 ] && grep -q 'a\\ncsgv: error: FAKE.nii' "$TMP/err" ||
+  bad "a newline in a name: $(cat "$TMP/err")"
 # A header whose largest palette (bytes 33..36) no brick has: --check says so (readers size by it).
 cp "$DEF" "$TMP/pal.csgv"
 printf '\377\377\377\377' | dd of="$TMP/pal.csgv" bs=1 seek=33 conv=notrunc status=none
