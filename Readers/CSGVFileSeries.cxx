@@ -67,6 +67,14 @@ int RequestedStep(vtkInformation* outInfo, int steps)
   return int(std::min<double>(std::floor(t + 1e-9), double(steps - 1)));
 }
 
+bool TakeRequestedStep(vtkInformation* outInfo, int steps, int& step)
+{
+  const int requested = RequestedStep(outInfo, steps);
+  const bool changed = requested != step;
+  step = requested;
+  return changed;
+}
+
 void AnnounceSteps(vtkInformation* outInfo, int steps)
 {
   std::vector<double> times(size_t(std::max(steps, 0)));

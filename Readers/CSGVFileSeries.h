@@ -47,6 +47,10 @@ private:
 /// The time step a request asks for, in [0, steps).
 int RequestedStep(vtkInformation* outInfo, int steps);
 
+/// The step a request asks for becomes `step`; true when it changed (the reader then announces
+/// the new step's file, before FitUpdateExtent).
+bool TakeRequestedStep(vtkInformation* outInfo, int steps, int& step);
+
 /// Publishes time steps 0 .. steps - 1, their range, and that the information (the extent)
 /// depends on the time (the reader answers REQUEST_TIME_DEPENDENT_INFORMATION).
 void AnnounceSteps(vtkInformation* outInfo, int steps);

@@ -269,27 +269,23 @@ vtkTypeBool vtkCSGVInputReader::ProcessRequest(
 int vtkCSGVInputReader::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
-  vtkInformation* outInfo = outputVector->GetInformationObject(0);
-  this->SwitchStep(outInfo);
-  if (this->SeriesMode == TimeSeries)
-  {
-    csgvvtk::FitUpdateExtent(outInfo);
-  }
+  this->SwitchStep(outputVector->GetInformationObject(0));
   return 1;
 }
 
 void vtkCSGVInputReader::SwitchStep(vtkInformation* outInfo)
 {
   vtkInternals& in = *this->Internals;
-  const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
-  if (this->SeriesMode == TimeSeries && step != in.Step)
+  if (this->SeriesMode != TimeSeries)
   {
-    // Another time step is another file: announce its extent, as vtkFileSeriesReader does
-    // (and fit the update extent left from the previous step, see vtkCSGVReader::SwitchStep).
-    in.Step = step;
-    this->PrepareInput(outInfo);
-    csgvvtk::FitUpdateExtent(outInfo);
+    return;
   }
+  // Another time step is another file: announce its extent, as vtkFileSeriesReader does.
+  if (csgvvtk::TakeRequestedStep(outInfo, static_cast<int>(in.Inputs.size()), in.Step))
+  {
+    this->PrepareInput(outInfo);
+  }
+  csgvvtk::FitUpdateExtent(outInfo);
 }
 
 void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
@@ -402,12 +398,7 @@ int vtkCSGVInputReader::RequestData(
   {
     // RequestUpdateExtent has switched to the requested step's file; a request that came
     // without one (it should not) switches here.
-    const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
-    if (step != in.Step)
-    {
-      in.Step = step;
-      this->PrepareInput(outInfo);
-    }
+    this->SwitchStep(outInfo);
     // Every output says which step it is, failed ones too (an output without a time would be
     // asked for again at every render).
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), double(in.Step));

@@ -441,28 +441,23 @@ vtkTypeBool vtkCSGVReader::ProcessRequest(
 int vtkCSGVReader::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
-  vtkInformation* outInfo = outputVector->GetInformationObject(0);
-  this->SwitchStep(outInfo);
-  if (this->Internals->Inputs.size() > 1)
-  {
-    csgvvtk::FitUpdateExtent(outInfo);
-  }
+  this->SwitchStep(outputVector->GetInformationObject(0));
   return 1;
 }
 
 void vtkCSGVReader::SwitchStep(vtkInformation* outInfo)
 {
   vtkInternals& in = *this->Internals;
-  const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
-  if (in.Inputs.size() > 1 && step != in.Step)
+  if (in.Inputs.size() < 2)
   {
-    // Another time step is another file: announce its extent, as vtkFileSeriesReader does.
-    // The update extent left from the previous step (the proxy's own UpdatePipeline asks it
-    // again) would fail the executive's check before RequestUpdateExtent is asked.
-    in.Step = step;
-    this->DescribeFile(outInfo);
-    csgvvtk::FitUpdateExtent(outInfo);
+    return;
   }
+  // Another time step is another file: announce its extent, as vtkFileSeriesReader does.
+  if (csgvvtk::TakeRequestedStep(outInfo, static_cast<int>(in.Inputs.size()), in.Step))
+  {
+    this->DescribeFile(outInfo);
+  }
+  csgvvtk::FitUpdateExtent(outInfo);
 }
 
 void vtkCSGVReader::DescribeFile(vtkInformation* outInfo)
@@ -523,12 +518,7 @@ int vtkCSGVReader::RequestData(
     // RequestUpdateExtent has switched to the requested step's file; a request that came
     // without one (it should not) switches here. Every output says which step it is, failed
     // ones too (an output without a time would be asked for again at every render).
-    const int step = csgvvtk::RequestedStep(outInfo, static_cast<int>(in.Inputs.size()));
-    if (step != in.Step)
-    {
-      in.Step = step;
-      this->DescribeFile(outInfo);
-    }
+    this->SwitchStep(outInfo);
     output->GetInformation()->Set(vtkDataObject::DATA_TIME_STEP(), double(in.Step));
   }
   if (!in.Loaded)

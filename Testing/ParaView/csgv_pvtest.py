@@ -94,6 +94,21 @@ def fetch(proxy):
     return sm.Fetch(proxy)
 
 
+def labels_at(proxy, time=None):
+    """A reader's output at `time` (None: no time asked): (dimensions in cells, labels x fastest
+    as uint64 or None, the output's DATA_TIME_STEP or None)."""
+    if time is None:
+        proxy.UpdatePipeline()
+    else:
+        proxy.UpdatePipeline(time)
+    img = proxy.GetClientSideObject().GetOutput()
+    dims = tuple(d - 1 for d in img.GetDimensions())
+    labels = cell_labels(img)
+    info = img.GetInformation()
+    step = info.Get(img.DATA_TIME_STEP()) if info.Has(img.DATA_TIME_STEP()) else None
+    return dims, (None if labels is None else labels.astype(np.uint64)), step
+
+
 def cell_labels(image, name="Labels"):
     arr = image.GetCellData().GetArray(name)
     return None if arr is None else vtk_to_numpy(arr)

@@ -26,22 +26,8 @@ t.check(expected[0].shape != expected[1].shape, "the steps differ in dimensions 
         % (expected[0].shape, expected[1].shape))
 
 
-def labels_of(r, time=None):
-    """The reader's output at `time`: (dimensions in cells, labels x fastest, the output's time)."""
-    if time is None:
-        r.UpdatePipeline()
-    else:
-        r.UpdatePipeline(time)
-    img = r.GetClientSideObject().GetOutput()
-    dims = tuple(d - 1 for d in img.GetDimensions())
-    labels = t.cell_labels(img)
-    info = img.GetInformation()
-    step = info.Get(img.DATA_TIME_STEP()) if info.Has(img.DATA_TIME_STEP()) else None
-    return dims, (None if labels is None else labels.astype(np.uint64)), step
-
-
 def shows(r, time, i, tag):
-    dims, labels, step = labels_of(r, time)
+    dims, labels, step = t.labels_at(r, time)
     d, h, w = expected[i].shape
     t.check(dims == (w, h, d) and labels is not None and np.array_equal(labels, expected[i].ravel().astype(np.uint64)),
             "%s: time %s shows s_%d.csgv (%s)" % (tag, time, i, dims))
@@ -97,12 +83,12 @@ for s in list(GetSources().values()):
 
 # --- FileName: scripts and old state files ---------------------------------------------------------
 r = CSGVReader(FileName=files[1])
-dims, labels, step = labels_of(r)
+dims, labels, step = t.labels_at(r)
 t.check(len(r.TimestepValues) == 0 and step is None, "FileName alone: no time steps")
 shows(r, None, 1, "FileName")
 with t.ErrorLog() as errors:
     r.FileNames = files
-    dims, labels, _ = labels_of(r)
+    dims, labels, _ = t.labels_at(r)
 t.check("set only one of them" in errors.text and (labels is None or labels.size == 0),
         "FileName and FileNames both set: an error, not one of them silently (%s)" % errors.text.strip()[:200])
 Delete(r)
@@ -113,7 +99,7 @@ with open(files[1], "r+b") as f:
 r = CSGVReader(FileNames=files)
 shows(r, 0.0, 0, "before the damaged step")
 with t.ErrorLog() as errors:
-    dims, labels, step = labels_of(r, 1.0)
+    dims, labels, step = t.labels_at(r, 1.0)
 t.check("s_1.csgv" in errors.text and (labels is None or labels.size == 0) and step == 1.0,
         "the damaged step is named and empty (%s)" % errors.text.strip()[:200])
 shows(r, 2.0, 2, "after the damaged step")

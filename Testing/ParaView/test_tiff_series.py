@@ -66,14 +66,7 @@ class Progress:
 
 def labels_of(r, time=None):
     """The reader's output at `time` as (dimensions in cells, labels x fastest)."""
-    if time is None:
-        r.UpdatePipeline()
-    else:
-        r.UpdatePipeline(time)
-    img = r.GetClientSideObject().GetOutput()
-    dims = tuple(d - 1 for d in img.GetDimensions())
-    labels = t.cell_labels(img)
-    return dims, (None if labels is None else labels.astype(np.uint64))
+    return t.labels_at(r, time)[:2]
 
 
 def compressed(r):
