@@ -620,6 +620,10 @@ TEST(Hdf5Hostile, ExternalLinksAndVirtualSourcesOutsideTheFileFolderAreRefused) 
     expectVolume(fx("links/elink_beside.h5") + ":/d", "link_labels", {4, 5, 6}, LabelType::U16);
     expectVolume(fx("links/vds_beside.h5"), "link_labels", {4, 5, 6}, LabelType::U16);
     EXPECT_NE(open(fx("links/vds_self.h5")), nullptr);
+    // Sources named by a pattern are opened by libhdf5 without our checks (src0 leads outside).
+    EXPECT_CONTAINS(openError(fx("links/vds_pattern_self.h5")),
+                    "virtual dataset /labels names its sources by a pattern ('.', 'src%b'), which libhdf5 opens "
+                    "without our checks; pass --allow-outside-paths");
 
     const std::string outside = std::filesystem::weakly_canonical(fx("outside_target.h5")).string();
     const std::string nested = std::filesystem::weakly_canonical(fx("links/vds_outside.h5")).string();
@@ -652,6 +656,32 @@ TEST(Hdf5Hostile, ExternalLinksAndVirtualSourcesOutsideTheFileFolderAreRefused) 
     }
 }
 
+TEST(Hdf5Hostile, EveryPlaceLibhdf5MayOpenIsChecked) {
+    // libhdf5 goes on to the working directory when it cannot open the file beside the HDF5 file
+    // (one that only looks like HDF5), and it finds a relative external link's target there:
+    // a file of that name in the working directory must pass the rules too.
+    namespace fs = std::filesystem;
+    const std::string cwd = csgvtest::tempDir() + "/hdf5_cwd";
+    fs::create_directories(cwd);
+    fs::copy_file(fx("links/target.h5"), cwd + "/target.h5", fs::copy_options::overwrite_existing);
+    const fs::path before = fs::current_path();
+    fs::current_path(cwd);
+    const std::string message = openError(fx("links/elink_beside.h5") + ":/d");
+    const std::string vds = openError(fx("links/vds_beside.h5"));
+    fs::current_path(before);
+    const std::string shown = fs::weakly_canonical(cwd + "/target.h5").string();
+    EXPECT_CONTAINS(message, "an external link in '/' leads to '/labels' in 'target.h5' (" + shown + "), outside");
+    EXPECT_CONTAINS(vds, "virtual dataset /labels takes voxels from 'labels' in 'target.h5' (" + shown + "), outside");
+    // An environment prefix is a place too, ${ORIGIN} expanded as libhdf5 expands it.
+    ::setenv("HDF5_VDS_PREFIX", "${ORIGIN}/..", 1);
+    fs::copy_file(fx("links/target.h5"), fx("target.h5"), fs::copy_options::overwrite_existing);
+    const std::string prefixed = openError(fx("links/vds_beside.h5"));
+    ::unsetenv("HDF5_VDS_PREFIX");
+    fs::remove(fx("target.h5"));
+    EXPECT_CONTAINS(prefixed, "takes voxels from 'labels' in 'target.h5' (" + fs::weakly_canonical(fx("target.h5")).string() +
+                                  "), outside");
+}
+
 TEST(Hdf5Hostile, ADatasetAtTheEndOfDeeplyNestedGroupsIsFoundAtOnce) {
     // 1500 groups deep: 0.2 s, where looking each object up by its path from the root took 30 s
     // (the bound leaves room for a loaded machine; the fixture is written before the clock starts).
@@ -674,11 +704,13 @@ TEST(Hdf5Hostile, AFifoALinkOrAVirtualDatasetNamesIsRefusedAtOnce) {
     namespace fs = std::filesystem;
     const std::string dir = csgvtest::tempDir() + "/hdf5_pipe";
     fs::create_directories(dir);
-    for (const char* name : {"elink_pipe.h5", "vds_pipe.h5"})
+    for (const char* name : {"elink_pipe.h5", "vds_pipe.h5", "vds_pattern_pipe.h5"})
         fs::copy_file(fx(std::string("links/") + name), dir + "/" + name, fs::copy_options::overwrite_existing);
-    const std::string pipe = dir + "/pipe.h5";
-    ::unlink(pipe.c_str());
-    ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+    const std::string pipe = dir + "/pipe.h5", patternPipe = dir + "/pipe0.h5";
+    for (const std::string& fifo : {pipe, patternPipe}) {
+        ::unlink(fifo.c_str());
+        ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    }
     const std::string shown = fs::weakly_canonical(pipe).string();
     InputOptions allow;
     allow.allowOutsidePaths = true;
@@ -688,6 +720,9 @@ TEST(Hdf5Hostile, AFifoALinkOrAVirtualDatasetNamesIsRefusedAtOnce) {
         EXPECT_CONTAINS(openError(dir + "/vds_pipe.h5", options),
                         "virtual dataset /labels takes voxels from 'labels' in 'pipe.h5' (" + shown +
                             "), which is not a regular file");
+        // Sources named by a pattern are opened by libhdf5 with the dataset, before any check:
+        // the metadata probe's child is found waiting on the FIFO and ended.
+        EXPECT_CONTAINS(openError(dir + "/vds_pattern_pipe.h5", options), "libhdf5 blocked on a FIFO (named pipe)");
     }
 }
 

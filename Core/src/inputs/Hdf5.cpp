@@ -51,8 +51,9 @@
 ///   InputOptions::allowOutsidePaths; relative names are resolved there (checkStorageFiles). So
 ///   must the files external links lead to (checked by libhdf5's callback before it opens one,
 ///   for every link a name crosses) and the sources of virtual datasets, nested ones included
-///   (checkDatasetFiles): each must be a regular file (a FIFO would block for good) and, where
-///   libhdf5 would go on searching past a file it cannot open, an HDF5 file.
+///   (checkDatasetFiles): in every place libhdf5 may look for them, each must be a regular file (a
+///   FIFO would block for good). A FIFO that libhdf5 opens before any check can see it (sources
+///   named by a pattern) blocks the metadata probe's child, which is then ended (blockedOnFifo).
 /// - Errors: HDF5's error printer is silenced around every call and its own message (the error
 ///   stack, walked) goes into the Status text; also at exit (see silenceShutdownOnce). Every
 ///   handle is closed on every path.
@@ -350,59 +351,57 @@ FileRules rulesFor(const std::string& file, const InputOptions& options) {
     return rules;
 }
 
-/// True when the file carries HDF5's signature where a superblock may start (0, 512, 1024, ...).
-bool hasHdf5Signature(const fs::path& path) {
-    static const char kSignature[8] = {'\211', 'H', 'D', 'F', '\r', '\n', '\032', '\n'};
-    std::FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) return false;
-    bool found = false;
-    char head[8];
-    for (long at = 0; !found && at >= 0 && at < (long(1) << 40); at = at ? at * 2 : 512) {
-        if (std::fseek(f, at, SEEK_SET) != 0 || std::fread(head, 1, 8, f) != 8) break;
-        found = std::memcmp(head, kSignature, 8) == 0;
+/// The prefixes of an environment variable libhdf5 reads (HDF5_EXT_PREFIX, HDF5_VDS_PREFIX,
+/// HDF5_EXTFILE_PREFIX: colon-separated), `${ORIGIN}` expanded to the folder of the file that holds
+/// the name, as libhdf5 expands it.
+std::vector<fs::path> envPrefixes(const char* envVariable, const fs::path& holderFolder) {
+    std::vector<fs::path> out;
+    const char* env = std::getenv(envVariable);
+    if (!env) return out;
+    const std::string prefixes(env), origin = "${ORIGIN}";
+    for (size_t at = 0; at <= prefixes.size();) {
+        const size_t colon = std::min(prefixes.find(':', at), prefixes.size());
+        std::string prefix = prefixes.substr(at, colon - at);
+        if (prefix.compare(0, origin.size(), origin) == 0) prefix = holderFolder.string() + prefix.substr(origin.size());
+        if (!prefix.empty()) out.emplace_back(prefix);
+        at = colon + 1;
     }
-    std::fclose(f);
-    return found;
+    return out;
 }
 
-/// The places libhdf5 looks for a file an external link or a virtual dataset names, in its order
+/// The places libhdf5 may look for a file an external link or a virtual dataset names
 /// (H5Lcreate_external, H5Pset_virtual): an absolute name itself; then, for a relative name (or an
-/// absolute one's last component when that does not exist), each prefix in the environment
-/// variable, the folder of the file that holds the name, and the name as it stands (the working
-/// directory). We set no prefix property. libhdf5 takes the first place it can open.
+/// absolute one's last component), each prefix in the environment variable, the folder of the
+/// file that holds the name, and the name as it stands (the working directory). libhdf5 takes the
+/// first place it can open, and goes on past one it cannot (a file that is no valid HDF5 file),
+/// so every place that exists must pass checkNamedFile, not only the first.
 std::vector<fs::path> searchOrder(const std::string& stored, const fs::path& holderFolder, const char* envVariable) {
     std::vector<fs::path> places;
     fs::path name(stored);
-    std::error_code ec;
     if (name.is_absolute()) {
         places.push_back(name);
-        if (fs::exists(name, ec)) return places;
         name = name.filename();
     }
-    if (const char* env = std::getenv(envVariable)) {
-        std::string prefixes(env);
-        for (size_t at = 0; at <= prefixes.size();) {
-            const size_t colon = std::min(prefixes.find(':', at), prefixes.size());
-            if (colon > at) places.push_back(fs::path(prefixes.substr(at, colon - at)) / name);
-            at = colon + 1;
-        }
-    }
+    for (const fs::path& prefix : envPrefixes(envVariable, holderFolder)) places.push_back(prefix / name);
     places.push_back(holderFolder / name);
     places.push_back(name);
     return places;
 }
 
-/// The rule for a file an HDF5 file names (`what` says which: "the external link /d"): the first
-/// place of `places` that exists is the file read (none: the name dangles, libhdf5 says so). It
-/// must be a regular file (a FIFO would block the read for good, a device never end), lie in the
-/// named file's folder unless allowed, and, where libhdf5 goes on to the next place when it
-/// cannot open one, be an HDF5 file, so that it is the one opened.
+/// The rule for a file an HDF5 file names (`what` says which, e.g. "an external link in '/'
+/// leads to '/d' in"): every place of `places` that exists must be a regular file (a FIFO would
+/// block the read for good, a device never end) and lie in the named file's folder unless
+/// allowed. Every one, because which of them libhdf5 opens depends on which it can open. Where
+/// none exists the name dangles (libhdf5 says so, or reads a virtual dataset's fill value): the
+/// places are recorded all the same, so a cache of the volume goes stale when one appears.
 Status checkNamedFile(FileRules& rules, const std::string& stored, const std::vector<fs::path>& places,
-                      bool mustBeHdf5, const std::string& what) {
+                      const std::string& what) {
     std::error_code ec;
+    bool found = false;
     for (const fs::path& place : places) {
         const fs::file_status status = fs::status(place, ec);
         if (!fs::exists(status)) continue;
+        found = true;
         const fs::path resolved = fs::weakly_canonical(fs::absolute(place, ec), ec);
         const std::string names = what + " " + quoted(stored, 200) + " (" + resolved.string() + ")";
         if (!fs::is_regular_file(status)) return Status::error(names + ", which is not a regular file");
@@ -410,10 +409,10 @@ Status checkNamedFile(FileRules& rules, const std::string& stored, const std::ve
         if (!rules.allowOutside && (ec || rel.empty() || *rel.begin() == ".."))
             return Status::error(names + ", outside the HDF5 file's folder " + rules.folder.string() +
                                  "; pass --allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
-        if (mustBeHdf5 && !hasHdf5Signature(place)) return Status::error(names + ", which is not an HDF5 file");
         rules.named.insert(resolved.string());
-        return Status::ok();
     }
+    if (!found)
+        for (const fs::path& place : places) rules.named.insert(fs::absolute(place, ec).lexically_normal().string());
     return Status::ok();
 }
 
@@ -424,7 +423,7 @@ herr_t checkExternalLink(const char* parentFile, const char* parentGroup, const 
     auto* rules = static_cast<FileRules*>(data);
     std::error_code ec;
     const fs::path holder = fs::absolute(fs::path(parentFile), ec).parent_path();
-    const Status s = checkNamedFile(*rules, childFile, searchOrder(childFile, holder, "HDF5_EXT_PREFIX"), true,
+    const Status s = checkNamedFile(*rules, childFile, searchOrder(childFile, holder, "HDF5_EXT_PREFIX"),
                                     "an external link in " + quoted(parentGroup, 200) + " leads to " +
                                         quoted(childObject, 200) + " in");
     if (s) return 0;
@@ -470,8 +469,10 @@ std::string holderOf(hid_t object) {
 }
 
 /// External storage (raw data in other files, H5Pset_external) may name any file: each must be a
-/// regular file in the named HDF5 file's folder unless allowed (checkNamedFile). Relative names
-/// are resolved beside the file that holds the dataset (datasetAccess).
+/// regular file in the named HDF5 file's folder unless allowed (checkNamedFile). A relative name
+/// is found beside the file that holds the dataset when we open it (datasetAccess), but in the
+/// working directory when libhdf5 opens a virtual dataset's source, and under HDF5_EXTFILE_PREFIX
+/// when that is set: each of those places is checked.
 Status checkStorageFiles(hid_t dataset, hid_t dcpl, FileRules& rules, const std::string& name) {
     const int count = H5Pget_external_count(dcpl);
     std::error_code ec;
@@ -483,8 +484,15 @@ Status checkStorageFiles(hid_t dataset, hid_t dcpl, FileRules& rules, const std:
         if (H5Pget_external(dcpl, unsigned(i), sizeof stored, stored, &offset, &size) < 0)
             return Status::error("cannot read external file " + std::to_string(i) + " of " + name + ": " + hdf5Message());
         const fs::path named(stored);
-        const fs::path place = named.is_absolute() ? named : holder / named;
-        if (Status s = checkNamedFile(rules, stored, {place}, false, "dataset " + name + " keeps its data in the external file"); !s)
+        std::vector<fs::path> places;
+        if (named.is_absolute()) places.push_back(named);
+        else {
+            places = envPrefixes("HDF5_EXTFILE_PREFIX", holder);
+            for (fs::path& prefix : places) prefix /= named;
+            places.push_back(holder / named);
+            places.push_back(named);
+        }
+        if (Status s = checkNamedFile(rules, stored, places, "dataset " + name + " keeps its data in the external file"); !s)
             return s;
     }
     return Status::ok();
@@ -524,16 +532,17 @@ Status checkDatasetFiles(hid_t dataset, FileRules& rules, const std::string& nam
         const std::string file = text(H5Pget_virtual_filename, i), source = text(H5Pget_virtual_dsetname, i);
         const std::string what = "virtual dataset " + name + " takes voxels from " + quoted(source, 200) + " in";
         if (file.empty()) return Status::error("cannot read source " + std::to_string(i) + " of virtual dataset " + name);
-        if (file != "." && !rules.allowOutside && (file.find('%') != std::string::npos || source.find('%') != std::string::npos))
+        const bool pattern = file.find('%') != std::string::npos || source.find('%') != std::string::npos;
+        if (pattern && !rules.allowOutside)
             return Status::error("virtual dataset " + name + " names its sources by a pattern (" + quoted(file, 200) +
-                                 "), which cannot be checked against the HDF5 file's folder; pass --allow-outside-paths "
-                                 "(InputOptions::allowOutsidePaths) to read it");
+                                 ", " + quoted(source, 200) + "), which libhdf5 opens without our checks; pass "
+                                 "--allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
         fs::path sourceFile = holderName; // where libhdf5 finds the source's file
         if (file != ".") {
             const auto [known, added] = rules.checkedNames.emplace(holder.string() + "\n" + file, fs::path());
             if (added) {
                 const std::vector<fs::path> places = searchOrder(file, holder, "HDF5_VDS_PREFIX");
-                if (Status s = checkNamedFile(rules, file, places, true, what); !s) return s;
+                if (Status s = checkNamedFile(rules, file, places, what); !s) return s;
                 for (const fs::path& place : places)
                     if (fs::exists(place, ec)) {
                         known->second = place;
@@ -543,7 +552,7 @@ Status checkDatasetFiles(hid_t dataset, FileRules& rules, const std::string& nam
             if (known->second.empty()) continue; // no such file: libhdf5 reads the fill value
             sourceFile = known->second;
         }
-        if (file.find('%') != std::string::npos || source.find('%') != std::string::npos) continue;
+        if (pattern) continue;
         // The source itself: its external links, storage and sources. Each once (a dataset that
         // is its own source, or a thousand mappings from one source).
         const std::string key = fs::weakly_canonical(fs::absolute(sourceFile, ec), ec).string();
@@ -1595,6 +1604,21 @@ bool claimsHdf5(const std::string& path) {
 /// this libhdf5 cannot read safely. A child that cannot be started, or does not end within
 /// kProbeSeconds, proves nothing: the open goes on here as it always did.
 constexpr int kProbeSeconds = 20;
+
+/// True when the process sleeps in the kernel on a FIFO: waiting for its other end to open it, or
+/// for bytes (what Linux's /proc/PID/wchan names those waits). Where /proc hides the wait, only
+/// kProbeSeconds is left.
+bool blockedOnFifo(pid_t pid) {
+    std::FILE* f = std::fopen(("/proc/" + std::to_string(pid) + "/wchan").c_str(), "r");
+    if (!f) return false;
+    char wait[64] = {0};
+    const size_t n = std::fread(wait, 1, sizeof wait - 1, f);
+    std::fclose(f);
+    const std::string w(wait, n);
+    return w == "wait_for_partner" || w == "fifo_open" || w == "pipe_read" || w == "pipe_wait" ||
+           w == "pipe_wait_readable";
+}
+
 Status probeMetadataInChild(const Hdf5Path& where, const InputOptions& options) {
     pid_t pid = -1;
     {
@@ -1621,12 +1645,23 @@ Status probeMetadataInChild(const Hdf5Path& where, const InputOptions& options) 
         }
         ::_exit(0); // errors are the parent's to find and word; no exit handlers, no stdio flush
     }
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(kProbeSeconds);
+    const auto start = std::chrono::steady_clock::now();
+    const auto until = start + std::chrono::seconds(kProbeSeconds);
     int status = 0;
-    for (;;) {
+    for (int polls = 0;; ++polls) {
         const pid_t r = ::waitpid(pid, &status, WNOHANG);
         if (r == pid) break;
         if (r < 0) return Status::ok(); // reaped by the host's own SIGCHLD handling
+        // libhdf5 opens some files before any check of ours can see them (the sources of a
+        // virtual dataset named by a pattern, when the dataset is opened): a FIFO among them
+        // would block the open here for good.
+        if (polls % 50 == 49 && blockedOnFifo(pid)) {
+            ::kill(pid, SIGKILL);
+            ::waitpid(pid, &status, 0);
+            return Status::error("libhdf5 blocked on a FIFO (named pipe) the file names (an external link, a virtual "
+                                 "dataset's source or external storage) while reading the file's metadata in a separate "
+                                 "process: the file is not opened");
+        }
         if (std::chrono::steady_clock::now() > until || cancelRequested()) {
             ::kill(pid, SIGKILL);
             ::waitpid(pid, &status, 0);

@@ -345,6 +345,25 @@ def main():
     virtual("vds_through_link.h5", ".", "/e", lambda f: f.__setitem__("e", h5py.ExternalLink(outside, "/labels")))
     virtual("vds_pipe.h5", "pipe.h5")
 
+    # Sources named by a pattern (printf form, over an unlimited axis): libhdf5 opens them itself
+    # when the dataset is opened. "pipe%b.h5" is made a FIFO (pipe0.h5) by the tests; the other
+    # takes "src%b" from its own file, where src0 is an external link to the folder above.
+    def pattern(name, source_file, source):
+        vspace = h5py.h5s.create_simple((4, 5, 6), (h5py.h5s.UNLIMITED, 5, 6))
+        vspace.select_hyperslab((0, 0, 0), (h5py.h5s.UNLIMITED, 1, 1), stride=(1, 1, 1), block=(1, 5, 6))
+        sspace = h5py.h5s.create_simple((1, 5, 6), (1, 5, 6))
+        dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+        dcpl.set_virtual(vspace, source_file.encode(), source.encode(), sspace)
+        with h5py.File(os.path.join(links, name), "w") as f:
+            h5py.h5d.create(f.id, b"labels", h5py.h5t.NATIVE_UINT16,
+                            h5py.h5s.create_simple((4, 5, 6), (h5py.h5s.UNLIMITED, 5, 6)), dcpl=dcpl)
+            return f.filename
+
+    pattern("vds_pattern_pipe.h5", "pipe%b.h5", "labels")
+    pattern("vds_pattern_self.h5", ".", "src%b")
+    with h5py.File(os.path.join(links, "vds_pattern_self.h5"), "a") as f:
+        f["src0"] = h5py.ExternalLink(outside, "/g/labels")
+
 
 if __name__ == "__main__":
     main()
