@@ -372,14 +372,64 @@ std::string topLevelState(const std::string& path)
     std::to_string(mtimeNs(st));
 }
 
+namespace
+{
+/// A path as one token of printable ASCII that gives back its exact bytes (names are bytes: a
+/// JSON string would turn invalid UTF-8 into U+FFFD, a name that does not exist).
+std::string percentEncoded(const std::string& path)
+{
+  static const char hex[] = "0123456789ABCDEF";
+  std::string out;
+  for (const unsigned char c : path)
+  {
+    if (c > 0x20 && c < 0x7f && c != '%')
+    {
+      out += char(c);
+    }
+    else
+    {
+      out += '%';
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    }
+  }
+  return out;
+}
+
+bool percentDecoded(const std::string& token, std::string& out)
+{
+  out.clear();
+  for (size_t i = 0; i < token.size(); ++i)
+  {
+    if (token[i] != '%')
+    {
+      out += token[i];
+      continue;
+    }
+    if (i + 2 >= token.size())
+    {
+      return false;
+    }
+    const std::string two = token.substr(i + 1, 2);
+    if (!std::isxdigit(static_cast<unsigned char>(two[0])) ||
+      !std::isxdigit(static_cast<unsigned char>(two[1])))
+    {
+      return false;
+    }
+    out += char(std::stoi(two, nullptr, 16));
+    i += 2;
+  }
+  return true;
+}
+} // namespace
+
 std::string namedFilesState(const std::vector<std::string>& files)
 {
   std::string text;
   for (const std::string& file : files)
   {
     const std::string state = topLevelState(file);
-    text += "named: " + (state.empty() ? std::string("missing") : state) + " " +
-      nlohmann::json(file).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    text += "named: " + (state.empty() ? std::string("missing") : state) + " " + percentEncoded(file) + "\n";
   }
   return text;
 }
@@ -389,15 +439,13 @@ std::vector<std::string> namedFilesIn(const std::string& stamp)
   std::vector<std::string> files;
   for (size_t at = stamp.find("\nnamed: "); at != std::string::npos; at = stamp.find("\nnamed: ", at + 1))
   {
-    const size_t quote = stamp.find('"', at + 1), end = stamp.find('\n', at + 1);
-    if (quote == std::string::npos || end == std::string::npos || quote > end)
+    const size_t end = stamp.find('\n', at + 1);
+    const size_t space = stamp.rfind(' ', end);
+    std::string path;
+    if (end != std::string::npos && space != std::string::npos && space > at &&
+      percentDecoded(stamp.substr(space + 1, end - space - 1), path))
     {
-      continue;
-    }
-    const nlohmann::json path = nlohmann::json::parse(stamp.substr(quote, end - quote), nullptr, false);
-    if (path.is_string())
-    {
-      files.push_back(path.get<std::string>());
+      files.push_back(path);
     }
   }
   return files;

@@ -15,6 +15,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -38,22 +39,49 @@ extern "C" inline void onSignal(int sig) {
     requestCancel();
 }
 
-/// The text with its control characters written as \n, \r, \t or \xNN: a name in a message (a
-/// slice named with a newline, a terminal escape, libtiff's words about it) can neither forge a
-/// second "csgv: error:" line nor drive the terminal.
+/// The text with what could forge a line or drive a terminal written as escapes: C0 and C1
+/// control characters (\n, \r, \t, \xNN; C1 also as UTF-8), bytes that are no valid UTF-8
+/// (\xNN), and the bidirectional overrides and isolates (\u202E...) that reorder what is shown. A
+/// name in a message (a slice named with a newline, libtiff's words about it) stays on its line.
 inline std::string oneLine(const char* text) {
     std::string out;
-    for (const char* c = text; *c; ++c) {
-        const unsigned char u = static_cast<unsigned char>(*c);
-        if (u >= 0x20 && u != 0x7f) out += *c;
-        else if (u == '\n') out += "\\n";
-        else if (u == '\r') out += "\\r";
-        else if (u == '\t') out += "\\t";
-        else {
-            char hex[8];
-            std::snprintf(hex, sizeof hex, "\\x%02x", u);
-            out += hex;
+    char esc[12];
+    const auto* c = reinterpret_cast<const unsigned char*>(text);
+    while (*c) {
+        const unsigned char u = *c;
+        if (u >= 0x20 && u < 0x7f) {
+            out += char(u);
+            ++c;
+            continue;
         }
+        if (u == '\n' || u == '\r' || u == '\t') {
+            out += u == '\n' ? "\\n" : u == '\r' ? "\\r" : "\\t";
+            ++c;
+            continue;
+        }
+        // A UTF-8 sequence: its length from the lead byte, continuation bytes 10xxxxxx.
+        const int length = u >= 0xc2 && u <= 0xdf ? 2 : u >= 0xe0 && u <= 0xef ? 3 : u >= 0xf0 && u <= 0xf4 ? 4 : 0;
+        bool valid = length > 0;
+        uint32_t cp = length == 2 ? u & 0x1f : length == 3 ? u & 0x0f : u & 0x07;
+        for (int k = 1; valid && k < length; ++k) {
+            valid = (c[k] & 0xc0) == 0x80;
+            cp = (cp << 6) | (c[k] & 0x3f);
+        }
+        valid = valid && !(length == 3 && (cp < 0x800 || (cp >= 0xd800 && cp <= 0xdfff))) &&
+                !(length == 4 && (cp < 0x10000 || cp > 0x10ffff));
+        if (!valid) {
+            std::snprintf(esc, sizeof esc, "\\x%02x", u); // C0 controls, DEL, stray bytes
+            out += esc;
+            ++c;
+            continue;
+        }
+        if ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2066 && cp <= 0x2069)) {
+            std::snprintf(esc, sizeof esc, "\\u%04X", unsigned(cp));
+            out += esc;
+        } else {
+            out.append(reinterpret_cast<const char*>(c), size_t(length));
+        }
+        c += length;
     }
     return out;
 }

@@ -356,9 +356,9 @@ int cmdInfoInput(const Args& a) {
     const Geometry& g = info.geometry;
     Result<LabelCount> labels = countLabels(**src);
     if (!labels) return fail(labels.message());
-    std::printf("file: %s\n", path.c_str());
+    std::printf("file: %s\n", interrupt::oneLine(path.c_str()).c_str());
     std::printf("format: %s\n", info.format.c_str());
-    if (!info.detail.empty()) std::printf("detail: %s\n", info.detail.c_str());
+    if (!info.detail.empty()) std::printf("detail: %s\n", interrupt::oneLine(info.detail.c_str()).c_str());
     std::printf("dimensions: %u %u %u\n", info.dim[0], info.dim[1], info.dim[2]);
     std::printf("voxels: %llu\n", (unsigned long long)info.voxelCount());
     std::printf("type: %s\n", labelTypeName(info.type));
@@ -392,7 +392,7 @@ int cmdInfo(const Args& a) {
     const auto g = v.brickGrid();
     uint64_t words = 0;
     for (const auto& arr : v.arrays) words += arr.size();
-    std::printf("file: %s\n", a.positional[0].c_str());
+    std::printf("file: %s\n", interrupt::oneLine(a.positional[0].c_str()).c_str());
     std::printf("version: %04u\n", v.version);
     std::printf("dimensions: %u %u %u\n", v.dim[0], v.dim[1], v.dim[2]);
     std::printf("voxels: %llu\n", (unsigned long long)v.voxelCount());
@@ -413,9 +413,9 @@ int cmdInfo(const Args& a) {
     if (f->hasAttributes) {
         std::string cols;
         for (const auto& c : f->attributes.columns) cols += (cols.empty() ? "" : ", ") + c.name;
-        std::printf("attribute_database: %s\n", f->attributes.path.c_str());
+        std::printf("attribute_database: %s\n", interrupt::oneLine(f->attributes.path.c_str()).c_str());
         std::printf("attribute_labels: %zu\n", f->attributes.labels.size());
-        std::printf("attribute_columns: %s\n", cols.c_str());
+        std::printf("attribute_columns: %s\n", interrupt::oneLine(cols.c_str()).c_str());
     }
     if (a.check) {
         const auto t0 = std::chrono::steady_clock::now();
@@ -504,7 +504,7 @@ int extractMesh(const CsgvFile& f, const ExtractOptions& o, const Args& a, const
                     (a.hasBox ? "in the box" : "in the volume") + " at level " + std::to_string(a.level) +
                     "; nothing written");
     if (Status st = writer.commit(); !st) return fail(st.message());
-    std::printf("output: %s\n", out.c_str());
+    std::printf("output: %s\n", interrupt::oneLine(out.c_str()).c_str());
     std::printf("type: mesh %s\n", format == MeshFormat::Obj ? "obj" : format == MeshFormat::Ply ? "ply" : format == MeshFormat::Vtp ? "vtp" : "stl");
     std::printf("level: %u\n", a.level);
     std::printf("labels: %llu\n", (unsigned long long)r->labelsSelected);
@@ -591,7 +591,7 @@ int cmdExtract(const Args& a) {
         w = nrrd ? writeNrrd(out, v, g) : writeVraw(out, v);
     }
     if (!w) return fail(w.message());
-    std::printf("output: %s\n", out.c_str());
+    std::printf("output: %s\n", interrupt::oneLine(out.c_str()).c_str());
     std::printf("type: %s\n", a.mask ? "mask uint8" : "labels");
     std::printf("level: %u\n", a.level);
     std::printf("labels: %llu\n", (unsigned long long)r->labelsSelected);
@@ -782,7 +782,7 @@ int cmdCompress(const Args& a) {
     if (!s) return fail(s.message());
     const double t = seconds(t0);
     const double voxels = double(r.voxels);
-    std::printf("output: %s\n", a.positional[1].c_str());
+    std::printf("output: %s\n", interrupt::oneLine(a.positional[1].c_str()).c_str());
     std::printf("input_format: %s\n", r.inputFormat.c_str());
     std::printf("dimensions: %u %u %u\n", r.dim[0], r.dim[1], r.dim[2]);
     std::printf("bytes: %llu\n", (unsigned long long)r.outputBytes);
@@ -821,7 +821,7 @@ int cmdTile(const Args& a) {
     if (!s) return fail(s.message());
     Result<CompressedVolume> out = readCsgvHeader(a.positional[1]);
     if (!out) return fail(out.message());
-    std::printf("output: %s\n", a.positional[1].c_str());
+    std::printf("output: %s\n", interrupt::oneLine(a.positional[1].c_str()).c_str());
     std::printf("dimensions: %u %u %u\n", out->dim[0], out->dim[1], out->dim[2]);
     std::printf("bricks: %llu\n", (unsigned long long)out->brickCount());
     const Result<uint64_t> bytes = fileSize(a.positional[1]);
@@ -880,7 +880,7 @@ int cmdBench(const Args& a) {
         return d.isOk() && dst.isOk();
     });
     if (!dst) return fail(dst.message());
-    std::printf("input: %s\n", in.c_str());
+    std::printf("input: %s\n", interrupt::oneLine(in.c_str()).c_str());
     std::printf("dimensions: %u %u %u\n", labels.dim[0], labels.dim[1], labels.dim[2]);
     std::printf("threads: %d\n", threads);
     std::printf("settings: brick %u, %s, ops %s\n", o.brickSize, encodingName(o.encoding), operationLetters(o.opMask).c_str());

@@ -173,6 +173,15 @@ grep -q -- "--check applies to a .csgv file" "$TMP/err" || bad "--check on an in
 expect 1 "info, a name with a newline" "$CSGV" info "$(printf '%s/a\ncsgv: error: FAKE.nii' "$TMP")"
 [ "$(grep -c 'csgv: error:' "$TMP/err")" = 1 ] && grep -q 'a\\ncsgv: error: FAKE.nii' "$TMP/err" ||
   bad "a newline in a name: $(cat "$TMP/err")"
+# Nor can a name in info's own lines, a terminal escape, a C1 control or a right-to-left override.
+FORGED="$TMP/$(printf 'x\nbits_per_voxel: 0.0\033[2J.csgv')"
+cp "$DEF" "$FORGED"
+expect 0 "info, a name with a newline and an escape" "$CSGV" info "$FORGED"
+[ "$(grep -c '^bits_per_voxel:' "$TMP/out")" = 1 ] && ! grep -q "$(printf '\033')" "$TMP/out" ||
+  bad "a forged info line: $(cat "$TMP/out")"
+rm -f "$FORGED"
+expect 1 "info, C1 and bidi controls" "$CSGV" info "$(printf '%s/a\302\233b\342\200\256c.csgv' "$TMP")"
+grep -q 'a\\u009Bb\\u202Ec.csgv' "$TMP/err" || bad "C1 and bidi controls: $(cat "$TMP/err")"
 # A header whose largest palette (bytes 33..36) no brick has: --check says so (readers size by it).
 cp "$DEF" "$TMP/pal.csgv"
 printf '\377\377\377\377' | dd of="$TMP/pal.csgv" bs=1 seek=33 conv=notrunc status=none

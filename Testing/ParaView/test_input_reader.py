@@ -220,6 +220,22 @@ t.check(compressed == 1, "a changed data file is compressed again (the header is
 check_labels(img, vol2, "new data file")
 Delete(r)
 
+# A data file whose name is not UTF-8 (names are bytes): the stamp keeps its exact name, so the
+# cache is reused (a JSON name turned the byte into U+FFFD, a file that does not exist).
+latin = os.path.join(src, "latin.nhdr")
+with open(latin, "wb") as f:
+    f.write(b"NRRD0004\ntype: uint32\ndimension: 3\nsizes: %d %d %d\nendian: little\nencoding: raw\n"
+            b"data file: donn\xe9es.raw\n" % (w, h, d))
+with open(os.path.join(os.fsencode(src), b"donn\xe9es.raw"), "wb") as f:
+    f.write(vol.astype("<u4").tobytes())
+r, img, _, compressed = open_input(latin)
+t.check(compressed == 1, "a data file named in Latin-1 is compressed")
+Delete(r)
+r, img, _, compressed = open_input(latin)
+t.check(compressed == 0, "and its cache is reused")
+check_labels(img, vol, "Latin-1 data file")
+Delete(r)
+
 # An HDF5 file whose dataset is an external link to another file beside it.
 try:
     import h5py
