@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -234,7 +235,9 @@ TEST(Precomputed, WorkingMemoryStaysWithinTheLimit) {
     ASSERT_TRUE(s);
     std::vector<uint64_t> slab(45 * 38);
     ASSERT_TRUE(s->readSlab(26, 1, slab.data()).isOk());
-    EXPECT_EQ(s->workingBytes(), 20u * 20 * 3 * 8); // one (clipped) chunk, no layer
+    // One (clipped) chunk, no layer; and the index of the chunk files (12 bytes each, room for 256).
+    EXPECT_GE(s->workingBytes(), 20u * 20 * 3 * 8);
+    EXPECT_LE(s->workingBytes(), 20u * 20 * 3 * 8 + 256 * 12);
     InputOptions tiny;
     tiny.maxWorkingBytes = 1000;
     const Result<std::unique_ptr<InputSource>> r = openInput(dir, tiny);
@@ -369,4 +372,142 @@ TEST(Precomputed, SlabsOutsideTheVolumeAreRefusedEvenEmpty) {
     EXPECT_TRUE(s->readSlab(21, 0, slab.data()).isOk());
     EXPECT_EQ(s->readSlab(22, 0, slab.data()).message(), dir + "/4_6_40: slab z 22 to 22 is beyond the volume's depth 21");
     EXPECT_EQ(s->readSlab(20, 2, slab.data()).message(), dir + "/4_6_40: slab z 20 to 22 is beyond the volume's depth 21");
+}
+
+namespace {
+
+/// @brief A chunk of a sparse raw uint32 scale and how its file is named.
+struct SparseChunk {
+    std::array<uint32_t, 3> g; ///< grid position x, y, z
+    enum class Name { Flat, Gzip, Nested } name;
+};
+
+/// Writes a raw uint32 precomputed volume of `size` (x, y, z) in `chunk`-sized chunks with
+/// `offset` as voxel_offset, scale key "s", and a file for each of `written` (each voxel of chunk
+/// i holds 1000 * (i + 1) + its index in the chunk). Returns the volume the reader must give
+/// (empty when it would pass 2^24 voxels).
+std::vector<uint64_t> writeSparseScale(const std::string& dir, std::array<uint32_t, 3> size, std::array<uint32_t, 3> chunk,
+                                       std::array<int64_t, 3> offset, const std::vector<SparseChunk>& written) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir + "/s");
+    std::ofstream(dir + "/info") << "{\"type\": \"segmentation\", \"data_type\": \"uint32\", \"num_channels\": 1, "
+                                    "\"scales\": [{\"key\": \"s\", \"size\": ["
+                                 << size[0] << ", " << size[1] << ", " << size[2] << "], \"chunk_sizes\": [[" << chunk[0]
+                                 << ", " << chunk[1] << ", " << chunk[2] << "]], \"encoding\": \"raw\", \"voxel_offset\": ["
+                                 << offset[0] << ", " << offset[1] << ", " << offset[2]
+                                 << "], \"resolution\": [1, 1, 1]}]}";
+    const bool small = uint64_t(size[0]) * size[1] * size[2] <= (uint64_t(1) << 24);
+    std::vector<uint64_t> expected(small ? size_t(uint64_t(size[0]) * size[1] * size[2]) : 0, 0);
+    for (size_t i = 0; i < written.size(); ++i) {
+        std::array<uint32_t, 3> lo{}, extent{};
+        std::array<std::string, 3> range;
+        for (size_t a = 0; a < 3; ++a) {
+            lo[a] = written[i].g[a] * chunk[a];
+            extent[a] = std::min(chunk[a], size[a] - lo[a]);
+            range[a] = std::to_string(offset[a] + lo[a]) + "-" + std::to_string(offset[a] + lo[a] + extent[a]);
+        }
+        Bytes bytes;
+        for (uint32_t e = 0; e < extent[0] * extent[1] * extent[2]; ++e) {
+            const uint32_t v = uint32_t(1000 * (i + 1) + e);
+            for (int k = 0; k < 4; ++k) bytes.push_back(uint8_t(v >> (8 * k)));
+            const uint64_t x = lo[0] + e % extent[0], y = lo[1] + (e / extent[0]) % extent[1], z = lo[2] + e / (extent[0] * extent[1]);
+            if (small) expected[size_t(x + size[0] * (y + uint64_t(size[1]) * z))] = v;
+        }
+        const std::string flat = dir + "/s/" + range[0] + "_" + range[1] + "_" + range[2];
+        switch (written[i].name) {
+        case SparseChunk::Name::Flat: writeBytes(flat, bytes); break;
+        case SparseChunk::Name::Gzip: writeBytes(flat + ".gz", gzipBytes(bytes)); break;
+        case SparseChunk::Name::Nested:
+            std::filesystem::create_directories(dir + "/s/" + range[0] + "/" + range[1]);
+            writeBytes(dir + "/s/" + range[0] + "/" + range[1] + "/" + range[2], bytes);
+            break;
+        }
+    }
+    return expected;
+}
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+} // namespace
+
+TEST(Precomputed, OneVoxelChunksAreFoundByListingTheFolderNotByAStatEach) {
+    // A scale of 1-voxel chunks cost three stats a voxel to find the missing ones (attack pass:
+    // `csgv info` 4.4 s at 64^3, minutes at 256^3). The folder is listed once: chunks without a
+    // file are boxes merged across rows and layers, and reads zero a row of voxels at a time.
+    // 128^3 in 1-voxel chunks with a negative voxel_offset, three files: flat, gzip, nested.
+    using N = SparseChunk::Name;
+    const std::string dir = tempDir() + "/pc-voxel-chunks";
+    const std::vector<uint64_t> expected = writeSparseScale(dir, {{128, 128, 128}}, {{1, 1, 1}}, {{-5, 7, -300}},
+                                                            {{{{0, 0, 0}}, N::Flat}, {{{70, 3, 64}}, N::Gzip},
+                                                             {{{127, 127, 127}}, N::Nested}});
+    const auto t0 = std::chrono::steady_clock::now();
+    auto s = openOk(dir);
+    ASSERT_TRUE(s);
+    std::vector<UniformBox> boxes;
+    s->uniformBoxes(0, 128, 0, 128, boxes);
+    uint64_t voxels = 0;
+    for (const UniformBox& b : boxes) {
+        EXPECT_EQ(b.value, 0u);
+        voxels += b.voxels();
+    }
+    EXPECT_EQ(voxels, 128u * 128 * 128 - 3);
+    EXPECT_LE(boxes.size(), 3u * 5 + 2); // one per chunk row before: 16384
+    const std::vector<uint64_t> values = readWhole(*s);
+    EXPECT_TRUE(values == expected);
+    EXPECT_EQ(values[70 + 128 * (3 + 128 * 64)], 2000u);
+    EXPECT_LT(secondsSince(t0), 10.0); // 0.1 s; a stat per chunk name took seconds
+
+    // A small one through the whole source contract, its layers cached (read in bands of rows).
+    const std::string small = tempDir() + "/pc-voxel-chunks-small";
+    const std::vector<uint64_t> smallExpected =
+        writeSparseScale(small, {{11, 10, 9}}, {{1, 2, 3}}, {{0, -4, 3}},
+                         {{{{0, 0, 0}}, N::Flat}, {{{5, 1, 2}}, N::Gzip}, {{{6, 1, 2}}, N::Nested}, {{{10, 4, 2}}, N::Flat}});
+    s = openOk(small);
+    ASSERT_TRUE(s);
+    EXPECT_TRUE(s->readsRows());
+    expectSourceContract(*s, smallExpected);
+    // Uncached (a budget of one chunk, its file and the index): slabs only, the same values.
+    InputOptions tight;
+    tight.maxWorkingBytes = 6 * 8 + 6 * 4 + 1 + 4 * 24;
+    s = openOk(small, tight);
+    ASSERT_TRUE(s);
+    EXPECT_FALSE(s->readsRows());
+    expectSourceContract(*s, smallExpected);
+    EXPECT_LE(s->workingBytes(), tight.maxWorkingBytes);
+}
+
+TEST(Precomputed, AGridOfABillionChunkNamesCostsWhatItsFilesCost) {
+    // 1024^3 in 1-voxel chunks (2^30 names, 3 * 2^30 file names), two files: compressed in about
+    // a second, not hours.
+    using N = SparseChunk::Name;
+    const std::string dir = tempDir() + "/pc-billion";
+    writeSparseScale(dir, {{1024, 1024, 1024}}, {{1, 1, 1}}, {{0, 0, 0}}, {{{{7, 6, 5}}, N::Flat}, {{{1002, 1001, 1000}}, N::Nested}});
+    const auto t0 = std::chrono::steady_clock::now();
+    auto s = openOk(dir);
+    ASSERT_TRUE(s);
+    std::vector<uint64_t> slice(1024 * 1024, 77);
+    ASSERT_TRUE(s->readSlab(1000, 1, slice.data()).isOk());
+    EXPECT_EQ(slice[1002 + 1024 * 1001], 2000u);
+    EXPECT_EQ(std::count(slice.begin(), slice.end(), 0u), 1024 * 1024 - 1);
+    const std::string out = tempDir() + "/pc-billion.csgv";
+    const Status st = compressToFile(dir, out, CompressOptions());
+    ASSERT_TRUE(st.isOk()) << st.message();
+    EXPECT_LT(secondsSince(t0), 30.0);
+}
+
+TEST(Precomputed, TooManyChunkFilesToIndexAreRefusedForAHugeGrid) {
+    // No room beside one chunk and its file for the index of two files: a grid of 2^25 chunk
+    // names would be looked up one by one, which is refused with the counts and the limits.
+    using N = SparseChunk::Name;
+    const std::string dir = tempDir() + "/pc-unindexed";
+    writeSparseScale(dir, {{256, 256, 512}}, {{1, 1, 1}}, {{0, 0, 0}}, {{{{0, 0, 0}}, N::Flat}, {{{1, 2, 3}}, N::Gzip}});
+    InputOptions tight;
+    tight.maxWorkingBytes = 8 + 4 + 1 + 24; // a decoded chunk, its raw file (+1), one indexed chunk
+    const Result<std::unique_ptr<InputSource>> r = openInput(dir, tight);
+    ASSERT_FALSE(r.isOk());
+    EXPECT_EQ(r.message(), dir + "/s: its chunk grid has 33554432 chunks and the folder 2 chunk files, more than the 1 "
+                                 "that the working memory bound lets this reader list; looking each chunk up by name "
+                                 "is refused beyond 16 per chunk file (or 16777216 in all)");
 }

@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -349,4 +351,160 @@ TEST(ZarrInput, VolumesOfTwoTo64BytesAreRefusedWhenOpened) {
     InputInfo info;
     info.dim = {{1u << 22, 1u << 21, 1u << 21}};
     EXPECT_EQ(info.voxelCount(), kSaturated);
+}
+
+namespace {
+
+/// Writes a raw (uncompressed) uint16 Zarr array of `shape` (z, y, x) in chunks of `chunks`,
+/// fill_value `fill`, with dimension_separator `sep`, and one chunk file for each of `written`
+/// (chunk grid positions z, y, x; each voxel of chunk i holds 100 + i + its index in the chunk).
+/// Returns the volume the reader must give (empty when it would pass 2^24 voxels).
+std::vector<uint64_t> writeSparseArray(const std::string& dir, std::array<uint32_t, 3> shape, std::array<uint32_t, 3> chunks,
+                                       uint16_t fill, char sep, const std::vector<std::array<uint32_t, 3>>& written) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/.zarray") << "{\"zarr_format\": 2, \"shape\": [" << shape[0] << ", " << shape[1] << ", " << shape[2]
+                                    << "], \"chunks\": [" << chunks[0] << ", " << chunks[1] << ", " << chunks[2]
+                                    << "], \"dtype\": \"<u2\", \"compressor\": null, \"fill_value\": " << fill
+                                    << ", \"order\": \"C\", \"filters\": null, \"dimension_separator\": \"" << sep << "\"}";
+    const uint64_t X = shape[2], Y = shape[1];
+    const bool small = X * Y * shape[0] <= (uint64_t(1) << 24);
+    std::vector<uint64_t> expected(small ? size_t(X * Y * shape[0]) : 0, fill);
+    for (size_t i = 0; i < written.size(); ++i) {
+        const std::array<uint32_t, 3>& c = written[i];
+        std::vector<uint16_t> chunk(size_t(chunks[0]) * chunks[1] * chunks[2]);
+        for (size_t e = 0; e < chunk.size(); ++e) {
+            chunk[e] = uint16_t(100 + i + e);
+            const uint64_t x = c[2] * chunks[2] + e % chunks[2], y = c[1] * chunks[1] + (e / chunks[2]) % chunks[1],
+                           z = c[0] * chunks[0] + e / (uint64_t(chunks[2]) * chunks[1]);
+            if (small && x < X && y < Y && z < shape[0]) expected[size_t(x + X * (y + Y * z))] = chunk[e];
+        }
+        const std::string a = std::to_string(c[0]), b = std::to_string(c[1]);
+        if (sep == '/') std::filesystem::create_directories(dir + "/" + a + "/" + b);
+        std::ofstream(dir + "/" + a + sep + b + sep + std::to_string(c[2]), std::ios::binary)
+            .write(reinterpret_cast<const char*>(chunk.data()), std::streamsize(chunk.size() * 2));
+    }
+    return expected;
+}
+
+std::unique_ptr<InputSource> openPath(const std::string& path, const InputOptions& options = {}) {
+    Result<std::unique_ptr<InputSource>> src = openInput(path, options);
+    EXPECT_TRUE(src.isOk()) << src.message();
+    return src ? std::move(*src) : nullptr;
+}
+
+std::string failureAt(const std::string& path) {
+    Result<InputVolume> v = readInput(path);
+    EXPECT_FALSE(v.isOk()) << path << " was read";
+    return v.message();
+}
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+} // namespace
+
+TEST(ZarrInput, OneVoxelChunksAreFoundByListingTheFolderNotByAStatEach) {
+    // A grid of 1-voxel chunks cost a stat per voxel to find the missing ones (attack pass: 52 s
+    // to compress 256^3, an hour for 1024^3 without a chunk file). The folder is listed once: the
+    // chunks without a file are boxes merged across rows and layers, and reads write fill_value a
+    // row at a time. 128^3 in 1-voxel chunks, three written (one at the far corner), both
+    // separators; then a small one through the whole source contract.
+    for (char sep : {'.', '/'}) {
+        SCOPED_TRACE(std::string("separator ") + sep);
+        const std::string dir = tempDir() + "/zarr-voxel-chunks.zarr";
+        const std::vector<uint64_t> expected =
+            writeSparseArray(dir, {{128, 128, 128}}, {{1, 1, 1}}, 9, sep, {{{0, 0, 0}}, {{64, 3, 70}}, {{127, 127, 127}}});
+        const auto t0 = std::chrono::steady_clock::now();
+        std::unique_ptr<InputSource> src = openPath(dir);
+        ASSERT_TRUE(src);
+        std::vector<UniformBox> boxes;
+        src->uniformBoxes(0, 128, 0, 128, boxes);
+        uint64_t voxels = 0;
+        for (const UniformBox& b : boxes) {
+            EXPECT_EQ(b.value, 9u);
+            voxels += b.voxels();
+        }
+        EXPECT_EQ(voxels, 128u * 128 * 128 - 3);
+        // Merged: a few boxes around each written chunk (one per chunk row before: 16384).
+        EXPECT_LE(boxes.size(), 3u * 5 + 2);
+        Result<InputVolume> v = readAll(*src, dir);
+        ASSERT_TRUE(v.isOk()) << v.message();
+        EXPECT_TRUE(v->values == expected);
+        EXPECT_LT(secondsSince(t0), 10.0); // 0.1 s; a stat per chunk took seconds
+    }
+    const std::string dir = tempDir() + "/zarr-voxel-chunks-small.zarr";
+    const std::vector<uint64_t> expected =
+        writeSparseArray(dir, {{9, 10, 11}}, {{1, 2, 1}}, 4, '.', {{{0, 0, 0}}, {{2, 1, 5}}, {{2, 1, 6}}, {{8, 4, 10}}});
+    std::unique_ptr<InputSource> src = openPath(dir);
+    ASSERT_TRUE(src);
+    EXPECT_TRUE(src->readsRows()); // its layers (at most two chunks with a file) are cached
+    expectSourceContract(*src, expected);
+}
+
+TEST(ZarrInput, AGridOfABillionChunkNamesCostsWhatItsFilesCost) {
+    // 1024^3 in 1-voxel chunks (2^30 names), two files: compressed in about a second (an hour at
+    // "progress 0.0%" before), and a column of 4096 x 1 x 1 chunks over 1024^3, one file.
+    const std::string dir = tempDir() + "/zarr-billion.zarr";
+    writeSparseArray(dir, {{1024, 1024, 1024}}, {{1, 1, 1}}, 0, '.', {{{5, 6, 7}}, {{1000, 1001, 1002}}});
+    auto t0 = std::chrono::steady_clock::now();
+    std::unique_ptr<InputSource> src = openPath(dir);
+    ASSERT_TRUE(src);
+    std::vector<uint64_t> slice(1024 * 1024, 77);
+    ASSERT_TRUE(src->readSlab(5, 1, slice.data()).isOk());
+    EXPECT_EQ(slice[7 + 1024 * 6], 100u);
+    EXPECT_EQ(std::count(slice.begin(), slice.end(), 0u), 1024 * 1024 - 1);
+    const std::string out = tempDir() + "/zarr-billion.csgv";
+    Status s = compressToFile(dir, out, CompressOptions());
+    ASSERT_TRUE(s.isOk()) << s.message();
+    EXPECT_LT(secondsSince(t0), 30.0);
+
+    const std::string column = tempDir() + "/zarr-column.zarr";
+    writeSparseArray(column, {{1024, 1024, 1024}}, {{1024, 1, 1}}, 0, '.', {{{0, 0, 0}}});
+    t0 = std::chrono::steady_clock::now();
+    s = compressToFile(column, out, CompressOptions());
+    ASSERT_TRUE(s.isOk()) << s.message();
+    EXPECT_LT(secondsSince(t0), 30.0);
+    Result<CompressedVolume> vol = readCsgv(out);
+    ASSERT_TRUE(vol.isOk()) << vol.message();
+    EXPECT_EQ(vol->dim, (std::array<uint32_t, 3>{{1024, 1024, 1024}}));
+}
+
+TEST(ZarrInput, TooManyChunkFilesToIndexAreLookedUpByNameOrRefused) {
+    // The index holds what the working memory bound leaves beside one chunk and its file (24
+    // bytes a chunk while it grows). Room for one chunk and five files: each chunk is looked up by
+    // name as before, with the same values; a grid of more than 2^24 names is then refused.
+    const std::string dir = tempDir() + "/zarr-unindexed.zarr";
+    const std::vector<uint64_t> expected =
+        writeSparseArray(dir, {{6, 7, 8}}, {{2, 2, 2}}, 3, '/', {{{0, 0, 0}}, {{1, 2, 3}}, {{2, 3, 3}}, {{0, 3, 1}}, {{2, 0, 0}}});
+    InputOptions tight;
+    tight.maxWorkingBytes = 16 + (16 + 1 + 4096) + 24; // chunk, its file, one indexed chunk
+    std::unique_ptr<InputSource> src = openPath(dir, tight);
+    ASSERT_TRUE(src);
+    expectSourceContract(*src, expected);
+    EXPECT_LE(src->workingBytes(), tight.maxWorkingBytes);
+    InputOptions roomy; // and indexed, the same
+    src = openPath(dir, roomy);
+    ASSERT_TRUE(src);
+    expectSourceContract(*src, expected);
+
+    writeSparseArray(dir, {{512, 256, 256}}, {{1, 1, 1}}, 3, '.', {{{0, 0, 0}}, {{1, 2, 3}}});
+    tight.maxWorkingBytes = 2 + (2 + 4096) + 24;
+    const Result<std::unique_ptr<InputSource>> refused = openInput(dir, tight);
+    ASSERT_FALSE(refused.isOk());
+    EXPECT_EQ(refused.message(), dir + ": its chunk grid has 33554432 chunks and the folder 2 chunk files, more than the 1 "
+                                       "that the working memory bound lets this reader list; looking each chunk up by name "
+                                       "is refused beyond 16 per chunk file (or 16777216 in all)");
+}
+
+TEST(ZarrInput, ListedChunksThatAreNoFilesAreStillRefusedByName) {
+    // Listing finds the names; each is still checked when read: a dangling link in the nested
+    // layout is an error naming it, not fill_value.
+    const std::string dir = tempDir() + "/zarr-dangling.zarr";
+    writeSparseArray(dir, {{4, 4, 4}}, {{2, 2, 2}}, 0, '/', {{{0, 0, 0}}});
+    std::filesystem::create_directories(dir + "/1/1");
+    std::filesystem::create_symlink(dir + "/nowhere", dir + "/1/1/1");
+    std::string m = failureAt(dir);
+    EXPECT_HAS(m, dir + "/1/1/1: chunk is a dangling symbolic link, not a regular file");
 }

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <dirent.h>
 #include <fcntl.h>
 #include <unistd.h>
 #include <cmath>
@@ -147,6 +148,143 @@ Status readBoundedFile(const std::string& file, uint64_t limit, std::vector<uint
     }
     out.resize(have);
     return Status::ok();
+}
+
+Status listFolder(const std::string& dir, const std::function<bool(const char* name)>& visit) {
+    const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        // What a stat of a chunk name below it would call missing (PathGuard's notRegularFile).
+        if (errno == ENOENT || errno == ENOTDIR || errno == ELOOP) return Status::ok();
+        return fail(dir, "cannot list the chunk folder: " + errnoText());
+    }
+    DIR* d = ::fdopendir(fd);
+    if (!d) {
+        const std::string why = errnoText();
+        ::close(fd);
+        return fail(dir, "cannot list the chunk folder: " + why);
+    }
+    struct Closer {
+        DIR* d;
+        ~Closer() { ::closedir(d); }
+    } closer{d};
+    for (;;) {
+        errno = 0; // readdir returns null at the end and on errors alike
+        const dirent* e = ::readdir(d);
+        if (!e) break;
+        if (std::strcmp(e->d_name, ".") == 0 || std::strcmp(e->d_name, "..") == 0) continue;
+        if (!visit(e->d_name)) return Status::ok();
+    }
+    if (errno != 0) return fail(dir, "cannot list the chunk folder: " + errnoText());
+    return Status::ok();
+}
+
+void ChunkIndex::start(uint64_t budgetBytes) {
+    m_positions = std::vector<Position>();
+    m_capacity = std::min(kMaxChunks, budgetBytes / (2 * sizeof(Position)));
+    m_listed = 0;
+}
+
+void ChunkIndex::add(uint32_t x, uint32_t y, uint32_t z) {
+    if (++m_listed > m_capacity) {
+        if (m_positions.capacity()) m_positions = std::vector<Position>(); // not indexed: nothing held
+        return;
+    }
+    if (m_positions.size() == m_positions.capacity()) {
+        // Grown by hand so that it never holds more than m_capacity (twice that while copying).
+        const uint64_t next = std::min<uint64_t>(m_capacity, std::max<uint64_t>(256, 2 * m_positions.capacity()));
+        try {
+            m_positions.reserve(size_t(next));
+        } catch (const std::exception&) {
+            m_capacity = 0; // out of memory: not indexed, chunks are looked up by name
+            m_listed = 1;
+            m_positions = std::vector<Position>();
+            return;
+        }
+    }
+    m_positions.push_back({z, y, x});
+}
+
+void ChunkIndex::finish() {
+    if (!complete()) {
+        m_positions = std::vector<Position>();
+        return;
+    }
+    std::sort(m_positions.begin(), m_positions.end());
+    m_positions.erase(std::unique(m_positions.begin(), m_positions.end()), m_positions.end());
+}
+
+ChunkIndex::Range ChunkIndex::layer(uint32_t z) const {
+    const Position* b = m_positions.data();
+    const Position* e = b + m_positions.size();
+    const auto first = std::lower_bound(b, e, z, [](const Position& p, uint32_t v) { return p.z < v; });
+    return {first, std::upper_bound(first, e, z, [](uint32_t v, const Position& p) { return v < p.z; })};
+}
+
+ChunkIndex::Range ChunkIndex::row(uint32_t y, uint32_t z) const {
+    const Range l = layer(z);
+    const auto first = std::lower_bound(l.first, l.second, y, [](const Position& p, uint32_t v) { return p.y < v; });
+    return {first, std::upper_bound(first, l.second, y, [](uint32_t v, const Position& p) { return v < p.y; })};
+}
+
+uint64_t ChunkIndex::largestLayer() const {
+    uint64_t largest = 0, run = 0;
+    for (size_t i = 0; i < m_positions.size(); ++i) {
+        run = i > 0 && m_positions[i].z == m_positions[i - 1].z ? run + 1 : 1;
+        largest = std::max(largest, run);
+    }
+    return largest;
+}
+
+Status ChunkIndex::checkLookups(const std::string& dir, uint64_t gridChunks) const {
+    if (complete() || gridChunks <= std::max(kMaxLookups, mulSaturate(kLookupsPerFile, m_listed))) return Status::ok();
+    return fail(dir, "its chunk grid has " + std::to_string(gridChunks) + " chunks and the folder " +
+                         std::to_string(m_listed) + " chunk files, more than the " + std::to_string(m_capacity) +
+                         " that the working memory bound lets this reader list; looking each chunk up by name is "
+                         "refused beyond " + std::to_string(kLookupsPerFile) + " per chunk file (or " +
+                         std::to_string(kMaxLookups) + " in all)");
+}
+
+void ChunkIndex::absentBoxes(const std::array<uint64_t, 3>& chunk, const std::array<uint32_t, 3>& dim, uint32_t z0,
+                             uint32_t depth, uint32_t y0, uint32_t rows, uint64_t fill, std::vector<UniformBox>& out) const {
+    if (depth == 0 || rows == 0) return;
+    const uint64_t W = dim[0], yEnd = uint64_t(y0) + rows, zEnd = uint64_t(z0) + depth;
+    const uint64_t gridX = (W + chunk[0] - 1) / chunk[0];
+    const uint64_t gy0 = y0 / chunk[1], gy1 = (yEnd - 1) / chunk[1]; // the rows of chunks asked about
+    // Where chunk row (or column, or layer) g begins, clipped to the region.
+    const auto at = [](uint64_t g, uint64_t size, uint64_t lo, uint64_t hi) {
+        return uint32_t(std::clamp<uint64_t>(mulSaturate(g, size), lo, hi));
+    };
+    const auto box = [&](uint64_t xa, uint64_t xb, uint32_t ya, uint32_t yb, uint32_t za, uint32_t zb) {
+        out.push_back({{{at(xa, chunk[0], 0, W), ya, za}}, {{at(xb, chunk[0], 0, W), yb, zb}}, fill});
+    };
+    uint64_t emptyFrom = ~uint64_t(0); // where the current run of layers without a file here starts
+    for (uint64_t gz = z0 / chunk[2]; mulSaturate(gz, chunk[2]) < zEnd; ++gz) {
+        const uint32_t za = at(gz, chunk[2], z0, zEnd), zb = at(gz + 1, chunk[2], z0, zEnd);
+        const Range l = layer(uint32_t(gz));
+        const Position* p = std::lower_bound(l.first, l.second, gy0, [](const Position& q, uint64_t v) { return q.y < v; });
+        const Position* end = std::upper_bound(p, l.second, gy1, [](uint64_t v, const Position& q) { return v < q.y; });
+        if (p == end) {
+            if (emptyFrom == ~uint64_t(0)) emptyFrom = za;
+            continue;
+        }
+        if (emptyFrom != ~uint64_t(0)) box(0, gridX, y0, uint32_t(yEnd), uint32_t(emptyFrom), za);
+        emptyFrom = ~uint64_t(0);
+        uint64_t gy = gy0; // the first row of chunks not yet listed
+        while (p != end) {
+            const uint64_t row = p->y;
+            if (row > gy) box(0, gridX, at(gy, chunk[1], y0, yEnd), at(row, chunk[1], y0, yEnd), za, zb);
+            const uint32_t ya = at(row, chunk[1], y0, yEnd), yb = at(row + 1, chunk[1], y0, yEnd);
+            uint64_t x = 0; // the first chunk of the row not yet listed
+            for (; p != end && p->y == row; ++p) {
+                if (p->x > x) box(x, p->x, ya, yb, za, zb);
+                x = uint64_t(p->x) + 1;
+            }
+            if (x < gridX) box(x, gridX, ya, yb, za, zb);
+            gy = row + 1;
+        }
+        if (gy <= gy1) box(0, gridX, at(gy, chunk[1], y0, yEnd), uint32_t(yEnd), za, zb);
+    }
+    if (emptyFrom != ~uint64_t(0)) box(0, gridX, y0, uint32_t(yEnd), uint32_t(emptyFrom), uint32_t(zEnd));
 }
 
 Status checkSlab(const InputInfo& info, uint32_t z0, uint32_t depth, const std::string& path) {

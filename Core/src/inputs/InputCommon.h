@@ -4,7 +4,8 @@
 /// @brief What the input formats share (private to Core/src/inputs): header text parsing in the
 /// classic locale, bounded quoting of file text and JSON values in messages, the JSON nesting and
 /// metadata size limits, bounded whole-file reads, allocation without exceptions, the one slab
-/// bounds check, the memory budget, the decoding of stored voxels to full-width labels, and
+/// bounds check, the memory budget, the index of a chunked format's chunk files (ChunkIndex: Zarr
+/// and precomputed), the decoding of stored voxels to full-width labels, and
 /// VoxelFileSource, the one streaming source of voxels
 /// that lie in a file raw or gzip-compressed (vraw, NRRD and NIfTI build on it).
 
@@ -18,10 +19,12 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace csgv {
@@ -116,6 +119,73 @@ public:
 
 private:
     std::FILE* m_file;
+};
+
+// ---- chunk files, found by listing their folder once
+/// Calls `visit` with the name of each entry of folder `dir` ("." and ".." left out), in the file
+/// system's order, until it returns false. A `dir` that is not there or is no folder (a file, a
+/// FIFO, a dangling link) lists nothing, as a stat of a name below it finds nothing; any other
+/// failure is an error naming the folder. Never blocks (O_DIRECTORY | O_NONBLOCK: a FIFO is not
+/// opened).
+Status listFolder(const std::string& dir, const std::function<bool(const char* name)>& visit);
+
+/// @brief Where a chunked format's chunk files are: the grid positions (x, y, z) of the chunks
+/// that have a file, from one listing of the chunk folder(s), so that a chunk without one is
+/// known to be fill value without a stat of its name. A grid of 1-voxel chunks cost a stat per
+/// voxel that way (52 s for a 256^3 Zarr array, an hour for a 1024^3 one with no chunk file).
+///
+/// Memory: 12 bytes a chunk that has a file, for at most kMaxChunks of them (96 MiB), fewer when
+/// the working-memory bound leaves less (start), and at most twice that while the index grows. A
+/// folder holding more is not indexed (complete() false): the format then looks each chunk up
+/// by name as before, and refuses (checkLookups) a grid with so many more names than files
+/// that looking them up would dominate. Nothing is held per chunk name of the grid, so a grid
+/// declaring 10^9 chunks and holding a few costs what the few cost.
+class ChunkIndex {
+public:
+    struct Position {
+        uint32_t z, y, x; ///< in this order: a layer's chunks lie together, each row's in increasing x
+        bool operator<(const Position& o) const {
+            return z != o.z ? z < o.z : y != o.y ? y < o.y : x < o.x;
+        }
+        bool operator==(const Position& o) const { return z == o.z && y == o.y && x == o.x; }
+    };
+    using Range = std::pair<const Position*, const Position*>;
+    /// The most chunk files an index holds (12 bytes each: 96 MiB).
+    static constexpr uint64_t kMaxChunks = uint64_t(1) << 23;
+    /// Without an index, at most this many names per chunk file (or kMaxLookups in all) are
+    /// looked up one by one.
+    static constexpr uint64_t kLookupsPerFile = 16;
+    static constexpr uint64_t kMaxLookups = uint64_t(1) << 24;
+
+    /// Starts a listing kept in at most `budgetBytes` (transiently, while it grows).
+    void start(uint64_t budgetBytes);
+    /// A chunk that has a file (a name listed twice, flat and nested, counts once once finished).
+    void add(uint32_t x, uint32_t y, uint32_t z);
+    /// Ends the listing: sorted when complete, freed when not.
+    void finish();
+    /// Every chunk file listed is held: a chunk not in the index has no file.
+    bool complete() const { return m_listed <= m_capacity; }
+    uint64_t bytes() const { return m_positions.capacity() * sizeof(Position); }
+    /// The chunks with a file in layer z (rows in increasing y, each in increasing x).
+    Range layer(uint32_t z) const;
+    /// The chunks with a file in row (y, z), in increasing x.
+    Range row(uint32_t y, uint32_t z) const;
+    /// The most chunks with a file that one layer holds.
+    uint64_t largestLayer() const;
+    /// An incomplete index (too many files to hold) leaves a lookup per chunk name: refused, naming
+    /// the counts and limits, when the grid's `gridChunks` names are more than kLookupsPerFile per
+    /// file listed and more than kMaxLookups.
+    Status checkLookups(const std::string& dir, uint64_t gridChunks) const;
+    /// InputSource::uniformBoxes for the chunks without a file (value `fill`) of a grid of
+    /// `chunk`-sized chunks over a volume of `dim`, merged into runs along x, runs of rows along y
+    /// and runs of layers along z: time per layer and chunk file in the region, not per chunk name.
+    void absentBoxes(const std::array<uint64_t, 3>& chunk, const std::array<uint32_t, 3>& dim, uint32_t z0,
+                     uint32_t depth, uint32_t y0, uint32_t rows, uint64_t fill, std::vector<UniformBox>& out) const;
+
+private:
+    std::vector<Position> m_positions;
+    uint64_t m_capacity = 0; ///< the most positions held
+    uint64_t m_listed = 0;   ///< chunk files listed, held or not
 };
 
 // ---- voxels

@@ -9,6 +9,11 @@
 /// voxel_offset, clipped at the volume's end), or that name plus `.gz` (gzip-compressed), or the
 /// nested `<key>/<x0>-<x1>/<y0>-<y1>/<z0>-<z1>`; a chunk with no file is background (zeros), listed
 /// as a uniform box without reading (uniformBoxes: a volume of background compresses per brick).
+/// Which chunks have a file is learnt by listing the scale's folder (and the nested folders whose
+/// names are chunk ranges) once when it is opened, into a ChunkIndex (InputCommon.h), so a chunk
+/// without a file costs no stat: time goes with the chunk files, not with the grid's chunk names
+/// (a 256^3 scale of 1-voxel chunks took minutes). A folder with more chunk files than the index
+/// holds is read as before, a stat per name, unless that means far more names than files.
 /// Encodings `raw` and `compressed_segmentation` (PrecomputedFormat.h); `type` "segmentation",
 /// or "image" with an unsigned integer data_type (an integer image is read as labels). A scale's
 /// key must name a folder inside the dataset's folder unless InputOptions::allowOutsidePaths
@@ -37,6 +42,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <charconv>
+#include <cstring>
 
 namespace csgv {
 namespace inputs {
@@ -174,16 +181,56 @@ public:
         return Status::ok();
     }
 
-    uint64_t workingBytes() const override {
-        return (m_layer.capacity() + m_chunk.capacity()) * sizeof(uint64_t);
+    /// Rows for about their share of a slice's cost when chunk layers are cached (each layer is
+    /// decoded once for all the bands of rows that read it, so a sparse scale is read a band at a
+    /// time, not a slab of whole slices at a time); otherwise whole slices only.
+    bool readsRows() const override { return m_cacheLayers; }
+
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) override {
+        if (!m_cacheLayers || (y0 == 0 && rows == m_info.dim[1])) return InputSource::readRows(z0, depth, y0, rows, out);
+        if (Status s = checkRows(m_info, z0, depth, y0, rows, m_chunkDir); !s) return s;
+        const uint64_t W = m_info.dim[0], H = m_info.dim[1];
+        for (uint32_t z = z0; z < z0 + depth; ++z) {
+            const uint32_t layer = z / m_scale.chunkSize[2];
+            if (Status s = holdLayer(layer); !s) return s;
+            const auto from = m_layer.begin() + W * (y0 + H * (z - layer * m_scale.chunkSize[2]));
+            std::copy(from, from + W * rows, out + W * rows * (z - z0));
+        }
+        return Status::ok();
     }
 
-    /// Chunks with no file are background (0): one box each, runs along x merged, found with a
-    /// stat of each name a chunk may have and no read (InputSource::uniformBoxes). A name that is
-    /// there but refused (chunkFile's errors) is no box: the read reports it.
+    uint64_t workingBytes() const override {
+        return (m_layer.capacity() + m_chunk.capacity()) * sizeof(uint64_t) + m_index.bytes();
+    }
+
+    /// Reads the scale's chunk folder into the chunk index, keeping it within `budgetBytes`; an
+    /// error when the folder cannot be listed, or holds too many files to index for its grid.
+    Status listChunks(uint64_t budgetBytes) {
+        m_index.start(budgetBytes);
+        Status inner; // a failure listing a nested folder
+        Status s = listFolder(m_chunkDir, [&](const char* name) {
+            if (addFlat(name)) return true;
+            uint32_t gx = 0;
+            if (rangeIndex(name, std::strlen(name), 0, gx)) inner = listNested(m_chunkDir + "/" + name, gx);
+            return inner.isOk();
+        });
+        m_index.finish();
+        if (!s || !inner) return s ? inner : s;
+        return m_index.checkLookups(m_chunkDir, product3(chunksAlong(0), chunksAlong(1), chunksAlong(2)));
+    }
+
+    /// Chunks with no file are background (0): boxes found in the chunk index, merged along x, y
+    /// and z (ChunkIndex::absentBoxes), or, when the folder held too many files to index, one box
+    /// per run along x found with a stat of each name a chunk may have (InputSource::uniformBoxes).
+    /// A name that is there but refused (chunkFile's errors) is no box: the read reports it.
     void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override {
         out.clear();
         if (!checkRows(m_info, z0, depth, y0, rows, m_chunkDir) || depth == 0 || rows == 0) return;
+        if (m_index.complete()) {
+            const std::array<uint32_t, 3>& c = m_scale.chunkSize;
+            m_index.absentBoxes({{c[0], c[1], c[2]}}, m_info.dim, z0, depth, y0, rows, 0, out);
+            return;
+        }
         const uint64_t zEnd = uint64_t(z0) + depth, yEnd = uint64_t(y0) + rows;
         const std::array<uint32_t, 3>& c = m_scale.chunkSize;
         for (uint32_t layer = z0 / c[2]; uint64_t(layer) * c[2] < zEnd; ++layer)
@@ -228,18 +275,89 @@ private:
         return uint32_t((uint64_t(m_info.dim[axis]) + m_scale.chunkSize[axis] - 1) / m_scale.chunkSize[axis]);
     }
 
-    /// Voxels [lz0, lz1) of every chunk of `layer` into out (a slab starting at z = lz0).
+    /// `<begin>-<end>`: the voxel range of chunk `g` along `axis` in chunk names (voxel_offset
+    /// added, clipped at the volume's end; offsets and extents are bounded so nothing overflows).
+    std::string rangeName(size_t axis, uint32_t g) const {
+        const uint32_t lo = g * m_scale.chunkSize[axis];
+        const int64_t begin = m_scale.voxelOffset[axis] + lo;
+        return std::to_string(begin) + "-" + std::to_string(begin + std::min(m_scale.chunkSize[axis], m_info.dim[axis] - lo));
+    }
+
+    /// Reads `text` as the range of a chunk along `axis` exactly as rangeName writes it.
+    bool rangeIndex(const char* text, size_t length, size_t axis, uint32_t& out) const {
+        int64_t begin = 0;
+        const std::from_chars_result r = std::from_chars(text, text + length, begin);
+        if (r.ec != std::errc() || r.ptr == text + length || *r.ptr != '-') return false;
+        const int64_t lo = begin - m_scale.voxelOffset[axis]; // both within 2^40: no overflow
+        if (lo < 0 || lo % m_scale.chunkSize[axis] != 0 || lo / m_scale.chunkSize[axis] >= chunksAlong(axis)) return false;
+        out = uint32_t(lo / m_scale.chunkSize[axis]);
+        return rangeName(axis, out).compare(0, std::string::npos, text, length) == 0;
+    }
+
+    /// Indexes `name` when it is a flat chunk name (`x_y_z` or `x_y_z.gz`).
+    bool addFlat(const char* name) {
+        size_t length = std::strlen(name);
+        if (length > 3 && std::strcmp(name + length - 3, ".gz") == 0) length -= 3;
+        std::array<uint32_t, 3> g{};
+        const char* part = name;
+        for (size_t axis = 0; axis < 3; ++axis) {
+            const char* end = axis < 2 ? static_cast<const char*>(std::memchr(part, '_', size_t(name + length - part))) : name + length;
+            if (!end || !rangeIndex(part, size_t(end - part), axis, g[axis])) return false;
+            part = end + 1;
+        }
+        m_index.add(g[0], g[1], g[2]);
+        return true;
+    }
+
+    /// Indexes the nested chunk names `<x>/<y>/<z>` below folder `<x>` (chunk gx along x).
+    Status listNested(const std::string& xDir, uint32_t gx) {
+        Status inner;
+        Status s = listFolder(xDir, [&](const char* yName) {
+            uint32_t gy = 0;
+            if (!rangeIndex(yName, std::strlen(yName), 1, gy)) return true;
+            inner = listFolder(xDir + "/" + yName, [&](const char* zName) {
+                uint32_t gz = 0;
+                if (rangeIndex(zName, std::strlen(zName), 2, gz)) m_index.add(gx, gy, gz);
+                return true;
+            });
+            return inner.isOk();
+        });
+        return s ? inner : s;
+    }
+
+    /// Voxels [lz0, lz1) of every chunk of `layer` into out (a slab starting at z = lz0). With the
+    /// index, rows of chunks some of which have no file are zeroed a row of voxels at a time and
+    /// only the chunks with a file are read; without it, each chunk is looked up by name.
     Status decodeInto(uint32_t layer, uint32_t lz0, uint32_t lz1, uint64_t* out) {
         const uint64_t W = m_info.dim[0], H = m_info.dim[1];
-        for (uint32_t gy = 0; gy < chunksAlong(1); ++gy)
-            for (uint32_t gx = 0; gx < chunksAlong(0); ++gx) {
-                const Box b = chunkBox(gx, gy, layer);
-                if (Status s = decodeChunk(b); !s) return s;
-                for (uint32_t z = lz0; z < lz1; ++z)
-                    for (uint32_t y = 0; y < b.extent[1]; ++y) {
-                        const uint64_t* from = m_chunk.data() + uint64_t(b.extent[0]) * (y + uint64_t(b.extent[1]) * (z - b.lo[2]));
-                        std::copy(from, from + b.extent[0], out + b.lo[0] + W * ((b.lo[1] + y) + H * (z - lz0)));
-                    }
+        for (uint32_t gy = 0; gy < chunksAlong(1); ++gy) {
+            if (!m_index.complete()) {
+                for (uint32_t gx = 0; gx < chunksAlong(0); ++gx)
+                    if (Status s = decodeAndCopy(chunkBox(gx, gy, layer), lz0, lz1, out); !s) return s;
+                continue;
+            }
+            const ChunkIndex::Range row = m_index.row(gy, layer);
+            if (uint64_t(row.second - row.first) < chunksAlong(0)) {
+                const Box b = chunkBox(0, gy, layer);
+                for (uint32_t z = lz0; z < lz1; ++z) {
+                    uint64_t* first = out + W * (b.lo[1] + H * (z - lz0));
+                    std::fill(first, first + W * b.extent[1], 0);
+                }
+            }
+            for (const ChunkIndex::Position* p = row.first; p != row.second; ++p)
+                if (Status s = decodeAndCopy(chunkBox(p->x, gy, layer), lz0, lz1, out); !s) return s;
+        }
+        return Status::ok();
+    }
+
+    /// Slices [lz0, lz1) of chunk `b` into out (a slab starting at z = lz0).
+    Status decodeAndCopy(const Box& b, uint32_t lz0, uint32_t lz1, uint64_t* out) {
+        const uint64_t W = m_info.dim[0], H = m_info.dim[1];
+        if (Status s = decodeChunk(b); !s) return s;
+        for (uint32_t z = lz0; z < lz1; ++z)
+            for (uint32_t y = 0; y < b.extent[1]; ++y) {
+                const uint64_t* from = m_chunk.data() + uint64_t(b.extent[0]) * (y + uint64_t(b.extent[1]) * (z - b.lo[2]));
+                std::copy(from, from + b.extent[0], out + b.lo[0] + W * ((b.lo[1] + y) + H * (z - lz0)));
             }
         return Status::ok();
     }
@@ -248,14 +366,21 @@ private:
     Status copyFromLayer(uint32_t layer, uint32_t lz0, uint32_t lz1, uint64_t* out) {
         const uint64_t plane = uint64_t(m_info.dim[0]) * m_info.dim[1];
         const uint32_t top = layer * m_scale.chunkSize[2];
-        if (m_layerIndex != int64_t(layer)) {
-            m_layerIndex = -1;
-            const uint32_t depth = std::min(m_scale.chunkSize[2], m_info.dim[2] - top);
-            if (Status s = resizeOrFail(m_layer, size_t(plane * depth), m_chunkDir); !s) return s;
-            if (Status s = decodeInto(layer, top, top + depth, m_layer.data()); !s) return s;
-            m_layerIndex = layer;
-        }
+        if (Status s = holdLayer(layer); !s) return s;
         std::copy(m_layer.begin() + plane * (lz0 - top), m_layer.begin() + plane * (lz1 - top), out);
+        return Status::ok();
+    }
+
+    /// Makes m_layer hold chunk layer `layer`, decoded (when another one is held).
+    Status holdLayer(uint32_t layer) {
+        if (m_layerIndex == int64_t(layer)) return Status::ok();
+        const uint64_t plane = uint64_t(m_info.dim[0]) * m_info.dim[1];
+        const uint32_t top = layer * m_scale.chunkSize[2];
+        m_layerIndex = -1;
+        const uint32_t depth = std::min(m_scale.chunkSize[2], m_info.dim[2] - top);
+        if (Status s = resizeOrFail(m_layer, size_t(plane * depth), m_chunkDir); !s) return s;
+        if (Status s = decodeInto(layer, top, top + depth, m_layer.data()); !s) return s;
+        m_layerIndex = layer;
         return Status::ok();
     }
 
@@ -267,10 +392,7 @@ private:
     /// The names a chunk's file may have, relative to the scale's folder: flat, gzip, nested.
     std::array<std::string, 3> chunkNames(const Box& b) const {
         std::array<std::string, 3> range;
-        for (size_t i = 0; i < 3; ++i) {
-            const int64_t begin = m_scale.voxelOffset[i] + b.lo[i];
-            range[i] = std::to_string(begin) + "-" + std::to_string(begin + b.extent[i]);
-        }
+        for (size_t i = 0; i < 3; ++i) range[i] = rangeName(i, b.lo[i] / m_scale.chunkSize[i]);
         const std::string flat = range[0] + "_" + range[1] + "_" + range[2];
         return {flat, flat + ".gz", range[0] + "/" + range[1] + "/" + range[2]};
     }
@@ -352,6 +474,7 @@ private:
     std::vector<uint64_t> m_chunk; ///< one decoded chunk
     std::vector<uint64_t> m_layer; ///< the decoded chunk layer m_layerIndex (when caching)
     int64_t m_layerIndex = -1;
+    ChunkIndex m_index;            ///< the chunks that have a file (when complete())
 };
 
 } // namespace
@@ -395,11 +518,14 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
                                    ? chunkBytes / 8 * typeBytes(info->type) + 1
                                    : compressedSegmentationBound(info->type, chunk32, scale.blockSize);
     const uint64_t maxFileBytes = std::min(worstFile, options.maxWorkingBytes - chunkBytes);
-    const bool cacheLayers = layerBytes <= options.maxWorkingBytes - chunkBytes - maxFileBytes;
+    const uint64_t left = options.maxWorkingBytes - chunkBytes - maxFileBytes;
+    const bool cacheLayers = layerBytes <= left;
 
-    return std::unique_ptr<InputSource>(
-        std::make_unique<PrecomputedSource>(p.dir, chunkDir, options.allowOutsidePaths, std::move(*info), *index,
-                                            cacheLayers, maxFileBytes));
+    auto source = std::make_unique<PrecomputedSource>(p.dir, chunkDir, options.allowOutsidePaths, std::move(*info), *index,
+                                                      cacheLayers, maxFileBytes);
+    // The chunk index takes what the chunk, its file and the layer leave.
+    if (Status s = source->listChunks(left - (cacheLayers ? layerBytes : 0)); !s) return s;
+    return std::unique_ptr<InputSource>(std::move(source));
 }
 
 } // namespace inputs

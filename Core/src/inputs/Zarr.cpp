@@ -13,8 +13,16 @@
 /// deeper than the caller's slab is decoded once; otherwise each request decodes the chunks it
 /// touches one at a time (one decoded chunk). Either way, plus one compressed chunk file (at most
 /// the decoded chunk size + 1/16 + 4 KiB: a larger file is refused, not read). Chunks with no file
-/// are fill_value and are listed as uniform boxes, so a volume of them compresses per chunk and
-/// brick, not per voxel (uniformBoxes).
+/// are fill_value and are listed as uniform boxes, so a volume of them compresses per brick, not
+/// per voxel (uniformBoxes).
+///
+/// Which chunks have a file is learnt by listing the array's folder once when it is opened (with
+/// dimension_separator "/", the nested folders of the names that can be chunk keys), into a
+/// ChunkIndex (InputCommon.h): a chunk not listed is fill_value without a stat of its name, so
+/// time goes with the chunk files, not with the chunk names the grid declares (a 1024^3 array of
+/// 1-voxel chunks and no file took an hour). The layer cache then holds a slot for each chunk of
+/// a layer that has a file. A folder with more chunk files than the index holds (its bound is in
+/// ChunkIndex) is read as before, a stat a chunk, unless that would mean far more names than files.
 #include "InputCommon.h"
 
 #include "csgv/base/Checked.h"
@@ -150,14 +158,21 @@ class ZarrSource : public InputSource {
 public:
     Status open(const std::string& path, const InputOptions& options);
     Status readSlab(uint32_t z0, uint32_t depth, uint64_t* out) override;
+    /// Rows for about their share of a slice's cost when the layer is cached: each chunk is then
+    /// decoded once for all the bands of rows that read it (a sparse array is read a band at a
+    /// time, not a slab of whole slices at a time). Otherwise whole slices, as chunk by chunk.
+    bool readsRows() const override { return m_cacheLayer; }
+    Status readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) override;
     uint64_t workingBytes() const override;
-    /// Chunks with no file at all are fill_value (when it is an integer label): one box each, runs
-    /// along x merged, found with one lookup a chunk and no read (InputSource::uniformBoxes).
+    /// Chunks with no file at all are fill_value (when it is an integer label): boxes found in the
+    /// chunk index, merged along x, y and z (ChunkIndex::absentBoxes), or, when the folder held too
+    /// many files to index, one box per run along x found with a stat a chunk.
     void uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) override;
 
 private:
     /// One decoded chunk of the cached layer (or the scratch chunk).
     struct Chunk {
+        uint64_t layer = ~uint64_t(0); ///< the z chunk index this slot holds a chunk of
         bool loaded = false;
         bool missing = false; ///< no file: fill_value everywhere
         std::vector<uint8_t> bytes;
@@ -167,10 +182,25 @@ private:
     Status findAxes(const Resolved& r);
     void placeInSpace(const Resolved& r);
     Status planMemory(const InputOptions& options);
+    Status listChunks(uint64_t budgetBytes);
+    Status listLevel(const std::string& dir, size_t axis, std::array<uint32_t, 3>& at);
+    Status listFlat();
+    bool chunkIndexOf(const char* text, size_t length, size_t axis, uint32_t& out) const;
+    void place(size_t axis, uint32_t index, std::array<uint32_t, 3>& at) const;
     std::string chunkPath(uint64_t iz, uint64_t iy, uint64_t ix) const;
     Status load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk);
-    Result<Chunk*> chunkAt(uint64_t iz, uint64_t iy, uint64_t ix);
-    Status copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, uint32_t z0, uint32_t zs, uint32_t ze, uint64_t* out) const;
+    /// Chunk (ix, iy, iz), decoded; `slot` is its place in the layer cache.
+    Result<Chunk*> chunkAt(uint64_t iz, uint64_t iy, uint64_t ix, size_t slot);
+    /// Rows [y0, y1) of the slices from z0 on, into out[x + W * ((y - y0) + (y1 - y0) * (z - z0))].
+    struct Target {
+        uint32_t z0, y0, y1;
+        uint64_t* out;
+    };
+    Status readRegion(const Target& t, uint32_t depth);
+    Status readRow(uint64_t iz, uint64_t iy, const ChunkIndex::Position* layerFirst, const Target& t, uint32_t zs, uint32_t ze);
+    Status readRowByName(uint64_t iz, uint64_t iy, const Target& t, uint32_t zs, uint32_t ze);
+    void fillRows(uint64_t iy, const Target& t, uint32_t zs, uint32_t ze) const;
+    Status copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, const Target& t, uint32_t zs, uint32_t ze) const;
 
     std::string m_dir;
     /// Chunk files must lie inside the folder the user named (m_root; m_dir as seen from it)
@@ -183,9 +213,11 @@ private:
     uint64_t m_stride[3] = {0, 0, 0}; ///< element stride inside a chunk along x, y, z
     uint64_t m_grid[3] = {1, 1, 1};   ///< chunks along x, y, z
     uint64_t m_maxFileBytes = 0;
+    ChunkIndex m_index;               ///< the chunks that have a file (when complete())
     bool m_cacheLayer = false;
-    uint64_t m_layerZ = ~uint64_t(0);
-    std::vector<Chunk> m_layer;       ///< m_grid[0] * m_grid[1] chunks of layer m_layerZ
+    /// The decoded chunks of one layer: a slot for each chunk of a layer that has a file (its
+    /// place among the layer's chunks in m_index), or m_grid[0] * m_grid[1] when not indexed.
+    std::vector<Chunk> m_layer;
     Chunk m_scratch;
     std::vector<uint8_t> m_file;      ///< compressed bytes of the chunk being decoded
 };
@@ -261,16 +293,88 @@ void ZarrSource::placeInSpace(const Resolved& r) {
 }
 
 Status ZarrSource::planMemory(const InputOptions& options) {
-    const uint64_t chunkBytes = m_array.chunkBytes();
+    const uint64_t chunkBytes = m_array.chunkBytes(); // at most 2 GiB (parseZarray): no sum wraps
     m_maxFileBytes = chunkBytes + chunkBytes / 16 + 4096;
-    const uint64_t slots = mulSaturate(m_grid[0], m_grid[1]);
-    const uint64_t layerBytes = mulSaturate(slots, chunkBytes + sizeof(Chunk));
-    m_cacheLayer = layerBytes <= options.maxWorkingBytes && layerBytes + m_maxFileBytes <= options.maxWorkingBytes;
-    if (m_cacheLayer) return resizeOrFail(m_layer, size_t(slots), m_dir);
-    if (chunkBytes + m_maxFileBytes > options.maxWorkingBytes)
+    const uint64_t budget = options.maxWorkingBytes;
+    if (chunkBytes + m_maxFileBytes > budget)
         return fail(m_dir, "a chunk of " + std::to_string(chunkBytes) + " bytes does not fit the working memory bound of " +
-                               std::to_string(options.maxWorkingBytes) + " bytes");
+                               std::to_string(budget) + " bytes");
+    // The index takes what one decoded chunk and its file leave; the layer cache what is left then.
+    if (Status s = listChunks(budget - chunkBytes - m_maxFileBytes); !s) return s;
+    const uint64_t slots = m_index.complete() ? m_index.largestLayer() : mulSaturate(m_grid[0], m_grid[1]);
+    const uint64_t layerBytes = mulSaturate(slots, chunkBytes + sizeof(Chunk));
+    m_cacheLayer = layerBytes <= budget - m_maxFileBytes - m_index.bytes();
+    if (m_cacheLayer) return resizeOrFail(m_layer, size_t(slots), m_dir);
     return Status::ok();
+}
+
+/// Lists the chunk files into m_index: the array folder's names `i.j.k`, or with the separator
+/// "/" the folders `i`, `i/j` and files `i/j/k`. Only names that are chunk keys of the grid as
+/// chunkPath writes them count (and only such folders are listed), so a stray file costs nothing.
+Status ZarrSource::listChunks(uint64_t budgetBytes) {
+    m_index.start(budgetBytes);
+    std::array<uint32_t, 3> at{{0, 0, 0}};
+    Status s = m_array.separator == '/' ? listLevel(m_dir, 0, at) : listFlat();
+    m_index.finish();
+    if (!s) return s;
+    return m_index.checkLookups(m_dir, product3(m_grid[0], m_grid[1], m_grid[2]));
+}
+
+Status ZarrSource::listFlat() {
+    const size_t n = m_array.shape.size();
+    return listFolder(m_dir, [&](const char* name) {
+        std::array<uint32_t, 3> at{{0, 0, 0}};
+        const char* part = name;
+        for (size_t axis = 0; axis < n; ++axis) {
+            const char* end = std::strchr(part, '.');
+            if ((end == nullptr) != (axis + 1 == n)) return true; // too few or too many parts
+            if (!end) end = part + std::strlen(part);
+            uint32_t index = 0;
+            if (!chunkIndexOf(part, size_t(end - part), axis, index)) return true;
+            place(axis, index, at);
+            part = end + 1;
+        }
+        m_index.add(at[0], at[1], at[2]);
+        return true;
+    });
+}
+
+Status ZarrSource::listLevel(const std::string& dir, size_t axis, std::array<uint32_t, 3>& at) {
+    const bool last = axis + 1 == m_array.shape.size();
+    Status inner; // a failure listing a folder below, which ends this listing too
+    Status s = listFolder(dir, [&](const char* name) {
+        uint32_t index = 0;
+        if (!chunkIndexOf(name, std::strlen(name), axis, index)) return true;
+        std::array<uint32_t, 3> here = at;
+        place(axis, index, here);
+        if (last) m_index.add(here[0], here[1], here[2]);
+        else inner = listLevel(dir + "/" + name, axis + 1, here); // at most 5 folders open at once
+        return inner.isOk();
+    });
+    return s ? inner : s;
+}
+
+/// Reads `text` as a chunk key's index along array axis `axis`: decimal as chunkPath writes it (no
+/// sign, no leading zero) and inside the grid (0 along an axis that is not x, y or z).
+bool ZarrSource::chunkIndexOf(const char* text, size_t length, size_t axis, uint32_t& out) const {
+    if (length == 0 || length > 10 || (text[0] == '0' && length > 1)) return false;
+    uint64_t v = 0;
+    for (size_t i = 0; i < length; ++i) {
+        if (text[i] < '0' || text[i] > '9') return false;
+        v = v * 10 + uint64_t(text[i] - '0');
+    }
+    uint64_t bound = 1;
+    for (int k = 0; k < 3; ++k)
+        if (m_axis[k] == int(axis)) bound = m_grid[k];
+    if (v >= bound) return false;
+    out = uint32_t(v);
+    return true;
+}
+
+/// Puts a chunk key's index along array axis `axis` into its grid position (x, y, z).
+void ZarrSource::place(size_t axis, uint32_t index, std::array<uint32_t, 3>& at) const {
+    for (int k = 0; k < 3; ++k)
+        if (m_axis[k] == int(axis)) at[size_t(k)] = index;
 }
 
 Status ZarrSource::open(const std::string& path, const InputOptions& options) {
@@ -363,37 +467,38 @@ Status ZarrSource::load(uint64_t iz, uint64_t iy, uint64_t ix, Chunk& chunk) {
     return Status::ok();
 }
 
-Result<ZarrSource::Chunk*> ZarrSource::chunkAt(uint64_t iz, uint64_t iy, uint64_t ix) {
+Result<ZarrSource::Chunk*> ZarrSource::chunkAt(uint64_t iz, uint64_t iy, uint64_t ix, size_t slot) {
     if (!m_cacheLayer) {
         if (Status s = load(iz, iy, ix, m_scratch); !s) return s;
         return &m_scratch;
     }
-    if (m_layerZ != iz) { // a new layer: the previous one is not needed again in increasing z
-        for (Chunk& c : m_layer) c = Chunk();
-        m_layerZ = iz;
+    Chunk& c = m_layer[slot];
+    if (c.layer != iz) { // the slot held a chunk of another layer (its bytes are reused)
+        c.layer = iz;
+        c.loaded = false;
     }
-    Chunk& c = m_layer[size_t(iy * m_grid[0] + ix)];
     if (!c.loaded)
         if (Status s = load(iz, iy, ix, c); !s) return s;
     return &c;
 }
 
-Status ZarrSource::copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, uint32_t z0, uint32_t zs, uint32_t ze,
-                             uint64_t* out) const {
+Status ZarrSource::copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint64_t ix, const Target& t, uint32_t zs,
+                             uint32_t ze) const {
     const uint64_t W = m_info.dim[0], H = m_info.dim[1];
     const uint64_t x0 = ix * m_chunk[0], x1 = std::min<uint64_t>(W, x0 + m_chunk[0]);
-    const uint64_t y0 = iy * m_chunk[1], y1 = std::min<uint64_t>(H, y0 + m_chunk[1]);
+    const uint64_t cy0 = iy * m_chunk[1];
+    const uint64_t y0 = std::max<uint64_t>(cy0, t.y0), y1 = std::min<uint64_t>({H, cy0 + m_chunk[1], t.y1});
     const uint64_t cz0 = iz * m_chunk[2];
     for (uint64_t z = zs; z < ze; ++z)
         for (uint64_t y = y0; y < y1; ++y) {
-            uint64_t* row = out + W * (y + H * (z - z0));
+            uint64_t* row = t.out + W * ((y - t.y0) + (t.y1 - t.y0) * (z - t.z0));
             if (chunk.missing) {
                 if (!m_array.fillIsLabel)
                     return fail(chunkPath(iz, iy, ix), "chunk file is missing and the array's fill_value is not an integer label");
                 std::fill(row + x0, row + x1, m_array.fill);
                 continue;
             }
-            const uint64_t base = (z - cz0) * m_stride[2] + (y - y0) * m_stride[1];
+            const uint64_t base = (z - cz0) * m_stride[2] + (y - cy0) * m_stride[1];
             double bad = 0;
             for (uint64_t x = x0; x < x1; ++x)
                 if (!zarrElement(m_array, chunk.bytes.data(), base + (x - x0) * m_stride[0], row[x], &bad))
@@ -405,24 +510,81 @@ Status ZarrSource::copyChunk(const Chunk& chunk, uint64_t iz, uint64_t iy, uint6
 
 Status ZarrSource::readSlab(uint32_t z0, uint32_t depth, uint64_t* out) {
     if (Status s = checkSlab(m_info, z0, depth, m_dir); !s) return s;
-    if (depth == 0) return Status::ok();
-    const uint64_t zEnd = uint64_t(z0) + depth;
-    for (uint64_t iz = z0 / m_chunk[2]; iz * m_chunk[2] < zEnd; ++iz) {
-        const uint32_t zs = uint32_t(std::max<uint64_t>(z0, iz * m_chunk[2]));
+    return readRegion({z0, 0, m_info.dim[1], out}, depth);
+}
+
+Status ZarrSource::readRows(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, uint64_t* out) {
+    if (Status s = checkRows(m_info, z0, depth, y0, rows, m_dir); !s) return s;
+    return readRegion({z0, y0, y0 + rows, out}, depth);
+}
+
+Status ZarrSource::readRegion(const Target& t, uint32_t depth) {
+    if (depth == 0 || t.y1 == t.y0) return Status::ok();
+    const uint64_t zEnd = uint64_t(t.z0) + depth;
+    for (uint64_t iz = t.z0 / m_chunk[2]; iz * m_chunk[2] < zEnd; ++iz) {
+        const uint32_t zs = uint32_t(std::max<uint64_t>(t.z0, iz * m_chunk[2]));
         const uint32_t ze = uint32_t(std::min<uint64_t>(zEnd, (iz + 1) * m_chunk[2]));
-        for (uint64_t iy = 0; iy < m_grid[1]; ++iy)
-            for (uint64_t ix = 0; ix < m_grid[0]; ++ix) {
-                Result<Chunk*> c = chunkAt(iz, iy, ix);
-                if (!c) return c.status();
-                if (Status s = copyChunk(**c, iz, iy, ix, z0, zs, ze, out); !s) return s;
-            }
+        const ChunkIndex::Position* layerFirst = m_index.layer(uint32_t(iz)).first;
+        for (uint64_t iy = t.y0 / m_chunk[1]; iy * m_chunk[1] < t.y1; ++iy) {
+            Status s = m_index.complete() ? readRow(iz, iy, layerFirst, t, zs, ze) : readRowByName(iz, iy, t, zs, ze);
+            if (!s) return s;
+        }
     }
     return Status::ok();
+}
+
+/// Slices [zs, ze) of the chunks of row (iy, iz) into the target, knowing from the index which
+/// have a file: the others are fill_value, written a row of voxels at a time.
+Status ZarrSource::readRow(uint64_t iz, uint64_t iy, const ChunkIndex::Position* layerFirst, const Target& t, uint32_t zs,
+                           uint32_t ze) {
+    const ChunkIndex::Range row = m_index.row(uint32_t(iy), uint32_t(iz));
+    const auto copy = [&](const ChunkIndex::Position* p) -> Status {
+        Result<Chunk*> c = chunkAt(iz, iy, p->x, size_t(p - layerFirst));
+        if (!c) return c.status();
+        return copyChunk(**c, iz, iy, p->x, t, zs, ze);
+    };
+    if (uint64_t(row.second - row.first) < m_grid[0]) {
+        uint64_t missing = 0; // the first chunk of the row without a file
+        for (const ChunkIndex::Position* p = row.first; p != row.second && p->x == missing; ++p) ++missing;
+        if (!m_array.fillIsLabel) {
+            for (const ChunkIndex::Position* p = row.first; p != row.second && p->x < missing; ++p)
+                if (Status s = copy(p); !s) return s; // errors in x order, as chunk by chunk
+            return fail(chunkPath(iz, iy, missing), "chunk file is missing and the array's fill_value is not an integer label");
+        }
+        fillRows(iy, t, zs, ze);
+    }
+    for (const ChunkIndex::Position* p = row.first; p != row.second; ++p)
+        if (Status s = copy(p); !s) return s;
+    return Status::ok();
+}
+
+/// The same without an index: each chunk looked up by name (load).
+Status ZarrSource::readRowByName(uint64_t iz, uint64_t iy, const Target& t, uint32_t zs, uint32_t ze) {
+    for (uint64_t ix = 0; ix < m_grid[0]; ++ix) {
+        Result<Chunk*> c = chunkAt(iz, iy, ix, size_t(iy * m_grid[0] + ix));
+        if (!c) return c.status();
+        if (Status s = copyChunk(**c, iz, iy, ix, t, zs, ze); !s) return s;
+    }
+    return Status::ok();
+}
+
+/// fill_value over the whole width of the target's rows in chunk row iy, slices [zs, ze).
+void ZarrSource::fillRows(uint64_t iy, const Target& t, uint32_t zs, uint32_t ze) const {
+    const uint64_t W = m_info.dim[0];
+    const uint64_t y0 = std::max<uint64_t>(t.y0, iy * m_chunk[1]), y1 = std::min<uint64_t>(t.y1, (iy + 1) * m_chunk[1]);
+    for (uint64_t z = zs; z < ze; ++z) {
+        uint64_t* first = t.out + W * ((y0 - t.y0) + (t.y1 - t.y0) * (z - t.z0));
+        std::fill(first, first + W * (y1 - y0), m_array.fill);
+    }
 }
 
 void ZarrSource::uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t rows, std::vector<UniformBox>& out) {
     out.clear();
     if (!checkRows(m_info, z0, depth, y0, rows, m_dir) || depth == 0 || rows == 0 || !m_array.fillIsLabel) return;
+    if (m_index.complete()) {
+        m_index.absentBoxes({{m_chunk[0], m_chunk[1], m_chunk[2]}}, m_info.dim, z0, depth, y0, rows, m_array.fill, out);
+        return;
+    }
     const uint64_t W = m_info.dim[0], zEnd = uint64_t(z0) + depth, yEnd = uint64_t(y0) + rows;
     for (uint64_t iz = z0 / m_chunk[2]; iz * m_chunk[2] < zEnd; ++iz)
         for (uint64_t iy = y0 / m_chunk[1]; iy * m_chunk[1] < yEnd; ++iy) {
@@ -444,7 +606,7 @@ void ZarrSource::uniformBoxes(uint32_t z0, uint32_t depth, uint32_t y0, uint32_t
 }
 
 uint64_t ZarrSource::workingBytes() const {
-    uint64_t bytes = m_scratch.bytes.capacity() + m_file.capacity() + m_layer.capacity() * sizeof(Chunk);
+    uint64_t bytes = m_scratch.bytes.capacity() + m_file.capacity() + m_layer.capacity() * sizeof(Chunk) + m_index.bytes();
     for (const Chunk& c : m_layer) bytes += c.bytes.capacity();
     return bytes;
 }
