@@ -89,8 +89,8 @@ void AnnounceSteps(vtkInformation* outInfo, int steps)
   outInfo->Set(vtkStreamingDemandDrivenPipeline::TIME_DEPENDENT_INFORMATION(), 1);
   // Consumers downstream (ParaView's post filter, representations) keep the whole extent of the
   // step they saw last and ask it again before the reader can answer (the executive checks the
-  // request against the new step's extent first): the reader takes any request and fits it to
-  // the step's extent in RequestUpdateExtent (FitUpdateExtent).
+  // request against the new step's extent first): the reader takes any request and answers with
+  // the step's whole extent in RequestUpdateExtent (AskWholeExtent).
   outInfo->Set(vtkStreamingDemandDrivenPipeline::UNRESTRICTED_UPDATE_EXTENT(), 1);
 }
 
@@ -102,37 +102,17 @@ void ClearSteps(vtkInformation* outInfo)
   outInfo->Remove(vtkStreamingDemandDrivenPipeline::UNRESTRICTED_UPDATE_EXTENT());
 }
 
-void FitUpdateExtent(vtkInformation* outInfo)
+void AskWholeExtent(vtkInformation* outInfo)
 {
-  int whole[6], ext[6];
+  int whole[6];
   outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-  outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
-  bool inside = true;
-  for (int a = 0; a < 3; ++a)
-  {
-    inside = inside && ext[2 * a] >= whole[2 * a] && ext[2 * a + 1] <= whole[2 * a + 1];
-  }
-  if (!inside)
-  {
-    outInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
-  }
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
   // The executive unites each request with the extents requested before in the same cycle
-  // (COMBINED_UPDATE_EXTENT): one of the previous step would bring its extent back.
+  // (COMBINED_UPDATE_EXTENT): one made for another step would bring its extent back.
   if (outInfo->Has(vtkStreamingDemandDrivenPipeline::COMBINED_UPDATE_EXTENT()))
   {
-    int combined[6];
-    outInfo->Get(vtkStreamingDemandDrivenPipeline::COMBINED_UPDATE_EXTENT(), combined);
-    bool fits = true;
-    for (int a = 0; a < 3; ++a)
-    {
-      fits = fits && (combined[2 * a] > combined[2 * a + 1] ||
-                       (combined[2 * a] >= whole[2 * a] && combined[2 * a + 1] <= whole[2 * a + 1]));
-    }
-    if (!fits)
-    {
-      static const int empty[6] = { 0, -1, 0, -1, 0, -1 };
-      outInfo->Set(vtkStreamingDemandDrivenPipeline::COMBINED_UPDATE_EXTENT(), empty, 6);
-    }
+    static const int empty[6] = { 0, -1, 0, -1, 0, -1 };
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::COMBINED_UPDATE_EXTENT(), empty, 6);
   }
 }
 

@@ -11,7 +11,8 @@
  *
  * Time steps are the file indices 0, 1, ..., N - 1; a time between two shows the earlier file
  * (as vtkFileSeriesReader does). Another step is another file, possibly of another extent: it is
- * announced in RequestUpdateExtent, where the requested time is known.
+ * announced when the pipeline asks for time-dependent information (the requested time is known
+ * then), and every request is answered with the step's whole extent (AskWholeExtent).
  */
 #ifndef CSGVFileSeries_h
 #define CSGVFileSeries_h
@@ -48,7 +49,7 @@ private:
 int RequestedStep(vtkInformation* outInfo, int steps);
 
 /// The step a request asks for becomes `step`; true when it changed (the reader then announces
-/// the new step's file, before FitUpdateExtent).
+/// the new step's file, before AskWholeExtent).
 bool TakeRequestedStep(vtkInformation* outInfo, int steps, int& step);
 
 /// Publishes time steps 0 .. steps - 1, their range, and that the information (the extent)
@@ -58,9 +59,12 @@ void AnnounceSteps(vtkInformation* outInfo, int steps);
 /// Removes what AnnounceSteps published.
 void ClearSteps(vtkInformation* outInfo);
 
-/// After another step's extent was announced: the update extent asked of the previous file
-/// becomes the whole extent when it does not fit this one.
-void FitUpdateExtent(vtkInformation* outInfo);
+/// A series reader's update extent is the current step's whole extent, whatever was asked.
+/// Consumers downstream (ParaView's post filter, representations, filters) keep the extent of the
+/// step they saw when they last asked for information and ask it again at other steps: a larger
+/// one is outside this step's extent, a smaller one would crop it. Pieces (MPI) are asked by
+/// number, not by extent, and stay as they are.
+void AskWholeExtent(vtkInformation* outInfo);
 
 } // namespace csgvvtk
 

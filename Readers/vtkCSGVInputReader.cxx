@@ -204,24 +204,32 @@ bool vtkCSGVInputReader::ChooseInputs(std::string& error)
     return true;
   }
   // What the first file is decides, as a user would: a 2D TIFF is a slice of a stack, anything
-  // with depth (a multi-page TIFF, HDF5, NRRD...) is a volume of its own, one per time step.
-  const InputLocation first = csgvvtk::locateInput(in.Inputs[0]);
-  if (!first.Error.empty())
-  {
-    error = first.Error;
-    return false;
-  }
+  // with depth (a multi-page TIFF, HDF5, NRRD...) is a volume of its own, one per time step. A
+  // first file that cannot be read leaves it to the next that can (the bad one is then named when
+  // its slice or step is read), so one bad file does not hide a whole series.
   csgv::InputOptions options;
   options.allowOutsidePaths = this->AllowOutsidePaths != 0;
-  csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgvvtk::openSource(first, options);
-  if (!source)
+  std::string firstError;
+  for (const std::string& input : in.Inputs)
   {
-    error = source.message();
-    return false;
+    const InputLocation where = csgvvtk::locateInput(input);
+    csgv::Result<std::unique_ptr<csgv::InputSource>> source = where.Error.empty()
+      ? csgvvtk::openSource(where, options)
+      : csgv::Result<std::unique_ptr<csgv::InputSource>>(csgv::Status::error(where.Error));
+    if (!source)
+    {
+      if (firstError.empty())
+      {
+        firstError = source.message();
+      }
+      continue;
+    }
+    const csgv::InputInfo& info = (*source)->info();
+    this->SeriesMode = info.format == "TIFF" && info.dim[2] == 1 ? ImageStack : TimeSeries;
+    return true;
   }
-  const csgv::InputInfo& info = (*source)->info();
-  this->SeriesMode = info.format == "TIFF" && info.dim[2] == 1 ? ImageStack : TimeSeries;
-  return true;
+  error = firstError;
+  return false;
 }
 
 int vtkCSGVInputReader::RequestInformation(
@@ -285,7 +293,7 @@ void vtkCSGVInputReader::SwitchStep(vtkInformation* outInfo)
   {
     this->PrepareInput(outInfo);
   }
-  csgvvtk::FitUpdateExtent(outInfo);
+  csgvvtk::AskWholeExtent(outInfo);
 }
 
 void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)

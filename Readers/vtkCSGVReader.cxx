@@ -457,7 +457,7 @@ void vtkCSGVReader::SwitchStep(vtkInformation* outInfo)
   {
     this->DescribeFile(outInfo);
   }
-  csgvvtk::FitUpdateExtent(outInfo);
+  csgvvtk::AskWholeExtent(outInfo);
 }
 
 void vtkCSGVReader::DescribeFile(vtkInformation* outInfo)

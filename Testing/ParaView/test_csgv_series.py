@@ -105,4 +105,16 @@ t.check("s_1.csgv" in errors.text and (labels is None or labels.size == 0) and s
 shows(r, 2.0, 2, "after the damaged step")
 Delete(r)
 
+# A damaged first step hides nothing after it: the others read, the first is named.
+r = CSGVReader(FileNames=[files[1], files[0], files[2]])
+t.check(list(r.TimestepValues) == [0.0, 1.0, 2.0], "a damaged first step: still 3 time steps")
+shows(r, 1.0, 0, "after a damaged first step")
+shows(r, 2.0, 2, "after a damaged first step")
+with t.ErrorLog() as errors:
+    dims, labels, step = t.labels_at(r, 0.0)
+t.check("s_1.csgv" in errors.text and (labels is None or labels.size == 0),
+        "the damaged first step is named and empty (%s)" % errors.text.strip()[:200])
+shows(r, 1.0, 0, "back after the damaged first step")
+Delete(r)
+
 t.finish()

@@ -164,6 +164,21 @@ for step in (1, 2, 0):
 t.check(os.path.isfile(three_d[1] + ".csgv"), "each time step has its own cache")
 Delete(r)
 
+# A first file that cannot be read does not hide the series: the next file that can decides.
+broken = os.path.join(tmp, "vols", "broken_t0.tif")
+with open(broken, "wb") as f:
+    f.write(b"II*\0 not a tiff")
+r = SegmentationCSGV(FileNames=[broken] + three_d[1:])
+t.check(series_mode(r) == 3 and list(r.TimestepValues) == [0.0, 1.0, 2.0],
+        "a broken first file: still a time series of 3 steps (%s)" % list(r.TimestepValues))
+dims, labels = labels_of(r, 2.0)
+t.check(labels is not None and np.array_equal(labels, vols[2].ravel().astype(np.uint64)), "time 2 still shows its file")
+with t.ErrorLog() as errors:
+    dims, labels = labels_of(r, 0.0)
+t.check("broken_t0.tif" in errors.text and (labels is None or labels.size == 0),
+        "time 0 names the broken file (%s)" % errors.text.strip()[:200])
+Delete(r)
+
 # 2D slices with ReadAsImageStack off: one slice per time step, as ParaView's TIFF Series Reader.
 r = SegmentationCSGV(FileNames=good, ReadAsImageStack=0)
 dims, labels = labels_of(r, 3.0)
