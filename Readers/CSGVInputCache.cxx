@@ -425,7 +425,9 @@ bool percentDecoded(const std::string& token, std::string& out)
 
 std::string namedFilesState(const std::vector<std::string>& files)
 {
-  std::string text;
+  // The count first: a stamp without it (one written before inputs named files, or cut by hand)
+  // or without some of its lines never matches, so the input is compressed again.
+  std::string text = "named files: " + std::to_string(files.size()) + "\n";
   for (const std::string& file : files)
   {
     const std::string state = topLevelState(file);

@@ -62,8 +62,8 @@ std::string topLevelState(const std::string& path);
 
 /// The state of the files an input names besides itself (csgv::InputInfo::namedFiles: an NRRD's
 /// data file, an HDF5 file's external links, storage and virtual sources), one line each, for the
-/// stamp: `named: INODE SIZE MTIME PATH`, or `named: missing PATH`, the path percent-encoded (its
-/// exact bytes, in one token of printable ASCII).
+/// stamp: `named files: N`, then `named: INODE SIZE MTIME PATH` (or `named: missing PATH`) for
+/// each, the path percent-encoded (its exact bytes, in one token of printable ASCII).
 std::string namedFilesState(const std::vector<std::string>& files);
 
 /// The files a stamp's `named:` lines list (none for a stamp without any, or a damaged line: the

@@ -212,6 +212,14 @@ Delete(r)
 r, img, _, compressed = open_input(nhdr)
 t.check(compressed == 0, "unchanged, the detached NRRD's cache is reused")
 Delete(r)
+# A stamp whose named lines are gone (written before inputs named files, or cut) never matches.
+stamp_path = nhdr + ".csgv.stamp"
+stamp_text = open(stamp_path).read()
+with open(stamp_path, "w") as f:
+    f.write("".join(l for l in stamp_text.splitlines(True) if not l.startswith("named")))
+r, img, _, compressed = open_input(nhdr)
+t.check(compressed == 1, "a stamp without its named lines: compressed again")
+Delete(r)
 vol2.astype("<u4").tofile(raw)
 st = os.stat(raw)
 os.utime(raw, ns=(st.st_atime_ns, st.st_mtime_ns + 2_000_000_000))
