@@ -242,8 +242,8 @@ TEST(Precomputed, WorkingMemoryStaysWithinTheLimit) {
     tiny.maxWorkingBytes = 1000;
     const Result<std::unique_ptr<InputSource>> r = openInput(dir, tiny);
     ASSERT_FALSE(r.isOk());
-    EXPECT_NE(r.message().find("/info: a decoded 20 x 20 x 12 chunk needs 38400 bytes, more than the working memory "
-                               "limit of 1000"),
+    EXPECT_NE(r.message().find("/info: a decoded 20 x 20 x 12 chunk needs 38400 bytes and its file more, beyond the "
+                               "working memory limit of 1000"),
               std::string::npos)
         << r.message();
 }
@@ -272,8 +272,8 @@ TEST(Precomputed, BadInputsAreClearErrors) {
         {"bad_cs_block", "/info: scale 0: \"compressed_segmentation_block_size\" 16x8x8 is larger than the chunk "
                          "size 8x8x8"},
         {"bad_deep", "/info: nests arrays or objects more than 64 levels deep"},
-        {"bad_huge_chunk", "/info: a decoded 65536 x 32768 x 1073741824 chunk needs more than 2^64 bytes, more than "
-                           "the working memory limit of "},
+        {"bad_huge_chunk", "/info: a decoded 65536 x 32768 x 1073741824 chunk needs more than 2^64 bytes and its "
+                           "file more, beyond the working memory limit of "},
     };
     // A scale whose chunk folder is missing (a wrong key, or an incomplete copy).
     const std::string noChunks = tempDir() + "/precomputed_no_chunks";

@@ -1353,3 +1353,19 @@ TEST(InputsErrors, AFifoOrAFolderIsSaidAsSuch) {
     csgv::Result<std::unique_ptr<csgv::InputSource>> r = csgv::openInput(missing, {});
     EXPECT_NE(r.message().find("cannot open '" + missing + "': no such file"), std::string::npos) << r.message();
 }
+
+TEST(InputsErrors, MetadataThatIsNoFileIsSaidAsSuch) {
+    // Found by an attack pass: a precomputed `info` that is a FIFO was taken for a TIFF folder
+    // ("holds no .tif slices"), a Zarr `.zarray` that is one for "no .zarray".
+    const std::string pc = tmp("fifo_info"), zarr = tmp("fifo_meta.zarr");
+    for (const std::string& dir : {pc, zarr}) std::filesystem::create_directories(dir);
+    const std::string info = pc + "/info", zarray = zarr + "/.zarray";
+    for (const std::string& fifo : {info, zarray}) {
+        ::unlink(fifo.c_str());
+        ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    }
+    csgv::Result<std::unique_ptr<csgv::InputSource>> r = csgv::openInput(pc, {});
+    EXPECT_NE(r.message().find("'" + info + "' is a FIFO (named pipe), not a file"), std::string::npos) << r.message();
+    r = csgv::openInput(zarr, {});
+    EXPECT_NE(r.message().find("('" + zarray + "' is a FIFO (named pipe), not a file)"), std::string::npos) << r.message();
+}

@@ -481,12 +481,15 @@ private:
 
 bool claimsPrecomputed(const std::string& path) {
     const PrecomputedPath p = splitPath(path);
-    return isDir(p.dir) && isFile(p.dir + "/info");
+    // An `info` that is there but no file (a FIFO, a link to a device) is claimed, to be refused
+    // by name (openPrecomputed), not taken for a TIFF folder without slices.
+    return isDir(p.dir) && (isFile(p.dir + "/info") || existsButNotRegular(p.dir + "/info"));
 }
 
 Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, const InputOptions& options) {
     const PrecomputedPath p = splitPath(path);
     const std::string infoPath = p.dir + "/info";
+    if (Status s = regularFile(infoPath); !s) return s;
     Result<std::vector<uint8_t>> text = readFile(infoPath, kMaxMetadataBytes);
     if (!text) return text.status();
     Result<PrecomputedInfo> info = parsePrecomputedInfo(text->data(), text->size());
@@ -512,7 +515,7 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
     if (chunkBytes >= options.maxWorkingBytes)
         return fail(infoPath, "a decoded " + dimText(chunk) + " chunk needs " +
                                   (chunkBytes == kSaturated ? std::string("more than 2^64") : std::to_string(chunkBytes)) +
-                                  " bytes, more than the working memory limit of " +
+                                  " bytes and its file more, beyond the working memory limit of " +
                                   std::to_string(options.maxWorkingBytes));
     const uint64_t worstFile = scale.encoding == PrecomputedScale::Encoding::Raw
                                    ? chunkBytes / 8 * typeBytes(info->type) + 1
