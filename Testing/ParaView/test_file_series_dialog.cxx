@@ -5,8 +5,9 @@
 // order, and pqLoadDataReaction::loadData with the reader "Segmentation (CSGV)" (where every
 // route of the dialog ends once a reader is chosen: the dialog's file-type list or its "Open Data
 // With..." prompt; pqObjectBuilder::createReader sets the group) makes one reader whose FileNames
-// holds all six and whose output is one 23 x 17 x 6 volume equal to the slices.
-// Usage: csgv_file_series_dialog_test PLUGIN.so FIXTURES_DIR (the fixtures are not used)
+// holds all six and whose output is one 23 x 17 x 6 volume equal to the slices. Then the same for
+// three .csgv files (copies of FIXTURES_DIR's), which the CSGV Reader makes three time steps.
+// Usage: csgv_file_series_dialog_test PLUGIN.so FIXTURES_DIR
 #include "PvQtTestMain.h"
 
 #include <pqApplicationCore.h>
@@ -24,6 +25,7 @@
 #include <vtkSMProxyManager.h>
 #include <vtkSMSourceProxy.h>
 
+#include <QDir>
 #include <QFile>
 #include <QProcess>
 #include <QTemporaryDir>
@@ -142,6 +144,43 @@ private Q_SLOTS:
                            .arg(this->Labels[size_t(i)])));
       }
     }
+  }
+
+  void csgvSeriesIsATimeSeries()
+  {
+    // s_0.csgv ... s_2.csgv are one entry of the dialog; the CSGV Reader gets all three (it had
+    // no FileNames and opened the first alone) and makes them time steps, each with its own size.
+    const QStringList fixtures = { "synthA_b32_rans2.csgv", "denseB_b32_rans1.csgv", "synthA_b16_nibble.csgv" };
+    QStringList series;
+    for (int i = 0; i < fixtures.size(); ++i)
+    {
+      series << this->Dir.filePath(QString("s_%1.csgv").arg(i));
+      QVERIFY(QFile::copy(QDir(gFixtures).filePath(fixtures[i]), series.back()));
+    }
+    pqFileDialog dialog(this->server(), nullptr, "Open File:", this->Dir.path(), "All Files (*)");
+    dialog.setFileMode(pqFileDialog::ExistingFilesAndDirectories);
+    QVERIFY(dialog.selectFile(this->Dir.filePath("s_..csgv")));
+    const QList<QStringList> chosen = dialog.getAllSelectedFiles();
+    QCOMPARE(chosen.size(), 1);
+    QCOMPARE(chosen[0], series);
+    pqPipelineSource* source = pqLoadDataReaction::loadData(chosen, "sources", "CSGVReader", this->server());
+    QVERIFY(source);
+    vtkSMSourceProxy* proxy = vtkSMSourceProxy::SafeDownCast(source->getProxy());
+    QVERIFY(proxy);
+    QCOMPARE(int(vtkSMPropertyHelper(proxy, "FileNames").GetNumberOfElements()), 3);
+    proxy->UpdatePipelineInformation();
+    QCOMPARE(int(vtkSMPropertyHelper(proxy, "TimestepValues").GetNumberOfElements()), 3);
+    int sizes[3][3];
+    for (int step = 0; step < 3; ++step)
+    {
+      proxy->UpdatePipeline(double(step));
+      auto* image = vtkImageData::SafeDownCast(
+        vtkAlgorithm::SafeDownCast(proxy->GetClientSideObject())->GetOutputDataObject(0));
+      QVERIFY(image);
+      image->GetDimensions(sizes[step]);
+    }
+    QVERIFY(sizes[0][0] != sizes[1][0]); // synthA, then denseB
+    QCOMPARE(sizes[0][0], sizes[2][0]);
   }
 };
 
