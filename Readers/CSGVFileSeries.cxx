@@ -34,7 +34,15 @@ bool FileSeries::Choose(const char* fileName, std::vector<std::string>& inputs, 
       return false;
     }
   }
-  if (!this->Names.empty() && !single.empty() && !(this->Names.size() == 1 && this->Names[0] == single))
+  if (!single.empty() && this->Names.size() == 1)
+  {
+    // OpenDataFile (and the file dialog) set FileNames to one file; a script that then sets
+    // FileName means that file. Decided by the values, not by which was set last, so a state
+    // file (which sets both, in its own order) reads what the session read.
+    inputs = { single };
+    return true;
+  }
+  if (!this->Names.empty() && !single.empty())
   {
     // A script that sets FileName on a reader the file dialog made (or the reverse) would
     // otherwise read one of the two silently.

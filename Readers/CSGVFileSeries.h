@@ -6,8 +6,9 @@
  *
  * Why FileNames: ParaView's file dialog groups `s_0.csgv` ... `s_9.csgv` into one entry and
  * hands the whole group to a repeatable (`repeat_command`) property only; any other reader gets
- * the first file, silently. FileName stays for scripts and state files; setting both (other than
- * FileNames = {FileName}) is an error, never one of the two read silently.
+ * the first file, silently. FileName stays for scripts and state files. A FileName set beside a
+ * FileNames of one file (OpenDataFile's, then `r.FileName = other` in a script) is read; beside a
+ * series of several it is an error, never one of the two read silently.
  *
  * Time steps are the file indices 0, 1, ..., N - 1; a time between two shows the earlier file
  * (as vtkFileSeriesReader does). Another step is another file, possibly of another extent: it is
@@ -37,8 +38,8 @@ public:
   const char* At(int index) const;
   const std::vector<std::string>& All() const { return this->Names; }
 
-  /// What is read: FileName alone, or FileNames. False with `error` when both are set and
-  /// differ, an entry is empty, or nothing is set.
+  /// What is read: FileName alone (also beside a FileNames of one file), or FileNames. False with
+  /// `error` when FileName is set beside several FileNames, an entry is empty, or nothing is set.
   bool Choose(const char* fileName, std::vector<std::string>& inputs, std::string& error) const;
 
 private:

@@ -27,8 +27,9 @@
  * - a time series otherwise (the first file is a 3D volume: a multi-page TIFF, HDF5, NRRD...; or
  *   ReadAsImageStack is off): file i is time step i (TIME_STEPS 0, 1, ..., N - 1), each compressed
  *   to its own cache when its time is first shown.
- * FileName and FileNames are not merged: setting both (other than FileNames = {FileName}) is an
- * error, so that no file is silently left out.
+ * FileName and FileNames are not merged: FileName beside several FileNames is an error, so that
+ * no file is silently left out; beside one (OpenDataFile's, then a script's FileName), FileName
+ * is read (CSGVFileSeries.h).
  *
  * Cache (why: compressing a large volume takes minutes; opening the `.csgv` takes seconds):
  * - Where: with CacheDirectory empty (default), beside the input as `<input>.csgv` when the input's
@@ -82,7 +83,7 @@ public:
   vtkGetStringMacro(FileName);
 
   /// The inputs of a file series, in order (ParaView's repeatable FileNames property; see the
-  /// class comment). Empty by default; when not empty, FileName must be empty or the only entry.
+  /// class comment). Empty by default; when it holds several, FileName must be empty.
   void AddFileName(const char* fileName);
   void RemoveAllFileNames();
   int GetNumberOfFileNames();

@@ -47,7 +47,7 @@
  * File series (FileNames; CSGVFileSeries.h says why): several files are a time series, step i
  * the i-th file (time values 0, 1, ..., N - 1; each step may have its own dimensions), read
  * one at a time as FileName would be, pieces included. FileName stays for scripts and state
- * files; setting both (other than FileNames = {FileName}) is an error.
+ * files: beside a FileNames of one file it is read, beside several it is an error.
  *
  * Errors (missing, truncated or malformed files, bad sidecars) are reported with vtkErrorMacro
  * carrying Core's message, and the output is empty.
@@ -73,7 +73,7 @@ public:
   vtkGetStringMacro(FileName);
 
   /// The files of a time series, in order (ParaView's repeatable FileNames property). Empty by
-  /// default; when not empty, FileName must be empty or the only entry.
+  /// default; when it holds several, FileName must be empty.
   void AddFileName(const char* fileName);
   void RemoveAllFileNames();
   int GetNumberOfFileNames();

@@ -97,6 +97,13 @@ t.check("set only one of them" in errors.text and (labels is None or labels.size
         "FileName and FileNames both set: an error, not one of them silently (%s)" % errors.text.strip()[:200])
 Delete(r)
 
+# OpenDataFile makes FileNames of one file; a script that then sets FileName means that file.
+r = OpenDataFile(files[0])
+shows(r, None, 0, "OpenDataFile of one file")
+r.FileName = files[1]
+shows(r, None, 1, "then FileName set by a script")
+Delete(r)
+
 # --- A damaged step: said, empty; the other steps still read ----------------------------------------
 with open(files[1], "r+b") as f:
     f.truncate(1000)
