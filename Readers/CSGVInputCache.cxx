@@ -3,6 +3,7 @@
 
 #include "csgv/base/FileUtil.h"
 #include "csgv/base/Hash.h"
+#include "csgv/inputs/PathGuard.h"
 
 #include <nlohmann/json.hpp>
 
@@ -291,7 +292,7 @@ std::string chooseCache(const InputLocation& loc, const std::string& cacheDirect
     csgv::fnv1a64Hex(loc.Input) + ".csgv";
 }
 
-std::string currentStamp(const InputLocation& loc, int relabel, int brickSize)
+std::string currentStamp(const InputLocation& loc, int relabel, int brickSize, bool allowOutside)
 {
   uint64_t files = 0, bytes = 0;
   int64_t newest = 0;
@@ -344,8 +345,14 @@ std::string currentStamp(const InputLocation& loc, int relabel, int brickSize)
     bytes = uint64_t(st.st_size);
     newest = mtimeNs(st);
   }
-  const nlohmann::ordered_json stamp = { { "input", std::move(input) }, { "relabel", relabel ? 1 : 0 },
+  nlohmann::ordered_json stamp = { { "input", std::move(input) }, { "relabel", relabel ? 1 : 0 },
     { "brickSize", brickSize }, { "files", files }, { "bytes", bytes }, { "newestMtimeNs", newest } };
+  if (allowOutside)
+  {
+    // A cache made with files outside the input's folder allowed is not one without: reading it
+    // would show what the reader now refuses. Absent when off, so older caches stay valid.
+    stamp["allowOutsidePaths"] = 1;
+  }
   // Paths are bytes; JSON text is UTF-8, so invalid sequences become U+FFFD (as in .csgv.json).
   return stamp.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
@@ -451,6 +458,17 @@ std::vector<std::string> namedFilesIn(const std::string& stamp)
     }
   }
   return files;
+}
+
+std::string inParaViewWords(const std::string& coreMessage)
+{
+  std::string text = coreMessage;
+  const std::string hint = csgv::inputs::kAllowOutsideHint;
+  for (size_t at = text.find(hint); at != std::string::npos; at = text.find(hint, at + 1))
+  {
+    text.replace(at, hint.size(), "turn on the reader's Allow Outside Paths property (advanced) to read it");
+  }
+  return text;
 }
 
 std::string readStamp(const std::string& path)

@@ -49,7 +49,7 @@ std::string chooseCache(const InputLocation& loc, const std::string& cacheDirect
 
 /// The stamp text (JSON) that describes the input's current state and the encoding options; ""
 /// when the input cannot be examined.
-std::string currentStamp(const InputLocation& loc, int relabel, int brickSize);
+std::string currentStamp(const InputLocation& loc, int relabel, int brickSize, bool allowOutside);
 
 /// The cache's own identity (inode, size, modification time) as the stamp's last line, after the
 /// input's JSON state: a stamp vouches only for the very .csgv it was written for, so when two
@@ -69,6 +69,10 @@ std::string namedFilesState(const std::vector<std::string>& files);
 /// The files a stamp's `named:` lines list (none for a stamp without any, or a damaged line: the
 /// stamp then no longer matches and the input is compressed again).
 std::vector<std::string> namedFilesIn(const std::string& stamp);
+
+/// Core's message in ParaView's words: the refusal of a path outside its dataset names the
+/// reader's Allow Outside Paths property instead of `--allow-outside-paths`.
+std::string inParaViewWords(const std::string& coreMessage);
 
 /// The text of a stamp file ("" when it is missing or unreadable).
 std::string readStamp(const std::string& path);

@@ -103,7 +103,8 @@ public:
       this->StampFromInformation = false; // the next update walks again
       return;
     }
-    this->Stamp = csgvvtk::currentStamp(this->Location, self->GetRelabel(), self->GetBrickSize());
+    this->Stamp = csgvvtk::currentStamp(
+      this->Location, self->GetRelabel(), self->GetBrickSize(), self->GetAllowOutsidePaths() != 0);
     this->StampFromInformation = forInformation;
     this->StampMTime = self->GetMTime();
     this->StampTopLevel = top;
@@ -249,7 +250,7 @@ int vtkCSGVInputReader::RequestInformation(
   if (!this->ChooseInputs(error))
   {
     this->SeriesMode = NoInput;
-    vtkErrorMacro(<< error);
+    vtkErrorMacro(<< csgvvtk::inParaViewWords(error));
     return 1;
   }
   in.Step = 0;
@@ -353,13 +354,13 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   {
     if (this->SeriesMode == ImageStack)
     {
-      vtkErrorMacro(<< source.message() << " (the " << in.Inputs.size()
+      vtkErrorMacro(<< csgvvtk::inParaViewWords(source.message()) << " (the " << in.Inputs.size()
                     << " files were read as the slices of one volume; with ReadAsImageStack off each"
                        " file is one time step)");
     }
     else
     {
-      vtkErrorMacro(<< source.message());
+      vtkErrorMacro(<< csgvvtk::inParaViewWords(source.message()));
     }
     return;
   }
@@ -547,7 +548,7 @@ bool vtkCSGVInputReader::Compress()
   }
   if (!status)
   {
-    vtkErrorMacro(<< status.message());
+    vtkErrorMacro(<< csgvvtk::inParaViewWords(status.message()));
     return false;
   }
   if (this->GetAbortExecute())

@@ -270,6 +270,32 @@ else:
     check_labels(img, vol2, "new link target")
     Delete(r)
 
+    # A link to a file outside the input's folder: refused in ParaView's words; read when the
+    # reader allows it; and refused again when it no longer does (not read from the cache made
+    # while it did).
+    away = os.path.join(tmp, "away")
+    os.makedirs(away)
+    with h5py.File(os.path.join(away, "far.h5"), "w") as f:
+        f["labels"] = vol.astype(np.uint32)
+    outlinked = os.path.join(src, "outlinked.h5")
+    with h5py.File(outlinked, "w") as f:
+        f["d"] = h5py.ExternalLink(os.path.join(away, "far.h5"), "/labels")
+    with t.ErrorLog() as errors:
+        r, img, _, compressed = open_input(outlinked + ":/d")
+    t.check(img.GetNumberOfCells() == 0 and "turn on the reader's Allow Outside Paths property" in errors.text
+            and "--allow-outside-paths" not in errors.text,
+            "a link outside the folder: refused, naming the property (%s)" % errors.text.strip()[:300])
+    Delete(r)
+    r, img, _, compressed = open_input(outlinked + ":/d", AllowOutsidePaths=1)
+    t.check(compressed == 1, "allowed: compressed")
+    check_labels(img, vol, "allowed outside link")
+    Delete(r)
+    with t.ErrorLog() as errors:
+        r, img, _, compressed = open_input(outlinked + ":/d")
+    t.check(img.GetNumberOfCells() == 0 and "Allow Outside Paths" in errors.text,
+            "no longer allowed: refused again, not read from the cache made while allowed")
+    Delete(r)
+
 # --- Encoding options are part of the stamp -----------------------------------------------------
 r, img, _, compressed = open_input(nrrd, BrickSize=16)
 t.check(compressed == 1, "another brick size compresses again")

@@ -63,6 +63,7 @@
 
 #include "csgv/base/Cancel.h"
 #include "csgv/base/Checked.h"
+#include "csgv/inputs/PathGuard.h"
 
 #include <hdf5.h>
 #include <zlib.h>
@@ -407,8 +408,8 @@ Status checkNamedFile(FileRules& rules, const std::string& stored, const std::ve
         if (!fs::is_regular_file(status)) return Status::error(names + ", which is not a regular file");
         const fs::path rel = resolved.lexically_relative(rules.folder);
         if (!rules.allowOutside && (ec || rel.empty() || *rel.begin() == ".."))
-            return Status::error(names + ", outside the HDF5 file's folder " + rules.folder.string() +
-                                 "; pass --allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
+            return Status::error(names + ", outside the HDF5 file's folder " + rules.folder.string() + "; " +
+                                 kAllowOutsideHint);
         rules.named.insert(resolved.string());
     }
     if (!found)
@@ -535,8 +536,8 @@ Status checkDatasetFiles(hid_t dataset, FileRules& rules, const std::string& nam
         const bool pattern = file.find('%') != std::string::npos || source.find('%') != std::string::npos;
         if (pattern && !rules.allowOutside)
             return Status::error("virtual dataset " + name + " names its sources by a pattern (" + quoted(file, 200) +
-                                 ", " + quoted(source, 200) + "), which libhdf5 opens without our checks; pass "
-                                 "--allow-outside-paths (InputOptions::allowOutsidePaths) to read it");
+                                 ", " + quoted(source, 200) + "), which libhdf5 opens without our checks; " +
+                                 kAllowOutsideHint);
         fs::path sourceFile = holderName; // where libhdf5 finds the source's file
         if (file != ".") {
             const auto [known, added] = rules.checkedNames.emplace(holder.string() + "\n" + file, fs::path());

@@ -59,7 +59,7 @@ Result<std::string> resolveInside(const NamedPath& p, bool allowOutside) {
     const fs::path realFolder = resolved(folder);
     if (liesInside(resolved(open), realFolder)) return open;
     return Status::error(p.what + " '" + p.named + "' lies outside " + p.folderRole + " '" + realFolder.string() +
-                         "' (pass --allow-outside-paths to read it)");
+                         "' (" + kAllowOutsideHint + ")");
 }
 
 std::string notRegularFile(const std::string& path) {

@@ -24,6 +24,10 @@ struct NamedPath {
     std::string folderRole; ///< for the message: "the header's folder", "the group's folder"
 };
 
+/// The words every refusal of a path outside its dataset ends with, so that a host can put its own
+/// (ParaView: the reader's Allow Outside Paths property) in their place.
+inline constexpr const char* kAllowOutsideHint = "pass --allow-outside-paths to read it";
+
 /// The path to open for `p.named`: `p.folder/p.named`, or `p.named` itself when absolute. An error
 /// when it lies outside `p.folder` and `allowOutside` is not set; both are resolved first, `.` and
 /// `..` and symbolic links included (the named path as far as it exists: what does not exist
