@@ -620,6 +620,13 @@ TEST(Hdf5Hostile, ExternalLinksAndVirtualSourcesOutsideTheFileFolderAreRefused) 
     expectVolume(fx("links/elink_beside.h5") + ":/d", "link_labels", {4, 5, 6}, LabelType::U16);
     expectVolume(fx("links/vds_beside.h5"), "link_labels", {4, 5, 6}, LabelType::U16);
     EXPECT_NE(open(fx("links/vds_self.h5")), nullptr);
+    // Found by the search too (no name given), by the same rules (found by a GUI pass: a file
+    // whose only dataset is behind an external link "held no 3D integer dataset").
+    expectVolume(fx("links/elink_beside.h5"), "link_labels", {4, 5, 6}, LabelType::U16);
+    const std::string searched = openError(fx("links/elink_relative_outside.h5"));
+    EXPECT_CONTAINS(searched, "holds no 3D integer dataset; passed over: /d is an external link, and an external link in "
+                              "'/' leads to '/labels' in '../outside_target.h5'");
+    EXPECT_CONTAINS(searched, "; pass --allow-outside-paths to read it");
     // Sources named by a pattern are opened by libhdf5 without our checks (src0 leads outside).
     EXPECT_CONTAINS(openError(fx("links/vds_pattern_self.h5")),
                     "virtual dataset /labels names its sources by a pattern ('.', 'src%b'), which libhdf5 opens "
@@ -643,7 +650,7 @@ TEST(Hdf5Hostile, ExternalLinksAndVirtualSourcesOutsideTheFileFolderAreRefused) 
                   "virtual dataset /labels takes voxels from 'labels' in '../outside_target.h5' (" + outside + ")"},
              Case{"links/vds_nested.h5", "virtual dataset " + nested + ":labels takes voxels from 'labels' in '" +
                                              outside + "'"},
-             Case{"links/vds_through_link.h5",
+             Case{"links/vds_through_link.h5:/labels", // /e, the link, is a dataset too
                   "the source '/e' of virtual dataset /labels: " + link + "'/labels' in '" + outside + "'"},
          }) {
         const std::string message = openError(fx(c.path));

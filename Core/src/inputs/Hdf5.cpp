@@ -600,7 +600,26 @@ herr_t visitLink(hid_t group, const char* name, const H5L_info_t* info, void* da
         state->cancelled = true;
         return 1; // stops the walk
     }
-    if (info->type != H5L_TYPE_HARD) return 0; // soft and external links may dangle or leave the file
+    if (info->type == H5L_TYPE_EXTERNAL) {
+        // A dataset behind an external link is a candidate as a named one is, by the same rules
+        // (the link's callback); one the rules refuse is passed over with the reason.
+        H5O_info_t target{};
+        if (H5Oget_info_by_name2(group, name, &target, H5O_INFO_BASIC, linkAccess(*state->rules).get()) < 0) {
+            state->passed.push_back(state->prefix + name + " is an external link, " +
+                                    (state->rules->refused.empty() ? "which leads to nothing that opens"
+                                                                   : "and " + failure(*state->rules, "")));
+            H5Eclear2(H5E_DEFAULT);
+            return 0;
+        }
+        if (target.type != H5O_TYPE_DATASET) return 0;
+        Handle linked(H5Dopen2(group, name, datasetAccess(*state->rules).get()), H5Dclose);
+        if (!linked.valid()) state->broken.push_back(state->prefix + name);
+        else if (const std::string why = passedOver(linked.get()); why.empty()) state->volumes.push_back(state->prefix + name);
+        else state->passed.push_back(state->prefix + name + " " + why);
+        H5Eclear2(H5E_DEFAULT);
+        return 0;
+    }
+    if (info->type != H5L_TYPE_HARD) return 0; // soft links name objects the walk meets as hard links
     Handle object(H5Oopen_by_addr(group, info->u.address), H5Oclose);
     if (!object.valid()) {
         H5Eclear2(H5E_DEFAULT);
