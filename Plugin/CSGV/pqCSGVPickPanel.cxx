@@ -10,7 +10,9 @@
 #include <pqObjectBuilder.h>
 #include <pqOutputPort.h>
 #include <pqPipelineSource.h>
+#include <pqServer.h>
 #include <pqServerManagerModel.h>
+#include <pqTimeKeeper.h>
 #include <pqUndoStack.h>
 #include <pqView.h>
 #include <vtkSMPropertyHelper.h>
@@ -163,6 +165,14 @@ void pqCSGVPickPanel::setView(pqView* view)
   }
   this->View = view;
   this->ViewWidget = view ? view->widget() : nullptr;
+  // The pick belongs to the time it was made at too: another time step may hold another volume
+  // (a series of files of different sizes), where its voxel and label mean nothing.
+  QObject::disconnect(this->TimeChange);
+  if (view && view->getServer() && view->getServer()->getTimeKeeper())
+  {
+    this->TimeChange =
+      connect(view->getServer()->getTimeKeeper(), &pqTimeKeeper::timeChanged, this, &pqCSGVPickPanel::clearPick);
+  }
   if (this->ViewWidget)
   {
     this->ViewWidget->installEventFilter(this);

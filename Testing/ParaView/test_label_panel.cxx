@@ -40,6 +40,7 @@
 #include <vtkSelectionNode.h>
 #include <vtkTable.h>
 #include <pqPipelineSource.h>
+#include <pqTimeKeeper.h>
 #include <pqView.h>
 #include <pqPVApplicationCore.h>
 #include <pqServer.h>
@@ -300,6 +301,15 @@ private Q_SLOTS:
 
     pqActiveObjects::instance().setActiveView(view);
     view->forceRender();
+    QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
+    QVERIFY(panel.lastPick().value("hit").toBool());
+    // Found by a GUI pass: a pick made at one time step stayed after a change of time, naming a
+    // voxel the new step does not have.
+    pqTimeKeeper* time = server->getTimeKeeper();
+    time->setTime(time->getTime() + 1.0);
+    QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
+      "another time clears the pick");
+    time->setTime(time->getTime() - 1.0);
     QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
     QVERIFY(panel.lastPick().value("hit").toBool());
     builder->destroy(source);
