@@ -144,17 +144,26 @@ bool existsButNotRegular(const std::string& path) {
     return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
 }
 
-Status regularFile(const std::string& path) {
+std::string fileKind(unsigned mode) {
+    if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
+    if (S_ISDIR(mode)) return "a folder";
+    if (S_ISSOCK(mode)) return "a socket";
+    if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
+    return "not a regular file";
+}
+
+std::string notRegularFile(const std::string& path) {
     struct stat st {};
-    if (::stat(path.c_str(), &st) != 0)
-        return Status::error("cannot open '" + path + "': " + (errno == ENOENT ? "no such file" : errnoText()));
-    if (S_ISREG(st.st_mode)) return Status::ok();
-    const char* what = S_ISDIR(st.st_mode)                           ? "a folder"
-                       : S_ISFIFO(st.st_mode)                        ? "a FIFO (named pipe)"
-                       : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device"
-                       : S_ISSOCK(st.st_mode)                        ? "a socket"
-                                                                     : "not a regular file";
-    return Status::error("'" + path + "' is " + what + ", not a file");
+    if (::stat(path.c_str(), &st) == 0) return S_ISREG(st.st_mode) ? std::string() : fileKind(st.st_mode);
+    if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode)) return "a dangling symbolic link";
+    return "missing";
+}
+
+Status regularFile(const std::string& path) {
+    const std::string kind = notRegularFile(path);
+    if (kind.empty()) return Status::ok();
+    if (kind == "missing") return Status::error("cannot open '" + path + "': no such file");
+    return Status::error("'" + path + "' is " + kind + ", not a file");
 }
 
 bool fileExists(const std::string& path) {

@@ -406,8 +406,7 @@ Status checkNamedFile(FileRules& rules, const std::string& stored, const std::ve
         const fs::path resolved = fs::weakly_canonical(fs::absolute(place, ec), ec);
         const std::string names = what + " " + quoted(stored, 200) + " (" + resolved.string() + ")";
         if (!fs::is_regular_file(status)) return Status::error(names + ", which is not a regular file");
-        const fs::path rel = resolved.lexically_relative(rules.folder);
-        if (!rules.allowOutside && (ec || rel.empty() || *rel.begin() == ".."))
+        if (!rules.allowOutside && (ec || !liesInside(resolved, rules.folder)))
             return Status::error(names + ", outside the HDF5 file's folder " + rules.folder.string() + "; " +
                                  kAllowOutsideHint);
         rules.named.insert(resolved.string());

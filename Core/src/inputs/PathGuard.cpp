@@ -30,8 +30,8 @@ fs::path resolved(const fs::path& path) {
     return (ec ? absolute : real).lexically_normal();
 }
 
-/// True when `inner` is `outer` or lies below it (both resolved), compared component by component
-/// so that `/data/set2` does not count as inside `/data/set`.
+} // namespace
+
 bool liesInside(const fs::path& inner, const fs::path& outer) {
     auto i = inner.begin();
     for (auto o = outer.begin(); o != outer.end(); ++o, ++i) {
@@ -40,16 +40,6 @@ bool liesInside(const fs::path& inner, const fs::path& outer) {
     }
     return true;
 }
-
-std::string kindOf(mode_t mode) {
-    if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
-    if (S_ISDIR(mode)) return "a folder";
-    if (S_ISSOCK(mode)) return "a socket";
-    if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
-    return "not a regular file";
-}
-
-} // namespace
 
 Result<std::string> resolveInside(const NamedPath& p, bool allowOutside) {
     const std::string folder = p.folder.empty() ? "." : p.folder;
@@ -62,13 +52,6 @@ Result<std::string> resolveInside(const NamedPath& p, bool allowOutside) {
                          "' (" + kAllowOutsideHint + ")");
 }
 
-std::string notRegularFile(const std::string& path) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) == 0) return S_ISREG(st.st_mode) ? std::string() : kindOf(st.st_mode);
-    if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode)) return "a dangling symbolic link";
-    return "missing";
-}
-
 Result<int> openRegularFile(const std::string& path) {
     // O_NONBLOCK: opening a FIFO without a writer would otherwise wait forever; it is cleared
     // again for a regular file, where it means nothing for reads anyway.
@@ -77,7 +60,7 @@ Result<int> openRegularFile(const std::string& path) {
     struct stat st {};
     const bool statted = ::fstat(fd, &st) == 0;
     if (!statted || !S_ISREG(st.st_mode)) {
-        const std::string why = !statted ? errnoText() : "is " + kindOf(st.st_mode) + ", not a regular file";
+        const std::string why = !statted ? errnoText() : "is " + fileKind(st.st_mode) + ", not a regular file";
         ::close(fd);
         return Status::error(why);
     }

@@ -102,8 +102,10 @@ Result<Resolved> levelOf(const std::string& group, ZarrAttrs attrs, size_t level
 std::string describeFolder(const std::string& dir, const ZarrAttrs& attrs) {
     std::string found = isFile(dir + "/.zgroup") ? "a group (.zgroup)" : "no .zarray or .zgroup";
     // A metadata name that is there but no file (a FIFO, a link to a device) is said as such.
-    for (const char* meta : {"/.zarray", "/.zgroup", "/.zattrs"})
-        if (Status s = regularFile(dir + meta); !s && existsButNotRegular(dir + meta)) found += " (" + s.message() + ")";
+    for (const char* meta : {"/.zarray", "/.zgroup", "/.zattrs"}) {
+        const std::string kind = notRegularFile(dir + meta);
+        if (!kind.empty() && kind != "missing") found += " ('" + dir + meta + "' is " + kind + ", not a file)";
+    }
     if (isFile(dir + "/.zattrs")) found += attrs.hasLabels ? ", .zattrs with an empty labels list" : ", .zattrs without multiscales or labels";
     std::vector<std::string> children;
     std::error_code ec;

@@ -140,8 +140,15 @@ bool fileExists(const std::string& path);
 /// device or socket (a FIFO's open waits for a writer, a device may never end). Found by stat
 /// alone, nothing is opened.
 bool existsButNotRegular(const std::string& path);
-/// Ok for an existing regular file, else what it is, by stat alone: "cannot open 'P': no such
-/// file", "'P' is a FIFO (named pipe), not a file", "... a folder ...", "... a device ...".
+/// "a FIFO (named pipe)", "a folder", "a socket", "a device": what a stat's mode names, for
+/// anything but a regular file.
+std::string fileKind(unsigned mode);
+/// "a FIFO (named pipe)", "a folder", "a dangling symbolic link"...: what `path` is when it is
+/// not a regular file (symbolic links followed); empty for a regular file; "missing" when
+/// nothing is there. By stat alone: nothing is opened.
+std::string notRegularFile(const std::string& path);
+/// Ok for an existing regular file, else notRegularFile in a sentence: "cannot open 'P': no such
+/// file", "'P' is a FIFO (named pipe), not a file".
 Status regularFile(const std::string& path);
 /// The memory available now (MemAvailable of /proc/meminfo) in bytes; 0 where unknown.
 uint64_t availableMemoryBytes();

@@ -9,8 +9,10 @@
 /// a file for reading that never blocks: a FIFO named as a data file would wait for a writer
 /// forever.
 
+#include "csgv/base/FileUtil.h"
 #include "csgv/base/Status.h"
 
+#include <filesystem>
 #include <string>
 
 namespace csgv {
@@ -35,10 +37,13 @@ inline constexpr const char* kAllowOutsideHint = "pass --allow-outside-paths to 
 /// '<resolved folder>' (pass --allow-outside-paths to read it)"; callers prefix the dataset.
 Result<std::string> resolveInside(const NamedPath& p, bool allowOutside);
 
-/// "a FIFO (named pipe)", "a folder", "a dangling symbolic link"...: what `path` is when it is
-/// not a regular file (symbolic links followed); empty for a regular file; "missing" when
-/// nothing is there.
-std::string notRegularFile(const std::string& path);
+/// True when `inner` is `outer` or lies below it (both resolved: absolute, symbolic links of
+/// their existing part followed), compared component by component, so that `/data/set2` does not
+/// count as inside `/data/set`.
+bool liesInside(const std::filesystem::path& inner, const std::filesystem::path& outer);
+
+/// What a path is when it is not a regular file (FileUtil's, named here too for the inputs).
+using csgv::notRegularFile;
 
 /// Opens `path` read-only (close-on-exec) without ever blocking: a FIFO or device is refused with
 /// what it is ("is a FIFO (named pipe), not a regular file"), as is anything else but a regular
