@@ -468,12 +468,19 @@ bool storeSample(uint pixel, uint samples, Sample s, out vec4 total, out bool pr
         ++count.added;
     }
     if (s.valid || previews) {
+        uvec4 hit = uvec4(s.label, s.face, floatBitsToUint(s.depth), floatBitsToUint(s.distance));
 #if !ONE_SAMPLE
         storeVec4(frameAddr[kSlotAccum], pixel, total);
+        // The first hit stays the first sample's: its ray is the pixel centre's (later ones are
+        // jittered), so the label image does not change with the samples taken, and a pick that
+        // unprojects along the centre's ray names the voxel whose label it reports.
+        if (samples > 0u) {
+            hit = floatBitsToUint(loadVec4(frameAddr[kSlotGBuffer], pixel));
+            hit.y &= (1u << kGBufferEpochShift) - 1u;
+        }
 #endif
         // The sample count rides in the second word (kGBufferCountShift): one store for both.
-        storeUvec4(frameAddr[kSlotGBuffer], pixel, s.valid ? uvec4(s.label, s.face | kGBufferSampled | epochBits() | ((samples + 1u) << kGBufferCountShift),
-                                                                  floatBitsToUint(s.depth), floatBitsToUint(s.distance))
+        storeUvec4(frameAddr[kSlotGBuffer], pixel, s.valid ? uvec4(hit.x, hit.y | kGBufferSampled | epochBits() | ((samples + 1u) << kGBufferCountShift), hit.zw)
                                                           : uvec4(kNone, kGBufferPreview | epochBits(), floatBitsToUint(1.0), 0u));
         surfaceDepth = s.firstDepth;
     }

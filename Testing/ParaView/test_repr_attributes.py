@@ -78,6 +78,26 @@ n = len(range(0, len(xs), max(1, len(xs) // 25)))
 t.check(good == n, "pick: label matches the label image and its voxel holds it (%d of %d)" % (good, n))
 t.check(not ct.pick(d, 0, 0)["hit"], "pick on the background: no hit")
 
+# With several samples a pixel (jittered rays) the label image and the pick answer the pixel
+# centre's ray, as the first sample took it: the picked voxel holds the picked label, at voxel
+# boundaries too (the label came from the last jittered sample, the voxel from the centre's ray).
+d.CSGVFramesPerStillRender = 16
+jittered = labels_after_render(v, d, "pick16.png")
+t.check(np.array_equal(jittered, img), "16 samples a pixel: the label image is the first sample's, as with one "
+        "(%d pixels differ)" % int(np.count_nonzero(jittered != img)))
+ys, xs = np.nonzero(jittered != INVALID)
+step = max(1, len(xs) // 400)
+wrong = []
+for k in range(0, len(xs), step):
+    x, y = int(xs[k]), int(ys[k])
+    p = ct.pick(d, x, y)
+    i, j, kk = p["voxel"]
+    if not (p["hit"] and p["label"] == int(jittered[y, x]) and int(labels_vol[kk, j, i]) == p["label"]):
+        wrong.append((x, y, p.get("label"), p.get("voxel")))
+t.check(not wrong, "16 samples a pixel: every picked voxel holds the picked label (%d of %d wrong: %s)"
+        % (len(wrong), len(range(0, len(xs), step)), wrong[:4]))
+d.CSGVFramesPerStillRender = 1
+
 # --- an attribute that cannot be an array ------------------------------------------------------
 # synthA's labels (up to 4.3e9, no database) cannot index attribute arrays: a material that
 # filters by such an attribute is left out with that reason, and the others draw (the whole

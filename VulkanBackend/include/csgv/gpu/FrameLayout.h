@@ -72,7 +72,7 @@ CSGV_CONST(uint32_t, kSlotFree, 3u)           ///< LEVELS free stacks of brickCo
 CSGV_CONST(uint32_t, kSlotRequests, 4u)       ///< 2 words per request: brick, lod
 CSGV_CONST(uint32_t, kSlotDecodes, 5u)        ///< 3 words per decode: brick, inverse level, cache offset
 CSGV_CONST(uint32_t, kSlotAccum, 6u)          ///< vec4 per pixel: sum of premultiplied samples
-CSGV_CONST(uint32_t, kSlotGBuffer, 7u)        ///< uvec4 per pixel: label, face | kGBufferSampled | samples << kGBufferCountShift, window depth bits, distance bits (all 0, or of another epoch: no sample; kGBufferEpochShift)
+CSGV_CONST(uint32_t, kSlotGBuffer, 7u)        ///< uvec4 per pixel: label, face | kGBufferSampled | samples << kGBufferCountShift, window depth bits, distance bits: the first sample's hit, the count the latest (all 0, or of another epoch: no sample; kGBufferEpochShift)
 CSGV_CONST(uint32_t, kSlotDepthIn, 8u)        ///< float per pixel: window depth of opaque geometry
 CSGV_CONST(uint32_t, kSlotMaterials, 9u)      ///< GpuMaterial array
 CSGV_CONST(uint32_t, kSlotColormaps, 10u)     ///< vec4 colour samples

@@ -198,7 +198,9 @@ struct FrameOutput {
     std::vector<float> rgba;       ///< premultiplied, 4 floats a pixel (multiples of 1/255: of rgba8)
     std::vector<uint32_t> rgba8;   ///< the same, as the device writes it: 8 bits a channel, R lowest
     std::vector<float> depth;      ///< window depth of the first surface (1: none)
-    std::vector<uint32_t> label;   ///< first opaque label hit (original label), kInvalidLabel: none
+    /// First opaque label hit (original label), kInvalidLabel: none; this and the next three are
+    /// the pixel's first sample's, whose ray is the pixel centre's (later samples are jittered).
+    std::vector<uint32_t> label;
     std::vector<Face> face;        ///< its entry face
     std::vector<float> hitDepth;   ///< window depth of the first opaque hit
     std::vector<float> distance;   ///< world distance from the near plane to the first opaque hit
