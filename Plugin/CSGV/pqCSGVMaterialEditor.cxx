@@ -124,6 +124,20 @@ void pqCSGVMaterialEditor::dataUpdated(vtkObject*, unsigned long, void*)
   this->RefreshTimer->start();
 }
 
+double pqCSGVMaterialEditor::viewTime() const
+{
+  return this->View ? vtkSMPropertyHelper(this->View->getProxy(), "ViewTime").GetAsDouble() : std::nan("");
+}
+
+void pqCSGVMaterialEditor::viewUpdated()
+{
+  const double now = this->viewTime();
+  if (!(now == this->RefreshedTime))
+  {
+    this->RefreshTimer->start();
+  }
+}
+
 void pqCSGVMaterialEditor::propertyPushed(vtkObject*, unsigned long, void* name)
 {
   // UpdatePropertyEvent comes before the proxy sends the values: refresh from the event loop.
@@ -213,6 +227,7 @@ void pqCSGVMaterialEditor::refreshAttributes()
     // which may not even hold labels; showEvent refreshes.
     return;
   }
+  this->RefreshedTime = this->viewTime();
   const QJsonObject summary = pqCSGV::queryJson(this->proxy(), "summary");
   this->Attributes.clear();
   this->AttributeOrder.clear();

@@ -34,8 +34,11 @@
 
 #include <vtkWeakPointer.h>
 
+#include <cmath>
+
 #include <QMap>
 #include <QPair>
+#include <QPointer>
 #include <QStringList>
 
 class QCheckBox;
@@ -50,6 +53,7 @@ class QPushButton;
 class QTimer;
 class QVBoxLayout;
 class pqColorChooserButton;
+class pqView;
 class vtkObject;
 class vtkSMPropertyGroup;
 
@@ -142,6 +146,10 @@ private:
   /// Observer of the representation: its data was updated (a new file, a reader's failure): the
   /// attributes and whether there is anything to draw are asked again.
   void dataUpdated(vtkObject*, unsigned long, void*);
+  /// The view updated: at a time the attributes were not asked at, they are asked again.
+  void viewUpdated();
+  /// The view's time (NaN without a view).
+  double viewTime() const;
   /// Shows an edit's message in the status line; it stays until the next message (a refresh
   /// clears only what a refresh said: StatusFromRefresh).
   void say(const QString& text);
@@ -161,6 +169,10 @@ private:
   vtkWeakPointer<vtkSMProxy> Observed; ///< the proxy whose property pushes propertyPushed() sees
   unsigned long ObserverTag = 0;
   unsigned long DataObserverTag = 0;
+  /// The view showing the representation, and its time at the last refresh: a change of time
+  /// updates the view, not the representation (no UpdateDataEvent), yet may bring other data.
+  QPointer<pqView> View;
+  double RefreshedTime = std::nan("");
   bool StatusFromRefresh = false; ///< the status line shows what refreshAttributes found
   QTimer* RefreshTimer; ///< coalesces the refreshes several pushed properties ask for
 

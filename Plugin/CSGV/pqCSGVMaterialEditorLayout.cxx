@@ -7,7 +7,11 @@
 
 #include "pqCSGVMaterialDocument.h"
 
+#include <pqApplicationCore.h>
 #include <pqColorChooserButton.h>
+#include <pqDataRepresentation.h>
+#include <pqServerManagerModel.h>
+#include <pqView.h>
 #include <vtkCommand.h>
 #include <vtkSMProperty.h>
 #include <vtkSMProxy.h>
@@ -133,6 +137,15 @@ pqCSGVMaterialEditor::pqCSGVMaterialEditor(vtkSMProxy* proxy, vtkSMPropertyGroup
       rep->AddObserver(vtkCommand::UpdatePropertyEvent, this, &pqCSGVMaterialEditor::propertyPushed);
     this->DataObserverTag =
       rep->AddObserver(vtkCommand::UpdateDataEvent, this, &pqCSGVMaterialEditor::dataUpdated);
+    // Another time step reaches the representation through the view's update alone: ParaView
+    // fires the representation's UpdateDataEvent only when its own inputs changed (found by a GUI
+    // pass: the data range of step 0 stayed beside step 1's labels).
+    auto* shown = pqApplicationCore::instance()->getServerManagerModel()->findItem<pqDataRepresentation*>(proxy);
+    this->View = shown ? shown->getView() : nullptr;
+    if (this->View)
+    {
+      connect(this->View, &pqView::updateDataEvent, this, &pqCSGVMaterialEditor::viewUpdated);
+    }
   }
 
   this->Doc = csgv::defaultMaterials();

@@ -66,7 +66,9 @@
 #include <QJsonDocument>
 #include <QMainWindow>
 #include <QPushButton>
+#include <QFile>
 #include <QSet>
+#include <QTemporaryDir>
 #include <QTextBrowser>
 #include <QtTest>
 
@@ -552,6 +554,71 @@ private Q_SLOTS:
     QVERIFY2(!colored || !*colored, "one undo: the display is not coloured by the labels any more");
     QVERIFY2(!visible(own) && !visible(shared), "no legend stays after the undo");
     legends.shutdown();
+    builder->destroy(source);
+    builder->destroy(view);
+  }
+
+  /// Found by a GUI pass: the material editor's data range stayed the first time step's after
+  /// the view moved to a step of other labels (the representation's data update does not fire
+  /// for a change of time).
+  void materialEditorRangeFollowsTheTimeStep()
+  {
+    QTemporaryDir dir;
+    QStringList files;
+    for (const char* name : { "synthA_b32_rans2.csgv", "denseB_b32_rans1.csgv" })
+    {
+      files << dir.filePath(QString("s_%1.csgv").arg(files.size()));
+      QVERIFY(QFile::copy(gFixtures + "/" + name, files.last()));
+    }
+    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqPipelineSource* source = builder->createReader("sources", "CSGVReader", files, server);
+    QVERIFY(source);
+    pqView* view = builder->createView("RenderView", server);
+    QVERIFY(view);
+    view->widget()->resize(160, 160);
+    view->widget()->show();
+    pqActiveObjects::instance().setActiveView(view);
+    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
+    QVERIFY(display);
+    vtkSMProxy* proxy = display->getProxy();
+    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
+    proxy->UpdateVTKObjects();
+    pqTimeKeeper* time = server->getTimeKeeper();
+    time->setTime(0.0);
+    view->resetDisplay();
+    view->forceRender();
+
+    pqCSGVMaterialEditor editor(proxy, nullptr);
+    editor.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&editor));
+    QTest::qWait(50);
+    auto* range = editor.findChild<QLabel*>("filterRange");
+    QVERIFY(range);
+    // The label range each step reports (the query asks the rendering process, at its time).
+    auto reported = [&]() {
+      for (const QJsonValue& v : pqCSGV::queryJson(proxy, "summary").value("attributes").toArray())
+      {
+        if (v.toObject().value("name").toString() == "label")
+        {
+          return QString("data range: %1 .. %2")
+            .arg(v.toObject().value("min").toDouble(), 0, 'g', 12)
+            .arg(v.toObject().value("max").toDouble(), 0, 'g', 12);
+        }
+      }
+      return QString();
+    };
+    const QString first = reported();
+    QVERIFY(!first.isEmpty());
+    QCOMPARE(range->text(), first);
+    time->setTime(1.0);
+    view->forceRender();
+    const QString second = reported();
+    QVERIFY2(second != first, qPrintable(first + " at both steps: the fixtures should differ"));
+    QTRY_COMPARE_WITH_TIMEOUT(range->text(), second, 2000);
+    time->setTime(0.0);
+    view->forceRender();
+    QTRY_COMPARE_WITH_TIMEOUT(range->text(), first, 2000);
     builder->destroy(source);
     builder->destroy(view);
   }
