@@ -11,7 +11,10 @@
 #include <pqPropertyWidget.h>
 #include <vtkPVXMLElement.h>
 #include <vtkSMProperty.h>
+#include <vtkCommand.h>
 #include <vtkSMPropertyGroup.h>
+#include <vtkSMVectorProperty.h>
+#include <vtkWeakPointer.h>
 #include <vtkSMProxy.h>
 
 #include <QString>
@@ -83,7 +86,51 @@ void decorateGroupWidgets(pqPropertyWidget* widget, vtkSMProxy* display, const Q
     }
   }
 }
+/// Shows its widget only while the proxy's file list (the `property` attribute) holds more than
+/// one file.
+class SeveralFilesDecorator : public pqPropertyWidgetDecorator
+{
+public:
+  SeveralFilesDecorator(vtkPVXMLElement* config, pqPropertyWidget* widget)
+    : pqPropertyWidgetDecorator(config, widget)
+  {
+    vtkSMProxy* proxy = widget->proxy();
+    this->Files = proxy ? proxy->GetProperty(config->GetAttributeOrEmpty("property")) : nullptr;
+    if (this->Files)
+    {
+      this->Tag = this->Files->AddObserver(vtkCommand::ModifiedEvent, this, &SeveralFilesDecorator::changed);
+    }
+  }
+  ~SeveralFilesDecorator() override
+  {
+    if (this->Files)
+    {
+      this->Files->RemoveObserver(this->Tag);
+    }
+  }
+  bool canShowWidget(bool showAdvanced) const override
+  {
+    auto* files = vtkSMVectorProperty::SafeDownCast(this->Files);
+    return (!files || files->GetNumberOfElements() > 1) && this->pqPropertyWidgetDecorator::canShowWidget(showAdvanced);
+  }
+
+private:
+  void changed() { Q_EMIT this->visibilityChanged(); }
+  vtkWeakPointer<vtkSMProperty> Files;
+  unsigned long Tag = 0;
+};
 } // namespace
+
+pqPropertyWidgetDecorator* pqCSGVPropertyWidgetInterface::createWidgetDecorator(const QString& type,
+                                                                                vtkPVXMLElement* config,
+                                                                                pqPropertyWidget* widget)
+{
+  if (type == "csgv_several_files" && config && widget)
+  {
+    return new SeveralFilesDecorator(config, widget);
+  }
+  return nullptr;
+}
 
 pqCSGVPropertyWidgetInterface::pqCSGVPropertyWidgetInterface(QObject* parent)
   : QObject(parent)

@@ -2,8 +2,9 @@
 /**
  * @class pqCSGVPropertyWidgetInterface
  * @brief The plugin's property widgets for the Segmentation Volume (panel_widget
- * "csgv_label_array", "csgv_clip_box", "csgv_enumeration") and a default decorator that hides the
- * composite representation's controls that do nothing for it.
+ * "csgv_label_array", "csgv_clip_box", "csgv_enumeration"), a default decorator that hides the
+ * composite representation's controls that do nothing for it, and the "csgv_several_files"
+ * decorator of the readers' file-series options.
  *
  * The representation is a subproxy of ParaView's UniformGridRepresentation, so the Properties
  * panel also shows the surface representation's Coloring, Styling, Lighting... groups. Their
@@ -42,6 +43,10 @@ public:
   pqPropertyWidget* createWidgetForProperty(vtkSMProxy* proxy, vtkSMProperty* property,
                                             QWidget* parent) override;
   void createDefaultWidgetDecorators(pqPropertyWidget* widget) override;
+  /// "csgv_several_files" (attribute `property`, a repeatable file list): the widget shows only
+  /// while that list holds more than one file (ReadAsImageStack means nothing for one file).
+  pqPropertyWidgetDecorator* createWidgetDecorator(const QString& type, vtkPVXMLElement* config,
+                                                   pqPropertyWidget* widget) override;
 };
 
 #endif

@@ -205,6 +205,30 @@ private Q_SLOTS:
     this->Display->UpdateVTKObjects();
   }
 
+  /// "Read As Image Stack" shows for a series only (found by a GUI pass: it was offered for one
+  /// .h5 file, where it means nothing). The panel reads no file: the names need not exist.
+  void imageStackOptionOnlyForASeries()
+  {
+    vtkSMSessionProxyManager* pxm =
+      vtkSMProxyManager::GetProxyManager()->GetActiveSessionProxyManager();
+    vtkSmartPointer<vtkSMProxy> reader;
+    reader.TakeReference(pxm->NewProxy("sources", "CSGVInputReader"));
+    QVERIFY(reader);
+    vtkSMPropertyHelper(reader, "FileNames").Set("/nowhere/volume.h5");
+    pqProxyWidget panel(reader);
+    panel.show();
+    panel.filterWidgets(true);
+    auto* stack = panel.findChild<pqPropertyWidget*>("ReadAsImageStack");
+    auto* relabel = panel.findChild<pqPropertyWidget*>("Relabel");
+    QVERIFY(stack && relabel);
+    QVERIFY2(relabel->isVisibleTo(&panel), "the reader's other options show");
+    QVERIFY2(!stack->isVisibleTo(&panel), "one file: no image stack option");
+    vtkSMPropertyHelper(reader, "FileNames").Set(1, "/nowhere/s_1.tif");
+    QTRY_VERIFY2(stack->isVisibleTo(&panel), "a series: the image stack option shows");
+    vtkSMPropertyHelper(reader, "FileNames").SetNumberOfElements(1);
+    QTRY_VERIFY2(!stack->isVisibleTo(&panel), "back to one file: hidden again");
+  }
+
   void writerLabelArrayIsADropDown()
   {
     // Save Data's dialog shows the writer's properties in a pqProxyWidget of the writer proxy.
