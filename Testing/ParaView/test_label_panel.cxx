@@ -111,13 +111,18 @@ class TestLabelPanel : public QObject
       core->setUndoStack(new pqUndoStack(undoBuilder, this));
     }
   }
-  /// The attribute fixture read into a new, active 160x160 render view as a Segmentation Volume
-  /// (camera reset, rendered): its display's proxy, or nullptr when any step fails.
-  vtkSMProxy* shownInNewView(pqPipelineSource*& source, pqRenderView*& view)
+  /// `files` (by default the attribute fixture) read into a new, active 160x160 render view as a
+  /// Segmentation Volume (camera reset, rendered): its display's proxy, or nullptr when any step
+  /// fails.
+  vtkSMProxy* shownInNewView(pqPipelineSource*& source, pqRenderView*& view, QStringList files = {})
   {
     pqServer* server = pqActiveObjects::instance().activeServer();
     pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
-    source = builder->createReader("sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    if (files.isEmpty())
+    {
+      files << gFixtures + "/synthA_b32_rans2_attr.csgv";
+    }
+    source = builder->createReader("sources", "CSGVReader", files, server);
     view = source ? qobject_cast<pqRenderView*>(builder->createView("RenderView", server)) : nullptr;
     if (!view)
     {
@@ -570,23 +575,13 @@ private Q_SLOTS:
       files << dir.filePath(QString("s_%1.csgv").arg(files.size()));
       QVERIFY(QFile::copy(gFixtures + "/" + name, files.last()));
     }
-    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqPipelineSource* source = nullptr;
+    pqRenderView* view = nullptr;
+    vtkSMProxy* proxy = this->shownInNewView(source, view, files);
+    QVERIFY(proxy);
+    pqTimeKeeper* time = pqActiveObjects::instance().activeServer()->getTimeKeeper();
     pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
-    pqPipelineSource* source = builder->createReader("sources", "CSGVReader", files, server);
-    QVERIFY(source);
-    pqView* view = builder->createView("RenderView", server);
-    QVERIFY(view);
-    view->widget()->resize(160, 160);
-    view->widget()->show();
-    pqActiveObjects::instance().setActiveView(view);
-    pqDataRepresentation* display = builder->createDataRepresentation(source->getOutputPort(0), view);
-    QVERIFY(display);
-    vtkSMProxy* proxy = display->getProxy();
-    vtkSMPropertyHelper(proxy, "Representation").Set("Segmentation Volume");
-    proxy->UpdateVTKObjects();
-    pqTimeKeeper* time = server->getTimeKeeper();
     time->setTime(0.0);
-    view->resetDisplay();
     view->forceRender();
 
     pqCSGVMaterialEditor editor(proxy, nullptr);
