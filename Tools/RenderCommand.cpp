@@ -194,8 +194,37 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
         if (!p) return p.status();
         a.videoPattern = *p;
     }
+    // An output that could never replace what its name holds is refused before any work.
+    for (const std::string* out : {&a.output, &a.labelsOut})
+        if (!out->empty())
+            if (Status s = replaceableOutput(*out); !s) return s;
     return Status::ok();
 }
+
+/// The outputs of one render (image, labels, video frames), written under temporary names and
+/// published together at the end (publishTogether): an interrupt or an error leaves the old set
+/// as it was. What is not published is removed when this goes.
+struct PendingOutputs {
+    std::vector<std::pair<std::string, std::string>> written; // temporary, target
+    ~PendingOutputs() {
+        for (const auto& w : written) std::remove(w.first.c_str()); // gone once published
+    }
+    /// Writes `target` under a temporary name with `write(temporary)`; errors name the target.
+    template <class Write>
+    Status add(const std::string& target, Write write) {
+        if (Status s = replaceableOutput(target); !s) return s;
+        const std::string tmp = temporaryNameFor(target);
+        written.emplace_back(tmp, target);
+        Status s = write(tmp);
+        if (!s) {
+            std::string m = s.message();
+            for (size_t at = m.find(tmp); at != std::string::npos; at = m.find(tmp, at + target.size()))
+                m.replace(at, tmp.size(), target);
+            return Status::error(m);
+        }
+        return s;
+    }
+};
 
 /// How much of a moving camera's frame shows what the converged image of its pose shows: of the
 /// pixels where either shows something, those within 2/255 in every channel; the same of the
@@ -485,6 +514,7 @@ int cmdRender(int argc, char** argv) {
         poses = a.orbit ? orbitPoses(first, a.orbit) : std::vector<CameraPose>{first};
     }
     const uint32_t views = uint32_t(poses.size());
+    PendingOutputs outputs; // published together after the last view
     std::vector<double> frameTimes, viewTimes, asConverged, previewsAsConverged;
     double firstFrameMs = -1;
     uint64_t cacheUsed = 0;
@@ -568,12 +598,16 @@ int cmdRender(int argc, char** argv) {
         viewTimes.push_back(viewMs);
         if (!a.video.empty()) {
             const std::string name = a.videoPattern.format(v);
-            if (!(s = writeImage(name, out, a.background))) return fail(s.message());
+            s = outputs.add(name, [&](const std::string& tmp) { return writeImage(tmp, out, a.background); });
+            if (!s) return fail(s.message());
             std::printf("view %u: %.1f ms -> %s\n", v, viewMs, name.c_str());
         }
     }
-    if (!(s = writeImage(a.output, out, a.background))) return fail(s.message());
-    if (!a.labelsOut.empty() && !(s = writeLabels(a.labelsOut, out))) return fail(s.message());
+    s = outputs.add(a.output, [&](const std::string& tmp) { return writeImage(tmp, out, a.background); });
+    if (s && !a.labelsOut.empty())
+        s = outputs.add(a.labelsOut, [&](const std::string& tmp) { return writeLabels(tmp, out); });
+    if (s) s = publishTogether(outputs.written);
+    if (!s) return fail(s.message());
     std::vector<double> sorted = frameTimes;
     std::sort(sorted.begin(), sorted.end());
     std::printf("frames: %zu\n", frameTimes.size());

@@ -9,6 +9,9 @@
 
 #include <filesystem>
 #include <gtest/gtest.h>
+#include <fstream>
+#include <unistd.h>
+#include <sys/stat.h>
 
 using namespace csgv;
 using namespace csgvtest;
@@ -205,6 +208,60 @@ TEST(Container, FailedWritesLeaveNothingBehind) {
         AtomicFile f;
         EXPECT_FALSE(f.open("/dev/full/x").isOk()); // not a directory: clean error
     }
+}
+
+TEST(Container, OutputsNeverReplaceDevicesFifosLinksOrProtectedFiles) {
+    // Found by an attack pass: the rename that publishes an output replaced whatever the name
+    // held (`csgv render x.csgv /dev/null` as root replaced the system's /dev/null).
+    namespace fs = std::filesystem;
+    const std::string dir = tempDir() + "/targets";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const CompressedVolume v = loadFixture("synthA_b32_rans2.csgv");
+    const auto bytes = [](const std::string& p) {
+        std::ifstream in(p, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    ASSERT_EQ(::mkfifo((dir + "/fifo.csgv").c_str(), 0644), 0);
+    fs::create_directories(dir + "/folder.csgv");
+    std::ofstream(dir + "/target.csgv") << "the link's target";
+    fs::create_symlink("target.csgv", dir + "/link.csgv");
+    std::ofstream(dir + "/protected.csgv") << "protected";
+    fs::permissions(dir + "/protected.csgv", fs::perms::owner_read | fs::perms::group_read);
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {"fifo.csgv", "FIFO"}, {"folder.csgv", "folder"}, {"link.csgv", "symbolic link"},
+        {"protected.csgv", "write-protected"}};
+    for (const auto& [name, why] : cases) {
+        const std::string path = dir + "/" + name;
+        Status s = writeCsgv(path, v);
+        ASSERT_FALSE(s.isOk()) << name;
+        EXPECT_NE(s.message().find(why), std::string::npos) << s.message();
+        EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
+        AtomicFile f;
+        EXPECT_FALSE(f.open(path).isOk()) << name;
+    }
+    EXPECT_TRUE(fs::is_fifo(dir + "/fifo.csgv"));
+    EXPECT_TRUE(fs::is_symlink(dir + "/link.csgv"));
+    EXPECT_EQ(bytes(dir + "/target.csgv"), "the link's target");
+    EXPECT_EQ(bytes(dir + "/protected.csgv"), "protected");
+    // A name that becomes a FIFO while the file is written is not replaced either.
+    {
+        AtomicFile f;
+        ASSERT_TRUE(f.open(dir + "/late.bin").isOk());
+        ASSERT_TRUE(f.write("x", 1).isOk());
+        ASSERT_EQ(::mkfifo((dir + "/late.bin").c_str(), 0644), 0);
+        EXPECT_FALSE(f.commit().isOk());
+        EXPECT_TRUE(fs::is_fifo(dir + "/late.bin"));
+    }
+    // A file that is replaced keeps its permission bits.
+    const std::string kept = dir + "/kept.csgv";
+    std::ofstream(kept) << "old";
+    fs::permissions(kept, fs::perms::owner_read | fs::perms::owner_write | fs::perms::others_read);
+    ASSERT_TRUE(writeCsgv(kept, v).isOk());
+    EXPECT_EQ(fs::status(kept).permissions(), fs::perms::owner_read | fs::perms::owner_write | fs::perms::others_read);
+    size_t temporaries = 0;
+    for (const auto& e : fs::directory_iterator(dir)) temporaries += e.path().string().find(".tmp-") != std::string::npos;
+    EXPECT_EQ(temporaries, 0u);
 }
 
 TEST(Container, MissingFileAndDirectoryAreErrors) {

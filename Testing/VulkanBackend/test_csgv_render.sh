@@ -154,6 +154,21 @@ expect 1 "truncated file" "$CSGV" render "$TMP/trunc.csgv" "$TMP/x.png"
 # Orbit video: N frames, parallel projection, shading modes.
 expect 0 "orbit video" "$CSGV" render "$DEF" "$TMP/v.png" --size 32x24 --video "$TMP/f%02d.png" --orbit 3 --parallel-scale 80 --shading shadow
 [ -e "$TMP/f00.png" ] && [ -e "$TMP/f02.png" ] && [ ! -e "$TMP/f03.png" ] && pass "3 video frames" || bad "video frames"
+# Outputs never replace what is not a plain, writable file (found by an attack pass: a device
+# such as /dev/null became a PNG), and are refused before any rendering.
+mkfifo "$TMP/fifo.png"; ln -s v.png "$TMP/link.png"; cp "$TMP/v.png" "$TMP/ro.png"; chmod 444 "$TMP/ro.png"
+expect_bounded 1 4096 60 "fifo.png' is a FIFO" "image output on a FIFO" "$CSGV" render "$DEF" "$TMP/fifo.png" --size 8x8
+expect_bounded 1 4096 60 "link.png' is a symbolic link" "labels output through a symbolic link" "$CSGV" render "$DEF" "$TMP/y.png" --size 8x8 --labels-out "$TMP/link.png"
+expect_bounded 1 4096 60 "ro.png' is write-protected" "image output on a write-protected file" "$CSGV" render "$DEF" "$TMP/ro.png" --size 8x8
+[ -p "$TMP/fifo.png" ] && [ -L "$TMP/link.png" ] && cmp -s "$TMP/v.png" "$TMP/ro.png" && [ ! -e "$TMP/y.png" ] &&
+  pass "the FIFO, the link and the protected file are as they were" || bad "an output replaced a FIFO, link or protected file"
+# An interrupted video leaves the old frames whole (found by an attack pass: 4 new frames among 36
+# old ones): the frames, the image and the labels are published together at the end.
+cp "$TMP/f00.png" "$TMP/f00.before"
+expect_interrupt "SIGINT during a video" "$CSGV" render "$DEF" "$TMP/v2.png" --size 128x96 --video "$TMP/f%02d.png" --orbit 5000
+cmp -s "$TMP/f00.png" "$TMP/f00.before" && [ ! -e "$TMP/f03.png" ] && [ ! -e "$TMP/v2.png" ] &&
+  [ -z "$(ls "$TMP" | grep -F .tmp-)" ] && pass "the interrupted video left the old set and no temporaries" ||
+  bad "an interrupted video changed the old frames or left files: $(ls "$TMP" | grep -E 'f0[0-9]|tmp' | head)"
 for m in ao pt; do
   expect 0 "shading $m" "$CSGV" render "$DEF" "$TMP/$m.png" --size 32x24 --shading $m --frames 2 --subsampling 2
 done

@@ -144,6 +144,7 @@ Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& 
             return Status::error("attribute column '" + c.name + "' has " +
                                  std::to_string(c.numeric ? c.values.size() : c.text.size()) + " values for " +
                                  std::to_string(labelBits.size()) + " labels");
+    if (Status s = replaceableOutput(path); !s) return s.prefix("cannot write attribute database");
     // SQLite writes its own file: build it under a name unique to this process and call (two
     // compressions of one input, e.g. MPI ranks, never share it) and rename, like AtomicFile.
     const std::string tmp = temporaryNameFor(path);
@@ -212,9 +213,13 @@ Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& 
     if (!s) return fail(s.message());
     st = StmtPtr();
     if (sqlite3_close(db.release()) != SQLITE_OK) return fail("close failed");
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    Status published = replaceableOutput(path);
+    if (published) keepModeOf(path, tmp);
+    if (published && std::rename(tmp.c_str(), path.c_str()) != 0)
+        published = Status::error("cannot rename '" + tmp + "' to '" + path + "': " + errnoText());
+    if (!published) {
         std::remove(tmp.c_str());
-        return Status::error("cannot rename '" + tmp + "' to '" + path + "'");
+        return published;
     }
     return Status::ok();
 }

@@ -74,10 +74,56 @@ std::string temporaryNameFor(const std::string& path) {
     return name;
 }
 
+Status replaceableOutput(const std::string& path) {
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) != 0) return Status::ok(); // nothing there (or a folder we cannot see into: the write says so)
+    if (S_ISLNK(st.st_mode))
+        return Status::error("'" + path + "' is a symbolic link: an output would replace the link, not the file it " +
+                             "points to; give the file's own name");
+    if (!S_ISREG(st.st_mode))
+        return Status::error("'" + path + "' is " + fileKind(st.st_mode) + ", not a file: an output never replaces it");
+    // No write bit at all protects a file from root too (as rm asks before removing it).
+    if ((st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) == 0 || (::access(path.c_str(), W_OK) != 0 && errno == EACCES))
+        return Status::error("'" + path + "' is write-protected: an output does not replace it (make it writable, or " +
+                             "choose another name)");
+    return Status::ok();
+}
+
+void keepModeOf(const std::string& target, const std::string& tmp) {
+    struct stat st {};
+    if (::lstat(target.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
+    if (::chown(tmp.c_str(), uid_t(-1), st.st_gid) != 0) {
+        // Not a member of the group: the new file keeps the user's own.
+    }
+    ::chmod(tmp.c_str(), st.st_mode & 07777);
+}
+
+Status publishTogether(const std::vector<std::pair<std::string, std::string>>& written) {
+    const std::unique_lock<std::mutex> publishing = holdPublishing();
+    Status s;
+    for (const auto& [tmp, target] : written)
+        if (s) s = replaceableOutput(target);
+    size_t done = 0;
+    for (; s && done < written.size(); ++done) {
+        const auto& [tmp, target] = written[done];
+        keepModeOf(target, tmp);
+        if (std::rename(tmp.c_str(), target.c_str()) != 0)
+            s = Status::error("cannot rename '" + tmp + "' to '" + target + "': " + errnoText());
+    }
+    if (s) return s;
+    std::string replaced;
+    for (size_t i = 0; i < written.size(); ++i) {
+        if (i + 1 < done) replaced += (replaced.empty() ? "" : ", ") + ("'" + written[i].second + "'");
+        else std::remove(written[i].first.c_str());
+    }
+    return replaced.empty() ? s : Status::error(s.message() + " (already replaced: " + replaced + ")");
+}
+
 AtomicFile::~AtomicFile() { discard(); }
 
 Status AtomicFile::open(const std::string& path) {
     discard();
+    if (Status s = replaceableOutput(path); !s) return s;
     m_path = path;
     m_tmp = temporaryNameFor(path);
     m_file = std::fopen(m_tmp.c_str(), "wb");
@@ -107,8 +153,12 @@ Status AtomicFile::commit() {
         m_tmp.clear();
         return Status::error("cannot write '" + m_path + "': " + (why.empty() ? errnoText() : why));
     }
-    if (std::rename(m_tmp.c_str(), m_path.c_str()) != 0) {
-        Status s = Status::error("cannot rename '" + m_tmp + "' to '" + m_path + "': " + errnoText());
+    // What the name holds may have changed while the file was written.
+    Status s = replaceableOutput(m_path);
+    if (s) keepModeOf(m_path, m_tmp);
+    if (s && std::rename(m_tmp.c_str(), m_path.c_str()) != 0)
+        s = Status::error("cannot rename '" + m_tmp + "' to '" + m_path + "': " + errnoText());
+    if (!s) {
         std::remove(m_tmp.c_str());
         m_tmp.clear();
         return s;

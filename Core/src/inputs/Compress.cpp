@@ -329,13 +329,11 @@ std::string replacedName(std::string message, const std::string& from, const std
 Status publishVolumeFiles(const std::string& output, const std::string& volumeTmp, const VolumeMetadata& md,
                           const LabelMapping& mapping) {
     const std::string db = attributeDbPathFor(output), mdPath = metadataPathFor(output);
-    // What the renames will replace must be files (or nothing): a folder in the way would fail
-    // its rename after the others were done.
-    for (const std::string* p : {&output, &mdPath, &db}) {
-        struct stat st {};
-        if (::lstat(p->c_str(), &st) == 0 && S_ISDIR(st.st_mode))
-            return Status::error("cannot replace '" + *p + "': it is a folder");
-    }
+    // What the renames will replace must be files the user may write (or nothing): a folder in
+    // the way would fail its rename after the others were done, and a device, FIFO or link would
+    // be replaced by a file (replaceableOutput).
+    for (const std::string* p : {&output, &mdPath, &db})
+        if (Status s = replaceableOutput(*p); !s) return s;
     // Every new file complete under a temporary name first: a full disk or any write error
     // strikes here, before anything of the old set is touched.
     const std::string dbTmp = temporaryNameFor(db), mdTmp = temporaryNameFor(mdPath);
@@ -372,6 +370,7 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     moves.push_back({volumeTmp, output, {}});
     Status s;
     for (Move& m : moves) {
+        if (!m.from.empty()) keepModeOf(m.to, m.from);
         if (fileExists(m.to)) {
             m.aside = temporaryNameFor(m.to) + "-old";
             if (std::rename(m.to.c_str(), m.aside.c_str()) != 0) {
@@ -405,7 +404,9 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
 
 Status writeVolumeFiles(const std::string& output, const CompressedVolume& volume, const VolumeMetadata& md,
                         const LabelMapping& mapping) {
-    const std::string tmp = temporaryNameFor(output) + ".csgv";
+    for (const std::string& p : {output, metadataPathFor(output), attributeDbPathFor(output)})
+        if (Status s = replaceableOutput(p); !s) return s;
+    const std::string tmp = temporaryNameFor(output); // no .csgv at its end: nothing offers it as a volume
     Status s = writeCsgv(tmp, volume);
     if (s) s = publishVolumeFiles(output, tmp, md, mapping);
     if (s) return s;
@@ -465,7 +466,7 @@ struct Job {
     const std::string& output;
 
     Job(const std::string& in, const std::string& out, const CompressOptions& o, CompressReport& r)
-        : input(in), options(o), rep(r), tmp(temporaryNameFor(out) + ".csgv"), progress(o.progress), output(out) {
+        : input(in), options(o), rep(r), tmp(temporaryNameFor(out)), progress(o.progress), output(out) {
         registerTemporary(tmp);
     }
     /// Whatever ends the job (an error, an exception unwinding), no temporary volume is left.
@@ -572,6 +573,9 @@ Status compress(InputSource* given, const std::string& input, const std::string&
     rep = CompressReport{};
     if (Status s = checkEncodeOptions(options.encode); !s) return s;
     if (!endsWith(output, ".csgv")) return Status::error("output '" + output + "' must end in .csgv");
+    // What the set would replace is checked before any work (and again when it is published).
+    for (const std::string& p : {output, metadataPathFor(output), attributeDbPathFor(output)})
+        if (Status s = replaceableOutput(p); !s) return s;
     const auto tStart = std::chrono::steady_clock::now();
     Job job(input, output, options, rep);
     if (Status s = job.open(given); !s) return s;

@@ -11,6 +11,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace csgv {
@@ -35,9 +36,29 @@ std::unique_lock<std::mutex> holdPublishing();
 /// Seeks a C file to a 64-bit offset; false on failure (errno says why).
 bool seekTo(std::FILE* f, uint64_t offset);
 
+/// Whether an output may take the name `path`: it names nothing yet, or a regular file the user
+/// may write. Refused, with a message naming it: a device, FIFO, folder or socket (the rename
+/// that publishes an output would replace it by a file: `csgv render x.csgv /dev/null` as root
+/// replaced the system's /dev/null), a symbolic link (the rename would replace the link and leave
+/// the file it points to as it was) and a write-protected file: one the user may not write, or
+/// one without any write bit, which protects it from root too (as rm asks before removing it).
+/// Every publishing rename checks its target with this first.
+Status replaceableOutput(const std::string& path);
+/// Gives the temporary `tmp` the permission bits (and group, where allowed) of the regular file
+/// `target` it is about to replace; nothing when there is none.
+void keepModeOf(const std::string& target, const std::string& tmp);
+
+/// Renames each written temporary (`first`) over its target (`second`) under holdPublishing(), so
+/// an interrupt never lands inside the set: every target is checked (replaceableOutput) before
+/// the first rename, and each keeps the permission bits of the file it replaces. On a failure the
+/// temporaries not yet renamed are removed and the error names the targets already replaced.
+Status publishTogether(const std::vector<std::pair<std::string, std::string>>& written);
+
 /// @brief Writes to `<path>.tmp-<pid>-<n>` beside the target and renames it into place on
 /// commit(); destroying it uncommitted removes the temporary, so a failure never leaves a half
 /// file under the target name.
+/// The target must be replaceableOutput() when opened and again when committed (what may replace
+/// it is checked before anything is written); a file it replaces keeps its permission bits.
 class AtomicFile {
 public:
     AtomicFile() = default;
