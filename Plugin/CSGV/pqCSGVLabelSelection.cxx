@@ -30,6 +30,7 @@
 #include <vtkTable.h>
 
 #include <QByteArray>
+#include <QPointer>
 #include <QStringList>
 #include <QTimer>
 
@@ -210,6 +211,7 @@ void pqCSGVLabelSelection::startup()
   connect(model, &pqServerManagerModel::preViewRemoved, this, &pqCSGVLabelSelection::viewRemoved);
   connect(model, &pqServerManagerModel::preSourceRemoved, this, &pqCSGVLabelSelection::forgetRows);
   connect(model, &pqServerManagerModel::sourceAdded, this, &pqCSGVLabelSelection::sourceAdded);
+  connect(model, &pqServerManagerModel::representationAdded, this, &pqCSGVLabelSelection::representationAdded);
   for (pqView* v : model->findItems<pqView*>())
     this->viewAdded(v);
   if (pqPVApplicationCore* core = pqPVApplicationCore::instance())
@@ -245,6 +247,48 @@ void pqCSGVLabelSelection::viewAdded(pqView* view)
   const unsigned long id =
     rmp->AddObserver(vtkCommand::SelectionChangedEvent, this, &pqCSGVLabelSelection::regionSelected, 1.0f);
   this->Observed.insert(view, id);
+}
+
+void pqCSGVLabelSelection::representationAdded(pqRepresentation* representation)
+{
+  // Found by a GUI pass: a view made after a selection drew the data without it. A display is
+  // registered before its input is linked: it is looked at from the event loop.
+  QPointer<pqDataRepresentation> added = qobject_cast<pqDataRepresentation*>(representation);
+  if (!added || !added->getProxy()->GetProperty("CSGVMaterials"))
+    return;
+  QTimer::singleShot(0, this, [added]() {
+    vtkSMProxy* display = added ? added->getProxy() : nullptr;
+    if (!display)
+      return;
+    const QString current = QString::fromUtf8(vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString());
+    QString why;
+    csgv::MaterialDocument doc = pqCSGV::parseDocument(current, &why);
+    if (!why.isEmpty())
+      return;
+    for (vtkSMProxy* other : volumeDisplaysOf(added->getOutputPortFromInput()))
+    {
+      if (other == display)
+        continue;
+      csgv::MaterialDocument shown =
+        pqCSGV::parseDocument(QString::fromUtf8(vtkSMPropertyHelper(other, "CSGVMaterials").GetAsString()), &why);
+      if (!why.isEmpty() || shown.selected.empty())
+        continue;
+      doc.selected = shown.selected;
+      doc.selectionStyle = shown.selectionStyle;
+      doc.selectionColor = shown.selectionColor;
+      const QString text = pqCSGV::serialize(doc);
+      if (text != current)
+      {
+        // Part of making the display (its Show, or the state's load): no undo step of its own.
+        pqScopedUndoExclude partOfShow;
+        vtkSMPropertyHelper(display, "CSGVMaterials").Set(text.toUtf8().constData());
+        display->UpdateVTKObjects();
+        if (pqView* view = added->getView())
+          view->render();
+      }
+      return;
+    }
+  });
 }
 
 void pqCSGVLabelSelection::viewRemoved(pqView* view)
@@ -349,8 +393,7 @@ bool pqCSGVLabelSelection::edit(vtkSMProxy* display, const std::vector<uint32_t>
     {
       if (texts[i].isEmpty())
         continue;
-      vtkSMPropertyHelper(displays[i], "CSGVMaterials").Set(texts[i].constData());
-      displays[i]->UpdateVTKObjects();
+      pqCSGV::setMaterials(displays[i], QString::fromUtf8(texts[i]));
     }
     END_UNDO_SET();
   }

@@ -40,6 +40,7 @@
 
 class pqOutputPort;
 class pqPipelineSource;
+class pqRepresentation;
 class pqView;
 class vtkObject;
 class vtkSMProxy;
@@ -86,6 +87,9 @@ private Q_SLOTS:
   void forgetRows(pqPipelineSource* table);
   /// A new CSGV Label Table takes the labels selected already: its rows follow at its first update.
   void sourceAdded(pqPipelineSource* source);
+  /// A new display of a data set (another view, a state file) takes the selection the data set's
+  /// other displays show: the labels, their style and colour.
+  void representationAdded(pqRepresentation* representation);
 
 private:
   /// A selection tool's region (SelectionChangedEvent of a render view proxy).

@@ -13,6 +13,7 @@
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
 #include <vtkSMSessionProxyManager.h>
+#include <vtkSMTrace.h>
 #include <vtkSMTransferFunctionManager.h>
 #include <vtkSMTransferFunctionProxy.h>
 #include <vtkNew.h>
@@ -37,6 +38,13 @@ csgv::MaterialDocument parseDocument(const QString& text, QString* error)
     *error = doc.isOk() ? QString() : QString::fromStdString(doc.message());
   }
   return doc.isOk() ? *doc : csgv::defaultMaterials();
+}
+
+void setMaterials(vtkSMProxy* display, const QString& text)
+{
+  SM_SCOPED_TRACE(PropertiesModified).arg("proxy", display);
+  vtkSMPropertyHelper(display, "CSGVMaterials").Set(text.toUtf8().constData());
+  display->UpdateVTKObjects();
 }
 
 QString serialize(const csgv::MaterialDocument& doc)

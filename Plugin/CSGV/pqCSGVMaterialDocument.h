@@ -37,6 +37,10 @@ enum class LabelVisibility
 QString editLabelVisibility(
   const QString& materials, LabelVisibility edit, qint64 label, QString* error = nullptr);
 
+/// Sets a display's CSGVMaterials (and pushes it) as a user's edit: in the Python trace, as the
+/// Properties panel's edits are (the caller makes the undo step).
+void setMaterials(vtkSMProxy* display, const QString& text);
+
 /// The Segmentation Volume representation proxy behind a display (the composite's subproxy, or
 /// the proxy itself); nullptr when it has none.
 vtkSMProxy* segmentationProxy(vtkSMProxy* display);

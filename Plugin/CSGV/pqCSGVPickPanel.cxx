@@ -314,8 +314,7 @@ void pqCSGVPickPanel::editVisibility(
     return;
   }
   BEGIN_UNDO_SET(undoLabel);
-  vtkSMPropertyHelper(display, "CSGVMaterials").Set(text.toUtf8().constData());
-  display->UpdateVTKObjects();
+  pqCSGV::setMaterials(display, text);
   END_UNDO_SET();
   if (this->View)
   {
@@ -417,8 +416,7 @@ void pqCSGVPickPanel::setSelectionStyle(int index)
   doc.selectionStyle =
     index == 1 ? csgv::MaterialDocument::SelectionStyle::Dim : csgv::MaterialDocument::SelectionStyle::Highlight;
   BEGIN_UNDO_SET("Label selection style");
-  vtkSMPropertyHelper(display, "CSGVMaterials").Set(pqCSGV::serialize(doc).toUtf8().constData());
-  display->UpdateVTKObjects();
+  pqCSGV::setMaterials(display, pqCSGV::serialize(doc));
   END_UNDO_SET();
   if (this->View)
   {
