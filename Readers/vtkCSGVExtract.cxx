@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVExtract.h"
 
+#include "CSGVHeldValue.h"
+
 #include "CSGVAdapter.h"
 #include "vtkCSGVReader.h"
 
@@ -21,6 +23,7 @@
 #include <algorithm>
 
 vtkStandardNewMacro(vtkCSGVExtract);
+csgvHeldSetter(vtkCSGVExtract, Level, int, 0, 7)
 
 class vtkCSGVExtract::vtkInternals
 {

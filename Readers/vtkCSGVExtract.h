@@ -36,7 +36,7 @@ public:
   vtkGetVector6Macro(VOI, int);
 
   /// Level of detail, 0 (full resolution) to the file's coarsest level (clamped).
-  vtkSetClampMacro(Level, int, 0, 7);
+  void SetLevel(int value); ///< held to [0, 7], with a warning (CSGVHeldValue.h)
   vtkGetMacro(Level, int);
 
 protected:

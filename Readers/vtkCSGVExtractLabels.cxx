@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVExtractLabels.h"
 
+#include "CSGVHeldValue.h"
+
 #include "CSGVAdapter.h"
 
 #include "csgv/codec/Extract.h"
@@ -35,6 +37,12 @@
 #include <set>
 
 vtkStandardNewMacro(vtkCSGVExtractLabels);
+csgvHeldSetter(vtkCSGVExtractLabels, OutputType, int, MESHES, LABEL_IMAGE)
+csgvHeldSetter(vtkCSGVExtractLabels, Level, int, 0, 7)
+csgvHeldSetter(vtkCSGVExtractLabels, Smoothing, int, 0, 200)
+csgvHeldSetter(vtkCSGVExtractLabels, Decimation, double, 0.0, 0.95)
+csgvHeldSetter(vtkCSGVExtractLabels, MaxLabels, int, 1, VTK_INT_MAX)
+csgvHeldSetter(vtkCSGVExtractLabels, MaxOutputMiB, int, 1, VTK_INT_MAX)
 
 class vtkCSGVExtractLabels::vtkInternals
 {

@@ -45,7 +45,7 @@ public:
     MASK = 1,
     LABEL_IMAGE = 2
   };
-  vtkSetClampMacro(OutputType, int, MESHES, LABEL_IMAGE);
+  void SetOutputType(int value); ///< held to [MESHES, LABEL_IMAGE], with a warning (CSGVHeldValue.h)
   vtkGetMacro(OutputType, int);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
@@ -59,18 +59,18 @@ public:
   vtkSetVector6Macro(VOI, int);
   vtkGetVector6Macro(VOI, int);
   /// Level of detail, 0 (full resolution) to the file's coarsest level (clamped).
-  vtkSetClampMacro(Level, int, 0, 7);
+  void SetLevel(int value); ///< held to [0, 7], with a warning (CSGVHeldValue.h)
   vtkGetMacro(Level, int);
   /// Meshes only: windowed-sinc smoothing iterations (0, the default: none; the vertices then
   /// leave the voxel faces) and quadric decimation's target reduction (0 to 0.95; 0 none),
   /// for selections of at most 256 labels.
-  vtkSetClampMacro(Smoothing, int, 0, 1000);
+  void SetSmoothing(int value); ///< held to [0, 200], with a warning (CSGVHeldValue.h)
   vtkGetMacro(Smoothing, int);
-  vtkSetClampMacro(Decimation, double, 0.0, 0.95);
+  void SetDecimation(double value); ///< held to [0.0, 0.95], with a warning (CSGVHeldValue.h)
   vtkGetMacro(Decimation, double);
-  vtkSetClampMacro(MaxLabels, int, 1, VTK_INT_MAX);
+  void SetMaxLabels(int value); ///< held to [1, VTK_INT_MAX], with a warning (CSGVHeldValue.h)
   vtkGetMacro(MaxLabels, int);
-  vtkSetClampMacro(MaxOutputMiB, int, 1, VTK_INT_MAX);
+  void SetMaxOutputMiB(int value); ///< held to [1, VTK_INT_MAX], with a warning (CSGVHeldValue.h)
   vtkGetMacro(MaxOutputMiB, int);
 
   /// What the last execution decoded: brick decodes (only bricks whose palettes hold a selected

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVInputReader.h"
 
+#include "CSGVHeldValue.h"
+
 #include "CSGVAdapter.h"
 #include "CSGVFileSeries.h"
 #include "CSGVInputCache.h"
@@ -33,6 +35,9 @@
 #include <thread>
 
 vtkStandardNewMacro(vtkCSGVInputReader);
+csgvHeldSetter(vtkCSGVInputReader, BrickSize, int, 8, 128)
+csgvHeldSetter(vtkCSGVInputReader, DecodeThreshold, vtkIdType, 0, VTK_ID_MAX)
+csgvHeldSetter(vtkCSGVInputReader, Level, int, 0, 7)
 
 using csgvvtk::InputLocation;
 

@@ -114,7 +114,7 @@ public:
   vtkBooleanMacro(AllowOutsidePaths, vtkTypeBool);
 
   /// Brick size of the encoding, a power of two in [8, 128] (default 32).
-  vtkSetClampMacro(BrickSize, int, 8, 128);
+  void SetBrickSize(int value); ///< held to [8, 128], with a warning (CSGVHeldValue.h)
   vtkGetMacro(BrickSize, int);
 
   /// Folder for cached `.csgv` files; empty (default) means beside the input when writable,
@@ -126,9 +126,9 @@ public:
   vtkSetMacro(DecodeLabels, vtkTypeBool);
   vtkGetMacro(DecodeLabels, vtkTypeBool);
   vtkBooleanMacro(DecodeLabels, vtkTypeBool);
-  vtkSetClampMacro(DecodeThreshold, vtkIdType, 0, VTK_ID_MAX);
+  void SetDecodeThreshold(vtkIdType value); ///< held to [0, VTK_ID_MAX], with a warning (CSGVHeldValue.h)
   vtkGetMacro(DecodeThreshold, vtkIdType);
-  vtkSetClampMacro(Level, int, 0, 7);
+  void SetLevel(int value); ///< held to [0, 7], with a warning (CSGVHeldValue.h)
   vtkGetMacro(Level, int);
 
   /// The `.csgv` the last request used or would use (empty before RequestInformation).

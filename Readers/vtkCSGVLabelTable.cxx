@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVLabelTable.h"
 
+#include "CSGVHeldValue.h"
+
 #include "CSGVAdapter.h"
 
 #include "csgv/attributes/Attributes.h"
@@ -21,6 +23,7 @@
 #include <memory>
 
 vtkStandardNewMacro(vtkCSGVLabelTable);
+csgvHeldSetter(vtkCSGVLabelTable, MaxRows, int, 1, VTK_INT_MAX)
 
 class vtkCSGVLabelTable::vtkInternals
 {

@@ -30,7 +30,7 @@ public:
   vtkGetMacro(ComputedAttributes, int);
   vtkBooleanMacro(ComputedAttributes, int);
   /// Volumes with more labels are refused (default 10,000,000).
-  vtkSetClampMacro(MaxRows, int, 1, VTK_INT_MAX);
+  void SetMaxRows(int value); ///< held to [1, VTK_INT_MAX], with a warning (CSGVHeldValue.h)
   vtkGetMacro(MaxRows, int);
 
 protected:

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVReader.h"
 
+#include "CSGVHeldValue.h"
+
 #include "CSGVAdapter.h"
 #include "CSGVFileSeries.h"
 
@@ -34,6 +36,8 @@
 #include <sys/stat.h>
 
 vtkStandardNewMacro(vtkCSGVReader);
+csgvHeldSetter(vtkCSGVReader, DecodeThreshold, vtkIdType, 0, VTK_ID_MAX)
+csgvHeldSetter(vtkCSGVReader, Level, int, 0, 7)
 vtkInformationKeyRestrictedMacro(vtkCSGVReader, CSGV_DIMENSIONS, IntegerVector, 3);
 vtkInformationKeyMacro(vtkCSGVReader, CSGV_LEVELS, Integer);
 vtkInformationKeyRestrictedMacro(vtkCSGVReader, CSGV_GEOMETRY, DoubleVector, 15);

@@ -87,12 +87,12 @@ public:
   vtkBooleanMacro(DecodeLabels, vtkTypeBool);
 
   /// Largest voxel count decoded (default 512 Mi voxels, 2 GiB of uint32 labels).
-  vtkSetClampMacro(DecodeThreshold, vtkIdType, 0, VTK_ID_MAX);
+  void SetDecodeThreshold(vtkIdType value); ///< held to [0, VTK_ID_MAX], with a warning (CSGVHeldValue.h)
   vtkGetMacro(DecodeThreshold, vtkIdType);
 
   /// Level of detail to decode: 0 full resolution, k: 2^k voxels per cell and axis; clamped to
   /// the file's coarsest level.
-  vtkSetClampMacro(Level, int, 0, 7);
+  void SetLevel(int value); ///< held to [0, 7], with a warning (CSGVHeldValue.h)
   vtkGetMacro(Level, int);
 
   /// 1 for a `.csgv` with the right magic and version, a `.vraw` with a valid header or a

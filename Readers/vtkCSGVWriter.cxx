@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "vtkCSGVWriter.h"
 
+#include "CSGVHeldValue.h"
+
 #include "CSGVAdapter.h"
 #include "CSGVMpiAgreement.h"
 
@@ -27,6 +29,9 @@
 #include <cstring>
 
 vtkStandardNewMacro(vtkCSGVWriter);
+csgvHeldSetter(vtkCSGVWriter, NumberOfThreads, int, 0, 1024)
+csgvHeldSetter(vtkCSGVWriter, NumberOfPieces, int, 1, VTK_INT_MAX)
+csgvHeldSetter(vtkCSGVWriter, Piece, int, 0, VTK_INT_MAX)
 
 vtkCSGVWriter::vtkCSGVWriter()
 {

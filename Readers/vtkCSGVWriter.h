@@ -72,14 +72,14 @@ public:
   vtkBooleanMacro(Relabel, vtkTypeBool);
 
   /// Encoder threads; 0 (default) lets OpenMP choose.
-  vtkSetClampMacro(NumberOfThreads, int, 0, 1024);
+  void SetNumberOfThreads(int value); ///< held to [0, 1024], with a warning (CSGVHeldValue.h)
   vtkGetMacro(NumberOfThreads, int);
 
   /// The process count and this process's index under MPI (ParaView's writer proxy sets them);
   /// 1 and 0 (default) write from this process alone.
-  vtkSetClampMacro(NumberOfPieces, int, 1, VTK_INT_MAX);
+  void SetNumberOfPieces(int value); ///< held to [1, VTK_INT_MAX], with a warning (CSGVHeldValue.h)
   vtkGetMacro(NumberOfPieces, int);
-  vtkSetClampMacro(Piece, int, 0, VTK_INT_MAX);
+  void SetPiece(int value); ///< held to [0, VTK_INT_MAX], with a warning (CSGVHeldValue.h)
   vtkGetMacro(Piece, int);
 
   vtkImageData* GetInput();

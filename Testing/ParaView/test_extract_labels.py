@@ -101,6 +101,20 @@ e.UpdatePropertyInformation()
 decoded, total = e.GetPropertyValue("BricksDecoded"), e.GetPropertyValue("BricksTotal")
 t.check(0 < decoded < total, "only bricks holding a selected label are decoded (%d of %d)" % (decoded, total))
 
+# A value outside a property's range, set from Python (the Properties panel enforces the range,
+# pvpython does not), is held to it with a warning naming it (found by an attack pass: Smoothing
+# 2^31-1 meshed for minutes in silence; MaxLabels 0 said "more than MaxLabels (1)").
+with t.ErrorLog() as held:
+    e.Smoothing = 2147483647
+    e.Decimation = float("nan")
+    e.MaxLabels = 0
+    e.UpdatePipeline()
+t.check("Smoothing 2147483647 is outside [0, 200]: 200 is used" in held.text and
+        "Decimation nan is outside [0, 0.95]: 0 is used" in held.text and
+        "MaxLabels 0 is outside [1, 2147483647]: 1 is used" in held.text,
+        "out-of-range filter properties are held with a warning (%s)" % held.text[-600:])
+e.Smoothing, e.Decimation, e.MaxLabels = 0, 0, 1000000
+
 # A box: the meshes stay inside it (in voxels).
 e.VOI = [0, W // 2 - 1, 0, H - 1, 0, D - 1]
 pts_box, labels_box, cells_box = mesh_of(e)
