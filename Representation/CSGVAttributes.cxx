@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
+#include <sstream>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -215,19 +217,58 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
       problem("computed attributes: " + s.message());
     }
   }
+  // One budget for all derived attributes together, not one each: the whole table is built on
+  // the rendering process's thread, and a GUI waits for it (found by an attack pass: four slow
+  // expressions froze the first render for 40 s).
+  const csgv::DerivedBudget whole;
+  const auto derivedStart = std::chrono::steady_clock::now();
   for (const auto& d : config.derived)
   {
     if (d.first.empty() && d.second.empty())
     {
       continue; // an empty row (the editor's new one)
     }
+    csgv::DerivedBudget budget = whole;
+    budget.seconds = whole.seconds -
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - derivedStart).count();
+    if (budget.seconds <= 0)
+    {
+      problem("derived attribute '" + d.first + "' was not evaluated: the derived attributes together " +
+        "took their " + std::to_string(int(whole.seconds)) + " s");
+      continue;
+    }
     // Core names the attribute (or says it needs a name) in its message.
-    if (!(s = csgv::addDerivedAttribute(table, d.first, d.second, true)))
+    if (!(s = csgv::addDerivedAttribute(table, d.first, d.second, true, budget)))
     {
       problem(s.message());
     }
   }
   return std::string();
+}
+
+/// What buildTable reads of the input's field data: its attribute arrays (name, object and
+/// modification time) and the sidecar's name. Not the field data's own time, which other arrays
+/// change: a query right after a render built the whole table again (found by an attack pass: a
+/// slow derived attribute cost the render its time, then the first query the same again).
+std::string fieldSignature(vtkImageData* image)
+{
+  vtkFieldData* fd = image ? image->GetFieldData() : nullptr;
+  if (!fd)
+  {
+    return std::string();
+  }
+  std::ostringstream o;
+  const size_t prefix = std::strlen(csgvvtk::kAttributePrefix);
+  for (int i = 0; i < fd->GetNumberOfArrays(); ++i)
+  {
+    vtkAbstractArray* a = fd->GetAbstractArray(i);
+    if (a && a->GetName() && std::strncmp(a->GetName(), csgvvtk::kAttributePrefix, prefix) == 0)
+    {
+      o << a->GetName() << '\n' << static_cast<const void*>(a) << ' ' << a->GetMTime() << '\n';
+    }
+  }
+  o << csgvvtk::attributeSidecar(fd);
+  return o.str();
 }
 
 json numberOrNull(double v)
@@ -270,7 +311,7 @@ std::shared_ptr<const csgv::AttributeTable> AttributeCache::get(
     error = "no input";
     return nullptr;
   }
-  const vtkMTimeType fieldTime = image && image->GetFieldData() ? image->GetFieldData()->GetMTime() : 0;
+  const std::string fieldTime = fieldSignature(image);
   const void* computed = nullptr;
   {
     std::lock_guard<std::mutex> lock(volumeMutex());

@@ -59,7 +59,7 @@ public:
 private:
   const SharedVolume* Volume = nullptr;
   const void* Computed = nullptr; ///< the volume's computed table when built (ranks replace it)
-  vtkMTimeType FieldTime = 0;
+  std::string FieldTime; ///< fieldSignature: what the table read of the field data
   AttributeConfig Config;
   std::shared_ptr<const csgv::AttributeTable> Table;
   std::string Error;

@@ -259,4 +259,22 @@ with t.ErrorLog() as errors:
     Render(v2)
 t.check(errors.text.count("filter attribute 'nope' is not available") == 1,
         "a material left out is said once (%s)" % errors.text.strip()[:200])
+
+# Slow derived attributes share one budget (10 s), and a query after the render reuses the table
+# the render built (found by an attack pass: three such expressions froze the first render for
+# 30 s, then the first query for 30 s more). The bounds leave room for a loaded machine.
+import time
+SLOW = "(SELECT count(*) FROM t a, t b, t c, t d, t e)"
+dl.CSGVMaterials = ""
+dl.CSGVDerivedAttributes = ["slow1", SLOW, "slow2", SLOW, "slow3", SLOW]
+start = time.time()
+Render(v2)
+rendered = time.time() - start
+start = time.time()
+summary = json.loads(ct.query(dl, "summary"))
+queried = time.time() - start
+t.check(rendered < 20 and queried < 5 and "slow3' was not evaluated" in summary.get("error", ""),
+        "three slow derived attributes: the render took %.1f s (one budget of 10 s, not 30), the query after it "
+        "%.1f s; %s" % (rendered, queried, summary.get("error", "")[-160:]))
+dl.CSGVDerivedAttributes = []
 t.finish()

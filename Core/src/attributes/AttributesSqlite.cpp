@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <sqlite3.h>
 
@@ -259,7 +260,9 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     const auto overBudget = [&]() -> Status {
         if (!deadline.why) return Status::ok();
         if (!std::strcmp(deadline.why, "cancelled")) return fail("cancelled");
-        return fail("stopped after its time budget of " + formatNumber(budget.seconds) +
+        char seconds[32];
+        std::snprintf(seconds, sizeof seconds, "%.3g", budget.seconds); // what is left of a shared budget: 9.99999 is 10
+        return fail("stopped after its time budget of " + std::string(seconds) +
                     " s (an expression is evaluated once per label; a join of t with itself grows with the "
                     "label count to that power)");
     };
