@@ -519,6 +519,7 @@ bool vtkCSGVInputReader::Compress()
   }
   csgv::CompressReport report;
   csgv::Status status;
+  csgv::removeTemporariesOnSignals(); // Ctrl-C in pvbatch or the GUI leaves no half cache
   if (in.Location.Slices.empty())
   {
     try

@@ -6,6 +6,7 @@
 #include "CSGVAdapter.h"
 #include "CSGVMpiAgreement.h"
 
+#include "csgv/base/FileUtil.h"
 #include "csgv/codec/Encoder.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Compress.h"
@@ -347,6 +348,7 @@ vtkTypeBool vtkCSGVWriter::ProcessRequest(
 
 void vtkCSGVWriter::WriteData()
 {
+  csgv::removeTemporariesOnSignals(); // Ctrl-C in pvbatch or the GUI leaves no temporaries
   // Settings are the same on every process: they fail everywhere or nowhere.
   csgv::EncodeOptions options;
   std::string error = checkSettings(this->FileName, this->BrickSize, this->Encoding,

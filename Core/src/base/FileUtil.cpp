@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <cstring>
 #include <mutex>
+#include <csignal>
+#include <ctime>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -63,10 +65,69 @@ void removeTemporaries() {
     }
 }
 
-std::unique_lock<std::mutex> holdPublishing() {
+namespace {
+std::mutex& publishingMutex() {
     static std::mutex* publishing = new std::mutex; // never destroyed: a watchdog may hold it at exit
-    return std::unique_lock<std::mutex>(*publishing);
+    return *publishing;
 }
+
+constexpr int kCleanedSignals[2] = {SIGINT, SIGTERM};
+struct sigaction g_previousActions[2];
+
+/// removeTemporaries from a signal handler: a set being published is given up to 50 ms (its
+/// renames take microseconds; the thread the signal interrupted may be the one renaming), and the
+/// list is read only when its lock is free at once.
+void removeTemporariesFromSignal() {
+    std::unique_lock<std::mutex> publishing(publishingMutex(), std::defer_lock);
+    for (int i = 0; i < 50 && !publishing.try_lock(); ++i) {
+        const struct timespec ms {0, 1000000};
+        ::nanosleep(&ms, nullptr);
+    }
+    if (!publishing.owns_lock()) return;
+    Temporaries& t = temporaries();
+    std::unique_lock<std::mutex> lock(t.mutex, std::try_to_lock);
+    if (!lock.owns_lock()) return;
+    for (const std::string& p : t.paths) { // no allocation here: the signal may have come inside malloc
+        ::unlink(p.c_str());
+        char journal[4096];
+        if (p.size() + sizeof "-journal" <= sizeof journal) {
+            std::memcpy(journal, p.data(), p.size());
+            std::memcpy(journal + p.size(), "-journal", sizeof "-journal");
+            ::unlink(journal);
+        }
+    }
+    // The publishing lock stays held: the process is ending, and no set may start its renames now.
+    publishing.release();
+}
+
+void cleanOnSignal(int sig, siginfo_t* info, void* context) {
+    removeTemporariesFromSignal();
+    const struct sigaction& previous = g_previousActions[sig == SIGINT ? 0 : 1];
+    if ((previous.sa_flags & SA_SIGINFO) != 0) {
+        if (previous.sa_sigaction) previous.sa_sigaction(sig, info, context);
+    } else if (previous.sa_handler == SIG_DFL) {
+        ::signal(sig, SIG_DFL);
+        ::raise(sig);
+    } else if (previous.sa_handler != SIG_IGN) {
+        previous.sa_handler(sig);
+    }
+}
+} // namespace
+
+void removeTemporariesOnSignals() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        for (int i = 0; i < 2; ++i) {
+            struct sigaction ours {};
+            ours.sa_sigaction = cleanOnSignal;
+            ours.sa_flags = SA_SIGINFO | SA_RESTART;
+            sigemptyset(&ours.sa_mask);
+            ::sigaction(kCleanedSignals[i], &ours, &g_previousActions[i]);
+        }
+    });
+}
+
+std::unique_lock<std::mutex> holdPublishing() { return std::unique_lock<std::mutex>(publishingMutex()); }
 
 std::string temporaryNameFor(const std::string& path) {
     std::string name = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);

@@ -28,6 +28,13 @@ void registerTemporary(const std::string& path);
 /// SQLite's `-journal` beside it: what a tool's interrupt watchdog calls before it ends the
 /// process, so that an interrupt leaves no partial output. Not async-signal-safe.
 void removeTemporaries();
+/// For a host process whose own handlers end it on SIGINT or SIGTERM (ParaView's pvbatch, pvpython
+/// and GUI, whose logger prints a stack and aborts): puts a handler before theirs, once, that
+/// removes this process's temporaries (without waiting for a lock: a set being renamed into place
+/// is given a moment, never more) and then hands the signal on as it was. A tool with its own
+/// interrupt handling (csgv's interrupt::Guard) does not call it. Found by an attack pass: Ctrl-C
+/// in pvbatch while the CSGV writer ran left its temporaries beside the output.
+void removeTemporariesOnSignals();
 /// Held while a set of files is renamed into place (publishVolumeFiles: renames of microseconds,
 /// nothing that may block). A tool's interrupt watchdog takes it before removeTemporaries() and
 /// keeps it until it ends the process, so an interrupt never lands between one set's renames

@@ -1,0 +1,70 @@
+# SPDX-License-Identifier: MIT
+"""Ctrl-C in pvpython while the CSGV writer saves over an existing set (found by an attack pass:
+the process ended through ParaView's own signal handler and left the writer's temporaries beside
+the output, one of them ending in .csgv). The process must end, leave no temporary, and leave a
+whole set: the old files, or the new ones. Run by /usr/bin/python3; it starts pvpython itself."""
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+if len(sys.argv) > 1 and sys.argv[1] == "--child":
+    import csgv_pvtest as t
+    from paraview.simple import OpenDataFile, SaveData
+    t.load_plugin(globals())
+    r = OpenDataFile(sys.argv[2])
+    r.UpdatePipeline()
+    SaveData(sys.argv[3], proxy=r)
+    sys.exit(0)
+
+fails = 0
+
+
+def check(ok, what):
+    global fails
+    print(("ok   " if ok else "FAIL ") + what, flush=True)
+    fails += 0 if ok else 1
+
+
+tool, pvpython = os.environ["CSGV_TOOL"], os.environ["CSGV_PVPYTHON"]
+work = tempfile.mkdtemp(prefix="csgv-interrupt-")
+source = os.path.join(work, "big.csgv")
+subprocess.run([tool, "compress", "synth:320x320x320", source, "--quiet"], check=True)
+out_dir = os.path.join(work, "out")
+rounds = 0
+for attempt in range(3):
+    os.makedirs(out_dir, exist_ok=True)
+    for f in os.listdir(out_dir):
+        os.remove(os.path.join(out_dir, f))
+    out = os.path.join(out_dir, "out.csgv")
+    with open(out, "w") as f:
+        f.write("OLD")
+    with open(out + ".json", "w") as f:
+        f.write("OLDJSON")
+    child = subprocess.Popen([pvpython, "--force-offscreen-rendering", os.path.abspath(__file__), "--child", source, out],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 90
+    while time.time() < deadline and child.poll() is None and not any(".tmp-" in f for f in os.listdir(out_dir)):
+        time.sleep(0.002)
+    if child.poll() is not None:
+        continue  # the save ended before a temporary was seen: try again
+    child.send_signal(signal.SIGINT)
+    try:
+        child.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        child.wait()
+        check(False, "pvpython still ran 10 s after SIGINT")
+        continue
+    rounds += 1
+    left = sorted(os.listdir(out_dir))
+    check(not any(".tmp-" in f for f in left), "interrupted save %d: no temporaries left (%s)" % (rounds, left))
+    old = open(out, "rb").read(3) == b"OLD"
+    old_json = open(out + ".json", "rb").read() == b"OLDJSON"
+    check(old == old_json, "interrupted save %d: a whole set, old or new (old volume %s, old metadata %s)"
+          % (rounds, old, old_json))
+check(rounds > 0, "the save was interrupted while it wrote (%d rounds)" % rounds)
+print("%d failed" % fails)
+sys.exit(1 if fails else 0)
