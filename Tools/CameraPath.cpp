@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "CameraPath.h"
 
+#include <sstream>
+
 #include "csgv/base/FileUtil.h"
 
 #include <algorithm>
@@ -40,13 +42,21 @@ bool numbersOf(const std::string& line, std::vector<double>& out, std::string& b
     return true;
 }
 
+std::string formatDegrees(double d) {
+    std::ostringstream o;
+    o << d;
+    return o.str();
+}
+
 } // namespace
 
 std::string poseProblem(const CameraPose& p) {
     for (const Vec3* v : {&p.eye, &p.center, &p.up})
         for (double x : *v)
             if (!std::isfinite(x)) return "a coordinate is not a finite number";
-    if (!(p.fovY > 0 && p.fovY < 180)) return "the field of view must lie between 0 and 180 degrees";
+    if (!(p.fovY >= kMinFovY && p.fovY <= kMaxFovY))
+        return "the field of view must lie between " + formatDegrees(kMinFovY) + " and " + formatDegrees(kMaxFovY) +
+               " degrees, as --fov-y's";
     const Vec3 view{p.center[0] - p.eye[0], p.center[1] - p.eye[1], p.center[2] - p.eye[2]};
     const double d = norm(view), u = norm(p.up); // std::hypot: no overflow or underflow of the squares
     if (!std::isfinite(d)) return "the eye is too far from the centre";

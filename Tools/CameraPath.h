@@ -19,6 +19,9 @@
 
 namespace csgv {
 
+/// The vertical fields of view (degrees) a pose may take, --fov-y's and a camera path's alike.
+constexpr double kMinFovY = 0.01, kMaxFovY = 179;
+
 struct CameraPose {
     std::array<double, 3> eye{}, center{}, up{{0, 0, 1}};
     double fovY = 30; ///< degrees

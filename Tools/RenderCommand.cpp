@@ -116,7 +116,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     vec("--center", a.center, &a.haveCenter);
     vec("--up", a.up, nullptr);
     vec("--background", a.background, nullptr);
-    number("--fov-y", 0.01, 179, [&a](double n) { a.fovY = n; });
+    number("--fov-y", kMinFovY, kMaxFovY, [&a](double n) { a.fovY = n; });
     number("--parallel-scale", 1e-9, 1e12, [&a](double n) { a.parallelScale = n; });
     values.add("--decode", [&a](const std::string& v) {
         using D = gpu::RendererOptions::Decode;
@@ -337,7 +337,9 @@ Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const Materia
     std::vector<std::string> used;
     for (const std::string& n : attributesUsed(doc))
         if (n != "label") used.push_back(n);
-    if (used.empty()) return drawable(doc, {"label"});
+    // Tables and derived attributes given are read, and their errors said, even when no material
+    // uses them yet (found by an attack pass: a missing file or bad SQL went unnoticed).
+    if (used.empty() && a.attributeFiles.empty() && a.derived.empty()) return drawable(doc, {"label"});
     Status s;
     if (file.hasAttributes) {
         Result<AttributeTable> t = attributesFromDatabase(file.attributes);
@@ -358,7 +360,7 @@ Status gatherAttributes(const RenderArgs& a, const CsgvFile& file, const Materia
         if (!(s = addDerivedAttribute(table, d.first, d.second, true))) return s;
     std::vector<std::string> names = table.columnNames();
     names.push_back("label");
-    if (!(s = drawable(doc, names))) return s;
+    if (!(s = drawable(doc, names)) || used.empty()) return s;
     // Stored labels index the arrays: ids of a relabelled file, else the labels themselves.
     uint64_t labelCount = 0;
     if (!file.hasAttributes) {

@@ -193,11 +193,24 @@ grep -q "^views: 2$" "$TMP/out" && pass "--orbit without --video renders its vie
 bad_path() { printf '%s\n' "$2" > "$TMP/bad.path"; expect 1 "camera path: $1" "$CSGV" render "$DEF" "$TMP/x.png" --camera-path "$TMP/bad.path"
   grep -q "bad.path" "$TMP/err" || bad "camera path: $1: the error does not name the file"; }
 bad_path "nine numbers" "1 2 3 4 5 6 0 0 1"
+# Found by an attack pass: a path's field of view took what --fov-y refuses (a flat image), a
+# valid but tiny up vector drew nothing, and unused --attributes / --derive went unread.
+bad_path "a field of view --fov-y refuses" "0 0 9 0 0 0 0 1 0 1e-300"
+printf '%s\n' "-60 130 160 66 35 97 0 1e-170 1e-170 40" > "$TMP/tiny_up.path"
+expect 0 "an up vector of 1e-170" "$CSGV" render "$DEF" "$TMP/tu.png" --size 32x24 --camera-path "$TMP/tiny_up.path" --labels-out "$TMP/tu.labels"
+$PY -c "
+import struct
+d = open('$TMP/tu.labels', 'rb').read()
+assert sum(1 for p in struct.unpack('<%dI' % (len(d) // 4), d) if p != 0xFFFFFFFF) > 50
+" && pass "a tiny up vector renders the volume" || bad "a tiny up vector rendered nothing"
+expect_bounded 1 4096 60 "nonexistent.csv" "an unused attribute file that does not exist" "$CSGV" render "$DEF" "$TMP/x.png" --size 8x8 --attributes "$TMP/nonexistent.csv"
+expect_bounded 1 4096 60 "derived attribute 'x'" "an unused derived attribute that is not SQL" "$CSGV" render "$DEF" "$TMP/x.png" --size 8x8 --derive "x=this is not sql"
 bad_path "a word" "1 2 3 4 5 6 0 0 1 x"
 bad_path "nan" "1 2 3 4 5 6 0 0 1 nan"
 bad_path "eye at the centre" "1 2 3 1 2 3 0 0 1 30"
 printf '1e-300 0 0 0 0 0 0 0 1 30\n' > "$TMP/tiny.path"
-expect 1 "camera path: a view too small for the camera matrix" "$CSGV" render "$DEF" "$TMP/x.png" --camera-path "$TMP/tiny.path"
+# The direction of an eye 1e-300 from the centre is well defined (normalize scales it first).
+expect 0 "camera path: an eye 1e-300 from the centre" "$CSGV" render "$DEF" "$TMP/tiny.png" --size 16x16 --camera-path "$TMP/tiny.path"
 bad_path "eye beyond double range from the centre" "1e308 0 0 -1e308 0 0 0 0 1 30"
 grep -q "too far" "$TMP/err" && pass "a distance that overflows is named as such" || bad "overflowing distance: $(cat "$TMP/err")"
 bad_path "up along the view" "0 0 0 0 0 5 0 0 1 30"

@@ -8,6 +8,7 @@
 
 #include "csgv/base/Geometry.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <utility>
@@ -83,10 +84,16 @@ inline double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[
 inline Vec3 cross(const Vec3& a, const Vec3& b) {
     return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
-/// v / |v|; v itself when it is zero.
+/// v / |v|; v itself when it is zero. A vector whose squares would underflow or overflow (an up
+/// vector of 1e-170, a direction of 1e200) is scaled by its largest component first.
 inline Vec3 normalize(const Vec3& v) {
     const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    return n > 0 ? Vec3{v[0] / n, v[1] / n, v[2] / n} : v;
+    if (n > 1e-150 && n < 1e150) return Vec3{v[0] / n, v[1] / n, v[2] / n};
+    const double m = std::max({std::fabs(v[0]), std::fabs(v[1]), std::fabs(v[2])});
+    if (!(m > 0) || !std::isfinite(m)) return v;
+    const Vec3 w{v[0] / m, v[1] / m, v[2] / m};
+    const double k = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    return Vec3{w[0] / k, w[1] / k, w[2] / k};
 }
 
 /// world = origin + direction * (index * spacing) (corner geometry, Metadata.h).
