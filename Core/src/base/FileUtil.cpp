@@ -74,40 +74,39 @@ std::mutex& publishingMutex() {
 constexpr int kCleanedSignals[2] = {SIGINT, SIGTERM};
 struct sigaction g_previousActions[2];
 
-/// removeTemporaries from a signal handler: a set being published is given up to 50 ms (its
-/// renames take microseconds; the thread the signal interrupted may be the one renaming), and the
-/// list is read only when its lock is free at once.
-void removeTemporariesFromSignal() {
+/// removeTemporaries from a signal handler, then the host's own handling of the signal. A set
+/// being published is given up to 50 ms (its renames take microseconds; the thread the signal
+/// interrupted may be the one renaming), and the list is read only when its lock is free at
+/// once. Nothing here allocates (the signal may have come inside malloc).
+void cleanOnSignal(int sig, siginfo_t* info, void* context) {
     std::unique_lock<std::mutex> publishing(publishingMutex(), std::defer_lock);
     for (int i = 0; i < 50 && !publishing.try_lock(); ++i) {
         const struct timespec ms {0, 1000000};
         ::nanosleep(&ms, nullptr);
     }
-    if (!publishing.owns_lock()) return;
-    Temporaries& t = temporaries();
-    std::unique_lock<std::mutex> lock(t.mutex, std::try_to_lock);
-    if (!lock.owns_lock()) return;
-    for (const std::string& p : t.paths) { // no allocation here: the signal may have come inside malloc
-        ::unlink(p.c_str());
-        char journal[4096];
-        if (p.size() + sizeof "-journal" <= sizeof journal) {
-            std::memcpy(journal, p.data(), p.size());
-            std::memcpy(journal + p.size(), "-journal", sizeof "-journal");
-            ::unlink(journal);
+    if (publishing.owns_lock()) {
+        Temporaries& t = temporaries();
+        std::unique_lock<std::mutex> lock(t.mutex, std::try_to_lock);
+        for (size_t i = 0; lock.owns_lock() && i < t.paths.size(); ++i) {
+            const std::string& p = t.paths[i];
+            ::unlink(p.c_str());
+            char journal[4096];
+            if (p.size() + sizeof "-journal" <= sizeof journal) {
+                std::memcpy(journal, p.data(), p.size());
+                std::memcpy(journal + p.size(), "-journal", sizeof "-journal");
+                ::unlink(journal);
+            }
         }
     }
-    // The publishing lock stays held: the process is ending, and no set may start its renames now.
-    publishing.release();
-}
-
-void cleanOnSignal(int sig, siginfo_t* info, void* context) {
-    removeTemporariesFromSignal();
+    // The host's handling, with the publishing lock still held: no set starts its renames while
+    // the process ends. A handler that returns (Python's, which raises KeyboardInterrupt later)
+    // lets the process go on, and the lock is given back.
     const struct sigaction& previous = g_previousActions[sig == SIGINT ? 0 : 1];
     if ((previous.sa_flags & SA_SIGINFO) != 0) {
         if (previous.sa_sigaction) previous.sa_sigaction(sig, info, context);
     } else if (previous.sa_handler == SIG_DFL) {
         ::signal(sig, SIG_DFL);
-        ::raise(sig);
+        ::raise(sig); // ends the process when the signal is unblocked, as this handler returns
     } else if (previous.sa_handler != SIG_IGN) {
         previous.sa_handler(sig);
     }
@@ -118,6 +117,11 @@ void removeTemporariesOnSignals() {
     static std::once_flag once;
     std::call_once(once, [] {
         for (int i = 0; i < 2; ++i) {
+            struct sigaction current {};
+            // An ignored signal stays ignored (a background job's SIGINT): nothing ends the process.
+            if (::sigaction(kCleanedSignals[i], nullptr, &current) != 0 ||
+                ((current.sa_flags & SA_SIGINFO) == 0 && current.sa_handler == SIG_IGN))
+                continue;
             struct sigaction ours {};
             ours.sa_sigaction = cleanOnSignal;
             ours.sa_flags = SA_SIGINFO | SA_RESTART;
