@@ -170,9 +170,10 @@ std::string buildTable(vtkImageData* image, const VolumeSource& source, const At
       table = std::move(merged);
     }
   }
+  std::set<std::string> read; // one file named several times is read (and its error said) once
   for (const std::string& path : config.files)
   {
-    if (path.empty())
+    if (path.empty() || !read.insert(path).second)
     {
       continue;
     }

@@ -363,6 +363,17 @@ TEST(AttributesSqlite, AnyTableWithALabelColumn) {
     sqlExec(db, "INSERT INTO words VALUES ('one')");
     sqlite3_close(db);
     EXPECT_ERROR(readSqliteTable(path), "several tables", "cells, other, words");
+    {
+        // Found by an attack pass: a database of 2000 tables listed every name in the message.
+        const std::string many = dir + "/many.sqlite";
+        ASSERT_EQ(sqlite3_open(many.c_str(), &db), SQLITE_OK);
+        for (int i = 0; i < 30; ++i) sqlExec(db, "CREATE TABLE t" + std::to_string(i) + " (label INTEGER)");
+        sqlite3_close(db);
+        Result<AttributeTable> r = readSqliteTable(many);
+        ASSERT_FALSE(r.isOk());
+        EXPECT_NE(r.message().find("and 10 more"), std::string::npos) << r.message();
+        EXPECT_EQ(r.message().find("t29"), std::string::npos) << r.message();
+    }
     Result<AttributeTable> byName = readSqliteTable(path, "cells", "stage");
     ASSERT_TRUE(byName.isOk()) << byName.message();
     EXPECT_EQ(byName->labels(), (std::vector<int64_t>{1, 2, 3}));
