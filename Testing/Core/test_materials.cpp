@@ -117,6 +117,14 @@ TEST(Materials, DeeplyNestedDocumentsAreRefusedNotAStackOverflow) {
 
 TEST(Materials, StrictErrorsNameThePlace) {
     EXPECT_NE(errorOf("not json").find("not valid JSON"), std::string::npos);
+    EXPECT_NE(errorOf(R"j({"version": 1, "version": 2})j").find("the key \"version\" appears twice"), std::string::npos)
+        << errorOf(R"j({"version": 1, "version": 2})j");
+    EXPECT_NE(errorOf(R"j({"materials": [{"name": "a", "opacity": 1, "opacity": 0.5}]})j").find("\"opacity\" appears twice"),
+              std::string::npos);
+    EXPECT_TRUE(parseMaterials(R"j({"materials": [{"name": "a"}, {"name": "b"}]})j").isOk()); // the same key in two objects
+    // Where it breaks, by line and column (found by an attack pass: "not valid JSON" alone).
+    EXPECT_NE(errorOf("{\n  \"materials\": [\n    {\"name\": \"a\",}\n  ]\n}").find("line 3, column"), std::string::npos)
+        << errorOf("{\n  \"materials\": [\n    {\"name\": \"a\",}\n  ]\n}");
     EXPECT_NE(errorOf("[1]").find("object"), std::string::npos);
     EXPECT_NE(errorOf(R"j({"version": 2})j").find("version"), std::string::npos);
     EXPECT_NE(errorOf(R"j({"materials": [], "colour": 1})j").find("unknown key 'colour'"), std::string::npos);

@@ -4,6 +4,7 @@
 #include "../base/JsonText.h"
 
 #include <algorithm>
+#include <set>
 #include <charconv>
 #include <cmath>
 #include <iterator>
@@ -353,8 +354,32 @@ Status parseSelectionLook(const json& j, MaterialDocument& doc) {
 Result<MaterialDocument> parseMaterials(const std::string& text) {
     const std::string deep = jsonTooDeep(text.data(), text.size());
     if (!deep.empty()) return Status::error("material document: " + deep);
-    json j = json::parse(text, nullptr, false);
-    if (j.is_discarded()) return Status::error("material document: not valid JSON");
+    json j;
+    // A key given twice in one object is an error, not "the last one wins" (found by an attack
+    // pass: "version": 1, "version": 2 said "unsupported version 2").
+    std::vector<std::set<std::string>> keys; // of each open object
+    std::string twice;
+    const json::parser_callback_t seen = [&](int, json::parse_event_t event, json& parsed) {
+        if (event == json::parse_event_t::object_start) keys.emplace_back();
+        else if (event == json::parse_event_t::object_end && !keys.empty()) keys.pop_back();
+        else if (event == json::parse_event_t::key && !keys.empty() && parsed.is_string() &&
+                 !keys.back().insert(parsed.get<std::string>()).second && twice.empty())
+            twice = parsed.get<std::string>();
+        return true;
+    };
+    try {
+        j = json::parse(text, seen);
+    } catch (const json::parse_error& e) {
+        // Where it went wrong ("parse error at line 3, column 17: syntax error while parsing object
+        // key - ..."), without the library's prefix, cut at a line's length.
+        std::string why = e.what();
+        const size_t at = why.find("] ");
+        if (at != std::string::npos) why.erase(0, at + 2);
+        if (why.size() > 200) why = why.substr(0, 200) + "...";
+        return Status::error("material document: not valid JSON (" + why + ")");
+    }
+    if (!twice.empty())
+        return Status::error("material document: the key " + jsonText(json(twice)) + " appears twice in one object");
     if (!j.is_object()) return Status::error("material document: must be a JSON object");
     Status s = onlyKeys(j, {"version", "materials", "hidden", "only", "selected", "selectionStyle", "selectionColor"},
                         "material document");
