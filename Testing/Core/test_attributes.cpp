@@ -535,6 +535,12 @@ TEST(AttributesDerived, HostileExpressionsStopAtTheirBudget) {
     EXPECT_FALSE(t->hasColumn("d"));
     ASSERT_TRUE(addDerivedAttribute(*t, "d", "(SELECT count(*) FROM t a, t b)").isOk()); // 160000 rows: fine
     EXPECT_EQ(t->value("d", 3), 160000.0);
+    // What is refused is named (found by an attack pass: SQLite's bare "not authorized").
+    EXPECT_ERROR(addDerivedAttribute(*t, "q", "(SELECT 1 FROM pragma_page_count())"), "is not allowed", "may only read");
+    EXPECT_ERROR(addDerivedAttribute(*t, "p", "(SELECT * FROM pragma_table_info('t'))"), "the database schema (sqlite_master) is not allowed",
+                 "may only read");
+    EXPECT_ERROR(addDerivedAttribute(*t, "r", "(WITH RECURSIVE c(x) AS (SELECT 1 UNION ALL SELECT x + 1 FROM c WHERE x < 5) SELECT max(x) FROM c)"),
+                 "a recursive query (WITH RECURSIVE) is not allowed");
 }
 
 // Columns are found by a name index: a table of the most columns a table may have (2000) builds

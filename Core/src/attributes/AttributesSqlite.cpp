@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <sqlite3.h>
 
@@ -54,8 +55,25 @@ std::string cellText(sqlite3_stmt* st, int c) {
 }
 
 /// Only reading the table and calling functions: a derived expression cannot change anything.
-int readOnlyAuthorizer(void*, int action, const char*, const char*, const char*, const char*) {
-    return (action == SQLITE_SELECT || action == SQLITE_READ || action == SQLITE_FUNCTION) ? SQLITE_OK : SQLITE_DENY;
+/// Allows reading only; what it refuses is named in `*denied` (a std::string), so that the error
+/// says what is not allowed, not SQLite's bare "not authorized".
+int readOnlyAuthorizer(void* denied, int action, const char* a, const char*, const char*, const char*) {
+    if (action == SQLITE_SELECT || action == SQLITE_READ || action == SQLITE_FUNCTION) return SQLITE_OK;
+    if (denied && static_cast<std::string*>(denied)->empty()) {
+        std::string& why = *static_cast<std::string*>(denied);
+        switch (action) {
+        case SQLITE_PRAGMA: why = std::string("pragma ") + (a ? a : ""); break;
+        case SQLITE_RECURSIVE: why = "a recursive query (WITH RECURSIVE)"; break;
+        case SQLITE_ATTACH: case SQLITE_DETACH: why = "attaching a database"; break;
+        case SQLITE_INSERT: case SQLITE_UPDATE: case SQLITE_DELETE:
+            // pragma_table_info() and the like are asked as an update of sqlite_master
+            why = a && std::strncmp(a, "sqlite_", 7) == 0 ? "the database schema (" + std::string(a) + ")" : "writing to a table";
+            break;
+        case SQLITE_TRANSACTION: case SQLITE_SAVEPOINT: why = "a transaction"; break;
+        default: why = "changing the database (action " + std::to_string(action) + ")"; break;
+        }
+    }
+    return SQLITE_DENY;
 }
 
 } // namespace
@@ -253,7 +271,8 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     s = exec(db.get(), "COMMIT");
     if (!s) return fail(s.message());
 
-    sqlite3_set_authorizer(db.get(), readOnlyAuthorizer, nullptr);
+    std::string denied;
+    sqlite3_set_authorizer(db.get(), readOnlyAuthorizer, &denied);
     Deadline deadline(db.get(), budget.seconds);
     // zeroblob(1e9), printf('%.*c', 1e9, 'x') and the like stop at this size, not at 1 GB.
     sqlite3_limit(db.get(), SQLITE_LIMIT_LENGTH, int(std::min<int64_t>(budget.valueBytes, 1 << 30)));
@@ -272,6 +291,7 @@ Status addDerivedAttribute(AttributeTable& table, const std::string& name, const
     if (sqlite3_prepare_v2(db.get(), sql.c_str(), int(sql.size()), &rawSt, &tail) != SQLITE_OK) {
         sqlite3_finalize(rawSt);
         if (Status b = overBudget(); !b) return b;
+        if (!denied.empty()) return fail(denied + " is not allowed: an expression may only read the table t");
         return fail(sqlite3_errmsg(db.get()));
     }
     StmtPtr st(rawSt);
