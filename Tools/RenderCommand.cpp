@@ -216,13 +216,7 @@ struct PendingOutputs {
         const std::string tmp = temporaryNameFor(target);
         written.emplace_back(tmp, target);
         Status s = write(tmp);
-        if (!s) {
-            std::string m = s.message();
-            for (size_t at = m.find(tmp); at != std::string::npos; at = m.find(tmp, at + target.size()))
-                m.replace(at, tmp.size(), target);
-            return Status::error(m);
-        }
-        return s;
+        return s ? s : Status::error(renamedInMessage(s.message(), tmp, target));
     }
 };
 

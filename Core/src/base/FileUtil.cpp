@@ -53,16 +53,29 @@ void registerTemporary(const std::string& path) {
     t.paths.push_back(path);
 }
 
+namespace {
+/// Unlinks each remembered temporary and SQLite's `-journal` beside it; the caller holds the
+/// list's lock. Nothing here allocates: a signal handler calls it too (the signal may have come
+/// inside malloc).
+void unlinkTemporaries(const Temporaries& t) {
+    for (const std::string& p : t.paths) {
+        ::unlink(p.c_str());
+        char journal[4096];
+        if (p.size() + sizeof "-journal" <= sizeof journal) {
+            std::memcpy(journal, p.data(), p.size());
+            std::memcpy(journal + p.size(), "-journal", sizeof "-journal");
+            ::unlink(journal);
+        }
+    }
+}
+} // namespace
+
 void removeTemporaries() {
     Temporaries& t = temporaries();
     // The interrupted thread may hold the lock for a moment; never wait on it for long.
     std::unique_lock<std::mutex> lock(t.mutex, std::defer_lock);
     for (int i = 0; i < 100 && !lock.try_lock(); ++i) ::usleep(1000);
-    if (!lock.owns_lock()) return;
-    for (const std::string& p : t.paths) {
-        ::unlink(p.c_str());
-        ::unlink((p + "-journal").c_str());
-    }
+    if (lock.owns_lock()) unlinkTemporaries(t);
 }
 
 namespace {
@@ -77,7 +90,7 @@ struct sigaction g_previousActions[2];
 /// removeTemporaries from a signal handler, then the host's own handling of the signal. A set
 /// being published is given up to 50 ms (its renames take microseconds; the thread the signal
 /// interrupted may be the one renaming), and the list is read only when its lock is free at
-/// once. Nothing here allocates (the signal may have come inside malloc).
+/// once. Nothing here allocates (unlinkTemporaries).
 void cleanOnSignal(int sig, siginfo_t* info, void* context) {
     std::unique_lock<std::mutex> publishing(publishingMutex(), std::defer_lock);
     for (int i = 0; i < 50 && !publishing.try_lock(); ++i) {
@@ -87,16 +100,7 @@ void cleanOnSignal(int sig, siginfo_t* info, void* context) {
     if (publishing.owns_lock()) {
         Temporaries& t = temporaries();
         std::unique_lock<std::mutex> lock(t.mutex, std::try_to_lock);
-        for (size_t i = 0; lock.owns_lock() && i < t.paths.size(); ++i) {
-            const std::string& p = t.paths[i];
-            ::unlink(p.c_str());
-            char journal[4096];
-            if (p.size() + sizeof "-journal" <= sizeof journal) {
-                std::memcpy(journal, p.data(), p.size());
-                std::memcpy(journal + p.size(), "-journal", sizeof "-journal");
-                ::unlink(journal);
-            }
-        }
+        if (lock.owns_lock()) unlinkTemporaries(t);
     }
     // The host's handling, with the publishing lock still held: no set starts its renames while
     // the process ends. A handler that returns (Python's, which raises KeyboardInterrupt later)
@@ -137,6 +141,12 @@ std::string temporaryNameFor(const std::string& path) {
     std::string name = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);
     registerTemporary(name);
     return name;
+}
+
+std::string renamedInMessage(std::string message, const std::string& from, const std::string& to) {
+    for (size_t at = message.find(from); at != std::string::npos; at = message.find(from, at + to.size()))
+        message.replace(at, from.size(), to);
+    return message;
 }
 
 Status replaceableOutput(const std::string& path) {

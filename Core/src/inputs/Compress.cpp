@@ -317,11 +317,13 @@ Result<std::unique_ptr<InputSource>> openCompressInput(const std::string& input,
 
 namespace {
 
-/// `message` with the temporary name a writer used replaced by the name the user knows.
-std::string replacedName(std::string message, const std::string& from, const std::string& to) {
-    for (size_t at = message.find(from); at != std::string::npos; at = message.find(from, at + to.size()))
-        message.replace(at, from.size(), to);
-    return message;
+/// Whether a volume's set (the volume, its `.csgv.json` and `_csgv.db3`) may replace what its
+/// names hold (replaceableOutput): a folder in the way would fail its rename after the others were
+/// done, and a device, FIFO or link would be replaced by a file.
+Status replaceableSet(const std::string& output) {
+    for (const std::string& p : {output, metadataPathFor(output), attributeDbPathFor(output)})
+        if (Status s = replaceableOutput(p); !s) return s;
+    return Status::ok();
 }
 
 } // namespace
@@ -329,11 +331,7 @@ std::string replacedName(std::string message, const std::string& from, const std
 Status publishVolumeFiles(const std::string& output, const std::string& volumeTmp, const VolumeMetadata& md,
                           const LabelMapping& mapping) {
     const std::string db = attributeDbPathFor(output), mdPath = metadataPathFor(output);
-    // What the renames will replace must be files the user may write (or nothing): a folder in
-    // the way would fail its rename after the others were done, and a device, FIFO or link would
-    // be replaced by a file (replaceableOutput).
-    for (const std::string* p : {&output, &mdPath, &db})
-        if (Status s = replaceableOutput(*p); !s) return s;
+    if (Status s = replaceableSet(output); !s) return s;
     // Every new file complete under a temporary name first: a full disk or any write error
     // strikes here, before anything of the old set is touched.
     const std::string dbTmp = temporaryNameFor(db), mdTmp = temporaryNameFor(mdPath);
@@ -346,12 +344,12 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     if (mapping.relabelled) {
         if (Status s = writeAttributeDb(dbTmp, md.dim, mapping.originalBits, isSignedType(mapping.type)); !s) {
             dropNew();
-            return Status::error(replacedName(s.message(), dbTmp, db));
+            return Status::error(renamedInMessage(s.message(), dbTmp, db));
         }
     }
     if (Status s = writeMetadata(mdTmp, written); !s) {
         dropNew();
-        return Status::error(replacedName(s.message(), mdTmp, mdPath));
+        return Status::error(renamedInMessage(s.message(), mdTmp, mdPath));
     }
     // Then the renames, sidecars first and the volume last. Each file of the old set is moved
     // aside before its replacement comes in (a stale database of an earlier relabelling goes
@@ -404,8 +402,7 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
 
 Status writeVolumeFiles(const std::string& output, const CompressedVolume& volume, const VolumeMetadata& md,
                         const LabelMapping& mapping) {
-    for (const std::string& p : {output, metadataPathFor(output), attributeDbPathFor(output)})
-        if (Status s = replaceableOutput(p); !s) return s;
+    if (Status s = replaceableSet(output); !s) return s;
     const std::string tmp = temporaryNameFor(output); // no .csgv at its end: nothing offers it as a volume
     Status s = writeCsgv(tmp, volume);
     if (s) s = publishVolumeFiles(output, tmp, md, mapping);
@@ -481,7 +478,7 @@ struct Job {
         removeIfThere(tmp);
         if (progress.cancelled()) return Status::error("compression of '" + input + "' cancelled");
         // The user named the output, not its temporary (encodeToFile's messages name the latter).
-        return named(Status::error(replacedName(s.message(), tmp, output)), input);
+        return named(Status::error(renamedInMessage(s.message(), tmp, output)), input);
     }
 
     /// Opens the input (unless a source is given) and fills what is known before any voxel is read.
@@ -574,8 +571,7 @@ Status compress(InputSource* given, const std::string& input, const std::string&
     if (Status s = checkEncodeOptions(options.encode); !s) return s;
     if (!endsWith(output, ".csgv")) return Status::error("output '" + output + "' must end in .csgv");
     // What the set would replace is checked before any work (and again when it is published).
-    for (const std::string& p : {output, metadataPathFor(output), attributeDbPathFor(output)})
-        if (Status s = replaceableOutput(p); !s) return s;
+    if (Status s = replaceableSet(output); !s) return s;
     const auto tStart = std::chrono::steady_clock::now();
     Job job(input, output, options, rep);
     if (Status s = job.open(given); !s) return s;

@@ -43,6 +43,9 @@ std::unique_lock<std::mutex> holdPublishing();
 /// Seeks a C file to a 64-bit offset; false on failure (errno says why).
 bool seekTo(std::FILE* f, uint64_t offset);
 
+/// `message` with every `from` (a temporary a writer used) replaced by `to` (the name the user
+/// knows).
+std::string renamedInMessage(std::string message, const std::string& from, const std::string& to);
 /// Whether an output may take the name `path`: it names nothing yet, or a regular file the user
 /// may write. Refused, with a message naming it: a device, FIFO, folder or socket (the rename
 /// that publishes an output would replace it by a file: `csgv render x.csgv /dev/null` as root
