@@ -295,11 +295,11 @@ VolumeSource VolumeSource::placed(vtkMatrix4x4* placement) const
   return out;
 }
 
-bool finitePlacement(vtkMatrix4x4* placement)
+bool usablePlacement(vtkMatrix4x4* placement)
 {
   for (int i = 0; placement && i < 16; ++i)
   {
-    if (!std::isfinite(placement->GetData()[i]))
+    if (!(std::abs(placement->GetData()[i]) <= kLargestPlacement)) // NaN fails too
     {
       return false;
     }
@@ -337,7 +337,7 @@ bool placeBounds(vtkMatrix4x4* placement, double bounds[6])
     bounds[2 * k + 1] = hi[k];
     finite = finite && std::isfinite(lo[k]) && std::isfinite(hi[k]);
   }
-  return finite;
+  return finite && usablePlacement(placement);
 }
 
 std::string VolumeCache::resolve(vtkImageData* image, const std::string& labelArray, VolumeSource& out)

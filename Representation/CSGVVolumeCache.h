@@ -132,11 +132,17 @@ struct VolumeSource
 
 /// Replaces `bounds` (xmin xmax ymin ymax zmin zmax) by the axis-aligned box around their eight
 /// corners mapped by `placement` (nothing for a null or identity matrix). False when the result
-/// is not finite (a NaN or infinite Position, Scale or Orientation): no bounds to give.
+/// is not finite or the placement not usable (a NaN, infinite or huge Position, Scale or
+/// Orientation): no bounds to give.
 bool placeBounds(vtkMatrix4x4* placement, double bounds[6]);
 
-/// Whether every element of `placement` is finite (null: the identity, finite).
-bool finitePlacement(vtkMatrix4x4* placement);
+/// The largest magnitude a placement's element may have: the renderer works in floats, whose
+/// products overflow beyond this.
+constexpr double kLargestPlacement = 1e30;
+
+/// Whether every element of `placement` is finite and within +-kLargestPlacement (null: the
+/// identity).
+bool usablePlacement(vtkMatrix4x4* placement);
 
 /// @brief The process-wide cache of compressed volumes, keyed by (array, modification time).
 class VolumeCache

@@ -877,9 +877,12 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
   {
     // Where the display's Position, Orientation and Scale put the volume now: a new place
     // starts the accumulation anew, the same place changes nothing.
-    if (!csgvrep::finitePlacement(this->GetMatrix()))
+    if (!csgvrep::usablePlacement(this->GetMatrix()))
     {
-      this->Report("the display's Position, Scale, Orientation or Origin is not finite: nothing is drawn");
+      char largest[32];
+      std::snprintf(largest, sizeof largest, "%g", csgvrep::kLargestPlacement);
+      this->Report(std::string("the display's Position, Scale, Orientation or Origin is not finite or beyond +-") +
+        largest + " (the renderer works in floats): nothing is drawn");
       return false;
     }
     p.View.setSource(p.Source.placed(this->GetMatrix()));

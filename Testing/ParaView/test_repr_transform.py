@@ -10,7 +10,8 @@ ignored: the volume stayed while an Outline of the same display moved).
   Orientation set: the volume's silhouette lies within the outline's box on the screen, and the
   outline's corners lie within a pixel of the volume's (their extents on the screen agree).
 - Bounds: ResetCamera frames the moved volume (ParaView takes the bounds with the matrix).
-- A zero scale, or a Position that is not finite, is not drawn, with an error, and nothing breaks.
+- A zero scale, or a Position that is not finite or beyond float's range, is not drawn, with an
+  error, and nothing breaks; a negative Scale mirrors.
 - A state file keeps the placement."""
 import os
 import sys
@@ -136,6 +137,35 @@ t.check("not finite" in errors.text, "a NaN Position is said (%s)" % errors.text
 d.Position = [1000, 0, 0]
 Render(v)
 t.check((ct.label_image(d) != INVALID).mean() > 0.15, "a finite Position draws again")
+# A Position beyond float's range (after a drawn frame: a message is said once until then): said
+# as such (it was "the camera matrix holds a non-finite value" after ResetCamera, nothing before),
+# and no bounds for the view.
+with t.ErrorLog() as errors:
+    d.Position = [1e308, 0, 0]
+    Render(v)
+    v.ResetCamera()
+    Render(v)
+t.check("beyond" in errors.text and "non-finite" not in errors.text,
+        "a Position of 1e308 is said (%s)" % errors.text.strip()[:300])
+# A negative Scale mirrors, as for ParaView's own representations: seen along y, the label image
+# of Scale (-1, 1, 1) about the volume's centre is the unmirrored one flipped left to right.
+d.Position = [0, 0, 0]
+v.CameraParallelProjection = 1
+v.CameraFocalPoint = [66.5, 35, 97]
+v.CameraPosition = [66.5, -500, 97]
+v.CameraViewUp = [0, 0, 1]
+v.CameraParallelScale = 110
+Render(v)
+plain = ct.label_image(d)
+d.Origin = [66.5, 35, 97]
+d.Scale = [-1, 1, 1]
+Render(v)
+mirrored = ct.label_image(d)
+t.check((plain != INVALID).mean() > 0.1 and np.array_equal(plain[:, ::-1], mirrored),
+        "Scale (-1, 1, 1) draws the mirror image (%.4f of pixels equal)" % np.mean(plain[:, ::-1] == mirrored))
+d.Scale = [1, 1, 1]
+d.Origin = [0, 0, 0]
+v.CameraParallelProjection = 0
 
 # 5. A state file keeps the placement: loaded, the same label image.
 RenameSource("volume", r)
