@@ -35,11 +35,15 @@ def _smproxy(display):
 
 
 def query(display, request):
-    """The text answer of a request ("summary", "pick X Y", "labels", "colors N")."""
+    """The text answer of a request ("summary", "pick X Y", "labels", "colors N"). A display
+    that was deleted (Delete, or its source's) answers {"error": ...}: its last data would still
+    be there while Python holds it."""
+    pxm = sm.ProxyManager().SMProxyManager
+    if not pxm.GetProxyName("representations", _smproxy(display)):
+        return json.dumps({"error": "the display was deleted (or is not a representation of this session)"})
     # The composite representation exposes the subproxy's own property objects: their parent is
     # the Segmentation Volume subproxy (GetSubProxy is not public).
     sub = _smproxy(display).GetProperty("CSGVMaterials").GetParent()
-    pxm = sm.ProxyManager().SMProxyManager
     q = pxm.NewProxy("misc", "CSGVQuery")
     sm.vtkSMPropertyHelper(q, "Representation").Set(sub)
     sm.vtkSMPropertyHelper(q, "Request").Set(request)

@@ -26,8 +26,9 @@ void vtkCSGVQuery::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "Request: " << (this->Request ? this->Request : "") << "\n";
 }
 
-void vtkCSGVQuery::SetRepresentation(vtkCSGVRepresentation* representation)
+void vtkCSGVQuery::SetRepresentation(vtkObject* object)
 {
+  vtkCSGVRepresentation* representation = vtkCSGVRepresentation::SafeDownCast(object);
   this->Representation = representation;
   this->Modified();
   if (this->Pending && representation)

@@ -31,7 +31,10 @@ public:
   vtkTypeMacro(vtkCSGVQuery, vtkObject);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
-  void SetRepresentation(vtkCSGVRepresentation* representation);
+  /// Takes any object: one that is not a Segmentation Volume representation (a view or a reader
+  /// given by mistake) is held as none, and the answer says so (ParaView's wrapping printed an
+  /// alarming "Aborting execution" for a typed argument of another class).
+  void SetRepresentation(vtkObject* representation);
   /// With several processes (MPI ranks: pvbatch, a parallel pvserver) a push reaches every rank,
   /// so `pick X Y`, `labels`, `summary` and `colors N` are answered here, collectively: each
   /// rank's own answer (its piece's) is gathered on rank 0, which keeps the nearest hit per pixel

@@ -195,5 +195,21 @@ with t.ErrorLog() as errors:
     dw.SetRepresentationType("Segmentation Volume")
     Render(v)
 t.check("not an integer label" in errors.text, "shown as Segmentation Volume, the error is said (%s)" % errors.text.strip()[:300])
+
+# A proxy of another kind given as the query's Representation (a view): the answer says there is
+# none, and no "Aborting execution" from ParaView's wrapping (it printed one for a typed setter).
+with t.ErrorLog() as errors:
+    q = sm.ProxyManager().SMProxyManager.NewProxy("misc", "CSGVQuery")
+    sm.vtkSMPropertyHelper(q, "Representation").Set(v.SMProxy)
+    sm.vtkSMPropertyHelper(q, "Request").Set("summary")
+    q.UpdateVTKObjects()
+    q.UpdatePropertyInformation()
+    wrong = json.loads(sm.vtkSMPropertyHelper(q, "Result").GetAsString())
+t.check("no Segmentation Volume representation" in wrong.get("error", "") and "Abort" not in errors.text,
+        "a view as the query's representation: %s, nothing alarming logged (%s)" % (wrong, errors.text.strip()[:200]))
+# A deleted display answers that it was deleted (it answered its old data while Python held it).
+Delete(dw)
+gone = json.loads(ct.query(dw, "summary"))
+t.check("deleted" in gone.get("error", ""), "a deleted display's query says so (%s)" % gone)
 Delete(wavelet)
 t.finish()
