@@ -30,6 +30,10 @@ DEFAULT_DOCUMENT = {"version": 1, "materials": [
      "color": {"mode": "random"}}]}
 
 
+# pqCSGV::kBelowLabelsGrey (Plugin/CSGV/pqCSGVMaterialDocument.h).
+BELOW_LABELS_GREY = 0.5
+
+
 def _smproxy(display):
     return display.SMProxy if hasattr(display, "SMProxy") else display
 
@@ -242,12 +246,21 @@ def apply_label_colors(display, target_display=None, array=None, max_labels=4096
     lut.InterpretValuesAsCategories = 1
     lut.AutomaticRescaleRangeMode = "Never"
     lut.NanOpacity = 0  # label 0, hidden labels and labels no material takes are not drawn
-    annotations, indexed = [], []
+    annotations, indexed, points = [], [], []
     for label, r, g, b, text in colors["labels"]:
         annotations += [str(label), text or str(label)]
         indexed += [r, g, b]
+        points += [label, r, g, b]
     lut.Annotations = annotations
     lut.IndexedColors = indexed
+    # Read as a continuous map (categories unticked), each label keeps its colour too, as in the
+    # material editor's export (pqCSGV::labelColorTable).
+    if points:
+        lut.RGBPoints = points
+        lut.ColorSpace = "RGB"
+        lut.Discretize = 0
+        lut.UseBelowRangeColor = 1  # label 0, empty in the volume: grey, not label 1's colour
+        lut.BelowRangeColor = [BELOW_LABELS_GREY] * 3
     if target_display is not None:
         simple.ColorBy(target_display, ("CELLS" if _is_cell_array(target_display, name) else "POINTS", name))
         target_display.LookupTable = lut

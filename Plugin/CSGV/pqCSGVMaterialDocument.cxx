@@ -151,6 +151,8 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, const QString& array, QString* 
   }
   std::vector<std::string> annotations;
   std::vector<double> rgb;
+  std::vector<double> points; // x r g b per label
+  bool ascending = true;      // as the query lists them: else no continuous table
   const QJsonArray labels = colors.value("labels").toArray();
   for (const QJsonValue& v : labels)
   {
@@ -159,8 +161,26 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, const QString& array, QString* 
     const QString text = e.at(4).toString();
     annotations.push_back(label.toStdString());
     annotations.push_back((text.isEmpty() ? label : text).toStdString());
+    ascending = ascending && (points.empty() || e.at(0).toDouble() > points[points.size() - 4]);
+    points.push_back(e.at(0).toDouble());
     for (int k = 1; k <= 3; ++k)
+    {
       rgb.push_back(e.at(k).toDouble());
+      points.push_back(e.at(k).toDouble());
+    }
+  }
+  // Read as a continuous map ("Interpret Values As Categories" unticked), the table gives each
+  // label its material's colour too: a bar of the drawn colours over the labels, not ParaView's
+  // Cool to Warm over 0..1, which described nothing drawn (found by a GUI pass).
+  if (ascending && !points.empty())
+  {
+    vtkSMPropertyHelper(lut, "RGBPoints").Set(points.data(), unsigned(points.size()));
+    vtkSMPropertyHelper(lut, "ColorSpace").Set(0); // RGB: between two labels, no hue of its own
+    vtkSMPropertyHelper(lut, "Discretize").Set(0); // 256 bins would blend labels that share one
+    // Below the first label (0, which the volume leaves empty): grey, not the first label's colour.
+    const double grey[3] = { kBelowLabelsGrey, kBelowLabelsGrey, kBelowLabelsGrey };
+    vtkSMPropertyHelper(lut, "BelowRangeColor").Set(grey, 3);
+    vtkSMPropertyHelper(lut, "UseBelowRangeColor").Set(1);
   }
   // IndexedLookup is the proxy property; InterpretValuesAsCategories is only its Python name.
   vtkSMPropertyHelper(lut, "IndexedLookup").Set(1);

@@ -74,6 +74,9 @@ QString dataFolder(vtkSMProxy* display);
 QString labelColorTableName(const QString& array, const QString& source);
 /// Legends with more labels than this show colours without names (they would run past the view).
 constexpr int kLegendLabels = 40;
+/// The grey a label table read as a continuous map gives values below its first label (0, which
+/// the volume leaves empty). Examples/csgv_tools.py keeps a copy (BELOW_LABELS_GREY).
+constexpr double kBelowLabelsGrey = 0.5;
 
 } // namespace pqCSGV
 

@@ -53,6 +53,7 @@
 #include <vtkSMProxyManager.h>
 #include <vtkSMSessionProxyManager.h>
 #include <vtkSMTransferFunctionManager.h>
+#include <vtkScalarsToColors.h>
 #include <vtkSMTransferFunctionProxy.h>
 #include <vtkSMPVRepresentationProxy.h>
 #include <vtkDataObject.h>
@@ -231,6 +232,28 @@ private Q_SLOTS:
     {
       QVERIFY(qAbs(rgb.GetAsDouble(unsigned(k)) - first.at(k + 1).toDouble()) < 1e-6);
     }
+    // "Interpret Values As Categories" unticked: read as a continuous map, the table still gives
+    // every shown label its material's colour (it was Cool to Warm over 0..1: a legend of
+    // nothing drawn).
+    vtkSMPropertyHelper(lut, "IndexedLookup").Set(0);
+    lut->UpdateVTKObjects();
+    auto* continuous = vtkScalarsToColors::SafeDownCast(lut->GetClientSideObject());
+    QVERIFY(continuous);
+    int compared = 0;
+    for (const QJsonValue& v : colors.value("labels").toArray())
+    {
+      const QJsonArray e = v.toArray();
+      double c[3];
+      continuous->GetColor(e.at(0).toDouble(), c);
+      for (int k = 0; k < 3; ++k)
+      {
+        QVERIFY2(qAbs(c[k] - e.at(k + 1).toDouble()) < 1e-6, qPrintable(QString("label %1").arg(e.at(0).toDouble())));
+      }
+      ++compared;
+    }
+    QVERIFY(compared >= 2);
+    vtkSMPropertyHelper(lut, "IndexedLookup").Set(1);
+    lut->UpdateVTKObjects();
     // Editing the materials keeps the overlay: the label stays hidden.
     QPushButton* add = editor.findChild<QPushButton*>("addMaterial");
     QVERIFY(add);

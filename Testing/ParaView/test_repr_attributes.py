@@ -217,6 +217,13 @@ t.check(lut.InterpretValuesAsCategories == 1 and "Precentral_L" in ann and len(a
 entry = next(e for e in colors["labels"] if e[0] == 1)
 idx = ann.index("1") // 2
 t.check(np.allclose(list(lut.IndexedColors)[3 * idx:3 * idx + 3], entry[1:4]), "label 1 has its material colour in the LUT")
+# Categories unticked: the continuous map gives each label its colour too (not Cool to Warm).
+lut.InterpretValuesAsCategories = 0
+ctf = lut.GetClientSideObject()
+rgb = [0.0, 0.0, 0.0]
+off = [e[0] for e in colors["labels"] if ctf.GetColor(e[0], rgb) or not np.allclose(rgb, e[1:4], atol=1e-6)]
+lut.InterpretValuesAsCategories = 1
+t.check(not off, "read as a continuous map, each label keeps its colour (%d differ)" % len(off))
 t.check(ds.ColorArrayName[1] == s["labelArray"], "the slice is coloured by %s" % s["labelArray"])
 shared = GetColorTransferFunction(s["labelArray"])
 t.check(lut.SMProxy != shared.SMProxy and shared.InterpretValuesAsCategories == 0 and ds.LookupTable.SMProxy == lut.SMProxy,
