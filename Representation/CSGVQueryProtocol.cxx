@@ -503,6 +503,8 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     r["label"] = label;
     const double depth = i < out.hitDepth.size() ? double(out.hitDepth[i]) : 1.0;
     r["depth"] = depth;
+    // No opaque surface there: the first semi-transparent one (what the pixel shows first).
+    r["translucent"] = i < out.translucent.size() && out.translucent[i] != 0;
     const csgv::Geometry& g = source.corner;
     const double nx = (double(x) + 0.5) / out.width * 2.0 - 1.0;
     const double ny = (double(y) + 0.5) / out.height * 2.0 - 1.0;

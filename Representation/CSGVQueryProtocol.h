@@ -17,8 +17,8 @@
  * | request      | reply |
  * |--------------|-------|
  * | `summary`    | JSON `{"attributes": [{"name", "numeric", "min", "max"}...], "labels": count of labels present, "labelArray": the label array's name, "empty": true when there is no input or it has no voxels (every rank's, under MPI), "error": why attributes failed (only then; under MPI a rank with data's), "skipped": why materials are not drawn (only then)}` |
- * | `pick X Y`   | JSON `{"hit": bool, "label": original label, "depth": window depth, "voxel": [i, j, k], "world": [x, y, z], "attributes": {name: value or text}, "error": (only then)}`; `{"hit": false, "error": "no rendered pixel there"}` outside the last render |
- * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, 0xFFFFFFFF where no opaque voxel was hit (base64 by vtkBase64Utilities) |
+ * | `pick X Y`   | JSON `{"hit": bool, "label": original label (the first opaque surface's, else the first semi-transparent one's), "translucent": bool (the latter), "depth": window depth, "voxel": [i, j, k], "world": [x, y, z], "attributes": {name: value or text}, "error": (only then)}`; `{"hit": false, "error": "no rendered pixel there"}` outside the last render |
+ * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, the pick's label per pixel, 0xFFFFFFFF where nothing was hit (base64 by vtkBase64Utilities) |
  * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...] (ascending labels), "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that the volume shows: a material of non-zero opacity takes them in the drawn document (csgv::effectiveMaterials: hidden labels and labels outside "only" are left out) |
  * | `span {"attribute": A, "filter": F, "min": lo, "max": hi}` | JSON `{"min", "max", "labels"}`: the range of A over the labels present whose F lies in [lo, hi] (null ends when none), every rank's widened |
  * | `match SQL`  | JSON `{"labels": [original labels, ascending], "truncated": bool}`: the labels whose attributes make the SQL condition true (csgv::labelsWhere over the representation's attribute table: database, loaded, computed and derived columns), at most csgv::kMaxOverlayLabels; `{"error": ...}` for a condition SQLite refuses; every rank's labels united |
@@ -28,7 +28,8 @@
  * | other        | JSON `{"error": "unknown query '<word>'"}` |
  *
  * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary`, `colors`, `span` and `match` are
- * answered by all ranks together: the nearest hit per pixel, attribute ranges and label sets
+ * answered by all ranks together: the hit per pixel a single rank reports (csgvrep::hitOrder:
+ * the nearest opaque one, else the nearest semi-transparent one), attribute ranges and label sets
  * over all pieces (combineAnswers).
  *
  * Not a wrapped header: Core and VulkanBackend types may appear here.
@@ -37,6 +38,7 @@
 #define CSGVQueryProtocol_h
 
 #include "CSGVAttributes.h"
+#include "CSGVHitOrder.h"
 #include "CSGVViewRenderer.h"
 #include "CSGVVolumeCache.h"
 

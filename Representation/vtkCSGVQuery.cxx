@@ -62,8 +62,8 @@ void vtkCSGVQuery::Gather()
   {
     return; // answered by GetResult where it is read
   }
-  // Every rank answers for its own piece; rank 0 keeps, per pixel, the hit nearest the camera
-  // (window depth; ranks without a hit there say 1, the far plane).
+  // Every rank answers for its own piece; rank 0 keeps, per pixel, the one rank's hit: the
+  // nearest opaque one, else the nearest semi-transparent one (csgvrep::hitOrder).
   vtkMultiProcessStream mine;
   if (what == "pick" || what == "colors" || what == "span" || what == "match")
   {
@@ -109,17 +109,18 @@ void vtkCSGVQuery::Gather()
   }
   else if (what == "pick")
   {
-    double nearest = 2.0;
+    double nearest = 5.0;
     for (vtkMultiProcessStream& s : all)
     {
       std::string answer;
       s >> answer;
       const nlohmann::json j = nlohmann::json::parse(answer, nullptr, false);
-      const bool hit = j.is_object() && j.value("hit", false);
-      const double depth = hit && j.contains("depth") ? j["depth"].get<double>() : 1.5;
-      if (this->Answer.empty() || depth < nearest)
+      const bool hit = j.is_object() && j.value("hit", false) && j.contains("depth") && j["depth"].is_number();
+      const double order =
+        csgvrep::hitOrder(hit, hit && j.value("translucent", false), hit ? j["depth"].get<double>() : 1.0);
+      if (this->Answer.empty() || order < nearest)
       {
-        nearest = depth;
+        nearest = order;
         this->Answer = answer;
       }
     }

@@ -167,7 +167,8 @@ public:
   double GetFileReadMiB();
   /// Bricks this view failed to decode (a corrupt or cut-short file): drawn empty, reported once.
   int GetBadBricks();
-  /// The last render's first-hit labels and window depths (vtkCSGVQuery combines ranks with them).
+  /// The last render's first-hit labels and their order (csgvrep::hitOrder; vtkCSGVQuery combines
+  /// ranks with them).
   bool LastLabels(uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths);
 
 protected:

@@ -333,8 +333,12 @@ bool vtkCSGVVolumeProp::LastLabels(
   width = out.width;
   height = out.height;
   labels = out.label;
-  depths = out.hitDepth;
-  depths.resize(labels.size(), 1.0f);
+  depths.assign(labels.size(), 0.0f);
+  for (size_t i = 0; i < labels.size(); ++i)
+  {
+    depths[i] = float(csgvrep::hitOrder(labels[i] != csgv::kInvalidLabel, i < out.translucent.size() && out.translucent[i],
+      i < out.hitDepth.size() ? out.hitDepth[i] : 1.0));
+  }
   return !labels.empty();
 }
 

@@ -110,8 +110,9 @@ public:
   int GetBadBricks();
   /// The materials are valid and some are translucent (drawn in the translucent pass).
   bool DrawsTranslucent() const;
-  /// The last render's first-hit labels and their window depths (row 0 at the bottom); false
-  /// when nothing was rendered.
+  /// The last render's first-hit labels (row 0 at the bottom) and their order among several
+  /// ranks' hits (csgvrep::hitOrder: the window depth of an opaque hit); false when nothing was
+  /// rendered.
   bool LastLabels(uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths);
 
 protected:

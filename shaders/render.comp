@@ -319,11 +319,12 @@ bool shadeSurface(Walker w, vec3 n, vec4 c, float emission, vec3 local, bool req
 // A sample: the view ray, the surfaces along it, the stores.
 // ---------------------------------------------------------------------------------------------
 
-/// A sample in the making: what the view ray gathered front to back and its first opaque surface
-/// (the G-buffer entry).
+/// A sample in the making: what the view ray gathered front to back and its first opaque surface,
+/// or, until one is met, its first semi-transparent one (the G-buffer entry).
 struct Sample {
     vec3 radiance;
     float transmittance;
+    bool translucent; // the hit below is a semi-transparent surface's: no opaque one (yet)
     uint label;       // the first opaque surface's original label (kNone: none) ...
     uint face;        // ... its entry face (0: none) ...
     float depth;      // ... its window depth ...
@@ -378,7 +379,7 @@ void viewRay(uvec2 px, uint pixel, uint samples, out vec3 rayO, out vec3 rayD, o
 /// brick loses the sample; for a pixel without samples (`samples` 0) it goes on for a preview:
 /// missing bricks as blocks of their coarsest level (coarseBlock), local shading, nothing requested.
 Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 d, float tEnd) {
-    Sample s = Sample(vec3(0.0), 1.0, kNone, 0u, 1.0, 0.0, 1.0, true, vec3(0.0), 1.0);
+    Sample s = Sample(vec3(0.0), 1.0, false, kNone, 0u, 1.0, 0.0, 1.0, true, vec3(0.0), 1.0);
     const bool previews = samples == 0u;
     Walker w;
     bool passMissing = false; // a preview's next march passes the missing brick it stands in
@@ -413,6 +414,13 @@ Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 
         vec3 n = w.face != 0u ? faceNormal(w.face) : -normalize((indexToWorld * vec4(d, 0.0)).xyz);
         const vec3 local = lit(c, emission, directLight(w, n, false, false, false));
         if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
+            if (s.label == kNone && s.valid && c.a > 0.0) { // the hit, should the ray meet no opaque surface
+                s.translucent = true;
+                s.label = originalLabel(f, label);
+                s.face = w.face;
+                s.depth = depth;
+                s.distance = length((indexToWorld * vec4(q - o, 0.0)).xyz);
+            }
             s.radiance += s.transmittance * c.a * local;
             s.transmittance *= 1.0 - c.a;
             if (s.transmittance < 0.01) break;
@@ -423,6 +431,7 @@ Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 
             s.transmittance = 0.0;
             break;
         }
+        s.translucent = false;
         s.label = originalLabel(f, label);
         s.face = w.face;
         s.depth = depth;
@@ -454,7 +463,7 @@ bool storeSample(uint pixel, uint samples, Sample s, out vec4 total, out bool pr
     const bool previews = samples == 0u;
     if (!s.valid) {
         ++count.missing;
-        if (s.label == kNone) { // lost on the view ray: the preview is what it gathered
+        if (s.label == kNone || s.translucent) { // lost on the view ray: the preview is what it gathered
             s.previewRadiance = s.radiance;
             s.previewTransmittance = s.transmittance;
         }
@@ -468,7 +477,7 @@ bool storeSample(uint pixel, uint samples, Sample s, out vec4 total, out bool pr
         ++count.added;
     }
     if (s.valid || previews) {
-        uvec4 hit = uvec4(s.label, s.face, floatBitsToUint(s.depth), floatBitsToUint(s.distance));
+        uvec4 hit = uvec4(s.label, s.face | (s.translucent ? kGBufferTranslucent : 0u), floatBitsToUint(s.depth), floatBitsToUint(s.distance));
 #if !ONE_SAMPLE
         storeVec4(frameAddr[kSlotAccum], pixel, total);
         // The first hit stays the first sample's: its ray is the pixel centre's (later ones are
@@ -476,7 +485,7 @@ bool storeSample(uint pixel, uint samples, Sample s, out vec4 total, out bool pr
         // unprojects along the centre's ray names the voxel whose label it reports.
         if (samples > 0u) {
             hit = floatBitsToUint(loadVec4(frameAddr[kSlotGBuffer], pixel));
-            hit.y &= (1u << kGBufferEpochShift) - 1u;
+            hit.y &= ((1u << kGBufferEpochShift) - 1u) | kGBufferTranslucent; // the face and the flag
         }
 #endif
         // The sample count rides in the second word (kGBufferCountShift): one store for both.

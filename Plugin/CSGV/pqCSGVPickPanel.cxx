@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: MIT
+#include "CSGVHitOrder.h"
 #include "pqCSGVPickPanel.h"
 
 #include "pqCSGVLabelSelection.h"
@@ -249,8 +250,11 @@ bool pqCSGVPickPanel::pickAt(const QPoint& pos)
       continue;
     }
     const QJsonObject p = pqCSGV::queryJson(dr->getProxy(), QString("pick %1 %2").arg(x).arg(y));
-    if (p.value("hit").toBool() &&
-      (best.isEmpty() || p.value("depth").toDouble(1) < best.value("depth").toDouble(1)))
+    // The one a render of all of them would report: opaque before semi-transparent, then nearest.
+    const auto order = [](const QJsonObject& h) {
+      return csgvrep::hitOrder(h.value("hit").toBool(), h.value("translucent").toBool(), h.value("depth").toDouble(1));
+    };
+    if (p.value("hit").toBool() && (best.isEmpty() || order(p) < order(best)))
     {
       best = p;
       bestDisplay = dr->getProxy();
@@ -263,10 +267,14 @@ bool pqCSGVPickPanel::pickAt(const QPoint& pos)
   this->ShowOnly->setEnabled(bestDisplay != nullptr);
   if (!bestDisplay)
   {
-    this->Result->setHtml(QString("<i>No opaque label at pixel (%1, %2).</i>").arg(x).arg(y));
+    this->Result->setHtml(QString("<i>No label at pixel (%1, %2).</i>").arg(x).arg(y));
     return false;
   }
   QString html = QString("<b>Label %1</b>").arg(qint64(best.value("label").toDouble()));
+  if (best.value("translucent").toBool())
+  {
+    html += " (semi-transparent: no opaque label behind it)";
+  }
   const QJsonArray v = best.value("voxel").toArray();
   if (v.size() == 3)
   {

@@ -72,6 +72,16 @@ big = json.dumps({"version": 1, "materials": [
 # across the screen, and each rank's image has holes where the others draw).
 # With the denoiser (ao_denoised) each rank filters its own image, whose neighbours end at the
 # piece's edge on the screen.
+def record_picks(suffix):
+    picks = {}
+    for y in range(4, 120, 12):
+        for x in range(4, 160, 12):
+            p = csgv_tools.pick(d, x, y)
+            picks["%d %d" % (x, y)] = [p.get("hit"), p.get("label"), p.get("voxel"), p.get("translucent")]
+    facts["picks" + suffix] = picks
+    facts["labels" + suffix] = csgv_tools.query(d, "labels")
+
+
 for mode in ("opaque", "translucent", "shadow", "ao", "pt", "ao_denoised", "computed", "clipped"):
     d.CSGVMaterials = glass if mode == "translucent" else big if mode == "computed" else ""
     d.CSGVShading = mode if mode in ("shadow", "ao", "pt") else "ao" if mode == "ao_denoised" else "local"
@@ -82,16 +92,10 @@ for mode in ("opaque", "translucent", "shadow", "ao", "pt", "ao_denoised", "comp
     facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
     name = mode + (".png" if rank == 0 else ".rank%d.png" % rank)
     SaveScreenshot(os.path.join(out, name), v, ImageResolution=[160, 120], TransparentBackground=0)
-    if mode == "opaque":
+    if mode in ("opaque", "translucent"):
         # Queries answered by all ranks together (vtkCSGVQuery): picks on a grid of pixels and
-        # the label image of this render.
-        picks = {}
-        for y in range(4, 120, 12):
-            for x in range(4, 160, 12):
-                p = csgv_tools.pick(d, x, y)
-                picks["%d %d" % (x, y)] = [p.get("hit"), p.get("label"), p.get("voxel")]
-        facts["picks"] = picks
-        facts["labels"] = csgv_tools.query(d, "labels")
+        # the label image of this render (translucent: the first semi-transparent surfaces).
+        record_picks("" if mode == "opaque" else "_" + mode)
     if mode == "computed":
         # The attributes of picked labels: whole-volume values on every rank.
         computed = {}
@@ -106,6 +110,20 @@ for mode in ("opaque", "translucent", "shadow", "ao", "pt", "ao_denoised", "comp
         # The summary (attribute ranges, label count) and the drawn labels' colours over all ranks.
         facts["summary"] = csgv_tools.attribute_summary(d)
         facts["colors"] = json.loads(csgv_tools.query(d, "colors 100000"))
+# Half the labels semi-transparent, half opaque: where a rank's semi-transparent surface lies in
+# front of another rank's opaque one, the opaque one is the pixel's hit, as at one rank.
+# (A constant: under pvbatch --symmetric only rank 0's query answer is the combined one, so a
+# bound computed from it would differ between ranks, and so would their materials.)
+middle = 2 ** 31
+d.CSGVMaterials = json.dumps({"version": 1, "materials": [
+    {"name": "glass", "filter": {"attribute": "label", "min": 1, "max": middle}, "opacity": 0.4},
+    {"name": "solid", "filter": {"attribute": "label", "min": middle + 1, "max": 4294967294}}]})
+d.CSGVComputedAttributes = 0
+d.CSGVClipBox = [0, 2147483647] * 3
+d.CSGVShading = "local"
+d.CSGVDenoise = 0
+Render(v)
+record_picks("_mixed")
 # ParaView's defaults: the representation's samples a pixel for a still render and the view's
 # FXAA on, opaque and translucent. The ranks' images of several samples a pixel are blended in
 # visibility order (a pixel on a piece's silhouette holds that piece's share of the samples).

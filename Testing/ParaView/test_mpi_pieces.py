@@ -37,6 +37,7 @@ SaveData to .csgv from 2 and 4 ranks writes the files one rank writes, byte for
 byte (the .csgv, its .csgv.json and the relabelled ones' _csgv.db3), and a label array that is not
 integer at one voxel fails on every rank and leaves no file.
 Exit 77 (skipped) without mpiexec or pvbatch."""
+import base64
 import json
 import os
 import shutil
@@ -133,6 +134,28 @@ def main():
         check(len(same) == len(want) and hits > len(want) // 4,
               "%d ranks: %d of %d picks (%d hits) equal one rank's" % (ranks, len(same), len(want), hits))
         check(pieces[0]["labels"] == whole["labels"], "%d ranks: the label image equals one rank's" % ranks)
+        # Semi-transparent materials only, and half of them: the first semi-transparent surface
+        # where no opaque one lies behind it, over all ranks. Half of them: a few pixels may
+        # differ (measured 2 at 2 ranks, 5-6 at 4, with opacity 0.4, 0.1 or 0): a rank's ray passes
+        # the other ranks' bricks whole, one rank's walks through their voxels (bricks of
+        # semi-transparent labels are drawn), and the two voxel paths are not the same near a
+        # brick's edge, where a ray can pass the corner of an opaque voxel behind
+        # (docs/mpi-design.md, C.3: the canonical walk). All opaque, the images are equal.
+        for kind in ("translucent", "mixed"):
+            picks, want = pieces[0]["picks_" + kind], whole["picks_" + kind]
+            same = [k for k in want if picks.get(k) == want[k]]
+            glass = sum(1 for k in want if want[k][0] and want[k][3])
+            solid = sum(1 for k in want if want[k][0] and not want[k][3])
+            check(len(same) >= len(want) - (0 if kind == "translucent" else 1) and glass > 5
+                  and (kind == "translucent" or solid > 10),
+                  "%d ranks, %s: %d of %d picks (%d semi-transparent, %d opaque hits) equal one rank's"
+                  % (ranks, kind, len(same), len(want), glass, solid))
+            mine, one = (np.frombuffer(base64.b64decode(x["labels_" + kind].split()[2]), dtype="<u4")
+                         for x in (pieces[0], whole))
+            off = int(np.count_nonzero(mine != one)) if mine.shape == one.shape else -1
+            allowed = 0 if kind == "translucent" else one.size // 1000
+            check(0 <= off <= allowed, "%d ranks, %s: %d pixels of the label image differ from one rank's (at most %d)"
+                  % (ranks, kind, off, allowed))
         check(pieces[0]["summary"] == whole["summary"] and whole["summary"]["labels"] > 100,
               "%d ranks: the summary (%d labels, %d attributes) equals one rank's%s"
               % (ranks, whole["summary"]["labels"], len(whole["summary"]["attributes"]),

@@ -8,9 +8,12 @@
   a material filtering on one of them);
 - computed attributes (voxel_count) drive a material and equal a numpy count;
 - picking: the label under a pixel equals the label image there, and its voxel holds that label;
+  with semi-transparent materials the first semi-transparent surface where no opaque one lies
+  behind it;
 - AAL atlas: `aal.nii.txt` (label name code) imported as CSV with a derived hemisphere attribute
   drives two materials (left opaque, right translucent); the screenshot is saved
-  (CSGV_TEST_OUTPUT or a temporary folder); the opaque label image holds only left regions;
+  (CSGV_TEST_OUTPUT or a temporary folder); the label image holds left regions (opaque) and right
+  ones only as translucent first surfaces;
 - the material colours exported as a categorical lookup table with region names colour a Slice
   with the volume's colours."""
 import json
@@ -97,6 +100,41 @@ for k in range(0, len(xs), step):
 t.check(not wrong, "16 samples a pixel: every picked voxel holds the picked label (%d of %d wrong: %s)"
         % (len(wrong), len(range(0, len(xs), step)), wrong[:4]))
 d.CSGVFramesPerStillRender = 1
+
+# Semi-transparent materials only: a pick names the first semi-transparent surface (it said "no
+# hit" everywhere: nothing could be picked, though every label was seen), and says it is one; the
+# label image is the same first surfaces. Half of them opaque: an opaque surface behind a
+# semi-transparent one is the pick.
+d.CSGVMaterials = json.dumps({"version": 1, "materials": [{"name": "glass", "opacity": 0.3}]})
+glass = labels_after_render(v, d, "glass.png")
+t.check(np.array_equal(glass, img), "semi-transparent only: the label image is the first surfaces' (%d pixels differ)"
+        % int(np.count_nonzero(glass != img)))
+ys, xs = np.nonzero(glass != INVALID)
+wrong = []
+for k in range(0, len(xs), max(1, len(xs) // 25)):
+    x, y = int(xs[k]), int(ys[k])
+    p = ct.pick(d, x, y)
+    i, j, kk = p.get("voxel", (0, 0, 0))
+    if not (p["hit"] and p.get("translucent") is True and p["label"] == int(glass[y, x])
+            and int(labels_vol[kk, j, i]) == p["label"]):
+        wrong.append((x, y, p))
+t.check(len(xs) > 1000 and not wrong, "semi-transparent only: picks name the first surface's voxel (%d wrong: %s)"
+        % (len(wrong), wrong[:2]))
+middle = int(np.median(img[img != INVALID]))
+d.CSGVMaterials = json.dumps({"version": 1, "materials": [
+    {"name": "glass", "filter": {"attribute": "label", "min": 1, "max": middle}, "opacity": 0.3},
+    {"name": "solid", "filter": {"attribute": "label", "min": middle + 1, "max": ct.MAX_LABEL}}]})
+mixed = labels_after_render(v, d, "mixed.png")
+front = (img != INVALID) & (img <= middle)
+behind = front & (mixed != INVALID) & (mixed > middle)
+t.check(behind.sum() > 50 and np.array_equal(mixed[~front], img[~front]),
+        "half semi-transparent: %d pixels show the opaque label behind a semi-transparent first surface, the "
+        "others the first surface" % int(behind.sum()))
+ys, xs = np.nonzero(behind)
+picks = [ct.pick(d, int(xs[k]), int(ys[k])) for k in range(0, len(xs), max(1, len(xs) // 10))]
+t.check(all(p["hit"] and p.get("translucent") is False and p["label"] > middle for p in picks),
+        "there, the pick is the opaque label (%d picks)" % len(picks))
+d.CSGVMaterials = ""
 
 # --- an attribute that cannot be an array ------------------------------------------------------
 # synthA's labels (up to 4.3e9, no database) cannot index attribute arrays: a material that
@@ -193,13 +231,21 @@ with open("/usr/share/mricron/templates/aal.nii.txt") as f:
         p = line.split()
         if len(p) >= 2:
             names[int(p[0])] = p[1]
-t.check(len(opaque) > 10 and all(names.get(l, "").endswith("_L") for l in opaque),
-        "opaque labels are left regions only (%d regions)" % len(opaque))
+# The label image: left regions (opaque) and, where no opaque one lies behind, right ones
+# (translucent first surfaces).
+left = [l for l in opaque if names.get(l, "").endswith("_L")]
+t.check(len(left) > 10 and all(names.get(l, "").endswith(("_L", "_R")) for l in opaque),
+        "the labels seen are hemisphere regions, %d of them left (opaque)" % len(left))
 img = t.read_png(shot)
 t.check(t.content_mask(img, (255, 255, 255)).mean() > 0.1, "the atlas is drawn")
-p = ct.pick(dl, *[int(c) for c in np.argwhere(aal_img != INVALID)[len(opaque) // 2][::-1]])
-t.check(p["hit"] and p["attributes"].get("name", "").endswith("_L") and "code" in p["attributes"],
-        "pick reports the region name and code (%s)" % p.get("attributes", {}).get("name"))
+at_left = np.argwhere(np.isin(aal_img, left))
+p = ct.pick(dl, *[int(c) for c in at_left[len(at_left) // 2][::-1]])
+t.check(p["hit"] and p["attributes"].get("name", "").endswith("_L") and "code" in p["attributes"]
+        and p["translucent"] is False, "pick reports the region name and code (%s)" % p.get("attributes", {}).get("name"))
+at_right = np.argwhere(np.isin(aal_img, [l for l in opaque if l not in left]))
+q = ct.pick(dl, *[int(c) for c in at_right[len(at_right) // 2][::-1]]) if len(at_right) else {}
+t.check(q.get("hit") and q["attributes"].get("name", "").endswith("_R") and q["translucent"] is True,
+        "a right region with nothing opaque behind is picked as translucent (%s)" % {k: q.get(k) for k in ("label", "translucent", "depth")})
 
 # --- colours as a categorical lookup table, shared with a Slice ---------------------------------
 colors = ct.label_colors(dl)

@@ -42,7 +42,7 @@ const Probe kProbes[] = {
     CSGV_PROBE(kLookupScan), CSGV_PROBE(kLookupDense),
     CSGV_PROBE(kNone), CSGV_PROBE(kFlagJitter), CSGV_PROBE(kFlagFinest), CSGV_PROBE(kFlagDenoise),
     CSGV_PROBE(kFlagLimitRequests), CSGV_PROBE(kFlagDepthInput), CSGV_PROBE(kFlagLabelMap),
-    CSGV_PROBE(kFlagResolveInRender), CSGV_PROBE(kGBufferSampled), CSGV_PROBE(kGBufferPreview),
+    CSGV_PROBE(kFlagResolveInRender), CSGV_PROBE(kGBufferSampled), CSGV_PROBE(kGBufferPreview), CSGV_PROBE(kGBufferTranslucent),
     CSGV_PROBE(kGBufferCountShift), CSGV_PROBE(kGBufferCountMax), CSGV_PROBE(kGBufferEpochShift),
     CSGV_PROBE(kGBufferEpochMask), CSGV_PROBE(kGBufferEpochs), CSGV_PROBE(kFlagGatherInRender), CSGV_PROBE(kFlagListNext),
     CSGV_PROBE(kShadingLocal), CSGV_PROBE(kShadingShadow), CSGV_PROBE(kShadingAo), CSGV_PROBE(kShadingPt),

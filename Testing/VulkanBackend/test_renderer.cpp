@@ -1787,6 +1787,64 @@ TEST(Renderer, MaterialsWithAttributesSelectTheSameLabelsAsTheReference) {
     expectFinestImage(**r, in, ref, "parity", [](uint32_t, const float* c) { return c[0] > 0.0f && c[1] == 0.0f && c[3] == 1.0f; });
 }
 
+// Where a ray meets no opaque surface, its G-buffer hit is the first semi-transparent one, flagged
+// as such (a pick names what the pixel shows, also in a volume of translucent materials); an
+// opaque surface behind a semi-transparent one is the hit; opacity 0 is never a hit. The labels,
+// faces and depths equal the reference's, also with several jittered samples a pixel (the flag
+// rides the first sample's entry).
+TEST(Renderer, TranslucentFirstSurfacesAreTheHitWhereNoOpaqueOneIs) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    std::vector<uint32_t> present;
+    for (uint32_t l : scene.labels.labels)
+        if (l != 0) present.push_back(l);
+    std::nth_element(present.begin(), present.begin() + present.size() / 2, present.end());
+    const uint32_t middle = present[present.size() / 2];
+    const uint32_t clearFrom = middle + (std::numeric_limits<uint32_t>::max() - middle) / 2;
+    Result<MaterialDocument> doc = parseMaterials(R"({"version": 1, "materials": [
+        {"name": "glass", "filter": {"attribute": "label", "min": 1, "max": )" + std::to_string(middle) + R"(},
+         "opacity": 0.3},
+        {"name": "clear", "filter": {"attribute": "label", "min": )" + std::to_string(clearFrom) + R"(,
+         "max": 4294967294}, "opacity": 0},
+        {"name": "solid", "filter": {"attribute": "label", "min": 1, "max": 4294967294}}]})");
+    ASSERT_TRUE(doc.isOk()) << doc.message();
+    const FrameInput in = perspectiveView({-50, 160, 150}, {66, 35, 97}, {0.1, 0, 1}, 35, 80, 60);
+    const RayCastView view{in.worldToClip, in.width, in.height};
+    const auto solid = [&](uint32_t l) { return l > middle && l < clearFrom && l != kInvalidLabel; };
+    const auto shown = [&](uint32_t l) { return l != 0 && l < clearFrom && l != kInvalidLabel; };
+    for (const uint32_t samples : {1u, 4u}) {
+        SCOPED_TRACE(samples);
+        RenderSettings st;
+        st.finest = true;
+        st.jitter = samples > 1;
+        st.denoise = false;
+        std::unique_ptr<Renderer> r = makeRenderer(*ctx, scene, 64ull << 20, st);
+        ASSERT_TRUE(r);
+        ASSERT_TRUE(r->setMaterials(*doc).isOk());
+        const FrameOutput out = renderConverged(*r, in, samples, 100);
+        const GBuffer opaque = castRaysStable(scene.labels, Geometry{}, view, solid, scene.volume.brickSize, stepsOf(*r));
+        GBuffer ref = castRaysStable(scene.labels, Geometry{}, view, shown, scene.volume.brickSize, stepsOf(*r));
+        size_t glass = 0, behind = 0, flagWrong = 0;
+        for (size_t i = 0; i < ref.label.size(); ++i) {
+            const bool first = ref.label[i] != kInvalidLabel && !solid(ref.label[i]); // a semi-transparent first surface
+            if (opaque.label[i] != kInvalidLabel) { // the opaque surface is the hit, behind glass or not
+                behind += first;
+                ref.label[i] = opaque.label[i];
+                ref.face[i] = opaque.face[i];
+                ref.depth[i] = opaque.depth[i];
+                ref.distance[i] = opaque.distance[i];
+            }
+            const bool translucent = ref.label[i] != kInvalidLabel && !solid(ref.label[i]);
+            glass += translucent;
+            flagWrong += out.translucent[i] != (translucent ? 1 : 0);
+        }
+        EXPECT_GT(glass, 100u);
+        EXPECT_GT(behind, 20u);
+        EXPECT_EQ(flagWrong, 0u);
+        expectGBufferEquals(out, ref, "translucent first surfaces");
+    }
+}
+
 // Ray steps take a label change within the interval of drawn labels as a candidate and look its
 // material up once out of the steps' loop (render_common.glsl's entersCandidate). Drawn labels
 // with undrawn ones between them, one interval of labels whose ends the view shows (an interval

@@ -93,6 +93,7 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
         out.face.resize(n);
         out.hitDepth.resize(n);
         out.distance.resize(n);
+        out.translucent.assign(n, 0);
         for (size_t i = 0; i < n; ++i) {
             if (!(im.currentWord1(g[4 * i + 1]) & kGBufferSampled)) { // cleared: no sample reached this pixel
                 out.label[i] = kNone;
@@ -103,6 +104,7 @@ Status Renderer::readOutput(FrameOutput& out, uint32_t parts) const {
             }
             out.label[i] = g[4 * i];
             out.face[i] = Face(g[4 * i + 1] & 7u);
+            out.translucent[i] = (g[4 * i + 1] & kGBufferTranslucent) != 0 ? 1 : 0;
             std::memcpy(&out.hitDepth[i], &g[4 * i + 2], 4);
             std::memcpy(&out.distance[i], &g[4 * i + 3], 4);
         }

@@ -44,11 +44,14 @@ CSGV_CONST(uint32_t, kGBufferSampled, 0x100u)
 /// ... or: the pixel has no sample yet and its accumulation word holds a preview (render.comp),
 /// shown until its first sample replaces it.
 CSGV_CONST(uint32_t, kGBufferPreview, 0x200u)
+/// ... and: the hit is the first semi-transparent surface, the ray having met no opaque one (a
+/// pick names what the pixel shows, also in a volume of translucent materials only).
+CSGV_CONST(uint32_t, kGBufferTranslucent, 0x400u)
 /// ... and from this bit up: the pixel's valid samples (0 in a cleared entry, as in a preview's),
 /// written with every sample's first hit: one store, no buffer of counts to fill. A pixel takes
 /// no more than kGBufferCountMax (render_common.glsl's wantsSample).
-CSGV_CONST(uint32_t, kGBufferCountShift, 10u)
-CSGV_CONST(uint32_t, kGBufferCountMax, 0x3FFFFFu)
+CSGV_CONST(uint32_t, kGBufferCountShift, 11u)
+CSGV_CONST(uint32_t, kGBufferCountMax, 0x1FFFFFu)
 /// ... and in its bits 3-7: the accumulation it belongs to, 1..kGBufferEpochs (Frame frame.z).
 /// An entry of another reads as cleared (all 0): a new accumulation fills the G-buffer only when
 /// the epochs wrap (and when it is new), not at every camera move.

@@ -198,12 +198,14 @@ struct FrameOutput {
     std::vector<float> rgba;       ///< premultiplied, 4 floats a pixel (multiples of 1/255: of rgba8)
     std::vector<uint32_t> rgba8;   ///< the same, as the device writes it: 8 bits a channel, R lowest
     std::vector<float> depth;      ///< window depth of the first surface (1: none)
-    /// First opaque label hit (original label), kInvalidLabel: none; this and the next three are
-    /// the pixel's first sample's, whose ray is the pixel centre's (later samples are jittered).
+    /// First opaque label hit (original label), or, where the ray met no opaque surface, its first
+    /// semi-transparent one (`translucent` 1); kInvalidLabel: none. This and the next four are the
+    /// pixel's first sample's, whose ray is the pixel centre's (later samples are jittered).
     std::vector<uint32_t> label;
     std::vector<Face> face;        ///< its entry face
-    std::vector<float> hitDepth;   ///< window depth of the first opaque hit
-    std::vector<float> distance;   ///< world distance from the near plane to the first opaque hit
+    std::vector<float> hitDepth;   ///< window depth of the hit
+    std::vector<float> distance;   ///< world distance from the near plane to the hit
+    std::vector<uint8_t> translucent; ///< 1: the hit is a semi-transparent surface's
     std::vector<uint32_t> samples; ///< valid samples per pixel
     /// Pixels [x0, x1) x [y0, y1) the frames since the accumulation's last reset covered: every
     /// pixel outside is empty (colour 0, depth 1, no label), so a compositor may draw this alone.
