@@ -383,6 +383,7 @@ Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 
     const bool previews = samples == 0u;
     Walker w;
     bool passMissing = false; // a preview's next march passes the missing brick it stands in
+    vec3 glassPoint = vec3(0.0); // where the first semi-transparent surface was entered
     if (!startRay(o, d, tEnd, boxLo, boxHi, w)) return s;
     for (uint layer = 0u; layer < 256u; ++layer) {
         uint label, material;
@@ -416,10 +417,10 @@ Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 
         if (c.a < 1.0) { // semi-transparent: local shading, then on through the surface
             if (s.label == kNone && s.valid && c.a > 0.0) { // the hit, should the ray meet no opaque surface
                 s.translucent = true;
-                s.label = originalLabel(f, label);
+                s.label = label; // stored: made original after the loop (CPU devices run this masked, every layer)
                 s.face = w.face;
                 s.depth = depth;
-                s.distance = length((indexToWorld * vec4(q - o, 0.0)).xyz);
+                glassPoint = q;
             }
             s.radiance += s.transmittance * c.a * local;
             s.transmittance *= 1.0 - c.a;
@@ -448,6 +449,10 @@ Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 
         s.radiance += s.transmittance * mix(local, shaded, fv.pixel.w);
         s.transmittance = 0.0;
         break;
+    }
+    if (s.translucent) { // no opaque surface: the first semi-transparent one is the hit
+        s.label = originalLabel(f, s.label);
+        s.distance = length((indexToWorld * vec4(glassPoint - o, 0.0)).xyz);
     }
     return s;
 }
