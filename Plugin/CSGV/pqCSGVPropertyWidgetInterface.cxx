@@ -13,6 +13,7 @@
 #include <vtkSMProperty.h>
 #include <vtkCommand.h>
 #include <vtkSMPropertyGroup.h>
+#include <vtkSMStringVectorProperty.h>
 #include <vtkSMVectorProperty.h>
 #include <vtkWeakPointer.h>
 #include <vtkSMProxy.h>
@@ -96,6 +97,7 @@ public:
   {
     vtkSMProxy* proxy = widget->proxy();
     this->Files = proxy ? proxy->GetProperty(config->GetAttributeOrEmpty("property")) : nullptr;
+    this->Extensions = QString(config->GetAttributeOrEmpty("extensions")).split(' ', Qt::SkipEmptyParts);
     if (this->Files)
     {
       this->Tag = this->Files->AddObserver(vtkCommand::ModifiedEvent, this, &SeveralFilesDecorator::changed);
@@ -110,13 +112,31 @@ public:
   }
   bool canShowWidget(bool showAdvanced) const override
   {
-    auto* files = vtkSMVectorProperty::SafeDownCast(this->Files);
-    return (!files || files->GetNumberOfElements() > 1) && this->pqPropertyWidgetDecorator::canShowWidget(showAdvanced);
+    auto* files = vtkSMStringVectorProperty::SafeDownCast(this->Files);
+    if (files && files->GetNumberOfElements() < 2)
+    {
+      return false;
+    }
+    if (files && !this->Extensions.isEmpty())
+    {
+      const QString first = QString::fromUtf8(files->GetElement(0)).toLower();
+      bool known = false;
+      for (const QString& e : this->Extensions)
+      {
+        known = known || first.endsWith(e.toLower());
+      }
+      if (!known)
+      {
+        return false;
+      }
+    }
+    return this->pqPropertyWidgetDecorator::canShowWidget(showAdvanced);
   }
 
 private:
   void changed() { Q_EMIT this->visibilityChanged(); }
   vtkWeakPointer<vtkSMProperty> Files;
+  QStringList Extensions; ///< the first file must end with one of these (none given: any)
   unsigned long Tag = 0;
 };
 } // namespace

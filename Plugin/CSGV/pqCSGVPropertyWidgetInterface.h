@@ -43,8 +43,10 @@ public:
   pqPropertyWidget* createWidgetForProperty(vtkSMProxy* proxy, vtkSMProperty* property,
                                             QWidget* parent) override;
   void createDefaultWidgetDecorators(pqPropertyWidget* widget) override;
-  /// "csgv_several_files" (attribute `property`, a repeatable file list): the widget shows only
-  /// while that list holds more than one file (ReadAsImageStack means nothing for one file).
+  /// "csgv_several_files" (attribute `property`, a repeatable file list; optional `extensions`,
+  /// blank-separated): the widget shows only while that list holds more than one file, the first
+  /// ending with one of the extensions (ReadAsImageStack means nothing for one file, nor for a
+  /// series of HDF5, NRRD, ... volumes).
   pqPropertyWidgetDecorator* createWidgetDecorator(const QString& type, vtkPVXMLElement* config,
                                                    pqPropertyWidget* widget) override;
 };

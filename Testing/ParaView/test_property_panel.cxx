@@ -205,8 +205,9 @@ private Q_SLOTS:
     this->Display->UpdateVTKObjects();
   }
 
-  /// "Read As Image Stack" shows for a series only (found by a GUI pass: it was offered for one
-  /// .h5 file, where it means nothing). The panel reads no file: the names need not exist.
+  /// "Read As Image Stack" shows for a series of TIFF files only (found by GUI passes: it was
+  /// offered for one .h5 file, and for a series of .h5 volumes, where it means nothing). The
+  /// panel reads no file: the names need not exist.
   void imageStackOptionOnlyForASeries()
   {
     vtkSMSessionProxyManager* pxm =
@@ -223,8 +224,12 @@ private Q_SLOTS:
     QVERIFY(stack && relabel);
     QVERIFY2(relabel->isVisibleTo(&panel), "the reader's other options show");
     QVERIFY2(!stack->isVisibleTo(&panel), "one file: no image stack option");
+    vtkSMPropertyHelper(reader, "FileNames").Set(1, "/nowhere/volume_1.h5");
+    QApplication::processEvents();
+    QVERIFY2(!stack->isVisibleTo(&panel), "a series of HDF5 volumes (always a time series): no image stack option");
+    vtkSMPropertyHelper(reader, "FileNames").Set(0, "/nowhere/s_0.TIF");
     vtkSMPropertyHelper(reader, "FileNames").Set(1, "/nowhere/s_1.tif");
-    QTRY_VERIFY2(stack->isVisibleTo(&panel), "a series: the image stack option shows");
+    QTRY_VERIFY2(stack->isVisibleTo(&panel), "a series of TIFF files: the image stack option shows");
     vtkSMPropertyHelper(reader, "FileNames").SetNumberOfElements(1);
     QTRY_VERIFY2(!stack->isVisibleTo(&panel), "back to one file: hidden again");
   }
