@@ -42,6 +42,15 @@ def look(offset):
     v.CameraViewAngle = 30
 
 
+def along_y(centre, scale):
+    """An orthographic camera looking along +y at `centre`, z up."""
+    v.CameraParallelProjection = 1
+    v.CameraFocalPoint = list(centre)
+    v.CameraPosition = [centre[0], centre[1] - 500, centre[2]]
+    v.CameraViewUp = [0, 0, 1]
+    v.CameraParallelScale = scale
+
+
 # 1. Position, with the camera moved alike: the same label image, the same voxels.
 Render(v)  # paraview.simple resets the camera at a view's first render: before the camera is set
 look((0, 0, 0))
@@ -81,11 +90,7 @@ b.Position = [5, 0, -10]
 b.Scale = [1.5, 0.5, 1.0]
 b.Orientation = [10, 0, 35]
 b.Origin = [16, 16, 16]
-v.CameraParallelProjection = 1
-v.CameraFocalPoint = [16, 16, 16]
-v.CameraPosition = [16, -500, 16]
-v.CameraViewUp = [0, 0, 1]
-v.CameraParallelScale = 40
+along_y((16, 16, 16), 40)
 v.Background = [0, 0, 0]
 Render(v)
 vol = ct.label_image(b) != INVALID
@@ -150,11 +155,7 @@ t.check("beyond" in errors.text and "non-finite" not in errors.text,
 # A negative Scale mirrors, as for ParaView's own representations: seen along y, the label image
 # of Scale (-1, 1, 1) about the volume's centre is the unmirrored one flipped left to right.
 d.Position = [0, 0, 0]
-v.CameraParallelProjection = 1
-v.CameraFocalPoint = [66.5, 35, 97]
-v.CameraPosition = [66.5, -500, 97]
-v.CameraViewUp = [0, 0, 1]
-v.CameraParallelScale = 110
+along_y((66.5, 35, 97), 110)
 Render(v)
 plain = ct.label_image(d)
 d.Origin = [66.5, 35, 97]
