@@ -30,7 +30,7 @@
  * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary`, `colors`, `span` and `match` are
  * answered by all ranks together: the hit per pixel a single rank reports (csgvrep::hitOrder:
  * the nearest opaque one, else the nearest semi-transparent one), attribute ranges and label sets
- * over all pieces (combineAnswers).
+ * over all pieces (combineAnswers); every rank reads that answer (pvbatch --symmetric scripts).
  *
  * Not a wrapped header: Core and VulkanBackend types may appear here.
  */

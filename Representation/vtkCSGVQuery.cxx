@@ -86,10 +86,29 @@ void vtkCSGVQuery::Gather()
   }
   std::vector<vtkMultiProcessStream> all;
   c->Gather(mine, all, 0);
+  if (c->GetLocalProcessId() == 0)
+  {
+    this->Combine(text, what, all);
+  }
+  // Every rank reads the combined answer: under pvbatch --symmetric each rank's script reads its
+  // own Result, and a value derived from a rank's local answer (a bound for a material, say)
+  // would differ between ranks, and so would what they draw.
+  vtkMultiProcessStream answer;
+  if (c->GetLocalProcessId() == 0)
+  {
+    answer << this->Answer;
+  }
+  c->Broadcast(answer, 0);
   if (c->GetLocalProcessId() != 0)
   {
-    return;
+    answer >> this->Answer;
   }
+  this->Gathered = true;
+}
+
+void vtkCSGVQuery::Combine(
+  const std::string& text, const std::string& what, std::vector<vtkMultiProcessStream>& all)
+{
   this->Answer.clear();
   if (what == "summary" || what == "colors" || what == "span" || what == "match")
   {
@@ -164,7 +183,6 @@ void vtkCSGVQuery::Gather()
     o << width << " " << height << " " << csgvrep::base64(labels.data(), labels.size() * sizeof(uint32_t));
     this->Answer = o.str();
   }
-  this->Gathered = true;
 }
 
 const char* vtkCSGVQuery::GetResult()

@@ -21,8 +21,10 @@
 #include "vtkWeakPointer.h" // for Representation
 
 #include <string> // for Answer
+#include <vector> // for Combine
 
 class vtkCSGVRepresentation;
+class vtkMultiProcessStream;
 
 class CSGVREPRESENTATION_EXPORT vtkCSGVQuery : public vtkObject
 {
@@ -56,10 +58,12 @@ private:
   vtkWeakPointer<vtkCSGVRepresentation> Representation;
   char* Request = nullptr;
   std::string Answer;
-  bool Gathered = false; ///< Answer holds the ranks' combined answer to Request (rank 0)
+  bool Gathered = false; ///< Answer holds the ranks' combined answer to Request (every rank)
   bool Pending = false;  ///< Request arrived before the representation
   /// Answers Request with every rank (when there are several and the request is collective).
   void Gather();
+  /// Rank 0: the answer of all ranks from their gathered answers (`what`: the request's word).
+  void Combine(const std::string& text, const std::string& what, std::vector<vtkMultiProcessStream>& all);
 };
 
 #endif

@@ -160,6 +160,11 @@ def main():
               "%d ranks: the summary (%d labels, %d attributes) equals one rank's%s"
               % (ranks, whole["summary"]["labels"], len(whole["summary"]["attributes"]),
                  "" if pieces[0]["summary"] == whole["summary"] else ": %s" % pieces[0]["summary"]))
+        # Every rank's script reads the combined answers (under pvbatch --symmetric each reads its
+        # own; a bound derived from a rank's local summary made the ranks' materials differ).
+        check(all(p["summary"] == pieces[0]["summary"] and p["picks"] == pieces[0]["picks"]
+                  and p["labels_mixed"] == pieces[0]["labels_mixed"] for p in pieces),
+              "%d ranks: every rank reads the combined summary, picks and label image" % ranks)
         differ = [(x, y) for x, y in zip(pieces[0]["colors"].get("labels", []), whole["colors"]["labels"]) if x != y]
         check(pieces[0]["colors"] == whole["colors"] and len(whole["colors"]["labels"]) > 10,
               "%d ranks: the drawn labels' colours (%d) equal one rank's%s" % (
