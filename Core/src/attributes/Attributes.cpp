@@ -388,6 +388,13 @@ struct Record {
     size_t line = 0;
 };
 
+// Tables go into SQLite (the attribute database, derived attributes), which takes at most 2000
+// columns (SQLITE_MAX_COLUMN). A longer row is not a table of attributes (a row of labels, say):
+// the tokenizer stops there, so such a file never costs more than its text (a 200 MB line of
+// numbers held as strings took 1 GB), and comparing the names of so many columns took quadratic
+// time (60,000: 30 s).
+constexpr size_t kMaxColumns = 2000;
+
 bool isBlank(char c) { return c == ' ' || c == '\t'; }
 
 /// Splits text into records. delim ' ' means runs of blanks.
@@ -447,6 +454,10 @@ Status tokenize(const std::string& s, char delim, const std::string& source, std
                 field.assign(s, b, e - b);
             }
             rec.fields.push_back(std::move(field));
+            if (rec.fields.size() > kMaxColumns)
+                return Status::error(source + ":" + std::to_string(rec.line) + ": more than " +
+                                     std::to_string(kMaxColumns) + " fields; an attribute table has at most " +
+                                     std::to_string(kMaxColumns) + " columns");
             if (ws) {
                 while (i < n && isBlank(s[i])) ++i;
                 if (atEol(i)) break;
@@ -509,15 +520,6 @@ Result<AttributeTable> parseCsv(const std::string& text, const CsvOptions& optio
     Status s = tokenize(text, delim, source, records);
     if (!s) return s;
     if (records.empty()) return Status::error(source + ": no rows");
-    // Tables go into SQLite (the attribute database, derived attributes), which takes at most 2000
-    // columns (SQLITE_MAX_COLUMN). A longer first row is not a table of attributes (a row of
-    // labels, say), and comparing the names of so many columns took quadratic time (60,000: 30 s).
-    constexpr size_t kMaxColumns = 2000;
-    if (records[0].fields.size() > kMaxColumns)
-        return Status::error(source + ":" + std::to_string(records[0].line) + ": " +
-                             std::to_string(records[0].fields.size()) + " fields; an attribute table has at most " +
-                             std::to_string(kMaxColumns) + " columns");
-
     bool header = options.header == CsvOptions::Header::Present;
     if (options.header == CsvOptions::Header::Auto) {
         const Record& first = records[0];
