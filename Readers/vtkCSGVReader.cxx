@@ -428,6 +428,36 @@ int vtkCSGVReader::RequestInformation(
   }
   in.Step = csgvvtk::RequestedStep(outInfo, steps);
   this->DescribeFile(outInfo);
+  if (steps > 1)
+  {
+    // Consumers downstream (ParaView's post filter, every representation) keep the whole extent
+    // they see here and ask for it again at every step, cropping what a larger step gives to it
+    // (found by an attack pass: a later step of 100x80 drawn as the first step's 64x48). They see
+    // the extent that holds every step; each step's output has its own (SwitchStep).
+    int whole[6];
+    outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    for (const std::string& path : in.Inputs)
+    {
+      if (isVrawName(path))
+      {
+        continue; // read whole to be described: its extent is announced when it is shown
+      }
+      csgv::Result<csgv::CsgvFile> file = csgv::openCsgvHeader(path);
+      if (!file)
+      {
+        continue; // said when the step is shown
+      }
+      const uint32_t levels = file->volume.levels();
+      const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels > 0 ? levels - 1 : 0);
+      const std::array<uint32_t, 3> ld = csgv::lodDimensions(file->volume.dim, lod);
+      for (int a = 0; a < 3; ++a)
+      {
+        whole[2 * a] = 0;
+        whole[2 * a + 1] = std::max(whole[2 * a + 1], int(ld[size_t(a)]));
+      }
+    }
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole, 6);
+  }
   return 1;
 }
 
@@ -460,6 +490,14 @@ void vtkCSGVReader::SwitchStep(vtkInformation* outInfo)
   if (csgvvtk::TakeRequestedStep(outInfo, static_cast<int>(in.Inputs.size()), in.Step))
   {
     this->DescribeFile(outInfo);
+  }
+  else if (in.Loaded)
+  {
+    // The step's own extent, not the one of every step that RequestInformation announced.
+    const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
+    const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);
+    const int extent[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
   }
   csgvvtk::AskWholeExtent(outInfo);
 }
@@ -575,7 +613,14 @@ int vtkCSGVReader::RequestData(
   }
   else if (outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT()))
   {
-    outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), ext);
+    // Within this file's volume (a request made for a larger step of a series holds more).
+    int asked[6];
+    outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), asked);
+    for (int a = 0; a < 3; ++a)
+    {
+      ext[2 * a] = std::max(asked[2 * a], 0);
+      ext[2 * a + 1] = std::min(asked[2 * a + 1], ext[2 * a + 1]);
+    }
   }
   output->SetExtent(ext);
   csgvvtk::applyGeometry(output, in.Geometry, lod);

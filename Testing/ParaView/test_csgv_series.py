@@ -68,6 +68,23 @@ if "Segmentation Volume" in [reprs.GetString(i) for i in range(reprs.GetNumberOf
         shot = t.content_mask(t.screenshot(view, 96, 96, "series_%d.png" % time))
         t.check(tuple(bounds[1::2]) == (w, h, d) and shot.any(),
                 "time %d: drawn, with its own bounds (%s)" % (time, bounds))
+    # A later step larger than the first (found by an attack pass: it was drawn cropped to the
+    # first step's extent, by the Segmentation Volume and by ParaView's own Outline and Slice,
+    # which keep the whole extent they saw first and ask for it at every step).
+    grow = OpenDataFile([files[1], files[0]])  # denseB 77x61x45, then synthA 133x70x194
+    gview = t.render_view(96, 96)
+    gvol = Show(grow, gview)
+    gvol.SetRepresentationType("Segmentation Volume")
+    gslice = Show(Slice(Input=grow), gview)
+    for time, i in ((0.0, 1), (1.0, 0), (0.0, 1), (1.0, 0)):
+        gview.ViewTime = time
+        Render(gview)
+        d, h, w = expected[i].shape
+        vb = gvol.GetRepresentedDataInformation().GetBounds()
+        sb = gslice.GetRepresentedDataInformation().GetBounds()
+        t.check(tuple(vb[1::2]) == (w, h, d) and (sb[3], sb[5]) == (h, d),  # the Slice: x = 38.5
+                "a larger later step, time %d: the volume's bounds %s and the Slice's %s are the step's"
+                % (time, vb, sb))
 else:
     t.log("skip the view: this build has no Segmentation Volume representation")
 
