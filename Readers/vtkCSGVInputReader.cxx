@@ -65,6 +65,7 @@ public:
   /// series, the step whose file Location and Cache describe.
   std::vector<std::string> Inputs;
   int Step = 0;
+  int StepExtent[6] = { 0, -1, 0, -1, 0, -1 }; ///< the extent PrepareInput announced for Step
   /// The reader's MTime and the input's stamp when RequestData last failed: the pipeline asks
   /// again for the extent it announced (an empty output does not cover it), and the same
   /// request must neither compress again nor report again.
@@ -266,7 +267,48 @@ int vtkCSGVInputReader::RequestInformation(
     in.Step = csgvvtk::RequestedStep(outInfo, steps);
   }
   this->PrepareInput(outInfo);
+  if (this->SeriesMode == TimeSeries)
+  {
+    this->AnnounceEveryStep(outInfo);
+  }
   return 1;
+}
+
+void vtkCSGVInputReader::AnnounceEveryStep(vtkInformation* outInfo)
+{
+  // Consumers downstream (ParaView's post filter, every representation) keep the whole extent
+  // they see here and ask for it again at every step, cropping what a larger step gives to it
+  // (found by an attack pass on .csgv series). They see the extent that holds every step (the
+  // inputs' headers); each step's output has its own (SwitchStep).
+  vtkInternals& in = *this->Internals;
+  int whole[6];
+  outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+  csgv::InputOptions options;
+  options.allowOutsidePaths = this->AllowOutsidePaths != 0;
+  const uint32_t levels = csgv::levelCount(static_cast<uint32_t>(this->BrickSize));
+  const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels - 1);
+  for (size_t i = 0; i < in.Inputs.size(); ++i)
+  {
+    if (int(i) == in.Step)
+    {
+      continue; // described already
+    }
+    const csgvvtk::InputLocation location = csgvvtk::locateInput(in.Inputs[i]);
+    csgv::Result<std::unique_ptr<csgv::InputSource>> source =
+      location.Error.empty() ? csgvvtk::openSource(location, options)
+                             : csgv::Result<std::unique_ptr<csgv::InputSource>>(csgv::Status::error(location.Error));
+    if (!source)
+    {
+      continue; // said when the step is shown
+    }
+    const std::array<uint32_t, 3> ld = csgv::lodDimensions((*source)->info().dim, lod);
+    for (int a = 0; a < 3; ++a)
+    {
+      whole[2 * a] = 0;
+      whole[2 * a + 1] = std::max(whole[2 * a + 1], int(ld[size_t(a)]));
+    }
+  }
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole, 6);
 }
 
 vtkTypeBool vtkCSGVInputReader::ProcessRequest(
@@ -299,6 +341,11 @@ void vtkCSGVInputReader::SwitchStep(vtkInformation* outInfo)
   {
     this->PrepareInput(outInfo);
   }
+  else
+  {
+    // The step's own extent, not the one of every step that RequestInformation announced.
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), in.StepExtent, 6);
+  }
   csgvvtk::AskWholeExtent(outInfo);
 }
 
@@ -309,6 +356,7 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   in.Cache.clear();
   const int empty[6] = { 0, -1, 0, -1, 0, -1 };
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), empty, 6);
+  std::copy(empty, empty + 6, in.StepExtent);
   in.Location = this->SeriesMode == ImageStack ? csgvvtk::locateStack(in.Inputs)
                                                : csgvvtk::locateInput(in.Inputs[size_t(in.Step)]);
   if (!in.Location.Error.empty())
@@ -345,6 +393,7 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
     }
     // Sub-extents, as before the cache exists (the cached .csgv is read whole by one reader).
     outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
+    outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), in.StepExtent);
     in.Failed = false;
     return;
   }
@@ -393,6 +442,7 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   outInfo->Set(vtkCSGVReader::CSGV_LEVELS(), int(levels));
   outInfo->Set(vtkCSGVReader::CSGV_GEOMETRY(), geometry15, 15);
   outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
+  std::copy(extent, extent + 6, in.StepExtent);
   in.Failed = false;
 }
 

@@ -151,6 +151,8 @@ protected:
   /// Time-dependent information, as vtkCSGVReader (SwitchStep there).
   vtkTypeBool ProcessRequest(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  /// A time series: the whole extent that holds every step, for consumers (RequestInformation).
+  void AnnounceEveryStep(vtkInformation* outInfo);
   void SwitchStep(vtkInformation* outInfo);
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 

@@ -46,6 +46,10 @@ for sub in ('good', 'bad'):
 os.makedirs(tmp + '/vols')
 for i, v in enumerate(np.load(tmp + '/vols.npy')):
     tifffile.imwrite('%s/vols/vol_t%d.tif' % (tmp, i), v, photometric='minisblack')  # multi-page: 3D
+os.makedirs(tmp + '/grow')
+v = np.load(tmp + '/vols.npy')
+tifffile.imwrite(tmp + '/grow/g_t0.tif', np.ascontiguousarray(v[0][:3, :10, :12]), photometric='minisblack')
+tifffile.imwrite(tmp + '/grow/g_t1.tif', v[1], photometric='minisblack')  # larger on every axis
 """, tmp], check=True)
 good = [os.path.join(tmp, "good", "slice_%04d.tif" % i) for i in range(N)]
 bad = [os.path.join(tmp, "bad", "slice_%04d.tif" % i) for i in range(N)]
@@ -162,6 +166,22 @@ for step in (1, 2, 0):
             np.array_equal(labels, vols[step].ravel().astype(np.uint64)),
             "time %d shows %s (%s)" % (step, os.path.basename(three_d[step]), dims))
 t.check(os.path.isfile(three_d[1] + ".csgv"), "each time step has its own cache")
+Delete(r)
+
+# A later step larger than the first is shown whole (found by an attack pass on .csgv series:
+# consumers kept the first step's extent and cropped later ones to it).
+grow = [os.path.join(tmp, "grow", "g_t%d.tif" % i) for i in range(2)]
+r = SegmentationCSGV(FileNames=grow)
+gview = t.render_view(64, 64)
+gshow = Show(r, gview)
+gshow.SetRepresentationType("Segmentation Volume")
+for time, dims in ((0.0, (12, 10, 3)), (1.0, (W, H, 4)), (0.0, (12, 10, 3)), (1.0, (W, H, 4))):
+    gview.ViewTime = time
+    Render(gview)
+    bounds = gshow.GetRepresentedDataInformation().GetBounds()
+    t.check(tuple(int(round(bounds[2 * a + 1] - bounds[2 * a])) for a in range(3)) == dims,
+            "a larger later step, time %d: the volume's bounds %s are the step's %s" % (time, bounds, dims))
+Delete(gview)
 Delete(r)
 
 # A first file that cannot be read does not hide the series: the next file that can decides.
