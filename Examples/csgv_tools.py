@@ -30,8 +30,9 @@ DEFAULT_DOCUMENT = {"version": 1, "materials": [
      "color": {"mode": "random"}}]}
 
 
-# pqCSGV::kBelowLabelsGrey (Plugin/CSGV/pqCSGVMaterialDocument.h).
+# pqCSGV::kBelowLabelsGrey and kLabelMargin (Plugin/CSGV/pqCSGVMaterialDocument.h).
 BELOW_LABELS_GREY = 0.5
+LABEL_MARGIN = 0.5
 
 
 def _smproxy(display):
@@ -90,9 +91,14 @@ def pick(display, x, y):
 
 def label_image(display):
     """The last render's label image as a numpy uint32 array (rows, columns), row 0 at the
-    bottom; 0xFFFFFFFF where no opaque voxel was hit."""
+    bottom: the label a pick reports at each pixel (the first opaque surface's, else the first
+    semi-transparent one's), 0xFFFFFFFF where none. Empty (0 x 0) when the last render drew
+    nothing (an error, hidden); RuntimeError for a display that was deleted."""
     import numpy as np
-    w, h, data = query(display, "labels").split(" ", 2)
+    reply = query(display, "labels")
+    if reply.startswith("{"):
+        raise RuntimeError(json.loads(reply).get("error", reply))
+    w, h, data = (reply.split(" ", 2) + ["", "", ""])[:3]
     w, h = int(w), int(h)
     a = np.frombuffer(base64.b64decode(data), dtype="<u4") if w * h else np.zeros(0, "<u4")
     return a.reshape(h, w)
@@ -214,7 +220,7 @@ def labels_matching(display, condition):
 
 
 def labels_in_rectangle(display, x0, y0, x1, y1):
-    """The labels the display's last render shows (first opaque hits) in the pixel rectangle
+    """The labels the display's last render shows (what picks report) in the pixel rectangle
     [x0, x1] x [y0, y1] (inclusive, origin bottom left), ascending: what ParaView's rectangle
     selection tools select in the GUI."""
     img = label_image(display)
@@ -256,6 +262,9 @@ def apply_label_colors(display, target_display=None, array=None, max_labels=4096
     # Read as a continuous map (categories unticked), each label keeps its colour too, as in the
     # material editor's export (pqCSGV::labelColorTable).
     if points:
+        # Half a label beyond both ends (pqCSGV::kLabelMargin): a label at the range's end drew
+        # the below-range colour on a Slice.
+        points = [points[0] - LABEL_MARGIN] + points[1:4] + points + [points[-4] + LABEL_MARGIN] + points[-3:]
         lut.RGBPoints = points
         lut.ColorSpace = "RGB"
         lut.Discretize = 0

@@ -461,7 +461,9 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     return labelColorsJson(drawn, table.get(), *source.shared, cap);
   }
   static const csgv::gpu::FrameOutput nothing;
-  const csgv::gpu::FrameOutput& out = c.view ? c.view->output(csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth | csgv::gpu::Renderer::GBuffer) : nothing;
+  const csgv::gpu::FrameOutput& out = c.view && c.drawn
+    ? c.view->output(csgv::gpu::Renderer::Color | csgv::gpu::Renderer::Depth | csgv::gpu::Renderer::GBuffer)
+    : nothing;
   if (what == "labels")
   {
     // "W H base64(uint32 little-endian labels, row 0 at the bottom)" of the last render.
@@ -490,7 +492,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     }
     if (x < 0 || y < 0 || size_t(x) >= out.width || size_t(y) >= out.height || out.label.empty())
     {
-      r["error"] = "no rendered pixel there";
+      r["error"] = c.drawn ? "no rendered pixel there" : "nothing drawn in the view's last render (its message says why)";
       return r.dump(-1, ' ', false, json::error_handler_t::replace);
     }
     const size_t i = size_t(y) * out.width + size_t(x);

@@ -64,6 +64,7 @@ struct QueryContext
   AttributeCache* attributes = nullptr;
   const AttributeConfig* config = nullptr;
   ViewRenderer* view = nullptr; ///< the last render (label image, G-buffer, camera)
+  bool drawn = true;            ///< the view's last render drew it (else no pixels to answer)
 };
 
 /// Answers one request of the table above.

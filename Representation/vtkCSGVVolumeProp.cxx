@@ -158,6 +158,11 @@ struct vtkCSGVVolumeProp::Impl
   unsigned long WatchTag = 0;
   bool FramePending = true;
   bool FrameReady = false;  ///< the render's frame is in the textures
+  /// The view's last output is what the last render of the renderer showed: cleared when the
+  /// renderer starts a render, set when this prop's frame is ready. A render that drew nothing
+  /// (an error, invalid materials, the display hidden) leaves it clear, so picks and the label
+  /// image do not answer an older frame's pixels (found by an attack pass).
+  bool ShowsLastFrame = false;
   int FrameRect[4] = {};    ///< its non-empty pixels in the tile: x, y, width, height
   // The output rectangle the textures were last uploaded from: outside it they hold empty texels,
   // as the output does outside its own rectangle (csgv::gpu::FrameOutput::rect).
@@ -329,6 +334,13 @@ double* vtkCSGVVolumeProp::GetBounds()
 bool vtkCSGVVolumeProp::LastLabels(
   uint32_t& width, uint32_t& height, std::vector<uint32_t>& labels, std::vector<float>& depths)
 {
+  if (!this->P->ShowsLastFrame)
+  {
+    width = height = 0; // the last render drew nothing here
+    labels.clear();
+    depths.clear();
+    return false;
+  }
   const csgv::gpu::FrameOutput& out = this->P->View.output(csgv::gpu::Renderer::GBuffer);
   width = out.width;
   height = out.height;
@@ -844,8 +856,17 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
     }
     vtkNew<vtkCallbackCommand> onStart;
     onStart->SetClientData(&p);
-    onStart->SetCallback([](vtkObject*, unsigned long, void* impl, void*)
-      { static_cast<Impl*>(impl)->FramePending = true; });
+    onStart->SetCallback([](vtkObject* caller, unsigned long, void* impl, void*)
+      {
+        static_cast<Impl*>(impl)->FramePending = true;
+        // A hardware selection's render (ParaView's rectangle tools) draws no frame of ours and
+        // leaves the screen as it was.
+        auto* renderer = vtkRenderer::SafeDownCast(caller);
+        if (!renderer || !renderer->GetSelector())
+        {
+          static_cast<Impl*>(impl)->ShowsLastFrame = false;
+        }
+      });
     p.WatchTag = ren->AddObserver(vtkCommand::StartEvent, onStart);
     p.Watched = ren;
     p.FramePending = true;
@@ -854,6 +875,7 @@ int vtkCSGVVolumeProp::Draw(vtkViewport* viewport, bool opaquePass)
   {
     p.FramePending = false;
     p.FrameReady = this->RenderFrame(ren, win, opaquePass);
+    p.ShowsLastFrame = p.FrameReady;
   }
   if (!p.FrameReady)
   {
@@ -1018,6 +1040,7 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   c.attributes = &p.Attributes;
   c.config = &p.Config;
   c.view = &p.View;
+  c.drawn = p.ShowsLastFrame;
   // A request comes from any client or script: whatever it holds, the session goes on.
   try
   {

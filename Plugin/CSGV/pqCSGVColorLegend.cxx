@@ -12,6 +12,7 @@
 #include <vtkSMPVRepresentationProxy.h>
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
+#include <vtkSMTrace.h>
 #include <vtkSMTransferFunctionProxy.h>
 
 #include <QTimer>
@@ -101,8 +102,11 @@ void pqCSGVColorLegend::propertyModified(vtkObject* object, unsigned long, void*
 
 void pqCSGVColorLegend::update(vtkSMProxy* proxy)
 {
-  // Follows the user's change (colouring, materials) and is undone with it: no undo steps of its own.
+  // Follows the user's change (colouring, materials) and is undone with it: no undo steps of its own,
+  // and no trace lines (a trace replays the user's change, which makes the legend again; each
+  // selection edit traced the whole table and a name that would not exist on replay: GUI pass).
   pqScopedUndoExclude exclude;
+  SM_SCOPED_TRACE(BlockTraceItems);
   const QString representation = vtkSMPropertyHelper(proxy, "Representation", true).GetAsString();
   const QString colorBy = vtkSMPropertyHelper(proxy, "ColorArrayName", true).GetInputArrayNameToProcess();
   pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
@@ -115,7 +119,7 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
     // this class set): its legend goes unless another display uses it.
     if (shared && view && colorBy.isEmpty())
     {
-      hideUnusedLegend(shared, view);
+      pqCSGV::hideUnusedLegend(shared, view);
     }
     return;
   }
@@ -135,34 +139,9 @@ void pqCSGVColorLegend::update(vtkSMProxy* proxy)
     proxy->UpdateVTKObjects();
     if (shared)
     {
-      hideUnusedLegend(shared, view);
+      pqCSGV::hideUnusedLegend(shared, view);
     }
   }
   pqCSGV::showLegend(own, labels, proxy, view);
   view->render();
-}
-
-void pqCSGVColorLegend::hideUnusedLegend(vtkSMProxy* lut, pqView* view)
-{
-  // ParaView showed the shared table's legend when the colouring was chosen; no other visible
-  // display of the view maps its data through that table now: it goes.
-  for (pqRepresentation* r : view->getRepresentations())
-  {
-    vtkSMProxy* other = r ? r->getProxy() : nullptr;
-    if (r && r->isVisible() && other && other->GetProperty("LookupTable") &&
-      vtkSMPropertyHelper(other, "LookupTable", true).GetAsProxy() == lut &&
-      other->GetProperty("ColorArrayName"))
-    {
-      const char* array = vtkSMPropertyHelper(other, "ColorArrayName", true).GetInputArrayNameToProcess();
-      if (array && *array)
-      {
-        return;
-      }
-    }
-  }
-  if (vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy()))
-  {
-    vtkSMPropertyHelper(bar, "Visibility").Set(0);
-    bar->UpdateVTKObjects();
-  }
 }

@@ -43,8 +43,6 @@ private:
   void propertyModified(vtkObject* proxy, unsigned long, void* name);
   /// Gives the display its own legend when it is a Segmentation Volume coloured by its labels.
   void update(vtkSMProxy* proxy);
-  /// Hides `lut`'s legend in `view` unless a visible display there maps its data through it.
-  static void hideUnusedLegend(vtkSMProxy* lut, pqView* view);
 
   QMap<vtkSMProxy*, unsigned long> Observed; ///< proxy -> its PropertyModifiedEvent observer
   QSet<vtkSMProxy*> Pending;                 ///< updates queued for the event loop

@@ -174,6 +174,12 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, const QString& array, QString* 
   // Cool to Warm over 0..1, which described nothing drawn (found by a GUI pass).
   if (ascending && !points.empty())
   {
+    // Half a label beyond the first and the last: a value exactly at the range's end took the
+    // below-range colour's slot of a surface's colour texture (label 1 of a Slice drew black,
+    // found by a GUI pass).
+    const std::vector<double> first(points.begin(), points.begin() + 4), last(points.end() - 4, points.end());
+    points.insert(points.begin(), { first[0] - kLabelMargin, first[1], first[2], first[3] });
+    points.insert(points.end(), { last[0] + kLabelMargin, last[1], last[2], last[3] });
     vtkSMPropertyHelper(lut, "RGBPoints").Set(points.data(), unsigned(points.size()));
     vtkSMPropertyHelper(lut, "ColorSpace").Set(0); // RGB: between two labels, no hue of its own
     vtkSMPropertyHelper(lut, "Discretize").Set(0); // 256 bins would blend labels that share one
@@ -218,7 +224,37 @@ void showLegend(vtkSMProxy* lut, const QString& array, vtkSMProxy* display, pqVi
   vtkSMPropertyHelper(bar, "DrawAnnotations").Set(fits ? 1 : 0);
   const QString title = fits ? array : QString("%1: %2 labels (names: View > Segmentation Pick)").arg(array).arg(labels);
   vtkSMPropertyHelper(bar, "Title").Set(title.toUtf8().constData());
+  // Labels are integers: read as a continuous bar (categories unticked), its numbers say them
+  // whole, not "1.2e+02" (GUI pass).
+  vtkSMPropertyHelper(bar, "AutomaticLabelFormat").Set(0);
+  vtkSMPropertyHelper(bar, "LabelFormat").Set("%.10g");
+  vtkSMPropertyHelper(bar, "RangeLabelFormat").Set("%.10g");
   bar->UpdateVTKObjects();
+}
+
+void hideUnusedLegend(vtkSMProxy* lut, pqView* view)
+{
+  // ParaView showed the shared table's legend when the colouring was chosen; no other visible
+  // display of the view maps its data through that table now: it goes.
+  for (pqRepresentation* r : view->getRepresentations())
+  {
+    vtkSMProxy* other = r ? r->getProxy() : nullptr;
+    if (r && r->isVisible() && other && other->GetProperty("LookupTable") &&
+      vtkSMPropertyHelper(other, "LookupTable", true).GetAsProxy() == lut &&
+      other->GetProperty("ColorArrayName"))
+    {
+      const char* array = vtkSMPropertyHelper(other, "ColorArrayName", true).GetInputArrayNameToProcess();
+      if (array && *array)
+      {
+        return;
+      }
+    }
+  }
+  if (vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy()))
+  {
+    vtkSMPropertyHelper(bar, "Visibility").Set(0);
+    bar->UpdateVTKObjects();
+  }
 }
 
 QString exportLabelColors(vtkSMProxy* display)
@@ -250,11 +286,16 @@ QString exportLabelColors(vtkSMProxy* display)
       !proxy->GetProperty("ColorArrayName") ||
       QString(vtkSMPropertyHelper(proxy, "ColorArrayName").GetInputArrayNameToProcess()) != array)
       continue;
+    vtkSMProxy* before = vtkSMPropertyHelper(proxy, "LookupTable", true).GetAsProxy();
     vtkSMPropertyHelper(proxy, "LookupTable").Set(lut);
     proxy->UpdateVTKObjects();
     if (r->isVisible())
     {
       showLegend(lut, array, proxy, r->getView());
+    }
+    if (before && before != lut && r->getView())
+    {
+      hideUnusedLegend(before, r->getView()); // the shared table's legend stayed (GUI pass)
     }
     if (r->getView())
     {

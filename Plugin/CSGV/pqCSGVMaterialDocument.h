@@ -66,6 +66,8 @@ vtkSMProxy* labelColorTable(vtkSMProxy* display, const QString& array, QString* 
 /// Shows `lut`'s legend (titled `array`) for `display` in `view`, one entry per label up to
 /// kLegendLabels, else the colours alone under a title that names the count.
 void showLegend(vtkSMProxy* lut, const QString& array, vtkSMProxy* display, pqView* view);
+/// Hides `lut`'s legend in `view` unless a visible display there maps its data through it.
+void hideUnusedLegend(vtkSMProxy* lut, pqView* view);
 /// The folder of the file the display's data was read from (its pipeline source's file name
 /// property), where attribute files usually lie; empty when the data has no file.
 QString dataFolder(vtkSMProxy* display);
@@ -77,6 +79,9 @@ constexpr int kLegendLabels = 40;
 /// The grey a label table read as a continuous map gives values below its first label (0, which
 /// the volume leaves empty). Examples/csgv_tools.py keeps a copy (BELOW_LABELS_GREY).
 constexpr double kBelowLabelsGrey = 0.5;
+/// How far that continuous map reaches beyond its first and last label, so that neither lies at
+/// the range's end. Examples/csgv_tools.py keeps a copy (LABEL_MARGIN).
+constexpr double kLabelMargin = 0.5;
 
 } // namespace pqCSGV
 

@@ -584,7 +584,56 @@ private Q_SLOTS:
     const char* colored = vtkSMPropertyHelper(proxy, "ColorArrayName").GetInputArrayNameToProcess();
     QVERIFY2(!colored || !*colored, "one undo: the display is not coloured by the labels any more");
     QVERIFY2(!visible(own) && !visible(shared), "no legend stays after the undo");
+    // A selection edit of a display coloured by its labels is traced as the edit alone: the legend
+    // made again after it is no trace item (each edit traced the whole table, its colours and
+    // legend: found by a GUI pass).
+    core->getUndoStack()->redo();
+    QTest::qWait(100);
+    std::vector<uint32_t> shown = pqCSGV::labelsInRectangle(proxy, 0, 0, 159, 159);
+    shown.erase(std::remove(shown.begin(), shown.end(), 0u), shown.end());
+    QVERIFY(!shown.empty());
+    QVERIFY(vtkSMTrace::StartTrace());
+    QVERIFY(pqCSGVLabelSelection::edit(proxy, { shown[0] }, csgv::SelectionEdit::Replace, "Select labels"));
+    QTest::qWait(200); // the legend follows from the event loop
+    const std::string traced = vtkSMTrace::StopTrace();
+    QVERIFY2(traced.find("CSGVMaterials") != std::string::npos, traced.c_str());
+    // (ParaView's trace still names the tables of coloured displays at its end.)
+    QVERIFY2(traced.find("IndexedColors") == std::string::npos &&
+        traced.find("SetScalarBarVisibility") == std::string::npos, traced.c_str());
     legends.shutdown();
+    builder->destroy(source);
+    builder->destroy(view);
+  }
+
+  /// Export colours gives a Slice of the data the table of its own and hides the legend of the
+  /// label array's shared table it was coloured by (it stayed on screen: found by a GUI pass).
+  void exportReplacesTheSharedLegend()
+  {
+    pqPipelineSource* source = nullptr;
+    pqRenderView* view = nullptr;
+    vtkSMProxy* volume = this->shownInNewView(source, view);
+    QVERIFY(volume);
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqPipelineSource* slice = builder->createFilter("filters", "Cut", source);
+    QVERIFY(slice);
+    pqDataRepresentation* shown = builder->createDataRepresentation(slice->getOutputPort(0), view);
+    QVERIFY(shown);
+    const QString array = pqCSGV::labelArrayOf(volume);
+    QVERIFY(vtkSMPVRepresentationProxy::SetScalarColoring(shown->getProxy(), array.toUtf8().constData(), vtkDataObject::CELL));
+    QVERIFY(vtkSMPVRepresentationProxy::SetScalarBarVisibility(shown->getProxy(), view->getProxy(), true));
+    vtkSMProxy* shared = vtkSMPropertyHelper(shown->getProxy(), "LookupTable").GetAsProxy();
+    QVERIFY(shared);
+    auto visible = [&](vtkSMProxy* lut) {
+      vtkSMProxy* bar = vtkSMTransferFunctionProxy::FindScalarBarRepresentation(lut, view->getProxy());
+      return bar && vtkSMPropertyHelper(bar, "Visibility").GetAsInt() != 0;
+    };
+    QVERIFY(visible(shared));
+    const QString message = pqCSGV::exportLabelColors(volume);
+    vtkSMProxy* own = vtkSMPropertyHelper(shown->getProxy(), "LookupTable").GetAsProxy();
+    QVERIFY2(own && own != shared, qPrintable(message));
+    QVERIFY2(visible(own), "the exported table's legend shows");
+    QVERIFY2(!visible(shared), "the shared table's legend is hidden (nothing else uses it)");
+    builder->destroy(slice);
     builder->destroy(source);
     builder->destroy(view);
   }

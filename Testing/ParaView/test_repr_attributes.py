@@ -270,6 +270,21 @@ rgb = [0.0, 0.0, 0.0]
 off = [e[0] for e in colors["labels"] if ctf.GetColor(e[0], rgb) or not np.allclose(rgb, e[1:4], atol=1e-6)]
 lut.InterpretValuesAsCategories = 1
 t.check(not off, "read as a continuous map, each label keeps its colour (%d differ)" % len(off))
+# ... also drawn: a Slice through label 1 (the first label) coloured so shows no black (label 1
+# took the below-range colour's slot of the colour texture: found by a GUI pass).
+Hide(aal, v2)
+sl.SliceType.Origin = [0, 0, 19]
+v2.CameraPosition = [0, -18, 500]
+v2.CameraFocalPoint = [0, -18, 19]
+v2.CameraViewUp = [0, 1, 0]
+v2.ResetCamera()
+lut.InterpretValuesAsCategories = 0
+flat = t.screenshot(v2, 320, 240, "slice_continuous.png")
+lut.InterpretValuesAsCategories = 1
+black = int(np.count_nonzero(flat.max(axis=2) < 8))
+t.check(black == 0 and len(np.unique(flat.reshape(-1, flat.shape[2]), axis=0)) > 20,
+        "a Slice coloured by the continuous map: no black pixels (%d)" % black)
+Show(aal, v2)
 t.check(ds.ColorArrayName[1] == s["labelArray"], "the slice is coloured by %s" % s["labelArray"])
 shared = GetColorTransferFunction(s["labelArray"])
 t.check(lut.SMProxy != shared.SMProxy and shared.InterpretValuesAsCategories == 0 and ds.LookupTable.SMProxy == lut.SMProxy,

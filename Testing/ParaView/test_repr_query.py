@@ -211,5 +211,29 @@ t.check("no Segmentation Volume representation" in wrong.get("error", "") and "A
 Delete(dw)
 gone = json.loads(ct.query(dw, "summary"))
 t.check("deleted" in gone.get("error", ""), "a deleted display's query says so (%s)" % gone)
+try:
+    ct.label_image(dw)
+    said = "no error"
+except RuntimeError as e:
+    said = str(e)
+t.check("deleted" in said, "its label image says so too (%s)" % said)
+
+# A render that draws nothing (an error) leaves no pixels to answer: picks and the label image
+# answered the frame before (found by an attack pass), which the screen no longer showed.
+Render(v)
+shown = ct.label_image(d)
+ys, xs = np.nonzero(shown != 0xFFFFFFFF)
+x, y = int(xs[len(xs) // 2]), int(ys[len(ys) // 2])
+t.check(ct.pick(d, x, y)["hit"], "a drawn frame: a hit at (%d, %d)" % (x, y))
+for name, broken, fixed in (("Scale", [0, 1, 1], [1, 1, 1]), ("CSGVMaterials", "{oops", "")):
+    with t.ErrorLog():
+        setattr(d, name, broken)
+        Render(v)
+    p = ct.pick(d, x, y)
+    t.check(p["hit"] is False and "nothing drawn" in p.get("error", "") and ct.label_image(d).size == 0,
+            "%s %r drew nothing: no hit (%s), an empty label image" % (name, broken, p.get("error")))
+    setattr(d, name, fixed)
+    Render(v)
+    t.check(ct.pick(d, x, y)["hit"] and np.array_equal(ct.label_image(d), shown), "drawn again: the same pixels")
 Delete(wavelet)
 t.finish()
