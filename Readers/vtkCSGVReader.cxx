@@ -442,14 +442,16 @@ int vtkCSGVReader::RequestInformation(
       {
         continue; // read whole to be described: its extent is announced when it is shown
       }
-      csgv::Result<csgv::CsgvFile> file = csgv::openCsgvHeader(path);
-      if (!file)
+      // The header and brick starts alone (no sidecars: a step's attribute database is read
+      // when the step is shown).
+      csgv::Result<csgv::CompressedVolume> header = csgv::readCsgvHeader(path);
+      if (!header)
       {
         continue; // said when the step is shown
       }
-      const uint32_t levels = file->volume.levels();
+      const uint32_t levels = header->levels();
       const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels > 0 ? levels - 1 : 0);
-      const std::array<uint32_t, 3> ld = csgv::lodDimensions(file->volume.dim, lod);
+      const std::array<uint32_t, 3> ld = csgv::lodDimensions(header->dim, lod);
       for (int a = 0; a < 3; ++a)
       {
         whole[2 * a] = 0;
