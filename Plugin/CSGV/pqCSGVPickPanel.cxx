@@ -373,8 +373,21 @@ void pqCSGVPickPanel::updateSelectionInfo()
 {
   vtkSMProxy* display = this->selectionDisplay();
   const std::vector<uint32_t> labels = pqCSGV::selectedLabels(display);
-  this->ClearSelection->setEnabled(!labels.empty());
-  this->ExtractSelection->setEnabled(!labels.empty());
+  for (QPushButton* b : { this->ClearSelection, this->ExtractSelection })
+  {
+    if (labels.empty() && b->hasFocus())
+    {
+      // A focused button that is disabled hands the focus to the next field, the SQL box, which
+      // then took the view's shortcut keys ('s' for Select Cells: found by a GUI pass): the view
+      // takes it.
+      b->clearFocus();
+      if (this->View && this->View->widget())
+      {
+        this->View->widget()->setFocus();
+      }
+    }
+    b->setEnabled(!labels.empty());
+  }
   if (!display || labels.empty())
   {
     this->SelectionInfo->setText("No label selected.");
