@@ -3,6 +3,8 @@
 // label range, piece and attribute arrays written (add*) and read back (readEncodingArrays).
 #include "CSGVAdapter.h"
 
+#include "csgv/base/MappedFile.h"
+
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
@@ -433,6 +435,12 @@ std::shared_ptr<const EncodedInput> EncodingMemo::get(vtkFieldData* fd, std::str
   {
     auto parsed = std::make_shared<EncodedInput>();
     this->Error = readEncodingArrays(fd, *parsed);
+    if (!this->Error.empty() && enc && enc->GetNumberOfValues() > 0 && csgv::MappedFile::rewrittenAt(enc->GetPointer(0)))
+    {
+      // The reader's view of a file that was written over while it was open (an attack pass saw
+      // only "unexpected bytes after the last field").
+      this->Error = "the .csgv file changed on disk while it was open: reload it (File > Reload Files; " + this->Error + ")";
+    }
     this->Parsed = this->Error.empty() ? parsed : nullptr;
     this->Array = enc;
     this->MTime = mtime;

@@ -129,7 +129,10 @@ int vtkCSGVLabelTable::RequestData(
   std::shared_ptr<const csgvvtk::EncodedInput> parsed = this->Internals->Encoding.get(input->GetFieldData(), error);
   if (!parsed)
   {
-    vtkErrorMacro(<< error << " (apply CSGV Label Table to the CSGV reader's output)");
+    vtkErrorMacro(<< error
+                  << (error.find("changed on disk") == std::string::npos
+                         ? " (apply CSGV Label Table to the CSGV reader's output)"
+                         : ""));
     return 1; // reported once; the output stays empty
   }
   const csgv::CsgvFile file = csgvvtk::fileOfInput(*parsed, input->GetFieldData());

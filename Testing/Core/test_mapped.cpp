@@ -362,6 +362,29 @@ TEST(Mapped, ACopyOnWriteMappingTakesWritesAndLeavesTheFile) {
     EXPECT_TRUE(MappedFile::mappedAt(p));
 }
 
+TEST(Mapped, ABrickOfAFileWrittenOverUnderItsMappingFailsToDecodeNamingTheCause) {
+    // Written over in place (same inode) by another volume: the mapping reads the new bytes; the
+    // error says the file changed (an attack pass saw only "level 0 start is 3465706103").
+    const std::vector<uint8_t> bytes = fixtureBytes("synthA_b32_rans2.csgv");
+    const std::string path = writeTemp("written-over.csgv", bytes);
+    Result<CompressedVolume> mapped = readCsgvMapped(path);
+    ASSERT_TRUE(mapped.isOk()) << mapped.message();
+    EXPECT_FALSE(MappedFile::rewrittenAt(mapped->brick(0).words.bytes()));
+    const std::vector<uint8_t> other = fixtureBytes("denseB_b32_rans1.csgv");
+    std::this_thread::sleep_for(std::chrono::milliseconds(20)); // a modification time of its own
+    {
+        std::fstream out(path, std::ios::in | std::ios::out | std::ios::binary);
+        out.write(reinterpret_cast<const char*>(other.data()), std::streamsize(std::min(other.size(), bytes.size())));
+    }
+    EXPECT_TRUE(MappedFile::rewrittenAt(mapped->brick(0).words.bytes()));
+    BrickDecoder d(*mapped);
+    Status failed = Status::ok();
+    for (uint64_t b = 0; b < mapped->brickCount() && failed; ++b) failed = d.decode(b, 0);
+    ASSERT_FALSE(failed.isOk()) << "some brick of another volume's bytes fails";
+    EXPECT_NE(failed.message().find("changed on disk while it was open (it was written over)"), std::string::npos)
+        << failed.message();
+}
+
 TEST(Mapped, ABrickOfAFileCutShortUnderItsMappingFailsToDecodeNamingTheCause) {
     // Zeros may even decode; the decoder refuses a brick that reached a page of zeros.
     const std::string name = "synthA_b32_rans2.csgv";

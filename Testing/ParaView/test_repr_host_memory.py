@@ -179,4 +179,28 @@ for budget in (0, 1):
     said = "changed on disk" in log.text or "truncated" in log.text or "changed while it was read" in log.text
     t.check(said, "budget %d: a file cut short while open is named, no crash: %r" % (budget, log.text[-300:]))
     Delete(s3)
+
+# A file written over in place while it is open (the same inode, another volume's bytes): the
+# renderer and CSGV Extract Labels say the file changed on disk (an attack pass saw "level 0 start
+# is 3465706103" and Extract Labels' advice to apply it to the reader's output, which it was).
+over = os.path.join(t.temp_dir(), "over.csgv")
+with open(path, "rb") as f, open(over, "wb") as g:
+    g.write(f.read())
+s4, v4, d4 = show(over)
+d4.CSGVLODBias = 2  # coarse levels first: the finest are decoded after the file is written over
+t.screenshot(v4, 160, 120, "over_before.png")
+with open(os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv"), "rb") as f:
+    other = f.read()
+with open(over, "r+b") as g:
+    g.write(other)
+    g.truncate(len(other))
+with t.ErrorLog() as log:
+    d4.CSGVLODBias = -3
+    t.screenshot(v4, 160, 120, "over_after.png")
+    ex = CSGVExtractLabels(Input=s4, Labels="1")
+    ex.UpdatePipeline()
+t.check(log.text.count("changed on disk") >= 2 and "reader's output" not in log.text,
+        "a file written over while open is named by the renderer and Extract Labels: %r" % log.text[-400:])
+Delete(ex)
+Delete(s4)
 t.finish()

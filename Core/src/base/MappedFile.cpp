@@ -79,7 +79,10 @@ struct Slot {
     std::atomic<bool> damaged{false};
     std::atomic<uintptr_t> firstDamaged{UINTPTR_MAX}; ///< the lowest page replaced by zeros
     std::atomic<int> fd{-1}; ///< the mapped file, open while mapped (cutShortAt asks its size)
+    std::atomic<int64_t> modified{0}; ///< its modification time when mapped (ns; rewrittenAt)
 };
+
+int64_t modifiedNs(const struct stat& st) { return int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec; }
 Slot g_slots[kSlots];
 std::mutex g_registry;
 struct sigaction g_previous {};
@@ -148,12 +151,13 @@ void installGuard() {
     ::sigaction(SIGBUS, &mine, nullptr);
 }
 
-int registerMapping(const uint8_t* data, size_t size, int fd) {
+int registerMapping(const uint8_t* data, size_t size, int fd, int64_t modified) {
     std::lock_guard<std::mutex> lock(g_registry);
     installGuard();
     for (int i = 0; i < kSlots; ++i) {
         if (g_slots[i].begin.load(std::memory_order_relaxed)) continue;
         g_slots[i].damaged.store(false, std::memory_order_relaxed);
+        g_slots[i].modified.store(modified, std::memory_order_relaxed);
         g_slots[i].firstDamaged.store(UINTPTR_MAX, std::memory_order_relaxed);
         g_slots[i].fd.store(fd, std::memory_order_relaxed);
         g_slots[i].end.store(reinterpret_cast<uintptr_t>(data) + size, std::memory_order_release);
@@ -217,6 +221,15 @@ bool MappedFile::cutShortAt(const void* address, size_t size) {
     return uint64_t(st.st_size) < uint64_t(offset) + size;
 }
 
+bool MappedFile::rewrittenAt(const void* address) {
+    const int slot = findSlot(reinterpret_cast<uintptr_t>(address));
+    if (slot < 0) return false;
+    const int fd = g_slots[slot].fd.load(std::memory_order_acquire);
+    struct stat st {};
+    if (fd < 0 || ::fstat(fd, &st) != 0) return false;
+    return modifiedNs(st) != g_slots[slot].modified.load(std::memory_order_acquire);
+}
+
 bool MappedFile::damaged() const { return m_slot >= 0 && g_slots[m_slot].damaged.load(std::memory_order_acquire); }
 
 bool MappedFile::damagedAt(const void* address, size_t size) {
@@ -275,7 +288,7 @@ Result<std::shared_ptr<const MappedFile>> MappedFile::open(const std::string& pa
                 f->m_mapped = true;
                 f->m_fd = d.fd; // kept open: cutShortAt asks the file's size
                 d.fd = -1;
-                f->m_slot = registerMapping(f->m_data, size, f->m_fd);
+                f->m_slot = registerMapping(f->m_data, size, f->m_fd, modifiedNs(st));
                 return std::shared_ptr<const MappedFile>(std::move(f));
             }
             // Some file systems cannot map (ENODEV); reading still works.

@@ -236,6 +236,12 @@ Status BrickDecoder::decode(uint64_t index, uint32_t lod) {
               : MappedFile::cutShortAt(bw.words.bytes(), size_t(bw.size) * 4))
             return Status::error("brick " + std::to_string(index) +
                                  ": the file changed on disk while it was open (it was cut short)");
+        // A file written over in place reads its new bytes through the mapping: say so, not only
+        // what the decoder found wrong (an attack pass saw "level 0 start is 3465706103").
+        if (!s && MappedFile::rewrittenAt(bw.words.bytes()))
+            return Status::error("brick " + std::to_string(index) +
+                                 ": the file changed on disk while it was open (it was written over); open it "
+                                 "again (" + s.message() + ")");
     }
     return s;
 }

@@ -76,6 +76,10 @@ public:
     /// (a system call): for explaining an error, not for every read. Bytes of the page that holds
     /// the new end read as zeros without a fault, which only this tells.
     static bool cutShortAt(const void* address, size_t size);
+    /// Whether `address` lies in a live mapping of a file that was written to since it was mapped
+    /// (its modification time changed: rewritten in place, the mapping's bytes are the new
+    /// file's). Asks the file (a system call): for explaining an error.
+    static bool rewrittenAt(const void* address);
     /// Whether `address` lies in a live mapping of a file (whose pages release() may drop: they
     /// are read again from the file when touched).
     static bool mappedAt(const void* address);
