@@ -266,12 +266,16 @@ class EncodingMemo
 public:
   /// The parsed arrays of `fd`, or null with the error message.
   std::shared_ptr<const EncodedInput> get(vtkFieldData* fd, std::string& error);
+  /// After a failed get(): what the user of `filter` can do, appended to the message (empty
+  /// when the message says it already: the reader's file was written over while open).
+  std::string advice(const std::string& filter) const;
 
 private:
   const void* Array = nullptr;
   vtkMTimeType MTime = 0;
   std::shared_ptr<const EncodedInput> Parsed;
   std::string Error;
+  bool Rewritten = false; ///< the arrays are a mapping of a file written over since it was opened
 };
 
 /// True when an encoding of level-0 corner geometry `g` and dimensions `dims` describes `image`

@@ -435,7 +435,9 @@ std::shared_ptr<const EncodedInput> EncodingMemo::get(vtkFieldData* fd, std::str
   {
     auto parsed = std::make_shared<EncodedInput>();
     this->Error = readEncodingArrays(fd, *parsed);
-    if (!this->Error.empty() && enc && enc->GetNumberOfValues() > 0 && csgv::MappedFile::rewrittenAt(enc->GetPointer(0)))
+    this->Rewritten =
+      !this->Error.empty() && enc && enc->GetNumberOfValues() > 0 && csgv::MappedFile::rewrittenAt(enc->GetPointer(0));
+    if (this->Rewritten)
     {
       // The reader's view of a file that was written over while it was open (an attack pass saw
       // only "unexpected bytes after the last field").
@@ -447,6 +449,11 @@ std::shared_ptr<const EncodedInput> EncodingMemo::get(vtkFieldData* fd, std::str
   }
   error = this->Error;
   return this->Parsed;
+}
+
+std::string EncodingMemo::advice(const std::string& filter) const
+{
+  return this->Rewritten ? std::string() : " (apply " + filter + " to the CSGV reader's output)";
 }
 
 void applyGeometry(vtkImageData* image, const csgv::Geometry& corner, uint32_t lod)

@@ -4,8 +4,13 @@
 #include <vtkInformation.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include "csgv/codec/Decoder.h"
+
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace csgvvtk
 {
@@ -108,6 +113,49 @@ void ClearSteps(vtkInformation* outInfo)
   outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_RANGE());
   outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_DEPENDENT_INFORMATION());
   outInfo->Remove(vtkStreamingDemandDrivenPipeline::UNRESTRICTED_UPDATE_EXTENT());
+}
+
+std::array<int, 6> LevelExtent(const std::array<uint32_t, 3>& dims, uint32_t lod)
+{
+  const std::array<uint32_t, 3> ld = csgv::lodDimensions(dims, lod);
+  std::array<int, 6> extent{};
+  for (int a = 0; a < 3; ++a)
+  {
+    // A header that lies about its size gives no negative extent.
+    extent[size_t(2 * a + 1)] = int(std::min<uint32_t>(ld[size_t(a)], uint32_t(std::numeric_limits<int>::max())));
+  }
+  return extent;
+}
+
+void HoldStep(int whole[6], const std::array<uint32_t, 3>& dims, uint32_t lod)
+{
+  const std::array<int, 6> step = LevelExtent(dims, lod);
+  for (int a = 0; a < 3; ++a)
+  {
+    whole[2 * a] = 0;
+    whole[2 * a + 1] = std::max(whole[2 * a + 1], step[size_t(2 * a + 1)]);
+  }
+}
+
+bool StepShapes::Get(const std::string& path, const Reader& read, StepShape& shape)
+{
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0)
+  {
+    this->Files.erase(path);
+    return false;
+  }
+  Known& known = this->Files[path];
+  const int64_t modified = int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
+  if (known.Size != int64_t(st.st_size) || known.Modified != modified)
+  {
+    known.Size = int64_t(st.st_size);
+    known.Modified = modified;
+    known.Shape = StepShape{};
+    known.Read = read(path, known.Shape);
+  }
+  shape = known.Shape;
+  return known.Read;
 }
 
 void AskWholeExtent(vtkInformation* outInfo)

@@ -18,6 +18,10 @@
 #ifndef CSGVFileSeries_h
 #define CSGVFileSeries_h
 
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -59,6 +63,42 @@ void AnnounceSteps(vtkInformation* outInfo, int steps);
 
 /// Removes what AnnounceSteps published.
 void ClearSteps(vtkInformation* outInfo);
+
+/// The point extent of a volume of `dims` cells at level `lod` (held within an int's range).
+std::array<int, 6> LevelExtent(const std::array<uint32_t, 3>& dims, uint32_t lod);
+
+/// Widens `whole` (a point extent, possibly empty) to hold LevelExtent(dims, lod). A series
+/// announces at RequestInformation the extent that holds every step: consumers keep the extent
+/// they see then and crop any step to it.
+void HoldStep(int whole[6], const std::array<uint32_t, 3>& dims, uint32_t lod);
+
+/// What a series needs of a step's file to announce its extent.
+struct StepShape
+{
+  std::array<uint32_t, 3> Dims{}; ///< cells at level 0
+  uint32_t Levels = 0;            ///< levels of detail the file holds (0: the reader's own count)
+};
+
+/// @brief The shapes of a series' files, read once per version of each file (its size and
+/// modification time): RequestInformation runs at every change of a reader's property, and
+/// reading every step's header each time would read the series again and again.
+class StepShapes
+{
+public:
+  /// Reads a file's shape; false when it cannot (its step says why when it is shown).
+  using Reader = std::function<bool(const std::string& path, StepShape& shape)>;
+  /// Whether `path`'s shape is known, reading it with `read` for a new version of the file.
+  bool Get(const std::string& path, const Reader& read, StepShape& shape);
+
+private:
+  struct Known
+  {
+    int64_t Size = -1, Modified = 0;
+    bool Read = false;
+    StepShape Shape;
+  };
+  std::map<std::string, Known> Files;
+};
 
 /// A series reader's update extent is the current step's whole extent, whatever was asked.
 /// Consumers downstream (ParaView's post filter, representations, filters) keep the extent of the

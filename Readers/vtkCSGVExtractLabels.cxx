@@ -341,10 +341,7 @@ int vtkCSGVExtractLabels::RequestData(
   std::shared_ptr<const csgvvtk::EncodedInput> parsed = this->Internals->Encoding.get(input->GetFieldData(), error);
   if (!parsed)
   {
-    vtkErrorMacro(<< error
-                  << (error.find("changed on disk") == std::string::npos
-                         ? " (apply CSGV Extract Labels to the CSGV reader's output)"
-                         : ""));
+    vtkErrorMacro(<< error << this->Internals->Encoding.advice("CSGV Extract Labels"));
     return 1; // reported once; the output stays empty
   }
   const csgv::CsgvFile file = csgvvtk::fileOfInput(*parsed, input->GetFieldData());

@@ -66,6 +66,7 @@ public:
   std::vector<std::string> Inputs;
   int Step = 0;
   int StepExtent[6] = { 0, -1, 0, -1, 0, -1 }; ///< the extent PrepareInput announced for Step
+  csgvvtk::StepShapes Shapes; ///< of a time series' files, for the extent of every step
   /// The reader's MTime and the input's stamp when RequestData last failed: the pipeline asks
   /// again for the extent it announced (an empty output does not cover it), and the same
   /// request must neither compress again nor report again.
@@ -285,27 +286,27 @@ void vtkCSGVInputReader::AnnounceEveryStep(vtkInformation* outInfo)
   outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
   csgv::InputOptions options;
   options.allowOutsidePaths = this->AllowOutsidePaths != 0;
+  const auto readHeader = [&options](const std::string& file, csgvvtk::StepShape& shape) {
+    const csgvvtk::InputLocation location = csgvvtk::locateInput(file);
+    if (!location.Error.empty())
+    {
+      return false;
+    }
+    csgv::Result<std::unique_ptr<csgv::InputSource>> source = csgvvtk::openSource(location, options);
+    if (source)
+    {
+      shape.Dims = (*source)->info().dim;
+    }
+    return source.isOk();
+  };
   const uint32_t levels = csgv::levelCount(static_cast<uint32_t>(this->BrickSize));
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels - 1);
   for (size_t i = 0; i < in.Inputs.size(); ++i)
   {
-    if (int(i) == in.Step)
+    csgvvtk::StepShape shape;
+    if (int(i) != in.Step && in.Shapes.Get(in.Inputs[i], readHeader, shape)) // the step: described already
     {
-      continue; // described already
-    }
-    const csgvvtk::InputLocation location = csgvvtk::locateInput(in.Inputs[i]);
-    csgv::Result<std::unique_ptr<csgv::InputSource>> source =
-      location.Error.empty() ? csgvvtk::openSource(location, options)
-                             : csgv::Result<std::unique_ptr<csgv::InputSource>>(csgv::Status::error(location.Error));
-    if (!source)
-    {
-      continue; // said when the step is shown
-    }
-    const std::array<uint32_t, 3> ld = csgv::lodDimensions((*source)->info().dim, lod);
-    for (int a = 0; a < 3; ++a)
-    {
-      whole[2 * a] = 0;
-      whole[2 * a + 1] = std::max(whole[2 * a + 1], int(ld[size_t(a)]));
+      csgvvtk::HoldStep(whole, shape.Dims, lod);
     }
   }
   outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole, 6);
@@ -422,8 +423,7 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   const csgv::Geometry geometry = csgv::cellGeometryFromPointGeometry(info.geometry);
   const uint32_t levels = csgv::levelCount(static_cast<uint32_t>(this->BrickSize));
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels - 1);
-  const std::array<uint32_t, 3> ld = csgv::lodDimensions(info.dim, lod);
-  const int extent[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
+  const std::array<int, 6> extent = csgvvtk::LevelExtent(info.dim, lod);
   double spacing[3];
   double geometry15[15];
   for (int a = 0; a < 3; ++a)
@@ -434,7 +434,7 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   }
   std::copy(geometry.direction.begin(), geometry.direction.end(), geometry15 + 6);
   const int dims[3] = { int(info.dim[0]), int(info.dim[1]), int(info.dim[2]) };
-  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent.data(), 6);
   outInfo->Set(vtkDataObject::SPACING(), spacing, 3);
   outInfo->Set(vtkDataObject::ORIGIN(), geometry.origin.data(), 3);
   outInfo->Set(vtkDataObject::DIRECTION(), geometry.direction.data(), 9);
@@ -442,7 +442,7 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   outInfo->Set(vtkCSGVReader::CSGV_LEVELS(), int(levels));
   outInfo->Set(vtkCSGVReader::CSGV_GEOMETRY(), geometry15, 15);
   outInfo->Set(vtkAlgorithm::CAN_PRODUCE_SUB_EXTENT(), 1);
-  std::copy(extent, extent + 6, in.StepExtent);
+  std::copy(extent.begin(), extent.end(), in.StepExtent);
   in.Failed = false;
 }
 

@@ -129,10 +129,7 @@ int vtkCSGVLabelTable::RequestData(
   std::shared_ptr<const csgvvtk::EncodedInput> parsed = this->Internals->Encoding.get(input->GetFieldData(), error);
   if (!parsed)
   {
-    vtkErrorMacro(<< error
-                  << (error.find("changed on disk") == std::string::npos
-                         ? " (apply CSGV Label Table to the CSGV reader's output)"
-                         : ""));
+    vtkErrorMacro(<< error << this->Internals->Encoding.advice("CSGV Label Table"));
     return 1; // reported once; the output stays empty
   }
   const csgv::CsgvFile file = csgvvtk::fileOfInput(*parsed, input->GetFieldData());

@@ -48,6 +48,12 @@ bool isVrawName(const std::string& path)
 {
   return csgv::endsWithNoCase(path, ".vraw") || csgv::endsWithNoCase(path, ".vraw.gz");
 }
+
+/// The level of detail `level` asks for, within a file of `levels` levels.
+uint32_t levelWithin(int level, uint32_t levels)
+{
+  return std::min<uint32_t>(static_cast<uint32_t>(std::max(level, 0)), levels > 0 ? levels - 1 : 0);
+}
 } // namespace
 
 /// @brief What a file yields before any decoding, cached while the file is unchanged so that
@@ -58,6 +64,7 @@ class vtkCSGVReader::vtkInternals
 {
 public:
   csgvvtk::FileSeries FileNames; ///< as set (AddFileName)
+  csgvvtk::StepShapes Shapes;    ///< of a series' files, for the extent of every step
   /// What the last RequestInformation chose (FileName alone, or FileNames) and the time step
   /// whose file is described.
   std::vector<std::string> Inputs;
@@ -443,19 +450,20 @@ int vtkCSGVReader::RequestInformation(
         continue; // read whole to be described: its extent is announced when it is shown
       }
       // The header and brick starts alone (no sidecars: a step's attribute database is read
-      // when the step is shown).
-      csgv::Result<csgv::CompressedVolume> header = csgv::readCsgvHeader(path);
-      if (!header)
+      // when the step is shown), once per version of the file.
+      const auto readHeader = [](const std::string& file, csgvvtk::StepShape& shape) {
+        csgv::Result<csgv::CompressedVolume> header = csgv::readCsgvHeader(file);
+        if (header)
+        {
+          shape.Dims = header->dim;
+          shape.Levels = header->levels();
+        }
+        return header.isOk();
+      };
+      csgvvtk::StepShape shape;
+      if (in.Shapes.Get(path, readHeader, shape))
       {
-        continue; // said when the step is shown
-      }
-      const uint32_t levels = header->levels();
-      const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels > 0 ? levels - 1 : 0);
-      const std::array<uint32_t, 3> ld = csgv::lodDimensions(header->dim, lod);
-      for (int a = 0; a < 3; ++a)
-      {
-        whole[2 * a] = 0;
-        whole[2 * a + 1] = std::max(whole[2 * a + 1], int(ld[size_t(a)]));
+        csgvvtk::HoldStep(whole, shape.Dims, levelWithin(this->Level, shape.Levels));
       }
     }
     outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole, 6);
@@ -496,10 +504,8 @@ void vtkCSGVReader::SwitchStep(vtkInformation* outInfo)
   else if (in.Loaded)
   {
     // The step's own extent, not the one of every step that RequestInformation announced.
-    const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
-    const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);
-    const int extent[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
-    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+    const std::array<int, 6> extent = csgvvtk::LevelExtent(in.Dim, levelWithin(this->Level, in.Levels));
+    outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent.data(), 6);
   }
   csgvvtk::AskWholeExtent(outInfo);
 }
@@ -517,16 +523,15 @@ void vtkCSGVReader::DescribeFile(vtkInformation* outInfo)
     return;
   }
   const vtkInternals& in = *this->Internals;
-  const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
-  const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);
-  int extent[6] = { 0, int(ld[0]), 0, int(ld[1]), 0, int(ld[2]) };
+  const uint32_t lod = levelWithin(this->Level, in.Levels);
+  const std::array<int, 6> extent = csgvvtk::LevelExtent(in.Dim, lod);
   const double scale = double(uint64_t(1) << lod);
   double spacing[3];
   for (int a = 0; a < 3; ++a)
   {
     spacing[a] = in.Geometry.spacing[a] * scale;
   }
-  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent.data(), 6);
   outInfo->Set(vtkDataObject::SPACING(), spacing, 3);
   outInfo->Set(vtkDataObject::ORIGIN(), in.Geometry.origin.data(), 3);
   outInfo->Set(vtkDataObject::DIRECTION(), in.Geometry.direction.data(), 9);
@@ -569,7 +574,7 @@ int vtkCSGVReader::RequestData(
   {
     return 1; // RequestInformation reported why; the output stays empty
   }
-  const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), in.Levels - 1);
+  const uint32_t lod = levelWithin(this->Level, in.Levels);
   const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);
   const int pieces = outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
     ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
