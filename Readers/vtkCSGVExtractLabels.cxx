@@ -411,6 +411,20 @@ int vtkCSGVExtractLabels::RequestData(
     vtkErrorMacro(<< selected.size() << " labels selected, more than MaxLabels (" << this->MaxLabels << ")");
     return 1;
   }
+  if (groups.size() > 1)
+  {
+    // The selection whole first: an unknown label is counted and named among all selected (each
+    // label's own extraction said "1 of the 1 selected labels").
+    o.labels = selected;
+    o.checkOnly = true;
+    const csgv::Result<csgv::ExtractResult> checked = csgv::extractLabels(file, o);
+    o.checkOnly = false;
+    if (!checked)
+    {
+      vtkErrorMacro(<< checked.message());
+      return 1;
+    }
+  }
   this->BricksTotal = int(std::min<uint64_t>(parsed->volume.brickCount(), VTK_INT_MAX));
   if (auto* blocks = vtkMultiBlockDataSet::SafeDownCast(output))
   {

@@ -86,10 +86,21 @@ inline std::string oneLine(const char* text) {
     return out;
 }
 
+/// The line cut in the middle where it is longer than a screen or two: a name of a megabyte (a
+/// path, a repeated option) is not echoed whole. Its start and end stay, the message's sense.
+inline std::string boundedLine(std::string line) {
+    constexpr size_t kHead = 1500, kTail = 300;
+    if (line.size() <= kHead + kTail + 64) return line;
+    size_t head = kHead, tail = line.size() - kTail;
+    while (head > 0 && (static_cast<unsigned char>(line[head]) & 0xc0) == 0x80) --head; // whole UTF-8 sequences
+    while (tail < line.size() && (static_cast<unsigned char>(line[tail]) & 0xc0) == 0x80) ++tail;
+    return line.substr(0, head) + " ... (" + std::to_string(tail - head) + " characters left out) ... " + line.substr(tail);
+}
+
 /// Writes the one error line unless one was written already; false when it was.
 inline bool reportOnce(const char* text) {
     if (g_reported.exchange(true)) return false;
-    std::fprintf(stderr, "csgv: error: %s\n", oneLine(text).c_str());
+    std::fprintf(stderr, "csgv: error: %s\n", boundedLine(oneLine(text)).c_str());
     std::fflush(stderr);
     return true;
 }

@@ -31,9 +31,10 @@ using Vec3 = std::array<double, 3>;
 struct RenderArgs {
     std::string input, output;
     uint32_t width = 640, height = 360;
-    bool haveEye = false, haveCenter = false;
+    bool haveEye = false, haveCenter = false, haveUp = false;
     Vec3 eye{}, center{}, up{0, 0, 1};
     double fovY = 30;
+    bool haveFovY = false;
     double parallelScale = 0; ///< > 0: parallel projection
     uint32_t frames = 1;
     std::string labelsOut, materials, video;
@@ -66,11 +67,18 @@ Status parseVec3(const std::string& s, Vec3& out) {
     return Status::ok();
 }
 
+/// A bound as a person writes it: 1e-09, 0.01, 179, 1000000 (std::to_string gave 0.000000 for 1e-9).
+std::string boundText(double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.10g", v);
+    return text;
+}
+
 Status parseNumber(const std::string& s, double lo, double hi, double& out) {
     char* end = nullptr;
     out = std::strtod(s.c_str(), &end);
     if (s.empty() || *end != 0 || !std::isfinite(out) || out < lo || out > hi)
-        return Status::error("expected a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], not '" + s + "'");
+        return Status::error("expected a number from " + boundText(lo) + " to " + boundText(hi) + ", not '" + s + "'");
     return Status::ok();
 }
 
@@ -114,9 +122,15 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     });
     vec("--eye", a.eye, &a.haveEye);
     vec("--center", a.center, &a.haveCenter);
-    vec("--up", a.up, nullptr);
-    vec("--background", a.background, nullptr);
-    number("--fov-y", kMinFovY, kMaxFovY, [&a](double n) { a.fovY = n; });
+    vec("--up", a.up, &a.haveUp);
+    values.add("--background", [&a](const std::string& v) {
+        Status s = parseVec3(v, a.background);
+        if (s && (std::min({a.background[0], a.background[1], a.background[2]}) < 0.0 ||
+                  std::max({a.background[0], a.background[1], a.background[2]}) > 1.0))
+            s = Status::error("expected red, green and blue from 0 to 1, not '" + v + "'");
+        return s ? s : Status(s).prefix("option --background");
+    });
+    number("--fov-y", kMinFovY, kMaxFovY, [&a](double n) { a.fovY = n; a.haveFovY = true; });
     number("--parallel-scale", 1e-9, 1e12, [&a](double n) { a.parallelScale = n; });
     values.add("--decode", [&a](const std::string& v) {
         using D = gpu::RendererOptions::Decode;
@@ -156,6 +170,7 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     number("--lod-bias", -16, 16, [&a](double n) { a.settings.lodBias = float(n); });
     number("--blend", 0, 1, [&a](double n) { a.settings.shadingBlend = float(n); });
     values.add("--attributes", [&a](const std::string& v) {
+        if (v.empty()) return Status::error("--attributes expects a file name, not ''");
         a.attributeFiles.push_back(v);
         return Status::ok();
     });
@@ -170,7 +185,8 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
                                 {"--materials", &a.materials},
                                 {"--camera-path", &a.cameraPath},
                                 {"--video", &a.video}})
-        values.add(name, [target](const std::string& v) {
+        values.add(name, [name, target](const std::string& v) {
+            if (v.empty()) return Status::error(std::string(name) + " expects a file name, not ''");
             *target = v;
             return Status::ok();
         });
@@ -185,10 +201,14 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
         return Status::error("--video needs --orbit N or --camera-path FILE");
     if (a.compareConverged && a.framesPerView == 0)
         return Status::error("--compare-converged needs --frames-per-view N (without it every view converges)");
-    if (!a.cameraPath.empty() && (a.orbit || a.haveEye || a.haveCenter || a.volcaniteCamera))
-        return Status::error("--camera-path gives every pose: it takes no --orbit, --eye, --center or --camera");
-    if (a.volcaniteCamera && (a.haveEye || a.haveCenter))
-        return Status::error("--camera volcanite places the eye and the centre: it takes no --eye or --center");
+    if (!a.cameraPath.empty() && (a.orbit || a.haveEye || a.haveCenter || a.volcaniteCamera || a.haveUp || a.haveFovY))
+        return Status::error("--camera-path gives every pose, its up vector and its field of view: it takes no --orbit, "
+                             "--eye, --center, --camera, --up or --fov-y");
+    if (a.haveFovY && a.parallelScale > 0)
+        return Status::error("--fov-y is a perspective view's angle and --parallel-scale a parallel view's height: give one");
+    if (a.volcaniteCamera && (a.haveEye || a.haveCenter || a.haveUp || a.haveFovY))
+        return Status::error("--camera volcanite gives the eye, the centre, the up vector and the field of view: it takes "
+                             "no --eye, --center, --up or --fov-y");
     if (!a.video.empty()) {
         Result<FramePattern> p = FramePattern::parse(a.video);
         if (!p) return p.status();

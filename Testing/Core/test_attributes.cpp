@@ -381,6 +381,14 @@ TEST(AttributesSqlite, AnyTableWithALabelColumn) {
     EXPECT_EQ(byName->labels(), (std::vector<int64_t>{1, 2, 3}));
     EXPECT_ERROR(readSqliteTable(path, "other"), "table 'other'", "row 2", "label 1 repeats");
     EXPECT_ERROR(readSqliteTable(path, "words"), "table 'words'", "row 1", "label 'one'");
+    {
+        // Found by an attack pass: a BLOB label was echoed raw and its NUL cut the message short.
+        ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+        sqlExec(db, "CREATE TABLE blobs (label, x)");
+        sqlExec(db, "INSERT INTO blobs VALUES (x'6162001b6364', 1)");
+        sqlite3_close(db);
+        EXPECT_ERROR(readSqliteTable(path, "blobs"), "row 1: label 'ab\\x00\\x1bcd' (column 'label') is not an integer");
+    }
     EXPECT_ERROR(readSqliteTable(path, "missing"), "no table 'missing'");
     EXPECT_ERROR(readSqliteTable(path, "cells", "nope"), "no column named 'nope'");
     EXPECT_ERROR(readSqliteTable(dir + "/absent.sqlite"), "absent.sqlite");

@@ -210,6 +210,16 @@ TEST(Extract, BadSelectionsAreClearErrors) {
     m = message(attr, o);
     EXPECT_NE(m.find("4 of the 5 selected labels are not in"), std::string::npos) << m;
     EXPECT_NE(m.find("_csgv.db3"), std::string::npos) << m;
+    // checkOnly: the same checks, nothing decoded.
+    o.checkOnly = true;
+    EXPECT_NE(message(f, o).find("4 of the 5 selected labels occur nowhere"), std::string::npos) << message(f, o);
+    o.labels = real;
+    Result<ExtractResult> checked = extractLabels(f, o);
+    ASSERT_TRUE(checked.isOk()) << checked.message();
+    EXPECT_EQ(checked->bricksDecoded, 0u);
+    EXPECT_EQ(checked->labelsFound, real.size());
+    EXPECT_TRUE(checked->empty());
+    o.checkOnly = false;
 
     o.labels = real;
     o.hasBox = true;

@@ -214,6 +214,13 @@ for bad_labels, what in (("99999999", "an unknown label"), ("3 x", "a word that 
     e.Query = ""
     p, l, c = mesh_of(e)
     t.check(len(c) == 0, "%s: empty output" % what)
+# An unknown label among known ones is counted among all selected (found by an attack pass: the
+# labels meshed one by one each said "1 of the 1 selected labels").
+e.Labels = " ".join(str(v) for v in chosen) + " 99999999"
+with t.ErrorLog() as said:
+    p, l, c = mesh_of(e)
+t.check(len(c) == 0 and "1 of the %d selected labels occur nowhere in the volume" % (len(chosen) + 1) in said.text,
+        "an unknown label among %d is counted among all of them (%s)" % (len(chosen) + 1, said.text[-300:]))
 e.Labels = str(chosen[0])
 e.Query = "label > 0"
 p, l, c = mesh_of(e)

@@ -228,6 +228,23 @@ expect 1 "camera path: missing file" "$CSGV" render "$DEF" "$TMP/x.png" --camera
 expect 1 "camera path with --orbit" "$CSGV" render "$DEF" "$TMP/x.png" --camera-path "$TMP/one.path" --orbit 3
 expect 1 "--camera volcanite with --eye" "$CSGV" render "$DEF" "$TMP/x.png" --camera volcanite --eye 1,2,3
 expect 1 "--camera of another name" "$CSGV" render "$DEF" "$TMP/x.png" --camera paraview
+# Options that contradict each other or cannot mean anything are refused, not ignored (attack
+# pass 6): the view's angle with a parallel view, or with a pose that gives its own; a colour
+# beyond [0, 1]; an empty file name; and a bound is written as a person writes it.
+RB() { expect_bounded 1 4096 60 "$1" "$2" "$CSGV" render "$DEF" "$TMP/x.png" --size 16x16 "${@:3}"; }
+RB "give one" "--fov-y with --parallel-scale" --fov-y 30 --parallel-scale 3
+RB "takes no --eye, --center, --up or --fov-y" "--camera volcanite with --fov-y" --camera volcanite --fov-y 40
+RB "takes no --eye, --center, --up or --fov-y" "--camera volcanite with --up" --camera volcanite --up 0,1,0
+RB "takes no .*--up or --fov-y" "a camera path with --fov-y" --camera-path "$TMP/one.path" --fov-y 40
+RB "--background: expected red, green and blue from 0 to 1" "--background 2,2,2" --background 2,2,2
+RB "--materials expects a file name" "--materials ''" --materials ''
+RB "--labels-out expects a file name" "--labels-out ''" --labels-out ''
+RB "--attributes expects a file name" "--attributes ''" --attributes ''
+RB "from 1e-09 to 1e\\+12, not '0'" "--parallel-scale 0" --parallel-scale 0
+RB "cannot create '/proc/0.png'" "a video frame where no file can be made names the frame" --orbit 2 --video /proc/%d.png
+RB "\\.\\.\\. \\([0-9]+ characters left out\\) \\.\\.\\." "a name of 100,000 characters is not echoed whole" \
+  --attributes "$TMP/$(printf 'a%.0s' $(seq 1 100000)).csv"
+[ "$(wc -c < "$TMP/err")" -lt 4096 ] && pass "the error line stays under 4 KiB" || bad "the error line is $(wc -c < "$TMP/err") bytes"
 expect 1 "--frames-per-view 0" "$CSGV" render "$DEF" "$TMP/x.png" --frames-per-view 0
 [ ! -e "$TMP/x.png" ] && pass "no image after camera errors" || bad "an image was written after a camera error"
 # Attributes from a text table and a derived SQL attribute drive materials: the AAL atlas with

@@ -113,7 +113,7 @@ Result<AttributeTable> buildTable(const std::vector<std::string>& names, const s
         const std::string& f = rows[r][labelCol];
         if (f.empty()) return Status::error(where(r) + ": the label (column '" + names[labelCol] + "') is missing");
         if (!parseLabel(f, keyed[r].first))
-            return Status::error(where(r) + ": label '" + f + "' (column '" + names[labelCol] + "') is not an integer");
+            return Status::error(where(r) + ": label " + quotedText(f) + " (column '" + names[labelCol] + "') is not an integer");
         keyed[r].second = r;
     }
     std::stable_sort(keyed.begin(), keyed.end(),

@@ -203,7 +203,7 @@ Status AtomicFile::open(const std::string& path) {
     m_tmp = temporaryNameFor(path);
     m_file = std::fopen(m_tmp.c_str(), "wb");
     if (!m_file) {
-        Status s = Status::error("cannot create '" + m_tmp + "': " + errnoText());
+        Status s = Status::error("cannot create '" + path + "': " + errnoText() + " (writing its temporary '" + m_tmp + "')");
         m_tmp.clear();
         return s;
     }

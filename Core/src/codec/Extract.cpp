@@ -387,6 +387,7 @@ Result<ExtractResult> extractLabels(const CsgvFile& file, const ExtractOptions& 
         }
     }
     for (uint8_t f : foundInBox) r.labelsFound += f;
+    if (o.checkOnly) return r;
     std::vector<uint64_t> candidates;
     for (auto& c : candidatesOf) candidates.insert(candidates.end(), c.begin(), c.end());
     candidatesOf.clear();

@@ -404,7 +404,7 @@ Status checkNamedFile(FileRules& rules, const std::string& stored, const std::ve
         if (!fs::exists(status)) continue;
         found = true;
         const fs::path resolved = fs::weakly_canonical(fs::absolute(place, ec), ec);
-        const std::string names = what + " " + quoted(stored, 200) + " (" + resolved.string() + ")";
+        const std::string names = what + " " + quotedText(stored, 200) + " (" + resolved.string() + ")";
         if (!fs::is_regular_file(status)) return Status::error(names + ", which is not a regular file");
         if (!rules.allowOutside && (ec || !liesInside(resolved, rules.folder)))
             return Status::error(names + ", outside the HDF5 file's folder " + rules.folder.string() + "; " +
@@ -424,8 +424,8 @@ herr_t checkExternalLink(const char* parentFile, const char* parentGroup, const 
     std::error_code ec;
     const fs::path holder = fs::absolute(fs::path(parentFile), ec).parent_path();
     const Status s = checkNamedFile(*rules, childFile, searchOrder(childFile, holder, "HDF5_EXT_PREFIX"),
-                                    "an external link in " + quoted(parentGroup, 200) + " leads to " +
-                                        quoted(childObject, 200) + " in");
+                                    "an external link in " + quotedText(parentGroup, 200) + " leads to " +
+                                        quotedText(childObject, 200) + " in");
     if (s) return 0;
     rules->refused = s.message();
     return -1;
@@ -530,12 +530,12 @@ Status checkDatasetFiles(hid_t dataset, FileRules& rules, const std::string& nam
     for (size_t i = 0; i < count; ++i) {
         if (cancelRequested()) return Status::error("cancelled");
         const std::string file = text(H5Pget_virtual_filename, i), source = text(H5Pget_virtual_dsetname, i);
-        const std::string what = "virtual dataset " + name + " takes voxels from " + quoted(source, 200) + " in";
+        const std::string what = "virtual dataset " + name + " takes voxels from " + quotedText(source, 200) + " in";
         if (file.empty()) return Status::error("cannot read source " + std::to_string(i) + " of virtual dataset " + name);
         const bool pattern = file.find('%') != std::string::npos || source.find('%') != std::string::npos;
         if (pattern && !rules.allowOutside)
-            return Status::error("virtual dataset " + name + " names its sources by a pattern (" + quoted(file, 200) +
-                                 ", " + quoted(source, 200) + "), which libhdf5 opens without our checks; " +
+            return Status::error("virtual dataset " + name + " names its sources by a pattern (" + quotedText(file, 200) +
+                                 ", " + quotedText(source, 200) + "), which libhdf5 opens without our checks; " +
                                  kAllowOutsideHint);
         fs::path sourceFile = holderName; // where libhdf5 finds the source's file
         if (file != ".") {
@@ -565,7 +565,7 @@ Status checkDatasetFiles(hid_t dataset, FileRules& rules, const std::string& nam
         }
         Handle d(H5Dopen2(opened.get(), source.c_str(), datasetAccess(rules).get()), H5Dclose);
         if (!d.valid()) {
-            if (!rules.refused.empty()) return Status::error("the source " + quoted(source, 200) + " of virtual dataset " + name + ": " +
+            if (!rules.refused.empty()) return Status::error("the source " + quotedText(source, 200) + " of virtual dataset " + name + ": " +
                                      failure(rules, ""));
             H5Eclear2(H5E_DEFAULT);
             continue;

@@ -40,22 +40,6 @@ std::string trim(const std::string& s) {
     return s.substr(b, e - b);
 }
 
-std::string quoted(const std::string& s, size_t maxChars) {
-    std::string out = "'";
-    for (size_t i = 0; i < s.size() && i < maxChars; ++i) {
-        const unsigned char c = static_cast<unsigned char>(s[i]);
-        if (c >= 32 && c < 127) {
-            out += char(c);
-        } else {
-            char buf[8];
-            std::snprintf(buf, sizeof buf, "\\x%02x", c);
-            out += buf;
-        }
-    }
-    if (s.size() > maxChars) out += "...";
-    return out + "'";
-}
-
 std::string formatDouble(double v) {
     std::ostringstream o;
     o.imbue(std::locale::classic());

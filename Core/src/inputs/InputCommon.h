@@ -60,9 +60,6 @@ Status fail(const std::string& path, const std::string& what);
 std::string lower(std::string s);
 bool endsWith(const std::string& s, const std::string& suffix);
 std::string trim(const std::string& s);
-/// Quotes text from a file for a message: bounded, with unprintable bytes escaped, so that a
-/// binary file named as NRRD does not fill the message with garbage.
-std::string quoted(const std::string& s, size_t maxChars = 60);
 // Numbers in headers are parsed and printed in the classic locale: a host application may have
 // set a locale whose decimal separator is a comma.
 std::string formatDouble(double v);

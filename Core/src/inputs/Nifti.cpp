@@ -152,7 +152,7 @@ Result<NiftiHeader> parseFields(const uint8_t* head, const std::string& name) {
     const std::string magic(reinterpret_cast<const char*>(head) + 344, 4);
     if (magic == std::string("ni1\0", 4))
         return fail(name, "a NIfTI-1 .hdr/.img pair (magic 'ni1') is not supported; use a single .nii file");
-    if (magic != std::string("n+1\0", 4)) return fail(name, "NIfTI-1 magic " + quoted(magic) + " is not 'n+1'");
+    if (magic != std::string("n+1\0", 4)) return fail(name, "NIfTI-1 magic " + quotedText(magic) + " is not 'n+1'");
 
     int dim[8];
     for (int i = 0; i < 8; ++i) dim[i] = hf.i16(40 + 2 * size_t(i));

@@ -32,7 +32,7 @@ namespace {
 /// bytes are there, so that a binary file is not searched for a blank line).
 Status checkNrrdStart(const std::string& buf, const std::string& name) {
     if (buf.size() >= 4 && buf.compare(0, 4, "NRRD") != 0)
-        return fail(name, "not a NRRD file: it starts with " + quoted(buf.substr(0, 8)) +
+        return fail(name, "not a NRRD file: it starts with " + quotedText(buf.substr(0, 8)) +
                               ", not the magic NRRD0001 to NRRD0005");
     return Status::ok();
 }
@@ -93,14 +93,14 @@ Status splitNrrdFields(const std::string& text, const std::string& name, NrrdHea
     if (lines.empty()) return fail(name, "empty file, not a NRRD file");
     const std::string& magic = lines[0];
     if (magic.size() != 8 || magic.compare(0, 7, "NRRD000") != 0 || magic[7] < '1' || magic[7] > '5')
-        return fail(name, "NRRD magic " + quoted(magic) + " is not NRRD0001 to NRRD0005");
+        return fail(name, "NRRD magic " + quotedText(magic) + " is not NRRD0001 to NRRD0005");
 
     for (size_t n = 1; n < lines.size(); ++n) {
         const std::string& line = lines[n];
         if (line.empty() || line[0] == '#') continue;
         const size_t colon = line.find(':');
         if (colon == std::string::npos)
-            return fail(name, "header line " + std::to_string(n + 1) + " " + quoted(line) +
+            return fail(name, "header line " + std::to_string(n + 1) + " " + quotedText(line) +
                                   " is neither 'field: value' nor a '#' comment");
         if (colon + 1 < line.size() && line[colon + 1] == '=') continue; // key:=value pairs carry no geometry
         std::string field = lower(trim(line.substr(0, colon)));
@@ -212,7 +212,7 @@ bool parseNrrdVectors(const std::string& text, std::vector<NrrdVector>& out, std
                     inner.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
                 double d;
                 if (!parseDouble(part, d)) {
-                    why = "component " + quoted(trim(part)) + " is not a number";
+                    why = "component " + quotedText(trim(part)) + " is not a number";
                     return false;
                 }
                 item.v.push_back(d);
@@ -225,7 +225,7 @@ bool parseNrrdVectors(const std::string& text, std::vector<NrrdVector>& out, std
             while (e < text.size() && !std::isspace(static_cast<unsigned char>(text[e]))) ++e;
             const std::string word = text.substr(i, e - i);
             if (lower(word) != "none") {
-                why = quoted(word) + " is neither a vector '(x,y,z)' nor 'none'";
+                why = quotedText(word) + " is neither a vector '(x,y,z)' nor 'none'";
                 return false;
             }
             item.isNone = true;
@@ -270,11 +270,11 @@ struct NrrdFieldReader {
     Status typeAndAxes() {
         const std::string& typeText = *field("type");
         if (!nrrdType(typeText, h.type))
-            return fail(name, "type " + quoted(typeText) +
+            return fail(name, "type " + quotedText(typeText) +
                                   " is not supported (integer types of 8 to 64 bits, float or double)");
 
         if (!parseInt64(*field("dimension"), dimension) || dimension < 1)
-            return fail(name, "dimension " + quoted(*field("dimension")) + " is not a positive integer");
+            return fail(name, "dimension " + quotedText(*field("dimension")) + " is not a positive integer");
         if (dimension != 3 && dimension != 4)
             return fail(name, "dimension " + std::to_string(dimension) +
                                   " is not supported (3, or 4 with one axis of size 1)");
@@ -282,13 +282,13 @@ struct NrrdFieldReader {
 
         const std::vector<std::string> sizeWords = splitWords(*field("sizes"));
         if (sizeWords.size() != axes)
-            return fail(name, "sizes " + quoted(*field("sizes")) + " has " + std::to_string(sizeWords.size()) +
+            return fail(name, "sizes " + quotedText(*field("sizes")) + " has " + std::to_string(sizeWords.size()) +
                                   " values, dimension is " + std::to_string(dimension));
         std::vector<uint64_t> sizes;
         for (const std::string& w : sizeWords) {
             int64_t v = 0;
             if (!parseInt64(w, v) || v < 1 || v > int64_t(0xFFFFFFFFu))
-                return fail(name, "sizes value " + quoted(w) + " is not an integer from 1 to 4294967295");
+                return fail(name, "sizes value " + quotedText(w) + " is not an integer from 1 to 4294967295");
             sizes.push_back(uint64_t(v));
         }
 
@@ -310,7 +310,7 @@ struct NrrdFieldReader {
             if (drop == 4 && sizes[0] == 1) drop = 0;
             if (drop == 4 && sizes[3] == 1) drop = 3;
             if (drop == 4)
-                return fail(name, "dimension 4 with sizes " + quoted(*field("sizes")) +
+                return fail(name, "dimension 4 with sizes " + quotedText(*field("sizes")) +
                                       ": only a 4th axis of size 1 (leading or trailing) is supported");
             kept.clear();
             for (size_t a = 0; a < 4; ++a)
@@ -329,12 +329,12 @@ struct NrrdFieldReader {
         const std::string encoding = lower(*field("encoding"));
         if (encoding == "gzip" || encoding == "gz") h.gzip = true;
         else if (encoding != "raw")
-            return fail(name, "encoding " + quoted(*field("encoding")) + " is not supported (raw or gzip)");
+            return fail(name, "encoding " + quotedText(*field("encoding")) + " is not supported (raw or gzip)");
 
         if (const std::string* e = field("endian")) {
             const std::string v = lower(*e);
             if (v == "big") h.bigEndian = true;
-            else if (v != "little") return fail(name, "endian " + quoted(*e) + " is neither 'little' nor 'big'");
+            else if (v != "little") return fail(name, "endian " + quotedText(*e) + " is neither 'little' nor 'big'");
         } else if (typeBytes(h.type) > 1) {
             return fail(name, "the field 'endian' is missing; it is required for " + std::string(labelTypeName(h.type)) +
                                   " data");
@@ -348,14 +348,14 @@ struct NrrdFieldReader {
         int spaceDim = 0;
         if (const std::string* sp = field("space")) {
             spaceDim = nrrdSpaceDimension(*sp);
-            if (spaceDim == 0) return fail(name, "space " + quoted(*sp) + " is not a NRRD space name");
+            if (spaceDim == 0) return fail(name, "space " + quotedText(*sp) + " is not a NRRD space name");
         }
         if (const std::string* sdim = field("space dimension")) {
             int64_t v = 0;
             if (!parseInt64(*sdim, v) || v < 1)
-                return fail(name, "space dimension " + quoted(*sdim) + " is not a positive integer");
+                return fail(name, "space dimension " + quotedText(*sdim) + " is not a positive integer");
             if (spaceDim != 0 && v != spaceDim)
-                return fail(name, "space dimension " + std::to_string(v) + " contradicts space " + quoted(*field("space")));
+                return fail(name, "space dimension " + std::to_string(v) + " contradicts space " + quotedText(*field("space")));
             spaceDim = int(v);
         }
         Geometry& g = h.geometry;
@@ -388,10 +388,10 @@ struct NrrdFieldReader {
             for (size_t k = 0; k < 3; ++k) {
                 double v = 0;
                 if (!parseDouble(words[kept[k]], v))
-                    return fail(name, "spacings value " + quoted(words[kept[k]]) + " is not a number");
+                    return fail(name, "spacings value " + quotedText(words[kept[k]]) + " is not a number");
                 if (std::isnan(v)) continue; // "nan": no spacing known along this axis
                 if (!std::isfinite(v) || v == 0)
-                    return fail(name, "spacings value " + quoted(words[kept[k]]) + " is not a usable spacing");
+                    return fail(name, "spacings value " + quotedText(words[kept[k]]) + " is not a usable spacing");
                 // A negative spacing means the axis runs backwards; keep spacing positive.
                 g.spacing[k] = std::fabs(v);
                 if (v < 0) g.direction[4 * k] = -1;
@@ -402,10 +402,10 @@ struct NrrdFieldReader {
             std::string why;
             if (!parseNrrdVectors(*so, origin, why)) return fail(name, "space origin: " + why);
             if (origin.size() != 1 || origin[0].isNone || origin[0].v.size() != 3)
-                return fail(name, "space origin " + quoted(*so) + " is not one 3D vector '(x,y,z)'");
+                return fail(name, "space origin " + quotedText(*so) + " is not one 3D vector '(x,y,z)'");
             for (int r = 0; r < 3; ++r) {
                 if (!std::isfinite(origin[0].v[size_t(r)]))
-                    return fail(name, "space origin " + quoted(*so) + " has a component that is not finite");
+                    return fail(name, "space origin " + quotedText(*so) + " has a component that is not finite");
                 g.origin[size_t(r)] = origin[0].v[size_t(r)];
             }
         }
@@ -420,7 +420,7 @@ struct NrrdFieldReader {
             if (!words.empty() && words[0] == "LIST")
                 return fail(name, "data file LIST (one data file per slice) is not supported; use a single data file");
             if (words.size() >= 4 && words[0].find('%') != std::string::npos)
-                return fail(name, "data file format " + quoted(*df) +
+                return fail(name, "data file format " + quotedText(*df) +
                                       " (one data file per slice) is not supported; use a single data file");
             if (df->empty()) return fail(name, "the field 'data file' is empty");
             h.dataFile = *df;
@@ -430,10 +430,10 @@ struct NrrdFieldReader {
 
         if (const std::string* ls = field("line skip"))
             if (!parseInt64(*ls, h.lineSkip) || h.lineSkip < 0)
-                return fail(name, "line skip " + quoted(*ls) + " is not a non-negative integer");
+                return fail(name, "line skip " + quotedText(*ls) + " is not a non-negative integer");
         if (const std::string* bs = field("byte skip")) {
             if (!parseInt64(*bs, h.byteSkip) || h.byteSkip < -1)
-                return fail(name, "byte skip " + quoted(*bs) + " is not -1 or a non-negative integer");
+                return fail(name, "byte skip " + quotedText(*bs) + " is not -1 or a non-negative integer");
             if (h.byteSkip == -1 && h.gzip)
                 return fail(name, "byte skip -1 is only allowed with raw encoding, not gzip");
         }

@@ -81,9 +81,9 @@ Result<size_t> selectScale(const std::string& infoPath, const PrecomputedInfo& i
     // At most kListed keys: an info file may list thousands, and the message is one line.
     constexpr size_t kListed = 8;
     std::string keys;
-    for (size_t i = 0; i < std::min(info.scales.size(), kListed); ++i) keys += (i ? ", " : "") + quoted(info.scales[i].key);
+    for (size_t i = 0; i < std::min(info.scales.size(), kListed); ++i) keys += (i ? ", " : "") + quotedText(info.scales[i].key);
     if (info.scales.size() > kListed) keys += ", ...";
-    return fail(infoPath, "no scale " + quoted(selector) + " (scales 0.." + std::to_string(info.scales.size() - 1) +
+    return fail(infoPath, "no scale " + quotedText(selector) + " (scales 0.." + std::to_string(info.scales.size() - 1) +
                               ": " + keys + ")");
 }
 
@@ -503,7 +503,7 @@ Result<std::unique_ptr<InputSource>> openPrecomputed(const std::string& path, co
     if (!named) return Status(named.status()).prefix(infoPath);
     const std::string chunkDir = *named;
     if (!isDir(chunkDir))
-        return fail(infoPath, "the chunk folder of scale " + quoted(scale.key) + " (" + chunkDir + ") does not exist");
+        return fail(infoPath, "the chunk folder of scale " + quotedText(scale.key) + " (" + chunkDir + ") does not exist");
 
     // Working memory: one decoded chunk and one chunk file always (the file at most its
     // encoding's worst case, capped at what the bound leaves); the chunk layer too when it fits.

@@ -401,7 +401,7 @@ Result<std::vector<std::string>> listFolder(const std::string& dir, const std::s
         if (!keep(name)) continue;
         const std::string kind = notRegularFile(it->path().string());
         if (!kind.empty())
-            return fail(path, "slice " + quoted(name, 200) + " is " + kind + ", not a TIFF file (remove it, or name the slices by a glob that leaves it out)");
+            return fail(path, "slice " + quotedText(name, 200) + " is " + kind + ", not a TIFF file (remove it, or name the slices by a glob that leaves it out)");
         names.push_back(name);
     }
     if (ec) return fail(path, "cannot list folder " + folder + ": " + ec.message());
@@ -435,7 +435,7 @@ Result<Listing> listFiles(const std::string& path) {
         Result<std::vector<std::string>> files = listFolder(
             dir, path, [&](const std::string& n) { return fnmatch(pattern.c_str(), n.c_str(), FNM_PERIOD) == 0; });
         if (!files) return files.status();
-        if (files->empty()) return fail(path, "no file matches the pattern " + quoted(pattern));
+        if (files->empty()) return fail(path, "no file matches the pattern " + quotedText(pattern));
         l.files = std::move(*files);
     } else {
         l.files = {path};
@@ -452,7 +452,7 @@ Result<Listing> listGiven(const std::vector<std::string>& files, const std::stri
     for (size_t z = 0; z < files.size(); ++z) {
         const std::string kind = notRegularFile(files[z]);
         if (kind.empty()) continue;
-        return fail(name, "slice " + quoted(files[z], 400) + " (z " + std::to_string(z) + ") " +
+        return fail(name, "slice " + quotedText(files[z], 400) + " (z " + std::to_string(z) + ") " +
                               (kind == "missing" ? std::string("does not exist") : "is " + kind + ", not a TIFF file"));
     }
     l.files = files;
@@ -548,7 +548,7 @@ private:
             const std::string what =
                 m_form == Listing::Form::MultiPage
                     ? std::string("cannot be opened as TIFF")
-                    : "slice " + quoted(fs::path(m_files[file]).filename().string(), 200) + " cannot be opened as TIFF";
+                    : "slice " + quotedText(fs::path(m_files[file]).filename().string(), 200) + " cannot be opened as TIFF";
             return fail(m_path, what + ": " + h.message());
         }
         m_handle = std::move(*h);

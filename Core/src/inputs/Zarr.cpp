@@ -91,7 +91,7 @@ Result<Resolved> levelOf(const std::string& group, ZarrAttrs attrs, size_t level
     if (!named) return Status(named.status()).prefix(group);
     r.arrayDir = *named;
     if (!isFile(r.arrayDir + "/.zarray"))
-        return fail(group, "multiscale dataset " + inputs::quoted(attrs.datasets[level].path) + " has no .zarray");
+        return fail(group, "multiscale dataset " + quotedText(attrs.datasets[level].path) + " has no .zarray");
     r.multiscale = std::move(attrs);
     r.level = int(level);
     r.what = what;
@@ -115,7 +115,7 @@ std::string describeFolder(const std::string& dir, const ZarrAttrs& attrs) {
     std::sort(children.begin(), children.end());
     if (!children.empty()) {
         found += "; it holds";
-        for (const std::string& c : children) found += " " + inputs::quoted(c);
+        for (const std::string& c : children) found += " " + quotedText(c);
         found += " (name one in the path)";
     }
     return found;
@@ -152,7 +152,7 @@ Result<Resolved> resolve(const std::string& path, bool allowOutside) {
         Result<ZarrAttrs> imageAttrs = readAttrs(image);
         if (!imageAttrs) return imageAttrs.status();
         if (!imageAttrs->hasMultiscales) return fail(image, "label image has no multiscales in its .zattrs");
-        const std::string what = "label image " + inputs::quoted(name) + " (first of " + std::to_string(attrs->labels.size()) + "): ";
+        const std::string what = "label image " + quotedText(name) + " (first of " + std::to_string(attrs->labels.size()) + "): ";
         return levelOf(image, std::move(*imageAttrs), 0, what, allowOutside);
     }
     return fail(dir, "not a Zarr array or OME-Zarr image: found " + describeFolder(dir, *attrs));
@@ -259,7 +259,7 @@ Status ZarrSource::findAxes(const Resolved& r) {
     for (size_t i = 0; i < n; ++i) {
         if (int(i) == m_axis[0] || int(i) == m_axis[1] || int(i) == m_axis[2]) continue;
         if (m_array.shape[i] != 1) {
-            const std::string name = names.empty() ? "axis " + std::to_string(i) : "axis " + inputs::quoted(names[i]);
+            const std::string name = names.empty() ? "axis " + std::to_string(i) : "axis " + quotedText(names[i]);
             return fail(m_dir, name + " has size " + std::to_string(m_array.shape[i]) +
                                    "; only single-channel, single-timepoint images are label volumes");
         }

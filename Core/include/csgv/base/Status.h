@@ -4,6 +4,7 @@
 /// @brief Errors as values: nothing in Core throws across its boundary, calls exit or aborts.
 
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <utility>
 
@@ -58,5 +59,24 @@ private:
 
 /// "12.5 MiB": memory figures in messages (host and device budgets alike).
 std::string mebibytes(uint64_t bytes);
+
+/// Quotes text from a file or a user for a message: bounded, with unprintable bytes (a NUL
+/// included) escaped, so that a binary file named as NRRD, a BLOB label or a name of a megabyte
+/// does not fill the message with garbage or cut it short.
+inline std::string quotedText(const std::string& s, size_t maxChars = 60) {
+    std::string out = "'";
+    for (size_t i = 0; i < s.size() && i < maxChars; ++i) {
+        const unsigned char c = static_cast<unsigned char>(s[i]);
+        if (c >= 32 && c < 127) {
+            out += char(c);
+        } else {
+            char buf[8];
+            std::snprintf(buf, sizeof buf, "\\x%02x", c);
+            out += buf;
+        }
+    }
+    if (s.size() > maxChars) out += "...";
+    return out + "'";
+}
 
 } // namespace csgv

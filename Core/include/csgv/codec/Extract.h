@@ -59,6 +59,10 @@ struct ExtractOptions {
     uint64_t maxLabels = kDefaultMaxExtractLabels;
     uint64_t maxOutputBytes = uint64_t(4) << 30; ///< the output image's bytes
     int threads = 0;        ///< 0: OpenMP's default
+    /// Only the selection's checks (labels unknown to the database, or held by no brick), nothing
+    /// decoded: a caller that extracts a selection in parts checks it whole first, so that its
+    /// error counts and names the selection's unknown labels, not a part's.
+    bool checkOnly = false;
     /// Called now and then from one thread with the fraction of candidate bricks decoded; false
     /// stops the extraction (an error saying it was cancelled). May be empty.
     std::function<bool(double)> progress;
