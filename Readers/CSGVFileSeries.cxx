@@ -137,20 +137,22 @@ void HoldStep(int whole[6], const std::array<uint32_t, 3>& dims, uint32_t lod)
   }
 }
 
-bool StepShapes::Get(const std::string& path, const Reader& read, StepShape& shape)
+bool StepShapes::Get(const std::string& path, const Reader& read, StepShape& shape, const std::string& options,
+  const std::string& stamped)
 {
   struct stat st;
-  if (::stat(path.c_str(), &st) != 0)
+  if (::stat((stamped.empty() ? path : stamped).c_str(), &st) != 0)
   {
     this->Files.erase(path);
     return false;
   }
   Known& known = this->Files[path];
   const int64_t modified = int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
-  if (known.Size != int64_t(st.st_size) || known.Modified != modified)
+  if (known.Size != int64_t(st.st_size) || known.Modified != modified || known.Options != options)
   {
     known.Size = int64_t(st.st_size);
     known.Modified = modified;
+    known.Options = options;
     known.Shape = StepShape{};
     known.Read = read(path, known.Shape);
   }

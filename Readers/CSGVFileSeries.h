@@ -87,13 +87,19 @@ class StepShapes
 public:
   /// Reads a file's shape; false when it cannot (its step says why when it is shown).
   using Reader = std::function<bool(const std::string& path, StepShape& shape)>;
-  /// Whether `path`'s shape is known, reading it with `read` for a new version of the file.
-  bool Get(const std::string& path, const Reader& read, StepShape& shape);
+  /// Whether `path`'s shape is known, reading it with `read` for a new version of the file or
+  /// other reading options (`options`: a text that differs when the answer may, such as whether
+  /// files outside the input's folder may be read: a refusal is not kept once they may).
+  /// `stamped`: the file or folder whose version stands for the input's (InputLocation::Stamped:
+  /// `path` less a dataset suffix such as ":/labels"), else `path` itself.
+  bool Get(const std::string& path, const Reader& read, StepShape& shape, const std::string& options = std::string(),
+    const std::string& stamped = std::string());
 
 private:
   struct Known
   {
     int64_t Size = -1, Modified = 0;
+    std::string Options;
     bool Read = false;
     StepShape Shape;
   };

@@ -286,8 +286,8 @@ void vtkCSGVInputReader::AnnounceEveryStep(vtkInformation* outInfo)
   outInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
   csgv::InputOptions options;
   options.allowOutsidePaths = this->AllowOutsidePaths != 0;
-  const auto readHeader = [&options](const std::string& file, csgvvtk::StepShape& shape) {
-    const csgvvtk::InputLocation location = csgvvtk::locateInput(file);
+  csgvvtk::InputLocation location;
+  const auto readHeader = [&options, &location](const std::string&, csgvvtk::StepShape& shape) {
     if (!location.Error.empty())
     {
       return false;
@@ -303,8 +303,14 @@ void vtkCSGVInputReader::AnnounceEveryStep(vtkInformation* outInfo)
   const uint32_t lod = std::min<uint32_t>(static_cast<uint32_t>(this->Level), levels - 1);
   for (size_t i = 0; i < in.Inputs.size(); ++i)
   {
+    if (int(i) == in.Step)
+    {
+      continue; // described already
+    }
+    location = csgvvtk::locateInput(in.Inputs[i]);
     csgvvtk::StepShape shape;
-    if (int(i) != in.Step && in.Shapes.Get(in.Inputs[i], readHeader, shape)) // the step: described already
+    if (in.Shapes.Get(in.Inputs[i], readHeader, shape, options.allowOutsidePaths ? "outside paths" : "",
+          location.Stamped))
     {
       csgvvtk::HoldStep(whole, shape.Dims, lod);
     }

@@ -295,6 +295,22 @@ else:
     t.check(img.GetNumberOfCells() == 0 and "Allow Outside Paths" in errors.text,
             "no longer allowed: refused again, not read from the cache made while allowed")
     Delete(r)
+    # A time series whose later step lies outside: its extent, refused at first, is held once
+    # outside paths are allowed (the series' header cache kept the refusal).
+    small = os.path.join(src, "small.h5")
+    with h5py.File(small, "w") as f:
+        f["labels"] = np.ones((2, 3, 4), dtype=np.uint32)
+    r = SegmentationCSGV(FileNames=[small, outlinked + ":/d"])
+    with t.ErrorLog():
+        r.UpdatePipelineInformation()
+    whole = lambda: tuple(r.GetClientSideObject().GetOutputInformation(0).Get(SDDP.WHOLE_EXTENT()))
+    t.check(whole() == (0, 4, 0, 3, 0, 2), "a series with a step outside: the first step's extent (%s)" % (whole(),))
+    r.AllowOutsidePaths = 1
+    r.UpdatePipelineInformation()
+    d, h, w = vol.shape
+    t.check(whole() == (0, max(w, 4), 0, max(h, 3), 0, max(d, 2)),
+            "outside paths allowed: the series' extent holds the step outside (%s)" % (whole(),))
+    Delete(r)
 
 # --- Encoding options are part of the stamp -----------------------------------------------------
 r, img, _, compressed = open_input(nrrd, BrickSize=16)
