@@ -60,21 +60,11 @@ def query(display, request):
 def render_stats(display):
     """The Segmentation Volume's read-only statistics as a dict ({"CSGVMinSamples": 16,
     "CSGVCacheMiB": 12.5, ...}: README, "Read-only statistics"), read from the rendering process
-    now. paraview.simple offers them as no attributes, and GetPropertyValue returns the value
-    of the last information update (0 before any), so read them here."""
-    proxy = _smproxy(display)
-    proxy.UpdatePropertyInformation()
-    stats = {}
-    it = proxy.NewPropertyIterator()
-    it.Begin()
-    while not it.IsAtEnd():
-        prop = it.GetProperty()
-        name = it.GetKey()
-        if name.startswith("CSGV") and prop.GetInformationOnly() and prop.GetNumberOfElements() == 1:
-            stats[name] = sm.vtkSMPropertyHelper(prop).GetAsDouble(0)
-            if prop.IsA("vtkSMIntVectorProperty"):
-                stats[name] = int(stats[name])
-        it.Next()
+    now (the `render` query: the display's own information properties are read from the client's
+    copy, which in client/server never renders, and from one rank only under MPI)."""
+    stats = json.loads(query(display, "render"))
+    if "error" in stats:
+        raise ValueError(stats["error"])
     return stats
 
 

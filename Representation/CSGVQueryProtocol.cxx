@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <set>
 #include <cerrno>
@@ -104,6 +105,61 @@ std::string base64(const void* data, size_t bytes)
   return out;
 }
 
+namespace
+{
+json statisticsJson(const RenderStatistics& r)
+{
+  return json({ { "CSGVFramesLastRender", r.framesLastRender }, { "CSGVMinSamples", r.minSamples },
+    { "CSGVCacheMiB", r.cacheMiB }, { "CSGVDeviceMiB", r.deviceMiB }, { "CSGVDeviceBudgetMiB", r.deviceBudgetMiB },
+    { "CSGVCacheBits", r.cacheBits }, { "CSGVDetailSeparated", r.detailSeparated },
+    { "CSGVDetailStreamedMiB", r.detailStreamedMiB }, { "CSGVLevelsOnDisk", r.levelsOnDisk },
+    { "CSGVFileReadMiB", r.fileReadMiB }, { "CSGVBadBricks", r.badBricks } });
+}
+
+/// `render` over MPI ranks: the fewest samples of the ranks that rendered (a rank with nothing
+/// to draw renders no frame), the most frames, memory and bad bricks summed, the largest of the rest.
+json combineStatistics(const std::vector<json>& replies)
+{
+  json out = replies.front();
+  int fewest = -1;
+  for (const json& j : replies)
+  {
+    if (j.value("CSGVFramesLastRender", 0) > 0)
+    {
+      const int m = j.value("CSGVMinSamples", 0);
+      fewest = fewest < 0 ? m : std::min(fewest, m);
+    }
+  }
+  for (auto it = out.begin(); it != out.end(); ++it)
+  {
+    const std::string& key = it.key();
+    const bool summed = key.size() > 3 && (key.compare(key.size() - 3, 3, "MiB") == 0 || key == "CSGVBadBricks") &&
+      key != "CSGVDeviceBudgetMiB";
+    for (size_t i = 1; i < replies.size(); ++i)
+    {
+      const json& v = replies[i].contains(key) ? replies[i][key] : json(0);
+      if (!v.is_number() || !it->is_number())
+      {
+        continue;
+      }
+      if (summed)
+      {
+        *it = it->is_number_integer() ? json(it->get<int64_t>() + v.get<int64_t>()) : json(it->get<double>() + v.get<double>());
+      }
+      else if (v.get<double>() > it->get<double>())
+      {
+        *it = v;
+      }
+    }
+  }
+  if (fewest >= 0)
+  {
+    out["CSGVMinSamples"] = fewest;
+  }
+  return out;
+}
+} // namespace
+
 std::string combineAnswers(const std::string& request, const std::vector<std::string>& answers,
   const std::vector<std::string>& labelSets)
 {
@@ -122,6 +178,10 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
   if (replies.empty())
   {
     return answers.empty() ? std::string() : answers.front();
+  }
+  if (what == "render")
+  {
+    return combineStatistics(replies).dump(-1, ' ', false, json::error_handler_t::replace);
   }
   if (what == "colors")
   {
@@ -299,6 +359,25 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
   return out.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
+RenderStatistics renderStatistics(const ViewRenderer& view)
+{
+  constexpr double kMiB = 1048576.0;
+  RenderStatistics r;
+  r.framesLastRender = int(view.framesLastRender());
+  r.minSamples = int(view.lastStats().minSamples);
+  r.cacheMiB = double(view.cacheBytes()) / kMiB;
+  r.deviceMiB = double(view.deviceBytes()) / kMiB;
+  r.deviceBudgetMiB = double(view.deviceBudget()) / kMiB;
+  r.cacheBits = int(view.cacheBits());
+  r.detailSeparated = view.detailSeparated() ? 1 : 0;
+  r.detailStreamedMiB = double(view.detailStreamedBytes()) / kMiB;
+  r.levelsOnDisk = view.levelsOnDisk();
+  r.fileReadMiB = double(view.fileReadBytes()) / kMiB;
+  r.badBricks = int(std::min<uint64_t>(view.badBricks(), uint64_t(std::numeric_limits<int>::max())));
+  return r;
+}
+
+
 std::string answerQuery(const std::string& request, QueryContext& c)
 {
   std::istringstream in(request);
@@ -306,7 +385,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   in >> what;
   // Commands without arguments, and those of numbers (their words are read first), take nothing
   // more; "match" and "span" take the rest of the request.
-  if (what == "defaults" || what == "stats" || what == "summary" || what == "labels")
+  if (what == "defaults" || what == "stats" || what == "render" || what == "summary" || what == "labels")
   {
     if (const std::string extra = extraWords(in, what); !extra.empty())
     {
@@ -316,6 +395,11 @@ std::string answerQuery(const std::string& request, QueryContext& c)
   if (what == "defaults")
   {
     return defaultsJson();
+  }
+  if (what == "render")
+  {
+    return (c.view ? statisticsJson(renderStatistics(*c.view)) : json::object())
+      .dump(-1, ' ', false, json::error_handler_t::replace);
   }
   if (what == "stats")
   {

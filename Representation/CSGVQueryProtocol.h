@@ -24,10 +24,11 @@
  * | `match SQL`  | JSON `{"labels": [original labels, ascending], "truncated": bool}`: the labels whose attributes make the SQL condition true (csgv::labelsWhere over the representation's attribute table: database, loaded, computed and derived columns), at most csgv::kMaxOverlayLabels; `{"error": ...}` for a condition SQLite refuses; every rank's labels united |
  * | `defaults`   | JSON of the representation's property defaults (csgvrep::RepresentationProperties): `{"CSGVShading": 0, ...}` keyed like the server-manager XML, for the test that keeps both equal |
  * | `labelset N`  | text `BASE64`: at most N original labels present in this process's volume, int64 little-endian, ascending (the label count of `summary` over MPI ranks) |
+ * | `render`     | JSON of the read-only statistics, keyed as their information properties (`{"CSGVFramesLastRender": n, "CSGVMinSamples": n, "CSGVCacheMiB": x, ...}`, csgvrep::renderStatistics): read through here, they reach a client of a remote server (a representation's own information properties are read from the client's copy, which never renders) and combine MPI ranks: the fewest samples of the ranks that rendered, the most frames, memory and bad bricks summed, flags and levels their largest |
  * | `stats`      | JSON `{"parses": n, "sharedParses": n, "compressions": n}`: how often this process parsed a CSGV encoding (of those, how often its words were viewed where the reader put them, not copied) and compressed a label array for the representation (each happens once per array and modification time; for tests and benchmarks) |
  * | other        | JSON `{"error": "unknown query '<word>'"}` |
  *
- * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary`, `colors`, `span` and `match` are
+ * Under MPI (vtkCSGVQuery pushed to every rank) `pick`, `labels`, `summary`, `colors`, `span`, `match` and `render` are
  * answered by all ranks together: the hit per pixel a single rank reports (csgvrep::hitOrder:
  * the nearest opaque one, else the nearest semi-transparent one), attribute ranges and label sets
  * over all pieces (combineAnswers); every rank reads that answer (pvbatch --symmetric scripts).
@@ -66,6 +67,14 @@ struct QueryContext
   ViewRenderer* view = nullptr; ///< the last render (label image, G-buffer, camera)
   bool drawn = true;            ///< the view's last render drew it (else no pixels to answer)
 };
+
+/// The representation's read-only statistics (its information properties) after the last render.
+struct RenderStatistics
+{
+  int framesLastRender = 0, minSamples = 0, cacheBits = 0, detailSeparated = 0, levelsOnDisk = 0, badBricks = 0;
+  double cacheMiB = 0, deviceMiB = 0, deviceBudgetMiB = 0, detailStreamedMiB = 0, fileReadMiB = 0;
+};
+RenderStatistics renderStatistics(const ViewRenderer& view);
 
 /// Answers one request of the table above.
 std::string answerQuery(const std::string& request, QueryContext& context);

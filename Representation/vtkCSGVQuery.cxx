@@ -58,14 +58,14 @@ void vtkCSGVQuery::Gather()
   in >> what;
   if (!c || c->GetNumberOfProcesses() < 2 || !this->Representation ||
     (what != "pick" && what != "labels" && what != "summary" && what != "colors" && what != "span" &&
-      what != "match"))
+      what != "match" && what != "render"))
   {
     return; // answered by GetResult where it is read
   }
   // Every rank answers for its own piece; rank 0 keeps, per pixel, the one rank's hit: the
   // nearest opaque one, else the nearest semi-transparent one (csgvrep::hitOrder).
   vtkMultiProcessStream mine;
-  if (what == "pick" || what == "colors" || what == "span" || what == "match")
+  if (what == "pick" || what == "colors" || what == "span" || what == "match" || what == "render")
   {
     mine << std::string(this->Representation->Query(text.c_str()));
   }
@@ -110,7 +110,7 @@ void vtkCSGVQuery::Combine(
   const std::string& text, const std::string& what, std::vector<vtkMultiProcessStream>& all)
 {
   this->Answer.clear();
-  if (what == "summary" || what == "colors" || what == "span" || what == "match")
+  if (what == "summary" || what == "colors" || what == "span" || what == "match" || what == "render")
   {
     std::vector<std::string> answers, labelSets;
     for (vtkMultiProcessStream& s : all)

@@ -389,57 +389,57 @@ int vtkCSGVVolumeProp::RenderTranslucentPolygonalGeometry(vtkViewport* viewport)
 
 int vtkCSGVVolumeProp::GetFramesLastRender()
 {
-  return int(this->P->View.framesLastRender());
+  return csgvrep::renderStatistics(this->P->View).framesLastRender;
 }
 
 int vtkCSGVVolumeProp::GetMinSamples()
 {
-  return int(this->P->View.lastStats().minSamples);
+  return csgvrep::renderStatistics(this->P->View).minSamples;
 }
 
 double vtkCSGVVolumeProp::GetCacheMiB()
 {
-  return double(this->P->View.cacheBytes()) / (1 << 20);
+  return csgvrep::renderStatistics(this->P->View).cacheMiB;
 }
 
 double vtkCSGVVolumeProp::GetDeviceMiB()
 {
-  return double(this->P->View.deviceBytes()) / (1 << 20);
+  return csgvrep::renderStatistics(this->P->View).deviceMiB;
 }
 
 double vtkCSGVVolumeProp::GetDeviceBudgetMiB()
 {
-  return double(this->P->View.deviceBudget()) / (1 << 20);
+  return csgvrep::renderStatistics(this->P->View).deviceBudgetMiB;
 }
 
 int vtkCSGVVolumeProp::GetCacheBits()
 {
-  return int(this->P->View.cacheBits());
+  return csgvrep::renderStatistics(this->P->View).cacheBits;
 }
 
 int vtkCSGVVolumeProp::GetDetailSeparated()
 {
-  return this->P->View.detailSeparated() ? 1 : 0;
+  return csgvrep::renderStatistics(this->P->View).detailSeparated;
 }
 
 double vtkCSGVVolumeProp::GetDetailStreamedMiB()
 {
-  return double(this->P->View.detailStreamedBytes()) / 1048576.0;
+  return csgvrep::renderStatistics(this->P->View).detailStreamedMiB;
 }
 
 int vtkCSGVVolumeProp::GetLevelsOnDisk()
 {
-  return this->P->View.levelsOnDisk();
+  return csgvrep::renderStatistics(this->P->View).levelsOnDisk;
 }
 
 double vtkCSGVVolumeProp::GetFileReadMiB()
 {
-  return double(this->P->View.fileReadBytes()) / 1048576.0;
+  return csgvrep::renderStatistics(this->P->View).fileReadMiB;
 }
 
 int vtkCSGVVolumeProp::GetBadBricks()
 {
-  return int(std::min<uint64_t>(this->P->View.badBricks(), uint64_t(std::numeric_limits<int>::max())));
+  return csgvrep::renderStatistics(this->P->View).badBricks;
 }
 
 bool vtkCSGVVolumeProp::DrawnMaterials(

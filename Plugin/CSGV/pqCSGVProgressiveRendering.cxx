@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "pqCSGVProgressiveRendering.h"
+#include "pqCSGVMaterialDocument.h"
 
 #include <pqApplicationCore.h>
 #include <pqRepresentation.h>
@@ -11,6 +12,7 @@
 #include <vtkSMViewProxy.h>
 #include <vtkRenderWindow.h>
 
+#include <QJsonObject>
 #include <QTimer>
 
 #include <algorithm>
@@ -58,11 +60,9 @@ void pqCSGVProgressiveRendering::slice(pqRepresentation* repr)
 {
   // This GUI renders again until the volumes converge, so a still render need not hold the GUI
   // for its whole budget: short ones keep it answering the mouse while the image refines. Through
-  // the representation's own property (not saved in state files); builtin sessions only, like
-  // the refinement itself.
+  // the representation's own property (not saved in state files).
   vtkSMProxy* proxy = repr ? repr->getProxy() : nullptr;
-  if (!proxy || !proxy->GetProperty("CSGVRefinementSlice") || !repr->getServer() ||
-    repr->getServer()->isRemote())
+  if (!proxy || !proxy->GetProperty("CSGVRefinementSlice"))
   {
     return;
   }
@@ -79,7 +79,7 @@ void pqCSGVProgressiveRendering::watch(pqView* view)
 void pqCSGVProgressiveRendering::renderEnded()
 {
   pqView* view = qobject_cast<pqView*>(this->sender());
-  if (!view || !view->getServer() || view->getServer()->isRemote())
+  if (!view || !view->getServer())
   {
     return;
   }
@@ -104,8 +104,9 @@ void pqCSGVProgressiveRendering::renderEnded()
     {
       continue;
     }
-    proxy->UpdatePropertyInformation();
-    const int samples = vtkSMPropertyHelper(proxy, "CSGVMinSamples").GetAsInt();
+    // Asked where it renders (a remote server's, every rank's): the display's information
+    // property reads the client's copy of the representation, which never renders there.
+    const int samples = pqCSGV::queryJson(proxy, "render").value("CSGVMinSamples").toInt();
     const int target = vtkSMPropertyHelper(proxy, "CSGVFramesPerStillRender").GetAsInt();
     if (samples < target)
     {

@@ -3,19 +3,43 @@
 on, and passes when the auto-start refined a Segmentation Volume from below its sample target
 to the target (the trace then reports no volume left to refine), and again after the script's
 interactive renders, and the representation's CSGVRefinementSlice was set by the auto-start (the still render after them is marked "after interaction"). The GUI is closed afterwards.
+With CSGV_GUI_PVSERVER set (a pvserver executable), the GUI connects to a server started with
+the plugin, which renders (GUI pass 10: refinement was for builtin sessions only).
 Usage: gui_refinement_driver.py PARAVIEW PLUGIN_DIR SCRIPT"""
 import os
+import socket
 import subprocess
 import sys
 import time
 
 
+def free_port():
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        return s.getsockname()[1]
+
+
 def main():
     paraview, plugin_dir, script = sys.argv[1:4]
     env = dict(os.environ, CSGV_TRACE_REFINEMENT="1")
-    gui = subprocess.Popen([paraview, "--plugin-search-paths=" + plugin_dir, "--plugins=CSGV",
-                            "--script=" + script], env=env, stdout=subprocess.PIPE,
-                           stderr=subprocess.STDOUT, text=True)
+    args = [paraview, "--plugin-search-paths=" + plugin_dir, "--plugins=CSGV", "--script=" + script]
+    server = None
+    if os.environ.get("CSGV_GUI_PVSERVER"):
+        # A HOME of its own without the welcome dialog, which holds a client connecting to a
+        # server before its script runs.
+        home = os.path.join(os.environ.get("TMPDIR", "/tmp"), "csgv-gui-remote-%d" % os.getpid())
+        os.makedirs(os.path.join(home, ".config", "ParaView"), exist_ok=True)
+        with open(os.path.join(home, ".config", "ParaView", "ParaView5.11.0.ini"), "w") as f:
+            f.write("[General]\nGeneralSettings.ShowWelcomeDialog=false\n")
+        env["HOME"] = home
+        port = free_port()
+        server = subprocess.Popen([os.environ["CSGV_GUI_PVSERVER"], "--force-offscreen-rendering",
+                                   "--server-port=%d" % port, "--plugin-search-paths=" + plugin_dir,
+                                   "--plugins=CSGV"], env=env, stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
+        time.sleep(2)
+        args.append("--server-url=cs://localhost:%d" % port)
+    gui = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     refined, converged, released, log, slice_ = 0, False, False, [], None
     deadline = time.time() + 90
     try:
@@ -36,6 +60,9 @@ def main():
     finally:
         gui.kill()
         gui.wait()
+        if server:
+            server.kill()
+            server.wait()
     sys.stdout.write("".join(l for l in log if "csgv refinement" in l or "ERR" in l or "bad X" in l))
     if not slice_ or slice_ <= 0:
         print("FAIL the representation's CSGVRefinementSlice is %r: the GUI's slice did not reach it" % slice_)

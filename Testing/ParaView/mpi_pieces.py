@@ -144,6 +144,8 @@ for mode in ("defaults_opaque", "defaults_translucent"):
     facts["ordered_" + mode] = bool(v.GetClientSideObject().GetUseOrderedCompositing())
     SaveScreenshot(os.path.join(out, mode + (".png" if rank == 0 else ".rank%d.png" % rank)), v,
                    ImageResolution=[160, 120], TransparentBackground=0)
+    if mode == "defaults_opaque":  # the statistics of every rank together (the `render` query)
+        facts["render_stats"] = csgv_tools.render_stats(d)
 Hide(box.Input, v)
 d.CSGVMaterials = ""
 d.CSGVFramesPerStillRender = 1

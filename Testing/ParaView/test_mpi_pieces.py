@@ -165,6 +165,12 @@ def main():
         check(all(p["summary"] == pieces[0]["summary"] and p["picks"] == pieces[0]["picks"]
                   and p["labels_mixed"] == pieces[0]["labels_mixed"] for p in pieces),
               "%d ranks: every rank reads the combined summary, picks and label image" % ranks)
+        # The statistics of every rank together (the `render` query), read alike by every rank: the
+        # fewest samples of a pixel are the still render's, the device memory every rank's.
+        rs, one_rs = pieces[0]["render_stats"], whole["render_stats"]
+        check(all(p["render_stats"] == rs for p in pieces) and rs.get("CSGVMinSamples") == whole["default_frames"]
+              and rs.get("CSGVDeviceMiB", 0) > one_rs.get("CSGVDeviceMiB", 0) * (ranks - 0.5),
+              "%d ranks: render_stats combines the ranks (%s; one rank %s)" % (ranks, rs, one_rs))
         differ = [(x, y) for x, y in zip(pieces[0]["colors"].get("labels", []), whole["colors"]["labels"]) if x != y]
         check(pieces[0]["colors"] == whole["colors"] and len(whole["colors"]["labels"]) > 10,
               "%d ranks: the drawn labels' colours (%d) equal one rank's%s" % (

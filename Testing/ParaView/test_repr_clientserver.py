@@ -55,4 +55,11 @@ ys, xs = np.nonzero(img != 0xFFFFFFFF)
 p = ct.pick(d, int(xs[0]), int(ys[0]))
 t.check(p["hit"] and p["label"] == int(img[ys[0], xs[0]]) and p["attributes"].get("voxels", 0) > 5000,
         "pick on the server: label %s with voxels %s" % (p.get("label"), p.get("attributes", {}).get("voxels")))
+# The read-only statistics come from the server (GUI pass 10: the display's information
+# properties read the client's copy of the representation, which never renders: all 0).
+d.CSGVFramesPerStillRender = 3
+t.screenshot(v, 160, 120, "three.png")
+rs = ct.render_stats(d)
+t.check(rs.get("CSGVMinSamples") == 3 and rs.get("CSGVFramesLastRender", 0) >= 1 and rs.get("CSGVCacheMiB", 0) > 0
+        and rs.get("CSGVDeviceMiB", 0) > 0, "render_stats reads the server's statistics (%s)" % rs)
 t.finish()
