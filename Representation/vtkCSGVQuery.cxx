@@ -79,10 +79,19 @@ void vtkCSGVQuery::Gather()
     uint32_t w = 0, h = 0;
     std::vector<uint32_t> labels;
     std::vector<float> depths;
-    this->Representation->LastLabels(w, h, labels, depths);
+    if (!this->Representation->LastLabels(w, h, labels, depths) || labels.size() != size_t(w) * h ||
+      depths.size() != labels.size())
+    {
+      w = h = 0; // nothing drawn here (a hidden display, an empty piece, one off the screen)
+      labels.clear();
+      depths.clear();
+    }
     mine << w << h;
-    mine.Push(labels.data(), static_cast<unsigned int>(labels.size()));
-    mine.Push(depths.data(), static_cast<unsigned int>(depths.size()));
+    if (!labels.empty()) // vtkMultiProcessStream asserts on an empty array (attack pass 8: a rank
+    {                    // that drew nothing aborted the job, and a connected client with it)
+      mine.Push(labels.data(), static_cast<unsigned int>(labels.size()));
+      mine.Push(depths.data(), static_cast<unsigned int>(depths.size()));
+    }
   }
   std::vector<vtkMultiProcessStream> all;
   c->Gather(mine, all, 0);
@@ -156,8 +165,11 @@ void vtkCSGVQuery::Combine(
       unsigned int* l = nullptr;
       float* d = nullptr;
       unsigned int nl = 0, nd = 0;
-      s.Pop(l, nl);
-      s.Pop(d, nd);
+      if (w > 0 && h > 0)
+      {
+        s.Pop(l, nl);
+        s.Pop(d, nd);
+      }
       if (labels.empty() && nl == size_t(w) * h && nd == nl)
       {
         width = w;

@@ -208,6 +208,21 @@ d2.CSGVShading = "shadow"
 Render(v2)
 SaveScreenshot(os.path.join(out, "view2" + (".png" if rank == 0 else ".rank%d.png" % rank)), v2,
                ImageResolution=[160, 120], TransparentBackground=0)
+# A label image where ranks drew nothing (attack pass 8: a rank without a label image aborted the
+# job in the gather): the display hidden, then one rank's piece off the screen.
+Hide(r, v2)
+Render(v2)
+hidden = csgv_tools.label_image(d2)
+facts["hidden_label_image"] = list(hidden.shape)
+Show(r, v2)
+v2.CameraFocalPoint = [66, 35, 20]  # from the side, near z = 0: the pieces beyond z = 48 are off the screen
+v2.CameraPosition = [-100, 35, 20]
+v2.CameraViewUp = [0, 0, 1]
+v2.CameraParallelScale = 12
+v2.CameraParallelProjection = 1
+Render(v2)
+corner = csgv_tools.label_image(d2)
+facts["corner_labels"] = int((corner != 0xFFFFFFFF).sum()) if corner.size else -1
 Delete(d2)
 del d2
 Delete(v2)

@@ -165,6 +165,10 @@ def main():
         check(all(p["summary"] == pieces[0]["summary"] and p["picks"] == pieces[0]["picks"]
                   and p["labels_mixed"] == pieces[0]["labels_mixed"] for p in pieces),
               "%d ranks: every rank reads the combined summary, picks and label image" % ranks)
+        check(all(p["hidden_label_image"] == whole["hidden_label_image"] and p["corner_labels"] == whole["corner_labels"]
+                  for p in pieces) and whole["corner_labels"] > 0,
+              "%d ranks: label images where ranks drew nothing equal one rank's (hidden %s, a corner %d labels)"
+              % (ranks, pieces[0]["hidden_label_image"], pieces[0]["corner_labels"]))
         # The statistics of every rank together (the `render` query), read alike by every rank: the
         # fewest samples of a pixel are the still render's, the device memory every rank's.
         rs, one_rs = pieces[0]["render_stats"], whole["render_stats"]
