@@ -288,6 +288,17 @@ bool encodingDescribes(vtkImageData* image, const csgv::Geometry& g, const std::
 /// decodes nothing when its labels stay compressed.
 void requestWholeInput(vtkInformation* inInfo);
 
+/// Under MPI (the output asked for one of several pieces) a filter of the whole encoding asks its
+/// input for the whole volume (one piece of one: the reader maps the whole file) where it makes
+/// the output (`everyPiece`: each rank its part of it; else piece 0 only, the other ranks passing
+/// their piece request on and making an empty output, as ParaView gathers it). A piece encoding
+/// is a volume of its own: tables, meshes and boxes made from pieces were each piece's (labels
+/// twice, bounding boxes in the piece's coordinates, walls where pieces meet). Returns whether
+/// this rank makes the output. One piece: requestWholeInput, true.
+bool requestWholeVolume(vtkInformation* outInfo, vtkInformation* inInfo, bool everyPiece);
+/// Whether this rank makes the output (requestWholeVolume's answer, in RequestData).
+bool makesWholeOutput(vtkInformation* outInfo, bool everyPiece);
+
 /// Sets spacing, origin and direction of `image` for level `lod` of a corner-origin geometry.
 void applyGeometry(vtkImageData* image, const csgv::Geometry& corner, uint32_t lod);
 

@@ -276,6 +276,29 @@ void requestWholeInput(vtkInformation* inInfo)
   inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
 }
 
+bool makesWholeOutput(vtkInformation* outInfo, bool everyPiece)
+{
+  using SDDP = vtkStreamingDemandDrivenPipeline;
+  const int pieces = outInfo->Has(SDDP::UPDATE_NUMBER_OF_PIECES()) ? outInfo->Get(SDDP::UPDATE_NUMBER_OF_PIECES()) : 1;
+  const int piece = outInfo->Has(SDDP::UPDATE_PIECE_NUMBER()) ? outInfo->Get(SDDP::UPDATE_PIECE_NUMBER()) : 0;
+  return pieces <= 1 || everyPiece || piece == 0;
+}
+
+bool requestWholeVolume(vtkInformation* outInfo, vtkInformation* inInfo, bool everyPiece)
+{
+  using SDDP = vtkStreamingDemandDrivenPipeline;
+  requestWholeInput(inInfo);
+  const int pieces = outInfo->Has(SDDP::UPDATE_NUMBER_OF_PIECES()) ? outInfo->Get(SDDP::UPDATE_NUMBER_OF_PIECES()) : 1;
+  if (pieces <= 1 || !makesWholeOutput(outInfo, everyPiece))
+  {
+    return pieces <= 1;
+  }
+  inInfo->Set(SDDP::UPDATE_PIECE_NUMBER(), 0);
+  inInfo->Set(SDDP::UPDATE_NUMBER_OF_PIECES(), 1);
+  inInfo->Set(SDDP::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  return true;
+}
+
 namespace
 {
 // The mappings that encoding arrays hold, by their first byte (a VTK array's free function gets

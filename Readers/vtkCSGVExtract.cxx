@@ -144,9 +144,10 @@ int vtkCSGVExtract::RequestInformation(
 }
 
 int vtkCSGVExtract::RequestUpdateExtent(
-  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  csgvvtk::requestWholeInput(inputVector[0]->GetInformationObject(0));
+  csgvvtk::requestWholeVolume(
+    outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0), true);
   return 1;
 }
 

@@ -320,9 +320,10 @@ int vtkCSGVExtractLabels::RequestDataObject(vtkInformation*, vtkInformationVecto
 }
 
 int vtkCSGVExtractLabels::RequestUpdateExtent(
-  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  csgvvtk::requestWholeInput(inputVector[0]->GetInformationObject(0));
+  csgvvtk::requestWholeVolume(
+    outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0), false);
   return 1;
 }
 
@@ -337,6 +338,10 @@ int vtkCSGVExtractLabels::RequestData(
   }
   output->Initialize();
   this->BricksDecoded = this->BricksTotal = 0;
+  if (!csgvvtk::makesWholeOutput(outputVector->GetInformationObject(0), false))
+  {
+    return 1; // under MPI piece 0 extracts from the whole volume (requestWholeVolume); this rank makes nothing
+  }
   std::string error;
   std::shared_ptr<const csgvvtk::EncodedInput> parsed = this->Internals->Encoding.get(input->GetFieldData(), error);
   if (!parsed)

@@ -109,9 +109,10 @@ int vtkCSGVLabelTable::FillInputPortInformation(int, vtkInformation* info)
 }
 
 int vtkCSGVLabelTable::RequestUpdateExtent(
-  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
+  vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  csgvvtk::requestWholeInput(inputVector[0]->GetInformationObject(0));
+  csgvvtk::requestWholeVolume(
+    outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0), false);
   return 1;
 }
 
@@ -125,6 +126,10 @@ int vtkCSGVLabelTable::RequestData(
     return 0;
   }
   output->Initialize();
+  if (!csgvvtk::makesWholeOutput(outputVector->GetInformationObject(0), false))
+  {
+    return 1; // under MPI piece 0 makes the whole table (requestWholeVolume); this rank's is empty
+  }
   std::string error;
   std::shared_ptr<const csgvvtk::EncodedInput> parsed = this->Internals->Encoding.get(input->GetFieldData(), error);
   if (!parsed)

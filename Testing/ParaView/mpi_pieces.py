@@ -227,6 +227,29 @@ Delete(d2)
 del d2
 Delete(v2)
 del v2
+
+# The filters of the whole encoding under MPI (attack pass 8): a piece encoding is a volume of its
+# own, so the Label Table listed labels once a piece (bounding boxes in the piece's coordinates),
+# Extract Labels meshed each piece (walls where pieces meet, nothing where a label was missing),
+# and CSGV Extract refused every piece. Rank 0 makes the table and the meshes from the whole
+# volume, the other ranks nothing; CSGV Extract's pieces are the one rank's image's parts.
+def local(proxy):
+    proxy.UpdatePipeline()
+    return proxy.GetClientSideObject().GetOutputDataObject(0)
+
+
+table = local(CSGVLabelTable(Input=r, ComputedAttributes=1))
+rows = []
+for i in range(table.GetNumberOfRows()):
+    rows.append([str(table.GetValue(i, c)) for c in range(table.GetNumberOfColumns())])
+facts["table_rows"] = sorted(rows)
+meshes = local(CSGVExtractLabels(Input=r, Query="label % 7 = 0"))
+facts["mesh"] = [meshes.GetNumberOfPoints(), meshes.GetNumberOfCells(), list(meshes.GetBounds())] \
+    if meshes.GetNumberOfCells() else [0, 0, []]
+voi = local(CSGVExtract(Input=r, VOI=[10, 90, 0, 69, 20, 150]))
+voi_labels = voi.GetCellData().GetArray("Labels") if voi.GetNumberOfCells() else None
+facts["voi"] = [list(voi.GetExtent()), int(voi_labels.GetNumberOfTuples()) if voi_labels else 0,
+                int(sum(int(voi_labels.GetTuple1(i)) for i in range(voi_labels.GetNumberOfTuples()))) if voi_labels else 0]
 with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
     json.dump(facts, f)
 

@@ -169,6 +169,16 @@ def main():
                   for p in pieces) and whole["corner_labels"] > 0,
               "%d ranks: label images where ranks drew nothing equal one rank's (hidden %s, a corner %d labels)"
               % (ranks, pieces[0]["hidden_label_image"], pieces[0]["corner_labels"]))
+        check(pieces[0]["table_rows"] == whole["table_rows"] and len(whole["table_rows"]) > 100
+              and all(not p["table_rows"] for p in pieces[1:]),
+              "%d ranks: the Label Table (%d rows) is one rank's, made by rank 0 (rows a rank: %s)"
+              % (ranks, len(whole["table_rows"]), [len(p["table_rows"]) for p in pieces]))
+        check(pieces[0]["mesh"] == whole["mesh"] and whole["mesh"][1] > 100 and all(p["mesh"][1] == 0 for p in pieces[1:]),
+              "%d ranks: Extract Labels' meshes (%s) are one rank's, made by rank 0 (%s)"
+              % (ranks, whole["mesh"][:2], [p["mesh"][:2] for p in pieces]))
+        check(sum(p["voi"][1] for p in pieces) == whole["voi"][1] > 0 and sum(p["voi"][2] for p in pieces) == whole["voi"][2],
+              "%d ranks: CSGV Extract's pieces hold one rank's cells (%d cells, label sum %d; pieces %s)"
+              % (ranks, whole["voi"][1], whole["voi"][2], [p["voi"] for p in pieces]))
         # The statistics of every rank together (the `render` query), read alike by every rank: the
         # fewest samples of a pixel are the still render's, the device memory every rank's.
         rs, one_rs = pieces[0]["render_stats"], whole["render_stats"]
