@@ -10,6 +10,7 @@
 #include <pqDataRepresentation.h>
 #include <pqObjectBuilder.h>
 #include <pqOutputPort.h>
+#include <pqPipelineFilter.h>
 #include <pqPipelineSource.h>
 #include <pqServer.h>
 #include <pqServerManagerModel.h>
@@ -179,6 +180,7 @@ void pqCSGVPickPanel::setView(pqView* view)
     this->ViewWidget->installEventFilter(this);
     this->ViewWidget->setMouseTracking(true);
   }
+  this->updateSelectionInfo();
 }
 
 bool pqCSGVPickPanel::eventFilter(QObject* watched, QEvent* event)
@@ -366,7 +368,27 @@ vtkSMProxy* pqCSGVPickPanel::selectionDisplay() const
     return this->LastDisplay;
   }
   pqDataRepresentation* r = pqActiveObjects::instance().activeRepresentation();
-  return r && r->getProxy()->GetProperty("CSGVMaterials") ? r->getProxy() : nullptr;
+  if (r && r->getProxy()->GetProperty("CSGVMaterials"))
+  {
+    return r->getProxy();
+  }
+  // A filter of a segmentation is active (its Label Table, whose rows select labels, shown in a
+  // Spreadsheet view: GUI pass 10 read "No label selected" there): the selection of its input's
+  // volume, one per data set.
+  auto* filter = qobject_cast<pqPipelineFilter*>(pqActiveObjects::instance().activeSource());
+  pqOutputPort* input = filter ? filter->getAnyInput() : nullptr;
+  if (input)
+  {
+    for (pqDataRepresentation* d :
+      pqApplicationCore::instance()->getServerManagerModel()->findItems<pqDataRepresentation*>())
+    {
+      if (d->getOutputPortFromInput() == input && d->getProxy()->GetProperty("CSGVMaterials"))
+      {
+        return d->getProxy();
+      }
+    }
+  }
+  return nullptr;
 }
 
 void pqCSGVPickPanel::updateSelectionInfo()

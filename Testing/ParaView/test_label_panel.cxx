@@ -40,6 +40,8 @@
 #include <vtkSMTrace.h>
 #include <vtkSelectionNode.h>
 #include <vtkTable.h>
+#include <vtkDataObject.h>
+#include <QTableView>
 #include <pqPipelineSource.h>
 #include <pqTimeKeeper.h>
 #include <pqView.h>
@@ -474,6 +476,48 @@ private Q_SLOTS:
     // Undo gives back the selection before.
     core->getUndoStack()->undo();
     QVERIFY2(pqCSGV::selectedLabels(proxy) == fromRows, "undo gives back the previous selection");
+    {
+      // A click on a row of the Spreadsheet view, as a user makes it: its selection model turns
+      // the row into a ParaView selection of the table (GUI pass 10: the 3D selection stayed).
+      pqView* sheet = builder->createView("SpreadSheetView", core->getActiveServer());
+      QVERIFY(sheet);
+      QVERIFY(builder->createDataRepresentation(table->getOutputPort(0), sheet));
+      vtkSMPropertyHelper(sheet->getProxy(), "FieldAssociation").Set(vtkDataObject::FIELD_ASSOCIATION_ROWS);
+      sheet->getProxy()->UpdateVTKObjects();
+      sheet->widget()->resize(600, 400);
+      sheet->widget()->show();
+      sheet->forceRender();
+      auto* tableView = sheet->widget()->findChild<QTableView*>();
+      QVERIFY(tableView && tableView->model() && tableView->selectionModel());
+      QTRY_VERIFY(tableView->model()->rowCount() == rows->GetNumberOfTuples());
+      const int labelColumn = [&] {
+        for (int c = 0; c < tableView->model()->columnCount(); ++c)
+          if (tableView->model()->headerData(c, Qt::Horizontal).toString() == "label")
+            return c;
+        return -1;
+      }();
+      QVERIFY(labelColumn >= 0);
+      const QModelIndex cell = tableView->model()->index(4, labelColumn);
+      QTRY_VERIFY(tableView->model()->data(cell).isValid() && !tableView->model()->data(cell).toString().isEmpty());
+      const uint32_t rowLabel = uint32_t(tableView->model()->data(cell).toString().toULongLong());
+      tableView->selectionModel()->select(
+        cell, QItemSelectionModel::ClearAndSelect | QItemSelectionModel::Rows);
+      QTRY_VERIFY2(pqCSGV::selectedLabels(proxy) == std::vector<uint32_t>{ rowLabel },
+        qPrintable(QString("a click on the row of label %1 selects it in 3D (%2 selected)")
+                     .arg(rowLabel).arg(pqCSGV::selectedLabels(proxy).size())));
+      // The pick panel says so while the table is the active source (it said "No label selected").
+      {
+        pqActiveObjects::instance().setActiveSource(table);
+        pqCSGVPickPanel sheetPanel;
+        sheetPanel.show();
+        QVERIFY2(sheetPanel.findChild<QLabel*>("selectionInfo")->text().startsWith("1 label selected"),
+          qPrintable(sheetPanel.findChild<QLabel*>("selectionInfo")->text()));
+      }
+      core->getUndoStack()->undo();
+      builder->destroy(sheet);
+      pqActiveObjects::instance().setActiveView(view);
+      pqActiveObjects::instance().setActiveSource(source);
+    }
 
     // The pick panel: a click selects, Ctrl+click adds, Shift+click removes.
     pqCSGVPickPanel panel;
