@@ -198,6 +198,13 @@ void addEncodingArrays(vtkFieldData* fd, vtkUnsignedCharArray* encoding,
 /// Adds one `CSGVAttribute:<name>` array per column (indexed by id).
 void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColumn>& columns);
 
+/// A reader's output that failed to read says why in FieldData `CSGVReadError` (one string):
+/// under MPI a rank's failure is printed on its own stderr only, while the other ranks' pieces
+/// pass for the whole volume; the representation's combined summary names the failed rank.
+void markReadError(vtkFieldData* fd, const std::string& message);
+/// That message, or "".
+std::string readErrorOf(vtkFieldData* fd);
+
 /// The label table an atlas keeps beside its NIfTI file (MRIcron's templates: `aal.nii.gz` has
 /// `aal.nii.txt`, "index name code" lines): `<input without .gz>.txt` when `input` ends in `.nii`
 /// or `.nii.gz` and that is a regular file; "" otherwise.
@@ -289,9 +296,9 @@ bool encodingDescribes(vtkImageData* image, const csgv::Geometry& g, const std::
 void requestWholeInput(vtkInformation* inInfo);
 
 /// Under MPI (the output asked for one of several pieces) a filter of the whole encoding asks its
-/// input for the whole volume (one piece of one: the reader maps the whole file) where it makes
-/// the output (`everyPiece`: each rank its part of it; else piece 0 only, the other ranks passing
-/// their piece request on and making an empty output, as ParaView gathers it). A piece encoding
+/// input for the whole volume on every rank (one piece of one: the reader maps the whole file);
+/// `everyPiece`: each rank makes its part of the output, else piece 0 makes all of it and the
+/// other ranks an empty output (ParaView gathers them). A piece encoding
 /// is a volume of its own: tables, meshes and boxes made from pieces were each piece's (labels
 /// twice, bounding boxes in the piece's coordinates, walls where pieces meet). Returns whether
 /// this rank makes the output. One piece: requestWholeInput, true.

@@ -269,6 +269,20 @@ vtkUnsignedCharArray* encodingArray(vtkFieldData* fd)
   return fd ? vtkUnsignedCharArray::SafeDownCast(fd->GetAbstractArray(kEncodingName)) : nullptr;
 }
 
+void markReadError(vtkFieldData* fd, const std::string& message)
+{
+  vtkNew<vtkStringArray> a;
+  a->SetName("CSGVReadError");
+  a->InsertNextValue(message.substr(0, 4096));
+  fd->AddArray(a);
+}
+
+std::string readErrorOf(vtkFieldData* fd)
+{
+  auto* a = fd ? vtkStringArray::SafeDownCast(fd->GetAbstractArray("CSGVReadError")) : nullptr;
+  return a && a->GetNumberOfValues() > 0 ? a->GetValue(0) : std::string();
+}
+
 void requestWholeInput(vtkInformation* inInfo)
 {
   int whole[6];
@@ -289,14 +303,17 @@ bool requestWholeVolume(vtkInformation* outInfo, vtkInformation* inInfo, bool ev
   using SDDP = vtkStreamingDemandDrivenPipeline;
   requestWholeInput(inInfo);
   const int pieces = outInfo->Has(SDDP::UPDATE_NUMBER_OF_PIECES()) ? outInfo->Get(SDDP::UPDATE_NUMBER_OF_PIECES()) : 1;
-  if (pieces <= 1 || !makesWholeOutput(outInfo, everyPiece))
+  if (pieces <= 1)
   {
-    return pieces <= 1;
+    return true;
   }
+  // Every rank asks alike (the others make nothing): the reader executes on all ranks or on none,
+  // so the representations downstream see as many data updates on every rank (their exchange
+  // across ranks counts on it).
   inInfo->Set(SDDP::UPDATE_PIECE_NUMBER(), 0);
   inInfo->Set(SDDP::UPDATE_NUMBER_OF_PIECES(), 1);
   inInfo->Set(SDDP::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
-  return true;
+  return makesWholeOutput(outInfo, everyPiece);
 }
 
 namespace

@@ -588,6 +588,7 @@ int vtkCSGVReader::RequestData(
   this->SetAbortExecute(0);
   if (pieces <= 1 && !in.ReadFailure.empty())
   {
+    csgvvtk::markReadError(output->GetFieldData(), in.ReadFailure);
     return 1; // said when it failed; the output stays empty
   }
   this->SetProgressText("Reading the palettes");
@@ -599,6 +600,7 @@ int vtkCSGVReader::RequestData(
   if (!readError.empty())
   {
     vtkErrorMacro(<< readError);
+    csgvvtk::markReadError(output->GetFieldData(), readError);
     return 1; // reported once: a failed request would be re-executed and reported again
   }
   const bool isPiece = pieces > 1;

@@ -316,6 +316,18 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
     }
   }
   out["empty"] = empty;
+  // A rank whose reader failed (attack pass 8: the other ranks' pieces passed for the whole
+  // volume, the failure on that rank's stderr alone): named, whatever the others hold.
+  for (size_t i = 0; i < replies.size(); ++i)
+  {
+    if (replies[i].contains("failed"))
+    {
+      const std::string why = "rank " + std::to_string(i) + ": " + replies[i].value("failed", std::string());
+      out["failed"] = why;
+      out["error"] = why;
+      break;
+    }
+  }
   std::vector<std::string> order;
   std::map<std::string, json> attributes;
   for (const json& r : replies)
@@ -423,6 +435,11 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       table.get(), source.shared.get(), source.shared ? source.shared->arrayName : std::string(), tableError);
     json s = json::parse(summary);
     s["empty"] = c.emptyInput;
+    if (!c.readError.empty())
+    {
+      s["failed"] = c.readError;
+      s["error"] = c.readError; // not only "no input"
+    }
     if (c.skipped && !c.skipped->empty())
     {
       s["skipped"] = *c.skipped;

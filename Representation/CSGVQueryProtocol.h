@@ -16,7 +16,7 @@
  *
  * | request      | reply |
  * |--------------|-------|
- * | `summary`    | JSON `{"attributes": [{"name", "numeric", "min", "max"}...], "labels": count of labels present, "labelArray": the label array's name, "empty": true when there is no input or it has no voxels (every rank's, under MPI), "error": why attributes failed (only then; under MPI a rank with data's), "skipped": why materials are not drawn (only then)}` |
+ * | `summary`    | JSON `{"attributes": [{"name", "numeric", "min", "max"}...], "labels": count of labels present, "labelArray": the label array's name, "empty": true when there is no input or it has no voxels (every rank's, under MPI), "error": why attributes failed (only then; under MPI a rank with data's, or "rank N: ..." where a rank's reader failed), "failed": why the reader failed (only then; under MPI the first failed rank's, "rank N: ..."), "skipped": why materials are not drawn (only then)}` |
  * | `pick X Y`   | JSON `{"hit": bool, "label": original label (the first opaque surface's, else the first semi-transparent one's), "translucent": bool (the latter), "depth": window depth, "voxel": [i, j, k], "world": [x, y, z], "attributes": {name: value or text}, "error": (only then)}`; `{"hit": false, "error": "no rendered pixel there"}` outside the last render |
  * | `labels`     | text `W H BASE64`: the last render's label image, uint32 little-endian, row 0 at the bottom, the pick's label per pixel, 0xFFFFFFFF where nothing was hit (base64 by vtkBase64Utilities) |
  * | `colors N`   | JSON `{"labels": [[label, r, g, b, "name"]...] (ascending labels), "truncated": bool, "text": attribute naming labels}` for at most N (default 4096) labels present that the volume shows: a material of non-zero opacity takes them in the drawn document (csgv::effectiveMaterials: hidden labels and labels outside "only" are left out) |
@@ -60,6 +60,7 @@ struct QueryContext
   VolumeSource source;           ///< empty when the input did not resolve
   std::string sourceError;       ///< why it did not
   bool emptyInput = false;       ///< no input, or one without voxels (a file that failed to read)
+  std::string readError;         ///< why the reader failed (csgvvtk::readErrorOf), else ""
   const csgv::MaterialDocument* materials = nullptr; ///< what is drawn; null when the document is invalid
   const std::vector<std::string>* skipped = nullptr;  ///< why materials of the document are not drawn
   AttributeCache* attributes = nullptr;

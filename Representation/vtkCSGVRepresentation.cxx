@@ -322,7 +322,9 @@ int vtkCSGVRepresentation::ProcessViewRequest(
     this->ShareAcrossRanks(resolved);
     // Where the Transforming properties place the piece (an axis-aligned box around it); none
     // for a placement that is not finite (the prop says so when it draws).
-    if (resolved && this->Internals->Source.bounds(bounds) && csgvrep::placeBounds(this->Prop->GetMatrix(), bounds))
+    const bool placed =
+      resolved && this->Internals->Source.bounds(bounds) && csgvrep::placeBounds(this->Prop->GetMatrix(), bounds);
+    if (placed)
     {
       // This rank's piece (the reader hands each rank whole bricks; a piece is a volume of its
       // own). Translucent materials need the pieces blended front to back: ParaView 5.11's
@@ -336,12 +338,22 @@ int vtkCSGVRepresentation::ProcessViewRequest(
       // Other representations' geometry is then redistributed by these bounds, as ParaView does
       // for any translucent display.
       vtkPVRenderView::SetGeometryBounds(inInfo, this, bounds);
-      if (this->Prop->DrawsTranslucent() || this->FramesPerStillRender > 1)
-      {
-        outInfo->Set(vtkPVRenderView::NEED_ORDERED_COMPOSITING(), 1);
-        vtkPVRenderView::SetOrderedCompositingConfiguration(
-          inInfo, this, vtkPVRenderView::USE_BOUNDS_FOR_REDISTRIBUTION, bounds);
-      }
+    }
+    // Every rank alike, those without a piece to draw too (more ranks than bricks, a reader that
+    // failed on one rank): a rank that asked for no ordered compositing while the others did
+    // waited for them in another collective, and the job hung at its first render.
+    int ordered = this->Prop->DrawsTranslucent() || this->FramesPerStillRender > 1 ? 1 : 0;
+    vtkMultiProcessController* c = vtkMultiProcessController::GetGlobalController();
+    if (c && c->GetNumberOfProcesses() > 1)
+    {
+      int mine = ordered;
+      c->AllReduce(&mine, &ordered, 1, vtkCommunicator::MAX_OP);
+    }
+    if (ordered)
+    {
+      outInfo->Set(vtkPVRenderView::NEED_ORDERED_COMPOSITING(), 1);
+      vtkPVRenderView::SetOrderedCompositingConfiguration(
+        inInfo, this, vtkPVRenderView::USE_BOUNDS_FOR_REDISTRIBUTION, placed ? bounds : nullptr);
     }
     vtkPVRenderView::SetRequiresDistributedRendering(inInfo, this, true);
   }

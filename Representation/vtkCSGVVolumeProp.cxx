@@ -4,6 +4,7 @@
 #include "CSGVAttributes.h"
 #include "CSGVGpuContext.h"
 #include "CSGVPresets.h"
+#include "CSGVAdapter.h"
 #include "CSGVQueryProtocol.h"
 #include "CSGVViewRenderer.h"
 #include "CSGVVolumeCache.h"
@@ -1028,6 +1029,7 @@ std::string vtkCSGVVolumeProp::Query(const std::string& request)
   c.source = p.Source.placed(this->GetMatrix()); // picks answer where the volume is drawn
   c.sourceError = p.Source.shared ? std::string() : (p.SourceError.empty() ? "no input" : p.SourceError);
   c.emptyInput = !p.Source.shared && (!p.Input || p.Input->GetNumberOfPoints() == 0);
+  c.readError = p.Input ? csgvvtk::readErrorOf(p.Input->GetFieldData()) : std::string();
   if (p.MaterialsValid && p.Source.shared && p.AttributesDirty && !p.Queried)
   {
     // Not rendered since the last change: what it will draw. The arrays are kept for that render.

@@ -250,6 +250,49 @@ voi = local(CSGVExtract(Input=r, VOI=[10, 90, 0, 69, 20, 150]))
 voi_labels = voi.GetCellData().GetArray("Labels") if voi.GetNumberOfCells() else None
 facts["voi"] = [list(voi.GetExtent()), int(voi_labels.GetNumberOfTuples()) if voi_labels else 0,
                 int(sum(int(voi_labels.GetTuple1(i)) for i in range(voi_labels.GetNumberOfTuples()))) if voi_labels else 0]
+# A reader that fails on one rank only (attack pass 8: the others' pieces passed for the whole
+# volume, the failure on that rank's stderr alone): the last brick's start out of order fails the
+# last rank's piece (and one rank's whole file); the combined summary names the rank.
+import struct
+bad = os.path.join(out, "bad_last_start.csgv")
+if rank == 0:
+    raw = bytearray(open(path, "rb").read())
+    mode = struct.unpack_from("<i", raw, 28)[0]
+    at = 41 + {1: 64, 2: 128}.get(mode, 0) + 4  # the encoder section, bricks per array
+    n = struct.unpack_from("<Q", raw, at)[0]
+    struct.pack_into("<I", raw, at + 8 + 4 * (n - 2), 5)  # start of the last brick
+    with open(bad, "wb") as f:
+        f.write(bytes(raw))
+sm.vtkProcessModule.GetProcessModule().GetGlobalController().Barrier()
+badReader = CSGVReader(FileName=bad)
+vb = CreateRenderView()
+vb.ViewSize = [64, 48]
+db = Show(badReader, vb)
+db.Representation = "Segmentation Volume"
+Render(vb)
+facts["bad_summary"] = csgv_tools.attribute_summary(db)
+# Fewer bricks than ranks (one), at the default samples a pixel: the ranks without a piece took
+# no part in ordered compositing and the job hung at the first render.
+one = os.path.join(out, "one_brick.csgv")
+if rank == 0:
+    import subprocess
+    subprocess.run([os.environ["CSGV_TOOL"], "compress", "synth:20x20x20", one], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+sm.vtkProcessModule.GetProcessModule().GetGlobalController().Barrier()
+oneReader = CSGVReader(FileName=one)
+d1 = Show(oneReader, vb)
+d1.Representation = "Segmentation Volume"
+d1.CSGVFramesPerStillRender = 4
+Hide(badReader, vb)
+vb.ResetCamera()
+Render(vb)
+facts["one_brick_labels"] = int((csgv_tools.label_image(d1) != 0xFFFFFFFF).sum())
+Delete(d1)
+del d1
+Delete(db)
+del db
+Delete(vb)
+del vb
 with open(os.path.join(out, "rank%d.json" % rank), "w") as f:
     json.dump(facts, f)
 

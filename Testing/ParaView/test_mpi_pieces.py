@@ -179,6 +179,14 @@ def main():
         check(sum(p["voi"][1] for p in pieces) == whole["voi"][1] > 0 and sum(p["voi"][2] for p in pieces) == whole["voi"][2],
               "%d ranks: CSGV Extract's pieces hold one rank's cells (%d cells, label sum %d; pieces %s)"
               % (ranks, whole["voi"][1], whole["voi"][2], [p["voi"] for p in pieces]))
+        failed = pieces[0]["bad_summary"].get("failed", "")
+        check(failed.startswith("rank %d: " % (ranks - 1)) and all(p["bad_summary"] == pieces[0]["bad_summary"] for p in pieces)
+              and whole["bad_summary"].get("failed"),
+              "%d ranks: a reader failing on the last rank only is named in the summary (%r; one rank: %r)"
+              % (ranks, failed[:120], whole["bad_summary"].get("failed", "")[:120]))
+        check(all(p["one_brick_labels"] == whole["one_brick_labels"] for p in pieces) and whole["one_brick_labels"] > 100,
+              "%d ranks: a volume of one brick renders at 4 samples a pixel (%d label pixels; one rank %d)"
+              % (ranks, pieces[0]["one_brick_labels"], whole["one_brick_labels"]))
         # The statistics of every rank together (the `render` query), read alike by every rank: the
         # fewest samples of a pixel are the still render's, the device memory every rank's.
         rs, one_rs = pieces[0]["render_stats"], whole["render_stats"]
