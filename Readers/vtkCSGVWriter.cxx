@@ -119,17 +119,19 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
 
   std::string error;
 
-  // Process 0 chooses the array; every process then takes it from its own piece.
-  vtkMultiProcessStream choice;
-  csgv::LabelType labelType = csgv::LabelType::U32; // process 0's, for the attribute database
+  // The first process whose piece holds the array chooses it (a process whose piece holds no
+  // voxels, with fewer bricks than processes, may get an image without arrays: attack pass 8,
+  // every process failed when it was process 0); every process then takes it from its own piece.
+  vtkMultiProcessStream candidate;
+  csgv::LabelType labelType = csgv::LabelType::U32; // the chooser's, for the attribute database
   std::string originalType;
-  if (rank == 0)
   {
     bool isCell = true;
     vtkDataArray* array = image
       ? csgvvtk::findLabelArray(image, self->GetLabelArrayName() ? self->GetLabelArrayName() : "", isCell)
       : nullptr;
-    std::string name;
+    std::string name, typeName;
+    csgv::LabelType t = csgv::LabelType::U32;
     if (!image)
     {
       error = "the input is not image data";
@@ -141,15 +143,41 @@ void writePieces(vtkCSGVWriter* self, csgv::EncodeOptions options)
     else
     {
       name = array->GetName() ? array->GetName() : "";
-      const char* typeName = csgvvtk::labelTypeNameOf(array->GetDataType(), labelType);
-      originalType = typeName ? typeName : "";
+      const char* n = csgvvtk::labelTypeNameOf(array->GetDataType(), t);
+      typeName = n ? n : "";
     }
-    choice << error << name << int(isCell);
+    candidate << error << name << int(isCell) << typeName << int(t);
+  }
+  std::vector<vtkMultiProcessStream> candidates;
+  c->Gather(candidate, candidates, 0);
+  vtkMultiProcessStream choice;
+  if (rank == 0)
+  {
+    std::string firstError;
+    bool chosen = false;
+    for (vtkMultiProcessStream& s : candidates)
+    {
+      std::string e, name, typeName;
+      int cell = 1, type = 0;
+      s >> e >> name >> cell >> typeName >> type;
+      if (e.empty() && !chosen)
+      {
+        choice << e << name << cell << typeName << type;
+        chosen = true;
+      }
+      firstError = firstError.empty() ? e : firstError;
+    }
+    if (!chosen)
+    {
+      choice << firstError << std::string() << 1 << std::string() << int(csgv::LabelType::U32);
+    }
   }
   c->Broadcast(choice, 0);
   std::string arrayName;
   int cellData = 1;
-  choice >> error >> arrayName >> cellData;
+  int chosenType = int(csgv::LabelType::U32);
+  choice >> error >> arrayName >> cellData >> originalType >> chosenType;
+  labelType = csgv::LabelType(chosenType);
   if (!error.empty())
   {
     vtkErrorWithObjectMacro(self, << error);

@@ -313,6 +313,9 @@ wavelet = Wavelet(WholeExtent=[0, 40, 0, 30, 0, 20])
 negative = Calculator(Input=wavelet, ResultArrayName="lab", ResultArrayType="Int", Function="floor(RTData/20)")
 SaveData(os.path.join(written, "negative.csgv"), proxy=negative, BrickSize=8, LabelArrayName="lab")
 SaveData(os.path.join(written, "forced.csgv"), proxy=labels, BrickSize=32, Relabel=1)
+# A CSGV reader's volume of one brick: ranks without bricks get images without arrays (every rank
+# failed when rank 0 was one of them: attack pass 8).
+SaveData(os.path.join(written, "one_brick.csgv"), proxy=CSGVReader(FileName=one, DecodeLabels=1))
 SaveData(os.path.join(written, "onebrick.csgv"), proxy=negative, BrickSize=64, LabelArrayName="lab", Encoding=1)
 fraction = Calculator(Input=wavelet, ResultArrayName="f", ResultArrayType="Float",
                       Function="floor(RTData/20) + 0.5*(coordsX==35)*(coordsY==25)*(coordsZ==15)")

@@ -212,7 +212,7 @@ def main():
         # The parallel writer: the same files as one rank, byte for byte.
         want = sorted(os.listdir(os.path.join(outs[1], "written")))
         got = sorted(os.listdir(os.path.join(outs[ranks], "written")))
-        check(got == want and "negative_csgv.db3" in want and "onebrick.csgv" in want
+        check(got == want and "negative_csgv.db3" in want and "onebrick.csgv" in want and "one_brick.csgv" in want
               and not any(n.startswith("fraction") for n in want),
               "%d ranks: SaveData wrote %s (one rank: %s)" % (ranks, got, want))
         differ = [n for n in want if n in got and open(os.path.join(outs[1], "written", n), "rb").read()
