@@ -354,33 +354,55 @@ std::vector<uint32_t> storedLabels(const SharedVolume& shared, size_t cap, bool&
     return std::vector<uint32_t>(
       palettes->labels.begin(), palettes->labels.begin() + std::ptrdiff_t(std::min(cap, palettes->labels.size())));
   }
-  std::set<uint32_t> seen;
-  const csgv::CompressedVolume& volume = shared.volume;
-  const uint32_t L = volume.levels();
-  const std::array<uint32_t, 3> grid = volume.brickGrid();
-  for (uint64_t b = 0; b < volume.brickCount(); ++b)
+  std::shared_ptr<const std::pair<std::vector<uint32_t>, bool>> own = std::atomic_load(&shared.ownLabels);
+  if (!own)
   {
-    if (!shared.owned.empty() &&
-      !shared.owned.contains(uint32_t(b % grid[0]), uint32_t(b / grid[0] % grid[1]), uint32_t(b / grid[0] / grid[1])))
-    {
-      continue; // absent: another rank's brick
-    }
-    if (!csgv::brickSound(volume, b))
-    {
-      continue; // a bad brick (checkBrick): drawn empty
-    }
-    const csgv::BrickWords bw = volume.brick(b);
-    for (uint32_t k = 0; k < bw.words[L]; ++k)
-    {
-      seen.insert(bw.words[bw.size - 1 - k]);
-      if (seen.size() > cap)
+    constexpr size_t kMost = size_t(1) << 26;
+    std::vector<uint32_t> seen;
+    bool more = false;
+    // Every palette entry, sorted and made unique whenever the list doubles (bounded by twice
+    // the distinct labels plus a brick's palette).
+    size_t distinct = 0;
+    const auto compact = [&]() {
+      std::sort(seen.begin(), seen.end());
+      seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+      if (seen.size() > kMost)
       {
-        truncated = true;
-        seen.erase(std::prev(seen.end()));
+        more = true;
+        seen.resize(kMost);
+      }
+      distinct = seen.size();
+    };
+    const csgv::CompressedVolume& volume = shared.volume;
+    const uint32_t L = volume.levels();
+    const std::array<uint32_t, 3> grid = volume.brickGrid();
+    for (uint64_t b = 0; b < volume.brickCount(); ++b)
+    {
+      if (!shared.owned.empty() &&
+        !shared.owned.contains(uint32_t(b % grid[0]), uint32_t(b / grid[0] % grid[1]), uint32_t(b / grid[0] / grid[1])))
+      {
+        continue; // absent: another rank's brick
+      }
+      if (!csgv::brickSound(volume, b))
+      {
+        continue; // a bad brick (checkBrick): drawn empty
+      }
+      const csgv::BrickWords bw = volume.brick(b);
+      for (uint32_t k = 0; k < bw.words[L]; ++k)
+      {
+        seen.push_back(bw.words[bw.size - 1 - k]);
+      }
+      if (seen.size() > 2 * distinct + (size_t(1) << 20))
+      {
+        compact();
       }
     }
+    compact();
+    own = std::make_shared<const std::pair<std::vector<uint32_t>, bool>>(std::move(seen), more);
+    std::atomic_store(&shared.ownLabels, own);
   }
-  return std::vector<uint32_t>(seen.begin(), seen.end());
+  truncated = own->second || own->first.size() > cap;
+  return std::vector<uint32_t>(own->first.begin(), own->first.begin() + std::ptrdiff_t(std::min(cap, own->first.size())));
 }
 
 int64_t originalLabel(const SharedVolume& volume, uint32_t stored)

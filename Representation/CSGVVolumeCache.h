@@ -96,6 +96,11 @@ struct SharedVolume
   /// or made at the first upload (guarded by the volume cache's mutex); every upload of the
   /// volume (and of its tiers: the coarse tier keeps the palettes) takes it.
   std::shared_ptr<const csgv::PaletteSummary> palettes;
+  /// The stored labels of the volume's own bricks (sorted, unique; at most 2^26, `true` in the
+  /// pair when there were more), made at the first storedLabels that needs them (an MPI piece's,
+  /// which the palette summary does not describe: made again at every query, a pick took 10 s
+  /// on a piece of 2 million labels). Set with std::atomic_store.
+  mutable std::shared_ptr<const std::pair<std::vector<uint32_t>, bool>> ownLabels;
   /// By host-memory setting (bytes; 0: automatic): the volume under that budget
   /// (ViewRenderer::tiersFor: the finest level read from the mapped file), or null when it stays
   /// whole; decided once per setting (the automatic budget when first asked), guarded by the
