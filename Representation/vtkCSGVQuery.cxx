@@ -56,7 +56,7 @@ void vtkCSGVQuery::Gather()
   std::istringstream in(text);
   std::string what;
   in >> what;
-  if (!c || c->GetNumberOfProcesses() < 2 || !this->Representation ||
+  if (!c || c->GetNumberOfProcesses() < 2 || !this->Representation || what.empty() ||
     (what != "pick" && what != "labels" && what != "summary" && what != "colors" && what != "span" &&
       what != "match" && what != "render"))
   {
