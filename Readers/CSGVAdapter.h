@@ -296,14 +296,14 @@ bool encodingDescribes(vtkImageData* image, const csgv::Geometry& g, const std::
 void requestWholeInput(vtkInformation* inInfo);
 
 /// Under MPI (the output asked for one of several pieces) a filter of the whole encoding asks its
-/// input for the whole volume on every rank (one piece of one: the reader maps the whole file);
-/// `everyPiece`: each rank makes its part of the output, else piece 0 makes all of it and the
-/// other ranks an empty output (ParaView gathers them). A piece encoding
-/// is a volume of its own: tables, meshes and boxes made from pieces were each piece's (labels
-/// twice, bounding boxes in the piece's coordinates, walls where pieces meet). Returns whether
-/// this rank makes the output. One piece: requestWholeInput, true.
-bool requestWholeVolume(vtkInformation* outInfo, vtkInformation* inInfo, bool everyPiece);
-/// Whether this rank makes the output (requestWholeVolume's answer, in RequestData).
+/// input for the whole volume on every rank (one piece of one: the reader maps the whole file).
+/// A piece encoding is a volume of its own: tables, meshes and boxes made from pieces were each
+/// piece's (labels twice, bounding boxes in the piece's coordinates, walls where pieces meet).
+/// One piece: requestWholeInput.
+void requestWholeVolume(vtkInformation* outInfo, vtkInformation* inInfo);
+/// Whether this rank makes the output from the whole volume: always with one piece; under MPI
+/// each rank its part (`everyPiece`), else piece 0 all of it and the other ranks an empty output
+/// (ParaView gathers them).
 bool makesWholeOutput(vtkInformation* outInfo, bool everyPiece);
 
 /// Sets spacing, origin and direction of `image` for level `lod` of a corner-origin geometry.

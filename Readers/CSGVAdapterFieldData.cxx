@@ -22,6 +22,7 @@
 #include <sys/stat.h>
 #include <mutex>
 #include <unordered_map>
+#include <utility>
 #include <cstring>
 #include <limits>
 
@@ -290,30 +291,37 @@ void requestWholeInput(vtkInformation* inInfo)
   inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
 }
 
-bool makesWholeOutput(vtkInformation* outInfo, bool everyPiece)
+namespace
+{
+/// The pieces the output is asked in, and which one.
+std::pair<int, int> outputPiece(vtkInformation* outInfo)
 {
   using SDDP = vtkStreamingDemandDrivenPipeline;
-  const int pieces = outInfo->Has(SDDP::UPDATE_NUMBER_OF_PIECES()) ? outInfo->Get(SDDP::UPDATE_NUMBER_OF_PIECES()) : 1;
-  const int piece = outInfo->Has(SDDP::UPDATE_PIECE_NUMBER()) ? outInfo->Get(SDDP::UPDATE_PIECE_NUMBER()) : 0;
+  return { outInfo->Has(SDDP::UPDATE_NUMBER_OF_PIECES()) ? outInfo->Get(SDDP::UPDATE_NUMBER_OF_PIECES()) : 1,
+    outInfo->Has(SDDP::UPDATE_PIECE_NUMBER()) ? outInfo->Get(SDDP::UPDATE_PIECE_NUMBER()) : 0 };
+}
+} // namespace
+
+bool makesWholeOutput(vtkInformation* outInfo, bool everyPiece)
+{
+  const auto [pieces, piece] = outputPiece(outInfo);
   return pieces <= 1 || everyPiece || piece == 0;
 }
 
-bool requestWholeVolume(vtkInformation* outInfo, vtkInformation* inInfo, bool everyPiece)
+void requestWholeVolume(vtkInformation* outInfo, vtkInformation* inInfo)
 {
   using SDDP = vtkStreamingDemandDrivenPipeline;
   requestWholeInput(inInfo);
-  const int pieces = outInfo->Has(SDDP::UPDATE_NUMBER_OF_PIECES()) ? outInfo->Get(SDDP::UPDATE_NUMBER_OF_PIECES()) : 1;
-  if (pieces <= 1)
+  if (outputPiece(outInfo).first <= 1)
   {
-    return true;
+    return;
   }
-  // Every rank asks alike (the others make nothing): the reader executes on all ranks or on none,
-  // so the representations downstream see as many data updates on every rank (their exchange
-  // across ranks counts on it).
+  // Every rank asks alike (those that make nothing too): the reader executes on all ranks or on
+  // none, so the representations downstream see as many data updates on every rank (their
+  // exchange across ranks counts on it).
   inInfo->Set(SDDP::UPDATE_PIECE_NUMBER(), 0);
   inInfo->Set(SDDP::UPDATE_NUMBER_OF_PIECES(), 1);
   inInfo->Set(SDDP::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
-  return makesWholeOutput(outInfo, everyPiece);
 }
 
 namespace

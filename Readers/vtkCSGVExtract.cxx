@@ -146,8 +146,7 @@ int vtkCSGVExtract::RequestInformation(
 int vtkCSGVExtract::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  csgvvtk::requestWholeVolume(
-    outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0), true);
+  csgvvtk::requestWholeVolume(outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0));
   return 1;
 }
 

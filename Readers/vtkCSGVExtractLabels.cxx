@@ -322,8 +322,7 @@ int vtkCSGVExtractLabels::RequestDataObject(vtkInformation*, vtkInformationVecto
 int vtkCSGVExtractLabels::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  csgvvtk::requestWholeVolume(
-    outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0), false);
+  csgvvtk::requestWholeVolume(outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0));
   return 1;
 }
 

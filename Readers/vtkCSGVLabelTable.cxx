@@ -111,8 +111,7 @@ int vtkCSGVLabelTable::FillInputPortInformation(int, vtkInformation* info)
 int vtkCSGVLabelTable::RequestUpdateExtent(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  csgvvtk::requestWholeVolume(
-    outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0), false);
+  csgvvtk::requestWholeVolume(outputVector->GetInformationObject(0), inputVector[0]->GetInformationObject(0));
   return 1;
 }
 

@@ -55,20 +55,6 @@ pqOutputPort* inputOf(vtkSMProxy* display)
   return r ? r->getOutputPortFromInput() : nullptr;
 }
 
-/// Every display (all views) of `port` that holds a label selection (a Segmentation Volume's).
-QList<vtkSMProxy*> volumeDisplaysOf(pqOutputPort* port)
-{
-  QList<vtkSMProxy*> out;
-  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
-  for (pqDataRepresentation* r : model->findItems<pqDataRepresentation*>())
-  {
-    if (port && r->getOutputPortFromInput() == port && r->getProxy()->GetProperty("CSGVMaterials"))
-    {
-      out.push_back(r->getProxy());
-    }
-  }
-  return out;
-}
 
 bool isLabelTable(pqPipelineSource* source)
 {
@@ -196,6 +182,20 @@ pqCSGVLabelSelection::pqCSGVLabelSelection(QObject* parent)
 pqCSGVLabelSelection::~pqCSGVLabelSelection()
 {
   this->shutdown();
+}
+
+QList<vtkSMProxy*> pqCSGVLabelSelection::volumeDisplaysOf(pqOutputPort* port)
+{
+  QList<vtkSMProxy*> out;
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  for (pqDataRepresentation* r : model->findItems<pqDataRepresentation*>())
+  {
+    if (port && r->getOutputPortFromInput() == port && r->getProxy()->GetProperty("CSGVMaterials"))
+    {
+      out.push_back(r->getProxy());
+    }
+  }
+  return out;
 }
 
 pqCSGVLabelSelection* pqCSGVLabelSelection::instance()

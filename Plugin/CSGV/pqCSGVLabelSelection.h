@@ -79,6 +79,9 @@ public:
   /// Selects the labels of a screen rectangle of `view` (a ParaView selection tool's region) in
   /// the Segmentation Volumes it shows; `edit` as ParaView's modifiers (Ctrl adds, Shift removes).
   static void selectRectangle(pqView* view, const int region[4], csgv::SelectionEdit edit);
+  /// Every display (all views) of `port` that holds a label selection (a Segmentation Volume's):
+  /// the selection is one per data set.
+  static QList<vtkSMProxy*> volumeDisplaysOf(pqOutputPort* port);
 
 private Q_SLOTS:
   void viewAdded(pqView* view);

@@ -377,18 +377,8 @@ vtkSMProxy* pqCSGVPickPanel::selectionDisplay() const
   // volume, one per data set.
   auto* filter = qobject_cast<pqPipelineFilter*>(pqActiveObjects::instance().activeSource());
   pqOutputPort* input = filter ? filter->getAnyInput() : nullptr;
-  if (input)
-  {
-    for (pqDataRepresentation* d :
-      pqApplicationCore::instance()->getServerManagerModel()->findItems<pqDataRepresentation*>())
-    {
-      if (d->getOutputPortFromInput() == input && d->getProxy()->GetProperty("CSGVMaterials"))
-      {
-        return d->getProxy();
-      }
-    }
-  }
-  return nullptr;
+  const QList<vtkSMProxy*> displays = pqCSGVLabelSelection::volumeDisplaysOf(input);
+  return displays.isEmpty() ? nullptr : displays.front();
 }
 
 void pqCSGVPickPanel::updateSelectionInfo()
