@@ -75,13 +75,15 @@ def attribute_summary(display):
 
 def pick(display, x, y):
     """What the last render shows at pixel (x, y) of the view (row 0 at the bottom):
-    {"hit", "label", "voxel", "world", "attributes"}."""
+    {"hit", "label", "original", "voxel", "world", "attributes"}. "label" is what materials and
+    selections name; on a volume with labels beyond 32 bits that is an id, and "original" (also as
+    "originalText") the voxel's own label (README, "Labels beyond 32 bits")."""
     return json.loads(query(display, "pick %d %d" % (x, y)))
 
 
 def label_image(display):
     """The last render's label image as a numpy uint32 array (rows, columns), row 0 at the
-    bottom: the label a pick reports at each pixel (the first opaque surface's, else the first
+    bottom: the "label" a pick reports at each pixel (the first opaque surface's, else the first
     semi-transparent one's), 0xFFFFFFFF where none. Empty (0 x 0) when the last render drew
     nothing (an error, hidden); RuntimeError for a display that was deleted."""
     import numpy as np

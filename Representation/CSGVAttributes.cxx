@@ -410,6 +410,32 @@ int64_t originalLabel(const SharedVolume& volume, uint32_t stored)
   return stored < volume.idToLabel.size() ? volume.idToLabel[stored] : int64_t(stored);
 }
 
+bool drawsIds(const SharedVolume& volume)
+{
+  return !volume.idToLabel.empty() && volume.storedToOriginal.empty();
+}
+
+int64_t drawnLabel(const SharedVolume& volume, uint32_t stored)
+{
+  return drawsIds(volume) ? int64_t(stored) : originalLabel(volume, stored);
+}
+
+json originalLabelJson(const SharedVolume& volume, uint32_t stored)
+{
+  const int64_t label = originalLabel(volume, stored);
+  return volume.originalsUnsigned && stored < volume.idToLabel.size() ? json(uint64_t(label)) : json(label);
+}
+
+csgv::MaterialEvaluator::AttributeFn drawnAttributes(const csgv::AttributeTable& table, const SharedVolume& volume)
+{
+  if (!drawsIds(volume))
+  {
+    return table.attributeFunction();
+  }
+  return [&table, &volume](const std::string& name, uint32_t id)
+  { return name == "label" ? double(id) : table.value(name, originalLabel(volume, id)); };
+}
+
 std::string denseColumns(const csgv::AttributeTable& table, const SharedVolume& volume,
   const std::vector<std::string>& names, std::map<std::string, std::vector<float>>& out)
 {
@@ -537,24 +563,27 @@ std::string labelColorsJson(const csgv::MaterialDocument& doc, const csgv::Attri
 {
   csgv::AttributeTable empty;
   const csgv::AttributeTable& t = table ? *table : empty;
-  csgv::MaterialEvaluator evaluator(doc, t.attributeFunction());
+  csgv::MaterialEvaluator evaluator(doc, drawnAttributes(t, volume));
   const csgv::AttributeColumn* names = nameColumn(table);
   bool truncated = false;
   json labels = json::array();
   for (uint32_t s : storedLabels(volume, cap, truncated))
   {
-    const int64_t label = originalLabel(volume, s);
-    if (label < 0 || label > int64_t(0xFFFFFFFEll))
+    // Materials take the drawn label (an id where the volume draws ids); the list names the
+    // original, as the label array that a lookup table colours holds it.
+    const int64_t drawn = drawnLabel(volume, s);
+    if (drawn < 0 || drawn > int64_t(0xFFFFFFFEll))
     {
       continue;
     }
-    const int m = evaluator.materialOf(uint32_t(label));
+    const int m = evaluator.materialOf(uint32_t(drawn));
     if (m < 0 || doc.materials[size_t(m)].opacity <= 0.0f) // not drawn
     {
       continue;
     }
-    const std::array<float, 3> c = evaluator.colorOf(uint32_t(label), m);
-    labels.push_back({ label, c[0], c[1], c[2], names ? t.text(names->name, label) : std::string() });
+    const std::array<float, 3> c = evaluator.colorOf(uint32_t(drawn), m);
+    const int64_t label = originalLabel(volume, s);
+    labels.push_back({ originalLabelJson(volume, s), c[0], c[1], c[2], names ? t.text(names->name, label) : std::string() });
   }
   // Ascending original labels (stored ids of a relabelled volume follow another order).
   std::sort(labels.begin(), labels.end(),
@@ -569,7 +598,7 @@ std::string attributeSpanJson(const csgv::AttributeTable* table, const SharedVol
 {
   csgv::AttributeTable empty;
   const csgv::AttributeTable& t = table ? *table : empty;
-  const csgv::MaterialEvaluator::AttributeFn value = t.attributeFunction();
+  const csgv::MaterialEvaluator::AttributeFn value = drawnAttributes(t, volume);
   auto of = [&](const std::string& name, int64_t label)
   { return name == "label" ? double(label) : value(name, uint32_t(label)); };
   double min = std::numeric_limits<double>::quiet_NaN(), max = min;
@@ -577,7 +606,7 @@ std::string attributeSpanJson(const csgv::AttributeTable* table, const SharedVol
   bool truncated = false;
   for (uint32_t s : storedLabels(volume, size_t(1) << 22, truncated))
   {
-    const int64_t label = originalLabel(volume, s);
+    const int64_t label = drawnLabel(volume, s);
     if (label < 0 || label > int64_t(0xFFFFFFFEll))
     {
       continue;

@@ -20,6 +20,7 @@
 #include "csgv/attributes/Attributes.h"
 #include "csgv/materials/Materials.h"
 
+#include <nlohmann/json_fwd.hpp>
 #include <vtkType.h>
 
 #include <map>
@@ -83,6 +84,22 @@ csgv::Result<csgv::AttributeSums> ownedAttributeSums(
 
 /// The original label of a stored value.
 int64_t originalLabel(const SharedVolume& volume, uint32_t stored);
+
+/// Whether the renderer draws a relabelled volume's ids (0, 1, 2, ...) rather than its labels:
+/// originals that do not fit 32 bits (negative, 64-bit) cannot be named in a material document,
+/// so materials, selections, label images and a pick's "label" name the ids there, and a pick
+/// adds the voxel's "original" label (README, "Labels beyond 32 bits").
+bool drawsIds(const SharedVolume& volume);
+
+/// The label materials name for a stored value: the id where drawsIds, else the original label.
+int64_t drawnLabel(const SharedVolume& volume, uint32_t stored);
+
+/// The original label as JSON: unsigned where the originals were unsigned 64-bit labels.
+nlohmann::json originalLabelJson(const SharedVolume& volume, uint32_t stored);
+
+/// The attribute function materials are evaluated with over drawn labels (drawnLabel): where the
+/// volume draws ids, an id's row is its original label's.
+csgv::MaterialEvaluator::AttributeFn drawnAttributes(const csgv::AttributeTable& table, const SharedVolume& volume);
 
 /// JSON: {"attributes": [{"name", "numeric", "min", "max"}...], "error": "..."}; `label` first,
 /// its range from the volume's palettes.

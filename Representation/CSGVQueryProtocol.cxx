@@ -502,9 +502,15 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     // files give them) joined with the attribute table's rows and columns.
     bool truncated = false;
     std::vector<int64_t> present;
+    std::map<int64_t, uint32_t> idOf; // where the volume draws ids, the answer names them
+    const bool ids = drawsIds(*source.shared);
     for (uint32_t stored : storedLabels(*source.shared, size_t(1) << 22, truncated))
     {
       present.push_back(originalLabel(*source.shared, stored));
+      if (ids)
+      {
+        idOf.emplace(present.back(), stored);
+      }
     }
     csgv::Result<csgv::AttributeTable> rows = csgv::AttributeTable::fromLabels(std::move(present));
     if (!rows)
@@ -521,7 +527,20 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       return json({ { "error", matched.message() } }).dump(-1, ' ', false, json::error_handler_t::replace);
     }
     json labels = json::array();
-    for (int64_t l : *matched)
+    std::vector<int64_t> drawn = *matched;
+    if (ids)
+    {
+      drawn.clear();
+      for (int64_t l : *matched)
+      {
+        if (auto it = idOf.find(l); it != idOf.end())
+        {
+          drawn.push_back(int64_t(it->second));
+        }
+      }
+      std::sort(drawn.begin(), drawn.end());
+    }
+    for (int64_t l : drawn)
     {
       if (l < 0 || double(l) > csgv::kMaxMaterialLabel)
       {
@@ -558,7 +577,7 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     }
     // The labels as drawn: the visibility overlay applied, labels of transparent materials left out.
     const csgv::MaterialDocument drawn = csgv::effectiveMaterials(
-      *c.materials, table ? table->attributeFunction() : csgv::MaterialEvaluator::AttributeFn());
+      *c.materials, table ? drawnAttributes(*table, *source.shared) : csgv::MaterialEvaluator::AttributeFn());
     return labelColorsJson(drawn, table.get(), *source.shared, cap);
   }
   static const csgv::gpu::FrameOutput nothing;
@@ -604,6 +623,13 @@ std::string answerQuery(const std::string& request, QueryContext& c)
     }
     r["hit"] = true;
     r["label"] = label;
+    // The voxel's own label: the same, but where the volume draws ids (drawsIds) their original.
+    const bool ids = source.shared && drawsIds(*source.shared);
+    r["original"] = ids ? originalLabelJson(*source.shared, label) : json(label);
+    if (ids) // exact for readers whose JSON numbers are doubles (Qt's: the pick panel)
+    {
+      r["originalText"] = r["original"].dump();
+    }
     const double depth = i < out.hitDepth.size() ? double(out.hitDepth[i]) : 1.0;
     r["depth"] = depth;
     // No opaque surface there: the first semi-transparent one (what the pixel shows first).
@@ -656,7 +682,8 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       r["voxel"] = voxel;
       r["world"] = { hitP[0], hitP[1], hitP[2] };
     }
-    r["attributes"] = json::parse(labelAttributesJson(table.get(), int64_t(label)));
+    r["attributes"] = json::parse(
+      labelAttributesJson(table.get(), ids ? originalLabel(*source.shared, label) : int64_t(label)));
     if (!tableError.empty())
     {
       r["error"] = tableError;

@@ -124,6 +124,7 @@ std::string parseEncoding(vtkFieldData* fd, SharedVolume& out)
   {
     out.idToLabel = enc.info.map;
     out.storedToOriginal = narrowMap(enc.info.map, enc.info.unsigned64);
+    out.originalsUnsigned = enc.info.unsigned64;
   }
   return std::string();
 }
@@ -148,7 +149,8 @@ std::string compressArray(vtkDataArray* array, const std::array<uint32_t, 3>& di
     // Originals that do not fit 32 bits (negative, wide) cannot be named in materials:
     // materials then filter on the dense ids.
     out.idToLabel.assign(encoded.mapping.originalBits.begin(), encoded.mapping.originalBits.end());
-    out.storedToOriginal = narrowMap(out.idToLabel, !csgv::isSignedType(encoded.mapping.type));
+    out.originalsUnsigned = !csgv::isSignedType(encoded.mapping.type);
+    out.storedToOriginal = narrowMap(out.idToLabel, out.originalsUnsigned);
   }
   return std::string();
 }

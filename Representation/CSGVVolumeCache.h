@@ -69,6 +69,8 @@ struct SharedVolume
   /// Stored id -> original label bits for any relabelled volume (empty: stored labels are the
   /// originals); the key of attribute arrays.
   std::vector<int64_t> idToLabel;
+  /// The bits of idToLabel are unsigned 64-bit labels (a uint64 array or a file of them).
+  bool originalsUnsigned = false;
   /// An MPI rank's piece of a .csgv (the reader's CSGVPieceOffset): `volume` is the piece placed
   /// in the whole volume's index space (csgv::embedPiece), `owned` its bricks (the others are
   /// absent: label 0, never drawn), `pieceDims` its own voxels, `volumeCorner` the corner

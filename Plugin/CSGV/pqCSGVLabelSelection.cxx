@@ -62,11 +62,12 @@ bool isLabelTable(pqPipelineSource* source)
   return name && std::strcmp(name, "CSGVLabelTable") == 0;
 }
 
-/// The column "label" of a table output, fetched to the client as servermanager.Fetch does:
+/// The columns "label" and (when the table has it) "csgv_id" of a table output, fetched to the
+/// client as servermanager.Fetch does:
 /// ParaView's ReductionFilter (rank 0's table, where the label table is made) on the server, then
 /// ClientServerMoveData to the client (the reduction's own client-side copy is empty in
 /// client/server mode).
-std::vector<int64_t> fetchLabels(vtkSMSourceProxy* source, unsigned int port)
+std::vector<int64_t> fetchLabels(vtkSMSourceProxy* source, unsigned int port, std::vector<int64_t>* ids = nullptr)
 {
   pqScopedUndoExclude keepOff; // helper proxies (fetching rows) are no edits
   std::vector<int64_t> out;
@@ -92,11 +93,25 @@ std::vector<int64_t> fetchLabels(vtkSMSourceProxy* source, unsigned int port)
   out.reserve(size_t(labels->GetNumberOfTuples()));
   for (vtkIdType i = 0; i < labels->GetNumberOfTuples(); ++i)
     out.push_back(labels->GetVariantValue(i).ToTypeInt64());
+  vtkAbstractArray* column = ids ? table->GetColumnByName("csgv_id") : nullptr;
+  if (column && column->GetNumberOfTuples() == labels->GetNumberOfTuples())
+  {
+    for (vtkIdType i = 0; i < column->GetNumberOfTuples(); ++i)
+      ids->push_back(column->GetVariantValue(i).ToTypeInt64());
+  }
   return out;
 }
 
-/// The labels of the rows a selection picks out of a label table.
-std::vector<int64_t> labelsOfSelectedRows(pqOutputPort* table)
+/// Whether a volume with these labels is drawn by ids (csgvrep::drawsIds: a label does not fit
+/// the 32 bits a material document names).
+bool beyond32Bits(const std::vector<int64_t>& labels)
+{
+  return std::any_of(labels.begin(), labels.end(),
+    [](int64_t l) { return l < 0 || double(l) > csgv::kMaxMaterialLabel; });
+}
+
+/// The labels of the rows a selection picks out of a label table (their ids where `ids`).
+std::vector<int64_t> labelsOfSelectedRows(pqOutputPort* table, bool ids)
 {
   vtkSMSourceProxy* selection = table->getSelectionInput();
   if (!selection)
@@ -110,7 +125,9 @@ std::vector<int64_t> labelsOfSelectedRows(pqOutputPort* table)
   vtkSMPropertyHelper(extract, "Input").Set(table->getSource()->getProxy(), table->getPortNumber());
   vtkSMPropertyHelper(extract, "Selection").Set(selection, table->getSelectionInputPort());
   extract->UpdateVTKObjects();
-  return fetchLabels(extract, 0);
+  std::vector<int64_t> rowIds;
+  std::vector<int64_t> labels = fetchLabels(extract, 0, ids ? &rowIds : nullptr);
+  return ids ? rowIds : labels;
 }
 
 /// Document labels: [0, 4294967294] (wider labels cannot be drawn selected).
@@ -436,15 +453,15 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
     }
     // Rows are the table's labels in ascending order: an ID selection of rows (ParaView's
     // selectors look IDs up in a sorted list; a threshold per label would be scanned per row).
-    const std::vector<int64_t>& rows = this->rowLabels(s);
+    const std::vector<std::pair<int64_t, int64_t>>& rows = this->rowLabels(s).byLabel;
     std::vector<vtkIdType> ids;
     for (uint32_t l : labels)
     {
-      const auto it = std::lower_bound(rows.begin(), rows.end(), int64_t(l));
-      if (it != rows.end() && *it == int64_t(l))
+      const auto it = std::lower_bound(rows.begin(), rows.end(), std::make_pair(int64_t(l), int64_t(-1)));
+      if (it != rows.end() && it->first == int64_t(l))
       {
         ids.push_back(0); // process 0's table
-        ids.push_back(vtkIdType(it - rows.begin()));
+        ids.push_back(vtkIdType(it->second));
       }
     }
     pqScopedUndoExclude keepOff; // helper proxies (fetching rows) are no edits
@@ -505,7 +522,7 @@ void pqCSGVLabelSelection::forgetRows(pqPipelineSource* table)
   this->RowLabels.remove(table);
 }
 
-const std::vector<int64_t>& pqCSGVLabelSelection::rowLabels(pqPipelineSource* table)
+const pqCSGVLabelSelection::TableRows& pqCSGVLabelSelection::rowLabels(pqPipelineSource* table)
 {
   auto it = this->RowLabels.find(table);
   if (it == this->RowLabels.end())
@@ -513,7 +530,15 @@ const std::vector<int64_t>& pqCSGVLabelSelection::rowLabels(pqPipelineSource* ta
     // Fetched again after the table's next update (the file changed, attributes were computed).
     connect(table, QOverload<pqPipelineSource*>::of(&pqPipelineSource::dataUpdated), this,
       &pqCSGVLabelSelection::forgetRows, Qt::UniqueConnection);
-    it = this->RowLabels.insert(table, fetchLabels(vtkSMSourceProxy::SafeDownCast(table->getProxy()), 0));
+    std::vector<int64_t> ids;
+    const std::vector<int64_t> labels = fetchLabels(vtkSMSourceProxy::SafeDownCast(table->getProxy()), 0, &ids);
+    TableRows rows;
+    rows.ids = beyond32Bits(labels) && ids.size() == labels.size();
+    const std::vector<int64_t>& drawn = rows.ids ? ids : labels;
+    for (size_t i = 0; i < drawn.size(); ++i)
+      rows.byLabel.emplace_back(drawn[i], int64_t(i));
+    std::sort(rows.byLabel.begin(), rows.byLabel.end());
+    it = this->RowLabels.insert(table, rows);
   }
   return *it;
 }
@@ -527,7 +552,7 @@ void pqCSGVLabelSelection::selectionChanged(pqOutputPort* port)
   const QList<vtkSMProxy*> displays = volumeDisplaysOf(input);
   if (displays.isEmpty())
     return;
-  const std::vector<uint32_t> labels = documentLabels(labelsOfSelectedRows(port));
+  const std::vector<uint32_t> labels = documentLabels(labelsOfSelectedRows(port, this->rowLabels(table).ids));
   if (labels == pqCSGV::selectedLabels(displays.front()))
     return;
   this->Busy = true; // the rows are selected already

@@ -99,11 +99,19 @@ private:
   void regionSelected(vtkObject* caller, unsigned long, void* calldata);
   /// Selects the rows of `labels` in every CSGV Label Table made from `input`.
   void selectRows(pqOutputPort* input, const std::vector<uint32_t>& labels);
-  /// A label table's `label` column (its rows, ascending), fetched once per update of its data.
-  const std::vector<int64_t>& rowLabels(pqPipelineSource* table);
+  /// A label table's rows by the label the volume draws for them: its `label` column, or its
+  /// `csgv_id` column where a label does not fit 32 bits (`ids`: the volume is drawn by ids,
+  /// csgvrep::drawsIds).
+  struct TableRows
+  {
+    std::vector<std::pair<int64_t, int64_t>> byLabel; ///< (drawn label, row), ascending
+    bool ids = false;
+  };
+  /// A label table's rows, fetched once per update of its data.
+  const TableRows& rowLabels(pqPipelineSource* table);
 
   QMap<pqView*, unsigned long> Observed; ///< render view -> its SelectionChangedEvent observer
-  QMap<pqPipelineSource*, std::vector<int64_t>> RowLabels; ///< rowLabels' answers, dropped on dataUpdated
+  QMap<pqPipelineSource*, TableRows> RowLabels; ///< rowLabels' answers, dropped on dataUpdated
   bool Busy = false;                    ///< an edit of ours is on its way round the links
 };
 

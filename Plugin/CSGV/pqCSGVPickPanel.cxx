@@ -273,6 +273,11 @@ bool pqCSGVPickPanel::pickAt(const QPoint& pos)
     return false;
   }
   QString html = QString("<b>Label %1</b>").arg(qint64(best.value("label").toDouble()));
+  // A volume whose labels do not fit 32 bits is drawn by ids: the voxel's own label beside it.
+  if (best.contains("originalText"))
+  {
+    html += QString(" (original label %1)").arg(best.value("originalText").toString().toHtmlEscaped());
+  }
   if (best.value("translucent").toBool())
   {
     html += " (semi-transparent: no opaque label behind it)";

@@ -42,6 +42,9 @@
 #include <vtkTable.h>
 #include <vtkDataObject.h>
 #include <QTableView>
+#include <QFile>
+#include <QProcess>
+#include <QTemporaryDir>
 #include <pqPipelineSource.h>
 #include <pqTimeKeeper.h>
 #include <pqView.h>
@@ -594,6 +597,94 @@ private Q_SLOTS:
   /// Colouring by the label array (as the colour toolbar does it: the coloring, then the legend)
   /// shows one legend, the volume's own (the shared table's was left showing beside it), and is
   /// one undo step: the legend's own edits follow it, and redo stays possible.
+  /// A volume with labels beyond 32 bits is drawn by ids (README, "Labels beyond 32 bits"; docs
+  /// pass 11): a Label Table row selects its csgv_id, not its original label (a row of label 1
+  /// selected id 1, another label), and a 3D selection of an id selects that id's row.
+  void tableRowsOfAVolumeDrawnByIdsSelectTheirIds()
+  {
+    const QByteArray tool = qgetenv("CSGV_TOOL");
+    QVERIFY2(!tool.isEmpty(), "CSGV_TOOL names the csgv tool");
+    QTemporaryDir dir;
+    QVERIFY(dir.isValid());
+    // 24^3 int32 voxels in six slabs along x: -3, -2, 1, 2, -1, 7 (1 and 2 fit 32 bits, and are
+    // also ids of other labels).
+    const int n = 24;
+    const int32_t slabs[6] = { -3, -2, 1, 2, -1, 7 };
+    QByteArray voxels;
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+        {
+          const int32_t v = slabs[std::min(i / 4, 5)];
+          voxels.append(reinterpret_cast<const char*>(&v), 4); // little-endian, as the hosts here
+        }
+    const QString nrrd = dir.filePath("neg.nrrd"), csgv = dir.filePath("neg.csgv");
+    {
+      QFile f(nrrd);
+      QVERIFY(f.open(QIODevice::WriteOnly));
+      f.write("NRRD0004\ntype: int32\ndimension: 3\nsizes: 24 24 24\nencoding: raw\nendian: little\n\n");
+      f.write(voxels);
+    }
+    QVERIFY(QProcess::execute(QString::fromLocal8Bit(tool), { "compress", "--quiet", nrrd, csgv }) == 0);
+
+    this->ensureUndoStack();
+    pqCSGVLabelSelection links;
+    links.startup();
+    pqObjectBuilder* builder = pqApplicationCore::instance()->getObjectBuilder();
+    pqPipelineSource* source = nullptr;
+    pqRenderView* view = nullptr;
+    vtkSMProxy* proxy = this->shownInNewView(source, view, { csgv });
+    QVERIFY(proxy);
+    pqPipelineSource* table = builder->createFilter("filters", "CSGVLabelTable", source);
+    QVERIFY(table);
+    vtkSMSourceProxy::SafeDownCast(table->getProxy())->UpdatePipeline();
+    auto* tableData = vtkTable::SafeDownCast(
+      vtkAlgorithm::SafeDownCast(table->getProxy()->GetClientSideObject())->GetOutputDataObject(0));
+    QVERIFY(tableData);
+    vtkAbstractArray* labels = tableData->GetColumnByName("label");
+    vtkAbstractArray* ids = tableData->GetColumnByName("csgv_id");
+    QVERIFY(labels && ids);
+    vtkIdType rowOfOne = -1;
+    for (vtkIdType i = 0; i < labels->GetNumberOfTuples(); ++i)
+      if (labels->GetVariantValue(i).ToTypeInt64() == 1)
+        rowOfOne = i;
+    QVERIFY(rowOfOne >= 0);
+    const auto idOfOne = uint32_t(ids->GetVariantValue(rowOfOne).ToTypeInt64());
+    QVERIFY2(idOfOne != 1, "label 1 is drawn by another id (the test needs them to differ)");
+
+    // The row of label 1, selected as the Spreadsheet selects rows: its id is selected in 3D.
+    vtkSmartPointer<vtkSMSourceProxy> rowsSel;
+    rowsSel.TakeReference(vtkSMSourceProxy::SafeDownCast(
+      table->getProxy()->GetSessionProxyManager()->NewProxy("sources", "IDSelectionSource")));
+    const vtkIdType picked[] = { 0, rowOfOne };
+    vtkSMPropertyHelper(rowsSel, "FieldType").Set(vtkSelectionNode::ROW);
+    vtkSMPropertyHelper(rowsSel, "IDs").Set(picked, 2);
+    rowsSel->UpdateVTKObjects();
+    vtkSmartPointer<vtkSMSourceProxy> appended;
+    appended.TakeReference(
+      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(rowsSel)));
+    table->getOutputPort(0)->setSelectionInput(appended, 0);
+    pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
+    QVERIFY2(pqCSGV::selectedLabels(proxy) == std::vector<uint32_t>{ idOfOne },
+      qPrintable(QString("the row of label 1 selects its id %1 (%2 selected, first %3)")
+                   .arg(idOfOne)
+                   .arg(pqCSGV::selectedLabels(proxy).size())
+                   .arg(pqCSGV::selectedLabels(proxy).empty() ? -1 : qint64(pqCSGV::selectedLabels(proxy).front()))));
+    // A 3D selection of that id selects that row.
+    pqActiveObjects::instance().setActiveSource(source);
+    QVERIFY(pqCSGVLabelSelection::edit(proxy, { idOfOne }, csgv::SelectionEdit::Replace, "Select labels"));
+    auto selectedRowIds = [table]() {
+      vtkSMSourceProxy* append = table->getOutputPort(0)->getSelectionInput();
+      vtkSMProxy* sel = append && append->GetProperty("Input") ? vtkSMPropertyHelper(append, "Input").GetAsProxy(0) : nullptr;
+      return sel && sel->GetProperty("IDs") ? vtkSMPropertyHelper(sel, "IDs").GetIdTypeArray() : std::vector<vtkIdType>();
+    };
+    const std::vector<vtkIdType> wantRows{ 0, rowOfOne };
+    QTRY_VERIFY2(selectedRowIds() == wantRows, "a 3D selection of the id selects the row of its label");
+    builder->destroy(table);
+    builder->destroy(source);
+    builder->destroy(view);
+  }
+
   void colouringByLabelsShowsOneLegendAndIsOneUndoStep()
   {
     pqApplicationCore* core = pqApplicationCore::instance();
