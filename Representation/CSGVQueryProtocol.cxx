@@ -160,8 +160,23 @@ json combineStatistics(const std::vector<json>& replies)
 }
 } // namespace
 
+std::vector<int64_t> labelSetOf(const std::string& reply)
+{
+  std::vector<int64_t> out;
+  if (reply.empty() || reply[0] == '{')
+  {
+    return out; // no labels, or an error
+  }
+  std::vector<unsigned char> bytes(reply.size());
+  const size_t n = vtkBase64Utilities::DecodeSafely(
+    reinterpret_cast<const unsigned char*>(reply.data()), reply.size(), bytes.data(), bytes.size());
+  out.resize(n / sizeof(int64_t));
+  std::memcpy(out.data(), bytes.data(), out.size() * sizeof(int64_t)); // little-endian, as the hosts here
+  return out;
+}
+
 std::string combineAnswers(const std::string& request, const std::vector<std::string>& answers,
-  const std::vector<std::string>& labelSets)
+  const std::vector<std::vector<int64_t>>& labelSets)
 {
   std::istringstream in(request);
   std::string what;
@@ -285,23 +300,13 @@ std::string combineAnswers(const std::string& request, const std::vector<std::st
     return out.dump(-1, ' ', false, json::error_handler_t::replace);
   }
   // summary: every rank's attributes (ranges widened), the union of their labels.
-  std::set<int64_t> labels;
-  for (const std::string& set : labelSets)
+  std::vector<int64_t> labels;
+  for (const std::vector<int64_t>& set : labelSets)
   {
-    if (set.empty())
-    {
-      continue; // a rank with no labels (nothing resolved there): VTK asserts on empty buffers
-    }
-    std::vector<unsigned char> bytes(set.size());
-    const size_t n = vtkBase64Utilities::DecodeSafely(
-      reinterpret_cast<const unsigned char*>(set.data()), set.size(), bytes.data(), bytes.size());
-    for (size_t i = 0; i + sizeof(int64_t) <= n; i += sizeof(int64_t))
-    {
-      int64_t v = 0;
-      std::memcpy(&v, bytes.data() + i, sizeof v);
-      labels.insert(v);
-    }
+    labels.insert(labels.end(), set.begin(), set.end());
   }
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
   // Empty only when every rank's piece is (a rank may hold no bricks of the volume); the error of
   // a rank with data, else the first rank's.
   json out = replies.front();

@@ -82,9 +82,12 @@ std::string answerQuery(const std::string& request, QueryContext& context);
 
 /// One reply to `summary` or `colors N` from the replies of every rank (each holding a piece):
 /// attribute ranges widened, label counts and colour lists over the union of the ranks' labels
-/// (`labelSets`: each rank's `labelset` reply, for `summary`).
+/// (`labelSets`: each rank's labels, labelSetOf its `labelset` reply, for `summary`).
 std::string combineAnswers(const std::string& request, const std::vector<std::string>& answers,
-  const std::vector<std::string>& labelSets);
+  const std::vector<std::vector<int64_t>>& labelSets);
+
+/// The labels of a `labelset` reply (base64 of int64 little-endian; an error or "" gives none).
+std::vector<int64_t> labelSetOf(const std::string& reply);
 
 /// The base64 text of bytes (vtkBase64Utilities, padded with '=').
 std::string base64(const void* data, size_t bytes);

@@ -21,6 +21,7 @@
 #include "vtkWeakPointer.h" // for Representation
 
 #include <string> // for Answer
+#include <cstdint> // for Combine
 #include <vector> // for Combine
 
 class vtkCSGVRepresentation;
@@ -40,8 +41,8 @@ public:
   /// With several processes (MPI ranks: pvbatch, a parallel pvserver) a push reaches every rank,
   /// so `pick X Y`, `labels`, `summary` and `colors N` are answered here, collectively: each
   /// rank's own answer (its piece's) is gathered on rank 0, which keeps the nearest hit per pixel
-  /// or combines them (csgvrep::combineAnswers). A request pushed before the representation
-  /// (the default `summary` is pushed when the proxy is made) is answered when it arrives.
+  /// or combines them (csgvrep::combineAnswers). A request pushed before the representation is
+  /// answered when it arrives; an empty one (the proxy's default) gathers nothing.
   void SetRequest(const char* request);
   vtkGetStringMacro(Request);
   /// The answer to Request (computed on each call, except the collective answers above).
@@ -63,7 +64,9 @@ private:
   /// Answers Request with every rank (when there are several and the request is collective).
   void Gather();
   /// Rank 0: the answer of all ranks from their gathered answers (`what`: the request's word).
-  void Combine(const std::string& text, const std::string& what, std::vector<vtkMultiProcessStream>& all);
+  /// `labelSets`: every rank's labels, for `summary`.
+  void Combine(const std::string& text, const std::string& what, std::vector<vtkMultiProcessStream>& all,
+    const std::vector<std::vector<int64_t>>& labelSets);
 };
 
 #endif
