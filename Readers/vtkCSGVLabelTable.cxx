@@ -48,8 +48,10 @@ std::vector<int64_t> paletteLabels(const csgvvtk::EncodedInput& enc)
   return std::vector<int64_t>(palettes->labels.begin(), palettes->labels.end());
 }
 
-/// A table column as a VTK array: labels and ids as 64-bit integers, other numbers as doubles
-/// (NaN where missing), text as strings.
+/// A table column as a VTK array: columns of whole numbers (labels, ids, counts, a database's
+/// INTEGER columns) as 64-bit integers, so that a CSV export writes them whole (ParaView's CSV
+/// writer gave a double 928090 as 9.2809e+05; docs pass 11), other numbers as doubles (NaN where
+/// missing), text as strings.
 vtkSmartPointer<vtkAbstractArray> toArray(const csgv::AttributeColumn& c)
 {
   if (!c.numeric)
@@ -65,7 +67,7 @@ vtkSmartPointer<vtkAbstractArray> toArray(const csgv::AttributeColumn& c)
   }
   const bool integral = std::all_of(c.values.begin(), c.values.end(),
     [](double v) { return std::isfinite(v) && v == std::floor(v) && std::fabs(v) < 9.0e15; });
-  if (integral && (c.name == "label" || c.name == "csgv_id" || c.name == "voxel_count" || c.name.rfind("bbox_", 0) == 0))
+  if (integral && !c.values.empty())
   {
     auto a = vtkSmartPointer<vtkTypeInt64Array>::New();
     a->SetNumberOfValues(vtkIdType(c.values.size()));

@@ -117,7 +117,8 @@ json statisticsJson(const RenderStatistics& r)
 }
 
 /// `render` over MPI ranks: the fewest samples of the ranks that rendered (a rank with nothing
-/// to draw renders no frame), the most frames, memory and bad bricks summed, the largest of the rest.
+/// to draw renders no frame), the most frames, memory (budgets too: each rank has its own) and bad
+/// bricks summed, the largest of the rest.
 json combineStatistics(const std::vector<json>& replies)
 {
   json out = replies.front();
@@ -133,8 +134,7 @@ json combineStatistics(const std::vector<json>& replies)
   for (auto it = out.begin(); it != out.end(); ++it)
   {
     const std::string& key = it.key();
-    const bool summed = key.size() > 3 && (key.compare(key.size() - 3, 3, "MiB") == 0 || key == "CSGVBadBricks") &&
-      key != "CSGVDeviceBudgetMiB";
+    const bool summed = key.size() > 3 && (key.compare(key.size() - 3, 3, "MiB") == 0 || key == "CSGVBadBricks");
     for (size_t i = 1; i < replies.size(); ++i)
     {
       const json& v = replies[i].contains(key) ? replies[i][key] : json(0);

@@ -674,8 +674,10 @@ int cmdRender(int argc, char** argv) {
     std::printf("host_peak_rss_mib: %.1f\n", peakRssMiB());
     std::printf("bad_bricks: %llu\n", (unsigned long long)r.badBricks());
     if (r.badBricks())
-        std::fprintf(stderr, "csgv: warning: %s: %llu bricks failed to decode and are drawn empty; the first: %s\n",
-                     a.input.c_str(), (unsigned long long)r.badBricks(), r.firstBadBrick().c_str());
+        std::fprintf(stderr, "csgv: warning: %s: %llu %s to decode and %s drawn empty; the first: %s\n",
+                     a.input.c_str(), (unsigned long long)r.badBricks(),
+                     r.badBricks() == 1 ? "brick failed" : "bricks failed", r.badBricks() == 1 ? "is" : "are",
+                     r.firstBadBrick().c_str());
     const gpu::DetailCounts detail = r.detailCounts();
     std::printf("detail_streaming: %s\n", r.streamsDetail() ? "yes" : "no");
     if (r.streamsDetail())

@@ -72,6 +72,17 @@ t.check(labels is not None and set(labels.tolist()) <= set(ref) and len(labels) 
 t.check(ids is not None and sorted(ids.tolist()) == list(range(len(labels))), "relabelled: csgv_id 0..n-1")
 t.check(all(int(voxels[i]) == int(ref[int(l)]["voxels"]) and abs(score[i] - float(ref[int(l)]["score"])) < 1e-6
             for i, l in enumerate(labels)), "relabelled: the database's values, row by row (its scores are float32)")
+# Whole-number columns are integers, so a CSV export writes them whole (docs pass 11: ParaView's
+# CSV writer wrote a double 928090 as 9.2809e+05).
+t.check(table.GetColumnByName("voxels").GetDataTypeAsString() in ("long long", "long", "vtkTypeInt64"),
+        "relabelled: the database's whole-number column is an integer column (%s)"
+        % table.GetColumnByName("voxels").GetDataTypeAsString())
+out = os.path.join(t.temp_dir(), "relabelled.csv")
+SaveData(out, proxy=lt, FieldAssociation="Row Data")
+with open(out, newline="") as f:
+    written = {int(row["label"]): row for row in csv.DictReader(f)}
+t.check(written and all(written[int(l)]["voxels"] == str(int(voxels[i])) for i, l in enumerate(labels)),
+        "relabelled: Save Data writes the voxel counts as integers")
 
 # Limits and bad input.
 lt.MaxRows = 1

@@ -19,6 +19,7 @@ namespace {
 constexpr size_t kListedUnknown = 5; ///< unknown labels an error names
 
 std::string mib(uint64_t bytes) {
+    if (bytes < (uint64_t(1) << 20)) return std::to_string(bytes) + (bytes == 1 ? " byte" : " bytes"); // not "0.0 MiB"
     char s[32];
     std::snprintf(s, sizeof s, "%.1f MiB", double(bytes) / double(1 << 20));
     return s;
