@@ -152,6 +152,30 @@ class TestLabelPanel : public QObject
     return display->getProxy();
   }
 
+  /// Selects rows of a table output as the Spreadsheet view does: an ID selection of (process,
+  /// row) pairs in an AppendSelections, ParaView 5.11's kind, handed to the selection manager.
+  static void selectTableRows(pqPipelineSource* table, const std::vector<vtkIdType>& processAndRow)
+  {
+    vtkSmartPointer<vtkSMSourceProxy> rowsSel;
+    rowsSel.TakeReference(vtkSMSourceProxy::SafeDownCast(
+      table->getProxy()->GetSessionProxyManager()->NewProxy("sources", "IDSelectionSource")));
+    vtkSMPropertyHelper(rowsSel, "FieldType").Set(vtkSelectionNode::ROW);
+    vtkSMPropertyHelper(rowsSel, "IDs").Set(processAndRow.data(), static_cast<unsigned int>(processAndRow.size()));
+    rowsSel->UpdateVTKObjects();
+    vtkSmartPointer<vtkSMSourceProxy> appended;
+    appended.TakeReference(
+      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(rowsSel)));
+    table->getOutputPort(0)->setSelectionInput(appended, 0);
+    pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
+  }
+  /// The (process, row) pairs of a table's ID selection (an AppendSelections of one source).
+  static std::vector<vtkIdType> selectedTableRows(pqPipelineSource* table)
+  {
+    vtkSMSourceProxy* append = table->getOutputPort(0)->getSelectionInput();
+    vtkSMProxy* sel = append && append->GetProperty("Input") ? vtkSMPropertyHelper(append, "Input").GetAsProxy(0) : nullptr;
+    return sel && sel->GetProperty("IDs") ? vtkSMPropertyHelper(sel, "IDs").GetIdTypeArray() : std::vector<vtkIdType>();
+  }
+
 private Q_SLOTS:
   void initTestCase()
   {
@@ -387,12 +411,7 @@ private Q_SLOTS:
     };
     auto selectedRowsOf = [](pqPipelineSource* t) {
       std::vector<vtkIdType> out;
-      // An AppendSelections of one ID selection source, as ParaView 5.11 makes them.
-      vtkSMSourceProxy* append = t->getOutputPort(0)->getSelectionInput();
-      vtkSMProxy* sel = append && append->GetProperty("Input") ? vtkSMPropertyHelper(append, "Input").GetAsProxy(0) : nullptr;
-      if (!sel || !sel->GetProperty("IDs"))
-        return out;
-      const std::vector<vtkIdType> ids = vtkSMPropertyHelper(sel, "IDs").GetIdTypeArray();
+      const std::vector<vtkIdType> ids = selectedTableRows(t);
       for (size_t i = 1; i < ids.size(); i += 2)
         out.push_back(ids[i]);
       return out;
@@ -446,18 +465,7 @@ private Q_SLOTS:
     QVERIFY(selectedSeen == int(corner.size()) && magenta > 0);
 
     // Rows selected in the table (the Spreadsheet's clicks) select their labels in 3D.
-    vtkSmartPointer<vtkSMSourceProxy> rowsSel;
-    rowsSel.TakeReference(vtkSMSourceProxy::SafeDownCast(
-      table->getProxy()->GetSessionProxyManager()->NewProxy("sources", "IDSelectionSource")));
-    const vtkIdType ids[] = { 0, 1, 0, 2 };
-    vtkSMPropertyHelper(rowsSel, "FieldType").Set(vtkSelectionNode::ROW);
-    vtkSMPropertyHelper(rowsSel, "IDs").Set(ids, 4);
-    rowsSel->UpdateVTKObjects();
-    vtkSmartPointer<vtkSMSourceProxy> appended;
-    appended.TakeReference(
-      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(rowsSel)));
-    table->getOutputPort(0)->setSelectionInput(appended, 0);
-    pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
+    selectTableRows(table, { 0, 1, 0, 2 });
     const std::vector<uint32_t> fromRows{ uint32_t(rows->GetVariantValue(1).ToTypeInt64()),
       uint32_t(rows->GetVariantValue(2).ToTypeInt64()) };
     QVERIFY2(pqCSGV::selectedLabels(proxy) == fromRows, "selected rows select their labels");
@@ -470,6 +478,7 @@ private Q_SLOTS:
     const double range[] = { double(rows->GetVariantValue(3).ToTypeInt64()), double(rows->GetVariantValue(5).ToTypeInt64()) };
     vtkSMPropertyHelper(query, "Thresholds").Set(range, 2);
     query->UpdateVTKObjects();
+    vtkSmartPointer<vtkSMSourceProxy> appended;
     appended.TakeReference(
       vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(query)));
     table->getOutputPort(0)->setSelectionInput(appended, 0);
@@ -653,18 +662,7 @@ private Q_SLOTS:
     QVERIFY2(idOfOne != 1, "label 1 is drawn by another id (the test needs them to differ)");
 
     // The row of label 1, selected as the Spreadsheet selects rows: its id is selected in 3D.
-    vtkSmartPointer<vtkSMSourceProxy> rowsSel;
-    rowsSel.TakeReference(vtkSMSourceProxy::SafeDownCast(
-      table->getProxy()->GetSessionProxyManager()->NewProxy("sources", "IDSelectionSource")));
-    const vtkIdType picked[] = { 0, rowOfOne };
-    vtkSMPropertyHelper(rowsSel, "FieldType").Set(vtkSelectionNode::ROW);
-    vtkSMPropertyHelper(rowsSel, "IDs").Set(picked, 2);
-    rowsSel->UpdateVTKObjects();
-    vtkSmartPointer<vtkSMSourceProxy> appended;
-    appended.TakeReference(
-      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(rowsSel)));
-    table->getOutputPort(0)->setSelectionInput(appended, 0);
-    pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
+    selectTableRows(table, { 0, rowOfOne });
     QVERIFY2(pqCSGV::selectedLabels(proxy) == std::vector<uint32_t>{ idOfOne },
       qPrintable(QString("the row of label 1 selects its id %1 (%2 selected, first %3)")
                    .arg(idOfOne)
@@ -673,13 +671,8 @@ private Q_SLOTS:
     // A 3D selection of that id selects that row.
     pqActiveObjects::instance().setActiveSource(source);
     QVERIFY(pqCSGVLabelSelection::edit(proxy, { idOfOne }, csgv::SelectionEdit::Replace, "Select labels"));
-    auto selectedRowIds = [table]() {
-      vtkSMSourceProxy* append = table->getOutputPort(0)->getSelectionInput();
-      vtkSMProxy* sel = append && append->GetProperty("Input") ? vtkSMPropertyHelper(append, "Input").GetAsProxy(0) : nullptr;
-      return sel && sel->GetProperty("IDs") ? vtkSMPropertyHelper(sel, "IDs").GetIdTypeArray() : std::vector<vtkIdType>();
-    };
     const std::vector<vtkIdType> wantRows{ 0, rowOfOne };
-    QTRY_VERIFY2(selectedRowIds() == wantRows, "a 3D selection of the id selects the row of its label");
+    QTRY_VERIFY2(selectedTableRows(table) == wantRows, "a 3D selection of the id selects the row of its label");
     builder->destroy(table);
     builder->destroy(source);
     builder->destroy(view);
