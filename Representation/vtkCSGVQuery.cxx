@@ -17,8 +17,11 @@ vtkStandardNewMacro(vtkCSGVQuery);
 
 namespace
 {
-/// Every rank's `mine` on rank 0 (collective; the others get nothing), in rank order.
-std::vector<std::vector<int64_t>> GatherLabelSets(vtkMultiProcessController* c, const std::vector<int64_t>& mine)
+/// Every rank's `mine` on rank 0 (collective; the others get nothing), in rank order: arrays go
+/// as arrays (GatherV), not through a vtkMultiProcessStream, a deque of bytes (2 million labels a
+/// rank as base64 text took 4 s, a 1280x720 label image 1 s).
+template <typename T>
+std::vector<std::vector<T>> GatherArrays(vtkMultiProcessController* c, const std::vector<T>& mine)
 {
   const int ranks = c->GetNumberOfProcesses();
   const bool root = c->GetLocalProcessId() == 0;
@@ -33,20 +36,34 @@ std::vector<std::vector<int64_t>> GatherLabelSets(vtkMultiProcessController* c, 
     offsets[size_t(r)] = total;
     total += lengths[size_t(r)];
   }
-  std::vector<long> flat(root ? size_t(std::max<vtkIdType>(total, 1)) : 1);
-  const long none = 0; // MPI takes a zero-length send, VTK's wrappers a valid pointer
-  c->GatherV(mine.empty() ? &none : reinterpret_cast<const long*>(mine.data()), flat.data(), vtkIdType(count),
-    lengths.data(), offsets.data(), 0);
-  std::vector<std::vector<int64_t>> out;
+  std::vector<T> flat(root ? size_t(std::max<vtkIdType>(total, 1)) : 1);
+  const T none{}; // MPI takes a zero-length send, VTK's wrappers a valid pointer
+  c->GatherV(mine.empty() ? &none : mine.data(), flat.data(), vtkIdType(count), lengths.data(), offsets.data(), 0);
+  std::vector<std::vector<T>> out;
   if (root)
   {
     for (int r = 0; r < ranks; ++r)
     {
-      const long* at = flat.data() + offsets[size_t(r)];
+      const T* at = flat.data() + offsets[size_t(r)];
       out.emplace_back(at, at + lengths[size_t(r)]);
     }
   }
   return out;
+}
+
+/// Rank 0's text on every rank (collective), as characters, not through a stream.
+void BroadcastText(vtkMultiProcessController* c, std::string& text)
+{
+  long size = long(text.size());
+  c->Broadcast(&size, 1, 0);
+  if (c->GetLocalProcessId() != 0)
+  {
+    text.assign(size_t(size), '\0');
+  }
+  if (size > 0)
+  {
+    c->Broadcast(&text[0], vtkIdType(size), 0);
+  }
 }
 } // namespace
 
@@ -100,6 +117,7 @@ void vtkCSGVQuery::Gather()
   // Every rank answers for its own piece; rank 0 keeps, per pixel, the one rank's hit: the
   // nearest opaque one, else the nearest semi-transparent one (csgvrep::hitOrder).
   vtkMultiProcessStream mine;
+  GatheredArrays arrays;
   if (what == "pick" || what == "colors" || what == "span" || what == "match" || what == "render")
   {
     mine << std::string(this->Representation->Query(text.c_str()));
@@ -121,44 +139,33 @@ void vtkCSGVQuery::Gather()
       depths.clear();
     }
     mine << w << h;
-    if (!labels.empty()) // vtkMultiProcessStream asserts on an empty array (attack pass 8: a rank
-    {                    // that drew nothing aborted the job, and a connected client with it)
-      mine.Push(labels.data(), static_cast<unsigned int>(labels.size()));
-      mine.Push(depths.data(), static_cast<unsigned int>(depths.size()));
-    }
+    // A rank that drew nothing sends empty arrays (attack pass 8: an empty array pushed into a
+    // vtkMultiProcessStream asserted, and aborted the job and a connected client with it).
+    arrays.labels = GatherArrays(c, labels);
+    arrays.depths = GatherArrays(c, depths);
   }
   std::vector<vtkMultiProcessStream> all;
   c->Gather(mine, all, 0);
-  // summary: every rank's labels (for the count of their union), as arrays: through the stream
-  // (a deque of bytes, as base64 text) 2 million labels a rank took 4 s.
-  std::vector<std::vector<int64_t>> labelSets;
+  // summary: every rank's labels (for the count of their union).
   if (what == "summary")
   {
-    labelSets = GatherLabelSets(c, csgvrep::labelSetOf(this->Representation->Query("labelset")));
+    arrays.labelSets = GatherArrays(c, csgvrep::labelSetOf(this->Representation->Query("labelset")));
   }
   if (c->GetLocalProcessId() == 0)
   {
-    this->Combine(text, what, all, labelSets);
+    this->Combine(text, what, all, arrays);
   }
   // Every rank reads the combined answer: under pvbatch --symmetric each rank's script reads its
   // own Result, and a value derived from a rank's local answer (a bound for a material, say)
   // would differ between ranks, and so would what they draw.
-  vtkMultiProcessStream answer;
-  if (c->GetLocalProcessId() == 0)
-  {
-    answer << this->Answer;
-  }
-  c->Broadcast(answer, 0);
-  if (c->GetLocalProcessId() != 0)
-  {
-    answer >> this->Answer;
-  }
+  BroadcastText(c, this->Answer);
   this->Gathered = true;
 }
 
 void vtkCSGVQuery::Combine(const std::string& text, const std::string& what,
-  std::vector<vtkMultiProcessStream>& all, const std::vector<std::vector<int64_t>>& labelSets)
+  std::vector<vtkMultiProcessStream>& all, const GatheredArrays& arrays)
 {
+  const std::vector<std::vector<int64_t>>& labelSets = arrays.labelSets;
   this->Answer.clear();
   if (what == "summary" || what == "colors" || what == "span" || what == "match" || what == "render")
   {
@@ -194,18 +201,13 @@ void vtkCSGVQuery::Combine(const std::string& text, const std::string& what,
     uint32_t width = 0, height = 0;
     std::vector<uint32_t> labels;
     std::vector<float> depths;
-    for (vtkMultiProcessStream& s : all)
+    for (size_t r = 0; r < all.size() && r < arrays.labels.size() && r < arrays.depths.size(); ++r)
     {
       uint32_t w = 0, h = 0;
-      s >> w >> h;
-      unsigned int* l = nullptr;
-      float* d = nullptr;
-      unsigned int nl = 0, nd = 0;
-      if (w > 0 && h > 0)
-      {
-        s.Pop(l, nl);
-        s.Pop(d, nd);
-      }
+      all[r] >> w >> h;
+      const uint32_t* l = arrays.labels[r].data();
+      const float* d = arrays.depths[r].data();
+      const size_t nl = arrays.labels[r].size(), nd = arrays.depths[r].size();
       if (labels.empty() && nl == size_t(w) * h && nd == nl)
       {
         width = w;
@@ -224,8 +226,6 @@ void vtkCSGVQuery::Combine(const std::string& text, const std::string& what,
           }
         }
       }
-      delete[] l;
-      delete[] d;
     }
     std::ostringstream o;
     o << width << " " << height << " " << csgvrep::base64(labels.data(), labels.size() * sizeof(uint32_t));

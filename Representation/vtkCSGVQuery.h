@@ -64,9 +64,15 @@ private:
   /// Answers Request with every rank (when there are several and the request is collective).
   void Gather();
   /// Rank 0: the answer of all ranks from their gathered answers (`what`: the request's word).
-  /// `labelSets`: every rank's labels, for `summary`.
+  /// What the ranks send as arrays, by rank (rank 0's copy).
+  struct GatheredArrays
+  {
+    std::vector<std::vector<int64_t>> labelSets; ///< `summary`: each rank's labels
+    std::vector<std::vector<uint32_t>> labels;   ///< `labels`: each rank's label image
+    std::vector<std::vector<float>> depths;      ///< `labels`: and its depths
+  };
   void Combine(const std::string& text, const std::string& what, std::vector<vtkMultiProcessStream>& all,
-    const std::vector<std::vector<int64_t>>& labelSets);
+    const GatheredArrays& arrays);
 };
 
 #endif
