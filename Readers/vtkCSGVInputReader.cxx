@@ -59,6 +59,7 @@ public:
   vtkMTimeType StampMTime = 0;
   std::string StampTopLevel;
   bool Failed = true;
+  std::string FailureText; ///< the last failure reported (ReportFailure), "" when none
   /// FileNames as set (AddFileName); what is read is chosen in ChooseInputs.
   csgvvtk::FileSeries FileNames;
   /// The inputs of the last RequestInformation (FileName alone, or FileNames) and, for a time
@@ -246,6 +247,7 @@ int vtkCSGVInputReader::RequestInformation(
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
   vtkInternals& in = *this->Internals;
   in.Failed = true;
+  in.FailureText.clear();
   in.Cache.clear();
   this->SeriesMode = NoInput;
   // Errors are reported once here; the pipeline goes on with an empty extent and RequestData
@@ -257,7 +259,7 @@ int vtkCSGVInputReader::RequestInformation(
   if (!this->ChooseInputs(error))
   {
     this->SeriesMode = NoInput;
-    vtkErrorMacro(<< csgvvtk::inParaViewWords(error));
+    this->ReportFailure(csgvvtk::inParaViewWords(error));
     return 1;
   }
   in.Step = 0;
@@ -368,14 +370,14 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
                                                : csgvvtk::locateInput(in.Inputs[size_t(in.Step)]);
   if (!in.Location.Error.empty())
   {
-    vtkErrorMacro(<< in.Location.Error);
+    this->ReportFailure(in.Location.Error);
     return;
   }
   std::string error;
   in.Cache = csgvvtk::chooseCache(in.Location, this->CacheDirectory ? this->CacheDirectory : "", error);
   if (in.Cache.empty())
   {
-    vtkErrorMacro(<< in.Location.Display << ": " << error);
+    this->ReportFailure(in.Location.Display + ": " + error);
     return;
   }
   in.UpdateStamp(this, true);
@@ -415,13 +417,12 @@ void vtkCSGVInputReader::PrepareInput(vtkInformation* outInfo)
   {
     if (this->SeriesMode == ImageStack)
     {
-      vtkErrorMacro(<< csgvvtk::inParaViewWords(source.message()) << " (the " << in.Inputs.size()
-                    << " files were read as the slices of one volume; with ReadAsImageStack off each"
-                       " file is one time step)");
+      this->ReportFailure(csgvvtk::inParaViewWords(source.message()) + " (the " + std::to_string(in.Inputs.size()) +
+        " files were read as the slices of one volume; with ReadAsImageStack off each file is one time step)");
     }
     else
     {
-      vtkErrorMacro(<< csgvvtk::inParaViewWords(source.message()));
+      this->ReportFailure(csgvvtk::inParaViewWords(source.message()));
     }
     return;
   }
@@ -475,18 +476,21 @@ int vtkCSGVInputReader::RequestData(
   }
   if (in.Failed)
   {
+    csgvvtk::markReadError(output->GetFieldData(), in.FailureText.empty() ? "the input could not be read" : in.FailureText);
     return 1; // RequestInformation reported why
   }
   // The input may have changed since RequestInformation (ParaView's Reload re-runs both).
   in.UpdateStamp(this, false);
   if (in.Stamp.empty())
   {
-    vtkErrorMacro(<< "cannot examine '"
-                  << (in.Location.Slices.empty() ? in.Location.Stamped : in.Location.Display) << "'");
+    this->ReportFailure(
+      "cannot examine '" + (in.Location.Slices.empty() ? in.Location.Stamped : in.Location.Display) + "'");
+    csgvvtk::markReadError(output->GetFieldData(), in.FailureText);
     return 1;
   }
   if (this->GetMTime() == in.FailedMTime && in.Stamp == in.FailedStamp)
   {
+    csgvvtk::markReadError(output->GetFieldData(), in.FailureText.empty() ? "the input could not be read" : in.FailureText);
     return 1; // this very request failed and was reported; it is retried once something changes
   }
   this->UpdateProgress(0.0);
@@ -495,6 +499,7 @@ int vtkCSGVInputReader::RequestData(
   if (compress && !this->Compress())
   {
     this->RememberFailure();
+    csgvvtk::markReadError(output->GetFieldData(), in.FailureText);
     return 1;
   }
   in.Reader->SetFileName(in.Cache.c_str());
@@ -520,9 +525,10 @@ int vtkCSGVInputReader::RequestData(
     in.Reader->GetOutput()->GetNumberOfPoints() == 0)
   {
     // vtkCSGVReader said why; a broken cache must not be trusted next time.
-    vtkErrorMacro(<< "cannot read the cached '" << in.Cache << "'; it will be compressed again");
+    this->ReportFailure("cannot read the cached '" + in.Cache + "'; it will be compressed again");
     std::remove((in.Cache + ".stamp").c_str());
     this->RememberFailure();
+    csgvvtk::markReadError(output->GetFieldData(), in.FailureText);
     return 1;
   }
   output->ShallowCopy(in.Reader->GetOutput());
@@ -538,6 +544,12 @@ int vtkCSGVInputReader::RequestData(
   }
   this->UpdateProgress(1.0);
   return 1;
+}
+
+void vtkCSGVInputReader::ReportFailure(const std::string& message)
+{
+  vtkErrorMacro(<< message);
+  this->Internals->FailureText = message;
 }
 
 void vtkCSGVInputReader::RememberFailure()
@@ -570,7 +582,7 @@ bool vtkCSGVInputReader::Compress()
   // A progress observer may abort before Core reports any progress.
   if (this->GetAbortExecute())
   {
-    vtkErrorMacro(<< "compressing '" << in.Location.Display << "' was cancelled");
+    this->ReportFailure("compressing '" + in.Location.Display + "' was cancelled");
     return false;
   }
   csgv::CompressReport report;
@@ -610,7 +622,7 @@ bool vtkCSGVInputReader::Compress()
   }
   if (!status)
   {
-    vtkErrorMacro(<< csgvvtk::inParaViewWords(status.message()));
+    this->ReportFailure(csgvvtk::inParaViewWords(status.message()));
     return false;
   }
   if (this->GetAbortExecute())

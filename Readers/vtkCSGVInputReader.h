@@ -183,6 +183,10 @@ private:
   void PrepareInput(vtkInformation* outInfo);
   /// Remembers that the current request failed (see vtkInternals::FailedMTime).
   void RememberFailure();
+  /// Reports a failure (vtkErrorMacro) and keeps its words: RequestData marks the empty output
+  /// with them (csgvvtk::markReadError), so a Segmentation Volume's summary says why, under MPI
+  /// with the failing rank.
+  void ReportFailure(const std::string& message);
 
   class vtkInternals;
   vtkInternals* Internals;

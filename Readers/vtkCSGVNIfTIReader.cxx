@@ -38,6 +38,7 @@ class vtkCSGVNIfTIReader::vtkInternals
 public:
   std::string Path;
   std::unique_ptr<csgv::InputSource> Source;
+  std::string Failure; ///< why RequestInformation refused the file ("" when it did not)
 
   /// Set when the file is not a label volume and VTK's reader reads it instead.
   vtkSmartPointer<vtkNIFTIImageReader> Intensity;
@@ -223,6 +224,7 @@ int vtkCSGVNIfTIReader::RequestInformation(
   vtkInternals& in = *this->Internals;
   in.Source.reset();
   in.Path.clear();
+  in.Failure.clear();
   if (!this->FileName || !*this->FileName)
   {
     vtkErrorMacro(<< "no FileName set");
@@ -256,6 +258,7 @@ int vtkCSGVNIfTIReader::RequestInformation(
   if (!labels)
   {
     vtkErrorMacro(<< labels.message());
+    in.Failure = labels.message();
     // Reported once; the pipeline goes on with an empty extent and RequestData leaves an empty
     // output, never the previous file's data.
     const int empty[6] = { 0, -1, 0, -1, 0, -1 };
@@ -300,7 +303,10 @@ int vtkCSGVNIfTIReader::RequestData(
   }
   if (!in.Source || in.Path != this->FileName)
   {
-    return 1; // RequestInformation reported why; the output stays empty
+    // RequestInformation reported why; the output stays empty, marked with it (a Segmentation
+    // Volume's summary says why, under MPI naming the rank).
+    csgvvtk::markReadError(output->GetFieldData(), in.Failure.empty() ? "the file could not be read" : in.Failure);
+    return 1;
   }
   const csgv::InputInfo& v = in.Source->info();
   const int type = csgvvtk::vtkTypeOfName(csgv::labelTypeName(v.type));
@@ -319,9 +325,12 @@ int vtkCSGVNIfTIReader::RequestData(
   }
   if (!allocated || (voxels && !arr->GetVoidPointer(0)))
   {
-    vtkErrorMacro(<< this->FileName << ": " << v.dim[0] << " x " << v.dim[1] << " x " << v.dim[2]
-                  << " labels need " << (bytes >> 20) << " MiB, more than this process can allocate");
-    return 0;
+    const std::string message = std::string(this->FileName) + ": " + std::to_string(v.dim[0]) + " x " +
+      std::to_string(v.dim[1]) + " x " + std::to_string(v.dim[2]) + " labels need " + std::to_string(bytes >> 20) +
+      " MiB, more than this process can allocate";
+    vtkErrorMacro(<< message);
+    csgvvtk::markReadError(output->GetFieldData(), message);
+    return 1; // reported once, the output empty and marked (a failed request is run and said again)
   }
   void* base = arr->GetVoidPointer(0);
   const size_t size = size_t(arr->GetDataTypeSize());
@@ -343,14 +352,16 @@ int vtkCSGVNIfTIReader::RequestData(
     });
   if (!s)
   {
+    const std::string message = this->GetAbortExecute()
+      ? std::string("reading '") + this->FileName + "' was cancelled"
+      : (s.message().find(this->FileName) == std::string::npos ? std::string(this->FileName) + ": " : "") + s.message();
     if (!this->GetAbortExecute())
     {
-      const std::string message = s.message();
-      vtkErrorMacro(<< (message.find(this->FileName) == std::string::npos ? std::string(this->FileName) + ": " : "")
-                    << message);
+      vtkErrorMacro(<< message);
     }
     output->Initialize();
-    return 0;
+    csgvvtk::markReadError(output->GetFieldData(), message);
+    return 1; // reported once, the output empty and marked (a failed request is run and said again)
   }
   output->SetExtent(0, int(v.dim[0]), 0, int(v.dim[1]), 0, int(v.dim[2]));
   csgvvtk::applyGeometry(output, csgv::cellGeometryFromPointGeometry(v.geometry), 0);

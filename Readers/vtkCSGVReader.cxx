@@ -91,6 +91,7 @@ public:
   /// execution the pipeline asks for (a new file or a changed one clears it with the rest).
   /// Failures to map or read the file (which may pass) and pieces are tried again each time.
   std::string ReadFailure;
+  std::string LoadFailure; ///< why the last Load failed ("" when it did not): marks the empty output
   vtkSmartPointer<vtkUnsignedCharArray> Encoding; ///< the container bytes (FieldData)
   csgv::CompressedVolume Volume; ///< the same, parsed once (RequestData decodes it)
   vtkSmartPointer<vtkDataArray> Range;
@@ -513,6 +514,7 @@ void vtkCSGVReader::SwitchStep(vtkInformation* outInfo)
 void vtkCSGVReader::DescribeFile(vtkInformation* outInfo)
 {
   const std::string error = this->Internals->Load(this->Internals->Inputs[size_t(this->Internals->Step)]);
+  this->Internals->LoadFailure = error;
   if (!error.empty())
   {
     vtkErrorMacro(<< error);
@@ -572,7 +574,11 @@ int vtkCSGVReader::RequestData(
   }
   if (!in.Loaded)
   {
-    return 1; // RequestInformation reported why; the output stays empty
+    // RequestInformation reported why; the output stays empty, marked with it (a Segmentation
+    // Volume's summary says why, under MPI naming the rank).
+    csgvvtk::markReadError(
+      output->GetFieldData(), in.LoadFailure.empty() ? "the file could not be read" : in.LoadFailure);
+    return 1;
   }
   const uint32_t lod = levelWithin(this->Level, in.Levels);
   const std::array<uint32_t, 3> ld = csgv::lodDimensions(in.Dim, lod);

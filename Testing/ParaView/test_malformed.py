@@ -31,6 +31,11 @@ def expect_error(tag, proxy_factory, needle):
     t.check(needle in errors.text, tag + ": error says %r" % needle)
     if needle not in errors.text:
         t.log("   got: " + errors.text.strip()[:400])
+    # The empty output says why (FieldData CSGVReadError): a Segmentation Volume's summary gives
+    # the reason, under MPI naming the rank (the input and NIfTI readers left it unmarked).
+    mark = img.GetFieldData().GetAbstractArray("CSGVReadError")
+    why = mark.GetValue(0) if mark is not None and mark.GetNumberOfValues() else ""
+    t.check(why != "", tag + ": the empty output is marked with the reason (%r)" % why[:160])
     Delete(r)
 
 
