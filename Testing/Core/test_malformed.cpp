@@ -18,6 +18,7 @@
 
 #include "csgv/codec/Container.h"
 #include "csgv/codec/Decoder.h"
+#include "csgv/codec/Encoder.h"
 #include "csgv/codec/Palettes.h"
 #include "csgv/base/Morton.h"
 
@@ -685,6 +686,34 @@ TEST(MalformedContainer, PaletteSizeZero) {
         CompressedVolume v = fixtureVolume(name);
         mutableBrick(v, 9).w[v.levels()] = 0;
         EXPECT_TRUE(failsWith(reparse(v), {"brick 9:", "palette size is 0"})) << name;
+    }
+}
+
+TEST(MalformedContainer, ADamagedBrickOfAPieceKeepsItsPlaceInItsVolume) {
+    // MPI ranks draw their piece in the whole volume's index space (embedPiece). A brick of the
+    // piece whose header words are wrong made embedPiece refuse the piece, which was then drawn
+    // as a volume of its own, its warning numbering the brick within the piece (brick 1 where the
+    // file says brick 3; attack pass 8). It is placed now, the one brick unsound, named by its
+    // place in the volume.
+    for (const char* name : {kNibble, kRans1, kRans2}) {
+        const CompressedVolume& whole = fixtureVolume(name);
+        const csgv::BrickBox box = csgv::brickPartition(whole.brickGrid(), 2, 1);
+        csgv::Result<CompressedVolume> piece = csgv::extractPiece(whole, box);
+        ASSERT_TRUE(piece.isOk()) << name << ": " << piece.message();
+        const uint64_t own = 1;
+        mutableBrick(*piece, own).w[0] = 1015160900u; // a level-0 start far past the brick
+        csgv::Result<CompressedVolume> embedded = csgv::embedPiece(*piece, box, whole.dim);
+        ASSERT_TRUE(embedded.isOk()) << name << ": " << embedded.message();
+        const uint64_t pw = box.hi[0] - box.lo[0], ph = box.hi[1] - box.lo[1];
+        const std::array<uint32_t, 3> grid = whole.brickGrid();
+        const uint64_t at = (box.lo[0] + own % pw) +
+                            grid[0] * ((box.lo[1] + own / pw % ph) + uint64_t(grid[1]) * (box.lo[2] + own / pw / ph));
+        uint64_t unsound = 0;
+        for (uint64_t b = 0; b < embedded->brickCount(); ++b) unsound += csgv::brickSound(*embedded, b) ? 0 : 1;
+        EXPECT_EQ(unsound, 1u) << name;
+        EXPECT_FALSE(csgv::brickSound(*embedded, at)) << name;
+        EXPECT_TRUE(failsWith(csgv::checkBrick(*embedded, at), {"brick " + std::to_string(at) + ":", "level 0 start"}))
+            << name << ": " << csgv::checkBrick(*embedded, at).message();
     }
 }
 

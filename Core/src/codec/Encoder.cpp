@@ -1237,10 +1237,13 @@ Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBo
         for (uint64_t i = 0; i < bricks; ++i) {
             const uint32_t x = uint32_t(i % grid[0]), y = uint32_t(i / grid[0] % grid[1]), z = uint32_t(i / grid[0] / grid[1]);
             if (box.contains(x, y, z)) {
-                const BrickWords bw = piece.brick((x - box.lo[0]) + pw * ((y - box.lo[1]) + ph * (z - box.lo[2])));
+                const uint64_t own = (x - box.lo[0]) + pw * ((y - box.lo[1]) + ph * (z - box.lo[2]));
+                const BrickWords bw = piece.brick(own);
                 sizes[size_t(i)] = bw.size;
                 from[size_t(i)] = bw.words;
-                vol.maxPalette = std::max(vol.maxPalette, bw.words[L]);
+                // A damaged brick's palette word means nothing (it is drawn empty): it placed the
+                // whole piece apart, numbered as a volume of its own (attack pass 8).
+                if (brickSound(piece, own)) vol.maxPalette = std::max(vol.maxPalette, bw.words[L]);
                 continue;
             }
             const std::array<uint32_t, 3> extent = {std::min(B, dim[0] - x * B), std::min(B, dim[1] - y * B),
@@ -1254,7 +1257,9 @@ Result<CompressedVolume> embedPiece(const CompressedVolume& piece, const BrickBo
             appendWords(arr, from[size_t(i)], sizes[size_t(i)]);
         });
         if (!s) return s;
-        s = checkContainer(vol);
+        // The layout, not each brick: a damaged brick of the piece stays one (drawn empty and
+        // named by its place in the volume), where it placed the whole piece apart.
+        s = checkLayout(vol);
         if (!s) return s;
         return vol;
     } catch (const std::bad_alloc&) {
