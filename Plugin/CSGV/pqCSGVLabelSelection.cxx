@@ -35,6 +35,7 @@
 #include <QTimer>
 
 #include <algorithm>
+#include <functional>
 #include <memory>
 #include <array>
 #include <cstring>
@@ -231,9 +232,32 @@ void pqCSGVLabelSelection::startup()
   connect(model, &pqServerManagerModel::representationAdded, this, &pqCSGVLabelSelection::representationAdded);
   for (pqView* v : model->findItems<pqView*>())
     this->viewAdded(v);
-  if (pqPVApplicationCore* core = pqPVApplicationCore::instance())
-    if (pqSelectionManager* selections = core->selectionManager())
-      connect(selections, &pqSelectionManager::selectionChanged, this, &pqCSGVLabelSelection::selectionChanged);
+  if (!this->connectSelectionManager())
+  {
+    // Started from PV_PLUGIN_PATH: the selection manager comes with pqPVApplicationCore, after
+    // this; asked again once the event loop runs (and at every view or source added).
+    auto retry = std::make_shared<std::function<void(int)>>();
+    QPointer<pqCSGVLabelSelection> self(this);
+    *retry = [self, retry](int left) {
+      if (self && !self->connectSelectionManager() && left > 0)
+        QTimer::singleShot(100, self, [retry, left]() { (*retry)(left - 1); });
+    };
+    QTimer::singleShot(0, this, [retry]() { (*retry)(600); });
+  }
+}
+
+bool pqCSGVLabelSelection::connectSelectionManager()
+{
+  if (this->Selections)
+    return true;
+  pqPVApplicationCore* core = pqPVApplicationCore::instance();
+  pqSelectionManager* selections = core ? core->selectionManager() : nullptr;
+  if (!selections)
+    return false;
+  this->Selections = selections;
+  connect(selections, &pqSelectionManager::selectionChanged, this, &pqCSGVLabelSelection::selectionChanged,
+    Qt::UniqueConnection);
+  return true;
 }
 
 void pqCSGVLabelSelection::shutdown()
@@ -242,9 +266,9 @@ void pqCSGVLabelSelection::shutdown()
     Instance = nullptr;
   if (pqApplicationCore* core = pqApplicationCore::instance())
     disconnect(core->getServerManagerModel(), nullptr, this, nullptr);
-  if (pqPVApplicationCore* core = pqPVApplicationCore::instance())
-    if (pqSelectionManager* selections = core->selectionManager())
-      disconnect(selections, nullptr, this, nullptr);
+  if (this->Selections)
+    disconnect(this->Selections, nullptr, this, nullptr);
+  this->Selections = nullptr;
   for (auto it = this->Observed.begin(); it != this->Observed.end(); ++it)
     if (auto* rv = qobject_cast<pqRenderView*>(it.key()))
       if (vtkSMRenderViewProxy* rmp = rv->getRenderViewProxy())
@@ -255,6 +279,7 @@ void pqCSGVLabelSelection::shutdown()
 
 void pqCSGVLabelSelection::viewAdded(pqView* view)
 {
+  this->connectSelectionManager();
   auto* rv = qobject_cast<pqRenderView*>(view);
   vtkSMRenderViewProxy* rmp = rv ? rv->getRenderViewProxy() : nullptr;
   if (!rmp || this->Observed.contains(view))
@@ -495,6 +520,7 @@ void pqCSGVLabelSelection::selectRows(pqOutputPort* input, const std::vector<uin
 
 void pqCSGVLabelSelection::sourceAdded(pqPipelineSource* source)
 {
+  this->connectSelectionManager();
   if (!isLabelTable(source))
     return;
   // Its input and rows exist at its first update (not yet when it is added): then its rows take

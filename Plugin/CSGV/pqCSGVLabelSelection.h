@@ -31,6 +31,8 @@
 
 #include "csgv/materials/Materials.h"
 
+class pqSelectionManager;
+
 #include <QMap>
 #include <QObject>
 #include <QPointer>
@@ -110,7 +112,13 @@ private:
   /// A label table's rows, fetched once per update of its data.
   const TableRows& rowLabels(pqPipelineSource* table);
 
+  /// Connects to ParaView's selection manager once it exists (true when connected). A plugin on
+  /// PV_PLUGIN_PATH starts while pqApplicationCore is being made, before pqPVApplicationCore and
+  /// its selection manager (GUI pass 11: table rows never selected in 3D that way).
+  bool connectSelectionManager();
+
   QMap<pqView*, unsigned long> Observed; ///< render view -> its SelectionChangedEvent observer
+  QPointer<pqSelectionManager> Selections; ///< the selection manager connected to
   QMap<pqPipelineSource*, TableRows> RowLabels; ///< rowLabels' answers, dropped on dataUpdated
   bool Busy = false;                    ///< an edit of ours is on its way round the links
 };
