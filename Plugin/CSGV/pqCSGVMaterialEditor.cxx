@@ -21,6 +21,7 @@
 #include <vtkSMProxy.h>
 #include <vtk_jsoncpp.h>
 
+#include <QHash>
 #include <QCheckBox>
 #include <QApplication>
 #include <QComboBox>
@@ -161,12 +162,27 @@ int pqCSGVMaterialEditor::currentMaterial() const
   return this->List->currentRow();
 }
 
+namespace
+{
+/// The material each display's editor showed last: ParaView makes a new editor whenever the
+/// Properties panel is rebuilt (a label picked with a Label Table open makes the table the active
+/// source for a moment), and the new one started at material 1 (GUI pass 11: the Opacity and
+/// Colour the user was editing then belonged to another material).
+QHash<vtkSMProxy*, int>& lastRows()
+{
+  static QHash<vtkSMProxy*, int> rows;
+  return rows;
+}
+} // namespace
+
 void pqCSGVMaterialEditor::setMaterials(const QString& text)
 {
   if (text == this->Text && !this->Text.isEmpty())
   {
     return;
   }
+  const bool first = !this->Shown; // this editor's first document: the display's last material
+  this->Shown = true;
   this->Text = text;
   QString error;
   this->Doc = pqCSGV::parseDocument(text, &error);
@@ -174,7 +190,7 @@ void pqCSGVMaterialEditor::setMaterials(const QString& text)
   this->say(
     this->DocValid ? QString() : "The material document is not valid (" + error + "); editing starts from the default.");
   const int row = this->List->currentRow();
-  this->rebuildList(row < 0 ? 0 : row);
+  this->rebuildList(first || row < 0 ? lastRows().value(this->proxy(), 0) : row);
 }
 
 void pqCSGVMaterialEditor::setAttributeFiles(const QStringList& files)
@@ -534,6 +550,10 @@ void pqCSGVMaterialEditor::selectionChanged()
 {
   if (!this->Updating)
   {
+    if (this->List->currentRow() >= 0)
+    {
+      lastRows()[this->proxy()] = this->List->currentRow();
+    }
     this->showDetails();
   }
 }

@@ -158,6 +158,7 @@ private:
   csgv::MaterialDocument Doc;
   bool DocValid = true;
   QString Text; ///< the property's text as last set or committed
+  bool Shown = false; ///< a document was set (the first shows the display's last material)
   QStringList Files;
   QStringList Derived;
   /// Set by Apply derived: the next attribute refresh says what the derived attributes became.

@@ -257,6 +257,38 @@ private Q_SLOTS:
     QCOMPARE(this->child<QDoubleSpinBox>("opacity")->value(), 0.25);
   }
 
+  /// A new editor of the same display (the Properties panel makes one whenever it is rebuilt: a
+  /// label picked with a Label Table open makes the table active for a moment) shows the material
+  /// the last one showed, not material 1 (GUI pass 11: the Opacity the user was editing then
+  /// belonged to another material); a selection edit keeps it too.
+  void aNewEditorOfTheDisplayKeepsTheMaterialShown()
+  {
+    const QByteArray before = vtkSMPropertyHelper(this->Repr, "CSGVMaterials").GetAsString();
+    const QString doc = R"({"version":1,"materials":[{"name":"a"},{"name":"b"},{"name":"c","opacity":0.25}]})";
+    vtkSMPropertyHelper(this->Repr, "CSGVMaterials").Set(doc.toUtf8().constData());
+    this->Repr->UpdateVTKObjects();
+    QCoreApplication::processEvents();
+    this->child<QListWidget>("materialList")->setCurrentRow(2);
+    {
+      pqCSGVMaterialEditor again(this->Repr, nullptr);
+      QCoreApplication::processEvents();
+      auto* list = again.findChild<QListWidget*>("materialList");
+      QVERIFY(list && list->count() == 3);
+      QCOMPARE(list->currentRow(), 2);
+      QCOMPARE(again.findChild<QDoubleSpinBox*>("opacity")->value(), 0.25);
+      // A selection edit (the overlay of the same document) keeps the material shown.
+      const QString selected = R"({"version":1,"materials":[{"name":"a"},{"name":"b"},{"name":"c","opacity":0.25}],"selected":[7]})";
+      vtkSMPropertyHelper(this->Repr, "CSGVMaterials").Set(selected.toUtf8().constData());
+      this->Repr->UpdateVTKObjects();
+      QCoreApplication::processEvents();
+      QCOMPARE(list->currentRow(), 2);
+    }
+    QCOMPARE(this->child<QListWidget>("materialList")->currentRow(), 2);
+    vtkSMPropertyHelper(this->Repr, "CSGVMaterials").Set(before.constData()); // as the next tests expect
+    this->Repr->UpdateVTKObjects();
+    QCoreApplication::processEvents();
+  }
+
   void attributesFromTheRepresentation()
   {
     this->Editor->refreshAttributes();
