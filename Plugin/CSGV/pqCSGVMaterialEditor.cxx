@@ -165,9 +165,9 @@ int pqCSGVMaterialEditor::currentMaterial() const
 namespace
 {
 /// The material each display's editor showed last: ParaView makes a new editor whenever the
-/// Properties panel is rebuilt (a label picked with a Label Table open makes the table the active
-/// source for a moment), and the new one started at material 1 (GUI pass 11: the Opacity and
-/// Colour the user was editing then belonged to another material).
+/// Properties panel rebuilds the display's section (the active source changing and back, as a
+/// selection can make it), and the new one started at material 1 (GUI pass 11: after a pick the
+/// Opacity and Colour the user was editing belonged to another material).
 QHash<vtkSMProxy*, int>& lastRows()
 {
   static QHash<vtkSMProxy*, int> rows;

@@ -257,8 +257,8 @@ private Q_SLOTS:
     QCOMPARE(this->child<QDoubleSpinBox>("opacity")->value(), 0.25);
   }
 
-  /// A new editor of the same display (the Properties panel makes one whenever it is rebuilt: a
-  /// label picked with a Label Table open makes the table active for a moment) shows the material
+  /// A new editor of the same display (the Properties panel makes one whenever it rebuilds the
+  /// display's section) shows the material
   /// the last one showed, not material 1 (GUI pass 11: the Opacity the user was editing then
   /// belonged to another material); a selection edit keeps it too.
   void aNewEditorOfTheDisplayKeepsTheMaterialShown()
