@@ -545,11 +545,25 @@ std::string answerQuery(const std::string& request, QueryContext& c)
       }
       std::sort(drawn.begin(), drawn.end());
     }
+    // Label 0 is empty space unless the materials draw it (GUI pass 11: "voxels > 10000"
+    // selected the background, and Extract selection would mesh it).
+    bool zeroDrawn = false;
+    if (c.materials)
+    {
+      const csgv::MaterialEvaluator::AttributeFn attributes = drawnAttributes(*table, *source.shared);
+      const csgv::MaterialDocument shown = csgv::effectiveMaterials(*c.materials, attributes);
+      const int m = csgv::MaterialEvaluator(shown, attributes).materialOf(0);
+      zeroDrawn = m >= 0 && shown.materials[size_t(m)].opacity > 0.0f;
+    }
     for (int64_t l : drawn)
     {
       if (l < 0 || double(l) > csgv::kMaxMaterialLabel)
       {
         continue; // beyond what a material document can name
+      }
+      if (l == 0 && !zeroDrawn)
+      {
+        continue;
       }
       if (labels.size() == csgv::kMaxOverlayLabels)
       {

@@ -128,6 +128,16 @@ t.check(len(want) > 0 and got == want, "match: the labels with voxels > 5000 and
 for bad in ("voxels >", "no_such_column > 1", "'text'", "", "1; DROP TABLE t"):
     t.check("error" in json.loads(ct.query(da, "match " + bad)), "match: %r is an error answer" % bad)
 t.check(json.loads(ct.query(da, "match 0")) == {"labels": [], "truncated": False}, "match: a false condition selects none")
+# Label 0 is empty space: a condition it meets does not select it unless the materials draw it
+# (GUI pass 11: "voxels > 10000" selected the background).
+big = sorted(int(l) for l, n in zip(col("label"), col("voxels")) if n > 10000)
+got = ct.labels_matching(da, "voxels > 10000")
+t.check(0 in big and got == [l for l in big if l != 0],
+        "match: label 0 (empty space) is not selected by a condition it meets (%r, rows %r)" % (got, big))
+da.CSGVMaterials = '{"version": 1, "materials": [{"name": "all", "filter": {"min": 0, "max": 4294967294}}]}'
+got = ct.labels_matching(da, "voxels > 10000")
+t.check(got == big, "match: label 0 is selected where the materials draw it (%r)" % got)
+da.CSGVMaterials = ""
 Hide(ra, v)
 Show(r, v)
 
