@@ -124,6 +124,7 @@ void pqCSGVPickPanel::build()
   connect(&pqActiveObjects::instance(), &pqActiveObjects::viewChanged, this, &pqCSGVPickPanel::setView);
   connect(pqApplicationCore::instance()->getServerManagerModel(),
     &pqServerManagerModel::preRepresentationRemoved, this, &pqCSGVPickPanel::representationRemoved);
+
   this->setView(pqActiveObjects::instance().activeView());
   // Undo, redo and edits elsewhere (the table, ParaView's tools) change the selection too.
   if (pqUndoStack* undo = pqApplicationCore::instance()->getUndoStack())
@@ -174,6 +175,13 @@ void pqCSGVPickPanel::setView(pqView* view)
   {
     this->TimeChange =
       connect(view->getServer()->getTimeKeeper(), &pqTimeKeeper::timeChanged, this, &pqCSGVPickPanel::clearPick);
+  }
+  // And to what the view showed: data shown in it since may be under the pixel now (GUI pass
+  // 11: "No label at pixel ..." stayed after the volume appeared).
+  QObject::disconnect(this->DataShown);
+  if (view)
+  {
+    this->DataShown = connect(view, &pqView::representationAdded, this, &pqCSGVPickPanel::clearPick);
   }
   if (this->ViewWidget)
   {

@@ -105,6 +105,7 @@ private:
   QPointer<pqView> View;
   QPointer<QWidget> ViewWidget;
   QMetaObject::Connection TimeChange; ///< the view's server's time keeper: a new time clears the pick
+  QMetaObject::Connection DataShown;  ///< the view: data shown in it clears the pick
   QPoint PressPos;
   bool Pressed = false;
   QJsonObject Last;

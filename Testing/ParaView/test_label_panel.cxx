@@ -374,6 +374,18 @@ private Q_SLOTS:
     time->setTime(time->getTime() - 1.0);
     QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
     QVERIFY(panel.lastPick().value("hit").toBool());
+    // Data shown in the view since the pick may be under that pixel now (GUI pass 11: "No label
+    // at pixel ..." stayed after the volume appeared).
+    {
+      pqPipelineSource* more = builder->createReader(
+        "sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2.csgv" }, server);
+      QVERIFY(more && builder->createDataRepresentation(more->getOutputPort(0), view));
+      QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
+        "data shown in the view clears the pick");
+      builder->destroy(more);
+      QTest::mouseClick(view->widget(), Qt::LeftButton, Qt::NoModifier, centre);
+      QVERIFY(panel.lastPick().value("hit").toBool());
+    }
     builder->destroy(source);
     QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
       "deleting the picked data clears the pick");
