@@ -567,6 +567,7 @@ void pqCSGVMaterialEditor::commit(const QString& undoLabel)
   }
   this->Text = text;
   this->DocValid = true;
+  this->PendingUndo = undoLabel;
   BEGIN_UNDO_SET(undoLabel);
   Q_EMIT this->materialsChanged();
   END_UNDO_SET();
@@ -574,6 +575,14 @@ void pqCSGVMaterialEditor::commit(const QString& undoLabel)
   {
     v->render();
   }
+}
+
+void pqCSGVMaterialEditor::apply()
+{
+  BEGIN_UNDO_SET(this->PendingUndo.isEmpty() ? QString("Property Changed") : this->PendingUndo);
+  this->links().accept();
+  END_UNDO_SET();
+  this->PendingUndo.clear();
 }
 
 void pqCSGVMaterialEditor::detailsEdited()
@@ -775,6 +784,7 @@ void pqCSGVMaterialEditor::loadAttributes()
   }
   this->Files = files;
   showAttributeFiles(this->FilesLabel, files);
+  this->PendingUndo = "Load attributes";
   BEGIN_UNDO_SET("Load attributes");
   Q_EMIT this->attributeFilesChanged();
   END_UNDO_SET();
@@ -792,6 +802,7 @@ void pqCSGVMaterialEditor::clearAttributes()
   }
   this->Files.clear();
   showAttributeFiles(this->FilesLabel, this->Files);
+  this->PendingUndo = "Clear attributes";
   BEGIN_UNDO_SET("Clear attributes");
   Q_EMIT this->attributeFilesChanged();
   END_UNDO_SET();
@@ -815,6 +826,7 @@ void pqCSGVMaterialEditor::applyDerived()
   }
   this->Derived = pairs;
   this->ReportDerived = true;
+  this->PendingUndo = "Derived attributes";
   BEGIN_UNDO_SET("Derived attributes");
   Q_EMIT this->derivedAttributesChanged();
   END_UNDO_SET();

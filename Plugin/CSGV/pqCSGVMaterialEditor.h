@@ -76,6 +76,10 @@ public:
   QStringList derivedAttributes() const { return this->Derived; }
   /// Index of the material shown in the details (-1: none).
   int currentMaterial() const;
+  /// Pushes the edits as pqPropertyWidget does, in an undo step named after the edit (the
+  /// Properties panel applies later than the edit's own undo set: every step read "Property
+  /// Changed", GUI pass 11).
+  void apply() override;
 
 public Q_SLOTS:
   void setMaterials(const QString& text);
@@ -158,6 +162,7 @@ private:
   csgv::MaterialDocument Doc;
   bool DocValid = true;
   QString Text; ///< the property's text as last set or committed
+  QString PendingUndo; ///< the name of the edit the next apply() pushes
   bool Shown = false; ///< a document was set (the first shows the display's last material)
   QStringList Files;
   QStringList Derived;

@@ -294,6 +294,7 @@ QGroupBox* pqCSGVMaterialEditor::buildAttributes()
   this->Computed->setToolTip("voxel_count, surface_area, bbox_min/max_x/y/z and centroid_x/y/z, computed from the "
                              "compressed volume once per volume");
   this->Computed->setObjectName("computedAttributes");
+  connect(this->Computed, &QCheckBox::toggled, this, [this]() { this->PendingUndo = "Computed attributes"; });
   al->addWidget(this->Computed);
   auto* derivedLabel = new QLabel("Derived attributes, one per line: name = SQL expression", attrs);
   derivedLabel->setWordWrap(true);

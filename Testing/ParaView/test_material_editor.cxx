@@ -10,7 +10,14 @@
 #include "pqCSGVMaterialDocument.h"
 #include "pqCSGVMaterialEditor.h"
 
+#include <pqActiveObjects.h>
+#include <pqApplicationCore.h>
+#include <pqDataRepresentation.h>
+#include <pqPipelineSource.h>
+#include <pqView.h>
 #include <pqObjectBuilder.h>
+#include <pqUndoStack.h>
+#include <pqUndoStackBuilder.h>
 #include <pqPVApplicationCore.h>
 #include <pqServer.h>
 #include <pqServerResource.h>
@@ -287,6 +294,45 @@ private Q_SLOTS:
     vtkSMPropertyHelper(this->Repr, "CSGVMaterials").Set(before.constData()); // as the next tests expect
     this->Repr->UpdateVTKObjects();
     QCoreApplication::processEvents();
+  }
+
+  /// Each edit is one undo step named after it, also where the Properties panel applies the edit
+  /// after it was made (a queued apply: every step read "Undo Property Changed", GUI pass 11).
+  void editsAreUndoStepsNamedAfterThem()
+  {
+    pqApplicationCore* core = pqApplicationCore::instance();
+    if (!core->getUndoStack())
+    {
+      vtkNew<pqUndoStackBuilder> undoBuilder;
+      vtkSMProxyManager::GetProxyManager()->SetUndoStackBuilder(undoBuilder);
+      core->setUndoStack(new pqUndoStack(undoBuilder, this));
+    }
+    // A display the proxy manager knows (the undo stack records registered proxies only).
+    pqServer* server = pqActiveObjects::instance().activeServer();
+    pqObjectBuilder* builder = core->getObjectBuilder();
+    pqPipelineSource* source =
+      builder->createReader("sources", "CSGVReader", { gFixtures + "/synthA_b32_rans2_attr.csgv" }, server);
+    pqView* view = source ? builder->createView("RenderView", server) : nullptr;
+    pqDataRepresentation* shown = view ? builder->createDataRepresentation(source->getOutputPort(0), view) : nullptr;
+    QVERIFY(shown);
+    vtkSMProxy* display = shown->getProxy();
+    vtkSMPropertyHelper(display, "Representation").Set("Segmentation Volume");
+    display->UpdateVTKObjects();
+    const QByteArray before = vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString();
+    {
+      pqCSGVMaterialEditor queued(display, nullptr);
+      connect(&queued, &pqPropertyWidget::changeFinished, &queued, &pqPropertyWidget::apply, Qt::QueuedConnection);
+      queued.show();
+      QCoreApplication::processEvents();
+      queued.findChild<QPushButton*>("addMaterial")->click();
+      QTRY_VERIFY(QByteArray(vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString()) != before);
+      QCOMPARE(core->getUndoStack()->undoLabel(), QString("Add material"));
+      core->getUndoStack()->undo();
+      QCoreApplication::processEvents();
+    }
+    QCOMPARE(QByteArray(vtkSMPropertyHelper(display, "CSGVMaterials").GetAsString()), before);
+    builder->destroy(source);
+    builder->destroy(view);
   }
 
   void attributesFromTheRepresentation()
