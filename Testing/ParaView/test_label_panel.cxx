@@ -162,9 +162,14 @@ class TestLabelPanel : public QObject
     vtkSMPropertyHelper(rowsSel, "FieldType").Set(vtkSelectionNode::ROW);
     vtkSMPropertyHelper(rowsSel, "IDs").Set(processAndRow.data(), static_cast<unsigned int>(processAndRow.size()));
     rowsSel->UpdateVTKObjects();
+    selectTable(table, rowsSel);
+  }
+  /// Hands a selection source of a table's rows to the selection manager (in an AppendSelections).
+  static void selectTable(pqPipelineSource* table, vtkSMSourceProxy* selection)
+  {
     vtkSmartPointer<vtkSMSourceProxy> appended;
     appended.TakeReference(
-      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(rowsSel)));
+      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(selection)));
     table->getOutputPort(0)->setSelectionInput(appended, 0);
     pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
   }
@@ -490,11 +495,7 @@ private Q_SLOTS:
     const double range[] = { double(rows->GetVariantValue(3).ToTypeInt64()), double(rows->GetVariantValue(5).ToTypeInt64()) };
     vtkSMPropertyHelper(query, "Thresholds").Set(range, 2);
     query->UpdateVTKObjects();
-    vtkSmartPointer<vtkSMSourceProxy> appended;
-    appended.TakeReference(
-      vtkSMSourceProxy::SafeDownCast(vtkSMSelectionHelper::NewAppendSelectionsFromSelectionSource(query)));
-    table->getOutputPort(0)->setSelectionInput(appended, 0);
-    pqPVApplicationCore::instance()->selectionManager()->select(table->getOutputPort(0));
+    selectTable(table, query);
     QCOMPARE(pqCSGV::selectedLabels(proxy).size(), size_t(3));
     QCOMPARE(pqCSGV::selectedLabels(proxy).front(), uint32_t(range[0]));
     // Undo gives back the selection before.
