@@ -152,6 +152,16 @@ class TestLabelPanel : public QObject
     return display->getProxy();
   }
 
+  /// A new CSGV Label Table of `source`, updated: its output (nullptr when it could not be made).
+  static vtkTable* newLabelTable(pqPipelineSource* source, pqPipelineSource*& table)
+  {
+    table = pqApplicationCore::instance()->getObjectBuilder()->createFilter("filters", "CSGVLabelTable", source);
+    if (!table)
+      return nullptr;
+    vtkSMSourceProxy::SafeDownCast(table->getProxy())->UpdatePipeline();
+    return vtkTable::SafeDownCast(
+      vtkAlgorithm::SafeDownCast(table->getProxy()->GetClientSideObject())->GetOutputDataObject(0));
+  }
   /// Selects rows of a table output as the Spreadsheet view does: an ID selection of (process,
   /// row) pairs in an AppendSelections, ParaView 5.11's kind, handed to the selection manager.
   static void selectTableRows(pqPipelineSource* table, const std::vector<vtkIdType>& processAndRow)
@@ -413,11 +423,8 @@ private Q_SLOTS:
     pqRenderView* view = nullptr;
     vtkSMProxy* proxy = this->shownInNewView(source, view);
     QVERIFY(proxy);
-    pqPipelineSource* table = builder->createFilter("filters", "CSGVLabelTable", source);
-    QVERIFY(table);
-    vtkSMSourceProxy::SafeDownCast(table->getProxy())->UpdatePipeline();
-    auto* tableData = vtkTable::SafeDownCast(
-      vtkAlgorithm::SafeDownCast(table->getProxy()->GetClientSideObject())->GetOutputDataObject(0));
+    pqPipelineSource* table = nullptr;
+    vtkTable* tableData = newLabelTable(source, table);
     QVERIFY(tableData && tableData->GetColumnByName("label"));
     vtkAbstractArray* rows = tableData->GetColumnByName("label");
     auto rowOf = [rows](uint32_t label) {
@@ -657,11 +664,8 @@ private Q_SLOTS:
     pqRenderView* view = nullptr;
     vtkSMProxy* proxy = this->shownInNewView(source, view, { csgv });
     QVERIFY(proxy);
-    pqPipelineSource* table = builder->createFilter("filters", "CSGVLabelTable", source);
-    QVERIFY(table);
-    vtkSMSourceProxy::SafeDownCast(table->getProxy())->UpdatePipeline();
-    auto* tableData = vtkTable::SafeDownCast(
-      vtkAlgorithm::SafeDownCast(table->getProxy()->GetClientSideObject())->GetOutputDataObject(0));
+    pqPipelineSource* table = nullptr;
+    vtkTable* tableData = newLabelTable(source, table);
     QVERIFY(tableData);
     vtkAbstractArray* labels = tableData->GetColumnByName("label");
     vtkAbstractArray* ids = tableData->GetColumnByName("csgv_id");
