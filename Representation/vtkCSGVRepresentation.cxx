@@ -84,6 +84,7 @@ struct vtkCSGVRepresentation::vtkInternals
 {
   std::shared_ptr<csgvrep::VolumeCache> Volumes = csgvrep::VolumeCache::instance();
   vtkImageData* Image = nullptr; ///< identity only (Cache or the delivered piece keeps it alive)
+  vtkSmartPointer<vtkImageData> NoPiece; ///< the piece of a process without input (ProcessViewRequest)
   vtkMTimeType ImageTime = 0;
   std::string Array;
   bool Resolved = false;
@@ -314,7 +315,15 @@ int vtkCSGVRepresentation::ProcessViewRequest(
   }
   if (request == vtkPVView::REQUEST_UPDATE())
   {
-    vtkPVView::SetPiece(inInfo, this, this->Cache);
+    // A data object on every process, an empty one where there is none (the client's copy of
+    // the representation has no input): a server that cannot render remotely (no display) makes
+    // the client render, and the view then moves every representation's piece to the client. A
+    // null piece on the client side of that move aborted the client ("Wrong tag", GUI re-check 12).
+    if (!this->Cache && !this->Internals->NoPiece)
+    {
+      this->Internals->NoPiece = vtkSmartPointer<vtkImageData>::New();
+    }
+    vtkPVView::SetPiece(inInfo, this, this->Cache ? this->Cache.GetPointer() : this->Internals->NoPiece.GetPointer());
     // The data stays where it is (the server in client/server mode): images travel, not labels.
     vtkPVRenderView::SetDeliverToClientAndRenderingProcesses(inInfo, this, false, false);
     double bounds[6];

@@ -47,6 +47,7 @@ void pqCSGVProgressiveRendering::startup()
       this->LastSamples.remove(view);
       this->Stalls.remove(view);
       this->AfterInteraction.remove(view);
+      this->Pending.remove(view);
     });
   for (pqView* view : model->findItems<pqView*>())
   {
@@ -92,6 +93,23 @@ void pqCSGVProgressiveRendering::renderEnded()
     this->AfterInteraction[view] = true;
     return;
   }
+  if (this->Pending.contains(view))
+  {
+    return;
+  }
+  this->Pending.insert(view);
+  QPointer<pqView> guard(view);
+  QTimer::singleShot(0, this, [this, guard, view]() {
+    this->Pending.remove(view);
+    if (guard)
+    {
+      this->refine(guard);
+    }
+  });
+}
+
+void pqCSGVProgressiveRendering::refine(pqView* view)
+{
   const bool afterInteraction = this->AfterInteraction.take(view);
   int fewest = -1;
   bool refine = false;
@@ -127,12 +145,6 @@ void pqCSGVProgressiveRendering::renderEnded()
   }
   if (refine && stalls < 3)
   {
-    QPointer<pqView> guard(view);
-    QTimer::singleShot(0, this, [guard]() {
-      if (guard)
-      {
-        guard->render();
-      }
-    });
+    view->render();
   }
 }

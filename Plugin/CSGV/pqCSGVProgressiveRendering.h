@@ -19,6 +19,7 @@
 #define pqCSGVProgressiveRendering_h
 
 #include <QMap>
+#include <QSet>
 #include <QObject>
 #include <QPointer>
 
@@ -42,6 +43,12 @@ private Q_SLOTS:
   void renderEnded();
 
 private:
+  /// After a still render of `view` has ended, from the event loop: asks the rendering process
+  /// for the samples its volumes hold and renders again while they are below their target. Not
+  /// within the render's end: a query there is a request inside the session's render (a client
+  /// whose server cannot render remotely aborted: "Wrong tag", GUI re-check 12).
+  void refine(pqView* view);
+  QSet<pqView*> Pending; ///< views whose refine() is on its way
   QMap<pqView*, int> LastSamples;
   QMap<pqView*, int> Stalls;
   /// Views whose last render was interactive (the mouse moving): their next still render starts

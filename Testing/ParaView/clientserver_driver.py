@@ -2,7 +2,9 @@
 """Runs a pvpython client script against a fresh pvserver on a free local port, up to three
 times: Xvfb drops some simultaneous connections ("bad X server connection"), which is no fault
 of the code under test; retries run under a private Xvfb on a random display.
-With CSGV_SERVER_RANKS=N (N > 1) the server runs as `mpiexec -np N pvserver`.
+With CSGV_SERVER_RANKS=N (N > 1) the server runs as `mpiexec -np N pvserver`; with
+CSGV_SERVER_NO_DISPLAY=1 it runs without DISPLAY (Debian's pvserver then cannot render, and
+ParaView renders on the client).
 Usage: clientserver_driver.py [--once] PVSERVER PVPYTHON SCRIPT."""
 import os
 import random
@@ -27,7 +29,10 @@ def attempt(pvserver, pvpython, script):
     ranks = int(os.environ.get("CSGV_SERVER_RANKS", "1"))
     if ranks > 1:
         command = [shutil.which("mpiexec"), "-np", str(ranks)] + command
-    server = subprocess.Popen(command,
+    env = dict(os.environ)
+    if os.environ.get("CSGV_SERVER_NO_DISPLAY"):
+        env.pop("DISPLAY", None)
+    server = subprocess.Popen(command, env=env,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
     deadline = time.time() + 60
