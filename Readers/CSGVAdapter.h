@@ -201,6 +201,7 @@ void addAttributeArrays(vtkFieldData* fd, const std::vector<csgv::AttributeColum
 /// A reader's output that failed to read says why in FieldData `CSGVReadError` (one string):
 /// under MPI a rank's failure is printed on its own stderr only, while the other ranks' pieces
 /// pass for the whole volume; the representation's combined summary names the failed rank.
+/// An empty message marks the failure with a generic one (the reader reported its error).
 void markReadError(vtkFieldData* fd, const std::string& message);
 /// That message, or "".
 std::string readErrorOf(vtkFieldData* fd);

@@ -274,7 +274,7 @@ void markReadError(vtkFieldData* fd, const std::string& message)
 {
   vtkNew<vtkStringArray> a;
   a->SetName("CSGVReadError");
-  a->InsertNextValue(message.substr(0, 4096));
+  a->InsertNextValue(message.empty() ? std::string("the read failed (its error was reported)") : message.substr(0, 4096));
   fd->AddArray(a);
 }
 

@@ -476,7 +476,7 @@ int vtkCSGVInputReader::RequestData(
   }
   if (in.Failed)
   {
-    csgvvtk::markReadError(output->GetFieldData(), in.FailureText.empty() ? "the input could not be read" : in.FailureText);
+    csgvvtk::markReadError(output->GetFieldData(), in.FailureText);
     return 1; // RequestInformation reported why
   }
   // The input may have changed since RequestInformation (ParaView's Reload re-runs both).
@@ -490,7 +490,7 @@ int vtkCSGVInputReader::RequestData(
   }
   if (this->GetMTime() == in.FailedMTime && in.Stamp == in.FailedStamp)
   {
-    csgvvtk::markReadError(output->GetFieldData(), in.FailureText.empty() ? "the input could not be read" : in.FailureText);
+    csgvvtk::markReadError(output->GetFieldData(), in.FailureText);
     return 1; // this very request failed and was reported; it is retried once something changes
   }
   this->UpdateProgress(0.0);

@@ -305,7 +305,7 @@ int vtkCSGVNIfTIReader::RequestData(
   {
     // RequestInformation reported why; the output stays empty, marked with it (a Segmentation
     // Volume's summary says why, under MPI naming the rank).
-    csgvvtk::markReadError(output->GetFieldData(), in.Failure.empty() ? "the file could not be read" : in.Failure);
+    csgvvtk::markReadError(output->GetFieldData(), in.Failure);
     return 1;
   }
   const csgv::InputInfo& v = in.Source->info();

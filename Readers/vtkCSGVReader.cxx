@@ -576,8 +576,7 @@ int vtkCSGVReader::RequestData(
   {
     // RequestInformation reported why; the output stays empty, marked with it (a Segmentation
     // Volume's summary says why, under MPI naming the rank).
-    csgvvtk::markReadError(
-      output->GetFieldData(), in.LoadFailure.empty() ? "the file could not be read" : in.LoadFailure);
+    csgvvtk::markReadError(output->GetFieldData(), in.LoadFailure);
     return 1;
   }
   const uint32_t lod = levelWithin(this->Level, in.Levels);
