@@ -35,7 +35,6 @@
 #include <QTimer>
 
 #include <algorithm>
-#include <functional>
 #include <memory>
 #include <array>
 #include <cstring>
@@ -235,14 +234,14 @@ void pqCSGVLabelSelection::startup()
   if (!this->connectSelectionManager())
   {
     // Started from PV_PLUGIN_PATH: the selection manager comes with pqPVApplicationCore, after
-    // this; asked again once the event loop runs (and at every view or source added).
-    auto retry = std::make_shared<std::function<void(int)>>();
-    QPointer<pqCSGVLabelSelection> self(this);
-    *retry = [self, retry](int left) {
-      if (self && !self->connectSelectionManager() && left > 0)
-        QTimer::singleShot(100, self, [retry, left]() { (*retry)(left - 1); });
-    };
-    QTimer::singleShot(0, this, [retry]() { (*retry)(600); });
+    // this; asked again from the event loop (and at every view or source added), for a minute.
+    auto* retry = new QTimer(this);
+    retry->setInterval(100);
+    connect(retry, &QTimer::timeout, this, [this, retry, left = 600]() mutable {
+      if (this->connectSelectionManager() || --left <= 0)
+        retry->deleteLater();
+    });
+    retry->start();
   }
 }
 
