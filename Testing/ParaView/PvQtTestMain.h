@@ -14,9 +14,12 @@
 #include <pqServer.h>
 #include <pqServerResource.h>
 #include <pqStandardPropertyWidgetInterface.h>
+#include <pqUndoStack.h>
+#include <pqUndoStackBuilder.h>
 #include <vtkSMPluginManager.h>
 #include <vtkSMPropertyHelper.h>
 #include <vtkSMProxy.h>
+#include <vtkNew.h>
 #include <vtkSMProxyManager.h>
 #include <vtkSMSessionProxyManager.h>
 #include <vtkSmartPointer.h>
@@ -91,6 +94,19 @@ int run(int argc, char** argv, QString& plugin, QString& fixtures)
   core.getObjectBuilder()->removeServer(server);
   return failed;
 }
+/// The application's undo stack, made as the GUI makes it when there is none (owned by `parent`).
+inline pqUndoStack* ensureUndoStack(QObject* parent)
+{
+  pqApplicationCore* core = pqApplicationCore::instance();
+  if (!core->getUndoStack())
+  {
+    vtkNew<pqUndoStackBuilder> undoBuilder;
+    vtkSMProxyManager::GetProxyManager()->SetUndoStackBuilder(undoBuilder);
+    core->setUndoStack(new pqUndoStack(undoBuilder, parent));
+  }
+  return core->getUndoStack();
+}
+
 } // namespace pvqttest
 
 #endif

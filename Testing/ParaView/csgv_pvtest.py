@@ -58,6 +58,14 @@ def load_plugin(ns):
     simple.LoadPlugin(PLUGIN, remote=False, ns=ns)
 
 
+def connect_to_server(ns):
+    """Connects to the pvserver clientserver_driver.py started (CSGV_SERVER_PORT) and loads the
+    plugin there and here."""
+    simple.Connect("localhost", int(os.environ["CSGV_SERVER_PORT"]))
+    simple.LoadPlugin(PLUGIN, remote=True, ns=ns)
+    load_plugin(ns)
+
+
 def temp_dir():
     d = tempfile.mkdtemp(prefix="csgv-pv-")
     import atexit
@@ -212,3 +220,15 @@ def constant_materials(rgb, opacity=1.0):
     return json.dumps({"version": 1, "materials": [
         {"name": "all", "filter": {"attribute": "label", "min": 1, "max": 4294967294},
          "color": {"mode": "constant", "rgb": list(rgb)}, "opacity": opacity}]})
+
+
+def check_drawn_and_red(view, display, drawn_what, red_what, width=160, height=120):
+    """The view shows the display's volume (over 5 % of the pixels), and after its materials turn
+    constant red the shown pixels are red: a drawing, and a property change, that reach the
+    screenshot (client/server tests)."""
+    img = screenshot(view, width, height)
+    check(content_mask(img).mean() > 0.05, "%s (%.1f%% of the view)" % (drawn_what, 100 * content_mask(img).mean()))
+    display.CSGVMaterials = constant_materials([1, 0, 0])
+    red = screenshot(view, width, height, "red.png")
+    m = content_mask(red)
+    check(m.mean() > 0.05 and (red[m][:, 0].astype(int) > red[m][:, 2].astype(int) + 40).mean() > 0.95, red_what)

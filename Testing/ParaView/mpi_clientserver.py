@@ -14,9 +14,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 import csgv_tools  # noqa: E402
 
 out = os.environ["CSGV_OUT"]
-Connect("localhost", int(os.environ["CSGV_SERVER_PORT"]))
-LoadPlugin(t.PLUGIN, remote=True, ns=globals())
-LoadPlugin(t.PLUGIN, remote=False, ns=globals())
+t.connect_to_server(globals())
 path = os.path.join(t.FIXTURES, "synthA_b16_nibble.csgv")
 r = CSGVReader(FileName=path, DecodeLabels=0)
 v = t.render_view(160, 120)

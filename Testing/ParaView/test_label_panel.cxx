@@ -110,16 +110,7 @@ class TestLabelPanel : public QObject
   }
 
   /// The application's undo stack, made as the GUI makes it when there is none.
-  void ensureUndoStack()
-  {
-    pqApplicationCore* core = pqApplicationCore::instance();
-    if (!core->getUndoStack())
-    {
-      vtkNew<pqUndoStackBuilder> undoBuilder;
-      vtkSMProxyManager::GetProxyManager()->SetUndoStackBuilder(undoBuilder);
-      core->setUndoStack(new pqUndoStack(undoBuilder, this));
-    }
-  }
+  void ensureUndoStack() { pvqttest::ensureUndoStack(this); }
   /// `files` (by default the attribute fixture) read into a new, active 160x160 render view as a
   /// Segmentation Volume (camera reset, rendered): its display's proxy, or nullptr when any step
   /// fails.

@@ -17,7 +17,6 @@
 #include <pqView.h>
 #include <pqObjectBuilder.h>
 #include <pqUndoStack.h>
-#include <pqUndoStackBuilder.h>
 #include <pqPVApplicationCore.h>
 #include <pqServer.h>
 #include <pqServerResource.h>
@@ -301,12 +300,7 @@ private Q_SLOTS:
   void editsAreUndoStepsNamedAfterThem()
   {
     pqApplicationCore* core = pqApplicationCore::instance();
-    if (!core->getUndoStack())
-    {
-      vtkNew<pqUndoStackBuilder> undoBuilder;
-      vtkSMProxyManager::GetProxyManager()->SetUndoStackBuilder(undoBuilder);
-      core->setUndoStack(new pqUndoStack(undoBuilder, this));
-    }
+    pvqttest::ensureUndoStack(this);
     // A display the proxy manager knows (the undo stack records registered proxies only).
     pqServer* server = pqActiveObjects::instance().activeServer();
     pqObjectBuilder* builder = core->getObjectBuilder();
