@@ -316,6 +316,28 @@ std::string shareAcrossRanks(
   {
     error = coarseError;
   }
+  if (shared)
+  {
+    // What the renderer's label table must cover beyond the piece's own labels.
+    std::lock_guard<std::mutex> lock(volumeMutex());
+    uint32_t largest = 0;
+    auto take = [&largest](const std::vector<uint32_t>& labels)
+    {
+      for (uint32_t l : labels)
+      {
+        largest = l != csgv::gpu::kNone && l > largest ? l : largest;
+      }
+    };
+    for (const auto& face : shared->ghost ? *shared->ghost : GhostFaces{})
+    {
+      take(face);
+    }
+    for (const auto& level : shared->coarse ? shared->coarse->levels : std::vector<std::vector<uint32_t>>{})
+    {
+      take(level);
+    }
+    shared->largestOtherLabel = largest;
+  }
   if (!computed || !error.empty())
   {
     return error;

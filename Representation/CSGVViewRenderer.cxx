@@ -342,9 +342,15 @@ std::string ViewRenderer::ensureRenderer()
   csgv::gpu::RendererOptions options =
     plan.share(gpu->deviceBytes(), uint32_t(renderers), this->Settings.decode);
   options.decodeStepsPerFrame = this->Settings.decodeSteps;
+  if (!shared->owned.empty())
+  {
+    std::lock_guard<std::mutex> lock(volumeMutex());
+    options.largestOtherLabel = shared->largestOtherLabel; // its table covers the other ranks' labels
+  }
   if (!this->Renderer || options.cacheBytes != this->RendererCacheBytes ||
     options.deviceMemoryBytes != this->RendererBudget ||
-    options.decodeStepsPerFrame != this->RendererDecodeSteps || &this->Renderer->volume() != gpu.get())
+    options.decodeStepsPerFrame != this->RendererDecodeSteps ||
+    options.largestOtherLabel != this->RendererOtherLabel || &this->Renderer->volume() != gpu.get())
   {
     this->Renderer.reset();
     csgv::Result<std::unique_ptr<csgv::gpu::Renderer>> r =
@@ -358,6 +364,7 @@ std::string ViewRenderer::ensureRenderer()
     this->RendererCacheBytes = options.cacheBytes;
     this->RendererBudget = options.deviceMemoryBytes;
     this->RendererDecodeSteps = options.decodeStepsPerFrame;
+    this->RendererOtherLabel = options.largestOtherLabel;
     this->GeometryDirty = this->MaterialsDirty = this->SettingsDirty = true;
     this->GhostUploaded = this->CoarseUploaded = nullptr;
   }

@@ -175,6 +175,7 @@ private:
   std::unique_ptr<csgv::gpu::Renderer> Renderer; ///< destroyed before Source's volume
   uint64_t RendererCacheBytes = 0, RendererBudget = 0;
   uint32_t RendererDecodeSteps = 0;
+  uint32_t RendererOtherLabel = 0; ///< RendererOptions::largestOtherLabel the renderer was made with
   /// Automatic cache paletting: a render found the cache of labels full (reset with the source
   /// and when the property changes).
   bool CachePressure = false;

@@ -85,6 +85,9 @@ struct SharedVolume
   std::shared_ptr<const GhostFaces> ghost;
   /// The whole volume's coarse levels (set by the ranks together with `ghost`, same guard).
   std::shared_ptr<const CoarseStandIns> coarse;
+  /// The largest label `ghost` and `coarse` hold (set with them, same guard; kNone until then):
+  /// the renderer's label table covers it (csgv::gpu::RendererOptions::largestOtherLabel).
+  uint32_t largestOtherLabel = csgv::gpu::kNone;
   /// Computed attributes (voxel count, surface area, ...), computed once per volume on demand
   /// (guarded by the volume cache's mutex while being set).
   std::shared_ptr<const csgv::AttributeTable> computed;

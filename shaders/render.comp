@@ -441,8 +441,13 @@ Sample traceView(uvec2 px, uint pixel, uint samples, bool request, vec3 o, vec3 
             s.previewRadiance = s.radiance + s.transmittance * local;
             s.previewTransmittance = 0.0;
         }
-        vec3 shaded;
-        if (!shadeSurface(w, n, c, emission, local, request, px, pixel, samples, shaded)) {
+        vec3 shaded = local;
+#if ABSENT_BRICKS
+        const bool hidden = behindOtherRank(w, label, boxLo, boxHi);
+#else
+        const bool hidden = false;
+#endif
+        if (!hidden && !shadeSurface(w, n, c, emission, local, request, px, pixel, samples, shaded)) {
             s.valid = false;
             break;
         }

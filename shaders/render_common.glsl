@@ -524,33 +524,49 @@ const uint MARCH_MISSING = 2u; // reached a visible brick that is not in the cac
 // kSlotBricks holds 0, 1, kBrickStandIn, kBrickAbsent.
 const uint BRICK_PASSED = 4u;
 
-/// An MPI rank's piece (kSlotGhost, Renderer::setGhostFaces): a walker that just entered the
-/// piece from the volume beyond it (inside the ray's box [lo, hi)) takes the label it left from
-/// the ghost faces, as one process walking the whole volume would have it, when that label is
-/// drawn semi-transparent: a translucent label continuing across the boundary is no new layer.
-/// Other labels keep kNone: an opaque label continuing there was hit in front by the rank before
-/// (the nearest hit wins), and near a brick edge the voxel left may not be the one the whole
-/// volume's walk came from (the ray's voxel path across bricks is not canonical), where taking
-/// it could hide a surface.
-void ghostEntry(Frame f, inout Walker w, ivec3 lo, ivec3 hi) {
+/// An MPI rank's piece (kSlotGhost, Renderer::setGhostFaces): the label a walker that just
+/// entered the piece (through face w.face) from the volume beyond it, inside the ray's box
+/// [lo, hi), left there, from the ghost faces; kNone when it came from inside or started there.
+uint ghostLabelLeft(Walker w, ivec3 lo, ivec3 hi) {
     UintBuf g = UintBuf(frameAddr[kSlotGhost]);
     const ivec3 plo = ivec3(g.w[0], g.w[1], g.w[2]);
     const ivec3 phi = ivec3(g.w[3], g.w[4], g.w[5]);
-    if (any(lessThan(w.voxel, plo)) || any(greaterThanEqual(w.voxel, phi))) return;
+    if (w.face == 0u || any(lessThan(w.voxel, plo)) || any(greaterThanEqual(w.voxel, phi))) return kNone;
     const uint axis = (w.face - 1u) / 2u;
     const bool up = ((w.face - 1u) & 1u) == 0u; // moving towards +axis: entered through the - side
     ivec3 prev = w.voxel;
     prev[axis] += up ? -1 : 1;
-    if (prev[axis] >= plo[axis] && prev[axis] < phi[axis]) return;         // came from inside
-    if (any(lessThan(prev, lo)) || any(greaterThanEqual(prev, hi))) return; // started there
+    if (prev[axis] >= plo[axis] && prev[axis] < phi[axis]) return kNone;         // came from inside
+    if (any(lessThan(prev, lo)) || any(greaterThanEqual(prev, hi))) return kNone; // started there
     const uint off = g.w[6u + 2u * axis + (up ? 0u : 1u)];
-    if (off == 0u) return;
+    if (off == 0u) return kNone;
     const uint u = axis == 0u ? 1u : 0u;
     const uint v = axis == 2u ? 1u : 2u;
-    const uint label = g.w[off + uint(prev[u] - plo[u]) + uint(phi[u] - plo[u]) * uint(prev[v] - plo[v])];
+    return g.w[off + uint(prev[u] - plo[u]) + uint(phi[u] - plo[u]) * uint(prev[v] - plo[v])];
+}
+
+/// A walker that just entered an MPI rank's piece from the volume beyond it takes the label it
+/// left (ghostLabelLeft), as one process walking the whole volume would have it, when that label
+/// is drawn semi-transparent: a translucent label continuing across the boundary is no new layer.
+/// Other labels keep kNone: an opaque label continuing there was hit in front by the rank before
+/// (the nearest hit wins: behindOtherRank), and near a brick edge the voxel left may not be the
+/// one the whole volume's walk came from (the ray's voxel path across bricks is not canonical),
+/// where taking it could hide a surface.
+void ghostEntry(Frame f, inout Walker w, ivec3 lo, ivec3 hi) {
+    const uint label = ghostLabelLeft(w, lo, hi);
     const uint m = label == kNone ? kNone : materialOf(f, label);
     float e;
     if (m != kNone && materialColor(f, m, label, e).a < 1.0) w.prevLabel = label;
+}
+
+/// A view ray's opaque surface of `label` (its walker `w` has just entered it) where the ray
+/// entered the piece from a voxel of that label: the rank whose piece it left was inside the
+/// label there, so it met the label's surface (or one before it) first, and the compositing
+/// keeps that one. The surface is lit locally: its secondary rays, at the entry face of every
+/// label continuing across the piece's boundary (a far piece's whole face), would be spent on a
+/// sample no one sees (path tracing at 2 ranks cost the far rank 3-4 times a whole volume's frame).
+bool behindOtherRank(Walker w, uint label, ivec3 lo, ivec3 hi) {
+    return frameAddr[kSlotGhost] != 0ul && label != kNone && ghostLabelLeft(w, lo, hi) == label;
 }
 
 /// The walker enters a voxel of label `l`: a surface event when the label changes to one a
@@ -639,9 +655,18 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         // when none of them is drawn either (kSlotEmptyGroups).
         const uint emptyLevel = s.w == 0u ? emptyGroupLevel(b) : 0u;
 #if ABSENT_BRICKS
-        uint absentLevel = 0u; // the level a secondary ray meets another rank's brick at
-        if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul)
-            absentLevel = max(lodForBrick(f, b), UintBuf(frameAddr[kSlotCoarse]).w[0]);
+        // A secondary ray meets another rank's brick at its level of detail, or the finest level
+        // kSlotCoarse holds when that is coarser (absentLevel): that level's labels start at word
+        // absentLabels, absentDim.x nodes a row, absentDim.y a slice (0: a view ray passes it).
+        uint absentLevel = 0u, absentLabels = 0u;
+        uvec2 absentDim = uvec2(0u);
+        if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul) {
+            UintBuf c = UintBuf(frameAddr[kSlotCoarse]);
+            absentLevel = max(lodForBrick(f, b), c.w[0]);
+            const uint e = kCoarseHeaderWords + kCoarseLevelWords * (absentLevel - c.w[0]);
+            absentLabels = c.w[e];
+            absentDim = uvec2(c.w[e + 1u], c.w[e + 1u] * c.w[e + 2u]);
+        }
 #endif
         bool candidate = false;
         PaletteRef palette;
@@ -660,16 +685,17 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             } else if (s.w == BRICK_PASSED) { // passed whole, its label going on
 #if ABSENT_BRICKS
             } else if (s.w == kBrickAbsent) { // another rank's brick (an MPI piece)
-                const uint64_t coarse = frameAddr[kSlotCoarse];
-                if (!w.secondary || coarse == 0ul) { // view rays pass: its owner draws it
+                if (absentDim.x == 0u) { // view rays pass: its owner draws it
                     w.prevLabel = kNone;
                 } else { // secondary rays meet it at its level of detail (kSlotCoarse holds the coarse ones)
-                    UintBuf c = UintBuf(coarse);
+                    // A candidate as in the rank's own bricks: its material is looked up once the
+                    // steps' loop has let it go.
                     k = absentLevel;
-                    const uint e = kCoarseHeaderWords + kCoarseLevelWords * (k - c.w[0]);
                     const uvec3 n = uvec3(w.voxel) >> k;
-                    if (entersSurface(f, w, c.w[c.w[e] + n.x + c.w[e + 1u] * (n.y + c.w[e + 2u] * n.z)], label, material))
-                        return MARCH_SURFACE;
+                    if (entersCandidate(w, UintBuf(frameAddr[kSlotCoarse]).w[absentLabels + n.x + absentDim.x * n.y + absentDim.y * n.z], label)) {
+                        candidate = true;
+                        break;
+                    }
                 }
 #endif
             } else {

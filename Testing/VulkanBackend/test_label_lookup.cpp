@@ -120,7 +120,7 @@ TEST(LabelLookup, LargeLabelsAreStoredAsIdsWithADenseTableOverThem) {
     EXPECT_EQ(labelsAsThey.entries(), 0u);
 }
 
-TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabels) {
+TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksUnknownLabels) {
     Result<CsgvFile> file = openCsgv(fixture("synthA_b32_rans2_attr.csgv")); // relabelled: dense ids
     ASSERT_TRUE(file.isOk()) << file.message();
     const StoredLabels stored = storedLabels(file->volume, false);
@@ -134,8 +134,20 @@ TEST(LabelLookup, SmallLabelsGetADenseTableAndPiecesKeepTheScanForOtherRanksLabe
     EXPECT_EQ(dense.tableBytes() + dense.colorBytes(), table.size() * 20);
     for (uint32_t l = 0; l <= dense.largest; ++l) EXPECT_EQ(dense.hostMaterial(table, l), someMaterial(l));
     EXPECT_EQ(dense.hostMaterial(table, dense.largest + 1), kNone);
-    // An MPI rank's piece: a dense table for its own labels, the scan for larger ones.
+    // An MPI rank's piece: a dense table for its own labels, the scan for larger ones, unless the
+    // largest label of the other ranks' stand-ins and ghost faces is known and small: then one
+    // dense table covers both (and the labels' colours).
     EXPECT_EQ(planLabelLookup(stored.largest, true, kBudget).kind, kLookupScan);
+    const LabelLookup known = planLabelLookup(stored.largest / 2, true, kBudget, stored.largest);
+    EXPECT_EQ(known.kind, kLookupDense);
+    EXPECT_EQ(known.largest, stored.largest) << "the table covers the other ranks' labels";
+    EXPECT_EQ(known.entries(), size_t(stored.largest) + 1);
+    EXPECT_EQ(planLabelLookup(stored.largest, true, kBudget, 3).largest, stored.largest) << "and its own";
+    EXPECT_EQ(planLabelLookup(stored.largest, true, kBudget, kMaterialTableLabels).kind, kLookupScan)
+        << "other ranks' labels beyond a table";
+    EXPECT_EQ(planLabelLookup(stored.largest, true, (known.tableBytes() + known.colorBytes()) * 64 - 64, stored.largest).kind,
+              kLookupScan)
+        << "a budget the tables would take more than a 64th of";
     Result<CsgvFile> large = openCsgv(fixture("synthA_b32_rans2.csgv"));
     ASSERT_TRUE(large.isOk()) << large.message();
     const LabelLookup piece = planLabelLookup(storedLabels(large->volume, true).largest, true, kBudget);

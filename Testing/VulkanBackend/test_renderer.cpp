@@ -7,6 +7,7 @@
 #include "TestData.h"
 #include "Png.h"
 
+#include "csgv/attributes/Attributes.h"
 #include "csgv/base/Checked.h"
 #include "csgv/codec/BrickGroups.h"
 #include "csgv/codec/Container.h"
@@ -1261,9 +1262,11 @@ TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
     st.lightDirection = {0.2f, -0.5f, 0.85f}; // from above, on the camera's side
     const FrameInput in = perspectiveView({66, -260, 70}, {66, 35, 70}, {0, 0, 1}, 40, 96, 72);
     constexpr uint32_t kNoStandIns = ~0u;
+    uint32_t largestOther = kNone; // RendererOptions::largestOtherLabel: not known (the scan), or known (one dense table)
     auto render = [&](std::shared_ptr<GpuVolume> v, uint32_t coarseFrom) {
         RendererOptions ro;
         ro.cacheBytes = 64ull << 20;
+        ro.largestOtherLabel = largestOther;
         Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, v, ro);
         EXPECT_TRUE(r.isOk()) << r.message();
         if (!r) return FrameOutput{};
@@ -1281,13 +1284,23 @@ TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
             levels.back().push_back(0);
             EXPECT_FALSE((*r)->setCoarseStandIns(coarseFrom, levels).isOk()) << "a level of the wrong size";
             levels.back().pop_back();
+            if (largestOther != kNone) { // a label beyond the table it was made for is refused
+                const uint32_t kept = levels.back().back();
+                levels.back().back() = largestOther + 1;
+                const Status beyond = (*r)->setCoarseStandIns(coarseFrom, levels);
+                EXPECT_NE(beyond.message().find("beyond the largest the renderer was made for"), std::string::npos)
+                    << beyond.message();
+                levels.back().back() = kept;
+            }
             Status s = (*r)->setCoarseStandIns(coarseFrom, levels);
             EXPECT_TRUE(s.isOk()) << s.message();
         }
         return renderConverged(**r, in, 1, 200);
     };
-    for (bool finest : {true, false}) {
+    for (int variant = 0; variant < 3; ++variant) {
+        const bool finest = variant != 1;
         st.finest = finest;
+        largestOther = variant == 2 ? scene.gpu->largestStoredLabel() : kNone; // the whole volume's labels, as the ranks share them
         const FrameOutput whole = render(scene.gpu, kNoStandIns);
         const FrameOutput passing = render(piece, kNoStandIns);
         const FrameOutput exact = render(piece, 0);
@@ -1311,7 +1324,8 @@ TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
             exactDiffers += differs(exact, i);
             coarseDiffers += differs(coarse, i);
         }
-        const std::string what = finest ? "finest: " : "levels of detail: ";
+        const std::string what = std::string(finest ? "finest" : "levels of detail") +
+                                 (largestOther == kNone ? ", the scan for other ranks' labels: " : ", one dense table: ");
         EXPECT_GT(shared, whole.label.size() / 8) << what;
         EXPECT_GT(passingDiffers, shared / 50) << what << "the other piece should shadow this one (" << shared << " pixels)";
         EXPECT_EQ(exactDiffers, 0u) << what << "every level stands in";
@@ -1320,6 +1334,82 @@ TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
                     "%zu with its levels from 3, %zu with every level\n",
                     what.c_str(), shared, passingDiffers, coarseDiffers, exactDiffers);
     }
+}
+
+/// An MPI rank's far piece, seen across the boundary with the piece in front: where a view ray
+/// enters it in the label it leaves (ghost faces), opaque, the rank in front met that label's
+/// surface first and the compositing keeps that one, so the far piece lights its entry locally
+/// (no secondary rays, which from its entry face would start inside the label); its other
+/// surfaces are shaded as before, and what the rays hit is the same.
+TEST(Renderer, AFarPieceLightsLocallyTheSurfacesTheRankInFrontCovers) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2_attr.csgv");
+    std::vector<PieceLayers> layers;
+    std::array<std::array<uint32_t, 3>, 2> lo{}, hi{};
+    for (uint32_t p = 0; p < 2; ++p) {
+        const BrickBox b = brickPartition(scene.volume.brickGrid(), 2, p); // split in z
+        for (int a = 0; a < 3; ++a) {
+            lo[p][a] = b.lo[a] * scene.volume.brickSize;
+            hi[p][a] = std::min(b.hi[a] * scene.volume.brickSize, scene.volume.dim[a]);
+        }
+        Result<PieceLayers> l = pieceLayers(scene.volume, lo[p], hi[p]);
+        ASSERT_TRUE(l.isOk()) << l.message();
+        layers.push_back(std::move(*l));
+    }
+    GpuVolumeOptions o;
+    o.owned = brickPartition(scene.volume.brickGrid(), 2, 0); // the lower half: the far one from above
+    Result<CompressedVolume> embedded = embedPiece(*extractPiece(scene.volume, o.owned), o.owned, scene.volume.dim);
+    ASSERT_TRUE(embedded.isOk()) << embedded.message();
+    Result<std::unique_ptr<GpuVolume>> pg = GpuVolume::create(*ctx, *embedded, o);
+    ASSERT_TRUE(pg.isOk()) << pg.message();
+    std::shared_ptr<GpuVolume> piece = std::move(*pg);
+    std::vector<std::vector<uint32_t>> levels;
+    for (uint32_t l = 0; l < scene.volume.levels(); ++l) levels.push_back(decodeVolume(scene.volume, l)->labels);
+    const FrameInput in = perspectiveView({80, 45, 420}, {66, 35, 97}, {0, 1, 0}, 40, 96, 72); // from above
+    auto render = [&](Shading shading, bool ghosts) {
+        RendererOptions ro;
+        ro.cacheBytes = 64ull << 20;
+        ro.largestOtherLabel = scene.gpu->largestStoredLabel();
+        Result<std::unique_ptr<Renderer>> r = Renderer::create(*ctx, piece, ro);
+        EXPECT_TRUE(r.isOk()) << r.message();
+        if (!r) return FrameOutput{};
+        RenderSettings st;
+        st.shading = shading;
+        st.jitter = false;
+        st.denoise = false;
+        st.lightInWorld = true;
+        st.lightDirection = {0.2f, -0.3f, 0.93f}; // from above
+        (*r)->setSettings(st);
+        EXPECT_TRUE((*r)->setCoarseStandIns(0, levels).isOk());
+        if (ghosts) {
+            const Status s = (*r)->setGhostFaces(lo[0], hi[0], ghostFaces(lo[0], hi[0], scene.volume.dim, layers));
+            EXPECT_TRUE(s.isOk()) << s.message();
+        }
+        return renderConverged(**r, in, 1, 200);
+    };
+    const FrameOutput local = render(Shading::Local, true);
+    const FrameOutput before = render(Shading::Shadow, false); // no ghost faces: every surface its shadow ray
+    const FrameOutput after = render(Shading::Shadow, true);
+    ASSERT_EQ(after.label.size(), local.label.size());
+    EXPECT_EQ(after.label, before.label);
+    EXPECT_EQ(after.depth, before.depth);
+    auto same = [](const FrameOutput& a, const FrameOutput& b, size_t i) {
+        for (int c = 0; c < 4; ++c)
+            if (std::fabs(a.rgba[4 * i + c] - b.rgba[4 * i + c]) > 2.0f / 255) return false;
+        return true;
+    };
+    size_t covered = 0, litLocally = 0, changed = 0;
+    for (size_t i = 0; i < after.label.size(); ++i) {
+        if (after.label[i] == kNone) continue;
+        ++covered;
+        if (same(after, before, i)) continue;
+        ++changed;
+        EXPECT_TRUE(same(after, local, i)) << "pixel " << i << ": a covered surface is lit locally, nothing else changes";
+        litLocally += same(after, local, i);
+    }
+    std::printf("pixels of the far piece: %zu; lit locally as covered by the piece in front: %zu\n", covered, litLocally);
+    EXPECT_GT(changed, covered / 8) << "the piece's face towards the other: labels continuing across it";
+    EXPECT_LT(changed, covered) << "the other surfaces keep their shadows";
 }
 
 namespace {

@@ -53,11 +53,14 @@ uint32_t LabelIdIndex::find(const std::vector<uint32_t>& ids, uint32_t label) co
 }
 
 
-LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes) {
+LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes, uint32_t largestOther) {
     LabelLookup out;
     out.largest = largestStored;
-    // A piece's rays meet other ranks' labels too (the scan takes those beyond its table).
-    out.kind = !piece && out.largest < kMaterialTableLabels ? kLookupDense : kLookupScan;
+    // A piece's rays meet other ranks' labels too: its table covers them where they are known and
+    // small, else the scan takes those beyond its table.
+    const bool othersCovered = !piece || largestOther < kMaterialTableLabels;
+    if (piece && othersCovered) out.largest = std::max(largestStored, largestOther);
+    out.kind = othersCovered && out.largest < kMaterialTableLabels ? kLookupDense : kLookupScan;
     if (out.kind != kLookupScan && out.tableBytes() + out.colorBytes() > budgetBytes / 64) out.kind = kLookupScan;
     return out;
 }

@@ -100,7 +100,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("IN_FLIGHT_PREVIEWS", im.resolved.carrySteps && options.inFlightPreviews && volume->cacheBits() == 32 ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
     im.budget = options.deviceMemoryBytes ? options.deviceMemoryBytes : automaticDeviceMemoryBudget(context.device());
-    im.lookup = planLabelLookup(volume->largestStoredLabel(), !volume->owned().empty(), im.budget);
+    im.lookup = planLabelLookup(volume->largestStoredLabel(), !volume->owned().empty(), im.budget, options.largestOtherLabel);
     d.emplace_back("LABEL_LOOKUP", std::to_string(im.lookup.kind)); // tested by #if: no suffix
     im.defines = d;
     im.resolved.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;

@@ -71,11 +71,13 @@ struct LabelLookup {
 
 /// The lookup for a volume's stored labels up to `largestStored` (StoredLabels::largest): dense
 /// when it is below kMaterialTableLabels, else the scan. `piece`: an MPI rank's piece, whose rays
-/// also meet other ranks' labels (stand-ins, ghost faces): the table where it covers this piece's
-/// labels, the scan for the rest. The tables (with the labels' colours, 16 bytes an entry) may
+/// also meet other ranks' labels (stand-ins, ghost faces), the largest of which is
+/// `largestOther` (kNone: not known): dense when both are below kMaterialTableLabels (its table
+/// then covers both), else the table where it covers this piece's labels, the scan for the rest.
+/// The tables (with the labels' colours, 16 bytes an entry) may
 /// take a 64th of `budgetBytes`, the renderer's device memory: under a tighter budget the brick
 /// cache comes first (the scan, with the table where labels are small, as for pieces).
-LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes);
+LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes, uint32_t largestOther = kNone);
 
 template <class MaterialOf> std::vector<uint32_t> LabelLookup::table(const MaterialOf& materialOf) const {
     std::vector<uint32_t> t(static_cast<size_t>(entries()));

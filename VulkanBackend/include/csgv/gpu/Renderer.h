@@ -163,6 +163,14 @@ struct RendererOptions {
     static constexpr uint32_t kDecodeStepsAuto = 0, kDecodeStepsAll = 0xFFFFFFFFu;
     static constexpr uint32_t kGpuDecodeStepsPerFrame = 512;
     uint32_t decodeStepsPerFrame = kDecodeStepsAuto;
+    /// An MPI rank's piece (GpuVolumeOptions::owned): the largest stored label its rays may meet
+    /// beyond its own bricks, in other ranks' coarse stand-ins and ghost faces (setCoarseStandIns,
+    /// setGhostFaces, which refuse larger ones); kNone: not known. Known, one dense label table
+    /// covers the piece's labels and these (as a whole volume's, where they are small: the colours
+    /// are read, not computed); else the piece's own labels take the table and the others the
+    /// scan of the materials, which made path tracing at 2 ranks 3-4 times as slow a frame as at
+    /// one on lavapipe (CPU devices run every colour mode of a computed colour).
+    uint32_t largestOtherLabel = kNone;
 };
 
 /// Whether `decode` decodes on the host on this device (Auto: on CPU devices). The one rule for
