@@ -113,12 +113,12 @@ json statisticsJson(const RenderStatistics& r)
     { "CSGVCacheMiB", r.cacheMiB }, { "CSGVDeviceMiB", r.deviceMiB }, { "CSGVDeviceBudgetMiB", r.deviceBudgetMiB },
     { "CSGVCacheBits", r.cacheBits }, { "CSGVDetailSeparated", r.detailSeparated },
     { "CSGVDetailStreamedMiB", r.detailStreamedMiB }, { "CSGVLevelsOnDisk", r.levelsOnDisk },
-    { "CSGVFileReadMiB", r.fileReadMiB }, { "CSGVBadBricks", r.badBricks } });
+    { "CSGVFileReadMiB", r.fileReadMiB }, { "CSGVBadBricks", r.badBricks }, { "CSGVLabelLookup", r.labelLookup } });
 }
 
 /// `render` over MPI ranks: the fewest samples of the ranks that rendered (a rank with nothing
 /// to draw renders no frame), the most frames, memory (budgets too: each rank has its own) and bad
-/// bricks summed, the largest of the rest.
+/// bricks summed, the label lookup "scan" where a rank's is, the largest of the rest.
 json combineStatistics(const std::vector<json>& replies)
 {
   json out = replies.front();
@@ -155,6 +155,14 @@ json combineStatistics(const std::vector<json>& replies)
   if (fewest >= 0)
   {
     out["CSGVMinSamples"] = fewest;
+  }
+  for (const json& j : replies)
+  {
+    const std::string lookup = j.value("CSGVLabelLookup", std::string());
+    if (lookup == "scan" || out.value("CSGVLabelLookup", std::string()).empty())
+    {
+      out["CSGVLabelLookup"] = lookup;
+    }
   }
   return out;
 }
@@ -391,6 +399,7 @@ RenderStatistics renderStatistics(const ViewRenderer& view)
   r.levelsOnDisk = view.levelsOnDisk();
   r.fileReadMiB = double(view.fileReadBytes()) / kMiB;
   r.badBricks = int(std::min<uint64_t>(view.badBricks(), uint64_t(std::numeric_limits<int>::max())));
+  r.labelLookup = view.labelLookup();
   return r;
 }
 

@@ -74,6 +74,7 @@ struct RenderStatistics
 {
   int framesLastRender = 0, minSamples = 0, cacheBits = 0, detailSeparated = 0, levelsOnDisk = 0, badBricks = 0;
   double cacheMiB = 0, deviceMiB = 0, deviceBudgetMiB = 0, detailStreamedMiB = 0, fileReadMiB = 0;
+  std::string labelLookup; ///< ViewRenderer::labelLookup
 };
 RenderStatistics renderStatistics(const ViewRenderer& view);
 

@@ -587,6 +587,16 @@ uint64_t ViewRenderer::deviceBudget() const
   return this->Renderer ? this->Renderer->deviceMemoryBudget() : 0;
 }
 
+std::string ViewRenderer::labelLookup() const
+{
+  this->settle();
+  if (!this->Renderer)
+  {
+    return std::string();
+  }
+  return this->Renderer->labelLookup() == csgv::gpu::kLookupDense ? "dense" : "scan";
+}
+
 std::string ViewRenderer::render(const FrameRequest& req, bool& changed)
 {
   this->settle();

@@ -134,6 +134,9 @@ public:
   uint64_t deviceBytes() const;
   /// The device-memory budget of this view's renderer (its share of the volume's; 0 without one).
   uint64_t deviceBudget() const;
+  /// How this view's renderer finds a label's material: "dense" (one table for every label its
+  /// rays meet), "scan" (LabelLookup.h); "" without a renderer.
+  std::string labelLookup() const;
   /// Bits per voxel of this view's brick cache: 32 (labels), fewer with cache paletting; 0
   /// without a renderer.
   uint32_t cacheBits() const;

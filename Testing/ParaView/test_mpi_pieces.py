@@ -193,6 +193,11 @@ def main():
         check(all(p["render_stats"] == rs for p in pieces) and rs.get("CSGVMinSamples") == whole["default_frames"]
               and rs.get("CSGVDeviceMiB", 0) > one_rs.get("CSGVDeviceMiB", 0) * (ranks - 0.5),
               "%d ranks: render_stats combines the ranks (%s; one rank %s)" % (ranks, rs, one_rs))
+        # Every rank's label table covers the other ranks' stand-ins and ghost faces, as one
+        # rank's covers the volume (the scan would compute colours at every bounce).
+        check(rs.get("CSGVLabelLookup") == one_rs.get("CSGVLabelLookup") == "dense",
+              "%d ranks: one dense label table a rank (%s; one rank %s)"
+              % (ranks, rs.get("CSGVLabelLookup"), one_rs.get("CSGVLabelLookup")))
         differ = [(x, y) for x, y in zip(pieces[0]["colors"].get("labels", []), whole["colors"]["labels"]) if x != y]
         check(pieces[0]["colors"] == whole["colors"] and len(whole["colors"]["labels"]) > 10,
               "%d ranks: the drawn labels' colours (%d) equal one rank's%s" % (

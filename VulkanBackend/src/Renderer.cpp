@@ -877,6 +877,8 @@ uint64_t Renderer::Impl::usedBytes() const { return memory().total(); }
 
 uint64_t Renderer::deviceMemoryBudget() const { return m_impl->budget; }
 
+uint32_t Renderer::labelLookup() const { return m_impl->lookup.kind; }
+
 bool Renderer::streamsDetail() const { return m_impl->detail != nullptr; }
 
 DetailCounts Renderer::detailCounts() const { return m_impl->detail ? m_impl->detail->counts() : DetailCounts{}; }

@@ -366,6 +366,9 @@ public:
     /// The device-memory budget in force (RendererOptions::deviceMemoryBytes or the automatic one):
     /// memory().total() never exceeds it.
     uint64_t deviceMemoryBudget() const;
+    /// How the shaders find a stored label's material: kLookupDense (one table covers every
+    /// label the rays meet, with the labels' colours) or kLookupScan (LabelLookup.h).
+    uint32_t labelLookup() const;
     /// Detail streaming (GPU decoding of a separated volume): finest-level streams uploaded into the
     /// detail buffer and evicted from it, since creation (zeros without streaming).
     bool streamsDetail() const;
