@@ -39,6 +39,18 @@ def _smproxy(display):
     return display.SMProxy if hasattr(display, "SMProxy") else display
 
 
+def _drawn_on_client(proxy):
+    """Client/server where the view renders on the client (a server that cannot render, such as
+    Debian's pvserver without a display: ParaView moves the pieces to the client): the client's
+    copy of the representation drew the volume, the server's nothing. The same rule as the GUI's
+    (pqCSGV::query, Plugin/CSGV/pqCSGVMaterialDocument.cxx)."""
+    if not proxy.GetSession().IsA("vtkSMSessionClient"):
+        return False  # builtin, pvbatch: one process draws and answers (or every MPI rank)
+    view = sm.vtkSMViewProxy.FindView(proxy)
+    rendering = view.GetClientSideObject() if view else None
+    return bool(rendering and rendering.IsA("vtkPVRenderView") and not rendering.GetUseDistributedRenderingForRender())
+
+
 def query(display, request):
     """The text answer of a request ("summary", "pick X Y", "labels", "colors N"). A display
     that was deleted (Delete, or its source's) answers {"error": ...}: its last data would still
@@ -50,6 +62,8 @@ def query(display, request):
     # the Segmentation Volume subproxy (GetSubProxy is not public).
     sub = _smproxy(display).GetProperty("CSGVMaterials").GetParent()
     q = pxm.NewProxy("misc", "CSGVQuery")
+    if _drawn_on_client(_smproxy(display)):
+        q.SetLocation(sm.vtkPVSession.CLIENT)  # asked where it was drawn
     sm.vtkSMPropertyHelper(q, "Representation").Set(sub)
     sm.vtkSMPropertyHelper(q, "Request").Set(request)
     q.UpdateVTKObjects()

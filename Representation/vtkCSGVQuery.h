@@ -7,7 +7,9 @@
  *
  * Server-manager proxy `misc/CSGVQuery` (processes dataserver|renderserver, no client part), so
  * its information property `Result` is read where the data lives, also in client/server mode
- * (the representation's own information properties would read the client's empty copy). Set
+ * (the representation's own information properties would read the client's empty copy); where
+ * the view renders on the client (a server that cannot render), the asker places the proxy on
+ * the client, whose copy drew the piece ParaView moved there (vtkSMProxy::SetLocation). Set
  * `Representation` to the composite representation's subproxy "CSGVSegmentationVolume", set
  * `Request`, push, then UpdatePropertyInformation and read `Result`. The commands (summary,
  * pick X Y, labels, colors N, defaults, stats), their arguments and replies are listed in one place:

@@ -85,6 +85,9 @@ struct vtkCSGVRepresentation::vtkInternals
   std::shared_ptr<csgvrep::VolumeCache> Volumes = csgvrep::VolumeCache::instance();
   vtkImageData* Image = nullptr; ///< identity only (Cache or the delivered piece keeps it alive)
   vtkSmartPointer<vtkImageData> NoPiece; ///< the piece of a process without input (ProcessViewRequest)
+  /// The piece the last render drew where this copy has no input of its own (the client's copy,
+  /// when a server that cannot render makes the client render: ParaView moved the piece there).
+  vtkWeakPointer<vtkImageData> Delivered;
   vtkMTimeType ImageTime = 0;
   std::string Array;
   bool Resolved = false;
@@ -364,11 +367,20 @@ int vtkCSGVRepresentation::ProcessViewRequest(
       vtkPVRenderView::SetOrderedCompositingConfiguration(
         inInfo, this, vtkPVRenderView::USE_BOUNDS_FOR_REDISTRIBUTION, placed ? bounds : nullptr);
     }
-    vtkPVRenderView::SetRequiresDistributedRendering(inInfo, this, true);
+    // Rendered where the data lives, where it can be (the labels stay on the server). A server
+    // that cannot render (no display: ParaView turns remote rendering off on every process)
+    // makes the client render the moved piece; asking for distributed rendering there only
+    // printed "Some of the representations in this view require remote rendering" in red.
+    auto* view = vtkPVRenderView::SafeDownCast(inInfo->Get(vtkPVView::VIEW()));
+    if (!view || view->GetRemoteRenderingAvailable())
+    {
+      vtkPVRenderView::SetRequiresDistributedRendering(inInfo, this, true);
+    }
   }
   else if (request == vtkPVView::REQUEST_RENDER())
   {
     auto* image = vtkImageData::SafeDownCast(vtkPVView::GetDeliveredPiece(inInfo, this));
+    this->Internals->Delivered = image;
     this->ResolveInput(image);
     this->Prop->SetInput(image, this->Internals->Source, this->Internals->Error);
     this->Internals->PropResolution = this->Internals->Resolutions;
@@ -601,9 +613,11 @@ const char* vtkCSGVRepresentation::Query(const char* request)
   }
   // The input as the representation last updated it (a new file's data, a file that failed to
   // read, after the view's update), resolved with the label array set now: the query answers for
-  // that, not for what the last render drew. Nothing is resolved again when nothing changed.
+  // that, not for what the last render drew. Nothing is resolved again when nothing changed. A
+  // copy without input that rendered (the client's, rendering for a server that cannot) answers
+  // for the piece it drew: resolving nothing would have dropped its renderer and its image.
   vtkInternals& in = *this->Internals;
-  this->ResolveInput(this->Cache, false);
+  this->ResolveInput(this->Cache ? this->Cache.GetPointer() : in.Delivered.GetPointer(), false);
   if (in.PropResolution != in.Resolutions)
   {
     this->Prop->SetInput(this->Cache, in.Source, in.Error);

@@ -28,7 +28,7 @@ PKGS_PARAVIEW=(
   libopenmpi-dev openmpi-bin libglew-dev liblz4-dev libdouble-conversion-dev libutfcpp-dev
   libnetcdf-dev libtheora-dev libgl2ps-dev libgdal-dev libavformat-dev libavcodec-dev
   libavutil-dev libswscale-dev libswresample-dev libeigen3-dev libboost-dev
-  xvfb xauth
+  xvfb xauth xdotool
 )
 
 ALL=("${PKGS_CORE[@]}" "${PKGS_VULKAN[@]}" "${PKGS_PARAVIEW[@]}")

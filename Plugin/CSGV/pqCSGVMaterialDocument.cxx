@@ -7,7 +7,11 @@
 #include <pqServerManagerModel.h>
 #include <pqUndoStack.h>
 #include <pqView.h>
+#include <vtkPVRenderView.h>
+#include <vtkPVSession.h>
 #include <vtkSMCoreUtilities.h>
+#include <vtkSMSession.h>
+#include <vtkSMViewProxy.h>
 #include <vtkSMPVRepresentationProxy.h>
 #include <vtkSMProperty.h>
 #include <vtkSMPropertyHelper.h>
@@ -89,6 +93,20 @@ vtkSMProxy* segmentationProxy(vtkSMProxy* display)
   return p ? p->GetParent() : nullptr;
 }
 
+/// Client/server where the view renders on the client (a server that cannot render, such as
+/// Debian's pvserver without a display: ParaView moves the pieces to the client): the client's
+/// copy of the representation drew the volume, the server's nothing. The same rule as
+/// csgv_tools._drawn_on_client (Examples/csgv_tools.py).
+bool drawnOnClient(vtkSMProxy* display)
+{
+  vtkSMSession* session = display->GetSession();
+  if (!session || !session->IsA("vtkSMSessionClient"))
+    return false; // builtin: one process draws and answers
+  vtkSMViewProxy* view = vtkSMViewProxy::FindView(display);
+  auto* rendering = view ? vtkPVRenderView::SafeDownCast(view->GetClientSideObject()) : nullptr;
+  return rendering && !rendering->GetUseDistributedRenderingForRender();
+}
+
 QString query(vtkSMProxy* display, const QString& request)
 {
   vtkSMProxy* rep = segmentationProxy(display);
@@ -103,6 +121,8 @@ QString query(vtkSMProxy* display, const QString& request)
   QString answer;
   if (q)
   {
+    if (drawnOnClient(display))
+      q->SetLocation(vtkPVSession::CLIENT); // asked where it was drawn
     vtkSMPropertyHelper(q, "Representation").Set(rep);
     vtkSMPropertyHelper(q, "Request").Set(request.toUtf8().constData());
     q->UpdateVTKObjects();
