@@ -657,8 +657,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #if ABSENT_BRICKS
         // A secondary ray meets another rank's brick at its level of detail, or the finest level
         // kSlotCoarse holds when that is coarser (absentLevel): that level's labels start at word
-        // absentLabels, absentDim.x nodes a row, absentDim.y a slice (0: a view ray passes it).
-        uint absentLevel = 0u, absentLabels = 0u;
+        // absentLabels, absentDim.x nodes a row, absentDim.y a slice (0: a view ray passes it);
+        // absentMask keeps a word's label where the words carry uniform levels above it.
+        uint absentLevel = 0u, absentLabels = 0u, absentMask = kNone;
         uvec2 absentDim = uvec2(0u);
         if (s.w == kBrickAbsent && w.secondary && frameAddr[kSlotCoarse] != 0ul) {
             UintBuf c = UintBuf(frameAddr[kSlotCoarse]);
@@ -666,6 +667,7 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
             const uint e = kCoarseHeaderWords + kCoarseLevelWords * (absentLevel - c.w[0]);
             absentLabels = c.w[e];
             absentDim = uvec2(c.w[e + 1u], c.w[e + 1u] * c.w[e + 2u]);
+            if (c.w[2] != 0u) absentMask = kUniformLabelMask;
         }
 #endif
         bool candidate = false;
@@ -690,12 +692,14 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
                 } else { // secondary rays meet it at its level of detail (kSlotCoarse holds the coarse ones)
                     // A candidate as in the rank's own bricks: its material is looked up once the
                     // steps' loop has let it go.
-                    k = absentLevel;
-                    const uvec3 n = uvec3(w.voxel) >> k;
-                    if (entersCandidate(w, UintBuf(frameAddr[kSlotCoarse]).w[absentLabels + n.x + absentDim.x * n.y + absentDim.y * n.z], label)) {
+                    const uvec3 n = uvec3(w.voxel) >> absentLevel;
+                    const uint word = UintBuf(frameAddr[kSlotCoarse]).w[absentLabels + n.x + absentDim.x * n.y + absentDim.y * n.z];
+                    if (entersCandidate(w, word == kNone ? kNone : word & absentMask, label)) {
                         candidate = true;
                         break;
                     }
+                    // On past the largest uniform cube of nodes around it (no surface inside).
+                    k = absentLevel + (word == kNone || absentMask == kNone ? 0u : word >> kUniformLevelShift);
                 }
 #endif
             } else {

@@ -224,6 +224,43 @@ TEST(RayCast, EmptyBrickGroupsAreTheLargestAlignedOnes) {
 // Each voxel's uniform level is the largest k whose aligned cube of 2^k voxels around it lies inside
 // the volume and holds one label (brute force over every cube), on a brick of 16^3 made of uniform
 // cubes of every size, a few voxels changed, partly beyond a volume of odd sizes.
+/// A grid's uniform levels (an MPI piece's coarse stand-ins): the largest aligned cube of one
+/// label around each node, inside the grid, up to the level asked for; brute force agrees.
+TEST(RayCast, GridUniformLevelsAreTheLargestUniformCubesInside) {
+    std::mt19937 rng(5);
+    for (const std::array<uint32_t, 3> dim : {std::array<uint32_t, 3>{16, 16, 16}, std::array<uint32_t, 3>{13, 16, 11}}) {
+        for (const uint32_t maxLevel : {0u, 2u, 3u}) {
+            std::vector<uint32_t> labels(size_t(dim[0]) * dim[1] * dim[2]);
+            for (uint32_t z = 0; z < dim[2]; ++z)
+                for (uint32_t y = 0; y < dim[1]; ++y)
+                    for (uint32_t x = 0; x < dim[0]; ++x) // cubes of 8, 4, 2 by region, and kInvalidLabel ones
+                        labels[x + dim[0] * (y + dim[1] * z)] = z < 8 ? (x / 8 + y / 8) % 2 : y < 8 ? (x / 2) % 3 + 5 : kInvalidLabel;
+            for (int k = 0; k < 12; ++k) // single nodes break cubes (beyond the cubes of 8)
+                labels[size_t(dim[0]) * dim[1] * 8 + rng() % (labels.size() - size_t(dim[0]) * dim[1] * 8)] = 7;
+            const std::vector<uint8_t> got = gridUniformLevels(labels, dim, maxLevel);
+            ASSERT_EQ(got.size(), labels.size());
+            uint32_t seen[4] = {};
+            for (uint32_t z = 0; z < dim[2]; ++z)
+                for (uint32_t y = 0; y < dim[1]; ++y)
+                    for (uint32_t x = 0; x < dim[0]; ++x) {
+                        uint32_t want = 0;
+                        for (uint32_t k = maxLevel; k >= 1 && want == 0; --k) {
+                            const uint32_t m = ~((1u << k) - 1), x0 = x & m, y0 = y & m, z0 = z & m, e = 1u << k;
+                            bool ok = x0 + e <= dim[0] && y0 + e <= dim[1] && z0 + e <= dim[2];
+                            for (uint32_t c = 0; ok && c < e * e * e; ++c)
+                                ok = labels[(x0 + c % e) + dim[0] * ((y0 + c / e % e) + dim[1] * (z0 + c / (e * e)))] ==
+                                     labels[x0 + dim[0] * (y0 + dim[1] * z0)];
+                            if (ok) want = k;
+                        }
+                        ASSERT_EQ(got[x + dim[0] * (y + dim[1] * z)], want)
+                            << "node " << x << "," << y << "," << z << " of " << dim[0] << "x" << dim[1] << "x" << dim[2] << " up to " << maxLevel;
+                        ++seen[want];
+                    }
+            for (uint32_t k = 0; k <= maxLevel; ++k) EXPECT_GT(seen[k], 0u) << "level " << k << " up to " << maxLevel;
+        }
+    }
+}
+
 TEST(RayCast, UniformLevelsAreTheLargestUniformCubesInside) {
     const uint32_t shift = 4, edge = 1u << shift, n = edge * edge * edge;
     std::mt19937 rng(11);

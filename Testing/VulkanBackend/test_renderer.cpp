@@ -1238,10 +1238,11 @@ TEST(Renderer, LevelChangesUnderCachePressureConvergeInAnIdleBoundedLoopWithGpuD
 /// rays meet them at their level of detail from the whole volume's coarse levels
 /// (setCoarseStandIns) instead of passing through: with every level there, the piece's own
 /// surfaces are shaded exactly as in the whole volume (finest, and with levels of detail); with
-/// the levels from 3 (4^3 nodes a brick), nearly.
-TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
-    CSGV_REQUIRE_GPU(ctx);
-    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2_attr.csgv"); // relabelled: dense ids, a label -> material table
+/// the levels from 3 (4^3 nodes a brick), nearly. `variants`: finest, levels of detail, and
+/// finest with one dense table over the other ranks' labels (RendererOptions::largestOtherLabel).
+void expectPieceShadowsWithStandIns(Context& context, const char* fixture, int variants) {
+    Context* ctx = &context;
+    Scene& scene = fixtureScene(*ctx, fixture);
     GpuVolumeOptions o;
     o.owned = brickPartition(scene.volume.brickGrid(), 2, 0); // the lower half in z: the other piece lies above
     ASSERT_EQ(o.owned.hi[2], 3u);
@@ -1297,7 +1298,7 @@ TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
         }
         return renderConverged(**r, in, 1, 200);
     };
-    for (int variant = 0; variant < 3; ++variant) {
+    for (int variant = 0; variant < variants; ++variant) {
         const bool finest = variant != 1;
         st.finest = finest;
         largestOther = variant == 2 ? scene.gpu->largestStoredLabel() : kNone; // the whole volume's labels, as the ranks share them
@@ -1334,6 +1335,19 @@ TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
                     "%zu with its levels from 3, %zu with every level\n",
                     what.c_str(), shared, passingDiffers, coarseDiffers, exactDiffers);
     }
+}
+
+TEST(Renderer, APieceShadowsItsSurfacesWithTheOtherPiecesStandIns) {
+    CSGV_REQUIRE_GPU(ctx);
+    // Relabelled: dense ids, a label -> material table; the stand-ins' words carry uniform levels.
+    expectPieceShadowsWithStandIns(*ctx, "synthA_b32_rans2_attr.csgv", 3);
+}
+
+/// The same with labels beyond the uniform levels' bits (above 2^29, as the file stores them: a
+/// piece keeps its labels), whose stand-ins carry none and are stepped node by node.
+TEST(Renderer, APieceOfLabelsBeyondTheUniformLevelsBitsShadowsAlike) {
+    CSGV_REQUIRE_GPU(ctx);
+    expectPieceShadowsWithStandIns(*ctx, "synthA_b32_rans2.csgv", 1);
 }
 
 /// An MPI rank's far piece, seen across the boundary with the piece in front: where a view ray

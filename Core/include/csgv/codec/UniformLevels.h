@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <vector>
 
 namespace csgv {
 
@@ -65,6 +66,43 @@ inline void uniformLevelsOfBrick(const uint32_t* labels, uint32_t shift, uint64_
     const std::array<uint32_t, 3> origin = {uint32_t(brick % gx) << shift, uint32_t(brick / gx % gy) << shift,
                                             uint32_t(brick / (gx * gy)) << shift};
     uniformLevels(labels, shift, origin, dim, out);
+}
+
+/// For a grid of labels (x fastest, `dim` nodes a side), the uniform level of every node: the
+/// largest k <= maxLevel such that the aligned cube of 2^k nodes holding it lies inside the grid
+/// and holds one label; 0 when none does. An MPI piece's coarse stand-ins carry them, so rays step
+/// over other ranks' uniform regions as over the rank's own (Renderer::setCoarseStandIns).
+inline std::vector<uint8_t> gridUniformLevels(const std::vector<uint32_t>& labels, const std::array<uint32_t, 3>& dim,
+                                              uint32_t maxLevel) {
+    const uint64_t nx = dim[0], nxy = uint64_t(dim[0]) * dim[1];
+    std::vector<uint8_t> begins(labels.size(), 0); // at a cube's lowest node: the largest uniform cube it begins
+    for (uint32_t k = 1; k <= maxLevel; ++k) {
+        const uint32_t step = 1u << k, half = step >> 1;
+        for (uint64_t z = 0; z + step <= dim[2]; z += step)
+            for (uint64_t y = 0; y + step <= dim[1]; y += step)
+                for (uint64_t x = 0; x + step <= dim[0]; x += step) {
+                    const uint64_t o = x + nx * y + nxy * z;
+                    bool same = true;
+                    for (uint32_t c = 0; c < 8 && same; ++c) {
+                        const uint64_t i = o + ((c & 1) ? half : 0) + ((c & 2) ? nx * half : 0) + ((c & 4) ? nxy * half : 0);
+                        same = begins[i] >= k - 1 && labels[i] == labels[o];
+                    }
+                    if (same) begins[o] = uint8_t(k);
+                }
+    }
+    std::vector<uint8_t> out(labels.size(), 0);
+    for (uint64_t z = 0; z < dim[2]; ++z)
+        for (uint64_t y = 0; y < dim[1]; ++y)
+            for (uint64_t x = 0; x < dim[0]; ++x) {
+                uint32_t k = 0;
+                while (k < maxLevel) {
+                    const uint64_t m = ~((uint64_t(1) << (k + 1)) - 1);
+                    if (begins[(x & m) + nx * (y & m) + nxy * (z & m)] < k + 1) break;
+                    ++k;
+                }
+                out[x + nx * y + nxy * z] = uint8_t(k);
+            }
+    return out;
 }
 
 } // namespace csgv

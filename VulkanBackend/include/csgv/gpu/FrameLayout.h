@@ -93,14 +93,14 @@ CSGV_CONST(uint32_t, kSlotUniform, 21u)       ///< uvec2 per brick: its uniform 
 CSGV_CONST(uint32_t, kSlotDetail, 22u)        ///< detail streaming: uvec2 per brick, its finest-level stream in the detail buffer (word offset, kNone when absent; words) (DetailStream.h)
 CSGV_CONST(uint32_t, kSlotDetailRequests, 23u) ///< detail streaming: bricks whose finest-level stream a frame wanted and did not find (count in kAllocDetailRequests)
 CSGV_CONST(uint32_t, kSlotGhost, 24u)         ///< an MPI rank's piece (Renderer::setGhostFaces): kGhostHeaderWords words (piece box lo, hi in voxels; word offset of each side's labels, 0 for none), then the labels just outside each side; 0 when not a piece
-CSGV_CONST(uint32_t, kSlotCoarse, 25u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
+CSGV_CONST(uint32_t, kSlotCoarse, 25u)        ///< an MPI rank's piece (Renderer::setCoarseStandIns): the whole volume's stored labels at levels c..LEVELS-1 (what secondary rays see of other ranks' bricks): words c, n = LEVELS - c, u (1: each label word carries its node's uniform level above kUniformLevelShift, csgv::gridUniformLevels, where every label is below it; kNone stays), then per level kCoarseLevelWords (word offset of its labels, x fastest; its dimensions); 0 when none
 CSGV_CONST(uint32_t, kSlotLabelColors, 26u)   ///< vec4 per entry of kSlotMaterialTable (kLookupDense): the label's colour and opacity under its material (label_colors.comp)
 CSGV_CONST(uint32_t, kSlotPixelList, 27u)     ///< PIXEL_LIST (CPU devices): uint per listed cell of the footprint grid (x | y << 16) whose pixel takes a sample this frame (pixel_list.comp); from word width * height on, the cells the render pass leaves below the target (kFlagListNext)
 CSGV_CONST(uint32_t, kSlotHidden, 28u)       ///< uvec2 per brick cached at a level whose nodes are no larger than a sub-block: its sub-blocks (Layout.h) inside the volume that hold no label a material draws at that level (cache_hidden.comp); all 0 where the volume holds one undrawn label at most (such sub-blocks are uniform)
 CSGV_CONST(uint32_t, kSlotEmptyGroups, 29u)  ///< uint per brick a material draws nothing of: the largest g such that its aligned group of 2^g bricks a side holds no brick a material draws nor another rank's (csgv/codec/BrickGroups.h, host, per materials); march() steps over the group whole
 CSGV_CONST(uint32_t, kSlotCount, 30u)
 CSGV_CONST(uint32_t, kGhostHeaderWords, 12u)
-CSGV_CONST(uint32_t, kCoarseHeaderWords, 2u)
+CSGV_CONST(uint32_t, kCoarseHeaderWords, 3u)
 CSGV_CONST(uint32_t, kCoarseLevelWords, 4u)
 
 /// Brick table word w (kSlotBricks): 0 invisible, 1 visible, kBrickStandIn visible and cached at
