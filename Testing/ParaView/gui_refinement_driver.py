@@ -9,6 +9,7 @@ CSGV_SERVER_NO_DISPLAY=1 too, the server has no display and cannot render, so th
 and its refinement must ask the client's copy of the representation, which drew the volume.
 Usage: gui_refinement_driver.py PARAVIEW PLUGIN_DIR SCRIPT"""
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -36,6 +37,9 @@ def answer_warning():
 
 def main():
     paraview, plugin_dir, script = sys.argv[1:4]
+    if os.environ.get("CSGV_SERVER_NO_DISPLAY") and not shutil.which("xdotool"):
+        print("FAIL xdotool answers ParaView's warning about the server's display (scripts/setup.sh installs it)")
+        return 1
     env = dict(os.environ, CSGV_TRACE_REFINEMENT="1")
     args = [paraview, "--plugin-search-paths=" + plugin_dir, "--plugins=CSGV", "--script=" + script]
     server = None
