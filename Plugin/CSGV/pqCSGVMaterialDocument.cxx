@@ -107,6 +107,17 @@ bool drawnOnClient(vtkSMProxy* display)
   return rendering && !rendering->GetUseDistributedRenderingForRender();
 }
 
+void renderViewsShowing(vtkSMProxy* display, pqView* also)
+{
+  pqServerManagerModel* model = pqApplicationCore::instance()->getServerManagerModel();
+  auto* shown = display ? model->findItem<pqDataRepresentation*>(display) : nullptr;
+  pqView* view = shown ? shown->getView() : nullptr;
+  if (view)
+    view->render();
+  if (also && also != view)
+    also->render();
+}
+
 QString query(vtkSMProxy* display, const QString& request)
 {
   vtkSMProxy* rep = segmentationProxy(display);

@@ -44,6 +44,9 @@ void setMaterials(vtkSMProxy* display, const QString& text);
 /// The Segmentation Volume representation proxy behind a display (the composite's subproxy, or
 /// the proxy itself); nullptr when it has none.
 vtkSMProxy* segmentationProxy(vtkSMProxy* display);
+/// Renders the view that shows `display` and `also` (the panel's view, which may be another:
+/// a Spreadsheet view made active by a Label Table, GUI pass 14), each once.
+void renderViewsShowing(vtkSMProxy* display, pqView* also = nullptr);
 /// Asks misc/CSGVQuery on the rendering process (vtkCSGVQuery.h); "" on failure.
 QString query(vtkSMProxy* display, const QString& request);
 /// query() parsed as a JSON object.

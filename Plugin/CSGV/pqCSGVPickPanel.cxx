@@ -220,10 +220,7 @@ bool pqCSGVPickPanel::eventFilter(QObject* watched, QEvent* event)
           this->Result->append(QString("<i>%1</i>").arg(error.toHtmlEscaped()));
         }
         this->updateSelectionInfo();
-        if (this->View)
-        {
-          this->View->render();
-        }
+        pqCSGV::renderViewsShowing(this->LastDisplay, this->View);
       }
     }
     else if (event->type() == QEvent::MouseMove && this->Follow->isChecked() &&
@@ -339,10 +336,7 @@ void pqCSGVPickPanel::editVisibility(
   BEGIN_UNDO_SET(undoLabel);
   pqCSGV::setMaterials(display, text);
   END_UNDO_SET();
-  if (this->View)
-  {
-    this->View->render();
-  }
+  pqCSGV::renderViewsShowing(display, this->View);
 }
 
 void pqCSGVPickPanel::hideLabel()
@@ -436,10 +430,7 @@ void pqCSGVPickPanel::clearSelection()
   if (vtkSMProxy* display = this->selectionDisplay())
   {
     pqCSGVLabelSelection::edit(display, {}, csgv::SelectionEdit::Replace, "Clear label selection");
-    if (this->View)
-    {
-      this->View->render();
-    }
+    pqCSGV::renderViewsShowing(display, this->View);
   }
   this->updateSelectionInfo();
 }
@@ -464,10 +455,7 @@ void pqCSGVPickPanel::setSelectionStyle(int index)
   BEGIN_UNDO_SET("Label selection style");
   pqCSGV::setMaterials(display, pqCSGV::serialize(doc));
   END_UNDO_SET();
-  if (this->View)
-  {
-    this->View->render();
-  }
+  pqCSGV::renderViewsShowing(display, this->View);
 }
 
 void pqCSGVPickPanel::extractSelection()
@@ -533,8 +521,5 @@ void pqCSGVPickPanel::selectByQuery()
                             .arg(labels.size()));
   }
   this->updateSelectionInfo();
-  if (this->View)
-  {
-    this->View->render();
-  }
+  pqCSGV::renderViewsShowing(display, this->View);
 }
