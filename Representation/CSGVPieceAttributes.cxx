@@ -328,13 +328,19 @@ std::string shareAcrossRanks(
         largest = l != csgv::gpu::kNone && l > largest ? l : largest;
       }
     };
-    for (const auto& face : shared->ghost ? *shared->ghost : GhostFaces{})
+    if (shared->ghost)
     {
-      take(face);
+      for (const std::vector<uint32_t>& face : *shared->ghost)
+      {
+        take(face);
+      }
     }
-    for (const auto& level : shared->coarse ? shared->coarse->levels : std::vector<std::vector<uint32_t>>{})
+    if (shared->coarse)
     {
-      take(level);
+      for (const std::vector<uint32_t>& level : shared->coarse->levels)
+      {
+        take(level);
+      }
     }
     shared->largestOtherLabel = largest;
   }
