@@ -617,10 +617,11 @@ const char* vtkCSGVRepresentation::Query(const char* request)
   // copy without input that rendered (the client's, rendering for a server that cannot) answers
   // for the piece it drew: resolving nothing would have dropped its renderer and its image.
   vtkInternals& in = *this->Internals;
-  this->ResolveInput(this->Cache ? this->Cache.GetPointer() : in.Delivered.GetPointer(), false);
+  vtkImageData* input = this->Cache ? this->Cache.GetPointer() : in.Delivered.GetPointer();
+  this->ResolveInput(input, false);
   if (in.PropResolution != in.Resolutions)
   {
-    this->Prop->SetInput(this->Cache, in.Source, in.Error);
+    this->Prop->SetInput(input, in.Source, in.Error);
     in.PropResolution = in.Resolutions;
   }
   this->QueryResult = this->Prop->Query(request ? request : "");

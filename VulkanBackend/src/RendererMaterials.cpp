@@ -182,14 +182,19 @@ uint64_t materialsFingerprint(const PackedMaterials& packed, const std::map<std:
     return h == 0 ? 1 : h; // 0 means "nothing uploaded"
 }
 
-/// A piece whose dense table was made to cover other ranks' labels up to `lookup.largest`
-/// (RendererOptions::largestOtherLabel): `labels` beyond it would be drawn as no material's.
-Status checkOtherLabels(const LabelLookup& lookup, const std::vector<uint32_t>& labels, const std::string& what) {
-    if (lookup.kind != kLookupDense) return Status::ok(); // the scan takes every label
+/// The largest label of `labels` (kNone aside; 0 when none).
+uint32_t largestLabel(const std::vector<uint32_t>& labels) {
     uint32_t largest = 0;
     for (uint32_t l : labels)
         if (l != kNone) largest = std::max(largest, l);
-    if (largest <= lookup.largest) return Status::ok();
+    return largest;
+}
+
+/// A piece whose dense table was made to cover other ranks' labels up to `lookup.largest`
+/// (RendererOptions::largestOtherLabel): labels beyond it (`largest` of them) would be drawn as
+/// no material's.
+Status checkOtherLabels(const LabelLookup& lookup, uint32_t largest, const std::string& what) {
+    if (lookup.kind != kLookupDense || largest <= lookup.largest) return Status::ok(); // the scan takes every label
     return Status::error(what + " hold label " + std::to_string(largest) + ", beyond the largest the renderer was made for (" +
                          std::to_string(lookup.largest) + ": RendererOptions::largestOtherLabel)");
 }
@@ -367,7 +372,7 @@ Status Renderer::setGhostFaces(const std::array<uint32_t, 3>& lo, const std::arr
         if (f.size() != size_t(hi[u] - lo[u]) * (hi[v] - lo[v]))
             return Status::error("ghost face " + std::to_string(side) + " holds " + std::to_string(f.size()) +
                                  " labels, not the piece's face");
-        if (Status s = checkOtherLabels(im.lookup, f, "the ghost faces"); !s) return s;
+        if (Status s = checkOtherLabels(im.lookup, largestLabel(f), "the ghost faces"); !s) return s;
         words[size_t(6 + side)] = uint32_t(words.size());
         words.insert(words.end(), f.begin(), f.end());
     }
@@ -390,9 +395,10 @@ Status Renderer::setCoarseStandIns(uint32_t first, const std::vector<std::vector
     // level (the largest aligned cube of one label around it, within a brick): secondary rays
     // step over another rank's uniform regions whole, as over the rank's own bricks' (a level-0
     // stand-in stepped voxel by voxel cost path tracing at 2 ranks 15-20 % a frame on lavapipe).
-    bool packed = true;
-    for (const std::vector<uint32_t>& level : levels)
-        for (uint32_t l : level) packed = packed && (l == kNone || l <= kUniformLabelMask);
+    uint32_t largest = 0;
+    for (const std::vector<uint32_t>& level : levels) largest = std::max(largest, largestLabel(level));
+    if (Status s = checkOtherLabels(im.lookup, largest, "the coarse stand-ins"); !s) return s;
+    const bool packed = largest <= kUniformLabelMask;
     std::vector<uint32_t> words{first, uint32_t(levels.size()), packed ? 1u : 0u};
     static_assert(kCoarseHeaderWords == 3 && kCoarseLevelWords == 4, "the header written here");
     words.resize(kCoarseHeaderWords + kCoarseLevelWords * levels.size());
@@ -402,7 +408,6 @@ Status Renderer::setCoarseStandIns(uint32_t first, const std::vector<std::vector
             return Status::error("coarse stand-ins: " + std::to_string(levels[i].size()) + " labels do not fill level " +
                                  std::to_string(first + i) + " of the volume");
         if (words.size() + levels[i].size() > 0xFFFFFFFFull) return Status::error("coarse stand-ins: too large");
-        if (Status s = checkOtherLabels(im.lookup, levels[i], "the coarse stand-ins"); !s) return s;
         uint32_t* e = words.data() + kCoarseHeaderWords + kCoarseLevelWords * i;
         e[0] = uint32_t(words.size());
         std::copy(d.begin(), d.end(), e + 1);

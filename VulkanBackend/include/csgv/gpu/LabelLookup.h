@@ -76,7 +76,7 @@ struct LabelLookup {
 /// then covers both), else the table where it covers this piece's labels, the scan for the rest.
 /// The tables (with the labels' colours, 16 bytes an entry) may
 /// take a 64th of `budgetBytes`, the renderer's device memory: under a tighter budget the brick
-/// cache comes first (the scan, with the table where labels are small, as for pieces).
+/// cache comes first (the scan, with the table where labels are small).
 LabelLookup planLabelLookup(uint32_t largestStored, bool piece, uint64_t budgetBytes, uint32_t largestOther = kNone);
 
 template <class MaterialOf> std::vector<uint32_t> LabelLookup::table(const MaterialOf& materialOf) const {
