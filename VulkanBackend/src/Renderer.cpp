@@ -2,6 +2,7 @@
 #include "RendererImpl.h"
 
 #include <cstdlib>
+#include <string>
 #include <utility>
 
 namespace csgv::gpu {
@@ -27,8 +28,14 @@ uint64_t MemoryReport::total() const {
 
 Renderer::~Renderer() = default;
 
+bool choosesAsGpu(const DeviceInfo& device) {
+    if (device.type != "cpu") return true;
+    const char* env = std::getenv("CSGV_AS_GPU");
+    return env && std::string(env) == "1";
+}
+
 bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device) {
-    return decode == RendererOptions::Decode::Host || (decode == RendererOptions::Decode::Auto && device.type == "cpu");
+    return decode == RendererOptions::Decode::Host || (decode == RendererOptions::Decode::Auto && !choosesAsGpu(device));
 }
 
 bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device, const CompressedVolume& volume, uint64_t budget) {
@@ -85,15 +92,14 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const bool streaming = volume->separated() && !im.resolved.hostDecode; // host decoding reads every level from host memory
     d.emplace_back("DETAIL_STREAMING", streaming ? "1" : "0");
     // GPU decodes that carry over frames: fewer steps a frame than a brick's finest level needs.
-    // CSGV_DECODE_STEPS=N: N steps where the options leave it automatic, on any device (the gpu
-    // tests run so on CPU devices, as GPUs do).
+    // CSGV_DECODE_STEPS=N: N steps where the options leave it automatic, on any device.
     uint32_t steps = options.decodeStepsPerFrame;
     if (steps == RendererOptions::kDecodeStepsAuto) {
         const char* env = std::getenv("CSGV_DECODE_STEPS");
         const unsigned long long n = env ? std::strtoull(env, nullptr, 10) : 0; // "-3" wraps to huge: every step
-        steps = n > 0                            ? uint32_t(std::min<unsigned long long>(n, RendererOptions::kDecodeStepsAll))
-                : context.device().type == "cpu" ? RendererOptions::kDecodeStepsAll
-                                                 : RendererOptions::kGpuDecodeStepsPerFrame;
+        steps = n > 0                               ? uint32_t(std::min<unsigned long long>(n, RendererOptions::kDecodeStepsAll))
+                : choosesAsGpu(context.device()) ? RendererOptions::kGpuDecodeStepsPerFrame
+                                                 : RendererOptions::kDecodeStepsAll;
     }
     im.resolved.carrySteps = !im.resolved.hostDecode && !streaming && steps < volume->decodeSteps() ? steps : 0;
     d.emplace_back("CARRY_DECODES", im.resolved.carrySteps ? "1" : "0");
@@ -104,9 +110,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     d.emplace_back("LABEL_LOOKUP", std::to_string(im.lookup.kind)); // tested by #if: no suffix
     im.defines = d;
     im.resolved.profileDispatches = std::getenv("CSGV_PROFILE_DISPATCHES") != nullptr;
-    // CSGV_READ_THROUGH_COPIES=1: as on GPUs on any device (the tests run the renderer's suite so).
+    // CSGV_READ_THROUGH_COPIES=1: copies on any device, its other choices kept (ParaView's tests).
     const char* copies = std::getenv("CSGV_READ_THROUGH_COPIES");
-    im.viaCopies = options.readBackThroughCopy || context.device().type != "cpu" || (copies && std::string(copies) == "1");
+    im.viaCopies = options.readBackThroughCopy || choosesAsGpu(context.device()) || (copies && std::string(copies) == "1");
 
     auto make = [&](Buffer& b, uint64_t bytes, MemoryKind kind, const char* what) -> Status {
         Result<Buffer> res = context.createBuffer(std::max<uint64_t>(bytes, 16), kind);
@@ -466,9 +472,11 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         // else) and once every pixel holds a sample (refining: shorter frames, fewer samples
         // lost to bricks on their way); the frames between take every step, so the first full
         // image comes as soon as without carrying, as do frames under cache pressure (a
-        // thrashing cache needs each brick soon).
+        // thrashing cache needs each brick soon), and a frame that asks for every visible brick
+        // (a small volume's first frame is complete: RendererOptions::prefetchVoxels).
         const bool incomplete = !accumulation.clearPending && accumulation.prevMinSamples == 0;
-        decodeWhole = resolved.carrySteps && (incomplete || cacheState.evictAge != 0 || cacheState.limitRequests);
+        const bool prefetching = (hostParams().frame[1] & kFlagPrefetch) != 0; // packState ran
+        decodeWhole = resolved.carrySteps && (incomplete || prefetching || cacheState.evictAge != 0 || cacheState.limitRequests);
         const auto& passes = decodeDispatches[decodeParity][decodeWhole];
         dispatches.insert(dispatches.end(), passes.begin(), passes.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)

@@ -158,7 +158,8 @@ struct RendererOptions {
     /// too took 4x the frames and 1.4x the time for a 16-view orbit at one sample), and so do
     /// frames under cache pressure (evictions or limited requests: a thrashing cache needs each
     /// brick soon; a 1 MiB cache took 257 frames and more instead of 89).
-    /// kDecodeStepsAuto: kGpuDecodeStepsPerFrame on GPUs, every step on CPU devices (one frame).
+    /// kDecodeStepsAuto: kGpuDecodeStepsPerFrame on GPUs (choosesAsGpu), every step on CPU devices
+    /// (one frame); CSGV_DECODE_STEPS=N sets N where the options leave it automatic.
     /// Not with detail streaming (every step: a stream stays in its ring only for its frame).
     static constexpr uint32_t kDecodeStepsAuto = 0, kDecodeStepsAll = 0xFFFFFFFFu;
     static constexpr uint32_t kGpuDecodeStepsPerFrame = 512;
@@ -173,7 +174,12 @@ struct RendererOptions {
     uint32_t largestOtherLabel = kNone;
 };
 
-/// Whether `decode` decodes on the host on this device (Auto: on CPU devices). The one rule for
+/// Whether the renderer makes a GPU's choices on this device where they change what it does, not
+/// only how fast: GPU decoding where Auto, decoder steps spared (decodeStepsPerFrame), per-frame
+/// buffers read through copies. GPUs; CPU devices too with CSGV_AS_GPU=1 (the renderer's tests
+/// run so on lavapipe; dispatch shapes stay the CPU device's).
+bool choosesAsGpu(const DeviceInfo& device);
+/// Whether `decode` decodes on the host on this device (Auto: unless choosesAsGpu). The one rule for
 /// renderers and for uploads made for them (GpuVolumeOptions::hostDecoding).
 bool decodesOnHost(RendererOptions::Decode decode, const DeviceInfo& device);
 /// The same for an upload of `volume` under `budget` bytes (0: automatic): Auto also decodes on

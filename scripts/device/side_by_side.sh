@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Issue 42's table in one call on a lent GPU, both peers on the same machine, volume by volume:
+# the gpu tests first, then for each volume Volcanite's modes (volcanite_check.sh), ours as
+# Volcanite renders them (STILL: one pose, Volcanite's frame count in that mode, the whole run's
+# wall time; its first frame's time apart), then gpu_check.sh's rows (an orbit, a moving camera,
+# the warm first frame), so a call cut short still returns whole rows. Needs a bundle with
+# Volcanite (VOLUMES=aal.csgv VOLCANITE=/tmp/volcanite-src bash scripts/device/bundle.sh).
+# Usage: bash scripts/device/side_by_side.sh [VOLUMES] [MODES]   (default "aal 256 512 1024 2048",
+#   "local shadow ao pt"; BIG_MODES (default local) for 2048, whose encoding takes a minute to make)
+# Environment: as the two scripts' (VTIMEOUT defaults to 20 s a Volcanite render here, PROFILE to
+# 0); ORBITS=0 leaves gpu_check.sh's rows out, STILL=0 ours as Volcanite renders.
+set -uo pipefail
+root=$(pwd)
+vols=${1:-"aal 256 512 1024 2048"}; modes=${2:-"local shadow ao pt"}
+export VTIMEOUT=${VTIMEOUT:-20} PROFILE=${PROFILE:-0}
+out=${OUT:-$root/devout}; mkdir -p "$out"; peer=1
+res=/tmp/csgv-gpu-results; mkdir -p $res
+b=$root/.devbundle
+source "$root/scripts/device/device_env.sh"
+csgv=$b/bin/csgv
+# The frames Volcanite 0.6's presets render from a still camera (its evaluation log on an H200):
+# 128 in local shading and shadows, 1024 with ambient occlusion and path tracing.
+declare -A vframes=([local]=128 [shadow]=128 [ao]=1024 [pt]=1024)
+[ -n "${SKIP_TESTS:-}" ] || bash scripts/device/gpu_check.sh none
+for n in $vols; do
+    m=$modes; [ "$n" = 2048 ] && m=${BIG_MODES:-local}
+    [ -n "$peer" ] && bash scripts/device/volcanite_check.sh "$n" "$m"
+    # Two of Volcanite's renders past their time: the rest would be too (they cost the lease).
+    [ "$(grep -c '^volcanite .* rc 124 ' "$out/summary.txt" 2>/dev/null)" -ge 2 ] && peer=
+    if [ "${STILL:-1}" != 0 ] && v=$(volume_of "$n" "$csgv"); then
+        for s in $m; do
+            t0=$(date +%s.%N)
+            timeout 60 "$csgv" render "$v" "$res/still_${n}_$s.png" --size ${SIZE:-1920x1080} --shading $s \
+                --frames ${vframes[$s]} --camera volcanite >"$res/still_${n}_$s.log" 2>&1
+            rc=$?
+            wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')
+            echo "ours $n $s rc $rc wall_s $wall: $(grep -E '^(frames|median_frame_ms|time_to_first_frame_ms|setup_ms):' \
+                "$res/still_${n}_$s.log" | cut -c1-60 | tr '\n' ' ')" | tee -a "$out/summary.txt"
+        done
+        tar -C $res -czf "$out/still_logs.tgz" $(cd $res && ls still_*.log)
+    fi
+    [ "${ORBITS:-1}" != 0 ] && SKIP_TESTS=1 bash scripts/device/gpu_check.sh "$n" "$m"
+done
