@@ -32,12 +32,27 @@ void main() {
     const uint brick = req.w[kDecodeEntryWords * i];
     const uint target = req.w[kDecodeEntryWords * i + 1u] & ~kDecodeEntryFailed;
     const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
-    Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick, pc.detail, pc.ring);
     Uints saved = Uints(pc.states);
     uint o = kDecodeStateWords * i;
     // Decodes that carry over frames (pc.alloc set, RendererOptions::decodeStepsPerFrame): the
     // list's first kAllocCarried entries continue from the previous frame, their states saved.
     const bool carry = pc.alloc != 0ul;
+    const bool carried = carry && i < Uints(pc.alloc).w[kAllocCarried];
+    Uints progress = Uints(pc.bricks + inFlightWordsOffset(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z));
+    if (params.w[kDecodeParamPublish] != 0u) {
+        // An overlapped frame's first dispatch, before its cache passes and its render: the carried
+        // decodes that ended in the previous frame are published (the rays may read them), those
+        // still running show their progress (previews; see below).
+        if (!carried) return;
+        if (saved.w[o + kDecodeStateStatus] != kDecodeRunning)
+            Uvec4s(pc.bricks).v[brick].y = LEVELS - 1u - target;
+        else if (saved.w[o] >= 1u)
+            progress.w[brick] = kInFlightValid | ((LEVELS - saved.w[o]) << 8u) | (LEVELS - 1u - target);
+        return;
+    }
+    // Overlapped: the frame's render runs beside this dispatch and must read nothing it writes.
+    const bool defer = params.w[kDecodeParamDefer] != 0u;
+    Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick, pc.detail, pc.ring);
     DecodeState st;
     const bool starts = first != 0u && (!carry || i >= Uints(pc.alloc).w[kAllocCarried]);
     if (starts) {
@@ -65,22 +80,25 @@ void main() {
             params.w[kDecodeParamFailedCode] = st.status;
         }
     }
-    if (carry && ended) // ended (or failed: drawn empty): the rays may read it
+    // Ended (or failed: drawn empty): the rays may read it. A carried decode that ended in an
+    // overlapped frame (deferred) is published here where no publish dispatch came first.
+    if (carry && !defer && (ended || (carried && !running)))
         Uvec4s(pc.bricks).v[brick].y = LEVELS - 1u - target;
-    if (carry && st.status == kDecodeRunning && st.level >= 1u) {
+    if (carry && !defer && st.status == kDecodeRunning && st.level >= 1u) {
         // Its progress for previews (kInFlightValid, after the brick table): the levels above
         // st.level are complete, nodes of edge 2^(LEVELS - st.level) finest voxels; the region
         // is laid out for level LEVELS - 1 - target. Decoding the next level overwrites a node's
         // last word with its last child's label: a label of that node, or kNone where that child
         // lies outside the volume (march then reads the first child's).
-        Uints(pc.bricks + inFlightWordsOffset(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z)).w[brick] = kInFlightValid | ((LEVELS - st.level) << 8u) | (LEVELS - 1u - target);
+        progress.w[brick] = kInFlightValid | ((LEVELS - st.level) << 8u) | (LEVELS - 1u - target);
     }
-    if (carry && st.status == kDecodeRunning && params.w[kDecodeParamCarry] != 0u) {
-        // The frame's steps are spent: on in the next frame's list.
+    if (carry && (st.status == kDecodeRunning || (defer && ended)) && params.w[kDecodeParamCarry] != 0u) {
+        // The frame's steps are spent: on in the next frame's list (deferred: ended too, for the
+        // next frame to publish, failed ones marked).
         const uint k = atomicAdd(Uints(pc.alloc).w[kAllocCarry], 1u);
         Uints next = Uints(pc.next);
         next.w[kDecodeEntryWords * k] = brick;
-        next.w[kDecodeEntryWords * k + 1u] = target;
+        next.w[kDecodeEntryWords * k + 1u] = req.w[kDecodeEntryWords * i + 1u];
         next.w[kDecodeEntryWords * k + 2u] = req.w[kDecodeEntryWords * i + 2u];
         saved = Uints(pc.nextStates);
         o = kDecodeStateWords * k;

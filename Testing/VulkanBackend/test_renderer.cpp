@@ -629,7 +629,8 @@ std::unique_ptr<Renderer> volumeRenderer(Context& ctx, const LabelVolume& v, Com
 // whose decoding takes more steps than the frame gives is missing to the rays, its decoding going
 // on in the next frames; the frames between take every step. The converged G-buffer is the reference's, bit
 // for bit, and a still view converges within one frame of decoding whole: with steps that one
-// dispatch takes (300) and that CPU devices split into three (1100: 512, 512, 76), after a moving
+// dispatch takes (300; its render runs beside it, RendererOptions::overlapDecodes, and without:
+// 301) and that CPU devices split into three (1100: 512, 512, 76; never overlapped), after a moving
 // camera whose decodes are still running when it stops (their bricks half decoded, some no longer
 // wanted), and under a cache too small for the view (evictions and cache resets).
 TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
@@ -645,15 +646,17 @@ TEST(Renderer, DecodesCarriedOverFramesGiveTheReferenceGBuffer) {
                                        scene.gpu->uniformLevels() ? UniformSteps::Levels : UniformSteps::SubBlocks);
     ASSERT_GT(scene.gpu->decodeSteps(), 1100u);
     uint32_t allFrames = 0;
-    for (const uint32_t steps : {RendererOptions::kDecodeStepsAll, 1100u, 300u}) {
+    for (const uint32_t steps : {RendererOptions::kDecodeStepsAll, 1100u, 300u, 301u}) {
         for (const bool moved : {false, true}) {
             for (const uint64_t cacheBytes : {uint64_t(0), uint64_t(6) << 20}) {
                 if (steps == RendererOptions::kDecodeStepsAll && (moved || cacheBytes)) continue;
+                // 301: 300 with the render waiting for the decode (overlapDecodes off)
                 const std::string what = "steps " + std::to_string(steps) + (moved ? ", after a moving camera" : "") +
                                          (cacheBytes ? ", a small cache" : "");
                 RendererOptions o;
                 o.decode = RendererOptions::Decode::Gpu;
                 o.decodeStepsPerFrame = steps;
+                o.overlapDecodes = steps != 301u;
                 o.cacheBytes = cacheBytes;
                 o.prefetchVoxels = 0; // bricks are asked for as rays find them
                 std::unique_ptr<Renderer> r = sceneRenderer(*ctx, scene, o, st);

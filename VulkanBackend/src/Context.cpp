@@ -810,6 +810,7 @@ Status Context::run(const Dispatch* first, size_t count) {
                 im.vk.vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, d.pushConstantBytes,
                                          d.pushConstants);
             im.vk.vkCmdDispatch(cmd, d.groups[0], d.groups[1], d.groups[2]);
+            if (d.overlapsNext && it + 1 != last) continue;
             // Barrier: each dispatch's writes are visible to the next dispatch and to the host.
             VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
             b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;

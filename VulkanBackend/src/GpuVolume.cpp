@@ -395,7 +395,12 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
     if (carries && detail) return Status::error("decodes that carry over frames cannot stream detail");
     const uint64_t steps = carry.stepsPerFrame ? std::min<uint64_t>(carry.stepsPerFrame, decodeSteps()) : decodeSteps();
     const uint64_t perDispatch = m_context.device().type == "cpu" ? kCpuDeviceSteps : steps;
+    const bool overlapped = carries && carry.overlap && carry.stepsPerFrame != 0 && steps <= perDispatch;
     std::vector<uint32_t> params;
+    if (overlapped) { // the publishing dispatch: no steps
+        params.resize(kDecodeParamWords, 0u);
+        params[kDecodeParamPublish] = 1u;
+    }
     for (uint64_t done = 0; done < steps; done += perDispatch) {
         params.push_back(0u);
         params.push_back(uint32_t(std::min<uint64_t>(perDispatch, steps - done)));
@@ -403,6 +408,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         params.resize(params.size() + kDecodeParamWords - 3, 0u); // failures reported here
         params[params.size() - kDecodeParamWords + kDecodeParamCarry] = carries && done + perDispatch >= steps ? 1u : 0u;
         params[params.size() - kDecodeParamWords + kDecodeParamMarkFailed] = 1u; // cache_uniform.comp fills failed regions
+        params[params.size() - kDecodeParamWords + kDecodeParamDefer] = overlapped ? 1u : 0u;
     }
     Result<Buffer> paramBuffer = m_context.createBuffer(params.size() * 4, MemoryKind::HostVisible);
     if (!paramBuffer) return paramBuffer.status();
@@ -416,6 +422,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
                                             detail ? detail->tableAddress() : 0, detail ? detail->ringAddress() : 0,
                                             carry.alloc, carry.bricks, carry.next, carry.nextStates});
     storage.params = std::move(*paramBuffer);
+    storage.overlapped = overlapped;
     for (const auto& push : storage.pushes) {
         Context::Dispatch d;
         d.pipeline = m_decodePipeline;
@@ -424,6 +431,7 @@ Status GpuVolume::appendFrameDecode(uint64_t requests, uint64_t countAddress, ui
         d.groups[0] = (maxRequests + m_decodeGroup - 1) / m_decodeGroup;
         out.push_back(d);
     }
+    if (overlapped) out.back().overlapsNext = true;
     return Status::ok();
 }
 

@@ -102,6 +102,7 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
                                                  : RendererOptions::kDecodeStepsAll;
     }
     im.resolved.carrySteps = !im.resolved.hostDecode && !streaming && steps < volume->decodeSteps() ? steps : 0;
+    im.resolved.overlapDecodes = im.resolved.carrySteps && options.overlapDecodes;
     d.emplace_back("CARRY_DECODES", im.resolved.carrySteps ? "1" : "0");
     d.emplace_back("IN_FLIGHT_PREVIEWS", im.resolved.carrySteps && options.inFlightPreviews && volume->cacheBits() == 32 ? "1" : "0");
     d.emplace_back("ABSENT_BRICKS", volume->owned().empty() ? "0" : "1"); // an MPI rank's piece
@@ -478,8 +479,14 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         const bool prefetching = (hostParams().frame[1] & kFlagPrefetch) != 0; // packState ran
         decodeWhole = resolved.carrySteps && (incomplete || prefetching || cacheState.evictAge != 0 || cacheState.limitRequests);
         const auto& passes = decodeDispatches[decodeParity][decodeWhole];
-        dispatches.insert(dispatches.end(), passes.begin(), passes.end());
+        // Overlapped (RendererOptions::overlapDecodes): the publishing dispatch here, the decode
+        // right before the render, beside it; the cache passes between see the decodes published.
+        const size_t early = frameDecode[decodeParity][decodeWhole].overlapped ? 1 : passes.size();
+        dispatches.insert(dispatches.end(), passes.begin(), passes.begin() + early);
+        overlappedDecode.assign(passes.begin() + early, passes.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
+    } else {
+        overlappedDecode.clear();
     }
     // The sub-blocks without drawn labels: after a change of materials none, then (where there are
     // several labels undrawn) those of every cached brick; else those of the bricks decoded now
@@ -503,6 +510,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (materialState.labelColorsPending) // the materials changed: their colours per label first (frame() made the pipeline)
         addDispatch(pLabelColors, &frameAddress, 8,
                     uint32_t(std::min<uint64_t>((lookup.entries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
+    dispatches.insert(dispatches.end(), overlappedDecode.begin(), overlappedDecode.end()); // its last overlaps the render
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
     if (renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];

@@ -405,6 +405,7 @@ struct ResolvedOptions {
     /// RendererOptions::decodeStepsPerFrame: GPU decodes carry over frames (CARRY_DECODES), each
     /// taking this many steps a frame (0: every decode ends in its frame).
     uint32_t carrySteps = 0;
+    bool overlapDecodes = false; ///< RendererOptions::overlapDecodes (with carrySteps)
 };
 
 } // namespace renderer_detail
@@ -500,6 +501,7 @@ struct Renderer::Impl {
     std::vector<Context::Dispatch> decodeDispatches[2][2];
     uint32_t decodeParity = 0;
     bool decodeWhole = false; ///< the frame being built decodes with every step (its set [parity][1])
+    std::vector<Context::Dispatch> overlappedDecode; ///< an overlapped frame's decode dispatch (buildDispatches)
     /// The decode list (or its states, `states`) a frame of parity `parity` decodes from.
     uint64_t decodeList(uint32_t parity, bool states = false) const {
         const Buffer& b = states ? decodeStates : decodes;
@@ -515,7 +517,7 @@ struct Renderer::Impl {
                 GpuVolume::Carry carry;
                 if (resolved.carrySteps)
                     carry = {whole ? 0u : resolved.carrySteps, alloc.address(), bricks.address(), decodeList(parity ^ 1),
-                             decodeList(parity ^ 1, true)};
+                             decodeList(parity ^ 1, true), resolved.overlapDecodes};
                 Status s = volume->appendFrameDecode(decodeList(parity), alloc.address() + 4 * kAllocDecodes, cache.address(),
                                                      decodeList(parity, true), maxRequests, frameDecode[parity][whole],
                                                      decodeDispatches[parity][whole], detail.get(), &carry);

@@ -7,17 +7,19 @@
 # Volcanite (VOLUMES=aal.csgv VOLCANITE=/tmp/volcanite-src bash scripts/device/bundle.sh).
 # Usage: bash scripts/device/side_by_side.sh [VOLUMES] [MODES]   (default "aal 256 512 1024 2048",
 #   "local shadow ao pt"; BIG_MODES (default local) for 2048, whose encoding takes a minute to make)
+# With a baseline in the bundle (BASE_BUILD), ours as Volcanite renders them runs it too ("base").
 # Environment: as the two scripts' (VTIMEOUT defaults to 20 s a Volcanite render here, PROFILE to
-# 0); ORBITS=0 leaves gpu_check.sh's rows out, STILL=0 ours as Volcanite renders.
+# 0); ORBITS=0 leaves gpu_check.sh's rows out, STILL=0 ours as Volcanite renders, PEER= Volcanite.
 set -uo pipefail
 root=$(pwd)
 vols=${1:-"aal 256 512 1024 2048"}; modes=${2:-"local shadow ao pt"}
 export VTIMEOUT=${VTIMEOUT:-20} PROFILE=${PROFILE:-0}
-out=${OUT:-$root/devout}; mkdir -p "$out"; peer=1
+out=${OUT:-$root/devout}; mkdir -p "$out"; peer=${PEER-1}
 res=/tmp/csgv-gpu-results; mkdir -p $res
 b=$root/.devbundle
 source "$root/scripts/device/device_env.sh"
 csgv=$b/bin/csgv
+base=; [ -x "$b/base/csgv" ] && base=$b/base/csgv  # bundle.sh's BASE_BUILD
 # The frames Volcanite 0.6's presets render from a still camera (its evaluation log on an H200):
 # 128 in local shading and shadows, 1024 with ambient occlusion and path tracing.
 declare -A vframes=([local]=128 [shadow]=128 [ao]=1024 [pt]=1024)
@@ -29,13 +31,17 @@ for n in $vols; do
     [ "$(grep -c '^volcanite .* rc 124 ' "$out/summary.txt" 2>/dev/null)" -ge 2 ] && peer=
     if [ "${STILL:-1}" != 0 ] && v=$(volume_of "$n" "$csgv"); then
         for s in $m; do
-            t0=$(date +%s.%N)
-            timeout 60 "$csgv" render "$v" "$res/still_${n}_$s.png" --size ${SIZE:-1920x1080} --shading $s \
-                --frames ${vframes[$s]} --camera volcanite >"$res/still_${n}_$s.log" 2>&1
-            rc=$?
-            wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')
-            echo "ours $n $s rc $rc wall_s $wall: $(grep -E '^(frames|median_frame_ms|time_to_first_frame_ms|setup_ms):' \
-                "$res/still_${n}_$s.log" | cut -c1-60 | tr '\n' ' ')" | tee -a "$out/summary.txt"
+            for bin in "$csgv" ${base:+"$base"}; do  # with a baseline in the bundle, it right after
+                t=still_${n}_$s; who=ours
+                [ "$bin" = "$csgv" ] || { t=${t}_base; who=base; }
+                t0=$(date +%s.%N)
+                timeout 60 "$bin" render "$v" "$res/$t.png" --size ${SIZE:-1920x1080} --shading $s \
+                    --frames ${vframes[$s]} --camera volcanite >"$res/$t.log" 2>&1
+                rc=$?
+                wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')
+                echo "$who $n $s rc $rc wall_s $wall: $(grep -E '^(frames|median_frame_ms|time_to_first_frame_ms|setup_ms):' \
+                    "$res/$t.log" | cut -c1-60 | tr '\n' ' ')" | tee -a "$out/summary.txt"
+            done
         done
         tar -C $res -czf "$out/still_logs.tgz" $(cd $res && ls still_*.log)
     fi

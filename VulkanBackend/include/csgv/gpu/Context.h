@@ -188,6 +188,9 @@ public:
         /// Ranges to copy instead of the first `copyBytes` (the array outlives the run).
         const CopyRegion* copyRegions = nullptr;
         uint32_t copyRegionCount = 0;
+        /// A dispatch with no barrier after it: the next dispatch may run beside it (and must read
+        /// nothing it writes); the barrier after that one covers both.
+        bool overlapsNext = false;
     };
     Status run(const std::vector<Dispatch>& dispatches) { return run(dispatches.data(), dispatches.size()); }
     /// The same for `count` dispatches starting at `first` (a part of a frame's list, no copy).

@@ -201,7 +201,7 @@ CSGV_CONST(uint32_t, kResolveToEither, 2u)
 CSGV_CONST(uint32_t, kDecodeEntryWords, 3u)  ///< per decode: brick, inverse level, cache word offset
 CSGV_CONST(uint32_t, kDecodeStateWords, 12u) ///< per decode: the decoder state saved between dispatches
 CSGV_CONST(uint32_t, kDecodeStateStatus, 8u) ///< its word holding the result (kDecodeOk, ...)
-CSGV_CONST(uint32_t, kDecodeParamWords, 8u)  ///< per dispatch: count (unused in frames), steps, first, then kDecodeParam*
+CSGV_CONST(uint32_t, kDecodeParamWords, 10u) ///< per dispatch: count (unused in frames), steps, first, then kDecodeParam*
 /// Words of a dispatch's parameters (host-visible) where decode_bricks.comp reports the decodes
 /// that failed in it (drawn empty): how many, the first one's brick + 1 and its result code.
 CSGV_CONST(uint32_t, kDecodeParamFailures, 3u)
@@ -216,6 +216,15 @@ CSGV_CONST(uint32_t, kDecodeParamCarry, 6u)
 /// invocations to a brick: one invocation filling a region of 64^3 words (or 32^3 after many
 /// steps) ran into llvmpipe's loop limit and left part of a bad brick's labels visible.
 CSGV_CONST(uint32_t, kDecodeParamMarkFailed, 7u)
+/// Words of a frame's decode dispatch parameters where the frame's render runs beside its decode
+/// (an overlapped frame, RendererOptions::overlapDecodes: no barrier between them, so the render
+/// must read nothing the decode writes). kDecodeParamDefer: 1 in its decode dispatch, where a
+/// decode that ends is not published (its level) but moved, ended, to the next frame's list too.
+/// kDecodeParamPublish: 1 in the dispatch that comes first in such a frame, before the cache
+/// passes: it decodes nothing, it publishes the carried decodes that ended (their level) and the
+/// progress of those still running (kInFlightValid), read from their saved states.
+CSGV_CONST(uint32_t, kDecodeParamDefer, 8u)
+CSGV_CONST(uint32_t, kDecodeParamPublish, 9u)
 CSGV_CONST(uint32_t, kDecodeEntryFailed, 0x80000000u) ///< on a decode entry's inverse level: its decoding failed
 /// Decode result (besides csgv/codec/Layout.h's): the finest level of a separated volume was
 /// requested but its stream is not in the detail buffer.

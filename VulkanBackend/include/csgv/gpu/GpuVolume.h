@@ -169,6 +169,7 @@ public:
     struct FrameDecode {
         std::vector<DecodePush> pushes;
         Buffer params;
+        bool overlapped = false; ///< Carry::overlap took: the first dispatch publishes, the last may run beside the next
     };
     /// For the frame pipeline: appends the dispatches that decode requests written by the GPU
     /// (kDecodeEntryWords each at address `requests`: brick, inverse level, cache word offset; their
@@ -187,6 +188,12 @@ public:
         uint64_t alloc = 0;          ///< the cache counters (0: no carry)
         uint64_t bricks = 0;         ///< the brick table, a word a brick after it (kInFlightValid: 20 bytes a brick in all)
         uint64_t next = 0, nextStates = 0; ///< the next frame's decode list and states
+        /// Where the frame's steps are one dispatch (stepsPerFrame set): its decodes may run beside
+        /// what follows them (the render), which then must not read what they write. A decode that
+        /// ends is not published in its frame but moved to the next list too; a first dispatch
+        /// (kDecodeParamPublish), to run before the frame's cache passes, publishes those of the
+        /// previous frame and the progress of the running ones (FrameDecode::overlapped).
+        bool overlap = false;
     };
     Status appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress, uint64_t statesAddress,
                              uint32_t maxRequests, FrameDecode& storage, std::vector<Context::Dispatch>& out,

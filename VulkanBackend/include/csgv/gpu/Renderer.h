@@ -129,6 +129,12 @@ struct RendererOptions {
     /// tracing's deep bounces (as they read detail streaming's stand-ins); exact rays still find
     /// it missing. Off: one label a brick, as before (tests compare both).
     bool inFlightPreviews = true;
+    /// Where GPU decodes carry over frames, a frame that spares steps runs its decode beside its
+    /// render (no barrier between them): a decode is one long invocation a brick, so the render
+    /// no longer waits for the longest brick's steps, and the device runs both at once. A decode
+    /// that ends then shows a frame later (published by the next frame's first dispatch). Off:
+    /// the render waits for the decode (tests compare both).
+    bool overlapDecodes = true;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
     /// detail buffer that receives finest-level streams (0: room for two frames' requests of
     /// average streams, at most all streams and a quarter of what the budget leaves beside the
@@ -230,7 +236,7 @@ struct FrameStats {
     double milliseconds = 0;      ///< wall time of the frame's submission
     uint32_t frame = 0;           ///< frames since the last reset of the accumulation
     uint32_t decodedBricks = 0;   ///< bricks the frame decoded, those it carried on included
-    uint32_t carriedDecodes = 0;  ///< decodes still running after the frame (RendererOptions::decodeStepsPerFrame)
+    uint32_t carriedDecodes = 0;  ///< decodes moved to the next frame (RendererOptions::decodeStepsPerFrame): still running, or ended beside an overlapped render (overlapDecodes)
     uint32_t newSamples = 0;      ///< pixels that gained a sample
     uint32_t missingPixels = 0;   ///< pixels whose ray met a brick not yet in the cache
     uint32_t minSamples = 0;      ///< fewest samples of any pixel after the frame
