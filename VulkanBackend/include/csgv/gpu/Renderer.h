@@ -152,7 +152,8 @@ struct RendererOptions {
     /// invocation, so a frame that decodes waits for its longest brick (about 5 ms on an H200 for a
     /// finest-level brick, whatever else the frame does): with fewer steps its decoding goes on in
     /// the next frames, the rays finding the brick missing until it ends (previews stand in while
-    /// the camera moves, at the levels its decoding completed: inFlightPreviews). H200, synth 2048^3 at 1920x1080, one frame a pose of an orbit: median
+    /// the camera moves, at the levels its decoding completed: inFlightPreviews), and such a frame
+    /// renders beside its decode (overlapDecodes). Before the overlap, H200, synth 2048^3 at 1920x1080, one frame a pose of an orbit: median
     /// 6.8 ms a frame with every step, 4.1 with 2048, 3.2 with 1024, 2.7 with 512, the pixels
     /// showing previews 3 %, 12 %, 22 % and 37 % (frame time against detail while moving: on that
     /// GPU every choice is above a display's refresh). Steps are spared in a frame
