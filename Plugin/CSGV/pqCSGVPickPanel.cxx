@@ -146,6 +146,7 @@ void pqCSGVPickPanel::clearPick()
   this->Result->clear();
   this->Hide->setEnabled(false);
   this->ShowOnly->setEnabled(false);
+  this->updateSelectionInfo(); // Show all's display may have been the pick's
 }
 
 void pqCSGVPickPanel::representationRemoved(pqRepresentation* representation)
@@ -357,15 +358,9 @@ void pqCSGVPickPanel::showOnlyLabel()
 
 void pqCSGVPickPanel::showAllLabels()
 {
-  vtkSMProxy* display = this->LastDisplay;
-  if (!display)
-  {
-    if (pqDataRepresentation* r = pqActiveObjects::instance().activeRepresentation())
-    {
-      display = r->getProxy();
-    }
-  }
-  this->editVisibility("Show all labels", display, pqCSGV::LabelVisibility::ShowAll);
+  // The display the selection buttons act on (a Label Table active in a Spreadsheet: its
+  // volume's; GUI pass 15 found Show all enabled there but editing nothing).
+  this->editVisibility("Show all labels", this->selectionDisplay(), pqCSGV::LabelVisibility::ShowAll);
 }
 
 vtkSMProxy* pqCSGVPickPanel::selectionDisplay() const
@@ -392,9 +387,10 @@ void pqCSGVPickPanel::updateSelectionInfo()
 {
   vtkSMProxy* display = this->selectionDisplay();
   const std::vector<uint32_t> labels = pqCSGV::selectedLabels(display);
-  for (QPushButton* b : { this->ClearSelection, this->ExtractSelection })
+  for (QPushButton* b : { this->ClearSelection, this->ExtractSelection, this->ShowAll })
   {
-    if (labels.empty() && b->hasFocus())
+    const bool enabled = b == this->ShowAll ? display != nullptr : !labels.empty();
+    if (!enabled && b->hasFocus())
     {
       // A focused button that is disabled hands the focus to the next field, the SQL box, which
       // then took the view's shortcut keys ('s' for Select Cells: found by a GUI pass): the view
@@ -405,7 +401,7 @@ void pqCSGVPickPanel::updateSelectionInfo()
         this->View->widget()->setFocus();
       }
     }
-    b->setEnabled(!labels.empty());
+    b->setEnabled(enabled);
   }
   if (!display || labels.empty())
   {

@@ -314,6 +314,7 @@ private Q_SLOTS:
     // Nothing picked: the edits that need a pick are off.
     QVERIFY(!panel->findChild<QPushButton*>("hideLabel")->isEnabled());
     QVERIFY(!panel->findChild<QPushButton*>("showOnlyLabel")->isEnabled());
+    QVERIFY2(!panel->findChild<QPushButton*>("showAllLabels")->isEnabled(), "no volume to show all of");
     // Narrow enough to sit beside a view: two buttons a row (one row of four widened a window
     // that filled a 1600-pixel screen past it).
     QVERIFY2(panel->minimumSizeHint().width() < 420,
@@ -354,6 +355,8 @@ private Q_SLOTS:
     QVERIFY2(panel.lastPick().value("hit").toBool(), "a click on the volume picks a label");
     const qint64 label = qint64(panel.lastPick().value("label").toDouble());
     QVERIFY(hide->isEnabled());
+    QPushButton* showAll = panel.findChild<QPushButton*>("showAllLabels");
+    QVERIFY(showAll->isEnabled());
     QTest::mouseClick(hide, Qt::LeftButton);
     const QJsonObject edited =
       QJsonDocument::fromJson(vtkSMPropertyHelper(proxy, "CSGVMaterials").GetAsString()).object();
@@ -366,6 +369,8 @@ private Q_SLOTS:
     pqActiveObjects::instance().setActiveView(other);
     QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
       "another active view clears the pick");
+    // Show all has no volume to act on there (GUI pass 15: enabled, it edited nothing).
+    QVERIFY(!showAll->isEnabled());
 
     pqActiveObjects::instance().setActiveView(view);
     view->forceRender();
@@ -535,6 +540,8 @@ private Q_SLOTS:
         sheetPanel.show();
         QVERIFY2(sheetPanel.findChild<QLabel*>("selectionInfo")->text().startsWith("1 label selected"),
           qPrintable(sheetPanel.findChild<QLabel*>("selectionInfo")->text()));
+        // ... and Show all acts on the table's volume there.
+        QVERIFY(sheetPanel.findChild<QPushButton*>("showAllLabels")->isEnabled());
       }
       core->getUndoStack()->undo();
       builder->destroy(sheet);
