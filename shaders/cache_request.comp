@@ -57,7 +57,8 @@ void requestBrick(uint b) {
     const uint flag = visible ? (level != wanted ? kBrickStandIn : 1u) : 0u;
     if (s.w != flag) bricks.v[b].w = flag; // materials changed, or the brick's detail
 #if CARRY_DECODES
-    // Being decoded (a region, no level yet): left alone until its decoding ends.
+    // Being decoded (a region, no level yet): left alone until its decoding ends (overlapped
+    // decodes: until the frame's first dispatch publishes it, which runs before this pass).
     if (s.y == kNone && s.x != kNone) return;
 #endif
     if (s.y != kNone) {

@@ -24,32 +24,34 @@ layout(push_constant) uniform Push {
 void main() {
     const uint i = gl_GlobalInvocationID.x;
     Uints params = Uints(pc.params);
-    const uint count = Uints(pc.count).w[0];
-    const uint steps = params.w[1];
-    const uint first = params.w[2];
-    if (i >= count) return;
     Uints req = Uints(pc.requests);
-    const uint brick = req.w[kDecodeEntryWords * i];
-    const uint target = req.w[kDecodeEntryWords * i + 1u] & ~kDecodeEntryFailed;
-    const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
     Uints saved = Uints(pc.states);
     uint o = kDecodeStateWords * i;
-    // Decodes that carry over frames (pc.alloc set, RendererOptions::decodeStepsPerFrame): the
-    // list's first kAllocCarried entries continue from the previous frame, their states saved.
-    const bool carry = pc.alloc != 0ul;
-    const bool carried = carry && i < Uints(pc.alloc).w[kAllocCarried];
     Uints progress = Uints(pc.bricks + inFlightWordsOffset(BRICK_GRID.x * BRICK_GRID.y * BRICK_GRID.z));
     if (params.w[kDecodeParamPublish] != 0u) {
-        // An overlapped frame's first dispatch, before its cache passes and its render: the carried
-        // decodes that ended in the previous frame are published (the rays may read them), those
-        // still running show their progress (previews; see below).
-        if (!carried) return;
+        // A frame's first dispatch, before its request pass (which then treats these bricks as
+        // cached: a level the view no longer wants is evicted before any ray samples it): the
+        // decodes the previous frame carried into this list (kAllocCarry, its first entries) that
+        // ended are published, those still running show their progress (previews; see below).
+        if (i >= Uints(pc.alloc).w[kAllocCarry]) return;
+        const uint brick = req.w[kDecodeEntryWords * i];
+        const uint target = req.w[kDecodeEntryWords * i + 1u] & ~kDecodeEntryFailed;
         if (saved.w[o + kDecodeStateStatus] != kDecodeRunning)
             Uvec4s(pc.bricks).v[brick].y = LEVELS - 1u - target;
         else if (saved.w[o] >= 1u)
             progress.w[brick] = kInFlightValid | ((LEVELS - saved.w[o]) << 8u) | (LEVELS - 1u - target);
         return;
     }
+    const uint count = Uints(pc.count).w[0];
+    const uint steps = params.w[1];
+    const uint first = params.w[2];
+    if (i >= count) return;
+    const uint brick = req.w[kDecodeEntryWords * i];
+    const uint target = req.w[kDecodeEntryWords * i + 1u] & ~kDecodeEntryFailed;
+    const uint region = req.w[kDecodeEntryWords * i + 2u] * CACHE_PER_WORD; // words -> cache entries
+    // Decodes that carry over frames (pc.alloc set, RendererOptions::decodeStepsPerFrame): the
+    // list's first kAllocCarried entries continue from the previous frame, their states saved.
+    const bool carry = pc.alloc != 0ul;
     // Overlapped: the frame's render runs beside this dispatch and must read nothing it writes.
     const bool defer = params.w[kDecodeParamDefer] != 0u;
     Brick b = openBrick(Addresses(pc.arrays), Words(pc.starts), brick, pc.detail, pc.ring);
@@ -80,9 +82,9 @@ void main() {
             params.w[kDecodeParamFailedCode] = st.status;
         }
     }
-    // Ended (or failed: drawn empty): the rays may read it. A carried decode that ended in an
-    // overlapped frame (deferred) is published here where no publish dispatch came first.
-    if (carry && !defer && (ended || (carried && !running)))
+    // Ended (or failed: drawn empty): the rays may read it (deferred: the next frame's first
+    // dispatch publishes it).
+    if (carry && !defer && ended)
         Uvec4s(pc.bricks).v[brick].y = LEVELS - 1u - target;
     if (carry && !defer && st.status == kDecodeRunning && st.level >= 1u) {
         // Its progress for previews (kInFlightValid, after the brick table): the levels above

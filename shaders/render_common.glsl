@@ -728,20 +728,22 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
 #if IN_FLIGHT_PREVIEWS
                     // A node of a brick in flight whose children the decoder has visited holds its
                     // last child's label in its last word: kNone where that child lies outside the
-                    // volume (a brick at the volume's upper faces). Its first child, at the node's
-                    // low corner, is inside (the walker is): the last word of that child's range.
-                    const uint firstChild = (entry & ~inFlightMask) | (inFlightMask >> 3u);
+                    // volume (a brick at the volume's upper faces). It then shows the brick's
+                    // preview label: its first child's word may be written by a decode running
+                    // beside this pass (RendererOptions::overlapDecodes) and read stale, a label
+                    // of the region's previous brick.
+                    const uint inFlightNone = visibleEntry(b).x;
 #endif
 #if UNIFORM_LEVELS
                     uint word = entryWord(s.x, entry); // the label, its uniform level above it
 #if IN_FLIGHT_PREVIEWS
-                    if (inFlightMask != 0u && word == kNone) word = entryWord(s.x, firstChild);
+                    if (inFlightMask != 0u && word == kNone) word = inFlightNone; // level 0
 #endif
                     const uint voxelLabel = wordLabel(word);
 #else
                     uint voxelLabel = entryLabel(s.x, entry, palette);
 #if IN_FLIGHT_PREVIEWS
-                    if (inFlightMask != 0u && voxelLabel == kNone) voxelLabel = entryLabel(s.x, firstChild, palette);
+                    if (inFlightMask != 0u && voxelLabel == kNone) voxelLabel = inFlightNone;
 #endif
 #endif
                     if (entersCandidate(w, voxelLabel, label)) {

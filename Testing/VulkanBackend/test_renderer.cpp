@@ -2743,6 +2743,45 @@ TEST(Renderer, ChangesThatKeepTheImageKeepTheAccumulation) {
     EXPECT_EQ(r->output().rgba8, translucent);
 }
 
+// Overlapped decodes (RendererOptions::overlapDecodes) publish a decode that ended beside a
+// render in the next frame, before its request pass: a brick decoded at a level a far camera
+// wanted is evicted before the next view, nearer, samples it (found by a review: published after
+// that pass, the near view's first frame sampled the far level, and with one sample a pixel those
+// samples were its final image).
+TEST(Renderer, OverlappedDecodesNeverShowALevelTheNextViewDoesNotWant) {
+    CSGV_REQUIRE_GPU(ctx);
+    Scene& scene = fixtureScene(*ctx, "synthA_b32_rans2.csgv");
+    RenderSettings st;
+    st.jitter = false;
+    st.denoise = false;
+    st.sampleTarget = 1;
+    RendererOptions o;
+    o.decode = RendererOptions::Decode::Gpu;
+    o.decodeStepsPerFrame = 300;
+    o.prefetchVoxels = 0;
+    const FrameInput nearView = perspectiveView({-40, 150, 170}, {48, 40, 30}, {0, 0, 1}, 40, 96, 72);
+    std::unique_ptr<Renderer> fresh = sceneRenderer(*ctx, scene, o, st);
+    ASSERT_TRUE(fresh);
+    const FrameOutput want = renderConverged(*fresh, nearView, 1, 400);
+    for (const double far : {4.0, 8.0}) {
+        std::unique_ptr<Renderer> r = sceneRenderer(*ctx, scene, o, st);
+        ASSERT_TRUE(r);
+        // A camera far away, moving (every frame begins an accumulation: overlapped), then near:
+        // the second far frame decodes what the first one's rays found missing (at far levels).
+        for (int f = 0; f < 2; ++f) {
+            const double a = 0.02 * f;
+            Result<FrameStats> s = r->renderFrame(perspectiveView(
+                {48 + far * (-88 * std::cos(a) + 110 * std::sin(a)), 40 + far * 110 * std::cos(a), 30 + far * 140}, {48, 40, 30},
+                {0, 0, 1}, 40, 96, 72));
+            ASSERT_TRUE(s.isOk()) << s.message();
+        }
+        const FrameOutput got = renderConverged(*r, nearView, 1, 400);
+        EXPECT_EQ(got.label, want.label) << "from " << far << " times as far";
+        EXPECT_EQ(got.depth, want.depth) << "from " << far << " times as far";
+        EXPECT_EQ(differingValues(got.rgba, want.rgba), 0u) << "from " << far << " times as far";
+    }
+}
+
 TEST(Renderer, SmallVolumesHaveEveryVisibleBrickDecodedAtTheFirstFrame) {
     CSGV_REQUIRE_GPU(ctx);
     // denseB: 60 bricks of 16^3, far below RendererOptions::prefetchVoxels.

@@ -462,6 +462,11 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     const uint32_t tile = kGroupTile * pixelBlock; // kGroupTile^2 invocations of PIXEL_BLOCK^2 pixels
     if (accumulation.clearPending) addClear(in);
     const uint32_t perGroup = kGroupBricks * requestBlock;
+    // Overlapped decodes (RendererOptions::overlapDecodes): the decodes that ended beside the last
+    // frame's render are published first, so the request pass sees them (a level the view no
+    // longer wants is evicted before a ray samples it).
+    if (!resolved.hostDecode && frameDecode[decodeParity][0].overlapped)
+        dispatches.push_back(decodeDispatches[decodeParity][0].front());
     addDispatch(pRequest, &frameAddress, 8, (brickCount + perGroup - 1) / perGroup, 1);
     addDispatch(pProvision, &frameAddress, 8, 1, 1);
     addDispatch(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
@@ -479,11 +484,13 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         const bool prefetching = (hostParams().frame[1] & kFlagPrefetch) != 0; // packState ran
         decodeWhole = resolved.carrySteps && (incomplete || prefetching || cacheState.evictAge != 0 || cacheState.limitRequests);
         const auto& passes = decodeDispatches[decodeParity][decodeWhole];
-        // Overlapped (RendererOptions::overlapDecodes): the publishing dispatch here, the decode
-        // right before the render, beside it; the cache passes between see the decodes published.
-        const size_t early = frameDecode[decodeParity][decodeWhole].overlapped ? 1 : passes.size();
-        dispatches.insert(dispatches.end(), passes.begin(), passes.begin() + early);
-        overlappedDecode.assign(passes.begin() + early, passes.end());
+        // Overlapped (RendererOptions::overlapDecodes): the decode right before the render, beside
+        // it (its set's first dispatch, the publishing one, came before the request pass).
+        overlappedDecode.clear();
+        if (frameDecode[decodeParity][decodeWhole].overlapped)
+            overlappedDecode.assign(passes.begin() + 1, passes.end());
+        else
+            dispatches.insert(dispatches.end(), passes.begin(), passes.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
     } else {
         overlappedDecode.clear();

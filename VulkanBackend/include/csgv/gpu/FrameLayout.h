@@ -145,7 +145,7 @@ CSGV_CONST(uint32_t, kAllocPops, 32u)        ///< + lod
 CSGV_CONST(uint32_t, kAllocProvBase, 40u)    ///< + lod
 CSGV_CONST(uint32_t, kAllocProvCount, 48u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocNextKept, 56u)    ///< kFlagListNext: fewest samples of the cells the next frame's list leaves out (kNone: none)
-CSGV_CONST(uint32_t, kAllocCarry, 57u)      ///< CARRY_DECODES: decodes the frame's last decode dispatch left unfinished, moved to the other decode list for the next frame
+CSGV_CONST(uint32_t, kAllocCarry, 57u)      ///< CARRY_DECODES: decodes the frame's last decode dispatch left unfinished (overlapped: and those that ended, unpublished), moved to the other decode list for the next frame
 CSGV_CONST(uint32_t, kAllocCarried, 58u)    ///< CARRY_DECODES: this frame's decodes carried from the previous frame (its list's first entries)
 CSGV_CONST(uint32_t, kAllocWords, 59u)
 
@@ -209,7 +209,8 @@ CSGV_CONST(uint32_t, kDecodeParamFailedBrick, 4u)
 CSGV_CONST(uint32_t, kDecodeParamFailedCode, 5u)
 /// Word of a frame's decode dispatch parameters: 1 in the frame's last decode dispatch where
 /// decodes carry over frames (RendererOptions::decodeStepsPerFrame): it moves those still running
-/// to the other decode list (DecodePush::next), their states too, for the next frame.
+/// (kDecodeParamDefer: and those that ended) to the other decode list (DecodePush::next), their
+/// states too, for the next frame.
 CSGV_CONST(uint32_t, kDecodeParamCarry, 6u)
 /// Word of a frame's decode dispatch parameters: 1 where a failed decode only marks its entry
 /// (kDecodeEntryFailed on its inverse level) and cache_uniform.comp fills its region, 64
@@ -218,11 +219,14 @@ CSGV_CONST(uint32_t, kDecodeParamCarry, 6u)
 CSGV_CONST(uint32_t, kDecodeParamMarkFailed, 7u)
 /// Words of a frame's decode dispatch parameters where the frame's render runs beside its decode
 /// (an overlapped frame, RendererOptions::overlapDecodes: no barrier between them, so the render
-/// must read nothing the decode writes). kDecodeParamDefer: 1 in its decode dispatch, where a
+/// must read nothing the decode writes, but previews of bricks in flight, which take a word either
+/// before or after the decoder rewrites it: a label of its node either way, kNone read as the
+/// brick's preview label). kDecodeParamDefer: 1 in its decode dispatch, where a
 /// decode that ends is not published (its level) but moved, ended, to the next frame's list too.
-/// kDecodeParamPublish: 1 in the dispatch that comes first in such a frame, before the cache
-/// passes: it decodes nothing, it publishes the carried decodes that ended (their level) and the
-/// progress of those still running (kInFlightValid), read from their saved states.
+/// kDecodeParamPublish: 1 in the dispatch that comes first in every frame of such a renderer,
+/// before its request pass: it decodes nothing, it publishes the decodes the previous frame
+/// carried (kAllocCarry) that ended (their level) and the progress of those still running
+/// (kInFlightValid), read from their saved states.
 CSGV_CONST(uint32_t, kDecodeParamDefer, 8u)
 CSGV_CONST(uint32_t, kDecodeParamPublish, 9u)
 CSGV_CONST(uint32_t, kDecodeEntryFailed, 0x80000000u) ///< on a decode entry's inverse level: its decoding failed

@@ -182,7 +182,7 @@ public:
     /// brick: the frame's last dispatch moves the decodes still running, their states too, to the
     /// list at `carry.next` for the next frame (whose first entries they are; kAllocCarry,
     /// kAllocCarried), and a decode that ends sets its brick's level in the brick table (until then
-    /// the brick is missing to the rays).
+    /// the brick is missing to the rays; with `overlap`, the next frame's publishing dispatch).
     struct Carry {
         uint32_t stepsPerFrame = 0;  ///< 0: every step (the carried decodes end in this frame too)
         uint64_t alloc = 0;          ///< the cache counters (0: no carry)
@@ -191,8 +191,8 @@ public:
         /// Where the frame's steps are one dispatch (stepsPerFrame set): its decodes may run beside
         /// what follows them (the render), which then must not read what they write. A decode that
         /// ends is not published in its frame but moved to the next list too; a first dispatch
-        /// (kDecodeParamPublish), to run before the frame's cache passes, publishes those of the
-        /// previous frame and the progress of the running ones (FrameDecode::overlapped).
+        /// (kDecodeParamPublish), to run first in every frame (before its request pass), publishes
+        /// those of the previous frame and the progress of the running ones (FrameDecode::overlapped).
         bool overlap = false;
     };
     Status appendFrameDecode(uint64_t requests, uint64_t countAddress, uint64_t cacheAddress, uint64_t statesAddress,

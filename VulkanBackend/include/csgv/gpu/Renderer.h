@@ -132,7 +132,8 @@ struct RendererOptions {
     /// Where GPU decodes carry over frames, a frame that spares steps runs its decode beside its
     /// render (no barrier between them): a decode is one long invocation a brick, so the render
     /// no longer waits for the longest brick's steps, and the device runs both at once. A decode
-    /// that ends then shows a frame later (published by the next frame's first dispatch). Off:
+    /// that ends then shows a frame later (published by the next frame's first dispatch, before
+    /// its request pass). Off:
     /// the render waits for the decode (tests compare both).
     bool overlapDecodes = true;
     /// Detail streaming (GPU decoding of a separated volume, GpuVolume::separated): bytes of the
