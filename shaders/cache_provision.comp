@@ -17,6 +17,8 @@ void main() {
 #if CARRY_DECODES
     const uint carried = min(alloc.w[kAllocCarry], fv.limits.x);
     alloc.w[kAllocCarry] = 0u;
+    alloc.w[kAllocCarriedEnded] = min(alloc.w[kAllocCarryEnded], carried); // overlapped: published, not decoded
+    alloc.w[kAllocCarryEnded] = 0u;
 #else
     const uint carried = 0u;
 #endif

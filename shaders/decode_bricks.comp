@@ -98,6 +98,7 @@ void main() {
         // The frame's steps are spent: on in the next frame's list (deferred: ended too, for the
         // next frame to publish, failed ones marked).
         const uint k = atomicAdd(Uints(pc.alloc).w[kAllocCarry], 1u);
+        if (st.status != kDecodeRunning) atomicAdd(Uints(pc.alloc).w[kAllocCarryEnded], 1u); // ended (deferred)
         Uints next = Uints(pc.next);
         next.w[kDecodeEntryWords * k] = brick;
         next.w[kDecodeEntryWords * k + 1u] = req.w[kDecodeEntryWords * i + 1u];

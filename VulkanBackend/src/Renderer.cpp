@@ -867,8 +867,10 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
 
     const uint32_t* a = allocWords();
     stats.frame = accumulation.accumulatedFrames;
-    stats.decodedBricks = a[kAllocDecodes];
-    stats.carriedDecodes = a[kAllocCarry]; // 0 unless decodes carry (cache_provision.comp)
+    stats.decodedBricks = a[kAllocDecodes] - std::min(a[kAllocDecodes], a[kAllocCarriedEnded]);
+    // 0 unless decodes carry (cache_provision.comp); overlapped decodes that ended are carried to be
+    // published, not decoded: they count in neither.
+    stats.carriedDecodes = a[kAllocCarry] - std::min(a[kAllocCarry], a[kAllocCarryEnded]);
     stats.newSamples = a[kAllocNewSamples];
     stats.missingPixels = a[kAllocMissing];
     stats.minSamples = a[kAllocMinSamples] == kNone ? 0 : a[kAllocMinSamples];

@@ -147,7 +147,9 @@ CSGV_CONST(uint32_t, kAllocProvCount, 48u)   ///< + lod
 CSGV_CONST(uint32_t, kAllocNextKept, 56u)    ///< kFlagListNext: fewest samples of the cells the next frame's list leaves out (kNone: none)
 CSGV_CONST(uint32_t, kAllocCarry, 57u)      ///< CARRY_DECODES: decodes the frame's last decode dispatch left unfinished (overlapped: and those that ended, unpublished), moved to the other decode list for the next frame
 CSGV_CONST(uint32_t, kAllocCarried, 58u)    ///< CARRY_DECODES: this frame's decodes carried from the previous frame (its list's first entries)
-CSGV_CONST(uint32_t, kAllocWords, 59u)
+CSGV_CONST(uint32_t, kAllocCarryEnded, 59u)   ///< overlapped decodes: of kAllocCarry, those that ended (the next frame publishes them, decoding nothing)
+CSGV_CONST(uint32_t, kAllocCarriedEnded, 60u) ///< overlapped decodes: of kAllocCarried, those that ended (published by this frame's first dispatch, not decoded)
+CSGV_CONST(uint32_t, kAllocWords, 61u)
 
 // Workgroup sizes (the shaders' local_size, the host's group counts).
 CSGV_CONST(uint32_t, kGroupBricks, 64u)  ///< cache_request.comp (per brick), cache_assign.comp (per request)

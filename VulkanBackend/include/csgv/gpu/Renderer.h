@@ -238,7 +238,7 @@ struct FrameStats {
     double milliseconds = 0;      ///< wall time of the frame's submission
     uint32_t frame = 0;           ///< frames since the last reset of the accumulation
     uint32_t decodedBricks = 0;   ///< bricks the frame decoded, those it carried on included
-    uint32_t carriedDecodes = 0;  ///< decodes moved to the next frame (RendererOptions::decodeStepsPerFrame): still running, or ended beside an overlapped render (overlapDecodes)
+    uint32_t carriedDecodes = 0;  ///< decodes still running after the frame (RendererOptions::decodeStepsPerFrame)
     uint32_t newSamples = 0;      ///< pixels that gained a sample
     uint32_t missingPixels = 0;   ///< pixels whose ray met a brick not yet in the cache
     uint32_t minSamples = 0;      ///< fewest samples of any pixel after the frame
