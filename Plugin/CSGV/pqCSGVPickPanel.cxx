@@ -134,6 +134,9 @@ void pqCSGVPickPanel::build()
   connect(&pqActiveObjects::instance(),
     QOverload<pqRepresentation*>::of(&pqActiveObjects::representationChanged), this,
     &pqCSGVPickPanel::updateSelectionInfo);
+  // The active data set too: the one shown in another view than the active one has no active
+  // representation to change (GUI pass 14: a click on the reader with a Spreadsheet active).
+  connect(&pqActiveObjects::instance(), &pqActiveObjects::sourceChanged, this, &pqCSGVPickPanel::updateSelectionInfo);
   this->updateSelectionInfo();
   // An optional dock, hidden until the user opens it from the View menu (see the class comment).
   this->hide();
@@ -377,9 +380,16 @@ vtkSMProxy* pqCSGVPickPanel::selectionDisplay() const
   // A filter of a segmentation is active (its Label Table, whose rows select labels, shown in a
   // Spreadsheet view: GUI pass 10 read "No label selected" there): the selection of its input's
   // volume, one per data set.
-  auto* filter = qobject_cast<pqPipelineFilter*>(pqActiveObjects::instance().activeSource());
+  pqPipelineSource* active = pqActiveObjects::instance().activeSource();
+  auto* filter = qobject_cast<pqPipelineFilter*>(active);
   pqOutputPort* input = filter ? filter->getAnyInput() : nullptr;
-  const QList<vtkSMProxy*> displays = pqCSGVLabelSelection::volumeDisplaysOf(input);
+  QList<vtkSMProxy*> displays = pqCSGVLabelSelection::volumeDisplaysOf(input);
+  // The active data set's own volume, shown in a view that is not active (GUI pass 14 read "No
+  // label selected" with the reader active and a Spreadsheet view active).
+  if (displays.isEmpty() && active)
+  {
+    displays = pqCSGVLabelSelection::volumeDisplaysOf(active->getOutputPort(0));
+  }
   return displays.isEmpty() ? nullptr : displays.front();
 }
 

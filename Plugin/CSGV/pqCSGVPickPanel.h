@@ -99,7 +99,8 @@ private Q_SLOTS:
 private:
   void build();
   /// The display the selection buttons and Show all act on: the last picked one, else the active
-  /// one, else the volume of an active filter's input (a Label Table); none: they are disabled.
+  /// one, else the volume of an active filter's input (a Label Table), else the active data set's
+  /// volume in another view; none: they are disabled.
   vtkSMProxy* selectionDisplay() const;
   void editVisibility(const QString& undoLabel, vtkSMProxy* display, pqCSGV::LabelVisibility edit);
 

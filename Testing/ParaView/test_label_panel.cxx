@@ -369,8 +369,12 @@ private Q_SLOTS:
     pqActiveObjects::instance().setActiveView(other);
     QVERIFY2(panel.lastPick().isEmpty() && !hide->isEnabled() && result->toPlainText().isEmpty(),
       "another active view clears the pick");
-    // Show all has no volume to act on there (GUI pass 15: enabled, it edited nothing).
+    // Show all acts on the active data set's volume, shown in the other view, and is disabled
+    // with no data set active (GUI pass 15: enabled, it edited nothing).
+    pqActiveObjects::instance().setActiveSource(nullptr);
     QVERIFY(!showAll->isEnabled());
+    pqActiveObjects::instance().setActiveSource(source);
+    QVERIFY(showAll->isEnabled());
 
     pqActiveObjects::instance().setActiveView(view);
     view->forceRender();
@@ -542,6 +546,16 @@ private Q_SLOTS:
           qPrintable(sheetPanel.findChild<QLabel*>("selectionInfo")->text()));
         // ... and Show all acts on the table's volume there.
         QVERIFY(sheetPanel.findChild<QPushButton*>("showAllLabels")->isEnabled());
+      }
+      // And while the volume's reader is active with the Spreadsheet view (GUI pass 14: it said
+      // "No label selected", the selection still drawn).
+      {
+        pqActiveObjects::instance().setActiveView(sheet);
+        pqActiveObjects::instance().setActiveSource(source);
+        pqCSGVPickPanel readerPanel;
+        readerPanel.show();
+        QVERIFY2(readerPanel.findChild<QLabel*>("selectionInfo")->text().startsWith("1 label selected"),
+          qPrintable(readerPanel.findChild<QLabel*>("selectionInfo")->text()));
       }
       core->getUndoStack()->undo();
       builder->destroy(sheet);
