@@ -91,7 +91,7 @@ void main() {
         // st.level are complete, nodes of edge 2^(LEVELS - st.level) finest voxels; the region
         // is laid out for level LEVELS - 1 - target. Decoding the next level overwrites a node's
         // last word with its last child's label: a label of that node, or kNone where that child
-        // lies outside the volume (march then reads the first child's).
+        // lies outside the volume (march then shows the brick's preview label).
         progress.w[brick] = kInFlightValid | ((LEVELS - st.level) << 8u) | (LEVELS - 1u - target);
     }
     if (carry && (st.status == kDecodeRunning || (defer && ended)) && params.w[kDecodeParamCarry] != 0u) {
