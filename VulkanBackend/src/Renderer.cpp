@@ -467,6 +467,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     // longer wants is evicted before a ray samples it).
     if (!resolved.hostDecode && frameDecode[decodeParity][0].overlapped)
         dispatches.push_back(decodeDispatches[decodeParity][0].front());
+    std::pair<const Context::Dispatch*, const Context::Dispatch*> beside{nullptr, nullptr}; // an overlapped decode
     addDispatch(pRequest, &frameAddress, 8, (brickCount + perGroup - 1) / perGroup, 1);
     addDispatch(pProvision, &frameAddress, 8, 1, 1);
     addDispatch(pAssign, &frameAddress, 8, (maxRequests + kGroupBricks - 1) / kGroupBricks, 1);
@@ -486,14 +487,11 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
         const auto& passes = decodeDispatches[decodeParity][decodeWhole];
         // Overlapped (RendererOptions::overlapDecodes): the decode right before the render, beside
         // it (its set's first dispatch, the publishing one, came before the request pass).
-        overlappedDecode.clear();
         if (frameDecode[decodeParity][decodeWhole].overlapped)
-            overlappedDecode.assign(passes.begin() + 1, passes.end());
+            beside = {passes.data() + 1, passes.data() + passes.size()};
         else
             dispatches.insert(dispatches.end(), passes.begin(), passes.end());
         addDispatch(pUniform, &frameAddress, 8, maxRequests, 1); // a group per decode (host decoding marks them itself)
-    } else {
-        overlappedDecode.clear();
     }
     // The sub-blocks without drawn labels: after a change of materials none, then (where there are
     // several labels undrawn) those of every cached brick; else those of the bricks decoded now
@@ -517,7 +515,7 @@ void Renderer::Impl::buildDispatches(const FrameInput& in, const RenderSettings&
     if (materialState.labelColorsPending) // the materials changed: their colours per label first (frame() made the pipeline)
         addDispatch(pLabelColors, &frameAddress, 8,
                     uint32_t(std::min<uint64_t>((lookup.entries() + kGroupLabels - 1) / kGroupLabels, 4096)), 1);
-    dispatches.insert(dispatches.end(), overlappedDecode.begin(), overlappedDecode.end()); // its last overlaps the render
+    dispatches.insert(dispatches.end(), beside.first, beside.second); // its last overlaps the render
     renderDispatch = dispatches.size();
     addDispatch(renderPipeline, &frameAddress, 8, (rw + tile - 1) / tile, (rh + tile - 1) / tile); // PIXEL_LIST: sized in submit()
     if (renderTexels.valid()) dispatches.back().texels = &renderTexels.sets[0];

@@ -501,7 +501,6 @@ struct Renderer::Impl {
     std::vector<Context::Dispatch> decodeDispatches[2][2];
     uint32_t decodeParity = 0;
     bool decodeWhole = false; ///< the frame being built decodes with every step (its set [parity][1])
-    std::vector<Context::Dispatch> overlappedDecode; ///< an overlapped frame's decode dispatch (buildDispatches)
     /// The decode list (or its states, `states`) a frame of parity `parity` decodes from.
     uint64_t decodeList(uint32_t parity, bool states = false) const {
         const Buffer& b = states ? decodeStates : decodes;
