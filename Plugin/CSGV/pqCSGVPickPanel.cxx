@@ -397,9 +397,8 @@ void pqCSGVPickPanel::updateSelectionInfo()
 {
   vtkSMProxy* display = this->selectionDisplay();
   const std::vector<uint32_t> labels = pqCSGV::selectedLabels(display);
-  for (QPushButton* b : { this->ClearSelection, this->ExtractSelection, this->ShowAll })
+  const auto enable = [this](QPushButton* b, bool enabled)
   {
-    const bool enabled = b == this->ShowAll ? display != nullptr : !labels.empty();
     if (!enabled && b->hasFocus())
     {
       // A focused button that is disabled hands the focus to the next field, the SQL box, which
@@ -412,7 +411,10 @@ void pqCSGVPickPanel::updateSelectionInfo()
       }
     }
     b->setEnabled(enabled);
-  }
+  };
+  enable(this->ClearSelection, !labels.empty());
+  enable(this->ExtractSelection, !labels.empty());
+  enable(this->ShowAll, display != nullptr);
   if (!display || labels.empty())
   {
     this->SelectionInfo->setText("No label selected.");
