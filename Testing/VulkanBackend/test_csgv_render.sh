@@ -26,6 +26,16 @@ expect 0 "render with a 1 MiB cache" "$CSGV" render "$DEF" "$TMP/k.png" --size 6
 grep -q "^cache_holds_view: no: view 0 touches .*(raise --cache-mib" "$TMP/out" && grep -q "^converged: yes$" "$TMP/out" &&
   pass "a cache too small for the view is named" || bad "a cache too small for the view is not named"
 cmp -s "$TMP/a.labels" "$TMP/k.labels" && pass "a small cache leaves the labels unchanged" || bad "labels differ with a small cache"
+# Issue 42: a cache that holds what an unconstrained orbit used converges within twice its frames
+# (a cache under four times the volume had each view find its bricks one layer a frame: 20
+# frames against 8).
+expect 0 "an orbit unconstrained" "$CSGV" render "$DEF" "$TMP/o.png" --size 160x120 --finest --decode gpu --camera volcanite --orbit 8
+FREE=$(awk '/^frames:/ { print $2 }' "$TMP/out"); USED=$(awk '/^cache_used_mib:/ { print int($2 + 0.999) }' "$TMP/out")
+expect 0 "the orbit with a cache of $USED MiB" "$CSGV" render "$DEF" "$TMP/o.png" --size 160x120 --finest --decode gpu \
+  --camera volcanite --orbit 8 --cache-mib "$USED"
+awk -v free="$FREE" '/^frames:/ { f = $2 } /^cache_holds_view: yes$/ { h = 1 } END { exit !(free >= 8 && h && f <= 2 * free) }' "$TMP/out" &&
+  pass "a cache that holds the orbit's bricks converges within twice the frames" ||
+  bad "a cache of $USED MiB: $(grep -E '^(frames|cache_holds_view):' "$TMP/out" | tr '\n' ' ') against $FREE frames"
 # GPU decodes carried over frames (--decode-steps): the same labels, more frames; with a cache too
 # small for the view too (frames then take every step).
 for cache in 0 1; do

@@ -917,11 +917,16 @@ struct Renderer::Impl {
     /// on lavapipe took six frames, 0.60 s, to its first complete image, 0.46 s in one frame with
     /// it. Only for small volumes, where decoding bricks no view ray needs costs little: a
     /// synthetic 256^3 (512 bricks) decodes in 130 ms on two cores, what a view needs in 22 ms.
+    /// The bricks, at the finest level, fit an empty cache whole, or a quarter of one that holds
+    /// bricks already (new visibility: room beside regions of other levels). A cache that holds
+    /// a view but not four times the volume was left to find each view's bricks one layer a frame:
+    /// an 8-view orbit of synthA at 160x120 took 20 frames under a 13 MiB cache, 8 without one.
     bool prefetches() const {
         const uint64_t edge = volume->volume().brickSize;
         const uint64_t voxels = uint64_t(visibleBricks) * edge * edge * edge;
         const uint64_t bytes = uint64_t(visibleBricks) * volume->regionWords(0) * 4;
-        return !detail && voxels <= resolved.prefetchVoxels && visibleBricks <= maxRequests && bytes <= cache.size() / 4;
+        const uint64_t room = cacheState.cacheEmpty ? cache.size() : cache.size() / 4;
+        return !detail && voxels <= resolved.prefetchVoxels && visibleBricks <= maxRequests && bytes <= room;
     }
 };
 
