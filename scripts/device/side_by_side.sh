@@ -10,6 +10,10 @@
 # With a baseline in the bundle (BASE_BUILD), ours as Volcanite renders them runs it too ("base").
 # Environment: as the two scripts' (VTIMEOUT defaults to 20 s a Volcanite render here, PROFILE to
 # 0); ORBITS=0 leaves gpu_check.sh's rows out, STILL=0 ours as Volcanite renders, PEER= Volcanite.
+# STILL_ARGS (e.g. "--lod-bias 0.5"): ours as Volcanite renders once more with those options
+# ("var"); IMAGES (e.g. "2048"): those volumes' still images, both peers', come back in images/
+# (to compare the level of detail each draws: lavapipe, 2048^3 at 1920x1080, took 22-31 % less
+# render time with --lod-bias 0.5, a level coarser where a voxel is 1-1.4 pixels wide).
 set -uo pipefail
 root=$(pwd)
 vols=${1:-"aal 256 512 1024 2048"}; modes=${2:-"local shadow ao pt"}
@@ -28,15 +32,16 @@ for n in $vols; do
     m=$modes; [ "$n" = 2048 ] && m=${BIG_MODES:-local}
     [ -n "$peer" ] && bash scripts/device/volcanite_check.sh "$n" "$m"
     # Two of Volcanite's renders past their time: the rest would be too (they cost the lease).
-    [ "$(grep -c '^volcanite .* rc 124 ' "$out/summary.txt" 2>/dev/null)" -ge 2 ] && peer=
+    late=$(grep -c '^volcanite .* rc 124 ' "$out/summary.txt" 2>/dev/null); [ "${late:-0}" -ge 2 ] && peer=
     if [ "${STILL:-1}" != 0 ] && v=$(volume_of "$n" "$csgv"); then
         for s in $m; do
-            for bin in "$csgv" ${base:+"$base"}; do  # with a baseline in the bundle, it right after
-                t=still_${n}_$s; who=ours
+            for bin in "$csgv" ${base:+"$base"} ${STILL_ARGS:+var}; do  # a baseline, a variant right after
+                t=still_${n}_$s; who=ours; extra=()
+                [ "$bin" = var ] && { bin=$csgv; t=${t}_var; who="ours $STILL_ARGS"; read -ra extra <<<"$STILL_ARGS"; }
                 [ "$bin" = "$csgv" ] || { t=${t}_base; who=base; }
                 t0=$(date +%s.%N)
                 timeout 60 "$bin" render "$v" "$res/$t.png" --size ${SIZE:-1920x1080} --shading $s \
-                    --frames ${vframes[$s]} --camera volcanite >"$res/$t.log" 2>&1
+                    --frames ${vframes[$s]} --camera volcanite "${extra[@]}" >"$res/$t.log" 2>&1
                 rc=$?
                 wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')
                 echo "$who $n $s rc $rc wall_s $wall: $(grep -E '^(frames|median_frame_ms|time_to_first_frame_ms|setup_ms):' \
@@ -44,6 +49,9 @@ for n in $vols; do
             done
         done
         tar -C $res -czf "$out/still_logs.tgz" $(cd $res && ls still_*.log)
+        if [[ " ${IMAGES:-} " == *" $n "* ]]; then
+            mkdir -p "$out/images" && cp -f $res/still_${n}_*.png $res/volcanite_${n}_*.png "$out/images/" 2>/dev/null
+        fi
     fi
     [ "${ORBITS:-1}" != 0 ] && SKIP_TESTS=1 bash scripts/device/gpu_check.sh "$n" "$m"
 done
