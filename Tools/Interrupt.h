@@ -141,7 +141,7 @@ private:
         if (m_done) return;
         // Not between the renames of a set being published: wait for them (microseconds), and
         // hold the lock until the process ends so that no other set starts.
-        const std::unique_lock<std::mutex> publishing = holdPublishing();
+        const PublishingHold publishing = holdPublishing();
         removeTemporaries();
         reportOnce(g_signal == SIGTERM ? "terminated (SIGTERM): stopped, no output written"
                                        : "interrupted (Ctrl-C): stopped, no output written");

@@ -22,6 +22,8 @@
 #include <unordered_map>
 #include <unordered_set>
 #include <filesystem>
+#include <pthread.h>
+#include <csignal>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <new>
@@ -291,6 +293,47 @@ TEST(Compress, NrrdWithNegativeAndWideLabelsComesBackExactly) {
     for (size_t i = 0; i < values.size(); ++i) ASSERT_EQ(f->originalLabel(d->labels[i]), values[i]) << i;
 }
 
+namespace {
+std::atomic<bool> g_publishingHeld{false};
+std::atomic<int> g_signalsInHold{0}, g_signalsAfterHold{0};
+void countSignal(int) { (g_publishingHeld ? g_signalsInHold : g_signalsAfterHold)++; }
+} // namespace
+
+// The thread that holds the publishing lock takes no SIGINT or SIGTERM: one sent to it waits until
+// the hold ends (the lock given back first). A handler run inside the hold could not wait for the
+// lock: Ctrl-C in pvpython left the old volume beside the new one as '<name>.tmp-...-old', once in
+// six saves of test_writer_interrupt.py. The thread's mask is as it was afterwards.
+TEST(Compress, SignalsToThePublishingThreadWaitForTheHoldToEnd) {
+    struct sigaction ours {}, previousInt {}, previousTerm {};
+    ours.sa_handler = countSignal;
+    sigemptyset(&ours.sa_mask);
+    ASSERT_EQ(sigaction(SIGINT, &ours, &previousInt), 0);
+    ASSERT_EQ(sigaction(SIGTERM, &ours, &previousTerm), 0);
+    {
+        const PublishingHold held = holdPublishing();
+        g_publishingHeld = true;
+        pthread_kill(pthread_self(), SIGINT);
+        pthread_kill(pthread_self(), SIGTERM);
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        EXPECT_EQ(g_signalsInHold.load(), 0) << "a signal was taken inside the hold";
+        g_publishingHeld = false;
+    }
+    EXPECT_EQ(g_signalsAfterHold.load(), 2) << "the signals sent in the hold were lost";
+    pthread_kill(pthread_self(), SIGINT);
+    EXPECT_EQ(g_signalsAfterHold.load(), 3) << "SIGINT stays blocked after the hold";
+    // A thread that blocked SIGINT itself keeps it blocked after a hold.
+    sigset_t intOnly, now;
+    sigemptyset(&intOnly);
+    sigaddset(&intOnly, SIGINT);
+    ASSERT_EQ(pthread_sigmask(SIG_BLOCK, &intOnly, nullptr), 0);
+    { const PublishingHold held = holdPublishing(); }
+    ASSERT_EQ(pthread_sigmask(SIG_UNBLOCK, &intOnly, &now), 0);
+    EXPECT_TRUE(sigismember(&now, SIGINT));
+    EXPECT_FALSE(sigismember(&now, SIGTERM));
+    sigaction(SIGINT, &previousInt, nullptr);
+    sigaction(SIGTERM, &previousTerm, nullptr);
+}
+
 // An interrupt watchdog holds the publishing lock before it removes temporaries and ends the
 // process (Tools/Interrupt.h): a set being published waits for it with every file complete under
 // its temporary name, and no rename of the set happens meanwhile (none lands half published).
@@ -300,7 +343,7 @@ TEST(Compress, PublishingWaitsForTheLockWithTheFilesComplete) {
     Status result;
     std::thread writer;
     {
-        const std::unique_lock<std::mutex> held = holdPublishing();
+        const PublishingHold held = holdPublishing();
         writer = std::thread([&] {
             result = compressToFile("synth:24x20x16:3", dir + "/v.csgv", CompressOptions{});
             done = true;

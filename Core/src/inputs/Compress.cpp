@@ -361,7 +361,7 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     };
     std::vector<Move> moves;
     // No interrupt between the renames (an interrupt watchdog waits for this, FileUtil.h).
-    const std::unique_lock<std::mutex> publishing = holdPublishing();
+    const PublishingHold publishing = holdPublishing();
     moves.push_back({mdTmp, mdPath, {}});
     if (mapping.relabelled) moves.push_back({dbTmp, db, {}});
     else if (fileExists(db)) moves.push_back({{}, db, {}});
