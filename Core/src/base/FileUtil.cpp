@@ -89,9 +89,9 @@ constexpr int kCleanedSignals[2] = {SIGINT, SIGTERM};
 struct sigaction g_previousActions[2];
 
 /// removeTemporaries from a signal handler, then the host's own handling of the signal. A set
-/// being published is given up to 500 ms (its renames take microseconds, removing the old files
-/// it replaces longer; the thread publishing takes no such signal: PublishingHold), and the list
-/// is read only when its lock is free at once. Nothing here allocates (unlinkTemporaries).
+/// being published is given up to 500 ms (its renames take microseconds, on a slow file system
+/// longer; the thread publishing takes no such signal: PublishingHold), and the list is read
+/// only when its lock is free at once. Nothing here allocates (unlinkTemporaries).
 void cleanOnSignal(int sig, siginfo_t* info, void* context) {
     std::unique_lock<std::mutex> publishing(publishingMutex(), std::defer_lock);
     for (int i = 0; i < 500 && !publishing.try_lock(); ++i) {
@@ -111,7 +111,11 @@ void cleanOnSignal(int sig, siginfo_t* info, void* context) {
         if (previous.sa_sigaction) previous.sa_sigaction(sig, info, context);
     } else if (previous.sa_handler == SIG_DFL) {
         ::signal(sig, SIG_DFL);
-        ::raise(sig); // ends the process when the signal is unblocked, as this handler returns
+        ::raise(sig); // pending: this handler blocks it ...
+        sigset_t only;
+        sigemptyset(&only);
+        sigaddset(&only, sig);
+        ::pthread_sigmask(SIG_UNBLOCK, &only, nullptr); // ... so it ends the process here, the lock held
     } else if (previous.sa_handler != SIG_IGN) {
         previous.sa_handler(sig);
     }
@@ -136,18 +140,19 @@ void removeTemporariesOnSignals() {
     });
 }
 
-PublishingHold::PublishingHold() {
-    sigset_t block;
+PublishingHold::SignalBlock::SignalBlock() {
+    sigset_t block, before;
     sigemptyset(&block);
+    sigemptyset(&added);
     for (int sig : kCleanedSignals) sigaddset(&block, sig);
-    ::pthread_sigmask(SIG_BLOCK, &block, &m_previousMask);
-    m_lock = std::unique_lock<std::mutex>(publishingMutex());
+    ::pthread_sigmask(SIG_BLOCK, &block, &before);
+    for (int sig : kCleanedSignals)
+        if (!sigismember(&before, sig)) sigaddset(&added, sig);
 }
 
-PublishingHold::~PublishingHold() {
-    m_lock.unlock();
-    ::pthread_sigmask(SIG_SETMASK, &m_previousMask, nullptr);
-}
+PublishingHold::SignalBlock::~SignalBlock() { ::pthread_sigmask(SIG_UNBLOCK, &added, nullptr); }
+
+PublishingHold::PublishingHold() : m_lock(publishingMutex()) {}
 
 PublishingHold holdPublishing() { return PublishingHold(); }
 

@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstring>
 #include <new>
+#include <optional>
 
 namespace csgv {
 
@@ -361,7 +362,8 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     };
     std::vector<Move> moves;
     // No interrupt between the renames (an interrupt watchdog waits for this, FileUtil.h).
-    const PublishingHold publishing = holdPublishing();
+    std::optional<PublishingHold> publishing;
+    publishing.emplace();
     moves.push_back({mdTmp, mdPath, {}});
     if (mapping.relabelled) moves.push_back({dbTmp, db, {}});
     else if (fileExists(db)) moves.push_back({{}, db, {}});
@@ -395,6 +397,12 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
         dropNew();
         return Status::error(s.message() + stranded);
     }
+    // The old files go after the hold: removing a large one may take long, and an interrupt
+    // meanwhile finds the lock free and removes what is left of them. Registered only now that
+    // the set is in (an old file a failed set could not put back stays where its error says).
+    for (const Move& m : moves)
+        if (m.asideDone) registerTemporary(m.aside);
+    publishing.reset();
     for (const Move& m : moves)
         if (m.asideDone) std::remove(m.aside.c_str());
     return Status::ok();

@@ -36,24 +36,33 @@ void removeTemporaries();
 /// interrupt handling (csgv's interrupt::Guard) does not call it. Found by an attack pass: Ctrl-C
 /// in pvbatch while the CSGV writer ran left its temporaries beside the output.
 void removeTemporariesOnSignals();
-/// @brief Held while a set of files is renamed into place (publishVolumeFiles: renames and the
-/// removal of the old files moved aside, nothing that may block). A tool's interrupt watchdog
-/// takes it before removeTemporaries() and keeps it until it ends the process, so an interrupt
-/// never lands between one set's renames (which would leave a new sidecar beside the old volume).
-/// The holding thread does not take SIGINT or SIGTERM meanwhile: another thread takes them, or
-/// this one once the hold ends (a handler run on the thread that holds the lock could not wait
-/// for it: Ctrl-C in pvpython left the old volume beside the new one as '<name>.tmp-...-old',
-/// once in six saves of test_writer_interrupt.py).
-class PublishingHold {
+/// @brief Held while a set of files is renamed into place (publishVolumeFiles, publishTogether:
+/// renames only, of microseconds; the old files a set replaces are removed after it). A tool's
+/// interrupt watchdog takes it before removeTemporaries() and keeps it until it ends the process,
+/// so an interrupt never lands between one set's renames (which would leave a new sidecar beside
+/// the old volume). The holding thread does not take SIGINT or SIGTERM meanwhile: another thread
+/// takes them, or this one once the hold ends (a handler run on the thread that holds the lock
+/// could not wait for it: Ctrl-C in pvpython left the old volume beside the new one as
+/// '<name>.tmp-...-old', once in six saves of test_writer_interrupt.py). Start no thread inside a
+/// hold: it would keep the signals blocked.
+class [[nodiscard]] PublishingHold {
 public:
     PublishingHold();
-    ~PublishingHold(); ///< the lock first, then the signals (one that came meanwhile finds it free)
+    ~PublishingHold() = default; ///< the lock first, then the signals (one that came meanwhile finds it free)
     PublishingHold(const PublishingHold&) = delete;
     PublishingHold& operator=(const PublishingHold&) = delete;
 
 private:
+    /// SIGINT and SIGTERM blocked in this thread while it lives; unblocks those it blocked.
+    struct SignalBlock {
+        SignalBlock();
+        ~SignalBlock();
+        SignalBlock(const SignalBlock&) = delete;
+        SignalBlock& operator=(const SignalBlock&) = delete;
+        sigset_t added; ///< the signals that were not blocked before
+    };
+    SignalBlock m_signals; ///< made before the lock, given up after it
     std::unique_lock<std::mutex> m_lock;
-    sigset_t m_previousMask; ///< the thread's signal mask before
 };
 /// The hold (returned in place: `const PublishingHold held = holdPublishing();`).
 PublishingHold holdPublishing();
