@@ -21,6 +21,9 @@ for v in "$@"; do
             args=(--size "$size" ${LEVELS---finest} --decode gpu --camera volcanite --orbit "${ORBIT:-8}" --shading "$m")
             "$csgv" render "$v" "$tmp/o.png" "${args[@]}" >"$tmp/free.log" 2>&1 || { echo "$v $size $m: render failed"; continue; }
             free=$(field frames "$tmp/free.log"); ws=$(field view_working_set_mib "$tmp/free.log")
+            # (a cache of 0 MiB would be the automatic one: no row without a working set)
+            [ "${free:-0}" -gt 0 ] 2>/dev/null && awk -v w="${ws:-0}" 'BEGIN { exit !(w > 0) }' ||
+                { echo "$v $size $m: no frame count or working set in the summary"; continue; }
             for mult in ${MULTS:-1.02 1.25}; do
                 mib=$(awk -v w="$ws" -v m="$mult" 'BEGIN { c = w * m; print (c == int(c)) ? c : int(c) + 1 }')
                 "$csgv" render "$v" "$tmp/o.png" "${args[@]}" --cache-mib "$mib" >"$tmp/c.log" 2>&1 ||

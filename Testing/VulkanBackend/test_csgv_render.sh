@@ -30,7 +30,7 @@ cmp -s "$TMP/a.labels" "$TMP/k.labels" && pass "a small cache leaves the labels 
 # (a cache under four times the volume had each view find its bricks one layer a frame: 20
 # frames against 8).
 expect 0 "an orbit unconstrained" "$CSGV" render "$DEF" "$TMP/o.png" --size 160x120 --finest --decode gpu --camera volcanite --orbit 8
-FREE=$(awk '/^frames:/ { print $2 }' "$TMP/out"); USED=$(awk '/^cache_used_mib:/ { print int($2 + 0.999) }' "$TMP/out")
+FREE=$(awk '/^frames:/ { print $2 }' "$TMP/out"); USED=$(awk '/^cache_used_mib:/ { print int($2) + 1 }' "$TMP/out")
 expect 0 "the orbit with a cache of $USED MiB" "$CSGV" render "$DEF" "$TMP/o.png" --size 160x120 --finest --decode gpu \
   --camera volcanite --orbit 8 --cache-mib "$USED"
 awk -v free="$FREE" '/^frames:/ { f = $2 } /^cache_holds_view: yes$/ { h = 1 } END { exit !(free >= 8 && h && f <= 2 * free) }' "$TMP/out" &&

@@ -850,7 +850,7 @@ Result<FrameStats> Renderer::Impl::frame(const FrameInput& in, const RenderSetti
     if (resolved.carrySteps) decodeParity ^= 1; // the next frame decodes from the list this one carried into
     materialState.labelColorsPending = false;
     materialState.hiddenAllPending = false;
-    cacheState.cacheEmpty = false;
+    cacheState.cacheEmpty = cacheState.newCache = false;
     if (detail && !(s = requestDetail(stats))) return s;
     const auto t1 = std::chrono::steady_clock::now();
     lastFrameTicks = t1.time_since_epoch().count();

@@ -367,7 +367,8 @@ struct MaterialState {
 
 /// @brief The brick cache between frames; it outlives resets of the accumulation (a camera move
 /// keeps the cache and what was learnt about its pressure). cacheEmpty: no brick decoded since
-/// the cache was made or reset (HIDDEN_ALL has nothing to do); cacheResetPending: the next frame
+/// the cache was made or reset (HIDDEN_ALL has nothing to do); newCache: no frame since the cache
+/// was made or resized (a prefetch may fill it whole: prefetches()); cacheResetPending: the next frame
 /// empties it first (defragmentation); prefetchPending: the next frame asks for every visible
 /// brick (kFlagPrefetch) when they fit (prefetches()), set by a new cache or new visibility;
 /// visibilityChanged: uploadVisibility ran since the last frame (kFlagVisibilityChanged). Under
@@ -375,6 +376,7 @@ struct MaterialState {
 /// limitRequests only the pixel rows [bandRow, bandRow + bandHeight) request bricks.
 struct CacheState {
     bool cacheEmpty = true;
+    bool newCache = true;
     bool cacheResetPending = false;
     bool prefetchPending = true;
     bool visibilityChanged = true;
@@ -893,6 +895,7 @@ struct Renderer::Impl {
         Status s;
         if (!(s = makeFrameDecodes())) return s;
         allocWords()[kAllocCapacity] = uint32_t(bytes / 4);
+        cacheState.newCache = true;
         return resetCacheNow();
     }
 
@@ -917,15 +920,17 @@ struct Renderer::Impl {
     /// on lavapipe took six frames, 0.60 s, to its first complete image, 0.46 s in one frame with
     /// it. Only for small volumes, where decoding bricks no view ray needs costs little: a
     /// synthetic 256^3 (512 bricks) decodes in 130 ms on two cores, what a view needs in 22 ms.
-    /// The bricks, at the finest level, fit an empty cache whole, or a quarter of one that holds
-    /// bricks already (new visibility: room beside regions of other levels). A cache that holds
-    /// a view but not four times the volume was left to find each view's bricks one layer a frame:
-    /// an 8-view orbit of synthA at 160x120 took 20 frames under a 13 MiB cache, 8 without one.
+    /// The bricks, at the finest level, fit a new cache whole, or a quarter of one that has held
+    /// bricks (new visibility, an emptied cache after defragmentation: room is left for the regions
+    /// of other levels the next views take; filled whole there, each defragmentation would bring
+    /// another prefetch of every visible brick). A new cache that holds a view but not four times
+    /// the volume was left to find each view's bricks one layer a frame: an 8-view orbit of synthA
+    /// at 160x120 took 20 frames under a 13 MiB cache, 8 without one.
     bool prefetches() const {
         const uint64_t edge = volume->volume().brickSize;
         const uint64_t voxels = uint64_t(visibleBricks) * edge * edge * edge;
         const uint64_t bytes = uint64_t(visibleBricks) * volume->regionWords(0) * 4;
-        const uint64_t room = cacheState.cacheEmpty ? cache.size() : cache.size() / 4;
+        const uint64_t room = cacheState.newCache ? cache.size() : cache.size() / 4;
         return !detail && voxels <= resolved.prefetchVoxels && visibleBricks <= maxRequests && bytes <= room;
     }
 };

@@ -19,7 +19,7 @@ root=$(pwd)
 vols=${1:-"aal 256 512 1024 2048"}; modes=${2:-"local shadow ao pt"}
 export VTIMEOUT=${VTIMEOUT:-20} PROFILE=${PROFILE:-0}
 out=${OUT:-$root/devout}; mkdir -p "$out"; peer=${PEER-1}
-res=/tmp/csgv-gpu-results; mkdir -p $res
+res=/tmp/csgv-gpu-results; mkdir -p $res; touch $res/.started
 b=$root/.devbundle
 source "$root/scripts/device/device_env.sh"
 csgv=$b/bin/csgv
@@ -37,20 +37,24 @@ for n in $vols; do
         for s in $m; do
             for bin in "$csgv" ${base:+"$base"} ${STILL_ARGS:+var}; do  # a baseline, a variant right after
                 t=still_${n}_$s; who=ours; extra=()
-                [ "$bin" = var ] && { bin=$csgv; t=${t}_var; who="ours $STILL_ARGS"; read -ra extra <<<"$STILL_ARGS"; }
+                [ "$bin" = var ] && { bin=$csgv; t=${t}_var; who=ours_var; read -ra extra <<<"$STILL_ARGS"; }
                 [ "$bin" = "$csgv" ] || { t=${t}_base; who=base; }
                 t0=$(date +%s.%N)
                 timeout 60 "$bin" render "$v" "$res/$t.png" --size ${SIZE:-1920x1080} --shading $s \
-                    --frames ${vframes[$s]} --camera volcanite "${extra[@]}" >"$res/$t.log" 2>&1
+                    --frames ${vframes[$s]} --camera volcanite ${extra[@]+"${extra[@]}"} >"$res/$t.log" 2>&1
                 rc=$?
                 wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')
-                echo "$who $n $s rc $rc wall_s $wall: $(grep -E '^(frames|median_frame_ms|time_to_first_frame_ms|setup_ms):' \
+                echo "$who $n $s rc $rc wall_s $wall${extra[*]+ (${extra[*]})}: $(grep -E '^(frames|median_frame_ms|time_to_first_frame_ms|setup_ms):' \
                     "$res/$t.log" | cut -c1-60 | tr '\n' ' ')" | tee -a "$out/summary.txt"
             done
         done
         tar -C $res -czf "$out/still_logs.tgz" $(cd $res && ls still_*.log)
         if [[ " ${IMAGES:-} " == *" $n "* ]]; then
-            mkdir -p "$out/images" && cp -f $res/still_${n}_*.png $res/volcanite_${n}_*.png "$out/images/" 2>/dev/null
+            mkdir -p "$out/images"
+            for f in $res/still_${n}_*.png $res/volcanite_${n}_*.png; do
+                [ "$f" -nt "$res/.started" ] || continue  # not an earlier call's
+                [ -f "$f" ] && cp -f "$f" "$out/images/" || echo "$n: no image $f"
+            done
         fi
     fi
     [ "${ORBITS:-1}" != 0 ] && SKIP_TESTS=1 bash scripts/device/gpu_check.sh "$n" "$m"

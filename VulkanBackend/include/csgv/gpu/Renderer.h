@@ -96,7 +96,7 @@ struct RendererOptions {
     uint32_t maxRequestsPerFrame = 4096; ///< bricks decoded in one frame at most (more wait a frame)
     /// A small volume has every visible brick decoded at the first frame of a new cache (or of new
     /// visibility) when those bricks hold at most this many voxels, fit one frame's requests and
-    /// the cache (an empty one whole, else a quarter), and no detail is streamed: a view ray
+    /// the cache (a new one whole, else a quarter), and no detail is streamed: a view ray
     /// stops at the first brick it misses, so otherwise a view finds its bricks one layer a frame
     /// (0: never).
     uint64_t prefetchVoxels = uint64_t(1) << 23;
