@@ -8,6 +8,7 @@
 #include "csgv/codec/CsgvFile.h"
 #include "csgv/codec/Decoder.h"
 #include "csgv/codec/Encoder.h"
+#include "csgv/base/Cancel.h"
 #include "csgv/base/FileUtil.h"
 #include "csgv/codec/Metadata.h"
 #include "csgv/inputs/Relabel.h"
@@ -335,8 +336,9 @@ TEST(Compress, SignalsToThePublishingThreadWaitForTheHoldToEnd) {
 }
 
 // An interrupt watchdog holds the publishing lock before it removes temporaries and ends the
-// process (Tools/Interrupt.h): a set being published waits for it with every file complete under
-// its temporary name, and no rename of the set happens meanwhile (none lands half published).
+// process (Tools/Interrupt.h): a set being published waits for it with what it wrote complete
+// under temporary names (every rename, of a file or a set, takes the lock), and no rename of the
+// set happens meanwhile (none lands half published).
 TEST(Compress, PublishingWaitsForTheLockWithTheFilesComplete) {
     const std::string dir = freshDir("publish_lock");
     std::atomic<bool> done{false};
@@ -354,14 +356,40 @@ TEST(Compress, PublishingWaitsForTheLockWithTheFilesComplete) {
         std::vector<std::string> names;
         for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
         EXPECT_TRUE(std::none_of(names.begin(), names.end(), [](const std::string& n) { return n == "v.csgv" || n == "v.csgv.json"; }));
-        // The volume and the metadata complete under temporary names.
-        EXPECT_EQ(std::count_if(names.begin(), names.end(), [](const std::string& n) { return n.find(".tmp-") != std::string::npos; }), 2)
+        // The volume complete under a temporary name.
+        EXPECT_GE(std::count_if(names.begin(), names.end(), [](const std::string& n) { return n.find(".tmp-") != std::string::npos; }), 1)
             << names.size();
     }
     writer.join();
     ASSERT_TRUE(result.isOk()) << result.message();
     EXPECT_TRUE(openCsgv(dir + "/v.csgv").isOk());
     EXPECT_TRUE(std::filesystem::exists(dir + "/v.csgv.json"));
+}
+
+// What finishes writing after the `csgv` tool's Ctrl-C (cancelRequested) is not published: the
+// tool says it wrote nothing, and an old set stays as it was (found by a review: a volume encoded
+// in the watchdog's grace could be renamed in before it said "no output written").
+TEST(Compress, WorkInterruptedWhileItWaitsToPublishPublishesNothing) {
+    const std::string dir = freshDir("publish_cancel");
+    { std::ofstream(dir + "/v.csgv") << "OLD"; }
+    Status result;
+    std::thread writer;
+    {
+        const PublishingHold held = holdPublishing();
+        writer = std::thread([&] { result = compressToFile("synth:24x20x16:3", dir + "/v.csgv", CompressOptions{}); });
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
+        requestCancel();
+    }
+    writer.join();
+    resetCancel();
+    EXPECT_FALSE(result.isOk());
+    EXPECT_NE(result.message().find("interrupted"), std::string::npos) << result.message();
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+    EXPECT_EQ(names, std::vector<std::string>{"v.csgv"}) << "temporaries or a sidecar left";
+    std::ifstream in(dir + "/v.csgv");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text, "OLD");
 }
 
 TEST(Metadata, DeeplyNestedJsonIsRefusedNotAStackOverflow) {

@@ -156,6 +156,10 @@ PublishingHold::PublishingHold() : m_lock(publishingMutex()) {}
 
 PublishingHold holdPublishing() { return PublishingHold(); }
 
+Status interruptedBeforePublishing() {
+    return cancelRequested() ? Status::error("interrupted: nothing written") : Status::ok();
+}
+
 std::string temporaryNameFor(const std::string& path) {
     std::string name = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_tmpCounter++);
     registerTemporary(name);
@@ -194,7 +198,7 @@ void keepModeOf(const std::string& target, const std::string& tmp) {
 
 Status publishTogether(const std::vector<std::pair<std::string, std::string>>& written) {
     const PublishingHold publishing = holdPublishing();
-    Status s;
+    Status s = interruptedBeforePublishing();
     for (const auto& [tmp, target] : written)
         if (s) s = replaceableOutput(target);
     size_t done = 0;
@@ -256,7 +260,9 @@ Status AtomicFile::commit() {
         return Status::error("cannot write '" + m_path + "': " + (why.empty() ? errnoText() : why));
     }
     // What the name holds may have changed while the file was written.
-    Status s = replaceableOutput(m_path);
+    const PublishingHold publishing = holdPublishing();
+    Status s = interruptedBeforePublishing();
+    if (s) s = replaceableOutput(m_path);
     if (s) keepModeOf(m_path, m_tmp);
     if (s && std::rename(m_tmp.c_str(), m_path.c_str()) != 0)
         s = Status::error("cannot rename '" + m_tmp + "' to '" + m_path + "': " + errnoText());

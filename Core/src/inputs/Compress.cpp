@@ -364,6 +364,10 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     // No interrupt between the renames (an interrupt watchdog waits for this, FileUtil.h).
     std::optional<PublishingHold> publishing;
     publishing.emplace();
+    if (Status s = interruptedBeforePublishing(); !s) {
+        dropNew();
+        return s;
+    }
     moves.push_back({mdTmp, mdPath, {}});
     if (mapping.relabelled) moves.push_back({dbTmp, db, {}});
     else if (fileExists(db)) moves.push_back({{}, db, {}});

@@ -66,6 +66,10 @@ private:
 };
 /// The hold (returned in place: `const PublishingHold held = holdPublishing();`).
 PublishingHold holdPublishing();
+/// Asked inside a hold before the first rename of a set or file: an error where the `csgv` tool was
+/// interrupted (cancelRequested, Cancel.h), so that what finished writing after Ctrl-C is not
+/// published while the tool says it wrote nothing.
+Status interruptedBeforePublishing();
 /// Seeks a C file to a 64-bit offset; false on failure (errno says why).
 bool seekTo(std::FILE* f, uint64_t offset);
 
