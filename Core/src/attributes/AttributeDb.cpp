@@ -213,7 +213,9 @@ Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& 
     if (!s) return fail(s.message());
     st = StmtPtr();
     if (sqlite3_close(db.release()) != SQLITE_OK) return fail("close failed");
-    Status published = replaceableOutput(path);
+    const PublishingHold publishing = holdPublishing(); // as every rename of an output (FileUtil.h)
+    Status published = interruptedBeforePublishing();
+    if (published) published = replaceableOutput(path);
     if (published) keepModeOf(path, tmp);
     if (published && std::rename(tmp.c_str(), path.c_str()) != 0)
         published = Status::error("cannot rename '" + tmp + "' to '" + path + "': " + errnoText());
