@@ -13,6 +13,8 @@
 #include <dlfcn.h>
 #include <pthread.h>
 #include <ctime>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -182,6 +184,35 @@ PublishingHold::PublishingHold() : m_lock(publishingMutex()) {}
 
 PublishingHold holdPublishing() { return PublishingHold(); }
 
+FolderLocks::FolderLocks(const std::vector<std::string>& paths) {
+    std::vector<std::string> folders;
+    for (const std::string& p : paths) {
+        const size_t slash = p.find_last_of('/');
+        folders.push_back(slash == std::string::npos ? "." : slash == 0 ? "/" : p.substr(0, slash));
+    }
+    std::sort(folders.begin(), folders.end()); // one order for every process: no deadlock
+    folders.erase(std::unique(folders.begin(), folders.end()), folders.end());
+    for (const std::string& folder : folders) {
+        const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        if (fd < 0) continue;
+        bool locked = false;
+        for (int i = 0; i < 2000; ++i) { // another process's renames take microseconds
+            if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
+                locked = true;
+                break;
+            }
+            if (errno != EWOULDBLOCK && errno != EINTR) break; // no flock here: on without it
+            ::usleep(1000);
+        }
+        if (locked) m_fds.push_back(fd);
+        else ::close(fd);
+    }
+}
+
+FolderLocks::~FolderLocks() {
+    for (auto fd = m_fds.rbegin(); fd != m_fds.rend(); ++fd) ::close(*fd); // closing gives the lock back
+}
+
 Status interruptedBeforePublishing() {
     return cancelRequested() ? Status::error("interrupted: nothing written") : Status::ok();
 }
@@ -224,6 +255,9 @@ void keepModeOf(const std::string& target, const std::string& tmp) {
 
 Status publishTogether(const std::vector<std::pair<std::string, std::string>>& written) {
     const PublishingHold publishing = holdPublishing();
+    std::vector<std::string> targets;
+    for (const auto& w : written) targets.push_back(w.second);
+    const FolderLocks folders(targets);
     Status s = interruptedBeforePublishing();
     for (const auto& [tmp, target] : written)
         if (s) s = replaceableOutput(target);

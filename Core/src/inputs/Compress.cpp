@@ -364,6 +364,8 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     // No interrupt between the renames (an interrupt watchdog waits for this, FileUtil.h).
     std::optional<PublishingHold> publishing;
     publishing.emplace();
+    std::optional<FolderLocks> folder; // another process publishing a set of these names waits
+    folder.emplace(std::vector<std::string>{output});
     if (Status s = interruptedBeforePublishing(); !s) {
         dropNew();
         return s;
@@ -406,6 +408,7 @@ Status publishVolumeFiles(const std::string& output, const std::string& volumeTm
     // the set is in (an old file a failed set could not put back stays where its error says).
     for (const Move& m : moves)
         if (m.asideDone) registerTemporary(m.aside);
+    folder.reset();
     publishing.reset();
     for (const Move& m : moves)
         if (m.asideDone) std::remove(m.aside.c_str());
