@@ -55,16 +55,16 @@ for _ in range(3):
     sizes.append(size())
 ok = all(any(s == ((W + f - 1) // f, (H + f - 1) // f) for f in range(1, 9)) for s in sizes)
 t.check(ok, "interactive frames are the view reduced by a whole factor (%s)" % sizes)
-# On a CPU device (lavapipe, as in CI) a path-traced frame of a 1280x960 view takes several times
-# the tenth of a second an interactive frame may (0.3 s on a 2-core machine of 2026): it must be
-# reduced there once a frame's cost is known, whatever local-shading frames cost (the cost is kept
-# per shading mode: averaged with local shading's, a CI run once drew the first one whole). A GPU
-# may draw it whole.
+# On a CPU device (lavapipe, as in CI) a path-traced frame of a 2560x1920 view takes several times
+# the tenth of a second an interactive frame may (0.4 s on a 2-core machine of 2026-12; at 1280x960
+# it took 0.1 s there, and the view was drawn whole as often as not): it must be reduced there once
+# a frame's cost is known, whatever local-shading frames cost (the cost is kept per shading mode:
+# averaged with local shading's, a CI run once drew the first one whole). A GPU may draw it whole.
 device = subprocess.run([os.environ["CSGV_TOOL"], "render", os.path.join(t.FIXTURES, "synthA_b32_rans2.csgv"),
                          os.path.join(t.temp_dir(), "probe.png"), "--size", "8x8", "--frames", "1"],
                         capture_output=True, text=True).stdout
 if "(cpu)" in device:
-    PW, PH = 1280, 960
+    PW, PH = 2560, 1920
     v.ViewSize = [PW, PH]
     d.CSGVShading = "pt"
     Render(v)  # a path-traced still render: the cost of its frames is measured
