@@ -162,7 +162,8 @@ void removeTemporariesOnSignals() {
             struct sigaction ours {};
             ours.sa_sigaction = cleanOnSignal;
             ours.sa_flags = SA_SIGINFO | SA_RESTART;
-            sigemptyset(&ours.sa_mask);
+            sigemptyset(&ours.sa_mask); // one cleaning at a time: SIGTERM during SIGINT's waits for it
+            for (int sig : kCleanedSignals) sigaddset(&ours.sa_mask, sig);
             ::sigaction(kCleanedSignals[i], &ours, &g_previousActions[i]);
         }
     });
