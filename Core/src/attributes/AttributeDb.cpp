@@ -213,17 +213,7 @@ Status writeAttributeDb(const std::string& path, const std::array<uint32_t, 3>& 
     if (!s) return fail(s.message());
     st = StmtPtr();
     if (sqlite3_close(db.release()) != SQLITE_OK) return fail("close failed");
-    const PublishingHold publishing = holdPublishing(); // as every rename of an output (FileUtil.h)
-    Status published = interruptedBeforePublishing();
-    if (published) published = replaceableOutput(path);
-    if (published) keepModeOf(path, tmp);
-    if (published && std::rename(tmp.c_str(), path.c_str()) != 0)
-        published = Status::error("cannot rename '" + tmp + "' to '" + path + "': " + errnoText());
-    if (!published) {
-        std::remove(tmp.c_str());
-        return published;
-    }
-    return Status::ok();
+    return publishTogether({{tmp, path}}); // as every output: in a hold, the temporary gone on failure
 }
 
 } // namespace csgv

@@ -320,20 +320,11 @@ Status AtomicFile::commit() {
         m_tmp.clear();
         return Status::error("cannot write '" + m_path + "': " + (why.empty() ? errnoText() : why));
     }
-    // What the name holds may have changed while the file was written.
-    const PublishingHold publishing = holdPublishing();
-    Status s = interruptedBeforePublishing();
-    if (s) s = replaceableOutput(m_path);
-    if (s) keepModeOf(m_path, m_tmp);
-    if (s && std::rename(m_tmp.c_str(), m_path.c_str()) != 0)
-        s = Status::error("cannot rename '" + m_tmp + "' to '" + m_path + "': " + errnoText());
-    if (!s) {
-        std::remove(m_tmp.c_str());
-        m_tmp.clear();
-        return s;
-    }
+    // What the name holds may have changed while the file was written (publishTogether checks it
+    // again, and removes the temporary where it is not renamed).
+    const Status s = publishTogether({{m_tmp, m_path}});
     m_tmp.clear();
-    return Status::ok();
+    return s;
 }
 
 void AtomicFile::discard() {
