@@ -2,7 +2,7 @@
 """Segmentation Volume next to ParaView's own "Volume" representation (vtkSmartVolumeMapper,
 nearest interpolation), on the same data, camera and resolution, over inputs x sizes x shadings.
 
-    xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch --force-offscreen-rendering \\
+    xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" pvbatch --force-offscreen-rendering \\
         Examples/compare_vtk.py --input DATA[,DATA...] [--input DATA ...] [--size 640x360,1280x720] \\
         [--shadings local,shadow,ao,pt] [--drawn 1,0.05] [--frames 20] [--repeat N] [--output DIR] [--json FILE]
         [--demos]
@@ -309,10 +309,14 @@ def run_side(args, only, input_path, tag, size, shading="local", materials=None,
         for line in out.splitlines():
             if line.startswith("RESULT "):
                 return json.loads(line[7:]), None
-        # A child killed by a signal (seen once: X window creation aborting under xvfb) gets one
-        # more try; an error it reports itself, or a timeout, does not.
+        # A child killed by a signal gets one more try; an error it reports itself, or a timeout,
+        # does not. Seen: vtkXOpenGLRenderWindow::CreateAWindow aborting (either side, 2-3 children
+        # of 24) under an Xvfb started without -noreset. The likely cause: such a server resets
+        # whenever its last client leaves, as each child does, and the next child may connect
+        # during the reset; the command above keeps the server up.
         if attempt == 1 and run is not None and run.returncode < 0:
-            print("%s side of %s: child pvbatch died by signal %d, trying once more" % (only, tag, -run.returncode))
+            print("%s side of %s: child pvbatch died by signal %d, trying once more; its last lines:" % (only, tag, -run.returncode))
+            sys.stdout.write("".join("  | %s\n" % l for l in [l for l in out.splitlines() if l.strip()][-8:]))
             sys.stdout.flush()
             continue
         break

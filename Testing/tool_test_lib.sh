@@ -46,22 +46,23 @@ expect_bounded() {
   pass "$what"
 }
 
-# `expect_interrupt DESCRIPTION COMMAND...`: starts COMMAND, sends SIGINT after it has run a
-# second, and asserts it exits with status 130 within one more second and one error line.
+# `expect_interrupt DESCRIPTION COMMAND...`: starts COMMAND, sends SIGINT (or $INTERRUPT_SIGNAL:
+# TERM, HUP) after it has run a second, and asserts it exits with status 130 within one more second.
 expect_interrupt() {
   local what=$1; shift
+  local sig=${INTERRUPT_SIGNAL:-INT}
   "$@" >"$TMP/out" 2>"$TMP/err" &
   local pid=$!
   sleep 1
   if ! kill -0 "$pid" 2>/dev/null; then wait "$pid"; bad "$what: ended before the interrupt (exit $?)"; return; fi
   local t0; t0=$(date +%s%N)
-  kill -INT "$pid"
+  kill -"$sig" "$pid"
   local waited=0
   while kill -0 "$pid" 2>/dev/null && [ "$waited" -lt 50 ]; do sleep 0.05; waited=$((waited + 1)); done
-  if kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid"; wait "$pid"; bad "$what: still running 2.5 s after SIGINT"; return; fi
+  if kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid"; wait "$pid"; bad "$what: still running 2.5 s after SIG$sig"; return; fi
   wait "$pid"; local got=$?
   local ms=$((($(date +%s%N) - t0) / 1000000))
-  if [ "$got" -ne 130 ]; then bad "$what: exit $got after SIGINT, expected 130 ($(head -c 300 "$TMP/err"))"; return; fi
-  if [ "$ms" -gt 1000 ]; then bad "$what: took ${ms} ms to end after SIGINT"; return; fi
+  if [ "$got" -ne 130 ]; then bad "$what: exit $got after SIG$sig, expected 130 ($(head -c 300 "$TMP/err"))"; return; fi
+  if [ "$ms" -gt 1000 ]; then bad "$what: took ${ms} ms to end after SIG$sig"; return; fi
   pass "$what (${ms} ms)"
 }

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 /// @file Interrupt.h
-/// @brief Ctrl-C (SIGINT) and SIGTERM for every `csgv` command: the handler only asks Core to
+/// @brief Ctrl-C (SIGINT), SIGTERM and SIGHUP (a terminal closed) for every `csgv` command: the handler only asks Core to
 /// cancel (requestCancel, polled by progress callbacks and derived SQL), and a watchdog thread
 /// makes the promise hold when the work cannot notice in time (a library call such as libhdf5's
 /// or libtiff's that runs for minutes): 0.4 s after the signal it removes every temporary the
@@ -24,7 +24,7 @@
 
 namespace csgv {
 
-/// Exit status of a command ended by SIGINT or SIGTERM (the shell's 128 + SIGINT).
+/// Exit status of a command ended by SIGINT, SIGTERM or SIGHUP (the shell's 128 + SIGINT).
 constexpr int kInterruptedExit = 130;
 
 namespace interrupt {
@@ -115,6 +115,11 @@ public:
         sa.sa_flags = SA_RESTART;
         sigaction(SIGINT, &sa, nullptr);
         sigaction(SIGTERM, &sa, nullptr);
+        // A hang-up (the terminal closed, an ssh session lost) is honoured like an interrupt,
+        // unless it was ignored when the tool started (nohup): then it stays ignored.
+        struct sigaction hup {};
+        if (sigaction(SIGHUP, nullptr, &hup) == 0 && !((hup.sa_flags & SA_SIGINFO) == 0 && hup.sa_handler == SIG_IGN))
+            sigaction(SIGHUP, &sa, nullptr);
         try {
             m_thread = std::thread([this] { watch(); });
         } catch (const std::exception&) {
@@ -143,8 +148,9 @@ private:
         // hold the lock until the process ends so that no other set starts.
         const PublishingHold publishing = holdPublishing();
         removeTemporaries();
-        reportOnce(g_signal == SIGTERM ? "terminated (SIGTERM): stopped, no output written"
-                                       : "interrupted (Ctrl-C): stopped, no output written");
+        reportOnce(g_signal == SIGTERM  ? "terminated (SIGTERM): stopped, no output written"
+                   : g_signal == SIGHUP ? "hung up (SIGHUP): stopped, no output written"
+                                        : "interrupted (Ctrl-C): stopped, no output written");
         std::fflush(stdout);
         ::_exit(kInterruptedExit);
     }

@@ -102,7 +102,7 @@ std::string usage() {
            "  inputs (IN, SOURCE, INPUT): " + inputs + "\n"
            "  --allow-outside-paths: read files an input names outside its own folder (NRRD data files,\n"
            "      precomputed scales, OME-Zarr paths, HDF5 external storage); refused by default\n"
-           "  Ctrl-C or SIGTERM ends any command within a second with exit status 130 and no partial\n"
+           "  Ctrl-C, SIGTERM or SIGHUP ends any command within a second with exit status 130 and no partial\n"
            "  output; outputs appear only when complete, and replace an existing set all at once\n";
 }
 

@@ -36,39 +36,48 @@ work = tempfile.mkdtemp(prefix="csgv-interrupt-")
 source = os.path.join(work, "big.csgv")
 subprocess.run([tool, "compress", "synth:320x320x320", source, "--quiet"], check=True)
 out_dir = os.path.join(work, "out")
-rounds = 0
-for attempt in range(3):
-    os.makedirs(out_dir, exist_ok=True)
-    for f in os.listdir(out_dir):
-        os.remove(os.path.join(out_dir, f))
-    out = os.path.join(out_dir, "out.csgv")
-    with open(out, "w") as f:
-        f.write("OLD")
-    with open(out + ".json", "w") as f:
-        f.write("OLDJSON")
-    child = subprocess.Popen([pvpython, "--force-offscreen-rendering", os.path.abspath(__file__), "--child", source, out],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 90
-    while time.time() < deadline and child.poll() is None and not any(".tmp-" in f for f in os.listdir(out_dir)):
-        time.sleep(0.002)
-    if child.poll() is not None:
-        continue  # the save ended before a temporary was seen: try again
-    child.send_signal(signal.SIGINT)
-    try:
-        child.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        child.kill()
-        child.wait()
-        check(False, "pvpython still ran 10 s after SIGINT")
-        continue
-    rounds += 1
-    left = sorted(os.listdir(out_dir))
-    check(not any(".tmp-" in f for f in left), "interrupted save %d: no temporaries left (%s)" % (rounds, left))
-    old = open(out, "rb").read(3) == b"OLD"
-    old_json = open(out + ".json", "rb").read() == b"OLDJSON"
-    check(old == old_json, "interrupted save %d: a whole set, old or new (old volume %s, old metadata %s)"
-          % (rounds, old, old_json))
-check(rounds > 0, "the save was interrupted while it wrote (%d rounds)" % rounds)
+
+
+def interrupted_saves(sig, name):
+    """Saves over an existing set, each ended by `sig` while a temporary is there."""
+    rounds = 0
+    for attempt in range(3):
+        os.makedirs(out_dir, exist_ok=True)
+        for f in os.listdir(out_dir):
+            os.remove(os.path.join(out_dir, f))
+        out = os.path.join(out_dir, "out.csgv")
+        with open(out, "w") as f:
+            f.write("OLD")
+        with open(out + ".json", "w") as f:
+            f.write("OLDJSON")
+        child = subprocess.Popen([pvpython, "--force-offscreen-rendering", os.path.abspath(__file__), "--child", source, out],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.time() + 90
+        while time.time() < deadline and child.poll() is None and not any(".tmp-" in f for f in os.listdir(out_dir)):
+            time.sleep(0.002)
+        if child.poll() is not None:
+            continue  # the save ended before a temporary was seen: try again
+        child.send_signal(sig)
+        try:
+            child.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
+            check(False, "pvpython still ran 10 s after %s" % name)
+            continue
+        rounds += 1
+        left = sorted(os.listdir(out_dir))
+        check(not any(".tmp-" in f for f in left), "save %d ended by %s: no temporaries left (%s)" % (rounds, name, left))
+        old = open(out, "rb").read(3) == b"OLD"
+        old_json = open(out + ".json", "rb").read() == b"OLDJSON"
+        check(old == old_json, "save %d ended by %s: a whole set, old or new (old volume %s, old metadata %s)"
+              % (rounds, name, old, old_json))
+    check(rounds > 0, "the save was ended by %s while it wrote (%d rounds)" % (name, rounds))
+
+
+interrupted_saves(signal.SIGINT, "SIGINT")
+# A terminal closed under pvpython: SIGHUP's default action ended it and left the temporaries.
+interrupted_saves(signal.SIGHUP, "SIGHUP")
 
 # After a save, SIGINT and SIGTERM end pvpython by the signal, without ParaView's (loguru's) stack
 # trace: it takes its symbols from malloc inside the handler and hung pvpython for good when the

@@ -88,13 +88,16 @@ std::mutex& publishingMutex() {
     return *publishing;
 }
 
-constexpr int kCleanedSignals[2] = {SIGINT, SIGTERM};
-struct sigaction g_previousActions[2];
+/// SIGHUP too: a terminal closed under pvpython (or an ssh session lost) ends it by default, and
+/// that left the writer's temporaries as an interrupt did.
+constexpr int kCleanedSignals[3] = {SIGINT, SIGTERM, SIGHUP};
+constexpr int kCleaned = 3;
+struct sigaction g_previousActions[kCleaned];
 /// Whether the previous handler lies in a library named after loguru (VTK's logger, ParaView
 /// 5.11's SIGINT and SIGTERM handler): it prints a stack trace, and its symbols come from malloc
 /// inside the handler, which hung pvpython for good when the signal came inside malloc or free
 /// (an attack pass: 4 of 42 interrupts about a SaveData's end, 1 of 16 without the plugin).
-bool g_previousPrintsStacks[2] = {false, false};
+bool g_previousPrintsStacks[kCleaned] = {false, false, false};
 
 /// Ends the process by the signal's default action, here and now (it is blocked in its handler:
 /// raised, it is pending until unblocked), so the caller's locks are held until the end.
@@ -125,12 +128,14 @@ void cleanOnSignal(int sig, siginfo_t* info, void* context) {
     // The host's handling, with the publishing lock still held: no set starts its renames while
     // the process ends. A handler that returns (Python's, which raises KeyboardInterrupt later)
     // lets the process go on, and the lock is given back.
-    const int which = sig == SIGINT ? 0 : 1;
+    const int which = sig == SIGINT ? 0 : sig == SIGTERM ? 1 : 2;
     const struct sigaction& previous = g_previousActions[which];
     if (g_previousPrintsStacks[which]) { // its stack trace could hang the process: ended as it would end it
-        static const char kInt[] = "CSGV: SIGINT: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n";
-        static const char kTerm[] = "CSGV: SIGTERM: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n";
-        if (::write(2, which == 0 ? kInt : kTerm, (which == 0 ? sizeof kInt : sizeof kTerm) - 1) < 0) {
+        static const char* const kEnded[kCleaned] = {
+            "CSGV: SIGINT: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n",
+            "CSGV: SIGTERM: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n",
+            "CSGV: SIGHUP: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n"};
+        if (::write(2, kEnded[which], std::strlen(kEnded[which])) < 0) {
             // nothing more to be done about stderr
         }
         endByDefaultAction(sig);
@@ -147,7 +152,7 @@ void cleanOnSignal(int sig, siginfo_t* info, void* context) {
 void removeTemporariesOnSignals() {
     static std::once_flag once;
     std::call_once(once, [] {
-        for (int i = 0; i < 2; ++i) {
+        for (int i = 0; i < kCleaned; ++i) {
             struct sigaction current {};
             // An ignored signal stays ignored (a background job's SIGINT): nothing ends the process.
             if (::sigaction(kCleanedSignals[i], nullptr, &current) != 0 ||

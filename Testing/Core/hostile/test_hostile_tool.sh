@@ -95,6 +95,24 @@ no_temporaries . "interrupted decompress"
 printf 'an older file' > keep.nrrd
 expect_interrupt "decompress over an existing output interrupted" "$CSGV" decompress d.csgv keep.nrrd --threads 1
 [ "$(cat keep.nrrd)" = "an older file" ] && pass "the existing output is untouched" || bad "the existing output changed"
+# A terminal closed (SIGHUP) is an interrupt too; under nohup (SIGHUP ignored) the work goes on.
+INTERRUPT_SIGNAL=HUP expect_interrupt "decompress over an existing output hung up (SIGHUP)" "$CSGV" decompress d.csgv keep.nrrd --threads 1
+grep -q "hung up (SIGHUP)" "$TMP/err" && pass "SIGHUP's line names it" || bad "SIGHUP's line: $(cat "$TMP/err")"
+[ "$(cat keep.nrrd)" = "an older file" ] && pass "the existing output is untouched after SIGHUP" || bad "the existing output changed after SIGHUP"
+no_temporaries . "decompress hung up"
+(trap '' HUP; exec "$CSGV" compress synth:1024x1024x1024 nohup.csgv --threads 2 >/dev/null 2>"$TMP/err") &
+pid=$!
+sleep 0.5
+kill -HUP "$pid"
+sleep 0.6
+if kill -0 "$pid" 2>/dev/null; then
+  pass "an ignored SIGHUP (nohup) stays ignored"
+  kill -INT "$pid"
+else
+  bad "an ignored SIGHUP ended the tool ($(cat "$TMP/err"))"
+fi
+wait "$pid"
+no_temporaries . "compress under nohup, interrupted"
 
 # --- 5. A relabelled volume without its database is an error, not ids -------------------------
 "$CSGV" compress "$SRC" r.csgv --relabel --quiet >/dev/null

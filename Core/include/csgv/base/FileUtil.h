@@ -30,7 +30,8 @@ void registerTemporary(const std::string& path);
 /// process, so that an interrupt leaves no partial output. Not async-signal-safe.
 void removeTemporaries();
 /// For a host process whose own handlers end it on SIGINT or SIGTERM (ParaView's pvbatch, pvpython
-/// and GUI, whose logger prints a stack and aborts): puts a handler before theirs, once, that
+/// and GUI, whose logger prints a stack and aborts), or SIGHUP's default action (a terminal
+/// closed): puts a handler before theirs, once, that
 /// removes this process's temporaries (without waiting for a lock: a set being renamed into place
 /// is given a moment, never more) and then hands the signal on as it was. A tool with its own
 /// interrupt handling (csgv's interrupt::Guard) does not call it. Found by an attack pass: Ctrl-C
@@ -40,7 +41,7 @@ void removeTemporariesOnSignals();
 /// renames only, of microseconds; the old files a set replaces are removed after it). A tool's
 /// interrupt watchdog takes it before removeTemporaries() and keeps it until it ends the process,
 /// so an interrupt never lands between one set's renames (which would leave a new sidecar beside
-/// the old volume). The holding thread does not take SIGINT or SIGTERM meanwhile: another thread
+/// the old volume). The holding thread does not take SIGINT, SIGTERM or SIGHUP meanwhile: another thread
 /// takes them, or this one once the hold ends (a handler run on the thread that holds the lock
 /// could not wait for it: Ctrl-C in pvpython left the old volume beside the new one as
 /// '<name>.tmp-...-old', once in six saves of test_writer_interrupt.py). Start no thread inside a
@@ -53,7 +54,7 @@ public:
     PublishingHold& operator=(const PublishingHold&) = delete;
 
 private:
-    /// SIGINT and SIGTERM blocked in this thread while it lives; unblocks those it blocked.
+    /// SIGINT, SIGTERM and SIGHUP blocked in this thread while it lives; unblocks those it blocked.
     struct SignalBlock {
         SignalBlock();
         ~SignalBlock();
