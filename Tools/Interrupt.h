@@ -97,6 +97,13 @@ inline std::string boundedLine(std::string line) {
     return line.substr(0, head) + " ... (" + std::to_string(tail - head) + " characters left out) ... " + line.substr(tail);
 }
 
+/// The line for work stopped by the signal that came (g_signal).
+inline const char* stoppedLine() {
+    return g_signal == SIGTERM  ? "terminated (SIGTERM): stopped, no output written"
+           : g_signal == SIGHUP ? "hung up (SIGHUP): stopped, no output written"
+                                : "interrupted (Ctrl-C): stopped, no output written";
+}
+
 /// Writes the one error line unless one was written already; false when it was.
 inline bool reportOnce(const char* text) {
     if (g_reported.exchange(true)) return false;
@@ -148,9 +155,7 @@ private:
         // hold the lock until the process ends so that no other set starts.
         const PublishingHold publishing = holdPublishing();
         removeTemporaries();
-        reportOnce(g_signal == SIGTERM  ? "terminated (SIGTERM): stopped, no output written"
-                   : g_signal == SIGHUP ? "hung up (SIGHUP): stopped, no output written"
-                                        : "interrupted (Ctrl-C): stopped, no output written");
+        reportOnce(stoppedLine());
         std::fflush(stdout);
         ::_exit(kInterruptedExit);
     }

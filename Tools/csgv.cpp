@@ -132,6 +132,12 @@ struct Args {
 };
 
 int fail(const std::string& message) {
+    // Work that gave up because of a signal (a decode, a write between pieces) says so, not
+    // what its giving up looked like.
+    if (interrupt::Guard::interrupted() && message.rfind("interrupted", 0) != 0) {
+        interrupt::reportOnce(interrupt::stoppedLine());
+        return 1;
+    }
     interrupt::reportOnce(message.c_str());
     return 1;
 }

@@ -307,6 +307,9 @@ Status AtomicFile::write(const void* data, size_t bytes) {
     constexpr size_t kPiece = size_t(8) << 20;
     const char* at = static_cast<const char*>(data);
     for (size_t done = 0; done < bytes;) {
+        // The tool's Ctrl-C between pieces: the caller gives up (the temporary is removed with the
+        // object) in milliseconds, not at the watchdog's deadline.
+        if (cancelRequested()) return Status::error("writing '" + m_path + "' cancelled");
         const size_t n = std::min(kPiece, bytes - done);
         if (std::fwrite(at + done, 1, n, m_file) != n) return Status::error("cannot write '" + m_tmp + "': " + errnoText());
         done += n;
@@ -316,6 +319,7 @@ Status AtomicFile::write(const void* data, size_t bytes) {
 
 Status AtomicFile::commit() {
     if (!m_file) return Status::error("commit of a file that is not open");
+    if (cancelRequested()) return Status::error("writing '" + m_path + "' cancelled"); // before an fsync of gigabytes
     bool good = std::fflush(m_file) == 0 && ::fsync(fileno(m_file)) == 0;
     std::string why = good ? "" : errnoText();
     good = (std::fclose(m_file) == 0) && good;

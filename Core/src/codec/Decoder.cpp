@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "csgv/codec/Decoder.h"
+#include "csgv/base/Cancel.h"
 #include "csgv/base/MappedFile.h"
 #include "csgv/base/Morton.h"
 
@@ -323,7 +324,9 @@ Status forEachBrick(const CompressedVolume& vol, const std::vector<uint64_t>& br
 #pragma omp for schedule(dynamic, 4)
         for (int64_t i = 0; i < n; ++i) {
             if (bricks[size_t(i)] > lowestFailed.load(std::memory_order_relaxed)) continue;
-            Status s = fn(decoder, bricks[size_t(i)]);
+            // The tool's Ctrl-C (no progress callback here): the remaining bricks are skipped, so a
+            // decode of gigabytes ends in milliseconds rather than at the watchdog's deadline.
+            Status s = cancelRequested() ? Status::error("interrupted") : fn(decoder, bricks[size_t(i)]);
             if (!s) {
                 std::lock_guard<std::mutex> lock(mutex);
                 if (bricks[size_t(i)] < errorBrick) {
