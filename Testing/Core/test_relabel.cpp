@@ -304,28 +304,30 @@ std::atomic<int> g_signalsInHold{0}, g_signalsAfterHold{0};
 void countSignal(int) { (g_publishingHeld ? g_signalsInHold : g_signalsAfterHold)++; }
 } // namespace
 
-// The thread that holds the publishing lock takes no SIGINT or SIGTERM: one sent to it waits until
+// The thread that holds the publishing lock takes no SIGINT, SIGTERM or SIGHUP: one sent to it waits until
 // the hold ends (the lock given back first). A handler run inside the hold could not wait for the
 // lock: Ctrl-C in pvpython left the old volume beside the new one as '<name>.tmp-...-old', once in
 // six saves of test_writer_interrupt.py. The thread's mask is as it was afterwards.
 TEST(Compress, SignalsToThePublishingThreadWaitForTheHoldToEnd) {
-    struct sigaction ours {}, previousInt {}, previousTerm {};
+    struct sigaction ours {}, previousInt {}, previousTerm {}, previousHup {};
     ours.sa_handler = countSignal;
     sigemptyset(&ours.sa_mask);
     ASSERT_EQ(sigaction(SIGINT, &ours, &previousInt), 0);
     ASSERT_EQ(sigaction(SIGTERM, &ours, &previousTerm), 0);
+    ASSERT_EQ(sigaction(SIGHUP, &ours, &previousHup), 0);
     {
         const PublishingHold held = holdPublishing();
         g_publishingHeld = true;
         pthread_kill(pthread_self(), SIGINT);
         pthread_kill(pthread_self(), SIGTERM);
+        pthread_kill(pthread_self(), SIGHUP);
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
         EXPECT_EQ(g_signalsInHold.load(), 0) << "a signal was taken inside the hold";
         g_publishingHeld = false;
     }
-    EXPECT_EQ(g_signalsAfterHold.load(), 2) << "the signals sent in the hold were lost";
+    EXPECT_EQ(g_signalsAfterHold.load(), 3) << "the signals sent in the hold were lost";
     pthread_kill(pthread_self(), SIGINT);
-    EXPECT_EQ(g_signalsAfterHold.load(), 3) << "SIGINT stays blocked after the hold";
+    EXPECT_EQ(g_signalsAfterHold.load(), 4) << "SIGINT stays blocked after the hold";
     // A thread that blocked SIGINT itself keeps it blocked after a hold.
     sigset_t intOnly, now;
     sigemptyset(&intOnly);
@@ -337,6 +339,7 @@ TEST(Compress, SignalsToThePublishingThreadWaitForTheHoldToEnd) {
     EXPECT_FALSE(sigismember(&now, SIGTERM));
     sigaction(SIGINT, &previousInt, nullptr);
     sigaction(SIGTERM, &previousTerm, nullptr);
+    sigaction(SIGHUP, &previousHup, nullptr);
 }
 
 // An interrupt watchdog holds the publishing lock before it removes temporaries and ends the
