@@ -619,7 +619,9 @@ uint march(Frame f, inout Walker w, ivec3 lo, ivec3 hi, bool request, bool exact
         resumed = false;
         uvec4 s = brickState(b);
         if (request && s.w != 0u && b != w.lastBrick) {
-            bricks.v[b].z = fv.frame.x + 1u;
+            // Stored only when no ray marked it yet this frame (its mark is in the state read): a
+            // brick's rays all wrote the same word, from both threads of a CPU device.
+            if (s.z != fv.frame.x + 1u) bricks.v[b].z = fv.frame.x + 1u;
             w.lastBrick = b;
         }
 #if DETAIL_STREAMING
