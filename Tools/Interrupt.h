@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 /// @file Interrupt.h
-/// @brief Ctrl-C (SIGINT), SIGTERM and SIGHUP (a terminal closed) for every `csgv` command: the handler only asks Core to
+/// @brief Ctrl-C (SIGINT), SIGTERM, SIGHUP (a terminal closed) and SIGPIPE (the reader of its output
+/// gone: `csgv render --video ... | head`) for every `csgv` command: the handler only asks Core to
 /// cancel (requestCancel, polled by progress callbacks and derived SQL), and a watchdog thread
 /// makes the promise hold when the work cannot notice in time (a library call such as libhdf5's
 /// or libtiff's that runs for minutes): 0.4 s after the signal it removes every temporary the
@@ -24,7 +25,7 @@
 
 namespace csgv {
 
-/// Exit status of a command ended by SIGINT, SIGTERM or SIGHUP (the shell's 128 + SIGINT).
+/// Exit status of a command ended by SIGINT, SIGTERM, SIGHUP or SIGPIPE (the shell's 128 + SIGINT).
 constexpr int kInterruptedExit = 130;
 
 namespace interrupt {
@@ -99,9 +100,10 @@ inline std::string boundedLine(std::string line) {
 
 /// The line for work stopped by the signal that came (g_signal).
 inline const char* stoppedLine() {
-    return g_signal == SIGTERM  ? "terminated (SIGTERM): stopped, no output written"
-           : g_signal == SIGHUP ? "hung up (SIGHUP): stopped, no output written"
-                                : "interrupted (Ctrl-C): stopped, no output written";
+    return g_signal == SIGTERM   ? "terminated (SIGTERM): stopped, no output written"
+           : g_signal == SIGHUP  ? "hung up (SIGHUP): stopped, no output written"
+           : g_signal == SIGPIPE ? "its output's reader is gone (SIGPIPE): stopped, no output written"
+                                 : "interrupted (Ctrl-C): stopped, no output written";
 }
 
 /// Writes the one error line unless one was written already; false when it was.
@@ -110,6 +112,14 @@ inline bool reportOnce(const char* text) {
     std::fprintf(stderr, "csgv: error: %s\n", boundedLine(oneLine(text)).c_str());
     std::fflush(stderr);
     return true;
+}
+
+/// A command's failure: its one error line, exit status 1. Work that gave up because a signal came
+/// (a decode, a write between pieces, a cancelled encoding, a render) says the signal's line, which
+/// names it, instead of what its giving up looked like.
+inline int failed(const std::string& message) {
+    reportOnce(g_signal != 0 ? stoppedLine() : message.c_str());
+    return 1;
 }
 
 /// @brief Installed for the whole run by main(): signal handlers plus the watchdog thread.
@@ -122,11 +132,15 @@ public:
         sa.sa_flags = SA_RESTART;
         sigaction(SIGINT, &sa, nullptr);
         sigaction(SIGTERM, &sa, nullptr);
-        // A hang-up (the terminal closed, an ssh session lost) is honoured like an interrupt,
-        // unless it was ignored when the tool started (nohup): then it stays ignored.
-        struct sigaction hup {};
-        if (sigaction(SIGHUP, nullptr, &hup) == 0 && !((hup.sa_flags & SA_SIGINFO) == 0 && hup.sa_handler == SIG_IGN))
-            sigaction(SIGHUP, &sa, nullptr);
+        // A hang-up (the terminal closed, an ssh session lost) is honoured like an interrupt, and
+        // so is a write to a pipe whose reader is gone (its default action ended the tool at once,
+        // leaving the temporaries of `render --video ... | head`: 74 of them in an attack pass);
+        // either stays ignored when it was at the start (nohup).
+        for (int sig : {SIGHUP, SIGPIPE}) {
+            struct sigaction was {};
+            if (sigaction(sig, nullptr, &was) == 0 && !((was.sa_flags & SA_SIGINFO) == 0 && was.sa_handler == SIG_IGN))
+                sigaction(sig, &sa, nullptr);
+        }
         try {
             m_thread = std::thread([this] { watch(); });
         } catch (const std::exception&) {

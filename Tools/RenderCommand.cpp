@@ -410,10 +410,7 @@ std::string shadingChoices() {
 }
 
 int cmdRender(int argc, char** argv) {
-    auto fail = [](const std::string& m) {
-        interrupt::reportOnce(m.c_str());
-        return 1;
-    };
+    auto fail = [](const std::string& m) { return interrupt::failed(m); };
     RenderArgs a;
     Status s = parseRenderArgs(argc, argv, a);
     if (!s) return fail(s.message());

@@ -102,7 +102,7 @@ std::string usage() {
            "  inputs (IN, SOURCE, INPUT): " + inputs + "\n"
            "  --allow-outside-paths: read files an input names outside its own folder (NRRD data files,\n"
            "      precomputed scales, OME-Zarr paths, HDF5 external storage); refused by default\n"
-           "  Ctrl-C, SIGTERM or SIGHUP ends any command within a second with exit status 130 and no partial\n"
+           "  Ctrl-C, SIGTERM, SIGHUP or SIGPIPE ends any command within a second with exit status 130 and no partial\n"
            "  output; outputs appear only when complete, and replace an existing set all at once\n";
 }
 
@@ -131,16 +131,7 @@ struct Args {
     std::array<uint32_t, 3> times{{1, 1, 1}};
 };
 
-int fail(const std::string& message) {
-    // Work that gave up because of a signal (a decode, a write between pieces) says so, not
-    // what its giving up looked like.
-    if (interrupt::Guard::interrupted() && message.rfind("interrupted", 0) != 0) {
-        interrupt::reportOnce(interrupt::stoppedLine());
-        return 1;
-    }
-    interrupt::reportOnce(message.c_str());
-    return 1;
-}
+int fail(const std::string& message) { return interrupt::failed(message); }
 
 bool parseUnsigned(const std::string& s, uint64_t max, uint64_t& out) {
     if (s.empty() || s.size() > 19 || s.find_first_not_of("0123456789") != std::string::npos) return false;

@@ -30,7 +30,25 @@ else
     "$CSGV" render v.csgv r.png --video 'o_%%_%03d.png' --orbit 2 --size 16x16
   [ -f 'o_%_000.png' ] && [ -f 'o_%_001.png' ] && pass "video frames named o_%_000.png, o_%_001.png" \
     || bad "video frame names: $(ls o_* 2>&1)"
+  # The reader of its output gone (`| head`): SIGPIPE's default action ended the tool at once and
+  # left a temporary of every frame written (74 of 400 in an attack pass). Now it stops as on
+  # Ctrl-C: status 130, no frame published, no temporary.
+  mkdir -p pipe
+  "$CSGV" render v.csgv pipe/r.png --size 32x24 --orbit 400 --frames-per-view 1 --video 'pipe/f%03d.png' \
+    2>"$TMP/pipe.err" | head -2 >/dev/null
+  rc=${PIPESTATUS[0]}
+  [ "$rc" -eq 130 ] && grep -q "reader is gone (SIGPIPE)" "$TMP/pipe.err" \
+    && pass "render --video | head: stopped by SIGPIPE with status 130 and its line" \
+    || bad "render --video | head: status $rc, stderr: $(tail -2 "$TMP/pipe.err")"
+  [ -z "$(ls pipe)" ] && pass "render --video | head: nothing published, no temporary" \
+    || bad "render --video | head left: $(ls pipe | head -3) ($(ls pipe | wc -l) files)"
 fi
+printf 'an older file' > piped.csgv
+"$CSGV" compress synth:400x400x400 piped.csgv 2>&1 | head -c 10 >/dev/null
+rc=${PIPESTATUS[0]}
+[ "$rc" -eq 130 ] && [ "$(cat piped.csgv)" = "an older file" ] && [ ! -e piped.csgv.json ] \
+  && pass "compress 2>&1 | head: status 130, the old file untouched" || bad "compress 2>&1 | head: status $rc"
+no_temporaries . "compress whose output's reader is gone"
 
 # --- 2. Publishing is all or nothing: a full disk keeps the old set byte-identical -------------
 # A small tmpfs (root only; elsewhere this case says it skipped). The new compression's volume
