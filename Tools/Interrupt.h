@@ -136,11 +136,8 @@ public:
         // so is a write to a pipe whose reader is gone (its default action ended the tool at once,
         // leaving the temporaries of `render --video ... | head`: 74 of them in an attack pass);
         // either stays ignored when it was at the start (nohup).
-        for (int sig : {SIGHUP, SIGPIPE}) {
-            struct sigaction was {};
-            if (sigaction(sig, nullptr, &was) == 0 && !((was.sa_flags & SA_SIGINFO) == 0 && was.sa_handler == SIG_IGN))
-                sigaction(sig, &sa, nullptr);
-        }
+        for (int sig : {SIGHUP, SIGPIPE})
+            if (!signalIgnored(sig)) sigaction(sig, &sa, nullptr);
         try {
             m_thread = std::thread([this] { watch(); });
         } catch (const std::exception&) {

@@ -985,7 +985,7 @@ int main(int argc, char** argv) {
         rc = fail(whatRan(argc, argv) + ": " + e.what());
     }
     if (rc != 0 && interrupt::Guard::interrupted()) {
-        interrupt::reportOnce("interrupted: stopped, no output written");
+        interrupt::reportOnce(interrupt::stoppedLine());
         return kInterruptedExit;
     }
     return rc;

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <mutex>
 #include <csignal>
 #include <dlfcn.h>
@@ -90,14 +91,22 @@ std::mutex& publishingMutex() {
 
 /// SIGHUP too: a terminal closed under pvpython (or an ssh session lost) ends it by default, and
 /// that left the writer's temporaries as an interrupt did.
-constexpr int kCleanedSignals[3] = {SIGINT, SIGTERM, SIGHUP};
-constexpr int kCleaned = 3;
+constexpr int kCleanedSignals[] = {SIGINT, SIGTERM, SIGHUP};
+constexpr int kCleaned = int(std::size(kCleanedSignals));
+const char* const kCleanedNames[kCleaned] = {"SIGINT", "SIGTERM", "SIGHUP"};
 struct sigaction g_previousActions[kCleaned];
 /// Whether the previous handler lies in a library named after loguru (VTK's logger, ParaView
 /// 5.11's SIGINT and SIGTERM handler): it prints a stack trace, and its symbols come from malloc
 /// inside the handler, which hung pvpython for good when the signal came inside malloc or free
 /// (an attack pass: 4 of 42 interrupts about a SaveData's end, 1 of 16 without the plugin).
-bool g_previousPrintsStacks[kCleaned] = {false, false, false};
+bool g_previousPrintsStacks[kCleaned] = {};
+
+/// The signal's place in kCleanedSignals (only those reach cleanOnSignal).
+int cleanedIndex(int sig) {
+    int i = 0;
+    while (i + 1 < kCleaned && kCleanedSignals[i] != sig) ++i;
+    return i;
+}
 
 /// Ends the process by the signal's default action, here and now (it is blocked in its handler:
 /// raised, it is pending until unblocked), so the caller's locks are held until the end.
@@ -128,16 +137,13 @@ void cleanOnSignal(int sig, siginfo_t* info, void* context) {
     // The host's handling, with the publishing lock still held: no set starts its renames while
     // the process ends. A handler that returns (Python's, which raises KeyboardInterrupt later)
     // lets the process go on, and the lock is given back.
-    const int which = sig == SIGINT ? 0 : sig == SIGTERM ? 1 : 2;
+    const int which = cleanedIndex(sig);
     const struct sigaction& previous = g_previousActions[which];
     if (g_previousPrintsStacks[which]) { // its stack trace could hang the process: ended as it would end it
-        static const char* const kEnded[kCleaned] = {
-            "CSGV: SIGINT: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n",
-            "CSGV: SIGTERM: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n",
-            "CSGV: SIGHUP: ended (temporary files removed; no stack trace: it can hang in a signal handler)\n"};
-        if (::write(2, kEnded[which], std::strlen(kEnded[which])) < 0) {
-            // nothing more to be done about stderr
-        }
+        // One line in three writes (nothing allocates here).
+        static const char kRest[] = ": ended (temporary files removed; no stack trace: it can hang in a signal handler)\n";
+        for (const char* part : {"CSGV: ", kCleanedNames[which], kRest})
+            if (::write(2, part, std::strlen(part)) < 0) break; // nothing more to be done about stderr
         endByDefaultAction(sig);
     } else if ((previous.sa_flags & SA_SIGINFO) != 0) {
         if (previous.sa_sigaction) previous.sa_sigaction(sig, info, context);
@@ -149,15 +155,19 @@ void cleanOnSignal(int sig, siginfo_t* info, void* context) {
 }
 } // namespace
 
+bool signalIgnored(int sig) {
+    struct sigaction current {};
+    return ::sigaction(sig, nullptr, &current) == 0 && (current.sa_flags & SA_SIGINFO) == 0 &&
+           current.sa_handler == SIG_IGN;
+}
+
 void removeTemporariesOnSignals() {
     static std::once_flag once;
     std::call_once(once, [] {
         for (int i = 0; i < kCleaned; ++i) {
             struct sigaction current {};
             // An ignored signal stays ignored (a background job's SIGINT): nothing ends the process.
-            if (::sigaction(kCleanedSignals[i], nullptr, &current) != 0 ||
-                ((current.sa_flags & SA_SIGINFO) == 0 && current.sa_handler == SIG_IGN))
-                continue;
+            if (signalIgnored(kCleanedSignals[i]) || ::sigaction(kCleanedSignals[i], nullptr, &current) != 0) continue;
             Dl_info where {};
             void* const handler = (current.sa_flags & SA_SIGINFO) != 0 ? reinterpret_cast<void*>(current.sa_sigaction)
                                                                        : reinterpret_cast<void*>(current.sa_handler);

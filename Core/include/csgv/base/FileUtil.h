@@ -37,6 +37,9 @@ void removeTemporaries();
 /// interrupt handling (csgv's interrupt::Guard) does not call it. Found by an attack pass: Ctrl-C
 /// in pvbatch while the CSGV writer ran left its temporaries beside the output.
 void removeTemporariesOnSignals();
+/// Whether the signal is ignored now (SIG_IGN: `nohup`'s SIGHUP, a background job's SIGINT): a
+/// handler installed for it would undo what the process was started with.
+bool signalIgnored(int sig);
 /// @brief Held while a set of files is renamed into place (publishVolumeFiles, publishTogether:
 /// renames only, of microseconds; the old files a set replaces are removed after it). A tool's
 /// interrupt watchdog takes it before removeTemporaries() and keeps it until it ends the process,
