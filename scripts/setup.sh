@@ -17,7 +17,7 @@ PKGS_CORE=(
 )
 # Vulkan backend (lavapipe is the CPU device every GPU test runs on).
 PKGS_VULKAN=(
-  libvulkan-dev mesa-vulkan-drivers glslang-dev glslang-tools libglm-dev vulkan-tools
+  libvulkan-dev mesa-vulkan-drivers glslang-dev glslang-tools spirv-tools libglm-dev vulkan-tools
   vulkan-validationlayers
 )
 # ParaView 5.11 plugin: paraview-dev alone does not satisfy find_package(ParaView)

@@ -36,7 +36,7 @@ void lowerThisThreadsPriority() {
 
 
 /// Makes the pipelines in parallel, on threads of their own for as long as it takes (a CPU
-/// device's compiler takes about 120 ms for the render pipeline, the others a few ms each: the
+/// device's compiler takes about 50 ms for the render pipeline, the others a few ms each: the
 /// first frame waits for the longest, not for the sum; no pool or decoder is made for it, which a
 /// GPU renderer would never use again); the first error is returned.
 Status makePipelines(Context& ctx, const std::vector<PipelineJob>& jobs, bool profile) {
