@@ -781,6 +781,10 @@ bool vtkCSGVVolumeProp::Composite(vtkOpenGLRenderWindow* win, bool opaquePass)
   {
     pass->PostReplaceShaderValues(vertexSource, geometrySource, fragmentSource, nullptr, this);
   }
+  if (p.Window != win || !p.Color || !p.DepthTexture)
+  {
+    return false; // no frame uploaded to this window (RenderFrame adopts it first)
+  }
   vtkOpenGLQuadHelper* quad = p.Quad(win, fragmentSource);
   if (!quad->Program || !quad->Program->GetCompiled())
   {
@@ -963,7 +967,7 @@ bool vtkCSGVVolumeProp::RenderFrame(vtkOpenGLRenderer* ren, vtkOpenGLRenderWindo
   // An opaque pass's first compositing shader is compiled here, while the renderer and its
   // pipelines are still being made in the background (prepareInBackground): 30-40 ms of a CPU
   // OpenGL's first frame off its critical path.
-  if (opaquePass && !p.Quads.count(kFragmentShader))
+  if (opaquePass && (p.Window != win || !p.Quads.count(kFragmentShader)))
   {
     (void)p.Quad(win, kFragmentShader);
   }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -356,12 +357,17 @@ TEST(ShaderCompiler, FunctionsAreInlinedIntoTheEntryPoint) {
                             "Ref choose(uint x) { if (x > 3u) return pc.a; return pc.b; }\n"
                             "uint pick(Ref r, uint x) { if (x > 3u) return x * 2u; for (uint i = 0u; i < x; ++i) if (r.v[i] == 7u) return i; return 0u; }\n"
                             "void main() { Ref r = choose(pc.a.v[1]); r.v[0] = pick(r, pc.a.v[1]) + pick(pc.b, pc.b.v[2]); }\n";
+    // The runner's settings are put back afterwards (CSGV_SPIRV_OPT=0 exported would keep the modules as written).
+    auto saved = [](const char* name) { const char* v = std::getenv(name); return v ? std::optional<std::string>(v) : std::nullopt; };
+    const std::optional<std::string> cacheDir = saved("CSGV_SHADER_CACHE_DIR"), opt = saved("CSGV_SPIRV_OPT");
     ::setenv("CSGV_SHADER_CACHE_DIR", "", 1);
+    ::unsetenv("CSGV_SPIRV_OPT");
     auto inlined = csgv::gpu::compileComputeSource("inline_test.comp", src, {});
     ::setenv("CSGV_SPIRV_OPT", "0", 1);
     auto asWritten = csgv::gpu::compileComputeSource("inline_test.comp", src, {});
-    ::unsetenv("CSGV_SPIRV_OPT");
-    ::unsetenv("CSGV_SHADER_CACHE_DIR");
+    for (const auto& [name, value] : {std::pair{"CSGV_SHADER_CACHE_DIR", cacheDir}, std::pair{"CSGV_SPIRV_OPT", opt}})
+        if (value) ::setenv(name, value->c_str(), 1);
+        else ::unsetenv(name);
     ASSERT_TRUE(inlined.isOk()) << inlined.message();
     ASSERT_TRUE(asWritten.isOk()) << asWritten.message();
     EXPECT_EQ(functions(*inlined), 1) << "choose() and pick() inlined into main(), and the module valid";

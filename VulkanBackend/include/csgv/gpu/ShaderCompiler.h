@@ -7,7 +7,10 @@
 /// and on disk (one SPIR-V file per source, defines and version of all embedded sources;
 /// unreadable or foreign files are ignored) in `CSGV_SHADER_CACHE_DIR`, else
 /// `$XDG_CACHE_HOME/csgv/shaders`, else `~/.cache/csgv/shaders`; `CSGV_SHADER_CACHE_DIR=` (empty)
-/// turns the disk cache off. A later session's first frame then skips glslang.
+/// turns the disk cache off. A later session's first frame then skips glslang. Every function is
+/// inlined into the entry point by SPIRV-Tools before the module is kept (lavapipe's own inlining
+/// cost most of a first frame's pipeline making); a module SPIRV-Tools cannot inline validly is
+/// kept as glslang made it, with a line on stderr. `CSGV_SPIRV_OPT=0` keeps glslang's modules.
 
 #include "csgv/base/Status.h"
 
