@@ -374,6 +374,29 @@ TEST(ShaderCompiler, FunctionsAreInlinedIntoTheEntryPoint) {
     EXPECT_EQ(functions(*asWritten), 3) << "glslang's module as written";
 }
 
+// Callers of one key at once (a frame asking for the pipeline the warming is making) get the same
+// inlined module; those that come while it is being inlined wait for it (nothing hangs).
+TEST(ShaderCompiler, OneKeyCompiledFromManyThreadsAtOnce) {
+    const std::string src = "#version 460\nlayout(local_size_x = 1) in;\n"
+                            "layout(std430, binding = 0) buffer B { uint v[]; };\n"
+                            "uint twice(uint x) { return x + x; }\n"
+                            "void main() { v[0] = twice(v[1]); /* many threads */ }\n";
+    const char* dir = std::getenv("CSGV_SHADER_CACHE_DIR");
+    const std::optional<std::string> cacheDir = dir ? std::optional<std::string>(dir) : std::nullopt;
+    ::setenv("CSGV_SHADER_CACHE_DIR", "", 1);
+    std::vector<Result<std::vector<uint32_t>>> results(4, Status::error("not run"));
+    std::vector<std::thread> threads;
+    for (size_t t = 0; t < results.size(); ++t)
+        threads.emplace_back([&, t] { results[t] = csgv::gpu::compileComputeSource("many_threads.comp", src, {}); });
+    for (std::thread& t : threads) t.join();
+    if (cacheDir) ::setenv("CSGV_SHADER_CACHE_DIR", cacheDir->c_str(), 1);
+    else ::unsetenv("CSGV_SHADER_CACHE_DIR");
+    for (const auto& r : results) {
+        ASSERT_TRUE(r.isOk()) << r.message();
+        EXPECT_EQ(*r, *results[0]);
+    }
+}
+
 TEST(ShaderCompiler, DiskCacheIsUsedAndSurvivesGarbage) {
     const std::string dir = csgvtest::tempDir() + "/shader-cache";
     ASSERT_EQ(::system(("mkdir -p '" + dir + "'").c_str()), 0);

@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <mutex>
 #include <unordered_map>
@@ -43,8 +44,11 @@ std::vector<std::string> embeddedShaderNames() {
 
 namespace {
 
-std::mutex g_mutex; // glslang's process state and the cache
+std::mutex g_mutex; // glslang's process state and the caches
 std::map<std::string, std::vector<uint32_t>> g_cache;
+/// Modules glslang has made and SPIRV-Tools is inlining, outside the lock: another caller of the
+/// same key (a frame asking for a pipeline the warming is making) waits for it, not compiles it again.
+std::map<std::string, std::shared_future<std::vector<uint32_t>>> g_inlining;
 
 /// Resolves #include against the embedded files only: nothing is searched on disk at run time.
 class EmbeddedIncluder : public glslang::TShader::Includer {
@@ -175,7 +179,7 @@ bool decorateBufferReferenceVariables(std::vector<uint32_t>& m) {
 /// render dispatch 18.4 -> 20.4 ms on synth 512^3 at 1280x720); inlining alone costs +1.7 % JIT
 /// instructions (synth 256^3, 640x360). The result is validated. Where the optimiser refuses the
 /// module or its result is not valid, glslang's module is returned and `why` says what happened.
-std::vector<uint32_t> optimised(std::vector<uint32_t> spirv, std::string& why) {
+std::vector<uint32_t> optimised(const std::vector<uint32_t>& spirv, std::string& why) {
     std::string first; // the first error either tool reports
     auto consumer = [&first](spv_message_level_t level, const char*, const spv_position_t&, const char* message) {
         if (first.empty() && level <= SPV_MSG_ERROR && message) first = message;
@@ -246,6 +250,12 @@ Result<std::vector<uint32_t>> compileComputeSource(const std::string& displayNam
     std::unique_lock<std::mutex> lock(g_mutex);
     auto cached = g_cache.find(key);
     if (cached != g_cache.end()) return cached->second;
+    auto inlining = g_inlining.find(key);
+    if (inlining != g_inlining.end()) {
+        const std::shared_future<std::vector<uint32_t>> made = inlining->second;
+        lock.unlock();
+        return made.get();
+    }
     const std::string diskPath = diskCachePath(key);
     std::vector<uint32_t> fromDisk;
     if (readDiskCache(diskPath, fromDisk)) {
@@ -255,14 +265,24 @@ Result<std::vector<uint32_t>> compileComputeSource(const std::string& displayNam
     Result<std::vector<uint32_t>> made = glslangSpirv(displayName, source, preamble);
     if (!made) return made;
     std::vector<uint32_t> spirv = std::move(*made);
-    // SPIRV-Tools has no process state: the other pipelines' shaders compile meanwhile.
-    lock.unlock();
     std::string why;
-    if (optimise) spirv = optimised(std::move(spirv), why);
+    if (optimise) {
+        // SPIRV-Tools has no process state: the other pipelines' shaders compile meanwhile.
+        std::promise<std::vector<uint32_t>> inlined;
+        g_inlining[key] = inlined.get_future().share();
+        lock.unlock();
+        try {
+            spirv = optimised(spirv, why);
+        } catch (const std::exception& e) { // out of memory, say: glslang's module, as for a refusal
+            why = e.what();
+        }
+        lock.lock();
+        g_inlining.erase(key);
+        inlined.set_value(spirv);
+    }
     if (!why.empty()) // loud, and not kept on disk: the next process tries again (the gpu tests fail on this line)
         std::fprintf(stderr, "CSGV: shader %s: not inlined (%s); glslang's module is used\n", displayName.c_str(),
                      why.c_str());
-    lock.lock();
     g_cache[key] = spirv;
     if (why.empty()) writeDiskCache(diskPath, spirv);
     return spirv;
