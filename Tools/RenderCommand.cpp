@@ -49,6 +49,7 @@ struct RenderArgs {
     uint64_t hostMemoryMiB = 0;   ///< 0: automatic (TieredVolume::automaticBudget)
     gpu::RendererOptions::Decode decode = gpu::RendererOptions::Decode::Auto;
     uint32_t decodeSteps = gpu::RendererOptions::kDecodeStepsAuto;
+    uint64_t prefetchVoxels = gpu::RendererOptions::kPrefetchAuto;
     bool cachePaletting = false;
     std::vector<std::string> attributeFiles;
     std::vector<std::pair<std::string, std::string>> derived; ///< name, SQL expression
@@ -161,6 +162,13 @@ Status parseRenderArgs(int argc, char** argv, RenderArgs& a) {
     values.add("--camera", [&a](const std::string& v) {
         if (v != "volcanite") return Status::error("--camera expects volcanite (Volcanite 0.6's default orbital pose), not '" + v + "'");
         a.volcaniteCamera = true;
+        return Status::ok();
+    });
+    values.add("--prefetch-voxels", [&a](const std::string& v) {
+        double n = 0;
+        if (v == "auto") a.prefetchVoxels = gpu::RendererOptions::kPrefetchAuto;
+        else if (Status s = parseNumber(v, 0, 1e15, n); s) a.prefetchVoxels = uint64_t(n);
+        else return Status(s).prefix("option --prefetch-voxels (a number of voxels, or auto)");
         return Status::ok();
     });
     number("--cache-mib", 0, 1 << 20, [&a](double n) { a.cacheMiB = uint64_t(n); });
@@ -470,6 +478,7 @@ int cmdRender(int argc, char** argv) {
     const auto tRenderer = std::chrono::steady_clock::now();
     gpu::RendererOptions options = plan.share(shared->deviceBytes(), 1, a.decode);
     options.decodeStepsPerFrame = a.decodeSteps;
+    options.prefetchVoxels = a.prefetchVoxels;
     gpu::RenderSettings settings = a.settings;
     settings.sampleTarget = a.frames;
     const auto makeRenderer = [&](const gpu::RendererOptions& o) -> Result<std::unique_ptr<gpu::Renderer>> {

@@ -54,6 +54,22 @@ expect 0 "a moving camera compared with its converged images" "$CSGV" render "$D
 expect 1 "--compare-converged without --frames-per-view" "$CSGV" render "$DEF" "$TMP/n.png" --compare-converged
 grep -q "compare-converged needs --frames-per-view" "$TMP/err" && [ ! -e "$TMP/n.png" ] &&
   pass "--compare-converged alone is refused" || bad "--compare-converged alone: $(cat "$TMP/err")"
+# --prefetch-voxels: a small volume's every visible brick decoded at the first frame (automatic,
+# GPU decoding too), its first frame complete; 0: the rays find them a layer a frame; the same labels.
+for pv in auto 0; do
+  expect 0 "render with --prefetch-voxels $pv" "$CSGV" render "$DEF" "$TMP/p.png" --size 64x48 --finest --no-jitter \
+    --decode gpu --labels-out "$TMP/p_$pv.labels" --prefetch-voxels $pv
+  cp "$TMP/out" "$TMP/p_$pv.out"
+done
+grep -q "^frame 1: .* missing 0, min samples 1$" "$TMP/p_auto.out" && grep -q "^frames: 1$" "$TMP/p_auto.out" &&
+  awk '/^frames:/ { exit !($2 > 1) }' "$TMP/p_0.out" && cmp -s "$TMP/p_auto.labels" "$TMP/p_0.labels" &&
+  cmp -s "$TMP/a.labels" "$TMP/p_auto.labels" &&
+  pass "prefetched bricks: a complete first frame, the same labels" ||
+  bad "--prefetch-voxels: $(grep -hE '^(frame 1|frames):' "$TMP/p_auto.out" "$TMP/p_0.out" | tr '\n' ' ')"
+for pv in x -1 1e16 ""; do
+  expect 1 "render with --prefetch-voxels '$pv'" "$CSGV" render "$DEF" "$TMP/c.png" --prefetch-voxels "$pv"
+  grep -q "option --prefetch-voxels (a number of voxels, or auto)" "$TMP/err" || bad "the error does not name --prefetch-voxels ('$pv')"
+done
 for steps in 0 -3 x 2000000 1e3 ""; do
   expect 1 "render with --decode-steps '$steps'" "$CSGV" render "$DEF" "$TMP/c.png" --decode-steps "$steps"
   grep -q "decode-steps expects auto, all or a number" "$TMP/err" || bad "the error does not name --decode-steps ('$steps')"

@@ -127,7 +127,9 @@ Result<std::unique_ptr<Renderer>> Renderer::create(Context& context, std::shared
     const uint64_t maxBytes = std::min<uint64_t>(context.device().maxAllocation,
                                                  ((uint64_t(1) << 32) / volume->cacheEntriesPerWord()) * 4 - 4);
     im.maxRequests = std::max<uint32_t>(1, std::min<uint32_t>(options.maxRequestsPerFrame, im.brickCount));
-    im.resolved.prefetchVoxels = options.prefetchVoxels;
+    im.resolved.prefetchVoxels = options.prefetchVoxels != RendererOptions::kPrefetchAuto ? options.prefetchVoxels
+                                 : im.resolved.hostDecode ? RendererOptions::kHostPrefetchVoxels
+                                                          : RendererOptions::kGpuPrefetchVoxels;
     const MemoryKind hostOrDevice = im.resolved.hostDecode ? MemoryKind::HostVisible : MemoryKind::DeviceLocal;
     // Host decoding writes the cache and the masks itself, unless they live in device memory
     // (viaCopies: GPUs), where the render pass reads them at every step: then through copies.

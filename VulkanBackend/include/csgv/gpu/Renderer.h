@@ -98,8 +98,15 @@ struct RendererOptions {
     /// visibility) when those bricks hold at most this many voxels, fit one frame's requests and
     /// the cache (a new one whole, else a quarter), and no detail is streamed: a view ray
     /// stops at the first brick it misses, so otherwise a view finds its bricks one layer a frame
-    /// (0: never).
-    uint64_t prefetchVoxels = uint64_t(1) << 23;
+    /// (0: never). kPrefetchAuto: kHostPrefetchVoxels where bricks are decoded on the host (a CPU
+    /// decodes every brick: a synthetic 256^3, 512 bricks, in 130 ms on two cores, what a view
+    /// needs in 22 ms), kGpuPrefetchVoxels where the GPU decodes them (its bricks decode side by
+    /// side, so the first frame's decode lasts about as long for 512 bricks as for the view's:
+    /// then a moving camera's frames decode nothing; a 32-pose orbit of synth 256^3 with a GPU's
+    /// choices on lavapipe, one frame a pose: median 46.5 -> 24.9 ms).
+    static constexpr uint64_t kPrefetchAuto = ~uint64_t(0);
+    static constexpr uint64_t kHostPrefetchVoxels = uint64_t(1) << 23, kGpuPrefetchVoxels = uint64_t(1) << 24;
+    uint64_t prefetchVoxels = kPrefetchAuto;
     /// The render pass reads the brick cache, the brick table, the uniform sub-blocks and the label
     /// table as uniform texel buffers where the device allows views of them whole
     /// (maxTexelBufferElements words; lavapipe: a cache up to 512 MiB): CPU devices then fetch
