@@ -88,6 +88,8 @@ private:
     uint64_t m_address = 0;
     void* m_mapped = nullptr;
     uint64_t m_serial = 0;
+    void* m_host = nullptr;     ///< the process's own memory the device memory was imported from (CPU devices)
+    uint64_t m_hostBytes = 0;   ///< its length, unmapped after the device memory is freed
 };
 
 /// @brief Buffers seen by a pipeline as uniform texel buffers (`usamplerBuffer`, one binding each,
@@ -207,6 +209,8 @@ public:
 
 private:
     Context();
+    /// `import`: device memory imported from the process's own memory in 2 MiB pages (Context.cpp).
+    Result<Buffer> createBuffer(uint64_t bytes, MemoryKind kind, bool import);
     friend class Buffer;
     friend class TexelSet;
     std::unique_ptr<Impl> m_impl;
