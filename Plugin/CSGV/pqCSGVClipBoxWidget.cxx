@@ -62,6 +62,10 @@ pqCSGVClipBoxWidget::~pqCSGVClipBoxWidget() = default;
 
 QList<QVariant> pqCSGVClipBoxWidget::clipBox() const
 {
+  if (!this->hasVoxels() && this->Stored.size() == 6)
+  {
+    return this->Stored; // boxes without a range say nothing about the property
+  }
   QList<QVariant> values;
   for (int i = 0; i < 6; ++i)
   {
@@ -91,14 +95,24 @@ void pqCSGVClipBoxWidget::setClipBox(const QList<QVariant>& values)
   }
 }
 
+bool pqCSGVClipBoxWidget::hasVoxels() const
+{
+  return this->Dimensions[0] > 0 && this->Dimensions[1] > 0 && this->Dimensions[2] > 0;
+}
+
 void pqCSGVClipBoxWidget::updateExtent()
 {
   this->Dimensions = pqCSGVLabelArrayWidget::voxelDimensions(this->proxy());
+  // No voxels (an empty input: a file that failed to read): the boxes show a dash, disabled,
+  // and the property keeps its values for when the input has voxels again.
+  const bool voxels = this->hasVoxels();
   for (int i = 0; i < 6; ++i)
   {
     const int n = this->Dimensions[i / 2];
     const QSignalBlocker blocker(this->Boxes[i]);
-    this->Boxes[i]->setRange(0, n > 0 ? n - 1 : INT_MAX);
+    this->Boxes[i]->setRange(0, voxels ? n - 1 : 0);
+    this->Boxes[i]->setSpecialValueText(voxels ? QString() : QString("-"));
+    this->Boxes[i]->setEnabled(voxels);
   }
   if (this->Stored.size() == 6)
   {

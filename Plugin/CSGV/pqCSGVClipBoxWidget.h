@@ -8,7 +8,8 @@
  * representation, with the XML default (2147483647 as maximum) meaning "up to the last voxel".
  * The widget shows such values clamped, so a new user sees 0 .. 180 for the AAL atlas, and writes
  * a maximum set to the last voxel back as that "whole volume" value, so the box still covers the
- * whole volume when the input grows. The extent follows the input's data
+ * whole volume when the input grows; an input without voxels (a file that failed to read) shows
+ * "-" in disabled boxes and leaves the property as it is. The extent follows the input's data
  * (pqCSGVLabelArrayWidget::voxelDimensions) and the chosen label array. Spin boxes apply on
  * Enter, focus change or the arrows, not on every keystroke (each change re-renders).
  *
@@ -52,6 +53,8 @@ private Q_SLOTS:
   void updateExtent();
 
 private:
+  /// Whether the input has voxels on every axis (else the boxes show "-", disabled).
+  bool hasVoxels() const;
   std::array<QSpinBox*, 6> Boxes;
   std::array<int, 3> Dimensions{ { 0, 0, 0 } };
   /// The property's default maximum, stored for a maximum at the last voxel.

@@ -26,8 +26,10 @@
 #include <QApplication>
 #include <QComboBox>
 #include <QDoubleSpinBox>
+#include <QFile>
 #include <QSlider>
 #include <QSpinBox>
+#include <QTemporaryDir>
 #include <QtTest>
 
 #include <memory>
@@ -317,6 +319,58 @@ private Q_SLOTS:
     QTest::keyClicks(maxX, "132");
     QTest::keyClick(maxX, Qt::Key_Return);
     QTRY_COMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(1), 2147483647);
+  }
+
+  // A file that fails to read has no voxels: the boxes show "-", disabled (not 2147483647, the
+  // property's "last voxel"), and the property keeps its values; the extent comes back with the
+  // data.
+  void clipBoxOfAnEmptyInput()
+  {
+    pqPropertyWidget* clip = this->widget("CSGVClipBox");
+    QVERIFY(clip);
+    auto* maxX = clip->findChild<QSpinBox*>("maxX");
+    auto* minY = clip->findChild<QSpinBox*>("minY");
+    QVERIFY(maxX && minY);
+    QTemporaryDir dir;
+    QVERIFY(dir.isValid());
+    const QString good = gFixtures + "/synthA_b32_rans2.csgv";
+    const QString broken = dir.filePath("broken.csgv");
+    {
+      QFile in(good);
+      QFile out(broken);
+      QVERIFY(in.open(QIODevice::ReadOnly) && out.open(QIODevice::WriteOnly));
+      out.write(in.read(in.size() / 2));
+    }
+    auto load = [&](const QString& file)
+    {
+      vtkSMPropertyHelper(this->Reader, "FileName").Set(file.toUtf8().constData());
+      this->Reader->UpdateVTKObjects();
+      this->Reader->UpdatePipeline();
+      // What the GUI's pqPipelineSource::dataUpdated does (this raw proxy has none).
+      QVERIFY(QMetaObject::invokeMethod(clip, "updateExtent"));
+    };
+    const int before[6] = { vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(0),
+      vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(1),
+      vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(2),
+      vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(3),
+      vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(4),
+      vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(5) };
+    load(broken);
+    QTRY_COMPARE(maxX->text(), QString("-"));
+    QCOMPARE(minY->text(), QString("-"));
+    QVERIFY(!maxX->isEnabled());
+    for (int i = 0; i < 6; ++i)
+    {
+      QCOMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(i), before[i]);
+    }
+    load(good);
+    QTRY_COMPARE(maxX->text(), QString("132"));
+    QVERIFY(maxX->isEnabled());
+    QCOMPARE(maxX->maximum(), 132);
+    for (int i = 0; i < 6; ++i)
+    {
+      QCOMPARE(vtkSMPropertyHelper(this->Display, "CSGVClipBox").GetAsInt(i), before[i]);
+    }
   }
 
   void wideRangesUseALogarithmicSlider()
