@@ -253,7 +253,9 @@ void showLegend(vtkSMProxy* lut, const QString& array, vtkSMProxy* display, pqVi
   const int labels = int(vtkSMPropertyHelper(lut, "Annotations").GetNumberOfElements() / 2);
   const bool fits = labels <= kLegendLabels;
   vtkSMPropertyHelper(bar, "DrawAnnotations").Set(fits ? 1 : 0);
-  const QString title = fits ? array : QString("%1: %2 labels (names: View > Segmentation Pick)").arg(array).arg(labels);
+  // Short: a vertical legend writes its title along the bar, a third of the view's height (the
+  // names are in View > Segmentation Pick; a GUI pass saw a longer title cut off).
+  const QString title = fits ? array : QString("%1 (%2 labels)").arg(array).arg(labels);
   vtkSMPropertyHelper(bar, "Title").Set(title.toUtf8().constData());
   // Labels are integers: read as a continuous bar (categories unticked), its numbers say them
   // whole, not "1.2e+02" (GUI pass).

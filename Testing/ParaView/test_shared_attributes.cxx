@@ -225,6 +225,9 @@ private Q_SLOTS:
     QVERIFY(bar);
     QCOMPARE(vtkSMPropertyHelper(bar, "DrawAnnotations").GetAsInt(), labels <= pqCSGV::kLegendLabels ? 1 : 0);
     QCOMPARE(vtkSMPropertyHelper(bar, "Visibility").GetAsInt(), 1);
+    // A title that fits along a vertical legend (a third of the view's height).
+    QCOMPARE(QString(vtkSMPropertyHelper(bar, "Title").GetAsString()),
+      labels <= pqCSGV::kLegendLabels ? QString("Labels") : QString("Labels (%1 labels)").arg(labels));
   }
 
   /// Colour by the label array on a Segmentation Volume: its display takes the data's own table
